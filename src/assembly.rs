@@ -1,0 +1,190 @@
+//! Global assembly: the sparsity pattern is built once from the mesh, with a scatter map from
+//! each element's 4×4 node blocks to their places in the global value array, so that K (or the
+//! consistent mass, or a refilled tangent) is re-assembled in O(nnz) with no sorting.
+
+use std::sync::Arc;
+
+use faer::sparse::SymbolicSparseColMat;
+
+use crate::element::Matrix12;
+use crate::material::Material;
+use crate::mesh::TetMesh;
+use crate::sparse::CscMatrix;
+
+/// Global sparsity pattern of a mesh (both triangles, 3×3 node blocks) and the element scatter
+/// map.
+///
+/// Layout: column `3n + a` (node n, axis a) holds rows `3m + b` for every node m adjacent to n
+/// (sharing a tet, n itself included) in ascending order, all three axes b. So the 3×3 block of
+/// node pair (m, n) starts at `9·adj_ptr[n] + 3·pos(m)` and its column a is `3·deg(n)` further on.
+#[derive(Debug, Clone)]
+pub struct Assembler {
+    pattern: Arc<SymbolicSparseColMat<usize>>,
+    /// For tet t and local nodes (i, j): start of the block (row node i, column node j).
+    block_start: Vec<usize>,
+    /// For each node n: 3·deg(n), the distance between consecutive columns of one block.
+    column_stride: Vec<usize>,
+}
+
+impl Assembler {
+    /// Builds the pattern and scatter map of `mesh`: O(nnz) memory, no global sort.
+    pub fn new(mesh: &TetMesh) -> Self {
+        let node_count = mesh.node_count();
+        // Node adjacency in CSR form: count an upper bound (4 per incident tet), fill, sort and
+        // deduplicate each node's list.
+        let mut bound = vec![0usize; node_count + 1];
+        for tet in mesh.tets() {
+            for &n in tet {
+                bound[n + 1] += 4;
+            }
+        }
+        for n in 0..node_count {
+            bound[n + 1] += bound[n];
+        }
+        let mut scratch = vec![0usize; bound[node_count]];
+        let mut fill = bound.clone();
+        for tet in mesh.tets() {
+            for &n in tet {
+                scratch[fill[n]..fill[n] + 4].copy_from_slice(tet);
+                fill[n] += 4;
+            }
+        }
+        let mut adj_ptr = vec![0usize; node_count + 1];
+        let mut adjacency = Vec::with_capacity(scratch.len() / 2);
+        for n in 0..node_count {
+            let list = &mut scratch[bound[n]..bound[n + 1]];
+            list.sort_unstable();
+            let start = adjacency.len();
+            for &m in list.iter() {
+                if adjacency.len() == start || *adjacency.last().unwrap_or(&usize::MAX) != m {
+                    adjacency.push(m);
+                }
+            }
+            adj_ptr[n + 1] = adjacency.len();
+        }
+        drop(scratch);
+
+        let dofs = 3 * node_count;
+        let mut col_ptr = Vec::with_capacity(dofs + 1);
+        let mut row_idx = Vec::with_capacity(9 * adjacency.len());
+        col_ptr.push(0);
+        for n in 0..node_count {
+            let neighbours = &adjacency[adj_ptr[n]..adj_ptr[n + 1]];
+            for _axis in 0..3 {
+                for &m in neighbours {
+                    row_idx.extend_from_slice(&[3 * m, 3 * m + 1, 3 * m + 2]);
+                }
+                col_ptr.push(row_idx.len());
+            }
+        }
+        let column_stride: Vec<usize> = (0..node_count)
+            .map(|n| 3 * (adj_ptr[n + 1] - adj_ptr[n]))
+            .collect();
+        let mut block_start = Vec::with_capacity(16 * mesh.tet_count());
+        for tet in mesh.tets() {
+            for &row_node in tet {
+                for &col_node in tet {
+                    let neighbours = &adjacency[adj_ptr[col_node]..adj_ptr[col_node + 1]];
+                    // Present by construction: col_node's list holds every node of its tets.
+                    let pos = neighbours.binary_search(&row_node).unwrap_or(0);
+                    block_start.push(9 * adj_ptr[col_node] + 3 * pos);
+                }
+            }
+        }
+        // Valid by construction (sorted, in range); the check costs one pass over the indices.
+        let pattern = SymbolicSparseColMat::new_checked(dofs, dofs, col_ptr, None, row_idx);
+        Assembler {
+            pattern: Arc::new(pattern),
+            block_start,
+            column_stride,
+        }
+    }
+
+    /// The shared pattern; every matrix this assembler produces uses this `Arc`.
+    pub fn pattern(&self) -> &Arc<SymbolicSparseColMat<usize>> {
+        &self.pattern
+    }
+
+    /// Number of stored entries.
+    pub fn nnz(&self) -> usize {
+        self.pattern.row_idx().len()
+    }
+
+    /// Adds the 12×12 element matrix `ke` of tet `t` into `values` (the value array of a matrix
+    /// on [`pattern`](Self::pattern)).
+    ///
+    /// # Panics
+    /// If `t` is not a tet of the mesh this assembler was built from, or `values` is too short.
+    pub fn scatter(&self, mesh: &TetMesh, t: usize, ke: &Matrix12, values: &mut [f64]) {
+        let tet = &mesh.tets()[t];
+        for j in 0..4 {
+            let stride = self.column_stride[tet[j]];
+            for i in 0..4 {
+                let start = self.block_start[16 * t + 4 * i + j];
+                for a in 0..3 {
+                    let column = start + a * stride;
+                    for b in 0..3 {
+                        values[column + b] += ke[(3 * i + b, 3 * j + a)];
+                    }
+                }
+            }
+        }
+    }
+
+    /// Assembles Σₑ (element matrix of tet e) on the shared pattern.
+    pub fn assemble(
+        &self,
+        mesh: &TetMesh,
+        element_matrix: impl Fn(usize) -> Matrix12,
+    ) -> CscMatrix {
+        let mut matrix = CscMatrix::zeros(Arc::clone(&self.pattern));
+        self.reassemble(mesh, element_matrix, &mut matrix);
+        matrix
+    }
+
+    /// Refills `matrix` (which must be on this pattern) with Σₑ (element matrix of tet e), in
+    /// O(nnz) with no allocation.
+    pub fn reassemble(
+        &self,
+        mesh: &TetMesh,
+        element_matrix: impl Fn(usize) -> Matrix12,
+        matrix: &mut CscMatrix,
+    ) {
+        let values = matrix.values_mut();
+        values.fill(0.0);
+        for t in 0..mesh.tet_count() {
+            self.scatter(mesh, t, &element_matrix(t), values);
+        }
+    }
+
+    /// Global linear stiffness K = Σₑ Vₑ·BₑᵀDBₑ (force/length).
+    pub fn stiffness(&self, mesh: &TetMesh, material: &Material) -> CscMatrix {
+        self.assemble(mesh, |t| mesh.element(t).stiffness(material))
+    }
+
+    /// Global consistent mass M = Σₑ ρVₑ/20·(1+δᵢⱼ)·I₃ (mass units), on the same pattern as K.
+    pub fn consistent_mass(&self, mesh: &TetMesh, material: &Material) -> CscMatrix {
+        self.assemble(mesh, |t| {
+            mesh.element(t).consistent_mass(material.density())
+        })
+    }
+}
+
+/// Lumped (diagonal) mass per DOF: each tet gives ρV/4 to each of its nodes, on all three axes.
+pub fn lumped_mass(mesh: &TetMesh, material: &Material) -> Vec<f64> {
+    let mut mass = vec![0.0; mesh.dof_count()];
+    for (t, tet) in mesh.tets().iter().enumerate() {
+        let share = mesh.element(t).lumped_mass(material.density());
+        for &n in tet {
+            for axis in 0..3 {
+                mass[3 * n + axis] += share;
+            }
+        }
+    }
+    mass
+}
+
+/// Convenience: the global stiffness of `mesh` with one material (builds a fresh [`Assembler`]).
+pub fn stiffness_matrix(mesh: &TetMesh, material: &Material) -> CscMatrix {
+    Assembler::new(mesh).stiffness(mesh, material)
+}

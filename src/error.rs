@@ -1,0 +1,177 @@
+//! The crate's one error type.
+//!
+//! Every fallible public function returns [`Result<T>`](Result). Each variant names the
+//! culprit (which tet, which node, which field) so that a caller can report it without
+//! guessing.
+
+use std::path::PathBuf;
+
+/// Result alias used throughout tetfem.
+pub type Result<T> = std::result::Result<T, Error>;
+
+/// Everything that can go wrong in tetfem.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum Error {
+    /// The mesh has no nodes or no tetrahedra.
+    #[error("empty mesh: {nodes} nodes and {tets} tetrahedra (need at least 4 nodes and 1 tet)")]
+    EmptyMesh {
+        /// Number of nodes given.
+        nodes: usize,
+        /// Number of tets given.
+        tets: usize,
+    },
+
+    /// A node coordinate is NaN or infinite.
+    #[error("node {node}: coordinate {axis} is not finite ({value})")]
+    NonFiniteCoordinate {
+        /// Index of the node.
+        node: usize,
+        /// Axis (0 = x, 1 = y, 2 = z).
+        axis: usize,
+        /// The offending value.
+        value: f64,
+    },
+
+    /// A tet refers to a node index that does not exist.
+    #[error("tet {tet}: node index {node} is out of range (the mesh has {node_count} nodes)")]
+    NodeIndexOutOfRange {
+        /// Index of the tet.
+        tet: usize,
+        /// The out-of-range node index.
+        node: usize,
+        /// Number of nodes in the mesh.
+        node_count: usize,
+    },
+
+    /// A tet lists the same node twice.
+    #[error("tet {tet}: node {node} appears more than once in {nodes:?}")]
+    RepeatedNode {
+        /// Index of the tet.
+        tet: usize,
+        /// The repeated node.
+        node: usize,
+        /// The tet's four node indices.
+        nodes: [usize; 4],
+    },
+
+    /// A tet is flat (zero volume up to round-off, relative to its longest edge cubed).
+    #[error(
+        "tet {tet} (nodes {nodes:?}) is degenerate: quality 6√2·|V|/l_max³ = {quality:.3e} is below {threshold:.0e}"
+    )]
+    DegenerateTet {
+        /// Index of the tet.
+        tet: usize,
+        /// The tet's four node indices.
+        nodes: [usize; 4],
+        /// Its shape quality (1 for a regular tet, 0 for a flat one).
+        quality: f64,
+        /// The threshold below which a tet is rejected.
+        threshold: f64,
+    },
+
+    /// More than two tets share one face; in a conforming mesh a face belongs to one tet
+    /// (boundary) or two (interior).
+    #[error("face {face:?} is shared by more than two tets (first: tets {tets:?})")]
+    NonManifoldFace {
+        /// Sorted node indices of the face.
+        face: [usize; 3],
+        /// Three tets that share it.
+        tets: [usize; 3],
+    },
+
+    /// A material parameter is outside its physical range.
+    #[error("material: {field} = {value} is invalid: {requirement}")]
+    InvalidMaterial {
+        /// The field (`youngs_modulus`, `poisson_ratio`, `density`).
+        field: &'static str,
+        /// The offending value.
+        value: f64,
+        /// What it must satisfy.
+        requirement: &'static str,
+    },
+
+    /// A parameter other than a material one is invalid (a grid size, an extent, a load, a time step...).
+    #[error("invalid parameter {name} = {value}: {requirement}")]
+    InvalidParameter {
+        /// Name of the parameter.
+        name: String,
+        /// The offending value, as text.
+        value: String,
+        /// What it must satisfy.
+        requirement: String,
+    },
+
+    /// A constraint or load refers to a node that does not exist.
+    #[error("{context}: node {node} does not exist (the mesh has {node_count} nodes)")]
+    UnknownNode {
+        /// What referred to it (a constraint, a nodal load...).
+        context: &'static str,
+        /// The node index.
+        node: usize,
+        /// Number of nodes in the mesh.
+        node_count: usize,
+    },
+
+    /// A selection of nodes or faces that a load or constraint was applied to is empty.
+    #[error("{context}: the selection is empty (no node or face matched)")]
+    EmptySelection {
+        /// What the selection was for.
+        context: String,
+    },
+
+    /// The body can still move rigidly: the stiffness matrix of the free DOFs is singular.
+    #[error(
+        "the body is not fully constrained: {free_modes} of the 6 rigid-body modes \
+         (3 translations, 3 rotations) of the part containing tet {tet} ({part_tets} tets) are not \
+         held by any constraint; fix more nodes or axes there"
+    )]
+    NotConstrained {
+        /// A tet of the part that can move.
+        tet: usize,
+        /// Number of tets in that face-connected part.
+        part_tets: usize,
+        /// Number of independent rigid motions left free.
+        free_modes: usize,
+    },
+
+    /// The sparse Cholesky factorization met a non-positive pivot.
+    #[error(
+        "the system matrix is not positive definite (pivot {pivot} of {dimension} in the permuted order); \
+         likely causes: an unconstrained body, inverted elements, or ν very close to 0.5"
+    )]
+    NotPositiveDefinite {
+        /// Index of the failing pivot in the permuted order.
+        pivot: usize,
+        /// Dimension of the matrix.
+        dimension: usize,
+    },
+
+    /// A linear-algebra routine failed for a reason other than a non-positive pivot.
+    #[error("linear solver: {0}")]
+    Solver(String),
+
+    /// Reading or writing a file failed.
+    #[error("{path}: {source}")]
+    Io {
+        /// The file.
+        path: PathBuf,
+        /// The underlying error.
+        source: std::io::Error,
+    },
+}
+
+impl Error {
+    /// Shorthand for [`Error::InvalidParameter`].
+    pub fn invalid_parameter(
+        name: impl Into<String>,
+        value: impl std::fmt::Display,
+        requirement: impl Into<String>,
+    ) -> Self {
+        Error::InvalidParameter {
+            name: name.into(),
+            value: value.to_string(),
+            requirement: requirement.into(),
+        }
+    }
+}

@@ -1,0 +1,56 @@
+//! # tetfem
+//!
+//! Elastic solids with the finite element method on linear tetrahedra: element stiffness from
+//! the linear (Cauchy) strain and Hooke's law, one global sparse stiffness K, lumped and
+//! consistent mass, Dirichlet constraints eliminated exactly, gravity, nodal and surface loads,
+//! and static equilibrium solved with faer's sparse Cholesky.
+//!
+//! Data flow one way: [`mesh`] → [`material`] → [`element`] → [`assembly`] →
+//! [`constraints`] / [`loads`] → [`statics`] (through [`linsolve`]) → [`output`].
+//!
+//! Conventions: f64 everywhere; DOF `3·node + axis`; units are the caller's but must be
+//! consistent (SI in every shipped scene: m, kg, s, N, Pa).
+//!
+//! ```
+//! use nalgebra::Vector3;
+//! use tetfem::{BoxSplit, Constraints, Loads, Material, TetMesh, solve_static};
+//!
+//! // A 1 m × 0.1 m × 0.1 m steel bar, clamped at x = 0, pulled by 1 kN at x = 1 m.
+//! let mesh = TetMesh::box_grid(Vector3::zeros(), Vector3::new(1.0, 0.1, 0.1), [20, 2, 2], BoxSplit::Lecture6)?;
+//! let steel = Material::new(200e9, 0.3, 7850.0)?;
+//! let mut constraints = Constraints::new(&mesh);
+//! constraints.fix_nodes(&mesh.nodes_on_plane(0, 0.0, 1e-9))?;
+//! let end = mesh.faces_on_plane(&mesh.boundary_faces()?, 0, 1.0, 1e-9);
+//! let mut loads = Loads::new(&mesh);
+//! loads.add_total_force_on_faces(&mesh, &end, Vector3::new(1e3, 0.0, 0.0))?;
+//! let solution = solve_static(&mesh, &steel, &constraints, &loads)?;
+//! let stretch = solution.displacement[3 * mesh.nodes_on_plane(0, 1.0, 1e-9)[0]];
+//! // F·L/(E·A) = 1e3 / (200e9 · 0.01) = 5e-7 m, up to the clamp's lateral restraint.
+//! assert!((stretch - 5e-7).abs() < 0.05 * 5e-7);
+//! # Ok::<(), tetfem::Error>(())
+//! ```
+
+pub mod assembly;
+pub mod beam_theory;
+pub mod cantilever;
+pub mod constraints;
+pub mod element;
+pub mod error;
+pub mod linsolve;
+pub mod loads;
+pub mod material;
+pub mod mesh;
+pub mod output;
+pub mod sparse;
+pub mod statics;
+
+pub use assembly::{Assembler, lumped_mass};
+pub use constraints::{Constraints, DofMap};
+pub use element::Tet;
+pub use error::{Error, Result};
+pub use linsolve::SparseCholesky;
+pub use loads::Loads;
+pub use material::Material;
+pub use mesh::{BoxSplit, TetMesh};
+pub use sparse::CscMatrix;
+pub use statics::{StaticSolution, StaticSolver, solve_static};

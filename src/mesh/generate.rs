@@ -1,0 +1,142 @@
+//! Structured box meshes.
+
+use nalgebra::Vector3;
+
+use super::TetMesh;
+use crate::error::{Error, Result};
+
+/// How each cube of a box grid is split into tets.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum BoxSplit {
+    /// The lecture's 6-tet table. With cube corners numbered 1 + ix + 2·iy + 4·iz:
+    /// `1 2 4 8 | 1 2 8 5 | 2 8 5 6 | 1 3 4 7 | 1 7 8 5 | 1 8 4 7`. Every cell uses the same
+    /// table, and the table uses the same diagonal on opposite faces, so neighbouring cells
+    /// conform. Tets 4 and 5 are negatively oriented as written and are stored flipped
+    /// (`1 4 3 7`, `1 8 7 5`).
+    #[default]
+    Lecture6,
+    /// Five tets per cube: one central tet and four corner tets. Cells alternate between the
+    /// split and its mirror image (by the parity of cx + cy + cz) so that face diagonals of
+    /// neighbouring cells match.
+    Five,
+}
+
+/// The lecture's table, 0-based corners (corner = ix + 2·iy + 4·iz), already positively
+/// oriented (tets 4 and 5 have their 2nd and 3rd nodes swapped, as the mesh would do).
+const LECTURE6: [[usize; 4]; 6] = [
+    [0, 1, 3, 7],
+    [0, 1, 7, 4],
+    [1, 7, 4, 5],
+    [0, 3, 2, 6],
+    [0, 7, 6, 4],
+    [0, 7, 3, 6],
+];
+
+/// Five-tet split with central tet {0, 3, 5, 6}; the corner tets hold corners 1, 2, 4, 7.
+const FIVE_EVEN: [[usize; 4]; 5] = [
+    [0, 3, 5, 6],
+    [1, 0, 3, 5],
+    [2, 0, 3, 6],
+    [4, 0, 5, 6],
+    [7, 3, 5, 6],
+];
+/// The mirror image: central tet {1, 2, 4, 7}; corner tets at 0, 3, 5, 6.
+const FIVE_ODD: [[usize; 4]; 5] = [
+    [1, 2, 4, 7],
+    [0, 1, 2, 4],
+    [3, 1, 2, 7],
+    [5, 1, 4, 7],
+    [6, 2, 4, 7],
+];
+
+impl TetMesh {
+    /// A box [min, max] cut into `cells = [nx, ny, nz]` equal cubes (cuboids), each split by
+    /// `split`.
+    ///
+    /// Node (ix, iy, iz) has index `ix + (nx+1)·(iy + (ny+1)·iz)` (x fastest), see
+    /// [`box_node_index`]; the tets of cell `cx + nx·(cy + ny·cz)` are consecutive, in table
+    /// order.
+    pub fn box_grid(
+        min: Vector3<f64>,
+        max: Vector3<f64>,
+        cells: [usize; 3],
+        split: BoxSplit,
+    ) -> Result<Self> {
+        for axis in 0..3 {
+            if cells[axis] == 0 {
+                return Err(Error::invalid_parameter(
+                    format!("cells[{axis}]"),
+                    0,
+                    "every axis needs at least one cell",
+                ));
+            }
+            if !(min[axis].is_finite() && max[axis].is_finite() && max[axis] > min[axis]) {
+                return Err(Error::invalid_parameter(
+                    format!("box extent along axis {axis}"),
+                    format!("[{}, {}]", min[axis], max[axis]),
+                    "must be finite with max > min",
+                ));
+            }
+        }
+        let [nx, ny, nz] = cells;
+        let node_count = (nx + 1)
+            .checked_mul(ny + 1)
+            .and_then(|n| n.checked_mul(nz + 1))
+            .ok_or_else(|| {
+                Error::invalid_parameter("cells", format!("{cells:?}"), "too many nodes")
+            })?;
+        let mut nodes = Vec::with_capacity(node_count);
+        let step = (max - min).component_div(&Vector3::new(nx as f64, ny as f64, nz as f64));
+        for iz in 0..=nz {
+            for iy in 0..=ny {
+                for ix in 0..=nx {
+                    // Pin the far faces exactly to `max` so that plane selections are exact.
+                    let coord = |i: usize, n: usize, axis: usize| {
+                        if i == n {
+                            max[axis]
+                        } else {
+                            min[axis] + i as f64 * step[axis]
+                        }
+                    };
+                    nodes.push(Vector3::new(
+                        coord(ix, nx, 0),
+                        coord(iy, ny, 1),
+                        coord(iz, nz, 2),
+                    ));
+                }
+            }
+        }
+        let per_cell = match split {
+            BoxSplit::Lecture6 => 6,
+            BoxSplit::Five => 5,
+        };
+        let mut tets = Vec::with_capacity(nx * ny * nz * per_cell);
+        for cz in 0..nz {
+            for cy in 0..ny {
+                for cx in 0..nx {
+                    let corner = |c: usize| {
+                        box_node_index(
+                            cells,
+                            cx + (c & 1),
+                            cy + ((c >> 1) & 1),
+                            cz + ((c >> 2) & 1),
+                        )
+                    };
+                    let table: &[[usize; 4]] = match split {
+                        BoxSplit::Lecture6 => &LECTURE6,
+                        BoxSplit::Five if (cx + cy + cz) % 2 == 0 => &FIVE_EVEN,
+                        BoxSplit::Five => &FIVE_ODD,
+                    };
+                    tets.extend(table.iter().map(|t| t.map(corner)));
+                }
+            }
+        }
+        TetMesh::new(nodes, tets)
+    }
+}
+
+/// Index of grid node (ix, iy, iz) in a [`TetMesh::box_grid`] mesh with `cells = [nx, ny, nz]`:
+/// `ix + (nx+1)·(iy + (ny+1)·iz)`.
+pub fn box_node_index(cells: [usize; 3], ix: usize, iy: usize, iz: usize) -> usize {
+    ix + (cells[0] + 1) * (iy + (cells[1] + 1) * iz)
+}

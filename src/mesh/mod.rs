@@ -1,0 +1,168 @@
+//! Tetrahedral meshes: validated storage, generators, topology and node/face selection.
+
+mod generate;
+mod select;
+mod topology;
+
+pub use generate::{BoxSplit, box_node_index};
+pub use topology::{BoundaryFace, FaceTopology};
+
+use nalgebra::Vector3;
+
+use crate::element::{Tet, shape_quality, signed_volume};
+use crate::error::{Error, Result};
+
+/// Tets whose [`shape_quality`] 6√2·|V|/l_max³ falls below this are rejected as degenerate.
+///
+/// A regular tet has quality 1. A tet at 1e-10 is flat to about ten significant digits of its
+/// longest edge; its stiffness would be dominated by round-off, so it is an input error rather
+/// than a poor element.
+pub const DEGENERATE_QUALITY: f64 = 1e-10;
+
+/// A mesh of linear tetrahedra: node positions and, per tet, four node indices.
+///
+/// Invariants, established by [`TetMesh::new`]: at least one tet; every coordinate finite; every
+/// index in range; no tet repeats a node; no tet degenerate (see [`DEGENERATE_QUALITY`]); every
+/// tet positively oriented, det[x₁−x₀ x₂−x₀ x₃−x₀] > 0.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TetMesh {
+    nodes: Vec<Vector3<f64>>,
+    tets: Vec<[usize; 4]>,
+}
+
+impl TetMesh {
+    /// Validates nodes and tets and builds the mesh.
+    ///
+    /// A negatively oriented tet is reoriented by swapping its second and third nodes
+    /// (`[a, b, c, d]` → `[a, c, b, d]`), so that every stored tet has positive volume; the
+    /// element set is unchanged. Errors name the first offending tet or node.
+    pub fn new(nodes: Vec<Vector3<f64>>, mut tets: Vec<[usize; 4]>) -> Result<Self> {
+        if nodes.len() < 4 || tets.is_empty() {
+            return Err(Error::EmptyMesh {
+                nodes: nodes.len(),
+                tets: tets.len(),
+            });
+        }
+        for (node, p) in nodes.iter().enumerate() {
+            for axis in 0..3 {
+                if !p[axis].is_finite() {
+                    return Err(Error::NonFiniteCoordinate {
+                        node,
+                        axis,
+                        value: p[axis],
+                    });
+                }
+            }
+        }
+        for (tet, t) in tets.iter_mut().enumerate() {
+            for (k, &node) in t.iter().enumerate() {
+                if node >= nodes.len() {
+                    return Err(Error::NodeIndexOutOfRange {
+                        tet,
+                        node,
+                        node_count: nodes.len(),
+                    });
+                }
+                if t[..k].contains(&node) {
+                    return Err(Error::RepeatedNode {
+                        tet,
+                        node,
+                        nodes: *t,
+                    });
+                }
+            }
+            let x = t.map(|n| nodes[n]);
+            let quality = shape_quality(&x);
+            if quality.is_nan() || quality < DEGENERATE_QUALITY {
+                return Err(Error::DegenerateTet {
+                    tet,
+                    nodes: *t,
+                    quality,
+                    threshold: DEGENERATE_QUALITY,
+                });
+            }
+            if signed_volume(&x) < 0.0 {
+                t.swap(1, 2);
+            }
+        }
+        Ok(TetMesh { nodes, tets })
+    }
+
+    /// Node positions.
+    pub fn nodes(&self) -> &[Vector3<f64>] {
+        &self.nodes
+    }
+
+    /// Tets as node-index quadruples, each positively oriented.
+    pub fn tets(&self) -> &[[usize; 4]] {
+        &self.tets
+    }
+
+    /// Number of nodes.
+    pub fn node_count(&self) -> usize {
+        self.nodes.len()
+    }
+
+    /// Number of tets.
+    pub fn tet_count(&self) -> usize {
+        self.tets.len()
+    }
+
+    /// Number of degrees of freedom, 3 per node; DOF `3·node + axis`.
+    pub fn dof_count(&self) -> usize {
+        3 * self.nodes.len()
+    }
+
+    /// Rest positions of tet `t`'s four nodes.
+    ///
+    /// # Panics
+    /// If `t >= self.tet_count()`.
+    pub fn tet_positions(&self, t: usize) -> [Vector3<f64>; 4] {
+        self.tets[t].map(|n| self.nodes[n])
+    }
+
+    /// The rest-state element of tet `t`.
+    ///
+    /// # Panics
+    /// If `t >= self.tet_count()`.
+    pub fn element(&self, t: usize) -> Tet {
+        Tet::new(&self.tet_positions(t))
+            .expect("TetMesh invariant: every tet is positively oriented and non-degenerate")
+    }
+
+    /// All rest-state elements, in tet order.
+    pub fn elements(&self) -> Vec<Tet> {
+        (0..self.tets.len()).map(|t| self.element(t)).collect()
+    }
+
+    /// Total rest volume Σ Vₑ.
+    pub fn volume(&self) -> f64 {
+        (0..self.tets.len())
+            .map(|t| signed_volume(&self.tet_positions(t)))
+            .sum()
+    }
+
+    /// Axis-aligned bounding box (min corner, max corner).
+    pub fn bounding_box(&self) -> (Vector3<f64>, Vector3<f64>) {
+        let mut lo = self.nodes[0];
+        let mut hi = self.nodes[0];
+        for p in &self.nodes {
+            lo = lo.inf(p);
+            hi = hi.sup(p);
+        }
+        (lo, hi)
+    }
+
+    /// The same mesh with new node positions (e.g. a perturbed or deformed copy),
+    /// validated again.
+    pub fn with_nodes(&self, nodes: Vec<Vector3<f64>>) -> Result<Self> {
+        if nodes.len() != self.nodes.len() {
+            return Err(Error::invalid_parameter(
+                "nodes.len()",
+                nodes.len(),
+                format!("must equal the mesh's node count {}", self.nodes.len()),
+            ));
+        }
+        TetMesh::new(nodes, self.tets.clone())
+    }
+}

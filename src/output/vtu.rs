@@ -1,0 +1,164 @@
+//! VTK XML unstructured grid (`.vtu`, ASCII) of a tet mesh with point and cell fields.
+
+use std::io::Write;
+use std::path::Path;
+
+use super::write_atomically;
+use crate::error::{Error, Result};
+use crate::mesh::TetMesh;
+
+/// VTK's cell type code for a linear tetrahedron.
+const VTK_TETRA: u8 = 10;
+
+/// Builder for one `.vtu` file: the mesh plus named fields, checked for length when added.
+#[derive(Debug, Clone)]
+pub struct VtuWriter<'a> {
+    mesh: &'a TetMesh,
+    point_fields: Vec<(String, usize, &'a [f64])>,
+    cell_fields: Vec<(String, usize, &'a [f64])>,
+}
+
+impl<'a> VtuWriter<'a> {
+    /// A file for `mesh` with no fields yet.
+    pub fn new(mesh: &'a TetMesh) -> Self {
+        VtuWriter {
+            mesh,
+            point_fields: Vec::new(),
+            cell_fields: Vec::new(),
+        }
+    }
+
+    /// Adds a per-node field with `components` values per node (1 for a scalar, 3 for a vector
+    /// such as the displacement, node-major).
+    pub fn point_field(mut self, name: &str, components: usize, values: &'a [f64]) -> Result<Self> {
+        check_field(name, components, values, self.mesh.node_count(), "node")?;
+        self.point_fields
+            .push((name.to_string(), components, values));
+        Ok(self)
+    }
+
+    /// Adds a per-tet field with `components` values per tet.
+    pub fn cell_field(mut self, name: &str, components: usize, values: &'a [f64]) -> Result<Self> {
+        check_field(name, components, values, self.mesh.tet_count(), "tet")?;
+        self.cell_fields
+            .push((name.to_string(), components, values));
+        Ok(self)
+    }
+
+    /// Writes the file atomically (see [`write_atomically`]).
+    pub fn write(&self, path: &Path) -> Result<()> {
+        write_atomically(path, |out| self.write_to(out))
+    }
+
+    /// Writes the XML to any writer.
+    pub fn write_to(&self, out: &mut dyn Write) -> std::io::Result<()> {
+        let mesh = self.mesh;
+        writeln!(out, r#"<?xml version="1.0"?>"#)?;
+        writeln!(
+            out,
+            r#"<VTKFile type="UnstructuredGrid" version="1.0" byte_order="LittleEndian" header_type="UInt64">"#
+        )?;
+        writeln!(out, "  <UnstructuredGrid>")?;
+        writeln!(
+            out,
+            r#"    <Piece NumberOfPoints="{}" NumberOfCells="{}">"#,
+            mesh.node_count(),
+            mesh.tet_count()
+        )?;
+        writeln!(out, "      <Points>")?;
+        writeln!(
+            out,
+            r#"        <DataArray type="Float64" NumberOfComponents="3" format="ascii">"#
+        )?;
+        for p in mesh.nodes() {
+            writeln!(out, "{:e} {:e} {:e}", p.x, p.y, p.z)?;
+        }
+        writeln!(out, "        </DataArray>")?;
+        writeln!(out, "      </Points>")?;
+        writeln!(out, "      <Cells>")?;
+        writeln!(
+            out,
+            r#"        <DataArray type="Int64" Name="connectivity" format="ascii">"#
+        )?;
+        for t in mesh.tets() {
+            writeln!(out, "{} {} {} {}", t[0], t[1], t[2], t[3])?;
+        }
+        writeln!(out, "        </DataArray>")?;
+        writeln!(
+            out,
+            r#"        <DataArray type="Int64" Name="offsets" format="ascii">"#
+        )?;
+        for c in 1..=mesh.tet_count() {
+            writeln!(out, "{}", 4 * c)?;
+        }
+        writeln!(out, "        </DataArray>")?;
+        writeln!(
+            out,
+            r#"        <DataArray type="UInt8" Name="types" format="ascii">"#
+        )?;
+        for _ in 0..mesh.tet_count() {
+            writeln!(out, "{VTK_TETRA}")?;
+        }
+        writeln!(out, "        </DataArray>")?;
+        writeln!(out, "      </Cells>")?;
+        write_fields(out, "PointData", &self.point_fields)?;
+        write_fields(out, "CellData", &self.cell_fields)?;
+        writeln!(out, "    </Piece>")?;
+        writeln!(out, "  </UnstructuredGrid>")?;
+        writeln!(out, "</VTKFile>")
+    }
+}
+
+fn write_fields(
+    out: &mut dyn Write,
+    section: &str,
+    fields: &[(String, usize, &[f64])],
+) -> std::io::Result<()> {
+    writeln!(out, "      <{section}>")?;
+    for (name, components, values) in fields {
+        writeln!(
+            out,
+            r#"        <DataArray type="Float64" Name="{}" NumberOfComponents="{components}" format="ascii">"#,
+            xml_escape(name)
+        )?;
+        for chunk in values.chunks(*components) {
+            let line: Vec<String> = chunk.iter().map(|v| format!("{v:e}")).collect();
+            writeln!(out, "{}", line.join(" "))?;
+        }
+        writeln!(out, "        </DataArray>")?;
+    }
+    writeln!(out, "      </{section}>")
+}
+
+fn check_field(
+    name: &str,
+    components: usize,
+    values: &[f64],
+    count: usize,
+    per: &str,
+) -> Result<()> {
+    if components == 0 || values.len() != components * count {
+        return Err(Error::invalid_parameter(
+            format!("field '{name}'"),
+            format!("{} values with {components} components", values.len()),
+            format!(
+                "needs {components} values per {per} ({count} {per}s), and at least one component"
+            ),
+        ));
+    }
+    if let Some(i) = values.iter().position(|v| !v.is_finite()) {
+        return Err(Error::invalid_parameter(
+            format!("field '{name}'"),
+            format!("value {i} = {}", values[i]),
+            "must be finite (ParaView cannot read NaN from ASCII VTK)",
+        ));
+    }
+    Ok(())
+}
+
+fn xml_escape(s: &str) -> String {
+    s.replace('&', "&amp;")
+        .replace('<', "&lt;")
+        .replace('>', "&gt;")
+        .replace('"', "&quot;")
+}

@@ -1,0 +1,178 @@
+//! Symmetric sparse matrices in compressed sparse column form, both triangles stored.
+//!
+//! Both triangles are kept so that a product A·x is one pass over the columns and the restriction
+//! to free DOFs is a plain gather; faer's Cholesky reads the lower triangle only.
+
+use std::sync::Arc;
+
+use faer::sparse::{SparseColMatRef, SymbolicSparseColMat};
+
+use crate::error::{Error, Result};
+
+/// A square sparse matrix (CSC, sorted row indices, both triangles of a symmetric matrix stored)
+/// whose pattern may be shared with other matrices: values are refilled in place, and matrices on
+/// the same pattern combine entry by entry ([`CscMatrix::set_linear_combination`]).
+#[derive(Debug, Clone)]
+pub struct CscMatrix {
+    pattern: Arc<SymbolicSparseColMat<usize>>,
+    values: Vec<f64>,
+}
+
+impl CscMatrix {
+    /// A matrix of zeros on `pattern`.
+    pub fn zeros(pattern: Arc<SymbolicSparseColMat<usize>>) -> Self {
+        let nnz = pattern.row_idx().len();
+        CscMatrix {
+            pattern,
+            values: vec![0.0; nnz],
+        }
+    }
+
+    /// A matrix on `pattern` with the given values (one per stored entry).
+    pub fn from_values(
+        pattern: Arc<SymbolicSparseColMat<usize>>,
+        values: Vec<f64>,
+    ) -> Result<Self> {
+        if values.len() != pattern.row_idx().len() {
+            return Err(Error::invalid_parameter(
+                "values.len()",
+                values.len(),
+                format!("must equal the pattern's nnz {}", pattern.row_idx().len()),
+            ));
+        }
+        Ok(CscMatrix { pattern, values })
+    }
+
+    /// Number of rows (= columns).
+    pub fn dim(&self) -> usize {
+        self.pattern.ncols()
+    }
+
+    /// Number of stored entries (both triangles).
+    pub fn nnz(&self) -> usize {
+        self.values.len()
+    }
+
+    /// The shared pattern.
+    pub fn pattern(&self) -> &Arc<SymbolicSparseColMat<usize>> {
+        &self.pattern
+    }
+
+    /// Column pointers (length dim + 1).
+    pub fn col_ptr(&self) -> &[usize] {
+        self.pattern.col_ptr()
+    }
+
+    /// Row indices, sorted within each column.
+    pub fn row_idx(&self) -> &[usize] {
+        self.pattern.row_idx()
+    }
+
+    /// Stored values, aligned with [`row_idx`](Self::row_idx).
+    pub fn values(&self) -> &[f64] {
+        &self.values
+    }
+
+    /// Mutable stored values (the pattern stays fixed).
+    pub fn values_mut(&mut self) -> &mut [f64] {
+        &mut self.values
+    }
+
+    /// A faer view of this matrix, for factorizations and faer's own kernels.
+    pub fn as_faer(&self) -> SparseColMatRef<'_, usize, f64> {
+        SparseColMatRef::new(SymbolicSparseColMat::as_ref(&self.pattern), &self.values)
+    }
+
+    /// Entry (row, col), zero where the pattern has no entry.
+    ///
+    /// Returns `None` if `row` or `col` is out of range.
+    pub fn get(&self, row: usize, col: usize) -> Option<f64> {
+        if row >= self.dim() || col >= self.dim() {
+            return None;
+        }
+        let range = self.col_ptr()[col]..self.col_ptr()[col + 1];
+        Some(
+            self.row_idx()[range.clone()]
+                .binary_search(&row)
+                .map_or(0.0, |k| self.values[range.start + k]),
+        )
+    }
+
+    /// y = A·x.
+    ///
+    /// # Panics
+    /// If `x` or `y` does not have length [`dim`](Self::dim).
+    pub fn mul_vec(&self, x: &[f64], y: &mut [f64]) {
+        assert_eq!(x.len(), self.dim(), "x has the wrong length");
+        assert_eq!(y.len(), self.dim(), "y has the wrong length");
+        y.fill(0.0);
+        let (col_ptr, row_idx) = (self.col_ptr(), self.row_idx());
+        // Symmetric storage: column j of A is row j, so y_j = Σ_k A_kj x_k reads one column.
+        for (j, yj) in y.iter_mut().enumerate() {
+            let mut sum = 0.0;
+            for k in col_ptr[j]..col_ptr[j + 1] {
+                sum += self.values[k] * x[row_idx[k]];
+            }
+            *yj = sum;
+        }
+    }
+
+    /// A·x as a new vector.
+    pub fn mul(&self, x: &[f64]) -> Vec<f64> {
+        let mut y = vec![0.0; self.dim()];
+        self.mul_vec(x, &mut y);
+        y
+    }
+
+    /// xᵀ·A·x.
+    pub fn quadratic_form(&self, x: &[f64]) -> f64 {
+        self.mul(x).iter().zip(x).map(|(a, b)| a * b).sum()
+    }
+
+    /// Sets self = a·A + b·B entry-wise; all three must share one pattern (same `Arc`).
+    pub fn set_linear_combination(
+        &mut self,
+        a: f64,
+        lhs: &CscMatrix,
+        b: f64,
+        rhs: &CscMatrix,
+    ) -> Result<()> {
+        if !Arc::ptr_eq(&self.pattern, &lhs.pattern) || !Arc::ptr_eq(&self.pattern, &rhs.pattern) {
+            return Err(Error::invalid_parameter(
+                "matrix pattern",
+                "different patterns",
+                "a linear combination needs matrices on one shared pattern",
+            ));
+        }
+        for ((out, x), y) in self.values.iter_mut().zip(&lhs.values).zip(&rhs.values) {
+            *out = a * x + b * y;
+        }
+        Ok(())
+    }
+
+    /// Adds `diagonal[i]` to entry (i, i) for every i. Every diagonal entry must be in the
+    /// pattern (it is for assembled stiffness and mass patterns).
+    pub fn add_diagonal(&mut self, scale: f64, diagonal: &[f64]) -> Result<()> {
+        if diagonal.len() != self.dim() {
+            return Err(Error::invalid_parameter(
+                "diagonal.len()",
+                diagonal.len(),
+                format!("must equal the matrix dimension {}", self.dim()),
+            ));
+        }
+        for (j, d) in diagonal.iter().enumerate() {
+            let range = self.pattern.col_ptr()[j]..self.pattern.col_ptr()[j + 1];
+            let k = self.pattern.row_idx()[range.clone()]
+                .binary_search(&j)
+                .map_err(|_| {
+                    Error::invalid_parameter(
+                        "pattern",
+                        format!("column {j}"),
+                        "has no diagonal entry",
+                    )
+                })?;
+            self.values[range.start + k] += scale * d;
+        }
+        Ok(())
+    }
+}
