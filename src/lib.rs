@@ -54,3 +54,8 @@ pub use material::Material;
 pub use mesh::{BoxSplit, TetMesh};
 pub use sparse::CscMatrix;
 pub use statics::{StaticSolution, StaticSolver, solve_static};
+
+/// The README's code blocks, compiled and run as doctests so that they stay true.
+#[doc = include_str!("../README.md")]
+#[cfg(doctest)]
+pub struct ReadmeDoctests;
