@@ -80,7 +80,7 @@ pub enum SolveInfo {
 #[derive(Debug)]
 pub enum LinearSolver {
     /// Sparse Cholesky, analysed once, refactored per matrix.
-    Direct(SparseCholesky),
+    Direct(Box<SparseCholesky>),
     /// Preconditioned CG; the preconditioner is rebuilt per matrix.
     Iterative {
         /// Block-Jacobi preconditioner of the current matrix.
@@ -112,7 +112,7 @@ impl LinearSolver {
                 {
                     return iterative(options);
                 }
-                Ok(LinearSolver::Direct(cholesky))
+                Ok(LinearSolver::Direct(Box::new(cholesky)))
             }
         }
     }
