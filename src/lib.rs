@@ -33,6 +33,7 @@
 pub mod assembly;
 pub mod beam_theory;
 pub mod cantilever;
+pub mod chart;
 pub mod constraints;
 pub mod element;
 pub mod error;
