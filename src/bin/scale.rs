@@ -37,6 +37,21 @@ struct Cli {
     /// Internal: threads of the single run.
     #[arg(long, hide = true, default_value_t = 1)]
     threads: usize,
+    /// Run one size given as cells NX,NY,NZ (the peers' n×n/10×n/10 beams) and print its
+    /// measurements as one `RESULT` line (used by validation/side_by_side.py).
+    #[arg(long, value_parser = parse_cells)]
+    cells: Option<[usize; 3]>,
+    /// Ordering of the single run: nested-dissection (default) or amd.
+    #[arg(long, default_value = "nested-dissection")]
+    ordering: String,
+}
+
+fn parse_cells(text: &str) -> Result<[usize; 3], String> {
+    let v: Vec<usize> = text
+        .split(',')
+        .map(|s| s.trim().parse::<usize>().map_err(|e| format!("'{s}': {e}")))
+        .collect::<Result<_, _>>()?;
+    v.try_into().map_err(|_| format!("expected NX,NY,NZ, got '{text}'"))
 }
 
 const PHASES: [&str; 7] = [
@@ -77,8 +92,9 @@ fn peak_rss_mib() -> f64 {
         .map_or(f64::NAN, |kib| kib / 1024.0)
 }
 
-fn run_one(k: usize, method: &str, threads: usize) -> tetfem::Result<Run> {
-    let problem = Cantilever::peer_benchmark([5 * k, k, k]);
+fn run_one(cells: [usize; 3], method: &str, threads: usize, ordering: &str) -> tetfem::Result<Run> {
+    let k = cells[1];
+    let problem = Cantilever::peer_benchmark(cells);
     let mut run = Run {
         k,
         method: method.to_string(),
@@ -108,7 +124,7 @@ fn run_one(k: usize, method: &str, threads: usize) -> tetfem::Result<Run> {
     let options = SolverOptions {
         method: method.parse::<LinearMethod>()?,
         cholesky: CholeskyOptions {
-            ordering: FillOrdering::NestedDissection,
+            ordering: ordering.parse::<FillOrdering>()?,
             threads,
         },
         ..Default::default()
@@ -231,8 +247,9 @@ fn triad_bandwidth() -> f64 {
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
-    if let Some(k) = cli.one {
-        return match run_one(k, &cli.method, cli.threads) {
+    let single = cli.cells.or(cli.one.map(|k| [5 * k, k, k]));
+    if let Some(cells) = single {
+        return match run_one(cells, &cli.method, cli.threads, &cli.ordering) {
             Ok(run) => {
                 println!("{}", encode(&run));
                 ExitCode::SUCCESS
