@@ -35,8 +35,10 @@ pub mod beam_theory;
 pub mod cantilever;
 pub mod chart;
 pub mod constraints;
+pub mod convergence;
 pub mod element;
 pub mod error;
+pub mod error_norms;
 pub mod iterative;
 pub mod linear_solver;
 pub mod linsolve;
@@ -45,6 +47,7 @@ pub mod material;
 pub mod mesh;
 pub mod ordering;
 pub mod output;
+pub mod quadrature;
 pub mod sparse;
 pub mod statics;
 
