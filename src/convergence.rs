@@ -43,17 +43,28 @@ impl Study {
     /// Wraps measured levels; they must have distinct positive h.
     pub fn new(mut levels: Vec<Level>) -> Result<Self> {
         if let Some(bad) = levels.iter().find(|l| !(l.h.is_finite() && l.h > 0.0)) {
-            return Err(Error::invalid_parameter("h", bad.h, "every level needs a finite h > 0"));
+            return Err(Error::invalid_parameter(
+                "h",
+                bad.h,
+                "every level needs a finite h > 0",
+            ));
         }
         levels.sort_by(|a, b| b.h.total_cmp(&a.h));
         if levels.windows(2).any(|w| w[0].h == w[1].h) {
-            return Err(Error::invalid_parameter("h", "a repeated value", "levels need distinct h"));
+            return Err(Error::invalid_parameter(
+                "h",
+                "a repeated value",
+                "levels need distinct h",
+            ));
         }
         Ok(Study { levels })
     }
 
     /// Runs `solve` on each parameter, timing it. `solve` returns (h, DOFs, error).
-    pub fn run<P>(parameters: impl IntoIterator<Item = P>, mut solve: impl FnMut(P) -> Result<(f64, usize, f64)>) -> Result<Self> {
+    pub fn run<P>(
+        parameters: impl IntoIterator<Item = P>,
+        mut solve: impl FnMut(P) -> Result<(f64, usize, f64)>,
+    ) -> Result<Self> {
         let mut levels = Vec::new();
         for p in parameters {
             let clock = Instant::now();
@@ -119,7 +130,8 @@ pub struct Richardson {
 /// Errors if the differences do not shrink monotonically (no asymptotic range).
 pub fn richardson(coarse: f64, medium: f64, fine: f64, ratio: f64) -> Result<Richardson> {
     let (d1, d2) = (medium - coarse, fine - medium);
-    if !(ratio > 1.0 && d1 != 0.0 && d2 != 0.0 && d1.signum() == d2.signum() && d2.abs() < d1.abs()) {
+    if !(ratio > 1.0 && d1 != 0.0 && d2 != 0.0 && d1.signum() == d2.signum() && d2.abs() < d1.abs())
+    {
         return Err(Error::invalid_parameter(
             "Richardson levels",
             format!("{coarse}, {medium}, {fine} (ratio {ratio})"),

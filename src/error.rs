@@ -147,6 +147,17 @@ pub enum Error {
         dimension: usize,
     },
 
+    /// A time integration blew up (non-finite values or runaway energy).
+    #[error("the run diverged at step {step} (t = {time:e}): {reason}")]
+    Diverged {
+        /// The step at which it was caught.
+        step: usize,
+        /// The simulated time at that step.
+        time: f64,
+        /// What the guard saw.
+        reason: String,
+    },
+
     /// A linear-algebra routine failed for a reason other than a non-positive pivot.
     #[error("linear solver: {0}")]
     Solver(String),

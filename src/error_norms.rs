@@ -9,14 +9,24 @@ use crate::quadrature::{shape_values, tet_rule};
 
 /// L2 norm of the displacement error, ‖u_h − u‖ = √(∫ |u_h − u|² dV) (length · length^{3/2}),
 /// by the degree-5 tet rule.
-pub fn l2_error(mesh: &TetMesh, displacement: &[f64], exact: impl Fn(&Vector3<f64>) -> Vector3<f64>) -> Result<f64> {
+pub fn l2_error(
+    mesh: &TetMesh,
+    displacement: &[f64],
+    exact: impl Fn(&Vector3<f64>) -> Vector3<f64>,
+) -> Result<f64> {
     check_length(mesh, displacement)?;
     let rule = tet_rule();
     let mut sum = 0.0;
     for (t, tet) in mesh.tets().iter().enumerate() {
         let x = mesh.tet_positions(t);
         let volume = mesh.element(t).volume();
-        let u = tet.map(|n| Vector3::new(displacement[3 * n], displacement[3 * n + 1], displacement[3 * n + 2]));
+        let u = tet.map(|n| {
+            Vector3::new(
+                displacement[3 * n],
+                displacement[3 * n + 1],
+                displacement[3 * n + 2],
+            )
+        });
         for q in &rule {
             let n = shape_values(&q.barycentric);
             let p = x[0] * n[0] + x[1] * n[1] + x[2] * n[2] + x[3] * n[3];

@@ -36,6 +36,7 @@ pub mod cantilever;
 pub mod chart;
 pub mod constraints;
 pub mod convergence;
+pub mod dynamics;
 pub mod element;
 pub mod error;
 pub mod error_norms;

@@ -7,8 +7,18 @@ use nalgebra::Vector3;
 use crate::element::Tet;
 
 /// Gauss–Legendre nodes and weights on [−1, 1], 4 points (exact to degree 7).
-const GAUSS_NODES: [f64; 4] = [-0.861_136_311_594_052_6, -0.339_981_043_584_856_3, 0.339_981_043_584_856_3, 0.861_136_311_594_052_6];
-const GAUSS_WEIGHTS: [f64; 4] = [0.347_854_845_137_453_9, 0.652_145_154_862_546_1, 0.652_145_154_862_546_1, 0.347_854_845_137_453_9];
+const GAUSS_NODES: [f64; 4] = [
+    -0.861_136_311_594_052_6,
+    -0.339_981_043_584_856_3,
+    0.339_981_043_584_856_3,
+    0.861_136_311_594_052_6,
+];
+const GAUSS_WEIGHTS: [f64; 4] = [
+    0.347_854_845_137_453_9,
+    0.652_145_154_862_546_1,
+    0.652_145_154_862_546_1,
+    0.347_854_845_137_453_9,
+];
 
 /// A quadrature point in barycentric coordinates (b₁, b₂, b₃; b₀ = 1 − b₁ − b₂ − b₃) with its
 /// weight as a fraction of the tet's volume (the weights sum to 1).
@@ -32,7 +42,8 @@ pub fn tet_rule() -> Vec<QuadraturePoint> {
                 // b₁ = u, b₂ = v(1−u), b₃ = w(1−u)(1−v); dV_ref = (1−u)²(1−v) du dv dw, and the
                 // reference tet has volume 1/6 (hence the factor 6 to make weights sum to 1).
                 let jacobian = (1.0 - u) * (1.0 - u) * (1.0 - v);
-                let weight = 6.0 * jacobian * GAUSS_WEIGHTS[i] * GAUSS_WEIGHTS[j] * GAUSS_WEIGHTS[k] / 8.0;
+                let weight =
+                    6.0 * jacobian * GAUSS_WEIGHTS[i] * GAUSS_WEIGHTS[j] * GAUSS_WEIGHTS[k] / 8.0;
                 points.push(QuadraturePoint {
                     barycentric: Vector3::new(u, v * (1.0 - u), w * (1.0 - u) * (1.0 - v)),
                     weight,
@@ -49,7 +60,12 @@ pub fn shape_values(b: &Vector3<f64>) -> [f64; 4] {
 }
 
 /// ∫_tet f dV by [`tet_rule`], for the tet with rest positions `x` and element data `tet`.
-pub fn integrate(tet: &Tet, x: &[Vector3<f64>; 4], rule: &[QuadraturePoint], f: impl Fn(&Vector3<f64>, &[f64; 4]) -> f64) -> f64 {
+pub fn integrate(
+    tet: &Tet,
+    x: &[Vector3<f64>; 4],
+    rule: &[QuadraturePoint],
+    f: impl Fn(&Vector3<f64>, &[f64; 4]) -> f64,
+) -> f64 {
     rule.iter()
         .map(|q| {
             let n = shape_values(&q.barycentric);

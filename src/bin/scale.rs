@@ -55,7 +55,8 @@ fn parse_cells(text: &str) -> Result<[usize; 3], String> {
         .split(',')
         .map(|s| s.trim().parse::<usize>().map_err(|e| format!("'{s}': {e}")))
         .collect::<Result<_, _>>()?;
-    v.try_into().map_err(|_| format!("expected NX,NY,NZ, got '{text}'"))
+    v.try_into()
+        .map_err(|_| format!("expected NX,NY,NZ, got '{text}'"))
 }
 
 const PHASES: [&str; 7] = [
@@ -279,9 +280,17 @@ fn study(cli: &Cli) -> Result<(), Box<dyn std::error::Error>> {
         .filter(|&k| k <= if cli.quick { 8 } else { cli.max_k })
         .collect();
     let exe = std::env::current_exe()?;
-    let raw_path = cli.out.join(if cli.quick { "scale_results_quick.txt" } else { "scale_results.txt" });
+    let raw_path = cli.out.join(if cli.quick {
+        "scale_results_quick.txt"
+    } else {
+        "scale_results.txt"
+    });
     let mut runs: Vec<Run> = if cli.resume {
-        std::fs::read_to_string(&raw_path).unwrap_or_default().lines().filter_map(decode).collect()
+        std::fs::read_to_string(&raw_path)
+            .unwrap_or_default()
+            .lines()
+            .filter_map(decode)
+            .collect()
     } else {
         Vec::new()
     };
@@ -295,12 +304,22 @@ fn study(cli: &Cli) -> Result<(), Box<dyn std::error::Error>> {
         plan.push((k, "iterative", 2));
     }
     for (k, method, threads) in plan {
-        if runs.iter().any(|r| r.k == k && r.method == method && r.threads == threads) {
+        if runs
+            .iter()
+            .any(|r| r.k == k && r.method == method && r.threads == threads)
+        {
             continue;
         }
         eprintln!("scale: 5k×k×k with k = {k}, {method}, {threads} thread(s) …");
         let out = Command::new(&exe)
-            .args(["--one", &k.to_string(), "--method", method, "--threads", &threads.to_string()])
+            .args([
+                "--one",
+                &k.to_string(),
+                "--method",
+                method,
+                "--threads",
+                &threads.to_string(),
+            ])
             .env("RAYON_NUM_THREADS", threads.to_string())
             .output()?;
         let text = String::from_utf8_lossy(&out.stdout);
@@ -308,10 +327,7 @@ fn study(cli: &Cli) -> Result<(), Box<dyn std::error::Error>> {
             Some(run) => {
                 eprintln!(
                     "  {} DOFs: numeric {:.3} s, solve {:.3} s, peak {:.0} MiB",
-                    run.dofs,
-                    run.seconds[5],
-                    run.seconds[6],
-                    run.peak_mib[6]
+                    run.dofs, run.seconds[5], run.seconds[6], run.peak_mib[6]
                 );
                 runs.push(run);
                 let lines: String = runs.iter().map(|r| encode(r) + "\n").collect();

@@ -1,0 +1,38 @@
+//! Energy bookkeeping of a dynamic state.
+
+/// Energies of a state (energy units, J in SI). The loads are constant, so each has a potential
+/// −f·u, and the work they did since the start is minus the change of that potential.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Energy {
+    /// Kinetic energy ½·vᵀ·M·v.
+    pub kinetic: f64,
+    /// Elastic (strain) energy ½·uᵀ·K·u.
+    pub elastic: f64,
+    /// Gravitational potential −f_g·u (relative to the reference configuration).
+    pub gravity_potential: f64,
+    /// Potential of the other constant loads, −f·u.
+    pub load_potential: f64,
+}
+
+impl Energy {
+    /// Total mechanical energy: kinetic + elastic + both potentials. Conserved without damping
+    /// by the exact dynamics and by Newmark; never increasing under backward Euler.
+    pub fn total(&self) -> f64 {
+        self.kinetic + self.elastic + self.gravity_potential + self.load_potential
+    }
+
+    /// Work done by the external loads since the state `start`: −Δ(potentials).
+    pub fn external_work_since(&self, start: &Energy) -> f64 {
+        -(self.gravity_potential + self.load_potential
+            - start.gravity_potential
+            - start.load_potential)
+    }
+
+    /// Size of the energy terms, Σ|term|: a scale for relative comparisons.
+    pub fn scale(&self) -> f64 {
+        self.kinetic.abs()
+            + self.elastic.abs()
+            + self.gravity_potential.abs()
+            + self.load_potential.abs()
+    }
+}

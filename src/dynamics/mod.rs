@@ -1,0 +1,97 @@
+//! Time integration of the linear structural system M·ü + C·u̇ + K·u = f on the free DOFs.
+//!
+//! [`LinearSystem`] holds the matrices; [`State`] the displacement and velocity; each method is
+//! an [`Integrator`] in its own file: [`BackwardEuler`] (implicit, first order, unconditionally
+//! stable, dissipative), [`Newmark`] (average acceleration: implicit, second order,
+//! unconditionally stable, energy-conserving), [`SymplecticEuler`] (explicit, second order in
+//! the staggered sense, stable only below [`critical_time_step`]).
+
+mod backward_euler;
+mod damping;
+mod energy;
+mod explicit;
+mod newmark;
+mod stability;
+mod state;
+mod system;
+
+pub use backward_euler::BackwardEuler;
+pub use damping::Rayleigh;
+pub use energy::Energy;
+pub use explicit::SymplecticEuler;
+pub use newmark::Newmark;
+pub use stability::{CriticalStep, DivergenceGuard, critical_time_step, element_critical_step};
+pub use state::State;
+pub use system::{LinearSystem, Mass, MassKind};
+
+use crate::error::{Error, Result};
+
+/// A time-stepping method for a [`LinearSystem`].
+pub trait Integrator {
+    /// Advances `state` by one step of [`time_step`](Self::time_step). On
+    /// [`Error::Diverged`] the state holds the values of the failed step (for inspection).
+    fn step(&mut self, state: &mut State) -> Result<()>;
+    /// The current time step (time units).
+    fn time_step(&self) -> f64;
+    /// Changes the time step; implicit methods refactor their system matrix on the next step.
+    fn set_time_step(&mut self, dt: f64) -> Result<()>;
+    /// A short name for reports (`backward-euler`, `newmark`, `explicit`).
+    fn name(&self) -> &'static str;
+}
+
+/// Validates a time step: finite and > 0.
+pub fn check_time_step(dt: f64) -> Result<f64> {
+    if dt.is_finite() && dt > 0.0 {
+        Ok(dt)
+    } else {
+        Err(Error::invalid_parameter(
+            "dt",
+            dt,
+            "the time step must be finite and > 0",
+        ))
+    }
+}
+
+/// Which integrator, by name.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Method {
+    /// [`BackwardEuler`], the default.
+    #[default]
+    BackwardEuler,
+    /// [`Newmark`] average acceleration.
+    Newmark,
+    /// [`SymplecticEuler`] (explicit).
+    Explicit,
+}
+
+impl std::str::FromStr for Method {
+    type Err = Error;
+
+    fn from_str(name: &str) -> Result<Self> {
+        match name {
+            "backward-euler" | "be" => Ok(Method::BackwardEuler),
+            "newmark" => Ok(Method::Newmark),
+            "explicit" | "symplectic-euler" => Ok(Method::Explicit),
+            other => Err(Error::invalid_parameter(
+                "method",
+                other,
+                "must be 'backward-euler', 'newmark' or 'explicit'",
+            )),
+        }
+    }
+}
+
+impl Method {
+    /// Builds the integrator for `system` with time step `dt`.
+    pub fn integrator(
+        self,
+        system: std::sync::Arc<LinearSystem>,
+        dt: f64,
+    ) -> Result<Box<dyn Integrator>> {
+        Ok(match self {
+            Method::BackwardEuler => Box::new(BackwardEuler::new(system, dt)?),
+            Method::Newmark => Box::new(Newmark::new(system, dt)?),
+            Method::Explicit => Box::new(SymplecticEuler::new(system, dt)?),
+        })
+    }
+}

@@ -1,0 +1,37 @@
+//! The state of a dynamic run.
+
+/// Displacement u and velocity v on the free DOFs (length and length/time units), and the time.
+#[derive(Debug, Clone, PartialEq)]
+pub struct State {
+    /// Displacement of each free DOF.
+    pub displacement: Vec<f64>,
+    /// Velocity of each free DOF.
+    pub velocity: Vec<f64>,
+    /// Time.
+    pub time: f64,
+    /// Steps taken.
+    pub steps: usize,
+}
+
+impl State {
+    /// At rest in the reference configuration, at time 0.
+    pub fn at_rest(free_dofs: usize) -> Self {
+        State {
+            displacement: vec![0.0; free_dofs],
+            velocity: vec![0.0; free_dofs],
+            time: 0.0,
+            steps: 0,
+        }
+    }
+
+    /// Released from rest at the given displacement, at time 0.
+    pub fn released_from(displacement: Vec<f64>) -> Self {
+        let n = displacement.len();
+        State {
+            displacement,
+            velocity: vec![0.0; n],
+            time: 0.0,
+            steps: 0,
+        }
+    }
+}

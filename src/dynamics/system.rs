@@ -1,0 +1,276 @@
+//! The linear structural system on the free DOFs: K_ff, M_ff, Rayleigh damping and the external
+//! loads (constant in time).
+
+use std::sync::Arc;
+
+use nalgebra::Vector3;
+
+use super::{Energy, Rayleigh, State};
+use crate::assembly::{Assembler, lumped_mass};
+use crate::constraints::{Constraints, DofMap, ensure_held};
+use crate::error::{Error, Result};
+use crate::loads::Loads;
+use crate::material::Material;
+use crate::mesh::TetMesh;
+use crate::sparse::CscMatrix;
+
+/// Lumped (diagonal) or consistent mass.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum MassKind {
+    /// ρV/4 per node and axis: diagonal, what explicit methods need. The default.
+    #[default]
+    Lumped,
+    /// ρV/20·(1+δᵢⱼ) blocks on the stiffness pattern.
+    Consistent,
+}
+
+/// The mass matrix on the free DOFs.
+#[derive(Debug, Clone)]
+pub enum Mass {
+    /// Diagonal entries (mass units).
+    Lumped(Vec<f64>),
+    /// Sparse, on the pattern of K_ff.
+    Consistent(CscMatrix),
+}
+
+impl Mass {
+    /// y = M·x.
+    pub fn mul_vec(&self, x: &[f64], y: &mut [f64]) {
+        match self {
+            Mass::Lumped(m) => {
+                for ((y, m), x) in y.iter_mut().zip(m).zip(x) {
+                    *y = m * x;
+                }
+            }
+            Mass::Consistent(m) => m.mul_vec(x, y),
+        }
+    }
+
+    /// xᵀ·M·x.
+    pub fn quadratic_form(&self, x: &[f64]) -> f64 {
+        match self {
+            Mass::Lumped(m) => m.iter().zip(x).map(|(m, x)| m * x * x).sum(),
+            Mass::Consistent(m) => m.quadratic_form(x),
+        }
+    }
+}
+
+/// M·ü + C·u̇ + K·u = f on the free DOFs, with C = α·M + β·K and f constant.
+#[derive(Debug, Clone)]
+pub struct LinearSystem {
+    stiffness: CscMatrix,
+    mass: Mass,
+    damping: Rayleigh,
+    gravity_load: Vec<f64>,
+    other_load: Vec<f64>,
+    external: Vec<f64>,
+    dofs: DofMap,
+}
+
+impl LinearSystem {
+    /// Assembles the system of a mesh: K and M restricted to the free DOFs of `constraints`
+    /// (checked to hold every rigid mode), gravity `gravity` (acceleration, e.g. (0, 0, −9.81)
+    /// m/s²) as its own load, the other `loads` and the constant −K_fc·u_c of prescribed
+    /// displacements as the rest.
+    pub fn new(
+        mesh: &TetMesh,
+        material: &Material,
+        constraints: &Constraints,
+        loads: &Loads,
+        gravity: Vector3<f64>,
+        mass: MassKind,
+        damping: Rayleigh,
+    ) -> Result<Self> {
+        if constraints.dof_count() != mesh.dof_count() || loads.as_slice().len() != mesh.dof_count()
+        {
+            return Err(Error::invalid_parameter(
+                "constraints/loads",
+                "another mesh",
+                "must be made for this mesh",
+            ));
+        }
+        let dofs = DofMap::new(constraints);
+        ensure_held(mesh, &mesh.face_topology()?, &dofs)?;
+        let assembler = Assembler::new(mesh);
+        let k_full = assembler.stiffness(mesh, material);
+        let restriction = dofs.restriction(k_full.pattern());
+        let stiffness = restriction.restrict(&k_full);
+        let mass = match mass {
+            MassKind::Lumped => Mass::Lumped(dofs.restrict(&lumped_mass(mesh, material))),
+            MassKind::Consistent => {
+                Mass::Consistent(restriction.restrict(&assembler.consistent_mass(mesh, material)))
+            }
+        };
+        let mut gravity_loads = Loads::new(mesh);
+        gravity_loads.add_gravity(mesh, material, gravity)?;
+        let coupling = k_full.mul(dofs.prescribed());
+        let other: Vec<f64> = loads
+            .as_slice()
+            .iter()
+            .zip(&coupling)
+            .map(|(f, k)| f - k)
+            .collect();
+        Self::from_parts(
+            stiffness,
+            mass,
+            damping,
+            dofs.restrict(gravity_loads.as_slice()),
+            dofs.restrict(&other),
+            dofs,
+        )
+    }
+
+    /// A system from its parts (all on the free DOFs of `dofs`).
+    pub fn from_parts(
+        stiffness: CscMatrix,
+        mass: Mass,
+        damping: Rayleigh,
+        gravity_load: Vec<f64>,
+        other_load: Vec<f64>,
+        dofs: DofMap,
+    ) -> Result<Self> {
+        let n = dofs.free_count();
+        let mass_len = match &mass {
+            Mass::Lumped(m) => m.len(),
+            Mass::Consistent(m) => m.dim(),
+        };
+        if stiffness.dim() != n || mass_len != n || gravity_load.len() != n || other_load.len() != n
+        {
+            return Err(Error::invalid_parameter(
+                "system parts",
+                format!(
+                    "K {}, M {mass_len}, loads {}/{}",
+                    stiffness.dim(),
+                    gravity_load.len(),
+                    other_load.len()
+                ),
+                format!("must all have the free DOF count {n}"),
+            ));
+        }
+        if let Mass::Lumped(m) = &mass {
+            if let Some(i) = m.iter().position(|m| !(m.is_finite() && *m > 0.0)) {
+                return Err(Error::invalid_parameter(
+                    format!("lumped mass of free DOF {i}"),
+                    m[i],
+                    "must be finite and > 0 (a node with no tet?)",
+                ));
+            }
+        }
+        if let Mass::Consistent(m) = &mass {
+            if !Arc::ptr_eq(m.pattern(), stiffness.pattern()) {
+                return Err(Error::invalid_parameter(
+                    "consistent mass",
+                    "another pattern",
+                    "must share the stiffness matrix's pattern",
+                ));
+            }
+        }
+        let external = gravity_load
+            .iter()
+            .zip(&other_load)
+            .map(|(g, f)| g + f)
+            .collect();
+        Ok(LinearSystem {
+            stiffness,
+            mass,
+            damping,
+            gravity_load,
+            other_load,
+            external,
+            dofs,
+        })
+    }
+
+    /// Number of free DOFs.
+    pub fn free_count(&self) -> usize {
+        self.dofs.free_count()
+    }
+
+    /// K_ff.
+    pub fn stiffness(&self) -> &CscMatrix {
+        &self.stiffness
+    }
+
+    /// M_ff.
+    pub fn mass(&self) -> &Mass {
+        &self.mass
+    }
+
+    /// The Rayleigh damping.
+    pub fn damping(&self) -> Rayleigh {
+        self.damping
+    }
+
+    /// The same system with other damping.
+    pub fn with_damping(mut self, damping: Rayleigh) -> Self {
+        self.damping = damping;
+        self
+    }
+
+    /// The same system with its loads scaled by `factor` (0 removes them: free vibration).
+    pub fn with_load_factor(mut self, factor: f64) -> Self {
+        for f in self
+            .gravity_load
+            .iter_mut()
+            .chain(&mut self.other_load)
+            .chain(&mut self.external)
+        {
+            *f *= factor;
+        }
+        self
+    }
+
+    /// Total external load f on the free DOFs (force units).
+    pub fn external_load(&self) -> &[f64] {
+        &self.external
+    }
+
+    /// The free/constrained DOF map.
+    pub fn dofs(&self) -> &DofMap {
+        &self.dofs
+    }
+
+    /// The energies of `state`; see [`Energy`].
+    pub fn energy(&self, state: &State) -> Energy {
+        let mut scratch = vec![0.0; self.free_count()];
+        self.energy_using(state, &mut scratch)
+    }
+
+    /// [`energy`](Self::energy) with a caller-owned scratch vector of the free DOF count, so
+    /// that integrators check energies every step without allocating.
+    pub fn energy_using(&self, state: &State, scratch: &mut [f64]) -> Energy {
+        let (u, v) = (&state.displacement, &state.velocity);
+        self.stiffness.mul_vec(u, scratch);
+        let elastic = 0.5 * dot(u, scratch);
+        self.mass.mul_vec(v, scratch);
+        let kinetic = 0.5 * dot(v, scratch);
+        Energy {
+            kinetic,
+            elastic,
+            gravity_potential: -dot(&self.gravity_load, u),
+            load_potential: -dot(&self.other_load, u),
+        }
+    }
+
+    /// The load potentials of `state` (the kinetic and elastic terms left zero).
+    pub fn energy_potentials(&self, state: &State) -> Energy {
+        Energy {
+            gravity_potential: -dot(&self.gravity_load, &state.displacement),
+            load_potential: -dot(&self.other_load, &state.displacement),
+            ..Energy::default()
+        }
+    }
+
+    /// The static solution K_ff⁻¹·f (free DOFs).
+    pub fn static_displacement(&self) -> Result<Vec<f64>> {
+        let mut cholesky = crate::linsolve::SparseCholesky::analyze(&self.stiffness)?;
+        cholesky.factorize(&self.stiffness)?;
+        let mut u = self.external.clone();
+        cholesky.solve_in_place(&mut u)?;
+        Ok(u)
+    }
+}
+
+fn dot(a: &[f64], b: &[f64]) -> f64 {
+    a.iter().zip(b).map(|(x, y)| x * y).sum()
+}
