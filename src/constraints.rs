@@ -342,14 +342,14 @@ fn face_connected_parts(tet_count: usize, neighbours: &[(usize, usize)]) -> Vec<
     }
     let mut label = vec![usize::MAX; tet_count];
     let mut next = 0;
-    let mut parts = vec![0; tet_count];
-    for t in 0..tet_count {
-        let r = root(&mut parent, t);
-        if label[r] == usize::MAX {
-            label[r] = next;
-            next += 1;
-        }
-        parts[t] = label[r];
-    }
-    parts
+    (0..tet_count)
+        .map(|t| {
+            let r = root(&mut parent, t);
+            if label[r] == usize::MAX {
+                label[r] = next;
+                next += 1;
+            }
+            label[r]
+        })
+        .collect()
 }
