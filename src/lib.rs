@@ -41,6 +41,8 @@ pub mod loads;
 pub mod material;
 pub mod mesh;
 pub mod output;
+pub mod render;
+pub mod scene;
 pub mod sparse;
 pub mod statics;
 
@@ -52,5 +54,6 @@ pub use linsolve::SparseCholesky;
 pub use loads::Loads;
 pub use material::Material;
 pub use mesh::{BoxSplit, TetMesh};
+pub use scene::{Scene, run_static};
 pub use sparse::CscMatrix;
 pub use statics::{StaticSolution, StaticSolver, solve_static};
