@@ -36,6 +36,7 @@ pub mod cantilever;
 pub mod constraints;
 pub mod element;
 pub mod error;
+pub mod info;
 pub mod linsolve;
 pub mod loads;
 pub mod material;

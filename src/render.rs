@@ -113,9 +113,9 @@ impl Image {
         }
         let i = 3 * (y as usize * self.width as usize + x as usize);
         let a = alpha.clamp(0.0, 1.0);
-        for c in 0..3 {
-            let old = self.pixels[i + c] as f32;
-            self.pixels[i + c] = (old + (color[c] as f32 - old) * a).round() as u8;
+        for (slot, &target) in self.pixels[i..i + 3].iter_mut().zip(&color) {
+            let old = *slot as f32;
+            *slot = (old + (target as f32 - old) * a).round() as u8;
         }
     }
 
@@ -325,7 +325,7 @@ pub fn render(
         raster_triangle(&mut image, &mut depth, &s, &v, shade, lo_value, span);
     }
 
-    draw_colour_bar(&mut image, name, lo_value, hi_value);
+    draw_colour_bar(&mut image);
     let font = FontRef::try_from_slice(FONT_BYTES).map_err(|e| {
         Error::invalid_parameter("embedded font", e, "must be a valid TrueType font")
     })?;
@@ -337,7 +337,6 @@ pub fn render(
         32.0,
         24.0,
         [20, 20, 20],
-        false,
     );
     draw_text(
         &mut image,
@@ -347,19 +346,9 @@ pub fn render(
         56.0,
         16.0,
         [80, 80, 80],
-        false,
     );
     let bar_x = w as f64 - 130.0;
-    draw_text(
-        &mut image,
-        &font,
-        name,
-        bar_x,
-        56.0,
-        15.0,
-        [20, 20, 20],
-        false,
-    );
+    draw_text(&mut image, &font, name, bar_x, 56.0, 15.0, [20, 20, 20]);
     let (bar_top, bar_bottom) = (70.0, h as f64 - 40.0);
     for k in 0..=4 {
         let t = k as f64 / 4.0;
@@ -373,7 +362,6 @@ pub fn render(
             y + 5.0,
             13.0,
             [20, 20, 20],
-            false,
         );
         image.fill_rect(
             bar_x as i64 + 22,
@@ -465,7 +453,7 @@ fn raster_triangle(
     }
 }
 
-fn draw_colour_bar(image: &mut Image, _name: &str, _lo: f64, _hi: f64) {
+fn draw_colour_bar(image: &mut Image) {
     let x = image.width as i64 - 130;
     let (top, bottom) = (70i64, image.height as i64 - 40);
     for y in top..=bottom {
@@ -478,23 +466,26 @@ fn draw_colour_bar(image: &mut Image, _name: &str, _lo: f64, _hi: f64) {
     image.fill_rect(x + 22, top - 1, x + 23, bottom + 2, [60, 60, 60]);
 }
 
-/// Short text for a colour bar label: fixed point for moderate magnitudes, else scientific.
+/// Short text for a colour bar label: four significant digits, fixed point for moderate
+/// magnitudes, else scientific.
 fn format_number(v: f64) -> String {
     let a = v.abs();
     if a == 0.0 {
         "0".into()
     } else if (1e-2..1e4).contains(&a) {
-        format!("{v:.4}")
-            .trim_end_matches('0')
-            .trim_end_matches('.')
-            .to_string()
+        let decimals = (3 - a.log10().floor() as i64).max(0) as usize;
+        let s = format!("{v:.decimals$}");
+        if s.contains('.') {
+            s.trim_end_matches('0').trim_end_matches('.').to_string()
+        } else {
+            s
+        }
     } else {
         format!("{v:.3e}")
     }
 }
 
 /// Draws `text` with its baseline at `y`, starting at `x` (anti-aliased).
-#[allow(clippy::too_many_arguments)]
 fn draw_text(
     image: &mut Image,
     font: &FontRef,
@@ -503,7 +494,6 @@ fn draw_text(
     y: f64,
     size: f32,
     color: [u8; 3],
-    _centred: bool,
 ) {
     let scale = PxScale::from(size);
     let scaled = font.as_scaled(scale);
