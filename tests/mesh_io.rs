@@ -332,3 +332,17 @@ fn missing_files_are_io_errors() {
         Err(Error::Parse { .. })
     ));
 }
+
+#[test]
+fn absurd_counts_are_errors_not_aborts() {
+    // A header that announces 10¹² nodes must not make a reader reserve that much memory.
+    let r = read_gmsh as fn(&Path) -> _;
+    let huge41 = MSH41.replace("3 1 0 4\n", "3 1 0 1000000000000\n");
+    let path = tmp("huge41.msh");
+    std::fs::write(&path, huge41).unwrap();
+    assert!(matches!(read_gmsh(&path), Err(Error::Parse { .. })));
+    let huge22 = MSH22.replace("$Nodes\n4\n", "$Nodes\n1000000000000\n");
+    expect_parse_error("huge22.msh", huge22.as_bytes(), r, 10, "");
+    let node = NODE.replace("4 3 0 1", "1000000000000 3 0 1");
+    expect_tetgen_error("tg_huge", &node, ELE, "node", 7, "truncated");
+}
