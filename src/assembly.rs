@@ -24,6 +24,20 @@ pub struct Assembler {
     block_start: Vec<usize>,
     /// For each node n: 3·deg(n), the distance between consecutive columns of one block.
     column_stride: Vec<usize>,
+    /// Contiguous node ranges whose columns are filled in parallel, each with the tets touching it.
+    partitions: Vec<Partition>,
+}
+
+/// A contiguous range of nodes; its columns form one contiguous range of the value array, so
+/// threads filling different partitions never write to the same place (no atomics, no locks).
+#[derive(Debug, Clone)]
+struct Partition {
+    nodes: std::ops::Range<usize>,
+    values: std::ops::Range<usize>,
+    /// Tets with at least one node in `nodes` (a tet straddling two partitions is listed in
+    /// both and its element matrix computed twice; with contiguous node numbering that is a thin
+    /// layer).
+    tets: Vec<usize>,
 }
 
 impl Assembler {
@@ -91,12 +105,14 @@ impl Assembler {
                 }
             }
         }
+        let partitions = partition(mesh, &col_ptr);
         // Valid by construction (sorted, in range); the check costs one pass over the indices.
         let pattern = SymbolicSparseColMat::new_checked(dofs, dofs, col_ptr, None, row_idx);
         Assembler {
             pattern: Arc::new(pattern),
             block_start,
             column_stride,
+            partitions,
         }
     }
 
@@ -131,11 +147,12 @@ impl Assembler {
         }
     }
 
-    /// Assembles Σₑ (element matrix of tet e) on the shared pattern.
+    /// Assembles Σₑ (element matrix of tet e) on the shared pattern (in parallel, see
+    /// [`reassemble`](Self::reassemble)).
     pub fn assemble(
         &self,
         mesh: &TetMesh,
-        element_matrix: impl Fn(usize) -> Matrix12,
+        element_matrix: impl Fn(usize) -> Matrix12 + Sync,
     ) -> CscMatrix {
         let mut matrix = CscMatrix::zeros(Arc::clone(&self.pattern));
         self.reassemble(mesh, element_matrix, &mut matrix);
@@ -143,18 +160,55 @@ impl Assembler {
     }
 
     /// Refills `matrix` (which must be on this pattern) with Σₑ (element matrix of tet e), in
-    /// O(nnz) with no allocation.
+    /// O(nnz) with no allocation. Node ranges are filled in parallel on rayon's pool; the result
+    /// does not depend on the thread count (each entry sums its contributions in tet order).
+    ///
+    /// # Panics
+    /// If `matrix` is not on this assembler's pattern.
     pub fn reassemble(
         &self,
         mesh: &TetMesh,
-        element_matrix: impl Fn(usize) -> Matrix12,
+        element_matrix: impl Fn(usize) -> Matrix12 + Sync,
         matrix: &mut CscMatrix,
     ) {
-        let values = matrix.values_mut();
-        values.fill(0.0);
-        for t in 0..mesh.tet_count() {
-            self.scatter(mesh, t, &element_matrix(t), values);
+        use rayon::prelude::*;
+        assert!(
+            Arc::ptr_eq(matrix.pattern(), &self.pattern),
+            "reassemble: the matrix is not on this assembler's pattern"
+        );
+        let mut rest = matrix.values_mut();
+        let mut slices = Vec::with_capacity(self.partitions.len());
+        for part in &self.partitions {
+            let (head, tail) = rest.split_at_mut(part.values.len());
+            slices.push(head);
+            rest = tail;
         }
+        self.partitions
+            .par_iter()
+            .zip(slices)
+            .for_each(|(part, values)| {
+                values.fill(0.0);
+                let offset = part.values.start;
+                for &t in &part.tets {
+                    let ke = element_matrix(t);
+                    let tet = &mesh.tets()[t];
+                    for j in 0..4 {
+                        if !part.nodes.contains(&tet[j]) {
+                            continue;
+                        }
+                        let stride = self.column_stride[tet[j]];
+                        for i in 0..4 {
+                            let start = self.block_start[16 * t + 4 * i + j] - offset;
+                            for a in 0..3 {
+                                let column = start + a * stride;
+                                for b in 0..3 {
+                                    values[column + b] += ke[(3 * i + b, 3 * j + a)];
+                                }
+                            }
+                        }
+                    }
+                }
+            });
     }
 
     /// Global linear stiffness K = Σₑ Vₑ·BₑᵀDBₑ (force/length).
@@ -187,4 +241,50 @@ pub fn lumped_mass(mesh: &TetMesh, material: &Material) -> Vec<f64> {
 /// Convenience: the global stiffness of `mesh` with one material (builds a fresh [`Assembler`]).
 pub fn stiffness_matrix(mesh: &TetMesh, material: &Material) -> CscMatrix {
     Assembler::new(mesh).stiffness(mesh, material)
+}
+
+/// Splits the nodes into contiguous ranges of roughly equal value counts, a few per thread for
+/// load balance, each with the tets that touch it.
+fn partition(mesh: &TetMesh, col_ptr: &[usize]) -> Vec<Partition> {
+    let node_count = mesh.node_count();
+    let nnz = col_ptr[3 * node_count];
+    // Small meshes: one partition (no duplicated element work, no fork-join overhead).
+    let count = if nnz < 200_000 {
+        1
+    } else {
+        (4 * rayon::current_num_threads()).clamp(1, node_count)
+    };
+    let mut bounds = vec![0usize];
+    for n in 0..node_count {
+        let filled = col_ptr[3 * (n + 1)];
+        if filled * count >= bounds.len() * nnz && bounds.len() < count {
+            bounds.push(n + 1);
+        }
+    }
+    if *bounds.last().unwrap_or(&0) != node_count {
+        bounds.push(node_count);
+    }
+    let mut part_of = vec![0usize; node_count];
+    for p in 0..bounds.len() - 1 {
+        part_of[bounds[p]..bounds[p + 1]].fill(p);
+    }
+    let mut tets = vec![Vec::new(); bounds.len() - 1];
+    for (t, tet) in mesh.tets().iter().enumerate() {
+        let mut seen = [usize::MAX; 4];
+        for (k, &n) in tet.iter().enumerate() {
+            let p = part_of[n];
+            if !seen[..k].contains(&p) {
+                tets[p].push(t);
+            }
+            seen[k] = p;
+        }
+    }
+    tets.into_iter()
+        .enumerate()
+        .map(|(p, tets)| Partition {
+            nodes: bounds[p]..bounds[p + 1],
+            values: col_ptr[3 * bounds[p]]..col_ptr[3 * bounds[p + 1]],
+            tets,
+        })
+        .collect()
 }

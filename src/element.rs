@@ -155,13 +155,17 @@ impl Tet {
         k
     }
 
-    /// The lecture's force recipe, evaluated literally on deformed positions `p`:
-    /// P = Ds·Dm⁻¹, ε = ½(P + Pᵀ) − I, σ = D·ε (the lecture's tensor-shear D), and for each of
-    /// the four faces (a, b, c) the force σ·((p_b − p_a) × (p_c − p_a)), its area vector oriented
-    /// into the tet, shared one third to each of the face's nodes.
+    /// The lecture's force recipe on deformed positions `p`: P = Ds·Dm⁻¹, ε = ½(P + Pᵀ) − I,
+    /// σ = D·ε (the lecture's tensor-shear D), and for each of the four faces (a, b, c) the force
+    /// σ·n·A, shared one third to each of the face's nodes, with the area vector n·A oriented
+    /// into the tet.
     ///
-    /// For small displacements this equals the linear elastic force −Kₑ·u up to O(|u|²): the
-    /// recipe uses the deformed face normals where the linear model uses the rest ones.
+    /// One correction to the slide: it writes n·A = p₁₀ × p₂₀, but that cross product is twice
+    /// the triangle's area vector; taken literally the recipe gives exactly twice the elastic
+    /// force. Here n·A = ½ (p_b − p_a) × (p_c − p_a).
+    ///
+    /// For small displacements the result equals the linear elastic force −Kₑ·u up to O(|u|²):
+    /// the recipe uses the deformed face normals where the linear model uses the rest ones.
     pub fn lecture_face_forces(
         &self,
         material: &Material,
@@ -182,7 +186,8 @@ impl Tet {
         let mut forces = [Vector3::zeros(); 4];
         for (face, opposite) in FACES {
             let [a, b, c] = face;
-            let mut area_vector = (deformed[b] - deformed[a]).cross(&(deformed[c] - deformed[a]));
+            let mut area_vector =
+                (deformed[b] - deformed[a]).cross(&(deformed[c] - deformed[a])) * 0.5;
             if area_vector.dot(&(deformed[opposite] - deformed[a])) < 0.0 {
                 area_vector = -area_vector;
             }
@@ -213,6 +218,13 @@ impl Tet {
     pub fn lumped_mass(&self, density: f64) -> f64 {
         density * self.volume / 4.0
     }
+}
+
+/// Von Mises equivalent stress √(3/2 · s:s) of a stress tensor σ, s = σ − tr(σ)/3·I its
+/// deviator (same units as σ).
+pub fn von_mises(stress: &Matrix3<f64>) -> f64 {
+    let deviator = stress - Matrix3::identity() * (stress.trace() / 3.0);
+    (1.5 * deviator.component_mul(&deviator).sum()).sqrt()
 }
 
 /// Rest (or deformed) shape matrix [x₁−x₀ x₂−x₀ x₃−x₀].

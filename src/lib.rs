@@ -33,14 +33,18 @@
 pub mod assembly;
 pub mod beam_theory;
 pub mod cantilever;
+pub mod chart;
 pub mod constraints;
 pub mod element;
 pub mod error;
 pub mod info;
+pub mod iterative;
+pub mod linear_solver;
 pub mod linsolve;
 pub mod loads;
 pub mod material;
 pub mod mesh;
+pub mod ordering;
 pub mod output;
 pub mod render;
 pub mod scene;
@@ -51,10 +55,17 @@ pub use assembly::{Assembler, lumped_mass};
 pub use constraints::{Constraints, DofMap};
 pub use element::Tet;
 pub use error::{Error, Result};
-pub use linsolve::SparseCholesky;
+pub use linear_solver::{LinearMethod, LinearSolver, SolverOptions};
+pub use linsolve::{CholeskyOptions, SparseCholesky};
 pub use loads::Loads;
 pub use material::Material;
 pub use mesh::{BoxSplit, TetMesh};
+pub use ordering::FillOrdering;
 pub use scene::{Scene, run_static};
 pub use sparse::CscMatrix;
 pub use statics::{StaticSolution, StaticSolver, solve_static};
+
+/// The README's code blocks, compiled and run as doctests so that they stay true.
+#[doc = include_str!("../README.md")]
+#[cfg(doctest)]
+pub struct ReadmeDoctests;

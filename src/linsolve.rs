@@ -5,9 +5,10 @@
 use std::sync::Arc;
 
 use faer::Par;
-use faer::dyn_stack::{MemBuffer, MemStack};
+use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
 use faer::linalg::cholesky::llt::factor::LltError;
 use faer::mat::MatMut;
+use faer::perm::PermRef;
 use faer::sparse::SymbolicSparseColMat;
 use faer::sparse::linalg::cholesky::{
     CholeskySymbolicParams, LltRef, SymbolicCholesky, SymmetricOrdering,
@@ -16,7 +17,27 @@ use faer::sparse::linalg::cholesky::{
 use faer::{Conj, Side};
 
 use crate::error::{Error, Result};
+use crate::ordering::{FillOrdering, inverse_permutation, nested_dissection};
 use crate::sparse::CscMatrix;
+
+/// How to factor: the fill-reducing ordering and the number of threads of the numeric phases.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct CholeskyOptions {
+    /// Fill-reducing ordering (default: nested dissection).
+    pub ordering: FillOrdering,
+    /// Threads for the numeric factorization and solves (1 = sequential, the default; more use
+    /// rayon's global pool).
+    pub threads: usize,
+}
+
+impl Default for CholeskyOptions {
+    fn default() -> Self {
+        CholeskyOptions {
+            ordering: FillOrdering::NestedDissection,
+            threads: 1,
+        }
+    }
+}
 
 /// Sparse Cholesky factorization A = LLᵀ of a symmetric positive definite [`CscMatrix`].
 pub struct SparseCholesky {
@@ -40,44 +61,69 @@ impl std::fmt::Debug for SparseCholesky {
 }
 
 impl SparseCholesky {
-    /// Symbolic analysis of `matrix`'s pattern with faer's approximate minimum degree ordering,
-    /// single-threaded.
+    /// Symbolic analysis of `matrix`'s pattern with the default [`CholeskyOptions`]
+    /// (nested dissection, one thread).
     pub fn analyze(matrix: &CscMatrix) -> Result<Self> {
-        Self::analyze_with(matrix, Par::Seq)
+        Self::analyze_with(matrix, CholeskyOptions::default())
     }
 
-    /// Symbolic analysis with a chosen parallelism for the numeric phases.
-    pub fn analyze_with(matrix: &CscMatrix, par: Par) -> Result<Self> {
-        let symbolic = factorize_symbolic_cholesky(
-            SymbolicSparseColMat::as_ref(matrix.pattern()),
-            Side::Lower,
-            SymmetricOrdering::Amd,
-            CholeskySymbolicParams::default(),
-        )
+    /// Symbolic analysis with chosen ordering and thread count.
+    pub fn analyze_with(matrix: &CscMatrix, options: CholeskyOptions) -> Result<Self> {
+        let par = match options.threads {
+            0 | 1 => Par::Seq,
+            n => Par::rayon(n),
+        };
+        let pattern = SymbolicSparseColMat::as_ref(matrix.pattern());
+        let params = CholeskySymbolicParams::default();
+        let symbolic = match options.ordering {
+            FillOrdering::Amd => {
+                factorize_symbolic_cholesky(pattern, Side::Lower, SymmetricOrdering::Amd, params)
+            }
+            FillOrdering::NestedDissection => {
+                let forward = nested_dissection(matrix.pattern())?;
+                let inverse = inverse_permutation(&forward);
+                let perm = PermRef::new_checked(&forward, &inverse, matrix.dim());
+                factorize_symbolic_cholesky(
+                    pattern,
+                    Side::Lower,
+                    SymmetricOrdering::Custom(perm),
+                    params,
+                )
+            }
+        }
         .map_err(|e| Error::Solver(format!("symbolic Cholesky analysis failed: {e:?}")))?;
-        let factor_workspace = MemBuffer::try_new(
-            symbolic.factorize_numeric_llt_scratch::<f64>(par, Default::default()),
-        )
-        .map_err(|_| Error::Solver("out of memory for the factorization workspace".into()))?;
-        let solve_workspace = MemBuffer::try_new(symbolic.solve_in_place_scratch::<f64>(1, par))
-            .map_err(|_| Error::Solver("out of memory for the solve workspace".into()))?;
-        let mut factor = Vec::new();
-        factor.try_reserve_exact(symbolic.len_val()).map_err(|_| {
-            Error::Solver(format!(
-                "out of memory for a factor of {} values",
-                symbolic.len_val()
-            ))
-        })?;
-        factor.resize(symbolic.len_val(), 0.0);
         Ok(SparseCholesky {
             pattern: Arc::clone(matrix.pattern()),
             symbolic,
-            factor,
-            factor_workspace,
-            solve_workspace,
+            factor: Vec::new(),
+            factor_workspace: MemBuffer::new(StackReq::EMPTY),
+            solve_workspace: MemBuffer::new(StackReq::EMPTY),
             factored: false,
             par,
         })
+    }
+
+    /// Allocates the factor and the workspaces on first use, so that a caller can inspect
+    /// [`factor_len`](Self::factor_len) after the analysis and choose another method before any
+    /// large allocation.
+    fn allocate(&mut self) -> Result<()> {
+        if self.factor.len() == self.symbolic.len_val() {
+            return Ok(());
+        }
+        let out_of_memory = |what: &str| Error::Solver(format!("out of memory for the {what}"));
+        self.factor_workspace = MemBuffer::try_new(
+            self.symbolic
+                .factorize_numeric_llt_scratch::<f64>(self.par, Default::default()),
+        )
+        .map_err(|_| out_of_memory("factorization workspace"))?;
+        self.solve_workspace =
+            MemBuffer::try_new(self.symbolic.solve_in_place_scratch::<f64>(1, self.par))
+                .map_err(|_| out_of_memory("solve workspace"))?;
+        self.factor
+            .try_reserve_exact(self.symbolic.len_val())
+            .map_err(|_| out_of_memory("Cholesky factor"))?;
+        self.factor.resize(self.symbolic.len_val(), 0.0);
+        Ok(())
     }
 
     /// Numeric factorization of `matrix`, which must have the analysed pattern. Reuses the
@@ -101,6 +147,7 @@ impl SparseCholesky {
                 "must be finite",
             ));
         }
+        self.allocate()?;
         let stack = MemStack::new(&mut self.factor_workspace);
         self.symbolic
             .factorize_numeric_llt(
@@ -153,8 +200,19 @@ impl SparseCholesky {
         self.pattern.ncols()
     }
 
-    /// Number of stored values of the factor L (its fill).
+    /// Number of stored values of the factor L (its fill, supernodal padding included), known
+    /// after the symbolic analysis.
     pub fn factor_len(&self) -> usize {
         self.symbolic.len_val()
+    }
+
+    /// Bytes the numeric factorization will hold: the factor's values (8 bytes each) plus its
+    /// workspace.
+    pub fn factor_bytes(&self) -> usize {
+        let workspace = self
+            .symbolic
+            .factorize_numeric_llt_scratch::<f64>(self.par, Default::default())
+            .size_bytes();
+        8 * self.symbolic.len_val() + workspace
     }
 }

@@ -5,7 +5,7 @@ use std::time::{Duration, Instant};
 use crate::assembly::Assembler;
 use crate::constraints::{Constraints, DofMap, ensure_held};
 use crate::error::{Error, Result};
-use crate::linsolve::SparseCholesky;
+use crate::linear_solver::{LinearSolver, SolveInfo, SolverOptions};
 use crate::loads::Loads;
 use crate::material::Material;
 use crate::mesh::TetMesh;
@@ -20,9 +20,9 @@ pub struct StaticTimings {
     pub assembly: Duration,
     /// Constraint check and extraction of K_ff.
     pub constraints: Duration,
-    /// Symbolic analysis (ordering, elimination tree).
+    /// Symbolic analysis (ordering, elimination tree), or the choice of the iterative method.
     pub symbolic: Duration,
-    /// Numeric Cholesky factorization.
+    /// Numeric Cholesky factorization, or the preconditioner's setup.
     pub factorization: Duration,
     /// Right-hand side, triangular solves and residual of the last [`StaticSolver::solve`].
     pub solve: Duration,
@@ -37,6 +37,8 @@ pub struct StaticSolution {
     pub relative_residual: f64,
     /// Reaction forces K·u − f: non-zero only on constrained DOFs (force units).
     pub reactions: Vec<f64>,
+    /// How the linear system was solved.
+    pub info: SolveInfo,
 }
 
 /// A factored static problem: assemble K once, factor K_ff once, solve for any number of load
@@ -46,7 +48,7 @@ pub struct StaticSolver {
     stiffness: CscMatrix,
     free_stiffness: CscMatrix,
     dofs: DofMap,
-    cholesky: SparseCholesky,
+    solver: LinearSolver,
     timings: StaticTimings,
 }
 
@@ -54,6 +56,16 @@ impl StaticSolver {
     /// Assembles K, checks that `constraints` leave no rigid-body motion
     /// ([`Error::NotConstrained`] otherwise), and factors K_ff.
     pub fn new(mesh: &TetMesh, material: &Material, constraints: &Constraints) -> Result<Self> {
+        Self::with_options(mesh, material, constraints, SolverOptions::default())
+    }
+
+    /// As [`new`](Self::new), with a chosen linear solver (direct or iterative, ordering, threads).
+    pub fn with_options(
+        mesh: &TetMesh,
+        material: &Material,
+        constraints: &Constraints,
+        options: SolverOptions,
+    ) -> Result<Self> {
         if constraints.dof_count() != mesh.dof_count() {
             return Err(Error::invalid_parameter(
                 "constraints",
@@ -77,17 +89,17 @@ impl StaticSolver {
         timings.constraints = clock.elapsed();
 
         let clock = Instant::now();
-        let mut cholesky = SparseCholesky::analyze(&free_stiffness)?;
+        let mut solver = LinearSolver::analyze(&free_stiffness, options)?;
         timings.symbolic = clock.elapsed();
 
         let clock = Instant::now();
-        cholesky.factorize(&free_stiffness)?;
+        solver.factorize(&free_stiffness)?;
         timings.factorization = clock.elapsed();
         Ok(StaticSolver {
             stiffness,
             free_stiffness,
             dofs,
-            cholesky,
+            solver,
             timings,
         })
     }
@@ -111,7 +123,7 @@ impl StaticSolver {
         let full_rhs: Vec<f64> = forces.iter().zip(&coupling).map(|(f, k)| f - k).collect();
         let rhs = self.dofs.restrict(&full_rhs);
         let mut free = rhs.clone();
-        self.cholesky.solve_in_place(&mut free)?;
+        let info = self.solver.solve(&self.free_stiffness, &mut free)?;
         if let Some(i) = free.iter().position(|v| !v.is_finite()) {
             return Err(Error::Solver(format!(
                 "the solution is not finite at free DOF {i}; the loads or the matrix hold non-finite or huge values"
@@ -145,6 +157,7 @@ impl StaticSolver {
             displacement,
             relative_residual,
             reactions,
+            info,
         })
     }
 
@@ -163,9 +176,14 @@ impl StaticSolver {
         &self.dofs
     }
 
-    /// Number of stored values of the Cholesky factor.
+    /// Number of stored values of the Cholesky factor (0 when solved iteratively).
     pub fn factor_len(&self) -> usize {
-        self.cholesky.factor_len()
+        self.solver.factor_len()
+    }
+
+    /// The linear solver in use.
+    pub fn linear_solver(&self) -> &LinearSolver {
+        &self.solver
     }
 
     /// Wall time per phase so far.

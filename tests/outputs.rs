@@ -6,7 +6,6 @@ use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
 use nalgebra::{Matrix3, Vector3};
-use quick_xml::events::Event;
 use tetfem::cantilever::Cantilever;
 use tetfem::info::mesh_info;
 use tetfem::mesh::{critical_time_step, tet_quality};
@@ -33,37 +32,26 @@ fn small_mesh() -> TetMesh {
     .unwrap()
 }
 
-/// All `<DataArray Name=...>` contents of a VTK XML file, parsed as numbers.
+/// All `<DataArray Name=...>` contents of a VTK XML file, parsed as numbers (the point
+/// coordinates, which have no name, as "Points").
 fn data_arrays(path: &Path) -> HashMap<String, Vec<f64>> {
     let xml = std::fs::read_to_string(path).unwrap();
-    let mut reader = quick_xml::Reader::from_str(&xml);
+    let doc = roxmltree::Document::parse(&xml).unwrap();
     let mut arrays = HashMap::new();
-    let mut current: Option<String> = None;
-    let mut in_points = false;
-    loop {
-        match reader.read_event().unwrap() {
-            Event::Start(e) if e.name().0 == "Points" => in_points = true,
-            Event::End(e) if e.name().0 == "Points" => in_points = false,
-            Event::Start(e) if e.name().0 == "DataArray" => {
-                let name = e
-                    .try_get_attribute("Name")
-                    .unwrap()
-                    .map(|a| a.value.to_string());
-                current = name.or(in_points.then(|| "Points".to_string()));
-            }
-            Event::Text(t) => {
-                if let Some(name) = current.take() {
-                    let text = t.into_inner().into_owned();
-                    let values = text
-                        .split_whitespace()
-                        .map(|v| v.parse().unwrap())
-                        .collect();
-                    arrays.insert(name, values);
-                }
-            }
-            Event::Eof => break,
-            _ => {}
-        }
+    for node in doc.descendants().filter(|n| n.has_tag_name("DataArray")) {
+        let in_points = node.parent().is_some_and(|p| p.has_tag_name("Points"));
+        let name = match node.attribute("Name") {
+            Some(name) => name.to_string(),
+            None if in_points => "Points".to_string(),
+            None => continue,
+        };
+        let values = node
+            .text()
+            .unwrap_or("")
+            .split_whitespace()
+            .map(|v| v.parse().unwrap())
+            .collect();
+        arrays.insert(name, values);
     }
     arrays
 }
@@ -151,18 +139,17 @@ fn pvd_lists_frames_in_order_and_refuses_going_back() {
     assert!(pvd.push(1.0, &dir.join("late.vtu")).is_err());
     assert!(pvd.push(f64::NAN, &dir.join("nan.vtu")).is_err());
     let xml = std::fs::read_to_string(dir.join("run.pvd")).unwrap();
-    let mut reader = quick_xml::Reader::from_str(&xml);
-    let mut frames = Vec::new();
-    loop {
-        match reader.read_event().unwrap() {
-            Event::Empty(e) if e.name().0 == "DataSet" => {
-                let get = |k: &str| e.try_get_attribute(k).unwrap().unwrap().value.to_string();
-                frames.push((get("timestep").parse::<f64>().unwrap(), get("file")));
-            }
-            Event::Eof => break,
-            _ => {}
-        }
-    }
+    let doc = roxmltree::Document::parse(&xml).unwrap();
+    let frames: Vec<(f64, String)> = doc
+        .descendants()
+        .filter(|n| n.has_tag_name("DataSet"))
+        .map(|n| {
+            (
+                n.attribute("timestep").unwrap().parse().unwrap(),
+                n.attribute("file").unwrap().to_string(),
+            )
+        })
+        .collect();
     assert_eq!(
         frames,
         vec![

@@ -1,0 +1,501 @@
+//! Scale study: the static pipeline on cantilever box beams (5k × k × k cells of the lecture's
+//! split) from ~300 to ~1M DOFs, each size in its own process so that its peak memory is its
+//! own. Writes `validation/PERFORMANCE.md` and its charts.
+//!
+//! `cargo run --release --bin scale` (full, ~15 min, needs ~18 GB at 1M DOFs) or `-- --quick`.
+
+use std::fmt::Write as _;
+use std::path::PathBuf;
+use std::process::{Command, ExitCode};
+use std::time::Instant;
+
+use clap::Parser;
+use tetfem::cantilever::Cantilever;
+use tetfem::chart::{Chart, Mark, Series};
+use tetfem::{
+    Assembler, CholeskyOptions, DofMap, FillOrdering, LinearMethod, LinearSolver, SolverOptions,
+};
+
+/// Scale study of the static solve: time and peak memory per phase against the number of DOFs.
+#[derive(Debug, Parser)]
+struct Cli {
+    /// Only sizes up to ~10k DOFs (seconds; for CI).
+    #[arg(long)]
+    quick: bool,
+    /// Largest k of the 5k×k×k cell grids (default 40: 1.01M DOFs).
+    #[arg(long, default_value_t = 40)]
+    max_k: usize,
+    /// Output directory of the report.
+    #[arg(long, default_value = "validation")]
+    out: PathBuf,
+    /// Internal: run one size in this process and print its measurements.
+    #[arg(long, hide = true)]
+    one: Option<usize>,
+    /// Internal: method of the single run (direct | iterative).
+    #[arg(long, hide = true, default_value = "direct")]
+    method: String,
+    /// Internal: threads of the single run.
+    #[arg(long, hide = true, default_value_t = 1)]
+    threads: usize,
+    /// Run one size given as cells NX,NY,NZ (the peers' n×n/10×n/10 beams) and print its
+    /// measurements as one `RESULT` line (used by validation/side_by_side.py).
+    #[arg(long, value_parser = parse_cells)]
+    cells: Option<[usize; 3]>,
+    /// Ordering of the single run: nested-dissection (default) or amd.
+    #[arg(long, default_value = "nested-dissection")]
+    ordering: String,
+}
+
+fn parse_cells(text: &str) -> Result<[usize; 3], String> {
+    let v: Vec<usize> = text
+        .split(',')
+        .map(|s| s.trim().parse::<usize>().map_err(|e| format!("'{s}': {e}")))
+        .collect::<Result<_, _>>()?;
+    v.try_into()
+        .map_err(|_| format!("expected NX,NY,NZ, got '{text}'"))
+}
+
+const PHASES: [&str; 7] = [
+    "mesh",
+    "pattern",
+    "assembly",
+    "constraints",
+    "symbolic",
+    "numeric",
+    "solve",
+];
+
+/// One size's measurements.
+#[derive(Debug, Clone, Default)]
+struct Run {
+    k: usize,
+    method: String,
+    threads: usize,
+    dofs: usize,
+    tets: usize,
+    nnz_k: usize,
+    factor_len: usize,
+    seconds: [f64; 7],
+    peak_mib: [f64; 7],
+    tip: f64,
+    residual: f64,
+    cg_iterations: usize,
+}
+
+fn peak_rss_mib() -> f64 {
+    std::fs::read_to_string("/proc/self/status")
+        .ok()
+        .and_then(|s| {
+            s.lines()
+                .find(|l| l.starts_with("VmHWM:"))
+                .and_then(|l| l.split_whitespace().nth(1)?.parse::<f64>().ok())
+        })
+        .map_or(f64::NAN, |kib| kib / 1024.0)
+}
+
+fn run_one(cells: [usize; 3], method: &str, threads: usize, ordering: &str) -> tetfem::Result<Run> {
+    let k = cells[1];
+    let problem = Cantilever::peer_benchmark(cells);
+    let mut run = Run {
+        k,
+        method: method.to_string(),
+        threads,
+        ..Default::default()
+    };
+    let mut phase = 0;
+    let mut clock = Instant::now();
+    let mut lap = |run: &mut Run| {
+        run.seconds[phase] = clock.elapsed().as_secs_f64();
+        run.peak_mib[phase] = peak_rss_mib();
+        phase += 1;
+        clock = Instant::now();
+    };
+    let mesh = problem.mesh()?;
+    lap(&mut run);
+    let assembler = Assembler::new(&mesh);
+    lap(&mut run);
+    let k_full = assembler.stiffness(&mesh, &problem.material);
+    lap(&mut run);
+    let constraints = problem.constraints(&mesh)?;
+    let dofs = DofMap::new(&constraints);
+    tetfem::constraints::ensure_held(&mesh, &mesh.face_topology()?, &dofs)?;
+    let k_ff = dofs.restriction(k_full.pattern()).restrict(&k_full);
+    let rhs = dofs.restrict(problem.loads(&mesh)?.as_slice());
+    lap(&mut run);
+    let options = SolverOptions {
+        method: method.parse::<LinearMethod>()?,
+        cholesky: CholeskyOptions {
+            ordering: ordering.parse::<FillOrdering>()?,
+            threads,
+        },
+        ..Default::default()
+    };
+    let mut solver = LinearSolver::analyze(&k_ff, options)?;
+    lap(&mut run);
+    solver.factorize(&k_ff)?;
+    lap(&mut run);
+    let mut x = rhs.clone();
+    let info = solver.solve(&k_ff, &mut x)?;
+    lap(&mut run);
+    if let tetfem::linear_solver::SolveInfo::Iterative { iterations, .. } = info {
+        run.cg_iterations = iterations;
+    }
+    let residual: f64 = k_ff
+        .mul(&x)
+        .iter()
+        .zip(&rhs)
+        .map(|(a, b)| (a - b) * (a - b))
+        .sum::<f64>()
+        .sqrt();
+    run.residual = residual / rhs.iter().map(|b| b * b).sum::<f64>().sqrt();
+    run.tip = problem.tip_deflection(&mesh, &dofs.expand(&x));
+    run.dofs = mesh.dof_count();
+    run.tets = mesh.tet_count();
+    run.nnz_k = k_full.nnz();
+    run.factor_len = solver.factor_len();
+    Ok(run)
+}
+
+fn encode(run: &Run) -> String {
+    let list = |v: &[f64]| {
+        v.iter()
+            .map(|x| format!("{x:e}"))
+            .collect::<Vec<_>>()
+            .join(",")
+    };
+    format!(
+        "RESULT {} {} {} {} {} {} {} {} {} {:e} {:e} {}",
+        run.k,
+        run.method,
+        run.threads,
+        run.dofs,
+        run.tets,
+        run.nnz_k,
+        run.factor_len,
+        list(&run.seconds),
+        list(&run.peak_mib),
+        run.tip,
+        run.residual,
+        run.cg_iterations
+    )
+}
+
+fn decode(line: &str) -> Option<Run> {
+    let f: Vec<&str> = line.strip_prefix("RESULT ")?.split(' ').collect();
+    let list = |s: &str| -> Option<[f64; 7]> {
+        let v: Vec<f64> = s
+            .split(',')
+            .map(|x| x.parse().ok())
+            .collect::<Option<_>>()?;
+        v.try_into().ok()
+    };
+    Some(Run {
+        k: f.first()?.parse().ok()?,
+        method: f.get(1)?.to_string(),
+        threads: f.get(2)?.parse().ok()?,
+        dofs: f.get(3)?.parse().ok()?,
+        tets: f.get(4)?.parse().ok()?,
+        nnz_k: f.get(5)?.parse().ok()?,
+        factor_len: f.get(6)?.parse().ok()?,
+        seconds: list(f.get(7)?)?,
+        peak_mib: list(f.get(8)?)?,
+        tip: f.get(9)?.parse().ok()?,
+        residual: f.get(10)?.parse().ok()?,
+        cg_iterations: f.get(11)?.parse().ok()?,
+    })
+}
+
+/// Least-squares slope of log(y) against log(x).
+fn growth_exponent(points: &[(f64, f64)]) -> f64 {
+    let logs: Vec<(f64, f64)> = points
+        .iter()
+        .filter(|(x, y)| *x > 0.0 && *y > 0.0)
+        .map(|(x, y)| (x.ln(), y.ln()))
+        .collect();
+    let n = logs.len() as f64;
+    let (sx, sy) = logs
+        .iter()
+        .fold((0.0, 0.0), |(a, b), (x, y)| (a + x, b + y));
+    let (mx, my) = (sx / n, sy / n);
+    let (sxy, sxx) = logs.iter().fold((0.0, 0.0), |(a, b), (x, y)| {
+        (a + (x - mx) * (y - my), b + (x - mx) * (x - mx))
+    });
+    sxy / sxx
+}
+
+/// Streaming triad a = b + s·c over 3 × 64 MiB arrays on all cores, best of 5: the memory
+/// bandwidth that bounds the solves (bytes moved / second).
+fn triad_bandwidth() -> f64 {
+    use rayon::prelude::*;
+    let n = 8 << 20;
+    let (b, c) = (vec![1.0f64; n], vec![2.0f64; n]);
+    let mut a = vec![0.0f64; n];
+    let mut best = f64::INFINITY;
+    for _ in 0..5 {
+        let t = Instant::now();
+        a.par_chunks_mut(1 << 16)
+            .zip(b.par_chunks(1 << 16).zip(c.par_chunks(1 << 16)))
+            .for_each(|(a, (b, c))| {
+                for i in 0..a.len() {
+                    a[i] = b[i] + 3.0 * c[i];
+                }
+            });
+        std::hint::black_box(&a);
+        best = best.min(t.elapsed().as_secs_f64());
+    }
+    3.0 * 8.0 * n as f64 / best
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let single = cli.cells.or(cli.one.map(|k| [5 * k, k, k]));
+    if let Some(cells) = single {
+        return match run_one(cells, &cli.method, cli.threads, &cli.ordering) {
+            Ok(run) => {
+                println!("{}", encode(&run));
+                ExitCode::SUCCESS
+            }
+            Err(e) => {
+                eprintln!("error: {e}");
+                ExitCode::FAILURE
+            }
+        };
+    }
+    match study(&cli) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+fn study(cli: &Cli) -> Result<(), Box<dyn std::error::Error>> {
+    let ks: Vec<usize> = [2, 3, 4, 6, 8, 12, 16, 20, 24, 30, 40]
+        .into_iter()
+        .filter(|&k| k <= if cli.quick { 8 } else { cli.max_k })
+        .collect();
+    let exe = std::env::current_exe()?;
+    let mut runs = Vec::new();
+    let mut plan: Vec<(usize, &str, usize)> = ks.iter().map(|&k| (k, "direct", 1)).collect();
+    // Two threads and the iterative path at a few sizes, for comparison.
+    for &k in ks.iter().filter(|&&k| [8, 20, 30, 40].contains(&k)) {
+        plan.push((k, "direct", 2));
+        plan.push((k, "iterative", 2));
+    }
+    for (k, method, threads) in plan {
+        eprintln!("scale: 5k×k×k with k = {k}, {method}, {threads} thread(s) …");
+        let out = Command::new(&exe)
+            .args([
+                "--one",
+                &k.to_string(),
+                "--method",
+                method,
+                "--threads",
+                &threads.to_string(),
+            ])
+            .env("RAYON_NUM_THREADS", threads.to_string())
+            .output()?;
+        let text = String::from_utf8_lossy(&out.stdout);
+        match text.lines().find_map(decode) {
+            Some(run) => {
+                eprintln!(
+                    "  {} DOFs: numeric {:.3} s, solve {:.3} s, peak {:.0} MiB",
+                    run.dofs, run.seconds[5], run.seconds[6], run.peak_mib[6]
+                );
+                runs.push(run);
+            }
+            None => eprintln!("  failed: {}", String::from_utf8_lossy(&out.stderr).trim()),
+        }
+    }
+    report(cli, &runs)
+}
+
+fn report(cli: &Cli, runs: &[Run]) -> Result<(), Box<dyn std::error::Error>> {
+    let bandwidth = triad_bandwidth();
+    let serial: Vec<&Run> = runs
+        .iter()
+        .filter(|r| r.method == "direct" && r.threads == 1)
+        .collect();
+    let mut md = String::new();
+    writeln!(md, "# tetfem performance: scale study")?;
+    writeln!(md)?;
+    writeln!(
+        md,
+        "Generated by `cargo run --release --bin scale{}` — do not edit by hand.",
+        if cli.quick { " -- --quick" } else { "" }
+    )?;
+    writeln!(md)?;
+    writeln!(
+        md,
+        "Machine: {} cores, measured memory bandwidth (triad) {:.1} GB/s. Commit: {}. Problem: cantilever \
+         box beams 5k×k×k cells (lecture split), E = 1e5, ν = 0.3, clamped at x = 0, end load; static solve \
+         K_ff·u = f with METIS nested-dissection ordering. Each size runs in its own process; peak memory is \
+         that process's VmHWM at the end of each phase. Times are single runs on a shared 2-core machine: \
+         compare ratios within one run.",
+        std::thread::available_parallelism().map_or(1, |n| n.get()),
+        bandwidth / 1e9,
+        commit()
+    )?;
+    writeln!(md)?;
+    writeln!(md, "## Time per phase [s], peak memory [MiB]")?;
+    writeln!(md)?;
+    writeln!(
+        md,
+        "| cells | DOFs | tets | method | threads | nnz(K) | factor values | mesh | pattern | assembly | constraints | symbolic | numeric | solve | CG its | peak MiB | rel. residual | tip |"
+    )?;
+    writeln!(md, "|{}", "---|".repeat(18))?;
+    for r in runs {
+        let s = &r.seconds;
+        writeln!(
+            md,
+            "| {}×{}×{} | {} | {} | {} | {} | {} | {} | {:.4} | {:.4} | {:.4} | {:.4} | {:.4} | {:.4} | {:.4} | {} | {:.0} | {:.1e} | {:.9e} |",
+            5 * r.k,
+            r.k,
+            r.k,
+            r.dofs,
+            r.tets,
+            r.method,
+            r.threads,
+            r.nnz_k,
+            r.factor_len,
+            s[0],
+            s[1],
+            s[2],
+            s[3],
+            s[4],
+            s[5],
+            s[6],
+            r.cg_iterations,
+            r.peak_mib[6],
+            r.residual,
+            r.tip
+        )?;
+    }
+    writeln!(md)?;
+    writeln!(
+        md,
+        "## Growth exponents (time ∝ DOFs^p, least squares over sizes ≥ 10k DOFs, 1 thread, direct)"
+    )?;
+    writeln!(md)?;
+    writeln!(md, "| phase | p |")?;
+    writeln!(md, "|---|---|")?;
+    let large: Vec<&&Run> = serial.iter().filter(|r| r.dofs >= 10_000).collect();
+    let mut phase_series = Vec::new();
+    for (p, name) in PHASES.iter().enumerate() {
+        let points: Vec<(f64, f64)> = large
+            .iter()
+            .map(|r| (r.dofs as f64, r.seconds[p]))
+            .collect();
+        if points.len() >= 2 {
+            writeln!(md, "| {name} | {:.2} |", growth_exponent(&points))?;
+        }
+        phase_series.push(Series::new(
+            *name,
+            serial
+                .iter()
+                .map(|r| (r.dofs as f64, r.seconds[p]))
+                .collect(),
+            Mark::LinePoints,
+        ));
+    }
+    let memory: Vec<(f64, f64)> = large
+        .iter()
+        .map(|r| (r.dofs as f64, r.peak_mib[6]))
+        .collect();
+    let fill: Vec<(f64, f64)> = large
+        .iter()
+        .map(|r| (r.dofs as f64, r.factor_len as f64))
+        .collect();
+    if memory.len() >= 2 {
+        writeln!(md, "| peak memory | {:.2} |", growth_exponent(&memory))?;
+        writeln!(md, "| factor values | {:.2} |", growth_exponent(&fill))?;
+    }
+    writeln!(md)?;
+    writeln!(md, "## Solve against its bandwidth floor")?;
+    writeln!(md)?;
+    writeln!(
+        md,
+        "A forward and a backward triangular solve must read the factor twice: floor = 2 · (factor values) · 12 bytes \
+         (8-byte value + 4 of index amortized) / bandwidth."
+    )?;
+    writeln!(md)?;
+    writeln!(
+        md,
+        "| DOFs | threads | solve [s] | floor [s] | solve / floor |"
+    )?;
+    writeln!(md, "|---|---|---|---|---|")?;
+    for r in runs
+        .iter()
+        .filter(|r| r.method == "direct" && r.dofs >= 10_000)
+    {
+        let floor = 2.0 * r.factor_len as f64 * 12.0 / bandwidth;
+        writeln!(
+            md,
+            "| {} | {} | {:.4} | {:.4} | {:.2} |",
+            r.dofs,
+            r.threads,
+            r.seconds[6],
+            floor,
+            r.seconds[6] / floor
+        )?;
+    }
+    writeln!(md)?;
+    let time_chart = Chart {
+        title: "Static pipeline: time per phase (1 thread, direct)".into(),
+        x_label: "degrees of freedom".into(),
+        y_label: "wall time [s]".into(),
+        log_x: true,
+        log_y: true,
+        series: phase_series,
+    };
+    time_chart.write_png(&cli.out.join("performance_time.png"), 900, 620)?;
+    let mut memory_series = vec![Series::new(
+        "peak RSS, direct (1 thread)",
+        serial
+            .iter()
+            .map(|r| (r.dofs as f64, r.peak_mib[6]))
+            .collect(),
+        Mark::LinePoints,
+    )];
+    let iterative: Vec<(f64, f64)> = runs
+        .iter()
+        .filter(|r| r.method == "iterative")
+        .map(|r| (r.dofs as f64, r.peak_mib[6]))
+        .collect();
+    if !iterative.is_empty() {
+        memory_series.push(Series::new(
+            "peak RSS, iterative (CG)",
+            iterative,
+            Mark::LinePoints,
+        ));
+    }
+    let memory_chart = Chart {
+        title: "Static pipeline: peak memory".into(),
+        x_label: "degrees of freedom".into(),
+        y_label: "peak resident memory [MiB]".into(),
+        log_x: true,
+        log_y: true,
+        series: memory_series,
+    };
+    memory_chart.write_png(&cli.out.join("performance_memory.png"), 900, 620)?;
+    writeln!(md, "![time per phase](performance_time.png)")?;
+    writeln!(md)?;
+    writeln!(md, "![peak memory](performance_memory.png)")?;
+    let path = cli.out.join("PERFORMANCE.md");
+    tetfem::output::write_atomically(&path, |w| w.write_all(md.as_bytes()))?;
+    eprintln!("wrote {}", path.display());
+    Ok(())
+}
+
+fn commit() -> String {
+    Command::new("git")
+        .args(["rev-parse", "--short", "HEAD"])
+        .output()
+        .ok()
+        .filter(|o| o.status.success())
+        .map_or_else(
+            || "unknown".into(),
+            |o| String::from_utf8_lossy(&o.stdout).trim().to_string(),
+        )
+}

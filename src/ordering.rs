@@ -1,0 +1,142 @@
+//! Fill-reducing orderings for the sparse Cholesky factorization.
+//!
+//! The ordering decides the cost of a direct solve: on 3D elasticity meshes nested dissection
+//! (METIS) gives markedly less fill than minimum degree (faer's AMD), and the gap grows with the
+//! mesh. Both work on a compressed graph: the DOFs of one node have identical sparsity columns
+//! ("supervariables"), so the graph handed to the orderer has one vertex per node, not per DOF,
+//! which makes the ordering about 3–9× cheaper to compute and keeps each node's DOFs together.
+
+use faer::sparse::SymbolicSparseColMat;
+
+use crate::error::{Error, Result};
+
+/// Which fill-reducing ordering the Cholesky factorization uses.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum FillOrdering {
+    /// faer's approximate minimum degree.
+    Amd,
+    /// METIS nested dissection (`METIS_NodeND`) on the supervariable graph. The default: on the
+    /// box beams measured here it needs 30–50 % less fill than AMD above ~50k DOFs.
+    #[default]
+    NestedDissection,
+}
+
+impl std::str::FromStr for FillOrdering {
+    type Err = Error;
+
+    fn from_str(name: &str) -> Result<Self> {
+        match name {
+            "amd" => Ok(FillOrdering::Amd),
+            "nested-dissection" | "metis" | "nd" => Ok(FillOrdering::NestedDissection),
+            other => Err(Error::invalid_parameter(
+                "ordering",
+                other,
+                "must be 'amd' or 'nested-dissection' (alias 'metis')",
+            )),
+        }
+    }
+}
+
+/// Groups of consecutive columns with identical row patterns; returns the group start offsets
+/// (length groups + 1).
+fn supervariables(pattern: &SymbolicSparseColMat<usize>) -> Vec<usize> {
+    let n = pattern.ncols();
+    let (col_ptr, row_idx) = (pattern.col_ptr(), pattern.row_idx());
+    let column = |j: usize| &row_idx[col_ptr[j]..col_ptr[j + 1]];
+    let mut starts = vec![0];
+    for j in 1..n {
+        if column(j) != column(j - 1) {
+            starts.push(j);
+        }
+    }
+    starts.push(n);
+    starts
+}
+
+/// A nested-dissection permutation of a symmetric pattern (both triangles stored), as
+/// `perm[new] = old`.
+pub fn nested_dissection(pattern: &SymbolicSparseColMat<usize>) -> Result<Vec<usize>> {
+    let n = pattern.ncols();
+    let starts = supervariables(pattern);
+    let groups = starts.len() - 1;
+    if groups <= 2 {
+        return Ok((0..n).collect());
+    }
+    let mut group_of = vec![0usize; n];
+    for g in 0..groups {
+        group_of[starts[g]..starts[g + 1]].fill(g);
+    }
+    let too_large = |what: &str, value: usize| {
+        Error::Solver(format!(
+            "nested dissection: {what} = {value} exceeds METIS's 32-bit index range"
+        ))
+    };
+    let to_idx =
+        |value: usize, what: &str| i32::try_from(value).map_err(|_| too_large(what, value));
+    // Quotient graph: group g is adjacent to the groups of the rows of its first column, minus
+    // itself (METIS wants no self loops). Rows are sorted, so equal groups are adjacent.
+    let mut xadj: Vec<i32> = Vec::with_capacity(groups + 1);
+    let mut adjncy: Vec<i32> = Vec::new();
+    xadj.push(0);
+    for g in 0..groups {
+        let j = starts[g];
+        let mut last = usize::MAX;
+        for &row in &pattern.row_idx()[pattern.col_ptr()[j]..pattern.col_ptr()[j + 1]] {
+            let h = group_of[row];
+            if h != g && h != last {
+                adjncy.push(to_idx(h, "vertex")?);
+                last = h;
+            }
+        }
+        xadj.push(to_idx(adjncy.len(), "edge count")?);
+    }
+    let mut weights: Vec<i32> = (0..groups)
+        .map(|g| to_idx(starts[g + 1] - starts[g], "weight"))
+        .collect::<Result<_>>()?;
+    let mut vertices = to_idx(groups, "vertex count")?;
+    let mut options = [0i32; metis_sys::METIS_NOPTIONS as usize];
+    let mut perm = vec![0i32; groups];
+    let mut iperm = vec![0i32; groups];
+    // SAFETY: every pointer refers to a live, correctly sized buffer for the duration of the
+    // call (xadj: groups + 1, adjncy: xadj[groups], weights/perm/iperm: groups, options:
+    // METIS_NOPTIONS); METIS reads the graph and writes only perm and iperm.
+    let status = unsafe {
+        metis_sys::METIS_SetDefaultOptions(options.as_mut_ptr());
+        metis_sys::METIS_NodeND(
+            &mut vertices,
+            xadj.as_mut_ptr(),
+            adjncy.as_mut_ptr(),
+            weights.as_mut_ptr(),
+            options.as_mut_ptr(),
+            perm.as_mut_ptr(),
+            iperm.as_mut_ptr(),
+        )
+    };
+    if status != metis_sys::rstatus_et_METIS_OK {
+        return Err(Error::Solver(format!(
+            "METIS_NodeND failed with status {status}"
+        )));
+    }
+    // METIS: row i of the permuted matrix is row perm[i] of the original.
+    let mut order = Vec::with_capacity(n);
+    for &g in &perm {
+        let g = usize::try_from(g)
+            .map_err(|_| Error::Solver("METIS returned a negative index".into()))?;
+        order.extend(starts[g]..starts[g + 1]);
+    }
+    if order.len() != n {
+        return Err(Error::Solver(
+            "METIS returned an incomplete permutation".into(),
+        ));
+    }
+    Ok(order)
+}
+
+/// The inverse of a permutation given as `perm[new] = old`.
+pub fn inverse_permutation(perm: &[usize]) -> Vec<usize> {
+    let mut inverse = vec![0; perm.len()];
+    for (new, &old) in perm.iter().enumerate() {
+        inverse[old] = new;
+    }
+    inverse
+}

@@ -1,0 +1,175 @@
+//! Global assembly: the scatter-map assembly equals a naive dense one, K is symmetric with the
+//! rigid motions in its null space, and the masses sum to ρ·volume.
+
+mod common;
+
+use common::Rng;
+use nalgebra::{DMatrix, Vector3};
+use tetfem::{Assembler, BoxSplit, Material, TetMesh, lumped_mass};
+
+fn perturbed_box(cells: [usize; 3], seed: u64) -> TetMesh {
+    let mesh = TetMesh::box_grid(
+        Vector3::zeros(),
+        Vector3::new(2.0, 1.0, 1.5),
+        cells,
+        BoxSplit::Five,
+    )
+    .unwrap();
+    let mut rng = Rng::new(seed);
+    let (lo, hi) = mesh.bounding_box();
+    let nodes = mesh
+        .nodes()
+        .iter()
+        .map(|p| {
+            let interior = (0..3).all(|a| p[a] > lo[a] + 1e-9 && p[a] < hi[a] - 1e-9);
+            if interior {
+                p + rng.vector(-0.08, 0.08)
+            } else {
+                *p
+            }
+        })
+        .collect();
+    mesh.with_nodes(nodes).unwrap()
+}
+
+fn material() -> Material {
+    Material::new(3.0e6, 0.27, 950.0).unwrap()
+}
+
+#[test]
+fn scatter_assembly_equals_dense_assembly() {
+    let mesh = perturbed_box([3, 2, 2], 11);
+    let mat = material();
+    let assembler = Assembler::new(&mesh);
+    let k = assembler.stiffness(&mesh, &mat);
+    let n = mesh.dof_count();
+    let mut dense = DMatrix::<f64>::zeros(n, n);
+    for (t, tet) in mesh.tets().iter().enumerate() {
+        let ke = mesh.element(t).stiffness(&mat);
+        for i in 0..4 {
+            for j in 0..4 {
+                for a in 0..3 {
+                    for b in 0..3 {
+                        dense[(3 * tet[i] + a, 3 * tet[j] + b)] += ke[(3 * i + a, 3 * j + b)];
+                    }
+                }
+            }
+        }
+    }
+    let scale = dense.amax();
+    let mut stored = 0;
+    for row in 0..n {
+        for col in 0..n {
+            let value = k.get(row, col).unwrap();
+            // Same element contributions summed in a different order: round-off only.
+            assert!(
+                (value - dense[(row, col)]).abs() <= 1e-14 * scale,
+                "({row}, {col})"
+            );
+            if dense[(row, col)] != 0.0 {
+                stored += 1;
+            }
+        }
+    }
+    // The pattern is exactly the node-adjacency blocks: every non-zero is stored, and no more
+    // than the 3×3 blocks of node pairs sharing a tet.
+    assert!(stored <= k.nnz());
+    assert_eq!(k.nnz() % 9, 0);
+    assert_eq!(k.get(n, 0), None);
+}
+
+#[test]
+fn global_stiffness_is_symmetric_with_rigid_null_space() {
+    let mesh = perturbed_box([4, 3, 2], 12);
+    let k = Assembler::new(&mesh).stiffness(&mesh, &material());
+    let scale = k.values().iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    for col in 0..k.dim() {
+        for idx in k.col_ptr()[col]..k.col_ptr()[col + 1] {
+            let row = k.row_idx()[idx];
+            assert_eq!(
+                k.values()[idx],
+                k.get(col, row).unwrap(),
+                "K not symmetric at ({row}, {col})"
+            );
+        }
+    }
+    // Three translations and three infinitesimal rotations give zero force.
+    for mode in 0..6 {
+        let motion: Vec<f64> = mesh
+            .nodes()
+            .iter()
+            .flat_map(|p| {
+                let v = if mode < 3 {
+                    Vector3::ith(mode, 1.0)
+                } else {
+                    Vector3::ith(mode - 3, 1.0).cross(p)
+                };
+                [v.x, v.y, v.z]
+            })
+            .collect();
+        let force = k.mul(&motion);
+        let largest = force.iter().fold(0.0f64, |m, f| m.max(f.abs()));
+        // Cancellation of O(scale) terms: round-off times a few dozen summands.
+        assert!(largest < 1e-12 * scale, "mode {mode}: |K·r| = {largest:e}");
+    }
+}
+
+#[test]
+fn masses_sum_to_density_times_volume() {
+    let mesh = perturbed_box([3, 3, 2], 13);
+    let mat = material();
+    let total = mat.density() * mesh.volume();
+    let lumped = lumped_mass(&mesh, &mat);
+    // Per axis the lumped masses sum to ρ·V (sums of positive numbers: round-off only).
+    for axis in 0..3 {
+        let sum: f64 = lumped.iter().skip(axis).step_by(3).sum();
+        assert!((sum - total).abs() < 1e-12 * total);
+    }
+    let consistent = Assembler::new(&mesh).consistent_mass(&mesh, &mat);
+    // Consistent mass: a uniform translation has mass ρ·V, and its row sums are the lumped masses.
+    let ones_x: Vec<f64> = (0..mesh.dof_count())
+        .map(|d| if d % 3 == 0 { 1.0 } else { 0.0 })
+        .collect();
+    assert!((consistent.quadratic_form(&ones_x) - total).abs() < 1e-12 * total);
+    let all_ones = vec![1.0; mesh.dof_count()];
+    for (row_sum, lump) in consistent.mul(&all_ones).iter().zip(&lumped) {
+        assert!((row_sum - lump).abs() < 1e-12 * total);
+    }
+}
+
+#[test]
+fn refill_reuses_the_pattern() {
+    let mesh = perturbed_box([2, 2, 2], 14);
+    let assembler = Assembler::new(&mesh);
+    let soft = assembler.stiffness(&mesh, &Material::new(1.0, 0.3, 1.0).unwrap());
+    let mut k = assembler.stiffness(&mesh, &Material::new(1.0, 0.1, 1.0).unwrap());
+    assert!(std::sync::Arc::ptr_eq(k.pattern(), soft.pattern()));
+    // Refilling with E = 7 must give exactly 7 × the E = 1 matrix (K is linear in E).
+    let stiff = Material::new(7.0, 0.3, 1.0).unwrap();
+    assembler.reassemble(&mesh, |t| mesh.element(t).stiffness(&stiff), &mut k);
+    for (a, b) in k.values().iter().zip(soft.values()) {
+        assert!((a - 7.0 * b).abs() <= 1e-14 * a.abs().max(1.0));
+    }
+}
+
+#[test]
+fn parallel_refill_equals_sequential_scatter_bit_for_bit() {
+    // Large enough (nnz ≈ 3.6e5) for the assembler to split the nodes into parallel partitions.
+    let mesh = TetMesh::box_grid(
+        Vector3::zeros(),
+        Vector3::new(4.0, 1.0, 1.0),
+        [24, 8, 8],
+        BoxSplit::Lecture6,
+    )
+    .unwrap();
+    let mat = material();
+    let assembler = Assembler::new(&mesh);
+    assert!(assembler.nnz() > 200_000);
+    let parallel = assembler.stiffness(&mesh, &mat);
+    let mut sequential = vec![0.0; assembler.nnz()];
+    for t in 0..mesh.tet_count() {
+        assembler.scatter(&mesh, t, &mesh.element(t).stiffness(&mat), &mut sequential);
+    }
+    // Each entry sums its contributions in tet order on both paths: identical bits.
+    assert_eq!(parallel.values(), &sequential[..]);
+}
