@@ -49,6 +49,36 @@ impl Loads {
         Ok(self)
     }
 
+    /// A body force density b(x) varying in space (force per volume): the consistent load
+    /// ∫ b·Nᵢ dV on each node, by the degree-5 rule of [`crate::quadrature::tet_rule`].
+    pub fn add_body_force_field(
+        &mut self,
+        mesh: &TetMesh,
+        force_density: impl Fn(&Vector3<f64>) -> Vector3<f64>,
+    ) -> Result<&mut Self> {
+        self.check_mesh(mesh)?;
+        let rule = crate::quadrature::tet_rule();
+        let mut forces = self.forces.clone();
+        for (t, tet) in mesh.tets().iter().enumerate() {
+            let x = mesh.tet_positions(t);
+            let element = mesh.element(t);
+            for q in &rule {
+                let n = crate::quadrature::shape_values(&q.barycentric);
+                let p = x[0] * n[0] + x[1] * n[1] + x[2] * n[2] + x[3] * n[3];
+                let b = force_density(&p);
+                check_finite("body force field value", &b)?;
+                for (i, &node) in tet.iter().enumerate() {
+                    for axis in 0..3 {
+                        forces[3 * node + axis] += q.weight * element.volume() * n[i] * b[axis];
+                    }
+                }
+            }
+        }
+        // Only now, with every value checked, replace the loads: an error leaves them unchanged.
+        self.forces = forces;
+        Ok(self)
+    }
+
     /// A point force on one node (force units).
     pub fn add_nodal_force(&mut self, node: usize, force: Vector3<f64>) -> Result<&mut Self> {
         check_finite("nodal force", &force)?;
