@@ -162,6 +162,33 @@ pub enum Error {
     #[error("linear solver: {0}")]
     Solver(String),
 
+    /// A mesh or data file is malformed: truncated, wrong counts, a bad index, an unsupported
+    /// version, a non-numeric field...
+    #[error("{path}:{line}: {message}")]
+    Parse {
+        /// The file.
+        path: PathBuf,
+        /// 1-based line of the culprit (for binary files: the line count up to the byte offset,
+        /// which the message also names).
+        line: usize,
+        /// What is wrong there.
+        message: String,
+    },
+
+    /// A scene file is invalid: an unknown key, a value of the wrong type or range, a selection
+    /// that matches nothing...
+    #[error("{source_name}:{line}: {key}: {message}")]
+    Scene {
+        /// The scene file (or `<string>` for a scene parsed from memory).
+        source_name: String,
+        /// The key (dotted path where known) at fault.
+        key: String,
+        /// 1-based line of the key (0 when unknown).
+        line: usize,
+        /// What is wrong.
+        message: String,
+    },
+
     /// Reading or writing a file failed.
     #[error("{path}: {source}")]
     Io {
@@ -183,6 +210,15 @@ impl Error {
             name: name.into(),
             value: value.to_string(),
             requirement: requirement.into(),
+        }
+    }
+
+    /// Shorthand for [`Error::Parse`].
+    pub fn parse(path: impl Into<PathBuf>, line: usize, message: impl Into<String>) -> Self {
+        Error::Parse {
+            path: path.into(),
+            line,
+            message: message.into(),
         }
     }
 }

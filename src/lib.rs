@@ -40,6 +40,7 @@ pub mod dynamics;
 pub mod element;
 pub mod error;
 pub mod error_norms;
+pub mod info;
 pub mod iterative;
 pub mod linear_solver;
 pub mod linsolve;
@@ -49,6 +50,8 @@ pub mod mesh;
 pub mod ordering;
 pub mod output;
 pub mod quadrature;
+pub mod render;
+pub mod scene;
 pub mod sparse;
 pub mod statics;
 
@@ -62,6 +65,7 @@ pub use loads::Loads;
 pub use material::Material;
 pub use mesh::{BoxSplit, TetMesh};
 pub use ordering::FillOrdering;
+pub use scene::{Scene, run_static};
 pub use sparse::CscMatrix;
 pub use statics::{StaticSolution, StaticSolver, solve_static};
 

@@ -1,10 +1,16 @@
 //! Tetrahedral meshes: validated storage, generators, topology and node/face selection.
 
 mod generate;
+pub mod io;
+mod quality;
 mod select;
 mod topology;
 
 pub use generate::{BoxSplit, box_node_index};
+pub use quality::{
+    CriticalStep, MeshStatistics, POOR_DIHEDRAL_DEG, Summary, TetQuality, critical_time_step,
+    tet_quality,
+};
 pub use topology::{BoundaryFace, FaceTopology};
 
 use nalgebra::Vector3;

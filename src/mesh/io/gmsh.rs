@@ -1,0 +1,420 @@
+//! Gmsh `.msh` files: MSH 4.1 ASCII and binary read through the `mshio` crate, MSH 2.2 ASCII
+//! through [`super::gmsh22`], MSH 4.1 ASCII written by [`write_gmsh`].
+//!
+//! Kept: 4-node tetrahedra (the mesh), 3-node triangles (boundary sets of their physical
+//! groups), and the physical groups with their names. Other element types are skipped and
+//! counted. In MSH 4.1 the physical tags of an element come from its entity in `$Entities`.
+
+use std::collections::{BTreeMap, HashMap};
+use std::io::Write;
+use std::path::Path;
+
+use mshio::{ElementType, MshFile};
+use nalgebra::Vector3;
+
+use super::raw::{RawGroup, RawMesh};
+use super::text::{Records, decode, line_of_offset};
+use super::{ImportedMesh, PhysicalGroup, gmsh22};
+use crate::error::{Error, Result};
+use crate::mesh::TetMesh;
+use crate::output::write_atomically;
+
+/// Reads a Gmsh mesh file (MSH 4.1 ASCII or binary, or MSH 2.2 ASCII).
+pub fn read_gmsh(path: &Path) -> Result<ImportedMesh> {
+    let bytes = std::fs::read(path).map_err(|source| Error::Io {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    let (version, binary) = format_line(path, &bytes)?;
+    let raw = match (version.as_str(), binary) {
+        ("4.1", _) => parse_v41(path, &bytes, binary)?,
+        (v, false) if v.starts_with("2.") => gmsh22::parse(path, decode(path, &bytes)?)?,
+        (v, true) if v.starts_with("2.") => {
+            return Err(Error::parse(
+                path,
+                2,
+                format!(
+                    "binary MSH {v} is not supported; save as MSH 4.1 (ASCII or binary) or MSH 2.2 ASCII"
+                ),
+            ));
+        }
+        (v, _) => {
+            return Err(Error::parse(
+                path,
+                2,
+                format!(
+                    "unsupported MSH version {v}; supported: 4.1 (ASCII, binary) and 2.2 (ASCII)"
+                ),
+            ));
+        }
+    };
+    raw.finish(path)
+}
+
+/// The version and binary flag from the `$MeshFormat` header's second line.
+fn format_line(path: &Path, bytes: &[u8]) -> Result<(String, bool)> {
+    let mut lines = bytes.split(|&b| b == b'\n');
+    let first = lines
+        .next()
+        .map(String::from_utf8_lossy)
+        .unwrap_or_default();
+    if first.trim() != "$MeshFormat" {
+        return Err(Error::parse(
+            path,
+            1,
+            "not a Gmsh mesh: the file must start with $MeshFormat",
+        ));
+    }
+    let second = lines
+        .next()
+        .map(String::from_utf8_lossy)
+        .unwrap_or_default();
+    let fields: Vec<&str> = second.split_whitespace().collect();
+    if fields.len() < 3 {
+        return Err(Error::parse(
+            path,
+            2,
+            "the format line must read '<version> <file-type> <data-size>' (the file is truncated?)",
+        ));
+    }
+    let binary = match fields[1] {
+        "0" => false,
+        "1" => true,
+        other => {
+            return Err(Error::parse(
+                path,
+                2,
+                format!("file-type '{other}' must be 0 (ASCII) or 1 (binary)"),
+            ));
+        }
+    };
+    Ok((fields[0].to_string(), binary))
+}
+
+/// 1-based line of the first line that reads `tag` (0 if none).
+fn line_of(bytes: &[u8], tag: &str) -> usize {
+    bytes
+        .split(|&b| b == b'\n')
+        .position(|l| String::from_utf8_lossy(l).trim() == tag)
+        .map_or(0, |i| i + 1)
+}
+
+/// `$PhysicalNames` (ASCII even in binary files; it precedes `$Entities` and `$Nodes`).
+fn physical_names(path: &Path, bytes: &[u8]) -> Result<HashMap<(usize, i32), String>> {
+    let mut names = HashMap::new();
+    let Some(start) = line_of_section(bytes) else {
+        return Ok(names);
+    };
+    // Decode only the lines up to the section's end as text.
+    let tail = &bytes[start.0..];
+    let end = find(tail, b"$EndPhysicalNames").map_or(tail.len(), |e| e + 17);
+    let text = String::from_utf8_lossy(&tail[..end]);
+    let mut records = Records::new(path, &text, None);
+    let offset = start.1 - 1;
+    let shift = |e: Error| match e {
+        Error::Parse {
+            path,
+            line,
+            message,
+        } => Error::Parse {
+            path,
+            line: line + offset,
+            message,
+        },
+        other => other,
+    };
+    let result = (|| {
+        records.next("$PhysicalNames")?;
+        let count: usize = records
+            .next("the number of physical names")?
+            .number(0, "number of physical names")?;
+        for _ in 0..count {
+            let r = records.next("a physical name '<dim> <tag> \"name\"'")?;
+            let dim: usize = r.number(0, "dimension")?;
+            let tag: i32 = r.number(1, "physical tag")?;
+            r.field(2, "name")?;
+            names.insert((dim, tag), r.rest_after(2).trim_matches('"').to_string());
+        }
+        let r = records.next("$EndPhysicalNames")?;
+        if r.text != "$EndPhysicalNames" {
+            return Err(r.error(format!(
+                "expected $EndPhysicalNames, found '{}' (wrong count?)",
+                r.text
+            )));
+        }
+        Ok(())
+    })();
+    result.map_err(shift)?;
+    Ok(names)
+}
+
+/// Byte offset and 1-based line of a `$PhysicalNames` line that comes before `$Nodes`.
+fn line_of_section(bytes: &[u8]) -> Option<(usize, usize)> {
+    let mut offset = 0;
+    for (i, line) in bytes.split(|&b| b == b'\n').enumerate() {
+        let text = String::from_utf8_lossy(line);
+        match text.trim() {
+            "$PhysicalNames" => return Some((offset, i + 1)),
+            "$Nodes" | "$Entities" => return None,
+            _ => {}
+        }
+        offset += line.len() + 1;
+    }
+    None
+}
+
+fn find(haystack: &[u8], needle: &[u8]) -> Option<usize> {
+    haystack.windows(needle.len()).position(|w| w == needle)
+}
+
+type Msh = MshFile<u64, i32, f64>;
+
+fn parse_v41(path: &Path, bytes: &[u8], binary: bool) -> Result<RawMesh> {
+    // mshio is a nom parser over untrusted input; a panic inside it must not take the caller
+    // down, so it is contained here and reported as a parse error.
+    let parsed = std::panic::catch_unwind(|| {
+        mshio::parse_msh_bytes(bytes).map_err(|e| {
+            let offset = e
+                .backtrace
+                .first()
+                .map(|(rest, _)| (rest.as_ptr() as usize).saturating_sub(bytes.as_ptr() as usize))
+                .unwrap_or(0);
+            let mut parts: Vec<String> = e
+                .backtrace
+                .iter()
+                .rev()
+                .map(|(_, k)| k.to_string())
+                .collect();
+            parts.dedup();
+            (offset, parts.join(": "))
+        })
+    });
+    let msh: Msh = match parsed {
+        Ok(Ok(msh)) => msh,
+        Ok(Err((offset, message))) => {
+            let at = if binary {
+                format!(" (byte offset {offset})")
+            } else {
+                String::new()
+            };
+            return Err(Error::parse(
+                path,
+                line_of_offset(bytes, offset),
+                format!("invalid MSH 4.1 data{at}: {message}"),
+            ));
+        }
+        Err(_) => {
+            return Err(Error::parse(
+                path,
+                0,
+                "the MSH 4.1 parser failed on this file (malformed data)",
+            ));
+        }
+    };
+    convert(path, bytes, msh)
+}
+
+fn convert(path: &Path, bytes: &[u8], msh: Msh) -> Result<RawMesh> {
+    let names = physical_names(path, bytes)?;
+    // Physical tags of each entity (dim, tag).
+    let mut entity_tags: HashMap<(usize, i32), Vec<i32>> = HashMap::new();
+    if let Some(e) = &msh.data.entities {
+        for p in &e.points {
+            entity_tags.insert((0, p.tag), p.physical_tags.clone());
+        }
+        for c in &e.curves {
+            entity_tags.insert((1, c.tag), c.physical_tags.clone());
+        }
+        for s in &e.surfaces {
+            entity_tags.insert((2, s.tag), s.physical_tags.clone());
+        }
+        for v in &e.volumes {
+            entity_tags.insert((3, v.tag), v.physical_tags.clone());
+        }
+    }
+    let nodes_line = line_of(bytes, "$Nodes");
+    let Some(nodes) = &msh.data.nodes else {
+        return Err(Error::parse(path, 0, "no $Nodes section"));
+    };
+    let mut raw = RawMesh::default();
+    let mut tag_index: HashMap<u64, usize> = HashMap::new();
+    let mut next_tag = nodes.min_node_tag;
+    for block in &nodes.node_blocks {
+        // With dense tags mshio keeps no map: the tags run on from the smallest one.
+        let mut tags = vec![0u64; block.nodes.len()];
+        match &block.node_tags {
+            Some(map) => {
+                for (&tag, &i) in map {
+                    if let Some(slot) = tags.get_mut(i) {
+                        *slot = tag;
+                    }
+                }
+            }
+            None => {
+                for slot in tags.iter_mut() {
+                    *slot = next_tag;
+                    next_tag = next_tag.saturating_add(1);
+                }
+            }
+        }
+        for (node, &tag) in block.nodes.iter().zip(&tags) {
+            let p = Vector3::new(node.x, node.y, node.z);
+            if tag_index.insert(tag, raw.nodes.len()).is_some() {
+                return Err(Error::parse(
+                    path,
+                    nodes_line,
+                    format!("node tag {tag} appears twice"),
+                ));
+            }
+            raw.nodes.push(p);
+            raw.node_lines.push(nodes_line);
+            raw.node_ids.push(tag);
+        }
+    }
+    let elements_line = line_of(bytes, "$Elements");
+    let mut groups: BTreeMap<(usize, i32), RawGroup> = BTreeMap::new();
+    if let Some(elements) = &msh.data.elements {
+        for block in &elements.element_blocks {
+            let dim = usize::try_from(block.entity_dim).unwrap_or(0);
+            let physical = entity_tags
+                .get(&(dim, block.entity_tag))
+                .cloned()
+                .unwrap_or_default();
+            for element in &block.elements {
+                let mut nodes = Vec::with_capacity(element.nodes.len());
+                for &tag in &element.nodes {
+                    let index = *tag_index.get(&tag).ok_or_else(|| {
+                        Error::parse(
+                            path,
+                            elements_line,
+                            format!(
+                                "element {} (entity {dim}:{}) refers to node tag {tag}, which $Nodes does not define",
+                                element.element_tag, block.entity_tag
+                            ),
+                        )
+                    })?;
+                    nodes.push(index);
+                }
+                let mut each_group = |f: &mut dyn FnMut(&mut RawGroup)| {
+                    for &p in &physical {
+                        f(groups.entry((dim, p)).or_insert_with(|| RawGroup {
+                            dim,
+                            tag: p,
+                            name: names.get(&(dim, p)).cloned(),
+                            ..RawGroup::default()
+                        }));
+                    }
+                };
+                match (block.element_type, nodes.as_slice()) {
+                    (ElementType::Tet4, &[a, b, c, d]) => {
+                        let t = raw.tets.len();
+                        each_group(&mut |g| g.tets.push(t));
+                        raw.tets.push([a, b, c, d]);
+                        raw.tet_lines.push(elements_line);
+                    }
+                    (ElementType::Tri3, &[a, b, c]) => {
+                        each_group(&mut |g| g.triangles.push([a, b, c]));
+                    }
+                    (other, _) => {
+                        each_group(&mut |g| g.other_nodes.extend(&nodes));
+                        *raw.skipped.entry(format!("{other:?}")).or_insert(0) += 1;
+                    }
+                }
+            }
+        }
+    }
+    raw.groups = groups.into_values().collect();
+    Ok(raw)
+}
+
+/// Writes `mesh` as MSH 4.1 ASCII (atomically), with `groups`' triangles as surface physical
+/// groups (one surface entity each) and all tets in one volume entity that carries the tags of
+/// the volume groups. Volume groups must cover every tet; point and curve groups are not written.
+///
+/// Node tags are 1…n in mesh order, element tags 1…m (tets first), coordinates in Rust's
+/// shortest round-trip formatting: reading the file back gives the identical mesh.
+pub fn write_gmsh(path: &Path, mesh: &TetMesh, groups: &[PhysicalGroup]) -> Result<()> {
+    let surfaces: Vec<&PhysicalGroup> = groups.iter().filter(|g| g.dim == 2).collect();
+    let volumes: Vec<&PhysicalGroup> = groups.iter().filter(|g| g.dim == 3).collect();
+    for g in &volumes {
+        if g.tets.len() != mesh.tet_count() {
+            return Err(Error::invalid_parameter(
+                format!("volume group {}", g.label()),
+                format!("{} tets", g.tets.len()),
+                format!(
+                    "the writer puts all tets in one volume, so a volume group must hold all {}",
+                    mesh.tet_count()
+                ),
+            ));
+        }
+    }
+    for g in &surfaces {
+        if let Some(t) = g
+            .triangles
+            .iter()
+            .find(|t| t.iter().any(|&n| n >= mesh.node_count()))
+        {
+            return Err(Error::UnknownNode {
+                context: "surface group triangle",
+                node: t.iter().copied().max().unwrap_or(0),
+                node_count: mesh.node_count(),
+            });
+        }
+    }
+    let (lo, hi) = mesh.bounding_box();
+    let bbox = format!("{} {} {} {} {} {}", lo.x, lo.y, lo.z, hi.x, hi.y, hi.z);
+    write_atomically(path, |out: &mut dyn Write| {
+        writeln!(out, "$MeshFormat\n4.1 0 8\n$EndMeshFormat")?;
+        let named: Vec<&&PhysicalGroup> = surfaces.iter().chain(&volumes).collect();
+        if !named.is_empty() {
+            writeln!(out, "$PhysicalNames\n{}", named.len())?;
+            for g in &named {
+                let name = g.name.clone().unwrap_or_else(|| format!("group{}", g.tag));
+                writeln!(out, "{} {} \"{}\"", g.dim, g.tag, name.replace('"', "'"))?;
+            }
+            writeln!(out, "$EndPhysicalNames")?;
+        }
+        writeln!(out, "$Entities\n0 0 {} 1", surfaces.len())?;
+        for (i, g) in surfaces.iter().enumerate() {
+            writeln!(out, "{} {bbox} 1 {} 0", i + 1, g.tag)?;
+        }
+        write!(out, "1 {bbox} {}", volumes.len())?;
+        for g in &volumes {
+            write!(out, " {}", g.tag)?;
+        }
+        writeln!(out, " 0\n$EndEntities")?;
+        let n = mesh.node_count();
+        writeln!(out, "$Nodes\n1 {n} 1 {n}\n3 1 0 {n}")?;
+        for i in 1..=n {
+            writeln!(out, "{i}")?;
+        }
+        for p in mesh.nodes() {
+            writeln!(out, "{} {} {}", p.x, p.y, p.z)?;
+        }
+        writeln!(out, "$EndNodes")?;
+        let triangles: usize = surfaces.iter().map(|g| g.triangles.len()).sum();
+        let total = mesh.tet_count() + triangles;
+        writeln!(out, "$Elements\n{} {total} 1 {total}", 1 + surfaces.len())?;
+        writeln!(out, "3 1 4 {}", mesh.tet_count())?;
+        let mut tag = 0usize;
+        for t in mesh.tets() {
+            tag += 1;
+            writeln!(
+                out,
+                "{tag} {} {} {} {}",
+                t[0] + 1,
+                t[1] + 1,
+                t[2] + 1,
+                t[3] + 1
+            )?;
+        }
+        for (i, g) in surfaces.iter().enumerate() {
+            writeln!(out, "2 {} 2 {}", i + 1, g.triangles.len())?;
+            for t in &g.triangles {
+                tag += 1;
+                writeln!(out, "{tag} {} {} {}", t[0] + 1, t[1] + 1, t[2] + 1)?;
+            }
+        }
+        writeln!(out, "$EndElements")
+    })
+}

@@ -1,0 +1,192 @@
+//! Gmsh MSH 2.2 ASCII (the legacy format many tools still write; `mshio` reads only 4.1).
+//!
+//! Sections used: `$PhysicalNames`, `$Nodes` (`<count>`, then `<tag> <x> <y> <z>`) and
+//! `$Elements` (`<count>`, then `<tag> <type> <ntags> <physical> <elementary> … <nodes…>`);
+//! other sections are skipped.
+
+use std::collections::{BTreeMap, HashMap};
+use std::path::Path;
+
+use nalgebra::Vector3;
+
+use super::raw::{RawGroup, RawMesh};
+use super::text::Records;
+use crate::error::Result;
+
+/// Gmsh element type codes → (name, node count) for the types a 2.2 file may hold.
+fn element_type(code: u32) -> Option<(&'static str, usize)> {
+    Some(match code {
+        1 => ("Lin2", 2),
+        2 => ("Tri3", 3),
+        3 => ("Qua4", 4),
+        4 => ("Tet4", 4),
+        5 => ("Hex8", 8),
+        6 => ("Pri6", 6),
+        7 => ("Pyr5", 5),
+        8 => ("Lin3", 3),
+        9 => ("Tri6", 6),
+        10 => ("Qua9", 9),
+        11 => ("Tet10", 10),
+        12 => ("Hex27", 27),
+        13 => ("Pri18", 18),
+        14 => ("Pyr14", 14),
+        15 => ("Pnt", 1),
+        16 => ("Qua8", 8),
+        17 => ("Hex20", 20),
+        18 => ("Pri15", 15),
+        19 => ("Pyr13", 13),
+        _ => return None,
+    })
+}
+
+/// Parses the whole text of an MSH 2.2 ASCII file (its `$MeshFormat` already checked).
+pub(crate) fn parse(path: &Path, text: &str) -> Result<RawMesh> {
+    let mut records = Records::new(path, text, None);
+    let mut raw = RawMesh::default();
+    let mut names: HashMap<(usize, i32), String> = HashMap::new();
+    let mut tag_index: HashMap<u64, usize> = HashMap::new();
+    let mut groups: BTreeMap<(usize, i32), RawGroup> = BTreeMap::new();
+    let mut seen_nodes = false;
+    while let Some(r) = records.try_next() {
+        match r.text {
+            "$MeshFormat" => skip_section(&mut records, "$EndMeshFormat")?,
+            "$PhysicalNames" => {
+                let count: usize = records
+                    .next("the number of physical names")?
+                    .number(0, "number of physical names")?;
+                for _ in 0..count {
+                    let r = records.next("a physical name '<dim> <tag> \"name\"'")?;
+                    let dim: usize = r.number(0, "dimension")?;
+                    let tag: i32 = r.number(1, "physical tag")?;
+                    r.field(2, "name")?;
+                    names.insert((dim, tag), r.rest_after(2).trim_matches('"').to_string());
+                }
+                expect_end(&mut records, "$EndPhysicalNames")?;
+            }
+            "$Nodes" => {
+                if seen_nodes {
+                    return Err(r.error("a second $Nodes section"));
+                }
+                seen_nodes = true;
+                let count: usize = records
+                    .next("the number of nodes")?
+                    .number(0, "number of nodes")?;
+                raw.nodes.reserve(count.min(1 << 20));
+                for i in 0..count {
+                    let r = records.next(&format!("node {} of {count}", i + 1))?;
+                    let tag: u64 = r.number(0, "node tag")?;
+                    let p = Vector3::new(r.finite(1, "x")?, r.finite(2, "y")?, r.finite(3, "z")?);
+                    if tag_index.insert(tag, raw.nodes.len()).is_some() {
+                        return Err(r.error(format!("node tag {tag} appears twice")));
+                    }
+                    raw.nodes.push(p);
+                    raw.node_lines.push(r.line);
+                    raw.node_ids.push(tag);
+                }
+                expect_end(&mut records, "$EndNodes")?;
+            }
+            "$Elements" => {
+                if !seen_nodes {
+                    return Err(r.error("$Elements before $Nodes"));
+                }
+                let count: usize = records
+                    .next("the number of elements")?
+                    .number(0, "number of elements")?;
+                for i in 0..count {
+                    let r = records.next(&format!("element {} of {count}", i + 1))?;
+                    let code: u32 = r.number(1, "element type")?;
+                    let ntags: usize = r.number(2, "number of tags")?;
+                    let (name, nodes_per) = element_type(code)
+                        .ok_or_else(|| r.error(format!("unknown element type {code}")))?;
+                    let first = 3usize.saturating_add(ntags);
+                    r.expect_at_least(
+                        first.saturating_add(nodes_per),
+                        "tag, type, tags and nodes",
+                    )?;
+                    let physical: i32 = if ntags > 0 {
+                        r.number(3, "physical tag")?
+                    } else {
+                        0
+                    };
+                    let mut nodes = Vec::with_capacity(nodes_per);
+                    for k in 0..nodes_per {
+                        let tag: u64 = r.number(first + k, "node tag")?;
+                        let index = *tag_index.get(&tag).ok_or_else(|| {
+                            r.error(format!("node tag {tag} is not defined in $Nodes"))
+                        })?;
+                        nodes.push(index);
+                    }
+                    let dim = match name {
+                        "Pnt" => 0,
+                        "Lin2" | "Lin3" => 1,
+                        "Tri3" | "Tri6" | "Qua4" | "Qua8" | "Qua9" => 2,
+                        _ => 3,
+                    };
+                    let group = (physical != 0).then(|| {
+                        groups.entry((dim, physical)).or_insert_with(|| RawGroup {
+                            dim,
+                            tag: physical,
+                            ..RawGroup::default()
+                        })
+                    });
+                    match name {
+                        "Tet4" => {
+                            if let Some(g) = group {
+                                g.tets.push(raw.tets.len());
+                            }
+                            raw.tets.push([nodes[0], nodes[1], nodes[2], nodes[3]]);
+                            raw.tet_lines.push(r.line);
+                        }
+                        "Tri3" => {
+                            if let Some(g) = group {
+                                g.triangles.push([nodes[0], nodes[1], nodes[2]]);
+                            }
+                        }
+                        _ => {
+                            if let Some(g) = group {
+                                g.other_nodes.extend(&nodes);
+                            }
+                            *raw.skipped.entry(name.to_string()).or_insert(0) += 1;
+                        }
+                    }
+                }
+                expect_end(&mut records, "$EndElements")?;
+            }
+            other if other.starts_with('$') && !other.starts_with("$End") => {
+                let end = format!("$End{}", &other[1..]);
+                skip_section(&mut records, &end)?;
+            }
+            _ => return Err(r.error(format!("unexpected line '{}' outside any section", r.text))),
+        }
+    }
+    if !seen_nodes {
+        return Err(records.error("no $Nodes section"));
+    }
+    raw.groups = groups
+        .into_values()
+        .map(|mut g| {
+            g.name = names.get(&(g.dim, g.tag)).cloned();
+            g
+        })
+        .collect();
+    Ok(raw)
+}
+
+fn expect_end(records: &mut Records, end: &str) -> Result<()> {
+    let r = records.next(end)?;
+    if r.text != end {
+        return Err(r.error(format!(
+            "expected {end}, found '{}' (the section's count does not match its records)",
+            r.text
+        )));
+    }
+    Ok(())
+}
+
+fn skip_section(records: &mut Records, end: &str) -> Result<()> {
+    loop {
+        if records.next(end)?.text == end {
+            return Ok(());
+        }
+    }
+}

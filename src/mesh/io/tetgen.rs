@@ -1,0 +1,257 @@
+//! TetGen `<prefix>.node` / `<prefix>.ele` files.
+//!
+//! `.node`: a header `<points> <dimension = 3> <attributes> <markers 0|1>`, then one line per
+//! point `<index> <x> <y> <z> [attributes…] [marker]`. `.ele`: a header
+//! `<tets> <nodes per tet 4|10> <attributes>`, then `<index> <n₀> … [attributes…]`. Indices
+//! start at 0 or 1 — the first point's index tells — and run consecutively; `#` starts a
+//! comment. Of 10-node tets the four corner nodes are kept.
+
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+use nalgebra::Vector3;
+
+use super::ImportedMesh;
+use super::raw::RawMesh;
+use super::text::{Records, decode};
+use crate::error::{Error, Result};
+use crate::mesh::TetMesh;
+use crate::output::write_atomically;
+
+/// What [`write_tetgen`] writes besides nodes and tets.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct TetgenOptions {
+    /// First index, 0 or 1.
+    pub base: usize,
+    /// One boundary marker per node (a marker column is written when present).
+    pub node_markers: Option<Vec<i64>>,
+    /// One regional attribute per tet (an attribute column is written when present).
+    pub tet_attributes: Option<Vec<f64>>,
+}
+
+fn with_suffix(prefix: &Path, suffix: &str) -> PathBuf {
+    let mut s = prefix.as_os_str().to_owned();
+    s.push(suffix);
+    PathBuf::from(s)
+}
+
+fn read_file(path: &Path) -> Result<Vec<u8>> {
+    std::fs::read(path).map_err(|source| Error::Io {
+        path: path.to_path_buf(),
+        source,
+    })
+}
+
+/// Reads `<prefix>.node` and `<prefix>.ele`; node markers and the first tet attribute are kept.
+pub fn read_tetgen(prefix: &Path) -> Result<ImportedMesh> {
+    let node_path = with_suffix(prefix, ".node");
+    let ele_path = with_suffix(prefix, ".ele");
+    let node_bytes = read_file(&node_path)?;
+    let ele_bytes = read_file(&ele_path)?;
+    let mut raw = RawMesh::default();
+    let base = read_nodes(&node_path, decode(&node_path, &node_bytes)?, &mut raw)?;
+    read_tets(&ele_path, decode(&ele_path, &ele_bytes)?, base, &mut raw)?;
+    raw.finish(&ele_path)
+}
+
+fn read_nodes(path: &Path, text: &str, raw: &mut RawMesh) -> Result<usize> {
+    let mut records = Records::new(path, text, Some('#'));
+    let header = records.next("the header '<points> <dimension> <attributes> <markers>'")?;
+    let count: usize = header.number(0, "number of points")?;
+    let dimension: usize = header.number(1, "dimension")?;
+    if dimension != 3 {
+        return Err(header.error(format!(
+            "dimension is {dimension}; only 3-D meshes are supported"
+        )));
+    }
+    let attributes: usize = if header.fields.len() > 2 {
+        header.number(2, "number of attributes")?
+    } else {
+        0
+    };
+    let markers: usize = if header.fields.len() > 3 {
+        header.number(3, "marker flag")?
+    } else {
+        0
+    };
+    if markers > 1 {
+        return Err(header.error(format!("the marker flag is {markers}; it must be 0 or 1")));
+    }
+    // Cap the reservation: a header may lie about the count.
+    raw.nodes.reserve(count.min(1 << 20));
+    let mut node_markers = Vec::new();
+    let mut base = 0;
+    for i in 0..count {
+        let r = records.next(&format!("point {} of {count}", i + 1))?;
+        r.expect_at_least(
+            4 + attributes + markers,
+            "index, x, y, z, attributes and marker",
+        )?;
+        let index: usize = r.number(0, "point index")?;
+        if i == 0 {
+            if index > 1 {
+                return Err(r.error(format!(
+                    "the first point index is {index}; it must be 0 or 1"
+                )));
+            }
+            base = index;
+        } else if index != base + i {
+            return Err(r.error(format!(
+                "point index {index} is out of sequence (expected {})",
+                base + i
+            )));
+        }
+        let p = Vector3::new(r.finite(1, "x")?, r.finite(2, "y")?, r.finite(3, "z")?);
+        if markers == 1 {
+            node_markers.push(r.number(4 + attributes, "boundary marker")?);
+        }
+        raw.nodes.push(p);
+        raw.node_lines.push(r.line);
+        raw.node_ids.push(index as u64);
+    }
+    if let Some(extra) = records.try_next() {
+        return Err(extra.error(format!(
+            "more points than the header's count {count} (wrong count in the header?)"
+        )));
+    }
+    if markers == 1 {
+        raw.node_markers = Some(node_markers);
+    }
+    Ok(base)
+}
+
+fn read_tets(path: &Path, text: &str, base: usize, raw: &mut RawMesh) -> Result<()> {
+    let mut records = Records::new(path, text, Some('#'));
+    let header = records.next("the header '<tets> <nodes per tet> <attributes>'")?;
+    let count: usize = header.number(0, "number of tets")?;
+    let per_tet: usize = if header.fields.len() > 1 {
+        header.number(1, "nodes per tet")?
+    } else {
+        4
+    };
+    if per_tet != 4 && per_tet != 10 {
+        return Err(header.error(format!(
+            "{per_tet} nodes per tet; only 4 and 10 are supported"
+        )));
+    }
+    let attributes: usize = if header.fields.len() > 2 {
+        header.number(2, "number of attributes")?
+    } else {
+        0
+    };
+    let node_count = raw.nodes.len();
+    raw.tets.reserve(count.min(1 << 20));
+    let mut tet_attributes = Vec::new();
+    for i in 0..count {
+        let r = records.next(&format!("tet {} of {count}", i + 1))?;
+        r.expect_at_least(1 + per_tet + attributes, "index, nodes and attributes")?;
+        let index: usize = r.number(0, "tet index")?;
+        if index != base + i {
+            return Err(r.error(format!(
+                "tet index {index} is out of sequence (expected {}, the .node file's base is {base})",
+                base + i
+            )));
+        }
+        let mut tet = [0usize; 4];
+        for (k, slot) in tet.iter_mut().enumerate() {
+            let n: usize = r.number(1 + k, "node index")?;
+            if n < base || n - base >= node_count {
+                return Err(r.error(format!(
+                    "node index {n} is out of range (the .node file has points {base}..={})",
+                    (base + node_count).saturating_sub(1)
+                )));
+            }
+            *slot = n - base;
+        }
+        if attributes > 0 {
+            tet_attributes.push(r.finite(1 + per_tet, "attribute")?);
+        }
+        raw.tets.push(tet);
+        raw.tet_lines.push(r.line);
+    }
+    if let Some(extra) = records.try_next() {
+        return Err(extra.error(format!(
+            "more tets than the header's count {count} (wrong count in the header?)"
+        )));
+    }
+    if per_tet == 10 {
+        raw.skipped
+            .insert("Tet10 (kept as Tet4 corners)".into(), count);
+    }
+    if attributes > 0 {
+        raw.tet_attributes = Some(tet_attributes);
+    }
+    Ok(())
+}
+
+/// Writes `<prefix>.node` and `<prefix>.ele` (each atomically) with indices from
+/// `options.base`; coordinates are written with Rust's shortest round-trip formatting, so a
+/// read gives back the identical mesh.
+pub fn write_tetgen(prefix: &Path, mesh: &TetMesh, options: &TetgenOptions) -> Result<()> {
+    if options.base > 1 {
+        return Err(Error::invalid_parameter(
+            "base",
+            options.base,
+            "must be 0 or 1",
+        ));
+    }
+    if let Some(m) = &options.node_markers
+        && m.len() != mesh.node_count()
+    {
+        return Err(Error::invalid_parameter(
+            "node_markers",
+            m.len(),
+            format!("must have one marker per node ({})", mesh.node_count()),
+        ));
+    }
+    if let Some(a) = &options.tet_attributes
+        && (a.len() != mesh.tet_count() || a.iter().any(|v| !v.is_finite()))
+    {
+        return Err(Error::invalid_parameter(
+            "tet_attributes",
+            a.len(),
+            format!(
+                "must have one finite attribute per tet ({})",
+                mesh.tet_count()
+            ),
+        ));
+    }
+    let base = options.base;
+    write_atomically(&with_suffix(prefix, ".node"), |out: &mut dyn Write| {
+        writeln!(out, "# written by tetfem; {base}-based indices")?;
+        let has_markers = options.node_markers.is_some() as usize;
+        writeln!(out, "{} 3 0 {has_markers}", mesh.node_count())?;
+        for (i, p) in mesh.nodes().iter().enumerate() {
+            write!(out, "{} {} {} {}", i + base, p.x, p.y, p.z)?;
+            if let Some(m) = &options.node_markers {
+                write!(out, " {}", m[i])?;
+            }
+            writeln!(out)?;
+        }
+        Ok(())
+    })?;
+    write_atomically(&with_suffix(prefix, ".ele"), |out: &mut dyn Write| {
+        writeln!(
+            out,
+            "# written by tetfem; {base}-based indices, positively oriented tets"
+        )?;
+        let has_attributes = options.tet_attributes.is_some() as usize;
+        writeln!(out, "{} 4 {has_attributes}", mesh.tet_count())?;
+        for (i, t) in mesh.tets().iter().enumerate() {
+            write!(
+                out,
+                "{} {} {} {} {}",
+                i + base,
+                t[0] + base,
+                t[1] + base,
+                t[2] + base,
+                t[3] + base
+            )?;
+            if let Some(a) = &options.tet_attributes {
+                write!(out, " {}", a[i])?;
+            }
+            writeln!(out)?;
+        }
+        Ok(())
+    })
+}

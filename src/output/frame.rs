@@ -1,0 +1,34 @@
+//! One result frame as a `.vtu`: the fields a FEM user expects to colour by in ParaView.
+
+use std::path::Path;
+
+use super::VtuWriter;
+use super::fields::{cell_strain_energy_density, cell_von_mises, displacement_magnitude};
+use crate::error::Result;
+use crate::material::Material;
+use crate::mesh::TetMesh;
+
+/// Writes `path` (atomically) with point fields `displacement` (3 components),
+/// `displacement_magnitude`, optionally `velocity` (3), and cell fields `von_mises` (stress
+/// units) and `strain_energy_density` (energy/volume), all from node-major vectors.
+pub fn write_result_vtu(
+    path: &Path,
+    mesh: &TetMesh,
+    material: &Material,
+    displacement: &[f64],
+    velocity: Option<&[f64]>,
+) -> Result<()> {
+    let magnitude = displacement_magnitude(displacement);
+    let von_mises = cell_von_mises(mesh, material, displacement)?;
+    let energy = cell_strain_energy_density(mesh, material, displacement)?;
+    let mut writer = VtuWriter::new(mesh)
+        .point_field("displacement", 3, displacement)?
+        .point_field("displacement_magnitude", 1, &magnitude)?;
+    if let Some(v) = velocity {
+        writer = writer.point_field("velocity", 3, v)?;
+    }
+    writer
+        .cell_field("von_mises", 1, &von_mises)?
+        .cell_field("strain_energy_density", 1, &energy)?
+        .write(path)
+}
