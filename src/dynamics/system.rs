@@ -147,23 +147,23 @@ impl LinearSystem {
                 format!("must all have the free DOF count {n}"),
             ));
         }
-        if let Mass::Lumped(m) = &mass {
-            if let Some(i) = m.iter().position(|m| !(m.is_finite() && *m > 0.0)) {
-                return Err(Error::invalid_parameter(
-                    format!("lumped mass of free DOF {i}"),
-                    m[i],
-                    "must be finite and > 0 (a node with no tet?)",
-                ));
-            }
+        if let Mass::Lumped(m) = &mass
+            && let Some(i) = m.iter().position(|m| !(m.is_finite() && *m > 0.0))
+        {
+            return Err(Error::invalid_parameter(
+                format!("lumped mass of free DOF {i}"),
+                m[i],
+                "must be finite and > 0 (a node with no tet?)",
+            ));
         }
-        if let Mass::Consistent(m) = &mass {
-            if !Arc::ptr_eq(m.pattern(), stiffness.pattern()) {
-                return Err(Error::invalid_parameter(
-                    "consistent mass",
-                    "another pattern",
-                    "must share the stiffness matrix's pattern",
-                ));
-            }
+        if let Mass::Consistent(m) = &mass
+            && !Arc::ptr_eq(m.pattern(), stiffness.pattern())
+        {
+            return Err(Error::invalid_parameter(
+                "consistent mass",
+                "another pattern",
+                "must share the stiffness matrix's pattern",
+            ));
         }
         let external = gravity_load
             .iter()
