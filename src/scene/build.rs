@@ -47,8 +47,13 @@ pub struct BuiltScene {
     pub material: Material,
     /// The constraints.
     pub constraints: Constraints,
-    /// The loads, as one nodal force vector.
+    /// The loads, as one nodal force vector (gravity included).
     pub loads: Loads,
+    /// The loads other than gravity (what a dynamic run passes to
+    /// [`LinearSystem::new`](crate::dynamics::LinearSystem::new), which tracks gravity apart).
+    pub other_loads: Loads,
+    /// The sum of the scene's gravity entries (acceleration, m/s² in SI).
+    pub gravity: Vector3<f64>,
     /// The probes.
     pub probes: Vec<Probe>,
 }
@@ -128,14 +133,15 @@ impl Scene {
             }
         }
         let mut loads = Loads::new(&mesh);
+        let mut other_loads = Loads::new(&mesh);
+        let mut gravity = Vector3::zeros();
         for (i, l) in spec.loads.iter().enumerate() {
-            ctx.add_load(
-                &mut loads,
-                &material,
-                l.get_ref(),
-                &format!("loads[{i}]"),
-                &l.span(),
-            )?;
+            let key = format!("loads[{i}]");
+            ctx.add_load(&mut loads, &material, l.get_ref(), &key, &l.span())?;
+            match l.get_ref().gravity {
+                Some(g) => gravity += Vector3::from(g),
+                None => ctx.add_load(&mut other_loads, &material, l.get_ref(), &key, &l.span())?,
+            }
         }
         let mut probes = Vec::new();
         for (i, p) in spec.probes.iter().enumerate() {
@@ -161,6 +167,8 @@ impl Scene {
             material,
             constraints,
             loads,
+            other_loads,
+            gravity,
             probes,
         })
     }

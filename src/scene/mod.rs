@@ -7,10 +7,15 @@
 //! [`Error::Scene`] errors naming the key and its line.
 
 mod build;
+mod dynamic;
 mod run;
 mod spec;
 
 pub use build::{BuiltScene, Probe};
+pub use dynamic::{
+    DynamicOutputs, DynamicOverrides, DynamicRun, DynamicSetup, DynamicSummary, EnergyTerms,
+    ProbeRange, RunLength, TimeStep, run_dynamic, run_dynamic_scene,
+};
 pub use run::{ProbeValue, RunOptions, RunSummary, run_static, run_static_with};
 pub use spec::*;
 
