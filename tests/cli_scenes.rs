@@ -133,20 +133,17 @@ fn static_scenes_run_through_the_cli() {
             .3
             .iter()
             .fold(0.0, |a: f64, &b| a.max(b));
-        assert_eq!(
-            max_u,
-            summary["max_displacement"].as_f64().unwrap(),
-            "{name}"
-        );
+        // serde_json parses floats to within an ulp.
+        let close = |a: f64, b: f64| (a - b).abs() <= 1e-14 * b.abs();
+        let expected = summary["max_displacement"].as_f64().unwrap();
+        assert!(close(max_u, expected), "{name}: {max_u} vs {expected}");
         let frames = parse_pvd(&dir.join(format!("{stem}.pvd")));
         assert_eq!(frames, vec![(0.0, format!("{stem}.vtu"))], "{name}");
         let (header, rows) = parse_csv(&dir.join(format!("{stem}_probes.csv")));
         assert_eq!(rows.len(), 1, "{name}");
         let uz = rows[0][column(&header, &format!("{probe}_uz"))];
-        assert_eq!(
-            uz,
-            summary["probes"][0]["displacement"][2].as_f64().unwrap()
-        );
+        let expected = summary["probes"][0]["displacement"][2].as_f64().unwrap();
+        assert!(close(uz, expected), "{name}: {uz} vs {expected}");
         // Every shipped static scene asks for a PNG.
         assert!(dir.join(format!("{stem}.png")).is_file(), "{name}");
         assert!(dir.join(format!("{stem}_summary.json")).is_file(), "{name}");
@@ -243,9 +240,10 @@ fn dynamic_scene_runs_short_with_frames_series_and_pngs() {
     assert_eq!(rows[0][column(&header, "kinetic")], 0.0);
     assert!(rows[25][uz] < 0.0);
     let last = &summary["probes"][0];
-    assert_eq!(last["last"][2].as_f64().unwrap(), rows[25][uz]);
+    let close = |a: f64, b: f64| (a - b).abs() <= 1e-14 * b.abs();
+    assert!(close(last["last"][2].as_f64().unwrap(), rows[25][uz]));
     let min = rows.iter().map(|r| r[uz]).fold(f64::INFINITY, f64::min);
-    assert_eq!(last["min"][2].as_f64().unwrap(), min);
+    assert!(close(last["min"][2].as_f64().unwrap(), min));
     // Backward Euler only dissipates: the total energy never rises from step to step.
     let total = column(&header, "total_energy");
     for pair in rows.windows(2) {
@@ -274,8 +272,8 @@ fn explicit_above_its_critical_step_fails_with_a_divergence_message() {
             "--dt",
             dt,
             "--steps",
-            "3000",
-            "--quiet",
+            "400",
+            "--json",
         ])
     };
     let output = run("2crit");
@@ -284,9 +282,10 @@ fn explicit_above_its_critical_step_fails_with_a_divergence_message() {
     assert!(stderr.contains("diverged"), "{stderr}");
     assert!(!stderr.contains("panicked"), "{stderr}");
     // The same run below the critical step completes.
-    let output = run("0.9crit");
-    let stdout = expect_success(&output);
-    assert!(stdout.contains("explicit"), "{stdout}");
+    let summary = json(&expect_success(&run("0.9crit")));
+    assert_eq!(summary["method"], "explicit");
+    assert_eq!(summary["steps"], 400);
+    assert!((summary["dt_over_critical"].as_f64().unwrap() - 0.9).abs() < 1e-12);
 }
 
 #[test]
@@ -406,7 +405,8 @@ fn default_run_releases_the_cantilever_and_writes_the_series() {
     let highest = rows.iter().map(|r| r[uz]).fold(f64::NEG_INFINITY, f64::max);
     let lowest = rows.iter().map(|r| r[uz]).fold(f64::INFINITY, f64::min);
     assert_eq!(lowest, rows[0][uz]);
-    assert!(highest > 0.5 * rows[0][uz], "{highest} vs {}", rows[0][uz]);
+    // It swings through to the other side (backward Euler damps, but not that much).
+    assert!(highest > -0.5 * rows[0][uz], "{highest} vs {}", rows[0][uz]);
     assert!(rows.iter().any(|r| r[kinetic] > 0.0));
     let frames = parse_pvd(&dir.join("cantilever_dynamic.pvd"));
     assert!(frames.len() >= 10, "{}", frames.len());
@@ -467,7 +467,7 @@ fn bad_arguments_fail_cleanly() {
     for (args, expected) in [
         (vec!["run"], "SCENE"),
         (vec!["run", "no/such/scene.toml"], "no/such/scene.toml"),
-        (vec!["run", &dynamic_scene, "--dt", "-1"], "--dt"),
+        (vec!["run", &dynamic_scene, "--dt=-1"], "--dt"),
         (vec!["run", &dynamic_scene, "--dt", "fastcrit"], "--dt"),
         (vec!["run", &dynamic_scene, "--steps", "0"], "--steps"),
         (vec!["run", &dynamic_scene, "--method", "rk4"], "--method"),
