@@ -47,6 +47,7 @@ pub mod linsolve;
 pub mod loads;
 pub mod material;
 pub mod mesh;
+pub mod modal;
 pub mod ordering;
 pub mod output;
 pub mod quadrature;

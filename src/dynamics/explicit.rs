@@ -9,6 +9,10 @@ use crate::error::{Error, Result};
 /// central differences. No linear solve (the mass is lumped), one product with K per step; stable
 /// only for dt < 2/ω_max ([`super::critical_time_step`]). An explicit run above the critical
 /// step is allowed — the [`DivergenceGuard`] stops it with [`Error::Diverged`] once it blows up.
+///
+/// As in every leapfrog scheme the velocity it stores lives half a step behind the displacement
+/// (v⁺ is the mean velocity over the step that produced u⁺); the velocity at the displacement's
+/// time is v − dt/2·M⁻¹(K·u − f) to second order.
 #[derive(Debug)]
 pub struct SymplecticEuler {
     system: Arc<LinearSystem>,
