@@ -48,6 +48,8 @@ pub mod loads;
 pub mod material;
 pub mod mesh;
 pub mod modal;
+pub mod model;
+pub mod nonlinear;
 pub mod ordering;
 pub mod output;
 pub mod quadrature;
