@@ -55,6 +55,7 @@ pub mod output;
 pub mod quadrature;
 pub mod render;
 pub mod scene;
+pub mod simulate;
 pub mod sparse;
 pub mod statics;
 
