@@ -368,3 +368,41 @@ fn corotational_backward_euler_at_100x_the_critical_step_survives_a_large_swing(
         "final {rotation}° vs static {static_rotation}°"
     );
 }
+
+#[test]
+fn scenes_choose_the_model_by_name() {
+    let path = std::path::Path::new(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/scenes/rubber_cantilever_large.toml"
+    ));
+    let text = std::fs::read_to_string(path).unwrap();
+    let tip = |text: &str| {
+        let scene = tetfem::scene::Scene::parse(text, "test", path.parent().unwrap()).unwrap();
+        let summary = tetfem::scene::run_static_with(
+            &scene,
+            &tetfem::scene::RunOptions {
+                force_png: false,
+                no_files: true,
+            },
+        )
+        .unwrap();
+        (scene.model(), Vector3::from(summary.probes[0].displacement))
+    };
+    let (model, corotational) = tip(&text);
+    assert_eq!(model, ModelKind::Corotational);
+    let (model, linear) = tip(&text.replace("model = \"corotational\"", "model = \"linear\""));
+    assert_eq!(model, ModelKind::Linear);
+    println!("tip displacement: corotational {corotational:?}, linear {linear:?}");
+    // Large deflection: the corotational tip swings back toward the root (u_x < 0, a few cm),
+    // the linear tip moves straight down (u_x ≈ 0) and further.
+    assert!(
+        corotational.x < -0.02 && linear.x.abs() < 1e-3,
+        "{corotational:?} vs {linear:?}"
+    );
+    assert!(linear.z < corotational.z);
+    let bad = text.replace("model = \"corotational\"", "model = \"mooney\"");
+    match tetfem::scene::Scene::parse(&bad, "bad.toml", path.parent().unwrap()) {
+        Err(tetfem::Error::Scene { key, .. }) => assert_eq!(key, "analysis.model"),
+        other => panic!("expected a scene error on analysis.model, got {other:?}"),
+    }
+}
