@@ -103,21 +103,7 @@ impl Integrator for SymplecticEuler {
         }
         state.time += dt;
         state.steps += 1;
-        if state
-            .displacement
-            .iter()
-            .chain(&state.velocity)
-            .any(|x| !x.is_finite())
-        {
-            return Err(Error::Diverged {
-                step: state.steps,
-                time: state.time,
-                reason:
-                    "a displacement or velocity is no longer finite; is dt above the critical step?"
-                        .into(),
-            });
-        }
-        Ok(())
+        state.ensure_finite("; is dt above the critical step?")
     }
 
     fn time_step(&self) -> f64 {

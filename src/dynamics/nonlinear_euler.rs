@@ -167,18 +167,6 @@ impl NonlinearBackwardEuler {
         }
         state.time += dt;
         state.steps += 1;
-        if state
-            .displacement
-            .iter()
-            .chain(&state.velocity)
-            .any(|v| !v.is_finite())
-        {
-            return Err(Error::Diverged {
-                step: state.steps,
-                time: state.time,
-                reason: "a displacement or velocity is no longer finite".into(),
-            });
-        }
-        Ok(())
+        state.ensure_finite("")
     }
 }
