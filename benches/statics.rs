@@ -91,5 +91,10 @@ fn pipeline(c: &mut Criterion) {
     }
 }
 
-criterion_group!(benches, element, pipeline);
+criterion_group! {
+    name = benches;
+    // No HTML plots: criterion's plotting needs system fonts, which a headless machine lacks.
+    config = Criterion::default().without_plots();
+    targets = element, pipeline
+}
 criterion_main!(benches);

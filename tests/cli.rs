@@ -94,3 +94,165 @@ fn invalid_arguments_fail_with_a_message_and_no_output() {
         .unwrap();
     assert!(!output.status.success());
 }
+
+fn tetfem(args: &[&str]) -> std::process::Output {
+    Command::new(env!("CARGO_BIN_EXE_tetfem"))
+        .args(args)
+        .output()
+        .unwrap()
+}
+
+#[test]
+fn default_dynamic_run_writes_a_pvd_series_and_a_csv() {
+    let dir = out_dir("cli-dynamic");
+    let d = dir.to_str().unwrap();
+    let output = tetfem(&[
+        "--cells",
+        "10,1,1",
+        "--dynamic-cells",
+        "10,1,1",
+        "--periods",
+        "0.5",
+        "--out",
+        d,
+    ]);
+    let stdout = String::from_utf8_lossy(&output.stdout);
+    assert!(
+        output.status.success(),
+        "{stdout}\n{}",
+        String::from_utf8_lossy(&output.stderr)
+    );
+    assert!(
+        stdout.contains("explicit critical step") && stdout.contains("per step"),
+        "{stdout}"
+    );
+    // The .pvd lists the frames with increasing times, and every frame exists and parses.
+    let pvd = std::fs::read_to_string(dir.join("cantilever_dynamic.pvd")).unwrap();
+    let doc = roxmltree::Document::parse(&pvd).unwrap();
+    let frames: Vec<(f64, String)> = doc
+        .descendants()
+        .filter(|n| n.has_tag_name("DataSet"))
+        .map(|n| {
+            (
+                n.attribute("timestep").unwrap().parse().unwrap(),
+                n.attribute("file").unwrap().to_string(),
+            )
+        })
+        .collect();
+    assert!(frames.len() > 2);
+    assert!(frames.windows(2).all(|w| w[1].0 > w[0].0));
+    for (_, file) in &frames {
+        let vtu = common::parse_vtu(&std::fs::read_to_string(dir.join(file)).unwrap());
+        assert!(vtu.array("displacement").is_some() && vtu.array("velocity").is_some());
+    }
+    // CSV: header with the tip and every energy term, one row per frame.
+    let csv = std::fs::read_to_string(dir.join("cantilever_dynamic.csv")).unwrap();
+    let mut lines = csv.lines();
+    let header = lines.next().unwrap();
+    for column in [
+        "time",
+        "tip_uz",
+        "kinetic",
+        "elastic",
+        "gravity_potential",
+        "total",
+        "wall_seconds_per_step",
+    ] {
+        assert!(header.contains(column), "{header}");
+    }
+    // One row per step, the initial state included; the last frame is the last step.
+    let rows: Vec<Vec<f64>> = lines
+        .map(|l| l.split(',').map(|v| v.parse().unwrap()).collect())
+        .collect();
+    let last = rows.last().unwrap();
+    assert_eq!(
+        (last[0], last[1]),
+        (frames.last().unwrap().0, (rows.len() - 1) as f64)
+    );
+    assert!(rows.len() >= frames.len());
+}
+
+#[test]
+fn explicit_above_its_critical_step_fails_with_a_divergence_message() {
+    let dir = out_dir("cli-diverge");
+    let output = tetfem(&[
+        "--cells",
+        "10,1,1",
+        "--dynamic-cells",
+        "10,1,1",
+        "--method",
+        "explicit",
+        "--dt",
+        "1e-4",
+        "--out",
+        dir.to_str().unwrap(),
+    ]);
+    assert!(!output.status.success());
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(
+        stderr.contains("diverged") && stderr.contains("critical step"),
+        "{stderr}"
+    );
+    // The frames written before the blow-up still form a valid collection.
+    let pvd = std::fs::read_to_string(dir.join("cantilever_dynamic.pvd")).unwrap();
+    assert!(roxmltree::Document::parse(&pvd).is_ok());
+}
+
+#[test]
+fn every_shipped_scene_runs() {
+    for entry in std::fs::read_dir(concat!(env!("CARGO_MANIFEST_DIR"), "/scenes")).unwrap() {
+        let path = entry.unwrap().path();
+        if path.extension().and_then(|e| e.to_str()) != Some("toml") {
+            continue;
+        }
+        let dir = out_dir(&format!(
+            "cli-scene-{}",
+            path.file_stem().unwrap().to_string_lossy()
+        ));
+        let output = tetfem(&[
+            "run",
+            path.to_str().unwrap(),
+            "--out",
+            dir.to_str().unwrap(),
+            "--json",
+        ]);
+        let stdout = String::from_utf8_lossy(&output.stdout);
+        assert!(
+            output.status.success(),
+            "{}: {stdout}\n{}",
+            path.display(),
+            String::from_utf8_lossy(&output.stderr)
+        );
+        let summary: serde_json::Value = serde_json::from_str(stdout.trim()).unwrap();
+        assert!(summary["title"].is_string(), "{summary}");
+        assert!(
+            std::fs::read_dir(&dir).unwrap().count() > 0,
+            "{}: no files",
+            path.display()
+        );
+    }
+}
+
+#[test]
+fn info_reports_the_mesh_counts() {
+    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/l_bracket.msh");
+    let mesh = tetfem::mesh::io::read_mesh(std::path::Path::new(path)).unwrap();
+    let output = tetfem(&["info", path, "--material", "200e9,0.3,7850"]);
+    let stdout = String::from_utf8_lossy(&output.stdout);
+    assert!(output.status.success(), "{stdout}");
+    assert!(
+        stdout.contains(&format!("nodes {}", mesh.mesh.node_count())),
+        "{stdout}"
+    );
+    assert!(
+        stdout.contains(&format!("tets {}", mesh.mesh.tet_count())),
+        "{stdout}"
+    );
+    assert!(stdout.contains("critical step"), "{stdout}");
+    assert!(!tetfem(&["info", "/nonexistent.msh"]).status.success());
+    assert!(
+        !tetfem(&["info", path, "--material", "1,0.7,1"])
+            .status
+            .success()
+    );
+}

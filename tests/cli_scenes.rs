@@ -206,11 +206,11 @@ fn dynamic_scene_runs_short_with_frames_series_and_pngs() {
     }
 
     // One CSV row per step plus the initial state.
-    let (header, rows) = parse_csv(&dir.join("cantilever_dynamic_series.csv"));
+    let (header, rows) = parse_csv(&dir.join("cantilever_dynamic.csv"));
     for c in [
         "time",
         "step",
-        "wall_seconds",
+        "wall_seconds_per_step",
         "tip_ux",
         "tip_uy",
         "tip_uz",
@@ -218,7 +218,7 @@ fn dynamic_scene_runs_short_with_frames_series_and_pngs() {
         "elastic",
         "gravity_potential",
         "load_potential",
-        "total_energy",
+        "total",
     ] {
         column(&header, c);
     }
@@ -227,7 +227,7 @@ fn dynamic_scene_runs_short_with_frames_series_and_pngs() {
     let (t, step, wall, uz) = (
         column(&header, "time"),
         column(&header, "step"),
-        column(&header, "wall_seconds"),
+        column(&header, "wall_seconds_per_step"),
         column(&header, "tip_uz"),
     );
     for (i, row) in rows.iter().enumerate() {
@@ -245,7 +245,7 @@ fn dynamic_scene_runs_short_with_frames_series_and_pngs() {
     let min = rows.iter().map(|r| r[uz]).fold(f64::INFINITY, f64::min);
     assert!(close(last["min"][2].as_f64().unwrap(), min));
     // Backward Euler only dissipates: the total energy never rises from step to step.
-    let total = column(&header, "total_energy");
+    let total = column(&header, "total");
     for pair in rows.windows(2) {
         assert!(
             pair[1][total] <= pair[0][total] + 1e-12 * pair[0][total].abs().max(1e-9),
@@ -397,7 +397,7 @@ fn default_run_releases_the_cantilever_and_writes_the_series() {
             "missing '{expected}' in:\n{stdout}"
         );
     }
-    let (header, rows) = parse_csv(&dir.join("cantilever_dynamic_series.csv"));
+    let (header, rows) = parse_csv(&dir.join("cantilever_dynamic.csv"));
     let (uz, kinetic) = (column(&header, "tip_uz"), column(&header, "kinetic"));
     // Released at rest from the loaded shape: the tip starts down, then rises once the end
     // load is gone (its lowest point is the start), and the beam moves.

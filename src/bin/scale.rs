@@ -285,15 +285,18 @@ fn study(cli: &Cli) -> Result<(), Box<dyn std::error::Error>> {
     } else {
         "scale_results.txt"
     });
-    let mut runs: Vec<Run> = if cli.resume {
-        std::fs::read_to_string(&raw_path)
-            .unwrap_or_default()
-            .lines()
-            .filter_map(decode)
-            .collect()
+    let previous = if cli.resume {
+        std::fs::read_to_string(&raw_path).unwrap_or_default()
     } else {
-        Vec::new()
+        String::new()
     };
+    let mut runs: Vec<Run> = previous.lines().filter_map(decode).collect();
+    // Failed runs are kept as "FAILED k method threads: reason" lines: reported, not retried.
+    let mut failures: Vec<String> = previous
+        .lines()
+        .filter(|l| l.starts_with("FAILED "))
+        .map(String::from)
+        .collect();
     let mut plan: Vec<(usize, &str, usize)> = ks.iter().map(|&k| (k, "direct", 1)).collect();
     // Two threads at a few sizes; block-Jacobi CG only where it converges in reasonable time
     // (on K alone its iteration count grows with the mesh; see the report).
@@ -304,9 +307,11 @@ fn study(cli: &Cli) -> Result<(), Box<dyn std::error::Error>> {
         plan.push((k, "iterative", 2));
     }
     for (k, method, threads) in plan {
+        let key = format!("FAILED {k} {method} {threads}:");
         if runs
             .iter()
             .any(|r| r.k == k && r.method == method && r.threads == threads)
+            || failures.iter().any(|f| f.starts_with(&key))
         {
             continue;
         }
@@ -330,17 +335,28 @@ fn study(cli: &Cli) -> Result<(), Box<dyn std::error::Error>> {
                     run.dofs, run.seconds[5], run.seconds[6], run.peak_mib[6]
                 );
                 runs.push(run);
-                let lines: String = runs.iter().map(|r| encode(r) + "\n").collect();
-                tetfem::output::write_atomically(&raw_path, |w| w.write_all(lines.as_bytes()))?;
             }
-            None => eprintln!("  failed: {}", String::from_utf8_lossy(&out.stderr).trim()),
+            None => {
+                let reason = String::from_utf8_lossy(&out.stderr)
+                    .trim()
+                    .replace('\n', " ");
+                eprintln!("  failed: {reason}");
+                failures.push(format!("{key} {reason}"));
+            }
         }
+        let lines: String = runs
+            .iter()
+            .map(encode)
+            .chain(failures.iter().cloned())
+            .map(|l| l + "\n")
+            .collect();
+        tetfem::output::write_atomically(&raw_path, |w| w.write_all(lines.as_bytes()))?;
     }
     runs.sort_by_key(|r| (r.method != "direct", r.threads, r.k));
-    report(cli, &runs)
+    report(cli, &runs, &failures)
 }
 
-fn report(cli: &Cli, runs: &[Run]) -> Result<(), Box<dyn std::error::Error>> {
+fn report(cli: &Cli, runs: &[Run], failures: &[String]) -> Result<(), Box<dyn std::error::Error>> {
     let bandwidth = triad_bandwidth();
     let serial: Vec<&Run> = runs
         .iter()
@@ -400,6 +416,17 @@ fn report(cli: &Cli, runs: &[Run]) -> Result<(), Box<dyn std::error::Error>> {
             r.residual,
             r.tip
         )?;
+    }
+    if !failures.is_empty() {
+        writeln!(md)?;
+        writeln!(
+            md,
+            "Runs that did not finish (kept in the raw results, not retried):"
+        )?;
+        writeln!(md)?;
+        for f in failures {
+            writeln!(md, "- k = {}", f.trim_start_matches("FAILED "))?;
+        }
     }
     writeln!(md)?;
     writeln!(

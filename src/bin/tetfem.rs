@@ -30,9 +30,8 @@ use tetfem::{Error, Material};
 ///
 /// 2. Dynamic (unless --static-only): on a coarser mesh (--dynamic-cells, 40×4×4), the beam is
 ///    released from rest in its loaded static shape with the end load removed (gravity stays)
-///    and swings for --periods periods of its first mode (estimated from the Rayleigh quotient of
-///    that shape) with --method at --dt. It writes `<out>/cantilever_dynamic.pvd` with its `.vtu`
-///    frames (open the `.pvd` in ParaView to play the animation), `cantilever_dynamic_series.csv`
+///    and swings for --periods periods of its first mode (from the modal solver) with --method
+///    at --dt. It writes `<out>/cantilever_dynamic.pvd` with its `.vtu` frames (open the `.pvd` in ParaView to play the animation), `cantilever_dynamic.csv`
 ///    (time, tip displacement, each energy term, wall time per step) and a JSON summary, and
 ///    reports the wall time per step and the explicit critical step.
 ///
@@ -54,7 +53,7 @@ enum Command {
     /// Static scenes write `<stem>.vtu` (+ a one-frame `.pvd`), `<stem>_probes.csv` and
     /// `<stem>_summary.json`. Dynamic scenes write a `.vtu` frame every `output.every` steps
     /// with `<stem>.pvd` listing them with their times (open it in ParaView to play the run),
-    /// `<stem>_series.csv` (time, step, wall time per step, each probe's mean displacement, each
+    /// `<stem>.csv` (time, step, wall time per step, each probe's mean displacement, each
     /// energy term: one row per step) and `<stem>_summary.json`. With `--png` (or
     /// `output.png = true`), each frame is also rendered to `<stem>_<step>.png`.
     ///
@@ -363,9 +362,7 @@ fn run_default_dynamic(cli: &DefaultScene) -> tetfem::Result<()> {
         "tetfem: dynamic cantilever, released from its loaded static shape with the end load removed (gravity stays)"
     );
     let setup = DynamicSetup::released_cantilever(&beam)?;
-    let period = setup
-        .rayleigh_period(&setup.initial.displacement)
-        .ok_or_else(|| Error::Solver("the released shape has no deflection".into()))?;
+    let period = setup.first_mode_period()?;
     println!(
         "  mesh {}×{}×{} cells (coarser than the static one, so that the run takes seconds; set --dynamic-cells): {} nodes, {} tets, {} free DOFs",
         c[0],
@@ -376,7 +373,7 @@ fn run_default_dynamic(cli: &DefaultScene) -> tetfem::Result<()> {
         setup.system.free_count()
     );
     println!(
-        "  first bending mode (Rayleigh quotient of the released shape): period {:.4e} s, f = {:.2} Hz",
+        "  first natural mode (modal solver): period {:.4e} s, f = {:.2} Hz",
         period,
         1.0 / period
     );

@@ -2,7 +2,7 @@
 
 use std::sync::Arc;
 
-use super::{DivergenceGuard, Integrator, LinearSystem, Mass, State, check_time_step};
+use super::{DivergenceGuard, Integrator, LinearSystem, State, check_time_step};
 use crate::error::{Error, Result};
 use crate::linsolve::SparseCholesky;
 use crate::sparse::CscMatrix;
@@ -52,19 +52,8 @@ impl BackwardEuler {
     fn factor(&mut self) -> Result<()> {
         let (dt, damping) = (self.dt, self.system.damping());
         let (mass_scale, stiffness_scale) = (1.0 + dt * damping.alpha, dt * damping.beta + dt * dt);
-        let k = self.system.stiffness();
-        match self.system.mass() {
-            Mass::Consistent(m) => {
-                self.matrix
-                    .set_linear_combination(stiffness_scale, k, mass_scale, m)?
-            }
-            Mass::Lumped(m) => {
-                for (a, kv) in self.matrix.values_mut().iter_mut().zip(k.values()) {
-                    *a = stiffness_scale * kv;
-                }
-                self.matrix.add_diagonal(mass_scale, m)?;
-            }
-        }
+        self.system
+            .combine_into(stiffness_scale, mass_scale, &mut self.matrix)?;
         self.cholesky.factorize(&self.matrix)?;
         self.factored_for = Some(dt);
         Ok(())

@@ -9,6 +9,10 @@ use crate::error::{Error, Result};
 /// central differences. No linear solve (the mass is lumped), one product with K per step; stable
 /// only for dt < 2/ω_max ([`super::critical_time_step`]). An explicit run above the critical
 /// step is allowed — the [`DivergenceGuard`] stops it with [`Error::Diverged`] once it blows up.
+///
+/// As in every leapfrog scheme the velocity it stores lives half a step behind the displacement
+/// (v⁺ is the mean velocity over the step that produced u⁺); the velocity at the displacement's
+/// time is v − dt/2·M⁻¹(K·u − f) to second order.
 #[derive(Debug)]
 pub struct SymplecticEuler {
     system: Arc<LinearSystem>,
@@ -99,21 +103,7 @@ impl Integrator for SymplecticEuler {
         }
         state.time += dt;
         state.steps += 1;
-        if state
-            .displacement
-            .iter()
-            .chain(&state.velocity)
-            .any(|x| !x.is_finite())
-        {
-            return Err(Error::Diverged {
-                step: state.steps,
-                time: state.time,
-                reason:
-                    "a displacement or velocity is no longer finite; is dt above the critical step?"
-                        .into(),
-            });
-        }
-        Ok(())
+        state.ensure_finite("; is dt above the critical step?")
     }
 
     fn time_step(&self) -> f64 {

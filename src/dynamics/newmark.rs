@@ -62,19 +62,8 @@ impl Newmark {
             1.0 + 2.0 * damping.beta / dt,
             4.0 / (dt * dt) + 2.0 * damping.alpha / dt,
         );
-        let k = self.system.stiffness();
-        match self.system.mass() {
-            Mass::Consistent(m) => {
-                self.matrix
-                    .set_linear_combination(stiffness_scale, k, mass_scale, m)?
-            }
-            Mass::Lumped(m) => {
-                for (a, kv) in self.matrix.values_mut().iter_mut().zip(k.values()) {
-                    *a = stiffness_scale * kv;
-                }
-                self.matrix.add_diagonal(mass_scale, m)?;
-            }
-        }
+        self.system
+            .combine_into(stiffness_scale, mass_scale, &mut self.matrix)?;
         self.cholesky.factorize(&self.matrix)?;
         self.factored_for = Some(dt);
         Ok(())

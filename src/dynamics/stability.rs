@@ -84,19 +84,11 @@ pub fn critical_time_step(system: &LinearSystem) -> Result<CriticalStep> {
     })
 }
 
-/// The element bound on the explicit critical step: 2/max_e √λ_max(Mₑ⁻¹Kₑ) with each tet's
-/// lumped mass ρV/4 per node. Since the assembled Rayleigh quotient uᵀKu/uᵀMu never exceeds the
-/// largest element one, this step is never above the true critical step (a safe choice).
+/// The element bound on the explicit critical step, 2/maxₑ ωₑ with ωₑ² = λ_max(Kₑ)/(ρVₑ/4):
+/// never above the true critical step (see [`crate::mesh::critical_time_step`], which
+/// computes it together with the geometric estimate).
 pub fn element_critical_step(mesh: &TetMesh, material: &Material) -> f64 {
-    let mut lambda_max: f64 = 0.0;
-    for t in 0..mesh.tet_count() {
-        let element = mesh.element(t);
-        let k = element.stiffness(material);
-        let eigenvalues = nalgebra::SymmetricEigen::new(k).eigenvalues;
-        let largest = eigenvalues.iter().copied().fold(0.0, f64::max);
-        lambda_max = lambda_max.max(largest / element.lumped_mass(material.density()));
-    }
-    2.0 / lambda_max.sqrt()
+    crate::mesh::critical_time_step(mesh, material).dt_element
 }
 
 /// Catches a run that blows up: a non-finite value, or a kinetic + elastic energy far above
@@ -123,17 +115,13 @@ impl DivergenceGuard {
 
     /// Checks `state` with its energies `energy`; `Err(Diverged)` names the step and time.
     pub fn check(&self, state: &State, energy: &Energy) -> Result<()> {
-        let finite = state
-            .displacement
-            .iter()
-            .chain(&state.velocity)
-            .all(|v| v.is_finite());
+        state.ensure_finite("")?;
         let motion = energy.kinetic + energy.elastic;
-        if !finite || !motion.is_finite() {
+        if !motion.is_finite() {
             return Err(Error::Diverged {
                 step: state.steps,
                 time: state.time,
-                reason: "a displacement or velocity is no longer finite".into(),
+                reason: "the kinetic or elastic energy is no longer finite".into(),
             });
         }
         let work = energy.external_work_since(&self.start).abs();

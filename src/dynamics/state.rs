@@ -35,3 +35,23 @@ impl State {
         }
     }
 }
+
+impl State {
+    /// `Err(Diverged)` naming this step if any displacement or velocity is NaN or infinite;
+    /// `hint` is appended to the reason.
+    pub fn ensure_finite(&self, hint: &str) -> crate::error::Result<()> {
+        if self
+            .displacement
+            .iter()
+            .chain(&self.velocity)
+            .all(|v| v.is_finite())
+        {
+            return Ok(());
+        }
+        Err(crate::error::Error::Diverged {
+            step: self.steps,
+            time: self.time,
+            reason: format!("a displacement or velocity is no longer finite{hint}"),
+        })
+    }
+}

@@ -252,6 +252,34 @@ impl LinearSystem {
         }
     }
 
+    /// Fills `out` (on K_ff's pattern) with a·K + b·M, entry-wise: the system matrices of the
+    /// implicit methods, formed without a new sparse sum.
+    pub fn combine_into(
+        &self,
+        stiffness_scale: f64,
+        mass_scale: f64,
+        out: &mut CscMatrix,
+    ) -> Result<()> {
+        match &self.mass {
+            Mass::Consistent(m) => {
+                out.set_linear_combination(stiffness_scale, &self.stiffness, mass_scale, m)
+            }
+            Mass::Lumped(m) => {
+                if !Arc::ptr_eq(out.pattern(), self.stiffness.pattern()) {
+                    return Err(Error::invalid_parameter(
+                        "matrix",
+                        "another pattern",
+                        "must be on K_ff's pattern",
+                    ));
+                }
+                for (a, k) in out.values_mut().iter_mut().zip(self.stiffness.values()) {
+                    *a = stiffness_scale * k;
+                }
+                out.add_diagonal(mass_scale, m)
+            }
+        }
+    }
+
     /// The load potentials of `state` (the kinetic and elastic terms left zero).
     pub fn energy_potentials(&self, state: &State) -> Energy {
         Energy {

@@ -8,12 +8,7 @@ use crate::error::{Error, Result};
 use crate::material::Material;
 use crate::mesh::TetMesh;
 
-/// Von Mises equivalent stress √(3/2 · s:s), s = σ − tr(σ)/3·I the deviatoric stress (stress
-/// units). Equals |σ_xx| in uniaxial tension and √3·|τ| in pure shear.
-pub fn von_mises(stress: &Matrix3<f64>) -> f64 {
-    let deviator = stress - Matrix3::identity() * (stress.trace() / 3.0);
-    (1.5 * deviator.component_mul(&deviator).sum()).sqrt()
-}
+pub use crate::element::von_mises;
 
 fn check_displacement(mesh: &TetMesh, displacement: &[f64]) -> Result<()> {
     if displacement.len() != mesh.dof_count() {

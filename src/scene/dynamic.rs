@@ -177,17 +177,16 @@ impl DynamicSetup {
         })
     }
 
-    /// The period 2π/ω (time units) of the vibration whose shape is `shape` (free DOFs), with ω²
-    /// its Rayleigh quotient uᵀKu / uᵀMu. For a static deflection shape this is an upper bound
-    /// on ω₁, accurate to a few per cent for a cantilever; `None` for a zero shape.
-    pub fn rayleigh_period(&self, shape: &[f64]) -> Option<f64> {
-        let k = self.system.stiffness();
-        let mut ku = vec![0.0; shape.len()];
-        k.mul_vec(shape, &mut ku);
-        let uku: f64 = shape.iter().zip(&ku).map(|(a, b)| a * b).sum();
-        let umu = self.system.mass().quadratic_form(shape);
-        let omega = (uku / umu).sqrt();
-        (omega.is_finite() && omega > 0.0).then(|| 2.0 * std::f64::consts::PI / omega)
+    /// The period 2π/ω₁ (time units) of the lowest natural mode of the constrained body, from
+    /// [`lowest_modes`](crate::modal::lowest_modes).
+    pub fn first_mode_period(&self) -> Result<f64> {
+        let modes = crate::modal::lowest_modes(&self.system, 1)?;
+        match modes.omega.first() {
+            Some(&omega) if omega.is_finite() && omega > 0.0 => {
+                Ok(2.0 * std::f64::consts::PI / omega)
+            }
+            _ => Err(Error::Solver("no positive lowest natural frequency".into())),
+        }
     }
 
     /// The explicit critical step and how it was found: 2/ω_max by power iteration for a lumped
@@ -342,8 +341,9 @@ pub struct DynamicOutputs {
 ///
 /// Outputs (when `outputs` is given) go to the settings' folder: `<stem>_<step>.vtu` every
 /// `every` steps and at the last step, with `<stem>.pvd` listing them and their times (rewritten
-/// after every frame, so it is valid at any moment); `<stem>_series.csv` with one row per step
-/// (time, step, wall time of the step, each probe's mean displacement, each energy term);
+/// after every frame, so it is valid at any moment);
+/// `<stem>.csv` with one row per step, the initial state included (time, step, wall time of
+/// the step, each probe's mean displacement, each energy term and their total);
 /// `<stem>_<step>.png` frames (fixed colour range and magnification across frames); and
 /// `<stem>_summary.json`.
 ///
@@ -517,7 +517,7 @@ impl FrameWriter {
         })?;
         let csv = if s.csv {
             let mut columns: Vec<String> =
-                vec!["time".into(), "step".into(), "wall_seconds".into()];
+                vec!["time".into(), "step".into(), "wall_seconds_per_step".into()];
             for p in &setup.probes {
                 for c in ["ux", "uy", "uz"] {
                     columns.push(format!("{}_{c}", p.name));
@@ -528,12 +528,12 @@ impl FrameWriter {
                 "elastic",
                 "gravity_potential",
                 "load_potential",
-                "total_energy",
+                "total",
             ] {
                 columns.push(e.into());
             }
             Some(CsvSeries::new(
-                s.directory.join(format!("{}_series.csv", s.stem)),
+                s.directory.join(format!("{}.csv", s.stem)),
                 columns,
             )?)
         } else {

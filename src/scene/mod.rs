@@ -148,6 +148,7 @@ pub struct Scene {
     base_dir: PathBuf,
     stem: String,
     analysis: Analysis,
+    model: crate::model::ModelKind,
     output: OutputSettings,
 }
 
@@ -195,6 +196,7 @@ impl Scene {
             base_dir: base_dir.to_path_buf(),
             stem: "scene".to_string(),
             analysis: Analysis::Static,
+            model: crate::model::ModelKind::Linear,
             output: OutputSettings {
                 directory: PathBuf::new(),
                 stem: String::new(),
@@ -208,6 +210,7 @@ impl Scene {
             },
         };
         scene.analysis = scene.check_analysis()?;
+        scene.model = scene.check_model()?;
         scene.output = scene.output_settings()?;
         Ok(scene)
     }
@@ -235,6 +238,38 @@ impl Scene {
     /// The validated analysis.
     pub fn analysis(&self) -> &Analysis {
         &self.analysis
+    }
+
+    /// The force model (`analysis.model`; linear by default).
+    pub fn model(&self) -> crate::model::ModelKind {
+        self.model
+    }
+
+    fn check_model(&self) -> Result<crate::model::ModelKind> {
+        let Some(spanned) = &self.spec.analysis else {
+            return Ok(crate::model::ModelKind::Linear);
+        };
+        let Some(name) = &spanned.get_ref().model else {
+            return Ok(crate::model::ModelKind::Linear);
+        };
+        let kind: crate::model::ModelKind = name.parse().map_err(|_| {
+            self.error(
+                "analysis.model",
+                &spanned.span(),
+                format!(
+                    "unknown model '{name}': use \"linear\", \"corotational\" or \"neo-hookean\""
+                ),
+            )
+        })?;
+        if kind != crate::model::ModelKind::Linear && matches!(self.analysis, Analysis::Dynamic(_))
+        {
+            return Err(self.error(
+                "analysis.model",
+                &spanned.span(),
+                "nonlinear models run in static scenes (and through the library's NonlinearBackwardEuler); dynamic scene files integrate the linear model",
+            ));
+        }
+        Ok(kind)
     }
 
     /// The output settings, defaults filled in.

@@ -217,6 +217,10 @@ pub struct AnalysisSpec {
     /// Dynamic: initial velocity of every node (m/s, default zero).
     #[serde(default)]
     pub initial_velocity: Option<[f64; 3]>,
+    /// Static: the force model, `"linear"` (default), `"corotational"` or `"neo-hookean"`; the
+    /// nonlinear ones are solved by Newton with load steps.
+    #[serde(default)]
+    pub model: Option<String>,
 }
 
 /// Static or dynamic.

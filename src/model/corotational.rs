@@ -1,0 +1,85 @@
+//! Corotational linear elasticity (stiffness warping).
+
+use nalgebra::{Matrix3, Vector3};
+
+use super::{ForceModel, piola_to_force, polar::rotation, tangent_from_piola_derivative};
+use crate::element::{Matrix12, Tet, Vector12, rest_shape_matrix};
+use crate::material::Material;
+
+/// Linear elasticity in a frame that rotates with each tet: R from the polar decomposition of
+/// F = Ds·Dm⁻¹ ([`rotation`], robust to inverted tets), S = RᵀF, strain S − I.
+///
+/// Energy V·(μ‖F − R‖² + λ/2·tr²(S − I)); force f = −R·Kₑ·(Rᵀx − X), which is the exact
+/// gradient of that energy (P = 2μ(F − R) + λ·tr(S − I)·R; the terms from dR cancel because S
+/// is symmetric). The tangent **includes** the rotation-derivative terms,
+/// dP = 2μ dF + (λ tr(S−I) − 2μ) dR + λ tr(RᵀdF) R with dR = R[w]×,
+/// (tr(S)·I − S)·w = axial(RᵀdF − dFᵀR): without them (the warped stiffness R·Kₑ·Rᵀ alone)
+/// Newton converges only linearly under large rotations. The exact tangent can be indefinite
+/// under compression; the assembly projects each element's tangent onto the positive
+/// semi-definite cone ([`super::project_psd`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Corotational {
+    lambda: f64,
+    mu: f64,
+}
+
+impl Corotational {
+    /// The model for `material`.
+    pub fn new(material: &Material) -> Self {
+        Corotational {
+            lambda: material.lame_lambda(),
+            mu: material.shear_modulus(),
+        }
+    }
+
+    fn kinematics(tet: &Tet, x: &[Vector3<f64>; 4]) -> (Matrix3<f64>, Matrix3<f64>, Matrix3<f64>) {
+        let f = rest_shape_matrix(x) * tet.rest_inverse();
+        let r = rotation(&f);
+        let s = r.transpose() * f;
+        (f, r, (s + s.transpose()) * 0.5)
+    }
+
+    fn piola(&self, f: &Matrix3<f64>, r: &Matrix3<f64>, s: &Matrix3<f64>) -> Matrix3<f64> {
+        (f - r) * (2.0 * self.mu) + r * (self.lambda * (s.trace() - 3.0))
+    }
+}
+
+fn axial(a: &Matrix3<f64>) -> Vector3<f64> {
+    Vector3::new(a[(2, 1)], a[(0, 2)], a[(1, 0)])
+}
+
+impl ForceModel for Corotational {
+    fn energy(&self, tet: &Tet, _rest: &[Vector3<f64>; 4], x: &[Vector3<f64>; 4]) -> f64 {
+        let (f, r, s) = Self::kinematics(tet, x);
+        let trace = s.trace() - 3.0;
+        tet.volume() * (self.mu * (f - r).norm_squared() + 0.5 * self.lambda * trace * trace)
+    }
+
+    fn force(&self, tet: &Tet, _rest: &[Vector3<f64>; 4], x: &[Vector3<f64>; 4]) -> Vector12 {
+        let (f, r, s) = Self::kinematics(tet, x);
+        piola_to_force(tet, &self.piola(&f, &r, &s))
+    }
+
+    fn tangent(&self, tet: &Tet, _rest: &[Vector3<f64>; 4], x: &[Vector3<f64>; 4]) -> Matrix12 {
+        let (_, r, s) = Self::kinematics(tet, x);
+        let system = Matrix3::identity() * s.trace() - s;
+        // Singular when two principal stretches sum to zero (a tet flattened through itself):
+        // there the rotation is not differentiable and its term is dropped.
+        let inverse = system.try_inverse();
+        let trace = s.trace() - 3.0;
+        tangent_from_piola_derivative(tet, |df| {
+            let w = inverse.map_or(Vector3::zeros(), |inv| {
+                let a = r.transpose() * df - df.transpose() * r;
+                inv * axial(&a)
+            });
+            let dr = r * w.cross_matrix();
+            df * (2.0 * self.mu)
+                + dr * (self.lambda * trace - 2.0 * self.mu)
+                + r * (self.lambda * (r.transpose() * df).trace())
+        })
+    }
+
+    fn name(&self) -> &'static str {
+        "corotational"
+    }
+}

@@ -1,0 +1,133 @@
+//! Force models: the elastic energy, internal force and tangent stiffness of one tet at a
+//! deformed configuration. The split follows Vega FEM: a model knows one element's mechanics;
+//! [`assemble`] turns it into global forces and a tangent refilled on the existing sparsity
+//! pattern; solvers ([`crate::nonlinear`]) know nothing of the model's formulas.
+//!
+//! - [`LinearModel`]: the Cauchy-strain model of the rest of tetfem (f = −Kₑ·u). Cheap, exact for
+//!   small motions, but a rigid rotation produces forces (the lecture's "visual artifacts").
+//! - [`Corotational`]: stiffness warping, f = −R·Kₑ·(Rᵀx − X) with R from the polar decomposition
+//!   of F: rotation-invariant, linear in the rotated frame.
+//! - [`NeoHookean`]: the stable Neo-Hookean energy of Smith, de Goes & Kim (2018), defined for
+//!   inverted tets too.
+
+mod corotational;
+mod linear;
+mod neo_hookean;
+mod polar;
+
+pub mod assemble;
+
+pub use corotational::Corotational;
+pub use linear::LinearModel;
+pub use neo_hookean::NeoHookean;
+pub use polar::rotation;
+
+use nalgebra::{Matrix3, SymmetricEigen, Vector3};
+
+use crate::element::{Matrix12, Tet, Vector12};
+use crate::error::{Error, Result};
+use crate::material::Material;
+
+/// One element's hyperelastic (or warped-linear) mechanics.
+pub trait ForceModel: Sync + Send {
+    /// Elastic energy of the tet at deformed positions `x` (energy units).
+    fn energy(&self, tet: &Tet, rest: &[Vector3<f64>; 4], x: &[Vector3<f64>; 4]) -> f64;
+    /// Internal elastic force on the four nodes, f = −∂E/∂x (node-major 12-vector).
+    fn force(&self, tet: &Tet, rest: &[Vector3<f64>; 4], x: &[Vector3<f64>; 4]) -> Vector12;
+    /// Tangent stiffness −∂f/∂x (12×12, symmetric; may be indefinite: see [`project_psd`]).
+    fn tangent(&self, tet: &Tet, rest: &[Vector3<f64>; 4], x: &[Vector3<f64>; 4]) -> Matrix12;
+    /// A short name (`linear`, `corotational`, `neo-hookean`).
+    fn name(&self) -> &'static str;
+}
+
+/// The models, by name.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum ModelKind {
+    /// [`LinearModel`], the default: small deformation.
+    #[default]
+    Linear,
+    /// [`Corotational`].
+    Corotational,
+    /// [`NeoHookean`].
+    NeoHookean,
+}
+
+impl std::str::FromStr for ModelKind {
+    type Err = Error;
+
+    fn from_str(name: &str) -> Result<Self> {
+        match name {
+            "linear" => Ok(ModelKind::Linear),
+            "corotational" | "corotated" => Ok(ModelKind::Corotational),
+            "neo-hookean" | "neohookean" | "hyperelastic" => Ok(ModelKind::NeoHookean),
+            other => Err(Error::invalid_parameter(
+                "model",
+                other,
+                "must be 'linear', 'corotational' or 'neo-hookean'",
+            )),
+        }
+    }
+}
+
+impl ModelKind {
+    /// The model for `material`.
+    pub fn build(self, material: &Material) -> Box<dyn ForceModel> {
+        match self {
+            ModelKind::Linear => Box::new(LinearModel::new(material)),
+            ModelKind::Corotational => Box::new(Corotational::new(material)),
+            ModelKind::NeoHookean => Box::new(NeoHookean::new(material)),
+        }
+    }
+}
+
+/// The nearest positive semi-definite matrix: eigenvalues below zero clamped to zero. Keeps the
+/// assembled tangent SPD (with constraints) so that Cholesky applies and Newton directions
+/// descend; where no eigenvalue is negative the tangent is unchanged (quadratic convergence
+/// near a stable equilibrium is kept).
+pub fn project_psd(matrix: &Matrix12) -> Matrix12 {
+    let eigen = SymmetricEigen::new(*matrix);
+    if eigen.eigenvalues.iter().all(|&l| l >= 0.0) {
+        return *matrix;
+    }
+    let clamped = eigen.eigenvalues.map(|l| l.max(0.0));
+    eigen.eigenvectors * Matrix12::from_diagonal(&clamped) * eigen.eigenvectors.transpose()
+}
+
+/// Element force −V·P·Dm⁻ᵀ from a first Piola–Kirchhoff stress P, distributed to the nodes
+/// (nodes 1..3 get the columns of −V·P·Dm⁻ᵀ, node 0 minus their sum).
+pub(crate) fn piola_to_force(tet: &Tet, piola: &Matrix3<f64>) -> Vector12 {
+    let h = -piola * tet.rest_inverse().transpose() * tet.volume();
+    let mut f = Vector12::zeros();
+    for i in 0..3 {
+        for a in 0..3 {
+            f[3 * (i + 1) + a] = h[(a, i)];
+            f[a] -= h[(a, i)];
+        }
+    }
+    f
+}
+
+/// The change dF of the deformation gradient for nodal displacement direction `dx`.
+pub(crate) fn deformation_gradient_direction(tet: &Tet, dx: &Vector12) -> Matrix3<f64> {
+    let node = |i: usize| Vector3::new(dx[3 * i], dx[3 * i + 1], dx[3 * i + 2]);
+    let d0 = node(0);
+    Matrix3::from_columns(&[node(1) - d0, node(2) - d0, node(3) - d0]) * tet.rest_inverse()
+}
+
+/// The 12×12 tangent −∂f/∂x of a model given dP(dF) (the directional derivative of its Piola
+/// stress), column by column.
+pub(crate) fn tangent_from_piola_derivative(
+    tet: &Tet,
+    dpiola: impl Fn(&Matrix3<f64>) -> Matrix3<f64>,
+) -> Matrix12 {
+    let mut k = Matrix12::zeros();
+    for j in 0..12 {
+        let mut direction = Vector12::zeros();
+        direction[j] = 1.0;
+        let df = deformation_gradient_direction(tet, &direction);
+        let column = -piola_to_force(tet, &dpiola(&df));
+        k.set_column(j, &column);
+    }
+    // Exact symmetry (the Hessian of an energy); averaging removes round-off asymmetry.
+    (k + k.transpose()) * 0.5
+}

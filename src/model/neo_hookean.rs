@@ -1,0 +1,82 @@
+//! Stable Neo-Hookean hyperelasticity (Smith, de Goes & Kim 2018).
+
+use nalgebra::{Matrix3, Vector3};
+
+use super::{ForceModel, piola_to_force, tangent_from_piola_derivative};
+use crate::element::{Matrix12, Tet, Vector12, rest_shape_matrix};
+use crate::material::Material;
+
+/// Ψ(F) = μ/2·(tr(FᵀF) − 3) + λ̂/2·(J − α)² − λ̂/2·(1 − α)², with J = det F, λ̂ = λ + μ and
+/// α = 1 + μ/λ̂ (energy per rest volume).
+///
+/// The choice of λ̂ and α makes the rest state stress-free and the small-strain limit exactly
+/// Hooke's law with the material's λ and μ. J enters polynomially (no log J), so the energy, the
+/// force and the tangent are finite for inverted tets (J ≤ 0), which are pushed back. P =
+/// μF + λ̂(J − α)·cof F; the tangent is exact (cof F differentiated column by column:
+/// cof F = [f₁×f₂, f₂×f₀, f₀×f₁]) and may be indefinite; the assembly projects it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct NeoHookean {
+    mu: f64,
+    lambda_hat: f64,
+    alpha: f64,
+}
+
+impl NeoHookean {
+    /// The model for `material`.
+    pub fn new(material: &Material) -> Self {
+        let mu = material.shear_modulus();
+        let lambda_hat = material.lame_lambda() + mu;
+        NeoHookean {
+            mu,
+            lambda_hat,
+            alpha: 1.0 + mu / lambda_hat,
+        }
+    }
+}
+
+fn cofactor(f: &Matrix3<f64>) -> Matrix3<f64> {
+    let c = |i: usize| f.column(i).into_owned();
+    Matrix3::from_columns(&[c(1).cross(&c(2)), c(2).cross(&c(0)), c(0).cross(&c(1))])
+}
+
+fn cofactor_direction(f: &Matrix3<f64>, df: &Matrix3<f64>) -> Matrix3<f64> {
+    let c = |m: &Matrix3<f64>, i: usize| -> Vector3<f64> { m.column(i).into_owned() };
+    Matrix3::from_columns(&[
+        c(df, 1).cross(&c(f, 2)) + c(f, 1).cross(&c(df, 2)),
+        c(df, 2).cross(&c(f, 0)) + c(f, 2).cross(&c(df, 0)),
+        c(df, 0).cross(&c(f, 1)) + c(f, 0).cross(&c(df, 1)),
+    ])
+}
+
+impl ForceModel for NeoHookean {
+    fn energy(&self, tet: &Tet, _rest: &[Vector3<f64>; 4], x: &[Vector3<f64>; 4]) -> f64 {
+        let f = rest_shape_matrix(x) * tet.rest_inverse();
+        let j = f.determinant();
+        let rest = 0.5 * self.lambda_hat * (1.0 - self.alpha).powi(2);
+        tet.volume()
+            * (0.5 * self.mu * (f.norm_squared() - 3.0)
+                + 0.5 * self.lambda_hat * (j - self.alpha).powi(2)
+                - rest)
+    }
+
+    fn force(&self, tet: &Tet, _rest: &[Vector3<f64>; 4], x: &[Vector3<f64>; 4]) -> Vector12 {
+        let f = rest_shape_matrix(x) * tet.rest_inverse();
+        let piola = f * self.mu + cofactor(&f) * (self.lambda_hat * (f.determinant() - self.alpha));
+        piola_to_force(tet, &piola)
+    }
+
+    fn tangent(&self, tet: &Tet, _rest: &[Vector3<f64>; 4], x: &[Vector3<f64>; 4]) -> Matrix12 {
+        let f = rest_shape_matrix(x) * tet.rest_inverse();
+        let cof = cofactor(&f);
+        let j = f.determinant();
+        tangent_from_piola_derivative(tet, |df| {
+            df * self.mu
+                + cof * (self.lambda_hat * cof.component_mul(df).sum())
+                + cofactor_direction(&f, df) * (self.lambda_hat * (j - self.alpha))
+        })
+    }
+
+    fn name(&self) -> &'static str {
+        "neo-hookean"
+    }
+}
