@@ -5,12 +5,17 @@ use nalgebra::Matrix3;
 /// The rotation R (det R = +1) closest to F: from the SVD F = U·Σ·Vᵀ, R = U·Vᵀ, with the sign of
 /// the singular direction of the smallest singular value flipped when det(U·Vᵀ) < 0, so that an
 /// inverted element gets a proper rotation (and a negative stretch) rather than a reflection.
-/// A non-finite F returns the identity rather than NaN.
+/// A non-finite or zero F returns the identity rather than NaN.
+///
+/// R is invariant under F → s·F (s > 0), so F is divided by its largest entry first: the SVD
+/// then sees entries of order one whatever the scale of F (unscaled, an F below ~1e-154 squares
+/// to zero inside the SVD and comes back as the identity instead of its polar factor).
 pub fn rotation(f: &Matrix3<f64>) -> Matrix3<f64> {
-    if !f.iter().all(|v| v.is_finite()) {
+    let scale = f.amax();
+    if !(f.iter().all(|v| v.is_finite()) && scale > 0.0) {
         return Matrix3::identity();
     }
-    let svd = f.svd(true, true);
+    let svd = (f / scale).svd(true, true);
     let (Some(mut u), Some(v_t)) = (svd.u, svd.v_t) else {
         return Matrix3::identity();
     };
