@@ -23,7 +23,7 @@ fn element(c: &mut Criterion) {
     let problem = Cantilever::peer_benchmark([1, 1, 1]);
     let mesh = problem.mesh().unwrap();
     c.bench_function("element/stiffness", |b| {
-        b.iter(|| black_box(mesh.element(black_box(0)).stiffness(&problem.material)))
+        b.iter(|| black_box(mesh.element(black_box(0)).unwrap().stiffness(&problem.material)))
     });
 }
 
@@ -42,19 +42,19 @@ fn pipeline(c: &mut Criterion) {
             b.iter(|| black_box(Assembler::new(&mesh)))
         });
         let assembler = Assembler::new(&mesh);
-        let mut k = assembler.stiffness(&mesh, &problem.material);
+        let mut k = assembler.stiffness(&mesh, &problem.material).unwrap();
         group.bench_function(BenchmarkId::new("refill", &label), |b| {
             b.iter(|| {
                 assembler.reassemble(
                     &mesh,
-                    |t| mesh.element(t).stiffness(&problem.material),
+                    |t| mesh.element(t).unwrap().stiffness(&problem.material),
                     &mut k,
-                )
+                ).unwrap()
             })
         });
         let constraints = problem.constraints(&mesh).unwrap();
         let map = DofMap::new(&constraints);
-        let k_ff = map.restriction(k.pattern()).restrict(&k);
+        let k_ff = map.restriction(k.pattern()).unwrap().restrict(&k).unwrap();
         for ordering in [FillOrdering::Amd, FillOrdering::NestedDissection] {
             let options = CholeskyOptions {
                 ordering,
@@ -75,7 +75,7 @@ fn pipeline(c: &mut Criterion) {
                 BenchmarkId::new(format!("numeric-nd-{threads}thr"), &label),
                 |b| b.iter(|| cholesky.factorize(&k_ff).unwrap()),
             );
-            let rhs = map.restrict(problem.loads(&mesh).unwrap().as_slice());
+            let rhs = map.restrict(problem.loads(&mesh).unwrap().as_slice()).unwrap();
             let mut x = rhs.clone();
             group.bench_function(
                 BenchmarkId::new(format!("solve-nd-{threads}thr"), &label),

@@ -182,9 +182,9 @@ fn cost_per_iteration(base: &Cantilever) -> tetfem::Result<()> {
     let mesh = problem.mesh()?;
     let dofs = DofMap::new(&problem.constraints(&mesh)?);
     let assembler = Assembler::new(&mesh);
-    let restriction = dofs.restriction(assembler.pattern());
-    let mut tangent = CscMatrix::zeros(std::sync::Arc::clone(assembler.pattern()));
-    let mut free = CscMatrix::zeros(std::sync::Arc::clone(restriction.pattern()));
+    let restriction = dofs.restriction(assembler.pattern()).unwrap();
+    let mut tangent = CscMatrix::zeros(std::sync::Arc::clone(assembler.pattern())).unwrap();
+    let mut free = CscMatrix::zeros(std::sync::Arc::clone(restriction.pattern())).unwrap();
     let mut cholesky = SparseCholesky::analyze(&free)?;
     // A deformed state with ~20° of tip rotation: the linear solution at P = 100.
     let u = problem.solve()?.solution.displacement;
@@ -216,17 +216,17 @@ fn cost_per_iteration(base: &Cantilever) -> tetfem::Result<()> {
                 .fold(f64::INFINITY, f64::min)
         };
         let mut force = Vec::new();
-        let t_force = best(&mut || force = assemble::internal_force(&mesh, model.as_ref(), &u));
+        let t_force = best(&mut || force = assemble::internal_force(&mesh, model.as_ref(), &u).unwrap());
         let t_projected =
             best(&mut || refill_tangent(&mesh, &assembler, model.as_ref(), &u, true, &mut tangent));
         let t_exact = best(&mut || {
             refill_tangent(&mesh, &assembler, model.as_ref(), &u, false, &mut tangent)
         });
-        let t_restrict = best(&mut || restriction.restrict_into(&tangent, &mut free));
+        let t_restrict = best(&mut || restriction.restrict_into(&tangent, &mut free).unwrap());
         let mut factor_result = Ok(());
         let t_factor = best(&mut || factor_result = cholesky.factorize(&free));
         factor_result?;
-        let rhs = dofs.restrict(&force);
+        let rhs = dofs.restrict(&force).unwrap();
         let mut solve_result = Ok(());
         let t_solve = best(&mut || {
             let mut x = rhs.clone();
@@ -237,9 +237,9 @@ fn cost_per_iteration(base: &Cantilever) -> tetfem::Result<()> {
         let indefinite = (0..mesh.tet_count())
             .filter(|&t| {
                 let k = model.tangent(
-                    &mesh.element(t),
-                    &mesh.tet_positions(t),
-                    &assemble::deformed_positions(&mesh, t, &u),
+                    &mesh.element(t).unwrap(),
+                    &mesh.tet_positions(t).unwrap(),
+                    &assemble::deformed_positions(&mesh, t, &u).unwrap(),
                 );
                 project_psd(&k) != k
             })
@@ -265,7 +265,7 @@ fn refill_tangent(
     project: bool,
     tangent: &mut CscMatrix,
 ) {
-    assemble::refill_tangent(mesh, assembler, model, u, project, tangent);
+    assemble::refill_tangent(mesh, assembler, model, u, project, tangent).unwrap();
 }
 
 fn rayon_threads() -> usize {

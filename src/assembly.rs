@@ -7,6 +7,7 @@ use std::sync::Arc;
 use faer::sparse::SymbolicSparseColMat;
 
 use crate::element::Matrix12;
+use crate::error::{Error, Result};
 use crate::material::Material;
 use crate::mesh::TetMesh;
 use crate::sparse::CscMatrix;
@@ -26,6 +27,21 @@ pub struct Assembler {
     column_stride: Vec<usize>,
     /// Contiguous node ranges whose columns are filled in parallel, each with the tets touching it.
     partitions: Vec<Partition>,
+    /// Node count, tet count and a hash of the connectivity of the mesh this was built from:
+    /// the scatter map is only valid for that mesh, and a different one would write out of
+    /// bounds or, worse, into the wrong entries.
+    fingerprint: (usize, usize, u64),
+}
+
+/// FNV-1a over the tets' node indices: one pass, a few ms per million tets.
+fn connectivity_hash(mesh: &TetMesh) -> u64 {
+    let mut hash = 0xcbf2_9ce4_8422_2325u64;
+    for tet in mesh.tets() {
+        for &n in tet {
+            hash = (hash ^ n as u64).wrapping_mul(0x0100_0000_01b3);
+        }
+    }
+    hash
 }
 
 /// A contiguous range of nodes; its columns form one contiguous range of the value array, so
@@ -113,6 +129,36 @@ impl Assembler {
             block_start,
             column_stride,
             partitions,
+            fingerprint: (node_count, mesh.tet_count(), connectivity_hash(mesh)),
+        }
+    }
+
+    /// An error unless `mesh` has the connectivity this assembler was built from (node
+    /// positions may differ: they do not enter the pattern).
+    pub fn check_mesh(&self, mesh: &TetMesh) -> Result<()> {
+        let (nodes, tets, hash) = self.fingerprint;
+        if mesh.node_count() != nodes || mesh.tet_count() != tets || connectivity_hash(mesh) != hash
+        {
+            return Err(Error::invalid_parameter(
+                "mesh",
+                format!("{} nodes, {} tets", mesh.node_count(), mesh.tet_count()),
+                format!(
+                    "must have the connectivity the Assembler was built from ({nodes} nodes, {tets} tets)"
+                ),
+            ));
+        }
+        Ok(())
+    }
+
+    fn check_matrix(&self, matrix: &CscMatrix) -> Result<()> {
+        if Arc::ptr_eq(matrix.pattern(), &self.pattern) {
+            Ok(())
+        } else {
+            Err(Error::invalid_parameter(
+                "matrix",
+                format!("{} stored entries", matrix.nnz()),
+                "must be on this Assembler's pattern (made by it, or sharing its Arc)",
+            ))
         }
     }
 
@@ -129,9 +175,12 @@ impl Assembler {
     /// Adds the 12×12 element matrix `ke` of tet `t` into `values` (the value array of a matrix
     /// on [`pattern`](Self::pattern)).
     ///
-    /// # Panics
-    /// If `t` is not a tet of the mesh this assembler was built from, or `values` is too short.
-    pub fn scatter(&self, mesh: &TetMesh, t: usize, ke: &Matrix12, values: &mut [f64]) {
+    /// Errors: `mesh` is not the one this assembler was built from, `t` is not one of its tets,
+    /// or `values.len()` is not [`nnz`](Self::nnz).
+    pub fn scatter(&self, mesh: &TetMesh, t: usize, ke: &Matrix12, values: &mut [f64]) -> Result<()> {
+        self.check_mesh(mesh)?;
+        mesh.check_tet("Assembler::scatter", t)?;
+        Error::check_len("values", self.nnz(), values.len())?;
         let tet = &mesh.tets()[t];
         for j in 0..4 {
             let stride = self.column_stride[tet[j]];
@@ -145,6 +194,7 @@ impl Assembler {
                 }
             }
         }
+        Ok(())
     }
 
     /// Assembles Σₑ (element matrix of tet e) on the shared pattern (in parallel, see
@@ -153,29 +203,27 @@ impl Assembler {
         &self,
         mesh: &TetMesh,
         element_matrix: impl Fn(usize) -> Matrix12 + Sync,
-    ) -> CscMatrix {
-        let mut matrix = CscMatrix::zeros(Arc::clone(&self.pattern));
-        self.reassemble(mesh, element_matrix, &mut matrix);
-        matrix
+    ) -> Result<CscMatrix> {
+        let mut matrix = CscMatrix::zeros(Arc::clone(&self.pattern))?;
+        self.reassemble(mesh, element_matrix, &mut matrix)?;
+        Ok(matrix)
     }
 
     /// Refills `matrix` (which must be on this pattern) with Σₑ (element matrix of tet e), in
     /// O(nnz) with no allocation. Node ranges are filled in parallel on rayon's pool; the result
     /// does not depend on the thread count (each entry sums its contributions in tet order).
     ///
-    /// # Panics
-    /// If `matrix` is not on this assembler's pattern.
+    /// Errors: `matrix` is not on this assembler's pattern, or `mesh` is not the one it was
+    /// built from.
     pub fn reassemble(
         &self,
         mesh: &TetMesh,
         element_matrix: impl Fn(usize) -> Matrix12 + Sync,
         matrix: &mut CscMatrix,
-    ) {
+    ) -> Result<()> {
         use rayon::prelude::*;
-        assert!(
-            Arc::ptr_eq(matrix.pattern(), &self.pattern),
-            "reassemble: the matrix is not on this assembler's pattern"
-        );
+        self.check_matrix(matrix)?;
+        self.check_mesh(mesh)?;
         let mut rest = matrix.values_mut();
         let mut slices = Vec::with_capacity(self.partitions.len());
         for part in &self.partitions {
@@ -209,17 +257,18 @@ impl Assembler {
                     }
                 }
             });
+        Ok(())
     }
 
     /// Global linear stiffness K = Σₑ Vₑ·BₑᵀDBₑ (force/length).
-    pub fn stiffness(&self, mesh: &TetMesh, material: &Material) -> CscMatrix {
-        self.assemble(mesh, |t| mesh.element(t).stiffness(material))
+    pub fn stiffness(&self, mesh: &TetMesh, material: &Material) -> Result<CscMatrix> {
+        self.assemble(mesh, |t| mesh.element_of(t).stiffness(material))
     }
 
     /// Global consistent mass M = Σₑ ρVₑ/20·(1+δᵢⱼ)·I₃ (mass units), on the same pattern as K.
-    pub fn consistent_mass(&self, mesh: &TetMesh, material: &Material) -> CscMatrix {
+    pub fn consistent_mass(&self, mesh: &TetMesh, material: &Material) -> Result<CscMatrix> {
         self.assemble(mesh, |t| {
-            mesh.element(t).consistent_mass(material.density())
+            mesh.element_of(t).consistent_mass(material.density())
         })
     }
 }
@@ -228,7 +277,7 @@ impl Assembler {
 pub fn lumped_mass(mesh: &TetMesh, material: &Material) -> Vec<f64> {
     let mut mass = vec![0.0; mesh.dof_count()];
     for (t, tet) in mesh.tets().iter().enumerate() {
-        let share = mesh.element(t).lumped_mass(material.density());
+        let share = mesh.element_of(t).lumped_mass(material.density());
         for &n in tet {
             for axis in 0..3 {
                 mass[3 * n + axis] += share;
@@ -239,7 +288,7 @@ pub fn lumped_mass(mesh: &TetMesh, material: &Material) -> Vec<f64> {
 }
 
 /// Convenience: the global stiffness of `mesh` with one material (builds a fresh [`Assembler`]).
-pub fn stiffness_matrix(mesh: &TetMesh, material: &Material) -> CscMatrix {
+pub fn stiffness_matrix(mesh: &TetMesh, material: &Material) -> Result<CscMatrix> {
     Assembler::new(mesh).stiffness(mesh, material)
 }
 

@@ -10,7 +10,7 @@ use nalgebra::Vector3;
 
 use crate::beam_theory::RectangularCantilever;
 use crate::constraints::Constraints;
-use crate::error::Result;
+use crate::error::{Error, Result};
 use crate::loads::Loads;
 use crate::material::Material;
 use crate::mesh::{BoxSplit, TetMesh};
@@ -132,10 +132,16 @@ impl Cantilever {
         mesh.nodes_on_plane(0, self.length, self.plane_tolerance())
     }
 
-    /// Mean z-displacement of the tip nodes.
-    pub fn tip_deflection(&self, mesh: &TetMesh, displacement: &[f64]) -> f64 {
+    /// Mean z-displacement of the tip nodes (`displacement` full length, 3 per node).
+    pub fn tip_deflection(&self, mesh: &TetMesh, displacement: &[f64]) -> Result<f64> {
+        Error::check_len("displacement", mesh.dof_count(), displacement.len())?;
         let tip = self.tip_nodes(mesh);
-        tip.iter().map(|&n| displacement[3 * n + 2]).sum::<f64>() / tip.len() as f64
+        if tip.is_empty() {
+            return Err(Error::EmptySelection {
+                context: format!("cantilever tip nodes at x = {}", self.length),
+            });
+        }
+        Ok(tip.iter().map(|&n| displacement[3 * n + 2]).sum::<f64>() / tip.len() as f64)
     }
 
     /// Meshes, assembles, factors and solves.
@@ -147,7 +153,7 @@ impl Cantilever {
         let loads = self.loads(&mesh)?;
         let mut solver = StaticSolver::new(&mesh, &self.material, &constraints)?;
         let solution = solver.solve(&loads)?;
-        let tip_deflection = self.tip_deflection(&mesh, &solution.displacement);
+        let tip_deflection = self.tip_deflection(&mesh, &solution.displacement)?;
         Ok(CantileverSolution {
             tip_deflection,
             mesh_time,

@@ -19,10 +19,21 @@ pub struct Constraints {
 }
 
 impl Constraints {
-    /// No constraints yet on a mesh's DOFs.
+    /// No constraints yet on a mesh's DOFs, except that nodes no tet uses are fixed at zero:
+    /// they have no stiffness and no mass, so left free they would make every system matrix
+    /// singular. (`TetMesh::warnings` reports them.)
     pub fn new(mesh: &TetMesh) -> Self {
+        let mut used = vec![false; mesh.node_count()];
+        for tet in mesh.tets() {
+            for &n in tet {
+                used[n] = true;
+            }
+        }
         Constraints {
-            prescribed: vec![None; mesh.dof_count()],
+            prescribed: used
+                .iter()
+                .flat_map(|&u| [if u { None } else { Some(0.0) }; 3])
+                .collect(),
         }
     }
 
@@ -167,22 +178,29 @@ impl DofMap {
         &self.prescribed
     }
 
-    /// The free entries of a full-length vector.
-    pub fn restrict(&self, full: &[f64]) -> Vec<f64> {
-        self.free.iter().map(|&d| full[d]).collect()
+    /// The free entries of a full-length vector ([`Error::DimensionMismatch`] unless
+    /// `full.len()` is [`full_count`](Self::full_count)).
+    pub fn restrict(&self, full: &[f64]) -> Result<Vec<f64>> {
+        Error::check_len("full-length vector", self.full_count(), full.len())?;
+        Ok(self.free.iter().map(|&d| full[d]).collect())
     }
 
-    /// A full-length vector from free values, constrained DOFs set to their prescribed values.
-    pub fn expand(&self, free: &[f64]) -> Vec<f64> {
+    /// A full-length vector from free values, constrained DOFs set to their prescribed values
+    /// ([`Error::DimensionMismatch`] unless `free.len()` is [`free_count`](Self::free_count)).
+    pub fn expand(&self, free: &[f64]) -> Result<Vec<f64>> {
+        Error::check_len("free-DOF vector", self.free_count(), free.len())?;
         let mut full = self.prescribed.clone();
         for (&d, &v) in self.free.iter().zip(free) {
             full[d] = v;
         }
-        full
+        Ok(full)
     }
 
-    /// The restriction of matrices on `pattern` to the free rows and columns.
-    pub fn restriction(&self, pattern: &SymbolicSparseColMat<usize>) -> Restriction {
+    /// The restriction of matrices on `pattern` (square, of dimension
+    /// [`full_count`](Self::full_count)) to the free rows and columns.
+    pub fn restriction(&self, pattern: &SymbolicSparseColMat<usize>) -> Result<Restriction> {
+        Error::check_len("pattern rows", self.full_count(), pattern.nrows())?;
+        Error::check_len("pattern columns", self.full_count(), pattern.ncols())?;
         let mut col_ptr = Vec::with_capacity(self.free.len() + 1);
         let mut row_idx = Vec::new();
         let mut source = Vec::new();
@@ -197,12 +215,15 @@ impl DofMap {
             col_ptr.push(row_idx.len());
         }
         let n = self.free.len();
-        Restriction {
+        Ok(Restriction {
+            // Valid by construction: columns in order, rows ascending within each (the free
+            // numbering preserves the full order), all below n.
             pattern: Arc::new(SymbolicSparseColMat::new_checked(
                 n, n, col_ptr, None, row_idx,
             )),
             source,
-        }
+            full_shape: (pattern.ncols(), pattern.row_idx().len()),
+        })
     }
 }
 
@@ -212,6 +233,8 @@ pub struct Restriction {
     pattern: Arc<SymbolicSparseColMat<usize>>,
     /// For each entry of A_ff, its position in the full matrix's values.
     source: Vec<usize>,
+    /// Dimension and nnz of the full pattern this was built for.
+    full_shape: (usize, usize),
 }
 
 impl Restriction {
@@ -221,18 +244,32 @@ impl Restriction {
     }
 
     /// A_ff of `full` as a new matrix.
-    pub fn restrict(&self, full: &CscMatrix) -> CscMatrix {
-        let mut out = CscMatrix::zeros(Arc::clone(&self.pattern));
-        self.restrict_into(full, &mut out);
-        out
+    pub fn restrict(&self, full: &CscMatrix) -> Result<CscMatrix> {
+        let mut out = CscMatrix::zeros(Arc::clone(&self.pattern))?;
+        self.restrict_into(full, &mut out)?;
+        Ok(out)
     }
 
     /// Refills `out` (on [`pattern`](Self::pattern)) with A_ff of `full`.
-    pub fn restrict_into(&self, full: &CscMatrix, out: &mut CscMatrix) {
+    ///
+    /// Errors: `full` does not have the dimension and entry count of the pattern this
+    /// restriction was built for, or `out` is not on [`pattern`](Self::pattern).
+    pub fn restrict_into(&self, full: &CscMatrix, out: &mut CscMatrix) -> Result<()> {
+        let (dim, nnz) = self.full_shape;
+        Error::check_len("full matrix dimension", dim, full.dim())?;
+        Error::check_len("full matrix stored entries", nnz, full.nnz())?;
+        if !Arc::ptr_eq(out.pattern(), &self.pattern) {
+            return Err(Error::invalid_parameter(
+                "out",
+                format!("{} stored entries", out.nnz()),
+                "must be on the restriction's pattern (Restriction::pattern)",
+            ));
+        }
         let values = full.values();
         for (o, &k) in out.values_mut().iter_mut().zip(&self.source) {
             *o = values[k];
         }
+        Ok(())
     }
 }
 
@@ -246,6 +283,18 @@ impl Restriction {
 /// DOFs has full rank. Parts hanging on a held part by one node or one edge are correctly found
 /// free (they can rotate about it).
 pub fn ensure_held(mesh: &TetMesh, topology: &FaceTopology, dofs: &DofMap) -> Result<()> {
+    Error::check_len("DOF map", mesh.dof_count(), dofs.full_count())?;
+    if let Some(&(a, b)) = topology
+        .neighbours
+        .iter()
+        .find(|&&(a, b)| a.max(b) >= mesh.tet_count())
+    {
+        return Err(Error::UnknownTet {
+            context: "ensure_held: the face topology",
+            tet: a.max(b),
+            tet_count: mesh.tet_count(),
+        });
+    }
     let parts = face_connected_parts(mesh.tet_count(), &topology.neighbours);
     let part_count = parts.iter().copied().max().map_or(0, |p| p + 1);
     let mut part_nodes: Vec<Vec<usize>> = vec![Vec::new(); part_count];

@@ -80,6 +80,56 @@ pub enum Error {
         tets: [usize; 3],
     },
 
+    /// Two tets have the same four nodes (a repeated element doubles the stiffness and mass
+    /// there).
+    #[error("tets {first} and {tet} are duplicates: both have nodes {nodes:?}")]
+    DuplicateTet {
+        /// The earlier of the two.
+        first: usize,
+        /// The repeat.
+        tet: usize,
+        /// Their (sorted) node indices.
+        nodes: [usize; 4],
+    },
+
+    /// Two tets that share a face lie on the same side of it: the mesh folds over itself there,
+    /// one of them is inverted relative to its neighbour. (A tet given with negative orientation
+    /// alone is not an error: [`TetMesh::new`](crate::mesh::TetMesh::new) reorients it.)
+    #[error(
+        "tets {tet} and {neighbour} overlap: both lie on the same side of their shared face {face:?}, \
+         so the mesh folds over itself there (an inverted element)"
+    )]
+    InvertedTet {
+        /// One of the two tets (the later in tet order).
+        tet: usize,
+        /// The tet it overlaps.
+        neighbour: usize,
+        /// Sorted node indices of the shared face.
+        face: [usize; 3],
+    },
+
+    /// A tet index is out of range.
+    #[error("{context}: tet {tet} does not exist (the mesh has {tet_count} tets)")]
+    UnknownTet {
+        /// What referred to it.
+        context: &'static str,
+        /// The tet index.
+        tet: usize,
+        /// Number of tets in the mesh.
+        tet_count: usize,
+    },
+
+    /// A vector or matrix argument has the wrong length for the object it is used with.
+    #[error("{what} has length {found}, expected {expected}")]
+    DimensionMismatch {
+        /// Which argument (e.g. `x` of `CscMatrix::mul_vec`).
+        what: String,
+        /// The length required.
+        expected: usize,
+        /// The length given.
+        found: usize,
+    },
+
     /// A material parameter is outside its physical range.
     #[error("material: {field} = {value} is invalid: {requirement}")]
     InvalidMaterial {
@@ -158,6 +208,18 @@ pub enum Error {
         reason: String,
     },
 
+    /// A run was stopped by its caller (e.g. Ctrl-C) at a step boundary. The outputs hold the
+    /// frames completed up to there, and the `.pvd` lists exactly those.
+    #[error("interrupted after step {step} (t = {time:e}); {frames} frames were written completely")]
+    Interrupted {
+        /// The last step completed.
+        step: usize,
+        /// The simulated time after it.
+        time: f64,
+        /// Frames written (each complete, all listed in the `.pvd`).
+        frames: usize,
+    },
+
     /// A linear-algebra routine failed for a reason other than a non-positive pivot.
     #[error("linear solver: {0}")]
     Solver(String),
@@ -210,6 +272,19 @@ impl Error {
             name: name.into(),
             value: value.to_string(),
             requirement: requirement.into(),
+        }
+    }
+
+    /// Checks `found == expected`, else [`Error::DimensionMismatch`] naming `what`.
+    pub fn check_len(what: &str, expected: usize, found: usize) -> Result<()> {
+        if found == expected {
+            Ok(())
+        } else {
+            Err(Error::DimensionMismatch {
+                what: what.to_string(),
+                expected,
+                found,
+            })
         }
     }
 

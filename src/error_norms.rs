@@ -18,8 +18,8 @@ pub fn l2_error(
     let rule = tet_rule();
     let mut sum = 0.0;
     for (t, tet) in mesh.tets().iter().enumerate() {
-        let x = mesh.tet_positions(t);
-        let volume = mesh.element(t).volume();
+        let x = mesh.positions_of(t);
+        let volume = mesh.element_of(t).volume();
         let u = tet.map(|n| {
             Vector3::new(
                 displacement[3 * n],
@@ -51,8 +51,8 @@ pub fn energy_error(
     let (lambda, mu) = (material.lame_lambda(), material.shear_modulus());
     let mut sum = 0.0;
     for (t, tet) in mesh.tets().iter().enumerate() {
-        let x = mesh.tet_positions(t);
-        let element = mesh.element(t);
+        let x = mesh.positions_of(t);
+        let element = mesh.element_of(t);
         let u = crate::element::Vector12::from_fn(|i, _| displacement[3 * tet[i / 3] + i % 3]);
         let strain_h = element.strain(&u);
         for q in &rule {

@@ -8,7 +8,7 @@ use std::path::Path;
 use crate::error::Result;
 use crate::material::Material;
 use crate::mesh::io::read_mesh;
-use crate::mesh::{CriticalStep, MeshStatistics, POOR_DIHEDRAL_DEG, critical_time_step};
+use crate::mesh::{CriticalStep, MeshStatistics, critical_time_step};
 use crate::scene::Scene;
 
 /// One physical group or marker set of the file.
@@ -41,6 +41,8 @@ pub struct MeshInfo {
     pub material: Option<(f64, f64, f64)>,
     /// The explicit critical step, when a material is known.
     pub critical_step: Option<CriticalStep>,
+    /// Warnings about the mesh and the material (see [`crate::warning`]), as sentences.
+    pub warnings: Vec<String>,
 }
 
 /// Reads a mesh (`.msh`, `.node`/`.ele`) or a scene (`.toml`: its mesh and material) and
@@ -79,6 +81,12 @@ pub fn mesh_info(path: &Path, material: Option<Material>) -> Result<MeshInfo> {
         unused_nodes: imported.as_ref().map_or(0, |i| i.unused_nodes),
         material: material.map(|m| (m.youngs_modulus(), m.poisson_ratio(), m.density())),
         critical_step: material.map(|m| critical_time_step(&mesh, &m)),
+        warnings: mesh
+            .warnings()
+            .iter()
+            .chain(material.map(|m| m.warnings()).unwrap_or_default().iter())
+            .map(ToString::to_string)
+            .collect(),
     })
 }
 
@@ -131,12 +139,8 @@ impl fmt::Display for MeshInfo {
             "  aspect ratio R/(3r): worst {:.3} (tet {}), mean {:.3} (regular tet: 1)",
             s.aspect_ratio.max, s.aspect_ratio.max_tet, s.aspect_ratio.mean
         )?;
-        if s.poor_tets > 0 {
-            writeln!(
-                f,
-                "  warning: {} tets have a dihedral angle under {POOR_DIHEDRAL_DEG}°; they lower the explicit critical step and spoil accuracy",
-                s.poor_tets
-            )?;
+        for warning in &self.warnings {
+            writeln!(f, "  warning: {warning}")?;
         }
         for g in &self.groups {
             writeln!(

@@ -93,8 +93,16 @@ impl BlockJacobi {
         })
     }
 
-    /// z = P⁻¹·r.
-    pub fn apply(&self, r: &[f64], z: &mut [f64]) {
+    /// z = P⁻¹·r ([`Error::DimensionMismatch`] unless both have the matrix's dimension).
+    pub fn apply(&self, r: &[f64], z: &mut [f64]) -> Result<()> {
+        let dim = self.starts.last().copied().unwrap_or(0);
+        Error::check_len("r", dim, r.len())?;
+        Error::check_len("z", dim, z.len())?;
+        self.apply_unchecked(r, z);
+        Ok(())
+    }
+
+    fn apply_unchecked(&self, r: &[f64], z: &mut [f64]) {
         for g in 0..self.starts.len() - 1 {
             let (lo, hi) = (self.starts[g], self.starts[g + 1]);
             let size = hi - lo;
@@ -139,20 +147,20 @@ pub fn conjugate_gradient(
         });
     }
     let mut residual = vec![0.0; n];
-    matrix.mul_vec(x, &mut residual);
+    matrix.product_into(x, &mut residual);
     residual
         .par_iter_mut()
         .zip(rhs)
         .for_each(|(r, b)| *r = b - *r);
     let mut z = vec![0.0; n];
-    preconditioner.apply(&residual, &mut z);
+    preconditioner.apply(&residual, &mut z)?;
     let mut direction = z.clone();
     let mut product = vec![0.0; n];
     let mut rz = dot(&residual, &z);
     let target = options.relative_tolerance * rhs_norm;
     let mut replacements = 0;
     for iteration in 1..=options.max_iterations {
-        matrix.mul_vec(&direction, &mut product);
+        matrix.product_into(&direction, &mut product);
         let curvature = dot(&direction, &product);
         if curvature.is_nan() || curvature <= 0.0 {
             return Err(Error::Solver(format!(
@@ -170,7 +178,7 @@ pub fn conjugate_gradient(
             .for_each(|(r, q)| *r -= alpha * q);
         if dot(&residual, &residual).sqrt() <= target {
             // Confirm with the true residual: the recursive one drifts in floating point.
-            matrix.mul_vec(x, &mut product);
+            matrix.product_into(x, &mut product);
             let true_residual = product
                 .iter()
                 .zip(rhs)
@@ -201,7 +209,7 @@ pub fn conjugate_gradient(
                 .zip(rhs)
                 .for_each(|((r, ax), b)| *r = b - ax);
         }
-        preconditioner.apply(&residual, &mut z);
+        preconditioner.apply(&residual, &mut z)?;
         let rz_next = dot(&residual, &z);
         let beta = rz_next / rz;
         rz = rz_next;

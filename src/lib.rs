@@ -57,6 +57,7 @@ pub mod render;
 pub mod scene;
 pub mod sparse;
 pub mod statics;
+pub mod warning;
 
 pub use assembly::{Assembler, lumped_mass};
 pub use constraints::{Constraints, DofMap};

@@ -81,7 +81,7 @@ impl SparseCholesky {
             }
             FillOrdering::NestedDissection => {
                 let forward = nested_dissection(matrix.pattern())?;
-                let inverse = inverse_permutation(&forward);
+                let inverse = inverse_permutation(&forward)?;
                 let perm = PermRef::new_checked(&forward, &inverse, matrix.dim());
                 factorize_symbolic_cholesky(
                     pattern,

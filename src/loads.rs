@@ -28,6 +28,7 @@ impl Loads {
         material: &Material,
         gravity: Vector3<f64>,
     ) -> Result<&mut Self> {
+        check_finite("gravity", &gravity)?;
         self.add_body_force(mesh, gravity * material.density())
     }
 
@@ -41,7 +42,7 @@ impl Loads {
         check_finite("body force", &force_density)?;
         self.check_mesh(mesh)?;
         for (t, tet) in mesh.tets().iter().enumerate() {
-            let share = force_density * (mesh.element(t).volume() / 4.0);
+            let share = force_density * (mesh.element_of(t).volume() / 4.0);
             for &n in tet {
                 self.add_at(n, &share);
             }
@@ -60,8 +61,8 @@ impl Loads {
         let rule = crate::quadrature::tet_rule();
         let mut forces = self.forces.clone();
         for (t, tet) in mesh.tets().iter().enumerate() {
-            let x = mesh.tet_positions(t);
-            let element = mesh.element(t);
+            let x = mesh.positions_of(t);
+            let element = mesh.element_of(t);
             for q in &rule {
                 let n = crate::quadrature::shape_values(&q.barycentric);
                 let p = x[0] * n[0] + x[1] * n[1] + x[2] * n[2] + x[3] * n[3];
@@ -105,7 +106,7 @@ impl Loads {
         check_finite("traction", &traction)?;
         self.check_faces(mesh, faces, "traction")?;
         for face in faces {
-            let share = traction * (face.area_vector(mesh).norm() / 3.0);
+            let share = traction * (face.area_vector(mesh)?.norm() / 3.0);
             for &n in &face.nodes {
                 self.add_at(n, &share);
             }
@@ -120,8 +121,12 @@ impl Loads {
         faces: &[BoundaryFace],
         total: Vector3<f64>,
     ) -> Result<&mut Self> {
+        check_finite("total force", &total)?;
         self.check_faces(mesh, faces, "total force on faces")?;
-        let area: f64 = faces.iter().map(|f| f.area_vector(mesh).norm()).sum();
+        let mut area = 0.0;
+        for face in faces {
+            area += face.area_vector(mesh)?.norm();
+        }
         self.add_traction(mesh, faces, total / area)
     }
 

@@ -64,18 +64,18 @@ pub fn lowest_modes(system: &LinearSystem, count: usize) -> Result<Modes> {
         // Y = K⁻¹ M X
         let mut y = Vec::with_capacity(p);
         for column in &x {
-            mass.mul_vec(column, &mut work);
+            mass.product_into(column, &mut work);
             let mut solved = work.clone();
             cholesky.solve_in_place(&mut solved)?;
             y.push(solved);
         }
         // Reduced matrices Kr = Yᵀ K Y, Mr = Yᵀ M Y.
-        let ky: Vec<Vec<f64>> = y.iter().map(|c| k.mul(c)).collect();
+        let ky: Vec<Vec<f64>> = y.iter().map(|c| k.mul(c)).collect::<Result<_>>()?;
         let my: Vec<Vec<f64>> = y
             .iter()
             .map(|c| {
                 let mut out = vec![0.0; n];
-                mass.mul_vec(c, &mut out);
+                mass.product_into(c, &mut out);
                 out
             })
             .collect();
@@ -145,9 +145,11 @@ pub fn lowest_modes(system: &LinearSystem, count: usize) -> Result<Modes> {
     ))
 }
 
-/// The mass of a [`Mass`] as a dense product helper for tests and users: φᵀ·M·ψ.
-pub fn mass_inner_product(mass: &Mass, a: &[f64], b: &[f64]) -> f64 {
+/// The mass inner product φᵀ·M·ψ ([`Error::DimensionMismatch`] unless both vectors have the
+/// mass matrix's dimension).
+pub fn mass_inner_product(mass: &Mass, a: &[f64], b: &[f64]) -> Result<f64> {
+    Error::check_len("a", mass.dim(), a.len())?;
     let mut mb = vec![0.0; b.len()];
-    mass.mul_vec(b, &mut mb);
-    a.iter().zip(&mb).map(|(x, y)| x * y).sum()
+    mass.mul_vec(b, &mut mb)?;
+    Ok(a.iter().zip(&mb).map(|(x, y)| x * y).sum())
 }

@@ -86,12 +86,12 @@ pub fn solve_nonlinear_static(
     let dofs = DofMap::new(constraints);
     ensure_held(mesh, &mesh.face_topology()?, &dofs)?;
     let assembler = Assembler::new(mesh);
-    let mut tangent = CscMatrix::zeros(std::sync::Arc::clone(assembler.pattern()));
-    let restriction = dofs.restriction(assembler.pattern());
-    let mut free_tangent = CscMatrix::zeros(std::sync::Arc::clone(restriction.pattern()));
+    let mut tangent = CscMatrix::zeros(std::sync::Arc::clone(assembler.pattern()))?;
+    let restriction = dofs.restriction(assembler.pattern())?;
+    let mut free_tangent = CscMatrix::zeros(std::sync::Arc::clone(restriction.pattern()))?;
     let mut solver = LinearSolver::analyze(&free_tangent, options.solver)?;
     let f_full = loads.as_slice();
-    let load_norm = norm(&dofs.restrict(f_full));
+    let load_norm = norm(&dofs.restrict(f_full)?);
     let mut u = vec![0.0; mesh.dof_count()];
     let mut residuals = Vec::new();
     let mut iterations = 0;
@@ -102,8 +102,8 @@ pub fn solve_nonlinear_static(
                 u[dof] = factor * value;
             }
         }
-        let residual = |u: &[f64]| -> Vec<f64> {
-            let fi = internal_force(mesh, model, u);
+        let residual = |u: &[f64]| -> Result<Vec<f64>> {
+            let fi = internal_force(mesh, model, u)?;
             dofs.restrict(
                 &fi.iter()
                     .zip(f_full)
@@ -111,10 +111,11 @@ pub fn solve_nonlinear_static(
                     .collect::<Vec<_>>(),
             )
         };
-        let potential = |u: &[f64]| {
-            energy(mesh, model, u) - factor * f_full.iter().zip(u).map(|(f, u)| f * u).sum::<f64>()
+        let potential = |u: &[f64]| -> Result<f64> {
+            Ok(energy(mesh, model, u)?
+                - factor * f_full.iter().zip(u).map(|(f, u)| f * u).sum::<f64>())
         };
-        let mut r = residual(&u);
+        let mut r = residual(&u)?;
         // The reference scale: the full load, or for displacement-driven problems the first
         // residual of the step.
         let reference = if load_norm > 0.0 {
@@ -137,16 +138,16 @@ pub fn solve_nonlinear_static(
             // The exact tangent first (quadratic convergence); if it is not positive definite,
             // the one with every element tangent projected onto the PSD cone (a descent
             // direction, at the price of linear convergence while it is needed).
-            refill_tangent(mesh, &assembler, model, &u, false, &mut tangent);
-            restriction.restrict_into(&tangent, &mut free_tangent);
+            refill_tangent(mesh, &assembler, model, &u, false, &mut tangent)?;
+            restriction.restrict_into(&tangent, &mut free_tangent)?;
             if let Err(Error::NotPositiveDefinite { .. }) = solver.factorize(&free_tangent) {
-                refill_tangent(mesh, &assembler, model, &u, true, &mut tangent);
-                restriction.restrict_into(&tangent, &mut free_tangent);
+                refill_tangent(mesh, &assembler, model, &u, true, &mut tangent)?;
+                restriction.restrict_into(&tangent, &mut free_tangent)?;
                 solver.factorize(&free_tangent)?;
             }
             let mut delta = r.clone();
             solver.solve(&free_tangent, &mut delta)?;
-            let (r_norm, pi) = (norm(&r), potential(&u));
+            let (r_norm, pi) = (norm(&r), potential(&u)?);
             let mut alpha = 1.0;
             let mut accepted = None;
             for _ in 0..30 {
@@ -154,8 +155,8 @@ pub fn solve_nonlinear_static(
                 for (&dof, d) in dofs.free_dofs().iter().zip(&delta) {
                     trial[dof] += alpha * d;
                 }
-                let r_trial = residual(&trial);
-                if norm(&r_trial) < r_norm || potential(&trial) < pi {
+                let r_trial = residual(&trial)?;
+                if norm(&r_trial) < r_norm || potential(&trial)? < pi {
                     accepted = Some((trial, r_trial));
                     break;
                 }

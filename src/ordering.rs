@@ -132,11 +132,21 @@ pub fn nested_dissection(pattern: &SymbolicSparseColMat<usize>) -> Result<Vec<us
     Ok(order)
 }
 
-/// The inverse of a permutation given as `perm[new] = old`.
-pub fn inverse_permutation(perm: &[usize]) -> Vec<usize> {
-    let mut inverse = vec![0; perm.len()];
+/// The inverse of a permutation given as `perm[new] = old`; an error unless `perm` holds each
+/// of `0..perm.len()` exactly once.
+pub fn inverse_permutation(perm: &[usize]) -> Result<Vec<usize>> {
+    let mut inverse = vec![usize::MAX; perm.len()];
     for (new, &old) in perm.iter().enumerate() {
-        inverse[old] = new;
+        match inverse.get_mut(old) {
+            Some(slot) if *slot == usize::MAX => *slot = new,
+            _ => {
+                return Err(Error::invalid_parameter(
+                    format!("perm[{new}]"),
+                    old,
+                    format!("must be a permutation of 0..{}: out of range or repeated", perm.len()),
+                ));
+            }
+        }
     }
-    inverse
+    Ok(inverse)
 }

@@ -19,20 +19,24 @@ pub struct CscMatrix {
 }
 
 impl CscMatrix {
-    /// A matrix of zeros on `pattern`.
-    pub fn zeros(pattern: Arc<SymbolicSparseColMat<usize>>) -> Self {
+    /// A matrix of zeros on `pattern`, which must be square.
+    pub fn zeros(pattern: Arc<SymbolicSparseColMat<usize>>) -> Result<Self> {
         let nnz = pattern.row_idx().len();
-        CscMatrix {
-            pattern,
-            values: vec![0.0; nnz],
-        }
+        CscMatrix::from_values(pattern, vec![0.0; nnz])
     }
 
-    /// A matrix on `pattern` with the given values (one per stored entry).
+    /// A matrix on `pattern` (square) with the given values (one per stored entry).
     pub fn from_values(
         pattern: Arc<SymbolicSparseColMat<usize>>,
         values: Vec<f64>,
     ) -> Result<Self> {
+        if pattern.nrows() != pattern.ncols() {
+            return Err(Error::invalid_parameter(
+                "pattern",
+                format!("{}×{}", pattern.nrows(), pattern.ncols()),
+                "must be square",
+            ));
+        }
         if values.len() != pattern.row_idx().len() {
             return Err(Error::invalid_parameter(
                 "values.len()",
@@ -103,12 +107,17 @@ impl CscMatrix {
     /// Each yᵢ is one sequential sum over column i (the matrix is symmetric, so column i is
     /// row i), so the result is the same bit for bit whatever the number of threads.
     ///
-    /// # Panics
-    /// If `x` or `y` does not have length [`dim`](Self::dim).
-    pub fn mul_vec(&self, x: &[f64], y: &mut [f64]) {
+    /// [`Error::DimensionMismatch`] if `x` or `y` does not have length [`dim`](Self::dim).
+    pub fn mul_vec(&self, x: &[f64], y: &mut [f64]) -> Result<()> {
+        Error::check_len("x", self.dim(), x.len())?;
+        Error::check_len("y", self.dim(), y.len())?;
+        self.product_into(x, y);
+        Ok(())
+    }
+
+    /// y = A·x for callers whose vectors have length `dim()` by construction (panics otherwise).
+    pub(crate) fn product_into(&self, x: &[f64], y: &mut [f64]) {
         use rayon::prelude::*;
-        assert_eq!(x.len(), self.dim(), "x has the wrong length");
-        assert_eq!(y.len(), self.dim(), "y has the wrong length");
         let (col_ptr, row_idx, values) = (self.col_ptr(), self.row_idx(), &self.values);
         let row = |(j, yj): (usize, &mut f64)| {
             let mut sum = 0.0;
@@ -128,16 +137,16 @@ impl CscMatrix {
         }
     }
 
-    /// A·x as a new vector.
-    pub fn mul(&self, x: &[f64]) -> Vec<f64> {
+    /// A·x as a new vector ([`Error::DimensionMismatch`] if `x.len() != dim()`).
+    pub fn mul(&self, x: &[f64]) -> Result<Vec<f64>> {
         let mut y = vec![0.0; self.dim()];
-        self.mul_vec(x, &mut y);
-        y
+        self.mul_vec(x, &mut y)?;
+        Ok(y)
     }
 
-    /// xᵀ·A·x.
-    pub fn quadratic_form(&self, x: &[f64]) -> f64 {
-        self.mul(x).iter().zip(x).map(|(a, b)| a * b).sum()
+    /// xᵀ·A·x ([`Error::DimensionMismatch`] if `x.len() != dim()`).
+    pub fn quadratic_form(&self, x: &[f64]) -> Result<f64> {
+        Ok(self.mul(x)?.iter().zip(x).map(|(a, b)| a * b).sum())
     }
 
     /// Sets self = a·A + b·B entry-wise; all three must share one pattern (same `Arc`).

@@ -79,13 +79,13 @@ impl StaticSolver {
         timings.pattern = clock.elapsed();
 
         let clock = Instant::now();
-        let stiffness = assembler.stiffness(mesh, material);
+        let stiffness = assembler.stiffness(mesh, material)?;
         timings.assembly = clock.elapsed();
 
         let clock = Instant::now();
         let dofs = DofMap::new(constraints);
         ensure_held(mesh, &mesh.face_topology()?, &dofs)?;
-        let free_stiffness = dofs.restriction(stiffness.pattern()).restrict(&stiffness);
+        let free_stiffness = dofs.restriction(stiffness.pattern())?.restrict(&stiffness)?;
         timings.constraints = clock.elapsed();
 
         let clock = Instant::now();
@@ -119,9 +119,9 @@ impl StaticSolver {
         }
         let clock = Instant::now();
         // r = f − K·u_c on the free DOFs (u_c: prescribed values, zero elsewhere).
-        let coupling = self.stiffness.mul(self.dofs.prescribed());
+        let coupling = self.stiffness.mul(self.dofs.prescribed())?;
         let full_rhs: Vec<f64> = forces.iter().zip(&coupling).map(|(f, k)| f - k).collect();
-        let rhs = self.dofs.restrict(&full_rhs);
+        let rhs = self.dofs.restrict(&full_rhs)?;
         let mut free = rhs.clone();
         let info = self.solver.solve(&self.free_stiffness, &mut free)?;
         if let Some(i) = free.iter().position(|v| !v.is_finite()) {
@@ -129,7 +129,7 @@ impl StaticSolver {
                 "the solution is not finite at free DOF {i}; the loads or the matrix hold non-finite or huge values"
             )));
         }
-        let residual = self.free_stiffness.mul(&free);
+        let residual = self.free_stiffness.mul(&free)?;
         let residual_norm = norm(residual.iter().zip(&rhs).map(|(a, b)| a - b));
         let rhs_norm = norm(rhs.iter().copied());
         let relative_residual = if rhs_norm > 0.0 {
@@ -137,10 +137,10 @@ impl StaticSolver {
         } else {
             residual_norm
         };
-        let displacement = self.dofs.expand(&free);
+        let displacement = self.dofs.expand(&free)?;
         let reactions: Vec<f64> = self
             .stiffness
-            .mul(&displacement)
+            .mul(&displacement)?
             .iter()
             .zip(forces)
             .enumerate()

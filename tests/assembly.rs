@@ -41,11 +41,11 @@ fn scatter_assembly_equals_dense_assembly() {
     let mesh = perturbed_box([3, 2, 2], 11);
     let mat = material();
     let assembler = Assembler::new(&mesh);
-    let k = assembler.stiffness(&mesh, &mat);
+    let k = assembler.stiffness(&mesh, &mat).unwrap();
     let n = mesh.dof_count();
     let mut dense = DMatrix::<f64>::zeros(n, n);
     for (t, tet) in mesh.tets().iter().enumerate() {
-        let ke = mesh.element(t).stiffness(&mat);
+        let ke = mesh.element(t).unwrap().stiffness(&mat);
         for i in 0..4 {
             for j in 0..4 {
                 for a in 0..3 {
@@ -81,7 +81,7 @@ fn scatter_assembly_equals_dense_assembly() {
 #[test]
 fn global_stiffness_is_symmetric_with_rigid_null_space() {
     let mesh = perturbed_box([4, 3, 2], 12);
-    let k = Assembler::new(&mesh).stiffness(&mesh, &material());
+    let k = Assembler::new(&mesh).stiffness(&mesh, &material()).unwrap();
     let scale = k.values().iter().fold(0.0f64, |m, v| m.max(v.abs()));
     for col in 0..k.dim() {
         for idx in k.col_ptr()[col]..k.col_ptr()[col + 1] {
@@ -107,7 +107,7 @@ fn global_stiffness_is_symmetric_with_rigid_null_space() {
                 [v.x, v.y, v.z]
             })
             .collect();
-        let force = k.mul(&motion);
+        let force = k.mul(&motion).unwrap();
         let largest = force.iter().fold(0.0f64, |m, f| m.max(f.abs()));
         // Cancellation of O(scale) terms: round-off times a few dozen summands.
         assert!(largest < 1e-12 * scale, "mode {mode}: |K·r| = {largest:e}");
@@ -125,14 +125,14 @@ fn masses_sum_to_density_times_volume() {
         let sum: f64 = lumped.iter().skip(axis).step_by(3).sum();
         assert!((sum - total).abs() < 1e-12 * total);
     }
-    let consistent = Assembler::new(&mesh).consistent_mass(&mesh, &mat);
+    let consistent = Assembler::new(&mesh).consistent_mass(&mesh, &mat).unwrap();
     // Consistent mass: a uniform translation has mass ρ·V, and its row sums are the lumped masses.
     let ones_x: Vec<f64> = (0..mesh.dof_count())
         .map(|d| if d % 3 == 0 { 1.0 } else { 0.0 })
         .collect();
-    assert!((consistent.quadratic_form(&ones_x) - total).abs() < 1e-12 * total);
+    assert!((consistent.quadratic_form(&ones_x).unwrap() - total).abs() < 1e-12 * total);
     let all_ones = vec![1.0; mesh.dof_count()];
-    for (row_sum, lump) in consistent.mul(&all_ones).iter().zip(&lumped) {
+    for (row_sum, lump) in consistent.mul(&all_ones).unwrap().iter().zip(&lumped) {
         assert!((row_sum - lump).abs() < 1e-12 * total);
     }
 }
@@ -141,12 +141,12 @@ fn masses_sum_to_density_times_volume() {
 fn refill_reuses_the_pattern() {
     let mesh = perturbed_box([2, 2, 2], 14);
     let assembler = Assembler::new(&mesh);
-    let soft = assembler.stiffness(&mesh, &Material::new(1.0, 0.3, 1.0).unwrap());
-    let mut k = assembler.stiffness(&mesh, &Material::new(1.0, 0.1, 1.0).unwrap());
+    let soft = assembler.stiffness(&mesh, &Material::new(1.0, 0.3, 1.0).unwrap()).unwrap();
+    let mut k = assembler.stiffness(&mesh, &Material::new(1.0, 0.1, 1.0).unwrap()).unwrap();
     assert!(std::sync::Arc::ptr_eq(k.pattern(), soft.pattern()));
     // Refilling with E = 7 must give exactly 7 × the E = 1 matrix (K is linear in E).
     let stiff = Material::new(7.0, 0.3, 1.0).unwrap();
-    assembler.reassemble(&mesh, |t| mesh.element(t).stiffness(&stiff), &mut k);
+    assembler.reassemble(&mesh, |t| mesh.element(t).unwrap().stiffness(&stiff), &mut k).unwrap();
     for (a, b) in k.values().iter().zip(soft.values()) {
         assert!((a - 7.0 * b).abs() <= 1e-14 * a.abs().max(1.0));
     }
@@ -165,10 +165,10 @@ fn parallel_refill_equals_sequential_scatter_bit_for_bit() {
     let mat = material();
     let assembler = Assembler::new(&mesh);
     assert!(assembler.nnz() > 200_000);
-    let parallel = assembler.stiffness(&mesh, &mat);
+    let parallel = assembler.stiffness(&mesh, &mat).unwrap();
     let mut sequential = vec![0.0; assembler.nnz()];
     for t in 0..mesh.tet_count() {
-        assembler.scatter(&mesh, t, &mesh.element(t).stiffness(&mat), &mut sequential);
+        assembler.scatter(&mesh, t, &mesh.element(t).unwrap().stiffness(&mat), &mut sequential).unwrap();
     }
     // Each entry sums its contributions in tet order on both paths: identical bits.
     assert_eq!(parallel.values(), &sequential[..]);

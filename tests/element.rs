@@ -132,7 +132,7 @@ fn stiffness_is_invariant_under_node_renumbering() {
         // Through the mesh, odd permutations are reoriented; the element must still be the same.
         let mesh = TetMesh::new(nodes.clone(), vec![p]).unwrap();
         let stored = mesh.tets()[0];
-        let kp = mesh.element(0).stiffness(&mat);
+        let kp = mesh.element(0).unwrap().stiffness(&mat);
         for i in 0..4 {
             for j in 0..4 {
                 for a in 0..3 {

@@ -371,7 +371,7 @@ fn newton_twists_a_block_by_90_degrees_with_prescribed_displacements_only() {
                             report.displacement[3 * n + 2],
                         )
                 });
-                signed_volume(&y) / mesh.element(t).volume()
+                signed_volume(&y) / mesh.element(t).unwrap().volume()
             })
             .fold(f64::INFINITY, f64::min);
         println!(

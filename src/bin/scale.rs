@@ -118,13 +118,13 @@ fn run_one(cells: [usize; 3], method: &str, threads: usize, ordering: &str) -> t
     lap(&mut run);
     let assembler = Assembler::new(&mesh);
     lap(&mut run);
-    let k_full = assembler.stiffness(&mesh, &problem.material);
+    let k_full = assembler.stiffness(&mesh, &problem.material)?;
     lap(&mut run);
     let constraints = problem.constraints(&mesh)?;
     let dofs = DofMap::new(&constraints);
     tetfem::constraints::ensure_held(&mesh, &mesh.face_topology()?, &dofs)?;
-    let k_ff = dofs.restriction(k_full.pattern()).restrict(&k_full);
-    let rhs = dofs.restrict(problem.loads(&mesh)?.as_slice());
+    let k_ff = dofs.restriction(k_full.pattern())?.restrict(&k_full)?;
+    let rhs = dofs.restrict(problem.loads(&mesh)?.as_slice())?;
     lap(&mut run);
     let options = SolverOptions {
         method: method.parse::<LinearMethod>()?,
@@ -145,14 +145,14 @@ fn run_one(cells: [usize; 3], method: &str, threads: usize, ordering: &str) -> t
         run.cg_iterations = iterations;
     }
     let residual: f64 = k_ff
-        .mul(&x)
+        .mul(&x)?
         .iter()
         .zip(&rhs)
         .map(|(a, b)| (a - b) * (a - b))
         .sum::<f64>()
         .sqrt();
     run.residual = residual / rhs.iter().map(|b| b * b).sum::<f64>().sqrt();
-    run.tip = problem.tip_deflection(&mesh, &dofs.expand(&x));
+    run.tip = problem.tip_deflection(&mesh, &dofs.expand(&x)?)?;
     run.dofs = mesh.dof_count();
     run.tets = mesh.tet_count();
     run.nnz_k = k_full.nnz();

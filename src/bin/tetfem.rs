@@ -2,15 +2,16 @@
 //! reports; no physics lives here.
 
 use std::io::IsTerminal;
+use std::ops::ControlFlow;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
 use clap::{Args, Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use tetfem::cantilever::Cantilever;
 use tetfem::dynamics::Method;
-use tetfem::element::{Vector12, von_mises};
 use tetfem::info::mesh_info;
 use tetfem::output::VtuWriter;
 use tetfem::scene::{
@@ -192,6 +193,24 @@ fn parse_material(text: &str) -> Result<Material, String> {
     }
 }
 
+/// Set by the first Ctrl-C; dynamic runs stop at the next step boundary.
+static INTERRUPTED: AtomicBool = AtomicBool::new(false);
+
+/// Installed when a dynamic run starts (before that, Ctrl-C ends the process as usual; every
+/// file is written atomically). First Ctrl-C: finish the current step, keep the frames written (the .pvd lists exactly
+/// those) and exit with 130. A second Ctrl-C exits at once (every file is written atomically,
+/// so none is left half-written).
+fn handle_ctrl_c() {
+    let installed = ctrlc::set_handler(|| {
+        if INTERRUPTED.swap(true, Ordering::SeqCst) {
+            std::process::exit(130);
+        }
+    });
+    if let Err(error) = installed {
+        eprintln!("warning: Ctrl-C will stop the run without a clean finish: {error}");
+    }
+}
+
 fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match &cli.command {
@@ -201,6 +220,10 @@ fn main() -> ExitCode {
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
+        Err(error @ Error::Interrupted { .. }) => {
+            eprintln!("tetfem: {error}");
+            ExitCode::from(130)
+        }
         Err(error) => {
             eprintln!("error: {error}");
             if let Error::Diverged { .. } = error {
@@ -232,9 +255,13 @@ impl Progress {
         }
     }
 
-    fn update(&mut self, done: usize, total: usize) {
+    /// Shows progress; `Break` once Ctrl-C was pressed, so that the run stops at this step.
+    fn update(&mut self, done: usize, total: usize) -> ControlFlow<()> {
+        if INTERRUPTED.load(Ordering::SeqCst) {
+            return ControlFlow::Break(());
+        }
         if !self.enabled {
-            return;
+            return ControlFlow::Continue(());
         }
         if !self.shown && self.start.elapsed() > Duration::from_secs(1) {
             self.bar.set_length(total as u64);
@@ -249,6 +276,7 @@ impl Progress {
         if self.shown {
             self.bar.set_position(done as u64);
         }
+        ControlFlow::Continue(())
     }
 }
 
@@ -332,13 +360,7 @@ fn run_default_static(cli: &DefaultScene) -> tetfem::Result<()> {
     );
 
     let displacement = &solved.solution.displacement;
-    let stress: Vec<f64> = (0..mesh.tet_count())
-        .map(|t| {
-            let nodes = mesh.tets()[t];
-            let u = Vector12::from_fn(|i, _| displacement[3 * nodes[i / 3] + i % 3]);
-            von_mises(&mesh.element(t).stress(&material, &u))
-        })
-        .collect();
+    let stress = tetfem::output::fields::cell_von_mises(mesh, &material, displacement)?;
     let path = cli.out.join("cantilever.vtu");
     VtuWriter::new(mesh)
         .point_field("displacement", 3, displacement)?
@@ -406,6 +428,7 @@ fn run_default_dynamic(cli: &DefaultScene) -> tetfem::Result<()> {
         },
         force_png: false,
     };
+    handle_ctrl_c();
     let mut progress = Progress::new(cli.quiet);
     let summary = run_dynamic(&setup, &run, Some(&outputs), &mut |done, total| {
         progress.update(done, total)
@@ -525,6 +548,7 @@ fn run_scene(args: &RunArgs) -> tetfem::Result<()> {
                     ..RunOptions::default()
                 },
             )?;
+            print_warnings(&summary.warnings);
             if args.json {
                 println!("{}", summary.to_json());
             } else if !args.quiet {
@@ -541,12 +565,14 @@ fn run_scene(args: &RunArgs) -> tetfem::Result<()> {
                     (None, None) => None,
                 },
             };
+            handle_ctrl_c();
             let mut progress = Progress::new(args.quiet);
             let summary = run_dynamic_scene(&scene, &overrides, true, args.png, &mut |d, t| {
                 progress.update(d, t)
             });
             drop(progress);
             let summary = summary?;
+            print_warnings(&summary.warnings);
             if args.json {
                 println!("{}", summary.to_json());
             } else if !args.quiet {
@@ -555,6 +581,13 @@ fn run_scene(args: &RunArgs) -> tetfem::Result<()> {
         }
     }
     Ok(())
+}
+
+/// Warnings go to standard error, even with `--quiet` or `--json` (they may change the answer).
+fn print_warnings(warnings: &[String]) {
+    for warning in warnings {
+        eprintln!("warning: {warning}");
+    }
 }
 
 fn info(args: &InfoArgs) -> tetfem::Result<()> {

@@ -3,7 +3,7 @@
 use std::sync::Arc;
 
 use super::{DivergenceGuard, Integrator, LinearSystem, State, check_time_step};
-use crate::error::{Error, Result};
+use crate::error::Result;
 use crate::linsolve::SparseCholesky;
 use crate::sparse::CscMatrix;
 
@@ -63,19 +63,13 @@ impl BackwardEuler {
 impl Integrator for BackwardEuler {
     fn step(&mut self, state: &mut State) -> Result<()> {
         let n = self.system.free_count();
-        if state.displacement.len() != n || state.velocity.len() != n {
-            return Err(Error::invalid_parameter(
-                "state",
-                state.displacement.len(),
-                format!("needs {n} free DOFs"),
-            ));
-        }
+        state.check_len(n)?;
         if self.factored_for != Some(self.dt) {
             self.factor()?;
         }
         if self.guard.is_none() {
             self.guard = Some(DivergenceGuard::new(
-                self.system.energy_using(state, &mut self.work),
+                self.system.energy_using(state, &mut self.work)?,
             ));
         }
         let (dt, damping) = (self.dt, self.system.damping());
@@ -90,8 +84,8 @@ impl Integrator for BackwardEuler {
         }
         self.system
             .stiffness()
-            .mul_vec(&self.work, &mut self.product);
-        self.system.mass().mul_vec(&state.velocity, &mut self.work);
+            .product_into(&self.work, &mut self.product);
+        self.system.mass().product_into(&state.velocity, &mut self.work);
         let f = self.system.external_load();
         for i in 0..n {
             self.rhs[i] = dt * (f[i] - self.product[i] - damping.alpha * self.work[i]);
@@ -103,7 +97,7 @@ impl Integrator for BackwardEuler {
         }
         state.time += dt;
         state.steps += 1;
-        let energy = self.system.energy_using(state, &mut self.work);
+        let energy = self.system.energy_using(state, &mut self.work)?;
         match &self.guard {
             Some(guard) => guard.check(state, &energy),
             None => Ok(()),

@@ -52,20 +52,14 @@ impl SymplecticEuler {
 impl Integrator for SymplecticEuler {
     fn step(&mut self, state: &mut State) -> Result<()> {
         let n = self.system.free_count();
-        if state.displacement.len() != n || state.velocity.len() != n {
-            return Err(Error::invalid_parameter(
-                "state",
-                state.displacement.len(),
-                format!("needs {n} free DOFs"),
-            ));
-        }
+        state.check_len(n)?;
         let (dt, damping) = (self.dt, self.system.damping());
         let f = self.system.external_load();
         // K·u (and K·(u + β·v) with stiffness damping); K·u also gives this state's elastic
         // energy, so the guard costs no extra product without β.
         self.system
             .stiffness()
-            .mul_vec(&state.displacement, &mut self.product);
+            .product_into(&state.displacement, &mut self.product);
         let energy = Energy {
             kinetic: 0.5
                 * state
@@ -81,7 +75,7 @@ impl Integrator for SymplecticEuler {
                     .zip(&self.product)
                     .map(|(u, k)| u * k)
                     .sum::<f64>(),
-            ..self.system.energy_potentials(state)
+            ..self.system.energy_potentials(state)?
         };
         match &self.guard {
             Some(guard) => guard.check(state, &energy)?,
@@ -90,7 +84,7 @@ impl Integrator for SymplecticEuler {
         if damping.beta != 0.0 {
             self.system
                 .stiffness()
-                .mul_vec(&state.velocity, &mut self.work);
+                .product_into(&state.velocity, &mut self.work);
             for (p, kv) in self.product.iter_mut().zip(&self.work) {
                 *p += damping.beta * kv;
             }

@@ -4,7 +4,7 @@
 use std::sync::Arc;
 
 use super::{DivergenceGuard, Integrator, LinearSystem, Mass, State, check_time_step};
-use crate::error::{Error, Result};
+use crate::error::Result;
 use crate::linsolve::SparseCholesky;
 use crate::sparse::CscMatrix;
 
@@ -78,8 +78,8 @@ impl Newmark {
         }
         self.system
             .stiffness()
-            .mul_vec(&self.work, &mut self.product);
-        self.system.mass().mul_vec(&state.velocity, &mut self.work);
+            .product_into(&self.work, &mut self.product);
+        self.system.mass().product_into(&state.velocity, &mut self.work);
         let f = self.system.external_load();
         for i in 0..n {
             self.acceleration[i] = f[i] - self.product[i] - damping.alpha * self.work[i];
@@ -104,13 +104,7 @@ impl Newmark {
 impl Integrator for Newmark {
     fn step(&mut self, state: &mut State) -> Result<()> {
         let n = self.system.free_count();
-        if state.displacement.len() != n || state.velocity.len() != n {
-            return Err(Error::invalid_parameter(
-                "state",
-                state.displacement.len(),
-                format!("needs {n} free DOFs"),
-            ));
-        }
+        state.check_len(n)?;
         if self.factored_for != Some(self.dt) {
             self.factor()?;
         }
@@ -119,7 +113,7 @@ impl Integrator for Newmark {
         }
         if self.guard.is_none() {
             self.guard = Some(DivergenceGuard::new(
-                self.system.energy_using(state, &mut self.work),
+                self.system.energy_using(state, &mut self.work)?,
             ));
         }
         let (dt, damping) = (self.dt, self.system.damping());
@@ -131,14 +125,14 @@ impl Integrator for Newmark {
                 + a[i]
                 + damping.alpha * (2.0 / dt * u[i] + v[i]);
         }
-        self.system.mass().mul_vec(&self.work, &mut self.rhs);
+        self.system.mass().product_into(&self.work, &mut self.rhs);
         if damping.beta != 0.0 {
             for i in 0..n {
                 self.work[i] = 2.0 / dt * u[i] + v[i];
             }
             self.system
                 .stiffness()
-                .mul_vec(&self.work, &mut self.product);
+                .product_into(&self.work, &mut self.product);
             for i in 0..n {
                 self.rhs[i] += damping.beta * self.product[i];
             }
@@ -160,7 +154,7 @@ impl Integrator for Newmark {
         state.time += dt;
         state.steps += 1;
         self.acceleration_of = Some((state.steps, state.time));
-        let energy = self.system.energy_using(state, &mut self.work);
+        let energy = self.system.energy_using(state, &mut self.work)?;
         match &self.guard {
             Some(guard) => guard.check(state, &energy),
             None => Ok(()),

@@ -72,14 +72,14 @@ impl NonlinearBackwardEuler {
         }
         ensure_held(&mesh, &mesh.face_topology()?, &dofs)?;
         let assembler = Assembler::new(&mesh);
-        let restriction = dofs.restriction(assembler.pattern());
+        let restriction = dofs.restriction(assembler.pattern())?;
         let mut all = loads.clone();
         all.add_gravity(&mesh, material, gravity)?;
-        let tangent = CscMatrix::zeros(Arc::clone(assembler.pattern()));
-        let system = CscMatrix::zeros(Arc::clone(restriction.pattern()));
+        let tangent = CscMatrix::zeros(Arc::clone(assembler.pattern()))?;
+        let system = CscMatrix::zeros(Arc::clone(restriction.pattern()))?;
         let cholesky = SparseCholesky::analyze(&system)?;
         Ok(NonlinearBackwardEuler {
-            mass: dofs.restrict(&lumped_mass(&mesh, material)),
+            mass: dofs.restrict(&lumped_mass(&mesh, material))?,
             external: all.as_slice().to_vec(),
             mesh,
             model,
@@ -103,9 +103,11 @@ impl NonlinearBackwardEuler {
         &self.dofs
     }
 
-    /// Kinetic energy ½·vᵀMv plus the model's elastic energy, minus the loads' work potential.
-    pub fn energy(&self, state: &State) -> f64 {
-        let u = self.dofs.expand(&state.displacement);
+    /// Kinetic energy ½·vᵀMv plus the model's elastic energy, minus the loads' work potential
+    /// ([`Error::DimensionMismatch`] if the state is not on the free DOFs).
+    pub fn energy(&self, state: &State) -> Result<f64> {
+        Error::check_len("state.velocity", self.free_count(), state.velocity.len())?;
+        let u = self.dofs.expand(&state.displacement)?;
         let kinetic: f64 = 0.5
             * state
                 .velocity
@@ -113,28 +115,22 @@ impl NonlinearBackwardEuler {
                 .zip(&self.mass)
                 .map(|(v, m)| m * v * v)
                 .sum::<f64>();
-        let elastic = crate::model::assemble::energy(&self.mesh, self.model.as_ref(), &u);
+        let elastic = crate::model::assemble::energy(&self.mesh, self.model.as_ref(), &u)?;
         let potential: f64 = -self
             .external
             .iter()
             .zip(&u)
             .map(|(f, u)| f * u)
             .sum::<f64>();
-        kinetic + elastic + potential
+        Ok(kinetic + elastic + potential)
     }
 
     /// Advances `state` by one step.
     pub fn step(&mut self, state: &mut State) -> Result<()> {
         let n = self.dofs.free_count();
-        if state.displacement.len() != n || state.velocity.len() != n {
-            return Err(Error::invalid_parameter(
-                "state",
-                state.displacement.len(),
-                format!("needs {n} free DOFs"),
-            ));
-        }
+        state.check_len(n)?;
         let dt = self.dt;
-        let u = self.dofs.expand(&state.displacement);
+        let u = self.dofs.expand(&state.displacement)?;
         refill_tangent(
             &self.mesh,
             &self.assembler,
@@ -142,12 +138,12 @@ impl NonlinearBackwardEuler {
             &u,
             true,
             &mut self.tangent,
-        );
+        )?;
         self.restriction
-            .restrict_into(&self.tangent, &mut self.system);
+            .restrict_into(&self.tangent, &mut self.system)?;
         // rhs = dt·(f + f_int − dt·K_t·v), computed before K_t is turned into M + dt²K_t.
-        let kv = self.system.mul(&state.velocity);
-        let forces = internal_force(&self.mesh, self.model.as_ref(), &u);
+        let kv = self.system.mul(&state.velocity)?;
+        let forces = internal_force(&self.mesh, self.model.as_ref(), &u)?;
         let mut rhs: Vec<f64> = self
             .dofs
             .free_dofs()

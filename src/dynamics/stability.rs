@@ -51,7 +51,7 @@ pub fn critical_time_step(system: &LinearSystem) -> Result<CriticalStep> {
     let mut kx = vec![0.0; n];
     let mut lambda = 0.0;
     for iteration in 1..=2000 {
-        k.mul_vec(&x, &mut kx);
+        k.product_into(&x, &mut kx);
         let xkx: f64 = x.iter().zip(&kx).map(|(a, b)| a * b).sum();
         let xmx: f64 = x.iter().zip(mass).map(|(a, m)| a * a * m).sum();
         let next = xkx / xmx;

@@ -1,5 +1,7 @@
 //! The state of a dynamic run.
 
+use crate::error::{Error, Result};
+
 /// Displacement u and velocity v on the free DOFs (length and length/time units), and the time.
 #[derive(Debug, Clone, PartialEq)]
 pub struct State {
@@ -37,9 +39,16 @@ impl State {
 }
 
 impl State {
+    /// [`Error::DimensionMismatch`] unless displacement and velocity both have `free_dofs`
+    /// entries (the free DOF count of the system or integrator it is used with).
+    pub fn check_len(&self, free_dofs: usize) -> Result<()> {
+        Error::check_len("state.displacement", free_dofs, self.displacement.len())?;
+        Error::check_len("state.velocity", free_dofs, self.velocity.len())
+    }
+
     /// `Err(Diverged)` naming this step if any displacement or velocity is NaN or infinite;
     /// `hint` is appended to the reason.
-    pub fn ensure_finite(&self, hint: &str) -> crate::error::Result<()> {
+    pub fn ensure_finite(&self, hint: &str) -> Result<()> {
         if self
             .displacement
             .iter()

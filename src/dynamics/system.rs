@@ -34,23 +34,40 @@ pub enum Mass {
 }
 
 impl Mass {
-    /// y = M·x.
-    pub fn mul_vec(&self, x: &[f64], y: &mut [f64]) {
+    /// y = M·x ([`Error::DimensionMismatch`] unless both have length [`dim`](Self::dim)).
+    pub fn mul_vec(&self, x: &[f64], y: &mut [f64]) -> Result<()> {
+        Error::check_len("x", self.dim(), x.len())?;
+        Error::check_len("y", self.dim(), y.len())?;
+        self.product_into(x, y);
+        Ok(())
+    }
+
+    /// y = M·x for vectors of length `dim()` by construction.
+    pub(crate) fn product_into(&self, x: &[f64], y: &mut [f64]) {
         match self {
             Mass::Lumped(m) => {
                 for ((y, m), x) in y.iter_mut().zip(m).zip(x) {
                     *y = m * x;
                 }
             }
-            Mass::Consistent(m) => m.mul_vec(x, y),
+            Mass::Consistent(m) => m.product_into(x, y),
         }
     }
 
     /// xᵀ·M·x.
-    pub fn quadratic_form(&self, x: &[f64]) -> f64 {
-        match self {
+    pub fn quadratic_form(&self, x: &[f64]) -> Result<f64> {
+        Error::check_len("x", self.dim(), x.len())?;
+        Ok(match self {
             Mass::Lumped(m) => m.iter().zip(x).map(|(m, x)| m * x * x).sum(),
-            Mass::Consistent(m) => m.quadratic_form(x),
+            Mass::Consistent(m) => m.quadratic_form(x)?,
+        })
+    }
+
+    /// Number of free DOFs it acts on.
+    pub fn dim(&self) -> usize {
+        match self {
+            Mass::Lumped(m) => m.len(),
+            Mass::Consistent(m) => m.dim(),
         }
     }
 }
@@ -92,18 +109,18 @@ impl LinearSystem {
         let dofs = DofMap::new(constraints);
         ensure_held(mesh, &mesh.face_topology()?, &dofs)?;
         let assembler = Assembler::new(mesh);
-        let k_full = assembler.stiffness(mesh, material);
-        let restriction = dofs.restriction(k_full.pattern());
-        let stiffness = restriction.restrict(&k_full);
+        let k_full = assembler.stiffness(mesh, material)?;
+        let restriction = dofs.restriction(k_full.pattern())?;
+        let stiffness = restriction.restrict(&k_full)?;
         let mass = match mass {
-            MassKind::Lumped => Mass::Lumped(dofs.restrict(&lumped_mass(mesh, material))),
+            MassKind::Lumped => Mass::Lumped(dofs.restrict(&lumped_mass(mesh, material))?),
             MassKind::Consistent => {
-                Mass::Consistent(restriction.restrict(&assembler.consistent_mass(mesh, material)))
+                Mass::Consistent(restriction.restrict(&assembler.consistent_mass(mesh, material)?)?)
             }
         };
         let mut gravity_loads = Loads::new(mesh);
         gravity_loads.add_gravity(mesh, material, gravity)?;
-        let coupling = k_full.mul(dofs.prescribed());
+        let coupling = k_full.mul(dofs.prescribed())?;
         let other: Vec<f64> = loads
             .as_slice()
             .iter()
@@ -114,8 +131,8 @@ impl LinearSystem {
             stiffness,
             mass,
             damping,
-            dofs.restrict(gravity_loads.as_slice()),
-            dofs.restrict(&other),
+            dofs.restrict(gravity_loads.as_slice())?,
+            dofs.restrict(&other)?,
             dofs,
         )
     }
@@ -231,25 +248,29 @@ impl LinearSystem {
     }
 
     /// The energies of `state`; see [`Energy`].
-    pub fn energy(&self, state: &State) -> Energy {
+    ///
+    /// [`Error::DimensionMismatch`] if the state is not on this system's free DOFs.
+    pub fn energy(&self, state: &State) -> Result<Energy> {
         let mut scratch = vec![0.0; self.free_count()];
         self.energy_using(state, &mut scratch)
     }
 
     /// [`energy`](Self::energy) with a caller-owned scratch vector of the free DOF count, so
     /// that integrators check energies every step without allocating.
-    pub fn energy_using(&self, state: &State, scratch: &mut [f64]) -> Energy {
+    pub fn energy_using(&self, state: &State, scratch: &mut [f64]) -> Result<Energy> {
+        state.check_len(self.free_count())?;
+        Error::check_len("scratch", self.free_count(), scratch.len())?;
         let (u, v) = (&state.displacement, &state.velocity);
-        self.stiffness.mul_vec(u, scratch);
+        self.stiffness.product_into(u, scratch);
         let elastic = 0.5 * dot(u, scratch);
-        self.mass.mul_vec(v, scratch);
+        self.mass.product_into(v, scratch);
         let kinetic = 0.5 * dot(v, scratch);
-        Energy {
+        Ok(Energy {
             kinetic,
             elastic,
             gravity_potential: -dot(&self.gravity_load, u),
             load_potential: -dot(&self.other_load, u),
-        }
+        })
     }
 
     /// Fills `out` (on K_ff's pattern) with a·K + b·M, entry-wise: the system matrices of the
@@ -281,12 +302,13 @@ impl LinearSystem {
     }
 
     /// The load potentials of `state` (the kinetic and elastic terms left zero).
-    pub fn energy_potentials(&self, state: &State) -> Energy {
-        Energy {
+    pub fn energy_potentials(&self, state: &State) -> Result<Energy> {
+        state.check_len(self.free_count())?;
+        Ok(Energy {
             gravity_potential: -dot(&self.gravity_load, &state.displacement),
             load_potential: -dot(&self.other_load, &state.displacement),
             ..Energy::default()
-        }
+        })
     }
 
     /// The static solution K_ff⁻¹·f (free DOFs).

@@ -79,13 +79,14 @@ impl TetMesh {
             }
         }
         let [nx, ny, nz] = cells;
-        let node_count = (nx + 1)
-            .checked_mul(ny + 1)
-            .and_then(|n| n.checked_mul(nz + 1))
-            .ok_or_else(|| {
-                Error::invalid_parameter("cells", format!("{cells:?}"), "too many nodes")
-            })?;
-        let mut nodes = Vec::with_capacity(node_count);
+        let too_many =
+            || Error::invalid_parameter("cells", format!("{cells:?}"), "too many nodes to allocate");
+        let node_count = [nx, ny, nz]
+            .iter()
+            .try_fold(1usize, |n, &c| n.checked_mul(c.checked_add(1)?))
+            .ok_or_else(too_many)?;
+        let mut nodes = Vec::new();
+        nodes.try_reserve_exact(node_count).map_err(|_| too_many())?;
         let step = (max - min).component_div(&Vector3::new(nx as f64, ny as f64, nz as f64));
         for iz in 0..=nz {
             for iy in 0..=ny {
@@ -110,7 +111,10 @@ impl TetMesh {
             BoxSplit::Lecture6 => 6,
             BoxSplit::Five => 5,
         };
-        let mut tets = Vec::with_capacity(nx * ny * nz * per_cell);
+        // nx·ny·nz < node_count, which fit; ×6 may not.
+        let tet_count = (nx * ny * nz).checked_mul(per_cell).ok_or_else(too_many)?;
+        let mut tets = Vec::new();
+        tets.try_reserve_exact(tet_count).map_err(|_| too_many())?;
         for cz in 0..nz {
             for cy in 0..ny {
                 for cx in 0..nx {

@@ -34,6 +34,7 @@ pub const DEGENERATE_QUALITY: f64 = 1e-10;
 pub struct TetMesh {
     nodes: Vec<Vector3<f64>>,
     tets: Vec<[usize; 4]>,
+    reoriented: usize,
 }
 
 impl TetMesh {
@@ -60,6 +61,7 @@ impl TetMesh {
                 }
             }
         }
+        let mut reoriented = 0;
         for (tet, t) in tets.iter_mut().enumerate() {
             for (k, &node) in t.iter().enumerate() {
                 if node >= nodes.len() {
@@ -89,9 +91,14 @@ impl TetMesh {
             }
             if signed_volume(&x) < 0.0 {
                 t.swap(1, 2);
+                reoriented += 1;
             }
         }
-        Ok(TetMesh { nodes, tets })
+        Ok(TetMesh {
+            nodes,
+            tets,
+            reoriented,
+        })
     }
 
     /// Node positions.
@@ -119,33 +126,59 @@ impl TetMesh {
         3 * self.nodes.len()
     }
 
-    /// Rest positions of tet `t`'s four nodes.
-    ///
-    /// # Panics
-    /// If `t >= self.tet_count()`.
-    pub fn tet_positions(&self, t: usize) -> [Vector3<f64>; 4] {
-        self.tets[t].map(|n| self.nodes[n])
+    /// Rest positions of tet `t`'s four nodes; [`Error::UnknownTet`] if `t >= tet_count()`.
+    pub fn tet_positions(&self, t: usize) -> Result<[Vector3<f64>; 4]> {
+        self.check_tet("TetMesh::tet_positions", t)?;
+        Ok(self.positions_of(t))
     }
 
-    /// The rest-state element of tet `t`.
-    ///
-    /// # Panics
-    /// If `t >= self.tet_count()`.
-    pub fn element(&self, t: usize) -> Tet {
-        Tet::new(&self.tet_positions(t))
-            .expect("TetMesh invariant: every tet is positively oriented and non-degenerate")
+    /// The rest-state element of tet `t`; [`Error::UnknownTet`] if `t >= tet_count()`.
+    pub fn element(&self, t: usize) -> Result<Tet> {
+        self.check_tet("TetMesh::element", t)?;
+        Ok(self.element_of(t))
     }
 
     /// All rest-state elements, in tet order.
     pub fn elements(&self) -> Vec<Tet> {
-        (0..self.tets.len()).map(|t| self.element(t)).collect()
+        (0..self.tets.len()).map(|t| self.element_of(t)).collect()
     }
 
     /// Total rest volume Σ Vₑ.
     pub fn volume(&self) -> f64 {
         (0..self.tets.len())
-            .map(|t| signed_volume(&self.tet_positions(t)))
+            .map(|t| signed_volume(&self.positions_of(t)))
             .sum()
+    }
+
+    /// Number of tets that [`TetMesh::new`] found negatively oriented and reoriented.
+    pub fn reoriented_count(&self) -> usize {
+        self.reoriented
+    }
+
+    /// [`Error::UnknownTet`] unless `t` is a tet of this mesh.
+    pub(crate) fn check_tet(&self, context: &'static str, t: usize) -> Result<()> {
+        if t < self.tets.len() {
+            Ok(())
+        } else {
+            Err(Error::UnknownTet {
+                context,
+                tet: t,
+                tet_count: self.tets.len(),
+            })
+        }
+    }
+
+    /// Rest positions of tet `t`, for loops over `0..tet_count()` (panics on a bad index).
+    pub(crate) fn positions_of(&self, t: usize) -> [Vector3<f64>; 4] {
+        self.tets[t].map(|n| self.nodes[n])
+    }
+
+    /// The element of tet `t`, for loops over `0..tet_count()` (panics on a bad index).
+    pub(crate) fn element_of(&self, t: usize) -> Tet {
+        // Cannot fail: `new` rejected every tet whose quality is below DEGENERATE_QUALITY and
+        // reoriented the negative ones, which is all `Tet::new` checks.
+        Tet::new(&self.positions_of(t))
+            .expect("TetMesh invariant: every tet is positively oriented and non-degenerate")
     }
 
     /// Axis-aligned bounding box (min corner, max corner).

@@ -141,8 +141,52 @@ impl TetMesh {
     /// Quality of every tet, in tet order.
     pub fn tet_qualities(&self) -> Vec<TetQuality> {
         (0..self.tet_count())
-            .map(|t| tet_quality(&self.element(t), &self.tet_positions(t)))
+            .map(|t| tet_quality(&self.element_of(t), &self.positions_of(t)))
             .collect()
+    }
+
+    /// Warnings about this mesh: unused nodes, mixed orientation, poor elements (see
+    /// [`Warning`](crate::warning::Warning)). One pass over the tets, O(tets).
+    pub fn warnings(&self) -> Vec<crate::warning::Warning> {
+        use crate::warning::Warning;
+        let mut warnings = Vec::new();
+        let mut used = vec![false; self.node_count()];
+        for tet in self.tets() {
+            for &n in tet {
+                used[n] = true;
+            }
+        }
+        let unused = used.iter().filter(|&&u| !u).count();
+        if let Some(first) = used.iter().position(|&u| !u) {
+            warnings.push(Warning::UnusedNodes {
+                count: unused,
+                first,
+            });
+        }
+        if self.reoriented_count() > 0 && self.reoriented_count() < self.tet_count() {
+            warnings.push(Warning::MixedOrientation {
+                reoriented: self.reoriented_count(),
+                tets: self.tet_count(),
+            });
+        }
+        let q = self.tet_qualities();
+        let deg = 180.0 / std::f64::consts::PI;
+        let poor = q
+            .iter()
+            .filter(|q| q.min_dihedral * deg < POOR_DIHEDRAL_DEG)
+            .count();
+        if poor > 0 {
+            let dihedral = Summary::of(q.iter().map(|q| q.min_dihedral * deg));
+            let mut altitudes: Vec<f64> = q.iter().map(|q| q.min_altitude).collect();
+            altitudes.sort_unstable_by(f64::total_cmp);
+            warnings.push(Warning::PoorElements {
+                count: poor,
+                worst_tet: dihedral.min_tet,
+                worst_dihedral_deg: dihedral.min,
+                dt_factor: altitudes[0] / altitudes[altitudes.len() / 2],
+            });
+        }
+        warnings
     }
 
     /// Counts, volume, edge lengths and quality statistics.
@@ -152,7 +196,7 @@ impl TetMesh {
         let mut shortest = f64::INFINITY;
         let mut longest: f64 = 0.0;
         for t in 0..self.tet_count() {
-            let x = self.tet_positions(t);
+            let x = self.positions_of(t);
             for i in 0..4 {
                 for j in i + 1..4 {
                     let l = (x[j] - x[i]).norm();
@@ -208,7 +252,7 @@ pub fn critical_time_step(mesh: &TetMesh, material: &Material) -> CriticalStep {
     let mut tet = 0;
     let mut dt_geometric = f64::INFINITY;
     for t in 0..mesh.tet_count() {
-        let element = mesh.element(t);
+        let element = mesh.element_of(t);
         let k = element.stiffness(material);
         let lambda_max = k
             .symmetric_eigenvalues()
@@ -219,7 +263,7 @@ pub fn critical_time_step(mesh: &TetMesh, material: &Material) -> CriticalStep {
             worst_omega_sq = omega_sq;
             tet = t;
         }
-        let q = tet_quality(&element, &mesh.tet_positions(t));
+        let q = tet_quality(&element, &mesh.positions_of(t));
         dt_geometric = dt_geometric.min(q.min_altitude / c_p);
     }
     CriticalStep {

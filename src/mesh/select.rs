@@ -27,7 +27,8 @@ impl TetMesh {
         self.nodes_where(|p| (0..3).all(|a| p[a] >= min[a] && p[a] <= max[a]))
     }
 
-    /// Boundary faces all three of whose nodes satisfy `predicate`.
+    /// Boundary faces all three of whose nodes satisfy `predicate`. A face naming a node this
+    /// mesh does not have (a face of another mesh) never matches.
     pub fn faces_where(
         &self,
         boundary: &[BoundaryFace],
@@ -35,7 +36,11 @@ impl TetMesh {
     ) -> Vec<BoundaryFace> {
         boundary
             .iter()
-            .filter(|f| f.nodes.iter().all(|&n| predicate(&self.nodes()[n])))
+            .filter(|f| {
+                f.nodes
+                    .iter()
+                    .all(|&n| self.nodes().get(n).is_some_and(&predicate))
+            })
             .copied()
             .collect()
     }

@@ -17,15 +17,28 @@ pub struct BoundaryFace {
 
 impl BoundaryFace {
     /// Area vector ½(n₁−n₀)×(n₂−n₀): outward normal times area (length² units).
-    pub fn area_vector(&self, mesh: &TetMesh) -> Vector3<f64> {
-        let p = self.nodes.map(|n| mesh.nodes()[n]);
-        (p[1] - p[0]).cross(&(p[2] - p[0])) * 0.5
+    /// [`Error::UnknownNode`] if the face names a node `mesh` does not have.
+    pub fn area_vector(&self, mesh: &TetMesh) -> Result<Vector3<f64>> {
+        let p = self.positions(mesh)?;
+        Ok((p[1] - p[0]).cross(&(p[2] - p[0])) * 0.5)
     }
 
-    /// Centroid of the triangle.
-    pub fn centroid(&self, mesh: &TetMesh) -> Vector3<f64> {
-        let p = self.nodes.map(|n| mesh.nodes()[n]);
-        (p[0] + p[1] + p[2]) / 3.0
+    /// Centroid of the triangle ([`Error::UnknownNode`] as for [`area_vector`](Self::area_vector)).
+    pub fn centroid(&self, mesh: &TetMesh) -> Result<Vector3<f64>> {
+        let p = self.positions(mesh)?;
+        Ok((p[0] + p[1] + p[2]) / 3.0)
+    }
+
+    fn positions(&self, mesh: &TetMesh) -> Result<[Vector3<f64>; 3]> {
+        let mut p = [Vector3::zeros(); 3];
+        for (p, &n) in p.iter_mut().zip(&self.nodes) {
+            *p = *mesh.nodes().get(n).ok_or(Error::UnknownNode {
+                context: "boundary face",
+                node: n,
+                node_count: mesh.node_count(),
+            })?;
+        }
+        Ok(p)
     }
 }
 
@@ -41,8 +54,10 @@ pub struct FaceTopology {
 impl TetMesh {
     /// Classifies every tet face as boundary (one tet) or interior (two tets).
     ///
-    /// A face shared by three or more tets is an error ([`Error::NonManifoldFace`]): the mesh
-    /// overlaps itself or repeats a tet there.
+    /// Also checks how the tets fit together, which [`TetMesh::new`] (one tet at a time) cannot:
+    /// a tet given twice is [`Error::DuplicateTet`]; two face neighbours on the same side of
+    /// their face (a fold, an inverted element) are [`Error::InvertedTet`]; a face shared by three
+    /// or more tets is [`Error::NonManifoldFace`]. Every solver runs this before it assembles.
     pub fn face_topology(&self) -> Result<FaceTopology> {
         // Sort all 4·n faces by their sorted node triple; equal neighbours share a face.
         let mut faces: Vec<([usize; 3], usize, usize)> = Vec::with_capacity(4 * self.tet_count());
@@ -62,12 +77,16 @@ impl TetMesh {
             while j < faces.len() && faces[j].0 == faces[i].0 {
                 j += 1;
             }
+            self.check_no_duplicates(&faces[i..j])?;
             match j - i {
                 1 => {
                     let (_, tet, local) = faces[i];
                     boundary.push(self.outward_face(tet, local));
                 }
-                2 => neighbours.push((faces[i].1, faces[i + 1].1)),
+                2 => {
+                    self.check_opposite_sides(faces[i], faces[i + 1])?;
+                    neighbours.push((faces[i].1, faces[i + 1].1));
+                }
                 _ => {
                     return Err(Error::NonManifoldFace {
                         face: faces[i].0,
@@ -87,6 +106,49 @@ impl TetMesh {
     /// The boundary (surface) triangles, outward oriented.
     pub fn boundary_faces(&self) -> Result<Vec<BoundaryFace>> {
         Ok(self.face_topology()?.boundary)
+    }
+
+    /// Tets that share a face and also the node opposite it are the same tet twice.
+    fn check_no_duplicates(&self, sharing: &[([usize; 3], usize, usize)]) -> Result<()> {
+        for (k, &(_, first, first_local)) in sharing.iter().enumerate() {
+            for &(_, tet, local) in &sharing[k + 1..] {
+                let a = self.tets()[first][FACES[first_local].1];
+                let b = self.tets()[tet][FACES[local].1];
+                if a == b {
+                    let mut nodes = self.tets()[tet];
+                    nodes.sort_unstable();
+                    return Err(Error::DuplicateTet {
+                        first: first.min(tet),
+                        tet: first.max(tet),
+                        nodes,
+                    });
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// Two tets sharing a face must have their opposite nodes on opposite sides of it.
+    ///
+    /// Both tets are positively oriented, so the face's outward normal of one must be the
+    /// inward normal of the other: the signed distances of the two opposite nodes from the
+    /// face plane have opposite signs. Equal signs mean the tets overlap (a fold).
+    fn check_opposite_sides(
+        &self,
+        (face, first, first_local): ([usize; 3], usize, usize),
+        (_, tet, local): ([usize; 3], usize, usize),
+    ) -> Result<()> {
+        let p = face.map(|n| self.nodes()[n]);
+        let normal = (p[1] - p[0]).cross(&(p[2] - p[0]));
+        let side = |t: usize, l: usize| normal.dot(&(self.nodes()[self.tets()[t][FACES[l].1]] - p[0]));
+        if side(first, first_local) * side(tet, local) > 0.0 {
+            return Err(Error::InvertedTet {
+                tet: first.max(tet),
+                neighbour: first.min(tet),
+                face,
+            });
+        }
+        Ok(())
     }
 
     fn outward_face(&self, tet: usize, local: usize) -> BoundaryFace {

@@ -1,55 +1,61 @@
 //! Global internal force, energy and tangent of a force model on a mesh.
+//!
+//! Every function takes the full displacement vector u (length 3·nodes, DOF `3·node + axis`)
+//! and checks its length before touching it.
 
 use nalgebra::Vector3;
 
 use super::{ForceModel, project_psd};
 use crate::assembly::Assembler;
+use crate::error::{Error, Result};
 use crate::mesh::TetMesh;
 use crate::sparse::CscMatrix;
 
 /// Deformed positions x = X + u of tet `t` from a full displacement vector.
-pub fn deformed_positions(mesh: &TetMesh, t: usize, displacement: &[f64]) -> [Vector3<f64>; 4] {
-    mesh.tets()[t].map(|n| {
-        mesh.nodes()[n]
-            + Vector3::new(
-                displacement[3 * n],
-                displacement[3 * n + 1],
-                displacement[3 * n + 2],
-            )
-    })
+///
+/// Errors: `t` is not a tet of `mesh`, or `displacement` is not full length.
+pub fn deformed_positions(
+    mesh: &TetMesh,
+    t: usize,
+    displacement: &[f64],
+) -> Result<[Vector3<f64>; 4]> {
+    mesh.check_tet("deformed_positions", t)?;
+    check_displacement(mesh, displacement)?;
+    Ok(positions(mesh, t, displacement))
+}
+
+fn check_displacement(mesh: &TetMesh, u: &[f64]) -> Result<()> {
+    Error::check_len("displacement", mesh.dof_count(), u.len())
+}
+
+/// x = X + u for tet `t`; `t` and `u`'s length were checked by the caller.
+fn positions(mesh: &TetMesh, t: usize, u: &[f64]) -> [Vector3<f64>; 4] {
+    mesh.tets()[t].map(|n| mesh.nodes()[n] + Vector3::new(u[3 * n], u[3 * n + 1], u[3 * n + 2]))
 }
 
 /// Total elastic energy Σₑ Eₑ at displacement `u` (full length).
-pub fn energy(mesh: &TetMesh, model: &dyn ForceModel, u: &[f64]) -> f64 {
+pub fn energy(mesh: &TetMesh, model: &dyn ForceModel, u: &[f64]) -> Result<f64> {
     use rayon::prelude::*;
-    (0..mesh.tet_count())
+    check_displacement(mesh, u)?;
+    Ok((0..mesh.tet_count())
         .into_par_iter()
-        .map(|t| {
-            model.energy(
-                &mesh.element(t),
-                &mesh.tet_positions(t),
-                &deformed_positions(mesh, t, u),
-            )
-        })
-        .sum()
+        .map(|t| model.energy(&mesh.element_of(t), &mesh.positions_of(t), &positions(mesh, t, u)))
+        .sum())
 }
 
 /// Internal force vector Σₑ fₑ at displacement `u` (full length, force units).
-pub fn internal_force(mesh: &TetMesh, model: &dyn ForceModel, u: &[f64]) -> Vec<f64> {
+pub fn internal_force(mesh: &TetMesh, model: &dyn ForceModel, u: &[f64]) -> Result<Vec<f64>> {
+    check_displacement(mesh, u)?;
     let mut force = vec![0.0; mesh.dof_count()];
     for (t, tet) in mesh.tets().iter().enumerate() {
-        let f = model.force(
-            &mesh.element(t),
-            &mesh.tet_positions(t),
-            &deformed_positions(mesh, t, u),
-        );
+        let f = model.force(&mesh.element_of(t), &mesh.positions_of(t), &positions(mesh, t, u));
         for (i, &n) in tet.iter().enumerate() {
             for a in 0..3 {
                 force[3 * n + a] += f[3 * i + a];
             }
         }
     }
-    force
+    Ok(force)
 }
 
 /// Refills `tangent` (on `assembler`'s pattern) with Σₑ (element tangent), each projected onto
@@ -61,17 +67,14 @@ pub fn refill_tangent(
     u: &[f64],
     project: bool,
     tangent: &mut CscMatrix,
-) {
+) -> Result<()> {
+    check_displacement(mesh, u)?;
     assembler.reassemble(
         mesh,
         |t| {
-            let k = model.tangent(
-                &mesh.element(t),
-                &mesh.tet_positions(t),
-                &deformed_positions(mesh, t, u),
-            );
+            let k = model.tangent(&mesh.element_of(t), &mesh.positions_of(t), &positions(mesh, t, u));
             if project { project_psd(&k) } else { k }
         },
         tangent,
-    );
+    )
 }

@@ -37,7 +37,7 @@ pub fn cell_stress(
         .iter()
         .enumerate()
         .map(|(t, tet)| {
-            mesh.element(t)
+            mesh.element_of(t)
                 .stress(material, &element_displacement(tet, displacement))
         })
         .collect())
@@ -68,7 +68,7 @@ pub fn cell_strain_energy_density(
         .iter()
         .enumerate()
         .map(|(t, tet)| {
-            let element = mesh.element(t);
+            let element = mesh.element_of(t);
             let u = element_displacement(tet, displacement);
             let strain = element.strain(&u);
             0.5 * element.stress(material, &u).component_mul(&strain).sum()

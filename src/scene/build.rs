@@ -58,6 +58,15 @@ pub struct BuiltScene {
     pub probes: Vec<Probe>,
 }
 
+impl BuiltScene {
+    /// The mesh's and the material's warnings (see [`crate::warning`]).
+    pub fn warnings(&self) -> Vec<crate::warning::Warning> {
+        let mut warnings = self.mesh.warnings();
+        warnings.extend(self.material.warnings());
+        warnings
+    }
+}
+
 impl Scene {
     /// Builds the mesh (generating or reading it), the material, the constraints, the loads and
     /// the probes. Selections that match nothing are errors naming the scene entry and line.
@@ -374,7 +383,7 @@ impl Context<'_> {
             }
             let faces = self.faces(needs_where()?, key, span)?;
             for face in &faces {
-                let normal = face.area_vector(self.mesh).normalize();
+                let normal = face.area_vector(self.mesh).map_err(at)?.normalize();
                 loads
                     .add_traction(self.mesh, std::slice::from_ref(face), -normal * p)
                     .map_err(at)?;

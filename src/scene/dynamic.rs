@@ -3,6 +3,7 @@
 //! of probes, energies and wall time per step, PNG frames, and a JSON summary.
 
 use std::path::PathBuf;
+use std::ops::ControlFlow;
 use std::sync::Arc;
 use std::time::Instant;
 
@@ -117,7 +118,7 @@ impl DynamicSetup {
         let velocity: Vec<f64> = (0..built.mesh.dof_count())
             .map(|dof| settings.initial_velocity[dof % 3])
             .collect();
-        initial.velocity = system.dofs().restrict(&velocity);
+        initial.velocity = system.dofs().restrict(&velocity)?;
         Ok(DynamicSetup {
             mesh: built.mesh,
             material: built.material,
@@ -319,6 +320,8 @@ pub struct DynamicSummary {
     pub frames: usize,
     /// Files written.
     pub files: Vec<PathBuf>,
+    /// Warnings about the mesh and the material (see [`crate::warning`]), as sentences.
+    pub warnings: Vec<String>,
 }
 
 impl DynamicSummary {
@@ -337,7 +340,9 @@ pub struct DynamicOutputs {
     pub force_png: bool,
 }
 
-/// Integrates `setup` as `run` says, calling `progress(steps_done, steps_total)` after each step.
+/// Integrates `setup` as `run` says, calling `progress(steps_done, steps_total)` after each step;
+/// when it returns `ControlFlow::Break` the run stops there with [`Error::Interrupted`] (how the
+/// command-line tool handles Ctrl-C).
 ///
 /// Outputs (when `outputs` is given) go to the settings' folder: `<stem>_<step>.vtu` every
 /// `every` steps and at the last step, with `<stem>.pvd` listing them and their times (rewritten
@@ -353,7 +358,7 @@ pub fn run_dynamic(
     setup: &DynamicSetup,
     run: &DynamicRun,
     outputs: Option<&DynamicOutputs>,
-    progress: &mut dyn FnMut(usize, usize),
+    progress: &mut dyn FnMut(usize, usize) -> ControlFlow<()>,
 ) -> Result<DynamicSummary> {
     let clock = Instant::now();
     let (critical, critical_source) = setup.critical_step()?;
@@ -378,7 +383,7 @@ pub fn run_dynamic(
     let system = &setup.system;
     let mesh = &setup.mesh;
     let mut state = setup.initial.clone();
-    let initial_energy = system.energy(&state);
+    let initial_energy = system.energy(&state)?;
     let mut writer = match outputs {
         Some(o) => Some(FrameWriter::new(setup, run, o, steps)?),
         None => None,
@@ -400,8 +405,8 @@ pub fn run_dynamic(
                       last: bool|
      -> Result<Energy> {
         let clock = Instant::now();
-        let energy = system.energy(state);
-        let u = system.dofs().expand(&state.displacement);
+        let energy = system.energy(state)?;
+        let u = system.dofs().expand(&state.displacement)?;
         let mut means = Vec::with_capacity(setup.probes.len());
         for (probe, range) in setup.probes.iter().zip(probes.iter_mut()) {
             let mean: [f64; 3] = probe.mean_displacement(&u).into();
@@ -435,7 +440,19 @@ pub fn run_dynamic(
         }
         step_total += wall;
         final_energy = record(&state, wall, &mut writer, step == steps)?;
-        progress(step, steps);
+        if progress(step, steps).is_break() && step < steps {
+            // Stop at this step boundary: every frame written so far is complete and listed
+            // in the .pvd (rewritten after each frame); the CSV gets the rows up to here.
+            let frames = writer.as_ref().map_or(0, |w| w.frames);
+            if let Some(w) = &writer {
+                w.finish_partial()?;
+            }
+            return Err(Error::Interrupted {
+                step,
+                time: state.time,
+                frames,
+            });
+        }
     }
     let mut files = Vec::new();
     let mut frames = 0;
@@ -444,6 +461,13 @@ pub fn run_dynamic(
         files = w.finish()?;
     }
     let mut summary = DynamicSummary {
+        warnings: setup
+            .mesh
+            .warnings()
+            .iter()
+            .chain(&setup.material.warnings())
+            .map(ToString::to_string)
+            .collect(),
         title: run.title.clone(),
         scene: run.source.clone(),
         analysis: "dynamic".into(),
@@ -678,9 +702,9 @@ impl FrameWriter {
 /// static deflection).
 fn png_look(setup: &DynamicSetup, s: &OutputSettings) -> Result<PngLook> {
     let dofs = setup.system.dofs();
-    let initial = dofs.expand(&setup.initial.displacement);
+    let initial = dofs.expand(&setup.initial.displacement)?;
     let doubled: Vec<f64> = dofs
-        .expand(&setup.system.static_displacement()?)
+        .expand(&setup.system.static_displacement()?)?
         .iter()
         .map(|u| 2.0 * u)
         .collect();
@@ -737,7 +761,7 @@ pub fn run_dynamic_scene(
     overrides: &DynamicOverrides,
     write_files: bool,
     force_png: bool,
-    progress: &mut dyn FnMut(usize, usize),
+    progress: &mut dyn FnMut(usize, usize) -> ControlFlow<()>,
 ) -> Result<DynamicSummary> {
     let Analysis::Dynamic(settings) = scene.analysis() else {
         return Err(Error::Scene {

@@ -59,6 +59,8 @@ pub struct RunSummary {
     pub output_seconds: f64,
     /// Files written.
     pub files: Vec<PathBuf>,
+    /// Warnings about the mesh and the material (see [`crate::warning`]), as sentences.
+    pub warnings: Vec<String>,
 }
 
 impl RunSummary {
@@ -111,7 +113,7 @@ pub fn run_static_with(scene: &Scene, options: &RunOptions) -> Result<RunSummary
             )?;
             let dofs = crate::constraints::DofMap::new(&built.constraints);
             let load: f64 = dofs
-                .restrict(built.loads.as_slice())
+                .restrict(built.loads.as_slice())?
                 .iter()
                 .map(|f| f * f)
                 .sum::<f64>()
@@ -140,6 +142,7 @@ pub fn run_static_with(scene: &Scene, options: &RunOptions) -> Result<RunSummary
         })
         .collect();
     let mut summary = RunSummary {
+        warnings: built.warnings().iter().map(ToString::to_string).collect(),
         title: scene.title(),
         scene: scene.source_name().to_string(),
         analysis: "static".into(),

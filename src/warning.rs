@@ -1,0 +1,86 @@
+//! Warnings: input that is valid but likely to give a poor or surprising answer.
+//!
+//! The library never prints; it returns these from [`TetMesh::warnings`](crate::mesh::TetMesh::warnings)
+//! and [`Material::warnings`](crate::material::Material::warnings), and the scene runner and the
+//! command-line tool print them (`warning: …` on standard error) and list them in `--json`.
+
+use std::fmt;
+
+/// Poisson's ratio from which [`Warning::NearlyIncompressible`] is raised: λ/μ = 2ν/(1−2ν) = 9
+/// at ν = 0.45, and linear tets lock volumetrically as λ/μ grows (too stiff in bending).
+pub const NEARLY_INCOMPRESSIBLE_POISSON: f64 = 0.45;
+
+/// One warning about a mesh or a material.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+#[non_exhaustive]
+pub enum Warning {
+    /// Nodes that no tet uses. They are kept (their numbering is the caller's), carry no
+    /// stiffness and no mass, and are left out of every solve (their displacement is zero).
+    UnusedNodes {
+        /// How many.
+        count: usize,
+        /// The first one.
+        first: usize,
+    },
+    /// Some tets, not all, were given with negative orientation and were reoriented; in a mesh
+    /// from one generator that usually means the connectivity was edited by hand.
+    MixedOrientation {
+        /// Tets reoriented.
+        reoriented: usize,
+        /// Tets in the mesh.
+        tets: usize,
+    },
+    /// Tets with a dihedral angle below [`POOR_DIHEDRAL_DEG`](crate::mesh::POOR_DIHEDRAL_DEG)
+    /// (slivers, needles, caps): their stiffness is poorly conditioned, their stresses
+    /// unreliable, and the smallest altitude sets the explicit critical step.
+    PoorElements {
+        /// How many tets are poor.
+        count: usize,
+        /// The tet with the smallest dihedral angle.
+        worst_tet: usize,
+        /// Its smallest dihedral angle (degrees).
+        worst_dihedral_deg: f64,
+        /// Smallest altitude over all tets divided by the median tet's smallest altitude: the
+        /// explicit critical step h/c_p is this factor of what the typical tets would allow.
+        dt_factor: f64,
+    },
+    /// ν ≥ [`NEARLY_INCOMPRESSIBLE_POISSON`]: linear tets lock volumetrically (displacements too
+    /// small, stresses oscillating), increasingly so as ν → 0.5.
+    NearlyIncompressible {
+        /// The material's ν.
+        poisson_ratio: f64,
+    },
+}
+
+impl fmt::Display for Warning {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Warning::UnusedNodes { count, first } => write!(
+                f,
+                "{count} nodes are used by no tet (first: node {first}); they are left out of the solve"
+            ),
+            Warning::MixedOrientation { reoriented, tets } => write!(
+                f,
+                "{reoriented} of {tets} tets were negatively oriented and have been reoriented"
+            ),
+            Warning::PoorElements {
+                count,
+                worst_tet,
+                worst_dihedral_deg,
+                dt_factor,
+            } => write!(
+                f,
+                "{count} tets have a dihedral angle under {}° (worst: tet {worst_tet}, {worst_dihedral_deg:.2}°); \
+                 their stresses are unreliable, and the smallest altitude makes the explicit critical step \
+                 {dt_factor:.2e} of what the median tet would allow",
+                crate::mesh::POOR_DIHEDRAL_DEG
+            ),
+            Warning::NearlyIncompressible { poisson_ratio } => write!(
+                f,
+                "Poisson's ratio {poisson_ratio} is close to 0.5 (λ/μ = {:.0}): linear tets lock volumetrically \
+                 and come out too stiff; refine, or use ν < {NEARLY_INCOMPRESSIBLE_POISSON}",
+                2.0 * poisson_ratio / (1.0 - 2.0 * poisson_ratio)
+            ),
+        }
+    }
+}
