@@ -23,7 +23,13 @@ fn element(c: &mut Criterion) {
     let problem = Cantilever::peer_benchmark([1, 1, 1]);
     let mesh = problem.mesh().unwrap();
     c.bench_function("element/stiffness", |b| {
-        b.iter(|| black_box(mesh.element(black_box(0)).unwrap().stiffness(&problem.material)))
+        b.iter(|| {
+            black_box(
+                mesh.element(black_box(0))
+                    .unwrap()
+                    .stiffness(&problem.material),
+            )
+        })
     });
 }
 
@@ -45,11 +51,13 @@ fn pipeline(c: &mut Criterion) {
         let mut k = assembler.stiffness(&mesh, &problem.material).unwrap();
         group.bench_function(BenchmarkId::new("refill", &label), |b| {
             b.iter(|| {
-                assembler.reassemble(
-                    &mesh,
-                    |t| mesh.element(t).unwrap().stiffness(&problem.material),
-                    &mut k,
-                ).unwrap()
+                assembler
+                    .reassemble(
+                        &mesh,
+                        |t| mesh.element(t).unwrap().stiffness(&problem.material),
+                        &mut k,
+                    )
+                    .unwrap()
             })
         });
         let constraints = problem.constraints(&mesh).unwrap();
@@ -75,7 +83,9 @@ fn pipeline(c: &mut Criterion) {
                 BenchmarkId::new(format!("numeric-nd-{threads}thr"), &label),
                 |b| b.iter(|| cholesky.factorize(&k_ff).unwrap()),
             );
-            let rhs = map.restrict(problem.loads(&mesh).unwrap().as_slice()).unwrap();
+            let rhs = map
+                .restrict(problem.loads(&mesh).unwrap().as_slice())
+                .unwrap();
             let mut x = rhs.clone();
             group.bench_function(
                 BenchmarkId::new(format!("solve-nd-{threads}thr"), &label),

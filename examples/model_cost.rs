@@ -36,7 +36,8 @@ fn main() -> tetfem::Result<()> {
         let force = assemble::internal_force(&mesh, model.as_ref(), &u).unwrap();
         let t_force = t.elapsed().as_secs_f64();
         let t = Instant::now();
-        assemble::refill_tangent(&mesh, &assembler, model.as_ref(), &u, false, &mut tangent).unwrap();
+        assemble::refill_tangent(&mesh, &assembler, model.as_ref(), &u, false, &mut tangent)
+            .unwrap();
         restriction.restrict_into(&tangent, &mut free).unwrap();
         let t_assembly = t.elapsed().as_secs_f64();
         let t = Instant::now();

@@ -216,7 +216,8 @@ fn cost_per_iteration(base: &Cantilever) -> tetfem::Result<()> {
                 .fold(f64::INFINITY, f64::min)
         };
         let mut force = Vec::new();
-        let t_force = best(&mut || force = assemble::internal_force(&mesh, model.as_ref(), &u).unwrap());
+        let t_force =
+            best(&mut || force = assemble::internal_force(&mesh, model.as_ref(), &u).unwrap());
         let t_projected =
             best(&mut || refill_tangent(&mesh, &assembler, model.as_ref(), &u, true, &mut tangent));
         let t_exact = best(&mut || {

@@ -177,7 +177,13 @@ impl Assembler {
     ///
     /// Errors: `mesh` is not the one this assembler was built from, `t` is not one of its tets,
     /// or `values.len()` is not [`nnz`](Self::nnz).
-    pub fn scatter(&self, mesh: &TetMesh, t: usize, ke: &Matrix12, values: &mut [f64]) -> Result<()> {
+    pub fn scatter(
+        &self,
+        mesh: &TetMesh,
+        t: usize,
+        ke: &Matrix12,
+        values: &mut [f64],
+    ) -> Result<()> {
         self.check_mesh(mesh)?;
         mesh.check_tet("Assembler::scatter", t)?;
         Error::check_len("values", self.nnz(), values.len())?;

@@ -210,7 +210,9 @@ pub enum Error {
 
     /// A run was stopped by its caller (e.g. Ctrl-C) at a step boundary. The outputs hold the
     /// frames completed up to there, and the `.pvd` lists exactly those.
-    #[error("interrupted after step {step} (t = {time:e}); {frames} frames were written completely")]
+    #[error(
+        "interrupted after step {step} (t = {time:e}); {frames} frames were written completely"
+    )]
     Interrupted {
         /// The last step completed.
         step: usize,

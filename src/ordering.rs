@@ -143,7 +143,10 @@ pub fn inverse_permutation(perm: &[usize]) -> Result<Vec<usize>> {
                 return Err(Error::invalid_parameter(
                     format!("perm[{new}]"),
                     old,
-                    format!("must be a permutation of 0..{}: out of range or repeated", perm.len()),
+                    format!(
+                        "must be a permutation of 0..{}: out of range or repeated",
+                        perm.len()
+                    ),
                 ));
             }
         }

@@ -85,7 +85,9 @@ impl StaticSolver {
         let clock = Instant::now();
         let dofs = DofMap::new(constraints);
         ensure_held(mesh, &mesh.face_topology()?, &dofs)?;
-        let free_stiffness = dofs.restriction(stiffness.pattern())?.restrict(&stiffness)?;
+        let free_stiffness = dofs
+            .restriction(stiffness.pattern())?
+            .restrict(&stiffness)?;
         timings.constraints = clock.elapsed();
 
         let clock = Instant::now();

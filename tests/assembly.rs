@@ -141,12 +141,22 @@ fn masses_sum_to_density_times_volume() {
 fn refill_reuses_the_pattern() {
     let mesh = perturbed_box([2, 2, 2], 14);
     let assembler = Assembler::new(&mesh);
-    let soft = assembler.stiffness(&mesh, &Material::new(1.0, 0.3, 1.0).unwrap()).unwrap();
-    let mut k = assembler.stiffness(&mesh, &Material::new(1.0, 0.1, 1.0).unwrap()).unwrap();
+    let soft = assembler
+        .stiffness(&mesh, &Material::new(1.0, 0.3, 1.0).unwrap())
+        .unwrap();
+    let mut k = assembler
+        .stiffness(&mesh, &Material::new(1.0, 0.1, 1.0).unwrap())
+        .unwrap();
     assert!(std::sync::Arc::ptr_eq(k.pattern(), soft.pattern()));
     // Refilling with E = 7 must give exactly 7 × the E = 1 matrix (K is linear in E).
     let stiff = Material::new(7.0, 0.3, 1.0).unwrap();
-    assembler.reassemble(&mesh, |t| mesh.element(t).unwrap().stiffness(&stiff), &mut k).unwrap();
+    assembler
+        .reassemble(
+            &mesh,
+            |t| mesh.element(t).unwrap().stiffness(&stiff),
+            &mut k,
+        )
+        .unwrap();
     for (a, b) in k.values().iter().zip(soft.values()) {
         assert!((a - 7.0 * b).abs() <= 1e-14 * a.abs().max(1.0));
     }
@@ -168,7 +178,14 @@ fn parallel_refill_equals_sequential_scatter_bit_for_bit() {
     let parallel = assembler.stiffness(&mesh, &mat).unwrap();
     let mut sequential = vec![0.0; assembler.nnz()];
     for t in 0..mesh.tet_count() {
-        assembler.scatter(&mesh, t, &mesh.element(t).unwrap().stiffness(&mat), &mut sequential).unwrap();
+        assembler
+            .scatter(
+                &mesh,
+                t,
+                &mesh.element(t).unwrap().stiffness(&mat),
+                &mut sequential,
+            )
+            .unwrap();
     }
     // Each entry sums its contributions in tet order on both paths: identical bits.
     assert_eq!(parallel.values(), &sequential[..]);

@@ -59,19 +59,23 @@ fn sliver_tet_is_degenerate_below_the_threshold_and_warned_about_above_it() {
     // almost no volume). V = h/3 and l_max = √2, so the shape quality 6√2·V/l_max³ = h.
     let sliver = |h: f64| vec![v(0., 0., 0.), v(1., 0., h), v(1., 1., 0.), v(0., 1., h)];
     match TetMesh::new(sliver(1e-12), vec![[0, 1, 2, 3]]) {
-        Err(Error::DegenerateTet { tet: 0, quality, .. }) => assert!(quality < 1e-10),
+        Err(Error::DegenerateTet {
+            tet: 0, quality, ..
+        }) => assert!(quality < 1e-10),
         other => panic!("expected DegenerateTet, got {other:?}"),
     }
     // h = 1e-3 is a valid but poor element: a warning naming it, with its dihedral angle.
     let mesh = TetMesh::new(sliver(1e-3), vec![[0, 1, 2, 3]]).unwrap();
     let warnings = mesh.warnings();
     match warnings.as_slice() {
-        [Warning::PoorElements {
-            count: 1,
-            worst_tet: 0,
-            worst_dihedral_deg,
-            ..
-        }] => assert!(*worst_dihedral_deg < 1.0, "{worst_dihedral_deg}"),
+        [
+            Warning::PoorElements {
+                count: 1,
+                worst_tet: 0,
+                worst_dihedral_deg,
+                ..
+            },
+        ] => assert!(*worst_dihedral_deg < 1.0, "{worst_dihedral_deg}"),
         other => panic!("expected one PoorElements warning, got {other:?}"),
     }
 }
@@ -84,7 +88,10 @@ fn poor_elements_warning_states_the_critical_step_penalty() {
     let mesh = bar();
     let mut nodes = mesh.nodes().to_vec();
     let good = mesh.warnings();
-    assert!(good.is_empty(), "a regular box mesh has no warnings: {good:?}");
+    assert!(
+        good.is_empty(),
+        "a regular box mesh has no warnings: {good:?}"
+    );
     let (lo, hi) = (
         nodes.iter().map(|p| p.x).fold(f64::INFINITY, f64::min),
         nodes.iter().map(|p| p.x).fold(0.0, f64::max),
@@ -197,13 +204,7 @@ fn unused_nodes_are_allowed_warned_about_and_left_out_of_the_solve() {
     loads
         .add_gravity(&with_unused, &material(), v(0., 0., -9.81))
         .unwrap();
-    let solution = solve_static(
-        &with_unused,
-        &material(),
-        &clamped(&with_unused),
-        &loads,
-    )
-    .unwrap();
+    let solution = solve_static(&with_unused, &material(), &clamped(&with_unused), &loads).unwrap();
     let mut plain_loads = Loads::new(&mesh);
     plain_loads
         .add_gravity(&mesh, &material(), v(0., 0., -9.81))
@@ -211,9 +212,20 @@ fn unused_nodes_are_allowed_warned_about_and_left_out_of_the_solve() {
     let plain = solve_static(&mesh, &material(), &clamped(&mesh), &plain_loads).unwrap();
     for (a, b) in plain.displacement.iter().zip(&solution.displacement) {
         // Same matrix, same ordering of the used DOFs: equal to round-off.
-        assert!((a - b).abs() <= 1e-12 * plain.displacement.iter().fold(0.0f64, |m, x| m.max(x.abs())));
+        assert!(
+            (a - b).abs()
+                <= 1e-12
+                    * plain
+                        .displacement
+                        .iter()
+                        .fold(0.0f64, |m, x| m.max(x.abs()))
+        );
     }
-    assert!(solution.displacement[3 * mesh.node_count()..].iter().all(|&u| u == 0.0));
+    assert!(
+        solution.displacement[3 * mesh.node_count()..]
+            .iter()
+            .all(|&u| u == 0.0)
+    );
 }
 
 #[test]
@@ -236,13 +248,18 @@ fn out_of_range_tet_index_is_an_error_not_a_panic() {
         mesh.element(n),
         Err(Error::UnknownTet { tet, tet_count, .. }) if tet == n && tet_count == n
     ));
-    assert!(matches!(mesh.tet_positions(usize::MAX), Err(Error::UnknownTet { .. })));
+    assert!(matches!(
+        mesh.tet_positions(usize::MAX),
+        Err(Error::UnknownTet { .. })
+    ));
 }
 
 #[test]
 fn repeated_node_in_a_tet_is_rejected() {
     match TetMesh::new(corner_nodes(), vec![[0, 1, 1, 3]]) {
-        Err(Error::RepeatedNode { tet: 0, node: 1, .. }) => {}
+        Err(Error::RepeatedNode {
+            tet: 0, node: 1, ..
+        }) => {}
         other => panic!("expected RepeatedNode, got {other:?}"),
     }
 }
@@ -281,10 +298,11 @@ fn non_finite_material_parameters_are_rejected() {
 fn non_finite_loads_are_rejected() {
     let mesh = bar();
     let mut loads = Loads::new(&mesh);
-    let err = loads
-        .add_nodal_force(3, v(0., f64::NAN, 0.))
-        .unwrap_err();
-    assert!(matches!(err, Error::InvalidParameter { ref name, .. } if name.contains("nodal force")), "{err}");
+    let err = loads.add_nodal_force(3, v(0., f64::NAN, 0.)).unwrap_err();
+    assert!(
+        matches!(err, Error::InvalidParameter { ref name, .. } if name.contains("nodal force")),
+        "{err}"
+    );
     let err = loads
         .add_gravity(&mesh, &material(), v(0., 0., f64::INFINITY))
         .unwrap_err();
@@ -306,9 +324,7 @@ fn non_finite_loads_are_rejected() {
 fn non_finite_prescribed_displacement_is_rejected() {
     let mesh = bar();
     let mut constraints = Constraints::new(&mesh);
-    let err = constraints
-        .prescribe(2, v(0., f64::NAN, 0.))
-        .unwrap_err();
+    let err = constraints.prescribe(2, v(0., f64::NAN, 0.)).unwrap_err();
     assert!(err.to_string().contains("node 2, axis 1"), "{err}");
 }
 
@@ -328,13 +344,16 @@ fn youngs_modulus_must_be_positive() {
 #[test]
 fn poisson_ratio_must_lie_in_the_open_interval_minus_one_to_one_half() {
     for nu in [-1.0, -1.5, 0.5, 0.7] {
-        assert!(matches!(
-            Material::new(1.0, nu, 1.0),
-            Err(Error::InvalidMaterial {
-                field: "poisson_ratio",
-                ..
-            })
-        ), "ν = {nu}");
+        assert!(
+            matches!(
+                Material::new(1.0, nu, 1.0),
+                Err(Error::InvalidMaterial {
+                    field: "poisson_ratio",
+                    ..
+                })
+            ),
+            "ν = {nu}"
+        );
     }
     // The ends just inside are valid.
     assert!(Material::new(1.0, -0.999, 1.0).is_ok());
@@ -488,7 +507,9 @@ fn time_step_must_be_positive_and_finite_for_every_method() {
         for method in [Method::BackwardEuler, Method::Newmark, Method::Explicit] {
             match method.integrator(system.clone(), dt) {
                 Err(Error::InvalidParameter { name, .. }) => assert_eq!(name, "dt"),
-                Err(other) => panic!("{method:?}, dt = {dt}: expected InvalidParameter(dt), got {other}"),
+                Err(other) => {
+                    panic!("{method:?}, dt = {dt}: expected InvalidParameter(dt), got {other}")
+                }
                 Ok(_) => panic!("{method:?} accepted dt = {dt}"),
             }
         }
@@ -509,7 +530,10 @@ fn state_of_the_wrong_size_is_rejected_by_every_integrator() {
         match integrator.step(&mut state) {
             Err(Error::DimensionMismatch {
                 expected, found, ..
-            }) => assert_eq!((expected, found), (system.free_count(), system.free_count() + 1)),
+            }) => assert_eq!(
+                (expected, found),
+                (system.free_count(), system.free_count() + 1)
+            ),
             other => panic!("{method:?}: expected DimensionMismatch, got {other:?}"),
         }
     }
@@ -541,18 +565,16 @@ fn zero_or_negative_duration_is_rejected() {
             "{BASE}\n[analysis]\ntype = \"dynamic\"\nmethod = \"backward_euler\"\ndt = 0.01\nduration = {duration}\n"
         );
         let result = scene(&text).and_then(|s| {
-            tetfem::scene::run_dynamic_scene(
-                &s,
-                &Default::default(),
-                false,
-                false,
-                &mut |_, _| std::ops::ControlFlow::Continue(()),
-            )
+            tetfem::scene::run_dynamic_scene(&s, &Default::default(), false, false, &mut |_, _| {
+                std::ops::ControlFlow::Continue(())
+            })
         });
         match result {
             Err(Error::Scene { key, .. }) => assert!(key.contains("duration"), "{key}"),
             Err(Error::InvalidParameter { name, .. }) => assert_eq!(name, "duration"),
-            other => panic!("duration {duration}: expected an error naming duration, got {other:?}"),
+            other => {
+                panic!("duration {duration}: expected an error naming duration, got {other:?}")
+            }
         }
     }
 }
@@ -564,13 +586,9 @@ fn zero_or_negative_dt_in_a_scene_is_rejected() {
             "{BASE}\n[analysis]\ntype = \"dynamic\"\nmethod = \"newmark\"\ndt = {dt}\nduration = 1.0\n"
         );
         let result = scene(&text).and_then(|s| {
-            tetfem::scene::run_dynamic_scene(
-                &s,
-                &Default::default(),
-                false,
-                false,
-                &mut |_, _| std::ops::ControlFlow::Continue(()),
-            )
+            tetfem::scene::run_dynamic_scene(&s, &Default::default(), false, false, &mut |_, _| {
+                std::ops::ControlFlow::Continue(())
+            })
         });
         match result {
             Err(Error::Scene { key, .. }) => assert!(key.contains("dt"), "{key}"),
@@ -613,7 +631,11 @@ fn scene_key_with_the_wrong_type_names_key_and_line() {
 
 #[test]
 fn oversized_box_grid_is_an_error_not_an_abort() {
-    for cells in [[usize::MAX, 1, 1], [1 << 22, 1 << 22, 1 << 22], [1 << 40, 1, 1]] {
+    for cells in [
+        [usize::MAX, 1, 1],
+        [1 << 22, 1 << 22, 1 << 22],
+        [1 << 40, 1, 1],
+    ] {
         match TetMesh::box_grid(v(0., 0., 0.), v(1., 1., 1.), cells, BoxSplit::Five) {
             Err(Error::InvalidParameter { name, .. }) => assert_eq!(name, "cells"),
             other => panic!("{cells:?}: expected InvalidParameter(cells), got {other:?}"),

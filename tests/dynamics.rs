@@ -278,7 +278,8 @@ fn modal_frequencies_converge_toward_euler_bernoulli() {
             );
         }
         let cross =
-            tetfem::modal::mass_inner_product(system.mass(), &modes.shapes[0], &modes.shapes[1]).unwrap();
+            tetfem::modal::mass_inner_product(system.mass(), &modes.shapes[0], &modes.shapes[1])
+                .unwrap();
         assert!(cross.abs() < 1e-9);
     }
     // At 4 cells through the height the error measured here is 14 %; bound it by 20 %.

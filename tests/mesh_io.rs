@@ -148,7 +148,10 @@ fn gmsh_written_files_agree_across_formats() {
                 .all(|&n| (ascii.mesh.nodes()[n].x - 0.1).abs() < 1e-12)
         );
     }
-    let area: f64 = load.iter().map(|f| f.area_vector(&ascii.mesh).unwrap().norm()).sum();
+    let area: f64 = load
+        .iter()
+        .map(|f| f.area_vector(&ascii.mesh).unwrap().norm())
+        .sum();
     assert!((area - 0.02 * 0.02).abs() < 1e-12);
     let steel = ascii.group("steel").unwrap();
     assert_eq!((steel.dim, steel.tets.len()), (3, ascii.mesh.tet_count()));

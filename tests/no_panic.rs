@@ -144,14 +144,24 @@ fn mesh_construction_and_queries() {
     s.call("TetMesh::new huge coordinates", || {
         let big = 1e300;
         TetMesh::new(
-            vec![v(0., 0., 0.), v(big, 0., 0.), v(0., big, 0.), v(0., 0., big)],
+            vec![
+                v(0., 0., 0.),
+                v(big, 0., 0.),
+                v(0., big, 0.),
+                v(0., 0., big),
+            ],
             vec![[0, 1, 2, 3]],
         )
     });
     s.call("TetMesh::new tiny coordinates", || {
         let tiny = 1e-300;
         TetMesh::new(
-            vec![v(0., 0., 0.), v(tiny, 0., 0.), v(0., tiny, 0.), v(0., 0., tiny)],
+            vec![
+                v(0., 0., 0.),
+                v(tiny, 0., 0.),
+                v(0., tiny, 0.),
+                v(0., 0., tiny),
+            ],
             vec![[0, 1, 2, 3]],
         )
     });
@@ -176,23 +186,34 @@ fn mesh_construction_and_queries() {
         )
     });
     s.call("box_grid huge extent", || {
-        TetMesh::box_grid(v(-1e308, 0., 0.), v(1e308, 1., 1.), [2, 1, 1], BoxSplit::Five)
+        TetMesh::box_grid(
+            v(-1e308, 0., 0.),
+            v(1e308, 1., 1.),
+            [2, 1, 1],
+            BoxSplit::Five,
+        )
     });
     let mesh = bar();
     s.call("element(usize::MAX)", || mesh.element(usize::MAX));
     s.call("tet_positions(tet_count)", || {
         mesh.tet_positions(mesh.tet_count())
     });
-    s.call("with_nodes wrong length", || mesh.with_nodes(vec![v(0., 0., 0.)]));
+    s.call("with_nodes wrong length", || {
+        mesh.with_nodes(vec![v(0., 0., 0.)])
+    });
     s.call("with_nodes NaN", || {
         mesh.with_nodes(vec![v(NAN, NAN, NAN); mesh.node_count()])
     });
     s.call("with_nodes collapsed", || {
         mesh.with_nodes(vec![v(0., 0., 0.); mesh.node_count()])
     });
-    s.call("nodes_on_plane axis 7", || mesh.nodes_on_plane(7, 0.0, 1e-9));
+    s.call("nodes_on_plane axis 7", || {
+        mesh.nodes_on_plane(7, 0.0, 1e-9)
+    });
     s.call("nodes_on_plane NaN", || mesh.nodes_on_plane(0, NAN, NAN));
-    s.call("nodes_in_box NaN", || mesh.nodes_in_box(v(NAN, 0., 0.), v(INF, 1., 1.)));
+    s.call("nodes_in_box NaN", || {
+        mesh.nodes_in_box(v(NAN, 0., 0.), v(INF, 1., 1.))
+    });
     s.call("faces_where bogus faces", || {
         mesh.faces_where(&[bogus_face()], |_| true)
     });
@@ -202,15 +223,21 @@ fn mesh_construction_and_queries() {
     s.call("BoundaryFace::area_vector bogus", || {
         bogus_face().area_vector(&mesh)
     });
-    s.call("BoundaryFace::centroid bogus", || bogus_face().centroid(&mesh));
-    s.call("statistics/warnings", || (mesh.statistics(), mesh.warnings()));
+    s.call("BoundaryFace::centroid bogus", || {
+        bogus_face().centroid(&mesh)
+    });
+    s.call("statistics/warnings", || {
+        (mesh.statistics(), mesh.warnings())
+    });
     s.call("tet_quality of a flat tet", || {
         let element = mesh.element(0).unwrap();
         tet_quality(&element, &[v(0., 0., 0.); 4])
     });
     s.call("shape_quality NaN", || shape_quality(&[v(NAN, 0., 0.); 4]));
     s.call("signed_volume inf", || signed_volume(&[v(INF, 0., 0.); 4]));
-    s.call("rest_shape_matrix NaN", || rest_shape_matrix(&[v(NAN, 0., 0.); 4]));
+    s.call("rest_shape_matrix NaN", || {
+        rest_shape_matrix(&[v(NAN, 0., 0.); 4])
+    });
     s.call("Tet::new flat", || Tet::new(&[v(0., 0., 0.); 4]));
     s.call("Tet::new NaN", || Tet::new(&[v(NAN, 0., 0.); 4]));
     s.call("von_mises NaN", || von_mises(&Matrix3::from_element(NAN)));
@@ -230,7 +257,9 @@ fn mesh_construction_and_queries() {
     s.call("critical_time_step", || {
         tetfem::mesh::critical_time_step(&mesh, &material())
     });
-    s.call("element_critical_step", || element_critical_step(&mesh, &material()));
+    s.call("element_critical_step", || {
+        element_critical_step(&mesh, &material())
+    });
     s.finish();
 }
 
@@ -262,10 +291,16 @@ fn materials_loads_constraints() {
     let other = other_mesh();
     let m = material();
     let mut c = Constraints::new(&mesh);
-    s.call("fix_nodes usize::MAX", || c.fix_nodes(&[usize::MAX]).map(|_| ()));
+    s.call("fix_nodes usize::MAX", || {
+        c.fix_nodes(&[usize::MAX]).map(|_| ())
+    });
     s.call("fix_axes empty", || c.fix_axes(&[], [true; 3]).map(|_| ()));
-    s.call("prescribe NaN", || c.prescribe(0, v(NAN, 0., 0.)).map(|_| ()));
-    s.call("prescribe_axis axis 3", || c.prescribe_axis(0, 3, 1.0).map(|_| ()));
+    s.call("prescribe NaN", || {
+        c.prescribe(0, v(NAN, 0., 0.)).map(|_| ())
+    });
+    s.call("prescribe_axis axis 3", || {
+        c.prescribe_axis(0, 3, 1.0).map(|_| ())
+    });
     s.call("prescribe_axis node MAX", || {
         c.prescribe_axis(usize::MAX, 0, 1.0).map(|_| ())
     });
@@ -274,26 +309,38 @@ fn materials_loads_constraints() {
     s.call("add_gravity other mesh", || {
         loads.add_gravity(&other, &m, v(0., 0., -1.)).map(|_| ())
     });
-    s.call("add_gravity NaN", || loads.add_gravity(&mesh, &m, v(NAN, 0., 0.)).map(|_| ()));
-    s.call("add_body_force inf", || loads.add_body_force(&mesh, v(INF, 0., 0.)).map(|_| ()));
+    s.call("add_gravity NaN", || {
+        loads.add_gravity(&mesh, &m, v(NAN, 0., 0.)).map(|_| ())
+    });
+    s.call("add_body_force inf", || {
+        loads.add_body_force(&mesh, v(INF, 0., 0.)).map(|_| ())
+    });
     s.call("add_body_force_field NaN", || {
-        loads.add_body_force_field(&mesh, |_| v(NAN, 0., 0.)).map(|_| ())
+        loads
+            .add_body_force_field(&mesh, |_| v(NAN, 0., 0.))
+            .map(|_| ())
     });
     s.call("add_body_force_field other mesh", || {
-        loads.add_body_force_field(&other, |_| v(1., 0., 0.)).map(|_| ())
+        loads
+            .add_body_force_field(&other, |_| v(1., 0., 0.))
+            .map(|_| ())
     });
     s.call("add_nodal_force MAX", || {
         loads.add_nodal_force(usize::MAX, v(1., 0., 0.)).map(|_| ())
     });
     s.call("add_traction bogus face", || {
-        loads.add_traction(&mesh, &[bogus_face()], v(1., 0., 0.)).map(|_| ())
+        loads
+            .add_traction(&mesh, &[bogus_face()], v(1., 0., 0.))
+            .map(|_| ())
     });
     s.call("add_total_force_on_faces degenerate face", || {
         let flat = BoundaryFace {
             tet: 0,
             nodes: [0, 0, 0],
         };
-        loads.add_total_force_on_faces(&mesh, &[flat], v(1., 0., 0.)).map(|_| ())
+        loads
+            .add_total_force_on_faces(&mesh, &[flat], v(1., 0., 0.))
+            .map(|_| ())
     });
     s.call("add_traction other mesh's faces", || {
         let faces = other.boundary_faces().unwrap();
@@ -310,7 +357,9 @@ fn materials_loads_constraints() {
     });
     let k = stiffness_matrix(&mesh, &m).unwrap();
     let restriction = dofs.restriction(k.pattern()).unwrap();
-    s.call("Restriction::restrict other matrix", || restriction.restrict(&k_other));
+    s.call("Restriction::restrict other matrix", || {
+        restriction.restrict(&k_other)
+    });
     s.call("Restriction::restrict_into wrong out", || {
         let mut out = k.clone();
         restriction.restrict_into(&k, &mut out)
@@ -333,7 +382,9 @@ fn assembly_sparse_and_solvers() {
     let assembler = Assembler::new(&mesh);
     let mut k = assembler.stiffness(&mesh, &m).unwrap();
     let k_other = stiffness_matrix(&other, &m).unwrap();
-    s.call("Assembler::stiffness other mesh", || assembler.stiffness(&other, &m));
+    s.call("Assembler::stiffness other mesh", || {
+        assembler.stiffness(&other, &m)
+    });
     s.call("Assembler::consistent_mass other mesh", || {
         assembler.consistent_mass(&other, &m)
     });
@@ -357,7 +408,9 @@ fn assembly_sparse_and_solvers() {
         let x = vec![1.0; k.dim()];
         k.mul_vec(&x, &mut [0.0; 2])
     });
-    s.call("CscMatrix::quadratic_form wrong length", || k.quadratic_form(&[]));
+    s.call("CscMatrix::quadratic_form wrong length", || {
+        k.quadratic_form(&[])
+    });
     s.call("CscMatrix::get out of range", || k.get(usize::MAX, 0));
     s.call("CscMatrix::from_values wrong length", || {
         CscMatrix::from_values(Arc::clone(k.pattern()), vec![1.0])
@@ -371,8 +424,12 @@ fn assembly_sparse_and_solvers() {
         out.add_diagonal(1.0, &[1.0])
     });
     s.call("nested_dissection", || nested_dissection(k.pattern()));
-    s.call("inverse_permutation out of range", || inverse_permutation(&[5, 0, 1]));
-    s.call("inverse_permutation repeated", || inverse_permutation(&[0, 0, 1]));
+    s.call("inverse_permutation out of range", || {
+        inverse_permutation(&[5, 0, 1])
+    });
+    s.call("inverse_permutation repeated", || {
+        inverse_permutation(&[0, 0, 1])
+    });
     // K of an unconstrained body is singular; with NaN it is garbage.
     s.call("SparseCholesky on singular K", || {
         let mut c = SparseCholesky::analyze(&k)?;
@@ -382,10 +439,13 @@ fn assembly_sparse_and_solvers() {
         let mut c = SparseCholesky::analyze(&k)?;
         c.factorize(&k_other)
     });
-    s.call("SparseCholesky solve before factorize, wrong length", || {
-        let mut c = SparseCholesky::analyze(&k)?;
-        c.solve_in_place(&mut [1.0; 5])
-    });
+    s.call(
+        "SparseCholesky solve before factorize, wrong length",
+        || {
+            let mut c = SparseCholesky::analyze(&k)?;
+            c.solve_in_place(&mut [1.0; 5])
+        },
+    );
     s.call("SparseCholesky threads 0", || {
         SparseCholesky::analyze_with(
             &k,
@@ -429,7 +489,11 @@ fn assembly_sparse_and_solvers() {
             },
         )
     });
-    for method in [LinearMethod::Auto, LinearMethod::Direct, LinearMethod::Iterative] {
+    for method in [
+        LinearMethod::Auto,
+        LinearMethod::Direct,
+        LinearMethod::Iterative,
+    ] {
         s.call(&format!("LinearSolver {method:?} wrong lengths"), || {
             let options = SolverOptions {
                 method,
@@ -524,12 +588,17 @@ fn dynamics_models_and_nonlinear() {
     s.call("Mass::mul_vec wrong length", || {
         system.mass().mul_vec(&[1.0], &mut [0.0; 3])
     });
-    s.call("Mass::quadratic_form wrong length", || system.mass().quadratic_form(&[]));
+    s.call("Mass::quadratic_form wrong length", || {
+        system.mass().quadratic_form(&[])
+    });
     s.call("mass_inner_product wrong lengths", || {
         mass_inner_product(system.mass(), &[1.0], &[1.0, 2.0])
     });
     s.call("with_load_factor NaN", || {
-        (*system).clone().with_load_factor(NAN).static_displacement()
+        (*system)
+            .clone()
+            .with_load_factor(NAN)
+            .static_displacement()
     });
     s.call("Rayleigh::new NaN", || Rayleigh::new(NAN, -1.0));
     s.call("Rayleigh::from_damping_ratio zero band", || {
@@ -571,19 +640,32 @@ fn dynamics_models_and_nonlinear() {
         State::released_from(vec![NAN]).ensure_finite("test")
     });
     s.call("lowest_modes 0", || lowest_modes(&system, 0));
-    s.call("lowest_modes more than DOFs", || lowest_modes(&system, n + 10));
-    for kind in [ModelKind::Linear, ModelKind::Corotational, ModelKind::NeoHookean] {
+    s.call("lowest_modes more than DOFs", || {
+        lowest_modes(&system, n + 10)
+    });
+    for kind in [
+        ModelKind::Linear,
+        ModelKind::Corotational,
+        ModelKind::NeoHookean,
+    ] {
         let model = kind.build(&m);
         let element = mesh.element(0).unwrap();
         let rest = mesh.tet_positions(0).unwrap();
-        for x in [[v(NAN, 0., 0.); 4], [v(0., 0., 0.); 4], [v(1e300, -1e300, 0.); 4]] {
-            s.call(&format!("{kind:?} energy/force/tangent on {:?}", x[0]), || {
-                (
-                    model.energy(&element, &rest, &x),
-                    model.force(&element, &rest, &x),
-                    project_psd(&model.tangent(&element, &rest, &x)),
-                )
-            });
+        for x in [
+            [v(NAN, 0., 0.); 4],
+            [v(0., 0., 0.); 4],
+            [v(1e300, -1e300, 0.); 4],
+        ] {
+            s.call(
+                &format!("{kind:?} energy/force/tangent on {:?}", x[0]),
+                || {
+                    (
+                        model.energy(&element, &rest, &x),
+                        model.force(&element, &rest, &x),
+                        project_psd(&model.tangent(&element, &rest, &x)),
+                    )
+                },
+            );
         }
         s.call(&format!("{kind:?} assemble wrong length"), || {
             (
@@ -699,7 +781,9 @@ fn studies_norms_outputs_and_scenes() {
     s.call("fit_slope one point, NaN", || fit_slope([(NAN, 1.0)]));
     s.call("richardson equal values", || richardson(1.0, 1.0, 1.0, 2.0));
     s.call("richardson NaN ratio", || richardson(1.0, 2.0, 3.0, NAN));
-    s.call("l2_error wrong length", || l2_error(&mesh, &[1.0], |_| v(0., 0., 0.)));
+    s.call("l2_error wrong length", || {
+        l2_error(&mesh, &[1.0], |_| v(0., 0., 0.))
+    });
     s.call("energy_error wrong length", || {
         energy_error(&mesh, &m, &[], |_| Matrix3::zeros())
     });
@@ -713,8 +797,12 @@ fn studies_norms_outputs_and_scenes() {
         )
     });
     let short = [1.0, 2.0];
-    s.call("cell_stress wrong length", || cell_stress(&mesh, &m, &short));
-    s.call("cell_von_mises wrong length", || cell_von_mises(&mesh, &m, &short));
+    s.call("cell_stress wrong length", || {
+        cell_stress(&mesh, &m, &short)
+    });
+    s.call("cell_von_mises wrong length", || {
+        cell_von_mises(&mesh, &m, &short)
+    });
     s.call("cell_strain_energy_density wrong length", || {
         cell_strain_energy_density(&mesh, &m, &short)
     });
@@ -737,18 +825,23 @@ fn studies_norms_outputs_and_scenes() {
     s.call("write_result_vtu wrong lengths", || {
         write_result_vtu(&dir.join("r.vtu"), &mesh, &m, &short, Some(&short))
     });
-    s.call("PvdCollection push NaN time, write to a missing dir", || {
-        let mut pvd = PvdCollection::new(missing.with_extension("pvd"));
-        pvd.push(NAN, Path::new("x.vtu"))?;
-        pvd.write()
-    });
+    s.call(
+        "PvdCollection push NaN time, write to a missing dir",
+        || {
+            let mut pvd = PvdCollection::new(missing.with_extension("pvd"));
+            pvd.push(NAN, Path::new("x.vtu"))?;
+            pvd.write()
+        },
+    );
     s.call("CsvSeries wrong row", || {
         let mut csv = CsvSeries::new(dir.join("s.csv"), vec!["a".into(), "b,\"c".into()])?;
         csv.push(&[1.0])?;
         csv.push(&[NAN, INF])?;
         csv.write()
     });
-    s.call("CsvSeries no columns", || CsvSeries::new(dir.join("e.csv"), vec![]));
+    s.call("CsvSeries no columns", || {
+        CsvSeries::new(dir.join("e.csv"), vec![])
+    });
     s.call("write_atomically to a missing dir", || {
         write_atomically(&missing, |w| w.write_all(b"x"))
     });
@@ -836,7 +929,9 @@ fn studies_norms_outputs_and_scenes() {
             auto_deformation_scale(&mesh, &vec![NAN; mesh.dof_count()]),
         )
     });
-    s.call("viridis NaN", || (viridis(NAN), viridis(-INF), viridis(2.0)));
+    s.call("viridis NaN", || {
+        (viridis(NAN), viridis(-INF), viridis(2.0))
+    });
     s.call("Chart with empty, NaN and non-positive log data", || {
         let chart = Chart {
             title: "t".into(),
@@ -874,7 +969,10 @@ fn studies_norms_outputs_and_scenes() {
             height: -1.0,
             material: m,
         };
-        (beam.timoshenko_end_load(1.0), beam.euler_bernoulli_uniform_load(NAN))
+        (
+            beam.timoshenko_end_load(1.0),
+            beam.euler_bernoulli_uniform_load(NAN),
+        )
     });
     for text in [
         "",
@@ -892,8 +990,12 @@ fn studies_norms_outputs_and_scenes() {
             })
         });
     }
-    s.call("Scene::load missing", || Scene::load(&missing.with_extension("toml")));
-    s.call("mesh_info missing", || tetfem::info::mesh_info(&missing, None));
+    s.call("Scene::load missing", || {
+        Scene::load(&missing.with_extension("toml"))
+    });
+    s.call("mesh_info missing", || {
+        tetfem::info::mesh_info(&missing, None)
+    });
     s.finish();
     std::fs::remove_dir_all(&dir).ok();
 }

@@ -438,8 +438,8 @@ fn mesh_errors(spec: &BoxSpec, density: f64) -> Result<MeshErrors, String> {
     let mut area_sum = Vector3::zeros();
     let mut area_total = 0.0;
     for face in mesh.boundary_faces().map_err(|e| e.to_string())? {
-        let area = face.area_vector(&mesh);
-        let centroid = face.centroid(&mesh);
+        let area = face.area_vector(&mesh).unwrap();
+        let centroid = face.centroid(&mesh).unwrap();
         let axis = area.iamax();
         let on_side = if area[axis] > 0.0 {
             max[axis]
@@ -469,7 +469,9 @@ fn mesh_errors(spec: &BoxSpec, density: f64) -> Result<MeshErrors, String> {
         .fold(0.0, f64::max);
     // Σ of all entries, split by (row axis, column axis): the translation modes give ρV·I₃, so
     // the whole sum is 3ρV and the cross-axis sums vanish. Both triangles are stored.
-    let consistent = Assembler::new(&mesh).consistent_mass(&mesh, &material);
+    let consistent = Assembler::new(&mesh)
+        .consistent_mass(&mesh, &material)
+        .unwrap();
     let mut sums = Matrix3::zeros();
     for col in 0..consistent.dim() {
         for k in consistent.col_ptr()[col]..consistent.col_ptr()[col + 1] {

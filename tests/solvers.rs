@@ -22,7 +22,9 @@ fn solve_tip(cells: [usize; 3], options: SolverOptions) -> (f64, usize, bool) {
     .unwrap();
     let solution = solver.solve(&problem.loads(&mesh).unwrap()).unwrap();
     (
-        problem.tip_deflection(&mesh, &solution.displacement).unwrap(),
+        problem
+            .tip_deflection(&mesh, &solution.displacement)
+            .unwrap(),
         solver.factor_len(),
         solver.linear_solver().is_direct(),
     )
@@ -85,7 +87,9 @@ fn nested_dissection_fills_less_than_minimum_degree() {
 fn nested_dissection_is_a_permutation_keeping_node_blocks_together() {
     let problem = Cantilever::peer_benchmark([20, 2, 2]);
     let mesh = problem.mesh().unwrap();
-    let k = tetfem::Assembler::new(&mesh).stiffness(&mesh, &problem.material).unwrap();
+    let k = tetfem::Assembler::new(&mesh)
+        .stiffness(&mesh, &problem.material)
+        .unwrap();
     let perm = nested_dissection(k.pattern()).unwrap();
     let mut sorted = perm.clone();
     sorted.sort_unstable();
@@ -117,7 +121,9 @@ fn automatic_choice_follows_the_memory_budget() {
 fn indefinite_matrix_is_reported_not_solved() {
     let problem = Cantilever::peer_benchmark([10, 1, 1]);
     let mesh = problem.mesh().unwrap();
-    let k = tetfem::Assembler::new(&mesh).stiffness(&mesh, &problem.material).unwrap();
+    let k = tetfem::Assembler::new(&mesh)
+        .stiffness(&mesh, &problem.material)
+        .unwrap();
     // −K is negative semi-definite: the first pivot is already negative.
     let negated = CscMatrix::from_values(
         Arc::clone(k.pattern()),

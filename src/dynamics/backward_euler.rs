@@ -85,7 +85,9 @@ impl Integrator for BackwardEuler {
         self.system
             .stiffness()
             .product_into(&self.work, &mut self.product);
-        self.system.mass().product_into(&state.velocity, &mut self.work);
+        self.system
+            .mass()
+            .product_into(&state.velocity, &mut self.work);
         let f = self.system.external_load();
         for i in 0..n {
             self.rhs[i] = dt * (f[i] - self.product[i] - damping.alpha * self.work[i]);

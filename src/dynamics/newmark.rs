@@ -79,7 +79,9 @@ impl Newmark {
         self.system
             .stiffness()
             .product_into(&self.work, &mut self.product);
-        self.system.mass().product_into(&state.velocity, &mut self.work);
+        self.system
+            .mass()
+            .product_into(&state.velocity, &mut self.work);
         let f = self.system.external_load();
         for i in 0..n {
             self.acceleration[i] = f[i] - self.product[i] - damping.alpha * self.work[i];

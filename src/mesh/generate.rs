@@ -79,14 +79,17 @@ impl TetMesh {
             }
         }
         let [nx, ny, nz] = cells;
-        let too_many =
-            || Error::invalid_parameter("cells", format!("{cells:?}"), "too many nodes to allocate");
+        let too_many = || {
+            Error::invalid_parameter("cells", format!("{cells:?}"), "too many nodes to allocate")
+        };
         let node_count = [nx, ny, nz]
             .iter()
             .try_fold(1usize, |n, &c| n.checked_mul(c.checked_add(1)?))
             .ok_or_else(too_many)?;
         let mut nodes = Vec::new();
-        nodes.try_reserve_exact(node_count).map_err(|_| too_many())?;
+        nodes
+            .try_reserve_exact(node_count)
+            .map_err(|_| too_many())?;
         let step = (max - min).component_div(&Vector3::new(nx as f64, ny as f64, nz as f64));
         for iz in 0..=nz {
             for iy in 0..=ny {

@@ -30,11 +30,19 @@ pub const DEGENERATE_QUALITY: f64 = 1e-10;
 /// Invariants, established by [`TetMesh::new`]: at least one tet; every coordinate finite; every
 /// index in range; no tet repeats a node; no tet degenerate (see [`DEGENERATE_QUALITY`]); every
 /// tet positively oriented, det[x₁−x₀ x₂−x₀ x₃−x₀] > 0.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone)]
 pub struct TetMesh {
     nodes: Vec<Vector3<f64>>,
     tets: Vec<[usize; 4]>,
     reoriented: usize,
+}
+
+/// Two meshes are equal when their nodes and (stored, positively oriented) tets are; how the
+/// tets were oriented on input does not matter.
+impl PartialEq for TetMesh {
+    fn eq(&self, other: &Self) -> bool {
+        self.nodes == other.nodes && self.tets == other.tets
+    }
 }
 
 impl TetMesh {

@@ -140,7 +140,8 @@ impl TetMesh {
     ) -> Result<()> {
         let p = face.map(|n| self.nodes()[n]);
         let normal = (p[1] - p[0]).cross(&(p[2] - p[0]));
-        let side = |t: usize, l: usize| normal.dot(&(self.nodes()[self.tets()[t][FACES[l].1]] - p[0]));
+        let side =
+            |t: usize, l: usize| normal.dot(&(self.nodes()[self.tets()[t][FACES[l].1]] - p[0]));
         if side(first, first_local) * side(tet, local) > 0.0 {
             return Err(Error::InvertedTet {
                 tet: first.max(tet),

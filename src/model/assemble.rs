@@ -39,7 +39,13 @@ pub fn energy(mesh: &TetMesh, model: &dyn ForceModel, u: &[f64]) -> Result<f64> 
     check_displacement(mesh, u)?;
     Ok((0..mesh.tet_count())
         .into_par_iter()
-        .map(|t| model.energy(&mesh.element_of(t), &mesh.positions_of(t), &positions(mesh, t, u)))
+        .map(|t| {
+            model.energy(
+                &mesh.element_of(t),
+                &mesh.positions_of(t),
+                &positions(mesh, t, u),
+            )
+        })
         .sum())
 }
 
@@ -48,7 +54,11 @@ pub fn internal_force(mesh: &TetMesh, model: &dyn ForceModel, u: &[f64]) -> Resu
     check_displacement(mesh, u)?;
     let mut force = vec![0.0; mesh.dof_count()];
     for (t, tet) in mesh.tets().iter().enumerate() {
-        let f = model.force(&mesh.element_of(t), &mesh.positions_of(t), &positions(mesh, t, u));
+        let f = model.force(
+            &mesh.element_of(t),
+            &mesh.positions_of(t),
+            &positions(mesh, t, u),
+        );
         for (i, &n) in tet.iter().enumerate() {
             for a in 0..3 {
                 force[3 * n + a] += f[3 * i + a];
@@ -72,7 +82,11 @@ pub fn refill_tangent(
     assembler.reassemble(
         mesh,
         |t| {
-            let k = model.tangent(&mesh.element_of(t), &mesh.positions_of(t), &positions(mesh, t, u));
+            let k = model.tangent(
+                &mesh.element_of(t),
+                &mesh.positions_of(t),
+                &positions(mesh, t, u),
+            );
             if project { project_psd(&k) } else { k }
         },
         tangent,

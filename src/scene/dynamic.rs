@@ -2,8 +2,8 @@
 //! loaded shape — and writing its outputs: `.vtu` frames with a `.pvd` collection, a CSV series
 //! of probes, energies and wall time per step, PNG frames, and a JSON summary.
 
-use std::path::PathBuf;
 use std::ops::ControlFlow;
+use std::path::PathBuf;
 use std::sync::Arc;
 use std::time::Instant;
 
