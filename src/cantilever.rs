@@ -67,6 +67,7 @@ impl Cantilever {
             height: 1.0,
             cells,
             split: BoxSplit::Lecture6,
+            // Cannot fail: constants inside Material::new's ranges (E > 0, −1 < ν < 0.5, ρ > 0).
             material: Material::new(1e5, 0.3, 1000.0).expect("constant, valid material"),
             end_load: 1.0,
             gravity: 0.0,

@@ -82,6 +82,7 @@ impl SparseCholesky {
             FillOrdering::NestedDissection => {
                 let forward = nested_dissection(matrix.pattern())?;
                 let inverse = inverse_permutation(&forward)?;
+                // Cannot panic: inverse_permutation checked that `forward` permutes 0..dim.
                 let perm = PermRef::new_checked(&forward, &inverse, matrix.dim());
                 factorize_symbolic_cholesky(
                     pattern,

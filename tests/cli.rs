@@ -256,3 +256,84 @@ fn info_reports_the_mesh_counts() {
             .success()
     );
 }
+
+/// Ctrl-C (SIGINT) during a dynamic run: the run stops at a step boundary, exits with 130, and
+/// leaves a `.pvd` that lists exactly the frames written, each complete, plus the CSV rows up
+/// to the stop.
+#[test]
+fn ctrl_c_stops_a_dynamic_run_with_a_valid_pvd() {
+    let dir = out_dir("cli-ctrl-c");
+    let scene = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/scenes/cantilever_dynamic.toml"
+    );
+    let mut child = Command::new(env!("CARGO_BIN_EXE_tetfem"))
+        .args(["run", scene, "--steps", "1000000", "--quiet", "--out"])
+        .arg(&dir)
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let pvd_path = dir.join("cantilever_dynamic.pvd");
+    // Wait for a few frames (every 10 steps), then interrupt; a million steps would take hours.
+    let start = std::time::Instant::now();
+    loop {
+        let listed = std::fs::read_to_string(&pvd_path)
+            .map(|text| text.matches("<DataSet").count())
+            .unwrap_or(0);
+        if listed >= 3 {
+            break;
+        }
+        assert!(
+            start.elapsed().as_secs() < 120,
+            "no frames after two minutes"
+        );
+        std::thread::sleep(std::time::Duration::from_millis(50));
+    }
+    let killed = Command::new("kill")
+        .args(["-INT", &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(killed.success());
+    let output = child.wait_with_output().unwrap();
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert_eq!(output.status.code(), Some(130), "{stderr}");
+    assert!(stderr.contains("interrupted after step"), "{stderr}");
+
+    let pvd = std::fs::read_to_string(&pvd_path).unwrap();
+    let doc = roxmltree::Document::parse(&pvd).expect("the .pvd is well-formed XML");
+    let frames: Vec<String> = doc
+        .descendants()
+        .filter(|n| n.has_tag_name("DataSet"))
+        .map(|n| n.attribute("file").unwrap().to_string())
+        .collect();
+    assert!(frames.len() >= 3);
+    for file in &frames {
+        let text = std::fs::read_to_string(dir.join(file)).unwrap();
+        let vtu = common::parse_vtu(&text);
+        assert!(
+            vtu.points > 0 && vtu.array("displacement").is_some(),
+            "{file}"
+        );
+    }
+    // Every .vtu on disk is listed (none half-written and left out), and the message counts them.
+    let on_disk = std::fs::read_dir(&dir)
+        .unwrap()
+        .filter(|e| {
+            e.as_ref()
+                .is_ok_and(|e| e.path().extension().is_some_and(|x| x == "vtu"))
+        })
+        .count();
+    assert_eq!(on_disk, frames.len());
+    assert!(
+        stderr.contains(&format!("{} frames", frames.len())),
+        "{stderr}"
+    );
+    // The CSV holds the rows up to the stop: the initial state plus ≥ 10 steps per frame after
+    // the first.
+    let csv = std::fs::read_to_string(dir.join("cantilever_dynamic.csv")).unwrap();
+    assert!(
+        csv.lines().count() > 10 * (frames.len() - 1),
+        "{}",
+        csv.lines().count()
+    );
+}

@@ -4,7 +4,7 @@ use std::sync::Arc;
 
 use nalgebra::Vector3;
 
-use super::{State, check_time_step};
+use super::{DivergenceGuard, Energy, State, check_time_step};
 use crate::assembly::{Assembler, lumped_mass};
 use crate::constraints::{Constraints, DofMap, Restriction, ensure_held};
 use crate::error::{Error, Result};
@@ -37,6 +37,8 @@ pub struct NonlinearBackwardEuler {
     system: CscMatrix,
     cholesky: SparseCholesky,
     dt: f64,
+    /// Set on the first step from the energy of the state it starts from.
+    guard: Option<DivergenceGuard>,
 }
 
 impl std::fmt::Debug for NonlinearBackwardEuler {
@@ -90,6 +92,7 @@ impl NonlinearBackwardEuler {
             system,
             cholesky,
             dt,
+            guard: None,
         })
     }
 
@@ -106,7 +109,13 @@ impl NonlinearBackwardEuler {
     /// Kinetic energy ½·vᵀMv plus the model's elastic energy, minus the loads' work potential
     /// ([`Error::DimensionMismatch`] if the state is not on the free DOFs).
     pub fn energy(&self, state: &State) -> Result<f64> {
-        Error::check_len("state.velocity", self.free_count(), state.velocity.len())?;
+        Ok(self.energy_terms(state)?.total())
+    }
+
+    /// The terms of [`energy`](Self::energy), the loads' potential (gravity included) reported
+    /// as `load_potential`.
+    pub fn energy_terms(&self, state: &State) -> Result<Energy> {
+        state.check_len(self.free_count())?;
         let u = self.dofs.expand(&state.displacement)?;
         let kinetic: f64 = 0.5
             * state
@@ -122,13 +131,22 @@ impl NonlinearBackwardEuler {
             .zip(&u)
             .map(|(f, u)| f * u)
             .sum::<f64>();
-        Ok(kinetic + elastic + potential)
+        Ok(Energy {
+            kinetic,
+            elastic,
+            gravity_potential: 0.0,
+            load_potential: potential,
+        })
     }
 
-    /// Advances `state` by one step.
+    /// Advances `state` by one step; [`Error::Diverged`] if the state stops being finite or its
+    /// energy runs away (the same [`DivergenceGuard`] as the linear integrators).
     pub fn step(&mut self, state: &mut State) -> Result<()> {
         let n = self.dofs.free_count();
         state.check_len(n)?;
+        if self.guard.is_none() {
+            self.guard = Some(DivergenceGuard::new(self.energy_terms(state)?));
+        }
         let dt = self.dt;
         let u = self.dofs.expand(&state.displacement)?;
         refill_tangent(
@@ -163,6 +181,10 @@ impl NonlinearBackwardEuler {
         }
         state.time += dt;
         state.steps += 1;
-        state.ensure_finite("")
+        state.ensure_finite("")?;
+        match &self.guard {
+            Some(guard) => guard.check(state, &self.energy_terms(state)?),
+            None => Ok(()),
+        }
     }
 }
