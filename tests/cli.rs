@@ -267,7 +267,7 @@ fn ctrl_c_stops_a_dynamic_run_with_a_valid_pvd() {
         env!("CARGO_MANIFEST_DIR"),
         "/scenes/cantilever_dynamic.toml"
     );
-    let mut child = Command::new(env!("CARGO_BIN_EXE_tetfem"))
+    let child = Command::new(env!("CARGO_BIN_EXE_tetfem"))
         .args(["run", scene, "--steps", "1000000", "--quiet", "--out"])
         .arg(&dir)
         .stderr(std::process::Stdio::piped())
