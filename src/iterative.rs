@@ -1,11 +1,16 @@
 //! Preconditioned conjugate gradients, for systems whose Cholesky factor would not fit in
 //! memory.
 //!
-//! The preconditioner is block Jacobi on the supervariables of the matrix (the free DOFs of one
-//! node, a 1×1 to 3×3 block): cheap, parallel, and for elasticity clearly better than point
-//! Jacobi because it captures the coupling of a node's three directions. On stiffness matrices
-//! alone it still needs many iterations (hundreds to thousands, growing with the mesh); on
-//! M + dt²K far fewer.
+//! Two preconditioners:
+//! - block Jacobi on the supervariables of the matrix (the free DOFs of one node, a 1×1 to 3×3
+//!   block): cheap, parallel, and for elasticity clearly better than point Jacobi because it
+//!   captures the coupling of a node's three directions; enough for M + dt²K;
+//! - incomplete Cholesky IC(0) with a diagonal shift: 3–4× fewer iterations on stiffness
+//!   matrices (`examples/preconditioners.rs`), the default of the iterative path.
+//!
+//! On slender-beam stiffness matrices (κ ~ 1e8) both still need hundreds to thousands of
+//! iterations, growing with the mesh; the direct solver is the better choice wherever its
+//! factor fits in memory.
 
 use nalgebra::DMatrix;
 use rayon::prelude::*;
@@ -114,16 +119,205 @@ impl BlockJacobi {
     }
 }
 
+/// Which preconditioner the iterative path of a [`LinearSolver`](crate::linear_solver::LinearSolver) builds.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum PreconditionerKind {
+    /// [`BlockJacobi`]: parallel and cheapest to build; enough for M + dt²K.
+    BlockJacobi,
+    /// [`IncompleteCholesky`] IC(0): 3–4× fewer iterations than block Jacobi on stiffness
+    /// matrices (measured by `examples/preconditioners.rs`), sequential sweeps.
+    #[default]
+    IncompleteCholesky,
+}
+
+impl PreconditionerKind {
+    /// Builds this preconditioner for `matrix`.
+    pub fn build(self, matrix: &CscMatrix) -> Result<Box<dyn Preconditioner>> {
+        Ok(match self {
+            PreconditionerKind::BlockJacobi => Box::new(BlockJacobi::new(matrix)?),
+            PreconditionerKind::IncompleteCholesky => Box::new(IncompleteCholesky::new(matrix)?),
+        })
+    }
+}
+
+/// An approximation P ≈ A whose inverse is cheap to apply: z = P⁻¹·r.
+pub trait Preconditioner: Sync + Send + std::fmt::Debug {
+    /// The dimension it acts on.
+    fn dim(&self) -> usize;
+    /// z = P⁻¹·r ([`Error::DimensionMismatch`] unless both have length [`dim`](Self::dim)).
+    fn apply(&self, r: &[f64], z: &mut [f64]) -> Result<()>;
+}
+
+impl Preconditioner for BlockJacobi {
+    fn dim(&self) -> usize {
+        self.starts.last().copied().unwrap_or(0)
+    }
+
+    fn apply(&self, r: &[f64], z: &mut [f64]) -> Result<()> {
+        BlockJacobi::apply(self, r, z)
+    }
+}
+
+/// Incomplete Cholesky IC(0) with a diagonal shift: L·Lᵀ ≈ A + α·diag(A), L on the pattern of
+/// A's lower triangle (no fill).
+///
+/// The factorization drops every update that falls outside A's pattern. Elasticity matrices are
+/// not M-matrices, so IC(0) can meet a non-positive pivot; the shift α is then raised (0, then
+/// 1e-4, doubling) until it succeeds (Manteuffel's remedy). Applying it is one forward and one
+/// backward sweep over nnz(L), sequential. On stiffness matrices it captures the coupling that
+/// block Jacobi misses, and CG needs several times fewer iterations (measured in the scale study).
+#[derive(Debug, Clone)]
+pub struct IncompleteCholesky {
+    col_ptr: Vec<usize>,
+    row_idx: Vec<usize>,
+    /// L by columns, the diagonal first in each.
+    values: Vec<f64>,
+    shift: f64,
+}
+
+impl IncompleteCholesky {
+    /// Factors A's lower triangle; an error if A has a non-positive diagonal entry (then no
+    /// shift can help: the matrix is not positive definite) or if even α = 1 fails.
+    pub fn new(matrix: &CscMatrix) -> Result<Self> {
+        let n = matrix.dim();
+        let (col_ptr, row_idx, values) = (matrix.col_ptr(), matrix.row_idx(), matrix.values());
+        let mut lower_ptr = Vec::with_capacity(n + 1);
+        let mut lower_rows = Vec::with_capacity(matrix.nnz() / 2 + n);
+        let mut lower_values = Vec::with_capacity(matrix.nnz() / 2 + n);
+        lower_ptr.push(0);
+        for j in 0..n {
+            let start = lower_rows.len();
+            for k in col_ptr[j]..col_ptr[j + 1] {
+                if row_idx[k] >= j {
+                    lower_rows.push(row_idx[k]);
+                    lower_values.push(values[k]);
+                }
+            }
+            if lower_rows.get(start) != Some(&j) || !(lower_values[start] > 0.0) {
+                return Err(Error::Solver(format!(
+                    "incomplete Cholesky: diagonal entry {j} is missing, zero, negative or NaN; \
+                     the matrix is not positive definite"
+                )));
+            }
+            lower_ptr.push(lower_rows.len());
+        }
+        let mut factor = IncompleteCholesky {
+            col_ptr: lower_ptr,
+            row_idx: lower_rows,
+            values: Vec::new(),
+            shift: 0.0,
+        };
+        let mut shift = 0.0;
+        while shift <= 1.0 {
+            factor.values.clone_from(&lower_values);
+            factor.shift = shift;
+            if factor.factorize() {
+                return Ok(factor);
+            }
+            shift = if shift == 0.0 { 1e-4 } else { 2.0 * shift };
+        }
+        Err(Error::Solver(
+            "incomplete Cholesky failed even with the diagonal shifted by 100 %".into(),
+        ))
+    }
+
+    /// The diagonal shift α that made the factorization succeed.
+    pub fn shift(&self) -> f64 {
+        self.shift
+    }
+
+    /// Right-looking IC(0) in place; false on a non-positive pivot.
+    fn factorize(&mut self) -> bool {
+        let (col_ptr, row_idx, values) = (&self.col_ptr, &self.row_idx, &mut self.values);
+        let n = col_ptr.len() - 1;
+        if self.shift > 0.0 {
+            for j in 0..n {
+                values[col_ptr[j]] *= 1.0 + self.shift;
+            }
+        }
+        for k in 0..n {
+            let (start, end) = (col_ptr[k], col_ptr[k + 1]);
+            let pivot = values[start];
+            if !(pivot > 0.0 && pivot.is_finite()) {
+                return false;
+            }
+            let diagonal = pivot.sqrt();
+            values[start] = diagonal;
+            for p in start + 1..end {
+                values[p] /= diagonal;
+            }
+            // Column j > k gets −L[i,k]·L[j,k] at every row i ≥ j that its pattern holds.
+            for p in start + 1..end {
+                let j = row_idx[p];
+                let l_jk = values[p];
+                let mut r = col_ptr[j];
+                let r_end = col_ptr[j + 1];
+                for q in p..end {
+                    let i = row_idx[q];
+                    while r < r_end && row_idx[r] < i {
+                        r += 1;
+                    }
+                    if r == r_end {
+                        break;
+                    }
+                    if row_idx[r] == i {
+                        values[r] -= values[q] * l_jk;
+                    }
+                }
+            }
+        }
+        true
+    }
+
+    /// z = (L·Lᵀ)⁻¹·r ([`Error::DimensionMismatch`] unless both have the matrix's dimension).
+    pub fn apply(&self, r: &[f64], z: &mut [f64]) -> Result<()> {
+        let n = self.col_ptr.len() - 1;
+        Error::check_len("r", n, r.len())?;
+        Error::check_len("z", n, z.len())?;
+        z.copy_from_slice(r);
+        // L·y = r, by columns.
+        for j in 0..n {
+            let (start, end) = (self.col_ptr[j], self.col_ptr[j + 1]);
+            let y = z[j] / self.values[start];
+            z[j] = y;
+            for p in start + 1..end {
+                z[self.row_idx[p]] -= self.values[p] * y;
+            }
+        }
+        // Lᵀ·z = y: row j of Lᵀ is column j of L.
+        for j in (0..n).rev() {
+            let (start, end) = (self.col_ptr[j], self.col_ptr[j + 1]);
+            let mut sum = z[j];
+            for p in start + 1..end {
+                sum -= self.values[p] * z[self.row_idx[p]];
+            }
+            z[j] = sum / self.values[start];
+        }
+        Ok(())
+    }
+}
+
+impl Preconditioner for IncompleteCholesky {
+    fn dim(&self) -> usize {
+        self.col_ptr.len() - 1
+    }
+
+    fn apply(&self, r: &[f64], z: &mut [f64]) -> Result<()> {
+        IncompleteCholesky::apply(self, r, z)
+    }
+}
+
 /// Solves A·x = b for symmetric positive definite A by preconditioned conjugate gradients,
 /// starting from the `x` given (use zeros without a better guess).
 pub fn conjugate_gradient(
     matrix: &CscMatrix,
-    preconditioner: &BlockJacobi,
+    preconditioner: &dyn Preconditioner,
     rhs: &[f64],
     x: &mut [f64],
     options: CgOptions,
 ) -> Result<CgReport> {
     let n = matrix.dim();
+    Error::check_len("preconditioner dimension", n, preconditioner.dim())?;
     if rhs.len() != n || x.len() != n {
         return Err(Error::invalid_parameter(
             "conjugate gradient vectors",

@@ -2,7 +2,7 @@
 //! its factor fits in memory, preconditioned conjugate gradients when it does not.
 
 use crate::error::{Error, Result};
-use crate::iterative::{BlockJacobi, CgOptions, conjugate_gradient};
+use crate::iterative::{CgOptions, Preconditioner, PreconditionerKind, conjugate_gradient};
 use crate::linsolve::{CholeskyOptions, SparseCholesky};
 use crate::sparse::CscMatrix;
 
@@ -45,6 +45,8 @@ pub struct SolverOptions {
     pub cholesky: CholeskyOptions,
     /// Stopping rule of conjugate gradients.
     pub cg: CgOptions,
+    /// Preconditioner of conjugate gradients.
+    pub preconditioner: PreconditionerKind,
     /// Bytes the Cholesky factor may take under [`LinearMethod::Auto`]; `None` means 60 % of the
     /// memory available when the solver is built (`MemAvailable` in /proc/meminfo; unlimited
     /// where that cannot be read).
@@ -57,6 +59,7 @@ impl Default for SolverOptions {
             method: LinearMethod::Auto,
             cholesky: CholeskyOptions::default(),
             cg: CgOptions::default(),
+            preconditioner: PreconditionerKind::default(),
             memory_budget: None,
         }
     }
@@ -83,20 +86,24 @@ pub enum LinearSolver {
     Direct(Box<SparseCholesky>),
     /// Preconditioned CG; the preconditioner is rebuilt per matrix.
     Iterative {
-        /// Block-Jacobi preconditioner of the current matrix.
-        preconditioner: BlockJacobi,
+        /// Preconditioner of the current matrix (built by `factorize`: it needs the values).
+        preconditioner: Option<Box<dyn Preconditioner>>,
+        /// Which one it is (rebuilt on each factorize).
+        kind: PreconditionerKind,
         /// Stopping rule.
         options: CgOptions,
     },
 }
 
 impl LinearSolver {
-    /// Chooses the method and analyses `matrix`'s pattern (the symbolic Cholesky analysis, or
-    /// the preconditioner's blocks). Call [`factorize`](Self::factorize) before solving.
+    /// Chooses the method and analyses `matrix`'s pattern (the symbolic Cholesky analysis; the
+    /// iterative path needs nothing before the values). Only the pattern is read here. Call
+    /// [`factorize`](Self::factorize) before solving.
     pub fn analyze(matrix: &CscMatrix, options: SolverOptions) -> Result<Self> {
         let iterative = |options: SolverOptions| -> Result<Self> {
             Ok(LinearSolver::Iterative {
-                preconditioner: BlockJacobi::new(matrix)?,
+                preconditioner: None,
+                kind: options.preconditioner,
                 options: options.cg,
             })
         };
@@ -122,8 +129,12 @@ impl LinearSolver {
     pub fn factorize(&mut self, matrix: &CscMatrix) -> Result<()> {
         match self {
             LinearSolver::Direct(cholesky) => cholesky.factorize(matrix),
-            LinearSolver::Iterative { preconditioner, .. } => {
-                *preconditioner = BlockJacobi::new(matrix)?;
+            LinearSolver::Iterative {
+                preconditioner,
+                kind,
+                ..
+            } => {
+                *preconditioner = Some(kind.build(matrix)?);
                 Ok(())
             }
         }
@@ -141,9 +152,16 @@ impl LinearSolver {
             LinearSolver::Iterative {
                 preconditioner,
                 options,
+                ..
             } => {
+                let Some(preconditioner) = preconditioner else {
+                    return Err(Error::Solver(
+                        "LinearSolver::solve called before factorize".into(),
+                    ));
+                };
                 let mut x = vec![0.0; rhs.len()];
-                let report = conjugate_gradient(matrix, preconditioner, rhs, &mut x, *options)?;
+                let report =
+                    conjugate_gradient(matrix, preconditioner.as_ref(), rhs, &mut x, *options)?;
                 rhs.copy_from_slice(&x);
                 Ok(SolveInfo::Iterative {
                     iterations: report.iterations,

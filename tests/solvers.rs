@@ -194,3 +194,123 @@ fn conjugate_gradient_reports_non_convergence() {
     assert!("metis".parse::<FillOrdering>().is_ok() && "colamd".parse::<FillOrdering>().is_err());
     assert!("cg".parse::<LinearMethod>().is_ok() && "lu".parse::<LinearMethod>().is_err());
 }
+
+/// A symmetric tridiagonal SPD matrix: its Cholesky factor has no fill, so IC(0) is the exact
+/// factor and applying it inverts the matrix.
+fn tridiagonal(n: usize) -> CscMatrix {
+    let mut col_ptr = vec![0];
+    let mut rows = Vec::new();
+    let mut values = Vec::new();
+    for j in 0..n {
+        for i in j.saturating_sub(1)..(j + 2).min(n) {
+            rows.push(i);
+            values.push(if i == j { 2.0 + j as f64 * 0.01 } else { -1.0 });
+        }
+        col_ptr.push(rows.len());
+    }
+    let pattern = faer::sparse::SymbolicSparseColMat::new_checked(n, n, col_ptr, None, rows);
+    CscMatrix::from_values(Arc::new(pattern), values).unwrap()
+}
+
+#[test]
+fn incomplete_cholesky_is_exact_without_fill() {
+    use tetfem::iterative::IncompleteCholesky;
+    let a = tridiagonal(200);
+    let ic = IncompleteCholesky::new(&a).unwrap();
+    assert_eq!(
+        ic.shift(),
+        0.0,
+        "a diagonally dominant matrix needs no shift"
+    );
+    let x: Vec<f64> = (0..200).map(|i| (i as f64 * 0.37).sin()).collect();
+    let ax = a.mul(&x).unwrap();
+    let mut back = vec![0.0; 200];
+    ic.apply(&ax, &mut back).unwrap();
+    // (L·Lᵀ)⁻¹·A·x = x up to round-off of two triangular sweeps (κ(A) ≈ 50 here).
+    for (b, x) in back.iter().zip(&x) {
+        assert!((b - x).abs() < 1e-12, "{b} vs {x}");
+    }
+    // CG preconditioned by the exact factor converges in one iteration.
+    let mut solution = vec![0.0; 200];
+    let report = conjugate_gradient(&a, &ic, &ax, &mut solution, CgOptions::default()).unwrap();
+    assert_eq!(report.iterations, 1);
+}
+
+#[test]
+fn incomplete_cholesky_cuts_cg_iterations_on_stiffness_matrices() {
+    use tetfem::iterative::IncompleteCholesky;
+    let problem = Cantilever::peer_benchmark([20, 4, 4]);
+    let mesh = problem.mesh().unwrap();
+    let solver = StaticSolver::new(
+        &mesh,
+        &problem.material,
+        &problem.constraints(&mesh).unwrap(),
+    )
+    .unwrap();
+    let k = solver.free_stiffness();
+    let rhs = solver
+        .dofs()
+        .restrict(problem.loads(&mesh).unwrap().as_slice())
+        .unwrap();
+    let iterations = |p: &dyn tetfem::iterative::Preconditioner| {
+        let mut x = vec![0.0; k.dim()];
+        conjugate_gradient(k, p, &rhs, &mut x, CgOptions::default())
+            .unwrap()
+            .iterations
+    };
+    let jacobi = iterations(&BlockJacobi::new(k).unwrap());
+    let ic = iterations(&IncompleteCholesky::new(k).unwrap());
+    // Measured 480 vs 140 at tolerance 1e-8 (examples/preconditioners.rs); the claim in the
+    // docs is "3–4× fewer", asserted with margin.
+    assert!(
+        2 * ic < jacobi,
+        "IC(0) {ic} vs block Jacobi {jacobi} iterations"
+    );
+    // A matrix with a zero diagonal entry cannot be factored, whatever the shift.
+    let mut broken = k.clone();
+    let diagonal = broken.row_idx()[broken.col_ptr()[0]..broken.col_ptr()[1]]
+        .iter()
+        .position(|&r| r == 0)
+        .unwrap();
+    broken.values_mut()[diagonal] = 0.0;
+    assert!(matches!(
+        IncompleteCholesky::new(&broken),
+        Err(Error::Solver(_))
+    ));
+}
+
+#[test]
+fn iterative_path_with_either_preconditioner_matches_the_direct_solve() {
+    use tetfem::iterative::PreconditionerKind;
+    let direct = solve_tip(
+        [20, 4, 4],
+        SolverOptions {
+            method: LinearMethod::Direct,
+            ..Default::default()
+        },
+    );
+    for preconditioner in [
+        PreconditionerKind::BlockJacobi,
+        PreconditionerKind::IncompleteCholesky,
+    ] {
+        let iterative = solve_tip(
+            [20, 4, 4],
+            SolverOptions {
+                method: LinearMethod::Iterative,
+                preconditioner,
+                ..Default::default()
+            },
+        );
+        assert!(
+            !iterative.2,
+            "{preconditioner:?} must take the iterative path"
+        );
+        // CG stops at relative residual 1e-10; with κ ≈ 1e6 here the tip agrees to ~1e-6.
+        assert!(
+            (iterative.0 - direct.0).abs() <= 1e-6 * direct.0.abs(),
+            "{preconditioner:?}: {} vs {}",
+            iterative.0,
+            direct.0
+        );
+    }
+}
