@@ -193,7 +193,9 @@ impl IncompleteCholesky {
                     lower_values.push(values[k]);
                 }
             }
-            if lower_rows.get(start) != Some(&j) || !(lower_values[start] > 0.0) {
+            if lower_rows.get(start) != Some(&j)
+                || lower_values[start].partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater)
+            {
                 return Err(Error::Solver(format!(
                     "incomplete Cholesky: diagonal entry {j} is missing, zero, negative or NaN; \
                      the matrix is not positive definite"
