@@ -558,43 +558,39 @@ density = 1000.0
 where = { plane = { axis = "x", at = 0.0 } }
 "#;
 
+/// Runs the base scene as a dynamic analysis with these `[analysis]` lines (no files written)
+/// and checks that it fails with an error naming `key`.
+fn assert_dynamic_scene_rejects(analysis: &str, key: &str) {
+    let text = format!("{BASE}\n[analysis]\ntype = \"dynamic\"\n{analysis}\n");
+    let result = scene(&text).and_then(|s| {
+        tetfem::scene::run_dynamic_scene(&s, &Default::default(), false, false, &mut |_, _| {
+            std::ops::ControlFlow::Continue(())
+        })
+    });
+    match result {
+        Err(Error::Scene { key: k, .. }) => assert!(k.contains(key), "{analysis}: {k}"),
+        Err(Error::InvalidParameter { name, .. }) => assert_eq!(name, key, "{analysis}"),
+        other => panic!("{analysis}: expected an error naming {key}, got {other:?}"),
+    }
+}
+
 #[test]
 fn zero_or_negative_duration_is_rejected() {
     for duration in ["0.0", "-1.0"] {
-        let text = format!(
-            "{BASE}\n[analysis]\ntype = \"dynamic\"\nmethod = \"backward_euler\"\ndt = 0.01\nduration = {duration}\n"
+        assert_dynamic_scene_rejects(
+            &format!("method = \"backward_euler\"\ndt = 0.01\nduration = {duration}"),
+            "duration",
         );
-        let result = scene(&text).and_then(|s| {
-            tetfem::scene::run_dynamic_scene(&s, &Default::default(), false, false, &mut |_, _| {
-                std::ops::ControlFlow::Continue(())
-            })
-        });
-        match result {
-            Err(Error::Scene { key, .. }) => assert!(key.contains("duration"), "{key}"),
-            Err(Error::InvalidParameter { name, .. }) => assert_eq!(name, "duration"),
-            other => {
-                panic!("duration {duration}: expected an error naming duration, got {other:?}")
-            }
-        }
     }
 }
 
 #[test]
 fn zero_or_negative_dt_in_a_scene_is_rejected() {
     for dt in ["0.0", "-0.01"] {
-        let text = format!(
-            "{BASE}\n[analysis]\ntype = \"dynamic\"\nmethod = \"newmark\"\ndt = {dt}\nduration = 1.0\n"
+        assert_dynamic_scene_rejects(
+            &format!("method = \"newmark\"\ndt = {dt}\nduration = 1.0"),
+            "dt",
         );
-        let result = scene(&text).and_then(|s| {
-            tetfem::scene::run_dynamic_scene(&s, &Default::default(), false, false, &mut |_, _| {
-                std::ops::ControlFlow::Continue(())
-            })
-        });
-        match result {
-            Err(Error::Scene { key, .. }) => assert!(key.contains("dt"), "{key}"),
-            Err(Error::InvalidParameter { name, .. }) => assert_eq!(name, "dt"),
-            other => panic!("dt {dt}: expected an error naming dt, got {other:?}"),
-        }
     }
 }
 
