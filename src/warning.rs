@@ -6,7 +6,7 @@
 
 use std::fmt;
 
-/// Poisson's ratio from which [`Warning::NearlyIncompressible`] is raised: λ/μ = 2ν/(1−2ν) = 9
+/// Poisson's ratio above which [`Warning::NearlyIncompressible`] is raised: λ/μ = 2ν/(1−2ν) = 9
 /// at ν = 0.45, and linear tets lock volumetrically as λ/μ grows (too stiff in bending).
 pub const NEARLY_INCOMPRESSIBLE_POISSON: f64 = 0.45;
 
@@ -44,7 +44,7 @@ pub enum Warning {
         /// explicit critical step h/c_p is this factor of what the typical tets would allow.
         dt_factor: f64,
     },
-    /// ν ≥ [`NEARLY_INCOMPRESSIBLE_POISSON`]: linear tets lock volumetrically (displacements too
+    /// ν > [`NEARLY_INCOMPRESSIBLE_POISSON`]: linear tets lock volumetrically (displacements too
     /// small, stresses oscillating), increasingly so as ν → 0.5.
     NearlyIncompressible {
         /// The material's ν.
@@ -78,7 +78,7 @@ impl fmt::Display for Warning {
             Warning::NearlyIncompressible { poisson_ratio } => write!(
                 f,
                 "Poisson's ratio {poisson_ratio} is close to 0.5 (λ/μ = {:.0}): linear tets lock volumetrically \
-                 and come out too stiff; refine, or use ν < {NEARLY_INCOMPRESSIBLE_POISSON}",
+                 and come out too stiff; refine, or use ν ≤ {NEARLY_INCOMPRESSIBLE_POISSON}",
                 2.0 * poisson_ratio / (1.0 - 2.0 * poisson_ratio)
             ),
         }

@@ -3,6 +3,7 @@
 use nalgebra::Vector3;
 
 use super::TetMesh;
+use crate::element::signed_volume;
 use crate::error::{Error, Result};
 
 /// How each cube of a box grid is split into tets.
@@ -136,6 +137,14 @@ impl TetMesh {
                     };
                     tets.extend(table.iter().map(|t| t.map(corner)));
                 }
+            }
+        }
+        // Orient here what the tables leave negative (the mirrored cells of the five-tet
+        // split), exactly as `TetMesh::new` would, so that its mixed-orientation warning is
+        // kept for input meshes.
+        for t in &mut tets {
+            if signed_volume(&t.map(|n| nodes[n])) < 0.0 {
+                t.swap(1, 2);
             }
         }
         TetMesh::new(nodes, tets)
