@@ -19,16 +19,24 @@ use crate::error::{Error, Result};
 use crate::mesh::TetMesh;
 use crate::output::write_atomically;
 
-/// Reads a Gmsh mesh file (MSH 4.1 ASCII or binary, or MSH 2.2 ASCII).
+/// Reads a Gmsh mesh file (MSH 4.1 ASCII or binary, or MSH 2.2 ASCII): reads its bytes and
+/// hands them to [`parse_gmsh`].
 pub fn read_gmsh(path: &Path) -> Result<ImportedMesh> {
     let bytes = std::fs::read(path).map_err(|source| Error::Io {
         path: path.to_path_buf(),
         source,
     })?;
-    let (version, binary) = format_line(path, &bytes)?;
+    parse_gmsh(path, &bytes)
+}
+
+/// Parses the contents of a Gmsh mesh file (MSH 4.1 ASCII or binary, or MSH 2.2 ASCII) held in
+/// memory. `path` is not opened: it only labels the [`Error::Parse`] errors (use the file the
+/// bytes came from, or a placeholder such as `<memory>.msh`).
+pub fn parse_gmsh(path: &Path, bytes: &[u8]) -> Result<ImportedMesh> {
+    let (version, binary) = format_line(path, bytes)?;
     let raw = match (version.as_str(), binary) {
-        ("4.1", _) => parse_v41(path, &bytes, binary)?,
-        (v, false) if v.starts_with("2.") => gmsh22::parse(path, decode(path, &bytes)?)?,
+        ("4.1", _) => parse_v41(path, bytes, binary)?,
+        (v, false) if v.starts_with("2.") => gmsh22::parse(path, decode(path, bytes)?)?,
         (v, true) if v.starts_with("2.") => {
             return Err(Error::parse(
                 path,

@@ -42,16 +42,30 @@ fn read_file(path: &Path) -> Result<Vec<u8>> {
     })
 }
 
-/// Reads `<prefix>.node` and `<prefix>.ele`; node markers and the first tet attribute are kept.
+/// Reads `<prefix>.node` and `<prefix>.ele` and hands their bytes to [`parse_tetgen`]; node
+/// markers and the first tet attribute are kept.
 pub fn read_tetgen(prefix: &Path) -> Result<ImportedMesh> {
     let node_path = with_suffix(prefix, ".node");
     let ele_path = with_suffix(prefix, ".ele");
     let node_bytes = read_file(&node_path)?;
     let ele_bytes = read_file(&ele_path)?;
+    parse_tetgen(&node_path, &node_bytes, &ele_path, &ele_bytes)
+}
+
+/// Parses the contents of a TetGen `.node` file and its `.ele` file held in memory; node markers
+/// and the first tet attribute are kept. `node_path` and `ele_path` are not opened: they only
+/// label the [`Error::Parse`] errors about each part (use the files the bytes came from, or
+/// placeholders such as `<memory>.node` / `<memory>.ele`).
+pub fn parse_tetgen(
+    node_path: &Path,
+    node_bytes: &[u8],
+    ele_path: &Path,
+    ele_bytes: &[u8],
+) -> Result<ImportedMesh> {
     let mut raw = RawMesh::default();
-    let base = read_nodes(&node_path, decode(&node_path, &node_bytes)?, &mut raw)?;
-    read_tets(&ele_path, decode(&ele_path, &ele_bytes)?, base, &mut raw)?;
-    raw.finish(&ele_path)
+    let base = read_nodes(node_path, decode(node_path, node_bytes)?, &mut raw)?;
+    read_tets(ele_path, decode(ele_path, ele_bytes)?, base, &mut raw)?;
+    raw.finish(ele_path)
 }
 
 fn read_nodes(path: &Path, text: &str, raw: &mut RawMesh) -> Result<usize> {
