@@ -91,16 +91,18 @@ fn read_nodes(path: &Path, text: &str, raw: &mut RawMesh) -> Result<usize> {
     if markers > 1 {
         return Err(header.error(format!("the marker flag is {markers}; it must be 0 or 1")));
     }
-    // Cap the reservation: a header may lie about the count.
-    raw.nodes.reserve(count.min(1 << 20));
+    let fields = attributes.checked_add(4 + markers).ok_or_else(|| {
+        header.error(format!(
+            "{attributes} attributes per point is more than a line can hold"
+        ))
+    })?;
+    // Cap the reservation by the input size: a header may lie about the count.
+    raw.nodes.reserve(count.min(text.len()));
     let mut node_markers = Vec::new();
     let mut base = 0;
     for i in 0..count {
         let r = records.next(&format!("point {} of {count}", i + 1))?;
-        r.expect_at_least(
-            4 + attributes + markers,
-            "index, x, y, z, attributes and marker",
-        )?;
+        r.expect_at_least(fields, "index, x, y, z, attributes and marker")?;
         let index: usize = r.number(0, "point index")?;
         if i == 0 {
             if index > 1 {
@@ -153,12 +155,17 @@ fn read_tets(path: &Path, text: &str, base: usize, raw: &mut RawMesh) -> Result<
     } else {
         0
     };
+    let fields = attributes.checked_add(1 + per_tet).ok_or_else(|| {
+        header.error(format!(
+            "{attributes} attributes per tet is more than a line can hold"
+        ))
+    })?;
     let node_count = raw.nodes.len();
-    raw.tets.reserve(count.min(1 << 20));
+    raw.tets.reserve(count.min(text.len()));
     let mut tet_attributes = Vec::new();
     for i in 0..count {
         let r = records.next(&format!("tet {} of {count}", i + 1))?;
-        r.expect_at_least(1 + per_tet + attributes, "index, nodes and attributes")?;
+        r.expect_at_least(fields, "index, nodes and attributes")?;
         let index: usize = r.number(0, "tet index")?;
         if index != base + i {
             return Err(r.error(format!(
