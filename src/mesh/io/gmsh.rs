@@ -19,16 +19,41 @@ use crate::error::{Error, Result};
 use crate::mesh::TetMesh;
 use crate::output::write_atomically;
 
-/// Reads a Gmsh mesh file (MSH 4.1 ASCII or binary, or MSH 2.2 ASCII).
+/// Reads a Gmsh mesh file (MSH 4.1 ASCII or binary, or MSH 2.2 ASCII): reads its bytes and
+/// hands them to [`parse_gmsh`].
 pub fn read_gmsh(path: &Path) -> Result<ImportedMesh> {
     let bytes = std::fs::read(path).map_err(|source| Error::Io {
         path: path.to_path_buf(),
         source,
     })?;
-    let (version, binary) = format_line(path, &bytes)?;
+    parse_gmsh(path, &bytes)
+}
+
+/// Parses the contents of a Gmsh mesh file (MSH 4.1 ASCII or binary, or MSH 2.2 ASCII) held in
+/// memory. `path` is not opened: it only labels the [`Error::Parse`] errors (use the file the
+/// bytes came from, or a placeholder such as `<memory>.msh`).
+pub fn parse_gmsh(path: &Path, bytes: &[u8]) -> Result<ImportedMesh> {
+    let (version, binary, data_size) = format_line(path, bytes)?;
     let raw = match (version.as_str(), binary) {
-        ("4.1", _) => parse_v41(path, &bytes, binary)?,
-        (v, false) if v.starts_with("2.") => gmsh22::parse(path, decode(path, &bytes)?)?,
+        ("4.1", _) => {
+            // Gmsh writes sizeof(size_t); mshio has no reader for other sizes (it panics).
+            let size = match data_size.as_str() {
+                "4" => 4,
+                "8" => 8,
+                other => {
+                    return Err(Error::parse(
+                        path,
+                        2,
+                        format!(
+                            "data-size '{other}' is not supported: MSH 4.1 needs 4 or 8 (the size of size_t)"
+                        ),
+                    ));
+                }
+            };
+            check_section_counts(path, bytes, binary, size)?;
+            parse_v41(path, bytes, binary)?
+        }
+        (v, false) if v.starts_with("2.") => gmsh22::parse(path, decode(path, bytes)?)?,
         (v, true) if v.starts_with("2.") => {
             return Err(Error::parse(
                 path,
@@ -51,8 +76,9 @@ pub fn read_gmsh(path: &Path) -> Result<ImportedMesh> {
     raw.finish(path)
 }
 
-/// The version and binary flag from the `$MeshFormat` header's second line.
-fn format_line(path: &Path, bytes: &[u8]) -> Result<(String, bool)> {
+/// The version, the binary flag and the data-size field from the `$MeshFormat` header's second
+/// line.
+fn format_line(path: &Path, bytes: &[u8]) -> Result<(String, bool, String)> {
     let mut lines = bytes.split(|&b| b == b'\n');
     let first = lines
         .next()
@@ -88,7 +114,86 @@ fn format_line(path: &Path, bytes: &[u8]) -> Result<(String, bool)> {
             ));
         }
     };
-    Ok((fields[0].to_string(), binary))
+    Ok((fields[0].to_string(), binary, fields[2].to_string()))
+}
+
+/// Rejects a `$Nodes` or `$Elements` section of an MSH 4.1 file whose header announces no
+/// entries: mshio 0.4 computes `count − 1` there, which overflows (a panic where overflow checks
+/// are on) on such a header. Either section empty means the file holds no tet anyway. Every
+/// line that reads `$Nodes` or `$Elements` is checked, not only the one mshio takes for the
+/// section: a zero count after such a line elsewhere only turns a broken file's error into
+/// this one.
+///
+/// The header `<blocks> <count> <min tag> <max tag>` is text in ASCII files and follows the
+/// section's line as size_t values of `size` bytes in binary files (in the byte order that the
+/// integer 1 after the format line shows).
+fn check_section_counts(path: &Path, bytes: &[u8], binary: bool, size: usize) -> Result<()> {
+    let little_endian = if binary {
+        // The endianness check integer follows the format line.
+        let mut lines = bytes.splitn(3, |&b| b == b'\n');
+        let probe = lines.nth(2).and_then(|rest| rest.get(..4));
+        match probe {
+            Some([1, 0, 0, 0]) => true,
+            Some([0, 0, 0, 1]) => false,
+            // mshio reports a bad endianness integer itself.
+            _ => return Ok(()),
+        }
+    } else {
+        true
+    };
+    for (after, line, tag) in section_starts(bytes, &["$Nodes", "$Elements"]) {
+        let what = if tag == "$Nodes" { "nodes" } else { "elements" };
+        let rest = &bytes[after..];
+        let header: Option<Vec<u64>> = if binary {
+            rest.chunks_exact(size)
+                .take(4)
+                .map(|c| {
+                    let mut b = [0u8; 8];
+                    if little_endian {
+                        b[..size].copy_from_slice(c);
+                        Some(u64::from_le_bytes(b))
+                    } else {
+                        b[8 - size..].copy_from_slice(c);
+                        Some(u64::from_be_bytes(b))
+                    }
+                })
+                .collect()
+        } else {
+            String::from_utf8_lossy(&rest[..rest.len().min(256)])
+                .split_whitespace()
+                .take(4)
+                .map(|f| f.parse().ok())
+                .collect()
+        };
+        if let Some(&[_, 0, min, max]) = header.as_deref()
+            && min >= 1
+            && max >= min
+        {
+            return Err(Error::parse(
+                path,
+                line + 1,
+                format!(
+                    "the {tag} section announces 0 {what} (header <blocks> <count> <min tag> <max tag> has count 0): the file holds no mesh"
+                ),
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// Every line that reads one of `tags` (wherever mshio might take it for a section start): the
+/// byte offset just after it, its 1-based number and the tag.
+fn section_starts<'t>(bytes: &[u8], tags: &[&'t str]) -> Vec<(usize, usize, &'t str)> {
+    let mut starts = Vec::new();
+    let mut offset = 0;
+    for (i, line) in bytes.split(|&b| b == b'\n').enumerate() {
+        offset += line.len() + 1;
+        let text = String::from_utf8_lossy(line);
+        if let Some(&tag) = tags.iter().find(|&&t| text.trim() == t) {
+            starts.push((offset.min(bytes.len()), i + 1, tag));
+        }
+    }
+    starts
 }
 
 /// 1-based line of the first line that reads `tag` (0 if none).

@@ -71,7 +71,7 @@ pub(crate) fn parse(path: &Path, text: &str) -> Result<RawMesh> {
                 let count: usize = records
                     .next("the number of nodes")?
                     .number(0, "number of nodes")?;
-                raw.nodes.reserve(count.min(1 << 20));
+                raw.nodes.reserve(count.min(text.len()));
                 for i in 0..count {
                     let r = records.next(&format!("node {} of {count}", i + 1))?;
                     let tag: u64 = r.number(0, "node tag")?;

@@ -13,8 +13,8 @@ mod raw;
 mod tetgen;
 mod text;
 
-pub use gmsh::{read_gmsh, write_gmsh};
-pub use tetgen::{TetgenOptions, read_tetgen, write_tetgen};
+pub use gmsh::{parse_gmsh, read_gmsh, write_gmsh};
+pub use tetgen::{TetgenOptions, parse_tetgen, read_tetgen, write_tetgen};
 
 use std::collections::BTreeMap;
 use std::path::Path;

@@ -42,16 +42,30 @@ fn read_file(path: &Path) -> Result<Vec<u8>> {
     })
 }
 
-/// Reads `<prefix>.node` and `<prefix>.ele`; node markers and the first tet attribute are kept.
+/// Reads `<prefix>.node` and `<prefix>.ele` and hands their bytes to [`parse_tetgen`]; node
+/// markers and the first tet attribute are kept.
 pub fn read_tetgen(prefix: &Path) -> Result<ImportedMesh> {
     let node_path = with_suffix(prefix, ".node");
     let ele_path = with_suffix(prefix, ".ele");
     let node_bytes = read_file(&node_path)?;
     let ele_bytes = read_file(&ele_path)?;
+    parse_tetgen(&node_path, &node_bytes, &ele_path, &ele_bytes)
+}
+
+/// Parses the contents of a TetGen `.node` file and its `.ele` file held in memory; node markers
+/// and the first tet attribute are kept. `node_path` and `ele_path` are not opened: they only
+/// label the [`Error::Parse`] errors about each part (use the files the bytes came from, or
+/// placeholders such as `<memory>.node` / `<memory>.ele`).
+pub fn parse_tetgen(
+    node_path: &Path,
+    node_bytes: &[u8],
+    ele_path: &Path,
+    ele_bytes: &[u8],
+) -> Result<ImportedMesh> {
     let mut raw = RawMesh::default();
-    let base = read_nodes(&node_path, decode(&node_path, &node_bytes)?, &mut raw)?;
-    read_tets(&ele_path, decode(&ele_path, &ele_bytes)?, base, &mut raw)?;
-    raw.finish(&ele_path)
+    let base = read_nodes(node_path, decode(node_path, node_bytes)?, &mut raw)?;
+    read_tets(ele_path, decode(ele_path, ele_bytes)?, base, &mut raw)?;
+    raw.finish(ele_path)
 }
 
 fn read_nodes(path: &Path, text: &str, raw: &mut RawMesh) -> Result<usize> {
@@ -77,16 +91,18 @@ fn read_nodes(path: &Path, text: &str, raw: &mut RawMesh) -> Result<usize> {
     if markers > 1 {
         return Err(header.error(format!("the marker flag is {markers}; it must be 0 or 1")));
     }
-    // Cap the reservation: a header may lie about the count.
-    raw.nodes.reserve(count.min(1 << 20));
+    let fields = attributes.checked_add(4 + markers).ok_or_else(|| {
+        header.error(format!(
+            "{attributes} attributes per point is more than a line can hold"
+        ))
+    })?;
+    // Cap the reservation by the input size: a header may lie about the count.
+    raw.nodes.reserve(count.min(text.len()));
     let mut node_markers = Vec::new();
     let mut base = 0;
     for i in 0..count {
         let r = records.next(&format!("point {} of {count}", i + 1))?;
-        r.expect_at_least(
-            4 + attributes + markers,
-            "index, x, y, z, attributes and marker",
-        )?;
+        r.expect_at_least(fields, "index, x, y, z, attributes and marker")?;
         let index: usize = r.number(0, "point index")?;
         if i == 0 {
             if index > 1 {
@@ -139,12 +155,17 @@ fn read_tets(path: &Path, text: &str, base: usize, raw: &mut RawMesh) -> Result<
     } else {
         0
     };
+    let fields = attributes.checked_add(1 + per_tet).ok_or_else(|| {
+        header.error(format!(
+            "{attributes} attributes per tet is more than a line can hold"
+        ))
+    })?;
     let node_count = raw.nodes.len();
-    raw.tets.reserve(count.min(1 << 20));
+    raw.tets.reserve(count.min(text.len()));
     let mut tet_attributes = Vec::new();
     for i in 0..count {
         let r = records.next(&format!("tet {} of {count}", i + 1))?;
-        r.expect_at_least(1 + per_tet + attributes, "index, nodes and attributes")?;
+        r.expect_at_least(fields, "index, nodes and attributes")?;
         let index: usize = r.number(0, "tet index")?;
         if index != base + i {
             return Err(r.error(format!(

@@ -1,0 +1,10 @@
+#![no_main]
+//! Fuzz target `mesh`: see `harness::mesh` for how the bytes are used.
+
+#[path = "../harness.rs"]
+#[allow(dead_code)] // each target uses one of the harness functions
+mod harness;
+
+libfuzzer_sys::fuzz_target!(|data: &[u8]| {
+    let _ = harness::mesh(data);
+});
