@@ -46,6 +46,9 @@ pub struct SparseCholesky {
     factor: Vec<f64>,
     factor_workspace: MemBuffer,
     solve_workspace: MemBuffer,
+    /// Whether `factor` and the workspaces have their sizes (a 0×0 matrix has an empty factor
+    /// but still needs its workspaces, so the factor's length cannot tell).
+    allocated: bool,
     factored: bool,
     par: Par,
 }
@@ -99,6 +102,7 @@ impl SparseCholesky {
             factor: Vec::new(),
             factor_workspace: MemBuffer::new(StackReq::EMPTY),
             solve_workspace: MemBuffer::new(StackReq::EMPTY),
+            allocated: false,
             factored: false,
             par,
         })
@@ -108,7 +112,7 @@ impl SparseCholesky {
     /// [`factor_len`](Self::factor_len) after the analysis and choose another method before any
     /// large allocation.
     fn allocate(&mut self) -> Result<()> {
-        if self.factor.len() == self.symbolic.len_val() {
+        if self.allocated {
             return Ok(());
         }
         let out_of_memory = |what: &str| Error::Solver(format!("out of memory for the {what}"));
@@ -124,6 +128,7 @@ impl SparseCholesky {
             .try_reserve_exact(self.symbolic.len_val())
             .map_err(|_| out_of_memory("Cholesky factor"))?;
         self.factor.resize(self.symbolic.len_val(), 0.0);
+        self.allocated = true;
         Ok(())
     }
 
