@@ -23,18 +23,11 @@ impl Constraints {
     /// they have no stiffness and no mass, so left free they would make every system matrix
     /// singular. (`TetMesh::warnings` reports them.)
     pub fn new(mesh: &TetMesh) -> Self {
-        let mut used = vec![false; mesh.node_count()];
-        for tet in mesh.tets() {
-            for &n in tet {
-                used[n] = true;
-            }
+        let mut prescribed = vec![None; mesh.dof_count()];
+        for node in mesh.unused_nodes() {
+            prescribed[3 * node..3 * node + 3].fill(Some(0.0));
         }
-        Constraints {
-            prescribed: used
-                .iter()
-                .flat_map(|&u| [if u { None } else { Some(0.0) }; 3])
-                .collect(),
-        }
+        Constraints { prescribed }
     }
 
     /// Clamps `nodes`: all three displacement components fixed at zero.

@@ -158,6 +158,17 @@ impl TetMesh {
             .sum()
     }
 
+    /// Nodes that no tet uses, ascending (they carry no stiffness and no mass).
+    pub fn unused_nodes(&self) -> Vec<usize> {
+        let mut used = vec![false; self.nodes.len()];
+        for tet in &self.tets {
+            for &n in tet {
+                used[n] = true;
+            }
+        }
+        (0..used.len()).filter(|&n| !used[n]).collect()
+    }
+
     /// Number of tets that [`TetMesh::new`] found negatively oriented and reoriented.
     pub fn reoriented_count(&self) -> usize {
         self.reoriented

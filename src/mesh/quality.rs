@@ -150,16 +150,10 @@ impl TetMesh {
     pub fn warnings(&self) -> Vec<crate::warning::Warning> {
         use crate::warning::Warning;
         let mut warnings = Vec::new();
-        let mut used = vec![false; self.node_count()];
-        for tet in self.tets() {
-            for &n in tet {
-                used[n] = true;
-            }
-        }
-        let unused = used.iter().filter(|&&u| !u).count();
-        if let Some(first) = used.iter().position(|&u| !u) {
+        let unused = self.unused_nodes();
+        if let Some(&first) = unused.first() {
             warnings.push(Warning::UnusedNodes {
-                count: unused,
+                count: unused.len(),
                 first,
             });
         }
