@@ -1,6 +1,7 @@
 //! Time-stepping costs at ~10k and ~130k DOFs (and ~290k with TETFEM_BENCH_LARGE=1): one
-//! backward-Euler step after factorization, one Newmark step, one explicit step, and one numeric
-//! factorization of M + dt²K. `cargo bench --bench dynamics`.
+//! backward-Euler step after factorization, one Newmark step, one explicit step, the product
+//! K_ff·x in the scalar CSC and the 3×3 node-block formats, and one numeric factorization of
+//! M + dt²K. `cargo bench --bench dynamics`.
 
 use std::sync::Arc;
 use std::time::Duration;
@@ -63,6 +64,16 @@ fn stepping(c: &mut Criterion) {
                 |b| b.iter(|| integrator.step(&mut state).unwrap()),
             );
         }
+        // The product that bounds an explicit step, in both formats of K_ff, side by side.
+        let blocks = system.stiffness_blocks();
+        let x: Vec<f64> = (0..system.free_count()).map(|i| (i % 7) as f64).collect();
+        let mut y = vec![0.0; x.len()];
+        group.bench_function(BenchmarkId::new("spmv-csc", &label), |b| {
+            b.iter(|| system.stiffness().mul_vec(&x, &mut y).unwrap())
+        });
+        group.bench_function(BenchmarkId::new("spmv-node-blocks", &label), |b| {
+            b.iter(|| blocks.mul_vec(&x, &mut y).unwrap())
+        });
         let mut a = CscMatrix::from_values(
             Arc::clone(system.stiffness().pattern()),
             system

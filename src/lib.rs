@@ -32,6 +32,7 @@
 
 pub mod assembly;
 pub mod beam_theory;
+pub mod block_sparse;
 pub mod cantilever;
 pub mod chart;
 pub mod constraints;

@@ -10,8 +10,12 @@ use std::process::{Command, ExitCode};
 use std::time::Instant;
 
 use clap::Parser;
+use std::sync::Arc;
+
+use nalgebra::Vector3;
 use tetfem::cantilever::Cantilever;
 use tetfem::chart::{Chart, Mark, Series};
+use tetfem::dynamics::{LinearSystem, MassKind, Method, Rayleigh, State, critical_time_step};
 use tetfem::{
     Assembler, CholeskyOptions, DofMap, FillOrdering, LinearMethod, LinearSolver, SolverOptions,
 };
@@ -84,7 +88,17 @@ struct Run {
     tip: f64,
     residual: f64,
     cg_iterations: usize,
+    /// Best-of-repeats wall time of one backward-Euler and one explicit step [s] (0: not run).
+    step_seconds: [f64; 2],
+    /// Bytes each step must move at least (see [`step_floor_bytes`]).
+    step_floor_bytes: [f64; 2],
+    /// Triad bandwidth measured in the run's own process, with its thread count [B/s].
+    bandwidth: f64,
 }
+
+/// Largest k whose direct runs also time the time steps (the backward-Euler step needs a second
+/// factorization, of M + dt²·K; at k = 40 that would add five minutes).
+const MAX_STEP_K: usize = 30;
 
 fn peak_rss_mib() -> f64 {
     std::fs::read_to_string("/proc/self/status")
@@ -157,7 +171,56 @@ fn run_one(cells: [usize; 3], method: &str, threads: usize, ordering: &str) -> t
     run.tets = mesh.tet_count();
     run.nnz_k = k_full.nnz();
     run.factor_len = solver.factor_len();
+    if method == "direct" && k <= MAX_STEP_K {
+        drop((solver, k_ff, k_full, assembler));
+        time_steps(&problem, &mesh, &mut run)?;
+    }
     Ok(run)
+}
+
+/// Times one backward-Euler step (after its factorization) and one explicit step on the beam,
+/// best of several, and records the bytes each must move:
+///
+/// - explicit: K_ff's values once (8 B per stored entry, whatever the format) and six vectors
+///   (u, v, f, M⁻¹ read; u, v written);
+/// - backward Euler: the same, plus the Cholesky factor's values read twice (forward and
+///   backward substitution).
+fn time_steps(problem: &Cantilever, mesh: &tetfem::TetMesh, run: &mut Run) -> tetfem::Result<()> {
+    let system = Arc::new(LinearSystem::new(
+        mesh,
+        &problem.material,
+        &problem.constraints(mesh)?,
+        &problem.loads(mesh)?,
+        Vector3::new(0.0, 0.0, -9.81),
+        MassKind::Lumped,
+        Rayleigh::default(),
+    )?);
+    let dt_critical = critical_time_step(&system)?.dt;
+    let n = system.free_count() as f64;
+    let vectors = 6.0 * 8.0 * n;
+    let stiffness = 8.0 * system.stiffness().nnz() as f64;
+    for (slot, method, dt, repeats) in [
+        (0, Method::BackwardEuler, 100.0 * dt_critical, 5),
+        (1, Method::Explicit, 0.9 * dt_critical, 20),
+    ] {
+        let mut integrator = method.integrator(Arc::clone(&system), dt)?;
+        let mut state = State::at_rest(system.free_count());
+        integrator.step(&mut state)?; // the factorization, outside the timing
+        let mut best = f64::INFINITY;
+        for _ in 0..repeats {
+            let clock = Instant::now();
+            integrator.step(&mut state)?;
+            best = best.min(clock.elapsed().as_secs_f64());
+        }
+        run.step_seconds[slot] = best;
+        run.step_floor_bytes[slot] = stiffness + vectors;
+        if method == Method::BackwardEuler {
+            let factor_len = integrator.factor_len().unwrap_or(0) as f64;
+            run.step_floor_bytes[slot] += 2.0 * 8.0 * factor_len;
+        }
+    }
+    run.bandwidth = triad_bandwidth();
+    Ok(())
 }
 
 fn encode(run: &Run) -> String {
@@ -168,7 +231,7 @@ fn encode(run: &Run) -> String {
             .join(",")
     };
     format!(
-        "RESULT {} {} {} {} {} {} {} {} {} {:e} {:e} {}",
+        "RESULT {} {} {} {} {} {} {} {} {} {:e} {:e} {} {} {} {:e}",
         run.k,
         run.method,
         run.threads,
@@ -180,19 +243,22 @@ fn encode(run: &Run) -> String {
         list(&run.peak_mib),
         run.tip,
         run.residual,
-        run.cg_iterations
+        run.cg_iterations,
+        list(&run.step_seconds),
+        list(&run.step_floor_bytes),
+        run.bandwidth
     )
 }
 
 fn decode(line: &str) -> Option<Run> {
     let f: Vec<&str> = line.strip_prefix("RESULT ")?.split(' ').collect();
-    let list = |s: &str| -> Option<[f64; 7]> {
+    fn list<const N: usize>(s: &str) -> Option<[f64; N]> {
         let v: Vec<f64> = s
             .split(',')
             .map(|x| x.parse().ok())
             .collect::<Option<_>>()?;
         v.try_into().ok()
-    };
+    }
     Some(Run {
         k: f.first()?.parse().ok()?,
         method: f.get(1)?.to_string(),
@@ -206,6 +272,10 @@ fn decode(line: &str) -> Option<Run> {
         tip: f.get(9)?.parse().ok()?,
         residual: f.get(10)?.parse().ok()?,
         cg_iterations: f.get(11)?.parse().ok()?,
+        // Lines written before the steps were timed end here.
+        step_seconds: f.get(12).and_then(|s| list(s)).unwrap_or_default(),
+        step_floor_bytes: f.get(13).and_then(|s| list(s)).unwrap_or_default(),
+        bandwidth: f.get(14).and_then(|s| s.parse().ok()).unwrap_or_default(),
     })
 }
 
@@ -468,33 +538,57 @@ fn report(cli: &Cli, runs: &[Run], failures: &[String]) -> Result<(), Box<dyn st
         writeln!(md, "| factor values | {:.2} |", growth_exponent(&fill))?;
     }
     writeln!(md)?;
-    writeln!(md, "## Solve against its bandwidth floor")?;
+    writeln!(md, "## Solve and time steps against their bandwidth floors")?;
     writeln!(md)?;
     writeln!(
         md,
-        "A forward and a backward triangular solve must read the factor twice: floor = 2 · (factor values) · 12 bytes \
-         (8-byte value + 4 of index amortized) / bandwidth."
+        "Each floor is the bytes that must move over the memory bandwidth, measured by a triad in the run's own \
+         process with the run's thread count (the column bw): the static solve reads the Cholesky factor's values \
+         twice (2 · 8 B · factor values); an explicit step reads K_ff's values once (8 B per stored entry) and moves \
+         six vectors (u, v, f, M⁻¹ read, u, v written); a backward-Euler step moves the same plus its own factor \
+         (of M + dt²K, the same pattern) twice. Index bytes are not in the floors: they are the formats' overhead. \
+         Steps are the best of 5 (backward Euler, after its factorization) or 20 (explicit) on sizes up to k = {MAX_STEP_K}."
     )?;
     writeln!(md)?;
     writeln!(
         md,
-        "| DOFs | threads | solve [s] | floor [s] | solve / floor |"
+        "| DOFs | threads | bw [GB/s] | solve [s] | floor | ratio | BE step [s] | floor | ratio | explicit step [s] | floor | ratio |"
     )?;
-    writeln!(md, "|---|---|---|---|---|")?;
+    writeln!(md, "|{}", "---|".repeat(12))?;
     for r in runs
         .iter()
         .filter(|r| r.method == "direct" && r.dofs >= 10_000)
     {
-        let floor = 2.0 * r.factor_len as f64 * 12.0 / bandwidth;
-        writeln!(
-            md,
-            "| {} | {} | {:.4} | {:.4} | {:.2} |",
+        let bw = if r.bandwidth > 0.0 {
+            r.bandwidth
+        } else {
+            bandwidth
+        };
+        let solve_floor = 2.0 * 8.0 * r.factor_len as f64 / bw;
+        let mut row = format!(
+            "| {} | {} | {:.1} | {:.4} | {:.4} | {:.2} |",
             r.dofs,
             r.threads,
+            bw / 1e9,
             r.seconds[6],
-            floor,
-            r.seconds[6] / floor
-        )?;
+            solve_floor,
+            r.seconds[6] / solve_floor
+        );
+        for slot in 0..2 {
+            if r.step_seconds[slot] > 0.0 {
+                let floor = r.step_floor_bytes[slot] / bw;
+                write!(
+                    row,
+                    " {:.5} | {:.5} | {:.2} |",
+                    r.step_seconds[slot],
+                    floor,
+                    r.step_seconds[slot] / floor
+                )?;
+            } else {
+                row.push_str(" – | – | – |");
+            }
+        }
+        writeln!(md, "{row}")?;
     }
     writeln!(md)?;
     let time_chart = Chart {

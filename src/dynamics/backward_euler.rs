@@ -2,7 +2,10 @@
 
 use std::sync::Arc;
 
-use super::{DivergenceGuard, Integrator, LinearSystem, State, check_time_step};
+use rayon::prelude::*;
+
+use super::{DivergenceGuard, Energy, Integrator, LinearSystem, Mass, State, check_time_step};
+use crate::block_sparse::BlockWorkspace;
 use crate::error::Result;
 use crate::linsolve::SparseCholesky;
 use crate::sparse::CscMatrix;
@@ -13,8 +16,10 @@ use crate::sparse::CscMatrix;
 ///
 /// With C = αM + βK the system matrix is (1 + dt·α)·M + (dt·β + dt²)·K, formed entry-wise on
 /// K's pattern and factored once per time step value: the symbolic analysis is done once, a
-/// change of dt only refactors numerically. A step is one product with K, one with M, and two
-/// triangular solves; it allocates nothing.
+/// change of dt only refactors numerically. A step is one pass over K (the node-block copy,
+/// multiplying u and v together), one product with M, and two triangular solves; it allocates
+/// nothing. The divergence guard checks the energy of the state each step starts from (that
+/// costs no extra product), so a runaway is caught one step after it happens.
 #[derive(Debug)]
 pub struct BackwardEuler {
     system: Arc<LinearSystem>,
@@ -26,6 +31,7 @@ pub struct BackwardEuler {
     work: Vec<f64>,
     product: Vec<f64>,
     rhs: Vec<f64>,
+    blocks_work: BlockWorkspace,
 }
 
 impl BackwardEuler {
@@ -36,7 +42,6 @@ impl BackwardEuler {
         let cholesky = SparseCholesky::analyze(&matrix)?;
         let n = system.free_count();
         Ok(BackwardEuler {
-            system,
             dt,
             matrix,
             cholesky,
@@ -45,6 +50,8 @@ impl BackwardEuler {
             work: vec![0.0; n],
             product: vec![0.0; n],
             rhs: vec![0.0; n],
+            blocks_work: system.stiffness_blocks().workspace(),
+            system,
         })
     }
 
@@ -67,43 +74,83 @@ impl Integrator for BackwardEuler {
         if self.factored_for != Some(self.dt) {
             self.factor()?;
         }
-        if self.guard.is_none() {
-            self.guard = Some(DivergenceGuard::new(
-                self.system.energy_using(state, &mut self.work)?,
-            ));
-        }
         let (dt, damping) = (self.dt, self.system.damping());
-        // rhs = dt·(f − K·(u + (dt + β)·v) − α·M·v)
-        for ((w, u), v) in self
-            .work
-            .iter_mut()
-            .zip(&state.displacement)
-            .zip(&state.velocity)
-        {
-            *w = u + (dt + damping.beta) * v;
-        }
-        self.system
-            .stiffness()
-            .product_into(&self.work, &mut self.product);
-        self.system
-            .mass()
-            .product_into(&state.velocity, &mut self.work);
-        let f = self.system.external_load();
-        for i in 0..n {
-            self.rhs[i] = dt * (f[i] - self.product[i] - damping.alpha * self.work[i]);
+        let (u, v) = (&state.displacement, &state.velocity);
+        // K·u and K·v in one pass over K: uᵀK·u is the incoming state's elastic energy for the
+        // guard, and K·(u + (dt + β)·v) = K·u + (dt + β)·K·v goes into the right-hand side.
+        let (twice_elastic, _) = self.system.stiffness_blocks().product2_into(
+            (u, v),
+            (&mut self.product, &mut self.work),
+            &mut self.blocks_work,
+        );
+        let lumped = match self.system.mass() {
+            Mass::Lumped(m) => Some(m.as_slice()),
+            consistent @ Mass::Consistent(_) => {
+                consistent.product_into(v, &mut self.rhs);
+                None
+            }
+        };
+        // rhs = dt·(f − K·u − (dt + β)·K·v − α·M·v), in the same pass as the kinetic energy and
+        // the potentials; `rhs` holds M·v on entry when the mass is consistent.
+        let (f, gravity, other) = (
+            self.system.external_load(),
+            self.system.gravity_load(),
+            self.system.other_load(),
+        );
+        let (ku, kv, stiffness_factor) = (&self.product, &self.work, dt + damping.beta);
+        const CHUNK: usize = 4096;
+        let partial: Vec<[f64; 3]> = self
+            .rhs
+            .par_chunks_mut(CHUNK)
+            .enumerate()
+            .map(|(c, rhs)| {
+                let offset = c * CHUNK;
+                let mut sums = [0.0; 3];
+                for (i, rhs) in rhs.iter_mut().enumerate() {
+                    let k = offset + i;
+                    let mv = lumped.map_or(*rhs, |m| m[k] * v[k]);
+                    sums[0] += v[k] * mv;
+                    sums[1] -= gravity[k] * u[k];
+                    sums[2] -= other[k] * u[k];
+                    *rhs = dt * (f[k] - ku[k] - stiffness_factor * kv[k] - damping.alpha * mv);
+                }
+                sums
+            })
+            .collect();
+        let sums = partial.iter().fold([0.0; 3], |mut total, p| {
+            for (t, p) in total.iter_mut().zip(p) {
+                *t += p;
+            }
+            total
+        });
+        let energy = Energy {
+            kinetic: 0.5 * sums[0],
+            elastic: 0.5 * twice_elastic,
+            gravity_potential: sums[1],
+            load_potential: sums[2],
+        };
+        match &self.guard {
+            Some(guard) => guard.check_energy(state.steps, state.time, &energy)?,
+            None => self.guard = Some(DivergenceGuard::new(energy)),
         }
         self.cholesky.solve_in_place(&mut self.rhs)?;
-        for i in 0..n {
-            state.velocity[i] += self.rhs[i];
-            state.displacement[i] += dt * state.velocity[i];
-        }
+        let finite = state
+            .velocity
+            .par_iter_mut()
+            .zip(state.displacement.par_iter_mut())
+            .zip(self.rhs.par_iter())
+            .with_min_len(CHUNK)
+            .all(|((v, u), dv)| {
+                *v += dv;
+                *u += dt * *v;
+                u.is_finite() && v.is_finite()
+            });
         state.time += dt;
         state.steps += 1;
-        let energy = self.system.energy_using(state, &mut self.work)?;
-        match &self.guard {
-            Some(guard) => guard.check(state, &energy),
-            None => Ok(()),
+        if !finite {
+            state.ensure_finite("")?;
         }
+        Ok(())
     }
 
     fn time_step(&self) -> f64 {
@@ -113,6 +160,10 @@ impl Integrator for BackwardEuler {
     fn set_time_step(&mut self, dt: f64) -> Result<()> {
         self.dt = check_time_step(dt)?;
         Ok(())
+    }
+
+    fn factor_len(&self) -> Option<usize> {
+        Some(self.cholesky.factor_len())
     }
 
     fn name(&self) -> &'static str {

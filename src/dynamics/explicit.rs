@@ -2,7 +2,10 @@
 
 use std::sync::Arc;
 
+use rayon::prelude::*;
+
 use super::{DivergenceGuard, Energy, Integrator, LinearSystem, Mass, State, check_time_step};
+use crate::block_sparse::BlockWorkspace;
 use crate::error::{Error, Result};
 
 /// Symplectic Euler, M·(v⁺ − v)/dt = f − K·u − C·v, then u⁺ = u + dt·v⁺: the velocity form of
@@ -21,6 +24,7 @@ pub struct SymplecticEuler {
     guard: Option<DivergenceGuard>,
     work: Vec<f64>,
     product: Vec<f64>,
+    blocks_work: BlockWorkspace,
 }
 
 impl SymplecticEuler {
@@ -39,12 +43,13 @@ impl SymplecticEuler {
         };
         let n = system.free_count();
         Ok(SymplecticEuler {
-            system,
             dt,
             inverse_mass,
             guard: None,
             work: vec![0.0; n],
             product: vec![0.0; n],
+            blocks_work: system.stiffness_blocks().workspace(),
+            system,
         })
     }
 }
@@ -54,50 +59,81 @@ impl Integrator for SymplecticEuler {
         let n = self.system.free_count();
         state.check_len(n)?;
         let (dt, damping) = (self.dt, self.system.damping());
-        let f = self.system.external_load();
-        // K·u (and K·(u + β·v) with stiffness damping); K·u also gives this state's elastic
-        // energy, so the guard costs no extra product without β.
-        self.system
-            .stiffness()
-            .product_into(&state.displacement, &mut self.product);
-        let energy = Energy {
-            kinetic: 0.5
-                * state
-                    .velocity
-                    .iter()
-                    .zip(&self.inverse_mass)
-                    .map(|(v, w)| v * v / w)
-                    .sum::<f64>(),
-            elastic: 0.5
-                * state
-                    .displacement
-                    .iter()
-                    .zip(&self.product)
-                    .map(|(u, k)| u * k)
-                    .sum::<f64>(),
-            ..self.system.energy_potentials(state)?
-        };
-        match &self.guard {
-            Some(guard) => guard.check(state, &energy)?,
-            None => self.guard = Some(DivergenceGuard::new(energy)),
-        }
-        if damping.beta != 0.0 {
-            self.system
-                .stiffness()
-                .product_into(&state.velocity, &mut self.work);
+        // A step is bound by memory traffic, so it makes one pass over K (K·u, and K·v with
+        // stiffness damping; uᵀK·u comes with it) and one pass over the vectors, which both
+        // takes this state's energies for the guard and advances it.
+        let blocks = self.system.stiffness_blocks();
+        let twice_elastic = if damping.beta != 0.0 {
+            let (u, v) = (&state.displacement, &state.velocity);
+            let (twice_elastic, _) = blocks.product2_into(
+                (u, v),
+                (&mut self.product, &mut self.work),
+                &mut self.blocks_work,
+            );
             for (p, kv) in self.product.iter_mut().zip(&self.work) {
                 *p += damping.beta * kv;
             }
-        }
-        for i in 0..n {
-            let acceleration =
-                (f[i] - self.product[i]) * self.inverse_mass[i] - damping.alpha * state.velocity[i];
-            state.velocity[i] += dt * acceleration;
-            state.displacement[i] += dt * state.velocity[i];
+            twice_elastic
+        } else {
+            blocks.product_into(
+                &state.displacement,
+                &mut self.product,
+                &mut self.blocks_work,
+            )
+        };
+        let (before_steps, before_time) = (state.steps, state.time);
+        let (f, gravity, other) = (
+            self.system.external_load(),
+            self.system.gravity_load(),
+            self.system.other_load(),
+        );
+        let (inverse_mass, product, alpha) = (&self.inverse_mass, &self.product, damping.alpha);
+        // Per chunk: 2·kinetic, gravity potential, load potential, Σ|u⁺| + |v⁺| (non-finite iff
+        // some new value is); partial sums added in order, so the bits do not depend on threads.
+        const CHUNK: usize = 4096;
+        let partial: Vec<[f64; 4]> = state
+            .velocity
+            .par_chunks_mut(CHUNK)
+            .zip(state.displacement.par_chunks_mut(CHUNK))
+            .enumerate()
+            .map(|(c, (v, u))| {
+                let offset = c * CHUNK;
+                let mut sums = [0.0; 4];
+                for (i, (v, u)) in v.iter_mut().zip(u.iter_mut()).enumerate() {
+                    let k = offset + i;
+                    sums[0] += *v * *v / inverse_mass[k];
+                    sums[1] -= gravity[k] * *u;
+                    sums[2] -= other[k] * *u;
+                    let acceleration = (f[k] - product[k]) * inverse_mass[k] - alpha * *v;
+                    *v += dt * acceleration;
+                    *u += dt * *v;
+                    sums[3] += v.abs() + u.abs();
+                }
+                sums
+            })
+            .collect();
+        let sums = partial.iter().fold([0.0; 4], |mut total, p| {
+            for (t, p) in total.iter_mut().zip(p) {
+                *t += p;
+            }
+            total
+        });
+        let energy = Energy {
+            kinetic: 0.5 * sums[0],
+            elastic: 0.5 * twice_elastic,
+            gravity_potential: sums[1],
+            load_potential: sums[2],
+        };
+        match &self.guard {
+            Some(guard) => guard.check_energy(before_steps, before_time, &energy)?,
+            None => self.guard = Some(DivergenceGuard::new(energy)),
         }
         state.time += dt;
         state.steps += 1;
-        state.ensure_finite("; is dt above the critical step?")
+        if !sums[3].is_finite() {
+            state.ensure_finite("; is dt above the critical step?")?;
+        }
+        Ok(())
     }
 
     fn time_step(&self) -> f64 {

@@ -39,6 +39,11 @@ pub trait Integrator {
     fn set_time_step(&mut self, dt: f64) -> Result<()>;
     /// A short name for reports (`backward-euler`, `newmark`, `explicit`).
     fn name(&self) -> &'static str;
+    /// Stored values of the Cholesky factor an implicit method solves with (`None` for methods
+    /// without one): what each of its steps reads twice.
+    fn factor_len(&self) -> Option<usize> {
+        None
+    }
 }
 
 /// Validates a time step: finite and > 0.

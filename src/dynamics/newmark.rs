@@ -172,6 +172,10 @@ impl Integrator for Newmark {
         Ok(())
     }
 
+    fn factor_len(&self) -> Option<usize> {
+        Some(self.cholesky.factor_len())
+    }
+
     fn name(&self) -> &'static str {
         "newmark"
     }

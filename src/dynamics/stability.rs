@@ -116,11 +116,18 @@ impl DivergenceGuard {
     /// Checks `state` with its energies `energy`; `Err(Diverged)` names the step and time.
     pub fn check(&self, state: &State, energy: &Energy) -> Result<()> {
         state.ensure_finite("")?;
+        self.check_energy(state.steps, state.time, energy)
+    }
+
+    /// Checks the energies `energy` of the state after `step` steps at `time`, without scanning
+    /// the state: for integrators that take the energies in a pass they make anyway (a non-finite
+    /// displacement or velocity makes the elastic or kinetic energy non-finite).
+    pub fn check_energy(&self, step: usize, time: f64, energy: &Energy) -> Result<()> {
         let motion = energy.kinetic + energy.elastic;
         if !motion.is_finite() {
             return Err(Error::Diverged {
-                step: state.steps,
-                time: state.time,
+                step,
+                time,
                 reason: "the kinetic or elastic energy is no longer finite".into(),
             });
         }
@@ -128,8 +135,8 @@ impl DivergenceGuard {
         let allowed = self.factor * (self.start.kinetic + self.start.elastic + work) + 1e-300;
         if motion > allowed {
             return Err(Error::Diverged {
-                step: state.steps,
-                time: state.time,
+                step,
+                time,
                 reason: format!(
                     "kinetic + elastic energy {motion:.3e} exceeds {:.0}× what the start and the loads supplied ({:.3e}); \
                      for the explicit method, is dt above the critical step?",
