@@ -82,37 +82,32 @@ impl Integrator for SymplecticEuler {
             )
         };
         let (before_steps, before_time) = (state.steps, state.time);
-        let (f, gravity, other) = (
-            self.system.external_load(),
-            self.system.gravity_load(),
-            self.system.other_load(),
-        );
+        let f = self.system.external_load();
         let (inverse_mass, product, alpha) = (&self.inverse_mass, &self.product, damping.alpha);
-        // Per chunk: 2·kinetic, gravity potential, load potential, Σ|u⁺| + |v⁺| (non-finite iff
+        // Per chunk: 2·kinetic, potential of all loads −f·u, Σ|u⁺| + |v⁺| (non-finite iff
         // some new value is); partial sums added in order, so the bits do not depend on threads.
         const CHUNK: usize = 4096;
-        let partial: Vec<[f64; 4]> = state
+        let partial: Vec<[f64; 3]> = state
             .velocity
             .par_chunks_mut(CHUNK)
             .zip(state.displacement.par_chunks_mut(CHUNK))
             .enumerate()
             .map(|(c, (v, u))| {
                 let offset = c * CHUNK;
-                let mut sums = [0.0; 4];
+                let mut sums = [0.0; 3];
                 for (i, (v, u)) in v.iter_mut().zip(u.iter_mut()).enumerate() {
                     let k = offset + i;
                     sums[0] += *v * *v / inverse_mass[k];
-                    sums[1] -= gravity[k] * *u;
-                    sums[2] -= other[k] * *u;
+                    sums[1] -= f[k] * *u;
                     let acceleration = (f[k] - product[k]) * inverse_mass[k] - alpha * *v;
                     *v += dt * acceleration;
                     *u += dt * *v;
-                    sums[3] += v.abs() + u.abs();
+                    sums[2] += v.abs() + u.abs();
                 }
                 sums
             })
             .collect();
-        let sums = partial.iter().fold([0.0; 4], |mut total, p| {
+        let sums = partial.iter().fold([0.0; 3], |mut total, p| {
             for (t, p) in total.iter_mut().zip(p) {
                 *t += p;
             }
@@ -121,16 +116,18 @@ impl Integrator for SymplecticEuler {
         let energy = Energy {
             kinetic: 0.5 * sums[0],
             elastic: 0.5 * twice_elastic,
-            gravity_potential: sums[1],
-            load_potential: sums[2],
+            // The guard needs only the sum of the potentials: one vector less to read.
+            gravity_potential: 0.0,
+            load_potential: sums[1],
         };
+        // The state has advanced whatever the guard finds: it holds the failed step's values.
+        state.time += dt;
+        state.steps += 1;
         match &self.guard {
             Some(guard) => guard.check_energy(before_steps, before_time, &energy)?,
             None => self.guard = Some(DivergenceGuard::new(energy)),
         }
-        state.time += dt;
-        state.steps += 1;
-        if !sums[3].is_finite() {
+        if !sums[2].is_finite() {
             state.ensure_finite("; is dt above the critical step?")?;
         }
         Ok(())
