@@ -3,9 +3,12 @@
 //! A solve streams the whole factor twice and does two flops per value, so it is bound by memory
 //! bandwidth. faer's own supernodal solve goes through its general dense kernels (a triangular
 //! solve and a matrix product into a temporary per supernode), whose dispatch costs dominate the
-//! many small supernodes of an elasticity factor. These kernels read four columns of a supernode
-//! per pass, so each pass over a row of the dense accumulator serves four factor values, and run
-//! the two subtrees below the top separators of the nested dissection on two threads.
+//! many small supernodes of an elasticity factor. These kernels read eight (then four, then one)
+//! columns of a supernode per pass, so that each pass over the dense accumulator serves eight
+//! factor values and the memory system follows eight streams at once (one thread's bandwidth
+//! grows with the number of concurrent streams: measured 17 GB/s for one, 25 GB/s for four;
+//! eight columns per pass measured 3–14 % faster than four). The two subtrees below the top
+//! separators of the nested dissection can run on two threads.
 
 use faer::sparse::linalg::cholesky::SymbolicCholesky;
 use faer::sparse::linalg::cholesky::SymbolicCholeskyRaw;
@@ -363,8 +366,23 @@ impl SupernodalPlan {
         let acc = &mut acc[..node.below];
         acc.fill(0.0);
         let xs = &mut x[node.first..][..w];
-        let full = w / 4 * 4;
-        for j in (0..full).step_by(4) {
+        let wide = w / 8 * 8;
+        for j in (0..wide).step_by(8) {
+            let c: [&[f64]; 8] = std::array::from_fn(|k| &block[(j + k) * ld..][..ld]);
+            let mut a = [0.0; 8];
+            for k in 0..8 {
+                let mut v = xs[j + k];
+                for p in 0..k {
+                    v -= c[p][j + k] * a[p];
+                }
+                a[k] = v / c[k][j + k];
+                xs[j + k] = a[k];
+            }
+            axpy8(&mut xs[j + 8..], c.map(|c| &c[j + 8..w]), a);
+            axpy8(acc, c.map(|c| &c[w..]), a);
+        }
+        let full = wide + (w - wide) / 4 * 4;
+        for j in (wide..full).step_by(4) {
             let c0 = &block[j * ld..][..ld];
             let c1 = &block[(j + 1) * ld..][..ld];
             let c2 = &block[(j + 2) * ld..][..ld];
@@ -420,13 +438,14 @@ impl SupernodalPlan {
         }
         let g = &*g;
         let xs = &mut x[node.first..][..w];
-        let full = w / 4 * 4;
+        let wide = w / 8 * 8;
+        let full = wide + (w - wide) / 4 * 4;
         for j in (full..w).rev() {
             let c = &block[j * ld..][..ld];
             let d = dot(&c[j + 1..w], &xs[j + 1..]) + dot(&c[w..], g);
             xs[j] = (xs[j] - d) / c[j];
         }
-        for j in (0..full).step_by(4).rev() {
+        for j in (wide..full).step_by(4).rev() {
             let c0 = &block[j * ld..][..ld];
             let c1 = &block[(j + 1) * ld..][..ld];
             let c2 = &block[(j + 2) * ld..][..ld];
@@ -447,7 +466,54 @@ impl SupernodalPlan {
             xs[j + 2] = x2;
             xs[j + 3] = x3;
         }
+        for j in (0..wide).step_by(8).rev() {
+            let c: [&[f64]; 8] = std::array::from_fn(|k| &block[(j + k) * ld..][..ld]);
+            let top = dot8(c.map(|c| &c[j + 8..w]), &xs[j + 8..]);
+            let bot = dot8(c.map(|c| &c[w..]), g);
+            for k in (0..8).rev() {
+                let mut v = xs[j + k] - top[k] - bot[k];
+                for p in k + 1..8 {
+                    v -= c[k][j + p] * xs[j + p];
+                }
+                xs[j + k] = v / c[k][j + k];
+            }
+        }
     }
+}
+
+/// y −= Σₖ cₖ·aₖ over eight columns.
+#[inline(always)]
+fn axpy8(y: &mut [f64], c: [&[f64]; 8], a: [f64; 8]) {
+    let n = y.len();
+    let [c0, c1, c2, c3, c4, c5, c6, c7] = c.map(|c| &c[..n]);
+    for i in 0..n {
+        y[i] -= (c0[i] * a[0] + c1[i] * a[1] + c2[i] * a[2] + c3[i] * a[3])
+            + (c4[i] * a[4] + c5[i] * a[5] + c6[i] * a[6] + c7[i] * a[7]);
+    }
+}
+
+/// Eight dot products of columns with one vector in one pass over the vector.
+#[inline(always)]
+fn dot8(c: [&[f64]; 8], v: &[f64]) -> [f64; 8] {
+    const L: usize = 4;
+    let n = v.len();
+    let c = c.map(|c| &c[..n]);
+    let m = n / L * L;
+    let mut s = [[0.0; L]; 8];
+    for (i, v) in v[..m].chunks_exact(L).enumerate() {
+        let base = i * L;
+        for (s, c) in s.iter_mut().zip(&c) {
+            let c = &c[base..base + L];
+            for k in 0..L {
+                s[k] += c[k] * v[k];
+            }
+        }
+    }
+    let mut out = [0.0; 8];
+    for ((o, s), c) in out.iter_mut().zip(&s).zip(&c) {
+        *o = s.iter().sum::<f64>() + c[m..].iter().zip(&v[m..]).map(|(a, b)| a * b).sum::<f64>();
+    }
+    out
 }
 
 /// y −= Σₖ cₖ·aₖ over four columns (all slices of y's length).
