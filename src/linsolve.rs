@@ -203,10 +203,11 @@ impl SparseCholesky {
 
     /// Solves A·x = b in place (`rhs` holds b on entry, x on return), with tetfem's supernodal
     /// kernels on the options' threads (faer's solve for a simplicial factor). Measured with
-    /// `examples/triangular_solve.rs` (10k–430k DOFs): on one thread 1.3–1.7× faster than
-    /// faer's solve, and 1.1–1.3× the time of reading the factor's values twice as four
-    /// concurrent streams; two threads gain only when the memory bus is not already busy (on
-    /// an idle machine they ran at the two-thread read's speed, 2.1× faster than faer's).
+    /// `examples/triangular_solve.rs` (10k–430k DOFs): on one thread 1.4–1.7× faster than
+    /// faer's solve, and 1.1–1.2× the time of reading the factor's values twice as four
+    /// concurrent streams once the factor outgrows the cache; two threads gain only when the
+    /// memory bus is not already busy (on an idle machine they ran at the two-thread read's
+    /// speed, 2.1× faster than faer's).
     pub fn solve_in_place(&mut self, rhs: &mut [f64]) -> Result<()> {
         let threads = self.threads;
         self.solve_in_place_with(rhs, TriangularSolve::Supernodal { threads })
