@@ -65,7 +65,7 @@ pub use constraints::{Constraints, DofMap};
 pub use element::Tet;
 pub use error::{Error, Result};
 pub use linear_solver::{LinearMethod, LinearSolver, SolverOptions};
-pub use linsolve::{CholeskyOptions, SparseCholesky};
+pub use linsolve::{CholeskyOptions, SparseCholesky, TriangularSolve};
 pub use loads::Loads;
 pub use material::Material;
 pub use mesh::{BoxSplit, TetMesh};

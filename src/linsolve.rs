@@ -2,6 +2,8 @@
 //! tree, supernodes) is done once per pattern; numeric factorizations and solves reuse it, and
 //! their workspaces are allocated once.
 
+mod supernodal;
+
 use std::sync::Arc;
 
 use faer::Par;
@@ -19,6 +21,7 @@ use faer::{Conj, Side};
 use crate::error::{Error, Result};
 use crate::ordering::{FillOrdering, inverse_permutation, nested_dissection};
 use crate::sparse::CscMatrix;
+use supernodal::{SupernodalPlan, SupernodalWorkspace};
 
 /// How to factor: the fill-reducing ordering and the number of threads of the numeric phases.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -26,7 +29,8 @@ pub struct CholeskyOptions {
     /// Fill-reducing ordering (default: nested dissection).
     pub ordering: FillOrdering,
     /// Threads for the numeric factorization and solves (1 = sequential, the default; more use
-    /// rayon's global pool).
+    /// rayon's global pool; the supernodal solve uses two at most, one per half of the
+    /// elimination tree below its top separators).
     pub threads: usize,
 }
 
@@ -39,6 +43,20 @@ impl Default for CholeskyOptions {
     }
 }
 
+/// Which kernel performs the two triangular solves of [`SparseCholesky::solve_in_place_with`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum TriangularSolve {
+    /// faer's `solve_in_place_with_conj`, with the factorization's threads.
+    Faer,
+    /// tetfem's supernodal kernels on faer's factor; `threads` ≥ 2 runs the two halves of the
+    /// elimination tree below its top separators in parallel. A simplicial factor (small
+    /// matrices) falls back to faer.
+    Supernodal {
+        /// 1 = sequential; 2 or more = two threads.
+        threads: usize,
+    },
+}
+
 /// Sparse Cholesky factorization A = LLᵀ of a symmetric positive definite [`CscMatrix`].
 pub struct SparseCholesky {
     pattern: Arc<SymbolicSparseColMat<usize>>,
@@ -46,6 +64,10 @@ pub struct SparseCholesky {
     factor: Vec<f64>,
     factor_workspace: MemBuffer,
     solve_workspace: MemBuffer,
+    /// Supernode layout and two-thread split of the own triangular solves (`None`: simplicial).
+    plan: Option<SupernodalPlan>,
+    supernodal_workspace: SupernodalWorkspace,
+    threads: usize,
     /// Whether `factor` and the workspaces have their sizes (a 0×0 matrix has an empty factor
     /// but still needs its workspaces, so the factor's length cannot tell).
     allocated: bool,
@@ -96,7 +118,11 @@ impl SparseCholesky {
             }
         }
         .map_err(|e| Error::Solver(format!("symbolic Cholesky analysis failed: {e:?}")))?;
+        let plan = SupernodalPlan::new(&symbolic);
         Ok(SparseCholesky {
+            plan,
+            supernodal_workspace: SupernodalWorkspace::default(),
+            threads: options.threads.max(1),
             pattern: Arc::clone(matrix.pattern()),
             symbolic,
             factor: Vec::new(),
@@ -175,8 +201,21 @@ impl SparseCholesky {
         Ok(())
     }
 
-    /// Solves A·x = b in place (`rhs` holds b on entry, x on return).
+    /// Solves A·x = b in place (`rhs` holds b on entry, x on return), with tetfem's supernodal
+    /// kernels on the options' threads (faer's solve for a simplicial factor). Measured with
+    /// `examples/triangular_solve.rs` (10k–430k DOFs): on one thread 1.4–1.7× faster than
+    /// faer's solve, and 1.1–1.2× the time of reading the factor's values twice as four
+    /// concurrent streams once the factor outgrows the cache; two threads gain only when the
+    /// memory bus is not already busy (on an idle machine they ran at the two-thread read's
+    /// speed, 2.1× faster than faer's).
     pub fn solve_in_place(&mut self, rhs: &mut [f64]) -> Result<()> {
+        let threads = self.threads;
+        self.solve_in_place_with(rhs, TriangularSolve::Supernodal { threads })
+    }
+
+    /// Solves A·x = b in place with a chosen triangular-solve kernel (for comparing them; the
+    /// results agree up to round-off).
+    pub fn solve_in_place_with(&mut self, rhs: &mut [f64], kernel: TriangularSolve) -> Result<()> {
         if !self.factored {
             return Err(Error::Solver(
                 "solve called before a successful numeric factorization".into(),
@@ -189,6 +228,10 @@ impl SparseCholesky {
                 format!("must equal the matrix dimension {}", self.dim()),
             ));
         }
+        if let (TriangularSolve::Supernodal { threads }, Some(plan)) = (kernel, &self.plan) {
+            plan.solve_in_place(&self.factor, rhs, threads, &mut self.supernodal_workspace);
+            return Ok(());
+        }
         let n = rhs.len();
         let llt = LltRef::new(&self.symbolic, &self.factor);
         let stack = MemStack::new(&mut self.solve_workspace);
@@ -199,6 +242,17 @@ impl SparseCholesky {
             stack,
         );
         Ok(())
+    }
+
+    /// The factor's values (faer's layout; empty before the first factorization).
+    pub fn factor_values(&self) -> &[f64] {
+        &self.factor
+    }
+
+    /// Whether the factor is supernodal, and then the fractions of its values in the top of the
+    /// elimination tree (solved on one thread) and in the two parallel halves below it.
+    pub fn supernodal_split(&self) -> Option<[f64; 3]> {
+        self.plan.as_ref().map(SupernodalPlan::split_summary)
     }
 
     /// Dimension of the factored matrix.

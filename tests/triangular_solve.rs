@@ -1,0 +1,189 @@
+//! tetfem's supernodal triangular solves against faer's on the same factor: agreement, residual,
+//! the degenerate sizes, the simplicial fallback and bad input.
+
+use std::sync::Arc;
+
+use tetfem::cantilever::Cantilever;
+use tetfem::{
+    Assembler, CholeskyOptions, CscMatrix, DofMap, Error, SparseCholesky, TriangularSolve,
+};
+
+/// K_ff of a cantilever and a right-hand side with every component non-zero.
+fn cantilever_system(cells: [usize; 3]) -> (CscMatrix, Vec<f64>) {
+    let problem = Cantilever::peer_benchmark(cells);
+    let mesh = problem.mesh().unwrap();
+    let k_full = Assembler::new(&mesh)
+        .stiffness(&mesh, &problem.material)
+        .unwrap();
+    let dofs = DofMap::new(&problem.constraints(&mesh).unwrap());
+    let k_ff = dofs
+        .restriction(k_full.pattern())
+        .unwrap()
+        .restrict(&k_full)
+        .unwrap();
+    let b = (0..k_ff.dim())
+        .map(|i| (i * 7919 % 1000) as f64 / 1000.0 - 0.5)
+        .collect();
+    (k_ff, b)
+}
+
+fn max_relative_difference(a: &[f64], b: &[f64]) -> f64 {
+    let scale = a.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    a.iter()
+        .zip(b)
+        .fold(0.0f64, |m, (x, y)| m.max((x - y).abs()))
+        / scale
+}
+
+fn relative_residual(a: &CscMatrix, x: &[f64], b: &[f64]) -> f64 {
+    let r: f64 = a
+        .mul(x)
+        .unwrap()
+        .iter()
+        .zip(b)
+        .map(|(ax, b)| (ax - b) * (ax - b))
+        .sum();
+    r.sqrt() / b.iter().map(|v| v * v).sum::<f64>().sqrt()
+}
+
+#[test]
+fn supernodal_solve_agrees_with_faer_on_one_and_two_threads() {
+    let (k, b) = cantilever_system([30, 6, 6]);
+    for threads in [1, 2] {
+        let options = CholeskyOptions {
+            threads,
+            ..Default::default()
+        };
+        let mut cholesky = SparseCholesky::analyze_with(&k, options).unwrap();
+        cholesky.factorize(&k).unwrap();
+        let split = cholesky
+            .supernodal_split()
+            .expect("an elasticity factor is supernodal");
+        assert!(split[1] > 0.0 && split[2] > 0.0, "two halves: {split:?}");
+        let mut reference = b.clone();
+        cholesky
+            .solve_in_place_with(&mut reference, TriangularSolve::Faer)
+            .unwrap();
+        let mut default = b.clone();
+        cholesky.solve_in_place(&mut default).unwrap();
+        assert!(max_relative_difference(&reference, &default) < 1e-12);
+        for own_threads in [1, 2] {
+            let mut x = b.clone();
+            cholesky
+                .solve_in_place_with(
+                    &mut x,
+                    TriangularSolve::Supernodal {
+                        threads: own_threads,
+                    },
+                )
+                .unwrap();
+            let diff = max_relative_difference(&reference, &x);
+            assert!(diff < 1e-12, "threads {own_threads}: {diff:e}");
+            let residual = relative_residual(&k, &x, &b);
+            assert!(
+                residual < 1e-9,
+                "threads {own_threads}: residual {residual:e}"
+            );
+        }
+    }
+}
+
+#[test]
+fn solve_is_repeatable_with_reused_workspaces() {
+    let (k, b) = cantilever_system([12, 3, 3]);
+    let mut cholesky = SparseCholesky::analyze(&k).unwrap();
+    cholesky.factorize(&k).unwrap();
+    let mut first = b.clone();
+    cholesky.solve_in_place(&mut first).unwrap();
+    for threads in [2, 1] {
+        let mut again = b.clone();
+        cholesky
+            .solve_in_place_with(&mut again, TriangularSolve::Supernodal { threads })
+            .unwrap();
+        assert!(max_relative_difference(&first, &again) < 1e-12);
+    }
+}
+
+fn matrix(n: usize, col_ptr: Vec<usize>, rows: Vec<usize>, values: Vec<f64>) -> CscMatrix {
+    let pattern = faer::sparse::SymbolicSparseColMat::new_checked(n, n, col_ptr, None, rows);
+    CscMatrix::from_values(Arc::new(pattern), values).unwrap()
+}
+
+#[test]
+fn empty_and_one_by_one_matrices() {
+    let empty = matrix(0, vec![0], vec![], vec![]);
+    let mut cholesky = SparseCholesky::analyze(&empty).unwrap();
+    cholesky.factorize(&empty).unwrap();
+    let mut x: Vec<f64> = Vec::new();
+    cholesky.solve_in_place(&mut x).unwrap();
+    cholesky
+        .solve_in_place_with(&mut x, TriangularSolve::Supernodal { threads: 2 })
+        .unwrap();
+
+    let one = matrix(1, vec![0, 1], vec![0], vec![4.0]);
+    let mut cholesky = SparseCholesky::analyze(&one).unwrap();
+    cholesky.factorize(&one).unwrap();
+    for kernel in [
+        TriangularSolve::Faer,
+        TriangularSolve::Supernodal { threads: 1 },
+        TriangularSolve::Supernodal { threads: 2 },
+    ] {
+        let mut x = vec![2.0];
+        cholesky.solve_in_place_with(&mut x, kernel).unwrap();
+        assert_eq!(x, vec![0.5]);
+    }
+}
+
+#[test]
+fn simplicial_factor_falls_back_to_faer() {
+    // A tridiagonal matrix has no fill: faer's automatic choice keeps it simplicial.
+    let n: usize = 6;
+    let mut col_ptr = vec![0];
+    let mut rows = Vec::new();
+    let mut values = Vec::new();
+    for j in 0..n {
+        for i in j.saturating_sub(1)..(j + 2).min(n) {
+            rows.push(i);
+            values.push(if i == j { 2.5 } else { -1.0 });
+        }
+        col_ptr.push(rows.len());
+    }
+    let a = matrix(n, col_ptr, rows, values);
+    let mut cholesky = SparseCholesky::analyze(&a).unwrap();
+    cholesky.factorize(&a).unwrap();
+    assert!(cholesky.supernodal_split().is_none(), "simplicial factor");
+    let b: Vec<f64> = (0..n).map(|i| i as f64 + 1.0).collect();
+    for kernel in [
+        TriangularSolve::Faer,
+        TriangularSolve::Supernodal { threads: 2 },
+    ] {
+        let mut x = b.clone();
+        cholesky.solve_in_place_with(&mut x, kernel).unwrap();
+        assert!(relative_residual(&a, &x, &b) < 1e-14);
+    }
+}
+
+#[test]
+fn wrong_rhs_length_and_unfactored_solve_are_errors() {
+    let (k, b) = cantilever_system([4, 1, 1]);
+    let mut cholesky = SparseCholesky::analyze(&k).unwrap();
+    let mut x = b.clone();
+    assert!(matches!(
+        cholesky.solve_in_place(&mut x),
+        Err(Error::Solver(_))
+    ));
+    cholesky.factorize(&k).unwrap();
+    for len in [0, b.len() - 1, b.len() + 1] {
+        let mut x = vec![1.0; len];
+        for kernel in [
+            TriangularSolve::Faer,
+            TriangularSolve::Supernodal { threads: 1 },
+            TriangularSolve::Supernodal { threads: 2 },
+        ] {
+            assert!(matches!(
+                cholesky.solve_in_place_with(&mut x, kernel),
+                Err(Error::InvalidParameter { .. })
+            ));
+        }
+    }
+}
