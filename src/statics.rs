@@ -5,6 +5,7 @@ use std::time::{Duration, Instant};
 use crate::assembly::Assembler;
 use crate::constraints::{Constraints, DofMap, ensure_held};
 use crate::error::{Error, Result};
+use crate::amg::DofGeometry;
 use crate::linear_solver::{LinearSolver, SolveInfo, SolverOptions};
 use crate::loads::Loads;
 use crate::material::Material;
@@ -91,7 +92,8 @@ impl StaticSolver {
         timings.constraints = clock.elapsed();
 
         let clock = Instant::now();
-        let mut solver = LinearSolver::analyze(&free_stiffness, options)?;
+        let geometry = DofGeometry::for_method(options.method, mesh, &dofs)?;
+        let mut solver = LinearSolver::analyze_with_geometry(&free_stiffness, options, geometry)?;
         timings.symbolic = clock.elapsed();
 
         let clock = Instant::now();

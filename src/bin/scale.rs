@@ -12,6 +12,7 @@ use std::time::Instant;
 use clap::Parser;
 use tetfem::cantilever::Cantilever;
 use tetfem::chart::{Chart, Mark, Series};
+use tetfem::amg::DofGeometry;
 use tetfem::{
     Assembler, CholeskyOptions, DofMap, FillOrdering, LinearMethod, LinearSolver, SolverOptions,
 };
@@ -134,7 +135,8 @@ fn run_one(cells: [usize; 3], method: &str, threads: usize, ordering: &str) -> t
         },
         ..Default::default()
     };
-    let mut solver = LinearSolver::analyze(&k_ff, options)?;
+    let geometry = DofGeometry::for_method(options.method, &mesh, &dofs)?;
+    let mut solver = LinearSolver::analyze_with_geometry(&k_ff, options, geometry)?;
     lap(&mut run);
     solver.factorize(&k_ff)?;
     lap(&mut run);
