@@ -48,7 +48,8 @@ pub struct AmgOptions {
     /// coarse levels.
     pub smoother_range: f64,
     /// Coarsening stops at or below this many DOFs; that level is factored by Cholesky
-    /// (default 500).
+    /// (default 2 000: a coarser level of a few hundred DOFs, aggregated on the nearly dense
+    /// graph of its parent, costs iterations, 39 against 29 on the 40×8×8 beam).
     pub coarse_size: usize,
     /// At most this many levels, the coarsest included (default 12).
     pub max_levels: usize,
@@ -62,7 +63,7 @@ impl Default for AmgOptions {
             strength_threshold: 0.04,
             smoother_degree: 2,
             smoother_range: 1.0 / 30.0,
-            coarse_size: 500,
+            coarse_size: 2_000,
             max_levels: 12,
             lanczos_steps: 15,
         }
@@ -252,6 +253,11 @@ impl SmoothedAggregation {
         options.validate()?;
         let dim = matrix.dim();
         Error::check_len("near-null space rows", dim, near_null.dim())?;
+        if dim <= options.coarse_size {
+            // No level above the Cholesky-factored one: still name a bad diagonal block as the
+            // multigrid levels would.
+            BlockDiagonal::new(matrix, near_null.starts())?;
+        }
         let mut levels = Vec::new();
         let mut current = matrix.clone();
         let mut modes = near_null;
