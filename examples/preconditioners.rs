@@ -105,7 +105,11 @@ fn main() -> tetfem::Result<()> {
         let clock = Instant::now();
         let amg = SmoothedAggregation::new(&k_ff, Some(&DofGeometry::new(&mesh, &dofs)?))?;
         let setup = clock.elapsed().as_secs_f64();
-        let sizes: Vec<String> = amg.level_sizes().iter().map(|l| l.dim.to_string()).collect();
+        let sizes: Vec<String> = amg
+            .level_sizes()
+            .iter()
+            .map(|l| l.dim.to_string())
+            .collect();
         let name = format!(
             "SA-AMG, rigid modes (levels {}, op. complexity {:.2})",
             sizes.join("/"),

@@ -1,10 +1,10 @@
 //! Nonlinear static equilibrium with a [`ForceModel`]: Newton's method with a backtracking line
 //! search and load stepping, one symbolic factorization for all iterations.
 
+use crate::amg::DofGeometry;
 use crate::assembly::Assembler;
 use crate::constraints::{Constraints, DofMap, ensure_held};
 use crate::error::{Error, Result};
-use crate::amg::DofGeometry;
 use crate::linear_solver::{LinearMethod, LinearSolver, SolverOptions};
 use crate::loads::Loads;
 use crate::mesh::TetMesh;

@@ -2,10 +2,10 @@
 
 use std::time::{Duration, Instant};
 
+use crate::amg::DofGeometry;
 use crate::assembly::Assembler;
 use crate::constraints::{Constraints, DofMap, ensure_held};
 use crate::error::{Error, Result};
-use crate::amg::DofGeometry;
 use crate::linear_solver::{LinearSolver, SolveInfo, SolverOptions};
 use crate::loads::Loads;
 use crate::material::Material;

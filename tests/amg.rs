@@ -70,7 +70,9 @@ impl Beam {
 }
 
 fn pseudo_random(n: usize, seed: u64) -> Vec<f64> {
-    let mut state = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+    let mut state = seed
+        .wrapping_mul(6364136223846793005)
+        .wrapping_add(1442695040888963407);
     (0..n)
         .map(|_| {
             state = state
@@ -119,7 +121,11 @@ fn tentative_prolongator_reproduces_the_rigid_body_modes() {
     let coarse = &c.coarse_near_null_space;
     assert_eq!(c.tentative.ncols(), coarse.dim());
     // Aggregation must coarsen: 1500 DOFs → at most a fifth of that.
-    assert!(5 * coarse.dim() < b.k_ff.dim(), "{} coarse DOFs", coarse.dim());
+    assert!(
+        5 * coarse.dim() < b.k_ff.dim(),
+        "{} coarse DOFs",
+        coarse.dim()
+    );
     let (mut error, mut total) = (0.0, 0.0);
     for mode in 0..6 {
         let fine = column(modes.values(), 6, mode);
@@ -248,7 +254,8 @@ fn cg_with_sa_amg_matches_the_direct_solve_with_mesh_independent_iterations() {
 #[test]
 fn translations_alone_still_converge() {
     let b = beam([40, 8, 8]);
-    let with_rotations = b.amg_solve(&SmoothedAggregation::new(&b.k_ff, Some(&b.geometry())).unwrap());
+    let with_rotations =
+        b.amg_solve(&SmoothedAggregation::new(&b.k_ff, Some(&b.geometry())).unwrap());
     let translations = b.amg_solve(&SmoothedAggregation::new(&b.k_ff, None).unwrap());
     let direct = b.direct_tip();
     assert!((translations.1 - direct).abs() <= 1e-8 * direct.abs());

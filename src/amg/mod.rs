@@ -141,7 +141,7 @@ fn coarsen_level(
 ) -> Result<(Coarsening, BlockDiagonal, RowMatrix)> {
     let starts = near_null.starts();
     let diagonal = BlockDiagonal::new(matrix, starts)?;
-    let lambda_max = smoother::largest_eigenvalue(matrix, &diagonal, options.lanczos_steps);
+    let lambda_max = smoother::largest_eigenvalue(matrix, &diagonal, options.lanczos_steps)?;
     let a = Rows::of_symmetric(matrix);
     let mut block_of = vec![0usize; matrix.dim()];
     for b in 0..starts.len().saturating_sub(1) {
@@ -262,8 +262,7 @@ impl SmoothedAggregation {
         let mut current = matrix.clone();
         let mut modes = near_null;
         while current.dim() > options.coarse_size && levels.len() + 1 < options.max_levels {
-            let (coarsening, diagonal, restriction) =
-                coarsen_level(&current, &modes, &options)?;
+            let (coarsening, diagonal, restriction) = coarsen_level(&current, &modes, &options)?;
             let coarse_dim = coarsening.coarse_matrix.dim();
             // Aggregation that no longer reduces the size would only add cost.
             if coarse_dim == 0 || 10 * coarse_dim > 9 * current.dim() {
@@ -357,9 +356,7 @@ fn cycle(
         coarse_solution,
     } = this;
     let (a, d) = (&level.matrix, &level.diagonal);
-    level
-        .smoother
-        .smooth(
+    level.smoother.smooth(
         a,
         d,
         b,
@@ -377,9 +374,7 @@ fn cycle(
     level.restriction.product_into(residual, coarse_rhs, false);
     cycle(deeper, deeper_work, coarsest, coarse_rhs, coarse_solution)?;
     level.prolongator.product_into(coarse_solution, x, true);
-    level
-        .smoother
-        .smooth(
+    level.smoother.smooth(
         a,
         d,
         b,

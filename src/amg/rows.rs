@@ -238,8 +238,7 @@ pub(crate) fn multiply(a: Rows<'_>, b: &RowMatrix) -> RowMatrix {
                         for q in b.row_ptr[row]..b.row_ptr[row + 1] {
                             let c = b.col_idx[q];
                             let at = marker[c];
-                            if at != usize::MAX && at >= start && at < cols.len() && cols[at] == c
-                            {
+                            if at != usize::MAX && at >= start && at < cols.len() && cols[at] == c {
                                 vals[at] += a_ik * b.values[q];
                             } else {
                                 marker[c] = cols.len();
@@ -249,7 +248,12 @@ pub(crate) fn multiply(a: Rows<'_>, b: &RowMatrix) -> RowMatrix {
                         }
                     }
                     sorted.clear();
-                    sorted.extend(cols[start..].iter().copied().zip(vals[start..].iter().copied()));
+                    sorted.extend(
+                        cols[start..]
+                            .iter()
+                            .copied()
+                            .zip(vals[start..].iter().copied()),
+                    );
                     sorted.sort_unstable_by_key(|&(c, _)| c);
                     for (slot, &(c, v)) in sorted.iter().enumerate() {
                         cols[start + slot] = c;

@@ -120,10 +120,14 @@ pub(crate) fn pseudo_random(n: usize, seed: u64) -> Vec<f64> {
 
 /// The largest eigenvalue of D⁻¹A (self-adjoint in the D-inner product) by `steps` Lanczos
 /// steps: the largest Ritz value, a lower bound that converges fast at the spectrum's top end.
-pub(crate) fn largest_eigenvalue(matrix: &CscMatrix, diagonal: &BlockDiagonal, steps: usize) -> f64 {
+pub(crate) fn largest_eigenvalue(
+    matrix: &CscMatrix,
+    diagonal: &BlockDiagonal,
+    steps: usize,
+) -> Result<f64> {
     let n = matrix.dim();
     if n == 0 {
-        return 1.0;
+        return Ok(1.0);
     }
     let dot = |a: &[f64], b: &[f64]| a.iter().zip(b).map(|(x, y)| x * y).sum::<f64>();
     let d_norm = |v: &[f64]| {
@@ -145,7 +149,12 @@ pub(crate) fn largest_eigenvalue(matrix: &CscMatrix, diagonal: &BlockDiagonal, s
             .collect();
         alphas.push(alpha);
         beta = d_norm(&w);
-        if !(beta > 1e-12 * alpha.abs()) {
+        if !(alpha.is_finite() && beta.is_finite()) {
+            return Err(Error::Solver(
+                "smoothed aggregation: the matrix has non-finite entries".into(),
+            ));
+        }
+        if beta <= 1e-12 * alpha.abs() {
             break;
         }
         betas.push(beta);
@@ -163,11 +172,11 @@ pub(crate) fn largest_eigenvalue(matrix: &CscMatrix, diagonal: &BlockDiagonal, s
             0.0
         }
     });
-    SymmetricEigen::new(tridiagonal)
+    Ok(SymmetricEigen::new(tridiagonal)
         .eigenvalues
         .iter()
         .copied()
-        .fold(f64::MIN_POSITIVE, f64::max)
+        .fold(f64::MIN_POSITIVE, f64::max))
 }
 
 /// Chebyshev smoothing on D⁻¹A over the interval [λ_lo, λ_hi]: x ← x + p(D⁻¹A)·D⁻¹·(b − A·x)
@@ -231,7 +240,9 @@ impl Chebyshev {
             let rho = 1.0 / (2.0 * theta / delta - rho_old);
             let (keep, step) = (rho * rho_old, 2.0 * rho / delta);
             let r_ro: &[f64] = r;
-            zip_apply(d, |i, di| *di = keep * *di + step * diagonal.row(i, r_ro, false));
+            zip_apply(d, |i, di| {
+                *di = keep * *di + step * diagonal.row(i, r_ro, false)
+            });
             rho_old = rho;
         }
     }
