@@ -154,11 +154,13 @@ fn coarsen_level(
     let (tentative, coarse_near_null_space) =
         aggregation::tentative_prolongator(near_null, &aggregate_of, aggregates)?;
     let omega = 4.0 / (3.0 * lambda_max);
-    let prolongator = {
+    // Scoped so that each intermediate product is freed before the next one is built.
+    let smoothed = {
         let a_tentative = rows::multiply(a, &tentative);
-        let smoothed = rows::multiply(diagonal.inverse_rows()?.rows(), &a_tentative);
-        rows::add(1.0, &tentative, -omega, &smoothed)
+        rows::multiply(diagonal.inverse_rows()?.rows(), &a_tentative)
     };
+    let prolongator = rows::add(1.0, &tentative, -omega, &smoothed);
+    drop(smoothed);
     let restriction = prolongator.transpose();
     let mut coarse = {
         let a_p = rows::multiply(a, &prolongator);
