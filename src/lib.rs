@@ -30,6 +30,7 @@
 //! # Ok::<(), tetfem::Error>(())
 //! ```
 
+pub mod amg;
 pub mod assembly;
 pub mod beam_theory;
 pub mod block_sparse;

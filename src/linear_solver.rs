@@ -1,6 +1,7 @@
 //! The linear solver behind the static and implicit solves: a sparse Cholesky factorization when
 //! its factor fits in memory, preconditioned conjugate gradients when it does not.
 
+use crate::amg::DofGeometry;
 use crate::error::{Error, Result};
 use crate::iterative::{CgOptions, Preconditioner, PreconditionerKind, conjugate_gradient};
 use crate::linsolve::{CholeskyOptions, SparseCholesky};
@@ -15,7 +16,8 @@ pub enum LinearMethod {
     Auto,
     /// Always the sparse Cholesky factorization.
     Direct,
-    /// Always block-Jacobi preconditioned conjugate gradients.
+    /// Always preconditioned conjugate gradients (the preconditioner of
+    /// [`SolverOptions::preconditioner`], smoothed-aggregation multigrid by default).
     Iterative,
 }
 
@@ -90,6 +92,8 @@ pub enum LinearSolver {
         preconditioner: Option<Box<dyn Preconditioner>>,
         /// Which one it is (rebuilt on each factorize).
         kind: PreconditionerKind,
+        /// Where the matrix's DOFs sit, for the rigid-body modes of smoothed aggregation.
+        geometry: Option<Box<DofGeometry>>,
         /// Stopping rule.
         options: CgOptions,
     },
@@ -100,10 +104,26 @@ impl LinearSolver {
     /// iterative path needs nothing before the values). Only the pattern is read here. Call
     /// [`factorize`](Self::factorize) before solving.
     pub fn analyze(matrix: &CscMatrix, options: SolverOptions) -> Result<Self> {
+        LinearSolver::analyze_with_geometry(matrix, options, None)
+    }
+
+    /// As [`analyze`](Self::analyze), with the node, axis and position of each of `matrix`'s
+    /// DOFs, from which the smoothed-aggregation preconditioner builds the rigid-body modes
+    /// (without it: the three translations, more iterations).
+    /// [`Error::DimensionMismatch`] if `geometry` does not describe `matrix.dim()` DOFs.
+    pub fn analyze_with_geometry(
+        matrix: &CscMatrix,
+        options: SolverOptions,
+        geometry: Option<DofGeometry>,
+    ) -> Result<Self> {
+        if let Some(geometry) = &geometry {
+            Error::check_len("DofGeometry DOFs", matrix.dim(), geometry.len())?;
+        }
         let iterative = |options: SolverOptions| -> Result<Self> {
             Ok(LinearSolver::Iterative {
                 preconditioner: None,
                 kind: options.preconditioner,
+                geometry: geometry.map(Box::new),
                 options: options.cg,
             })
         };
@@ -132,9 +152,12 @@ impl LinearSolver {
             LinearSolver::Iterative {
                 preconditioner,
                 kind,
+                geometry,
                 ..
             } => {
-                *preconditioner = Some(kind.build(matrix)?);
+                // The old hierarchy goes first: two at once would double the peak memory.
+                *preconditioner = None;
+                *preconditioner = Some(kind.build_with_geometry(matrix, geometry.as_deref())?);
                 Ok(())
             }
         }

@@ -1,6 +1,7 @@
 //! Nonlinear static equilibrium with a [`ForceModel`]: Newton's method with a backtracking line
 //! search and load stepping, one symbolic factorization for all iterations.
 
+use crate::amg::DofGeometry;
 use crate::assembly::Assembler;
 use crate::constraints::{Constraints, DofMap, ensure_held};
 use crate::error::{Error, Result};
@@ -89,7 +90,8 @@ pub fn solve_nonlinear_static(
     let mut tangent = CscMatrix::zeros(std::sync::Arc::clone(assembler.pattern()))?;
     let restriction = dofs.restriction(assembler.pattern())?;
     let mut free_tangent = CscMatrix::zeros(std::sync::Arc::clone(restriction.pattern()))?;
-    let mut solver = LinearSolver::analyze(&free_tangent, options.solver)?;
+    let geometry = DofGeometry::for_method(options.solver.method, mesh, &dofs)?;
+    let mut solver = LinearSolver::analyze_with_geometry(&free_tangent, options.solver, geometry)?;
     let f_full = loads.as_slice();
     let load_norm = norm(&dofs.restrict(f_full)?);
     let mut u = vec![0.0; mesh.dof_count()];

@@ -2,6 +2,7 @@
 
 use std::time::{Duration, Instant};
 
+use crate::amg::DofGeometry;
 use crate::assembly::Assembler;
 use crate::constraints::{Constraints, DofMap, ensure_held};
 use crate::error::{Error, Result};
@@ -91,7 +92,8 @@ impl StaticSolver {
         timings.constraints = clock.elapsed();
 
         let clock = Instant::now();
-        let mut solver = LinearSolver::analyze(&free_stiffness, options)?;
+        let geometry = DofGeometry::for_method(options.method, mesh, &dofs)?;
+        let mut solver = LinearSolver::analyze_with_geometry(&free_stiffness, options, geometry)?;
         timings.symbolic = clock.elapsed();
 
         let clock = Instant::now();

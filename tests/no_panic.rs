@@ -10,6 +10,7 @@ use std::path::Path;
 use std::sync::Arc;
 
 use nalgebra::{Matrix3, Vector3};
+use tetfem::amg::{NearNullSpace, SmoothedAggregation};
 use tetfem::assembly::{Assembler, lumped_mass, stiffness_matrix};
 use tetfem::beam_theory::RectangularCantilever;
 use tetfem::cantilever::Cantilever;
@@ -22,7 +23,7 @@ use tetfem::dynamics::{
 };
 use tetfem::element::{Matrix12, Tet, rest_shape_matrix, shape_quality, signed_volume, von_mises};
 use tetfem::error_norms::{energy_error, l2_error};
-use tetfem::iterative::{BlockJacobi, CgOptions, conjugate_gradient};
+use tetfem::iterative::{BlockJacobi, CgOptions, Preconditioner, conjugate_gradient};
 use tetfem::linear_solver::{LinearMethod, LinearSolver, SolverOptions};
 use tetfem::linsolve::{CholeskyOptions, SparseCholesky};
 use tetfem::mesh::io::{read_gmsh, read_mesh, read_tetgen, write_gmsh};
@@ -469,6 +470,19 @@ fn assembly_sparse_and_solvers() {
     s.call("BlockJacobi::apply wrong length", || {
         let p = BlockJacobi::new(&k)?;
         p.apply(&[1.0], &mut [0.0; 2])
+    });
+    s.call("SmoothedAggregation::new NaN", || {
+        let mut poisoned = k.clone();
+        poisoned.values_mut().fill(NAN);
+        SmoothedAggregation::new(&poisoned, None)
+    });
+    s.call("SmoothedAggregation::apply wrong length", || {
+        let p = SmoothedAggregation::new(&k, None)?;
+        p.apply(&[1.0], &mut [0.0; 2])
+    });
+    s.call("SmoothedAggregation geometry of another size", || {
+        let modes = NearNullSpace::from_parts(vec![0, 3], 6, vec![0.0; 18])?;
+        SmoothedAggregation::with_options(&k, modes, Default::default())
     });
     s.call("conjugate_gradient wrong lengths", || {
         let p = BlockJacobi::new(&k)?;

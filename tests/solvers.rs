@@ -280,7 +280,7 @@ fn incomplete_cholesky_cuts_cg_iterations_on_stiffness_matrices() {
 }
 
 #[test]
-fn iterative_path_with_either_preconditioner_matches_the_direct_solve() {
+fn iterative_path_with_each_preconditioner_matches_the_direct_solve() {
     use tetfem::iterative::PreconditionerKind;
     let direct = solve_tip(
         [20, 4, 4],
@@ -292,6 +292,7 @@ fn iterative_path_with_either_preconditioner_matches_the_direct_solve() {
     for preconditioner in [
         PreconditionerKind::BlockJacobi,
         PreconditionerKind::IncompleteCholesky,
+        PreconditionerKind::SmoothedAggregation,
     ] {
         let iterative = solve_tip(
             [20, 4, 4],
