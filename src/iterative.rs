@@ -59,22 +59,29 @@ pub struct BlockJacobi {
     offsets: Vec<usize>,
 }
 
+/// Starts of the matrix's supervariables (runs of up to three consecutive columns with identical
+/// patterns: a node's DOFs in elasticity), followed by `dim()`.
+pub(crate) fn supervariable_starts(matrix: &CscMatrix) -> Vec<usize> {
+    let n = matrix.dim();
+    let (col_ptr, row_idx) = (matrix.col_ptr(), matrix.row_idx());
+    let column = |j: usize| &row_idx[col_ptr[j]..col_ptr[j + 1]];
+    let mut starts = vec![0];
+    for j in 1..n {
+        // Capped at 3 columns (one node) so a pathological pattern cannot make a huge block.
+        if column(j) != column(j - 1) || j - starts[starts.len() - 1] >= 3 {
+            starts.push(j);
+        }
+    }
+    starts.push(n);
+    starts
+}
+
 impl BlockJacobi {
     /// Extracts and inverts the diagonal blocks; a block that is not invertible (a zero or
     /// negative diagonal) is an error naming its first column.
     pub fn new(matrix: &CscMatrix) -> Result<Self> {
         let n = matrix.dim();
-        let (col_ptr, row_idx) = (matrix.col_ptr(), matrix.row_idx());
-        let column = |j: usize| &row_idx[col_ptr[j]..col_ptr[j + 1]];
-        let mut starts = vec![0];
-        for j in 1..n {
-            // Supervariables of elasticity have at most 3 columns (one node); cap it so a
-            // pathological pattern cannot create a huge dense block.
-            if column(j) != column(j - 1) || j - starts[starts.len() - 1] >= 3 {
-                starts.push(j);
-            }
-        }
-        starts.push(n);
+        let starts = supervariable_starts(matrix);
         let mut inverses = Vec::with_capacity(3 * n);
         let mut offsets = Vec::with_capacity(starts.len());
         for g in 0..starts.len() - 1 {

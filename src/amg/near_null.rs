@@ -160,15 +160,7 @@ impl NearNullSpace {
     /// block is taken as axis k, which is right for every node whose three DOFs are free).
     pub fn translations(matrix: &CscMatrix) -> Self {
         let n = matrix.dim();
-        let (col_ptr, row_idx) = (matrix.col_ptr(), matrix.row_idx());
-        let column = |j: usize| &row_idx[col_ptr[j]..col_ptr[j + 1]];
-        let mut starts = vec![0];
-        for j in 1..n {
-            if column(j) != column(j - 1) || j - starts[starts.len() - 1] >= 3 {
-                starts.push(j);
-            }
-        }
-        starts.push(n);
+        let mut starts = crate::iterative::supervariable_starts(matrix);
         let mut values = vec![0.0; 3 * n];
         for b in 0..starts.len() - 1 {
             for (k, i) in (starts[b]..starts[b + 1]).enumerate() {

@@ -4,7 +4,9 @@ use std::sync::Arc;
 
 use rayon::prelude::*;
 
-use super::{DivergenceGuard, Energy, Integrator, LinearSystem, Mass, State, check_time_step};
+use super::{
+    DivergenceGuard, Energy, Integrator, LinearSystem, Mass, State, check_time_step, sum_in_order,
+};
 use crate::block_sparse::BlockWorkspace;
 use crate::error::{Error, Result};
 
@@ -107,12 +109,7 @@ impl Integrator for SymplecticEuler {
                 sums
             })
             .collect();
-        let sums = partial.iter().fold([0.0; 3], |mut total, p| {
-            for (t, p) in total.iter_mut().zip(p) {
-                *t += p;
-            }
-            total
-        });
+        let sums = sum_in_order(&partial);
         let energy = Energy {
             kinetic: 0.5 * sums[0],
             elastic: 0.5 * twice_elastic,

@@ -46,6 +46,17 @@ pub trait Integrator {
     }
 }
 
+/// Adds per-chunk partial sums in chunk order: with fixed chunks, the same bits whatever the
+/// number of threads that produced them.
+pub(crate) fn sum_in_order<const N: usize>(partial: &[[f64; N]]) -> [f64; N] {
+    partial.iter().fold([0.0; N], |mut total, p| {
+        for (t, p) in total.iter_mut().zip(p) {
+            *t += p;
+        }
+        total
+    })
+}
+
 /// Validates a time step: finite and > 0.
 pub fn check_time_step(dt: f64) -> Result<f64> {
     if dt.is_finite() && dt > 0.0 {
