@@ -115,13 +115,7 @@ impl Integrator for BackwardEuler {
             })
             .collect();
         let sums = sum_in_order(&partial);
-        let energy = Energy {
-            kinetic: 0.5 * sums[0],
-            elastic: 0.5 * twice_elastic,
-            // The guard needs only the sum of the potentials: one vector less to read.
-            gravity_potential: 0.0,
-            load_potential: sums[1],
-        };
+        let energy = Energy::for_guard(sums[0], twice_elastic, sums[1]);
         match &self.guard {
             Some(guard) => guard.check_energy(state.steps, state.time, &energy)?,
             None => self.guard = Some(DivergenceGuard::new(energy)),

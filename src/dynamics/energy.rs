@@ -15,6 +15,18 @@ pub struct Energy {
 }
 
 impl Energy {
+    /// The energies a divergence guard needs, from the sums a time step takes in its passes:
+    /// vᵀMv, uᵀKu and −f·u. The guard uses only the sum of the potentials, so the load's is
+    /// not split into gravity and the rest (that would take one more vector to read).
+    pub(crate) fn for_guard(twice_kinetic: f64, twice_elastic: f64, potential: f64) -> Self {
+        Energy {
+            kinetic: 0.5 * twice_kinetic,
+            elastic: 0.5 * twice_elastic,
+            gravity_potential: 0.0,
+            load_potential: potential,
+        }
+    }
+
     /// Total mechanical energy: kinetic + elastic + both potentials. Conserved without damping
     /// by the exact dynamics and by Newmark; never increasing under backward Euler.
     pub fn total(&self) -> f64 {

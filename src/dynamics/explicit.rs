@@ -110,13 +110,7 @@ impl Integrator for SymplecticEuler {
             })
             .collect();
         let sums = sum_in_order(&partial);
-        let energy = Energy {
-            kinetic: 0.5 * sums[0],
-            elastic: 0.5 * twice_elastic,
-            // The guard needs only the sum of the potentials: one vector less to read.
-            gravity_potential: 0.0,
-            load_potential: sums[1],
-        };
+        let energy = Energy::for_guard(sums[0], twice_elastic, sums[1]);
         // The state has advanced whatever the guard finds: it holds the failed step's values.
         state.time += dt;
         state.steps += 1;
