@@ -14,9 +14,9 @@ use std::hint::black_box;
 use std::time::Duration;
 
 use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
-use tetfem::cantilever::Cantilever;
+use tetfem::cantilever::{Cantilever, FreeSystem};
 use tetfem::ordering::nested_dissection;
-use tetfem::{Assembler, CscMatrix, DofMap, SparseCholesky};
+use tetfem::{CscMatrix, SparseCholesky};
 
 /// P·A·Pᵀ with `perm[new] = old`, as a nalgebra-sparse matrix (both triangles).
 fn permuted_nalgebra(a: &CscMatrix, perm: &[usize]) -> nalgebra_sparse::CscMatrix<f64> {
@@ -55,14 +55,11 @@ fn backends(c: &mut Criterion) {
     for cells in [[20, 4, 4], [40, 8, 8]] {
         let problem = Cantilever::peer_benchmark(cells);
         let mesh = problem.mesh().unwrap();
-        let dofs = DofMap::new(&problem.constraints(&mesh).unwrap());
-        let k = Assembler::new(&mesh)
-            .stiffness(&mesh, &problem.material)
-            .unwrap();
-        let k_ff = dofs.restriction(k.pattern()).unwrap().restrict(&k).unwrap();
-        let rhs = dofs
-            .restrict(problem.loads(&mesh).unwrap().as_slice())
-            .unwrap();
+        let FreeSystem {
+            stiffness: k_ff,
+            load: rhs,
+            ..
+        } = problem.free_system(&mesh).unwrap();
         let perm = nested_dissection(k_ff.pattern()).unwrap();
         let label = format!("{}dofs", k_ff.dim());
 

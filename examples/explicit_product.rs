@@ -9,9 +9,9 @@
 
 use std::time::Instant;
 
+use tetfem::Tet;
 use tetfem::block_sparse::BlockMatrix3;
-use tetfem::cantilever::Cantilever;
-use tetfem::{Assembler, DofMap, Tet};
+use tetfem::cantilever::{Cantilever, FreeSystem};
 
 /// Per tet: the free index of each node's x DOF (u32::MAX for a clamped node) and the data of
 /// f_a = V·σ(u)·∇N_a with σ = λ·tr(∇u)·I + μ·(∇u + ∇uᵀ): ∇N_1..3 (∇N_0 = −their sum), λV, μV.
@@ -71,9 +71,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         .collect::<Result<_, _>>()?;
     let problem = Cantilever::peer_benchmark(cells.try_into().map_err(|_| "cells: NX,NY,NZ")?);
     let mesh = problem.mesh()?;
-    let dofs = DofMap::new(&problem.constraints(&mesh)?);
-    let k_full = Assembler::new(&mesh).stiffness(&mesh, &problem.material)?;
-    let k = dofs.restriction(k_full.pattern())?.restrict(&k_full)?;
+    let FreeSystem {
+        dofs, stiffness: k, ..
+    } = problem.free_system(&mesh)?;
     let blocks = BlockMatrix3::from_free_matrix(&k, dofs.free_dofs())?;
     // The element loop below assumes each node is either free or clamped (true of this beam).
     let base: Vec<u32> = (0..mesh.node_count())

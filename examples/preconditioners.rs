@@ -7,12 +7,12 @@
 
 use std::time::Instant;
 
+use tetfem::SparseCholesky;
 use tetfem::amg::{DofGeometry, SmoothedAggregation};
-use tetfem::cantilever::Cantilever;
+use tetfem::cantilever::{Cantilever, FreeSystem};
 use tetfem::iterative::{
     BlockJacobi, CgOptions, IncompleteCholesky, Preconditioner, conjugate_gradient,
 };
-use tetfem::{Assembler, DofMap, SparseCholesky};
 
 fn main() -> tetfem::Result<()> {
     let args: Vec<String> = std::env::args().collect();
@@ -44,10 +44,11 @@ fn main() -> tetfem::Result<()> {
     for cells in sizes {
         let problem = Cantilever::peer_benchmark(cells);
         let mesh = problem.mesh()?;
-        let dofs = DofMap::new(&problem.constraints(&mesh)?);
-        let k = Assembler::new(&mesh).stiffness(&mesh, &problem.material)?;
-        let k_ff = dofs.restriction(k.pattern())?.restrict(&k)?;
-        let rhs = dofs.restrict(problem.loads(&mesh)?.as_slice())?;
+        let FreeSystem {
+            dofs,
+            stiffness: k_ff,
+            load: rhs,
+        } = problem.free_system(&mesh)?;
         let label = format!("{}×{}×{}", cells[0], cells[1], cells[2]);
 
         let clock = Instant::now();

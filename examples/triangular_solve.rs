@@ -9,8 +9,8 @@
 use std::hint::black_box;
 use std::time::Instant;
 
-use tetfem::cantilever::Cantilever;
-use tetfem::{Assembler, DofMap, SparseCholesky, TriangularSolve};
+use tetfem::cantilever::{Cantilever, FreeSystem};
+use tetfem::{SparseCholesky, TriangularSolve};
 
 /// Sum of the values, twice, with independent partial sums so that the loop is bound by memory,
 /// not by the latency of one running sum. Both passes read forwards: a backward pass measured
@@ -78,11 +78,11 @@ fn main() -> tetfem::Result<()> {
 
     let problem = Cantilever::peer_benchmark(cells);
     let mesh = problem.mesh()?;
-    let k_full = Assembler::new(&mesh).stiffness(&mesh, &problem.material)?;
-    let constraints = problem.constraints(&mesh)?;
-    let dofs = DofMap::new(&constraints);
-    let k_ff = dofs.restriction(k_full.pattern())?.restrict(&k_full)?;
-    let b = dofs.restrict(problem.loads(&mesh)?.as_slice())?;
+    let FreeSystem {
+        stiffness: k_ff,
+        load: b,
+        ..
+    } = problem.free_system(&mesh)?;
     // A load with every component non-zero exercises all of the factor.
     let b: Vec<f64> = b
         .iter()

@@ -8,12 +8,14 @@ use std::time::{Duration, Instant};
 
 use nalgebra::Vector3;
 
+use crate::assembly::Assembler;
 use crate::beam_theory::RectangularCantilever;
-use crate::constraints::Constraints;
+use crate::constraints::{Constraints, DofMap};
 use crate::error::{Error, Result};
 use crate::loads::Loads;
 use crate::material::Material;
 use crate::mesh::{BoxSplit, TetMesh};
+use crate::sparse::CscMatrix;
 use crate::statics::{StaticSolution, StaticSolver, StaticTimings};
 
 /// A clamped box beam [0, L]×[0, W]×[0, H] under an end load (−z) and gravity (−z).
@@ -36,6 +38,17 @@ pub struct Cantilever {
     pub end_load: f64,
     /// Gravitational acceleration g (m/s² in SI), acting along −z; 0 for none.
     pub gravity: f64,
+}
+
+/// The beam's linear system on its free DOFs: K_ff·u = f (N/m and N in SI).
+#[derive(Debug, Clone)]
+pub struct FreeSystem {
+    /// The free/clamped DOF numbering.
+    pub dofs: DofMap,
+    /// K_ff, the stiffness restricted to the free DOFs.
+    pub stiffness: CscMatrix,
+    /// The end load (and gravity) on the free DOFs.
+    pub load: Vec<f64>,
 }
 
 /// A solved cantilever.
@@ -126,6 +139,20 @@ impl Cantilever {
             loads.add_gravity(mesh, &self.material, Vector3::new(0.0, 0.0, -self.gravity))?;
         }
         Ok(loads)
+    }
+
+    /// K_ff and f of this beam on `mesh` (one of [`mesh`](Self::mesh)'s), for callers that
+    /// solve or precondition the system themselves (benches, solver studies).
+    pub fn free_system(&self, mesh: &TetMesh) -> Result<FreeSystem> {
+        let dofs = DofMap::new(&self.constraints(mesh)?);
+        let k = Assembler::new(mesh).stiffness(mesh, &self.material)?;
+        let stiffness = dofs.restriction(k.pattern())?.restrict(&k)?;
+        let load = dofs.restrict(self.loads(mesh)?.as_slice())?;
+        Ok(FreeSystem {
+            dofs,
+            stiffness,
+            load,
+        })
     }
 
     /// Nodes on the end face x = L, whose mean z-displacement is the tip deflection.

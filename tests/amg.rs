@@ -4,12 +4,11 @@
 use tetfem::amg::{
     AmgOptions, Coarsening, DofGeometry, NearNullSpace, SmoothedAggregation, coarsen,
 };
-use tetfem::cantilever::Cantilever;
+use tetfem::cantilever::{Cantilever, FreeSystem};
 use tetfem::iterative::{CgOptions, Preconditioner, conjugate_gradient};
 use tetfem::linear_solver::SolveInfo;
 use tetfem::{
-    Assembler, CscMatrix, DofMap, Error, LinearMethod, SolverOptions, SparseCholesky, StaticSolver,
-    TetMesh,
+    CscMatrix, DofMap, Error, LinearMethod, SolverOptions, SparseCholesky, StaticSolver, TetMesh,
 };
 
 struct Beam {
@@ -23,14 +22,11 @@ struct Beam {
 fn beam(cells: [usize; 3]) -> Beam {
     let problem = Cantilever::peer_benchmark(cells);
     let mesh = problem.mesh().unwrap();
-    let dofs = DofMap::new(&problem.constraints(&mesh).unwrap());
-    let k = Assembler::new(&mesh)
-        .stiffness(&mesh, &problem.material)
-        .unwrap();
-    let k_ff = dofs.restriction(k.pattern()).unwrap().restrict(&k).unwrap();
-    let rhs = dofs
-        .restrict(problem.loads(&mesh).unwrap().as_slice())
-        .unwrap();
+    let FreeSystem {
+        dofs,
+        stiffness: k_ff,
+        load: rhs,
+    } = problem.free_system(&mesh).unwrap();
     Beam {
         problem,
         mesh,

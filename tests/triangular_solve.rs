@@ -4,23 +4,13 @@
 use std::sync::Arc;
 
 use tetfem::cantilever::Cantilever;
-use tetfem::{
-    Assembler, CholeskyOptions, CscMatrix, DofMap, Error, SparseCholesky, TriangularSolve,
-};
+use tetfem::{CholeskyOptions, CscMatrix, Error, SparseCholesky, TriangularSolve};
 
 /// K_ff of a cantilever and a right-hand side with every component non-zero.
 fn cantilever_system(cells: [usize; 3]) -> (CscMatrix, Vec<f64>) {
     let problem = Cantilever::peer_benchmark(cells);
     let mesh = problem.mesh().unwrap();
-    let k_full = Assembler::new(&mesh)
-        .stiffness(&mesh, &problem.material)
-        .unwrap();
-    let dofs = DofMap::new(&problem.constraints(&mesh).unwrap());
-    let k_ff = dofs
-        .restriction(k_full.pattern())
-        .unwrap()
-        .restrict(&k_full)
-        .unwrap();
+    let k_ff = problem.free_system(&mesh).unwrap().stiffness;
     let b = (0..k_ff.dim())
         .map(|i| (i * 7919 % 1000) as f64 / 1000.0 - 0.5)
         .collect();
