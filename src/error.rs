@@ -187,11 +187,11 @@ pub enum Error {
 
     /// The sparse Cholesky factorization met a non-positive pivot.
     #[error(
-        "the system matrix is not positive definite (pivot {pivot} of {dimension} in the permuted order); \
+        "the system matrix is not positive definite (pivot of row {pivot} of {dimension}); \
          likely causes: an unconstrained body, inverted elements, or ν very close to 0.5"
     )]
     NotPositiveDefinite {
-        /// Index of the failing pivot in the permuted order.
+        /// Row (DOF) of the matrix, in its own numbering, whose pivot was not positive.
         pivot: usize,
         /// Dimension of the matrix.
         dimension: usize,

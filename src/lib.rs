@@ -66,7 +66,7 @@ pub use constraints::{Constraints, DofMap};
 pub use element::Tet;
 pub use error::{Error, Result};
 pub use linear_solver::{LinearMethod, LinearSolver, SolverOptions};
-pub use linsolve::{CholeskyOptions, SparseCholesky, TriangularSolve};
+pub use linsolve::{CholeskyOptions, NumericFactorization, SparseCholesky, TriangularSolve};
 pub use loads::Loads;
 pub use material::Material;
 pub use mesh::{BoxSplit, TetMesh};

@@ -13,7 +13,7 @@ use faer::mat::MatMut;
 use faer::perm::PermRef;
 use faer::sparse::SymbolicSparseColMat;
 use faer::sparse::linalg::cholesky::{
-    CholeskySymbolicParams, LltRef, SymbolicCholesky, SymmetricOrdering,
+    CholeskySymbolicParams, LltRef, SymbolicCholesky, SymbolicCholeskyRaw, SymmetricOrdering,
     factorize_symbolic_cholesky,
 };
 use faer::{Conj, Side};
@@ -21,7 +21,7 @@ use faer::{Conj, Side};
 use crate::error::{Error, Result};
 use crate::ordering::{FillOrdering, inverse_permutation, nested_dissection};
 use crate::sparse::CscMatrix;
-use supernodal::{SupernodalPlan, SupernodalWorkspace};
+use supernodal::{Columns, FactorPlan, FactorWorkspace, SupernodalPlan, SupernodalWorkspace};
 
 /// How to factor: the fill-reducing ordering and the number of threads of the numeric phases.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -57,6 +57,19 @@ pub enum TriangularSolve {
     },
 }
 
+/// Which kernel performs the numeric factorization of [`SparseCholesky::factorize_with`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum NumericFactorization {
+    /// faer's `factorize_numeric_llt`, with the options' threads inside its dense kernels.
+    Faer,
+    /// tetfem's left-looking supernodal factorization on faer's symbolic structure (the
+    /// default): updates formed with a contiguous right factor, and with two threads the two
+    /// halves of the elimination tree below its top separators factored concurrently. A
+    /// simplicial factor (small matrices) falls back to faer.
+    #[default]
+    Supernodal,
+}
+
 /// Sparse Cholesky factorization A = LLᵀ of a symmetric positive definite [`CscMatrix`].
 pub struct SparseCholesky {
     pattern: Arc<SymbolicSparseColMat<usize>>,
@@ -67,6 +80,9 @@ pub struct SparseCholesky {
     /// Supernode layout and two-thread split of the own triangular solves (`None`: simplicial).
     plan: Option<SupernodalPlan>,
     supernodal_workspace: SupernodalWorkspace,
+    /// Update lists and flop-balanced split of the own numeric factorization (with `plan`).
+    factor_plan: Option<FactorPlan>,
+    factor_plan_workspace: FactorWorkspace,
     threads: usize,
     /// Whether `factor` and the workspaces have their sizes (a 0×0 matrix has an empty factor
     /// but still needs its workspaces, so the factor's length cannot tell).
@@ -119,9 +135,12 @@ impl SparseCholesky {
         }
         .map_err(|e| Error::Solver(format!("symbolic Cholesky analysis failed: {e:?}")))?;
         let plan = SupernodalPlan::new(&symbolic);
+        let factor_plan = plan.as_ref().map(FactorPlan::new);
         Ok(SparseCholesky {
             plan,
             supernodal_workspace: SupernodalWorkspace::default(),
+            factor_plan,
+            factor_plan_workspace: FactorWorkspace::default(),
             threads: options.threads.max(1),
             pattern: Arc::clone(matrix.pattern()),
             symbolic,
@@ -142,11 +161,6 @@ impl SparseCholesky {
             return Ok(());
         }
         let out_of_memory = |what: &str| Error::Solver(format!("out of memory for the {what}"));
-        self.factor_workspace = MemBuffer::try_new(
-            self.symbolic
-                .factorize_numeric_llt_scratch::<f64>(self.par, Default::default()),
-        )
-        .map_err(|_| out_of_memory("factorization workspace"))?;
         self.solve_workspace =
             MemBuffer::try_new(self.symbolic.solve_in_place_scratch::<f64>(1, self.par))
                 .map_err(|_| out_of_memory("solve workspace"))?;
@@ -159,8 +173,21 @@ impl SparseCholesky {
     }
 
     /// Numeric factorization of `matrix`, which must have the analysed pattern. Reuses the
-    /// symbolic analysis and the factor's storage.
+    /// symbolic analysis and the factor's storage. Runs tetfem's supernodal kernel on the
+    /// options' threads (two at most); measured side by side with faer's in
+    /// `examples/factorization.rs`.
     pub fn factorize(&mut self, matrix: &CscMatrix) -> Result<()> {
+        self.factorize_with(matrix, NumericFactorization::Supernodal)
+    }
+
+    /// Numeric factorization with a chosen kernel (for comparing them; the factors agree up to
+    /// round-off). Only the entries of `matrix` on and below the diagonal of the permuted
+    /// matrix are read, so `matrix` must be symmetric.
+    pub fn factorize_with(
+        &mut self,
+        matrix: &CscMatrix,
+        kernel: NumericFactorization,
+    ) -> Result<()> {
         self.factored = false;
         if !Arc::ptr_eq(&self.pattern, matrix.pattern())
             && (self.pattern.col_ptr() != matrix.col_ptr()
@@ -180,23 +207,52 @@ impl SparseCholesky {
             ));
         }
         self.allocate()?;
-        let stack = MemStack::new(&mut self.factor_workspace);
-        self.symbolic
-            .factorize_numeric_llt(
-                &mut self.factor,
-                matrix.as_faer(),
-                Side::Lower,
-                Default::default(),
-                self.par,
-                stack,
-                Default::default(),
-            )
-            .map_err(|e| match e {
-                LltError::NonPositivePivot { index } => Error::NotPositiveDefinite {
-                    pivot: index,
+        if let (NumericFactorization::Supernodal, Some(plan), Some(factor_plan)) =
+            (kernel, &self.plan, &self.factor_plan)
+        {
+            let columns = Columns {
+                col_ptr: matrix.col_ptr(),
+                row_idx: matrix.row_idx(),
+                values: matrix.values(),
+            };
+            factor_plan
+                .factorize(
+                    plan,
+                    columns,
+                    &mut self.factor,
+                    self.threads,
+                    &mut self.factor_plan_workspace,
+                )
+                .map_err(|pivot| Error::NotPositiveDefinite {
+                    pivot: self.original_index(pivot),
                     dimension: matrix.dim(),
-                },
-            })?;
+                })?;
+            self.factored = true;
+            return Ok(());
+        }
+        if self.factor_workspace.is_empty() {
+            self.factor_workspace = MemBuffer::try_new(
+                self.symbolic
+                    .factorize_numeric_llt_scratch::<f64>(self.par, Default::default()),
+            )
+            .map_err(|_| Error::Solver("out of memory for the factorization workspace".into()))?;
+        }
+        let stack = MemStack::new(&mut self.factor_workspace);
+        let result = self.symbolic.factorize_numeric_llt(
+            &mut self.factor,
+            matrix.as_faer(),
+            Side::Lower,
+            Default::default(),
+            self.par,
+            stack,
+            Default::default(),
+        );
+        if let Err(LltError::NonPositivePivot { index }) = result {
+            return Err(Error::NotPositiveDefinite {
+                pivot: self.original_index(index),
+                dimension: matrix.dim(),
+            });
+        }
         self.factored = true;
         Ok(())
     }
@@ -244,6 +300,13 @@ impl SparseCholesky {
         Ok(())
     }
 
+    /// The row of the matrix in its own numbering of permuted index `index`.
+    fn original_index(&self, index: usize) -> usize {
+        self.symbolic.perm().map_or(index, |perm| {
+            perm.arrays().0.get(index).copied().unwrap_or(index)
+        })
+    }
+
     /// The factor's values (faer's layout; empty before the first factorization).
     pub fn factor_values(&self) -> &[f64] {
         &self.factor
@@ -266,13 +329,37 @@ impl SparseCholesky {
         self.symbolic.len_val()
     }
 
-    /// Bytes the numeric factorization will hold: the factor's values (8 bytes each) plus its
-    /// workspace.
+    /// Flops of the numeric factorization, from the symbolic analysis: for each supernode of c
+    /// columns with b rows below its diagonal block, c³/3 (diagonal block) + b·c² (rows below) +
+    /// b²·c (its updates of later columns); for a simplicial factor, Σ_j n_j² over the columns'
+    /// below-diagonal counts n_j (the update of each column pair) plus the columns' scaling.
+    pub fn factor_flops(&self) -> f64 {
+        match (&self.plan, self.symbolic.raw()) {
+            (Some(plan), _) => plan.factor_flops(),
+            (None, SymbolicCholeskyRaw::Simplicial(simplicial)) => {
+                let col_ptr = simplicial.col_ptr();
+                (0..simplicial.ncols())
+                    .map(|j| {
+                        // Stored entries of column j, the diagonal included.
+                        let below = (col_ptr[j + 1] - col_ptr[j]).saturating_sub(1) as f64;
+                        below * below + below
+                    })
+                    .sum()
+            }
+            (None, SymbolicCholeskyRaw::Supernodal(_)) => 0.0,
+        }
+    }
+
+    /// Bytes the numeric factorization will hold: the factor's values (8 bytes each) plus the
+    /// workspace of [`factorize`](Self::factorize)'s kernel.
     pub fn factor_bytes(&self) -> usize {
-        let workspace = self
-            .symbolic
-            .factorize_numeric_llt_scratch::<f64>(self.par, Default::default())
-            .size_bytes();
+        let workspace = match (&self.plan, &self.factor_plan) {
+            (Some(plan), Some(factor_plan)) => factor_plan.workspace_bytes(plan),
+            _ => self
+                .symbolic
+                .factorize_numeric_llt_scratch::<f64>(self.par, Default::default())
+                .size_bytes(),
+        };
         8 * self.symbolic.len_val() + workspace
     }
 }

@@ -13,6 +13,10 @@
 use faer::sparse::linalg::cholesky::SymbolicCholesky;
 use faer::sparse::linalg::cholesky::SymbolicCholeskyRaw;
 
+mod factor;
+
+pub(crate) use factor::{Columns, FactorPlan, FactorWorkspace};
+
 /// One supernode: its columns `first..first + ncols` and the layout of its values (column-major,
 /// `ncols + below` rows: the dense diagonal block, then the rows listed in the factor's row
 /// indices from `row_start`).
@@ -34,6 +38,8 @@ pub(crate) struct SupernodalPlan {
     row_idx: Vec<usize>,
     /// `fwd[i]`: the original index of permuted index `i` (empty: no permutation).
     fwd: Vec<usize>,
+    /// `inv[j]`: the permuted index of original index `j` (empty: no permutation).
+    inv: Vec<usize>,
     dim: usize,
     /// Longest below-diagonal block: the size of each thread's accumulator.
     max_below: usize,
@@ -88,14 +94,16 @@ impl SupernodalPlan {
                 row_start,
             });
         }
-        let fwd = symbolic
-            .perm()
-            .map_or_else(Vec::new, |p| p.arrays().0.to_vec());
+        let (fwd, inv) = symbolic.perm().map_or_else(
+            || (Vec::new(), Vec::new()),
+            |p| (p.arrays().0.to_vec(), p.arrays().1.to_vec()),
+        );
         let max_below = nodes.iter().map(|n| n.below).max().unwrap_or(0);
         let mut plan = SupernodalPlan {
             nodes,
             row_idx,
             fwd,
+            inv,
             dim,
             max_below,
             parts: [Vec::new(), Vec::new()],
@@ -112,24 +120,52 @@ impl SupernodalPlan {
         Some(plan)
     }
 
-    /// Splits the supernodal elimination tree into a top (ancestor-closed, solved on one
-    /// thread) and two sets of independent subtrees of balanced work, minimising the estimated
-    /// time top + max(part 0, part 1) over successive splits of the heaviest subtree.
+    /// Splits the supernodal elimination tree for the solves: work ≈ values read, plus a
+    /// constant for the per-supernode overhead.
     fn split_for_two_threads(&mut self) {
         let count = self.nodes.len();
-        let mut col_node = vec![0usize; self.dim];
-        for (s, node) in self.nodes.iter().enumerate() {
-            col_node[node.first..node.first + node.ncols].fill(s);
-        }
-        // Work ≈ values read, plus a constant for the per-supernode overhead.
         let work: Vec<f64> = self
             .nodes
             .iter()
             .map(|n| (n.ncols * (n.ncols + n.below)) as f64 + 64.0)
             .collect();
+        let owner = self.two_thread_owner(&work);
+        let ranges = |which: u8| -> Vec<(usize, usize)> {
+            let mut ranges: Vec<(usize, usize)> = Vec::new();
+            for (s, node) in self.nodes.iter().enumerate() {
+                if owner[s] != which {
+                    continue;
+                }
+                match ranges.last_mut() {
+                    Some(last) if last.1 == node.first => last.1 += node.ncols,
+                    _ => ranges.push((node.first, node.first + node.ncols)),
+                }
+            }
+            ranges
+        };
+        self.part1_cols = ranges(1);
+        self.top_cols = ranges(2);
+        self.parts = [
+            (0..count).filter(|&s| owner[s] == 0).collect(),
+            (0..count).filter(|&s| owner[s] == 1).collect(),
+        ];
+        self.top = (0..count).filter(|&s| owner[s] == 2).collect();
+    }
+
+    /// Splits the supernodal elimination tree into a top (ancestor-closed, run on one thread
+    /// or on both together) and two sets of independent subtrees of balanced `work`,
+    /// minimising the estimated time top + max(part 0, part 1) over successive splits of the
+    /// heaviest subtree. Returns each supernode's owner: 0 or 1 for a thread's subtrees, 2 for
+    /// the top.
+    pub(crate) fn two_thread_owner(&self, work: &[f64]) -> Vec<u8> {
+        let count = self.nodes.len();
+        let mut col_node = vec![0usize; self.dim];
+        for (s, node) in self.nodes.iter().enumerate() {
+            col_node[node.first..node.first + node.ncols].fill(s);
+        }
         let mut parent = vec![usize::MAX; count];
         let mut children = vec![Vec::new(); count];
-        let mut subtree = work.clone();
+        let mut subtree = work.to_vec();
         let mut roots = Vec::new();
         for s in 0..count {
             let rows = &self.row_idx[self.nodes[s].row_start..][..self.nodes[s].below];
@@ -205,26 +241,12 @@ impl SupernodalPlan {
                 None => 0,
             };
         }
-        let ranges = |which: u8| -> Vec<(usize, usize)> {
-            let mut ranges: Vec<(usize, usize)> = Vec::new();
-            for (s, node) in self.nodes.iter().enumerate() {
-                if owner[s] != which {
-                    continue;
-                }
-                match ranges.last_mut() {
-                    Some(last) if last.1 == node.first => last.1 += node.ncols,
-                    _ => ranges.push((node.first, node.first + node.ncols)),
-                }
-            }
-            ranges
-        };
-        self.part1_cols = ranges(1);
-        self.top_cols = ranges(2);
-        self.parts = [
-            (0..count).filter(|&s| owner[s] == 0).collect(),
-            (0..count).filter(|&s| owner[s] == 1).collect(),
-        ];
-        self.top = (0..count).filter(|&s| owner[s] == 2).collect();
+        owner
+    }
+
+    /// Flops of the numeric factorization (see [`factor::flops`]).
+    pub(crate) fn factor_flops(&self) -> f64 {
+        self.nodes.iter().map(factor::flops).sum()
     }
 
     /// Fractions of the factor's values in the top and in each thread's subtrees.
@@ -596,7 +618,46 @@ mod tests {
     use faer::sparse::{SparseColMat, Triplet};
     use faer::{Conj, Par, Side};
 
-    use super::{SupernodalPlan, SupernodalWorkspace};
+    use super::{Columns, FactorPlan, FactorWorkspace, SupernodalPlan, SupernodalWorkspace};
+
+    /// tetfem's numeric factorization of `a` (both triangles) on `threads`, compared with
+    /// faer's factor `reference` on and below each supernode's diagonal.
+    fn check_factorization(
+        plan: &SupernodalPlan,
+        full: &SparseColMat<usize, f64>,
+        reference: &[f64],
+    ) {
+        let columns = Columns {
+            col_ptr: full.symbolic().col_ptr(),
+            row_idx: full.symbolic().row_idx(),
+            values: full.val(),
+        };
+        let scale = reference.iter().fold(1e-300f64, |m, v| m.max(v.abs()));
+        for (threads, block_columns) in [(1, usize::MAX), (2, usize::MAX), (1, 2), (2, 3)] {
+            let factor_plan = FactorPlan::new(plan).with_block_columns(block_columns);
+            let mut ws = FactorWorkspace::default();
+            let mut values = vec![f64::NAN; reference.len()];
+            factor_plan
+                .factorize(plan, columns, &mut values, threads, &mut ws)
+                .unwrap();
+            for node in &plan.nodes {
+                let rows = node.ncols + node.below;
+                for j in 0..node.ncols {
+                    for i in j..rows {
+                        let k = node.val_start + j * rows + i;
+                        // Same operations in another order: round-off of a few ulps of the
+                        // largest entry.
+                        assert!(
+                            (values[k] - reference[k]).abs() <= 1e-13 * scale,
+                            "threads {threads}, blocks of {block_columns}: entry {k}: {} vs {}",
+                            values[k],
+                            reference[k]
+                        );
+                    }
+                }
+            }
+        }
+    }
 
     /// Factors an SPD matrix (lower triangle given) with a forced supernodal structure, so
     /// that the kernels run on small matrices too, and compares them with faer's solve.
@@ -606,6 +667,13 @@ mod tests {
             .map(|&(i, j, v)| Triplet::new(i, j, v))
             .collect();
         let a = SparseColMat::<usize, f64>::try_new_from_triplets(n, n, &triplets).unwrap();
+        let mirrored: Vec<_> = entries
+            .iter()
+            .filter(|&&(i, j, _)| i != j)
+            .map(|&(i, j, v)| Triplet::new(j, i, v))
+            .chain(triplets.iter().copied())
+            .collect();
+        let full = SparseColMat::<usize, f64>::try_new_from_triplets(n, n, &mirrored).unwrap();
         let params = CholeskySymbolicParams {
             supernodal_flop_ratio_threshold: SupernodalThreshold::FORCE_SUPERNODAL,
             ..Default::default()
@@ -633,6 +701,7 @@ mod tests {
             assert!(n <= 1, "n = {n}: forced supernodal");
             return None;
         };
+        check_factorization(&plan, &full, &values);
         let b: Vec<f64> = (0..n).map(|i| ((i * 37) % 11) as f64 - 5.0).collect();
         let mut reference = b.clone();
         let mut buffer = MemBuffer::new(symbolic.solve_in_place_scratch::<f64>(1, Par::Seq));
