@@ -1,6 +1,6 @@
 //! Static pipeline phases at ~10k and ~100k DOFs (and ~430k with TETFEM_BENCH_LARGE=1):
 //! element stiffness, pattern build, refill of K, symbolic analysis (AMD and nested dissection),
-//! numeric factorization, one solve.
+//! numeric factorization (tetfem's kernel and faer's), one solve.
 //!
 //! `cargo bench --bench statics`. Sizes are cantilever box beams of the lecture's split.
 
@@ -9,7 +9,9 @@ use std::time::Duration;
 
 use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
 use tetfem::cantilever::Cantilever;
-use tetfem::{Assembler, CholeskyOptions, DofMap, FillOrdering, SparseCholesky};
+use tetfem::{
+    Assembler, CholeskyOptions, DofMap, FillOrdering, NumericFactorization, SparseCholesky,
+};
 
 fn sizes() -> Vec<[usize; 3]> {
     let mut sizes = vec![[60, 6, 6], [140, 14, 14]];
@@ -79,10 +81,17 @@ fn pipeline(c: &mut Criterion) {
                 threads,
             };
             let mut cholesky = SparseCholesky::analyze_with(&k_ff, options).unwrap();
-            group.bench_function(
-                BenchmarkId::new(format!("numeric-nd-{threads}thr"), &label),
-                |b| b.iter(|| cholesky.factorize(&k_ff).unwrap()),
-            );
+            // tetfem's numeric kernel (the default) beside faer's, on the same analysis.
+            for (name, kernel) in [
+                ("numeric-nd", NumericFactorization::Supernodal),
+                ("numeric-nd-faer", NumericFactorization::Faer),
+            ] {
+                group.bench_function(
+                    BenchmarkId::new(format!("{name}-{threads}thr"), &label),
+                    |b| b.iter(|| cholesky.factorize_with(&k_ff, kernel).unwrap()),
+                );
+            }
+            cholesky.factorize(&k_ff).unwrap();
             let rhs = map
                 .restrict(problem.loads(&mesh).unwrap().as_slice())
                 .unwrap();
