@@ -137,8 +137,8 @@ pub enum PreconditionerKind {
     /// [`IncompleteCholesky`] IC(0): 3–4× fewer iterations than block Jacobi on stiffness
     /// matrices (measured by `examples/preconditioners.rs`), sequential sweeps.
     IncompleteCholesky,
-    /// [`SmoothedAggregation`](crate::amg::SmoothedAggregation) algebraic multigrid with the
-    /// rigid-body modes (given a [`DofGeometry`](crate::amg::DofGeometry); the translations
+    /// [`SmoothedAggregation`] algebraic multigrid with the
+    /// rigid-body modes (given a [`DofGeometry`]; the translations
     /// without): iteration counts nearly independent of the mesh, the default.
     #[default]
     SmoothedAggregation,

@@ -28,9 +28,10 @@ use supernodal::{Columns, FactorPlan, FactorWorkspace, SupernodalPlan, Supernoda
 pub struct CholeskyOptions {
     /// Fill-reducing ordering (default: nested dissection).
     pub ordering: FillOrdering,
-    /// Threads for the numeric factorization and solves (1 = sequential, the default; more use
-    /// rayon's global pool; the supernodal solve uses two at most, one per half of the
-    /// elimination tree below its top separators).
+    /// Threads for the numeric factorization and solves (1 = sequential, the default). tetfem's
+    /// supernodal kernels use two at most, one per half of the elimination tree below its top
+    /// separators (and both on the top separators' dense blocks), from rayon's global pool;
+    /// faer's kernels ([`NumericFactorization::Faer`], simplicial factors) use this many.
     pub threads: usize,
 }
 

@@ -88,7 +88,7 @@ struct Run {
     tip: f64,
     residual: f64,
     cg_iterations: usize,
-    /// Best-of-repeats wall time of one backward-Euler and one explicit step [s] (0: not run).
+    /// Best-of-repeats wall time of one backward-Euler and one explicit step \[s\] (0: not run).
     step_seconds: [f64; 2],
     /// Bytes each step must move at least (see `time_steps`).
     step_floor_bytes: [f64; 2],

@@ -12,7 +12,7 @@ impl TetMesh {
             .collect()
     }
 
-    /// Nodes with |x[axis] − value| ≤ tolerance (axis 0 = x, 1 = y, 2 = z).
+    /// Nodes with |x\[axis\] − value| ≤ tolerance (axis 0 = x, 1 = y, 2 = z).
     ///
     /// An `axis` above 2 selects nothing.
     pub fn nodes_on_plane(&self, axis: usize, value: f64, tolerance: f64) -> Vec<usize> {
@@ -45,7 +45,7 @@ impl TetMesh {
             .collect()
     }
 
-    /// Boundary faces lying in the plane x[axis] = value (all three nodes within `tolerance`).
+    /// Boundary faces lying in the plane x\[axis\] = value (all three nodes within `tolerance`).
     pub fn faces_on_plane(
         &self,
         boundary: &[BoundaryFace],

@@ -12,7 +12,7 @@ use crate::material::Material;
 /// Energy V·(μ‖F − R‖² + λ/2·tr²(S − I)); force f = −R·Kₑ·(Rᵀx − X), which is the exact
 /// gradient of that energy (P = 2μ(F − R) + λ·tr(S − I)·R; the terms from dR cancel because S
 /// is symmetric). The tangent **includes** the rotation-derivative terms,
-/// dP = 2μ dF + (λ tr(S−I) − 2μ) dR + λ tr(RᵀdF) R with dR = R[w]×,
+/// dP = 2μ dF + (λ tr(S−I) − 2μ) dR + λ tr(RᵀdF) R with dR = R\[w\]×,
 /// (tr(S)·I − S)·w = axial(RᵀdF − dFᵀR): without them (the warped stiffness R·Kₑ·Rᵀ alone)
 /// Newton converges only linearly under large rotations. The exact tangent can be indefinite
 /// under compression; the assembly projects each element's tangent onto the positive

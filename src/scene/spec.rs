@@ -122,7 +122,7 @@ impl Axis {
 pub enum Selector {
     /// Every node / every boundary face: `"all"`.
     All,
-    /// `{ plane = { axis = "x", at = 0.0 } }`: nodes with |x[axis] − at| ≤ tolerance
+    /// `{ plane = { axis = "x", at = 0.0 } }`: nodes with |x\[axis\] − at| ≤ tolerance
     /// (default 1e-6 × the mesh's bounding-box diagonal); faces with all three nodes so.
     Plane {
         /// The axis normal to the plane.
