@@ -117,9 +117,9 @@ impl ThreadRates {
 /// moves less than the times; a caller with measurements of its own can set the fields.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct CostModel {
-    /// R_f, speed of the numeric Cholesky factorization [flop/s], at the Cholesky's threads.
+    /// R_f, speed of the numeric Cholesky factorization (flop/s), at the Cholesky's threads.
     pub factor_flops_per_second: ThreadRates,
-    /// t_s, time of one solve (forward and backward substitution) per stored factor value [s].
+    /// t_s, time of one solve (forward and backward substitution) per stored factor value (seconds).
     pub solve_seconds_per_factor_value: ThreadRates,
     /// t_a, SA-AMG setup time per stored matrix entry [s], at rayon's thread count.
     pub amg_setup_seconds_per_entry: ThreadRates,
@@ -190,12 +190,12 @@ pub struct PredictedTimes {
 }
 
 impl PredictedTimes {
-    /// Factorization and all the solves, direct [s].
+    /// Factorization and all the solves, direct (seconds).
     pub fn direct(&self) -> f64 {
         self.factorization + self.solves as f64 * self.direct_solve
     }
 
-    /// Setup and all the solves, iterative [s].
+    /// Setup and all the solves, iterative (seconds).
     pub fn iterative(&self) -> f64 {
         self.amg_setup + self.solves as f64 * self.iterative_solve
     }
