@@ -121,10 +121,10 @@ pub struct CostModel {
     pub factor_flops_per_second: ThreadRates,
     /// t_s, time of one solve (forward and backward substitution) per stored factor value (seconds).
     pub solve_seconds_per_factor_value: ThreadRates,
-    /// t_a, SA-AMG setup time per stored matrix entry [s], at rayon's thread count.
+    /// t_a, SA-AMG setup time per stored matrix entry (seconds), at rayon's thread count.
     pub amg_setup_seconds_per_entry: ThreadRates,
     /// t_c, time of one CG iteration (a product with the matrix and a V-cycle) per stored matrix
-    /// entry [s], at rayon's thread count.
+    /// entry (seconds), at rayon's thread count.
     pub iteration_seconds_per_entry: ThreadRates,
     /// d, CG iterations per decade of residual reduction with SA-AMG and the rigid-body modes
     /// (dimensionless).
