@@ -1,5 +1,5 @@
-//! The linear solver behind the static and implicit solves: a sparse Cholesky factorization when
-//! its factor fits in memory, preconditioned conjugate gradients when it does not.
+//! The linear solver behind the static and implicit solves: a sparse Cholesky factorization or
+//! preconditioned conjugate gradients, chosen by predicted time within a memory budget.
 
 use crate::amg::DofGeometry;
 use crate::error::{Error, Result};
@@ -7,11 +7,13 @@ use crate::iterative::{CgOptions, Preconditioner, PreconditionerKind, conjugate_
 use crate::linsolve::{CholeskyOptions, SparseCholesky};
 use crate::sparse::CscMatrix;
 
-/// Direct, iterative, or chosen by the predicted memory of the factor.
+/// Direct, iterative, or chosen by predicted time within the memory budget.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum LinearMethod {
-    /// Cholesky if its factor (known after the symbolic analysis) fits in the memory budget,
-    /// conjugate gradients otherwise. The default.
+    /// The faster of the two by the [`CostModel`]'s predicted time for
+    /// [`SolverOptions::expected_solves`] right-hand sides, among those that fit: the Cholesky
+    /// only if its factor (known after the symbolic analysis) fits the memory budget. The
+    /// default. [`LinearSolver::choice`] says which method was taken and why.
     #[default]
     Auto,
     /// Always the sparse Cholesky factorization.
@@ -51,8 +53,16 @@ pub struct SolverOptions {
     pub preconditioner: PreconditionerKind,
     /// Bytes the Cholesky factor may take under [`LinearMethod::Auto`]; `None` means 60 % of the
     /// memory available when the solver is built (`MemAvailable` in /proc/meminfo; unlimited
-    /// where that cannot be read).
+    /// where that cannot be read). A hard limit: Auto never factors above it.
     pub memory_budget: Option<usize>,
+    /// Right-hand sides the caller expects to solve per factorization (per matrix), at least 1
+    /// (default 1). [`LinearMethod::Auto`] weighs the factorization, paid once, against the
+    /// solves: a triangular solve costs a small fraction of a CG solve, so several load cases of
+    /// one static problem, or the steps of a time stepper that reuses its matrix, favour the
+    /// Cholesky. A Newton iteration that refactors for every solve is 1.
+    pub expected_solves: usize,
+    /// The rates behind [`LinearMethod::Auto`]'s predicted times.
+    pub cost_model: CostModel,
 }
 
 impl Default for SolverOptions {
@@ -63,8 +73,307 @@ impl Default for SolverOptions {
             cg: CgOptions::default(),
             preconditioner: PreconditionerKind::default(),
             memory_budget: None,
+            expected_solves: 1,
+            cost_model: CostModel::default(),
         }
     }
+}
+
+/// A rate measured with one thread and with two (the machine of the measurements has two
+/// cores). More than two threads are assumed no faster than two: the prediction then errs on the
+/// slow side for both methods alike.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ThreadRates {
+    /// With one thread.
+    pub one: f64,
+    /// With two or more threads.
+    pub two_or_more: f64,
+}
+
+impl ThreadRates {
+    /// The rate for `threads` threads (0 counts as 1).
+    pub fn at(&self, threads: usize) -> f64 {
+        if threads >= 2 {
+            self.two_or_more
+        } else {
+            self.one
+        }
+    }
+}
+
+/// Predicted wall times of the two methods, from sizes known before any numeric work:
+///
+/// - direct: T_d = F / R_f + s · |L| · t_s, with F the factorization's flops
+///   ([`SparseCholesky::factor_flops`]), |L| the factor's stored values
+///   ([`SparseCholesky::factor_len`]) and s the expected solves;
+/// - iterative (CG + SA-AMG with the rigid-body modes): T_i = nnz · t_a + s · m · nnz · t_c,
+///   with nnz the matrix's stored entries (both triangles) and m = d · log10(1/tol) the
+///   iterations for CG's relative tolerance tol.
+///
+/// The defaults were fitted to the scale study (`validation/scale_results.txt`: cantilever beams
+/// of 5k×k×k cells, METIS ordering, CG to 1e-10) on its 2-core machine; see the comments on each
+/// constant in [`CostModel::default`]. On another machine both methods speed up or slow down
+/// roughly together (both are bound by memory bandwidth and flop rate alike), so the choice
+/// moves less than the times; a caller with measurements of its own can set the fields.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CostModel {
+    /// R_f, speed of the numeric Cholesky factorization (flop/s), at the Cholesky's threads.
+    pub factor_flops_per_second: ThreadRates,
+    /// t_s, time of one solve (forward and backward substitution) per stored factor value (seconds).
+    pub solve_seconds_per_factor_value: ThreadRates,
+    /// t_a, SA-AMG setup time per stored matrix entry (seconds), at rayon's thread count.
+    pub amg_setup_seconds_per_entry: ThreadRates,
+    /// t_c, time of one CG iteration (a product with the matrix and a V-cycle) per stored matrix
+    /// entry (seconds), at rayon's thread count.
+    pub iteration_seconds_per_entry: ThreadRates,
+    /// d, CG iterations per decade of residual reduction with SA-AMG and the rigid-body modes
+    /// (dimensionless).
+    pub iterations_per_decade: f64,
+}
+
+impl Default for CostModel {
+    fn default() -> Self {
+        // Fitted to validation/scale_results.txt (commit 186ade2: METIS ordering, CG to 1e-10;
+        // flops and nnz(K_ff) of those beams from `cargo run --release --example solver_choice`),
+        // sizes from k = 12 (31k DOFs) up, where the rates have settled. Ratios time/size:
+        CostModel {
+            // Numeric factorization, flops / time. 1 thread, k = 12, 16, 20, 24, 30, 40: 15.1,
+            // 15.8, 18.2, 19.5, 18.5, 18.2 Gflop/s; 17 weighs the sizes near the crossover with
+            // the iterative method (69k DOFs). 2 threads, k = 20, 30: 22.1, 27.2 Gflop/s.
+            factor_flops_per_second: ThreadRates {
+                one: 17e9,
+                two_or_more: 24e9,
+            },
+            // Solve time / factor values. 1 thread: 1.15, 1.08, 0.97, 1.15, 0.87, 1.32 ns
+            // (median 1.1); 2 threads, k = 20, 30: 0.69, 0.50 ns.
+            solve_seconds_per_factor_value: ThreadRates {
+                one: 1.1e-9,
+                two_or_more: 0.6e-9,
+            },
+            // AMG setup time / nnz(K_ff), 2 threads, k = 12, 16, 24, 30, 40: 437, 320, 425,
+            // 418, 440 ns (the fused products of the later setup measured the same to within the
+            // noise, side by side at k = 20). No one-thread runs: the setup and the cycle move
+            // more bytes than they compute, so one thread is taken slower by the ratio of the
+            // study's triad bandwidths, 26.3 / 17.0 GB/s = 1.55.
+            amg_setup_seconds_per_entry: ThreadRates {
+                one: 650e-9,
+                two_or_more: 420e-9,
+            },
+            // CG solve time / (iterations · nnz(K_ff)), 2 threads, k = 12, 16, 24, 30, 40: 15.1,
+            // 11.0, 9.5, 8.1, 7.1 ns (falling as the coarse levels' share shrinks; median 9.5).
+            // One thread: × 1.55 as above.
+            iteration_seconds_per_entry: ThreadRates {
+                one: 15e-9,
+                two_or_more: 9.5e-9,
+            },
+            // 28–30 iterations to 1e-10 at every size from 10k to 1.01M DOFs: 3 per decade.
+            iterations_per_decade: 3.0,
+        }
+    }
+}
+
+/// Predicted times of both methods for one problem (seconds; see [`CostModel`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PredictedTimes {
+    /// Right-hand sides the totals are for ([`SolverOptions::expected_solves`]).
+    pub solves: usize,
+    /// F / R_f: the numeric Cholesky factorization.
+    pub factorization: f64,
+    /// |L| · t_s: one direct solve.
+    pub direct_solve: f64,
+    /// nnz · t_a: the SA-AMG setup.
+    pub amg_setup: f64,
+    /// m: CG iterations per solve.
+    pub iterations: f64,
+    /// m · nnz · t_c: one CG solve.
+    pub iterative_solve: f64,
+}
+
+impl PredictedTimes {
+    /// Factorization and all the solves, direct (seconds).
+    pub fn direct(&self) -> f64 {
+        self.factorization + self.solves as f64 * self.direct_solve
+    }
+
+    /// Setup and all the solves, iterative (seconds).
+    pub fn iterative(&self) -> f64 {
+        self.amg_setup + self.solves as f64 * self.iterative_solve
+    }
+}
+
+/// What [`LinearMethod::Auto`] decides from: sizes from the symbolic analysis and the matrix,
+/// the memory budget, and the threads each method would run on.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ChoiceInputs {
+    /// Stored entries of the matrix (both triangles).
+    pub matrix_entries: usize,
+    /// [`SparseCholesky::factor_len`].
+    pub factor_len: usize,
+    /// [`SparseCholesky::factor_flops`].
+    pub factor_flops: f64,
+    /// [`SparseCholesky::factor_bytes`], the factor and its workspace.
+    pub factor_bytes: usize,
+    /// The budget in bytes (`None`: unlimited).
+    pub memory_budget: Option<usize>,
+    /// Threads of the Cholesky ([`CholeskyOptions::threads`]).
+    pub cholesky_threads: usize,
+    /// Threads of the iterative path (rayon's pool).
+    pub iterative_threads: usize,
+    /// Whether the cost model's iteration estimate applies: smoothed aggregation with the
+    /// rigid-body modes. Block Jacobi, IC(0) and SA with the translations only need iterations
+    /// that grow with the mesh (hundreds to thousands), which it cannot predict.
+    pub iteration_estimate: bool,
+}
+
+impl CostModel {
+    /// The predicted times for `inputs` with `solves` right-hand sides, CG to relative
+    /// tolerance `tolerance` (at least one iteration).
+    pub fn predict(&self, inputs: &ChoiceInputs, solves: usize, tolerance: f64) -> PredictedTimes {
+        let nnz = inputs.matrix_entries as f64;
+        let decades = if tolerance > 0.0 && tolerance < 1.0 {
+            -tolerance.log10()
+        } else {
+            0.0
+        };
+        let iterations = (self.iterations_per_decade * decades).max(1.0);
+        let (tc, ti) = (inputs.cholesky_threads, inputs.iterative_threads);
+        PredictedTimes {
+            solves,
+            factorization: inputs.factor_flops / self.factor_flops_per_second.at(tc),
+            direct_solve: inputs.factor_len as f64 * self.solve_seconds_per_factor_value.at(tc),
+            amg_setup: nnz * self.amg_setup_seconds_per_entry.at(ti),
+            iterations,
+            iterative_solve: iterations * nnz * self.iteration_seconds_per_entry.at(ti),
+        }
+    }
+}
+
+/// Why a [`LinearSolver`] uses its method.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum ChoiceReason {
+    /// The caller asked for it ([`LinearMethod::Direct`] or [`LinearMethod::Iterative`]).
+    Requested,
+    /// Auto: the factor and its workspace would exceed the memory budget (bytes).
+    FactorOverBudget {
+        /// [`SparseCholesky::factor_bytes`].
+        factor_bytes: usize,
+        /// The budget.
+        budget: usize,
+    },
+    /// Auto: this method's predicted time is the lower (ties go to the direct method, whose
+    /// time varies less).
+    PredictedFaster,
+    /// Auto: the factor fits and the cost model has no iteration estimate for the iterative
+    /// path (see [`ChoiceInputs::iteration_estimate`]).
+    NoIterationEstimate,
+}
+
+/// Which method a [`LinearSolver`] uses, why, and the predicted times when they were computed.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MethodChoice {
+    /// [`LinearMethod::Direct`] or [`LinearMethod::Iterative`].
+    pub method: LinearMethod,
+    /// Why.
+    pub reason: ChoiceReason,
+    /// The predicted times of both methods (`None` when the iterative method was requested: no
+    /// symbolic analysis is run then).
+    pub predicted: Option<PredictedTimes>,
+}
+
+impl MethodChoice {
+    /// Whether the choice is the direct method.
+    pub fn is_direct(&self) -> bool {
+        self.method == LinearMethod::Direct
+    }
+}
+
+impl std::fmt::Display for MethodChoice {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let name = if self.is_direct() {
+            "direct (sparse Cholesky)"
+        } else {
+            "iterative (preconditioned CG)"
+        };
+        write!(f, "{name}: ")?;
+        match self.reason {
+            ChoiceReason::Requested => write!(f, "requested")?,
+            ChoiceReason::FactorOverBudget {
+                factor_bytes,
+                budget,
+            } => write!(
+                f,
+                "the Cholesky factor would take {:.3} GB, over the {:.3} GB memory budget",
+                factor_bytes as f64 * 1e-9,
+                budget as f64 * 1e-9
+            )?,
+            ChoiceReason::PredictedFaster => write!(f, "predicted faster")?,
+            ChoiceReason::NoIterationEstimate => write!(
+                f,
+                "the factor fits and the iterations of this preconditioner cannot be predicted"
+            )?,
+        }
+        if let Some(p) = &self.predicted {
+            write!(
+                f,
+                " (predicted for {} solve{}: direct {:.3} s = factorization {:.3} s + {:.3} s per \
+                 solve; iterative {:.3} s = setup {:.3} s + {:.3} s per solve of {:.0} iterations)",
+                p.solves,
+                if p.solves == 1 { "" } else { "s" },
+                p.direct(),
+                p.factorization,
+                p.direct_solve,
+                p.iterative(),
+                p.amg_setup,
+                p.iterative_solve,
+                p.iterations
+            )?;
+        }
+        Ok(())
+    }
+}
+
+/// [`LinearMethod::Auto`]'s decision (and the report of the other two) as a pure function of
+/// its inputs: memory first (a factor over the budget is never chosen), then the predicted times
+/// of [`SolverOptions::cost_model`] for [`SolverOptions::expected_solves`] right-hand sides.
+/// [`Error::InvalidParameter`] if `expected_solves` is 0.
+pub fn choose_method(inputs: &ChoiceInputs, options: &SolverOptions) -> Result<MethodChoice> {
+    if options.expected_solves == 0 {
+        return Err(Error::invalid_parameter(
+            "expected_solves",
+            0,
+            "must be at least 1",
+        ));
+    }
+    let predicted = options.cost_model.predict(
+        inputs,
+        options.expected_solves,
+        options.cg.relative_tolerance,
+    );
+    let choice = |method, reason| MethodChoice {
+        method,
+        reason,
+        predicted: Some(predicted),
+    };
+    Ok(match options.method {
+        LinearMethod::Direct => choice(LinearMethod::Direct, ChoiceReason::Requested),
+        LinearMethod::Iterative => choice(LinearMethod::Iterative, ChoiceReason::Requested),
+        LinearMethod::Auto => match inputs.memory_budget {
+            Some(budget) if inputs.factor_bytes > budget => choice(
+                LinearMethod::Iterative,
+                ChoiceReason::FactorOverBudget {
+                    factor_bytes: inputs.factor_bytes,
+                    budget,
+                },
+            ),
+            _ if !inputs.iteration_estimate => {
+                choice(LinearMethod::Direct, ChoiceReason::NoIterationEstimate)
+            }
+            _ if predicted.iterative() < predicted.direct() => {
+                choice(LinearMethod::Iterative, ChoiceReason::PredictedFaster)
+            }
+            _ => choice(LinearMethod::Direct, ChoiceReason::PredictedFaster),
+        },
+    })
 }
 
 /// What one solve did.
@@ -81,9 +390,16 @@ pub enum SolveInfo {
     },
 }
 
-/// A symmetric positive definite system solver, set up for one matrix pattern.
+/// A symmetric positive definite system solver, set up for one matrix pattern: the method
+/// ([`choice`](Self::choice)) and its state.
 #[derive(Debug)]
-pub enum LinearSolver {
+pub struct LinearSolver {
+    backend: Backend,
+    choice: MethodChoice,
+}
+
+#[derive(Debug)]
+enum Backend {
     /// Sparse Cholesky, analysed once, refactored per matrix.
     Direct(Box<SparseCholesky>),
     /// Preconditioned CG; the preconditioner is rebuilt per matrix.
@@ -109,8 +425,10 @@ impl LinearSolver {
 
     /// As [`analyze`](Self::analyze), with the node, axis and position of each of `matrix`'s
     /// DOFs, from which the smoothed-aggregation preconditioner builds the rigid-body modes
-    /// (without it: the three translations, more iterations).
-    /// [`Error::DimensionMismatch`] if `geometry` does not describe `matrix.dim()` DOFs.
+    /// (without it: the three translations, more iterations, and [`LinearMethod::Auto`] then
+    /// chooses the Cholesky whenever it fits: see [`ChoiceReason::NoIterationEstimate`]).
+    /// [`Error::DimensionMismatch`] if `geometry` does not describe `matrix.dim()` DOFs;
+    /// [`Error::InvalidParameter`] if `options.expected_solves` is 0.
     pub fn analyze_with_geometry(
         matrix: &CscMatrix,
         options: SolverOptions,
@@ -119,37 +437,65 @@ impl LinearSolver {
         if let Some(geometry) = &geometry {
             Error::check_len("DofGeometry DOFs", matrix.dim(), geometry.len())?;
         }
-        let iterative = |options: SolverOptions| -> Result<Self> {
-            Ok(LinearSolver::Iterative {
-                preconditioner: None,
-                kind: options.preconditioner,
-                geometry: geometry.map(Box::new),
-                options: options.cg,
+        if options.expected_solves == 0 {
+            return Err(Error::invalid_parameter(
+                "expected_solves",
+                0,
+                "must be at least 1",
+            ));
+        }
+        let iteration_estimate =
+            options.preconditioner == PreconditionerKind::SmoothedAggregation && geometry.is_some();
+        let iterative = |choice: MethodChoice| -> Result<Self> {
+            Ok(LinearSolver {
+                backend: Backend::Iterative {
+                    preconditioner: None,
+                    kind: options.preconditioner,
+                    geometry: geometry.map(Box::new),
+                    options: options.cg,
+                },
+                choice,
             })
         };
-        match options.method {
-            LinearMethod::Iterative => iterative(options),
-            LinearMethod::Direct | LinearMethod::Auto => {
-                let cholesky = SparseCholesky::analyze_with(matrix, options.cholesky)?;
-                let budget = options
-                    .memory_budget
-                    .or_else(|| available_memory().map(|m| m / 10 * 6));
-                if options.method == LinearMethod::Auto
-                    && budget.is_some_and(|b| cholesky.factor_bytes() > b)
-                {
-                    return iterative(options);
-                }
-                Ok(LinearSolver::Direct(Box::new(cholesky)))
-            }
+        if options.method == LinearMethod::Iterative {
+            // No symbolic analysis: it would cost time and the choice is made.
+            return iterative(MethodChoice {
+                method: LinearMethod::Iterative,
+                reason: ChoiceReason::Requested,
+                predicted: None,
+            });
+        }
+        let cholesky = SparseCholesky::analyze_with(matrix, options.cholesky)?;
+        let inputs = ChoiceInputs {
+            matrix_entries: matrix.nnz(),
+            factor_len: cholesky.factor_len(),
+            factor_flops: cholesky.factor_flops(),
+            factor_bytes: cholesky.factor_bytes(),
+            memory_budget: options
+                .memory_budget
+                .or_else(|| available_memory().map(|m| m / 10 * 6)),
+            cholesky_threads: options.cholesky.threads,
+            iterative_threads: rayon::current_num_threads(),
+            iteration_estimate,
+        };
+        let choice = choose_method(&inputs, &options)?;
+        if choice.is_direct() {
+            Ok(LinearSolver {
+                backend: Backend::Direct(Box::new(cholesky)),
+                choice,
+            })
+        } else {
+            drop(cholesky);
+            iterative(choice)
         }
     }
 
     /// Prepares for solves with `matrix` (on the analysed pattern): the numeric Cholesky
     /// factorization, reusing the analysis and the factor's storage, or a new preconditioner.
     pub fn factorize(&mut self, matrix: &CscMatrix) -> Result<()> {
-        match self {
-            LinearSolver::Direct(cholesky) => cholesky.factorize(matrix),
-            LinearSolver::Iterative {
+        match &mut self.backend {
+            Backend::Direct(cholesky) => cholesky.factorize(matrix),
+            Backend::Iterative {
                 preconditioner,
                 kind,
                 geometry,
@@ -167,12 +513,12 @@ impl LinearSolver {
     /// one last passed to [`factorize`](Self::factorize): CG multiplies by it,
     /// the direct method uses its factor.
     pub fn solve(&mut self, matrix: &CscMatrix, rhs: &mut [f64]) -> Result<SolveInfo> {
-        match self {
-            LinearSolver::Direct(cholesky) => {
+        match &mut self.backend {
+            Backend::Direct(cholesky) => {
                 cholesky.solve_in_place(rhs)?;
                 Ok(SolveInfo::Direct)
             }
-            LinearSolver::Iterative {
+            Backend::Iterative {
                 preconditioner,
                 options,
                 ..
@@ -196,15 +542,21 @@ impl LinearSolver {
 
     /// Stored values of the Cholesky factor (0 for the iterative method).
     pub fn factor_len(&self) -> usize {
-        match self {
-            LinearSolver::Direct(cholesky) => cholesky.factor_len(),
-            LinearSolver::Iterative { .. } => 0,
+        match &self.backend {
+            Backend::Direct(cholesky) => cholesky.factor_len(),
+            Backend::Iterative { .. } => 0,
         }
     }
 
     /// Whether this is the direct method.
     pub fn is_direct(&self) -> bool {
-        matches!(self, LinearSolver::Direct(_))
+        matches!(self.backend, Backend::Direct(_))
+    }
+
+    /// Which method this solver uses and why (its [`Display`](std::fmt::Display) is one
+    /// readable line).
+    pub fn choice(&self) -> &MethodChoice {
+        &self.choice
     }
 }
 

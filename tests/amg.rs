@@ -148,6 +148,7 @@ fn tentative_prolongator_reproduces_the_rigid_body_modes() {
     let p = &c.tentative;
     let mut column_norms = vec![0.0; p.ncols()];
     for (&j, &v) in p.col_idx().iter().zip(p.values()) {
+        let j = j as usize;
         column_norms[j] += v * v;
     }
     assert!(column_norms.iter().all(|s| (s - 1.0).abs() < 1e-12));
@@ -168,7 +169,7 @@ fn coarse_operator_is_the_symmetric_galerkin_product() {
     }
     // (PᵀAP)·x against Pᵀ(A(Px)): the same sums in another order, so equal up to round-off
     // relative to the largest terms; 1e-11 leaves room for κ-dependent cancellation.
-    let pt = p.transpose();
+    let pt = p.transpose().unwrap();
     for seed in 1..4 {
         let x = pseudo_random(nc, seed);
         let galerkin = a_c.mul(&x).unwrap();
@@ -319,5 +320,35 @@ fn bad_input_is_an_error_not_a_panic() {
     assert!(matches!(
         SmoothedAggregation::with_options(&b.k_ff, modes, options),
         Err(Error::InvalidParameter { .. })
+    ));
+}
+
+#[test]
+fn restriction_by_transpose_product_equals_the_stored_transpose() {
+    let b = beam([40, 8, 8]);
+    let (_, c) = first_coarsening(&b);
+    let p = &c.prolongator;
+    let x = pseudo_random(p.nrows(), 7);
+    let (mut scattered, mut by_rows) = (vec![0.0; p.ncols()], vec![0.0; p.ncols()]);
+    p.mul_transpose_vec(&x, &mut scattered).unwrap();
+    p.transpose().unwrap().mul_vec(&x, &mut by_rows).unwrap();
+    // Same products, summed in another order: a few ulps of the sums' magnitudes.
+    let scale = norm(&by_rows);
+    for (s, r) in scattered.iter().zip(&by_rows) {
+        assert!((s - r).abs() <= 1e-13 * scale, "{s} vs {r}");
+    }
+    assert!(matches!(
+        p.mul_transpose_vec(&x[1..], &mut scattered),
+        Err(Error::DimensionMismatch { .. })
+    ));
+}
+
+#[test]
+fn row_matrix_columns_are_bounded_by_u32() {
+    use tetfem::amg::{MAX_COLUMNS, RowMatrix};
+    assert!(RowMatrix::new(MAX_COLUMNS, vec![0, 1], vec![u32::MAX - 1], vec![1.0]).is_ok());
+    assert!(matches!(
+        RowMatrix::new(MAX_COLUMNS + 1, vec![0], vec![], vec![]),
+        Err(Error::InvalidParameter { ref name, .. }) if name == "RowMatrix columns"
     ));
 }

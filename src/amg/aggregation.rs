@@ -28,7 +28,7 @@ impl StrengthGraph {
 /// Keeps the block connections with ‖A_bc‖_F ≥ θ·√(‖A_bb‖_F·‖A_cc‖_F), c ≠ b (symmetric, as the
 /// matrix is). `block_of` maps a DOF to its block.
 pub(crate) fn strength_graph(
-    a: Rows<'_>,
+    a: Rows<'_, usize>,
     starts: &[usize],
     block_of: &[usize],
     theta: f64,
@@ -231,7 +231,8 @@ pub(crate) fn tentative_prolongator(
         let (q, _, kept) = &factors[a];
         let rows = member_ptr[a + 1] - member_ptr[a];
         for k in 0..*kept {
-            col_idx.push(coarse_starts[a] + k);
+            // nc ≤ n ≤ MAX_COLUMNS (checked before the setup), so this cannot truncate.
+            col_idx.push((coarse_starts[a] + k) as u32);
             values.push(q[k * rows + l]);
         }
     }

@@ -24,9 +24,9 @@ mod smoother;
 use std::sync::Mutex;
 
 pub use near_null::{DofGeometry, NearNullSpace};
-pub use rows::RowMatrix;
+pub use rows::{MAX_COLUMNS, RowMatrix};
 
-use self::rows::Rows;
+use self::rows::{Rows, TransposePlan, TransposeScratch};
 use self::smoother::{BlockDiagonal, Chebyshev, Scratch};
 use crate::error::{Error, Result};
 use crate::iterative::Preconditioner;
@@ -130,20 +130,25 @@ pub fn coarsen(
     options: &AmgOptions,
 ) -> Result<Coarsening> {
     options.validate()?;
+    rows::check_columns("matrix dimension", matrix.dim())?;
     Error::check_len("near-null space rows", matrix.dim(), near_null.dim())?;
-    Ok(coarsen_level(matrix, near_null, options)?.0)
+    Ok(coarsen_level(matrix, near_null, options, true)?.0)
 }
 
+/// One coarsening step; without `keep_tentative` P_tent is freed as soon as P is built (the
+/// returned one is then empty), which lowers the peak memory of the Galerkin product.
 fn coarsen_level(
     matrix: &CscMatrix,
     near_null: &NearNullSpace,
     options: &AmgOptions,
-) -> Result<(Coarsening, BlockDiagonal, RowMatrix)> {
+    keep_tentative: bool,
+) -> Result<(Coarsening, BlockDiagonal)> {
     let starts = near_null.starts();
     let diagonal = BlockDiagonal::new(matrix, starts)?;
     let lambda_max = smoother::largest_eigenvalue(matrix, &diagonal, options.lanczos_steps)?;
     let a = Rows::of_symmetric(matrix);
-    let mut block_of = vec![0usize; matrix.dim()];
+    let n = matrix.dim();
+    let mut block_of = vec![0usize; n];
     for b in 0..starts.len().saturating_sub(1) {
         block_of[starts[b]..starts[b + 1]].fill(b);
     }
@@ -151,20 +156,27 @@ fn coarsen_level(
     drop(block_of);
     let (aggregate_of, aggregates) = aggregation::aggregate(&graph);
     drop(graph);
-    let (tentative, coarse_near_null_space) =
+    let (mut tentative, coarse_near_null_space) =
         aggregation::tentative_prolongator(near_null, &aggregate_of, aggregates)?;
+    drop(aggregate_of);
     let omega = 4.0 / (3.0 * lambda_max);
-    // Scoped so that each intermediate product is freed before the next one is built.
-    let smoothed = {
-        let a_tentative = rows::multiply(a, &tentative);
-        rows::multiply(diagonal.inverse_rows()?.rows(), &a_tentative)
-    };
-    let prolongator = rows::add(1.0, &tentative, -omega, &smoothed);
-    drop(smoothed);
-    let restriction = prolongator.transpose();
+    // P = P_tent − ω·(D⁻¹·A)·P_tent, fused: neither A·P_tent nor D⁻¹·A·P_tent is stored whole.
+    let prolongator = rows::triple_product(
+        Some((1.0, &tentative)),
+        -omega,
+        diagonal.inverse_rows()?.rows(),
+        a,
+        n,
+        &tentative,
+    );
+    if !keep_tentative {
+        tentative = RowMatrix::empty(n, tentative.ncols());
+    }
+    // Pᵀ·A·P as (Pᵀ·A)·P by chunks of coarse rows: A·P, several times P's size, is never stored;
+    // Pᵀ lives only for this product (the V-cycle restricts with P's transpose product).
     let mut coarse = {
-        let a_p = rows::multiply(a, &prolongator);
-        rows::multiply(restriction.rows(), &a_p)
+        let restriction = prolongator.transpose()?;
+        rows::triple_product(None, 1.0, restriction.rows(), a, n, &prolongator)
     };
     coarse.symmetrize()?;
     let coarse_matrix = coarse.into_symmetric_csc()?;
@@ -177,7 +189,6 @@ fn coarsen_level(
             lambda_max,
         },
         diagonal,
-        restriction,
     ))
 }
 
@@ -187,10 +198,10 @@ struct Level {
     matrix: CscMatrix,
     diagonal: BlockDiagonal,
     smoother: Chebyshev,
-    /// P (n_l × n_{l+1}).
+    /// P (n_l × n_{l+1}); the restriction is its transpose product (Pᵀ is not stored).
     prolongator: RowMatrix,
-    /// Pᵀ, stored so that the restriction is a parallel product by rows too.
-    restriction: RowMatrix,
+    /// The fixed partition of P's rows for the transpose product.
+    restriction: TransposePlan,
 }
 
 /// Vectors of one level, allocated once.
@@ -201,6 +212,8 @@ struct LevelWork {
     product: Vec<f64>,
     coarse_rhs: Vec<f64>,
     coarse_solution: Vec<f64>,
+    /// Buffers of the restriction Pᵀ·r.
+    restriction: TransposeScratch,
 }
 
 #[derive(Debug)]
@@ -254,6 +267,7 @@ impl SmoothedAggregation {
     ) -> Result<Self> {
         options.validate()?;
         let dim = matrix.dim();
+        rows::check_columns("matrix dimension", dim)?;
         Error::check_len("near-null space rows", dim, near_null.dim())?;
         if dim <= options.coarse_size {
             // No level above the Cholesky-factored one: still name a bad diagonal block as the
@@ -261,15 +275,17 @@ impl SmoothedAggregation {
             BlockDiagonal::new(matrix, near_null.starts())?;
         }
         let mut levels = Vec::new();
+        let mut scratches = Vec::new();
         let mut current = matrix.clone();
         let mut modes = near_null;
         while current.dim() > options.coarse_size && levels.len() + 1 < options.max_levels {
-            let (coarsening, diagonal, restriction) = coarsen_level(&current, &modes, &options)?;
+            let (coarsening, diagonal) = coarsen_level(&current, &modes, &options, false)?;
             let coarse_dim = coarsening.coarse_matrix.dim();
             // Aggregation that no longer reduces the size would only add cost.
             if coarse_dim == 0 || 10 * coarse_dim > 9 * current.dim() {
                 break;
             }
+            let (restriction, scratch) = TransposePlan::new(&coarsening.prolongator);
             let upper = 1.1 * coarsening.lambda_max;
             let lower = options.smoother_range * upper;
             levels.push(Level {
@@ -283,6 +299,7 @@ impl SmoothedAggregation {
                 prolongator: coarsening.prolongator,
                 restriction,
             });
+            scratches.push(scratch);
             current = coarsening.coarse_matrix;
             modes = coarsening.coarse_near_null_space;
         }
@@ -290,7 +307,8 @@ impl SmoothedAggregation {
         coarsest.factorize(&current)?;
         let work = levels
             .iter()
-            .map(|level| {
+            .zip(scratches)
+            .map(|(level, restriction)| {
                 let (n, nc) = (level.matrix.dim(), level.prolongator.ncols());
                 LevelWork {
                     residual: vec![0.0; n],
@@ -298,6 +316,7 @@ impl SmoothedAggregation {
                     product: vec![0.0; n],
                     coarse_rhs: vec![0.0; nc],
                     coarse_solution: vec![0.0; nc],
+                    restriction,
                 }
             })
             .collect();
@@ -356,6 +375,7 @@ fn cycle(
         product,
         coarse_rhs,
         coarse_solution,
+        restriction,
     } = this;
     let (a, d) = (&level.matrix, &level.diagonal);
     level.smoother.smooth(
@@ -373,7 +393,9 @@ fn cycle(
     a.product_into(x, product);
     let product_ro: &[f64] = product;
     smoother::zip_apply(residual, |i, r| *r = b[i] - product_ro[i]);
-    level.restriction.product_into(residual, coarse_rhs, false);
+    level
+        .prolongator
+        .transpose_product_into(&level.restriction, restriction, residual, coarse_rhs);
     cycle(deeper, deeper_work, coarsest, coarse_rhs, coarse_solution)?;
     level.prolongator.product_into(coarse_solution, x, true);
     level.smoother.smooth(

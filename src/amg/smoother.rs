@@ -95,7 +95,8 @@ impl BlockDiagonal {
             let b = self.block_of[i] as usize;
             let (lo, hi) = (self.starts[b], self.starts[b + 1]);
             let at = self.offsets[b] + (i - lo) * (hi - lo);
-            col_idx.extend(lo..hi);
+            // n ≤ MAX_COLUMNS (checked before the setup), so these cannot truncate.
+            col_idx.extend((lo..hi).map(|c| c as u32));
             values.extend_from_slice(&self.inverse[at..at + hi - lo]);
             row_ptr.push(col_idx.len());
         }
