@@ -13,7 +13,7 @@ use faer::mat::MatMut;
 use faer::perm::PermRef;
 use faer::sparse::SymbolicSparseColMat;
 use faer::sparse::linalg::cholesky::{
-    CholeskySymbolicParams, LltRef, SymbolicCholesky, SymbolicCholeskyRaw, SymmetricOrdering,
+    CholeskySymbolicParams, LltRef, SymbolicCholesky, SymmetricOrdering,
     factorize_symbolic_cholesky,
 };
 use faer::{Conj, Side};
@@ -328,27 +328,6 @@ impl SparseCholesky {
     /// after the symbolic analysis.
     pub fn factor_len(&self) -> usize {
         self.symbolic.len_val()
-    }
-
-    /// Flops of the numeric factorization, from the symbolic analysis: for each supernode of c
-    /// columns with b rows below its diagonal block, c³/3 (diagonal block) + b·c² (rows below) +
-    /// b²·c (its updates of later columns); for a simplicial factor, Σ_j n_j² over the columns'
-    /// below-diagonal counts n_j (the update of each column pair) plus the columns' scaling.
-    pub fn factor_flops(&self) -> f64 {
-        match (&self.plan, self.symbolic.raw()) {
-            (Some(plan), _) => plan.factor_flops(),
-            (None, SymbolicCholeskyRaw::Simplicial(simplicial)) => {
-                let col_ptr = simplicial.col_ptr();
-                (0..simplicial.ncols())
-                    .map(|j| {
-                        // Stored entries of column j, the diagonal included.
-                        let below = (col_ptr[j + 1] - col_ptr[j]).saturating_sub(1) as f64;
-                        below * below + below
-                    })
-                    .sum()
-            }
-            (None, SymbolicCholeskyRaw::Supernodal(_)) => 0.0,
-        }
     }
 
     /// Bytes the numeric factorization will hold: the factor's values (8 bytes each) plus the

@@ -244,11 +244,6 @@ impl SupernodalPlan {
         owner
     }
 
-    /// Flops of the numeric factorization (see [`factor::flops`]).
-    pub(crate) fn factor_flops(&self) -> f64 {
-        self.nodes.iter().map(factor::flops).sum()
-    }
-
     /// Fractions of the factor's values in the top and in each thread's subtrees.
     pub(crate) fn split_summary(&self) -> [f64; 3] {
         let values = |list: &[usize]| -> f64 {

@@ -105,7 +105,7 @@ impl std::fmt::Debug for Columns<'_> {
 
 /// Flops of factoring supernode `node` and of its updates to the ancestors:
 /// c³/3 (diagonal block) + b·c² (rows below) + b²·c (updates), with c columns and b rows below.
-pub(super) fn flops(node: &Supernode) -> f64 {
+fn flops(node: &Supernode) -> f64 {
     let (c, b) = (node.ncols as f64, node.below as f64);
     c * c * c / 3.0 + b * c * c + b * b * c
 }
