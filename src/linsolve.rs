@@ -28,8 +28,8 @@ use supernodal::{SupernodalPlan, SupernodalWorkspace};
 pub struct CholeskyOptions {
     /// Fill-reducing ordering (default: nested dissection).
     pub ordering: FillOrdering,
-    /// Threads for the numeric factorization and solves (1 = sequential, the default; more use
-    /// rayon's global pool; the supernodal solve uses two at most, one per half of the
+    /// Threads for the numeric factorization and solves (1 = sequential, the default, and 0
+    /// counts as 1; more use rayon's global pool; the supernodal solve uses two at most, one per half of the
     /// elimination tree below its top separators).
     pub threads: usize,
 }

@@ -15,7 +15,9 @@ use nalgebra::Vector3;
 use tetfem::amg::DofGeometry;
 use tetfem::cantilever::Cantilever;
 use tetfem::chart::{Chart, Mark, Series};
-use tetfem::dynamics::{LinearSystem, MassKind, Method, Rayleigh, State, critical_time_step};
+use tetfem::dynamics::{
+    IntegratorOptions, LinearSystem, MassKind, Method, Rayleigh, State, critical_time_step,
+};
 use tetfem::{
     Assembler, CholeskyOptions, DofMap, FillOrdering, LinearMethod, LinearSolver, SolverOptions,
 };
@@ -214,7 +216,7 @@ fn run_one(
 /// - explicit: K_ff's values once (8 B per stored entry, whatever the format) and six vectors
 ///   (u, v, f, M⁻¹ read; u, v written);
 /// - backward Euler: the same, plus the Cholesky factor's values read twice (forward and
-///   backward substitution).
+///   backward substitution); its factorization and solves use the run's threads.
 fn time_steps(
     problem: &Cantilever,
     mesh: &tetfem::TetMesh,
@@ -241,7 +243,15 @@ fn time_steps(
         if !methods.contains(&method) {
             continue;
         }
-        let mut integrator = method.integrator(Arc::clone(&system), dt)?;
+        // The implicit step's factorization and solves on the run's threads, like the static
+        // solve's.
+        let options = IntegratorOptions {
+            cholesky: CholeskyOptions {
+                threads: run.threads,
+                ..Default::default()
+            },
+        };
+        let mut integrator = method.integrator_with(Arc::clone(&system), dt, options)?;
         let mut state = State::at_rest(system.free_count());
         integrator.step(&mut state)?; // the factorization, outside the timing
         let mut best = f64::INFINITY;
