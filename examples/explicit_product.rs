@@ -3,6 +3,11 @@
 //! use), and a matrix-free element loop that keeps per tet only its shape gradients and λ·V, μ·V
 //! (104 bytes per tet, about half the bytes of K), and checks that all three agree.
 //!
+//! Then, in a second interleaved table, the node-block product with 1, 2, 4 and 8 concurrent
+//! streams per parallel task (1 is the former single-stream kernel) against the floor of any
+//! format: reading the same number of values (8 B each) once, as one sequential stream per
+//! thread and as four.
+//!
 //! `cargo run --release --example explicit_product -- 100,20,20` (cells; RAYON_NUM_THREADS sets
 //! the threads of the two matrix products; the element loop is serial, as a scatter-add needs
 //! coloring to run in parallel).
@@ -120,6 +125,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         element_loop.product(&x, &mut y_loop);
         best[2] = best[2].min(clock.elapsed().as_secs_f64());
     }
+    streams_table(&blocks, &x, &y_blocks)?;
     let scale = y_csc.iter().fold(0.0f64, |m, y| m.max(y.abs()));
     let differs = |y: &[f64]| {
         y.iter()
@@ -150,4 +156,104 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         );
     }
     Ok(())
+}
+
+/// Times the node-block product per stream count against plain reads of as many values.
+fn streams_table(
+    blocks: &BlockMatrix3,
+    x: &[f64],
+    reference: &[f64],
+) -> Result<(), Box<dyn std::error::Error>> {
+    const STREAMS: [usize; 4] = [1, 2, 4, 8];
+    let values = vec![1.0f64; 9 * blocks.stored_blocks()];
+    let mut y = vec![0.0; x.len()];
+    let mut best = [f64::INFINITY; STREAMS.len() + 2];
+    for _ in 0..20 {
+        for (k, &streams) in STREAMS.iter().enumerate() {
+            let clock = Instant::now();
+            blocks.mul_vec_with_streams(x, &mut y, streams)?;
+            best[k] = best[k].min(clock.elapsed().as_secs_f64());
+            if y != reference {
+                return Err(format!("{streams} streams: not the bits of mul_vec").into());
+            }
+        }
+        for (k, read) in [read_one_stream as fn(&[f64]) -> f64, read_four_streams]
+            .into_iter()
+            .enumerate()
+        {
+            let clock = Instant::now();
+            std::hint::black_box(read(std::hint::black_box(&values)));
+            best[STREAMS.len() + k] = best[STREAMS.len() + k].min(clock.elapsed().as_secs_f64());
+        }
+    }
+    let bytes = 8.0 * values.len() as f64;
+    println!(
+        "\nnode-block product by streams per task (default {}), against reading its {:.1} MB of values",
+        tetfem::block_sparse::STREAMS,
+        bytes / 1e6
+    );
+    println!("| kernel | time [ms] | values GB/s | ÷ 4-stream read |");
+    println!("|---|---|---|---|");
+    let names = STREAMS
+        .iter()
+        .map(|s| format!("product, {s} stream(s)"))
+        .chain([
+            "read, 1 stream per thread".into(),
+            "read, 4 streams per thread".into(),
+        ]);
+    for (name, time) in names.zip(best) {
+        println!(
+            "| {name} | {:.3} | {:.1} | {:.2} |",
+            time * 1e3,
+            bytes / time / 1e9,
+            time / best[STREAMS.len() + 1]
+        );
+    }
+    Ok(())
+}
+
+/// Sum of `values`, one sequential stream per rayon task.
+fn read_one_stream(values: &[f64]) -> f64 {
+    use rayon::prelude::*;
+    values
+        .par_chunks(1 << 16)
+        .map(|c| {
+            let mut s = [0.0; 4];
+            for q in c.chunks_exact(4) {
+                for k in 0..4 {
+                    s[k] += q[k];
+                }
+            }
+            s.iter().sum::<f64>()
+        })
+        .sum()
+}
+
+/// Sum of `values`, each rayon task reading four quarters of its chunk side by side.
+fn read_four_streams(values: &[f64]) -> f64 {
+    use rayon::prelude::*;
+    values
+        .par_chunks(1 << 18)
+        .map(|c| {
+            let q = c.len() / 4;
+            let mut s = [[0.0; 4]; 4];
+            let (a, rest) = c.split_at(q);
+            let (b, rest) = rest.split_at(q);
+            let (d, e) = rest.split_at(q);
+            for (((a, b), d), e) in a
+                .chunks_exact(4)
+                .zip(b.chunks_exact(4))
+                .zip(d.chunks_exact(4))
+                .zip(e.chunks_exact(4))
+            {
+                for k in 0..4 {
+                    s[0][k] += a[k];
+                    s[1][k] += b[k];
+                    s[2][k] += d[k];
+                    s[3][k] += e[k];
+                }
+            }
+            s.iter().flatten().sum::<f64>()
+        })
+        .sum()
 }

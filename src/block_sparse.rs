@@ -218,61 +218,177 @@ impl BlockMatrix3 {
         }
     }
 
-    /// y₀ = A·x₀ and, when y₁ is not empty, y₁ = A·x₁, in the padded numbering; block rows in
-    /// parallel, in fixed chunks whose partial dot products xᵢᵀ·yᵢ are summed in order. Each
-    /// output entry is one sequential sum, so no bit depends on the thread count.
-    fn blocks_times(&self, x: [&[f64]; 2], y: [&mut [f64]; 2]) -> (f64, f64) {
-        const CHUNK: usize = 3 * 512;
-        let [y0, y1] = y;
-        let two = !y1.is_empty();
-        let chunk = |(c, (y0, y1)): (usize, (&mut [f64], &mut [f64]))| {
-            let first = c * CHUNK / 3;
-            let mut dots = (0.0, 0.0);
-            for local in 0..y0.len() / 3 {
-                let b = first + local;
-                let (mut s0, mut s1) = ([0.0; 3], [0.0; 3]);
-                let range = self.row_ptr[b]..self.row_ptr[b + 1];
-                let blocks = self.values[9 * range.start..9 * range.end].chunks_exact(9);
-                for (&j, a) in self.columns[range].iter().zip(blocks) {
-                    let j = 3 * j as usize;
-                    let p = &x[0][j..j + 3];
-                    for r in 0..3 {
-                        s0[r] += a[3 * r] * p[0] + a[3 * r + 1] * p[1] + a[3 * r + 2] * p[2];
-                    }
-                    if two {
-                        let q = &x[1][j..j + 3];
-                        for r in 0..3 {
-                            s1[r] += a[3 * r] * q[0] + a[3 * r + 1] * q[1] + a[3 * r + 2] * q[2];
-                        }
-                    }
-                }
-                let rows = 3 * local..3 * local + 3;
-                y0[rows.clone()].copy_from_slice(&s0);
-                let i = 3 * b;
-                dots.0 += x[0][i] * s0[0] + x[0][i + 1] * s0[1] + x[0][i + 2] * s0[2];
-                if two {
-                    y1[rows].copy_from_slice(&s1);
-                    dots.1 += x[1][i] * s1[0] + x[1][i + 1] * s1[1] + x[1][i + 2] * s1[2];
-                }
+    /// y = A·x with a chosen number of concurrent streams per parallel task (1, 2, 4 or 8;
+    /// [`Error::InvalidParameter`] otherwise), for measuring what the streams buy: the result
+    /// is bit for bit that of [`mul_vec`](Self::mul_vec), which uses [`STREAMS`].
+    pub fn mul_vec_with_streams(&self, x: &[f64], y: &mut [f64], streams: usize) -> Result<()> {
+        Error::check_len("x", self.dim, x.len())?;
+        Error::check_len("y", self.dim, y.len())?;
+        let times = match streams {
+            1 => Self::blocks_times_streams::<1>,
+            2 => Self::blocks_times_streams::<2>,
+            4 => Self::blocks_times_streams::<4>,
+            8 => Self::blocks_times_streams::<8>,
+            _ => {
+                return Err(Error::invalid_parameter(
+                    "streams",
+                    streams,
+                    "must be 1, 2, 4 or 8",
+                ));
             }
-            dots
         };
-        let partial: Vec<(f64, f64)> = if two {
-            y0.par_chunks_mut(CHUNK)
-                .zip(y1.par_chunks_mut(CHUNK))
+        match &self.padded_index {
+            None => {
+                times(self, [x, x], [y, &mut []]);
+            }
+            Some(padded) => {
+                let mut work = self.workspace();
+                let [xp, _] = &mut work.x;
+                let [yp, _] = &mut work.y;
+                gather(padded, x, xp);
+                times(self, [xp, xp], [yp, &mut []]);
+                scatter(padded, yp, y);
+            }
+        }
+        Ok(())
+    }
+
+    /// y₀ = A·x₀ and, when y₁ is not empty, y₁ = A·x₁, in the padded numbering, with
+    /// [`STREAMS`] streams per task.
+    fn blocks_times(&self, x: [&[f64]; 2], y: [&mut [f64]; 2]) -> (f64, f64) {
+        self.blocks_times_streams::<STREAMS>(x, y)
+    }
+
+    /// The products in parallel over fixed chunks of [`CHUNK_ROWS`] block rows, whose partial
+    /// dot products xᵢᵀ·yᵢ are summed in chunk order. Each output entry is one sequential sum
+    /// and the chunks and their streams do not depend on the thread count, so no bit does.
+    fn blocks_times_streams<const S: usize>(
+        &self,
+        x: [&[f64]; 2],
+        y: [&mut [f64]; 2],
+    ) -> (f64, f64) {
+        let [y0, y1] = y;
+        let len = 3 * CHUNK_ROWS;
+        let partial: Vec<(f64, f64)> = if y1.is_empty() {
+            y0.par_chunks_mut(len)
                 .enumerate()
-                .map(chunk)
+                .map(|(c, y0)| self.chunk_times::<S, false>(c * CHUNK_ROWS, x, [y0, &mut []]))
                 .collect()
         } else {
-            y0.par_chunks_mut(CHUNK)
+            y0.par_chunks_mut(len)
+                .zip(y1.par_chunks_mut(len))
                 .enumerate()
-                .map(|(c, y0)| chunk((c, (y0, &mut []))))
+                .map(|(c, (y0, y1))| self.chunk_times::<S, true>(c * CHUNK_ROWS, x, [y0, y1]))
                 .collect()
         };
         partial
             .iter()
             .fold((0.0, 0.0), |(a, b), (p, q)| (a + p, b + q))
     }
+
+    /// One chunk of block rows from `first` (as many as `y[0]` holds), cut into `S` parts of
+    /// about equal stored blocks that advance together, one block row of each per turn: the
+    /// hardware prefetchers then follow S sequential streams, and one core reads memory
+    /// faster than it does along a single stream (measured in examples/explicit_product.rs).
+    /// Returns the chunk's (x₀ᵀ·y₀, x₁ᵀ·y₁), its parts' sums added in order.
+    fn chunk_times<const S: usize, const TWO: bool>(
+        &self,
+        first: usize,
+        x: [&[f64]; 2],
+        y: [&mut [f64]; 2],
+    ) -> (f64, f64) {
+        let bounds = self.stream_bounds::<S>(first, first + y[0].len() / 3);
+        let [y0, y1] = y;
+        let parts0 = split_rows::<S>(y0, &bounds);
+        let parts1 = if TWO {
+            split_rows::<S>(y1, &bounds)
+        } else {
+            std::array::from_fn(|_| &mut [][..])
+        };
+        let longest = (0..S).map(|s| bounds[s + 1] - bounds[s]).max().unwrap_or(0);
+        let mut dots = [(0.0, 0.0); S];
+        for local in 0..longest {
+            for s in 0..S {
+                let b = bounds[s] + local;
+                if b >= bounds[s + 1] {
+                    continue;
+                }
+                let (s0, s1) = self.row_times::<TWO>(b, x);
+                let rows = 3 * local..3 * local + 3;
+                parts0[s][rows.clone()].copy_from_slice(&s0);
+                dots[s].0 += dot3(&x[0][3 * b..3 * b + 3], &s0);
+                if TWO {
+                    parts1[s][rows].copy_from_slice(&s1);
+                    dots[s].1 += dot3(&x[1][3 * b..3 * b + 3], &s1);
+                }
+            }
+        }
+        dots.iter()
+            .fold((0.0, 0.0), |(a, b), (p, q)| (a + p, b + q))
+    }
+
+    /// Block-row bounds of the `S` parts of rows `first..end`: part s is
+    /// `bounds[s]..bounds[s + 1]`, cut where the stored blocks reach s/S of the chunk's (parts
+    /// may be empty when the chunk has fewer rows than parts). A `Vec` because arrays cannot
+    /// have length S + 1 on stable Rust; one small allocation per chunk of thousands of rows.
+    fn stream_bounds<const S: usize>(&self, first: usize, end: usize) -> Vec<usize> {
+        let row_ptr = &self.row_ptr[first..=end];
+        let (start, blocks) = (row_ptr[0], row_ptr[end - first] - row_ptr[0]);
+        let cut = |s: usize| first + row_ptr.partition_point(|&p| p - start < blocks * s / S);
+        // The last part ends at `end` even when the chunk's last rows store no block.
+        (0..S).map(cut).chain([end]).collect()
+    }
+
+    /// (A·x₀, A·x₁) of block row `b` (the second only when `TWO`).
+    #[inline(always)]
+    fn row_times<const TWO: bool>(&self, b: usize, x: [&[f64]; 2]) -> ([f64; 3], [f64; 3]) {
+        let (mut s0, mut s1) = ([0.0; 3], [0.0; 3]);
+        let range = self.row_ptr[b]..self.row_ptr[b + 1];
+        let blocks = self.values[9 * range.start..9 * range.end].chunks_exact(9);
+        for (&j, a) in self.columns[range].iter().zip(blocks) {
+            let j = 3 * j as usize;
+            let p = &x[0][j..j + 3];
+            for r in 0..3 {
+                s0[r] += a[3 * r] * p[0] + a[3 * r + 1] * p[1] + a[3 * r + 2] * p[2];
+            }
+            if TWO {
+                let q = &x[1][j..j + 3];
+                for r in 0..3 {
+                    s1[r] += a[3 * r] * q[0] + a[3 * r + 1] * q[1] + a[3 * r + 2] * q[2];
+                }
+            }
+        }
+        (s0, s1)
+    }
+}
+
+/// Concurrent sequential streams each parallel task of a product follows (see
+/// [`BlockMatrix3::mul_vec_with_streams`] to measure others). Two, as measured with
+/// `examples/explicit_product.rs` on a shared 2-core EPYC (best of 20, interleaved): at 132k
+/// and 435k DOFs two streams took 0.81–0.93× the time of one on one and two threads, while
+/// four and eight took 1.2–2.1× *longer* than one, although a plain read of the values runs
+/// 1.5–1.8× faster as four streams than as one. Presumably because each part of a product is
+/// three streams (values, block columns, y) plus a window of x, and twelve or more outrun the
+/// prefetchers; writing out one copy of the loads per stream did not help.
+pub const STREAMS: usize = 2;
+
+/// Block rows per parallel task of a product: fixed (not derived from the thread count), so
+/// that the dot products' summation order is too.
+const CHUNK_ROWS: usize = 2048;
+
+/// `y` (the rows of one chunk) cut into the parts of `bounds` (block rows, 3 entries each).
+fn split_rows<'a, const S: usize>(y: &'a mut [f64], bounds: &[usize]) -> [&'a mut [f64]; S] {
+    let mut rest = y;
+    std::array::from_fn(|s| {
+        let rows = bounds[s + 1] - bounds[s];
+        let (part, tail) = std::mem::take(&mut rest).split_at_mut(3 * rows);
+        rest = tail;
+        part
+    })
+}
+
+fn dot3(x: &[f64], y: &[f64; 3]) -> f64 {
+    x[0] * y[0] + x[1] * y[1] + x[2] * y[2]
 }
 
 fn gather(padded: &[u32], free: &[f64], out: &mut [f64]) {
@@ -294,9 +410,13 @@ mod tests {
     use crate::cantilever::Cantilever;
     use crate::{Assembler, DofMap};
 
-    /// K_ff of a small beam with `extra` constrained DOFs beyond the clamp (padded blocks).
+    /// K_ff of a small beam, with a roller on its free end when `roller` (padded blocks).
     fn stiffness(roller: bool) -> (CscMatrix, DofMap) {
-        let problem = Cantilever::peer_benchmark([6, 2, 2]);
+        stiffness_of(&Cantilever::peer_benchmark([6, 2, 2]), roller)
+    }
+
+    /// K_ff of `problem`'s beam, with a roller on its free end when `roller`.
+    fn stiffness_of(problem: &Cantilever, roller: bool) -> (CscMatrix, DofMap) {
         let mesh = problem.mesh().unwrap();
         let mut constraints = problem.constraints(&mesh).unwrap();
         if roller {
@@ -367,6 +487,117 @@ mod tests {
     #[test]
     fn padded_blocks_of_partially_constrained_nodes() {
         check_products(true);
+    }
+
+    /// `k`'s products with 1, 2, 4 and 8 streams on pools of one and two threads: y and the dot
+    /// products xᵀy bit for bit those of the single-stream product on one thread (each y entry
+    /// is the same sequential sum; the dots' order is fixed by the chunks and streams), and y
+    /// the CSC product's up to round-off.
+    fn check_streams(k: &CscMatrix, free_dofs: &[usize]) {
+        let blocks = BlockMatrix3::from_free_matrix(k, free_dofs).unwrap();
+        let n = k.dim();
+        let xa: Vec<f64> = (0..n).map(|i| ((i * 7919) % 101) as f64 - 50.0).collect();
+        let xb: Vec<f64> = (0..n).map(|i| ((i * 104_729) % 37) as f64 * 0.1).collect();
+        let reference = k.mul(&xa).unwrap();
+        let mut single = vec![f64::NAN; n];
+        blocks.mul_vec_with_streams(&xa, &mut single, 1).unwrap();
+        let scale = k.values().iter().fold(0.0f64, |m, v| m.max(v.abs())) * 50.0 * 100.0;
+        for i in 0..n {
+            // Same products summed in another order: round-off of ~100 terms of size `scale`.
+            assert!((single[i] - reference[i]).abs() <= 1e-13 * scale, "row {i}");
+        }
+        let bits = |y: &[f64]| y.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
+        let mut expected_dots = None;
+        for threads in [1, 2] {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap();
+            pool.install(|| {
+                for streams in [1, 2, 4, 8] {
+                    let mut y = vec![f64::NAN; n];
+                    blocks.mul_vec_with_streams(&xa, &mut y, streams).unwrap();
+                    assert_eq!(
+                        bits(&y),
+                        bits(&single),
+                        "{streams} streams, {threads} threads"
+                    );
+                }
+                let mut work = blocks.workspace();
+                let (mut ya, mut yb) = (vec![f64::NAN; n], vec![f64::NAN; n]);
+                let dots = blocks.product2_into((&xa, &xb), (&mut ya, &mut yb), &mut work);
+                assert_eq!(bits(&ya), bits(&single), "{threads} threads");
+                let dots = (dots.0.to_bits(), dots.1.to_bits());
+                assert_eq!(
+                    *expected_dots.get_or_insert(dots),
+                    dots,
+                    "{threads} threads"
+                );
+            });
+        }
+        assert!(blocks.mul_vec_with_streams(&xa, &mut single, 3).is_err());
+    }
+
+    #[test]
+    fn streams_and_threads_change_no_bit_over_several_chunks() {
+        for roller in [false, true] {
+            let problem = Cantilever::peer_benchmark([50, 6, 6]);
+            let (k, dofs) = stiffness_of(&problem, roller);
+            let blocks = BlockMatrix3::from_free_matrix(&k, dofs.free_dofs()).unwrap();
+            // Two chunks, the second partial: 2 450 block rows.
+            assert!(
+                blocks.block_rows() > CHUNK_ROWS && !blocks.block_rows().is_multiple_of(CHUNK_ROWS)
+            );
+            check_streams(&k, dofs.free_dofs());
+        }
+    }
+
+    /// A dense SPD matrix of dimension `n` (full pattern).
+    fn dense(n: usize) -> CscMatrix {
+        let col_ptr = (0..=n).map(|j| j * n).collect();
+        let rows = (0..n * n).map(|k| k % n).collect();
+        let values = (0..n * n)
+            .map(|k| {
+                if k % n == k / n {
+                    10.0
+                } else {
+                    1.0 / (1 + k % n + k / n) as f64
+                }
+            })
+            .collect();
+        let pattern = faer::sparse::SymbolicSparseColMat::new_checked(n, n, col_ptr, None, rows);
+        CscMatrix::from_values(std::sync::Arc::new(pattern), values).unwrap()
+    }
+
+    #[test]
+    fn tiny_matrices_with_fewer_block_rows_than_streams() {
+        check_streams(&dense(0), &[]);
+        check_streams(&dense(3), &[0, 1, 2]);
+        // One node with two free axes (padded), then a complete one and a one-axis node.
+        check_streams(&dense(2), &[3, 5]);
+        check_streams(&dense(6), &[1, 2, 3, 4, 5, 8]);
+    }
+
+    #[test]
+    fn streams_split_a_chunk_into_equal_work() {
+        let (k, dofs) = stiffness_of(&Cantilever::peer_benchmark([50, 6, 6]), false);
+        let blocks = BlockMatrix3::from_free_matrix(&k, dofs.free_dofs()).unwrap();
+        let longest_row = (0..blocks.block_rows())
+            .map(|b| blocks.row_ptr[b + 1] - blocks.row_ptr[b])
+            .max()
+            .unwrap();
+        let (first, end) = (100, blocks.block_rows());
+        let bounds = blocks.stream_bounds::<4>(first, end);
+        assert_eq!((bounds[0], bounds[4]), (first, end));
+        let total = blocks.row_ptr[end] - blocks.row_ptr[first];
+        for part in bounds.windows(2) {
+            let stored = blocks.row_ptr[part[1]] - blocks.row_ptr[part[0]];
+            // A cut falls at a row boundary: within one row of the ideal quarter.
+            assert!(
+                stored.abs_diff(total / 4) <= longest_row,
+                "{part:?}: {stored} of {total}"
+            );
+        }
     }
 
     #[test]

@@ -28,10 +28,11 @@ use supernodal::{Columns, FactorPlan, FactorWorkspace, SupernodalPlan, Supernoda
 pub struct CholeskyOptions {
     /// Fill-reducing ordering (default: nested dissection).
     pub ordering: FillOrdering,
-    /// Threads for the numeric factorization and solves (1 = sequential, the default). tetfem's
-    /// supernodal kernels use two at most, one per half of the elimination tree below its top
-    /// separators (and both on the top separators' dense blocks), from rayon's global pool;
-    /// faer's kernels ([`NumericFactorization::Faer`], simplicial factors) use this many.
+    /// Threads for the numeric factorization and solves (1 = sequential, the default; 0 counts
+    /// as 1). tetfem's supernodal kernels use two at most, one per half of the elimination tree
+    /// below its top separators (and both on the top separators' dense blocks), from rayon's
+    /// global pool; faer's kernels ([`NumericFactorization::Faer`], simplicial factors) use
+    /// this many.
     pub threads: usize,
 }
 

@@ -15,7 +15,9 @@ use nalgebra::Vector3;
 use tetfem::amg::DofGeometry;
 use tetfem::cantilever::Cantilever;
 use tetfem::chart::{Chart, Mark, Series};
-use tetfem::dynamics::{LinearSystem, MassKind, Method, Rayleigh, State, critical_time_step};
+use tetfem::dynamics::{
+    IntegratorOptions, LinearSystem, MassKind, Method, Rayleigh, State, critical_time_step,
+};
 use tetfem::{
     Assembler, CholeskyOptions, DofMap, FillOrdering, LinearMethod, LinearSolver, SolverOptions,
 };
@@ -52,6 +54,11 @@ struct Cli {
     /// Ordering of the single run: nested-dissection (default) or amd.
     #[arg(long, default_value = "nested-dissection")]
     ordering: String,
+    /// Single run (`--one` or `--cells`): time only the time steps listed (comma-separated:
+    /// backward-euler, explicit) and skip the static factorization and solve, whose phases
+    /// then read 0. For measuring the steps at a large size without the static solve's minutes.
+    #[arg(long, value_delimiter = ',')]
+    steps_only: Option<Vec<String>>,
 }
 
 fn parse_cells(text: &str) -> Result<[usize; 3], String> {
@@ -111,14 +118,23 @@ fn peak_rss_mib() -> f64 {
         .map_or(f64::NAN, |kib| kib / 1024.0)
 }
 
-/// Runs the static pipeline on one beam; with `steps`, direct runs up to k = [`MAX_STEP_K`] also
-/// time the time steps.
+/// Which parts of the pipeline a single run measures.
+#[derive(Debug, Clone)]
+struct Parts {
+    /// The static factorization and solve.
+    static_solve: bool,
+    /// The integrators whose steps are timed (direct runs up to k = [`MAX_STEP_K`] only, unless
+    /// the static solve is skipped).
+    steps: Vec<Method>,
+}
+
+/// Runs the static pipeline on one beam and times the steps `parts` asks for.
 fn run_one(
     cells: [usize; 3],
     method: &str,
     threads: usize,
     ordering: &str,
-    steps: bool,
+    parts: &Parts,
 ) -> tetfem::Result<Run> {
     let k = cells[1];
     let problem = Cantilever::peer_benchmark(cells);
@@ -148,6 +164,15 @@ fn run_one(
     let k_ff = dofs.restriction(k_full.pattern())?.restrict(&k_full)?;
     let rhs = dofs.restrict(problem.loads(&mesh)?.as_slice())?;
     lap(&mut run);
+    run.dofs = mesh.dof_count();
+    run.tets = mesh.tet_count();
+    run.nnz_k = k_full.nnz();
+    if !parts.static_solve {
+        drop((k_ff, k_full, assembler));
+        run.bandwidth = triad_bandwidth();
+        time_steps(&problem, &mesh, &parts.steps, &mut run)?;
+        return Ok(run);
+    }
     let options = SolverOptions {
         method: method.parse::<LinearMethod>()?,
         cholesky: CholeskyOptions {
@@ -176,14 +201,11 @@ fn run_one(
         .sqrt();
     run.residual = residual / rhs.iter().map(|b| b * b).sum::<f64>().sqrt();
     run.tip = problem.tip_deflection(&mesh, &dofs.expand(&x)?)?;
-    run.dofs = mesh.dof_count();
-    run.tets = mesh.tet_count();
-    run.nnz_k = k_full.nnz();
     run.factor_len = solver.factor_len();
     run.bandwidth = triad_bandwidth();
-    if steps && method == "direct" && k <= MAX_STEP_K {
+    if !parts.steps.is_empty() && method == "direct" && k <= MAX_STEP_K {
         drop((solver, k_ff, k_full, assembler));
-        time_steps(&problem, &mesh, &mut run)?;
+        time_steps(&problem, &mesh, &parts.steps, &mut run)?;
     }
     Ok(run)
 }
@@ -194,8 +216,13 @@ fn run_one(
 /// - explicit: K_ff's values once (8 B per stored entry, whatever the format) and six vectors
 ///   (u, v, f, M⁻¹ read; u, v written);
 /// - backward Euler: the same, plus the Cholesky factor's values read twice (forward and
-///   backward substitution).
-fn time_steps(problem: &Cantilever, mesh: &tetfem::TetMesh, run: &mut Run) -> tetfem::Result<()> {
+///   backward substitution); its factorization and solves use the run's threads.
+fn time_steps(
+    problem: &Cantilever,
+    mesh: &tetfem::TetMesh,
+    methods: &[Method],
+    run: &mut Run,
+) -> tetfem::Result<()> {
     let system = Arc::new(LinearSystem::new(
         mesh,
         &problem.material,
@@ -213,7 +240,18 @@ fn time_steps(problem: &Cantilever, mesh: &tetfem::TetMesh, run: &mut Run) -> te
         (0, Method::BackwardEuler, 100.0 * dt_critical, 5),
         (1, Method::Explicit, 0.9 * dt_critical, 20),
     ] {
-        let mut integrator = method.integrator(Arc::clone(&system), dt)?;
+        if !methods.contains(&method) {
+            continue;
+        }
+        // The implicit step's factorization and solves on the run's threads, like the static
+        // solve's.
+        let options = IntegratorOptions {
+            cholesky: CholeskyOptions {
+                threads: run.threads,
+                ..Default::default()
+            },
+        };
+        let mut integrator = method.integrator_with(Arc::clone(&system), dt, options)?;
         let mut state = State::at_rest(system.free_count());
         integrator.step(&mut state)?; // the factorization, outside the timing
         let mut best = f64::INFINITY;
@@ -336,8 +374,27 @@ fn main() -> ExitCode {
     if let Some(cells) = single {
         // The study (`--one`) times the steps too; side_by_side.py's `--cells` runs need only
         // the static phases.
-        let steps = cli.one.is_some();
-        return match run_one(cells, &cli.method, cli.threads, &cli.ordering, steps) {
+        let parts = match &cli.steps_only {
+            Some(names) => match names.iter().map(|n| n.parse()).collect() {
+                Ok(steps) => Parts {
+                    static_solve: false,
+                    steps,
+                },
+                Err(e) => {
+                    eprintln!("error: --steps-only: {e}");
+                    return ExitCode::FAILURE;
+                }
+            },
+            None => Parts {
+                static_solve: true,
+                steps: if cli.one.is_some() {
+                    vec![Method::BackwardEuler, Method::Explicit]
+                } else {
+                    Vec::new()
+                },
+            },
+        };
+        return match run_one(cells, &cli.method, cli.threads, &cli.ordering, &parts) {
             Ok(run) => {
                 println!("{}", encode(&run));
                 ExitCode::SUCCESS

@@ -5,7 +5,8 @@ use std::sync::Arc;
 use rayon::prelude::*;
 
 use super::{
-    DivergenceGuard, Energy, Integrator, LinearSystem, Mass, State, check_time_step, sum_in_order,
+    DivergenceGuard, Energy, Integrator, IntegratorOptions, LinearSystem, Mass, State,
+    check_time_step, sum_in_order,
 };
 use crate::block_sparse::BlockWorkspace;
 use crate::error::Result;
@@ -37,11 +38,21 @@ pub struct BackwardEuler {
 }
 
 impl BackwardEuler {
-    /// An integrator with time step `dt` (analysis now, factorization on the first step).
+    /// An integrator with time step `dt` and default [`IntegratorOptions`] (analysis now, factorization on the first step).
     pub fn new(system: Arc<LinearSystem>, dt: f64) -> Result<Self> {
+        Self::with_options(system, dt, IntegratorOptions::default())
+    }
+
+    /// An integrator with time step `dt` whose factorization and solves use
+    /// `options.cholesky` (ordering and threads).
+    pub fn with_options(
+        system: Arc<LinearSystem>,
+        dt: f64,
+        options: IntegratorOptions,
+    ) -> Result<Self> {
         let dt = check_time_step(dt)?;
         let matrix = system.stiffness().clone();
-        let cholesky = SparseCholesky::analyze(&matrix)?;
+        let cholesky = SparseCholesky::analyze_with(&matrix, options.cholesky)?;
         let n = system.free_count();
         Ok(BackwardEuler {
             dt,

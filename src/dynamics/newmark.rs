@@ -3,7 +3,9 @@
 
 use std::sync::Arc;
 
-use super::{DivergenceGuard, Integrator, LinearSystem, Mass, State, check_time_step};
+use super::{
+    DivergenceGuard, Integrator, IntegratorOptions, LinearSystem, Mass, State, check_time_step,
+};
 use crate::error::Result;
 use crate::linsolve::SparseCholesky;
 use crate::sparse::CscMatrix;
@@ -34,11 +36,21 @@ pub struct Newmark {
 }
 
 impl Newmark {
-    /// An integrator with time step `dt`.
+    /// An integrator with time step `dt` and default [`IntegratorOptions`].
     pub fn new(system: Arc<LinearSystem>, dt: f64) -> Result<Self> {
+        Self::with_options(system, dt, IntegratorOptions::default())
+    }
+
+    /// An integrator with time step `dt` whose factorization and solves use
+    /// `options.cholesky` (ordering and threads).
+    pub fn with_options(
+        system: Arc<LinearSystem>,
+        dt: f64,
+        options: IntegratorOptions,
+    ) -> Result<Self> {
         let dt = check_time_step(dt)?;
         let matrix = system.stiffness().clone();
-        let cholesky = SparseCholesky::analyze(&matrix)?;
+        let cholesky = SparseCholesky::analyze_with(&matrix, options.cholesky)?;
         let n = system.free_count();
         Ok(Newmark {
             system,
