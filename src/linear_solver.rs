@@ -137,12 +137,14 @@ impl Default for CostModel {
         // flops and nnz(K_ff) of those beams from `cargo run --release --example solver_choice`),
         // sizes from k = 12 (31k DOFs) up, where the rates have settled. Ratios time/size:
         CostModel {
-            // Numeric factorization, flops / time. 1 thread, k = 12, 16, 20, 24, 30, 40: 15.1,
-            // 15.8, 18.2, 19.5, 18.5, 18.2 Gflop/s; 17 weighs the sizes near the crossover with
-            // the iterative method (69k DOFs). 2 threads, k = 20, 30: 22.1, 27.2 Gflop/s.
+            // Numeric factorization, flops / time, with tetfem's supernodal kernel (scale study
+            // of commit 36bb369; the same symbolic analyses, so the same flops). 1 thread,
+            // k = 12, 16, 20, 24, 30, 40: 16.5, 21.8, 22.8, 21.3, 24.1, 24.5 Gflop/s; 21 weighs
+            // the sizes near the crossover with the iterative method. 2 threads, k = 20, 30:
+            // 30.6, 39.7 Gflop/s. (faer's kernel measured 15.1–19.5 and 22.1–27.2.)
             factor_flops_per_second: ThreadRates {
-                one: 17e9,
-                two_or_more: 24e9,
+                one: 21e9,
+                two_or_more: 33e9,
             },
             // Solve time / factor values. 1 thread: 1.15, 1.08, 0.97, 1.15, 0.87, 1.32 ns
             // (median 1.1); 2 threads, k = 20, 30: 0.69, 0.50 ns.

@@ -39,14 +39,19 @@ fn relative_residual(a: &CscMatrix, x: &[f64], b: &[f64]) -> f64 {
     r.sqrt() / b.iter().map(|v| v * v).sum::<f64>().sqrt()
 }
 
+/// The default options (nested dissection) on `threads` threads.
+fn on_threads(threads: usize) -> CholeskyOptions {
+    CholeskyOptions {
+        threads,
+        ..Default::default()
+    }
+}
+
 #[test]
 fn supernodal_solve_agrees_with_faer_on_one_and_two_threads() {
     let (k, b) = cantilever_system([30, 6, 6]);
     for threads in [1, 2] {
-        let options = CholeskyOptions {
-            threads,
-            ..Default::default()
-        };
+        let options = on_threads(threads);
         let mut cholesky = SparseCholesky::analyze_with(&k, options).unwrap();
         cholesky.factorize(&k).unwrap();
         let split = cholesky
@@ -185,10 +190,7 @@ fn wrong_rhs_length_and_unfactored_solve_are_errors() {
 fn supernodal_factorization_agrees_with_faer_on_one_and_two_threads() {
     let (k, b) = cantilever_system([40, 8, 8]);
     for threads in [1, 2] {
-        let options = CholeskyOptions {
-            threads,
-            ..Default::default()
-        };
+        let options = on_threads(threads);
         let mut solutions = Vec::new();
         for kernel in [NumericFactorization::Faer, NumericFactorization::Supernodal] {
             let mut cholesky = SparseCholesky::analyze_with(&k, options).unwrap();
@@ -221,10 +223,7 @@ fn refactorization_with_new_values_reuses_the_analysis() {
     let mut quadrupled = k.clone();
     quadrupled.values_mut().iter_mut().for_each(|v| *v *= 4.0);
     for threads in [1, 2] {
-        let options = CholeskyOptions {
-            threads,
-            ..Default::default()
-        };
+        let options = on_threads(threads);
         let mut cholesky = SparseCholesky::analyze_with(&k, options).unwrap();
         cholesky.factorize(&k).unwrap();
         let mut x = b.clone();
@@ -251,10 +250,7 @@ fn non_positive_pivot_names_the_failing_row() {
         .unwrap();
     k.values_mut()[position] = -1.0;
     let pivot = |kernel, threads| {
-        let options = CholeskyOptions {
-            threads,
-            ..Default::default()
-        };
+        let options = on_threads(threads);
         let mut cholesky = SparseCholesky::analyze_with(&k, options).unwrap();
         match cholesky.factorize_with(&k, kernel) {
             Err(Error::NotPositiveDefinite { pivot, dimension }) => {
