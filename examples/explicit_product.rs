@@ -80,6 +80,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         dofs, stiffness: k, ..
     } = problem.free_system(&mesh)?;
     let blocks = BlockMatrix3::from_free_matrix(&k, dofs.free_dofs())?;
+    let mut scalar_blocks = blocks.clone();
+    scalar_blocks.set_simd(false);
     // The element loop below assumes each node is either free or clamped (true of this beam).
     let base: Vec<u32> = (0..mesh.node_count())
         .map(|node| dofs.free_index(3 * node).map_or(u32::MAX, |i| i as u32))
@@ -113,7 +115,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let n = k.dim();
     let x: Vec<f64> = (0..n).map(|i| ((i * 7919) % 101) as f64 - 50.0).collect();
     let (mut y_csc, mut y_blocks, mut y_loop) = (vec![0.0; n], vec![0.0; n], vec![0.0; n]);
-    let mut best = [f64::INFINITY; 3];
+    let mut y_scalar = vec![0.0; n];
+    let mut best = [f64::INFINITY; 4];
     for _ in 0..20 {
         let clock = Instant::now();
         k.mul_vec(&x, &mut y_csc)?;
@@ -124,6 +127,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let clock = Instant::now();
         element_loop.product(&x, &mut y_loop);
         best[2] = best[2].min(clock.elapsed().as_secs_f64());
+        let clock = Instant::now();
+        scalar_blocks.mul_vec(&x, &mut y_scalar)?;
+        best[3] = best[3].min(clock.elapsed().as_secs_f64());
     }
     streams_table(&blocks, &x, &y_blocks)?;
     let scale = y_csc.iter().fold(0.0f64, |m, y| m.max(y.abs()));
@@ -146,6 +152,12 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     for (name, bytes, time, y) in [
         ("CSC (8 B value + 8 B index)", csc_bytes, best[0], &y_csc),
         ("3×3 node blocks", blocks.matrix_bytes(), best[1], &y_blocks),
+        (
+            "3×3 node blocks, scalar kernel",
+            blocks.matrix_bytes(),
+            best[3],
+            &y_scalar,
+        ),
         ("element loop, serial", loop_bytes, best[2], &y_loop),
     ] {
         println!(

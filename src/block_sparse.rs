@@ -26,12 +26,15 @@ pub struct BlockMatrix3 {
     row_ptr: Vec<usize>,
     /// Block column of each stored block.
     columns: Vec<u32>,
-    /// Nine values per stored block, row-major.
+    /// Nine values per stored block, row-major, then one 0.0: the SIMD kernel loads each block
+    /// row as four lanes, and the last block's third row reaches one value past its block.
     values: Vec<f64>,
     /// Padded index 3·block + axis of each free DOF; `None` when every block is complete.
     padded_index: Option<Vec<u32>>,
     /// Free DOF count.
     dim: usize,
+    /// Whether products run the AVX2/FMA kernel (detected on this CPU at construction).
+    simd: bool,
 }
 
 /// Scratch vectors of the padded numbering (empty when the matrix needs no padding).
@@ -122,12 +125,14 @@ impl BlockMatrix3 {
             block_values.extend_from_slice(&v);
             row_ptr.push(columns.len());
         }
+        block_values.push(0.0);
         Ok(BlockMatrix3 {
             row_ptr,
             columns,
             values: block_values,
             padded_index: (!complete).then_some(padded),
             dim,
+            simd: simd_available(),
         })
     }
 
@@ -149,7 +154,20 @@ impl BlockMatrix3 {
     /// Bytes a product reads of the matrix: 72 per block of values, 4 per block index, 8 per
     /// block row pointer.
     pub fn matrix_bytes(&self) -> usize {
-        self.values.len() * 8 + self.columns.len() * 4 + self.row_ptr.len() * 8
+        self.columns.len() * (72 + 4) + self.row_ptr.len() * 8
+    }
+
+    /// Whether products run the AVX2/FMA kernel: by default wherever the CPU has both.
+    pub fn simd(&self) -> bool {
+        self.simd
+    }
+
+    /// Chooses the scalar kernel (`false`) or the AVX2/FMA kernel (`true`, honoured only where
+    /// the CPU has both), for measuring one against the other. Both give each entry as one fixed
+    /// sequence of operations, so results are reproducible, but the two kernels' sums differ in
+    /// order and so in the last bits.
+    pub fn set_simd(&mut self, enabled: bool) {
+        self.simd = enabled && simd_available();
     }
 
     /// Whether some node has only one or two free DOFs (products then gather and scatter).
@@ -297,6 +315,33 @@ impl BlockMatrix3 {
         x: [&[f64]; 2],
         y: [&mut [f64]; 2],
     ) -> (f64, f64) {
+        #[cfg(target_arch = "x86_64")]
+        if self.simd {
+            // SAFETY: `simd` is set only where AVX2 and FMA were detected on this CPU.
+            return unsafe { self.chunk_times_avx2::<S, TWO>(first, x, y) };
+        }
+        self.chunk_body::<S, TWO, false>(first, x, y)
+    }
+
+    /// [`chunk_times`](Self::chunk_times) compiled for AVX2 and FMA, with the SIMD row kernel.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma")]
+    fn chunk_times_avx2<const S: usize, const TWO: bool>(
+        &self,
+        first: usize,
+        x: [&[f64]; 2],
+        y: [&mut [f64]; 2],
+    ) -> (f64, f64) {
+        self.chunk_body::<S, TWO, true>(first, x, y)
+    }
+
+    #[inline(always)]
+    fn chunk_body<const S: usize, const TWO: bool, const SIMD: bool>(
+        &self,
+        first: usize,
+        x: [&[f64]; 2],
+        y: [&mut [f64]; 2],
+    ) -> (f64, f64) {
         let bounds = self.stream_bounds::<S>(first, first + y[0].len() / 3);
         let [y0, y1] = y;
         let parts0 = split_rows::<S>(y0, &bounds);
@@ -313,7 +358,11 @@ impl BlockMatrix3 {
                 if b >= bounds[s + 1] {
                     continue;
                 }
-                let (s0, s1) = self.row_times::<TWO>(b, x);
+                let (s0, s1) = if SIMD {
+                    self.row_times_simd::<TWO>(b, x)
+                } else {
+                    self.row_times::<TWO>(b, x)
+                };
                 let rows = 3 * local..3 * local + 3;
                 parts0[s][rows.clone()].copy_from_slice(&s0);
                 dots[s].0 += dot3(&x[0][3 * b..3 * b + 3], &s0);
@@ -360,6 +409,88 @@ impl BlockMatrix3 {
         }
         (s0, s1)
     }
+
+    /// [`row_times`](Self::row_times) on AVX2: each block row is one 4-lane load (its fourth
+    /// lane the next value, which meets x's masked-off fourth lane, 0), multiplied into an
+    /// accumulator per block row; alternate blocks go to two sets of accumulators, so that
+    /// consecutive FMAs do not wait on each other's latency. Lanes are summed once per row,
+    /// (l₀ + l₁) + l₂: each entry is still one fixed sequence of operations, whatever the threads.
+    /// On other targets (never called there) the scalar kernel.
+    #[inline(always)]
+    fn row_times_simd<const TWO: bool>(&self, b: usize, x: [&[f64]; 2]) -> ([f64; 3], [f64; 3]) {
+        #[cfg(target_arch = "x86_64")]
+        {
+            // SAFETY: only reached from `chunk_times_avx2`, i.e. with AVX2 and FMA.
+            unsafe { self.row_times_avx2::<TWO>(b, x) }
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        self.row_times::<TWO>(b, x)
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma")]
+    #[inline]
+    fn row_times_avx2<const TWO: bool>(&self, b: usize, x: [&[f64]; 2]) -> ([f64; 3], [f64; 3]) {
+        use std::arch::x86_64::*;
+        let range = self.row_ptr[b]..self.row_ptr[b + 1];
+        let columns = &self.columns[range.clone()];
+        // The row's blocks and the one value after them (the next block's first, or the pad).
+        let values = &self.values[9 * range.start..9 * range.end + 1];
+        let (x0, x1) = (x[0], x[1]);
+        let mask = _mm256_setr_epi64x(-1, -1, -1, 0);
+        let zero = _mm256_setzero_pd();
+        let (mut a0, mut a1) = ([zero; 3], [zero; 3]);
+        let (mut b0, mut b1) = ([zero; 3], [zero; 3]);
+        let block = |k: usize, acc0: &mut [__m256d; 3], acc1: &mut [__m256d; 3]| {
+            let j = 3 * columns[k] as usize;
+            let v = &values[9 * k..9 * k + 10];
+            // SAFETY: `v` holds 10 values, so the loads at 0, 3 and 6 read 4 in bounds; the
+            // masked loads read only the 3 lanes of `x0[j..j + 3]`, bounds-checked here.
+            unsafe {
+                let rows = [0, 3, 6].map(|r| _mm256_loadu_pd(v[r..].as_ptr()));
+                let p = _mm256_maskload_pd(x0[j..j + 3].as_ptr(), mask);
+                for r in 0..3 {
+                    acc0[r] = _mm256_fmadd_pd(rows[r], p, acc0[r]);
+                }
+                if TWO {
+                    let q = _mm256_maskload_pd(x1[j..j + 3].as_ptr(), mask);
+                    for r in 0..3 {
+                        acc1[r] = _mm256_fmadd_pd(rows[r], q, acc1[r]);
+                    }
+                }
+            }
+        };
+        let pairs = columns.len() / 2;
+        for k in 0..pairs {
+            block(2 * k, &mut a0, &mut a1);
+            block(2 * k + 1, &mut b0, &mut b1);
+        }
+        if columns.len() % 2 == 1 {
+            block(columns.len() - 1, &mut a0, &mut a1);
+        }
+        let sum3 = |t: __m256d| {
+            let low = _mm256_castpd256_pd128(t);
+            let high = _mm256_extractf128_pd::<1>(t);
+            _mm_cvtsd_f64(_mm_add_sd(_mm_add_sd(low, _mm_unpackhi_pd(low, low)), high))
+        };
+        let s0 = std::array::from_fn(|r| sum3(_mm256_add_pd(a0[r], b0[r])));
+        let s1 = if TWO {
+            std::array::from_fn(|r| sum3(_mm256_add_pd(a1[r], b1[r])))
+        } else {
+            [0.0; 3]
+        };
+        (s0, s1)
+    }
+}
+
+/// Whether this CPU runs the AVX2/FMA product kernel.
+fn simd_available() -> bool {
+    #[cfg(target_arch = "x86_64")]
+    {
+        is_x86_feature_detected!("avx2") && is_x86_feature_detected!("fma")
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    false
 }
 
 /// Concurrent sequential streams each parallel task of a product follows (see
