@@ -1,6 +1,7 @@
 //! Time-stepping costs at ~10k and ~130k DOFs (and ~290k with TETFEM_BENCH_LARGE=1): one
 //! backward-Euler step after factorization, one Newmark step, one explicit step, the product
-//! K_ff·x in the scalar CSC and the 3×3 node-block formats, and one numeric factorization of
+//! K_ff·x in the scalar CSC, the full 3×3 node-block and the upper node-block formats (the last
+//! is what the integrators use), and one numeric factorization of
 //! M + dt²K. `cargo bench --bench dynamics`.
 
 use std::sync::Arc;
@@ -8,6 +9,7 @@ use std::time::Duration;
 
 use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
 use nalgebra::Vector3;
+use tetfem::block_sparse::BlockMatrix3;
 use tetfem::cantilever::Cantilever;
 use tetfem::dynamics::{LinearSystem, MassKind, Method, Rayleigh, State, critical_time_step};
 use tetfem::{CscMatrix, SparseCholesky};
@@ -64,8 +66,11 @@ fn stepping(c: &mut Criterion) {
                 |b| b.iter(|| integrator.step(&mut state).unwrap()),
             );
         }
-        // The product that bounds an explicit step, in both formats of K_ff, side by side.
-        let blocks = system.stiffness_blocks();
+        // The product that bounds an explicit step, in three formats of K_ff, side by side.
+        let upper = system.stiffness_blocks();
+        let mut upper_work = upper.workspace();
+        let blocks =
+            BlockMatrix3::from_free_matrix(system.stiffness(), system.dofs().free_dofs()).unwrap();
         let x: Vec<f64> = (0..system.free_count()).map(|i| (i % 7) as f64).collect();
         let mut y = vec![0.0; x.len()];
         group.bench_function(BenchmarkId::new("spmv-csc", &label), |b| {
@@ -73,6 +78,9 @@ fn stepping(c: &mut Criterion) {
         });
         group.bench_function(BenchmarkId::new("spmv-node-blocks", &label), |b| {
             b.iter(|| blocks.mul_vec(&x, &mut y).unwrap())
+        });
+        group.bench_function(BenchmarkId::new("spmv-upper-node-blocks", &label), |b| {
+            b.iter(|| upper.mul_vec_with(&x, &mut y, &mut upper_work).unwrap())
         });
         let mut a = CscMatrix::from_values(
             Arc::clone(system.stiffness().pattern()),

@@ -8,7 +8,7 @@ use super::{
     DivergenceGuard, Energy, Integrator, IntegratorOptions, LinearSystem, Mass, State,
     check_time_step, sum_in_order,
 };
-use crate::block_sparse::BlockWorkspace;
+use crate::block_sparse::SymmetricWorkspace;
 use crate::error::Result;
 use crate::linsolve::SparseCholesky;
 use crate::sparse::CscMatrix;
@@ -34,7 +34,7 @@ pub struct BackwardEuler {
     work: Vec<f64>,
     product: Vec<f64>,
     rhs: Vec<f64>,
-    blocks_work: BlockWorkspace,
+    blocks_work: SymmetricWorkspace,
 }
 
 impl BackwardEuler {

@@ -7,7 +7,7 @@ use rayon::prelude::*;
 use super::{
     DivergenceGuard, Energy, Integrator, LinearSystem, Mass, State, check_time_step, sum_in_order,
 };
-use crate::block_sparse::BlockWorkspace;
+use crate::block_sparse::SymmetricWorkspace;
 use crate::error::{Error, Result};
 
 /// Symplectic Euler, M·(v⁺ − v)/dt = f − K·u − C·v, then u⁺ = u + dt·v⁺: the velocity form of
@@ -26,7 +26,7 @@ pub struct SymplecticEuler {
     guard: Option<DivergenceGuard>,
     work: Vec<f64>,
     product: Vec<f64>,
-    blocks_work: BlockWorkspace,
+    blocks_work: SymmetricWorkspace,
 }
 
 impl SymplecticEuler {

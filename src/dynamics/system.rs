@@ -7,7 +7,7 @@ use nalgebra::Vector3;
 
 use super::{Energy, Rayleigh, State};
 use crate::assembly::{Assembler, lumped_mass};
-use crate::block_sparse::BlockMatrix3;
+use crate::block_sparse::SymmetricBlockMatrix3;
 use crate::constraints::{Constraints, DofMap, ensure_held};
 use crate::error::{Error, Result};
 use crate::loads::Loads;
@@ -78,7 +78,7 @@ impl Mass {
 pub struct LinearSystem {
     stiffness: CscMatrix,
     /// K_ff again, in 3×3 node blocks: about half the bytes per product.
-    stiffness_blocks: BlockMatrix3,
+    stiffness_blocks: SymmetricBlockMatrix3,
     mass: Mass,
     damping: Rayleigh,
     gravity_load: Vec<f64>,
@@ -190,7 +190,8 @@ impl LinearSystem {
             .zip(&other_load)
             .map(|(g, f)| g + f)
             .collect();
-        let stiffness_blocks = BlockMatrix3::from_free_matrix(&stiffness, dofs.free_dofs())?;
+        let stiffness_blocks =
+            SymmetricBlockMatrix3::from_free_matrix(&stiffness, dofs.free_dofs())?;
         Ok(LinearSystem {
             stiffness,
             stiffness_blocks,
@@ -213,9 +214,9 @@ impl LinearSystem {
         &self.stiffness
     }
 
-    /// K_ff in 3×3 node blocks, the copy the time steppers multiply with (see
-    /// [`BlockMatrix3`] for why).
-    pub fn stiffness_blocks(&self) -> &BlockMatrix3 {
+    /// K_ff's upper half in 3×3 node blocks, the copy the time steppers multiply with (see
+    /// [`SymmetricBlockMatrix3`] for why).
+    pub fn stiffness_blocks(&self) -> &SymmetricBlockMatrix3 {
         &self.stiffness_blocks
     }
 
