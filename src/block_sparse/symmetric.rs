@@ -44,6 +44,12 @@ pub struct SymmetricBlockMatrix3 {
     simd: bool,
 }
 
+/// Values ahead of the current block that the AVX2 kernel asks the cache for: 4 KiB. The
+/// product reads a single stream, which the hardware prefetchers alone follow at about 9–10 GB/s
+/// on one core of this EPYC; with the hint at 256–2048 values ahead a product took 0.80–0.87×
+/// the time without it (132k and 435k DOFs, one and two threads, best of 40 interleaved).
+const PREFETCH_AHEAD: usize = 512;
+
 /// Vectors with four slots per node for [`SymmetricBlockMatrix3`]'s products.
 #[derive(Debug, Clone, Default)]
 pub struct SymmetricWorkspace {
@@ -375,6 +381,10 @@ impl SymmetricBlockMatrix3 {
                 acc[r] = _mm256_mul_pd(diagonal[r], xv);
             }
             let mut block = |k: usize, acc: &mut [__m256d; 3]| {
+                // A hint only: an address past the end is never dereferenced.
+                _mm_prefetch::<_MM_HINT_T0>(
+                    values.as_ptr().wrapping_add(9 * k + PREFETCH_AHEAD).cast(),
+                );
                 let j = columns[k] as usize;
                 let rows = load_rows(k);
                 let xj = _mm256_loadu_pd(x[4 * j..4 * j + 4].as_ptr());
