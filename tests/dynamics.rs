@@ -9,8 +9,9 @@ use tetfem::dynamics::{
     IntegratorOptions, LinearSystem, MassKind, Method, Rayleigh, State, critical_time_step,
     element_critical_step,
 };
+use tetfem::iterative::CgOptions;
 use tetfem::modal::lowest_modes;
-use tetfem::{BoxSplit, CholeskyOptions, Error, Material, SparseCholesky};
+use tetfem::{BoxSplit, CholeskyOptions, Error, LinearMethod, Material, SparseCholesky};
 
 /// A clamped box beam L × 1 × 1 with `cells`, E = 1e5, ν = 0.3, ρ = 1000 and a unit end load
 /// (−z), lumped mass, no gravity. Returns the system and the free indices of the tip z-DOFs.
@@ -582,6 +583,7 @@ fn implicit_steps_on_two_cholesky_threads_match_one_thread() {
             threads,
             ..Default::default()
         },
+        ..Default::default()
     };
     let mut cholesky =
         SparseCholesky::analyze_with(system.stiffness(), options(2).cholesky).unwrap();
@@ -637,6 +639,67 @@ fn implicit_steps_on_two_cholesky_threads_match_one_thread() {
             // the system's condition number (~1 + (dt·ω_max)² ≈ 1.6e3 at 20 critical steps)
             // times five steps stays far below 1e-10.
             assert!(diff <= 1e-10 * scale, "{method:?}: {diff:e} of {scale:e}");
+        }
+    }
+}
+
+#[test]
+fn implicit_steps_on_the_iterative_path_match_the_direct_ones() {
+    let (system, _, _) = beam(5.0, [30, 6, 6], MassKind::Lumped);
+    let n = system.free_count();
+    let start = State {
+        displacement: (0..n).map(|i| 1e-3 * ((i % 13) as f64 - 6.0)).collect(),
+        velocity: (0..n).map(|i| 1e-2 * ((i % 7) as f64 - 3.0)).collect(),
+        ..State::at_rest(n)
+    };
+    let dt = 20.0 * critical_time_step(&system).unwrap().dt;
+    let options = |linear_method| IntegratorOptions {
+        linear_method,
+        cg: CgOptions {
+            relative_tolerance: 1e-12,
+            ..Default::default()
+        },
+        ..Default::default()
+    };
+    for method in [Method::BackwardEuler, Method::Newmark] {
+        let run = |linear_method| {
+            let mut integrator = method
+                .integrator_with(Arc::clone(&system), dt, options(linear_method))
+                .unwrap();
+            let mut state = start.clone();
+            for _ in 0..5 {
+                integrator.step(&mut state).unwrap();
+            }
+            let solver = integrator.linear_solver().expect("an implicit method");
+            (state, solver.is_direct(), integrator.factor_len().unwrap())
+        };
+        let (direct, is_direct, factor_len) = run(LinearMethod::Direct);
+        assert!(is_direct && factor_len > 0, "{method:?}");
+        let (iterative, is_direct, factor_len) = run(LinearMethod::Iterative);
+        assert!(!is_direct && factor_len == 0, "{method:?}");
+        // On this 6.6k-DOF beam and 100 steps per matrix, the predicted times favour the
+        // Cholesky by far.
+        let (auto, is_direct, _) = run(LinearMethod::Auto);
+        assert!(is_direct, "{method:?}: Auto took the iterative path");
+        assert_eq!(auto.displacement, direct.displacement, "{method:?}");
+        for (a, b) in [
+            (&direct.displacement, &iterative.displacement),
+            (&direct.velocity, &iterative.velocity),
+        ] {
+            let scale = a.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+            let diff = a
+                .iter()
+                .zip(b)
+                .fold(0.0f64, |m, (x, y)| m.max((x - y).abs()));
+            // Each solve stops at a relative residual of 1e-12; its error is at most that times
+            // the system's condition number (~1 + (dt·ω_max)² ≈ 1.6e3 at 20 critical steps),
+            // 1.6e-9, over five steps: below 1e-8. A step that skipped the solve would be off
+            // by order 1.
+            assert!(diff <= 1e-8 * scale, "{method:?}: {diff:e} of {scale:e}");
+            assert!(
+                diff > 0.0,
+                "{method:?}: the iterative path gave the direct bits"
+            );
         }
     }
 }

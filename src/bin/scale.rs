@@ -254,6 +254,7 @@ fn time_steps(
                 threads: run.threads,
                 ..Default::default()
             },
+            ..Default::default()
         };
         let mut integrator = method.integrator_with(Arc::clone(&system), dt, options)?;
         let mut state = State::at_rest(system.free_count());

@@ -10,7 +10,7 @@ use super::{
 };
 use crate::block_sparse::SymmetricWorkspace;
 use crate::error::Result;
-use crate::linsolve::SparseCholesky;
+use crate::linear_solver::LinearSolver;
 use crate::sparse::CscMatrix;
 
 /// Backward Euler on the velocity, as in Baraff–Witkin:
@@ -20,15 +20,16 @@ use crate::sparse::CscMatrix;
 /// With C = αM + βK the system matrix is (1 + dt·α)·M + (dt·β + dt²)·K, formed entry-wise on
 /// K's pattern and factored once per time step value: the symbolic analysis is done once, a
 /// change of dt only refactors numerically. A step is one pass over K (the node-block copy,
-/// multiplying u and v together), one product with M, and two triangular solves; it allocates
-/// nothing. The divergence guard checks the energy of the state each step starts from (that
+/// multiplying u and v together), one product with M, and two triangular solves (or, on the
+/// iterative path of [`IntegratorOptions::linear_method`], one preconditioned CG solve); on the
+/// direct path it allocates nothing. The divergence guard checks the energy of the state each step starts from (that
 /// costs no extra product), so a runaway is caught one step after it happens.
 #[derive(Debug)]
 pub struct BackwardEuler {
     system: Arc<LinearSystem>,
     dt: f64,
     matrix: CscMatrix,
-    cholesky: SparseCholesky,
+    solver: LinearSolver,
     factored_for: Option<f64>,
     guard: Option<DivergenceGuard>,
     work: Vec<f64>,
@@ -44,7 +45,7 @@ impl BackwardEuler {
     }
 
     /// An integrator with time step `dt` whose factorization and solves use
-    /// `options.cholesky` (ordering and threads).
+    /// `options` (direct or iterative, ordering and threads).
     pub fn with_options(
         system: Arc<LinearSystem>,
         dt: f64,
@@ -52,12 +53,12 @@ impl BackwardEuler {
     ) -> Result<Self> {
         let dt = check_time_step(dt)?;
         let matrix = system.stiffness().clone();
-        let cholesky = SparseCholesky::analyze_with(&matrix, options.cholesky)?;
+        let solver = super::step_solver(&system, &matrix, &options)?;
         let n = system.free_count();
         Ok(BackwardEuler {
             dt,
             matrix,
-            cholesky,
+            solver,
             factored_for: None,
             guard: None,
             work: vec![0.0; n],
@@ -74,7 +75,7 @@ impl BackwardEuler {
         let (mass_scale, stiffness_scale) = (1.0 + dt * damping.alpha, dt * damping.beta + dt * dt);
         self.system
             .combine_into(stiffness_scale, mass_scale, &mut self.matrix)?;
-        self.cholesky.factorize(&self.matrix)?;
+        self.solver.factorize(&self.matrix)?;
         self.factored_for = Some(dt);
         Ok(())
     }
@@ -131,7 +132,7 @@ impl Integrator for BackwardEuler {
             Some(guard) => guard.check_energy(state.steps, state.time, &energy)?,
             None => self.guard = Some(DivergenceGuard::new(energy)),
         }
-        self.cholesky.solve_in_place(&mut self.rhs)?;
+        self.solver.solve(&self.matrix, &mut self.rhs)?;
         let finite = state
             .velocity
             .par_iter_mut()
@@ -161,7 +162,11 @@ impl Integrator for BackwardEuler {
     }
 
     fn factor_len(&self) -> Option<usize> {
-        Some(self.cholesky.factor_len())
+        Some(self.solver.factor_len())
+    }
+
+    fn linear_solver(&self) -> Option<&LinearSolver> {
+        Some(&self.solver)
     }
 
     fn name(&self) -> &'static str {

@@ -27,7 +27,10 @@ pub use state::State;
 pub use system::{LinearSystem, Mass, MassKind};
 
 use crate::error::{Error, Result};
+use crate::iterative::CgOptions;
+use crate::linear_solver::{LinearMethod, LinearSolver, SolverOptions};
 use crate::linsolve::CholeskyOptions;
+use crate::sparse::CscMatrix;
 
 /// A time-stepping method for a [`LinearSystem`].
 pub trait Integrator {
@@ -41,8 +44,14 @@ pub trait Integrator {
     /// A short name for reports (`backward-euler`, `newmark`, `explicit`).
     fn name(&self) -> &'static str;
     /// Stored values of the Cholesky factor an implicit method solves with (`None` for methods
-    /// without one): what each of its steps reads twice.
+    /// without one, 0 on an implicit method's iterative path): what each of its steps reads
+    /// twice.
     fn factor_len(&self) -> Option<usize> {
+        None
+    }
+    /// The linear solver of an implicit method (`None` for the explicit one): which method it
+    /// took and why ([`LinearSolver::choice`]).
+    fn linear_solver(&self) -> Option<&LinearSolver> {
         None
     }
 }
@@ -72,7 +81,7 @@ pub fn check_time_step(dt: f64) -> Result<f64> {
 }
 
 /// Options of the integrators beyond the time step.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct IntegratorOptions {
     /// Ordering and threads of the implicit methods' Cholesky factorization of their system
     /// matrix, and of its two triangular solves per step (ignored by the explicit method, which
@@ -81,6 +90,54 @@ pub struct IntegratorOptions {
     /// in parallel in each solve (and the factorization on rayon's pool), which pays when the
     /// memory bus has bandwidth to spare for a second core. `threads: 0` counts as 1.
     pub cholesky: CholeskyOptions,
+    /// How the implicit methods solve their system each step.
+    /// - [`LinearMethod::Direct`], the default: one Cholesky factorization per time step value,
+    ///   two triangular solves per step.
+    /// - [`LinearMethod::Iterative`]: conjugate gradients preconditioned by smoothed-aggregation
+    ///   multigrid (with the rigid-body modes when the system has its
+    ///   [`geometry`](LinearSystem::geometry)), the hierarchy rebuilt once per time step value:
+    ///   for meshes whose factor would not fit in memory. Each step then solves to `cg`'s
+    ///   tolerance, so the trajectory matches the direct one to that tolerance, not to the bit.
+    /// - [`LinearMethod::Auto`]: chosen by predicted time for [`STEPS_PER_MATRIX`] solves per
+    ///   matrix, within the memory budget (see [`LinearSolver`]).
+    pub linear_method: LinearMethod,
+    /// Stopping rule of conjugate gradients on the iterative path.
+    pub cg: CgOptions,
+}
+
+impl Default for IntegratorOptions {
+    fn default() -> Self {
+        IntegratorOptions {
+            cholesky: CholeskyOptions::default(),
+            linear_method: LinearMethod::Direct,
+            cg: CgOptions::default(),
+        }
+    }
+}
+
+/// Steps per system matrix that [`LinearMethod::Auto`] weighs for the implicit methods: a run
+/// keeps its time step for many steps, so the factorization is paid once against many cheap
+/// solves.
+pub const STEPS_PER_MATRIX: usize = 100;
+
+/// The implicit methods' solver of `matrix` (on the pattern of `system`'s K_ff), analysed.
+fn step_solver(
+    system: &LinearSystem,
+    matrix: &CscMatrix,
+    options: &IntegratorOptions,
+) -> Result<LinearSolver> {
+    let solver_options = SolverOptions {
+        method: options.linear_method,
+        cholesky: options.cholesky,
+        cg: options.cg,
+        expected_solves: STEPS_PER_MATRIX,
+        ..SolverOptions::default()
+    };
+    let geometry = match options.linear_method {
+        LinearMethod::Direct => None,
+        _ => system.geometry().cloned(),
+    };
+    LinearSolver::analyze_with_geometry(matrix, solver_options, geometry)
 }
 
 /// Which integrator, by name.

@@ -7,6 +7,7 @@ use super::{
     DivergenceGuard, Integrator, IntegratorOptions, LinearSystem, Mass, State, check_time_step,
 };
 use crate::error::Result;
+use crate::linear_solver::LinearSolver;
 use crate::linsolve::SparseCholesky;
 use crate::sparse::CscMatrix;
 
@@ -24,7 +25,7 @@ pub struct Newmark {
     system: Arc<LinearSystem>,
     dt: f64,
     matrix: CscMatrix,
-    cholesky: SparseCholesky,
+    solver: LinearSolver,
     factored_for: Option<f64>,
     guard: Option<DivergenceGuard>,
     acceleration: Vec<f64>,
@@ -42,7 +43,7 @@ impl Newmark {
     }
 
     /// An integrator with time step `dt` whose factorization and solves use
-    /// `options.cholesky` (ordering and threads).
+    /// `options` (direct or iterative, ordering and threads).
     pub fn with_options(
         system: Arc<LinearSystem>,
         dt: f64,
@@ -50,13 +51,13 @@ impl Newmark {
     ) -> Result<Self> {
         let dt = check_time_step(dt)?;
         let matrix = system.stiffness().clone();
-        let cholesky = SparseCholesky::analyze_with(&matrix, options.cholesky)?;
+        let solver = super::step_solver(&system, &matrix, &options)?;
         let n = system.free_count();
         Ok(Newmark {
             system,
             dt,
             matrix,
-            cholesky,
+            solver,
             factored_for: None,
             guard: None,
             acceleration: vec![0.0; n],
@@ -76,7 +77,7 @@ impl Newmark {
         );
         self.system
             .combine_into(stiffness_scale, mass_scale, &mut self.matrix)?;
-        self.cholesky.factorize(&self.matrix)?;
+        self.solver.factorize(&self.matrix)?;
         self.factored_for = Some(dt);
         Ok(())
     }
@@ -155,7 +156,7 @@ impl Integrator for Newmark {
         for i in 0..n {
             self.rhs[i] += f[i];
         }
-        self.cholesky.solve_in_place(&mut self.rhs)?;
+        self.solver.solve(&self.matrix, &mut self.rhs)?;
         for i in 0..n {
             let u_new = self.rhs[i];
             let a_new = 4.0 / (dt * dt) * (u_new - state.displacement[i])
@@ -185,7 +186,11 @@ impl Integrator for Newmark {
     }
 
     fn factor_len(&self) -> Option<usize> {
-        Some(self.cholesky.factor_len())
+        Some(self.solver.factor_len())
+    }
+
+    fn linear_solver(&self) -> Option<&LinearSolver> {
+        Some(&self.solver)
     }
 
     fn name(&self) -> &'static str {

@@ -6,6 +6,7 @@ use std::sync::Arc;
 use nalgebra::Vector3;
 
 use super::{Energy, Rayleigh, State};
+use crate::amg::DofGeometry;
 use crate::assembly::{Assembler, lumped_mass};
 use crate::block_sparse::SymmetricBlockMatrix3;
 use crate::constraints::{Constraints, DofMap, ensure_held};
@@ -85,6 +86,10 @@ pub struct LinearSystem {
     other_load: Vec<f64>,
     external: Vec<f64>,
     dofs: DofMap,
+    /// Where the free DOFs sit (from [`new`](Self::new); `None` from
+    /// [`from_parts`](Self::from_parts)): the rigid-body modes of the implicit methods'
+    /// multigrid preconditioner on their iterative path.
+    geometry: Option<DofGeometry>,
 }
 
 impl LinearSystem {
@@ -130,14 +135,17 @@ impl LinearSystem {
             .zip(&coupling)
             .map(|(f, k)| f - k)
             .collect();
-        Self::from_parts(
+        let geometry = DofGeometry::new(mesh, &dofs)?;
+        let mut system = Self::from_parts(
             stiffness,
             mass,
             damping,
             dofs.restrict(gravity_loads.as_slice())?,
             dofs.restrict(&other)?,
             dofs,
-        )
+        )?;
+        system.geometry = Some(geometry);
+        Ok(system)
     }
 
     /// A system from its parts (all on the free DOFs of `dofs`).
@@ -201,6 +209,7 @@ impl LinearSystem {
             other_load,
             external,
             dofs,
+            geometry: None,
         })
     }
 
@@ -218,6 +227,12 @@ impl LinearSystem {
     /// [`SymmetricBlockMatrix3`] for why).
     pub fn stiffness_blocks(&self) -> &SymmetricBlockMatrix3 {
         &self.stiffness_blocks
+    }
+
+    /// Node, axis and position of each free DOF (`None` for a system built
+    /// [`from_parts`](Self::from_parts)).
+    pub fn geometry(&self) -> Option<&DofGeometry> {
+        self.geometry.as_ref()
     }
 
     /// M_ff.
