@@ -180,7 +180,7 @@ impl BlockMatrix3 {
         self.padded_index.is_some()
     }
 
-    /// Scratch for [`product_into`](Self::product_into) and [`product2_into`](Self::product2_into).
+    /// Scratch for the products (vectors of the padded numbering; empty when there is no padding).
     pub fn workspace(&self) -> BlockWorkspace {
         let n = if self.is_padded() {
             3 * self.block_rows()
