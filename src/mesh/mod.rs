@@ -188,11 +188,13 @@ impl TetMesh {
     }
 
     /// Rest positions of tet `t`, for loops over `0..tet_count()` (panics on a bad index).
+    #[inline]
     pub(crate) fn positions_of(&self, t: usize) -> [Vector3<f64>; 4] {
         self.tets[t].map(|n| self.nodes[n])
     }
 
     /// The element of tet `t`, for loops over `0..tet_count()` (panics on a bad index).
+    #[inline]
     pub(crate) fn element_of(&self, t: usize) -> Tet {
         // Cannot fail: `new` rejected every tet whose quality is below DEGENERATE_QUALITY and
         // reoriented the negative ones, which is all `Tet::new` checks.
