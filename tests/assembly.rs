@@ -190,3 +190,80 @@ fn parallel_refill_equals_sequential_scatter_bit_for_bit() {
     // Each entry sums its contributions in tet order on both paths: identical bits.
     assert_eq!(parallel.values(), &sequential[..]);
 }
+
+/// A perturbed five-tet box whose node numbers are shuffled, so that consecutive tets jump all
+/// over the value array (the refill zeroes each partition just ahead of its tets and must not
+/// rely on the locality of the generated numbering).
+fn shuffled_box(cells: [usize; 3], seed: u64) -> TetMesh {
+    let mesh = perturbed_box(cells, seed);
+    let mut rng = Rng::new(seed + 1);
+    let mut new_index: Vec<usize> = (0..mesh.node_count()).collect();
+    for k in (1..new_index.len()).rev() {
+        let pick = ((rng.uniform() * (k + 1) as f64) as usize).min(k);
+        new_index.swap(k, pick);
+    }
+    let mut nodes = vec![Vector3::zeros(); mesh.node_count()];
+    for (old, &new) in new_index.iter().enumerate() {
+        nodes[new] = mesh.nodes()[old];
+    }
+    let tets = mesh
+        .tets()
+        .iter()
+        .map(|t| t.map(|n| new_index[n]))
+        .collect();
+    TetMesh::new(nodes, tets).unwrap()
+}
+
+#[test]
+fn refill_overwrites_stale_values_bit_for_bit_on_any_node_order() {
+    // nnz > 2e5 (asserted below): several partitions, with tets straddling them.
+    let mesh = shuffled_box([30, 10, 10], 3);
+    let mat = material();
+    for threads in [1, 2] {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        pool.install(|| {
+            let assembler = Assembler::new(&mesh);
+            assert!(assembler.nnz() > 200_000);
+            let mut reference = vec![0.0; assembler.nnz()];
+            let mut mass_reference = vec![0.0; assembler.nnz()];
+            for t in 0..mesh.tet_count() {
+                let element = mesh.element(t).unwrap();
+                let (ke, me) = (
+                    element.stiffness(&mat),
+                    element.consistent_mass(mat.density()),
+                );
+                assembler.scatter(&mesh, t, &ke, &mut reference).unwrap();
+                assembler
+                    .scatter(&mesh, t, &me, &mut mass_reference)
+                    .unwrap();
+            }
+            // Stale values (NaN would survive any sum) must all be overwritten.
+            let mut k = assembler.stiffness(&mesh, &mat).unwrap();
+            k.values_mut().fill(f64::NAN);
+            assembler.refill_stiffness(&mesh, &mat, &mut k).unwrap();
+            // Same products, same per-entry tet order as Tet::stiffness + scatter: same bits.
+            assert_eq!(
+                k.values(),
+                &reference[..],
+                "refill_stiffness, {threads} threads"
+            );
+            k.values_mut().fill(f64::NAN);
+            assembler
+                .reassemble(&mesh, |t| mesh.element(t).unwrap().stiffness(&mat), &mut k)
+                .unwrap();
+            assert_eq!(k.values(), &reference[..], "reassemble, {threads} threads");
+            k.values_mut().fill(f64::NAN);
+            assembler
+                .reassemble(
+                    &mesh,
+                    |t| mesh.element(t).unwrap().consistent_mass(mat.density()),
+                    &mut k,
+                )
+                .unwrap();
+            assert_eq!(k.values(), &mass_reference[..], "mass, {threads} threads");
+        });
+    }
+}
