@@ -1,7 +1,7 @@
 //! Timing harness for the refill of the global stiffness K (values only, on an existing
 //! pattern): the library's `Assembler::refill_stiffness` and `Assembler::stiffness` (fresh
 //! matrix) against a verbatim copy of the previous implementation (a generic 12×12 element
-//! matrix per tet scattered entry by entry, a separate zeroing pass, ordinary pages),
+//! matrix per tet scattered entry by entry, a separate zeroing pass),
 //! interleaved in one process so that machine noise hits both alike.
 //!
 //! Usage: `RAYON_NUM_THREADS=1 cargo run --release --example refill -- 200 20 20 [rounds]`.
@@ -162,6 +162,7 @@ fn main() {
     let assembler = Assembler::new(&mesh);
     let mut k_new = assembler.stiffness(&mesh, &material).unwrap();
     let mut k_old = k_new.clone();
+    let reference = k_new.clone();
     let old = OldRefill::new(&mesh, k_new.col_ptr(), k_new.row_idx());
     let tets = mesh.tet_count() as f64;
     // For profiling one path alone: REFILL_ONLY=new runs `refill_stiffness` in a loop and exits.
@@ -173,21 +174,14 @@ fn main() {
         }
         return;
     }
-    // `stiffness` backs its array with huge pages where it can; a clone has ordinary 4 KiB pages
-    // (the old `stiffness` had those too). Both implementations run on both, since the page
-    // size alone changes the refill time (TLB misses).
-    let mut k_old_small = k_new.clone();
-    let mut k_new_small = k_new.clone();
     let pattern = std::sync::Arc::clone(assembler.pattern());
     let labels = [
-        "old refill, 4 KiB pages",
-        "new refill, 4 KiB pages",
-        "old refill, huge pages",
-        "new refill, huge pages",
+        "old refill, in place",
+        "new refill, in place",
         "old fresh K (vec![0.0] + old refill)",
         "new fresh K (Assembler::stiffness)",
     ];
-    let mut best = [f64::INFINITY; 6];
+    let mut best = [f64::INFINITY; 4];
     let mut time = |slot: usize, run: &mut dyn FnMut()| {
         let clock = Instant::now();
         run();
@@ -195,27 +189,15 @@ fn main() {
     };
     for _ in 0..rounds {
         time(0, &mut || {
-            old.reassemble(
-                &mesh,
-                |t| element(&mesh, t, &material),
-                k_old_small.values_mut(),
-            )
-        });
-        time(1, &mut || {
-            assembler
-                .refill_stiffness(&mesh, &material, &mut k_new_small)
-                .unwrap()
-        });
-        time(2, &mut || {
             old.reassemble(&mesh, |t| element(&mesh, t, &material), k_old.values_mut())
         });
-        time(3, &mut || {
+        time(1, &mut || {
             assembler
                 .refill_stiffness(&mesh, &material, &mut k_new)
                 .unwrap()
         });
         let mut fresh = None;
-        time(4, &mut || {
+        time(2, &mut || {
             let mut k =
                 CscMatrix::from_values(Arc::clone(&pattern), vec![0.0; pattern.row_idx().len()])
                     .unwrap();
@@ -223,20 +205,15 @@ fn main() {
             fresh = Some(black_box(k));
         });
         drop(fresh.take());
-        time(5, &mut || {
+        time(3, &mut || {
             fresh = Some(black_box(assembler.stiffness(&mesh, &material).unwrap()));
         });
         drop(fresh);
     }
     let fresh = assembler.stiffness(&mesh, &material).unwrap();
-    let same = [
-        k_new.values(),
-        k_old_small.values(),
-        k_new_small.values(),
-        fresh.values(),
-    ]
-    .iter()
-    .all(|v| *v == k_old.values());
+    let same = [k_new.values(), k_old.values(), fresh.values()]
+        .iter()
+        .all(|v| *v == reference.values());
     let ns = |s: f64| s * 1e9 / tets;
     println!(
         "cells {cells:?}: {} DOFs, {} tets, nnz {}, threads {}, best of {rounds}",
