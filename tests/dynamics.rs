@@ -573,6 +573,25 @@ fn one_step_matches_its_formula_with_damping_and_partial_constraints() {
     }
 }
 
+/// A displaced, moving state on `n` free DOFs (deterministic, no symmetry).
+fn moving_state(n: usize) -> State {
+    State {
+        displacement: (0..n).map(|i| 1e-3 * ((i % 13) as f64 - 6.0)).collect(),
+        velocity: (0..n).map(|i| 1e-2 * ((i % 7) as f64 - 3.0)).collect(),
+        ..State::at_rest(n)
+    }
+}
+
+/// (max |a − b|, max |a|).
+fn max_difference(a: &[f64], b: &[f64]) -> (f64, f64) {
+    let scale = a.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    let diff = a
+        .iter()
+        .zip(b)
+        .fold(0.0f64, |m, (x, y)| m.max((x - y).abs()));
+    (diff, scale)
+}
+
 #[test]
 fn implicit_steps_on_two_cholesky_threads_match_one_thread() {
     let (system, _, _) = beam(5.0, [30, 6, 6], MassKind::Lumped);
@@ -591,12 +610,7 @@ fn implicit_steps_on_two_cholesky_threads_match_one_thread() {
     let split = cholesky.supernodal_split().expect("a supernodal factor");
     assert!(split[1] > 0.0 && split[2] > 0.0, "two halves: {split:?}");
 
-    let n = system.free_count();
-    let start = State {
-        displacement: (0..n).map(|i| 1e-3 * ((i % 13) as f64 - 6.0)).collect(),
-        velocity: (0..n).map(|i| 1e-2 * ((i % 7) as f64 - 3.0)).collect(),
-        ..State::at_rest(n)
-    };
+    let start = moving_state(system.free_count());
     let dt = 20.0 * critical_time_step(&system).unwrap().dt;
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(2)
@@ -630,11 +644,7 @@ fn implicit_steps_on_two_cholesky_threads_match_one_thread() {
             (&one.displacement, &two.displacement),
             (&one.velocity, &two.velocity),
         ] {
-            let scale = a.iter().fold(0.0f64, |m, v| m.max(v.abs()));
-            let diff = a
-                .iter()
-                .zip(b)
-                .fold(0.0f64, |m, (x, y)| m.max((x - y).abs()));
+            let (diff, scale) = max_difference(a, b);
             // Another order of the factorization's and solves' sums: round-off (1e-16) times
             // the system's condition number (~1 + (dt·ω_max)² ≈ 1.6e3 at 20 critical steps)
             // times five steps stays far below 1e-10.
@@ -646,12 +656,7 @@ fn implicit_steps_on_two_cholesky_threads_match_one_thread() {
 #[test]
 fn implicit_steps_on_the_iterative_path_match_the_direct_ones() {
     let (system, _, _) = beam(5.0, [30, 6, 6], MassKind::Lumped);
-    let n = system.free_count();
-    let start = State {
-        displacement: (0..n).map(|i| 1e-3 * ((i % 13) as f64 - 6.0)).collect(),
-        velocity: (0..n).map(|i| 1e-2 * ((i % 7) as f64 - 3.0)).collect(),
-        ..State::at_rest(n)
-    };
+    let start = moving_state(system.free_count());
     let dt = 20.0 * critical_time_step(&system).unwrap().dt;
     let options = |linear_method| IntegratorOptions {
         linear_method,
@@ -686,11 +691,7 @@ fn implicit_steps_on_the_iterative_path_match_the_direct_ones() {
             (&direct.displacement, &iterative.displacement),
             (&direct.velocity, &iterative.velocity),
         ] {
-            let scale = a.iter().fold(0.0f64, |m, v| m.max(v.abs()));
-            let diff = a
-                .iter()
-                .zip(b)
-                .fold(0.0f64, |m, (x, y)| m.max((x - y).abs()));
+            let (diff, scale) = max_difference(a, b);
             // Each solve stops at a relative residual of 1e-12; its error is at most that times
             // the system's condition number (~1 + (dt·ω_max)² ≈ 1.6e3 at 20 critical steps),
             // 1.6e-9, over five steps: below 1e-8. A step that skipped the solve would be off

@@ -230,6 +230,19 @@ fn run_one(
     Ok(run)
 }
 
+/// The beam's linear dynamic system: lumped mass, gravity, its end load, no damping.
+fn beam_system(problem: &Cantilever, mesh: &tetfem::TetMesh) -> tetfem::Result<Arc<LinearSystem>> {
+    Ok(Arc::new(LinearSystem::new(
+        mesh,
+        &problem.material,
+        &problem.constraints(mesh)?,
+        &problem.loads(mesh)?,
+        Vector3::new(0.0, 0.0, -9.81),
+        MassKind::Lumped,
+        Rayleigh::default(),
+    )?))
+}
+
 /// Times backward-Euler steps whose systems are solved by CG with smoothed-aggregation
 /// multigrid ([`LinearMethod::Iterative`]), at 100 critical time steps as in [`time_steps`]:
 /// the time-stepping path for meshes whose factor would not fit in memory.
@@ -238,15 +251,7 @@ fn time_iterative_steps(
     mesh: &tetfem::TetMesh,
     run: &mut Run,
 ) -> tetfem::Result<()> {
-    let system = Arc::new(LinearSystem::new(
-        mesh,
-        &problem.material,
-        &problem.constraints(mesh)?,
-        &problem.loads(mesh)?,
-        Vector3::new(0.0, 0.0, -9.81),
-        MassKind::Lumped,
-        Rayleigh::default(),
-    )?);
+    let system = beam_system(problem, mesh)?;
     let dt = 100.0 * critical_time_step(&system)?.dt;
     let options = IntegratorOptions {
         linear_method: LinearMethod::Iterative,
@@ -283,15 +288,7 @@ fn time_steps(
     methods: &[Method],
     run: &mut Run,
 ) -> tetfem::Result<()> {
-    let system = Arc::new(LinearSystem::new(
-        mesh,
-        &problem.material,
-        &problem.constraints(mesh)?,
-        &problem.loads(mesh)?,
-        Vector3::new(0.0, 0.0, -9.81),
-        MassKind::Lumped,
-        Rayleigh::default(),
-    )?);
+    let system = beam_system(problem, mesh)?;
     let dt_critical = critical_time_step(&system)?.dt;
     let n = system.free_count() as f64;
     let vectors = 6.0 * 8.0 * n;
