@@ -476,11 +476,6 @@ impl BlockMatrix3 {
         if columns.len() % 2 == 1 {
             block(columns.len() - 1, &mut a0, &mut a1);
         }
-        let sum3 = |t: __m256d| {
-            let low = _mm256_castpd256_pd128(t);
-            let high = _mm256_extractf128_pd::<1>(t);
-            _mm_cvtsd_f64(_mm_add_sd(_mm_add_sd(low, _mm_unpackhi_pd(low, low)), high))
-        };
         let s0 = std::array::from_fn(|r| sum3(_mm256_add_pd(a0[r], b0[r])));
         let s1 = if TWO {
             std::array::from_fn(|r| sum3(_mm256_add_pd(a1[r], b1[r])))
@@ -489,6 +484,18 @@ impl BlockMatrix3 {
         };
         (s0, s1)
     }
+}
+
+/// (l₀ + l₁) + l₂ of a 4-lane vector (its fourth lane ignored): a node's entry from the lanes
+/// of a block row's accumulator.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+#[inline]
+fn sum3(t: std::arch::x86_64::__m256d) -> f64 {
+    use std::arch::x86_64::*;
+    let low = _mm256_castpd256_pd128(t);
+    let high = _mm256_extractf128_pd::<1>(t);
+    _mm_cvtsd_f64(_mm_add_sd(_mm_add_sd(low, _mm_unpackhi_pd(low, low)), high))
 }
 
 /// Whether this CPU runs the AVX2/FMA product kernel.

@@ -18,6 +18,8 @@
 
 use rayon::prelude::*;
 
+#[cfg(target_arch = "x86_64")]
+use super::sum3;
 use super::{BlockMatrix3, CHUNK_ROWS, simd_available};
 use crate::error::{Error, Result};
 use crate::sparse::CscMatrix;
@@ -410,11 +412,6 @@ impl SymmetricBlockMatrix3 {
             if k < columns.len() {
                 block(k, &mut odd);
             }
-            let sum3 = |t: __m256d| {
-                let low = _mm256_castpd256_pd128(t);
-                let high = _mm256_extractf128_pd::<1>(t);
-                _mm_cvtsd_f64(_mm_add_sd(_mm_add_sd(low, _mm_unpackhi_pd(low, low)), high))
-            };
             let yi = &mut y[4 * (i - base)..4 * (i - base) + 3];
             for r in 0..3 {
                 yi[r] += sum3(_mm256_add_pd(acc[r], odd[r]));
