@@ -406,3 +406,64 @@ fn scenes_choose_the_model_by_name() {
         other => panic!("expected a scene error on analysis.model, got {other:?}"),
     }
 }
+
+#[test]
+fn nonlinear_backward_euler_on_two_cholesky_threads_matches_one_thread() {
+    use std::sync::Arc;
+    use tetfem::CholeskyOptions;
+    use tetfem::dynamics::{NonlinearBackwardEuler, State};
+    // The beam of tests/dynamics.rs's two-thread check, whose factor splits into two halves.
+    let problem = Cantilever {
+        end_load: 600.0,
+        ..Cantilever::peer_benchmark([30, 6, 6])
+    };
+    let mesh = Arc::new(problem.mesh().unwrap());
+    let constraints = problem.constraints(&mesh).unwrap();
+    let loads = problem.loads(&mesh).unwrap();
+    let build = || {
+        NonlinearBackwardEuler::new(
+            Arc::clone(&mesh),
+            &problem.material,
+            ModelKind::Corotational.build(&problem.material),
+            &constraints,
+            &loads,
+            Vector3::zeros(),
+            1e-3,
+        )
+        .unwrap()
+    };
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(2)
+        .build()
+        .unwrap();
+    let run = |threads: Option<usize>| {
+        pool.install(|| {
+            let mut integrator = match threads {
+                Some(threads) => build().with_cholesky(CholeskyOptions {
+                    threads,
+                    ..Default::default()
+                }),
+                None => build(),
+            };
+            let mut state = State::at_rest(integrator.free_count());
+            for _ in 0..5 {
+                integrator.step(&mut state).unwrap();
+            }
+            state.displacement
+        })
+    };
+    let (default, one, two) = (run(None), run(Some(1)), run(Some(2)));
+    // The default is one thread: the same computation, the same bits.
+    assert_eq!(default, one);
+    let scale = one.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    assert!(scale > 0.0);
+    let diff = one
+        .iter()
+        .zip(&two)
+        .fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
+    // Another order of the factorization's and solves' sums: round-off times the step system's
+    // condition number, far below 1e-10 of the displacement over five steps.
+    assert!(diff <= 1e-10 * scale, "{diff:e} of {scale:e}");
+    // And the second thread did run: its sums, in another order, change the last bits.
+    assert!(diff > 0.0, "two threads gave the one-thread bits");
+}

@@ -8,7 +8,7 @@ use super::{DivergenceGuard, Energy, State, check_time_step};
 use crate::assembly::{Assembler, lumped_mass};
 use crate::constraints::{Constraints, DofMap, Restriction, ensure_held};
 use crate::error::{Error, Result};
-use crate::linsolve::SparseCholesky;
+use crate::linsolve::{CholeskyOptions, SparseCholesky};
 use crate::loads::Loads;
 use crate::material::Material;
 use crate::mesh::TetMesh;
@@ -35,7 +35,9 @@ pub struct NonlinearBackwardEuler {
     external: Vec<f64>,
     tangent: CscMatrix,
     system: CscMatrix,
-    cholesky: SparseCholesky,
+    /// Analysed on the first step, with `cholesky_options`.
+    cholesky: Option<SparseCholesky>,
+    cholesky_options: CholeskyOptions,
     dt: f64,
     /// Set on the first step from the energy of the state it starts from.
     guard: Option<DivergenceGuard>,
@@ -79,7 +81,6 @@ impl NonlinearBackwardEuler {
         all.add_gravity(&mesh, material, gravity)?;
         let tangent = CscMatrix::zeros(Arc::clone(assembler.pattern()))?;
         let system = CscMatrix::zeros(Arc::clone(restriction.pattern()))?;
-        let cholesky = SparseCholesky::analyze(&system)?;
         Ok(NonlinearBackwardEuler {
             mass: dofs.restrict(&lumped_mass(&mesh, material))?,
             external: all.as_slice().to_vec(),
@@ -90,10 +91,21 @@ impl NonlinearBackwardEuler {
             restriction,
             tangent,
             system,
-            cholesky,
+            cholesky: None,
+            cholesky_options: CholeskyOptions::default(),
             dt,
             guard: None,
         })
+    }
+
+    /// The same method with the Cholesky factorization of its step system on `options`
+    /// (ordering and threads; the default is one thread, see
+    /// [`IntegratorOptions::cholesky`](super::IntegratorOptions::cholesky)). The symbolic
+    /// analysis runs on the first step.
+    pub fn with_cholesky(mut self, options: CholeskyOptions) -> Self {
+        self.cholesky_options = options;
+        self.cholesky = None;
+        self
     }
 
     /// Number of free DOFs (the length of the state vectors).
@@ -173,8 +185,15 @@ impl NonlinearBackwardEuler {
             *value *= dt * dt;
         }
         self.system.add_diagonal(1.0, &self.mass)?;
-        self.cholesky.factorize(&self.system)?;
-        self.cholesky.solve_in_place(&mut rhs)?;
+        let cholesky = match &mut self.cholesky {
+            Some(cholesky) => cholesky,
+            none => none.insert(SparseCholesky::analyze_with(
+                &self.system,
+                self.cholesky_options,
+            )?),
+        };
+        cholesky.factorize(&self.system)?;
+        cholesky.solve_in_place(&mut rhs)?;
         for i in 0..n {
             state.velocity[i] += rhs[i];
             state.displacement[i] += dt * state.velocity[i];
