@@ -13,7 +13,6 @@ use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use tetfem::cantilever::Cantilever;
 use tetfem::dynamics::Method;
 use tetfem::info::mesh_info;
-use tetfem::output::VtuWriter;
 use tetfem::scene::{
     Analysis, DynamicOutputs, DynamicOverrides, DynamicRun, DynamicSetup, DynamicSummary,
     OutputSettings, PngField, RunLength, RunOptions, RunSummary, Scene, TimeStep, run_dynamic,
@@ -26,15 +25,22 @@ use tetfem::{Error, Material};
 /// With no subcommand, runs the embedded default scene: a steel cantilever (1 m × 0.1 m × 0.1 m,
 /// E = 200 GPa, ν = 0.3, ρ = 7850 kg/m³) clamped at x = 0 under gravity and a 10 kN end load.
 ///
+/// The scene runs through the same runner as `tetfem run`, into one folder per part:
+///
 /// 1. Static: meshed with --cells (100×10×10 cubes of 6 tets), it prints the mesh size, the time
-///    of each phase and the tip deflection beside beam theory, and writes `<out>/cantilever.vtu`.
+///    of each phase and the tip deflection beside beam theory, and writes to `<out>/cantilever/`
+///    what a static scene writes: `cantilever.vtu` (displacement, its magnitude, von Mises
+///    stress, strain energy density) with a one-frame `cantilever.pvd`, `cantilever_probes.csv`
+///    (the tip's mean displacement), `cantilever_summary.json`, and with --png `cantilever.png`.
 ///
 /// 2. Dynamic (unless --static-only): on a coarser mesh (--dynamic-cells, 40×4×4), the beam is
 ///    released from rest in its loaded static shape with the end load removed (gravity stays)
 ///    and swings for --periods periods of its first mode (from the modal solver) with --method
-///    at --dt. It writes `<out>/cantilever_dynamic.pvd` with its `.vtu` frames (open the `.pvd` in ParaView to play the animation), `cantilever_dynamic.csv`
-///    (time, tip displacement, each energy term, wall time per step) and a JSON summary, and
-///    reports the wall time per step and the explicit critical step.
+///    at --dt. It writes to `<out>/cantilever_swing/` what a dynamic scene writes:
+///    `cantilever_swing.pvd` with its `.vtu` frames (open the `.pvd` in ParaView to play the
+///    animation), `cantilever_swing.csv` (time, tip displacement, each energy term, wall time
+///    per step), `cantilever_swing_summary.json`, and with --png a `.png` per frame; it reports
+///    the wall time per step and the explicit critical step.
 ///
 /// Subcommands: `tetfem run SCENE.toml` runs a scene file (see scenes/), `tetfem info MESH`
 /// prints mesh statistics and the explicit critical step.
@@ -79,7 +85,7 @@ struct DefaultScene {
     /// Cells along x, y, z of the dynamic run's mesh (coarser, so that it runs in seconds).
     #[arg(long, value_parser = parse_cells, default_value = "40,4,4")]
     dynamic_cells: [usize; 3],
-    /// Directory for the output files.
+    /// Directory for the output folders `cantilever/` (static) and `cantilever_swing/` (dynamic).
     #[arg(long, default_value = "out")]
     out: PathBuf,
     /// Integrator of the dynamic run.
@@ -98,7 +104,7 @@ struct DefaultScene {
     /// About this many `.vtu` frames over the dynamic run.
     #[arg(long, default_value = "60", value_parser = clap::value_parser!(u32).range(1..))]
     frames: u32,
-    /// Also render each dynamic frame to PNG.
+    /// Also render the static solution and each dynamic frame to PNG.
     #[arg(long)]
     png: bool,
     /// Only the static solve (as before the dynamic part existed).
@@ -107,6 +113,10 @@ struct DefaultScene {
     /// No progress bar.
     #[arg(long, short)]
     quiet: bool,
+    /// Print one JSON object on stdout (and nothing else there): the static summary, beam
+    /// theory's tip deflections (m), the dynamic summary and the first mode's period (s).
+    #[arg(long)]
+    json: bool,
 }
 
 #[derive(Debug, Args)]
@@ -286,60 +296,166 @@ impl Drop for Progress {
     }
 }
 
-fn run_default(cli: &DefaultScene) -> tetfem::Result<()> {
-    run_default_static(cli)?;
-    if cli.static_only {
-        return Ok(());
-    }
-    run_default_dynamic(cli)
+/// How the cubes of both default meshes are split into tets (the scene key `mesh.box.split`).
+const DEFAULT_SPLIT: &str = "lecture6";
+
+/// The embedded default scene: [`Cantilever::steel_default`] on `cells` as a static scene,
+/// clamped on x = 0, with its end load and gravity and the probe `tip` on the end face x = L.
+/// Its outputs are `<out>/<stem>/<stem>.*`, as `tetfem run` writes them for a scene file.
+fn default_scene(
+    beam: &Cantilever,
+    cells: [usize; 3],
+    title: &str,
+    stem: &str,
+    out: &Path,
+) -> tetfem::Result<Scene> {
+    let m = beam.material;
+    let text = format!(
+        r#"title = "{title}"
+
+[mesh.box]
+max = [{length:?}, {width:?}, {height:?}]
+cells = [{cx}, {cy}, {cz}]
+split = "{DEFAULT_SPLIT}"
+
+[material]
+youngs_modulus = {e:?}
+poisson_ratio = {nu:?}
+density = {rho:?}
+
+[[constraints]]
+where = {{ plane = {{ axis = "x", at = 0.0 }} }}
+
+[[loads]]
+where = {{ plane = {{ axis = "x", at = {length:?} }} }}
+total_force = [0.0, 0.0, {load:?}]
+
+[[loads]]
+gravity = [0.0, 0.0, {gravity:?}]
+
+[[probes]]
+name = "tip"
+where = {{ plane = {{ axis = "x", at = {length:?} }} }}
+"#,
+        length = beam.length,
+        width = beam.width,
+        height = beam.height,
+        cx = cells[0],
+        cy = cells[1],
+        cz = cells[2],
+        e = m.youngs_modulus(),
+        nu = m.poisson_ratio(),
+        rho = m.density(),
+        load = -beam.end_load,
+        gravity = -beam.gravity,
+    );
+    let mut scene = Scene::parse(&text, "default", Path::new("."))?;
+    scene.set_stem(stem)?;
+    scene.set_output_directory(out.join(stem));
+    Ok(scene)
 }
 
-fn run_default_static(cli: &DefaultScene) -> tetfem::Result<()> {
-    let scene = Cantilever {
-        cells: cli.cells,
-        ..Cantilever::steel_default()
+/// Stem (and folder under `--out`) of the default run's static outputs.
+const STATIC_STEM: &str = "cantilever";
+/// Stem (and folder under `--out`) of the default run's dynamic outputs.
+const DYNAMIC_STEM: &str = "cantilever_swing";
+
+fn run_default(cli: &DefaultScene) -> tetfem::Result<()> {
+    let beam = Cantilever::steel_default();
+    let statics = run_default_static(cli, &beam)?;
+    let dynamics = if cli.static_only {
+        None
+    } else {
+        Some(run_default_dynamic(cli, &beam)?)
     };
-    let material = scene.material;
+    if cli.json {
+        let (euler_bernoulli, timoshenko) = beam.beam_theory_tip();
+        let report = serde_json::json!({
+            "static": statics,
+            "beam_theory_tip": {
+                "euler_bernoulli": euler_bernoulli,
+                "timoshenko": timoshenko,
+            },
+            "dynamic": dynamics.as_ref().map(|(summary, _)| summary),
+            "first_mode_period": dynamics.as_ref().map(|(_, period)| period),
+        });
+        println!("{report}");
+    }
+    Ok(())
+}
+
+fn run_default_static(cli: &DefaultScene, beam: &Cantilever) -> tetfem::Result<RunSummary> {
+    let scene = default_scene(
+        beam,
+        cli.cells,
+        "Steel cantilever (default scene), static",
+        STATIC_STEM,
+        &cli.out,
+    )?;
+    let summary = run_static_with(
+        &scene,
+        &RunOptions {
+            force_png: cli.png,
+            ..RunOptions::default()
+        },
+    )?;
+    print_warnings(&summary.warnings);
+    if !cli.json {
+        print_default_static(cli, beam, &summary, &scene.output().directory);
+    }
+    Ok(summary)
+}
+
+fn print_default_static(cli: &DefaultScene, beam: &Cantilever, s: &RunSummary, directory: &Path) {
+    let material = beam.material;
     println!("tetfem: static cantilever (default scene)");
     println!(
         "  beam {} m × {} m × {} m, E = {:.3e} Pa, ν = {}, ρ = {} kg/m³, end load {} N, g = {} m/s²",
-        scene.length,
-        scene.width,
-        scene.height,
+        beam.length,
+        beam.width,
+        beam.height,
         material.youngs_modulus(),
         material.poisson_ratio(),
         material.density(),
-        scene.end_load,
-        scene.gravity
+        beam.end_load,
+        beam.gravity
     );
-    let solved = scene.solve()?;
-    let mesh = &solved.mesh;
     println!(
         "  mesh {}×{}×{} cells: {} nodes, {} tets, {} DOFs ({} free), nnz(L) = {}",
         cli.cells[0],
         cli.cells[1],
         cli.cells[2],
-        mesh.node_count(),
-        mesh.tet_count(),
-        mesh.dof_count(),
-        solved.free_dofs,
-        solved.factor_len
+        s.nodes,
+        s.tets,
+        3 * s.nodes,
+        s.free_dofs,
+        s.factor_len
     );
-    let t = solved.timings;
     println!("  time per phase:");
-    for (phase, time) in [
-        ("mesh", solved.mesh_time),
-        ("pattern", t.pattern),
-        ("assembly", t.assembly),
-        ("constraints", t.constraints),
-        ("symbolic", t.symbolic),
-        ("factorization", t.factorization),
-        ("solve", t.solve),
-    ] {
-        println!("    {phase:<14} {}", format_duration(time));
+    println!(
+        "    {:<14} {} (mesh, node and face sets, loads)",
+        "build",
+        format_seconds(s.build_seconds)
+    );
+    if let Some(p) = &s.phases {
+        for (phase, seconds) in [
+            ("pattern", p.pattern),
+            ("assembly", p.assembly),
+            ("constraints", p.constraints),
+            ("symbolic", p.symbolic),
+            ("factorization", p.factorization),
+            ("solve", p.solve),
+        ] {
+            println!("    {phase:<14} {}", format_seconds(seconds));
+        }
     }
-    let (euler_bernoulli, timoshenko) = scene.beam_theory_tip();
-    let tip = solved.tip_deflection;
+    println!("    {:<14} {}", "outputs", format_seconds(s.output_seconds));
+    let (euler_bernoulli, timoshenko) = beam.beam_theory_tip();
+    let tip = s
+        .probes
+        .iter()
+        .find(|p| p.name == "tip")
+        .map_or(f64::NAN, |p| p.displacement[2]);
     println!("  tip deflection (mean u_z on x = L):");
     println!("    tetfem           {tip:+.6e} m");
     println!(
@@ -356,57 +472,79 @@ fn run_default_static(cli: &DefaultScene) -> tetfem::Result<()> {
     );
     println!(
         "  relative residual ‖K_ff·u − f‖/‖f‖ = {:.2e}",
-        solved.solution.relative_residual
+        s.relative_residual
     );
-
-    let displacement = &solved.solution.displacement;
-    let stress = tetfem::output::fields::cell_von_mises(mesh, &material, displacement)?;
-    let path = cli.out.join("cantilever.vtu");
-    VtuWriter::new(mesh)
-        .point_field("displacement", 3, displacement)?
-        .cell_field("von_mises_stress", 1, &stress)?
-        .write(&path)?;
     println!(
-        "  wrote {} (displacement [m] per node, von Mises stress [Pa] per tet)",
-        path.display()
+        "  max |u| = {:.4e} m, max von Mises = {:.4e} Pa",
+        s.max_displacement, s.max_von_mises
     );
-    Ok(())
+    print_files(&s.files, directory);
+    println!(
+        "    (.vtu: displacement, displacement_magnitude [m] per node; von_mises [Pa], strain_energy_density [J/m³] per tet)"
+    );
 }
 
-fn run_default_dynamic(cli: &DefaultScene) -> tetfem::Result<()> {
-    let beam = Cantilever {
-        cells: cli.dynamic_cells,
-        ..Cantilever::steel_default()
-    };
+/// "wrote N files to DIR/: a, b, c" (the file names, frames summarized by their count).
+fn print_files(files: &[PathBuf], directory: &Path) {
+    let names: Vec<String> = files
+        .iter()
+        .filter_map(|f| f.file_name())
+        .map(|n| n.to_string_lossy().into_owned())
+        .collect();
+    println!(
+        "  wrote {} files to {}/: {}",
+        names.len(),
+        directory.display(),
+        names.join(", ")
+    );
+}
+
+/// The dynamic part's summary and the first mode's period (s).
+fn run_default_dynamic(
+    cli: &DefaultScene,
+    beam: &Cantilever,
+) -> tetfem::Result<(DynamicSummary, f64)> {
     let c = cli.dynamic_cells;
-    println!();
-    println!(
-        "tetfem: dynamic cantilever, released from its loaded static shape with the end load removed (gravity stays)"
-    );
-    let setup = DynamicSetup::released_cantilever(&beam)?;
+    let scene = default_scene(
+        beam,
+        c,
+        "Steel cantilever released from its loaded shape",
+        DYNAMIC_STEM,
+        &cli.out,
+    )?;
+    let text = !cli.json;
+    if text {
+        println!();
+        println!(
+            "tetfem: dynamic cantilever, released from its loaded static shape with the end load removed (gravity stays)"
+        );
+    }
+    let setup = DynamicSetup::released(scene.build()?)?;
     let period = setup.first_mode_period()?;
-    println!(
-        "  mesh {}×{}×{} cells (coarser than the static one, so that the run takes seconds; set --dynamic-cells): {} nodes, {} tets, {} free DOFs",
-        c[0],
-        c[1],
-        c[2],
-        setup.mesh.node_count(),
-        setup.mesh.tet_count(),
-        setup.system.free_count()
-    );
-    println!(
-        "  first natural mode (modal solver): period {:.4e} s, f = {:.2} Hz",
-        period,
-        1.0 / period
-    );
+    if text {
+        println!(
+            "  mesh {}×{}×{} cells (coarser than the static one, so that the run takes seconds; set --dynamic-cells): {} nodes, {} tets, {} free DOFs",
+            c[0],
+            c[1],
+            c[2],
+            setup.mesh.node_count(),
+            setup.mesh.tet_count(),
+            setup.system.free_count()
+        );
+        println!(
+            "  first natural mode (modal solver): period {:.4e} s, f = {:.2} Hz",
+            period,
+            1.0 / period
+        );
+    }
     let dt = cli.dt.unwrap_or(match cli.method {
         Method::Explicit => TimeStep::CriticalMultiple(0.9),
         _ => TimeStep::CriticalMultiple(50.0),
     });
     let duration = cli.duration.unwrap_or(cli.periods * period);
     let run = DynamicRun {
-        title: "Steel cantilever released from its loaded shape".into(),
-        source: "default".into(),
+        title: scene.title(),
+        source: scene.source_name().to_string(),
         method: cli.method,
         dt,
         length: RunLength::Duration(duration),
@@ -416,27 +554,23 @@ fn run_default_dynamic(cli: &DefaultScene) -> tetfem::Result<()> {
     let steps = (duration / dt_seconds).ceil().max(1.0) as usize;
     let outputs = DynamicOutputs {
         settings: OutputSettings {
-            directory: cli.out.clone(),
-            stem: "cantilever_dynamic".into(),
-            vtu: true,
             every: steps.div_ceil(cli.frames as usize).max(1),
-            csv: true,
-            png: cli.png,
-            png_field: PngField::Displacement,
-            png_size: [960, 600],
-            deformation_scale: 0.0,
+            ..scene.output().clone()
         },
-        force_png: false,
+        force_png: cli.png,
     };
     handle_ctrl_c();
-    let mut progress = Progress::new(cli.quiet);
+    let mut progress = Progress::new(cli.quiet || cli.json);
     let summary = run_dynamic(&setup, &run, Some(&outputs), &mut |done, total| {
         progress.update(done, total)
     });
     drop(progress);
     let summary = summary?;
-    print_dynamic(&summary, &outputs.settings.directory, false);
-    Ok(())
+    print_warnings(&summary.warnings);
+    if text {
+        print_dynamic(&summary, &outputs.settings.directory, false);
+    }
+    Ok((summary, period))
 }
 
 fn print_dynamic(s: &DynamicSummary, directory: &Path, header: bool) {

@@ -178,6 +178,42 @@ impl DynamicSetup {
         })
     }
 
+    /// A built scene released from rest in its static shape under all its loads, with every
+    /// load but gravity removed: it swings about its gravity-only shape. Lumped mass, no
+    /// damping; the scene's probes. A cantilever scene gives the problem of
+    /// [`released_cantilever`](Self::released_cantilever).
+    pub fn released(built: BuiltScene) -> Result<Self> {
+        let clock = Instant::now();
+        let loaded = LinearSystem::new(
+            &built.mesh,
+            &built.material,
+            &built.constraints,
+            &built.other_loads,
+            built.gravity,
+            MassKind::Lumped,
+            Rayleigh::default(),
+        )?;
+        let initial = State::released_from(loaded.static_displacement()?);
+        let system = LinearSystem::new(
+            &built.mesh,
+            &built.material,
+            &built.constraints,
+            &Loads::new(&built.mesh),
+            built.gravity,
+            MassKind::Lumped,
+            Rayleigh::default(),
+        )?;
+        Ok(DynamicSetup {
+            mesh: built.mesh,
+            material: built.material,
+            system: Arc::new(system),
+            initial,
+            probes: built.probes,
+            setup_seconds: clock.elapsed().as_secs_f64(),
+            critical: Default::default(),
+        })
+    }
+
     /// The period 2π/ω₁ (time units) of the lowest natural mode of the constrained body, from
     /// [`lowest_modes`](crate::modal::lowest_modes).
     pub fn first_mode_period(&self) -> Result<f64> {

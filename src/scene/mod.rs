@@ -16,7 +16,7 @@ pub use dynamic::{
     DynamicOutputs, DynamicOverrides, DynamicRun, DynamicSetup, DynamicSummary, EnergyTerms,
     ProbeRange, RunLength, TimeStep, run_dynamic, run_dynamic_scene,
 };
-pub use run::{ProbeValue, RunOptions, RunSummary, run_static, run_static_with};
+pub use run::{ProbeValue, RunOptions, RunSummary, SolvePhases, run_static, run_static_with};
 pub use spec::*;
 
 use std::ops::Range;
@@ -275,6 +275,14 @@ impl Scene {
     /// The output settings, defaults filled in.
     pub fn output(&self) -> &OutputSettings {
         &self.output
+    }
+
+    /// Names the outputs of a scene that has no file (an embedded one): `<stem>.vtu`, … in the
+    /// default folder `out/<stem>` (what [`load`](Self::load) takes from the file name).
+    pub fn set_stem(&mut self, stem: &str) -> Result<()> {
+        self.stem = stem.to_string();
+        self.output = self.output_settings()?;
+        Ok(())
     }
 
     /// Overrides the output folder (e.g. from a command-line option).

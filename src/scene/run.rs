@@ -28,6 +28,37 @@ pub struct ProbeValue {
     pub displacement: [f64; 3],
 }
 
+/// Wall time (s) of each phase of a linear static solve, from
+/// [`StaticTimings`](crate::statics::StaticTimings).
+#[derive(Debug, Clone, Copy, PartialEq, Default, serde::Serialize)]
+pub struct SolvePhases {
+    /// Pattern and scatter map.
+    pub pattern: f64,
+    /// Element stiffness and scatter into K.
+    pub assembly: f64,
+    /// Constraint check and extraction of K_ff.
+    pub constraints: f64,
+    /// Symbolic analysis, or the choice of the iterative method.
+    pub symbolic: f64,
+    /// Numeric factorization, or the preconditioner's setup.
+    pub factorization: f64,
+    /// Right-hand side, triangular solves and residual.
+    pub solve: f64,
+}
+
+impl From<crate::statics::StaticTimings> for SolvePhases {
+    fn from(t: crate::statics::StaticTimings) -> Self {
+        SolvePhases {
+            pattern: t.pattern.as_secs_f64(),
+            assembly: t.assembly.as_secs_f64(),
+            constraints: t.constraints.as_secs_f64(),
+            symbolic: t.symbolic.as_secs_f64(),
+            factorization: t.factorization.as_secs_f64(),
+            solve: t.solve.as_secs_f64(),
+        }
+    }
+}
+
 /// What a run did, for printing or as one JSON object (`--json`).
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
 pub struct RunSummary {
@@ -57,6 +88,10 @@ pub struct RunSummary {
     pub solve_seconds: f64,
     /// Wall time to write the outputs (s).
     pub output_seconds: f64,
+    /// Wall time of each phase of the linear solve (`None` for the nonlinear models).
+    pub phases: Option<SolvePhases>,
+    /// Stored values of the Cholesky factor (0 for an iterative or a nonlinear solve).
+    pub factor_len: usize,
     /// Files written.
     pub files: Vec<PathBuf>,
     /// Warnings about the mesh and the material (see [`crate::warning`]), as sentences.
@@ -92,10 +127,14 @@ pub fn run_static_with(scene: &Scene, options: &RunOptions) -> Result<RunSummary
     let built = scene.build()?;
     let build_seconds = clock.elapsed().as_secs_f64();
     let clock = Instant::now();
+    let mut phases = None;
+    let mut factor_len = 0;
     let (displacement, relative_residual, free_dofs) = match scene.model() {
         crate::model::ModelKind::Linear => {
             let mut solver = StaticSolver::new(&built.mesh, &built.material, &built.constraints)?;
             let solution = solver.solve(&built.loads)?;
+            phases = Some(solver.timings().into());
+            factor_len = solver.factor_len();
             (
                 solution.displacement,
                 solution.relative_residual,
@@ -156,6 +195,8 @@ pub fn run_static_with(scene: &Scene, options: &RunOptions) -> Result<RunSummary
         build_seconds,
         solve_seconds,
         output_seconds: 0.0,
+        phases,
+        factor_len,
         files: Vec::new(),
     };
     if !options.no_files {
