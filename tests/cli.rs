@@ -38,7 +38,7 @@ fn default_scene_writes_a_vtu_that_parses_back() {
             "missing '{expected}' in:\n{stdout}"
         );
     }
-    let text = std::fs::read_to_string(dir.join("cantilever.vtu")).unwrap();
+    let text = std::fs::read_to_string(dir.join("cantilever/cantilever.vtu")).unwrap();
     let vtu = common::parse_vtu(&text);
     let scene = Cantilever {
         cells: [20, 2, 2],
@@ -51,7 +51,7 @@ fn default_scene_writes_a_vtu_that_parses_back() {
     assert_eq!((section.as_str(), *components), ("PointData", 3));
     // The file holds the library's solution, printed in shortest round-trip form: exact.
     assert_eq!(values, &solved.solution.displacement);
-    let (section, _, _, stress) = vtu.array("von_mises_stress").expect("stress array");
+    let (section, _, _, stress) = vtu.array("von_mises").expect("stress array");
     assert_eq!(
         (section.as_str(), stress.len()),
         ("CellData", solved.mesh.tet_count())
@@ -87,7 +87,7 @@ fn invalid_arguments_fail_with_a_message_and_no_output() {
     assert!(!output.status.success());
     let stderr = String::from_utf8_lossy(&output.stderr);
     assert!(stderr.contains("cells[0]"), "{stderr}");
-    assert!(!dir.join("cantilever.vtu").exists());
+    assert!(!dir.join("cantilever").exists());
     let output = Command::new(env!("CARGO_BIN_EXE_tetfem"))
         .args(["--cells", "ten"])
         .output()
@@ -127,7 +127,8 @@ fn default_dynamic_run_writes_a_pvd_series_and_a_csv() {
         "{stdout}"
     );
     // The .pvd lists the frames with increasing times, and every frame exists and parses.
-    let pvd = std::fs::read_to_string(dir.join("cantilever_dynamic.pvd")).unwrap();
+    let dir = dir.join("cantilever_swing");
+    let pvd = std::fs::read_to_string(dir.join("cantilever_swing.pvd")).unwrap();
     let doc = roxmltree::Document::parse(&pvd).unwrap();
     let frames: Vec<(f64, String)> = doc
         .descendants()
@@ -146,7 +147,7 @@ fn default_dynamic_run_writes_a_pvd_series_and_a_csv() {
         assert!(vtu.array("displacement").is_some() && vtu.array("velocity").is_some());
     }
     // CSV: header with the tip and every energy term, one row per frame.
-    let csv = std::fs::read_to_string(dir.join("cantilever_dynamic.csv")).unwrap();
+    let csv = std::fs::read_to_string(dir.join("cantilever_swing.csv")).unwrap();
     let mut lines = csv.lines();
     let header = lines.next().unwrap();
     for column in [
@@ -194,7 +195,7 @@ fn explicit_above_its_critical_step_fails_with_a_divergence_message() {
         "{stderr}"
     );
     // The frames written before the blow-up still form a valid collection.
-    let pvd = std::fs::read_to_string(dir.join("cantilever_dynamic.pvd")).unwrap();
+    let pvd = std::fs::read_to_string(dir.join("cantilever_swing/cantilever_swing.pvd")).unwrap();
     assert!(roxmltree::Document::parse(&pvd).is_ok());
 }
 
@@ -273,7 +274,7 @@ fn ctrl_c_stops_a_dynamic_run_with_a_valid_pvd() {
         .stderr(std::process::Stdio::piped())
         .spawn()
         .unwrap();
-    let pvd_path = dir.join("cantilever_dynamic.pvd");
+    let pvd_path = dir.join("cantilever_swing/cantilever_swing.pvd");
     // Wait for a few frames (every 10 steps), then interrupt; a million steps would take hours.
     let start = std::time::Instant::now();
     loop {

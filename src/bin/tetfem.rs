@@ -15,7 +15,7 @@ use tetfem::dynamics::Method;
 use tetfem::info::mesh_info;
 use tetfem::scene::{
     Analysis, DynamicOutputs, DynamicOverrides, DynamicRun, DynamicSetup, DynamicSummary,
-    OutputSettings, PngField, RunLength, RunOptions, RunSummary, Scene, TimeStep, run_dynamic,
+    OutputSettings, RunLength, RunOptions, RunSummary, Scene, TimeStep, run_dynamic,
     run_dynamic_scene, run_static_with,
 };
 use tetfem::{Error, Material};
