@@ -274,7 +274,7 @@ fn ctrl_c_stops_a_dynamic_run_with_a_valid_pvd() {
         .stderr(std::process::Stdio::piped())
         .spawn()
         .unwrap();
-    let pvd_path = dir.join("cantilever_swing/cantilever_swing.pvd");
+    let pvd_path = dir.join("cantilever_dynamic.pvd");
     // Wait for a few frames (every 10 steps), then interrupt; a million steps would take hours.
     let start = std::time::Instant::now();
     loop {
