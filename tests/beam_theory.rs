@@ -64,7 +64,10 @@ fn uniform_load_tips_match_the_peers_gravity_table() {
     // Timoshenko adds q·L²/(2κGA) = 9810·100·39.78/(2·13e5) = 15.0093 (to 6 digits: 981000 ·
     // 39.78 / 2.6e6 = 15.009300).
     let timoshenko = beam.timoshenko_uniform_load(q);
-    assert!(relative(timoshenko, 1471.5 + 15.0093) <= ROUND_OFF, "{timoshenko}");
+    assert!(
+        relative(timoshenko, 1471.5 + 15.0093) <= ROUND_OFF,
+        "{timoshenko}"
+    );
 }
 
 #[test]

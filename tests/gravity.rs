@@ -28,9 +28,14 @@ fn gravity_resultant_is_rho_g_v() {
         // Each tet gives ρ·g·V_tet/4 to each of its nodes and the tets tile the box: only the
         // summation's round-off (a few ulps per term, 1e-16 × a few hundred terms) remains.
         let error = ((resultant.z - exact) / exact).abs();
-        println!("{cells:?} {split:?}: resultant {:.15e}, ρgV {exact:.15e}, {error:.1e}", resultant.z);
+        println!(
+            "{cells:?} {split:?}: resultant {:.15e}, ρgV {exact:.15e}, {error:.1e}",
+            resultant.z
+        );
         assert!(error <= 1e-12, "{cells:?}: {} vs {exact}", resultant.z);
-        assert!(resultant.x.abs() <= 1e-12 * exact.abs() && resultant.y.abs() <= 1e-12 * exact.abs());
+        assert!(
+            resultant.x.abs() <= 1e-12 * exact.abs() && resultant.y.abs() <= 1e-12 * exact.abs()
+        );
     }
 }
 
@@ -88,7 +93,10 @@ fn backward_euler_tip_falls_as_the_discrete_free_fall() {
                 let exact = -G * dt * dt * n * (n + 1.0) / 2.0;
                 worst = worst.max(((tip - exact) / exact).abs());
             }
-            println!("{cells:?} {mass:?}: tip at step {steps} {:.12e}, max relative deviation {worst:.1e}", history[steps - 1]);
+            println!(
+                "{cells:?} {mass:?}: tip at step {steps} {:.12e}, max relative deviation {worst:.1e}",
+                history[steps - 1]
+            );
             // The clamp's influence reaches the tip, 10 m away, only through the implicit
             // solve's exponentially decaying coupling, far below round-off; what remains is the
             // solves' round-off: measured ≤ 1.8e-14 (consistent mass, 20×2×2), ≤ 1e-15 lumped.

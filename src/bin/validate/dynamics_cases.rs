@@ -410,7 +410,10 @@ pub fn speed_accuracy(context: &Context) -> Result<Section> {
         let predicted = 1.0 - (1.0 + (2.0 * std::f64::consts::PI / n).powi(2)).powf(-n / 2.0);
         let bound = 1.5 * 0.029 * (1.0 + predicted);
         worst = worst.max((p.error - predicted).abs() / bound);
-        rows.push(format!("n = {}: {:.3e} vs {predicted:.3e}", p.steps, p.error));
+        rows.push(format!(
+            "n = {}: {:.3e} vs {predicted:.3e}",
+            p.steps, p.error
+        ));
     }
     let _ = writeln!(
         body,
@@ -421,7 +424,10 @@ pub fn speed_accuracy(context: &Context) -> Result<Section> {
     checks.push(Check {
         name: "finest mesh: backward Euler error vs first-mode amplitude loss e₁".into(),
         bound: "|error − e₁| ≤ 0.0435·(1 + e₁) at every dt".into(),
-        measured: format!("largest |error − e₁| / bound {worst:.2} over {} runs", be.len()),
+        measured: format!(
+            "largest |error − e₁| / bound {worst:.2} over {} runs",
+            be.len()
+        ),
         pass: be.len() == 7 && worst <= 1.0,
     });
     // Newmark is second order and conserves each mode's amplitude: at every dt of the sweep it

@@ -84,8 +84,12 @@ fn main() -> ExitCode {
         ("speed vs accuracy", |c| {
             Ok((dynamics_cases::speed_accuracy(c)?, vec![]))
         }),
-        ("stability map", |c| Ok((dynamics_cases::stability_map(c)?, vec![]))),
-        ("energy", |c| Ok((dynamics_cases::energy_history(c)?, vec![]))),
+        ("stability map", |c| {
+            Ok((dynamics_cases::stability_map(c)?, vec![]))
+        }),
+        ("energy", |c| {
+            Ok((dynamics_cases::energy_history(c)?, vec![]))
+        }),
         ("model choice", |c| Ok((cases::model_choice(c)?, vec![]))),
     ];
     let mut sections = Vec::new();
