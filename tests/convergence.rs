@@ -123,16 +123,20 @@ fn manufactured_solution_converges_at_order_two_in_l2_and_one_in_energy() {
     let l2 = Study::new(l2).unwrap();
     let energy = Study::new(energy).unwrap();
     println!(
-        "L2 orders {:?}, energy orders {:?}",
+        "L2 orders {:?}, energy orders {:?}, fits L2 {:.4} energy {:.4}",
         l2.observed_orders(),
-        energy.observed_orders()
+        energy.observed_orders(),
+        l2.fitted_order().unwrap(),
+        energy.fitted_order().unwrap()
     );
-    // P1 elements: O(h²) in L2, O(h) in energy. The bound ±0.15 on the last pair of levels
-    // (in the asymptotic range) and on the least-squares fit over all four.
+    // P1 elements: O(h²) in L2, O(h) in energy. On the last pair of levels (in the asymptotic
+    // range) the measured orders are 1.982 and 0.993: bounds ±0.15 (8× the L2 deviation 0.018)
+    // and ±0.07 (10× the energy deviation 0.0067). The least-squares fits over all four levels
+    // include the pre-asymptotic n = 3 (measured 1.907 and 0.957): ±0.15 for both.
     let last = |s: &Study| *s.observed_orders().last().unwrap();
     assert!((last(&l2) - 2.0).abs() < 0.15, "L2 order {}", last(&l2));
     assert!(
-        (last(&energy) - 1.0).abs() < 0.15,
+        (last(&energy) - 1.0).abs() < 0.07,
         "energy order {}",
         last(&energy)
     );
@@ -147,8 +151,9 @@ fn quadrature_is_exact_to_degree_five() {
     let tet = tetfem::Tet::new(&x).unwrap();
     let rule = tet_rule();
     let total: f64 = rule.iter().map(|q| q.weight).sum();
-    // Weights sum to 1 (a fraction of the volume): round-off only.
-    assert!((total - 1.0).abs() < 1e-14);
+    println!("weights sum − 1 = {:.1e}", total - 1.0);
+    // Weights sum to 1 (a fraction of the volume): round-off only (measured 2.2e-16).
+    assert!((total - 1.0).abs() < 2e-15);
     // ∫ b₀^a b₁^b b₂^c b₃^d dV = 6V · a! b! c! d! / (a+b+c+d+3)! (the barycentric monomial formula).
     let factorial = |n: u32| (1..=n).map(f64::from).product::<f64>();
     for (a, b, c, d) in [
@@ -166,8 +171,10 @@ fn quadrature_is_exact_to_degree_five() {
         });
         let degree = a + b + c + d;
         let relative = ((approx - exact) / exact).abs();
+        println!("degree {degree}: relative error {relative:.1e}");
         if degree <= 5 {
-            assert!(relative < 1e-13, "degree {degree}: {approx} vs {exact}");
+            // Round-off only: measured ≤ 7.4e-16.
+            assert!(relative < 1e-14, "degree {degree}: {approx} vs {exact}");
         } else {
             // Degree 6 is beyond the rule: it must show (this checks the test can fail).
             assert!(relative > 1e-10, "degree {degree} integrated exactly?");
@@ -180,8 +187,14 @@ fn study_helpers_compute_orders_and_extrapolate() {
     // q(h) = 3 + 2h² exactly: orders 2, Richardson recovers 3 exactly (up to round-off).
     let q = |h: f64| 3.0 + 2.0 * h * h;
     let r = richardson(q(0.4), q(0.2), q(0.1), 2.0).unwrap();
+    println!(
+        "richardson: order − 2 = {:.1e}, value − 3 = {:.1e}",
+        r.order - 2.0,
+        r.value - 3.0
+    );
+    // Exact data: the log-ratio and the extrapolation lose a few ulps at most (measured 0).
     assert!(
-        (r.order - 2.0).abs() < 1e-9 && (r.value - 3.0).abs() < 1e-12,
+        (r.order - 2.0).abs() < 1e-13 && (r.value - 3.0).abs() < 1e-13,
         "{r:?}"
     );
     assert!(
@@ -189,6 +202,7 @@ fn study_helpers_compute_orders_and_extrapolate() {
         "growing differences have no asymptotic range"
     );
     let study = Study::run([4.0, 8.0, 16.0], |n: f64| Ok((1.0 / n, 0, 5.0 / n))).unwrap();
+    println!("orders of 5h: {:?}", study.observed_orders());
     for order in study.observed_orders() {
         assert!((order - 1.0).abs() < 1e-12);
     }

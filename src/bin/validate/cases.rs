@@ -15,7 +15,28 @@ use tetfem::model::ModelKind;
 use tetfem::nonlinear::{NewtonOptions, solve_nonlinear_static};
 use tetfem::{BoxSplit, Constraints, Loads, Material, Result, TetMesh, solve_static};
 
-use super::{Check, Context, Section, chart_link, relative};
+use super::{Check, Context, Section, Skipped, chart_link, relative};
+
+/// Tip deflections of the peer benchmark (`Cantilever::peer_benchmark`, cells n × n/10 × n/10)
+/// from scikit-fem + CHOLMOD, identical for SuperLU, MFEM and NGSolve to ≤ 2.5e-9 relative:
+/// `shared/peers/RESULTS.md`, table "P1 tip deflection vs mesh", printed to 10 digits.
+const PEER_TIPS: [(usize, f64); 5] = [
+    (10, -8.148605249e-03),
+    (20, -1.872118396e-02),
+    (40, -3.014193845e-02),
+    (80, -3.673226398e-02),
+    (160, -3.911340095e-02),
+];
+
+/// Bound on |tetfem − peers| / |peers| for the tips of [`PEER_TIPS`]: the same mesh and
+/// discretization, so only round-off (the peers' own spread is ≤ 2.5e-9 at 160×16×16, 5.7e-10 at
+/// 80×8×8) and the 10 printed digits (≤ 6e-11 relative) separate the answers.
+const PEER_BOUND: f64 = 1e-8;
+
+/// The fixed peer tip of an n × n/10 × n/10 cantilever, if RESULTS.md has it.
+fn peer_tip(n: usize) -> Option<f64> {
+    PEER_TIPS.iter().find(|(m, _)| *m == n).map(|(_, t)| *t)
+}
 
 /// Boundary nodes of a mesh (on any boundary face).
 fn boundary_nodes(mesh: &TetMesh) -> Result<Vec<usize>> {
@@ -377,17 +398,20 @@ pub fn manufactured(context: &Context) -> Result<Section> {
 
 /// The cantilever against Timoshenko, with its observed order and the honest bending error.
 pub fn cantilever(context: &Context) -> Result<Section> {
+    // Quick mode stops at 80×8×8 (19 683 DOFs, under a second); 160×16×16 (139 587 DOFs)
+    // takes several seconds of factorization and runs in the full suite only.
     let sizes: &[usize] = if context.quick {
-        &[10, 20, 40]
+        &[10, 20, 40, 80]
     } else {
         &[10, 20, 40, 80, 160]
     };
     let mut body = String::from(
-        "| cells | DOFs | tip deflection | Timoshenko | error | wall time [s] |\n|---|---|---|---|---|---|\n",
+        "| cells | DOFs | tip deflection | Timoshenko | error | peers (RESULTS.md) | difference | wall time [s] |\n|---|---|---|---|---|---|---|---|\n",
     );
     let mut levels = Vec::new();
     let mut values = Vec::new();
     let mut monotone = true;
+    let mut checks = Vec::new();
     for &n in sizes {
         let problem = Cantilever::peer_benchmark([n, n / 10, n / 10]);
         let clock = Instant::now();
@@ -399,15 +423,30 @@ pub fn cantilever(context: &Context) -> Result<Section> {
             let last: &Level = last;
             monotone &= error < last.error;
         }
+        let peer = peer_tip(n);
+        let difference = peer.map(|p| relative(solved.tip_deflection, p));
         let _ = writeln!(
             body,
-            "| {n}×{}×{} | {} | {:.9e} | {timoshenko:.6e} | {:.2}% | {seconds:.2} |",
+            "| {n}×{}×{} | {} | {:.9e} | {timoshenko:.6e} | {:.2}% | {} | {} | {seconds:.2} |",
             n / 10,
             n / 10,
             solved.mesh.dof_count(),
             solved.tip_deflection,
-            100.0 * error
+            100.0 * error,
+            peer.map_or("–".into(), |p| format!("{p:.9e}")),
+            difference.map_or("–".into(), |d| format!("{d:.1e}"))
         );
+        // The error against Timoshenko is the discretization's own (bending lock), with no bound
+        // from theory that is tighter than "falls"; what pins it is the same mesh in the
+        // independent codes.
+        if let Some(d) = difference {
+            checks.push(Check {
+                name: format!("{n}×{}×{} tip = peers' tip", n / 10, n / 10),
+                bound: format!("≤ {PEER_BOUND:.0e} relative"),
+                measured: format!("{d:.1e}"),
+                pass: d <= PEER_BOUND,
+            });
+        }
         levels.push(Level {
             h: 1.0 / (n / 10) as f64,
             dofs: solved.mesh.dof_count(),
@@ -459,30 +498,26 @@ pub fn cantilever(context: &Context) -> Result<Section> {
         )],
     };
     body.push_str(&chart_link(context, &chart, "cantilever.png")?);
-    let finest = study.levels.last().map_or(f64::NAN, |l| l.error);
-    let bound = if context.quick { 0.30 } else { 0.03 };
+    checks.insert(
+        0,
+        Check {
+            name: "error falls monotonically".into(),
+            bound: "monotone".into(),
+            measured: format!("{monotone}"),
+            pass: monotone,
+        },
+    );
     Ok(Section {
         title: "Cantilever vs Timoshenko".into(),
         body,
-        checks: vec![
-            Check {
-                name: "error falls monotonically".into(),
-                bound: "monotone".into(),
-                measured: format!("{monotone}"),
-                pass: monotone,
-            },
-            Check {
-                name: "finest-mesh error".into(),
-                bound: format!("< {:.0}%", 100.0 * bound),
-                measured: format!("{:.2}%", 100.0 * finest),
-                pass: finest < bound,
-            },
-        ],
+        checks,
     })
 }
 
-/// The same discretization solved by scikit-fem (the peers harness) must give the same tips.
-pub fn cross_check(_context: &Context) -> Result<Section> {
+/// The same discretization solved live by scikit-fem (the peers harness) must give the same
+/// tips. Without the harness (CI) its checks are reported as skipped; the fixed peer values of
+/// `RESULTS.md` are checked in the cantilever case either way.
+pub fn cross_check(_context: &Context) -> Result<(Section, Vec<Skipped>)> {
     let python = std::env::var("TETFEM_PEERS_PYTHON")
         .unwrap_or_else(|_| "/work/peers-venv/bin/python".into());
     let peers = std::env::var("TETFEM_PEERS").unwrap_or_else(|_| "../shared/peers".into());
@@ -491,13 +526,27 @@ pub fn cross_check(_context: &Context) -> Result<Section> {
             .join("cantilever_static.py")
             .exists()
     {
-        return Ok(Section {
-            title: "Cross-check with scikit-fem".into(),
-            body: format!(
-                "Skipped: the peers harness is not installed here (looked for {python} and {peers}/cantilever_static.py; run validation/setup_peers.sh).\n"
-            ),
-            checks: vec![],
-        });
+        let reason = format!(
+            "peers harness not installed (looked for {python} and {peers}/cantilever_static.py)"
+        );
+        let skipped = [10usize, 20, 40]
+            .iter()
+            .map(|n| Skipped {
+                name: format!("{n}×{}×{} tip, live scikit-fem", n / 10, n / 10),
+                reason: reason.clone(),
+            })
+            .collect();
+        return Ok((
+            Section {
+                title: "Cross-check with scikit-fem".into(),
+                body: format!(
+                    "Skipped: {reason}; run validation/setup_peers.sh. The peers' recorded tips (RESULTS.md) are \
+                     checked in the cantilever case.\n"
+                ),
+                checks: vec![],
+            },
+            skipped,
+        ));
     }
     let mut body = String::from(
         "| mesh | tetfem | scikit-fem + CHOLMOD | relative difference |\n|---|---|---|---|\n",
@@ -551,10 +600,10 @@ pub fn cross_check(_context: &Context) -> Result<Section> {
                     n / 10
                 );
                 checks.push(Check {
-                    name: format!("{n}×{}×{} tip", n / 10, n / 10),
-                    bound: "≤ 1e-8".into(),
+                    name: format!("{n}×{}×{} tip, live scikit-fem", n / 10, n / 10),
+                    bound: format!("≤ {PEER_BOUND:.0e}"),
                     measured: format!("{d:.1e}"),
-                    pass: d <= 1e-8,
+                    pass: d <= PEER_BOUND,
                 });
             }
             None => {
@@ -565,7 +614,7 @@ pub fn cross_check(_context: &Context) -> Result<Section> {
                     n / 10
                 );
                 checks.push(Check {
-                    name: format!("{n}×{}×{} tip", n / 10, n / 10),
+                    name: format!("{n}×{}×{} tip, live scikit-fem", n / 10, n / 10),
                     bound: "peer runs".into(),
                     measured: "peer failed".into(),
                     pass: false,
@@ -573,11 +622,14 @@ pub fn cross_check(_context: &Context) -> Result<Section> {
             }
         }
     }
-    Ok(Section {
-        title: "Cross-check with scikit-fem".into(),
-        body,
-        checks,
-    })
+    Ok((
+        Section {
+            title: "Cross-check with scikit-fem".into(),
+            body,
+            checks,
+        },
+        vec![],
+    ))
 }
 
 /// Linear vs corotational vs Neo-Hookean as the load grows, against Neo-Hookean as reference.
@@ -610,17 +662,22 @@ pub fn model_choice(context: &Context) -> Result<Section> {
         load_steps: 4,
         ..NewtonOptions::default()
     };
-    let loads: Vec<f64> = if context.quick {
-        vec![1.0, 20.0, 100.0, 300.0, 600.0]
-    } else {
-        vec![1.0, 5.0, 10.0, 20.0, 40.0, 80.0, 150.0, 300.0, 600.0]
-    };
+    // The same loads in both modes (the whole sweep takes under a second even on the full
+    // mesh): dense enough around the 1 % and 10 % crossings that interpolating between two
+    // loads moves a crossing by a small fraction of its window below.
+    let loads = [
+        1.0, 5.0, 10.0, 15.0, 20.0, 40.0, 60.0, 80.0, 100.0, 150.0, 300.0, 600.0,
+    ];
     let mut body = String::from(
         "| end load | NH tip (reference) | tip rotation | linear error, tip z | linear error, tip vector | corotational error, tip vector | cost per Newton iteration (lin / corot / NH) [ms] |\n|---|---|---|---|---|---|---|\n",
     );
     let mut linear_series = Vec::new();
     let mut corot_series = Vec::new();
     let mut threshold = [None, None];
+    let mut z_threshold = None;
+    let mut previous_z: Option<(f64, f64)> = None;
+    // Largest corotational error over the loads whose tip rotation is at most 60°.
+    let mut corot_worst: f64 = 0.0;
     for p in loads {
         let l = loads_at(p)?;
         let mut results = Vec::new();
@@ -666,6 +723,18 @@ pub fn model_choice(context: &Context) -> Result<Section> {
             results[1].1,
             results[2].1
         );
+        if rotation <= 60.0 {
+            corot_worst = corot_worst.max(e_cor);
+        }
+        if let Some((r_prev, e_prev)) = previous_z
+            && z_threshold.is_none()
+            && e_z > 0.01
+            && e_prev <= 0.01
+        {
+            let t = (0.01f64.ln() - e_prev.max(1e-16).ln()) / (e_z.ln() - e_prev.max(1e-16).ln());
+            z_threshold = Some(r_prev + t * (rotation - r_prev));
+        }
+        previous_z = Some((rotation, e_z));
         linear_series.push((rotation.max(1e-3), e_lin));
         corot_series.push((rotation.max(1e-3), e_cor.max(1e-12)));
         // Where the linear error crosses 1 % and 10 %: interpolated in log(error) between the
@@ -689,11 +758,14 @@ pub fn model_choice(context: &Context) -> Result<Section> {
         body,
         "\nFrom these data (tip-vector error, the stricter measure: the vertical deflection alone stays accurate longer \
          because it misses the tip's swing toward the clamp): the linear model's error exceeds 1 % {} and 10 % {}; below that a scene needs no more than \
-         the linear model. The corotational model stays within a fraction of a percent of Neo-Hookean throughout (both are \
-         rotation-invariant; they differ only by the material law at finite strain). Costs are per Newton iteration of the \
-         whole solve on this {}-DOF mesh (assembly of the tangent + numeric refactorization + solve).\n",
+         the linear model. The vertical deflection alone passes 1 % {}. The corotational model stays within {:.3} % of \
+         Neo-Hookean up to 60° of tip rotation (both are rotation-invariant; they differ only by the material law at finite \
+         strain). Costs are per Newton iteration of the whole solve on this {}-DOF mesh (assembly of the tangent + numeric \
+         refactorization + solve).\n",
         describe(threshold[0]),
         describe(threshold[1]),
+        describe(z_threshold),
+        100.0 * corot_worst,
         mesh.dof_count()
     );
     let chart = Chart {
@@ -715,11 +787,38 @@ pub fn model_choice(context: &Context) -> Result<Section> {
     Ok(Section {
         title: "Model choice (linear, corotational, Neo-Hookean)".into(),
         body,
-        checks: vec![Check {
-            name: "linear model error grows with rotation".into(),
-            bound: "exceeds 1% within the sweep".into(),
-            measured: describe(threshold[0]),
-            pass: threshold[0].is_some(),
-        }],
+        checks: vec![
+            crossing_check("1 %", threshold[0], [1.0, 2.0]),
+            crossing_check("10 %", threshold[1], [12.0, 16.0]),
+            Check {
+                name: "corotational vs Neo-Hookean, tip vector, rotations ≤ 60°".into(),
+                // The README's claim. Both models are rotation-invariant and share the
+                // small-strain limit; they differ by the material law at finite strain, which
+                // at these strains (≲ 1 %) is of the order of the strain itself.
+                bound: "≤ 0.3 %".into(),
+                measured: format!("{:.3} %", 100.0 * corot_worst),
+                pass: corot_worst <= 0.003,
+            },
+        ],
     })
+}
+
+/// The tip rotation at which the linear model's tip-vector error crosses `level` must lie in
+/// `window` (degrees).
+///
+/// Why these windows: the linear model misses the tip's swing back toward the clamp. For an
+/// Euler–Bernoulli cantilever under an end load the slope is w′ = θ·(2ξ − ξ²) (θ the tip
+/// rotation, ξ = x/L), so inextensibility shortens the tip by ½∫(w′)² dx = (4/15)·θ²·L, while the
+/// tip deflects by (2/3)·L·θ: a relative error of (2/5)·θ, i.e. 1 % at θ = 0.025 rad = 1.43° and
+/// 10 % at 0.25 rad = 14.3°. The windows [1°, 2°] and [12°, 16°] hold that first-order prediction
+/// with room for what it leaves out: the vertical error (second order in θ), shear and the
+/// coarse mesh's bending lock (which changes deflection and rotation alike, nearly cancelling in
+/// their ratio), and the log-linear interpolation between two loads of the sweep.
+fn crossing_check(level: &str, crossing: Option<f64>, window: [f64; 2]) -> Check {
+    Check {
+        name: format!("linear model's tip-vector error crosses {level}"),
+        bound: format!("at a tip rotation in [{}°, {}°]", window[0], window[1]),
+        measured: crossing.map_or("not reached in the sweep".into(), |r| format!("{r:.2}°")),
+        pass: crossing.is_some_and(|r| (window[0]..=window[1]).contains(&r)),
+    }
 }
