@@ -6,11 +6,12 @@ use std::sync::Arc;
 use nalgebra::Vector3;
 use tetfem::cantilever::Cantilever;
 use tetfem::dynamics::{
-    IntegratorOptions, LinearSystem, MassKind, Method, Rayleigh, State, critical_time_step,
-    element_critical_step,
+    IntegratorOptions, LinearSystem, MassKind, Method, NonlinearBackwardEuler, Rayleigh, State,
+    critical_time_step, element_critical_step,
 };
 use tetfem::iterative::CgOptions;
 use tetfem::modal::lowest_modes;
+use tetfem::model::ModelKind;
 use tetfem::{BoxSplit, CholeskyOptions, Error, LinearMethod, Material, SparseCholesky};
 
 /// A clamped box beam L × 1 × 1 with `cells`, E = 1e5, ν = 0.3, ρ = 1000 and a unit end load
@@ -696,11 +697,101 @@ fn implicit_steps_on_the_iterative_path_match_the_direct_ones() {
             // the system's condition number (~1 + (dt·ω_max)² ≈ 1.6e3 at 20 critical steps),
             // 1.6e-9, over five steps: below 1e-8. A step that skipped the solve would be off
             // by order 1.
+            // (That the iterative path ran is asserted above: no factor, `is_direct` false.)
             assert!(diff <= 1e-8 * scale, "{method:?}: {diff:e} of {scale:e}");
+        }
+    }
+}
+
+/// How a runaway is put into a running integration: the state's fields are public, so a caller
+/// (or a bug upstream) can hand an integrator any state.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Runaway {
+    /// One velocity becomes NaN.
+    NotFinite,
+    /// Every velocity ×1000: the kinetic energy ×1e6, far above 10× what the start and the
+    /// loads supplied, which is the guard's bound.
+    Energy,
+}
+
+impl Runaway {
+    fn inject(self, state: &mut State) {
+        match self {
+            Runaway::NotFinite => {
+                let middle = state.velocity.len() / 2;
+                state.velocity[middle] = f64::NAN;
+            }
+            Runaway::Energy => state.velocity.iter_mut().for_each(|v| *v *= 1e3),
+        }
+    }
+
+    /// Words of the guard's reason for this runaway.
+    fn reason(self) -> &'static str {
+        match self {
+            Runaway::NotFinite => "no longer finite",
+            Runaway::Energy => "exceeds",
+        }
+    }
+}
+
+/// `result` of the step after `runaway` was injected into a state after `steps` steps is
+/// `Diverged`, caught in that step (the linear backward Euler and the explicit method check the
+/// state a step starts from, so they name step `steps`; the others the state they leave).
+fn expect_diverged(name: &str, result: tetfem::Result<()>, steps: usize, runaway: Runaway) {
+    match result {
+        Err(Error::Diverged { step, reason, .. }) => {
+            println!("{name}, {runaway:?}: Diverged at step {step}: {reason}");
+            assert!(step == steps || step == steps + 1, "{name}: step {step}");
             assert!(
-                diff > 0.0,
-                "{method:?}: the iterative path gave the direct bits"
+                reason.contains(runaway.reason()),
+                "{name}, {runaway:?}: {reason}"
             );
         }
+        other => panic!("{name}, {runaway:?}: expected Diverged, got {other:?}"),
+    }
+}
+
+#[test]
+fn every_integrator_stops_with_diverged() {
+    let (loaded, _, _) = beam(4.0, [8, 2, 2], MassKind::Lumped);
+    let (system, _) = released(&loaded);
+    let dt = critical_time_step(&system).unwrap().dt;
+    let start = moving_state(system.free_count());
+    for runaway in [Runaway::NotFinite, Runaway::Energy] {
+        for method in [Method::BackwardEuler, Method::Newmark, Method::Explicit] {
+            // Half the critical step, so that the explicit method is stable until the injection.
+            let mut integrator = method.integrator(Arc::clone(&system), 0.5 * dt).unwrap();
+            let mut state = start.clone();
+            for _ in 0..3 {
+                integrator.step(&mut state).unwrap();
+            }
+            runaway.inject(&mut state);
+            let result = integrator.step(&mut state);
+            expect_diverged(integrator.name(), result, 3, runaway);
+        }
+
+        // The nonlinear backward Euler, corotational, under the beam's end load from rest.
+        let problem = Cantilever {
+            end_load: 600.0,
+            ..Cantilever::peer_benchmark([8, 2, 2])
+        };
+        let mesh = Arc::new(problem.mesh().unwrap());
+        let mut integrator = NonlinearBackwardEuler::new(
+            Arc::clone(&mesh),
+            &problem.material,
+            ModelKind::Corotational.build(&problem.material),
+            &problem.constraints(&mesh).unwrap(),
+            &problem.loads(&mesh).unwrap(),
+            Vector3::zeros(),
+            1e-3,
+        )
+        .unwrap();
+        let mut state = State::at_rest(integrator.free_count());
+        for _ in 0..3 {
+            integrator.step(&mut state).unwrap();
+        }
+        runaway.inject(&mut state);
+        let result = integrator.step(&mut state);
+        expect_diverged("nonlinear backward Euler", result, 3, runaway);
     }
 }
