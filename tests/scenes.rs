@@ -11,8 +11,8 @@ use tetfem::mesh::io::{TetgenOptions, read_gmsh, write_tetgen};
 use tetfem::model::ModelKind;
 use tetfem::nonlinear::{NewtonOptions, solve_nonlinear_static};
 use tetfem::scene::{
-    Analysis, DynamicOverrides, Method, REFERENCE, RunLength, RunOptions, Scene,
-    run_dynamic_scene, run_static_with,
+    Analysis, DynamicOverrides, Method, REFERENCE, RunLength, RunOptions, Scene, run_dynamic_scene,
+    run_static_with,
 };
 use tetfem::{BoxSplit, Constraints, Error, Loads, Material, TetMesh, solve_static};
 
@@ -335,9 +335,18 @@ fn assert_same_static(name: &str, u: &[f64], probe: &[usize], options: &RunOptio
     let got = Vector3::from(summary.probes[0].displacement);
     let probe_error = (got - expected).norm() / scale;
     let max_error = (summary.max_displacement - scale).abs() / scale;
-    println!("{name}: probe {probe_error:.1e}, max |u| {max_error:.1e} (relative to max |u| {scale:.4e})");
-    assert!(probe_error <= SAME_PROBLEM_TOL, "{name}: {got} vs {expected}");
-    assert!(max_error <= SAME_PROBLEM_TOL, "{name}: max |u| {}", summary.max_displacement);
+    println!(
+        "{name}: probe {probe_error:.1e}, max |u| {max_error:.1e} (relative to max |u| {scale:.4e})"
+    );
+    assert!(
+        probe_error <= SAME_PROBLEM_TOL,
+        "{name}: {got} vs {expected}"
+    );
+    assert!(
+        max_error <= SAME_PROBLEM_TOL,
+        "{name}: max |u| {}",
+        summary.max_displacement
+    );
 }
 
 fn steel() -> Material {
@@ -373,7 +382,12 @@ fn static_scenes_match_their_library_build() {
     let u = solve_static(&mesh, &steel(), &clamp_plane(&mesh, 0, 0.0), &loads)
         .unwrap()
         .displacement;
-    assert_same_static("cantilever_static.toml", &u, &on_plane(&mesh, 0, 1.0), &no_files);
+    assert_same_static(
+        "cantilever_static.toml",
+        &u,
+        &on_plane(&mesh, 0, 1.0),
+        &no_files,
+    );
 
     // hanging_bar: hung from z = 1 under its weight.
     let scene = load("hanging_bar.toml");
@@ -463,7 +477,10 @@ fn dynamic_scene_matches_the_library_integrator() {
     // The library: the same beam, backward Euler at the scene's dt, lumped mass, no damping.
     assert_eq!(settings.method, Method::BackwardEuler);
     assert_eq!(settings.mass, tetfem::scene::MassKind::Lumped);
-    assert_eq!((settings.damping.mass, settings.damping.stiffness), (0.0, 0.0));
+    assert_eq!(
+        (settings.damping.mass, settings.damping.stiffness),
+        (0.0, 0.0)
+    );
     assert_eq!(settings.initial_velocity, [0.0; 3]);
     let mesh = library_box(&scene, [1.0, 0.1, 0.1], [20, 2, 2]);
     let mut loads = Loads::new(&mesh);
@@ -495,6 +512,10 @@ fn dynamic_scene_matches_the_library_integrator() {
     let energy_error = (summary.final_energy.total - energy).abs() / energy.abs();
     println!("cantilever_dynamic after {STEPS} steps: tip {error:.1e}, energy {energy_error:.1e}");
     assert!(error <= SAME_PROBLEM_TOL, "tip {got} vs {expected}");
-    assert!(energy_error <= SAME_PROBLEM_TOL, "energy {} vs {energy}", summary.final_energy.total);
+    assert!(
+        energy_error <= SAME_PROBLEM_TOL,
+        "energy {} vs {energy}",
+        summary.final_energy.total
+    );
     assert!((summary.end_time - STEPS as f64 * settings.dt).abs() <= 1e-15);
 }
