@@ -1135,12 +1135,14 @@ fn studies_norms_outputs_and_scenes() {
     s.ok("write_gmsh to a missing dir", || {
         write_gmsh(&missing.with_extension("msh"), &mesh, &[])
     });
-    s.value("read_mesh missing, a directory, unknown extension", || {
-        (
-            read_mesh(&missing.with_extension("msh")).is_err(),
-            read_mesh(&dir).is_err(),
-            read_mesh(&dir.join("x.stl")).is_err(),
-        )
+    // (Not `missing.msh`: write_gmsh above created it, with its folders.)
+    s.err("read_mesh missing", "Io", || {
+        read_mesh(&dir.join("never_written.msh"))
+    });
+    // A folder is no mesh file: read as a TetGen prefix, whose .node file is missing.
+    s.err("read_mesh a directory", "Io", || read_mesh(&dir));
+    s.err("read_mesh unknown extension", "Parse", || {
+        read_mesh(&dir.join("x.stl"))
     });
     s.err("read_gmsh of a non-mesh file", "Parse", || {
         let path = dir.join("bad.msh");
@@ -1267,17 +1269,22 @@ fn studies_norms_outputs_and_scenes() {
         "title = 5\n[[loads]]\nwhere = 3\n",
         "\u{0}\u{feff}[[[",
     ] {
-        s.value(&format!("Scene::parse + build + run {text:?}"), || {
-            Scene::parse(text, "<hostile>", &dir).and_then(|scene| {
-                scene.build()?;
-                tetfem::scene::run_static(&scene)
-            })
-        });
+        // Each is a scene error naming the key (or the TOML syntax error) and the line.
+        s.err(
+            &format!("Scene::parse + build + run {text:?}"),
+            "Scene",
+            || {
+                Scene::parse(text, "<hostile>", &dir).and_then(|scene| {
+                    scene.build()?;
+                    tetfem::scene::run_static(&scene)
+                })
+            },
+        );
     }
-    s.value("Scene::load missing", || {
+    s.err("Scene::load missing", "Io", || {
         Scene::load(&missing.with_extension("toml"))
     });
-    s.value("mesh_info missing", || {
+    s.err("mesh_info missing", "Io", || {
         tetfem::info::mesh_info(&missing, None)
     });
     s.finish();
