@@ -168,11 +168,14 @@ impl BlockMatrix3 {
     }
 
     /// Chooses the scalar kernel (`false`) or the AVX2/FMA kernel (`true`, honoured only where
-    /// the CPU has both), for measuring one against the other. Both give each entry as one fixed
-    /// sequence of operations, so results are reproducible, but the two kernels' sums differ in
-    /// order and so in the last bits.
-    pub fn set_simd(&mut self, enabled: bool) {
+    /// the CPU has both), for measuring one against the other, and returns whether the AVX2/FMA
+    /// kernel now runs: `set_simd(true)` returns `false` on a CPU without AVX2 or FMA (the
+    /// scalar kernel runs instead), so a caller that means to use the SIMD kernel can tell that
+    /// it did not. Both give each entry as one fixed sequence of operations, so results are
+    /// reproducible, but the two kernels' sums differ in order and so in the last bits.
+    pub fn set_simd(&mut self, enabled: bool) -> bool {
         self.simd = enabled && simd_available();
+        self.simd
     }
 
     /// Whether some node has only one or two free DOFs (products then gather and scatter).
@@ -498,8 +501,10 @@ fn sum3(t: std::arch::x86_64::__m256d) -> f64 {
     _mm_cvtsd_f64(_mm_add_sd(_mm_add_sd(low, _mm_unpackhi_pd(low, low)), high))
 }
 
-/// Whether this CPU runs the AVX2/FMA product kernel.
-fn simd_available() -> bool {
+/// Whether this CPU runs the AVX2/FMA product kernel (both features detected at run time):
+/// where it does not, [`BlockMatrix3::set_simd`] and [`SymmetricBlockMatrix3::set_simd`] keep
+/// the scalar kernel.
+pub fn simd_available() -> bool {
     #[cfg(target_arch = "x86_64")]
     {
         is_x86_feature_detected!("avx2") && is_x86_feature_detected!("fma")
@@ -580,9 +585,23 @@ mod tests {
         (k_ff, dofs)
     }
 
+    /// [`check_kernel`] on the scalar kernel, then on the AVX2/FMA one where the CPU has it
+    /// (elsewhere reported as skipped: that kernel is then not tested).
     fn check_products(roller: bool) {
+        check_kernel(roller, false);
+        if simd_available() {
+            check_kernel(roller, true);
+        } else {
+            println!("skipped: no AVX2/FMA on this CPU, the SIMD kernel is not tested");
+        }
+    }
+
+    fn check_kernel(roller: bool, simd: bool) {
         let (k, dofs) = stiffness(roller);
-        let blocks = BlockMatrix3::from_free_matrix(&k, dofs.free_dofs()).unwrap();
+        let mut blocks = BlockMatrix3::from_free_matrix(&k, dofs.free_dofs()).unwrap();
+        // The kernel asked for is the one that runs (`simd` only where the CPU has it).
+        assert_eq!(blocks.set_simd(simd), simd);
+        assert_eq!(blocks.simd(), simd);
         assert_eq!(blocks.is_padded(), roller);
         let n = k.dim();
         let xa: Vec<f64> = (0..n).map(|i| ((i * 7919) % 101) as f64 - 50.0).collect();

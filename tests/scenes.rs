@@ -1,12 +1,20 @@
 //! Scenes: every shipped scene parses and its static ones run (against analytic answers where
 //! there are some); bad scenes give `Error::Scene` naming the key and the line.
 
+use std::ops::ControlFlow;
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 
 use nalgebra::Vector3;
-use tetfem::mesh::io::{TetgenOptions, write_tetgen};
-use tetfem::scene::{Analysis, Method, REFERENCE, RunOptions, Scene, run_static_with};
-use tetfem::{BoxSplit, Error, TetMesh};
+use tetfem::dynamics::{LinearSystem, MassKind, Rayleigh, State};
+use tetfem::mesh::io::{TetgenOptions, read_gmsh, write_tetgen};
+use tetfem::model::ModelKind;
+use tetfem::nonlinear::{NewtonOptions, solve_nonlinear_static};
+use tetfem::scene::{
+    Analysis, DynamicOverrides, Method, REFERENCE, RunLength, RunOptions, Scene, run_dynamic_scene,
+    run_static_with,
+};
+use tetfem::{BoxSplit, Constraints, Error, Loads, Material, TetMesh, solve_static};
 
 fn scene_path(name: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))
@@ -269,4 +277,245 @@ fn tetgen_scene_selects_by_marker() {
     // tets represent the linear displacement field exactly (round-off only).
     let end = summary.probes[0].displacement[0];
     assert!((end - 1000.0 / 1e6).abs() < 1e-9, "{end}");
+}
+
+// ---------------------------------------------------------------------------------------------
+// Each shipped scene against the same problem built through the library.
+
+/// Relative agreement of a scene run with its library build. Both run the same operations in
+/// the same order (the scene is a front end to the same functions), so they should agree to
+/// round-off at worst; 1e-12 allows for that while any difference in mesh, split, selection,
+/// load or solver shows up at 1e-3 or more.
+const SAME_PROBLEM_TOL: f64 = 1e-12;
+
+/// The library's split for the scene's `split` key, by name (so that a split added to both
+/// enums needs one line here).
+fn library_split(scene: &Scene) -> BoxSplit {
+    let tetfem::scene::MeshSpec::Box(b) = scene.spec().mesh.get_ref() else {
+        panic!("{}: not a box mesh", scene.source_name());
+    };
+    let name = format!("{:?}", b.split);
+    [BoxSplit::Lecture6, BoxSplit::Five]
+        .into_iter()
+        .find(|s| format!("{s:?}") == name)
+        .unwrap_or_else(|| panic!("split {name}: add the library split to library_split"))
+}
+
+/// The scene's box mesh built with [`TetMesh::box_grid`] from (min, max, cells) and its split.
+fn library_box(scene: &Scene, max: [f64; 3], cells: [usize; 3]) -> TetMesh {
+    let split = library_split(scene);
+    TetMesh::box_grid(Vector3::zeros(), Vector3::from(max), cells, split).unwrap()
+}
+
+/// Nodes on the plane x[axis] = at (box grids put them there exactly).
+fn on_plane(mesh: &TetMesh, axis: usize, at: f64) -> Vec<usize> {
+    mesh.nodes_on_plane(axis, at, 1e-9)
+}
+
+/// Mean displacement of `nodes`.
+fn mean_of(u: &[f64], nodes: &[usize]) -> Vector3<f64> {
+    nodes
+        .iter()
+        .map(|&n| Vector3::new(u[3 * n], u[3 * n + 1], u[3 * n + 2]))
+        .sum::<Vector3<f64>>()
+        / nodes.len() as f64
+}
+
+fn max_norm(u: &[f64]) -> f64 {
+    u.chunks(3)
+        .map(|c| Vector3::new(c[0], c[1], c[2]).norm())
+        .fold(0.0, f64::max)
+}
+
+/// A static scene's probe and max |u| against the library's displacement `u` and probe nodes.
+fn assert_same_static(name: &str, u: &[f64], probe: &[usize], options: &RunOptions) {
+    let summary = run_static_with(&load(name), options).unwrap();
+    let expected = mean_of(u, probe);
+    let scale = max_norm(u);
+    let got = Vector3::from(summary.probes[0].displacement);
+    let probe_error = (got - expected).norm() / scale;
+    let max_error = (summary.max_displacement - scale).abs() / scale;
+    println!(
+        "{name}: probe {probe_error:.1e}, max |u| {max_error:.1e} (relative to max |u| {scale:.4e})"
+    );
+    assert!(
+        probe_error <= SAME_PROBLEM_TOL,
+        "{name}: {got} vs {expected}"
+    );
+    assert!(
+        max_error <= SAME_PROBLEM_TOL,
+        "{name}: max |u| {}",
+        summary.max_displacement
+    );
+}
+
+fn steel() -> Material {
+    Material::new(200e9, 0.3, 7850.0).unwrap()
+}
+
+fn clamp_plane(mesh: &TetMesh, axis: usize, at: f64) -> Constraints {
+    let mut constraints = Constraints::new(mesh);
+    constraints.fix_nodes(&on_plane(mesh, axis, at)).unwrap();
+    constraints
+}
+
+/// A total force spread over the boundary faces on the plane x[axis] = at.
+fn total_force_on_plane(loads: &mut Loads, mesh: &TetMesh, axis: usize, at: f64, f: Vector3<f64>) {
+    let faces = mesh.faces_on_plane(&mesh.boundary_faces().unwrap(), axis, at, 1e-9);
+    loads.add_total_force_on_faces(mesh, &faces, f).unwrap();
+}
+
+#[test]
+fn static_scenes_match_their_library_build() {
+    let no_files = RunOptions {
+        no_files: true,
+        ..RunOptions::default()
+    };
+    let gravity = Vector3::new(0.0, 0.0, -9.81);
+
+    // cantilever_static: clamped at x = 0, 10 kN down on the end face and its weight.
+    let scene = load("cantilever_static.toml");
+    let mesh = library_box(&scene, [1.0, 0.1, 0.1], [40, 4, 4]);
+    let mut loads = Loads::new(&mesh);
+    total_force_on_plane(&mut loads, &mesh, 0, 1.0, Vector3::new(0.0, 0.0, -10e3));
+    loads.add_gravity(&mesh, &steel(), gravity).unwrap();
+    let u = solve_static(&mesh, &steel(), &clamp_plane(&mesh, 0, 0.0), &loads)
+        .unwrap()
+        .displacement;
+    assert_same_static(
+        "cantilever_static.toml",
+        &u,
+        &on_plane(&mesh, 0, 1.0),
+        &no_files,
+    );
+
+    // hanging_bar: hung from z = 1 under its weight.
+    let scene = load("hanging_bar.toml");
+    let mesh = library_box(&scene, [0.1, 0.1, 1.0], [2, 2, 20]);
+    let mut loads = Loads::new(&mesh);
+    loads.add_gravity(&mesh, &steel(), gravity).unwrap();
+    let u = solve_static(&mesh, &steel(), &clamp_plane(&mesh, 2, 1.0), &loads)
+        .unwrap()
+        .displacement;
+    assert_same_static("hanging_bar.toml", &u, &on_plane(&mesh, 2, 0.0), &no_files);
+
+    // soft_block: clamped at x = 0, its weight and 5 kPa on the top face (along −n).
+    let scene = load("soft_block.toml");
+    let rubber = Material::new(1e6, 0.45, 1100.0).unwrap();
+    let mesh = library_box(&scene, [0.1, 0.1, 0.1], [8, 8, 8]);
+    let mut loads = Loads::new(&mesh);
+    loads.add_gravity(&mesh, &rubber, gravity).unwrap();
+    for face in mesh.faces_on_plane(&mesh.boundary_faces().unwrap(), 2, 0.1, 1e-9) {
+        let normal = face.area_vector(&mesh).unwrap().normalize();
+        loads
+            .add_traction(&mesh, std::slice::from_ref(&face), -normal * 5e3)
+            .unwrap();
+    }
+    let u = solve_static(&mesh, &rubber, &clamp_plane(&mesh, 0, 0.0), &loads)
+        .unwrap()
+        .displacement;
+    assert_same_static("soft_block.toml", &u, &on_plane(&mesh, 0, 0.1), &no_files);
+
+    // l_bracket: the Gmsh mesh, clamped on group "clamp", 2 kN along −y on group "load".
+    let imported = read_gmsh(&scene_path("l_bracket.msh")).unwrap();
+    let mesh = &imported.mesh;
+    let mut constraints = Constraints::new(mesh);
+    let clamp = imported.group("clamp").unwrap();
+    constraints.fix_nodes(&clamp.nodes).unwrap();
+    let load_group = imported.group("load").unwrap();
+    let faces = load_group.boundary_faces(&mesh.boundary_faces().unwrap());
+    let mut loads = Loads::new(mesh);
+    loads
+        .add_total_force_on_faces(mesh, &faces, Vector3::new(0.0, -2000.0, 0.0))
+        .unwrap();
+    let u = solve_static(mesh, &steel(), &constraints, &loads)
+        .unwrap()
+        .displacement;
+    assert_same_static("l_bracket.toml", &u, &load_group.nodes, &no_files);
+
+    // rubber_cantilever_large: corotational Newton with default options, 30 N down at the end.
+    let scene = load("rubber_cantilever_large.toml");
+    let rubber = Material::new(5e6, 0.45, 1100.0).unwrap();
+    let mesh = library_box(&scene, [0.5, 0.05, 0.05], [20, 2, 2]);
+    let mut loads = Loads::new(&mesh);
+    total_force_on_plane(&mut loads, &mesh, 0, 0.5, Vector3::new(0.0, 0.0, -30.0));
+    let model = ModelKind::Corotational.build(&rubber);
+    let u = solve_nonlinear_static(
+        &mesh,
+        model.as_ref(),
+        &clamp_plane(&mesh, 0, 0.0),
+        &loads,
+        NewtonOptions::default(),
+    )
+    .unwrap()
+    .displacement;
+    assert_same_static(
+        "rubber_cantilever_large.toml",
+        &u,
+        &on_plane(&mesh, 0, 0.5),
+        &no_files,
+    );
+}
+
+#[test]
+fn dynamic_scene_matches_the_library_integrator() {
+    let scene = load("cantilever_dynamic.toml");
+    let Analysis::Dynamic(settings) = *scene.analysis() else {
+        panic!("expected a dynamic analysis");
+    };
+    const STEPS: usize = 5;
+    let overrides = DynamicOverrides {
+        length: Some(RunLength::Steps(STEPS)),
+        ..DynamicOverrides::default()
+    };
+    let summary = run_dynamic_scene(&scene, &overrides, false, false, &mut |_, _| {
+        ControlFlow::Continue(())
+    })
+    .unwrap();
+    assert_eq!(summary.steps, STEPS);
+
+    // The library: the same beam, backward Euler at the scene's dt, lumped mass, no damping.
+    assert_eq!(settings.method, Method::BackwardEuler);
+    assert_eq!(settings.mass, tetfem::scene::MassKind::Lumped);
+    assert_eq!(
+        (settings.damping.mass, settings.damping.stiffness),
+        (0.0, 0.0)
+    );
+    assert_eq!(settings.initial_velocity, [0.0; 3]);
+    let mesh = library_box(&scene, [1.0, 0.1, 0.1], [20, 2, 2]);
+    let mut loads = Loads::new(&mesh);
+    total_force_on_plane(&mut loads, &mesh, 0, 1.0, Vector3::new(0.0, 0.0, -10e3));
+    let system = Arc::new(
+        LinearSystem::new(
+            &mesh,
+            &steel(),
+            &clamp_plane(&mesh, 0, 0.0),
+            &loads,
+            Vector3::zeros(),
+            MassKind::Lumped,
+            Rayleigh::default(),
+        )
+        .unwrap(),
+    );
+    let mut integrator = tetfem::dynamics::Method::BackwardEuler
+        .integrator(Arc::clone(&system), settings.dt)
+        .unwrap();
+    let mut state = State::at_rest(system.free_count());
+    for _ in 0..STEPS {
+        integrator.step(&mut state).unwrap();
+    }
+    let u = system.dofs().expand(&state.displacement).unwrap();
+    let expected = mean_of(&u, &on_plane(&mesh, 0, 1.0));
+    let got = Vector3::from(summary.probes[0].last);
+    let error = (got - expected).norm() / max_norm(&u);
+    let energy = system.energy(&state).unwrap().total();
+    let energy_error = (summary.final_energy.total - energy).abs() / energy.abs();
+    println!("cantilever_dynamic after {STEPS} steps: tip {error:.1e}, energy {energy_error:.1e}");
+    assert!(error <= SAME_PROBLEM_TOL, "tip {got} vs {expected}");
+    assert!(
+        energy_error <= SAME_PROBLEM_TOL,
+        "energy {} vs {energy}",
+        summary.final_energy.total
+    );
+    assert!((summary.end_time - STEPS as f64 * settings.dt).abs() <= 1e-15);
 }

@@ -33,6 +33,7 @@ impl SymplecticEuler {
     /// An integrator with time step `dt`; the system must have lumped mass.
     pub fn new(system: Arc<LinearSystem>, dt: f64) -> Result<Self> {
         let dt = check_time_step(dt)?;
+        super::check_damping(&system)?;
         let inverse_mass = match system.mass() {
             Mass::Lumped(m) => m.iter().map(|m| 1.0 / m).collect(),
             Mass::Consistent(_) => {

@@ -80,6 +80,14 @@ pub fn check_time_step(dt: f64) -> Result<f64> {
     }
 }
 
+/// [`Error::InvalidParameter`] unless the system's Rayleigh coefficients are finite and ≥ 0
+/// ([`LinearSystem::with_damping`] takes any): negative damping feeds energy in, so no
+/// integrator accepts it.
+fn check_damping(system: &LinearSystem) -> Result<()> {
+    let damping = system.damping();
+    Rayleigh::new(damping.alpha, damping.beta).map(|_| ())
+}
+
 /// Options of the integrators beyond the time step.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct IntegratorOptions {
@@ -126,6 +134,7 @@ fn step_solver(
     matrix: &CscMatrix,
     options: &IntegratorOptions,
 ) -> Result<LinearSolver> {
+    check_damping(system)?;
     let solver_options = SolverOptions {
         method: options.linear_method,
         cholesky: options.cholesky,

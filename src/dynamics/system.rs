@@ -158,6 +158,7 @@ impl LinearSystem {
         dofs: DofMap,
     ) -> Result<Self> {
         let n = dofs.free_count();
+        Rayleigh::new(damping.alpha, damping.beta)?;
         let mass_len = match &mass {
             Mass::Lumped(m) => m.len(),
             Mass::Consistent(m) => m.dim(),
@@ -246,6 +247,9 @@ impl LinearSystem {
     }
 
     /// The same system with other damping.
+    ///
+    /// The coefficients are checked (finite, ≥ 0) when an integrator is built on the system:
+    /// negative damping would feed energy in.
     pub fn with_damping(mut self, damping: Rayleigh) -> Self {
         self.damping = damping;
         self
@@ -348,8 +352,16 @@ impl LinearSystem {
         })
     }
 
-    /// The static solution K_ff⁻¹·f (free DOFs).
+    /// The static solution K_ff⁻¹·f (free DOFs). [`Error::InvalidParameter`] naming the free DOF
+    /// if a load is not finite (e.g. after [`with_load_factor`](Self::with_load_factor) with NaN).
     pub fn static_displacement(&self) -> Result<Vec<f64>> {
+        if let Some(i) = self.external.iter().position(|f| !f.is_finite()) {
+            return Err(Error::invalid_parameter(
+                format!("load of free DOF {i}"),
+                self.external[i],
+                "must be finite (is the load factor NaN or infinite?)",
+            ));
+        }
         let mut cholesky = crate::linsolve::SparseCholesky::analyze(&self.stiffness)?;
         cholesky.factorize(&self.stiffness)?;
         let mut u = self.external.clone();
