@@ -53,9 +53,35 @@ fn out_dir(name: &str) -> PathBuf {
     dir
 }
 
+/// A child process that is killed when the test lets go of it, so that a failing test leaves no
+/// run behind writing into its folder.
+struct Run(Child);
+
+impl std::ops::Deref for Run {
+    type Target = Child;
+    fn deref(&self) -> &Child {
+        &self.0
+    }
+}
+
+impl std::ops::DerefMut for Run {
+    fn deref_mut(&mut self) -> &mut Child {
+        &mut self.0
+    }
+}
+
+impl Drop for Run {
+    fn drop(&mut self) {
+        if let Ok(None) = self.0.try_wait() {
+            let _ = self.0.kill();
+        }
+        let _ = self.0.wait();
+    }
+}
+
 /// Writes the scene as `<dir>/run.toml` and starts `tetfem run` on it with `--steps steps`,
 /// writing into `<dir>/out`.
-fn spawn_run(dir: &Path, steps: u64) -> Child {
+fn spawn_run(dir: &Path, steps: u64) -> Run {
     let scene = dir.join(format!("{STEM}.toml"));
     std::fs::write(&scene, SCENE).unwrap();
     Command::new(env!("CARGO_BIN_EXE_tetfem"))
@@ -66,6 +92,7 @@ fn spawn_run(dir: &Path, steps: u64) -> Child {
         .stdout(Stdio::null())
         .stderr(Stdio::piped())
         .spawn()
+        .map(Run)
         .unwrap()
 }
 
@@ -144,7 +171,8 @@ fn listed_frames(out: &Path) -> Vec<(usize, PathBuf)> {
 /// Every listed frame exists and is a complete `.vtu` with the mesh's points and displacement.
 fn check_frames(frames: &[(usize, PathBuf)]) {
     for (_, path) in frames {
-        let text = std::fs::read_to_string(path).unwrap();
+        let text =
+            std::fs::read_to_string(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
         let vtu = common::parse_vtu(&text);
         assert_eq!(vtu.points, 5 * 2 * 2, "{}", path.display());
         let (_, _, components, values) = vtu.array("displacement").unwrap();
@@ -289,7 +317,7 @@ fn a_second_run_into_a_busy_folder_stops_naming_the_first() {
     assert_eq!(status.code(), Some(1), "{stderr}");
     assert!(
         stderr.contains(&format!(
-            "in use by another tetfem run (PID {})",
+            "in use by another tetfem run (PID {}, ",
             first.id()
         )),
         "{stderr}"
