@@ -222,6 +222,22 @@ pub enum Error {
         frames: usize,
     },
 
+    /// Another run holds the output folder (its lock file): two runs into one folder would mix
+    /// their frames.
+    #[error(
+        "{directory} is in use by another tetfem run (PID {}, lock file {lock_file}); wait for it to \
+         finish or choose another output folder",
+        pid.as_deref().unwrap_or("not yet written")
+    )]
+    OutputLocked {
+        /// The output folder.
+        directory: PathBuf,
+        /// Its lock file.
+        lock_file: PathBuf,
+        /// The PID written in the lock file by the run holding it.
+        pid: Option<String>,
+    },
+
     /// A linear-algebra routine failed for a reason other than a non-positive pivot.
     #[error("linear solver: {0}")]
     Solver(String),

@@ -268,7 +268,7 @@ fn ctrl_c_stops_a_dynamic_run_with_a_valid_pvd() {
         env!("CARGO_MANIFEST_DIR"),
         "/scenes/cantilever_dynamic.toml"
     );
-    let child = Command::new(env!("CARGO_BIN_EXE_tetfem"))
+    let mut child = Command::new(env!("CARGO_BIN_EXE_tetfem"))
         .args(["run", scene, "--steps", "1000000", "--quiet", "--out"])
         .arg(&dir)
         .stderr(std::process::Stdio::piped())
@@ -276,18 +276,22 @@ fn ctrl_c_stops_a_dynamic_run_with_a_valid_pvd() {
         .unwrap();
     let pvd_path = dir.join("cantilever_dynamic.pvd");
     // Wait for a few frames (every 10 steps), then interrupt; a million steps would take hours.
+    // A child that died early fails the test instead of leaving it waiting for frames.
     let start = std::time::Instant::now();
     loop {
+        if let Some(status) = child.try_wait().unwrap() {
+            panic!("the run ended before it was interrupted: {status}");
+        }
         let listed = std::fs::read_to_string(&pvd_path)
             .map(|text| text.matches("<DataSet").count())
             .unwrap_or(0);
         if listed >= 3 {
             break;
         }
-        assert!(
-            start.elapsed().as_secs() < 120,
-            "no frames after two minutes"
-        );
+        if start.elapsed().as_secs() > 120 {
+            let _ = child.kill();
+            panic!("no frames after two minutes");
+        }
         std::thread::sleep(std::time::Duration::from_millis(50));
     }
     let killed = Command::new("kill")
@@ -295,6 +299,15 @@ fn ctrl_c_stops_a_dynamic_run_with_a_valid_pvd() {
         .status()
         .unwrap();
     assert!(killed.success());
+    // The run stops at the next step boundary: a minute is far more than one step and frame.
+    let stopped = std::time::Instant::now();
+    while child.try_wait().unwrap().is_none() {
+        if stopped.elapsed().as_secs() > 60 {
+            let _ = child.kill();
+            panic!("the run did not stop within a minute of Ctrl-C");
+        }
+        std::thread::sleep(std::time::Duration::from_millis(50));
+    }
     let output = child.wait_with_output().unwrap();
     let stderr = String::from_utf8_lossy(&output.stderr);
     assert_eq!(output.status.code(), Some(130), "{stderr}");

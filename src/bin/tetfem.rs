@@ -203,16 +203,29 @@ fn parse_material(text: &str) -> Result<Material, String> {
     }
 }
 
-/// Set by the first Ctrl-C; dynamic runs stop at the next step boundary.
+/// Set by the first Ctrl-C (or SIGTERM, SIGHUP); dynamic runs stop at the next step boundary.
 static INTERRUPTED: AtomicBool = AtomicBool::new(false);
 
-/// Installed when a dynamic run starts (before that, Ctrl-C ends the process as usual; every
-/// file is written atomically). First Ctrl-C: finish the current step, keep the frames written (the .pvd lists exactly
-/// those) and exit with 130. A second Ctrl-C exits at once (every file is written atomically,
-/// so none is left half-written).
+/// Set once a dynamic run is about to step: from then on the first signal stops it cleanly.
+static STOP_AT_STEP: AtomicBool = AtomicBool::new(false);
+
+/// From here on, the first Ctrl-C, SIGTERM or SIGHUP stops the dynamic run at the next step
+/// boundary: the frames written are kept (the .pvd lists exactly those), the CSV rows are
+/// written out, the output folder's lock is released and the process exits with 130.
 fn handle_ctrl_c() {
+    STOP_AT_STEP.store(true, Ordering::SeqCst);
+}
+
+/// Ctrl-C (SIGINT), SIGTERM and SIGHUP (what `timeout`, `kill` and batch schedulers send, and
+/// a closed terminal): during a dynamic run the first one stops it cleanly (see
+/// [`handle_ctrl_c`]); otherwise, and on a second signal, the process exits at once with 130
+/// after removing its output-folder lock files (files are written atomically, so none is left
+/// half-written; the CSV holds whole rows up to its last write, at least up to the last frame).
+fn install_signal_handler() {
     let installed = ctrlc::set_handler(|| {
-        if INTERRUPTED.swap(true, Ordering::SeqCst) {
+        let first = !INTERRUPTED.swap(true, Ordering::SeqCst);
+        if !(first && STOP_AT_STEP.load(Ordering::SeqCst)) {
+            tetfem::output::remove_held_lock_files();
             std::process::exit(130);
         }
     });
@@ -223,6 +236,7 @@ fn handle_ctrl_c() {
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
+    install_signal_handler();
     let result = match &cli.command {
         None => run_default(&cli.default),
         Some(Command::Run(args)) => run_scene(args),

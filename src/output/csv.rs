@@ -1,22 +1,40 @@
-//! Time series as CSV: one header line of column names, then one line per row of numbers.
+//! Time series as CSV, streamed: one header line of column names, then one line per row of
+//! numbers, appended as a run goes so that memory stays flat and an interrupted run keeps its
+//! rows.
 
+use std::fs::File;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
-use super::write_atomically;
 use crate::error::{Error, Result};
 
-/// A table of f64 rows under fixed column names, written atomically as CSV.
-#[derive(Debug, Clone, PartialEq)]
+/// Rows are buffered up to about this many bytes before they are written out (at a row
+/// boundary), so that memory does not grow with the number of rows.
+pub const CSV_BUFFER_BYTES: usize = 64 * 1024;
+
+/// A CSV file of f64 rows under fixed column names, written as it grows.
+///
+/// [`CsvSeries::new`] creates (truncates) the file and writes the header; [`push`](Self::push)
+/// formats a row into an in-memory buffer; the buffer goes to the file only whole, at row
+/// boundaries: when it exceeds [`CSV_BUFFER_BYTES`], on [`write`](Self::write) (a flush), and
+/// on drop. So the file always ends with the last row of the last flush, complete — unless the
+/// process dies or the disk fills during a flush's single `write`, which can leave a partial
+/// last line beyond the rows of the previous flush. Memory: at most one buffer, whatever the
+/// number of rows.
+#[derive(Debug)]
 pub struct CsvSeries {
     path: PathBuf,
     columns: Vec<String>,
-    rows: Vec<Vec<f64>>,
+    file: Option<File>,
+    buffer: Vec<u8>,
+    rows: usize,
 }
 
 impl CsvSeries {
-    /// A series with these columns, to be written at `path`.
+    /// Creates (or truncates) the CSV file at `path`, its folder too if missing, and writes the
+    /// header of these columns. Errors: no column, or the file cannot be created.
     pub fn new(path: impl Into<PathBuf>, columns: Vec<String>) -> Result<Self> {
+        let path = path.into();
         if columns.is_empty() {
             return Err(Error::invalid_parameter(
                 "columns",
@@ -24,11 +42,26 @@ impl CsvSeries {
                 "need at least one column",
             ));
         }
-        Ok(CsvSeries {
-            path: path.into(),
+        let io_error = |source| Error::Io {
+            path: path.clone(),
+            source,
+        };
+        if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+            std::fs::create_dir_all(dir).map_err(io_error)?;
+        }
+        let file = File::create(&path).map_err(io_error)?;
+        let header: Vec<String> = columns.iter().map(|c| csv_field(c)).collect();
+        let mut series = CsvSeries {
+            path,
             columns,
-            rows: Vec::new(),
-        })
+            file: Some(file),
+            buffer: Vec::with_capacity(CSV_BUFFER_BYTES),
+            rows: 0,
+        };
+        series.buffer.extend_from_slice(header.join(",").as_bytes());
+        series.buffer.push(b'\n');
+        series.write()?;
+        Ok(series)
     }
 
     /// The file path.
@@ -41,12 +74,19 @@ impl CsvSeries {
         &self.columns
     }
 
-    /// Rows so far.
-    pub fn rows(&self) -> &[Vec<f64>] {
-        &self.rows
+    /// Rows pushed so far (written or still buffered).
+    pub fn row_count(&self) -> usize {
+        self.rows
     }
 
-    /// Appends one row (one value per column; NaN is written as `nan`).
+    /// Bytes of rows pushed but not yet written to the file (below [`CSV_BUFFER_BYTES`] plus
+    /// one row after every push).
+    pub fn buffered_bytes(&self) -> usize {
+        self.buffer.len()
+    }
+
+    /// Appends one row (one value per column, in `{:e}` format; NaN is written as `NaN`),
+    /// writing the buffer out first when it is full.
     pub fn push(&mut self, row: &[f64]) -> Result<()> {
         if row.len() != self.columns.len() {
             return Err(Error::invalid_parameter(
@@ -55,22 +95,58 @@ impl CsvSeries {
                 format!("must have one value per column ({})", self.columns.len()),
             ));
         }
-        self.rows.push(row.to_vec());
+        if self.buffer.len() >= CSV_BUFFER_BYTES {
+            self.write()?;
+        }
+        for (i, v) in row.iter().enumerate() {
+            if i > 0 {
+                self.buffer.push(b',');
+            }
+            // Writing into a Vec cannot fail.
+            let _ = write!(self.buffer, "{v:e}");
+        }
+        self.buffer.push(b'\n');
+        self.rows += 1;
         Ok(())
     }
 
-    /// Writes the whole table (atomically); call it at the end of a run or whenever a
-    /// consistent snapshot on disk is wanted.
-    pub fn write(&self) -> Result<()> {
-        write_atomically(&self.path, |out: &mut dyn Write| {
-            let header: Vec<String> = self.columns.iter().map(|c| csv_field(c)).collect();
-            writeln!(out, "{}", header.join(","))?;
-            for row in &self.rows {
-                let line: Vec<String> = row.iter().map(|v| format!("{v:e}")).collect();
-                writeln!(out, "{}", line.join(","))?;
-            }
-            Ok(())
+    /// Writes the buffered rows to the file (whole, in one `write_all`), so that every row
+    /// pushed so far is on disk once it returns (in the OS's cache: it survives the process,
+    /// not a power cut; [`finish`](Self::finish) syncs).
+    pub fn write(&mut self) -> Result<()> {
+        if self.buffer.is_empty() {
+            return Ok(());
+        }
+        let Some(file) = self.file.as_mut() else {
+            return Ok(());
+        };
+        let written = file.write_all(&self.buffer);
+        // A failed write may have written part of the buffer; never write that part again.
+        self.buffer.clear();
+        written.map_err(|source| Error::Io {
+            path: self.path.clone(),
+            source,
         })
+    }
+
+    /// Writes the buffered rows and syncs the file to the disk.
+    pub fn finish(mut self) -> Result<()> {
+        self.write()?;
+        match self.file.take() {
+            Some(file) => file.sync_all().map_err(|source| Error::Io {
+                path: self.path.clone(),
+                source,
+            }),
+            None => Ok(()),
+        }
+    }
+}
+
+impl Drop for CsvSeries {
+    /// Writes the buffered rows (a run that stops on an error keeps them); an error here has
+    /// no one to go to.
+    fn drop(&mut self) {
+        let _ = self.write();
     }
 }
 
@@ -79,5 +155,42 @@ fn csv_field(s: &str) -> String {
         format!("\"{}\"", s.replace('"', "\"\""))
     } else {
         s.to_string()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Memory stays flat: however many rows, the buffer never holds more than its bound plus
+    /// one row, and every row ends up in the file, whole.
+    #[test]
+    fn the_buffer_is_bounded_and_every_row_reaches_the_file() {
+        let path = std::env::temp_dir().join(format!("tetfem-csv-flat-{}.csv", std::process::id()));
+        let mut csv = CsvSeries::new(&path, vec!["step".into(), "value".into()]).unwrap();
+        let rows = 100_000;
+        let mut largest = 0;
+        for step in 0..rows {
+            csv.push(&[step as f64, -1.0 / (step + 1) as f64]).unwrap();
+            largest = largest.max(csv.buffered_bytes());
+        }
+        // One row is at most two numbers in `{:e}` (≤ 24 bytes each), a comma and a newline.
+        assert!(largest <= CSV_BUFFER_BYTES + 50, "{largest}");
+        assert_eq!(csv.row_count(), rows);
+        csv.finish().unwrap();
+        let text = std::fs::read_to_string(&path).unwrap();
+        let mut lines = text.lines();
+        assert_eq!(lines.next(), Some("step,value"));
+        for (step, line) in lines.enumerate() {
+            let values: Vec<f64> = line.split(',').map(|v| v.parse().unwrap()).collect();
+            assert_eq!(
+                values,
+                vec![step as f64, -1.0 / (step + 1) as f64],
+                "{line}"
+            );
+        }
+        assert_eq!(text.lines().count(), rows + 1);
+        assert!(text.ends_with('\n'));
+        let _ = std::fs::remove_file(&path);
     }
 }

@@ -1,15 +1,18 @@
-//! Writing results: VTK XML unstructured grids for ParaView, `.pvd` collections of frames, CSV
-//! time series and derived fields, all written atomically.
+//! Writing results: VTK XML unstructured grids for ParaView, `.pvd` collections of frames and
+//! derived fields, all written atomically; CSV time series, streamed row by row; and the lock
+//! that gives one run at a time an output folder.
 
 mod atomic;
 mod csv;
 pub mod fields;
 mod frame;
+mod lock;
 mod pvd;
 mod vtu;
 
 pub use atomic::write_atomically;
-pub use csv::CsvSeries;
+pub use csv::{CSV_BUFFER_BYTES, CsvSeries};
 pub use frame::write_result_vtu;
+pub use lock::{LOCK_FILE_NAME, OutputLock, remove_held_lock_files};
 pub use pvd::PvdCollection;
 pub use vtu::VtuWriter;

@@ -21,7 +21,7 @@ use crate::loads::Loads;
 use crate::material::Material;
 use crate::mesh::TetMesh;
 use crate::output::fields::{cell_von_mises, displacement_magnitude};
-use crate::output::{CsvSeries, PvdCollection, write_atomically, write_result_vtu};
+use crate::output::{CsvSeries, OutputLock, PvdCollection, write_atomically, write_result_vtu};
 use crate::render::{Field, RenderOptions, auto_deformation_scale, render};
 
 /// A time step: in time units, or as a multiple of the explicit critical step.
@@ -69,10 +69,63 @@ impl std::str::FromStr for TimeStep {
 /// How long to run.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum RunLength {
-    /// A number of steps (≥ 1).
+    /// A number of steps (1 to [`MAX_STEPS`]).
     Steps(usize),
-    /// A simulated time (time units, ≥ dt): ⌈duration/dt⌉ steps.
+    /// A simulated time (time units, ≥ dt): ⌈duration/dt⌉ steps, at most [`MAX_STEPS`].
     Duration(f64),
+}
+
+/// The most steps a dynamic run may take: 10⁹. At a microsecond per step on the smallest mesh
+/// that is a quarter of an hour, on a real mesh days: a larger count is a unit mistake in dt or
+/// the duration (dt = 1e-300 would otherwise run forever), rejected before any work.
+pub const MAX_STEPS: usize = 1_000_000_000;
+
+impl RunLength {
+    /// The number of steps at `dt` (time units): `n` itself, or ⌈duration/dt⌉ (less a 1e-9
+    /// slack, so that a duration that is a whole number of steps up to round-off takes that
+    /// number). Errors name the key (`steps`, `duration`, or `dt` when the end time n·dt
+    /// overflows), its value and the limit: 1 ≤ steps ≤ [`MAX_STEPS`], dt ≤ duration.
+    pub fn steps(self, dt: f64) -> Result<usize> {
+        let dt = crate::dynamics::check_time_step(dt)?;
+        let steps = match self {
+            RunLength::Steps(n) if (1..=MAX_STEPS).contains(&n) => n,
+            RunLength::Steps(n) => {
+                return Err(Error::invalid_parameter(
+                    "steps",
+                    n,
+                    format!("must be at least 1 and at most {MAX_STEPS} (MAX_STEPS)"),
+                ));
+            }
+            RunLength::Duration(d) if !(d.is_finite() && d >= dt) => {
+                return Err(Error::invalid_parameter(
+                    "duration",
+                    d,
+                    format!("must be finite and at least dt = {dt:e}"),
+                ));
+            }
+            RunLength::Duration(d) => {
+                let steps = (d / dt - 1e-9).ceil();
+                if steps > MAX_STEPS as f64 {
+                    return Err(Error::invalid_parameter(
+                        "duration",
+                        d,
+                        format!(
+                            "takes ⌈duration/dt⌉ = {steps:e} steps at dt = {dt:e}, above the limit of {MAX_STEPS} steps (MAX_STEPS); choose a larger dt or a shorter duration"
+                        ),
+                    ));
+                }
+                steps as usize
+            }
+        };
+        if !(steps as f64 * dt).is_finite() {
+            return Err(Error::invalid_parameter(
+                "dt",
+                dt,
+                format!("the end time {steps} steps × dt overflows"),
+            ));
+        }
+        Ok(steps)
+    }
 }
 
 /// A dynamic problem ready to integrate: the mesh, the assembled system and the initial state.
@@ -388,31 +441,45 @@ pub struct DynamicOutputs {
 /// `<stem>_<step>.png` frames (fixed colour range and magnification across frames); and
 /// `<stem>_summary.json`.
 ///
-/// Errors: invalid dt or length, and [`Error::Diverged`] when the run blows up — the frames and
-/// the CSV rows up to that point are written first.
+/// The CSV is streamed: its rows are appended as the run goes, written out at every frame
+/// (before the frame, so that the rows of every frame listed in the `.pvd` are in the file,
+/// whole), when its buffer fills, and on every stop; memory does not grow with the step count.
+///
+/// Writing files, the run first takes the folder's [`OutputLock`]: another run writing there is
+/// an [`Error::OutputLocked`]; a lock left by a killed run is taken over, with a warning in the
+/// summary, and its temporary files are removed.
+///
+/// Errors: invalid dt or length (more than [`MAX_STEPS`] steps: see [`RunLength::steps`]), and
+/// [`Error::Diverged`] when the run blows up — the frames and the CSV rows up to that point are
+/// written first.
 pub fn run_dynamic(
     setup: &DynamicSetup,
     run: &DynamicRun,
     outputs: Option<&DynamicOutputs>,
     progress: &mut dyn FnMut(usize, usize) -> ControlFlow<()>,
 ) -> Result<DynamicSummary> {
+    if let TimeStep::Seconds(dt) = run.dt {
+        run.length.steps(dt)?;
+    }
+    let lock = match outputs {
+        Some(o) => Some(OutputLock::acquire(&o.settings.directory)?),
+        None => None,
+    };
+    run_dynamic_locked(setup, run, outputs, lock, progress)
+}
+
+/// [`run_dynamic`] once the output folder's lock (if any) is held.
+fn run_dynamic_locked(
+    setup: &DynamicSetup,
+    run: &DynamicRun,
+    outputs: Option<&DynamicOutputs>,
+    lock: Option<OutputLock>,
+    progress: &mut dyn FnMut(usize, usize) -> ControlFlow<()>,
+) -> Result<DynamicSummary> {
     let clock = Instant::now();
     let (critical, critical_source) = setup.critical_step()?;
     let dt = setup.resolve(run.dt)?;
-    let steps = match run.length {
-        RunLength::Steps(0) => {
-            return Err(Error::invalid_parameter("steps", 0, "must be at least 1"));
-        }
-        RunLength::Steps(n) => n,
-        RunLength::Duration(d) if d.is_finite() && d >= dt => (d / dt - 1e-9).ceil() as usize,
-        RunLength::Duration(d) => {
-            return Err(Error::invalid_parameter(
-                "duration",
-                d,
-                format!("must be finite and at least dt = {dt:e}"),
-            ));
-        }
-    };
+    let steps = run.length.steps(dt)?;
     let mut integrator = run.method.integrator(Arc::clone(&setup.system), dt)?;
     let setup_seconds = setup.setup_seconds + clock.elapsed().as_secs_f64();
 
@@ -466,7 +533,7 @@ pub fn run_dynamic(
         let result = integrator.step(&mut state);
         let wall = clock.elapsed().as_secs_f64();
         if let Err(error) = result {
-            if let Some(w) = &writer {
+            if let Some(w) = &mut writer {
                 w.finish_partial()?;
             }
             return Err(error);
@@ -480,7 +547,7 @@ pub fn run_dynamic(
             // Stop at this step boundary: every frame written so far is complete and listed
             // in the .pvd (rewritten after each frame); the CSV gets the rows up to here.
             let frames = writer.as_ref().map_or(0, |w| w.frames);
-            if let Some(w) = &writer {
+            if let Some(w) = &mut writer {
                 w.finish_partial()?;
             }
             return Err(Error::Interrupted {
@@ -492,7 +559,7 @@ pub fn run_dynamic(
     }
     let mut files = Vec::new();
     let mut frames = 0;
-    if let Some(w) = &writer {
+    if let Some(w) = writer {
         frames = w.frames;
         files = w.finish()?;
     }
@@ -503,6 +570,7 @@ pub fn run_dynamic(
             .iter()
             .chain(&setup.material.warnings())
             .map(ToString::to_string)
+            .chain(lock.as_ref().and_then(OutputLock::warning))
             .collect(),
         title: run.title.clone(),
         scene: run.source.clone(),
@@ -540,6 +608,7 @@ pub fn run_dynamic(
         summary.files.push(json.clone());
         write_atomically(&json, |w| writeln!(w, "{}", summary.to_json()))?;
     }
+    drop(lock);
     Ok(summary)
 }
 
@@ -647,6 +716,10 @@ impl FrameWriter {
         if !(state.steps.is_multiple_of(self.every) || last) {
             return Ok(());
         }
+        // The rows up to this frame go to disk before the frame is listed in the .pvd.
+        if let Some(csv) = &mut self.csv {
+            csv.write()?;
+        }
         let name = format!(
             "{}_{:0w$}",
             self.settings.stem,
@@ -710,24 +783,24 @@ impl FrameWriter {
         Ok(())
     }
 
-    /// Writes the CSV rows so far (after a divergence).
-    fn finish_partial(&self) -> Result<()> {
-        if let Some(csv) = &self.csv {
-            csv.write()?;
+    /// Writes out the CSV rows so far (on a stop before the end: a divergence, an interrupt).
+    fn finish_partial(&mut self) -> Result<()> {
+        match &mut self.csv {
+            Some(csv) => csv.write(),
+            None => Ok(()),
         }
-        Ok(())
     }
 
-    /// Writes the CSV and lists every file written.
-    fn finish(&self) -> Result<Vec<PathBuf>> {
-        let mut files = self.files.clone();
+    /// Writes out and syncs the CSV, and lists every file written.
+    fn finish(self) -> Result<Vec<PathBuf>> {
+        let mut files = self.files;
         if let Some(pvd) = &self.pvd {
             pvd.write()?;
             files.push(pvd.path().to_path_buf());
         }
-        if let Some(csv) = &self.csv {
-            csv.write()?;
+        if let Some(csv) = self.csv {
             files.push(csv.path().to_path_buf());
+            csv.finish()?;
         }
         Ok(files)
     }
@@ -807,6 +880,19 @@ pub fn run_dynamic_scene(
             message: "this scene is static; run_dynamic_scene runs dynamic scenes only".into(),
         });
     };
+    let length = overrides
+        .length
+        .unwrap_or(RunLength::Duration(settings.duration));
+    let dt = overrides.dt.unwrap_or(TimeStep::Seconds(settings.dt));
+    // Before the expensive work: the step count when dt is known without the system, and the
+    // output folder's lock.
+    if let TimeStep::Seconds(dt) = dt {
+        length.steps(dt)?;
+    }
+    let lock = match write_files {
+        true => Some(OutputLock::acquire(&scene.output().directory)?),
+        false => None,
+    };
     let setup = DynamicSetup::from_scene(scene.build()?, settings)?;
     let method = overrides.method.unwrap_or(match settings.method {
         super::Method::BackwardEuler => Method::BackwardEuler,
@@ -817,14 +903,12 @@ pub fn run_dynamic_scene(
         title: scene.title(),
         source: scene.source_name().to_string(),
         method,
-        dt: overrides.dt.unwrap_or(TimeStep::Seconds(settings.dt)),
-        length: overrides
-            .length
-            .unwrap_or(RunLength::Duration(settings.duration)),
+        dt,
+        length,
     };
     let outputs = write_files.then(|| DynamicOutputs {
         settings: scene.output().clone(),
         force_png,
     });
-    run_dynamic(&setup, &run, outputs.as_ref(), progress)
+    run_dynamic_locked(&setup, &run, outputs.as_ref(), lock, progress)
 }

@@ -14,7 +14,7 @@ mod spec;
 pub use build::{BuiltScene, Probe};
 pub use dynamic::{
     DynamicOutputs, DynamicOverrides, DynamicRun, DynamicSetup, DynamicSummary, EnergyTerms,
-    ProbeRange, RunLength, TimeStep, run_dynamic, run_dynamic_scene,
+    MAX_STEPS, ProbeRange, RunLength, TimeStep, run_dynamic, run_dynamic_scene,
 };
 pub use run::{ProbeValue, RunOptions, RunSummary, SolvePhases, run_static, run_static_with};
 pub use spec::*;
@@ -67,7 +67,7 @@ where = { plane = { axis = "x", at = 1.0 } }
 type = "static"                     # default "static"; or "dynamic", which needs dt, duration:
 # method = "backward_euler"         # default; or "explicit", "newmark"
 # dt = 1e-4                         # s, > 0
-# duration = 0.1                    # s, ≥ dt
+# duration = 0.1                    # s, ≥ dt, at most 1e9 steps (⌈duration/dt⌉)
 # damping = { mass = 0.0, stiffness = 0.0 }   # Rayleigh α (1/s), β (s); default none
 # mass = "lumped"                   # default; or "consistent"
 # initial_velocity = [0.0, 0.0, 0.0]          # m/s, default zero
@@ -90,7 +90,7 @@ pub struct DynamicSettings {
     pub method: Method,
     /// Time step (s), finite and > 0.
     pub dt: f64,
-    /// Simulated time (s), finite and ≥ dt.
+    /// Simulated time (s), finite, ≥ dt and at most [`MAX_STEPS`] steps of dt.
     pub duration: f64,
     /// Rayleigh damping, both coefficients finite and ≥ 0.
     pub damping: DampingSpec,
@@ -353,6 +353,14 @@ impl Scene {
                     return Err(err(
                         "duration",
                         format!("duration = {duration} must be finite and at least dt = {dt}"),
+                    ));
+                }
+                if let Err(Error::InvalidParameter { requirement, .. }) =
+                    RunLength::Duration(duration).steps(dt)
+                {
+                    return Err(err(
+                        "duration",
+                        format!("duration = {duration} {requirement}"),
                     ));
                 }
                 let damping = a.damping.unwrap_or_default();

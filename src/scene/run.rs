@@ -6,7 +6,7 @@ use std::time::Instant;
 use super::{Analysis, BuiltScene, PngField, Scene};
 use crate::error::{Error, Result};
 use crate::output::fields::{cell_von_mises, displacement_magnitude};
-use crate::output::{CsvSeries, PvdCollection, write_atomically, write_result_vtu};
+use crate::output::{CsvSeries, OutputLock, PvdCollection, write_atomically, write_result_vtu};
 use crate::render::{Field, RenderOptions, auto_deformation_scale, render};
 use crate::statics::StaticSolver;
 
@@ -114,6 +114,10 @@ pub fn run_static(scene: &Scene) -> Result<RunSummary> {
 /// Builds and solves a static scene, then writes what its `[output]` asks for into its output
 /// folder: `<stem>.vtu` (displacement, |u|, von Mises, strain energy density) with a one-frame
 /// `<stem>.pvd`, `<stem>_probes.csv`, `<stem>.png`, and `<stem>_summary.json`.
+///
+/// Writing files, it first takes the folder's [`OutputLock`] (before building anything): another
+/// run writing there is an [`Error::OutputLocked`]; a lock left by a killed run is taken over,
+/// with a warning in the summary.
 pub fn run_static_with(scene: &Scene, options: &RunOptions) -> Result<RunSummary> {
     if let Analysis::Dynamic(_) = scene.analysis() {
         return Err(Error::Scene {
@@ -123,6 +127,10 @@ pub fn run_static_with(scene: &Scene, options: &RunOptions) -> Result<RunSummary
             message: "this scene is dynamic; run_static solves static scenes only".into(),
         });
     }
+    let lock = match options.no_files {
+        true => None,
+        false => Some(OutputLock::acquire(&scene.output().directory)?),
+    };
     let clock = Instant::now();
     let built = scene.build()?;
     let build_seconds = clock.elapsed().as_secs_f64();
@@ -181,7 +189,12 @@ pub fn run_static_with(scene: &Scene, options: &RunOptions) -> Result<RunSummary
         })
         .collect();
     let mut summary = RunSummary {
-        warnings: built.warnings().iter().map(ToString::to_string).collect(),
+        warnings: built
+            .warnings()
+            .iter()
+            .map(ToString::to_string)
+            .chain(lock.as_ref().and_then(OutputLock::warning))
+            .collect(),
         title: scene.title(),
         scene: scene.source_name().to_string(),
         analysis: "static".into(),
@@ -241,8 +254,8 @@ fn write_static_outputs(
             row.extend(p.displacement);
         }
         csv.push(&row)?;
-        csv.write()?;
         files.push(csv.path().to_path_buf());
+        csv.finish()?;
     }
     if out.png || options.force_png {
         let scale = if out.deformation_scale > 0.0 {
