@@ -295,7 +295,7 @@ fn library_split(scene: &Scene) -> BoxSplit {
         panic!("{}: not a box mesh", scene.source_name());
     };
     let name = format!("{:?}", b.split);
-    [BoxSplit::Lecture6, BoxSplit::Five]
+    [BoxSplit::Mirrored6, BoxSplit::Lecture6, BoxSplit::Five]
         .into_iter()
         .find(|s| format!("{s:?}") == name)
         .unwrap_or_else(|| panic!("split {name}: add the library split to library_split"))

@@ -77,6 +77,7 @@ impl Scene {
             MeshSpec::Box(b) => {
                 let split = match b.split {
                     SplitSpec::Lecture6 => BoxSplit::Lecture6,
+                    SplitSpec::Mirrored6 => BoxSplit::Mirrored6,
                     SplitSpec::Five => BoxSplit::Five,
                 };
                 let mesh = TetMesh::box_grid(b.min.into(), b.max.into(), b.cells, split)

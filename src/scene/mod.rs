@@ -34,7 +34,7 @@ title = "reference"                 # default: the scene file's stem
 min = [0.0, 0.0, 0.0]               # default [0, 0, 0]
 max = [1.0, 0.1, 0.1]               # required (m)
 cells = [10, 2, 2]                  # required
-split = "lecture6"                  # default "lecture6"; or "five"
+split = "mirrored6"                 # default "mirrored6"; or "lecture6", "five"
 
 [material]                          # all required
 youngs_modulus = 200e9              # Pa

@@ -57,7 +57,7 @@ pub struct BoxSpec {
     pub max: [f64; 3],
     /// Cells along x, y, z.
     pub cells: [usize; 3],
-    /// How each cell is split into tets (default: `lecture6`).
+    /// How each cell is split into tets (default: `mirrored6`).
     #[serde(default)]
     pub split: SplitSpec,
 }
@@ -66,9 +66,12 @@ pub struct BoxSpec {
 #[derive(Debug, Clone, Copy, Default, Deserialize, PartialEq, Eq)]
 #[serde(rename_all = "snake_case")]
 pub enum SplitSpec {
-    /// The lecture's 6-tet table.
-    #[default]
+    /// The lecture's 6-tet table in every cell (leans sideways in bending, see
+    /// [`crate::BoxSplit::Lecture6`]).
     Lecture6,
+    /// The lecture's table mirrored in alternate cells: mirror-symmetric for even cell counts.
+    #[default]
+    Mirrored6,
     /// Five tets per cube, alternating.
     Five,
 }

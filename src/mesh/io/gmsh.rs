@@ -12,20 +12,19 @@ use std::path::Path;
 use mshio::{ElementType, MshFile};
 use nalgebra::Vector3;
 
+use super::gmsh41_nodes::{Encoding, TagAt, node_tags};
 use super::raw::{RawGroup, RawMesh};
-use super::text::{Records, decode, line_of_offset};
+use super::text::{Records, decode, line_of_offset, read_regular_file};
 use super::{ImportedMesh, PhysicalGroup, gmsh22};
 use crate::error::{Error, Result};
 use crate::mesh::TetMesh;
 use crate::output::write_atomically;
 
 /// Reads a Gmsh mesh file (MSH 4.1 ASCII or binary, or MSH 2.2 ASCII): reads its bytes and
-/// hands them to [`parse_gmsh`].
+/// hands them to [`parse_gmsh`]. A path that is not a regular file (a FIFO, a device such as
+/// `/dev/urandom`) is an [`Error::Parse`] before anything is read.
 pub fn read_gmsh(path: &Path) -> Result<ImportedMesh> {
-    let bytes = std::fs::read(path).map_err(|source| Error::Io {
-        path: path.to_path_buf(),
-        source,
-    })?;
+    let bytes = read_regular_file(path)?;
     parse_gmsh(path, &bytes)
 }
 
@@ -51,7 +50,21 @@ pub fn parse_gmsh(path: &Path, bytes: &[u8]) -> Result<ImportedMesh> {
                 }
             };
             check_section_counts(path, bytes, binary, size)?;
-            parse_v41(path, bytes, binary)?
+            let encoding = match binary.then(|| binary_little_endian(bytes)) {
+                None => Encoding::Ascii,
+                Some(Some(little_endian)) => Encoding::Binary {
+                    size,
+                    little_endian,
+                },
+                Some(None) => {
+                    return Err(Error::parse(
+                        path,
+                        3,
+                        "a binary MSH 4.1 file must follow its format line with the integer 1 (4 bytes, to show the byte order)",
+                    ));
+                }
+            };
+            parse_v41(path, bytes, encoding)?
         }
         (v, false) if v.starts_with("2.") => gmsh22::parse(path, decode(path, bytes)?)?,
         (v, true) if v.starts_with("2.") => {
@@ -129,14 +142,10 @@ fn format_line(path: &Path, bytes: &[u8]) -> Result<(String, bool, String)> {
 /// integer 1 after the format line shows).
 fn check_section_counts(path: &Path, bytes: &[u8], binary: bool, size: usize) -> Result<()> {
     let little_endian = if binary {
-        // The endianness check integer follows the format line.
-        let mut lines = bytes.splitn(3, |&b| b == b'\n');
-        let probe = lines.nth(2).and_then(|rest| rest.get(..4));
-        match probe {
-            Some([1, 0, 0, 0]) => true,
-            Some([0, 0, 0, 1]) => false,
+        match binary_little_endian(bytes) {
+            Some(le) => le,
             // mshio reports a bad endianness integer itself.
-            _ => return Ok(()),
+            None => return Ok(()),
         }
     } else {
         true
@@ -179,6 +188,17 @@ fn check_section_counts(path: &Path, bytes: &[u8], binary: bool, size: usize) ->
         }
     }
     Ok(())
+}
+
+/// The byte order of a binary MSH 4.1 file, from the integer 1 that follows the format line
+/// (`None` if it is neither 1 little- nor big-endian).
+fn binary_little_endian(bytes: &[u8]) -> Option<bool> {
+    let mut lines = bytes.splitn(3, |&b| b == b'\n');
+    match lines.nth(2).and_then(|rest| rest.get(..4)) {
+        Some([1, 0, 0, 0]) => Some(true),
+        Some([0, 0, 0, 1]) => Some(false),
+        _ => None,
+    }
 }
 
 /// Every line that reads one of `tags` (wherever mshio might take it for a section start): the
@@ -274,7 +294,8 @@ fn find(haystack: &[u8], needle: &[u8]) -> Option<usize> {
 
 type Msh = MshFile<u64, i32, f64>;
 
-fn parse_v41(path: &Path, bytes: &[u8], binary: bool) -> Result<RawMesh> {
+fn parse_v41(path: &Path, bytes: &[u8], encoding: Encoding) -> Result<RawMesh> {
+    let binary = matches!(encoding, Encoding::Binary { .. });
     // mshio is a nom parser over untrusted input; a panic inside it must not take the caller
     // down, so it is contained here and reported as a parse error.
     let parsed = std::panic::catch_unwind(|| {
@@ -316,10 +337,10 @@ fn parse_v41(path: &Path, bytes: &[u8], binary: bool) -> Result<RawMesh> {
             ));
         }
     };
-    convert(path, bytes, msh)
+    convert(path, bytes, encoding, msh)
 }
 
-fn convert(path: &Path, bytes: &[u8], msh: Msh) -> Result<RawMesh> {
+fn convert(path: &Path, bytes: &[u8], encoding: Encoding, msh: Msh) -> Result<RawMesh> {
     let names = physical_names(path, bytes)?;
     // Physical tags of each entity (dim, tag).
     let mut entity_tags: HashMap<(usize, i32), Vec<i32>> = HashMap::new();
@@ -337,42 +358,43 @@ fn convert(path: &Path, bytes: &[u8], msh: Msh) -> Result<RawMesh> {
             entity_tags.insert((3, v.tag), v.physical_tags.clone());
         }
     }
-    let nodes_line = line_of(bytes, "$Nodes");
     let Some(nodes) = &msh.data.nodes else {
         return Err(Error::parse(path, 0, "no $Nodes section"));
     };
+    let nodes_line = line_of(bytes, "$Nodes");
+    let start = section_starts(bytes, &["$Nodes"])
+        .first()
+        .map_or(bytes.len(), |s| s.0);
+    let block_tags = node_tags(path, bytes, start, encoding)?;
+    let counts = |b: &[Vec<TagAt>]| b.iter().map(Vec::len).collect::<Vec<_>>();
+    let mshio_counts: Vec<usize> = nodes.node_blocks.iter().map(|b| b.nodes.len()).collect();
+    if counts(&block_tags) != mshio_counts {
+        return Err(Error::parse(
+            path,
+            nodes_line,
+            format!(
+                "the $Nodes section at this line has blocks of {:?} nodes, but the section the MSH 4.1 parser read has {:?} (a second $Nodes line?)",
+                counts(&block_tags),
+                mshio_counts
+            ),
+        ));
+    }
     let mut raw = RawMesh::default();
     let mut tag_index: HashMap<u64, usize> = HashMap::new();
-    let mut next_tag = nodes.min_node_tag;
-    for block in &nodes.node_blocks {
-        // With dense tags mshio keeps no map: the tags run on from the smallest one.
-        let mut tags = vec![0u64; block.nodes.len()];
-        match &block.node_tags {
-            Some(map) => {
-                for (&tag, &i) in map {
-                    if let Some(slot) = tags.get_mut(i) {
-                        *slot = tag;
-                    }
-                }
-            }
-            None => {
-                for slot in tags.iter_mut() {
-                    *slot = next_tag;
-                    next_tag = next_tag.saturating_add(1);
-                }
-            }
-        }
-        for (node, &tag) in block.nodes.iter().zip(&tags) {
-            let p = Vector3::new(node.x, node.y, node.z);
-            if tag_index.insert(tag, raw.nodes.len()).is_some() {
+    for (block, tags) in nodes.node_blocks.iter().zip(&block_tags) {
+        for (node, &(tag, line)) in block.nodes.iter().zip(tags) {
+            if let Some(first) = tag_index.insert(tag, raw.nodes.len()) {
                 return Err(Error::parse(
                     path,
-                    nodes_line,
-                    format!("node tag {tag} appears twice"),
+                    line,
+                    format!(
+                        "node tag {tag} appears twice (first on line {}): every node needs its own tag",
+                        raw.node_lines[first]
+                    ),
                 ));
             }
-            raw.nodes.push(p);
-            raw.node_lines.push(nodes_line);
+            raw.nodes.push(Vector3::new(node.x, node.y, node.z));
+            raw.node_lines.push(line);
             raw.node_ids.push(tag);
         }
     }
@@ -422,7 +444,7 @@ fn convert(path: &Path, bytes: &[u8], msh: Msh) -> Result<RawMesh> {
                     }
                     (other, _) => {
                         each_group(&mut |g| g.other_nodes.extend(&nodes));
-                        *raw.skipped.entry(format!("{other:?}")).or_insert(0) += 1;
+                        raw.skip(&format!("{other:?}"), dim == 3, elements_line);
                     }
                 }
             }

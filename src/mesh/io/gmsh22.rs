@@ -146,7 +146,7 @@ pub(crate) fn parse(path: &Path, text: &str) -> Result<RawMesh> {
                             if let Some(g) = group {
                                 g.other_nodes.extend(&nodes);
                             }
-                            *raw.skipped.entry(name.to_string()).or_insert(0) += 1;
+                            raw.skip(name, dim == 3, r.line);
                         }
                     }
                 }

@@ -9,6 +9,7 @@
 
 mod gmsh;
 mod gmsh22;
+mod gmsh41_nodes;
 mod raw;
 mod tetgen;
 mod text;

@@ -34,11 +34,20 @@ pub(crate) struct RawMesh {
     pub tet_attributes: Option<Vec<f64>>,
     pub groups: Vec<RawGroup>,
     pub skipped: BTreeMap<String, usize>,
+    /// The 3-D elements among `skipped` (other than 4-node tets), per type name, and the line
+    /// of the first one: they are part of the body, so the mesh cannot run without them.
+    pub skipped_volume: BTreeMap<String, usize>,
+    pub skipped_volume_line: usize,
 }
+
+/// 3-D element types of order 1 other than tets (Gmsh names); every other 3-D type but Tet4
+/// is of higher order.
+const LINEAR_NON_TET: [&str; 3] = ["Hex8", "Pri6", "Pyr5"];
 
 impl RawMesh {
     /// Compacts, validates and packages the mesh; `path` is named in errors.
     pub fn finish(self, path: &Path) -> Result<ImportedMesh> {
+        self.check_volume_elements(path)?;
         if self.tets.is_empty() {
             let skipped: usize = self.skipped.values().sum();
             return Err(Error::parse(
@@ -130,5 +139,52 @@ impl RawMesh {
             unused_nodes,
             mesh,
         })
+    }
+}
+
+impl RawMesh {
+    /// Counts a skipped element of type `name`; `volume` if it is 3-D (part of the body).
+    pub fn skip(&mut self, name: &str, volume: bool, line: usize) {
+        *self.skipped.entry(name.to_string()).or_insert(0) += 1;
+        if volume {
+            if self.skipped_volume.is_empty() {
+                self.skipped_volume_line = line;
+            }
+            *self.skipped_volume.entry(name.to_string()).or_insert(0) += 1;
+        }
+    }
+
+    /// Rejects a mesh whose body holds 3-D elements other than 4-node tets: running on the tets
+    /// alone would cut the body silently (a mesh of tets and prisms would lose the prisms).
+    fn check_volume_elements(&self, path: &Path) -> Result<()> {
+        if self.skipped_volume.is_empty() {
+            return Ok(());
+        }
+        let counts: Vec<String> = self
+            .skipped_volume
+            .iter()
+            .map(|(name, n)| format!("{n} {name}"))
+            .collect();
+        let higher_order = self
+            .skipped_volume
+            .keys()
+            .any(|name| !LINEAR_NON_TET.contains(&name.as_str()));
+        let fix = if higher_order {
+            "tetfem has linear 4-node tets only (no quadratic element yet): mesh at order 1 \
+             (gmsh -3 -order 1, or Mesh.ElementOrder = 1)"
+        } else {
+            "tetfem meshes are 4-node tets only: mesh the volumes with tetrahedra alone \
+             (drop Recombine and the recombined Extrude Layers from the .geo)"
+        };
+        Err(Error::parse(
+            path,
+            self.skipped_volume_line,
+            format!(
+                "the mesh has 3-D elements other than 4-node tets ({}, besides {} Tet4); \
+                 running without them would cut the body: {fix}",
+                counts.join(", "),
+                self.tets.len()
+            ),
+        ))
     }
 }

@@ -13,7 +13,7 @@ use nalgebra::Vector3;
 
 use super::ImportedMesh;
 use super::raw::RawMesh;
-use super::text::{Records, decode};
+use super::text::{Records, decode, read_regular_file};
 use crate::error::{Error, Result};
 use crate::mesh::TetMesh;
 use crate::output::write_atomically;
@@ -35,20 +35,13 @@ fn with_suffix(prefix: &Path, suffix: &str) -> PathBuf {
     PathBuf::from(s)
 }
 
-fn read_file(path: &Path) -> Result<Vec<u8>> {
-    std::fs::read(path).map_err(|source| Error::Io {
-        path: path.to_path_buf(),
-        source,
-    })
-}
-
 /// Reads `<prefix>.node` and `<prefix>.ele` and hands their bytes to [`parse_tetgen`]; node
 /// markers and the first tet attribute are kept.
 pub fn read_tetgen(prefix: &Path) -> Result<ImportedMesh> {
     let node_path = with_suffix(prefix, ".node");
     let ele_path = with_suffix(prefix, ".ele");
-    let node_bytes = read_file(&node_path)?;
-    let ele_bytes = read_file(&ele_path)?;
+    let node_bytes = read_regular_file(&node_path)?;
+    let ele_bytes = read_regular_file(&ele_path)?;
     parse_tetgen(&node_path, &node_bytes, &ele_path, &ele_bytes)
 }
 
