@@ -300,6 +300,8 @@ fn run_default_static(cli: &DefaultScene) -> tetfem::Result<()> {
         ..Cantilever::steel_default()
     };
     let material = scene.material;
+    // The whole run's estimate, before the mesh is allocated.
+    tetfem::memory::check_box_run(scene.cells, scene.split.tets_per_cell(), false)?;
     println!("tetfem: static cantilever (default scene)");
     println!(
         "  beam {} m × {} m × {} m, E = {:.3e} Pa, ν = {}, ρ = {} kg/m³, end load {} N, g = {} m/s²",
@@ -379,6 +381,7 @@ fn run_default_dynamic(cli: &DefaultScene) -> tetfem::Result<()> {
         ..Cantilever::steel_default()
     };
     let c = cli.dynamic_cells;
+    tetfem::memory::check_box_run(beam.cells, beam.split.tets_per_cell(), true)?;
     println!();
     println!(
         "tetfem: dynamic cantilever, released from its loaded static shape with the end load removed (gravity stays)"

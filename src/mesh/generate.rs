@@ -79,6 +79,7 @@ impl TetMesh {
                 ));
             }
         }
+        check_box_mesh_size(cells, split)?;
         let [nx, ny, nz] = cells;
         let too_many = || {
             Error::invalid_parameter("cells", format!("{cells:?}"), "too many nodes to allocate")
@@ -149,6 +150,34 @@ impl TetMesh {
         }
         TetMesh::new(nodes, tets)
     }
+}
+
+impl BoxSplit {
+    /// Tets per cube.
+    pub fn tets_per_cell(self) -> usize {
+        match self {
+            BoxSplit::Lecture6 => 6,
+            BoxSplit::Five => 5,
+        }
+    }
+}
+
+/// Before anything is allocated: [`Error::InsufficientMemory`] if the box mesh itself (24 bytes
+/// per node, 32 per tet) does not fit in the memory available now (see
+/// [`MemoryLimits`](crate::memory::MemoryLimits)). Counts in u128: any `cells` is answered
+/// at once.
+fn check_box_mesh_size(cells: [usize; 3], split: BoxSplit) -> Result<()> {
+    let (nodes, tets) = crate::memory::box_counts(cells, split.tets_per_cell());
+    let bytes = nodes
+        .saturating_mul(24)
+        .saturating_add(tets.saturating_mul(32));
+    crate::memory::MemoryLimits::current().ensure_fits(
+        format!(
+            "the box mesh of {}×{}×{} cells ({nodes} nodes, {tets} tets)",
+            cells[0], cells[1], cells[2]
+        ),
+        bytes,
+    )
 }
 
 /// Index of grid node (ix, iy, iz) in a [`TetMesh::box_grid`] mesh with `cells = [nx, ny, nz]`:
