@@ -7,7 +7,7 @@ use std::process::Command;
 
 use tetfem::cantilever::Cantilever;
 use tetfem::linear_solver::{LinearMethod, SolverOptions};
-use tetfem::memory::{MemoryLimits, SolverMemory, StaticEstimate, status_bytes};
+use tetfem::memory::{SolverMemory, StaticEstimate, status_bytes};
 use tetfem::statics::StaticSolver;
 use tetfem::{Scene, run_static};
 
@@ -231,4 +231,93 @@ fn estimate_bounds_the_measured_peak() {
             "{cells:?} {method}: estimate {estimate} B vs measured VmHWM {measured} B"
         );
     }
+}
+
+#[test]
+fn direct_over_the_address_space_limit_is_an_error_and_auto_still_solves() {
+    // A 30³ cube (86k free DOFs): its Cholesky factor (about 0.73 GB with the workspace) is far
+    // larger than the multigrid hierarchy. Under a 1 GB address space, "direct" must stop with
+    // an error naming the factor before factoring (the old code had no such check, and no
+    // `linear_solver` key), and "auto" must solve (iteratively).
+    let dir = out_dir("auto_limit");
+    let limit = 1_000_000_000;
+    let direct = write_scene(&dir, "direct", &cube_scene(30, "direct", false));
+    let output = run_limited(limit, &["run", direct.to_str().unwrap(), "--quiet"]);
+    assert_clean_memory_error(&output, "direct under the limit");
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(stderr.contains("Cholesky"), "names the factor: {stderr}");
+    assert!(
+        stderr.contains("RLIMIT_AS"),
+        "names the binding limit: {stderr}"
+    );
+    let auto = write_scene(&dir, "auto", &cube_scene(30, "auto", false));
+    let output = run_limited(limit, &["run", auto.to_str().unwrap(), "--quiet"]);
+    assert!(
+        output.status.success(),
+        "auto under the limit: {:?}\n{}",
+        output.status,
+        String::from_utf8_lossy(&output.stderr)
+    );
+}
+
+fn parse_scene(dir: &Path, text: &str) -> Scene {
+    let mut scene = Scene::parse(text, "inline", dir).unwrap();
+    scene.set_output_directory(dir.join("out"));
+    scene
+}
+
+/// |a − b| / max|b| over the components.
+fn relative_difference(a: &[f64], b: &[f64]) -> f64 {
+    let scale = b.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    let diff = a
+        .iter()
+        .zip(b)
+        .fold(0.0f64, |m, (x, y)| m.max((x - y).abs()));
+    diff / scale
+}
+
+#[test]
+fn iterative_and_direct_scenes_agree_static() {
+    let dir = out_dir("static_agree");
+    let run = |solver: &str| {
+        let summary = run_static(&parse_scene(&dir, &cube_scene(6, solver, false))).unwrap();
+        summary.probes[0].displacement
+    };
+    let (direct, iterative) = (run("direct"), run("iterative"));
+    // CG stops at ‖r‖/‖b‖ ≤ 1e-10; the displacement error is at most cond(K_ff) times that, and
+    // cond(K_ff) of a 6³ cube is below 1e4, so 1e-6 relative bounds it with room.
+    let difference = relative_difference(&iterative, &direct);
+    assert!(
+        difference < 1e-6,
+        "{iterative:?} vs {direct:?}: {difference:e}"
+    );
+    // Different arithmetic: the key did switch the method (the same method would agree bitwise).
+    assert_ne!(iterative, direct);
+}
+
+#[test]
+fn iterative_and_direct_scenes_agree_dynamic() {
+    let dir = out_dir("dynamic_agree");
+    let run = |solver: &str| {
+        let scene = parse_scene(&dir, &cube_scene(4, solver, true));
+        let summary = tetfem::scene::run_dynamic_scene(
+            &scene,
+            &Default::default(),
+            false,
+            false,
+            &mut |_, _| std::ops::ControlFlow::Continue(()),
+        )
+        .unwrap();
+        let p = &summary.probes[0];
+        [p.last, p.min, p.max].concat()
+    };
+    let (direct, iterative) = (run("direct"), run("iterative"));
+    // Each of the 5 steps solves to CG's 1e-10 relative residual; with cond(M + dt²K) < 1e4 the
+    // per-step error is below 1e-6 relative and the 5 steps add at most 5 of them.
+    let difference = relative_difference(&iterative, &direct);
+    assert!(
+        difference < 5e-6,
+        "{iterative:?} vs {direct:?}: {difference:e}"
+    );
+    assert_ne!(iterative, direct);
 }
