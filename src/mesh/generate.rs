@@ -79,7 +79,6 @@ impl TetMesh {
                 ));
             }
         }
-        check_box_mesh_size(cells, split)?;
         let [nx, ny, nz] = cells;
         let too_many = || {
             Error::invalid_parameter("cells", format!("{cells:?}"), "too many nodes to allocate")
@@ -88,6 +87,8 @@ impl TetMesh {
             .iter()
             .try_fold(1usize, |n, &c| n.checked_mul(c.checked_add(1)?))
             .ok_or_else(too_many)?;
+        check_box_mesh_size(cells, split)
+            .map_err(|e| Error::invalid_parameter("cells", format!("{cells:?}"), e.to_string()))?;
         let mut nodes = Vec::new();
         nodes
             .try_reserve_exact(node_count)
@@ -162,7 +163,8 @@ impl BoxSplit {
     }
 }
 
-/// Before anything is allocated: [`Error::InsufficientMemory`] if the box mesh itself (24 bytes
+/// Before anything is allocated: [`Error::InsufficientMemory`] (turned into
+/// [`Error::InvalidParameter`] on `cells` by [`TetMesh::box_grid`]) if the box mesh itself (24 bytes
 /// per node, 32 per tet) does not fit in the memory available now (see
 /// [`MemoryLimits`](crate::memory::MemoryLimits)). Counts in u128: any `cells` is answered
 /// at once.
