@@ -177,13 +177,12 @@ fn cgroup_bound(cgroup: &str) -> Option<MemoryBound> {
                 if let (Some(limit), Some(used)) = (
                     read(format!("{dir}/{max}")),
                     read(format!("{dir}/{current}")),
-                ) {
-                    if limit < CGROUP_V1_UNLIMITED {
-                        return Some(MemoryBound {
-                            source,
-                            bytes: limit.saturating_sub(used),
-                        });
-                    }
+                ) && limit < CGROUP_V1_UNLIMITED
+                {
+                    return Some(MemoryBound {
+                        source,
+                        bytes: limit.saturating_sub(used),
+                    });
                 }
             }
         }
