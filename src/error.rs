@@ -242,6 +242,26 @@ pub enum Error {
     #[error("linear solver: {0}")]
     Solver(String),
 
+    /// A run would need more memory than the process may still take (the least of
+    /// MemAvailable, the cgroup's limit and the resource limits; see [`crate::memory`]). Raised
+    /// before the allocation, so that nothing is aborted halfway.
+    #[error(
+        "not enough memory for {what}: needs {}, but only {} is available ({limit}); use a coarser mesh{}",
+        crate::memory::format_bytes(*.needed),
+        crate::memory::format_bytes(*.available as u128),
+        if .what.contains("Cholesky") { " or the iterative solver (linear_solver = \"iterative\")" } else { "" }
+    )]
+    InsufficientMemory {
+        /// What was to be built, with the estimate's parts.
+        what: String,
+        /// Bytes needed.
+        needed: u128,
+        /// Bytes available under the tightest bound.
+        available: u64,
+        /// Every bound found, the tightest first.
+        limit: String,
+    },
+
     /// A mesh or data file is malformed: truncated, wrong counts, a bad index, an unsupported
     /// version, a non-numeric field...
     #[error("{path}:{line}: {message}")]

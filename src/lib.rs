@@ -48,6 +48,7 @@ pub mod linear_solver;
 pub mod linsolve;
 pub mod loads;
 pub mod material;
+pub mod memory;
 pub mod mesh;
 pub mod modal;
 pub mod model;

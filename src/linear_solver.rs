@@ -5,6 +5,7 @@ use crate::amg::DofGeometry;
 use crate::error::{Error, Result};
 use crate::iterative::{CgOptions, Preconditioner, PreconditionerKind, conjugate_gradient};
 use crate::linsolve::{CholeskyOptions, SparseCholesky};
+use crate::memory::MemoryLimits;
 use crate::sparse::CscMatrix;
 
 /// Direct, iterative, or chosen by predicted time within the memory budget.
@@ -52,8 +53,11 @@ pub struct SolverOptions {
     /// Preconditioner of conjugate gradients.
     pub preconditioner: PreconditionerKind,
     /// Bytes the Cholesky factor may take under [`LinearMethod::Auto`]; `None` means 60 % of the
-    /// memory available when the solver is built (`MemAvailable` in /proc/meminfo; unlimited
-    /// where that cannot be read). A hard limit: Auto never factors above it.
+    /// memory available when the solver is built: the least of `MemAvailable`, the cgroup's
+    /// limit less its usage and `RLIMIT_AS`/`RLIMIT_DATA` less what the process holds (see
+    /// [`MemoryLimits`]; unlimited where none can be read). A hard limit: Auto never factors
+    /// above it. [`LinearMethod::Direct`] factors whenever the factor fits the whole available
+    /// memory, and is [`Error::InsufficientMemory`] otherwise.
     pub memory_budget: Option<usize>,
     /// Right-hand sides the caller expects to solve per factorization (per matrix), at least 1
     /// (default 1). [`LinearMethod::Auto`] weighs the factorization, paid once, against the
@@ -468,14 +472,28 @@ impl LinearSolver {
             });
         }
         let cholesky = SparseCholesky::analyze_with(matrix, options.cholesky)?;
+        let limits = MemoryLimits::current();
+        if options.method == LinearMethod::Direct {
+            // Requested, so no fallback: stop here rather than be aborted by the allocator.
+            limits.ensure_fits(
+                format!(
+                    "the Cholesky factor of {} free DOFs ({} stored values and the workspace)",
+                    matrix.dim(),
+                    cholesky.factor_len()
+                ),
+                cholesky.factor_bytes() as u128,
+            )?;
+        }
         let inputs = ChoiceInputs {
             matrix_entries: matrix.nnz(),
             factor_len: cholesky.factor_len(),
             factor_flops: cholesky.factor_flops(),
             factor_bytes: cholesky.factor_bytes(),
-            memory_budget: options
-                .memory_budget
-                .or_else(|| available_memory().map(|m| m / 10 * 6)),
+            memory_budget: options.memory_budget.or_else(|| {
+                limits
+                    .available()
+                    .map(|m| usize::try_from(m / 10 * 6).unwrap_or(usize::MAX))
+            }),
             cholesky_threads: options.cholesky.threads,
             iterative_threads: rayon::current_num_threads(),
             iteration_estimate,
@@ -550,6 +568,15 @@ impl LinearSolver {
         }
     }
 
+    /// Bytes of the Cholesky factor and its workspace ([`SparseCholesky::factor_bytes`]; 0 for
+    /// the iterative method).
+    pub fn factor_bytes(&self) -> usize {
+        match &self.backend {
+            Backend::Direct(cholesky) => cholesky.factor_bytes(),
+            Backend::Iterative { .. } => 0,
+        }
+    }
+
     /// Whether this is the direct method.
     pub fn is_direct(&self) -> bool {
         matches!(self.backend, Backend::Direct(_))
@@ -560,12 +587,4 @@ impl LinearSolver {
     pub fn choice(&self) -> &MethodChoice {
         &self.choice
     }
-}
-
-/// `MemAvailable` from /proc/meminfo, in bytes.
-fn available_memory() -> Option<usize> {
-    let text = std::fs::read_to_string("/proc/meminfo").ok()?;
-    let line = text.lines().find(|l| l.starts_with("MemAvailable:"))?;
-    let kib: usize = line.split_whitespace().nth(1)?.parse().ok()?;
-    kib.checked_mul(1024)
 }

@@ -9,6 +9,7 @@ use crate::error::{Error, Result};
 use crate::linear_solver::{LinearSolver, SolveInfo, SolverOptions};
 use crate::loads::Loads;
 use crate::material::Material;
+use crate::memory::{MemoryLimits, SolverMemory, StaticEstimate};
 use crate::mesh::TetMesh;
 use crate::sparse::CscMatrix;
 
@@ -74,6 +75,17 @@ impl StaticSolver {
                 format!("must be made for this mesh ({} DOFs)", mesh.dof_count()),
             ));
         }
+        // Before any allocation: the rest of the solve with the least-memory solver (a factor
+        // is checked once its size is known, in `LinearSolver::analyze_with_geometry`).
+        let estimate =
+            StaticEstimate::new(mesh.node_count(), mesh.tet_count(), SolverMemory::Iterative);
+        MemoryLimits::current().ensure_fits(
+            format!(
+                "the static solve: {}, of which the mesh is held already",
+                estimate.describe()
+            ),
+            estimate.beyond_mesh(),
+        )?;
         let mut timings = StaticTimings::default();
         let clock = Instant::now();
         let assembler = Assembler::new(mesh);

@@ -114,6 +114,23 @@ impl LinearSystem {
                 "must be made for this mesh",
             ));
         }
+        // Before any allocation: K, M and the step matrix with the least-memory solver (a factor
+        // is checked once its size is known, in `LinearSolver::analyze_with_geometry`).
+        let estimate = crate::memory::StaticEstimate::new(
+            mesh.node_count(),
+            mesh.tet_count(),
+            crate::memory::SolverMemory::Iterative,
+        );
+        let extra = crate::memory::dynamic_extra(estimate.nodes, estimate.tets);
+        crate::memory::MemoryLimits::current().ensure_fits(
+            format!(
+                "the dynamic system: {} + {} for the mass and step matrices, of which the mesh is \
+                 held already",
+                estimate.describe(),
+                crate::memory::format_bytes(extra)
+            ),
+            estimate.beyond_mesh() + extra,
+        )?;
         let dofs = DofMap::new(constraints);
         ensure_held(mesh, &mesh.face_topology()?, &dofs)?;
         let assembler = Assembler::new(mesh);

@@ -104,6 +104,8 @@ impl TetMesh {
             .iter()
             .try_fold(1usize, |n, &c| n.checked_mul(c.checked_add(1)?))
             .ok_or_else(too_many)?;
+        check_box_mesh_size(cells, split)
+            .map_err(|e| Error::invalid_parameter("cells", format!("{cells:?}"), e.to_string()))?;
         let mut nodes = Vec::new();
         nodes
             .try_reserve_exact(node_count)
@@ -128,10 +130,7 @@ impl TetMesh {
                 }
             }
         }
-        let per_cell = match split {
-            BoxSplit::Lecture6 | BoxSplit::Mirrored6 => 6,
-            BoxSplit::Five => 5,
-        };
+        let per_cell = split.tets_per_cell();
         // nx·ny·nz < node_count, which fit; ×6 may not.
         let tet_count = (nx * ny * nz).checked_mul(per_cell).ok_or_else(too_many)?;
         let mut tets = Vec::new();
@@ -172,6 +171,35 @@ impl TetMesh {
         }
         TetMesh::new(nodes, tets)
     }
+}
+
+impl BoxSplit {
+    /// Tets per cube.
+    pub fn tets_per_cell(self) -> usize {
+        match self {
+            BoxSplit::Lecture6 | BoxSplit::Mirrored6 => 6,
+            BoxSplit::Five => 5,
+        }
+    }
+}
+
+/// Before anything is allocated: [`Error::InsufficientMemory`] (turned into
+/// [`Error::InvalidParameter`] on `cells` by [`TetMesh::box_grid`]) if the box mesh itself (24 bytes
+/// per node, 32 per tet) does not fit in the memory available now (see
+/// [`MemoryLimits`](crate::memory::MemoryLimits)). Counts in u128: any `cells` is answered
+/// at once.
+fn check_box_mesh_size(cells: [usize; 3], split: BoxSplit) -> Result<()> {
+    let (nodes, tets) = crate::memory::box_counts(cells, split.tets_per_cell());
+    let bytes = nodes
+        .saturating_mul(24)
+        .saturating_add(tets.saturating_mul(32));
+    crate::memory::MemoryLimits::current().ensure_fits(
+        format!(
+            "the box mesh of {}×{}×{} cells ({nodes} nodes, {tets} tets)",
+            cells[0], cells[1], cells[2]
+        ),
+        bytes,
+    )
 }
 
 /// Index of grid node (ix, iy, iz) in a [`TetMesh::box_grid`] mesh with `cells = [nx, ny, nz]`:

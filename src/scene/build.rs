@@ -80,6 +80,10 @@ impl Scene {
                     SplitSpec::Mirrored6 => BoxSplit::Mirrored6,
                     SplitSpec::Five => BoxSplit::Five,
                 };
+                // The whole run's estimate, before the mesh is allocated.
+                let dynamic = matches!(self.analysis(), super::Analysis::Dynamic(_));
+                crate::memory::check_box_run(b.cells, split.tets_per_cell(), dynamic)
+                    .map_err(|e| self.error("mesh.box", &mesh_span, e.to_string()))?;
                 let mesh = TetMesh::box_grid(b.min.into(), b.max.into(), b.cells, split)
                     .map_err(|e| self.error("mesh.box", &mesh_span, e.to_string()))?;
                 (mesh, None)

@@ -13,10 +13,11 @@ use super::{Analysis, BuiltScene, DynamicSettings, OutputSettings, PngField, Pro
 use crate::cantilever::Cantilever;
 use crate::constraints::Constraints;
 use crate::dynamics::{
-    Energy, LinearSystem, Mass, MassKind, Method, Rayleigh, State, critical_time_step,
-    element_critical_step,
+    Energy, IntegratorOptions, LinearSystem, Mass, MassKind, Method, Rayleigh, State,
+    critical_time_step, element_critical_step,
 };
 use crate::error::{Error, Result};
+use crate::linear_solver::LinearMethod;
 use crate::loads::Loads;
 use crate::material::Material;
 use crate::mesh::TetMesh;
@@ -143,6 +144,11 @@ pub struct DynamicSetup {
     pub probes: Vec<Probe>,
     /// Wall time to assemble the system and the initial state (s).
     pub setup_seconds: f64,
+    /// How the implicit methods solve their step systems: direct as built by
+    /// [`from_scene`](Self::from_scene) and [`released_cantilever`](Self::released_cantilever)
+    /// (the integrators' default); [`run_dynamic_scene`] sets the scene's
+    /// `analysis.linear_solver` (auto when unset).
+    pub linear_method: LinearMethod,
     /// The explicit critical step once computed.
     critical: std::sync::OnceLock<(f64, &'static str)>,
 }
@@ -179,6 +185,7 @@ impl DynamicSetup {
             initial,
             probes: built.probes,
             setup_seconds: clock.elapsed().as_secs_f64(),
+            linear_method: LinearMethod::Direct,
             critical: Default::default(),
         })
     }
@@ -227,6 +234,7 @@ impl DynamicSetup {
             initial,
             probes,
             setup_seconds: clock.elapsed().as_secs_f64(),
+            linear_method: LinearMethod::Direct,
             critical: Default::default(),
         })
     }
@@ -480,7 +488,13 @@ fn run_dynamic_locked(
     let (critical, critical_source) = setup.critical_step()?;
     let dt = setup.resolve(run.dt)?;
     let steps = run.length.steps(dt)?;
-    let mut integrator = run.method.integrator(Arc::clone(&setup.system), dt)?;
+    let options = IntegratorOptions {
+        linear_method: setup.linear_method,
+        ..IntegratorOptions::default()
+    };
+    let mut integrator = run
+        .method
+        .integrator_with(Arc::clone(&setup.system), dt, options)?;
     let setup_seconds = setup.setup_seconds + clock.elapsed().as_secs_f64();
 
     let system = &setup.system;
@@ -893,7 +907,8 @@ pub fn run_dynamic_scene(
         true => Some(OutputLock::acquire(&scene.output().directory)?),
         false => None,
     };
-    let setup = DynamicSetup::from_scene(scene.build()?, settings)?;
+    let mut setup = DynamicSetup::from_scene(scene.build()?, settings)?;
+    setup.linear_method = scene.spec().linear_method();
     let method = overrides.method.unwrap_or(match settings.method {
         super::Method::BackwardEuler => Method::BackwardEuler,
         super::Method::Explicit => Method::Explicit,

@@ -139,7 +139,16 @@ pub fn run_static_with(scene: &Scene, options: &RunOptions) -> Result<RunSummary
     let mut factor_len = 0;
     let (displacement, relative_residual, free_dofs) = match scene.model() {
         crate::model::ModelKind::Linear => {
-            let mut solver = StaticSolver::new(&built.mesh, &built.material, &built.constraints)?;
+            let options = crate::linear_solver::SolverOptions {
+                method: scene.spec().linear_method(),
+                ..Default::default()
+            };
+            let mut solver = StaticSolver::with_options(
+                &built.mesh,
+                &built.material,
+                &built.constraints,
+                options,
+            )?;
             let solution = solver.solve(&built.loads)?;
             phases = Some(solver.timings().into());
             factor_len = solver.factor_len();

@@ -224,6 +224,47 @@ pub struct AnalysisSpec {
     /// nonlinear ones are solved by Newton with load steps.
     #[serde(default)]
     pub model: Option<String>,
+    /// Static (linear model) and dynamic (implicit methods): how the linear systems are solved,
+    /// `"auto"` (default: the Cholesky factorization when its factor fits the memory budget and
+    /// is predicted faster), `"direct"` or `"iterative"` (multigrid-preconditioned CG).
+    #[serde(default)]
+    pub linear_solver: Option<LinearSolverSpec>,
+}
+
+/// `analysis.linear_solver`.
+#[derive(Debug, Clone, Copy, Default, Deserialize, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum LinearSolverSpec {
+    /// [`LinearMethod::Auto`](crate::linear_solver::LinearMethod::Auto).
+    #[default]
+    Auto,
+    /// [`LinearMethod::Direct`](crate::linear_solver::LinearMethod::Direct).
+    Direct,
+    /// [`LinearMethod::Iterative`](crate::linear_solver::LinearMethod::Iterative).
+    Iterative,
+}
+
+impl SceneSpec {
+    /// `analysis.linear_solver` as the library's method ([`LinearSolverSpec::Auto`] when unset).
+    pub fn linear_method(&self) -> crate::linear_solver::LinearMethod {
+        self.analysis
+            .as_ref()
+            .and_then(|a| a.get_ref().linear_solver)
+            .unwrap_or_default()
+            .method()
+    }
+}
+
+impl LinearSolverSpec {
+    /// The library's method.
+    pub fn method(self) -> crate::linear_solver::LinearMethod {
+        use crate::linear_solver::LinearMethod;
+        match self {
+            LinearSolverSpec::Auto => LinearMethod::Auto,
+            LinearSolverSpec::Direct => LinearMethod::Direct,
+            LinearSolverSpec::Iterative => LinearMethod::Iterative,
+        }
+    }
 }
 
 /// Static or dynamic.
