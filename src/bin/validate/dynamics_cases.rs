@@ -74,12 +74,13 @@ impl Beam {
 /// The first three bending modes (in z) of a slender beam vs Euler–Bernoulli, per refinement.
 pub fn modal(context: &Context) -> Result<Section> {
     let (length, width, height) = (10.0, 2.0, 1.0);
-    // Three levels even in quick mode: the convergence check compares successive changes, which
-    // needs at least three values per mode.
+    // The convergence check compares successive changes, so it needs three levels: it runs in
+    // the full suite only (quick mode's two levels would make it pass vacuously; a 10×2×1 level
+    // is too coarse to tell the z-bending modes apart).
     let sizes: &[usize] = if context.quick {
-        &[10, 20, 40]
+        &[20, 40]
     } else {
-        &[10, 20, 40, 80]
+        &[20, 40, 80]
     };
     let beta_l = [1.875_104_068_7, 4.694_091_132_9, 7.854_757_438_2];
     let material = Cantilever::peer_benchmark([1, 1, 1]).material;
@@ -210,26 +211,35 @@ Richardson-extrapolated 3D frequencies: {limits}"
             .collect(),
     };
     body.push_str(&chart_link(context, &chart, "modal.png")?);
+    let mut checks = vec![
+        Check {
+            name: "f₁ error vs Euler–Bernoulli falls under refinement".into(),
+            bound: "monotone".into(),
+            measured: format!("{:.2}% at the finest mesh", 100.0 * previous[0]),
+            pass: monotone,
+        },
+        reference.lumped,
+        reference.consistent,
+        reference.mass,
+    ];
+    if values.len() >= 3 {
+        checks.push(Check {
+            name: "f₁, f₂, f₃ converge (successive changes shrink)".into(),
+            bound: format!("monotone over {} levels", values.len()),
+            measured: format!("{converging}"),
+            pass: converging,
+        });
+    } else {
+        let _ = writeln!(
+            body,
+            "\nThe convergence of f₁, f₂, f₃ (successive changes shrink) is checked in the full \
+             suite only: it needs three levels.\n"
+        );
+    }
     Ok(Section {
         title: "Modal frequencies".into(),
         body,
-        checks: vec![
-            Check {
-                name: "f₁ error vs Euler–Bernoulli falls under refinement".into(),
-                bound: "monotone".into(),
-                measured: format!("{:.2}% at the finest mesh", 100.0 * previous[0]),
-                pass: monotone,
-            },
-            Check {
-                name: "f₁, f₂, f₃ converge (successive changes shrink)".into(),
-                bound: format!("monotone over {} levels", values.len()),
-                measured: format!("{converging}"),
-                pass: converging && values.len() >= 3,
-            },
-            reference.lumped,
-            reference.consistent,
-            reference.mass,
-        ],
+        checks,
     })
 }
 
