@@ -172,7 +172,9 @@ fn rayleigh_ritz(k: &CscMatrix, mass: &Mass, y: &[Vec<f64>]) -> Result<(Vec<f64>
     let l = mr
         .cholesky()
         .ok_or_else(|| {
-            Error::Solver("modal analysis: the subspace lost rank (Mr not positive definite)".into())
+            Error::Solver(
+                "modal analysis: the subspace lost rank (Mr not positive definite)".into(),
+            )
         })?
         .l();
     let l_inv = l
@@ -197,7 +199,10 @@ fn rayleigh_ritz(k: &CscMatrix, mass: &Mass, y: &[Vec<f64>]) -> Result<(Vec<f64>
             column
         })
         .collect();
-    Ok((order.iter().map(|&c| eigen.eigenvalues[c]).collect(), vectors))
+    Ok((
+        order.iter().map(|&c| eigen.eigenvalues[c]).collect(),
+        vectors,
+    ))
 }
 
 /// ‖K·x − λ·M·x‖₂ / ‖(|K| + λ·|M|)·|x|‖₂ (see [`Modes::residuals`]).

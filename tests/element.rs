@@ -239,8 +239,7 @@ fn consistent_mass_is_its_closed_form_and_the_integral_of_shape_products() {
             // Closed form ρV/20·(1 + δ_ab), and ρ∫N_a·N_b dV by the degree-5 rule (exact for
             // this quadratic integrand): both agree with M to round-off of O(1) sums.
             let closed = scale / 20.0 * if a == b { 2.0 } else { 1.0 };
-            let integral =
-                rho * tetfem::quadrature::integrate(&tet, &x, &rule, |_, n| n[a] * n[b]);
+            let integral = rho * tetfem::quadrature::integrate(&tet, &x, &rule, |_, n| n[a] * n[b]);
             assert!((integral - closed).abs() < 1e-13 * scale);
             for i in 0..3 {
                 for j in 0..3 {

@@ -78,11 +78,10 @@ fn reduced_eigenvalues(a: &DMatrix<f64>, b: &DMatrix<f64>) -> Vec<f64> {
 /// form resolves the lowest ω² to ~ε relative; the form L_M⁻¹·K·L_M⁻ᵀ would carry an error of
 /// ε·ω_max² into them, measured 9.9e-10 relative on the 20×2×2 steel beam (ω_max²/ω₁² = 3.9e6).
 fn dense_low_eigenvalues(system: &LinearSystem) -> Vec<f64> {
-    let mut values: Vec<f64> =
-        reduced_eigenvalues(&dense_mass(system), &dense(system.stiffness()))
-            .iter()
-            .map(|mu| 1.0 / mu)
-            .collect();
+    let mut values: Vec<f64> = reduced_eigenvalues(&dense_mass(system), &dense(system.stiffness()))
+        .iter()
+        .map(|mu| 1.0 / mu)
+        .collect();
     values.sort_by(f64::total_cmp);
     values
 }
@@ -133,7 +132,12 @@ fn lowest_modes_converge_on_slender_steel_beams() {
             let lambda = omega * omega;
             let norm = |v: &mut dyn Iterator<Item = f64>| v.map(|x| x * x).sum::<f64>().sqrt();
             let residual = norm(&mut kphi.iter().zip(&mphi).map(|(a, b)| a - lambda * b));
-            let scale = norm(&mut abs_k_phi.iter().zip(&m_abs_phi).map(|(a, b)| a + lambda * b));
+            let scale = norm(
+                &mut abs_k_phi
+                    .iter()
+                    .zip(&m_abs_phi)
+                    .map(|(a, b)| a + lambda * b),
+            );
             let recomputed = residual / scale;
             assert!(
                 (recomputed - modes.residuals[i]).abs() <= 1e-3 * modes.residuals[i] + 1e-15,
@@ -188,8 +192,16 @@ fn critical_step_is_safe_and_within_1e_3_of_the_dense_limit() {
         );
         // Never above the stability limit. The dense ω_max is accurate to ~n·ε ≈ 1e-13
         // relative; before, dt was 7e-7 to 2.5e-6 above it on these meshes.
-        assert!(distance <= 1e-12, "dt {:e} above 2/ω_max {limit:e}", step.dt);
-        assert!(distance >= -1e-3, "dt {:e} more than 1e-3 below {limit:e}", step.dt);
+        assert!(
+            distance <= 1e-12,
+            "dt {:e} above 2/ω_max {limit:e}",
+            step.dt
+        );
+        assert!(
+            distance >= -1e-3,
+            "dt {:e} more than 1e-3 below {limit:e}",
+            step.dt
+        );
         // The reported bracket holds the true ω_max (same round-off allowance).
         assert!(step.omega_max_lower <= omega_max * (1.0 + 1e-12));
         assert!(omega_max <= step.omega_max * (1.0 + 1e-12));

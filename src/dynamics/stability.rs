@@ -73,9 +73,7 @@ pub fn critical_time_step(system: &LinearSystem) -> Result<CriticalStep> {
     let mut z: Vec<f64> = (0..n)
         .map(|i| {
             let sign = if i % 2 == 0 { 1.0 } else { -1.0 };
-            sign
-                * (1.0 + 0.5 * ((i as f64) * 0.618_033_988_7).fract())
-                * mass[i].sqrt()
+            sign * (1.0 + 0.5 * ((i as f64) * 0.618_033_988_7).fract()) * mass[i].sqrt()
         })
         .collect();
     let (mut x, mut kx, mut az) = (vec![0.0; n], vec![0.0; n], vec![0.0; n]);
