@@ -223,3 +223,34 @@ fn negatively_oriented_or_flat_element_is_an_error() {
     let flat = [x[0], x[1], x[2], Vector3::new(0.5, 0.5, 0.0)];
     assert!(Tet::new(&flat).is_err());
 }
+
+#[test]
+fn consistent_mass_is_its_closed_form_and_the_integral_of_shape_products() {
+    // Issue 22 item 6: the sums above hold for a lumped diagonal too; the entries do not.
+    let mut rng = Rng::new(11);
+    let x = random_tet(&mut rng);
+    let tet = Tet::new(&x).unwrap();
+    let rho = 1200.0;
+    let m = tet.consistent_mass(rho);
+    let rule = tetfem::quadrature::tet_rule();
+    let scale = rho * tet.volume();
+    for a in 0..4 {
+        for b in 0..4 {
+            // Closed form ρV/20·(1 + δ_ab), and ρ∫N_a·N_b dV by the degree-5 rule (exact for
+            // this quadratic integrand): both agree with M to round-off of O(1) sums.
+            let closed = scale / 20.0 * if a == b { 2.0 } else { 1.0 };
+            let integral = rho * tetfem::quadrature::integrate(&tet, &x, &rule, |_, n| n[a] * n[b]);
+            assert!((integral - closed).abs() < 1e-13 * scale);
+            for i in 0..3 {
+                for j in 0..3 {
+                    let expected = if i == j { closed } else { 0.0 };
+                    let entry = m[(3 * a + i, 3 * b + j)];
+                    assert!(
+                        (entry - expected).abs() < 1e-13 * scale,
+                        "M[{a}{i}, {b}{j}] = {entry:e}, closed form {expected:e}"
+                    );
+                }
+            }
+        }
+    }
+}
