@@ -10,6 +10,6 @@ mod vtu;
 
 pub use atomic::write_atomically;
 pub use csv::CsvSeries;
-pub use frame::write_result_vtu;
+pub use frame::{write_model_result_vtu, write_result_vtu};
 pub use pvd::PvdCollection;
 pub use vtu::VtuWriter;
