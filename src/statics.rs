@@ -160,7 +160,7 @@ impl StaticSolver {
                 self.solver.solve(&self.free_stiffness, &mut correction)?;
                 let refined: Vec<f64> = free.iter().zip(&correction).map(|(u, d)| u + d).collect();
                 let refined_residual = self.relative_residual(&refined, &rhs)?;
-                if !(refined_residual < relative_residual) {
+                if refined_residual >= relative_residual || refined_residual.is_nan() {
                     break;
                 }
                 free = refined;

@@ -168,7 +168,6 @@ pub fn run_static_with(scene: &Scene, options: &RunOptions) -> Result<RunSummary
             model.as_ref(),
             u,
             &von_mises,
-            &magnitude,
             options,
             &summary,
         )?;
@@ -183,12 +182,12 @@ fn write_static_outputs(
     model: &dyn ForceModel,
     u: &[f64],
     von_mises: &[f64],
-    magnitude: &[f64],
     options: &RunOptions,
     summary: &RunSummary,
 ) -> Result<Vec<PathBuf>> {
     let out = scene.output();
     let dir = &out.directory;
+    let magnitude = &displacement_magnitude(u);
     let mut files = Vec::new();
     if out.vtu {
         let vtu = dir.join(format!("{}.vtu", out.stem));
