@@ -13,9 +13,15 @@ use crate::mesh::{FaceTopology, TetMesh};
 use crate::sparse::CscMatrix;
 
 /// Prescribed displacements on chosen DOFs (length units).
+///
+/// A DOF takes one value: constraining it again with the same value is accepted, with another
+/// value is [`Error::ConflictingConstraint`] (it used to keep the last silently).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Constraints {
     prescribed: Vec<Option<f64>>,
+    /// DOFs the caller constrained (the unused-node fixes of [`Constraints::new`] are not: a
+    /// caller may still prescribe those nodes).
+    explicit: Vec<bool>,
 }
 
 impl Constraints {
@@ -27,7 +33,11 @@ impl Constraints {
         for node in mesh.unused_nodes() {
             prescribed[3 * node..3 * node + 3].fill(Some(0.0));
         }
-        Constraints { prescribed }
+        let explicit = vec![false; prescribed.len()];
+        Constraints {
+            prescribed,
+            explicit,
+        }
     }
 
     /// Clamps `nodes`: all three displacement components fixed at zero.
@@ -36,15 +46,43 @@ impl Constraints {
     }
 
     /// Fixes the chosen axes of `nodes` at zero (a roller or symmetry condition when not all
-    /// three are chosen).
+    /// three are chosen). [`Error::ConflictingConstraint`] if one of them is already prescribed
+    /// a non-zero value (then nothing is changed).
     pub fn fix_axes(&mut self, nodes: &[usize], axes: [bool; 3]) -> Result<&mut Self> {
         self.check_nodes("fixed nodes", nodes)?;
         for &node in nodes {
             for axis in (0..3).filter(|&a| axes[a]) {
-                self.prescribed[3 * node + axis] = Some(0.0);
+                self.check_conflict(node, axis, 0.0)?;
+            }
+        }
+        for &node in nodes {
+            for axis in (0..3).filter(|&a| axes[a]) {
+                self.set(3 * node + axis, 0.0);
             }
         }
         Ok(self)
+    }
+
+    /// [`Error::ConflictingConstraint`] if DOF `3·node + axis` was constrained by the caller to
+    /// a value other than `value`.
+    fn check_conflict(&self, node: usize, axis: usize, value: f64) -> Result<()> {
+        let dof = 3 * node + axis;
+        match self.prescribed[dof] {
+            Some(first) if self.explicit[dof] && first != value => {
+                Err(Error::ConflictingConstraint {
+                    node,
+                    axis,
+                    first,
+                    second: value,
+                })
+            }
+            _ => Ok(()),
+        }
+    }
+
+    fn set(&mut self, dof: usize, value: f64) {
+        self.prescribed[dof] = Some(value);
+        self.explicit[dof] = true;
     }
 
     /// Prescribes the full displacement vector of `node` (a non-homogeneous Dirichlet condition).
@@ -55,7 +93,8 @@ impl Constraints {
         Ok(self)
     }
 
-    /// Prescribes one displacement component of `node`.
+    /// Prescribes one displacement component of `node` ([`Error::ConflictingConstraint`] if
+    /// it is already constrained to another value).
     pub fn prescribe_axis(&mut self, node: usize, axis: usize, value: f64) -> Result<&mut Self> {
         self.check_nodes("prescribed displacement", &[node])?;
         if axis > 2 {
@@ -72,7 +111,8 @@ impl Constraints {
                 "must be finite",
             ));
         }
-        self.prescribed[3 * node + axis] = Some(value);
+        self.check_conflict(node, axis, value)?;
+        self.set(3 * node + axis, value);
         Ok(self)
     }
 

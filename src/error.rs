@@ -197,6 +197,40 @@ pub enum Error {
         dimension: usize,
     },
 
+    /// Two constraints prescribe different values on one DOF (the same value twice is fine).
+    #[error(
+        "node {node}, axis {axis}: constrained twice with different values ({first:e}, then \
+         {second:e}); one DOF takes one prescribed displacement: remove or narrow one of them"
+    )]
+    ConflictingConstraint {
+        /// The node.
+        node: usize,
+        /// The axis (0 = x, 1 = y, 2 = z).
+        axis: usize,
+        /// The value prescribed first (length units; 0 for a fixed axis).
+        first: f64,
+        /// The value then prescribed.
+        second: f64,
+    },
+
+    /// A direct static solve whose relative residual ‖K_ff·u_f − r_f‖/‖r_f‖ stays above
+    /// `limit` after iterative refinement with the same factor: the answer cannot be trusted.
+    #[error(
+        "the static solve is inaccurate: relative residual {relative_residual:.2e} after \
+         {refinements} steps of iterative refinement (at most {limit:e} is accepted); the \
+         stiffness matrix is too ill-conditioned for double precision. Likely cause: {cause}"
+    )]
+    InaccurateSolve {
+        /// The relative residual reached.
+        relative_residual: f64,
+        /// The largest relative residual accepted ([`crate::statics::RESIDUAL_LIMIT`]).
+        limit: f64,
+        /// Refinement steps taken.
+        refinements: usize,
+        /// The likely cause, as a sentence naming the culprit value.
+        cause: String,
+    },
+
     /// A time integration blew up (non-finite values or runaway energy).
     #[error("the run diverged at step {step} (t = {time:e}): {reason}")]
     Diverged {

@@ -1,7 +1,8 @@
 //! Warnings: input that is valid but likely to give a poor or surprising answer.
 //!
-//! The library never prints; it returns these from [`TetMesh::warnings`](crate::mesh::TetMesh::warnings)
-//! and [`Material::warnings`](crate::material::Material::warnings), and the scene runner and the
+//! The library never prints; it returns these from [`TetMesh::warnings`](crate::mesh::TetMesh::warnings),
+//! [`Material::warnings`](crate::material::Material::warnings) and
+//! [`BuiltScene::warnings`](crate::scene::BuiltScene::warnings) (constraints and loads), and the scene runner and the
 //! command-line tool print them (`warning: …` on standard error) and list them in `--json`.
 
 use std::fmt;
@@ -10,7 +11,7 @@ use std::fmt;
 /// at ν = 0.45, and linear tets lock volumetrically as λ/μ grows (too stiff in bending).
 pub const NEARLY_INCOMPRESSIBLE_POISSON: f64 = 0.45;
 
-/// One warning about a mesh or a material.
+/// One warning about a mesh, a material, the constraints or the loads.
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
 #[non_exhaustive]
 pub enum Warning {
@@ -50,6 +51,20 @@ pub enum Warning {
         /// The material's ν.
         poisson_ratio: f64,
     },
+    /// A load whose every non-zero nodal force lies on a constrained DOF: it changes only the
+    /// reactions, never the displacement (usually a load put on the clamped face by mistake).
+    LoadOnFixedDofs {
+        /// Which load (a scene key such as `loads[1]`).
+        load: String,
+        /// DOFs it loads (all constrained).
+        dofs: usize,
+    },
+    /// Every DOF is constrained: nothing is solved, the displacement is the prescription and
+    /// the loads only change the reactions.
+    NoFreeDofs {
+        /// DOFs of the mesh (all constrained).
+        dofs: usize,
+    },
 }
 
 impl fmt::Display for Warning {
@@ -80,6 +95,16 @@ impl fmt::Display for Warning {
                 "Poisson's ratio {poisson_ratio} is close to 0.5 (λ/μ = {:.0}): linear tets lock volumetrically \
                  and come out too stiff; refine, or use ν ≤ {NEARLY_INCOMPRESSIBLE_POISSON}",
                 2.0 * poisson_ratio / (1.0 - 2.0 * poisson_ratio)
+            ),
+            Warning::LoadOnFixedDofs { load, dofs } => write!(
+                f,
+                "{load} acts only on constrained DOFs ({dofs} of them): it changes the reactions, \
+                 not the displacement; move it off the constrained nodes"
+            ),
+            Warning::NoFreeDofs { dofs } => write!(
+                f,
+                "all {dofs} DOFs are constrained: nothing is solved, the displacement is the \
+                 prescribed one and the loads change only the reactions"
             ),
         }
     }

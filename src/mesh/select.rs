@@ -3,6 +3,33 @@
 use nalgebra::Vector3;
 
 use super::{BoundaryFace, TetMesh};
+use crate::error::{Error, Result};
+
+/// [`Error::InvalidParameter`] unless `tolerance` (a selection distance, length units) is
+/// finite and ≥ 0: a negative or NaN one silently selects nothing and an infinite one
+/// everything.
+fn check_tolerance(tolerance: f64) -> Result<()> {
+    if tolerance.is_finite() && tolerance >= 0.0 {
+        Ok(())
+    } else {
+        Err(Error::invalid_parameter(
+            "selection tolerance",
+            tolerance,
+            "must be finite and >= 0 (a distance)",
+        ))
+    }
+}
+
+fn check_axis(axis: usize) -> Result<()> {
+    if axis > 2 {
+        return Err(Error::invalid_parameter(
+            "axis",
+            axis,
+            "must be 0 (x), 1 (y) or 2 (z)",
+        ));
+    }
+    Ok(())
+}
 
 impl TetMesh {
     /// Indices of the nodes whose position satisfies `predicate`, ascending.
@@ -14,12 +41,25 @@ impl TetMesh {
 
     /// Nodes with |x\[axis\] − value| ≤ tolerance (axis 0 = x, 1 = y, 2 = z).
     ///
-    /// An `axis` above 2 selects nothing.
+    /// An `axis` above 2, a negative or NaN `tolerance` select nothing, an infinite one every
+    /// node; [`try_nodes_on_plane`](Self::try_nodes_on_plane) makes those errors.
     pub fn nodes_on_plane(&self, axis: usize, value: f64, tolerance: f64) -> Vec<usize> {
         if axis > 2 {
             return Vec::new();
         }
         self.nodes_where(|p| (p[axis] - value).abs() <= tolerance)
+    }
+
+    /// [`nodes_on_plane`](Self::nodes_on_plane), with an [`Error::InvalidParameter`] for an
+    /// axis above 2, a non-finite `value`, or a `tolerance` that is not finite and ≥ 0.
+    pub fn try_nodes_on_plane(
+        &self,
+        axis: usize,
+        value: f64,
+        tolerance: f64,
+    ) -> Result<Vec<usize>> {
+        check_plane(axis, value, tolerance)?;
+        Ok(self.nodes_on_plane(axis, value, tolerance))
     }
 
     /// Nodes inside the closed axis-aligned box [min, max].
@@ -46,6 +86,10 @@ impl TetMesh {
     }
 
     /// Boundary faces lying in the plane x\[axis\] = value (all three nodes within `tolerance`).
+    ///
+    /// As [`nodes_on_plane`](Self::nodes_on_plane), bad arguments select nothing (or, for an
+    /// infinite tolerance, everything); [`try_faces_on_plane`](Self::try_faces_on_plane) makes
+    /// them errors.
     pub fn faces_on_plane(
         &self,
         boundary: &[BoundaryFace],
@@ -58,4 +102,29 @@ impl TetMesh {
         }
         self.faces_where(boundary, |p| (p[axis] - value).abs() <= tolerance)
     }
+
+    /// [`faces_on_plane`](Self::faces_on_plane), with an [`Error::InvalidParameter`] for an
+    /// axis above 2, a non-finite `value`, or a `tolerance` that is not finite and ≥ 0.
+    pub fn try_faces_on_plane(
+        &self,
+        boundary: &[BoundaryFace],
+        axis: usize,
+        value: f64,
+        tolerance: f64,
+    ) -> Result<Vec<BoundaryFace>> {
+        check_plane(axis, value, tolerance)?;
+        Ok(self.faces_on_plane(boundary, axis, value, tolerance))
+    }
+}
+
+fn check_plane(axis: usize, value: f64, tolerance: f64) -> Result<()> {
+    check_axis(axis)?;
+    if !value.is_finite() {
+        return Err(Error::invalid_parameter(
+            "plane position",
+            value,
+            "must be finite",
+        ));
+    }
+    check_tolerance(tolerance)
 }

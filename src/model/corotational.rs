@@ -17,6 +17,10 @@ use crate::material::Material;
 /// Newton converges only linearly under large rotations. The exact tangent can be indefinite
 /// under compression; the assembly projects each element's tangent onto the positive
 /// semi-definite cone ([`super::project_psd`]).
+///
+/// Its stress is Hooke's law in the rotated frame, turned back: σ = R·(λ·tr(ε)·I + 2μ·ε)·Rᵀ
+/// with the corotated strain ε = S − I, and its energy density μ‖ε‖² + λ/2·tr²(ε) = ½ε:C:ε.
+/// Both vanish under rigid motions and agree with the linear model to first order in u.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Corotational {
     lambda: f64,
@@ -77,6 +81,19 @@ impl ForceModel for Corotational {
                 + dr * (self.lambda * trace - 2.0 * self.mu)
                 + r * (self.lambda * (r.transpose() * df).trace())
         })
+    }
+
+    fn cauchy_stress(
+        &self,
+        tet: &Tet,
+        _rest: &[Vector3<f64>; 4],
+        x: &[Vector3<f64>; 4],
+    ) -> Matrix3<f64> {
+        let (_, r, s) = Self::kinematics(tet, x);
+        let strain = s - Matrix3::identity();
+        let rotated =
+            strain * (2.0 * self.mu) + Matrix3::identity() * (self.lambda * strain.trace());
+        r * rotated * r.transpose()
     }
 
     fn name(&self) -> &'static str {

@@ -1,12 +1,13 @@
 //! The linear (Cauchy strain) model as a force model.
 
-use nalgebra::Vector3;
+use nalgebra::{Matrix3, Vector3};
 
 use super::ForceModel;
 use crate::element::{Matrix12, Tet, Vector12};
 use crate::material::Material;
 
-/// f = −Kₑ·u, u = x − X; energy ½uᵀKₑu; tangent Kₑ (constant).
+/// f = −Kₑ·u, u = x − X; energy ½uᵀKₑu; tangent Kₑ (constant); stress σ = λ·tr(ε)·I + 2μ·ε
+/// of the small strain ε = sym ∇u.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct LinearModel {
     material: Material,
@@ -37,6 +38,15 @@ impl ForceModel for LinearModel {
 
     fn tangent(&self, tet: &Tet, _rest: &[Vector3<f64>; 4], _x: &[Vector3<f64>; 4]) -> Matrix12 {
         tet.stiffness(&self.material)
+    }
+
+    fn cauchy_stress(
+        &self,
+        tet: &Tet,
+        rest: &[Vector3<f64>; 4],
+        x: &[Vector3<f64>; 4],
+    ) -> Matrix3<f64> {
+        tet.stress(&self.material, &displacement(rest, x))
     }
 
     fn name(&self) -> &'static str {

@@ -36,6 +36,16 @@ pub trait ForceModel: Sync + Send {
     fn force(&self, tet: &Tet, rest: &[Vector3<f64>; 4], x: &[Vector3<f64>; 4]) -> Vector12;
     /// Tangent stiffness −∂f/∂x (12×12, symmetric; may be indefinite: see [`project_psd`]).
     fn tangent(&self, tet: &Tet, rest: &[Vector3<f64>; 4], x: &[Vector3<f64>; 4]) -> Matrix12;
+    /// Cauchy (true) stress σ of the tet at deformed positions `x` (stress units, Pa in SI),
+    /// the stress this model's force comes from: zero under any rigid motion for the
+    /// rotation-invariant models. Outputs (von Mises, `.vtu` fields) take it from here so that
+    /// they describe the model that ran.
+    fn cauchy_stress(
+        &self,
+        tet: &Tet,
+        rest: &[Vector3<f64>; 4],
+        x: &[Vector3<f64>; 4],
+    ) -> Matrix3<f64>;
     /// A short name (`linear`, `corotational`, `neo-hookean`).
     fn name(&self) -> &'static str;
 }

@@ -14,6 +14,11 @@ use crate::material::Material;
 /// force and the tangent are finite for inverted tets (J ≤ 0), which are pushed back. P =
 /// μF + λ̂(J − α)·cof F; the tangent is exact (cof F differentiated column by column:
 /// cof F = [f₁×f₂, f₂×f₀, f₀×f₁]) and may be indefinite; the assembly projects it.
+///
+/// Cauchy stress σ = J⁻¹·P·Fᵀ = (μ/J)·F·Fᵀ + λ̂(J − α)·I (cof F·Fᵀ = J·I): zero under rigid
+/// motions (F = R gives μ + λ̂(1 − α) = 0). For an inverted or flat tet (J ≤ 0), where the
+/// Cauchy stress is undefined, the Kirchhoff stress τ = P·Fᵀ = J·σ is returned instead (finite,
+/// and the same as σ to first order).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct NeoHookean {
     mu: f64,
@@ -74,6 +79,23 @@ impl ForceModel for NeoHookean {
                 + cof * (self.lambda_hat * cof.component_mul(df).sum())
                 + cofactor_direction(&f, df) * (self.lambda_hat * (j - self.alpha))
         })
+    }
+
+    fn cauchy_stress(
+        &self,
+        tet: &Tet,
+        _rest: &[Vector3<f64>; 4],
+        x: &[Vector3<f64>; 4],
+    ) -> Matrix3<f64> {
+        let f = rest_shape_matrix(x) * tet.rest_inverse();
+        let j = f.determinant();
+        let left_cauchy_green = f * f.transpose();
+        let volumetric = Matrix3::identity() * (self.lambda_hat * (j - self.alpha));
+        if j > 0.0 {
+            left_cauchy_green * (self.mu / j) + volumetric
+        } else {
+            left_cauchy_green * self.mu + volumetric * j
+        }
     }
 
     fn name(&self) -> &'static str {

@@ -1,12 +1,18 @@
 //! Derived per-node and per-cell fields for output: displacement magnitude, von Mises stress,
 //! strain energy density.
+//!
+//! The `cell_*` functions taking a [`Material`] evaluate the linear (small-strain) model; the
+//! `cell_model_*` functions evaluate the [`ForceModel`] that produced the displacement (its own
+//! Cauchy stress and energy), which is what a run with a nonlinear model must report: the linear
+//! strain of a rigid rotation is not zero.
 
-use nalgebra::Matrix3;
+use nalgebra::{Matrix3, Vector3};
 
 use crate::element::Vector12;
 use crate::error::{Error, Result};
 use crate::material::Material;
 use crate::mesh::TetMesh;
+use crate::model::ForceModel;
 
 pub use crate::element::von_mises;
 
@@ -76,10 +82,89 @@ pub fn cell_strain_energy_density(
         .collect())
 }
 
+/// Cauchy stress σ of every tet as `model` defines it ([`ForceModel::cauchy_stress`], stress
+/// units) at the node-major `displacement`.
+pub fn cell_model_stress(
+    mesh: &TetMesh,
+    model: &dyn ForceModel,
+    displacement: &[f64],
+) -> Result<Vec<Matrix3<f64>>> {
+    check_displacement(mesh, displacement)?;
+    Ok((0..mesh.tet_count())
+        .map(|t| {
+            model.cauchy_stress(
+                &mesh.element_of(t),
+                &mesh.positions_of(t),
+                &deformed(mesh, t, displacement),
+            )
+        })
+        .collect())
+}
+
+/// Von Mises stress of `model`'s Cauchy stress in every tet (stress units).
+pub fn cell_model_von_mises(
+    mesh: &TetMesh,
+    model: &dyn ForceModel,
+    displacement: &[f64],
+) -> Result<Vec<f64>> {
+    Ok(cell_model_stress(mesh, model, displacement)?
+        .iter()
+        .map(von_mises)
+        .collect())
+}
+
+/// `model`'s strain energy density in every tet: its element energy over the rest volume
+/// (energy per rest volume, J/m³ = Pa in SI); summed with the rest volumes it gives the model's
+/// total elastic energy. For the linear model this is ½σ:ε.
+pub fn cell_model_energy_density(
+    mesh: &TetMesh,
+    model: &dyn ForceModel,
+    displacement: &[f64],
+) -> Result<Vec<f64>> {
+    check_displacement(mesh, displacement)?;
+    Ok((0..mesh.tet_count())
+        .map(|t| {
+            let tet = mesh.element_of(t);
+            let energy = model.energy(
+                &tet,
+                &mesh.positions_of(t),
+                &deformed(mesh, t, displacement),
+            );
+            energy / tet.volume()
+        })
+        .collect())
+}
+
+/// x = X + u for the four nodes of tet `t` (`displacement`'s length checked by the caller).
+fn deformed(mesh: &TetMesh, t: usize, displacement: &[f64]) -> [Vector3<f64>; 4] {
+    mesh.tets()[t].map(|n| {
+        mesh.nodes()[n]
+            + Vector3::new(
+                displacement[3 * n],
+                displacement[3 * n + 1],
+                displacement[3 * n + 2],
+            )
+    })
+}
+
 /// |u| of every node (length units) from a node-major displacement (3 values per node).
+///
+/// Computed as m·‖u/m‖ with m = max |uᵢ|, so that neither tiny (|u| ~ 1e-200, whose square
+/// underflows to 0) nor huge (~1e200, whose square overflows to ∞) components are lost; a
+/// non-finite component gives a non-finite |u| (NaN stays NaN, ±∞ gives ∞).
 pub fn displacement_magnitude(displacement: &[f64]) -> Vec<f64> {
     displacement
         .chunks_exact(3)
-        .map(|u| (u[0] * u[0] + u[1] * u[1] + u[2] * u[2]).sqrt())
+        .map(|u| {
+            let largest = u[0].abs().max(u[1].abs()).max(u[2].abs());
+            if u.iter().any(|v| v.is_nan()) {
+                f64::NAN
+            } else if largest == 0.0 || largest.is_infinite() {
+                largest
+            } else {
+                let (x, y, z) = (u[0] / largest, u[1] / largest, u[2] / largest);
+                largest * (x * x + y * y + z * z).sqrt()
+            }
+        })
         .collect()
 }

@@ -3,14 +3,19 @@
 use std::path::Path;
 
 use super::VtuWriter;
-use super::fields::{cell_strain_energy_density, cell_von_mises, displacement_magnitude};
+use super::fields::{
+    cell_model_energy_density, cell_model_von_mises, cell_strain_energy_density, cell_von_mises,
+    displacement_magnitude,
+};
 use crate::error::Result;
 use crate::material::Material;
 use crate::mesh::TetMesh;
+use crate::model::ForceModel;
 
 /// Writes `path` (atomically) with point fields `displacement` (3 components),
 /// `displacement_magnitude`, optionally `velocity` (3), and cell fields `von_mises` (stress
-/// units) and `strain_energy_density` (energy/volume), all from node-major vectors.
+/// units) and `strain_energy_density` (energy/volume), all from node-major vectors. The cell
+/// fields are those of the linear model; see [`write_model_result_vtu`] for a nonlinear run.
 pub fn write_result_vtu(
     path: &Path,
     mesh: &TetMesh,
@@ -18,9 +23,35 @@ pub fn write_result_vtu(
     displacement: &[f64],
     velocity: Option<&[f64]>,
 ) -> Result<()> {
-    let magnitude = displacement_magnitude(displacement);
     let von_mises = cell_von_mises(mesh, material, displacement)?;
     let energy = cell_strain_energy_density(mesh, material, displacement)?;
+    write_fields(path, mesh, displacement, velocity, &von_mises, &energy)
+}
+
+/// As [`write_result_vtu`], with the cell fields of the force model that produced the
+/// displacement: `von_mises` of its Cauchy stress and its own `strain_energy_density` (energy
+/// per rest volume), see [`cell_model_von_mises`] and [`cell_model_energy_density`].
+pub fn write_model_result_vtu(
+    path: &Path,
+    mesh: &TetMesh,
+    model: &dyn ForceModel,
+    displacement: &[f64],
+    velocity: Option<&[f64]>,
+) -> Result<()> {
+    let von_mises = cell_model_von_mises(mesh, model, displacement)?;
+    let energy = cell_model_energy_density(mesh, model, displacement)?;
+    write_fields(path, mesh, displacement, velocity, &von_mises, &energy)
+}
+
+fn write_fields(
+    path: &Path,
+    mesh: &TetMesh,
+    displacement: &[f64],
+    velocity: Option<&[f64]>,
+    von_mises: &[f64],
+    energy: &[f64],
+) -> Result<()> {
+    let magnitude = displacement_magnitude(displacement);
     let mut writer = VtuWriter::new(mesh)
         .point_field("displacement", 3, displacement)?
         .point_field("displacement_magnitude", 1, &magnitude)?;
@@ -28,7 +59,7 @@ pub fn write_result_vtu(
         writer = writer.point_field("velocity", 3, v)?;
     }
     writer
-        .cell_field("von_mises", 1, &von_mises)?
-        .cell_field("strain_energy_density", 1, &energy)?
+        .cell_field("von_mises", 1, von_mises)?
+        .cell_field("strain_energy_density", 1, energy)?
         .write(path)
 }

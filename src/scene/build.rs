@@ -56,13 +56,18 @@ pub struct BuiltScene {
     pub gravity: Vector3<f64>,
     /// The probes.
     pub probes: Vec<Probe>,
+    /// Warnings about the constraints and the loads (a load on constrained DOFs only, no free
+    /// DOF), found while building.
+    pub input_warnings: Vec<crate::warning::Warning>,
 }
 
 impl BuiltScene {
-    /// The mesh's and the material's warnings (see [`crate::warning`]).
+    /// The mesh's, the material's, the constraints' and the loads' warnings (see
+    /// [`crate::warning`]).
     pub fn warnings(&self) -> Vec<crate::warning::Warning> {
         let mut warnings = self.mesh.warnings();
         warnings.extend(self.material.warnings());
+        warnings.extend(self.input_warnings.iter().cloned());
         warnings
     }
 }
@@ -119,6 +124,8 @@ impl Scene {
             boundary: &boundary,
         };
         let mut constraints = Constraints::new(&mesh);
+        // Which scene entry constrained each DOF, to name both entries of a conflict.
+        let mut constrained_by: Vec<Option<usize>> = vec![None; mesh.dof_count()];
         for (i, c) in spec.constraints.iter().enumerate() {
             let key = format!("constraints[{i}]");
             let span = c.span();
@@ -132,7 +139,16 @@ impl Scene {
                 Some(list) => list.iter().for_each(|a| axes[a.index()] = true),
                 None => axes = [true; 3],
             }
-            let at = |e: Error| self.error(&key, &span, e.to_string());
+            let at = |e: Error| match &e {
+                Error::ConflictingConstraint { node, axis, .. } => {
+                    let earlier = constrained_by[3 * node + axis]
+                        .map_or("an earlier constraint".to_string(), |j| {
+                            format!("constraints[{j}]")
+                        });
+                    self.error(&key, &span, format!("{e} (the first is {earlier})"))
+                }
+                _ => self.error(&key, &span, e.to_string()),
+            };
             match c.displacement {
                 None => {
                     constraints.fix_axes(&nodes, axes).map_err(at)?;
@@ -145,19 +161,35 @@ impl Scene {
                     }
                 }
             }
+            for &n in &nodes {
+                for axis in (0..3).filter(|&a| axes[a]) {
+                    constrained_by[3 * n + axis].get_or_insert(i);
+                }
+            }
+        }
+        let mut input_warnings = Vec::new();
+        if constraints.count() == mesh.dof_count() {
+            input_warnings.push(crate::warning::Warning::NoFreeDofs {
+                dofs: mesh.dof_count(),
+            });
         }
         let mut loads = Loads::new(&mesh);
         let mut other_loads = Loads::new(&mesh);
         let mut gravity = Vector3::zeros();
         for (i, l) in spec.loads.iter().enumerate() {
             let key = format!("loads[{i}]");
+            let before = loads.as_slice().to_vec();
             ctx.add_load(&mut loads, &material, l.get_ref(), &key, &l.span())?;
+            if let Some(warning) = on_fixed_dofs_only(&key, &before, loads.as_slice(), &constraints)
+            {
+                input_warnings.push(warning);
+            }
             match l.get_ref().gravity {
                 Some(g) => gravity += Vector3::from(g),
                 None => ctx.add_load(&mut other_loads, &material, l.get_ref(), &key, &l.span())?,
             }
         }
-        let mut probes = Vec::new();
+        let mut probes: Vec<Probe> = Vec::new();
         for (i, p) in spec.probes.iter().enumerate() {
             let key = format!("probes[{i}]");
             let span = p.span();
@@ -167,6 +199,18 @@ impl Scene {
                     &format!("{key}.name"),
                     &span,
                     "must be non-empty, without commas or quotes",
+                ));
+            }
+            // Two probes of one name would write two CSV columns of one name and two summary
+            // entries nobody can tell apart.
+            if let Some(j) = probes.iter().position(|q| q.name == p.name) {
+                return Err(self.error(
+                    &format!("{key}.name"),
+                    &span,
+                    format!(
+                        "duplicate probe name '{}' (probes[{j}] has it already); names must be unique",
+                        p.name
+                    ),
                 ));
             }
             probes.push(Probe {
@@ -184,8 +228,27 @@ impl Scene {
             other_loads,
             gravity,
             probes,
+            input_warnings,
         })
     }
+}
+
+/// [`Warning::LoadOnFixedDofs`](crate::warning::Warning::LoadOnFixedDofs) if the load that
+/// turned the force vector `before` into `after` is non-zero only on constrained DOFs.
+fn on_fixed_dofs_only(
+    key: &str,
+    before: &[f64],
+    after: &[f64],
+    constraints: &Constraints,
+) -> Option<crate::warning::Warning> {
+    let loaded: Vec<usize> = (0..after.len())
+        .filter(|&d| after[d] != before[d])
+        .collect();
+    let all_fixed = loaded.iter().all(|&d| constraints.get(d).is_some());
+    (!loaded.is_empty() && all_fixed).then(|| crate::warning::Warning::LoadOnFixedDofs {
+        load: key.to_string(),
+        dofs: loaded.len(),
+    })
 }
 
 struct Context<'a> {
@@ -240,7 +303,12 @@ impl Context<'_> {
                 tolerance,
             } => {
                 let tol = tolerance.unwrap_or_else(|| self.default_tolerance());
-                self.mesh.nodes_on_plane(axis.index(), *at, tol)
+                self.mesh
+                    .try_nodes_on_plane(axis.index(), *at, tol)
+                    .map_err(|e| {
+                        self.scene
+                            .error(&format!("{key}.plane"), span, e.to_string())
+                    })?
             }
             Selector::Box { min, max } => self.mesh.nodes_in_box((*min).into(), (*max).into()),
             Selector::Group(name) => self.group(name, &key, span)?.nodes.clone(),

@@ -5,8 +5,9 @@ use std::time::Instant;
 
 use super::{Analysis, BuiltScene, PngField, Scene};
 use crate::error::{Error, Result};
-use crate::output::fields::{cell_von_mises, displacement_magnitude};
-use crate::output::{CsvSeries, OutputLock, PvdCollection, write_atomically, write_result_vtu};
+use crate::model::ForceModel;
+use crate::output::fields::{cell_model_von_mises, displacement_magnitude};
+use crate::output::{CsvSeries, OutputLock, PvdCollection, write_atomically, write_model_result_vtu};
 use crate::render::{Field, RenderOptions, auto_deformation_scale, render};
 use crate::statics::StaticSolver;
 
@@ -76,7 +77,7 @@ pub struct RunSummary {
     pub free_dofs: usize,
     /// Largest nodal displacement magnitude (m).
     pub max_displacement: f64,
-    /// Largest per-tet von Mises stress (Pa).
+    /// Largest per-tet von Mises stress (Pa) of the Cauchy stress of the model that ran.
     pub max_von_mises: f64,
     /// Relative residual of the linear solve.
     pub relative_residual: f64,
@@ -137,6 +138,8 @@ pub fn run_static_with(scene: &Scene, options: &RunOptions) -> Result<RunSummary
     let clock = Instant::now();
     let mut phases = None;
     let mut factor_len = 0;
+    // The model that runs is the model whose stress and energy are reported.
+    let model = scene.model().build(&built.material);
     let (displacement, relative_residual, free_dofs) = match scene.model() {
         crate::model::ModelKind::Linear => {
             let options = crate::linear_solver::SolverOptions {
@@ -158,8 +161,7 @@ pub fn run_static_with(scene: &Scene, options: &RunOptions) -> Result<RunSummary
                 solver.dofs().free_count(),
             )
         }
-        kind => {
-            let model = kind.build(&built.material);
+        _ => {
             let report = crate::nonlinear::solve_nonlinear_static(
                 &built.mesh,
                 model.as_ref(),
@@ -187,7 +189,7 @@ pub fn run_static_with(scene: &Scene, options: &RunOptions) -> Result<RunSummary
     };
     let solve_seconds = clock.elapsed().as_secs_f64();
     let u = &displacement;
-    let von_mises = cell_von_mises(&built.mesh, &built.material, u)?;
+    let von_mises = cell_model_von_mises(&built.mesh, model.as_ref(), u)?;
     let magnitude = displacement_magnitude(u);
     let probes: Vec<ProbeValue> = built
         .probes
@@ -223,8 +225,15 @@ pub fn run_static_with(scene: &Scene, options: &RunOptions) -> Result<RunSummary
     };
     if !options.no_files {
         let clock = Instant::now();
-        summary.files =
-            write_static_outputs(scene, &built, u, &von_mises, &magnitude, options, &summary)?;
+        summary.files = write_static_outputs(
+            scene,
+            &built,
+            model.as_ref(),
+            u,
+            &von_mises,
+            options,
+            &summary,
+        )?;
         summary.output_seconds = clock.elapsed().as_secs_f64();
     }
     Ok(summary)
@@ -233,18 +242,19 @@ pub fn run_static_with(scene: &Scene, options: &RunOptions) -> Result<RunSummary
 fn write_static_outputs(
     scene: &Scene,
     built: &BuiltScene,
+    model: &dyn ForceModel,
     u: &[f64],
     von_mises: &[f64],
-    magnitude: &[f64],
     options: &RunOptions,
     summary: &RunSummary,
 ) -> Result<Vec<PathBuf>> {
     let out = scene.output();
     let dir = &out.directory;
+    let magnitude = &displacement_magnitude(u);
     let mut files = Vec::new();
     if out.vtu {
         let vtu = dir.join(format!("{}.vtu", out.stem));
-        write_result_vtu(&vtu, &built.mesh, &built.material, u, None)?;
+        write_model_result_vtu(&vtu, &built.mesh, model, u, None)?;
         let mut pvd = PvdCollection::new(dir.join(format!("{}.pvd", out.stem)));
         pvd.push(0.0, &vtu)?;
         files.push(vtu);
