@@ -10,7 +10,6 @@ use std::time::{Duration, Instant};
 
 use clap::{Args, Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
-use tetfem::BoxSplit;
 use tetfem::cantilever::Cantilever;
 use tetfem::dynamics::Method;
 use tetfem::info::mesh_info;

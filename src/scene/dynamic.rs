@@ -272,6 +272,7 @@ impl DynamicSetup {
             probes: built.probes,
             setup_seconds: clock.elapsed().as_secs_f64(),
             critical: Default::default(),
+            linear_method: LinearMethod::Direct,
         })
     }
 

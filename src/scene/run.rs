@@ -7,7 +7,9 @@ use super::{Analysis, BuiltScene, PngField, Scene};
 use crate::error::{Error, Result};
 use crate::model::ForceModel;
 use crate::output::fields::{cell_model_von_mises, displacement_magnitude};
-use crate::output::{CsvSeries, OutputLock, PvdCollection, write_atomically, write_model_result_vtu};
+use crate::output::{
+    CsvSeries, OutputLock, PvdCollection, write_atomically, write_model_result_vtu,
+};
 use crate::render::{Field, RenderOptions, auto_deformation_scale, render};
 use crate::statics::StaticSolver;
 
