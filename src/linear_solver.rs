@@ -350,6 +350,15 @@ pub fn choose_method(inputs: &ChoiceInputs, options: &SolverOptions) -> Result<M
             "must be at least 1",
         ));
     }
+    // A NaN or negative flop count would make every predicted time NaN, and NaN compares
+    // false both ways, so the choice would silently fall to one side.
+    if !(inputs.factor_flops.is_finite() && inputs.factor_flops >= 0.0) {
+        return Err(Error::invalid_parameter(
+            "factor_flops",
+            inputs.factor_flops,
+            "must be finite and non-negative",
+        ));
+    }
     let predicted = options.cost_model.predict(
         inputs,
         options.expected_solves,

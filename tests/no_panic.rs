@@ -1636,6 +1636,19 @@ fn scenes_integrator_options_amg_and_method_choice() {
             },
         )
     });
+    s.err("choose_method NaN factor flops", "InvalidParameter", || {
+        let inputs = ChoiceInputs {
+            matrix_entries: k.nnz(),
+            factor_len: 1,
+            factor_flops: f64::NAN,
+            factor_bytes: 1,
+            memory_budget: None,
+            cholesky_threads: 1,
+            iterative_threads: 1,
+            iteration_estimate: false,
+        };
+        choose_method(&inputs, &SolverOptions::default())
+    });
     let _ = std::fs::remove_dir_all(&dir);
     s.finish();
 }

@@ -282,11 +282,14 @@ fn tetgen_scene_selects_by_marker() {
 // ---------------------------------------------------------------------------------------------
 // Each shipped scene against the same problem built through the library.
 
-/// Relative agreement of a scene run with its library build. Both run the same operations in
-/// the same order (the scene is a front end to the same functions), so they should agree to
-/// round-off at worst; 1e-12 allows for that while any difference in mesh, split, selection,
-/// load or solver shows up at 1e-3 or more.
-const SAME_PROBLEM_TOL: f64 = 1e-12;
+/// Relative agreement of a scene run with its library build. The scene is a front end to the
+/// same functions, but it selects nodes and faces through the checked selections, whose order
+/// (and so the order in which nodal loads are summed) may differ from the library's: f then
+/// differs by round-off, ~1e-16 relative, which the solve amplifies by up to κ(K_ff) ≈ 1e7–1e8
+/// on these slender beams (measured: 1.7e-9 on `cantilever_static`). 1e-8 allows that, while
+/// any real difference in mesh, split, selection, load or solver shows up at 1e-3 or more
+/// (a swapped split: 1.8e-1).
+const SAME_PROBLEM_TOL: f64 = 1e-8;
 
 /// The library's split for the scene's `split` key, by name (so that a split added to both
 /// enums needs one line here).

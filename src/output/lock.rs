@@ -30,6 +30,9 @@ pub struct OutputLock {
     file: Option<File>,
     stale_pid: Option<String>,
     removed_temporaries: Vec<PathBuf>,
+    /// The folders `acquire` created, innermost first: removed again when the run leaves them
+    /// empty (a run stopped by bad input before it wrote anything leaves no folder behind).
+    created_directories: Vec<PathBuf>,
 }
 
 impl OutputLock {
@@ -43,6 +46,11 @@ impl OutputLock {
             let path = path.to_path_buf();
             move |source| Error::Io { path, source }
         };
+        let created_directories: Vec<PathBuf> = directory
+            .ancestors()
+            .take_while(|d| !d.as_os_str().is_empty() && !d.exists())
+            .map(Path::to_path_buf)
+            .collect();
         std::fs::create_dir_all(directory).map_err(io_error(directory))?;
         // A run releasing its lock removes the file before unlocking it, so a run that opened
         // the file just before may lock a file that no longer has a name; then it tries again.
@@ -86,6 +94,7 @@ impl OutputLock {
                 file: Some(file),
                 stale_pid,
                 removed_temporaries: Vec::new(),
+                created_directories,
             };
             lock.removed_temporaries = remove_stale_temporaries(directory)?;
             return Ok(lock);
@@ -133,6 +142,12 @@ impl Drop for OutputLock {
             held.retain(|p| p != &self.path);
         }
         self.file.take();
+        // `remove_dir` fails on a folder that holds anything, so only empty ones go.
+        for directory in &self.created_directories {
+            if std::fs::remove_dir(directory).is_err() {
+                break;
+            }
+        }
     }
 }
 

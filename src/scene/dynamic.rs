@@ -149,6 +149,9 @@ pub struct DynamicSetup {
     /// (the integrators' default); [`run_dynamic_scene`] sets the scene's
     /// `analysis.linear_solver` (auto when unset).
     pub linear_method: LinearMethod,
+    /// Warnings about the scene's own entries (a load acting on fixed DOFs only, no free DOF),
+    /// reported with the mesh's and the material's in the run summary.
+    pub input_warnings: Vec<crate::warning::Warning>,
     /// The explicit critical step once computed.
     critical: std::sync::OnceLock<(f64, &'static str)>,
 }
@@ -178,7 +181,9 @@ impl DynamicSetup {
             .map(|dof| settings.initial_velocity[dof % 3])
             .collect();
         initial.velocity = system.dofs().restrict(&velocity)?;
+        let input_warnings = built.input_warnings.clone();
         Ok(DynamicSetup {
+            input_warnings,
             mesh: built.mesh,
             material: built.material,
             system: Arc::new(system),
@@ -228,6 +233,7 @@ impl DynamicSetup {
             nodes: cantilever.tip_nodes(&mesh),
         }];
         Ok(DynamicSetup {
+            input_warnings: Vec::new(),
             mesh,
             material,
             system: Arc::new(system),
@@ -264,7 +270,9 @@ impl DynamicSetup {
             MassKind::Lumped,
             Rayleigh::default(),
         )?;
+        let input_warnings = built.input_warnings.clone();
         Ok(DynamicSetup {
+            input_warnings,
             mesh: built.mesh,
             material: built.material,
             system: Arc::new(system),
@@ -584,6 +592,7 @@ fn run_dynamic_locked(
             .warnings()
             .iter()
             .chain(&setup.material.warnings())
+            .chain(&setup.input_warnings)
             .map(ToString::to_string)
             .chain(lock.as_ref().and_then(OutputLock::warning))
             .collect(),
