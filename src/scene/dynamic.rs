@@ -181,9 +181,14 @@ impl DynamicSetup {
             .map(|dof| settings.initial_velocity[dof % 3])
             .collect();
         initial.velocity = system.dofs().restrict(&velocity)?;
-        let input_warnings = built.input_warnings.clone();
-        Ok(DynamicSetup {
-            input_warnings,
+        Ok(Self::of_built(built, system, initial, clock))
+    }
+
+    /// The setup of a built scene with its assembled system and initial state; `clock` started
+    /// with the setup.
+    fn of_built(built: BuiltScene, system: LinearSystem, initial: State, clock: Instant) -> Self {
+        DynamicSetup {
+            input_warnings: built.input_warnings,
             mesh: built.mesh,
             material: built.material,
             system: Arc::new(system),
@@ -192,7 +197,7 @@ impl DynamicSetup {
             setup_seconds: clock.elapsed().as_secs_f64(),
             linear_method: LinearMethod::Direct,
             critical: Default::default(),
-        })
+        }
     }
 
     /// The cantilever released from rest in its static shape under end load and gravity, with
@@ -209,25 +214,8 @@ impl DynamicSetup {
             ..*cantilever
         }
         .loads(&mesh)?;
-        let loaded = LinearSystem::new(
-            &mesh,
-            &material,
-            &constraints,
-            &end_load_only,
-            gravity,
-            MassKind::Lumped,
-            Rayleigh::default(),
-        )?;
-        let initial = State::released_from(loaded.static_displacement()?);
-        let system = LinearSystem::new(
-            &mesh,
-            &material,
-            &constraints,
-            &Loads::new(&mesh),
-            gravity,
-            MassKind::Lumped,
-            Rayleigh::default(),
-        )?;
+        let (initial, system) =
+            released_system(&mesh, &material, &constraints, &end_load_only, gravity)?;
         let probes = vec![Probe {
             name: "tip".into(),
             nodes: cantilever.tip_nodes(&mesh),
@@ -251,37 +239,14 @@ impl DynamicSetup {
     /// [`released_cantilever`](Self::released_cantilever).
     pub fn released(built: BuiltScene) -> Result<Self> {
         let clock = Instant::now();
-        let loaded = LinearSystem::new(
+        let (initial, system) = released_system(
             &built.mesh,
             &built.material,
             &built.constraints,
             &built.other_loads,
             built.gravity,
-            MassKind::Lumped,
-            Rayleigh::default(),
         )?;
-        let initial = State::released_from(loaded.static_displacement()?);
-        let system = LinearSystem::new(
-            &built.mesh,
-            &built.material,
-            &built.constraints,
-            &Loads::new(&built.mesh),
-            built.gravity,
-            MassKind::Lumped,
-            Rayleigh::default(),
-        )?;
-        let input_warnings = built.input_warnings.clone();
-        Ok(DynamicSetup {
-            input_warnings,
-            mesh: built.mesh,
-            material: built.material,
-            system: Arc::new(system),
-            initial,
-            probes: built.probes,
-            setup_seconds: clock.elapsed().as_secs_f64(),
-            critical: Default::default(),
-            linear_method: LinearMethod::Direct,
-        })
+        Ok(Self::of_built(built, system, initial, clock))
     }
 
     /// The period 2π/ω₁ (time units) of the lowest natural mode of the constrained body, from
@@ -936,4 +901,28 @@ pub fn run_dynamic_scene(
         force_png,
     });
     run_dynamic_locked(&setup, &run, outputs.as_ref(), lock, progress)
+}
+
+/// The state at rest in the static shape under `loads` and `gravity`, and the system with the
+/// loads removed and gravity kept (lumped mass, no damping), which it swings in.
+fn released_system(
+    mesh: &TetMesh,
+    material: &Material,
+    constraints: &Constraints,
+    loads: &Loads,
+    gravity: Vector3<f64>,
+) -> Result<(State, LinearSystem)> {
+    let system = |loads: &Loads| {
+        LinearSystem::new(
+            mesh,
+            material,
+            constraints,
+            loads,
+            gravity,
+            MassKind::Lumped,
+            Rayleigh::default(),
+        )
+    };
+    let initial = State::released_from(system(loads)?.static_displacement()?);
+    Ok((initial, system(&Loads::new(mesh))?))
 }
