@@ -14,9 +14,9 @@ use std::hint::black_box;
 use std::time::Duration;
 
 use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
-use tetfem::cantilever::{Cantilever, FreeSystem};
-use tetfem::ordering::nested_dissection;
+use tetfem::linalg::ordering::nested_dissection;
 use tetfem::{CscMatrix, SparseCholesky};
+use tetfem_fixtures::cantilever::{Cantilever, FreeSystem};
 
 /// P·A·Pᵀ with `perm[new] = old`, as a nalgebra-sparse matrix (both triangles).
 fn permuted_nalgebra(a: &CscMatrix, perm: &[usize]) -> nalgebra_sparse::CscMatrix<f64> {

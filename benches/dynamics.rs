@@ -9,10 +9,10 @@ use std::time::Duration;
 
 use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
 use nalgebra::Vector3;
-use tetfem::block_sparse::BlockMatrix3;
-use tetfem::cantilever::Cantilever;
 use tetfem::dynamics::{LinearSystem, MassKind, Method, Rayleigh, State, critical_time_step};
+use tetfem::linalg::block_sparse::BlockMatrix3;
 use tetfem::{CscMatrix, SparseCholesky};
+use tetfem_fixtures::cantilever::Cantilever;
 
 fn sizes() -> Vec<[usize; 3]> {
     let mut sizes = vec![[40, 8, 8], [100, 20, 20]];

@@ -8,10 +8,10 @@ use std::hint::black_box;
 use std::time::Duration;
 
 use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
-use tetfem::cantilever::Cantilever;
 use tetfem::{
     Assembler, CholeskyOptions, DofMap, FillOrdering, NumericFactorization, SparseCholesky,
 };
+use tetfem_fixtures::cantilever::Cantilever;
 
 fn sizes() -> Vec<[usize; 3]> {
     let mut sizes = vec![[60, 6, 6], [140, 14, 14]];

@@ -16,8 +16,8 @@
 use std::time::Instant;
 
 use tetfem::Tet;
-use tetfem::block_sparse::{BlockMatrix3, SymmetricBlockMatrix3};
-use tetfem::cantilever::{Cantilever, FreeSystem};
+use tetfem::linalg::block_sparse::{BlockMatrix3, SymmetricBlockMatrix3};
+use tetfem_fixtures::cantilever::{Cantilever, FreeSystem};
 
 /// Per tet: the free index of each node's x DOF (u32::MAX for a clamped node) and the data of
 /// f_a = V·σ(u)·∇N_a with σ = λ·tr(∇u)·I + μ·(∇u + ∇uᵀ): ∇N_1..3 (∇N_0 = −their sum), λV, μV.
@@ -213,7 +213,7 @@ fn streams_table(
     let bytes = 8.0 * values.len() as f64;
     println!(
         "\nnode-block product by streams per task (default {}), against reading its {:.1} MB of values",
-        tetfem::block_sparse::STREAMS,
+        tetfem::linalg::block_sparse::STREAMS,
         bytes / 1e6
     );
     println!("| kernel | time [ms] | values GB/s | ÷ 4-stream read |");

@@ -6,8 +6,8 @@
 
 use std::time::Instant;
 
-use tetfem::cantilever::{Cantilever, FreeSystem};
 use tetfem::{CholeskyOptions, NumericFactorization, SparseCholesky};
+use tetfem_fixtures::cantilever::{Cantilever, FreeSystem};
 
 fn main() -> tetfem::Result<()> {
     let mut args = std::env::args().skip(1);
@@ -40,7 +40,7 @@ fn main() -> tetfem::Result<()> {
         let mut solvers: Vec<SparseCholesky> = kernels
             .iter()
             .map(|_| SparseCholesky::analyze_with(&stiffness, options))
-            .collect::<tetfem::Result<_>>()?;
+            .collect::<tetfem::linalg::Result<_>>()?;
         let flops = solvers[0].factor_flops();
         let mut best = [f64::INFINITY; 2];
         for _ in 0..reps {

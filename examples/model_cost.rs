@@ -4,9 +4,9 @@
 
 use std::time::Instant;
 
-use tetfem::cantilever::Cantilever;
 use tetfem::model::{ModelKind, assemble};
 use tetfem::{Assembler, CscMatrix, DofMap, SparseCholesky};
+use tetfem_fixtures::cantilever::Cantilever;
 
 fn main() -> tetfem::Result<()> {
     let problem = Cantilever::peer_benchmark([100, 20, 20]);

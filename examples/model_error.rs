@@ -18,10 +18,10 @@
 
 use std::time::Instant;
 
-use tetfem::cantilever::Cantilever;
 use tetfem::model::{ForceModel, ModelKind, assemble, project_psd};
 use tetfem::nonlinear::{NewtonOptions, solve_nonlinear_static};
 use tetfem::{Assembler, CscMatrix, DofMap, SparseCholesky};
+use tetfem_fixtures::cantilever::Cantilever;
 
 fn main() -> tetfem::Result<()> {
     let args: Vec<usize> = std::env::args()

@@ -8,11 +8,11 @@
 use std::time::Instant;
 
 use tetfem::SparseCholesky;
-use tetfem::amg::{DofGeometry, SmoothedAggregation};
-use tetfem::cantilever::{Cantilever, FreeSystem};
-use tetfem::iterative::{
+use tetfem::linalg::amg::SmoothedAggregation;
+use tetfem::linalg::iterative::{
     BlockJacobi, CgOptions, IncompleteCholesky, Preconditioner, conjugate_gradient,
 };
+use tetfem_fixtures::cantilever::{Cantilever, FreeSystem};
 
 fn main() -> tetfem::Result<()> {
     let args: Vec<String> = std::env::args().collect();
@@ -104,7 +104,7 @@ fn main() -> tetfem::Result<()> {
         run(&format!("IC(0), shift {:.0e}", ic.shift()), &ic, setup);
         drop(ic);
         let clock = Instant::now();
-        let amg = SmoothedAggregation::new(&k_ff, Some(&DofGeometry::new(&mesh, &dofs)?))?;
+        let amg = SmoothedAggregation::new(&k_ff, Some(&dofs.geometry(&mesh)?))?;
         let setup = clock.elapsed().as_secs_f64();
         let sizes: Vec<String> = amg
             .level_sizes()

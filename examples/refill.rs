@@ -13,11 +13,11 @@ use std::time::Instant;
 
 use std::sync::Arc;
 use tetfem::assembly::Assembler;
-use tetfem::cantilever::Cantilever;
 use tetfem::element::{Matrix12, Tet};
+use tetfem::linalg::sparse::CscMatrix;
 use tetfem::material::Material;
 use tetfem::mesh::TetMesh;
-use tetfem::sparse::CscMatrix;
+use tetfem_fixtures::cantilever::Cantilever;
 
 /// The previous refill, reconstructed from the public pattern: per tet and local node pair the
 /// start of its 3×3 block, per node the column stride, and node-range partitions.

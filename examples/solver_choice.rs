@@ -6,9 +6,9 @@
 //!
 //! `cargo run --release --example solver_choice -- 8 12 16 20` (k values; default 8 12 16 20).
 
-use tetfem::cantilever::{Cantilever, FreeSystem};
-use tetfem::linear_solver::{ChoiceInputs, choose_method};
+use tetfem::linalg::linear_solver::{ChoiceInputs, choose_method};
 use tetfem::{SolverOptions, SparseCholesky};
+use tetfem_fixtures::cantilever::{Cantilever, FreeSystem};
 
 fn main() -> tetfem::Result<()> {
     let ks: Vec<usize> = std::env::args()

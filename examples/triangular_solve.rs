@@ -9,8 +9,8 @@
 use std::hint::black_box;
 use std::time::Instant;
 
-use tetfem::cantilever::{Cantilever, FreeSystem};
 use tetfem::{SparseCholesky, TriangularSolve};
+use tetfem_fixtures::cantilever::{Cantilever, FreeSystem};
 
 /// Sum of the values, twice, with independent partial sums so that the loop is bound by memory,
 /// not by the latency of one running sum. Both passes read forwards: a backward pass measured

@@ -10,8 +10,9 @@ use std::path::{Path, PathBuf};
 
 use nalgebra::Vector3;
 use tetfem::mesh::io::{ImportedMesh, parse_gmsh, parse_tetgen};
-use tetfem::scene::{Analysis, MeshSpec, RunOptions, run_static_with};
-use tetfem::{Assembler, Constraints, Loads, Material, Result, Scene, TetMesh, solve_static};
+use tetfem::{Assembler, Constraints, Loads, Material, Result, TetMesh, solve_static};
+use tetfem_cli::Scene;
+use tetfem_cli::scene::{Analysis, MeshSpec, RunOptions, run_static_with};
 
 /// Scenes whose box grid has more cells than this are parsed but not built.
 pub const SCENE_BUILD_CELLS: usize = 2000;

@@ -8,7 +8,9 @@ use std::sync::Arc;
 use faer::sparse::SymbolicSparseColMat;
 use nalgebra::{Matrix6, SymmetricEigen, Vector3, Vector6};
 
+use crate::amg::DofGeometry;
 use crate::error::{Error, Result};
+use crate::linear_solver::LinearMethod;
 use crate::mesh::{FaceTopology, TetMesh};
 use crate::sparse::CscMatrix;
 
@@ -161,6 +163,28 @@ pub struct DofMap {
 }
 
 impl DofMap {
+    /// Where this map's free DOFs sit on `mesh` (free DOF i is full DOF 3·node + axis): what
+    /// the multigrid preconditioner builds the rigid-body modes from.
+    /// [`Error::DimensionMismatch`] if the map was made for another number of DOFs.
+    pub fn geometry(&self, mesh: &TetMesh) -> Result<DofGeometry> {
+        Error::check_len("DofMap DOFs", mesh.dof_count(), self.full_count())?;
+        Ok(DofGeometry::new(mesh.nodes(), self.free_dofs())?)
+    }
+
+    /// [`geometry`](Self::geometry) when `method` may take the iterative path (which builds
+    /// the rigid-body modes from it), `None` for [`LinearMethod::Direct`].
+    pub fn geometry_for_method(
+        &self,
+        method: LinearMethod,
+        mesh: &TetMesh,
+    ) -> Result<Option<DofGeometry>> {
+        if method == LinearMethod::Direct {
+            Ok(None)
+        } else {
+            self.geometry(mesh).map(Some)
+        }
+    }
+
     /// Numbers the free DOFs in ascending full order.
     pub fn new(constraints: &Constraints) -> Self {
         let mut free_index = Vec::with_capacity(constraints.prescribed.len());

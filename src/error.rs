@@ -333,6 +333,52 @@ pub enum Error {
     },
 }
 
+/// Each linear-algebra error becomes the variant of the same name and message: callers of the
+/// analyses match one error type whichever layer failed.
+impl From<tetfem_linalg::Error> for Error {
+    fn from(error: tetfem_linalg::Error) -> Self {
+        use tetfem_linalg::Error as Linalg;
+        match error {
+            Linalg::DimensionMismatch {
+                what,
+                expected,
+                found,
+            } => Error::DimensionMismatch {
+                what,
+                expected,
+                found,
+            },
+            Linalg::InvalidParameter {
+                name,
+                value,
+                requirement,
+            } => Error::InvalidParameter {
+                name,
+                value,
+                requirement,
+            },
+            Linalg::NotPositiveDefinite { pivot, dimension } => {
+                Error::NotPositiveDefinite { pivot, dimension }
+            }
+            Linalg::Solver(message) => Error::Solver(message),
+            Linalg::InsufficientMemory {
+                what,
+                needed,
+                available,
+                limit,
+            } => Error::InsufficientMemory {
+                what,
+                needed,
+                available,
+                limit,
+            },
+            // `tetfem_linalg::Error` is non-exhaustive: a variant added there reads as a solver
+            // failure here until it gets its own.
+            other => Error::Solver(other.to_string()),
+        }
+    }
+}
+
 impl Error {
     /// Shorthand for [`Error::InvalidParameter`].
     pub fn invalid_parameter(

@@ -30,22 +30,20 @@
 //! # Ok::<(), tetfem::Error>(())
 //! ```
 
-pub mod amg;
+pub use tetfem_linalg as linalg;
+// The linear algebra under its own names inside this crate (`crate::sparse::CscMatrix`, ...):
+// the analyses use it throughout, the public surface has it as `tetfem::linalg`.
+pub(crate) use tetfem_linalg::{
+    amg, block_sparse, iterative, linear_solver, linsolve, ordering, sparse,
+};
+
 pub mod assembly;
-pub mod beam_theory;
-pub mod block_sparse;
-pub mod cantilever;
-pub mod chart;
 pub mod constraints;
 pub mod convergence;
 pub mod dynamics;
 pub mod element;
 pub mod error;
 pub mod error_norms;
-pub mod info;
-pub mod iterative;
-pub mod linear_solver;
-pub mod linsolve;
 pub mod loads;
 pub mod material;
 pub mod memory;
@@ -53,12 +51,8 @@ pub mod mesh;
 pub mod modal;
 pub mod model;
 pub mod nonlinear;
-pub mod ordering;
 pub mod output;
 pub mod quadrature;
-pub mod render;
-pub mod scene;
-pub mod sparse;
 pub mod statics;
 pub mod warning;
 
@@ -72,7 +66,6 @@ pub use loads::Loads;
 pub use material::Material;
 pub use mesh::{BoxSplit, TetMesh};
 pub use ordering::FillOrdering;
-pub use scene::{Scene, run_static};
 pub use sparse::CscMatrix;
 pub use statics::{StaticSolution, StaticSolver, solve_static};
 

@@ -157,7 +157,7 @@ fn dot(a: &[f64], b: &[f64]) -> f64 {
 /// vectors Y·z (M-orthonormal by construction).
 fn rayleigh_ritz(k: &CscMatrix, mass: &Mass, y: &[Vec<f64>]) -> Result<(Vec<f64>, Vec<Vec<f64>>)> {
     let (n, p) = (k.dim(), y.len());
-    let ky: Vec<Vec<f64>> = y.iter().map(|c| k.mul(c)).collect::<Result<_>>()?;
+    let ky: Vec<Vec<f64>> = y.iter().map(|c| Ok(k.mul(c)?)).collect::<Result<_>>()?;
     let my: Vec<Vec<f64>> = y
         .iter()
         .map(|c| {

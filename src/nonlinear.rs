@@ -1,7 +1,6 @@
 //! Nonlinear static equilibrium with a [`ForceModel`]: Newton's method with a backtracking line
 //! search and load stepping, one symbolic factorization for all iterations.
 
-use crate::amg::DofGeometry;
 use crate::assembly::Assembler;
 use crate::constraints::{Constraints, DofMap, ensure_held};
 use crate::error::{Error, Result};
@@ -90,7 +89,7 @@ pub fn solve_nonlinear_static(
     let mut tangent = CscMatrix::zeros(std::sync::Arc::clone(assembler.pattern()))?;
     let restriction = dofs.restriction(assembler.pattern())?;
     let mut free_tangent = CscMatrix::zeros(std::sync::Arc::clone(restriction.pattern()))?;
-    let geometry = DofGeometry::for_method(options.solver.method, mesh, &dofs)?;
+    let geometry = dofs.geometry_for_method(options.solver.method, mesh)?;
     let mut solver = LinearSolver::analyze_with_geometry(&free_tangent, options.solver, geometry)?;
     let f_full = loads.as_slice();
     let load_norm = norm(&dofs.restrict(f_full)?);
@@ -142,7 +141,9 @@ pub fn solve_nonlinear_static(
             // direction, at the price of linear convergence while it is needed).
             refill_tangent(mesh, &assembler, model, &u, false, &mut tangent)?;
             restriction.restrict_into(&tangent, &mut free_tangent)?;
-            if let Err(Error::NotPositiveDefinite { .. }) = solver.factorize(&free_tangent) {
+            if let Err(tetfem_linalg::Error::NotPositiveDefinite { .. }) =
+                solver.factorize(&free_tangent)
+            {
                 refill_tangent(mesh, &assembler, model, &u, true, &mut tangent)?;
                 restriction.restrict_into(&tangent, &mut free_tangent)?;
                 solver.factorize(&free_tangent)?;

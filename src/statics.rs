@@ -2,7 +2,6 @@
 
 use std::time::{Duration, Instant};
 
-use crate::amg::DofGeometry;
 use crate::assembly::Assembler;
 use crate::constraints::{Constraints, DofMap, ensure_held};
 use crate::error::{Error, Result};
@@ -116,7 +115,7 @@ impl StaticSolver {
         timings.constraints = clock.elapsed();
 
         let clock = Instant::now();
-        let geometry = DofGeometry::for_method(options.method, mesh, &dofs)?;
+        let geometry = dofs.geometry_for_method(options.method, mesh)?;
         let mut solver = LinearSolver::analyze_with_geometry(&free_stiffness, options, geometry)?;
         timings.symbolic = clock.elapsed();
 

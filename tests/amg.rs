@@ -1,15 +1,16 @@
 //! Smoothed-aggregation multigrid: the coarsening's algebraic properties, the V-cycle's symmetry
 //! and positivity, and CG+SA-AMG on cantilever stiffness matrices against the direct solve.
 
-use tetfem::amg::{
+use tetfem::linalg::Error;
+use tetfem::linalg::amg::{
     AmgOptions, Coarsening, DofGeometry, NearNullSpace, SmoothedAggregation, coarsen,
 };
-use tetfem::cantilever::{Cantilever, FreeSystem};
-use tetfem::iterative::{CgOptions, Preconditioner, conjugate_gradient};
-use tetfem::linear_solver::SolveInfo;
+use tetfem::linalg::iterative::{CgOptions, Preconditioner, conjugate_gradient};
+use tetfem::linalg::linear_solver::SolveInfo;
 use tetfem::{
-    CscMatrix, DofMap, Error, LinearMethod, SolverOptions, SparseCholesky, StaticSolver, TetMesh,
+    CscMatrix, DofMap, LinearMethod, SolverOptions, SparseCholesky, StaticSolver, TetMesh,
 };
+use tetfem_fixtures::cantilever::{Cantilever, FreeSystem};
 
 struct Beam {
     problem: Cantilever,
@@ -38,7 +39,7 @@ fn beam(cells: [usize; 3]) -> Beam {
 
 impl Beam {
     fn geometry(&self) -> DofGeometry {
-        DofGeometry::new(&self.mesh, &self.dofs).unwrap()
+        self.dofs.geometry(&self.mesh).unwrap()
     }
 
     fn tip(&self, free: &[f64]) -> f64 {
@@ -345,7 +346,7 @@ fn restriction_by_transpose_product_equals_the_stored_transpose() {
 
 #[test]
 fn row_matrix_columns_are_bounded_by_u32() {
-    use tetfem::amg::{MAX_COLUMNS, RowMatrix};
+    use tetfem::linalg::amg::{MAX_COLUMNS, RowMatrix};
     assert!(RowMatrix::new(MAX_COLUMNS, vec![0, 1], vec![u32::MAX - 1], vec![1.0]).is_ok());
     assert!(matches!(
         RowMatrix::new(MAX_COLUMNS + 1, vec![0], vec![], vec![]),

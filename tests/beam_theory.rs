@@ -1,9 +1,9 @@
-//! The closed-form beam references (`tetfem::beam_theory`) that other tests and the validation
+//! The closed-form beam references (`tetfem_fixtures::beam_theory`) that other tests and the validation
 //! suite compare against, checked against values derived by hand.
 
 use tetfem::Material;
-use tetfem::beam_theory::RectangularCantilever;
-use tetfem::cantilever::Cantilever;
+use tetfem_fixtures::beam_theory::RectangularCantilever;
+use tetfem_fixtures::cantilever::Cantilever;
 
 /// The README's cantilever (`Cantilever::peer_benchmark`): L = 10, W = H = 1, E = 1e5, ν = 0.3.
 fn readme_beam() -> RectangularCantilever {

@@ -4,15 +4,15 @@
 use std::sync::Arc;
 
 use nalgebra::Vector3;
-use tetfem::cantilever::Cantilever;
 use tetfem::dynamics::{
     IntegratorOptions, LinearSystem, MassKind, Method, NonlinearBackwardEuler, Rayleigh, State,
     critical_time_step, element_critical_step,
 };
-use tetfem::iterative::CgOptions;
+use tetfem::linalg::iterative::CgOptions;
 use tetfem::modal::lowest_modes;
 use tetfem::model::ModelKind;
 use tetfem::{BoxSplit, CholeskyOptions, Error, LinearMethod, Material, SparseCholesky};
+use tetfem_fixtures::cantilever::Cantilever;
 
 /// A clamped box beam L × 1 × 1 with `cells`, E = 1e5, ν = 0.3, ρ = 1000 and a unit end load
 /// (−z), lumped mass, no gravity. Returns the system and the free indices of the tip z-DOFs.

@@ -5,9 +5,9 @@
 use std::sync::Arc;
 
 use nalgebra::Vector3;
-use tetfem::cantilever::Cantilever;
 use tetfem::dynamics::{LinearSystem, MassKind, Method, Rayleigh, State};
 use tetfem::{BoxSplit, Loads, Material, TetMesh};
+use tetfem_fixtures::cantilever::Cantilever;
 
 const G: f64 = 9.81;
 

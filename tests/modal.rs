@@ -2,11 +2,11 @@
 //! same (K, M) on small meshes, and convergence on slender steel beams.
 
 use nalgebra::{DMatrix, DVector, SymmetricEigen, Vector3};
-use tetfem::cantilever::Cantilever;
 use tetfem::dynamics::{LinearSystem, Mass, MassKind, Rayleigh, critical_time_step};
+use tetfem::linalg::sparse::CscMatrix;
 use tetfem::modal::{RESIDUAL_TOLERANCE, lowest_modes};
-use tetfem::sparse::CscMatrix;
 use tetfem::{BoxSplit, Material};
+use tetfem_fixtures::cantilever::Cantilever;
 
 /// A steel box beam L × W × H (E = 2e11 Pa, ν = 0.3, ρ = 7800 kg/m³) clamped at x = 0.
 fn steel_beam(size: [f64; 3], cells: [usize; 3], mass: MassKind) -> LinearSystem {

@@ -4,11 +4,12 @@
 
 use std::sync::Arc;
 
-use tetfem::cantilever::Cantilever;
-use tetfem::linear_solver::{
+use tetfem::linalg::Error;
+use tetfem::linalg::linear_solver::{
     ChoiceInputs, ChoiceReason, CostModel, MethodChoice, SolveInfo, ThreadRates, choose_method,
 };
-use tetfem::{CscMatrix, Error, LinearMethod, SolverOptions, SparseCholesky, StaticSolver};
+use tetfem::{CscMatrix, LinearMethod, SolverOptions, SparseCholesky, StaticSolver};
+use tetfem_fixtures::cantilever::Cantilever;
 
 /// Sizes of the scale study's beams (5k×k×k cells) as `examples/solver_choice.rs` prints them:
 /// (nnz(K_ff), factor values, factor flops).

@@ -2,11 +2,13 @@
 
 use std::sync::Arc;
 
-use tetfem::cantilever::Cantilever;
-use tetfem::iterative::{BlockJacobi, CgOptions, conjugate_gradient};
-use tetfem::ordering::nested_dissection;
+use tetfem::linalg::iterative::{BlockJacobi, CgOptions, conjugate_gradient};
+use tetfem::linalg::ordering::nested_dissection;
+use tetfem_fixtures::cantilever::Cantilever;
+// The linear algebra's own error type: these probes call its routines directly.
+use tetfem::linalg::Error;
 use tetfem::{
-    CholeskyOptions, CscMatrix, Error, FillOrdering, LinearMethod, SolverOptions, SparseCholesky,
+    CholeskyOptions, CscMatrix, FillOrdering, LinearMethod, SolverOptions, SparseCholesky,
     StaticSolver,
 };
 
@@ -214,7 +216,7 @@ fn tridiagonal(n: usize) -> CscMatrix {
 
 #[test]
 fn incomplete_cholesky_is_exact_without_fill() {
-    use tetfem::iterative::IncompleteCholesky;
+    use tetfem::linalg::iterative::IncompleteCholesky;
     let a = tridiagonal(200);
     let ic = IncompleteCholesky::new(&a).unwrap();
     assert_eq!(
@@ -238,7 +240,7 @@ fn incomplete_cholesky_is_exact_without_fill() {
 
 #[test]
 fn incomplete_cholesky_cuts_cg_iterations_on_stiffness_matrices() {
-    use tetfem::iterative::IncompleteCholesky;
+    use tetfem::linalg::iterative::IncompleteCholesky;
     let problem = Cantilever::peer_benchmark([20, 4, 4]);
     let mesh = problem.mesh().unwrap();
     let solver = StaticSolver::new(
@@ -252,7 +254,7 @@ fn incomplete_cholesky_cuts_cg_iterations_on_stiffness_matrices() {
         .dofs()
         .restrict(problem.loads(&mesh).unwrap().as_slice())
         .unwrap();
-    let iterations = |p: &dyn tetfem::iterative::Preconditioner| {
+    let iterations = |p: &dyn tetfem::linalg::iterative::Preconditioner| {
         let mut x = vec![0.0; k.dim()];
         conjugate_gradient(k, p, &rhs, &mut x, CgOptions::default())
             .unwrap()
@@ -281,7 +283,7 @@ fn incomplete_cholesky_cuts_cg_iterations_on_stiffness_matrices() {
 
 #[test]
 fn iterative_path_with_each_preconditioner_matches_the_direct_solve() {
-    use tetfem::iterative::PreconditionerKind;
+    use tetfem::linalg::iterative::PreconditionerKind;
     let direct = solve_tip(
         [20, 4, 4],
         SolverOptions {

@@ -5,8 +5,8 @@ mod common;
 
 use common::Rng;
 use nalgebra::{Matrix3, Vector3};
-use tetfem::cantilever::Cantilever;
 use tetfem::{BoxSplit, Constraints, Error, Loads, Material, StaticSolver, TetMesh, solve_static};
+use tetfem_fixtures::cantilever::Cantilever;
 
 /// A box mesh whose interior nodes are moved randomly by up to 20 % of a cell.
 fn distorted_box(cells: [usize; 3], split: BoxSplit, size: Vector3<f64>, seed: u64) -> TetMesh {

@@ -4,10 +4,9 @@
 
 use std::sync::Arc;
 
-use tetfem::cantilever::Cantilever;
-use tetfem::{
-    CholeskyOptions, CscMatrix, Error, NumericFactorization, SparseCholesky, TriangularSolve,
-};
+use tetfem::linalg::Error;
+use tetfem::{CholeskyOptions, CscMatrix, NumericFactorization, SparseCholesky, TriangularSolve};
+use tetfem_fixtures::cantilever::Cantilever;
 
 /// K_ff of a cantilever and a right-hand side with every component non-zero.
 fn cantilever_system(cells: [usize; 3]) -> (CscMatrix, Vec<f64>) {

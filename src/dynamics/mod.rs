@@ -146,7 +146,11 @@ fn step_solver(
         LinearMethod::Direct => None,
         _ => system.geometry().cloned(),
     };
-    LinearSolver::analyze_with_geometry(matrix, solver_options, geometry)
+    Ok(LinearSolver::analyze_with_geometry(
+        matrix,
+        solver_options,
+        geometry,
+    )?)
 }
 
 /// Which integrator, by name.

@@ -152,7 +152,7 @@ impl LinearSystem {
             .zip(&coupling)
             .map(|(f, k)| f - k)
             .collect();
-        let geometry = DofGeometry::new(mesh, &dofs)?;
+        let geometry = dofs.geometry(mesh)?;
         let mut system = Self::from_parts(
             stiffness,
             mass,
@@ -341,7 +341,7 @@ impl LinearSystem {
     ) -> Result<()> {
         match &self.mass {
             Mass::Consistent(m) => {
-                out.set_linear_combination(stiffness_scale, &self.stiffness, mass_scale, m)
+                Ok(out.set_linear_combination(stiffness_scale, &self.stiffness, mass_scale, m)?)
             }
             Mass::Lumped(m) => {
                 if !Arc::ptr_eq(out.pattern(), self.stiffness.pattern()) {
@@ -354,7 +354,7 @@ impl LinearSystem {
                 for (a, k) in out.values_mut().iter_mut().zip(self.stiffness.values()) {
                     *a = stiffness_scale * k;
                 }
-                out.add_diagonal(mass_scale, m)
+                Ok(out.add_diagonal(mass_scale, m)?)
             }
         }
     }

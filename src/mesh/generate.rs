@@ -193,13 +193,13 @@ fn check_box_mesh_size(cells: [usize; 3], split: BoxSplit) -> Result<()> {
     let bytes = nodes
         .saturating_mul(24)
         .saturating_add(tets.saturating_mul(32));
-    crate::memory::MemoryLimits::current().ensure_fits(
+    Ok(crate::memory::MemoryLimits::current().ensure_fits(
         format!(
             "the box mesh of {}×{}×{} cells ({nodes} nodes, {tets} tets)",
             cells[0], cells[1], cells[2]
         ),
         bytes,
-    )
+    )?)
 }
 
 /// Index of grid node (ix, iy, iz) in a [`TetMesh::box_grid`] mesh with `cells = [nx, ny, nz]`:

@@ -1,0 +1,175 @@
+//! `tetfem info`: what a mesh file (or a scene's mesh) holds, how good its elements are, and
+//! the explicit critical time step for a material.
+
+use std::collections::BTreeMap;
+use std::fmt;
+use std::path::Path;
+
+use crate::scene::Scene;
+use tetfem::error::Result;
+use tetfem::material::Material;
+use tetfem::mesh::io::read_mesh;
+use tetfem::mesh::{CriticalStep, MeshStatistics, critical_time_step};
+
+/// One physical group or marker set of the file.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct GroupInfo {
+    /// `"name" (dim D, tag T)`.
+    pub label: String,
+    /// Nodes in it.
+    pub nodes: usize,
+    /// Triangles in it.
+    pub triangles: usize,
+    /// Tets in it.
+    pub tets: usize,
+}
+
+/// Everything `tetfem info` prints.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct MeshInfo {
+    /// The file.
+    pub file: String,
+    /// Counts, volume and element quality.
+    pub statistics: MeshStatistics,
+    /// Gmsh physical groups.
+    pub groups: Vec<GroupInfo>,
+    /// Skipped elements per type.
+    pub skipped_elements: BTreeMap<String, usize>,
+    /// Nodes of the file no tet uses.
+    pub unused_nodes: usize,
+    /// The material the critical step is for, as (E, ν, ρ).
+    pub material: Option<(f64, f64, f64)>,
+    /// The explicit critical step, when a material is known.
+    pub critical_step: Option<CriticalStep>,
+    /// Warnings about the mesh and the material (see [`tetfem::warning`]), as sentences.
+    pub warnings: Vec<String>,
+}
+
+/// Reads a mesh (`.msh`, `.node`/`.ele`) or a scene (`.toml`: its mesh and material) and
+/// gathers [`MeshInfo`]; `material` (if given) overrides a scene's for the critical step.
+pub fn mesh_info(path: &Path, material: Option<Material>) -> Result<MeshInfo> {
+    let (mesh, imported, scene_material) = if path.extension().is_some_and(|e| e == "toml") {
+        let built = Scene::load(path)?.build()?;
+        (built.mesh, built.imported, Some(built.material))
+    } else {
+        let imported = read_mesh(path)?;
+        (imported.mesh.clone(), Some(imported), None)
+    };
+    let material = material.or(scene_material);
+    let groups = imported
+        .as_ref()
+        .map(|i| {
+            i.groups
+                .iter()
+                .map(|g| GroupInfo {
+                    label: g.label(),
+                    nodes: g.nodes.len(),
+                    triangles: g.triangles.len(),
+                    tets: g.tets.len(),
+                })
+                .collect()
+        })
+        .unwrap_or_default();
+    Ok(MeshInfo {
+        file: path.display().to_string(),
+        statistics: mesh.statistics(),
+        groups,
+        skipped_elements: imported
+            .as_ref()
+            .map(|i| i.skipped_elements.clone())
+            .unwrap_or_default(),
+        unused_nodes: imported.as_ref().map_or(0, |i| i.unused_nodes),
+        material: material.map(|m| (m.youngs_modulus(), m.poisson_ratio(), m.density())),
+        critical_step: material.map(|m| critical_time_step(&mesh, &m)),
+        warnings: mesh
+            .warnings()
+            .iter()
+            .chain(material.map(|m| m.warnings()).unwrap_or_default().iter())
+            .map(ToString::to_string)
+            .collect(),
+    })
+}
+
+impl MeshInfo {
+    /// As one line of JSON.
+    pub fn to_json(&self) -> String {
+        serde_json::to_string(self).unwrap_or_else(|e| format!("{{\"error\":\"{e}\"}}"))
+    }
+}
+
+impl fmt::Display for MeshInfo {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let s = &self.statistics;
+        writeln!(f, "{}", self.file)?;
+        writeln!(
+            f,
+            "  nodes {}, tets {}, DOFs {}",
+            s.nodes,
+            s.tets,
+            3 * s.nodes
+        )?;
+        writeln!(f, "  volume {:.6e}", s.volume)?;
+        writeln!(
+            f,
+            "  bounding box [{:.4e}, {:.4e}, {:.4e}] – [{:.4e}, {:.4e}, {:.4e}]",
+            s.bbox_min[0],
+            s.bbox_min[1],
+            s.bbox_min[2],
+            s.bbox_max[0],
+            s.bbox_max[1],
+            s.bbox_max[2]
+        )?;
+        writeln!(
+            f,
+            "  edge length {:.4e} – {:.4e}",
+            s.edge_length.0, s.edge_length.1
+        )?;
+        writeln!(
+            f,
+            "  min dihedral angle: worst {:.2}° (tet {}), mean {:.2}° (regular tet: 70.53°)",
+            s.min_dihedral_deg.min, s.min_dihedral_deg.min_tet, s.min_dihedral_deg.mean
+        )?;
+        writeln!(
+            f,
+            "  max dihedral angle: worst {:.2}° (tet {})",
+            s.max_dihedral_deg.max, s.max_dihedral_deg.max_tet
+        )?;
+        writeln!(
+            f,
+            "  aspect ratio R/(3r): worst {:.3} (tet {}), mean {:.3} (regular tet: 1)",
+            s.aspect_ratio.max, s.aspect_ratio.max_tet, s.aspect_ratio.mean
+        )?;
+        for warning in &self.warnings {
+            writeln!(f, "  warning: {warning}")?;
+        }
+        for g in &self.groups {
+            writeln!(
+                f,
+                "  group {}: {} nodes, {} triangles, {} tets",
+                g.label, g.nodes, g.triangles, g.tets
+            )?;
+        }
+        if !self.skipped_elements.is_empty() {
+            let list: Vec<String> = self
+                .skipped_elements
+                .iter()
+                .map(|(k, v)| format!("{v} {k}"))
+                .collect();
+            writeln!(f, "  skipped elements: {}", list.join(", "))?;
+        }
+        if self.unused_nodes > 0 {
+            writeln!(f, "  nodes used by no tet (dropped): {}", self.unused_nodes)?;
+        }
+        match (&self.critical_step, &self.material) {
+            (Some(c), Some((e, nu, rho))) => {
+                writeln!(
+                    f,
+                    "  explicit critical step for E = {e:e}, ν = {nu}, ρ = {rho}: {:.4e} s (element bound 2/max ωₑ, tet {}); h_min/c_p = {:.4e} s, c_p = {:.5e}",
+                    c.dt_element, c.tet, c.dt_geometric, c.p_wave_speed
+                )?;
+            }
+            _ => writeln!(f, "  explicit critical step: give a material to compute it")?,
+        }
+        Ok(())
+    }
+}

@@ -1,0 +1,763 @@
+//! `tetfem`: the command-line front of the library. It parses arguments, calls the library and
+//! reports; no physics lives here.
+
+use std::io::IsTerminal;
+use std::ops::ControlFlow;
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::{Duration, Instant};
+
+use clap::{Args, Parser, Subcommand};
+use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+use tetfem::dynamics::Method;
+use tetfem::{Error, Material};
+use tetfem_cli::info::mesh_info;
+use tetfem_cli::scene::{
+    Analysis, DynamicOutputs, DynamicOverrides, DynamicRun, DynamicSetup, DynamicSummary,
+    OutputSettings, RunLength, RunOptions, RunSummary, Scene, TimeStep, run_dynamic,
+    run_dynamic_scene, run_static_with,
+};
+use tetfem_fixtures::cantilever::Cantilever;
+
+/// Elastic solids on linear tetrahedra: static and dynamic FEM runs from TOML scenes.
+///
+/// With no subcommand, runs the embedded default scene: a steel cantilever (1 m × 0.1 m × 0.1 m,
+/// E = 200 GPa, ν = 0.3, ρ = 7850 kg/m³) clamped at x = 0 under gravity and a 10 kN end load.
+///
+/// The scene runs through the same runner as `tetfem run`, into one folder per part:
+///
+/// 1. Static: meshed with --cells (100×10×10 cubes of 6 tets, the lecture's split
+///    mirrored in alternate cells so that the beam keeps its mirror planes), it prints the mesh size, the time
+///    of each phase and the tip deflection beside beam theory, and writes to `<out>/cantilever/`
+///    what a static scene writes: `cantilever.vtu` (displacement, its magnitude, von Mises
+///    stress, strain energy density) with a one-frame `cantilever.pvd`, `cantilever_probes.csv`
+///    (the tip's mean displacement), `cantilever_summary.json`, and with --png `cantilever.png`.
+///
+/// 2. Dynamic (unless --static-only): on a coarser mesh (--dynamic-cells, 40×4×4), the beam is
+///    released from rest in its loaded static shape with the end load removed (gravity stays)
+///    and swings for --periods periods of its first mode (from the modal solver) with --method
+///    at --dt. It writes to `<out>/cantilever_swing/` what a dynamic scene writes:
+///    `cantilever_swing.pvd` with its `.vtu` frames (open the `.pvd` in ParaView to play the
+///    animation), `cantilever_swing.csv` (time, tip displacement, each energy term, wall time
+///    per step), `cantilever_swing_summary.json`, and with --png a `.png` per frame; it reports
+///    the wall time per step and the explicit critical step.
+///
+/// Subcommands: `tetfem run SCENE.toml` runs a scene file (see scenes/), `tetfem info MESH`
+/// prints mesh statistics and the explicit critical step.
+#[derive(Debug, Parser)]
+#[command(version, about, long_about, args_conflicts_with_subcommands = true)]
+struct Cli {
+    #[command(subcommand)]
+    command: Option<Command>,
+    #[command(flatten)]
+    default: DefaultScene,
+}
+
+#[derive(Debug, Subcommand)]
+enum Command {
+    /// Run a scene file (static or dynamic) and write its outputs.
+    ///
+    /// Static scenes write `<stem>.vtu` (+ a one-frame `.pvd`), `<stem>_probes.csv` and
+    /// `<stem>_summary.json`. Dynamic scenes write a `.vtu` frame every `output.every` steps
+    /// with `<stem>.pvd` listing them with their times (open it in ParaView to play the run),
+    /// `<stem>.csv` (time, step, wall time per step, each probe's mean displacement, each
+    /// energy term: one row per step) and `<stem>_summary.json`. With `--png` (or
+    /// `output.png = true`), each frame is also rendered to `<stem>_<step>.png`.
+    ///
+    /// The outputs go to `output.directory`, else `out/<scene file stem>/`.
+    Run(RunArgs),
+    /// Print a mesh's statistics and the explicit critical time step.
+    ///
+    /// MESH is a Gmsh `.msh` (4.1 ASCII/binary, 2.2 ASCII), a TetGen `.node`/`.ele` (either
+    /// file, or the common prefix) or a scene `.toml` (its mesh and material). Prints node and
+    /// tet counts, volume, bounding box, edge lengths, the dihedral-angle and aspect-ratio
+    /// statistics, physical groups, skipped elements and, when a material is known, the
+    /// explicit critical step (element bound).
+    Info(InfoArgs),
+}
+
+/// The default scene's options.
+#[derive(Debug, Args)]
+struct DefaultScene {
+    /// Cells along x, y, z of the static mesh (e.g. `200,20,20`).
+    #[arg(long, value_parser = parse_cells, default_value = "100,10,10")]
+    cells: [usize; 3],
+    /// Cells along x, y, z of the dynamic run's mesh (coarser, so that it runs in seconds).
+    #[arg(long, value_parser = parse_cells, default_value = "40,4,4")]
+    dynamic_cells: [usize; 3],
+    /// Directory for the output folders `cantilever/` (static) and `cantilever_swing/` (dynamic).
+    #[arg(long, default_value = "out")]
+    out: PathBuf,
+    /// Integrator of the dynamic run.
+    #[arg(long, value_parser = parse_method, default_value = "backward-euler")]
+    method: Method,
+    /// Time step: seconds (`2e-4`) or a multiple of the explicit critical step (`50crit`).
+    /// Default: 50crit for backward-euler and newmark, 0.9crit for explicit.
+    #[arg(long, value_parser = parse_time_step)]
+    dt: Option<TimeStep>,
+    /// Simulated time of the dynamic run (s); overrides --periods.
+    #[arg(long, value_parser = parse_positive)]
+    duration: Option<f64>,
+    /// Length of the dynamic run in periods of the first bending mode.
+    #[arg(long, value_parser = parse_positive, default_value = "3")]
+    periods: f64,
+    /// About this many `.vtu` frames over the dynamic run.
+    #[arg(long, default_value = "60", value_parser = clap::value_parser!(u32).range(1..))]
+    frames: u32,
+    /// Also render the static solution and each dynamic frame to PNG.
+    #[arg(long)]
+    png: bool,
+    /// Only the static solve (as before the dynamic part existed).
+    #[arg(long)]
+    static_only: bool,
+    /// No progress bar.
+    #[arg(long, short)]
+    quiet: bool,
+    /// Print one JSON object on stdout (and nothing else there): the static summary, beam
+    /// theory's tip deflections (m), the dynamic summary and the first mode's period (s).
+    #[arg(long)]
+    json: bool,
+}
+
+#[derive(Debug, Args)]
+struct RunArgs {
+    /// The scene file (TOML; see scenes/README.md and `tetfem_cli::scene::REFERENCE`).
+    scene: PathBuf,
+    /// Output directory (overrides the scene's `output.directory`).
+    #[arg(long)]
+    out: Option<PathBuf>,
+    /// Render PNG images (each frame of a dynamic run) even if the scene does not ask for them.
+    #[arg(long)]
+    png: bool,
+    /// Print the run summary as one JSON object on stdout (and nothing else there).
+    #[arg(long)]
+    json: bool,
+    /// No progress bar and no report on stdout (errors still go to stderr).
+    #[arg(long, short)]
+    quiet: bool,
+    /// Dynamic scenes: another integrator than the scene's.
+    #[arg(long, value_parser = parse_method)]
+    method: Option<Method>,
+    /// Dynamic scenes: another time step, seconds (`1e-5`) or a multiple of the explicit
+    /// critical step (`0.5crit`).
+    #[arg(long, value_parser = parse_time_step)]
+    dt: Option<TimeStep>,
+    /// Dynamic scenes: another simulated time (s).
+    #[arg(long, value_parser = parse_positive, conflicts_with = "steps")]
+    duration: Option<f64>,
+    /// Dynamic scenes: run this many steps instead of the scene's duration.
+    #[arg(long, value_parser = clap::value_parser!(u64).range(1..))]
+    steps: Option<u64>,
+}
+
+#[derive(Debug, Args)]
+struct InfoArgs {
+    /// The mesh file (`.msh`, `.node`/`.ele`) or scene (`.toml`).
+    mesh: PathBuf,
+    /// Material for the critical step as `E,NU,RHO` (Pa, -, kg/m³), e.g. `200e9,0.3,7850`;
+    /// overrides a scene's.
+    #[arg(long, value_parser = parse_material)]
+    material: Option<Material>,
+    /// Print the statistics as one JSON object.
+    #[arg(long)]
+    json: bool,
+}
+
+fn parse_cells(text: &str) -> Result<[usize; 3], String> {
+    let parts: Vec<&str> = text.split(',').collect();
+    let parse = |s: &str| s.trim().parse::<usize>().map_err(|e| format!("'{s}': {e}"));
+    match parts.as_slice() {
+        [x, y, z] => Ok([parse(x)?, parse(y)?, parse(z)?]),
+        _ => Err(format!(
+            "expected three comma-separated counts like 100,10,10, got '{text}'"
+        )),
+    }
+}
+
+fn parse_method(text: &str) -> Result<Method, String> {
+    text.parse().map_err(|e: Error| e.to_string())
+}
+
+fn parse_time_step(text: &str) -> Result<TimeStep, String> {
+    text.parse().map_err(|e: Error| e.to_string())
+}
+
+fn parse_positive(text: &str) -> Result<f64, String> {
+    match text.trim().parse::<f64>() {
+        Ok(v) if v.is_finite() && v > 0.0 => Ok(v),
+        _ => Err(format!("expected a finite number > 0, got '{text}'")),
+    }
+}
+
+fn parse_material(text: &str) -> Result<Material, String> {
+    let values: Vec<f64> = text
+        .split(',')
+        .map(|s| s.trim().parse::<f64>())
+        .collect::<Result<_, _>>()
+        .map_err(|e| format!("'{text}': {e}"))?;
+    match values.as_slice() {
+        [e, nu, rho] => Material::new(*e, *nu, *rho).map_err(|e| e.to_string()),
+        _ => Err(format!(
+            "expected E,NU,RHO like 200e9,0.3,7850, got '{text}'"
+        )),
+    }
+}
+
+/// Set by the first Ctrl-C (or SIGTERM, SIGHUP); dynamic runs stop at the next step boundary.
+static INTERRUPTED: AtomicBool = AtomicBool::new(false);
+
+/// Set once a dynamic run is about to step: from then on the first signal stops it cleanly.
+static STOP_AT_STEP: AtomicBool = AtomicBool::new(false);
+
+/// From here on, the first Ctrl-C, SIGTERM or SIGHUP stops the dynamic run at the next step
+/// boundary: the frames written are kept (the .pvd lists exactly those), the CSV rows are
+/// written out, the output folder's lock is released and the process exits with 130.
+fn handle_ctrl_c() {
+    STOP_AT_STEP.store(true, Ordering::SeqCst);
+}
+
+/// Ctrl-C (SIGINT), SIGTERM and SIGHUP (what `timeout`, `kill` and batch schedulers send, and
+/// a closed terminal): during a dynamic run the first one stops it cleanly (see
+/// [`handle_ctrl_c`]); otherwise, and on a second signal, the process exits at once with 130
+/// after removing its output-folder lock files (files are written atomically, so none is left
+/// half-written; the CSV holds whole rows up to its last write, at least up to the last frame).
+fn install_signal_handler() {
+    let installed = ctrlc::set_handler(|| {
+        let first = !INTERRUPTED.swap(true, Ordering::SeqCst);
+        if !(first && STOP_AT_STEP.load(Ordering::SeqCst)) {
+            tetfem::output::remove_held_lock_files();
+            std::process::exit(130);
+        }
+    });
+    if let Err(error) = installed {
+        eprintln!("warning: Ctrl-C will stop the run without a clean finish: {error}");
+    }
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    install_signal_handler();
+    let result = match &cli.command {
+        None => run_default(&cli.default),
+        Some(Command::Run(args)) => run_scene(args),
+        Some(Command::Info(args)) => info(args),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(error @ Error::Interrupted { .. }) => {
+            eprintln!("tetfem: {error}");
+            ExitCode::from(130)
+        }
+        Err(error) => {
+            eprintln!("error: {error}");
+            if let Error::Diverged { .. } = error {
+                eprintln!(
+                    "hint: the explicit method is stable only below its critical step; choose a smaller --dt (e.g. 0.9crit) or an implicit --method"
+                );
+            }
+            ExitCode::FAILURE
+        }
+    }
+}
+
+/// A progress bar on stderr that appears once a run has taken a second, if stderr is a terminal
+/// and `quiet` is off.
+struct Progress {
+    bar: ProgressBar,
+    enabled: bool,
+    shown: bool,
+    start: Instant,
+}
+
+impl Progress {
+    fn new(quiet: bool) -> Self {
+        Progress {
+            bar: ProgressBar::with_draw_target(None, ProgressDrawTarget::hidden()),
+            enabled: !quiet && std::io::stderr().is_terminal(),
+            shown: false,
+            start: Instant::now(),
+        }
+    }
+
+    /// Shows progress; `Break` once Ctrl-C was pressed, so that the run stops at this step.
+    fn update(&mut self, done: usize, total: usize) -> ControlFlow<()> {
+        if INTERRUPTED.load(Ordering::SeqCst) {
+            return ControlFlow::Break(());
+        }
+        if !self.enabled {
+            return ControlFlow::Continue(());
+        }
+        if !self.shown && self.start.elapsed() > Duration::from_secs(1) {
+            self.bar.set_length(total as u64);
+            if let Ok(style) = ProgressStyle::with_template(
+                "  [{bar:40}] {pos}/{len} steps, {elapsed} elapsed, ETA {eta}",
+            ) {
+                self.bar.set_style(style.progress_chars("=> "));
+            }
+            self.bar.set_draw_target(ProgressDrawTarget::stderr());
+            self.shown = true;
+        }
+        if self.shown {
+            self.bar.set_position(done as u64);
+        }
+        ControlFlow::Continue(())
+    }
+}
+
+impl Drop for Progress {
+    fn drop(&mut self) {
+        self.bar.finish_and_clear();
+    }
+}
+
+/// How the cubes of both default meshes are split into tets (the scene key `mesh.box.split`).
+const DEFAULT_SPLIT: &str = "mirrored6";
+
+/// The embedded default scene: [`Cantilever::steel_default`] on `cells` as a static scene,
+/// clamped on x = 0, with its end load and gravity and the probe `tip` on the end face x = L.
+/// Its outputs are `<out>/<stem>/<stem>.*`, as `tetfem run` writes them for a scene file.
+fn default_scene(
+    beam: &Cantilever,
+    cells: [usize; 3],
+    title: &str,
+    stem: &str,
+    out: &Path,
+) -> tetfem::Result<Scene> {
+    let m = beam.material;
+    let text = format!(
+        r#"title = "{title}"
+
+[mesh.box]
+max = [{length:?}, {width:?}, {height:?}]
+cells = [{cx}, {cy}, {cz}]
+split = "{DEFAULT_SPLIT}"
+
+[material]
+youngs_modulus = {e:?}
+poisson_ratio = {nu:?}
+density = {rho:?}
+
+[[constraints]]
+where = {{ plane = {{ axis = "x", at = 0.0 }} }}
+
+[[loads]]
+where = {{ plane = {{ axis = "x", at = {length:?} }} }}
+total_force = [0.0, 0.0, {load:?}]
+
+[[loads]]
+gravity = [0.0, 0.0, {gravity:?}]
+
+[[probes]]
+name = "tip"
+where = {{ plane = {{ axis = "x", at = {length:?} }} }}
+"#,
+        length = beam.length,
+        width = beam.width,
+        height = beam.height,
+        cx = cells[0],
+        cy = cells[1],
+        cz = cells[2],
+        e = m.youngs_modulus(),
+        nu = m.poisson_ratio(),
+        rho = m.density(),
+        load = -beam.end_load,
+        gravity = -beam.gravity,
+    );
+    let mut scene = Scene::parse(&text, "default", Path::new("."))?;
+    scene.set_stem(stem)?;
+    scene.set_output_directory(out.join(stem));
+    Ok(scene)
+}
+
+/// Stem (and folder under `--out`) of the default run's static outputs.
+const STATIC_STEM: &str = "cantilever";
+/// Stem (and folder under `--out`) of the default run's dynamic outputs.
+const DYNAMIC_STEM: &str = "cantilever_swing";
+
+fn run_default(cli: &DefaultScene) -> tetfem::Result<()> {
+    let beam = Cantilever::steel_default();
+    let statics = run_default_static(cli, &beam)?;
+    let dynamics = if cli.static_only {
+        None
+    } else {
+        Some(run_default_dynamic(cli, &beam)?)
+    };
+    if cli.json {
+        let (euler_bernoulli, timoshenko) = beam.beam_theory_tip();
+        let report = serde_json::json!({
+            "static": statics,
+            "beam_theory_tip": {
+                "euler_bernoulli": euler_bernoulli,
+                "timoshenko": timoshenko,
+            },
+            "dynamic": dynamics.as_ref().map(|(summary, _)| summary),
+            "first_mode_period": dynamics.as_ref().map(|(_, period)| period),
+        });
+        println!("{report}");
+    }
+    Ok(())
+}
+
+fn run_default_static(cli: &DefaultScene, beam: &Cantilever) -> tetfem::Result<RunSummary> {
+    let scene = default_scene(
+        beam,
+        cli.cells,
+        "Steel cantilever (default scene), static",
+        STATIC_STEM,
+        &cli.out,
+    )?;
+    let summary = run_static_with(
+        &scene,
+        &RunOptions {
+            force_png: cli.png,
+            ..RunOptions::default()
+        },
+    )?;
+    print_warnings(&summary.warnings);
+    if !cli.json {
+        print_default_static(cli, beam, &summary, &scene.output().directory);
+    }
+    Ok(summary)
+}
+
+fn print_default_static(cli: &DefaultScene, beam: &Cantilever, s: &RunSummary, directory: &Path) {
+    let material = beam.material;
+    println!("tetfem: static cantilever (default scene)");
+    println!(
+        "  beam {} m × {} m × {} m, E = {:.3e} Pa, ν = {}, ρ = {} kg/m³, end load {} N, g = {} m/s²",
+        beam.length,
+        beam.width,
+        beam.height,
+        material.youngs_modulus(),
+        material.poisson_ratio(),
+        material.density(),
+        beam.end_load,
+        beam.gravity
+    );
+    println!(
+        "  mesh {}×{}×{} cells: {} nodes, {} tets, {} DOFs ({} free), nnz(L) = {}",
+        cli.cells[0],
+        cli.cells[1],
+        cli.cells[2],
+        s.nodes,
+        s.tets,
+        3 * s.nodes,
+        s.free_dofs,
+        s.factor_len
+    );
+    println!("  time per phase:");
+    println!(
+        "    {:<14} {} (mesh, node and face sets, loads)",
+        "build",
+        format_seconds(s.build_seconds)
+    );
+    if let Some(p) = &s.phases {
+        for (phase, seconds) in [
+            ("pattern", p.pattern),
+            ("assembly", p.assembly),
+            ("constraints", p.constraints),
+            ("symbolic", p.symbolic),
+            ("factorization", p.factorization),
+            ("solve", p.solve),
+        ] {
+            println!("    {phase:<14} {}", format_seconds(seconds));
+        }
+    }
+    println!("    {:<14} {}", "outputs", format_seconds(s.output_seconds));
+    let (euler_bernoulli, timoshenko) = beam.beam_theory_tip();
+    let tip = s
+        .probes
+        .iter()
+        .find(|p| p.name == "tip")
+        .map_or(f64::NAN, |p| p.displacement[2]);
+    println!("  tip deflection (mean u_z on x = L):");
+    println!("    tetfem           {tip:+.6e} m");
+    println!(
+        "    Euler–Bernoulli  {euler_bernoulli:+.6e} m  (tetfem / EB = {:.4})",
+        tip / euler_bernoulli
+    );
+    println!(
+        "    Timoshenko       {timoshenko:+.6e} m  (tetfem / Timoshenko = {:.4})",
+        tip / timoshenko
+    );
+    println!(
+        "    (linear tets are stiff in bending: at {} cells through the height they reach this ratio; refine with --cells)",
+        cli.cells[2]
+    );
+    println!(
+        "  relative residual ‖K_ff·u − f‖/‖f‖ = {:.2e}",
+        s.relative_residual
+    );
+    println!(
+        "  max |u| = {:.4e} m, max von Mises = {:.4e} Pa",
+        s.max_displacement, s.max_von_mises
+    );
+    print_files(&s.files, directory);
+    println!(
+        "    (.vtu: displacement, displacement_magnitude [m] per node; von_mises [Pa], strain_energy_density [J/m³] per tet)"
+    );
+}
+
+/// "wrote N files to DIR/: a, b, c" (the file names, frames summarized by their count).
+fn print_files(files: &[PathBuf], directory: &Path) {
+    let names: Vec<String> = files
+        .iter()
+        .filter_map(|f| f.file_name())
+        .map(|n| n.to_string_lossy().into_owned())
+        .collect();
+    println!(
+        "  wrote {} files to {}/: {}",
+        names.len(),
+        directory.display(),
+        names.join(", ")
+    );
+}
+
+/// The dynamic part's summary and the first mode's period (s).
+fn run_default_dynamic(
+    cli: &DefaultScene,
+    beam: &Cantilever,
+) -> tetfem::Result<(DynamicSummary, f64)> {
+    let c = cli.dynamic_cells;
+    let scene = default_scene(
+        beam,
+        c,
+        "Steel cantilever released from its loaded shape",
+        DYNAMIC_STEM,
+        &cli.out,
+    )?;
+    let text = !cli.json;
+    if text {
+        println!();
+        println!(
+            "tetfem: dynamic cantilever, released from its loaded static shape with the end load removed (gravity stays)"
+        );
+    }
+    let setup = DynamicSetup::released(scene.build()?)?;
+    let period = setup.first_mode_period()?;
+    if text {
+        println!(
+            "  mesh {}×{}×{} cells (coarser than the static one, so that the run takes seconds; set --dynamic-cells): {} nodes, {} tets, {} free DOFs",
+            c[0],
+            c[1],
+            c[2],
+            setup.mesh.node_count(),
+            setup.mesh.tet_count(),
+            setup.system.free_count()
+        );
+        println!(
+            "  first natural mode (modal solver): period {:.4e} s, f = {:.2} Hz",
+            period,
+            1.0 / period
+        );
+    }
+    let dt = cli.dt.unwrap_or(match cli.method {
+        Method::Explicit => TimeStep::CriticalMultiple(0.9),
+        _ => TimeStep::CriticalMultiple(50.0),
+    });
+    let duration = cli.duration.unwrap_or(cli.periods * period);
+    let run = DynamicRun {
+        title: scene.title(),
+        source: scene.source_name().to_string(),
+        method: cli.method,
+        dt,
+        length: RunLength::Duration(duration),
+    };
+    // A frame interval giving about --frames frames (the critical step is computed once).
+    let dt_seconds = setup.resolve(dt)?;
+    let steps = (duration / dt_seconds).ceil().max(1.0) as usize;
+    let outputs = DynamicOutputs {
+        settings: OutputSettings {
+            every: steps.div_ceil(cli.frames as usize).max(1),
+            ..scene.output().clone()
+        },
+        force_png: cli.png,
+    };
+    handle_ctrl_c();
+    let mut progress = Progress::new(cli.quiet || cli.json);
+    let summary = run_dynamic(&setup, &run, Some(&outputs), &mut |done, total| {
+        progress.update(done, total)
+    });
+    drop(progress);
+    let summary = summary?;
+    print_warnings(&summary.warnings);
+    if text {
+        print_dynamic(&summary, &outputs.settings.directory, false);
+    }
+    Ok((summary, period))
+}
+
+fn print_dynamic(s: &DynamicSummary, directory: &Path, header: bool) {
+    if header {
+        println!("tetfem: {} ({})", s.title, s.scene);
+        println!(
+            "  mesh: {} nodes, {} tets, {} free DOFs",
+            s.nodes, s.tets, s.free_dofs
+        );
+    }
+    println!(
+        "  explicit critical step ({}): {:.4e} s",
+        s.critical_step_source, s.critical_step
+    );
+    println!(
+        "  {}: dt = {:.4e} s = {:.1} × the critical step, {} steps to t = {:.4e} s",
+        s.method, s.dt, s.dt_over_critical, s.steps, s.end_time
+    );
+    println!(
+        "  wall time: setup {}, first step {} (with factorization for implicit methods), then {} per step; steps {} in all, outputs {}",
+        format_seconds(s.setup_seconds),
+        format_seconds(s.first_step_seconds),
+        format_seconds(s.mean_step_seconds),
+        format_seconds(s.step_seconds),
+        format_seconds(s.output_seconds)
+    );
+    for p in &s.probes {
+        println!(
+            "  probe {}: u_z from {:+.4e} to {:+.4e} m, last {:+.4e} m",
+            p.name, p.min[2], p.max[2], p.last[2]
+        );
+    }
+    let (a, b) = (&s.initial_energy, &s.final_energy);
+    println!("  energy (J)  kinetic  elastic  gravity potential  load potential  total");
+    println!(
+        "    start    {:+.4e} {:+.4e} {:+.4e} {:+.4e} {:+.4e}",
+        a.kinetic, a.elastic, a.gravity_potential, a.load_potential, a.total
+    );
+    println!(
+        "    end      {:+.4e} {:+.4e} {:+.4e} {:+.4e} {:+.4e}",
+        b.kinetic, b.elastic, b.gravity_potential, b.load_potential, b.total
+    );
+    println!(
+        "  wrote {} frames (.vtu) and {} files in all to {}/: open the .pvd in ParaView to play the run",
+        s.frames,
+        s.files.len(),
+        directory.display()
+    );
+}
+
+fn print_static(s: &RunSummary, directory: &Path) {
+    println!("tetfem: {} ({})", s.title, s.scene);
+    println!(
+        "  static: {} nodes, {} tets, {} free DOFs; relative residual {:.2e}",
+        s.nodes, s.tets, s.free_dofs, s.relative_residual
+    );
+    println!(
+        "  max |u| = {:.4e} m, max von Mises = {:.4e} Pa",
+        s.max_displacement, s.max_von_mises
+    );
+    for p in &s.probes {
+        println!(
+            "  probe {}: mean u = ({:+.4e}, {:+.4e}, {:+.4e}) m",
+            p.name, p.displacement[0], p.displacement[1], p.displacement[2]
+        );
+    }
+    println!(
+        "  wall time: build {}, solve {}, outputs {}",
+        format_seconds(s.build_seconds),
+        format_seconds(s.solve_seconds),
+        format_seconds(s.output_seconds)
+    );
+    println!(
+        "  wrote {} files to {}/",
+        s.files.len(),
+        directory.display()
+    );
+}
+
+fn run_scene(args: &RunArgs) -> tetfem::Result<()> {
+    let mut scene = Scene::load(&args.scene)?;
+    if let Some(out) = &args.out {
+        scene.set_output_directory(out.clone());
+    }
+    let directory = scene.output().directory.clone();
+    match scene.analysis() {
+        Analysis::Static => {
+            let given: Vec<&str> = [
+                ("--method", args.method.is_some()),
+                ("--dt", args.dt.is_some()),
+                ("--duration", args.duration.is_some()),
+                ("--steps", args.steps.is_some()),
+            ]
+            .iter()
+            .filter(|(_, set)| *set)
+            .map(|(name, _)| *name)
+            .collect();
+            if !given.is_empty() {
+                return Err(Error::invalid_parameter(
+                    given.join(", "),
+                    args.scene.display(),
+                    "applies to dynamic scenes only; this scene is static",
+                ));
+            }
+            let summary = run_static_with(
+                &scene,
+                &RunOptions {
+                    force_png: args.png,
+                    ..RunOptions::default()
+                },
+            )?;
+            print_warnings(&summary.warnings);
+            if args.json {
+                println!("{}", summary.to_json());
+            } else if !args.quiet {
+                print_static(&summary, &directory);
+            }
+        }
+        Analysis::Dynamic(_) => {
+            let overrides = DynamicOverrides {
+                method: args.method,
+                dt: args.dt,
+                length: match (args.steps, args.duration) {
+                    (Some(n), _) => Some(RunLength::Steps(n as usize)),
+                    (None, Some(d)) => Some(RunLength::Duration(d)),
+                    (None, None) => None,
+                },
+            };
+            handle_ctrl_c();
+            let mut progress = Progress::new(args.quiet);
+            let summary = run_dynamic_scene(&scene, &overrides, true, args.png, &mut |d, t| {
+                progress.update(d, t)
+            });
+            drop(progress);
+            let summary = summary?;
+            print_warnings(&summary.warnings);
+            if args.json {
+                println!("{}", summary.to_json());
+            } else if !args.quiet {
+                print_dynamic(&summary, &directory, true);
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Warnings go to standard error, even with `--quiet` or `--json` (they may change the answer).
+fn print_warnings(warnings: &[String]) {
+    for warning in warnings {
+        eprintln!("warning: {warning}");
+    }
+}
+
+fn info(args: &InfoArgs) -> tetfem::Result<()> {
+    let info = mesh_info(&args.mesh, args.material)?;
+    if args.json {
+        println!("{}", info.to_json());
+    } else {
+        print!("{info}");
+    }
+    Ok(())
+}
+
+fn format_duration(time: Duration) -> String {
+    let seconds = time.as_secs_f64();
+    if seconds >= 1.0 {
+        format!("{seconds:.3} s")
+    } else {
+        format!("{:.3} ms", seconds * 1e3)
+    }
+}
+
+fn format_seconds(seconds: f64) -> String {
+    format_duration(Duration::from_secs_f64(seconds.max(0.0)))
+}

@@ -1,0 +1,522 @@
+//! Headless pictures of a deformed body, in pure Rust: the boundary surface displaced by a
+//! magnified displacement, projected orthographically, z-buffered, flat-shaded by a light near
+//! the eye, coloured by a nodal or per-tet scalar (viridis map), with mesh edges on large
+//! triangles, a colour bar, a title and a subtitle (e.g. the time). Text is drawn with the
+//! vendored DejaVu Sans font (`assets/fonts`, free licence) through `ab_glyph`; PNGs are
+//! encoded with `png`.
+
+use std::path::Path;
+
+use ab_glyph::{Font, FontRef, PxScale, ScaleFont, point};
+use nalgebra::Vector3;
+
+use tetfem::error::{Error, Result};
+use tetfem::mesh::TetMesh;
+use tetfem::output::write_atomically;
+
+static FONT_BYTES: &[u8] = include_bytes!("../../../assets/fonts/DejaVuSans.ttf");
+
+/// The scalar that colours the surface.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Field<'a> {
+    /// One value per node, interpolated across each triangle (e.g. |u|).
+    Nodes {
+        /// Label of the colour bar (with units).
+        name: &'a str,
+        /// Values, one per node.
+        values: &'a [f64],
+    },
+    /// One value per tet; a boundary triangle takes its tet's value (e.g. von Mises stress).
+    Cells {
+        /// Label of the colour bar (with units).
+        name: &'a str,
+        /// Values, one per tet.
+        values: &'a [f64],
+    },
+}
+
+/// How to draw.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RenderOptions {
+    /// Image width (pixels, 200…8192).
+    pub width: u32,
+    /// Image height (pixels, 150…8192).
+    pub height: u32,
+    /// Title line.
+    pub title: String,
+    /// Second line (time, scale...).
+    pub subtitle: String,
+    /// Displacement magnification (≥ 0; see [`auto_deformation_scale`]).
+    pub deformation_scale: f64,
+    /// Camera azimuth around +z (degrees; −60 looks from +x, −y).
+    pub azimuth_deg: f64,
+    /// Camera elevation above the xy plane (degrees).
+    pub elevation_deg: f64,
+    /// Colour range; `None`: the field's min and max.
+    pub range: Option<(f64, f64)>,
+}
+
+impl Default for RenderOptions {
+    fn default() -> Self {
+        RenderOptions {
+            width: 960,
+            height: 600,
+            title: String::new(),
+            subtitle: String::new(),
+            deformation_scale: 1.0,
+            azimuth_deg: -60.0,
+            elevation_deg: 25.0,
+            range: None,
+        }
+    }
+}
+
+/// The background colour (white).
+pub const BACKGROUND: [u8; 3] = [255, 255, 255];
+
+/// An RGB image, 8 bits per channel, rows top to bottom.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Image {
+    /// Width (pixels).
+    pub width: u32,
+    /// Height (pixels).
+    pub height: u32,
+    /// `3·width·height` bytes, RGB.
+    pub pixels: Vec<u8>,
+}
+
+impl Image {
+    fn new(width: u32, height: u32) -> Image {
+        let mut pixels = Vec::with_capacity(3 * width as usize * height as usize);
+        for _ in 0..width as usize * height as usize {
+            pixels.extend_from_slice(&BACKGROUND);
+        }
+        Image {
+            width,
+            height,
+            pixels,
+        }
+    }
+
+    /// The pixel at (x, y), or `None` outside the image.
+    pub fn pixel(&self, x: u32, y: u32) -> Option<[u8; 3]> {
+        if x >= self.width || y >= self.height {
+            return None;
+        }
+        let i = 3 * (y as usize * self.width as usize + x as usize);
+        Some([self.pixels[i], self.pixels[i + 1], self.pixels[i + 2]])
+    }
+
+    fn blend(&mut self, x: i64, y: i64, color: [u8; 3], alpha: f32) {
+        if x < 0 || y < 0 || x >= self.width as i64 || y >= self.height as i64 {
+            return;
+        }
+        let i = 3 * (y as usize * self.width as usize + x as usize);
+        let a = alpha.clamp(0.0, 1.0);
+        for (slot, &target) in self.pixels[i..i + 3].iter_mut().zip(&color) {
+            let old = *slot as f32;
+            *slot = (old + (target as f32 - old) * a).round() as u8;
+        }
+    }
+
+    fn fill_rect(&mut self, x0: i64, y0: i64, x1: i64, y1: i64, color: [u8; 3]) {
+        for y in y0..y1 {
+            for x in x0..x1 {
+                self.blend(x, y, color, 1.0);
+            }
+        }
+    }
+
+    /// Encodes the image as PNG (RGB, 8 bits) at `path`, atomically.
+    pub fn write_png(&self, path: &Path) -> Result<()> {
+        write_atomically(path, |out| {
+            let mut encoder = png::Encoder::new(out, self.width, self.height);
+            encoder.set_color(png::ColorType::Rgb);
+            encoder.set_depth(png::BitDepth::Eight);
+            let mut writer = encoder.write_header().map_err(std::io::Error::other)?;
+            writer
+                .write_image_data(&self.pixels)
+                .map_err(std::io::Error::other)?;
+            writer.finish().map_err(std::io::Error::other)
+        })
+    }
+}
+
+/// A magnification that draws the largest displacement as 10 % of the bounding-box diagonal,
+/// never below 1 (a visibly deformed body is drawn true to scale); 1 when nothing moves.
+pub fn auto_deformation_scale(mesh: &TetMesh, displacement: &[f64]) -> f64 {
+    let (lo, hi) = mesh.bounding_box();
+    let size = (hi - lo).norm();
+    let largest = displacement
+        .chunks_exact(3)
+        .map(|u| (u[0] * u[0] + u[1] * u[1] + u[2] * u[2]).sqrt())
+        .fold(0.0f64, f64::max);
+    if largest > 0.0 && largest.is_finite() {
+        (0.1 * size / largest).max(1.0)
+    } else {
+        1.0
+    }
+}
+
+/// Viridis, sampled at nine points and interpolated linearly; `t` in [0, 1].
+pub fn viridis(t: f64) -> [u8; 3] {
+    const STOPS: [[f64; 3]; 9] = [
+        [68.0, 1.0, 84.0],
+        [71.0, 44.0, 122.0],
+        [59.0, 81.0, 139.0],
+        [44.0, 113.0, 142.0],
+        [33.0, 144.0, 141.0],
+        [39.0, 173.0, 129.0],
+        [92.0, 200.0, 99.0],
+        [170.0, 220.0, 50.0],
+        [253.0, 231.0, 37.0],
+    ];
+    let x = if t.is_finite() {
+        t.clamp(0.0, 1.0)
+    } else {
+        0.0
+    } * 8.0;
+    let i = (x.floor() as usize).min(7);
+    let f = x - i as f64;
+    let mut c = [0u8; 3];
+    for k in 0..3 {
+        c[k] = (STOPS[i][k] + (STOPS[i + 1][k] - STOPS[i][k]) * f).round() as u8;
+    }
+    c
+}
+
+/// Draws `mesh` displaced by `deformation_scale · displacement` and coloured by `field`.
+///
+/// Errors: a displacement or field of the wrong length, non-finite values, or a size outside
+/// the allowed range.
+pub fn render(
+    mesh: &TetMesh,
+    displacement: &[f64],
+    field: &Field,
+    options: &RenderOptions,
+) -> Result<Image> {
+    let (w, h) = (options.width, options.height);
+    if !(200..=8192).contains(&w) || !(150..=8192).contains(&h) {
+        return Err(Error::invalid_parameter(
+            "image size",
+            format!("{w}×{h}"),
+            "must be within [200, 8192] × [150, 8192] pixels",
+        ));
+    }
+    if displacement.len() != mesh.dof_count() || displacement.iter().any(|v| !v.is_finite()) {
+        return Err(Error::invalid_parameter(
+            "displacement",
+            format!("{} values", displacement.len()),
+            format!("must hold {} finite values (3 per node)", mesh.dof_count()),
+        ));
+    }
+    let scale = options.deformation_scale;
+    if !(scale.is_finite() && scale >= 0.0) {
+        return Err(Error::invalid_parameter(
+            "deformation_scale",
+            scale,
+            "must be finite and ≥ 0",
+        ));
+    }
+    let (name, values, per_node) = match field {
+        Field::Nodes { name, values } => (*name, *values, true),
+        Field::Cells { name, values } => (*name, *values, false),
+    };
+    let expected = if per_node {
+        mesh.node_count()
+    } else {
+        mesh.tet_count()
+    };
+    if values.len() != expected || values.iter().any(|v| !v.is_finite()) {
+        return Err(Error::invalid_parameter(
+            format!("field '{name}'"),
+            format!("{} values", values.len()),
+            format!("must hold {expected} finite values"),
+        ));
+    }
+    let (lo_value, hi_value) = options.range.unwrap_or_else(|| {
+        values
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| {
+                (a.min(v), b.max(v))
+            })
+    });
+    let span = if hi_value - lo_value > 1e-300 {
+        hi_value - lo_value
+    } else {
+        1.0
+    };
+
+    let boundary = mesh.boundary_faces()?;
+    // Camera: eye direction d, screen axes right and up.
+    let (az, el) = (
+        options.azimuth_deg.to_radians(),
+        options.elevation_deg.to_radians(),
+    );
+    let eye = Vector3::new(el.cos() * az.cos(), el.cos() * az.sin(), el.sin());
+    let right = Vector3::z().cross(&eye).normalize();
+    let up = eye.cross(&right);
+    let light = (eye + up * 0.5 - right * 0.3).normalize();
+    let deformed: Vec<Vector3<f64>> = mesh
+        .nodes()
+        .iter()
+        .enumerate()
+        .map(|(n, p)| {
+            p + Vector3::new(
+                displacement[3 * n],
+                displacement[3 * n + 1],
+                displacement[3 * n + 2],
+            ) * scale
+        })
+        .collect();
+
+    let mut image = Image::new(w, h);
+    // Layout: title band on top, colour bar on the right.
+    let (plot_x0, plot_y0) = (20.0, 70.0);
+    let (plot_x1, plot_y1) = (w as f64 - 150.0, h as f64 - 20.0);
+    let mut bounds = [
+        f64::INFINITY,
+        f64::INFINITY,
+        f64::NEG_INFINITY,
+        f64::NEG_INFINITY,
+    ];
+    for f in &boundary {
+        for &n in &f.nodes {
+            let p = deformed[n];
+            let (sx, sy) = (p.dot(&right), p.dot(&up));
+            bounds = [
+                bounds[0].min(sx),
+                bounds[1].min(sy),
+                bounds[2].max(sx),
+                bounds[3].max(sy),
+            ];
+        }
+    }
+    let extent_x = (bounds[2] - bounds[0]).max(1e-300);
+    let extent_y = (bounds[3] - bounds[1]).max(1e-300);
+    let zoom = ((plot_x1 - plot_x0) / extent_x).min((plot_y1 - plot_y0) / extent_y) * 0.95;
+    let centre_x = 0.5 * (plot_x0 + plot_x1);
+    let centre_y = 0.5 * (plot_y0 + plot_y1);
+    let mid_x = 0.5 * (bounds[0] + bounds[2]);
+    let mid_y = 0.5 * (bounds[1] + bounds[3]);
+    let to_screen = |p: &Vector3<f64>| {
+        (
+            centre_x + (p.dot(&right) - mid_x) * zoom,
+            centre_y - (p.dot(&up) - mid_y) * zoom,
+            p.dot(&eye),
+        )
+    };
+
+    let mut depth = vec![f64::NEG_INFINITY; w as usize * h as usize];
+    for face in &boundary {
+        let p = face.nodes.map(|n| deformed[n]);
+        let normal = (p[1] - p[0]).cross(&(p[2] - p[0]));
+        let norm = normal.norm();
+        if norm <= 0.0 || !norm.is_finite() {
+            continue;
+        }
+        let shade = 0.35 + 0.65 * (normal / norm).dot(&light).abs();
+        let s = p.map(|q| to_screen(&q));
+        let v = if per_node {
+            face.nodes.map(|n| values[n])
+        } else {
+            [values[face.tet]; 3]
+        };
+        raster_triangle(&mut image, &mut depth, &s, &v, shade, lo_value, span);
+    }
+
+    draw_colour_bar(&mut image);
+    let font = FontRef::try_from_slice(FONT_BYTES).map_err(|e| {
+        Error::invalid_parameter("embedded font", e, "must be a valid TrueType font")
+    })?;
+    draw_text(
+        &mut image,
+        &font,
+        &options.title,
+        20.0,
+        32.0,
+        24.0,
+        [20, 20, 20],
+    );
+    draw_text(
+        &mut image,
+        &font,
+        &options.subtitle,
+        20.0,
+        56.0,
+        16.0,
+        [80, 80, 80],
+    );
+    let bar_x = w as f64 - 130.0;
+    draw_text(&mut image, &font, name, bar_x, 56.0, 15.0, [20, 20, 20]);
+    let (bar_top, bar_bottom) = (70.0, h as f64 - 40.0);
+    for k in 0..=4 {
+        let t = k as f64 / 4.0;
+        let y = bar_bottom - t * (bar_bottom - bar_top);
+        let label = format_number(lo_value + t * (hi_value - lo_value));
+        draw_text(
+            &mut image,
+            &font,
+            &label,
+            bar_x + 30.0,
+            y + 5.0,
+            13.0,
+            [20, 20, 20],
+        );
+        image.fill_rect(
+            bar_x as i64 + 22,
+            y as i64,
+            bar_x as i64 + 27,
+            y as i64 + 1,
+            [20, 20, 20],
+        );
+    }
+    Ok(image)
+}
+
+/// Fills one screen triangle with z-buffering, interpolating the scalar; darkens a thin band
+/// along the edges of triangles large enough for the edges to read as a mesh.
+fn raster_triangle(
+    image: &mut Image,
+    depth: &mut [f64],
+    s: &[(f64, f64, f64); 3],
+    v: &[f64; 3],
+    shade: f64,
+    lo: f64,
+    span: f64,
+) {
+    let (w, h) = (image.width as i64, image.height as i64);
+    let area2 = (s[1].0 - s[0].0) * (s[2].1 - s[0].1) - (s[2].0 - s[0].0) * (s[1].1 - s[0].1);
+    if area2.abs() < 1e-12 || !area2.is_finite() {
+        return;
+    }
+    let min_x = s
+        .iter()
+        .map(|p| p.0)
+        .fold(f64::INFINITY, f64::min)
+        .floor()
+        .max(0.0) as i64;
+    let max_x = (s
+        .iter()
+        .map(|p| p.0)
+        .fold(f64::NEG_INFINITY, f64::max)
+        .ceil() as i64)
+        .min(w - 1);
+    let min_y = s
+        .iter()
+        .map(|p| p.1)
+        .fold(f64::INFINITY, f64::min)
+        .floor()
+        .max(0.0) as i64;
+    let max_y = (s
+        .iter()
+        .map(|p| p.1)
+        .fold(f64::NEG_INFINITY, f64::max)
+        .ceil() as i64)
+        .min(h - 1);
+    // Edge lengths (pixels) for the edge band; edge i is opposite vertex i.
+    let len = |a: usize, b: usize| ((s[a].0 - s[b].0).powi(2) + (s[a].1 - s[b].1).powi(2)).sqrt();
+    let edges = [len(1, 2), len(2, 0), len(0, 1)];
+    let show_edges = area2.abs() > 120.0;
+    for y in min_y..=max_y {
+        for x in min_x..=max_x {
+            let (px, py) = (x as f64 + 0.5, y as f64 + 0.5);
+            let b0 = ((s[1].0 - px) * (s[2].1 - py) - (s[2].0 - px) * (s[1].1 - py)) / area2;
+            let b1 = ((s[2].0 - px) * (s[0].1 - py) - (s[0].0 - px) * (s[2].1 - py)) / area2;
+            let b2 = 1.0 - b0 - b1;
+            if b0 < -1e-9 || b1 < -1e-9 || b2 < -1e-9 {
+                continue;
+            }
+            let z = b0 * s[0].2 + b1 * s[1].2 + b2 * s[2].2;
+            let i = (y * w + x) as usize;
+            if z <= depth[i] {
+                continue;
+            }
+            depth[i] = z;
+            let value = b0 * v[0] + b1 * v[1] + b2 * v[2];
+            let base = viridis((value - lo) / span);
+            let mut k = shade;
+            if show_edges {
+                // Distance (pixels) to edge j is b_j · 2A / |edge_j|.
+                let d = [b0, b1, b2]
+                    .iter()
+                    .zip(edges)
+                    .map(|(b, e)| b * area2.abs() / e.max(1e-12))
+                    .fold(f64::INFINITY, f64::min);
+                if d < 0.6 {
+                    k *= 0.7;
+                }
+            }
+            let color = base.map(|c| (c as f64 * k).round().clamp(0.0, 255.0) as u8);
+            image.blend(x, y, color, 1.0);
+        }
+    }
+}
+
+fn draw_colour_bar(image: &mut Image) {
+    let x = image.width as i64 - 130;
+    let (top, bottom) = (70i64, image.height as i64 - 40);
+    for y in top..=bottom {
+        let t = (bottom - y) as f64 / (bottom - top).max(1) as f64;
+        image.fill_rect(x, y, x + 22, y + 1, viridis(t));
+    }
+    image.fill_rect(x - 1, top - 1, x + 23, top, [60, 60, 60]);
+    image.fill_rect(x - 1, bottom + 1, x + 23, bottom + 2, [60, 60, 60]);
+    image.fill_rect(x - 1, top - 1, x, bottom + 2, [60, 60, 60]);
+    image.fill_rect(x + 22, top - 1, x + 23, bottom + 2, [60, 60, 60]);
+}
+
+/// Short text for a colour bar label: four significant digits, fixed point for moderate
+/// magnitudes, else scientific.
+fn format_number(v: f64) -> String {
+    let a = v.abs();
+    if a == 0.0 {
+        "0".into()
+    } else if (1e-2..1e4).contains(&a) {
+        let decimals = (3 - a.log10().floor() as i64).max(0) as usize;
+        let s = format!("{v:.decimals$}");
+        if s.contains('.') {
+            s.trim_end_matches('0').trim_end_matches('.').to_string()
+        } else {
+            s
+        }
+    } else {
+        format!("{v:.3e}")
+    }
+}
+
+/// Draws `text` with its baseline at `y`, starting at `x` (anti-aliased).
+fn draw_text(
+    image: &mut Image,
+    font: &FontRef,
+    text: &str,
+    x: f64,
+    y: f64,
+    size: f32,
+    color: [u8; 3],
+) {
+    let scale = PxScale::from(size);
+    let scaled = font.as_scaled(scale);
+    let mut caret = x as f32;
+    let mut previous = None;
+    for c in text.chars() {
+        let id = scaled.glyph_id(c);
+        if let Some(p) = previous {
+            caret += scaled.kern(p, id);
+        }
+        let glyph = id.with_scale_and_position(scale, point(caret, y as f32));
+        caret += scaled.h_advance(id);
+        previous = Some(id);
+        if let Some(outline) = font.outline_glyph(glyph) {
+            let bounds = outline.px_bounds();
+            outline.draw(|gx, gy, coverage| {
+                image.blend(
+                    bounds.min.x as i64 + gx as i64,
+                    bounds.min.y as i64 + gy as i64,
+                    color,
+                    coverage,
+                );
+            });
+        }
+    }
+}

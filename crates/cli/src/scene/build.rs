@@ -1,0 +1,472 @@
+//! Scene → mesh, material, constraints, loads and probes.
+
+use std::ops::Range;
+
+use nalgebra::Vector3;
+
+use super::{MeshSpec, Scene, Selector, SplitSpec};
+use tetfem::constraints::Constraints;
+use tetfem::error::{Error, Result};
+use tetfem::loads::Loads;
+use tetfem::material::Material;
+use tetfem::mesh::io::{ImportedMesh, read_gmsh, read_tetgen};
+use tetfem::mesh::{BoundaryFace, BoxSplit, TetMesh};
+
+/// A named node set whose mean displacement is recorded.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Probe {
+    /// The probe's name.
+    pub name: String,
+    /// Its nodes (non-empty).
+    pub nodes: Vec<usize>,
+}
+
+impl Probe {
+    /// Mean displacement of the probe's nodes (length units).
+    pub fn mean_displacement(&self, displacement: &[f64]) -> Vector3<f64> {
+        let mut sum = Vector3::zeros();
+        for &n in &self.nodes {
+            if let Some(u) = displacement.get(3 * n..3 * n + 3) {
+                sum += Vector3::new(u[0], u[1], u[2]);
+            }
+        }
+        sum / self.nodes.len().max(1) as f64
+    }
+}
+
+/// Everything a solver needs, built from a scene.
+#[derive(Debug, Clone)]
+pub struct BuiltScene {
+    /// The mesh.
+    pub mesh: TetMesh,
+    /// The file's extra information (groups, markers, skipped elements) for imported meshes.
+    pub imported: Option<ImportedMesh>,
+    /// The boundary faces, outward oriented.
+    pub boundary: Vec<BoundaryFace>,
+    /// The material.
+    pub material: Material,
+    /// The constraints.
+    pub constraints: Constraints,
+    /// The loads, as one nodal force vector (gravity included).
+    pub loads: Loads,
+    /// The loads other than gravity (what a dynamic run passes to
+    /// [`LinearSystem::new`](tetfem::dynamics::LinearSystem::new), which tracks gravity apart).
+    pub other_loads: Loads,
+    /// The sum of the scene's gravity entries (acceleration, m/s² in SI).
+    pub gravity: Vector3<f64>,
+    /// The probes.
+    pub probes: Vec<Probe>,
+    /// Warnings about the constraints and the loads (a load on constrained DOFs only, no free
+    /// DOF), found while building.
+    pub input_warnings: Vec<tetfem::warning::Warning>,
+}
+
+impl BuiltScene {
+    /// The mesh's, the material's, the constraints' and the loads' warnings (see
+    /// [`tetfem::warning`]).
+    pub fn warnings(&self) -> Vec<tetfem::warning::Warning> {
+        let mut warnings = self.mesh.warnings();
+        warnings.extend(self.material.warnings());
+        warnings.extend(self.input_warnings.iter().cloned());
+        warnings
+    }
+}
+
+impl Scene {
+    /// Builds the mesh (generating or reading it), the material, the constraints, the loads and
+    /// the probes. Selections that match nothing are errors naming the scene entry and line.
+    pub fn build(&self) -> Result<BuiltScene> {
+        let spec = self.spec();
+        let mesh_span = spec.mesh.span();
+        let (mesh, imported) = match spec.mesh.get_ref() {
+            MeshSpec::Box(b) => {
+                let split = match b.split {
+                    SplitSpec::Lecture6 => BoxSplit::Lecture6,
+                    SplitSpec::Mirrored6 => BoxSplit::Mirrored6,
+                    SplitSpec::Five => BoxSplit::Five,
+                };
+                // The whole run's estimate, before the mesh is allocated.
+                let dynamic = matches!(self.analysis(), super::Analysis::Dynamic(_));
+                tetfem::memory::check_box_run(b.cells, split.tets_per_cell(), dynamic)
+                    .map_err(|e| self.error("mesh.box", &mesh_span, e.to_string()))?;
+                let mesh = TetMesh::box_grid(b.min.into(), b.max.into(), b.cells, split)
+                    .map_err(|e| self.error("mesh.box", &mesh_span, e.to_string()))?;
+                (mesh, None)
+            }
+            MeshSpec::Gmsh(f) => {
+                let imported = read_gmsh(&self.resolve(&f.file))?;
+                (imported.mesh.clone(), Some(imported))
+            }
+            MeshSpec::Tetgen(f) => {
+                let path = self.resolve(&f.file);
+                let prefix = match path.extension().and_then(|e| e.to_str()) {
+                    Some("node") | Some("ele") => path.with_extension(""),
+                    _ => path,
+                };
+                let imported = read_tetgen(&prefix)?;
+                (imported.mesh.clone(), Some(imported))
+            }
+        };
+        let boundary = mesh.boundary_faces()?;
+        let m = spec.material.get_ref();
+        let material =
+            Material::new(m.youngs_modulus, m.poisson_ratio, m.density).map_err(|e| {
+                let key = match &e {
+                    Error::InvalidMaterial { field, .. } => format!("material.{field}"),
+                    _ => "material".into(),
+                };
+                self.error(&key, &spec.material.span(), e.to_string())
+            })?;
+        let ctx = Context {
+            scene: self,
+            mesh: &mesh,
+            imported: imported.as_ref(),
+            boundary: &boundary,
+        };
+        let mut constraints = Constraints::new(&mesh);
+        // Which scene entry constrained each DOF, to name both entries of a conflict.
+        let mut constrained_by: Vec<Option<usize>> = vec![None; mesh.dof_count()];
+        for (i, c) in spec.constraints.iter().enumerate() {
+            let key = format!("constraints[{i}]");
+            let span = c.span();
+            let c = c.get_ref();
+            let nodes = ctx.nodes(&c.select, &key, &span)?;
+            let mut axes = [false; 3];
+            match &c.fix {
+                Some(list) if list.is_empty() => {
+                    return Err(self.error(&format!("{key}.fix"), &span, "lists no axis"));
+                }
+                Some(list) => list.iter().for_each(|a| axes[a.index()] = true),
+                None => axes = [true; 3],
+            }
+            let at = |e: Error| match &e {
+                Error::ConflictingConstraint { node, axis, .. } => {
+                    let earlier = constrained_by[3 * node + axis]
+                        .map_or("an earlier constraint".to_string(), |j| {
+                            format!("constraints[{j}]")
+                        });
+                    self.error(&key, &span, format!("{e} (the first is {earlier})"))
+                }
+                _ => self.error(&key, &span, e.to_string()),
+            };
+            match c.displacement {
+                None => {
+                    constraints.fix_axes(&nodes, axes).map_err(at)?;
+                }
+                Some(d) => {
+                    for &n in &nodes {
+                        for axis in (0..3).filter(|&a| axes[a]) {
+                            constraints.prescribe_axis(n, axis, d[axis]).map_err(at)?;
+                        }
+                    }
+                }
+            }
+            for &n in &nodes {
+                for axis in (0..3).filter(|&a| axes[a]) {
+                    constrained_by[3 * n + axis].get_or_insert(i);
+                }
+            }
+        }
+        let mut input_warnings = Vec::new();
+        if constraints.count() == mesh.dof_count() {
+            input_warnings.push(tetfem::warning::Warning::NoFreeDofs {
+                dofs: mesh.dof_count(),
+            });
+        }
+        let mut loads = Loads::new(&mesh);
+        let mut other_loads = Loads::new(&mesh);
+        let mut gravity = Vector3::zeros();
+        for (i, l) in spec.loads.iter().enumerate() {
+            let key = format!("loads[{i}]");
+            let before = loads.as_slice().to_vec();
+            ctx.add_load(&mut loads, &material, l.get_ref(), &key, &l.span())?;
+            if let Some(warning) = on_fixed_dofs_only(&key, &before, loads.as_slice(), &constraints)
+            {
+                input_warnings.push(warning);
+            }
+            match l.get_ref().gravity {
+                Some(g) => gravity += Vector3::from(g),
+                None => ctx.add_load(&mut other_loads, &material, l.get_ref(), &key, &l.span())?,
+            }
+        }
+        let mut probes: Vec<Probe> = Vec::new();
+        for (i, p) in spec.probes.iter().enumerate() {
+            let key = format!("probes[{i}]");
+            let span = p.span();
+            let p = p.get_ref();
+            if p.name.is_empty() || p.name.contains([',', '"', '\n']) {
+                return Err(self.error(
+                    &format!("{key}.name"),
+                    &span,
+                    "must be non-empty, without commas or quotes",
+                ));
+            }
+            // Two probes of one name would write two CSV columns of one name and two summary
+            // entries nobody can tell apart.
+            if let Some(j) = probes.iter().position(|q| q.name == p.name) {
+                return Err(self.error(
+                    &format!("{key}.name"),
+                    &span,
+                    format!(
+                        "duplicate probe name '{}' (probes[{j}] has it already); names must be unique",
+                        p.name
+                    ),
+                ));
+            }
+            probes.push(Probe {
+                name: p.name.clone(),
+                nodes: ctx.nodes(&p.select, &key, &span)?,
+            });
+        }
+        Ok(BuiltScene {
+            mesh,
+            imported,
+            boundary,
+            material,
+            constraints,
+            loads,
+            other_loads,
+            gravity,
+            probes,
+            input_warnings,
+        })
+    }
+}
+
+/// [`Warning::LoadOnFixedDofs`](tetfem::warning::Warning::LoadOnFixedDofs) if the load that
+/// turned the force vector `before` into `after` is non-zero only on constrained DOFs.
+fn on_fixed_dofs_only(
+    key: &str,
+    before: &[f64],
+    after: &[f64],
+    constraints: &Constraints,
+) -> Option<tetfem::warning::Warning> {
+    let loaded: Vec<usize> = (0..after.len())
+        .filter(|&d| after[d] != before[d])
+        .collect();
+    let all_fixed = loaded.iter().all(|&d| constraints.get(d).is_some());
+    (!loaded.is_empty() && all_fixed).then(|| tetfem::warning::Warning::LoadOnFixedDofs {
+        load: key.to_string(),
+        dofs: loaded.len(),
+    })
+}
+
+struct Context<'a> {
+    scene: &'a Scene,
+    mesh: &'a TetMesh,
+    imported: Option<&'a ImportedMesh>,
+    boundary: &'a [BoundaryFace],
+}
+
+impl Context<'_> {
+    fn default_tolerance(&self) -> f64 {
+        let (lo, hi) = self.mesh.bounding_box();
+        1e-6 * (hi - lo).norm()
+    }
+
+    fn group(
+        &self,
+        name: &str,
+        key: &str,
+        span: &Range<usize>,
+    ) -> Result<&tetfem::mesh::io::PhysicalGroup> {
+        let Some(imported) = self.imported else {
+            return Err(self
+                .scene
+                .error(key, span, "a group selection needs a Gmsh mesh"));
+        };
+        imported.group(name).ok_or_else(|| {
+            let known: Vec<String> = imported.groups.iter().map(|g| g.label()).collect();
+            self.scene.error(
+                key,
+                span,
+                format!(
+                    "the mesh has no physical group '{name}' (it has: {})",
+                    if known.is_empty() {
+                        "none".into()
+                    } else {
+                        known.join(", ")
+                    }
+                ),
+            )
+        })
+    }
+
+    /// The selected nodes, ascending; empty → error.
+    fn nodes(&self, select: &Selector, key: &str, span: &Range<usize>) -> Result<Vec<usize>> {
+        let key = format!("{key}.where");
+        let nodes = match select {
+            Selector::All => (0..self.mesh.node_count()).collect(),
+            Selector::Plane {
+                axis,
+                at,
+                tolerance,
+            } => {
+                let tol = tolerance.unwrap_or_else(|| self.default_tolerance());
+                self.mesh
+                    .try_nodes_on_plane(axis.index(), *at, tol)
+                    .map_err(|e| {
+                        self.scene
+                            .error(&format!("{key}.plane"), span, e.to_string())
+                    })?
+            }
+            Selector::Box { min, max } => self.mesh.nodes_in_box((*min).into(), (*max).into()),
+            Selector::Group(name) => self.group(name, &key, span)?.nodes.clone(),
+            Selector::Marker(m) => match self.imported {
+                Some(i) if i.node_markers.is_some() => i.nodes_with_marker(*m),
+                _ => {
+                    return Err(self.scene.error(
+                        &key,
+                        span,
+                        "a marker selection needs a TetGen mesh with node markers",
+                    ));
+                }
+            },
+            Selector::Nodes(list) => {
+                if let Some(&bad) = list.iter().find(|&&n| n >= self.mesh.node_count()) {
+                    return Err(self.scene.error(
+                        &key,
+                        span,
+                        format!(
+                            "node {bad} does not exist (the mesh has {} nodes)",
+                            self.mesh.node_count()
+                        ),
+                    ));
+                }
+                let mut l = list.clone();
+                l.sort_unstable();
+                l.dedup();
+                l
+            }
+        };
+        if nodes.is_empty() {
+            return Err(self
+                .scene
+                .error(&key, span, "the selection matches no node"));
+        }
+        Ok(nodes)
+    }
+
+    /// The selected boundary faces; empty → error.
+    fn faces(
+        &self,
+        select: &Selector,
+        key: &str,
+        span: &Range<usize>,
+    ) -> Result<Vec<BoundaryFace>> {
+        let faces = match select {
+            Selector::Group(name) => {
+                let group = self.group(name, &format!("{key}.where"), span)?;
+                group.boundary_faces(self.boundary)
+            }
+            other => {
+                let mut selected = vec![false; self.mesh.node_count()];
+                for n in self.nodes(other, key, span)? {
+                    selected[n] = true;
+                }
+                self.boundary
+                    .iter()
+                    .filter(|f| f.nodes.iter().all(|&n| selected[n]))
+                    .copied()
+                    .collect()
+            }
+        };
+        if faces.is_empty() {
+            return Err(self.scene.error(
+                &format!("{key}.where"),
+                span,
+                "the selection holds no boundary face",
+            ));
+        }
+        Ok(faces)
+    }
+
+    fn add_load(
+        &self,
+        loads: &mut Loads,
+        material: &Material,
+        l: &super::LoadSpec,
+        key: &str,
+        span: &Range<usize>,
+    ) -> Result<()> {
+        let given: Vec<&str> = [
+            ("gravity", l.gravity.is_some()),
+            ("body_force", l.body_force.is_some()),
+            ("total_force", l.total_force.is_some()),
+            ("traction", l.traction.is_some()),
+            ("pressure", l.pressure.is_some()),
+            ("nodal_force", l.nodal_force.is_some()),
+        ]
+        .iter()
+        .filter(|(_, set)| *set)
+        .map(|(k, _)| *k)
+        .collect();
+        if given.len() != 1 {
+            return Err(self.scene.error(
+                key,
+                span,
+                format!(
+                    "a load needs exactly one of gravity, body_force, total_force, traction, pressure, nodal_force (found: {})",
+                    if given.is_empty() { "none".into() } else { given.join(", ") }
+                ),
+            ));
+        }
+        let at = |e: Error| self.scene.error(key, span, e.to_string());
+        let needs_where = || {
+            l.select.as_ref().ok_or_else(|| {
+                self.scene
+                    .error(key, span, format!("{} needs a 'where' selection", given[0]))
+            })
+        };
+        if let Some(g) = l.gravity {
+            if l.select.is_some() {
+                return Err(self.scene.error(
+                    &format!("{key}.where"),
+                    span,
+                    "gravity acts on the whole body; remove 'where'",
+                ));
+            }
+            loads
+                .add_gravity(self.mesh, material, g.into())
+                .map_err(at)?;
+        } else if let Some(b) = l.body_force {
+            if l.select.is_some() {
+                return Err(self.scene.error(
+                    &format!("{key}.where"),
+                    span,
+                    "a body force acts on the whole body; remove 'where'",
+                ));
+            }
+            loads.add_body_force(self.mesh, b.into()).map_err(at)?;
+        } else if let Some(f) = l.total_force {
+            let faces = self.faces(needs_where()?, key, span)?;
+            loads
+                .add_total_force_on_faces(self.mesh, &faces, f.into())
+                .map_err(at)?;
+        } else if let Some(t) = l.traction {
+            let faces = self.faces(needs_where()?, key, span)?;
+            loads
+                .add_traction(self.mesh, &faces, t.into())
+                .map_err(at)?;
+        } else if let Some(p) = l.pressure {
+            if !p.is_finite() {
+                return Err(self
+                    .scene
+                    .error(&format!("{key}.pressure"), span, "must be finite"));
+            }
+            let faces = self.faces(needs_where()?, key, span)?;
+            for face in &faces {
+                let normal = face.area_vector(self.mesh).map_err(at)?.normalize();
+                loads
+                    .add_traction(self.mesh, std::slice::from_ref(face), -normal * p)
+                    .map_err(at)?;
+            }
+        } else if let Some(f) = l.nodal_force {
+            let nodes = self.nodes(needs_where()?, key, span)?;
+            for n in nodes {
+                loads.add_nodal_force(n, f.into()).map_err(at)?;
+            }
+        }
+        Ok(())
+    }
+}

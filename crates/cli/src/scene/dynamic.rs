@@ -1,0 +1,928 @@
+//! Running a dynamic problem — a dynamic scene, or the default cantilever released from its
+//! loaded shape — and writing its outputs: `.vtu` frames with a `.pvd` collection, a CSV series
+//! of probes, energies and wall time per step, PNG frames, and a JSON summary.
+
+use std::ops::ControlFlow;
+use std::path::PathBuf;
+use std::sync::Arc;
+use std::time::Instant;
+
+use nalgebra::Vector3;
+
+use super::{Analysis, BuiltScene, DynamicSettings, OutputSettings, PngField, Probe, Scene};
+use crate::render::{Field, RenderOptions, auto_deformation_scale, render};
+use tetfem::constraints::Constraints;
+use tetfem::dynamics::{
+    Energy, IntegratorOptions, LinearSystem, Mass, MassKind, Method, Rayleigh, State,
+    critical_time_step, element_critical_step,
+};
+use tetfem::error::{Error, Result};
+use tetfem::linalg::linear_solver::LinearMethod;
+use tetfem::loads::Loads;
+use tetfem::material::Material;
+use tetfem::mesh::TetMesh;
+use tetfem::output::fields::{cell_von_mises, displacement_magnitude};
+use tetfem::output::{CsvSeries, OutputLock, PvdCollection, write_atomically, write_result_vtu};
+use tetfem_fixtures::cantilever::Cantilever;
+
+/// A time step: in time units, or as a multiple of the explicit critical step.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum TimeStep {
+    /// A step in time units (s in SI).
+    Seconds(f64),
+    /// This many times the explicit critical step of the system (e.g. 50 for 50 × dt_crit).
+    CriticalMultiple(f64),
+}
+
+impl std::str::FromStr for TimeStep {
+    type Err = Error;
+
+    /// `"2e-5"` (time units) or `"50crit"` (50 × the explicit critical step); either must be
+    /// finite and > 0.
+    fn from_str(text: &str) -> Result<Self> {
+        let text = text.trim();
+        let (number, critical) = match text.strip_suffix("crit") {
+            Some(n) => (n.trim(), true),
+            None => (text, false),
+        };
+        let value: f64 = number.parse().map_err(|_| {
+            Error::invalid_parameter(
+                "dt",
+                text,
+                "must be a time step like 2e-5 (s) or a multiple of the explicit critical step like 50crit",
+            )
+        })?;
+        if !(value.is_finite() && value > 0.0) {
+            return Err(Error::invalid_parameter(
+                "dt",
+                text,
+                "must be finite and > 0",
+            ));
+        }
+        Ok(if critical {
+            TimeStep::CriticalMultiple(value)
+        } else {
+            TimeStep::Seconds(value)
+        })
+    }
+}
+
+/// How long to run.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum RunLength {
+    /// A number of steps (1 to [`MAX_STEPS`]).
+    Steps(usize),
+    /// A simulated time (time units, ≥ dt): ⌈duration/dt⌉ steps, at most [`MAX_STEPS`].
+    Duration(f64),
+}
+
+/// The most steps a dynamic run may take: 10⁹. At a microsecond per step on the smallest mesh
+/// that is a quarter of an hour, on a real mesh days: a larger count is a unit mistake in dt or
+/// the duration (dt = 1e-300 would otherwise run forever), rejected before any work.
+pub const MAX_STEPS: usize = 1_000_000_000;
+
+impl RunLength {
+    /// The number of steps at `dt` (time units): `n` itself, or ⌈duration/dt⌉ (less a 1e-9
+    /// slack, so that a duration that is a whole number of steps up to round-off takes that
+    /// number). Errors name the key (`steps`, `duration`, or `dt` when the end time n·dt
+    /// overflows), its value and the limit: 1 ≤ steps ≤ [`MAX_STEPS`], dt ≤ duration.
+    pub fn steps(self, dt: f64) -> Result<usize> {
+        let dt = tetfem::dynamics::check_time_step(dt)?;
+        let steps = match self {
+            RunLength::Steps(n) if (1..=MAX_STEPS).contains(&n) => n,
+            RunLength::Steps(n) => {
+                return Err(Error::invalid_parameter(
+                    "steps",
+                    n,
+                    format!("must be at least 1 and at most {MAX_STEPS} (MAX_STEPS)"),
+                ));
+            }
+            RunLength::Duration(d) if !(d.is_finite() && d >= dt) => {
+                return Err(Error::invalid_parameter(
+                    "duration",
+                    d,
+                    format!("must be finite and at least dt = {dt:e}"),
+                ));
+            }
+            RunLength::Duration(d) => {
+                let steps = (d / dt - 1e-9).ceil();
+                if steps > MAX_STEPS as f64 {
+                    return Err(Error::invalid_parameter(
+                        "duration",
+                        d,
+                        format!(
+                            "takes ⌈duration/dt⌉ = {steps:e} steps at dt = {dt:e}, above the limit of {MAX_STEPS} steps (MAX_STEPS); choose a larger dt or a shorter duration"
+                        ),
+                    ));
+                }
+                steps as usize
+            }
+        };
+        if !(steps as f64 * dt).is_finite() {
+            return Err(Error::invalid_parameter(
+                "dt",
+                dt,
+                format!("the end time {steps} steps × dt overflows"),
+            ));
+        }
+        Ok(steps)
+    }
+}
+
+/// A dynamic problem ready to integrate: the mesh, the assembled system and the initial state.
+#[derive(Debug, Clone)]
+pub struct DynamicSetup {
+    /// The mesh.
+    pub mesh: TetMesh,
+    /// The material.
+    pub material: Material,
+    /// M·ü + C·u̇ + K·u = f on the free DOFs.
+    pub system: Arc<LinearSystem>,
+    /// The state at time 0.
+    pub initial: State,
+    /// Node sets whose mean displacement goes into the CSV series.
+    pub probes: Vec<Probe>,
+    /// Wall time to assemble the system and the initial state (s).
+    pub setup_seconds: f64,
+    /// How the implicit methods solve their step systems: direct as built by
+    /// [`from_scene`](Self::from_scene) and [`released_cantilever`](Self::released_cantilever)
+    /// (the integrators' default); [`run_dynamic_scene`] sets the scene's
+    /// `analysis.linear_solver` (auto when unset).
+    pub linear_method: LinearMethod,
+    /// Warnings about the scene's own entries (a load acting on fixed DOFs only, no free DOF),
+    /// reported with the mesh's and the material's in the run summary.
+    pub input_warnings: Vec<tetfem::warning::Warning>,
+    /// The explicit critical step once computed.
+    critical: std::sync::OnceLock<(f64, &'static str)>,
+}
+
+impl DynamicSetup {
+    /// The system of a built scene with its dynamic settings: gravity tracked apart, the other
+    /// loads constant, Rayleigh damping and mass kind as set, starting at rest in the reference
+    /// configuration with the scene's initial velocity on every free DOF.
+    pub fn from_scene(built: BuiltScene, settings: &DynamicSettings) -> Result<Self> {
+        let clock = Instant::now();
+        let damping = Rayleigh::new(settings.damping.mass, settings.damping.stiffness)?;
+        let mass = match settings.mass {
+            super::MassKind::Lumped => MassKind::Lumped,
+            super::MassKind::Consistent => MassKind::Consistent,
+        };
+        let system = LinearSystem::new(
+            &built.mesh,
+            &built.material,
+            &built.constraints,
+            &built.other_loads,
+            built.gravity,
+            mass,
+            damping,
+        )?;
+        let mut initial = State::at_rest(system.free_count());
+        let velocity: Vec<f64> = (0..built.mesh.dof_count())
+            .map(|dof| settings.initial_velocity[dof % 3])
+            .collect();
+        initial.velocity = system.dofs().restrict(&velocity)?;
+        Ok(Self::of_built(built, system, initial, clock))
+    }
+
+    /// The setup of a built scene with its assembled system and initial state; `clock` started
+    /// with the setup.
+    fn of_built(built: BuiltScene, system: LinearSystem, initial: State, clock: Instant) -> Self {
+        DynamicSetup {
+            input_warnings: built.input_warnings,
+            mesh: built.mesh,
+            material: built.material,
+            system: Arc::new(system),
+            initial,
+            probes: built.probes,
+            setup_seconds: clock.elapsed().as_secs_f64(),
+            linear_method: LinearMethod::Direct,
+            critical: Default::default(),
+        }
+    }
+
+    /// The cantilever released from rest in its static shape under end load and gravity, with
+    /// the end load removed and gravity kept: it swings about its (much smaller) gravity-only
+    /// deflection. Lumped mass, no damping. The probe `tip` is the end face x = L.
+    pub fn released_cantilever(cantilever: &Cantilever) -> Result<Self> {
+        let clock = Instant::now();
+        let mesh = cantilever.mesh()?;
+        let material = cantilever.material;
+        let constraints: Constraints = cantilever.constraints(&mesh)?;
+        let gravity = Vector3::new(0.0, 0.0, -cantilever.gravity);
+        let end_load_only = Cantilever {
+            gravity: 0.0,
+            ..*cantilever
+        }
+        .loads(&mesh)?;
+        let (initial, system) =
+            released_system(&mesh, &material, &constraints, &end_load_only, gravity)?;
+        let probes = vec![Probe {
+            name: "tip".into(),
+            nodes: cantilever.tip_nodes(&mesh),
+        }];
+        Ok(DynamicSetup {
+            input_warnings: Vec::new(),
+            mesh,
+            material,
+            system: Arc::new(system),
+            initial,
+            probes,
+            setup_seconds: clock.elapsed().as_secs_f64(),
+            linear_method: LinearMethod::Direct,
+            critical: Default::default(),
+        })
+    }
+
+    /// A built scene released from rest in its static shape under all its loads, with every
+    /// load but gravity removed: it swings about its gravity-only shape. Lumped mass, no
+    /// damping; the scene's probes. A cantilever scene gives the problem of
+    /// [`released_cantilever`](Self::released_cantilever).
+    pub fn released(built: BuiltScene) -> Result<Self> {
+        let clock = Instant::now();
+        let (initial, system) = released_system(
+            &built.mesh,
+            &built.material,
+            &built.constraints,
+            &built.other_loads,
+            built.gravity,
+        )?;
+        Ok(Self::of_built(built, system, initial, clock))
+    }
+
+    /// The period 2π/ω₁ (time units) of the lowest natural mode of the constrained body, from
+    /// [`lowest_modes`](tetfem::modal::lowest_modes).
+    pub fn first_mode_period(&self) -> Result<f64> {
+        let modes = tetfem::modal::lowest_modes(&self.system, 1)?;
+        match modes.omega.first() {
+            Some(&omega) if omega.is_finite() && omega > 0.0 => {
+                Ok(2.0 * std::f64::consts::PI / omega)
+            }
+            _ => Err(Error::Solver("no positive lowest natural frequency".into())),
+        }
+    }
+
+    /// The explicit critical step and how it was found: 2/ω_max by power iteration for a lumped
+    /// mass, else the element bound (which is never above it). Computed once, then remembered.
+    pub fn critical_step(&self) -> Result<(f64, &'static str)> {
+        if let Some(c) = self.critical.get() {
+            return Ok(*c);
+        }
+        let c = match self.system.mass() {
+            Mass::Lumped(_) => (critical_time_step(&self.system)?.dt, "power iteration"),
+            Mass::Consistent(_) => (
+                element_critical_step(&self.mesh, &self.material),
+                "element bound",
+            ),
+        };
+        Ok(*self.critical.get_or_init(|| c))
+    }
+
+    /// A time step in time units: `dt` itself, or its multiple of [`critical_step`](Self::critical_step).
+    pub fn resolve(&self, dt: TimeStep) -> Result<f64> {
+        let dt = match dt {
+            TimeStep::Seconds(dt) => dt,
+            TimeStep::CriticalMultiple(f) => f * self.critical_step()?.0,
+        };
+        tetfem::dynamics::check_time_step(dt)
+    }
+}
+
+/// What to run on a [`DynamicSetup`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct DynamicRun {
+    /// Title (PNG frames, summary).
+    pub title: String,
+    /// Where the problem came from (a scene path, or `default`).
+    pub source: String,
+    /// The method.
+    pub method: Method,
+    /// The time step.
+    pub dt: TimeStep,
+    /// How long.
+    pub length: RunLength,
+}
+
+/// Energies of a state, as written to the summary.
+#[derive(Debug, Clone, Copy, PartialEq, Default, serde::Serialize)]
+pub struct EnergyTerms {
+    /// ½vᵀMv.
+    pub kinetic: f64,
+    /// ½uᵀKu.
+    pub elastic: f64,
+    /// −f_g·u.
+    pub gravity_potential: f64,
+    /// −f·u of the other loads.
+    pub load_potential: f64,
+    /// The sum.
+    pub total: f64,
+}
+
+impl From<Energy> for EnergyTerms {
+    fn from(e: Energy) -> Self {
+        EnergyTerms {
+            kinetic: e.kinetic,
+            elastic: e.elastic,
+            gravity_potential: e.gravity_potential,
+            load_potential: e.load_potential,
+            total: e.total(),
+        }
+    }
+}
+
+/// A probe's mean displacement at the end of the run and its range over the run.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct ProbeRange {
+    /// The probe's name.
+    pub name: String,
+    /// Mean displacement (length units) at the last step.
+    pub last: [f64; 3],
+    /// Smallest value of each component over the run (the initial state included).
+    pub min: [f64; 3],
+    /// Largest value of each component over the run.
+    pub max: [f64; 3],
+}
+
+/// What a dynamic run did, for printing or as one JSON object (`--json`).
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct DynamicSummary {
+    /// The title.
+    pub title: String,
+    /// The scene file (or `default`).
+    pub scene: String,
+    /// `"dynamic"`.
+    pub analysis: String,
+    /// The method's name.
+    pub method: String,
+    /// Node count.
+    pub nodes: usize,
+    /// Tet count.
+    pub tets: usize,
+    /// Free DOFs.
+    pub free_dofs: usize,
+    /// The time step (time units).
+    pub dt: f64,
+    /// The explicit method's critical step (time units).
+    pub critical_step: f64,
+    /// How it was found: `"power iteration"` or `"element bound"`.
+    pub critical_step_source: String,
+    /// dt / critical_step.
+    pub dt_over_critical: f64,
+    /// Steps taken.
+    pub steps: usize,
+    /// Simulated time at the end.
+    pub end_time: f64,
+    /// Wall time of setup: assembly, initial state, critical step, integrator (s).
+    pub setup_seconds: f64,
+    /// Wall time of the first step (s): for implicit methods it includes the factorization.
+    pub first_step_seconds: f64,
+    /// Mean wall time of the steps after the first (s); the first's when there is one step.
+    pub mean_step_seconds: f64,
+    /// Wall time of all steps (s).
+    pub step_seconds: f64,
+    /// Wall time spent on outputs, energies and probes (s).
+    pub output_seconds: f64,
+    /// Energies at time 0.
+    pub initial_energy: EnergyTerms,
+    /// Energies at the end.
+    pub final_energy: EnergyTerms,
+    /// Each probe's last value and range.
+    pub probes: Vec<ProbeRange>,
+    /// Frames written (`.vtu`).
+    pub frames: usize,
+    /// Files written.
+    pub files: Vec<PathBuf>,
+    /// Warnings about the mesh and the material (see [`tetfem::warning`]), as sentences.
+    pub warnings: Vec<String>,
+}
+
+impl DynamicSummary {
+    /// The summary as one line of JSON.
+    pub fn to_json(&self) -> String {
+        serde_json::to_string(self).unwrap_or_else(|e| format!("{{\"error\":\"{e}\"}}"))
+    }
+}
+
+/// Where and what to write; `None` in [`run_dynamic`] writes nothing.
+#[derive(Debug, Clone, PartialEq)]
+pub struct DynamicOutputs {
+    /// The scene's output settings (folder, stem, which files, frame interval, PNG look).
+    pub settings: OutputSettings,
+    /// Render PNG frames even if the settings do not ask for them.
+    pub force_png: bool,
+}
+
+/// Integrates `setup` as `run` says, calling `progress(steps_done, steps_total)` after each step;
+/// when it returns `ControlFlow::Break` the run stops there with [`Error::Interrupted`] (how the
+/// command-line tool handles Ctrl-C).
+///
+/// Outputs (when `outputs` is given) go to the settings' folder: `<stem>_<step>.vtu` every
+/// `every` steps and at the last step, with `<stem>.pvd` listing them and their times (rewritten
+/// after every frame, so it is valid at any moment);
+/// `<stem>.csv` with one row per step, the initial state included (time, step, wall time of
+/// the step, each probe's mean displacement, each energy term and their total);
+/// `<stem>_<step>.png` frames (fixed colour range and magnification across frames); and
+/// `<stem>_summary.json`.
+///
+/// The CSV is streamed: its rows are appended as the run goes, written out at every frame
+/// (before the frame, so that the rows of every frame listed in the `.pvd` are in the file,
+/// whole), when its buffer fills, and on every stop; memory does not grow with the step count.
+///
+/// Writing files, the run first takes the folder's [`OutputLock`]: another run writing there is
+/// an [`Error::OutputLocked`]; a lock left by a killed run is taken over, with a warning in the
+/// summary, and its temporary files are removed.
+///
+/// Errors: invalid dt or length (more than [`MAX_STEPS`] steps: see [`RunLength::steps`]), and
+/// [`Error::Diverged`] when the run blows up — the frames and the CSV rows up to that point are
+/// written first.
+pub fn run_dynamic(
+    setup: &DynamicSetup,
+    run: &DynamicRun,
+    outputs: Option<&DynamicOutputs>,
+    progress: &mut dyn FnMut(usize, usize) -> ControlFlow<()>,
+) -> Result<DynamicSummary> {
+    if let TimeStep::Seconds(dt) = run.dt {
+        run.length.steps(dt)?;
+    }
+    let lock = match outputs {
+        Some(o) => Some(OutputLock::acquire(&o.settings.directory)?),
+        None => None,
+    };
+    run_dynamic_locked(setup, run, outputs, lock, progress)
+}
+
+/// [`run_dynamic`] once the output folder's lock (if any) is held.
+fn run_dynamic_locked(
+    setup: &DynamicSetup,
+    run: &DynamicRun,
+    outputs: Option<&DynamicOutputs>,
+    lock: Option<OutputLock>,
+    progress: &mut dyn FnMut(usize, usize) -> ControlFlow<()>,
+) -> Result<DynamicSummary> {
+    let clock = Instant::now();
+    let (critical, critical_source) = setup.critical_step()?;
+    let dt = setup.resolve(run.dt)?;
+    let steps = run.length.steps(dt)?;
+    let options = IntegratorOptions {
+        linear_method: setup.linear_method,
+        ..IntegratorOptions::default()
+    };
+    let mut integrator = run
+        .method
+        .integrator_with(Arc::clone(&setup.system), dt, options)?;
+    let setup_seconds = setup.setup_seconds + clock.elapsed().as_secs_f64();
+
+    let system = &setup.system;
+    let mesh = &setup.mesh;
+    let mut state = setup.initial.clone();
+    let initial_energy = system.energy(&state)?;
+    let mut writer = match outputs {
+        Some(o) => Some(FrameWriter::new(setup, run, o, steps)?),
+        None => None,
+    };
+    let mut probes: Vec<ProbeRange> = setup
+        .probes
+        .iter()
+        .map(|p| ProbeRange {
+            name: p.name.clone(),
+            last: [0.0; 3],
+            min: [f64::INFINITY; 3],
+            max: [f64::NEG_INFINITY; 3],
+        })
+        .collect();
+    let mut output_seconds = 0.0;
+    let mut record = |state: &State,
+                      wall: f64,
+                      writer: &mut Option<FrameWriter>,
+                      last: bool|
+     -> Result<Energy> {
+        let clock = Instant::now();
+        let energy = system.energy(state)?;
+        let u = system.dofs().expand(&state.displacement)?;
+        let mut means = Vec::with_capacity(setup.probes.len());
+        for (probe, range) in setup.probes.iter().zip(probes.iter_mut()) {
+            let mean: [f64; 3] = probe.mean_displacement(&u).into();
+            range.last = mean;
+            for a in 0..3 {
+                range.min[a] = range.min[a].min(mean[a]);
+                range.max[a] = range.max[a].max(mean[a]);
+            }
+            means.push(mean);
+        }
+        if let Some(w) = writer {
+            w.record(setup, state, &u, wall, &means, &energy, last)?;
+        }
+        output_seconds += clock.elapsed().as_secs_f64();
+        Ok(energy)
+    };
+    let mut final_energy = record(&state, 0.0, &mut writer, false)?;
+    let (mut first_step, mut step_total) = (0.0, 0.0);
+    for step in 1..=steps {
+        let clock = Instant::now();
+        let result = integrator.step(&mut state);
+        let wall = clock.elapsed().as_secs_f64();
+        if let Err(error) = result {
+            if let Some(w) = &mut writer {
+                w.finish_partial()?;
+            }
+            return Err(error);
+        }
+        if step == 1 {
+            first_step = wall;
+        }
+        step_total += wall;
+        final_energy = record(&state, wall, &mut writer, step == steps)?;
+        if progress(step, steps).is_break() && step < steps {
+            // Stop at this step boundary: every frame written so far is complete and listed
+            // in the .pvd (rewritten after each frame); the CSV gets the rows up to here.
+            let frames = writer.as_ref().map_or(0, |w| w.frames);
+            if let Some(w) = &mut writer {
+                w.finish_partial()?;
+            }
+            return Err(Error::Interrupted {
+                step,
+                time: state.time,
+                frames,
+            });
+        }
+    }
+    let mut files = Vec::new();
+    let mut frames = 0;
+    if let Some(w) = writer {
+        frames = w.frames;
+        files = w.finish()?;
+    }
+    let mut summary = DynamicSummary {
+        warnings: setup
+            .mesh
+            .warnings()
+            .iter()
+            .chain(&setup.material.warnings())
+            .chain(&setup.input_warnings)
+            .map(ToString::to_string)
+            .chain(lock.as_ref().and_then(OutputLock::warning))
+            .collect(),
+        title: run.title.clone(),
+        scene: run.source.clone(),
+        analysis: "dynamic".into(),
+        method: integrator.name().into(),
+        nodes: mesh.node_count(),
+        tets: mesh.tet_count(),
+        free_dofs: system.free_count(),
+        dt,
+        critical_step: critical,
+        critical_step_source: critical_source.into(),
+        dt_over_critical: dt / critical,
+        steps,
+        end_time: state.time,
+        setup_seconds,
+        first_step_seconds: first_step,
+        mean_step_seconds: if steps > 1 {
+            (step_total - first_step) / (steps - 1) as f64
+        } else {
+            first_step
+        },
+        step_seconds: step_total,
+        output_seconds,
+        initial_energy: initial_energy.into(),
+        final_energy: final_energy.into(),
+        probes,
+        frames,
+        files,
+    };
+    if let Some(o) = outputs {
+        let json = o
+            .settings
+            .directory
+            .join(format!("{}_summary.json", o.settings.stem));
+        summary.files.push(json.clone());
+        write_atomically(&json, |w| writeln!(w, "{}", summary.to_json()))?;
+    }
+    drop(lock);
+    Ok(summary)
+}
+
+/// Writes the frames and the series of a run as it goes.
+struct FrameWriter {
+    settings: OutputSettings,
+    png: Option<PngLook>,
+    title: String,
+    every: usize,
+    frames: usize,
+    pvd: Option<PvdCollection>,
+    csv: Option<CsvSeries>,
+    files: Vec<PathBuf>,
+    digits: usize,
+}
+
+/// The fixed look of the PNG frames.
+struct PngLook {
+    scale: f64,
+    range: (f64, f64),
+    field: PngField,
+}
+
+impl FrameWriter {
+    fn new(
+        setup: &DynamicSetup,
+        run: &DynamicRun,
+        outputs: &DynamicOutputs,
+        steps: usize,
+    ) -> Result<Self> {
+        let s = &outputs.settings;
+        std::fs::create_dir_all(&s.directory).map_err(|source| Error::Io {
+            path: s.directory.clone(),
+            source,
+        })?;
+        let csv = if s.csv {
+            let mut columns: Vec<String> =
+                vec!["time".into(), "step".into(), "wall_seconds_per_step".into()];
+            for p in &setup.probes {
+                for c in ["ux", "uy", "uz"] {
+                    columns.push(format!("{}_{c}", p.name));
+                }
+            }
+            for e in [
+                "kinetic",
+                "elastic",
+                "gravity_potential",
+                "load_potential",
+                "total",
+            ] {
+                columns.push(e.into());
+            }
+            Some(CsvSeries::new(
+                s.directory.join(format!("{}.csv", s.stem)),
+                columns,
+            )?)
+        } else {
+            None
+        };
+        let png = if s.png || outputs.force_png {
+            Some(png_look(setup, s)?)
+        } else {
+            None
+        };
+        Ok(FrameWriter {
+            settings: s.clone(),
+            png,
+            title: run.title.clone(),
+            every: s.every,
+            frames: 0,
+            pvd: s
+                .vtu
+                .then(|| PvdCollection::new(s.directory.join(format!("{}.pvd", s.stem)))),
+            csv,
+            files: Vec::new(),
+            digits: steps.to_string().len().max(4),
+        })
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    fn record(
+        &mut self,
+        setup: &DynamicSetup,
+        state: &State,
+        u: &[f64],
+        wall: f64,
+        probes: &[[f64; 3]],
+        energy: &Energy,
+        last: bool,
+    ) -> Result<()> {
+        if let Some(csv) = &mut self.csv {
+            let mut row = vec![state.time, state.steps as f64, wall];
+            for p in probes {
+                row.extend(p);
+            }
+            row.extend([
+                energy.kinetic,
+                energy.elastic,
+                energy.gravity_potential,
+                energy.load_potential,
+                energy.total(),
+            ]);
+            csv.push(&row)?;
+        }
+        if !(state.steps.is_multiple_of(self.every) || last) {
+            return Ok(());
+        }
+        // The rows up to this frame go to disk before the frame is listed in the .pvd.
+        if let Some(csv) = &mut self.csv {
+            csv.write()?;
+        }
+        let name = format!(
+            "{}_{:0w$}",
+            self.settings.stem,
+            state.steps,
+            w = self.digits
+        );
+        let dir = self.settings.directory.clone();
+        if let Some(pvd) = &mut self.pvd {
+            let mut velocity = vec![0.0; u.len()];
+            for (&dof, v) in setup.system.dofs().free_dofs().iter().zip(&state.velocity) {
+                velocity[dof] = *v;
+            }
+            let vtu = dir.join(format!("{name}.vtu"));
+            write_result_vtu(&vtu, &setup.mesh, &setup.material, u, Some(&velocity))?;
+            pvd.push(state.time, &vtu)?;
+            self.files.push(vtu);
+        }
+        if let Some(look) = &self.png {
+            let magnitude;
+            let stress;
+            let field = match look.field {
+                PngField::Displacement => {
+                    magnitude = displacement_magnitude(u);
+                    Field::Nodes {
+                        name: "|u| (m)",
+                        values: &magnitude,
+                    }
+                }
+                PngField::VonMises => {
+                    stress = cell_von_mises(&setup.mesh, &setup.material, u)?;
+                    Field::Cells {
+                        name: "von Mises (Pa)",
+                        values: &stress,
+                    }
+                }
+            };
+            let image = render(
+                &setup.mesh,
+                u,
+                &field,
+                &RenderOptions {
+                    width: self.settings.png_size[0],
+                    height: self.settings.png_size[1],
+                    title: self.title.clone(),
+                    subtitle: format!(
+                        "t = {:.4e} s (step {}), deformation ×{}",
+                        state.time,
+                        state.steps,
+                        format_scale(look.scale)
+                    ),
+                    deformation_scale: look.scale,
+                    range: Some(look.range),
+                    ..RenderOptions::default()
+                },
+            )?;
+            let png = dir.join(format!("{name}.png"));
+            image.write_png(&png)?;
+            self.files.push(png);
+        }
+        self.frames += 1;
+        Ok(())
+    }
+
+    /// Writes out the CSV rows so far (on a stop before the end: a divergence, an interrupt).
+    fn finish_partial(&mut self) -> Result<()> {
+        match &mut self.csv {
+            Some(csv) => csv.write(),
+            None => Ok(()),
+        }
+    }
+
+    /// Writes out and syncs the CSV, and lists every file written.
+    fn finish(self) -> Result<Vec<PathBuf>> {
+        let mut files = self.files;
+        if let Some(pvd) = &self.pvd {
+            pvd.write()?;
+            files.push(pvd.path().to_path_buf());
+        }
+        if let Some(csv) = self.csv {
+            files.push(csv.path().to_path_buf());
+            csv.finish()?;
+        }
+        Ok(files)
+    }
+}
+
+/// A magnification and colour range that suit every frame: from the larger of the initial
+/// displacement and twice the static one (a suddenly applied load overshoots to about twice its
+/// static deflection).
+fn png_look(setup: &DynamicSetup, s: &OutputSettings) -> Result<PngLook> {
+    let dofs = setup.system.dofs();
+    let initial = dofs.expand(&setup.initial.displacement)?;
+    let doubled: Vec<f64> = dofs
+        .expand(&setup.system.static_displacement()?)?
+        .iter()
+        .map(|u| 2.0 * u)
+        .collect();
+    let largest = |u: &[f64]| displacement_magnitude(u).into_iter().fold(0.0, f64::max);
+    let reference = if largest(&initial) >= largest(&doubled) {
+        initial
+    } else {
+        doubled
+    };
+    let scale = if s.deformation_scale > 0.0 {
+        s.deformation_scale
+    } else {
+        auto_deformation_scale(&setup.mesh, &reference)
+    };
+    let high = match s.png_field {
+        PngField::Displacement => largest(&reference),
+        PngField::VonMises => cell_von_mises(&setup.mesh, &setup.material, &reference)?
+            .into_iter()
+            .fold(0.0, f64::max),
+    };
+    Ok(PngLook {
+        scale,
+        range: (0.0, if high > 0.0 { high } else { 1.0 }),
+        field: s.png_field,
+    })
+}
+
+fn format_scale(scale: f64) -> String {
+    if scale >= 100.0 {
+        format!("{scale:.0}")
+    } else {
+        format!("{scale:.3}")
+            .trim_end_matches('0')
+            .trim_end_matches('.')
+            .to_string()
+    }
+}
+
+/// Overrides of a scene's dynamic settings (from the command line).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct DynamicOverrides {
+    /// Another method.
+    pub method: Option<Method>,
+    /// Another time step.
+    pub dt: Option<TimeStep>,
+    /// Another length (steps or duration).
+    pub length: Option<RunLength>,
+}
+
+/// Builds and runs a dynamic scene (see [`run_dynamic`] for the outputs); `write_files: false`
+/// writes no files.
+pub fn run_dynamic_scene(
+    scene: &Scene,
+    overrides: &DynamicOverrides,
+    write_files: bool,
+    force_png: bool,
+    progress: &mut dyn FnMut(usize, usize) -> ControlFlow<()>,
+) -> Result<DynamicSummary> {
+    let Analysis::Dynamic(settings) = scene.analysis() else {
+        return Err(Error::Scene {
+            source_name: scene.source_name().to_string(),
+            key: "analysis.type".into(),
+            line: 0,
+            message: "this scene is static; run_dynamic_scene runs dynamic scenes only".into(),
+        });
+    };
+    let length = overrides
+        .length
+        .unwrap_or(RunLength::Duration(settings.duration));
+    let dt = overrides.dt.unwrap_or(TimeStep::Seconds(settings.dt));
+    // Before the expensive work: the step count when dt is known without the system, and the
+    // output folder's lock.
+    if let TimeStep::Seconds(dt) = dt {
+        length.steps(dt)?;
+    }
+    let lock = match write_files {
+        true => Some(OutputLock::acquire(&scene.output().directory)?),
+        false => None,
+    };
+    let mut setup = DynamicSetup::from_scene(scene.build()?, settings)?;
+    setup.linear_method = scene.spec().linear_method();
+    let method = overrides.method.unwrap_or(match settings.method {
+        super::Method::BackwardEuler => Method::BackwardEuler,
+        super::Method::Explicit => Method::Explicit,
+        super::Method::Newmark => Method::Newmark,
+    });
+    let run = DynamicRun {
+        title: scene.title(),
+        source: scene.source_name().to_string(),
+        method,
+        dt,
+        length,
+    };
+    let outputs = write_files.then(|| DynamicOutputs {
+        settings: scene.output().clone(),
+        force_png,
+    });
+    run_dynamic_locked(&setup, &run, outputs.as_ref(), lock, progress)
+}
+
+/// The state at rest in the static shape under `loads` and `gravity`, and the system with the
+/// loads removed and gravity kept (lumped mass, no damping), which it swings in.
+fn released_system(
+    mesh: &TetMesh,
+    material: &Material,
+    constraints: &Constraints,
+    loads: &Loads,
+    gravity: Vector3<f64>,
+) -> Result<(State, LinearSystem)> {
+    let system = |loads: &Loads| {
+        LinearSystem::new(
+            mesh,
+            material,
+            constraints,
+            loads,
+            gravity,
+            MassKind::Lumped,
+            Rayleigh::default(),
+        )
+    };
+    let initial = State::released_from(system(loads)?.static_displacement()?);
+    Ok((initial, system(&Loads::new(mesh))?))
+}

@@ -1,0 +1,482 @@
+//! Scenes: a TOML description of a mesh, a material, constraints, loads, an analysis and its
+//! outputs, turned into the library's objects by [`Scene::build`] and run by [`run_static`].
+//!
+//! A scene names only what it needs; everything else takes the default listed in
+//! [`REFERENCE`], the one place where defaults are documented (it is itself a valid scene, and a
+//! test parses it). Unknown keys, values of the wrong type and invalid values are
+//! [`Error::Scene`] errors naming the key and its line.
+
+mod build;
+mod dynamic;
+mod run;
+mod spec;
+
+pub use build::{BuiltScene, Probe};
+pub use dynamic::{
+    DynamicOutputs, DynamicOverrides, DynamicRun, DynamicSetup, DynamicSummary, EnergyTerms,
+    MAX_STEPS, ProbeRange, RunLength, TimeStep, run_dynamic, run_dynamic_scene,
+};
+pub use run::{ProbeValue, RunOptions, RunSummary, SolvePhases, run_static, run_static_with};
+pub use spec::*;
+
+use std::ops::Range;
+use std::path::{Path, PathBuf};
+
+use tetfem::error::{Error, Result};
+
+/// Every key a scene may hold, with its default. Paths written in a scene are relative to the
+/// scene file's folder; without `output.directory` the outputs go to `out/<scene file stem>` in
+/// the working directory. Units SI.
+pub const REFERENCE: &str = r#"# tetfem scene reference: every key, with its default where it has one.
+title = "reference"                 # default: the scene file's stem
+
+[mesh.box]                          # or [mesh.gmsh] / [mesh.tetgen] with: file = "part.msh"
+min = [0.0, 0.0, 0.0]               # default [0, 0, 0]
+max = [1.0, 0.1, 0.1]               # required (m)
+cells = [10, 2, 2]                  # required
+split = "mirrored6"                 # default "mirrored6"; or "lecture6", "five"
+
+[material]                          # all required
+youngs_modulus = 200e9              # Pa
+poisson_ratio = 0.3
+density = 7850.0                    # kg/m³
+
+# Node and face sets ("where"): "all" | { plane = { axis = "x", at = 0.0, tolerance = 1e-9 } }
+# (tolerance default: 1e-6 × the bounding-box diagonal) | { box = { min = [..], max = [..] } }
+# | { group = "name or tag" } (Gmsh physical group) | { marker = 1 } (TetGen node marker)
+# | { nodes = [0, 1, 2] }. A face set holds the boundary faces whose three nodes are selected.
+[[constraints]]
+where = { plane = { axis = "x", at = 0.0 } }
+fix = ["x", "y", "z"]               # default all three
+displacement = [0.0, 0.0, 0.0]      # default zero (m), for the fixed axes
+
+# Loads: exactly one of gravity (m/s²), body_force (N/m³), total_force (N over the faces'
+# area), traction (Pa), pressure (Pa, against the outward normal), nodal_force (N per node).
+[[loads]]
+gravity = [0.0, 0.0, -9.81]
+
+[[loads]]
+where = { plane = { axis = "x", at = 1.0 } }
+total_force = [0.0, 0.0, -1000.0]
+
+[[probes]]                          # mean displacement of a node set, in the CSV series
+name = "tip"
+where = { plane = { axis = "x", at = 1.0 } }
+
+[analysis]
+type = "static"                     # default "static"; or "dynamic", which needs dt, duration:
+# method = "backward_euler"         # default; or "explicit", "newmark"
+# dt = 1e-4                         # s, > 0
+# duration = 0.1                    # s, ≥ dt, at most 1e9 steps (⌈duration/dt⌉)
+# damping = { mass = 0.0, stiffness = 0.0 }   # Rayleigh α (1/s), β (s); default none
+# mass = "lumped"                   # default; or "consistent"
+# initial_velocity = [0.0, 0.0, 0.0]          # m/s, default zero
+
+[output]
+directory = "out/reference"         # default "out/<scene file stem>" in the working directory
+vtu = true                          # .vtu frames + .pvd collection; default true
+every = 1                           # dynamic: a frame every N steps; default 1
+csv = true                          # probes time series; default true
+png = false                         # default false
+png_field = "displacement"          # default; or "von_mises"
+png_size = [960, 600]               # default [960, 600]
+deformation_scale = 0.0             # 0 (default): automatic
+"#;
+
+/// The time integration settings of a dynamic scene, validated.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct DynamicSettings {
+    /// The method.
+    pub method: Method,
+    /// Time step (s), finite and > 0.
+    pub dt: f64,
+    /// Simulated time (s), finite, ≥ dt and at most [`MAX_STEPS`] steps of dt.
+    pub duration: f64,
+    /// Rayleigh damping, both coefficients finite and ≥ 0.
+    pub damping: DampingSpec,
+    /// Mass matrix kind.
+    pub mass: MassKind,
+    /// Initial velocity of every node (m/s).
+    pub initial_velocity: [f64; 3],
+}
+
+impl DynamicSettings {
+    /// Number of steps: ⌈duration/dt⌉ (the last step may end past `duration` by under one dt).
+    pub fn steps(&self) -> usize {
+        (self.duration / self.dt - 1e-9).ceil().max(1.0) as usize
+    }
+}
+
+/// The analysis a scene asks for.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub enum Analysis {
+    /// Static equilibrium.
+    Static,
+    /// Time integration.
+    Dynamic(DynamicSettings),
+}
+
+/// Output settings with the defaults filled in.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct OutputSettings {
+    /// Output folder (absolute, or relative to the working directory).
+    pub directory: PathBuf,
+    /// File stem of the outputs (the scene file's stem).
+    pub stem: String,
+    /// Write `.vtu` + `.pvd`.
+    pub vtu: bool,
+    /// Frame every N steps.
+    pub every: usize,
+    /// Write the CSV series.
+    pub csv: bool,
+    /// Render PNGs.
+    pub png: bool,
+    /// Field that colours the PNGs.
+    pub png_field: PngField,
+    /// PNG size (pixels).
+    pub png_size: [u32; 2],
+    /// Displacement magnification (0: automatic).
+    pub deformation_scale: f64,
+}
+
+/// A parsed and checked scene file.
+#[derive(Debug, Clone)]
+pub struct Scene {
+    spec: SceneSpec,
+    text: String,
+    source_name: String,
+    base_dir: PathBuf,
+    stem: String,
+    analysis: Analysis,
+    model: tetfem::model::ModelKind,
+    output: OutputSettings,
+}
+
+impl std::str::FromStr for Scene {
+    type Err = Error;
+
+    /// Parses a scene from text; relative paths are taken from the working directory.
+    fn from_str(text: &str) -> Result<Scene> {
+        Scene::parse(text, "<string>", Path::new("."))
+    }
+}
+
+impl Scene {
+    /// Reads and parses a scene file; relative paths in it are taken from its folder.
+    pub fn load(path: &Path) -> Result<Scene> {
+        let text = std::fs::read_to_string(path).map_err(|source| Error::Io {
+            path: path.to_path_buf(),
+            source,
+        })?;
+        let base = path.parent().unwrap_or(Path::new("."));
+        let mut scene = Scene::parse(&text, &path.display().to_string(), base)?;
+        if let Some(stem) = path.file_stem() {
+            scene.stem = stem.to_string_lossy().into_owned();
+            scene.output = scene.output_settings()?;
+        }
+        Ok(scene)
+    }
+
+    /// Parses scene text; `source_name` is named in errors, `base_dir` resolves relative paths.
+    pub fn parse(text: &str, source_name: &str, base_dir: &Path) -> Result<Scene> {
+        let spec: SceneSpec = toml::from_str(text).map_err(|e| {
+            let span = e.span().unwrap_or(0..0);
+            let key = error_key(e.message(), text, &span);
+            Error::Scene {
+                source_name: source_name.to_string(),
+                key,
+                line: line_of(text, span.start),
+                message: e.message().trim().to_string(),
+            }
+        })?;
+        let mut scene = Scene {
+            spec,
+            text: text.to_string(),
+            source_name: source_name.to_string(),
+            base_dir: base_dir.to_path_buf(),
+            stem: "scene".to_string(),
+            analysis: Analysis::Static,
+            model: tetfem::model::ModelKind::Linear,
+            output: OutputSettings {
+                directory: PathBuf::new(),
+                stem: String::new(),
+                vtu: true,
+                every: 1,
+                csv: true,
+                png: false,
+                png_field: PngField::Displacement,
+                png_size: [960, 600],
+                deformation_scale: 0.0,
+            },
+        };
+        scene.analysis = scene.check_analysis()?;
+        scene.model = scene.check_model()?;
+        scene.output = scene.output_settings()?;
+        Ok(scene)
+    }
+
+    /// The schema-level content.
+    pub fn spec(&self) -> &SceneSpec {
+        &self.spec
+    }
+
+    /// The title (the `title` key or the file stem).
+    pub fn title(&self) -> String {
+        self.spec.title.clone().unwrap_or_else(|| self.stem.clone())
+    }
+
+    /// The name errors use for this scene (its path, or `<string>`).
+    pub fn source_name(&self) -> &str {
+        &self.source_name
+    }
+
+    /// The folder relative paths are resolved against.
+    pub fn base_dir(&self) -> &Path {
+        &self.base_dir
+    }
+
+    /// The validated analysis.
+    pub fn analysis(&self) -> &Analysis {
+        &self.analysis
+    }
+
+    /// The force model (`analysis.model`; linear by default).
+    pub fn model(&self) -> tetfem::model::ModelKind {
+        self.model
+    }
+
+    fn check_model(&self) -> Result<tetfem::model::ModelKind> {
+        let Some(spanned) = &self.spec.analysis else {
+            return Ok(tetfem::model::ModelKind::Linear);
+        };
+        let Some(name) = &spanned.get_ref().model else {
+            return Ok(tetfem::model::ModelKind::Linear);
+        };
+        let kind: tetfem::model::ModelKind = name.parse().map_err(|_| {
+            self.error(
+                "analysis.model",
+                &spanned.span(),
+                format!(
+                    "unknown model '{name}': use \"linear\", \"corotational\" or \"neo-hookean\""
+                ),
+            )
+        })?;
+        if kind != tetfem::model::ModelKind::Linear && matches!(self.analysis, Analysis::Dynamic(_))
+        {
+            return Err(self.error(
+                "analysis.model",
+                &spanned.span(),
+                "nonlinear models run in static scenes (and through the library's NonlinearBackwardEuler); dynamic scene files integrate the linear model",
+            ));
+        }
+        Ok(kind)
+    }
+
+    /// The output settings, defaults filled in.
+    pub fn output(&self) -> &OutputSettings {
+        &self.output
+    }
+
+    /// Names the outputs of a scene that has no file (an embedded one): `<stem>.vtu`, … in the
+    /// default folder `out/<stem>` (what [`load`](Self::load) takes from the file name).
+    pub fn set_stem(&mut self, stem: &str) -> Result<()> {
+        self.stem = stem.to_string();
+        self.output = self.output_settings()?;
+        Ok(())
+    }
+
+    /// Overrides the output folder (e.g. from a command-line option).
+    pub fn set_output_directory(&mut self, directory: PathBuf) {
+        self.output.directory = directory;
+    }
+
+    /// An [`Error::Scene`] at byte `span` of the text.
+    pub(crate) fn error(
+        &self,
+        key: &str,
+        span: &Range<usize>,
+        message: impl Into<String>,
+    ) -> Error {
+        Error::Scene {
+            source_name: self.source_name.clone(),
+            key: key.to_string(),
+            line: line_of(&self.text, span.start),
+            message: message.into(),
+        }
+    }
+
+    /// A path from the scene, resolved against its folder.
+    pub(crate) fn resolve(&self, path: &Path) -> PathBuf {
+        if path.is_absolute() {
+            path.to_path_buf()
+        } else {
+            self.base_dir.join(path)
+        }
+    }
+
+    fn check_analysis(&self) -> Result<Analysis> {
+        let Some(spanned) = &self.spec.analysis else {
+            return Ok(Analysis::Static);
+        };
+        let span = spanned.span();
+        let a = spanned.get_ref();
+        let err = |key: &str, msg: String| self.error(&format!("analysis.{key}"), &span, msg);
+        match a.kind {
+            AnalysisKind::Static => {
+                let dynamic_keys = [
+                    ("method", a.method.is_some()),
+                    ("dt", a.dt.is_some()),
+                    ("duration", a.duration.is_some()),
+                    ("damping", a.damping.is_some()),
+                    ("mass", a.mass.is_some()),
+                    ("initial_velocity", a.initial_velocity.is_some()),
+                ];
+                if let Some((key, _)) = dynamic_keys.iter().find(|(_, set)| *set) {
+                    return Err(err(
+                        key,
+                        "only a dynamic analysis takes this key; set type = \"dynamic\" or remove it".into(),
+                    ));
+                }
+                Ok(Analysis::Static)
+            }
+            AnalysisKind::Dynamic => {
+                let dt = a.dt.ok_or_else(|| {
+                    err("dt", "a dynamic analysis needs a time step dt (s)".into())
+                })?;
+                if !(dt.is_finite() && dt > 0.0) {
+                    return Err(err("dt", format!("dt = {dt} must be finite and > 0")));
+                }
+                let duration = a.duration.ok_or_else(|| {
+                    err("duration", "a dynamic analysis needs a duration (s)".into())
+                })?;
+                if !(duration.is_finite() && duration >= dt) {
+                    return Err(err(
+                        "duration",
+                        format!("duration = {duration} must be finite and at least dt = {dt}"),
+                    ));
+                }
+                if let Err(Error::InvalidParameter { requirement, .. }) =
+                    RunLength::Duration(duration).steps(dt)
+                {
+                    return Err(err(
+                        "duration",
+                        format!("duration = {duration} {requirement}"),
+                    ));
+                }
+                let damping = a.damping.unwrap_or_default();
+                for (key, v) in [
+                    ("damping.mass", damping.mass),
+                    ("damping.stiffness", damping.stiffness),
+                ] {
+                    if !(v.is_finite() && v >= 0.0) {
+                        return Err(err(key, format!("{v} must be finite and ≥ 0")));
+                    }
+                }
+                let initial_velocity = a.initial_velocity.unwrap_or([0.0; 3]);
+                if initial_velocity.iter().any(|v| !v.is_finite()) {
+                    return Err(err(
+                        "initial_velocity",
+                        "every component must be finite".into(),
+                    ));
+                }
+                Ok(Analysis::Dynamic(DynamicSettings {
+                    method: a.method.unwrap_or_default(),
+                    dt,
+                    duration,
+                    damping,
+                    mass: a.mass.unwrap_or_default(),
+                    initial_velocity,
+                }))
+            }
+        }
+    }
+
+    fn output_settings(&self) -> Result<OutputSettings> {
+        let default = OutputSpec::default();
+        let (o, span) = match &self.spec.output {
+            Some(s) => (s.get_ref(), s.span()),
+            None => (&default, 0..0),
+        };
+        let every = o.every.unwrap_or(1);
+        if every == 0 {
+            return Err(self.error("output.every", &span, "must be at least 1"));
+        }
+        let png_size = o.png_size.unwrap_or([960, 600]);
+        if png_size[0] < 200 || png_size[1] < 150 || png_size[0] > 8192 || png_size[1] > 8192 {
+            return Err(self.error(
+                "output.png_size",
+                &span,
+                format!("{png_size:?} must be within [200, 8192] × [150, 8192] pixels"),
+            ));
+        }
+        let deformation_scale = o.deformation_scale.unwrap_or(0.0);
+        if !(deformation_scale.is_finite() && deformation_scale >= 0.0) {
+            return Err(self.error("output.deformation_scale", &span, "must be finite and ≥ 0"));
+        }
+        let directory = match &o.directory {
+            Some(d) => self.resolve(d),
+            None => PathBuf::from("out").join(&self.stem),
+        };
+        Ok(OutputSettings {
+            directory,
+            stem: self.stem.clone(),
+            vtu: o.vtu.unwrap_or(true),
+            every,
+            csv: o.csv.unwrap_or(true),
+            png: o.png.unwrap_or(false),
+            png_field: o.png_field.unwrap_or_default(),
+            png_size,
+            deformation_scale,
+        })
+    }
+}
+
+/// 1-based line of byte `offset` in `text` (0 when the text is empty).
+fn line_of(text: &str, offset: usize) -> usize {
+    if text.is_empty() {
+        return 0;
+    }
+    let end = offset.min(text.len());
+    1 + text.as_bytes()[..end]
+        .iter()
+        .filter(|&&b| b == b'\n')
+        .count()
+}
+
+/// The key a TOML error is about: the one named in "unknown field `x`" or "missing field `x`"
+/// messages, else the text under the error's span when it is a short single line.
+fn error_key(message: &str, text: &str, span: &Range<usize>) -> String {
+    for marker in ["unknown field `", "missing field `", "unknown variant `"] {
+        if let Some(start) = message.find(marker) {
+            let rest = &message[start + marker.len()..];
+            if let Some(end) = rest.find('`') {
+                return rest[..end].to_string();
+            }
+        }
+    }
+    // A value error: the key is what precedes the `=` before the value on its line.
+    let start = span.start.min(text.len());
+    if let Some(before) = text.get(..start) {
+        let line = &before[before.rfind('\n').map_or(0, |i| i + 1)..];
+        if let Some(eq) = line.rfind('=') {
+            let key: String = line[..eq]
+                .trim_end()
+                .chars()
+                .rev()
+                .take_while(|c| c.is_alphanumeric() || "_-.\"".contains(*c))
+                .collect::<Vec<_>>()
+                .into_iter()
+                .rev()
+                .collect();
+            if !key.is_empty() {
+                return key;
+            }
+        }
+    }
+    let under = text.get(span.clone()).unwrap_or("").trim();
+    if !under.is_empty() && under.len() <= 60 && !under.contains('\n') {
+        under.to_string()
+    } else {
+        "(scene)".to_string()
+    }
+}

@@ -1,0 +1,342 @@
+//! Running a static scene and writing its outputs.
+
+use std::path::PathBuf;
+use std::time::Instant;
+
+use super::{Analysis, BuiltScene, PngField, Scene};
+use crate::render::{Field, RenderOptions, auto_deformation_scale, render};
+use tetfem::error::{Error, Result};
+use tetfem::model::ForceModel;
+use tetfem::output::fields::{cell_model_von_mises, displacement_magnitude};
+use tetfem::output::{
+    CsvSeries, OutputLock, PvdCollection, write_atomically, write_model_result_vtu,
+    write_result_vtu,
+};
+use tetfem::statics::StaticSolver;
+
+/// Choices a caller (the command line) makes on top of the scene.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct RunOptions {
+    /// Render PNGs even if the scene does not ask for them (`--png`).
+    pub force_png: bool,
+    /// Write no files at all (tests, dry runs).
+    pub no_files: bool,
+}
+
+/// The mean displacement of one probe.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct ProbeValue {
+    /// The probe's name.
+    pub name: String,
+    /// Mean displacement (m) of its nodes.
+    pub displacement: [f64; 3],
+}
+
+/// Wall time (s) of each phase of a linear static solve, from
+/// [`StaticTimings`](tetfem::statics::StaticTimings).
+#[derive(Debug, Clone, Copy, PartialEq, Default, serde::Serialize)]
+pub struct SolvePhases {
+    /// Pattern and scatter map.
+    pub pattern: f64,
+    /// Element stiffness and scatter into K.
+    pub assembly: f64,
+    /// Constraint check and extraction of K_ff.
+    pub constraints: f64,
+    /// Symbolic analysis, or the choice of the iterative method.
+    pub symbolic: f64,
+    /// Numeric factorization, or the preconditioner's setup.
+    pub factorization: f64,
+    /// Right-hand side, triangular solves and residual.
+    pub solve: f64,
+}
+
+impl From<tetfem::statics::StaticTimings> for SolvePhases {
+    fn from(t: tetfem::statics::StaticTimings) -> Self {
+        SolvePhases {
+            pattern: t.pattern.as_secs_f64(),
+            assembly: t.assembly.as_secs_f64(),
+            constraints: t.constraints.as_secs_f64(),
+            symbolic: t.symbolic.as_secs_f64(),
+            factorization: t.factorization.as_secs_f64(),
+            solve: t.solve.as_secs_f64(),
+        }
+    }
+}
+
+/// What a run did, for printing or as one JSON object (`--json`).
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct RunSummary {
+    /// The scene's title.
+    pub title: String,
+    /// The scene file.
+    pub scene: String,
+    /// `"static"`.
+    pub analysis: String,
+    /// Node count.
+    pub nodes: usize,
+    /// Tet count.
+    pub tets: usize,
+    /// Free DOFs.
+    pub free_dofs: usize,
+    /// Largest nodal displacement magnitude (m).
+    pub max_displacement: f64,
+    /// Largest per-tet von Mises stress (Pa) of the Cauchy stress of the model that ran.
+    pub max_von_mises: f64,
+    /// Relative residual of the linear solve.
+    pub relative_residual: f64,
+    /// Mean displacement of each probe.
+    pub probes: Vec<ProbeValue>,
+    /// Wall time to build the mesh, constraints and loads (s).
+    pub build_seconds: f64,
+    /// Wall time to assemble, factor and solve (s).
+    pub solve_seconds: f64,
+    /// Wall time to write the outputs (s).
+    pub output_seconds: f64,
+    /// Wall time of each phase of the linear solve (`None` for the nonlinear models).
+    pub phases: Option<SolvePhases>,
+    /// Stored values of the Cholesky factor (0 for an iterative or a nonlinear solve).
+    pub factor_len: usize,
+    /// Files written.
+    pub files: Vec<PathBuf>,
+    /// Warnings about the mesh and the material (see [`tetfem::warning`]), as sentences.
+    pub warnings: Vec<String>,
+}
+
+impl RunSummary {
+    /// The summary as one line of JSON.
+    pub fn to_json(&self) -> String {
+        // Serializing plain numbers, strings and paths cannot fail; NaN becomes null.
+        serde_json::to_string(self).unwrap_or_else(|e| format!("{{\"error\":\"{e}\"}}"))
+    }
+}
+
+/// [`run_static_with`] with default options.
+pub fn run_static(scene: &Scene) -> Result<RunSummary> {
+    run_static_with(scene, &RunOptions::default())
+}
+
+/// Builds and solves a static scene, then writes what its `[output]` asks for into its output
+/// folder: `<stem>.vtu` (displacement, |u|, von Mises, strain energy density) with a one-frame
+/// `<stem>.pvd`, `<stem>_probes.csv`, `<stem>.png`, and `<stem>_summary.json`.
+///
+/// Writing files, it first takes the folder's [`OutputLock`] (before building anything): another
+/// run writing there is an [`Error::OutputLocked`]; a lock left by a killed run is taken over,
+/// with a warning in the summary.
+pub fn run_static_with(scene: &Scene, options: &RunOptions) -> Result<RunSummary> {
+    if let Analysis::Dynamic(_) = scene.analysis() {
+        return Err(Error::Scene {
+            source_name: scene.source_name().to_string(),
+            key: "analysis.type".into(),
+            line: 0,
+            message: "this scene is dynamic; run_static solves static scenes only".into(),
+        });
+    }
+    let lock = match options.no_files {
+        true => None,
+        false => Some(OutputLock::acquire(&scene.output().directory)?),
+    };
+    let clock = Instant::now();
+    let built = scene.build()?;
+    let build_seconds = clock.elapsed().as_secs_f64();
+    let clock = Instant::now();
+    let mut phases = None;
+    let mut factor_len = 0;
+    // The model that runs is the model whose stress and energy are reported.
+    let model = scene.model().build(&built.material);
+    let (displacement, relative_residual, free_dofs) = match scene.model() {
+        tetfem::model::ModelKind::Linear => {
+            let options = tetfem::linalg::linear_solver::SolverOptions {
+                method: scene.spec().linear_method(),
+                ..Default::default()
+            };
+            let mut solver = StaticSolver::with_options(
+                &built.mesh,
+                &built.material,
+                &built.constraints,
+                options,
+            )?;
+            let solution = solver.solve(&built.loads)?;
+            phases = Some(solver.timings().into());
+            factor_len = solver.factor_len();
+            (
+                solution.displacement,
+                solution.relative_residual,
+                solver.dofs().free_count(),
+            )
+        }
+        _ => {
+            let report = tetfem::nonlinear::solve_nonlinear_static(
+                &built.mesh,
+                model.as_ref(),
+                &built.constraints,
+                &built.loads,
+                tetfem::nonlinear::NewtonOptions::default(),
+            )?;
+            let dofs = tetfem::constraints::DofMap::new(&built.constraints);
+            let load: f64 = dofs
+                .restrict(built.loads.as_slice())?
+                .iter()
+                .map(|f| f * f)
+                .sum::<f64>()
+                .sqrt();
+            let last = report
+                .residuals
+                .last()
+                .and_then(|r| r.last())
+                .copied()
+                .unwrap_or(0.0);
+            // ‖r_f‖/‖f_f‖ at the end, as for the linear solve.
+            let relative = if load > 0.0 { last / load } else { last };
+            (report.displacement, relative, dofs.free_count())
+        }
+    };
+    let solve_seconds = clock.elapsed().as_secs_f64();
+    let u = &displacement;
+    // The linear model's fields come straight from u: the force-model route forms x = X + u and
+    // takes u = x − X back, which costs digits (~1e-11 relative in σ_vM on a steel beam).
+    let linear = scene.model() == tetfem::model::ModelKind::Linear;
+    let von_mises = match linear {
+        true => tetfem::output::fields::cell_von_mises(&built.mesh, &built.material, u)?,
+        false => cell_model_von_mises(&built.mesh, model.as_ref(), u)?,
+    };
+    let magnitude = displacement_magnitude(u);
+    let probes: Vec<ProbeValue> = built
+        .probes
+        .iter()
+        .map(|p| ProbeValue {
+            name: p.name.clone(),
+            displacement: p.mean_displacement(u).into(),
+        })
+        .collect();
+    let mut summary = RunSummary {
+        warnings: built
+            .warnings()
+            .iter()
+            .map(ToString::to_string)
+            .chain(lock.as_ref().and_then(OutputLock::warning))
+            .collect(),
+        title: scene.title(),
+        scene: scene.source_name().to_string(),
+        analysis: "static".into(),
+        nodes: built.mesh.node_count(),
+        tets: built.mesh.tet_count(),
+        free_dofs,
+        max_displacement: magnitude.iter().fold(0.0, |a: f64, &b| a.max(b)),
+        max_von_mises: von_mises.iter().fold(0.0, |a: f64, &b| a.max(b)),
+        relative_residual,
+        probes,
+        build_seconds,
+        solve_seconds,
+        output_seconds: 0.0,
+        phases,
+        factor_len,
+        files: Vec::new(),
+    };
+    if !options.no_files {
+        let clock = Instant::now();
+        summary.files = write_static_outputs(
+            scene,
+            &built,
+            model.as_ref(),
+            u,
+            &von_mises,
+            options,
+            &summary,
+        )?;
+        summary.output_seconds = clock.elapsed().as_secs_f64();
+    }
+    Ok(summary)
+}
+
+fn write_static_outputs(
+    scene: &Scene,
+    built: &BuiltScene,
+    model: &dyn ForceModel,
+    u: &[f64],
+    von_mises: &[f64],
+    options: &RunOptions,
+    summary: &RunSummary,
+) -> Result<Vec<PathBuf>> {
+    let out = scene.output();
+    let dir = &out.directory;
+    let magnitude = &displacement_magnitude(u);
+    let mut files = Vec::new();
+    if out.vtu {
+        let vtu = dir.join(format!("{}.vtu", out.stem));
+        match scene.model() == tetfem::model::ModelKind::Linear {
+            true => write_result_vtu(&vtu, &built.mesh, &built.material, u, None)?,
+            false => write_model_result_vtu(&vtu, &built.mesh, model, u, None)?,
+        }
+        let mut pvd = PvdCollection::new(dir.join(format!("{}.pvd", out.stem)));
+        pvd.push(0.0, &vtu)?;
+        files.push(vtu);
+        files.push(pvd.path().to_path_buf());
+    }
+    if out.csv && !built.probes.is_empty() {
+        let mut columns = vec!["time".to_string()];
+        for p in &built.probes {
+            for c in ["ux", "uy", "uz"] {
+                columns.push(format!("{}_{c}", p.name));
+            }
+        }
+        let mut csv = CsvSeries::new(dir.join(format!("{}_probes.csv", out.stem)), columns)?;
+        let mut row = vec![0.0];
+        for p in &summary.probes {
+            row.extend(p.displacement);
+        }
+        csv.push(&row)?;
+        files.push(csv.path().to_path_buf());
+        csv.finish()?;
+    }
+    if out.png || options.force_png {
+        let scale = if out.deformation_scale > 0.0 {
+            out.deformation_scale
+        } else {
+            auto_deformation_scale(&built.mesh, u)
+        };
+        let field = match out.png_field {
+            PngField::Displacement => Field::Nodes {
+                name: "|u| (m)",
+                values: magnitude,
+            },
+            PngField::VonMises => Field::Cells {
+                name: "von Mises (Pa)",
+                values: von_mises,
+            },
+        };
+        let image = render(
+            &built.mesh,
+            u,
+            &field,
+            &RenderOptions {
+                width: out.png_size[0],
+                height: out.png_size[1],
+                title: summary.title.clone(),
+                subtitle: format!("static, deformation ×{}", format_scale(scale)),
+                deformation_scale: scale,
+                ..RenderOptions::default()
+            },
+        )?;
+        let png = dir.join(format!("{}.png", out.stem));
+        image.write_png(&png)?;
+        files.push(png);
+    }
+    let json = dir.join(format!("{}_summary.json", out.stem));
+    let mut with_files = summary.clone();
+    with_files.files = files.clone();
+    with_files.files.push(json.clone());
+    write_atomically(&json, |w| writeln!(w, "{}", with_files.to_json()))?;
+    files.push(json);
+    Ok(files)
+}
+
+fn format_scale(scale: f64) -> String {
+    if scale >= 100.0 {
+        format!("{scale:.0}")
+    } else {
+        format!("{scale:.3}")
+            .trim_end_matches('0')
+            .trim_end_matches('.')
+            .to_string()
+    }
+}

@@ -1,0 +1,370 @@
+//! The scene file's schema: plain serde types, one per TOML table. Every table denies unknown
+//! keys. Defaults are listed in [`super::REFERENCE`].
+
+use std::path::PathBuf;
+
+use serde::Deserialize;
+use toml::Spanned;
+
+/// The whole scene file.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SceneSpec {
+    /// A title for reports and pictures (default: the file stem).
+    #[serde(default)]
+    pub title: Option<String>,
+    /// Where the mesh comes from.
+    pub mesh: Spanned<MeshSpec>,
+    /// The material.
+    pub material: Spanned<MaterialSpec>,
+    /// Dirichlet conditions, applied in order.
+    #[serde(default)]
+    pub constraints: Vec<Spanned<ConstraintSpec>>,
+    /// Loads, summed.
+    #[serde(default)]
+    pub loads: Vec<Spanned<LoadSpec>>,
+    /// Static or dynamic analysis (default: static).
+    #[serde(default)]
+    pub analysis: Option<Spanned<AnalysisSpec>>,
+    /// What is written where.
+    #[serde(default)]
+    pub output: Option<Spanned<OutputSpec>>,
+    /// Named node sets whose mean displacement is recorded in the time series.
+    #[serde(default)]
+    pub probes: Vec<Spanned<ProbeSpec>>,
+}
+
+/// `[mesh.box]`, `[mesh.gmsh]` or `[mesh.tetgen]`.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(rename_all = "snake_case", deny_unknown_fields)]
+pub enum MeshSpec {
+    /// A structured box grid.
+    Box(BoxSpec),
+    /// A Gmsh `.msh` file (4.1 ASCII/binary or 2.2 ASCII).
+    Gmsh(FileSpec),
+    /// TetGen files: `file` is the prefix or the `.node` file.
+    Tetgen(FileSpec),
+}
+
+/// A box grid [min, max] with `cells` cells per axis.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BoxSpec {
+    /// Min corner (default: the origin).
+    #[serde(default)]
+    pub min: [f64; 3],
+    /// Max corner.
+    pub max: [f64; 3],
+    /// Cells along x, y, z.
+    pub cells: [usize; 3],
+    /// How each cell is split into tets (default: `mirrored6`).
+    #[serde(default)]
+    pub split: SplitSpec,
+}
+
+/// Cube split of a box grid.
+#[derive(Debug, Clone, Copy, Default, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum SplitSpec {
+    /// The lecture's 6-tet table in every cell (leans sideways in bending, see
+    /// [`crate::BoxSplit::Lecture6`]).
+    Lecture6,
+    /// The lecture's table mirrored in alternate cells: mirror-symmetric for even cell counts.
+    #[default]
+    Mirrored6,
+    /// Five tets per cube, alternating.
+    Five,
+}
+
+/// A mesh file, relative to the scene file's folder.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct FileSpec {
+    /// The path.
+    pub file: PathBuf,
+}
+
+/// `[material]`: an isotropic linear elastic material (SI in the shipped scenes).
+#[derive(Debug, Clone, Copy, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MaterialSpec {
+    /// Young's modulus E (Pa).
+    pub youngs_modulus: f64,
+    /// Poisson's ratio ν.
+    pub poisson_ratio: f64,
+    /// Density ρ (kg/m³).
+    pub density: f64,
+}
+
+/// A coordinate axis.
+#[derive(Debug, Clone, Copy, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum Axis {
+    /// x
+    X,
+    /// y
+    Y,
+    /// z
+    Z,
+}
+
+impl Axis {
+    /// 0, 1 or 2.
+    pub fn index(self) -> usize {
+        match self {
+            Axis::X => 0,
+            Axis::Y => 1,
+            Axis::Z => 2,
+        }
+    }
+}
+
+/// A set of nodes (or, for face loads, of boundary faces).
+#[derive(Debug, Clone, Deserialize, PartialEq)]
+#[serde(rename_all = "snake_case", deny_unknown_fields)]
+pub enum Selector {
+    /// Every node / every boundary face: `"all"`.
+    All,
+    /// `{ plane = { axis = "x", at = 0.0 } }`: nodes with |x\[axis\] − at| ≤ tolerance
+    /// (default 1e-6 × the mesh's bounding-box diagonal); faces with all three nodes so.
+    Plane {
+        /// The axis normal to the plane.
+        axis: Axis,
+        /// The plane's coordinate.
+        at: f64,
+        /// Distance tolerance (length units).
+        #[serde(default)]
+        tolerance: Option<f64>,
+    },
+    /// `{ box = { min = [..], max = [..] } }`: nodes inside the closed box; faces with all
+    /// three nodes inside.
+    Box {
+        /// Min corner.
+        min: [f64; 3],
+        /// Max corner.
+        max: [f64; 3],
+    },
+    /// `{ group = "clamp" }` or `{ group = "3" }`: a Gmsh physical group by name or tag.
+    Group(String),
+    /// `{ marker = 1 }`: TetGen nodes with this boundary marker.
+    Marker(i64),
+    /// `{ nodes = [0, 5, 9] }`: explicit node indices.
+    Nodes(Vec<usize>),
+}
+
+/// `[[constraints]]`: fix (or prescribe) displacement components on a node set.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ConstraintSpec {
+    /// The nodes.
+    #[serde(rename = "where")]
+    pub select: Selector,
+    /// Which axes (default: all three).
+    #[serde(default)]
+    pub fix: Option<Vec<Axis>>,
+    /// Prescribed displacement (length units) for the fixed axes (default: zero).
+    #[serde(default)]
+    pub displacement: Option<[f64; 3]>,
+}
+
+/// `[[loads]]`: exactly one of `gravity`, `body_force`, `total_force`, `traction`, `pressure`,
+/// `nodal_force`; all but the first two need `where`.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LoadSpec {
+    /// The faces (surface loads) or nodes (nodal forces).
+    #[serde(default, rename = "where")]
+    pub select: Option<Selector>,
+    /// Gravitational acceleration (m/s²), e.g. `[0, 0, -9.81]`.
+    #[serde(default)]
+    pub gravity: Option<[f64; 3]>,
+    /// Body force density (N/m³).
+    #[serde(default)]
+    pub body_force: Option<[f64; 3]>,
+    /// A total force (N) spread uniformly over the selected faces' area.
+    #[serde(default)]
+    pub total_force: Option<[f64; 3]>,
+    /// A uniform traction (Pa) on the selected faces.
+    #[serde(default)]
+    pub traction: Option<[f64; 3]>,
+    /// A pressure (Pa) on the selected faces, pushing against their outward normal.
+    #[serde(default)]
+    pub pressure: Option<f64>,
+    /// A force (N) on each selected node.
+    #[serde(default)]
+    pub nodal_force: Option<[f64; 3]>,
+}
+
+/// `[analysis]`.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct AnalysisSpec {
+    /// `"static"` (default) or `"dynamic"`.
+    #[serde(default, rename = "type")]
+    pub kind: AnalysisKind,
+    /// Dynamic: `"backward_euler"` (default), `"explicit"` or `"newmark"`.
+    #[serde(default)]
+    pub method: Option<Method>,
+    /// Dynamic: the time step (s).
+    #[serde(default)]
+    pub dt: Option<f64>,
+    /// Dynamic: the simulated time (s).
+    #[serde(default)]
+    pub duration: Option<f64>,
+    /// Dynamic: Rayleigh damping C = α·M + β·K (default: none).
+    #[serde(default)]
+    pub damping: Option<DampingSpec>,
+    /// Dynamic: `"lumped"` (default) or `"consistent"` mass.
+    #[serde(default)]
+    pub mass: Option<MassKind>,
+    /// Dynamic: initial velocity of every node (m/s, default zero).
+    #[serde(default)]
+    pub initial_velocity: Option<[f64; 3]>,
+    /// Static: the force model, `"linear"` (default), `"corotational"` or `"neo-hookean"`; the
+    /// nonlinear ones are solved by Newton with load steps.
+    #[serde(default)]
+    pub model: Option<String>,
+    /// Static (linear model) and dynamic (implicit methods): how the linear systems are solved,
+    /// `"auto"` (default: the Cholesky factorization when its factor fits the memory budget and
+    /// is predicted faster), `"direct"` or `"iterative"` (multigrid-preconditioned CG).
+    #[serde(default)]
+    pub linear_solver: Option<LinearSolverSpec>,
+}
+
+/// `analysis.linear_solver`.
+#[derive(Debug, Clone, Copy, Default, Deserialize, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum LinearSolverSpec {
+    /// [`LinearMethod::Auto`](tetfem::linalg::linear_solver::LinearMethod::Auto).
+    #[default]
+    Auto,
+    /// [`LinearMethod::Direct`](tetfem::linalg::linear_solver::LinearMethod::Direct).
+    Direct,
+    /// [`LinearMethod::Iterative`](tetfem::linalg::linear_solver::LinearMethod::Iterative).
+    Iterative,
+}
+
+impl SceneSpec {
+    /// `analysis.linear_solver` as the library's method ([`LinearSolverSpec::Auto`] when unset).
+    pub fn linear_method(&self) -> tetfem::linalg::linear_solver::LinearMethod {
+        self.analysis
+            .as_ref()
+            .and_then(|a| a.get_ref().linear_solver)
+            .unwrap_or_default()
+            .method()
+    }
+}
+
+impl LinearSolverSpec {
+    /// The library's method.
+    pub fn method(self) -> tetfem::linalg::linear_solver::LinearMethod {
+        use tetfem::linalg::linear_solver::LinearMethod;
+        match self {
+            LinearSolverSpec::Auto => LinearMethod::Auto,
+            LinearSolverSpec::Direct => LinearMethod::Direct,
+            LinearSolverSpec::Iterative => LinearMethod::Iterative,
+        }
+    }
+}
+
+/// Static or dynamic.
+#[derive(Debug, Clone, Copy, Default, Deserialize, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum AnalysisKind {
+    /// Static equilibrium K·u = f.
+    #[default]
+    Static,
+    /// Time integration of M·ü + C·u̇ + K·u = f.
+    Dynamic,
+}
+
+/// A time integration method.
+#[derive(Debug, Clone, Copy, Default, Deserialize, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Method {
+    /// Backward (implicit) Euler: solves (M + dt·C + dt²·K)·Δv = rhs each step.
+    #[default]
+    BackwardEuler,
+    /// Explicit central differences (symplectic Euler) with lumped mass; dt below the critical
+    /// step.
+    Explicit,
+    /// Newmark average acceleration (β = 1/4, γ = 1/2).
+    Newmark,
+}
+
+/// Mass matrix kind.
+#[derive(Debug, Clone, Copy, Default, Deserialize, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum MassKind {
+    /// Diagonal, ρV/4 per node and tet.
+    #[default]
+    Lumped,
+    /// The consistent mass ρV/20·(1 + δᵢⱼ).
+    Consistent,
+}
+
+/// Rayleigh damping coefficients.
+#[derive(Debug, Clone, Copy, Default, Deserialize, PartialEq, serde::Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct DampingSpec {
+    /// α (1/s), the mass-proportional coefficient.
+    #[serde(default)]
+    pub mass: f64,
+    /// β (s), the stiffness-proportional coefficient.
+    #[serde(default)]
+    pub stiffness: f64,
+}
+
+/// `[output]`.
+#[derive(Debug, Clone, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct OutputSpec {
+    /// Output folder, relative to the scene file's folder (default: `out/<scene file stem>` in
+    /// the working directory).
+    #[serde(default)]
+    pub directory: Option<PathBuf>,
+    /// Write `.vtu` frames and a `.pvd` collection (default true).
+    #[serde(default)]
+    pub vtu: Option<bool>,
+    /// Dynamic: write a frame every this many steps (default 1; the last step always).
+    #[serde(default)]
+    pub every: Option<usize>,
+    /// Write the probes' time series as CSV (default true).
+    #[serde(default)]
+    pub csv: Option<bool>,
+    /// Render PNG pictures of the deformed body (default false).
+    #[serde(default)]
+    pub png: Option<bool>,
+    /// What colours the picture: `"displacement"` (default) or `"von_mises"`.
+    #[serde(default)]
+    pub png_field: Option<PngField>,
+    /// Picture size in pixels (default [960, 600]).
+    #[serde(default)]
+    pub png_size: Option<[u32; 2]>,
+    /// Displacement magnification in pictures; 0 (default) picks one that shows the largest
+    /// displacement as 10 % of the body's size (never below 1).
+    #[serde(default)]
+    pub deformation_scale: Option<f64>,
+}
+
+/// The field a picture is coloured by.
+#[derive(Debug, Clone, Copy, Default, Deserialize, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum PngField {
+    /// |u| per node.
+    #[default]
+    Displacement,
+    /// Von Mises stress per tet.
+    VonMises,
+}
+
+/// `[[probes]]`: the mean displacement of a node set, recorded in the time series.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ProbeSpec {
+    /// Column prefix in the CSV (`<name>_ux`, `<name>_uy`, `<name>_uz`).
+    pub name: String,
+    /// The nodes.
+    #[serde(rename = "where")]
+    pub select: Selector,
+}

@@ -1,0 +1,30 @@
+//! tetfem's linear algebra: what the finite element analyses solve with, and nothing of meshes.
+//!
+//! - [`sparse`]: symmetric matrices in compressed sparse column form ([`CscMatrix`]);
+//! - [`block_sparse`]: the same in 3×3 node blocks, for bandwidth-bound products;
+//! - [`ordering`]: fill-reducing orderings (METIS nested dissection, AMD);
+//! - [`linsolve`]: sparse Cholesky (supernodal, over faer) and its triangular solves;
+//! - [`iterative`]: preconditioned conjugate gradients and its preconditioners;
+//! - [`amg`]: smoothed-aggregation multigrid, with a near-null space built from plain DOF
+//!   coordinates ([`amg::DofGeometry`]);
+//! - [`linear_solver`]: the choice between the direct and the iterative path, by a measured
+//!   cost model within the memory budget;
+//! - [`memory`]: the memory the process may still take, checked before large allocations.
+//!
+//! Every fallible function returns [`Result`]; its [`Error`] names the culprit.
+
+pub mod amg;
+pub mod block_sparse;
+pub mod error;
+pub mod iterative;
+pub mod linear_solver;
+pub mod linsolve;
+pub mod memory;
+pub mod ordering;
+pub mod sparse;
+
+pub use error::{Error, Result};
+pub use linear_solver::{LinearMethod, LinearSolver, SolverOptions};
+pub use linsolve::{CholeskyOptions, NumericFactorization, SparseCholesky, TriangularSolve};
+pub use ordering::FillOrdering;
+pub use sparse::CscMatrix;

@@ -1,0 +1,248 @@
+//! Line and scatter charts as PNG files (headless, pure Rust, with a vendored DejaVu Sans font),
+//! for the validation and performance reports.
+
+use std::path::Path;
+
+use plotters::coord::types::RangedCoordf64;
+use plotters::prelude::*;
+use plotters::style::register_font;
+
+use tetfem::error::{Error, Result};
+
+static FONT: &[u8] = include_bytes!("../../assets/fonts/DejaVuSans.ttf");
+
+/// How a series is drawn.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Mark {
+    /// Straight segments between consecutive points.
+    Line,
+    /// Dashed segments (for reference or theory lines).
+    Dashed,
+    /// Filled circles only.
+    Points,
+    /// Segments and circles.
+    LinePoints,
+}
+
+/// One named series of (x, y) points.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Series {
+    /// Legend text.
+    pub label: String,
+    /// The points, in drawing order.
+    pub points: Vec<(f64, f64)>,
+    /// How to draw them.
+    pub mark: Mark,
+}
+
+impl Series {
+    /// A series from label, points and mark.
+    pub fn new(label: impl Into<String>, points: Vec<(f64, f64)>, mark: Mark) -> Self {
+        Series {
+            label: label.into(),
+            points,
+            mark,
+        }
+    }
+}
+
+/// A chart: title, axis labels (with units), linear or logarithmic axes, series.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Chart {
+    /// Title above the plot.
+    pub title: String,
+    /// x-axis label, with units.
+    pub x_label: String,
+    /// y-axis label, with units.
+    pub y_label: String,
+    /// Logarithmic x axis.
+    pub log_x: bool,
+    /// Logarithmic y axis.
+    pub log_y: bool,
+    /// The data.
+    pub series: Vec<Series>,
+}
+
+const PALETTE: [RGBColor; 8] = [
+    RGBColor(31, 119, 180),
+    RGBColor(214, 39, 40),
+    RGBColor(44, 160, 44),
+    RGBColor(255, 127, 14),
+    RGBColor(148, 103, 189),
+    RGBColor(140, 86, 75),
+    RGBColor(227, 119, 194),
+    RGBColor(127, 127, 127),
+];
+
+impl Chart {
+    /// Writes the chart as a `width`×`height` PNG, atomically (temporary file, then rename).
+    /// Points that cannot be drawn (non-finite, or ≤ 0 on a log axis) are skipped.
+    pub fn write_png(&self, path: &Path, width: u32, height: u32) -> Result<()> {
+        let _ = register_font("sans-serif", FontStyle::Normal, FONT);
+        let mut temporary = path.as_os_str().to_owned();
+        temporary.push(format!(".tmp-{}.png", std::process::id()));
+        let temporary = std::path::PathBuf::from(temporary);
+        if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+            std::fs::create_dir_all(dir).map_err(|source| Error::Io {
+                path: dir.to_path_buf(),
+                source,
+            })?;
+        }
+        let drawn = self.draw(&temporary, width, height);
+        let result = drawn.and_then(|()| {
+            std::fs::rename(&temporary, path).map_err(|source| Error::Io {
+                path: path.to_path_buf(),
+                source,
+            })
+        });
+        if result.is_err() {
+            let _ = std::fs::remove_file(&temporary);
+        }
+        result
+    }
+
+    fn visible(&self, (x, y): (f64, f64)) -> bool {
+        x.is_finite() && y.is_finite() && (!self.log_x || x > 0.0) && (!self.log_y || y > 0.0)
+    }
+
+    fn range(&self, axis: usize, log: bool) -> (f64, f64) {
+        let values = self
+            .series
+            .iter()
+            .flat_map(|s| s.points.iter().copied())
+            .filter(|&p| self.visible(p))
+            .map(|p| if axis == 0 { p.0 } else { p.1 });
+        let (lo, hi) = values.fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| {
+            (lo.min(v), hi.max(v))
+        });
+        if !lo.is_finite() {
+            return if log { (0.1, 10.0) } else { (0.0, 1.0) };
+        }
+        if log {
+            let (lo, hi) = if lo == hi {
+                (lo / 2.0, hi * 2.0)
+            } else {
+                (lo, hi)
+            };
+            (lo / 1.3, hi * 1.3)
+        } else {
+            let pad = if hi > lo {
+                0.05 * (hi - lo)
+            } else {
+                lo.abs().max(1.0) * 0.1
+            };
+            (lo - pad, hi + pad)
+        }
+    }
+
+    fn draw(&self, path: &Path, width: u32, height: u32) -> Result<()> {
+        let fail = |e: String| Error::Io {
+            path: path.to_path_buf(),
+            source: std::io::Error::other(e),
+        };
+        let root = BitMapBackend::new(path, (width, height)).into_drawing_area();
+        root.fill(&WHITE).map_err(|e| fail(e.to_string()))?;
+        let (x0, x1) = self.range(0, self.log_x);
+        let (y0, y1) = self.range(1, self.log_y);
+        let mut builder = ChartBuilder::on(&root);
+        builder
+            .caption(&self.title, ("sans-serif", 22))
+            .margin(14)
+            .x_label_area_size(48)
+            .y_label_area_size(80);
+        macro_rules! render {
+            ($chart:expr) => {{
+                let mut chart = $chart.map_err(|e| fail(e.to_string()))?;
+                chart
+                    .configure_mesh()
+                    .x_desc(&self.x_label)
+                    .y_desc(&self.y_label)
+                    .label_style(("sans-serif", 14))
+                    .axis_desc_style(("sans-serif", 16))
+                    .x_label_formatter(&|v| format_tick(*v, self.log_x))
+                    .y_label_formatter(&|v| format_tick(*v, self.log_y))
+                    .draw()
+                    .map_err(|e| fail(e.to_string()))?;
+                for (k, series) in self.series.iter().enumerate() {
+                    let color = PALETTE[k % PALETTE.len()];
+                    let points: Vec<(f64, f64)> = series
+                        .points
+                        .iter()
+                        .copied()
+                        .filter(|&p| self.visible(p))
+                        .collect();
+                    let legend_style = color.stroke_width(2);
+                    let anno = match series.mark {
+                        Mark::Line | Mark::LinePoints => chart
+                            .draw_series(LineSeries::new(points.clone(), color.stroke_width(2)))
+                            .map_err(|e| fail(e.to_string()))?,
+                        Mark::Dashed => chart
+                            .draw_series(DashedLineSeries::new(
+                                points.clone(),
+                                8,
+                                6,
+                                color.stroke_width(2),
+                            ))
+                            .map_err(|e| fail(e.to_string()))?,
+                        Mark::Points => chart
+                            .draw_series(points.iter().map(|&p| Circle::new(p, 4, color.filled())))
+                            .map_err(|e| fail(e.to_string()))?,
+                    };
+                    anno.label(series.label.clone()).legend(move |(x, y)| {
+                        PathElement::new(vec![(x, y), (x + 20, y)], legend_style)
+                    });
+                    if series.mark == Mark::LinePoints {
+                        chart
+                            .draw_series(points.iter().map(|&p| Circle::new(p, 3, color.filled())))
+                            .map_err(|e| fail(e.to_string()))?;
+                    }
+                }
+                chart
+                    .configure_series_labels()
+                    .background_style(WHITE.mix(0.85))
+                    .border_style(BLACK)
+                    .label_font(("sans-serif", 14))
+                    .position(SeriesLabelPosition::UpperLeft)
+                    .draw()
+                    .map_err(|e| fail(e.to_string()))?;
+            }};
+        }
+        match (self.log_x, self.log_y) {
+            (true, true) => {
+                render!(builder.build_cartesian_2d((x0..x1).log_scale(), (y0..y1).log_scale()))
+            }
+            (true, false) => render!(builder.build_cartesian_2d((x0..x1).log_scale(), y0..y1)),
+            (false, true) => render!(builder.build_cartesian_2d(x0..x1, (y0..y1).log_scale())),
+            (false, false) => render!(
+                builder.build_cartesian_2d::<RangedCoordf64, RangedCoordf64>(
+                    (x0..x1).into(),
+                    (y0..y1).into()
+                )
+            ),
+        }
+        root.present().map_err(|e| fail(e.to_string()))
+    }
+}
+
+/// Compact tick labels: plain numbers in a readable range, scientific notation outside it; on a
+/// log axis only 1, 2 and 5 times a power of ten are labelled, so labels never collide.
+fn format_tick(v: f64, log: bool) -> String {
+    let a = v.abs();
+    if log && a > 0.0 {
+        let mantissa = a / 10f64.powf(a.log10().floor());
+        if ![1.0, 2.0, 5.0]
+            .iter()
+            .any(|m| (mantissa - m).abs() < 1e-6 * m)
+        {
+            return String::new();
+        }
+    }
+    if a == 0.0 {
+        "0".into()
+    } else if (1e-3..1e5).contains(&a) {
+        let s = format!("{v:.4}");
+        s.trim_end_matches('0').trim_end_matches('.').to_string()
+    } else {
+        format!("{v:.1e}")
+    }
+}

@@ -1,0 +1,4 @@
+//! tetfem's validation suite and scale study (the `validate` and `scale` programs) and the
+//! charts they draw ([`chart`]: error against wall time and the like, PNG and SVG).
+
+pub mod chart;
