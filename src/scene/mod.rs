@@ -261,14 +261,6 @@ impl Scene {
                 ),
             )
         })?;
-        if kind != crate::model::ModelKind::Linear && matches!(self.analysis, Analysis::Dynamic(_))
-        {
-            return Err(self.error(
-                "analysis.model",
-                &spanned.span(),
-                "nonlinear models run in static scenes (and through the library's NonlinearBackwardEuler); dynamic scene files integrate the linear model",
-            ));
-        }
         Ok(kind)
     }
 
