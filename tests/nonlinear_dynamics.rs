@@ -137,9 +137,13 @@ fn the_linear_model_through_the_seam_is_bit_identical() {
                     continue;
                 }
                 let today: Box<dyn Integrator> = match method {
-                    Method::BackwardEuler => Box::new(BackwardEuler::new(Arc::clone(system), dt).unwrap()),
+                    Method::BackwardEuler => {
+                        Box::new(BackwardEuler::new(Arc::clone(system), dt).unwrap())
+                    }
                     Method::Newmark => Box::new(Newmark::new(Arc::clone(system), dt).unwrap()),
-                    Method::Explicit => Box::new(SymplecticEuler::new(Arc::clone(system), dt).unwrap()),
+                    Method::Explicit => {
+                        Box::new(SymplecticEuler::new(Arc::clone(system), dt).unwrap())
+                    }
                 };
                 let mut runs = vec![today];
                 for force in [InternalForce::Linear, linear_model.clone()] {
@@ -217,7 +221,9 @@ fn corotational_backward_euler_settles_to_the_newton_static_answer() {
         .unwrap();
     let statics = solve_nonlinear_static(
         &beam.mesh,
-        ModelKind::Corotational.build(&beam.problem.material).as_ref(),
+        ModelKind::Corotational
+            .build(&beam.problem.material)
+            .as_ref(),
         &beam.problem.constraints(&beam.mesh).unwrap(),
         &loads,
         NewtonOptions::default(),
@@ -225,7 +231,8 @@ fn corotational_backward_euler_settles_to_the_newton_static_answer() {
     .unwrap();
     let dynamic = beam.system.dofs().expand(&state.displacement).unwrap();
     let (tip, static_tip) = (beam.tip(&dynamic), beam.tip(&statics.displacement));
-    let static_state = State::released_from(beam.system.dofs().restrict(&statics.displacement).unwrap());
+    let static_state =
+        State::released_from(beam.system.dofs().restrict(&statics.displacement).unwrap());
     let difference = (tip - static_tip).norm() / static_tip.norm();
     println!(
         "settled tip {tip:?} vs static {static_tip:?}: relative {difference:.2e}; rotation {:.2}° (static {:.2}°, largest {largest:.2}°); Newton {} iterations over {} steps, at most {} in one",
@@ -236,7 +243,10 @@ fn corotational_backward_euler_settles_to_the_newton_static_answer() {
         stats.max_per_step
     );
     assert_eq!(stats.steps, 400);
-    assert!(stats.max_per_step >= 2, "a large rotation needs Newton: {stats:?}");
+    assert!(
+        stats.max_per_step >= 2,
+        "a large rotation needs Newton: {stats:?}"
+    );
     // A large deflection (linear theory's 1.08 rad would be 62°).
     assert!(beam.tip_rotation(&static_state) > 45.0);
     // Measured 3.1e-9: the remaining transient (α damps the first mode, backward Euler's own
@@ -252,7 +262,12 @@ fn newmark_energy_drift(dt: f64) -> (f64, NewtonStats, f64) {
     let beam = swing(1e6, [10, 2, 2], MassKind::Lumped, Rayleigh::default());
     let force = beam.force(ModelKind::Corotational);
     let mut integrator = Method::Newmark
-        .integrator_with_force(Arc::clone(&beam.system), force.clone(), dt, IntegratorOptions::default())
+        .integrator_with_force(
+            Arc::clone(&beam.system),
+            force.clone(),
+            dt,
+            IntegratorOptions::default(),
+        )
         .unwrap();
     let mut state = State::at_rest(beam.system.free_count());
     let start = force.energy(&beam.system, &state).unwrap();
@@ -386,5 +401,9 @@ fn rubber_beam_swing_scene_swings_past_45_degrees() {
     println!("scene tip rotation: largest {largest:.1}° in {steps} steps");
     assert!(largest > 45.0, "{largest}°");
     // The probe's range says the same: the tip dropped by more than 0.6·L.
-    assert!(summary.probes[0].min[2] < -0.6 * length, "{:?}", summary.probes[0]);
+    assert!(
+        summary.probes[0].min[2] < -0.6 * length,
+        "{:?}",
+        summary.probes[0]
+    );
 }

@@ -111,7 +111,12 @@ impl BackwardEuler {
             None => self.guard = Some(DivergenceGuard::new(energy)),
         }
         // The predictor ũ = u + dt·v: where the body would go with no force.
-        for ((p, u), v) in self.work.iter_mut().zip(&state.displacement).zip(&state.velocity) {
+        for ((p, u), v) in self
+            .work
+            .iter_mut()
+            .zip(&state.displacement)
+            .zip(&state.velocity)
+        {
             *p = u + dt * v;
         }
         let equation = StepEquation {

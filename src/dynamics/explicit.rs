@@ -61,11 +61,9 @@ impl SymplecticEuler {
         };
         let forces = match force {
             InternalForce::Linear => None,
-            InternalForce::Nonlinear(f) => Some(NewtonSolver::new(
-                f,
-                &system,
-                StepNewtonOptions::default(),
-            )?),
+            InternalForce::Nonlinear(f) => {
+                Some(NewtonSolver::new(f, &system, StepNewtonOptions::default())?)
+            }
         };
         let n = system.free_count();
         Ok(SymplecticEuler {

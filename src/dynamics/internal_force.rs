@@ -106,16 +106,17 @@ impl NonlinearForce {
     /// prescribed displacement is not zero (naming the DOF), or the restricted assembly pattern
     /// is not the system's K_ff pattern (a system from [`LinearSystem::from_parts`] with
     /// another stiffness).
-    pub fn new(mesh: Arc<TetMesh>, model: Box<dyn ForceModel>, system: &LinearSystem) -> Result<Self> {
+    pub fn new(
+        mesh: Arc<TetMesh>,
+        model: Box<dyn ForceModel>,
+        system: &LinearSystem,
+    ) -> Result<Self> {
         let dofs = system.dofs();
         if dofs.full_count() != mesh.dof_count() {
             return Err(Error::invalid_parameter(
                 "nonlinear force mesh",
                 format!("{} DOFs", mesh.dof_count()),
-                format!(
-                    "must be the system's mesh ({} DOFs)",
-                    dofs.full_count()
-                ),
+                format!("must be the system's mesh ({} DOFs)", dofs.full_count()),
             ));
         }
         if let Some((dof, value)) = dofs
@@ -125,7 +126,11 @@ impl NonlinearForce {
             .find(|&(dof, &v)| dofs.free_index(dof).is_none() && v != 0.0)
         {
             return Err(Error::invalid_parameter(
-                format!("prescribed displacement of DOF {dof} (node {}, axis {})", dof / 3, dof % 3),
+                format!(
+                    "prescribed displacement of DOF {dof} (node {}, axis {})",
+                    dof / 3,
+                    dof % 3
+                ),
                 value,
                 "a nonlinear force model in dynamics supports fixed (zero) constraints only",
             ));
@@ -275,7 +280,9 @@ pub(crate) fn combine(
     out: &mut CscMatrix,
 ) -> Result<()> {
     match mass {
-        Mass::Consistent(m) => out.set_linear_combination(stiffness_scale, stiffness, mass_scale, m),
+        Mass::Consistent(m) => {
+            out.set_linear_combination(stiffness_scale, stiffness, mass_scale, m)
+        }
         Mass::Lumped(m) => {
             if !Arc::ptr_eq(out.pattern(), stiffness.pattern()) {
                 return Err(Error::invalid_parameter(

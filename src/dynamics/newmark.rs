@@ -5,8 +5,8 @@ use std::sync::Arc;
 
 use super::newton::{NewtonSolver, StepEquation, solve_mass};
 use super::{
-    DivergenceGuard, Integrator, IntegratorOptions, InternalForce, LinearSystem, Mass,
-    NewtonStats, State, check_time_step,
+    DivergenceGuard, Integrator, IntegratorOptions, InternalForce, LinearSystem, Mass, NewtonStats,
+    State, check_time_step,
 };
 use crate::error::Result;
 use crate::linear_solver::LinearSolver;

@@ -173,7 +173,8 @@ impl NewtonSolver {
         out: &mut [f64],
     ) -> Result<()> {
         let damping = system.damping();
-        self.force.force_into(u, &mut self.work, &mut self.internal)?;
+        self.force
+            .force_into(u, &mut self.work, &mut self.internal)?;
         system.mass().product_into(v, &mut self.scratch);
         let f = system.external_load();
         for i in 0..out.len() {
@@ -230,7 +231,12 @@ impl NewtonSolver {
     }
 
     /// Φ(u') of `equation` (see [`StepEquation`]).
-    fn potential(&self, system: &LinearSystem, equation: &StepEquation, u_new: &[f64]) -> Result<f64> {
+    fn potential(
+        &self,
+        system: &LinearSystem,
+        equation: &StepEquation,
+        u_new: &[f64],
+    ) -> Result<f64> {
         let damping = system.damping();
         let n = u_new.len();
         let p: Vec<f64> = (0..n).map(|i| u_new[i] - equation.predictor[i]).collect();
@@ -285,7 +291,8 @@ impl NewtonSolver {
         let mut r_norm = norm(&self.residual);
         if !r_norm.is_finite() {
             return Err(diverged(
-                "a displacement or velocity is no longer finite (the Newton residual is not)".into(),
+                "a displacement or velocity is no longer finite (the Newton residual is not)"
+                    .into(),
             ));
         }
         let reference = r_norm.max(norm(system.external_load()));
@@ -297,7 +304,14 @@ impl NewtonSolver {
                     self.options.max_iterations
                 )));
             }
-            self.factor_newton_matrix(system, u_new, s_m + s_c * damping.alpha, s_c * damping.beta, matrix, solver)?;
+            self.factor_newton_matrix(
+                system,
+                u_new,
+                s_m + s_c * damping.alpha,
+                s_c * damping.beta,
+                matrix,
+                solver,
+            )?;
             for (d, r) in self.delta.iter_mut().zip(&self.residual) {
                 *d = -r;
             }

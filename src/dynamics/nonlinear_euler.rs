@@ -64,7 +64,11 @@ impl NonlinearBackwardEuler {
         dt: f64,
     ) -> Result<Self> {
         let dt = check_time_step(dt)?;
-        Error::check_len("constraints DOFs", mesh.dof_count(), constraints.dof_count())?;
+        Error::check_len(
+            "constraints DOFs",
+            mesh.dof_count(),
+            constraints.dof_count(),
+        )?;
         Error::check_len("loads", mesh.dof_count(), loads.as_slice().len())?;
         let dofs = DofMap::new(constraints);
         if dofs.prescribed().iter().any(|&v| v != 0.0) {

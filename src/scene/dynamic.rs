@@ -661,6 +661,8 @@ struct PngLook {
     scale: f64,
     range: (f64, f64),
     field: PngField,
+    /// The camera's box for a nonlinear model's frames (see [`png_look`]).
+    view_box: Option<(Vector3<f64>, Vector3<f64>)>,
 }
 
 impl FrameWriter {
@@ -810,6 +812,7 @@ impl FrameWriter {
                     ),
                     deformation_scale: look.scale,
                     range: Some(look.range),
+                    view_box: look.view_box,
                     ..RenderOptions::default()
                 },
             )?;
@@ -883,21 +886,35 @@ fn png_look(setup: &DynamicSetup, s: &OutputSettings) -> Result<PngLook> {
     };
     let high = match s.png_field {
         PngField::Displacement => largest(&reference),
-        PngField::VonMises => setup
-            .von_mises(&reference)?
-            .into_iter()
-            .fold(0.0, f64::max),
+        PngField::VonMises => setup.von_mises(&reference)?.into_iter().fold(0.0, f64::max),
     };
+    // A nonlinear model's large motion would make every frame zoom onto its own shape: one
+    // camera for all, framing the body at rest and at the capped reference shape.
+    let view_box = nonlinear.then(|| {
+        let mut low = Vector3::repeat(f64::INFINITY);
+        let mut high = Vector3::repeat(f64::NEG_INFINITY);
+        for (n, x) in setup.mesh.nodes().iter().enumerate() {
+            let moved =
+                x + Vector3::new(reference[3 * n], reference[3 * n + 1], reference[3 * n + 2]);
+            low = low.inf(x).inf(&moved);
+            high = high.sup(x).sup(&moved);
+        }
+        (low, high)
+    });
     Ok(PngLook {
         scale,
         range: (0.0, if high > 0.0 { high } else { 1.0 }),
         field: s.png_field,
+        view_box,
     })
 }
 
 /// The diagonal of the mesh's bounding box (length units).
 fn body_size(mesh: &TetMesh) -> f64 {
-    let (mut low, mut high) = (Vector3::repeat(f64::INFINITY), Vector3::repeat(f64::NEG_INFINITY));
+    let (mut low, mut high) = (
+        Vector3::repeat(f64::INFINITY),
+        Vector3::repeat(f64::NEG_INFINITY),
+    );
     for x in mesh.nodes() {
         low = low.inf(x);
         high = high.sup(x);
@@ -957,7 +974,8 @@ pub fn run_dynamic_scene(
         true => Some(OutputLock::acquire(&scene.output().directory)?),
         false => None,
     };
-    let mut setup = DynamicSetup::from_scene(scene.build()?, settings)?.with_model(scene.model())?;
+    let mut setup =
+        DynamicSetup::from_scene(scene.build()?, settings)?.with_model(scene.model())?;
     setup.linear_method = scene.spec().linear_method();
     let method = overrides.method.unwrap_or(match settings.method {
         super::Method::BackwardEuler => Method::BackwardEuler,
