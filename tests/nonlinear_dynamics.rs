@@ -345,7 +345,7 @@ fn rubber_beam_swing_scene_swings_past_45_degrees() {
     ));
     let scene = tetfem::scene::Scene::load(path).unwrap();
     assert_eq!(scene.model(), ModelKind::Corotational);
-    let tetfem::scene::Analysis::Dynamic(settings) = scene.analysis().clone() else {
+    let tetfem::scene::Analysis::Dynamic(settings) = *scene.analysis() else {
         panic!("the scene is dynamic");
     };
     let steps = (0.6 / settings.dt).round() as usize;
