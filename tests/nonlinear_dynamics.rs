@@ -407,3 +407,130 @@ fn rubber_beam_swing_scene_swings_past_45_degrees() {
         summary.probes[0]
     );
 }
+
+/// Dynamic scenes take both nonlinear models with every method: each runs, reports its model,
+/// and Newton iterations exactly for the implicit methods.
+#[test]
+fn dynamic_scenes_take_every_model_with_every_method() {
+    let path = std::path::Path::new(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/scenes/rubber_beam_swing.toml"
+    ));
+    let text = std::fs::read_to_string(path).unwrap();
+    for model in ["corotational", "neo-hookean"] {
+        for (method, dt) in [
+            ("backward_euler", "5e-3"),
+            ("newmark", "5e-3"),
+            ("explicit", "1e-4"),
+        ] {
+            let variant = text
+                .replace("model = \"corotational\"", &format!("model = \"{model}\""))
+                .replace(
+                    "method = \"backward_euler\"",
+                    &format!("method = \"{method}\""),
+                )
+                .replace("dt = 5e-3", &format!("dt = {dt}"));
+            let scene =
+                tetfem::scene::Scene::parse(&variant, "variant", path.parent().unwrap()).unwrap();
+            let summary = tetfem::scene::run_dynamic_scene(
+                &scene,
+                &tetfem::scene::DynamicOverrides {
+                    length: Some(tetfem::scene::RunLength::Steps(5)),
+                    ..Default::default()
+                },
+                false,
+                false,
+                &mut |_, _| std::ops::ControlFlow::Continue(()),
+            )
+            .unwrap();
+            assert_eq!(summary.model, model);
+            assert_eq!(summary.steps, 5);
+            // Released from rest, the beam starts to fall: the tip has moved down.
+            assert!(summary.probes[0].min[2] < 0.0, "{model} {method}");
+            match method {
+                "explicit" => assert!(summary.newton.is_none()),
+                _ => {
+                    let newton = summary.newton.unwrap();
+                    assert_eq!(newton.steps, 5);
+                    assert!(newton.total_iterations >= 5, "{model} {method}: {newton:?}");
+                }
+            }
+        }
+    }
+}
+
+/// Errors name the culprit: a prescribed non-zero displacement (its DOF), Newton options out of
+/// range (the key), and a step whose Newton iterations run out (`Diverged`, naming the step).
+#[test]
+fn nonlinear_dynamics_errors_name_the_culprit() {
+    let beam = swing(1e6, [6, 2, 2], MassKind::Lumped, Rayleigh::default());
+    // A prescribed displacement: the tip's first node moved by 1 mm in z.
+    let mut constraints = beam.problem.constraints(&beam.mesh).unwrap();
+    let node = beam.problem.tip_nodes(&beam.mesh)[0];
+    constraints.prescribe_axis(node, 2, 1e-3).unwrap();
+    let prescribed = LinearSystem::new(
+        &beam.mesh,
+        &beam.problem.material,
+        &constraints,
+        &Loads::new(&beam.mesh),
+        Vector3::zeros(),
+        MassKind::Lumped,
+        Rayleigh::default(),
+    )
+    .unwrap();
+    match InternalForce::of_model(
+        Arc::clone(&beam.mesh),
+        ModelKind::Corotational.build(&beam.problem.material),
+        &prescribed,
+    ) {
+        Err(tetfem::Error::InvalidParameter { name, .. }) => {
+            assert!(name.contains(&format!("DOF {}", 3 * node + 2)), "{name}")
+        }
+        other => panic!("expected InvalidParameter, got {other:?}"),
+    }
+    let force = beam.force(ModelKind::NeoHookean);
+    for (tolerance, max_iterations, key) in [
+        (f64::NAN, 10, "newton.tolerance"),
+        (0.0, 10, "newton.tolerance"),
+        (1e-8, 0, "newton.max_iterations"),
+    ] {
+        let options = IntegratorOptions {
+            newton: tetfem::dynamics::StepNewtonOptions {
+                tolerance,
+                max_iterations,
+            },
+            ..IntegratorOptions::default()
+        };
+        match Method::Newmark.integrator_with_force(
+            Arc::clone(&beam.system),
+            force.clone(),
+            1e-2,
+            options,
+        ) {
+            Err(tetfem::Error::InvalidParameter { name, .. }) => assert_eq!(name, key),
+            other => panic!(
+                "expected InvalidParameter on {key}, got {:?}",
+                other.map(|i| i.name())
+            ),
+        }
+    }
+    // One iteration allowed at a large step of a large swing: not enough.
+    let options = IntegratorOptions {
+        newton: tetfem::dynamics::StepNewtonOptions {
+            tolerance: 1e-12,
+            max_iterations: 1,
+        },
+        ..IntegratorOptions::default()
+    };
+    let mut integrator = Method::BackwardEuler
+        .integrator_with_force(Arc::clone(&beam.system), force, 0.05, options)
+        .unwrap();
+    let mut state = State::at_rest(beam.system.free_count());
+    match integrator.step(&mut state) {
+        Err(tetfem::Error::Diverged { step, reason, .. }) => {
+            assert_eq!(step, 0);
+            assert!(reason.contains("Newton did not converge"), "{reason}");
+        }
+        other => panic!("expected Diverged, got {other:?}"),
+    }
+}

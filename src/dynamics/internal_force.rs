@@ -81,10 +81,10 @@ impl InternalForce {
 
 /// A nonlinear [`ForceModel`] on the free DOFs of a [`LinearSystem`].
 ///
-/// The system supplies the mass, damping, loads and DOF map; its K_ff is the model's tangent at
-/// rest (for the corotational and Neo-Hookean models it equals the linear stiffness there), used
-/// for the explicit critical step and, times β, as nothing else: the stiffness part of Rayleigh
-/// damping uses the tangent at the start of each step (see the integrators).
+/// The system supplies the mass, damping, loads and DOF map. Its K_ff is the model's tangent at
+/// rest (for the corotational and Neo-Hookean models it equals the linear stiffness there): it
+/// gives the explicit critical step and the symbolic analysis the implicit methods refactor on;
+/// the stiffness part of Rayleigh damping uses the tangent at the start of each step instead.
 ///
 /// Prescribed displacements must be zero: the linear system folds −K_fc·u_c into its loads,
 /// which has no meaning for a nonlinear force.
