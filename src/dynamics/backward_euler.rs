@@ -4,9 +4,10 @@ use std::sync::Arc;
 
 use rayon::prelude::*;
 
+use super::newton::{NewtonSolver, StepEquation};
 use super::{
-    DivergenceGuard, Energy, Integrator, IntegratorOptions, LinearSystem, Mass, State,
-    check_time_step, sum_in_order,
+    DivergenceGuard, Energy, Integrator, IntegratorOptions, InternalForce, LinearSystem, Mass,
+    NewtonStats, State, check_time_step, sum_in_order,
 };
 use crate::block_sparse::SymmetricWorkspace;
 use crate::error::Result;
@@ -24,6 +25,15 @@ use crate::sparse::CscMatrix;
 /// iterative path of [`IntegratorOptions::linear_method`], one preconditioned CG solve); on the
 /// direct path it allocates nothing. The divergence guard checks the energy of the state each step starts from (that
 /// costs no extra product), so a runaway is caught one step after it happens.
+///
+/// With a nonlinear [`InternalForce`] the step is the same implicit equation in the new
+/// displacement u⁺ = u + dt·v⁺,
+///
+/// M·(u⁺ − u − dt·v)/dt² + C·(u⁺ − u)/dt − f_int(u⁺) − f = 0,  v⁺ = (u⁺ − u)/dt,
+///
+/// solved by Newton's method ([`super::StepNewtonOptions`]; the tangent refilled and
+/// refactored numerically each iteration on K_ff's symbolic analysis; C's stiffness part the
+/// tangent at u). Its first iteration from u⁺ = u is the linearized step of Baraff & Witkin.
 #[derive(Debug)]
 pub struct BackwardEuler {
     system: Arc<LinearSystem>,
@@ -36,6 +46,8 @@ pub struct BackwardEuler {
     product: Vec<f64>,
     rhs: Vec<f64>,
     blocks_work: SymmetricWorkspace,
+    /// The Newton solver of a nonlinear force (`None`: the linear path).
+    newton: Option<NewtonSolver>,
 }
 
 impl BackwardEuler {
@@ -51,9 +63,24 @@ impl BackwardEuler {
         dt: f64,
         options: IntegratorOptions,
     ) -> Result<Self> {
+        Self::with_force(system, InternalForce::Linear, dt, options)
+    }
+
+    /// An integrator with the elastic force `force` (the linear one is
+    /// [`with_options`](Self::with_options)), time step `dt` and `options`.
+    pub fn with_force(
+        system: Arc<LinearSystem>,
+        force: InternalForce,
+        dt: f64,
+        options: IntegratorOptions,
+    ) -> Result<Self> {
         let dt = check_time_step(dt)?;
         let matrix = system.stiffness().clone();
-        let solver = super::step_solver(&system, &matrix, &options)?;
+        let solver = super::step_solver(&system, &matrix, &options, &force)?;
+        let newton = match force {
+            InternalForce::Linear => None,
+            InternalForce::Nonlinear(f) => Some(NewtonSolver::new(f, &system, options.newton)?),
+        };
         let n = system.free_count();
         Ok(BackwardEuler {
             dt,
@@ -65,8 +92,61 @@ impl BackwardEuler {
             product: vec![0.0; n],
             rhs: vec![0.0; n],
             blocks_work: system.stiffness_blocks().workspace(),
+            newton,
             system,
         })
+    }
+
+    /// A step with the nonlinear force: Newton on the implicit equation in u⁺.
+    fn nonlinear_step(&mut self, state: &mut State) -> Result<()> {
+        let n = self.system.free_count();
+        state.check_len(n)?;
+        let Some(newton) = self.newton.as_mut() else {
+            return Ok(());
+        };
+        let dt = self.dt;
+        let energy = newton.force().energy(&self.system, state)?;
+        match &self.guard {
+            Some(guard) => guard.check_energy(state.steps, state.time, &energy)?,
+            None => self.guard = Some(DivergenceGuard::new(energy)),
+        }
+        // The predictor ũ = u + dt·v: where the body would go with no force.
+        for ((p, u), v) in self
+            .work
+            .iter_mut()
+            .zip(&state.displacement)
+            .zip(&state.velocity)
+        {
+            *p = u + dt * v;
+        }
+        let equation = StepEquation {
+            mass_scale: 1.0 / (dt * dt),
+            damping_scale: 1.0 / dt,
+            predictor: &self.work,
+            start: &state.displacement,
+            damping_velocity: None,
+        };
+        newton.solve(
+            &self.system,
+            &equation,
+            &mut self.matrix,
+            &mut self.solver,
+            &mut self.rhs,
+            state.steps,
+            state.time,
+        )?;
+        for ((u, v), u_new) in state
+            .displacement
+            .iter_mut()
+            .zip(state.velocity.iter_mut())
+            .zip(&self.rhs)
+        {
+            *v = (u_new - *u) / dt;
+            *u = *u_new;
+        }
+        state.time += dt;
+        state.steps += 1;
+        state.ensure_finite("")
     }
 
     /// Forms (1 + dt·α)·M + (dt·β + dt²)·K and factors it.
@@ -83,6 +163,9 @@ impl BackwardEuler {
 
 impl Integrator for BackwardEuler {
     fn step(&mut self, state: &mut State) -> Result<()> {
+        if self.newton.is_some() {
+            return self.nonlinear_step(state);
+        }
         let n = self.system.free_count();
         state.check_len(n)?;
         if self.factored_for != Some(self.dt) {
@@ -171,5 +254,9 @@ impl Integrator for BackwardEuler {
 
     fn name(&self) -> &'static str {
         "backward-euler"
+    }
+
+    fn newton_stats(&self) -> Option<NewtonStats> {
+        self.newton.as_ref().map(NewtonSolver::stats)
     }
 }

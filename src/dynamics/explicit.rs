@@ -4,8 +4,10 @@ use std::sync::Arc;
 
 use rayon::prelude::*;
 
+use super::newton::NewtonSolver;
 use super::{
-    DivergenceGuard, Energy, Integrator, LinearSystem, Mass, State, check_time_step, sum_in_order,
+    DivergenceGuard, Energy, Integrator, InternalForce, LinearSystem, Mass, State,
+    StepNewtonOptions, check_time_step, sum_in_order,
 };
 use crate::block_sparse::SymmetricWorkspace;
 use crate::error::{Error, Result};
@@ -18,6 +20,11 @@ use crate::error::{Error, Result};
 /// As in every leapfrog scheme the velocity it stores lives half a step behind the displacement
 /// (v⁺ is the mean velocity over the step that produced u⁺); the velocity at the displacement's
 /// time is v − dt/2·M⁻¹(K·u − f) to second order.
+///
+/// With a nonlinear [`InternalForce`], −K·u becomes f_int(u) and the stiffness damping β·K·v
+/// becomes β·K_T(u)·v (the tangent, PSD-projected, assembled each step only when β > 0); still
+/// no solve. The critical step is then the one of the tangent at rest (K_ff), which large
+/// stretches can lower: leave a margin.
 #[derive(Debug)]
 pub struct SymplecticEuler {
     system: Arc<LinearSystem>,
@@ -27,11 +34,19 @@ pub struct SymplecticEuler {
     work: Vec<f64>,
     product: Vec<f64>,
     blocks_work: SymmetricWorkspace,
+    /// The evaluator of a nonlinear force (`None`: the linear path).
+    forces: Option<NewtonSolver>,
 }
 
 impl SymplecticEuler {
     /// An integrator with time step `dt`; the system must have lumped mass.
     pub fn new(system: Arc<LinearSystem>, dt: f64) -> Result<Self> {
+        Self::with_force(system, InternalForce::Linear, dt)
+    }
+
+    /// An integrator with the elastic force `force` (the linear one is [`new`](Self::new)) and
+    /// time step `dt`; the system must have lumped mass.
+    pub fn with_force(system: Arc<LinearSystem>, force: InternalForce, dt: f64) -> Result<Self> {
         let dt = check_time_step(dt)?;
         super::check_damping(&system)?;
         let inverse_mass = match system.mass() {
@@ -44,8 +59,15 @@ impl SymplecticEuler {
                 ));
             }
         };
+        let forces = match force {
+            InternalForce::Linear => None,
+            InternalForce::Nonlinear(f) => {
+                Some(NewtonSolver::new(f, &system, StepNewtonOptions::default())?)
+            }
+        };
         let n = system.free_count();
         Ok(SymplecticEuler {
+            forces,
             dt,
             inverse_mass,
             guard: None,
@@ -57,8 +79,42 @@ impl SymplecticEuler {
     }
 }
 
+impl SymplecticEuler {
+    /// A step with the nonlinear force: v⁺ = v + dt·M⁻¹·(f + f_int(u) − C(u)·v), u⁺ = u + dt·v⁺;
+    /// the guard checks the energies of the state the step starts from.
+    fn nonlinear_step(&mut self, state: &mut State) -> Result<()> {
+        let n = self.system.free_count();
+        state.check_len(n)?;
+        let Some(forces) = self.forces.as_mut() else {
+            return Ok(());
+        };
+        let energy = forces.force().energy(&self.system, state)?;
+        match &self.guard {
+            Some(guard) => guard.check_energy(state.steps, state.time, &energy)?,
+            None => self.guard = Some(DivergenceGuard::new(energy)),
+        }
+        forces.net_force(
+            &self.system,
+            &state.displacement,
+            &state.velocity,
+            &mut self.product,
+        )?;
+        let dt = self.dt;
+        for i in 0..n {
+            state.velocity[i] += dt * self.product[i] * self.inverse_mass[i];
+            state.displacement[i] += dt * state.velocity[i];
+        }
+        state.time += dt;
+        state.steps += 1;
+        state.ensure_finite("; is dt above the critical step?")
+    }
+}
+
 impl Integrator for SymplecticEuler {
     fn step(&mut self, state: &mut State) -> Result<()> {
+        if self.forces.is_some() {
+            return self.nonlinear_step(state);
+        }
         let n = self.system.free_count();
         state.check_len(n)?;
         let (dt, damping) = (self.dt, self.system.damping());

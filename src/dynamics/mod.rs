@@ -5,12 +5,19 @@
 //! stable, dissipative), [`Newmark`] (average acceleration: implicit, second order,
 //! unconditionally stable, energy-conserving), [`SymplecticEuler`] (explicit, second order in
 //! the staggered sense, stable only below [`critical_time_step`]).
+//!
+//! The elastic force is a parameter of every integrator ([`InternalForce`]): the linear
+//! −K_ff·u with all its fast paths, or a nonlinear [`ForceModel`](crate::model::ForceModel),
+//! with which the implicit methods iterate Newton per step (written once, in `newton.rs`) and
+//! the explicit one evaluates the nonlinear force.
 
 mod backward_euler;
 mod damping;
 mod energy;
 mod explicit;
+mod internal_force;
 mod newmark;
+mod newton;
 mod nonlinear_euler;
 mod stability;
 mod state;
@@ -20,7 +27,9 @@ pub use backward_euler::BackwardEuler;
 pub use damping::Rayleigh;
 pub use energy::Energy;
 pub use explicit::SymplecticEuler;
+pub use internal_force::{ForceWorkspace, InternalForce, NonlinearForce};
 pub use newmark::Newmark;
+pub use newton::{NewtonStats, StepNewtonOptions};
 pub use nonlinear_euler::NonlinearBackwardEuler;
 pub use stability::{CriticalStep, DivergenceGuard, critical_time_step, element_critical_step};
 pub use state::State;
@@ -52,6 +61,11 @@ pub trait Integrator {
     /// The linear solver of an implicit method (`None` for the explicit one): which method it
     /// took and why ([`LinearSolver::choice`]).
     fn linear_solver(&self) -> Option<&LinearSolver> {
+        None
+    }
+    /// Newton iteration counts so far (`None` with the linear model, and for the explicit
+    /// method, which solves nothing).
+    fn newton_stats(&self) -> Option<NewtonStats> {
         None
     }
 }
@@ -111,6 +125,9 @@ pub struct IntegratorOptions {
     pub linear_method: LinearMethod,
     /// Stopping rule of conjugate gradients on the iterative path.
     pub cg: CgOptions,
+    /// Tolerance and iteration limit of the implicit methods' Newton iterations per step with
+    /// a nonlinear [`InternalForce`] (ignored with the linear one).
+    pub newton: StepNewtonOptions,
 }
 
 impl Default for IntegratorOptions {
@@ -119,6 +136,7 @@ impl Default for IntegratorOptions {
             cholesky: CholeskyOptions::default(),
             linear_method: LinearMethod::Direct,
             cg: CgOptions::default(),
+            newton: StepNewtonOptions::default(),
         }
     }
 }
@@ -128,18 +146,24 @@ impl Default for IntegratorOptions {
 /// solves.
 pub const STEPS_PER_MATRIX: usize = 100;
 
-/// The implicit methods' solver of `matrix` (on the pattern of `system`'s K_ff), analysed.
+/// The implicit methods' solver of `matrix` (on the pattern of `system`'s K_ff), analysed: for
+/// [`STEPS_PER_MATRIX`] solves per matrix with the linear force, one with a nonlinear one (its
+/// Newton matrix changes every iteration).
 fn step_solver(
     system: &LinearSystem,
     matrix: &CscMatrix,
     options: &IntegratorOptions,
+    force: &InternalForce,
 ) -> Result<LinearSolver> {
     check_damping(system)?;
     let solver_options = SolverOptions {
         method: options.linear_method,
         cholesky: options.cholesky,
         cg: options.cg,
-        expected_solves: STEPS_PER_MATRIX,
+        expected_solves: match force {
+            InternalForce::Linear => STEPS_PER_MATRIX,
+            InternalForce::Nonlinear(_) => 1,
+        },
         ..SolverOptions::default()
     };
     let geometry = match options.linear_method {
@@ -204,6 +228,25 @@ impl Method {
             Method::BackwardEuler => Box::new(BackwardEuler::with_options(system, dt, options)?),
             Method::Newmark => Box::new(Newmark::with_options(system, dt, options)?),
             Method::Explicit => Box::new(SymplecticEuler::new(system, dt)?),
+        })
+    }
+
+    /// Builds the integrator for `system` with the elastic force `force` (linear or a
+    /// nonlinear model), time step `dt` and `options`. With [`InternalForce::Linear`] it is
+    /// [`integrator_with`](Self::integrator_with): the same code, the same bits.
+    pub fn integrator_with_force(
+        self,
+        system: std::sync::Arc<LinearSystem>,
+        force: InternalForce,
+        dt: f64,
+        options: IntegratorOptions,
+    ) -> Result<Box<dyn Integrator>> {
+        Ok(match self {
+            Method::BackwardEuler => {
+                Box::new(BackwardEuler::with_force(system, force, dt, options)?)
+            }
+            Method::Newmark => Box::new(Newmark::with_force(system, force, dt, options)?),
+            Method::Explicit => Box::new(SymplecticEuler::with_force(system, force, dt)?),
         })
     }
 }

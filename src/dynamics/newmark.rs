@@ -3,8 +3,10 @@
 
 use std::sync::Arc;
 
+use super::newton::{NewtonSolver, StepEquation, solve_mass};
 use super::{
-    DivergenceGuard, Integrator, IntegratorOptions, LinearSystem, Mass, State, check_time_step,
+    DivergenceGuard, Integrator, IntegratorOptions, InternalForce, LinearSystem, Mass, NewtonStats,
+    State, check_time_step,
 };
 use crate::error::Result;
 use crate::linear_solver::LinearSolver;
@@ -20,6 +22,15 @@ use crate::sparse::CscMatrix;
 /// method's state: it is computed from the equation of motion on the first step, and again
 /// whenever the [`State`] given is not the one this integrator left (its time or step count
 /// changed).
+///
+/// With a nonlinear [`InternalForce`], K·u⁺ becomes −f_int(u⁺) and the step equation in u⁺,
+///
+/// 4/dt²·M·(u⁺ − u − dt·v − dt²/4·a) + C·(2/dt·(u⁺ − u) − v) − f_int(u⁺) − f = 0,
+///
+/// is solved by Newton's method ([`super::StepNewtonOptions`]; C's stiffness part the tangent
+/// at u), then a⁺ and v⁺ follow from the same two formulas. Undamped, the method then conserves
+/// kinetic + the model's elastic energy − the loads' work to the Newton tolerance (the
+/// trapezoidal rule on the force, exact for the quadratic energy only).
 #[derive(Debug)]
 pub struct Newmark {
     system: Arc<LinearSystem>,
@@ -34,6 +45,8 @@ pub struct Newmark {
     work: Vec<f64>,
     product: Vec<f64>,
     rhs: Vec<f64>,
+    /// The Newton solver of a nonlinear force (`None`: the linear path).
+    newton: Option<NewtonSolver>,
 }
 
 impl Newmark {
@@ -49,9 +62,24 @@ impl Newmark {
         dt: f64,
         options: IntegratorOptions,
     ) -> Result<Self> {
+        Self::with_force(system, InternalForce::Linear, dt, options)
+    }
+
+    /// An integrator with the elastic force `force` (the linear one is
+    /// [`with_options`](Self::with_options)), time step `dt` and `options`.
+    pub fn with_force(
+        system: Arc<LinearSystem>,
+        force: InternalForce,
+        dt: f64,
+        options: IntegratorOptions,
+    ) -> Result<Self> {
         let dt = check_time_step(dt)?;
         let matrix = system.stiffness().clone();
-        let solver = super::step_solver(&system, &matrix, &options)?;
+        let solver = super::step_solver(&system, &matrix, &options, &force)?;
+        let newton = match force {
+            InternalForce::Linear => None,
+            InternalForce::Nonlinear(f) => Some(NewtonSolver::new(f, &system, options.newton)?),
+        };
         let n = system.free_count();
         Ok(Newmark {
             system,
@@ -65,7 +93,83 @@ impl Newmark {
             work: vec![0.0; n],
             product: vec![0.0; n],
             rhs: vec![0.0; n],
+            newton,
         })
+    }
+
+    /// The energies of `state` under this integrator's force law.
+    fn energy_of(&mut self, state: &State) -> Result<super::Energy> {
+        match &self.newton {
+            Some(newton) => newton.force().energy(&self.system, state),
+            None => self.system.energy_using(state, &mut self.work),
+        }
+    }
+
+    /// A step with the nonlinear force: a = M⁻¹·(f + f_int(u) − C·v) when needed, Newton on
+    /// the step equation in u⁺, then the linear method's update of a and v.
+    fn nonlinear_step(&mut self, state: &mut State) -> Result<()> {
+        let n = self.system.free_count();
+        state.check_len(n)?;
+        if self.guard.is_none() {
+            self.guard = Some(DivergenceGuard::new(self.energy_of(state)?));
+        }
+        let Some(newton) = self.newton.as_mut() else {
+            return Ok(());
+        };
+        let dt = self.dt;
+        if self.acceleration_of != Some((state.steps, state.time)) {
+            newton.net_force(
+                &self.system,
+                &state.displacement,
+                &state.velocity,
+                &mut self.acceleration,
+            )?;
+            solve_mass(self.system.mass(), &mut self.acceleration)?;
+            self.acceleration_of = Some((state.steps, state.time));
+        }
+        let (u, v, a) = (&state.displacement, &state.velocity, &self.acceleration);
+        for i in 0..n {
+            self.work[i] = u[i] + dt * v[i] + 0.25 * dt * dt * a[i];
+        }
+        let equation = StepEquation {
+            mass_scale: 4.0 / (dt * dt),
+            damping_scale: 2.0 / dt,
+            predictor: &self.work,
+            start: u,
+            damping_velocity: Some(v),
+        };
+        newton.solve(
+            &self.system,
+            &equation,
+            &mut self.matrix,
+            &mut self.solver,
+            &mut self.rhs,
+            state.steps,
+            state.time,
+        )?;
+        self.advance(state);
+        let energy = self.energy_of(state)?;
+        match &self.guard {
+            Some(guard) => guard.check(state, &energy),
+            None => Ok(()),
+        }
+    }
+
+    /// a⁺ = 4/dt²·(u⁺ − u) − 4/dt·v − a,  v⁺ = v + dt/2·(a + a⁺),  u ← u⁺ (u⁺ in `rhs`).
+    fn advance(&mut self, state: &mut State) {
+        let dt = self.dt;
+        for i in 0..self.rhs.len() {
+            let u_new = self.rhs[i];
+            let a_new = 4.0 / (dt * dt) * (u_new - state.displacement[i])
+                - 4.0 / dt * state.velocity[i]
+                - self.acceleration[i];
+            state.velocity[i] += 0.5 * dt * (self.acceleration[i] + a_new);
+            state.displacement[i] = u_new;
+            self.acceleration[i] = a_new;
+        }
+        state.time += dt;
+        state.steps += 1;
+        self.acceleration_of = Some((state.steps, state.time));
     }
 
     fn factor(&mut self) -> Result<()> {
@@ -118,6 +222,9 @@ impl Newmark {
 
 impl Integrator for Newmark {
     fn step(&mut self, state: &mut State) -> Result<()> {
+        if self.newton.is_some() {
+            return self.nonlinear_step(state);
+        }
         let n = self.system.free_count();
         state.check_len(n)?;
         if self.factored_for != Some(self.dt) {
@@ -157,18 +264,7 @@ impl Integrator for Newmark {
             self.rhs[i] += f[i];
         }
         self.solver.solve(&self.matrix, &mut self.rhs)?;
-        for i in 0..n {
-            let u_new = self.rhs[i];
-            let a_new = 4.0 / (dt * dt) * (u_new - state.displacement[i])
-                - 4.0 / dt * state.velocity[i]
-                - self.acceleration[i];
-            state.velocity[i] += 0.5 * dt * (self.acceleration[i] + a_new);
-            state.displacement[i] = u_new;
-            self.acceleration[i] = a_new;
-        }
-        state.time += dt;
-        state.steps += 1;
-        self.acceleration_of = Some((state.steps, state.time));
+        self.advance(state);
         let energy = self.system.energy_using(state, &mut self.work)?;
         match &self.guard {
             Some(guard) => guard.check(state, &energy),
@@ -195,5 +291,9 @@ impl Integrator for Newmark {
 
     fn name(&self) -> &'static str {
         "newmark"
+    }
+
+    fn newton_stats(&self) -> Option<NewtonStats> {
+        self.newton.as_ref().map(NewtonSolver::stats)
     }
 }

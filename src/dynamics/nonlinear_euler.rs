@@ -1,53 +1,47 @@
-//! Backward Euler for nonlinear force models: one linearized solve per step (Baraff & Witkin).
+//! Backward Euler for nonlinear force models, set up from a mesh in one call: a thin wrapper of
+//! [`BackwardEuler`] with an [`InternalForce::Nonlinear`], kept for its callers.
 
 use std::sync::Arc;
 
 use nalgebra::Vector3;
 
-use super::{DivergenceGuard, Energy, State, check_time_step};
-use crate::assembly::{Assembler, lumped_mass};
-use crate::constraints::{Constraints, DofMap, Restriction, ensure_held};
+use super::{
+    BackwardEuler, Energy, Integrator, IntegratorOptions, InternalForce, LinearSystem, MassKind,
+    NewtonStats, NonlinearForce, Rayleigh, State, check_time_step,
+};
+use crate::constraints::{Constraints, DofMap, ensure_held};
 use crate::error::{Error, Result};
-use crate::linsolve::{CholeskyOptions, SparseCholesky};
+use crate::linsolve::CholeskyOptions;
 use crate::loads::Loads;
 use crate::material::Material;
 use crate::mesh::TetMesh;
 use crate::model::ForceModel;
-use crate::model::assemble::{internal_force, refill_tangent};
-use crate::sparse::CscMatrix;
 
-/// Backward Euler with a nonlinear [`ForceModel`], linearized once per step:
+/// Backward Euler with a nonlinear [`ForceModel`], lumped mass and no damping: exactly
+/// [`BackwardEuler::with_force`] on the [`LinearSystem`] of the mesh (its K_ff is the tangent
+/// at rest, its loads `loads` plus gravity) with [`InternalForce::Nonlinear`]. Each step solves
 ///
-/// (M + dt²·K_t(u))·Δv = dt·(f + f_int(u) − dt·K_t(u)·v),  v ← v + Δv,  u ← u + dt·v,
+/// M·(u⁺ − u − dt·v)/dt² − f_int(u⁺) − f = 0,  v⁺ = (u⁺ − u)/dt,
 ///
-/// with lumped mass and K_t the tangent with every element projected onto the PSD cone (so the
-/// system is SPD at any deformation). The tangent is refilled on the fixed pattern each step and
-/// refactored numerically; the symbolic analysis is done once. Like the linear method it is
-/// stable at steps far above the explicit limit and dissipates energy; being one Newton step per
-/// time step, it is first-order accurate.
+/// by Newton's method to [`StepNewtonOptions`](super::StepNewtonOptions)'s default tolerance,
+/// the tangent refilled on the fixed pattern and refactored numerically each iteration (the
+/// symbolic analysis done once, on the first step); its first iteration is the linearized step
+/// of Baraff & Witkin this type made before it became a wrapper. Stable at steps far above the
+/// explicit limit, first-order accurate, dissipative.
 pub struct NonlinearBackwardEuler {
-    mesh: Arc<TetMesh>,
-    model: Box<dyn ForceModel>,
-    assembler: Assembler,
-    dofs: DofMap,
-    restriction: Restriction,
-    mass: Vec<f64>,
-    external: Vec<f64>,
-    tangent: CscMatrix,
-    system: CscMatrix,
-    /// Analysed on the first step, with `cholesky_options`.
-    cholesky: Option<SparseCholesky>,
-    cholesky_options: CholeskyOptions,
+    system: Arc<LinearSystem>,
+    force: Arc<NonlinearForce>,
     dt: f64,
-    /// Set on the first step from the energy of the state it starts from.
-    guard: Option<DivergenceGuard>,
+    options: IntegratorOptions,
+    /// Built on the first step, with `options`.
+    integrator: Option<BackwardEuler>,
 }
 
 impl std::fmt::Debug for NonlinearBackwardEuler {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("NonlinearBackwardEuler")
-            .field("model", &self.model.name())
-            .field("free_dofs", &self.dofs.free_count())
+            .field("model", &self.force.model().name())
+            .field("free_dofs", &self.system.free_count())
             .field("dt", &self.dt)
             .finish_non_exhaustive()
     }
@@ -56,6 +50,10 @@ impl std::fmt::Debug for NonlinearBackwardEuler {
 impl NonlinearBackwardEuler {
     /// Sets up the method for `mesh` (fixed DOFs must be zero-valued), `model`, lumped mass of
     /// `material`, constant `loads` plus `gravity` (acceleration), and time step `dt`.
+    ///
+    /// Errors: dt not finite and > 0; constraints or loads of another mesh
+    /// ([`Error::DimensionMismatch`]); a non-zero prescribed displacement; constraints that
+    /// leave a rigid motion free.
     pub fn new(
         mesh: Arc<TetMesh>,
         material: &Material,
@@ -66,6 +64,12 @@ impl NonlinearBackwardEuler {
         dt: f64,
     ) -> Result<Self> {
         let dt = check_time_step(dt)?;
+        Error::check_len(
+            "constraints DOFs",
+            mesh.dof_count(),
+            constraints.dof_count(),
+        )?;
+        Error::check_len("loads", mesh.dof_count(), loads.as_slice().len())?;
         let dofs = DofMap::new(constraints);
         if dofs.prescribed().iter().any(|&v| v != 0.0) {
             return Err(Error::invalid_parameter(
@@ -75,47 +79,47 @@ impl NonlinearBackwardEuler {
             ));
         }
         ensure_held(&mesh, &mesh.face_topology()?, &dofs)?;
-        let assembler = Assembler::new(&mesh);
-        let restriction = dofs.restriction(assembler.pattern())?;
-        let mut all = loads.clone();
-        all.add_gravity(&mesh, material, gravity)?;
-        let tangent = CscMatrix::zeros(Arc::clone(assembler.pattern()))?;
-        let system = CscMatrix::zeros(Arc::clone(restriction.pattern()))?;
+        let system = LinearSystem::new(
+            &mesh,
+            material,
+            constraints,
+            loads,
+            gravity,
+            MassKind::Lumped,
+            Rayleigh::default(),
+        )?;
+        let force = Arc::new(NonlinearForce::new(mesh, model, &system)?);
         Ok(NonlinearBackwardEuler {
-            mass: dofs.restrict(&lumped_mass(&mesh, material))?,
-            external: all.as_slice().to_vec(),
-            mesh,
-            model,
-            assembler,
-            dofs,
-            restriction,
-            tangent,
-            system,
-            cholesky: None,
-            cholesky_options: CholeskyOptions::default(),
+            system: Arc::new(system),
+            force,
             dt,
-            guard: None,
+            options: IntegratorOptions::default(),
+            integrator: None,
         })
     }
 
     /// The same method with the Cholesky factorization of its step system on `options`
     /// (ordering and threads; the default is one thread, see
-    /// [`IntegratorOptions::cholesky`](super::IntegratorOptions::cholesky)). The symbolic
-    /// analysis runs on the first step.
+    /// [`IntegratorOptions::cholesky`]). The symbolic analysis runs on the first step.
     pub fn with_cholesky(mut self, options: CholeskyOptions) -> Self {
-        self.cholesky_options = options;
-        self.cholesky = None;
+        self.options.cholesky = options;
+        self.integrator = None;
         self
     }
 
     /// Number of free DOFs (the length of the state vectors).
     pub fn free_count(&self) -> usize {
-        self.dofs.free_count()
+        self.system.free_count()
     }
 
     /// The free/constrained DOF map.
     pub fn dofs(&self) -> &DofMap {
-        &self.dofs
+        self.system.dofs()
+    }
+
+    /// The system it integrates (mass, loads, DOF map; K_ff is the tangent at rest).
+    pub fn system(&self) -> &Arc<LinearSystem> {
+        &self.system
     }
 
     /// Kinetic energy ½·vᵀMv plus the model's elastic energy, minus the loads' work potential
@@ -127,83 +131,35 @@ impl NonlinearBackwardEuler {
     /// The terms of [`energy`](Self::energy), the loads' potential (gravity included) reported
     /// as `load_potential`.
     pub fn energy_terms(&self, state: &State) -> Result<Energy> {
-        state.check_len(self.free_count())?;
-        let u = self.dofs.expand(&state.displacement)?;
-        let kinetic: f64 = 0.5
-            * state
-                .velocity
-                .iter()
-                .zip(&self.mass)
-                .map(|(v, m)| m * v * v)
-                .sum::<f64>();
-        let elastic = crate::model::assemble::energy(&self.mesh, self.model.as_ref(), &u)?;
-        let potential: f64 = -self
-            .external
-            .iter()
-            .zip(&u)
-            .map(|(f, u)| f * u)
-            .sum::<f64>();
+        let e = self.force.energy(&self.system, state)?;
         Ok(Energy {
-            kinetic,
-            elastic,
             gravity_potential: 0.0,
-            load_potential: potential,
+            load_potential: e.gravity_potential + e.load_potential,
+            ..e
         })
     }
 
-    /// Advances `state` by one step; [`Error::Diverged`] if the state stops being finite or its
-    /// energy runs away (the same [`DivergenceGuard`] as the linear integrators).
+    /// Newton iteration counts so far (zero before the first step).
+    pub fn newton_stats(&self) -> NewtonStats {
+        self.integrator
+            .as_ref()
+            .and_then(Integrator::newton_stats)
+            .unwrap_or_default()
+    }
+
+    /// Advances `state` by one step; [`Error::Diverged`] if the state stops being finite, its
+    /// energy runs away (the same [`DivergenceGuard`](super::DivergenceGuard) as the linear
+    /// integrators) or Newton does not converge.
     pub fn step(&mut self, state: &mut State) -> Result<()> {
-        let n = self.dofs.free_count();
-        state.check_len(n)?;
-        if self.guard.is_none() {
-            self.guard = Some(DivergenceGuard::new(self.energy_terms(state)?));
-        }
-        let dt = self.dt;
-        let u = self.dofs.expand(&state.displacement)?;
-        refill_tangent(
-            &self.mesh,
-            &self.assembler,
-            self.model.as_ref(),
-            &u,
-            true,
-            &mut self.tangent,
-        )?;
-        self.restriction
-            .restrict_into(&self.tangent, &mut self.system)?;
-        // rhs = dt·(f + f_int − dt·K_t·v), computed before K_t is turned into M + dt²K_t.
-        let kv = self.system.mul(&state.velocity)?;
-        let forces = internal_force(&self.mesh, self.model.as_ref(), &u)?;
-        let mut rhs: Vec<f64> = self
-            .dofs
-            .free_dofs()
-            .iter()
-            .zip(&kv)
-            .map(|(&dof, kv)| dt * (self.external[dof] + forces[dof] - dt * kv))
-            .collect();
-        for value in self.system.values_mut() {
-            *value *= dt * dt;
-        }
-        self.system.add_diagonal(1.0, &self.mass)?;
-        let cholesky = match &mut self.cholesky {
-            Some(cholesky) => cholesky,
-            none => none.insert(SparseCholesky::analyze_with(
-                &self.system,
-                self.cholesky_options,
+        let integrator = match &mut self.integrator {
+            Some(integrator) => integrator,
+            none => none.insert(BackwardEuler::with_force(
+                Arc::clone(&self.system),
+                InternalForce::Nonlinear(Arc::clone(&self.force)),
+                self.dt,
+                self.options,
             )?),
         };
-        cholesky.factorize(&self.system)?;
-        cholesky.solve_in_place(&mut rhs)?;
-        for i in 0..n {
-            state.velocity[i] += rhs[i];
-            state.displacement[i] += dt * state.velocity[i];
-        }
-        state.time += dt;
-        state.steps += 1;
-        state.ensure_finite("")?;
-        match &self.guard {
-            Some(guard) => guard.check(state, &self.energy_terms(state)?),
-            None => Ok(()),
-        }
+        integrator.step(state)
     }
 }

@@ -604,6 +604,12 @@ fn print_dynamic(s: &DynamicSummary, directory: &Path, header: bool) {
         "  {}: dt = {:.4e} s = {:.1} × the critical step, {} steps to t = {:.4e} s",
         s.method, s.dt, s.dt_over_critical, s.steps, s.end_time
     );
+    if let Some(n) = &s.newton {
+        println!(
+            "  {} model: {} Newton iterations in all, at most {} in one step",
+            s.model, n.total_iterations, n.max_per_step
+        );
+    }
     println!(
         "  wall time: setup {}, first step {} (with factorization for implicit methods), then {} per step; steps {} in all, outputs {}",
         format_seconds(s.setup_seconds),

@@ -54,6 +54,10 @@ pub struct RenderOptions {
     pub elevation_deg: f64,
     /// Colour range; `None`: the field's min and max.
     pub range: Option<(f64, f64)>,
+    /// A world box (min and max corners, length units) the view always contains besides the
+    /// deformed body: the frames of a run then share one camera instead of each zooming onto
+    /// its own shape. `None`: fit the deformed body alone.
+    pub view_box: Option<(Vector3<f64>, Vector3<f64>)>,
 }
 
 impl Default for RenderOptions {
@@ -67,6 +71,7 @@ impl Default for RenderOptions {
             azimuth_deg: -60.0,
             elevation_deg: 25.0,
             range: None,
+            view_box: None,
         }
     }
 }
@@ -283,6 +288,25 @@ pub fn render(
     for f in &boundary {
         for &n in &f.nodes {
             let p = deformed[n];
+            let (sx, sy) = (p.dot(&right), p.dot(&up));
+            bounds = [
+                bounds[0].min(sx),
+                bounds[1].min(sy),
+                bounds[2].max(sx),
+                bounds[3].max(sy),
+            ];
+        }
+    }
+    if let Some((low, high)) = options.view_box {
+        for corner in 0..8 {
+            let pick = |bit: usize, a: usize| {
+                if corner >> bit & 1 == 0 {
+                    low[a]
+                } else {
+                    high[a]
+                }
+            };
+            let p = Vector3::new(pick(0, 0), pick(1, 1), pick(2, 2));
             let (sx, sy) = (p.dot(&right), p.dot(&up));
             bounds = [
                 bounds[0].min(sx),

@@ -13,16 +13,19 @@ use super::{Analysis, BuiltScene, DynamicSettings, OutputSettings, PngField, Pro
 use crate::render::{Field, RenderOptions, auto_deformation_scale, render};
 use tetfem::constraints::Constraints;
 use tetfem::dynamics::{
-    Energy, IntegratorOptions, LinearSystem, Mass, MassKind, Method, Rayleigh, State,
-    critical_time_step, element_critical_step,
+    Energy, IntegratorOptions, InternalForce, LinearSystem, Mass, MassKind, Method, NewtonStats,
+    Rayleigh, State, critical_time_step, element_critical_step,
 };
 use tetfem::error::{Error, Result};
 use tetfem::linalg::linear_solver::LinearMethod;
 use tetfem::loads::Loads;
 use tetfem::material::Material;
 use tetfem::mesh::TetMesh;
-use tetfem::output::fields::{cell_von_mises, displacement_magnitude};
-use tetfem::output::{CsvSeries, OutputLock, PvdCollection, write_atomically, write_result_vtu};
+use tetfem::output::fields::{cell_model_von_mises, cell_von_mises, displacement_magnitude};
+use tetfem::output::{
+    CsvSeries, OutputLock, PvdCollection, write_atomically, write_model_result_vtu,
+    write_result_vtu,
+};
 use tetfem_fixtures::cantilever::Cantilever;
 
 /// A time step: in time units, or as a multiple of the explicit critical step.
@@ -152,6 +155,10 @@ pub struct DynamicSetup {
     /// Warnings about the scene's own entries (a load acting on fixed DOFs only, no free DOF),
     /// reported with the mesh's and the material's in the run summary.
     pub input_warnings: Vec<tetfem::warning::Warning>,
+    /// The elastic force law: linear as built; [`with_model`](Self::with_model) (which
+    /// [`run_dynamic_scene`] calls with the scene's `analysis.model`) sets a nonlinear one.
+    /// Energies, stresses and `.vtu` fields of the run are the model's.
+    pub force: InternalForce,
     /// The explicit critical step once computed.
     critical: std::sync::OnceLock<(f64, &'static str)>,
 }
@@ -196,6 +203,7 @@ impl DynamicSetup {
             probes: built.probes,
             setup_seconds: clock.elapsed().as_secs_f64(),
             linear_method: LinearMethod::Direct,
+            force: InternalForce::Linear,
             critical: Default::default(),
         }
     }
@@ -229,6 +237,7 @@ impl DynamicSetup {
             probes,
             setup_seconds: clock.elapsed().as_secs_f64(),
             linear_method: LinearMethod::Direct,
+            force: InternalForce::Linear,
             critical: Default::default(),
         })
     }
@@ -247,6 +256,29 @@ impl DynamicSetup {
             built.gravity,
         )?;
         Ok(Self::of_built(built, system, initial, clock))
+    }
+
+    /// The same setup with the force model `kind` (on a copy of the mesh; the linear model
+    /// gives [`InternalForce::Linear`], the fast path). Errors: a non-zero prescribed
+    /// displacement with a nonlinear model, naming its DOF.
+    pub fn with_model(mut self, kind: tetfem::model::ModelKind) -> Result<Self> {
+        self.force = match kind {
+            tetfem::model::ModelKind::Linear => InternalForce::Linear,
+            nonlinear => InternalForce::of_model(
+                Arc::new(self.mesh.clone()),
+                nonlinear.build(&self.material),
+                &self.system,
+            )?,
+        };
+        Ok(self)
+    }
+
+    /// The model's von Mises stress per tet (Pa) at full displacement `u`.
+    fn von_mises(&self, u: &[f64]) -> Result<Vec<f64>> {
+        match &self.force {
+            InternalForce::Linear => cell_von_mises(&self.mesh, &self.material, u),
+            InternalForce::Nonlinear(n) => cell_model_von_mises(&self.mesh, n.model(), u),
+        }
     }
 
     /// The period 2π/ω₁ (time units) of the lowest natural mode of the constrained body, from
@@ -391,6 +423,11 @@ pub struct DynamicSummary {
     pub frames: usize,
     /// Files written.
     pub files: Vec<PathBuf>,
+    /// The force model (`linear`, `corotational`, `neo-hookean`).
+    pub model: String,
+    /// Newton iterations of an implicit method with a nonlinear model (total, most in one
+    /// step); `None` for the linear model and the explicit method.
+    pub newton: Option<NewtonStats>,
     /// Warnings about the mesh and the material (see [`tetfem::warning`]), as sentences.
     pub warnings: Vec<String>,
 }
@@ -466,15 +503,18 @@ fn run_dynamic_locked(
         linear_method: setup.linear_method,
         ..IntegratorOptions::default()
     };
-    let mut integrator = run
-        .method
-        .integrator_with(Arc::clone(&setup.system), dt, options)?;
+    let mut integrator = run.method.integrator_with_force(
+        Arc::clone(&setup.system),
+        setup.force.clone(),
+        dt,
+        options,
+    )?;
     let setup_seconds = setup.setup_seconds + clock.elapsed().as_secs_f64();
 
     let system = &setup.system;
     let mesh = &setup.mesh;
     let mut state = setup.initial.clone();
-    let initial_energy = system.energy(&state)?;
+    let initial_energy = setup.force.energy(system, &state)?;
     let mut writer = match outputs {
         Some(o) => Some(FrameWriter::new(setup, run, o, steps)?),
         None => None,
@@ -496,7 +536,7 @@ fn run_dynamic_locked(
                       last: bool|
      -> Result<Energy> {
         let clock = Instant::now();
-        let energy = system.energy(state)?;
+        let energy = setup.force.energy(system, state)?;
         let u = system.dofs().expand(&state.displacement)?;
         let mut means = Vec::with_capacity(setup.probes.len());
         for (probe, range) in setup.probes.iter().zip(probes.iter_mut()) {
@@ -588,6 +628,8 @@ fn run_dynamic_locked(
         probes,
         frames,
         files,
+        model: setup.force.name().into(),
+        newton: integrator.newton_stats(),
     };
     if let Some(o) = outputs {
         let json = o
@@ -619,6 +661,8 @@ struct PngLook {
     scale: f64,
     range: (f64, f64),
     field: PngField,
+    /// The camera's box for a nonlinear model's frames (see [`png_look`]).
+    view_box: Option<(Vector3<f64>, Vector3<f64>)>,
 }
 
 impl FrameWriter {
@@ -722,7 +766,14 @@ impl FrameWriter {
                 velocity[dof] = *v;
             }
             let vtu = dir.join(format!("{name}.vtu"));
-            write_result_vtu(&vtu, &setup.mesh, &setup.material, u, Some(&velocity))?;
+            match &setup.force {
+                InternalForce::Linear => {
+                    write_result_vtu(&vtu, &setup.mesh, &setup.material, u, Some(&velocity))?
+                }
+                InternalForce::Nonlinear(n) => {
+                    write_model_result_vtu(&vtu, &setup.mesh, n.model(), u, Some(&velocity))?
+                }
+            }
             pvd.push(state.time, &vtu)?;
             self.files.push(vtu);
         }
@@ -738,7 +789,7 @@ impl FrameWriter {
                     }
                 }
                 PngField::VonMises => {
-                    stress = cell_von_mises(&setup.mesh, &setup.material, u)?;
+                    stress = setup.von_mises(u)?;
                     Field::Cells {
                         name: "von Mises (Pa)",
                         values: &stress,
@@ -761,6 +812,7 @@ impl FrameWriter {
                     ),
                     deformation_scale: look.scale,
                     range: Some(look.range),
+                    view_box: look.view_box,
                     ..RenderOptions::default()
                 },
             )?;
@@ -812,22 +864,62 @@ fn png_look(setup: &DynamicSetup, s: &OutputSettings) -> Result<PngLook> {
     } else {
         doubled
     };
+    let nonlinear = setup.force.is_nonlinear();
+    // A nonlinear model's displacements are drawn as they are (magnifying a large rotation
+    // would tear the picture), and the linear static shape can be far beyond its swing: its
+    // colour range is capped at the body's size (bounding-box diagonal), its stress range
+    // taken from the model's stress at that capped shape.
     let scale = if s.deformation_scale > 0.0 {
         s.deformation_scale
+    } else if nonlinear {
+        1.0
     } else {
         auto_deformation_scale(&setup.mesh, &reference)
     };
+    let reference = if nonlinear {
+        let size = body_size(&setup.mesh);
+        let big = largest(&reference);
+        let shrink = if big > size { size / big } else { 1.0 };
+        reference.iter().map(|u| shrink * u).collect()
+    } else {
+        reference
+    };
     let high = match s.png_field {
         PngField::Displacement => largest(&reference),
-        PngField::VonMises => cell_von_mises(&setup.mesh, &setup.material, &reference)?
-            .into_iter()
-            .fold(0.0, f64::max),
+        PngField::VonMises => setup.von_mises(&reference)?.into_iter().fold(0.0, f64::max),
     };
+    // A nonlinear model's large motion would make every frame zoom onto its own shape: one
+    // camera for all, framing the body at rest and at the capped reference shape.
+    let view_box = nonlinear.then(|| {
+        let mut low = Vector3::repeat(f64::INFINITY);
+        let mut high = Vector3::repeat(f64::NEG_INFINITY);
+        for (n, x) in setup.mesh.nodes().iter().enumerate() {
+            let moved =
+                x + Vector3::new(reference[3 * n], reference[3 * n + 1], reference[3 * n + 2]);
+            low = low.inf(x).inf(&moved);
+            high = high.sup(x).sup(&moved);
+        }
+        (low, high)
+    });
     Ok(PngLook {
         scale,
         range: (0.0, if high > 0.0 { high } else { 1.0 }),
         field: s.png_field,
+        view_box,
     })
+}
+
+/// The diagonal of the mesh's bounding box (length units).
+fn body_size(mesh: &TetMesh) -> f64 {
+    let (mut low, mut high) = (
+        Vector3::repeat(f64::INFINITY),
+        Vector3::repeat(f64::NEG_INFINITY),
+    );
+    for x in mesh.nodes() {
+        low = low.inf(x);
+        high = high.sup(x);
+    }
+    (high - low).norm()
 }
 
 fn format_scale(scale: f64) -> String {
@@ -882,7 +974,8 @@ pub fn run_dynamic_scene(
         true => Some(OutputLock::acquire(&scene.output().directory)?),
         false => None,
     };
-    let mut setup = DynamicSetup::from_scene(scene.build()?, settings)?;
+    let mut setup =
+        DynamicSetup::from_scene(scene.build()?, settings)?.with_model(scene.model())?;
     setup.linear_method = scene.spec().linear_method();
     let method = overrides.method.unwrap_or(match settings.method {
         super::Method::BackwardEuler => Method::BackwardEuler,

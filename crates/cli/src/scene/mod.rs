@@ -71,6 +71,7 @@ type = "static"                     # default "static"; or "dynamic", which need
 # damping = { mass = 0.0, stiffness = 0.0 }   # Rayleigh α (1/s), β (s); default none
 # mass = "lumped"                   # default; or "consistent"
 # initial_velocity = [0.0, 0.0, 0.0]          # m/s, default zero
+# model = "linear"                 # default; or "corotational", "neo-hookean" (static and every dynamic method)
 
 [output]
 directory = "out/reference"         # default "out/<scene file stem>" in the working directory
@@ -261,14 +262,6 @@ impl Scene {
                 ),
             )
         })?;
-        if kind != tetfem::model::ModelKind::Linear && matches!(self.analysis, Analysis::Dynamic(_))
-        {
-            return Err(self.error(
-                "analysis.model",
-                &spanned.span(),
-                "nonlinear models run in static scenes (and through the library's NonlinearBackwardEuler); dynamic scene files integrate the linear model",
-            ));
-        }
         Ok(kind)
     }
 

@@ -67,7 +67,7 @@ pub struct BoxSpec {
 #[serde(rename_all = "snake_case")]
 pub enum SplitSpec {
     /// The lecture's 6-tet table in every cell (leans sideways in bending, see
-    /// [`crate::BoxSplit::Lecture6`]).
+    /// [`tetfem::BoxSplit::Lecture6`]).
     Lecture6,
     /// The lecture's table mirrored in alternate cells: mirror-symmetric for even cell counts.
     #[default]
@@ -220,8 +220,10 @@ pub struct AnalysisSpec {
     /// Dynamic: initial velocity of every node (m/s, default zero).
     #[serde(default)]
     pub initial_velocity: Option<[f64; 3]>,
-    /// Static: the force model, `"linear"` (default), `"corotational"` or `"neo-hookean"`; the
-    /// nonlinear ones are solved by Newton with load steps.
+    /// The force model, `"linear"` (default), `"corotational"` or `"neo-hookean"`. Static: the
+    /// nonlinear ones are solved by Newton with load steps. Dynamic (every method): the implicit
+    /// methods solve each step by Newton (iterations in the summary), the explicit one evaluates
+    /// the nonlinear force; fixed constraints must be zero-valued.
     #[serde(default)]
     pub model: Option<String>,
     /// Static (linear model) and dynamic (implicit methods): how the linear systems are solved,

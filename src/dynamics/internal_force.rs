@@ -1,0 +1,300 @@
+//! The internal-force seam of the integrators: which elastic force law a time step uses.
+//!
+//! Every integrator takes an [`InternalForce`]. [`InternalForce::Linear`] is f_int = −K_ff·u with
+//! the [`LinearSystem`]'s constant K_ff: the integrators then run their linear code unchanged
+//! (one factorization per dt, the 3×3 node-block products, the fused step loops), so the linear
+//! results are the same bits as before the seam existed. [`InternalForce::Nonlinear`] is a
+//! [`ForceModel`] (corotational, Neo-Hookean, …): f_int(u) = Σₑ fₑ(X + u) and the tangent
+//! K_T(u) = −∂f_int/∂u on K_ff's own pattern, so the implicit methods refactor numerically on
+//! the symbolic analysis they made for K_ff.
+
+use std::sync::Arc;
+
+use super::{Energy, LinearSystem, Mass, State};
+use crate::assembly::Assembler;
+use crate::constraints::Restriction;
+use crate::error::{Error, Result};
+use crate::mesh::TetMesh;
+use crate::model::ForceModel;
+use crate::model::assemble::{energy, internal_force, refill_tangent};
+use crate::sparse::CscMatrix;
+
+/// The elastic force law of a dynamic run.
+#[derive(Clone, Default)]
+pub enum InternalForce {
+    /// f_int = −K_ff·u with the system's constant stiffness: every linear fast path.
+    #[default]
+    Linear,
+    /// A nonlinear [`ForceModel`] on the system's mesh (see [`NonlinearForce`]).
+    Nonlinear(Arc<NonlinearForce>),
+}
+
+impl std::fmt::Debug for InternalForce {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            InternalForce::Linear => f.write_str("Linear"),
+            InternalForce::Nonlinear(n) => write!(f, "Nonlinear({})", n.model.name()),
+        }
+    }
+}
+
+impl InternalForce {
+    /// The force of `model` on `mesh` for `system` (see [`NonlinearForce::new`]); the
+    /// linear model's name (`linear`) gives [`InternalForce::Linear`], so that a linear run
+    /// takes the fast path whatever the caller asked through.
+    pub fn of_model(
+        mesh: Arc<TetMesh>,
+        model: Box<dyn ForceModel>,
+        system: &LinearSystem,
+    ) -> Result<Self> {
+        if model.name() == "linear" {
+            return Ok(InternalForce::Linear);
+        }
+        Ok(InternalForce::Nonlinear(Arc::new(NonlinearForce::new(
+            mesh, model, system,
+        )?)))
+    }
+
+    /// The model's name: `linear`, `corotational`, `neo-hookean`.
+    pub fn name(&self) -> &'static str {
+        match self {
+            InternalForce::Linear => "linear",
+            InternalForce::Nonlinear(n) => n.model.name(),
+        }
+    }
+
+    /// Whether this is a nonlinear model (the implicit methods then iterate Newton per step).
+    pub fn is_nonlinear(&self) -> bool {
+        matches!(self, InternalForce::Nonlinear(_))
+    }
+
+    /// The energies of `state` under this force law: for the linear one exactly
+    /// [`LinearSystem::energy`] (elastic ½uᵀK_ff·u), for a nonlinear one the model's elastic
+    /// energy Σₑ Eₑ(X + u) (energy units) with the same kinetic term and load potentials.
+    pub fn energy(&self, system: &LinearSystem, state: &State) -> Result<Energy> {
+        match self {
+            InternalForce::Linear => system.energy(state),
+            InternalForce::Nonlinear(n) => n.energy(system, state),
+        }
+    }
+}
+
+/// A nonlinear [`ForceModel`] on the free DOFs of a [`LinearSystem`].
+///
+/// The system supplies the mass, damping, loads and DOF map. Its K_ff is the model's tangent at
+/// rest (for the corotational and Neo-Hookean models it equals the linear stiffness there): it
+/// gives the explicit critical step and the symbolic analysis the implicit methods refactor on;
+/// the stiffness part of Rayleigh damping uses the tangent at the start of each step instead.
+///
+/// Prescribed displacements must be zero: the linear system folds −K_fc·u_c into its loads,
+/// which has no meaning for a nonlinear force.
+pub struct NonlinearForce {
+    mesh: Arc<TetMesh>,
+    model: Box<dyn ForceModel>,
+    assembler: Assembler,
+    restriction: Restriction,
+    /// K_ff's pattern (the `Arc` of the system's stiffness): the tangents are handed out on it.
+    pattern: Arc<faer::sparse::SymbolicSparseColMat<usize>>,
+    free_dofs: Vec<usize>,
+    prescribed: Vec<f64>,
+}
+
+impl NonlinearForce {
+    /// The force of `model` on `mesh` for `system`, which must have been built on `mesh`.
+    ///
+    /// Errors ([`Error::InvalidParameter`]): the system's DOF map is not of this mesh, a
+    /// prescribed displacement is not zero (naming the DOF), or the restricted assembly pattern
+    /// is not the system's K_ff pattern (a system from [`LinearSystem::from_parts`] with
+    /// another stiffness).
+    pub fn new(
+        mesh: Arc<TetMesh>,
+        model: Box<dyn ForceModel>,
+        system: &LinearSystem,
+    ) -> Result<Self> {
+        let dofs = system.dofs();
+        if dofs.full_count() != mesh.dof_count() {
+            return Err(Error::invalid_parameter(
+                "nonlinear force mesh",
+                format!("{} DOFs", mesh.dof_count()),
+                format!("must be the system's mesh ({} DOFs)", dofs.full_count()),
+            ));
+        }
+        if let Some((dof, value)) = dofs
+            .prescribed()
+            .iter()
+            .enumerate()
+            .find(|&(dof, &v)| dofs.free_index(dof).is_none() && v != 0.0)
+        {
+            return Err(Error::invalid_parameter(
+                format!(
+                    "prescribed displacement of DOF {dof} (node {}, axis {})",
+                    dof / 3,
+                    dof % 3
+                ),
+                value,
+                "a nonlinear force model in dynamics supports fixed (zero) constraints only",
+            ));
+        }
+        let assembler = Assembler::new(&mesh);
+        let restriction = dofs.restriction(assembler.pattern())?;
+        let pattern = Arc::clone(system.stiffness().pattern());
+        let same = restriction.pattern().col_ptr() == pattern.col_ptr()
+            && restriction.pattern().row_idx() == pattern.row_idx();
+        if !same {
+            return Err(Error::invalid_parameter(
+                "system stiffness",
+                format!("{} stored entries", system.stiffness().nnz()),
+                "must be on the pattern of the mesh's assembly restricted to the free DOFs (build the system with LinearSystem::new on this mesh)",
+            ));
+        }
+        Ok(NonlinearForce {
+            free_dofs: dofs.free_dofs().to_vec(),
+            prescribed: dofs.prescribed().to_vec(),
+            mesh,
+            model,
+            assembler,
+            restriction,
+            pattern,
+        })
+    }
+
+    /// The model.
+    pub fn model(&self) -> &dyn ForceModel {
+        self.model.as_ref()
+    }
+
+    /// The mesh.
+    pub fn mesh(&self) -> &Arc<TetMesh> {
+        &self.mesh
+    }
+
+    /// Number of free DOFs.
+    pub fn free_count(&self) -> usize {
+        self.free_dofs.len()
+    }
+
+    /// The full displacement (prescribed values at the constrained DOFs) of free values `u`.
+    fn expand_into(&self, u: &[f64], full: &mut [f64]) {
+        full.copy_from_slice(&self.prescribed);
+        for (&d, &v) in self.free_dofs.iter().zip(u) {
+            full[d] = v;
+        }
+    }
+
+    /// Scratch for [`force_into`](Self::force_into) and [`tangent_into`](Self::tangent_into):
+    /// a full displacement and the full-pattern tangent.
+    pub fn workspace(&self) -> Result<ForceWorkspace> {
+        Ok(ForceWorkspace {
+            full: vec![0.0; self.mesh.dof_count()],
+            full_tangent: CscMatrix::zeros(Arc::clone(self.assembler.pattern()))?,
+            free_tangent: CscMatrix::zeros(Arc::clone(self.restriction.pattern()))?,
+        })
+    }
+
+    /// A matrix of zeros on K_ff's pattern (the one [`tangent_into`](Self::tangent_into) fills).
+    pub fn zero_tangent(&self) -> Result<CscMatrix> {
+        Ok(CscMatrix::zeros(Arc::clone(&self.pattern))?)
+    }
+
+    /// f_int(u) = Σₑ fₑ(X + u) on the free DOFs (force units) into `out`; `u` on the free DOFs.
+    pub fn force_into(&self, u: &[f64], work: &mut ForceWorkspace, out: &mut [f64]) -> Result<()> {
+        Error::check_len("displacement", self.free_count(), u.len())?;
+        Error::check_len("force", self.free_count(), out.len())?;
+        self.expand_into(u, &mut work.full);
+        let full = internal_force(&self.mesh, self.model.as_ref(), &work.full)?;
+        for (o, &d) in out.iter_mut().zip(&self.free_dofs) {
+            *o = full[d];
+        }
+        Ok(())
+    }
+
+    /// K_T(u) = −∂f_int/∂u on the free DOFs into `out` (on K_ff's pattern, see
+    /// [`zero_tangent`](Self::zero_tangent)), every element tangent projected onto the positive
+    /// semi-definite cone when `project` is set ([`crate::model::project_psd`]).
+    pub fn tangent_into(
+        &self,
+        u: &[f64],
+        project: bool,
+        work: &mut ForceWorkspace,
+        out: &mut CscMatrix,
+    ) -> Result<()> {
+        Error::check_len("displacement", self.free_count(), u.len())?;
+        if !Arc::ptr_eq(out.pattern(), &self.pattern) {
+            return Err(Error::invalid_parameter(
+                "tangent",
+                format!("{} stored entries", out.nnz()),
+                "must be on K_ff's pattern (NonlinearForce::zero_tangent)",
+            ));
+        }
+        self.expand_into(u, &mut work.full);
+        refill_tangent(
+            &self.mesh,
+            &self.assembler,
+            self.model.as_ref(),
+            &work.full,
+            project,
+            &mut work.full_tangent,
+        )?;
+        self.restriction
+            .restrict_into(&work.full_tangent, &mut work.free_tangent)?;
+        out.values_mut().copy_from_slice(work.free_tangent.values());
+        Ok(())
+    }
+
+    /// The model's elastic energy Σₑ Eₑ(X + u) (energy units) of free displacements `u`.
+    pub fn elastic_energy(&self, u: &[f64]) -> Result<f64> {
+        Error::check_len("displacement", self.free_count(), u.len())?;
+        let mut full = vec![0.0; self.mesh.dof_count()];
+        self.expand_into(u, &mut full);
+        energy(&self.mesh, self.model.as_ref(), &full)
+    }
+
+    /// The energies of `state`: ½vᵀMv, the model's elastic energy, and the system's load
+    /// potentials −f_g·u and −f·u.
+    pub fn energy(&self, system: &LinearSystem, state: &State) -> Result<Energy> {
+        state.check_len(self.free_count())?;
+        let potentials = system.energy_potentials(state)?;
+        Ok(Energy {
+            kinetic: 0.5 * system.mass().quadratic_form(&state.velocity)?,
+            elastic: self.elastic_energy(&state.displacement)?,
+            ..potentials
+        })
+    }
+}
+
+/// Scratch vectors and matrices of [`NonlinearForce`]'s assembly (one per integrator).
+#[derive(Debug, Clone)]
+pub struct ForceWorkspace {
+    full: Vec<f64>,
+    full_tangent: CscMatrix,
+    free_tangent: CscMatrix,
+}
+
+/// out = a·K + b·M entry-wise on K's pattern (K any matrix on K_ff's pattern, e.g. a tangent):
+/// the Newton matrices of the implicit methods.
+pub(crate) fn combine(
+    stiffness: &CscMatrix,
+    stiffness_scale: f64,
+    mass: &Mass,
+    mass_scale: f64,
+    out: &mut CscMatrix,
+) -> Result<()> {
+    match mass {
+        Mass::Consistent(m) => {
+            Ok(out.set_linear_combination(stiffness_scale, stiffness, mass_scale, m)?)
+        }
+        Mass::Lumped(m) => {
+            if !Arc::ptr_eq(out.pattern(), stiffness.pattern()) {
+                return Err(Error::invalid_parameter(
+                    "matrix",
+                    "another pattern",
+                    "must be on K_ff's pattern",
+                ));
+            }
+            for (a, k) in out.values_mut().iter_mut().zip(stiffness.values()) {
+                *a = stiffness_scale * k;
+            }
+            Ok(out.add_diagonal(mass_scale, m)?)
+        }
+    }
+}

@@ -1,0 +1,422 @@
+//! Newton's method for the implicit equation of one time step with a nonlinear force model,
+//! written once for every implicit integrator (each supplies its scales and predictor).
+
+use std::sync::Arc;
+
+use super::internal_force::{ForceWorkspace, NonlinearForce, combine};
+use super::{LinearSystem, Mass};
+use crate::error::{Error, Result};
+use crate::linear_solver::LinearSolver;
+use crate::sparse::CscMatrix;
+
+/// Settings of the Newton iterations of an implicit step with a nonlinear force model.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct StepNewtonOptions {
+    /// A step has converged when ‖r‖ ≤ tolerance·max(‖r₀‖, ‖f‖), r₀ the residual of the
+    /// implicit equation at the step's start u' = u and f the external load (default 1e-8),
+    /// or at the round-off floor of the internal forces: below 1e-6 of that reference, a
+    /// residual that no longer halves (the O(E·|X|) terms of an element force cancel to
+    /// O(E·strain), and more iterations cannot lower the noise that leaves).
+    pub tolerance: f64,
+    /// Newton iterations allowed per step (default 25); more is [`Error::Diverged`] naming the
+    /// step, with the residual reached.
+    pub max_iterations: usize,
+}
+
+impl Default for StepNewtonOptions {
+    fn default() -> Self {
+        StepNewtonOptions {
+            tolerance: 1e-8,
+            max_iterations: 25,
+        }
+    }
+}
+
+impl StepNewtonOptions {
+    /// [`Error::InvalidParameter`] unless the tolerance is finite and in (0, 1) and at least one
+    /// iteration is allowed.
+    pub fn check(&self) -> Result<()> {
+        if !(self.tolerance > 0.0 && self.tolerance < 1.0) {
+            return Err(Error::invalid_parameter(
+                "newton.tolerance",
+                self.tolerance,
+                "must be finite, > 0 and < 1",
+            ));
+        }
+        if self.max_iterations == 0 {
+            return Err(Error::invalid_parameter(
+                "newton.max_iterations",
+                0,
+                "must be at least 1",
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// Newton iteration counts of an implicit integrator with a nonlinear model.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize)]
+pub struct NewtonStats {
+    /// Steps solved.
+    pub steps: usize,
+    /// Newton iterations (each: one tangent assembly, one numerical factorization, one solve)
+    /// over all steps.
+    pub total_iterations: usize,
+    /// The most iterations one step took.
+    pub max_per_step: usize,
+    /// Iterations of the last step.
+    pub last_step: usize,
+}
+
+/// The implicit equation of one step in the new displacement u' (free DOFs):
+///
+/// r(u') = s_m·M·(u' − ũ) + C·(s_c·(u' − u) − v_c) − f_int(u') − f = 0,
+///
+/// C = α·M + β·K_T(u) the Rayleigh damping with the stiffness part frozen at the tangent of the
+/// step's start u (PSD-projected, so it dissipates). Backward Euler: s_m = 1/dt², ũ = u + dt·v,
+/// s_c = 1/dt, v_c = 0. Newmark (average acceleration): s_m = 4/dt², ũ = u + dt·v + dt²/4·a,
+/// s_c = 2/dt, v_c = v. With C constant over the step it is the gradient of
+///
+/// Φ(u') = ½s_m·|u' − ũ|²_M + ½s_c·|u' − u|²_C − (C·v_c)·u' + W(u') − f·u',
+///
+/// which the line search may fall back on.
+pub(crate) struct StepEquation<'a> {
+    /// s_m (1/time²).
+    pub mass_scale: f64,
+    /// s_c (1/time).
+    pub damping_scale: f64,
+    /// ũ (length).
+    pub predictor: &'a [f64],
+    /// u, the displacement the step starts from; also Newton's first iterate.
+    pub start: &'a [f64],
+    /// v_c (length/time), `None` for zero.
+    pub damping_velocity: Option<&'a [f64]>,
+}
+
+/// The Newton solver of an implicit integrator with a nonlinear model: its scratch, the tangent
+/// and the iteration counts.
+pub(crate) struct NewtonSolver {
+    force: Arc<NonlinearForce>,
+    options: StepNewtonOptions,
+    work: ForceWorkspace,
+    tangent: CscMatrix,
+    /// K_T(u) of the step's start (projected), when β > 0.
+    damping_tangent: Option<CscMatrix>,
+    internal: Vec<f64>,
+    residual: Vec<f64>,
+    trial: Vec<f64>,
+    trial_residual: Vec<f64>,
+    delta: Vec<f64>,
+    /// The combination a residual multiplies by M (or by K_T(u) for the damping).
+    mixed: Vec<f64>,
+    scratch: Vec<f64>,
+    stats: NewtonStats,
+}
+
+impl std::fmt::Debug for NewtonSolver {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("NewtonSolver")
+            .field("model", &self.force.model().name())
+            .field("options", &self.options)
+            .field("stats", &self.stats)
+            .finish_non_exhaustive()
+    }
+}
+
+impl NewtonSolver {
+    /// A solver for `force` on `system` (β > 0 keeps a second tangent for the damping).
+    pub fn new(
+        force: Arc<NonlinearForce>,
+        system: &LinearSystem,
+        options: StepNewtonOptions,
+    ) -> Result<Self> {
+        options.check()?;
+        let n = force.free_count();
+        Error::check_len("nonlinear force free DOFs", system.free_count(), n)?;
+        Ok(NewtonSolver {
+            work: force.workspace()?,
+            tangent: force.zero_tangent()?,
+            damping_tangent: match system.damping().beta > 0.0 {
+                true => Some(force.zero_tangent()?),
+                false => None,
+            },
+            force,
+            options,
+            internal: vec![0.0; n],
+            residual: vec![0.0; n],
+            trial: vec![0.0; n],
+            trial_residual: vec![0.0; n],
+            delta: vec![0.0; n],
+            mixed: vec![0.0; n],
+            scratch: vec![0.0; n],
+            stats: NewtonStats::default(),
+        })
+    }
+
+    /// The force law.
+    pub fn force(&self) -> &NonlinearForce {
+        &self.force
+    }
+
+    /// The counts so far.
+    pub fn stats(&self) -> NewtonStats {
+        self.stats
+    }
+
+    /// f + f_int(u) − C(u)·v into `out` (C = αM + βK_T(u), K_T projected): the force that
+    /// accelerates the state (u, v), for explicit steps and Newmark's initial acceleration.
+    pub fn net_force(
+        &mut self,
+        system: &LinearSystem,
+        u: &[f64],
+        v: &[f64],
+        out: &mut [f64],
+    ) -> Result<()> {
+        let damping = system.damping();
+        self.force
+            .force_into(u, &mut self.work, &mut self.internal)?;
+        system.mass().product_into(v, &mut self.scratch);
+        let f = system.external_load();
+        for i in 0..out.len() {
+            out[i] = f[i] + self.internal[i] - damping.alpha * self.scratch[i];
+        }
+        if damping.beta > 0.0 {
+            self.force
+                .tangent_into(u, true, &mut self.work, &mut self.tangent)?;
+            self.tangent.product_into(v, &mut self.scratch);
+            for (o, kv) in out.iter_mut().zip(&self.scratch) {
+                *o -= damping.beta * kv;
+            }
+        }
+        Ok(())
+    }
+
+    /// r(u') of `equation` into the residual, or the trial residual when `out_is_trial`.
+    fn residual_into(
+        &mut self,
+        system: &LinearSystem,
+        equation: &StepEquation,
+        u_new: &[f64],
+        out_is_trial: bool,
+    ) -> Result<()> {
+        let damping = system.damping();
+        self.force
+            .force_into(u_new, &mut self.work, &mut self.internal)?;
+        let (s_m, s_c) = (equation.mass_scale, equation.damping_scale);
+        let vc = |i: usize| equation.damping_velocity.map_or(0.0, |v| v[i]);
+        // M·(s_m·(u' − ũ) + α·w), w = s_c·(u' − u) − v_c: one mass product.
+        for i in 0..u_new.len() {
+            let w = s_c * (u_new[i] - equation.start[i]) - vc(i);
+            self.mixed[i] = s_m * (u_new[i] - equation.predictor[i]) + damping.alpha * w;
+        }
+        let out = match out_is_trial {
+            true => &mut self.trial_residual,
+            false => &mut self.residual,
+        };
+        system.mass().product_into(&self.mixed, out);
+        let f = system.external_load();
+        for i in 0..u_new.len() {
+            out[i] -= self.internal[i] + f[i];
+        }
+        if let Some(k) = &self.damping_tangent {
+            for i in 0..u_new.len() {
+                self.mixed[i] = s_c * (u_new[i] - equation.start[i]) - vc(i);
+            }
+            k.product_into(&self.mixed, &mut self.scratch);
+            for (o, kw) in out.iter_mut().zip(&self.scratch) {
+                *o += damping.beta * kw;
+            }
+        }
+        Ok(())
+    }
+
+    /// Φ(u') of `equation` (see [`StepEquation`]).
+    fn potential(
+        &self,
+        system: &LinearSystem,
+        equation: &StepEquation,
+        u_new: &[f64],
+    ) -> Result<f64> {
+        let damping = system.damping();
+        let n = u_new.len();
+        let p: Vec<f64> = (0..n).map(|i| u_new[i] - equation.predictor[i]).collect();
+        let q: Vec<f64> = (0..n).map(|i| u_new[i] - equation.start[i]).collect();
+        let mass = system.mass();
+        let mut phi = 0.5 * equation.mass_scale * mass.quadratic_form(&p)?
+            + 0.5 * equation.damping_scale * damping.alpha * mass.quadratic_form(&q)?;
+        if let Some(k) = &self.damping_tangent {
+            phi += 0.5 * equation.damping_scale * damping.beta * k.quadratic_form(&q)?;
+        }
+        if let Some(vc) = equation.damping_velocity {
+            let mut mv = vec![0.0; n];
+            mass.product_into(vc, &mut mv);
+            phi -= damping.alpha * dot(&mv, u_new);
+            if let Some(k) = &self.damping_tangent {
+                k.product_into(vc, &mut mv);
+                phi -= damping.beta * dot(&mv, u_new);
+            }
+        }
+        let load = dot(system.external_load(), u_new);
+        Ok(phi + self.force.elastic_energy(u_new)? - load)
+    }
+
+    /// Solves `equation` for u' by Newton's method into `u_new` (any length-n buffer; it starts
+    /// at u), forming the Newton matrix J = (s_m + s_c·α)·M + s_c·β·K_T(u) + K_T(u') in `matrix`
+    /// (on K_ff's pattern) and solving with `solver` (refactored numerically each iteration on
+    /// its fixed symbolic analysis). The exact tangent is tried first (quadratic convergence);
+    /// where J is not positive definite, the PSD-projected one. A backtracking line search
+    /// accepts a step when the residual norm or Φ decreases. Returns the iterations taken;
+    /// [`Error::Diverged`] (naming `step` and `time`) when the residual stops being finite or
+    /// the iterations run out.
+    #[allow(clippy::too_many_arguments)]
+    pub fn solve(
+        &mut self,
+        system: &LinearSystem,
+        equation: &StepEquation,
+        matrix: &mut CscMatrix,
+        solver: &mut LinearSolver,
+        u_new: &mut [f64],
+        step: usize,
+        time: f64,
+    ) -> Result<usize> {
+        let damping = system.damping();
+        let (s_m, s_c) = (equation.mass_scale, equation.damping_scale);
+        u_new.copy_from_slice(equation.start);
+        let diverged = |reason: String| Error::Diverged { step, time, reason };
+        if let Some(k) = &mut self.damping_tangent {
+            self.force
+                .tangent_into(equation.start, true, &mut self.work, k)?;
+        }
+        self.residual_into(system, equation, u_new, false)?;
+        let mut r_norm = norm(&self.residual);
+        if !r_norm.is_finite() {
+            return Err(diverged(
+                "a displacement or velocity is no longer finite (the Newton residual is not)"
+                    .into(),
+            ));
+        }
+        let reference = r_norm.max(norm(system.external_load()));
+        let mut iterations = 0;
+        while r_norm > self.options.tolerance * reference {
+            if iterations == self.options.max_iterations {
+                return Err(diverged(format!(
+                    "Newton did not converge in {} iterations (residual {r_norm:.3e} of {reference:.3e}); a smaller dt helps",
+                    self.options.max_iterations
+                )));
+            }
+            self.factor_newton_matrix(
+                system,
+                u_new,
+                s_m + s_c * damping.alpha,
+                s_c * damping.beta,
+                matrix,
+                solver,
+            )?;
+            for (d, r) in self.delta.iter_mut().zip(&self.residual) {
+                *d = -r;
+            }
+            let mut delta = std::mem::take(&mut self.delta);
+            let solved = solver.solve(matrix, &mut delta);
+            self.delta = delta;
+            solved?;
+            let mut alpha = 1.0;
+            let mut phi = None;
+            let mut accepted = false;
+            for _ in 0..30 {
+                for i in 0..u_new.len() {
+                    self.trial[i] = u_new[i] + alpha * self.delta[i];
+                }
+                let trial = std::mem::take(&mut self.trial);
+                let evaluated = self.residual_into(system, equation, &trial, true);
+                self.trial = trial;
+                evaluated?;
+                let trial_norm = norm(&self.trial_residual);
+                let better = trial_norm < r_norm || {
+                    let start = match phi {
+                        Some(p) => p,
+                        None => *phi.insert(self.potential(system, equation, u_new)?),
+                    };
+                    self.potential(system, equation, &self.trial)? < start
+                };
+                if better {
+                    accepted = true;
+                    break;
+                }
+                alpha *= 0.5;
+            }
+            if !accepted {
+                return Err(diverged(format!(
+                    "the Newton line search found no decrease (residual {r_norm:.3e} of {reference:.3e}); a smaller dt helps"
+                )));
+            }
+            u_new.copy_from_slice(&self.trial);
+            std::mem::swap(&mut self.residual, &mut self.trial_residual);
+            iterations += 1;
+            let before = r_norm;
+            r_norm = norm(&self.residual);
+            if !r_norm.is_finite() {
+                return Err(diverged("the Newton residual is no longer finite".into()));
+            }
+            if r_norm <= 1e-6 * reference && r_norm > 0.5 * before {
+                break;
+            }
+        }
+        self.stats.steps += 1;
+        self.stats.total_iterations += iterations;
+        self.stats.max_per_step = self.stats.max_per_step.max(iterations);
+        self.stats.last_step = iterations;
+        Ok(iterations)
+    }
+
+    /// Forms J = mass_scale·M + damping_stiffness·K_T(u_start) + K_T(u') in `matrix` and factors
+    /// it: the exact tangent first, the projected one if J is not positive definite.
+    fn factor_newton_matrix(
+        &mut self,
+        system: &LinearSystem,
+        u_new: &[f64],
+        mass_scale: f64,
+        damping_stiffness: f64,
+        matrix: &mut CscMatrix,
+        solver: &mut LinearSolver,
+    ) -> Result<()> {
+        for project in [false, true] {
+            self.force
+                .tangent_into(u_new, project, &mut self.work, &mut self.tangent)?;
+            combine(&self.tangent, 1.0, system.mass(), mass_scale, matrix)?;
+            if let Some(k) = &self.damping_tangent {
+                for (a, k) in matrix.values_mut().iter_mut().zip(k.values()) {
+                    *a += damping_stiffness * k;
+                }
+            }
+            match solver.factorize(matrix) {
+                Err(tetfem_linalg::Error::NotPositiveDefinite { .. }) if !project => continue,
+                other => return Ok(other?),
+            }
+        }
+        Ok(())
+    }
+}
+
+/// The lumped or consistent mass solve a = M⁻¹·b in place (Newmark's initial acceleration).
+pub(crate) fn solve_mass(mass: &Mass, b: &mut [f64]) -> Result<()> {
+    match mass {
+        Mass::Lumped(m) => {
+            b.iter_mut().zip(m).for_each(|(a, m)| *a /= m);
+            Ok(())
+        }
+        Mass::Consistent(m) => {
+            let mut cholesky = crate::linsolve::SparseCholesky::analyze(m)?;
+            cholesky.factorize(m)?;
+            cholesky.solve_in_place(b)?;
+            Ok(())
+        }
+    }
+}
+
+fn dot(a: &[f64], b: &[f64]) -> f64 {
+    a.iter().zip(b).map(|(x, y)| x * y).sum()
+}
+
+fn norm(v: &[f64]) -> f64 {
+    dot(v, v).sqrt()
+}
