@@ -14,7 +14,7 @@ use crate::cantilever::Cantilever;
 use crate::constraints::Constraints;
 use crate::dynamics::{
     Energy, IntegratorOptions, LinearSystem, Mass, MassKind, Method, Rayleigh, State,
-    critical_time_step, element_critical_step,
+    critical_time_step,
 };
 use crate::error::{Error, Result};
 use crate::linear_solver::LinearMethod;
@@ -134,8 +134,10 @@ impl RunLength {
 pub struct DynamicSetup {
     /// The mesh.
     pub mesh: TetMesh,
-    /// The material.
+    /// The material (the scene's default; see `materials` for each tet's).
     pub material: Material,
+    /// The material of every tet.
+    pub materials: crate::materials::MaterialMap,
     /// M·ü + C·u̇ + K·u = f on the free DOFs.
     pub system: Arc<LinearSystem>,
     /// The state at time 0.
@@ -169,7 +171,7 @@ impl DynamicSetup {
         };
         let system = LinearSystem::new(
             &built.mesh,
-            &built.material,
+            &built.materials,
             &built.constraints,
             &built.other_loads,
             built.gravity,
@@ -191,6 +193,7 @@ impl DynamicSetup {
             input_warnings: built.input_warnings,
             mesh: built.mesh,
             material: built.material,
+            materials: built.materials,
             system: Arc::new(system),
             initial,
             probes: built.probes,
@@ -222,6 +225,7 @@ impl DynamicSetup {
         }];
         Ok(DynamicSetup {
             input_warnings: Vec::new(),
+            materials: crate::materials::MaterialMap::uniform(material, mesh.tet_count()),
             mesh,
             material,
             system: Arc::new(system),
@@ -241,7 +245,7 @@ impl DynamicSetup {
         let clock = Instant::now();
         let (initial, system) = released_system(
             &built.mesh,
-            &built.material,
+            &built.materials,
             &built.constraints,
             &built.other_loads,
             built.gravity,
@@ -270,7 +274,7 @@ impl DynamicSetup {
         let c = match self.system.mass() {
             Mass::Lumped(_) => (critical_time_step(&self.system)?.dt, "power iteration"),
             Mass::Consistent(_) => (
-                element_critical_step(&self.mesh, &self.material),
+                crate::mesh::critical_time_step_of(&self.mesh, &self.materials)?.dt_element,
                 "element bound",
             ),
         };
@@ -556,7 +560,7 @@ fn run_dynamic_locked(
             .mesh
             .warnings()
             .iter()
-            .chain(&setup.material.warnings())
+            .chain(&setup.materials.warnings())
             .chain(&setup.input_warnings)
             .map(ToString::to_string)
             .chain(lock.as_ref().and_then(OutputLock::warning))
@@ -722,7 +726,7 @@ impl FrameWriter {
                 velocity[dof] = *v;
             }
             let vtu = dir.join(format!("{name}.vtu"));
-            write_result_vtu(&vtu, &setup.mesh, &setup.material, u, Some(&velocity))?;
+            write_result_vtu(&vtu, &setup.mesh, &setup.materials, u, Some(&velocity))?;
             pvd.push(state.time, &vtu)?;
             self.files.push(vtu);
         }
@@ -738,7 +742,7 @@ impl FrameWriter {
                     }
                 }
                 PngField::VonMises => {
-                    stress = cell_von_mises(&setup.mesh, &setup.material, u)?;
+                    stress = cell_von_mises(&setup.mesh, &setup.materials, u)?;
                     Field::Cells {
                         name: "von Mises (Pa)",
                         values: &stress,
@@ -819,7 +823,7 @@ fn png_look(setup: &DynamicSetup, s: &OutputSettings) -> Result<PngLook> {
     };
     let high = match s.png_field {
         PngField::Displacement => largest(&reference),
-        PngField::VonMises => cell_von_mises(&setup.mesh, &setup.material, &reference)?
+        PngField::VonMises => cell_von_mises(&setup.mesh, &setup.materials, &reference)?
             .into_iter()
             .fold(0.0, f64::max),
     };
@@ -907,7 +911,7 @@ pub fn run_dynamic_scene(
 /// loads removed and gravity kept (lumped mass, no damping), which it swings in.
 fn released_system(
     mesh: &TetMesh,
-    material: &Material,
+    material: &impl crate::materials::TetMaterials,
     constraints: &Constraints,
     loads: &Loads,
     gravity: Vector3<f64>,
