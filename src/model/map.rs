@@ -28,7 +28,7 @@ impl<T: ForceModel> TetModels for T {
     }
 }
 
-impl TetModels for dyn ForceModel {
+impl TetModels for dyn ForceModel + '_ {
     #[inline(always)]
     fn model_of(&self, _tet: usize) -> &dyn ForceModel {
         self
