@@ -647,3 +647,27 @@ fn dynamic_scene_assembles_each_tets_density_and_stiffness() {
         "{total} vs {exact}"
     );
 }
+
+#[test]
+fn shipped_bimaterial_bar_scene_stretches_as_two_springs() {
+    let mut scene = Scene::load(&scene_path("bimaterial_bar.toml")).unwrap();
+    scene.set_output_directory(out_dir("bimaterial_bar"));
+    let built = scene.build().unwrap();
+    assert_eq!(built.materials.counts(), vec![240, 240]);
+    let summary = run_static_with(&scene, &no_files()).unwrap();
+    let area = W * W;
+    let (steel, aluminium) = (200e9, 70e9);
+    let exact_end = 1e5 * (0.5 / (steel * area) + 0.5 / (aluminium * area));
+    let exact_interface = 1e5 * 0.5 / (steel * area);
+    let end = summary.probes[0].displacement[0];
+    let interface = summary.probes[1].displacement[0];
+    // Exact up to round-off (see two_material_bar_is_two_springs_in_series).
+    assert!(
+        ((end - exact_end) / exact_end).abs() < 1e-10,
+        "{end} vs {exact_end}"
+    );
+    assert!(
+        ((interface - exact_interface) / exact_interface).abs() < 1e-10,
+        "{interface} vs {exact_interface}"
+    );
+}
