@@ -671,3 +671,15 @@ fn shipped_bimaterial_bar_scene_stretches_as_two_springs() {
         "{interface} vs {exact_interface}"
     );
 }
+
+#[test]
+fn boxed_models_are_accepted_where_dyn_models_were() {
+    // `ModelKind::build` returns a Box; callers passed `&boxed` to `&dyn ForceModel` before.
+    let mesh = bar([2, 1, 1], BoxSplit::Lecture6);
+    let boxed = ModelKind::NeoHookean.build(&Material::steel());
+    let u: Vec<f64> = (0..mesh.dof_count()).map(|d| 1e-6 * d as f64).collect();
+    assert_eq!(
+        internal_force(&mesh, &boxed, &u).unwrap(),
+        internal_force(&mesh, boxed.as_ref(), &u).unwrap()
+    );
+}

@@ -39,6 +39,19 @@ impl TetModels for dyn ForceModel + '_ {
     }
 }
 
+/// A boxed model (what [`ModelKind::build`] returns) as one model for every tet, so that
+/// `&Box<dyn ForceModel>` arguments keep working where `&dyn ForceModel` was taken before.
+impl TetModels for Box<dyn ForceModel + '_> {
+    #[inline(always)]
+    fn model_of(&self, _tet: usize) -> &dyn ForceModel {
+        self.as_ref()
+    }
+
+    fn check_tet_count(&self, _mesh: &TetMesh) -> Result<()> {
+        Ok(())
+    }
+}
+
 /// One force model per material, and the materials' tet map.
 pub struct ModelMap {
     models: Vec<Box<dyn ForceModel>>,
