@@ -9,6 +9,7 @@ use faer::sparse::SymbolicSparseColMat;
 use crate::element::Matrix12;
 use crate::error::{Error, Result};
 use crate::material::Material;
+use crate::materials::TetMaterials;
 use crate::mesh::TetMesh;
 use crate::sparse::CscMatrix;
 
@@ -242,14 +243,24 @@ impl Assembler {
     ///
     /// Errors: `matrix` is not on this assembler's pattern, or `mesh` is not the one it was
     /// built from.
+    ///
+    /// `materials` gives each tet its material: one [`Material`] for all, or a
+    /// [`MaterialMap`](crate::materials::MaterialMap) (then also an error unless it covers the
+    /// mesh's tets). λ and μ are computed once per material and read per tet.
     pub fn refill_stiffness(
         &self,
         mesh: &TetMesh,
-        material: &Material,
+        materials: &impl TetMaterials,
         matrix: &mut CscMatrix,
     ) -> Result<()> {
-        let (lame_lambda, shear_modulus) = (material.lame_lambda(), material.shear_modulus());
+        materials.check_tet_count(mesh)?;
+        let lame: Vec<(f64, f64)> = materials
+            .material_list()
+            .iter()
+            .map(|m| (m.lame_lambda(), m.shear_modulus()))
+            .collect();
         self.fill(mesh, matrix, |t, tet, target| {
+            let (lame_lambda, shear_modulus) = lame[materials.index_of(t)];
             let element = mesh.element_of(t);
             let lambda = lame_lambda * element.volume();
             let mu = shear_modulus * element.volume();
@@ -331,17 +342,24 @@ impl Assembler {
     }
 
     /// Global linear stiffness K = Σₑ Vₑ·BₑᵀDBₑ (force/length), see
-    /// [`refill_stiffness`](Self::refill_stiffness).
-    pub fn stiffness(&self, mesh: &TetMesh, material: &Material) -> Result<CscMatrix> {
+    /// [`refill_stiffness`](Self::refill_stiffness) (each tet with its own material).
+    pub fn stiffness(&self, mesh: &TetMesh, materials: &impl TetMaterials) -> Result<CscMatrix> {
         let mut matrix = CscMatrix::zeros(Arc::clone(&self.pattern))?;
-        self.refill_stiffness(mesh, material, &mut matrix)?;
+        self.refill_stiffness(mesh, materials, &mut matrix)?;
         Ok(matrix)
     }
 
-    /// Global consistent mass M = Σₑ ρVₑ/20·(1+δᵢⱼ)·I₃ (mass units), on the same pattern as K.
-    pub fn consistent_mass(&self, mesh: &TetMesh, material: &Material) -> Result<CscMatrix> {
+    /// Global consistent mass M = Σₑ ρₑVₑ/20·(1+δᵢⱼ)·I₃ (mass units), on the same pattern as K,
+    /// ρₑ the density of tet e's material.
+    pub fn consistent_mass(
+        &self,
+        mesh: &TetMesh,
+        materials: &impl TetMaterials,
+    ) -> Result<CscMatrix> {
+        materials.check_tet_count(mesh)?;
         self.assemble(mesh, |t| {
-            mesh.element_of(t).consistent_mass(material.density())
+            mesh.element_of(t)
+                .consistent_mass(materials.material_of(t).density())
         })
     }
 }
@@ -429,9 +447,24 @@ impl Target<'_> {
 
 /// Lumped (diagonal) mass per DOF: each tet gives ρV/4 to each of its nodes, on all three axes.
 pub fn lumped_mass(mesh: &TetMesh, material: &Material) -> Vec<f64> {
+    lumped_mass_by(mesh, material)
+}
+
+/// As [`lumped_mass`] with each tet's own density ρₑ: ρₑVₑ/4 to each of its nodes (mass units).
+///
+/// Errors: `materials` does not cover the mesh's tets.
+pub fn lumped_mass_of(mesh: &TetMesh, materials: &impl TetMaterials) -> Result<Vec<f64>> {
+    materials.check_tet_count(mesh)?;
+    Ok(lumped_mass_by(mesh, materials))
+}
+
+/// [`lumped_mass_of`] for materials checked against the mesh.
+fn lumped_mass_by(mesh: &TetMesh, materials: &impl TetMaterials) -> Vec<f64> {
     let mut mass = vec![0.0; mesh.dof_count()];
     for (t, tet) in mesh.tets().iter().enumerate() {
-        let share = mesh.element_of(t).lumped_mass(material.density());
+        let share = mesh
+            .element_of(t)
+            .lumped_mass(materials.material_of(t).density());
         for &n in tet {
             for axis in 0..3 {
                 mass[3 * n + axis] += share;
@@ -441,9 +474,10 @@ pub fn lumped_mass(mesh: &TetMesh, material: &Material) -> Vec<f64> {
     mass
 }
 
-/// Convenience: the global stiffness of `mesh` with one material (builds a fresh [`Assembler`]).
-pub fn stiffness_matrix(mesh: &TetMesh, material: &Material) -> Result<CscMatrix> {
-    Assembler::new(mesh).stiffness(mesh, material)
+/// Convenience: the global stiffness of `mesh` with one material, or one per tet (builds a
+/// fresh [`Assembler`]).
+pub fn stiffness_matrix(mesh: &TetMesh, materials: &impl TetMaterials) -> Result<CscMatrix> {
+    Assembler::new(mesh).stiffness(mesh, materials)
 }
 
 /// Splits the nodes into contiguous ranges of roughly equal value counts, a few per thread for

@@ -3,7 +3,7 @@
 use nalgebra::{Matrix3, Vector3};
 
 use crate::error::{Error, Result};
-use crate::material::Material;
+use crate::materials::TetMaterials;
 use crate::mesh::TetMesh;
 use crate::quadrature::{shape_values, tet_rule};
 
@@ -39,18 +39,25 @@ pub fn l2_error(
 
 /// Energy norm of the error, √(∫ (ε_h − ε) : σ(ε_h − ε) dV) (√energy units), where ε is the
 /// symmetric part of the exact displacement gradient `exact_gradient` (∂uᵢ/∂xⱼ at row i,
-/// column j) and σ(ε) = λ tr(ε) I + 2μ ε.
+/// column j) and σ(ε) = λ tr(ε) I + 2μ ε, λ and μ those of each tet's material (one
+/// [`Material`](crate::material::Material) or a [`MaterialMap`](crate::materials::MaterialMap)).
 pub fn energy_error(
     mesh: &TetMesh,
-    material: &Material,
+    materials: &impl TetMaterials,
     displacement: &[f64],
     exact_gradient: impl Fn(&Vector3<f64>) -> Matrix3<f64>,
 ) -> Result<f64> {
     check_length(mesh, displacement)?;
+    materials.check_tet_count(mesh)?;
     let rule = tet_rule();
-    let (lambda, mu) = (material.lame_lambda(), material.shear_modulus());
+    let lame: Vec<(f64, f64)> = materials
+        .material_list()
+        .iter()
+        .map(|m| (m.lame_lambda(), m.shear_modulus()))
+        .collect();
     let mut sum = 0.0;
     for (t, tet) in mesh.tets().iter().enumerate() {
+        let (lambda, mu) = lame[materials.index_of(t)];
         let x = mesh.positions_of(t);
         let element = mesh.element_of(t);
         let u = crate::element::Vector12::from_fn(|i, _| displacement[3 * tet[i / 3] + i % 3]);

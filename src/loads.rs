@@ -3,7 +3,7 @@
 use nalgebra::Vector3;
 
 use crate::error::{Error, Result};
-use crate::material::Material;
+use crate::materials::TetMaterials;
 use crate::mesh::{BoundaryFace, TetMesh};
 
 /// Accumulated external nodal forces of one mesh.
@@ -21,15 +21,34 @@ impl Loads {
     }
 
     /// Gravity: body force ρ·g per unit volume (g in m/s² in SI, e.g. (0, 0, −9.81)). For linear
-    /// tets the consistent load is ρ·g·V/4 on each node of each tet.
+    /// tets the consistent load is ρₑ·g·Vₑ/4 on each node of each tet, ρₑ the density of tet e's
+    /// material (one [`Material`](crate::material::Material) for all, or a [`MaterialMap`](crate::materials::MaterialMap)).
     pub fn add_gravity(
         &mut self,
         mesh: &TetMesh,
-        material: &Material,
+        materials: &impl TetMaterials,
         gravity: Vector3<f64>,
     ) -> Result<&mut Self> {
         check_finite("gravity", &gravity)?;
-        self.add_body_force(mesh, gravity * material.density())
+        // ρ·g per material, checked as the body force it is (ρ·g can overflow).
+        let densities: Vec<Vector3<f64>> = materials
+            .material_list()
+            .iter()
+            .map(|m| gravity * m.density())
+            .collect();
+        for d in &densities {
+            check_finite("body force", d)?;
+        }
+        self.check_mesh(mesh)?;
+        materials.check_tet_count(mesh)?;
+        // As add_body_force, with the force density of each tet's material.
+        for (t, tet) in mesh.tets().iter().enumerate() {
+            let share = densities[materials.index_of(t)] * (mesh.element_of(t).volume() / 4.0);
+            for &n in tet {
+                self.add_at(n, &share);
+            }
+        }
+        Ok(self)
     }
 
     /// A uniform body force density b (force per volume, N/m³ in SI): b·V/4 on each node of each

@@ -1,15 +1,14 @@
 //! Nonlinear static equilibrium with a [`ForceModel`]: Newton's method with a backtracking line
 //! search and load stepping, one symbolic factorization for all iterations.
 
-use crate::assembly::Assembler;
-use crate::constraints::{Constraints, DofMap, ensure_held};
+use crate::constraints::Constraints;
 use crate::error::{Error, Result};
 use crate::linear_solver::{LinearMethod, LinearSolver, SolverOptions};
 use crate::loads::Loads;
 use crate::mesh::TetMesh;
-use crate::model::ForceModel;
+use crate::model::TetModels;
 use crate::model::assemble::{energy, internal_force, refill_tangent};
-use crate::sparse::CscMatrix;
+use crate::problem::Problem;
 
 /// Settings of [`solve_nonlinear_static`].
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -59,9 +58,12 @@ pub struct NewtonReport {
 /// is SPD with the constraints), and a backtracking line search that accepts
 /// a step when the residual norm or the total potential Π = E − λ·fᵀu decreases. The symbolic
 /// Cholesky analysis of the tangent's pattern is done once.
+///
+/// `model`: one force model for every tet, or a [`ModelMap`](crate::model::ModelMap) with one
+/// model per material (each tet takes its material's).
 pub fn solve_nonlinear_static(
     mesh: &TetMesh,
-    model: &dyn ForceModel,
+    model: &(impl TetModels + ?Sized),
     constraints: &Constraints,
     loads: &Loads,
     options: NewtonOptions,
@@ -83,12 +85,12 @@ pub fn solve_nonlinear_static(
             "must be made for this mesh",
         ));
     }
-    let dofs = DofMap::new(constraints);
-    ensure_held(mesh, &mesh.face_topology()?, &dofs)?;
-    let assembler = Assembler::new(mesh);
-    let mut tangent = CscMatrix::zeros(std::sync::Arc::clone(assembler.pattern()))?;
-    let restriction = dofs.restriction(assembler.pattern())?;
-    let mut free_tangent = CscMatrix::zeros(std::sync::Arc::clone(restriction.pattern()))?;
+    model.check_tet_count(mesh)?;
+    let problem = Problem::new(mesh, constraints)?;
+    let (dofs, assembler, restriction) =
+        (problem.dofs(), problem.assembler(), problem.restriction());
+    let mut tangent = problem.zero_matrix()?;
+    let mut free_tangent = problem.zero_free_matrix()?;
     let geometry = dofs.geometry_for_method(options.solver.method, mesh)?;
     let mut solver = LinearSolver::analyze_with_geometry(&free_tangent, options.solver, geometry)?;
     let f_full = loads.as_slice();
@@ -139,12 +141,12 @@ pub fn solve_nonlinear_static(
             // The exact tangent first (quadratic convergence); if it is not positive definite,
             // the one with every element tangent projected onto the PSD cone (a descent
             // direction, at the price of linear convergence while it is needed).
-            refill_tangent(mesh, &assembler, model, &u, false, &mut tangent)?;
+            refill_tangent(mesh, assembler, model, &u, false, &mut tangent)?;
             restriction.restrict_into(&tangent, &mut free_tangent)?;
             if let Err(tetfem_linalg::Error::NotPositiveDefinite { .. }) =
                 solver.factorize(&free_tangent)
             {
-                refill_tangent(mesh, &assembler, model, &u, true, &mut tangent)?;
+                refill_tangent(mesh, assembler, model, &u, true, &mut tangent)?;
                 restriction.restrict_into(&tangent, &mut free_tangent)?;
                 solver.factorize(&free_tangent)?;
             }

@@ -2,14 +2,15 @@
 
 use std::time::{Duration, Instant};
 
-use crate::assembly::Assembler;
-use crate::constraints::{Constraints, DofMap, ensure_held};
+use crate::constraints::{Constraints, DofMap};
 use crate::error::{Error, Result};
 use crate::linear_solver::{LinearSolver, SolveInfo, SolverOptions};
 use crate::loads::Loads;
 use crate::material::Material;
+use crate::materials::TetMaterials;
 use crate::memory::{MemoryLimits, SolverMemory, StaticEstimate};
 use crate::mesh::TetMesh;
+use crate::problem::Problem;
 use crate::sparse::CscMatrix;
 
 /// The largest relative residual ‖K_ff·u_f − r_f‖/‖r_f‖ a direct static solve may return:
@@ -67,15 +68,20 @@ pub struct StaticSolver {
 
 impl StaticSolver {
     /// Assembles K, checks that `constraints` leave no rigid-body motion
-    /// ([`Error::NotConstrained`] otherwise), and factors K_ff.
-    pub fn new(mesh: &TetMesh, material: &Material, constraints: &Constraints) -> Result<Self> {
-        Self::with_options(mesh, material, constraints, SolverOptions::default())
+    /// ([`Error::NotConstrained`] otherwise), and factors K_ff. `materials`: one [`Material`]
+    /// for every tet, or a [`MaterialMap`](crate::materials::MaterialMap).
+    pub fn new(
+        mesh: &TetMesh,
+        materials: &impl TetMaterials,
+        constraints: &Constraints,
+    ) -> Result<Self> {
+        Self::with_options(mesh, materials, constraints, SolverOptions::default())
     }
 
     /// As [`new`](Self::new), with a chosen linear solver (direct or iterative, ordering, threads).
     pub fn with_options(
         mesh: &TetMesh,
-        material: &Material,
+        materials: &impl TetMaterials,
         constraints: &Constraints,
         options: SolverOptions,
     ) -> Result<Self> {
@@ -97,38 +103,46 @@ impl StaticSolver {
             ),
             estimate.beyond_mesh(),
         )?;
+        materials.check_tet_count(mesh)?;
+        let problem = Problem::new(mesh, constraints)?;
+        Self::of_problem(problem, materials, options)
+    }
+
+    /// Assembles K of a set-up problem with `materials` and factors K_ff.
+    pub fn of_problem(
+        problem: Problem<'_>,
+        materials: &impl TetMaterials,
+        options: SolverOptions,
+    ) -> Result<Self> {
         let mut timings = StaticTimings::default();
-        let clock = Instant::now();
-        let assembler = Assembler::new(mesh);
-        timings.pattern = clock.elapsed();
+        (timings.pattern, timings.constraints) = problem.timings();
 
         let clock = Instant::now();
-        let stiffness = assembler.stiffness(mesh, material)?;
+        let stiffness = problem.stiffness(materials)?;
         timings.assembly = clock.elapsed();
 
         let clock = Instant::now();
-        let dofs = DofMap::new(constraints);
-        ensure_held(mesh, &mesh.face_topology()?, &dofs)?;
-        let free_stiffness = dofs
-            .restriction(stiffness.pattern())?
-            .restrict(&stiffness)?;
-        timings.constraints = clock.elapsed();
+        let free_stiffness = problem.restrict(&stiffness)?;
+        timings.constraints += clock.elapsed();
 
         let clock = Instant::now();
-        let geometry = dofs.geometry_for_method(options.method, mesh)?;
+        let geometry = problem
+            .dofs()
+            .geometry_for_method(options.method, problem.mesh())?;
         let mut solver = LinearSolver::analyze_with_geometry(&free_stiffness, options, geometry)?;
         timings.symbolic = clock.elapsed();
 
         let clock = Instant::now();
         solver.factorize(&free_stiffness)?;
         timings.factorization = clock.elapsed();
+        let likely_cause = likely_cause(materials.material_list());
         Ok(StaticSolver {
             stiffness,
             free_stiffness,
-            dofs,
+            dofs: problem.into_dofs(),
             solver,
             timings,
-            likely_cause: likely_cause(material),
+            likely_cause,
         })
     }
 
@@ -256,14 +270,26 @@ impl StaticSolver {
 /// One-shot static solve: [`StaticSolver::new`] then [`StaticSolver::solve`].
 pub fn solve_static(
     mesh: &TetMesh,
-    material: &Material,
+    materials: &impl TetMaterials,
     constraints: &Constraints,
     loads: &Loads,
 ) -> Result<StaticSolution> {
-    StaticSolver::new(mesh, material, constraints)?.solve(loads)
+    StaticSolver::new(mesh, materials, constraints)?.solve(loads)
 }
 
-fn likely_cause(material: &Material) -> String {
+/// The likely cause of an inaccurate solve, from the material nearest incompressibility.
+fn likely_cause(materials: &[Material]) -> String {
+    let material = materials
+        .iter()
+        .copied()
+        .reduce(|a, b| {
+            if b.poisson_ratio() > a.poisson_ratio() {
+                b
+            } else {
+                a
+            }
+        })
+        .unwrap_or_else(Material::steel);
     let nu = material.poisson_ratio();
     let ratio = material.lame_lambda() / material.shear_modulus();
     if nu > crate::warning::NEARLY_INCOMPRESSIBLE_POISSON {

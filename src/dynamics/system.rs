@@ -7,13 +7,13 @@ use nalgebra::Vector3;
 
 use super::{Energy, Rayleigh, State};
 use crate::amg::DofGeometry;
-use crate::assembly::{Assembler, lumped_mass};
 use crate::block_sparse::SymmetricBlockMatrix3;
-use crate::constraints::{Constraints, DofMap, ensure_held};
+use crate::constraints::{Constraints, DofMap};
 use crate::error::{Error, Result};
 use crate::loads::Loads;
-use crate::material::Material;
+use crate::materials::TetMaterials;
 use crate::mesh::TetMesh;
+use crate::problem::Problem;
 use crate::sparse::CscMatrix;
 
 /// Lumped (diagonal) or consistent mass.
@@ -97,9 +97,12 @@ impl LinearSystem {
     /// (checked to hold every rigid mode), gravity `gravity` (acceleration, e.g. (0, 0, −9.81)
     /// m/s²) as its own load, the other `loads` and the constant −K_fc·u_c of prescribed
     /// displacements as the rest.
+    ///
+    /// `materials`: one [`Material`](crate::material::Material) for every tet, or a
+    /// [`MaterialMap`](crate::materials::MaterialMap) (K, M and gravity per tet).
     pub fn new(
         mesh: &TetMesh,
-        material: &Material,
+        materials: &impl TetMaterials,
         constraints: &Constraints,
         loads: &Loads,
         gravity: Vector3<f64>,
@@ -131,20 +134,16 @@ impl LinearSystem {
             ),
             estimate.beyond_mesh() + extra,
         )?;
-        let dofs = DofMap::new(constraints);
-        ensure_held(mesh, &mesh.face_topology()?, &dofs)?;
-        let assembler = Assembler::new(mesh);
-        let k_full = assembler.stiffness(mesh, material)?;
-        let restriction = dofs.restriction(k_full.pattern())?;
-        let stiffness = restriction.restrict(&k_full)?;
+        materials.check_tet_count(mesh)?;
+        let problem = Problem::new(mesh, constraints)?;
+        let k_full = problem.stiffness(materials)?;
+        let stiffness = problem.restrict(&k_full)?;
         let mass = match mass {
-            MassKind::Lumped => Mass::Lumped(dofs.restrict(&lumped_mass(mesh, material))?),
-            MassKind::Consistent => {
-                Mass::Consistent(restriction.restrict(&assembler.consistent_mass(mesh, material)?)?)
-            }
+            MassKind::Lumped => Mass::Lumped(problem.free_lumped_mass(materials)?),
+            MassKind::Consistent => Mass::Consistent(problem.free_consistent_mass(materials)?),
         };
-        let mut gravity_loads = Loads::new(mesh);
-        gravity_loads.add_gravity(mesh, material, gravity)?;
+        let gravity_loads = problem.gravity_loads(materials, gravity)?;
+        let dofs = problem.into_dofs();
         let coupling = k_full.mul(dofs.prescribed())?;
         let other: Vec<f64> = loads
             .as_slice()

@@ -9,7 +9,7 @@ mod topology;
 pub use generate::{BoxSplit, box_node_index};
 pub use quality::{
     CriticalStep, MeshStatistics, POOR_DIHEDRAL_DEG, Summary, TetQuality, critical_time_step,
-    tet_quality,
+    critical_time_step_of, tet_quality,
 };
 pub use topology::{BoundaryFace, FaceTopology};
 

@@ -241,11 +241,37 @@ pub struct CriticalStep {
 /// Computes [`CriticalStep`] for `mesh` made of `material`: one 12×12 symmetric eigenvalue
 /// problem per tet.
 pub fn critical_time_step(mesh: &TetMesh, material: &Material) -> CriticalStep {
-    let c_p = material.p_wave_speed();
+    critical_step_by(mesh, material)
+}
+
+/// [`critical_time_step`] with each tet's own material: ωₑ and hₑ/c_p,e per tet;
+/// `p_wave_speed` is then the largest c_p of the materials.
+///
+/// Errors: `materials` do not cover the mesh's tets.
+pub fn critical_time_step_of(
+    mesh: &TetMesh,
+    materials: &impl crate::materials::TetMaterials,
+) -> crate::error::Result<CriticalStep> {
+    materials.check_tet_count(mesh)?;
+    Ok(critical_step_by(mesh, materials))
+}
+
+/// [`critical_time_step_of`] for materials checked against the mesh.
+fn critical_step_by(
+    mesh: &TetMesh,
+    materials: &impl crate::materials::TetMaterials,
+) -> CriticalStep {
+    let speeds: Vec<f64> = materials
+        .material_list()
+        .iter()
+        .map(|m| m.p_wave_speed())
+        .collect();
+    let c_p = speeds.iter().copied().fold(0.0, f64::max);
     let mut worst_omega_sq: f64 = 0.0;
     let mut tet = 0;
     let mut dt_geometric = f64::INFINITY;
     for t in 0..mesh.tet_count() {
+        let material = materials.material_of(t);
         let element = mesh.element_of(t);
         let k = element.stiffness(material);
         let lambda_max = k
@@ -258,7 +284,7 @@ pub fn critical_time_step(mesh: &TetMesh, material: &Material) -> CriticalStep {
             tet = t;
         }
         let q = tet_quality(&element, &mesh.positions_of(t));
-        dt_geometric = dt_geometric.min(q.min_altitude / c_p);
+        dt_geometric = dt_geometric.min(q.min_altitude / speeds[materials.index_of(t)]);
     }
     CriticalStep {
         dt_element: 2.0 / worst_omega_sq.sqrt(),

@@ -5,7 +5,7 @@
 
 use nalgebra::Vector3;
 
-use super::{ForceModel, project_psd};
+use super::{TetModels, project_psd};
 use crate::assembly::Assembler;
 use crate::error::{Error, Result};
 use crate::mesh::TetMesh;
@@ -33,14 +33,16 @@ fn positions(mesh: &TetMesh, t: usize, u: &[f64]) -> [Vector3<f64>; 4] {
     mesh.tets()[t].map(|n| mesh.nodes()[n] + Vector3::new(u[3 * n], u[3 * n + 1], u[3 * n + 2]))
 }
 
-/// Total elastic energy Σₑ Eₑ at displacement `u` (full length).
-pub fn energy(mesh: &TetMesh, model: &dyn ForceModel, u: &[f64]) -> Result<f64> {
+/// Total elastic energy Σₑ Eₑ at displacement `u` (full length); `model` is one force model
+/// for every tet or a [`ModelMap`](super::ModelMap) (one per material).
+pub fn energy(mesh: &TetMesh, model: &(impl TetModels + ?Sized), u: &[f64]) -> Result<f64> {
     use rayon::prelude::*;
     check_displacement(mesh, u)?;
+    model.check_tet_count(mesh)?;
     Ok((0..mesh.tet_count())
         .into_par_iter()
         .map(|t| {
-            model.energy(
+            model.model_of(t).energy(
                 &mesh.element_of(t),
                 &mesh.positions_of(t),
                 &positions(mesh, t, u),
@@ -49,12 +51,18 @@ pub fn energy(mesh: &TetMesh, model: &dyn ForceModel, u: &[f64]) -> Result<f64> 
         .sum())
 }
 
-/// Internal force vector Σₑ fₑ at displacement `u` (full length, force units).
-pub fn internal_force(mesh: &TetMesh, model: &dyn ForceModel, u: &[f64]) -> Result<Vec<f64>> {
+/// Internal force vector Σₑ fₑ at displacement `u` (full length, force units), each tet with
+/// its own model (see [`energy`]).
+pub fn internal_force(
+    mesh: &TetMesh,
+    model: &(impl TetModels + ?Sized),
+    u: &[f64],
+) -> Result<Vec<f64>> {
     check_displacement(mesh, u)?;
+    model.check_tet_count(mesh)?;
     let mut force = vec![0.0; mesh.dof_count()];
     for (t, tet) in mesh.tets().iter().enumerate() {
-        let f = model.force(
+        let f = model.model_of(t).force(
             &mesh.element_of(t),
             &mesh.positions_of(t),
             &positions(mesh, t, u),
@@ -69,20 +77,22 @@ pub fn internal_force(mesh: &TetMesh, model: &dyn ForceModel, u: &[f64]) -> Resu
 }
 
 /// Refills `tangent` (on `assembler`'s pattern) with Σₑ (element tangent), each projected onto
-/// the positive semi-definite cone when `project` is set, in parallel, O(nnz), no new pattern.
+/// the positive semi-definite cone when `project` is set, in parallel, O(nnz), no new pattern;
+/// each tet with its own model (see [`energy`]).
 pub fn refill_tangent(
     mesh: &TetMesh,
     assembler: &Assembler,
-    model: &dyn ForceModel,
+    model: &(impl TetModels + ?Sized),
     u: &[f64],
     project: bool,
     tangent: &mut CscMatrix,
 ) -> Result<()> {
     check_displacement(mesh, u)?;
+    model.check_tet_count(mesh)?;
     assembler.reassemble(
         mesh,
         |t| {
-            let k = model.tangent(
+            let k = model.model_of(t).tangent(
                 &mesh.element_of(t),
                 &mesh.positions_of(t),
                 &positions(mesh, t, u),

@@ -12,6 +12,7 @@
 
 mod corotational;
 mod linear;
+mod map;
 mod neo_hookean;
 mod polar;
 
@@ -19,6 +20,7 @@ pub mod assemble;
 
 pub use corotational::Corotational;
 pub use linear::LinearModel;
+pub use map::{ModelMap, TetModels};
 pub use neo_hookean::NeoHookean;
 pub use polar::rotation;
 
@@ -80,6 +82,20 @@ impl std::str::FromStr for ModelKind {
 }
 
 impl ModelKind {
+    /// The name scenes and summaries use: `linear`, `corotational`, `neo-hookean`.
+    pub fn name(self) -> &'static str {
+        match self {
+            ModelKind::Linear => "linear",
+            ModelKind::Corotational => "corotational",
+            ModelKind::NeoHookean => "neo-hookean",
+        }
+    }
+
+    /// One model of this kind per material of `materials`, chosen per tet.
+    pub fn build_map(self, materials: &crate::materials::MaterialMap) -> ModelMap {
+        ModelMap::new(self, materials)
+    }
+
     /// The model for `material`.
     pub fn build(self, material: &Material) -> Box<dyn ForceModel> {
         match self {

@@ -1,8 +1,9 @@
 //! Derived per-node and per-cell fields for output: displacement magnitude, von Mises stress,
 //! strain energy density.
 //!
-//! The `cell_*` functions taking a [`Material`] evaluate the linear (small-strain) model; the
-//! `cell_model_*` functions evaluate the [`ForceModel`] that produced the displacement (its own
+//! The `cell_*` functions taking a [`Material`](crate::material::Material) (or a
+//! [`MaterialMap`](crate::materials::MaterialMap)) evaluate the linear (small-strain) model; the
+//! `cell_model_*` functions evaluate the [`ForceModel`](crate::model::ForceModel) that produced the displacement (its own
 //! Cauchy stress and energy), which is what a run with a nonlinear model must report: the linear
 //! strain of a rigid rotation is not zero.
 
@@ -10,9 +11,9 @@ use nalgebra::{Matrix3, Vector3};
 
 use crate::element::Vector12;
 use crate::error::{Error, Result};
-use crate::material::Material;
+use crate::materials::TetMaterials;
 use crate::mesh::TetMesh;
-use crate::model::ForceModel;
+use crate::model::TetModels;
 
 pub use crate::element::von_mises;
 
@@ -32,19 +33,25 @@ fn element_displacement(tet: &[usize; 4], displacement: &[f64]) -> Vector12 {
 }
 
 /// Cauchy stress σ of every tet (constant per linear tet) for a node-major displacement.
+///
+/// `materials`: one [`Material`](crate::material::Material) for every tet, or a
+/// [`MaterialMap`](crate::materials::MaterialMap) (each tet's stress from its own material).
 pub fn cell_stress(
     mesh: &TetMesh,
-    material: &Material,
+    materials: &impl TetMaterials,
     displacement: &[f64],
 ) -> Result<Vec<Matrix3<f64>>> {
     check_displacement(mesh, displacement)?;
+    materials.check_tet_count(mesh)?;
     Ok(mesh
         .tets()
         .iter()
         .enumerate()
         .map(|(t, tet)| {
-            mesh.element_of(t)
-                .stress(material, &element_displacement(tet, displacement))
+            mesh.element_of(t).stress(
+                materials.material_of(t),
+                &element_displacement(tet, displacement),
+            )
         })
         .collect())
 }
@@ -52,10 +59,10 @@ pub fn cell_stress(
 /// Von Mises stress of every tet (stress units, Pa in SI).
 pub fn cell_von_mises(
     mesh: &TetMesh,
-    material: &Material,
+    materials: &impl TetMaterials,
     displacement: &[f64],
 ) -> Result<Vec<f64>> {
-    Ok(cell_stress(mesh, material, displacement)?
+    Ok(cell_stress(mesh, materials, displacement)?
         .iter()
         .map(von_mises)
         .collect())
@@ -65,10 +72,11 @@ pub fn cell_von_mises(
 /// the tet volumes it gives the strain energy ½ uᵀKu.
 pub fn cell_strain_energy_density(
     mesh: &TetMesh,
-    material: &Material,
+    materials: &impl TetMaterials,
     displacement: &[f64],
 ) -> Result<Vec<f64>> {
     check_displacement(mesh, displacement)?;
+    materials.check_tet_count(mesh)?;
     Ok(mesh
         .tets()
         .iter()
@@ -77,22 +85,26 @@ pub fn cell_strain_energy_density(
             let element = mesh.element_of(t);
             let u = element_displacement(tet, displacement);
             let strain = element.strain(&u);
-            0.5 * element.stress(material, &u).component_mul(&strain).sum()
+            0.5 * element
+                .stress(materials.material_of(t), &u)
+                .component_mul(&strain)
+                .sum()
         })
         .collect())
 }
 
-/// Cauchy stress σ of every tet as `model` defines it ([`ForceModel::cauchy_stress`], stress
+/// Cauchy stress σ of every tet as `model` defines it ([`ForceModel::cauchy_stress`](crate::model::ForceModel::cauchy_stress), stress
 /// units) at the node-major `displacement`.
 pub fn cell_model_stress(
     mesh: &TetMesh,
-    model: &dyn ForceModel,
+    model: &(impl TetModels + ?Sized),
     displacement: &[f64],
 ) -> Result<Vec<Matrix3<f64>>> {
     check_displacement(mesh, displacement)?;
+    model.check_tet_count(mesh)?;
     Ok((0..mesh.tet_count())
         .map(|t| {
-            model.cauchy_stress(
+            model.model_of(t).cauchy_stress(
                 &mesh.element_of(t),
                 &mesh.positions_of(t),
                 &deformed(mesh, t, displacement),
@@ -104,7 +116,7 @@ pub fn cell_model_stress(
 /// Von Mises stress of `model`'s Cauchy stress in every tet (stress units).
 pub fn cell_model_von_mises(
     mesh: &TetMesh,
-    model: &dyn ForceModel,
+    model: &(impl TetModels + ?Sized),
     displacement: &[f64],
 ) -> Result<Vec<f64>> {
     Ok(cell_model_stress(mesh, model, displacement)?
@@ -118,14 +130,15 @@ pub fn cell_model_von_mises(
 /// total elastic energy. For the linear model this is ½σ:ε.
 pub fn cell_model_energy_density(
     mesh: &TetMesh,
-    model: &dyn ForceModel,
+    model: &(impl TetModels + ?Sized),
     displacement: &[f64],
 ) -> Result<Vec<f64>> {
     check_displacement(mesh, displacement)?;
+    model.check_tet_count(mesh)?;
     Ok((0..mesh.tet_count())
         .map(|t| {
             let tet = mesh.element_of(t);
-            let energy = model.energy(
+            let energy = model.model_of(t).energy(
                 &tet,
                 &mesh.positions_of(t),
                 &deformed(mesh, t, displacement),

@@ -8,23 +8,25 @@ use super::fields::{
     displacement_magnitude,
 };
 use crate::error::Result;
-use crate::material::Material;
+use crate::materials::TetMaterials;
 use crate::mesh::TetMesh;
-use crate::model::ForceModel;
+use crate::model::TetModels;
 
 /// Writes `path` (atomically) with point fields `displacement` (3 components),
 /// `displacement_magnitude`, optionally `velocity` (3), and cell fields `von_mises` (stress
 /// units) and `strain_energy_density` (energy/volume), all from node-major vectors. The cell
-/// fields are those of the linear model; see [`write_model_result_vtu`] for a nonlinear run.
+/// fields are those of the linear model, each tet with its own material (one
+/// [`Material`](crate::material::Material) or a [`MaterialMap`](crate::materials::MaterialMap));
+/// see [`write_model_result_vtu`] for a nonlinear run.
 pub fn write_result_vtu(
     path: &Path,
     mesh: &TetMesh,
-    material: &Material,
+    materials: &impl TetMaterials,
     displacement: &[f64],
     velocity: Option<&[f64]>,
 ) -> Result<()> {
-    let von_mises = cell_von_mises(mesh, material, displacement)?;
-    let energy = cell_strain_energy_density(mesh, material, displacement)?;
+    let von_mises = cell_von_mises(mesh, materials, displacement)?;
+    let energy = cell_strain_energy_density(mesh, materials, displacement)?;
     write_fields(path, mesh, displacement, velocity, &von_mises, &energy)
 }
 
@@ -34,7 +36,7 @@ pub fn write_result_vtu(
 pub fn write_model_result_vtu(
     path: &Path,
     mesh: &TetMesh,
-    model: &dyn ForceModel,
+    model: &(impl TetModels + ?Sized),
     displacement: &[f64],
     velocity: Option<&[f64]>,
 ) -> Result<()> {

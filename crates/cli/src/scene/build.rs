@@ -4,11 +4,12 @@ use std::ops::Range;
 
 use nalgebra::Vector3;
 
-use super::{MeshSpec, Scene, Selector, SplitSpec};
+use super::{MeshSpec, RegionSelector, Scene, Selector, SplitSpec};
 use tetfem::constraints::Constraints;
 use tetfem::error::{Error, Result};
 use tetfem::loads::Loads;
 use tetfem::material::Material;
+use tetfem::materials::{MaterialAssignment, MaterialMap, attribute_tets, volume_group_tets};
 use tetfem::mesh::io::{ImportedMesh, read_gmsh, read_tetgen};
 use tetfem::mesh::{BoundaryFace, BoxSplit, TetMesh};
 
@@ -43,8 +44,11 @@ pub struct BuiltScene {
     pub imported: Option<ImportedMesh>,
     /// The boundary faces, outward oriented.
     pub boundary: Vec<BoundaryFace>,
-    /// The material.
+    /// The scene's `[material]`, or without one the first `[[materials]]` entry's: what
+    /// single-material consumers (the critical-step report of `tetfem info`) use.
     pub material: Material,
+    /// The material of every tet: `[[materials]]` where they claim, `[material]` elsewhere.
+    pub materials: MaterialMap,
     /// The constraints.
     pub constraints: Constraints,
     /// The loads, as one nodal force vector (gravity included).
@@ -66,7 +70,7 @@ impl BuiltScene {
     /// [`tetfem::warning`]).
     pub fn warnings(&self) -> Vec<tetfem::warning::Warning> {
         let mut warnings = self.mesh.warnings();
-        warnings.extend(self.material.warnings());
+        warnings.extend(self.materials.warnings());
         warnings.extend(self.input_warnings.iter().cloned());
         warnings
     }
@@ -108,15 +112,8 @@ impl Scene {
             }
         };
         let boundary = mesh.boundary_faces()?;
-        let m = spec.material.get_ref();
-        let material =
-            Material::new(m.youngs_modulus, m.poisson_ratio, m.density).map_err(|e| {
-                let key = match &e {
-                    Error::InvalidMaterial { field, .. } => format!("material.{field}"),
-                    _ => "material".into(),
-                };
-                self.error(&key, &spec.material.span(), e.to_string())
-            })?;
+        let (materials, default) = self.materials(&mesh, imported.as_ref())?;
+        let material = default.unwrap_or(materials.materials()[0]);
         let ctx = Context {
             scene: self,
             mesh: &mesh,
@@ -179,14 +176,14 @@ impl Scene {
         for (i, l) in spec.loads.iter().enumerate() {
             let key = format!("loads[{i}]");
             let before = loads.as_slice().to_vec();
-            ctx.add_load(&mut loads, &material, l.get_ref(), &key, &l.span())?;
+            ctx.add_load(&mut loads, &materials, l.get_ref(), &key, &l.span())?;
             if let Some(warning) = on_fixed_dofs_only(&key, &before, loads.as_slice(), &constraints)
             {
                 input_warnings.push(warning);
             }
             match l.get_ref().gravity {
                 Some(g) => gravity += Vector3::from(g),
-                None => ctx.add_load(&mut other_loads, &material, l.get_ref(), &key, &l.span())?,
+                None => ctx.add_load(&mut other_loads, &materials, l.get_ref(), &key, &l.span())?,
             }
         }
         let mut probes: Vec<Probe> = Vec::new();
@@ -223,6 +220,7 @@ impl Scene {
             imported,
             boundary,
             material,
+            materials,
             constraints,
             loads,
             other_loads,
@@ -230,6 +228,97 @@ impl Scene {
             probes,
             input_warnings,
         })
+    }
+}
+
+impl Scene {
+    /// The material of every tet: each `[[materials]]` entry claims the tets of its `where`
+    /// (a Gmsh volume group, a box over tet centroids or a TetGen region attribute), and
+    /// `[material]`, if given, covers the rest (and is returned too). Errors name the entry and its line: an invalid
+    /// material value, a selection holding no tet, a tet two entries claim, or (without
+    /// `[material]`) a tet none claims.
+    fn materials(
+        &self,
+        mesh: &TetMesh,
+        imported: Option<&ImportedMesh>,
+    ) -> Result<(MaterialMap, Option<Material>)> {
+        let spec = self.spec();
+        let material_at = |m: &super::MaterialSpec, key: &str, span: &Range<usize>| {
+            Material::new(m.youngs_modulus, m.poisson_ratio, m.density).map_err(|e| {
+                let key = match &e {
+                    Error::InvalidMaterial { field, .. } => format!("{key}.{field}"),
+                    _ => key.to_string(),
+                };
+                self.error(&key, span, e.to_string())
+            })
+        };
+        let default = match &spec.material {
+            Some(m) => Some(material_at(m.get_ref(), "material", &m.span())?),
+            None if spec.materials.is_empty() => {
+                return Err(self.error(
+                    "material",
+                    &(0..0),
+                    "the scene has no material: add [material] (every tet) or [[materials]] \
+                     entries with a 'where' (per region)",
+                ));
+            }
+            None => None,
+        };
+        let mut assignment = MaterialAssignment::new(mesh.tet_count());
+        for (i, r) in spec.materials.iter().enumerate() {
+            let key = format!("materials[{i}]");
+            let span = r.span();
+            let r = r.get_ref();
+            let material = material_at(&r.material(), &key, &span)?;
+            let at = |e: Error| self.error(&format!("{key}.where"), &span, e.to_string());
+            let claimed = match &r.select {
+                RegionSelector::Group(name) => {
+                    let Some(imported) = imported.filter(|i| !i.groups.is_empty()) else {
+                        return Err(self.error(
+                            &format!("{key}.where"),
+                            &span,
+                            "a group selection needs a Gmsh mesh with physical volumes",
+                        ));
+                    };
+                    let tets = volume_group_tets(imported, name).map_err(at)?;
+                    assignment.assign(key.clone(), material, tets.iter().copied())
+                }
+                RegionSelector::Box { min, max } => {
+                    assignment.assign_box(mesh, key.clone(), material, (*min).into(), (*max).into())
+                }
+                RegionSelector::Attribute(value) => {
+                    let Some(imported) = imported else {
+                        return Err(self.error(
+                            &format!("{key}.where"),
+                            &span,
+                            "an attribute selection needs a TetGen mesh with tet attributes",
+                        ));
+                    };
+                    let tets = attribute_tets(imported, *value).map_err(at)?;
+                    assignment.assign(key.clone(), material, tets)
+                }
+            }
+            .map_err(|e| self.error(&key, &span, e.to_string()))?;
+            if claimed == 0 {
+                return Err(self.error(
+                    &format!("{key}.where"),
+                    &span,
+                    "the selection holds no tet",
+                ));
+            }
+        }
+        let (last_key, last_span) = match spec.materials.last() {
+            Some(r) => (format!("materials[{}]", spec.materials.len() - 1), r.span()),
+            None => ("material".to_string(), 0..0),
+        };
+        let map = assignment.finish(default).map_err(|e| {
+            self.error(
+                &last_key,
+                &last_span,
+                format!("{e} (no [material] covers the tets no [[materials]] entry claims)"),
+            )
+        })?;
+        Ok((map, default))
     }
 }
 
@@ -384,7 +473,7 @@ impl Context<'_> {
     fn add_load(
         &self,
         loads: &mut Loads,
-        material: &Material,
+        materials: &MaterialMap,
         l: &super::LoadSpec,
         key: &str,
         span: &Range<usize>,
@@ -427,7 +516,7 @@ impl Context<'_> {
                 ));
             }
             loads
-                .add_gravity(self.mesh, material, g.into())
+                .add_gravity(self.mesh, materials, g.into())
                 .map_err(at)?;
         } else if let Some(b) = l.body_force {
             if l.select.is_some() {

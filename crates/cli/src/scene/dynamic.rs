@@ -14,7 +14,7 @@ use crate::render::{Field, RenderOptions, auto_deformation_scale, render};
 use tetfem::constraints::Constraints;
 use tetfem::dynamics::{
     Energy, IntegratorOptions, InternalForce, LinearSystem, Mass, MassKind, Method, NewtonStats,
-    Rayleigh, State, critical_time_step, element_critical_step,
+    Rayleigh, State, critical_time_step,
 };
 use tetfem::error::{Error, Result};
 use tetfem::linalg::linear_solver::LinearMethod;
@@ -137,8 +137,10 @@ impl RunLength {
 pub struct DynamicSetup {
     /// The mesh.
     pub mesh: TetMesh,
-    /// The material.
+    /// The material (the scene's default; see `materials` for each tet's).
     pub material: Material,
+    /// The material of every tet.
+    pub materials: tetfem::materials::MaterialMap,
     /// M·ü + C·u̇ + K·u = f on the free DOFs.
     pub system: Arc<LinearSystem>,
     /// The state at time 0.
@@ -176,7 +178,7 @@ impl DynamicSetup {
         };
         let system = LinearSystem::new(
             &built.mesh,
-            &built.material,
+            &built.materials,
             &built.constraints,
             &built.other_loads,
             built.gravity,
@@ -198,6 +200,7 @@ impl DynamicSetup {
             input_warnings: built.input_warnings,
             mesh: built.mesh,
             material: built.material,
+            materials: built.materials,
             system: Arc::new(system),
             initial,
             probes: built.probes,
@@ -230,6 +233,7 @@ impl DynamicSetup {
         }];
         Ok(DynamicSetup {
             input_warnings: Vec::new(),
+            materials: tetfem::materials::MaterialMap::uniform(material, mesh.tet_count()),
             mesh,
             material,
             system: Arc::new(system),
@@ -250,7 +254,7 @@ impl DynamicSetup {
         let clock = Instant::now();
         let (initial, system) = released_system(
             &built.mesh,
-            &built.material,
+            &built.materials,
             &built.constraints,
             &built.other_loads,
             built.gravity,
@@ -262,6 +266,20 @@ impl DynamicSetup {
     /// gives [`InternalForce::Linear`], the fast path). Errors: a non-zero prescribed
     /// displacement with a nonlinear model, naming its DOF.
     pub fn with_model(mut self, kind: tetfem::model::ModelKind) -> Result<Self> {
+        let regions = self.materials.materials().len();
+        if kind != tetfem::model::ModelKind::Linear && regions > 1 {
+            // The nonlinear force of the integrators takes one model; a model per region is
+            // what `ModelMap` gives the static Newton solve, not yet the time steppers.
+            return Err(Error::invalid_parameter(
+                "analysis.model",
+                kind.name(),
+                format!(
+                    "a nonlinear model in a dynamic run takes one material for now; this scene \
+                     has {regions} ([[materials]] regions): run it with model = \"linear\", or \
+                     statically"
+                ),
+            ));
+        }
         self.force = match kind {
             tetfem::model::ModelKind::Linear => InternalForce::Linear,
             nonlinear => InternalForce::of_model(
@@ -276,7 +294,7 @@ impl DynamicSetup {
     /// The model's von Mises stress per tet (Pa) at full displacement `u`.
     fn von_mises(&self, u: &[f64]) -> Result<Vec<f64>> {
         match &self.force {
-            InternalForce::Linear => cell_von_mises(&self.mesh, &self.material, u),
+            InternalForce::Linear => cell_von_mises(&self.mesh, &self.materials, u),
             InternalForce::Nonlinear(n) => cell_model_von_mises(&self.mesh, n.model(), u),
         }
     }
@@ -302,7 +320,7 @@ impl DynamicSetup {
         let c = match self.system.mass() {
             Mass::Lumped(_) => (critical_time_step(&self.system)?.dt, "power iteration"),
             Mass::Consistent(_) => (
-                element_critical_step(&self.mesh, &self.material),
+                tetfem::mesh::critical_time_step_of(&self.mesh, &self.materials)?.dt_element,
                 "element bound",
             ),
         };
@@ -596,7 +614,7 @@ fn run_dynamic_locked(
             .mesh
             .warnings()
             .iter()
-            .chain(&setup.material.warnings())
+            .chain(&setup.materials.warnings())
             .chain(&setup.input_warnings)
             .map(ToString::to_string)
             .chain(lock.as_ref().and_then(OutputLock::warning))
@@ -768,7 +786,7 @@ impl FrameWriter {
             let vtu = dir.join(format!("{name}.vtu"));
             match &setup.force {
                 InternalForce::Linear => {
-                    write_result_vtu(&vtu, &setup.mesh, &setup.material, u, Some(&velocity))?
+                    write_result_vtu(&vtu, &setup.mesh, &setup.materials, u, Some(&velocity))?
                 }
                 InternalForce::Nonlinear(n) => {
                     write_model_result_vtu(&vtu, &setup.mesh, n.model(), u, Some(&velocity))?
@@ -1000,7 +1018,7 @@ pub fn run_dynamic_scene(
 /// loads removed and gravity kept (lumped mass, no damping), which it swings in.
 fn released_system(
     mesh: &TetMesh,
-    material: &Material,
+    material: &impl tetfem::materials::TetMaterials,
     constraints: &Constraints,
     loads: &Loads,
     gravity: Vector3<f64>,

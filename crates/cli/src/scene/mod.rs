@@ -36,10 +36,21 @@ max = [1.0, 0.1, 0.1]               # required (m)
 cells = [10, 2, 2]                  # required
 split = "mirrored6"                 # default "mirrored6"; or "lecture6", "five"
 
-[material]                          # all required
+[material]                          # all required (unless [[materials]] cover every tet)
 youngs_modulus = 200e9              # Pa
 poisson_ratio = 0.3
 density = 7850.0                    # kg/m³
+
+# Materials per region: each [[materials]] entry has the keys of [material] and a tet set
+# "where": { group = "name or tag" } (Gmsh physical volume) | { box = { min = [..], max = [..] } }
+# (tets whose centroid is in the closed box, m) | { attribute = 1 } (TetGen region attribute).
+# [material], if given, covers the tets no entry claims; without it such a tet is an error,
+# and so is a tet two entries claim.
+# [[materials]]
+# youngs_modulus = 70e9
+# poisson_ratio = 0.33
+# density = 2700.0
+# where = { box = { min = [0.5, -1.0, -1.0], max = [2.0, 1.0, 1.0] } }
 
 # Node and face sets ("where"): "all" | { plane = { axis = "x", at = 0.0, tolerance = 1e-9 } }
 # (tolerance default: 1e-6 × the bounding-box diagonal) | { box = { min = [..], max = [..] } }

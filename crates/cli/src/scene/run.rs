@@ -6,7 +6,7 @@ use std::time::Instant;
 use super::{Analysis, BuiltScene, PngField, Scene};
 use crate::render::{Field, RenderOptions, auto_deformation_scale, render};
 use tetfem::error::{Error, Result};
-use tetfem::model::ForceModel;
+use tetfem::model::ModelMap;
 use tetfem::output::fields::{cell_model_von_mises, displacement_magnitude};
 use tetfem::output::{
     CsvSeries, OutputLock, PvdCollection, write_atomically, write_model_result_vtu,
@@ -142,7 +142,7 @@ pub fn run_static_with(scene: &Scene, options: &RunOptions) -> Result<RunSummary
     let mut phases = None;
     let mut factor_len = 0;
     // The model that runs is the model whose stress and energy are reported.
-    let model = scene.model().build(&built.material);
+    let model = scene.model().build_map(&built.materials);
     let (displacement, relative_residual, free_dofs) = match scene.model() {
         tetfem::model::ModelKind::Linear => {
             let options = tetfem::linalg::linear_solver::SolverOptions {
@@ -151,7 +151,7 @@ pub fn run_static_with(scene: &Scene, options: &RunOptions) -> Result<RunSummary
             };
             let mut solver = StaticSolver::with_options(
                 &built.mesh,
-                &built.material,
+                &built.materials,
                 &built.constraints,
                 options,
             )?;
@@ -167,7 +167,7 @@ pub fn run_static_with(scene: &Scene, options: &RunOptions) -> Result<RunSummary
         _ => {
             let report = tetfem::nonlinear::solve_nonlinear_static(
                 &built.mesh,
-                model.as_ref(),
+                &model,
                 &built.constraints,
                 &built.loads,
                 tetfem::nonlinear::NewtonOptions::default(),
@@ -196,8 +196,8 @@ pub fn run_static_with(scene: &Scene, options: &RunOptions) -> Result<RunSummary
     // takes u = x − X back, which costs digits (~1e-11 relative in σ_vM on a steel beam).
     let linear = scene.model() == tetfem::model::ModelKind::Linear;
     let von_mises = match linear {
-        true => tetfem::output::fields::cell_von_mises(&built.mesh, &built.material, u)?,
-        false => cell_model_von_mises(&built.mesh, model.as_ref(), u)?,
+        true => tetfem::output::fields::cell_von_mises(&built.mesh, &built.materials, u)?,
+        false => cell_model_von_mises(&built.mesh, &model, u)?,
     };
     let magnitude = displacement_magnitude(u);
     let probes: Vec<ProbeValue> = built
@@ -234,15 +234,8 @@ pub fn run_static_with(scene: &Scene, options: &RunOptions) -> Result<RunSummary
     };
     if !options.no_files {
         let clock = Instant::now();
-        summary.files = write_static_outputs(
-            scene,
-            &built,
-            model.as_ref(),
-            u,
-            &von_mises,
-            options,
-            &summary,
-        )?;
+        summary.files =
+            write_static_outputs(scene, &built, &model, u, &von_mises, options, &summary)?;
         summary.output_seconds = clock.elapsed().as_secs_f64();
     }
     Ok(summary)
@@ -251,7 +244,7 @@ pub fn run_static_with(scene: &Scene, options: &RunOptions) -> Result<RunSummary
 fn write_static_outputs(
     scene: &Scene,
     built: &BuiltScene,
-    model: &dyn ForceModel,
+    model: &ModelMap,
     u: &[f64],
     von_mises: &[f64],
     options: &RunOptions,
@@ -264,7 +257,7 @@ fn write_static_outputs(
     if out.vtu {
         let vtu = dir.join(format!("{}.vtu", out.stem));
         match scene.model() == tetfem::model::ModelKind::Linear {
-            true => write_result_vtu(&vtu, &built.mesh, &built.material, u, None)?,
+            true => write_result_vtu(&vtu, &built.mesh, &built.materials, u, None)?,
             false => write_model_result_vtu(&vtu, &built.mesh, model, u, None)?,
         }
         let mut pvd = PvdCollection::new(dir.join(format!("{}.pvd", out.stem)));

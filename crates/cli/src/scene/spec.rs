@@ -15,8 +15,12 @@ pub struct SceneSpec {
     pub title: Option<String>,
     /// Where the mesh comes from.
     pub mesh: Spanned<MeshSpec>,
-    /// The material.
-    pub material: Spanned<MaterialSpec>,
+    /// The material: of every tet, or with `[[materials]]` of the tets none of them claims.
+    #[serde(default)]
+    pub material: Option<Spanned<MaterialSpec>>,
+    /// Materials per region, each with a `where` selection of tets.
+    #[serde(default)]
+    pub materials: Vec<Spanned<RegionMaterialSpec>>,
     /// Dirichlet conditions, applied in order.
     #[serde(default)]
     pub constraints: Vec<Spanned<ConstraintSpec>>,
@@ -94,6 +98,50 @@ pub struct MaterialSpec {
     pub poisson_ratio: f64,
     /// Density ρ (kg/m³).
     pub density: f64,
+}
+
+/// `[[materials]]`: a material (the keys of `[material]`) for the tets of a region.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RegionMaterialSpec {
+    /// Young's modulus E (Pa).
+    pub youngs_modulus: f64,
+    /// Poisson's ratio ν.
+    pub poisson_ratio: f64,
+    /// Density ρ (kg/m³).
+    pub density: f64,
+    /// The tets it covers.
+    #[serde(rename = "where")]
+    pub select: RegionSelector,
+}
+
+impl RegionMaterialSpec {
+    /// The material keys alone.
+    pub fn material(&self) -> MaterialSpec {
+        MaterialSpec {
+            youngs_modulus: self.youngs_modulus,
+            poisson_ratio: self.poisson_ratio,
+            density: self.density,
+        }
+    }
+}
+
+/// A set of tets for `[[materials]]`.
+#[derive(Debug, Clone, Deserialize, PartialEq)]
+#[serde(rename_all = "snake_case", deny_unknown_fields)]
+pub enum RegionSelector {
+    /// `{ group = "steel" }` or `{ group = "3" }`: a Gmsh physical volume by name or tag.
+    Group(String),
+    /// `{ box = { min = [..], max = [..] } }`: the tets whose centroid lies in the closed box
+    /// (m).
+    Box {
+        /// Min corner.
+        min: [f64; 3],
+        /// Max corner.
+        max: [f64; 3],
+    },
+    /// `{ attribute = 2 }`: TetGen tets with this region attribute.
+    Attribute(f64),
 }
 
 /// A coordinate axis.

@@ -1,0 +1,106 @@
+//! Force models per region: one [`ForceModel`] per material of a
+//! [`MaterialMap`](crate::materials::MaterialMap), chosen per tet by its material index.
+
+use super::{ForceModel, ModelKind};
+use crate::error::Result;
+use crate::materials::{MaterialMap, TetMaterials};
+use crate::mesh::TetMesh;
+
+/// The force model of each tet: one model for all (any [`ForceModel`], `dyn` included), or a
+/// [`ModelMap`].
+pub trait TetModels: Sync {
+    /// The model of tet `tet` (which the caller checked is a tet of the mesh: see
+    /// [`check_tet_count`](Self::check_tet_count)).
+    fn model_of(&self, tet: usize) -> &dyn ForceModel;
+    /// An error unless these models cover exactly the tets of `mesh` (always `Ok` for one
+    /// model).
+    fn check_tet_count(&self, mesh: &TetMesh) -> Result<()>;
+}
+
+impl<T: ForceModel> TetModels for T {
+    #[inline(always)]
+    fn model_of(&self, _tet: usize) -> &dyn ForceModel {
+        self
+    }
+
+    fn check_tet_count(&self, _mesh: &TetMesh) -> Result<()> {
+        Ok(())
+    }
+}
+
+impl TetModels for dyn ForceModel + '_ {
+    #[inline(always)]
+    fn model_of(&self, _tet: usize) -> &dyn ForceModel {
+        self
+    }
+
+    fn check_tet_count(&self, _mesh: &TetMesh) -> Result<()> {
+        Ok(())
+    }
+}
+
+/// A boxed model (what [`ModelKind::build`] returns) as one model for every tet, so that
+/// `&Box<dyn ForceModel>` arguments keep working where `&dyn ForceModel` was taken before.
+impl TetModels for Box<dyn ForceModel + '_> {
+    #[inline(always)]
+    fn model_of(&self, _tet: usize) -> &dyn ForceModel {
+        self.as_ref()
+    }
+
+    fn check_tet_count(&self, _mesh: &TetMesh) -> Result<()> {
+        Ok(())
+    }
+}
+
+/// One force model per material, and the materials' tet map.
+pub struct ModelMap {
+    models: Vec<Box<dyn ForceModel>>,
+    materials: MaterialMap,
+}
+
+impl std::fmt::Debug for ModelMap {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("ModelMap")
+            .field(
+                "models",
+                &self.models.iter().map(|m| m.name()).collect::<Vec<_>>(),
+            )
+            .field("materials", &self.materials)
+            .finish()
+    }
+}
+
+impl ModelMap {
+    /// The model `kind` for each material of `materials`.
+    pub fn new(kind: ModelKind, materials: &MaterialMap) -> Self {
+        ModelMap {
+            models: materials
+                .materials()
+                .iter()
+                .map(|m| kind.build(m))
+                .collect(),
+            materials: materials.clone(),
+        }
+    }
+
+    /// The models, one per material of [`materials`](Self::materials).
+    pub fn models(&self) -> &[Box<dyn ForceModel>] {
+        &self.models
+    }
+
+    /// The material map the models follow.
+    pub fn materials(&self) -> &MaterialMap {
+        &self.materials
+    }
+}
+
+impl TetModels for ModelMap {
+    #[inline(always)]
+    fn model_of(&self, tet: usize) -> &dyn ForceModel {
+        self.models[self.materials.index_of(tet)].as_ref()
+    }
+
+    fn check_tet_count(&self, mesh: &TetMesh) -> Result<()> {
+        self.materials.check_tet_count(mesh)
+    }
+}

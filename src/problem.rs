@@ -1,0 +1,145 @@
+//! The problem set-up every analysis shares, written once: the mesh, the constraints' free-DOF
+//! numbering (checked to hold every rigid-body mode), the assembly pattern and the restriction
+//! of matrices on it to the free DOFs.
+//!
+//! The materials are not stored: the linear analyses pass them (one [`Material`](crate::Material)
+//! or a [`MaterialMap`](crate::materials::MaterialMap)) to the matrix builders, and the
+//! nonlinear ones hold them inside their force models
+//! ([`ModelMap`](crate::model::ModelMap)), so one set-up serves both.
+//!
+//! [`StaticSolver`](crate::statics::StaticSolver), [`solve_nonlinear_static`](crate::nonlinear::solve_nonlinear_static)
+//! and [`LinearSystem::new`](crate::dynamics::LinearSystem::new) build from it; what they add is
+//! their own analysis.
+
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+use nalgebra::Vector3;
+
+use crate::assembly::{Assembler, lumped_mass_of};
+use crate::constraints::{Constraints, DofMap, Restriction, ensure_held};
+use crate::error::{Error, Result};
+use crate::loads::Loads;
+use crate::materials::TetMaterials;
+use crate::mesh::TetMesh;
+use crate::sparse::CscMatrix;
+
+/// Mesh, free DOFs, assembly pattern and free-DOF restriction of one problem.
+///
+/// Units: those of the mesh (length) and the materials passed in (stress, density); matrices
+/// built from it are in force/length (K) and mass (M).
+#[derive(Debug)]
+pub struct Problem<'a> {
+    mesh: &'a TetMesh,
+    dofs: DofMap,
+    assembler: Assembler,
+    restriction: Restriction,
+    pattern_time: Duration,
+    constraints_time: Duration,
+}
+
+impl<'a> Problem<'a> {
+    /// Checks that `constraints` are made for the mesh's DOFs, numbers the free DOFs, checks
+    /// that the constraints hold every rigid-body mode of every connected part
+    /// ([`Error::NotConstrained`] otherwise), and builds the assembly pattern and its
+    /// restriction to the free DOFs.
+    pub fn new(mesh: &'a TetMesh, constraints: &Constraints) -> Result<Self> {
+        if constraints.dof_count() != mesh.dof_count() {
+            return Err(Error::invalid_parameter(
+                "constraints",
+                format!("{} DOFs", constraints.dof_count()),
+                format!("must be made for this mesh ({} DOFs)", mesh.dof_count()),
+            ));
+        }
+        let clock = Instant::now();
+        let assembler = Assembler::new(mesh);
+        let pattern_time = clock.elapsed();
+        let clock = Instant::now();
+        let dofs = DofMap::new(constraints);
+        ensure_held(mesh, &mesh.face_topology()?, &dofs)?;
+        let restriction = dofs.restriction(assembler.pattern())?;
+        Ok(Problem {
+            mesh,
+            dofs,
+            assembler,
+            restriction,
+            pattern_time,
+            constraints_time: clock.elapsed(),
+        })
+    }
+
+    /// The mesh.
+    pub fn mesh(&self) -> &'a TetMesh {
+        self.mesh
+    }
+
+    /// The free/constrained DOF numbering.
+    pub fn dofs(&self) -> &DofMap {
+        &self.dofs
+    }
+
+    /// The assembly pattern and scatter map.
+    pub fn assembler(&self) -> &Assembler {
+        &self.assembler
+    }
+
+    /// The restriction of matrices on the assembly pattern to the free DOFs.
+    pub fn restriction(&self) -> &Restriction {
+        &self.restriction
+    }
+
+    /// Wall time of the pattern build and of the constraint set-up (numbering, rigid-mode
+    /// check, restriction).
+    pub fn timings(&self) -> (Duration, Duration) {
+        (self.pattern_time, self.constraints_time)
+    }
+
+    /// The full linear stiffness K (force/length), each tet with its own material.
+    ///
+    /// Errors (here and in the other builders): `materials` do not cover the mesh's tets.
+    pub fn stiffness(&self, materials: &impl TetMaterials) -> Result<CscMatrix> {
+        self.assembler.stiffness(self.mesh, materials)
+    }
+
+    /// A zero matrix on the full assembly pattern (for refilled tangents).
+    pub fn zero_matrix(&self) -> Result<CscMatrix> {
+        Ok(CscMatrix::zeros(Arc::clone(self.assembler.pattern()))?)
+    }
+
+    /// A zero matrix on the free-DOF pattern.
+    pub fn zero_free_matrix(&self) -> Result<CscMatrix> {
+        Ok(CscMatrix::zeros(Arc::clone(self.restriction.pattern()))?)
+    }
+
+    /// A_ff of a matrix on the full pattern.
+    pub fn restrict(&self, full: &CscMatrix) -> Result<CscMatrix> {
+        self.restriction.restrict(full)
+    }
+
+    /// The consistent mass restricted to the free DOFs (mass units), on the pattern of K_ff.
+    pub fn free_consistent_mass(&self, materials: &impl TetMaterials) -> Result<CscMatrix> {
+        self.restriction
+            .restrict(&self.assembler.consistent_mass(self.mesh, materials)?)
+    }
+
+    /// The lumped mass of the free DOFs (mass units), ρₑVₑ/4 per node of each tet.
+    pub fn free_lumped_mass(&self, materials: &impl TetMaterials) -> Result<Vec<f64>> {
+        self.dofs.restrict(&lumped_mass_of(self.mesh, materials)?)
+    }
+
+    /// Gravity `gravity` (acceleration) as nodal loads ρₑ·g·Vₑ/4, all DOFs.
+    pub fn gravity_loads(
+        &self,
+        materials: &impl TetMaterials,
+        gravity: Vector3<f64>,
+    ) -> Result<Loads> {
+        let mut loads = Loads::new(self.mesh);
+        loads.add_gravity(self.mesh, materials, gravity)?;
+        Ok(loads)
+    }
+
+    /// The DOF numbering, consuming the problem.
+    pub fn into_dofs(self) -> DofMap {
+        self.dofs
+    }
+}
