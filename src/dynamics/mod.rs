@@ -10,6 +10,7 @@ mod backward_euler;
 mod damping;
 mod energy;
 mod explicit;
+mod inertia;
 mod newmark;
 mod nonlinear_euler;
 mod stability;
@@ -22,7 +23,10 @@ pub use energy::Energy;
 pub use explicit::SymplecticEuler;
 pub use newmark::Newmark;
 pub use nonlinear_euler::NonlinearBackwardEuler;
-pub use stability::{CriticalStep, DivergenceGuard, critical_time_step, element_critical_step};
+pub use stability::{
+    Certificate, CriticalStep, CriticalStepOptions, DivergenceGuard, critical_time_step,
+    critical_time_step_with, element_critical_step,
+};
 pub use state::State;
 pub use system::{LinearSystem, Mass, MassKind};
 

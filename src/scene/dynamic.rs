@@ -13,7 +13,7 @@ use super::{Analysis, BuiltScene, DynamicSettings, OutputSettings, PngField, Pro
 use crate::cantilever::Cantilever;
 use crate::constraints::Constraints;
 use crate::dynamics::{
-    Energy, IntegratorOptions, LinearSystem, Mass, MassKind, Method, Rayleigh, State,
+    Certificate, Energy, IntegratorOptions, LinearSystem, Mass, MassKind, Method, Rayleigh, State,
     critical_time_step, element_critical_step,
 };
 use crate::error::{Error, Result};
@@ -261,14 +261,23 @@ impl DynamicSetup {
         }
     }
 
-    /// The explicit critical step and how it was found: 2/ω_max by power iteration for a lumped
-    /// mass, else the element bound (which is never above it). Computed once, then remembered.
+    /// The explicit critical step and how it was found: 2/ω_max by power iteration (proven by an
+    /// inertia check, `"power iteration"`, or by Gershgorin's looser bound where the check's
+    /// factor would not fit, `"Gershgorin bound"`) for a lumped mass, else the element bound
+    /// (which is never above it). Computed once, then remembered.
     pub fn critical_step(&self) -> Result<(f64, &'static str)> {
         if let Some(c) = self.critical.get() {
             return Ok(*c);
         }
         let c = match self.system.mass() {
-            Mass::Lumped(_) => (critical_time_step(&self.system)?.dt, "power iteration"),
+            Mass::Lumped(_) => {
+                let step = critical_time_step(&self.system)?;
+                let source = match step.certificate {
+                    Certificate::Inertia => "power iteration",
+                    Certificate::Gershgorin => "Gershgorin bound",
+                };
+                (step.dt, source)
+            }
             Mass::Consistent(_) => (
                 element_critical_step(&self.mesh, &self.material),
                 "element bound",
@@ -363,7 +372,7 @@ pub struct DynamicSummary {
     pub dt: f64,
     /// The explicit method's critical step (time units).
     pub critical_step: f64,
-    /// How it was found: `"power iteration"` or `"element bound"`.
+    /// How it was found: `"power iteration"`, `"Gershgorin bound"` or `"element bound"`.
     pub critical_step_source: String,
     /// dt / critical_step.
     pub dt_over_critical: f64,
