@@ -49,7 +49,7 @@ fn ascii_missing_tag_names_the_elements_own_line() {
     let bad = ascii("3 1 2 3 4\n4 2 3 4 9\n");
     let (line, message) = parse_error("missing_second.msh", bad.as_bytes());
     let expected = line_of(&bad, "4 2 3 4 9");
-    // Before: the $Elements line (17 lines up).
+    // Before this change the error named the $Elements line.
     assert_ne!(expected, line_of(&bad, "$Elements"));
     assert_eq!(line, expected, "{message}");
     assert!(

@@ -65,7 +65,7 @@ pub(super) fn certify(
         certificate: Certificate::Gershgorin,
         factorizations: 0,
     };
-    if !(candidate < gershgorin) {
+    if candidate >= gershgorin || candidate.is_nan() {
         return Ok(fallback);
     }
     let allowance = match budget.or_else(|| MemoryLimits::current().available()) {
