@@ -624,6 +624,8 @@ mod tests {
     #[test]
     fn reservation_is_per_thread_buffer_times_threads() {
         let r = dense_kernel_reservation();
+        // Here: L3 272629760 B, 545267712 B per thread, 3 threads (the mmap sizes strace saw).
+        println!("{r:?}");
         assert_eq!(r.per_thread, 2 * r.l3_bytes + 8192);
         assert_eq!(r.threads, rayon::current_num_threads() as u64 + 1);
         if cfg!(target_arch = "x86_64") {
