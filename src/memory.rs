@@ -1,16 +1,21 @@
 //! The peak memory a run will need, estimated from its mesh sizes before anything is allocated,
 //! and checked against what the process may still take ([`MemoryLimits`], from
-//! `tetfem_linalg::memory`), so that a run too large for the machine stops with an
+//! `tetfem_linalg::memory`, which also keeps back the address space faer's dense kernels
+//! reserve per thread), so that a run too large for the machine stops with an
 //! [`Error::InsufficientMemory`] instead of being aborted by the allocator halfway.
 
 pub use tetfem_linalg::memory::{
-    MemoryBound, MemoryLimits, format_bytes, meminfo_available, soft_limit, status_bytes,
+    CacheLevel, DenseKernelReservation, FALLBACK_L3_BYTES, MemoryBound, MemoryLimits,
+    cache_size_bytes, cpu_list_len, dense_kernel_reservation, format_bytes, gemm_l3_bytes,
+    meminfo_available, physical_cores, soft_limit, status_bytes,
 };
 
 use crate::error::Result;
 
 /// What the process holds before the run: code, libraries, thread stacks and malloc arenas
 /// (bytes). A two-node solve measured 4.7 MB of peak RSS; 16 MB leaves room for more threads.
+/// Resident memory only: the dense kernels' address-space reservation is kept back from the
+/// address-space bounds instead ([`DenseKernelReservation`]).
 pub const PROCESS_BASELINE: u128 = 16_000_000;
 
 /// The linear solver the estimate assumes.

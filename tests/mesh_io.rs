@@ -251,9 +251,9 @@ fn malformed_msh41_files_name_file_and_line() {
     // Non-numeric coordinate.
     let nn = MSH41.replace("0 1 0\n", "0 x 0\n");
     expect_parse_error("nan41.msh", nn.as_bytes(), r, 13, "node");
-    // Bad index: the tet refers to node tag 9.
+    // Bad index: the tet refers to node tag 9; the error names the tet's own line (issue 15).
     let bad = MSH41.replace("1 1 2 3 4\n", "1 1 2 3 9\n");
-    expect_parse_error("index41.msh", bad.as_bytes(), r, 16, "node tag 9");
+    expect_parse_error("index41.msh", bad.as_bytes(), r, 19, "node tag 9");
     // Wrong count: the block announces 2 elements but holds one.
     let wrong = MSH41.replace("3 1 4 1\n", "3 1 4 2\n");
     let path = tmp("count41.msh");

@@ -15,6 +15,7 @@ mod backward_euler;
 mod damping;
 mod energy;
 mod explicit;
+mod inertia;
 mod internal_force;
 mod newmark;
 mod newton;
@@ -31,7 +32,10 @@ pub use internal_force::{ForceWorkspace, InternalForce, NonlinearForce};
 pub use newmark::Newmark;
 pub use newton::{NewtonStats, StepNewtonOptions};
 pub use nonlinear_euler::NonlinearBackwardEuler;
-pub use stability::{CriticalStep, DivergenceGuard, critical_time_step, element_critical_step};
+pub use stability::{
+    Certificate, CriticalStep, CriticalStepOptions, DivergenceGuard, critical_time_step,
+    critical_time_step_with, element_critical_step,
+};
 pub use state::State;
 pub use system::{LinearSystem, Mass, MassKind};
 

@@ -2,6 +2,7 @@
 //! tree, supernodes) is done once per pattern; numeric factorizations and solves reuse it, and
 //! their workspaces are allocated once.
 
+mod counts;
 mod supernodal;
 
 use std::sync::Arc;
@@ -21,6 +22,7 @@ use faer::{Conj, Side};
 use crate::error::{Error, Result};
 use crate::ordering::{FillOrdering, inverse_permutation, nested_dissection};
 use crate::sparse::CscMatrix;
+pub use counts::FactorCounts;
 use supernodal::{Columns, FactorPlan, FactorWorkspace, SupernodalPlan, SupernodalWorkspace};
 
 /// How to factor: the fill-reducing ordering and the number of threads of the numeric phases.

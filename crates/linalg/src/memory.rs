@@ -8,6 +8,10 @@
 //! `memory.limit_in_bytes − memory.usage_in_bytes`), and the resource limits of
 //! /proc/self/limits less what the process already holds (`RLIMIT_AS` − `VmSize`,
 //! `RLIMIT_DATA` − `VmData`, from /proc/self/status). Read from /proc and /sys only: no libc.
+//! The two resource-limit bounds also keep back the address space that faer's dense kernels
+//! reserve per thread on first use ([`dense_kernel_reservation`]: 2·L3 per thread, 1.64 GB
+//! on a machine with a 260 MiB L3 and a 2-thread pool), which the estimates, being about
+//! resident memory, do not count.
 
 use crate::error::{Error, Result};
 
@@ -47,23 +51,29 @@ impl MemoryLimits {
         }
         let status = read("/proc/self/status").unwrap_or_default();
         if let Some(limits) = read("/proc/self/limits") {
+            let reservation = dense_kernel_reservation().bytes;
             for (limit_name, held_key, source) in [
                 (
                     "Max address space",
                     "VmSize:",
-                    "address-space limit (RLIMIT_AS) less VmSize",
+                    "address-space limit (RLIMIT_AS) less VmSize and the dense kernels' buffers",
                 ),
                 (
                     "Max data size",
                     "VmData:",
-                    "data limit (RLIMIT_DATA) less VmData",
+                    "data limit (RLIMIT_DATA) less VmData and the dense kernels' buffers",
                 ),
             ] {
                 if let Some(limit) = soft_limit(&limits, limit_name) {
                     let held = status_bytes(&status, held_key).unwrap_or(0);
+                    // The dense kernels' reservation is kept back from these two bounds
+                    // only: its pages are never all touched, so MemAvailable and the
+                    // cgroup's usage see only the part used (counted in the estimates),
+                    // while VmSize and VmData (a private writable mapping) grow by all of it
+                    // the moment a thread first multiplies.
                     bounds.push(MemoryBound {
                         source,
-                        bytes: limit.saturating_sub(held),
+                        bytes: limit.saturating_sub(held).saturating_sub(reservation),
                     });
                 }
             }
@@ -191,6 +201,178 @@ fn cgroup_bound(cgroup: &str) -> Option<MemoryBound> {
     None
 }
 
+/// Bytes of the buffer one thread reserves on its first use of faer's x86 matrix-multiply
+/// kernels (crate `private-gemm-x86`, used by every dense block of a Cholesky factorization:
+/// the direct solver, the multigrid's coarse solve, the inertia check), and how many threads
+/// may hold one.
+///
+/// Each thread's first product reserves a thread-local `Vec` of 2·L3 bytes (packed left and
+/// right operands, `lib.rs` of private-gemm-x86 0.1.22), where L3 is that crate's own reading of
+/// the cache: from /sys/devices/system/cpu/cpu0/cache, L3 = size₃ / n₃ · n₁ · cores, with nₖ the
+/// CPUs sharing the level-k cache (`shared_cpu_list`) and cores the physical cores of
+/// /proc/cpuinfo (Σ of `cpu cores` over the `physical id`s), raised to at least 2 MiB and to
+/// 4 × the L2 (itself at least 256 KiB and 4 × the L1d of 32 KiB at least). The allocator maps
+/// it with two more pages (measured: `mmap` of 545 267 712 B = 2 × 266 240 KiB + 8 KiB on this
+/// machine, L3 = 260 MiB, 2 cores).
+///
+/// The buffer is almost never touched in full, so it costs address space (VmSize, VmData)
+/// and not resident memory: it is kept back from the `RLIMIT_AS` and `RLIMIT_DATA` bounds
+/// only. Counting it against `MemAvailable` or a cgroup limit would refuse runs that fit.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct DenseKernelReservation {
+    /// The kernels' L3 size (bytes), as computed above; [`FALLBACK_L3_BYTES`] when
+    /// /sys/devices/system/cpu/cpu0/cache has no level-3 cache.
+    pub l3_bytes: u64,
+    /// Bytes one thread maps: 2·`l3_bytes` + 8 KiB.
+    pub per_thread: u64,
+    /// Threads that may run the kernels: rayon's pool size (of the calling thread's pool) + 1
+    /// for the calling (main) thread. Measured with `strace -f -e mmap`: a one-thread
+    /// factorization maps one buffer (on the main thread), a two-thread one three (the main
+    /// thread and both workers of the 2-thread pool).
+    pub threads: u64,
+    /// `per_thread` × `threads` (bytes); 0 off x86_64, where the kernels are not used.
+    pub bytes: u64,
+}
+
+/// The L3 size assumed when /sys does not give one (bytes): 256 MiB, above the L3 of all but a
+/// few server parts. Too large only costs runs under a tight `RLIMIT_AS`; too small would let
+/// the allocator abort one.
+pub const FALLBACK_L3_BYTES: u64 = 256 << 20;
+
+/// The dense kernels' address-space reservation of this process, read now (see
+/// [`DenseKernelReservation`]). Computed once: the cache does not change while it runs.
+pub fn dense_kernel_reservation() -> DenseKernelReservation {
+    static L3: std::sync::OnceLock<u64> = std::sync::OnceLock::new();
+    let l3_bytes = *L3.get_or_init(|| {
+        let caches = sys_caches("/sys/devices/system/cpu/cpu0/cache");
+        let cores = std::fs::read_to_string("/proc/cpuinfo")
+            .ok()
+            .and_then(|t| physical_cores(&t))
+            .or_else(|| {
+                std::thread::available_parallelism()
+                    .ok()
+                    .map(|n| n.get() as u64)
+            })
+            .unwrap_or(1);
+        gemm_l3_bytes(&caches, cores).unwrap_or(FALLBACK_L3_BYTES)
+    });
+    let per_thread = 2 * l3_bytes + 8192;
+    let threads = rayon::current_num_threads() as u64 + 1;
+    let bytes = if cfg!(target_arch = "x86_64") {
+        per_thread * threads
+    } else {
+        0
+    };
+    DenseKernelReservation {
+        l3_bytes,
+        per_thread,
+        threads,
+        bytes,
+    }
+}
+
+/// One data or unified cache of /sys/devices/system/cpu/cpuN/cache/indexK: its level, size
+/// (bytes) and the number of CPUs sharing it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct CacheLevel {
+    /// 1, 2 or 3.
+    pub level: u8,
+    /// `size` in bytes (the file says e.g. "266240K").
+    pub bytes: u64,
+    /// CPUs in `shared_cpu_list` (at least 1).
+    pub shared: u64,
+}
+
+/// The data and unified caches under `dir` (e.g. /sys/devices/system/cpu/cpu0/cache); empty
+/// when it cannot be read.
+fn sys_caches(dir: &str) -> Vec<CacheLevel> {
+    let Ok(entries) = std::fs::read_dir(dir) else {
+        return Vec::new();
+    };
+    let mut caches = Vec::new();
+    for entry in entries.flatten() {
+        let path = entry.path();
+        let read = |name: &str| std::fs::read_to_string(path.join(name)).ok();
+        let (Some(kind), Some(level), Some(size)) = (read("type"), read("level"), read("size"))
+        else {
+            continue;
+        };
+        if !matches!(kind.trim(), "Data" | "Unified") {
+            continue;
+        }
+        let shared = read("shared_cpu_list")
+            .map_or(1, |l| cpu_list_len(&l))
+            .max(1);
+        if let (Ok(level), Some(bytes)) = (level.trim().parse(), cache_size_bytes(&size)) {
+            caches.push(CacheLevel {
+                level,
+                bytes,
+                shared,
+            });
+        }
+    }
+    caches
+}
+
+/// A /sys cache `size` ("48K", "2048K", "260M", "1G" or plain bytes) in bytes.
+pub fn cache_size_bytes(size: &str) -> Option<u64> {
+    let size = size.trim();
+    let (digits, unit) = match size.as_bytes().last()? {
+        b'K' => (&size[..size.len() - 1], 1 << 10),
+        b'M' => (&size[..size.len() - 1], 1 << 20),
+        b'G' => (&size[..size.len() - 1], 1 << 30),
+        _ => (size, 1),
+    };
+    digits.parse::<u64>().ok()?.checked_mul(unit)
+}
+
+/// The number of CPUs of a `shared_cpu_list` such as "0-1,4,6-7" (5); 0 if unreadable.
+pub fn cpu_list_len(list: &str) -> u64 {
+    list.trim()
+        .split(',')
+        .filter_map(|item| match item.split_once('-') {
+            Some((a, b)) => Some(b.parse::<u64>().ok()?.checked_sub(a.parse().ok()?)? + 1),
+            None => item.parse::<u64>().ok().map(|_| 1),
+        })
+        .sum()
+}
+
+/// Physical cores of a /proc/cpuinfo text: the sum of `cpu cores` over the distinct
+/// `physical id`s (num_cpus' count, which private-gemm-x86 multiplies the L3 by).
+pub fn physical_cores(cpuinfo: &str) -> Option<u64> {
+    let mut packages = std::collections::BTreeMap::new();
+    let mut package = None;
+    for line in cpuinfo.lines() {
+        let Some((key, value)) = line.split_once(':') else {
+            continue;
+        };
+        match key.trim() {
+            "physical id" => package = value.trim().parse::<u64>().ok(),
+            "cpu cores" => {
+                if let (Some(p), Ok(c)) = (package, value.trim().parse::<u64>()) {
+                    packages.insert(p, c);
+                }
+            }
+            _ => {}
+        }
+    }
+    let cores: u64 = packages.values().sum();
+    (cores > 0).then_some(cores)
+}
+
+/// private-gemm-x86's L3 size (bytes) from one CPU's caches and the physical core count:
+/// size₃ / n₃ · n₁ · cores, at least 2 MiB and 4 × its L2 (size₂ / n₂ · n₁, at least 256 KiB
+/// and 4 × the L1d, itself at least 32 KiB). `None` without a level-3 cache.
+pub fn gemm_l3_bytes(caches: &[CacheLevel], cores: u64) -> Option<u64> {
+    let find = |level: u8| caches.iter().find(|c| c.level == level);
+    let l1_shared = find(1).map_or(1, |c| c.shared);
+    let share = |c: &CacheLevel| c.bytes / c.shared * l1_shared;
+    let l3 = find(3)?;
+    let l1 = find(1).map_or(0, share).max(32 << 10);
+    let l2 = find(2).map_or(0, share).max(256 << 10).max(4 * l1);
+    Some((share(l3) * cores).max(2 << 20).max(4 * l2))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -211,5 +393,46 @@ mod tests {
         let status = "Name:\ttetfem\nVmSize:\t  123456 kB\nVmData:\t    2048 kB\n";
         assert_eq!(status_bytes(status, "VmSize:"), Some(123456 * 1024));
         assert_eq!(status_bytes(status, "VmData:"), Some(2048 * 1024));
+    }
+
+    #[test]
+    fn gemm_l3_follows_private_gemm_x86() {
+        assert_eq!(cache_size_bytes("266240K\n"), Some(266240 << 10));
+        assert_eq!(cache_size_bytes("1G"), Some(1 << 30));
+        assert_eq!(cache_size_bytes("K"), None);
+        assert_eq!(cpu_list_len("0-1,4,6-7\n"), 5);
+        assert_eq!(cpu_list_len("0"), 1);
+        let cpuinfo = "processor\t: 0\nphysical id\t: 0\ncpu cores\t: 2\n\
+                       processor\t: 1\nphysical id\t: 0\ncpu cores\t: 2\n";
+        assert_eq!(physical_cores(cpuinfo), Some(2));
+        let cache = |level, bytes, shared| CacheLevel {
+            level,
+            bytes,
+            shared,
+        };
+        // This machine: L1d 48K (1 CPU), L2 2048K (1), L3 266240K shared by 2, 2 cores. The
+        // crate's buffer was measured at 2 × 266240 KiB, so L3 must come out at 266240 KiB.
+        let here = [
+            cache(1, 48 << 10, 1),
+            cache(2, 2048 << 10, 1),
+            cache(3, 266240 << 10, 2),
+        ];
+        assert_eq!(gemm_l3_bytes(&here, 2), Some(266240 << 10));
+        // A small L3 is raised to 4 × the L2.
+        let small = [cache(2, 2048 << 10, 1), cache(3, 4 << 20, 4)];
+        assert_eq!(gemm_l3_bytes(&small, 2), Some(8 << 20));
+        assert_eq!(gemm_l3_bytes(&small[..1], 2), None);
+    }
+
+    #[test]
+    fn reservation_is_per_thread_buffer_times_threads() {
+        let r = dense_kernel_reservation();
+        // Here: L3 272629760 B, 545267712 B per thread, 3 threads (the mmap sizes strace saw).
+        println!("{r:?}");
+        assert_eq!(r.per_thread, 2 * r.l3_bytes + 8192);
+        assert_eq!(r.threads, rayon::current_num_threads() as u64 + 1);
+        if cfg!(target_arch = "x86_64") {
+            assert_eq!(r.bytes, r.per_thread * r.threads);
+        }
     }
 }

@@ -12,7 +12,7 @@ use std::path::Path;
 use mshio::{ElementType, MshFile};
 use nalgebra::Vector3;
 
-use super::gmsh41_nodes::{Encoding, TagAt, node_tags};
+use super::gmsh41_nodes::{Encoding, TagAt, element_line, node_tags};
 use super::raw::{RawGroup, RawMesh};
 use super::text::{Records, decode, line_of_offset, read_regular_file};
 use super::{ImportedMesh, PhysicalGroup, gmsh22};
@@ -401,19 +401,37 @@ fn convert(path: &Path, bytes: &[u8], encoding: Encoding, msh: Msh) -> Result<Ra
     let elements_line = line_of(bytes, "$Elements");
     let mut groups: BTreeMap<(usize, i32), RawGroup> = BTreeMap::new();
     if let Some(elements) = &msh.data.elements {
-        for block in &elements.element_blocks {
+        // The line of element `e` of block `b` named `tag`, for errors (the section's line if
+        // the section does not read as mshio read it).
+        let line_of_element = |b: usize, e: usize, tag: u64| {
+            let layout: Vec<(usize, usize)> = elements
+                .element_blocks
+                .iter()
+                .map(|block| {
+                    let nodes = block.elements.first().map_or(0, |e| e.nodes.len());
+                    (block.elements.len(), nodes)
+                })
+                .collect();
+            section_starts(bytes, &["$Elements"])
+                .iter()
+                .find_map(|&(start, _, _)| {
+                    element_line(path, bytes, start, encoding, &layout, b, e, tag)
+                })
+                .unwrap_or(elements_line)
+        };
+        for (block_index, block) in elements.element_blocks.iter().enumerate() {
             let dim = usize::try_from(block.entity_dim).unwrap_or(0);
             let physical = entity_tags
                 .get(&(dim, block.entity_tag))
                 .cloned()
                 .unwrap_or_default();
-            for element in &block.elements {
+            for (element_index, element) in block.elements.iter().enumerate() {
                 let mut nodes = Vec::with_capacity(element.nodes.len());
                 for &tag in &element.nodes {
                     let index = *tag_index.get(&tag).ok_or_else(|| {
                         Error::parse(
                             path,
-                            elements_line,
+                            line_of_element(block_index, element_index, element.element_tag),
                             format!(
                                 "element {} (entity {dim}:{}) refers to node tag {tag}, which $Nodes does not define",
                                 element.element_tag, block.entity_tag

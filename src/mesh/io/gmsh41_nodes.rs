@@ -10,6 +10,11 @@
 //! then per block `<entity dim> <entity tag> <parametric> <nodes in block>`, the block's tags,
 //! then its coordinates. In binary files the counts and tags are size_t of `size` bytes, the
 //! three block ints 4 bytes and the coordinates 8-byte doubles, in the byte order of the file.
+//!
+//! mshio gives no positions for elements either: [`element_line`] finds the line of one element
+//! of the `$Elements` section (header `<blocks> <elements> <min tag> <max tag>`, per block
+//! `<entity dim> <entity tag> <element type> <elements in block>`, then per element its tag and
+//! node tags, all size_t in binary files but the three block ints), for errors that name it.
 
 use std::path::Path;
 
@@ -37,12 +42,7 @@ pub(crate) fn node_tags(
     start: usize,
     encoding: Encoding,
 ) -> Result<Vec<Vec<TagAt>>> {
-    let mut cursor = Cursor {
-        path,
-        bytes,
-        pos: start.min(bytes.len()),
-        encoding,
-    };
+    let mut cursor = Cursor::new(path, bytes, start, encoding);
     let blocks = cursor.size_t("the number of node blocks")?;
     let _nodes = cursor.size_t("the number of nodes")?;
     let _min = cursor.size_t("the smallest node tag")?;
@@ -71,14 +71,66 @@ pub(crate) fn node_tags(
     Ok(out)
 }
 
+/// The 1-based line of element number `element` (0-based, in file order) of block `block` of
+/// the `$Elements` section that starts at byte `start` (just after the `$Elements` line), if the
+/// section reads as mshio read it: `layout` gives per block its element count and the nodes per
+/// element, and the element found must have the tag `tag`. `None` when it does not (the caller
+/// then names the section's line). For binary data the line is the line count up to the
+/// element's byte offset. Reads the section up to the element: for error messages only.
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn element_line(
+    path: &Path,
+    bytes: &[u8],
+    start: usize,
+    encoding: Encoding,
+    layout: &[(usize, usize)],
+    block: usize,
+    element: usize,
+    tag: u64,
+) -> Option<usize> {
+    let mut cursor = Cursor::new(path, bytes, start, encoding);
+    let size_t = |c: &mut Cursor| c.size_t("").ok();
+    for _ in 0..4 {
+        size_t(&mut cursor)?;
+    }
+    for (b, &(count, nodes)) in layout.iter().enumerate().take(block + 1) {
+        for _ in 0..3 {
+            cursor.int("").ok()?;
+        }
+        if size_t(&mut cursor)? != count as u64 {
+            return None;
+        }
+        let skipped = if b == block { element } else { count };
+        for _ in 0..skipped.checked_mul(nodes + 1)? {
+            size_t(&mut cursor)?;
+        }
+    }
+    let line = cursor.line();
+    (size_t(&mut cursor)? == tag).then_some(line)
+}
+
 struct Cursor<'a> {
     path: &'a Path,
     bytes: &'a [u8],
     pos: usize,
     encoding: Encoding,
+    /// A byte offset and its line, so that successive [`line`](Self::line) calls count only
+    /// the newlines in between (counting from the file's start each time made reading n tags
+    /// O(n × file size)).
+    known: std::cell::Cell<(usize, usize)>,
 }
 
 impl<'a> Cursor<'a> {
+    fn new(path: &'a Path, bytes: &'a [u8], start: usize, encoding: Encoding) -> Self {
+        Cursor {
+            path,
+            bytes,
+            pos: start.min(bytes.len()),
+            encoding,
+            known: std::cell::Cell::new((0, 1)),
+        }
+    }
+
     fn line(&self) -> usize {
         let mut pos = self.pos;
         if let Encoding::Ascii = self.encoding {
@@ -87,7 +139,15 @@ impl<'a> Cursor<'a> {
                 pos += 1;
             }
         }
-        line_of_offset(self.bytes, pos)
+        let pos = pos.min(self.bytes.len());
+        let (at, line) = self.known.get();
+        let line = if pos >= at {
+            line + self.bytes[at..pos].iter().filter(|&&b| b == b'\n').count()
+        } else {
+            line_of_offset(self.bytes, pos)
+        };
+        self.known.set((pos, line));
+        line
     }
 
     fn error(&self, what: &str) -> Error {

@@ -13,8 +13,8 @@ use super::{Analysis, BuiltScene, DynamicSettings, OutputSettings, PngField, Pro
 use crate::render::{Field, RenderOptions, auto_deformation_scale, render};
 use tetfem::constraints::Constraints;
 use tetfem::dynamics::{
-    Energy, IntegratorOptions, InternalForce, LinearSystem, Mass, MassKind, Method, NewtonStats,
-    Rayleigh, State, critical_time_step,
+    Certificate, Energy, IntegratorOptions, InternalForce, LinearSystem, Mass, MassKind, Method,
+    NewtonStats, Rayleigh, State, critical_time_step,
 };
 use tetfem::error::{Error, Result};
 use tetfem::linalg::linear_solver::LinearMethod;
@@ -311,14 +311,23 @@ impl DynamicSetup {
         }
     }
 
-    /// The explicit critical step and how it was found: 2/ω_max by power iteration for a lumped
-    /// mass, else the element bound (which is never above it). Computed once, then remembered.
+    /// The explicit critical step and how it was found: 2/ω_max by power iteration (proven by an
+    /// inertia check, `"power iteration"`, or by Gershgorin's looser bound where the check's
+    /// factor would not fit, `"Gershgorin bound"`) for a lumped mass, else the element bound
+    /// (which is never above it). Computed once, then remembered.
     pub fn critical_step(&self) -> Result<(f64, &'static str)> {
         if let Some(c) = self.critical.get() {
             return Ok(*c);
         }
         let c = match self.system.mass() {
-            Mass::Lumped(_) => (critical_time_step(&self.system)?.dt, "power iteration"),
+            Mass::Lumped(_) => {
+                let step = critical_time_step(&self.system)?;
+                let source = match step.certificate {
+                    Certificate::Inertia => "power iteration",
+                    Certificate::Gershgorin => "Gershgorin bound",
+                };
+                (step.dt, source)
+            }
             Mass::Consistent(_) => (
                 tetfem::mesh::critical_time_step_of(&self.mesh, &self.materials)?.dt_element,
                 "element bound",
@@ -413,7 +422,7 @@ pub struct DynamicSummary {
     pub dt: f64,
     /// The explicit method's critical step (time units).
     pub critical_step: f64,
-    /// How it was found: `"power iteration"` or `"element bound"`.
+    /// How it was found: `"power iteration"`, `"Gershgorin bound"` or `"element bound"`.
     pub critical_step_source: String,
     /// dt / critical_step.
     pub dt_over_critical: f64,
