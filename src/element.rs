@@ -6,8 +6,11 @@
 
 use nalgebra::{Matrix3, SMatrix, SVector, Vector3};
 
+pub use crate::mesh::geometry::{FACES, rest_shape_matrix, shape_quality, signed_volume};
+
 use crate::error::{Error, Result};
 use crate::material::Material;
+use crate::mesh::TetMesh;
 
 /// 12×12 element matrix; DOF order node-major: `[u₀x u₀y u₀z u₁x … u₃z]`.
 pub type Matrix12 = SMatrix<f64, 12, 12>;
@@ -15,14 +18,6 @@ pub type Matrix12 = SMatrix<f64, 12, 12>;
 pub type Vector12 = SVector<f64, 12>;
 /// 6×12 strain–displacement matrix.
 pub type Matrix6x12 = SMatrix<f64, 6, 12>;
-
-/// The four faces of a tet as local node triples, each listed with the node opposite to it.
-pub const FACES: [([usize; 3], usize); 4] = [
-    ([0, 1, 2], 3),
-    ([0, 1, 3], 2),
-    ([0, 2, 3], 1),
-    ([1, 2, 3], 0),
-];
 
 /// Rest-state data of one linear tetrahedron.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -227,24 +222,26 @@ pub fn von_mises(stress: &Matrix3<f64>) -> f64 {
     (1.5 * deviator.component_mul(&deviator).sum()).sqrt()
 }
 
-/// Rest (or deformed) shape matrix [x₁−x₀ x₂−x₀ x₃−x₀].
-pub fn rest_shape_matrix(x: &[Vector3<f64>; 4]) -> Matrix3<f64> {
-    Matrix3::from_columns(&[x[1] - x[0], x[2] - x[0], x[3] - x[0]])
-}
-
-/// Signed volume det[x₁−x₀ x₂−x₀ x₃−x₀]/6 (positive for a positively oriented tet).
-pub fn signed_volume(x: &[Vector3<f64>; 4]) -> f64 {
-    rest_shape_matrix(x).determinant() / 6.0
-}
-
-/// Shape quality 6√2·|V|/l_max³: 1 for a regular tet, 0 for a flat one, scale-free.
-pub fn shape_quality(x: &[Vector3<f64>; 4]) -> f64 {
-    let mut longest_sq: f64 = 0.0;
-    for i in 0..4 {
-        for j in i + 1..4 {
-            longest_sq = longest_sq.max((x[j] - x[i]).norm_squared());
-        }
+/// The elements of a mesh. They live here, not in [`crate::mesh`], so that the mesh (geometry
+/// and topology) knows nothing of elements: data flows mesh → element.
+impl TetMesh {
+    /// The rest-state element of tet `t`; [`Error::UnknownTet`] if `t >= tet_count()`.
+    pub fn element(&self, t: usize) -> Result<Tet> {
+        self.check_tet("TetMesh::element", t)?;
+        Ok(self.element_of(t))
     }
-    let longest = longest_sq.sqrt();
-    6.0 * std::f64::consts::SQRT_2 * signed_volume(x).abs() / (longest * longest * longest)
+
+    /// All rest-state elements, in tet order.
+    pub fn elements(&self) -> Vec<Tet> {
+        (0..self.tet_count()).map(|t| self.element_of(t)).collect()
+    }
+
+    /// The element of tet `t`, for loops over `0..tet_count()` (panics on a bad index).
+    #[inline]
+    pub(crate) fn element_of(&self, t: usize) -> Tet {
+        // Cannot fail: `new` rejected every tet whose quality is below `DEGENERATE_QUALITY` and
+        // reoriented the negative ones, which is all `Tet::new` checks.
+        Tet::new(&self.positions_of(t))
+            .expect("TetMesh invariant: every tet is positively oriented and non-degenerate")
+    }
 }

@@ -281,8 +281,8 @@ pub enum Error {
     /// before the allocation, so that nothing is aborted halfway.
     #[error(
         "not enough memory for {what}: needs {}, but only {} is available ({limit}); use a coarser mesh{}",
-        crate::memory::format_bytes(*.needed),
-        crate::memory::format_bytes(*.available as u128),
+        tetfem_linalg::memory::format_bytes(*.needed),
+        tetfem_linalg::memory::format_bytes(*.available as u128),
         if .what.contains("Cholesky") { " or the iterative solver (linear_solver = \"iterative\")" } else { "" }
     )]
     InsufficientMemory {

@@ -38,6 +38,7 @@ pub(crate) use tetfem_linalg::{
 };
 
 pub mod assembly;
+pub mod atomic_file;
 pub mod constraints;
 pub mod convergence;
 pub mod dynamics;
@@ -55,6 +56,7 @@ pub mod nonlinear;
 pub mod output;
 pub mod problem;
 pub mod quadrature;
+pub mod quality;
 pub mod statics;
 pub mod warning;
 

@@ -13,6 +13,7 @@
 
 mod backward_euler;
 mod damping;
+mod element_bound;
 mod energy;
 mod explicit;
 mod inertia;
@@ -26,6 +27,7 @@ mod system;
 
 pub use backward_euler::BackwardEuler;
 pub use damping::Rayleigh;
+pub use element_bound::{ElementStepBound, element_step_bound, element_step_bound_of};
 pub use energy::Energy;
 pub use explicit::SymplecticEuler;
 pub use internal_force::{ForceWorkspace, InternalForce, NonlinearForce};
@@ -181,8 +183,9 @@ fn step_solver(
     )?)
 }
 
-/// Which integrator, by name.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+/// Which integrator, by name (scene files: `backward_euler`, `newmark`, `explicit`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Deserialize, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
 pub enum Method {
     /// [`BackwardEuler`], the default.
     #[default]

@@ -226,10 +226,10 @@ fn gershgorin_bound(k: &crate::sparse::CscMatrix, inverse_root: &[f64]) -> f64 {
 }
 
 /// The element bound on the explicit critical step, 2/maxₑ ωₑ with ωₑ² = λ_max(Kₑ)/(ρVₑ/4):
-/// never above the true critical step (see [`crate::mesh::critical_time_step`], which
+/// never above the true critical step (see [`element_step_bound`](super::element_step_bound), which
 /// computes it together with the geometric estimate).
 pub fn element_critical_step(mesh: &TetMesh, material: &Material) -> f64 {
-    crate::mesh::critical_time_step(mesh, material).dt_element
+    super::element_step_bound(mesh, material).dt_element
 }
 
 /// Catches a run that blows up: a non-finite value, or a kinetic + elastic energy far above

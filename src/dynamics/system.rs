@@ -16,8 +16,9 @@ use crate::mesh::TetMesh;
 use crate::problem::Problem;
 use crate::sparse::CscMatrix;
 
-/// Lumped (diagonal) or consistent mass.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+/// Lumped (diagonal) or consistent mass (scene files: `lumped`, `consistent`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Deserialize, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
 pub enum MassKind {
     /// ρV/4 per node and axis: diagonal, what explicit methods need. The default.
     #[default]

@@ -3,8 +3,8 @@
 use nalgebra::Vector3;
 
 use super::TetMesh;
-use crate::element::signed_volume;
 use crate::error::{Error, Result};
+use crate::mesh::geometry::signed_volume;
 
 /// How each cube of a box grid is split into tets.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]

@@ -1,22 +1,18 @@
 //! Tetrahedral meshes: validated storage, generators, topology and node/face selection.
 
 mod generate;
+pub mod geometry;
 pub mod io;
-mod quality;
 mod select;
 mod topology;
 
 pub use generate::{BoxSplit, box_node_index};
-pub use quality::{
-    CriticalStep, MeshStatistics, POOR_DIHEDRAL_DEG, Summary, TetQuality, critical_time_step,
-    critical_time_step_of, tet_quality,
-};
 pub use topology::{BoundaryFace, FaceTopology};
 
 use nalgebra::Vector3;
 
-use crate::element::{Tet, shape_quality, signed_volume};
 use crate::error::{Error, Result};
+use crate::mesh::geometry::{shape_quality, signed_volume};
 
 /// Tets whose [`shape_quality`] 6√2·|V|/l_max³ falls below this are rejected as degenerate.
 ///
@@ -140,17 +136,6 @@ impl TetMesh {
         Ok(self.positions_of(t))
     }
 
-    /// The rest-state element of tet `t`; [`Error::UnknownTet`] if `t >= tet_count()`.
-    pub fn element(&self, t: usize) -> Result<Tet> {
-        self.check_tet("TetMesh::element", t)?;
-        Ok(self.element_of(t))
-    }
-
-    /// All rest-state elements, in tet order.
-    pub fn elements(&self) -> Vec<Tet> {
-        (0..self.tets.len()).map(|t| self.element_of(t)).collect()
-    }
-
     /// Total rest volume Σ Vₑ.
     pub fn volume(&self) -> f64 {
         (0..self.tets.len())
@@ -191,15 +176,6 @@ impl TetMesh {
     #[inline]
     pub(crate) fn positions_of(&self, t: usize) -> [Vector3<f64>; 4] {
         self.tets[t].map(|n| self.nodes[n])
-    }
-
-    /// The element of tet `t`, for loops over `0..tet_count()` (panics on a bad index).
-    #[inline]
-    pub(crate) fn element_of(&self, t: usize) -> Tet {
-        // Cannot fail: `new` rejected every tet whose quality is below DEGENERATE_QUALITY and
-        // reoriented the negative ones, which is all `Tet::new` checks.
-        Tet::new(&self.positions_of(t))
-            .expect("TetMesh invariant: every tet is positively oriented and non-degenerate")
     }
 
     /// Axis-aligned bounding box (min corner, max corner).

@@ -3,8 +3,8 @@
 use nalgebra::Vector3;
 
 use super::TetMesh;
-use crate::element::FACES;
 use crate::error::{Error, Result};
+use crate::mesh::geometry::FACES;
 
 /// A boundary triangle: a tet face that no other tet shares.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

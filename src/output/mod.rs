@@ -2,7 +2,6 @@
 //! derived fields, all written atomically; CSV time series, streamed row by row; and the lock
 //! that gives one run at a time an output folder.
 
-mod atomic;
 mod csv;
 pub mod fields;
 mod frame;
@@ -10,7 +9,7 @@ mod lock;
 mod pvd;
 mod vtu;
 
-pub use atomic::write_atomically;
+pub use crate::atomic_file::write_atomically;
 pub use csv::{CSV_BUFFER_BYTES, CsvSeries};
 pub use frame::{write_model_result_vtu, write_result_vtu};
 pub use lock::{LOCK_FILE_NAME, OutputLock, remove_held_lock_files};

@@ -6,10 +6,11 @@ use std::fmt;
 use std::path::Path;
 
 use crate::scene::Scene;
+use tetfem::dynamics::{ElementStepBound, element_step_bound};
 use tetfem::error::Result;
 use tetfem::material::Material;
 use tetfem::mesh::io::read_mesh;
-use tetfem::mesh::{CriticalStep, MeshStatistics, critical_time_step};
+use tetfem::quality::MeshStatistics;
 
 /// One physical group or marker set of the file.
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
@@ -40,7 +41,7 @@ pub struct MeshInfo {
     /// The material the critical step is for, as (E, ν, ρ).
     pub material: Option<(f64, f64, f64)>,
     /// The explicit critical step, when a material is known.
-    pub critical_step: Option<CriticalStep>,
+    pub critical_step: Option<ElementStepBound>,
     /// Warnings about the mesh and the material (see [`tetfem::warning`]), as sentences.
     pub warnings: Vec<String>,
 }
@@ -80,7 +81,7 @@ pub fn mesh_info(path: &Path, material: Option<Material>) -> Result<MeshInfo> {
             .unwrap_or_default(),
         unused_nodes: imported.as_ref().map_or(0, |i| i.unused_nodes),
         material: material.map(|m| (m.youngs_modulus(), m.poisson_ratio(), m.density())),
-        critical_step: material.map(|m| critical_time_step(&mesh, &m)),
+        critical_step: material.map(|m| element_step_bound(&mesh, &m)),
         warnings: mesh
             .warnings()
             .iter()

@@ -28,7 +28,7 @@ use tetfem::linalg::linsolve::{CholeskyOptions, SparseCholesky};
 use tetfem::linalg::ordering::{inverse_permutation, nested_dissection};
 use tetfem::linalg::sparse::CscMatrix;
 use tetfem::mesh::io::{read_gmsh, read_mesh, read_tetgen, write_gmsh};
-use tetfem::mesh::{BoundaryFace, BoxSplit, tet_quality};
+use tetfem::mesh::{BoundaryFace, BoxSplit};
 use tetfem::modal::{lowest_modes, mass_inner_product};
 use tetfem::model::{ModelKind, assemble, project_psd};
 use tetfem::nonlinear::{NewtonOptions, solve_nonlinear_static};
@@ -37,6 +37,7 @@ use tetfem::output::fields::{
 };
 use tetfem::output::{CsvSeries, PvdCollection, VtuWriter, write_atomically, write_result_vtu};
 use tetfem::quadrature::{integrate, shape_values, tet_rule};
+use tetfem::quality::tet_quality;
 use tetfem::statics::StaticSolver;
 use tetfem::{Constraints, Error, Loads, Material, TetMesh, solve_static};
 use tetfem_cli::render::{Field, RenderOptions, auto_deformation_scale, render, viridis};
@@ -335,7 +336,7 @@ fn mesh_construction_and_queries() {
         )
     });
     s.value("critical_time_step", || {
-        tetfem::mesh::critical_time_step(&mesh, &material())
+        tetfem::dynamics::element_step_bound(&mesh, &material())
     });
     s.value("element_critical_step", || {
         element_critical_step(&mesh, &material())

@@ -210,8 +210,8 @@ fn uniform_map_is_bit_identical_to_one_material() {
         cell_strain_energy_density(&mesh, &map, &u1.displacement).unwrap()
     );
     assert_eq!(
-        tetfem::mesh::critical_time_step(&mesh, &material),
-        tetfem::mesh::critical_time_step_of(&mesh, &map).unwrap()
+        tetfem::dynamics::element_step_bound(&mesh, &material),
+        tetfem::dynamics::element_step_bound_of(&mesh, &map).unwrap()
     );
 
     let system = |m: &dyn Fn() -> LinearSystem| m();

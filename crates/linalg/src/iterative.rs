@@ -12,6 +12,7 @@
 //!   iteration count nearly independent of the mesh (`examples/preconditioners.rs`), the
 //!   default of the iterative path.
 
+pub use crate::preconditioner::Preconditioner;
 use nalgebra::DMatrix;
 use rayon::prelude::*;
 
@@ -59,29 +60,12 @@ pub struct BlockJacobi {
     offsets: Vec<usize>,
 }
 
-/// Starts of the matrix's supervariables (runs of up to three consecutive columns with identical
-/// patterns: a node's DOFs in elasticity), followed by `dim()`.
-pub(crate) fn supervariable_starts(matrix: &CscMatrix) -> Vec<usize> {
-    let n = matrix.dim();
-    let (col_ptr, row_idx) = (matrix.col_ptr(), matrix.row_idx());
-    let column = |j: usize| &row_idx[col_ptr[j]..col_ptr[j + 1]];
-    let mut starts = vec![0];
-    for j in 1..n {
-        // Capped at 3 columns (one node) so a pathological pattern cannot make a huge block.
-        if column(j) != column(j - 1) || j - starts[starts.len() - 1] >= 3 {
-            starts.push(j);
-        }
-    }
-    starts.push(n);
-    starts
-}
-
 impl BlockJacobi {
     /// Extracts and inverts the diagonal blocks; a block that is not invertible (a zero or
     /// negative diagonal) is an error naming its first column.
     pub fn new(matrix: &CscMatrix) -> Result<Self> {
         let n = matrix.dim();
-        let starts = supervariable_starts(matrix);
+        let starts = crate::sparse::supervariable_starts(matrix);
         let mut inverses = Vec::with_capacity(3 * n);
         let mut offsets = Vec::with_capacity(starts.len());
         for g in 0..starts.len() - 1 {
@@ -166,14 +150,6 @@ impl PreconditionerKind {
             }
         })
     }
-}
-
-/// An approximation P ≈ A whose inverse is cheap to apply: z = P⁻¹·r.
-pub trait Preconditioner: Sync + Send + std::fmt::Debug {
-    /// The dimension it acts on.
-    fn dim(&self) -> usize;
-    /// z = P⁻¹·r ([`Error::DimensionMismatch`] unless both have length [`dim`](Self::dim)).
-    fn apply(&self, r: &[f64], z: &mut [f64]) -> Result<()>;
 }
 
 impl Preconditioner for BlockJacobi {

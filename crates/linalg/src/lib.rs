@@ -15,12 +15,14 @@
 
 pub mod amg;
 pub mod block_sparse;
+pub mod bytes;
 pub mod error;
 pub mod iterative;
 pub mod linear_solver;
 pub mod linsolve;
 pub mod memory;
 pub mod ordering;
+pub mod preconditioner;
 pub mod sparse;
 
 pub use error::{Error, Result};

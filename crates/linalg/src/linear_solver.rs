@@ -10,6 +10,11 @@ use crate::sparse::CscMatrix;
 
 /// Direct, iterative, or chosen by predicted time within the memory budget.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(serde::Deserialize, serde::Serialize),
+    serde(rename_all = "snake_case")
+)]
 pub enum LinearMethod {
     /// The faster of the two by the [`CostModel`]'s predicted time for
     /// [`SolverOptions::expected_solves`] right-hand sides, among those that fit: the Cholesky

@@ -13,6 +13,7 @@
 //! on a machine with a 260 MiB L3 and a 2-thread pool), which the estimates, being about
 //! resident memory, do not count.
 
+pub use crate::bytes::format_bytes;
 use crate::error::{Error, Result};
 
 /// One bound on the memory the process may still allocate (bytes), and where it comes from.
@@ -115,16 +116,6 @@ impl MemoryLimits {
             .map(|b| format!("{} {}", b.source, format_bytes(b.bytes as u128)))
             .collect::<Vec<_>>()
             .join("; ")
-    }
-}
-
-/// Bytes in GB with three significant digits, e.g. "8.29 GB" (MB below 1 GB).
-pub fn format_bytes(bytes: u128) -> String {
-    let b = bytes as f64;
-    if b >= 1e9 {
-        format!("{:.3} GB", b * 1e-9)
-    } else {
-        format!("{:.1} MB", b * 1e-6)
     }
 }
 

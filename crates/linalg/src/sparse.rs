@@ -197,3 +197,20 @@ impl CscMatrix {
         Ok(())
     }
 }
+
+/// Starts of the matrix's supervariables (runs of up to three consecutive columns with identical
+/// patterns: a node's DOFs in elasticity), followed by `dim()`.
+pub(crate) fn supervariable_starts(matrix: &CscMatrix) -> Vec<usize> {
+    let n = matrix.dim();
+    let (col_ptr, row_idx) = (matrix.col_ptr(), matrix.row_idx());
+    let column = |j: usize| &row_idx[col_ptr[j]..col_ptr[j + 1]];
+    let mut starts = vec![0];
+    for j in 1..n {
+        // Capped at 3 columns (one node) so a pathological pattern cannot make a huge block.
+        if column(j) != column(j - 1) || j - starts[starts.len() - 1] >= 3 {
+            starts.push(j);
+        }
+    }
+    starts.push(n);
+    starts
+}

@@ -16,9 +16,9 @@ use super::gmsh41_nodes::{Encoding, TagAt, element_line, node_tags};
 use super::raw::{RawGroup, RawMesh};
 use super::text::{Records, decode, line_of_offset, read_regular_file};
 use super::{ImportedMesh, PhysicalGroup, gmsh22};
+use crate::atomic_file::write_atomically;
 use crate::error::{Error, Result};
 use crate::mesh::TetMesh;
-use crate::output::write_atomically;
 
 /// Reads a Gmsh mesh file (MSH 4.1 ASCII or binary, or MSH 2.2 ASCII): reads its bytes and
 /// hands them to [`parse_gmsh`]. A path that is not a regular file (a FIFO, a device such as

@@ -14,9 +14,9 @@ use nalgebra::Vector3;
 use super::ImportedMesh;
 use super::raw::RawMesh;
 use super::text::{Records, decode, read_regular_file};
+use crate::atomic_file::write_atomically;
 use crate::error::{Error, Result};
 use crate::mesh::TetMesh;
-use crate::output::write_atomically;
 
 /// What [`write_tetgen`] writes besides nodes and tets.
 #[derive(Debug, Clone, Default, PartialEq)]

@@ -172,10 +172,7 @@ impl DynamicSetup {
     pub fn from_scene(built: BuiltScene, settings: &DynamicSettings) -> Result<Self> {
         let clock = Instant::now();
         let damping = Rayleigh::new(settings.damping.mass, settings.damping.stiffness)?;
-        let mass = match settings.mass {
-            super::MassKind::Lumped => MassKind::Lumped,
-            super::MassKind::Consistent => MassKind::Consistent,
-        };
+        let mass = settings.mass;
         let system = LinearSystem::new(
             &built.mesh,
             &built.materials,
@@ -329,7 +326,7 @@ impl DynamicSetup {
                 (step.dt, source)
             }
             Mass::Consistent(_) => (
-                tetfem::mesh::critical_time_step_of(&self.mesh, &self.materials)?.dt_element,
+                tetfem::dynamics::element_step_bound_of(&self.mesh, &self.materials)?.dt_element,
                 "element bound",
             ),
         };
@@ -1004,11 +1001,7 @@ pub fn run_dynamic_scene(
     let mut setup =
         DynamicSetup::from_scene(scene.build()?, settings)?.with_model(scene.model())?;
     setup.linear_method = scene.spec().linear_method();
-    let method = overrides.method.unwrap_or(match settings.method {
-        super::Method::BackwardEuler => Method::BackwardEuler,
-        super::Method::Explicit => Method::Explicit,
-        super::Method::Newmark => Method::Newmark,
-    });
+    let method = overrides.method.unwrap_or(settings.method);
     let run = DynamicRun {
         title: scene.title(),
         source: scene.source_name().to_string(),

@@ -2,6 +2,8 @@
 //! keys. Defaults are listed in [`super::REFERENCE`].
 
 use std::path::PathBuf;
+pub use tetfem::dynamics::{MassKind, Method};
+pub use tetfem::linalg::linear_solver::LinearMethod;
 
 use serde::Deserialize;
 use toml::Spanned;
@@ -278,42 +280,16 @@ pub struct AnalysisSpec {
     /// `"auto"` (default: the Cholesky factorization when its factor fits the memory budget and
     /// is predicted faster), `"direct"` or `"iterative"` (multigrid-preconditioned CG).
     #[serde(default)]
-    pub linear_solver: Option<LinearSolverSpec>,
-}
-
-/// `analysis.linear_solver`.
-#[derive(Debug, Clone, Copy, Default, Deserialize, PartialEq, Eq, serde::Serialize)]
-#[serde(rename_all = "snake_case")]
-pub enum LinearSolverSpec {
-    /// [`LinearMethod::Auto`](tetfem::linalg::linear_solver::LinearMethod::Auto).
-    #[default]
-    Auto,
-    /// [`LinearMethod::Direct`](tetfem::linalg::linear_solver::LinearMethod::Direct).
-    Direct,
-    /// [`LinearMethod::Iterative`](tetfem::linalg::linear_solver::LinearMethod::Iterative).
-    Iterative,
+    pub linear_solver: Option<LinearMethod>,
 }
 
 impl SceneSpec {
-    /// `analysis.linear_solver` as the library's method ([`LinearSolverSpec::Auto`] when unset).
-    pub fn linear_method(&self) -> tetfem::linalg::linear_solver::LinearMethod {
+    /// `analysis.linear_solver` as the library's method ([`LinearMethod::Auto`] when unset).
+    pub fn linear_method(&self) -> LinearMethod {
         self.analysis
             .as_ref()
             .and_then(|a| a.get_ref().linear_solver)
             .unwrap_or_default()
-            .method()
-    }
-}
-
-impl LinearSolverSpec {
-    /// The library's method.
-    pub fn method(self) -> tetfem::linalg::linear_solver::LinearMethod {
-        use tetfem::linalg::linear_solver::LinearMethod;
-        match self {
-            LinearSolverSpec::Auto => LinearMethod::Auto,
-            LinearSolverSpec::Direct => LinearMethod::Direct,
-            LinearSolverSpec::Iterative => LinearMethod::Iterative,
-        }
     }
 }
 
@@ -326,31 +302,6 @@ pub enum AnalysisKind {
     Static,
     /// Time integration of M·ü + C·u̇ + K·u = f.
     Dynamic,
-}
-
-/// A time integration method.
-#[derive(Debug, Clone, Copy, Default, Deserialize, PartialEq, Eq, serde::Serialize)]
-#[serde(rename_all = "snake_case")]
-pub enum Method {
-    /// Backward (implicit) Euler: solves (M + dt·C + dt²·K)·Δv = rhs each step.
-    #[default]
-    BackwardEuler,
-    /// Explicit central differences (symplectic Euler) with lumped mass; dt below the critical
-    /// step.
-    Explicit,
-    /// Newmark average acceleration (β = 1/4, γ = 1/2).
-    Newmark,
-}
-
-/// Mass matrix kind.
-#[derive(Debug, Clone, Copy, Default, Deserialize, PartialEq, Eq, serde::Serialize)]
-#[serde(rename_all = "snake_case")]
-pub enum MassKind {
-    /// Diagonal, ρV/4 per node and tet.
-    #[default]
-    Lumped,
-    /// The consistent mass ρV/20·(1 + δᵢⱼ).
-    Consistent,
 }
 
 /// Rayleigh damping coefficients.

@@ -29,8 +29,8 @@ pub use rows::{MAX_COLUMNS, RowMatrix};
 use self::rows::{Rows, TransposePlan, TransposeScratch};
 use self::smoother::{BlockDiagonal, Chebyshev, Scratch};
 use crate::error::{Error, Result};
-use crate::iterative::Preconditioner;
 use crate::linsolve::SparseCholesky;
+use crate::preconditioner::Preconditioner;
 use crate::sparse::CscMatrix;
 
 /// Settings of [`SmoothedAggregation`].

@@ -156,7 +156,7 @@ impl NearNullSpace {
     /// block is taken as axis k, which is right for every node whose three DOFs are free).
     pub fn translations(matrix: &CscMatrix) -> Self {
         let n = matrix.dim();
-        let mut starts = crate::iterative::supervariable_starts(matrix);
+        let mut starts = crate::sparse::supervariable_starts(matrix);
         let mut values = vec![0.0; 3 * n];
         for b in 0..starts.len() - 1 {
             for (k, i) in (starts[b]..starts[b + 1]).enumerate() {

@@ -1,4 +1,5 @@
-//! Element quality and mesh statistics, and the explicit critical time step.
+//! Element quality and mesh statistics (the explicit critical step from the elements is in
+//! [`crate::dynamics::element_step_bound`]).
 //!
 //! Per tet, from the shape-function gradients ∇Nᵢ (∇Nᵢ points from the face opposite node i
 //! towards node i, |∇Nᵢ| = Aᵢ/(3V) with Aᵢ that face's area):
@@ -10,9 +11,8 @@
 
 use nalgebra::Vector3;
 
-use super::TetMesh;
 use crate::element::Tet;
-use crate::material::Material;
+use crate::mesh::TetMesh;
 
 /// Quality measures of one tet.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -81,7 +81,7 @@ pub struct Summary {
 }
 
 impl Summary {
-    fn of(values: impl Iterator<Item = f64>) -> Summary {
+    pub(crate) fn of(values: impl Iterator<Item = f64>) -> Summary {
         let mut s = Summary {
             min: f64::INFINITY,
             min_tet: 0,
@@ -145,44 +145,6 @@ impl TetMesh {
             .collect()
     }
 
-    /// Warnings about this mesh: unused nodes, mixed orientation, poor elements (see
-    /// [`Warning`](crate::warning::Warning)). One pass over the tets, O(tets).
-    pub fn warnings(&self) -> Vec<crate::warning::Warning> {
-        use crate::warning::Warning;
-        let mut warnings = Vec::new();
-        let unused = self.unused_nodes();
-        if let Some(&first) = unused.first() {
-            warnings.push(Warning::UnusedNodes {
-                count: unused.len(),
-                first,
-            });
-        }
-        if self.reoriented_count() > 0 && self.reoriented_count() < self.tet_count() {
-            warnings.push(Warning::MixedOrientation {
-                reoriented: self.reoriented_count(),
-                tets: self.tet_count(),
-            });
-        }
-        let q = self.tet_qualities();
-        let deg = 180.0 / std::f64::consts::PI;
-        let poor = q
-            .iter()
-            .filter(|q| q.min_dihedral * deg < POOR_DIHEDRAL_DEG)
-            .count();
-        if poor > 0 {
-            let dihedral = Summary::of(q.iter().map(|q| q.min_dihedral * deg));
-            let mut altitudes: Vec<f64> = q.iter().map(|q| q.min_altitude).collect();
-            altitudes.sort_unstable_by(f64::total_cmp);
-            warnings.push(Warning::PoorElements {
-                count: poor,
-                worst_tet: dihedral.min_tet,
-                worst_dihedral_deg: dihedral.min,
-                dt_factor: altitudes[0] / altitudes[altitudes.len() / 2],
-            });
-        }
-        warnings
-    }
-
     /// Counts, volume, edge lengths and quality statistics.
     pub fn statistics(&self) -> MeshStatistics {
         let q = self.tet_qualities();
@@ -216,80 +178,5 @@ impl TetMesh {
                 .filter(|q| q.min_dihedral * deg < POOR_DIHEDRAL_DEG)
                 .count(),
         }
-    }
-}
-
-/// The explicit (central-difference, lumped-mass, undamped) critical time step of a mesh and
-/// material.
-#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
-pub struct CriticalStep {
-    /// Element bound 2/max ωₑ (time units): ωₑ² = λ_max(Kₑ)/(ρVₑ/4) is the largest eigenvalue
-    /// of the tet's own lumped-mass problem. By the element eigenvalue theorem the assembled
-    /// ω_max ≤ maxₑ ωₑ, so a step below this is stable for the undamped linear system (Dirichlet
-    /// constraints only lower ω_max).
-    pub dt_element: f64,
-    /// The tet that sets `dt_element`.
-    pub tet: usize,
-    /// The geometric estimate minₑ hₑ/c_p, hₑ the smallest altitude of tet e and
-    /// c_p = √((λ+2μ)/ρ) the P-wave speed; the usual rule of thumb, shown for comparison
-    /// (it is not a bound: `dt_element` is typically 0.3–0.6 of it on linear tets).
-    pub dt_geometric: f64,
-    /// The P-wave speed c_p (length/time).
-    pub p_wave_speed: f64,
-}
-
-/// Computes [`CriticalStep`] for `mesh` made of `material`: one 12×12 symmetric eigenvalue
-/// problem per tet.
-pub fn critical_time_step(mesh: &TetMesh, material: &Material) -> CriticalStep {
-    critical_step_by(mesh, material)
-}
-
-/// [`critical_time_step`] with each tet's own material: ωₑ and hₑ/c_p,e per tet;
-/// `p_wave_speed` is then the largest c_p of the materials.
-///
-/// Errors: `materials` do not cover the mesh's tets.
-pub fn critical_time_step_of(
-    mesh: &TetMesh,
-    materials: &impl crate::materials::TetMaterials,
-) -> crate::error::Result<CriticalStep> {
-    materials.check_tet_count(mesh)?;
-    Ok(critical_step_by(mesh, materials))
-}
-
-/// [`critical_time_step_of`] for materials checked against the mesh.
-fn critical_step_by(
-    mesh: &TetMesh,
-    materials: &impl crate::materials::TetMaterials,
-) -> CriticalStep {
-    let speeds: Vec<f64> = materials
-        .material_list()
-        .iter()
-        .map(|m| m.p_wave_speed())
-        .collect();
-    let c_p = speeds.iter().copied().fold(0.0, f64::max);
-    let mut worst_omega_sq: f64 = 0.0;
-    let mut tet = 0;
-    let mut dt_geometric = f64::INFINITY;
-    for t in 0..mesh.tet_count() {
-        let material = materials.material_of(t);
-        let element = mesh.element_of(t);
-        let k = element.stiffness(material);
-        let lambda_max = k
-            .symmetric_eigenvalues()
-            .iter()
-            .fold(0.0f64, |a, &b| a.max(b));
-        let omega_sq = lambda_max / element.lumped_mass(material.density());
-        if omega_sq > worst_omega_sq {
-            worst_omega_sq = omega_sq;
-            tet = t;
-        }
-        let q = tet_quality(&element, &mesh.positions_of(t));
-        dt_geometric = dt_geometric.min(q.min_altitude / speeds[materials.index_of(t)]);
-    }
-    CriticalStep {
-        dt_element: 2.0 / worst_omega_sq.sqrt(),
-        tet,
-        dt_geometric,
-        p_wave_speed: c_p,
     }
 }
