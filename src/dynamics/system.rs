@@ -339,24 +339,13 @@ impl LinearSystem {
         mass_scale: f64,
         out: &mut CscMatrix,
     ) -> Result<()> {
-        match &self.mass {
-            Mass::Consistent(m) => {
-                Ok(out.set_linear_combination(stiffness_scale, &self.stiffness, mass_scale, m)?)
-            }
-            Mass::Lumped(m) => {
-                if !Arc::ptr_eq(out.pattern(), self.stiffness.pattern()) {
-                    return Err(Error::invalid_parameter(
-                        "matrix",
-                        "another pattern",
-                        "must be on K_ff's pattern",
-                    ));
-                }
-                for (a, k) in out.values_mut().iter_mut().zip(self.stiffness.values()) {
-                    *a = stiffness_scale * k;
-                }
-                Ok(out.add_diagonal(mass_scale, m)?)
-            }
-        }
+        super::internal_force::combine(
+            &self.stiffness,
+            stiffness_scale,
+            &self.mass,
+            mass_scale,
+            out,
+        )
     }
 
     /// The load potentials of `state` (the kinetic and elastic terms left zero).

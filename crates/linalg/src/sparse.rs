@@ -48,36 +48,43 @@ impl CscMatrix {
     }
 
     /// Number of rows (= columns).
+    #[inline]
     pub fn dim(&self) -> usize {
         self.pattern.ncols()
     }
 
     /// Number of stored entries (both triangles).
+    #[inline]
     pub fn nnz(&self) -> usize {
         self.values.len()
     }
 
     /// The shared pattern.
+    #[inline]
     pub fn pattern(&self) -> &Arc<SymbolicSparseColMat<usize>> {
         &self.pattern
     }
 
     /// Column pointers (length dim + 1).
+    #[inline]
     pub fn col_ptr(&self) -> &[usize] {
         self.pattern.col_ptr()
     }
 
     /// Row indices, sorted within each column.
+    #[inline]
     pub fn row_idx(&self) -> &[usize] {
         self.pattern.row_idx()
     }
 
     /// Stored values, aligned with [`row_idx`](Self::row_idx).
+    #[inline]
     pub fn values(&self) -> &[f64] {
         &self.values
     }
 
     /// Mutable stored values (the pattern stays fixed).
+    #[inline]
     pub fn values_mut(&mut self) -> &mut [f64] {
         &mut self.values
     }
@@ -90,6 +97,7 @@ impl CscMatrix {
     /// Entry (row, col), zero where the pattern has no entry.
     ///
     /// Returns `None` if `row` or `col` is out of range.
+    #[inline]
     pub fn get(&self, row: usize, col: usize) -> Option<f64> {
         if row >= self.dim() || col >= self.dim() {
             return None;
