@@ -54,6 +54,7 @@ pub mod modal;
 pub mod model;
 pub mod nonlinear;
 pub mod output;
+pub mod prelude;
 pub mod problem;
 pub mod quadrature;
 pub mod quality;
