@@ -152,6 +152,41 @@ impl Default for IntegratorOptions {
 /// solves.
 pub const STEPS_PER_MATRIX: usize = 100;
 
+/// What every implicit method builds first: its checked time step, its system matrix (a copy
+/// of K_ff, refilled per time step value), the analysed solver of that matrix, and the Newton
+/// solver of a nonlinear force (`None` on the linear path).
+struct ImplicitParts {
+    dt: f64,
+    matrix: CscMatrix,
+    solver: LinearSolver,
+    newton: Option<newton::NewtonSolver>,
+}
+
+impl ImplicitParts {
+    fn new(
+        system: &LinearSystem,
+        force: InternalForce,
+        dt: f64,
+        options: &IntegratorOptions,
+    ) -> Result<Self> {
+        let dt = check_time_step(dt)?;
+        let matrix = system.stiffness().clone();
+        let solver = step_solver(system, &matrix, options, &force)?;
+        let newton = match force {
+            InternalForce::Linear => None,
+            InternalForce::Nonlinear(f) => {
+                Some(newton::NewtonSolver::new(f, system, options.newton)?)
+            }
+        };
+        Ok(ImplicitParts {
+            dt,
+            matrix,
+            solver,
+            newton,
+        })
+    }
+}
+
 /// The implicit methods' solver of `matrix` (on the pattern of `system`'s K_ff), analysed: for
 /// [`STEPS_PER_MATRIX`] solves per matrix with the linear force, one with a nonlinear one (its
 /// Newton matrix changes every iteration).

@@ -73,13 +73,12 @@ impl Newmark {
         dt: f64,
         options: IntegratorOptions,
     ) -> Result<Self> {
-        let dt = check_time_step(dt)?;
-        let matrix = system.stiffness().clone();
-        let solver = super::step_solver(&system, &matrix, &options, &force)?;
-        let newton = match force {
-            InternalForce::Linear => None,
-            InternalForce::Nonlinear(f) => Some(NewtonSolver::new(f, &system, options.newton)?),
-        };
+        let super::ImplicitParts {
+            dt,
+            matrix,
+            solver,
+            newton,
+        } = super::ImplicitParts::new(&system, force, dt, &options)?;
         let n = system.free_count();
         Ok(Newmark {
             system,
