@@ -1,0 +1,38 @@
+//! The `tetfem` Python package's native module (`tetfem._tetfem`): meshes, materials,
+//! constraints, loads, static, dynamic and modal analyses and scenes of the tetfem library,
+//! with numpy arrays in and out. The Python package (`python/tetfem/`) re-exports it and adds
+//! the exception classes (`tetfem.errors`).
+
+use pyo3::prelude::*;
+
+mod arrays;
+mod constraints;
+mod errors;
+mod loads;
+mod material;
+mod mesh;
+mod modal;
+mod names;
+mod scene;
+mod simulation;
+mod sparse;
+mod statics;
+
+/// The native module: every class and function of the `tetfem` package.
+#[pymodule]
+fn _tetfem(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_class::<mesh::PyMesh>()?;
+    m.add_class::<material::PyMaterial>()?;
+    m.add_class::<material::PyMaterialMap>()?;
+    m.add_class::<constraints::PyConstraints>()?;
+    m.add_class::<loads::PyLoads>()?;
+    m.add_class::<statics::StaticResult>()?;
+    m.add_class::<statics::PyStaticSolver>()?;
+    m.add_class::<simulation::PySimulation>()?;
+    m.add_class::<modal::ModalResult>()?;
+    m.add_function(wrap_pyfunction!(statics::solve_static, m)?)?;
+    m.add_function(wrap_pyfunction!(modal::modal_analysis, m)?)?;
+    m.add_function(wrap_pyfunction!(scene::run_scene, m)?)?;
+    m.add("__version__", env!("CARGO_PKG_VERSION"))?;
+    Ok(())
+}

@@ -1,0 +1,204 @@
+//! `tetfem.Loads`: gravity, body forces, tractions, pressures, total forces on faces and nodal
+//! forces on one mesh, as one consistent nodal force vector.
+
+use std::sync::Arc;
+
+use nalgebra::Vector3;
+use pyo3::prelude::*;
+use tetfem::loads::Loads;
+
+use crate::arrays;
+use crate::errors::{OrRaise, invalid};
+use crate::material::materials_of;
+use crate::mesh::{MeshData, PyMesh};
+
+/// Loads(mesh)
+///
+/// External loads on ``mesh``, accumulated in the order they are added (SI units in the
+/// docstrings; any consistent units work). Gravity is also kept apart (``gravity``), as the
+/// dynamic system tracks its potential separately; every ``add_*`` returns self.
+#[pyclass(name = "Loads", module = "tetfem")]
+pub struct PyLoads {
+    /// The mesh these loads are made for.
+    pub data: Arc<MeshData>,
+    /// Every load, gravity included (what a static solve takes).
+    pub all: Loads,
+    /// Every load but gravity (what a dynamic system takes beside `gravity`).
+    pub other: Loads,
+    /// The sum of the gravity accelerations added (m/s²).
+    pub gravity: Vector3<f64>,
+}
+
+impl PyLoads {
+    /// Applies `add` to both force vectors (`all` first; an error leaves both unchanged).
+    fn add_to_both(
+        &mut self,
+        py: Python<'_>,
+        add: impl Fn(&mut Loads) -> tetfem::Result<()>,
+    ) -> PyResult<()> {
+        let mut all = self.all.clone();
+        let mut other = self.other.clone();
+        add(&mut all).or_raise(py)?;
+        add(&mut other).or_raise(py)?;
+        self.all = all;
+        self.other = other;
+        Ok(())
+    }
+}
+
+#[pymethods]
+impl PyLoads {
+    #[new]
+    fn new(mesh: &Bound<'_, PyMesh>) -> Self {
+        let data = Arc::clone(&mesh.get().data);
+        let all = Loads::new(&data.mesh);
+        let other = all.clone();
+        PyLoads {
+            data,
+            all,
+            other,
+            gravity: Vector3::zeros(),
+        }
+    }
+
+    /// add_gravity(acceleration, material)
+    ///
+    /// Gravity: the body force ρ·g (``acceleration`` g in m/s², e.g. (0, 0, −9.81)), ρ from
+    /// ``material`` (a ``Material`` or a ``MaterialMap``: each tet's density).
+    fn add_gravity<'py>(
+        mut slf: PyRefMut<'py, Self>,
+        acceleration: &Bound<'py, PyAny>,
+        material: &Bound<'py, PyAny>,
+    ) -> PyResult<PyRefMut<'py, Self>> {
+        let py = slf.py();
+        let g = arrays::vector3(py, acceleration, "acceleration")?;
+        let materials = materials_of(py, material, &slf.data)?;
+        let data = Arc::clone(&slf.data);
+        let mut all = slf.all.clone();
+        all.add_gravity(&data.mesh, &materials, g).or_raise(py)?;
+        slf.all = all;
+        slf.gravity += g;
+        Ok(slf)
+    }
+
+    /// add_body_force(force_density)
+    ///
+    /// A uniform body force density b (N/m³) on the whole body.
+    fn add_body_force<'py>(
+        mut slf: PyRefMut<'py, Self>,
+        force_density: &Bound<'py, PyAny>,
+    ) -> PyResult<PyRefMut<'py, Self>> {
+        let py = slf.py();
+        let b = arrays::vector3(py, force_density, "force_density")?;
+        let data = Arc::clone(&slf.data);
+        slf.add_to_both(py, |l| l.add_body_force(&data.mesh, b).map(|_| ()))?;
+        Ok(slf)
+    }
+
+    /// add_traction(faces, traction)
+    ///
+    /// A uniform traction t (Pa, a force per area) on boundary ``faces`` (shape (f, 3), rows of
+    /// ``Mesh.boundary_faces()``, e.g. from ``Mesh.faces_on_plane``).
+    fn add_traction<'py>(
+        mut slf: PyRefMut<'py, Self>,
+        faces: &Bound<'py, PyAny>,
+        traction: &Bound<'py, PyAny>,
+    ) -> PyResult<PyRefMut<'py, Self>> {
+        let py = slf.py();
+        let t = arrays::vector3(py, traction, "traction")?;
+        let data = Arc::clone(&slf.data);
+        let faces = data.faces_of(py, faces, "faces")?;
+        slf.add_to_both(py, |l| l.add_traction(&data.mesh, &faces, t).map(|_| ()))?;
+        Ok(slf)
+    }
+
+    /// add_total_force(faces, force)
+    ///
+    /// A total force (N) spread as a uniform traction over boundary ``faces`` (traction =
+    /// force / total area).
+    fn add_total_force<'py>(
+        mut slf: PyRefMut<'py, Self>,
+        faces: &Bound<'py, PyAny>,
+        force: &Bound<'py, PyAny>,
+    ) -> PyResult<PyRefMut<'py, Self>> {
+        let py = slf.py();
+        let f = arrays::vector3(py, force, "force")?;
+        let data = Arc::clone(&slf.data);
+        let faces = data.faces_of(py, faces, "faces")?;
+        slf.add_to_both(py, |l| {
+            l.add_total_force_on_faces(&data.mesh, &faces, f).map(|_| ())
+        })?;
+        Ok(slf)
+    }
+
+    /// add_pressure(faces, pressure)
+    ///
+    /// A pressure p (Pa) on boundary ``faces``, acting against each face's outward normal
+    /// (p > 0 pushes into the body).
+    fn add_pressure<'py>(
+        mut slf: PyRefMut<'py, Self>,
+        faces: &Bound<'py, PyAny>,
+        pressure: f64,
+    ) -> PyResult<PyRefMut<'py, Self>> {
+        let py = slf.py();
+        if !pressure.is_finite() {
+            return Err(invalid(py, "pressure", pressure, "must be finite"));
+        }
+        let data = Arc::clone(&slf.data);
+        let faces = data.faces_of(py, faces, "faces")?;
+        slf.add_to_both(py, |l| {
+            for face in &faces {
+                let normal = face.area_vector(&data.mesh)?.normalize();
+                l.add_traction(&data.mesh, std::slice::from_ref(face), -normal * pressure)?;
+            }
+            Ok(())
+        })?;
+        Ok(slf)
+    }
+
+    /// add_nodal_force(nodes, force)
+    ///
+    /// A point force (N) on each of ``nodes``: ``force`` of shape (3,) for every node, or (k, 3)
+    /// with one row per node of ``nodes`` (in its order).
+    fn add_nodal_force<'py>(
+        mut slf: PyRefMut<'py, Self>,
+        nodes: &Bound<'py, PyAny>,
+        force: &Bound<'py, PyAny>,
+    ) -> PyResult<PyRefMut<'py, Self>> {
+        let py = slf.py();
+        let (nodes, _) = arrays::indices(py, nodes, "nodes", None)?;
+        let values = arrays::rows_per_item(py, force, "force", nodes.len())?;
+        slf.add_to_both(py, |l| {
+            for (i, &n) in nodes.iter().enumerate() {
+                let f = Vector3::new(values[3 * i], values[3 * i + 1], values[3 * i + 2]);
+                l.add_nodal_force(n, f)?;
+            }
+            Ok(())
+        })?;
+        Ok(slf)
+    }
+
+    /// The nodal forces of every load (gravity included), shape (n, 3), N.
+    #[getter]
+    fn forces<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        arrays::rows3(py, self.all.as_slice().to_vec())
+    }
+
+    /// The sum of the gravity accelerations added, shape (3,), m/s².
+    #[getter]
+    fn gravity<'py>(&self, py: Python<'py>) -> Bound<'py, PyAny> {
+        arrays::vector(py, vec![self.gravity.x, self.gravity.y, self.gravity.z])
+    }
+
+    /// The resultant (sum of all nodal forces), shape (3,), N.
+    #[getter]
+    fn resultant<'py>(&self, py: Python<'py>) -> Bound<'py, PyAny> {
+        let r = self.all.resultant();
+        arrays::vector(py, vec![r.x, r.y, r.z])
+    }
+
+    fn __repr__(&self) -> String {
+        let r = self.all.resultant();
+        format!("Loads(resultant [{:e}, {:e}, {:e}] N)", r.x, r.y, r.z)
+    }
+}

@@ -1,0 +1,526 @@
+//! `tetfem.Mesh`: a validated tetrahedral mesh with its boundary faces, from a box, numpy arrays
+//! or a Gmsh/TetGen file; node, tet and face selections as numpy index arrays.
+
+use std::collections::HashMap;
+use std::path::PathBuf;
+use std::sync::Arc;
+
+use nalgebra::Vector3;
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+use tetfem::mesh::io::{ImportedMesh, read_mesh};
+use tetfem::mesh::{BoundaryFace, TetMesh};
+
+use crate::arrays::{self, floats, index_rows, index_vector, indices};
+use crate::errors::{OrRaise, invalid, raise};
+use crate::names;
+
+/// A mesh with what selections and loads need: its boundary faces (outward oriented) and, for
+/// a mesh read from a file, the file's groups, markers and attributes.
+#[derive(Debug)]
+pub struct MeshData {
+    /// The validated mesh.
+    pub mesh: TetMesh,
+    /// Groups, markers and attributes of a mesh read from a file.
+    pub imported: Option<ImportedMesh>,
+    /// The boundary faces, outward oriented, in the library's order.
+    pub boundary: Vec<BoundaryFace>,
+    /// Boundary face index by its sorted node triple.
+    face_index: HashMap<[usize; 3], usize>,
+}
+
+impl MeshData {
+    /// The mesh with its boundary faces.
+    pub fn new(mesh: TetMesh, imported: Option<ImportedMesh>) -> tetfem::Result<Self> {
+        let boundary = mesh.boundary_faces()?;
+        let face_index = boundary
+            .iter()
+            .enumerate()
+            .map(|(i, f)| (sorted(f.nodes), i))
+            .collect();
+        Ok(MeshData {
+            mesh,
+            imported,
+            boundary,
+            face_index,
+        })
+    }
+
+    /// The boundary faces named by rows of node triples (any node order), in the given order;
+    /// a triple that is not a boundary face is an `InvalidInputError` naming it.
+    pub fn faces_of(
+        &self,
+        py: Python<'_>,
+        faces: &Bound<'_, PyAny>,
+        name: &str,
+    ) -> PyResult<Vec<BoundaryFace>> {
+        let (flat, rows) = indices(py, faces, name, Some(3))?;
+        let mut out = Vec::with_capacity(rows);
+        for (r, triple) in flat.chunks_exact(3).enumerate() {
+            let key = sorted([triple[0], triple[1], triple[2]]);
+            match self.face_index.get(&key) {
+                Some(&i) => out.push(self.boundary[i]),
+                None => {
+                    return Err(invalid(
+                        py,
+                        &format!("{name}[{r}]"),
+                        format!("{triple:?}"),
+                        "must be a boundary face of the mesh (three node indices, e.g. a row of \
+                         mesh.boundary_faces())",
+                    ));
+                }
+            }
+        }
+        if out.is_empty() {
+            return Err(invalid(py, name, "[]", "must name at least one boundary face"));
+        }
+        Ok(out)
+    }
+
+    /// Node indices of `name`, each checked to exist, ascending and without repeats; at least one.
+    pub fn nodes_of(
+        &self,
+        py: Python<'_>,
+        nodes: &Bound<'_, PyAny>,
+        name: &str,
+    ) -> PyResult<Vec<usize>> {
+        let (mut list, _) = indices(py, nodes, name, None)?;
+        let count = self.mesh.node_count();
+        if let Some(&bad) = list.iter().find(|&&n| n >= count) {
+            return Err(invalid(
+                py,
+                name,
+                bad,
+                &format!("node {bad} does not exist (the mesh has {count} nodes)"),
+            ));
+        }
+        list.sort_unstable();
+        list.dedup();
+        if list.is_empty() {
+            return Err(invalid(py, name, "[]", "must select at least one node"));
+        }
+        Ok(list)
+    }
+
+    /// The boundary faces all three of whose nodes are selected, in boundary order.
+    fn faces_with_nodes(&self, selected: &[bool]) -> Vec<[usize; 3]> {
+        self.boundary
+            .iter()
+            .filter(|f| f.nodes.iter().all(|&n| selected[n]))
+            .map(|f| f.nodes)
+            .collect()
+    }
+
+    /// The default plane tolerance of scenes: 1e-6 × the bounding-box diagonal.
+    fn default_tolerance(&self) -> f64 {
+        let (lo, hi) = self.mesh.bounding_box();
+        1e-6 * (hi - lo).norm()
+    }
+
+    fn imported(&self, py: Python<'_>, what: &str) -> PyResult<&ImportedMesh> {
+        self.imported.as_ref().ok_or_else(|| {
+            raise(
+                py,
+                "InvalidInputError",
+                format!("{what} needs a mesh read from a file (Mesh.read); this one was not"),
+            )
+        })
+    }
+
+    fn group(&self, py: Python<'_>, name: &str) -> PyResult<&tetfem::mesh::io::PhysicalGroup> {
+        let imported = self.imported(py, "a group selection")?;
+        imported.group(name).ok_or_else(|| {
+            let known: Vec<String> = imported.groups.iter().map(|g| g.label()).collect();
+            invalid(
+                py,
+                "group",
+                format!("'{name}'"),
+                &format!(
+                    "the mesh has no such physical group (it has: {})",
+                    if known.is_empty() { "none".into() } else { known.join(", ") }
+                ),
+            )
+        })
+    }
+}
+
+fn sorted(mut nodes: [usize; 3]) -> [usize; 3] {
+    nodes.sort_unstable();
+    nodes
+}
+
+/// A tetrahedral mesh (linear tets). Coordinates in length units (m in SI, as in every
+/// shipped scene); node and tet indices start at 0.
+///
+/// Build one with ``Mesh.box(max, cells)``, ``Mesh(points, tets)`` or ``Mesh.read(path)``.
+/// Invalid input raises ``MeshError`` (non-finite coordinates, degenerate or duplicate tets,
+/// out-of-range indices) or ``InvalidInputError`` (wrong array shapes). Negatively oriented tets
+/// are reoriented (their second and third nodes swapped).
+#[pyclass(name = "Mesh", module = "tetfem", frozen)]
+pub struct PyMesh {
+    /// The mesh and its boundary, shared with the constraints, loads and analyses made on it.
+    pub data: Arc<MeshData>,
+}
+
+impl PyMesh {
+    /// A `Mesh` of `mesh`, its boundary found with the GIL released.
+    fn of(py: Python<'_>, mesh: TetMesh, imported: Option<ImportedMesh>) -> PyResult<Self> {
+        let data = py.detach(|| MeshData::new(mesh, imported)).or_raise(py)?;
+        Ok(PyMesh {
+            data: Arc::new(data),
+        })
+    }
+}
+
+#[pymethods]
+impl PyMesh {
+    /// Mesh(points, tets)
+    ///
+    /// A mesh from node coordinates ``points`` (shape (n, 3), length units) and tets ``tets``
+    /// (shape (m, 4), node indices from 0). Raises ``MeshError`` for NaN or infinite
+    /// coordinates, out-of-range or repeated node indices, degenerate or duplicate tets.
+    #[new]
+    fn new(py: Python<'_>, points: &Bound<'_, PyAny>, tets: &Bound<'_, PyAny>) -> PyResult<Self> {
+        // Non-finite coordinates are left to the library, whose message names the node.
+        let (flat, _) = floats(py, points, "points", Some(3), true)?;
+        let (tet_flat, _) = indices(py, tets, "tets", Some(4))?;
+        let nodes: Vec<Vector3<f64>> = flat
+            .chunks_exact(3)
+            .map(|p| Vector3::new(p[0], p[1], p[2]))
+            .collect();
+        let tets: Vec<[usize; 4]> = tet_flat
+            .chunks_exact(4)
+            .map(|t| [t[0], t[1], t[2], t[3]])
+            .collect();
+        let mesh = py.detach(|| TetMesh::new(nodes, tets)).or_raise(py)?;
+        Self::of(py, mesh, None)
+    }
+
+    /// Mesh.box(max, cells, min=(0, 0, 0), split="mirrored6")
+    ///
+    /// The box [min, max] (length units) in ``cells`` = (nx, ny, nz) cubes, each split into
+    /// tets: ``"mirrored6"`` (6 per cell, the lecture's table mirrored in alternate cells: no
+    /// sideways lean in bending), ``"lecture6"`` (6 per cell, one diagonal everywhere) or
+    /// ``"five"`` (5 per cell, alternating). A box too large for the memory available raises
+    /// ``SolverError`` before anything is allocated.
+    #[staticmethod]
+    #[pyo3(name = "box", signature = (max, cells, min = None, split = "mirrored6"))]
+    fn box_grid(
+        py: Python<'_>,
+        max: &Bound<'_, PyAny>,
+        cells: &Bound<'_, PyAny>,
+        min: Option<&Bound<'_, PyAny>>,
+        split: &str,
+    ) -> PyResult<Self> {
+        let max = arrays::vector3(py, max, "max")?;
+        let min = match min {
+            Some(m) => arrays::vector3(py, m, "min")?,
+            None => Vector3::zeros(),
+        };
+        let cells = arrays::counts3(py, cells, "cells")?;
+        let split = names::split(py, split)?;
+        tetfem::memory::check_box_run(cells, split.tets_per_cell(), false).or_raise(py)?;
+        let mesh = py
+            .detach(|| TetMesh::box_grid(min, max, cells, split))
+            .or_raise(py)?;
+        Self::of(py, mesh, None)
+    }
+
+    /// Mesh.read(path)
+    ///
+    /// Reads a Gmsh ``.msh`` (4.1 or 2.2) or a TetGen ``.node``/``.ele`` pair (the path of
+    /// either file, or their common prefix). Its physical groups (Gmsh), node markers and tet
+    /// attributes (TetGen) are kept for selections. Raises ``MeshError`` for a file that does not
+    /// parse or holds an invalid mesh, ``TetfemIOError`` if it cannot be read.
+    #[staticmethod]
+    fn read(py: Python<'_>, path: PathBuf) -> PyResult<Self> {
+        let imported = py.detach(|| read_mesh(&path)).or_raise(py)?;
+        let mesh = imported.mesh.clone();
+        Self::of(py, mesh, Some(imported))
+    }
+
+    /// Node coordinates, shape (n, 3), length units (a copy).
+    #[getter]
+    fn points<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        let flat: Vec<f64> = self.data.mesh.nodes().iter().flat_map(|p| [p.x, p.y, p.z]).collect();
+        arrays::rows3(py, flat)
+    }
+
+    /// Tets as node indices, shape (m, 4), int64, positively oriented (a copy).
+    #[getter]
+    fn tets<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        index_rows(py, self.data.mesh.tets())
+    }
+
+    /// Number of nodes.
+    #[getter]
+    fn node_count(&self) -> usize {
+        self.data.mesh.node_count()
+    }
+
+    /// Number of tets.
+    #[getter]
+    fn tet_count(&self) -> usize {
+        self.data.mesh.tet_count()
+    }
+
+    /// Degrees of freedom: 3 per node (DOF 3·node + axis).
+    #[getter]
+    fn dof_count(&self) -> usize {
+        self.data.mesh.dof_count()
+    }
+
+    /// Total volume (length³ units).
+    #[getter]
+    fn volume(&self) -> f64 {
+        self.data.mesh.volume()
+    }
+
+    /// Number of tets that were given negatively oriented and reoriented.
+    #[getter]
+    fn reoriented_count(&self) -> usize {
+        self.data.mesh.reoriented_count()
+    }
+
+    /// (min, max) corners of the bounding box, each shape (3,), length units.
+    #[getter]
+    fn bounding_box<'py>(&self, py: Python<'py>) -> (Bound<'py, PyAny>, Bound<'py, PyAny>) {
+        let (lo, hi) = self.data.mesh.bounding_box();
+        (
+            arrays::vector(py, vec![lo.x, lo.y, lo.z]),
+            arrays::vector(py, vec![hi.x, hi.y, hi.z]),
+        )
+    }
+
+    /// Physical groups of a Gmsh mesh: a list of dicts with ``name`` (or None), ``tag``,
+    /// ``dim`` (0 points … 3 volumes), ``nodes`` and ``tets`` counts. Empty for other meshes.
+    #[getter]
+    fn groups<'py>(&self, py: Python<'py>) -> PyResult<Vec<Bound<'py, PyDict>>> {
+        let Some(imported) = &self.data.imported else {
+            return Ok(Vec::new());
+        };
+        imported
+            .groups
+            .iter()
+            .map(|g| {
+                let d = PyDict::new(py);
+                d.set_item("name", g.name.clone())?;
+                d.set_item("tag", g.tag)?;
+                d.set_item("dim", g.dim)?;
+                d.set_item("nodes", g.nodes.len())?;
+                d.set_item("tets", g.tets.len())?;
+                Ok(d)
+            })
+            .collect()
+    }
+
+    /// Warnings about valid but suspect input (poor tets, unused nodes), as sentences.
+    #[getter]
+    fn warnings(&self) -> Vec<String> {
+        self.data.mesh.warnings().iter().map(ToString::to_string).collect()
+    }
+
+    /// nodes_on_plane(axis, at, tolerance=None)
+    ///
+    /// Nodes with |x[axis] − at| ≤ tolerance (axis 0/1/2 or "x"/"y"/"z"; length units; default
+    /// tolerance 1e-6 × the bounding-box diagonal, as in scenes), ascending int64 array.
+    #[pyo3(signature = (axis, at, tolerance = None))]
+    fn nodes_on_plane<'py>(
+        &self,
+        py: Python<'py>,
+        axis: &Bound<'py, PyAny>,
+        at: f64,
+        tolerance: Option<f64>,
+    ) -> PyResult<Bound<'py, PyAny>> {
+        let axis = names::axis(py, axis)?;
+        let tolerance = tolerance.unwrap_or_else(|| self.data.default_tolerance());
+        let nodes = self.data.mesh.try_nodes_on_plane(axis, at, tolerance).or_raise(py)?;
+        Ok(index_vector(py, &nodes))
+    }
+
+    /// nodes_in_box(min, max)
+    ///
+    /// Nodes inside the closed box [min, max] (length units), ascending int64 array.
+    fn nodes_in_box<'py>(
+        &self,
+        py: Python<'py>,
+        min: &Bound<'py, PyAny>,
+        max: &Bound<'py, PyAny>,
+    ) -> PyResult<Bound<'py, PyAny>> {
+        let min = arrays::vector3(py, min, "min")?;
+        let max = arrays::vector3(py, max, "max")?;
+        Ok(index_vector(py, &self.data.mesh.nodes_in_box(min, max)))
+    }
+
+    /// nodes_where(mask)
+    ///
+    /// Nodes whose entry of the boolean ``mask`` (shape (n,)) is true, e.g.
+    /// ``mesh.nodes_where(mesh.points[:, 0] < 0.1)``.
+    fn nodes_where<'py>(
+        &self,
+        py: Python<'py>,
+        mask: &Bound<'py, PyAny>,
+    ) -> PyResult<Bound<'py, PyAny>> {
+        let mask = arrays::mask(py, mask, "mask", self.data.mesh.node_count())?;
+        let nodes: Vec<usize> = (0..mask.len()).filter(|&n| mask[n]).collect();
+        Ok(index_vector(py, &nodes))
+    }
+
+    /// nodes_in_group(name)
+    ///
+    /// Nodes of a Gmsh physical group (by name, or by tag as text), ascending.
+    fn nodes_in_group<'py>(&self, py: Python<'py>, name: &str) -> PyResult<Bound<'py, PyAny>> {
+        Ok(index_vector(py, &self.data.group(py, name)?.nodes))
+    }
+
+    /// nodes_with_marker(marker)
+    ///
+    /// Nodes whose TetGen boundary marker equals ``marker``, ascending.
+    fn nodes_with_marker<'py>(&self, py: Python<'py>, marker: i64) -> PyResult<Bound<'py, PyAny>> {
+        let imported = self.data.imported(py, "a marker selection")?;
+        if imported.node_markers.is_none() {
+            return Err(invalid(py, "marker", marker, "needs a TetGen mesh with node markers"));
+        }
+        Ok(index_vector(py, &imported.nodes_with_marker(marker)))
+    }
+
+    /// tets_in_box(min, max)
+    ///
+    /// Tets whose centroid lies in the closed box [min, max] (length units), ascending: the
+    /// rule of per-region materials in scenes.
+    fn tets_in_box<'py>(
+        &self,
+        py: Python<'py>,
+        min: &Bound<'py, PyAny>,
+        max: &Bound<'py, PyAny>,
+    ) -> PyResult<Bound<'py, PyAny>> {
+        let min = arrays::vector3(py, min, "min")?;
+        let max = arrays::vector3(py, max, "max")?;
+        let mesh = &self.data.mesh;
+        let tets: Vec<usize> = (0..mesh.tet_count())
+            .filter(|&t| {
+                let c = mesh.tets()[t]
+                    .iter()
+                    .fold(Vector3::zeros(), |s, &n| s + mesh.nodes()[n])
+                    / 4.0;
+                (0..3).all(|a| c[a] >= min[a] && c[a] <= max[a])
+            })
+            .collect();
+        Ok(index_vector(py, &tets))
+    }
+
+    /// tets_in_group(name)
+    ///
+    /// Tets of a Gmsh physical volume (by name or tag).
+    fn tets_in_group<'py>(&self, py: Python<'py>, name: &str) -> PyResult<Bound<'py, PyAny>> {
+        let imported = self.data.imported(py, "a volume group selection")?;
+        let tets = tetfem::materials::volume_group_tets(imported, name).or_raise(py)?;
+        Ok(index_vector(py, tets))
+    }
+
+    /// tets_with_attribute(value)
+    ///
+    /// Tets whose TetGen region attribute equals ``value``.
+    fn tets_with_attribute<'py>(&self, py: Python<'py>, value: f64) -> PyResult<Bound<'py, PyAny>> {
+        let imported = self.data.imported(py, "an attribute selection")?;
+        let tets = tetfem::materials::attribute_tets(imported, value).or_raise(py)?;
+        Ok(index_vector(py, &tets))
+    }
+
+    /// boundary_faces()
+    ///
+    /// Every boundary triangle, shape (f, 3), node indices ordered so that the normal
+    /// (n1 − n0) × (n2 − n0) points out of the body.
+    fn boundary_faces<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        let faces: Vec<[usize; 3]> = self.data.boundary.iter().map(|f| f.nodes).collect();
+        index_rows(py, &faces)
+    }
+
+    /// faces_of_nodes(nodes)
+    ///
+    /// The boundary faces all three of whose nodes are in ``nodes``, shape (f, 3), in boundary
+    /// order: how scenes turn a node set into a face set.
+    fn faces_of_nodes<'py>(
+        &self,
+        py: Python<'py>,
+        nodes: &Bound<'py, PyAny>,
+    ) -> PyResult<Bound<'py, PyAny>> {
+        let nodes = self.data.nodes_of(py, nodes, "nodes")?;
+        let mut selected = vec![false; self.data.mesh.node_count()];
+        for n in nodes {
+            selected[n] = true;
+        }
+        index_rows(py, &self.data.faces_with_nodes(&selected))
+    }
+
+    /// faces_on_plane(axis, at, tolerance=None)
+    ///
+    /// The boundary faces whose three nodes lie on the plane x[axis] = at (see
+    /// ``nodes_on_plane``), shape (f, 3).
+    #[pyo3(signature = (axis, at, tolerance = None))]
+    fn faces_on_plane<'py>(
+        &self,
+        py: Python<'py>,
+        axis: &Bound<'py, PyAny>,
+        at: f64,
+        tolerance: Option<f64>,
+    ) -> PyResult<Bound<'py, PyAny>> {
+        let nodes = self.nodes_on_plane(py, axis, at, tolerance)?;
+        if nodes.len()? == 0 {
+            return index_rows::<3>(py, &[]);
+        }
+        self.faces_of_nodes(py, &nodes)
+    }
+
+    /// faces_in_box(min, max)
+    ///
+    /// The boundary faces whose three nodes lie in the closed box [min, max], shape (f, 3).
+    fn faces_in_box<'py>(
+        &self,
+        py: Python<'py>,
+        min: &Bound<'py, PyAny>,
+        max: &Bound<'py, PyAny>,
+    ) -> PyResult<Bound<'py, PyAny>> {
+        let nodes = self.nodes_in_box(py, min, max)?;
+        if nodes.len()? == 0 {
+            return index_rows::<3>(py, &[]);
+        }
+        self.faces_of_nodes(py, &nodes)
+    }
+
+    /// faces_where(mask)
+    ///
+    /// The boundary faces all three of whose nodes have a true entry in the node ``mask``
+    /// (shape (n,)), shape (f, 3).
+    fn faces_where<'py>(
+        &self,
+        py: Python<'py>,
+        mask: &Bound<'py, PyAny>,
+    ) -> PyResult<Bound<'py, PyAny>> {
+        let mask = arrays::mask(py, mask, "mask", self.data.mesh.node_count())?;
+        index_rows(py, &self.data.faces_with_nodes(&mask))
+    }
+
+    /// faces_in_group(name)
+    ///
+    /// The boundary faces that are triangles of a Gmsh physical surface (by name or tag).
+    fn faces_in_group<'py>(&self, py: Python<'py>, name: &str) -> PyResult<Bound<'py, PyAny>> {
+        let faces: Vec<[usize; 3]> = self
+            .data
+            .group(py, name)?
+            .boundary_faces(&self.data.boundary)
+            .iter()
+            .map(|f| f.nodes)
+            .collect();
+        index_rows(py, &faces)
+    }
+
+    fn __repr__(&self) -> String {
+        format!(
+            "Mesh({} nodes, {} tets, {} boundary faces)",
+            self.data.mesh.node_count(),
+            self.data.mesh.tet_count(),
+            self.data.boundary.len()
+        )
+    }
+}

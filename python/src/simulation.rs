@@ -1,0 +1,419 @@
+//! `tetfem.Simulation`: time integration of M·ü + C·u̇ + K·u = f (or a nonlinear force model)
+//! with any of the library's methods, stepped from Python with the GIL released.
+
+use std::sync::Arc;
+
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+use tetfem::dynamics::{
+    BackwardEuler, Energy, Integrator, IntegratorOptions, InternalForce, LinearSystem, Mass,
+    Method, Newmark, Rayleigh, State, SymplecticEuler, critical_time_step,
+};
+use tetfem::loads::Loads;
+use tetfem::materials::MaterialMap;
+use tetfem::model::ModelKind;
+
+use crate::arrays;
+use crate::constraints::PyConstraints;
+use crate::errors::{OrRaise, invalid};
+use crate::loads::PyLoads;
+use crate::material::materials_of;
+use crate::mesh::{MeshData, PyMesh};
+use crate::modal::{ModalResult, modes_of};
+use crate::names;
+use crate::sparse::{csr, diagonal};
+use crate::statics::check_same_mesh;
+
+/// The integrator of each method, held by its concrete type (each is `Send + Sync`, which a
+/// Python object's contents must be).
+enum Stepper {
+    BackwardEuler(BackwardEuler),
+    Newmark(Newmark),
+    Explicit(SymplecticEuler),
+}
+
+impl Stepper {
+    /// The integrator `method` with `force`, as `Method::integrator_with_force` builds it.
+    fn new(
+        method: Method,
+        system: &Arc<LinearSystem>,
+        force: InternalForce,
+        dt: f64,
+        options: IntegratorOptions,
+    ) -> tetfem::Result<Self> {
+        let system = Arc::clone(system);
+        Ok(match method {
+            Method::BackwardEuler => {
+                Stepper::BackwardEuler(BackwardEuler::with_force(system, force, dt, options)?)
+            }
+            Method::Newmark => Stepper::Newmark(Newmark::with_force(system, force, dt, options)?),
+            Method::Explicit => Stepper::Explicit(SymplecticEuler::with_force(system, force, dt)?),
+        })
+    }
+
+    fn integrator(&mut self) -> &mut dyn Integrator {
+        match self {
+            Stepper::BackwardEuler(i) => i,
+            Stepper::Newmark(i) => i,
+            Stepper::Explicit(i) => i,
+        }
+    }
+
+    fn get(&self) -> &dyn Integrator {
+        match self {
+            Stepper::BackwardEuler(i) => i,
+            Stepper::Newmark(i) => i,
+            Stepper::Explicit(i) => i,
+        }
+    }
+}
+
+/// Energies as a dict: kinetic, elastic, gravity_potential, load_potential, total (J).
+fn energy_dict<'py>(py: Python<'py>, e: &Energy) -> PyResult<Bound<'py, PyDict>> {
+    let d = PyDict::new(py);
+    d.set_item("kinetic", e.kinetic)?;
+    d.set_item("elastic", e.elastic)?;
+    d.set_item("gravity_potential", e.gravity_potential)?;
+    d.set_item("load_potential", e.load_potential)?;
+    d.set_item("total", e.total())?;
+    Ok(d)
+}
+
+/// Simulation(mesh, material, constraints, loads=None, *, dt, method="backward-euler",
+/// model="linear", mass="lumped", damping=(0.0, 0.0), initial_displacement=None,
+/// initial_velocity=None, linear_solver="auto")
+///
+/// A dynamic run. ``method``: ``"backward-euler"`` (implicit, first order, stable at any step,
+/// dissipative), ``"newmark"`` (average acceleration: implicit, second order, conserves energy)
+/// or ``"explicit"`` (symplectic Euler: stable only below ``critical_time_step``). ``dt``: the
+/// time step in s, or a multiple of the explicit critical step as text (``"0.9crit"``).
+/// ``model``: ``"linear"``, ``"corotational"`` or ``"neo-hookean"`` (the implicit methods then
+/// iterate Newton per step). ``mass``: ``"lumped"`` or ``"consistent"``. ``damping``: Rayleigh
+/// (α in 1/s, β in s), C = α·M + β·K. ``loads``: gravity is tracked as its own potential, the
+/// other loads are constant. The run starts at time 0 from ``initial_displacement`` (n, 3), m
+/// (default zero) and ``initial_velocity`` (3,) or (n, 3), m/s (default zero); both are taken on
+/// the free DOFs. ``linear_solver`` (implicit methods): ``"auto"``, ``"direct"`` or
+/// ``"iterative"``. Steps run with the GIL released.
+#[pyclass(name = "Simulation", module = "tetfem")]
+pub struct PySimulation {
+    data: Arc<MeshData>,
+    materials: MaterialMap,
+    system: Arc<LinearSystem>,
+    force: InternalForce,
+    stepper: Stepper,
+    state: State,
+}
+
+impl PySimulation {
+    /// The explicit critical step (s) and how it was found, as the scene runner finds it.
+    fn critical(system: &LinearSystem, data: &MeshData, materials: &MaterialMap) -> tetfem::Result<f64> {
+        Ok(match system.mass() {
+            Mass::Lumped(_) => critical_time_step(system)?.dt,
+            Mass::Consistent(_) => {
+                tetfem::dynamics::element_step_bound_of(&data.mesh, materials)?.dt_element
+            }
+        })
+    }
+
+    /// One step and the energies after it, with the GIL released.
+    fn step_once(&mut self, py: Python<'_>) -> PyResult<Energy> {
+        let PySimulation {
+            stepper,
+            state,
+            force,
+            system,
+            ..
+        } = self;
+        py.detach(|| {
+            stepper.integrator().step(state)?;
+            force.energy(system, state)
+        })
+        .or_raise(py)
+    }
+
+    /// A free-DOF vector as an (n, 3) array over all nodes, zero on constrained DOFs.
+    fn scatter<'py>(&self, py: Python<'py>, free: &[f64]) -> PyResult<Bound<'py, PyAny>> {
+        let mut full = vec![0.0; self.data.mesh.dof_count()];
+        for (&dof, &v) in self.system.dofs().free_dofs().iter().zip(free) {
+            full[dof] = v;
+        }
+        arrays::rows3(py, full)
+    }
+}
+
+#[pymethods]
+impl PySimulation {
+    #[new]
+    #[pyo3(signature = (mesh, material, constraints, loads = None, *, dt, method = "backward-euler", model = "linear", mass = "lumped", damping = (0.0, 0.0), initial_displacement = None, initial_velocity = None, linear_solver = "auto"))]
+    #[allow(clippy::too_many_arguments)]
+    fn new(
+        py: Python<'_>,
+        mesh: &Bound<'_, PyMesh>,
+        material: &Bound<'_, PyAny>,
+        constraints: PyRef<'_, PyConstraints>,
+        loads: Option<PyRef<'_, PyLoads>>,
+        dt: &Bound<'_, PyAny>,
+        method: &str,
+        model: &str,
+        mass: &str,
+        damping: (f64, f64),
+        initial_displacement: Option<&Bound<'_, PyAny>>,
+        initial_velocity: Option<&Bound<'_, PyAny>>,
+        linear_solver: &str,
+    ) -> PyResult<Self> {
+        let data = Arc::clone(&mesh.get().data);
+        check_same_mesh(py, &data, &constraints, loads.as_deref())?;
+        let materials = materials_of(py, material, &data)?;
+        let method = names::method(py, method)?;
+        let kind = names::model(py, model)?;
+        let mass = names::mass(py, mass)?;
+        let options = IntegratorOptions {
+            linear_method: names::linear_solver(py, linear_solver)?,
+            ..IntegratorOptions::default()
+        };
+        let rayleigh = Rayleigh::new(damping.0, damping.1).or_raise(py)?;
+        // A critical-step multiple ("0.9crit") or seconds.
+        let crit_factor: Option<f64> = match dt.extract::<f64>() {
+            Ok(_) => None,
+            Err(_) => {
+                let text: String = dt.extract().map_err(|_| {
+                    invalid(py, "dt", dt.repr().map(|r| r.to_string()).unwrap_or_default(), "must be seconds (a float) or a multiple of the critical step ('0.9crit')")
+                })?;
+                let factor = text.strip_suffix("crit").and_then(|f| f.trim().parse::<f64>().ok());
+                match factor {
+                    Some(f) if f.is_finite() && f > 0.0 => Some(f),
+                    _ => {
+                        return Err(invalid(
+                            py,
+                            "dt",
+                            format!("'{text}'"),
+                            "must be seconds (a float) or a positive multiple of the critical step ('0.9crit')",
+                        ));
+                    }
+                }
+            }
+        };
+        let regions = materials.materials().len();
+        if kind != ModelKind::Linear && regions > 1 {
+            return Err(invalid(
+                py,
+                "model",
+                format!("'{}'", kind.name()),
+                &format!("a nonlinear model in a dynamic run takes one material for now; this MaterialMap has {regions}: use model='linear', or solve_static"),
+            ));
+        }
+        let empty = Loads::new(&data.mesh);
+        let (other, gravity) = match &loads {
+            Some(l) => (&l.other, l.gravity),
+            None => (&empty, nalgebra::Vector3::zeros()),
+        };
+        let c = &constraints.constraints;
+        let system = py
+            .detach(|| LinearSystem::new(&data.mesh, &materials, c, other, gravity, mass, rayleigh))
+            .or_raise(py)?;
+        let system = Arc::new(system);
+        let free = system.free_count();
+        let mut state = State::at_rest(free);
+        let n = data.mesh.node_count();
+        if let Some(u) = initial_displacement {
+            let (values, rows) = arrays::floats(py, u, "initial_displacement", Some(3), false)?;
+            if rows != n {
+                return Err(invalid(py, "initial_displacement.shape", format!("({rows}, 3)"), &format!("must be ({n}, 3): one row per node")));
+            }
+            state.displacement = system.dofs().restrict(&values).or_raise(py)?;
+        }
+        if let Some(v) = initial_velocity {
+            let values = arrays::rows_per_item(py, v, "initial_velocity", n)?;
+            state.velocity = system.dofs().restrict(&values).or_raise(py)?;
+        }
+        let force = match kind {
+            ModelKind::Linear => InternalForce::Linear,
+            nonlinear => {
+                let model = nonlinear.build(&materials.materials()[0]);
+                let mesh = Arc::new(data.mesh.clone());
+                py.detach(|| InternalForce::of_model(mesh, model, &system)).or_raise(py)?
+            }
+        };
+        let dt = match crit_factor {
+            None => dt.extract::<f64>()?,
+            Some(f) => f * py.detach(|| Self::critical(&system, &data, &materials)).or_raise(py)?,
+        };
+        let stepper = py
+            .detach(|| Stepper::new(method, &system, force.clone(), dt, options))
+            .or_raise(py)?;
+        Ok(PySimulation {
+            data,
+            materials,
+            system,
+            force,
+            stepper,
+            state,
+        })
+    }
+
+    /// step() -> None: advances one time step (GIL released). On ``DivergedError`` the state
+    /// holds the failed step's values, for inspection.
+    fn step(&mut self, py: Python<'_>) -> PyResult<()> {
+        self.step_once(py).map(|_| ())
+    }
+
+    /// run(steps, callback=None) -> dict
+    ///
+    /// Takes ``steps`` steps and returns the energy history after each step as numpy arrays of
+    /// that length: ``time`` (s), ``step``, ``kinetic``, ``elastic``, ``gravity_potential``,
+    /// ``load_potential``, ``total`` (J). ``callback(simulation)`` is called after each step
+    /// (with the GIL); if it returns ``False`` the run stops there (the arrays are then
+    /// shorter); an exception it raises propagates.
+    #[pyo3(signature = (steps, callback = None))]
+    fn run<'py>(
+        slf: &Bound<'py, Self>,
+        steps: usize,
+        callback: Option<Bound<'py, PyAny>>,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        let py = slf.py();
+        let mut columns: [Vec<f64>; 7] = Default::default();
+        for _ in 0..steps {
+            let (energy, time, step) = {
+                let mut sim = slf.borrow_mut();
+                let energy = sim.step_once(py)?;
+                (energy, sim.state.time, sim.state.steps)
+            };
+            let row = [
+                time,
+                step as f64,
+                energy.kinetic,
+                energy.elastic,
+                energy.gravity_potential,
+                energy.load_potential,
+                energy.total(),
+            ];
+            for (column, value) in columns.iter_mut().zip(row) {
+                column.push(value);
+            }
+            if let Some(callback) = &callback {
+                let answer = callback.call1((slf,))?;
+                if answer.is(&pyo3::types::PyBool::new(py, false).to_owned()) {
+                    break;
+                }
+            }
+        }
+        let d = PyDict::new(py);
+        let names = ["time", "step", "kinetic", "elastic", "gravity_potential", "load_potential", "total"];
+        for (name, column) in names.into_iter().zip(columns) {
+            d.set_item(name, arrays::vector(py, column))?;
+        }
+        Ok(d)
+    }
+
+    /// energy() -> dict: the energies of the current state (J): kinetic ½vᵀMv, elastic (½uᵀKu
+    /// for the linear model), gravity_potential, load_potential (−f·u) and their total.
+    fn energy<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let e = py.detach(|| self.force.energy(&self.system, &self.state)).or_raise(py)?;
+        energy_dict(py, &e)
+    }
+
+    /// Simulated time (s).
+    #[getter]
+    fn time(&self) -> f64 {
+        self.state.time
+    }
+
+    /// Steps taken.
+    #[getter]
+    fn steps(&self) -> usize {
+        self.state.steps
+    }
+
+    /// The time step (s); setting it makes implicit methods refactor on the next step.
+    #[getter]
+    fn dt(&self) -> f64 {
+        self.stepper.get().time_step()
+    }
+
+    #[setter]
+    fn set_dt(&mut self, py: Python<'_>, dt: f64) -> PyResult<()> {
+        self.stepper.integrator().set_time_step(dt).or_raise(py)
+    }
+
+    /// The method's name (``backward-euler``, ``newmark``, ``explicit``).
+    #[getter]
+    fn method(&self) -> &'static str {
+        self.stepper.get().name()
+    }
+
+    /// The force model's name (``linear``, ``corotational``, ``neo-hookean``).
+    #[getter]
+    fn model(&self) -> &'static str {
+        self.force.name()
+    }
+
+    /// Number of free DOFs.
+    #[getter]
+    fn free_count(&self) -> usize {
+        self.system.free_count()
+    }
+
+    /// Displacement of every node, shape (n, 3), m (prescribed values on constrained DOFs).
+    #[getter]
+    fn displacement<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        arrays::rows3(py, self.system.dofs().expand(&self.state.displacement).or_raise(py)?)
+    }
+
+    /// Velocity of every node, shape (n, 3), m/s (zero on constrained DOFs).
+    #[getter]
+    fn velocity<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        self.scatter(py, &self.state.velocity)
+    }
+
+    /// The explicit method's critical time step (s): 2/ω_max by power iteration for a lumped
+    /// mass, the element bound for a consistent one.
+    #[getter]
+    fn critical_time_step(&self, py: Python<'_>) -> PyResult<f64> {
+        py.detach(|| Self::critical(&self.system, &self.data, &self.materials)).or_raise(py)
+    }
+
+    /// Von Mises stress of every tet at the current state, shape (m,), Pa (the linear model's
+    /// stress; see ``solve_static`` for the nonlinear ones).
+    fn von_mises<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        let u = self.system.dofs().expand(&self.state.displacement).or_raise(py)?;
+        let v = tetfem::output::fields::cell_von_mises(&self.data.mesh, &self.materials, &u).or_raise(py)?;
+        Ok(arrays::vector(py, v))
+    }
+
+    /// The stiffness K_ff on the free DOFs (N/m), SciPy CSR or (indptr, indices, data, shape).
+    fn free_stiffness<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        csr(py, self.system.stiffness())
+    }
+
+    /// The mass matrix on the free DOFs (kg), lumped (diagonal) or consistent, in the form of
+    /// ``free_stiffness``.
+    fn free_mass<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        match self.system.mass() {
+            Mass::Lumped(d) => diagonal(py, d),
+            Mass::Consistent(m) => csr(py, m),
+        }
+    }
+
+    /// The free DOFs (3·node + axis), ascending: row i of the free matrices is DOF free_dofs[i].
+    #[getter]
+    fn free_dofs<'py>(&self, py: Python<'py>) -> Bound<'py, PyAny> {
+        arrays::index_vector(py, self.system.dofs().free_dofs())
+    }
+
+    /// modes(count=6) -> ModalResult: the lowest natural modes of this simulation's system.
+    #[pyo3(signature = (count = 6))]
+    fn modes(&self, py: Python<'_>, count: usize) -> PyResult<ModalResult> {
+        modes_of(py, &self.system, &self.data, count)
+    }
+
+    fn __repr__(&self) -> String {
+        format!(
+            "Simulation(method={}, model={}, dt={:e} s, t={:e} s, {} steps)",
+            self.stepper.get().name(),
+            self.force.name(),
+            self.stepper.get().time_step(),
+            self.state.time,
+            self.state.steps
+        )
+    }
+}

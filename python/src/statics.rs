@@ -1,0 +1,299 @@
+//! Static equilibrium from Python: `tetfem.solve_static` (linear, or Newton with a nonlinear
+//! force model), `tetfem.StaticSolver` (factor once, solve many load cases; K and K_ff) and the
+//! `tetfem.StaticResult` they return.
+
+use std::sync::Arc;
+
+use nalgebra::Matrix3;
+use numpy::{PyArray1, PyArrayMethods};
+use pyo3::prelude::*;
+use tetfem::constraints::DofMap;
+use tetfem::linalg::linear_solver::{SolveInfo, SolverOptions};
+use tetfem::materials::MaterialMap;
+use tetfem::model::ModelKind;
+use tetfem::nonlinear::{NewtonOptions, solve_nonlinear_static};
+use tetfem::output::fields::{cell_model_stress, cell_stress};
+use tetfem::statics::{StaticSolution, StaticSolver};
+
+use crate::arrays::{self, index_vector};
+use crate::constraints::PyConstraints;
+use crate::errors::{OrRaise, raise};
+use crate::loads::PyLoads;
+use crate::material::materials_of;
+use crate::mesh::{MeshData, PyMesh};
+use crate::names;
+use crate::sparse::csr;
+
+/// The result of a static solve. Units SI as given (m, Pa, N).
+///
+/// Attributes: ``displacement`` (n, 3) m; ``stress`` (m, 3, 3) Cauchy stress per tet, Pa;
+/// ``von_mises`` (m,) Pa; ``reactions`` (n, 3) N (K·u − f, non-zero on constrained DOFs only;
+/// None for nonlinear models); ``relative_residual`` ‖K_ff·u_f − r_f‖/‖r_f‖ (for nonlinear
+/// models the final Newton residual over the load norm); ``model``; ``solver`` (``"direct"`` or
+/// ``"iterative (k iterations)"``, ``"newton (k iterations)"``).
+#[pyclass(name = "StaticResult", module = "tetfem", frozen, get_all)]
+pub struct StaticResult {
+    /// Displacement of every node, shape (n, 3), m.
+    displacement: Py<PyAny>,
+    /// Cauchy stress of every tet, shape (m, 3, 3), Pa.
+    stress: Py<PyAny>,
+    /// Von Mises stress of every tet, shape (m,), Pa.
+    von_mises: Py<PyAny>,
+    /// Reaction forces K·u − f, shape (n, 3), N (None for nonlinear models).
+    reactions: Option<Py<PyAny>>,
+    /// Relative residual of the solve (dimensionless).
+    relative_residual: f64,
+    /// The force model that ran.
+    model: String,
+    /// How the equations were solved.
+    solver: String,
+}
+
+#[pymethods]
+impl StaticResult {
+    /// mean_displacement(nodes)
+    ///
+    /// The mean displacement of ``nodes`` (m), shape (3,): the probe of scenes.
+    fn mean_displacement<'py>(
+        &self,
+        py: Python<'py>,
+        nodes: &Bound<'py, PyAny>,
+    ) -> PyResult<Bound<'py, PyAny>> {
+        let (nodes, _) = arrays::indices(py, nodes, "nodes", None)?;
+        let u = self.displacement.bind(py);
+        u.get_item((nodes.iter().map(|&n| n as i64).collect::<Vec<_>>(),))?
+            .call_method1("mean", (0,))
+    }
+
+    fn __repr__(&self) -> String {
+        format!(
+            "StaticResult(model={}, solver={}, relative_residual={:e})",
+            self.model, self.solver, self.relative_residual
+        )
+    }
+}
+
+/// The stresses (m, 3, 3) and von Mises stresses (m,) of tets as numpy arrays.
+fn stress_arrays(py: Python<'_>, stress: &[Matrix3<f64>]) -> PyResult<(Py<PyAny>, Py<PyAny>)> {
+    let flat: Vec<f64> = stress
+        .iter()
+        .flat_map(|s| (0..3).flat_map(move |i| (0..3).map(move |j| s[(i, j)])))
+        .collect();
+    let von_mises: Vec<f64> = stress.iter().map(tetfem::element::von_mises).collect();
+    let stress = PyArray1::from_vec(py, flat).reshape([stress.len(), 3, 3])?;
+    Ok((stress.into_any().unbind(), arrays::vector(py, von_mises).unbind()))
+}
+
+fn solver_text(info: &SolveInfo) -> String {
+    match info {
+        SolveInfo::Direct => "direct".into(),
+        SolveInfo::Iterative { iterations, .. } => format!("iterative ({iterations} iterations)"),
+    }
+}
+
+/// The result of a linear solve, with its stresses.
+fn linear_result(
+    py: Python<'_>,
+    data: &MeshData,
+    materials: &MaterialMap,
+    solution: StaticSolution,
+) -> PyResult<StaticResult> {
+    let stress = py
+        .detach(|| cell_stress(&data.mesh, materials, &solution.displacement))
+        .or_raise(py)?;
+    let (stress, von_mises) = stress_arrays(py, &stress)?;
+    Ok(StaticResult {
+        displacement: arrays::rows3(py, solution.displacement)?.unbind(),
+        stress,
+        von_mises,
+        reactions: Some(arrays::rows3(py, solution.reactions)?.unbind()),
+        relative_residual: solution.relative_residual,
+        model: "linear".into(),
+        solver: solver_text(&solution.info),
+    })
+}
+
+/// An `InvalidInputError` unless `constraints` and `loads` were made on `mesh`.
+pub fn check_same_mesh(
+    py: Python<'_>,
+    mesh: &Arc<MeshData>,
+    constraints: &PyConstraints,
+    loads: Option<&PyLoads>,
+) -> PyResult<()> {
+    let other = |what: &str| {
+        raise(
+            py,
+            "InvalidInputError",
+            format!("{what} were made for another mesh: make them with this mesh (Constraints(mesh), Loads(mesh))"),
+        )
+    };
+    if !Arc::ptr_eq(mesh, &constraints.data) {
+        return Err(other("the constraints"));
+    }
+    if let Some(loads) = loads
+        && !Arc::ptr_eq(mesh, &loads.data)
+    {
+        return Err(other("the loads"));
+    }
+    Ok(())
+}
+
+/// solve_static(mesh, material, constraints, loads, model="linear", linear_solver="auto",
+/// load_steps=10, tolerance=1e-10, max_iterations=30)
+///
+/// Static equilibrium. ``material``: a ``Material`` or a ``MaterialMap``. ``model``:
+/// ``"linear"`` (one sparse solve: ``linear_solver`` ``"auto"`` picks the Cholesky factorization
+/// or multigrid-preconditioned CG by predicted time, ``"direct"`` / ``"iterative"`` force one),
+/// or a nonlinear model ``"corotational"`` / ``"neo-hookean"`` solved by Newton's method in
+/// ``load_steps`` increments to ‖r_f‖ ≤ ``tolerance``·‖f_f‖ with at most ``max_iterations``
+/// per step. The work runs with the GIL released. Raises ``NotConstrainedError`` when the
+/// constraints leave a rigid-body motion, ``SolverError`` when the solve fails.
+#[pyfunction]
+#[pyo3(signature = (mesh, material, constraints, loads, model = "linear", linear_solver = "auto", load_steps = 10, tolerance = 1e-10, max_iterations = 30))]
+#[allow(clippy::too_many_arguments)]
+pub fn solve_static(
+    py: Python<'_>,
+    mesh: &Bound<'_, PyMesh>,
+    material: &Bound<'_, PyAny>,
+    constraints: PyRef<'_, PyConstraints>,
+    loads: PyRef<'_, PyLoads>,
+    model: &str,
+    linear_solver: &str,
+    load_steps: usize,
+    tolerance: f64,
+    max_iterations: usize,
+) -> PyResult<StaticResult> {
+    let data = &mesh.get().data;
+    check_same_mesh(py, data, &constraints, Some(&loads))?;
+    let materials = materials_of(py, material, data)?;
+    let kind = names::model(py, model)?;
+    let method = names::linear_solver(py, linear_solver)?;
+    let constraints = &constraints.constraints;
+    let loads = &loads.all;
+    if kind == ModelKind::Linear {
+        let options = SolverOptions {
+            method,
+            ..SolverOptions::default()
+        };
+        let solution = py
+            .detach(|| {
+                StaticSolver::with_options(&data.mesh, &materials, constraints, options)?
+                    .solve(loads)
+            })
+            .or_raise(py)?;
+        return linear_result(py, data, &materials, solution);
+    }
+    let options = NewtonOptions {
+        load_steps,
+        tolerance,
+        max_iterations,
+        ..NewtonOptions::default()
+    };
+    let models = kind.build_map(&materials);
+    let (report, relative, stress) = py
+        .detach(|| -> tetfem::Result<_> {
+            let report = solve_nonlinear_static(&data.mesh, &models, constraints, loads, options)?;
+            // ‖r_f‖/‖f_f‖ at the end, as the scene runner reports it.
+            let load = DofMap::new(constraints)
+                .restrict(loads.as_slice())?
+                .iter()
+                .map(|f| f * f)
+                .sum::<f64>()
+                .sqrt();
+            let last = report.residuals.last().and_then(|r| r.last()).copied().unwrap_or(0.0);
+            let relative = if load > 0.0 { last / load } else { last };
+            let stress = cell_model_stress(&data.mesh, &models, &report.displacement)?;
+            Ok((report, relative, stress))
+        })
+        .or_raise(py)?;
+    let (stress, von_mises) = stress_arrays(py, &stress)?;
+    Ok(StaticResult {
+        solver: format!("newton ({} iterations)", report.iterations),
+        displacement: arrays::rows3(py, report.displacement)?.unbind(),
+        stress,
+        von_mises,
+        reactions: None,
+        relative_residual: relative,
+        model: kind.name().into(),
+    })
+}
+
+/// StaticSolver(mesh, material, constraints, linear_solver="auto")
+///
+/// A factored linear static problem: K assembled and K_ff factored once (GIL released), then
+/// ``solve(loads)`` for any number of load cases. ``stiffness()`` and ``free_stiffness()``
+/// give K (all DOFs, N/m) and K_ff (free DOFs, in the order of ``free_dofs``) as SciPy CSR
+/// matrices (or ``(indptr, indices, data, shape)`` without SciPy).
+#[pyclass(name = "StaticSolver", module = "tetfem")]
+pub struct PyStaticSolver {
+    data: Arc<MeshData>,
+    materials: MaterialMap,
+    solver: StaticSolver,
+}
+
+#[pymethods]
+impl PyStaticSolver {
+    #[new]
+    #[pyo3(signature = (mesh, material, constraints, linear_solver = "auto"))]
+    fn new(
+        py: Python<'_>,
+        mesh: &Bound<'_, PyMesh>,
+        material: &Bound<'_, PyAny>,
+        constraints: PyRef<'_, PyConstraints>,
+        linear_solver: &str,
+    ) -> PyResult<Self> {
+        let data = Arc::clone(&mesh.get().data);
+        check_same_mesh(py, &data, &constraints, None)?;
+        let materials = materials_of(py, material, &data)?;
+        let options = SolverOptions {
+            method: names::linear_solver(py, linear_solver)?,
+            ..SolverOptions::default()
+        };
+        let c = &constraints.constraints;
+        let solver = py
+            .detach(|| StaticSolver::with_options(&data.mesh, &materials, c, options))
+            .or_raise(py)?;
+        Ok(PyStaticSolver {
+            data,
+            materials,
+            solver,
+        })
+    }
+
+    /// solve(loads) -> StaticResult: the displacement under ``loads`` (GIL released).
+    fn solve(&mut self, py: Python<'_>, loads: PyRef<'_, PyLoads>) -> PyResult<StaticResult> {
+        if !Arc::ptr_eq(&self.data, &loads.data) {
+            return Err(raise(
+                py,
+                "InvalidInputError",
+                "the loads were made for another mesh: make them with Loads(mesh) of this solver's mesh".into(),
+            ));
+        }
+        let solver = &mut self.solver;
+        let all = &loads.all;
+        let solution = py.detach(|| solver.solve(all)).or_raise(py)?;
+        linear_result(py, &self.data, &self.materials, solution)
+    }
+
+    /// The stiffness matrix K of all DOFs (3·node + axis), N/m.
+    fn stiffness<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        csr(py, self.solver.stiffness())
+    }
+
+    /// The stiffness matrix K_ff of the free DOFs (rows and columns in ``free_dofs`` order), N/m.
+    fn free_stiffness<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        csr(py, self.solver.free_stiffness())
+    }
+
+    /// The free DOFs (3·node + axis), ascending int64 array: row i of K_ff is DOF free_dofs[i].
+    #[getter]
+    fn free_dofs<'py>(&self, py: Python<'py>) -> Bound<'py, PyAny> {
+        index_vector(py, self.solver.dofs().free_dofs())
+    }
+
+    /// Stored values of the Cholesky factor (0 on the iterative path).
+    #[getter]
+    fn factor_len(&self) -> usize {
+        self.solver.factor_len()
+    }
+}
