@@ -24,10 +24,21 @@ fn shape_text(shape: &[usize]) -> String {
 }
 
 /// `numpy.asarray(value)` (any dtype), or an `InvalidInputError` naming `name`.
-fn as_array<'py>(py: Python<'py>, value: &Bound<'py, PyAny>, name: &str) -> PyResult<Bound<'py, PyAny>> {
+fn as_array<'py>(
+    py: Python<'py>,
+    value: &Bound<'py, PyAny>,
+    name: &str,
+) -> PyResult<Bound<'py, PyAny>> {
     py.import("numpy")?
         .call_method1("asarray", (value,))
-        .map_err(|e| invalid(py, name, value_text(value), &format!("must be an array of numbers ({e})")))
+        .map_err(|e| {
+            invalid(
+                py,
+                name,
+                value_text(value),
+                &format!("must be an array of numbers ({e})"),
+            )
+        })
 }
 
 /// A short text of a Python value for messages (its `repr`, cut at 80 characters).
@@ -119,12 +130,16 @@ pub fn indices(
     let kind = dtype_kind(&array)?;
     let size: usize = array.getattr("size")?.extract()?;
     // An empty list comes in as float64: it is an empty index list all the same.
-    if !matches!(kind.as_str(), "i" | "u") && !(size == 0 && kind == "f") {
+    let integers = matches!(kind.as_str(), "i" | "u");
+    let empty_list = size == 0 && kind == "f";
+    if !(integers || empty_list) {
         return Err(invalid(
             py,
             name,
             value_text(value),
-            &format!("must hold integer indices (got dtype kind '{kind}'; a boolean mask goes to a *_where method)"),
+            &format!(
+                "must hold integer indices (got dtype kind '{kind}'; a boolean mask goes to a *_where method)"
+            ),
         ));
     }
     let array = array.call_method1("astype", ("int64",))?;
@@ -155,7 +170,10 @@ pub fn indices(
             Err(_) => {
                 return Err(invalid(
                     py,
-                    &format!("{name}[{}]", index_text(i, columns.unwrap_or(1), columns.is_some())),
+                    &format!(
+                        "{name}[{}]",
+                        index_text(i, columns.unwrap_or(1), columns.is_some())
+                    ),
                     v,
                     "must be a non-negative index",
                 ));
@@ -166,7 +184,12 @@ pub fn indices(
 }
 
 /// A boolean mask of `name` with exactly `len` entries.
-pub fn mask(py: Python<'_>, value: &Bound<'_, PyAny>, name: &str, len: usize) -> PyResult<Vec<bool>> {
+pub fn mask(
+    py: Python<'_>,
+    value: &Bound<'_, PyAny>,
+    name: &str,
+    len: usize,
+) -> PyResult<Vec<bool>> {
     let array = as_array(py, value, name)?;
     let kind = dtype_kind(&array)?;
     if kind != "b" {
@@ -221,7 +244,9 @@ pub fn counts3(py: Python<'_>, value: &Bound<'_, PyAny>, name: &str) -> PyResult
 /// A numpy array of shape (len/3, 3) that owns `values` (no copy).
 pub fn rows3<'py>(py: Python<'py>, values: Vec<f64>) -> PyResult<Bound<'py, PyAny>> {
     let rows = values.len() / 3;
-    Ok(PyArray1::from_vec(py, values).reshape([rows, 3])?.into_any())
+    Ok(PyArray1::from_vec(py, values)
+        .reshape([rows, 3])?
+        .into_any())
 }
 
 /// A 1-D numpy array that owns `values` (no copy).
@@ -240,7 +265,9 @@ pub fn index_rows<'py, const W: usize>(
     rows: &[[usize; W]],
 ) -> PyResult<Bound<'py, PyAny>> {
     let flat: Vec<i64> = rows.iter().flatten().map(|&i| i as i64).collect();
-    Ok(PyArray1::from_vec(py, flat).reshape([rows.len(), W])?.into_any())
+    Ok(PyArray1::from_vec(py, flat)
+        .reshape([rows.len(), W])?
+        .into_any())
 }
 
 /// Three values per item for `count` items from `name`: shape (3,) (the same for every item)

@@ -56,7 +56,9 @@ impl PyConstraints {
         let mut trial = self.constraints.clone();
         for (i, &n) in nodes.iter().enumerate() {
             for axis in (0..3).filter(|&a| axes[a]) {
-                trial.prescribe_axis(n, axis, values[3 * i + axis]).or_raise(py)?;
+                trial
+                    .prescribe_axis(n, axis, values[3 * i + axis])
+                    .or_raise(py)?;
             }
         }
         self.constraints = trial;
@@ -126,7 +128,12 @@ impl PyConstraints {
         let nodes = slf.nodes_in_order(py, nodes)?;
         let (a, rows) = floats(py, gradient, "gradient", Some(3), false)?;
         if rows != 3 {
-            return Err(invalid(py, "gradient.shape", format!("({rows}, 3)"), "must be (3, 3)"));
+            return Err(invalid(
+                py,
+                "gradient.shape",
+                format!("({rows}, 3)"),
+                "must be (3, 3)",
+            ));
         }
         let b = match offset {
             Some(o) => arrays::vector3(py, o, "offset")?,
@@ -137,7 +144,8 @@ impl PyConstraints {
             .iter()
             .flat_map(|&n| {
                 let x = points[n];
-                [0, 1, 2].map(|i| a[3 * i] * x[0] + a[3 * i + 1] * x[1] + a[3 * i + 2] * x[2] + b[i])
+                [0, 1, 2]
+                    .map(|i| a[3 * i] * x[0] + a[3 * i + 1] * x[1] + a[3 * i + 2] * x[2] + b[i])
             })
             .collect();
         slf.prescribe_rows(py, &nodes, &values, [true; 3])?;
@@ -167,4 +175,3 @@ impl PyConstraints {
         )
     }
 }
-

@@ -126,7 +126,8 @@ impl PyLoads {
         let data = Arc::clone(&slf.data);
         let faces = data.faces_of(py, faces, "faces")?;
         slf.add_to_both(py, |l| {
-            l.add_total_force_on_faces(&data.mesh, &faces, f).map(|_| ())
+            l.add_total_force_on_faces(&data.mesh, &faces, f)
+                .map(|_| ())
         })?;
         Ok(slf)
     }

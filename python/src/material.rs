@@ -23,7 +23,12 @@ pub struct PyMaterial {
 #[pymethods]
 impl PyMaterial {
     #[new]
-    fn new(py: Python<'_>, youngs_modulus: f64, poisson_ratio: f64, density: f64) -> PyResult<Self> {
+    fn new(
+        py: Python<'_>,
+        youngs_modulus: f64,
+        poisson_ratio: f64,
+        density: f64,
+    ) -> PyResult<Self> {
         let material = Material::new(youngs_modulus, poisson_ratio, density).or_raise(py)?;
         Ok(PyMaterial { material })
     }
@@ -111,7 +116,8 @@ impl PyMaterialMap {
         names: Option<Vec<String>>,
     ) -> PyResult<Self> {
         let list: Vec<Material> = materials.iter().map(|m| m.material).collect();
-        let names = names.unwrap_or_else(|| (0..list.len()).map(|i| format!("material {i}")).collect());
+        let names =
+            names.unwrap_or_else(|| (0..list.len()).map(|i| format!("material {i}")).collect());
         let (of_tet, _) = indices(py, of_tet, "of_tet", None)?;
         let mut index = Vec::with_capacity(of_tet.len());
         for (t, &i) in of_tet.iter().enumerate() {
@@ -127,7 +133,11 @@ impl PyMaterialMap {
     /// The distinct materials, in index order.
     #[getter]
     fn materials(&self) -> Vec<PyMaterial> {
-        self.map.materials().iter().map(|&material| PyMaterial { material }).collect()
+        self.map
+            .materials()
+            .iter()
+            .map(|&material| PyMaterial { material })
+            .collect()
     }
 
     /// The material names.
@@ -160,7 +170,10 @@ pub fn materials_of(
     mesh: &MeshData,
 ) -> PyResult<MaterialMap> {
     if let Ok(one) = value.cast::<PyMaterial>() {
-        return Ok(MaterialMap::uniform(one.get().material, mesh.mesh.tet_count()));
+        return Ok(MaterialMap::uniform(
+            one.get().material,
+            mesh.mesh.tet_count(),
+        ));
     }
     if let Ok(map) = value.cast::<PyMaterialMap>() {
         let map = map.get().map.clone();
@@ -170,7 +183,11 @@ pub fn materials_of(
     Err(invalid(
         py,
         "material",
-        value.get_type().name().map(|n| n.to_string()).unwrap_or_default(),
+        value
+            .get_type()
+            .name()
+            .map(|n| n.to_string())
+            .unwrap_or_default(),
         "must be a tetfem.Material or a tetfem.MaterialMap",
     ))
 }

@@ -72,7 +72,12 @@ impl MeshData {
             }
         }
         if out.is_empty() {
-            return Err(invalid(py, name, "[]", "must name at least one boundary face"));
+            return Err(invalid(
+                py,
+                name,
+                "[]",
+                "must name at least one boundary face",
+            ));
         }
         Ok(out)
     }
@@ -137,7 +142,11 @@ impl MeshData {
                 format!("'{name}'"),
                 &format!(
                     "the mesh has no such physical group (it has: {})",
-                    if known.is_empty() { "none".into() } else { known.join(", ") }
+                    if known.is_empty() {
+                        "none".into()
+                    } else {
+                        known.join(", ")
+                    }
                 ),
             )
         })
@@ -242,7 +251,13 @@ impl PyMesh {
     /// Node coordinates, shape (n, 3), length units (a copy).
     #[getter]
     fn points<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        let flat: Vec<f64> = self.data.mesh.nodes().iter().flat_map(|p| [p.x, p.y, p.z]).collect();
+        let flat: Vec<f64> = self
+            .data
+            .mesh
+            .nodes()
+            .iter()
+            .flat_map(|p| [p.x, p.y, p.z])
+            .collect();
         arrays::rows3(py, flat)
     }
 
@@ -317,7 +332,12 @@ impl PyMesh {
     /// Warnings about valid but suspect input (poor tets, unused nodes), as sentences.
     #[getter]
     fn warnings(&self) -> Vec<String> {
-        self.data.mesh.warnings().iter().map(ToString::to_string).collect()
+        self.data
+            .mesh
+            .warnings()
+            .iter()
+            .map(ToString::to_string)
+            .collect()
     }
 
     /// nodes_on_plane(axis, at, tolerance=None)
@@ -334,7 +354,11 @@ impl PyMesh {
     ) -> PyResult<Bound<'py, PyAny>> {
         let axis = names::axis(py, axis)?;
         let tolerance = tolerance.unwrap_or_else(|| self.data.default_tolerance());
-        let nodes = self.data.mesh.try_nodes_on_plane(axis, at, tolerance).or_raise(py)?;
+        let nodes = self
+            .data
+            .mesh
+            .try_nodes_on_plane(axis, at, tolerance)
+            .or_raise(py)?;
         Ok(index_vector(py, &nodes))
     }
 
@@ -379,7 +403,12 @@ impl PyMesh {
     fn nodes_with_marker<'py>(&self, py: Python<'py>, marker: i64) -> PyResult<Bound<'py, PyAny>> {
         let imported = self.data.imported(py, "a marker selection")?;
         if imported.node_markers.is_none() {
-            return Err(invalid(py, "marker", marker, "needs a TetGen mesh with node markers"));
+            return Err(invalid(
+                py,
+                "marker",
+                marker,
+                "needs a TetGen mesh with node markers",
+            ));
         }
         Ok(index_vector(py, &imported.nodes_with_marker(marker)))
     }

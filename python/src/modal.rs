@@ -63,7 +63,12 @@ pub fn modes_of(
 #[pymethods]
 impl ModalResult {
     fn __repr__(&self, py: Python<'_>) -> String {
-        let f = self.frequencies.bind(py).repr().map(|r| r.to_string()).unwrap_or_default();
+        let f = self
+            .frequencies
+            .bind(py)
+            .repr()
+            .map(|r| r.to_string())
+            .unwrap_or_default();
         format!("ModalResult(frequencies={f} Hz)")
     }
 }

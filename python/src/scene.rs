@@ -5,7 +5,9 @@ use std::ops::ControlFlow;
 use std::path::PathBuf;
 
 use pyo3::prelude::*;
-use tetfem_cli::scene::{Analysis, DynamicOverrides, RunOptions, Scene, run_dynamic_scene, run_static_with};
+use tetfem_cli::scene::{
+    Analysis, DynamicOverrides, RunOptions, Scene, run_dynamic_scene, run_static_with,
+};
 
 use crate::errors::OrRaise;
 

@@ -106,7 +106,11 @@ pub struct PySimulation {
 
 impl PySimulation {
     /// The explicit critical step (s) and how it was found, as the scene runner finds it.
-    fn critical(system: &LinearSystem, data: &MeshData, materials: &MaterialMap) -> tetfem::Result<f64> {
+    fn critical(
+        system: &LinearSystem,
+        data: &MeshData,
+        materials: &MaterialMap,
+    ) -> tetfem::Result<f64> {
         Ok(match system.mass() {
             Mass::Lumped(_) => critical_time_step(system)?.dt,
             Mass::Consistent(_) => {
@@ -177,9 +181,16 @@ impl PySimulation {
             Ok(_) => None,
             Err(_) => {
                 let text: String = dt.extract().map_err(|_| {
-                    invalid(py, "dt", dt.repr().map(|r| r.to_string()).unwrap_or_default(), "must be seconds (a float) or a multiple of the critical step ('0.9crit')")
+                    invalid(
+                        py,
+                        "dt",
+                        dt.repr().map(|r| r.to_string()).unwrap_or_default(),
+                        "must be seconds (a float) or a multiple of the critical step ('0.9crit')",
+                    )
                 })?;
-                let factor = text.strip_suffix("crit").and_then(|f| f.trim().parse::<f64>().ok());
+                let factor = text
+                    .strip_suffix("crit")
+                    .and_then(|f| f.trim().parse::<f64>().ok());
                 match factor {
                     Some(f) if f.is_finite() && f > 0.0 => Some(f),
                     _ => {
@@ -199,7 +210,9 @@ impl PySimulation {
                 py,
                 "model",
                 format!("'{}'", kind.name()),
-                &format!("a nonlinear model in a dynamic run takes one material for now; this MaterialMap has {regions}: use model='linear', or solve_static"),
+                &format!(
+                    "a nonlinear model in a dynamic run takes one material for now; this MaterialMap has {regions}: use model='linear', or solve_static"
+                ),
             ));
         }
         let empty = Loads::new(&data.mesh);
@@ -218,7 +231,12 @@ impl PySimulation {
         if let Some(u) = initial_displacement {
             let (values, rows) = arrays::floats(py, u, "initial_displacement", Some(3), false)?;
             if rows != n {
-                return Err(invalid(py, "initial_displacement.shape", format!("({rows}, 3)"), &format!("must be ({n}, 3): one row per node")));
+                return Err(invalid(
+                    py,
+                    "initial_displacement.shape",
+                    format!("({rows}, 3)"),
+                    &format!("must be ({n}, 3): one row per node"),
+                ));
             }
             state.displacement = system.dofs().restrict(&values).or_raise(py)?;
         }
@@ -231,12 +249,17 @@ impl PySimulation {
             nonlinear => {
                 let model = nonlinear.build(&materials.materials()[0]);
                 let mesh = Arc::new(data.mesh.clone());
-                py.detach(|| InternalForce::of_model(mesh, model, &system)).or_raise(py)?
+                py.detach(|| InternalForce::of_model(mesh, model, &system))
+                    .or_raise(py)?
             }
         };
         let dt = match crit_factor {
             None => dt.extract::<f64>()?,
-            Some(f) => f * py.detach(|| Self::critical(&system, &data, &materials)).or_raise(py)?,
+            Some(f) => {
+                f * py
+                    .detach(|| Self::critical(&system, &data, &materials))
+                    .or_raise(py)?
+            }
         };
         let stepper = py
             .detach(|| Stepper::new(method, &system, force.clone(), dt, options))
@@ -292,13 +315,21 @@ impl PySimulation {
             }
             if let Some(callback) = &callback {
                 let answer = callback.call1((slf,))?;
-                if answer.is(&pyo3::types::PyBool::new(py, false).to_owned()) {
+                if answer.is(pyo3::types::PyBool::new(py, false).as_any()) {
                     break;
                 }
             }
         }
         let d = PyDict::new(py);
-        let names = ["time", "step", "kinetic", "elastic", "gravity_potential", "load_potential", "total"];
+        let names = [
+            "time",
+            "step",
+            "kinetic",
+            "elastic",
+            "gravity_potential",
+            "load_potential",
+            "total",
+        ];
         for (name, column) in names.into_iter().zip(columns) {
             d.set_item(name, arrays::vector(py, column))?;
         }
@@ -308,7 +339,9 @@ impl PySimulation {
     /// energy() -> dict: the energies of the current state (J): kinetic ½vᵀMv, elastic (½uᵀKu
     /// for the linear model), gravity_potential, load_potential (−f·u) and their total.
     fn energy<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
-        let e = py.detach(|| self.force.energy(&self.system, &self.state)).or_raise(py)?;
+        let e = py
+            .detach(|| self.force.energy(&self.system, &self.state))
+            .or_raise(py)?;
         energy_dict(py, &e)
     }
 
@@ -356,7 +389,13 @@ impl PySimulation {
     /// Displacement of every node, shape (n, 3), m (prescribed values on constrained DOFs).
     #[getter]
     fn displacement<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        arrays::rows3(py, self.system.dofs().expand(&self.state.displacement).or_raise(py)?)
+        arrays::rows3(
+            py,
+            self.system
+                .dofs()
+                .expand(&self.state.displacement)
+                .or_raise(py)?,
+        )
     }
 
     /// Velocity of every node, shape (n, 3), m/s (zero on constrained DOFs).
@@ -369,14 +408,20 @@ impl PySimulation {
     /// mass, the element bound for a consistent one.
     #[getter]
     fn critical_time_step(&self, py: Python<'_>) -> PyResult<f64> {
-        py.detach(|| Self::critical(&self.system, &self.data, &self.materials)).or_raise(py)
+        py.detach(|| Self::critical(&self.system, &self.data, &self.materials))
+            .or_raise(py)
     }
 
     /// Von Mises stress of every tet at the current state, shape (m,), Pa (the linear model's
     /// stress; see ``solve_static`` for the nonlinear ones).
     fn von_mises<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        let u = self.system.dofs().expand(&self.state.displacement).or_raise(py)?;
-        let v = tetfem::output::fields::cell_von_mises(&self.data.mesh, &self.materials, &u).or_raise(py)?;
+        let u = self
+            .system
+            .dofs()
+            .expand(&self.state.displacement)
+            .or_raise(py)?;
+        let v = tetfem::output::fields::cell_von_mises(&self.data.mesh, &self.materials, &u)
+            .or_raise(py)?;
         Ok(arrays::vector(py, v))
     }
 

@@ -19,7 +19,9 @@ pub fn csr<'py>(py: Python<'py>, matrix: &CscMatrix) -> PyResult<Bound<'py, PyAn
     );
     match py.import("scipy.sparse") {
         Ok(scipy) => scipy.call_method1("csr_matrix", ((parts.2, parts.1, parts.0), (n, n))),
-        Err(_) => Ok((parts.0, parts.1, parts.2, (n, n)).into_pyobject(py)?.into_any()),
+        Err(_) => Ok((parts.0, parts.1, parts.2, (n, n))
+            .into_pyobject(py)?
+            .into_any()),
     }
 }
 
@@ -35,6 +37,8 @@ pub fn diagonal<'py>(py: Python<'py>, values: &[f64]) -> PyResult<Bound<'py, PyA
     );
     match py.import("scipy.sparse") {
         Ok(scipy) => scipy.call_method1("csr_matrix", ((parts.2, parts.1, parts.0), (n, n))),
-        Err(_) => Ok((parts.0, parts.1, parts.2, (n, n)).into_pyobject(py)?.into_any()),
+        Err(_) => Ok((parts.0, parts.1, parts.2, (n, n))
+            .into_pyobject(py)?
+            .into_any()),
     }
 }

@@ -81,7 +81,10 @@ fn stress_arrays(py: Python<'_>, stress: &[Matrix3<f64>]) -> PyResult<(Py<PyAny>
         .collect();
     let von_mises: Vec<f64> = stress.iter().map(tetfem::element::von_mises).collect();
     let stress = PyArray1::from_vec(py, flat).reshape([stress.len(), 3, 3])?;
-    Ok((stress.into_any().unbind(), arrays::vector(py, von_mises).unbind()))
+    Ok((
+        stress.into_any().unbind(),
+        arrays::vector(py, von_mises).unbind(),
+    ))
 }
 
 fn solver_text(info: &SolveInfo) -> String {
@@ -124,7 +127,9 @@ pub fn check_same_mesh(
         raise(
             py,
             "InvalidInputError",
-            format!("{what} were made for another mesh: make them with this mesh (Constraints(mesh), Loads(mesh))"),
+            format!(
+                "{what} were made for another mesh: make them with this mesh (Constraints(mesh), Loads(mesh))"
+            ),
         )
     };
     if !Arc::ptr_eq(mesh, &constraints.data) {
@@ -200,7 +205,12 @@ pub fn solve_static(
                 .map(|f| f * f)
                 .sum::<f64>()
                 .sqrt();
-            let last = report.residuals.last().and_then(|r| r.last()).copied().unwrap_or(0.0);
+            let last = report
+                .residuals
+                .last()
+                .and_then(|r| r.last())
+                .copied()
+                .unwrap_or(0.0);
             let relative = if load > 0.0 { last / load } else { last };
             let stress = cell_model_stress(&data.mesh, &models, &report.displacement)?;
             Ok((report, relative, stress))
