@@ -3,7 +3,8 @@
 The Rust library ``tetfem`` behind numpy arrays: meshes (``Mesh.box``, ``Mesh(points, tets)``,
 ``Mesh.read``), materials (``Material``, ``MaterialMap``), ``Constraints`` and ``Loads``,
 static solves (``solve_static``, ``StaticSolver``), time integration (``Simulation``), natural
-modes (``modal_analysis``) and TOML scenes (``run_scene``). Errors are ``TetfemError``
+modes (``modal_analysis``), TOML scenes (``run_scene``) and meshio round trips
+(``from_meshio``, ``to_meshio``, when meshio is installed). Errors are ``TetfemError``
 subclasses carrying the library's messages (see ``tetfem.errors``).
 
 Units are the caller's but must be consistent; the docstrings give SI (m, kg, s, N, Pa).
@@ -36,6 +37,7 @@ from ._tetfem import (
     run_scene,
     solve_static,
 )
+from .meshio_interop import from_meshio, to_meshio
 from .errors import (
     DivergedError,
     InvalidInputError,
@@ -60,6 +62,8 @@ __all__ = [
     "modal_analysis",
     "run_scene",
     "solve_static",
+    "from_meshio",
+    "to_meshio",
     "errors",
     "TetfemError",
     "InvalidInputError",
