@@ -123,3 +123,31 @@ def test_tip_matches_the_tetfem_binary(tmp_path):
     rust_tip = summary["probes"][0]["displacement"]
     print(f"cantilever tip: python {probe_mean(result.displacement, probes['tip'])}, binary {rust_tip}")
     assert probe_mean(result.displacement, probes["tip"]) == rust_tip
+
+
+@pytest.mark.parametrize("cells", [(40, 4, 4), (20, 2, 2)])
+def test_default_run_static_tip_matches_the_binary(cells, tmp_path):
+    """The default run of `cargo run --release` (the fixture crate's cantilever: end load, then
+    gravity) against the same beam built here: equal bits."""
+    binary = tetfem_binary()
+    if binary is None:
+        pytest.skip("no tetfem binary: run `cargo build --release` first (CI has one)")
+    cell_text = ",".join(map(str, cells))
+    out = subprocess.run(
+        [binary, "--cells", cell_text, "--static-only", "--json", "--quiet", "--out", str(tmp_path)],
+        check=True,
+        capture_output=True,
+        text=True,
+    ).stdout
+    rust = json.loads(out)["static"]
+    mesh = tetfem.Mesh.box(max=(1.0, 0.1, 0.1), cells=cells)
+    steel = tetfem.Material(200e9, 0.3, 7850.0)
+    constraints = tetfem.Constraints(mesh).fix(mesh.nodes_on_plane("x", 0.0))
+    loads = tetfem.Loads(mesh)
+    loads.add_total_force(mesh.faces_on_plane("x", 1.0), (0.0, 0.0, -10e3))
+    loads.add_gravity((0.0, 0.0, -9.81), steel)
+    result = tetfem.solve_static(mesh, steel, constraints, loads)
+    tip = probe_mean(result.displacement, mesh.nodes_on_plane("x", 1.0))
+    print(f"default run {cells}: tip python {tip[2]!r}, binary {rust['probes'][0]['displacement'][2]!r}")
+    assert tip == rust["probes"][0]["displacement"]
+    assert result.relative_residual == rust["relative_residual"]
