@@ -11,8 +11,6 @@ use crate::errors::{OrRaise, invalid};
 use crate::mesh::{MeshData, PyMesh};
 use crate::names;
 
-/// Constraints(mesh)
-///
 /// Dirichlet conditions on the nodes of ``mesh``: ``fix`` (zero displacement on chosen axes),
 /// ``prescribe`` (given displacements, length units) and ``prescribe_linear`` (a linear field
 /// u = A·x + b). A DOF given two different values raises ``InvalidInputError`` naming the node,
@@ -75,8 +73,6 @@ impl PyConstraints {
         PyConstraints { data, constraints }
     }
 
-    /// fix(nodes, axes="xyz")
-    ///
     /// Fixes the chosen axes of ``nodes`` at zero (all three: a clamp; fewer: a roller or a
     /// symmetry condition). Returns self.
     #[pyo3(signature = (nodes, axes = "xyz"))]
@@ -92,8 +88,6 @@ impl PyConstraints {
         Ok(slf)
     }
 
-    /// prescribe(nodes, displacement, axes="xyz")
-    ///
     /// Prescribes the displacement (length units) of the chosen axes of ``nodes``:
     /// ``displacement`` of shape (3,) for all of them, or (k, 3) with one row per node of
     /// ``nodes`` (in its order). Returns self.
@@ -112,8 +106,6 @@ impl PyConstraints {
         Ok(slf)
     }
 
-    /// prescribe_linear(nodes, gradient, offset=(0, 0, 0))
-    ///
     /// Prescribes the linear displacement field u(x) = gradient · x + offset on all three
     /// axes of ``nodes`` (``gradient`` shape (3, 3), dimensionless; ``offset`` length units),
     /// e.g. the boundary values of a patch test. Returns self.

@@ -12,8 +12,6 @@ use crate::errors::{OrRaise, invalid};
 use crate::material::materials_of;
 use crate::mesh::{MeshData, PyMesh};
 
-/// Loads(mesh)
-///
 /// External loads on ``mesh``, accumulated in the order they are added (SI units in the
 /// docstrings; any consistent units work). Gravity is also kept apart (``gravity``), as the
 /// dynamic system tracks its potential separately; every ``add_*`` returns self.
@@ -61,8 +59,6 @@ impl PyLoads {
         }
     }
 
-    /// add_gravity(acceleration, material)
-    ///
     /// Gravity: the body force ρ·g (``acceleration`` g in m/s², e.g. (0, 0, −9.81)), ρ from
     /// ``material`` (a ``Material`` or a ``MaterialMap``: each tet's density).
     fn add_gravity<'py>(
@@ -81,8 +77,6 @@ impl PyLoads {
         Ok(slf)
     }
 
-    /// add_body_force(force_density)
-    ///
     /// A uniform body force density b (N/m³) on the whole body.
     fn add_body_force<'py>(
         mut slf: PyRefMut<'py, Self>,
@@ -95,8 +89,6 @@ impl PyLoads {
         Ok(slf)
     }
 
-    /// add_traction(faces, traction)
-    ///
     /// A uniform traction t (Pa, a force per area) on boundary ``faces`` (shape (f, 3), rows of
     /// ``Mesh.boundary_faces()``, e.g. from ``Mesh.faces_on_plane``).
     fn add_traction<'py>(
@@ -112,8 +104,6 @@ impl PyLoads {
         Ok(slf)
     }
 
-    /// add_total_force(faces, force)
-    ///
     /// A total force (N) spread as a uniform traction over boundary ``faces`` (traction =
     /// force / total area).
     fn add_total_force<'py>(
@@ -132,8 +122,6 @@ impl PyLoads {
         Ok(slf)
     }
 
-    /// add_pressure(faces, pressure)
-    ///
     /// A pressure p (Pa) on boundary ``faces``, acting against each face's outward normal
     /// (p > 0 pushes into the body).
     fn add_pressure<'py>(
@@ -157,8 +145,6 @@ impl PyLoads {
         Ok(slf)
     }
 
-    /// add_nodal_force(nodes, force)
-    ///
     /// A point force (N) on each of ``nodes``: ``force`` of shape (3,) for every node, or (k, 3)
     /// with one row per node of ``nodes`` (in its order).
     fn add_nodal_force<'py>(

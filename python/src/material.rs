@@ -8,8 +8,6 @@ use crate::arrays::{index_vector, indices};
 use crate::errors::{OrRaise, invalid};
 use crate::mesh::MeshData;
 
-/// Material(youngs_modulus, poisson_ratio, density)
-///
 /// An isotropic linear elastic material: Young's modulus E (Pa in SI, finite and > 0),
 /// Poisson's ratio ν (in the open interval (−1, 0.5)) and density ρ (kg/m³, finite and > 0).
 /// Invalid values raise ``InvalidInputError`` naming the field.
@@ -93,8 +91,6 @@ impl PyMaterial {
     }
 }
 
-/// MaterialMap(materials, of_tet, names=None)
-///
 /// A material per tet: ``materials`` a list of ``Material``, ``of_tet`` an integer array with
 /// the index into ``materials`` of every tet (shape (m,)), ``names`` one name per material (for
 /// messages; default ``"material 0"``, ``"material 1"``, …). Build ``of_tet`` with

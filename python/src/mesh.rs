@@ -183,8 +183,6 @@ impl PyMesh {
 
 #[pymethods]
 impl PyMesh {
-    /// Mesh(points, tets)
-    ///
     /// A mesh from node coordinates ``points`` (shape (n, 3), length units) and tets ``tets``
     /// (shape (m, 4), node indices from 0). Raises ``MeshError`` for NaN or infinite
     /// coordinates, out-of-range or repeated node indices, degenerate or duplicate tets.
@@ -205,8 +203,6 @@ impl PyMesh {
         Self::of(py, mesh, None)
     }
 
-    /// Mesh.box(max, cells, min=(0, 0, 0), split="mirrored6")
-    ///
     /// The box [min, max] (length units) in ``cells`` = (nx, ny, nz) cubes, each split into
     /// tets: ``"mirrored6"`` (6 per cell, the lecture's table mirrored in alternate cells: no
     /// sideways lean in bending), ``"lecture6"`` (6 per cell, one diagonal everywhere) or
@@ -235,8 +231,6 @@ impl PyMesh {
         Self::of(py, mesh, None)
     }
 
-    /// Mesh.read(path)
-    ///
     /// Reads a Gmsh ``.msh`` (4.1 or 2.2) or a TetGen ``.node``/``.ele`` pair (the path of
     /// either file, or their common prefix). Its physical groups (Gmsh), node markers and tet
     /// attributes (TetGen) are kept for selections. Raises ``MeshError`` for a file that does not
@@ -340,8 +334,6 @@ impl PyMesh {
             .collect()
     }
 
-    /// nodes_on_plane(axis, at, tolerance=None)
-    ///
     /// Nodes with |x[axis] − at| ≤ tolerance (axis 0/1/2 or "x"/"y"/"z"; length units; default
     /// tolerance 1e-6 × the bounding-box diagonal, as in scenes), ascending int64 array.
     #[pyo3(signature = (axis, at, tolerance = None))]
@@ -362,8 +354,6 @@ impl PyMesh {
         Ok(index_vector(py, &nodes))
     }
 
-    /// nodes_in_box(min, max)
-    ///
     /// Nodes inside the closed box [min, max] (length units), ascending int64 array.
     fn nodes_in_box<'py>(
         &self,
@@ -376,8 +366,6 @@ impl PyMesh {
         Ok(index_vector(py, &self.data.mesh.nodes_in_box(min, max)))
     }
 
-    /// nodes_where(mask)
-    ///
     /// Nodes whose entry of the boolean ``mask`` (shape (n,)) is true, e.g.
     /// ``mesh.nodes_where(mesh.points[:, 0] < 0.1)``.
     fn nodes_where<'py>(
@@ -390,15 +378,11 @@ impl PyMesh {
         Ok(index_vector(py, &nodes))
     }
 
-    /// nodes_in_group(name)
-    ///
     /// Nodes of a Gmsh physical group (by name, or by tag as text), ascending.
     fn nodes_in_group<'py>(&self, py: Python<'py>, name: &str) -> PyResult<Bound<'py, PyAny>> {
         Ok(index_vector(py, &self.data.group(py, name)?.nodes))
     }
 
-    /// nodes_with_marker(marker)
-    ///
     /// Nodes whose TetGen boundary marker equals ``marker``, ascending.
     fn nodes_with_marker<'py>(&self, py: Python<'py>, marker: i64) -> PyResult<Bound<'py, PyAny>> {
         let imported = self.data.imported(py, "a marker selection")?;
@@ -413,8 +397,6 @@ impl PyMesh {
         Ok(index_vector(py, &imported.nodes_with_marker(marker)))
     }
 
-    /// tets_in_box(min, max)
-    ///
     /// Tets whose centroid lies in the closed box [min, max] (length units), ascending: the
     /// rule of per-region materials in scenes.
     fn tets_in_box<'py>(
@@ -438,8 +420,6 @@ impl PyMesh {
         Ok(index_vector(py, &tets))
     }
 
-    /// tets_in_group(name)
-    ///
     /// Tets of a Gmsh physical volume (by name or tag).
     fn tets_in_group<'py>(&self, py: Python<'py>, name: &str) -> PyResult<Bound<'py, PyAny>> {
         let imported = self.data.imported(py, "a volume group selection")?;
@@ -447,8 +427,6 @@ impl PyMesh {
         Ok(index_vector(py, tets))
     }
 
-    /// tets_with_attribute(value)
-    ///
     /// Tets whose TetGen region attribute equals ``value``.
     fn tets_with_attribute<'py>(&self, py: Python<'py>, value: f64) -> PyResult<Bound<'py, PyAny>> {
         let imported = self.data.imported(py, "an attribute selection")?;
@@ -456,8 +434,6 @@ impl PyMesh {
         Ok(index_vector(py, &tets))
     }
 
-    /// boundary_faces()
-    ///
     /// Every boundary triangle, shape (f, 3), node indices ordered so that the normal
     /// (n1 − n0) × (n2 − n0) points out of the body.
     fn boundary_faces<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
@@ -465,8 +441,6 @@ impl PyMesh {
         index_rows(py, &faces)
     }
 
-    /// faces_of_nodes(nodes)
-    ///
     /// The boundary faces all three of whose nodes are in ``nodes``, shape (f, 3), in boundary
     /// order: how scenes turn a node set into a face set.
     fn faces_of_nodes<'py>(
@@ -482,8 +456,6 @@ impl PyMesh {
         index_rows(py, &self.data.faces_with_nodes(&selected))
     }
 
-    /// faces_on_plane(axis, at, tolerance=None)
-    ///
     /// The boundary faces whose three nodes lie on the plane x[axis] = at (see
     /// ``nodes_on_plane``), shape (f, 3).
     #[pyo3(signature = (axis, at, tolerance = None))]
@@ -501,8 +473,6 @@ impl PyMesh {
         self.faces_of_nodes(py, &nodes)
     }
 
-    /// faces_in_box(min, max)
-    ///
     /// The boundary faces whose three nodes lie in the closed box [min, max], shape (f, 3).
     fn faces_in_box<'py>(
         &self,
@@ -517,8 +487,6 @@ impl PyMesh {
         self.faces_of_nodes(py, &nodes)
     }
 
-    /// faces_where(mask)
-    ///
     /// The boundary faces all three of whose nodes have a true entry in the node ``mask``
     /// (shape (n,)), shape (f, 3).
     fn faces_where<'py>(
@@ -530,8 +498,6 @@ impl PyMesh {
         index_rows(py, &self.data.faces_with_nodes(&mask))
     }
 
-    /// faces_in_group(name)
-    ///
     /// The boundary faces that are triangles of a Gmsh physical surface (by name or tag).
     fn faces_in_group<'py>(&self, py: Python<'py>, name: &str) -> PyResult<Bound<'py, PyAny>> {
         let faces: Vec<[usize; 3]> = self

@@ -73,8 +73,6 @@ impl ModalResult {
     }
 }
 
-/// modal_analysis(mesh, material, constraints, count=6, mass="lumped") -> ModalResult
-///
 /// The ``count`` lowest natural modes of the body held by ``constraints`` (subspace iteration
 /// with a Cholesky factorization of K_ff, GIL released). ``mass``: ``"lumped"`` or
 /// ``"consistent"``. Raises ``NotConstrainedError`` for a free body (rigid-body modes).

@@ -11,8 +11,6 @@ use tetfem_cli::scene::{
 
 use crate::errors::OrRaise;
 
-/// run_scene(path, output_dir=None, write_files=True) -> dict
-///
 /// Runs a scene file (static or dynamic) exactly as ``tetfem run PATH --json`` does and returns
 /// its JSON summary as a dict (counts, timings in s, energies in J, each probe's mean
 /// displacement in m, the files written, warnings). Outputs go to the scene's folder, or to

@@ -79,11 +79,7 @@ fn energy_dict<'py>(py: Python<'py>, e: &Energy) -> PyResult<Bound<'py, PyDict>>
     Ok(d)
 }
 
-/// Simulation(mesh, material, constraints, loads=None, *, dt, method="backward-euler",
-/// model="linear", mass="lumped", damping=(0.0, 0.0), initial_displacement=None,
-/// initial_velocity=None, linear_solver="auto")
-///
-/// A dynamic run. ``method``: ``"backward-euler"`` (implicit, first order, stable at any step,
+/// A dynamic run (``damping`` defaults to (0.0, 0.0): none). ``method``: ``"backward-euler"`` (implicit, first order, stable at any step,
 /// dissipative), ``"newmark"`` (average acceleration: implicit, second order, conserves energy)
 /// or ``"explicit"`` (symplectic Euler: stable only below ``critical_time_step``). ``dt``: the
 /// time step in s, or a multiple of the explicit critical step as text (``"0.9crit"``).
@@ -274,14 +270,12 @@ impl PySimulation {
         })
     }
 
-    /// step() -> None: advances one time step (GIL released). On ``DivergedError`` the state
+    /// Advances one time step (GIL released). On ``DivergedError`` the state
     /// holds the failed step's values, for inspection.
     fn step(&mut self, py: Python<'_>) -> PyResult<()> {
         self.step_once(py).map(|_| ())
     }
 
-    /// run(steps, callback=None) -> dict
-    ///
     /// Takes ``steps`` steps and returns the energy history after each step as numpy arrays of
     /// that length: ``time`` (s), ``step``, ``kinetic``, ``elastic``, ``gravity_potential``,
     /// ``load_potential``, ``total`` (J). ``callback(simulation)`` is called after each step
@@ -336,7 +330,7 @@ impl PySimulation {
         Ok(d)
     }
 
-    /// energy() -> dict: the energies of the current state (J): kinetic ½vᵀMv, elastic (½uᵀKu
+    /// The energies of the current state as a dict (J): kinetic ½vᵀMv, elastic (½uᵀKu
     /// for the linear model), gravity_potential, load_potential (−f·u) and their total.
     fn energy<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
         let e = py
@@ -445,7 +439,7 @@ impl PySimulation {
         arrays::index_vector(py, self.system.dofs().free_dofs())
     }
 
-    /// modes(count=6) -> ModalResult: the lowest natural modes of this simulation's system.
+    /// The ``count`` lowest natural modes (a ``ModalResult``) of this simulation's system.
     #[pyo3(signature = (count = 6))]
     fn modes(&self, py: Python<'_>, count: usize) -> PyResult<ModalResult> {
         modes_of(py, &self.system, &self.data, count)

@@ -51,8 +51,6 @@ pub struct StaticResult {
 
 #[pymethods]
 impl StaticResult {
-    /// mean_displacement(nodes)
-    ///
     /// The mean displacement of ``nodes`` (m), shape (3,): the probe of scenes.
     fn mean_displacement<'py>(
         &self,
@@ -143,9 +141,6 @@ pub fn check_same_mesh(
     Ok(())
 }
 
-/// solve_static(mesh, material, constraints, loads, model="linear", linear_solver="auto",
-/// load_steps=10, tolerance=1e-10, max_iterations=30)
-///
 /// Static equilibrium. ``material``: a ``Material`` or a ``MaterialMap``. ``model``:
 /// ``"linear"`` (one sparse solve: ``linear_solver`` ``"auto"`` picks the Cholesky factorization
 /// or multigrid-preconditioned CG by predicted time, ``"direct"`` / ``"iterative"`` force one),
@@ -228,8 +223,6 @@ pub fn solve_static(
     })
 }
 
-/// StaticSolver(mesh, material, constraints, linear_solver="auto")
-///
 /// A factored linear static problem: K assembled and K_ff factored once (GIL released), then
 /// ``solve(loads)`` for any number of load cases. ``stiffness()`` and ``free_stiffness()``
 /// give K (all DOFs, N/m) and K_ff (free DOFs, in the order of ``free_dofs``) as SciPy CSR
@@ -270,7 +263,7 @@ impl PyStaticSolver {
         })
     }
 
-    /// solve(loads) -> StaticResult: the displacement under ``loads`` (GIL released).
+    /// The displacement under ``loads`` (a ``StaticResult``; GIL released).
     fn solve(&mut self, py: Python<'_>, loads: PyRef<'_, PyLoads>) -> PyResult<StaticResult> {
         if !Arc::ptr_eq(&self.data, &loads.data) {
             return Err(raise(
