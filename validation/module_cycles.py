@@ -31,7 +31,7 @@ def sccs(g):
     for v in list(g):
         if v not in index: sc(v)
     return res
-roots = sys.argv[1:] or ['src', 'crates/linalg/src', 'crates/cli/src', 'crates/fixtures/src', 'validation/src']
+roots = sys.argv[1:] or ['src', 'crates/linalg/src', 'crates/cli/src', 'crates/fixtures/src', 'validation/src', 'python/src']
 found = False
 for root in roots:
     mods = {os.path.basename(p).replace('.rs', '') for p in glob.glob(root + '/*')}
