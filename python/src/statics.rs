@@ -29,8 +29,9 @@ use crate::sparse::csr;
 /// Attributes: ``displacement`` (n, 3) m; ``stress`` (m, 3, 3) Cauchy stress per tet, Pa;
 /// ``von_mises`` (m,) Pa; ``reactions`` (n, 3) N (K·u − f, non-zero on constrained DOFs only;
 /// None for nonlinear models); ``relative_residual`` ‖K_ff·u_f − r_f‖/‖r_f‖ (for nonlinear
-/// models the final Newton residual ‖r_f‖ over the load norm ‖f_f‖, or ‖r_f‖ in N when there is no load); ``model``; ``solver`` (``"direct"`` or
-/// ``"iterative (k iterations)"``, ``"newton (k iterations)"``).
+/// models the final Newton residual ‖r_f‖ over the load norm ‖f_f‖, or ‖r_f‖ in N when there
+/// is no load); ``model``; ``solver`` (``"direct"`` or ``"iterative (k iterations)"``,
+/// ``"newton (k iterations)"``).
 #[pyclass(name = "StaticResult", module = "tetfem", frozen, get_all)]
 pub struct StaticResult {
     /// Displacement of every node, shape (n, 3), m.
