@@ -10,6 +10,7 @@ mod constraints;
 mod errors;
 mod loads;
 mod material;
+mod matrices;
 mod mesh;
 mod modal;
 mod names;
@@ -33,6 +34,8 @@ fn _tetfem(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(statics::solve_static, m)?)?;
     m.add_function(wrap_pyfunction!(modal::modal_analysis, m)?)?;
     m.add_function(wrap_pyfunction!(scene::run_scene, m)?)?;
+    m.add_function(wrap_pyfunction!(matrices::stiffness_matrix, m)?)?;
+    m.add_function(wrap_pyfunction!(matrices::mass_matrix, m)?)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())
 }

@@ -148,3 +148,26 @@ def test_tetgen_files_with_markers_and_attributes(tmp_path):
     assert loads.resultant[2] == pytest.approx(-weight, rel=1e-12)
     result = tetfem.solve_static(mesh, materials, constraints, loads)
     assert result.displacement[:, 2].min() < 0.0
+
+
+def test_global_stiffness_and_mass_matrices():
+    pytest.importorskip("scipy.sparse", reason="scipy not installed: CSR tests skipped")
+    mesh = tetfem.Mesh.box(max=(1.0, 0.1, 0.1), cells=(10, 2, 2))
+    steel = tetfem.Material.steel()
+    constraints = tetfem.Constraints(mesh).fix(mesh.nodes_on_plane("x", 0.0))
+    k = tetfem.stiffness_matrix(mesh, steel)
+    assert abs(k - tetfem.StaticSolver(mesh, steel, constraints).stiffness()).max() == 0.0
+    # K holds the rigid translations in its null space: K·1 = 0 per axis (to rounding of the
+    # ~1e10 N/m entries: 1e-6 N/m relative 1e-16).
+    ones_x = np.tile([1.0, 0.0, 0.0], mesh.node_count)
+    assert np.abs(k @ ones_x).max() < 1e-6 * abs(k).max()
+    total = 7850.0 * mesh.volume  # kg
+    for kind in ["lumped", "consistent"]:
+        m = tetfem.mass_matrix(mesh, steel, mass=kind)
+        # Each axis carries the whole mass: 1ᵀ·M·1 = 3·ρ·V (summation rounding, 1e-12).
+        assert m.sum() == pytest.approx(3 * total, rel=1e-12), kind
+        sim = tetfem.Simulation(mesh, steel, constraints, dt=1e-4, mass=kind)
+        free = sim.free_dofs
+        assert abs(m[free][:, free] - sim.free_mass()).max() == 0.0, kind
+    with pytest.raises(tetfem.InvalidInputError, match="mass = 'heavy'"):
+        tetfem.mass_matrix(mesh, steel, mass="heavy")

@@ -33,9 +33,11 @@ from ._tetfem import (
     StaticResult,
     StaticSolver,
     __version__,
+    mass_matrix,
     modal_analysis,
     run_scene,
     solve_static,
+    stiffness_matrix,
 )
 from .meshio_interop import from_meshio, to_meshio
 from .errors import (
@@ -62,6 +64,8 @@ __all__ = [
     "modal_analysis",
     "run_scene",
     "solve_static",
+    "stiffness_matrix",
+    "mass_matrix",
     "from_meshio",
     "to_meshio",
     "errors",

@@ -20,6 +20,8 @@ __all__ = [
     "solve_static",
     "modal_analysis",
     "run_scene",
+    "stiffness_matrix",
+    "mass_matrix",
     "__version__",
 ]
 
@@ -241,3 +243,5 @@ def modal_analysis(
     mesh: Mesh, material: _Materials, constraints: Constraints, count: int = 6, mass: str = "lumped"
 ) -> ModalResult: ...
 def run_scene(path: _Path, output_dir: Optional[_Path] = None, write_files: bool = True) -> Dict[str, Any]: ...
+def stiffness_matrix(mesh: Mesh, material: _Materials) -> _SparseMatrix: ...
+def mass_matrix(mesh: Mesh, material: _Materials, mass: str = "lumped") -> _SparseMatrix: ...
