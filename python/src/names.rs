@@ -108,3 +108,32 @@ pub fn linear_solver(py: Python<'_>, name: &str) -> PyResult<LinearMethod> {
         )),
     }
 }
+
+/// A time step: seconds, or a multiple of the explicit critical step.
+pub enum TimeStep {
+    /// Seconds (checked by the integrator: finite and > 0).
+    Seconds(f64),
+    /// This multiple of the explicit critical step (finite and > 0).
+    Critical(f64),
+}
+
+/// A time step given as a float (s) or as text `"<factor>crit"` (e.g. `"0.9crit"`).
+pub fn time_step(py: Python<'_>, value: &Bound<'_, PyAny>) -> PyResult<TimeStep> {
+    if let Ok(dt) = value.extract::<f64>() {
+        return Ok(TimeStep::Seconds(dt));
+    }
+    let allowed =
+        "must be seconds (a float) or a positive multiple of the critical step ('0.9crit')";
+    let text: String = value.extract().map_err(|_| {
+        invalid(
+            py,
+            "dt",
+            value.repr().map(|r| r.to_string()).unwrap_or_default(),
+            allowed,
+        )
+    })?;
+    match text.strip_suffix("crit").map(|f| f.trim().parse::<f64>()) {
+        Some(Ok(f)) if f.is_finite() && f > 0.0 => Ok(TimeStep::Critical(f)),
+        _ => Err(invalid(py, "dt", format!("'{text}'"), allowed)),
+    }
+}

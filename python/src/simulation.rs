@@ -101,7 +101,7 @@ pub struct PySimulation {
 }
 
 impl PySimulation {
-    /// The explicit critical step (s) and how it was found, as the scene runner finds it.
+    /// The explicit critical step (s), found as the scene runner finds it.
     fn critical(
         system: &LinearSystem,
         data: &MeshData,
@@ -116,7 +116,7 @@ impl PySimulation {
     }
 
     /// One step and the energies after it, with the GIL released.
-    fn step_once(&mut self, py: Python<'_>) -> PyResult<Energy> {
+    fn step_with_energy(&mut self, py: Python<'_>) -> PyResult<Energy> {
         let PySimulation {
             stepper,
             state,
@@ -172,34 +172,7 @@ impl PySimulation {
             ..IntegratorOptions::default()
         };
         let rayleigh = Rayleigh::new(damping.0, damping.1).or_raise(py)?;
-        // A critical-step multiple ("0.9crit") or seconds.
-        let crit_factor: Option<f64> = match dt.extract::<f64>() {
-            Ok(_) => None,
-            Err(_) => {
-                let text: String = dt.extract().map_err(|_| {
-                    invalid(
-                        py,
-                        "dt",
-                        dt.repr().map(|r| r.to_string()).unwrap_or_default(),
-                        "must be seconds (a float) or a multiple of the critical step ('0.9crit')",
-                    )
-                })?;
-                let factor = text
-                    .strip_suffix("crit")
-                    .and_then(|f| f.trim().parse::<f64>().ok());
-                match factor {
-                    Some(f) if f.is_finite() && f > 0.0 => Some(f),
-                    _ => {
-                        return Err(invalid(
-                            py,
-                            "dt",
-                            format!("'{text}'"),
-                            "must be seconds (a float) or a positive multiple of the critical step ('0.9crit')",
-                        ));
-                    }
-                }
-            }
-        };
+        let dt = names::time_step(py, dt)?;
         let regions = materials.materials().len();
         if kind != ModelKind::Linear && regions > 1 {
             return Err(invalid(
@@ -249,12 +222,11 @@ impl PySimulation {
                     .or_raise(py)?
             }
         };
-        let dt = match crit_factor {
-            None => dt.extract::<f64>()?,
-            Some(f) => {
-                f * py
-                    .detach(|| Self::critical(&system, &data, &materials))
-                    .or_raise(py)?
+        let dt = match dt {
+            names::TimeStep::Seconds(dt) => dt,
+            names::TimeStep::Critical(factor) => {
+                let critical = py.detach(|| Self::critical(&system, &data, &materials));
+                factor * critical.or_raise(py)?
             }
         };
         let stepper = py
@@ -273,7 +245,8 @@ impl PySimulation {
     /// Advances one time step (GIL released). On ``DivergedError`` the state
     /// holds the failed step's values, for inspection.
     fn step(&mut self, py: Python<'_>) -> PyResult<()> {
-        self.step_once(py).map(|_| ())
+        let PySimulation { stepper, state, .. } = self;
+        py.detach(|| stepper.integrator().step(state)).or_raise(py)
     }
 
     /// Takes ``steps`` steps and returns the energy history after each step as numpy arrays of
@@ -292,7 +265,7 @@ impl PySimulation {
         for _ in 0..steps {
             let (energy, time, step) = {
                 let mut sim = slf.borrow_mut();
-                let energy = sim.step_once(py)?;
+                let energy = sim.step_with_energy(py)?;
                 (energy, sim.state.time, sim.state.steps)
             };
             let row = [
