@@ -1,5 +1,7 @@
 """Meshes, selections and matrices through the Python API."""
 
+import sys
+
 import numpy as np
 import pytest
 
@@ -171,3 +173,20 @@ def test_global_stiffness_and_mass_matrices():
         assert abs(m[free][:, free] - sim.free_mass()).max() == 0.0, kind
     with pytest.raises(tetfem.InvalidInputError, match="mass = 'heavy'"):
         tetfem.mass_matrix(mesh, steel, mass="heavy")
+
+
+def test_matrices_without_scipy_are_csr_arrays(monkeypatch):
+    """Without SciPy the matrices come as (indptr, indices, data, shape): the same CSR arrays."""
+    mesh = tetfem.Mesh.box(max=(1.0, 0.1, 0.1), cells=(4, 1, 1))
+    steel = tetfem.Material.steel()
+    monkeypatch.setitem(sys.modules, "scipy", None)  # `import scipy.sparse` now raises ImportError
+    monkeypatch.setitem(sys.modules, "scipy.sparse", None)
+    indptr, indices, data, shape = tetfem.stiffness_matrix(mesh, steel)
+    _, _, mass, _ = tetfem.mass_matrix(mesh, steel)
+    monkeypatch.undo()
+    assert shape == (mesh.dof_count, mesh.dof_count) and len(indptr) == mesh.dof_count + 1
+    assert mass.sum() == pytest.approx(3 * 7850.0 * mesh.volume, rel=1e-12)
+    scipy = pytest.importorskip("scipy.sparse", reason="scipy not installed: comparison skipped")
+    k = tetfem.stiffness_matrix(mesh, steel)
+    assert np.array_equal(k.indptr, indptr) and np.array_equal(k.indices, indices)
+    assert np.array_equal(k.data, data) and scipy.issparse(k)
