@@ -23,3 +23,17 @@ def probe_mean(displacement, nodes):
 @pytest.fixture
 def scenes():
     return SCENES
+
+
+def dense(matrix):
+    """A tetfem matrix as a dense numpy array: from SciPy CSR, or from the
+    (indptr, indices, data, shape) arrays handed out without SciPy."""
+    import numpy as np
+
+    if isinstance(matrix, tuple):
+        indptr, indices, data, shape = matrix
+        out = np.zeros(shape)
+        for row in range(shape[0]):
+            out[row, indices[indptr[row] : indptr[row + 1]]] = data[indptr[row] : indptr[row + 1]]
+        return out
+    return matrix.toarray()
