@@ -1,16 +1,19 @@
 //! Global assembly: the sparsity pattern is built once from the mesh, with a scatter map from
-//! each element's 4×4 node blocks to their places in the global value array, so that K (or the
-//! consistent mass, or a refilled tangent) is re-assembled in O(nnz) with no sorting.
+//! each element's n×n node blocks (n nodes per element: 4 for the linear tet, 10 for the
+//! quadratic) to their places in the global value array, so that K (or the consistent mass, or
+//! a refilled tangent) is re-assembled in O(nnz) with no sorting. Every routine here is generic
+//! over the element type ([`ElementType`]) and monomorphized for each, so the linear tet's
+//! loops keep their constant trip counts.
 
 use std::sync::Arc;
 
 use faer::sparse::SymbolicSparseColMat;
 
-use crate::element::Matrix12;
+use crate::element::{ElementType, Matrix12};
 use crate::error::{Error, Result};
 use crate::material::Material;
 use crate::materials::TetMaterials;
-use crate::mesh::TetMesh;
+use crate::mesh::{CellType, TetMesh};
 use crate::sparse::CscMatrix;
 
 /// Global sparsity pattern of a mesh (both triangles, 3×3 node blocks) and the element scatter
@@ -22,23 +25,27 @@ use crate::sparse::CscMatrix;
 #[derive(Debug, Clone)]
 pub struct Assembler {
     pattern: Arc<SymbolicSparseColMat<usize>>,
-    /// For tet t and local nodes (i, j): start of the block (row node i, column node j).
+    /// For tet t and local nodes (i, j) of its n: start of the block (row node i, column
+    /// node j), at `n²·t + n·i + j`.
     block_start: Vec<usize>,
     /// For each node n: 3·deg(n), the distance between consecutive columns of one block.
     column_stride: Vec<usize>,
     /// Contiguous node ranges whose columns are filled in parallel, each with the tets touching it.
     partitions: Vec<Partition>,
-    /// Node count, tet count and a hash of the connectivity of the mesh this was built from:
-    /// the scatter map is only valid for that mesh, and a different one would write out of
-    /// bounds or, worse, into the wrong entries.
+    /// Node count, tet count and a hash of the connectivity (nodes per tet included) of the
+    /// mesh this was built from: the scatter map is only valid for that mesh, and a different
+    /// one would write out of bounds or, worse, into the wrong entries.
     fingerprint: (usize, usize, u64),
 }
 
 /// FNV-1a over the tets' node indices: one pass, a few ms per million tets.
-fn connectivity_hash(mesh: &TetMesh) -> u64 {
+fn connectivity_hash<C: CellType>(mesh: &TetMesh<C>) -> u64 {
     let mut hash = 0xcbf2_9ce4_8422_2325u64;
+    if C::NODES != 4 {
+        hash = (hash ^ C::NODES as u64).wrapping_mul(0x0100_0000_01b3);
+    }
     for tet in mesh.tets() {
-        for &n in tet {
+        for &n in tet.as_ref() {
             hash = (hash ^ n as u64).wrapping_mul(0x0100_0000_01b3);
         }
     }
@@ -59,14 +66,15 @@ struct Partition {
 
 impl Assembler {
     /// Builds the pattern and scatter map of `mesh`: O(nnz) memory, no global sort.
-    pub fn new(mesh: &TetMesh) -> Self {
+    pub fn new<C: CellType>(mesh: &TetMesh<C>) -> Self {
         let node_count = mesh.node_count();
-        // Node adjacency in CSR form: count an upper bound (4 per incident tet), fill, sort and
+        let per_tet = C::NODES;
+        // Node adjacency in CSR form: count an upper bound (n per incident tet), fill, sort and
         // deduplicate each node's list.
         let mut bound = vec![0usize; node_count + 1];
         for tet in mesh.tets() {
-            for &n in tet {
-                bound[n + 1] += 4;
+            for &n in tet.as_ref() {
+                bound[n + 1] += per_tet;
             }
         }
         for n in 0..node_count {
@@ -75,9 +83,10 @@ impl Assembler {
         let mut scratch = vec![0usize; bound[node_count]];
         let mut fill = bound.clone();
         for tet in mesh.tets() {
+            let tet = tet.as_ref();
             for &n in tet {
-                scratch[fill[n]..fill[n] + 4].copy_from_slice(tet);
-                fill[n] += 4;
+                scratch[fill[n]..fill[n] + per_tet].copy_from_slice(tet);
+                fill[n] += per_tet;
             }
         }
         let mut adj_ptr = vec![0usize; node_count + 1];
@@ -111,8 +120,9 @@ impl Assembler {
         let column_stride: Vec<usize> = (0..node_count)
             .map(|n| 3 * (adj_ptr[n + 1] - adj_ptr[n]))
             .collect();
-        let mut block_start = Vec::with_capacity(16 * mesh.tet_count());
+        let mut block_start = Vec::with_capacity(per_tet * per_tet * mesh.tet_count());
         for tet in mesh.tets() {
+            let tet = tet.as_ref();
             for &row_node in tet {
                 for &col_node in tet {
                     let neighbours = &adjacency[adj_ptr[col_node]..adj_ptr[col_node + 1]];
@@ -136,7 +146,7 @@ impl Assembler {
 
     /// An error unless `mesh` has the connectivity this assembler was built from (node
     /// positions may differ: they do not enter the pattern).
-    pub fn check_mesh(&self, mesh: &TetMesh) -> Result<()> {
+    pub fn check_mesh<C: CellType>(&self, mesh: &TetMesh<C>) -> Result<()> {
         let (nodes, tets, hash) = self.fingerprint;
         if mesh.node_count() != nodes || mesh.tet_count() != tets || connectivity_hash(mesh) != hash
         {
@@ -204,8 +214,9 @@ impl Assembler {
         Ok(())
     }
 
-    /// Assembles Σₑ (element matrix of tet e) on the shared pattern (in parallel, see
-    /// [`reassemble`](Self::reassemble)).
+    /// Assembles Σₑ (12×12 element matrix of linear tet e) on the shared pattern (in parallel,
+    /// see [`reassemble`](Self::reassemble)); [`assemble_entries`](Self::assemble_entries) for
+    /// any element type.
     pub fn assemble(
         &self,
         mesh: &TetMesh,
@@ -234,12 +245,30 @@ impl Assembler {
         })
     }
 
+    /// Assembles a matrix on the shared pattern from element matrices of any element type,
+    /// given entry by entry: `entry(t, i, j, b, a)` is row 3i + b, column 3j + a of tet t's
+    /// element matrix (local nodes i, j; axes b, a). Filled as [`reassemble`](Self::reassemble).
+    ///
+    /// Errors: `mesh` is not the one this assembler was built from.
+    pub fn assemble_entries<C: CellType>(
+        &self,
+        mesh: &TetMesh<C>,
+        entry: impl Fn(usize, usize, usize, usize, usize) -> f64 + Sync,
+    ) -> Result<CscMatrix> {
+        let mut matrix = CscMatrix::zeros(Arc::clone(&self.pattern))?;
+        self.fill(mesh, &mut matrix, |t, tet, target| {
+            target.add_element(t, tet.as_ref(), |i, j, b, a| entry(t, i, j, b, a));
+        })?;
+        Ok(matrix)
+    }
+
     /// Refills `matrix` (which must be on this pattern) with the linear stiffness
-    /// K = Σₑ Vₑ·BₑᵀDBₑ (force/length): the same values, bit for bit, as
-    /// [`reassemble`](Self::reassemble) with [`Tet::stiffness`](crate::element::Tet::stiffness),
-    /// but each node block Kᵢⱼ = V·(λ ∇Nᵢ∇Nⱼᵀ + μ ∇Nⱼ∇Nᵢᵀ + μ (∇Nᵢ·∇Nⱼ) I) (i ≤ j) is added
-    /// straight into the matrix from the four shape gradients, and Kⱼᵢ = Kᵢⱼᵀ from the same
-    /// values, with no 12×12 element matrix in between.
+    /// K = Σₑ ∫ BₑᵀDBₑ dV (force/length) of any element type: each node block
+    /// Kᵢⱼ = ∫ λ ∇Nᵢ∇Nⱼᵀ + μ ∇Nⱼ∇Nᵢᵀ + μ (∇Nᵢ·∇Nⱼ) I dV (i ≤ j) of
+    /// [`ElementType::stiffness_block`] is added straight into the matrix, and Kⱼᵢ = Kᵢⱼᵀ from
+    /// the same values, with no element matrix in between. For the linear tet these are the
+    /// same values, bit for bit, as [`reassemble`](Self::reassemble) with
+    /// [`Tet::stiffness`](crate::element::Tet::stiffness).
     ///
     /// Errors: `matrix` is not on this assembler's pattern, or `mesh` is not the one it was
     /// built from.
@@ -247,9 +276,9 @@ impl Assembler {
     /// `materials` gives each tet its material: one [`Material`] for all, or a
     /// [`MaterialMap`](crate::materials::MaterialMap) (then also an error unless it covers the
     /// mesh's tets). λ and μ are computed once per material and read per tet.
-    pub fn refill_stiffness(
+    pub fn refill_stiffness<E: ElementType>(
         &self,
-        mesh: &TetMesh,
+        mesh: &TetMesh<E>,
         materials: &impl TetMaterials,
         matrix: &mut CscMatrix,
     ) -> Result<()> {
@@ -261,24 +290,9 @@ impl Assembler {
             .collect();
         self.fill(mesh, matrix, |t, tet, target| {
             let (lame_lambda, shear_modulus) = lame[materials.index_of(t)];
-            let element = mesh.element_of(t);
-            let lambda = lame_lambda * element.volume();
-            let mu = shear_modulus * element.volume();
-            let g = element.shape_gradients().map(|g| [g.x, g.y, g.z]);
-            // Written as Tet::stiffness evaluates it (same products, same sum order), so that the
-            // two paths agree to the bit; the identity term only touches the diagonal, where
-            // Tet::stiffness's +0.0 elsewhere changes no sum.
-            target.add_symmetric(t, tet, |i, j| {
-                let (gi, gj) = (&g[i], &g[j]);
-                let shear = mu * (gi[0] * gj[0] + gi[1] * gj[1] + gi[2] * gj[2]);
-                let mut k = [[0.0; 3]; 3];
-                for a in 0..3 {
-                    for b in 0..3 {
-                        let value = gi[b] * gj[a] * lambda + gj[b] * gi[a] * mu;
-                        k[a][b] = if a == b { value + shear } else { value };
-                    }
-                }
-                k
+            let rest = E::rest(mesh, t);
+            target.add_symmetric(t, tet.as_ref(), |i, j| {
+                E::stiffness_block(&rest, lame_lambda, shear_modulus, i, j)
             });
         })
     }
@@ -291,11 +305,11 @@ impl Assembler {
     /// finds them in cache: with the usual locality of node numbering that front runs a mesh
     /// layer ahead, where a separate pass would stream the whole partition (tens of MB) out to
     /// memory and back. Every value is zeroed once, before any tet adds to it.
-    fn fill(
+    fn fill<C: CellType>(
         &self,
-        mesh: &TetMesh,
+        mesh: &TetMesh<C>,
         matrix: &mut CscMatrix,
-        add_tet: impl Fn(usize, &[usize; 4], &mut Target<'_>) + Sync,
+        add_tet: impl Fn(usize, &C::Nodes, &mut Target<'_>) + Sync,
     ) -> Result<()> {
         use rayon::prelude::*;
         self.check_matrix(matrix)?;
@@ -325,6 +339,7 @@ impl Assembler {
                 for &t in &part.tets {
                     let tet = &mesh.tets()[t];
                     let top = tet
+                        .as_ref()
                         .iter()
                         .filter(|n| part.nodes.contains(n))
                         .max()
@@ -341,26 +356,40 @@ impl Assembler {
         Ok(())
     }
 
-    /// Global linear stiffness K = Σₑ Vₑ·BₑᵀDBₑ (force/length), see
+    /// Global linear stiffness K = Σₑ ∫ BₑᵀDBₑ dV (force/length), see
     /// [`refill_stiffness`](Self::refill_stiffness) (each tet with its own material).
-    pub fn stiffness(&self, mesh: &TetMesh, materials: &impl TetMaterials) -> Result<CscMatrix> {
+    pub fn stiffness<E: ElementType>(
+        &self,
+        mesh: &TetMesh<E>,
+        materials: &impl TetMaterials,
+    ) -> Result<CscMatrix> {
         let mut matrix = CscMatrix::zeros(Arc::clone(&self.pattern))?;
         self.refill_stiffness(mesh, materials, &mut matrix)?;
         Ok(matrix)
     }
 
-    /// Global consistent mass M = Σₑ ρₑVₑ/20·(1+δᵢⱼ)·I₃ (mass units), on the same pattern as K,
-    /// ρₑ the density of tet e's material.
-    pub fn consistent_mass(
+    /// Global consistent mass M = Σₑ ∫ ρₑ NᵢNⱼ dV·I₃ (mass units; ρₑV/20·(1+δᵢⱼ) for the
+    /// linear tet), on the same pattern as K, ρₑ the density of tet e's material.
+    pub fn consistent_mass<E: ElementType>(
         &self,
-        mesh: &TetMesh,
+        mesh: &TetMesh<E>,
         materials: &impl TetMaterials,
     ) -> Result<CscMatrix> {
         materials.check_tet_count(mesh)?;
-        self.assemble(mesh, |t| {
-            mesh.element_of(t)
-                .consistent_mass(materials.material_of(t).density())
-        })
+        let mut matrix = CscMatrix::zeros(Arc::clone(&self.pattern))?;
+        self.fill(mesh, &mut matrix, |t, tet, target| {
+            let rest = E::rest(mesh, t);
+            let density = materials.material_of(t).density();
+            // The off-axis entries of each block get +0.0, as the 12×12 matrices always gave.
+            target.add_element(t, tet.as_ref(), |i, j, b, a| {
+                if a == b {
+                    E::mass_coefficient(&rest, density, i, j)
+                } else {
+                    0.0
+                }
+            });
+        })?;
+        Ok(matrix)
     }
 }
 
@@ -382,17 +411,18 @@ impl Target<'_> {
     fn add_element(
         &mut self,
         t: usize,
-        tet: &[usize; 4],
+        tet: &[usize],
         entry: impl Fn(usize, usize, usize, usize) -> f64,
     ) {
-        let starts = &self.block_start[16 * t..16 * t + 16];
-        for j in 0..4 {
+        let n = tet.len();
+        let starts = &self.block_start[n * n * t..n * n * (t + 1)];
+        for j in 0..n {
             if !self.nodes.contains(&tet[j]) {
                 continue;
             }
             let stride = self.column_stride[tet[j]];
-            for i in 0..4 {
-                let start = starts[4 * i + j] - self.offset;
+            for i in 0..n {
+                let start = starts[n * i + j] - self.offset;
                 for a in 0..3 {
                     // One bounds check per column of the block: its three rows are adjacent.
                     let column = &mut self.values[start + a * stride..][..3];
@@ -410,31 +440,34 @@ impl Target<'_> {
     fn add_symmetric(
         &mut self,
         t: usize,
-        tet: &[usize; 4],
+        tet: &[usize],
         block: impl Fn(usize, usize) -> [[f64; 3]; 3],
     ) {
-        let starts = &self.block_start[16 * t..16 * t + 16];
-        let held = tet.map(|n| self.nodes.contains(&n));
-        let stride = tet.map(|n| self.column_stride[n]);
-        for i in 0..4 {
-            for j in i..4 {
-                if !(held[i] || held[j]) {
+        let n = tet.len();
+        let starts = &self.block_start[n * n * t..n * n * (t + 1)];
+        for i in 0..n {
+            for j in i..n {
+                let held_i = self.nodes.contains(&tet[i]);
+                let held_j = self.nodes.contains(&tet[j]);
+                if !(held_i || held_j) {
                     continue;
                 }
                 let k = block(i, j);
-                if held[j] {
-                    let start = starts[4 * i + j] - self.offset;
+                if held_j {
+                    let stride = self.column_stride[tet[j]];
+                    let start = starts[n * i + j] - self.offset;
                     for a in 0..3 {
-                        let column = &mut self.values[start + a * stride[j]..][..3];
+                        let column = &mut self.values[start + a * stride..][..3];
                         for b in 0..3 {
                             column[b] += k[a][b];
                         }
                     }
                 }
-                if i != j && held[i] {
-                    let start = starts[4 * j + i] - self.offset;
+                if i != j && held_i {
+                    let stride = self.column_stride[tet[i]];
+                    let start = starts[n * j + i] - self.offset;
                     for a in 0..3 {
-                        let column = &mut self.values[start + a * stride[i]..][..3];
+                        let column = &mut self.values[start + a * stride..][..3];
                         for b in 0..3 {
                             column[b] += k[b][a];
                         }
@@ -445,27 +478,30 @@ impl Target<'_> {
     }
 }
 
-/// Lumped (diagonal) mass per DOF: each tet gives ρV/4 to each of its nodes, on all three axes.
-pub fn lumped_mass(mesh: &TetMesh, material: &Material) -> Vec<f64> {
+/// Lumped (diagonal) mass per DOF: each tet gives its nodes their shares ρV·wᵢ of its mass
+/// ([`ElementType::LUMPED_MASS`]: ρV/4 each for the linear tet), on all three axes.
+pub fn lumped_mass<E: ElementType>(mesh: &TetMesh<E>, material: &Material) -> Vec<f64> {
     lumped_mass_by(mesh, material)
 }
 
-/// As [`lumped_mass`] with each tet's own density ρₑ: ρₑVₑ/4 to each of its nodes (mass units).
+/// As [`lumped_mass`] with each tet's own density ρₑ (mass units).
 ///
 /// Errors: `materials` does not cover the mesh's tets.
-pub fn lumped_mass_of(mesh: &TetMesh, materials: &impl TetMaterials) -> Result<Vec<f64>> {
+pub fn lumped_mass_of<E: ElementType>(
+    mesh: &TetMesh<E>,
+    materials: &impl TetMaterials,
+) -> Result<Vec<f64>> {
     materials.check_tet_count(mesh)?;
     Ok(lumped_mass_by(mesh, materials))
 }
 
 /// [`lumped_mass_of`] for materials checked against the mesh.
-fn lumped_mass_by(mesh: &TetMesh, materials: &impl TetMaterials) -> Vec<f64> {
+fn lumped_mass_by<E: ElementType>(mesh: &TetMesh<E>, materials: &impl TetMaterials) -> Vec<f64> {
     let mut mass = vec![0.0; mesh.dof_count()];
     for (t, tet) in mesh.tets().iter().enumerate() {
-        let share = mesh
-            .element_of(t)
-            .lumped_mass(materials.material_of(t).density());
-        for &n in tet {
+        let element_mass = materials.material_of(t).density() * E::volume(&E::rest(mesh, t));
+        for (i, &n) in tet.as_ref().iter().enumerate() {
+            let share = E::LUMPED_MASS.share(i, element_mass);
             for axis in 0..3 {
                 mass[3 * n + axis] += share;
             }
@@ -476,13 +512,16 @@ fn lumped_mass_by(mesh: &TetMesh, materials: &impl TetMaterials) -> Vec<f64> {
 
 /// Convenience: the global stiffness of `mesh` with one material, or one per tet (builds a
 /// fresh [`Assembler`]).
-pub fn stiffness_matrix(mesh: &TetMesh, materials: &impl TetMaterials) -> Result<CscMatrix> {
+pub fn stiffness_matrix<E: ElementType>(
+    mesh: &TetMesh<E>,
+    materials: &impl TetMaterials,
+) -> Result<CscMatrix> {
     Assembler::new(mesh).stiffness(mesh, materials)
 }
 
 /// Splits the nodes into contiguous ranges of roughly equal value counts, a few per thread for
 /// load balance, each with the tets that touch it.
-fn partition(mesh: &TetMesh, col_ptr: &[usize]) -> Vec<Partition> {
+fn partition<C: CellType>(mesh: &TetMesh<C>, col_ptr: &[usize]) -> Vec<Partition> {
     let node_count = mesh.node_count();
     let nnz = col_ptr[3 * node_count];
     // Small meshes: one partition (no duplicated element work, no fork-join overhead).
@@ -506,8 +545,9 @@ fn partition(mesh: &TetMesh, col_ptr: &[usize]) -> Vec<Partition> {
         part_of[bounds[p]..bounds[p + 1]].fill(p);
     }
     let mut tets = vec![Vec::new(); bounds.len() - 1];
+    let mut seen = vec![usize::MAX; C::NODES];
     for (t, tet) in mesh.tets().iter().enumerate() {
-        let mut seen = [usize::MAX; 4];
+        let tet = tet.as_ref();
         for (k, &n) in tet.iter().enumerate() {
             let p = part_of[n];
             if !seen[..k].contains(&p) {

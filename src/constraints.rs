@@ -11,7 +11,7 @@ use nalgebra::{Matrix6, SymmetricEigen, Vector3, Vector6};
 use crate::amg::DofGeometry;
 use crate::error::{Error, Result};
 use crate::linear_solver::LinearMethod;
-use crate::mesh::{FaceTopology, TetMesh};
+use crate::mesh::{CellType, FaceTopology, TetMesh};
 use crate::sparse::CscMatrix;
 
 /// Prescribed displacements on chosen DOFs (length units).
@@ -30,7 +30,7 @@ impl Constraints {
     /// No constraints yet on a mesh's DOFs, except that nodes no tet uses are fixed at zero:
     /// they have no stiffness and no mass, so left free they would make every system matrix
     /// singular. (`TetMesh::warnings` reports them.)
-    pub fn new(mesh: &TetMesh) -> Self {
+    pub fn new<C: CellType>(mesh: &TetMesh<C>) -> Self {
         let mut prescribed = vec![None; mesh.dof_count()];
         for node in mesh.unused_nodes() {
             prescribed[3 * node..3 * node + 3].fill(Some(0.0));
@@ -166,17 +166,17 @@ impl DofMap {
     /// Where this map's free DOFs sit on `mesh` (free DOF i is full DOF 3·node + axis): what
     /// the multigrid preconditioner builds the rigid-body modes from.
     /// [`Error::DimensionMismatch`] if the map was made for another number of DOFs.
-    pub fn geometry(&self, mesh: &TetMesh) -> Result<DofGeometry> {
+    pub fn geometry<C: CellType>(&self, mesh: &TetMesh<C>) -> Result<DofGeometry> {
         Error::check_len("DofMap DOFs", mesh.dof_count(), self.full_count())?;
         Ok(DofGeometry::new(mesh.nodes(), self.free_dofs())?)
     }
 
     /// [`geometry`](Self::geometry) when `method` may take the iterative path (which builds
     /// the rigid-body modes from it), `None` for [`LinearMethod::Direct`].
-    pub fn geometry_for_method(
+    pub fn geometry_for_method<C: CellType>(
         &self,
         method: LinearMethod,
-        mesh: &TetMesh,
+        mesh: &TetMesh<C>,
     ) -> Result<Option<DofGeometry>> {
         if method == LinearMethod::Direct {
             Ok(None)
@@ -339,7 +339,11 @@ impl Restriction {
 /// parts already held) see all 6 modes, i.e. the 6×6 Gram matrix of the modes sampled at those
 /// DOFs has full rank. Parts hanging on a held part by one node or one edge are correctly found
 /// free (they can rotate about it).
-pub fn ensure_held(mesh: &TetMesh, topology: &FaceTopology, dofs: &DofMap) -> Result<()> {
+pub fn ensure_held<C: CellType>(
+    mesh: &TetMesh<C>,
+    topology: &FaceTopology,
+    dofs: &DofMap,
+) -> Result<()> {
     Error::check_len("DOF map", mesh.dof_count(), dofs.full_count())?;
     if let Some(&(a, b)) = topology
         .neighbours
@@ -357,7 +361,7 @@ pub fn ensure_held(mesh: &TetMesh, topology: &FaceTopology, dofs: &DofMap) -> Re
     let mut part_nodes: Vec<Vec<usize>> = vec![Vec::new(); part_count];
     let mut part_tets = vec![(0usize, usize::MAX); part_count];
     for (t, tet) in mesh.tets().iter().enumerate() {
-        part_nodes[parts[t]].extend_from_slice(tet);
+        part_nodes[parts[t]].extend_from_slice(tet.as_ref());
         let entry = &mut part_tets[parts[t]];
         entry.0 += 1;
         entry.1 = entry.1.min(t);
@@ -399,7 +403,12 @@ pub fn ensure_held(mesh: &TetMesh, topology: &FaceTopology, dofs: &DofMap) -> Re
 }
 
 /// Number of rigid modes of the part spanned by `nodes` that its constrained DOFs do not see.
-fn unheld_modes(mesh: &TetMesh, nodes: &[usize], dofs: &DofMap, pinned: &[bool]) -> usize {
+fn unheld_modes<C: CellType>(
+    mesh: &TetMesh<C>,
+    nodes: &[usize],
+    dofs: &DofMap,
+    pinned: &[bool],
+) -> usize {
     let positions = || nodes.iter().map(|&n| mesh.nodes()[n]);
     let centroid = positions().sum::<Vector3<f64>>() / nodes.len() as f64;
     let size = positions()

@@ -51,8 +51,8 @@ pub enum Error {
         tet: usize,
         /// The repeated node.
         node: usize,
-        /// The tet's four node indices.
-        nodes: [usize; 4],
+        /// The tet's node indices.
+        nodes: Vec<usize>,
     },
 
     /// A tet is flat (zero volume up to round-off, relative to its longest edge cubed).

@@ -63,14 +63,14 @@ pub mod warning;
 
 pub use assembly::{Assembler, lumped_mass};
 pub use constraints::{Constraints, DofMap};
-pub use element::Tet;
+pub use element::{ElementType, Tet, Tet4, Tet10};
 pub use error::{Error, Result};
 pub use linear_solver::{LinearMethod, LinearSolver, SolverOptions};
 pub use linsolve::{CholeskyOptions, NumericFactorization, SparseCholesky, TriangularSolve};
 pub use loads::Loads;
 pub use material::Material;
 pub use materials::{MaterialAssignment, MaterialMap, TetMaterials};
-pub use mesh::{BoxSplit, TetMesh};
+pub use mesh::{BoxSplit, CellType, TetMesh};
 pub use ordering::FillOrdering;
 pub use problem::Problem;
 pub use sparse::CscMatrix;

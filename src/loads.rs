@@ -2,9 +2,10 @@
 
 use nalgebra::Vector3;
 
+use crate::element::ElementType;
 use crate::error::{Error, Result};
 use crate::materials::TetMaterials;
-use crate::mesh::{BoundaryFace, TetMesh};
+use crate::mesh::{BoundaryFace, CellType, TetMesh};
 
 /// Accumulated external nodal forces of one mesh.
 #[derive(Debug, Clone, PartialEq)]
@@ -14,18 +15,19 @@ pub struct Loads {
 
 impl Loads {
     /// No load.
-    pub fn new(mesh: &TetMesh) -> Self {
+    pub fn new<C: CellType>(mesh: &TetMesh<C>) -> Self {
         Loads {
             forces: vec![0.0; mesh.dof_count()],
         }
     }
 
-    /// Gravity: body force ρ·g per unit volume (g in m/s² in SI, e.g. (0, 0, −9.81)). For linear
-    /// tets the consistent load is ρₑ·g·Vₑ/4 on each node of each tet, ρₑ the density of tet e's
-    /// material (one [`Material`](crate::material::Material) for all, or a [`MaterialMap`](crate::materials::MaterialMap)).
-    pub fn add_gravity(
+    /// Gravity: body force ρ·g per unit volume (g in m/s² in SI, e.g. (0, 0, −9.81)). The
+    /// consistent load is ρₑ·g·∫Nᵢ dV on node i of tet e ([`ElementType::VOLUME_LOAD`]:
+    /// ρₑ·g·Vₑ/4 on each node of a linear tet), ρₑ the density of tet e's material (one
+    /// [`Material`](crate::material::Material) for all, or a [`MaterialMap`](crate::materials::MaterialMap)).
+    pub fn add_gravity<E: ElementType>(
         &mut self,
-        mesh: &TetMesh,
+        mesh: &TetMesh<E>,
         materials: &impl TetMaterials,
         gravity: Vector3<f64>,
     ) -> Result<&mut Self> {
@@ -42,35 +44,41 @@ impl Loads {
         self.check_mesh(mesh)?;
         materials.check_tet_count(mesh)?;
         // As add_body_force, with the force density of each tet's material.
-        for (t, tet) in mesh.tets().iter().enumerate() {
-            let share = densities[materials.index_of(t)] * (mesh.element_of(t).volume() / 4.0);
-            for &n in tet {
-                self.add_at(n, &share);
-            }
-        }
+        self.add_volume_loads(mesh, |t| densities[materials.index_of(t)]);
         Ok(self)
     }
 
-    /// A uniform body force density b (force per volume, N/m³ in SI): b·V/4 on each node of each
-    /// tet.
-    pub fn add_body_force(
+    /// A uniform body force density b (force per volume, N/m³ in SI): b·∫Nᵢ dV on node i of
+    /// each tet ([`ElementType::VOLUME_LOAD`]: b·V/4 on each node of a linear tet).
+    pub fn add_body_force<E: ElementType>(
         &mut self,
-        mesh: &TetMesh,
+        mesh: &TetMesh<E>,
         force_density: Vector3<f64>,
     ) -> Result<&mut Self> {
         check_finite("body force", &force_density)?;
         self.check_mesh(mesh)?;
-        for (t, tet) in mesh.tets().iter().enumerate() {
-            let share = force_density * (mesh.element_of(t).volume() / 4.0);
-            for &n in tet {
-                self.add_at(n, &share);
-            }
-        }
+        self.add_volume_loads(mesh, |_| force_density);
         Ok(self)
     }
 
+    /// Adds b(t)·∫Nᵢ dV to node i of every tet t (b constant in each tet).
+    fn add_volume_loads<E: ElementType>(
+        &mut self,
+        mesh: &TetMesh<E>,
+        force_density: impl Fn(usize) -> Vector3<f64>,
+    ) {
+        for (t, tet) in mesh.tets().iter().enumerate() {
+            let density = force_density(t);
+            let volume = E::volume(&E::rest(mesh, t));
+            for (i, &n) in tet.as_ref().iter().enumerate() {
+                self.add_at(n, &(density * E::VOLUME_LOAD.share(i, volume)));
+            }
+        }
+    }
+
     /// A body force density b(x) varying in space (force per volume): the consistent load
-    /// ∫ b·Nᵢ dV on each node, by the degree-5 rule of [`crate::quadrature::tet_rule`].
+    /// ∫ b·Nᵢ dV on each node of a linear tet, by the degree-5 rule of
+    /// [`crate::quadrature::tet_rule`].
     pub fn add_body_force_field(
         &mut self,
         mesh: &TetMesh,
@@ -114,29 +122,38 @@ impl Loads {
         Ok(self)
     }
 
-    /// A uniform traction t (force per area, Pa in SI) on boundary faces: each triangle gives
-    /// area/3 · t to each of its nodes (exact for linear shape functions).
-    pub fn add_traction(
+    /// A uniform traction t (force per area, Pa in SI) on boundary faces: each face gives
+    /// t·∫Nᵢ dA to its nodes ([`ElementType::FACE_LOAD`]: area/3 · t to each node of a 3-node
+    /// triangle; on a 6-node face nothing to the corners and area/3 · t to each edge node).
+    /// Exact for the element's shape functions.
+    pub fn add_traction<E: ElementType>(
         &mut self,
-        mesh: &TetMesh,
+        mesh: &TetMesh<E>,
         faces: &[BoundaryFace],
         traction: Vector3<f64>,
     ) -> Result<&mut Self> {
         check_finite("traction", &traction)?;
         self.check_faces(mesh, faces, "traction")?;
+        let mut forces = self.forces.clone();
         for face in faces {
-            let share = traction * (face.area_vector(mesh)?.norm() / 3.0);
-            for &n in &face.nodes {
-                self.add_at(n, &share);
+            let area = face.area_vector(mesh)?.norm();
+            let nodes = face.element_nodes(mesh)?;
+            for (i, &n) in nodes.iter().enumerate() {
+                let share = traction * E::FACE_LOAD.share(i, area);
+                for axis in 0..3 {
+                    forces[3 * n + axis] += share[axis];
+                }
             }
         }
+        // Only now, with every face checked, replace the loads: an error leaves them unchanged.
+        self.forces = forces;
         Ok(self)
     }
 
     /// A total force spread as a uniform traction over `faces` (traction = total / Σ area).
-    pub fn add_total_force_on_faces(
+    pub fn add_total_force_on_faces<E: ElementType>(
         &mut self,
-        mesh: &TetMesh,
+        mesh: &TetMesh<E>,
         faces: &[BoundaryFace],
         total: Vector3<f64>,
     ) -> Result<&mut Self> {
@@ -169,7 +186,7 @@ impl Loads {
         }
     }
 
-    fn check_mesh(&self, mesh: &TetMesh) -> Result<()> {
+    fn check_mesh<C: CellType>(&self, mesh: &TetMesh<C>) -> Result<()> {
         if mesh.dof_count() != self.forces.len() {
             return Err(Error::invalid_parameter(
                 "mesh",
@@ -183,9 +200,9 @@ impl Loads {
         Ok(())
     }
 
-    fn check_faces(
+    fn check_faces<C: CellType>(
         &self,
-        mesh: &TetMesh,
+        mesh: &TetMesh<C>,
         faces: &[BoundaryFace],
         context: &'static str,
     ) -> Result<()> {

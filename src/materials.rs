@@ -16,8 +16,8 @@ use nalgebra::Vector3;
 
 use crate::error::{Error, Result};
 use crate::material::Material;
-use crate::mesh::TetMesh;
 use crate::mesh::io::ImportedMesh;
+use crate::mesh::{CellType, TetMesh};
 
 /// The material of each tet: the common interface of a single [`Material`] (every tet the
 /// same) and a [`MaterialMap`].
@@ -28,9 +28,18 @@ pub trait TetMaterials: Sync {
     /// check [`check_tet_count`](Self::check_tet_count) first; for a map, a tet beyond its count
     /// panics.
     fn index_of(&self, tet: usize) -> usize;
-    /// An error unless these materials cover exactly the tets of `mesh` (always `Ok` for a
+    /// An error unless these materials cover exactly `tet_count` tets (always `Ok` for a
     /// single material).
-    fn check_tet_count(&self, mesh: &TetMesh) -> Result<()>;
+    fn check_covers(&self, tet_count: usize) -> Result<()>;
+
+    /// An error unless these materials cover exactly the tets of `mesh`, of any cell type
+    /// (always `Ok` for a single material).
+    fn check_tet_count<C: CellType>(&self, mesh: &TetMesh<C>) -> Result<()>
+    where
+        Self: Sized,
+    {
+        self.check_covers(mesh.tet_count())
+    }
 
     /// The material of tet `tet` (see [`index_of`](Self::index_of)).
     fn material_of(&self, tet: usize) -> &Material {
@@ -48,7 +57,7 @@ impl TetMaterials for Material {
         0
     }
 
-    fn check_tet_count(&self, _mesh: &TetMesh) -> Result<()> {
+    fn check_covers(&self, _tet_count: usize) -> Result<()> {
         Ok(())
     }
 }
@@ -63,8 +72,8 @@ impl<T: TetMaterials + ?Sized> TetMaterials for &T {
         (**self).index_of(tet)
     }
 
-    fn check_tet_count(&self, mesh: &TetMesh) -> Result<()> {
-        (**self).check_tet_count(mesh)
+    fn check_covers(&self, tet_count: usize) -> Result<()> {
+        (**self).check_covers(tet_count)
     }
 }
 
@@ -204,15 +213,12 @@ impl TetMaterials for MaterialMap {
         self.of_tet[tet] as usize
     }
 
-    fn check_tet_count(&self, mesh: &TetMesh) -> Result<()> {
-        if self.of_tet.len() != mesh.tet_count() {
+    fn check_covers(&self, tet_count: usize) -> Result<()> {
+        if self.of_tet.len() != tet_count {
             return Err(Error::invalid_parameter(
                 "material map",
                 format!("{} tets", self.of_tet.len()),
-                format!(
-                    "must give a material to each of the mesh's {} tets",
-                    mesh.tet_count()
-                ),
+                format!("must give a material to each of the mesh's {tet_count} tets"),
             ));
         }
         Ok(())

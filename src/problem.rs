@@ -18,6 +18,7 @@ use nalgebra::Vector3;
 
 use crate::assembly::{Assembler, lumped_mass_of};
 use crate::constraints::{Constraints, DofMap, Restriction, ensure_held};
+use crate::element::{ElementType, Tet4};
 use crate::error::{Error, Result};
 use crate::loads::Loads;
 use crate::materials::TetMaterials;
@@ -29,8 +30,8 @@ use crate::sparse::CscMatrix;
 /// Units: those of the mesh (length) and the materials passed in (stress, density); matrices
 /// built from it are in force/length (K) and mass (M).
 #[derive(Debug)]
-pub struct Problem<'a> {
-    mesh: &'a TetMesh,
+pub struct Problem<'a, E: ElementType = Tet4> {
+    mesh: &'a TetMesh<E>,
     dofs: DofMap,
     assembler: Assembler,
     restriction: Restriction,
@@ -38,12 +39,12 @@ pub struct Problem<'a> {
     constraints_time: Duration,
 }
 
-impl<'a> Problem<'a> {
+impl<'a, E: ElementType> Problem<'a, E> {
     /// Checks that `constraints` are made for the mesh's DOFs, numbers the free DOFs, checks
     /// that the constraints hold every rigid-body mode of every connected part
     /// ([`Error::NotConstrained`] otherwise), and builds the assembly pattern and its
     /// restriction to the free DOFs.
-    pub fn new(mesh: &'a TetMesh, constraints: &Constraints) -> Result<Self> {
+    pub fn new(mesh: &'a TetMesh<E>, constraints: &Constraints) -> Result<Self> {
         if constraints.dof_count() != mesh.dof_count() {
             return Err(Error::invalid_parameter(
                 "constraints",
@@ -69,7 +70,7 @@ impl<'a> Problem<'a> {
     }
 
     /// The mesh.
-    pub fn mesh(&self) -> &'a TetMesh {
+    pub fn mesh(&self) -> &'a TetMesh<E> {
         self.mesh
     }
 

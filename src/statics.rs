@@ -3,6 +3,7 @@
 use std::time::{Duration, Instant};
 
 use crate::constraints::{Constraints, DofMap};
+use crate::element::ElementType;
 use crate::error::{Error, Result};
 use crate::linear_solver::{LinearSolver, SolveInfo, SolverOptions};
 use crate::loads::Loads;
@@ -70,8 +71,8 @@ impl StaticSolver {
     /// Assembles K, checks that `constraints` leave no rigid-body motion
     /// ([`Error::NotConstrained`] otherwise), and factors K_ff. `materials`: one [`Material`]
     /// for every tet, or a [`MaterialMap`](crate::materials::MaterialMap).
-    pub fn new(
-        mesh: &TetMesh,
+    pub fn new<E: ElementType>(
+        mesh: &TetMesh<E>,
         materials: &impl TetMaterials,
         constraints: &Constraints,
     ) -> Result<Self> {
@@ -79,8 +80,8 @@ impl StaticSolver {
     }
 
     /// As [`new`](Self::new), with a chosen linear solver (direct or iterative, ordering, threads).
-    pub fn with_options(
-        mesh: &TetMesh,
+    pub fn with_options<E: ElementType>(
+        mesh: &TetMesh<E>,
         materials: &impl TetMaterials,
         constraints: &Constraints,
         options: SolverOptions,
@@ -109,8 +110,8 @@ impl StaticSolver {
     }
 
     /// Assembles K of a set-up problem with `materials` and factors K_ff.
-    pub fn of_problem(
-        problem: Problem<'_>,
+    pub fn of_problem<E: ElementType>(
+        problem: Problem<'_, E>,
         materials: &impl TetMaterials,
         options: SolverOptions,
     ) -> Result<Self> {
@@ -268,8 +269,8 @@ impl StaticSolver {
 }
 
 /// One-shot static solve: [`StaticSolver::new`] then [`StaticSolver::solve`].
-pub fn solve_static(
-    mesh: &TetMesh,
+pub fn solve_static<E: ElementType>(
+    mesh: &TetMesh<E>,
     materials: &impl TetMaterials,
     constraints: &Constraints,
     loads: &Loads,

@@ -1,11 +1,13 @@
 //! Tetrahedral meshes: validated storage, generators, topology and node/face selection.
 
+pub mod cell;
 mod generate;
 pub mod geometry;
 pub mod io;
 mod select;
 mod topology;
 
+pub use cell::{CellType, NodeList, Tet4};
 pub use generate::{BoxSplit, box_node_index};
 pub use topology::{BoundaryFace, FaceTopology};
 
@@ -21,33 +23,68 @@ use crate::mesh::geometry::{shape_quality, signed_volume};
 /// than a poor element.
 pub const DEGENERATE_QUALITY: f64 = 1e-10;
 
-/// A mesh of linear tetrahedra: node positions and, per tet, four node indices.
+/// A mesh of tetrahedra: node positions and, per tet, its node indices — four corners for the
+/// default linear cell [`Tet4`], plus edge nodes for higher-order cell types (see [`cell`]).
 ///
-/// Invariants, established by [`TetMesh::new`]: at least one tet; every coordinate finite; every
-/// index in range; no tet repeats a node; no tet degenerate (see [`DEGENERATE_QUALITY`]); every
-/// tet positively oriented, det[x₁−x₀ x₂−x₀ x₃−x₀] > 0.
+/// Invariants, established by [`TetMesh::new`] (and [`TetMesh::from_cells`] for any cell type):
+/// at least one tet; every coordinate finite; every index in range; no tet repeats a node; no tet
+/// degenerate (see [`DEGENERATE_QUALITY`]); every tet positively oriented,
+/// det[x₁−x₀ x₂−x₀ x₃−x₀] > 0 on its corners.
 #[derive(Debug, Clone)]
-pub struct TetMesh {
+pub struct TetMesh<C: CellType = Tet4> {
     nodes: Vec<Vector3<f64>>,
-    tets: Vec<[usize; 4]>,
+    tets: Vec<C::Nodes>,
     reoriented: usize,
 }
 
 /// Two meshes are equal when their nodes and (stored, positively oriented) tets are; how the
 /// tets were oriented on input does not matter.
-impl PartialEq for TetMesh {
+impl<C: CellType> PartialEq for TetMesh<C> {
     fn eq(&self, other: &Self) -> bool {
         self.nodes == other.nodes && self.tets == other.tets
     }
 }
 
 impl TetMesh {
-    /// Validates nodes and tets and builds the mesh.
+    /// Validates nodes and linear tets (four corner nodes each) and builds the mesh.
     ///
     /// A negatively oriented tet is reoriented by swapping its second and third nodes
     /// (`[a, b, c, d]` → `[a, c, b, d]`), so that every stored tet has positive volume; the
     /// element set is unchanged. Errors name the first offending tet or node.
-    pub fn new(nodes: Vec<Vector3<f64>>, mut tets: Vec<[usize; 4]>) -> Result<Self> {
+    pub fn new(nodes: Vec<Vector3<f64>>, tets: Vec<[usize; 4]>) -> Result<Self> {
+        Self::from_cells(nodes, tets)
+    }
+
+    /// Rest positions of tet `t`'s four nodes; [`Error::UnknownTet`] if `t >= tet_count()`.
+    pub fn tet_positions(&self, t: usize) -> Result<[Vector3<f64>; 4]> {
+        self.check_tet("TetMesh::tet_positions", t)?;
+        Ok(self.positions_of(t))
+    }
+
+    /// Rest positions of tet `t`, for loops over `0..tet_count()` (panics on a bad index).
+    #[inline]
+    pub(crate) fn positions_of(&self, t: usize) -> [Vector3<f64>; 4] {
+        self.tets[t].map(|n| self.nodes[n])
+    }
+
+    /// The same mesh with new node positions (e.g. a perturbed or deformed copy),
+    /// validated again.
+    pub fn with_nodes(&self, nodes: Vec<Vector3<f64>>) -> Result<Self> {
+        if nodes.len() != self.nodes.len() {
+            return Err(Error::invalid_parameter(
+                "nodes.len()",
+                nodes.len(),
+                format!("must equal the mesh's node count {}", self.nodes.len()),
+            ));
+        }
+        TetMesh::new(nodes, self.tets.clone())
+    }
+}
+
+impl<C: CellType> TetMesh<C> {
+    /// Validates nodes and cells of type `C` and builds the mesh; the checks of
+    /// [`TetMesh::new`], with the corners' orientation fixed by [`CellType::swap_corners_1_2`].
+    pub fn from_cells(nodes: Vec<Vector3<f64>>, mut tets: Vec<C::Nodes>) -> Result<Self> {
         if nodes.len() < 4 || tets.is_empty() {
             return Err(Error::EmptyMesh {
                 nodes: nodes.len(),
@@ -67,7 +104,8 @@ impl TetMesh {
         }
         let mut reoriented = 0;
         for (tet, t) in tets.iter_mut().enumerate() {
-            for (k, &node) in t.iter().enumerate() {
+            let all = t.as_ref();
+            for (k, &node) in all.iter().enumerate() {
                 if node >= nodes.len() {
                     return Err(Error::NodeIndexOutOfRange {
                         tet,
@@ -75,26 +113,27 @@ impl TetMesh {
                         node_count: nodes.len(),
                     });
                 }
-                if t[..k].contains(&node) {
+                if all[..k].contains(&node) {
                     return Err(Error::RepeatedNode {
                         tet,
                         node,
-                        nodes: *t,
+                        nodes: all.to_vec(),
                     });
                 }
             }
-            let x = t.map(|n| nodes[n]);
+            let x = t.corners().map(|n| nodes[n]);
             let quality = shape_quality(&x);
             if quality.is_nan() || quality < DEGENERATE_QUALITY {
                 return Err(Error::DegenerateTet {
                     tet,
-                    nodes: *t,
+                    nodes: t.corners(),
                     quality,
                     threshold: DEGENERATE_QUALITY,
                 });
             }
+            C::check_cell(tet, t, &nodes)?;
             if signed_volume(&x) < 0.0 {
-                t.swap(1, 2);
+                C::swap_corners_1_2(t);
                 reoriented += 1;
             }
         }
@@ -110,8 +149,8 @@ impl TetMesh {
         &self.nodes
     }
 
-    /// Tets as node-index quadruples, each positively oriented.
-    pub fn tets(&self) -> &[[usize; 4]] {
+    /// Tets as node-index arrays (corners first), each positively oriented.
+    pub fn tets(&self) -> &[C::Nodes] {
         &self.tets
     }
 
@@ -130,24 +169,25 @@ impl TetMesh {
         3 * self.nodes.len()
     }
 
-    /// Rest positions of tet `t`'s four nodes; [`Error::UnknownTet`] if `t >= tet_count()`.
-    pub fn tet_positions(&self, t: usize) -> Result<[Vector3<f64>; 4]> {
-        self.check_tet("TetMesh::tet_positions", t)?;
-        Ok(self.positions_of(t))
-    }
-
-    /// Total rest volume Σ Vₑ.
+    /// Total rest volume Σ Vₑ (of the straight-sided tets spanned by the corners).
     pub fn volume(&self) -> f64 {
         (0..self.tets.len())
-            .map(|t| signed_volume(&self.positions_of(t)))
+            .map(|t| signed_volume(&self.corner_positions_of(t)))
             .sum()
+    }
+
+    /// Rest positions of tet `t`'s four corners, for loops over `0..tet_count()` (panics on a
+    /// bad index).
+    #[inline]
+    pub(crate) fn corner_positions_of(&self, t: usize) -> [Vector3<f64>; 4] {
+        self.tets[t].corners().map(|n| self.nodes[n])
     }
 
     /// Nodes that no tet uses, ascending (they carry no stiffness and no mass).
     pub fn unused_nodes(&self) -> Vec<usize> {
         let mut used = vec![false; self.nodes.len()];
         for tet in &self.tets {
-            for &n in tet {
+            for &n in tet.as_ref() {
                 used[n] = true;
             }
         }
@@ -172,12 +212,6 @@ impl TetMesh {
         }
     }
 
-    /// Rest positions of tet `t`, for loops over `0..tet_count()` (panics on a bad index).
-    #[inline]
-    pub(crate) fn positions_of(&self, t: usize) -> [Vector3<f64>; 4] {
-        self.tets[t].map(|n| self.nodes[n])
-    }
-
     /// Axis-aligned bounding box (min corner, max corner).
     pub fn bounding_box(&self) -> (Vector3<f64>, Vector3<f64>) {
         let mut lo = self.nodes[0];
@@ -187,18 +221,5 @@ impl TetMesh {
             hi = hi.sup(p);
         }
         (lo, hi)
-    }
-
-    /// The same mesh with new node positions (e.g. a perturbed or deformed copy),
-    /// validated again.
-    pub fn with_nodes(&self, nodes: Vec<Vector3<f64>>) -> Result<Self> {
-        if nodes.len() != self.nodes.len() {
-            return Err(Error::invalid_parameter(
-                "nodes.len()",
-                nodes.len(),
-                format!("must equal the mesh's node count {}", self.nodes.len()),
-            ));
-        }
-        TetMesh::new(nodes, self.tets.clone())
     }
 }

@@ -2,7 +2,7 @@
 
 use nalgebra::Vector3;
 
-use super::{BoundaryFace, TetMesh};
+use super::{BoundaryFace, CellType, TetMesh};
 use crate::error::{Error, Result};
 
 /// [`Error::InvalidParameter`] unless `tolerance` (a selection distance, length units) is
@@ -31,7 +31,7 @@ fn check_axis(axis: usize) -> Result<()> {
     Ok(())
 }
 
-impl TetMesh {
+impl<C: CellType> TetMesh<C> {
     /// Indices of the nodes whose position satisfies `predicate`, ascending.
     pub fn nodes_where(&self, predicate: impl Fn(&Vector3<f64>) -> bool) -> Vec<usize> {
         (0..self.node_count())

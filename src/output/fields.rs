@@ -9,15 +9,15 @@
 
 use nalgebra::{Matrix3, Vector3};
 
-use crate::element::Vector12;
+use crate::element::ElementType;
 use crate::error::{Error, Result};
 use crate::materials::TetMaterials;
-use crate::mesh::TetMesh;
+use crate::mesh::{CellType, TetMesh};
 use crate::model::TetModels;
 
 pub use crate::element::von_mises;
 
-fn check_displacement(mesh: &TetMesh, displacement: &[f64]) -> Result<()> {
+fn check_displacement<C: CellType>(mesh: &TetMesh<C>, displacement: &[f64]) -> Result<()> {
     if displacement.len() != mesh.dof_count() {
         return Err(Error::invalid_parameter(
             "displacement",
@@ -28,37 +28,43 @@ fn check_displacement(mesh: &TetMesh, displacement: &[f64]) -> Result<()> {
     Ok(())
 }
 
-fn element_displacement(tet: &[usize; 4], displacement: &[f64]) -> Vector12 {
-    Vector12::from_fn(|i, _| displacement[3 * tet[i / 3] + i % 3])
+/// `f(t, uₑ)` for every tet t with its node-major element displacement uₑ (3 values per node).
+fn per_tet<C: CellType, T>(
+    mesh: &TetMesh<C>,
+    displacement: &[f64],
+    mut f: impl FnMut(usize, &[f64]) -> T,
+) -> Vec<T> {
+    let mut element = vec![0.0; 3 * C::NODES];
+    let mut values = Vec::with_capacity(mesh.tet_count());
+    for (t, tet) in mesh.tets().iter().enumerate() {
+        for (i, &n) in tet.as_ref().iter().enumerate() {
+            element[3 * i..3 * i + 3].copy_from_slice(&displacement[3 * n..3 * n + 3]);
+        }
+        values.push(f(t, &element));
+    }
+    values
 }
 
-/// Cauchy stress σ of every tet (constant per linear tet) for a node-major displacement.
+/// Cauchy stress σ of every tet for a node-major displacement (constant per linear tet; the
+/// volume average for higher-order elements, [`ElementType::mean_stress`]).
 ///
 /// `materials`: one [`Material`](crate::material::Material) for every tet, or a
 /// [`MaterialMap`](crate::materials::MaterialMap) (each tet's stress from its own material).
-pub fn cell_stress(
-    mesh: &TetMesh,
+pub fn cell_stress<E: ElementType>(
+    mesh: &TetMesh<E>,
     materials: &impl TetMaterials,
     displacement: &[f64],
 ) -> Result<Vec<Matrix3<f64>>> {
     check_displacement(mesh, displacement)?;
     materials.check_tet_count(mesh)?;
-    Ok(mesh
-        .tets()
-        .iter()
-        .enumerate()
-        .map(|(t, tet)| {
-            mesh.element_of(t).stress(
-                materials.material_of(t),
-                &element_displacement(tet, displacement),
-            )
-        })
-        .collect())
+    Ok(per_tet(mesh, displacement, |t, u| {
+        E::mean_stress(&E::rest(mesh, t), materials.material_of(t), u)
+    }))
 }
 
 /// Von Mises stress of every tet (stress units, Pa in SI).
-pub fn cell_von_mises(
-    mesh: &TetMesh,
+pub fn cell_von_mises<E: ElementType>(
+    mesh: &TetMesh<E>,
     materials: &impl TetMaterials,
     displacement: &[f64],
 ) -> Result<Vec<f64>> {
@@ -68,29 +74,19 @@ pub fn cell_von_mises(
         .collect())
 }
 
-/// Strain energy density ½ σ:ε of every tet (energy per volume, J/m³ = Pa in SI); summed with
-/// the tet volumes it gives the strain energy ½ uᵀKu.
-pub fn cell_strain_energy_density(
-    mesh: &TetMesh,
+/// Strain energy density ½ σ:ε of every tet (energy per volume, J/m³ = Pa in SI; the volume
+/// average for higher-order elements); summed with the tet volumes it gives the strain energy
+/// ½ uᵀKu.
+pub fn cell_strain_energy_density<E: ElementType>(
+    mesh: &TetMesh<E>,
     materials: &impl TetMaterials,
     displacement: &[f64],
 ) -> Result<Vec<f64>> {
     check_displacement(mesh, displacement)?;
     materials.check_tet_count(mesh)?;
-    Ok(mesh
-        .tets()
-        .iter()
-        .enumerate()
-        .map(|(t, tet)| {
-            let element = mesh.element_of(t);
-            let u = element_displacement(tet, displacement);
-            let strain = element.strain(&u);
-            0.5 * element
-                .stress(materials.material_of(t), &u)
-                .component_mul(&strain)
-                .sum()
-        })
-        .collect())
+    Ok(per_tet(mesh, displacement, |t, u| {
+        E::strain_energy_density(&E::rest(mesh, t), materials.material_of(t), u)
+    }))
 }
 
 /// Cauchy stress σ of every tet as `model` defines it ([`ForceModel::cauchy_stress`](crate::model::ForceModel::cauchy_stress), stress

@@ -7,9 +7,10 @@ use super::fields::{
     cell_model_energy_density, cell_model_von_mises, cell_strain_energy_density, cell_von_mises,
     displacement_magnitude,
 };
+use crate::element::ElementType;
 use crate::error::Result;
 use crate::materials::TetMaterials;
-use crate::mesh::TetMesh;
+use crate::mesh::{CellType, TetMesh};
 use crate::model::TetModels;
 
 /// Writes `path` (atomically) with point fields `displacement` (3 components),
@@ -18,9 +19,9 @@ use crate::model::TetModels;
 /// fields are those of the linear model, each tet with its own material (one
 /// [`Material`](crate::material::Material) or a [`MaterialMap`](crate::materials::MaterialMap));
 /// see [`write_model_result_vtu`] for a nonlinear run.
-pub fn write_result_vtu(
+pub fn write_result_vtu<E: ElementType>(
     path: &Path,
-    mesh: &TetMesh,
+    mesh: &TetMesh<E>,
     materials: &impl TetMaterials,
     displacement: &[f64],
     velocity: Option<&[f64]>,
@@ -45,9 +46,9 @@ pub fn write_model_result_vtu(
     write_fields(path, mesh, displacement, velocity, &von_mises, &energy)
 }
 
-fn write_fields(
+fn write_fields<C: CellType>(
     path: &Path,
-    mesh: &TetMesh,
+    mesh: &TetMesh<C>,
     displacement: &[f64],
     velocity: Option<&[f64]>,
     von_mises: &[f64],

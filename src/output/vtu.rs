@@ -1,26 +1,24 @@
-//! VTK XML unstructured grid (`.vtu`, ASCII) of a tet mesh with point and cell fields.
+//! VTK XML unstructured grid (`.vtu`, ASCII) of a tet mesh with point and cell fields, for
+//! any cell type (its VTK type and node order from [`CellType`]).
 
 use std::io::Write;
 use std::path::Path;
 
 use super::write_atomically;
 use crate::error::{Error, Result};
-use crate::mesh::TetMesh;
-
-/// VTK's cell type code for a linear tetrahedron.
-const VTK_TETRA: u8 = 10;
+use crate::mesh::{CellType, Tet4, TetMesh};
 
 /// Builder for one `.vtu` file: the mesh plus named fields, checked for length when added.
 #[derive(Debug, Clone)]
-pub struct VtuWriter<'a> {
-    mesh: &'a TetMesh,
+pub struct VtuWriter<'a, C: CellType = Tet4> {
+    mesh: &'a TetMesh<C>,
     point_fields: Vec<(String, usize, &'a [f64])>,
     cell_fields: Vec<(String, usize, &'a [f64])>,
 }
 
-impl<'a> VtuWriter<'a> {
+impl<'a, C: CellType> VtuWriter<'a, C> {
     /// A file for `mesh` with no fields yet.
-    pub fn new(mesh: &'a TetMesh) -> Self {
+    pub fn new(mesh: &'a TetMesh<C>) -> Self {
         VtuWriter {
             mesh,
             point_fields: Vec::new(),
@@ -81,7 +79,14 @@ impl<'a> VtuWriter<'a> {
             r#"        <DataArray type="Int64" Name="connectivity" format="ascii">"#
         )?;
         for t in mesh.tets() {
-            writeln!(out, "{} {} {} {}", t[0], t[1], t[2], t[3])?;
+            let mut line = String::new();
+            for (k, n) in t.as_ref().iter().enumerate() {
+                if k > 0 {
+                    line.push(' ');
+                }
+                line.push_str(&n.to_string());
+            }
+            writeln!(out, "{line}")?;
         }
         writeln!(out, "        </DataArray>")?;
         writeln!(
@@ -89,7 +94,7 @@ impl<'a> VtuWriter<'a> {
             r#"        <DataArray type="Int64" Name="offsets" format="ascii">"#
         )?;
         for c in 1..=mesh.tet_count() {
-            writeln!(out, "{}", 4 * c)?;
+            writeln!(out, "{}", C::NODES * c)?;
         }
         writeln!(out, "        </DataArray>")?;
         writeln!(
@@ -97,7 +102,7 @@ impl<'a> VtuWriter<'a> {
             r#"        <DataArray type="UInt8" Name="types" format="ascii">"#
         )?;
         for _ in 0..mesh.tet_count() {
-            writeln!(out, "{VTK_TETRA}")?;
+            writeln!(out, "{}", C::VTK_CELL_TYPE)?;
         }
         writeln!(out, "        </DataArray>")?;
         writeln!(out, "      </Cells>")?;

@@ -1,4 +1,4 @@
-//! Per-tetrahedron kinematics and the linear element stiffness.
+//! The linear 4-node tet: per-tetrahedron kinematics, the element stiffness and masses.
 //!
 //! A linear tet maps barycentric coordinates b to x = x₀ + Dm·b with the rest shape matrix
 //! Dm = [x₁−x₀ x₂−x₀ x₃−x₀]. The displacement is linear inside the tet, so its gradient, the
@@ -8,9 +8,10 @@ use nalgebra::{Matrix3, SMatrix, SVector, Vector3};
 
 pub use crate::mesh::geometry::{FACES, rest_shape_matrix, shape_quality, signed_volume};
 
+use super::{ElementType, Weights};
 use crate::error::{Error, Result};
 use crate::material::Material;
-use crate::mesh::TetMesh;
+use crate::mesh::{Tet4, TetMesh};
 
 /// 12×12 element matrix; DOF order node-major: `[u₀x u₀y u₀z u₁x … u₃z]`.
 pub type Matrix12 = SMatrix<f64, 12, 12>;
@@ -243,5 +244,83 @@ impl TetMesh {
         // reoriented the negative ones, which is all `Tet::new` checks.
         Tet::new(&self.positions_of(t))
             .expect("TetMesh invariant: every tet is positively oriented and non-degenerate")
+    }
+}
+
+/// The linear tet through the element seam: the same values, bit for bit, as [`Tet`]'s own
+/// methods (the one-point rule is exact: the gradients are constant).
+impl ElementType for Tet4 {
+    type Rest = Tet;
+
+    /// ρV/4 per node: the row sums of the consistent mass.
+    const LUMPED_MASS: Weights = Weights {
+        numerators: &[1.0; 4],
+        denominator: 4.0,
+    };
+    /// ∫Nᵢ dV = V/4.
+    const VOLUME_LOAD: Weights = Weights {
+        numerators: &[1.0; 4],
+        denominator: 4.0,
+    };
+    /// ∫Nᵢ dA = A/3 on a 3-node triangle.
+    const FACE_LOAD: Weights = Weights {
+        numerators: &[1.0; 3],
+        denominator: 3.0,
+    };
+
+    #[inline]
+    fn rest(mesh: &TetMesh, t: usize) -> Tet {
+        mesh.element_of(t)
+    }
+
+    #[inline]
+    fn volume(rest: &Tet) -> f64 {
+        rest.volume
+    }
+
+    /// V·(λ ∇Nᵢ∇Nⱼᵀ + μ ∇Nⱼ∇Nᵢᵀ + μ (∇Nᵢ·∇Nⱼ) I), written as [`Tet::stiffness`] evaluates it
+    /// (same products, same sum order), so that the two paths agree to the bit; the identity
+    /// term only touches the diagonal, where `Tet::stiffness`'s +0.0 elsewhere changes no sum.
+    #[inline(always)]
+    fn stiffness_block(
+        rest: &Tet,
+        lame_lambda: f64,
+        shear_modulus: f64,
+        i: usize,
+        j: usize,
+    ) -> [[f64; 3]; 3] {
+        let lambda = lame_lambda * rest.volume;
+        let mu = shear_modulus * rest.volume;
+        let (gi, gj) = (&rest.gradients[i], &rest.gradients[j]);
+        let shear = mu * (gi[0] * gj[0] + gi[1] * gj[1] + gi[2] * gj[2]);
+        let mut k = [[0.0; 3]; 3];
+        for a in 0..3 {
+            for b in 0..3 {
+                let value = gi[b] * gj[a] * lambda + gj[b] * gi[a] * mu;
+                k[a][b] = if a == b { value + shear } else { value };
+            }
+        }
+        k
+    }
+
+    /// ρV/20·(1 + δᵢⱼ), as [`Tet::consistent_mass`].
+    #[inline]
+    fn mass_coefficient(rest: &Tet, density: f64, i: usize, j: usize) -> f64 {
+        let scale = density * rest.volume / 20.0;
+        if i == j { 2.0 * scale } else { scale }
+    }
+
+    /// The constant stress of [`Tet::stress`].
+    fn mean_stress(rest: &Tet, material: &Material, u: &[f64]) -> Matrix3<f64> {
+        rest.stress(material, &Vector12::from_column_slice(u))
+    }
+
+    /// ½ σ:ε, constant in the tet.
+    fn strain_energy_density(rest: &Tet, material: &Material, u: &[f64]) -> f64 {
+        let u = Vector12::from_column_slice(u);
+        0.5 * rest
+            .stress(material, &u)
+            .component_mul(&rest.strain(&u))
+            .sum()
     }
 }

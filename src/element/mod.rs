@@ -1,0 +1,20 @@
+//! Elements: what one tet computes from its rest shape — shape-function gradients, the
+//! linear-elastic stiffness, masses and consistent loads.
+//!
+//! An element type is one file here implementing [`ElementType`] (and, for a new node layout,
+//! [`CellType`](crate::mesh::CellType)); assembly, constraints, loads and outputs take it as a
+//! type parameter:
+//! - [`tet4`]: the linear 4-node tet ([`Tet4`], its rest data [`Tet`]), constant strain;
+//! - [`tet10`]: the quadratic 10-node tet ([`Tet10`]), linear strain.
+
+mod element_type;
+pub mod tet10;
+mod tet4;
+
+pub use crate::mesh::{CellType, Tet4};
+pub use element_type::{ElementType, Weights};
+pub use tet4::{
+    FACES, Matrix6x12, Matrix12, Tet, Vector12, rest_shape_matrix, shape_quality, signed_volume,
+    von_mises,
+};
+pub use tet10::Tet10;
