@@ -510,6 +510,27 @@ impl PyMesh {
         index_rows(py, &faces)
     }
 
+    /// A mesh from a ``meshio.Mesh`` (its points and ``tetra`` cells; needs meshio):
+    /// ``tetfem.from_meshio``.
+    #[staticmethod]
+    fn from_meshio<'py>(py: Python<'py>, mesh: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyAny>> {
+        py.import("tetfem.meshio_interop")?
+            .call_method1("from_meshio", (mesh,))
+    }
+
+    /// This mesh as a ``meshio.Mesh`` with optional ``point_data`` (one row per node) and
+    /// ``cell_data`` (one entry per tet); needs meshio: ``tetfem.to_meshio``.
+    #[pyo3(signature = (point_data = None, cell_data = None))]
+    fn to_meshio<'py>(
+        slf: &Bound<'py, Self>,
+        point_data: Option<&Bound<'py, PyAny>>,
+        cell_data: Option<&Bound<'py, PyAny>>,
+    ) -> PyResult<Bound<'py, PyAny>> {
+        slf.py()
+            .import("tetfem.meshio_interop")?
+            .call_method1("to_meshio", (slf, point_data, cell_data))
+    }
+
     fn __repr__(&self) -> String {
         format!(
             "Mesh({} nodes, {} tets, {} boundary faces)",

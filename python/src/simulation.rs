@@ -131,6 +131,17 @@ impl PySimulation {
         .or_raise(py)
     }
 
+    /// The free-DOF entries of `value`, given as (3,) for every node or (n, 3), finite.
+    fn free_values(
+        &self,
+        py: Python<'_>,
+        value: &Bound<'_, PyAny>,
+        name: &str,
+    ) -> PyResult<Vec<f64>> {
+        let values = arrays::rows_per_item(py, value, name, self.data.mesh.node_count())?;
+        self.system.dofs().restrict(&values).or_raise(py)
+    }
+
     /// A free-DOF vector as an (n, 3) array over all nodes, zero on constrained DOFs.
     fn scatter<'py>(&self, py: Python<'py>, free: &[f64]) -> PyResult<Bound<'py, PyAny>> {
         let mut full = vec![0.0; self.data.mesh.dof_count()];
@@ -365,10 +376,25 @@ impl PySimulation {
         )
     }
 
+    /// Sets the displacement (shape (n, 3), m) of the free DOFs; the constrained ones keep
+    /// their prescribed values. Time and step count are unchanged.
+    #[setter]
+    fn set_displacement(&mut self, py: Python<'_>, value: &Bound<'_, PyAny>) -> PyResult<()> {
+        self.state.displacement = self.free_values(py, value, "displacement")?;
+        Ok(())
+    }
+
     /// Velocity of every node, shape (n, 3), m/s (zero on constrained DOFs).
     #[getter]
     fn velocity<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
         self.scatter(py, &self.state.velocity)
+    }
+
+    /// Sets the velocity (shape (3,) for every node or (n, 3), m/s) of the free DOFs.
+    #[setter]
+    fn set_velocity(&mut self, py: Python<'_>, value: &Bound<'_, PyAny>) -> PyResult<()> {
+        self.state.velocity = self.free_values(py, value, "velocity")?;
+        Ok(())
     }
 
     /// The explicit method's critical time step (s): 2/ω_max by power iteration for a lumped

@@ -29,3 +29,9 @@ def test_a_mesh_without_tets_is_refused():
     triangles = meshio.Mesh(np.zeros((3, 3)), [("triangle", np.array([[0, 1, 2]]))])
     with pytest.raises(tetfem.InvalidInputError, match="tetra"):
         tetfem.from_meshio(triangles)
+
+
+def test_mesh_methods_delegate_to_the_functions():
+    mesh = tetfem.Mesh.box(max=(1.0, 0.1, 0.1), cells=(3, 1, 1))
+    again = tetfem.Mesh.from_meshio(mesh.to_meshio(cell_data={"index": np.arange(mesh.tet_count)}))
+    assert np.array_equal(again.points, mesh.points) and np.array_equal(again.tets, mesh.tets)
