@@ -447,7 +447,7 @@ pub struct DynamicSummary {
     pub frames: usize,
     /// Files written.
     pub files: Vec<PathBuf>,
-    /// The force model (`linear`, `corotational`, `neo-hookean`).
+    /// The force model (`linear`, `corotational`, `neo-hookean`, `st-venant-kirchhoff`).
     pub model: String,
     /// Newton iterations of an implicit method with a nonlinear model (total, most in one
     /// step); `None` for the linear model and the explicit method.

@@ -270,8 +270,9 @@ pub struct AnalysisSpec {
     /// Dynamic: initial velocity of every node (m/s, default zero).
     #[serde(default)]
     pub initial_velocity: Option<[f64; 3]>,
-    /// The force model, `"linear"` (default), `"corotational"` or `"neo-hookean"`. Static: the
-    /// nonlinear ones are solved by Newton with load steps. Dynamic (every method): the implicit
+    /// The force model, `"linear"` (default), `"corotational"`, `"neo-hookean"` or
+    /// `"st-venant-kirchhoff"`. Static: the nonlinear ones are solved by Newton with load
+    /// steps. Dynamic (every method): the implicit
     /// methods solve each step by Newton (iterations in the summary), the explicit one evaluates
     /// the nonlinear force; fixed constraints must be zero-valued.
     #[serde(default)]
