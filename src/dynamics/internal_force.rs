@@ -18,6 +18,7 @@ use crate::error::{Error, Result};
 use crate::mesh::TetMesh;
 use crate::model::assemble::{energy, internal_force, refill_tangent};
 use crate::model::{ForceModel, ModelKind, ModelMap, TetModels};
+use crate::problem::Problem;
 use crate::sparse::CscMatrix;
 
 /// The elastic force law of a dynamic run.
@@ -182,8 +183,7 @@ impl NonlinearForce {
                 "a nonlinear force model in dynamics supports fixed (zero) constraints only",
             ));
         }
-        let assembler = Assembler::new(&mesh);
-        let restriction = dofs.restriction(assembler.pattern())?;
+        let (assembler, restriction) = Problem::with_dofs(&mesh, dofs.clone())?.into_assembly();
         let pattern = Arc::clone(system.stiffness().pattern());
         let same = restriction.pattern().col_ptr() == pattern.col_ptr()
             && restriction.pattern().row_idx() == pattern.row_idx();
