@@ -264,11 +264,15 @@ impl DynamicSetup {
     /// [`InternalForce::Linear`], the fast path). Errors: a non-zero prescribed displacement
     /// with a nonlinear model, naming its DOF.
     pub fn with_model(mut self, kind: tetfem::model::ModelKind) -> Result<Self> {
-        self.force = InternalForce::of_models(
-            Arc::new(self.mesh.clone()),
-            kind.build_map(&self.materials),
-            &self.system,
-        )?;
+        self.force = match kind {
+            // No copy of the mesh for the fast path.
+            tetfem::model::ModelKind::Linear => InternalForce::Linear,
+            nonlinear => InternalForce::of_models(
+                Arc::new(self.mesh.clone()),
+                nonlinear.build_map(&self.materials),
+                &self.system,
+            )?,
+        };
         Ok(self)
     }
 
