@@ -274,7 +274,8 @@ pub struct AnalysisSpec {
     /// `"st-venant-kirchhoff"`. Static: the nonlinear ones are solved by Newton with load
     /// steps. Dynamic (every method): the implicit
     /// methods solve each step by Newton (iterations in the summary), the explicit one evaluates
-    /// the nonlinear force; fixed constraints must be zero-valued.
+    /// the nonlinear force; fixed constraints must be zero-valued. Each `[[materials]]` region
+    /// gets its own model of this kind (static and dynamic).
     #[serde(default)]
     pub model: Option<String>,
     /// Static (linear model) and dynamic (implicit methods): how the linear systems are solved,
