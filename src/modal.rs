@@ -6,10 +6,14 @@
 //! evaluating r can reach, whatever the conditioning of K. (The change of ω² between
 //! iterations, the test used before, stalls near ε·λ_max/λ₁ relative — about 1e-8 on a slender
 //! beam — and never met a 1e-12 tolerance.)
+//!
+//! Modal analysis is linear only: its K is the linear model's (every model's tangent at rest).
+//! [`lowest_modes_with_force`] is the entry that takes the force model every other analysis
+//! takes, and refuses a nonlinear one with an error naming it.
 
 use nalgebra::{DMatrix, SymmetricEigen};
 
-use crate::dynamics::{LinearSystem, Mass};
+use crate::dynamics::{InternalForce, LinearSystem, Mass};
 use crate::error::{Error, Result};
 use crate::linsolve::SparseCholesky;
 use crate::sparse::CscMatrix;
@@ -51,6 +55,28 @@ impl Modes {
             .map(|w| w / (2.0 * std::f64::consts::PI))
             .collect()
     }
+}
+
+/// [`lowest_modes`] of `system` with the elastic force law `force`, which must be
+/// [`InternalForce::Linear`]: the modes solve K·φ = ω²·M·φ with the constant K_ff, a property of
+/// the linear model. A nonlinear model (corotational, Neo-Hookean) has a tangent that changes
+/// with the deformation and no such eigenproblem; it is [`Error::InvalidParameter`] naming the
+/// model, checked before any work. (Its tangent at rest is the linear K_ff, so the linear
+/// model gives the small-vibration modes of the undeformed body.)
+pub fn lowest_modes_with_force(
+    system: &LinearSystem,
+    force: &InternalForce,
+    count: usize,
+) -> Result<Modes> {
+    if force.is_nonlinear() {
+        return Err(Error::invalid_parameter(
+            "model",
+            force.name(),
+            "modal analysis is linear only (K·φ = ω²·M·φ with the constant stiffness of the \
+             linear model); use the linear model, whose K is every model's tangent at rest",
+        ));
+    }
+    lowest_modes(system, count)
 }
 
 /// The `count` lowest modes, converged until each mode's scaled eigen-residual

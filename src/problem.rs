@@ -9,7 +9,9 @@
 //!
 //! [`StaticSolver`](crate::statics::StaticSolver), [`solve_nonlinear_static`](crate::nonlinear::solve_nonlinear_static)
 //! and [`LinearSystem::new`](crate::dynamics::LinearSystem::new) build from it; what they add is
-//! their own analysis.
+//! their own analysis. The integrators' nonlinear force
+//! ([`NonlinearForce`](crate::dynamics::NonlinearForce)) takes its pattern and restriction from
+//! the same set-up (`Problem::with_dofs`) on the DOF map of the system it acts on.
 
 use std::sync::Arc;
 use std::time::{Duration, Instant};
@@ -22,7 +24,7 @@ use crate::element::{ElementType, Tet4};
 use crate::error::{Error, Result};
 use crate::loads::Loads;
 use crate::materials::TetMaterials;
-use crate::mesh::TetMesh;
+use crate::mesh::{CellType, TetMesh};
 use crate::sparse::CscMatrix;
 
 /// Mesh, free DOFs, assembly pattern and free-DOF restriction of one problem.
@@ -45,19 +47,27 @@ impl<'a, E: ElementType> Problem<'a, E> {
     /// ([`Error::NotConstrained`] otherwise), and builds the assembly pattern and its
     /// restriction to the free DOFs.
     pub fn new(mesh: &'a TetMesh<E>, constraints: &Constraints) -> Result<Self> {
-        if constraints.dof_count() != mesh.dof_count() {
-            return Err(Error::invalid_parameter(
-                "constraints",
-                format!("{} DOFs", constraints.dof_count()),
-                format!("must be made for this mesh ({} DOFs)", mesh.dof_count()),
-            ));
-        }
+        ensure_mesh_dofs(mesh, "constraints", constraints.dof_count())?;
+        let clock = Instant::now();
+        let dofs = DofMap::new(constraints);
+        ensure_held(mesh, &mesh.face_topology()?, &dofs)?;
+        let checks = clock.elapsed();
+        let mut problem = Self::with_dofs(mesh, dofs)?;
+        problem.constraints_time += checks;
+        Ok(problem)
+    }
+
+    /// The assembly pattern and its restriction to the free DOFs of `dofs`, a numbering made
+    /// already (a [`LinearSystem`](crate::dynamics::LinearSystem)'s, whose rigid-mode check
+    /// [`new`](Self::new) did when the system was built; not repeated here).
+    ///
+    /// Errors: `dofs` is not a numbering of this mesh's DOFs.
+    pub(crate) fn with_dofs(mesh: &'a TetMesh<E>, dofs: DofMap) -> Result<Self> {
+        ensure_mesh_dofs(mesh, "DOF map", dofs.full_count())?;
         let clock = Instant::now();
         let assembler = Assembler::new(mesh);
         let pattern_time = clock.elapsed();
         let clock = Instant::now();
-        let dofs = DofMap::new(constraints);
-        ensure_held(mesh, &mesh.face_topology()?, &dofs)?;
         let restriction = dofs.restriction(assembler.pattern())?;
         Ok(Problem {
             mesh,
@@ -143,4 +153,23 @@ impl<'a, E: ElementType> Problem<'a, E> {
     pub fn into_dofs(self) -> DofMap {
         self.dofs
     }
+
+    /// The assembly pattern and the free-DOF restriction, consuming the problem: what a force
+    /// law that outlives the mesh borrow keeps.
+    pub(crate) fn into_assembly(self) -> (Assembler, Restriction) {
+        (self.assembler, self.restriction)
+    }
+}
+
+/// [`Error::InvalidParameter`] naming `what` (constraints, a DOF map) unless it has `count` =
+/// the mesh's DOF count, 3 per node.
+fn ensure_mesh_dofs<C: CellType>(mesh: &TetMesh<C>, what: &str, count: usize) -> Result<()> {
+    if count != mesh.dof_count() {
+        return Err(Error::invalid_parameter(
+            what,
+            format!("{count} DOFs"),
+            format!("must be made for this mesh ({} DOFs)", mesh.dof_count()),
+        ));
+    }
+    Ok(())
 }

@@ -4,7 +4,8 @@
 //! the [`LinearSystem`]'s constant K_ff: the integrators then run their linear code unchanged
 //! (one factorization per dt, the 3×3 node-block products, the fused step loops), so the linear
 //! results are the same bits as before the seam existed. [`InternalForce::Nonlinear`] is a
-//! [`ForceModel`] (corotational, Neo-Hookean, …): f_int(u) = Σₑ fₑ(X + u) and the tangent
+//! [`ForceModel`] (corotational, Neo-Hookean, …) for every tet, or one per material
+//! ([`ModelMap`]): f_int(u) = Σₑ fₑ(X + u), each tet with its own model, and the tangent
 //! K_T(u) = −∂f_int/∂u on K_ff's own pattern, so the implicit methods refactor numerically on
 //! the symbolic analysis they made for K_ff.
 
@@ -15,8 +16,9 @@ use crate::assembly::Assembler;
 use crate::constraints::Restriction;
 use crate::error::{Error, Result};
 use crate::mesh::TetMesh;
-use crate::model::ForceModel;
 use crate::model::assemble::{energy, internal_force, refill_tangent};
+use crate::model::{ForceModel, ModelKind, ModelMap, TetModels};
+use crate::problem::Problem;
 use crate::sparse::CscMatrix;
 
 /// The elastic force law of a dynamic run.
@@ -25,7 +27,8 @@ pub enum InternalForce {
     /// f_int = −K_ff·u with the system's constant stiffness: every linear fast path.
     #[default]
     Linear,
-    /// A nonlinear [`ForceModel`] on the system's mesh (see [`NonlinearForce`]).
+    /// A nonlinear [`ForceModel`] (one for every tet, or one per material) on the system's
+    /// mesh (see [`NonlinearForce`]).
     Nonlinear(Arc<NonlinearForce>),
 }
 
@@ -33,7 +36,7 @@ impl std::fmt::Debug for InternalForce {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         match self {
             InternalForce::Linear => f.write_str("Linear"),
-            InternalForce::Nonlinear(n) => write!(f, "Nonlinear({})", n.model.name()),
+            InternalForce::Nonlinear(n) => write!(f, "Nonlinear({})", n.name),
         }
     }
 }
@@ -55,11 +58,25 @@ impl InternalForce {
         )?)))
     }
 
+    /// The force of one model per material (`models`, e.g. [`ModelKind::build_map`] of the
+    /// system's [`MaterialMap`](crate::materials::MaterialMap)) on `mesh` for `system` (see
+    /// [`NonlinearForce::with_models`]); a map of linear models gives [`InternalForce::Linear`],
+    /// the fast path on the system's K_ff (which holds each tet's own material when the system
+    /// was built from the same map).
+    pub fn of_models(mesh: Arc<TetMesh>, models: ModelMap, system: &LinearSystem) -> Result<Self> {
+        if models.kind() == ModelKind::Linear {
+            return Ok(InternalForce::Linear);
+        }
+        Ok(InternalForce::Nonlinear(Arc::new(
+            NonlinearForce::with_models(mesh, models, system)?,
+        )))
+    }
+
     /// The model's name: `linear`, `corotational`, `neo-hookean`.
     pub fn name(&self) -> &'static str {
         match self {
             InternalForce::Linear => "linear",
-            InternalForce::Nonlinear(n) => n.model.name(),
+            InternalForce::Nonlinear(n) => n.name,
         }
     }
 
@@ -79,7 +96,8 @@ impl InternalForce {
     }
 }
 
-/// A nonlinear [`ForceModel`] on the free DOFs of a [`LinearSystem`].
+/// A nonlinear force law on the free DOFs of a [`LinearSystem`]: one [`ForceModel`] for every
+/// tet, or one per material ([`ModelMap`]), each tet's force and tangent from its own model.
 ///
 /// The system supplies the mass, damping, loads and DOF map. Its K_ff is the model's tangent at
 /// rest (for the corotational and Neo-Hookean models it equals the linear stiffness there): it
@@ -90,7 +108,10 @@ impl InternalForce {
 /// which has no meaning for a nonlinear force.
 pub struct NonlinearForce {
     mesh: Arc<TetMesh>,
-    model: Box<dyn ForceModel>,
+    /// The model of each tet: a boxed [`ForceModel`] or a [`ModelMap`].
+    models: Box<dyn TetModels + Send>,
+    /// The models' name (`corotational`, `neo-hookean`, …).
+    name: &'static str,
     assembler: Assembler,
     restriction: Restriction,
     /// K_ff's pattern (the `Arc` of the system's stiffness): the tangents are handed out on it.
@@ -109,6 +130,33 @@ impl NonlinearForce {
     pub fn new(
         mesh: Arc<TetMesh>,
         model: Box<dyn ForceModel>,
+        system: &LinearSystem,
+    ) -> Result<Self> {
+        let name = model.name();
+        Self::of_tet_models(mesh, Box::new(model), name, system)
+    }
+
+    /// The force of one model per material (`models`) on `mesh` for `system`: each tet's force
+    /// and tangent from the model of its material, so regions of different stiffness (and
+    /// density, through the system's mass) move together.
+    ///
+    /// Errors: those of [`new`](Self::new), and [`Error::InvalidParameter`] when the map's
+    /// material map does not give a material to each of the mesh's tets (naming both counts).
+    pub fn with_models(
+        mesh: Arc<TetMesh>,
+        models: ModelMap,
+        system: &LinearSystem,
+    ) -> Result<Self> {
+        models.check_tet_count(&mesh)?;
+        let name = models.kind().name();
+        Self::of_tet_models(mesh, Box::new(models), name, system)
+    }
+
+    /// The checks and set-up of [`new`](Self::new) and [`with_models`](Self::with_models).
+    fn of_tet_models(
+        mesh: Arc<TetMesh>,
+        models: Box<dyn TetModels + Send>,
+        name: &'static str,
         system: &LinearSystem,
     ) -> Result<Self> {
         let dofs = system.dofs();
@@ -135,8 +183,7 @@ impl NonlinearForce {
                 "a nonlinear force model in dynamics supports fixed (zero) constraints only",
             ));
         }
-        let assembler = Assembler::new(&mesh);
-        let restriction = dofs.restriction(assembler.pattern())?;
+        let (assembler, restriction) = Problem::with_dofs(&mesh, dofs.clone())?.into_assembly();
         let pattern = Arc::clone(system.stiffness().pattern());
         let same = restriction.pattern().col_ptr() == pattern.col_ptr()
             && restriction.pattern().row_idx() == pattern.row_idx();
@@ -151,16 +198,23 @@ impl NonlinearForce {
             free_dofs: dofs.free_dofs().to_vec(),
             prescribed: dofs.prescribed().to_vec(),
             mesh,
-            model,
+            models,
+            name,
             assembler,
             restriction,
             pattern,
         })
     }
 
-    /// The model.
-    pub fn model(&self) -> &dyn ForceModel {
-        self.model.as_ref()
+    /// The model of each tet (one for all, or one per material): what the outputs evaluate
+    /// stresses and energy densities with.
+    pub fn models(&self) -> &(dyn TetModels + Send) {
+        self.models.as_ref()
+    }
+
+    /// The models' name: `corotational`, `neo-hookean`, …
+    pub fn name(&self) -> &'static str {
+        self.name
     }
 
     /// The mesh.
@@ -201,7 +255,7 @@ impl NonlinearForce {
         Error::check_len("displacement", self.free_count(), u.len())?;
         Error::check_len("force", self.free_count(), out.len())?;
         self.expand_into(u, &mut work.full);
-        let full = internal_force(&self.mesh, self.model.as_ref(), &work.full)?;
+        let full = internal_force(&self.mesh, self.models.as_ref(), &work.full)?;
         for (o, &d) in out.iter_mut().zip(&self.free_dofs) {
             *o = full[d];
         }
@@ -230,7 +284,7 @@ impl NonlinearForce {
         refill_tangent(
             &self.mesh,
             &self.assembler,
-            self.model.as_ref(),
+            self.models.as_ref(),
             &work.full,
             project,
             &mut work.full_tangent,
@@ -246,7 +300,7 @@ impl NonlinearForce {
         Error::check_len("displacement", self.free_count(), u.len())?;
         let mut full = vec![0.0; self.mesh.dof_count()];
         self.expand_into(u, &mut full);
-        energy(&self.mesh, self.model.as_ref(), &full)
+        energy(&self.mesh, self.models.as_ref(), &full)
     }
 
     /// The energies of `state`: ½vᵀMv, the model's elastic energy, and the system's load

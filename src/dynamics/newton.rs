@@ -116,7 +116,7 @@ pub(crate) struct NewtonSolver {
 impl std::fmt::Debug for NewtonSolver {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("NewtonSolver")
-            .field("model", &self.force.model().name())
+            .field("model", &self.force.name())
             .field("options", &self.options)
             .field("stats", &self.stats)
             .finish_non_exhaustive()

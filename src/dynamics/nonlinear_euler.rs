@@ -1,5 +1,9 @@
 //! Backward Euler for nonlinear force models, set up from a mesh in one call: a thin wrapper of
-//! [`BackwardEuler`] with an [`InternalForce::Nonlinear`], kept for its callers.
+//! [`BackwardEuler`] with an [`InternalForce::Nonlinear`], kept for its callers. It writes no
+//! set-up of its own: the system comes from [`LinearSystem::new`] (the shared
+//! [`Problem`](crate::problem::Problem): DOF map, rigid-mode check, pattern, restriction), the
+//! force and its zero-constraint check from [`NonlinearForce::new`], the step's matrix, solver
+//! and Newton solver from [`BackwardEuler::with_force`] (the implicit methods' shared parts).
 
 use std::sync::Arc;
 
@@ -9,7 +13,7 @@ use super::{
     BackwardEuler, Energy, Integrator, IntegratorOptions, InternalForce, LinearSystem, MassKind,
     NewtonStats, NonlinearForce, Rayleigh, State, check_time_step,
 };
-use crate::constraints::{Constraints, DofMap, ensure_held};
+use crate::constraints::{Constraints, DofMap};
 use crate::error::{Error, Result};
 use crate::linsolve::CholeskyOptions;
 use crate::loads::Loads;
@@ -40,7 +44,7 @@ pub struct NonlinearBackwardEuler {
 impl std::fmt::Debug for NonlinearBackwardEuler {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("NonlinearBackwardEuler")
-            .field("model", &self.force.model().name())
+            .field("model", &self.force.name())
             .field("free_dofs", &self.system.free_count())
             .field("dt", &self.dt)
             .finish_non_exhaustive()
@@ -52,8 +56,9 @@ impl NonlinearBackwardEuler {
     /// `material`, constant `loads` plus `gravity` (acceleration), and time step `dt`.
     ///
     /// Errors: dt not finite and > 0; constraints or loads of another mesh
-    /// ([`Error::DimensionMismatch`]); a non-zero prescribed displacement; constraints that
-    /// leave a rigid motion free.
+    /// ([`Error::DimensionMismatch`]); constraints that leave a rigid motion free (from
+    /// [`LinearSystem::new`]); a non-zero prescribed displacement, naming its DOF (from
+    /// [`NonlinearForce::new`]).
     pub fn new(
         mesh: Arc<TetMesh>,
         material: &Material,
@@ -70,15 +75,6 @@ impl NonlinearBackwardEuler {
             constraints.dof_count(),
         )?;
         Error::check_len("loads", mesh.dof_count(), loads.as_slice().len())?;
-        let dofs = DofMap::new(constraints);
-        if dofs.prescribed().iter().any(|&v| v != 0.0) {
-            return Err(Error::invalid_parameter(
-                "constraints",
-                "non-zero prescribed displacement",
-                "the nonlinear backward Euler supports fixed (zero) constraints only",
-            ));
-        }
-        ensure_held(&mesh, &mesh.face_topology()?, &dofs)?;
         let system = LinearSystem::new(
             &mesh,
             material,

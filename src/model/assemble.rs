@@ -33,22 +33,33 @@ fn positions(mesh: &TetMesh, t: usize, u: &[f64]) -> [Vector3<f64>; 4] {
     mesh.tets()[t].map(|n| mesh.nodes()[n] + Vector3::new(u[3 * n], u[3 * n + 1], u[3 * n + 2]))
 }
 
+/// Tets per partial sum of [`energy`]: fixed, so that the sum is the same bits whatever the
+/// number of threads (rayon's own `sum` splits where the work-stealing happens to).
+const ENERGY_CHUNK: usize = 1024;
+
 /// Total elastic energy Σₑ Eₑ at displacement `u` (full length); `model` is one force model
-/// for every tet or a [`ModelMap`](super::ModelMap) (one per material).
+/// for every tet or a [`ModelMap`](super::ModelMap) (one per material). Summed in fixed chunks
+/// of tets, in order: the same bits on any number of threads.
 pub fn energy(mesh: &TetMesh, model: &(impl TetModels + ?Sized), u: &[f64]) -> Result<f64> {
     use rayon::prelude::*;
     check_displacement(mesh, u)?;
     model.check_tet_count(mesh)?;
-    Ok((0..mesh.tet_count())
+    let tets = mesh.tet_count();
+    let partial: Vec<f64> = (0..tets.div_ceil(ENERGY_CHUNK))
         .into_par_iter()
-        .map(|t| {
-            model.model_of(t).energy(
-                &mesh.element_of(t),
-                &mesh.positions_of(t),
-                &positions(mesh, t, u),
-            )
+        .map(|chunk| {
+            (chunk * ENERGY_CHUNK..((chunk + 1) * ENERGY_CHUNK).min(tets))
+                .map(|t| {
+                    model.model_of(t).energy(
+                        &mesh.element_of(t),
+                        &mesh.positions_of(t),
+                        &positions(mesh, t, u),
+                    )
+                })
+                .sum::<f64>()
         })
-        .sum())
+        .collect();
+    Ok(partial.iter().sum())
 }
 
 /// Internal force vector Σₑ fₑ at displacement `u` (full length, force units), each tet with

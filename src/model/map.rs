@@ -54,6 +54,7 @@ impl TetModels for Box<dyn ForceModel + '_> {
 
 /// One force model per material, and the materials' tet map.
 pub struct ModelMap {
+    kind: ModelKind,
     models: Vec<Box<dyn ForceModel>>,
     materials: MaterialMap,
 }
@@ -61,6 +62,7 @@ pub struct ModelMap {
 impl std::fmt::Debug for ModelMap {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("ModelMap")
+            .field("kind", &self.kind)
             .field(
                 "models",
                 &self.models.iter().map(|m| m.name()).collect::<Vec<_>>(),
@@ -74,6 +76,7 @@ impl ModelMap {
     /// The model `kind` for each material of `materials`.
     pub fn new(kind: ModelKind, materials: &MaterialMap) -> Self {
         ModelMap {
+            kind,
             models: materials
                 .materials()
                 .iter()
@@ -81,6 +84,11 @@ impl ModelMap {
                 .collect(),
             materials: materials.clone(),
         }
+    }
+
+    /// The kind of every model of the map.
+    pub fn kind(&self) -> ModelKind {
+        self.kind
     }
 
     /// The models, one per material of [`materials`](Self::materials).

@@ -9,12 +9,15 @@
 //!   of F: rotation-invariant, linear in the rotated frame.
 //! - [`NeoHookean`]: the stable Neo-Hookean energy of Smith, de Goes & Kim (2018), defined for
 //!   inverted tets too.
+//! - [`StVenantKirchhoff`]: Hooke's law on the Green strain; rotation-invariant, for large
+//!   rotations with moderate strains (it softens under strong compression).
 
 mod corotational;
 mod linear;
 mod map;
 mod neo_hookean;
 mod polar;
+mod st_venant_kirchhoff;
 
 pub mod assemble;
 
@@ -23,6 +26,7 @@ pub use linear::LinearModel;
 pub use map::{ModelMap, TetModels};
 pub use neo_hookean::NeoHookean;
 pub use polar::rotation;
+pub use st_venant_kirchhoff::StVenantKirchhoff;
 
 use nalgebra::{Matrix3, SymmetricEigen, Vector3};
 
@@ -48,7 +52,7 @@ pub trait ForceModel: Sync + Send {
         rest: &[Vector3<f64>; 4],
         x: &[Vector3<f64>; 4],
     ) -> Matrix3<f64>;
-    /// A short name (`linear`, `corotational`, `neo-hookean`).
+    /// A short name (`linear`, `corotational`, `neo-hookean`, `st-venant-kirchhoff`).
     fn name(&self) -> &'static str;
 }
 
@@ -62,6 +66,8 @@ pub enum ModelKind {
     Corotational,
     /// [`NeoHookean`].
     NeoHookean,
+    /// [`StVenantKirchhoff`].
+    StVenantKirchhoff,
 }
 
 impl std::str::FromStr for ModelKind {
@@ -72,22 +78,42 @@ impl std::str::FromStr for ModelKind {
             "linear" => Ok(ModelKind::Linear),
             "corotational" | "corotated" => Ok(ModelKind::Corotational),
             "neo-hookean" | "neohookean" | "hyperelastic" => Ok(ModelKind::NeoHookean),
+            "st-venant-kirchhoff" | "stvk" => Ok(ModelKind::StVenantKirchhoff),
             other => Err(Error::invalid_parameter(
                 "model",
                 other,
-                "must be 'linear', 'corotational' or 'neo-hookean'",
+                format!("must be one of {}", ModelKind::listed_names()),
             )),
         }
     }
 }
 
 impl ModelKind {
-    /// The name scenes and summaries use: `linear`, `corotational`, `neo-hookean`.
+    /// Every model, in the order the docs list them.
+    pub const ALL: [ModelKind; 4] = [
+        ModelKind::Linear,
+        ModelKind::Corotational,
+        ModelKind::NeoHookean,
+        ModelKind::StVenantKirchhoff,
+    ];
+
+    /// The names of [`ALL`](Self::ALL) for an error message: `"linear", "corotational", …`.
+    pub fn listed_names() -> String {
+        let names: Vec<String> = Self::ALL
+            .iter()
+            .map(|kind| format!("\"{}\"", kind.name()))
+            .collect();
+        names.join(", ")
+    }
+
+    /// The name scenes and summaries use: `linear`, `corotational`, `neo-hookean`,
+    /// `st-venant-kirchhoff`.
     pub fn name(self) -> &'static str {
         match self {
             ModelKind::Linear => "linear",
             ModelKind::Corotational => "corotational",
             ModelKind::NeoHookean => "neo-hookean",
+            ModelKind::StVenantKirchhoff => "st-venant-kirchhoff",
         }
     }
 
@@ -102,6 +128,7 @@ impl ModelKind {
             ModelKind::Linear => Box::new(LinearModel::new(material)),
             ModelKind::Corotational => Box::new(Corotational::new(material)),
             ModelKind::NeoHookean => Box::new(NeoHookean::new(material)),
+            ModelKind::StVenantKirchhoff => Box::new(StVenantKirchhoff::new(material)),
         }
     }
 }

@@ -259,29 +259,17 @@ impl DynamicSetup {
         Ok(Self::of_built(built, system, initial, clock))
     }
 
-    /// The same setup with the force model `kind` (on a copy of the mesh; the linear model
-    /// gives [`InternalForce::Linear`], the fast path). Errors: a non-zero prescribed
-    /// displacement with a nonlinear model, naming its DOF.
+    /// The same setup with the force model `kind`, one model per material of
+    /// [`materials`](Self::materials) (on a copy of the mesh; the linear model gives
+    /// [`InternalForce::Linear`], the fast path). Errors: a non-zero prescribed displacement
+    /// with a nonlinear model, naming its DOF.
     pub fn with_model(mut self, kind: tetfem::model::ModelKind) -> Result<Self> {
-        let regions = self.materials.materials().len();
-        if kind != tetfem::model::ModelKind::Linear && regions > 1 {
-            // The nonlinear force of the integrators takes one model; a model per region is
-            // what `ModelMap` gives the static Newton solve, not yet the time steppers.
-            return Err(Error::invalid_parameter(
-                "analysis.model",
-                kind.name(),
-                format!(
-                    "a nonlinear model in a dynamic run takes one material for now; this scene \
-                     has {regions} ([[materials]] regions): run it with model = \"linear\", or \
-                     statically"
-                ),
-            ));
-        }
         self.force = match kind {
+            // No copy of the mesh for the fast path.
             tetfem::model::ModelKind::Linear => InternalForce::Linear,
-            nonlinear => InternalForce::of_model(
+            nonlinear => InternalForce::of_models(
                 Arc::new(self.mesh.clone()),
-                nonlinear.build(&self.material),
+                nonlinear.build_map(&self.materials),
                 &self.system,
             )?,
         };
@@ -292,14 +280,16 @@ impl DynamicSetup {
     fn von_mises(&self, u: &[f64]) -> Result<Vec<f64>> {
         match &self.force {
             InternalForce::Linear => cell_von_mises(&self.mesh, &self.materials, u),
-            InternalForce::Nonlinear(n) => cell_model_von_mises(&self.mesh, n.model(), u),
+            InternalForce::Nonlinear(n) => cell_model_von_mises(&self.mesh, n.models(), u),
         }
     }
 
     /// The period 2π/ω₁ (time units) of the lowest natural mode of the constrained body, from
-    /// [`lowest_modes`](tetfem::modal::lowest_modes).
+    /// [`lowest_modes_with_force`](tetfem::modal::lowest_modes_with_force) with the setup's
+    /// force: modal analysis is linear only, so after [`with_model`](Self::with_model) with a
+    /// nonlinear model it is [`Error::InvalidParameter`] naming the model.
     pub fn first_mode_period(&self) -> Result<f64> {
-        let modes = tetfem::modal::lowest_modes(&self.system, 1)?;
+        let modes = tetfem::modal::lowest_modes_with_force(&self.system, &self.force, 1)?;
         match modes.omega.first() {
             Some(&omega) if omega.is_finite() && omega > 0.0 => {
                 Ok(2.0 * std::f64::consts::PI / omega)
@@ -447,7 +437,7 @@ pub struct DynamicSummary {
     pub frames: usize,
     /// Files written.
     pub files: Vec<PathBuf>,
-    /// The force model (`linear`, `corotational`, `neo-hookean`).
+    /// The force model (`linear`, `corotational`, `neo-hookean`, `st-venant-kirchhoff`).
     pub model: String,
     /// Newton iterations of an implicit method with a nonlinear model (total, most in one
     /// step); `None` for the linear model and the explicit method.
@@ -795,7 +785,7 @@ impl FrameWriter {
                     write_result_vtu(&vtu, &setup.mesh, &setup.materials, u, Some(&velocity))?
                 }
                 InternalForce::Nonlinear(n) => {
-                    write_model_result_vtu(&vtu, &setup.mesh, n.model(), u, Some(&velocity))?
+                    write_model_result_vtu(&vtu, &setup.mesh, n.models(), u, Some(&velocity))?
                 }
             }
             pvd.push(state.time, &vtu)?;

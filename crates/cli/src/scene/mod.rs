@@ -82,7 +82,7 @@ type = "static"                     # default "static"; or "dynamic", which need
 # damping = { mass = 0.0, stiffness = 0.0 }   # Rayleigh α (1/s), β (s); default none
 # mass = "lumped"                   # default; or "consistent"
 # initial_velocity = [0.0, 0.0, 0.0]          # m/s, default zero
-# model = "linear"                 # default; or "corotational", "neo-hookean" (static and every dynamic method)
+# model = "linear"                 # default; or "corotational", "neo-hookean", "st-venant-kirchhoff" (static and every dynamic method; each [[materials]] region its own model)
 
 [output]
 directory = "out/reference"         # default "out/<scene file stem>" in the working directory
@@ -269,7 +269,8 @@ impl Scene {
                 "analysis.model",
                 &spanned.span(),
                 format!(
-                    "unknown model '{name}': use \"linear\", \"corotational\" or \"neo-hookean\""
+                    "unknown model '{name}': use one of {}",
+                    tetfem::model::ModelKind::listed_names()
                 ),
             )
         })?;

@@ -270,10 +270,12 @@ pub struct AnalysisSpec {
     /// Dynamic: initial velocity of every node (m/s, default zero).
     #[serde(default)]
     pub initial_velocity: Option<[f64; 3]>,
-    /// The force model, `"linear"` (default), `"corotational"` or `"neo-hookean"`. Static: the
-    /// nonlinear ones are solved by Newton with load steps. Dynamic (every method): the implicit
+    /// The force model, `"linear"` (default), `"corotational"`, `"neo-hookean"` or
+    /// `"st-venant-kirchhoff"`. Static: the nonlinear ones are solved by Newton with load
+    /// steps. Dynamic (every method): the implicit
     /// methods solve each step by Newton (iterations in the summary), the explicit one evaluates
-    /// the nonlinear force; fixed constraints must be zero-valued.
+    /// the nonlinear force; fixed constraints must be zero-valued. Each `[[materials]]` region
+    /// gets its own model of this kind (static and dynamic).
     #[serde(default)]
     pub model: Option<String>,
     /// Static (linear model) and dynamic (implicit methods): how the linear systems are solved,
