@@ -3,9 +3,9 @@
 use nalgebra::Vector3;
 use numpy::{PyArray1, PyArrayMethods};
 use pyo3::prelude::*;
-use tetfem::dynamics::{LinearSystem, Rayleigh};
+use tetfem::dynamics::{InternalForce, LinearSystem, Rayleigh};
 use tetfem::loads::Loads;
-use tetfem::modal::lowest_modes;
+use tetfem::modal::{lowest_modes, lowest_modes_with_force};
 
 use crate::arrays;
 use crate::constraints::PyConstraints;
@@ -35,14 +35,21 @@ pub struct ModalResult {
     iterations: usize,
 }
 
-/// The `count` lowest modes of `system` on the mesh of `data` (GIL released).
+/// The `count` lowest modes of `system` on the mesh of `data` (GIL released); with a `force`,
+/// an error unless it is the linear one (modal analysis is linear).
 pub fn modes_of(
     py: Python<'_>,
     system: &LinearSystem,
+    force: Option<&InternalForce>,
     data: &MeshData,
     count: usize,
 ) -> PyResult<ModalResult> {
-    let modes = py.detach(|| lowest_modes(system, count)).or_raise(py)?;
+    let modes = py
+        .detach(|| match force {
+            Some(force) => lowest_modes_with_force(system, force, count),
+            None => lowest_modes(system, count),
+        })
+        .or_raise(py)?;
     let dofs = data.mesh.dof_count();
     let mut shapes = vec![0.0; modes.shapes.len() * dofs];
     for (k, shape) in modes.shapes.iter().enumerate() {
@@ -104,5 +111,5 @@ pub fn modal_analysis(
             )
         })
         .or_raise(py)?;
-    modes_of(py, &system, data, count)
+    modes_of(py, &system, None, data, count)
 }

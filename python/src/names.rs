@@ -75,7 +75,7 @@ pub fn method(py: Python<'_>, name: &str) -> PyResult<Method> {
     name.replace('_', "-").parse::<Method>().or_raise(py)
 }
 
-/// A force model: `"linear"`, `"corotational"` or `"neo-hookean"`.
+/// A force model: `"linear"`, `"corotational"`, `"neo-hookean"` or `"st-venant-kirchhoff"`.
 pub fn model(py: Python<'_>, name: &str) -> PyResult<ModelKind> {
     name.replace('_', "-").parse::<ModelKind>().or_raise(py)
 }

@@ -12,6 +12,7 @@ use tetfem::dynamics::{
 use tetfem::loads::Loads;
 use tetfem::materials::MaterialMap;
 use tetfem::model::ModelKind;
+use tetfem::output::fields::{cell_model_von_mises, cell_von_mises};
 
 use crate::arrays;
 use crate::constraints::PyConstraints;
@@ -83,8 +84,8 @@ fn energy_dict<'py>(py: Python<'py>, e: &Energy) -> PyResult<Bound<'py, PyDict>>
 /// dissipative), ``"newmark"`` (average acceleration: implicit, second order, conserves energy)
 /// or ``"explicit"`` (symplectic Euler: stable only below ``critical_time_step``). ``dt``: the
 /// time step in s, or a multiple of the explicit critical step as text (``"0.9crit"``).
-/// ``model``: ``"linear"``, ``"corotational"`` or ``"neo-hookean"`` (the implicit methods then
-/// iterate Newton per step). ``mass``: ``"lumped"`` or ``"consistent"``. ``damping``: Rayleigh
+/// ``model``: ``"linear"``, ``"corotational"``, ``"neo-hookean"`` or ``"st-venant-kirchhoff"``
+/// (each material its own; the implicit methods then iterate Newton per step). ``mass``: ``"lumped"`` or ``"consistent"``. ``damping``: Rayleigh
 /// (α in 1/s, β in s), C = α·M + β·K. ``loads``: gravity is tracked as its own potential, the
 /// other loads are constant. The run starts at time 0 from ``initial_displacement`` (n, 3), m
 /// (default zero) and ``initial_velocity`` (3,) or (n, 3), m/s (default zero); both are taken on
@@ -184,17 +185,6 @@ impl PySimulation {
         };
         let rayleigh = Rayleigh::new(damping.0, damping.1).or_raise(py)?;
         let dt = names::time_step(py, dt)?;
-        let regions = materials.materials().len();
-        if kind != ModelKind::Linear && regions > 1 {
-            return Err(invalid(
-                py,
-                "model",
-                format!("'{}'", kind.name()),
-                &format!(
-                    "a nonlinear model in a dynamic run takes one material for now; this MaterialMap has {regions}: use model='linear', or solve_static"
-                ),
-            ));
-        }
         let empty = Loads::new(&data.mesh);
         let (other, gravity) = match &loads {
             Some(l) => (&l.other, l.gravity),
@@ -224,12 +214,13 @@ impl PySimulation {
             let values = arrays::rows_per_item(py, v, "initial_velocity", n)?;
             state.velocity = system.dofs().restrict(&values).or_raise(py)?;
         }
+        // As the scene runner builds it: the linear fast path, or the model of each material.
         let force = match kind {
             ModelKind::Linear => InternalForce::Linear,
             nonlinear => {
-                let model = nonlinear.build(&materials.materials()[0]);
+                let models = nonlinear.build_map(&materials);
                 let mesh = Arc::new(data.mesh.clone());
-                py.detach(|| InternalForce::of_model(mesh, model, &system))
+                py.detach(|| InternalForce::of_models(mesh, models, &system))
                     .or_raise(py)?
             }
         };
@@ -405,16 +396,20 @@ impl PySimulation {
             .or_raise(py)
     }
 
-    /// Von Mises stress of every tet at the current state, shape (m,), Pa (the linear model's
-    /// stress; see ``solve_static`` for the nonlinear ones).
+    /// Von Mises stress of every tet at the current state, shape (m,), Pa: the Cauchy stress
+    /// of the model that runs.
     fn von_mises<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
         let u = self
             .system
             .dofs()
             .expand(&self.state.displacement)
             .or_raise(py)?;
-        let v = tetfem::output::fields::cell_von_mises(&self.data.mesh, &self.materials, &u)
-            .or_raise(py)?;
+        let mesh = &self.data.mesh;
+        let v = match &self.force {
+            InternalForce::Linear => cell_von_mises(mesh, &self.materials, &u),
+            InternalForce::Nonlinear(n) => cell_model_von_mises(mesh, n.models(), &u),
+        }
+        .or_raise(py)?;
         Ok(arrays::vector(py, v))
     }
 
@@ -441,7 +436,7 @@ impl PySimulation {
     /// The ``count`` lowest natural modes (a ``ModalResult``) of this simulation's system.
     #[pyo3(signature = (count = 6))]
     fn modes(&self, py: Python<'_>, count: usize) -> PyResult<ModalResult> {
-        modes_of(py, &self.system, &self.data, count)
+        modes_of(py, &self.system, Some(&self.force), &self.data, count)
     }
 
     fn __repr__(&self) -> String {

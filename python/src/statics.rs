@@ -145,7 +145,8 @@ pub fn check_same_mesh(
 /// Static equilibrium. ``material``: a ``Material`` or a ``MaterialMap``. ``model``:
 /// ``"linear"`` (one sparse solve: ``linear_solver`` ``"auto"`` picks the Cholesky factorization
 /// or multigrid-preconditioned CG by predicted time, ``"direct"`` / ``"iterative"`` force one),
-/// or a nonlinear model ``"corotational"`` / ``"neo-hookean"`` solved by Newton's method in
+/// or a nonlinear model ``"corotational"`` / ``"neo-hookean"`` / ``"st-venant-kirchhoff"``
+/// (each material its own) solved by Newton's method in
 /// ``load_steps`` increments to ‖r_f‖ ≤ ``tolerance``·‖f_f‖ with at most ``max_iterations``
 /// per step. The work runs with the GIL released. Raises ``NotConstrainedError`` when the
 /// constraints leave a rigid-body motion, ``SolverError`` when the solve fails.
