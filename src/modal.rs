@@ -13,6 +13,7 @@
 
 use nalgebra::{DMatrix, SymmetricEigen};
 
+use crate::constraints::DofMap;
 use crate::dynamics::{InternalForce, LinearSystem, Mass};
 use crate::error::{Error, Result};
 use crate::linsolve::SparseCholesky;
@@ -98,6 +99,9 @@ pub fn lowest_modes(system: &LinearSystem, count: usize) -> Result<Modes> {
     let p = n.min((2 * count).max(count + 8));
     let k = system.stiffness();
     let mass = system.mass();
+    if p == n {
+        return all_modes(k, mass, count);
+    }
     let mut cholesky = SparseCholesky::analyze(k)?;
     cholesky.factorize(k)?;
     // Start block: smooth-ish deterministic vectors of varied shape.
@@ -164,6 +168,61 @@ pub fn lowest_modes(system: &LinearSystem, count: usize) -> Result<Modes> {
          residuals [{}] of the {count} lowest modes, tolerance {RESIDUAL_TOLERANCE:.0e}",
         list(&residuals)
     )))
+}
+
+/// Free DOF counts up to which a block as wide as the whole space is solved densely.
+pub const DENSE_MODES_LIMIT: usize = 2000;
+
+/// The `count` lowest modes when the block would span the whole space (`count` ≥ n/2, or
+/// n ≤ count + 8): Rayleigh–Ritz on the unit vectors, i.e. the dense generalized eigenproblem,
+/// exact in one step. (Subspace iteration there would start from n vectors that K⁻¹·M makes
+/// nearly dependent, and lose rank.) Up to [`DENSE_MODES_LIMIT`] free DOFs.
+fn all_modes(k: &CscMatrix, mass: &Mass, count: usize) -> Result<Modes> {
+    let n = k.dim();
+    if n > DENSE_MODES_LIMIT {
+        return Err(Error::invalid_parameter(
+            "mode count",
+            count,
+            format!(
+                "at most {} of the {n} free DOFs (half of them, less one): more needs the \
+                 dense eigenproblem of all {n}, which is done up to {DENSE_MODES_LIMIT} DOFs",
+                n.div_ceil(2) - 1
+            ),
+        ));
+    }
+    let units: Vec<Vec<f64>> = (0..n)
+        .map(|j| (0..n).map(|i| if i == j { 1.0 } else { 0.0 }).collect())
+        .collect();
+    let (lambda, mut shapes) = rayleigh_ritz(k, mass, &units)?;
+    if let Some(bad) = lambda
+        .iter()
+        .take(count)
+        .find(|l| !(l.is_finite() && **l > 0.0))
+    {
+        return Err(Error::Solver(format!(
+            "modal analysis: non-positive eigenvalue {bad:e}"
+        )));
+    }
+    let residuals: Vec<f64> = (0..count)
+        .map(|i| scaled_residual(k, mass, lambda[i], &shapes[i]))
+        .collect();
+    if residuals
+        .iter()
+        .any(|r| r.is_nan() || *r > RESIDUAL_TOLERANCE)
+    {
+        return Err(Error::Solver(format!(
+            "modal analysis: the dense eigensolve left scaled residuals [{}] above \
+             {RESIDUAL_TOLERANCE:.0e}",
+            list(&residuals)
+        )));
+    }
+    shapes.truncate(count);
+    Ok(Modes {
+        omega: lambda[..count].iter().map(|l| l.sqrt()).collect(),
+        shapes,
+        iterations: 1,
+        residuals,
+    })
 }
 
 /// "1.2e-13, 3.4e-14, …" for an error message.
@@ -267,4 +326,52 @@ pub fn mass_inner_product(mass: &Mass, a: &[f64], b: &[f64]) -> Result<f64> {
     let mut mb = vec![0.0; b.len()];
     mass.mul_vec(b, &mut mb)?;
     Ok(a.iter().zip(&mb).map(|(x, y)| x * y).sum())
+}
+
+/// Effective modal mass fractions of each mode in the directions x, y, z (dimensionless), for
+/// a base excitation: the supports and the body move together along d, so the influence vector
+/// r_d is 1 on every DOF along d (constrained ones included). With φ M-orthonormal on the free
+/// DOFs (zero on the constrained), the participation factor is Γ_d = φᵀ·M·r_d = Σᵢ φᵢ·(row sum
+/// of M)ᵢ over the free DOFs along d, the effective mass Γ_d², and the fraction Γ_d² over the
+/// total mass r_dᵀ·M·r_d. Engineering practice asks the retained modes to reach 0.9; all modes
+/// together reach less than 1 by the mass the supports hold (with a lumped mass exactly the free
+/// mass over the total).
+///
+/// `row_sums` (full length, 3 per node) are the row sums of the mass matrix, Σⱼ Mᵢⱼ: for the
+/// linear tet the lumped mass ρV/4 per node for either mass kind
+/// ([`lumped_mass_of`](crate::assembly::lumped_mass_of)).
+///
+/// Errors: `row_sums` or a shape of the wrong length, or a direction with no mass.
+pub fn effective_mass_fractions(
+    modes: &Modes,
+    dofs: &DofMap,
+    row_sums: &[f64],
+) -> Result<Vec<[f64; 3]>> {
+    Error::check_len("mass row sums", dofs.full_count(), row_sums.len())?;
+    let mut totals = [0.0; 3];
+    for (dof, m) in row_sums.iter().enumerate() {
+        totals[dof % 3] += m;
+    }
+    for d in 0..3 {
+        if totals[d].is_nan() || totals[d] <= 0.0 {
+            return Err(Error::invalid_parameter(
+                "mass row sums",
+                format!("total {:e} along {}", totals[d], ["x", "y", "z"][d]),
+                "must be > 0: the body has mass in every direction",
+            ));
+        }
+    }
+    let free = dofs.free_dofs();
+    modes
+        .shapes
+        .iter()
+        .map(|shape| {
+            Error::check_len("mode shape", free.len(), shape.len())?;
+            let mut gamma = [0.0; 3];
+            for (value, &dof) in shape.iter().zip(free) {
+                gamma[dof % 3] += value * row_sums[dof];
+            }
+            Ok([0, 1, 2].map(|d| gamma[d] * gamma[d] / totals[d]))
+        })
+        .collect()
 }

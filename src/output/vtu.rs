@@ -14,6 +14,8 @@ pub struct VtuWriter<'a, C: CellType = Tet4> {
     mesh: &'a TetMesh<C>,
     point_fields: Vec<(String, usize, &'a [f64])>,
     cell_fields: Vec<(String, usize, &'a [f64])>,
+    /// Whole-dataset values (VTK `FieldData`): a frequency, a time.
+    field_data: Vec<(String, f64)>,
 }
 
 impl<'a, C: CellType> VtuWriter<'a, C> {
@@ -23,7 +25,23 @@ impl<'a, C: CellType> VtuWriter<'a, C> {
             mesh,
             point_fields: Vec::new(),
             cell_fields: Vec::new(),
+            field_data: Vec::new(),
         }
+    }
+
+    /// Adds one value for the whole dataset (VTK `FieldData`, e.g. a mode's frequency in Hz),
+    /// which ParaView shows in its information panel. [`Error::InvalidParameter`] unless it is
+    /// finite.
+    pub fn field_data(mut self, name: &str, value: f64) -> Result<Self> {
+        if !value.is_finite() {
+            return Err(Error::invalid_parameter(
+                format!("field data {name}"),
+                value,
+                "must be finite",
+            ));
+        }
+        self.field_data.push((name.to_string(), value));
+        Ok(self)
     }
 
     /// Adds a per-node field with `components` values per node (1 for a scalar, 3 for a vector
@@ -57,6 +75,17 @@ impl<'a, C: CellType> VtuWriter<'a, C> {
             r#"<VTKFile type="UnstructuredGrid" version="1.0" byte_order="LittleEndian" header_type="UInt64">"#
         )?;
         writeln!(out, "  <UnstructuredGrid>")?;
+        if !self.field_data.is_empty() {
+            writeln!(out, "    <FieldData>")?;
+            for (name, value) in &self.field_data {
+                writeln!(
+                    out,
+                    r#"      <DataArray type="Float64" Name="{}" NumberOfTuples="1" format="ascii">{value:e}</DataArray>"#,
+                    xml_escape(name)
+                )?;
+            }
+            writeln!(out, "    </FieldData>")?;
+        }
         writeln!(
             out,
             r#"    <Piece NumberOfPoints="{}" NumberOfCells="{}">"#,

@@ -15,8 +15,8 @@ use tetfem::{Error, Material};
 use tetfem_cli::info::mesh_info;
 use tetfem_cli::scene::{
     Analysis, DynamicOutputs, DynamicOverrides, DynamicRun, DynamicSetup, DynamicSummary,
-    OutputSettings, RunLength, RunOptions, RunSummary, Scene, TimeStep, run_dynamic,
-    run_dynamic_scene, run_static_with,
+    ModalSummary, OutputSettings, RunLength, RunOptions, RunSummary, Scene, TimeStep, run_dynamic,
+    run_dynamic_scene, run_modal_scene, run_static_with,
 };
 use tetfem_fixtures::cantilever::Cantilever;
 
@@ -671,6 +671,38 @@ fn print_static(s: &RunSummary, directory: &Path) {
     );
 }
 
+fn print_modal(s: &ModalSummary, directory: &Path) {
+    println!("tetfem: {} ({})", s.title, s.scene);
+    println!(
+        "  modal: {} nodes, {} tets, {} free DOFs, {} mass; {} subspace iterations",
+        s.nodes, s.tets, s.free_dofs, s.mass, s.iterations
+    );
+    println!("  mode  frequency (Hz)  period (s)    effective mass fraction x / y / z");
+    for m in &s.modes {
+        let [x, y, z] = m.effective_mass_fraction;
+        println!(
+            "  {:>4}  {:>14.6e}  {:>11.4e}  {x:>8.4} {y:>8.4} {z:>8.4}",
+            m.mode, m.frequency_hz, m.period_s
+        );
+    }
+    let [x, y, z] = s.cumulative_mass_fraction;
+    println!(
+        "  {:>35}{x:>8.4} {y:>8.4} {z:>8.4}",
+        "sum of the retained modes:"
+    );
+    println!(
+        "  wall time: build {}, solve {}, outputs {}",
+        format_seconds(s.build_seconds),
+        format_seconds(s.solve_seconds),
+        format_seconds(s.output_seconds)
+    );
+    println!(
+        "  wrote {} files to {}/ (open the _modes.pvd in ParaView: one step per mode)",
+        s.files.len(),
+        directory.display()
+    );
+}
+
 fn run_scene(args: &RunArgs) -> tetfem::Result<()> {
     let mut scene = Scene::load(&args.scene)?;
     if let Some(out) = &args.out {
@@ -678,6 +710,33 @@ fn run_scene(args: &RunArgs) -> tetfem::Result<()> {
     }
     let directory = scene.output().directory.clone();
     match scene.analysis() {
+        Analysis::Modal(_) => {
+            let given: Vec<&str> = [
+                ("--method", args.method.is_some()),
+                ("--dt", args.dt.is_some()),
+                ("--duration", args.duration.is_some()),
+                ("--steps", args.steps.is_some()),
+                ("--png", args.png),
+            ]
+            .iter()
+            .filter(|(_, set)| *set)
+            .map(|(name, _)| *name)
+            .collect();
+            if !given.is_empty() {
+                return Err(Error::invalid_parameter(
+                    given.join(", "),
+                    args.scene.display(),
+                    "does not apply to a modal scene (it writes mode shapes as .vtu)",
+                ));
+            }
+            let summary = run_modal_scene(&scene, false)?;
+            print_warnings(&summary.warnings);
+            if args.json {
+                println!("{}", summary.to_json());
+            } else if !args.quiet {
+                print_modal(&summary, &directory);
+            }
+        }
         Analysis::Static => {
             let given: Vec<&str> = [
                 ("--method", args.method.is_some()),

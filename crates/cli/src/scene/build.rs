@@ -90,7 +90,11 @@ impl Scene {
                     SplitSpec::Five => BoxSplit::Five,
                 };
                 // The whole run's estimate, before the mesh is allocated.
-                let dynamic = matches!(self.analysis(), super::Analysis::Dynamic(_));
+                // A modal run holds K, M and a factor of K, like a dynamic one.
+                let dynamic = matches!(
+                    self.analysis(),
+                    super::Analysis::Dynamic(_) | super::Analysis::Modal(_)
+                );
                 tetfem::memory::check_box_run(b.cells, split.tets_per_cell(), dynamic)
                     .map_err(|e| self.error("mesh.box", &mesh_span, e.to_string()))?;
                 let mesh = TetMesh::box_grid(b.min.into(), b.max.into(), b.cells, split)

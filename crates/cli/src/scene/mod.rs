@@ -8,6 +8,7 @@
 
 mod build;
 mod dynamic;
+mod modal;
 mod run;
 mod spec;
 
@@ -16,6 +17,7 @@ pub use dynamic::{
     DynamicOutputs, DynamicOverrides, DynamicRun, DynamicSetup, DynamicSummary, EnergyTerms,
     MAX_STEPS, ProbeRange, RunLength, TimeStep, run_dynamic, run_dynamic_scene,
 };
+pub use modal::{ModalSummary, ModeRow, run_modal_scene};
 pub use run::{ProbeValue, RunOptions, RunSummary, SolvePhases, run_static, run_static_with};
 pub use spec::*;
 
@@ -83,6 +85,9 @@ type = "static"                     # default "static"; or "dynamic", which need
 # mass = "lumped"                   # default; or "consistent"
 # initial_velocity = [0.0, 0.0, 0.0]          # m/s, default zero
 # model = "linear"                 # default; or "corotational", "neo-hookean", "st-venant-kirchhoff" (static and every dynamic method; each [[materials]] region its own model)
+# Or type = "modal": the lowest natural frequencies and mode shapes (linear model only).
+# modes = 6                         # default 6; at most the free DOF count
+# mass = "lumped"                   # default; or "consistent"
 
 [output]
 directory = "out/reference"         # default "out/<scene file stem>" in the working directory
@@ -94,6 +99,18 @@ png_field = "displacement"          # default; or "von_mises"
 png_size = [960, 600]               # default [960, 600]
 deformation_scale = 0.0             # 0 (default): automatic
 "#;
+
+/// The settings of a modal scene, validated.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct ModalSettings {
+    /// How many of the lowest modes, ≥ 1 (checked against the free DOFs when the scene is built).
+    pub modes: usize,
+    /// Mass matrix kind.
+    pub mass: MassKind,
+}
+
+/// Modes a modal scene asks for when it does not say.
+pub const DEFAULT_MODES: usize = 6;
 
 /// The time integration settings of a dynamic scene, validated.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
@@ -126,6 +143,8 @@ pub enum Analysis {
     Static,
     /// Time integration.
     Dynamic(DynamicSettings),
+    /// Natural frequencies and mode shapes.
+    Modal(ModalSettings),
 }
 
 /// Output settings with the defaults filled in.
@@ -274,6 +293,17 @@ impl Scene {
                 ),
             )
         })?;
+        if kind != tetfem::model::ModelKind::Linear && spanned.get_ref().kind == AnalysisKind::Modal
+        {
+            return Err(self.error(
+                "analysis.model",
+                &spanned.span(),
+                format!(
+                    "model = \"{name}\": modal analysis is linear only (K·φ = ω²·M·φ with the \
+                     linear model's K, every model's tangent at rest); remove the key or use \"linear\""
+                ),
+            ));
+        }
         Ok(kind)
     }
 
@@ -326,7 +356,37 @@ impl Scene {
         let span = spanned.span();
         let a = spanned.get_ref();
         let err = |key: &str, msg: String| self.error(&format!("analysis.{key}"), &span, msg);
+        if a.kind != AnalysisKind::Modal && a.modes.is_some() {
+            return Err(err(
+                "modes",
+                "only a modal analysis takes this key; set type = \"modal\" or remove it".into(),
+            ));
+        }
         match a.kind {
+            AnalysisKind::Modal => {
+                let dynamic_keys = [
+                    ("method", a.method.is_some()),
+                    ("dt", a.dt.is_some()),
+                    ("duration", a.duration.is_some()),
+                    ("damping", a.damping.is_some()),
+                    ("initial_velocity", a.initial_velocity.is_some()),
+                ];
+                if let Some((key, _)) = dynamic_keys.iter().find(|(_, set)| *set) {
+                    return Err(err(
+                        key,
+                        "only a dynamic analysis takes this key; a modal one takes modes and mass"
+                            .into(),
+                    ));
+                }
+                let modes = a.modes.unwrap_or(DEFAULT_MODES);
+                if modes == 0 {
+                    return Err(err("modes", "modes = 0: ask for at least one mode".into()));
+                }
+                Ok(Analysis::Modal(ModalSettings {
+                    modes,
+                    mass: a.mass.unwrap_or_default(),
+                }))
+            }
             AnalysisKind::Static => {
                 let dynamic_keys = [
                     ("method", a.method.is_some()),

@@ -123,12 +123,12 @@ pub fn run_static(scene: &Scene) -> Result<RunSummary> {
 /// run writing there is an [`Error::OutputLocked`]; a lock left by a killed run is taken over,
 /// with a warning in the summary.
 pub fn run_static_with(scene: &Scene, options: &RunOptions) -> Result<RunSummary> {
-    if let Analysis::Dynamic(_) = scene.analysis() {
+    if !matches!(scene.analysis(), Analysis::Static) {
         return Err(Error::Scene {
             source_name: scene.source_name().to_string(),
             key: "analysis.type".into(),
             line: 0,
-            message: "this scene is dynamic; run_static solves static scenes only".into(),
+            message: "this scene is not static; run_static solves static scenes only".into(),
         });
     }
     let lock = match options.no_files {

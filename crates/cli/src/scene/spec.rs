@@ -249,9 +249,12 @@ pub struct LoadSpec {
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct AnalysisSpec {
-    /// `"static"` (default) or `"dynamic"`.
+    /// `"static"` (default), `"dynamic"` or `"modal"`.
     #[serde(default, rename = "type")]
     pub kind: AnalysisKind,
+    /// Modal: how many of the lowest modes (default 6; at most the free DOF count).
+    #[serde(default)]
+    pub modes: Option<usize>,
     /// Dynamic: `"backward_euler"` (default), `"explicit"` or `"newmark"`.
     #[serde(default)]
     pub method: Option<Method>,
@@ -264,7 +267,7 @@ pub struct AnalysisSpec {
     /// Dynamic: Rayleigh damping C = α·M + β·K (default: none).
     #[serde(default)]
     pub damping: Option<DampingSpec>,
-    /// Dynamic: `"lumped"` (default) or `"consistent"` mass.
+    /// Dynamic and modal: `"lumped"` (default) or `"consistent"` mass.
     #[serde(default)]
     pub mass: Option<MassKind>,
     /// Dynamic: initial velocity of every node (m/s, default zero).
@@ -295,7 +298,7 @@ impl SceneSpec {
     }
 }
 
-/// Static or dynamic.
+/// Static, dynamic or modal.
 #[derive(Debug, Clone, Copy, Default, Deserialize, PartialEq, Eq, serde::Serialize)]
 #[serde(rename_all = "snake_case")]
 pub enum AnalysisKind {
@@ -304,6 +307,8 @@ pub enum AnalysisKind {
     Static,
     /// Time integration of M·ü + C·u̇ + K·u = f.
     Dynamic,
+    /// Natural frequencies and mode shapes, K·φ = ω²·M·φ.
+    Modal,
 }
 
 /// Rayleigh damping coefficients.
