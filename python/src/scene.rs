@@ -6,12 +6,13 @@ use std::path::PathBuf;
 
 use pyo3::prelude::*;
 use tetfem_cli::scene::{
-    Analysis, DynamicOverrides, RunOptions, Scene, run_dynamic_scene, run_static_with,
+    Analysis, DynamicOverrides, RunOptions, Scene, run_dynamic_scene, run_modal_scene,
+    run_static_with,
 };
 
 use crate::errors::OrRaise;
 
-/// Runs a scene file (static or dynamic) exactly as ``tetfem run PATH --json`` does and returns
+/// Runs a scene file (static, dynamic or modal) exactly as ``tetfem run PATH --json`` does and returns
 /// its JSON summary as a dict (counts, timings in s, energies in J, each probe's mean
 /// displacement in m, the files written, warnings). Outputs go to the scene's folder, or to
 /// ``output_dir``; ``write_files=False`` writes nothing. GIL released while it runs. Raises
@@ -46,6 +47,7 @@ pub fn run_scene<'py>(
                     &mut |_, _| ControlFlow::Continue(()),
                 )?
                 .to_json(),
+                Analysis::Modal(_) => run_modal_scene(&scene, !write_files)?.to_json(),
             })
         })
         .or_raise(py)?;

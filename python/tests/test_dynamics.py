@@ -260,3 +260,16 @@ def test_nonlinear_per_region_history_equals_the_scene_csv_bit_for_bit(tmp_path)
     assert float(rows[-1]["tip_uz"]) < -0.01
     with pytest.raises(tetfem.InvalidInputError, match="corotational"):
         sim.modes(2)  # modal analysis is linear only
+
+
+def test_modal_analysis_equals_the_modal_scene_bit_for_bit():
+    """scenes/l_bracket_modal.toml (Gmsh mesh, consistent mass, 8 modes) against
+    modal_analysis on the same mesh and clamp."""
+    summary = tetfem.run_scene(SCENES / "l_bracket_modal.toml", write_files=False)
+    mesh = tetfem.Mesh.read(SCENES / "l_bracket.msh")
+    steel = tetfem.Material(200e9, 0.3, 7850.0)
+    constraints = tetfem.Constraints(mesh).fix(mesh.nodes_in_group("clamp"))
+    modes = tetfem.modal_analysis(mesh, steel, constraints, count=8, mass="consistent")
+    assert modes.omega.tolist() == [m["omega_rad_per_s"] for m in summary["modes"]]
+    assert modes.frequencies.tolist() == [m["frequency_hz"] for m in summary["modes"]]
+    assert len(modes.frequencies) == 8 and (np.diff(modes.frequencies) >= 0).all()
