@@ -308,3 +308,32 @@ fn likely_cause(materials: &[Material]) -> String {
 fn norm(values: impl Iterator<Item = f64>) -> f64 {
     values.map(|v| v * v).sum::<f64>().sqrt()
 }
+
+/// Resultant of the reactions on a set of constrained DOFs: the force Σ Rᵢ and its moment
+/// Σ (xᵢ − point) × Rᵢ about `point` (force and force·length units), each DOF of `dofs` counted
+/// once as given. `reactions` is full length ([`StaticSolution::reactions`]: K·u − f on the
+/// constrained DOFs, zero on the free ones).
+///
+/// Errors: `reactions` is not 3 values per node of `mesh`, or a DOF is out of range.
+pub fn reaction_resultant<C: crate::mesh::CellType>(
+    mesh: &TetMesh<C>,
+    reactions: &[f64],
+    dofs: &[usize],
+    point: nalgebra::Vector3<f64>,
+) -> Result<(nalgebra::Vector3<f64>, nalgebra::Vector3<f64>)> {
+    Error::check_len("reactions", mesh.dof_count(), reactions.len())?;
+    let mut force = nalgebra::Vector3::zeros();
+    let mut moment = nalgebra::Vector3::zeros();
+    for &dof in dofs {
+        let value = *reactions.get(dof).ok_or(Error::UnknownNode {
+            context: "reaction resultant",
+            node: dof / 3,
+            node_count: mesh.node_count(),
+        })?;
+        let mut component = nalgebra::Vector3::zeros();
+        component[dof % 3] = value;
+        force += component;
+        moment += (mesh.nodes()[dof / 3] - point).cross(&component);
+    }
+    Ok((force, moment))
+}

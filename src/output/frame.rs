@@ -31,6 +31,27 @@ pub fn write_result_vtu<E: ElementType>(
     write_fields(path, mesh, displacement, velocity, &von_mises, &energy)
 }
 
+/// As [`write_result_vtu`] for a static solution, with its reactions as the point field
+/// `reaction_force` (force units; K·u − f on the constrained DOFs, zero on the free ones).
+pub fn write_static_result_vtu<E: ElementType>(
+    path: &Path,
+    mesh: &TetMesh<E>,
+    materials: &impl TetMaterials,
+    displacement: &[f64],
+    reactions: &[f64],
+) -> Result<()> {
+    let von_mises = cell_von_mises(mesh, materials, displacement)?;
+    let energy = cell_strain_energy_density(mesh, materials, displacement)?;
+    let magnitude = displacement_magnitude(displacement);
+    VtuWriter::new(mesh)
+        .point_field("displacement", 3, displacement)?
+        .point_field("displacement_magnitude", 1, &magnitude)?
+        .point_field("reaction_force", 3, reactions)?
+        .cell_field("von_mises", 1, &von_mises)?
+        .cell_field("strain_energy_density", 1, &energy)?
+        .write(path)
+}
+
 /// As [`write_result_vtu`], with the cell fields of the force model that produced the
 /// displacement: `von_mises` of its Cauchy stress and its own `strain_energy_density` (energy
 /// per rest volume), see [`cell_model_von_mises`] and [`cell_model_energy_density`].

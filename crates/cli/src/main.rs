@@ -495,7 +495,7 @@ fn print_default_static(cli: &DefaultScene, beam: &Cantilever, s: &RunSummary, d
     );
     print_files(&s.files, directory);
     println!(
-        "    (.vtu: displacement, displacement_magnitude [m] per node; von_mises [Pa], strain_energy_density [J/m³] per tet)"
+        "    (.vtu: displacement, displacement_magnitude [m], reaction_force [N] per node; von_mises [Pa], strain_energy_density [J/m³] per tet)"
     );
 }
 
@@ -657,6 +657,18 @@ fn print_static(s: &RunSummary, directory: &Path) {
             "  probe {}: mean u = ({:+.4e}, {:+.4e}, {:+.4e}) m",
             p.name, p.displacement[0], p.displacement[1], p.displacement[2]
         );
+    }
+    if let Some(reactions) = &s.reactions {
+        let [x, y, z] = s.applied_load_n;
+        println!("  applied load ({x:+.4e}, {y:+.4e}, {z:+.4e}) N; reactions:");
+        for r in reactions {
+            let [fx, fy, fz] = r.force_n;
+            let [mx, my, mz] = r.moment_about_origin_nm;
+            println!(
+                "    {}: force ({fx:+.4e}, {fy:+.4e}, {fz:+.4e}) N, moment about the origin ({mx:+.4e}, {my:+.4e}, {mz:+.4e}) N·m",
+                r.constraint
+            );
+        }
     }
     println!(
         "  wall time: build {}, solve {}, outputs {}",

@@ -51,6 +51,9 @@ pub struct BuiltScene {
     pub materials: MaterialMap,
     /// The constraints.
     pub constraints: Constraints,
+    /// The DOFs each `[[constraints]]` entry constrains, in scene order (what its reaction
+    /// resultant sums over).
+    pub constraint_dofs: Vec<Vec<usize>>,
     /// The loads, as one nodal force vector (gravity included).
     pub loads: Loads,
     /// The loads other than gravity (what a dynamic run passes to
@@ -127,6 +130,7 @@ impl Scene {
         let mut constraints = Constraints::new(&mesh);
         // Which scene entry constrained each DOF, to name both entries of a conflict.
         let mut constrained_by: Vec<Option<usize>> = vec![None; mesh.dof_count()];
+        let mut constraint_dofs = Vec::with_capacity(spec.constraints.len());
         for (i, c) in spec.constraints.iter().enumerate() {
             let key = format!("constraints[{i}]");
             let span = c.span();
@@ -162,11 +166,14 @@ impl Scene {
                     }
                 }
             }
+            let mut dofs = Vec::with_capacity(3 * nodes.len());
             for &n in &nodes {
                 for axis in (0..3).filter(|&a| axes[a]) {
                     constrained_by[3 * n + axis].get_or_insert(i);
+                    dofs.push(3 * n + axis);
                 }
             }
+            constraint_dofs.push(dofs);
         }
         let mut input_warnings = Vec::new();
         if constraints.count() == mesh.dof_count() {
@@ -226,6 +233,7 @@ impl Scene {
             material,
             materials,
             constraints,
+            constraint_dofs,
             loads,
             other_loads,
             gravity,

@@ -18,7 +18,9 @@ pub use dynamic::{
     MAX_STEPS, ProbeRange, RunLength, TimeStep, run_dynamic, run_dynamic_scene,
 };
 pub use modal::{ModalSummary, ModeRow, run_modal_scene};
-pub use run::{ProbeValue, RunOptions, RunSummary, SolvePhases, run_static, run_static_with};
+pub use run::{
+    ProbeValue, ReactionRow, RunOptions, RunSummary, SolvePhases, run_static, run_static_with,
+};
 pub use spec::*;
 
 use std::ops::Range;

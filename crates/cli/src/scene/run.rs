@@ -10,7 +10,7 @@ use tetfem::model::ModelMap;
 use tetfem::output::fields::{cell_model_von_mises, displacement_magnitude};
 use tetfem::output::{
     CsvSeries, OutputLock, PvdCollection, write_atomically, write_model_result_vtu,
-    write_result_vtu,
+    write_static_result_vtu,
 };
 use tetfem::statics::StaticSolver;
 
@@ -30,6 +30,17 @@ pub struct ProbeValue {
     pub name: String,
     /// Mean displacement (m) of its nodes.
     pub displacement: [f64; 3],
+}
+
+/// The reaction resultant of one `[[constraints]]` entry (linear static runs).
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct ReactionRow {
+    /// The scene entry, `constraints[i]`.
+    pub constraint: String,
+    /// Σ of the reactions on its DOFs (N): what the support exerts on the body.
+    pub force_n: [f64; 3],
+    /// Their moment about the origin of the mesh coordinates (N·m).
+    pub moment_about_origin_nm: [f64; 3],
 }
 
 /// Wall time (s) of each phase of a linear static solve, from
@@ -86,6 +97,12 @@ pub struct RunSummary {
     pub relative_residual: f64,
     /// Mean displacement of each probe.
     pub probes: Vec<ProbeValue>,
+    /// Resultant of all applied loads (N), gravity included.
+    pub applied_load_n: [f64; 3],
+    /// The reaction resultant of each `[[constraints]]` entry (linear model; `None` for the
+    /// nonlinear ones). With the applied load they balance: Σ reactions + applied = 0 up to the
+    /// solve's residual (a DOF in two entries counts in both).
+    pub reactions: Option<Vec<ReactionRow>>,
     /// Wall time to build the mesh, constraints and loads (s).
     pub build_seconds: f64,
     /// Wall time to assemble, factor and solve (s).
@@ -143,6 +160,7 @@ pub fn run_static_with(scene: &Scene, options: &RunOptions) -> Result<RunSummary
     let mut factor_len = 0;
     // The model that runs is the model whose stress and energy are reported.
     let model = scene.model().build_map(&built.materials);
+    let mut reactions = None;
     let (displacement, relative_residual, free_dofs) = match scene.model() {
         tetfem::model::ModelKind::Linear => {
             let options = tetfem::linalg::linear_solver::SolverOptions {
@@ -157,6 +175,7 @@ pub fn run_static_with(scene: &Scene, options: &RunOptions) -> Result<RunSummary
             )?;
             let solution = solver.solve(&built.loads)?;
             phases = Some(solver.timings().into());
+            reactions = Some(solution.reactions.clone());
             factor_len = solver.factor_len();
             (
                 solution.displacement,
@@ -208,6 +227,29 @@ pub fn run_static_with(scene: &Scene, options: &RunOptions) -> Result<RunSummary
             displacement: p.mean_displacement(u).into(),
         })
         .collect();
+    let reaction_rows = match &reactions {
+        Some(r) => Some(
+            built
+                .constraint_dofs
+                .iter()
+                .enumerate()
+                .map(|(i, dofs)| {
+                    let (force, moment) = tetfem::statics::reaction_resultant(
+                        &built.mesh,
+                        r,
+                        dofs,
+                        nalgebra::Vector3::zeros(),
+                    )?;
+                    Ok(ReactionRow {
+                        constraint: format!("constraints[{i}]"),
+                        force_n: force.into(),
+                        moment_about_origin_nm: moment.into(),
+                    })
+                })
+                .collect::<Result<Vec<_>>>()?,
+        ),
+        None => None,
+    };
     let mut summary = RunSummary {
         warnings: built
             .warnings()
@@ -225,6 +267,8 @@ pub fn run_static_with(scene: &Scene, options: &RunOptions) -> Result<RunSummary
         max_von_mises: von_mises.iter().fold(0.0, |a: f64, &b| a.max(b)),
         relative_residual,
         probes,
+        applied_load_n: built.loads.resultant().into(),
+        reactions: reaction_rows,
         build_seconds,
         solve_seconds,
         output_seconds: 0.0,
@@ -234,18 +278,28 @@ pub fn run_static_with(scene: &Scene, options: &RunOptions) -> Result<RunSummary
     };
     if !options.no_files {
         let clock = Instant::now();
-        summary.files =
-            write_static_outputs(scene, &built, &model, u, &von_mises, options, &summary)?;
+        summary.files = write_static_outputs(
+            scene,
+            &built,
+            &model,
+            u,
+            reactions.as_deref(),
+            &von_mises,
+            options,
+            &summary,
+        )?;
         summary.output_seconds = clock.elapsed().as_secs_f64();
     }
     Ok(summary)
 }
 
+#[allow(clippy::too_many_arguments)]
 fn write_static_outputs(
     scene: &Scene,
     built: &BuiltScene,
     model: &ModelMap,
     u: &[f64],
+    reactions: Option<&[f64]>,
     von_mises: &[f64],
     options: &RunOptions,
     summary: &RunSummary,
@@ -256,9 +310,9 @@ fn write_static_outputs(
     let mut files = Vec::new();
     if out.vtu {
         let vtu = dir.join(format!("{}.vtu", out.stem));
-        match scene.model() == tetfem::model::ModelKind::Linear {
-            true => write_result_vtu(&vtu, &built.mesh, &built.materials, u, None)?,
-            false => write_model_result_vtu(&vtu, &built.mesh, model, u, None)?,
+        match reactions {
+            Some(r) => write_static_result_vtu(&vtu, &built.mesh, &built.materials, u, r)?,
+            None => write_model_result_vtu(&vtu, &built.mesh, model, u, None)?,
         }
         let mut pvd = PvdCollection::new(dir.join(format!("{}.pvd", out.stem)));
         pvd.push(0.0, &vtu)?;
