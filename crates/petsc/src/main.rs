@@ -1,0 +1,189 @@
+//! `tetfem-petsc`: a static linear scene solved by PETSc on every rank of `mpirun`.
+//!
+//! ```text
+//! mpirun -n N tetfem-petsc SCENE.toml [--solver gamg|hypre|mumps] [--out DIR]
+//!        [--displacement FILE] [--json] [--no-files] [-petsc_option value ...]
+//! ```
+//!
+//! The scene comes first; `--` options are tetfem-petsc's; every other argument goes to
+//! PETSc's options database (e.g. `-ksp_monitor`, `-ksp_rtol 1e-10`, `-pc_gamg_threshold 0.05`)
+//! and wins over the preset's options. Rank 0 writes `<out>/<stem>_petsc_summary.json` (unless
+//! `--no-files`) and, with `--displacement FILE`, every DOF's displacement in the mesh's
+//! numbering (3·node + axis), one value per line.
+
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+
+use tetfem_cli::scene::Scene;
+use tetfem_petsc::engine::{SolverPreset, solve_static_scene, summary_path};
+use tetfem_petsc::ffi::Petsc;
+use tetfem_petsc::{Error, Result};
+
+const USAGE: &str = "usage: mpirun -n N tetfem-petsc SCENE.toml [--solver gamg|hypre|mumps] \
+[--out DIR] [--displacement FILE] [--json] [--no-files] [PETSc options, e.g. -ksp_monitor]";
+
+struct Arguments {
+    scene: PathBuf,
+    solver: SolverPreset,
+    out: Option<PathBuf>,
+    displacement: Option<PathBuf>,
+    json: bool,
+    no_files: bool,
+    petsc: Vec<String>,
+}
+
+fn parse(args: &[String]) -> Result<Arguments> {
+    let program = args
+        .first()
+        .cloned()
+        .unwrap_or_else(|| "tetfem-petsc".into());
+    let scene = match args.get(1) {
+        Some(s) if !s.starts_with('-') => PathBuf::from(s),
+        other => {
+            return Err(Error::invalid(
+                "first argument",
+                other.map_or("nothing", String::as_str),
+                format!("must be the scene file; {USAGE}"),
+            ));
+        }
+    };
+    let mut parsed = Arguments {
+        scene,
+        solver: SolverPreset::default(),
+        out: None,
+        displacement: None,
+        json: false,
+        no_files: false,
+        petsc: vec![program],
+    };
+    let mut rest = args[2..].iter();
+    while let Some(arg) = rest.next() {
+        let mut value = |name: &str| {
+            rest.next()
+                .cloned()
+                .ok_or_else(|| Error::invalid(name, "nothing", format!("needs a value; {USAGE}")))
+        };
+        match arg.as_str() {
+            "--solver" => parsed.solver = value("--solver")?.parse()?,
+            "--out" => parsed.out = Some(PathBuf::from(value("--out")?)),
+            "--displacement" => parsed.displacement = Some(PathBuf::from(value("--displacement")?)),
+            "--json" => parsed.json = true,
+            "--no-files" => parsed.no_files = true,
+            other if other.starts_with("--") => {
+                return Err(Error::invalid(
+                    "option",
+                    other,
+                    format!("is not one of tetfem-petsc's; {USAGE}"),
+                ));
+            }
+            other => parsed.petsc.push(other.to_string()),
+        }
+    }
+    Ok(parsed)
+}
+
+fn write(path: &Path, text: &str) -> Result<()> {
+    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir).map_err(|source| Error::Io {
+            path: dir.to_path_buf(),
+            source,
+        })?;
+    }
+    std::fs::write(path, text).map_err(|source| Error::Io {
+        path: path.to_path_buf(),
+        source,
+    })
+}
+
+fn run(petsc: &Petsc, args: &Arguments) -> Result<()> {
+    let mut scene = Scene::load(&args.scene)?;
+    if let Some(out) = &args.out {
+        scene.set_output_directory(out.clone());
+    }
+    let result = solve_static_scene(petsc, &scene, args.solver, args.displacement.is_some())?;
+    if petsc.rank() != 0 {
+        return Ok(());
+    }
+    let json = serde_json::to_string_pretty(&result.summary)
+        .map_err(|e| Error::invalid("summary", e, "must serialize to JSON"))?;
+    if !args.no_files {
+        write(&summary_path(&scene), &json)?;
+    }
+    if let (Some(path), Some(u)) = (&args.displacement, &result.displacement) {
+        let text: String = u.iter().map(|v| format!("{v:e}\n")).collect();
+        write(path, &text)?;
+    }
+    if args.json {
+        println!("{json}");
+    } else {
+        let s = &result.summary;
+        println!(
+            "{}: {} DOFs ({} free) on {} ranks, {} + {} ({}): {} iterations, {}, relative residual {:.2e}",
+            s.title,
+            s.dofs,
+            s.free_dofs,
+            s.ranks,
+            s.ksp_type,
+            s.pc_type,
+            s.solver.name(),
+            s.iterations,
+            s.converged_reason,
+            s.relative_residual
+        );
+        println!(
+            "  seconds: build {:.3}, partition {:.3}, assembly {:.3}, constraints {:.3}, set-up {:.3}, solve {:.3}",
+            s.seconds.build,
+            s.seconds.partition,
+            s.seconds.assembly,
+            s.seconds.constraints,
+            s.seconds.setup,
+            s.seconds.solve
+        );
+        for p in &s.probes {
+            println!(
+                "  probe {}: u = [{:.6e}, {:.6e}, {:.6e}] m",
+                p.name, p.displacement[0], p.displacement[1], p.displacement[2]
+            );
+        }
+    }
+    Ok(())
+}
+
+fn main() -> ExitCode {
+    let args: Vec<String> = std::env::args().collect();
+    if args.iter().any(|a| a == "--help" || a == "-h") {
+        println!("{USAGE}");
+        return ExitCode::SUCCESS;
+    }
+    let parsed = match parse(&args) {
+        Ok(parsed) => parsed,
+        Err(e) => {
+            eprintln!("error: {e}");
+            return ExitCode::FAILURE;
+        }
+    };
+    let petsc = match Petsc::initialize(&parsed.petsc) {
+        Ok(petsc) => petsc,
+        Err(e) => {
+            eprintln!("error: {e}");
+            return ExitCode::FAILURE;
+        }
+    };
+    // Every error here arises on every rank alike (the scene, the partition and PETSc's
+    // collective calls are the same on all), so every rank reports it and finalizes.
+    let outcome = run(&petsc, &parsed);
+    let rank = petsc.rank();
+    let size = petsc.size();
+    drop(petsc);
+    match outcome {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            if size > 1 {
+                eprintln!("error (rank {rank} of {size}): {e}");
+            } else {
+                eprintln!("error: {e}");
+            }
+            ExitCode::FAILURE
+        }
+    }
+}
