@@ -264,11 +264,13 @@ pub fn solve_static_scene(
     b.set_and_assemble(&owned_indices, &rhs)?;
     let mut prescribed = Vec::with_capacity(owned.len());
     let mut constrained_rows = Vec::new();
+    let mut constrained_values = Vec::new();
     for d in owned.clone() {
         match built.constraints.get(old_dof(d)) {
             Some(value) => {
                 prescribed.push(value);
                 constrained_rows.push(d as i32);
+                constrained_values.push(value);
             }
             None => prescribed.push(0.0),
         }
@@ -313,6 +315,10 @@ pub fn solve_static_scene(
     }
     let (ksp_type, pc_type) = ksp.types()?;
     drop(ksp);
+    // The Krylov method solves the decoupled rows d·u = d·u_c only to its tolerance; the free
+    // rows never saw them (their columns are zero), so setting them to u_c exactly is the
+    // solution of the eliminated system.
+    x.set_and_assemble(&constrained_rows, &constrained_values)?;
 
     let mut residual = x.duplicate()?;
     matrix.mult(&x, &mut residual)?;

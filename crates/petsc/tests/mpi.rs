@@ -1,0 +1,436 @@
+//! The PETSc engine under `mpirun`, against tetfem's single-process direct solve.
+//!
+//! Each test runs `mpirun -n N tetfem-petsc SCENE --displacement FILE --json` and compares the
+//! gathered displacement with `StaticSolver` (sparse Cholesky) on the same scene. Without the
+//! `petsc` feature, or without `mpirun` on PATH, every test prints that it skipped and passes
+//! (run with `-- --nocapture` to see it, and the iteration counts).
+
+#[cfg(not(feature = "petsc"))]
+#[test]
+fn mpi_tests_skipped_without_the_petsc_feature() {
+    println!(
+        "SKIPPED: tetfem-petsc was built without the `petsc` feature; run \
+         `cargo test --release -p tetfem-petsc --features petsc` where PETSc is installed"
+    );
+}
+
+#[cfg(feature = "petsc")]
+mod with_petsc {
+    use std::io::Read;
+    use std::path::{Path, PathBuf};
+    use std::process::{Command, Stdio};
+    use std::sync::Mutex;
+    use std::time::{Duration, Instant};
+
+    use serde_json::Value;
+    use tetfem::linalg::linear_solver::SolverOptions;
+    use tetfem::{LinearMethod, StaticSolver};
+    use tetfem_cli::scene::Scene;
+
+    /// The 1e-8 relative agreement issue 20 asks for (2-norm over every DOF). The direct solve
+    /// is backward stable (residual ~1e-15); the iterative presets stop at a true relative
+    /// residual near 1e-11 (measured 5.6e-11 on the cantilever), which on these matrices moves
+    /// the displacement by far less than 1e-8.
+    const AGREEMENT: f64 = 1e-8;
+
+    /// One mpirun at a time: the machine has 2 cores, and the tests' timings are reported.
+    static MPIRUN: Mutex<()> = Mutex::new(());
+
+    fn mpirun() -> Option<PathBuf> {
+        std::env::var_os("PATH").and_then(|path| {
+            std::env::split_paths(&path)
+                .map(|dir| dir.join("mpirun"))
+                .find(|p| p.is_file())
+        })
+    }
+
+    fn scenes() -> PathBuf {
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes")
+    }
+
+    fn scratch(name: &str) -> PathBuf {
+        let dir = Path::new(env!("CARGO_TARGET_TMPDIR"))
+            .join("petsc-tests")
+            .join(name);
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).expect("scratch folder");
+        dir
+    }
+
+    struct Run {
+        success: bool,
+        stdout: String,
+        stderr: String,
+        summary: Value,
+        displacement: Vec<f64>,
+    }
+
+    /// `mpirun -n ranks tetfem-petsc scene args...`, killed after 300 s (a hung collective
+    /// must fail the test, not CI's clock). `None` (after printing SKIPPED) without mpirun.
+    fn run(name: &str, ranks: usize, scene: &Path, args: &[&str]) -> Option<Run> {
+        let Some(mpirun) = mpirun() else {
+            println!("SKIPPED {name}: no mpirun on PATH (apt-get install -y petsc-dev)");
+            return None;
+        };
+        let _one = MPIRUN.lock().unwrap_or_else(|p| p.into_inner());
+        let dir = scratch(name);
+        let displacement = dir.join("u.txt");
+        let mut child = Command::new(mpirun)
+            // Root in containers and CI; harmless otherwise.
+            .env("OMPI_ALLOW_RUN_AS_ROOT", "1")
+            .env("OMPI_ALLOW_RUN_AS_ROOT_CONFIRM", "1")
+            .args(["--oversubscribe", "--bind-to", "none", "-n"])
+            .arg(ranks.to_string())
+            .arg(env!("CARGO_BIN_EXE_tetfem-petsc"))
+            .arg(scene)
+            .args(["--json", "--out"])
+            .arg(&dir)
+            .arg("--displacement")
+            .arg(&displacement)
+            .args(args)
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .expect("mpirun starts");
+        let clock = Instant::now();
+        let status = loop {
+            if let Some(status) = child.try_wait().expect("mpirun status") {
+                break status;
+            }
+            if clock.elapsed() > Duration::from_secs(300) {
+                let _ = child.kill();
+                panic!("{name}: mpirun -n {ranks} did not finish in 300 s");
+            }
+            std::thread::sleep(Duration::from_millis(20));
+        };
+        let (mut stdout, mut stderr) = (String::new(), String::new());
+        child
+            .stdout
+            .take()
+            .map(|mut s| s.read_to_string(&mut stdout));
+        child
+            .stderr
+            .take()
+            .map(|mut s| s.read_to_string(&mut stderr));
+        let summary = serde_json::from_str(&stdout).unwrap_or(Value::Null);
+        let displacement = std::fs::read_to_string(&displacement)
+            .map(|text| {
+                text.lines()
+                    .map(|l| l.parse().expect("a number per line"))
+                    .collect()
+            })
+            .unwrap_or_default();
+        Some(Run {
+            success: status.success(),
+            stdout,
+            stderr,
+            summary,
+            displacement,
+        })
+    }
+
+    fn direct(scene: &Path) -> Vec<f64> {
+        let built = Scene::load(scene).expect("scene").build().expect("built");
+        let options = SolverOptions {
+            method: LinearMethod::Direct,
+            ..Default::default()
+        };
+        StaticSolver::with_options(&built.mesh, &built.materials, &built.constraints, options)
+            .expect("factored")
+            .solve(&built.loads)
+            .expect("solved")
+            .displacement
+    }
+
+    fn relative_difference(a: &[f64], b: &[f64]) -> f64 {
+        assert_eq!(a.len(), b.len(), "displacement lengths");
+        let diff: f64 = a.iter().zip(b).map(|(x, y)| (x - y).powi(2)).sum();
+        let norm: f64 = b.iter().map(|y| y * y).sum();
+        (diff / norm).sqrt()
+    }
+
+    /// Runs, checks success and agreement with the direct solve; returns the summary.
+    fn agrees(name: &str, ranks: usize, scene: &Path, args: &[&str]) -> Option<Value> {
+        let run = run(name, ranks, scene, args)?;
+        assert!(
+            run.success,
+            "{name}: mpirun failed\nstdout: {}\nstderr: {}",
+            run.stdout, run.stderr
+        );
+        let difference = relative_difference(&run.displacement, &direct(scene));
+        let s = &run.summary;
+        println!(
+            "{name}: {} ranks, {} + {}, {} iterations, true relative residual {:.2e}, \
+             relative difference to the direct solve {difference:.2e}, set-up {:.3} s, solve {:.3} s",
+            s["ranks"],
+            s["ksp_type"],
+            s["pc_type"],
+            s["iterations"],
+            s["relative_residual"].as_f64().unwrap_or(f64::NAN),
+            s["seconds"]["setup"],
+            s["seconds"]["solve"]
+        );
+        assert!(
+            difference <= AGREEMENT,
+            "{name}: relative difference {difference:e} to the direct solve"
+        );
+        assert_eq!(s["ranks"], ranks);
+        Some(run.summary)
+    }
+
+    fn cantilever() -> PathBuf {
+        scenes().join("cantilever_static.toml")
+    }
+
+    #[test]
+    fn cantilever_gamg_one_rank_matches_the_direct_solve() {
+        let Some(s) = agrees("cantilever_gamg_1", 1, &cantilever(), &[]) else {
+            return;
+        };
+        assert_eq!(s["ksp_type"], "cg");
+        assert_eq!(s["pc_type"], "gamg");
+        // Measured 32 (1 rank) and 34 (2 ranks) to a 1e-12 residual; GAMG without the
+        // rigid-body near-null space needs several times as many on this slender beam, so 60
+        // catches a lost near-null space while leaving room for PETSc's heuristics.
+        let iterations = s["iterations"].as_i64().expect("iterations");
+        assert!(iterations <= 60, "{iterations} GAMG iterations");
+    }
+
+    #[test]
+    fn cantilever_gamg_two_ranks_matches_the_direct_solve_with_the_work_split() {
+        let Some(s) = agrees("cantilever_gamg_2", 2, &cantilever(), &[]) else {
+            return;
+        };
+        let iterations = s["iterations"].as_i64().expect("iterations");
+        // As on one rank (measured 34); the partition changes GAMG's aggregates a little.
+        assert!(iterations <= 60, "{iterations} GAMG iterations");
+        // Distributed: each rank assembled some tets and owns some rows, none all of them.
+        let list = |key: &str| -> Vec<u64> {
+            s[key]
+                .as_array()
+                .expect(key)
+                .iter()
+                .map(|v| v.as_u64().expect("count"))
+                .collect()
+        };
+        let (tets, rows, nonzeros) = (
+            list("tets_per_rank"),
+            list("rows_per_rank"),
+            list("nonzeros_per_rank"),
+        );
+        assert_eq!(tets.iter().sum::<u64>(), s["tets"].as_u64().expect("tets"));
+        assert_eq!(rows.iter().sum::<u64>(), s["dofs"].as_u64().expect("dofs"));
+        let total_nonzeros: u64 = nonzeros.iter().sum();
+        for rank in 0..2 {
+            assert!(tets[rank] > 0 && rows[rank] > 0, "rank {rank} has no work");
+            // METIS balances within a few percent; 0.7 of the whole is far from "one rank
+            // holds the matrix" and far from a balanced split's 0.5.
+            assert!(
+                (nonzeros[rank] as f64) < 0.7 * total_nonzeros as f64,
+                "rank {rank} holds {} of {total_nonzeros} non-zeros",
+                nonzeros[rank]
+            );
+        }
+    }
+
+    #[test]
+    fn cantilever_mumps_and_hypre_two_ranks_match_the_direct_solve() {
+        let Some(s) = agrees(
+            "cantilever_mumps_2",
+            2,
+            &cantilever(),
+            &["--solver", "mumps"],
+        ) else {
+            return;
+        };
+        assert_eq!(s["pc_type"], "cholesky");
+        let Some(s) = agrees(
+            "cantilever_hypre_2",
+            2,
+            &cantilever(),
+            &["--solver", "hypre"],
+        ) else {
+            return;
+        };
+        assert_eq!(s["pc_type"], "hypre");
+    }
+
+    #[test]
+    fn materials_per_region_and_the_analytic_stretch_on_two_ranks() {
+        let scene = scenes().join("bimaterial_bar.toml");
+        let Some(s) = agrees("bimaterial_2", 2, &scene, &[]) else {
+            return;
+        };
+        // Two springs in series: F·(L₁/(E₁A) + L₂/(E₂A)) = 9.642857e-5 m, exact for linear tets
+        // with ν = 0 (the scene's comment); 1e-8 relative is the solve's accuracy, not the
+        // discretization's.
+        let end = s["probes"][0]["displacement"][0].as_f64().expect("probe");
+        let exact = 1e5 * (0.5 / (200e9 * 0.01) + 0.5 / (70e9 * 0.01));
+        assert!(
+            ((end - exact) / exact).abs() < 1e-8,
+            "end stretch {end:e}, exact {exact:e}"
+        );
+    }
+
+    #[test]
+    fn gmsh_mesh_with_two_regions_on_two_ranks() {
+        let dir = scratch("gmsh_regions_scene");
+        let msh = scenes()
+            .join("l_bracket.msh")
+            .canonicalize()
+            .expect("l_bracket.msh");
+        let scene = dir.join("l_bracket_regions.toml");
+        std::fs::write(
+            &scene,
+            format!(
+                r#"[mesh.gmsh]
+file = "{}"
+
+[material]
+youngs_modulus = 200e9
+poisson_ratio = 0.3
+density = 7850.0
+
+[[materials]]
+youngs_modulus = 70e9
+poisson_ratio = 0.33
+density = 2700.0
+where = {{ box = {{ min = [0.05, -1.0, -1.0], max = [1.0, 1.0, 1.0] }} }}
+
+[[constraints]]
+where = {{ group = "clamp" }}
+
+[[loads]]
+where = {{ group = "load" }}
+total_force = [0.0, -2000.0, 0.0]
+
+[[probes]]
+name = "load_face"
+where = {{ group = "load" }}
+"#,
+                msh.display()
+            ),
+        )
+        .expect("scene written");
+        // Two materials really present: the region box claims some tets, not all.
+        let built = Scene::load(&scene).expect("scene").build().expect("built");
+        let counts = built.materials.counts();
+        assert!(
+            counts.len() == 2 && counts.iter().all(|&c| c > 0),
+            "{counts:?}"
+        );
+        agrees("gmsh_regions_2", 2, &scene, &[]);
+    }
+
+    #[test]
+    fn prescribed_displacements_and_rollers_on_two_ranks() {
+        // Non-zero prescribed values enter the right-hand side through MatZeroRowsColumns, and
+        // roller nodes (one axis fixed) keep their other two DOFs free inside a 3-block.
+        let dir = scratch("prescribed_scene");
+        let scene = dir.join("pulled_block.toml");
+        std::fs::write(
+            &scene,
+            r#"[mesh.box]
+max = [0.4, 0.1, 0.1]
+cells = [12, 3, 3]
+
+[material]
+youngs_modulus = 1e7
+poisson_ratio = 0.45
+density = 1000.0
+
+[[constraints]]
+where = { plane = { axis = "x", at = 0.0 } }
+fix = ["x"]
+
+[[constraints]]
+where = { nodes = [0] }
+fix = ["x", "y", "z"]
+
+[[constraints]]
+where = { box = { min = [-1.0, -1.0, -1.0], max = [0.01, 0.01, 1.0] } }
+fix = ["y"]
+
+[[constraints]]
+where = { plane = { axis = "x", at = 0.4 } }
+fix = ["x", "z"]
+displacement = [0.004, 0.0, -0.002]
+
+[[loads]]
+gravity = [0.0, -9.81, 0.0]
+"#,
+        )
+        .expect("scene written");
+        let Some(s) = agrees("prescribed_2", 2, &scene, &[]) else {
+            return;
+        };
+        assert!(s["constrained_dofs"].as_u64().expect("count") > 0);
+        // The prescribed values come back exactly (the engine sets them after the solve; the
+        // free rows' equations K_ff·u_f = f_f − K_fc·u_c never depended on them).
+        let run = run("prescribed_2_values", 2, &scene, &[]).expect("ran before");
+        let built = Scene::load(&scene).expect("scene").build().expect("built");
+        for (dof, u) in run.displacement.iter().enumerate() {
+            if let Some(value) = built.constraints.get(dof) {
+                // Exact: written from the constraints, printed with `{:e}` (shortest round-trip).
+                assert_eq!(*u, value, "DOF {dof}");
+            }
+        }
+    }
+
+    #[test]
+    fn command_line_petsc_options_win_over_the_preset() {
+        let Some(run) = run(
+            "petsc_options",
+            1,
+            &cantilever(),
+            &["-pc_type", "jacobi", "-ksp_rtol", "1e-6"],
+        ) else {
+            return;
+        };
+        assert!(run.success, "{}", run.stderr);
+        assert_eq!(run.summary["pc_type"], "jacobi");
+        // Loosened to 1e-6: the true residual is near it, far above the preset's 1e-12.
+        let residual = run.summary["relative_residual"].as_f64().expect("residual");
+        assert!(residual > 1e-9 && residual < 1e-5, "{residual:e}");
+    }
+
+    #[test]
+    fn a_solve_that_does_not_converge_is_a_named_error() {
+        let Some(run) = run("not_converged", 2, &cantilever(), &["-ksp_max_it", "3"]) else {
+            return;
+        };
+        assert!(!run.success, "3 iterations cannot reach 1e-12");
+        assert!(run.stderr.contains("KSP_DIVERGED_ITS"), "{}", run.stderr);
+        assert!(run.stderr.contains("after 3 iterations"), "{}", run.stderr);
+    }
+
+    #[test]
+    fn bad_input_names_the_culprit() {
+        let dynamic = scenes().join("cantilever_dynamic.toml");
+        let Some(run_dynamic) = run("dynamic_scene", 1, &dynamic, &[]) else {
+            return;
+        };
+        assert!(!run_dynamic.success);
+        assert!(
+            run_dynamic.stderr.contains("analysis.type") && run_dynamic.stderr.contains("static"),
+            "{}",
+            run_dynamic.stderr
+        );
+        let missing = scenes().join("no_such_scene.toml");
+        let run_missing = run("missing_scene", 1, &missing, &[]).expect("ran before");
+        assert!(!run_missing.success);
+        assert!(
+            run_missing.stderr.contains("no_such_scene.toml"),
+            "{}",
+            run_missing.stderr
+        );
+        let run_solver =
+            run("bad_solver", 1, &cantilever(), &["--solver", "lu"]).expect("ran before");
+        assert!(!run_solver.success);
+        assert!(
+            run_solver.stderr.contains("lu") && run_solver.stderr.contains("gamg"),
+            "{}",
+            run_solver.stderr
+        );
+    }
+}
