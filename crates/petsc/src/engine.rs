@@ -26,6 +26,19 @@ use tetfem_cli::scene::{Analysis, ProbeValue, Scene};
 use crate::error::{Error, Result};
 use crate::ffi::{Krylov, MatOption, Matrix, Petsc, petsc_int, reason_name};
 use crate::partition::Partition;
+use crate::pvtu::PvtuFiles;
+
+/// What a run computes and writes besides the solve.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct EngineOptions {
+    /// The solver preset.
+    pub solver: SolverPreset,
+    /// Gather the whole displacement on rank 0 ([`StaticResult::displacement`]).
+    pub gather_displacement: bool,
+    /// Write the parallel `.pvtu` output (each rank its piece) when the scene's `output.vtu`
+    /// is on (see [`crate::pvtu`]).
+    pub write_vtu: bool,
+}
 
 /// The solver presets; each sets PETSc options that the command line may override.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize)]
@@ -167,6 +180,8 @@ pub struct PetscSummary {
     pub seconds: PhaseSeconds,
     /// Peak resident memory of each rank (bytes, VmHWM; 0 where /proc is not readable).
     pub peak_memory_per_rank: Vec<u64>,
+    /// The parallel output's `.pvd` and `.pvtu` (the pieces are beside them), when written.
+    pub files: Vec<PathBuf>,
 }
 
 /// A distributed static solve's result.
@@ -179,15 +194,16 @@ pub struct StaticResult {
     pub displacement: Option<Vec<f64>>,
 }
 
-/// Solves a static linear scene on all ranks of `petsc` with the preset `solver` (options
-/// given on the command line win over the preset's); gathers the displacement on rank 0 when
-/// `gather` is set. Collective: every rank calls it with the same scene.
+/// Solves a static linear scene on all ranks of `petsc` with the preset `options.solver`
+/// (options given on the command line win over the preset's); gathers the displacement on
+/// rank 0 and writes the parallel output as `options` ask. Collective: every rank calls it
+/// with the same scene and options.
 pub fn solve_static_scene(
     petsc: &Petsc,
     scene: &Scene,
-    solver: SolverPreset,
-    gather: bool,
+    options: EngineOptions,
 ) -> Result<StaticResult> {
+    let solver = options.solver;
     if let Analysis::Dynamic(_) = scene.analysis() {
         return Err(Error::invalid(
             format!("analysis.type of {}", scene.source_name()),
@@ -364,7 +380,27 @@ pub fn solve_static_scene(
         .fold(0.0, f64::max)];
     petsc.max(&mut max_displacement)?;
 
-    let displacement = if gather {
+    // The values of every node of this rank's tets (its own and its neighbours'), for its
+    // piece; fetched here because the fetch is collective, written at the end.
+    let piece = if options.write_vtu && scene.output().vtu {
+        let tets: Vec<usize> = partition.tets_of(rank).collect();
+        let mut piece_nodes: Vec<usize> = tets.iter().flat_map(|&t| mesh.tets()[t]).collect();
+        piece_nodes.sort_unstable();
+        piece_nodes.dedup();
+        let indices: Vec<i32> = piece_nodes
+            .iter()
+            .flat_map(|&n| {
+                let partition = &partition;
+                (0..3).map(move |a| partition.global_dof(n, a) as i32)
+            })
+            .collect();
+        let values = x.entries(&indices)?;
+        Some((tets, piece_nodes, values))
+    } else {
+        None
+    };
+
+    let displacement = if options.gather_displacement {
         x.gather_to_zero(petsc)?.map(|all| {
             let mut full = vec![0.0; dofs];
             for (new, value) in all.into_iter().enumerate() {
@@ -439,7 +475,20 @@ pub fn solve_static_scene(
         max_displacement: max_displacement[0],
         seconds,
         peak_memory_per_rank: column(3).into_iter().map(|v| v as u64).collect(),
+        files: Vec::new(),
     };
+    let mut summary = summary;
+    // After the last collective call: a rank that fails to write cannot leave the others
+    // waiting.
+    if let Some((tets, piece_nodes, values)) = piece {
+        let output = scene.output();
+        let files = PvtuFiles::new(&output.directory, &output.stem);
+        files.write_piece(rank, mesh, &tets, &piece_nodes, &values)?;
+        summary.files = vec![files.pvd.clone(), files.pvtu.clone()];
+        if rank == 0 {
+            files.write_index(size)?;
+        }
+    }
     Ok(StaticResult {
         summary,
         displacement,

@@ -30,7 +30,7 @@ macro_rules! opaque {
         }
     )*};
 }
-opaque!(PMat, PVec, PKsp, PPc, PNullSpace, PScatter, POptions);
+opaque!(PMat, PVec, PKsp, PPc, PNullSpace, PScatter, POptions, PIs);
 
 /// `InsertMode` of petscsystypes.h 3.18.
 const INSERT_VALUES: c_int = 1;
@@ -41,6 +41,8 @@ const MAT_FINAL_ASSEMBLY: c_int = 0;
 const SCATTER_FORWARD: c_int = 0;
 /// `NormType`.
 const NORM_2: c_int = 1;
+/// `PetscCopyMode`.
+const PETSC_COPY_VALUES: c_int = 0;
 
 /// The `MatOption`s the engine sets (values of petscmat.h 3.18).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -58,6 +60,8 @@ pub enum MatOption {
 
 // libmpi is linked by build.rs.
 unsafe extern "C" {
+    /// MPI_COMM_SELF (= PETSC_COMM_SELF) is the address of this global.
+    static ompi_mpi_comm_self: u8;
     static ompi_mpi_double: u8;
     static ompi_mpi_unsigned_long: u8;
     static ompi_mpi_op_sum: u8;
@@ -190,6 +194,22 @@ unsafe extern "C" {
         direction: c_int,
     ) -> PetscErrorCode;
     fn VecScatterDestroy(scatter: *mut *mut PScatter) -> PetscErrorCode;
+    fn VecScatterCreate(
+        x: *mut PVec,
+        ix: *mut PIs,
+        y: *mut PVec,
+        iy: *mut PIs,
+        scatter: *mut *mut PScatter,
+    ) -> PetscErrorCode;
+    fn VecCreateSeq(comm: MpiComm, n: PetscInt, vec: *mut *mut PVec) -> PetscErrorCode;
+    fn ISCreateGeneral(
+        comm: MpiComm,
+        n: PetscInt,
+        idx: *const PetscInt,
+        mode: c_int,
+        is: *mut *mut PIs,
+    ) -> PetscErrorCode;
+    fn ISDestroy(is: *mut *mut PIs) -> PetscErrorCode;
 
     fn KSPCreate(comm: MpiComm, ksp: *mut *mut PKsp) -> PetscErrorCode;
     fn KSPSetOperators(ksp: *mut PKsp, a: *mut PMat, p: *mut PMat) -> PetscErrorCode;
@@ -724,6 +744,64 @@ impl<'p> Vector<'p> {
             moved.and(destroyed)?;
             let values = all.local_values()?;
             Ok((petsc.rank() == 0).then_some(values))
+        }
+    }
+}
+
+impl<'p> Vector<'p> {
+    /// The entries at global `indices` (any rank's), on this rank; collective (every rank
+    /// calls it, each with its own indices).
+    pub fn entries(&self, indices: &[i32]) -> Result<Vec<f64>> {
+        let n = petsc_int("gathered entries", indices.len())?;
+        let self_comm: MpiComm = (&raw const ompi_mpi_comm_self).cast_mut().cast();
+        let mut is = std::ptr::null_mut();
+        let mut local = std::ptr::null_mut();
+        let mut scatter = std::ptr::null_mut();
+        // SAFETY: indices holds n entries (copied by PETSc: PETSC_COPY_VALUES); self_comm is
+        // Open MPI's MPI_COMM_SELF; every handle created here is destroyed before returning
+        // (the Vector wrapper destroys `local`; IS and scatter explicitly, on every path).
+        unsafe {
+            check(
+                "ISCreateGeneral",
+                ISCreateGeneral(self_comm, n, indices.as_ptr(), PETSC_COPY_VALUES, &mut is),
+            )?;
+            let created = check("VecCreateSeq", VecCreateSeq(self_comm, n, &mut local));
+            let local = Vector::from_raw(local);
+            let moved = created
+                .and_then(|()| {
+                    check(
+                        "VecScatterCreate",
+                        VecScatterCreate(
+                            self.raw,
+                            is,
+                            local.raw,
+                            std::ptr::null_mut(),
+                            &mut scatter,
+                        ),
+                    )
+                })
+                .and_then(|()| {
+                    check(
+                        "VecScatterBegin",
+                        VecScatterBegin(
+                            scatter,
+                            self.raw,
+                            local.raw,
+                            INSERT_VALUES,
+                            SCATTER_FORWARD,
+                        ),
+                    )
+                })
+                .and_then(|()| {
+                    check(
+                        "VecScatterEnd",
+                        VecScatterEnd(scatter, self.raw, local.raw, INSERT_VALUES, SCATTER_FORWARD),
+                    )
+                });
+            let scatter_destroyed = check("VecScatterDestroy", VecScatterDestroy(&mut scatter));
+            let is_destroyed = check("ISDestroy", ISDestroy(&mut is));
+            moved.and(scatter_destroyed).and(is_destroyed)?;
+            local.local_values()
         }
     }
 }

@@ -21,6 +21,7 @@ pub mod error;
 #[cfg(feature = "petsc")]
 pub mod ffi;
 pub mod partition;
+pub mod pvtu;
 
 pub use error::{Error, Result};
 pub use partition::Partition;

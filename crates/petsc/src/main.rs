@@ -7,16 +7,18 @@
 //!
 //! The scene comes first; `--` options are tetfem-petsc's; every other argument goes to
 //! PETSc's options database (e.g. `-ksp_monitor`, `-ksp_rtol 1e-10`, `-pc_gamg_threshold 0.05`)
-//! and wins over the preset's options. Rank 0 writes `<out>/<stem>_petsc_summary.json` (unless
-//! `--no-files`) and, with `--displacement FILE`, every DOF's displacement in the mesh's
-//! numbering (3·node + axis), one value per line.
+//! and wins over the preset's options. Unless `--no-files`: each rank writes its piece of the
+//! parallel VTK output and rank 0 the `.pvtu`, the `.pvd` and `<out>/<stem>_petsc_summary.json`
+//! (the scene's `output.directory` unless `--out`). With `--displacement FILE` rank 0 writes
+//! every DOF's displacement in the mesh's numbering (3·node + axis), one value per line.
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::process::ExitCode;
 
 use tetfem_cli::scene::Scene;
-use tetfem_petsc::engine::{SolverPreset, solve_static_scene, summary_path};
+use tetfem_petsc::engine::{EngineOptions, SolverPreset, solve_static_scene, summary_path};
 use tetfem_petsc::ffi::Petsc;
+use tetfem_petsc::pvtu::write_file;
 use tetfem_petsc::{Error, Result};
 
 const USAGE: &str = "usage: mpirun -n N tetfem-petsc SCENE.toml [--solver gamg|hypre|mumps] \
@@ -82,36 +84,28 @@ fn parse(args: &[String]) -> Result<Arguments> {
     Ok(parsed)
 }
 
-fn write(path: &Path, text: &str) -> Result<()> {
-    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
-        std::fs::create_dir_all(dir).map_err(|source| Error::Io {
-            path: dir.to_path_buf(),
-            source,
-        })?;
-    }
-    std::fs::write(path, text).map_err(|source| Error::Io {
-        path: path.to_path_buf(),
-        source,
-    })
-}
-
 fn run(petsc: &Petsc, args: &Arguments) -> Result<()> {
     let mut scene = Scene::load(&args.scene)?;
     if let Some(out) = &args.out {
         scene.set_output_directory(out.clone());
     }
-    let result = solve_static_scene(petsc, &scene, args.solver, args.displacement.is_some())?;
+    let options = EngineOptions {
+        solver: args.solver,
+        gather_displacement: args.displacement.is_some(),
+        write_vtu: !args.no_files,
+    };
+    let result = solve_static_scene(petsc, &scene, options)?;
     if petsc.rank() != 0 {
         return Ok(());
     }
     let json = serde_json::to_string_pretty(&result.summary)
         .map_err(|e| Error::invalid("summary", e, "must serialize to JSON"))?;
     if !args.no_files {
-        write(&summary_path(&scene), &json)?;
+        write_file(&summary_path(&scene), &json)?;
     }
     if let (Some(path), Some(u)) = (&args.displacement, &result.displacement) {
         let text: String = u.iter().map(|v| format!("{v:e}\n")).collect();
-        write(path, &text)?;
+        write_file(path, &text)?;
     }
     if args.json {
         println!("{json}");
@@ -139,6 +133,9 @@ fn run(petsc: &Petsc, args: &Arguments) -> Result<()> {
             s.seconds.setup,
             s.seconds.solve
         );
+        for file in &s.files {
+            println!("  wrote {}", file.display());
+        }
         for p in &s.probes {
             println!(
                 "  probe {}: u = [{:.6e}, {:.6e}, {:.6e}] m",

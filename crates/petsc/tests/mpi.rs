@@ -378,6 +378,64 @@ gravity = [0.0, -9.81, 0.0]
     }
 
     #[test]
+    fn each_rank_writes_its_piece_of_the_parallel_output() {
+        let dir = scratch("pvtu_scene");
+        let scene = dir.join("bar.toml");
+        // The bimaterial bar with its outputs on (no PNG: the engine does not render).
+        let text = std::fs::read_to_string(scenes().join("bimaterial_bar.toml"))
+            .expect("scene")
+            .replace("png = true", "vtu = true");
+        std::fs::write(&scene, text).expect("scene written");
+        let Some(run) = run("pvtu_2", 2, &scene, &[]) else {
+            return;
+        };
+        assert!(run.success, "{}", run.stderr);
+        let out = Path::new(env!("CARGO_TARGET_TMPDIR")).join("petsc-tests/pvtu_2");
+        let pvtu = std::fs::read_to_string(out.join("bar_petsc.pvtu")).expect("pvtu");
+        assert!(
+            std::fs::read_to_string(out.join("bar_petsc.pvd"))
+                .expect("pvd")
+                .contains("bar_petsc.pvtu")
+        );
+        let mut cells = 0;
+        let mut nodes_seen = vec![false; run.displacement.len() / 3];
+        for rank in 0..2 {
+            assert!(pvtu.contains(&format!("bar_petsc/bar_{rank}.vtu")));
+            let piece = std::fs::read_to_string(out.join(format!("bar_petsc/bar_{rank}.vtu")))
+                .expect("piece");
+            let block = |name: &str| -> Vec<String> {
+                let start = piece.find(&format!("Name=\"{name}\"")).expect(name);
+                let body = &piece[start..];
+                let body = &body[body.find('>').expect("tag") + 1..];
+                body[..body.find("</DataArray>").expect("end")]
+                    .split_whitespace()
+                    .map(str::to_string)
+                    .collect()
+            };
+            let ranks = block("rank");
+            assert!(!ranks.is_empty(), "rank {rank} wrote no cell");
+            assert!(ranks.iter().all(|r| *r == rank.to_string()));
+            cells += ranks.len();
+            let node_ids: Vec<usize> = block("node")
+                .iter()
+                .map(|v| v.parse().expect("id"))
+                .collect();
+            let values: Vec<f64> = block("displacement")
+                .iter()
+                .map(|v| v.parse().expect("value"))
+                .collect();
+            // Each piece's values, ghost nodes included, are the gathered solution's, bit for
+            // bit (both are the same f64s of PETSc's vector, printed round-trip).
+            for (i, &n) in node_ids.iter().enumerate() {
+                nodes_seen[n] = true;
+                assert_eq!(values[3 * i..3 * i + 3], run.displacement[3 * n..3 * n + 3]);
+            }
+        }
+        assert_eq!(cells as u64, run.summary["tets"].as_u64().expect("tets"));
+        assert!(nodes_seen.iter().all(|&s| s), "every node in some piece");
+    }
+
+    #[test]
     fn command_line_petsc_options_win_over_the_preset() {
         let Some(run) = run(
             "petsc_options",
