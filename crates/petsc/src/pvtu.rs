@@ -211,9 +211,9 @@ fn array(
     components: usize,
     values: impl Iterator<Item = String>,
 ) {
-    let _ = write!(
+    let _ = writeln!(
         text,
-        "<DataArray type=\"{kind}\" Name=\"{name}\" NumberOfComponents=\"{components}\" format=\"ascii\">\n"
+        "<DataArray type=\"{kind}\" Name=\"{name}\" NumberOfComponents=\"{components}\" format=\"ascii\">"
     );
     for (i, v) in values.enumerate() {
         text.push_str(&v);
