@@ -147,7 +147,7 @@ fn find_petsc() -> Result<Found, String> {
             })
             .ok_or_else(|| {
                 format!(
-                    "PETSC_DIR={} (PETSC_ARCH={:?}) has no libpetsc.so or libpetsc_real.so in {lib_dirs:?}",
+                    "PETSC_DIR={} (PETSC_ARCH={:?}) has no libpetsc.so or libpetsc_real.so in {lib_dirs:?}; {INSTALL_HINT}",
                     dir.display(),
                     arch
                 )
