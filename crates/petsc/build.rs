@@ -16,9 +16,8 @@
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-const INSTALL_HINT: &str = "install Debian's PETSc with `apt-get update && apt-get install -y petsc-dev` \
-     (it brings Open MPI), or set PETSC_DIR (and PETSC_ARCH) to a PETSc 3.18 build with 32-bit \
-     indices, real double scalars and Open MPI; or build without the `petsc` feature";
+// The ABI checks, shared with tests/abi_checks.rs.
+include!("abi_checks.rs");
 
 struct Found {
     include_dirs: Vec<PathBuf>,
@@ -59,32 +58,8 @@ fn configure() -> Result<(), String> {
     let version = find_header(&petsc.include_dirs, "petscversion.h")
         .ok_or_else(|| format!("petscversion.h not found in {:?}", petsc.include_dirs))?;
     let version_text = read(&version)?;
-    let major = define_value(&version_text, "PETSC_VERSION_MAJOR");
-    let minor = define_value(&version_text, "PETSC_VERSION_MINOR");
-    if major.as_deref() != Some("3") || minor.as_deref() != Some("18") {
-        return Err(format!(
-            "PETSc {}.{} found ({}), but the FFI declarations are pinned to PETSc 3.18; {INSTALL_HINT}",
-            major.unwrap_or_default(),
-            minor.unwrap_or_default(),
-            version.display()
-        ));
-    }
-    if defined(&conf_text, "PETSC_USE_64BIT_INDICES") {
-        return Err(format!(
-            "{} defines PETSC_USE_64BIT_INDICES (64-bit PetscInt), but the FFI declarations are \
-             pinned to 32-bit PetscInt (i32); use a PETSc built without --with-64-bit-indices \
-             (Debian: petsc-dev, not petsc64-dev)",
-            conf.display()
-        ));
-    }
-    if !defined(&conf_text, "PETSC_USE_REAL_DOUBLE") || defined(&conf_text, "PETSC_USE_COMPLEX") {
-        return Err(format!(
-            "{} is not a real double-precision PETSc (PetscScalar must be f64: \
-             PETSC_USE_REAL_DOUBLE and no PETSC_USE_COMPLEX); Debian: petsc-dev, not the complex \
-             variant",
-            conf.display()
-        ));
-    }
+    check_version(&version_text, &version.display().to_string())?;
+    check_conf(&conf_text, &conf.display().to_string())?;
     let mpi_dirs = mpi_include_dirs(&petsc.include_dirs);
     let mpi_h = find_header(&mpi_dirs, "mpi.h").ok_or_else(|| {
         format!(
@@ -92,16 +67,7 @@ fn configure() -> Result<(), String> {
         )
     })?;
     let mpi_text = read(&mpi_h)?;
-    if define_value(&mpi_text, "OPEN_MPI").as_deref() != Some("1") {
-        return Err(format!(
-            "{} is not Open MPI's mpi.h (no `#define OPEN_MPI 1`): the FFI declarations take \
-             MPI_Comm, MPI_Datatype and MPI_Op as Open MPI's pointers (MPICH uses integers); \
-             build PETSc with Open MPI",
-            mpi_h.display()
-        ));
-    }
-    let ompi_major = define_value(&mpi_text, "OMPI_MAJOR_VERSION").unwrap_or_default();
-    let ompi_minor = define_value(&mpi_text, "OMPI_MINOR_VERSION").unwrap_or_default();
+    let (ompi_major, ompi_minor) = check_mpi(&mpi_text, &mpi_h.display().to_string())?;
 
     for dir in &petsc.lib_dirs {
         println!("cargo:rustc-link-search=native={}", dir.display());
@@ -223,17 +189,4 @@ fn find_header(dirs: &[PathBuf], name: &str) -> Option<PathBuf> {
 
 fn read(path: &Path) -> Result<String, String> {
     std::fs::read_to_string(path).map_err(|e| format!("cannot read {}: {e}", path.display()))
-}
-
-/// The value of `#define NAME VALUE` (first token), if defined.
-fn define_value(text: &str, name: &str) -> Option<String> {
-    text.lines().find_map(|line| {
-        let mut tokens = line.split_whitespace();
-        (tokens.next() == Some("#define") && tokens.next() == Some(name))
-            .then(|| tokens.next().unwrap_or("").to_string())
-    })
-}
-
-fn defined(text: &str, name: &str) -> bool {
-    define_value(text, name).is_some()
 }
