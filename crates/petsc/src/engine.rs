@@ -221,13 +221,16 @@ pub fn solve_static_scene(
     let (rank, size) = (petsc.rank(), petsc.size());
     let mut seconds = PhaseSeconds::default();
 
+    // The steps before the first collective call may fail on one rank alone (a file one node
+    // cannot read, memory): every rank learns whether all succeeded before going on, so none
+    // waits forever in a collective the failed rank never enters.
     let clock = Instant::now();
-    let built = scene.build()?;
+    let built = petsc.agree(scene.build().map_err(Error::from))?;
     let mesh = &built.mesh;
     seconds.build = clock.elapsed().as_secs_f64();
 
     let clock = Instant::now();
-    let partition = Partition::new(mesh, size)?;
+    let partition = petsc.agree(Partition::new(mesh, size))?;
     let (low, high) = petsc.min_max_u64(partition.checksum())?;
     if low != high {
         return Err(Error::RanksDisagree {

@@ -61,6 +61,12 @@ pub enum Error {
         /// The values seen.
         detail: String,
     },
+    /// Other ranks failed (each reports its own error); this one stopped with them.
+    #[error("rank(s) {ranks:?} failed (see their messages); this rank stopped with them")]
+    OtherRanksFailed {
+        /// The ranks that failed.
+        ranks: Vec<usize>,
+    },
     /// A file could not be written.
     #[error("cannot write {path}: {source}")]
     Io {

@@ -385,6 +385,21 @@ impl Petsc {
         Ok(true)
     }
 
+    /// `result` on every rank if it is `Ok` on every rank; otherwise this rank's own error, or
+    /// [`Error::OtherRanksFailed`] on the ranks that succeeded. Collective: what makes a
+    /// failure of one rank (before a collective call) an error on all instead of a hang.
+    pub fn agree<T>(&self, result: Result<T>) -> Result<T> {
+        let mut failed = vec![0.0; self.size];
+        failed[self.rank] = if result.is_ok() { 0.0 } else { 1.0 };
+        self.sum(&mut failed)?;
+        let ranks: Vec<usize> = (0..self.size).filter(|&r| failed[r] > 0.0).collect();
+        match result {
+            Err(e) => Err(e),
+            Ok(_) if !ranks.is_empty() => Err(Error::OtherRanksFailed { ranks }),
+            Ok(value) => Ok(value),
+        }
+    }
+
     /// Element-wise sum of `values` over all ranks (in place).
     pub fn sum(&self, values: &mut [f64]) -> Result<()> {
         // The addresses of Open MPI's predefined globals are its MPI_SUM / MPI_DOUBLE (taking

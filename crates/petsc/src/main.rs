@@ -85,7 +85,7 @@ fn parse(args: &[String]) -> Result<Arguments> {
 }
 
 fn run(petsc: &Petsc, args: &Arguments) -> Result<()> {
-    let mut scene = Scene::load(&args.scene)?;
+    let mut scene = petsc.agree(Scene::load(&args.scene).map_err(Error::from))?;
     if let Some(out) = &args.out {
         scene.set_output_directory(out.clone());
     }
@@ -166,8 +166,8 @@ fn main() -> ExitCode {
             return ExitCode::FAILURE;
         }
     };
-    // Every error here arises on every rank alike (the scene, the partition and PETSc's
-    // collective calls are the same on all), so every rank reports it and finalizes.
+    // An error of one rank before a collective call reaches every rank (`Petsc::agree`);
+    // PETSc's collective calls fail on every rank alike; so every rank reports and finalizes.
     let outcome = run(&petsc, &parsed);
     let rank = petsc.rank();
     let size = petsc.size();

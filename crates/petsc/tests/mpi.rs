@@ -436,6 +436,56 @@ gravity = [0.0, -9.81, 0.0]
     }
 
     #[test]
+    fn a_failure_of_one_rank_stops_every_rank_instead_of_hanging() {
+        let Some(mpirun) = mpirun() else {
+            println!("SKIPPED a_failure_of_one_rank: no mpirun on PATH");
+            return;
+        };
+        let _one = MPIRUN.lock().unwrap_or_else(|p| p.into_inner());
+        let binary = env!("CARGO_BIN_EXE_tetfem-petsc");
+        let missing = scenes().join("no_such_scene_on_rank_1.toml");
+        // MPMD: rank 0 gets the cantilever, rank 1 a file that does not exist.
+        let mut child = Command::new(mpirun)
+            .env("OMPI_ALLOW_RUN_AS_ROOT", "1")
+            .env("OMPI_ALLOW_RUN_AS_ROOT_CONFIRM", "1")
+            .args(["--oversubscribe", "--bind-to", "none", "-n", "1", binary])
+            .arg(cantilever())
+            .args(["--no-files", ":", "-n", "1", binary])
+            .arg(&missing)
+            .arg("--no-files")
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .expect("mpirun starts");
+        let clock = Instant::now();
+        let status = loop {
+            if let Some(status) = child.try_wait().expect("mpirun status") {
+                break status;
+            }
+            // Rank 0 alone would wait forever in its first collective call.
+            if clock.elapsed() > Duration::from_secs(120) {
+                let _ = child.kill();
+                panic!("rank 0 hung after rank 1 failed");
+            }
+            std::thread::sleep(Duration::from_millis(20));
+        };
+        let mut stderr = String::new();
+        child
+            .stderr
+            .take()
+            .map(|mut s| s.read_to_string(&mut stderr));
+        assert!(!status.success());
+        assert!(
+            stderr.contains("no_such_scene_on_rank_1.toml"),
+            "rank 1 names its file: {stderr}"
+        );
+        assert!(
+            stderr.contains("rank(s) [1] failed"),
+            "rank 0 names rank 1: {stderr}"
+        );
+    }
+
+    #[test]
     fn command_line_petsc_options_win_over_the_preset() {
         let Some(run) = run(
             "petsc_options",
