@@ -41,6 +41,8 @@ const MAT_FINAL_ASSEMBLY: c_int = 0;
 const SCATTER_FORWARD: c_int = 0;
 /// `NormType`.
 const NORM_2: c_int = 1;
+/// `MatDuplicateOption`.
+const MAT_COPY_VALUES: c_int = 1;
 /// `PetscCopyMode`.
 const PETSC_COPY_VALUES: c_int = 0;
 
@@ -149,6 +151,9 @@ unsafe extern "C" {
     fn MatCreateVecs(mat: *mut PMat, right: *mut *mut PVec, left: *mut *mut PVec)
     -> PetscErrorCode;
     fn MatMult(mat: *mut PMat, x: *mut PVec, y: *mut PVec) -> PetscErrorCode;
+    fn MatDuplicate(mat: *mut PMat, option: c_int, out: *mut *mut PMat) -> PetscErrorCode;
+    fn MatScale(mat: *mut PMat, alpha: f64) -> PetscErrorCode;
+    fn MatDiagonalSet(mat: *mut PMat, diagonal: *mut PVec, mode: c_int) -> PetscErrorCode;
     fn MatSetNearNullSpace(mat: *mut PMat, space: *mut PNullSpace) -> PetscErrorCode;
     fn MatDestroy(mat: *mut *mut PMat) -> PetscErrorCode;
     fn MatNullSpaceCreateRigidBody(
@@ -172,6 +177,10 @@ unsafe extern "C" {
     fn VecDuplicate(vec: *mut PVec, out: *mut *mut PVec) -> PetscErrorCode;
     fn VecSum(vec: *mut PVec, sum: *mut f64) -> PetscErrorCode;
     fn VecAXPY(y: *mut PVec, alpha: f64, x: *mut PVec) -> PetscErrorCode;
+    fn VecWAXPY(w: *mut PVec, alpha: f64, x: *mut PVec, y: *mut PVec) -> PetscErrorCode;
+    fn VecPointwiseMult(w: *mut PVec, x: *mut PVec, y: *mut PVec) -> PetscErrorCode;
+    fn VecScale(x: *mut PVec, alpha: f64) -> PetscErrorCode;
+    fn VecSet(x: *mut PVec, alpha: f64) -> PetscErrorCode;
     fn VecNorm(vec: *mut PVec, kind: c_int, norm: *mut f64) -> PetscErrorCode;
     fn VecDestroy(vec: *mut *mut PVec) -> PetscErrorCode;
     fn VecScatterCreateToZero(
@@ -594,6 +603,33 @@ impl<'p> Matrix<'p> {
         check("MatMult", unsafe { MatMult(self.raw, x.raw, y.raw) })
     }
 
+    /// A copy of this matrix (pattern and values).
+    pub fn duplicate(&self) -> Result<Matrix<'p>> {
+        let mut raw = std::ptr::null_mut();
+        // SAFETY: live, assembled Mat; PETSc writes a new handle.
+        check("MatDuplicate", unsafe {
+            MatDuplicate(self.raw, MAT_COPY_VALUES, &mut raw)
+        })?;
+        Ok(Matrix {
+            raw,
+            _session: PhantomData,
+        })
+    }
+
+    /// A ← alpha·A (collective).
+    pub fn scale(&mut self, alpha: f64) -> Result<()> {
+        // SAFETY: live Mat.
+        check("MatScale", unsafe { MatScale(self.raw, alpha) })
+    }
+
+    /// Adds `diagonal` to the diagonal (collective; the diagonal is in the pattern).
+    pub fn add_diagonal(&mut self, diagonal: &Vector<'p>) -> Result<()> {
+        // SAFETY: live Mat and a Vec of its row layout.
+        check("MatDiagonalSet", unsafe {
+            MatDiagonalSet(self.raw, diagonal.raw, ADD_VALUES)
+        })
+    }
+
     /// Zeroes the rows and columns `rows` (global, owned by this rank), puts `diagonal` on their
     /// diagonal, sets b[rows] = diagonal·x[rows] and subtracts the zeroed columns times x[rows]
     /// from the other rows of b (collective): the prescribed values `x` enter the right-hand
@@ -725,6 +761,56 @@ impl<'p> Vector<'p> {
         // SAFETY: live Vec.
         check("VecNorm", unsafe { VecNorm(self.raw, NORM_2, &mut norm) })?;
         Ok(norm)
+    }
+
+    /// self ← alpha·x + y (collective; self distinct from x and y).
+    pub fn waxpy(&mut self, alpha: f64, x: &Vector<'p>, y: &Vector<'p>) -> Result<()> {
+        // SAFETY: live Vecs of one layout, the output distinct from the inputs.
+        check("VecWAXPY", unsafe {
+            VecWAXPY(self.raw, alpha, x.raw, y.raw)
+        })
+    }
+
+    /// self ← x ∘ y, entry by entry (self distinct from x and y).
+    pub fn pointwise_mult(&mut self, x: &Vector<'p>, y: &Vector<'p>) -> Result<()> {
+        // SAFETY: live Vecs of one layout.
+        check("VecPointwiseMult", unsafe {
+            VecPointwiseMult(self.raw, x.raw, y.raw)
+        })
+    }
+
+    /// self ← alpha·self.
+    pub fn scale(&mut self, alpha: f64) -> Result<()> {
+        // SAFETY: live Vec.
+        check("VecScale", unsafe { VecScale(self.raw, alpha) })
+    }
+
+    /// Every entry ← alpha.
+    pub fn fill(&mut self, alpha: f64) -> Result<()> {
+        // SAFETY: live Vec.
+        check("VecSet", unsafe { VecSet(self.raw, alpha) })
+    }
+
+    /// Adds `values` at global `indices` (any rank's; sent at assembly), then assembles
+    /// (collective).
+    pub fn add_and_assemble(&mut self, indices: &[i32], values: &[f64]) -> Result<()> {
+        if indices.len() != values.len() {
+            return Err(Error::invalid(
+                "vector values",
+                values.len(),
+                format!("must be one per index ({})", indices.len()),
+            ));
+        }
+        let n = petsc_int("vector entries", indices.len())?;
+        // SAFETY: both arrays hold n entries; live Vec.
+        unsafe {
+            check(
+                "VecSetValues",
+                VecSetValues(self.raw, n, indices.as_ptr(), values.as_ptr(), ADD_VALUES),
+            )?;
+            check("VecAssemblyBegin", VecAssemblyBegin(self.raw))?;
+            check("VecAssemblyEnd", VecAssemblyEnd(self.raw))
+        }
     }
 
     /// self ← self + alpha·x (collective).

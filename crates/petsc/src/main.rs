@@ -1,4 +1,5 @@
-//! `tetfem-petsc`: a static linear scene solved by PETSc on every rank of `mpirun`.
+//! `tetfem-petsc`: a static linear scene solved, or a dynamic one integrated by backward Euler,
+//! by PETSc on every rank of `mpirun`.
 //!
 //! ```text
 //! mpirun -n N tetfem-petsc SCENE.toml [--solver gamg|hypre|mumps] [--out DIR]
@@ -16,7 +17,7 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 use tetfem_cli::scene::Scene;
-use tetfem_petsc::engine::{EngineOptions, SolverPreset, solve_static_scene, summary_path};
+use tetfem_petsc::engine::{EngineOptions, SolverPreset, solve_scene, summary_path};
 use tetfem_petsc::ffi::Petsc;
 use tetfem_petsc::pvtu::write_file;
 use tetfem_petsc::{Error, Result};
@@ -94,7 +95,7 @@ fn run(petsc: &Petsc, args: &Arguments) -> Result<()> {
         gather_displacement: args.displacement.is_some(),
         write_vtu: !args.no_files,
     };
-    let result = solve_static_scene(petsc, &scene, options)?;
+    let result = solve_scene(petsc, &scene, options)?;
     if petsc.rank() != 0 {
         return Ok(());
     }
@@ -124,6 +125,12 @@ fn run(petsc: &Petsc, args: &Arguments) -> Result<()> {
             s.converged_reason,
             s.relative_residual
         );
+        if s.steps > 0 {
+            println!(
+                "  {} steps of {} s ({}), at most {} iterations per step",
+                s.steps, s.dt, s.analysis, s.max_step_iterations
+            );
+        }
         println!(
             "  seconds: build {:.3}, partition {:.3}, assembly {:.3}, constraints {:.3}, set-up {:.3}, solve {:.3}",
             s.seconds.build,
