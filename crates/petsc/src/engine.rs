@@ -29,6 +29,7 @@ use crate::error::{Error, Result};
 use crate::ffi::{Krylov, MatOption, Matrix, Petsc, Vector, petsc_int, reason_name};
 use crate::partition::Partition;
 use crate::pvtu::PvtuFiles;
+use crate::record::{Piece, Recorder, probe_means};
 
 /// What a run computes and writes besides the solve.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -130,6 +131,9 @@ pub struct PhaseSeconds {
     pub setup: f64,
     /// KSPSolve (every step's, with the right-hand sides, for a dynamic run).
     pub solve: f64,
+    /// Writing the outputs (the `.vtu` pieces, and for a dynamic run the CSV rows with their
+    /// reduced probes and energies).
+    pub output: f64,
 }
 
 /// What a distributed static solve did: the summary rank 0 writes, with globally reduced
@@ -336,6 +340,7 @@ pub fn solve_scene(petsc: &Petsc, scene: &Scene, options: EngineOptions) -> Resu
     for (name, value) in solver.options() {
         petsc.set_default_option(name, value)?;
     }
+    let mut files: Vec<PathBuf> = Vec::new();
     let outcome = match scene.analysis() {
         Analysis::Static => solve_static(petsc, &matrix, &b, &mut x, &mut seconds)?,
         Analysis::Dynamic(settings) => {
@@ -368,6 +373,20 @@ pub fn solve_scene(petsc: &Petsc, scene: &Scene, options: EngineOptions) -> Resu
             let mut v = x.duplicate()?;
             v.set_and_assemble(&owned_indices, &velocity)?;
             seconds.constraints += clock.elapsed().as_secs_f64();
+            let output = scene.output();
+            let mut recorder = Recorder::new(
+                petsc,
+                mesh,
+                &partition,
+                &built.probes,
+                output.directory.clone(),
+                output.stem.clone(),
+                options.write_vtu && output.vtu,
+                options.write_vtu && output.csv,
+                output.every,
+                settings.steps(),
+                0.5 * mean_diagonal * constrained_values.iter().map(|u| u * u).sum::<f64>(),
+            )?;
             let step = Euler {
                 stiffness: &matrix,
                 mass: &mass,
@@ -378,7 +397,9 @@ pub fn solve_scene(petsc: &Petsc, scene: &Scene, options: EngineOptions) -> Resu
                 beta: settings.damping.stiffness,
                 steps: settings.steps(),
             };
-            step.integrate(petsc, &mut x, &mut v, &mut seconds)?
+            let outcome = step.integrate(petsc, &mut x, &mut v, &mut recorder, &mut seconds)?;
+            files = recorder.files();
+            outcome
         }
     };
     drop(coordinates);
@@ -399,35 +420,12 @@ pub fn solve_scene(petsc: &Petsc, scene: &Scene, options: EngineOptions) -> Resu
     };
 
     let local = x.local_values()?;
-    let nodes = partition.owned_nodes(rank);
-    let owned_u = |old: usize| {
-        let new = partition.new_of_old(old);
-        nodes
-            .contains(&new)
-            .then(|| 3 * (new - nodes.start))
-            .map(|i| [local[i], local[i + 1], local[i + 2]])
-    };
-    let mut sums: Vec<f64> = Vec::with_capacity(3 * built.probes.len());
-    for probe in &built.probes {
-        let mut sum = [0.0; 3];
-        for u in probe.nodes.iter().filter_map(|&n| owned_u(n)) {
-            for k in 0..3 {
-                sum[k] += u[k];
-            }
-        }
-        sums.extend(sum);
-    }
-    petsc.sum(&mut sums)?;
-    let probes = built
-        .probes
-        .iter()
-        .zip(sums.chunks_exact(3))
-        .map(|(probe, sum)| {
-            let count = probe.nodes.len().max(1) as f64;
-            ProbeValue {
-                name: probe.name.clone(),
-                displacement: [sum[0] / count, sum[1] / count, sum[2] / count],
-            }
+    let probes = probe_means(petsc, &partition, &built.probes, &local)?
+        .into_iter()
+        .zip(&built.probes)
+        .map(|(displacement, probe)| ProbeValue {
+            name: probe.name.clone(),
+            displacement,
         })
         .collect();
     let mut max_displacement = [local
@@ -436,25 +434,20 @@ pub fn solve_scene(petsc: &Petsc, scene: &Scene, options: EngineOptions) -> Resu
         .fold(0.0, f64::max)];
     petsc.max(&mut max_displacement)?;
 
-    // The values of every node of this rank's tets (its own and its neighbours'), for its
-    // piece; fetched here because the fetch is collective, written at the end.
-    let piece = if options.write_vtu && scene.output().vtu {
-        let tets: Vec<usize> = partition.tets_of(rank).collect();
-        let mut piece_nodes: Vec<usize> = tets.iter().flat_map(|&t| mesh.tets()[t]).collect();
-        piece_nodes.sort_unstable();
-        piece_nodes.dedup();
-        let indices: Vec<i32> = piece_nodes
-            .iter()
-            .flat_map(|&n| {
-                let partition = &partition;
-                (0..3).map(move |a| partition.global_dof(n, a) as i32)
-            })
-            .collect();
-        let values = x.entries(&indices)?;
-        Some((tets, piece_nodes, values))
-    } else {
-        None
-    };
+    // The static solve's one frame (a dynamic run wrote its frames as it went).
+    if matches!(scene.analysis(), Analysis::Static) && options.write_vtu && scene.output().vtu {
+        let clock = Instant::now();
+        let output = scene.output();
+        let frame = PvtuFiles::new(&output.directory, &output.stem);
+        Piece::new(mesh, &partition, rank).write(petsc, mesh, &x, &frame)?;
+        let listed = match rank {
+            0 => frame.write_pvd(&[(0.0, frame.pvtu())]).map(|_| ()),
+            _ => Ok(()),
+        };
+        petsc.agree(listed)?;
+        files = vec![frame.pvd(), frame.pvtu()];
+        seconds.output = clock.elapsed().as_secs_f64();
+    }
 
     let displacement = if options.gather_displacement {
         x.gather_to_zero(petsc)?.map(|all| {
@@ -489,6 +482,7 @@ pub fn solve_scene(petsc: &Petsc, scene: &Scene, options: EngineOptions) -> Resu
         seconds.constraints,
         seconds.setup,
         seconds.solve,
+        seconds.output,
     ];
     petsc.max(&mut times)?;
     let seconds = PhaseSeconds {
@@ -498,6 +492,7 @@ pub fn solve_scene(petsc: &Petsc, scene: &Scene, options: EngineOptions) -> Resu
         constraints: times[3],
         setup: times[4],
         solve: times[5],
+        output: times[6],
     };
     let column = |i: usize| -> Vec<usize> {
         per_rank[i * size..(i + 1) * size]
@@ -535,20 +530,8 @@ pub fn solve_scene(petsc: &Petsc, scene: &Scene, options: EngineOptions) -> Resu
         max_displacement: max_displacement[0],
         seconds,
         peak_memory_per_rank: column(3).into_iter().map(|v| v as u64).collect(),
-        files: Vec::new(),
+        files,
     };
-    let mut summary = summary;
-    // After the last collective call: a rank that fails to write cannot leave the others
-    // waiting.
-    if let Some((tets, piece_nodes, values)) = piece {
-        let output = scene.output();
-        let files = PvtuFiles::new(&output.directory, &output.stem);
-        files.write_piece(rank, mesh, &tets, &piece_nodes, &values)?;
-        summary.files = vec![files.pvd.clone(), files.pvtu.clone()];
-        if rank == 0 {
-            files.write_index(size)?;
-        }
-    }
     Ok(SolveResult {
         summary,
         displacement,
@@ -637,6 +620,7 @@ impl<'p> Euler<'_, 'p> {
         petsc: &'p Petsc,
         u: &mut Vector<'p>,
         v: &mut Vector<'p>,
+        recorder: &mut Recorder<'_>,
         seconds: &mut PhaseSeconds,
     ) -> Result<Outcome> {
         let dt = self.dt;
@@ -662,6 +646,20 @@ impl<'p> Euler<'_, 'p> {
         let mut increment = u.duplicate()?;
         let (mut total, mut most, mut reason) = (0i64, 0i32, 0i32);
         let mut relative_residual = 0.0;
+        let mut recording = 0.0;
+        let record_clock = Instant::now();
+        recorder.record(
+            petsc,
+            0,
+            0.0,
+            u,
+            v,
+            self.stiffness,
+            self.mass,
+            &mut work,
+            self.steps == 0,
+        )?;
+        recording += record_clock.elapsed().as_secs_f64();
         for step in 0..self.steps {
             // rhs = dt·(f − K·(u + dt·v) − α·M·v − β·K·v)
             work.waxpy(dt + self.beta, v, u)?;
@@ -685,8 +683,22 @@ impl<'p> Euler<'_, 'p> {
             }
             v.axpy(1.0, &increment)?;
             u.axpy(dt, v)?;
+            let record_clock = Instant::now();
+            recorder.record(
+                petsc,
+                step + 1,
+                (step + 1) as f64 * dt,
+                u,
+                v,
+                self.stiffness,
+                self.mass,
+                &mut work,
+                step + 1 == self.steps,
+            )?;
+            recording += record_clock.elapsed().as_secs_f64();
         }
-        seconds.solve = clock.elapsed().as_secs_f64();
+        seconds.solve = clock.elapsed().as_secs_f64() - recording;
+        seconds.output = recording;
         let (ksp_type, pc_type) = ksp.types()?;
         Ok(Outcome {
             analysis: "backward_euler",

@@ -24,6 +24,8 @@ pub mod error;
 pub mod ffi;
 pub mod partition;
 pub mod pvtu;
+#[cfg(feature = "petsc")]
+pub mod record;
 
 pub use error::{Error, Result};
 pub use partition::Partition;

@@ -3,7 +3,9 @@
 //! the distributed result as one mesh.
 //!
 //! Files, for output folder `DIR` and stem `S` (the scene file's stem): `DIR/S_petsc.pvd`,
-//! `DIR/S_petsc.pvtu`, `DIR/S_petsc/S_<rank>.vtu`. ASCII XML; numbers printed with Rust's
+//! `DIR/S_petsc.pvtu`, `DIR/S_petsc/S_<rank>.vtu`; a dynamic run writes one frame per output
+//! step, `DIR/S_petsc_<step>.pvtu` with `DIR/S_petsc/S_<step>_<rank>.vtu`, all listed with
+//! their times in the `.pvd`. ASCII XML; numbers printed with Rust's
 //! shortest round-trip form, so a reader gets the solver's f64 values back bit for bit.
 //!
 //! Point data: `displacement` (m, 3 components) and `node` (the node's index in the mesh, to
@@ -17,36 +19,62 @@ use tetfem::TetMesh;
 
 use crate::error::{Error, Result};
 
-/// The files of a parallel output, for folder `directory` and stem `stem`.
+/// The files of a parallel output, for folder `directory` and stem `stem`: one frame (a static
+/// solve) or one of several (a dynamic run, each frame named by its step).
 #[derive(Debug, Clone, PartialEq)]
 pub struct PvtuFiles {
-    /// The `.pvd` collection (rank 0).
-    pub pvd: PathBuf,
-    /// The `.pvtu` index of the pieces (rank 0).
-    pub pvtu: PathBuf,
-    /// The folder of the pieces.
-    pub pieces: PathBuf,
+    directory: PathBuf,
     stem: String,
+    frame: Option<String>,
 }
 
 impl PvtuFiles {
-    /// The file names under `directory` for stem `stem`.
+    /// The files of the one frame of a static solve.
     pub fn new(directory: &Path, stem: &str) -> Self {
         PvtuFiles {
-            pvd: directory.join(format!("{stem}_petsc.pvd")),
-            pvtu: directory.join(format!("{stem}_petsc.pvtu")),
-            pieces: directory.join(format!("{stem}_petsc")),
+            directory: directory.to_path_buf(),
             stem: stem.to_string(),
+            frame: None,
         }
+    }
+
+    /// The files of the frame of step `step` of a dynamic run (`digits`: zero-padded width).
+    pub fn frame(directory: &Path, stem: &str, step: usize, digits: usize) -> Self {
+        PvtuFiles {
+            directory: directory.to_path_buf(),
+            stem: stem.to_string(),
+            frame: Some(format!("{step:0digits$}")),
+        }
+    }
+
+    /// The `.pvd` collection: `<stem>_petsc.pvd`.
+    pub fn pvd(&self) -> PathBuf {
+        self.directory.join(format!("{}_petsc.pvd", self.stem))
+    }
+
+    /// The `.pvtu` of this frame: `<stem>_petsc.pvtu` or `<stem>_petsc_<step>.pvtu`.
+    pub fn pvtu(&self) -> PathBuf {
+        self.directory.join(match &self.frame {
+            Some(f) => format!("{}_petsc_{f}.pvtu", self.stem),
+            None => format!("{}_petsc.pvtu", self.stem),
+        })
+    }
+
+    /// The folder of the pieces: `<stem>_petsc`.
+    pub fn pieces(&self) -> PathBuf {
+        self.directory.join(format!("{}_petsc", self.stem))
     }
 
     /// The piece of rank `rank`.
     pub fn piece(&self, rank: usize) -> PathBuf {
-        self.pieces.join(self.piece_name(rank))
+        self.pieces().join(self.piece_name(rank))
     }
 
     fn piece_name(&self, rank: usize) -> String {
-        format!("{}_{rank}.vtu", self.stem)
+        match &self.frame {
+            Some(f) => format!("{}_{f}_{rank}.vtu", self.stem),
+            None => format!("{}_{rank}.vtu", self.stem),
+        }
     }
 
     /// Writes the piece of rank `rank`: the tets `tets` of `mesh`, with the displacement of
@@ -161,11 +189,10 @@ impl PvtuFiles {
         Ok(path)
     }
 
-    /// Writes the `.pvtu` listing the pieces of `ranks` ranks, and the `.pvd` with it as the
-    /// one frame (time 0). Rank 0 calls it.
-    pub fn write_index(&self, ranks: usize) -> Result<Vec<PathBuf>> {
-        let folder = self
-            .pieces
+    /// Writes the `.pvtu` listing the pieces of `ranks` ranks (rank 0 calls it).
+    pub fn write_pvtu(&self, ranks: usize) -> Result<PathBuf> {
+        let pieces = self.pieces();
+        let folder = pieces
             .file_name()
             .map(|f| f.to_string_lossy().into_owned())
             .unwrap_or_default();
@@ -187,20 +214,32 @@ impl PvtuFiles {
             );
         }
         text.push_str("</PUnstructuredGrid>\n</VTKFile>\n");
-        write_file(&self.pvtu, &text)?;
-        let pvtu_name = self
-            .pvtu
-            .file_name()
-            .map(|f| f.to_string_lossy().into_owned())
-            .unwrap_or_default();
-        let pvd = format!(
+        let path = self.pvtu();
+        write_file(&path, &text)?;
+        Ok(path)
+    }
+
+    /// Writes the `.pvd` collection listing `frames` (time, `.pvtu` file) in order (rank 0;
+    /// rewritten after each frame of a dynamic run, so that it is valid at any moment).
+    pub fn write_pvd(&self, frames: &[(f64, PathBuf)]) -> Result<PathBuf> {
+        let mut text = String::from(
             "<?xml version=\"1.0\"?>\n<VTKFile type=\"Collection\" version=\"0.1\" \
-             byte_order=\"LittleEndian\">\n<Collection>\n\
-             <DataSet timestep=\"0\" group=\"\" part=\"0\" file=\"{pvtu_name}\"/>\n\
-             </Collection>\n</VTKFile>\n"
+             byte_order=\"LittleEndian\">\n<Collection>\n",
         );
-        write_file(&self.pvd, &pvd)?;
-        Ok(vec![self.pvd.clone(), self.pvtu.clone()])
+        for (time, pvtu) in frames {
+            let name = pvtu
+                .file_name()
+                .map(|f| f.to_string_lossy().into_owned())
+                .unwrap_or_default();
+            let _ = writeln!(
+                text,
+                "<DataSet timestep=\"{time:e}\" group=\"\" part=\"0\" file=\"{name}\"/>"
+            );
+        }
+        text.push_str("</Collection>\n</VTKFile>\n");
+        let path = self.pvd();
+        write_file(&path, &text)?;
+        Ok(path)
     }
 }
 
@@ -303,12 +342,18 @@ mod tests {
         assert_eq!(connectivity, expected);
         assert_eq!(block("tet"), ["1", "4"]);
         assert_eq!(block("types"), ["10", "10"]);
-        let index = files.write_index(2).expect("index");
-        let pvtu = std::fs::read_to_string(&index[1]).expect("pvtu");
+        let pvtu_path = files.write_pvtu(2).expect("pvtu");
+        let pvtu = std::fs::read_to_string(&pvtu_path).expect("pvtu");
         assert!(pvtu.contains("Source=\"box_petsc/box_0.vtu\""));
         assert!(pvtu.contains("Source=\"box_petsc/box_1.vtu\""));
-        let pvd = std::fs::read_to_string(&index[0]).expect("pvd");
+        let pvd = std::fs::read_to_string(files.write_pvd(&[(0.0, pvtu_path)]).expect("pvd"))
+            .expect("pvd");
         assert!(pvd.contains("file=\"box_petsc.pvtu\""));
+        // A frame of a dynamic run: its own .pvtu and piece names, the same folder and .pvd.
+        let frame = PvtuFiles::frame(&dir, "box", 7, 4);
+        assert_eq!(frame.pvtu(), dir.join("box_petsc_0007.pvtu"));
+        assert_eq!(frame.piece(1), dir.join("box_petsc/box_0007_1.vtu"));
+        assert_eq!(frame.pvd(), files.pvd());
     }
 
     #[test]

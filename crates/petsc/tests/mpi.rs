@@ -377,8 +377,9 @@ gravity = [0.0, -9.81, 0.0]
         }
     }
 
-    /// tetfem's single-process `BackwardEuler` (direct solves) over the scene's steps.
-    fn backward_euler(scene: &Path) -> Vec<f64> {
+    /// tetfem's single-process `BackwardEuler` (direct solves) over the scene's steps: the
+    /// displacement of every DOF and the kinetic and elastic energy at the end.
+    fn backward_euler(scene: &Path) -> (Vec<f64>, [f64; 2]) {
         use tetfem::dynamics::{BackwardEuler, Integrator};
         use tetfem_cli::scene::{Analysis, DynamicSetup};
         let scene = Scene::load(scene).expect("scene");
@@ -393,11 +394,13 @@ gravity = [0.0, -9.81, 0.0]
         for _ in 0..settings.steps() {
             integrator.step(&mut state).expect("step");
         }
-        setup
+        let energy = setup.system.energy(&state).expect("energy");
+        let u = setup
             .system
             .dofs()
             .expand(&state.displacement)
-            .expect("full")
+            .expect("full");
+        (u, [energy.kinetic, energy.elastic])
     }
 
     #[test]
@@ -428,7 +431,8 @@ gravity = [0.0, -9.81, 0.0]
             let s = &run.summary;
             assert_eq!(s["analysis"], "backward_euler");
             assert_eq!(s["steps"], 50);
-            let difference = relative_difference(&run.displacement, &backward_euler(&scene));
+            let (reference, energies) = backward_euler(&scene);
+            let difference = relative_difference(&run.displacement, &reference);
             println!(
                 "{label}: 50 steps, GAMG {} iterations in all, at most {} per step, last step's \
                  relative residual {:.2e}, relative difference to tetfem {difference:.2e}",
@@ -439,6 +443,49 @@ gravity = [0.0, -9.81, 0.0]
             // 50 solves, each to a 1e-12 residual, of a well-conditioned M + dt²K: the same
             // 1e-8 as the static solves.
             assert!(difference <= AGREEMENT, "{label}: {difference:e}");
+
+            // The outputs: a frame every 10 steps (the scene's output.every) and the CSV.
+            let out = Path::new(env!("CARGO_TARGET_TMPDIR"))
+                .join("petsc-tests")
+                .join(&label);
+            let pvd = std::fs::read_to_string(out.join(format!("{name}_petsc.pvd"))).expect("pvd");
+            for step in (0..=50).step_by(10) {
+                let pvtu = format!("{name}_petsc_{step:04}.pvtu");
+                assert!(pvd.contains(&pvtu), "{label}: {pvtu} listed");
+                for rank in 0..ranks {
+                    let piece = out.join(format!("{name}_petsc/{name}_{step:04}_{rank}.vtu"));
+                    assert!(piece.is_file(), "{}", piece.display());
+                }
+            }
+            assert_eq!(
+                pvd.matches("<DataSet").count(),
+                6,
+                "{label}: frames 0, 10, …, 50"
+            );
+            let csv = std::fs::read_to_string(out.join(format!("{name}_petsc.csv"))).expect("csv");
+            let rows: Vec<&str> = csv.lines().collect();
+            assert_eq!(rows[0], "time,step,tip_ux,tip_uy,tip_uz,kinetic,elastic");
+            assert_eq!(
+                rows.len(),
+                52,
+                "{label}: header, the initial state and 50 steps"
+            );
+            let last: Vec<f64> = rows[51]
+                .split(',')
+                .map(|v| v.parse().expect("number"))
+                .collect();
+            assert_eq!(last[1], 50.0);
+            // The energies reduced over the ranks against tetfem's; both O(1e-1) J or more
+            // here, computed from displacements that agree to ~1e-12.
+            for (got, want) in last[5..7].iter().zip(energies) {
+                assert!(
+                    ((got - want) / want).abs() <= AGREEMENT,
+                    "{label}: energy {got:e} vs tetfem {want:e}"
+                );
+            }
+            // The tip probe's CSV value is the summary's.
+            let tip_z = s["probes"][0]["displacement"][2].as_f64().expect("probe");
+            assert_eq!(last[4], tip_z, "{label}");
         }
     }
 
