@@ -17,13 +17,13 @@
 //! u_c exactly. d is the mean of K's diagonal, so that the constrained rows are scaled like the
 //! others.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::str::FromStr;
 use std::time::Instant;
 
 use tetfem::dynamics::{MassKind, Method};
 use tetfem::materials::TetMaterials;
-use tetfem_cli::scene::{Analysis, ProbeValue, Scene};
+use tetfem_cli::scene::{Analysis, BuiltScene, ProbeValue, Scene};
 
 use crate::error::{Error, Result};
 use crate::ffi::{Krylov, MatOption, Matrix, Petsc, Vector, petsc_int, reason_name};
@@ -213,13 +213,28 @@ pub struct SolveResult {
     pub displacement: Option<Vec<f64>>,
 }
 
-/// Solves a static linear scene, or integrates a dynamic one by backward Euler (linear model,
-/// lumped mass, Rayleigh damping, constant loads), on all ranks of `petsc` with the preset `options.solver`
-/// (options given on the command line win over the preset's); gathers the displacement on
-/// rank 0 and writes the parallel output as `options` ask. Collective: every rank calls it
-/// with the same scene and options.
-pub fn solve_scene(petsc: &Petsc, scene: &Scene, options: EngineOptions) -> Result<SolveResult> {
-    let solver = options.solver;
+/// A scene set up on every rank: built, partitioned, its stiffness assembled (this rank's
+/// tets) with the constraints applied, the right-hand side and the near-null space.
+struct SetUp<'p> {
+    built: BuiltScene,
+    partition: Partition,
+    dofs: usize,
+    owned: std::ops::Range<usize>,
+    owned_indices: Vec<i32>,
+    matrix: Matrix<'p>,
+    x: Vector<'p>,
+    b: Vector<'p>,
+    coordinates: Vector<'p>,
+    constrained_rows: Vec<i32>,
+    constrained_values: Vec<f64>,
+    mean_diagonal: f64,
+    my_tets: usize,
+    nonzeros: usize,
+    seconds: PhaseSeconds,
+}
+
+/// Everything before the solve, shared by [`solve_scene`] and [`export_scene`]. Collective.
+fn set_up<'p>(petsc: &'p Petsc, scene: &Scene) -> Result<SetUp<'p>> {
     if let Analysis::Dynamic(settings) = scene.analysis() {
         if settings.method != Method::BackwardEuler {
             return Err(Error::invalid(
@@ -336,6 +351,58 @@ pub fn solve_scene(petsc: &Petsc, scene: &Scene, options: EngineOptions) -> Resu
     coordinates.set_and_assemble(&owned_indices, &coordinate_values)?;
     matrix.set_rigid_body_near_null_space(&coordinates)?;
     seconds.constraints = clock.elapsed().as_secs_f64();
+    let nonzeros = preallocation
+        .diagonal
+        .iter()
+        .chain(&preallocation.off_diagonal)
+        .map(|&c| c as usize)
+        .sum();
+    Ok(SetUp {
+        built,
+        partition,
+        dofs,
+        owned,
+        owned_indices,
+        matrix,
+        x,
+        b,
+        coordinates,
+        constrained_rows,
+        constrained_values,
+        mean_diagonal,
+        my_tets,
+        nonzeros,
+        seconds,
+    })
+}
+
+/// Solves a static linear scene, or integrates a dynamic one by backward Euler (linear model,
+/// lumped mass, Rayleigh damping, constant loads), on all ranks of `petsc` with the preset `options.solver`
+/// (options given on the command line win over the preset's); gathers the displacement on
+/// rank 0 and writes the parallel output as `options` ask. Collective: every rank calls it
+/// with the same scene and options.
+pub fn solve_scene(petsc: &Petsc, scene: &Scene, options: EngineOptions) -> Result<SolveResult> {
+    let solver = options.solver;
+    let (rank, size) = (petsc.rank(), petsc.size());
+    let SetUp {
+        built,
+        partition,
+        dofs,
+        owned,
+        owned_indices,
+        matrix,
+        mut x,
+        b,
+        coordinates,
+        constrained_rows,
+        constrained_values,
+        mean_diagonal,
+        my_tets,
+        nonzeros,
+        mut seconds,
+    } = set_up(petsc, scene)?;
+    let mesh = &built.mesh;
+    let old_dof = |new: usize| 3 * partition.old_of_new(new / 3) + new % 3;
 
     for (name, value) in solver.options() {
         petsc.set_default_option(name, value)?;
@@ -465,12 +532,7 @@ pub fn solve_scene(petsc: &Petsc, scene: &Scene, options: EngineOptions) -> Resu
     let mut per_rank = vec![0.0; 4 * size];
     per_rank[rank] = my_tets as f64;
     per_rank[size + rank] = owned.len() as f64;
-    per_rank[2 * size + rank] = preallocation
-        .diagonal
-        .iter()
-        .chain(&preallocation.off_diagonal)
-        .map(|&c| c as f64)
-        .sum();
+    per_rank[2 * size + rank] = nonzeros as f64;
     per_rank[3 * size + rank] = peak_memory() as f64;
     petsc.sum(&mut per_rank)?;
     let mut constrained = [constrained_rows.len() as f64];
@@ -536,6 +598,62 @@ pub fn solve_scene(petsc: &Petsc, scene: &Scene, options: EngineOptions) -> Resu
         summary,
         displacement,
     })
+}
+
+/// Writes the system of a static `scene` into `directory` in PETSc's binary format, for users
+/// with their own PETSc set-up, without solving it (collective):
+///
+/// - `K.petsc`: the stiffness in the engine's numbering (rank by rank, whole nodes), its
+///   constrained rows and columns zeroed with d (the mean of K's diagonal) on the diagonal: the
+///   free block is K_ff; block size 3 in `K.petsc.info`;
+/// - `b.petsc`: f − K_fc·u_c on the free rows, d·u_c on the constrained ones, so that K·u = b
+///   gives u_c there exactly;
+/// - `coordinates.petsc`: the node coordinates (block size 3), for
+///   `MatNullSpaceCreateRigidBody`;
+/// - `dofs.txt`: one line per row, `row node axis free|constrained` (node: the mesh's index).
+///
+/// Returns the files (rank 0's list).
+pub fn export_scene(petsc: &Petsc, scene: &Scene, directory: &Path) -> Result<Vec<PathBuf>> {
+    if let Analysis::Dynamic(_) = scene.analysis() {
+        return Err(Error::invalid(
+            format!("analysis.type of {} for --export", scene.source_name()),
+            "dynamic",
+            "the export writes the static system (\"static\")",
+        ));
+    }
+    let set = set_up(petsc, scene)?;
+    let created = match petsc.rank() {
+        0 => std::fs::create_dir_all(directory).map_err(|source| Error::Io {
+            path: directory.to_path_buf(),
+            source,
+        }),
+        _ => Ok(()),
+    };
+    petsc.agree(created)?;
+    let files: Vec<PathBuf> = ["K.petsc", "b.petsc", "coordinates.petsc", "dofs.txt"]
+        .iter()
+        .map(|f| directory.join(f))
+        .collect();
+    set.matrix.write_binary(petsc, &files[0])?;
+    set.b.write_binary(petsc, &files[1])?;
+    set.coordinates.write_binary(petsc, &files[2])?;
+    let written = match petsc.rank() {
+        0 => {
+            let mut text = String::from("# row node axis free|constrained\n");
+            for row in 0..set.dofs {
+                let node = set.partition.old_of_new(row / 3);
+                let state = match set.built.constraints.get(3 * node + row % 3) {
+                    Some(_) => "constrained",
+                    None => "free",
+                };
+                text.push_str(&format!("{row} {node} {} {state}\n", row % 3));
+            }
+            crate::pvtu::write_file(&files[3], &text)
+        }
+        _ => Ok(()),
+    };
+    petsc.agree(written)?;
+    Ok(files)
 }
 
 /// What the solve or the time loop reports.

@@ -30,7 +30,9 @@ macro_rules! opaque {
         }
     )*};
 }
-opaque!(PMat, PVec, PKsp, PPc, PNullSpace, PScatter, POptions, PIs);
+opaque!(
+    PMat, PVec, PKsp, PPc, PNullSpace, PScatter, POptions, PIs, PViewer
+);
 
 /// `InsertMode` of petscsystypes.h 3.18.
 const INSERT_VALUES: c_int = 1;
@@ -43,6 +45,8 @@ const SCATTER_FORWARD: c_int = 0;
 const NORM_2: c_int = 1;
 /// `MatDuplicateOption`.
 const MAT_COPY_VALUES: c_int = 1;
+/// `PetscFileMode`.
+const FILE_MODE_WRITE: c_int = 1;
 /// `PetscCopyMode`.
 const PETSC_COPY_VALUES: c_int = 0;
 
@@ -219,6 +223,16 @@ unsafe extern "C" {
         is: *mut *mut PIs,
     ) -> PetscErrorCode;
     fn ISDestroy(is: *mut *mut PIs) -> PetscErrorCode;
+
+    fn PetscViewerBinaryOpen(
+        comm: MpiComm,
+        name: *const c_char,
+        mode: c_int,
+        viewer: *mut *mut PViewer,
+    ) -> PetscErrorCode;
+    fn PetscViewerDestroy(viewer: *mut *mut PViewer) -> PetscErrorCode;
+    fn MatView(mat: *mut PMat, viewer: *mut PViewer) -> PetscErrorCode;
+    fn VecView(vec: *mut PVec, viewer: *mut PViewer) -> PetscErrorCode;
 
     fn KSPCreate(comm: MpiComm, ksp: *mut *mut PKsp) -> PetscErrorCode;
     fn KSPSetOperators(ksp: *mut PKsp, a: *mut PMat, p: *mut PMat) -> PetscErrorCode;
@@ -477,6 +491,28 @@ impl Drop for Petsc {
     }
 }
 
+/// Runs `view` with a binary viewer writing `path` (PETSc's binary format, and PETSc's
+/// `<path>.info` beside it); collective.
+fn with_binary_viewer(
+    petsc: &Petsc,
+    path: &std::path::Path,
+    view: impl FnOnce(*mut PViewer) -> Result<()>,
+) -> Result<()> {
+    let name = c_string("file name", &path.to_string_lossy())?;
+    let mut viewer = std::ptr::null_mut();
+    // SAFETY: a valid communicator and NUL-terminated name; PETSc writes a new viewer handle,
+    // destroyed below on every path.
+    check("PetscViewerBinaryOpen", unsafe {
+        PetscViewerBinaryOpen(petsc.comm, name.as_ptr(), FILE_MODE_WRITE, &mut viewer)
+    })?;
+    let viewed = view(viewer);
+    // SAFETY: the live viewer created above, not used after.
+    let destroyed = check("PetscViewerDestroy", unsafe {
+        PetscViewerDestroy(&mut viewer)
+    });
+    viewed.and(destroyed)
+}
+
 /// A distributed PETSc matrix (`Mat`).
 #[derive(Debug)]
 pub struct Matrix<'p> {
@@ -601,6 +637,14 @@ impl<'p> Matrix<'p> {
     pub fn mult(&self, x: &Vector<'p>, y: &mut Vector<'p>) -> Result<()> {
         // SAFETY: live Mat and distinct Vecs of matching layout.
         check("MatMult", unsafe { MatMult(self.raw, x.raw, y.raw) })
+    }
+
+    /// Writes the matrix to `path` in PETSc's binary format (collective; what `MatLoad` reads).
+    pub fn write_binary(&self, petsc: &Petsc, path: &std::path::Path) -> Result<()> {
+        // SAFETY: live Mat and viewer.
+        with_binary_viewer(petsc, path, |viewer| {
+            check("MatView", unsafe { MatView(self.raw, viewer) })
+        })
     }
 
     /// A copy of this matrix (pattern and values).
@@ -761,6 +805,14 @@ impl<'p> Vector<'p> {
         // SAFETY: live Vec.
         check("VecNorm", unsafe { VecNorm(self.raw, NORM_2, &mut norm) })?;
         Ok(norm)
+    }
+
+    /// Writes the vector to `path` in PETSc's binary format (collective; what `VecLoad` reads).
+    pub fn write_binary(&self, petsc: &Petsc, path: &std::path::Path) -> Result<()> {
+        // SAFETY: live Vec and viewer.
+        with_binary_viewer(petsc, path, |viewer| {
+            check("VecView", unsafe { VecView(self.raw, viewer) })
+        })
     }
 
     /// self ← alpha·x + y (collective; self distinct from x and y).

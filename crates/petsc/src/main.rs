@@ -3,7 +3,7 @@
 //!
 //! ```text
 //! mpirun -n N tetfem-petsc SCENE.toml [--solver gamg|hypre|mumps] [--out DIR]
-//!        [--displacement FILE] [--json] [--no-files] [-petsc_option value ...]
+//!        [--displacement FILE] [--export DIR] [--json] [--no-files] [-petsc_option value ...]
 //! ```
 //!
 //! The scene comes first; `--` options are tetfem-petsc's; every other argument goes to
@@ -12,24 +12,27 @@
 //! parallel VTK output and rank 0 the `.pvtu`, the `.pvd` and `<out>/<stem>_petsc_summary.json`
 //! (the scene's `output.directory` unless `--out`). With `--displacement FILE` rank 0 writes
 //! every DOF's displacement in the mesh's numbering (3·node + axis), one value per line.
+//! `--export DIR` writes the static system in PETSc's binary format instead of solving it
+//! (`K.petsc`, `b.petsc`, `coordinates.petsc`, `dofs.txt`: see `engine::export_scene`).
 
 use std::path::PathBuf;
 use std::process::ExitCode;
 
 use tetfem_cli::scene::Scene;
-use tetfem_petsc::engine::{EngineOptions, SolverPreset, solve_scene, summary_path};
+use tetfem_petsc::engine::{EngineOptions, SolverPreset, export_scene, solve_scene, summary_path};
 use tetfem_petsc::ffi::Petsc;
 use tetfem_petsc::pvtu::write_file;
 use tetfem_petsc::{Error, Result};
 
 const USAGE: &str = "usage: mpirun -n N tetfem-petsc SCENE.toml [--solver gamg|hypre|mumps] \
-[--out DIR] [--displacement FILE] [--json] [--no-files] [PETSc options, e.g. -ksp_monitor]";
+[--out DIR] [--displacement FILE] [--export DIR] [--json] [--no-files] [PETSc options, e.g. -ksp_monitor]";
 
 struct Arguments {
     scene: PathBuf,
     solver: SolverPreset,
     out: Option<PathBuf>,
     displacement: Option<PathBuf>,
+    export: Option<PathBuf>,
     json: bool,
     no_files: bool,
     petsc: Vec<String>,
@@ -55,6 +58,7 @@ fn parse(args: &[String]) -> Result<Arguments> {
         solver: SolverPreset::default(),
         out: None,
         displacement: None,
+        export: None,
         json: false,
         no_files: false,
         petsc: vec![program],
@@ -70,6 +74,7 @@ fn parse(args: &[String]) -> Result<Arguments> {
             "--solver" => parsed.solver = value("--solver")?.parse()?,
             "--out" => parsed.out = Some(PathBuf::from(value("--out")?)),
             "--displacement" => parsed.displacement = Some(PathBuf::from(value("--displacement")?)),
+            "--export" => parsed.export = Some(PathBuf::from(value("--export")?)),
             "--json" => parsed.json = true,
             "--no-files" => parsed.no_files = true,
             other if other.starts_with("--") => {
@@ -89,6 +94,15 @@ fn run(petsc: &Petsc, args: &Arguments) -> Result<()> {
     let mut scene = petsc.agree(Scene::load(&args.scene).map_err(Error::from))?;
     if let Some(out) = &args.out {
         scene.set_output_directory(out.clone());
+    }
+    if let Some(directory) = &args.export {
+        let files = export_scene(petsc, &scene, directory)?;
+        if petsc.rank() == 0 {
+            for file in files {
+                println!("wrote {}", file.display());
+            }
+        }
+        return Ok(());
     }
     let options = EngineOptions {
         solver: args.solver,

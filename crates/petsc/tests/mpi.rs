@@ -322,15 +322,9 @@ where = {{ group = "load" }}
         agrees("gmsh_regions_2", 2, &scene, &[]);
     }
 
-    #[test]
-    fn prescribed_displacements_and_rollers_on_two_ranks() {
-        // Non-zero prescribed values enter the right-hand side through MatZeroRowsColumns, and
-        // roller nodes (one axis fixed) keep their other two DOFs free inside a 3-block.
-        let dir = scratch("prescribed_scene");
-        let scene = dir.join("pulled_block.toml");
-        std::fs::write(
-            &scene,
-            r#"[mesh.box]
+    /// A soft block: rollers on x = 0 (x fixed), a line and a node holding the rest, the far
+    /// end pulled by prescribed x and z displacements, gravity along −y.
+    const PULLED_BLOCK: &str = r#"[mesh.box]
 max = [0.4, 0.1, 0.1]
 cells = [12, 3, 3]
 
@@ -358,9 +352,15 @@ displacement = [0.004, 0.0, -0.002]
 
 [[loads]]
 gravity = [0.0, -9.81, 0.0]
-"#,
-        )
-        .expect("scene written");
+"#;
+
+    #[test]
+    fn prescribed_displacements_and_rollers_on_two_ranks() {
+        // Non-zero prescribed values enter the right-hand side through MatZeroRowsColumns, and
+        // roller nodes (one axis fixed) keep their other two DOFs free inside a 3-block.
+        let dir = scratch("prescribed_scene");
+        let scene = dir.join("pulled_block.toml");
+        std::fs::write(&scene, PULLED_BLOCK).expect("scene written");
         let Some(s) = agrees("prescribed_2", 2, &scene, &[]) else {
             return;
         };
@@ -595,6 +595,154 @@ gravity = [0.0, -9.81, 0.0]
             stderr.contains("rank(s) [1] failed"),
             "rank 0 names rank 1: {stderr}"
         );
+    }
+
+    fn big_endian_i32(bytes: &[u8], at: &mut usize) -> i32 {
+        let value = i32::from_be_bytes(bytes[*at..*at + 4].try_into().expect("4 bytes"));
+        *at += 4;
+        value
+    }
+
+    fn big_endian_f64(bytes: &[u8], at: &mut usize) -> f64 {
+        let value = f64::from_be_bytes(bytes[*at..*at + 8].try_into().expect("8 bytes"));
+        *at += 8;
+        value
+    }
+
+    #[test]
+    fn export_writes_k_ff_and_the_right_hand_side_in_petsc_binary_format() {
+        let Some(mpirun) = mpirun() else {
+            println!("SKIPPED export: no mpirun on PATH");
+            return;
+        };
+        let dir = scratch("export");
+        let scene = dir.join("pulled_block.toml");
+        std::fs::write(&scene, PULLED_BLOCK).expect("scene written");
+        let out = dir.join("system");
+        {
+            let _one = MPIRUN.lock().unwrap_or_else(|p| p.into_inner());
+            let status = Command::new(mpirun)
+                .env("OMPI_ALLOW_RUN_AS_ROOT", "1")
+                .env("OMPI_ALLOW_RUN_AS_ROOT_CONFIRM", "1")
+                .args(["--oversubscribe", "--bind-to", "none", "-n", "2"])
+                .arg(env!("CARGO_BIN_EXE_tetfem-petsc"))
+                .arg(&scene)
+                .arg("--export")
+                .arg(&out)
+                .status()
+                .expect("mpirun runs");
+            assert!(status.success());
+        }
+        // The DOF map: PETSc row → mesh DOF, free or not.
+        let map: Vec<(usize, bool)> = std::fs::read_to_string(out.join("dofs.txt"))
+            .expect("dofs.txt")
+            .lines()
+            .skip(1)
+            .map(|l| {
+                let f: Vec<&str> = l.split(' ').collect();
+                let node: usize = f[1].parse().expect("node");
+                let axis: usize = f[2].parse().expect("axis");
+                (3 * node + axis, f[3] == "free")
+            })
+            .collect();
+        assert!(
+            std::fs::read_to_string(out.join("K.petsc.info"))
+                .expect("info")
+                .contains("-matload_block_size 3")
+        );
+        // K: int32 classid, M, N, nnz; row lengths; columns; f64 values (big-endian).
+        let bytes = std::fs::read(out.join("K.petsc")).expect("K.petsc");
+        let mut at = 0;
+        assert_eq!(big_endian_i32(&bytes, &mut at), 1211216, "Mat classid");
+        let rows = big_endian_i32(&bytes, &mut at) as usize;
+        assert_eq!(rows, map.len());
+        assert_eq!(big_endian_i32(&bytes, &mut at) as usize, rows);
+        let nnz = big_endian_i32(&bytes, &mut at) as usize;
+        let lengths: Vec<usize> = (0..rows)
+            .map(|_| big_endian_i32(&bytes, &mut at) as usize)
+            .collect();
+        let columns: Vec<usize> = (0..nnz)
+            .map(|_| big_endian_i32(&bytes, &mut at) as usize)
+            .collect();
+        let values: Vec<f64> = (0..nnz).map(|_| big_endian_f64(&bytes, &mut at)).collect();
+        assert_eq!(at, bytes.len(), "nothing after the values");
+
+        let built = Scene::load(&scene).expect("scene").build().expect("built");
+        let options = SolverOptions {
+            method: LinearMethod::Direct,
+            ..Default::default()
+        };
+        let solver =
+            StaticSolver::with_options(&built.mesh, &built.materials, &built.constraints, options)
+                .expect("assembled");
+        let k = solver.stiffness();
+        let largest = k.values().iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        // Element sums in another order: round-off of a few ulps of the largest entry.
+        let tolerance = 1e-12 * largest;
+        let mut start = 0;
+        let mut diagonal = f64::NAN;
+        let mut free_entries = 0;
+        for (row, &length) in lengths.iter().enumerate() {
+            let (p, p_free) = map[row];
+            for k_at in start..start + length {
+                let (q, q_free) = map[columns[k_at]];
+                let value = values[k_at];
+                match (p_free, q_free) {
+                    (true, true) => {
+                        let want = k.get(p, q).unwrap_or(0.0);
+                        assert!(
+                            (value - want).abs() <= tolerance,
+                            "K[{p}][{q}]: {value:e} vs {want:e}"
+                        );
+                        free_entries += usize::from(want != 0.0);
+                    }
+                    _ if row == columns[k_at] => diagonal = value,
+                    _ => assert_eq!(value, 0.0, "zeroed row/column {row}"),
+                }
+            }
+            start += length;
+        }
+        assert!(diagonal > 0.0, "d on the constrained diagonal");
+        // Every stored non-zero of K_ff is in the file (counted once per (p, q)).
+        let k_ff_nonzeros = solver
+            .free_stiffness()
+            .values()
+            .iter()
+            .filter(|v| **v != 0.0)
+            .count();
+        assert_eq!(free_entries, k_ff_nonzeros);
+
+        // b: f − K·u_c on the free rows, d·u_c on the constrained ones.
+        let bytes = std::fs::read(out.join("b.petsc")).expect("b.petsc");
+        let mut at = 0;
+        assert_eq!(big_endian_i32(&bytes, &mut at), 1211214, "Vec classid");
+        assert_eq!(big_endian_i32(&bytes, &mut at) as usize, rows);
+        let prescribed: Vec<f64> = (0..map.len())
+            .map(|d| built.constraints.get(d).unwrap_or(0.0))
+            .collect();
+        let coupling = k.mul(&prescribed).expect("K·u_c");
+        let rhs: Vec<f64> = built
+            .loads
+            .as_slice()
+            .iter()
+            .zip(&coupling)
+            .map(|(f, c)| f - c)
+            .collect();
+        let rhs_scale = rhs.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        for row in 0..rows {
+            let value = big_endian_f64(&bytes, &mut at);
+            let (p, free) = map[row];
+            if free {
+                // The same sums in another order (PETSc subtracts the columns rank by rank).
+                assert!(
+                    (value - rhs[p]).abs() <= 1e-12 * rhs_scale,
+                    "b[{row}]: {value:e} vs {:e}",
+                    rhs[p]
+                );
+            } else {
+                assert_eq!(value, diagonal * prescribed[p], "b[{row}] = d·u_c");
+            }
+        }
     }
 
     #[test]
