@@ -59,9 +59,10 @@ pub enum SolverPreset {
 impl SolverPreset {
     /// The PETSc options of the preset, as (name, value) pairs.
     ///
-    /// The iterative presets stop at a relative residual ‖b − A·x‖/‖b‖ (unpreconditioned
-    /// norm: the true residual) of 1e-12: enough for the 1e-8 agreement with a direct solve on
-    /// matrices of condition up to ~1e4 per digit lost, the scale of the shipped scenes.
+    /// The iterative presets ask for a relative residual ‖b − A·x‖/‖b‖ of 1e-12 in the
+    /// unpreconditioned norm, which CG's recursive residual reaches; the true residual then
+    /// stops at its round-off floor (about ε·κ: measured 5.6e-11 at 3k DOFs, 1.1e-9 at 452k),
+    /// and the displacement agrees with a direct solve to 1e-11–5e-10 on the cantilevers.
     pub fn options(self) -> &'static [(&'static str, &'static str)] {
         match self {
             SolverPreset::Gamg => &[
