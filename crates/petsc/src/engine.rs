@@ -266,7 +266,13 @@ fn set_up<'p>(petsc: &'p Petsc, scene: &Scene) -> Result<SetUp<'p>> {
     // cannot read, memory): every rank learns whether all succeeded before going on, so none
     // waits forever in a collective the failed rank never enters.
     let clock = Instant::now();
-    let built = petsc.agree(scene.build().map_err(Error::from))?;
+    // The core's check that the constraints hold every rigid-body mode (else K_ff is singular
+    // and CG would return a huge, plausible-looking displacement or fail without a cause).
+    let built = petsc.agree(scene.build().map_err(Error::from).and_then(|built| {
+        let dofs = tetfem::DofMap::new(&built.constraints);
+        tetfem::constraints::ensure_held(&built.mesh, &built.mesh.face_topology()?, &dofs)?;
+        Ok(built)
+    }))?;
     let mesh = &built.mesh;
     seconds.build = clock.elapsed().as_secs_f64();
 

@@ -794,6 +794,23 @@ gravity = [0.0, -9.81, 0.0]
             "{}",
             run_newmark.stderr
         );
+        // No constraint: the core's rigid-mode check, before anything is assembled.
+        let floating = dir.join("floating.toml");
+        std::fs::write(
+            &floating,
+            "[mesh.box]\nmax = [1.0, 0.1, 0.1]\ncells = [4, 1, 1]\n\n[material]\n\
+             youngs_modulus = 1e9\npoisson_ratio = 0.3\ndensity = 1000.0\n\n[[loads]]\n\
+             gravity = [0.0, 0.0, -9.81]\n",
+        )
+        .expect("scene written");
+        let run_floating = run("floating_scene", 2, &floating, &[]).expect("ran before");
+        assert!(!run_floating.success);
+        assert!(
+            run_floating.stderr.contains("not fully constrained")
+                && run_floating.stderr.contains("6 of the 6 rigid-body modes"),
+            "{}",
+            run_floating.stderr
+        );
         let missing = scenes().join("no_such_scene.toml");
         let run_missing = run("missing_scene", 1, &missing, &[]).expect("ran before");
         assert!(!run_missing.success);
