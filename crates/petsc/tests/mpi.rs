@@ -76,6 +76,7 @@ mod with_petsc {
         let dir = scratch(name);
         let displacement = dir.join("u.txt");
         let mut child = Command::new(mpirun)
+            .stdin(Stdio::null())
             // Root in containers and CI; harmless otherwise.
             .env("OMPI_ALLOW_RUN_AS_ROOT", "1")
             .env("OMPI_ALLOW_RUN_AS_ROOT_CONFIRM", "1")
@@ -558,6 +559,7 @@ gravity = [0.0, -9.81, 0.0]
         let missing = scenes().join("no_such_scene_on_rank_1.toml");
         // MPMD: rank 0 gets the cantilever, rank 1 a file that does not exist.
         let mut child = Command::new(mpirun)
+            .stdin(Stdio::null())
             .env("OMPI_ALLOW_RUN_AS_ROOT", "1")
             .env("OMPI_ALLOW_RUN_AS_ROOT_CONFIRM", "1")
             .args(["--oversubscribe", "--bind-to", "none", "-n", "1", binary])
@@ -622,6 +624,7 @@ gravity = [0.0, -9.81, 0.0]
         {
             let _one = MPIRUN.lock().unwrap_or_else(|p| p.into_inner());
             let status = Command::new(mpirun)
+                .stdin(Stdio::null())
                 .env("OMPI_ALLOW_RUN_AS_ROOT", "1")
                 .env("OMPI_ALLOW_RUN_AS_ROOT_CONFIRM", "1")
                 .args(["--oversubscribe", "--bind-to", "none", "-n", "2"])
