@@ -466,6 +466,7 @@ pub fn solve_scene(petsc: &Petsc, scene: &Scene, options: EngineOptions) -> Resu
                 mass: &mass,
                 load: &b,
                 coordinates: &coordinates,
+                constrained_rows: &constrained_rows,
                 dt: settings.dt,
                 alpha: settings.damping.mass,
                 beta: settings.damping.stiffness,
@@ -733,6 +734,9 @@ struct Euler<'a, 'p> {
     mass: &'a Vector<'p>,
     load: &'a Vector<'p>,
     coordinates: &'a Vector<'p>,
+    /// This rank's constrained rows: their velocity increment is set to 0 exactly each step
+    /// (the solver leaves round-off there), so u stays u_c on them throughout.
+    constrained_rows: &'a [i32],
     dt: f64,
     alpha: f64,
     beta: f64,
@@ -770,6 +774,7 @@ impl<'p> Euler<'_, 'p> {
         let mut rhs = u.duplicate()?;
         let mut increment = u.duplicate()?;
         let (mut total, mut most, mut reason) = (0i64, 0i32, 0i32);
+        let zeros = vec![0.0; self.constrained_rows.len()];
         let mut relative_residual = 0.0;
         let mut recording = 0.0;
         let record_clock = Instant::now();
@@ -797,6 +802,7 @@ impl<'p> Euler<'_, 'p> {
             rhs.scale(dt)?;
             ksp.solve(&rhs, &mut increment)?;
             let (iterations, last) = converged(&ksp)?;
+            increment.set_and_assemble(self.constrained_rows, &zeros)?;
             total += i64::from(iterations);
             most = most.max(iterations);
             reason = last;
