@@ -675,7 +675,7 @@ impl<'p> Matrix<'p> {
     }
 
     /// Zeroes the rows and columns `rows` (global, owned by this rank), puts `diagonal` on their
-    /// diagonal, sets b[rows] = diagonal·x[rows] and subtracts the zeroed columns times x[rows]
+    /// diagonal, sets `b[rows] = diagonal·x[rows]` and subtracts the zeroed columns times `x[rows]`
     /// from the other rows of b (collective): the prescribed values `x` enter the right-hand
     /// side, and the matrix stays symmetric.
     pub fn zero_rows_columns(
