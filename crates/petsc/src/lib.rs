@@ -5,7 +5,7 @@
 //! assembles the stiffness of its own tets into one PETSc `MatMPIAIJ` of block size 3 (no rank
 //! holds the global matrix), the constraints are applied per rank by zeroing rows and columns,
 //! and PETSc solves with CG + GAMG (the rigid-body near-null space from the owned node
-//! coordinates), CG + hypre BoomerAMG or MUMPS's Cholesky ([`engine`]); a dynamic scene is
+//! coordinates), CG + hypre BoomerAMG or MUMPS's Cholesky (`engine`, with the feature); a dynamic scene is
 //! integrated by backward Euler (lumped mass), its system matrix and preconditioner built once.
 //! Each rank writes its piece of the parallel `.pvtu` output ([`pvtu`]).
 //!
