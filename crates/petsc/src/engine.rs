@@ -195,6 +195,9 @@ pub struct PetscSummary {
     pub probes: Vec<ProbeValue>,
     /// Largest nodal displacement magnitude (m).
     pub max_displacement: f64,
+    /// The total reaction force of the constraints (N per axis): Σ over constrained DOFs of
+    /// K·u − f, each rank summing K·u over its own tets (static solves; zero for a dynamic run).
+    pub reaction: [f64; 3],
     /// Wall time of each phase (max over ranks).
     pub seconds: PhaseSeconds,
     /// Peak resident memory of each rank (bytes, VmHWM; 0 where /proc is not readable).
@@ -524,6 +527,46 @@ pub fn solve_scene(petsc: &Petsc, scene: &Scene, options: EngineOptions) -> Resu
         seconds.output = clock.elapsed().as_secs_f64();
     }
 
+    // Σ_c (K·u)_c over this rank's tets (each tet counted by one rank), with the values of
+    // their nodes fetched from the other ranks; then Σ_c f_c taken off once (on rank 0).
+    let mut reaction = [0.0; 3];
+    if matches!(scene.analysis(), Analysis::Static) {
+        let piece = Piece::new(mesh, &partition, rank);
+        let values = x.entries(piece.indices())?;
+        let mut u_e = [0.0; 12];
+        for &t in piece.tets() {
+            let tet = mesh.tets()[t];
+            for (a, &node) in tet.iter().enumerate() {
+                let i = piece.position(node).ok_or_else(|| {
+                    Error::invalid(
+                        format!("node of tet {t}"),
+                        node,
+                        "must be in this rank's piece",
+                    )
+                })?;
+                u_e[3 * a..3 * a + 3].copy_from_slice(&values[3 * i..3 * i + 3]);
+            }
+            let ke = mesh.element(t)?.stiffness(built.materials.material_of(t));
+            for (a, &node) in tet.iter().enumerate() {
+                for axis in 0..3 {
+                    if built.constraints.get(3 * node + axis).is_some() {
+                        let row = 3 * a + axis;
+                        reaction[axis] += (0..12).map(|j| ke[(row, j)] * u_e[j]).sum::<f64>();
+                    }
+                }
+            }
+        }
+        if rank == 0 {
+            let forces = built.loads.as_slice();
+            for (dof, f) in forces.iter().enumerate() {
+                if built.constraints.get(dof).is_some() {
+                    reaction[dof % 3] -= f;
+                }
+            }
+        }
+        petsc.sum(&mut reaction)?;
+    }
+
     let displacement = if options.gather_displacement {
         x.gather_to_zero(petsc)?.map(|all| {
             let mut full = vec![0.0; dofs];
@@ -598,6 +641,7 @@ pub fn solve_scene(petsc: &Petsc, scene: &Scene, options: EngineOptions) -> Resu
         relative_residual,
         probes,
         max_displacement: max_displacement[0],
+        reaction,
         seconds,
         peak_memory_per_rank: column(3).into_iter().map(|v| v as u64).collect(),
         files,

@@ -154,6 +154,12 @@ fn run(petsc: &Petsc, args: &Arguments) -> Result<()> {
             s.seconds.setup,
             s.seconds.solve
         );
+        if s.steps == 0 {
+            println!(
+                "  reaction of the constraints: [{:.6e}, {:.6e}, {:.6e}] N",
+                s.reaction[0], s.reaction[1], s.reaction[2]
+            );
+        }
         for file in &s.files {
             println!("  wrote {}", file.display());
         }

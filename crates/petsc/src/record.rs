@@ -73,6 +73,21 @@ impl Piece {
         }
     }
 
+    /// The tets of the piece (this rank's).
+    pub fn tets(&self) -> &[usize] {
+        &self.tets
+    }
+
+    /// The PETSc DOFs of the piece's nodes (3 per node, in the order of the nodes).
+    pub fn indices(&self) -> &[i32] {
+        &self.indices
+    }
+
+    /// The position of mesh node `node` among the piece's nodes.
+    pub fn position(&self, node: usize) -> Option<usize> {
+        self.nodes.binary_search(&node).ok()
+    }
+
     /// Fetches this piece's values of `u` (collective) and writes it as `files`' piece of this
     /// rank; rank 0 also writes the `.pvtu`. Then every rank learns whether all wrote
     /// (collective), so a failed write stops every rank alike.

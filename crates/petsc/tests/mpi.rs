@@ -130,17 +130,29 @@ mod with_petsc {
         })
     }
 
-    fn direct(scene: &Path) -> Vec<f64> {
+    /// tetfem's single-process Cholesky solve: the displacement, the reaction summed per axis
+    /// and the applied loads' resultant.
+    fn direct(scene: &Path) -> (Vec<f64>, [f64; 3], [f64; 3]) {
         let built = Scene::load(scene).expect("scene").build().expect("built");
         let options = SolverOptions {
             method: LinearMethod::Direct,
             ..Default::default()
         };
-        StaticSolver::with_options(&built.mesh, &built.materials, &built.constraints, options)
-            .expect("factored")
-            .solve(&built.loads)
-            .expect("solved")
-            .displacement
+        let solution =
+            StaticSolver::with_options(&built.mesh, &built.materials, &built.constraints, options)
+                .expect("factored")
+                .solve(&built.loads)
+                .expect("solved");
+        let mut reaction = [0.0; 3];
+        for (dof, r) in solution.reactions.iter().enumerate() {
+            reaction[dof % 3] += r;
+        }
+        let resultant = built.loads.resultant();
+        (
+            solution.displacement,
+            reaction,
+            [resultant.x, resultant.y, resultant.z],
+        )
     }
 
     fn relative_difference(a: &[f64], b: &[f64]) -> f64 {
@@ -158,7 +170,8 @@ mod with_petsc {
             "{name}: mpirun failed\nstdout: {}\nstderr: {}",
             run.stdout, run.stderr
         );
-        let difference = relative_difference(&run.displacement, &direct(scene));
+        let (reference, reaction, resultant) = direct(scene);
+        let difference = relative_difference(&run.displacement, &reference);
         let s = &run.summary;
         println!(
             "{name}: {} ranks, {} + {}, {} iterations, true relative residual {:.2e}, \
@@ -176,6 +189,22 @@ mod with_petsc {
             "{name}: relative difference {difference:e} to the direct solve"
         );
         assert_eq!(s["ranks"], ranks);
+        // The reaction summed over the ranks: −(the applied resultant) at equilibrium, and
+        // tetfem's reactions summed; to 1e-8 of the load (the solves' accuracy, with margin).
+        let scale = resultant.iter().map(|f| f * f).sum::<f64>().sqrt();
+        for axis in 0..3 {
+            let got = s["reaction"][axis].as_f64().expect("reaction");
+            assert!(
+                (got + resultant[axis]).abs() <= 1e-8 * scale,
+                "{name}: reaction {got:e} against load {:e} on axis {axis}",
+                resultant[axis]
+            );
+            assert!(
+                (got - reaction[axis]).abs() <= 1e-8 * scale,
+                "{name}: reaction {got:e} against tetfem's {:e} on axis {axis}",
+                reaction[axis]
+            );
+        }
         Some(run.summary)
     }
 
