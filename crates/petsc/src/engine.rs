@@ -217,6 +217,30 @@ pub struct SolveResult {
     pub displacement: Option<Vec<f64>>,
 }
 
+/// The analysis's name as a scene writes it (`static`, `dynamic`, or another kind's name).
+fn analysis_name(analysis: &Analysis) -> String {
+    match analysis {
+        Analysis::Static => "static".to_string(),
+        Analysis::Dynamic(_) => "dynamic".to_string(),
+        // Kinds the scenes may gain (e.g. modal): their Debug name, lower-case.
+        #[allow(unreachable_patterns)]
+        other => format!("{other:?}")
+            .split(['(', ' ', '{'])
+            .next()
+            .unwrap_or("unknown")
+            .to_lowercase(),
+    }
+}
+
+/// [`Error::Invalid`] for an analysis the engine does not run.
+fn unsupported_analysis(scene: &Scene) -> Error {
+    Error::invalid(
+        format!("analysis.type of {}", scene.source_name()),
+        analysis_name(scene.analysis()),
+        "the PETSc engine runs \"static\" and \"dynamic\" scenes only so far",
+    )
+}
+
 /// A scene set up on every rank: built, partitioned, its stiffness assembled (this rank's
 /// tets) with the constraints applied, the right-hand side and the near-null space.
 struct SetUp<'p> {
@@ -239,6 +263,11 @@ struct SetUp<'p> {
 
 /// Everything before the solve, shared by [`solve_scene`] and [`export_scene`]. Collective.
 fn set_up<'p>(petsc: &'p Petsc, scene: &Scene) -> Result<SetUp<'p>> {
+    match scene.analysis() {
+        Analysis::Static | Analysis::Dynamic(_) => {}
+        #[allow(unreachable_patterns)]
+        _ => return Err(unsupported_analysis(scene)),
+    }
     if let Analysis::Dynamic(settings) = scene.analysis() {
         if settings.method != Method::BackwardEuler {
             return Err(Error::invalid(
@@ -479,6 +508,9 @@ pub fn solve_scene(petsc: &Petsc, scene: &Scene, options: EngineOptions) -> Resu
             files = recorder.files();
             outcome
         }
+        // Refused by set_up already; kept for analyses the scenes may gain.
+        #[allow(unreachable_patterns)]
+        _ => return Err(unsupported_analysis(scene)),
     };
     drop(coordinates);
     // The Krylov method solves the decoupled rows d·u = d·u_c only to its tolerance; the free
@@ -666,10 +698,10 @@ pub fn solve_scene(petsc: &Petsc, scene: &Scene, options: EngineOptions) -> Resu
 ///
 /// Returns the files (rank 0's list).
 pub fn export_scene(petsc: &Petsc, scene: &Scene, directory: &Path) -> Result<Vec<PathBuf>> {
-    if let Analysis::Dynamic(_) = scene.analysis() {
+    if !matches!(scene.analysis(), Analysis::Static) {
         return Err(Error::invalid(
             format!("analysis.type of {} for --export", scene.source_name()),
-            "dynamic",
+            analysis_name(scene.analysis()),
             "the export writes the static system (\"static\")",
         ));
     }
