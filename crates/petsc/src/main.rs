@@ -15,6 +15,7 @@
 //! `--export DIR` writes the static system in PETSc's binary format instead of solving it
 //! (`K.petsc`, `b.petsc`, `coordinates.petsc`, `dofs.txt`: see `engine::export_scene`).
 
+use std::io::Write as _;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
@@ -202,11 +203,14 @@ fn main() -> ExitCode {
     match outcome {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
-            if size > 1 {
-                eprintln!("error (rank {rank} of {size}): {e}");
+            let line = if size > 1 {
+                format!("error (rank {rank} of {size}): {e}\n")
             } else {
-                eprintln!("error: {e}");
-            }
+                format!("error: {e}\n")
+            };
+            // One write per message: under mpirun the ranks' stderr is merged, and the pieces
+            // of a formatted eprintln! from two ranks would interleave.
+            let _ = std::io::stderr().write_all(line.as_bytes());
             ExitCode::FAILURE
         }
     }
