@@ -177,3 +177,64 @@ pub fn displacement_magnitude(displacement: &[f64]) -> Vec<f64> {
         })
         .collect()
 }
+
+/// The six independent components of each stress tensor, in ParaView's order for a symmetric
+/// tensor: XX, YY, ZZ, XY, YZ, XZ (stress units).
+pub fn stress_components(stresses: &[Matrix3<f64>]) -> Vec<f64> {
+    stresses
+        .iter()
+        .flat_map(|s| {
+            [
+                s[(0, 0)],
+                s[(1, 1)],
+                s[(2, 2)],
+                s[(0, 1)],
+                s[(1, 2)],
+                s[(0, 2)],
+            ]
+        })
+        .collect()
+}
+
+/// The principal stresses σ₁ ≥ σ₂ ≥ σ₃ of each stress tensor (its eigenvalues, stress units),
+/// three per tensor.
+pub fn principal_stresses(stresses: &[Matrix3<f64>]) -> Vec<f64> {
+    stresses
+        .iter()
+        .flat_map(|s| {
+            let mut values: Vec<f64> = nalgebra::SymmetricEigen::new(*s)
+                .eigenvalues
+                .iter()
+                .copied()
+                .collect();
+            values.sort_by(|a, b| b.total_cmp(a));
+            values
+        })
+        .collect()
+}
+
+/// Recovered nodal stress: at each node the volume-weighted average of the stresses of the tets
+/// around it, Σₑ Vₑσₑ / Σₑ Vₑ (stress units; zero at a node no tet uses). Smooth where the
+/// per-tet stress jumps, for contour plots; it is an average, not a more accurate stress.
+///
+/// Errors: `stresses` does not hold one tensor per tet.
+pub fn nodal_stress<C: CellType>(
+    mesh: &TetMesh<C>,
+    stresses: &[Matrix3<f64>],
+) -> Result<Vec<Matrix3<f64>>> {
+    Error::check_len("stresses", mesh.tet_count(), stresses.len())?;
+    let mut sum = vec![Matrix3::zeros(); mesh.node_count()];
+    let mut weight = vec![0.0; mesh.node_count()];
+    for (t, tet) in mesh.tets().iter().enumerate() {
+        let volume = crate::mesh::geometry::signed_volume(&mesh.corner_positions_of(t));
+        for &n in tet.as_ref() {
+            sum[n] += stresses[t] * volume;
+            weight[n] += volume;
+        }
+    }
+    Ok(sum
+        .into_iter()
+        .zip(weight)
+        .map(|(s, w)| if w > 0.0 { s / w } else { s })
+        .collect())
+}

@@ -1,11 +1,22 @@
 //! One result frame as a `.vtu`: the fields a FEM user expects to colour by in ParaView.
+//!
+//! Every result file holds, per node: `displacement` (3), `displacement_magnitude`,
+//! `velocity` (3, dynamic frames), `reaction_force` (3, linear static results); per tet:
+//! `von_mises`, `strain_energy_density` and `material_id` (the index of its material); for
+//! frames of a run, the time as `TimeValue` field data. With [`FrameExtras::stress_tensors`]
+//! (static results) also per node `stress_nodal` (6: XX, YY, ZZ, XY, YZ, XZ, the
+//! volume-weighted average of the tets around the node) and `von_mises_nodal` (of that
+//! average: smooth contours), and per tet `stress` (6, same order) and `principal_stress`
+//! (3, σ₁ ≥ σ₂ ≥ σ₃). Those triple an ASCII file's size, so dynamic frames leave them out.
 
 use std::path::Path;
 
+use nalgebra::Matrix3;
+
 use super::VtuWriter;
 use super::fields::{
-    cell_model_energy_density, cell_model_von_mises, cell_strain_energy_density, cell_von_mises,
-    displacement_magnitude,
+    cell_model_energy_density, cell_model_stress, cell_strain_energy_density, cell_stress,
+    displacement_magnitude, nodal_stress, principal_stresses, stress_components, von_mises,
 };
 use crate::element::ElementType;
 use crate::error::Result;
@@ -13,10 +24,21 @@ use crate::materials::TetMaterials;
 use crate::mesh::{CellType, TetMesh};
 use crate::model::TetModels;
 
-/// Writes `path` (atomically) with point fields `displacement` (3 components),
-/// `displacement_magnitude`, optionally `velocity` (3), and cell fields `von_mises` (stress
-/// units) and `strain_energy_density` (energy/volume), all from node-major vectors. The cell
-/// fields are those of the linear model, each tet with its own material (one
+/// What a result frame holds besides the displacement: the optional fields of a run.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct FrameExtras<'a> {
+    /// Nodal velocity (node-major, length/time).
+    pub velocity: Option<&'a [f64]>,
+    /// Nodal reactions (node-major, force units).
+    pub reactions: Option<&'a [f64]>,
+    /// The frame's time (time units), written as `TimeValue` field data.
+    pub time: Option<f64>,
+    /// Also the stress tensors, principal stresses and recovered nodal stresses.
+    pub stress_tensors: bool,
+}
+
+/// Writes `path` (atomically) with the fields of the [module](self) docs, the stresses and the
+/// energy density those of the linear model with each tet's material (one
 /// [`Material`](crate::material::Material) or a [`MaterialMap`](crate::materials::MaterialMap));
 /// see [`write_model_result_vtu`] for a nonlinear run.
 pub fn write_result_vtu<E: ElementType>(
@@ -26,9 +48,16 @@ pub fn write_result_vtu<E: ElementType>(
     displacement: &[f64],
     velocity: Option<&[f64]>,
 ) -> Result<()> {
-    let von_mises = cell_von_mises(mesh, materials, displacement)?;
-    let energy = cell_strain_energy_density(mesh, materials, displacement)?;
-    write_fields(path, mesh, displacement, velocity, &von_mises, &energy)
+    write_result_frame(
+        path,
+        mesh,
+        materials,
+        displacement,
+        FrameExtras {
+            velocity,
+            ..FrameExtras::default()
+        },
+    )
 }
 
 /// As [`write_result_vtu`] for a static solution, with its reactions as the point field
@@ -40,50 +69,105 @@ pub fn write_static_result_vtu<E: ElementType>(
     displacement: &[f64],
     reactions: &[f64],
 ) -> Result<()> {
-    let von_mises = cell_von_mises(mesh, materials, displacement)?;
-    let energy = cell_strain_energy_density(mesh, materials, displacement)?;
-    let magnitude = displacement_magnitude(displacement);
-    VtuWriter::new(mesh)
-        .point_field("displacement", 3, displacement)?
-        .point_field("displacement_magnitude", 1, &magnitude)?
-        .point_field("reaction_force", 3, reactions)?
-        .cell_field("von_mises", 1, &von_mises)?
-        .cell_field("strain_energy_density", 1, &energy)?
-        .write(path)
+    write_result_frame(
+        path,
+        mesh,
+        materials,
+        displacement,
+        FrameExtras {
+            reactions: Some(reactions),
+            stress_tensors: true,
+            ..FrameExtras::default()
+        },
+    )
 }
 
-/// As [`write_result_vtu`], with the cell fields of the force model that produced the
-/// displacement: `von_mises` of its Cauchy stress and its own `strain_energy_density` (energy
-/// per rest volume), see [`cell_model_von_mises`] and [`cell_model_energy_density`].
+/// [`write_result_vtu`] with every optional field: velocity, reactions, time.
+pub fn write_result_frame<E: ElementType>(
+    path: &Path,
+    mesh: &TetMesh<E>,
+    materials: &impl TetMaterials,
+    displacement: &[f64],
+    extras: FrameExtras<'_>,
+) -> Result<()> {
+    let stresses = cell_stress(mesh, materials, displacement)?;
+    let energy = cell_strain_energy_density(mesh, materials, displacement)?;
+    let ids: Vec<f64> = (0..mesh.tet_count())
+        .map(|t| materials.index_of(t) as f64)
+        .collect();
+    write_fields(path, mesh, displacement, extras, &stresses, &energy, &ids)
+}
+
+/// As [`write_result_vtu`], with the stresses and energy density of the force model that
+/// produced the displacement (its Cauchy stress, its own energy per rest volume; see
+/// [`cell_model_stress`] and [`cell_model_energy_density`]). `material_id` is the material index
+/// of `materials` (a [`MaterialMap`](crate::materials::MaterialMap), or one material: all 0).
 pub fn write_model_result_vtu(
     path: &Path,
     mesh: &TetMesh,
     model: &(impl TetModels + ?Sized),
+    materials: &impl TetMaterials,
     displacement: &[f64],
-    velocity: Option<&[f64]>,
+    extras: FrameExtras<'_>,
 ) -> Result<()> {
-    let von_mises = cell_model_von_mises(mesh, model, displacement)?;
+    materials.check_tet_count(mesh)?;
+    let stresses = cell_model_stress(mesh, model, displacement)?;
     let energy = cell_model_energy_density(mesh, model, displacement)?;
-    write_fields(path, mesh, displacement, velocity, &von_mises, &energy)
+    let ids: Vec<f64> = (0..mesh.tet_count())
+        .map(|t| materials.index_of(t) as f64)
+        .collect();
+    write_fields(path, mesh, displacement, extras, &stresses, &energy, &ids)
 }
 
 fn write_fields<C: CellType>(
     path: &Path,
     mesh: &TetMesh<C>,
     displacement: &[f64],
-    velocity: Option<&[f64]>,
-    von_mises: &[f64],
+    extras: FrameExtras<'_>,
+    stresses: &[Matrix3<f64>],
     energy: &[f64],
+    material_ids: &[f64],
 ) -> Result<()> {
     let magnitude = displacement_magnitude(displacement);
-    let mut writer = VtuWriter::new(mesh)
+    let von_mises_cells: Vec<f64> = stresses.iter().map(von_mises).collect();
+    let (mut nodal_components, mut von_mises_nodes, mut components, mut principal) =
+        (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+    if extras.stress_tensors {
+        let nodal = nodal_stress(mesh, stresses)?;
+        nodal_components = stress_components(&nodal);
+        von_mises_nodes = nodal.iter().map(von_mises).collect();
+        components = stress_components(stresses);
+        principal = principal_stresses(stresses);
+    }
+    let mut writer = VtuWriter::new(mesh);
+    if let Some(t) = extras.time {
+        writer = writer.field_data("TimeValue", t)?;
+    }
+    writer = writer
         .point_field("displacement", 3, displacement)?
         .point_field("displacement_magnitude", 1, &magnitude)?;
-    if let Some(v) = velocity {
+    if let Some(v) = extras.velocity {
         writer = writer.point_field("velocity", 3, v)?;
     }
+    if let Some(r) = extras.reactions {
+        writer = writer.point_field("reaction_force", 3, r)?;
+    }
+    if extras.stress_tensors {
+        writer = writer
+            .point_field("stress_nodal", 6, &nodal_components)?
+            .point_field("von_mises_nodal", 1, &von_mises_nodes)?;
+    }
+    writer = writer
+        .cell_field("von_mises", 1, &von_mises_cells)?
+        .cell_field("strain_energy_density", 1, energy)?;
+    if extras.stress_tensors {
+        writer = writer.cell_field("stress", 6, &components)?.cell_field(
+            "principal_stress",
+            3,
+            &principal,
+        )?;
+    }
     writer
-        .cell_field("von_mises", 1, von_mises)?
-        .cell_field("strain_energy_density", 1, energy)?
+        .cell_field("material_id", 1, material_ids)?
         .write(path)
 }

@@ -320,3 +320,54 @@ fn mesh_info_of_the_gmsh_bracket() {
     assert_eq!(info.statistics.tets, 2 * 2 * 20 * 6);
     assert!(info.critical_step.is_some());
 }
+
+#[test]
+fn result_files_hold_stress_tensors_principal_and_nodal_stresses() {
+    // Simple shear u = (γ·y, 0, 0): σ_xy = μγ is the only stress, in every tet and so at every
+    // node; its principal stresses are (μγ, 0, −μγ).
+    let mesh = small_mesh();
+    let material = Material::new(2e5, 0.25, 3.0).unwrap();
+    let gamma = 1e-3;
+    let displacement: Vec<f64> = mesh
+        .nodes()
+        .iter()
+        .flat_map(|p| [gamma * p.y, 0.0, 0.0])
+        .collect();
+    let path = tmp("shear_fields.vtu");
+    tetfem::output::write_result_frame(
+        &path,
+        &mesh,
+        &material,
+        &displacement,
+        tetfem::output::FrameExtras {
+            time: Some(0.25),
+            stress_tensors: true,
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    let arrays = data_arrays(&path);
+    let tau = material.shear_modulus() * gamma;
+    // Constant-strain tets reproduce the field to round-off of the gradients (1e-9 of τ).
+    let close = |a: f64, b: f64| (a - b).abs() < 1e-9 * tau;
+    for (name, expected) in [
+        ("stress", [0.0, 0.0, 0.0, tau, 0.0, 0.0].as_slice()),
+        ("stress_nodal", [0.0, 0.0, 0.0, tau, 0.0, 0.0].as_slice()),
+        ("principal_stress", [tau, 0.0, -tau].as_slice()),
+    ] {
+        let values = &arrays[name];
+        assert_eq!(values.len() % expected.len(), 0, "{name}");
+        for chunk in values.chunks(expected.len()) {
+            for (v, e) in chunk.iter().zip(expected) {
+                assert!(close(*v, *e), "{name}: {chunk:?}");
+            }
+        }
+    }
+    assert_eq!(arrays["stress"].len(), 6 * mesh.tet_count());
+    assert_eq!(arrays["stress_nodal"].len(), 6 * mesh.node_count());
+    for &v in &arrays["von_mises_nodal"] {
+        assert!(close(v, 3f64.sqrt() * tau), "{v}");
+    }
+    assert!(arrays["material_id"].iter().all(|&id| id == 0.0));
+    assert_eq!(arrays["TimeValue"], vec![0.25]);
+}

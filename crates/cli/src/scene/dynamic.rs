@@ -23,8 +23,8 @@ use tetfem::material::Material;
 use tetfem::mesh::TetMesh;
 use tetfem::output::fields::{cell_model_von_mises, cell_von_mises, displacement_magnitude};
 use tetfem::output::{
-    CsvSeries, OutputLock, PvdCollection, write_atomically, write_model_result_vtu,
-    write_result_vtu,
+    CsvSeries, FrameExtras, OutputLock, PvdCollection, write_atomically, write_model_result_vtu,
+    write_result_frame,
 };
 use tetfem_fixtures::cantilever::Cantilever;
 
@@ -780,13 +780,24 @@ impl FrameWriter {
                 velocity[dof] = *v;
             }
             let vtu = dir.join(format!("{name}.vtu"));
+            let extras = FrameExtras {
+                velocity: Some(&velocity),
+                reactions: None,
+                time: Some(state.time),
+                stress_tensors: false,
+            };
             match &setup.force {
                 InternalForce::Linear => {
-                    write_result_vtu(&vtu, &setup.mesh, &setup.materials, u, Some(&velocity))?
+                    write_result_frame(&vtu, &setup.mesh, &setup.materials, u, extras)?
                 }
-                InternalForce::Nonlinear(n) => {
-                    write_model_result_vtu(&vtu, &setup.mesh, n.models(), u, Some(&velocity))?
-                }
+                InternalForce::Nonlinear(n) => write_model_result_vtu(
+                    &vtu,
+                    &setup.mesh,
+                    n.models(),
+                    &setup.materials,
+                    u,
+                    extras,
+                )?,
             }
             pvd.push(state.time, &vtu)?;
             self.files.push(vtu);

@@ -312,7 +312,17 @@ fn write_static_outputs(
         let vtu = dir.join(format!("{}.vtu", out.stem));
         match reactions {
             Some(r) => write_static_result_vtu(&vtu, &built.mesh, &built.materials, u, r)?,
-            None => write_model_result_vtu(&vtu, &built.mesh, model, u, None)?,
+            None => write_model_result_vtu(
+                &vtu,
+                &built.mesh,
+                model,
+                &built.materials,
+                u,
+                tetfem::output::FrameExtras {
+                    stress_tensors: true,
+                    ..Default::default()
+                },
+            )?,
         }
         let mut pvd = PvdCollection::new(dir.join(format!("{}.pvd", out.stem)));
         pvd.push(0.0, &vtu)?;
