@@ -101,8 +101,11 @@ impl LinearSystem {
     ///
     /// `materials`: one [`Material`](crate::material::Material) for every tet, or a
     /// [`MaterialMap`](crate::materials::MaterialMap) (K, M and gravity per tet).
-    pub fn new(
-        mesh: &TetMesh,
+    ///
+    /// Any element type: the linear tet, or the quadratic one ([`Tet10`](crate::element::Tet10),
+    /// whose lumped mass is HRZ).
+    pub fn new<E: crate::element::ElementType>(
+        mesh: &TetMesh<E>,
         materials: &impl TetMaterials,
         constraints: &Constraints,
         loads: &Loads,

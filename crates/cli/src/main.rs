@@ -715,6 +715,30 @@ fn print_modal(s: &ModalSummary, directory: &Path) {
     );
 }
 
+/// An error naming the dynamic-only options given (`--method`, `--dt`, `--duration`,
+/// `--steps`, and `--png` when `png_refused`) for a scene that is not dynamic.
+fn refuse_dynamic_options(args: &RunArgs, png_refused: bool, why: &str) -> tetfem::Result<()> {
+    let given: Vec<&str> = [
+        ("--method", args.method.is_some()),
+        ("--dt", args.dt.is_some()),
+        ("--duration", args.duration.is_some()),
+        ("--steps", args.steps.is_some()),
+        ("--png", png_refused),
+    ]
+    .iter()
+    .filter(|(_, set)| *set)
+    .map(|(name, _)| *name)
+    .collect();
+    if given.is_empty() {
+        return Ok(());
+    }
+    Err(Error::invalid_parameter(
+        given.join(", "),
+        args.scene.display(),
+        why,
+    ))
+}
+
 fn run_scene(args: &RunArgs) -> tetfem::Result<()> {
     let mut scene = Scene::load(&args.scene)?;
     if let Some(out) = &args.out {
@@ -723,24 +747,11 @@ fn run_scene(args: &RunArgs) -> tetfem::Result<()> {
     let directory = scene.output().directory.clone();
     match scene.analysis() {
         Analysis::Modal(_) => {
-            let given: Vec<&str> = [
-                ("--method", args.method.is_some()),
-                ("--dt", args.dt.is_some()),
-                ("--duration", args.duration.is_some()),
-                ("--steps", args.steps.is_some()),
-                ("--png", args.png),
-            ]
-            .iter()
-            .filter(|(_, set)| *set)
-            .map(|(name, _)| *name)
-            .collect();
-            if !given.is_empty() {
-                return Err(Error::invalid_parameter(
-                    given.join(", "),
-                    args.scene.display(),
-                    "does not apply to a modal scene (it writes mode shapes as .vtu)",
-                ));
-            }
+            refuse_dynamic_options(
+                args,
+                args.png,
+                "does not apply to a modal scene (it writes mode shapes as .vtu)",
+            )?;
             let summary = run_modal_scene(&scene, false)?;
             print_warnings(&summary.warnings);
             if args.json {
@@ -750,23 +761,11 @@ fn run_scene(args: &RunArgs) -> tetfem::Result<()> {
             }
         }
         Analysis::Static => {
-            let given: Vec<&str> = [
-                ("--method", args.method.is_some()),
-                ("--dt", args.dt.is_some()),
-                ("--duration", args.duration.is_some()),
-                ("--steps", args.steps.is_some()),
-            ]
-            .iter()
-            .filter(|(_, set)| *set)
-            .map(|(name, _)| *name)
-            .collect();
-            if !given.is_empty() {
-                return Err(Error::invalid_parameter(
-                    given.join(", "),
-                    args.scene.display(),
-                    "applies to dynamic scenes only; this scene is static",
-                ));
-            }
+            refuse_dynamic_options(
+                args,
+                false,
+                "applies to dynamic scenes only; this scene is static",
+            )?;
             let summary = run_static_with(
                 &scene,
                 &RunOptions {

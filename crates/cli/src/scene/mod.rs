@@ -364,16 +364,23 @@ impl Scene {
                 "only a modal analysis takes this key; set type = \"modal\" or remove it".into(),
             ));
         }
+        // The keys only a dynamic analysis takes (`mass` a modal one takes too).
+        let dynamic_key = |with_mass: bool| {
+            [
+                ("method", a.method.is_some()),
+                ("dt", a.dt.is_some()),
+                ("duration", a.duration.is_some()),
+                ("damping", a.damping.is_some()),
+                ("mass", with_mass && a.mass.is_some()),
+                ("initial_velocity", a.initial_velocity.is_some()),
+            ]
+            .into_iter()
+            .find(|(_, set)| *set)
+            .map(|(key, _)| key)
+        };
         match a.kind {
             AnalysisKind::Modal => {
-                let dynamic_keys = [
-                    ("method", a.method.is_some()),
-                    ("dt", a.dt.is_some()),
-                    ("duration", a.duration.is_some()),
-                    ("damping", a.damping.is_some()),
-                    ("initial_velocity", a.initial_velocity.is_some()),
-                ];
-                if let Some((key, _)) = dynamic_keys.iter().find(|(_, set)| *set) {
+                if let Some(key) = dynamic_key(false) {
                     return Err(err(
                         key,
                         "only a dynamic analysis takes this key; a modal one takes modes and mass"
@@ -390,15 +397,7 @@ impl Scene {
                 }))
             }
             AnalysisKind::Static => {
-                let dynamic_keys = [
-                    ("method", a.method.is_some()),
-                    ("dt", a.dt.is_some()),
-                    ("duration", a.duration.is_some()),
-                    ("damping", a.damping.is_some()),
-                    ("mass", a.mass.is_some()),
-                    ("initial_velocity", a.initial_velocity.is_some()),
-                ];
-                if let Some((key, _)) = dynamic_keys.iter().find(|(_, set)| *set) {
+                if let Some(key) = dynamic_key(true) {
                     return Err(err(
                         key,
                         "only a dynamic analysis takes this key; set type = \"dynamic\" or remove it".into(),
