@@ -43,6 +43,17 @@ pub enum Certificate {
     Gershgorin,
 }
 
+impl Certificate {
+    /// How the step was found, as summaries write it: `"power iteration"` (proven by the
+    /// inertia check) or `"Gershgorin bound"`.
+    pub fn source(self) -> &'static str {
+        match self {
+            Certificate::Inertia => "power iteration",
+            Certificate::Gershgorin => "Gershgorin bound",
+        }
+    }
+}
+
 /// Choices of [`critical_time_step_with`].
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct CriticalStepOptions {

@@ -658,6 +658,12 @@ fn print_static(s: &RunSummary, directory: &Path) {
             p.name, p.displacement[0], p.displacement[1], p.displacement[2]
         );
     }
+    if let Some(c) = &s.critical_step {
+        println!(
+            "  explicit critical step {:.4e} s ({})",
+            c.seconds, c.source
+        );
+    }
     if let Some(reactions) = &s.reactions {
         let [x, y, z] = s.applied_load_n;
         println!("  applied load ({x:+.4e}, {y:+.4e}, {z:+.4e}) N; reactions:");
@@ -695,6 +701,12 @@ fn print_modal(s: &ModalSummary, directory: &Path) {
         println!(
             "  {:>4}  {:>14.6e}  {:>11.4e}  {x:>8.4} {y:>8.4} {z:>8.4}",
             m.mode, m.frequency_hz, m.period_s
+        );
+    }
+    if let Some(c) = &s.critical_step {
+        println!(
+            "  explicit critical step {:.4e} s ({})",
+            c.seconds, c.source
         );
     }
     let [x, y, z] = s.cumulative_mass_fraction;

@@ -288,3 +288,51 @@ fn the_binary_runs_a_modal_scene_and_prints_json() {
     assert!(!refused.status.success());
     assert!(String::from_utf8_lossy(&refused.stderr).contains("--dt"));
 }
+
+#[test]
+fn static_and_modal_summaries_report_the_critical_step_when_asked() {
+    // The summary's step is the library's critical_time_step of the scene's lumped system, to
+    // the bit; without the key there is none (it costs a power iteration and a factorization).
+    let with = |analysis: &str, asked: bool| {
+        let mut text = bar_scene([6, 1, 1], 1.0, 0.3, analysis);
+        if asked {
+            text.push_str("[output]\ncritical_step = true\n");
+        }
+        text.parse::<Scene>().unwrap()
+    };
+    let scene = with("type = \"modal\"\nmodes = 2", true);
+    let built = scene.build().unwrap();
+    let system = LinearSystem::new(
+        &built.mesh,
+        &built.materials,
+        &built.constraints,
+        &built.other_loads,
+        built.gravity,
+        tetfem::dynamics::MassKind::Lumped,
+        Rayleigh::default(),
+    )
+    .unwrap();
+    let expected = tetfem::dynamics::critical_time_step(&system).unwrap();
+    let modal = run_modal_scene(&scene, true)
+        .unwrap()
+        .critical_step
+        .unwrap();
+    assert_eq!(modal.seconds, expected.dt);
+    assert_eq!(modal.source, expected.certificate.source());
+    let options = tetfem_cli::scene::RunOptions {
+        no_files: true,
+        ..Default::default()
+    };
+    let static_scene = with("type = \"static\"", true);
+    let static_step = tetfem_cli::scene::run_static_with(&static_scene, &options)
+        .unwrap()
+        .critical_step
+        .unwrap();
+    assert_eq!(static_step.seconds, expected.dt);
+    assert!(
+        tetfem_cli::scene::run_static_with(&with("type = \"static\"", false), &options)
+            .unwrap()
+            .critical_step
+            .is_none()
+    );
+}

@@ -13,8 +13,8 @@ use super::{Analysis, BuiltScene, DynamicSettings, OutputSettings, PngField, Pro
 use crate::render::{Field, RenderOptions, auto_deformation_scale, render};
 use tetfem::constraints::Constraints;
 use tetfem::dynamics::{
-    Certificate, Energy, IntegratorOptions, InternalForce, LinearSystem, Mass, MassKind, Method,
-    NewtonStats, Rayleigh, State, critical_time_step,
+    Energy, IntegratorOptions, InternalForce, LinearSystem, Mass, MassKind, Method, NewtonStats,
+    Rayleigh, State, critical_time_step,
 };
 use tetfem::error::{Error, Result};
 use tetfem::linalg::linear_solver::LinearMethod;
@@ -309,11 +309,7 @@ impl DynamicSetup {
         let c = match self.system.mass() {
             Mass::Lumped(_) => {
                 let step = critical_time_step(&self.system)?;
-                let source = match step.certificate {
-                    Certificate::Inertia => "power iteration",
-                    Certificate::Gershgorin => "Gershgorin bound",
-                };
-                (step.dt, source)
+                (step.dt, step.certificate.source())
             }
             Mass::Consistent(_) => (
                 tetfem::dynamics::element_step_bound_of(&self.mesh, &self.materials)?.dt_element,

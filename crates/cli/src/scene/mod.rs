@@ -7,12 +7,14 @@
 //! [`Error::Scene`] errors naming the key and its line.
 
 mod build;
+mod critical;
 mod dynamic;
 mod modal;
 mod run;
 mod spec;
 
 pub use build::{BuiltScene, Probe};
+pub use critical::{CriticalStepReport, critical_step_of};
 pub use dynamic::{
     DynamicOutputs, DynamicOverrides, DynamicRun, DynamicSetup, DynamicSummary, EnergyTerms,
     MAX_STEPS, ProbeRange, RunLength, TimeStep, run_dynamic, run_dynamic_scene,
@@ -100,6 +102,7 @@ png = false                         # default false
 png_field = "displacement"          # default; or "von_mises"
 png_size = [960, 600]               # default [960, 600]
 deformation_scale = 0.0             # 0 (default): automatic
+critical_step = false               # static and modal: also report the explicit critical step (s); default false
 "#;
 
 /// The settings of a modal scene, validated.
@@ -170,6 +173,9 @@ pub struct OutputSettings {
     pub png_size: [u32; 2],
     /// Displacement magnification (0: automatic).
     pub deformation_scale: f64,
+    /// Static and modal runs: also find the explicit critical step (lumped mass) for the
+    /// summary (dynamic runs always report it).
+    pub critical_step: bool,
 }
 
 /// A parsed and checked scene file.
@@ -240,6 +246,7 @@ impl Scene {
                 png_field: PngField::Displacement,
                 png_size: [960, 600],
                 deformation_scale: 0.0,
+                critical_step: false,
             },
         };
         scene.analysis = scene.check_analysis()?;
@@ -493,6 +500,7 @@ impl Scene {
             png_field: o.png_field.unwrap_or_default(),
             png_size,
             deformation_scale,
+            critical_step: o.critical_step.unwrap_or(false),
         })
     }
 }

@@ -55,6 +55,8 @@ pub struct ModalSummary {
     pub cumulative_mass_fraction: [f64; 3],
     /// Subspace iterations used.
     pub iterations: usize,
+    /// The explicit critical step, with `[output] critical_step = true` (else `None`).
+    pub critical_step: Option<super::CriticalStepReport>,
     /// Wall time to build the mesh and constraints (s).
     pub build_seconds: f64,
     /// Wall time to assemble K and M and find the modes (s).
@@ -165,6 +167,10 @@ pub fn run_modal_scene(scene: &Scene, no_files: bool) -> Result<ModalSummary> {
         modes: rows,
         cumulative_mass_fraction: cumulative,
         iterations: modes.iterations,
+        critical_step: match scene.output().critical_step {
+            true => Some(super::critical_step_of(&built)?),
+            false => None,
+        },
         build_seconds,
         solve_seconds,
         output_seconds: 0.0,

@@ -111,6 +111,8 @@ pub struct RunSummary {
     pub output_seconds: f64,
     /// Wall time of each phase of the linear solve (`None` for the nonlinear models).
     pub phases: Option<SolvePhases>,
+    /// The explicit critical step, with `[output] critical_step = true` (else `None`).
+    pub critical_step: Option<super::CriticalStepReport>,
     /// Stored values of the Cholesky factor (0 for an iterative or a nonlinear solve).
     pub factor_len: usize,
     /// Files written.
@@ -273,6 +275,10 @@ pub fn run_static_with(scene: &Scene, options: &RunOptions) -> Result<RunSummary
         solve_seconds,
         output_seconds: 0.0,
         phases,
+        critical_step: match scene.output().critical_step {
+            true => Some(super::critical_step_of(&built)?),
+            false => None,
+        },
         factor_len,
         files: Vec::new(),
     };

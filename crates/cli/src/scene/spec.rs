@@ -353,6 +353,10 @@ pub struct OutputSpec {
     /// displacement as 10 % of the body's size (never below 1).
     #[serde(default)]
     pub deformation_scale: Option<f64>,
+    /// Static and modal runs: also find the explicit critical step for the summary (default
+    /// false: it costs a power iteration and a factorization; dynamic runs always report it).
+    #[serde(default)]
+    pub critical_step: Option<bool>,
 }
 
 /// The field a picture is coloured by.
