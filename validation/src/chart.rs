@@ -135,6 +135,84 @@ impl Chart {
         }
     }
 
+    /// Where the legend goes so that it hides no data, and the y range that makes room for it.
+    ///
+    /// The legend box is estimated in pixels (14 px text, about 7.5 px per character, 18 px per
+    /// row) as a fraction of the plot area; the corner whose box holds the fewest points wins
+    /// (upper left on a tie). If every corner would cover a point, the y range grows at the top
+    /// by the legend's height, so the upper left corner is empty by construction.
+    fn legend_placement(
+        &self,
+        (width, height): (u32, u32),
+        (x0, x1): (f64, f64),
+        (y0, y1): (f64, f64),
+    ) -> (SeriesLabelPosition, f64) {
+        let plot_width = (f64::from(width) - 80.0 - 28.0).max(1.0);
+        let plot_height = (f64::from(height) - 48.0 - 28.0 - 36.0).max(1.0);
+        let longest = self
+            .series
+            .iter()
+            .map(|s| s.label.chars().count())
+            .max()
+            .unwrap_or(0) as f64;
+        // Box size plus the gap plotters leaves to the plot's edge, with 10 % to spare.
+        let box_width = (1.1 * (48.0 + 7.5 * longest + 10.0) / plot_width).min(1.0);
+        let box_height = (1.1 * (18.0 * self.series.len() as f64 + 20.0) / plot_height).min(0.9);
+        let fraction = |v: f64, (lo, hi): (f64, f64), log: bool| {
+            if log {
+                (v.ln() - lo.ln()) / (hi.ln() - lo.ln())
+            } else {
+                (v - lo) / (hi - lo)
+            }
+        };
+        let points: Vec<(f64, f64)> = self
+            .series
+            .iter()
+            .flat_map(|s| s.points.iter().copied())
+            .filter(|&p| self.visible(p))
+            .map(|(x, y)| {
+                (
+                    fraction(x, (x0, x1), self.log_x),
+                    fraction(y, (y0, y1), self.log_y),
+                )
+            })
+            .collect();
+        let covered = |left: bool, upper: bool| {
+            points
+                .iter()
+                .filter(|&&(x, y)| {
+                    let in_x = if left {
+                        x <= box_width
+                    } else {
+                        x >= 1.0 - box_width
+                    };
+                    let in_y = if upper {
+                        y >= 1.0 - box_height
+                    } else {
+                        y <= box_height
+                    };
+                    in_x && in_y
+                })
+                .count()
+        };
+        let corners = [
+            (SeriesLabelPosition::UpperLeft, covered(true, true)),
+            (SeriesLabelPosition::UpperRight, covered(false, true)),
+            (SeriesLabelPosition::LowerLeft, covered(true, false)),
+            (SeriesLabelPosition::LowerRight, covered(false, false)),
+        ];
+        if let Some((position, _)) = corners.iter().find(|(_, count)| *count == 0) {
+            return (position.clone(), y1);
+        }
+        // Data now span the lower (1 − box_height) of the new range.
+        let grown = if self.log_y {
+            (y0.ln() + (y1.ln() - y0.ln()) / (1.0 - box_height)).exp()
+        } else {
+            y0 + (y1 - y0) / (1.0 - box_height)
+        };
+        (SeriesLabelPosition::UpperLeft, grown)
+    }
+
     fn draw(&self, path: &Path, width: u32, height: u32) -> Result<()> {
         let fail = |e: String| Error::Io {
             path: path.to_path_buf(),
@@ -144,6 +222,7 @@ impl Chart {
         root.fill(&WHITE).map_err(|e| fail(e.to_string()))?;
         let (x0, x1) = self.range(0, self.log_x);
         let (y0, y1) = self.range(1, self.log_y);
+        let (legend_position, y1) = self.legend_placement((width, height), (x0, x1), (y0, y1));
         let mut builder = ChartBuilder::on(&root);
         builder
             .caption(&self.title, ("sans-serif", 22))
@@ -202,7 +281,7 @@ impl Chart {
                     .background_style(WHITE.mix(0.85))
                     .border_style(BLACK)
                     .label_font(("sans-serif", 14))
-                    .position(SeriesLabelPosition::UpperLeft)
+                    .position(legend_position.clone())
                     .draw()
                     .map_err(|e| fail(e.to_string()))?;
             }};

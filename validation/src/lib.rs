@@ -1,4 +1,6 @@
 //! tetfem's validation suite and scale study (the `validate` and `scale` programs) and the
-//! charts they draw ([`chart`]: error against wall time and the like, PNG and SVG).
+//! charts they draw ([`chart`]: error against wall time and the like, PNG and SVG), and the
+//! timed static runs of the accuracy-per-second study ([`accuracy`]).
 
+pub mod accuracy;
 pub mod chart;

@@ -3,6 +3,7 @@
 //!
 //! `cargo run --release --bin validate` (full, a few minutes) or `-- --quick` (CI-sized).
 
+mod accuracy_cases;
 mod cases;
 mod dynamics_cases;
 
@@ -80,6 +81,9 @@ fn main() -> ExitCode {
         }),
         ("cantilever", |c| Ok((cases::cantilever(c)?, vec![]))),
         ("cross-check", cases::cross_check),
+        ("accuracy per second", |c| {
+            Ok((accuracy_cases::accuracy_per_second(c)?, vec![]))
+        }),
         ("modal", |c| Ok((dynamics_cases::modal(c)?, vec![]))),
         ("speed vs accuracy", |c| {
             Ok((dynamics_cases::speed_accuracy(c)?, vec![]))
