@@ -45,6 +45,7 @@ pub mod dynamics;
 pub mod element;
 pub mod error;
 pub mod error_norms;
+pub mod estimate;
 pub mod loads;
 pub mod material;
 pub mod materials;
