@@ -37,6 +37,7 @@ pub(crate) use tetfem_linalg::{
     amg, block_sparse, iterative, linear_solver, linsolve, ordering, sparse,
 };
 
+pub mod adequacy;
 pub mod assembly;
 pub mod atomic_file;
 pub mod constraints;
