@@ -87,6 +87,18 @@ impl Deformation {
         linear_model_error(self.max_rotation_deg)
     }
 
+    /// [`Warning::LinearModelRotation`](crate::warning::Warning::LinearModelRotation) when
+    /// [`suggested_model`](Self::suggested_model) names one.
+    pub fn warning(&self) -> Option<crate::warning::Warning> {
+        self.suggested_model()
+            .map(|model| crate::warning::Warning::LinearModelRotation {
+                max_rotation_deg: self.max_rotation_deg,
+                tet: self.rotation_tet,
+                expected_error: self.linear_model_error(),
+                suggested_model: model,
+            })
+    }
+
     /// The model a scene should use when the linear model's expected error passes
     /// [`LINEAR_MODEL_ERROR_THRESHOLD`] (`"corotational"`, or `"neo-hookean"` when the strain
     /// itself passes [`LARGE_STRAIN`]); `None` when the linear model is enough.

@@ -50,6 +50,17 @@ pub struct StepResolution {
 }
 
 impl StepResolution {
+    /// [`Warning::BackwardEulerDecay`](crate::warning::Warning::BackwardEulerDecay) when
+    /// [`decay_too_large`](Self::decay_too_large).
+    pub fn warning(&self) -> Option<crate::warning::Warning> {
+        self.decay_too_large()
+            .then_some(crate::warning::Warning::BackwardEulerDecay {
+                period: self.period,
+                steps_per_period: self.steps_per_period,
+                decay: self.backward_euler_decay,
+            })
+    }
+
     /// Whether [`backward_euler_decay`](Self::backward_euler_decay) passes [`DECAY_WARNING`].
     pub fn decay_too_large(&self) -> bool {
         self.backward_euler_decay.is_nan() || self.backward_euler_decay > DECAY_WARNING

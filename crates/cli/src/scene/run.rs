@@ -122,6 +122,9 @@ pub struct RunSummary {
     /// The self-estimated relative energy-norm error of the solution (linear model; `None` for
     /// the nonlinear ones), with its definition.
     pub estimated_error: Option<super::EstimatedError>,
+    /// The linear solution's largest element rotation and strain (`None` for the nonlinear
+    /// models); past the measured threshold a warning names the model to use.
+    pub deformation: Option<tetfem::adequacy::rotation::Deformation>,
 }
 
 impl RunSummary {
@@ -231,6 +234,13 @@ pub fn run_static_with(scene: &Scene, options: &RunOptions) -> Result<RunSummary
         }
         false => (None, None),
     };
+    let deformation = match linear {
+        true => Some(tetfem::adequacy::rotation::largest_rotation_and_strain(
+            &built.mesh,
+            u,
+        )?),
+        false => None,
+    };
     let magnitude = displacement_magnitude(u);
     let probes: Vec<ProbeValue> = built
         .probes
@@ -268,6 +278,7 @@ pub fn run_static_with(scene: &Scene, options: &RunOptions) -> Result<RunSummary
             .warnings()
             .iter()
             .map(ToString::to_string)
+            .chain(deformation.and_then(|d| d.warning()).map(|w| w.to_string()))
             .chain(lock.as_ref().and_then(OutputLock::warning))
             .collect(),
         title: scene.title(),
@@ -293,6 +304,7 @@ pub fn run_static_with(scene: &Scene, options: &RunOptions) -> Result<RunSummary
         factor_len,
         files: Vec::new(),
         estimated_error,
+        deformation,
     };
     if !options.no_files {
         let clock = Instant::now();
