@@ -88,6 +88,8 @@ pub enum Warning {
         steps_per_period: f64,
         /// Amplitude lost per period (dimensionless).
         decay: f64,
+        /// The level it passed (dimensionless).
+        limit: f64,
     },
 }
 
@@ -140,13 +142,14 @@ impl fmt::Display for Warning {
                 period,
                 steps_per_period,
                 decay,
+                limit,
             } => write!(
                 f,
                 "dt resolves the lowest excited mode (period {period:.3e}) with {steps_per_period:.0} steps: \
                  backward Euler's numerical damping removes {:.0} % of its amplitude per period; use a \
                  dt below period/190 for at most {:.0} %, or method = \"newmark\" (no numerical damping)",
                 100.0 * decay,
-                100.0 * crate::adequacy::time_step::DECAY_WARNING
+                100.0 * limit
             ),
             Warning::NoFreeDofs { dofs } => write!(
                 f,

@@ -58,6 +58,7 @@ impl StepResolution {
                 period: self.period,
                 steps_per_period: self.steps_per_period,
                 decay: self.backward_euler_decay,
+                limit: DECAY_WARNING,
             })
     }
 

@@ -54,8 +54,8 @@ fn data_array(path: &Path, name: &str) -> Vec<f64> {
 
 #[test]
 fn static_summary_and_vtu_carry_the_estimate() {
-    let coarse = run_static_with(&beam([20, 2, 2], 1.0, "linear"), &RunOptions::default())
-        .expect("runs");
+    let coarse =
+        run_static_with(&beam([20, 2, 2], 1.0, "linear"), &RunOptions::default()).expect("runs");
     let fine = run_static_with(
         &beam([40, 4, 4], 1.0, "linear"),
         &RunOptions {
@@ -65,14 +65,25 @@ fn static_summary_and_vtu_carry_the_estimate() {
     )
     .expect("runs");
     let (c, f) = (
-        coarse.estimated_error.as_ref().expect("linear runs estimate"),
+        coarse
+            .estimated_error
+            .as_ref()
+            .expect("linear runs estimate"),
         fine.estimated_error.as_ref().expect("linear runs estimate"),
     );
-    println!("relative estimate: 20×2×2 {:.4}, 40×4×4 {:.4}", c.relative, f.relative);
+    println!(
+        "relative estimate: 20×2×2 {:.4}, 40×4×4 {:.4}",
+        c.relative, f.relative
+    );
     // Halving h lowers the estimate: 0.585 → 0.442 measured (the P1 energy error of these
     // bending-locked meshes falls slower than h; tests/error_estimate.rs has the effectivities).
     // A factor 1.3 fails if the estimate does not follow the refinement.
-    assert!(c.relative > 1.3 * f.relative, "{} vs {}", c.relative, f.relative);
+    assert!(
+        c.relative > 1.3 * f.relative,
+        "{} vs {}",
+        c.relative,
+        f.relative
+    );
     // The relative value is η / (‖u_h‖² + η²)^½ of the reported parts.
     let relative = c.eta / (c.energy_norm.powi(2) + c.eta.powi(2)).sqrt();
     assert!((relative - c.relative).abs() < 1e-15);
@@ -85,7 +96,11 @@ fn static_summary_and_vtu_carry_the_estimate() {
     assert_eq!(eta_k.len(), coarse.tets);
     let total = eta_k.iter().map(|e| e * e).sum::<f64>().sqrt();
     // The file holds each η_K to the writer's digits (≥ 12 significant).
-    assert!((total - c.eta).abs() < 1e-10 * c.eta, "{total} vs {}", c.eta);
+    assert!(
+        (total - c.eta).abs() < 1e-10 * c.eta,
+        "{total} vs {}",
+        c.eta
+    );
     let json = std::fs::read_to_string(vtu.with_file_name(format!(
         "{}_summary.json",
         vtu.file_stem().unwrap().to_string_lossy()
@@ -106,7 +121,11 @@ fn rotation_warning_names_the_model_above_the_threshold_only() {
     let rotation = |s: &tetfem_cli::scene::RunSummary| {
         s.deformation.expect("linear runs check").max_rotation_deg
     };
-    println!("rotations {:.2}° and {:.2}°", rotation(&small), rotation(&large));
+    println!(
+        "rotations {:.2}° and {:.2}°",
+        rotation(&small),
+        rotation(&large)
+    );
     println!("{:?}", large.warnings);
     assert!(!small.warnings.iter().any(|w| w.contains("use model")));
     assert!(
