@@ -20,6 +20,7 @@ pub use dynamic::{
     DynamicOutputs, DynamicOverrides, DynamicRun, DynamicSetup, DynamicSummary, EnergyTerms,
     MAX_STEPS, ProbeRange, RunLength, TimeStep, run_dynamic, run_dynamic_scene,
 };
+pub use dynamic::{STEP_CHECK_DOFS, STEP_CHECK_MODES};
 pub use estimate::{ESTIMATED_ERROR_DEFINITION, EstimatedError, estimated_error_of};
 pub use modal::{ModalSummary, ModeRow, run_modal_scene};
 pub use run::{
