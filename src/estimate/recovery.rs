@@ -160,7 +160,7 @@ pub fn spr_nodal_stress<E: PointwiseElement>(
             .flat_map(|&t| tet_samples[t].iter())
             .map(|(p, _)| (p - origin).amax())
             .fold(0.0, f64::max);
-        if !(size > 0.0) {
+        if size.is_nan() || size <= 0.0 {
             continue;
         }
         let m = monomials(E::DEGREE, &nalgebra::Vector3::zeros(), &mut terms);
