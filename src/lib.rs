@@ -37,6 +37,7 @@ pub(crate) use tetfem_linalg::{
     amg, block_sparse, iterative, linear_solver, linsolve, ordering, sparse,
 };
 
+pub mod adequacy;
 pub mod assembly;
 pub mod atomic_file;
 pub mod constraints;
@@ -45,6 +46,7 @@ pub mod dynamics;
 pub mod element;
 pub mod error;
 pub mod error_norms;
+pub mod estimate;
 pub mod loads;
 pub mod material;
 pub mod materials;

@@ -65,6 +65,32 @@ pub enum Warning {
         /// DOFs of the mesh (all constrained).
         dofs: usize,
     },
+    /// A linear-model result rotates its elements so far that the linear model's expected
+    /// error (the measured curve of [`adequacy::rotation`](crate::adequacy::rotation)) passes
+    /// [`LINEAR_MODEL_ERROR_THRESHOLD`](crate::adequacy::rotation::LINEAR_MODEL_ERROR_THRESHOLD).
+    LinearModelRotation {
+        /// The largest element rotation (degrees).
+        max_rotation_deg: f64,
+        /// The tet where it occurs.
+        tet: usize,
+        /// The linear model's expected relative error there (dimensionless).
+        expected_error: f64,
+        /// The model to use (a scene's `model` value).
+        suggested_model: &'static str,
+    },
+    /// Backward Euler's step resolves the lowest excited mode so coarsely that its numerical
+    /// damping removes more than [`DECAY_WARNING`](crate::adequacy::time_step::DECAY_WARNING) of
+    /// the amplitude per period.
+    BackwardEulerDecay {
+        /// The mode's period (time units).
+        period: f64,
+        /// Steps per period, T/Δt.
+        steps_per_period: f64,
+        /// Amplitude lost per period (dimensionless).
+        decay: f64,
+        /// The level it passed (dimensionless).
+        limit: f64,
+    },
 }
 
 impl fmt::Display for Warning {
@@ -100,6 +126,30 @@ impl fmt::Display for Warning {
                 f,
                 "{load} acts only on constrained DOFs ({dofs} of them): it changes the reactions, \
                  not the displacement; move it off the constrained nodes"
+            ),
+            Warning::LinearModelRotation {
+                max_rotation_deg,
+                tet,
+                expected_error,
+                suggested_model,
+            } => write!(
+                f,
+                "largest rotation {max_rotation_deg:.1}° (tet {tet}): the linear model's error is ≈ {:.0} % here \
+                 (measured on a bent cantilever); use model = \"{suggested_model}\"",
+                100.0 * expected_error
+            ),
+            Warning::BackwardEulerDecay {
+                period,
+                steps_per_period,
+                decay,
+                limit,
+            } => write!(
+                f,
+                "dt resolves the lowest excited mode (period {period:.3e}) with {steps_per_period:.0} steps: \
+                 backward Euler's numerical damping removes {:.0} % of its amplitude per period; use a \
+                 dt below period/190 for at most {:.0} %, or method = \"newmark\" (no numerical damping)",
+                100.0 * decay,
+                100.0 * limit
             ),
             Warning::NoFreeDofs { dofs } => write!(
                 f,

@@ -8,6 +8,8 @@
 //! volume-weighted average of the tets around the node) and `von_mises_nodal` (of that
 //! average: smooth contours), and per tet `stress` (6, same order) and `principal_stress`
 //! (3, σ₁ ≥ σ₂ ≥ σ₃). Those triple an ASCII file's size, so dynamic frames leave them out.
+//! With [`FrameExtras::error_indicator`] also per tet `error_indicator`: the ZZ estimate η_K of
+//! the energy-norm error in that tet (J^½ in SI; see [`estimate`](crate::estimate)).
 
 use std::path::Path;
 
@@ -35,6 +37,9 @@ pub struct FrameExtras<'a> {
     pub time: Option<f64>,
     /// Also the stress tensors, principal stresses and recovered nodal stresses.
     pub stress_tensors: bool,
+    /// Per-tet error indicators η_K of [`estimate`](crate::estimate) (J^½ in SI), written as
+    /// the cell field `error_indicator`.
+    pub error_indicator: Option<&'a [f64]>,
 }
 
 /// Writes `path` (atomically) with the fields of the [module](self) docs, the stresses and the
@@ -166,6 +171,9 @@ fn write_fields<C: CellType>(
             3,
             &principal,
         )?;
+    }
+    if let Some(eta) = extras.error_indicator {
+        writer = writer.cell_field("error_indicator", 1, eta)?;
     }
     writer
         .cell_field("material_id", 1, material_ids)?

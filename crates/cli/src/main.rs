@@ -493,10 +493,21 @@ fn print_default_static(cli: &DefaultScene, beam: &Cantilever, s: &RunSummary, d
         "  max |u| = {:.4e} m, max von Mises = {:.4e} Pa",
         s.max_displacement, s.max_von_mises
     );
+    print_estimated_error(s.estimated_error.as_ref());
     print_files(&s.files, directory);
     println!(
         "    (.vtu: displacement, displacement_magnitude [m], reaction_force [N] per node; von_mises [Pa], strain_energy_density [J/m³] per tet)"
     );
+}
+
+/// The self-estimated error line of a summary (nothing for a nonlinear model).
+fn print_estimated_error(e: Option<&tetfem_cli::scene::EstimatedError>) {
+    if let Some(e) = e {
+        println!(
+            "  estimated error {:.2} % (relative energy norm, ZZ patch recovery; per tet: error_indicator in the .vtu)",
+            100.0 * e.relative
+        );
+    }
 }
 
 /// "wrote N files to DIR/: a, b, c" (the file names, frames summarized by their count).
@@ -610,6 +621,13 @@ fn print_dynamic(s: &DynamicSummary, directory: &Path, header: bool) {
             s.model, n.total_iterations, n.max_per_step
         );
     }
+    if let Some(e) = &s.estimated_error {
+        println!(
+            "  estimated error at the end {:.2} % (relative energy norm, ZZ patch recovery; one estimate {:.2e} s, one per .vtu frame)",
+            100.0 * e.relative,
+            s.estimate_seconds
+        );
+    }
     println!(
         "  wall time: setup {}, first step {} (with factorization for implicit methods), then {} per step; steps {} in all, outputs {}",
         format_seconds(s.setup_seconds),
@@ -652,6 +670,7 @@ fn print_static(s: &RunSummary, directory: &Path) {
         "  max |u| = {:.4e} m, max von Mises = {:.4e} Pa",
         s.max_displacement, s.max_von_mises
     );
+    print_estimated_error(s.estimated_error.as_ref());
     for p in &s.probes {
         println!(
             "  probe {}: mean u = ({:+.4e}, {:+.4e}, {:+.4e}) m",

@@ -440,7 +440,26 @@ pub struct DynamicSummary {
     pub newton: Option<NewtonStats>,
     /// Warnings about the mesh and the material (see [`tetfem::warning`]), as sentences.
     pub warnings: Vec<String>,
+    /// The self-estimated relative energy-norm error of the last state (the last frame), with
+    /// its definition; `None` for a nonlinear model.
+    pub estimated_error: Option<super::EstimatedError>,
+    /// Wall time of that one estimate (s), to compare with `mean_step_seconds`: each `.vtu`
+    /// frame of a linear run costs one such estimate for its `error_indicator`.
+    pub estimate_seconds: f64,
+    /// The last state's largest element rotation and strain (`None` for a nonlinear model);
+    /// past the measured threshold a warning names the model to use.
+    pub deformation: Option<tetfem::adequacy::rotation::Deformation>,
+    /// Backward Euler with the linear model on at most [`STEP_CHECK_DOFS`] free DOFs: how dt
+    /// resolves the lowest mode the load excites, and the method's decay per period there
+    /// (a warning past [`DECAY_WARNING`](tetfem::adequacy::time_step::DECAY_WARNING)).
+    pub step_resolution: Option<tetfem::adequacy::time_step::StepResolution>,
 }
+
+/// Free DOFs up to which a backward-Euler run checks its step against the lowest excited mode
+/// (a subspace modal solve of [`STEP_CHECK_MODES`] modes; beyond, the check is skipped).
+pub const STEP_CHECK_DOFS: usize = 30_000;
+/// Modes searched for the lowest excited one.
+pub const STEP_CHECK_MODES: usize = 6;
 
 impl DynamicSummary {
     /// The summary as one line of JSON.
@@ -595,6 +614,42 @@ fn run_dynamic_locked(
             });
         }
     }
+    let clock = Instant::now();
+    let estimated_error = match setup.force {
+        InternalForce::Linear => {
+            let u = system.dofs().expand(&state.displacement)?;
+            Some(super::estimated_error_of(mesh, &setup.materials, &u)?.0)
+        }
+        InternalForce::Nonlinear(_) => None,
+    };
+    let estimate_seconds = clock.elapsed().as_secs_f64();
+    let deformation = match setup.force {
+        InternalForce::Linear => {
+            let u = system.dofs().expand(&state.displacement)?;
+            Some(tetfem::adequacy::rotation::largest_rotation_and_strain(
+                mesh, &u,
+            )?)
+        }
+        InternalForce::Nonlinear(_) => None,
+    };
+    let step_resolution = match (&run.method, &setup.force) {
+        (tetfem::dynamics::Method::BackwardEuler, InternalForce::Linear)
+            if system.free_count() <= STEP_CHECK_DOFS =>
+        {
+            // The load excites the motion; with no load, the initial displacement does.
+            let excitation = match system.external_load().iter().any(|f| *f != 0.0) {
+                true => system.external_load().to_vec(),
+                false => setup.initial.displacement.clone(),
+            };
+            Some(tetfem::adequacy::time_step::step_resolution(
+                system,
+                &excitation,
+                STEP_CHECK_MODES,
+                dt,
+            )?)
+        }
+        _ => None,
+    };
     let mut files = Vec::new();
     let mut frames = 0;
     if let Some(w) = writer {
@@ -609,6 +664,12 @@ fn run_dynamic_locked(
             .chain(&setup.materials.warnings())
             .chain(&setup.input_warnings)
             .map(ToString::to_string)
+            .chain(deformation.and_then(|d| d.warning()).map(|w| w.to_string()))
+            .chain(
+                step_resolution
+                    .and_then(|r| r.warning())
+                    .map(|w| w.to_string()),
+            )
             .chain(lock.as_ref().and_then(OutputLock::warning))
             .collect(),
         title: run.title.clone(),
@@ -640,6 +701,10 @@ fn run_dynamic_locked(
         files,
         model: setup.force.name().into(),
         newton: integrator.newton_stats(),
+        estimated_error,
+        estimate_seconds,
+        deformation,
+        step_resolution,
     };
     if let Some(o) = outputs {
         let json = o
@@ -776,11 +841,18 @@ impl FrameWriter {
                 velocity[dof] = *v;
             }
             let vtu = dir.join(format!("{name}.vtu"));
+            let indicators = match &setup.force {
+                InternalForce::Linear => {
+                    Some(super::estimated_error_of(&setup.mesh, &setup.materials, u)?.1)
+                }
+                InternalForce::Nonlinear(_) => None,
+            };
             let extras = FrameExtras {
                 velocity: Some(&velocity),
                 reactions: None,
                 time: Some(state.time),
                 stress_tensors: false,
+                error_indicator: indicators.as_deref(),
             };
             match &setup.force {
                 InternalForce::Linear => {

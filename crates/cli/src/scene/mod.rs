@@ -9,6 +9,7 @@
 mod build;
 mod critical;
 mod dynamic;
+mod estimate;
 mod modal;
 mod run;
 mod spec;
@@ -19,6 +20,8 @@ pub use dynamic::{
     DynamicOutputs, DynamicOverrides, DynamicRun, DynamicSetup, DynamicSummary, EnergyTerms,
     MAX_STEPS, ProbeRange, RunLength, TimeStep, run_dynamic, run_dynamic_scene,
 };
+pub use dynamic::{STEP_CHECK_DOFS, STEP_CHECK_MODES};
+pub use estimate::{ESTIMATED_ERROR_DEFINITION, EstimatedError, estimated_error_of};
 pub use modal::{ModalSummary, ModeRow, run_modal_scene};
 pub use run::{
     ProbeValue, ReactionRow, RunOptions, RunSummary, SolvePhases, run_static, run_static_with,

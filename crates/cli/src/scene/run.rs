@@ -10,7 +10,7 @@ use tetfem::model::ModelMap;
 use tetfem::output::fields::{cell_model_von_mises, displacement_magnitude};
 use tetfem::output::{
     CsvSeries, OutputLock, PvdCollection, write_atomically, write_model_result_vtu,
-    write_static_result_vtu,
+    write_result_frame,
 };
 use tetfem::statics::StaticSolver;
 
@@ -119,6 +119,12 @@ pub struct RunSummary {
     pub files: Vec<PathBuf>,
     /// Warnings about the mesh and the material (see [`tetfem::warning`]), as sentences.
     pub warnings: Vec<String>,
+    /// The self-estimated relative energy-norm error of the solution (linear model; `None` for
+    /// the nonlinear ones), with its definition.
+    pub estimated_error: Option<super::EstimatedError>,
+    /// The linear solution's largest element rotation and strain (`None` for the nonlinear
+    /// models); past the measured threshold a warning names the model to use.
+    pub deformation: Option<tetfem::adequacy::rotation::Deformation>,
 }
 
 impl RunSummary {
@@ -220,6 +226,21 @@ pub fn run_static_with(scene: &Scene, options: &RunOptions) -> Result<RunSummary
         true => tetfem::output::fields::cell_von_mises(&built.mesh, &built.materials, u)?,
         false => cell_model_von_mises(&built.mesh, &model, u)?,
     };
+    let (estimated_error, indicators) = match linear {
+        true => {
+            let (estimate, indicators) =
+                super::estimated_error_of(&built.mesh, &built.materials, u)?;
+            (Some(estimate), Some(indicators))
+        }
+        false => (None, None),
+    };
+    let deformation = match linear {
+        true => Some(tetfem::adequacy::rotation::largest_rotation_and_strain(
+            &built.mesh,
+            u,
+        )?),
+        false => None,
+    };
     let magnitude = displacement_magnitude(u);
     let probes: Vec<ProbeValue> = built
         .probes
@@ -257,6 +278,7 @@ pub fn run_static_with(scene: &Scene, options: &RunOptions) -> Result<RunSummary
             .warnings()
             .iter()
             .map(ToString::to_string)
+            .chain(deformation.and_then(|d| d.warning()).map(|w| w.to_string()))
             .chain(lock.as_ref().and_then(OutputLock::warning))
             .collect(),
         title: scene.title(),
@@ -281,6 +303,8 @@ pub fn run_static_with(scene: &Scene, options: &RunOptions) -> Result<RunSummary
         },
         factor_len,
         files: Vec::new(),
+        estimated_error,
+        deformation,
     };
     if !options.no_files {
         let clock = Instant::now();
@@ -290,6 +314,7 @@ pub fn run_static_with(scene: &Scene, options: &RunOptions) -> Result<RunSummary
             &model,
             u,
             reactions.as_deref(),
+            indicators.as_deref(),
             &von_mises,
             options,
             &summary,
@@ -306,6 +331,7 @@ fn write_static_outputs(
     model: &ModelMap,
     u: &[f64],
     reactions: Option<&[f64]>,
+    error_indicator: Option<&[f64]>,
     von_mises: &[f64],
     options: &RunOptions,
     summary: &RunSummary,
@@ -317,7 +343,18 @@ fn write_static_outputs(
     if out.vtu {
         let vtu = dir.join(format!("{}.vtu", out.stem));
         match reactions {
-            Some(r) => write_static_result_vtu(&vtu, &built.mesh, &built.materials, u, r)?,
+            Some(r) => write_result_frame(
+                &vtu,
+                &built.mesh,
+                &built.materials,
+                u,
+                tetfem::output::FrameExtras {
+                    reactions: Some(r),
+                    stress_tensors: true,
+                    error_indicator,
+                    ..Default::default()
+                },
+            )?,
             None => write_model_result_vtu(
                 &vtu,
                 &built.mesh,
