@@ -61,7 +61,9 @@ density = 7850.0                    # kg/m³
 # Node and face sets ("where"): "all" | { plane = { axis = "x", at = 0.0, tolerance = 1e-9 } }
 # (tolerance default: 1e-6 × the bounding-box diagonal) | { box = { min = [..], max = [..] } }
 # | { group = "name or tag" } (Gmsh physical group) | { marker = 1 } (TetGen node marker)
-# | { nodes = [0, 1, 2] }. A face set holds the boundary faces whose three nodes are selected.
+# | { face_marker = 3 } (TetGen .face marker: those boundary faces, or their nodes)
+# | { nodes = [0, 1, 2] }. A face set holds the boundary faces whose three nodes are selected
+# (of a group or face_marker: the boundary faces among its triangles).
 [[constraints]]
 where = { plane = { axis = "x", at = 0.0 } }
 fix = ["x", "y", "z"]               # default all three

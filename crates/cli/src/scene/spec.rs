@@ -196,8 +196,11 @@ pub enum Selector {
     },
     /// `{ group = "clamp" }` or `{ group = "3" }`: a Gmsh physical group by name or tag.
     Group(String),
-    /// `{ marker = 1 }`: TetGen nodes with this boundary marker.
+    /// `{ marker = 1 }`: TetGen nodes with this boundary marker (`.node` file).
     Marker(i64),
+    /// `{ face_marker = 3 }`: the TetGen `.face` triangles with this boundary marker (as a
+    /// face set: those that are boundary faces; as a node set: their nodes).
+    FaceMarker(i64),
     /// `{ nodes = [0, 5, 9] }`: explicit node indices.
     Nodes(Vec<usize>),
 }
