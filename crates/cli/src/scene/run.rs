@@ -99,9 +99,10 @@ pub struct RunSummary {
     pub probes: Vec<ProbeValue>,
     /// Resultant of all applied loads (N), gravity included.
     pub applied_load_n: [f64; 3],
-    /// The reaction resultant of each `[[constraints]]` entry (linear model; `None` for the
-    /// nonlinear ones). With the applied load they balance: Σ reactions + applied = 0 up to the
-    /// solve's residual (a DOF in two entries counts in both).
+    /// The reaction resultant of each `[[constraints]]` entry (K·u − f for the linear model,
+    /// −(Σₑ fₑ(u) + f) for the nonlinear ones, on its DOFs; moments about the origin from the
+    /// nodes' reference positions). With the applied load they balance: Σ reactions + applied
+    /// = 0 up to the solve's residual (a DOF in two entries counts in both).
     pub reactions: Option<Vec<ReactionRow>>,
     /// Wall time to build the mesh, constraints and loads (s).
     pub build_seconds: f64,
@@ -162,7 +163,7 @@ pub fn run_static_with(scene: &Scene, options: &RunOptions) -> Result<RunSummary
     let mut factor_len = 0;
     // The model that runs is the model whose stress and energy are reported.
     let model = scene.model().build_map(&built.materials);
-    let mut reactions = None;
+    let reactions;
     let (displacement, relative_residual, free_dofs) = match scene.model() {
         tetfem::model::ModelKind::Linear => {
             let options = tetfem::linalg::linear_solver::SolverOptions {
@@ -208,6 +209,13 @@ pub fn run_static_with(scene: &Scene, options: &RunOptions) -> Result<RunSummary
                 .unwrap_or(0.0);
             // ‖r_f‖/‖f_f‖ at the end, as for the linear solve.
             let relative = if load > 0.0 { last / load } else { last };
+            reactions = Some(tetfem::nonlinear::nonlinear_reactions(
+                &built.mesh,
+                &model,
+                &built.constraints,
+                &built.loads,
+                &report.displacement,
+            )?);
             (report.displacement, relative, dofs.free_count())
         }
     };
@@ -316,15 +324,19 @@ fn write_static_outputs(
     let mut files = Vec::new();
     if out.vtu {
         let vtu = dir.join(format!("{}.vtu", out.stem));
-        match reactions {
-            Some(r) => write_static_result_vtu(&vtu, &built.mesh, &built.materials, u, r)?,
-            None => write_model_result_vtu(
+        match (reactions, model.kind()) {
+            (Some(r), tetfem::model::ModelKind::Linear) => {
+                write_static_result_vtu(&vtu, &built.mesh, &built.materials, u, r)?
+            }
+            // A nonlinear model's stresses and energy are its own, with its reactions.
+            (reactions, _) => write_model_result_vtu(
                 &vtu,
                 &built.mesh,
                 model,
                 &built.materials,
                 u,
                 tetfem::output::FrameExtras {
+                    reactions,
                     stress_tensors: true,
                     ..Default::default()
                 },
