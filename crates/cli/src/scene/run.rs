@@ -9,8 +9,8 @@ use tetfem::error::{Error, Result};
 use tetfem::model::ModelMap;
 use tetfem::output::fields::{cell_model_von_mises, displacement_magnitude};
 use tetfem::output::{
-    CsvSeries, OutputLock, PvdCollection, write_atomically, write_model_result_vtu,
-    write_static_result_vtu,
+    CsvSeries, OriginalIds, OutputLock, PvdCollection, write_atomically, write_model_result_vtu,
+    write_result_frame,
 };
 use tetfem::statics::StaticSolver;
 
@@ -324,23 +324,18 @@ fn write_static_outputs(
     let mut files = Vec::new();
     if out.vtu {
         let vtu = dir.join(format!("{}.vtu", out.stem));
-        match (reactions, model.kind()) {
-            (Some(r), tetfem::model::ModelKind::Linear) => {
-                write_static_result_vtu(&vtu, &built.mesh, &built.materials, u, r)?
+        let extras = tetfem::output::FrameExtras {
+            reactions,
+            stress_tensors: true,
+            original_ids: built.imported.as_ref().map(OriginalIds::of),
+            ..Default::default()
+        };
+        match model.kind() {
+            tetfem::model::ModelKind::Linear => {
+                write_result_frame(&vtu, &built.mesh, &built.materials, u, extras)?
             }
-            // A nonlinear model's stresses and energy are its own, with its reactions.
-            (reactions, _) => write_model_result_vtu(
-                &vtu,
-                &built.mesh,
-                model,
-                &built.materials,
-                u,
-                tetfem::output::FrameExtras {
-                    reactions,
-                    stress_tensors: true,
-                    ..Default::default()
-                },
-            )?,
+            // A nonlinear model's stresses and energy are its own.
+            _ => write_model_result_vtu(&vtu, &built.mesh, model, &built.materials, u, extras)?,
         }
         let mut pvd = PvdCollection::new(dir.join(format!("{}.pvd", out.stem)));
         pvd.push(0.0, &vtu)?;
