@@ -40,7 +40,7 @@ const GMSH_ELEMENT_IDS: [i64; 5] = [101, 103, 107, 200, 9];
 
 /// The same cube as TetGen files numbered from `base`.
 fn write_tetgen_cube(dir: &Path, base: usize) {
-    let mut node = format!("8 3 0 0\n");
+    let mut node = "8 3 0 0\n".to_string();
     for n in 0..8 {
         node += &format!("{} {} {} {}\n", n + base, n & 1, n >> 1 & 1, n >> 2 & 1);
     }
