@@ -248,3 +248,29 @@ fn info_lists_markers_and_attributes_with_counts() {
         "{text}"
     );
 }
+
+#[test]
+fn the_shipped_tetgen_bar_stretches_as_two_springs_in_series() {
+    let path =
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes/tetgen_bimaterial_bar.toml");
+    let mut scene = Scene::load(&path).unwrap();
+    scene.set_output_directory(out_dir("shipped"));
+    let summary = tetfem_cli::run_static(&scene).unwrap();
+    // Steel (attribute 1) for x < 0.5, aluminium (attribute 2) beyond, ν = 0, clamped on face
+    // marker 1 and pulled by 100 kN on face marker 2 (0.01 m²): the exact displacement is
+    // piecewise linear with a kink on a mesh plane, so linear tets reproduce it; 1e-10
+    // relative allows the round-off of the 270-DOF solve (relative residual ~3e-14, κ ~1e3).
+    // Swapped regions would give 0.5/(70e9·0.01) at the interface instead: 2.9× off.
+    let exact_end = 1e5 * (0.5 / (200e9 * 0.01) + 0.5 / (70e9 * 0.01));
+    let exact_interface = 1e5 * 0.5 / (200e9 * 0.01);
+    let end = summary.probes[0].displacement[0];
+    let interface = summary.probes[1].displacement[0];
+    println!(
+        "end {end:e} (exact {exact_end:e}), interface {interface:e} (exact {exact_interface:e})"
+    );
+    assert!((end - exact_end).abs() < 1e-10 * exact_end, "{end}");
+    assert!(
+        (interface - exact_interface).abs() < 1e-10 * exact_interface,
+        "{interface}"
+    );
+}
