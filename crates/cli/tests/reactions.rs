@@ -53,10 +53,7 @@ fn reactions_balance_the_applied_loads_in_force_and_moment() {
             load_moment += p.cross(&Vector3::new(f[0], f[1], f[2]));
         }
         let force: Vector3<f64> = reactions.iter().map(|r| Vector3::from(r.force_n)).sum();
-        let moment: Vector3<f64> = reactions
-            .iter()
-            .map(|r| Vector3::from(r.moment_about_origin_nm))
-            .sum();
+        let moment: Vector3<f64> = reactions.iter().map(|r| Vector3::from(r.moment_nm)).sum();
         let (lo, hi) = built.mesh.bounding_box();
         let size = (hi - lo).norm();
         let force_error = (force + applied).norm() / applied.norm();
@@ -169,7 +166,7 @@ fn nonlinear_static_reactions_balance_the_load_to_the_newton_residual() {
             let x = p + Vector3::new(u[3 * n], u[3 * n + 1], u[3 * n + 2]);
             load_moment += x.cross(&Vector3::new(f[0], f[1], f[2]));
         }
-        let moment = Vector3::from(reactions[0].moment_about_origin_nm);
+        let moment = Vector3::from(reactions[0].moment_nm);
         let moment_error = (moment + load_moment).norm();
         println!(
             "{model}: |ΣM_R + ΣM_f| = {moment_error:.2e} N·m, M_R,y = {:.4} N·m",
@@ -210,8 +207,8 @@ fn nonlinear_reactions_tend_to_the_linear_ones_at_small_load() {
         );
         let error = (a - b).norm() / b.norm();
         let (ma, mb) = (
-            Vector3::from(reactions[0].moment_about_origin_nm),
-            Vector3::from(linear[0].moment_about_origin_nm),
+            Vector3::from(reactions[0].moment_nm),
+            Vector3::from(linear[0].moment_nm),
         );
         let moment_error = (ma - mb).norm() / (b.norm() * 0.5);
         println!("{model}: force {error:.1e}, moment {moment_error:.1e}");
@@ -220,4 +217,55 @@ fn nonlinear_reactions_tend_to_the_linear_ones_at_small_load() {
             "{model}: {a:?} vs {b:?}"
         );
     }
+}
+
+#[test]
+fn moments_are_taken_about_the_stated_point() {
+    // M_p = Σ (xᵢ − p) × Rᵢ = M_0 − p × F: the same reactions about another point, an exact
+    // identity up to the round-off of the sums (1e-12 of |F|·|p|).
+    let at_origin = run_static_with(
+        &scene("bimaterial_bar.toml"),
+        &RunOptions {
+            no_files: true,
+            ..RunOptions::default()
+        },
+    )
+    .unwrap();
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes");
+    let text = std::fs::read_to_string(dir.join("bimaterial_bar.toml")).unwrap().replace(
+        "[[constraints]]\nwhere = { plane = { axis = \"x\", at = 0.0 } }",
+        "[[constraints]]\nwhere = { plane = { axis = \"x\", at = 0.0 } }\nmoment_about = [0.5, 0.2, -0.3]",
+    );
+    let moved = Scene::parse(&text, "moved.toml", &dir).unwrap();
+    let summary = run_static_with(
+        &moved,
+        &RunOptions {
+            no_files: true,
+            ..RunOptions::default()
+        },
+    )
+    .unwrap();
+    let (r0, rp) = (
+        &at_origin.reactions.unwrap()[0],
+        &summary.reactions.unwrap()[0],
+    );
+    let p = Vector3::new(0.5, 0.2, -0.3);
+    assert_eq!(rp.moment_point_m, [0.5, 0.2, -0.3]);
+    assert_eq!(r0.moment_point_m, [0.0; 3]);
+    let force = Vector3::from(r0.force_n);
+    let expected = Vector3::from(r0.moment_nm) - p.cross(&force);
+    let error = (Vector3::from(rp.moment_nm) - expected).norm();
+    assert!(
+        error < 1e-12 * force.norm() * p.norm(),
+        "{rp:?} vs {expected:?}"
+    );
+    // A non-finite point is an error naming the key.
+    let bad = text.replace("[0.5, 0.2, -0.3]", "[0.5, nan, 0.0]");
+    let err = Scene::parse(&bad, "bad.toml", &dir)
+        .and_then(|s| s.build().map(|_| ()))
+        .unwrap_err();
+    assert!(
+        err.to_string().contains("constraints[0].moment_about"),
+        "{err}"
+    );
 }

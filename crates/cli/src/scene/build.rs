@@ -54,6 +54,9 @@ pub struct BuiltScene {
     /// The DOFs each `[[constraints]]` entry constrains, in scene order (what its reaction
     /// resultant sums over).
     pub constraint_dofs: Vec<Vec<usize>>,
+    /// The point (m) each `[[constraints]]` entry's reaction moment is taken about, in scene
+    /// order (`moment_about`, default the origin).
+    pub moment_points: Vec<Vector3<f64>>,
     /// The loads, as one nodal force vector (gravity included).
     pub loads: Loads,
     /// The loads other than gravity (what a dynamic run passes to
@@ -131,11 +134,21 @@ impl Scene {
         // Which scene entry constrained each DOF, to name both entries of a conflict.
         let mut constrained_by: Vec<Option<usize>> = vec![None; mesh.dof_count()];
         let mut constraint_dofs = Vec::with_capacity(spec.constraints.len());
+        let mut moment_points = Vec::with_capacity(spec.constraints.len());
         for (i, c) in spec.constraints.iter().enumerate() {
             let key = format!("constraints[{i}]");
             let span = c.span();
             let c = c.get_ref();
             let nodes = ctx.nodes(&c.select, &key, &span)?;
+            let point = c.moment_about.unwrap_or_default();
+            if point.iter().any(|v| !v.is_finite()) {
+                return Err(self.error(
+                    &format!("{key}.moment_about"),
+                    &span,
+                    format!("{point:?} must be three finite coordinates (m)"),
+                ));
+            }
+            moment_points.push(Vector3::from(point));
             let mut axes = [false; 3];
             match &c.fix {
                 Some(list) if list.is_empty() => {
@@ -234,6 +247,7 @@ impl Scene {
             materials,
             constraints,
             constraint_dofs,
+            moment_points,
             loads,
             other_loads,
             gravity,

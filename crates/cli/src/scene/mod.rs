@@ -68,6 +68,7 @@ density = 7850.0                    # kg/m³
 where = { plane = { axis = "x", at = 0.0 } }
 fix = ["x", "y", "z"]               # default all three
 displacement = [0.0, 0.0, 0.0]      # default zero (m), for the fixed axes
+moment_about = [0.0, 0.0, 0.0]      # the point (m) its reaction moment is reported about; default the origin
 
 # Loads: exactly one of gravity (m/s²), body_force (N/m³), total_force (N over the faces'
 # area), traction (Pa), pressure (Pa, against the outward normal), nodal_force (N per node).

@@ -39,8 +39,11 @@ pub struct ReactionRow {
     pub constraint: String,
     /// Σ of the reactions on its DOFs (N): what the support exerts on the body.
     pub force_n: [f64; 3],
-    /// Their moment about the origin of the mesh coordinates (N·m).
-    pub moment_about_origin_nm: [f64; 3],
+    /// The point the moment is about (m): the entry's `moment_about`, default the origin.
+    pub moment_point_m: [f64; 3],
+    /// Their moment Σ (xᵢ − p) × Rᵢ about that point p, xᵢ the nodes' reference positions
+    /// (N·m).
+    pub moment_nm: [f64; 3],
 }
 
 /// Wall time (s) of each phase of a linear static solve, from
@@ -100,8 +103,8 @@ pub struct RunSummary {
     /// Resultant of all applied loads (N), gravity included.
     pub applied_load_n: [f64; 3],
     /// The reaction resultant of each `[[constraints]]` entry (K·u − f for the linear model,
-    /// −(Σₑ fₑ(u) + f) for the nonlinear ones, on its DOFs; moments about the origin from the
-    /// nodes' reference positions). With the applied load they balance: Σ reactions + applied
+    /// −(Σₑ fₑ(u) + f) for the nonlinear ones, on its DOFs; moments about its `moment_about`
+    /// point from the nodes' reference positions). With the applied load they balance: Σ reactions + applied
     /// = 0 up to the solve's residual (a DOF in two entries counts in both).
     pub reactions: Option<Vec<ReactionRow>>,
     /// Wall time to build the mesh, constraints and loads (s).
@@ -243,17 +246,15 @@ pub fn run_static_with(scene: &Scene, options: &RunOptions) -> Result<RunSummary
                 .constraint_dofs
                 .iter()
                 .enumerate()
-                .map(|(i, dofs)| {
-                    let (force, moment) = tetfem::statics::reaction_resultant(
-                        &built.mesh,
-                        r,
-                        dofs,
-                        nalgebra::Vector3::zeros(),
-                    )?;
+                .zip(&built.moment_points)
+                .map(|((i, dofs), point)| {
+                    let (force, moment) =
+                        tetfem::statics::reaction_resultant(&built.mesh, r, dofs, *point)?;
                     Ok(ReactionRow {
                         constraint: format!("constraints[{i}]"),
                         force_n: force.into(),
-                        moment_about_origin_nm: moment.into(),
+                        moment_point_m: (*point).into(),
+                        moment_nm: moment.into(),
                     })
                 })
                 .collect::<Result<Vec<_>>>()?,

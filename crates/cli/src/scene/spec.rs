@@ -218,6 +218,10 @@ pub struct ConstraintSpec {
     /// Prescribed displacement (length units) for the fixed axes (default: zero).
     #[serde(default)]
     pub displacement: Option<[f64; 3]>,
+    /// The point (m) the reported moment of this entry's reactions is taken about (default:
+    /// the origin).
+    #[serde(default)]
+    pub moment_about: Option<[f64; 3]>,
 }
 
 /// `[[loads]]`: exactly one of `gravity`, `body_force`, `total_force`, `traction`, `pressure`,
