@@ -195,6 +195,41 @@ pub fn solve_nonlinear_static(
     })
 }
 
+/// The support reactions of a nonlinear static solution: Rᵢ = −(Σₑ fₑ(u) + f)ᵢ on every
+/// constrained DOF i, zero on the free ones (full length, force units). The element forces
+/// fₑ are those the model exerts on the nodes (−K·u for the linear model, so R = K·u − f as in
+/// [`StaticSolution::reactions`](crate::statics::StaticSolution::reactions)). R is what the
+/// supports exert on the body: Σ R + Σ f equals, per axis, the sum of the free residual
+/// components (at most √n_f·‖r_f‖, what Newton left), as Σₑ fₑ sums to zero exactly up to
+/// round-off (each element's forces balance).
+///
+/// Errors: `u`, `constraints` or `loads` not made for `mesh`, or `model` not one per tet.
+pub fn nonlinear_reactions(
+    mesh: &TetMesh,
+    model: &(impl TetModels + ?Sized),
+    constraints: &Constraints,
+    loads: &Loads,
+    u: &[f64],
+) -> Result<Vec<f64>> {
+    if constraints.dof_count() != mesh.dof_count() || loads.as_slice().len() != mesh.dof_count() {
+        return Err(Error::invalid_parameter(
+            "constraints/loads",
+            "another mesh",
+            "must be made for this mesh",
+        ));
+    }
+    let force = internal_force(mesh, model, u)?;
+    Ok(force
+        .iter()
+        .zip(loads.as_slice())
+        .enumerate()
+        .map(|(dof, (fi, f))| match constraints.get(dof) {
+            Some(_) => -(fi + f),
+            None => 0.0,
+        })
+        .collect())
+}
+
 fn norm(v: &[f64]) -> f64 {
     v.iter().map(|x| x * x).sum::<f64>().sqrt()
 }

@@ -10,6 +10,8 @@
 //! (3, σ₁ ≥ σ₂ ≥ σ₃). Those triple an ASCII file's size, so dynamic frames leave them out.
 //! With [`FrameExtras::error_indicator`] also per tet `error_indicator`: the ZZ estimate η_K of
 //! the energy-norm error in that tet (J^½ in SI; see [`estimate`](crate::estimate)).
+//! For a mesh read from a file, [`FrameExtras::original_ids`] adds the file's node ids
+//! (`original_node_id`) and element ids (`original_element_id`) as `Int64` arrays.
 
 use std::path::Path;
 
@@ -40,6 +42,29 @@ pub struct FrameExtras<'a> {
     /// Per-tet error indicators η_K of [`estimate`](crate::estimate) (J^½ in SI), written as
     /// the cell field `error_indicator`.
     pub error_indicator: Option<&'a [f64]>,
+    /// The mesh file's id of each node and of each tet (see
+    /// [`ImportedMesh`](crate::mesh::io::ImportedMesh)), written as the point array
+    /// `original_node_id` and the cell array `original_element_id`.
+    pub original_ids: Option<OriginalIds<'a>>,
+}
+
+/// A mesh file's own numbering of the nodes and the tets of a mesh read from it.
+#[derive(Debug, Clone, Copy)]
+pub struct OriginalIds<'a> {
+    /// The file's id of each mesh node (Gmsh node tag, TetGen point number).
+    pub nodes: &'a [u64],
+    /// The file's id of each mesh tet (Gmsh element tag, TetGen tet number).
+    pub elements: &'a [u64],
+}
+
+impl<'a> OriginalIds<'a> {
+    /// The ids an imported mesh carries.
+    pub fn of(imported: &'a crate::mesh::io::ImportedMesh) -> Self {
+        OriginalIds {
+            nodes: &imported.node_ids,
+            elements: &imported.tet_ids,
+        }
+    }
 }
 
 /// Writes `path` (atomically) with the fields of the [module](self) docs, the stresses and the
@@ -175,7 +200,11 @@ fn write_fields<C: CellType>(
     if let Some(eta) = extras.error_indicator {
         writer = writer.cell_field("error_indicator", 1, eta)?;
     }
-    writer
-        .cell_field("material_id", 1, material_ids)?
-        .write(path)
+    writer = writer.cell_field("material_id", 1, material_ids)?;
+    if let Some(ids) = extras.original_ids {
+        writer = writer
+            .point_id_field("original_node_id", ids.nodes)?
+            .cell_id_field("original_element_id", ids.elements)?;
+    }
+    writer.write(path)
 }

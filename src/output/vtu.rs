@@ -14,6 +14,9 @@ pub struct VtuWriter<'a, C: CellType = Tet4> {
     mesh: &'a TetMesh<C>,
     point_fields: Vec<(String, usize, &'a [f64])>,
     cell_fields: Vec<(String, usize, &'a [f64])>,
+    /// Integer per-node and per-tet arrays (VTK `Int64`): ids such as a mesh file's own.
+    point_ids: Vec<(String, &'a [u64])>,
+    cell_ids: Vec<(String, &'a [u64])>,
     /// Whole-dataset values (VTK `FieldData`): a frequency, a time.
     field_data: Vec<(String, f64)>,
 }
@@ -25,8 +28,27 @@ impl<'a, C: CellType> VtuWriter<'a, C> {
             mesh,
             point_fields: Vec::new(),
             cell_fields: Vec::new(),
+            point_ids: Vec::new(),
+            cell_ids: Vec::new(),
             field_data: Vec::new(),
         }
+    }
+
+    /// Adds a per-node integer array (one value per node, written as VTK `Int64`), e.g. the
+    /// node ids of the mesh file. [`Error::InvalidParameter`] unless there is one value per
+    /// node, each at most `i64::MAX`.
+    pub fn point_id_field(mut self, name: &str, values: &'a [u64]) -> Result<Self> {
+        check_ids(name, values, self.mesh.node_count(), "node")?;
+        self.point_ids.push((name.to_string(), values));
+        Ok(self)
+    }
+
+    /// Adds a per-tet integer array (one value per tet, VTK `Int64`), e.g. the element ids of
+    /// the mesh file; checked as [`point_id_field`](Self::point_id_field).
+    pub fn cell_id_field(mut self, name: &str, values: &'a [u64]) -> Result<Self> {
+        check_ids(name, values, self.mesh.tet_count(), "tet")?;
+        self.cell_ids.push((name.to_string(), values));
+        Ok(self)
     }
 
     /// Adds one value for the whole dataset (VTK `FieldData`, e.g. a mode's frequency in Hz),
@@ -135,8 +157,8 @@ impl<'a, C: CellType> VtuWriter<'a, C> {
         }
         writeln!(out, "        </DataArray>")?;
         writeln!(out, "      </Cells>")?;
-        write_fields(out, "PointData", &self.point_fields)?;
-        write_fields(out, "CellData", &self.cell_fields)?;
+        write_fields(out, "PointData", &self.point_fields, &self.point_ids)?;
+        write_fields(out, "CellData", &self.cell_fields, &self.cell_ids)?;
         writeln!(out, "    </Piece>")?;
         writeln!(out, "  </UnstructuredGrid>")?;
         writeln!(out, "</VTKFile>")
@@ -147,6 +169,7 @@ fn write_fields(
     out: &mut dyn Write,
     section: &str,
     fields: &[(String, usize, &[f64])],
+    ids: &[(String, &[u64])],
 ) -> std::io::Result<()> {
     writeln!(out, "      <{section}>")?;
     for (name, components, values) in fields {
@@ -161,7 +184,36 @@ fn write_fields(
         }
         writeln!(out, "        </DataArray>")?;
     }
+    for (name, values) in ids {
+        writeln!(
+            out,
+            r#"        <DataArray type="Int64" Name="{}" NumberOfComponents="1" format="ascii">"#,
+            xml_escape(name)
+        )?;
+        for v in *values {
+            writeln!(out, "{v}")?;
+        }
+        writeln!(out, "        </DataArray>")?;
+    }
     writeln!(out, "      </{section}>")
+}
+
+fn check_ids(name: &str, values: &[u64], count: usize, per: &str) -> Result<()> {
+    if values.len() != count {
+        return Err(Error::invalid_parameter(
+            format!("field '{name}'"),
+            format!("{} values", values.len()),
+            format!("needs one value per {per} ({count} {per}s)"),
+        ));
+    }
+    if let Some(&v) = values.iter().find(|&&v| v > i64::MAX as u64) {
+        return Err(Error::invalid_parameter(
+            format!("field '{name}'"),
+            v,
+            "must be at most 2^63 - 1 (written as VTK Int64)",
+        ));
+    }
+    Ok(())
 }
 
 fn check_field(

@@ -34,6 +34,13 @@ pub struct MeshInfo {
     pub statistics: MeshStatistics,
     /// Gmsh physical groups.
     pub groups: Vec<GroupInfo>,
+    /// TetGen node markers (`.node`) and how many nodes carry each.
+    pub node_markers: BTreeMap<i64, usize>,
+    /// TetGen face markers (`.face`) and how many triangles carry each.
+    pub face_markers: BTreeMap<i64, usize>,
+    /// TetGen region attributes (`.ele`, the first attribute) and how many tets carry each,
+    /// ascending.
+    pub region_attributes: Vec<(f64, usize)>,
     /// Skipped elements per type.
     pub skipped_elements: BTreeMap<String, usize>,
     /// Nodes of the file no tet uses.
@@ -75,6 +82,18 @@ pub fn mesh_info(path: &Path, material: Option<Material>) -> Result<MeshInfo> {
         file: path.display().to_string(),
         statistics: mesh.statistics(),
         groups,
+        node_markers: imported
+            .as_ref()
+            .map(|i| i.node_marker_counts())
+            .unwrap_or_default(),
+        face_markers: imported
+            .as_ref()
+            .map(|i| i.face_marker_counts())
+            .unwrap_or_default(),
+        region_attributes: imported
+            .as_ref()
+            .map(|i| i.attribute_counts())
+            .unwrap_or_default(),
         skipped_elements: imported
             .as_ref()
             .map(|i| i.skipped_elements.clone())
@@ -149,6 +168,22 @@ impl fmt::Display for MeshInfo {
                 "  group {}: {} nodes, {} triangles, {} tets",
                 g.label, g.nodes, g.triangles, g.tets
             )?;
+        }
+        let list = |counts: Vec<String>| counts.join(", ");
+        if !self.node_markers.is_empty() {
+            let counts = self.node_markers.iter();
+            let counts = counts.map(|(m, n)| format!("{m} ({n} nodes)")).collect();
+            writeln!(f, "  node markers: {}", list(counts))?;
+        }
+        if !self.face_markers.is_empty() {
+            let counts = self.face_markers.iter();
+            let counts = counts.map(|(m, n)| format!("{m} ({n} faces)")).collect();
+            writeln!(f, "  face markers: {}", list(counts))?;
+        }
+        if !self.region_attributes.is_empty() {
+            let counts = self.region_attributes.iter();
+            let counts = counts.map(|(a, n)| format!("{a} ({n} tets)")).collect();
+            writeln!(f, "  region attributes: {}", list(counts))?;
         }
         if !self.skipped_elements.is_empty() {
             let list: Vec<String> = self

@@ -688,9 +688,10 @@ fn print_static(s: &RunSummary, directory: &Path) {
         println!("  applied load ({x:+.4e}, {y:+.4e}, {z:+.4e}) N; reactions:");
         for r in reactions {
             let [fx, fy, fz] = r.force_n;
-            let [mx, my, mz] = r.moment_about_origin_nm;
+            let [mx, my, mz] = r.moment_nm;
+            let [px, py, pz] = r.moment_point_m;
             println!(
-                "    {}: force ({fx:+.4e}, {fy:+.4e}, {fz:+.4e}) N, moment about the origin ({mx:+.4e}, {my:+.4e}, {mz:+.4e}) N·m",
+                "    {}: force ({fx:+.4e}, {fy:+.4e}, {fz:+.4e}) N, moment about ({px}, {py}, {pz}) m ({mx:+.4e}, {my:+.4e}, {mz:+.4e}) N·m",
                 r.constraint
             );
         }

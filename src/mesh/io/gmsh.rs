@@ -456,6 +456,7 @@ fn convert(path: &Path, bytes: &[u8], encoding: Encoding, msh: Msh) -> Result<Ra
                         each_group(&mut |g| g.tets.push(t));
                         raw.tets.push([a, b, c, d]);
                         raw.tet_lines.push(elements_line);
+                        raw.tet_ids.push(element.element_tag);
                     }
                     (ElementType::Tri3, &[a, b, c]) => {
                         each_group(&mut |g| g.triangles.push([a, b, c]));

@@ -136,6 +136,7 @@ pub(crate) fn parse(path: &Path, text: &str) -> Result<RawMesh> {
                             }
                             raw.tets.push([nodes[0], nodes[1], nodes[2], nodes[3]]);
                             raw.tet_lines.push(r.line);
+                            raw.tet_ids.push(r.number(0, "element tag")?);
                         }
                         "Tri3" => {
                             if let Some(g) = group {

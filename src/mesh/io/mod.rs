@@ -2,7 +2,8 @@
 //! ASCII with an own parser; 4.1 ASCII writer) and TetGen `.node`/`.ele` (reader and writer).
 //!
 //! Readers return an [`ImportedMesh`]: the validated [`TetMesh`] plus what the file says about
-//! its parts (Gmsh physical groups, TetGen markers). Nodes that no tet uses (geometry points,
+//! its parts (Gmsh physical groups; TetGen node markers, `.face` markers, region attributes)
+//! and the file's own node and element ids. Nodes that no tet uses (geometry points,
 //! nodes of skipped elements) are dropped and counted, so that every remaining node carries
 //! stiffness; the others keep their order. Every error is an [`Error::Parse`] naming the file
 //! and the line (or, for binary data, the line count up to the byte offset).
@@ -15,7 +16,7 @@ mod tetgen;
 mod text;
 
 pub use gmsh::{parse_gmsh, read_gmsh, write_gmsh};
-pub use tetgen::{TetgenOptions, parse_tetgen, read_tetgen, write_tetgen};
+pub use tetgen::{TetgenOptions, parse_tetgen, parse_tetgen_with_faces, read_tetgen, write_tetgen};
 
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -74,6 +75,15 @@ impl PhysicalGroup {
     }
 }
 
+/// A triangle of a TetGen `.face` file and its boundary marker.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct MarkedFace {
+    /// The triangle's mesh nodes in the file's order (not oriented).
+    pub nodes: [usize; 3],
+    /// The boundary marker.
+    pub marker: i64,
+}
+
 /// A mesh read from a file, with the file's extra information.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ImportedMesh {
@@ -81,12 +91,17 @@ pub struct ImportedMesh {
     pub mesh: TetMesh,
     /// The file's id of each mesh node (Gmsh node tag, TetGen point number).
     pub node_ids: Vec<u64>,
+    /// The file's id of each mesh tet (Gmsh element tag, TetGen tet number).
+    pub tet_ids: Vec<u64>,
     /// Gmsh physical groups (empty for TetGen files), sorted by (dim, tag).
     pub groups: Vec<PhysicalGroup>,
     /// TetGen boundary marker of each mesh node, when the `.node` file has them.
     pub node_markers: Option<Vec<i64>>,
     /// TetGen regional attribute (the first attribute) of each tet, when the `.ele` file has one.
     pub tet_attributes: Option<Vec<f64>>,
+    /// The marked triangles of a TetGen `.face` file, when one exists beside the `.node` file
+    /// and has a marker column (triangles with a node no tet uses are dropped).
+    pub face_markers: Option<Vec<MarkedFace>>,
     /// Elements of other types than 4-node tets and 3-node triangles that were skipped, counted
     /// per type name (e.g. `"Lin2"`, `"Pnt"`, `"Tet10"`).
     pub skipped_elements: BTreeMap<String, usize>,
@@ -116,10 +131,83 @@ impl ImportedMesh {
         }
     }
 
+    /// The boundary faces of `boundary` whose node triples are `.face` triangles with this
+    /// marker, in `boundary` order (empty without `.face` markers). Marked triangles inside the
+    /// body (interfaces between regions) match no boundary face.
+    pub fn faces_with_marker(&self, marker: i64, boundary: &[BoundaryFace]) -> Vec<BoundaryFace> {
+        let Some(faces) = &self.face_markers else {
+            return Vec::new();
+        };
+        let mut keys: Vec<[usize; 3]> = faces
+            .iter()
+            .filter(|f| f.marker == marker)
+            .map(|f| sorted(f.nodes))
+            .collect();
+        keys.sort_unstable();
+        boundary
+            .iter()
+            .filter(|f| keys.binary_search(&sorted(f.nodes)).is_ok())
+            .copied()
+            .collect()
+    }
+
+    /// The nodes of the `.face` triangles with this marker, ascending (empty without `.face`
+    /// markers).
+    pub fn nodes_with_face_marker(&self, marker: i64) -> Vec<usize> {
+        let mut nodes: Vec<usize> = self
+            .face_markers
+            .iter()
+            .flatten()
+            .filter(|f| f.marker == marker)
+            .flat_map(|f| f.nodes)
+            .collect();
+        nodes.sort_unstable();
+        nodes.dedup();
+        nodes
+    }
+
+    /// Each TetGen node marker and how many nodes carry it (empty without node markers).
+    pub fn node_marker_counts(&self) -> BTreeMap<i64, usize> {
+        counts(self.node_markers.iter().flatten().copied())
+    }
+
+    /// Each `.face` marker and how many triangles carry it (empty without `.face` markers).
+    pub fn face_marker_counts(&self) -> BTreeMap<i64, usize> {
+        counts(self.face_markers.iter().flatten().map(|f| f.marker))
+    }
+
+    /// Each TetGen region attribute and how many tets carry it, in ascending order of the
+    /// attribute (empty without attributes).
+    pub fn attribute_counts(&self) -> Vec<(f64, usize)> {
+        let mut values: Vec<f64> = self.tet_attributes.iter().flatten().copied().collect();
+        values.sort_by(f64::total_cmp);
+        let mut out: Vec<(f64, usize)> = Vec::new();
+        for v in values {
+            match out.last_mut() {
+                Some((last, n)) if *last == v => *n += 1,
+                _ => out.push((v, 1)),
+            }
+        }
+        out
+    }
+
     /// Total number of skipped elements.
     pub fn skipped_count(&self) -> usize {
         self.skipped_elements.values().sum()
     }
+}
+
+fn sorted(mut nodes: [usize; 3]) -> [usize; 3] {
+    nodes.sort_unstable();
+    nodes
+}
+
+fn counts(values: impl Iterator<Item = i64>) -> BTreeMap<i64, usize> {
+    let mut out = BTreeMap::new();
+    for v in values {
+        *out.entry(v).or_insert(0) += 1;
+    }
+    out
 }
 
 /// Reads a mesh, choosing the format from the extension: `.msh` → Gmsh; `.node`, `.ele` or no

@@ -6,7 +6,7 @@ use std::path::Path;
 
 use nalgebra::Vector3;
 
-use super::{ImportedMesh, PhysicalGroup};
+use super::{ImportedMesh, MarkedFace, PhysicalGroup};
 use crate::error::{Error, Result};
 use crate::mesh::TetMesh;
 
@@ -31,6 +31,10 @@ pub(crate) struct RawMesh {
     pub node_markers: Option<Vec<i64>>,
     pub tets: Vec<[usize; 4]>,
     pub tet_lines: Vec<usize>,
+    /// The file's id of each tet (same length as `tets`).
+    pub tet_ids: Vec<u64>,
+    /// TetGen `.face` triangles with their markers.
+    pub face_markers: Option<Vec<MarkedFace>>,
     pub tet_attributes: Option<Vec<f64>>,
     pub groups: Vec<RawGroup>,
     pub skipped: BTreeMap<String, usize>,
@@ -130,8 +134,25 @@ impl RawMesh {
             .collect();
         groups.sort_by_key(|g| (g.dim, g.tag));
         let keep = |v: Vec<i64>| kept.iter().map(|&o| v[o]).collect();
+        // A marked triangle with a node no tet uses cannot be a face of the mesh.
+        let face_markers = self.face_markers.map(|faces| {
+            faces
+                .into_iter()
+                .filter(|f| {
+                    f.nodes
+                        .iter()
+                        .all(|&n| new_index.get(n).is_some_and(|&i| i != usize::MAX))
+                })
+                .map(|f| MarkedFace {
+                    nodes: f.nodes.map(|n| new_index[n]),
+                    marker: f.marker,
+                })
+                .collect()
+        });
         Ok(ImportedMesh {
             node_ids: kept.iter().map(|&o| self.node_ids[o]).collect(),
+            tet_ids: self.tet_ids,
+            face_markers,
             node_markers: self.node_markers.map(keep),
             tet_attributes: self.tet_attributes,
             groups,

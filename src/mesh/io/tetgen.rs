@@ -4,16 +4,18 @@
 //! point `<index> <x> <y> <z> [attributes…] [marker]`. `.ele`: a header
 //! `<tets> <nodes per tet 4|10> <attributes>`, then `<index> <n₀> … [attributes…]`. Indices
 //! start at 0 or 1 — the first point's index tells — and run consecutively; `#` starts a
-//! comment. Of 10-node tets the four corner nodes are kept.
+//! comment. Of 10-node tets the four corner nodes are kept. An optional `<prefix>.face`:
+//! a header `<faces> <markers 0|1>`, then `<index> <n₀> <n₁> <n₂> [marker] …` (further
+//! columns, such as the adjacent tets of `-nn`, are ignored); its markers become face sets.
 
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
 use nalgebra::Vector3;
 
-use super::ImportedMesh;
 use super::raw::RawMesh;
 use super::text::{Records, decode, read_regular_file};
+use super::{ImportedMesh, MarkedFace};
 use crate::atomic_file::write_atomically;
 use crate::error::{Error, Result};
 use crate::mesh::TetMesh;
@@ -35,14 +37,27 @@ fn with_suffix(prefix: &Path, suffix: &str) -> PathBuf {
     PathBuf::from(s)
 }
 
-/// Reads `<prefix>.node` and `<prefix>.ele` and hands their bytes to [`parse_tetgen`]; node
-/// markers and the first tet attribute are kept.
+/// Reads `<prefix>.node`, `<prefix>.ele` and, if it exists, `<prefix>.face`, and hands their
+/// bytes to [`parse_tetgen_with_faces`]; node markers, the first tet attribute and the face
+/// markers are kept.
 pub fn read_tetgen(prefix: &Path) -> Result<ImportedMesh> {
     let node_path = with_suffix(prefix, ".node");
     let ele_path = with_suffix(prefix, ".ele");
+    let face_path = with_suffix(prefix, ".face");
     let node_bytes = read_regular_file(&node_path)?;
     let ele_bytes = read_regular_file(&ele_path)?;
-    parse_tetgen(&node_path, &node_bytes, &ele_path, &ele_bytes)
+    let face_bytes = if face_path.exists() {
+        Some(read_regular_file(&face_path)?)
+    } else {
+        None
+    };
+    parse_tetgen_with_faces(
+        &node_path,
+        &node_bytes,
+        &ele_path,
+        &ele_bytes,
+        face_bytes.as_deref().map(|b| (face_path.as_path(), b)),
+    )
 }
 
 /// Parses the contents of a TetGen `.node` file and its `.ele` file held in memory; node markers
@@ -55,9 +70,26 @@ pub fn parse_tetgen(
     ele_path: &Path,
     ele_bytes: &[u8],
 ) -> Result<ImportedMesh> {
+    parse_tetgen_with_faces(node_path, node_bytes, ele_path, ele_bytes, None)
+}
+
+/// As [`parse_tetgen`], with a `.face` file's path and bytes when there is one: its marked
+/// triangles become [`ImportedMesh::face_markers`] (a `.face` file without a marker column
+/// gives none). Errors name the `.face` file and line of a malformed record, a node index
+/// outside the `.node` file's range, or a marker that is not an integer.
+pub fn parse_tetgen_with_faces(
+    node_path: &Path,
+    node_bytes: &[u8],
+    ele_path: &Path,
+    ele_bytes: &[u8],
+    face: Option<(&Path, &[u8])>,
+) -> Result<ImportedMesh> {
     let mut raw = RawMesh::default();
     let base = read_nodes(node_path, decode(node_path, node_bytes)?, &mut raw)?;
     read_tets(ele_path, decode(ele_path, ele_bytes)?, base, &mut raw)?;
+    if let Some((face_path, face_bytes)) = face {
+        read_faces(face_path, decode(face_path, face_bytes)?, base, &mut raw)?;
+    }
     raw.finish(ele_path)
 }
 
@@ -182,6 +214,7 @@ fn read_tets(path: &Path, text: &str, base: usize, raw: &mut RawMesh) -> Result<
         }
         raw.tets.push(tet);
         raw.tet_lines.push(r.line);
+        raw.tet_ids.push(index as u64);
     }
     if let Some(extra) = records.try_next() {
         return Err(extra.error(format!(
@@ -194,6 +227,57 @@ fn read_tets(path: &Path, text: &str, base: usize, raw: &mut RawMesh) -> Result<
     }
     if attributes > 0 {
         raw.tet_attributes = Some(tet_attributes);
+    }
+    Ok(())
+}
+
+fn read_faces(path: &Path, text: &str, base: usize, raw: &mut RawMesh) -> Result<()> {
+    let mut records = Records::new(path, text, Some('#'));
+    let header = records.next("the header '<faces> <markers>'")?;
+    let count: usize = header.number(0, "number of faces")?;
+    let markers: usize = if header.fields.len() > 1 {
+        header.number(1, "marker flag")?
+    } else {
+        0
+    };
+    if markers > 1 {
+        return Err(header.error(format!("the marker flag is {markers}; it must be 0 or 1")));
+    }
+    let node_count = raw.nodes.len();
+    let mut faces = Vec::with_capacity(count.min(text.len()));
+    for i in 0..count {
+        let r = records.next(&format!("face {} of {count}", i + 1))?;
+        r.expect_at_least(4 + markers, "index, three nodes and the marker")?;
+        let index: usize = r.number(0, "face index")?;
+        if index != base + i {
+            return Err(r.error(format!(
+                "face index {index} is out of sequence (expected {}, the .node file's base is {base})",
+                base + i
+            )));
+        }
+        let mut nodes = [0usize; 3];
+        for (k, slot) in nodes.iter_mut().enumerate() {
+            let n: usize = r.number(1 + k, "node index")?;
+            if n < base || n - base >= node_count {
+                return Err(r.error(format!(
+                    "node index {n} is out of range (the .node file has points {base}..={})",
+                    (base + node_count).saturating_sub(1)
+                )));
+            }
+            *slot = n - base;
+        }
+        if markers == 1 {
+            let marker: i64 = r.number(4, "boundary marker (an integer)")?;
+            faces.push(MarkedFace { nodes, marker });
+        }
+    }
+    if let Some(extra) = records.try_next() {
+        return Err(extra.error(format!(
+            "more faces than the header's count {count} (wrong count in the header?)"
+        )));
+    }
+    if markers == 1 {
+        raw.face_markers = Some(faces);
     }
     Ok(())
 }

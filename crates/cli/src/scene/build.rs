@@ -54,6 +54,9 @@ pub struct BuiltScene {
     /// The DOFs each `[[constraints]]` entry constrains, in scene order (what its reaction
     /// resultant sums over).
     pub constraint_dofs: Vec<Vec<usize>>,
+    /// The point (m) each `[[constraints]]` entry's reaction moment is taken about, in scene
+    /// order (`moment_about`, default the origin).
+    pub moment_points: Vec<Vector3<f64>>,
     /// The loads, as one nodal force vector (gravity included).
     pub loads: Loads,
     /// The loads other than gravity (what a dynamic run passes to
@@ -131,11 +134,21 @@ impl Scene {
         // Which scene entry constrained each DOF, to name both entries of a conflict.
         let mut constrained_by: Vec<Option<usize>> = vec![None; mesh.dof_count()];
         let mut constraint_dofs = Vec::with_capacity(spec.constraints.len());
+        let mut moment_points = Vec::with_capacity(spec.constraints.len());
         for (i, c) in spec.constraints.iter().enumerate() {
             let key = format!("constraints[{i}]");
             let span = c.span();
             let c = c.get_ref();
             let nodes = ctx.nodes(&c.select, &key, &span)?;
+            let point = c.moment_about.unwrap_or_default();
+            if point.iter().any(|v| !v.is_finite()) {
+                return Err(self.error(
+                    &format!("{key}.moment_about"),
+                    &span,
+                    format!("{point:?} must be three finite coordinates (m)"),
+                ));
+            }
+            moment_points.push(Vector3::from(point));
             let mut axes = [false; 3];
             match &c.fix {
                 Some(list) if list.is_empty() => {
@@ -234,6 +247,7 @@ impl Scene {
             materials,
             constraints,
             constraint_dofs,
+            moment_points,
             loads,
             other_loads,
             gravity,
@@ -307,6 +321,21 @@ impl Scene {
                         ));
                     };
                     let tets = attribute_tets(imported, *value).map_err(at)?;
+                    if tets.is_empty() {
+                        let known: Vec<String> = imported
+                            .attribute_counts()
+                            .iter()
+                            .map(|(a, n)| format!("{a} ({n} tets)"))
+                            .collect();
+                        return Err(self.error(
+                            &format!("{key}.where.attribute"),
+                            &span,
+                            format!(
+                                "the mesh has no tet with region attribute {value} (it has: {})",
+                                known.join(", ")
+                            ),
+                        ));
+                    }
                     assignment.assign(key.clone(), material, tets)
                 }
             }
@@ -352,6 +381,30 @@ fn on_fixed_dofs_only(
     })
 }
 
+/// `Ok` if `marker` is among `counts` (a marker → count table of `what` markers), else a
+/// message listing the markers there are, with their counts.
+fn known_marker(
+    marker: i64,
+    counts: &std::collections::BTreeMap<i64, usize>,
+    what: &str,
+) -> std::result::Result<(), String> {
+    if counts.contains_key(&marker) {
+        return Ok(());
+    }
+    let known: Vec<String> = counts
+        .iter()
+        .map(|(m, n)| format!("{m} ({n} {what}s)"))
+        .collect();
+    Err(format!(
+        "the mesh has no {what} marker {marker} (it has: {})",
+        if known.is_empty() {
+            "none".into()
+        } else {
+            known.join(", ")
+        }
+    ))
+}
+
 struct Context<'a> {
     scene: &'a Scene,
     mesh: &'a TetMesh,
@@ -393,6 +446,23 @@ impl Context<'_> {
         })
     }
 
+    /// The imported mesh if it has `.face` markers and `marker` among them; else an error at
+    /// `key` listing the markers it has.
+    fn face_marker(&self, marker: i64, key: &str, span: &Range<usize>) -> Result<&ImportedMesh> {
+        match self.imported {
+            Some(i) if i.face_markers.is_some() => {
+                known_marker(marker, &i.face_marker_counts(), "face")
+                    .map_err(|e| self.scene.error(&format!("{key}.face_marker"), span, e))?;
+                Ok(i)
+            }
+            _ => Err(self.scene.error(
+                key,
+                span,
+                "a face_marker selection needs a TetGen mesh with a .face file that has markers",
+            )),
+        }
+    }
+
     /// The selected nodes, ascending; empty → error.
     fn nodes(&self, select: &Selector, key: &str, span: &Range<usize>) -> Result<Vec<usize>> {
         let key = format!("{key}.where");
@@ -414,7 +484,11 @@ impl Context<'_> {
             Selector::Box { min, max } => self.mesh.nodes_in_box((*min).into(), (*max).into()),
             Selector::Group(name) => self.group(name, &key, span)?.nodes.clone(),
             Selector::Marker(m) => match self.imported {
-                Some(i) if i.node_markers.is_some() => i.nodes_with_marker(*m),
+                Some(i) if i.node_markers.is_some() => {
+                    known_marker(*m, &i.node_marker_counts(), "node")
+                        .map_err(|e| self.scene.error(&format!("{key}.marker"), span, e))?;
+                    i.nodes_with_marker(*m)
+                }
                 _ => {
                     return Err(self.scene.error(
                         &key,
@@ -423,6 +497,12 @@ impl Context<'_> {
                     ));
                 }
             },
+            Selector::FaceMarker(m) => {
+                self.face_marker(*m, &key, span)?;
+                self.imported
+                    .map(|i| i.nodes_with_face_marker(*m))
+                    .unwrap_or_default()
+            }
             Selector::Nodes(list) => {
                 if let Some(&bad) = list.iter().find(|&&n| n >= self.mesh.node_count()) {
                     return Err(self.scene.error(
@@ -459,6 +539,10 @@ impl Context<'_> {
             Selector::Group(name) => {
                 let group = self.group(name, &format!("{key}.where"), span)?;
                 group.boundary_faces(self.boundary)
+            }
+            Selector::FaceMarker(m) => {
+                let imported = self.face_marker(*m, &format!("{key}.where"), span)?;
+                imported.faces_with_marker(*m, self.boundary)
             }
             other => {
                 let mut selected = vec![false; self.mesh.node_count()];

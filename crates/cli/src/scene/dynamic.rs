@@ -23,8 +23,8 @@ use tetfem::material::Material;
 use tetfem::mesh::TetMesh;
 use tetfem::output::fields::{cell_model_von_mises, cell_von_mises, displacement_magnitude};
 use tetfem::output::{
-    CsvSeries, FrameExtras, OutputLock, PvdCollection, write_atomically, write_model_result_vtu,
-    write_result_frame,
+    CsvSeries, FrameExtras, OriginalIds, OutputLock, PvdCollection, write_atomically,
+    write_model_result_vtu, write_result_frame,
 };
 use tetfem_fixtures::cantilever::Cantilever;
 
@@ -161,6 +161,9 @@ pub struct DynamicSetup {
     /// [`run_dynamic_scene`] calls with the scene's `analysis.model`) sets a nonlinear one.
     /// Energies, stresses and `.vtu` fields of the run are the model's.
     pub force: InternalForce,
+    /// For a mesh read from a file: the file's (node ids, element ids), written into every
+    /// frame as `original_node_id` / `original_element_id`.
+    pub original_ids: Option<(Vec<u64>, Vec<u64>)>,
     /// The explicit critical step once computed.
     critical: std::sync::OnceLock<(f64, &'static str)>,
 }
@@ -194,6 +197,7 @@ impl DynamicSetup {
     /// with the setup.
     fn of_built(built: BuiltScene, system: LinearSystem, initial: State, clock: Instant) -> Self {
         DynamicSetup {
+            original_ids: built.imported.map(|i| (i.node_ids, i.tet_ids)),
             input_warnings: built.input_warnings,
             mesh: built.mesh,
             material: built.material,
@@ -229,6 +233,7 @@ impl DynamicSetup {
             nodes: cantilever.tip_nodes(&mesh),
         }];
         Ok(DynamicSetup {
+            original_ids: None,
             input_warnings: Vec::new(),
             materials: tetfem::materials::MaterialMap::uniform(material, mesh.tet_count()),
             mesh,
@@ -853,6 +858,10 @@ impl FrameWriter {
                 time: Some(state.time),
                 stress_tensors: false,
                 error_indicator: indicators.as_deref(),
+                original_ids: setup
+                    .original_ids
+                    .as_ref()
+                    .map(|(nodes, elements)| OriginalIds { nodes, elements }),
             };
             match &setup.force {
                 InternalForce::Linear => {

@@ -64,11 +64,14 @@ density = 7850.0                    # kg/m³
 # Node and face sets ("where"): "all" | { plane = { axis = "x", at = 0.0, tolerance = 1e-9 } }
 # (tolerance default: 1e-6 × the bounding-box diagonal) | { box = { min = [..], max = [..] } }
 # | { group = "name or tag" } (Gmsh physical group) | { marker = 1 } (TetGen node marker)
-# | { nodes = [0, 1, 2] }. A face set holds the boundary faces whose three nodes are selected.
+# | { face_marker = 3 } (TetGen .face marker: those boundary faces, or their nodes)
+# | { nodes = [0, 1, 2] }. A face set holds the boundary faces whose three nodes are selected
+# (of a group or face_marker: the boundary faces among its triangles).
 [[constraints]]
 where = { plane = { axis = "x", at = 0.0 } }
 fix = ["x", "y", "z"]               # default all three
 displacement = [0.0, 0.0, 0.0]      # default zero (m), for the fixed axes
+moment_about = [0.0, 0.0, 0.0]      # the point (m) its reaction moment is reported about; default the origin
 
 # Loads: exactly one of gravity (m/s²), body_force (N/m³), total_force (N over the faces'
 # area), traction (Pa), pressure (Pa, against the outward normal), nodal_force (N per node).

@@ -184,7 +184,14 @@ pub fn run_modal_scene(scene: &Scene, no_files: bool) -> Result<ModalSummary> {
     };
     if !no_files {
         let clock = Instant::now();
-        summary.files = write_modal_outputs(scene, &built.mesh, &system, &modes, &summary)?;
+        summary.files = write_modal_outputs(
+            scene,
+            &built.mesh,
+            built.imported.as_ref(),
+            &system,
+            &modes,
+            &summary,
+        )?;
         summary.output_seconds = clock.elapsed().as_secs_f64();
     }
     Ok(summary)
@@ -215,6 +222,7 @@ pub fn normalized_shape(system: &LinearSystem, shape: &[f64]) -> Result<Vec<f64>
 fn write_modal_outputs(
     scene: &Scene,
     mesh: &tetfem::TetMesh,
+    imported: Option<&tetfem::mesh::io::ImportedMesh>,
     system: &LinearSystem,
     modes: &tetfem::modal::Modes,
     summary: &ModalSummary,
@@ -230,12 +238,17 @@ fn write_modal_outputs(
                 "{}_mode_{:02}_{:.4}Hz.vtu",
                 out.stem, row.mode, row.frequency_hz
             ));
-            VtuWriter::new(mesh)
+            let mut writer = VtuWriter::new(mesh)
                 .field_data("mode", row.mode as f64)?
                 .field_data("frequency_hz", row.frequency_hz)?
                 .field_data("period_s", row.period_s)?
-                .point_field("mode_shape", 3, &full)?
-                .write(&vtu)?;
+                .point_field("mode_shape", 3, &full)?;
+            if let Some(imported) = imported {
+                writer = writer
+                    .point_id_field("original_node_id", &imported.node_ids)?
+                    .cell_id_field("original_element_id", &imported.tet_ids)?;
+            }
+            writer.write(&vtu)?;
             pvd.push(row.mode as f64, &vtu)?;
             files.push(vtu);
         }

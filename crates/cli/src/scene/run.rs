@@ -9,7 +9,7 @@ use tetfem::error::{Error, Result};
 use tetfem::model::ModelMap;
 use tetfem::output::fields::{cell_model_von_mises, displacement_magnitude};
 use tetfem::output::{
-    CsvSeries, OutputLock, PvdCollection, write_atomically, write_model_result_vtu,
+    CsvSeries, OriginalIds, OutputLock, PvdCollection, write_atomically, write_model_result_vtu,
     write_result_frame,
 };
 use tetfem::statics::StaticSolver;
@@ -39,8 +39,11 @@ pub struct ReactionRow {
     pub constraint: String,
     /// Σ of the reactions on its DOFs (N): what the support exerts on the body.
     pub force_n: [f64; 3],
-    /// Their moment about the origin of the mesh coordinates (N·m).
-    pub moment_about_origin_nm: [f64; 3],
+    /// The point the moment is about (m): the entry's `moment_about`, default the origin.
+    pub moment_point_m: [f64; 3],
+    /// Their moment Σ (xᵢ − p) × Rᵢ about that point p, xᵢ the nodes' reference positions
+    /// (N·m).
+    pub moment_nm: [f64; 3],
 }
 
 /// Wall time (s) of each phase of a linear static solve, from
@@ -99,9 +102,10 @@ pub struct RunSummary {
     pub probes: Vec<ProbeValue>,
     /// Resultant of all applied loads (N), gravity included.
     pub applied_load_n: [f64; 3],
-    /// The reaction resultant of each `[[constraints]]` entry (linear model; `None` for the
-    /// nonlinear ones). With the applied load they balance: Σ reactions + applied = 0 up to the
-    /// solve's residual (a DOF in two entries counts in both).
+    /// The reaction resultant of each `[[constraints]]` entry (K·u − f for the linear model,
+    /// −(Σₑ fₑ(u) + f) for the nonlinear ones, on its DOFs; moments about its `moment_about`
+    /// point from the nodes' reference positions). With the applied load they balance: Σ reactions + applied
+    /// = 0 up to the solve's residual (a DOF in two entries counts in both).
     pub reactions: Option<Vec<ReactionRow>>,
     /// Wall time to build the mesh, constraints and loads (s).
     pub build_seconds: f64,
@@ -168,7 +172,7 @@ pub fn run_static_with(scene: &Scene, options: &RunOptions) -> Result<RunSummary
     let mut factor_len = 0;
     // The model that runs is the model whose stress and energy are reported.
     let model = scene.model().build_map(&built.materials);
-    let mut reactions = None;
+    let reactions;
     let (displacement, relative_residual, free_dofs) = match scene.model() {
         tetfem::model::ModelKind::Linear => {
             let options = tetfem::linalg::linear_solver::SolverOptions {
@@ -214,6 +218,13 @@ pub fn run_static_with(scene: &Scene, options: &RunOptions) -> Result<RunSummary
                 .unwrap_or(0.0);
             // ‖r_f‖/‖f_f‖ at the end, as for the linear solve.
             let relative = if load > 0.0 { last / load } else { last };
+            reactions = Some(tetfem::nonlinear::nonlinear_reactions(
+                &built.mesh,
+                &model,
+                &built.constraints,
+                &built.loads,
+                &report.displacement,
+            )?);
             (report.displacement, relative, dofs.free_count())
         }
     };
@@ -256,17 +267,15 @@ pub fn run_static_with(scene: &Scene, options: &RunOptions) -> Result<RunSummary
                 .constraint_dofs
                 .iter()
                 .enumerate()
-                .map(|(i, dofs)| {
-                    let (force, moment) = tetfem::statics::reaction_resultant(
-                        &built.mesh,
-                        r,
-                        dofs,
-                        nalgebra::Vector3::zeros(),
-                    )?;
+                .zip(&built.moment_points)
+                .map(|((i, dofs), point)| {
+                    let (force, moment) =
+                        tetfem::statics::reaction_resultant(&built.mesh, r, dofs, *point)?;
                     Ok(ReactionRow {
                         constraint: format!("constraints[{i}]"),
                         force_n: force.into(),
-                        moment_about_origin_nm: moment.into(),
+                        moment_point_m: (*point).into(),
+                        moment_nm: moment.into(),
                     })
                 })
                 .collect::<Result<Vec<_>>>()?,
@@ -342,30 +351,19 @@ fn write_static_outputs(
     let mut files = Vec::new();
     if out.vtu {
         let vtu = dir.join(format!("{}.vtu", out.stem));
-        match reactions {
-            Some(r) => write_result_frame(
-                &vtu,
-                &built.mesh,
-                &built.materials,
-                u,
-                tetfem::output::FrameExtras {
-                    reactions: Some(r),
-                    stress_tensors: true,
-                    error_indicator,
-                    ..Default::default()
-                },
-            )?,
-            None => write_model_result_vtu(
-                &vtu,
-                &built.mesh,
-                model,
-                &built.materials,
-                u,
-                tetfem::output::FrameExtras {
-                    stress_tensors: true,
-                    ..Default::default()
-                },
-            )?,
+        let extras = tetfem::output::FrameExtras {
+            reactions,
+            stress_tensors: true,
+            original_ids: built.imported.as_ref().map(OriginalIds::of),
+            error_indicator,
+            ..Default::default()
+        };
+        match model.kind() {
+            tetfem::model::ModelKind::Linear => {
+                write_result_frame(&vtu, &built.mesh, &built.materials, u, extras)?
+            }
+            // A nonlinear model's stresses and energy are its own.
+            _ => write_model_result_vtu(&vtu, &built.mesh, model, &built.materials, u, extras)?,
         }
         let mut pvd = PvdCollection::new(dir.join(format!("{}.pvd", out.stem)));
         pvd.push(0.0, &vtu)?;

@@ -196,8 +196,11 @@ pub enum Selector {
     },
     /// `{ group = "clamp" }` or `{ group = "3" }`: a Gmsh physical group by name or tag.
     Group(String),
-    /// `{ marker = 1 }`: TetGen nodes with this boundary marker.
+    /// `{ marker = 1 }`: TetGen nodes with this boundary marker (`.node` file).
     Marker(i64),
+    /// `{ face_marker = 3 }`: the TetGen `.face` triangles with this boundary marker (as a
+    /// face set: those that are boundary faces; as a node set: their nodes).
+    FaceMarker(i64),
     /// `{ nodes = [0, 5, 9] }`: explicit node indices.
     Nodes(Vec<usize>),
 }
@@ -215,6 +218,10 @@ pub struct ConstraintSpec {
     /// Prescribed displacement (length units) for the fixed axes (default: zero).
     #[serde(default)]
     pub displacement: Option<[f64; 3]>,
+    /// The point (m) the reported moment of this entry's reactions is taken about (default:
+    /// the origin).
+    #[serde(default)]
+    pub moment_about: Option<[f64; 3]>,
 }
 
 /// `[[loads]]`: exactly one of `gravity`, `body_force`, `total_force`, `traction`, `pressure`,
