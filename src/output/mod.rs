@@ -17,4 +17,4 @@ pub use frame::{
 };
 pub use lock::{LOCK_FILE_NAME, OutputLock, remove_held_lock_files};
 pub use pvd::PvdCollection;
-pub use vtu::VtuWriter;
+pub use vtu::{VtuFormat, VtuWriter};

@@ -526,7 +526,7 @@ fn run_dynamic_locked(
     let mut state = setup.initial.clone();
     let initial_energy = setup.force.energy(system, &state)?;
     let mut writer = match outputs {
-        Some(o) => Some(FrameWriter::new(setup, run, o, steps)?),
+        Some(o) => Some(FrameWriter::new(setup, run, o, steps, dt)?),
         None => None,
     };
     let mut probes: Vec<ProbeRange> = setup
@@ -590,7 +590,7 @@ fn run_dynamic_locked(
             }
             return Err(Error::Interrupted {
                 step,
-                time: state.time,
+                time: step_time((setup.initial.time, setup.initial.steps), dt, &state),
                 frames,
             });
         }
@@ -623,7 +623,7 @@ fn run_dynamic_locked(
         critical_step_source: critical_source.into(),
         dt_over_critical: dt / critical,
         steps,
-        end_time: state.time,
+        end_time: step_time((setup.initial.time, setup.initial.steps), dt, &state),
         setup_seconds,
         first_step_seconds: first_step,
         mean_step_seconds: if steps > 1 {
@@ -664,6 +664,17 @@ struct FrameWriter {
     csv: Option<CsvSeries>,
     files: Vec<PathBuf>,
     digits: usize,
+    /// The time of the run's first state and its fixed step, for [`step_time`].
+    start: (f64, usize),
+    dt: f64,
+}
+
+/// The time of `state`, t = t₀ + (n − n₀)·dt from the run's first state (t₀, n₀) and its
+/// fixed step dt (a scene's dt never changes during a run): one rounding, where the
+/// integrators' running sum t += dt drifts (1000 steps of 0.1 sum to 99.9999999999986).
+/// Written to the CSV, the `.pvd` and the frames' `TimeValue`.
+fn step_time(start: (f64, usize), dt: f64, state: &State) -> f64 {
+    start.0 + state.steps.saturating_sub(start.1) as f64 * dt
 }
 
 /// The fixed look of the PNG frames.
@@ -681,6 +692,7 @@ impl FrameWriter {
         run: &DynamicRun,
         outputs: &DynamicOutputs,
         steps: usize,
+        dt: f64,
     ) -> Result<Self> {
         let s = &outputs.settings;
         std::fs::create_dir_all(&s.directory).map_err(|source| Error::Io {
@@ -728,6 +740,8 @@ impl FrameWriter {
             csv,
             files: Vec::new(),
             digits: steps.to_string().len().max(4),
+            start: (setup.initial.time, setup.initial.steps),
+            dt,
         })
     }
 
@@ -742,8 +756,9 @@ impl FrameWriter {
         energy: &Energy,
         last: bool,
     ) -> Result<()> {
+        let time = step_time(self.start, self.dt, state);
         if let Some(csv) = &mut self.csv {
-            let mut row = vec![state.time, state.steps as f64, wall];
+            let mut row = vec![time, state.steps as f64, wall];
             for p in probes {
                 row.extend(p);
             }
@@ -779,8 +794,9 @@ impl FrameWriter {
             let extras = FrameExtras {
                 velocity: Some(&velocity),
                 reactions: None,
-                time: Some(state.time),
-                stress_tensors: false,
+                time: Some(time),
+                stress_tensors: true,
+                format: self.settings.vtu_format.format(),
             };
             match &setup.force {
                 InternalForce::Linear => {
@@ -795,7 +811,7 @@ impl FrameWriter {
                     extras,
                 )?,
             }
-            pvd.push(state.time, &vtu)?;
+            pvd.push(time, &vtu)?;
             self.files.push(vtu);
         }
         if let Some(look) = &self.png {
@@ -827,7 +843,7 @@ impl FrameWriter {
                     title: self.title.clone(),
                     subtitle: format!(
                         "t = {:.4e} s (step {}), deformation ×{}",
-                        state.time,
+                        time,
                         state.steps,
                         format_scale(look.scale)
                     ),

@@ -231,6 +231,7 @@ fn write_modal_outputs(
                 out.stem, row.mode, row.frequency_hz
             ));
             VtuWriter::new(mesh)
+                .format(out.vtu_format.format())
                 .field_data("mode", row.mode as f64)?
                 .field_data("frequency_hz", row.frequency_hz)?
                 .field_data("period_s", row.period_s)?

@@ -10,7 +10,7 @@ use tetfem::model::ModelMap;
 use tetfem::output::fields::{cell_model_von_mises, displacement_magnitude};
 use tetfem::output::{
     CsvSeries, OutputLock, PvdCollection, write_atomically, write_model_result_vtu,
-    write_static_result_vtu,
+    write_result_frame,
 };
 use tetfem::statics::StaticSolver;
 
@@ -316,19 +316,15 @@ fn write_static_outputs(
     let mut files = Vec::new();
     if out.vtu {
         let vtu = dir.join(format!("{}.vtu", out.stem));
+        let extras = tetfem::output::FrameExtras {
+            reactions,
+            stress_tensors: true,
+            format: out.vtu_format.format(),
+            ..Default::default()
+        };
         match reactions {
-            Some(r) => write_static_result_vtu(&vtu, &built.mesh, &built.materials, u, r)?,
-            None => write_model_result_vtu(
-                &vtu,
-                &built.mesh,
-                model,
-                &built.materials,
-                u,
-                tetfem::output::FrameExtras {
-                    stress_tensors: true,
-                    ..Default::default()
-                },
-            )?,
+            Some(_) => write_result_frame(&vtu, &built.mesh, &built.materials, u, extras)?,
+            None => write_model_result_vtu(&vtu, &built.mesh, model, &built.materials, u, extras)?,
         }
         let mut pvd = PvdCollection::new(dir.join(format!("{}.pvd", out.stem)));
         pvd.push(0.0, &vtu)?;
