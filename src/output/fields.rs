@@ -65,7 +65,10 @@ pub fn cell_stress<E: ElementType>(
 /// Linear (small) strain ε = ½(∇u + ∇uᵀ) of every tet for a node-major displacement
 /// (dimensionless; constant per linear tet, the volume average for higher-order elements,
 /// [`ElementType::mean_strain`]). Tensor shear components: ε_xy, not the engineering γ_xy = 2ε_xy.
-pub fn cell_strain<E: ElementType>(mesh: &TetMesh<E>, displacement: &[f64]) -> Result<Vec<Matrix3<f64>>> {
+pub fn cell_strain<E: ElementType>(
+    mesh: &TetMesh<E>,
+    displacement: &[f64],
+) -> Result<Vec<Matrix3<f64>>> {
     check_displacement(mesh, displacement)?;
     Ok(per_tet(mesh, displacement, |t, u| {
         E::mean_strain(&E::rest(mesh, t), u)
@@ -148,7 +151,11 @@ pub fn cell_model_strain(
 
 /// Node-major displacement of tet `t`'s four nodes (`displacement`'s length checked by the
 /// caller).
-fn per_tet_displacement(mesh: &TetMesh, t: usize, displacement: &[f64]) -> nalgebra::SVector<f64, 12> {
+fn per_tet_displacement(
+    mesh: &TetMesh,
+    t: usize,
+    displacement: &[f64],
+) -> nalgebra::SVector<f64, 12> {
     let mut u = nalgebra::SVector::<f64, 12>::zeros();
     for (i, &n) in mesh.tets()[t].iter().enumerate() {
         for a in 0..3 {

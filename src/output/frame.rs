@@ -16,11 +16,12 @@ use std::path::Path;
 
 use nalgebra::Matrix3;
 
-use super::{VtuFormat, VtuWriter};
 use super::fields::{
     cell_model_energy_density, cell_model_strain, cell_model_stress, cell_strain,
-    cell_strain_energy_density, cell_stress, displacement_magnitude, nodal_stress, principal_stresses, stress_components, von_mises,
+    cell_strain_energy_density, cell_stress, displacement_magnitude, nodal_stress,
+    principal_stresses, stress_components, von_mises,
 };
+use super::{VtuFormat, VtuWriter};
 use crate::element::ElementType;
 use crate::error::Result;
 use crate::materials::TetMaterials;

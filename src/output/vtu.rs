@@ -201,7 +201,12 @@ impl<'a, C: CellType> VtuWriter<'a, C> {
             r#"type="Int64" Name="offsets""#.into(),
             Array::Offsets,
         )?;
-        open(out, indent, r#"type="UInt8" Name="types""#.into(), Array::Types)?;
+        open(
+            out,
+            indent,
+            r#"type="UInt8" Name="types""#.into(),
+            Array::Types,
+        )?;
         writeln!(out, "      </Cells>")?;
         for (section, fields) in [
             ("PointData", &self.point_fields),

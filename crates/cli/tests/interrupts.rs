@@ -172,8 +172,7 @@ fn listed_frames(out: &Path) -> Vec<(usize, PathBuf)> {
 /// Every listed frame exists and is a complete `.vtu` with the mesh's points and displacement.
 fn check_frames(frames: &[(usize, PathBuf)]) {
     for (_, path) in frames {
-        let text =
-            std::fs::read_to_string(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+        let text = std::fs::read(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
         let vtu = common::parse_vtu(&text);
         assert_eq!(vtu.points, 5 * 2 * 2, "{}", path.display());
         let (_, _, components, values) = vtu.array("displacement").unwrap();

@@ -74,7 +74,10 @@ pub fn parse_vtu(bytes: &[u8]) -> Vtu {
             let header = std::str::from_utf8(&bytes[..at]).expect("the XML header is UTF-8");
             let opening = std::str::from_utf8(&bytes[at..underscore]).unwrap();
             assert!(opening.contains(r#"encoding="raw""#), "{opening}");
-            (format!("{header}</VTKFile>"), Some(&bytes[underscore + 1..]))
+            (
+                format!("{header}</VTKFile>"),
+                Some(&bytes[underscore + 1..]),
+            )
         }
         None => (
             std::str::from_utf8(bytes)
@@ -95,7 +98,10 @@ pub fn parse_vtu(bytes: &[u8]) -> Vtu {
     let cells: usize = piece.attribute("NumberOfCells").unwrap().parse().unwrap();
     let mut arrays = Vec::new();
     let mut expected_offset = 0usize;
-    for node in document.descendants().filter(|n| n.has_tag_name("DataArray")) {
+    for node in document
+        .descendants()
+        .filter(|n| n.has_tag_name("DataArray"))
+    {
         let section = node.parent_element().unwrap().tag_name().name().to_string();
         let name = node.attribute("Name").unwrap_or(&section).to_string();
         let vtk_type = node.attribute("type").unwrap().to_string();
@@ -143,7 +149,10 @@ pub fn parse_vtu(bytes: &[u8]) -> Vtu {
     if let Some(data) = data {
         // After the last block: a newline, the closing tags and nothing else.
         let rest = std::str::from_utf8(&data[expected_offset..]).expect("UTF-8 after the blocks");
-        assert_eq!(rest.split_whitespace().collect::<Vec<_>>(), ["</AppendedData>", "</VTKFile>"]);
+        assert_eq!(
+            rest.split_whitespace().collect::<Vec<_>>(),
+            ["</AppendedData>", "</VTKFile>"]
+        );
     }
     Vtu {
         points,
