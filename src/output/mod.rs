@@ -10,7 +10,7 @@ mod pvd;
 mod vtu;
 
 pub use crate::atomic_file::write_atomically;
-pub use csv::{CSV_BUFFER_BYTES, CsvSeries};
+pub use csv::{CSV_BUFFER_BYTES, CsvSeries, CsvValue};
 pub use frame::{
     FrameExtras, write_model_result_vtu, write_result_frame, write_result_vtu,
     write_static_result_vtu,

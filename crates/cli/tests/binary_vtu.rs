@@ -406,9 +406,15 @@ fn pvd_and_csv_times_are_step_times_without_drift() {
     assert_eq!(vtu::read_vtu(&last).values("TimeValue"), [100.0]);
     // The CSV's time column: row n holds n·dt, exactly (its last row 100).
     let csv = std::fs::read_to_string(file("csv")).unwrap();
+    let header: Vec<&str> = csv.lines().next().unwrap().split(',').collect();
+    assert_eq!(header[..2], ["time", "step"]);
     for (n, row) in csv.lines().skip(1).enumerate() {
-        let time: f64 = row.split(',').next().unwrap().parse().unwrap();
-        assert_eq!(time, n as f64 * 0.1, "{row}");
+        let cells: Vec<&str> = row.split(',').collect();
+        assert_eq!(cells[0].parse::<f64>().unwrap(), n as f64 * 0.1, "{row}");
+        // `step` is an integer column: digits, not `1e3`.
+        assert_eq!(cells[1], n.to_string(), "{row}");
+        // No `-0` anywhere (a clamped probe's and the initial state's zeros).
+        assert!(cells.iter().all(|c| *c != "-0" && *c != "-0e0"), "{row}");
     }
     assert_eq!(csv.lines().count(), 1002);
 }

@@ -23,8 +23,8 @@ use tetfem::material::Material;
 use tetfem::mesh::TetMesh;
 use tetfem::output::fields::{cell_model_von_mises, cell_von_mises, displacement_magnitude};
 use tetfem::output::{
-    CsvSeries, FrameExtras, OutputLock, PvdCollection, write_atomically, write_model_result_vtu,
-    write_result_frame,
+    CsvSeries, CsvValue, FrameExtras, OutputLock, PvdCollection, write_atomically,
+    write_model_result_vtu, write_result_frame,
 };
 use tetfem_fixtures::cantilever::Cantilever;
 
@@ -758,18 +758,21 @@ impl FrameWriter {
     ) -> Result<()> {
         let time = step_time(self.start, self.dt, state);
         if let Some(csv) = &mut self.csv {
-            let mut row = vec![time, state.steps as f64, wall];
+            let mut row: Vec<CsvValue> = vec![time.into(), state.steps.into(), wall.into()];
             for p in probes {
-                row.extend(p);
+                row.extend(p.iter().map(|&v| CsvValue::Real(v)));
             }
-            row.extend([
-                energy.kinetic,
-                energy.elastic,
-                energy.gravity_potential,
-                energy.load_potential,
-                energy.total(),
-            ]);
-            csv.push(&row)?;
+            row.extend(
+                [
+                    energy.kinetic,
+                    energy.elastic,
+                    energy.gravity_potential,
+                    energy.load_potential,
+                    energy.total(),
+                ]
+                .map(CsvValue::Real),
+            );
+            csv.push_values(&row)?;
         }
         if !(state.steps.is_multiple_of(self.every) || last) {
             return Ok(());
