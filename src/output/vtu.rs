@@ -21,8 +21,9 @@ use crate::mesh::{CellType, Tet4, TetMesh};
 /// How a [`VtuWriter`] encodes its arrays.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum VtuFormat {
-    /// Appended raw binary with `UInt64` block headers (see the [module](self) docs): about a
-    /// third of the ASCII size, and written without formatting numbers.
+    /// Appended raw binary with `UInt64` block headers (see the [module](self) docs): about half
+    /// the ASCII size (8 bytes per f64 against ~20 characters), and written without formatting
+    /// numbers (3.8× faster on the default run's frames, README).
     #[default]
     Binary,
     /// Numbers as text in the XML (`{:e}`, the shortest representation that reads back to the

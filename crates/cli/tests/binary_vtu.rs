@@ -407,7 +407,7 @@ fn pvd_and_csv_times_are_step_times_without_drift() {
     // The CSV's time column: row n holds n·dt, exactly (its last row 100).
     let csv = std::fs::read_to_string(file("csv")).unwrap();
     let header: Vec<&str> = csv.lines().next().unwrap().split(',').collect();
-    assert_eq!(header[..2], ["time", "step"]);
+    assert_eq!(header[..2], ["time_s", "step"]);
     for (n, row) in csv.lines().skip(1).enumerate() {
         let cells: Vec<&str> = row.split(',').collect();
         assert_eq!(cells[0].parse::<f64>().unwrap(), n as f64 * 0.1, "{row}");

@@ -154,12 +154,12 @@ fn default_dynamic_run_writes_a_pvd_series_and_a_csv() {
     let mut lines = csv.lines();
     let header = lines.next().unwrap();
     for column in [
-        "time",
-        "tip_uz",
-        "kinetic",
-        "elastic",
-        "gravity_potential",
-        "total",
+        "time_s",
+        "tip_uz_m",
+        "kinetic_J",
+        "elastic_J",
+        "gravity_potential_J",
+        "total_J",
         "wall_seconds_per_step",
     ] {
         assert!(header.contains(column), "{header}");

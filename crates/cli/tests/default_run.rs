@@ -122,7 +122,7 @@ fn static_part_writes_what_a_static_scene_writes() {
     // The probes CSV holds the tip's mean displacement: the same as the summary's.
     let csv = std::fs::read_to_string(folder.join("cantilever_probes.csv")).unwrap();
     let mut lines = csv.lines();
-    assert_eq!(lines.next(), Some("time,tip_ux,tip_uy,tip_uz"));
+    assert_eq!(lines.next(), Some("time_s,tip_ux_m,tip_uy_m,tip_uz_m"));
     let row: Vec<f64> = lines
         .next()
         .unwrap()

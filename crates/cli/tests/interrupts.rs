@@ -188,7 +188,7 @@ fn csv_rows(out: &Path) -> (Vec<Vec<f64>>, bool) {
     let mut lines: Vec<&str> = text.split('\n').collect();
     let fragment = lines.pop().is_some_and(|last| !last.is_empty());
     let header: Vec<&str> = lines[0].split(',').collect();
-    assert_eq!(&header[..3], ["time", "step", "wall_seconds_per_step"]);
+    assert_eq!(&header[..3], ["time_s", "step", "wall_seconds_per_step"]);
     let rows: Vec<Vec<f64>> = lines[1..]
         .iter()
         .map(|line| {

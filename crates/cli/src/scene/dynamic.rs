@@ -700,11 +700,14 @@ impl FrameWriter {
             source,
         })?;
         let csv = if s.csv {
-            let mut columns: Vec<String> =
-                vec!["time".into(), "step".into(), "wall_seconds_per_step".into()];
+            let mut columns: Vec<String> = vec![
+                "time_s".into(),
+                "step".into(),
+                "wall_seconds_per_step".into(),
+            ];
             for p in &setup.probes {
                 for c in ["ux", "uy", "uz"] {
-                    columns.push(format!("{}_{c}", p.name));
+                    columns.push(format!("{}_{c}_m", p.name));
                 }
             }
             for e in [
@@ -714,7 +717,7 @@ impl FrameWriter {
                 "load_potential",
                 "total",
             ] {
-                columns.push(e.into());
+                columns.push(format!("{e}_J"));
             }
             Some(CsvSeries::new(
                 s.directory.join(format!("{}.csv", s.stem)),

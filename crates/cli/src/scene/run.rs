@@ -332,10 +332,10 @@ fn write_static_outputs(
         files.push(pvd.path().to_path_buf());
     }
     if out.csv && !built.probes.is_empty() {
-        let mut columns = vec!["time".to_string()];
+        let mut columns = vec!["time_s".to_string()];
         for p in &built.probes {
             for c in ["ux", "uy", "uz"] {
-                columns.push(format!("{}_{c}", p.name));
+                columns.push(format!("{}_{c}_m", p.name));
             }
         }
         let mut csv = CsvSeries::new(dir.join(format!("{}_probes.csv", out.stem)), columns)?;
