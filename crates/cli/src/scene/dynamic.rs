@@ -443,9 +443,10 @@ pub struct DynamicSummary {
 }
 
 impl DynamicSummary {
-    /// The summary as one line of JSON.
+    /// The summary as one line of JSON, with a `units` table (the unit of every field that
+    /// carries a quantity, keyed by its path).
     pub fn to_json(&self) -> String {
-        serde_json::to_string(self).unwrap_or_else(|e| format!("{{\"error\":\"{e}\"}}"))
+        super::units::to_json_with_units(self, super::units::DYNAMIC)
     }
 }
 

@@ -12,6 +12,7 @@ mod dynamic;
 mod modal;
 mod run;
 mod spec;
+mod units;
 
 pub use build::{BuiltScene, Probe};
 pub use critical::{CriticalStepReport, critical_step_of};

@@ -122,10 +122,10 @@ pub struct RunSummary {
 }
 
 impl RunSummary {
-    /// The summary as one line of JSON.
+    /// The summary as one line of JSON, with a `units` table (the unit of every field that
+    /// carries a quantity, keyed by its path).
     pub fn to_json(&self) -> String {
-        // Serializing plain numbers, strings and paths cannot fail; NaN becomes null.
-        serde_json::to_string(self).unwrap_or_else(|e| format!("{{\"error\":\"{e}\"}}"))
+        super::units::to_json_with_units(self, super::units::STATIC)
     }
 }
 
