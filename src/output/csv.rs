@@ -137,7 +137,7 @@ impl CsvSeries {
             // Writing into a Vec cannot fail. −0 == 0, so `0.0` is written for both.
             let _ = match *v {
                 CsvValue::Int(i) => write!(self.buffer, "{i}"),
-                CsvValue::Real(x) if x == 0.0 => write!(self.buffer, "0"),
+                CsvValue::Real(0.0) => write!(self.buffer, "0"),
                 CsvValue::Real(x) => write!(self.buffer, "{x:e}"),
             };
         }

@@ -222,7 +222,7 @@ impl<'a, C: CellType> VtuWriter<'a, C> {
                         r#"type="Float64" Name="{}" NumberOfComponents="{components}""#,
                         xml_escape(name)
                     ),
-                    Array::Field(*values, *components),
+                    Array::Field(values, *components),
                 )?;
             }
             writeln!(out, "      </{section}>")?;

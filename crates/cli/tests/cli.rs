@@ -146,7 +146,7 @@ fn default_dynamic_run_writes_a_pvd_series_and_a_csv() {
     assert!(frames.len() > 2);
     assert!(frames.windows(2).all(|w| w[1].0 > w[0].0));
     for (_, file) in &frames {
-        let vtu = common::parse_vtu(&std::fs::read(dir.join(file)).unwrap());
+        let vtu = common::parse_vtu(std::fs::read(dir.join(file)).unwrap());
         assert!(vtu.array("displacement").is_some() && vtu.array("velocity").is_some());
     }
     // CSV: header with the tip and every energy term, one row per frame.

@@ -89,7 +89,7 @@ fn json(stdout: &str) -> serde_json::Value {
 }
 
 fn check_vtu(path: &Path, nodes: usize, tets: usize) -> common::VtuSummary {
-    let vtu = common::parse_vtu(&std::fs::read(path).unwrap());
+    let vtu = common::parse_vtu(std::fs::read(path).unwrap());
     assert_eq!((vtu.points, vtu.cells), (nodes, tets), "{}", path.display());
     let displacement = &vtu.array("displacement").expect("displacement").3;
     assert_eq!(displacement.len(), 3 * nodes);

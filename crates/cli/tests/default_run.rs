@@ -95,7 +95,7 @@ fn static_part_writes_what_a_static_scene_writes() {
     ]));
     let folder = dir.join("cantilever");
     // The .vtu holds the four fields of a static scene's result.
-    let vtu = common::parse_vtu(&std::fs::read(folder.join("cantilever.vtu")).unwrap());
+    let vtu = common::parse_vtu(std::fs::read(folder.join("cantilever.vtu")).unwrap());
     for (name, section, components) in [
         ("displacement", "PointData", 3),
         ("displacement_magnitude", "PointData", 1),
