@@ -1,12 +1,14 @@
 //! The quadratic 10-node tet through the element seam: its reference data against independent
 //! quadrature, and the whole static path (assembly, constraints, loads, solve, output) on it.
 
+mod common;
+
 use nalgebra::{Matrix3, Vector3};
 use tetfem::element::tet10::{self, EDGES, REFERENCE_MASS};
 use tetfem::element::{ElementType, Tet};
 use tetfem::mesh::BoundaryFace;
-use tetfem::output::VtuWriter;
 use tetfem::output::fields::{cell_strain_energy_density, cell_stress};
+use tetfem::output::{VtuFormat, VtuWriter};
 use tetfem::quadrature::tet_rule;
 use tetfem::{
     Assembler, BoxSplit, CellType, Constraints, Error, Loads, Material, Tet4, Tet10, TetMesh,
@@ -376,23 +378,23 @@ fn traction_on_six_node_faces_gives_uniaxial_stress_exactly() {
 #[test]
 fn vtu_writes_quadratic_cells() {
     let mesh = one_element();
-    let mut text = Vec::new();
-    VtuWriter::new(&mesh).write_to(&mut text).unwrap();
-    let text = String::from_utf8(text).unwrap();
-    let doc = roxmltree::Document::parse(&text).unwrap();
-    let array = |name: &str| {
-        doc.descendants()
-            .find(|n| n.attribute("Name") == Some(name))
-            .unwrap()
-            .text()
-            .unwrap()
-            .split_whitespace()
-            .map(|v| v.parse::<usize>().unwrap())
-            .collect::<Vec<_>>()
-    };
-    assert_eq!(array("types"), vec![usize::from(Tet10::VTK_CELL_TYPE)]);
-    assert_eq!(array("offsets"), vec![10]);
-    assert_eq!(array("connectivity"), mesh.tets()[0].to_vec());
+    // Both encodings: the reader decodes the appended block (checking its layout) or the text.
+    for format in [VtuFormat::Binary, VtuFormat::Ascii] {
+        let mut bytes = Vec::new();
+        VtuWriter::new(&mesh)
+            .format(format)
+            .write_to(&mut bytes)
+            .unwrap();
+        let vtu = common::vtu::parse_vtu(&bytes);
+        assert_eq!(vtu.binary, format == VtuFormat::Binary);
+        let array =
+            |name: &str| -> Vec<usize> { vtu.values(name).iter().map(|&v| v as usize).collect() };
+        assert_eq!(array("types"), vec![usize::from(Tet10::VTK_CELL_TYPE)]);
+        assert_eq!(array("offsets"), vec![10]);
+        assert_eq!(array("connectivity"), mesh.tets()[0].to_vec());
+        let points: Vec<f64> = mesh.nodes().iter().flat_map(|p| [p.x, p.y, p.z]).collect();
+        assert_eq!(vtu.values("Points"), points.as_slice());
+    }
     assert_eq!(Tet10::VTK_CELL_TYPE, 24);
     assert_eq!(Tet4::VTK_CELL_TYPE, 10);
 }

@@ -38,11 +38,15 @@ def test_energy_history_equals_the_scene_csv_bit_for_bit(tmp_path):
     terms = ["kinetic", "elastic", "gravity_potential", "load_potential", "total"]
     # The CSV holds each value in Rust's shortest round-trip form ({:e}), so float() gives the
     # exact f64 back and equality is bit for bit.
+    # CSV columns carry their unit: energies `<term>_J`, probes `<probe>_u<axis>_m`, `time_s`.
     for term in terms:
-        assert start[term] == float(rows[0][term]), term
-        assert history[term].tolist() == [float(r[term]) for r in rows[1:]], term
-    assert history["time"].tolist() == [float(r["time"]) for r in rows[1:]]
-    assert tip_z == [float(r["tip_uz"]) for r in rows[1:]]
+        assert start[term] == float(rows[0][term + "_J"]), term
+        assert history[term].tolist() == [float(r[term + "_J"]) for r in rows[1:]], term
+    # The CSV's time is n·dt exactly; the Simulation's is the integrator's running sum t += dt,
+    # which drifts by a few ulps over 300 steps (1e-12 relative is far above that, far below dt).
+    assert [float(r["time_s"]) for r in rows] == [n * summary["dt"] for n in range(steps + 1)]
+    assert history["time"].tolist() == pytest.approx([float(r["time_s"]) for r in rows[1:]], rel=1e-12)
+    assert tip_z == [float(r["tip_uz_m"]) for r in rows[1:]]
     assert summary["final_energy"]["total"] == history["total"][-1]
     # The run did something: the beam swings down by about twice the static sag (~1.5 mm).
     assert min(tip_z) < -1e-3
@@ -255,9 +259,9 @@ def test_nonlinear_per_region_history_equals_the_scene_csv_bit_for_bit(tmp_path)
     sim = tetfem.Simulation(mesh, materials, constraints, loads, dt=5e-3, model="corotational")
     history = sim.run(50)
     for term in ["kinetic", "elastic", "gravity_potential", "total"]:
-        assert history[term].tolist() == [float(r[term]) for r in rows[1:]], term
+        assert history[term].tolist() == [float(r[term + "_J"]) for r in rows[1:]], term
     # The beam falls and swings: its tip drops by centimetres (large rotation).
-    assert float(rows[-1]["tip_uz"]) < -0.01
+    assert float(rows[-1]["tip_uz_m"]) < -0.01
     with pytest.raises(tetfem.InvalidInputError, match="corotational"):
         sim.modes(2)  # modal analysis is linear only
 

@@ -49,6 +49,10 @@ pub trait ElementType: CellType {
     /// (stress units) for the element's node-major displacement `u` (3·NODES values).
     fn mean_stress(rest: &Self::Rest, material: &Material, u: &[f64]) -> Matrix3<f64>;
 
+    /// Volume average (1/V)∫ε dV of the linear (small) strain ε = ½(∇u + ∇uᵀ) (dimensionless;
+    /// tensor shear components, not engineering γ = 2ε) for the node-major displacement `u`.
+    fn mean_strain(rest: &Self::Rest, u: &[f64]) -> Matrix3<f64>;
+
     /// Volume average (1/V)∫½ σ:ε dV of the strain energy density (energy per volume) for the
     /// element's node-major displacement `u`; times V it is the element's ½ uᵀKₑu.
     fn strain_energy_density(rest: &Self::Rest, material: &Material, u: &[f64]) -> f64;

@@ -254,8 +254,12 @@ impl ElementType for Tet10 {
 
     /// The strain is linear, so its volume average is the mean of the degree-2 rule's points.
     fn mean_stress(rest: &Tet10Rest, material: &Material, u: &[f64]) -> Matrix3<f64> {
-        let strain = (0..4).map(|q| rest.strain_at(q, u)).sum::<Matrix3<f64>>() / 4.0;
-        hooke(material, &strain)
+        hooke(material, &Self::mean_strain(rest, u))
+    }
+
+    /// The strain is linear, so its volume average is the mean of the degree-2 rule's points.
+    fn mean_strain(rest: &Tet10Rest, u: &[f64]) -> Matrix3<f64> {
+        (0..4).map(|q| rest.strain_at(q, u)).sum::<Matrix3<f64>>() / 4.0
     }
 
     /// ½σ:ε is quadratic: the degree-2 rule integrates it exactly.

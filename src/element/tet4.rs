@@ -315,6 +315,11 @@ impl ElementType for Tet4 {
         rest.stress(material, &Vector12::from_column_slice(u))
     }
 
+    /// The constant strain of [`Tet::strain`].
+    fn mean_strain(rest: &Tet, u: &[f64]) -> Matrix3<f64> {
+        rest.strain(&Vector12::from_column_slice(u))
+    }
+
     /// ½ σ:ε, constant in the tet.
     fn strain_energy_density(rest: &Tet, material: &Material, u: &[f64]) -> f64 {
         let u = Vector12::from_column_slice(u);

@@ -12,7 +12,31 @@ use crate::error::{Error, Result};
 /// boundary), so that memory does not grow with the number of rows.
 pub const CSV_BUFFER_BYTES: usize = 64 * 1024;
 
-/// A CSV file of f64 rows under fixed column names, written as it grows.
+/// One CSV cell: an integer (a step, a count, an index: written as digits, `12`, never `1.2e1`)
+/// or a number (written `{:e}`, the shortest form that reads back to the same f64; −0 is
+/// written `0`, NaN `NaN`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum CsvValue {
+    /// An integer column's value.
+    Int(i64),
+    /// A real column's value.
+    Real(f64),
+}
+
+impl From<f64> for CsvValue {
+    fn from(value: f64) -> Self {
+        CsvValue::Real(value)
+    }
+}
+
+impl From<usize> for CsvValue {
+    /// Saturates at `i64::MAX` (no step or count gets there).
+    fn from(value: usize) -> Self {
+        CsvValue::Int(i64::try_from(value).unwrap_or(i64::MAX))
+    }
+}
+
+/// A CSV file of rows under fixed column names, written as it grows.
 ///
 /// [`CsvSeries::new`] creates (truncates) the file and writes the header; [`push`](Self::push)
 /// formats a row into an in-memory buffer; the buffer goes to the file only whole, at row
@@ -85,9 +109,17 @@ impl CsvSeries {
         self.buffer.len()
     }
 
-    /// Appends one row (one value per column, in `{:e}` format; NaN is written as `NaN`),
-    /// writing the buffer out first when it is full.
+    /// Appends one row of reals (one value per column, in `{:e}` format; −0 is written `0`,
+    /// NaN `NaN`), writing the buffer out first when it is full. See [`push_values`](Self::push_values)
+    /// for rows with integer columns.
     pub fn push(&mut self, row: &[f64]) -> Result<()> {
+        let values: Vec<CsvValue> = row.iter().map(|&v| CsvValue::Real(v)).collect();
+        self.push_values(&values)
+    }
+
+    /// Appends one row of typed values ([`CsvValue`]: integers as digits, reals in `{:e}`
+    /// format with −0 written `0`), writing the buffer out first when it is full.
+    pub fn push_values(&mut self, row: &[CsvValue]) -> Result<()> {
         if row.len() != self.columns.len() {
             return Err(Error::invalid_parameter(
                 "CSV row",
@@ -102,8 +134,12 @@ impl CsvSeries {
             if i > 0 {
                 self.buffer.push(b',');
             }
-            // Writing into a Vec cannot fail.
-            let _ = write!(self.buffer, "{v:e}");
+            // Writing into a Vec cannot fail. −0 == 0, so `0.0` is written for both.
+            let _ = match *v {
+                CsvValue::Int(i) => write!(self.buffer, "{i}"),
+                CsvValue::Real(0.0) => write!(self.buffer, "0"),
+                CsvValue::Real(x) => write!(self.buffer, "{x:e}"),
+            };
         }
         self.buffer.push(b'\n');
         self.rows += 1;
@@ -191,6 +227,23 @@ mod tests {
         }
         assert_eq!(text.lines().count(), rows + 1);
         assert!(text.ends_with('\n'));
+        let _ = std::fs::remove_file(&path);
+    }
+
+    /// Integer columns are digits; −0 and 0 are both `0`; reals read back exactly.
+    #[test]
+    fn integers_are_digits_and_negative_zero_is_zero() {
+        let path =
+            std::env::temp_dir().join(format!("tetfem-csv-typed-{}.csv", std::process::id()));
+        let mut csv = CsvSeries::new(&path, vec!["step".into(), "x".into(), "y".into()]).unwrap();
+        csv.push_values(&[0usize.into(), (-0.0).into(), 0.1.into()])
+            .unwrap();
+        csv.push_values(&[1000usize.into(), (-2.5e-300).into(), 0.0.into()])
+            .unwrap();
+        csv.push(&[-0.0, 3.0, f64::NAN]).unwrap();
+        csv.finish().unwrap();
+        let text = std::fs::read_to_string(&path).unwrap();
+        assert_eq!(text, "step,x,y\n0,0,1e-1\n1000,-2.5e-300,0\n0,3e0,NaN\n");
         let _ = std::fs::remove_file(&path);
     }
 }

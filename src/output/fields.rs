@@ -62,6 +62,19 @@ pub fn cell_stress<E: ElementType>(
     }))
 }
 
+/// Linear (small) strain ε = ½(∇u + ∇uᵀ) of every tet for a node-major displacement
+/// (dimensionless; constant per linear tet, the volume average for higher-order elements,
+/// [`ElementType::mean_strain`]). Tensor shear components: ε_xy, not the engineering γ_xy = 2ε_xy.
+pub fn cell_strain<E: ElementType>(
+    mesh: &TetMesh<E>,
+    displacement: &[f64],
+) -> Result<Vec<Matrix3<f64>>> {
+    check_displacement(mesh, displacement)?;
+    Ok(per_tet(mesh, displacement, |t, u| {
+        E::mean_strain(&E::rest(mesh, t), u)
+    }))
+}
+
 /// Von Mises stress of every tet (stress units, Pa in SI).
 pub fn cell_von_mises<E: ElementType>(
     mesh: &TetMesh<E>,
@@ -107,6 +120,49 @@ pub fn cell_model_stress(
             )
         })
         .collect())
+}
+
+/// The strain of every tet that goes with `model`'s stress (dimensionless, tensor shear
+/// components): the linear strain ε = ½(∇u + ∇uᵀ) for the [linear](crate::model::ModelKind::Linear)
+/// model, the Green–Lagrange strain E = ½(FᵀF − I) (F the deformation gradient, referred to
+/// the rest configuration) for the nonlinear ones, which equals ε to first order in ∇u and,
+/// unlike ε, vanishes under any rigid rotation.
+pub fn cell_model_strain(
+    mesh: &TetMesh,
+    model: &(impl TetModels + ?Sized),
+    displacement: &[f64],
+) -> Result<Vec<Matrix3<f64>>> {
+    check_displacement(mesh, displacement)?;
+    model.check_tet_count(mesh)?;
+    let linear = crate::model::ModelKind::Linear.name();
+    Ok((0..mesh.tet_count())
+        .map(|t| {
+            let tet = mesh.element_of(t);
+            if model.model_of(t).name() == linear {
+                let u = per_tet_displacement(mesh, t, displacement);
+                tet.strain(&u)
+            } else {
+                let f = tet.deformation_gradient(&deformed(mesh, t, displacement));
+                (f.transpose() * f - Matrix3::identity()) * 0.5
+            }
+        })
+        .collect())
+}
+
+/// Node-major displacement of tet `t`'s four nodes (`displacement`'s length checked by the
+/// caller).
+fn per_tet_displacement(
+    mesh: &TetMesh,
+    t: usize,
+    displacement: &[f64],
+) -> nalgebra::SVector<f64, 12> {
+    let mut u = nalgebra::SVector::<f64, 12>::zeros();
+    for (i, &n) in mesh.tets()[t].iter().enumerate() {
+        for a in 0..3 {
+            u[3 * i + a] = displacement[3 * n + a];
+        }
+    }
+    u
 }
 
 /// Von Mises stress of `model`'s Cauchy stress in every tet (stress units).
@@ -178,8 +234,9 @@ pub fn displacement_magnitude(displacement: &[f64]) -> Vec<f64> {
         .collect()
 }
 
-/// The six independent components of each stress tensor, in ParaView's order for a symmetric
-/// tensor: XX, YY, ZZ, XY, YZ, XZ (stress units).
+/// The six independent components of each symmetric tensor (stress, or strain: tensor shear
+/// components), in ParaView's order for a symmetric tensor: XX, YY, ZZ, XY, YZ, XZ (the
+/// tensor's units).
 pub fn stress_components(stresses: &[Matrix3<f64>]) -> Vec<f64> {
     stresses
         .iter()

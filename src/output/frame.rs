@@ -4,10 +4,13 @@
 //! `velocity` (3, dynamic frames), `reaction_force` (3, linear static results); per tet:
 //! `von_mises`, `strain_energy_density` and `material_id` (the index of its material); for
 //! frames of a run, the time as `TimeValue` field data. With [`FrameExtras::stress_tensors`]
-//! (static results) also per node `stress_nodal` (6: XX, YY, ZZ, XY, YZ, XZ, the
-//! volume-weighted average of the tets around the node) and `von_mises_nodal` (of that
-//! average: smooth contours), and per tet `stress` (6, same order) and `principal_stress`
-//! (3, σ₁ ≥ σ₂ ≥ σ₃). Those triple an ASCII file's size, so dynamic frames leave them out.
+//! (static results and, since frames are binary, dynamic frames too) also per node
+//! `stress_nodal` (6: XX, YY, ZZ, XY, YZ, XZ, the volume-weighted average of the tets around
+//! the node) and `von_mises_nodal` (of that average: smooth contours), and per tet `stress`
+//! (6, same order), `strain` (6, same order, dimensionless, tensor shear components ε_xy — not
+//! the engineering γ_xy = 2ε_xy; the linear strain for the linear model, the Green–Lagrange
+//! strain ½(FᵀF − I) for the nonlinear ones, [`cell_model_strain`]) and `principal_stress`
+//! (3, σ₁ ≥ σ₂ ≥ σ₃). The file's encoding is [`FrameExtras::format`] (binary by default).
 //! With [`FrameExtras::error_indicator`] also per tet `error_indicator`: the ZZ estimate η_K of
 //! the energy-norm error in that tet (J^½ in SI; see [`estimate`](crate::estimate)).
 //! For a mesh read from a file, [`FrameExtras::original_ids`] adds the file's node ids
@@ -17,11 +20,12 @@ use std::path::Path;
 
 use nalgebra::Matrix3;
 
-use super::VtuWriter;
 use super::fields::{
-    cell_model_energy_density, cell_model_stress, cell_strain_energy_density, cell_stress,
-    displacement_magnitude, nodal_stress, principal_stresses, stress_components, von_mises,
+    cell_model_energy_density, cell_model_strain, cell_model_stress, cell_strain,
+    cell_strain_energy_density, cell_stress, displacement_magnitude, nodal_stress,
+    principal_stresses, stress_components, von_mises,
 };
+use super::{VtuFormat, VtuWriter};
 use crate::element::ElementType;
 use crate::error::Result;
 use crate::materials::TetMaterials;
@@ -37,7 +41,7 @@ pub struct FrameExtras<'a> {
     pub reactions: Option<&'a [f64]>,
     /// The frame's time (time units), written as `TimeValue` field data.
     pub time: Option<f64>,
-    /// Also the stress tensors, principal stresses and recovered nodal stresses.
+    /// Also the stress and strain tensors, principal stresses and recovered nodal stresses.
     pub stress_tensors: bool,
     /// Per-tet error indicators η_K of [`estimate`](crate::estimate) (J^½ in SI), written as
     /// the cell field `error_indicator`.
@@ -46,6 +50,8 @@ pub struct FrameExtras<'a> {
     /// [`ImportedMesh`](crate::mesh::io::ImportedMesh)), written as the point array
     /// `original_node_id` and the cell array `original_element_id`.
     pub original_ids: Option<OriginalIds<'a>>,
+    /// The file's encoding (appended binary unless told).
+    pub format: VtuFormat,
 }
 
 /// A mesh file's own numbering of the nodes and the tets of a mesh read from it.
@@ -121,11 +127,19 @@ pub fn write_result_frame<E: ElementType>(
     extras: FrameExtras<'_>,
 ) -> Result<()> {
     let stresses = cell_stress(mesh, materials, displacement)?;
+    let strains = match extras.stress_tensors {
+        true => cell_strain(mesh, displacement)?,
+        false => Vec::new(),
+    };
     let energy = cell_strain_energy_density(mesh, materials, displacement)?;
     let ids: Vec<f64> = (0..mesh.tet_count())
         .map(|t| materials.index_of(t) as f64)
         .collect();
-    write_fields(path, mesh, displacement, extras, &stresses, &energy, &ids)
+    let tensors = Tensors {
+        stresses: &stresses,
+        strains: &strains,
+    };
+    write_fields(path, mesh, displacement, extras, tensors, &energy, &ids)
 }
 
 /// As [`write_result_vtu`], with the stresses and energy density of the force model that
@@ -142,11 +156,25 @@ pub fn write_model_result_vtu(
 ) -> Result<()> {
     materials.check_tet_count(mesh)?;
     let stresses = cell_model_stress(mesh, model, displacement)?;
+    let strains = match extras.stress_tensors {
+        true => cell_model_strain(mesh, model, displacement)?,
+        false => Vec::new(),
+    };
     let energy = cell_model_energy_density(mesh, model, displacement)?;
     let ids: Vec<f64> = (0..mesh.tet_count())
         .map(|t| materials.index_of(t) as f64)
         .collect();
-    write_fields(path, mesh, displacement, extras, &stresses, &energy, &ids)
+    let tensors = Tensors {
+        stresses: &stresses,
+        strains: &strains,
+    };
+    write_fields(path, mesh, displacement, extras, tensors, &energy, &ids)
+}
+
+/// Per-tet stress, and strain (empty unless [`FrameExtras::stress_tensors`]).
+struct Tensors<'t> {
+    stresses: &'t [Matrix3<f64>],
+    strains: &'t [Matrix3<f64>],
 }
 
 fn write_fields<C: CellType>(
@@ -154,14 +182,16 @@ fn write_fields<C: CellType>(
     mesh: &TetMesh<C>,
     displacement: &[f64],
     extras: FrameExtras<'_>,
-    stresses: &[Matrix3<f64>],
+    tensors: Tensors<'_>,
     energy: &[f64],
     material_ids: &[f64],
 ) -> Result<()> {
+    let stresses = tensors.stresses;
     let magnitude = displacement_magnitude(displacement);
     let von_mises_cells: Vec<f64> = stresses.iter().map(von_mises).collect();
     let (mut nodal_components, mut von_mises_nodes, mut components, mut principal) =
         (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+    let strain_components = stress_components(tensors.strains);
     if extras.stress_tensors {
         let nodal = nodal_stress(mesh, stresses)?;
         nodal_components = stress_components(&nodal);
@@ -169,7 +199,7 @@ fn write_fields<C: CellType>(
         components = stress_components(stresses);
         principal = principal_stresses(stresses);
     }
-    let mut writer = VtuWriter::new(mesh);
+    let mut writer = VtuWriter::new(mesh).format(extras.format);
     if let Some(t) = extras.time {
         writer = writer.field_data("TimeValue", t)?;
     }
@@ -191,11 +221,10 @@ fn write_fields<C: CellType>(
         .cell_field("von_mises", 1, &von_mises_cells)?
         .cell_field("strain_energy_density", 1, energy)?;
     if extras.stress_tensors {
-        writer = writer.cell_field("stress", 6, &components)?.cell_field(
-            "principal_stress",
-            3,
-            &principal,
-        )?;
+        writer = writer
+            .cell_field("stress", 6, &components)?
+            .cell_field("strain", 6, &strain_components)?
+            .cell_field("principal_stress", 3, &principal)?;
     }
     if let Some(eta) = extras.error_indicator {
         writer = writer.cell_field("error_indicator", 1, eta)?;

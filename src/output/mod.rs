@@ -10,11 +10,11 @@ mod pvd;
 mod vtu;
 
 pub use crate::atomic_file::write_atomically;
-pub use csv::{CSV_BUFFER_BYTES, CsvSeries};
+pub use csv::{CSV_BUFFER_BYTES, CsvSeries, CsvValue};
 pub use frame::{
     FrameExtras, OriginalIds, write_model_result_vtu, write_result_frame, write_result_vtu,
     write_static_result_vtu,
 };
 pub use lock::{LOCK_FILE_NAME, OutputLock, remove_held_lock_files};
 pub use pvd::PvdCollection;
-pub use vtu::VtuWriter;
+pub use vtu::{VtuFormat, VtuWriter};

@@ -1,5 +1,15 @@
-//! VTK XML unstructured grid (`.vtu`, ASCII) of a tet mesh with point and cell fields, for
-//! any cell type (its VTK type and node order from [`CellType`]).
+//! VTK XML unstructured grid (`.vtu`) of a tet mesh with point and cell fields, for any cell
+//! type (its VTK type and node order from [`CellType`]), in appended raw binary (the default:
+//! compact and fast) or in ASCII ([`VtuFormat`]).
+//!
+//! Binary layout (VTK's "appended raw" encoding): the XML header declares each `DataArray`
+//! with `format="appended"` and an `offset`; after `<AppendedData encoding="raw">` and a `_`
+//! come the arrays one after the other, each as a little-endian `UInt64` byte count followed
+//! by its values, little-endian (`Float64` coordinates and fields, `Int64` connectivity and
+//! offsets, `UInt8` cell types). `UInt64` headers (`header_type="UInt64"`, read by VTK ≥ 6,
+//! ParaView ≥ 4 and meshio) because a `UInt32` count caps an array at 4 GiB, which a field of
+//! a 90-million-node mesh exceeds. `FieldData` (one value each: a time, a frequency) stays
+//! inline ASCII so that it can be read with `grep`.
 
 use std::io::Write;
 use std::path::Path;
@@ -7,6 +17,39 @@ use std::path::Path;
 use super::write_atomically;
 use crate::error::{Error, Result};
 use crate::mesh::{CellType, Tet4, TetMesh};
+
+/// How a [`VtuWriter`] encodes its arrays.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum VtuFormat {
+    /// Appended raw binary with `UInt64` block headers (see the [module](self) docs): about half
+    /// the ASCII size (8 bytes per f64 against ~20 characters), and written without formatting
+    /// numbers (3.8× faster on the default run's frames, README).
+    #[default]
+    Binary,
+    /// Numbers as text in the XML (`{:e}`, the shortest representation that reads back to the
+    /// same f64): readable by eye and by any XML tool, larger and slower to write.
+    Ascii,
+}
+
+impl VtuFormat {
+    /// The format named `name`: `"binary"` or `"ascii"` (the spelling of the scene key
+    /// `output.vtu_format`); `None` otherwise.
+    pub fn from_name(name: &str) -> Option<Self> {
+        match name {
+            "binary" => Some(VtuFormat::Binary),
+            "ascii" => Some(VtuFormat::Ascii),
+            _ => None,
+        }
+    }
+
+    /// `"binary"` or `"ascii"`.
+    pub fn name(self) -> &'static str {
+        match self {
+            VtuFormat::Binary => "binary",
+            VtuFormat::Ascii => "ascii",
+        }
+    }
+}
 
 /// Builder for one `.vtu` file: the mesh plus named fields, checked for length when added.
 #[derive(Debug, Clone)]
@@ -19,10 +62,23 @@ pub struct VtuWriter<'a, C: CellType = Tet4> {
     cell_ids: Vec<(String, &'a [u64])>,
     /// Whole-dataset values (VTK `FieldData`): a frequency, a time.
     field_data: Vec<(String, f64)>,
+    format: VtuFormat,
+}
+
+/// One `DataArray` of the piece, whatever its encoding.
+enum Array<'b> {
+    Points,
+    Connectivity,
+    Offsets,
+    Types,
+    /// A field's values and its components per tuple.
+    Field(&'b [f64], usize),
+    /// Integer ids, one per node or per tet (written as `Int64`).
+    Ids(&'b [u64]),
 }
 
 impl<'a, C: CellType> VtuWriter<'a, C> {
-    /// A file for `mesh` with no fields yet.
+    /// A file for `mesh` with no fields yet, in the default [`VtuFormat::Binary`].
     pub fn new(mesh: &'a TetMesh<C>) -> Self {
         VtuWriter {
             mesh,
@@ -31,6 +87,7 @@ impl<'a, C: CellType> VtuWriter<'a, C> {
             point_ids: Vec::new(),
             cell_ids: Vec::new(),
             field_data: Vec::new(),
+            format: VtuFormat::default(),
         }
     }
 
@@ -49,6 +106,12 @@ impl<'a, C: CellType> VtuWriter<'a, C> {
         check_ids(name, values, self.mesh.tet_count(), "tet")?;
         self.cell_ids.push((name.to_string(), values));
         Ok(self)
+    }
+
+    /// Chooses the encoding of the arrays ([`VtuFormat::Binary`] unless told).
+    pub fn format(mut self, format: VtuFormat) -> Self {
+        self.format = format;
+        self
     }
 
     /// Adds one value for the whole dataset (VTK `FieldData`, e.g. a mode's frequency in Hz),
@@ -88,9 +151,36 @@ impl<'a, C: CellType> VtuWriter<'a, C> {
         write_atomically(path, |out| self.write_to(out))
     }
 
-    /// Writes the XML to any writer.
+    /// Writes the file to any writer (XML, with the appended binary block in
+    /// [`VtuFormat::Binary`]).
     pub fn write_to(&self, out: &mut dyn Write) -> std::io::Result<()> {
         let mesh = self.mesh;
+        // Appended offsets count from the byte after `_`: each block is its 8-byte header and
+        // its data.
+        let mut next_offset = 0usize;
+        let mut appended: Vec<Array<'a>> = Vec::new();
+        let mut open = |out: &mut dyn Write,
+                        indent: &str,
+                        attributes: String,
+                        array: Array<'a>|
+         -> std::io::Result<()> {
+            match self.format {
+                VtuFormat::Ascii => {
+                    writeln!(out, r#"{indent}<DataArray {attributes} format="ascii">"#)?;
+                    self.write_ascii(out, &array)?;
+                    writeln!(out, "{indent}</DataArray>")
+                }
+                VtuFormat::Binary => {
+                    writeln!(
+                        out,
+                        r#"{indent}<DataArray {attributes} format="appended" offset="{next_offset}"/>"#
+                    )?;
+                    next_offset += 8 + self.byte_len(&array);
+                    appended.push(array);
+                    Ok(())
+                }
+            }
+        };
         writeln!(out, r#"<?xml version="1.0"?>"#)?;
         writeln!(
             out,
@@ -114,88 +204,169 @@ impl<'a, C: CellType> VtuWriter<'a, C> {
             mesh.node_count(),
             mesh.tet_count()
         )?;
+        let indent = "        ";
         writeln!(out, "      <Points>")?;
-        writeln!(
+        open(
             out,
-            r#"        <DataArray type="Float64" NumberOfComponents="3" format="ascii">"#
+            indent,
+            r#"type="Float64" NumberOfComponents="3""#.into(),
+            Array::Points,
         )?;
-        for p in mesh.nodes() {
-            writeln!(out, "{:e} {:e} {:e}", p.x, p.y, p.z)?;
-        }
-        writeln!(out, "        </DataArray>")?;
         writeln!(out, "      </Points>")?;
         writeln!(out, "      <Cells>")?;
-        writeln!(
+        open(
             out,
-            r#"        <DataArray type="Int64" Name="connectivity" format="ascii">"#
+            indent,
+            r#"type="Int64" Name="connectivity""#.into(),
+            Array::Connectivity,
         )?;
-        for t in mesh.tets() {
-            let mut line = String::new();
-            for (k, n) in t.as_ref().iter().enumerate() {
-                if k > 0 {
-                    line.push(' ');
-                }
-                line.push_str(&n.to_string());
-            }
-            writeln!(out, "{line}")?;
-        }
-        writeln!(out, "        </DataArray>")?;
-        writeln!(
+        open(
             out,
-            r#"        <DataArray type="Int64" Name="offsets" format="ascii">"#
+            indent,
+            r#"type="Int64" Name="offsets""#.into(),
+            Array::Offsets,
         )?;
-        for c in 1..=mesh.tet_count() {
-            writeln!(out, "{}", C::NODES * c)?;
-        }
-        writeln!(out, "        </DataArray>")?;
-        writeln!(
+        open(
             out,
-            r#"        <DataArray type="UInt8" Name="types" format="ascii">"#
+            indent,
+            r#"type="UInt8" Name="types""#.into(),
+            Array::Types,
         )?;
-        for _ in 0..mesh.tet_count() {
-            writeln!(out, "{}", C::VTK_CELL_TYPE)?;
-        }
-        writeln!(out, "        </DataArray>")?;
         writeln!(out, "      </Cells>")?;
-        write_fields(out, "PointData", &self.point_fields, &self.point_ids)?;
-        write_fields(out, "CellData", &self.cell_fields, &self.cell_ids)?;
+        for (section, fields, ids) in [
+            ("PointData", &self.point_fields, &self.point_ids),
+            ("CellData", &self.cell_fields, &self.cell_ids),
+        ] {
+            writeln!(out, "      <{section}>")?;
+            for (name, components, values) in fields {
+                open(
+                    out,
+                    indent,
+                    format!(
+                        r#"type="Float64" Name="{}" NumberOfComponents="{components}""#,
+                        xml_escape(name)
+                    ),
+                    Array::Field(values, *components),
+                )?;
+            }
+            for (name, values) in ids {
+                open(
+                    out,
+                    indent,
+                    format!(
+                        r#"type="Int64" Name="{}" NumberOfComponents="1""#,
+                        xml_escape(name)
+                    ),
+                    Array::Ids(values),
+                )?;
+            }
+            writeln!(out, "      </{section}>")?;
+        }
         writeln!(out, "    </Piece>")?;
         writeln!(out, "  </UnstructuredGrid>")?;
+        if self.format == VtuFormat::Binary {
+            writeln!(out, r#"  <AppendedData encoding="raw">"#)?;
+            out.write_all(b"_")?;
+            for array in &appended {
+                self.write_binary(out, array)?;
+            }
+            writeln!(out)?;
+            writeln!(out, "  </AppendedData>")?;
+        }
         writeln!(out, "</VTKFile>")
     }
-}
 
-fn write_fields(
-    out: &mut dyn Write,
-    section: &str,
-    fields: &[(String, usize, &[f64])],
-    ids: &[(String, &[u64])],
-) -> std::io::Result<()> {
-    writeln!(out, "      <{section}>")?;
-    for (name, components, values) in fields {
-        writeln!(
-            out,
-            r#"        <DataArray type="Float64" Name="{}" NumberOfComponents="{components}" format="ascii">"#,
-            xml_escape(name)
-        )?;
-        for chunk in values.chunks(*components) {
-            let line: Vec<String> = chunk.iter().map(|v| format!("{v:e}")).collect();
-            writeln!(out, "{}", line.join(" "))?;
+    /// Bytes of `array`'s values in binary (without the block header).
+    fn byte_len(&self, array: &Array<'_>) -> usize {
+        let tets = self.mesh.tet_count();
+        match array {
+            Array::Points => 24 * self.mesh.node_count(),
+            Array::Connectivity => 8 * C::NODES * tets,
+            Array::Offsets => 8 * tets,
+            Array::Types => tets,
+            Array::Field(values, _) => 8 * values.len(),
+            Array::Ids(values) => 8 * values.len(),
         }
-        writeln!(out, "        </DataArray>")?;
     }
-    for (name, values) in ids {
-        writeln!(
-            out,
-            r#"        <DataArray type="Int64" Name="{}" NumberOfComponents="1" format="ascii">"#,
-            xml_escape(name)
-        )?;
-        for v in *values {
-            writeln!(out, "{v}")?;
+
+    fn write_ascii(&self, out: &mut dyn Write, array: &Array<'_>) -> std::io::Result<()> {
+        let mesh = self.mesh;
+        match array {
+            Array::Points => {
+                for p in mesh.nodes() {
+                    writeln!(out, "{:e} {:e} {:e}", p.x, p.y, p.z)?;
+                }
+            }
+            Array::Connectivity => {
+                for t in mesh.tets() {
+                    let line: Vec<String> = t.as_ref().iter().map(|n| n.to_string()).collect();
+                    writeln!(out, "{}", line.join(" "))?;
+                }
+            }
+            Array::Offsets => {
+                for c in 1..=mesh.tet_count() {
+                    writeln!(out, "{}", C::NODES * c)?;
+                }
+            }
+            Array::Types => {
+                for _ in 0..mesh.tet_count() {
+                    writeln!(out, "{}", C::VTK_CELL_TYPE)?;
+                }
+            }
+            Array::Field(values, components) => {
+                for chunk in values.chunks(*components) {
+                    let line: Vec<String> = chunk.iter().map(|v| format!("{v:e}")).collect();
+                    writeln!(out, "{}", line.join(" "))?;
+                }
+            }
+            Array::Ids(values) => {
+                for v in values.iter() {
+                    writeln!(out, "{v}")?;
+                }
+            }
         }
-        writeln!(out, "        </DataArray>")?;
+        Ok(())
     }
-    writeln!(out, "      </{section}>")
+
+    fn write_binary(&self, out: &mut dyn Write, array: &Array<'_>) -> std::io::Result<()> {
+        let mesh = self.mesh;
+        out.write_all(&(self.byte_len(array) as u64).to_le_bytes())?;
+        let mut bytes = Vec::with_capacity(self.byte_len(array));
+        match array {
+            Array::Points => {
+                for p in mesh.nodes() {
+                    for v in [p.x, p.y, p.z] {
+                        bytes.extend_from_slice(&v.to_le_bytes());
+                    }
+                }
+            }
+            Array::Connectivity => {
+                for t in mesh.tets() {
+                    for &n in t.as_ref() {
+                        bytes.extend_from_slice(&(n as i64).to_le_bytes());
+                    }
+                }
+            }
+            Array::Offsets => {
+                for c in 1..=mesh.tet_count() {
+                    bytes.extend_from_slice(&((C::NODES * c) as i64).to_le_bytes());
+                }
+            }
+            Array::Types => bytes.resize(mesh.tet_count(), C::VTK_CELL_TYPE),
+            Array::Field(values, _) => {
+                for v in values.iter() {
+                    bytes.extend_from_slice(&v.to_le_bytes());
+                }
+            }
+            // Checked ≤ i64::MAX when added, so the cast keeps the value.
+            Array::Ids(values) => {
+                for &v in values.iter() {
+                    bytes.extend_from_slice(&(v as i64).to_le_bytes());
+                }
+            }
+        }
+        out.write_all(&bytes)
+    }
 }
 
 fn check_ids(name: &str, values: &[u64], count: usize, per: &str) -> Result<()> {

@@ -1,6 +1,8 @@
 //! Helpers shared by the integration tests.
 #![allow(dead_code)]
 
+pub mod vtu;
+
 use nalgebra::Vector3;
 
 /// A small deterministic xorshift generator, so tests need no extra crate and are reproducible.
@@ -60,31 +62,16 @@ impl VtuSummary {
     }
 }
 
-pub fn parse_vtu(text: &str) -> VtuSummary {
-    let document = roxmltree::Document::parse(text).expect("well-formed XML");
-    let mut summary = VtuSummary::default();
-    for node in document.descendants() {
-        match node.tag_name().name() {
-            "Piece" => {
-                summary.points = node.attribute("NumberOfPoints").unwrap().parse().unwrap();
-                summary.cells = node.attribute("NumberOfCells").unwrap().parse().unwrap();
-            }
-            "DataArray" => {
-                let section = node.parent_element().unwrap().tag_name().name().to_string();
-                let name = node.attribute("Name").unwrap_or(&section).to_string();
-                let components = node
-                    .attribute("NumberOfComponents")
-                    .map_or(1, |c| c.parse().unwrap());
-                let values = node
-                    .text()
-                    .unwrap_or("")
-                    .split_whitespace()
-                    .map(|v| v.parse::<f64>().unwrap())
-                    .collect();
-                summary.arrays.push((section, name, components, values));
-            }
-            _ => {}
-        }
+/// Parses a `.vtu` file's bytes, ASCII or appended binary ([`vtu::parse_vtu`]).
+pub fn parse_vtu(bytes: impl AsRef<[u8]>) -> VtuSummary {
+    let vtu = vtu::parse_vtu(bytes.as_ref());
+    VtuSummary {
+        points: vtu.points,
+        cells: vtu.cells,
+        arrays: vtu
+            .arrays
+            .into_iter()
+            .map(|a| (a.section, a.name, a.components, a.values))
+            .collect(),
     }
-    summary
 }

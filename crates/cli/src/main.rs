@@ -15,8 +15,8 @@ use tetfem::{Error, Material};
 use tetfem_cli::info::mesh_info;
 use tetfem_cli::scene::{
     Analysis, DynamicOutputs, DynamicOverrides, DynamicRun, DynamicSetup, DynamicSummary,
-    ModalSummary, OutputSettings, RunLength, RunOptions, RunSummary, Scene, TimeStep, run_dynamic,
-    run_dynamic_scene, run_modal_scene, run_static_with,
+    ModalSummary, OutputSettings, RunLength, RunOptions, RunSummary, Scene, TimeStep, VtuEncoding,
+    run_dynamic, run_dynamic_scene, run_modal_scene, run_static_with,
 };
 use tetfem_fixtures::cantilever::Cantilever;
 
@@ -108,6 +108,9 @@ struct DefaultScene {
     /// Also render the static solution and each dynamic frame to PNG.
     #[arg(long)]
     png: bool,
+    /// Encoding of the `.vtu` files: `binary` (appended raw, the default) or `ascii`.
+    #[arg(long, value_parser = parse_vtu_format, default_value = "binary")]
+    vtu_format: VtuEncoding,
     /// Only the static solve (as before the dynamic part existed).
     #[arg(long)]
     static_only: bool,
@@ -130,6 +133,10 @@ struct RunArgs {
     /// Render PNG images (each frame of a dynamic run) even if the scene does not ask for them.
     #[arg(long)]
     png: bool,
+    /// Encoding of the `.vtu` files, `binary` or `ascii` (overrides the scene's
+    /// `output.vtu_format`).
+    #[arg(long, value_parser = parse_vtu_format)]
+    vtu_format: Option<VtuEncoding>,
     /// Print the run summary as one JSON object on stdout (and nothing else there).
     #[arg(long)]
     json: bool,
@@ -162,6 +169,14 @@ struct InfoArgs {
     /// Print the statistics as one JSON object.
     #[arg(long)]
     json: bool,
+}
+
+fn parse_vtu_format(text: &str) -> Result<VtuEncoding, String> {
+    match text {
+        "binary" => Ok(VtuEncoding::Binary),
+        "ascii" => Ok(VtuEncoding::Ascii),
+        other => Err(format!("'{other}': must be \"binary\" or \"ascii\"")),
+    }
 }
 
 fn parse_cells(text: &str) -> Result<[usize; 3], String> {
@@ -323,6 +338,7 @@ fn default_scene(
     title: &str,
     stem: &str,
     out: &Path,
+    vtu_format: VtuEncoding,
 ) -> tetfem::Result<Scene> {
     let m = beam.material;
     let text = format!(
@@ -367,6 +383,7 @@ where = {{ plane = {{ axis = "x", at = {length:?} }} }}
     let mut scene = Scene::parse(&text, "default", Path::new("."))?;
     scene.set_stem(stem)?;
     scene.set_output_directory(out.join(stem));
+    scene.set_vtu_format(vtu_format);
     Ok(scene)
 }
 
@@ -406,6 +423,7 @@ fn run_default_static(cli: &DefaultScene, beam: &Cantilever) -> tetfem::Result<R
         "Steel cantilever (default scene), static",
         STATIC_STEM,
         &cli.out,
+        cli.vtu_format,
     )?;
     let summary = run_static_with(
         &scene,
@@ -537,6 +555,7 @@ fn run_default_dynamic(
         "Steel cantilever released from its loaded shape",
         DYNAMIC_STEM,
         &cli.out,
+        cli.vtu_format,
     )?;
     let text = !cli.json;
     if text {
@@ -775,6 +794,9 @@ fn run_scene(args: &RunArgs) -> tetfem::Result<()> {
     let mut scene = Scene::load(&args.scene)?;
     if let Some(out) = &args.out {
         scene.set_output_directory(out.clone());
+    }
+    if let Some(format) = args.vtu_format {
+        scene.set_vtu_format(format);
     }
     let directory = scene.output().directory.clone();
     match scene.analysis() {

@@ -39,7 +39,7 @@ fn default_scene_writes_a_vtu_that_parses_back() {
             "missing '{expected}' in:\n{stdout}"
         );
     }
-    let text = std::fs::read_to_string(dir.join("cantilever/cantilever.vtu")).unwrap();
+    let text = std::fs::read(dir.join("cantilever/cantilever.vtu")).unwrap();
     let vtu = common::parse_vtu(&text);
     let scene = Cantilever {
         cells: [20, 2, 2],
@@ -146,7 +146,7 @@ fn default_dynamic_run_writes_a_pvd_series_and_a_csv() {
     assert!(frames.len() > 2);
     assert!(frames.windows(2).all(|w| w[1].0 > w[0].0));
     for (_, file) in &frames {
-        let vtu = common::parse_vtu(&std::fs::read_to_string(dir.join(file)).unwrap());
+        let vtu = common::parse_vtu(std::fs::read(dir.join(file)).unwrap());
         assert!(vtu.array("displacement").is_some() && vtu.array("velocity").is_some());
     }
     // CSV: header with the tip and every energy term, one row per frame.
@@ -154,12 +154,12 @@ fn default_dynamic_run_writes_a_pvd_series_and_a_csv() {
     let mut lines = csv.lines();
     let header = lines.next().unwrap();
     for column in [
-        "time",
-        "tip_uz",
-        "kinetic",
-        "elastic",
-        "gravity_potential",
-        "total",
+        "time_s",
+        "tip_uz_m",
+        "kinetic_J",
+        "elastic_J",
+        "gravity_potential_J",
+        "total_J",
         "wall_seconds_per_step",
     ] {
         assert!(header.contains(column), "{header}");
@@ -333,7 +333,7 @@ fn ctrl_c_stops_a_dynamic_run_with_a_valid_pvd() {
         .collect();
     assert!(frames.len() >= 3);
     for file in &frames {
-        let text = std::fs::read_to_string(dir.join(file)).unwrap();
+        let text = std::fs::read(dir.join(file)).unwrap();
         let vtu = common::parse_vtu(&text);
         assert!(
             vtu.points > 0 && vtu.array("displacement").is_some(),

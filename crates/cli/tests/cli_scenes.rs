@@ -89,7 +89,7 @@ fn json(stdout: &str) -> serde_json::Value {
 }
 
 fn check_vtu(path: &Path, nodes: usize, tets: usize) -> common::VtuSummary {
-    let vtu = common::parse_vtu(&std::fs::read_to_string(path).unwrap());
+    let vtu = common::parse_vtu(std::fs::read(path).unwrap());
     assert_eq!((vtu.points, vtu.cells), (nodes, tets), "{}", path.display());
     let displacement = &vtu.array("displacement").expect("displacement").3;
     assert_eq!(displacement.len(), 3 * nodes);
@@ -142,7 +142,7 @@ fn static_scenes_run_through_the_cli() {
         assert_eq!(frames, vec![(0.0, format!("{stem}.vtu"))], "{name}");
         let (header, rows) = parse_csv(&dir.join(format!("{stem}_probes.csv")));
         assert_eq!(rows.len(), 1, "{name}");
-        let uz = rows[0][column(&header, &format!("{probe}_uz"))];
+        let uz = rows[0][column(&header, &format!("{probe}_uz_m"))];
         let expected = summary["probes"][0]["displacement"][2].as_f64().unwrap();
         assert!(close(uz, expected), "{name}: {uz} vs {expected}");
         // Every shipped static scene asks for a PNG.
@@ -209,27 +209,27 @@ fn dynamic_scene_runs_short_with_frames_series_and_pngs() {
     // One CSV row per step plus the initial state.
     let (header, rows) = parse_csv(&dir.join("cantilever_dynamic.csv"));
     for c in [
-        "time",
+        "time_s",
         "step",
         "wall_seconds_per_step",
-        "tip_ux",
-        "tip_uy",
-        "tip_uz",
-        "kinetic",
-        "elastic",
-        "gravity_potential",
-        "load_potential",
-        "total",
+        "tip_ux_m",
+        "tip_uy_m",
+        "tip_uz_m",
+        "kinetic_J",
+        "elastic_J",
+        "gravity_potential_J",
+        "load_potential_J",
+        "total_J",
     ] {
         column(&header, c);
     }
     assert_eq!(header.len(), 11);
     assert_eq!(rows.len(), 26);
     let (t, step, wall, uz) = (
-        column(&header, "time"),
+        column(&header, "time_s"),
         column(&header, "step"),
         column(&header, "wall_seconds_per_step"),
-        column(&header, "tip_uz"),
+        column(&header, "tip_uz_m"),
     );
     for (i, row) in rows.iter().enumerate() {
         assert_eq!(row[step], i as f64);
@@ -238,7 +238,7 @@ fn dynamic_scene_runs_short_with_frames_series_and_pngs() {
     }
     // Released from rest under a suddenly applied downward end load: starts at zero, moves down.
     assert_eq!(rows[0][uz], 0.0);
-    assert_eq!(rows[0][column(&header, "kinetic")], 0.0);
+    assert_eq!(rows[0][column(&header, "kinetic_J")], 0.0);
     assert!(rows[25][uz] < 0.0);
     let last = &summary["probes"][0];
     let close = |a: f64, b: f64| (a - b).abs() <= 1e-14 * b.abs();
@@ -246,7 +246,7 @@ fn dynamic_scene_runs_short_with_frames_series_and_pngs() {
     let min = rows.iter().map(|r| r[uz]).fold(f64::INFINITY, f64::min);
     assert!(close(last["min"][2].as_f64().unwrap(), min));
     // Backward Euler only dissipates: the total energy never rises from step to step.
-    let total = column(&header, "total");
+    let total = column(&header, "total_J");
     for pair in rows.windows(2) {
         assert!(
             pair[1][total] <= pair[0][total] + 1e-12 * pair[0][total].abs().max(1e-9),
@@ -399,7 +399,7 @@ fn default_run_releases_the_cantilever_and_writes_the_series() {
         );
     }
     let (header, rows) = parse_csv(&dir.join("cantilever_swing/cantilever_swing.csv"));
-    let (uz, kinetic) = (column(&header, "tip_uz"), column(&header, "kinetic"));
+    let (uz, kinetic) = (column(&header, "tip_uz_m"), column(&header, "kinetic_J"));
     // Released at rest from the loaded shape: the tip starts down, then rises once the end
     // load is gone (its lowest point is the start), and the beam moves.
     assert!(rows[0][uz] < 0.0 && rows[0][kinetic] == 0.0);

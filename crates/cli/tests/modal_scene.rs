@@ -2,6 +2,9 @@
 //! masses are complete and match a rod's analytic values, the files hold what they say, and bad
 //! keys are errors naming the key and its line.
 
+#[path = "../../../tests/common/vtu.rs"]
+mod vtu;
+
 use std::path::Path;
 
 use tetfem::Error;
@@ -179,18 +182,8 @@ fn modal_files_hold_normalized_shapes_and_their_frequencies() {
             name.contains(&format!("{:.4}Hz", row.frequency_hz)),
             "{name}"
         );
-        let text = std::fs::read_to_string(vtu).unwrap();
-        let doc = roxmltree::Document::parse(&text).unwrap();
-        let array = |name: &str| {
-            doc.descendants()
-                .find(|n| n.attribute("Name") == Some(name))
-                .unwrap()
-                .text()
-                .unwrap()
-                .split_whitespace()
-                .map(|v| v.parse::<f64>().unwrap())
-                .collect::<Vec<_>>()
-        };
+        let file = vtu::read_vtu(vtu);
+        let array = |name: &str| file.values(name).to_vec();
         assert_eq!(array("frequency_hz"), vec![row.frequency_hz]);
         let shape = array("mode_shape");
         let largest = shape

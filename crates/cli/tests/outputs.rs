@@ -2,6 +2,9 @@
 //! structure; derived fields against closed forms; the PNG renderer; mesh quality and the
 //! critical time step.
 
+#[path = "../../../tests/common/vtu.rs"]
+mod vtu;
+
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
@@ -33,28 +36,14 @@ fn small_mesh() -> TetMesh {
     .unwrap()
 }
 
-/// All `<DataArray Name=...>` contents of a VTK XML file, parsed as numbers (the point
-/// coordinates, which have no name, as "Points").
+/// All `<DataArray Name=...>` contents of a `.vtu` (ASCII or appended binary), as numbers
+/// (the point coordinates, which have no name, as "Points").
 fn data_arrays(path: &Path) -> HashMap<String, Vec<f64>> {
-    let xml = std::fs::read_to_string(path).unwrap();
-    let doc = roxmltree::Document::parse(&xml).unwrap();
-    let mut arrays = HashMap::new();
-    for node in doc.descendants().filter(|n| n.has_tag_name("DataArray")) {
-        let in_points = node.parent().is_some_and(|p| p.has_tag_name("Points"));
-        let name = match node.attribute("Name") {
-            Some(name) => name.to_string(),
-            None if in_points => "Points".to_string(),
-            None => continue,
-        };
-        let values = node
-            .text()
-            .unwrap_or("")
-            .split_whitespace()
-            .map(|v| v.parse().unwrap())
-            .collect();
-        arrays.insert(name, values);
-    }
-    arrays
+    vtu::read_vtu(path)
+        .arrays
+        .into_iter()
+        .map(|a| (a.name, a.values))
+        .collect()
 }
 
 #[test]
@@ -73,7 +62,7 @@ fn vtu_reads_back_with_the_values_written() {
     let path = tmp("shear.vtu");
     write_result_vtu(&path, &mesh, &material, &displacement, Some(&velocity)).unwrap();
     let arrays = data_arrays(&path);
-    // Rust prints floats with the shortest round-trip representation: values come back exactly.
+    // Binary f64 (and, in ASCII, Rust's shortest round-trip printing) gives the values back exactly.
     assert_eq!(arrays["displacement"], displacement);
     assert_eq!(arrays["velocity"], velocity);
     assert_eq!(

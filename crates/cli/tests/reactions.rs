@@ -1,6 +1,9 @@
 //! Reaction forces of static scenes (linear, and nonlinear models solved by Newton): per node in
 //! the `.vtu`, per constraint entry in the summary, and in balance with the applied loads.
 
+#[path = "../../../tests/common/vtu.rs"]
+mod vtu;
+
 use std::path::Path;
 
 use nalgebra::Vector3;
@@ -78,19 +81,9 @@ fn the_bimaterial_bar_holds_its_pull() {
         .iter()
         .find(|f| f.extension().is_some_and(|e| e == "vtu"))
         .unwrap();
-    let text = std::fs::read_to_string(vtu).unwrap();
-    let doc = roxmltree::Document::parse(&text).unwrap();
-    let values: Vec<f64> = doc
-        .descendants()
-        .find(|n| n.attribute("Name") == Some("reaction_force"))
-        .unwrap()
-        .text()
-        .unwrap()
-        .split_whitespace()
-        .map(|v| v.parse().unwrap())
-        .collect();
+    let values = vtu::read_vtu(vtu).values("reaction_force").to_vec();
     let sum_x: f64 = values.iter().step_by(3).sum();
-    // Printed with 17 significant digits; summed in another order than the resultant.
+    // Stored bit for bit; summed in another order than the resultant.
     assert!((sum_x - reactions[0].force_n[0]).abs() < 1e-9 * sum_x.abs());
 }
 

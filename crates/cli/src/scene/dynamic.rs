@@ -23,7 +23,7 @@ use tetfem::material::Material;
 use tetfem::mesh::TetMesh;
 use tetfem::output::fields::{cell_model_von_mises, cell_von_mises, displacement_magnitude};
 use tetfem::output::{
-    CsvSeries, FrameExtras, OriginalIds, OutputLock, PvdCollection, write_atomically,
+    CsvSeries, CsvValue, FrameExtras, OriginalIds, OutputLock, PvdCollection, write_atomically,
     write_model_result_vtu, write_result_frame,
 };
 use tetfem_fixtures::cantilever::Cantilever;
@@ -467,9 +467,10 @@ pub const STEP_CHECK_DOFS: usize = 30_000;
 pub const STEP_CHECK_MODES: usize = 6;
 
 impl DynamicSummary {
-    /// The summary as one line of JSON.
+    /// The summary as one line of JSON, with a `units` table (the unit of every field that
+    /// carries a quantity, keyed by its path).
     pub fn to_json(&self) -> String {
-        serde_json::to_string(self).unwrap_or_else(|e| format!("{{\"error\":\"{e}\"}}"))
+        super::units::to_json_with_units(self, super::units::DYNAMIC)
     }
 }
 
@@ -550,7 +551,7 @@ fn run_dynamic_locked(
     let mut state = setup.initial.clone();
     let initial_energy = setup.force.energy(system, &state)?;
     let mut writer = match outputs {
-        Some(o) => Some(FrameWriter::new(setup, run, o, steps)?),
+        Some(o) => Some(FrameWriter::new(setup, run, o, steps, dt)?),
         None => None,
     };
     let mut probes: Vec<ProbeRange> = setup
@@ -614,7 +615,7 @@ fn run_dynamic_locked(
             }
             return Err(Error::Interrupted {
                 step,
-                time: state.time,
+                time: step_time((setup.initial.time, setup.initial.steps), dt, &state),
                 frames,
             });
         }
@@ -689,7 +690,7 @@ fn run_dynamic_locked(
         critical_step_source: critical_source.into(),
         dt_over_critical: dt / critical,
         steps,
-        end_time: state.time,
+        end_time: step_time((setup.initial.time, setup.initial.steps), dt, &state),
         setup_seconds,
         first_step_seconds: first_step,
         mean_step_seconds: if steps > 1 {
@@ -734,6 +735,17 @@ struct FrameWriter {
     csv: Option<CsvSeries>,
     files: Vec<PathBuf>,
     digits: usize,
+    /// The time of the run's first state and its fixed step, for [`step_time`].
+    start: (f64, usize),
+    dt: f64,
+}
+
+/// The time of `state`, t = t₀ + (n − n₀)·dt from the run's first state (t₀, n₀) and its
+/// fixed step dt (a scene's dt never changes during a run): one rounding, where the
+/// integrators' running sum t += dt drifts (1000 steps of 0.1 sum to 99.9999999999986).
+/// Written to the CSV, the `.pvd` and the frames' `TimeValue`.
+fn step_time(start: (f64, usize), dt: f64, state: &State) -> f64 {
+    start.0 + state.steps.saturating_sub(start.1) as f64 * dt
 }
 
 /// The fixed look of the PNG frames.
@@ -751,6 +763,7 @@ impl FrameWriter {
         run: &DynamicRun,
         outputs: &DynamicOutputs,
         steps: usize,
+        dt: f64,
     ) -> Result<Self> {
         let s = &outputs.settings;
         std::fs::create_dir_all(&s.directory).map_err(|source| Error::Io {
@@ -758,11 +771,14 @@ impl FrameWriter {
             source,
         })?;
         let csv = if s.csv {
-            let mut columns: Vec<String> =
-                vec!["time".into(), "step".into(), "wall_seconds_per_step".into()];
+            let mut columns: Vec<String> = vec![
+                "time_s".into(),
+                "step".into(),
+                "wall_seconds_per_step".into(),
+            ];
             for p in &setup.probes {
                 for c in ["ux", "uy", "uz"] {
-                    columns.push(format!("{}_{c}", p.name));
+                    columns.push(format!("{}_{c}_m", p.name));
                 }
             }
             for e in [
@@ -772,7 +788,7 @@ impl FrameWriter {
                 "load_potential",
                 "total",
             ] {
-                columns.push(e.into());
+                columns.push(format!("{e}_J"));
             }
             Some(CsvSeries::new(
                 s.directory.join(format!("{}.csv", s.stem)),
@@ -798,6 +814,8 @@ impl FrameWriter {
             csv,
             files: Vec::new(),
             digits: steps.to_string().len().max(4),
+            start: (setup.initial.time, setup.initial.steps),
+            dt,
         })
     }
 
@@ -812,19 +830,23 @@ impl FrameWriter {
         energy: &Energy,
         last: bool,
     ) -> Result<()> {
+        let time = step_time(self.start, self.dt, state);
         if let Some(csv) = &mut self.csv {
-            let mut row = vec![state.time, state.steps as f64, wall];
+            let mut row: Vec<CsvValue> = vec![time.into(), state.steps.into(), wall.into()];
             for p in probes {
-                row.extend(p);
+                row.extend(p.iter().map(|&v| CsvValue::Real(v)));
             }
-            row.extend([
-                energy.kinetic,
-                energy.elastic,
-                energy.gravity_potential,
-                energy.load_potential,
-                energy.total(),
-            ]);
-            csv.push(&row)?;
+            row.extend(
+                [
+                    energy.kinetic,
+                    energy.elastic,
+                    energy.gravity_potential,
+                    energy.load_potential,
+                    energy.total(),
+                ]
+                .map(CsvValue::Real),
+            );
+            csv.push_values(&row)?;
         }
         if !(state.steps.is_multiple_of(self.every) || last) {
             return Ok(());
@@ -855,8 +877,9 @@ impl FrameWriter {
             let extras = FrameExtras {
                 velocity: Some(&velocity),
                 reactions: None,
-                time: Some(state.time),
-                stress_tensors: false,
+                time: Some(time),
+                stress_tensors: true,
+                format: self.settings.vtu_format.format(),
                 error_indicator: indicators.as_deref(),
                 original_ids: setup
                     .original_ids
@@ -876,7 +899,7 @@ impl FrameWriter {
                     extras,
                 )?,
             }
-            pvd.push(state.time, &vtu)?;
+            pvd.push(time, &vtu)?;
             self.files.push(vtu);
         }
         if let Some(look) = &self.png {
@@ -908,7 +931,7 @@ impl FrameWriter {
                     title: self.title.clone(),
                     subtitle: format!(
                         "t = {:.4e} s (step {}), deformation ×{}",
-                        state.time,
+                        time,
                         state.steps,
                         format_scale(look.scale)
                     ),

@@ -13,6 +13,7 @@ mod estimate;
 mod modal;
 mod run;
 mod spec;
+mod units;
 
 pub use build::{BuiltScene, Probe};
 pub use critical::{CriticalStepReport, critical_step_of};
@@ -109,6 +110,7 @@ png_field = "displacement"          # default; or "von_mises"
 png_size = [960, 600]               # default [960, 600]
 deformation_scale = 0.0             # 0 (default): automatic
 critical_step = false               # static and modal: also report the explicit critical step (s); default false
+vtu_format = "binary"               # default (appended raw binary); or "ascii"
 "#;
 
 /// The settings of a modal scene, validated.
@@ -182,6 +184,8 @@ pub struct OutputSettings {
     /// Static and modal runs: also find the explicit critical step (lumped mass) for the
     /// summary (dynamic runs always report it).
     pub critical_step: bool,
+    /// Encoding of the `.vtu` files.
+    pub vtu_format: VtuEncoding,
 }
 
 /// A parsed and checked scene file.
@@ -253,6 +257,7 @@ impl Scene {
                 png_size: [960, 600],
                 deformation_scale: 0.0,
                 critical_step: false,
+                vtu_format: VtuEncoding::Binary,
             },
         };
         scene.analysis = scene.check_analysis()?;
@@ -338,6 +343,11 @@ impl Scene {
     /// Overrides the output folder (e.g. from a command-line option).
     pub fn set_output_directory(&mut self, directory: PathBuf) {
         self.output.directory = directory;
+    }
+
+    /// Overrides the encoding of the `.vtu` files (e.g. from a command-line option).
+    pub fn set_vtu_format(&mut self, format: VtuEncoding) {
+        self.output.vtu_format = format;
     }
 
     /// An [`Error::Scene`] at byte `span` of the text.
@@ -507,6 +517,7 @@ impl Scene {
             png_size,
             deformation_scale,
             critical_step: o.critical_step.unwrap_or(false),
+            vtu_format: o.vtu_format.unwrap_or_default(),
         })
     }
 }

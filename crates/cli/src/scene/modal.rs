@@ -70,10 +70,10 @@ pub struct ModalSummary {
 }
 
 impl ModalSummary {
-    /// The summary as one line of JSON.
+    /// The summary as one line of JSON, with a `units` table (the unit of every field that
+    /// carries a quantity, keyed by its path).
     pub fn to_json(&self) -> String {
-        // Serializing plain numbers, strings and paths cannot fail; NaN becomes null.
-        serde_json::to_string(self).unwrap_or_else(|e| format!("{{\"error\":\"{e}\"}}"))
+        super::units::to_json_with_units(self, super::units::MODAL)
     }
 }
 
@@ -239,6 +239,7 @@ fn write_modal_outputs(
                 out.stem, row.mode, row.frequency_hz
             ));
             let mut writer = VtuWriter::new(mesh)
+                .format(out.vtu_format.format())
                 .field_data("mode", row.mode as f64)?
                 .field_data("frequency_hz", row.frequency_hz)?
                 .field_data("period_s", row.period_s)?

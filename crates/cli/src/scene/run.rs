@@ -132,10 +132,10 @@ pub struct RunSummary {
 }
 
 impl RunSummary {
-    /// The summary as one line of JSON.
+    /// The summary as one line of JSON, with a `units` table (the unit of every field that
+    /// carries a quantity, keyed by its path).
     pub fn to_json(&self) -> String {
-        // Serializing plain numbers, strings and paths cannot fail; NaN becomes null.
-        serde_json::to_string(self).unwrap_or_else(|e| format!("{{\"error\":\"{e}\"}}"))
+        super::units::to_json_with_units(self, super::units::STATIC)
     }
 }
 
@@ -356,6 +356,7 @@ fn write_static_outputs(
             stress_tensors: true,
             original_ids: built.imported.as_ref().map(OriginalIds::of),
             error_indicator,
+            format: out.vtu_format.format(),
             ..Default::default()
         };
         match model.kind() {
@@ -371,10 +372,10 @@ fn write_static_outputs(
         files.push(pvd.path().to_path_buf());
     }
     if out.csv && !built.probes.is_empty() {
-        let mut columns = vec!["time".to_string()];
+        let mut columns = vec!["time_s".to_string()];
         for p in &built.probes {
             for c in ["ux", "uy", "uz"] {
-                columns.push(format!("{}_{c}", p.name));
+                columns.push(format!("{}_{c}_m", p.name));
             }
         }
         let mut csv = CsvSeries::new(dir.join(format!("{}_probes.csv", out.stem)), columns)?;

@@ -364,6 +364,30 @@ pub struct OutputSpec {
     /// false: it costs a power iteration and a factorization; dynamic runs always report it).
     #[serde(default)]
     pub critical_step: Option<bool>,
+    /// Encoding of every `.vtu` written: `"binary"` (default, appended raw) or `"ascii"`.
+    #[serde(default)]
+    pub vtu_format: Option<VtuEncoding>,
+}
+
+/// The encoding of the `.vtu` files (`[output] vtu_format`).
+#[derive(Debug, Clone, Copy, Default, Deserialize, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum VtuEncoding {
+    /// Appended raw binary ([`tetfem::output::VtuFormat::Binary`]).
+    #[default]
+    Binary,
+    /// Numbers as text ([`tetfem::output::VtuFormat::Ascii`]).
+    Ascii,
+}
+
+impl VtuEncoding {
+    /// The library's format.
+    pub fn format(self) -> tetfem::output::VtuFormat {
+        match self {
+            VtuEncoding::Binary => tetfem::output::VtuFormat::Binary,
+            VtuEncoding::Ascii => tetfem::output::VtuFormat::Ascii,
+        }
+    }
 }
 
 /// The field a picture is coloured by.

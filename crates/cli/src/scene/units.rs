@@ -1,0 +1,85 @@
+//! The `units` table of the JSON summaries: the unit of every field that carries a quantity,
+//! keyed by its path (`dt`, `initial_energy.kinetic`, `probes.last`, `modes.frequency_hz`;
+//! array elements share their field's unit). A table rather than suffixes keeps the summaries'
+//! keys stable for the Python package and users' scripts; `1` marks a dimensionless ratio.
+
+use serde::Serialize;
+
+/// Units of a dynamic run's summary.
+pub(crate) const DYNAMIC: &[(&str, &str)] = &[
+    ("dt", "s"),
+    ("critical_step", "s"),
+    ("dt_over_critical", "1"),
+    ("end_time", "s"),
+    ("setup_seconds", "s"),
+    ("first_step_seconds", "s"),
+    ("mean_step_seconds", "s"),
+    ("step_seconds", "s"),
+    ("output_seconds", "s"),
+    ("initial_energy.kinetic", "J"),
+    ("initial_energy.elastic", "J"),
+    ("initial_energy.gravity_potential", "J"),
+    ("initial_energy.load_potential", "J"),
+    ("initial_energy.total", "J"),
+    ("final_energy.kinetic", "J"),
+    ("final_energy.elastic", "J"),
+    ("final_energy.gravity_potential", "J"),
+    ("final_energy.load_potential", "J"),
+    ("final_energy.total", "J"),
+    ("probes.last", "m"),
+    ("probes.min", "m"),
+    ("probes.max", "m"),
+];
+
+/// Units of a static run's summary.
+pub(crate) const STATIC: &[(&str, &str)] = &[
+    ("max_displacement", "m"),
+    ("max_von_mises", "Pa"),
+    ("relative_residual", "1"),
+    ("probes.displacement", "m"),
+    ("applied_load_n", "N"),
+    ("reactions.force_n", "N"),
+    ("reactions.moment_about_origin_nm", "N·m"),
+    ("build_seconds", "s"),
+    ("solve_seconds", "s"),
+    ("output_seconds", "s"),
+    ("phases.pattern", "s"),
+    ("phases.assembly", "s"),
+    ("phases.constraints", "s"),
+    ("phases.symbolic", "s"),
+    ("phases.factorization", "s"),
+    ("phases.solve", "s"),
+    ("critical_step.seconds", "s"),
+];
+
+/// Units of a modal run's summary.
+pub(crate) const MODAL: &[(&str, &str)] = &[
+    ("modes.frequency_hz", "Hz"),
+    ("modes.period_s", "s"),
+    ("modes.omega_rad_per_s", "rad/s"),
+    ("modes.effective_mass_fraction", "1"),
+    ("modes.residual", "1"),
+    ("cumulative_mass_fraction", "1"),
+    ("build_seconds", "s"),
+    ("solve_seconds", "s"),
+    ("output_seconds", "s"),
+    ("critical_step.seconds", "s"),
+];
+
+/// `summary` as one JSON object with a `units` object added (`{"dt": "s", …}`); NaN becomes
+/// null. Serializing plain numbers, strings and paths cannot fail; if it did, the error is the
+/// JSON.
+pub(crate) fn to_json_with_units(summary: &impl Serialize, units: &[(&str, &str)]) -> String {
+    let mut value = match serde_json::to_value(summary) {
+        Ok(value) => value,
+        Err(e) => return format!("{{\"error\":\"{e}\"}}"),
+    };
+    if let Some(object) = value.as_object_mut() {
+        let table: serde_json::Map<String, serde_json::Value> = units
+            .iter()
+            .map(|(key, unit)| (key.to_string(), serde_json::Value::from(*unit)))
+            .collect();
+        object.insert("units".into(), serde_json::Value::Object(table));
+    }
+    value.to_string()
+}
