@@ -37,8 +37,10 @@ pub(crate) use tetfem_linalg::{
     amg, block_sparse, iterative, linear_solver, linsolve, ordering, sparse,
 };
 
+pub mod amplitude;
 pub mod assembly;
 pub mod atomic_file;
+pub mod boundary_motion;
 pub mod constraints;
 pub mod convergence;
 pub mod dynamics;
