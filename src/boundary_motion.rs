@@ -75,7 +75,13 @@ impl RigidMotion {
     /// with r = R(θ)·(x − p) and k the unit axis, u̇ = θ̇·k×r + d·ȧ and
     /// ü = θ̈·k×r + θ̇²·k×(k×r) + d·ä.
     pub fn at(&self, x: &Vector3<f64>, t: f64) -> [Vector3<f64>; 3] {
-        let [a, rate, acceleration] = self.amplitude.derivatives(t);
+        self.at_scaled(x, t, 1.0)
+    }
+
+    /// [`at`](Self::at) with the amplitude's value and derivatives times `scale`: the rigid
+    /// motion by `scale`·θ(t) and `scale`·d·a(t) (what a load step of a static solve takes).
+    pub fn at_scaled(&self, x: &Vector3<f64>, t: f64, scale: f64) -> [Vector3<f64>; 3] {
+        let [a, rate, acceleration] = self.amplitude.derivatives(t).map(|v| scale * v);
         let rotation = Rotation3::from_axis_angle(&self.axis, self.angle * a);
         let r = rotation * (x - self.point);
         let k_cross_r = self.axis.cross(&r);
@@ -148,20 +154,26 @@ impl Motion {
 
     /// [u, u̇, ü] of the material point `x` at time `t`.
     pub fn at(&self, x: &Vector3<f64>, t: f64) -> [Vector3<f64>; 3] {
+        self.at_scaled(x, t, 1.0)
+    }
+
+    /// [`at`](Self::at) with the amplitude times `scale` (for a rigid motion, the rotation
+    /// angle and the translation scaled; for the others, u scaled).
+    pub fn at_scaled(&self, x: &Vector3<f64>, t: f64, scale: f64) -> [Vector3<f64>; 3] {
         match self {
             Motion::Uniform {
                 displacement,
                 amplitude,
-            } => amplitude.derivatives(t).map(|a| displacement * a),
+            } => amplitude.derivatives(t).map(|a| displacement * (scale * a)),
             Motion::LinearField {
                 matrix,
                 offset,
                 amplitude,
             } => {
                 let u = matrix * x + offset;
-                amplitude.derivatives(t).map(|a| u * a)
+                amplitude.derivatives(t).map(|a| u * (scale * a))
             }
-            Motion::Rigid(rigid) => rigid.at(x, t),
+            Motion::Rigid(rigid) => rigid.at_scaled(x, t, scale),
         }
     }
 
@@ -255,6 +267,17 @@ impl BoundaryMotion {
     /// `positions` (the mesh's reference coordinates). [`Error::UnknownNode`] for a node
     /// beyond `positions`.
     pub fn evaluate(&self, positions: &[Vector3<f64>], t: f64) -> Result<Vec<[f64; 3]>> {
+        self.evaluate_scaled(positions, t, 1.0)
+    }
+
+    /// [`evaluate`](Self::evaluate) with every amplitude times `scale` (see
+    /// [`Motion::at_scaled`]): a load step λ of a static solve takes `scale` = λ.
+    pub fn evaluate_scaled(
+        &self,
+        positions: &[Vector3<f64>],
+        t: f64,
+        scale: f64,
+    ) -> Result<Vec<[f64; 3]>> {
         let mut out = Vec::new();
         for set in &self.sets {
             for &n in &set.nodes {
@@ -263,7 +286,7 @@ impl BoundaryMotion {
                     node: n,
                     node_count: positions.len(),
                 })?;
-                let [u, v, a] = set.motion.at(x, t);
+                let [u, v, a] = set.motion.at_scaled(x, t, scale);
                 for axis in (0..3).filter(|&a| set.axes[a]) {
                     out.push([u[axis], v[axis], a[axis]]);
                 }
