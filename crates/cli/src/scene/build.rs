@@ -663,6 +663,12 @@ impl Context<'_> {
         let key = format!("{key}.where");
         let nodes = match select {
             Selector::All => (0..self.mesh.node_count()).collect(),
+            Selector::Boundary => {
+                let mut nodes: Vec<usize> = self.boundary.iter().flat_map(|f| f.nodes).collect();
+                nodes.sort_unstable();
+                nodes.dedup();
+                nodes
+            }
             Selector::Plane {
                 axis,
                 at,

@@ -310,6 +310,8 @@ impl Axis {
 pub enum Selector {
     /// Every node / every boundary face: `"all"`.
     All,
+    /// The nodes on the boundary (of some boundary face) / every boundary face: `"boundary"`.
+    Boundary,
     /// `{ plane = { axis = "x", at = 0.0 } }`: nodes with |x\[axis\] − at| ≤ tolerance
     /// (default 1e-6 × the mesh's bounding-box diagonal); faces with all three nodes so.
     Plane {
