@@ -436,11 +436,11 @@ impl LinearSystem {
     }
 
     /// The divergence guard of a run starting with energies `start`: the energy check of
-    /// [`DivergenceGuard::new`], or with moving supports ([`has_moving_supports`](Self::has_moving_supports))
-    /// the check of finite values only ([`DivergenceGuard::finite_only`]): the supports do work
-    /// the free DOFs' energies do not account for.
+    /// [`DivergenceGuard::new`], or with data that follow time ([`is_time_varying`](Self::is_time_varying))
+    /// the check of finite values only ([`DivergenceGuard::finite_only`]): moving supports and
+    /// loads with amplitudes do work the energies' constant load potentials do not account for.
     pub fn divergence_guard(&self, start: Energy) -> DivergenceGuard {
-        match self.has_moving_supports() {
+        match self.is_time_varying() {
             true => DivergenceGuard::finite_only(start),
             false => DivergenceGuard::new(start),
         }
