@@ -237,8 +237,10 @@ impl Scene {
                 loads
                     .add_scaled(&single, amplitude.value(time))
                     .map_err(|e| self.error(&key, &l.span(), e.to_string()))?;
+                // The load itself, not its value at this time (a ramp is 0 at the start).
+                let zero = vec![0.0; single.as_slice().len()];
                 if let Some(warning) =
-                    on_fixed_dofs_only(&key, &before, loads.as_slice(), &constraints)
+                    on_fixed_dofs_only(&key, &zero, single.as_slice(), &constraints)
                 {
                     input_warnings.push(warning);
                 }
