@@ -38,8 +38,10 @@ pub(crate) use tetfem_linalg::{
 };
 
 pub mod adequacy;
+pub mod amplitude;
 pub mod assembly;
 pub mod atomic_file;
+pub mod boundary_motion;
 pub mod constraints;
 pub mod convergence;
 pub mod dynamics;

@@ -166,6 +166,16 @@ impl Loads {
         self.add_traction(mesh, faces, total / area)
     }
 
+    /// Adds `factor` times `other` (loads of the same mesh: [`Error::DimensionMismatch`]
+    /// otherwise): a load scaled by its amplitude's value.
+    pub fn add_scaled(&mut self, other: &Loads, factor: f64) -> Result<&mut Self> {
+        Error::check_len("loads", self.forces.len(), other.forces.len())?;
+        for (f, g) in self.forces.iter_mut().zip(&other.forces) {
+            *f += factor * g;
+        }
+        Ok(self)
+    }
+
     /// The nodal force vector (length 3·nodes).
     pub fn as_slice(&self) -> &[f64] {
         &self.forces

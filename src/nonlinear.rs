@@ -1,6 +1,8 @@
 //! Nonlinear static equilibrium with a [`ForceModel`]: Newton's method with a backtracking line
 //! search and load stepping, one symbolic factorization for all iterations.
 
+use crate::amplitude::STATIC_TIME;
+use crate::boundary_motion::BoundaryMotion;
 use crate::constraints::Constraints;
 use crate::error::{Error, Result};
 use crate::linear_solver::{LinearMethod, LinearSolver, SolverOptions};
@@ -68,6 +70,31 @@ pub fn solve_nonlinear_static(
     loads: &Loads,
     options: NewtonOptions,
 ) -> Result<NewtonReport> {
+    solve_nonlinear_static_with_motion(
+        mesh,
+        model,
+        constraints,
+        loads,
+        &BoundaryMotion::new(),
+        options,
+    )
+}
+
+/// [`solve_nonlinear_static`] with moving supports: at load step λ = s/N the DOFs of `motion`
+/// take its values at [`STATIC_TIME`] with the amplitudes scaled by λ
+/// ([`BoundaryMotion::evaluate_scaled`]) instead of λ times their final value, so a clamp under
+/// a [`RigidMotion`](crate::boundary_motion::RigidMotion) turns through exact rotations by λ·θ
+/// (a chord λ·u would shrink the clamped section on the way: by cos(θ/2) halfway through a
+/// rotation by θ). `constraints` must hold the motion's DOFs at their values at
+/// [`STATIC_TIME`] (see [`BoundaryMotion::prescribe_at`]).
+pub fn solve_nonlinear_static_with_motion(
+    mesh: &TetMesh,
+    model: &(impl TetModels + ?Sized),
+    constraints: &Constraints,
+    loads: &Loads,
+    motion: &BoundaryMotion,
+    options: NewtonOptions,
+) -> Result<NewtonReport> {
     if options.load_steps == 0 || !(options.tolerance > 0.0 && options.tolerance.is_finite()) {
         return Err(Error::invalid_parameter(
             "Newton options",
@@ -103,6 +130,12 @@ pub fn solve_nonlinear_static(
         for (dof, value) in dofs.prescribed().iter().enumerate() {
             if dofs.free_index(dof).is_none() {
                 u[dof] = factor * value;
+            }
+        }
+        if !motion.is_empty() {
+            let values = motion.evaluate_scaled(mesh.nodes(), STATIC_TIME, factor)?;
+            for (dof, [value, _, _]) in motion.dofs().into_iter().zip(values) {
+                u[dof] = value;
             }
         }
         let residual = |u: &[f64]| -> Result<Vec<f64>> {

@@ -127,6 +127,11 @@ impl<'a, E: ElementType> Problem<'a, E> {
         self.restriction.restrict(full)
     }
 
+    /// The full consistent mass (mass units), every DOF.
+    pub fn consistent_mass(&self, materials: &impl TetMaterials) -> Result<CscMatrix> {
+        self.assembler.consistent_mass(self.mesh, materials)
+    }
+
     /// The consistent mass restricted to the free DOFs (mass units), on the pattern of K_ff.
     pub fn free_consistent_mass(&self, materials: &impl TetMaterials) -> Result<CscMatrix> {
         self.restriction

@@ -46,6 +46,8 @@ pub struct BackwardEuler {
     product: Vec<f64>,
     rhs: Vec<f64>,
     blocks_work: SymmetricWorkspace,
+    /// f(t) of time-varying data (empty for constant data: see [`LinearSystem::load_buffer`]).
+    load: Vec<f64>,
     /// The Newton solver of a nonlinear force (`None`: the linear path).
     newton: Option<NewtonSolver>,
 }
@@ -91,6 +93,7 @@ impl BackwardEuler {
             product: vec![0.0; n],
             rhs: vec![0.0; n],
             blocks_work: system.stiffness_blocks().workspace(),
+            load: system.load_buffer(),
             newton,
             system,
         })
@@ -188,7 +191,11 @@ impl Integrator for BackwardEuler {
         };
         // rhs = dt·(f − K·u − (dt + β)·K·v − α·M·v), in the same pass as the kinetic energy and
         // the potentials; `rhs` holds M·v on entry when the mass is consistent.
-        let f = self.system.external_load();
+        // The load (and the moving supports' terms) at the step's end, t + dt: the method is
+        // implicit in all of them.
+        let f = self
+            .system
+            .external_load_at(state.time + dt, &mut self.load)?;
         let (ku, kv, stiffness_factor) = (&self.product, &self.work, dt + damping.beta);
         const CHUNK: usize = 4096;
         let partial: Vec<[f64; 2]> = self
@@ -212,7 +219,7 @@ impl Integrator for BackwardEuler {
         let energy = Energy::for_guard(sums[0], twice_elastic, sums[1]);
         match &self.guard {
             Some(guard) => guard.check_energy(state.steps, state.time, &energy)?,
-            None => self.guard = Some(DivergenceGuard::new(energy)),
+            None => self.guard = Some(self.system.divergence_guard(energy)),
         }
         self.solver.solve(&self.matrix, &mut self.rhs)?;
         let finite = state

@@ -34,6 +34,8 @@ pub struct SymplecticEuler {
     work: Vec<f64>,
     product: Vec<f64>,
     blocks_work: SymmetricWorkspace,
+    /// f(t) of time-varying data (empty for constant data: see [`LinearSystem::load_buffer`]).
+    load: Vec<f64>,
     /// The evaluator of a nonlinear force (`None`: the linear path).
     forces: Option<NewtonSolver>,
 }
@@ -74,6 +76,7 @@ impl SymplecticEuler {
             work: vec![0.0; n],
             product: vec![0.0; n],
             blocks_work: system.stiffness_blocks().workspace(),
+            load: system.load_buffer(),
             system,
         })
     }
@@ -141,7 +144,8 @@ impl Integrator for SymplecticEuler {
             )
         };
         let (before_steps, before_time) = (state.steps, state.time);
-        let f = self.system.external_load();
+        // The force is evaluated at the step's start, t: the load and moving supports too.
+        let f = self.system.external_load_at(state.time, &mut self.load)?;
         let (inverse_mass, product, alpha) = (&self.inverse_mass, &self.product, damping.alpha);
         // Per chunk: 2·kinetic, potential of all loads −f·u, Σ|u⁺| + |v⁺| (non-finite iff
         // some new value is); partial sums added in order, so the bits do not depend on threads.
@@ -173,7 +177,7 @@ impl Integrator for SymplecticEuler {
         state.steps += 1;
         match &self.guard {
             Some(guard) => guard.check_energy(before_steps, before_time, &energy)?,
-            None => self.guard = Some(DivergenceGuard::new(energy)),
+            None => self.guard = Some(self.system.divergence_guard(energy)),
         }
         if !sums[2].is_finite() {
             state.ensure_finite("; is dt above the critical step?")?;

@@ -167,6 +167,13 @@ impl NonlinearForce {
                 format!("must be the system's mesh ({} DOFs)", dofs.full_count()),
             ));
         }
+        if system.is_time_varying() {
+            return Err(Error::invalid_parameter(
+                "loads and constraints",
+                "amplitudes or moving supports",
+                "a nonlinear force model in dynamics supports constant loads and fixed constraints only",
+            ));
+        }
         if let Some((dof, value)) = dofs
             .prescribed()
             .iter()

@@ -24,6 +24,7 @@ mod nonlinear_euler;
 mod stability;
 mod state;
 mod system;
+mod time_data;
 
 pub use backward_euler::BackwardEuler;
 pub use damping::Rayleigh;
@@ -40,6 +41,7 @@ pub use stability::{
 };
 pub use state::State;
 pub use system::{LinearSystem, Mass, MassKind};
+pub use time_data::TimeData;
 
 use crate::error::{Error, Result};
 use crate::iterative::CgOptions;

@@ -45,6 +45,8 @@ pub struct Newmark {
     work: Vec<f64>,
     product: Vec<f64>,
     rhs: Vec<f64>,
+    /// f(t) of time-varying data (empty for constant data: see [`LinearSystem::load_buffer`]).
+    load: Vec<f64>,
     /// The Newton solver of a nonlinear force (`None`: the linear path).
     newton: Option<NewtonSolver>,
 }
@@ -81,6 +83,7 @@ impl Newmark {
         } = super::ImplicitParts::new(&system, force, dt, &options)?;
         let n = system.free_count();
         Ok(Newmark {
+            load: system.load_buffer(),
             system,
             dt,
             matrix,
@@ -198,7 +201,7 @@ impl Newmark {
         self.system
             .mass()
             .product_into(&state.velocity, &mut self.work);
-        let f = self.system.external_load();
+        let f = self.system.external_load_at(state.time, &mut self.load)?;
         for i in 0..n {
             self.acceleration[i] = f[i] - self.product[i] - damping.alpha * self.work[i];
         }
@@ -233,9 +236,10 @@ impl Integrator for Newmark {
             self.initial_acceleration(state)?;
         }
         if self.guard.is_none() {
-            self.guard = Some(DivergenceGuard::new(
-                self.system.energy_using(state, &mut self.work)?,
-            ));
+            self.guard = Some(
+                self.system
+                    .divergence_guard(self.system.energy_using(state, &mut self.work)?),
+            );
         }
         let (dt, damping) = (self.dt, self.system.damping());
         let (u, v, a) = (&state.displacement, &state.velocity, &self.acceleration);
@@ -258,7 +262,10 @@ impl Integrator for Newmark {
                 self.rhs[i] += damping.beta * self.product[i];
             }
         }
-        let f = self.system.external_load();
+        // The equation of motion at t + dt, with the load and moving supports of that time.
+        let f = self
+            .system
+            .external_load_at(state.time + dt, &mut self.load)?;
         for i in 0..n {
             self.rhs[i] += f[i];
         }

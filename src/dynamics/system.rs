@@ -5,7 +5,8 @@ use std::sync::Arc;
 
 use nalgebra::Vector3;
 
-use super::{Energy, Rayleigh, State};
+use super::time_data::{TimeData, TimeVarying};
+use super::{DivergenceGuard, Energy, Rayleigh, State};
 use crate::amg::DofGeometry;
 use crate::block_sparse::SymmetricBlockMatrix3;
 use crate::constraints::{Constraints, DofMap};
@@ -91,6 +92,9 @@ pub struct LinearSystem {
     /// [`from_parts`](Self::from_parts)): the rigid-body modes of the implicit methods'
     /// multigrid preconditioner on their iterative path.
     geometry: Option<DofGeometry>,
+    /// Loads with amplitudes and moving supports (`None`: everything constant, the loads are
+    /// [`external_load`](Self::external_load) at every time).
+    time: Option<Box<TimeVarying>>,
 }
 
 impl LinearSystem {
@@ -112,6 +116,66 @@ impl LinearSystem {
         gravity: Vector3<f64>,
         mass: MassKind,
         damping: Rayleigh,
+    ) -> Result<Self> {
+        Self::assemble(
+            mesh,
+            materials,
+            constraints,
+            loads,
+            gravity,
+            mass,
+            damping,
+            None,
+        )
+    }
+
+    /// [`new`](Self::new) with loads and prescribed displacements that follow time: `data`'s
+    /// loads scaled by their amplitudes on top of `loads`, gravity scaled by its amplitude,
+    /// and the DOFs of `data.motion` (which `constraints` must constrain; their values there
+    /// are ignored) moving with it. The integrators then take the load at each step's time
+    /// from [`external_load_at`](Self::external_load_at), and
+    /// [`expand_at`](Self::expand_at) gives the full displacement with u_c(t).
+    ///
+    /// [`external_load`](Self::external_load) (and the energies' load potentials) stay the
+    /// constant part: f_g + f₀ without the amplitudes' loads and the moving DOFs' coupling.
+    /// With constant `data` ([`TimeData::is_constant`]) it is [`new`](Self::new), bit for bit.
+    ///
+    /// Errors: those of [`new`](Self::new), and [`Error::InvalidParameter`] naming a moving DOF
+    /// that is not constrained, or loads of another mesh.
+    #[allow(clippy::too_many_arguments)]
+    pub fn with_time_data<E: crate::element::ElementType>(
+        mesh: &TetMesh<E>,
+        materials: &impl TetMaterials,
+        constraints: &Constraints,
+        loads: &Loads,
+        gravity: Vector3<f64>,
+        mass: MassKind,
+        damping: Rayleigh,
+        data: &TimeData,
+    ) -> Result<Self> {
+        let data = (!data.is_constant()).then_some(data);
+        Self::assemble(
+            mesh,
+            materials,
+            constraints,
+            loads,
+            gravity,
+            mass,
+            damping,
+            data,
+        )
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    fn assemble<E: crate::element::ElementType>(
+        mesh: &TetMesh<E>,
+        materials: &impl TetMaterials,
+        constraints: &Constraints,
+        loads: &Loads,
+        gravity: Vector3<f64>,
+        mass: MassKind,
+        damping: Rayleigh,
+        data: Option<&TimeData>,
     ) -> Result<Self> {
         if constraints.dof_count() != mesh.dof_count() || loads.as_slice().len() != mesh.dof_count()
         {
@@ -142,13 +206,38 @@ impl LinearSystem {
         let problem = Problem::new(mesh, constraints)?;
         let k_full = problem.stiffness(materials)?;
         let stiffness = problem.restrict(&k_full)?;
+        let mass_kind = mass;
         let mass = match mass {
             MassKind::Lumped => Mass::Lumped(problem.free_lumped_mass(materials)?),
             MassKind::Consistent => Mass::Consistent(problem.free_consistent_mass(materials)?),
         };
         let gravity_loads = problem.gravity_loads(materials, gravity)?;
+        let full_mass = match (data, mass_kind) {
+            (Some(_), MassKind::Consistent) => Some(problem.consistent_mass(materials)?),
+            _ => None,
+        };
         let dofs = problem.into_dofs();
-        let coupling = k_full.mul(dofs.prescribed())?;
+        let time = match data {
+            Some(data) => Some(Box::new(TimeVarying::new(
+                data,
+                mesh.nodes(),
+                &dofs,
+                &k_full,
+                full_mass.as_ref(),
+            )?)),
+            None => None,
+        };
+        // The moving DOFs' coupling is taken at each time instead (`TimeVarying::load_into`).
+        let coupling = match &time {
+            Some(time) if time.has_motion() => {
+                let mut still = dofs.prescribed().to_vec();
+                for &dof in time.moving_dofs() {
+                    still[dof] = 0.0;
+                }
+                k_full.mul(&still)?
+            }
+            _ => k_full.mul(dofs.prescribed())?,
+        };
         let other: Vec<f64> = loads
             .as_slice()
             .iter()
@@ -165,6 +254,7 @@ impl LinearSystem {
             dofs,
         )?;
         system.geometry = Some(geometry);
+        system.time = time;
         Ok(system)
     }
 
@@ -231,6 +321,7 @@ impl LinearSystem {
             external,
             dofs,
             geometry: None,
+            time: None,
         })
     }
 
@@ -291,6 +382,68 @@ impl LinearSystem {
     /// Total external load f on the free DOFs (force units).
     pub fn external_load(&self) -> &[f64] {
         &self.external
+    }
+
+    /// The external load on the free DOFs at time `t` (force units): with data that follow
+    /// time ([`with_time_data`](Self::with_time_data)), a_g(t)·f_g + f₀ + Σ aₖ(t)·fₖ −
+    /// K_fm·u_m(t) − C_fm·u̇_m(t) − M_fm·ü_m(t) written into `buffer` (see
+    /// [`TimeData`]); otherwise [`external_load`](Self::external_load) itself, `buffer`
+    /// untouched (so constant data cost nothing and give the same bits).
+    ///
+    /// [`Error::DimensionMismatch`] unless `buffer` has the free DOF count when it is needed.
+    pub fn external_load_at<'a>(&'a self, t: f64, buffer: &'a mut [f64]) -> Result<&'a [f64]> {
+        match &self.time {
+            None => Ok(&self.external),
+            Some(time) => {
+                let damping = (self.damping.alpha, self.damping.beta);
+                time.load_into(t, &self.gravity_load, &self.other_load, damping, buffer)?;
+                Ok(buffer)
+            }
+        }
+    }
+
+    /// Whether the loads or prescribed displacements follow time (then the integrators need a
+    /// load buffer of the free DOF count for [`external_load_at`](Self::external_load_at)).
+    pub fn is_time_varying(&self) -> bool {
+        self.time.is_some()
+    }
+
+    /// Whether some constrained DOF moves in time.
+    pub fn has_moving_supports(&self) -> bool {
+        self.time.as_ref().is_some_and(|t| t.has_motion())
+    }
+
+    /// A load buffer for [`external_load_at`](Self::external_load_at): the free DOF count when
+    /// the data follow time, empty otherwise.
+    pub fn load_buffer(&self) -> Vec<f64> {
+        match self.time {
+            Some(_) => vec![0.0; self.free_count()],
+            None => Vec::new(),
+        }
+    }
+
+    /// The full displacement at time `t` of free values `free`: the constrained DOFs at their
+    /// prescribed values, the moving ones at u_c(t) ([`Error::DimensionMismatch`] unless `free`
+    /// has the free DOF count).
+    pub fn expand_at(&self, t: f64, free: &[f64]) -> Result<Vec<f64>> {
+        let mut full = self.dofs.expand(free)?;
+        if let Some(time) = self.time.as_ref().filter(|t| t.has_motion()) {
+            for (&dof, [u, _, _]) in time.moving_dofs().iter().zip(time.motion_at(t)?) {
+                full[dof] = u;
+            }
+        }
+        Ok(full)
+    }
+
+    /// The divergence guard of a run starting with energies `start`: the energy check of
+    /// [`DivergenceGuard::new`], or with data that follow time ([`is_time_varying`](Self::is_time_varying))
+    /// the check of finite values only ([`DivergenceGuard::finite_only`]): moving supports and
+    /// loads with amplitudes do work the energies' constant load potentials do not account for.
+    pub fn divergence_guard(&self, start: Energy) -> DivergenceGuard {
+        match self.is_time_varying() {
+            true => DivergenceGuard::finite_only(start),
+            false => DivergenceGuard::new(start),
+        }
     }
 
     /// The gravity part of [`external_load`](Self::external_load) (force units, free DOFs).

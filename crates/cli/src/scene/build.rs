@@ -4,8 +4,15 @@ use std::ops::Range;
 
 use nalgebra::Vector3;
 
-use super::{MeshSpec, RegionSelector, Scene, Selector, SplitSpec};
+use std::collections::HashMap;
+
+use nalgebra::Matrix3;
+
+use super::{AmplitudeRef, AmplitudeSpec, MeshSpec, RegionSelector, Scene, Selector, SplitSpec};
+use tetfem::amplitude::{Amplitude, STATIC_TIME};
+use tetfem::boundary_motion::{BoundaryMotion, Motion, RigidMotion};
 use tetfem::constraints::Constraints;
+use tetfem::dynamics::TimeData;
 use tetfem::error::{Error, Result};
 use tetfem::loads::Loads;
 use tetfem::material::Material;
@@ -69,6 +76,14 @@ pub struct BuiltScene {
     /// Warnings about the constraints and the loads (a load on constrained DOFs only, no free
     /// DOF), found while building.
     pub input_warnings: Vec<tetfem::warning::Warning>,
+    /// What follows time in a dynamic run: the loads with an amplitude (not in `other_loads`
+    /// nor `gravity`) and the constraints that move. `constraints` and `loads` hold their
+    /// values at the analysis' time: 0 for a dynamic run, [`STATIC_TIME`] otherwise.
+    pub time_data: TimeData,
+    /// Every `linear_field`, `rigid_motion` and amplitude-scaled `displacement` constraint,
+    /// constant or not: what the load steps of a nonlinear static solve follow
+    /// ([`solve_nonlinear_static_with_motion`](tetfem::nonlinear::solve_nonlinear_static_with_motion)).
+    pub motions: BoundaryMotion,
 }
 
 impl BuiltScene {
@@ -130,6 +145,14 @@ impl Scene {
             imported: imported.as_ref(),
             boundary: &boundary,
         };
+        let named = self.named_amplitudes()?;
+        // Static and modal analyses take the data at STATIC_TIME, a dynamic run starts at 0.
+        let time = match self.analysis() {
+            super::Analysis::Dynamic(_) => 0.0,
+            _ => STATIC_TIME,
+        };
+        let mut time_data = TimeData::default();
+        let mut motions = BoundaryMotion::new();
         let mut constraints = Constraints::new(&mesh);
         // Which scene entry constrained each DOF, to name both entries of a conflict.
         let mut constrained_by: Vec<Option<usize>> = vec![None; mesh.dof_count()];
@@ -167,17 +190,33 @@ impl Scene {
                 }
                 _ => self.error(&key, &span, e.to_string()),
             };
-            match c.displacement {
-                None => {
-                    constraints.fix_axes(&nodes, axes).map_err(at)?;
+            match self.motion_of(c, &named, &key, &span)? {
+                Some(motion) => {
+                    let mut single = BoundaryMotion::new();
+                    single.add(&nodes, axes, motion.clone()).map_err(at)?;
+                    single
+                        .prescribe_at(mesh.nodes(), time, &mut constraints)
+                        .map_err(at)?;
+                    if !motion.is_constant() {
+                        time_data
+                            .motion
+                            .add(&nodes, axes, motion.clone())
+                            .map_err(at)?;
+                    }
+                    motions.add(&nodes, axes, motion).map_err(at)?;
                 }
-                Some(d) => {
-                    for &n in &nodes {
-                        for axis in (0..3).filter(|&a| axes[a]) {
-                            constraints.prescribe_axis(n, axis, d[axis]).map_err(at)?;
+                None => match c.displacement {
+                    None => {
+                        constraints.fix_axes(&nodes, axes).map_err(at)?;
+                    }
+                    Some(d) => {
+                        for &n in &nodes {
+                            for axis in (0..3).filter(|&a| axes[a]) {
+                                constraints.prescribe_axis(n, axis, d[axis]).map_err(at)?;
+                            }
                         }
                     }
-                }
+                },
             }
             let mut dofs = Vec::with_capacity(3 * nodes.len());
             for &n in &nodes {
@@ -200,6 +239,27 @@ impl Scene {
         for (i, l) in spec.loads.iter().enumerate() {
             let key = format!("loads[{i}]");
             let before = loads.as_slice().to_vec();
+            let amplitude = match &l.get_ref().amplitude {
+                Some(r) => self.amplitude_of(r, &named, &format!("{key}.amplitude"), &l.span())?,
+                None => Amplitude::default(),
+            };
+            if !amplitude.is_one() {
+                // Kept apart: the dynamic system scales it by a(t) at each step.
+                let mut single = Loads::new(&mesh);
+                ctx.add_load(&mut single, &materials, l.get_ref(), &key, &l.span())?;
+                loads
+                    .add_scaled(&single, amplitude.value(time))
+                    .map_err(|e| self.error(&key, &l.span(), e.to_string()))?;
+                // The load itself, not its value at this time (a ramp is 0 at the start).
+                let zero = vec![0.0; single.as_slice().len()];
+                if let Some(warning) =
+                    on_fixed_dofs_only(&key, &zero, single.as_slice(), &constraints)
+                {
+                    input_warnings.push(warning);
+                }
+                time_data.loads.push((single, amplitude));
+                continue;
+            }
             ctx.add_load(&mut loads, &materials, l.get_ref(), &key, &l.span())?;
             if let Some(warning) = on_fixed_dofs_only(&key, &before, loads.as_slice(), &constraints)
             {
@@ -253,7 +313,214 @@ impl Scene {
             gravity,
             probes,
             input_warnings,
+            time_data,
+            motions,
         })
+    }
+
+    /// The `[[amplitudes]]` entries by name; errors name the entry and its line (a bad
+    /// amplitude, an empty or duplicate name).
+    fn named_amplitudes(&self) -> Result<HashMap<String, Amplitude>> {
+        let mut named = HashMap::new();
+        for (i, a) in self.spec().amplitudes.iter().enumerate() {
+            let key = format!("amplitudes[{i}]");
+            let span = a.span();
+            let spec = a.get_ref();
+            if spec.name.is_empty() {
+                return Err(self.error(&format!("{key}.name"), &span, "must not be empty"));
+            }
+            if named.contains_key(&spec.name) {
+                return Err(self.error(
+                    &format!("{key}.name"),
+                    &span,
+                    format!("duplicate amplitude name '{}'", spec.name),
+                ));
+            }
+            let amplitude = self.amplitude_from(&spec.amplitude(), &key, &span)?;
+            named.insert(spec.name.clone(), amplitude);
+        }
+        Ok(named)
+    }
+
+    /// The amplitude `r` refers to (a name of `named`, or given in place at `key`).
+    fn amplitude_of(
+        &self,
+        r: &AmplitudeRef,
+        named: &HashMap<String, Amplitude>,
+        key: &str,
+        span: &Range<usize>,
+    ) -> Result<Amplitude> {
+        match r {
+            AmplitudeRef::Inline(spec) => self.amplitude_from(spec, key, span),
+            AmplitudeRef::Named(name) => named.get(name).cloned().ok_or_else(|| {
+                let mut known: Vec<&str> = named.keys().map(String::as_str).collect();
+                known.sort_unstable();
+                self.error(
+                    key,
+                    span,
+                    format!(
+                        "unknown amplitude '{name}' (the [[amplitudes]] entries are: {})",
+                        if known.is_empty() {
+                            "none".to_string()
+                        } else {
+                            known.join(", ")
+                        }
+                    ),
+                )
+            }),
+        }
+    }
+
+    /// The amplitude of the keys at `key`: exactly one of constant, table, ramp, smooth_step,
+    /// sine, each checked (errors name `key.<kind>` and the line).
+    fn amplitude_from(
+        &self,
+        spec: &AmplitudeSpec,
+        key: &str,
+        span: &Range<usize>,
+    ) -> Result<Amplitude> {
+        let given: Vec<&str> = [
+            ("constant", spec.constant.is_some()),
+            ("table", spec.table.is_some()),
+            ("ramp", spec.ramp.is_some()),
+            ("smooth_step", spec.smooth_step.is_some()),
+            ("sine", spec.sine.is_some()),
+        ]
+        .iter()
+        .filter(|(_, set)| *set)
+        .map(|(k, _)| *k)
+        .collect();
+        if given.len() != 1 {
+            return Err(self.error(
+                key,
+                span,
+                format!(
+                    "an amplitude needs exactly one of constant, table, ramp, smooth_step, sine (found: {})",
+                    if given.is_empty() { "none".into() } else { given.join(", ") }
+                ),
+            ));
+        }
+        let at = |e: Error| self.error(&format!("{key}.{}", given[0]), span, e.to_string());
+        if let Some(c) = spec.constant {
+            if !c.is_finite() {
+                return Err(at(Error::invalid_parameter(
+                    "constant",
+                    c,
+                    "must be finite",
+                )));
+            }
+            return Ok(Amplitude::Constant(c));
+        }
+        if let Some(points) = &spec.table {
+            let (times, values) = points.iter().map(|p| (p[0], p[1])).unzip();
+            return Amplitude::table(times, values).map_err(at);
+        }
+        if let Some(r) = spec.ramp {
+            return Amplitude::ramp(r.start, r.end).map_err(at);
+        }
+        if let Some(r) = spec.smooth_step {
+            return Amplitude::smooth_step(r.start, r.end).map_err(at);
+        }
+        match spec.sine {
+            Some(s) => Amplitude::sine(s.amplitude, s.frequency_hz, s.phase, s.start).map_err(at),
+            None => Ok(Amplitude::default()),
+        }
+    }
+
+    /// The motion of a `[[constraints]]` entry with `linear_field`, `rigid_motion` or a
+    /// `displacement` with an amplitude (`None` for a plain fixed or prescribed one). Errors
+    /// name the key and line: two kinds at once, an amplitude with nothing to scale, a
+    /// non-finite linear field, a rigid-motion axis of zero length.
+    fn motion_of(
+        &self,
+        c: &super::ConstraintSpec,
+        named: &HashMap<String, Amplitude>,
+        key: &str,
+        span: &Range<usize>,
+    ) -> Result<Option<Motion>> {
+        let kinds: Vec<&str> = [
+            ("displacement", c.displacement.is_some()),
+            ("linear_field", c.linear_field.is_some()),
+            ("rigid_motion", c.rigid_motion.is_some()),
+        ]
+        .iter()
+        .filter(|(_, set)| *set)
+        .map(|(k, _)| *k)
+        .collect();
+        if kinds.len() > 1 {
+            return Err(self.error(
+                key,
+                span,
+                format!(
+                    "give one of displacement, linear_field, rigid_motion (found: {})",
+                    kinds.join(", ")
+                ),
+            ));
+        }
+        let amplitude = match &c.amplitude {
+            Some(r) => Some(self.amplitude_of(r, named, &format!("{key}.amplitude"), span)?),
+            None => None,
+        };
+        if let Some(field) = &c.linear_field {
+            let key = format!("{key}.linear_field");
+            let matrix = Matrix3::from_fn(|i, j| field.matrix[i][j]);
+            let motion =
+                Motion::linear_field(matrix, field.b.into(), amplitude.unwrap_or_default())
+                    .map_err(|e| {
+                        let entry = match &e {
+                            Error::InvalidParameter { name, .. } => format!("{key}.{name}"),
+                            _ => key.clone(),
+                        };
+                        self.error(&entry, span, e.to_string())
+                    })?;
+            return Ok(Some(motion));
+        }
+        if let Some(rigid) = &c.rigid_motion {
+            let key = format!("{key}.rigid_motion");
+            let inner = match &rigid.amplitude {
+                Some(r) => Some(self.amplitude_of(r, named, &format!("{key}.amplitude"), span)?),
+                None => None,
+            };
+            if inner.is_some() && amplitude.is_some() {
+                return Err(self.error(
+                    &format!("{key}.amplitude"),
+                    span,
+                    "the amplitude is given twice (inside rigid_motion and next to it); keep one",
+                ));
+            }
+            let axis = Vector3::from(rigid.axis);
+            if axis.norm() == 0.0 || !axis.norm().is_finite() {
+                return Err(self.error(
+                    &format!("{key}.axis"),
+                    span,
+                    format!(
+                        "[{}, {}, {}] must be finite with a non-zero length",
+                        axis.x, axis.y, axis.z
+                    ),
+                ));
+            }
+            let motion = RigidMotion::new(
+                axis,
+                rigid.point.into(),
+                rigid.angle_deg.to_radians(),
+                rigid.translation.into(),
+                inner.or(amplitude).unwrap_or_default(),
+            )
+            .map_err(|e| self.error(&key, span, e.to_string()))?;
+            return Ok(Some(Motion::Rigid(motion)));
+        }
+        match (c.displacement, amplitude) {
+            (Some(d), Some(amplitude)) if !amplitude.is_one() => Ok(Some(Motion::Uniform {
+                displacement: d.into(),
+                amplitude,
+            })),
+            (None, Some(_)) => Err(self.error(
+                &format!("{key}.amplitude"),
+                span,
+                "scales nothing: give displacement, linear_field or rigid_motion with it",
+            )),
+            _ => Ok(None),
+        }
     }
 }
 
@@ -468,6 +735,12 @@ impl Context<'_> {
         let key = format!("{key}.where");
         let nodes = match select {
             Selector::All => (0..self.mesh.node_count()).collect(),
+            Selector::Boundary => {
+                let mut nodes: Vec<usize> = self.boundary.iter().flat_map(|f| f.nodes).collect();
+                nodes.sort_unstable();
+                nodes.dedup();
+                nodes
+            }
             Selector::Plane {
                 axis,
                 at,

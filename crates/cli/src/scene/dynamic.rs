@@ -176,7 +176,7 @@ impl DynamicSetup {
         let clock = Instant::now();
         let damping = Rayleigh::new(settings.damping.mass, settings.damping.stiffness)?;
         let mass = settings.mass;
-        let system = LinearSystem::new(
+        let system = LinearSystem::with_time_data(
             &built.mesh,
             &built.materials,
             &built.constraints,
@@ -184,6 +184,7 @@ impl DynamicSetup {
             built.gravity,
             mass,
             damping,
+            &built.time_data,
         )?;
         let mut initial = State::at_rest(system.free_count());
         let velocity: Vec<f64> = (0..built.mesh.dof_count())
@@ -572,7 +573,8 @@ fn run_dynamic_locked(
      -> Result<Energy> {
         let clock = Instant::now();
         let energy = setup.force.energy(system, state)?;
-        let u = system.dofs().expand(&state.displacement)?;
+        // The constrained DOFs at their values of this time (moving supports: u_c(t)).
+        let u = system.expand_at(state.time, &state.displacement)?;
         let mut means = Vec::with_capacity(setup.probes.len());
         for (probe, range) in setup.probes.iter().zip(probes.iter_mut()) {
             let mean: [f64; 3] = probe.mean_displacement(&u).into();

@@ -62,7 +62,20 @@ density = 7850.0                    # kg/m³
 # density = 2700.0
 # where = { box = { min = [0.5, -1.0, -1.0], max = [2.0, 1.0, 1.0] } }
 
-# Node and face sets ("where"): "all" | { plane = { axis = "x", at = 0.0, tolerance = 1e-9 } }
+# Amplitudes a(t) (t in s), named here and referred to by name, or given in place:
+# amplitude = "ramp1" | amplitude = { sine = { frequency_hz = 5.0 } }. Exactly one of
+# constant = 1.0 | table = [[0.0, 0.0], [1.0, 1.0]] (t strictly increasing, all finite; linear
+# between points, constant beyond the ends) | ramp = { start = 0.0, end = 1.0 } (0 before, linear,
+# 1 after; start default 0) | smooth_step = { start = 0.0, end = 1.0 } (quintic 10s³−15s⁴+6s⁵,
+# C²) | sine = { amplitude = 1.0, frequency_hz = 5.0, phase = 0.0, start = 0.0 } (A·sin(2πf(t −
+# start) + φ) from start on, A·sin φ before; amplitude default 1, phase (rad) and start default 0).
+# Static and modal analyses take amplitudes at t = 1 s; dynamic ones at each step's time.
+[[amplitudes]]
+name = "ramp1"                      # required, unique
+ramp = { start = 0.0, end = 1.0 }
+
+# Node and face sets ("where"): "all" | "boundary" (nodes of the boundary faces)
+# | { plane = { axis = "x", at = 0.0, tolerance = 1e-9 } }
 # (tolerance default: 1e-6 × the bounding-box diagonal) | { box = { min = [..], max = [..] } }
 # | { group = "name or tag" } (Gmsh physical group) | { marker = 1 } (TetGen node marker)
 # | { face_marker = 3 } (TetGen .face marker: those boundary faces, or their nodes)
@@ -73,11 +86,21 @@ where = { plane = { axis = "x", at = 0.0 } }
 fix = ["x", "y", "z"]               # default all three
 displacement = [0.0, 0.0, 0.0]      # default zero (m), for the fixed axes
 moment_about = [0.0, 0.0, 0.0]      # the point (m) its reaction moment is reported about; default the origin
+# amplitude = "ramp1"               # default constant 1: scales displacement or linear_field
+# Instead of displacement (one of the three), for the fixed axes:
+# linear_field = { A = [[0.0, 0.0, 0.0], [0.0, 0.0, 0.0], [0.0, 0.0, 0.0]], b = [0.0, 0.0, 0.0] }
+#                                   # u = (A·x + b)·a(t); A dimensionless, b (m) default zero
+# rigid_motion = { axis = [1.0, 0.0, 0.0], point = [0.0, 0.0, 0.0], angle_deg = 0.0,
+#                  translation = [0.0, 0.0, 0.0], amplitude = "ramp1" }
+#                                   # exact rotation by angle_deg·a(t) about the axis (non-zero
+#                                   # length) through point (m), then translation·a(t) (m);
+#                                   # defaults: point and translation zero, angle 0, amplitude 1
 
 # Loads: exactly one of gravity (m/s²), body_force (N/m³), total_force (N over the faces'
 # area), traction (Pa), pressure (Pa, against the outward normal), nodal_force (N per node).
 [[loads]]
 gravity = [0.0, 0.0, -9.81]
+# amplitude = "ramp1"               # any load: default constant 1 (the load times a(t))
 
 [[loads]]
 where = { plane = { axis = "x", at = 1.0 } }

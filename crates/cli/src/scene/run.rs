@@ -196,11 +196,12 @@ pub fn run_static_with(scene: &Scene, options: &RunOptions) -> Result<RunSummary
             )
         }
         _ => {
-            let report = tetfem::nonlinear::solve_nonlinear_static(
+            let report = tetfem::nonlinear::solve_nonlinear_static_with_motion(
                 &built.mesh,
                 &model,
                 &built.constraints,
                 &built.loads,
+                &built.motions,
                 tetfem::nonlinear::NewtonOptions::default(),
             )?;
             let dofs = tetfem::constraints::DofMap::new(&built.constraints);

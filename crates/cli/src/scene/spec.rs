@@ -38,6 +38,141 @@ pub struct SceneSpec {
     /// Named node sets whose mean displacement is recorded in the time series.
     #[serde(default)]
     pub probes: Vec<Spanned<ProbeSpec>>,
+    /// Named amplitudes a(t), referred to by name from constraints and loads.
+    #[serde(default)]
+    pub amplitudes: Vec<Spanned<NamedAmplitudeSpec>>,
+}
+
+/// An amplitude a(t): exactly one of `constant`, `table`, `ramp`, `smooth_step`, `sine`.
+#[derive(Debug, Clone, Default, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct AmplitudeSpec {
+    /// a(t) = c.
+    #[serde(default)]
+    pub constant: Option<f64>,
+    /// Points `[[t, a], ...]` (t in s, strictly increasing): linear between, constant beyond.
+    #[serde(default)]
+    pub table: Option<Vec<[f64; 2]>>,
+    /// 0 before `start`, linear to 1 at `end`, 1 after.
+    #[serde(default)]
+    pub ramp: Option<IntervalSpec>,
+    /// The quintic (C²) smooth step 10s³ − 15s⁴ + 6s⁵ from 0 at `start` to 1 at `end`.
+    #[serde(default)]
+    pub smooth_step: Option<IntervalSpec>,
+    /// A·sin(2πf(t − start) + φ).
+    #[serde(default)]
+    pub sine: Option<SineSpec>,
+}
+
+/// `[[amplitudes]]`: a named amplitude (the keys of [`AmplitudeSpec`] and `name`).
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct NamedAmplitudeSpec {
+    /// The name constraints and loads refer to.
+    pub name: String,
+    /// a(t) = c.
+    #[serde(default)]
+    pub constant: Option<f64>,
+    /// Points `[[t, a], ...]`.
+    #[serde(default)]
+    pub table: Option<Vec<[f64; 2]>>,
+    /// A ramp.
+    #[serde(default)]
+    pub ramp: Option<IntervalSpec>,
+    /// A smooth step.
+    #[serde(default)]
+    pub smooth_step: Option<IntervalSpec>,
+    /// A sine.
+    #[serde(default)]
+    pub sine: Option<SineSpec>,
+}
+
+impl NamedAmplitudeSpec {
+    /// The amplitude keys alone.
+    pub fn amplitude(&self) -> AmplitudeSpec {
+        AmplitudeSpec {
+            constant: self.constant,
+            table: self.table.clone(),
+            ramp: self.ramp,
+            smooth_step: self.smooth_step,
+            sine: self.sine,
+        }
+    }
+}
+
+/// A time interval (s).
+#[derive(Debug, Clone, Copy, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct IntervalSpec {
+    /// Start (s, default 0).
+    #[serde(default)]
+    pub start: f64,
+    /// End (s), after start.
+    pub end: f64,
+}
+
+/// A sine amplitude A·sin(2πf(t − start) + φ).
+#[derive(Debug, Clone, Copy, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct SineSpec {
+    /// A (default 1).
+    #[serde(default = "one")]
+    pub amplitude: f64,
+    /// f (Hz).
+    pub frequency_hz: f64,
+    /// φ (radians, default 0).
+    #[serde(default)]
+    pub phase: f64,
+    /// When it starts (s, default 0); a(t) = A·sin(φ) before.
+    #[serde(default)]
+    pub start: f64,
+}
+
+fn one() -> f64 {
+    1.0
+}
+
+/// `amplitude = "name"` (a `[[amplitudes]]` entry) or an inline amplitude table.
+#[derive(Debug, Clone, Deserialize, PartialEq)]
+#[serde(untagged)]
+pub enum AmplitudeRef {
+    /// The name of an `[[amplitudes]]` entry.
+    Named(String),
+    /// An amplitude given in place.
+    Inline(AmplitudeSpec),
+}
+
+/// `linear_field = { A = [[..], [..], [..]], b = [..] }`: u = A·x + b (A dimensionless, b in m).
+#[derive(Debug, Clone, Copy, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct LinearFieldSpec {
+    /// A, by rows.
+    #[serde(rename = "A")]
+    pub matrix: [[f64; 3]; 3],
+    /// b (m, default zero).
+    #[serde(default)]
+    pub b: [f64; 3],
+}
+
+/// `rigid_motion = { axis, point, angle_deg, translation, amplitude }`: rotation by
+/// θ(t) = angle·a(t) about the line through `point` along `axis`, then translation·a(t).
+#[derive(Debug, Clone, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct RigidMotionSpec {
+    /// The rotation axis (any non-zero length).
+    pub axis: [f64; 3],
+    /// A point on the axis (m, default the origin).
+    #[serde(default)]
+    pub point: [f64; 3],
+    /// θ_max (degrees, default 0).
+    #[serde(default)]
+    pub angle_deg: f64,
+    /// d (m, default zero).
+    #[serde(default)]
+    pub translation: [f64; 3],
+    /// a(t) (default constant 1).
+    #[serde(default)]
+    pub amplitude: Option<AmplitudeRef>,
 }
 
 /// `[mesh.box]`, `[mesh.gmsh]` or `[mesh.tetgen]`.
@@ -175,6 +310,8 @@ impl Axis {
 pub enum Selector {
     /// Every node / every boundary face: `"all"`.
     All,
+    /// The nodes on the boundary (of some boundary face) / every boundary face: `"boundary"`.
+    Boundary,
     /// `{ plane = { axis = "x", at = 0.0 } }`: nodes with |x\[axis\] − at| ≤ tolerance
     /// (default 1e-6 × the mesh's bounding-box diagonal); faces with all three nodes so.
     Plane {
@@ -222,6 +359,15 @@ pub struct ConstraintSpec {
     /// the origin).
     #[serde(default)]
     pub moment_about: Option<[f64; 3]>,
+    /// u = A·x + b on the nodes (instead of `displacement`).
+    #[serde(default)]
+    pub linear_field: Option<LinearFieldSpec>,
+    /// A rigid motion of the nodes (instead of `displacement`).
+    #[serde(default)]
+    pub rigid_motion: Option<RigidMotionSpec>,
+    /// a(t) scaling `displacement` or `linear_field` (default constant 1).
+    #[serde(default)]
+    pub amplitude: Option<AmplitudeRef>,
 }
 
 /// `[[loads]]`: exactly one of `gravity`, `body_force`, `total_force`, `traction`, `pressure`,
@@ -250,6 +396,9 @@ pub struct LoadSpec {
     /// A force (N) on each selected node.
     #[serde(default)]
     pub nodal_force: Option<[f64; 3]>,
+    /// a(t) scaling the load (default constant 1).
+    #[serde(default)]
+    pub amplitude: Option<AmplitudeRef>,
 }
 
 /// `[analysis]`.
