@@ -40,6 +40,7 @@ pub(crate) use tetfem_linalg::{
 pub mod assembly;
 pub mod atomic_file;
 pub mod constraints;
+pub mod contact;
 pub mod convergence;
 pub mod dynamics;
 pub mod element;

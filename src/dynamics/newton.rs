@@ -257,7 +257,7 @@ impl NewtonSolver {
             }
         }
         let load = dot(system.external_load(), u_new);
-        Ok(phi + self.force.elastic_energy(u_new)? - load)
+        Ok(phi + self.force.potential_energy(u_new)? - load)
     }
 
     /// Solves `equation` for u' by Newton's method into `u_new` (any length-n buffer; it starts
@@ -319,7 +319,15 @@ impl NewtonSolver {
             let solved = solver.solve(matrix, &mut delta);
             self.delta = delta;
             solved?;
-            let mut alpha = 1.0;
+            // With contact: never past the first time of impact (IPC's 0.8 of it), and only a
+            // decrease of Φ (up to its round-off) is accepted, so no iterate penetrates.
+            let with_contact = self.force.contact().is_some();
+            let mut alpha = match with_contact {
+                true => (crate::contact::STEP_FRACTION
+                    * self.force.contact_step_limit(u_new, &self.delta)?)
+                .min(1.0),
+                false => 1.0,
+            };
             let mut phi = None;
             let mut accepted = false;
             for _ in 0..30 {
@@ -331,12 +339,22 @@ impl NewtonSolver {
                 self.trial = trial;
                 evaluated?;
                 let trial_norm = norm(&self.trial_residual);
-                let better = trial_norm < r_norm || {
+                let better = if with_contact {
                     let start = match phi {
                         Some(p) => p,
                         None => *phi.insert(self.potential(system, equation, u_new)?),
                     };
-                    self.potential(system, equation, &self.trial)? < start
+                    let trial_phi = self.potential(system, equation, &self.trial)?;
+                    trial_phi < start
+                        || (trial_norm < r_norm && trial_phi <= start + 1e-12 * start.abs())
+                } else {
+                    trial_norm < r_norm || {
+                        let start = match phi {
+                            Some(p) => p,
+                            None => *phi.insert(self.potential(system, equation, u_new)?),
+                        };
+                        self.potential(system, equation, &self.trial)? < start
+                    }
                 };
                 if better {
                     accepted = true;
