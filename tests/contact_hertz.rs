@@ -8,7 +8,7 @@ use tetfem::nonlinear::{NewtonOptions, solve_nonlinear_static_with_contact};
 use tetfem::{BoxSplit, Constraints, Loads, Material, TetMesh};
 
 const RADIUS: f64 = 10.0;
-const CELLS: usize = 16;
+const CELLS: usize = 12;
 
 /// Force (quarter model × 4) and indentation δ for the block's base pushed up by `lift`.
 fn press(lift: f64) -> (f64, f64) {
@@ -58,7 +58,7 @@ fn press(lift: f64) -> (f64, f64) {
         &Loads::new(&mesh),
         &contact,
         NewtonOptions {
-            load_steps: 5,
+            load_steps: 2,
             ..NewtonOptions::default()
         },
     )
@@ -75,16 +75,26 @@ fn press(lift: f64) -> (f64, f64) {
 fn sphere_indentation_follows_hertz() {
     let material = Material::new(1e6, 0.3, 1000.0).unwrap();
     let e_star = material.youngs_modulus() / (1.0 - 0.3f64.powi(2));
-    let mut points = Vec::new();
+    let (e, nu) = (material.youngs_modulus(), 0.3);
     for lift in [0.004, 0.008] {
         let (force, indentation) = press(lift);
-        let hertz = 4.0 / 3.0 * e_star * RADIUS.sqrt() * indentation.powf(1.5);
+        // Hertz's δ is the approach of points at infinite depth; the block's base at depth
+        // H = 1 is held, and in a half-space it would have moved by Boussinesq's
+        // u_z(0, H) = P(1 + ν)(3 − 2ν)/(2πE·H) towards the sphere's far side. Add it back.
+        let base_motion = force * (1.0 + nu) * (3.0 - 2.0 * nu) / (2.0 * std::f64::consts::PI * e);
+        let approach = indentation + base_motion;
+        let hertz = 4.0 / 3.0 * e_star * RADIUS.sqrt() * approach.powf(1.5);
         println!(
-            "lift {lift}: δ = {indentation:.4e} m, P = {force:.4e} N, Hertz {hertz:.4e} N, ratio {:.4}",
+            "lift {lift}: δ = {indentation:.4e} m (+ {base_motion:.3e} m at the base), P = {force:.4e} N, Hertz {hertz:.4e} N, ratio {:.4}",
             force / hertz
         );
-        points.push((force, indentation, hertz));
+        // Mesh-dependent: the contact radius √(Rδ) ≈ 0.2–0.3 spans only 2.4–3.4 elements
+        // (h = 1/12) and the pressure acts at nodes; the block's free sides and the point
+        // correction for the held base add a few per cent. 15 % covers these.
+        assert!(
+            (force / hertz - 1.0).abs() < 0.15,
+            "lift {lift}: ratio {}",
+            force / hertz
+        );
     }
-    let slope = (points[1].0 / points[0].0).ln() / (points[1].1 / points[0].1).ln();
-    println!("log-log slope {slope:.4} (Hertz 1.5)");
 }
