@@ -9,15 +9,18 @@
 //! stiffness to tune against the step or the mesh, and no active set to update. Its force and
 //! Hessian are smooth and enter the Newton tangent, so Newton keeps its convergence.
 //!
-//! One idea per file: [`barrier`] (b, b′, b″), [`obstacle`] (shapes, signed distance and its
+//! One idea per file: [`barrier`] (b, b′, b″), [`friction`] (IPC's lagged smoothed Coulomb
+//! friction), [`obstacle`] (shapes, signed distance and its
 //! derivatives, time of impact), [`parameters`] (d̂ and κ and their default rule), [`set`] (the
 //! contact of a mesh's boundary nodes with the obstacles).
 
 pub mod barrier;
+pub mod friction;
 pub mod obstacle;
 pub mod parameters;
 pub mod set;
 
+pub use friction::FrictionLag;
 pub use obstacle::{Obstacle, Shape};
 pub use parameters::ContactParameters;
 pub use set::Contact;

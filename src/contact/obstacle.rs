@@ -29,6 +29,8 @@ pub enum Shape {
 pub struct Obstacle {
     name: String,
     shape: Shape,
+    /// Coulomb's μ ≥ 0 (0: frictionless).
+    friction: f64,
 }
 
 impl Obstacle {
@@ -58,6 +60,7 @@ impl Obstacle {
                 point,
                 normal: normal / length,
             },
+            friction: 0.0,
         })
     }
 
@@ -78,7 +81,27 @@ impl Obstacle {
         Ok(Obstacle {
             name,
             shape: Shape::Sphere { center, radius },
+            friction: 0.0,
         })
+    }
+
+    /// The obstacle with Coulomb friction coefficient `mu` (dimensionless; see
+    /// [`super::friction`]). [`Error::InvalidParameter`] unless finite and ≥ 0.
+    pub fn with_friction(mut self, mu: f64) -> Result<Self> {
+        if !(mu.is_finite() && mu >= 0.0) {
+            return Err(Error::invalid_parameter(
+                format!("obstacle {}: friction", self.name),
+                mu,
+                "must be finite and ≥ 0",
+            ));
+        }
+        self.friction = mu;
+        Ok(self)
+    }
+
+    /// Coulomb's μ (0: frictionless).
+    pub fn friction(&self) -> f64 {
+        self.friction
     }
 
     /// Its name.

@@ -5,6 +5,7 @@
 use nalgebra::{Matrix3, Vector3};
 
 use super::barrier;
+use super::friction::{FrictionLag, LaggedPoint, f0, f1_derivative, f1_over_y};
 use super::{ContactParameters, Obstacle};
 use crate::error::{Error, Result};
 use crate::mesh::TetMesh;
@@ -28,7 +29,12 @@ pub struct Contact {
     rest: Vec<Vector3<f64>>,
     /// Their lumped rest areas Aᵢ (length²).
     areas: Vec<f64>,
+    /// ε_v (length/time): slip below this speed counts as sticking (friction's smoothing).
+    slip_velocity: f64,
 }
+
+/// The default ε_v: this fraction of the bounding-box diagonal per unit time.
+pub const SLIP_FRACTION: f64 = 1e-3;
 
 /// How many offending nodes an error lists.
 const LISTED: usize = 5;
@@ -69,7 +75,9 @@ impl Contact {
             }
         }
         let nodes: Vec<usize> = (0..mesh.node_count()).filter(|&n| areas[n] > 0.0).collect();
+        let (min, max) = mesh.bounding_box();
         let contact = Contact {
+            slip_velocity: SLIP_FRACTION * (max - min).norm(),
             rest: nodes.iter().map(|&n| mesh.nodes()[n]).collect(),
             areas: nodes.iter().map(|&n| areas[n]).collect(),
             nodes,
@@ -78,6 +86,27 @@ impl Contact {
         };
         contact.check_state(&vec![0.0; mesh.dof_count()])?;
         Ok(contact)
+    }
+
+    /// The contact with friction's stick speed ε_v = `slip_velocity` (length/time; default
+    /// 10⁻³ of the bounding-box diagonal per unit time): tangential speeds below it are
+    /// resolved as sticking, with a creep below ε_v. [`Error::InvalidParameter`] unless finite
+    /// and > 0.
+    pub fn with_slip_velocity(mut self, slip_velocity: f64) -> Result<Self> {
+        if !(slip_velocity.is_finite() && slip_velocity > 0.0) {
+            return Err(Error::invalid_parameter(
+                "friction slip_velocity",
+                slip_velocity,
+                "must be finite and > 0",
+            ));
+        }
+        self.slip_velocity = slip_velocity;
+        Ok(self)
+    }
+
+    /// ε_v (length/time).
+    pub fn slip_velocity(&self) -> f64 {
+        self.slip_velocity
     }
 
     /// The obstacles.
@@ -214,6 +243,106 @@ impl Contact {
         Ok((gaps, pressures))
     }
 
+    /// Whether any obstacle has friction (μ > 0).
+    pub fn has_friction(&self) -> bool {
+        self.obstacles.iter().any(|o| o.friction() > 0.0)
+    }
+
+    /// The friction data of a step starting at full displacement `u` (see
+    /// [`super::friction`]): per node within d̂ of an obstacle with μ > 0, the normal force
+    /// λ = κ·Aᵢ·|b′(d)| and the tangent projector there, with smoothing distance `epsilon`
+    /// (length; ε_v·dt).
+    pub fn friction_lag(&self, u: &[f64], epsilon: f64) -> Result<FrictionLag> {
+        if !(epsilon.is_finite() && epsilon > 0.0) {
+            return Err(Error::invalid_parameter(
+                "friction smoothing distance",
+                epsilon,
+                "must be finite and > 0",
+            ));
+        }
+        let mut points = Vec::new();
+        let d_hat = self.parameters.activation_distance;
+        self.for_each_active(u, |n, _, obstacle, x, d, area| {
+            if obstacle.friction() > 0.0 {
+                let normal_force =
+                    -self.parameters.stiffness * area * barrier::derivative(d, d_hat);
+                let g = obstacle.gradient(x);
+                points.push(LaggedPoint {
+                    node: n,
+                    start: *x,
+                    limit: obstacle.friction() * normal_force,
+                    projector: Matrix3::identity() - g * g.transpose(),
+                });
+            }
+        })?;
+        Ok(FrictionLag { points, epsilon })
+    }
+
+    fn lagged_position(&self, p: &LaggedPoint, u: &[f64]) -> Result<Vector3<f64>> {
+        let k = self
+            .nodes
+            .binary_search(&p.node)
+            .map_err(|_| Error::invalid_parameter("friction lag", p.node, "not a contact node"))?;
+        Ok(self.position(k, u))
+    }
+
+    /// The friction potential Σ μ·λ·f₀(|P·(x − x⁰)|) (energy units) at full displacement `u`.
+    pub fn friction_energy(&self, lag: &FrictionLag, u: &[f64]) -> Result<f64> {
+        self.check_full(u)?;
+        let mut total = 0.0;
+        for p in &lag.points {
+            let y = p.slip(&self.lagged_position(p, u)?).norm();
+            total += p.limit * f0(y, lag.epsilon);
+        }
+        Ok(total)
+    }
+
+    /// Adds the friction force −μ·λ·(f₁(y)/y)·P·(x − x⁰) (force units) into `force`.
+    pub fn add_friction_force(
+        &self,
+        lag: &FrictionLag,
+        u: &[f64],
+        force: &mut [f64],
+    ) -> Result<()> {
+        self.check_full(u)?;
+        Error::check_len("friction force", u.len(), force.len())?;
+        for p in &lag.points {
+            let slip = p.slip(&self.lagged_position(p, u)?);
+            let f = -p.limit * f1_over_y(slip.norm(), lag.epsilon) * slip;
+            for a in 0..3 {
+                force[3 * p.node + a] += f[a];
+            }
+        }
+        Ok(())
+    }
+
+    /// Adds the friction Hessian μ·λ·(f₁′(y)·ûûᵀ + (f₁(y)/y)·(P − ûûᵀ)) (PSD as it stands,
+    /// f₁′ ≥ 0; see [`super::friction`]) into `matrix`
+    /// (full assembly pattern).
+    pub fn add_friction_tangent(
+        &self,
+        lag: &FrictionLag,
+        u: &[f64],
+        matrix: &mut CscMatrix,
+    ) -> Result<()> {
+        self.check_full(u)?;
+        let mut blocks = Vec::with_capacity(lag.points.len());
+        for p in &lag.points {
+            let slip = p.slip(&self.lagged_position(p, u)?);
+            let y = slip.norm();
+            let across = f1_over_y(y, lag.epsilon);
+            let mut block = across * p.projector;
+            if y > 0.0 {
+                // Along the slip the curvature is f₁′(y), across it f₁(y)/y; both ≥ 0.
+                let along = f1_derivative(y, lag.epsilon);
+                let unit = slip / y;
+                block += (along - across) * unit * unit.transpose();
+            }
+            blocks.push((p.node, p.limit * block));
+        }
+        add_node_blocks(matrix, blocks)
+    }
+
     /// Adds the contact Hessian ∂²E_c/∂u² at full displacement `u` into `matrix`, a matrix on
     /// the full assembly pattern (every node's 3×3 diagonal block stored). Per node and
     /// obstacle: κ·Aᵢ·(b″·∇d∇dᵀ + b′·∇²d); with `project` the second term — negative
@@ -232,27 +361,7 @@ impl Contact {
             }
             blocks.push((n, scale * block));
         })?;
-        let col_ptr = matrix.col_ptr().to_vec();
-        for (n, block) in blocks {
-            for c in 0..3 {
-                let col = 3 * n + c;
-                let range = col_ptr[col]..col_ptr[col + 1];
-                for r in 0..3 {
-                    let row = 3 * n + r;
-                    let k = matrix.row_idx()[range.clone()]
-                        .binary_search(&row)
-                        .map_err(|_| {
-                            Error::invalid_parameter(
-                                "contact tangent",
-                                format!("no entry ({row}, {col})"),
-                                "must be on the full assembly pattern (node blocks stored)",
-                            )
-                        })?;
-                    matrix.values_mut()[range.start + k] += block[(r, c)];
-                }
-            }
-        }
-        Ok(())
+        add_node_blocks(matrix, blocks)
     }
 
     /// Continuous collision detection: the largest fraction t ∈ (0, 1] such that every node
@@ -301,4 +410,30 @@ impl Contact {
         }
         Ok(())
     }
+}
+
+/// Adds 3×3 blocks on the diagonal node blocks of `matrix` (a matrix on the full assembly
+/// pattern): `(node, block)` pairs.
+fn add_node_blocks(matrix: &mut CscMatrix, blocks: Vec<(usize, Matrix3<f64>)>) -> Result<()> {
+    let col_ptr = matrix.col_ptr().to_vec();
+    for (n, block) in blocks {
+        for c in 0..3 {
+            let col = 3 * n + c;
+            let range = col_ptr[col]..col_ptr[col + 1];
+            for r in 0..3 {
+                let row = 3 * n + r;
+                let k = matrix.row_idx()[range.clone()]
+                    .binary_search(&row)
+                    .map_err(|_| {
+                        Error::invalid_parameter(
+                            "contact tangent",
+                            format!("no entry ({row}, {col})"),
+                            "must be on the full assembly pattern (node blocks stored)",
+                        )
+                    })?;
+                matrix.values_mut()[range.start + k] += block[(r, c)];
+            }
+        }
+    }
+    Ok(())
 }

@@ -14,7 +14,7 @@ use std::sync::Arc;
 use super::{Energy, LinearSystem, Mass, State};
 use crate::assembly::Assembler;
 use crate::constraints::Restriction;
-use crate::contact::Contact;
+use crate::contact::{Contact, FrictionLag};
 use crate::error::{Error, Result};
 use crate::mesh::TetMesh;
 use crate::model::assemble::{energy, internal_force, refill_tangent};
@@ -121,6 +121,8 @@ pub struct NonlinearForce {
     prescribed: Vec<f64>,
     /// Contact with rigid obstacles, when given ([`with_contact`](Self::with_contact)).
     contact: Option<Contact>,
+    /// Friction's data lagged at the current step's start ([`begin_step`](Self::begin_step)).
+    friction: std::sync::Mutex<Option<FrictionLag>>,
 }
 
 impl NonlinearForce {
@@ -207,6 +209,7 @@ impl NonlinearForce {
             restriction,
             pattern,
             contact: None,
+            friction: std::sync::Mutex::new(None),
         })
     }
 
@@ -221,6 +224,31 @@ impl NonlinearForce {
         contact.check_state(&vec![0.0; self.mesh.dof_count()])?;
         self.contact = Some(contact);
         Ok(self)
+    }
+
+    /// Starts a time step from free displacements `u` with step `dt` (time): with frictional
+    /// contact, lags the normal forces and tangent planes there and sets the smoothing distance
+    /// ε = ε_v·`dt` (see [`crate::contact::friction`]); the force, tangent and
+    /// [`potential_energy`](Self::potential_energy) include friction until the next call or
+    /// [`end_friction`](Self::end_friction). Without friction it does nothing.
+    pub fn begin_step(&self, u: &[f64], dt: f64) -> Result<()> {
+        let Some(contact) = self.contact.as_ref().filter(|c| c.has_friction()) else {
+            return Ok(());
+        };
+        let lag =
+            contact.friction_lag(&self.full_displacement(u)?, contact.slip_velocity() * dt)?;
+        *self.friction_lock() = Some(lag);
+        Ok(())
+    }
+
+    /// Drops the lagged friction (explicit steps and energy evaluations see none).
+    pub fn end_friction(&self) {
+        *self.friction_lock() = None;
+    }
+
+    fn friction_lock(&self) -> std::sync::MutexGuard<'_, Option<FrictionLag>> {
+        // A poisoned lock only means a panic elsewhere while holding plain data: keep it.
+        self.friction.lock().unwrap_or_else(|e| e.into_inner())
     }
 
     /// The contact, if any.
@@ -260,9 +288,14 @@ impl NonlinearForce {
         }
     }
 
-    /// The energy whose gradient is −(f_int + f_contact): elastic plus contact (energy units).
+    /// The energy whose gradient is −(f_int + f_contact): elastic plus contact, plus the lagged
+    /// friction potential during a step (energy units).
     pub fn potential_energy(&self, u: &[f64]) -> Result<f64> {
-        Ok(self.elastic_energy(u)? + self.contact_energy(u)?)
+        let mut total = self.elastic_energy(u)? + self.contact_energy(u)?;
+        if let (Some(contact), Some(lag)) = (&self.contact, self.friction_lock().as_ref()) {
+            total += contact.friction_energy(lag, &self.full_displacement(u)?)?;
+        }
+        Ok(total)
     }
 
     /// The model of each tet (one for all, or one per material): what the outputs evaluate
@@ -317,6 +350,9 @@ impl NonlinearForce {
         let mut full = internal_force(&self.mesh, self.models.as_ref(), &work.full)?;
         if let Some(contact) = &self.contact {
             contact.add_force(&work.full, &mut full)?;
+            if let Some(lag) = self.friction_lock().as_ref() {
+                contact.add_friction_force(lag, &work.full, &mut full)?;
+            }
         }
         for (o, &d) in out.iter_mut().zip(&self.free_dofs) {
             *o = full[d];
@@ -353,6 +389,9 @@ impl NonlinearForce {
         )?;
         if let Some(contact) = &self.contact {
             contact.add_tangent(&work.full, project, &mut work.full_tangent)?;
+            if let Some(lag) = self.friction_lock().as_ref() {
+                contact.add_friction_tangent(lag, &work.full, &mut work.full_tangent)?;
+            }
         }
         self.restriction
             .restrict_into(&work.full_tangent, &mut work.free_tangent)?;

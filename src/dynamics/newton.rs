@@ -279,14 +279,35 @@ impl NewtonSolver {
         step: usize,
         time: f64,
     ) -> Result<usize> {
-        let damping = system.damping();
-        let (s_m, s_c) = (equation.mass_scale, equation.damping_scale);
         u_new.copy_from_slice(equation.start);
-        let diverged = |reason: String| Error::Diverged { step, time, reason };
         if let Some(k) = &mut self.damping_tangent {
             self.force
                 .tangent_into(equation.start, true, &mut self.work, k)?;
         }
+        // Friction lags its normal forces at the step's start; its smoothing distance is
+        // ε_v/s_c (backward Euler: ε_v·dt; Newmark: ε_v·dt/2).
+        self.force
+            .begin_step(equation.start, 1.0 / equation.damping_scale)?;
+        let solved = self.iterate(system, equation, matrix, solver, u_new, step, time);
+        self.force.end_friction();
+        solved
+    }
+
+    /// The Newton iterations of [`solve`](Self::solve), friction lagged already.
+    #[allow(clippy::too_many_arguments)]
+    fn iterate(
+        &mut self,
+        system: &LinearSystem,
+        equation: &StepEquation,
+        matrix: &mut CscMatrix,
+        solver: &mut LinearSolver,
+        u_new: &mut [f64],
+        step: usize,
+        time: f64,
+    ) -> Result<usize> {
+        let damping = system.damping();
+        let (s_m, s_c) = (equation.mass_scale, equation.damping_scale);
+        let diverged = |reason: String| Error::Diverged { step, time, reason };
         self.residual_into(system, equation, u_new, false)?;
         let mut r_norm = norm(&self.residual);
         if !r_norm.is_finite() {
