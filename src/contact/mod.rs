@@ -10,9 +10,13 @@
 //! Hessian are smooth and enter the Newton tangent, so Newton keeps its convergence.
 //!
 //! One idea per file: [`barrier`] (b, b′, b″), [`friction`] (IPC's lagged smoothed Coulomb
-//! friction), [`obstacle`] (shapes, signed distance and its
-//! derivatives, time of impact), [`parameters`] (d̂ and κ and their default rule), [`set`] (the
-//! contact of a mesh's boundary nodes with the obstacles).
+//! friction), [`obstacle`] (half-space, sphere, box: signed distance, its derivatives, time of
+//! impact), [`parameters`] (d̂ and κ and their default rule), [`set`] (the contact of a mesh's
+//! boundary nodes with the obstacles).
+//!
+//! Not here yet: moving obstacles (a prescribed motion makes the first Newton iterate of a step
+//! infeasible unless the obstacle itself is stepped by CCD, as IPC does), scene keys, and
+//! friction in the static solve and the explicit method.
 
 pub mod barrier;
 pub mod friction;
