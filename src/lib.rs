@@ -43,6 +43,7 @@ pub mod assembly;
 pub mod atomic_file;
 pub mod boundary_motion;
 pub mod constraints;
+pub mod contact;
 pub mod convergence;
 pub mod dynamics;
 pub mod element;

@@ -3,7 +3,8 @@
 
 use crate::amplitude::STATIC_TIME;
 use crate::boundary_motion::BoundaryMotion;
-use crate::constraints::Constraints;
+use crate::constraints::{Constraints, DofMap};
+use crate::contact::{Contact, STEP_FRACTION};
 use crate::error::{Error, Result};
 use crate::linear_solver::{LinearMethod, LinearSolver, SolverOptions};
 use crate::loads::Loads;
@@ -70,12 +71,13 @@ pub fn solve_nonlinear_static(
     loads: &Loads,
     options: NewtonOptions,
 ) -> Result<NewtonReport> {
-    solve_nonlinear_static_with_motion(
+    solve(
         mesh,
         model,
         constraints,
         loads,
         &BoundaryMotion::new(),
+        None,
         options,
     )
 }
@@ -93,6 +95,47 @@ pub fn solve_nonlinear_static_with_motion(
     constraints: &Constraints,
     loads: &Loads,
     motion: &BoundaryMotion,
+    options: NewtonOptions,
+) -> Result<NewtonReport> {
+    solve(mesh, model, constraints, loads, motion, None, options)
+}
+
+/// [`solve_nonlinear_static`] with contact against rigid obstacles (see [`crate::contact`]):
+/// the barrier's force and Hessian join the model's, each line search starts at 0.8 of the
+/// collision-free step ([`Contact::max_step`]) and accepts only a decrease of the potential
+/// Π = E + E_c − λ·fᵀu (up to its round-off), so no iterate penetrates an obstacle.
+///
+/// The constraints need not hold every rigid mode (the obstacles may hold the body): a
+/// direction held by neither makes the tangent singular, reported as
+/// [`Error::NotPositiveDefinite`](crate::linalg::Error) from the factorization. The body must
+/// start outside every obstacle; a contact that Newton cannot resolve in its budget is an
+/// [`Error::Solver`] naming the load step, never a penetrated state.
+pub fn solve_nonlinear_static_with_contact(
+    mesh: &TetMesh,
+    model: &(impl TetModels + ?Sized),
+    constraints: &Constraints,
+    loads: &Loads,
+    contact: &Contact,
+    options: NewtonOptions,
+) -> Result<NewtonReport> {
+    solve(
+        mesh,
+        model,
+        constraints,
+        loads,
+        &BoundaryMotion::new(),
+        Some(contact),
+        options,
+    )
+}
+
+fn solve(
+    mesh: &TetMesh,
+    model: &(impl TetModels + ?Sized),
+    constraints: &Constraints,
+    loads: &Loads,
+    motion: &BoundaryMotion,
+    contact: Option<&Contact>,
     options: NewtonOptions,
 ) -> Result<NewtonReport> {
     if options.load_steps == 0 || !(options.tolerance > 0.0 && options.tolerance.is_finite()) {
@@ -113,7 +156,13 @@ pub fn solve_nonlinear_static_with_motion(
         ));
     }
     model.check_tet_count(mesh)?;
-    let problem = Problem::new(mesh, constraints)?;
+    let problem = match contact {
+        None => Problem::new(mesh, constraints)?,
+        Some(contact) => {
+            contact.check_state(&vec![0.0; mesh.dof_count()])?;
+            Problem::with_dofs(mesh, DofMap::new(constraints))?
+        }
+    };
     let (dofs, assembler, restriction) =
         (problem.dofs(), problem.assembler(), problem.restriction());
     let mut tangent = problem.zero_matrix()?;
@@ -139,7 +188,10 @@ pub fn solve_nonlinear_static_with_motion(
             }
         }
         let residual = |u: &[f64]| -> Result<Vec<f64>> {
-            let fi = internal_force(mesh, model, u)?;
+            let mut fi = internal_force(mesh, model, u)?;
+            if let Some(contact) = contact {
+                contact.add_force(u, &mut fi)?;
+            }
             dofs.restrict(
                 &fi.iter()
                     .zip(f_full)
@@ -148,7 +200,11 @@ pub fn solve_nonlinear_static_with_motion(
             )
         };
         let potential = |u: &[f64]| -> Result<f64> {
-            Ok(energy(mesh, model, u)?
+            let barrier = match contact {
+                Some(contact) => contact.energy(u)?,
+                None => 0.0,
+            };
+            Ok(energy(mesh, model, u)? + barrier
                 - factor * f_full.iter().zip(u).map(|(f, u)| f * u).sum::<f64>())
         };
         let mut r = residual(&u)?;
@@ -175,11 +231,17 @@ pub fn solve_nonlinear_static_with_motion(
             // the one with every element tangent projected onto the PSD cone (a descent
             // direction, at the price of linear convergence while it is needed).
             refill_tangent(mesh, assembler, model, &u, false, &mut tangent)?;
+            if let Some(contact) = contact {
+                contact.add_tangent(&u, false, &mut tangent)?;
+            }
             restriction.restrict_into(&tangent, &mut free_tangent)?;
             if let Err(tetfem_linalg::Error::NotPositiveDefinite { .. }) =
                 solver.factorize(&free_tangent)
             {
                 refill_tangent(mesh, assembler, model, &u, true, &mut tangent)?;
+                if let Some(contact) = contact {
+                    contact.add_tangent(&u, true, &mut tangent)?;
+                }
                 restriction.restrict_into(&tangent, &mut free_tangent)?;
                 solver.factorize(&free_tangent)?;
             }
@@ -187,6 +249,13 @@ pub fn solve_nonlinear_static_with_motion(
             solver.solve(&free_tangent, &mut delta)?;
             let (r_norm, pi) = (norm(&r), potential(&u)?);
             let mut alpha = 1.0;
+            if let Some(contact) = contact {
+                let mut step = vec![0.0; u.len()];
+                for (&dof, d) in dofs.free_dofs().iter().zip(&delta) {
+                    step[dof] = *d;
+                }
+                alpha = (STEP_FRACTION * contact.max_step(&u, &step)?).min(1.0);
+            }
             let mut accepted = None;
             for _ in 0..30 {
                 let mut trial = u.clone();
@@ -194,7 +263,16 @@ pub fn solve_nonlinear_static_with_motion(
                     trial[dof] += alpha * d;
                 }
                 let r_trial = residual(&trial)?;
-                if norm(&r_trial) < r_norm || potential(&trial)? < pi {
+                let better = match contact {
+                    // Only a decrease of Π (up to its round-off): the barrier keeps the gaps open.
+                    Some(_) => {
+                        let trial_pi = potential(&trial)?;
+                        trial_pi < pi
+                            || (norm(&r_trial) < r_norm && trial_pi <= pi + 1e-12 * pi.abs())
+                    }
+                    None => norm(&r_trial) < r_norm || potential(&trial)? < pi,
+                };
+                if better {
                     accepted = Some((trial, r_trial));
                     break;
                 }

@@ -109,7 +109,24 @@ impl SymplecticEuler {
         }
         state.time += dt;
         state.steps += 1;
-        state.ensure_finite("; is dt above the critical step?")
+        state.ensure_finite("; is dt above the critical step?")?;
+        // The barrier is as stiff as κ·Aᵢ·b″(d) ≈ κ·Aᵢ·d̂²/d² at a node of gap d: stable only
+        // while dt < 2·√(mᵢ/(κ·Aᵢ·b″(d))), so a step that lets a node cross an obstacle was
+        // too large for the contact — a divergence, never a penetrated state.
+        let force = forces.force();
+        if let Some(contact) = force.contact()
+            && let Err(crossed) =
+                contact.check_state(&force.full_displacement(&state.displacement)?)
+        {
+            return Err(Error::Diverged {
+                step: state.steps,
+                time: state.time,
+                reason: format!(
+                    "{crossed}; the explicit step is above the barrier's stable step (a smaller dt)"
+                ),
+            });
+        }
+        Ok(())
     }
 }
 

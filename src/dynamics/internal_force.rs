@@ -14,6 +14,7 @@ use std::sync::Arc;
 use super::{Energy, LinearSystem, Mass, State};
 use crate::assembly::Assembler;
 use crate::constraints::Restriction;
+use crate::contact::{Contact, FrictionLag};
 use crate::error::{Error, Result};
 use crate::mesh::TetMesh;
 use crate::model::assemble::{energy, internal_force, refill_tangent};
@@ -118,6 +119,10 @@ pub struct NonlinearForce {
     pattern: Arc<faer::sparse::SymbolicSparseColMat<usize>>,
     free_dofs: Vec<usize>,
     prescribed: Vec<f64>,
+    /// Contact with rigid obstacles, when given ([`with_contact`](Self::with_contact)).
+    contact: Option<Contact>,
+    /// Friction's data lagged at the current step's start ([`begin_step`](Self::begin_step)).
+    friction: std::sync::Mutex<Option<FrictionLag>>,
 }
 
 impl NonlinearForce {
@@ -210,7 +215,94 @@ impl NonlinearForce {
             assembler,
             restriction,
             pattern,
+            contact: None,
+            friction: std::sync::Mutex::new(None),
         })
+    }
+
+    /// Adds contact with rigid obstacles (see [`crate::contact`]): the force, tangent and
+    /// energy then include the barrier's, and the implicit methods' Newton line search never
+    /// steps past the first time of impact. A linear model with contact goes through here
+    /// too (build this force with the linear [`ForceModel`]): the linear fast paths factor once
+    /// and cannot see contact.
+    ///
+    /// Errors: the contact is not of this mesh (a boundary node beyond its nodes).
+    pub fn with_contact(mut self, contact: Contact) -> Result<Self> {
+        contact.check_state(&vec![0.0; self.mesh.dof_count()])?;
+        self.contact = Some(contact);
+        Ok(self)
+    }
+
+    /// Starts a time step from free displacements `u` with step `dt` (time): with frictional
+    /// contact, lags the normal forces and tangent planes there and sets the smoothing distance
+    /// ε = ε_v·`dt` (see [`crate::contact::friction`]); the force, tangent and
+    /// [`potential_energy`](Self::potential_energy) include friction until the next call or
+    /// [`end_friction`](Self::end_friction). Without friction it does nothing.
+    pub fn begin_step(&self, u: &[f64], dt: f64) -> Result<()> {
+        let Some(contact) = self.contact.as_ref().filter(|c| c.has_friction()) else {
+            return Ok(());
+        };
+        let lag =
+            contact.friction_lag(&self.full_displacement(u)?, contact.slip_velocity() * dt)?;
+        *self.friction_lock() = Some(lag);
+        Ok(())
+    }
+
+    /// Drops the lagged friction (explicit steps and energy evaluations see none).
+    pub fn end_friction(&self) {
+        *self.friction_lock() = None;
+    }
+
+    fn friction_lock(&self) -> std::sync::MutexGuard<'_, Option<FrictionLag>> {
+        // A poisoned lock only means a panic elsewhere while holding plain data: keep it.
+        self.friction.lock().unwrap_or_else(|e| e.into_inner())
+    }
+
+    /// The contact, if any.
+    pub fn contact(&self) -> Option<&Contact> {
+        self.contact.as_ref()
+    }
+
+    /// The full displacement of free displacements `u` (prescribed values at constrained DOFs).
+    pub fn full_displacement(&self, u: &[f64]) -> Result<Vec<f64>> {
+        Error::check_len("displacement", self.free_count(), u.len())?;
+        let mut full = vec![0.0; self.mesh.dof_count()];
+        self.expand_into(u, &mut full);
+        Ok(full)
+    }
+
+    /// The largest fraction t ∈ (0, 1] of the step `du` from `u` (free DOFs) that keeps every
+    /// boundary node outside every obstacle (1 without contact; see
+    /// [`Contact::max_step`]).
+    pub fn contact_step_limit(&self, u: &[f64], du: &[f64]) -> Result<f64> {
+        let Some(contact) = &self.contact else {
+            return Ok(1.0);
+        };
+        Error::check_len("step", self.free_count(), du.len())?;
+        let full = self.full_displacement(u)?;
+        let mut full_step = vec![0.0; full.len()];
+        for (&d, &v) in self.free_dofs.iter().zip(du) {
+            full_step[d] = v;
+        }
+        contact.max_step(&full, &full_step)
+    }
+
+    /// The contact energy E_c(u) (energy units) of free displacements `u`, 0 without contact.
+    pub fn contact_energy(&self, u: &[f64]) -> Result<f64> {
+        match &self.contact {
+            Some(contact) => contact.energy(&self.full_displacement(u)?),
+            None => Ok(0.0),
+        }
+    }
+
+    /// The energy whose gradient is −(f_int + f_contact): elastic plus contact, plus the lagged
+    /// friction potential during a step (energy units).
+    pub fn potential_energy(&self, u: &[f64]) -> Result<f64> {
+        let mut total = self.elastic_energy(u)? + self.contact_energy(u)?;
+        if let (Some(contact), Some(lag)) = (&self.contact, self.friction_lock().as_ref()) {
+            total += contact.friction_energy(lag, &self.full_displacement(u)?)?;
+        }
+        Ok(total)
     }
 
     /// The model of each tet (one for all, or one per material): what the outputs evaluate
@@ -257,19 +349,25 @@ impl NonlinearForce {
         Ok(CscMatrix::zeros(Arc::clone(&self.pattern))?)
     }
 
-    /// f_int(u) = Σₑ fₑ(X + u) on the free DOFs (force units) into `out`; `u` on the free DOFs.
+    /// f_int(u) = Σₑ fₑ(X + u) (plus the contact force, with contact) on the free DOFs (force units) into `out`; `u` on the free DOFs.
     pub fn force_into(&self, u: &[f64], work: &mut ForceWorkspace, out: &mut [f64]) -> Result<()> {
         Error::check_len("displacement", self.free_count(), u.len())?;
         Error::check_len("force", self.free_count(), out.len())?;
         self.expand_into(u, &mut work.full);
-        let full = internal_force(&self.mesh, self.models.as_ref(), &work.full)?;
+        let mut full = internal_force(&self.mesh, self.models.as_ref(), &work.full)?;
+        if let Some(contact) = &self.contact {
+            contact.add_force(&work.full, &mut full)?;
+            if let Some(lag) = self.friction_lock().as_ref() {
+                contact.add_friction_force(lag, &work.full, &mut full)?;
+            }
+        }
         for (o, &d) in out.iter_mut().zip(&self.free_dofs) {
             *o = full[d];
         }
         Ok(())
     }
 
-    /// K_T(u) = −∂f_int/∂u on the free DOFs into `out` (on K_ff's pattern, see
+    /// K_T(u) = −∂f_int/∂u (plus the contact Hessian, with contact) on the free DOFs into `out` (on K_ff's pattern, see
     /// [`zero_tangent`](Self::zero_tangent)), every element tangent projected onto the positive
     /// semi-definite cone when `project` is set ([`crate::model::project_psd`]).
     pub fn tangent_into(
@@ -296,6 +394,12 @@ impl NonlinearForce {
             project,
             &mut work.full_tangent,
         )?;
+        if let Some(contact) = &self.contact {
+            contact.add_tangent(&work.full, project, &mut work.full_tangent)?;
+            if let Some(lag) = self.friction_lock().as_ref() {
+                contact.add_friction_tangent(lag, &work.full, &mut work.full_tangent)?;
+            }
+        }
         self.restriction
             .restrict_into(&work.full_tangent, &mut work.free_tangent)?;
         out.values_mut().copy_from_slice(work.free_tangent.values());

@@ -257,7 +257,7 @@ impl NewtonSolver {
             }
         }
         let load = dot(system.external_load(), u_new);
-        Ok(phi + self.force.elastic_energy(u_new)? - load)
+        Ok(phi + self.force.potential_energy(u_new)? - load)
     }
 
     /// Solves `equation` for u' by Newton's method into `u_new` (any length-n buffer; it starts
@@ -279,14 +279,35 @@ impl NewtonSolver {
         step: usize,
         time: f64,
     ) -> Result<usize> {
-        let damping = system.damping();
-        let (s_m, s_c) = (equation.mass_scale, equation.damping_scale);
         u_new.copy_from_slice(equation.start);
-        let diverged = |reason: String| Error::Diverged { step, time, reason };
         if let Some(k) = &mut self.damping_tangent {
             self.force
                 .tangent_into(equation.start, true, &mut self.work, k)?;
         }
+        // Friction lags its normal forces at the step's start; its smoothing distance is
+        // ε_v/s_c (backward Euler: ε_v·dt; Newmark: ε_v·dt/2).
+        self.force
+            .begin_step(equation.start, 1.0 / equation.damping_scale)?;
+        let solved = self.iterate(system, equation, matrix, solver, u_new, step, time);
+        self.force.end_friction();
+        solved
+    }
+
+    /// The Newton iterations of [`solve`](Self::solve), friction lagged already.
+    #[allow(clippy::too_many_arguments)]
+    fn iterate(
+        &mut self,
+        system: &LinearSystem,
+        equation: &StepEquation,
+        matrix: &mut CscMatrix,
+        solver: &mut LinearSolver,
+        u_new: &mut [f64],
+        step: usize,
+        time: f64,
+    ) -> Result<usize> {
+        let damping = system.damping();
+        let (s_m, s_c) = (equation.mass_scale, equation.damping_scale);
+        let diverged = |reason: String| Error::Diverged { step, time, reason };
         self.residual_into(system, equation, u_new, false)?;
         let mut r_norm = norm(&self.residual);
         if !r_norm.is_finite() {
@@ -319,7 +340,15 @@ impl NewtonSolver {
             let solved = solver.solve(matrix, &mut delta);
             self.delta = delta;
             solved?;
-            let mut alpha = 1.0;
+            // With contact: never past the first time of impact (IPC's 0.8 of it), and only a
+            // decrease of Φ (up to its round-off) is accepted, so no iterate penetrates.
+            let with_contact = self.force.contact().is_some();
+            let mut alpha = match with_contact {
+                true => (crate::contact::STEP_FRACTION
+                    * self.force.contact_step_limit(u_new, &self.delta)?)
+                .min(1.0),
+                false => 1.0,
+            };
             let mut phi = None;
             let mut accepted = false;
             for _ in 0..30 {
@@ -331,12 +360,22 @@ impl NewtonSolver {
                 self.trial = trial;
                 evaluated?;
                 let trial_norm = norm(&self.trial_residual);
-                let better = trial_norm < r_norm || {
+                let better = if with_contact {
                     let start = match phi {
                         Some(p) => p,
                         None => *phi.insert(self.potential(system, equation, u_new)?),
                     };
-                    self.potential(system, equation, &self.trial)? < start
+                    let trial_phi = self.potential(system, equation, &self.trial)?;
+                    trial_phi < start
+                        || (trial_norm < r_norm && trial_phi <= start + 1e-12 * start.abs())
+                } else {
+                    trial_norm < r_norm || {
+                        let start = match phi {
+                            Some(p) => p,
+                            None => *phi.insert(self.potential(system, equation, u_new)?),
+                        };
+                        self.potential(system, equation, &self.trial)? < start
+                    }
                 };
                 if better {
                     accepted = true;

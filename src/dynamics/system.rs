@@ -126,6 +126,7 @@ impl LinearSystem {
             mass,
             damping,
             None,
+            true,
         )
     }
 
@@ -163,9 +164,38 @@ impl LinearSystem {
             mass,
             damping,
             data,
+            true,
         )
     }
 
+    /// [`new`](Self::new) without the check that the constraints hold every rigid mode: for a
+    /// body in free flight or held only by contact with obstacles (a falling block). Time steps
+    /// are well posed (the mass holds the rigid modes); [`static_displacement`](Self::static_displacement)
+    /// is not (K_ff is singular), and fails in its factorization.
+    pub fn new_free_body<E: crate::element::ElementType>(
+        mesh: &TetMesh<E>,
+        materials: &impl TetMaterials,
+        constraints: &Constraints,
+        loads: &Loads,
+        gravity: Vector3<f64>,
+        mass: MassKind,
+        damping: Rayleigh,
+    ) -> Result<Self> {
+        Self::assemble(
+            mesh,
+            materials,
+            constraints,
+            loads,
+            gravity,
+            mass,
+            damping,
+            None,
+            false,
+        )
+    }
+
+    /// [`new`](Self::new), with time-varying `data` and the rigid-mode check when `check_held`
+    /// is set.
     #[allow(clippy::too_many_arguments)]
     fn assemble<E: crate::element::ElementType>(
         mesh: &TetMesh<E>,
@@ -176,6 +206,7 @@ impl LinearSystem {
         mass: MassKind,
         damping: Rayleigh,
         data: Option<&TimeData>,
+        check_held: bool,
     ) -> Result<Self> {
         if constraints.dof_count() != mesh.dof_count() || loads.as_slice().len() != mesh.dof_count()
         {
@@ -203,7 +234,10 @@ impl LinearSystem {
             estimate.beyond_mesh() + extra,
         )?;
         materials.check_tet_count(mesh)?;
-        let problem = Problem::new(mesh, constraints)?;
+        let problem = match check_held {
+            true => Problem::new(mesh, constraints)?,
+            false => Problem::with_dofs(mesh, crate::constraints::DofMap::new(constraints))?,
+        };
         let k_full = problem.stiffness(materials)?;
         let stiffness = problem.restrict(&k_full)?;
         let mass_kind = mass;

@@ -1,0 +1,84 @@
+//! Coulomb friction as IPC writes it (Li et al. 2020, §5): a lagged, smoothed dissipative
+//! potential of the tangential displacement over a time step.
+//!
+//! Per node i and obstacle o in contact at the step's start x⁰: the normal force λ = κ·Aᵢ·|b′(d)|
+//! and the tangent projector P = I − n·nᵀ are frozen there (lagged), and the step adds
+//!
+//! D(x) = μ·λ·f₀(|P·(x − x⁰)|),  f₀(y) = −y³/(3ε²) + y²/ε + ε/3 for y < ε, y beyond,
+//!
+//! whose force −∂D/∂x = −μ·λ·f₁(y)·û (f₁ = f₀′ = 2y/ε − y²/ε² below ε, 1 beyond; û the unit
+//! slip) is Coulomb's μ·λ against the slip once it exceeds ε = ε_v·dt, and grows smoothly from
+//! zero below: static friction is resolved to a creep speed below ε_v. Its Hessian (with the
+//! lagged λ and P) is μ·λ·(f₁′(y)·ûûᵀ + (f₁(y)/y)·(P − ûûᵀ)): positive semi-definite as it
+//! stands (f₁′ ≥ 0, f₁/y > 0), so Newton's matrix stays SPD without a projection.
+
+use nalgebra::{Matrix3, Vector3};
+
+/// The lagged friction data of one time step (built by
+/// [`Contact::friction_lag`](super::Contact::friction_lag)).
+#[derive(Debug, Clone, Default)]
+pub struct FrictionLag {
+    /// One entry per node in contact with a frictional obstacle at the step's start.
+    pub(crate) points: Vec<LaggedPoint>,
+    /// The smoothing distance ε (length).
+    pub(crate) epsilon: f64,
+}
+
+/// One node's lagged contact with one obstacle.
+#[derive(Debug, Clone)]
+pub(crate) struct LaggedPoint {
+    /// The mesh node.
+    pub node: usize,
+    /// Its position at the step's start (length).
+    pub start: Vector3<f64>,
+    /// μ·λ (force).
+    pub limit: f64,
+    /// P = I − n·nᵀ at the step's start.
+    pub projector: Matrix3<f64>,
+}
+
+impl FrictionLag {
+    /// Number of lagged contacts.
+    pub fn len(&self) -> usize {
+        self.points.len()
+    }
+
+    /// Whether no node is in frictional contact.
+    pub fn is_empty(&self) -> bool {
+        self.points.is_empty()
+    }
+}
+
+/// f₀(y) (length).
+pub(crate) fn f0(y: f64, epsilon: f64) -> f64 {
+    if y >= epsilon {
+        y
+    } else {
+        -y * y * y / (3.0 * epsilon * epsilon) + y * y / epsilon + epsilon / 3.0
+    }
+}
+
+/// f₁(y)/y (1/length), finite at y = 0 (→ 2/ε).
+pub(crate) fn f1_over_y(y: f64, epsilon: f64) -> f64 {
+    if y >= epsilon {
+        1.0 / y
+    } else {
+        2.0 / epsilon - y / (epsilon * epsilon)
+    }
+}
+
+/// f₁′(y) = 2/ε − 2y/ε² below ε, 0 beyond (1/length; ≥ 0).
+pub(crate) fn f1_derivative(y: f64, epsilon: f64) -> f64 {
+    if y >= epsilon {
+        0.0
+    } else {
+        2.0 / epsilon - 2.0 * y / (epsilon * epsilon)
+    }
+}
+
+impl LaggedPoint {
+    /// The tangential slip P·(x − x⁰) of position `x`.
+    pub fn slip(&self, x: &Vector3<f64>) -> Vector3<f64> {
+        self.projector * (x - self.start)
+    }
+}

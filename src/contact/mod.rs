@@ -1,0 +1,33 @@
+//! Contact of the body with rigid obstacles (the lecture's collision forces in f_ext), by the
+//! barrier method of IPC (Li et al., "Incremental Potential Contact", SIGGRAPH 2020).
+//!
+//! Why a barrier: the contact energy E_c = κ·Σᵢ Aᵢ·b(dᵢ) grows without bound as a gap closes,
+//! so every state of finite energy is free of penetration, and a Newton line search that (1)
+//! never steps past the first time of impact (continuous collision detection,
+//! [`Contact::max_step`], times 0.8) and (2) accepts only a decrease of the incremental
+//! potential keeps every iterate outside every obstacle — at any time step, with no penalty
+//! stiffness to tune against the step or the mesh, and no active set to update. Its force and
+//! Hessian are smooth and enter the Newton tangent, so Newton keeps its convergence.
+//!
+//! One idea per file: [`barrier`] (b, b′, b″), [`friction`] (IPC's lagged smoothed Coulomb
+//! friction), [`obstacle`] (half-space, sphere, box: signed distance, its derivatives, time of
+//! impact), [`parameters`] (d̂ and κ and their default rule), [`set`] (the contact of a mesh's
+//! boundary nodes with the obstacles).
+//!
+//! Not here yet: moving obstacles (a prescribed motion makes the first Newton iterate of a step
+//! infeasible unless the obstacle itself is stepped by CCD, as IPC does), scene keys, and
+//! friction in the static solve and the explicit method.
+
+pub mod barrier;
+pub mod friction;
+pub mod obstacle;
+pub mod parameters;
+pub mod set;
+
+pub use friction::FrictionLag;
+pub use obstacle::{Obstacle, Shape};
+pub use parameters::ContactParameters;
+pub use set::Contact;
+
+/// The fraction of the collision-free step a line search starts from (IPC's 0.8).
+pub const STEP_FRACTION: f64 = 0.8;

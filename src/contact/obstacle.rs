@@ -1,0 +1,394 @@
+//! Rigid obstacles: their signed distance, its gradient and Hessian at a point, and the
+//! time of impact of a point moving along a straight line (continuous collision detection).
+
+use nalgebra::{Matrix3, Rotation3, Vector3};
+
+use crate::error::{Error, Result};
+
+/// The shape of a rigid obstacle. The body lives where the signed distance is positive.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Shape {
+    /// The half-space n·(x − p) ≤ 0 (the ground): the body stays on the side `normal` points to.
+    HalfSpace {
+        /// A point on the plane (length).
+        point: Vector3<f64>,
+        /// The unit normal, pointing out of the obstacle into the body's side.
+        normal: Vector3<f64>,
+    },
+    /// The solid ball |x − c| ≤ R: the body stays outside.
+    Sphere {
+        /// Its centre (length).
+        center: Vector3<f64>,
+        /// Its radius R > 0 (length).
+        radius: f64,
+    },
+    /// A solid box, axis-aligned or turned: the body stays outside.
+    Box {
+        /// Its centre (length).
+        center: Vector3<f64>,
+        /// Half its extents along its own axes, each > 0 (length).
+        half_extents: Vector3<f64>,
+        /// Its axes in world coordinates (the columns); identity for an axis-aligned box.
+        rotation: Rotation3<f64>,
+    },
+}
+
+/// A rigid, fixed obstacle with a name (the CSV columns and error messages use it).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Obstacle {
+    name: String,
+    shape: Shape,
+    /// Coulomb's μ ≥ 0 (0: frictionless).
+    friction: f64,
+}
+
+impl Obstacle {
+    /// The half-space below the plane through `point` with normal `normal` (normalized here):
+    /// the body must stay where n·(x − p) > 0.
+    ///
+    /// Errors ([`Error::InvalidParameter`] naming `<name>.normal` or `<name>.point`): a zero or
+    /// non-finite normal, a non-finite point.
+    pub fn half_space(
+        name: impl Into<String>,
+        point: Vector3<f64>,
+        normal: Vector3<f64>,
+    ) -> Result<Self> {
+        let name = name.into();
+        check_finite(&name, "point", &point)?;
+        let length = normal.norm();
+        if !(length.is_finite() && length > 0.0) {
+            return Err(Error::invalid_parameter(
+                format!("obstacle {name}: normal"),
+                format!("{:?}", normal.as_slice()),
+                "must be a finite, non-zero vector",
+            ));
+        }
+        Ok(Obstacle {
+            name,
+            shape: Shape::HalfSpace {
+                point,
+                normal: normal / length,
+            },
+            friction: 0.0,
+        })
+    }
+
+    /// The solid ball of radius `radius` around `center`; the body must stay outside.
+    ///
+    /// Errors ([`Error::InvalidParameter`]): a non-finite centre, a radius that is not finite
+    /// and > 0.
+    pub fn sphere(name: impl Into<String>, center: Vector3<f64>, radius: f64) -> Result<Self> {
+        let name = name.into();
+        check_finite(&name, "center", &center)?;
+        if !(radius.is_finite() && radius > 0.0) {
+            return Err(Error::invalid_parameter(
+                format!("obstacle {name}: radius"),
+                radius,
+                "must be finite and > 0",
+            ));
+        }
+        Ok(Obstacle {
+            name,
+            shape: Shape::Sphere { center, radius },
+            friction: 0.0,
+        })
+    }
+
+    /// The obstacle with Coulomb friction coefficient `mu` (dimensionless; see
+    /// [`super::friction`]). [`Error::InvalidParameter`] unless finite and ≥ 0.
+    pub fn with_friction(mut self, mu: f64) -> Result<Self> {
+        if !(mu.is_finite() && mu >= 0.0) {
+            return Err(Error::invalid_parameter(
+                format!("obstacle {}: friction", self.name),
+                mu,
+                "must be finite and ≥ 0",
+            ));
+        }
+        self.friction = mu;
+        Ok(self)
+    }
+
+    /// Coulomb's μ (0: frictionless).
+    pub fn friction(&self) -> f64 {
+        self.friction
+    }
+
+    /// The axis-aligned solid box [`min`, `max`]; the body must stay outside.
+    ///
+    /// Errors ([`Error::InvalidParameter`]): non-finite corners, or a zero or negative extent
+    /// (`max` − `min` must be > 0 on every axis).
+    pub fn aligned_box(
+        name: impl Into<String>,
+        min: Vector3<f64>,
+        max: Vector3<f64>,
+    ) -> Result<Self> {
+        let name = name.into();
+        check_finite(&name, "min", &min)?;
+        check_finite(&name, "max", &max)?;
+        Self::oriented_box(
+            name,
+            0.5 * (min + max),
+            0.5 * (max - min),
+            Rotation3::identity(),
+        )
+    }
+
+    /// The solid box of centre `center` and half extents `half_extents` along the axes of
+    /// `rotation` (its columns, in world coordinates); the body must stay outside.
+    ///
+    /// Errors ([`Error::InvalidParameter`]): a non-finite centre, a half extent that is not
+    /// finite and > 0.
+    pub fn oriented_box(
+        name: impl Into<String>,
+        center: Vector3<f64>,
+        half_extents: Vector3<f64>,
+        rotation: Rotation3<f64>,
+    ) -> Result<Self> {
+        let name = name.into();
+        check_finite(&name, "center", &center)?;
+        if !half_extents.iter().all(|h| h.is_finite() && *h > 0.0) {
+            return Err(Error::invalid_parameter(
+                format!("obstacle {name}: extents"),
+                format!("{:?}", (2.0 * half_extents).as_slice()),
+                "must be finite and > 0 on every axis",
+            ));
+        }
+        Ok(Obstacle {
+            name,
+            shape: Shape::Box {
+                center,
+                half_extents,
+                rotation,
+            },
+            friction: 0.0,
+        })
+    }
+
+    /// Its name.
+    pub fn name(&self) -> &str {
+        &self.name
+    }
+
+    /// Its shape.
+    pub fn shape(&self) -> &Shape {
+        &self.shape
+    }
+
+    /// The signed distance d(x) (length): positive outside the obstacle, where the body lives.
+    /// Half-space: n·(x − p); sphere: |x − c| − R; box: with q = |Rᵀ(x − c)| − h per axis,
+    /// |max(q, 0)| + min(maxᵢ qᵢ, 0).
+    pub fn distance(&self, x: &Vector3<f64>) -> f64 {
+        match self.shape {
+            Shape::HalfSpace { point, normal } => normal.dot(&(x - point)),
+            Shape::Sphere { center, radius } => (x - center).norm() - radius,
+            Shape::Box {
+                center,
+                half_extents,
+                rotation,
+            } => {
+                let q = (rotation.inverse() * (x - center)).abs() - half_extents;
+                q.map(|v| v.max(0.0)).norm() + q.max().min(0.0)
+            }
+        }
+    }
+
+    /// For a box: its rotation and the outside part w of the local position Rᵀ(x − c) (per
+    /// axis, signed: the excess beyond the face, 0 within the slab); `None` inside or for
+    /// other shapes.
+    fn box_excess(&self, x: &Vector3<f64>) -> Option<(Rotation3<f64>, Vector3<f64>)> {
+        let Shape::Box {
+            center,
+            half_extents,
+            rotation,
+        } = self.shape
+        else {
+            return None;
+        };
+        let p = rotation.inverse() * (x - center);
+        let w = Vector3::from_fn(|i, _| {
+            let excess = p[i].abs() - half_extents[i];
+            if excess > 0.0 {
+                excess.copysign(p[i])
+            } else {
+                0.0
+            }
+        });
+        (w.norm() > 0.0).then_some((rotation, w))
+    }
+
+    /// ∇d(x), the unit outward normal of the obstacle at the point nearest x (dimensionless).
+    /// At a sphere's centre (where it is undefined) it is +z.
+    pub fn gradient(&self, x: &Vector3<f64>) -> Vector3<f64> {
+        match self.shape {
+            Shape::HalfSpace { normal, .. } => normal,
+            Shape::Sphere { center, .. } => {
+                let r = x - center;
+                let length = r.norm();
+                if length > 0.0 {
+                    r / length
+                } else {
+                    Vector3::z()
+                }
+            }
+            Shape::Box {
+                center,
+                half_extents,
+                rotation,
+            } => match self.box_excess(x) {
+                Some((rotation, w)) => rotation * w.normalize(),
+                // Inside (a state the barrier never accepts): the nearest face's normal.
+                None => {
+                    let p = rotation.inverse() * (x - center);
+                    let q = p.abs() - half_extents;
+                    let axis = q.imax();
+                    rotation * (Vector3::ith(axis, 1.0) * p[axis].signum())
+                }
+            },
+        }
+    }
+
+    /// ∇²d(x) (1/length): zero for a half-space, (I − n·nᵀ)/|x − c| for a sphere (positive
+    /// semi-definite: the distance to a ball is convex).
+    pub fn hessian(&self, x: &Vector3<f64>) -> Matrix3<f64> {
+        match self.shape {
+            Shape::HalfSpace { .. } => Matrix3::zeros(),
+            Shape::Sphere { center, .. } => {
+                let r = x - center;
+                let length = r.norm();
+                if length == 0.0 {
+                    return Matrix3::zeros();
+                }
+                let n = r / length;
+                (Matrix3::identity() - n * n.transpose()) / length
+            }
+            // Outside a box the distance is that to a face (flat), an edge (a cylinder's) or a
+            // corner (a sphere's): (P − n·nᵀ)/|w|, P the projector on the axes beyond the box.
+            Shape::Box { .. } => match self.box_excess(x) {
+                Some((rotation, w)) => {
+                    let length = w.norm();
+                    let n = w / length;
+                    let active =
+                        Matrix3::from_diagonal(&w.map(|v| if v != 0.0 { 1.0 } else { 0.0 }));
+                    let local = (active - n * n.transpose()) / length;
+                    rotation.matrix() * local * rotation.matrix().transpose()
+                }
+                None => Matrix3::zeros(),
+            },
+        }
+    }
+
+    /// The first t ≥ 0 at which the point x + t·dx touches the obstacle (d = 0), `None` if it
+    /// never does; x must be outside (d(x) > 0). Exact: a linear equation for a half-space, the
+    /// smaller root of |x − c + t·dx|² = R² (in the cancellation-free form) for a sphere.
+    pub fn time_of_impact(&self, x: &Vector3<f64>, dx: &Vector3<f64>) -> Option<f64> {
+        match self.shape {
+            Shape::HalfSpace { point, normal } => {
+                let approach = normal.dot(dx);
+                (approach < 0.0).then(|| normal.dot(&(x - point)) / -approach)
+            }
+            Shape::Sphere { center, radius } => {
+                let r = x - center;
+                let a = dx.norm_squared();
+                let b = 2.0 * r.dot(dx);
+                let c = r.norm_squared() - radius * radius;
+                let discriminant = b * b - 4.0 * a * c;
+                if a == 0.0 || b >= 0.0 || discriminant < 0.0 {
+                    return None;
+                }
+                // b < 0: q = (−b + √disc)/2 > 0, and the smaller root is c/q.
+                let q = 0.5 * (-b + discriminant.sqrt());
+                Some(c / q)
+            }
+            Shape::Box {
+                center,
+                half_extents,
+                rotation,
+            } => {
+                // Slab test in the box's frame: the latest entry into the slabs |pᵢ + t·dpᵢ| ≤ hᵢ
+                // before the earliest exit.
+                let p = rotation.inverse() * (x - center);
+                let dp = rotation.inverse() * dx;
+                let (mut enter, mut exit) = (0.0f64, f64::INFINITY);
+                for i in 0..3 {
+                    if dp[i] == 0.0 {
+                        if p[i].abs() > half_extents[i] {
+                            return None;
+                        }
+                        continue;
+                    }
+                    let a = (-half_extents[i] - p[i]) / dp[i];
+                    let b = (half_extents[i] - p[i]) / dp[i];
+                    enter = enter.max(a.min(b));
+                    exit = exit.min(a.max(b));
+                }
+                (enter <= exit).then_some(enter)
+            }
+        }
+    }
+}
+
+fn check_finite(name: &str, key: &str, v: &Vector3<f64>) -> Result<()> {
+    if v.iter().all(|x| x.is_finite()) {
+        Ok(())
+    } else {
+        Err(Error::invalid_parameter(
+            format!("obstacle {name}: {key}"),
+            format!("{:?}", v.as_slice()),
+            "must be finite",
+        ))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn sphere_distance_and_impact() {
+        let s = Obstacle::sphere("s", Vector3::new(0.0, 0.0, 1.0), 0.5).unwrap();
+        let x = Vector3::new(0.0, 0.0, 2.0);
+        assert_eq!(s.distance(&x), 0.5);
+        // Moving straight down by 2 reaches the sphere's top (z = 1.5) at t = 0.25 exactly.
+        let t = s.time_of_impact(&x, &Vector3::new(0.0, 0.0, -2.0)).unwrap();
+        assert!((t - 0.25).abs() < 1e-15);
+        assert!(s.time_of_impact(&x, &Vector3::new(0.0, 0.0, 1.0)).is_none());
+        let g = Obstacle::half_space("g", Vector3::zeros(), Vector3::new(0.0, 0.0, 2.0)).unwrap();
+        assert_eq!(
+            g.time_of_impact(&x, &Vector3::new(0.0, 0.0, -4.0)),
+            Some(0.5)
+        );
+        assert!(Obstacle::half_space("g", Vector3::zeros(), Vector3::zeros()).is_err());
+        assert!(Obstacle::sphere("s", Vector3::zeros(), 0.0).is_err());
+    }
+
+    #[test]
+    fn box_distance_gradient_hessian_and_impact() {
+        let b = Obstacle::aligned_box("b", Vector3::zeros(), Vector3::new(2.0, 1.0, 1.0)).unwrap();
+        // Beyond a face, an edge, a corner: 0.5, √2·0.5, √3·0.5.
+        for (x, d) in [
+            (Vector3::new(1.0, 0.5, 1.5), 0.5),
+            (Vector3::new(2.5, 0.5, 1.5), 0.5f64 * 2f64.sqrt()),
+            (Vector3::new(2.5, 1.5, 1.5), 0.5f64 * 3f64.sqrt()),
+        ] {
+            assert!((b.distance(&x) - d).abs() < 1e-15);
+            // Gradient and Hessian against central differences (step 1e-6: O(h²) ≈ 1e-12
+            // truncation, round-off 1e-16/1e-6 = 1e-10).
+            let h = 1e-6;
+            for a in 0..3 {
+                let e = Vector3::ith(a, h);
+                let fd = (b.distance(&(x + e)) - b.distance(&(x - e))) / (2.0 * h);
+                assert!((fd - b.gradient(&x)[a]).abs() < 1e-8);
+                let fd2 = (b.gradient(&(x + e)) - b.gradient(&(x - e))) / (2.0 * h);
+                assert!((fd2 - b.hessian(&x).column(a)).amax() < 1e-6);
+            }
+        }
+        // Straight down onto the top face from 1 above, moving 4: t = 1/4 exactly.
+        let t = b.time_of_impact(&Vector3::new(1.0, 0.5, 2.0), &Vector3::new(0.0, 0.0, -4.0));
+        assert_eq!(t, Some(0.25));
+        // Passing beside it: no impact.
+        let beside = b.time_of_impact(&Vector3::new(3.0, 0.5, 2.0), &Vector3::new(0.0, 0.0, -4.0));
+        assert!(beside.is_none());
+        let flat = Obstacle::aligned_box("b", Vector3::zeros(), Vector3::new(1.0, 0.0, 1.0));
+        assert!(flat.unwrap_err().to_string().contains("b: extents"));
+    }
+}

@@ -1,0 +1,439 @@
+//! The contact of a body's surface nodes with a set of rigid obstacles: the barrier energy, its
+//! force and tangent on the full DOF vector, the step limit of continuous collision detection,
+//! and the check that the body starts outside every obstacle.
+
+use nalgebra::{Matrix3, Vector3};
+
+use super::barrier;
+use super::friction::{FrictionLag, LaggedPoint, f0, f1_derivative, f1_over_y};
+use super::{ContactParameters, Obstacle};
+use crate::error::{Error, Result};
+use crate::mesh::TetMesh;
+use crate::sparse::CscMatrix;
+
+/// Node-versus-obstacle contact of a mesh's boundary nodes with rigid obstacles:
+///
+/// E_c(u) = κ·Σᵢ Aᵢ·Σ_o b(d_o(Xᵢ + uᵢ)),
+///
+/// i over the boundary nodes, Aᵢ a third of the area of the boundary triangles around node i at
+/// rest (so the contact pressure −κ·b′(d) does not depend on the surface mesh), b the IPC
+/// barrier with activation distance d̂ ([`barrier`](super::barrier)). Each term involves one
+/// node, so the Hessian is 3×3 blocks on the diagonal: entries the assembly pattern has already.
+#[derive(Debug, Clone)]
+pub struct Contact {
+    obstacles: Vec<Obstacle>,
+    parameters: ContactParameters,
+    /// Boundary nodes, ascending.
+    nodes: Vec<usize>,
+    /// Their rest positions.
+    rest: Vec<Vector3<f64>>,
+    /// Their lumped rest areas Aᵢ (length²).
+    areas: Vec<f64>,
+    /// ε_v (length/time): slip below this speed counts as sticking (friction's smoothing).
+    slip_velocity: f64,
+}
+
+/// The default ε_v: this fraction of the bounding-box diagonal per unit time.
+pub const SLIP_FRACTION: f64 = 1e-3;
+
+/// How many offending nodes an error lists.
+const LISTED: usize = 5;
+
+impl Contact {
+    /// The contact of `mesh`'s boundary nodes with `obstacles` under `parameters`.
+    ///
+    /// Errors: no obstacle; two obstacles with one name; parameters not finite and > 0; the
+    /// body at rest inside an obstacle or within reach of d ≤ 0 (see
+    /// [`check_state`](Self::check_state)).
+    pub fn new(
+        mesh: &TetMesh,
+        obstacles: Vec<Obstacle>,
+        parameters: ContactParameters,
+    ) -> Result<Self> {
+        parameters.check()?;
+        if obstacles.is_empty() {
+            return Err(Error::invalid_parameter(
+                "contact obstacles",
+                0,
+                "need at least one obstacle",
+            ));
+        }
+        for (k, o) in obstacles.iter().enumerate() {
+            if obstacles[..k].iter().any(|p| p.name() == o.name()) {
+                return Err(Error::invalid_parameter(
+                    "obstacle name",
+                    o.name(),
+                    "must be unique",
+                ));
+            }
+        }
+        let mut areas = vec![0.0; mesh.node_count()];
+        for face in mesh.boundary_faces()? {
+            let third = face.area_vector(mesh)?.norm() / 3.0;
+            for &n in &face.nodes {
+                areas[n] += third;
+            }
+        }
+        let nodes: Vec<usize> = (0..mesh.node_count()).filter(|&n| areas[n] > 0.0).collect();
+        let (min, max) = mesh.bounding_box();
+        let contact = Contact {
+            slip_velocity: SLIP_FRACTION * (max - min).norm(),
+            rest: nodes.iter().map(|&n| mesh.nodes()[n]).collect(),
+            areas: nodes.iter().map(|&n| areas[n]).collect(),
+            nodes,
+            obstacles,
+            parameters,
+        };
+        contact.check_state(&vec![0.0; mesh.dof_count()])?;
+        Ok(contact)
+    }
+
+    /// The contact with friction's stick speed ε_v = `slip_velocity` (length/time; default
+    /// 10⁻³ of the bounding-box diagonal per unit time): tangential speeds below it are
+    /// resolved as sticking, with a creep below ε_v. [`Error::InvalidParameter`] unless finite
+    /// and > 0.
+    pub fn with_slip_velocity(mut self, slip_velocity: f64) -> Result<Self> {
+        if !(slip_velocity.is_finite() && slip_velocity > 0.0) {
+            return Err(Error::invalid_parameter(
+                "friction slip_velocity",
+                slip_velocity,
+                "must be finite and > 0",
+            ));
+        }
+        self.slip_velocity = slip_velocity;
+        Ok(self)
+    }
+
+    /// ε_v (length/time).
+    pub fn slip_velocity(&self) -> f64 {
+        self.slip_velocity
+    }
+
+    /// The obstacles.
+    pub fn obstacles(&self) -> &[Obstacle] {
+        &self.obstacles
+    }
+
+    /// d̂ and κ.
+    pub fn parameters(&self) -> ContactParameters {
+        self.parameters
+    }
+
+    /// The boundary nodes that take part, ascending.
+    pub fn nodes(&self) -> &[usize] {
+        &self.nodes
+    }
+
+    /// Length of the full displacement vectors this contact reads (3 per mesh node).
+    fn check_full(&self, u: &[f64]) -> Result<()> {
+        let needed = self.nodes.last().map_or(0, |n| 3 * n + 3);
+        if u.len() < needed || !u.len().is_multiple_of(3) {
+            return Err(Error::invalid_parameter(
+                "contact displacement",
+                format!("{} entries", u.len()),
+                format!("must be the full displacement of the mesh (≥ {needed}, 3 per node)"),
+            ));
+        }
+        Ok(())
+    }
+
+    fn position(&self, k: usize, u: &[f64]) -> Vector3<f64> {
+        let n = self.nodes[k];
+        self.rest[k] + Vector3::new(u[3 * n], u[3 * n + 1], u[3 * n + 2])
+    }
+
+    /// [`Error::InvalidParameter`] naming the obstacle and the first nodes (with their signed
+    /// distances) that are not strictly outside it at full displacement `u`.
+    pub fn check_state(&self, u: &[f64]) -> Result<()> {
+        self.check_full(u)?;
+        for obstacle in &self.obstacles {
+            let inside: Vec<(usize, f64)> = (0..self.nodes.len())
+                .map(|k| (self.nodes[k], obstacle.distance(&self.position(k, u))))
+                .filter(|&(_, d)| d.is_nan() || d <= 0.0)
+                .collect();
+            if !inside.is_empty() {
+                let listed: Vec<String> = inside
+                    .iter()
+                    .take(LISTED)
+                    .map(|(n, d)| format!("node {n} at {d:.3e}"))
+                    .collect();
+                return Err(Error::invalid_parameter(
+                    format!("obstacle {}", obstacle.name()),
+                    format!(
+                        "{} boundary nodes inside or on it ({}{})",
+                        inside.len(),
+                        listed.join(", "),
+                        if inside.len() > LISTED { ", …" } else { "" }
+                    ),
+                    "the body must start strictly outside every obstacle (signed distance > 0)",
+                ));
+            }
+        }
+        Ok(())
+    }
+
+    /// E_c(u) (energy units) at full displacement `u`; +∞ if a node is on or inside an obstacle.
+    pub fn energy(&self, u: &[f64]) -> Result<f64> {
+        self.check_full(u)?;
+        let ContactParameters {
+            activation_distance: d_hat,
+            stiffness: kappa,
+        } = self.parameters;
+        let mut total = 0.0;
+        for k in 0..self.nodes.len() {
+            let x = self.position(k, u);
+            for obstacle in &self.obstacles {
+                let d = obstacle.distance(&x);
+                if d < d_hat {
+                    total += kappa * self.areas[k] * barrier::value(d, d_hat);
+                }
+            }
+        }
+        Ok(total)
+    }
+
+    /// Adds the contact force −∂E_c/∂u (force units) at full displacement `u` into `force`
+    /// (full length). [`Error::InvalidParameter`] if a node is on or inside an obstacle.
+    pub fn add_force(&self, u: &[f64], force: &mut [f64]) -> Result<()> {
+        self.check_full(u)?;
+        Error::check_len("contact force", u.len(), force.len())?;
+        self.for_each_active(u, |n, _, obstacle, x, d, area| {
+            let f = -self.parameters.stiffness
+                * area
+                * barrier::derivative(d, self.parameters.activation_distance)
+                * obstacle.gradient(x);
+            for a in 0..3 {
+                force[3 * n + a] += f[a];
+            }
+        })
+    }
+
+    /// The contact force on each obstacle, Σᵢ κ·Aᵢ·b′(dᵢ)·∇d (force units; the reaction of
+    /// the body's contact force), in the obstacles' order.
+    pub fn obstacle_forces(&self, u: &[f64]) -> Result<Vec<Vector3<f64>>> {
+        let mut forces = vec![Vector3::zeros(); self.obstacles.len()];
+        self.for_each_active(u, |_, o, obstacle, x, d, area| {
+            forces[o] += self.parameters.stiffness
+                * area
+                * barrier::derivative(d, self.parameters.activation_distance)
+                * obstacle.gradient(x);
+        })?;
+        Ok(forces)
+    }
+
+    /// Per boundary node (ascending, as [`nodes`](Self::nodes)): the smallest gap over the
+    /// obstacles (length) and the contact pressure −κ·Σ_o b′(d_o) (Pa).
+    pub fn gaps_and_pressures(&self, u: &[f64]) -> Result<(Vec<f64>, Vec<f64>)> {
+        self.check_full(u)?;
+        let d_hat = self.parameters.activation_distance;
+        let mut gaps = Vec::with_capacity(self.nodes.len());
+        let mut pressures = Vec::with_capacity(self.nodes.len());
+        for k in 0..self.nodes.len() {
+            let x = self.position(k, u);
+            let mut gap = f64::INFINITY;
+            let mut pressure = 0.0;
+            for obstacle in &self.obstacles {
+                let d = obstacle.distance(&x);
+                gap = gap.min(d);
+                pressure -= self.parameters.stiffness * barrier::derivative(d, d_hat);
+            }
+            gaps.push(gap);
+            pressures.push(pressure);
+        }
+        Ok((gaps, pressures))
+    }
+
+    /// Whether any obstacle has friction (μ > 0).
+    pub fn has_friction(&self) -> bool {
+        self.obstacles.iter().any(|o| o.friction() > 0.0)
+    }
+
+    /// The friction data of a step starting at full displacement `u` (see
+    /// [`super::friction`]): per node within d̂ of an obstacle with μ > 0, the normal force
+    /// λ = κ·Aᵢ·|b′(d)| and the tangent projector there, with smoothing distance `epsilon`
+    /// (length; ε_v·dt).
+    pub fn friction_lag(&self, u: &[f64], epsilon: f64) -> Result<FrictionLag> {
+        if !(epsilon.is_finite() && epsilon > 0.0) {
+            return Err(Error::invalid_parameter(
+                "friction smoothing distance",
+                epsilon,
+                "must be finite and > 0",
+            ));
+        }
+        let mut points = Vec::new();
+        let d_hat = self.parameters.activation_distance;
+        self.for_each_active(u, |n, _, obstacle, x, d, area| {
+            if obstacle.friction() > 0.0 {
+                let normal_force =
+                    -self.parameters.stiffness * area * barrier::derivative(d, d_hat);
+                let g = obstacle.gradient(x);
+                points.push(LaggedPoint {
+                    node: n,
+                    start: *x,
+                    limit: obstacle.friction() * normal_force,
+                    projector: Matrix3::identity() - g * g.transpose(),
+                });
+            }
+        })?;
+        Ok(FrictionLag { points, epsilon })
+    }
+
+    fn lagged_position(&self, p: &LaggedPoint, u: &[f64]) -> Result<Vector3<f64>> {
+        let k = self
+            .nodes
+            .binary_search(&p.node)
+            .map_err(|_| Error::invalid_parameter("friction lag", p.node, "not a contact node"))?;
+        Ok(self.position(k, u))
+    }
+
+    /// The friction potential Σ μ·λ·f₀(|P·(x − x⁰)|) (energy units) at full displacement `u`.
+    pub fn friction_energy(&self, lag: &FrictionLag, u: &[f64]) -> Result<f64> {
+        self.check_full(u)?;
+        let mut total = 0.0;
+        for p in &lag.points {
+            let y = p.slip(&self.lagged_position(p, u)?).norm();
+            total += p.limit * f0(y, lag.epsilon);
+        }
+        Ok(total)
+    }
+
+    /// Adds the friction force −μ·λ·(f₁(y)/y)·P·(x − x⁰) (force units) into `force`.
+    pub fn add_friction_force(
+        &self,
+        lag: &FrictionLag,
+        u: &[f64],
+        force: &mut [f64],
+    ) -> Result<()> {
+        self.check_full(u)?;
+        Error::check_len("friction force", u.len(), force.len())?;
+        for p in &lag.points {
+            let slip = p.slip(&self.lagged_position(p, u)?);
+            let f = -p.limit * f1_over_y(slip.norm(), lag.epsilon) * slip;
+            for a in 0..3 {
+                force[3 * p.node + a] += f[a];
+            }
+        }
+        Ok(())
+    }
+
+    /// Adds the friction Hessian μ·λ·(f₁′(y)·ûûᵀ + (f₁(y)/y)·(P − ûûᵀ)) (PSD as it stands,
+    /// f₁′ ≥ 0; see [`super::friction`]) into `matrix`
+    /// (full assembly pattern).
+    pub fn add_friction_tangent(
+        &self,
+        lag: &FrictionLag,
+        u: &[f64],
+        matrix: &mut CscMatrix,
+    ) -> Result<()> {
+        self.check_full(u)?;
+        let mut blocks = Vec::with_capacity(lag.points.len());
+        for p in &lag.points {
+            let slip = p.slip(&self.lagged_position(p, u)?);
+            let y = slip.norm();
+            let across = f1_over_y(y, lag.epsilon);
+            let mut block = across * p.projector;
+            if y > 0.0 {
+                // Along the slip the curvature is f₁′(y), across it f₁(y)/y; both ≥ 0.
+                let along = f1_derivative(y, lag.epsilon);
+                let unit = slip / y;
+                block += (along - across) * unit * unit.transpose();
+            }
+            blocks.push((p.node, p.limit * block));
+        }
+        add_node_blocks(matrix, blocks)
+    }
+
+    /// Adds the contact Hessian ∂²E_c/∂u² at full displacement `u` into `matrix`, a matrix on
+    /// the full assembly pattern (every node's 3×3 diagonal block stored). Per node and
+    /// obstacle: κ·Aᵢ·(b″·∇d∇dᵀ + b′·∇²d); with `project` the second term — negative
+    /// semi-definite, as b′ ≤ 0 and ∇²d ⪰ 0 — is dropped, leaving the PSD part.
+    pub fn add_tangent(&self, u: &[f64], project: bool, matrix: &mut CscMatrix) -> Result<()> {
+        self.check_full(u)?;
+        Error::check_len("contact tangent", u.len(), matrix.dim())?;
+        let d_hat = self.parameters.activation_distance;
+        let mut blocks: Vec<(usize, Matrix3<f64>)> = Vec::new();
+        self.for_each_active(u, |n, _, obstacle, x, d, area| {
+            let scale = self.parameters.stiffness * area;
+            let g = obstacle.gradient(x);
+            let mut block = barrier::second_derivative(d, d_hat) * g * g.transpose();
+            if !project {
+                block += barrier::derivative(d, d_hat) * obstacle.hessian(x);
+            }
+            blocks.push((n, scale * block));
+        })?;
+        add_node_blocks(matrix, blocks)
+    }
+
+    /// Continuous collision detection: the largest fraction t ∈ (0, 1] such that every node
+    /// stays outside every obstacle along u + s·du for s ∈ [0, t), from `u` with every gap > 0
+    /// (1 when no node reaches an obstacle within the step). Exact for these shapes (see
+    /// [`Obstacle::time_of_impact`]); a line search scales it by 0.8 as IPC does, so the gap
+    /// keeps at least a fifth of its size along a straight approach.
+    pub fn max_step(&self, u: &[f64], du: &[f64]) -> Result<f64> {
+        self.check_full(u)?;
+        Error::check_len("contact step", u.len(), du.len())?;
+        let mut t: f64 = 1.0;
+        for k in 0..self.nodes.len() {
+            let n = self.nodes[k];
+            let x = self.position(k, u);
+            let dx = Vector3::new(du[3 * n], du[3 * n + 1], du[3 * n + 2]);
+            for obstacle in &self.obstacles {
+                if let Some(hit) = obstacle.time_of_impact(&x, &dx) {
+                    t = t.min(hit);
+                }
+            }
+        }
+        Ok(t)
+    }
+
+    /// Calls `visit(node, obstacle index, obstacle, position, gap, area)` for each node within
+    /// d̂ of an obstacle; [`Error::InvalidParameter`] (via [`check_state`](Self::check_state))
+    /// if a node is on or inside one.
+    fn for_each_active(
+        &self,
+        u: &[f64],
+        mut visit: impl FnMut(usize, usize, &Obstacle, &Vector3<f64>, f64, f64),
+    ) -> Result<()> {
+        self.check_full(u)?;
+        let d_hat = self.parameters.activation_distance;
+        for k in 0..self.nodes.len() {
+            let x = self.position(k, u);
+            for (o, obstacle) in self.obstacles.iter().enumerate() {
+                let d = obstacle.distance(&x);
+                if d.is_nan() || d <= 0.0 {
+                    return self.check_state(u);
+                }
+                if d < d_hat {
+                    visit(self.nodes[k], o, obstacle, &x, d, self.areas[k]);
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Adds 3×3 blocks on the diagonal node blocks of `matrix` (a matrix on the full assembly
+/// pattern): `(node, block)` pairs.
+fn add_node_blocks(matrix: &mut CscMatrix, blocks: Vec<(usize, Matrix3<f64>)>) -> Result<()> {
+    let col_ptr = matrix.col_ptr().to_vec();
+    for (n, block) in blocks {
+        for c in 0..3 {
+            let col = 3 * n + c;
+            let range = col_ptr[col]..col_ptr[col + 1];
+            for r in 0..3 {
+                let row = 3 * n + r;
+                let k = matrix.row_idx()[range.clone()]
+                    .binary_search(&row)
+                    .map_err(|_| {
+                        Error::invalid_parameter(
+                            "contact tangent",
+                            format!("no entry ({row}, {col})"),
+                            "must be on the full assembly pattern (node blocks stored)",
+                        )
+                    })?;
+                matrix.values_mut()[range.start + k] += block[(r, c)];
+            }
+        }
+    }
+    Ok(())
+}
