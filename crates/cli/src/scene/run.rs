@@ -3,7 +3,8 @@
 use std::path::PathBuf;
 use std::time::Instant;
 
-use super::{Analysis, BuiltScene, PngField, Scene};
+use super::element::as_linear;
+use super::{Analysis, BuiltScene, PngField, Scene, SceneElement};
 use crate::render::{Field, RenderOptions, auto_deformation_scale, render};
 use tetfem::error::{Error, Result};
 use tetfem::model::ModelMap;
@@ -12,6 +13,8 @@ use tetfem::output::{
     CsvSeries, OutputLock, PvdCollection, write_atomically, write_model_result_vtu,
     write_static_result_vtu,
 };
+use tetfem::element::Tet10;
+use tetfem::mesh::Tet4;
 use tetfem::statics::StaticSolver;
 
 /// Choices a caller (the command line) makes on top of the scene.
@@ -154,8 +157,35 @@ pub fn run_static_with(scene: &Scene, options: &RunOptions) -> Result<RunSummary
         true => None,
         false => Some(OutputLock::acquire(&scene.output().directory)?),
     };
+    match scene.order() {
+        2 => run_static_on::<Tet10>(scene, options, lock),
+        _ => run_static_on::<Tet4>(scene, options, lock),
+    }
+}
+
+/// The nonlinear models' mesh: the scene's, which is a 4-node one (order 2 scenes with a
+/// nonlinear model are refused when parsed, so the error is a guard, not a path).
+pub(crate) fn linear_mesh_of<'a, E: SceneElement>(
+    scene: &Scene,
+    mesh: &'a tetfem::TetMesh<E>,
+) -> Result<&'a tetfem::TetMesh> {
+    as_linear(mesh).ok_or_else(|| {
+        scene.error(
+            "analysis.model",
+            &(0..0),
+            format!("model = \"{}\" runs on 4-node tets only", scene.model().name()),
+        )
+    })
+}
+
+/// [`run_static_with`] on the element of the scene's order, with the output lock (if any) held.
+fn run_static_on<E: SceneElement>(
+    scene: &Scene,
+    options: &RunOptions,
+    lock: Option<OutputLock>,
+) -> Result<RunSummary> {
     let clock = Instant::now();
-    let built = scene.build()?;
+    let built = scene.build_as::<E>()?;
     let build_seconds = clock.elapsed().as_secs_f64();
     let clock = Instant::now();
     let mut phases = None;
@@ -187,7 +217,7 @@ pub fn run_static_with(scene: &Scene, options: &RunOptions) -> Result<RunSummary
         }
         _ => {
             let report = tetfem::nonlinear::solve_nonlinear_static(
-                &built.mesh,
+                linear_mesh_of(scene, &built.mesh)?,
                 &model,
                 &built.constraints,
                 &built.loads,
@@ -218,7 +248,7 @@ pub fn run_static_with(scene: &Scene, options: &RunOptions) -> Result<RunSummary
     let linear = scene.model() == tetfem::model::ModelKind::Linear;
     let von_mises = match linear {
         true => tetfem::output::fields::cell_von_mises(&built.mesh, &built.materials, u)?,
-        false => cell_model_von_mises(&built.mesh, &model, u)?,
+        false => cell_model_von_mises(linear_mesh_of(scene, &built.mesh)?, &model, u)?,
     };
     let magnitude = displacement_magnitude(u);
     let probes: Vec<ProbeValue> = built
@@ -300,9 +330,9 @@ pub fn run_static_with(scene: &Scene, options: &RunOptions) -> Result<RunSummary
 }
 
 #[allow(clippy::too_many_arguments)]
-fn write_static_outputs(
+fn write_static_outputs<E: SceneElement>(
     scene: &Scene,
-    built: &BuiltScene,
+    built: &BuiltScene<E>,
     model: &ModelMap,
     u: &[f64],
     reactions: Option<&[f64]>,
@@ -320,7 +350,7 @@ fn write_static_outputs(
             Some(r) => write_static_result_vtu(&vtu, &built.mesh, &built.materials, u, r)?,
             None => write_model_result_vtu(
                 &vtu,
-                &built.mesh,
+                linear_mesh_of(scene, &built.mesh)?,
                 model,
                 &built.materials,
                 u,
