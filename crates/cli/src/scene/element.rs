@@ -7,7 +7,7 @@ use std::any::Any;
 use tetfem::dynamics::{ElementStepBound, element_step_bound_of, element_step_bound_of_type};
 use tetfem::element::{ElementType, Tet10};
 use tetfem::error::Result;
-use tetfem::materials::MaterialMap;
+use tetfem::materials::TetMaterials;
 use tetfem::mesh::{Tet4, TetMesh};
 
 /// An element type a scene can run on (see the [module](self) docs).
@@ -21,7 +21,10 @@ pub trait SceneElement: ElementType {
 
     /// The element bound on the explicit critical step (see
     /// [`ElementStepBound`]).
-    fn step_bound(mesh: &TetMesh<Self>, materials: &MaterialMap) -> Result<ElementStepBound>;
+    fn step_bound(
+        mesh: &TetMesh<Self>,
+        materials: &impl TetMaterials,
+    ) -> Result<ElementStepBound>;
 }
 
 impl SceneElement for Tet4 {
@@ -32,7 +35,7 @@ impl SceneElement for Tet4 {
     }
 
     /// The linear tet's own bound, as before the seam (the same bits).
-    fn step_bound(mesh: &TetMesh, materials: &MaterialMap) -> Result<ElementStepBound> {
+    fn step_bound(mesh: &TetMesh, materials: &impl TetMaterials) -> Result<ElementStepBound> {
         element_step_bound_of(mesh, materials)
     }
 }
@@ -44,7 +47,10 @@ impl SceneElement for Tet10 {
         TetMesh::<Tet10>::from_linear(&linear)
     }
 
-    fn step_bound(mesh: &TetMesh<Tet10>, materials: &MaterialMap) -> Result<ElementStepBound> {
+    fn step_bound(
+        mesh: &TetMesh<Tet10>,
+        materials: &impl TetMaterials,
+    ) -> Result<ElementStepBound> {
         element_step_bound_of_type(mesh, materials)
     }
 }
