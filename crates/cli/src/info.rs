@@ -56,11 +56,21 @@ pub fn mesh_info(path: &Path, material: Option<Material>) -> Result<MeshInfo> {
         return match scene.order() {
             2 => {
                 let built = scene.build_as::<Tet10>()?;
-                info_of(path, built.mesh, built.imported, material.or(Some(built.material)))
+                info_of(
+                    path,
+                    built.mesh,
+                    built.imported,
+                    material.or(Some(built.material)),
+                )
             }
             _ => {
                 let built = scene.build()?;
-                info_of(path, built.mesh, built.imported, material.or(Some(built.material)))
+                info_of(
+                    path,
+                    built.mesh,
+                    built.imported,
+                    material.or(Some(built.material)),
+                )
             }
         };
     }
@@ -99,9 +109,7 @@ fn info_of<E: SceneElement>(
             .unwrap_or_default(),
         unused_nodes: imported.as_ref().map_or(0, |i| i.unused_nodes),
         material: material.map(|m| (m.youngs_modulus(), m.poisson_ratio(), m.density())),
-        critical_step: material
-            .map(|m| E::step_bound(&mesh, &m))
-            .transpose()?,
+        critical_step: material.map(|m| E::step_bound(&mesh, &m)).transpose()?,
         warnings: mesh
             .warnings()
             .iter()

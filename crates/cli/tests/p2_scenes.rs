@@ -129,11 +129,7 @@ fn static_scene_equals_solve_static_on_the_same_tet10_mesh_bit_for_bit() {
             "[[loads]]\ngravity = [0.0, -2.0, -9.81]\n",
         ));
         let summary = run_static_with(&scene, &no_files()).expect("P2 static scene");
-        let lib = library(
-            [6, 2, 2],
-            box_split,
-            Some(Vector3::new(0.0, -2.0, -9.81)),
-        );
+        let lib = library([6, 2, 2], box_split, Some(Vector3::new(0.0, -2.0, -9.81)));
         let solution = tetfem::solve_static(&lib.mesh, &lib.material, &lib.constraints, &lib.loads)
             .expect("library solve");
         let u = &solution.displacement;
@@ -143,7 +139,10 @@ fn static_scene_equals_solve_static_on_the_same_tet10_mesh_bit_for_bit() {
         assert_eq!(summary.probes[0].displacement, mean(u, &lib.tip), "{split}");
         let largest = displacement_magnitude(u).into_iter().fold(0.0, f64::max);
         assert_eq!(summary.max_displacement, largest, "{split}");
-        assert_eq!(summary.relative_residual, solution.relative_residual, "{split}");
+        assert_eq!(
+            summary.relative_residual, solution.relative_residual,
+            "{split}"
+        );
     }
 }
 
@@ -308,11 +307,7 @@ fn order_errors_name_the_key_and_line() {
         "{text}"
     );
 
-    let nonlinear = cantilever(
-        [2, 1, 1],
-        "five",
-        "[analysis]\nmodel = \"corotational\"\n",
-    );
+    let nonlinear = cantilever([2, 1, 1], "five", "[analysis]\nmodel = \"corotational\"\n");
     let error = Scene::parse(&nonlinear, "<p2>", Path::new(".")).expect_err("corotational P2");
     let text = error.to_string();
     let model_line = nonlinear

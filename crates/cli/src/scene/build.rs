@@ -6,12 +6,12 @@ use nalgebra::Vector3;
 
 use super::{MeshSpec, RegionSelector, Scene, Selector, SplitSpec};
 use tetfem::constraints::Constraints;
+use tetfem::element::ElementType;
 use tetfem::error::{Error, Result};
 use tetfem::loads::Loads;
 use tetfem::material::Material;
 use tetfem::materials::{MaterialAssignment, MaterialMap, attribute_tets, volume_group_tets};
 use tetfem::mesh::io::{ImportedMesh, read_gmsh, read_tetgen};
-use tetfem::element::ElementType;
 use tetfem::mesh::{BoundaryFace, BoxSplit, CellType, Tet4, TetMesh};
 
 use super::SceneElement;

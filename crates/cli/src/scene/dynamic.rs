@@ -19,11 +19,11 @@ use tetfem::dynamics::{
     Energy, IntegratorOptions, InternalForce, LinearSystem, Mass, MassKind, Method, NewtonStats,
     Rayleigh, State, critical_time_step,
 };
+use tetfem::element::{ElementType, Tet10};
 use tetfem::error::{Error, Result};
 use tetfem::linalg::linear_solver::LinearMethod;
 use tetfem::loads::Loads;
 use tetfem::material::Material;
-use tetfem::element::{ElementType, Tet10};
 use tetfem::mesh::{CellType, Tet4, TetMesh};
 use tetfem::output::fields::{cell_model_von_mises, cell_von_mises, displacement_magnitude};
 use tetfem::output::{
@@ -197,7 +197,12 @@ impl<E: SceneElement> DynamicSetup<E> {
 
     /// The setup of a built scene with its assembled system and initial state; `clock` started
     /// with the setup.
-    fn of_built(built: BuiltScene<E>, system: LinearSystem, initial: State, clock: Instant) -> Self {
+    fn of_built(
+        built: BuiltScene<E>,
+        system: LinearSystem,
+        initial: State,
+        clock: Instant,
+    ) -> Self {
         DynamicSetup {
             input_warnings: built.input_warnings,
             mesh: built.mesh,
@@ -803,14 +808,9 @@ impl FrameWriter {
                 InternalForce::Linear => {
                     write_result_frame(&vtu, &setup.mesh, &setup.materials, u, extras)?
                 }
-                InternalForce::Nonlinear(n) => write_model_result_vtu(
-                    &vtu,
-                    n.mesh(),
-                    n.models(),
-                    &setup.materials,
-                    u,
-                    extras,
-                )?,
+                InternalForce::Nonlinear(n) => {
+                    write_model_result_vtu(&vtu, n.mesh(), n.models(), &setup.materials, u, extras)?
+                }
             }
             pvd.push(state.time, &vtu)?;
             self.files.push(vtu);
@@ -1013,8 +1013,12 @@ pub fn run_dynamic_scene(
         false => None,
     };
     match scene.order() {
-        2 => run_dynamic_scene_on::<Tet10>(scene, settings, overrides, dt, length, lock, force_png, progress),
-        _ => run_dynamic_scene_on::<Tet4>(scene, settings, overrides, dt, length, lock, force_png, progress),
+        2 => run_dynamic_scene_on::<Tet10>(
+            scene, settings, overrides, dt, length, lock, force_png, progress,
+        ),
+        _ => run_dynamic_scene_on::<Tet4>(
+            scene, settings, overrides, dt, length, lock, force_png, progress,
+        ),
     }
 }
 

@@ -21,10 +21,7 @@ pub trait SceneElement: ElementType {
 
     /// The element bound on the explicit critical step (see
     /// [`ElementStepBound`]).
-    fn step_bound(
-        mesh: &TetMesh<Self>,
-        materials: &impl TetMaterials,
-    ) -> Result<ElementStepBound>;
+    fn step_bound(mesh: &TetMesh<Self>, materials: &impl TetMaterials) -> Result<ElementStepBound>;
 }
 
 impl SceneElement for Tet4 {

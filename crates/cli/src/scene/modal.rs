@@ -7,10 +7,10 @@ use std::time::Instant;
 use super::{Analysis, ModalSettings, Scene, SceneElement};
 use tetfem::assembly::lumped_mass_of;
 use tetfem::dynamics::{LinearSystem, Rayleigh};
-use tetfem::error::{Error, Result};
-use tetfem::modal::{effective_mass_fractions, lowest_modes};
 use tetfem::element::{ElementType, Tet10};
+use tetfem::error::{Error, Result};
 use tetfem::mesh::Tet4;
+use tetfem::modal::{effective_mass_fractions, lowest_modes};
 use tetfem::output::{OutputLock, PvdCollection, VtuWriter, write_atomically};
 
 /// One mode of a modal run.

@@ -6,15 +6,15 @@ use std::time::Instant;
 use super::element::as_linear;
 use super::{Analysis, BuiltScene, PngField, Scene, SceneElement};
 use crate::render::{Field, RenderOptions, auto_deformation_scale, render};
+use tetfem::element::Tet10;
 use tetfem::error::{Error, Result};
+use tetfem::mesh::Tet4;
 use tetfem::model::ModelMap;
 use tetfem::output::fields::{cell_model_von_mises, displacement_magnitude};
 use tetfem::output::{
     CsvSeries, OutputLock, PvdCollection, write_atomically, write_model_result_vtu,
     write_static_result_vtu,
 };
-use tetfem::element::Tet10;
-use tetfem::mesh::Tet4;
 use tetfem::statics::StaticSolver;
 
 /// Choices a caller (the command line) makes on top of the scene.
@@ -173,7 +173,10 @@ pub(crate) fn linear_mesh_of<'a, E: SceneElement>(
         scene.error(
             "analysis.model",
             &(0..0),
-            format!("model = \"{}\" runs on 4-node tets only", scene.model().name()),
+            format!(
+                "model = \"{}\" runs on 4-node tets only",
+                scene.model().name()
+            ),
         )
     })
 }
