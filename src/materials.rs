@@ -299,12 +299,12 @@ impl MaterialAssignment {
         Ok(claimed.len())
     }
 
-    /// Claims for `material` every tet whose centroid (the mean of its four nodes, length
+    /// Claims for `material` every tet whose centroid (the mean of its four corners, length
     /// units) satisfies `inside`; returns the number claimed. Errors as [`assign`](Self::assign),
     /// or `mesh` has another tet count.
-    pub fn assign_where(
+    pub fn assign_where<C: CellType>(
         &mut self,
-        mesh: &TetMesh,
+        mesh: &TetMesh<C>,
         name: impl Into<String>,
         material: Material,
         inside: impl Fn(&Vector3<f64>) -> bool,
@@ -321,9 +321,9 @@ impl MaterialAssignment {
     ///
     /// A box boundary on a mesh plane splits the tets exactly there (every tet lies on one side
     /// of a mesh plane, and its centroid strictly inside that side).
-    pub fn assign_box(
+    pub fn assign_box<C: CellType>(
         &mut self,
-        mesh: &TetMesh,
+        mesh: &TetMesh<C>,
         name: impl Into<String>,
         material: Material,
         min: Vector3<f64>,
@@ -393,7 +393,7 @@ impl MaterialAssignment {
         MaterialMap::new(materials, names, claims)
     }
 
-    fn check_mesh(&self, mesh: &TetMesh) -> Result<()> {
+    fn check_mesh<C: CellType>(&self, mesh: &TetMesh<C>) -> Result<()> {
         if mesh.tet_count() != self.claims.len() {
             return Err(Error::invalid_parameter(
                 "mesh",
@@ -405,9 +405,9 @@ impl MaterialAssignment {
     }
 }
 
-/// The centroid (mean of the four nodes) of tet `t`, which the caller checked exists.
-fn centroid(mesh: &TetMesh, t: usize) -> Vector3<f64> {
-    let x = mesh.positions_of(t);
+/// The centroid (mean of the four corners) of tet `t`, which the caller checked exists.
+fn centroid<C: CellType>(mesh: &TetMesh<C>, t: usize) -> Vector3<f64> {
+    let x = mesh.corner_positions_of(t);
     (x[0] + x[1] + x[2] + x[3]) / 4.0
 }
 

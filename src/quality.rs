@@ -137,11 +137,11 @@ pub struct MeshStatistics {
 /// Dihedral angle (degrees) under which [`MeshStatistics::poor_tets`] counts a tet.
 pub const POOR_DIHEDRAL_DEG: f64 = 5.0;
 
-impl TetMesh {
-    /// Quality of every tet, in tet order.
+impl<C: crate::mesh::CellType> TetMesh<C> {
+    /// Quality of every tet (of its corners), in tet order.
     pub fn tet_qualities(&self) -> Vec<TetQuality> {
         (0..self.tet_count())
-            .map(|t| tet_quality(&self.element_of(t), &self.positions_of(t)))
+            .map(|t| tet_quality(&self.element_of(t), &self.corner_positions_of(t)))
             .collect()
     }
 
@@ -152,7 +152,7 @@ impl TetMesh {
         let mut shortest = f64::INFINITY;
         let mut longest: f64 = 0.0;
         for t in 0..self.tet_count() {
-            let x = self.positions_of(t);
+            let x = self.corner_positions_of(t);
             for i in 0..4 {
                 for j in i + 1..4 {
                     let l = (x[j] - x[i]).norm();

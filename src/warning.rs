@@ -161,7 +161,7 @@ impl fmt::Display for Warning {
 }
 
 /// A mesh's warnings live with the warnings, so that the mesh knows nothing of them.
-impl crate::mesh::TetMesh {
+impl<C: crate::mesh::CellType> crate::mesh::TetMesh<C> {
     /// Warnings about this mesh: unused nodes, mixed orientation, poor elements (see
     /// [`Warning`](crate::warning::Warning)). One pass over the tets, O(tets).
     pub fn warnings(&self) -> Vec<Warning> {

@@ -28,7 +28,9 @@ mod time_data;
 
 pub use backward_euler::BackwardEuler;
 pub use damping::Rayleigh;
-pub use element_bound::{ElementStepBound, element_step_bound, element_step_bound_of};
+pub use element_bound::{
+    ElementStepBound, element_step_bound, element_step_bound_of, element_step_bound_of_type,
+};
 pub use energy::Energy;
 pub use explicit::SymplecticEuler;
 pub use internal_force::{ForceWorkspace, InternalForce, NonlinearForce};

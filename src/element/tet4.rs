@@ -236,13 +236,16 @@ impl TetMesh {
     pub fn elements(&self) -> Vec<Tet> {
         (0..self.tet_count()).map(|t| self.element_of(t)).collect()
     }
+}
 
-    /// The element of tet `t`, for loops over `0..tet_count()` (panics on a bad index).
+impl<C: crate::mesh::CellType> TetMesh<C> {
+    /// The linear element of tet `t`'s corners, for loops over `0..tet_count()` (panics on a
+    /// bad index): the geometry (volume, quality, altitudes) of any cell type.
     #[inline]
     pub(crate) fn element_of(&self, t: usize) -> Tet {
         // Cannot fail: `new` rejected every tet whose quality is below `DEGENERATE_QUALITY` and
         // reoriented the negative ones, which is all `Tet::new` checks.
-        Tet::new(&self.positions_of(t))
+        Tet::new(&self.corner_positions_of(t))
             .expect("TetMesh invariant: every tet is positively oriented and non-degenerate")
     }
 }

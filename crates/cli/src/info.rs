@@ -5,11 +5,13 @@ use std::collections::BTreeMap;
 use std::fmt;
 use std::path::Path;
 
-use crate::scene::Scene;
-use tetfem::dynamics::{ElementStepBound, element_step_bound};
+use crate::scene::{Scene, SceneElement};
+use tetfem::dynamics::ElementStepBound;
+use tetfem::element::Tet10;
 use tetfem::error::Result;
 use tetfem::material::Material;
-use tetfem::mesh::io::read_mesh;
+use tetfem::mesh::TetMesh;
+use tetfem::mesh::io::{ImportedMesh, read_mesh};
 use tetfem::quality::MeshStatistics;
 
 /// One physical group or marker set of the file.
@@ -56,14 +58,40 @@ pub struct MeshInfo {
 /// Reads a mesh (`.msh`, `.node`/`.ele`) or a scene (`.toml`: its mesh and material) and
 /// gathers [`MeshInfo`]; `material` (if given) overrides a scene's for the critical step.
 pub fn mesh_info(path: &Path, material: Option<Material>) -> Result<MeshInfo> {
-    let (mesh, imported, scene_material) = if path.extension().is_some_and(|e| e == "toml") {
-        let built = Scene::load(path)?.build()?;
-        (built.mesh, built.imported, Some(built.material))
-    } else {
-        let imported = read_mesh(path)?;
-        (imported.mesh.clone(), Some(imported), None)
-    };
-    let material = material.or(scene_material);
+    if path.extension().is_some_and(|e| e == "toml") {
+        let scene = Scene::load(path)?;
+        return match scene.order() {
+            2 => {
+                let built = scene.build_as::<Tet10>()?;
+                info_of(
+                    path,
+                    built.mesh,
+                    built.imported,
+                    material.or(Some(built.material)),
+                )
+            }
+            _ => {
+                let built = scene.build()?;
+                info_of(
+                    path,
+                    built.mesh,
+                    built.imported,
+                    material.or(Some(built.material)),
+                )
+            }
+        };
+    }
+    let imported = read_mesh(path)?;
+    info_of(path, imported.mesh.clone(), Some(imported), material)
+}
+
+/// [`MeshInfo`] of a mesh of element `E` (statistics and warnings of its corner tets).
+fn info_of<E: SceneElement>(
+    path: &Path,
+    mesh: TetMesh<E>,
+    imported: Option<ImportedMesh>,
+    material: Option<Material>,
+) -> Result<MeshInfo> {
     let groups = imported
         .as_ref()
         .map(|i| {
@@ -100,7 +128,7 @@ pub fn mesh_info(path: &Path, material: Option<Material>) -> Result<MeshInfo> {
             .unwrap_or_default(),
         unused_nodes: imported.as_ref().map_or(0, |i| i.unused_nodes),
         material: material.map(|m| (m.youngs_modulus(), m.poisson_ratio(), m.density())),
-        critical_step: material.map(|m| element_step_bound(&mesh, &m)),
+        critical_step: material.map(|m| E::step_bound(&mesh, &m)).transpose()?,
         warnings: mesh
             .warnings()
             .iter()

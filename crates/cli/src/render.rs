@@ -11,7 +11,7 @@ use ab_glyph::{Font, FontRef, PxScale, ScaleFont, point};
 use nalgebra::Vector3;
 
 use tetfem::error::{Error, Result};
-use tetfem::mesh::TetMesh;
+use tetfem::mesh::{CellType, TetMesh};
 use tetfem::output::write_atomically;
 
 static FONT_BYTES: &[u8] = include_bytes!("../../../assets/fonts/DejaVuSans.ttf");
@@ -149,7 +149,7 @@ impl Image {
 
 /// A magnification that draws the largest displacement as 10 % of the bounding-box diagonal,
 /// never below 1 (a visibly deformed body is drawn true to scale); 1 when nothing moves.
-pub fn auto_deformation_scale(mesh: &TetMesh, displacement: &[f64]) -> f64 {
+pub fn auto_deformation_scale<C: CellType>(mesh: &TetMesh<C>, displacement: &[f64]) -> f64 {
     let (lo, hi) = mesh.bounding_box();
     let size = (hi - lo).norm();
     let largest = displacement
@@ -190,12 +190,24 @@ pub fn viridis(t: f64) -> [u8; 3] {
     c
 }
 
+/// The flat triangles a boundary face is drawn as, each ordered as the face (outward): the face
+/// itself for a 3-node face; a 6-node face (corners a, b, c, then the nodes of edges ab, bc, ca)
+/// as its four sub-triangles, so that the drawn surface bends with the quadratic displacement
+/// of its edge nodes.
+fn face_triangles(nodes: &[usize]) -> Vec<[usize; 3]> {
+    match *nodes {
+        [a, b, c, ab, bc, ca] => vec![[a, ab, ca], [ab, b, bc], [ca, bc, c], [ab, bc, ca]],
+        [a, b, c, ..] => vec![[a, b, c]],
+        _ => Vec::new(),
+    }
+}
+
 /// Draws `mesh` displaced by `deformation_scale · displacement` and coloured by `field`.
 ///
 /// Errors: a displacement or field of the wrong length, non-finite values, or a size outside
 /// the allowed range.
-pub fn render(
-    mesh: &TetMesh,
+pub fn render<C: CellType>(
+    mesh: &TetMesh<C>,
     displacement: &[f64],
     field: &Field,
     options: &RenderOptions,
@@ -333,20 +345,22 @@ pub fn render(
 
     let mut depth = vec![f64::NEG_INFINITY; w as usize * h as usize];
     for face in &boundary {
-        let p = face.nodes.map(|n| deformed[n]);
-        let normal = (p[1] - p[0]).cross(&(p[2] - p[0]));
-        let norm = normal.norm();
-        if norm <= 0.0 || !norm.is_finite() {
-            continue;
+        for triangle in face_triangles(&face.element_nodes(mesh)?) {
+            let p = triangle.map(|n| deformed[n]);
+            let normal = (p[1] - p[0]).cross(&(p[2] - p[0]));
+            let norm = normal.norm();
+            if norm <= 0.0 || !norm.is_finite() {
+                continue;
+            }
+            let shade = 0.35 + 0.65 * (normal / norm).dot(&light).abs();
+            let s = p.map(|q| to_screen(&q));
+            let v = if per_node {
+                triangle.map(|n| values[n])
+            } else {
+                [values[face.tet]; 3]
+            };
+            raster_triangle(&mut image, &mut depth, &s, &v, shade, lo_value, span);
         }
-        let shade = 0.35 + 0.65 * (normal / norm).dot(&light).abs();
-        let s = p.map(|q| to_screen(&q));
-        let v = if per_node {
-            face.nodes.map(|n| values[n])
-        } else {
-            [values[face.tet]; 3]
-        };
-        raster_triangle(&mut image, &mut depth, &s, &v, shade, lo_value, span);
     }
 
     draw_colour_bar(&mut image);

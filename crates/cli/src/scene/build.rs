@@ -13,12 +13,15 @@ use tetfem::amplitude::{Amplitude, STATIC_TIME};
 use tetfem::boundary_motion::{BoundaryMotion, Motion, RigidMotion};
 use tetfem::constraints::Constraints;
 use tetfem::dynamics::TimeData;
+use tetfem::element::ElementType;
 use tetfem::error::{Error, Result};
 use tetfem::loads::Loads;
 use tetfem::material::Material;
 use tetfem::materials::{MaterialAssignment, MaterialMap, attribute_tets, volume_group_tets};
 use tetfem::mesh::io::{ImportedMesh, read_gmsh, read_tetgen};
-use tetfem::mesh::{BoundaryFace, BoxSplit, TetMesh};
+use tetfem::mesh::{BoundaryFace, BoxSplit, CellType, Tet4, TetMesh};
+
+use super::SceneElement;
 
 /// A named node set whose mean displacement is recorded.
 #[derive(Debug, Clone, PartialEq)]
@@ -42,11 +45,12 @@ impl Probe {
     }
 }
 
-/// Everything a solver needs, built from a scene.
+/// Everything a solver needs, built from a scene, on a mesh of cell type `C` (the 4-node tet
+/// for `mesh.order = 1`, the 10-node tet for 2).
 #[derive(Debug, Clone)]
-pub struct BuiltScene {
+pub struct BuiltScene<C: CellType = Tet4> {
     /// The mesh.
-    pub mesh: TetMesh,
+    pub mesh: TetMesh<C>,
     /// The file's extra information (groups, markers, skipped elements) for imported meshes.
     pub imported: Option<ImportedMesh>,
     /// The boundary faces, outward oriented.
@@ -86,7 +90,7 @@ pub struct BuiltScene {
     pub motions: BoundaryMotion,
 }
 
-impl BuiltScene {
+impl<C: CellType> BuiltScene<C> {
     /// The mesh's, the material's, the constraints' and the loads' warnings (see
     /// [`tetfem::warning`]).
     pub fn warnings(&self) -> Vec<tetfem::warning::Warning> {
@@ -100,7 +104,31 @@ impl BuiltScene {
 impl Scene {
     /// Builds the mesh (generating or reading it), the material, the constraints, the loads and
     /// the probes. Selections that match nothing are errors naming the scene entry and line.
+    /// A scene of `mesh.order = 2` is an error here (naming the key): build it with
+    /// [`build_as::<Tet10>`](Self::build_as).
     pub fn build(&self) -> Result<BuiltScene> {
+        self.build_as::<Tet4>()
+    }
+
+    /// [`build`](Self::build) on the element `E` of the scene's `mesh.order` (a box mesh's
+    /// 10-node tets get their edge nodes at the edges' midpoints; node selections pick them
+    /// up as any other node, and a face set holds the faces whose three corners are
+    /// selected). Another element type than the scene's order is an error naming `mesh.order`.
+    pub fn build_as<E: SceneElement>(&self) -> Result<BuiltScene<E>> {
+        if E::ORDER != self.order() {
+            return Err(self.error(
+                "mesh.order",
+                &self.spec().mesh.span(),
+                format!(
+                    "the scene asks for order {} but this runner builds it with {} cells \
+                     (order {}); it does not run order {} scenes",
+                    self.order(),
+                    E::NAME,
+                    E::ORDER,
+                    self.order()
+                ),
+            ));
+        }
         let spec = self.spec();
         let mesh_span = spec.mesh.span();
         let (mesh, imported) = match spec.mesh.get_ref() {
@@ -118,13 +146,15 @@ impl Scene {
                 );
                 tetfem::memory::check_box_run(b.cells, split.tets_per_cell(), dynamic)
                     .map_err(|e| self.error("mesh.box", &mesh_span, e.to_string()))?;
-                let mesh = TetMesh::box_grid(b.min.into(), b.max.into(), b.cells, split)
+                let linear = TetMesh::box_grid(b.min.into(), b.max.into(), b.cells, split)
+                    .map_err(|e| self.error("mesh.box", &mesh_span, e.to_string()))?;
+                let mesh = E::from_linear(linear)
                     .map_err(|e| self.error("mesh.box", &mesh_span, e.to_string()))?;
                 (mesh, None)
             }
             MeshSpec::Gmsh(f) => {
                 let imported = read_gmsh(&self.resolve(&f.file))?;
-                (imported.mesh.clone(), Some(imported))
+                (E::from_linear(imported.mesh.clone())?, Some(imported))
             }
             MeshSpec::Tetgen(f) => {
                 let path = self.resolve(&f.file);
@@ -133,7 +163,7 @@ impl Scene {
                     _ => path,
                 };
                 let imported = read_tetgen(&prefix)?;
-                (imported.mesh.clone(), Some(imported))
+                (E::from_linear(imported.mesh.clone())?, Some(imported))
             }
         };
         let boundary = mesh.boundary_faces()?;
@@ -530,9 +560,9 @@ impl Scene {
     /// `[material]`, if given, covers the rest (and is returned too). Errors name the entry and its line: an invalid
     /// material value, a selection holding no tet, a tet two entries claim, or (without
     /// `[material]`) a tet none claims.
-    fn materials(
+    fn materials<C: CellType>(
         &self,
-        mesh: &TetMesh,
+        mesh: &TetMesh<C>,
         imported: Option<&ImportedMesh>,
     ) -> Result<(MaterialMap, Option<Material>)> {
         let spec = self.spec();
@@ -672,14 +702,14 @@ fn known_marker(
     ))
 }
 
-struct Context<'a> {
+struct Context<'a, E: ElementType> {
     scene: &'a Scene,
-    mesh: &'a TetMesh,
+    mesh: &'a TetMesh<E>,
     imported: Option<&'a ImportedMesh>,
     boundary: &'a [BoundaryFace],
 }
 
-impl Context<'_> {
+impl<E: ElementType> Context<'_, E> {
     fn default_tolerance(&self) -> f64 {
         let (lo, hi) = self.mesh.bounding_box();
         1e-6 * (hi - lo).norm()

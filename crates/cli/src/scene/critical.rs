@@ -18,7 +18,9 @@ pub struct CriticalStepReport {
 
 /// [`CriticalStepReport`] of a built scene: its linear system with a lumped mass (the
 /// scene's loads do not enter).
-pub fn critical_step_of(built: &BuiltScene) -> Result<CriticalStepReport> {
+pub fn critical_step_of<C: tetfem::element::ElementType>(
+    built: &BuiltScene<C>,
+) -> Result<CriticalStepReport> {
     let system = LinearSystem::new(
         &built.mesh,
         &built.materials,

@@ -9,18 +9,22 @@ use std::time::Instant;
 
 use nalgebra::Vector3;
 
-use super::{Analysis, BuiltScene, DynamicSettings, OutputSettings, PngField, Probe, Scene};
+use super::element::as_linear;
+use super::{
+    Analysis, BuiltScene, DynamicSettings, OutputSettings, PngField, Probe, Scene, SceneElement,
+};
 use crate::render::{Field, RenderOptions, auto_deformation_scale, render};
 use tetfem::constraints::Constraints;
 use tetfem::dynamics::{
     Energy, IntegratorOptions, InternalForce, LinearSystem, Mass, MassKind, Method, NewtonStats,
     Rayleigh, State, critical_time_step,
 };
+use tetfem::element::{ElementType, Tet10};
 use tetfem::error::{Error, Result};
 use tetfem::linalg::linear_solver::LinearMethod;
 use tetfem::loads::Loads;
 use tetfem::material::Material;
-use tetfem::mesh::TetMesh;
+use tetfem::mesh::{CellType, Tet4, TetMesh};
 use tetfem::output::fields::{cell_model_von_mises, cell_von_mises, displacement_magnitude};
 use tetfem::output::{
     CsvSeries, CsvValue, FrameExtras, OriginalIds, OutputLock, PvdCollection, write_atomically,
@@ -132,11 +136,12 @@ impl RunLength {
     }
 }
 
-/// A dynamic problem ready to integrate: the mesh, the assembled system and the initial state.
+/// A dynamic problem ready to integrate: the mesh (of 4-node tets by default, or 10-node ones),
+/// the assembled system and the initial state.
 #[derive(Debug, Clone)]
-pub struct DynamicSetup {
+pub struct DynamicSetup<C: CellType = Tet4> {
     /// The mesh.
-    pub mesh: TetMesh,
+    pub mesh: TetMesh<C>,
     /// The material (the scene's default; see `materials` for each tet's).
     pub material: Material,
     /// The material of every tet.
@@ -168,11 +173,11 @@ pub struct DynamicSetup {
     critical: std::sync::OnceLock<(f64, &'static str)>,
 }
 
-impl DynamicSetup {
+impl<E: SceneElement> DynamicSetup<E> {
     /// The system of a built scene with its dynamic settings: gravity tracked apart, the other
     /// loads constant, Rayleigh damping and mass kind as set, starting at rest in the reference
     /// configuration with the scene's initial velocity on every free DOF.
-    pub fn from_scene(built: BuiltScene, settings: &DynamicSettings) -> Result<Self> {
+    pub fn from_scene(built: BuiltScene<E>, settings: &DynamicSettings) -> Result<Self> {
         let clock = Instant::now();
         let damping = Rayleigh::new(settings.damping.mass, settings.damping.stiffness)?;
         let mass = settings.mass;
@@ -196,7 +201,12 @@ impl DynamicSetup {
 
     /// The setup of a built scene with its assembled system and initial state; `clock` started
     /// with the setup.
-    fn of_built(built: BuiltScene, system: LinearSystem, initial: State, clock: Instant) -> Self {
+    fn of_built(
+        built: BuiltScene<E>,
+        system: LinearSystem,
+        initial: State,
+        clock: Instant,
+    ) -> Self {
         DynamicSetup {
             original_ids: built.imported.map(|i| (i.node_ids, i.tet_ids)),
             input_warnings: built.input_warnings,
@@ -213,6 +223,103 @@ impl DynamicSetup {
         }
     }
 
+    /// A built scene released from rest in its static shape under all its loads, with every
+    /// load but gravity removed: it swings about its gravity-only shape. Lumped mass, no
+    /// damping; the scene's probes. A cantilever scene gives the problem of
+    /// [`released_cantilever`](Self::released_cantilever).
+    pub fn released(built: BuiltScene<E>) -> Result<Self> {
+        let clock = Instant::now();
+        let (initial, system) = released_system(
+            &built.mesh,
+            &built.materials,
+            &built.constraints,
+            &built.other_loads,
+            built.gravity,
+        )?;
+        Ok(Self::of_built(built, system, initial, clock))
+    }
+
+    /// The same setup with the force model `kind`, one model per material of
+    /// [`materials`](Self::materials) (on a copy of the mesh; the linear model gives
+    /// [`InternalForce::Linear`], the fast path). Errors: a non-zero prescribed displacement
+    /// with a nonlinear model, naming its DOF.
+    pub fn with_model(mut self, kind: tetfem::model::ModelKind) -> Result<Self> {
+        self.force = match kind {
+            // No copy of the mesh for the fast path.
+            tetfem::model::ModelKind::Linear => InternalForce::Linear,
+            nonlinear => InternalForce::of_models(
+                Arc::new(
+                    as_linear(&self.mesh)
+                        .ok_or_else(|| {
+                            Error::invalid_parameter(
+                                "model",
+                                nonlinear.name(),
+                                format!("runs on 4-node tets only, not on {} cells", E::NAME),
+                            )
+                        })?
+                        .clone(),
+                ),
+                nonlinear.build_map(&self.materials),
+                &self.system,
+            )?,
+        };
+        Ok(self)
+    }
+
+    /// The model's von Mises stress per tet (Pa) at full displacement `u`.
+    fn von_mises(&self, u: &[f64]) -> Result<Vec<f64>> {
+        match &self.force {
+            InternalForce::Linear => cell_von_mises(&self.mesh, &self.materials, u),
+            InternalForce::Nonlinear(n) => cell_model_von_mises(n.mesh(), n.models(), u),
+        }
+    }
+
+    /// The period 2π/ω₁ (time units) of the lowest natural mode of the constrained body, from
+    /// [`lowest_modes_with_force`](tetfem::modal::lowest_modes_with_force) with the setup's
+    /// force: modal analysis is linear only, so after [`with_model`](Self::with_model) with a
+    /// nonlinear model it is [`Error::InvalidParameter`] naming the model.
+    pub fn first_mode_period(&self) -> Result<f64> {
+        let modes = tetfem::modal::lowest_modes_with_force(&self.system, &self.force, 1)?;
+        match modes.omega.first() {
+            Some(&omega) if omega.is_finite() && omega > 0.0 => {
+                Ok(2.0 * std::f64::consts::PI / omega)
+            }
+            _ => Err(Error::Solver("no positive lowest natural frequency".into())),
+        }
+    }
+
+    /// The explicit critical step and how it was found: 2/ω_max by power iteration (proven by an
+    /// inertia check, `"power iteration"`, or by Gershgorin's looser bound where the check's
+    /// factor would not fit, `"Gershgorin bound"`) for a lumped mass, else the element bound
+    /// (which is never above it). Computed once, then remembered.
+    pub fn critical_step(&self) -> Result<(f64, &'static str)> {
+        if let Some(c) = self.critical.get() {
+            return Ok(*c);
+        }
+        let c = match self.system.mass() {
+            Mass::Lumped(_) => {
+                let step = critical_time_step(&self.system)?;
+                (step.dt, step.certificate.source())
+            }
+            Mass::Consistent(_) => (
+                E::step_bound(&self.mesh, &self.materials)?.dt_element,
+                "element bound",
+            ),
+        };
+        Ok(*self.critical.get_or_init(|| c))
+    }
+
+    /// A time step in time units: `dt` itself, or its multiple of [`critical_step`](Self::critical_step).
+    pub fn resolve(&self, dt: TimeStep) -> Result<f64> {
+        let dt = match dt {
+            TimeStep::Seconds(dt) => dt,
+            TimeStep::CriticalMultiple(f) => f * self.critical_step()?.0,
+        };
+        tetfem::dynamics::check_time_step(dt)
+    }
+}
+
+impl DynamicSetup {
     /// The cantilever released from rest in its static shape under end load and gravity, with
     /// the end load removed and gravity kept: it swings about its (much smaller) gravity-only
     /// deflection. Lumped mass, no damping. The probe `tip` is the end face x = L.
@@ -247,91 +354,6 @@ impl DynamicSetup {
             force: InternalForce::Linear,
             critical: Default::default(),
         })
-    }
-
-    /// A built scene released from rest in its static shape under all its loads, with every
-    /// load but gravity removed: it swings about its gravity-only shape. Lumped mass, no
-    /// damping; the scene's probes. A cantilever scene gives the problem of
-    /// [`released_cantilever`](Self::released_cantilever).
-    pub fn released(built: BuiltScene) -> Result<Self> {
-        let clock = Instant::now();
-        let (initial, system) = released_system(
-            &built.mesh,
-            &built.materials,
-            &built.constraints,
-            &built.other_loads,
-            built.gravity,
-        )?;
-        Ok(Self::of_built(built, system, initial, clock))
-    }
-
-    /// The same setup with the force model `kind`, one model per material of
-    /// [`materials`](Self::materials) (on a copy of the mesh; the linear model gives
-    /// [`InternalForce::Linear`], the fast path). Errors: a non-zero prescribed displacement
-    /// with a nonlinear model, naming its DOF.
-    pub fn with_model(mut self, kind: tetfem::model::ModelKind) -> Result<Self> {
-        self.force = match kind {
-            // No copy of the mesh for the fast path.
-            tetfem::model::ModelKind::Linear => InternalForce::Linear,
-            nonlinear => InternalForce::of_models(
-                Arc::new(self.mesh.clone()),
-                nonlinear.build_map(&self.materials),
-                &self.system,
-            )?,
-        };
-        Ok(self)
-    }
-
-    /// The model's von Mises stress per tet (Pa) at full displacement `u`.
-    fn von_mises(&self, u: &[f64]) -> Result<Vec<f64>> {
-        match &self.force {
-            InternalForce::Linear => cell_von_mises(&self.mesh, &self.materials, u),
-            InternalForce::Nonlinear(n) => cell_model_von_mises(&self.mesh, n.models(), u),
-        }
-    }
-
-    /// The period 2π/ω₁ (time units) of the lowest natural mode of the constrained body, from
-    /// [`lowest_modes_with_force`](tetfem::modal::lowest_modes_with_force) with the setup's
-    /// force: modal analysis is linear only, so after [`with_model`](Self::with_model) with a
-    /// nonlinear model it is [`Error::InvalidParameter`] naming the model.
-    pub fn first_mode_period(&self) -> Result<f64> {
-        let modes = tetfem::modal::lowest_modes_with_force(&self.system, &self.force, 1)?;
-        match modes.omega.first() {
-            Some(&omega) if omega.is_finite() && omega > 0.0 => {
-                Ok(2.0 * std::f64::consts::PI / omega)
-            }
-            _ => Err(Error::Solver("no positive lowest natural frequency".into())),
-        }
-    }
-
-    /// The explicit critical step and how it was found: 2/ω_max by power iteration (proven by an
-    /// inertia check, `"power iteration"`, or by Gershgorin's looser bound where the check's
-    /// factor would not fit, `"Gershgorin bound"`) for a lumped mass, else the element bound
-    /// (which is never above it). Computed once, then remembered.
-    pub fn critical_step(&self) -> Result<(f64, &'static str)> {
-        if let Some(c) = self.critical.get() {
-            return Ok(*c);
-        }
-        let c = match self.system.mass() {
-            Mass::Lumped(_) => {
-                let step = critical_time_step(&self.system)?;
-                (step.dt, step.certificate.source())
-            }
-            Mass::Consistent(_) => (
-                tetfem::dynamics::element_step_bound_of(&self.mesh, &self.materials)?.dt_element,
-                "element bound",
-            ),
-        };
-        Ok(*self.critical.get_or_init(|| c))
-    }
-
-    /// A time step in time units: `dt` itself, or its multiple of [`critical_step`](Self::critical_step).
-    pub fn resolve(&self, dt: TimeStep) -> Result<f64> {
-        let dt = match dt {
-            TimeStep::Seconds(dt) => dt,
-            TimeStep::CriticalMultiple(f) => f * self.critical_step()?.0,
-        };
-        tetfem::dynamics::check_time_step(dt)
     }
 }
 
@@ -507,8 +529,8 @@ pub struct DynamicOutputs {
 /// Errors: invalid dt or length (more than [`MAX_STEPS`] steps: see [`RunLength::steps`]), and
 /// [`Error::Diverged`] when the run blows up — the frames and the CSV rows up to that point are
 /// written first.
-pub fn run_dynamic(
-    setup: &DynamicSetup,
+pub fn run_dynamic<E: SceneElement>(
+    setup: &DynamicSetup<E>,
     run: &DynamicRun,
     outputs: Option<&DynamicOutputs>,
     progress: &mut dyn FnMut(usize, usize) -> ControlFlow<()>,
@@ -524,8 +546,8 @@ pub fn run_dynamic(
 }
 
 /// [`run_dynamic`] once the output folder's lock (if any) is held.
-fn run_dynamic_locked(
-    setup: &DynamicSetup,
+fn run_dynamic_locked<E: SceneElement>(
+    setup: &DynamicSetup<E>,
     run: &DynamicRun,
     outputs: Option<&DynamicOutputs>,
     lock: Option<OutputLock>,
@@ -760,8 +782,8 @@ struct PngLook {
 }
 
 impl FrameWriter {
-    fn new(
-        setup: &DynamicSetup,
+    fn new<E: SceneElement>(
+        setup: &DynamicSetup<E>,
         run: &DynamicRun,
         outputs: &DynamicOutputs,
         steps: usize,
@@ -822,9 +844,9 @@ impl FrameWriter {
     }
 
     #[allow(clippy::too_many_arguments)]
-    fn record(
+    fn record<E: SceneElement>(
         &mut self,
-        setup: &DynamicSetup,
+        setup: &DynamicSetup<E>,
         state: &State,
         u: &[f64],
         wall: f64,
@@ -892,14 +914,9 @@ impl FrameWriter {
                 InternalForce::Linear => {
                     write_result_frame(&vtu, &setup.mesh, &setup.materials, u, extras)?
                 }
-                InternalForce::Nonlinear(n) => write_model_result_vtu(
-                    &vtu,
-                    &setup.mesh,
-                    n.models(),
-                    &setup.materials,
-                    u,
-                    extras,
-                )?,
+                InternalForce::Nonlinear(n) => {
+                    write_model_result_vtu(&vtu, n.mesh(), n.models(), &setup.materials, u, extras)?
+                }
             }
             pvd.push(time, &vtu)?;
             self.files.push(vtu);
@@ -977,7 +994,7 @@ impl FrameWriter {
 /// A magnification and colour range that suit every frame: from the larger of the initial
 /// displacement and twice the static one (a suddenly applied load overshoots to about twice its
 /// static deflection).
-fn png_look(setup: &DynamicSetup, s: &OutputSettings) -> Result<PngLook> {
+fn png_look<E: SceneElement>(setup: &DynamicSetup<E>, s: &OutputSettings) -> Result<PngLook> {
     let dofs = setup.system.dofs();
     let initial = dofs.expand(&setup.initial.displacement)?;
     let doubled: Vec<f64> = dofs
@@ -1037,7 +1054,7 @@ fn png_look(setup: &DynamicSetup, s: &OutputSettings) -> Result<PngLook> {
 }
 
 /// The diagonal of the mesh's bounding box (length units).
-fn body_size(mesh: &TetMesh) -> f64 {
+fn body_size<C: CellType>(mesh: &TetMesh<C>) -> f64 {
     let (mut low, mut high) = (
         Vector3::repeat(f64::INFINITY),
         Vector3::repeat(f64::NEG_INFINITY),
@@ -1101,8 +1118,32 @@ pub fn run_dynamic_scene(
         true => Some(OutputLock::acquire(&scene.output().directory)?),
         false => None,
     };
+    match scene.order() {
+        2 => run_dynamic_scene_on::<Tet10>(
+            scene, settings, overrides, dt, length, lock, force_png, progress,
+        ),
+        _ => run_dynamic_scene_on::<Tet4>(
+            scene, settings, overrides, dt, length, lock, force_png, progress,
+        ),
+    }
+}
+
+/// [`run_dynamic_scene`] on the element of the scene's order, with the output lock (if any)
+/// held (`lock` is `None` when no files are written).
+#[allow(clippy::too_many_arguments)]
+fn run_dynamic_scene_on<E: SceneElement>(
+    scene: &Scene,
+    settings: &DynamicSettings,
+    overrides: &DynamicOverrides,
+    dt: TimeStep,
+    length: RunLength,
+    lock: Option<OutputLock>,
+    force_png: bool,
+    progress: &mut dyn FnMut(usize, usize) -> ControlFlow<()>,
+) -> Result<DynamicSummary> {
+    let write_files = lock.is_some();
     let mut setup =
-        DynamicSetup::from_scene(scene.build()?, settings)?.with_model(scene.model())?;
+        DynamicSetup::from_scene(scene.build_as::<E>()?, settings)?.with_model(scene.model())?;
     setup.linear_method = scene.spec().linear_method();
     let method = overrides.method.unwrap_or(settings.method);
     let run = DynamicRun {
@@ -1121,8 +1162,8 @@ pub fn run_dynamic_scene(
 
 /// The state at rest in the static shape under `loads` and `gravity`, and the system with the
 /// loads removed and gravity kept (lumped mass, no damping), which it swings in.
-fn released_system(
-    mesh: &TetMesh,
+fn released_system<E: ElementType>(
+    mesh: &TetMesh<E>,
     material: &impl tetfem::materials::TetMaterials,
     constraints: &Constraints,
     loads: &Loads,

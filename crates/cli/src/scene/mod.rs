@@ -9,6 +9,7 @@
 mod build;
 mod critical;
 mod dynamic;
+mod element;
 mod estimate;
 mod modal;
 mod run;
@@ -22,6 +23,7 @@ pub use dynamic::{
     MAX_STEPS, ProbeRange, RunLength, TimeStep, run_dynamic, run_dynamic_scene,
 };
 pub use dynamic::{STEP_CHECK_DOFS, STEP_CHECK_MODES};
+pub use element::SceneElement;
 pub use estimate::{ESTIMATED_ERROR_DEFINITION, EstimatedError, estimated_error_of};
 pub use modal::{ModalSummary, ModeRow, run_modal_scene};
 pub use run::{
@@ -39,6 +41,10 @@ use tetfem::error::{Error, Result};
 /// the working directory. Units SI.
 pub const REFERENCE: &str = r#"# tetfem scene reference: every key, with its default where it has one.
 title = "reference"                 # default: the scene file's stem
+
+[mesh]
+order = 1                           # default 1: 4-node tets; 2: 10-node (quadratic) tets, for
+                                    # [mesh.box] meshes and the linear model (static, dynamic, modal)
 
 [mesh.box]                          # or [mesh.gmsh] / [mesh.tetgen] with: file = "part.msh"
 min = [0.0, 0.0, 0.0]               # default [0, 0, 0]
@@ -221,6 +227,7 @@ pub struct Scene {
     stem: String,
     analysis: Analysis,
     model: tetfem::model::ModelKind,
+    order: usize,
     output: OutputSettings,
 }
 
@@ -269,6 +276,7 @@ impl Scene {
             stem: "scene".to_string(),
             analysis: Analysis::Static,
             model: tetfem::model::ModelKind::Linear,
+            order: 1,
             output: OutputSettings {
                 directory: PathBuf::new(),
                 stem: String::new(),
@@ -284,6 +292,7 @@ impl Scene {
             },
         };
         scene.analysis = scene.check_analysis()?;
+        scene.order = scene.check_order()?;
         scene.model = scene.check_model()?;
         scene.output = scene.output_settings()?;
         Ok(scene)
@@ -319,6 +328,47 @@ impl Scene {
         self.model
     }
 
+    /// The element order (`mesh.order`): 1 (4-node tets, the default) or 2 (10-node tets).
+    pub fn order(&self) -> usize {
+        self.order
+    }
+
+    /// The span of the `mesh.order` key's value, if the scene has one.
+    fn order_span(&self) -> Option<Range<usize>> {
+        let only: OrderOnly = toml::from_str(&self.text).ok()?;
+        only.mesh?.order.map(|o| o.span())
+    }
+
+    fn check_order(&self) -> Result<usize> {
+        let only: OrderOnly = toml::from_str(&self.text).unwrap_or_default();
+        let Some(order) = only.mesh.and_then(|m| m.order) else {
+            return Ok(1);
+        };
+        let span = order.span();
+        let value = match order.get_ref() {
+            toml::Value::Integer(v @ (1 | 2)) => *v as usize,
+            other => {
+                return Err(self.error(
+                    "mesh.order",
+                    &span,
+                    format!(
+                        "order = {other}: use 1 (4-node linear tets, the default) or 2 (10-node \
+                         quadratic tets)"
+                    ),
+                ));
+            }
+        };
+        if value == 2 && !matches!(self.spec.mesh.get_ref(), MeshSpec::Box(_)) {
+            return Err(self.error(
+                "mesh.order",
+                &span,
+                "order = 2 applies to [mesh.box] meshes (their edge nodes are generated); a \
+                 mesh file's order is its own: remove the key",
+            ));
+        }
+        Ok(value)
+    }
+
     fn check_model(&self) -> Result<tetfem::model::ModelKind> {
         let Some(spanned) = &self.spec.analysis else {
             return Ok(tetfem::model::ModelKind::Linear);
@@ -344,6 +394,19 @@ impl Scene {
                 format!(
                     "model = \"{name}\": modal analysis is linear only (K·φ = ω²·M·φ with the \
                      linear model's K, every model's tangent at rest); remove the key or use \"linear\""
+                ),
+            ));
+        }
+        if kind != tetfem::model::ModelKind::Linear && self.order == 2 {
+            let order_line = self
+                .order_span()
+                .map_or(0, |span| line_of(&self.text, span.start));
+            return Err(self.error(
+                "analysis.model",
+                &spanned.span(),
+                format!(
+                    "model = \"{name}\" with mesh.order = 2 (line {order_line}): the nonlinear \
+                     models run on 4-node tets only; use order = 1 or model = \"linear\""
                 ),
             ));
         }

@@ -4,10 +4,12 @@
 use std::path::PathBuf;
 use std::time::Instant;
 
-use super::{Analysis, Scene};
+use super::{Analysis, ModalSettings, Scene, SceneElement};
 use tetfem::assembly::lumped_mass_of;
 use tetfem::dynamics::{LinearSystem, Rayleigh};
+use tetfem::element::{ElementType, Tet10};
 use tetfem::error::{Error, Result};
+use tetfem::mesh::Tet4;
 use tetfem::modal::{effective_mass_fractions, lowest_modes};
 use tetfem::output::{OutputLock, PvdCollection, VtuWriter, write_atomically};
 
@@ -98,8 +100,22 @@ pub fn run_modal_scene(scene: &Scene, no_files: bool) -> Result<ModalSummary> {
         true => None,
         false => Some(OutputLock::acquire(&scene.output().directory)?),
     };
+    match scene.order() {
+        2 => run_modal_on::<Tet10>(scene, settings, lock),
+        _ => run_modal_on::<Tet4>(scene, settings, lock),
+    }
+}
+
+/// [`run_modal_scene`] on the element of the scene's order, with the output lock (if any) held
+/// (`None`: no files).
+fn run_modal_on<E: SceneElement>(
+    scene: &Scene,
+    settings: ModalSettings,
+    lock: Option<OutputLock>,
+) -> Result<ModalSummary> {
+    let no_files = lock.is_none();
     let clock = Instant::now();
-    let built = scene.build()?;
+    let built = scene.build_as::<E>()?;
     let build_seconds = clock.elapsed().as_secs_f64();
     let clock = Instant::now();
     let system = LinearSystem::new(
@@ -219,9 +235,9 @@ pub fn normalized_shape(system: &LinearSystem, shape: &[f64]) -> Result<Vec<f64>
     Ok(full)
 }
 
-fn write_modal_outputs(
+fn write_modal_outputs<E: ElementType>(
     scene: &Scene,
-    mesh: &tetfem::TetMesh,
+    mesh: &tetfem::TetMesh<E>,
     imported: Option<&tetfem::mesh::io::ImportedMesh>,
     system: &LinearSystem,
     modes: &tetfem::modal::Modes,

@@ -3,9 +3,12 @@
 use std::path::PathBuf;
 use std::time::Instant;
 
-use super::{Analysis, BuiltScene, PngField, Scene};
+use super::element::as_linear;
+use super::{Analysis, BuiltScene, PngField, Scene, SceneElement};
 use crate::render::{Field, RenderOptions, auto_deformation_scale, render};
+use tetfem::element::Tet10;
 use tetfem::error::{Error, Result};
+use tetfem::mesh::Tet4;
 use tetfem::model::ModelMap;
 use tetfem::output::fields::{cell_model_von_mises, displacement_magnitude};
 use tetfem::output::{
@@ -164,8 +167,38 @@ pub fn run_static_with(scene: &Scene, options: &RunOptions) -> Result<RunSummary
         true => None,
         false => Some(OutputLock::acquire(&scene.output().directory)?),
     };
+    match scene.order() {
+        2 => run_static_on::<Tet10>(scene, options, lock),
+        _ => run_static_on::<Tet4>(scene, options, lock),
+    }
+}
+
+/// The nonlinear models' mesh: the scene's, which is a 4-node one (order 2 scenes with a
+/// nonlinear model are refused when parsed, so the error is a guard, not a path).
+pub(crate) fn linear_mesh_of<'a, E: SceneElement>(
+    scene: &Scene,
+    mesh: &'a tetfem::TetMesh<E>,
+) -> Result<&'a tetfem::TetMesh> {
+    as_linear(mesh).ok_or_else(|| {
+        scene.error(
+            "analysis.model",
+            &(0..0),
+            format!(
+                "model = \"{}\" runs on 4-node tets only",
+                scene.model().name()
+            ),
+        )
+    })
+}
+
+/// [`run_static_with`] on the element of the scene's order, with the output lock (if any) held.
+fn run_static_on<E: SceneElement>(
+    scene: &Scene,
+    options: &RunOptions,
+    lock: Option<OutputLock>,
+) -> Result<RunSummary> {
     let clock = Instant::now();
-    let built = scene.build()?;
+    let built = scene.build_as::<E>()?;
     let build_seconds = clock.elapsed().as_secs_f64();
     let clock = Instant::now();
     let mut phases = None;
@@ -197,7 +230,7 @@ pub fn run_static_with(scene: &Scene, options: &RunOptions) -> Result<RunSummary
         }
         _ => {
             let report = tetfem::nonlinear::solve_nonlinear_static_with_motion(
-                &built.mesh,
+                linear_mesh_of(scene, &built.mesh)?,
                 &model,
                 &built.constraints,
                 &built.loads,
@@ -220,7 +253,7 @@ pub fn run_static_with(scene: &Scene, options: &RunOptions) -> Result<RunSummary
             // ‖r_f‖/‖f_f‖ at the end, as for the linear solve.
             let relative = if load > 0.0 { last / load } else { last };
             reactions = Some(tetfem::nonlinear::nonlinear_reactions(
-                &built.mesh,
+                linear_mesh_of(scene, &built.mesh)?,
                 &model,
                 &built.constraints,
                 &built.loads,
@@ -236,7 +269,7 @@ pub fn run_static_with(scene: &Scene, options: &RunOptions) -> Result<RunSummary
     let linear = scene.model() == tetfem::model::ModelKind::Linear;
     let von_mises = match linear {
         true => tetfem::output::fields::cell_von_mises(&built.mesh, &built.materials, u)?,
-        false => cell_model_von_mises(&built.mesh, &model, u)?,
+        false => cell_model_von_mises(linear_mesh_of(scene, &built.mesh)?, &model, u)?,
     };
     let (estimated_error, indicators) = match linear {
         true => {
@@ -335,9 +368,9 @@ pub fn run_static_with(scene: &Scene, options: &RunOptions) -> Result<RunSummary
 }
 
 #[allow(clippy::too_many_arguments)]
-fn write_static_outputs(
+fn write_static_outputs<E: SceneElement>(
     scene: &Scene,
-    built: &BuiltScene,
+    built: &BuiltScene<E>,
     model: &ModelMap,
     u: &[f64],
     reactions: Option<&[f64]>,
@@ -365,7 +398,14 @@ fn write_static_outputs(
                 write_result_frame(&vtu, &built.mesh, &built.materials, u, extras)?
             }
             // A nonlinear model's stresses and energy are its own.
-            _ => write_model_result_vtu(&vtu, &built.mesh, model, &built.materials, u, extras)?,
+            _ => write_model_result_vtu(
+                &vtu,
+                linear_mesh_of(scene, &built.mesh)?,
+                model,
+                &built.materials,
+                u,
+                extras,
+            )?,
         }
         let mut pvd = PvdCollection::new(dir.join(format!("{}.pvd", out.stem)));
         pvd.push(0.0, &vtu)?;

@@ -175,9 +175,10 @@ pub struct RigidMotionSpec {
     pub amplitude: Option<AmplitudeRef>,
 }
 
-/// `[mesh.box]`, `[mesh.gmsh]` or `[mesh.tetgen]`.
+/// `[mesh.box]`, `[mesh.gmsh]` or `[mesh.tetgen]` (exactly one). The `[mesh]` table may also
+/// hold `order` (1 or 2), which [`Scene::order`](super::Scene::order) reads and checks.
 #[derive(Debug, Clone, Deserialize)]
-#[serde(rename_all = "snake_case", deny_unknown_fields)]
+#[serde(try_from = "MeshTable")]
 pub enum MeshSpec {
     /// A structured box grid.
     Box(BoxSpec),
@@ -185,6 +186,52 @@ pub enum MeshSpec {
     Gmsh(FileSpec),
     /// TetGen files: `file` is the prefix or the `.node` file.
     Tetgen(FileSpec),
+}
+
+/// The `[mesh]` table as written: its source (one of three sub-tables) and `order`, which is
+/// read with its line by [`Scene::order`](super::Scene::order) (here only let through).
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct MeshTable {
+    #[serde(default)]
+    order: Option<toml::Value>,
+    #[serde(default, rename = "box")]
+    grid: Option<BoxSpec>,
+    #[serde(default)]
+    gmsh: Option<FileSpec>,
+    #[serde(default)]
+    tetgen: Option<FileSpec>,
+}
+
+impl TryFrom<MeshTable> for MeshSpec {
+    type Error = String;
+
+    fn try_from(table: MeshTable) -> Result<Self, String> {
+        let _ = table.order;
+        match (table.grid, table.gmsh, table.tetgen) {
+            (Some(b), None, None) => Ok(MeshSpec::Box(b)),
+            (None, Some(f), None) => Ok(MeshSpec::Gmsh(f)),
+            (None, None, Some(f)) => Ok(MeshSpec::Tetgen(f)),
+            _ => Err(
+                "[mesh] needs exactly one of [mesh.box], [mesh.gmsh], [mesh.tetgen]".to_string(),
+            ),
+        }
+    }
+}
+
+/// `[mesh] order`: the element order (1: 4-node tets, 2: 10-node tets); only the key, with its
+/// value unchecked and its position, so that a wrong value is an error naming its line.
+#[derive(Debug, Clone, Default, Deserialize)]
+pub(crate) struct OrderOnly {
+    #[serde(default)]
+    pub(crate) mesh: Option<OrderTable>,
+}
+
+/// The `order` key of `[mesh]`, the rest of the table ignored.
+#[derive(Debug, Clone, Default, Deserialize)]
+pub(crate) struct OrderTable {
+    #[serde(default)]
+    pub(crate) order: Option<Spanned<toml::Value>>,
 }
 
 /// A box grid [min, max] with `cells` cells per axis.
