@@ -4,6 +4,7 @@ use nalgebra::Vector3;
 
 use crate::element::ElementType;
 use crate::error::{Error, Result};
+use crate::estimate::PointwiseElement;
 use crate::materials::TetMaterials;
 use crate::mesh::{BoundaryFace, CellType, TetMesh};
 
@@ -76,28 +77,33 @@ impl Loads {
         }
     }
 
-    /// A body force density b(x) varying in space (force per volume): the consistent load
-    /// ∫ b·Nᵢ dV on each node of a linear tet, by the degree-5 rule of
-    /// [`crate::quadrature::tet_rule`].
-    pub fn add_body_force_field(
+    /// A body force density b(x) varying in space (force per volume, N/m³ in SI): the consistent
+    /// load ∫ b·Nᵢ dV on node i of each tet, for the linear or the quadratic tet
+    /// ([`PointwiseElement`]), by the degree-5 rule of [`crate::quadrature::tet_rule`] (b·Nᵢ is
+    /// integrated exactly where b is a polynomial of degree ≤ 5 − p, p the element's degree).
+    /// A non-finite b(x) is an error and leaves the loads unchanged.
+    pub fn add_body_force_field<E: PointwiseElement>(
         &mut self,
-        mesh: &TetMesh,
+        mesh: &TetMesh<E>,
         force_density: impl Fn(&Vector3<f64>) -> Vector3<f64>,
     ) -> Result<&mut Self> {
         self.check_mesh(mesh)?;
         let rule = crate::quadrature::tet_rule();
         let mut forces = self.forces.clone();
+        let mut shape = vec![0.0; E::NODES];
         for (t, tet) in mesh.tets().iter().enumerate() {
-            let x = mesh.positions_of(t);
-            let element = mesh.element_of(t);
+            let x = mesh.corner_positions_of(t);
+            let volume = crate::estimate::recovery::corners_of(mesh, t).volume();
             for q in &rule {
-                let n = crate::quadrature::shape_values(&q.barycentric);
-                let p = x[0] * n[0] + x[1] * n[1] + x[2] * n[2] + x[3] * n[3];
+                let b3 = q.barycentric;
+                let l = [1.0 - b3.x - b3.y - b3.z, b3.x, b3.y, b3.z];
+                E::shape_values_at(&l, &mut shape);
+                let p = x[0] * l[0] + x[1] * l[1] + x[2] * l[2] + x[3] * l[3];
                 let b = force_density(&p);
                 check_finite("body force field value", &b)?;
-                for (i, &node) in tet.iter().enumerate() {
+                for (i, &node) in tet.as_ref().iter().enumerate() {
                     for axis in 0..3 {
-                        forces[3 * node + axis] += q.weight * element.volume() * n[i] * b[axis];
+                        forces[3 * node + axis] += q.weight * volume * shape[i] * b[axis];
                     }
                 }
             }

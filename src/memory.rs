@@ -29,15 +29,17 @@ pub enum SolverMemory {
 }
 
 /// Predicted peak memory of a linear static solve (bytes), by part, from the mesh's node count
-/// N and tet count T, before anything is allocated. Sizes follow the data structures, with
-/// nnz = 9·(3N + 2T) the stored entries of K (3×3 blocks of the node pairs: N diagonal and
-/// about N + T edges each way, by Euler's formula for a tet mesh, V − E + F − T = 1 with F ≈ 2T):
+/// N, tet count T and nodes per tet k (4 for the linear tet, 10 for the quadratic one), before
+/// anything is allocated. Sizes follow the data structures, with nnz the stored entries of K
+/// from [`stiffness_entries`]:
 ///
-/// - mesh: 24·N (coordinates) + 32·T (connectivity);
-/// - assembly: the pattern (8·nnz row indices, 24·N column starts) and the scatter map (128·T),
-///   K's values (8·nnz), and while the pattern is built the adjacency scratch (192·T);
-/// - faces: the sorted face list of the face topology check, 4 faces of 40 bytes per tet and
-///   the neighbour pairs (32·T), held only during the check;
+/// - mesh: 24·N (coordinates) + 8k·T (connectivity);
+/// - assembly: the pattern (8·nnz row indices, 24·N column starts) and the scatter map (one
+///   index per node block of each tet, 8k²·T), K's values (8·nnz), and while the pattern is
+///   built the adjacency scratch (the tet's ordered node pairs, 16k(k − 1)·T);
+/// - faces: the sorted face list of the face topology check, 4 faces of 8·(nodes per face) + 16
+///   bytes per tet (3 face nodes for k = 4, 6 for k = 10) and the neighbour pairs (32·T), held
+///   only during the check;
 /// - free matrix: K_ff (16·nnz) and, while it is extracted, its growing row and source index
 ///   arrays (up to 2 × 16·nnz);
 /// - solver: the factor ([`SolverMemory::Factor`]) and the symbolic analysis (ordering graph,
@@ -57,6 +59,8 @@ pub struct StaticEstimate {
     pub nodes: u128,
     /// Tets T.
     pub tets: u128,
+    /// Stored entries of K, nnz ([`stiffness_entries`]).
+    pub stiffness_entries: u128,
     /// The mesh (bytes).
     pub mesh: u128,
     /// Pattern, scatter map, K and the pattern's scratch (bytes).
@@ -72,26 +76,47 @@ pub struct StaticEstimate {
 }
 
 impl StaticEstimate {
-    /// The estimate for a mesh of `nodes` nodes and `tets` tets solved with `solver`. In u128:
-    /// no product of any two usize counts overflows.
+    /// The estimate for a mesh of linear tets (4 nodes each) with `nodes` nodes and `tets` tets
+    /// solved with `solver`: [`for_element`](Self::for_element) with k = 4.
     pub fn new(nodes: usize, tets: usize, solver: SolverMemory) -> Self {
-        let (n, t) = (nodes as u128, tets as u128);
-        let nnz = 9 * (3 * n + 2 * t);
+        Self::for_element(nodes, tets, 4, solver)
+    }
+
+    /// The estimate for a mesh of `nodes` nodes and `tets` tets of `nodes_per_tet` nodes each
+    /// (k: 4 or 10, [`CellType::NODES`](crate::mesh::CellType::NODES)) solved with `solver`.
+    /// In u128: no product of any two usize counts overflows.
+    pub fn for_element(
+        nodes: usize,
+        tets: usize,
+        nodes_per_tet: usize,
+        solver: SolverMemory,
+    ) -> Self {
+        let (n, t, k) = (nodes as u128, tets as u128, nodes_per_tet as u128);
+        let nnz = stiffness_entries(n, t, nodes_per_tet);
         let dofs = 3 * n;
         let solver = match solver {
             SolverMemory::Iterative => 48 * nnz + 200 * dofs,
             SolverMemory::Factor(bytes) => bytes + 24 * nnz,
         };
+        let face_nodes = if nodes_per_tet > 4 { 6 } else { 3 };
         StaticEstimate {
             nodes: n,
             tets: t,
-            mesh: 24 * n + 32 * t,
-            assembly: 16 * nnz + 24 * n + 128 * t + 192 * t,
-            faces: 160 * t + 32 * t,
+            stiffness_entries: nnz,
+            mesh: 24 * n + 8 * k * t,
+            assembly: 16 * nnz + 24 * n + 8 * k * k * t + 16 * k * k.saturating_sub(1) * t,
+            faces: 4 * (8 * face_nodes + 16) * t + 32 * t,
             free_matrix: 48 * nnz,
             solver,
             outputs: 96 * n + 64 * t,
         }
+    }
+
+    /// The extra memory of a linear dynamic run over this static estimate (bytes): the mass
+    /// matrix (or the damping's) and the step matrix, each on K_ff's pattern (16·nnz), and the
+    /// state vectors (10 vectors of 8 bytes per DOF).
+    pub fn dynamic_extra(&self) -> u128 {
+        2 * 16 * self.stiffness_entries + 10 * 8 * 3 * self.nodes
     }
 
     /// The peak (bytes): mesh + assembly + the largest later phase (K_ff is held through the
@@ -135,6 +160,62 @@ impl StaticEstimate {
     }
 }
 
+/// Stored entries nnz of the full (both triangles) stiffness pattern of a mesh of N `nodes`
+/// and T `tets` of `nodes_per_tet` nodes: 3×3 blocks of every node pair that shares a tet.
+///
+/// - Linear tet (k = 4): nnz = 9·(3N + 2T): N diagonal blocks and about N + T edges each way,
+///   by Euler's formula for a tet mesh, V − E + F − T = 1 with F ≈ 2T.
+/// - Quadratic tet (k = 10): nnz = 9·(10N + 27T), an upper bound fitted to the patterns
+///   assembled on unit boxes of 4³, 8³ and 16³ cells (N the 10-node mesh's node count):
+///
+///   | split | cells | N | T | measured nnz/9 | 10N + 27T |
+///   |---|---|---|---|---|---|
+///   | 6-tet | 4³ | 729 | 384 | 17 025 | 17 658 (+3.7 %) |
+///   | 6-tet | 8³ | 4 913 | 3 072 | 126 785 | 132 074 (+4.2 %) |
+///   | 6-tet | 16³ | 35 937 | 24 576 | 977 793 | 1 022 922 (+4.6 %) |
+///   | 5-tet | 4³ | 665 | 320 | 14 657 | 15 290 (+4.3 %) |
+///   | 5-tet | 8³ | 4 401 | 2 560 | 107 841 | 113 130 (+4.9 %) |
+///   | 5-tet | 16³ | 31 841 | 20 480 | 826 241 | 871 370 (+5.5 %) |
+///
+///   (both 6-tet splits give the same counts). The excess grows towards the interior value
+///   (+5.7 % for the 6-tet split, +6.9 % for the 5-tet one, from the 1/n extrapolation of the
+///   per-node counts), because boundary nodes have fewer neighbours. The linear formula would
+///   take 9·(3N + 2T), 1/6 of the 16³ P2 pattern.
+///
+/// Any other k is bounded by the dense element blocks, N + k(k − 1)·T blocks.
+pub fn stiffness_entries(nodes: u128, tets: u128, nodes_per_tet: usize) -> u128 {
+    let k = nodes_per_tet as u128;
+    let blocks = match nodes_per_tet {
+        4 => 3 * nodes + 2 * tets,
+        10 => 10 * nodes + 27 * tets,
+        _ => nodes + k * k.saturating_sub(1) * tets,
+    };
+    9 * blocks
+}
+
+/// Nodes of a structured box of `cells` cubes with `tets_per_cell` tets each whose tets have
+/// `nodes_per_tet` nodes: the grid nodes, plus for 10-node tets one node per edge. The edges
+/// follow from Euler's formula V − E + F − T = 1 of the (contractible) box with 4T = 2F − F_b
+/// and F_b = 4(nx·ny + ny·nz + nz·nx) boundary triangles: E = V + T + F_b/2 − 1, for every
+/// split. Saturating, as [`box_counts`].
+pub fn box_node_count(cells: [usize; 3], tets_per_cell: usize, nodes_per_tet: usize) -> u128 {
+    let (vertices, tets) = box_counts(cells, tets_per_cell);
+    if nodes_per_tet <= 4 {
+        return vertices;
+    }
+    let [x, y, z] = cells.map(|c| c as u128);
+    let half_boundary = 2u128.saturating_mul(
+        x.saturating_mul(y)
+            .saturating_add(y.saturating_mul(z))
+            .saturating_add(z.saturating_mul(x)),
+    );
+    let edges = vertices
+        .saturating_add(tets)
+        .saturating_add(half_boundary)
+        .saturating_sub(1);
+    vertices.saturating_add(edges)
+}
+
 /// Nodes and tets of a structured box of `cells` cubes with `tets_per_cell` tets each, in u128,
 /// saturating (three usize factors can exceed even u128).
 pub fn box_counts(cells: [usize; 3], tets_per_cell: usize) -> (u128, u128) {
@@ -147,16 +228,19 @@ pub fn box_counts(cells: [usize; 3], tets_per_cell: usize) -> (u128, u128) {
     )
 }
 
-/// The static estimate of a box of `cells` cubes (`tets_per_cell` tets each) before it is
-/// meshed; counts beyond usize saturate (the estimate is then beyond any memory anyway).
+/// The static estimate of a box of `cells` cubes (`tets_per_cell` tets each, of
+/// `nodes_per_tet` nodes: 4 or 10) before it is meshed; counts beyond usize saturate (the
+/// estimate is then beyond any memory anyway).
 pub fn box_static_estimate(
     cells: [usize; 3],
     tets_per_cell: usize,
+    nodes_per_tet: usize,
     solver: SolverMemory,
 ) -> StaticEstimate {
-    let (n, t) = box_counts(cells, tets_per_cell);
+    let (_, t) = box_counts(cells, tets_per_cell);
+    let n = box_node_count(cells, tets_per_cell, nodes_per_tet);
     let clamp = |v: u128| usize::try_from(v).unwrap_or(usize::MAX);
-    let mut estimate = StaticEstimate::new(clamp(n), clamp(t), solver);
+    let mut estimate = StaticEstimate::for_element(clamp(n), clamp(t), nodes_per_tet, solver);
     if n > usize::MAX as u128 || t > usize::MAX as u128 {
         // The true counts, so that the message names them.
         estimate.nodes = n;
@@ -165,35 +249,35 @@ pub fn box_static_estimate(
     estimate
 }
 
-/// The extra memory of a linear dynamic run over the static estimate (bytes): the mass matrix
-/// (or the damping's) and the step matrix, each on K_ff's pattern (16·nnz), and the state
-/// vectors (10 vectors of 8 bytes per DOF).
-pub fn dynamic_extra(nodes: u128, tets: u128) -> u128 {
-    let nnz = 9 * (3 * nodes + 2 * tets);
-    2 * 16 * nnz + 10 * 8 * 3 * nodes
-}
-
-/// `Ok` if a box of `cells` (`tets_per_cell` tets each) can be solved statically (or, with
+/// `Ok` if a box of `cells` (`tets_per_cell` tets each, of `nodes_per_tet` nodes: 4 or 10)
+/// can be solved statically (or, with
 /// `dynamic`, integrated) in the memory available now, with the least-memory solver; otherwise
 /// [`Error::InsufficientMemory`] with what is needed and what is available. Computed from the
 /// counts alone, in microseconds, for any `cells`.
-pub fn check_box_run(cells: [usize; 3], tets_per_cell: usize, dynamic: bool) -> Result<()> {
-    let estimate = box_static_estimate(cells, tets_per_cell, SolverMemory::Iterative);
+pub fn check_box_run(
+    cells: [usize; 3],
+    tets_per_cell: usize,
+    nodes_per_tet: usize,
+    dynamic: bool,
+) -> Result<()> {
+    let estimate =
+        box_static_estimate(cells, tets_per_cell, nodes_per_tet, SolverMemory::Iterative);
     let limits = MemoryLimits::current();
     let what = format!(
-        "a {} run on a {}×{}×{} box",
+        "a {} run on a {}×{}×{} box of {}-node tets",
         if dynamic { "dynamic" } else { "static" },
         cells[0],
         cells[1],
-        cells[2]
+        cells[2],
+        nodes_per_tet
     );
     if dynamic {
-        let needed = estimate.peak() + dynamic_extra(estimate.nodes, estimate.tets);
+        let needed = estimate.peak() + estimate.dynamic_extra();
         Ok(limits.ensure_fits(
             format!(
                 "{what}: {} + {} for the dynamic system",
                 estimate.describe(),
-                format_bytes(dynamic_extra(estimate.nodes, estimate.tets))
+                format_bytes(estimate.dynamic_extra())
             ),
             needed,
         )?)
@@ -222,7 +306,7 @@ mod tests {
                 bytes: 1 << 40,
             }],
         };
-        let e = box_static_estimate([usize::MAX; 3], 6, SolverMemory::Iterative);
+        let e = box_static_estimate([usize::MAX; 3], 6, 10, SolverMemory::Iterative);
         assert!(e.peak() > 1 << 40);
         let err = e.ensure_fits("test", &limits).unwrap_err().to_string();
         assert!(err.contains("test bound"), "{err}");

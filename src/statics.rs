@@ -95,8 +95,12 @@ impl StaticSolver {
         }
         // Before any allocation: the rest of the solve with the least-memory solver (a factor
         // is checked once its size is known, in `LinearSolver::analyze_with_geometry`).
-        let estimate =
-            StaticEstimate::new(mesh.node_count(), mesh.tet_count(), SolverMemory::Iterative);
+        let estimate = StaticEstimate::for_element(
+            mesh.node_count(),
+            mesh.tet_count(),
+            E::NODES,
+            SolverMemory::Iterative,
+        );
         MemoryLimits::current().ensure_fits(
             format!(
                 "the static solve: {}, of which the mesh is held already",

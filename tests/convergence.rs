@@ -3,73 +3,12 @@
 
 mod common;
 
-use std::f64::consts::PI;
-
-use nalgebra::{Matrix3, Vector3};
+use common::manufactured::Manufactured;
+use nalgebra::Vector3;
 use tetfem::convergence::{Study, richardson};
 use tetfem::error_norms::{energy_error, l2_error};
 use tetfem::quadrature::tet_rule;
 use tetfem::{BoxSplit, Constraints, Loads, Material, TetMesh, solve_static};
-
-/// Manufactured field u = α·φ·(1, 1, 1) + A·x + c with φ = sin πx sin πy sin πz: smooth, not
-/// zero on the boundary (the linear part gives non-homogeneous Dirichlet data), and with a body
-/// force b = −∇·σ(u) = −α[μ Δφ (1,1,1) + (λ+μ) ∇∇φ·(1,1,1)] (the linear part adds none).
-struct Manufactured {
-    alpha: f64,
-    a: Matrix3<f64>,
-    c: Vector3<f64>,
-}
-
-impl Manufactured {
-    fn new() -> Self {
-        Manufactured {
-            alpha: 1e-3,
-            a: Matrix3::new(2e-4, -1e-4, 0.5e-4, 0.3e-4, -2e-4, 1e-4, 0.0, 1.5e-4, 1e-4),
-            c: Vector3::new(1e-4, -2e-4, 0.5e-4),
-        }
-    }
-
-    fn trig(p: &Vector3<f64>) -> ([f64; 3], [f64; 3]) {
-        (
-            [(PI * p.x).sin(), (PI * p.y).sin(), (PI * p.z).sin()],
-            [(PI * p.x).cos(), (PI * p.y).cos(), (PI * p.z).cos()],
-        )
-    }
-
-    fn displacement(&self, p: &Vector3<f64>) -> Vector3<f64> {
-        let (s, _) = Self::trig(p);
-        Vector3::repeat(self.alpha * s[0] * s[1] * s[2]) + self.a * p + self.c
-    }
-
-    fn gradient(&self, p: &Vector3<f64>) -> Matrix3<f64> {
-        let (s, c) = Self::trig(p);
-        let grad_phi =
-            Vector3::new(c[0] * s[1] * s[2], s[0] * c[1] * s[2], s[0] * s[1] * c[2]) * PI;
-        // ∂uᵢ/∂xⱼ = α ∂φ/∂xⱼ for every i, plus Aᵢⱼ.
-        Matrix3::from_fn(|_, j| self.alpha * grad_phi[j]) + self.a
-    }
-
-    fn body_force(&self, p: &Vector3<f64>, material: &Material) -> Vector3<f64> {
-        let (s, c) = Self::trig(p);
-        let phi = s[0] * s[1] * s[2];
-        let pi2 = PI * PI;
-        // Hessian of φ: diagonal −π²φ, off-diagonal π² cᵢcⱼsₖ.
-        let hessian = Matrix3::new(
-            -pi2 * phi,
-            pi2 * c[0] * c[1] * s[2],
-            pi2 * c[0] * s[1] * c[2],
-            pi2 * c[0] * c[1] * s[2],
-            -pi2 * phi,
-            pi2 * s[0] * c[1] * c[2],
-            pi2 * c[0] * s[1] * c[2],
-            pi2 * s[0] * c[1] * c[2],
-            -pi2 * phi,
-        );
-        let (lambda, mu) = (material.lame_lambda(), material.shear_modulus());
-        let laplacian = -3.0 * pi2 * phi;
-        -(Vector3::repeat(mu * laplacian) + hessian * Vector3::repeat(lambda + mu)) * self.alpha
-    }
-}
 
 #[test]
 fn manufactured_solution_converges_at_order_two_in_l2_and_one_in_energy() {

@@ -218,12 +218,13 @@ impl LinearSystem {
         }
         // Before any allocation: K, M and the step matrix with the least-memory solver (a factor
         // is checked once its size is known, in `LinearSolver::analyze_with_geometry`).
-        let estimate = crate::memory::StaticEstimate::new(
+        let estimate = crate::memory::StaticEstimate::for_element(
             mesh.node_count(),
             mesh.tet_count(),
+            E::NODES,
             crate::memory::SolverMemory::Iterative,
         );
-        let extra = crate::memory::dynamic_extra(estimate.nodes, estimate.tets);
+        let extra = estimate.dynamic_extra();
         crate::memory::MemoryLimits::current().ensure_fits(
             format!(
                 "the dynamic system: {} + {} for the mass and step matrices, of which the mesh is \

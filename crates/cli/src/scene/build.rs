@@ -144,7 +144,7 @@ impl Scene {
                     self.analysis(),
                     super::Analysis::Dynamic(_) | super::Analysis::Modal(_)
                 );
-                tetfem::memory::check_box_run(b.cells, split.tets_per_cell(), dynamic)
+                tetfem::memory::check_box_run(b.cells, split.tets_per_cell(), E::NODES, dynamic)
                     .map_err(|e| self.error("mesh.box", &mesh_span, e.to_string()))?;
                 let linear = TetMesh::box_grid(b.min.into(), b.max.into(), b.cells, split)
                     .map_err(|e| self.error("mesh.box", &mesh_span, e.to_string()))?;
