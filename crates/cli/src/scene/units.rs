@@ -50,6 +50,11 @@ pub(crate) const STATIC: &[(&str, &str)] = &[
     ("phases.factorization", "s"),
     ("phases.solve", "s"),
     ("critical_step.seconds", "s"),
+    ("accuracy.target", "1"),
+    ("accuracy.trials.estimate", "1"),
+    ("accuracy.trials.seconds", "s"),
+    ("accuracy.predictions.seconds", "s"),
+    ("accuracy.estimated_error", "1"),
 ];
 
 /// Units of a modal run's summary.
