@@ -134,7 +134,8 @@ type = "static"                     # default "static"; or "dynamic", which need
                                     # of a mesh resolution: box meshes get the element order and cells
                                     # predicted cheapest (from the scene's cells, refined ≤ 2× per axis
                                     # until the ZZ estimate meets it); file meshes a report of whether
-                                    # it is met and what would meet it. Summary: "accuracy"
+                                    # it is met and what would meet it (box: mesh.order and
+                                    # cells are the start, both orders are tried). Summary: "accuracy"
 # max_dofs = 300000                 # with accuracy: cap on 3 × nodes of the meshes tried (≥ 1000)
 # Or type = "modal": the lowest natural frequencies and mode shapes (linear model only).
 # modes = 6                         # default 6; at most the free DOF count

@@ -141,7 +141,13 @@ impl RunSummary {
     /// The summary as one line of JSON, with a `units` table (the unit of every field that
     /// carries a quantity, keyed by its path).
     pub fn to_json(&self) -> String {
-        super::units::to_json_with_units(self, super::units::STATIC)
+        match self.accuracy {
+            None => super::units::to_json_with_units(self, super::units::STATIC),
+            Some(_) => super::units::to_json_with_units(
+                self,
+                &[super::units::STATIC, super::units::ACCURACY].concat(),
+            ),
+        }
     }
 }
 

@@ -50,10 +50,18 @@ pub(crate) const STATIC: &[(&str, &str)] = &[
     ("phases.factorization", "s"),
     ("phases.solve", "s"),
     ("critical_step.seconds", "s"),
+];
+
+/// Units of a static summary's `accuracy` (with `[analysis] accuracy` only: every unit names a
+/// field that is there).
+pub(crate) const ACCURACY: &[(&str, &str)] = &[
     ("accuracy.target", "1"),
     ("accuracy.trials.estimate", "1"),
     ("accuracy.trials.seconds", "s"),
+    ("accuracy.predictions.refinement", "1"),
+    ("accuracy.predictions.dofs", "1"),
     ("accuracy.predictions.seconds", "s"),
+    ("accuracy.cost_exponent", "1"),
     ("accuracy.estimated_error", "1"),
 ];
 
