@@ -229,3 +229,34 @@ fn bad_accuracy_values_name_key_and_line() {
         }
     }
 }
+
+#[test]
+fn nonlinear_model_runs_as_given_on_the_cells_chosen_for_its_linearization() {
+    let summary = run(&beam(
+        [10, 1, 1],
+        1,
+        "model = \"corotational\"\naccuracy = 0.3",
+    ));
+    let report = summary.accuracy.as_ref().expect("accuracy report");
+    println!("{} ({})", report.reason, report.estimate_of);
+    // The nonlinear models run on 4-node tets: order 2 is never tried.
+    assert!(
+        report.trials.iter().all(|t| t.order == 1),
+        "{:?}",
+        report.trials
+    );
+    assert_eq!(report.order, 1);
+    assert!(
+        report.estimate_of.contains("linearized"),
+        "{}",
+        report.estimate_of
+    );
+    // The run reported is the corotational one (no linear estimate of its own) on the cells
+    // chosen: 3 × its nodes are the last trial's DOFs.
+    assert!(summary.estimated_error.is_none());
+    assert_eq!(
+        3 * summary.nodes,
+        report.trials.last().expect("a trial").dofs
+    );
+    assert_eq!(report.met, report.estimated_error <= 0.3);
+}
