@@ -528,6 +528,30 @@ fn print_estimated_error(e: Option<&tetfem_cli::scene::EstimatedError>) {
     }
 }
 
+/// What `[analysis] accuracy` tried and chose.
+fn print_accuracy(a: &tetfem_cli::scene::AccuracyReport) {
+    println!(
+        "  accuracy target {:.3} %: {} — order {}, cells {:?}, estimate {:.3} % ({})",
+        100.0 * a.target,
+        if a.met { "met" } else { "NOT met" },
+        a.order,
+        a.cells,
+        100.0 * a.estimated_error,
+        a.estimate_of
+    );
+    for t in &a.trials {
+        println!(
+            "    tried order {}, cells {:?}: {} DOFs, estimate {:.3} %, {}",
+            t.order,
+            t.cells,
+            t.dofs,
+            100.0 * t.estimate,
+            format_seconds(t.seconds)
+        );
+    }
+    println!("    why: {}", a.reason);
+}
+
 /// "wrote N files to DIR/: a, b, c" (the file names, frames summarized by their count).
 fn print_files(files: &[PathBuf], directory: &Path) {
     let names: Vec<String> = files
@@ -690,6 +714,9 @@ fn print_static(s: &RunSummary, directory: &Path) {
         s.max_displacement, s.max_von_mises
     );
     print_estimated_error(s.estimated_error.as_ref());
+    if let Some(a) = &s.accuracy {
+        print_accuracy(a);
+    }
     for p in &s.probes {
         println!(
             "  probe {}: mean u = ({:+.4e}, {:+.4e}, {:+.4e}) m",

@@ -115,6 +115,14 @@ fn csv_headers_name_their_units_and_json_summaries_carry_a_units_table() {
     );
     check_units(&summary.to_json(), "static");
 
+    let dir = tmp("accuracy");
+    let summary = run_static_with(
+        &scene("type = \"static\"\naccuracy = 0.3", &dir),
+        &RunOptions::default(),
+    )
+    .unwrap();
+    check_units(&summary.to_json(), "static with an accuracy target");
+
     let dir = tmp("dynamic");
     let s = scene(
         "type = \"dynamic\"\nmethod = \"newmark\"\ndt = 1e-3\nduration = 3e-3",

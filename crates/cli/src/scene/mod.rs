@@ -6,6 +6,7 @@
 //! test parses it). Unknown keys, values of the wrong type and invalid values are
 //! [`Error::Scene`] errors naming the key and its line.
 
+mod accuracy;
 mod build;
 mod critical;
 mod dynamic;
@@ -16,6 +17,10 @@ mod run;
 mod spec;
 mod units;
 
+pub use accuracy::{
+    AccuracyPrediction, AccuracyReport, AccuracyTarget, AccuracyTrial, DEFAULT_COST_EXPONENT,
+    DEFAULT_MAX_DOFS, MAX_REFINEMENT_RATIO,
+};
 pub use build::{BuiltScene, Probe};
 pub use critical::{CriticalStepReport, critical_step_of};
 pub use dynamic::{
@@ -125,6 +130,13 @@ type = "static"                     # default "static"; or "dynamic", which need
 # mass = "lumped"                   # default; or "consistent"
 # initial_velocity = [0.0, 0.0, 0.0]          # m/s, default zero
 # model = "linear"                 # default; or "corotational", "neo-hookean", "st-venant-kirchhoff" (static and every dynamic method; each [[materials]] region its own model)
+# accuracy = 0.01                  # static: a target relative energy-norm error in (0, 1) instead
+                                    # of a mesh resolution: box meshes get the element order and cells
+                                    # predicted cheapest (from the scene's cells, refined ≤ 2× per axis
+                                    # until the ZZ estimate meets it); file meshes a report of whether
+                                    # it is met and what would meet it (box: mesh.order and
+                                    # cells are the start, both orders are tried). Summary: "accuracy"
+# max_dofs = 300000                 # with accuracy: cap on 3 × nodes of the meshes tried (≥ 1000)
 # Or type = "modal": the lowest natural frequencies and mode shapes (linear model only).
 # modes = 6                         # default 6; at most the free DOF count
 # mass = "lumped"                   # default; or "consistent"
@@ -228,6 +240,7 @@ pub struct Scene {
     analysis: Analysis,
     model: tetfem::model::ModelKind,
     order: usize,
+    accuracy: Option<AccuracyTarget>,
     output: OutputSettings,
 }
 
@@ -277,6 +290,7 @@ impl Scene {
             analysis: Analysis::Static,
             model: tetfem::model::ModelKind::Linear,
             order: 1,
+            accuracy: None,
             output: OutputSettings {
                 directory: PathBuf::new(),
                 stem: String::new(),
@@ -294,6 +308,7 @@ impl Scene {
         scene.analysis = scene.check_analysis()?;
         scene.order = scene.check_order()?;
         scene.model = scene.check_model()?;
+        scene.accuracy = accuracy::check_accuracy(&scene, text)?;
         scene.output = scene.output_settings()?;
         Ok(scene)
     }
@@ -331,6 +346,11 @@ impl Scene {
     /// The element order (`mesh.order`): 1 (4-node tets, the default) or 2 (10-node tets).
     pub fn order(&self) -> usize {
         self.order
+    }
+
+    /// The accuracy target (`analysis.accuracy`, `max_dofs`), if the scene gives one.
+    pub fn accuracy(&self) -> Option<AccuracyTarget> {
+        self.accuracy
     }
 
     /// The span of the `mesh.order` key's value, if the scene has one.

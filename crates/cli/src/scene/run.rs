@@ -132,13 +132,22 @@ pub struct RunSummary {
     /// The linear solution's largest element rotation and strain (`None` for the nonlinear
     /// models); past the measured threshold a warning names the model to use.
     pub deformation: Option<tetfem::adequacy::rotation::Deformation>,
+    /// With `[analysis] accuracy`: the meshes tried, the order and cells chosen and why, the
+    /// estimate reached and whether it meets the target (else `None`).
+    pub accuracy: Option<super::AccuracyReport>,
 }
 
 impl RunSummary {
     /// The summary as one line of JSON, with a `units` table (the unit of every field that
     /// carries a quantity, keyed by its path).
     pub fn to_json(&self) -> String {
-        super::units::to_json_with_units(self, super::units::STATIC)
+        match self.accuracy {
+            None => super::units::to_json_with_units(self, super::units::STATIC),
+            Some(_) => super::units::to_json_with_units(
+                self,
+                &[super::units::STATIC, super::units::ACCURACY].concat(),
+            ),
+        }
     }
 }
 
@@ -167,6 +176,9 @@ pub fn run_static_with(scene: &Scene, options: &RunOptions) -> Result<RunSummary
         true => None,
         false => Some(OutputLock::acquire(&scene.output().directory)?),
     };
+    if let Some(target) = scene.accuracy() {
+        return super::accuracy::run_accuracy(scene, options, lock, target);
+    }
     match scene.order() {
         2 => run_static_on::<Tet10>(scene, options, lock),
         _ => run_static_on::<Tet4>(scene, options, lock),
@@ -192,7 +204,7 @@ pub(crate) fn linear_mesh_of<'a, E: SceneElement>(
 }
 
 /// [`run_static_with`] on the element of the scene's order, with the output lock (if any) held.
-fn run_static_on<E: SceneElement>(
+pub(super) fn run_static_on<E: SceneElement>(
     scene: &Scene,
     options: &RunOptions,
     lock: Option<OutputLock>,
@@ -348,6 +360,7 @@ fn run_static_on<E: SceneElement>(
         files: Vec::new(),
         estimated_error,
         deformation,
+        accuracy: None,
     };
     if !options.no_files {
         let clock = Instant::now();

@@ -489,6 +489,13 @@ pub struct AnalysisSpec {
     /// is predicted faster), `"direct"` or `"iterative"` (multigrid-preconditioned CG).
     #[serde(default)]
     pub linear_solver: Option<LinearMethod>,
+    /// Static: the target relative energy-norm error (0 < a < 1) tetfem chooses the element
+    /// order and cells for (checked with its line by the accuracy module; here only let through).
+    #[serde(default)]
+    pub accuracy: Option<toml::Value>,
+    /// Static with `accuracy`: the cap on 3 × nodes of the meshes tried (here only let through).
+    #[serde(default)]
+    pub max_dofs: Option<toml::Value>,
 }
 
 impl SceneSpec {

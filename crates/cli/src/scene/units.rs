@@ -67,6 +67,19 @@ pub(crate) const STATIC: &[(&str, &str)] = &[
     ("critical_step.seconds", "s"),
 ];
 
+/// Units of a static summary's `accuracy` (with `[analysis] accuracy` only: every unit names a
+/// field that is there).
+pub(crate) const ACCURACY: &[(&str, &str)] = &[
+    ("accuracy.target", "1"),
+    ("accuracy.trials.estimate", "1"),
+    ("accuracy.trials.seconds", "s"),
+    ("accuracy.predictions.refinement", "1"),
+    ("accuracy.predictions.dofs", "1"),
+    ("accuracy.predictions.seconds", "s"),
+    ("accuracy.cost_exponent", "1"),
+    ("accuracy.estimated_error", "1"),
+];
+
 /// Units of a modal run's summary.
 pub(crate) const MODAL: &[(&str, &str)] = &[
     ("modes.frequency_hz", "Hz"),
