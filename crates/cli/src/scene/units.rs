@@ -50,6 +50,7 @@ pub(crate) const STATIC: &[(&str, &str)] = &[
     ("phases.factorization", "s"),
     ("phases.solve", "s"),
     ("critical_step.seconds", "s"),
+    ("contact_forces.force_n", "N"),
 ];
 
 /// Units of a modal run's summary.
