@@ -53,6 +53,9 @@ fn a_block_resting_on_the_ground_puts_its_weight_on_it() {
         let summary = run_static_with(&scene, &options).unwrap();
         let weight = 1000.0 * 9.81 * 0.2f64.powi(3);
         assert!((summary.applied_load_n[2] + weight).abs() < 1e-12 * weight);
+        let json: serde_json::Value = serde_json::from_str(&summary.to_json()).unwrap();
+        assert_eq!(json["units"]["contact_forces.force_n"], "N");
+        assert_eq!(json["contact_forces"][0]["obstacle"], "ground");
         let forces = summary.contact_forces.expect("a scene with obstacles");
         assert_eq!(forces.len(), 1);
         assert_eq!(forces[0].obstacle, "ground");
