@@ -1,6 +1,8 @@
 //! The self-estimated error and the model-adequacy checks of scene runs: summary keys, the
 //! `.vtu` cell field, and the warnings.
 
+#[path = "../../../tests/common/vtu.rs"]
+mod vtu;
 use std::path::Path;
 
 use tetfem_cli::scene::{RunOptions, Scene, run_static_with};
@@ -37,19 +39,9 @@ model = "{model}"
     scene
 }
 
-/// The values of one `<DataArray Name="name" ...>` of an ASCII `.vtu`.
+/// The values of the array `name` of a `.vtu` (binary or ASCII, through the tests' reader).
 fn data_array(path: &Path, name: &str) -> Vec<f64> {
-    let text = std::fs::read_to_string(path).expect("vtu written");
-    let start = text
-        .find(&format!("Name=\"{name}\""))
-        .unwrap_or_else(|| panic!("{name} in {}", path.display()));
-    let body = &text[start..];
-    let open = body.find('>').expect("tag") + 1;
-    let close = body.find("</DataArray>").expect("end tag");
-    body[open..close]
-        .split_whitespace()
-        .map(|v| v.parse().expect("number"))
-        .collect()
+    vtu::read_vtu(path).values(name).to_vec()
 }
 
 #[test]
@@ -106,7 +98,12 @@ fn static_summary_and_vtu_carry_the_estimate() {
         vtu.file_stem().unwrap().to_string_lossy()
     )))
     .expect("summary written");
-    assert!(json.contains("\"estimated_error\":{\"relative\""), "{json}");
+    let json: serde_json::Value = serde_json::from_str(&json).expect("summary is JSON");
+    assert_eq!(
+        json["estimated_error"]["relative"].as_f64(),
+        Some(c.relative),
+        "{json}"
+    );
 }
 
 #[test]

@@ -2,6 +2,8 @@
 //! `original_node_id` (point data) and `original_element_id` (cell data), `Int64`, for Gmsh
 //! files whose tags have gaps and are out of order, and for TetGen files numbered from 0 or 1.
 
+#[path = "../../../tests/common/vtu.rs"]
+mod vtu;
 use std::ops::ControlFlow;
 use std::path::{Path, PathBuf};
 
@@ -76,27 +78,26 @@ fn scene(dir: &Path, mesh: &str, analysis: &str) -> Scene {
     scene
 }
 
-/// The `Int64` array `name` of a `.vtu` (panics if it is missing or of another type).
+/// The `Int64` array `name` of a `.vtu` (panics if it is missing or of another type), read
+/// through the tests' own reader (binary or ASCII); binary values are decoded from their bytes,
+/// so ids beyond 2^53 would stay exact.
 fn int_array(vtu: &Path, name: &str) -> Vec<i64> {
-    let text = std::fs::read_to_string(vtu).unwrap();
-    let doc = roxmltree::Document::parse(&text).unwrap();
-    let array = doc
-        .descendants()
-        .find(|n| n.attribute("Name") == Some(name))
-        .unwrap_or_else(|| panic!("{}: no {name}", vtu.display()));
-    assert_eq!(array.attribute("type"), Some("Int64"), "{name}");
-    let section = array.parent().unwrap().tag_name().name();
+    let file = vtu::read_vtu(vtu);
+    let array = file.array(name);
+    assert_eq!(array.vtk_type, "Int64", "{name}");
     let expected = match name {
         "original_node_id" => "PointData",
         _ => "CellData",
     };
-    assert_eq!(section, expected, "{name}");
-    array
-        .text()
-        .unwrap()
-        .split_whitespace()
-        .map(|v| v.parse().unwrap())
-        .collect()
+    assert_eq!(array.section, expected, "{name}");
+    match file.binary {
+        true => array
+            .raw
+            .chunks_exact(8)
+            .map(|b| i64::from_le_bytes(b.try_into().expect("8 bytes")))
+            .collect(),
+        false => array.values.iter().map(|&v| v as i64).collect(),
+    }
 }
 
 fn vtus(files: &[PathBuf]) -> Vec<&PathBuf> {
@@ -183,6 +184,6 @@ fn box_meshes_have_no_original_ids() {
         &RunOptions::default(),
     )
     .unwrap();
-    let text = std::fs::read_to_string(vtus(&summary.files)[0]).unwrap();
-    assert!(!text.contains("original_node_id") && !text.contains("original_element_id"));
+    let file = vtu::read_vtu(vtus(&summary.files)[0]);
+    assert!(!file.has("original_node_id") && !file.has("original_element_id"));
 }

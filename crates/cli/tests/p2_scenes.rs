@@ -1,6 +1,8 @@
 //! Scenes of `mesh.order = 2` (10-node tets): each analysis against the library on the same
 //! Tet10 mesh, the cantilever against its converged answer, and the errors of the key.
 
+#[path = "../../../tests/common/vtu.rs"]
+mod vtu;
 use std::ops::ControlFlow;
 use std::path::Path;
 
@@ -284,16 +286,11 @@ fn p2_vtu_has_quadratic_tet_cells() {
     let mut scene = parse(&text);
     scene.set_stem("p2").expect("stem");
     let summary = run_static_with(&scene, &RunOptions::default()).expect("P2 with files");
-    let vtu = std::fs::read_to_string(dir.join("p2.vtu")).expect("p2.vtu");
-    let types = vtu
-        .split(r#"Name="types" format="ascii">"#)
-        .nth(1)
-        .and_then(|rest| rest.split("</DataArray>").next())
-        .expect("types array");
-    let types: Vec<&str> = types.split_whitespace().collect();
+    let file = vtu::read_vtu(&dir.join("p2.vtu"));
+    let types = file.values("types");
     // Type 24 = VTK_QUADRATIC_TETRA, one per tet.
     assert_eq!(types.len(), summary.tets);
-    assert!(types.iter().all(|t| *t == "24"), "{types:?}");
+    assert!(types.iter().all(|&t| t == 24.0), "{types:?}");
     std::fs::remove_dir_all(&dir).ok();
 }
 

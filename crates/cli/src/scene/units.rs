@@ -29,6 +29,15 @@ pub(crate) const DYNAMIC: &[(&str, &str)] = &[
     ("probes.last", "m"),
     ("probes.min", "m"),
     ("probes.max", "m"),
+    ("estimated_error.relative", "1"),
+    ("estimated_error.eta", "J^1/2"),
+    ("estimated_error.energy_norm", "J^1/2"),
+    ("estimate_seconds", "s"),
+    ("deformation.max_rotation_deg", "deg"),
+    ("deformation.max_strain", "1"),
+    ("step_resolution.period", "s"),
+    ("step_resolution.steps_per_period", "1"),
+    ("step_resolution.backward_euler_decay", "1"),
 ];
 
 /// Units of a static run's summary.
@@ -39,7 +48,13 @@ pub(crate) const STATIC: &[(&str, &str)] = &[
     ("probes.displacement", "m"),
     ("applied_load_n", "N"),
     ("reactions.force_n", "N"),
-    ("reactions.moment_about_origin_nm", "N·m"),
+    ("reactions.moment_nm", "N·m"),
+    ("reactions.moment_point_m", "m"),
+    ("estimated_error.relative", "1"),
+    ("estimated_error.eta", "J^1/2"),
+    ("estimated_error.energy_norm", "J^1/2"),
+    ("deformation.max_rotation_deg", "deg"),
+    ("deformation.max_strain", "1"),
     ("build_seconds", "s"),
     ("solve_seconds", "s"),
     ("output_seconds", "s"),
@@ -67,8 +82,9 @@ pub(crate) const MODAL: &[(&str, &str)] = &[
     ("critical_step.seconds", "s"),
 ];
 
-/// `summary` as one JSON object with a `units` object added (`{"dt": "s", …}`); NaN becomes
-/// null. Serializing plain numbers, strings and paths cannot fail; if it did, the error is the
+/// `summary` as one JSON object with a `units` object added (`{"dt": "s", …}`) for the fields
+/// this summary has (an optional part that is absent or null, e.g. a nonlinear run's
+/// `estimated_error`, has no entry); NaN becomes null. Serializing plain numbers, strings and paths cannot fail; if it did, the error is the
 /// JSON.
 pub(crate) fn to_json_with_units(summary: &impl Serialize, units: &[(&str, &str)]) -> String {
     let mut value = match serde_json::to_value(summary) {
@@ -76,8 +92,26 @@ pub(crate) fn to_json_with_units(summary: &impl Serialize, units: &[(&str, &str)
         Err(e) => return format!("{{\"error\":\"{e}\"}}"),
     };
     if let Some(object) = value.as_object_mut() {
+        let present = |key: &str| {
+            let mut node = Some(&*object);
+            let mut parts = key.split('.').peekable();
+            while let (Some(map), Some(part)) = (node, parts.next()) {
+                let mut child = map.get(part);
+                // Array fields (probes, reactions, modes): look into their first element.
+                while let Some(serde_json::Value::Array(items)) = child {
+                    child = items.first();
+                }
+                match (child, parts.peek()) {
+                    (Some(v), None) => return !v.is_null(),
+                    (Some(serde_json::Value::Object(m)), Some(_)) => node = Some(m),
+                    _ => return false,
+                }
+            }
+            false
+        };
         let table: serde_json::Map<String, serde_json::Value> = units
             .iter()
+            .filter(|(key, _)| present(key))
             .map(|(key, unit)| (key.to_string(), serde_json::Value::from(*unit)))
             .collect();
         object.insert("units".into(), serde_json::Value::Object(table));
