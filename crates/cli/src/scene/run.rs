@@ -150,13 +150,7 @@ impl RunSummary {
     /// The summary as one line of JSON, with a `units` table (the unit of every field that
     /// carries a quantity, keyed by its path).
     pub fn to_json(&self) -> String {
-        // Without obstacles `contact_forces` is null: its unit would name no field.
-        let units: Vec<(&str, &str)> = super::units::STATIC
-            .iter()
-            .copied()
-            .filter(|(key, _)| self.contact_forces.is_some() || !key.starts_with("contact_forces"))
-            .collect();
-        super::units::to_json_with_units(self, &units)
+        super::units::to_json_with_units(self, super::units::STATIC)
     }
 }
 
