@@ -742,6 +742,13 @@ fn print_static(s: &RunSummary, directory: &Path) {
             );
         }
     }
+    for c in s.contact_forces.iter().flatten() {
+        let [fx, fy, fz] = c.force_n;
+        println!(
+            "  contact force on obstacle {}: ({fx:+.4e}, {fy:+.4e}, {fz:+.4e}) N",
+            c.obstacle
+        );
+    }
     println!(
         "  wall time: build {}, solve {}, outputs {}",
         format_seconds(s.build_seconds),

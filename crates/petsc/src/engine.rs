@@ -284,6 +284,13 @@ fn set_up<'p>(petsc: &'p Petsc, scene: &Scene) -> Result<SetUp<'p>> {
             ));
         }
     }
+    if scene.has_obstacles() {
+        return Err(Error::invalid(
+            format!("[[obstacles]] of {}", scene.source_name()),
+            "contact",
+            "the PETSc engine has no contact so far (run the scene with `tetfem run`)",
+        ));
+    }
     if scene.model() != tetfem::model::ModelKind::Linear {
         return Err(Error::invalid(
             format!("analysis.model of {}", scene.source_name()),
@@ -300,7 +307,21 @@ fn set_up<'p>(petsc: &'p Petsc, scene: &Scene) -> Result<SetUp<'p>> {
     let clock = Instant::now();
     // The core's check that the constraints hold every rigid-body mode (else K_ff is singular
     // and CG would return a huge, plausible-looking displacement or fail without a cause).
+    let dynamic = matches!(scene.analysis(), Analysis::Dynamic(_));
     let built = petsc.agree(scene.build().map_err(Error::from).and_then(|built| {
+        // A static scene's amplitudes are evaluated at its time already (in the constraints and
+        // loads); a dynamic one would need them at every step, which this engine does not do.
+        if dynamic && !built.time_data.is_constant() {
+            return Err(Error::invalid(
+                format!(
+                    "amplitudes or moving constraints of {}",
+                    scene.source_name()
+                ),
+                "time-varying",
+                "the PETSc engine's dynamics take constant loads and supports so far \
+                 (run the scene with `tetfem run`)",
+            ));
+        }
         let dofs = tetfem::DofMap::new(&built.constraints);
         tetfem::constraints::ensure_held(&built.mesh, &built.mesh.face_topology()?, &dofs)?;
         Ok(built)

@@ -13,6 +13,7 @@ mod dynamic;
 mod element;
 mod estimate;
 mod modal;
+mod obstacles;
 mod run;
 mod spec;
 mod units;
@@ -32,7 +33,8 @@ pub use element::SceneElement;
 pub use estimate::{ESTIMATED_ERROR_DEFINITION, EstimatedError, estimated_error_of};
 pub use modal::{ModalSummary, ModeRow, run_modal_scene};
 pub use run::{
-    ProbeValue, ReactionRow, RunOptions, RunSummary, SolvePhases, run_static, run_static_with,
+    ContactForceRow, ProbeValue, ReactionRow, RunOptions, RunSummary, SolvePhases, run_static,
+    run_static_with,
 };
 pub use spec::*;
 
@@ -141,6 +143,21 @@ type = "static"                     # default "static"; or "dynamic", which need
 # modes = 6                         # default 6; at most the free DOF count
 # mass = "lumped"                   # default; or "consistent"
 
+# Rigid obstacles the body must stay outside of (IPC barrier contact; static scenes, 4-node
+# tets; every model, the linear one through Newton). kind = "half_space" (point, normal: the
+# normal points out of the obstacle, towards the body; non-zero) | "sphere" (center, radius > 0)
+# | "box" (min, max with max > min on every axis; or center, half_extents > 0 and rotation_deg
+# about z, default 0). The body must start strictly outside every obstacle.
+# [[obstacles]]
+# kind = "half_space"
+# point = [0.0, 0.0, -0.01]         # m
+# normal = [0.0, 0.0, 1.0]
+# name = "ground"                   # default "obstacle<i>"; letters, digits, '_', '-'
+# friction = 0.0                    # Coulomb μ ≥ 0, default 0
+# [contact]                         # only with [[obstacles]]
+# activation_distance = 1e-3        # m; default 1e-3 × the bounding-box diagonal
+# stiffness = 1e9                   # Pa/m; default E/h (stiffest E, h the mean boundary edge)
+
 [output]
 directory = "out/reference"         # default "out/<scene file stem>" in the working directory
 vtu = true                          # .vtu frames + .pvd collection; default true
@@ -242,6 +259,8 @@ pub struct Scene {
     order: usize,
     accuracy: Option<AccuracyTarget>,
     output: OutputSettings,
+    /// `[[obstacles]]`, checked.
+    obstacles: Vec<tetfem::contact::Obstacle>,
 }
 
 impl std::str::FromStr for Scene {
@@ -304,12 +323,14 @@ impl Scene {
                 critical_step: false,
                 vtu_format: VtuEncoding::Binary,
             },
+            obstacles: Vec::new(),
         };
         scene.analysis = scene.check_analysis()?;
         scene.order = scene.check_order()?;
         scene.model = scene.check_model()?;
         scene.accuracy = accuracy::check_accuracy(&scene, text)?;
         scene.output = scene.output_settings()?;
+        scene.obstacles = scene.check_obstacles()?;
         Ok(scene)
     }
 

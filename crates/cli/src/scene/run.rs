@@ -80,6 +80,16 @@ impl From<tetfem::statics::StaticTimings> for SolvePhases {
     }
 }
 
+/// The total contact force on one `[[obstacles]]` entry.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct ContactForceRow {
+    /// The obstacle's name.
+    pub obstacle: String,
+    /// The force the body exerts on it, Σᵢ κ·Aᵢ·b′(dᵢ)·∇d (N): at rest under gravity alone it
+    /// balances the applied load, so it equals the load resultant.
+    pub force_n: [f64; 3],
+}
+
 /// What a run did, for printing or as one JSON object (`--json`).
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
 pub struct RunSummary {
@@ -135,6 +145,8 @@ pub struct RunSummary {
     /// With `[analysis] accuracy`: the meshes tried, the order and cells chosen and why, the
     /// estimate reached and whether it meets the target (else `None`).
     pub accuracy: Option<super::AccuracyReport>,
+    /// With `[[obstacles]]`: the total contact force on each (`None` without obstacles).
+    pub contact_forces: Option<Vec<ContactForceRow>>,
 }
 
 impl RunSummary {
@@ -218,8 +230,24 @@ pub(super) fn run_static_on<E: SceneElement>(
     // The model that runs is the model whose stress and energy are reported.
     let model = scene.model().build_map(&built.materials);
     let reactions;
+    // With obstacles every model (the linear one too) goes through the contact Newton solve.
+    let contact = match scene.has_obstacles() {
+        true => scene.contact(
+            linear_mesh_of(scene, &built.mesh)?,
+            super::obstacles::stiffest(&built.materials),
+        )?,
+        false => None,
+    };
+    if contact.is_some() && !built.motions.is_empty() {
+        return Err(scene.error(
+            "obstacles",
+            &(0..0),
+            "a static scene with obstacles takes no moving supports (linear_field, rigid_motion \
+             or an amplitude on a constraint)",
+        ));
+    }
     let (displacement, relative_residual, free_dofs) = match scene.model() {
-        tetfem::model::ModelKind::Linear => {
+        tetfem::model::ModelKind::Linear if contact.is_none() => {
             let options = tetfem::linalg::linear_solver::SolverOptions {
                 method: scene.spec().linear_method(),
                 ..Default::default()
@@ -241,14 +269,24 @@ pub(super) fn run_static_on<E: SceneElement>(
             )
         }
         _ => {
-            let report = tetfem::nonlinear::solve_nonlinear_static_with_motion(
-                linear_mesh_of(scene, &built.mesh)?,
-                &model,
-                &built.constraints,
-                &built.loads,
-                &built.motions,
-                tetfem::nonlinear::NewtonOptions::default(),
-            )?;
+            let report = match &contact {
+                Some(contact) => tetfem::nonlinear::solve_nonlinear_static_with_contact(
+                    linear_mesh_of(scene, &built.mesh)?,
+                    &model,
+                    &built.constraints,
+                    &built.loads,
+                    contact,
+                    tetfem::nonlinear::NewtonOptions::default(),
+                )?,
+                None => tetfem::nonlinear::solve_nonlinear_static_with_motion(
+                    linear_mesh_of(scene, &built.mesh)?,
+                    &model,
+                    &built.constraints,
+                    &built.loads,
+                    &built.motions,
+                    tetfem::nonlinear::NewtonOptions::default(),
+                )?,
+            };
             let dofs = tetfem::constraints::DofMap::new(&built.constraints);
             let load: f64 = dofs
                 .restrict(built.loads.as_slice())?
@@ -328,7 +366,22 @@ pub(super) fn run_static_on<E: SceneElement>(
         ),
         None => None,
     };
+    let contact_forces = match &contact {
+        Some(contact) => Some(
+            contact
+                .obstacle_forces(u)?
+                .iter()
+                .zip(contact.obstacles())
+                .map(|(force, obstacle)| ContactForceRow {
+                    obstacle: obstacle.name().to_string(),
+                    force_n: (*force).into(),
+                })
+                .collect(),
+        ),
+        None => None,
+    };
     let mut summary = RunSummary {
+        contact_forces,
         warnings: built
             .warnings()
             .iter()

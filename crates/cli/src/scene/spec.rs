@@ -41,6 +41,78 @@ pub struct SceneSpec {
     /// Named amplitudes a(t), referred to by name from constraints and loads.
     #[serde(default)]
     pub amplitudes: Vec<Spanned<NamedAmplitudeSpec>>,
+    /// Rigid obstacles the body may touch (contact by the IPC barrier, see
+    /// [`tetfem::contact`]).
+    #[serde(default)]
+    pub obstacles: Vec<Spanned<ObstacleSpec>>,
+    /// The barrier's scales (defaults: [`tetfem::contact::ContactParameters::for_mesh`]).
+    #[serde(default)]
+    pub contact: Option<Spanned<ContactSpec>>,
+}
+
+/// `[[obstacles]]`: a rigid obstacle, of one `kind` with that kind's placement keys.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ObstacleSpec {
+    /// `"half_space"` (`point`, `normal`), `"sphere"` (`center`, `radius`) or `"box"` (`min`
+    /// and `max`, or `center`, `half_extents` and `rotation_deg`).
+    pub kind: ObstacleKind,
+    /// Its name in outputs (CSV columns `contact_<name>_fx_N`…; default `obstacle<i>`, i its
+    /// index from 0).
+    #[serde(default)]
+    pub name: Option<String>,
+    /// Coulomb's friction coefficient μ ≥ 0 (default 0: frictionless).
+    #[serde(default)]
+    pub friction: Option<f64>,
+    /// Half-space: a point on its plane (m).
+    #[serde(default)]
+    pub point: Option<[f64; 3]>,
+    /// Half-space: the normal pointing out of the obstacle, towards the body (any non-zero
+    /// length).
+    #[serde(default)]
+    pub normal: Option<[f64; 3]>,
+    /// Sphere and box: the centre (m).
+    #[serde(default)]
+    pub center: Option<[f64; 3]>,
+    /// Sphere: the radius (m, > 0).
+    #[serde(default)]
+    pub radius: Option<f64>,
+    /// Axis-aligned box: the min corner (m).
+    #[serde(default)]
+    pub min: Option<[f64; 3]>,
+    /// Axis-aligned box: the max corner (m), above `min` on every axis.
+    #[serde(default)]
+    pub max: Option<[f64; 3]>,
+    /// Box by centre: the half extents along its axes (m, each > 0).
+    #[serde(default)]
+    pub half_extents: Option<[f64; 3]>,
+    /// Box by centre: its rotation about the z axis (degrees, default 0).
+    #[serde(default)]
+    pub rotation_deg: Option<f64>,
+}
+
+/// The kinds of `[[obstacles]]`.
+#[derive(Debug, Clone, Copy, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum ObstacleKind {
+    /// The half-space behind a plane (the ground).
+    HalfSpace,
+    /// A solid ball.
+    Sphere,
+    /// A solid box.
+    Box,
+}
+
+/// `[contact]`: the barrier's scales, each defaulting to the library's rule.
+#[derive(Debug, Clone, Copy, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ContactSpec {
+    /// d̂ (m, > 0): gaps below it are pushed open (default 10⁻³ × the bounding-box diagonal).
+    #[serde(default)]
+    pub activation_distance: Option<f64>,
+    /// κ (Pa/m, > 0): the contact pressure is −κ·b′(d) (default E/h, h the mean boundary edge).
+    #[serde(default)]
+    pub stiffness: Option<f64>,
 }
 
 /// An amplitude a(t): exactly one of `constant`, `table`, `ramp`, `smooth_step`, `sine`.

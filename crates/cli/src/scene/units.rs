@@ -65,6 +65,7 @@ pub(crate) const STATIC: &[(&str, &str)] = &[
     ("phases.factorization", "s"),
     ("phases.solve", "s"),
     ("critical_step.seconds", "s"),
+    ("contact_forces.force_n", "N"),
 ];
 
 /// Units of a static summary's `accuracy` (with `[analysis] accuracy` only: every unit names a

@@ -1,0 +1,259 @@
+//! `[[obstacles]]` and `[contact]`: the scene's rigid obstacles, checked when the scene is parsed
+//! (before any mesh is built), and their contact with a built mesh ([`tetfem::contact`]).
+
+use nalgebra::{Rotation3, Vector3};
+use tetfem::TetMesh;
+use tetfem::contact::{Contact, ContactParameters, Obstacle};
+use tetfem::error::Result;
+
+use super::{AnalysisKind, Method, ObstacleKind, Scene};
+
+impl Scene {
+    /// The `[[obstacles]]` as the library's obstacles, each key checked: errors name the key
+    /// (`obstacles[i].radius`) and its line. Also refuses obstacles in modal scenes, on
+    /// 10-node meshes, with `analysis.accuracy`, and with Newmark (not energy-stable with the barrier: the README's
+    /// measured drop gains about the fall's work at 10× the critical step).
+    pub(crate) fn check_obstacles(&self) -> Result<Vec<Obstacle>> {
+        let mut obstacles = Vec::with_capacity(self.spec.obstacles.len());
+        for (i, spanned) in self.spec.obstacles.iter().enumerate() {
+            let span = spanned.span();
+            let o = spanned.get_ref();
+            let key = |field: &str| format!("obstacles[{i}].{field}");
+            let err = |field: &str, msg: String| self.error(&key(field), &span, msg);
+            if let Some(analysis) = &self.spec.analysis {
+                let a = analysis.get_ref();
+                if a.kind == AnalysisKind::Modal {
+                    return Err(err(
+                        "kind",
+                        "a modal analysis has no contact (it is linear about the rest state); \
+                         remove [[obstacles]]"
+                            .into(),
+                    ));
+                }
+                if a.kind == AnalysisKind::Dynamic && a.method != Some(Method::Newmark) {
+                    return Err(err(
+                        "kind",
+                        "obstacles in dynamic scenes are not wired yet (the library's \
+                         NonlinearForce::with_contact does it; the scene layer runs static \
+                         contact only for now)"
+                            .into(),
+                    ));
+                }
+                if a.kind == AnalysisKind::Dynamic && a.method == Some(Method::Newmark) {
+                    return Err(err(
+                        "kind",
+                        "contact with method = \"newmark\" is refused: average acceleration is \
+                         not energy-stable with the stiffening barrier (a dropped block gains \
+                         about the fall's work at 10× the critical step); use \"backward_euler\" \
+                         (recommended) or \"explicit\""
+                            .into(),
+                    ));
+                }
+            }
+            if let Some(analysis) = &self.spec.analysis
+                && analysis.get_ref().accuracy.is_some()
+            {
+                return Err(err(
+                    "kind",
+                    "[[obstacles]] with analysis.accuracy is not supported: the accuracy search \
+                     solves without contact; give the mesh's cells instead"
+                        .into(),
+                ));
+            }
+            if self.order == 2 {
+                return Err(err(
+                    "kind",
+                    "contact runs on 4-node tets only; use mesh.order = 1".into(),
+                ));
+            }
+            let name = o.name.clone().unwrap_or_else(|| format!("obstacle{i}"));
+            let valid_name = !name.is_empty()
+                && name
+                    .chars()
+                    .all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-');
+            if !valid_name {
+                return Err(err(
+                    "name",
+                    format!(
+                        "'{name}': use letters, digits, '_' and '-' only (it names CSV columns)"
+                    ),
+                ));
+            }
+            if obstacles.iter().any(|p: &Obstacle| p.name() == name) {
+                return Err(err(
+                    "name",
+                    format!("'{name}' is used by an earlier obstacle"),
+                ));
+            }
+            let allowed: &[&str] = match o.kind {
+                ObstacleKind::HalfSpace => &["point", "normal"],
+                ObstacleKind::Sphere => &["center", "radius"],
+                ObstacleKind::Box if o.min.is_some() || o.max.is_some() => &["min", "max"],
+                ObstacleKind::Box => &["center", "half_extents", "rotation_deg"],
+            };
+            let given = [
+                ("point", o.point.is_some()),
+                ("normal", o.normal.is_some()),
+                ("center", o.center.is_some()),
+                ("radius", o.radius.is_some()),
+                ("min", o.min.is_some()),
+                ("max", o.max.is_some()),
+                ("half_extents", o.half_extents.is_some()),
+                ("rotation_deg", o.rotation_deg.is_some()),
+            ];
+            if let Some((field, _)) = given.iter().find(|(f, g)| *g && !allowed.contains(f)) {
+                return Err(err(
+                    field,
+                    format!(
+                        "a {:?} obstacle takes {} (not {field})",
+                        o.kind,
+                        allowed.join(", ")
+                    ),
+                ));
+            }
+            let required = |field: &str, value: Option<[f64; 3]>| {
+                let v = value.ok_or_else(|| {
+                    err(field, format!("missing: a {:?} obstacle needs it", o.kind))
+                })?;
+                if v.iter().all(|x| x.is_finite()) {
+                    Ok(Vector3::from(v))
+                } else {
+                    Err(err(field, format!("{v:?}: every component must be finite")))
+                }
+            };
+            let obstacle = match o.kind {
+                ObstacleKind::HalfSpace => {
+                    let point = required("point", o.point)?;
+                    let normal = required("normal", o.normal)?;
+                    if normal.norm() == 0.0 {
+                        return Err(err("normal", "[0, 0, 0]: must be non-zero".into()));
+                    }
+                    Obstacle::half_space(name, point, normal)
+                }
+                ObstacleKind::Sphere => {
+                    let center = required("center", o.center)?;
+                    let radius = o.radius.ok_or_else(|| {
+                        err("radius", "missing: a sphere obstacle needs it".into())
+                    })?;
+                    if radius.is_nan() || radius <= 0.0 || radius.is_infinite() {
+                        return Err(err("radius", format!("{radius}: must be finite and > 0")));
+                    }
+                    Obstacle::sphere(name, center, radius)
+                }
+                ObstacleKind::Box if o.min.is_some() || o.max.is_some() => {
+                    let min = required("min", o.min)?;
+                    let max = required("max", o.max)?;
+                    if let Some(axis) = (0..3).find(|&k| max[k] <= min[k]) {
+                        return Err(err(
+                            "max",
+                            format!(
+                                "{:?}: must exceed min = {:?} on every axis (axis {axis} does not)",
+                                o.max.unwrap_or_default(),
+                                o.min.unwrap_or_default()
+                            ),
+                        ));
+                    }
+                    Obstacle::aligned_box(name, min, max)
+                }
+                ObstacleKind::Box => {
+                    let center = required("center", o.center)?;
+                    let half = required("half_extents", o.half_extents)?;
+                    if half.iter().any(|h| *h <= 0.0) {
+                        return Err(err(
+                            "half_extents",
+                            format!("{:?}: each must be > 0", half.as_slice()),
+                        ));
+                    }
+                    let angle = o.rotation_deg.unwrap_or(0.0);
+                    if !angle.is_finite() {
+                        return Err(err("rotation_deg", format!("{angle}: must be finite")));
+                    }
+                    let rotation =
+                        Rotation3::from_axis_angle(&Vector3::z_axis(), angle.to_radians());
+                    Obstacle::oriented_box(name, center, half, rotation)
+                }
+            };
+            let friction = o.friction.unwrap_or(0.0);
+            if friction.is_nan() || friction < 0.0 || friction.is_infinite() {
+                return Err(err(
+                    "friction",
+                    format!("{friction}: must be finite and ≥ 0"),
+                ));
+            }
+            let obstacle = obstacle
+                .and_then(|ob| ob.with_friction(friction))
+                .map_err(|e| err("kind", e.to_string()))?;
+            obstacles.push(obstacle);
+        }
+        if let Some(contact) = &self.spec.contact {
+            if obstacles.is_empty() {
+                return Err(self.error(
+                    "contact",
+                    &contact.span(),
+                    "[contact] without [[obstacles]]: add an obstacle or remove the table",
+                ));
+            }
+            let c = contact.get_ref();
+            for (field, value) in [
+                ("activation_distance", c.activation_distance),
+                ("stiffness", c.stiffness),
+            ] {
+                if let Some(v) = value
+                    && (v.is_nan() || v <= 0.0 || v.is_infinite())
+                {
+                    return Err(self.error(
+                        &format!("contact.{field}"),
+                        &contact.span(),
+                        format!("{v}: must be finite and > 0"),
+                    ));
+                }
+            }
+        }
+        Ok(obstacles)
+    }
+
+    /// Whether the scene has `[[obstacles]]`.
+    pub fn has_obstacles(&self) -> bool {
+        !self.obstacles.is_empty()
+    }
+
+    /// The contact of `mesh`'s boundary with the scene's obstacles (`None` without any), with
+    /// `[contact]`'s scales or the library's defaults for the stiffest material (Pa). A body that
+    /// starts inside or on an obstacle is an error naming that obstacle's key and line, the
+    /// nodes and their signed distances.
+    pub fn contact(&self, mesh: &TetMesh, youngs_modulus: f64) -> Result<Option<Contact>> {
+        if self.obstacles.is_empty() {
+            return Ok(None);
+        }
+        let mut parameters = ContactParameters::for_mesh(mesh, youngs_modulus)?;
+        if let Some(c) = &self.spec.contact {
+            let c = c.get_ref();
+            parameters.activation_distance = c
+                .activation_distance
+                .unwrap_or(parameters.activation_distance);
+            parameters.stiffness = c.stiffness.unwrap_or(parameters.stiffness);
+        }
+        // One obstacle at a time first, so that a body inside one is named by its key and line.
+        for (i, (obstacle, spanned)) in self.obstacles.iter().zip(&self.spec.obstacles).enumerate()
+        {
+            Contact::new(mesh, vec![obstacle.clone()], parameters).map_err(|e| {
+                self.error(&format!("obstacles[{i}]"), &spanned.span(), e.to_string())
+            })?;
+        }
+        Ok(Some(Contact::new(
+            mesh,
+            self.obstacles.clone(),
+            parameters,
+        )?))
+    }
+}
+
+/// The stiffest Young's modulus (Pa) of `materials`: the barrier's default κ = E/h must hold the
+/// stiffest surface.
+pub(crate) fn stiffest(materials: &tetfem::MaterialMap) -> f64 {
+    materials
+        .materials()
+        .iter()
+        .map(|m| m.youngs_modulus())
+        .fold(0.0, f64::max)
+}
