@@ -184,25 +184,30 @@ pub fn accuracy_per_second(context: &Context) -> Result<Section> {
         _ => 0.0,
     };
     let p1_reaches = cheapest(Some(1), 0.01).is_some();
-    let checks = vec![
+    let speed_check = Check {
+        name: format!(
+            "time to 1 % error: P1 ({}) / P2",
+            if p1_reaches {
+                "its cheapest run within 1 %"
+            } else {
+                "none within 1 %: its slowest run, a lower bound"
+            }
+        ),
+        bound: "≥ 10".into(),
+        measured: format!("{speedup:.0}"),
+        pass: speedup >= 10.0,
+    };
+    let _ = writeln!(
+        body,
+        "\n{}: {} (issue 19's goal ≥ 10).",
+        speed_check.name, speed_check.measured
+    );
+    let mut checks = vec![
         Check {
             name: "P2 within 1 % of the reference at ≤ 20k free DOFs".into(),
             bound: "≤ 1 %".into(),
             measured: format!("{:.3}%", 100.0 * small_p2),
             pass: small_p2 <= 0.01,
-        },
-        Check {
-            name: format!(
-                "time to 1 % error: P1 ({}) / P2",
-                if p1_reaches {
-                    "its cheapest run within 1 %"
-                } else {
-                    "none within 1 %: its slowest run, a lower bound"
-                }
-            ),
-            bound: "≥ 10".into(),
-            measured: format!("{speedup:.0}"),
-            pass: speedup >= 10.0,
         },
         // A sanity bound on the reference, not a convergence claim: the 3-D answer of this beam
         // lies below Timoshenko's beam theory by its end-constraint and shear-warping effects,
@@ -215,6 +220,12 @@ pub fn accuracy_per_second(context: &Context) -> Result<Section> {
             pass: relative(reference, timoshenko) <= 0.02,
         },
     ];
+    // A wall-time ratio is a measurement, not a test: the full report checks it (its P1 sweep
+    // reaches 139k DOFs, a lower bound well above the goal); the quick (CI) run, whose slowest
+    // P1 run is 80×8×8 on a shared machine, only prints it above.
+    if !context.quick {
+        checks.insert(1, speed_check);
+    }
     Ok(Section {
         title: "Accuracy per second (static, P1 and P2)".into(),
         body,
