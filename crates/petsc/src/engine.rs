@@ -510,6 +510,7 @@ pub fn solve_scene(petsc: &Petsc, scene: &Scene, options: EngineOptions) -> Resu
                 output.stem.clone(),
                 options.write_vtu && output.vtu,
                 options.write_vtu && output.csv,
+                output.vtu_format.format(),
                 output.every,
                 settings.steps(),
                 0.5 * mean_diagonal * constrained_values.iter().map(|u| u * u).sum::<f64>(),
@@ -569,7 +570,8 @@ pub fn solve_scene(petsc: &Petsc, scene: &Scene, options: EngineOptions) -> Resu
     if matches!(scene.analysis(), Analysis::Static) && options.write_vtu && scene.output().vtu {
         let clock = Instant::now();
         let output = scene.output();
-        let frame = PvtuFiles::new(&output.directory, &output.stem);
+        let frame =
+            PvtuFiles::new(&output.directory, &output.stem).with_format(output.vtu_format.format());
         Piece::new(mesh, &partition, rank).write(petsc, mesh, &x, &frame)?;
         let listed = match rank {
             0 => frame.write_pvd(&[(0.0, frame.pvtu())]).map(|_| ()),

@@ -5,17 +5,20 @@
 //! Files, for output folder `DIR` and stem `S` (the scene file's stem): `DIR/S_petsc.pvd`,
 //! `DIR/S_petsc.pvtu`, `DIR/S_petsc/S_<rank>.vtu`; a dynamic run writes one frame per output
 //! step, `DIR/S_petsc_<step>.pvtu` with `DIR/S_petsc/S_<step>_<rank>.vtu`, all listed with
-//! their times in the `.pvd`. ASCII XML; numbers printed with Rust's
-//! shortest round-trip form, so a reader gets the solver's f64 values back bit for bit.
+//! their times in the `.pvd`. Each piece is written by the core's [`VtuWriter`]: appended raw
+//! binary by default (the scene's `output.vtu_format`), or ASCII with numbers in Rust's
+//! shortest round-trip form; either way a reader gets the solver's f64 values back bit for bit.
 //!
-//! Point data: `displacement` (m, 3 components) and `node` (the node's index in the mesh, to
-//! match pieces with the whole); cell data: `rank` and `tet` (the tet's index in the mesh).
-//! Nodes on a boundary between pieces appear in each piece that uses them (with equal values).
+//! Point data: `displacement` (m, 3 components) and `node` (`Int64`: the node's index in the
+//! mesh, to match pieces with the whole); cell data: `rank` and `tet` (`Int64`: the tet's index
+//! in the mesh). Nodes on a boundary between pieces appear in each piece that uses them (with
+//! equal values).
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 use tetfem::TetMesh;
+use tetfem::output::{VtuFormat, VtuWriter};
 
 use crate::error::{Error, Result};
 
@@ -26,6 +29,7 @@ pub struct PvtuFiles {
     directory: PathBuf,
     stem: String,
     frame: Option<String>,
+    format: VtuFormat,
 }
 
 impl PvtuFiles {
@@ -35,6 +39,7 @@ impl PvtuFiles {
             directory: directory.to_path_buf(),
             stem: stem.to_string(),
             frame: None,
+            format: VtuFormat::default(),
         }
     }
 
@@ -44,7 +49,14 @@ impl PvtuFiles {
             directory: directory.to_path_buf(),
             stem: stem.to_string(),
             frame: Some(format!("{step:0digits$}")),
+            format: VtuFormat::default(),
         }
+    }
+
+    /// The same files with the pieces encoded as `format` ([`VtuFormat::Binary`] unless told).
+    pub fn with_format(mut self, format: VtuFormat) -> Self {
+        self.format = format;
+        self
     }
 
     /// The `.pvd` collection: `<stem>_petsc.pvd`.
@@ -104,88 +116,31 @@ impl PvtuFiles {
                 )
             })
         };
-        let mut text = String::new();
-        let _ = writeln!(
-            text,
-            "<?xml version=\"1.0\"?>\n<VTKFile type=\"UnstructuredGrid\" version=\"0.1\" \
-             byte_order=\"LittleEndian\">\n<UnstructuredGrid>\n<Piece NumberOfPoints=\"{}\" \
-             NumberOfCells=\"{}\">",
-            nodes.len(),
-            tets.len()
-        );
-        text.push_str("<PointData Vectors=\"displacement\">\n");
-        array(
-            &mut text,
-            "Float64",
-            "displacement",
-            3,
-            displacement.iter().map(|v| format!("{v:e}")),
-        );
-        array(
-            &mut text,
-            "Int64",
-            "node",
-            1,
-            nodes.iter().map(usize::to_string),
-        );
-        text.push_str("</PointData>\n<CellData>\n");
-        array(
-            &mut text,
-            "Int32",
-            "rank",
-            1,
-            tets.iter().map(|_| rank.to_string()),
-        );
-        array(
-            &mut text,
-            "Int64",
-            "tet",
-            1,
-            tets.iter().map(usize::to_string),
-        );
-        text.push_str("</CellData>\n<Points>\n");
-        array(
-            &mut text,
-            "Float64",
-            "Points",
-            3,
-            nodes
-                .iter()
-                .flat_map(|&n| mesh.nodes()[n].iter().copied().collect::<Vec<_>>())
-                .map(|v| format!("{v:e}")),
-        );
-        text.push_str("</Points>\n<Cells>\n");
-        let mut connectivity = Vec::with_capacity(4 * tets.len());
+        let mut connectivity = Vec::with_capacity(tets.len());
         for &t in tets {
-            for &n in &mesh.tets()[t] {
-                connectivity.push(local(n)?.to_string());
+            let mut cell = [0usize; 4];
+            for (local_node, &n) in cell.iter_mut().zip(&mesh.tets()[t]) {
+                *local_node = local(n)?;
             }
+            connectivity.push(cell);
         }
-        array(
-            &mut text,
-            "Int64",
-            "connectivity",
-            1,
-            connectivity.into_iter(),
-        );
-        array(
-            &mut text,
-            "Int64",
-            "offsets",
-            1,
-            (1..=tets.len()).map(|i| (4 * i).to_string()),
-        );
-        // VTK_TETRA = 10.
-        array(
-            &mut text,
-            "UInt8",
-            "types",
-            1,
-            tets.iter().map(|_| "10".to_string()),
-        );
-        text.push_str("</Cells>\n</Piece>\n</UnstructuredGrid>\n</VTKFile>\n");
+        // The piece as a mesh of its own (the global mesh's tets keep their orientation, so
+        // the constructor's checks pass unchanged), written by the core's writer.
+        let piece = TetMesh::new(
+            nodes.iter().map(|&n| mesh.nodes()[n]).collect(),
+            connectivity,
+        )?;
+        let node_ids: Vec<u64> = nodes.iter().map(|&n| n as u64).collect();
+        let tet_ids: Vec<u64> = tets.iter().map(|&t| t as u64).collect();
+        let ranks = vec![rank as u64; tets.len()];
         let path = self.piece(rank);
-        write_file(&path, &text)?;
+        VtuWriter::new(&piece)
+            .format(self.format)
+            .point_field("displacement", 3, displacement)
+            .and_then(|w| w.point_id_field("node", &node_ids))
+            .and_then(|w| w.cell_id_field("rank", &ranks))
+            .and_then(|w| w.cell_id_field("tet", &tet_ids))
+            .and_then(|w| w.write(&path))?;
         Ok(path)
     }
 
@@ -202,7 +157,7 @@ impl PvtuFiles {
              <PPointData Vectors=\"displacement\">\n\
              <PDataArray type=\"Float64\" Name=\"displacement\" NumberOfComponents=\"3\"/>\n\
              <PDataArray type=\"Int64\" Name=\"node\"/>\n</PPointData>\n<PCellData>\n\
-             <PDataArray type=\"Int32\" Name=\"rank\"/>\n<PDataArray type=\"Int64\" Name=\"tet\"/>\n\
+             <PDataArray type=\"Int64\" Name=\"rank\"/>\n<PDataArray type=\"Int64\" Name=\"tet\"/>\n\
              </PCellData>\n<PPoints>\n\
              <PDataArray type=\"Float64\" Name=\"Points\" NumberOfComponents=\"3\"/>\n</PPoints>\n",
         );
@@ -243,28 +198,6 @@ impl PvtuFiles {
     }
 }
 
-fn array(
-    text: &mut String,
-    kind: &str,
-    name: &str,
-    components: usize,
-    values: impl Iterator<Item = String>,
-) {
-    let _ = writeln!(
-        text,
-        "<DataArray type=\"{kind}\" Name=\"{name}\" NumberOfComponents=\"{components}\" format=\"ascii\">"
-    );
-    for (i, v) in values.enumerate() {
-        text.push_str(&v);
-        text.push(if (i + 1) % (3 * components.max(1)) == 0 {
-            '\n'
-        } else {
-            ' '
-        });
-    }
-    text.push_str("\n</DataArray>\n");
-}
-
 /// Writes `text` to `path` (creating its folder), whole: into a temporary file beside it, then
 /// renamed, so a reader never sees half a file.
 pub fn write_file(path: &Path, text: &str) -> Result<()> {
@@ -280,6 +213,52 @@ pub fn write_file(path: &Path, text: &str) -> Result<()> {
     let temporary = PathBuf::from(temporary);
     std::fs::write(&temporary, text).map_err(io(&temporary))?;
     std::fs::rename(&temporary, path).map_err(io(path))
+}
+
+/// The values of the array `name` of a piece this module wrote (either encoding), as f64 (the
+/// `Int64` ids are below 2⁵³, so exact): for checks of a run's files without a VTK reader.
+/// `None` if the array is missing or the file is not such a piece.
+pub fn read_array(bytes: &[u8], name: &str) -> Option<Vec<f64>> {
+    let text = String::from_utf8_lossy(bytes);
+    let start = text.find(&format!("Name=\"{name}\""))?;
+    let opening = text[..start].rfind("<DataArray")?;
+    let tag = &text[opening..start + text[start..].find('>')?];
+    let integer = tag.contains("type=\"Int64\"");
+    if !tag.contains("format=\"appended\"") {
+        let body = &text[opening + tag.len() + 1..];
+        return body[..body.find("</DataArray>")?]
+            .split_whitespace()
+            .map(|v| v.parse().ok())
+            .collect();
+    }
+    let offset: usize = tag
+        .split("offset=\"")
+        .nth(1)?
+        .split('"')
+        .next()?
+        .parse()
+        .ok()?;
+    // The block starts after `<AppendedData encoding="raw">` and its `_`; each array is a
+    // little-endian UInt64 byte count and its values.
+    let marker = b"<AppendedData encoding=\"raw\">";
+    let after = bytes.windows(marker.len()).position(|w| w == marker)? + marker.len();
+    let data = after + bytes[after..].iter().position(|&b| b == b'_')? + 1;
+    let block = bytes.get(data + offset..)?;
+    let count = usize::try_from(u64::from_le_bytes(block.get(..8)?.try_into().ok()?)).ok()?;
+    Some(
+        block
+            .get(8..8 + count)?
+            .chunks_exact(8)
+            .map(|c| {
+                let word: [u8; 8] = c.try_into().unwrap_or_default();
+                if integer {
+                    i64::from_le_bytes(word) as f64
+                } else {
+                    f64::from_le_bytes(word)
+                }
+            })
+            .collect(),
+    )
 }
 
 #[cfg(test)]
@@ -305,43 +284,46 @@ mod tests {
             .map(|i| (i as f64 + 0.1) / 3.0)
             .collect();
         let dir = std::env::temp_dir().join(format!("tetfem-pvtu-unit-{}", std::process::id()));
-        let files = PvtuFiles::new(&dir, "box");
-        let path = files
-            .write_piece(1, &mesh, &tets, &nodes, &displacement)
-            .expect("written");
-        let text = std::fs::read_to_string(&path).expect("read back");
-        assert!(text.contains(&format!(
-            "NumberOfPoints=\"{}\" NumberOfCells=\"2\"",
-            nodes.len()
-        )));
-        let block = |name: &str| -> Vec<String> {
-            let start = text
-                .find(&format!("Name=\"{name}\""))
-                .expect("array present");
-            let body = &text[start..];
-            let body = &body[body.find('>').expect("tag end") + 1..];
-            body[..body.find("</DataArray>").expect("array end")]
-                .split_whitespace()
-                .map(str::to_string)
-                .collect()
-        };
-        let read: Vec<f64> = block("displacement")
-            .iter()
-            .map(|v| v.parse().expect("number"))
-            .collect();
-        assert_eq!(read, displacement, "bit-exact round trip");
-        let connectivity: Vec<usize> = block("connectivity")
-            .iter()
-            .map(|v| v.parse().expect("index"))
-            .collect();
-        let expected: Vec<usize> = tets
+        let expected_connectivity: Vec<f64> = tets
             .iter()
             .flat_map(|&t| mesh.tets()[t])
-            .map(|n| nodes.binary_search(&n).expect("listed"))
+            .map(|n| nodes.binary_search(&n).expect("listed") as f64)
             .collect();
-        assert_eq!(connectivity, expected);
-        assert_eq!(block("tet"), ["1", "4"]);
-        assert_eq!(block("types"), ["10", "10"]);
+        // Binary is the default; ASCII by option. Both read back to the same bits.
+        for format in [None, Some(VtuFormat::Ascii)] {
+            let files = match format {
+                None => PvtuFiles::new(&dir, "box"),
+                Some(f) => PvtuFiles::new(&dir, "box").with_format(f),
+            };
+            let path = files
+                .write_piece(1, &mesh, &tets, &nodes, &displacement)
+                .expect("written");
+            let bytes = std::fs::read(&path).expect("read back");
+            let text = String::from_utf8_lossy(&bytes);
+            assert_eq!(
+                text.contains("<AppendedData"),
+                format.is_none(),
+                "binary unless ASCII is asked for"
+            );
+            assert!(text.contains(&format!(
+                "NumberOfPoints=\"{}\" NumberOfCells=\"2\"",
+                nodes.len()
+            )));
+            assert_eq!(
+                read_array(&bytes, "displacement").expect("displacement"),
+                displacement,
+                "bit-exact round trip"
+            );
+            assert_eq!(
+                read_array(&bytes, "connectivity").expect("connectivity"),
+                expected_connectivity
+            );
+            assert_eq!(read_array(&bytes, "tet").expect("tet"), [1.0, 4.0]);
+            assert_eq!(read_array(&bytes, "rank").expect("rank"), [1.0, 1.0]);
+            let node_ids: Vec<f64> = nodes.iter().map(|&n| n as f64).collect();
+            assert_eq!(read_array(&bytes, "node").expect("node"), node_ids);
+        }
+        let files = PvtuFiles::new(&dir, "box");
         let pvtu_path = files.write_pvtu(2).expect("pvtu");
         let pvtu = std::fs::read_to_string(&pvtu_path).expect("pvtu");
         assert!(pvtu.contains("Source=\"box_petsc/box_0.vtu\""));

@@ -1,10 +1,10 @@
 //! What a run records while it goes: probe means and energies reduced over the ranks, the CSV
 //! series rank 0 writes, and the parallel `.vtu` frames (each rank its piece).
 
-use std::io::Write as _;
 use std::path::PathBuf;
 
 use tetfem::TetMesh;
+use tetfem::output::{CsvSeries, CsvValue, VtuFormat};
 use tetfem_cli::scene::Probe;
 
 use crate::error::{Error, Result};
@@ -122,7 +122,10 @@ pub struct Recorder<'a> {
     every: usize,
     digits: usize,
     frames: Vec<(f64, PathBuf)>,
-    csv: Option<(PathBuf, std::io::BufWriter<std::fs::File>)>,
+    /// Rank 0's CSV (column names with units, as the CLI's: `time_s`, `step`,
+    /// `<probe>_ux_m`…, `kinetic_J`, `elastic_J`).
+    csv: Option<CsvSeries>,
+    format: VtuFormat,
     /// ½·d·Σ u_c² over this rank's constrained DOFs: what the zeroed rows add to ½·uᵀK·u.
     constrained_energy: f64,
     /// The last row: time, step, probe means, kinetic and elastic energy.
@@ -131,8 +134,8 @@ pub struct Recorder<'a> {
 
 impl<'a> Recorder<'a> {
     /// A recorder writing into `directory` with `stem` (`.vtu` frames when `vtu`, the CSV
-    /// when `csv`; rank 0 creates the CSV file now). `constrained_energy`: ½·d·Σ u_c² of this
-    /// rank's constrained rows.
+    /// when `csv`; rank 0 creates the CSV file now), its pieces encoded as `format`.
+    /// `constrained_energy`: ½·d·Σ u_c² of this rank's constrained rows.
     #[allow(clippy::too_many_arguments)]
     pub fn new(
         petsc: &Petsc,
@@ -143,34 +146,25 @@ impl<'a> Recorder<'a> {
         stem: String,
         vtu: bool,
         csv: bool,
+        format: VtuFormat,
         every: usize,
         steps: usize,
         constrained_energy: f64,
     ) -> Result<Self> {
         // Created on rank 0, then agreed on: a rank 0 that cannot create it stops every rank.
-        let create = || -> Result<Option<(PathBuf, std::io::BufWriter<std::fs::File>)>> {
+        let create = || -> Result<Option<CsvSeries>> {
             if !(csv && petsc.rank() == 0) {
                 return Ok(None);
             }
-            let path = directory.join(format!("{stem}_petsc.csv"));
-            let io = |source| Error::Io {
-                path: path.clone(),
-                source,
-            };
-            std::fs::create_dir_all(&directory).map_err(|source| Error::Io {
-                path: directory.clone(),
-                source,
-            })?;
-            let mut file = std::io::BufWriter::new(std::fs::File::create(&path).map_err(io)?);
-            let mut header = vec!["time".to_string(), "step".to_string()];
+            let mut columns = vec!["time_s".to_string(), "step".to_string()];
             for p in probes {
                 for c in ["ux", "uy", "uz"] {
-                    header.push(format!("{}_{c}", p.name));
+                    columns.push(format!("{}_{c}_m", p.name));
                 }
             }
-            header.extend(["kinetic".to_string(), "elastic".to_string()]);
-            writeln!(file, "{}", header.join(",")).map_err(io)?;
-            Ok(Some((path, file)))
+            columns.extend(["kinetic_J".to_string(), "elastic_J".to_string()]);
+            let path = directory.join(format!("{stem}_petsc.csv"));
+            Ok(Some(CsvSeries::new(path, columns)?))
         };
         let csv = petsc.agree(create())?;
         Ok(Recorder {
@@ -184,6 +178,7 @@ impl<'a> Recorder<'a> {
             digits: steps.to_string().len().max(4),
             frames: Vec::new(),
             csv,
+            format,
             constrained_energy,
             last_row: Vec::new(),
         })
@@ -228,12 +223,13 @@ impl<'a> Recorder<'a> {
         row.extend(probes.iter().flatten());
         row.extend(energies);
         let written = match &mut self.csv {
-            Some((path, file)) => {
-                let line: Vec<String> = row.iter().map(|v| format!("{v:e}")).collect();
-                writeln!(file, "{}", line.join(",")).map_err(|source| Error::Io {
-                    path: path.clone(),
-                    source,
-                })
+            Some(csv) => {
+                // The step is an integer column (digits, not `1e0`).
+                let values: Vec<CsvValue> = [CsvValue::Real(time), CsvValue::from(step)]
+                    .into_iter()
+                    .chain(row[2..].iter().map(|&v| CsvValue::Real(v)))
+                    .collect();
+                csv.push_values(&values).map_err(Error::from)
             }
             None => Ok(()),
         };
@@ -242,17 +238,16 @@ impl<'a> Recorder<'a> {
         if !(step.is_multiple_of(self.every) || last) {
             return Ok(());
         }
-        if let Some((path, file)) = &mut self.csv {
-            let flushed = file.flush().map_err(|source| Error::Io {
-                path: path.clone(),
-                source,
-            });
+        if let Some(csv) = &mut self.csv {
+            // Whole rows only: CsvSeries writes its buffer at row boundaries.
+            let flushed = csv.write().map_err(Error::from);
             petsc.agree(flushed)?;
         } else {
             petsc.agree(Ok(()))?;
         }
         if let Some(piece) = &self.piece {
-            let files = PvtuFiles::frame(&self.directory, &self.stem, step, self.digits);
+            let files = PvtuFiles::frame(&self.directory, &self.stem, step, self.digits)
+                .with_format(self.format);
             piece.write(petsc, self.mesh, u, &files)?;
             self.frames.push((time, files.pvtu()));
             let listed = match petsc.rank() {
@@ -276,8 +271,8 @@ impl<'a> Recorder<'a> {
         if self.piece.is_some() {
             files.push(PvtuFiles::new(&self.directory, &self.stem).pvd());
         }
-        if let Some((path, _)) = &self.csv {
-            files.push(path.clone());
+        if let Some(csv) = &self.csv {
+            files.push(csv.path().to_path_buf());
         }
         files
     }
