@@ -12,11 +12,13 @@ use clap::{Args, Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use tetfem::dynamics::Method;
 use tetfem::{Error, Material};
+use tetfem_cli::handoff::PetscHandoff;
 use tetfem_cli::info::mesh_info;
 use tetfem_cli::scene::{
     Analysis, DynamicOutputs, DynamicOverrides, DynamicRun, DynamicSetup, DynamicSummary,
-    ModalSummary, OutputSettings, RunLength, RunOptions, RunSummary, Scene, TimeStep, VtuEncoding,
-    run_dynamic, run_dynamic_scene, run_modal_scene, run_static_with,
+    EngineKind, ModalSummary, OutputSettings, RunLength, RunOptions, RunSummary, Scene, TimeStep,
+    VtuEncoding, parse_petsc_options, run_dynamic, run_dynamic_scene, run_modal_scene,
+    run_static_with,
 };
 use tetfem_fixtures::cantilever::Cantilever;
 
@@ -156,6 +158,26 @@ struct RunArgs {
     /// Dynamic scenes: run this many steps instead of the scene's duration.
     #[arg(long, value_parser = clap::value_parser!(u64).range(1..))]
     steps: Option<u64>,
+    /// What solves the scene, `tetfem` or `petsc` (overrides the scene's `engine`). `petsc`
+    /// hands the scene to the `tetfem-petsc` binary (run under `mpirun -n N` for N ranks).
+    #[arg(long, value_parser = parse_engine)]
+    engine: Option<EngineKind>,
+    /// PETSc engine: PETSc options, e.g. `"-ksp_rtol 1e-10 -ksp_monitor"`; they win over the
+    /// scene's `[petsc] options`.
+    #[arg(long, value_parser = parse_petsc_option_text, allow_hyphen_values = true)]
+    petsc_options: Option<String>,
+}
+
+fn parse_petsc_option_text(text: &str) -> Result<String, String> {
+    parse_petsc_options(text).map(|_| text.to_string())
+}
+
+fn parse_engine(text: &str) -> Result<EngineKind, String> {
+    match text {
+        "tetfem" => Ok(EngineKind::Tetfem),
+        "petsc" => Ok(EngineKind::Petsc),
+        other => Err(format!("'{other}': must be \"tetfem\" or \"petsc\"")),
+    }
 }
 
 #[derive(Debug, Args)]
@@ -826,6 +848,38 @@ fn refuse_dynamic_options(args: &RunArgs, png_refused: bool, why: &str) -> tetfe
 
 fn run_scene(args: &RunArgs) -> tetfem::Result<()> {
     let mut scene = Scene::load(&args.scene)?;
+    if let Some(engine) = args.engine {
+        scene.set_engine(engine);
+    }
+    if scene.engine().kind == EngineKind::Petsc {
+        // The engine integrates with its own settings (backward Euler, the scene's dt).
+        refuse_dynamic_options(
+            args,
+            args.png,
+            "is not taken by the PETSc engine (engine = \"petsc\"): set it in the scene, or \
+             run with --engine tetfem",
+        )?;
+        return PetscHandoff {
+            scene: args.scene.clone(),
+            out: args.out.clone(),
+            json: args.json,
+            quiet: args.quiet,
+            vtu_format: args.vtu_format.map(|f| f.format().name()),
+            petsc_options: args
+                .petsc_options
+                .as_deref()
+                .map(|o| o.split_whitespace().map(str::to_string).collect())
+                .unwrap_or_default(),
+        }
+        .run();
+    }
+    if args.petsc_options.is_some() {
+        return Err(Error::invalid_parameter(
+            "--petsc-options",
+            args.scene.display(),
+            "applies to the PETSc engine only (engine = \"petsc\" in the scene, or --engine petsc)",
+        ));
+    }
     if let Some(out) = &args.out {
         scene.set_output_directory(out.clone());
     }

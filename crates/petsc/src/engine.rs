@@ -34,7 +34,7 @@ use crate::record::{Piece, Recorder, probe_means};
 /// What a run computes and writes besides the solve.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub struct EngineOptions {
-    /// The solver preset.
+    /// The solver preset (`--solver`, else the scene's `[petsc] solver`, else GAMG).
     pub solver: SolverPreset,
     /// Gather the whole displacement on rank 0 ([`SolveResult::displacement`]).
     pub gather_displacement: bool,
@@ -464,6 +464,11 @@ pub fn solve_scene(petsc: &Petsc, scene: &Scene, options: EngineOptions) -> Resu
     let mesh = &built.mesh;
     let old_dof = |new: usize| 3 * partition.old_of_new(new / 3) + new % 3;
 
+    // The scene's `[petsc] options` first, so that they win over the preset's; options from
+    // the command line are in the database already and win over both.
+    for (name, value) in &scene.engine().petsc_options {
+        petsc.set_default_option_or_flag(name, value.as_deref())?;
+    }
     for (name, value) in solver.options() {
         petsc.set_default_option(name, value)?;
     }

@@ -393,17 +393,27 @@ impl Petsc {
     /// Sets option `name` to `value` unless the command line set it already; returns whether it
     /// was set here.
     pub fn set_default_option(&self, name: &str, value: &str) -> Result<bool> {
+        self.set_default_option_or_flag(name, Some(value))
+    }
+
+    /// As [`set_default_option`](Self::set_default_option), with `None` for an option that
+    /// takes no value (a flag such as `-ksp_monitor`).
+    pub fn set_default_option_or_flag(&self, name: &str, value: Option<&str>) -> Result<bool> {
         if self.has_option(name)? {
             return Ok(false);
         }
-        let (name, value) = (
-            c_string("PETSc option name", name)?,
-            c_string("PETSc option value", value)?,
-        );
-        // SAFETY: null options = the global database; both strings NUL-terminated (PETSc
-        // copies them).
+        let name = c_string("PETSc option name", name)?;
+        let value = value
+            .map(|v| c_string("PETSc option value", v))
+            .transpose()?;
+        // SAFETY: null options = the global database; the strings are NUL-terminated (PETSc
+        // copies them) and a null value is PETSc's "no value".
         check("PetscOptionsSetValue", unsafe {
-            PetscOptionsSetValue(std::ptr::null_mut(), name.as_ptr(), value.as_ptr())
+            PetscOptionsSetValue(
+                std::ptr::null_mut(),
+                name.as_ptr(),
+                value.as_ref().map_or(std::ptr::null(), |v| v.as_ptr()),
+            )
         })?;
         Ok(true)
     }

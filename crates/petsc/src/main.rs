@@ -3,12 +3,15 @@
 //!
 //! ```text
 //! mpirun -n N tetfem-petsc SCENE.toml [--solver gamg|hypre|mumps] [--out DIR]
-//!        [--displacement FILE] [--export DIR] [--json] [--no-files] [-petsc_option value ...]
+//!        [--displacement FILE] [--export DIR] [--json] [--quiet] [--no-files]
+//!        [--vtu-format binary|ascii] [-petsc_option value ...]
 //! ```
 //!
 //! The scene comes first; `--` options are tetfem-petsc's; every other argument goes to
 //! PETSc's options database (e.g. `-ksp_monitor`, `-ksp_rtol 1e-10`, `-pc_gamg_threshold 0.05`)
-//! and wins over the preset's options. Unless `--no-files`: each rank writes its piece of the
+//! and wins over the scene's `[petsc] options`, which win over the preset's (`--solver`, else
+//! the scene's `[petsc] solver`, else GAMG). `tetfem run` hands a scene with
+//! `engine = "petsc"` (or `--engine petsc`) to this binary. Unless `--no-files`: each rank writes its piece of the
 //! parallel VTK output and rank 0 the `.pvtu`, the `.pvd` and `<out>/<stem>_petsc_summary.json`
 //! (the scene's `output.directory` unless `--out`). With `--displacement FILE` rank 0 writes
 //! every DOF's displacement in the mesh's numbering (3·node + axis), one value per line.
@@ -19,23 +22,26 @@ use std::io::Write as _;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
-use tetfem_cli::scene::Scene;
+use tetfem_cli::scene::{Scene, VtuEncoding};
 use tetfem_petsc::engine::{EngineOptions, SolverPreset, export_scene, solve_scene, summary_path};
 use tetfem_petsc::ffi::Petsc;
 use tetfem_petsc::pvtu::write_file;
 use tetfem_petsc::{Error, Result};
 
 const USAGE: &str = "usage: mpirun -n N tetfem-petsc SCENE.toml [--solver gamg|hypre|mumps] \
-[--out DIR] [--displacement FILE] [--export DIR] [--json] [--no-files] [PETSc options, e.g. -ksp_monitor]";
+[--out DIR] [--displacement FILE] [--export DIR] [--json] [--quiet] [--no-files] \
+[--vtu-format binary|ascii] [PETSc options, e.g. -ksp_monitor]";
 
 struct Arguments {
     scene: PathBuf,
-    solver: SolverPreset,
+    solver: Option<SolverPreset>,
     out: Option<PathBuf>,
     displacement: Option<PathBuf>,
     export: Option<PathBuf>,
     json: bool,
+    quiet: bool,
     no_files: bool,
+    vtu_format: Option<VtuEncoding>,
     petsc: Vec<String>,
 }
 
@@ -56,12 +62,14 @@ fn parse(args: &[String]) -> Result<Arguments> {
     };
     let mut parsed = Arguments {
         scene,
-        solver: SolverPreset::default(),
+        solver: None,
         out: None,
         displacement: None,
         export: None,
         json: false,
+        quiet: false,
         no_files: false,
+        vtu_format: None,
         petsc: vec![program],
     };
     let mut rest = args[2..].iter();
@@ -72,12 +80,26 @@ fn parse(args: &[String]) -> Result<Arguments> {
                 .ok_or_else(|| Error::invalid(name, "nothing", format!("needs a value; {USAGE}")))
         };
         match arg.as_str() {
-            "--solver" => parsed.solver = value("--solver")?.parse()?,
+            "--solver" => parsed.solver = Some(value("--solver")?.parse()?),
             "--out" => parsed.out = Some(PathBuf::from(value("--out")?)),
             "--displacement" => parsed.displacement = Some(PathBuf::from(value("--displacement")?)),
             "--export" => parsed.export = Some(PathBuf::from(value("--export")?)),
             "--json" => parsed.json = true,
+            "--quiet" => parsed.quiet = true,
             "--no-files" => parsed.no_files = true,
+            "--vtu-format" => {
+                parsed.vtu_format = Some(match value("--vtu-format")?.as_str() {
+                    "binary" => VtuEncoding::Binary,
+                    "ascii" => VtuEncoding::Ascii,
+                    other => {
+                        return Err(Error::invalid(
+                            "--vtu-format",
+                            other,
+                            "must be binary (the default) or ascii",
+                        ));
+                    }
+                })
+            }
             other if other.starts_with("--") => {
                 return Err(Error::invalid(
                     "option",
@@ -96,6 +118,9 @@ fn run(petsc: &Petsc, args: &Arguments) -> Result<()> {
     if let Some(out) = &args.out {
         scene.set_output_directory(out.clone());
     }
+    if let Some(format) = args.vtu_format {
+        scene.set_vtu_format(format);
+    }
     if let Some(directory) = &args.export {
         let files = export_scene(petsc, &scene, directory)?;
         if petsc.rank() == 0 {
@@ -105,8 +130,13 @@ fn run(petsc: &Petsc, args: &Arguments) -> Result<()> {
         }
         return Ok(());
     }
+    let solver = match (args.solver, scene.engine().petsc_solver) {
+        (Some(solver), _) => solver,
+        (None, Some(named)) => named.name().parse()?,
+        (None, None) => SolverPreset::default(),
+    };
     let options = EngineOptions {
-        solver: args.solver,
+        solver,
         gather_displacement: args.displacement.is_some(),
         write_vtu: !args.no_files,
     };
@@ -125,7 +155,7 @@ fn run(petsc: &Petsc, args: &Arguments) -> Result<()> {
     }
     if args.json {
         println!("{json}");
-    } else {
+    } else if !args.quiet {
         let s = &result.summary;
         println!(
             "{}: {} DOFs ({} free) on {} ranks, {} + {} ({}): {} iterations, {}, relative residual {:.2e}",

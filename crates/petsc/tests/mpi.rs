@@ -76,11 +76,8 @@ mod with_petsc {
         let _one = MPIRUN.lock().unwrap_or_else(|p| p.into_inner());
         let dir = scratch(name);
         let displacement = dir.join("u.txt");
-        let mut child = Command::new(mpirun)
-            .stdin(Stdio::null())
-            // Root in containers and CI; harmless otherwise.
-            .env("OMPI_ALLOW_RUN_AS_ROOT", "1")
-            .env("OMPI_ALLOW_RUN_AS_ROOT_CONFIRM", "1")
+        let mut command = Command::new(mpirun);
+        command
             .args(["--oversubscribe", "--bind-to", "none", "-n"])
             .arg(ranks.to_string())
             .arg(env!("CARGO_BIN_EXE_tetfem-petsc"))
@@ -89,7 +86,37 @@ mod with_petsc {
             .arg(&dir)
             .arg("--displacement")
             .arg(&displacement)
-            .args(args)
+            .args(args);
+        let (status, stdout, stderr) = finish(name, ranks, command);
+        let summary = serde_json::from_str(&stdout).unwrap_or(Value::Null);
+        let displacement = std::fs::read_to_string(&displacement)
+            .map(|text| {
+                text.lines()
+                    .map(|l| l.parse().expect("a number per line"))
+                    .collect()
+            })
+            .unwrap_or_default();
+        Some(Run {
+            success: status.success(),
+            stdout,
+            stderr,
+            summary,
+            displacement,
+        })
+    }
+
+    /// Runs `command` (an mpirun line) to the end with root allowed and the output captured,
+    /// killed after 300 s (a hung collective must fail the test, not CI's clock).
+    fn finish(
+        name: &str,
+        ranks: usize,
+        mut command: Command,
+    ) -> (std::process::ExitStatus, String, String) {
+        let mut child = command
+            .stdin(Stdio::null())
+            // Root in containers and CI; harmless otherwise.
+            .env("OMPI_ALLOW_RUN_AS_ROOT", "1")
+            .env("OMPI_ALLOW_RUN_AS_ROOT_CONFIRM", "1")
             .stdout(Stdio::piped())
             .stderr(Stdio::piped())
             .spawn()
@@ -114,21 +141,7 @@ mod with_petsc {
             .stderr
             .take()
             .map(|mut s| s.read_to_string(&mut stderr));
-        let summary = serde_json::from_str(&stdout).unwrap_or(Value::Null);
-        let displacement = std::fs::read_to_string(&displacement)
-            .map(|text| {
-                text.lines()
-                    .map(|l| l.parse().expect("a number per line"))
-                    .collect()
-            })
-            .unwrap_or_default();
-        Some(Run {
-            success: status.success(),
-            stdout,
-            stderr,
-            summary,
-            displacement,
-        })
+        (status, stdout, stderr)
     }
 
     /// tetfem's single-process Cholesky solve: the displacement, the reaction summed per axis
@@ -566,6 +579,113 @@ gravity = [0.0, -9.81, 0.0]
         }
         assert_eq!(cells as u64, run.summary["tets"].as_u64().expect("tets"));
         assert!(nodes_seen.iter().all(|&s| s), "every node in some piece");
+    }
+
+    /// `mpirun -n 2 tetfem run SCENE …` (the CLI, which hands a scene with `engine = "petsc"`
+    /// to tetfem-petsc): the JSON summary, or `None` where the CLI binary is not beside
+    /// tetfem-petsc (it is after the workspace's `cargo test --release`, which CI runs first).
+    fn run_through_cli(name: &str, scene: &Path, args: &[&str]) -> Option<(bool, Value, String)> {
+        let tetfem = Path::new(env!("CARGO_BIN_EXE_tetfem-petsc")).with_file_name("tetfem");
+        if !tetfem.is_file() {
+            println!(
+                "SKIPPED {name}: no {} (cargo build --release first)",
+                tetfem.display()
+            );
+            return None;
+        }
+        let Some(mpirun) = mpirun() else {
+            println!("SKIPPED {name}: no mpirun on PATH (apt-get install -y petsc-dev)");
+            return None;
+        };
+        let _one = MPIRUN.lock().unwrap_or_else(|p| p.into_inner());
+        let dir = scratch(name);
+        let mut command = Command::new(mpirun);
+        command
+            .args(["--oversubscribe", "--bind-to", "none", "-n", "2"])
+            .arg(&tetfem)
+            .arg("run")
+            .arg(scene)
+            .args(["--json", "--out"])
+            .arg(&dir)
+            .args(args)
+            // The binary beside the CLI, not one a developer may have on PATH or named.
+            .env_remove("TETFEM_PETSC_BINARY");
+        let (status, stdout, stderr) = finish(name, 2, command);
+        Some((
+            status.success(),
+            serde_json::from_str(&stdout).unwrap_or(Value::Null),
+            stderr,
+        ))
+    }
+
+    #[test]
+    fn tetfem_run_hands_a_petsc_scene_to_the_engine_with_the_scenes_solver_and_options() {
+        let dir = scratch("handoff_scenes");
+        let text = std::fs::read_to_string(cantilever()).expect("scene");
+        let (want, _, _) = direct(&cantilever());
+        let tip = |s: &Value| -> f64 { s["probes"][0]["displacement"][2].as_f64().expect("tip") };
+        // The scene names the engine and a direct solver.
+        let direct_scene = dir.join("mumps.toml");
+        std::fs::write(
+            &direct_scene,
+            format!("engine = \"petsc\"\n{text}\n[petsc]\nsolver = \"mumps\"\n"),
+        )
+        .expect("scene written");
+        let Some((success, s, stderr)) = run_through_cli("handoff_mumps", &direct_scene, &[])
+        else {
+            return;
+        };
+        assert!(success, "{stderr}");
+        assert_eq!(s["ranks"], 2, "both ranks of mpirun ran the engine");
+        assert_eq!(s["pc_type"], "cholesky", "the scene's [petsc] solver");
+        // The tip probe (mean uz of its nodes) against tetfem's direct solve: both direct, so to
+        // the 1e-8.
+        let built = Scene::load(&cantilever())
+            .expect("scene")
+            .build()
+            .expect("built");
+        let nodes = &built.probes[0].nodes;
+        let want_tip = nodes.iter().map(|&n| want[3 * n + 2]).sum::<f64>() / nodes.len() as f64;
+        assert!(
+            ((tip(&s) - want_tip) / want_tip).abs() < AGREEMENT,
+            "{} vs {want_tip}",
+            tip(&s)
+        );
+        // GAMG with the scene's loose -ksp_rtol 1e-4 stops sooner than at the preset's 1e-12;
+        // the command line's -ksp_rtol wins over the scene's and gives the preset's count.
+        let loose_scene = dir.join("loose.toml");
+        std::fs::write(
+            &loose_scene,
+            format!("engine = \"petsc\"\n{text}\n[petsc]\noptions = \"-ksp_rtol 1e-4\"\n"),
+        )
+        .expect("scene written");
+        let iterations = |s: &Value| s["iterations"].as_i64().expect("iterations");
+        let (ok, loose, stderr) =
+            run_through_cli("handoff_loose", &loose_scene, &[]).expect("ran before");
+        assert!(ok, "{stderr}");
+        let (ok, tight, stderr) = run_through_cli(
+            "handoff_tight",
+            &loose_scene,
+            &["--petsc-options", "-ksp_rtol 1e-12"],
+        )
+        .expect("ran before");
+        assert!(ok, "{stderr}");
+        let (ok, preset, stderr) =
+            run_through_cli("handoff_preset", &cantilever(), &["--engine", "petsc"])
+                .expect("ran before");
+        assert!(ok, "{stderr}");
+        assert_eq!(preset["pc_type"], "gamg");
+        assert!(
+            iterations(&loose) < iterations(&preset),
+            "rtol 1e-4: {} iterations, 1e-12: {}",
+            iterations(&loose),
+            iterations(&preset)
+        );
+        assert_eq!(
+            iterations(&tight),
+            iterations(&preset),
+            "the command line wins"
+        );
     }
 
     #[test]

@@ -1097,6 +1097,7 @@ pub fn run_dynamic_scene(
     force_png: bool,
     progress: &mut dyn FnMut(usize, usize) -> ControlFlow<()>,
 ) -> Result<DynamicSummary> {
+    scene.require_tetfem_engine()?;
     let Analysis::Dynamic(settings) = scene.analysis() else {
         return Err(Error::Scene {
             source_name: scene.source_name().to_string(),

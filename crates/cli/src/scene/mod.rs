@@ -11,6 +11,7 @@ mod build;
 mod critical;
 mod dynamic;
 mod element;
+mod engine;
 mod estimate;
 mod modal;
 mod obstacles;
@@ -30,6 +31,7 @@ pub use dynamic::{
 };
 pub use dynamic::{STEP_CHECK_DOFS, STEP_CHECK_MODES};
 pub use element::SceneElement;
+pub use engine::{EngineKind, EngineSettings, PetscSolver, PetscSpec, parse_petsc_options};
 pub use estimate::{ESTIMATED_ERROR_DEFINITION, EstimatedError, estimated_error_of};
 pub use modal::{ModalSummary, ModeRow, run_modal_scene};
 pub use run::{
@@ -48,6 +50,8 @@ use tetfem::error::{Error, Result};
 /// the working directory. Units SI.
 pub const REFERENCE: &str = r#"# tetfem scene reference: every key, with its default where it has one.
 title = "reference"                 # default: the scene file's stem
+engine = "tetfem"                   # default: tetfem's solvers in this process; "petsc": `tetfem run`
+                                    # hands the scene to tetfem-petsc (`mpirun -n N tetfem run SCENE`)
 
 [mesh]
 order = 1                           # default 1: 4-node tets; 2: 10-node (quadratic) tets, for
@@ -158,6 +162,11 @@ type = "static"                     # default "static"; or "dynamic", which need
 # activation_distance = 1e-3        # m; default 1e-3 × the bounding-box diagonal
 # stiffness = 1e9                   # Pa/m; default E/h (stiffest E, h the mean boundary edge)
 
+[petsc]                             # read by the PETSc engine only (engine = "petsc")
+solver = "gamg"                     # default "gamg" (CG + GAMG); "hypre" (CG + BoomerAMG); "mumps" (direct)
+options = ""                        # PETSc options, e.g. "-ksp_rtol 1e-10 -ksp_monitor": they win over
+                                    # the preset's; options on the command line win over them
+
 [output]
 directory = "out/reference"         # default "out/<scene file stem>" in the working directory
 vtu = true                          # .vtu frames + .pvd collection; default true
@@ -261,6 +270,8 @@ pub struct Scene {
     output: OutputSettings,
     /// `[[obstacles]]`, checked.
     obstacles: Vec<tetfem::contact::Obstacle>,
+    /// `engine`, `[petsc]`, checked.
+    engine: EngineSettings,
 }
 
 impl std::str::FromStr for Scene {
@@ -324,6 +335,7 @@ impl Scene {
                 vtu_format: VtuEncoding::Binary,
             },
             obstacles: Vec::new(),
+            engine: EngineSettings::default(),
         };
         scene.analysis = scene.check_analysis()?;
         scene.order = scene.check_order()?;
@@ -331,6 +343,7 @@ impl Scene {
         scene.accuracy = accuracy::check_accuracy(&scene, text)?;
         scene.output = scene.output_settings()?;
         scene.obstacles = scene.check_obstacles()?;
+        scene.engine = scene.check_engine()?;
         Ok(scene)
     }
 
@@ -663,8 +676,34 @@ fn line_of(text: &str, offset: usize) -> usize {
 
 /// The key a TOML error is about: the one named in "unknown field `x`" or "missing field `x`"
 /// messages, else the text under the error's span when it is a short single line.
+/// `key` prefixed with the table it sits in (`petsc.solver`), from the last `[table]` or
+/// `[[array]]` header in `before`; `key` alone at the top level or when it is dotted already.
+fn within_table(before: &str, key: String) -> String {
+    if key.contains('.') {
+        return key;
+    }
+    // A header is `[name]` or `[[name]]` with a bare dotted name (not a row of a multi-line
+    // array such as `[0.0, 1.0],`).
+    let header = |line: &str| -> Option<String> {
+        let inner = line.strip_prefix('[')?;
+        let inner = inner.strip_prefix('[').unwrap_or(inner);
+        let name = inner.split(']').next()?.trim();
+        let bare = name
+            .chars()
+            .all(|c| c.is_ascii_alphanumeric() || "_-.".contains(c));
+        (bare && name.starts_with(|c: char| c.is_ascii_alphabetic())).then(|| name.to_string())
+    };
+    let table = before.lines().rev().map(str::trim).find_map(header);
+    match table {
+        Some(table) if !table.is_empty() => format!("{table}.{key}"),
+        _ => key,
+    }
+}
+
 fn error_key(message: &str, text: &str, span: &Range<usize>) -> String {
-    for marker in ["unknown field `", "missing field `", "unknown variant `"] {
+    // An unknown variant is a value error: its key is found on the line below (the variant
+    // itself is in the message).
+    for marker in ["unknown field `", "missing field `"] {
         if let Some(start) = message.find(marker) {
             let rest = &message[start + marker.len()..];
             if let Some(end) = rest.find('`') {
@@ -687,7 +726,7 @@ fn error_key(message: &str, text: &str, span: &Range<usize>) -> String {
                 .rev()
                 .collect();
             if !key.is_empty() {
-                return key;
+                return within_table(before, key);
             }
         }
     }

@@ -88,6 +88,7 @@ impl ModalSummary {
 /// Errors: the scene is not modal; `analysis.modes` above the free DOF count (naming the key
 /// and its line, before the eigensolve); the output folder is locked by another run.
 pub fn run_modal_scene(scene: &Scene, no_files: bool) -> Result<ModalSummary> {
+    scene.require_tetfem_engine()?;
     let Analysis::Modal(settings) = *scene.analysis() else {
         return Err(Error::Scene {
             source_name: scene.source_name().to_string(),

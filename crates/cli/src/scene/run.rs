@@ -176,6 +176,7 @@ pub fn run_static(scene: &Scene) -> Result<RunSummary> {
 /// run writing there is an [`Error::OutputLocked`]; a lock left by a killed run is taken over,
 /// with a warning in the summary.
 pub fn run_static_with(scene: &Scene, options: &RunOptions) -> Result<RunSummary> {
+    scene.require_tetfem_engine()?;
     if !matches!(scene.analysis(), Analysis::Static) {
         return Err(Error::Scene {
             source_name: scene.source_name().to_string(),

@@ -48,6 +48,12 @@ pub struct SceneSpec {
     /// The barrier's scales (defaults: [`tetfem::contact::ContactParameters::for_mesh`]).
     #[serde(default)]
     pub contact: Option<Spanned<ContactSpec>>,
+    /// What solves the scene (default: tetfem itself; see [`super::engine`]).
+    #[serde(default)]
+    pub engine: Option<Spanned<super::engine::EngineKind>>,
+    /// The PETSc engine's solver preset and options.
+    #[serde(default)]
+    pub petsc: Option<Spanned<super::engine::PetscSpec>>,
 }
 
 /// `[[obstacles]]`: a rigid obstacle, of one `kind` with that kind's placement keys.
