@@ -1,5 +1,6 @@
 //! Handing a scene to the PETSc engine: `tetfem run SCENE` with `engine = "petsc"` in the scene
-//! (or `--engine petsc`) runs the `tetfem-petsc` binary on the same scene in its place.
+//! (or `--engine petsc`), and `tetfem export --petsc DIR SCENE`, run the `tetfem-petsc` binary
+//! on the same scene in their place.
 //!
 //! Why a hand-off and not a call: `tetfem-petsc` links PETSc and MPI (a system library behind a
 //! cargo feature) and reads scenes through this crate, so this crate cannot link it back. Under
@@ -36,6 +37,8 @@ pub struct PetscHandoff {
     pub vtu_format: Option<&'static str>,
     /// `--petsc-options`, split into words: PETSc options passed last, so that they win.
     pub petsc_options: Vec<String>,
+    /// `tetfem export --petsc DIR`: write the static system into DIR instead of solving.
+    pub export: Option<PathBuf>,
 }
 
 impl PetscHandoff {
@@ -46,6 +49,9 @@ impl PetscHandoff {
         command.arg(&self.scene);
         if let Some(out) = &self.out {
             command.arg("--out").arg(out);
+        }
+        if let Some(directory) = &self.export {
+            command.arg("--export").arg(directory);
         }
         if self.json {
             command.arg("--json");

@@ -77,6 +77,23 @@ enum Command {
     /// statistics, physical groups, skipped elements and, when a material is known, the
     /// explicit critical step (element bound).
     Info(InfoArgs),
+    /// Write a static scene's linear system for another solver, without solving it.
+    ///
+    /// `--petsc DIR`: PETSc's binary format (K_ff in the engine's numbering with the
+    /// constrained rows and columns zeroed, the right-hand side, the node coordinates and the
+    /// DOF map; README "PETSc engine"), written by the tetfem-petsc binary (run under `mpirun
+    /// -n N` for N ranks).
+    Export(ExportArgs),
+}
+
+#[derive(Debug, Args)]
+struct ExportArgs {
+    /// The scene file (static).
+    scene: PathBuf,
+    /// Folder for the PETSc binary files (`K.petsc`, `b.petsc`, `coordinates.petsc`,
+    /// `dofs.txt`).
+    #[arg(long)]
+    petsc: PathBuf,
 }
 
 /// The default scene's options.
@@ -279,6 +296,12 @@ fn main() -> ExitCode {
         None => run_default(&cli.default),
         Some(Command::Run(args)) => run_scene(args),
         Some(Command::Info(args)) => info(args),
+        Some(Command::Export(args)) => PetscHandoff {
+            scene: args.scene.clone(),
+            export: Some(args.petsc.clone()),
+            ..PetscHandoff::default()
+        }
+        .run(),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -870,6 +893,7 @@ fn run_scene(args: &RunArgs) -> tetfem::Result<()> {
                 .as_deref()
                 .map(|o| o.split_whitespace().map(str::to_string).collect())
                 .unwrap_or_default(),
+            export: None,
         }
         .run();
     }

@@ -6,7 +6,7 @@
 //! holds the global matrix), the constraints are applied per rank by zeroing rows and columns,
 //! and PETSc solves with CG + GAMG (the rigid-body near-null space from the owned node
 //! coordinates), CG + hypre BoomerAMG or MUMPS's Cholesky (module `engine`, with the feature);
-//! a dynamic scene is integrated by backward Euler (lumped mass), its system matrix and
+//! a dynamic scene is integrated by backward Euler or Newmark (lumped mass), its system matrix and
 //! preconditioner built once. Each rank writes its piece of the parallel `.pvtu` output
 //! ([`pvtu`]).
 //!

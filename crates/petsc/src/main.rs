@@ -1,5 +1,5 @@
-//! `tetfem-petsc`: a static linear scene solved, or a dynamic one integrated by backward Euler,
-//! by PETSc on every rank of `mpirun`.
+//! `tetfem-petsc`: a static linear scene solved, or a dynamic one integrated by backward Euler or
+//! Newmark, by PETSc on every rank of `mpirun`.
 //!
 //! ```text
 //! mpirun -n N tetfem-petsc SCENE.toml [--solver gamg|hypre|mumps] [--out DIR]
