@@ -40,8 +40,8 @@ use tetfem_fixtures::cantilever::Cantilever;
 ///    at --dt. It writes to `<out>/cantilever_swing/` what a dynamic scene writes:
 ///    `cantilever_swing.pvd` with its `.vtu` frames (open the `.pvd` in ParaView to play the
 ///    animation), `cantilever_swing.csv` (time, tip displacement, each energy term, wall time
-///    per step), `cantilever_swing_summary.json`, and with --png a `.png` per frame; it reports
-///    the wall time per step and the explicit critical step.
+///    per step, the clamp's reaction), `cantilever_swing_summary.json`, and with --png a `.png`
+///    per frame; it reports the wall time per step and the explicit critical step.
 ///
 /// Subcommands: `tetfem run SCENE.toml` runs a scene file (see scenes/), `tetfem info MESH`
 /// prints mesh statistics and the explicit critical step.
@@ -62,7 +62,7 @@ enum Command {
     /// `<stem>_summary.json`. Dynamic scenes write a `.vtu` frame every `output.every` steps
     /// with `<stem>.pvd` listing them with their times (open it in ParaView to play the run),
     /// `<stem>.csv` (time, step, wall time per step, each probe's mean displacement, each
-    /// energy term: one row per step) and `<stem>_summary.json`. With `--png` (or
+    /// energy term, each constraint entry's reaction force and moment: one row per step) and `<stem>_summary.json`. With `--png` (or
     /// `output.png = true`), each frame is also rendered to `<stem>_<step>.png`.
     ///
     /// The outputs go to `output.directory`, else `out/<scene file stem>/`.

@@ -14,6 +14,7 @@ mod element;
 mod estimate;
 mod modal;
 mod obstacles;
+mod reactions;
 mod run;
 mod spec;
 mod units;
@@ -32,6 +33,7 @@ pub use dynamic::{STEP_CHECK_DOFS, STEP_CHECK_MODES};
 pub use element::SceneElement;
 pub use estimate::{ESTIMATED_ERROR_DEFINITION, EstimatedError, estimated_error_of};
 pub use modal::{ModalSummary, ModeRow, run_modal_scene};
+pub use reactions::{DynamicReactions, ReactionsAt};
 pub use run::{
     ContactForceRow, ProbeValue, ReactionRow, RunOptions, RunSummary, SolvePhases, run_static,
     run_static_with,
