@@ -92,8 +92,7 @@ impl SupportReactions {
         data: &TimeData,
     ) -> Result<Self> {
         let dof_map = system.dofs();
-        if dof_map.full_count() != mesh.dof_count() || loads.as_slice().len() != mesh.dof_count()
-        {
+        if dof_map.full_count() != mesh.dof_count() || loads.as_slice().len() != mesh.dof_count() {
             return Err(Error::invalid_parameter(
                 "reactions' system and loads",
                 format!(
@@ -232,7 +231,8 @@ impl SupportReactions {
                 }
             }
             InternalForce::Nonlinear(f) => {
-                let mut internal = crate::model::assemble::internal_force(f.mesh(), f.models(), &u)?;
+                let mut internal =
+                    crate::model::assemble::internal_force(f.mesh(), f.models(), &u)?;
                 if let Some(contact) = f.contact() {
                     contact.add_force(&u, &mut internal)?;
                 }
@@ -270,8 +270,7 @@ impl SupportReactions {
                     .iter()
                     .map(|(f, amplitude)| amplitude.value(t) * f[i])
                     .sum::<f64>();
-            reactions[c] =
-                inertia + damping.beta * stiffness_velocity[i] + resisting[i] - external;
+            reactions[c] = inertia + damping.beta * stiffness_velocity[i] + resisting[i] - external;
         }
         Ok(reactions)
     }
@@ -303,7 +302,9 @@ impl SupportReactions {
                 let f = system.external_load_at(state.time, &mut buffer)?;
                 let mut ku = vec![0.0; nf];
                 let mut kv = vec![0.0; nf];
-                system.stiffness().product_into(&state.displacement, &mut ku);
+                system
+                    .stiffness()
+                    .product_into(&state.displacement, &mut ku);
                 system.stiffness().product_into(&state.velocity, &mut kv);
                 for i in 0..nf {
                     rhs[i] = f[i] - ku[i] - damping.alpha * product[i] - damping.beta * kv[i];
@@ -322,8 +323,7 @@ impl SupportReactions {
                 };
                 let f = system.external_load();
                 for (i, &d) in system.dofs().free_dofs().iter().enumerate() {
-                    rhs[i] =
-                        f[i] + internal[d] - damping.alpha * product[i] - damping.beta * kv[d];
+                    rhs[i] = f[i] + internal[d] - damping.alpha * product[i] - damping.beta * kv[d];
                 }
             }
         }

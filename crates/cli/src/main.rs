@@ -685,6 +685,15 @@ fn print_dynamic(s: &DynamicSummary, directory: &Path, header: bool) {
             p.name, p.min[2], p.max[2], p.last[2]
         );
     }
+    for r in &s.reactions {
+        let [fx, fy, fz] = r.force_n;
+        let [mx, my, mz] = r.moment_nm;
+        let [px, py, pz] = r.moment_point_m;
+        println!(
+            "  reaction at the end, {}: force ({fx:+.4e}, {fy:+.4e}, {fz:+.4e}) N, moment about ({px}, {py}, {pz}) m ({mx:+.4e}, {my:+.4e}, {mz:+.4e}) N·m",
+            r.constraint
+        );
+    }
     let (a, b) = (&s.initial_energy, &s.final_energy);
     println!("  energy (J)  kinetic  elastic  gravity potential  load potential  total");
     println!(

@@ -64,9 +64,13 @@ fn a_damped_hanging_bar_settles_to_its_weight() {
     let modes = tetfem::modal::lowest_modes(&setup.system, 1).unwrap();
     assert!(alpha < 2.0 * modes.omega[0], "ω₁ = {}", modes.omega[0]);
 
-    let summary = run_dynamic_scene(&s, &DynamicOverrides::default(), false, false, &mut |_, _| {
-        ControlFlow::Continue(())
-    })
+    let summary = run_dynamic_scene(
+        &s,
+        &DynamicOverrides::default(),
+        false,
+        false,
+        &mut |_, _| ControlFlow::Continue(()),
+    )
     .unwrap();
     let weight = 7850.0 * 9.81 * 0.1 * 0.1 * 1.0;
     assert_eq!(summary.reactions.len(), 1);
@@ -83,7 +87,12 @@ fn a_damped_hanging_bar_settles_to_its_weight() {
     let at_rest = DynamicSetup::from_scene(s.build().unwrap(), settings).unwrap();
     let mut reactions = at_rest.reactions.clone();
     let start = reactions
-        .at(&at_rest.mesh, &at_rest.system, &at_rest.force, &at_rest.initial)
+        .at(
+            &at_rest.mesh,
+            &at_rest.system,
+            &at_rest.force,
+            &at_rest.initial,
+        )
         .unwrap();
     assert!(start.rows[0].force_n[2] < 0.2 * weight);
 }
@@ -185,8 +194,7 @@ fn momentum_imbalance(shaken: &Shaken, method: Method, dt: f64, steps: usize) ->
                 )
             }
             Method::Explicit => {
-                let (ma, mv) =
-                    momentum_terms(setup, motion, &masses, &old.velocity, &a, old.time);
+                let (ma, mv) = momentum_terms(setup, motion, &masses, &old.velocity, &a, old.time);
                 let r = reaction_sum(&before);
                 ((0..3).map(|k| r[k] - alpha * mv[k]).collect(), ma)
             }
@@ -210,10 +218,7 @@ struct Shaken {
 
 /// The setup of the shipped shaken base with `extra` added to its `[analysis]`.
 fn shaken_base(extra: &str) -> Shaken {
-    let text = shipped("shaken_base.toml").replace(
-        "[analysis]\n",
-        &format!("[analysis]\n{extra}"),
-    );
+    let text = shipped("shaken_base.toml").replace("[analysis]\n", &format!("[analysis]\n{extra}"));
     let s = scene(&text, "shaken");
     let Analysis::Dynamic(settings) = s.analysis() else {
         panic!("dynamic scene")
@@ -247,7 +252,9 @@ fn reactions_close_the_momentum_balance_for_every_method() {
             "mass = \"{mass}\"\ndamping = {{ mass = 30.0, stiffness = 2e-6 }}\n"
         ));
         let imbalance = momentum_imbalance(&shaken, method, dt, 60);
-        eprintln!("{method:?}, {mass} mass: momentum imbalance {imbalance:.3e} of the largest term");
+        eprintln!(
+            "{method:?}, {mass} mass: momentum imbalance {imbalance:.3e} of the largest term"
+        );
         assert!(imbalance <= 1e-9, "{method:?} {mass}: {imbalance:e}");
     }
 }
@@ -314,7 +321,12 @@ fn the_shaken_base_carries_the_inertia_of_the_body() {
     }
     assert_eq!(summary.reactions[0].force_n[2].to_bits(), {
         let last = text.lines().last().unwrap();
-        last.split(',').nth(fz).unwrap().parse::<f64>().unwrap().to_bits()
+        last.split(',')
+            .nth(fz)
+            .unwrap()
+            .parse::<f64>()
+            .unwrap()
+            .to_bits()
     });
     // The base shakes 1 mm at 100 Hz: its reaction is far above the 1540 N weight.
     assert!(biggest > 1e4, "largest |R_z| = {biggest} N");
