@@ -21,6 +21,7 @@ mod internal_force;
 mod newmark;
 mod newton;
 mod nonlinear_euler;
+mod reactions;
 mod stability;
 mod state;
 mod system;
@@ -37,6 +38,7 @@ pub use internal_force::{ForceWorkspace, InternalForce, NonlinearForce};
 pub use newmark::Newmark;
 pub use newton::{NewtonStats, StepNewtonOptions};
 pub use nonlinear_euler::NonlinearBackwardEuler;
+pub use reactions::SupportReactions;
 pub use stability::{
     Certificate, CriticalStep, CriticalStepOptions, DivergenceGuard, critical_time_step,
     critical_time_step_with, element_critical_step,

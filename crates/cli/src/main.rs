@@ -42,8 +42,8 @@ use tetfem_fixtures::cantilever::Cantilever;
 ///    at --dt. It writes to `<out>/cantilever_swing/` what a dynamic scene writes:
 ///    `cantilever_swing.pvd` with its `.vtu` frames (open the `.pvd` in ParaView to play the
 ///    animation), `cantilever_swing.csv` (time, tip displacement, each energy term, wall time
-///    per step), `cantilever_swing_summary.json`, and with --png a `.png` per frame; it reports
-///    the wall time per step and the explicit critical step.
+///    per step, the clamp's reaction), `cantilever_swing_summary.json`, and with --png a `.png`
+///    per frame; it reports the wall time per step and the explicit critical step.
 ///
 /// Subcommands: `tetfem run SCENE.toml` runs a scene file (see scenes/), `tetfem info MESH`
 /// prints mesh statistics and the explicit critical step.
@@ -64,7 +64,7 @@ enum Command {
     /// `<stem>_summary.json`. Dynamic scenes write a `.vtu` frame every `output.every` steps
     /// with `<stem>.pvd` listing them with their times (open it in ParaView to play the run),
     /// `<stem>.csv` (time, step, wall time per step, each probe's mean displacement, each
-    /// energy term: one row per step) and `<stem>_summary.json`. With `--png` (or
+    /// energy term, each constraint entry's reaction force and moment: one row per step) and `<stem>_summary.json`. With `--png` (or
     /// `output.png = true`), each frame is also rendered to `<stem>_<step>.png`.
     ///
     /// The outputs go to `output.directory`, else `out/<scene file stem>/`.
@@ -728,6 +728,15 @@ fn print_dynamic(s: &DynamicSummary, directory: &Path, header: bool) {
         println!(
             "  probe {}: u_z from {:+.4e} to {:+.4e} m, last {:+.4e} m",
             p.name, p.min[2], p.max[2], p.last[2]
+        );
+    }
+    for r in &s.reactions {
+        let [fx, fy, fz] = r.force_n;
+        let [mx, my, mz] = r.moment_nm;
+        let [px, py, pz] = r.moment_point_m;
+        println!(
+            "  reaction at the end, {}: force ({fx:+.4e}, {fy:+.4e}, {fz:+.4e}) N, moment about ({px}, {py}, {pz}) m ({mx:+.4e}, {my:+.4e}, {mz:+.4e}) N·m",
+            r.constraint
         );
     }
     let (a, b) = (&s.initial_energy, &s.final_energy);

@@ -220,10 +220,17 @@ fn dynamic_scene_runs_short_with_frames_series_and_pngs() {
         "gravity_potential_J",
         "load_potential_J",
         "total_J",
+        "reaction0_Fx_N",
+        "reaction0_Fy_N",
+        "reaction0_Fz_N",
+        "reaction0_Mx_Nm",
+        "reaction0_My_Nm",
+        "reaction0_Mz_Nm",
     ] {
         column(&header, c);
     }
-    assert_eq!(header.len(), 11);
+    // The scene has one [[constraints]] entry: six reaction columns.
+    assert_eq!(header.len(), 17);
     assert_eq!(rows.len(), 26);
     let (t, step, wall, uz) = (
         column(&header, "time_s"),

@@ -150,6 +150,12 @@ fn csv_headers_name_their_units_and_json_summaries_carry_a_units_table() {
             "gravity_potential_J",
             "load_potential_J",
             "total_J",
+            "reaction0_Fx_N",
+            "reaction0_Fy_N",
+            "reaction0_Fz_N",
+            "reaction0_Mx_Nm",
+            "reaction0_My_Nm",
+            "reaction0_Mz_Nm",
         ]
     );
     check_units(&summary.to_json(), "dynamic");

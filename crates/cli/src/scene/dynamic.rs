@@ -169,6 +169,8 @@ pub struct DynamicSetup<C: CellType = Tet4> {
     /// For a mesh read from a file: the file's (node ids, element ids), written into every
     /// frame as `original_node_id` / `original_element_id`.
     pub original_ids: Option<(Vec<u64>, Vec<u64>)>,
+    /// The support reactions per node and per constraint set, reported at every step.
+    pub reactions: super::DynamicReactions,
     /// The explicit critical step once computed.
     critical: std::sync::OnceLock<(f64, &'static str)>,
 }
@@ -196,7 +198,8 @@ impl<E: SceneElement> DynamicSetup<E> {
             .map(|dof| settings.initial_velocity[dof % 3])
             .collect();
         initial.velocity = system.dofs().restrict(&velocity)?;
-        Ok(Self::of_built(built, system, initial, clock))
+        let reactions = super::DynamicReactions::of_scene(&built, &system)?;
+        Ok(Self::of_built(built, system, initial, reactions, clock))
     }
 
     /// The setup of a built scene with its assembled system and initial state; `clock` started
@@ -205,6 +208,7 @@ impl<E: SceneElement> DynamicSetup<E> {
         built: BuiltScene<E>,
         system: LinearSystem,
         initial: State,
+        reactions: super::DynamicReactions,
         clock: Instant,
     ) -> Self {
         DynamicSetup {
@@ -219,6 +223,7 @@ impl<E: SceneElement> DynamicSetup<E> {
             setup_seconds: clock.elapsed().as_secs_f64(),
             linear_method: LinearMethod::Direct,
             force: InternalForce::Linear,
+            reactions,
             critical: Default::default(),
         }
     }
@@ -236,7 +241,11 @@ impl<E: SceneElement> DynamicSetup<E> {
             &built.other_loads,
             built.gravity,
         )?;
-        Ok(Self::of_built(built, system, initial, clock))
+        let reactions = super::DynamicReactions::of_sets(
+            released_reactions(&system, &built.mesh, &built.materials, built.gravity)?,
+            &built,
+        );
+        Ok(Self::of_built(built, system, initial, reactions, clock))
     }
 
     /// The same setup with the force model `kind`, one model per material of
@@ -340,7 +349,12 @@ impl DynamicSetup {
             name: "tip".into(),
             nodes: cantilever.tip_nodes(&mesh),
         }];
+        let reactions = super::DynamicReactions::single(
+            released_reactions(&system, &mesh, &material, gravity)?,
+            "clamp",
+        );
         Ok(DynamicSetup {
+            reactions,
             original_ids: None,
             input_warnings: Vec::new(),
             materials: tetfem::materials::MaterialMap::uniform(material, mesh.tet_count()),
@@ -457,6 +471,10 @@ pub struct DynamicSummary {
     pub final_energy: EnergyTerms,
     /// Each probe's last value and range.
     pub probes: Vec<ProbeRange>,
+    /// The support reactions at the last step, per `[[constraints]]` entry (the default run:
+    /// its clamp): r = M·a + C·v − f_int − f_ext summed over the entry's DOFs (N) and its moment
+    /// about the entry's `moment_about` (N·m); see [`tetfem::dynamics::SupportReactions`].
+    pub reactions: Vec<super::ReactionRow>,
     /// Frames written (`.vtu`).
     pub frames: usize,
     /// Files written.
@@ -588,6 +606,7 @@ fn run_dynamic_locked<E: SceneElement>(
         })
         .collect();
     let mut output_seconds = 0.0;
+    let mut reactions = setup.reactions.clone();
     let mut record = |state: &State,
                       wall: f64,
                       writer: &mut Option<FrameWriter>,
@@ -608,7 +627,8 @@ fn run_dynamic_locked<E: SceneElement>(
             means.push(mean);
         }
         if let Some(w) = writer {
-            w.record(setup, state, &u, wall, &means, &energy, last)?;
+            let at = reactions.at(mesh, system, &setup.force, state)?;
+            w.record(setup, state, &u, wall, &means, &energy, &at, last)?;
         }
         output_seconds += clock.elapsed().as_secs_f64();
         Ok(energy)
@@ -644,6 +664,9 @@ fn run_dynamic_locked<E: SceneElement>(
             });
         }
     }
+    let clock = Instant::now();
+    let final_reactions = reactions.at(mesh, system, &setup.force, &state)?.rows;
+    output_seconds += clock.elapsed().as_secs_f64();
     let clock = Instant::now();
     let estimated_error = match setup.force {
         InternalForce::Linear => {
@@ -727,6 +750,7 @@ fn run_dynamic_locked<E: SceneElement>(
         initial_energy: initial_energy.into(),
         final_energy: final_energy.into(),
         probes,
+        reactions: final_reactions,
         frames,
         files,
         model: setup.force.name().into(),
@@ -814,6 +838,7 @@ impl FrameWriter {
             ] {
                 columns.push(format!("{e}_J"));
             }
+            columns.extend(setup.reactions.columns());
             Some(CsvSeries::new(
                 s.directory.join(format!("{}.csv", s.stem)),
                 columns,
@@ -852,6 +877,7 @@ impl FrameWriter {
         wall: f64,
         probes: &[[f64; 3]],
         energy: &Energy,
+        reactions: &super::ReactionsAt,
         last: bool,
     ) -> Result<()> {
         let time = step_time(self.start, self.dt, state);
@@ -870,6 +896,7 @@ impl FrameWriter {
                 ]
                 .map(CsvValue::Real),
             );
+            row.extend(reactions.csv_values().map(CsvValue::Real));
             csv.push_values(&row)?;
         }
         if !(state.steps.is_multiple_of(self.every) || last) {
@@ -900,7 +927,7 @@ impl FrameWriter {
             };
             let extras = FrameExtras {
                 velocity: Some(&velocity),
-                reactions: None,
+                reactions: Some(&reactions.nodal),
                 time: Some(time),
                 stress_tensors: true,
                 format: self.settings.vtu_format.format(),
@@ -1159,6 +1186,23 @@ fn run_dynamic_scene_on<E: SceneElement>(
         force_png,
     });
     run_dynamic_locked(&setup, &run, outputs.as_ref(), lock, progress)
+}
+
+/// The support reactions of a [`released_system`]: gravity its only load.
+fn released_reactions<E: ElementType>(
+    system: &LinearSystem,
+    mesh: &TetMesh<E>,
+    materials: &impl tetfem::materials::TetMaterials,
+    gravity: Vector3<f64>,
+) -> Result<tetfem::dynamics::SupportReactions> {
+    tetfem::dynamics::SupportReactions::new(
+        system,
+        mesh,
+        materials,
+        &Loads::new(mesh),
+        gravity,
+        &tetfem::dynamics::TimeData::default(),
+    )
 }
 
 /// The state at rest in the static shape under `loads` and `gravity`, and the system with the

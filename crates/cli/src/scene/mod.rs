@@ -15,6 +15,7 @@ mod engine;
 mod estimate;
 mod modal;
 mod obstacles;
+mod reactions;
 mod run;
 mod spec;
 mod units;
@@ -34,6 +35,7 @@ pub use element::SceneElement;
 pub use engine::{EngineKind, EngineSettings, PetscSolver, PetscSpec, parse_petsc_options};
 pub use estimate::{ESTIMATED_ERROR_DEFINITION, EstimatedError, estimated_error_of};
 pub use modal::{ModalSummary, ModeRow, run_modal_scene};
+pub use reactions::{DynamicReactions, ReactionsAt};
 pub use run::{
     ContactForceRow, ProbeValue, ReactionRow, RunOptions, RunSummary, SolvePhases, run_static,
     run_static_with,

@@ -35,7 +35,8 @@ pub struct ProbeValue {
     pub displacement: [f64; 3],
 }
 
-/// The reaction resultant of one `[[constraints]]` entry (linear static runs).
+/// The reaction resultant of one `[[constraints]]` entry (static runs, and each step of dynamic
+/// ones).
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
 pub struct ReactionRow {
     /// The scene entry, `constraints[i]`.
