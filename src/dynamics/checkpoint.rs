@@ -388,9 +388,11 @@ struct Reader<'a> {
 
 impl Reader<'_> {
     fn error(&self, at: usize, message: impl std::fmt::Display) -> Error {
+        // A binary file's "line": the line count up to the offset (see `Error::Parse`).
+        let before = &self.bytes[..at.min(self.bytes.len())];
         Error::Parse {
             path: self.path.to_path_buf(),
-            line: 1,
+            line: 1 + before.iter().filter(|&&b| b == b'\n').count(),
             message: format!("byte {at}: {message}"),
         }
     }

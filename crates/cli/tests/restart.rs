@@ -236,6 +236,52 @@ fn an_interrupted_run_checkpoints_where_it_stops_and_resumes_from_there() {
     let _ = std::fs::remove_dir_all(&parts);
 }
 
+/// The mesh is part of the fingerprint: the same scene text over a mesh file whose node moved
+/// is refused, naming `mesh` and its line.
+#[test]
+fn a_resume_over_a_changed_mesh_file_names_the_mesh() {
+    let dir = scratch("mesh");
+    let shipped = concat!(env!("CARGO_MANIFEST_DIR"), "/../../scenes/tetgen_bar");
+    for ext in ["node", "ele", "face"] {
+        std::fs::copy(format!("{shipped}.{ext}"), dir.join(format!("bar.{ext}"))).unwrap();
+    }
+    let text = |steps: usize| {
+        format!(
+            r#"[mesh.tetgen]
+file = "bar.node"
+[material]
+youngs_modulus = 200e9
+poisson_ratio = 0.3
+density = 7850.0
+[[constraints]]
+where = {{ face_marker = 1 }}
+[[loads]]
+where = {{ face_marker = 2 }}
+total_force = [1e5, 0.0, 0.0]
+[analysis]
+type = "dynamic"
+dt = 1e-5
+duration = {:e}
+[output]
+checkpoint_every = 10
+"#,
+            steps as f64 * 1e-5
+        )
+    };
+    run(&text(10), &dir);
+    let node = dir.join("bar.node");
+    let moved = std::fs::read_to_string(&node).unwrap().replacen(
+        "\n2 0.1 0.0 0.0 0",
+        "\n2 0.1 0.0 0.001 0",
+        1,
+    );
+    std::fs::write(&node, moved).unwrap();
+    let (key, line, message) = scene_error(resume(&text(20), &dir));
+    assert_eq!((key.as_str(), line), ("mesh", 1));
+    assert!(message.contains("the mesh differs"), "{message}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 /// The scene's error: its key, line and message.
 fn scene_error(result: tetfem::Result<DynamicSummary>) -> (String, usize, String) {
     match result {

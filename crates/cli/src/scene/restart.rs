@@ -57,10 +57,11 @@ impl Restart {
     ) -> Result<Self> {
         let path = checkpoint_path(scene.output());
         let mut fingerprint = scene_fingerprint(scene)?;
-        fingerprint.push(("mesh_hash".into(), mesh_hash(mesh)));
+        let mesh_now = mesh_hash(mesh);
+        fingerprint.push(("mesh_hash".into(), mesh_now.clone()));
         if let Some(checkpoint) = &resume {
             let found = checkpoint.fingerprint_entry("mesh_hash").unwrap_or("none");
-            if found != fingerprint[2].1 {
+            if found != mesh_now {
                 return Err(Error::Scene {
                     source_name: scene.source_name().to_string(),
                     key: "mesh".into(),
@@ -69,7 +70,7 @@ impl Restart {
                         "the mesh differs from the one checkpoint {} was taken on (mesh hash {} there, {} now): the mesh file or its settings changed; run again without --resume",
                         path.display(),
                         found,
-                        fingerprint[2].1
+                        mesh_now
                     ),
                 });
             }
