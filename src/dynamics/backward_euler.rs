@@ -6,8 +6,8 @@ use rayon::prelude::*;
 
 use super::newton::{NewtonSolver, StepEquation};
 use super::{
-    DivergenceGuard, Energy, Integrator, IntegratorOptions, InternalForce, LinearSystem, Mass,
-    NewtonStats, State, check_time_step, sum_in_order,
+    DivergenceGuard, Energy, Integrator, IntegratorHistory, IntegratorOptions, InternalForce,
+    LinearSystem, Mass, NewtonStats, State, check_time_step, sum_in_order,
 };
 use crate::block_sparse::SymmetricWorkspace;
 use crate::error::Result;
@@ -264,5 +264,24 @@ impl Integrator for BackwardEuler {
 
     fn newton_stats(&self) -> Option<NewtonStats> {
         self.newton.as_ref().map(NewtonSolver::stats)
+    }
+
+    /// The guard and Newton's counts: the step itself reads only u and v.
+    fn history(&self) -> Result<IntegratorHistory> {
+        Ok(IntegratorHistory {
+            method: self.name().into(),
+            guard: self.guard,
+            acceleration: None,
+            newton: self.newton_stats(),
+        })
+    }
+
+    fn restore(&mut self, state: &State, history: &IntegratorHistory) -> Result<()> {
+        history.check(self.name(), self.system.free_count(), state)?;
+        self.guard = history.guard;
+        if let (Some(newton), Some(stats)) = (self.newton.as_mut(), history.newton) {
+            newton.set_stats(stats);
+        }
+        Ok(())
     }
 }

@@ -6,8 +6,8 @@ use rayon::prelude::*;
 
 use super::newton::NewtonSolver;
 use super::{
-    DivergenceGuard, Energy, Integrator, InternalForce, LinearSystem, Mass, State,
-    StepNewtonOptions, check_time_step, sum_in_order,
+    DivergenceGuard, Energy, Integrator, IntegratorHistory, InternalForce, LinearSystem, Mass,
+    State, StepNewtonOptions, check_time_step, sum_in_order,
 };
 use crate::block_sparse::SymmetricWorkspace;
 use crate::error::{Error, Result};
@@ -213,5 +213,21 @@ impl Integrator for SymplecticEuler {
 
     fn name(&self) -> &'static str {
         "explicit"
+    }
+
+    /// The guard: the step reads only u and v (v the mean velocity of the last step).
+    fn history(&self) -> Result<IntegratorHistory> {
+        Ok(IntegratorHistory {
+            method: self.name().into(),
+            guard: self.guard,
+            acceleration: None,
+            newton: None,
+        })
+    }
+
+    fn restore(&mut self, state: &State, history: &IntegratorHistory) -> Result<()> {
+        history.check(self.name(), self.system.free_count(), state)?;
+        self.guard = history.guard;
+        Ok(())
     }
 }

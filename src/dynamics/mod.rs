@@ -12,6 +12,7 @@
 //! the explicit one evaluates the nonlinear force.
 
 mod backward_euler;
+mod checkpoint;
 mod damping;
 mod element_bound;
 mod energy;
@@ -28,6 +29,9 @@ mod system;
 mod time_data;
 
 pub use backward_euler::BackwardEuler;
+pub use checkpoint::{
+    CHECKPOINT_MAGIC, CHECKPOINT_VERSION, Checkpoint, IntegratorHistory, fingerprint_hash,
+};
 pub use damping::Rayleigh;
 pub use element_bound::{
     ElementStepBound, element_step_bound, element_step_bound_of, element_step_bound_of_type,
@@ -79,6 +83,20 @@ pub trait Integrator {
     /// method, which solves nothing).
     fn newton_stats(&self) -> Option<NewtonStats> {
         None
+    }
+    /// What this integrator carries from one step to the next beyond the [`State`] (see
+    /// [`Checkpoint`]); with it, [`restore`](Self::restore) continues bit-identically. The
+    /// default refuses: an integrator that keeps history must say what it is.
+    fn history(&self) -> Result<IntegratorHistory> {
+        Err(checkpoint::unsupported(self.name()))
+    }
+    /// Continues from `state` with the `history` [`history`](Self::history) gave at that
+    /// state, on an integrator built as the one that gave it (same system, force, dt and
+    /// options): its next step has the bits the original's next step had. Errors: another
+    /// method's history, vectors of another length. The default refuses.
+    fn restore(&mut self, state: &State, history: &IntegratorHistory) -> Result<()> {
+        let _ = (state, history);
+        Err(checkpoint::unsupported(self.name()))
     }
 }
 

@@ -5,8 +5,8 @@ use std::sync::Arc;
 
 use super::newton::{NewtonSolver, StepEquation, solve_mass};
 use super::{
-    DivergenceGuard, Integrator, IntegratorOptions, InternalForce, LinearSystem, Mass, NewtonStats,
-    State, check_time_step,
+    DivergenceGuard, Integrator, IntegratorHistory, IntegratorOptions, InternalForce, LinearSystem,
+    Mass, NewtonStats, State, check_time_step,
 };
 use crate::error::Result;
 use crate::linear_solver::LinearSolver;
@@ -301,5 +301,36 @@ impl Integrator for Newmark {
 
     fn newton_stats(&self) -> Option<NewtonStats> {
         self.newton.as_ref().map(NewtonSolver::stats)
+    }
+
+    /// The guard, Newton's counts, and the acceleration when it belongs to the state the
+    /// integrator left (after a step; before the first one it is computed from the equation
+    /// of motion, as on a fresh start).
+    fn history(&self) -> Result<IntegratorHistory> {
+        Ok(IntegratorHistory {
+            method: self.name().into(),
+            guard: self.guard,
+            acceleration: self
+                .acceleration_of
+                .is_some()
+                .then(|| self.acceleration.clone()),
+            newton: self.newton_stats(),
+        })
+    }
+
+    fn restore(&mut self, state: &State, history: &IntegratorHistory) -> Result<()> {
+        history.check(self.name(), self.system.free_count(), state)?;
+        self.guard = history.guard;
+        match &history.acceleration {
+            Some(a) => {
+                self.acceleration.copy_from_slice(a);
+                self.acceleration_of = Some((state.steps, state.time));
+            }
+            None => self.acceleration_of = None,
+        }
+        if let (Some(newton), Some(stats)) = (self.newton.as_mut(), history.newton) {
+            newton.set_stats(stats);
+        }
+        Ok(())
     }
 }

@@ -163,6 +163,11 @@ impl NewtonSolver {
         self.stats
     }
 
+    /// Sets the counts (a run restored from a checkpoint continues its counts).
+    pub fn set_stats(&mut self, stats: NewtonStats) {
+        self.stats = stats;
+    }
+
     /// f + f_int(u) − C(u)·v into `out` (C = αM + βK_T(u), K_T projected): the force that
     /// accelerates the state (u, v), for explicit steps and Newmark's initial acceleration.
     pub fn net_force(

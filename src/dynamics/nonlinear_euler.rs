@@ -10,8 +10,8 @@ use std::sync::Arc;
 use nalgebra::Vector3;
 
 use super::{
-    BackwardEuler, Energy, Integrator, IntegratorOptions, InternalForce, LinearSystem, MassKind,
-    NewtonStats, NonlinearForce, Rayleigh, State, check_time_step,
+    BackwardEuler, Energy, Integrator, IntegratorHistory, IntegratorOptions, InternalForce,
+    LinearSystem, MassKind, NewtonStats, NonlinearForce, Rayleigh, State, check_time_step,
 };
 use crate::constraints::{Constraints, DofMap};
 use crate::error::{Error, Result};
@@ -147,7 +147,29 @@ impl NonlinearBackwardEuler {
     /// energy runs away (the same [`DivergenceGuard`](super::DivergenceGuard) as the linear
     /// integrators) or Newton does not converge.
     pub fn step(&mut self, state: &mut State) -> Result<()> {
-        let integrator = match &mut self.integrator {
+        self.integrator()?.step(state)
+    }
+
+    /// What the method carries between steps (see [`Integrator::history`]): for a
+    /// [`Checkpoint`](super::Checkpoint) with the state.
+    pub fn history(&self) -> Result<IntegratorHistory> {
+        match &self.integrator {
+            Some(integrator) => integrator.history(),
+            None => Ok(IntegratorHistory {
+                method: "backward-euler".into(),
+                ..IntegratorHistory::default()
+            }),
+        }
+    }
+
+    /// Continues from `state` with the `history` taken there (see [`Integrator::restore`]).
+    pub fn restore(&mut self, state: &State, history: &IntegratorHistory) -> Result<()> {
+        self.integrator()?.restore(state, history)
+    }
+
+    /// The wrapped integrator, built on first use with `options`.
+    fn integrator(&mut self) -> Result<&mut BackwardEuler> {
+        Ok(match &mut self.integrator {
             Some(integrator) => integrator,
             none => none.insert(BackwardEuler::with_force(
                 Arc::clone(&self.system),
@@ -155,7 +177,6 @@ impl NonlinearBackwardEuler {
                 self.dt,
                 self.options,
             )?),
-        };
-        integrator.step(state)
+        })
     }
 }

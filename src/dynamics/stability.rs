@@ -274,6 +274,33 @@ impl DivergenceGuard {
         }
     }
 
+    /// The energies of the state the guard was set up from, and the factor over them (plus the
+    /// loads' work) that counts as a divergence (∞ for [`finite_only`](Self::finite_only)):
+    /// what a [checkpoint](super::Checkpoint) stores to rebuild the same guard.
+    pub fn reference(&self) -> (Energy, f64) {
+        (self.start, self.factor)
+    }
+
+    /// The guard of [`reference`](Self::reference) `(start, factor)`: as it was when the
+    /// checkpoint was taken. [`Error::InvalidParameter`] unless the factor is > 1 (∞ allowed)
+    /// and the energies are finite.
+    pub fn from_reference(start: Energy, factor: f64) -> Result<Self> {
+        let energies = [
+            start.kinetic,
+            start.elastic,
+            start.gravity_potential,
+            start.load_potential,
+        ];
+        if factor.is_nan() || factor <= 1.0 || energies.iter().any(|e| !e.is_finite()) {
+            return Err(Error::invalid_parameter(
+                "divergence guard",
+                format!("factor {factor:e}, energies {energies:?}"),
+                "the factor must be > 1 and the energies finite",
+            ));
+        }
+        Ok(DivergenceGuard { start, factor })
+    }
+
     /// Checks `state` with its energies `energy`; `Err(Diverged)` names the step and time.
     pub fn check(&self, state: &State, energy: &Energy) -> Result<()> {
         state.ensure_finite("")?;

@@ -88,6 +88,63 @@ impl CsvSeries {
         Ok(series)
     }
 
+    /// Reopens the CSV file at `path`, written by a series of these `columns`, to continue it:
+    /// keeps its header and first `rows` rows, cuts everything after them (rows a stopped run
+    /// wrote later, or a partial last line) and appends from there. Errors (naming the file):
+    /// it cannot be read, its header is not these columns, or it has fewer than `rows` complete
+    /// rows.
+    pub fn reopen(path: impl Into<PathBuf>, columns: Vec<String>, rows: usize) -> Result<Self> {
+        let path = path.into();
+        let io_error = |source| Error::Io {
+            path: path.clone(),
+            source,
+        };
+        let text = std::fs::read(&path).map_err(io_error)?;
+        let header: Vec<String> = columns.iter().map(|c| csv_field(c)).collect();
+        let header = format!("{}\n", header.join(","));
+        let parse_error = |line, message: String| Error::Parse {
+            path: path.clone(),
+            line,
+            message,
+        };
+        if !text.starts_with(header.as_bytes()) {
+            return Err(parse_error(
+                1,
+                format!(
+                    "the header is not the run's columns ({})",
+                    header.trim_end()
+                ),
+            ));
+        }
+        // The byte after the `rows`-th complete row.
+        let mut end = header.len();
+        for row in 0..rows {
+            match text[end..].iter().position(|&b| b == b'\n') {
+                Some(n) => end += n + 1,
+                None => {
+                    return Err(parse_error(
+                        row + 2,
+                        format!("{row} complete rows, {rows} needed"),
+                    ));
+                }
+            }
+        }
+        let file = std::fs::OpenOptions::new()
+            .write(true)
+            .open(&path)
+            .map_err(io_error)?;
+        file.set_len(end as u64).map_err(io_error)?;
+        let mut file = file;
+        std::io::Seek::seek(&mut file, std::io::SeekFrom::End(0)).map_err(io_error)?;
+        Ok(CsvSeries {
+            path,
+            columns,
+            file: Some(file),
+            buffer: Vec::with_capacity(CSV_BUFFER_BYTES),
+            rows,
+        })
+    }
+
     /// The file path.
     pub fn path(&self) -> &Path {
         &self.path
@@ -227,6 +284,31 @@ mod tests {
         }
         assert_eq!(text.lines().count(), rows + 1);
         assert!(text.ends_with('\n'));
+        let _ = std::fs::remove_file(&path);
+    }
+
+    /// A reopened series keeps the rows asked for, drops the rest (a partial line too) and
+    /// continues after them; a header of other columns or too few rows are refused.
+    #[test]
+    fn a_reopened_series_keeps_its_first_rows_and_continues() {
+        let path =
+            std::env::temp_dir().join(format!("tetfem-csv-reopen-{}.csv", std::process::id()));
+        let columns = || vec!["step".to_string(), "x".to_string()];
+        std::fs::write(&path, "step,x\n0,1e0\n1,2e0\n2,3e0\n3,4").unwrap();
+        let mut csv = CsvSeries::reopen(&path, columns(), 2).unwrap();
+        assert_eq!(csv.row_count(), 2);
+        csv.push(&[2.0, 5.0]).unwrap();
+        csv.finish().unwrap();
+        let text = std::fs::read_to_string(&path).unwrap();
+        assert_eq!(text, "step,x\n0,1e0\n1,2e0\n2e0,5e0\n");
+        let too_many = CsvSeries::reopen(&path, columns(), 4)
+            .unwrap_err()
+            .to_string();
+        assert!(too_many.contains("3 complete rows, 4 needed"), "{too_many}");
+        let other = CsvSeries::reopen(&path, vec!["t".into()], 1)
+            .unwrap_err()
+            .to_string();
+        assert!(other.contains(":1: the header"), "{other}");
         let _ = std::fs::remove_file(&path);
     }
 

@@ -26,6 +26,47 @@ impl PvdCollection {
         }
     }
 
+    /// Reads a collection this type wrote (one `<DataSet timestep=".." .. file=".."/>` line per
+    /// frame), to continue it. Errors: the file cannot be read ([`Error::Io`]), a frame line
+    /// without a readable time or file ([`Error::Parse`] naming its line).
+    pub fn read(path: impl Into<PathBuf>) -> Result<Self> {
+        let path = path.into();
+        let text = std::fs::read_to_string(&path).map_err(|source| Error::Io {
+            path: path.clone(),
+            source,
+        })?;
+        let mut frames = Vec::new();
+        for (i, line) in text.lines().enumerate() {
+            if !line.trim_start().starts_with("<DataSet") {
+                continue;
+            }
+            let frame = attribute(line, "timestep")
+                .and_then(|t| t.parse::<f64>().ok())
+                .zip(attribute(line, "file").map(xml_unescape));
+            match frame {
+                Some(frame) => frames.push(frame),
+                None => {
+                    return Err(Error::Parse {
+                        path,
+                        line: i + 1,
+                        message: "a DataSet without a numeric timestep and a file".into(),
+                    });
+                }
+            }
+        }
+        Ok(PvdCollection { path, frames })
+    }
+
+    /// Keeps the frames for which `keep(time, file)` holds (in order), returns the files of the
+    /// others; the file is rewritten on the next [`push`](Self::push) or [`write`](Self::write).
+    pub fn retain(&mut self, mut keep: impl FnMut(f64, &str) -> bool) -> Vec<String> {
+        let (kept, dropped): (Vec<_>, Vec<_>) = std::mem::take(&mut self.frames)
+            .into_iter()
+            .partition(|(t, f)| keep(*t, f));
+        self.frames = kept;
+        dropped.into_iter().map(|(_, f)| f).collect()
+    }
+
     /// The collection's path.
     pub fn path(&self) -> &Path {
         &self.path
@@ -80,4 +121,18 @@ fn xml_attribute(s: &str) -> String {
         .replace('<', "&lt;")
         .replace('>', "&gt;")
         .replace('"', "&quot;")
+}
+
+fn xml_unescape(s: &str) -> String {
+    s.replace("&quot;", "\"")
+        .replace("&gt;", ">")
+        .replace("&lt;", "<")
+        .replace("&amp;", "&")
+}
+
+/// The value of `name="…"` in an XML line (as [`xml_attribute`] wrote it: no `"` inside).
+fn attribute<'a>(line: &'a str, name: &str) -> Option<&'a str> {
+    let start = line.find(&format!(" {name}=\""))? + name.len() + 3;
+    let end = line[start..].find('"')?;
+    Some(&line[start..start + end])
 }

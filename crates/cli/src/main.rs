@@ -17,8 +17,8 @@ use tetfem_cli::info::mesh_info;
 use tetfem_cli::scene::{
     Analysis, DynamicOutputs, DynamicOverrides, DynamicRun, DynamicSetup, DynamicSummary,
     EngineKind, ModalSummary, OutputSettings, RunLength, RunOptions, RunSummary, Scene, TimeStep,
-    VtuEncoding, parse_petsc_options, run_dynamic, run_dynamic_scene, run_modal_scene,
-    run_static_with,
+    VtuEncoding, parse_petsc_options, resume_dynamic_scene, run_dynamic, run_dynamic_scene,
+    run_modal_scene, run_static_with,
 };
 use tetfem_fixtures::cantilever::Cantilever;
 
@@ -175,6 +175,11 @@ struct RunArgs {
     /// Dynamic scenes: run this many steps instead of the scene's duration.
     #[arg(long, value_parser = clap::value_parser!(u64).range(1..))]
     steps: Option<u64>,
+    /// Dynamic scenes: continue from the checkpoint the last run wrote in the output folder
+    /// (`[output] checkpoint_every`) to the scene's end, as one uninterrupted run would; the
+    /// scene may differ only in `analysis.duration` and `output.checkpoint_every`.
+    #[arg(long)]
+    resume: bool,
     /// What solves the scene, `tetfem` or `petsc` (overrides the scene's `engine`). `petsc`
     /// hands the scene to the `tetfem-petsc` binary (run under `mpirun -n N` for N ranks).
     #[arg(long, value_parser = parse_engine)]
@@ -862,6 +867,7 @@ fn refuse_dynamic_options(args: &RunArgs, png_refused: bool, why: &str) -> tetfe
         ("--dt", args.dt.is_some()),
         ("--duration", args.duration.is_some()),
         ("--steps", args.steps.is_some()),
+        ("--resume", args.resume),
         ("--png", png_refused),
     ]
     .iter()
@@ -967,9 +973,11 @@ fn run_scene(args: &RunArgs) -> tetfem::Result<()> {
             };
             handle_ctrl_c();
             let mut progress = Progress::new(args.quiet);
-            let summary = run_dynamic_scene(&scene, &overrides, true, args.png, &mut |d, t| {
-                progress.update(d, t)
-            });
+            let mut report = |d, t| progress.update(d, t);
+            let summary = match args.resume {
+                true => resume_dynamic_scene(&scene, &overrides, args.png, &mut report),
+                false => run_dynamic_scene(&scene, &overrides, true, args.png, &mut report),
+            };
             drop(progress);
             let summary = summary?;
             print_warnings(&summary.warnings);

@@ -10,6 +10,7 @@ use std::time::Instant;
 use nalgebra::Vector3;
 
 use super::element::as_linear;
+use super::restart::{self, Restart};
 use super::{
     Analysis, BuiltScene, DynamicSettings, OutputSettings, PngField, Probe, Scene, SceneElement,
 };
@@ -499,6 +500,9 @@ pub struct DynamicSummary {
     /// resolves the lowest mode the load excites, and the method's decay per period there
     /// (a warning past [`DECAY_WARNING`](tetfem::adequacy::time_step::DECAY_WARNING)).
     pub step_resolution: Option<tetfem::adequacy::time_step::StepResolution>,
+    /// The step of the checkpoint a resumed run continued from (`None`: a run from the
+    /// start). `steps`, `frames`, the probes' ranges and the Newton counts are the whole run's.
+    pub resumed_from_step: Option<usize>,
 }
 
 /// Free DOFs up to which a backward-Euler run checks its step against the lowest excited mode
@@ -560,7 +564,7 @@ pub fn run_dynamic<E: SceneElement>(
         Some(o) => Some(OutputLock::acquire(&o.settings.directory)?),
         None => None,
     };
-    run_dynamic_locked(setup, run, outputs, lock, progress)
+    run_dynamic_locked(setup, run, outputs, lock, None, progress)
 }
 
 /// [`run_dynamic`] once the output folder's lock (if any) is held.
@@ -569,6 +573,7 @@ fn run_dynamic_locked<E: SceneElement>(
     run: &DynamicRun,
     outputs: Option<&DynamicOutputs>,
     lock: Option<OutputLock>,
+    restart: Option<Restart>,
     progress: &mut dyn FnMut(usize, usize) -> ControlFlow<()>,
 ) -> Result<DynamicSummary> {
     let clock = Instant::now();
@@ -591,8 +596,9 @@ fn run_dynamic_locked<E: SceneElement>(
     let mesh = &setup.mesh;
     let mut state = setup.initial.clone();
     let initial_energy = setup.force.energy(system, &state)?;
+    let resumed_at = restart.as_ref().and_then(Restart::resumed_at);
     let mut writer = match outputs {
-        Some(o) => Some(FrameWriter::new(setup, run, o, steps, dt)?),
+        Some(o) => Some(FrameWriter::new(setup, run, o, steps, dt, resumed_at)?),
         None => None,
     };
     let mut probes: Vec<ProbeRange> = setup
@@ -605,11 +611,20 @@ fn run_dynamic_locked<E: SceneElement>(
             max: [f64::NEG_INFINITY; 3],
         })
         .collect();
+    // A resume continues from the checkpoint's state, integrator history and probe extremes.
+    let first = resumed_at.unwrap_or(0);
+    if let Some(resumed) = restart
+        .as_ref()
+        .map(|r| r.restore(integrator.as_mut(), &mut probes))
+    {
+        state = resumed?.unwrap_or(state);
+    }
     let mut output_seconds = 0.0;
     let mut reactions = setup.reactions.clone();
     let mut record = |state: &State,
                       wall: f64,
                       writer: &mut Option<FrameWriter>,
+                      probes: &mut [ProbeRange],
                       last: bool|
      -> Result<Energy> {
         let clock = Instant::now();
@@ -633,9 +648,12 @@ fn run_dynamic_locked<E: SceneElement>(
         output_seconds += clock.elapsed().as_secs_f64();
         Ok(energy)
     };
-    let mut final_energy = record(&state, 0.0, &mut writer, false)?;
+    let mut final_energy = match resumed_at {
+        None => record(&state, 0.0, &mut writer, &mut probes, false)?,
+        Some(_) => setup.force.energy(system, &state)?,
+    };
     let (mut first_step, mut step_total) = (0.0, 0.0);
-    for step in 1..=steps {
+    for step in first + 1..=steps {
         let clock = Instant::now();
         let result = integrator.step(&mut state);
         let wall = clock.elapsed().as_secs_f64();
@@ -645,12 +663,23 @@ fn run_dynamic_locked<E: SceneElement>(
             }
             return Err(error);
         }
-        if step == 1 {
+        if step == first + 1 {
             first_step = wall;
         }
         step_total += wall;
-        final_energy = record(&state, wall, &mut writer, step == steps)?;
-        if progress(step, steps).is_break() && step < steps {
+        final_energy = record(&state, wall, &mut writer, &mut probes, step == steps)?;
+        let stop = progress(step, steps).is_break() && step < steps;
+        // The checkpoint after the CSV rows up to it are written out (a resume keeps them).
+        if let Some(r) = restart
+            .as_ref()
+            .filter(|r| r.due(step) || (stop && r.enabled()))
+        {
+            if let Some(w) = &mut writer {
+                w.finish_partial()?;
+            }
+            r.write(integrator.as_ref(), &state, &probes)?;
+        }
+        if stop {
             // Stop at this step boundary: every frame written so far is complete and listed
             // in the .pvd (rewritten after each frame); the CSV gets the rows up to here.
             let frames = writer.as_ref().map_or(0, |w| w.frames);
@@ -740,8 +769,8 @@ fn run_dynamic_locked<E: SceneElement>(
         end_time: step_time((setup.initial.time, setup.initial.steps), dt, &state),
         setup_seconds,
         first_step_seconds: first_step,
-        mean_step_seconds: if steps > 1 {
-            (step_total - first_step) / (steps - 1) as f64
+        mean_step_seconds: if steps - first > 1 {
+            (step_total - first_step) / (steps - first - 1) as f64
         } else {
             first_step
         },
@@ -759,7 +788,11 @@ fn run_dynamic_locked<E: SceneElement>(
         estimate_seconds,
         deformation,
         step_resolution,
+        resumed_from_step: resumed_at,
     };
+    if let Some(path) = restart.as_ref().and_then(Restart::written) {
+        summary.files.push(path);
+    }
     if let Some(o) = outputs {
         let json = o
             .settings
@@ -812,6 +845,7 @@ impl FrameWriter {
         outputs: &DynamicOutputs,
         steps: usize,
         dt: f64,
+        resumed_at: Option<usize>,
     ) -> Result<Self> {
         let s = &outputs.settings;
         std::fs::create_dir_all(&s.directory).map_err(|source| Error::Io {
@@ -839,10 +873,12 @@ impl FrameWriter {
                 columns.push(format!("{e}_J"));
             }
             columns.extend(setup.reactions.columns());
-            Some(CsvSeries::new(
-                s.directory.join(format!("{}.csv", s.stem)),
-                columns,
-            )?)
+            let path = s.directory.join(format!("{}.csv", s.stem));
+            Some(match resumed_at {
+                // The rows of steps 0..=k, one per step.
+                Some(k) => CsvSeries::reopen(path, columns, k + 1)?,
+                None => CsvSeries::new(path, columns)?,
+            })
         } else {
             None
         };
@@ -851,19 +887,34 @@ impl FrameWriter {
         } else {
             None
         };
+        let start = (setup.initial.time, setup.initial.steps);
+        let pvd_path = s.directory.join(format!("{}.pvd", s.stem));
+        let pvd = match (s.vtu, resumed_at) {
+            (false, _) => None,
+            (true, None) => Some(PvdCollection::new(pvd_path)),
+            // The frames up to the checkpoint, at its time only where its step is on the grid.
+            (true, Some(k)) => Some(restart::truncate_frames(
+                &pvd_path,
+                start.0 + k.saturating_sub(start.1) as f64 * dt,
+                k.is_multiple_of(s.every),
+            )?),
+        };
+        let files: Vec<PathBuf> = pvd
+            .iter()
+            .flat_map(|p| p.frames())
+            .map(|(_, f)| s.directory.join(f))
+            .collect();
         Ok(FrameWriter {
             settings: s.clone(),
             png,
             title: run.title.clone(),
             every: s.every,
-            frames: 0,
-            pvd: s
-                .vtu
-                .then(|| PvdCollection::new(s.directory.join(format!("{}.pvd", s.stem)))),
+            frames: files.len(),
+            pvd,
             csv,
-            files: Vec::new(),
+            files,
             digits: steps.to_string().len().max(4),
-            start: (setup.initial.time, setup.initial.steps),
+            start,
             dt,
         })
     }
@@ -1124,6 +1175,39 @@ pub fn run_dynamic_scene(
     force_png: bool,
     progress: &mut dyn FnMut(usize, usize) -> ControlFlow<()>,
 ) -> Result<DynamicSummary> {
+    run_dynamic_scene_as(scene, overrides, write_files, false, force_png, progress)
+}
+
+/// Resumes a dynamic scene from the checkpoint its last run left in its output folder
+/// (`[output] checkpoint_every`, see [`checkpoint_path`](super::checkpoint_path)) and runs it
+/// to its end, `analysis.duration` (or the overrides' length), counted from time 0: the
+/// outputs end as those of one uninterrupted run, with the same bits (the CSV's wall-time
+/// column aside). The CSV keeps its rows and the `.pvd` its frames up to the checkpoint.
+///
+/// Errors, before the system is built: no checkpoint (naming the path looked for), a damaged
+/// one, a scene that differs from the checkpoint's in any key but [`RESUMABLE_KEYS`]
+/// (naming the first such key and its line); then a mesh that differs, another method or dt
+/// (through the overrides), or a checkpoint at or past the run's end (naming the length key).
+///
+/// [`RESUMABLE_KEYS`]: super::RESUMABLE_KEYS
+pub fn resume_dynamic_scene(
+    scene: &Scene,
+    overrides: &DynamicOverrides,
+    force_png: bool,
+    progress: &mut dyn FnMut(usize, usize) -> ControlFlow<()>,
+) -> Result<DynamicSummary> {
+    run_dynamic_scene_as(scene, overrides, true, true, force_png, progress)
+}
+
+/// [`run_dynamic_scene`], or with `resume` [`resume_dynamic_scene`].
+fn run_dynamic_scene_as(
+    scene: &Scene,
+    overrides: &DynamicOverrides,
+    write_files: bool,
+    resume: bool,
+    force_png: bool,
+    progress: &mut dyn FnMut(usize, usize) -> ControlFlow<()>,
+) -> Result<DynamicSummary> {
     scene.require_tetfem_engine()?;
     let Analysis::Dynamic(settings) = scene.analysis() else {
         return Err(Error::Scene {
@@ -1146,12 +1230,16 @@ pub fn run_dynamic_scene(
         true => Some(OutputLock::acquire(&scene.output().directory)?),
         false => None,
     };
+    let resume = match resume {
+        true => Some(restart::checkpoint_for_resume(scene)?),
+        false => None,
+    };
     match scene.order() {
         2 => run_dynamic_scene_on::<Tet10>(
-            scene, settings, overrides, dt, length, lock, force_png, progress,
+            scene, settings, overrides, dt, length, lock, resume, force_png, progress,
         ),
         _ => run_dynamic_scene_on::<Tet4>(
-            scene, settings, overrides, dt, length, lock, force_png, progress,
+            scene, settings, overrides, dt, length, lock, resume, force_png, progress,
         ),
     }
 }
@@ -1166,6 +1254,7 @@ fn run_dynamic_scene_on<E: SceneElement>(
     dt: TimeStep,
     length: RunLength,
     lock: Option<OutputLock>,
+    resume: Option<tetfem::dynamics::Checkpoint>,
     force_png: bool,
     progress: &mut dyn FnMut(usize, usize) -> ControlFlow<()>,
 ) -> Result<DynamicSummary> {
@@ -1173,6 +1262,14 @@ fn run_dynamic_scene_on<E: SceneElement>(
     let mut setup =
         DynamicSetup::from_scene(scene.build_as::<E>()?, settings)?.with_model(scene.model())?;
     setup.linear_method = scene.spec().linear_method();
+    let restart = match write_files {
+        true => Some(Restart::new(scene, &setup.mesh, resume)?),
+        false => None,
+    };
+    if let Some(at) = restart.as_ref().and_then(Restart::resumed_at) {
+        let steps = length.steps(setup.resolve(dt)?)?;
+        restart::check_remaining(scene, at, steps, overrides.length.is_some())?;
+    }
     let method = overrides.method.unwrap_or(settings.method);
     let run = DynamicRun {
         title: scene.title(),
@@ -1185,7 +1282,7 @@ fn run_dynamic_scene_on<E: SceneElement>(
         settings: scene.output().clone(),
         force_png,
     });
-    run_dynamic_locked(&setup, &run, outputs.as_ref(), lock, progress)
+    run_dynamic_locked(&setup, &run, outputs.as_ref(), lock, restart, progress)
 }
 
 /// The support reactions of a [`released_system`]: gravity its only load.

@@ -16,6 +16,7 @@ mod estimate;
 mod modal;
 mod obstacles;
 mod reactions;
+mod restart;
 mod run;
 mod spec;
 mod units;
@@ -28,7 +29,8 @@ pub use build::{BuiltScene, Probe};
 pub use critical::{CriticalStepReport, critical_step_of};
 pub use dynamic::{
     DynamicOutputs, DynamicOverrides, DynamicRun, DynamicSetup, DynamicSummary, EnergyTerms,
-    MAX_STEPS, ProbeRange, RunLength, TimeStep, run_dynamic, run_dynamic_scene,
+    MAX_STEPS, ProbeRange, RunLength, TimeStep, resume_dynamic_scene, run_dynamic,
+    run_dynamic_scene,
 };
 pub use dynamic::{STEP_CHECK_DOFS, STEP_CHECK_MODES};
 pub use element::SceneElement;
@@ -36,6 +38,7 @@ pub use engine::{EngineKind, EngineSettings, PetscSolver, PetscSpec, parse_petsc
 pub use estimate::{ESTIMATED_ERROR_DEFINITION, EstimatedError, estimated_error_of};
 pub use modal::{ModalSummary, ModeRow, run_modal_scene};
 pub use reactions::{DynamicReactions, ReactionsAt};
+pub use restart::{RESUMABLE_KEYS, checkpoint_path};
 pub use run::{
     ContactForceRow, ProbeValue, ReactionRow, RunOptions, RunSummary, SolvePhases, run_static,
     run_static_with,
@@ -180,6 +183,7 @@ png_size = [960, 600]               # default [960, 600]
 deformation_scale = 0.0             # 0 (default): automatic
 critical_step = false               # static and modal: also report the explicit critical step (s); default false
 vtu_format = "binary"               # default (appended raw binary); or "ascii"
+checkpoint_every = 0                # dynamic: write <stem>_checkpoint.bin every N steps (and at Ctrl-C) for `tetfem run --resume`; 0 (default): none
 "#;
 
 /// The settings of a modal scene, validated.
@@ -255,6 +259,8 @@ pub struct OutputSettings {
     pub critical_step: bool,
     /// Encoding of the `.vtu` files.
     pub vtu_format: VtuEncoding,
+    /// Dynamic: write a checkpoint every this many steps for a resume (0: none).
+    pub checkpoint_every: usize,
 }
 
 /// A parsed and checked scene file.
@@ -335,6 +341,7 @@ impl Scene {
                 deformation_scale: 0.0,
                 critical_step: false,
                 vtu_format: VtuEncoding::Binary,
+                checkpoint_every: 0,
             },
             obstacles: Vec::new(),
             engine: EngineSettings::default(),
@@ -352,6 +359,11 @@ impl Scene {
     /// The schema-level content.
     pub fn spec(&self) -> &SceneSpec {
         &self.spec
+    }
+
+    /// The scene's text, as read.
+    pub fn text(&self) -> &str {
+        &self.text
     }
 
     /// The title (the `title` key or the file stem).
@@ -632,6 +644,16 @@ impl Scene {
         if every == 0 {
             return Err(self.error("output.every", &span, "must be at least 1"));
         }
+        if o.checkpoint_every.is_some_and(|n| n > 0)
+            && !matches!(self.analysis, Analysis::Dynamic(_))
+        {
+            return Err(Error::Scene {
+                source_name: self.source_name.clone(),
+                key: "output.checkpoint_every".into(),
+                line: restart::key_line(&self.text, "output.checkpoint_every").unwrap_or(0),
+                message: "only a dynamic analysis writes checkpoints; remove the key".into(),
+            });
+        }
         let png_size = o.png_size.unwrap_or([960, 600]);
         if png_size[0] < 200 || png_size[1] < 150 || png_size[0] > 8192 || png_size[1] > 8192 {
             return Err(self.error(
@@ -660,6 +682,7 @@ impl Scene {
             deformation_scale,
             critical_step: o.critical_step.unwrap_or(false),
             vtu_format: o.vtu_format.unwrap_or_default(),
+            checkpoint_every: o.checkpoint_every.unwrap_or(0),
         })
     }
 }

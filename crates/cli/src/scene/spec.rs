@@ -648,6 +648,10 @@ pub struct OutputSpec {
     /// Encoding of every `.vtu` written: `"binary"` (default, appended raw) or `"ascii"`.
     #[serde(default)]
     pub vtu_format: Option<VtuEncoding>,
+    /// Dynamic: write `<stem>_checkpoint.bin` every this many steps (and at an interrupt),
+    /// for `tetfem run --resume` (default 0: none; a non-negative integer).
+    #[serde(default)]
+    pub checkpoint_every: Option<usize>,
 }
 
 /// The encoding of the `.vtu` files (`[output] vtu_format`).
