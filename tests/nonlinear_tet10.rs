@@ -136,7 +136,7 @@ fn the_tangent_is_the_derivative_of_the_force_and_the_force_of_the_energy() {
 fn a_homogeneous_large_deformation_is_reproduced_exactly() {
     let mesh = quadratic_box([1.0, 1.0, 1.0], [2, 2, 2]);
     let material = steel();
-    // Stretch, shear and a 40° rotation: strains of 10–20 %.
+    // Stretch, shear and a 41° rotation: strains of 10–20 %.
     let rotation = Rotation3::from_scaled_axis(Vector3::new(0.0, 0.4, 0.6)).into_inner();
     let f = rotation * Matrix3::new(1.2, 0.1, 0.0, 0.0, 0.9, 0.15, 0.05, 0.0, 1.1);
     let exact = affine_displacement(&mesh, &f, Vector3::zeros());

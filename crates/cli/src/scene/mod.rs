@@ -51,7 +51,8 @@ title = "reference"                 # default: the scene file's stem
 
 [mesh]
 order = 1                           # default 1: 4-node tets; 2: 10-node (quadratic) tets, for
-                                    # [mesh.box] meshes and the linear model (static, dynamic, modal)
+                                    # [mesh.box] meshes: every model (static, dynamic; nonlinear
+                                    # ones at 4 quadrature points per tet), modal; no obstacles
 
 [mesh.box]                          # or [mesh.gmsh] / [mesh.tetgen] with: file = "part.msh"
 min = [0.0, 0.0, 0.0]               # default [0, 0, 0]

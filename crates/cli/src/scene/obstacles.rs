@@ -20,14 +20,6 @@ impl Scene {
             let o = spanned.get_ref();
             let key = |field: &str| format!("obstacles[{i}].{field}");
             let err = |field: &str, msg: String| self.error(&key(field), &span, msg);
-            if self.order == 2 {
-                return Err(err(
-                    "kind",
-                    "obstacles (contact) run on 4-node tets only: use mesh.order = 1 \
-                     (the contact barrier acts on the corner nodes' surface of a linear mesh)"
-                        .into(),
-                ));
-            }
             if let Some(analysis) = &self.spec.analysis {
                 let a = analysis.get_ref();
                 if a.kind == AnalysisKind::Modal {
