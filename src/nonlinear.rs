@@ -9,8 +9,8 @@ use crate::error::{Error, Result};
 use crate::linear_solver::{LinearMethod, LinearSolver, SolverOptions};
 use crate::loads::Loads;
 use crate::mesh::TetMesh;
-use crate::model::{ModelElement, TetModels};
 use crate::model::assemble::{energy, internal_force, refill_tangent};
+use crate::model::{ModelElement, TetModels};
 use crate::problem::Problem;
 
 /// Settings of [`solve_nonlinear_static`].

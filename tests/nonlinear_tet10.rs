@@ -24,13 +24,17 @@ fn steel() -> Material {
 
 /// A box of `cells` with the five-tet split, as 10-node tets.
 fn quadratic_box(max: [f64; 3], cells: [usize; 3]) -> TetMesh<Tet10> {
-    let linear = TetMesh::box_grid(Vector3::zeros(), Vector3::from(max), cells, BoxSplit::Five)
-        .unwrap();
+    let linear =
+        TetMesh::box_grid(Vector3::zeros(), Vector3::from(max), cells, BoxSplit::Five).unwrap();
     TetMesh::<Tet10>::from_linear(&linear).unwrap()
 }
 
 /// u = (F − I)·X + c at every node.
-fn affine_displacement<C: CellType>(mesh: &TetMesh<C>, f: &Matrix3<f64>, c: Vector3<f64>) -> Vec<f64> {
+fn affine_displacement<C: CellType>(
+    mesh: &TetMesh<C>,
+    f: &Matrix3<f64>,
+    c: Vector3<f64>,
+) -> Vec<f64> {
     mesh.nodes()
         .iter()
         .flat_map(|x| {
@@ -72,9 +76,17 @@ fn a_rigid_motion_gives_zero_force_and_stress() {
         // Round-off: F = I + ∇u has entries of order one, and the models' stresses are O(E)
         // terms cancelling to zero; 1e-12 leaves ~100 ulps of room.
         assert!(max_abs(&force) <= 1e-12 * force_scale, "{}", kind.name());
-        assert!(worst_stress <= 1e-12 * material.youngs_modulus(), "{}", kind.name());
+        assert!(
+            worst_stress <= 1e-12 * material.youngs_modulus(),
+            "{}",
+            kind.name()
+        );
         // The energy scale is E·V (V = 0.25).
-        assert!(e.abs() <= 1e-12 * material.youngs_modulus() * 0.25, "{}", kind.name());
+        assert!(
+            e.abs() <= 1e-12 * material.youngs_modulus() * 0.25,
+            "{}",
+            kind.name()
+        );
     }
 }
 
@@ -158,15 +170,22 @@ fn a_homogeneous_large_deformation_is_reproduced_exactly() {
         let model = kind.build(&material);
         // The exact field has zero interior residual (F is the same at every point).
         let force = internal_force(&mesh, &model, &exact).unwrap();
-        let interior_force: Vec<f64> =
-            interior.iter().flat_map(|&n| force[3 * n..3 * n + 3].to_vec()).collect();
+        let interior_force: Vec<f64> = interior
+            .iter()
+            .flat_map(|&n| force[3 * n..3 * n + 3].to_vec())
+            .collect();
         let scale = max_abs(&force);
         // Round-off of sums of O(scale) element forces.
         assert!(max_abs(&interior_force) <= 1e-12 * scale, "{}", kind.name());
         // And Newton from rest finds it.
-        let report =
-            solve_nonlinear_static(&mesh, &model, &constraints, &loads, NewtonOptions::default())
-                .unwrap();
+        let report = solve_nonlinear_static(
+            &mesh,
+            &model,
+            &constraints,
+            &loads,
+            NewtonOptions::default(),
+        )
+        .unwrap();
         let error = interior
             .iter()
             .flat_map(|&n| (0..3).map(move |a| 3 * n + a))
@@ -196,7 +215,9 @@ struct Cantilever {
 fn cantilever(cells: [usize; 3]) -> Cantilever {
     let mesh = quadratic_box([4.0, 1.0, 1.0], cells);
     let mut constraints = Constraints::new(&mesh);
-    constraints.fix_nodes(&mesh.nodes_on_plane(0, 0.0, 1e-9)).unwrap();
+    constraints
+        .fix_nodes(&mesh.nodes_on_plane(0, 0.0, 1e-9))
+        .unwrap();
     let boundary = mesh.boundary_faces().unwrap();
     let tip = mesh.faces_on_plane(&boundary, 0, 4.0, 1e-9);
     let mut unit_load = Loads::new(&mesh);
@@ -279,7 +300,10 @@ fn the_linear_model_at_quadrature_points_is_linear_p2() {
     let model = ModelKind::Linear.build(&material);
     let u = bent_displacement(&mesh);
     refill_tangent(&mesh, &assembler, &model, &u, false, &mut tangent).unwrap();
-    let scale = stiffness.values().iter().fold(0.0_f64, |m, v| m.max(v.abs()));
+    let scale = stiffness
+        .values()
+        .iter()
+        .fold(0.0_f64, |m, v| m.max(v.abs()));
     let worst = stiffness
         .values()
         .iter()
@@ -318,7 +342,10 @@ fn a_cantilever_under_a_large_tip_load_converges_quadratically() {
         .unwrap();
         let last = report.residuals.last().unwrap();
         let tip = beam.mesh.nodes_on_plane(0, 4.0, 1e-9);
-        let deflection = tip.iter().map(|&n| report.displacement[3 * n + 2]).sum::<f64>()
+        let deflection = tip
+            .iter()
+            .map(|&n| report.displacement[3 * n + 2])
+            .sum::<f64>()
             / tip.len() as f64;
         println!(
             "{}: tip deflection {deflection:.4}, last step residuals {last:?}",
@@ -326,7 +353,11 @@ fn a_cantilever_under_a_large_tip_load_converges_quadratically() {
         );
         // A large deflection: over a quarter of the length (a tip turned by tens of degrees),
         // and below the linear 1.54 (the bent beam stiffens: its load turns towards its axis).
-        assert!(deflection < -1.0 && deflection > -1.54, "{}: {deflection}", kind.name());
+        assert!(
+            deflection < -1.0 && deflection > -1.54,
+            "{}: {deflection}",
+            kind.name()
+        );
         // Quadratic convergence: from every iterate of the last step with 1e-5 < rₖ/r₀ < 1e-2
         // (near the solution, and far enough above the round-off floor of the forces, ~1e-11
         // of r₀, for rₖ₊₁ to be measurable), rₖ₊₁/r₀ ≤ 1e2·(rₖ/r₀)²; linear convergence would
@@ -381,8 +412,18 @@ fn the_four_node_path_is_the_element_formulas() {
                 }
             }
         }
-        assert_eq!(internal_force(&linear, &model, &u).unwrap(), expected, "{}", kind.name());
+        assert_eq!(
+            internal_force(&linear, &model, &u).unwrap(),
+            expected,
+            "{}",
+            kind.name()
+        );
         // The energy is summed in chunks of 1024 tets: one chunk here, in tet order.
-        assert_eq!(energy(&linear, &model, &u).unwrap(), expected_energy, "{}", kind.name());
+        assert_eq!(
+            energy(&linear, &model, &u).unwrap(),
+            expected_energy,
+            "{}",
+            kind.name()
+        );
     }
 }

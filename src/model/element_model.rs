@@ -63,7 +63,11 @@ pub(crate) fn positions(mesh: &TetMesh, t: usize, u: &[f64]) -> [Vector3<f64>; 4
 impl ModelElement for Tet4 {
     #[inline]
     fn model_energy(model: &dyn ForceModel, mesh: &TetMesh, t: usize, u: &[f64]) -> f64 {
-        model.energy(&mesh.element_of(t), &mesh.positions_of(t), &positions(mesh, t, u))
+        model.energy(
+            &mesh.element_of(t),
+            &mesh.positions_of(t),
+            &positions(mesh, t, u),
+        )
     }
 
     #[inline]
@@ -74,7 +78,11 @@ impl ModelElement for Tet4 {
         u: &[f64],
         force: &mut [f64],
     ) {
-        let f = model.force(&mesh.element_of(t), &mesh.positions_of(t), &positions(mesh, t, u));
+        let f = model.force(
+            &mesh.element_of(t),
+            &mesh.positions_of(t),
+            &positions(mesh, t, u),
+        );
         for (i, &n) in mesh.tets()[t].iter().enumerate() {
             for a in 0..3 {
                 force[3 * n + a] += f[3 * i + a];
@@ -110,11 +118,17 @@ impl ModelElement for Tet4 {
         t: usize,
         u: &[f64],
     ) -> Matrix3<f64> {
-        model.cauchy_stress(&mesh.element_of(t), &mesh.positions_of(t), &positions(mesh, t, u))
+        model.cauchy_stress(
+            &mesh.element_of(t),
+            &mesh.positions_of(t),
+            &positions(mesh, t, u),
+        )
     }
 
     fn mean_green_strain(mesh: &TetMesh, t: usize, u: &[f64]) -> Matrix3<f64> {
-        let f = mesh.element_of(t).deformation_gradient(&positions(mesh, t, u));
+        let f = mesh
+            .element_of(t)
+            .deformation_gradient(&positions(mesh, t, u));
         (f.transpose() * f - Matrix3::identity()) * 0.5
     }
 }

@@ -36,7 +36,10 @@ pub(crate) fn tangent_of(dpiola: impl Fn(&Matrix3<f64>) -> Matrix3<f64>) -> Matr
     for c in 0..9 {
         let mut direction = Matrix3::zeros();
         direction[c] = 1.0;
-        a.set_column(c, &nalgebra::SVector::<f64, 9>::from_column_slice(dpiola(&direction).as_slice()));
+        a.set_column(
+            c,
+            &nalgebra::SVector::<f64, 9>::from_column_slice(dpiola(&direction).as_slice()),
+        );
     }
     a
 }

@@ -177,7 +177,11 @@ pub fn project_psd_of<const D: usize>(matrix: &SMatrix<f64, D, D>) -> SMatrix<f6
             return *matrix;
         }
     }
-    let eigen = SymmetricEigen::new(nalgebra::DMatrix::from_column_slice(D, D, matrix.as_slice()));
+    let eigen = SymmetricEigen::new(nalgebra::DMatrix::from_column_slice(
+        D,
+        D,
+        matrix.as_slice(),
+    ));
     if eigen.eigenvalues.iter().all(|&l| l >= 0.0) {
         return *matrix;
     }

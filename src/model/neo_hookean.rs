@@ -98,7 +98,10 @@ impl ForceModel for NeoHookean {
     }
 
     fn force(&self, tet: &Tet, _rest: &[Vector3<f64>; 4], x: &[Vector3<f64>; 4]) -> Vector12 {
-        piola_to_force(tet, &self.piola(&(rest_shape_matrix(x) * tet.rest_inverse())))
+        piola_to_force(
+            tet,
+            &self.piola(&(rest_shape_matrix(x) * tet.rest_inverse())),
+        )
     }
 
     fn tangent(&self, tet: &Tet, _rest: &[Vector3<f64>; 4], x: &[Vector3<f64>; 4]) -> Matrix12 {

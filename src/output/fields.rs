@@ -136,9 +136,7 @@ pub fn cell_model_strain<E: ModelElement>(
     Ok(linear_strains
         .into_iter()
         .enumerate()
-        .map(|(t, strain)| {
-            strain.unwrap_or_else(|| E::mean_green_strain(mesh, t, displacement))
-        })
+        .map(|(t, strain)| strain.unwrap_or_else(|| E::mean_green_strain(mesh, t, displacement)))
         .collect())
 }
 

@@ -62,7 +62,9 @@ fn no_files() -> RunOptions {
 
 #[test]
 fn p2_corotational_static_scene_runs_and_is_the_library_solve() {
-    let scene = parse(&cantilever("[analysis]\ntype = \"static\"\nmodel = \"corotational\"\n"));
+    let scene = parse(&cantilever(
+        "[analysis]\ntype = \"static\"\nmodel = \"corotational\"\n",
+    ));
     let summary = run_static_with(&scene, &no_files()).expect("P2 corotational scene");
     let tip = summary.probes[0].displacement;
 
@@ -87,9 +89,14 @@ fn p2_corotational_static_scene_runs_and_is_the_library_solve() {
         .add_total_force_on_faces(&mesh, &faces, Vector3::new(0.0, 0.0, -6000.0))
         .expect("load");
     let model = ModelKind::Corotational.build(&material);
-    let report =
-        solve_nonlinear_static(&mesh, &model, &constraints, &loads, NewtonOptions::default())
-            .expect("library Newton");
+    let report = solve_nonlinear_static(
+        &mesh,
+        &model,
+        &constraints,
+        &loads,
+        NewtonOptions::default(),
+    )
+    .expect("library Newton");
     let tip_nodes = mesh.nodes_on_plane(0, 4.0, 1e-9);
     let mut expected = Vector3::zeros();
     for &n in &tip_nodes {
@@ -105,8 +112,8 @@ fn p2_corotational_static_scene_runs_and_is_the_library_solve() {
     // The bent beam keeps its length: the chord from the root's centre to the tip's is shorter
     // than L = 4 (an arc), and not by more than 10 % at this deflection; the linear model's
     // tip would move straight down (chord √(4² + 1.54²) = 4.29).
-    let chord = (Vector3::new(4.0, 0.5, 0.5) + Vector3::from(tip) - Vector3::new(0.0, 0.5, 0.5))
-        .norm();
+    let chord =
+        (Vector3::new(4.0, 0.5, 0.5) + Vector3::from(tip) - Vector3::new(0.0, 0.5, 0.5)).norm();
     println!("chord {chord:.4}");
     assert!(chord < 4.0 && chord > 3.6, "chord {chord}");
     assert!(tip[2] < -1.0, "tip {tip:?}");
@@ -130,7 +137,10 @@ fn p2_models_agree_with_each_other_at_moderate_strain() {
         .collect();
     let difference =
         (Vector3::from(tips[0]) - Vector3::from(tips[1])).norm() / Vector3::from(tips[0]).norm();
-    println!("corotational {:?}, neo-hookean {:?}: {difference:.3e}", tips[0], tips[1]);
+    println!(
+        "corotational {:?}, neo-hookean {:?}: {difference:.3e}",
+        tips[0], tips[1]
+    );
     assert!(difference < 0.01, "{difference:e}");
 }
 

@@ -903,9 +903,14 @@ impl FrameWriter {
                 InternalForce::Linear => {
                     write_result_frame(&vtu, &setup.mesh, &setup.materials, u, extras)?
                 }
-                InternalForce::Nonlinear(n) => {
-                    write_model_result_vtu(&vtu, &setup.mesh, n.models(), &setup.materials, u, extras)?
-                }
+                InternalForce::Nonlinear(n) => write_model_result_vtu(
+                    &vtu,
+                    &setup.mesh,
+                    n.models(),
+                    &setup.materials,
+                    u,
+                    extras,
+                )?,
             }
             pvd.push(time, &vtu)?;
             self.files.push(vtu);

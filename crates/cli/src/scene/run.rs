@@ -461,14 +461,7 @@ fn write_static_outputs<E: SceneElement>(
                 write_result_frame(&vtu, &built.mesh, &built.materials, u, extras)?
             }
             // A nonlinear model's stresses and energy are its own.
-            _ => write_model_result_vtu(
-                &vtu,
-                &built.mesh,
-                model,
-                &built.materials,
-                u,
-                extras,
-            )?,
+            _ => write_model_result_vtu(&vtu, &built.mesh, model, &built.materials, u, extras)?,
         }
         let mut pvd = PvdCollection::new(dir.join(format!("{}.pvd", out.stem)));
         pvd.push(0.0, &vtu)?;
