@@ -3,6 +3,10 @@
 //! [`assemble`] turns it into global forces and a tangent refilled on the existing sparsity
 //! pattern; solvers ([`crate::nonlinear`]) know nothing of the model's formulas.
 //!
+//! Each model is its law per point ([`ConstitutiveLaw`]: ψ(F), P(F), ∂P/∂F, σ(F)) and its
+//! 4-node tet formulas ([`ForceModel`]); [`ModelElement`] puts a model on an element: the 4-node
+//! tet's own formulas, or the law at the 10-node tet's quadrature points.
+//!
 //! - [`LinearModel`]: the Cauchy-strain model of the rest of tetfem (f = −Kₑ·u). Cheap, exact for
 //!   small motions, but a rigid rotation produces forces (the lecture's "visual artifacts").
 //! - [`Corotational`]: stiffness warping, f = −R·Kₑ·(Rᵀx − X) with R from the polar decomposition

@@ -11,12 +11,14 @@
 //! no spurious zero-energy mode, and it costs 4 law evaluations per element. F is formed from
 //! u (not x) so that small strains carry no cancellation of the rest positions.
 //!
-//! Corotational: R is taken per quadrature point, from the polar decomposition of F_q. With R
-//! per element (say from the corners' F) the quadratic field's bending would be seen as strain
-//! wherever F_q turns away from that R, and a rigid rotation would still be exact but a
-//! rotating, bending element would not be rotation-invariant point by point; per point, the
-//! law is the corotated-linear energy ψ = μ‖sym(RᵀF) − I‖² + λ/2·tr²(sym(RᵀF) − I) of each point,
-//! a hyperelastic law like the others, whose exact tangent the element takes.
+//! Corotational: R is taken per quadrature point, from the polar decomposition of F_q, and the
+//! law there is the corotated-linear energy ψ = μ‖sym(RᵀF) − I‖² + λ/2·tr²(sym(RᵀF) − I) with
+//! P = R·(2μ·ε + λ·tr(ε)·I), ε = sym(RᵀF) − I, and its exact tangent (dR included). One R
+//! per element (say from the corners' F) would save three SVDs per element, but a bent
+//! quadratic tet turns by different angles across it: a point turned by δθ away from the
+//! element's R would see a spurious strain of order δθ², and the model would no longer be one
+//! hyperelastic law per point (its tangent not the Hessian of its energy). Per point it is both,
+//! and on the 4-node tet (one point) it is exactly the per-element model.
 
 use nalgebra::{Matrix3, SMatrix, Vector3};
 
