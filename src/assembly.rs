@@ -245,6 +245,26 @@ impl Assembler {
         })
     }
 
+    /// Refills `matrix` (which must be on this pattern) with Σₑ (element matrix of tet e) for
+    /// any element type: `element_matrix(t)` is tet t's 3n×3n matrix (row 3i + b, column
+    /// 3j + a for local nodes i, j and axes b, a), e.g. the 30×30 tangent of a 10-node tet.
+    /// Filled as [`reassemble`](Self::reassemble) (in parallel, the same bits on any thread
+    /// count).
+    ///
+    /// Errors: `matrix` is not on this assembler's pattern, or `mesh` is not the one it was
+    /// built from.
+    pub fn reassemble_elements<C: CellType, M: std::ops::Index<(usize, usize), Output = f64>>(
+        &self,
+        mesh: &TetMesh<C>,
+        element_matrix: impl Fn(usize) -> M + Sync,
+        matrix: &mut CscMatrix,
+    ) -> Result<()> {
+        self.fill(mesh, matrix, |t, tet, target| {
+            let ke = element_matrix(t);
+            target.add_element(t, tet.as_ref(), |i, j, b, a| ke[(3 * i + b, 3 * j + a)]);
+        })
+    }
+
     /// Assembles a matrix on the shared pattern from element matrices of any element type,
     /// given entry by entry: `entry(t, i, j, b, a)` is row 3i + b, column 3j + a of tet t's
     /// element matrix (local nodes i, j; axes b, a). Filled as [`reassemble`](Self::reassemble).

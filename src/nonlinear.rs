@@ -9,8 +9,8 @@ use crate::error::{Error, Result};
 use crate::linear_solver::{LinearMethod, LinearSolver, SolverOptions};
 use crate::loads::Loads;
 use crate::mesh::TetMesh;
-use crate::model::TetModels;
 use crate::model::assemble::{energy, internal_force, refill_tangent};
+use crate::model::{ModelElement, TetModels};
 use crate::problem::Problem;
 
 /// Settings of [`solve_nonlinear_static`].
@@ -63,9 +63,10 @@ pub struct NewtonReport {
 /// Cholesky analysis of the tangent's pattern is done once.
 ///
 /// `model`: one force model for every tet, or a [`ModelMap`](crate::model::ModelMap) with one
-/// model per material (each tet takes its material's).
-pub fn solve_nonlinear_static(
-    mesh: &TetMesh,
+/// model per material (each tet takes its material's). `mesh`: 4-node tets, or 10-node ones
+/// (the models at their quadrature points, see [`ModelElement`]).
+pub fn solve_nonlinear_static<E: ModelElement>(
+    mesh: &TetMesh<E>,
     model: &(impl TetModels + ?Sized),
     constraints: &Constraints,
     loads: &Loads,
@@ -89,8 +90,8 @@ pub fn solve_nonlinear_static(
 /// (a chord λ·u would shrink the clamped section on the way: by cos(θ/2) halfway through a
 /// rotation by θ). `constraints` must hold the motion's DOFs at their values at
 /// [`STATIC_TIME`] (see [`BoundaryMotion::prescribe_at`]).
-pub fn solve_nonlinear_static_with_motion(
-    mesh: &TetMesh,
+pub fn solve_nonlinear_static_with_motion<E: ModelElement>(
+    mesh: &TetMesh<E>,
     model: &(impl TetModels + ?Sized),
     constraints: &Constraints,
     loads: &Loads,
@@ -129,8 +130,8 @@ pub fn solve_nonlinear_static_with_contact(
     )
 }
 
-fn solve(
-    mesh: &TetMesh,
+fn solve<E: ModelElement>(
+    mesh: &TetMesh<E>,
     model: &(impl TetModels + ?Sized),
     constraints: &Constraints,
     loads: &Loads,
@@ -155,7 +156,7 @@ fn solve(
             "must be made for this mesh",
         ));
     }
-    model.check_tet_count(mesh)?;
+    model.check_covers(mesh.tet_count())?;
     let problem = match contact {
         None => Problem::new(mesh, constraints)?,
         Some(contact) => {
@@ -315,8 +316,8 @@ fn solve(
 /// round-off (each element's forces balance).
 ///
 /// Errors: `u`, `constraints` or `loads` not made for `mesh`, or `model` not one per tet.
-pub fn nonlinear_reactions(
-    mesh: &TetMesh,
+pub fn nonlinear_reactions<E: ModelElement>(
+    mesh: &TetMesh<E>,
     model: &(impl TetModels + ?Sized),
     constraints: &Constraints,
     loads: &Loads,

@@ -18,7 +18,7 @@ use crate::contact::{Contact, FrictionLag};
 use crate::error::{Error, Result};
 use crate::mesh::TetMesh;
 use crate::model::assemble::{energy, internal_force, refill_tangent};
-use crate::model::{ForceModel, ModelKind, ModelMap, TetModels};
+use crate::model::{ForceModel, ModelElement, ModelKind, ModelMap, TetModels};
 use crate::problem::Problem;
 use crate::sparse::CscMatrix;
 
@@ -46,8 +46,8 @@ impl InternalForce {
     /// The force of `model` on `mesh` for `system` (see [`NonlinearForce::new`]); the
     /// linear model's name (`linear`) gives [`InternalForce::Linear`], so that a linear run
     /// takes the fast path whatever the caller asked through.
-    pub fn of_model(
-        mesh: Arc<TetMesh>,
+    pub fn of_model<E: ModelElement>(
+        mesh: Arc<TetMesh<E>>,
         model: Box<dyn ForceModel>,
         system: &LinearSystem,
     ) -> Result<Self> {
@@ -64,7 +64,11 @@ impl InternalForce {
     /// [`NonlinearForce::with_models`]); a map of linear models gives [`InternalForce::Linear`],
     /// the fast path on the system's K_ff (which holds each tet's own material when the system
     /// was built from the same map).
-    pub fn of_models(mesh: Arc<TetMesh>, models: ModelMap, system: &LinearSystem) -> Result<Self> {
+    pub fn of_models<E: ModelElement>(
+        mesh: Arc<TetMesh<E>>,
+        models: ModelMap,
+        system: &LinearSystem,
+    ) -> Result<Self> {
         if models.kind() == ModelKind::Linear {
             return Ok(InternalForce::Linear);
         }
@@ -108,7 +112,8 @@ impl InternalForce {
 /// Prescribed displacements must be zero: the linear system folds −K_fc·u_c into its loads,
 /// which has no meaning for a nonlinear force.
 pub struct NonlinearForce {
-    mesh: Arc<TetMesh>,
+    /// The mesh, of 4-node or 10-node tets (its element type erased: see [`ForceMesh`]).
+    mesh: Arc<dyn ForceMesh>,
     /// The model of each tet: a boxed [`ForceModel`] or a [`ModelMap`].
     models: Box<dyn TetModels + Send>,
     /// The models' name (`corotational`, `neo-hookean`, …).
@@ -132,8 +137,8 @@ impl NonlinearForce {
     /// prescribed displacement is not zero (naming the DOF), or the restricted assembly pattern
     /// is not the system's K_ff pattern (a system from [`LinearSystem::from_parts`] with
     /// another stiffness).
-    pub fn new(
-        mesh: Arc<TetMesh>,
+    pub fn new<E: ModelElement>(
+        mesh: Arc<TetMesh<E>>,
         model: Box<dyn ForceModel>,
         system: &LinearSystem,
     ) -> Result<Self> {
@@ -147,8 +152,8 @@ impl NonlinearForce {
     ///
     /// Errors: those of [`new`](Self::new), and [`Error::InvalidParameter`] when the map's
     /// material map does not give a material to each of the mesh's tets (naming both counts).
-    pub fn with_models(
-        mesh: Arc<TetMesh>,
+    pub fn with_models<E: ModelElement>(
+        mesh: Arc<TetMesh<E>>,
         models: ModelMap,
         system: &LinearSystem,
     ) -> Result<Self> {
@@ -158,8 +163,8 @@ impl NonlinearForce {
     }
 
     /// The checks and set-up of [`new`](Self::new) and [`with_models`](Self::with_models).
-    fn of_tet_models(
-        mesh: Arc<TetMesh>,
+    fn of_tet_models<E: ModelElement>(
+        mesh: Arc<TetMesh<E>>,
         models: Box<dyn TetModels + Send>,
         name: &'static str,
         system: &LinearSystem,
@@ -316,9 +321,15 @@ impl NonlinearForce {
         self.name
     }
 
-    /// The mesh.
-    pub fn mesh(&self) -> &Arc<TetMesh> {
-        &self.mesh
+    /// The mesh, if its elements are `E` (`Tet4` or `Tet10`; `None` for the other type).
+    pub fn mesh<E: ModelElement>(&self) -> Option<&TetMesh<E>> {
+        self.mesh.as_any().downcast_ref::<TetMesh<E>>()
+    }
+
+    /// The model's internal force f = −∂E/∂x (force units) at the full displacement `u`
+    /// (every DOF, node-major), contact excluded, on whatever element the mesh has.
+    pub fn model_internal_force(&self, u: &[f64]) -> Result<Vec<f64>> {
+        self.mesh.internal_force(self.models(), u)
     }
 
     /// Number of free DOFs.
@@ -354,7 +365,7 @@ impl NonlinearForce {
         Error::check_len("displacement", self.free_count(), u.len())?;
         Error::check_len("force", self.free_count(), out.len())?;
         self.expand_into(u, &mut work.full);
-        let mut full = internal_force(&self.mesh, self.models.as_ref(), &work.full)?;
+        let mut full = self.mesh.internal_force(self.models.as_ref(), &work.full)?;
         if let Some(contact) = &self.contact {
             contact.add_force(&work.full, &mut full)?;
             if let Some(lag) = self.friction_lock().as_ref() {
@@ -386,8 +397,7 @@ impl NonlinearForce {
             ));
         }
         self.expand_into(u, &mut work.full);
-        refill_tangent(
-            &self.mesh,
+        self.mesh.refill_tangent(
             &self.assembler,
             self.models.as_ref(),
             &work.full,
@@ -411,7 +421,7 @@ impl NonlinearForce {
         Error::check_len("displacement", self.free_count(), u.len())?;
         let mut full = vec![0.0; self.mesh.dof_count()];
         self.expand_into(u, &mut full);
-        energy(&self.mesh, self.models.as_ref(), &full)
+        self.mesh.energy(self.models.as_ref(), &full)
     }
 
     /// The energies of `state`: ½vᵀMv, the model's elastic energy, and the system's load
@@ -424,6 +434,53 @@ impl NonlinearForce {
             elastic: self.elastic_energy(&state.displacement)?,
             ..potentials
         })
+    }
+}
+
+/// A mesh of any [`ModelElement`] with the element type erased, so that [`NonlinearForce`] (and
+/// every integrator holding it) is one type for 4-node and 10-node tets; each method is the
+/// [`crate::model::assemble`] function of the same name on the concrete mesh.
+trait ForceMesh: Send + Sync {
+    fn dof_count(&self) -> usize;
+    fn energy(&self, models: &(dyn TetModels + Send), u: &[f64]) -> Result<f64>;
+    fn internal_force(&self, models: &(dyn TetModels + Send), u: &[f64]) -> Result<Vec<f64>>;
+    fn refill_tangent(
+        &self,
+        assembler: &Assembler,
+        models: &(dyn TetModels + Send),
+        u: &[f64],
+        project: bool,
+        tangent: &mut CscMatrix,
+    ) -> Result<()>;
+    fn as_any(&self) -> &dyn std::any::Any;
+}
+
+impl<E: ModelElement> ForceMesh for TetMesh<E> {
+    fn dof_count(&self) -> usize {
+        TetMesh::dof_count(self)
+    }
+
+    fn energy(&self, models: &(dyn TetModels + Send), u: &[f64]) -> Result<f64> {
+        energy(self, models, u)
+    }
+
+    fn internal_force(&self, models: &(dyn TetModels + Send), u: &[f64]) -> Result<Vec<f64>> {
+        internal_force(self, models, u)
+    }
+
+    fn refill_tangent(
+        &self,
+        assembler: &Assembler,
+        models: &(dyn TetModels + Send),
+        u: &[f64],
+        project: bool,
+        tangent: &mut CscMatrix,
+    ) -> Result<()> {
+        refill_tangent(self, assembler, models, u, project, tangent)
+    }
+
+    fn as_any(&self) -> &dyn std::any::Any {
+        self
     }
 }
 

@@ -19,7 +19,7 @@ use crate::linsolve::CholeskyOptions;
 use crate::loads::Loads;
 use crate::material::Material;
 use crate::mesh::TetMesh;
-use crate::model::ForceModel;
+use crate::model::{ForceModel, ModelElement};
 
 /// Backward Euler with a nonlinear [`ForceModel`], lumped mass and no damping: exactly
 /// [`BackwardEuler::with_force`] on the [`LinearSystem`] of the mesh (its K_ff is the tangent
@@ -52,15 +52,15 @@ impl std::fmt::Debug for NonlinearBackwardEuler {
 }
 
 impl NonlinearBackwardEuler {
-    /// Sets up the method for `mesh` (fixed DOFs must be zero-valued), `model`, lumped mass of
+    /// Sets up the method for `mesh` (4-node or 10-node tets; fixed DOFs must be zero-valued), `model`, lumped mass of
     /// `material`, constant `loads` plus `gravity` (acceleration), and time step `dt`.
     ///
     /// Errors: dt not finite and > 0; constraints or loads of another mesh
     /// ([`Error::DimensionMismatch`]); constraints that leave a rigid motion free (from
     /// [`LinearSystem::new`]); a non-zero prescribed displacement, naming its DOF (from
     /// [`NonlinearForce::new`]).
-    pub fn new(
-        mesh: Arc<TetMesh>,
+    pub fn new<E: ModelElement>(
+        mesh: Arc<TetMesh<E>>,
         material: &Material,
         model: Box<dyn ForceModel>,
         constraints: &Constraints,

@@ -30,7 +30,7 @@ use crate::error::{Error, Result};
 use crate::iterative::{BlockJacobi, CgOptions, conjugate_gradient};
 use crate::loads::Loads;
 use crate::materials::TetMaterials;
-use crate::mesh::TetMesh;
+use crate::mesh::{Tet4, TetMesh};
 use crate::model::project_psd;
 use crate::sparse::CscMatrix;
 
@@ -231,8 +231,7 @@ impl SupportReactions {
                 }
             }
             InternalForce::Nonlinear(f) => {
-                let mut internal =
-                    crate::model::assemble::internal_force(f.mesh(), f.models(), &u)?;
+                let mut internal = f.model_internal_force(&u)?;
                 if let Some(contact) = f.contact() {
                     contact.add_force(&u, &mut internal)?;
                 }
@@ -311,14 +310,16 @@ impl SupportReactions {
                 }
             }
             InternalForce::Nonlinear(model) => {
-                let mut internal =
-                    crate::model::assemble::internal_force(model.mesh(), model.models(), u)?;
+                let mut internal = model.model_internal_force(u)?;
                 if let Some(contact) = model.contact() {
                     contact.add_force(u, &mut internal)?;
                 }
-                let all: Vec<usize> = (0..model.mesh().tet_count()).collect();
                 let kv = match damping.beta != 0.0 {
-                    true => model_tangent_product(model, u, v, &all)?,
+                    true => {
+                        let tets = model.mesh::<Tet4>().map_or(0, |m| m.tet_count());
+                        let all: Vec<usize> = (0..tets).collect();
+                        model_tangent_product(model, u, v, &all)?
+                    }
                     false => vec![0.0; u.len()],
                 };
                 let f = system.external_load();
@@ -356,7 +357,16 @@ fn model_tangent_product(
     v: &[f64],
     tets: &[usize],
 ) -> Result<Vec<f64>> {
-    let mesh = force.mesh();
+    // The per-tet tangent is the 4-node tet's (stiffness damping of a nonlinear model on
+    // 10-node tets has no per-element tangent here yet).
+    let mesh = force.mesh::<Tet4>().ok_or_else(|| {
+        Error::invalid_parameter(
+            "damping.stiffness",
+            "> 0 with a nonlinear model on 10-node tets",
+            "the support reactions need each tet's tangent, which only the 4-node tet provides \
+             so far: use mass damping (damping.mass), order = 1 or the linear model",
+        )
+    })?;
     let models = force.models();
     let mut out = vec![0.0; u.len()];
     for &t in tets {

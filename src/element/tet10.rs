@@ -152,6 +152,12 @@ impl Tet10Rest {
         self.volume
     }
 
+    /// Shape-function gradients ∇Nₐ (1/length) at the four points of the degree-2 rule, whose
+    /// weights are V/4 each: `gradients()[q][a]`.
+    pub fn gradients(&self) -> &[[Vector3<f64>; 10]; 4] {
+        &self.gradients
+    }
+
     /// Linear strain ε = ½(∇u + ∇uᵀ) at quadrature point `q` (0–3) for the node-major
     /// displacement `u` (30 values).
     pub fn strain_at(&self, q: usize, u: &[f64]) -> Matrix3<f64> {

@@ -1,14 +1,17 @@
 //! Global internal force, energy and tangent of a force model on a mesh.
 //!
 //! Every function takes the full displacement vector u (length 3·nodes, DOF `3·node + axis`)
-//! and checks its length before touching it.
+//! and checks its length before touching it. Generic over the element ([`ModelElement`]: the
+//! 4-node tet's closed forms, or the 10-node tet's quadrature points); each is monomorphized
+//! per element, so the 4-node tet runs the code it always ran.
 
 use nalgebra::Vector3;
 
-use super::{TetModels, project_psd};
+use super::TetModels;
+use super::element_model::{ModelElement, positions};
 use crate::assembly::Assembler;
 use crate::error::{Error, Result};
-use crate::mesh::TetMesh;
+use crate::mesh::{CellType, TetMesh};
 use crate::sparse::CscMatrix;
 
 /// Deformed positions x = X + u of tet `t` from a full displacement vector.
@@ -24,13 +27,8 @@ pub fn deformed_positions(
     Ok(positions(mesh, t, displacement))
 }
 
-fn check_displacement(mesh: &TetMesh, u: &[f64]) -> Result<()> {
+fn check_displacement<C: CellType>(mesh: &TetMesh<C>, u: &[f64]) -> Result<()> {
     Error::check_len("displacement", mesh.dof_count(), u.len())
-}
-
-/// x = X + u for tet `t`; `t` and `u`'s length were checked by the caller.
-fn positions(mesh: &TetMesh, t: usize, u: &[f64]) -> [Vector3<f64>; 4] {
-    mesh.tets()[t].map(|n| mesh.nodes()[n] + Vector3::new(u[3 * n], u[3 * n + 1], u[3 * n + 2]))
 }
 
 /// Tets per partial sum of [`energy`]: fixed, so that the sum is the same bits whatever the
@@ -40,22 +38,20 @@ const ENERGY_CHUNK: usize = 1024;
 /// Total elastic energy Σₑ Eₑ at displacement `u` (full length); `model` is one force model
 /// for every tet or a [`ModelMap`](super::ModelMap) (one per material). Summed in fixed chunks
 /// of tets, in order: the same bits on any number of threads.
-pub fn energy(mesh: &TetMesh, model: &(impl TetModels + ?Sized), u: &[f64]) -> Result<f64> {
+pub fn energy<E: ModelElement>(
+    mesh: &TetMesh<E>,
+    model: &(impl TetModels + ?Sized),
+    u: &[f64],
+) -> Result<f64> {
     use rayon::prelude::*;
     check_displacement(mesh, u)?;
-    model.check_tet_count(mesh)?;
+    model.check_covers(mesh.tet_count())?;
     let tets = mesh.tet_count();
     let partial: Vec<f64> = (0..tets.div_ceil(ENERGY_CHUNK))
         .into_par_iter()
         .map(|chunk| {
             (chunk * ENERGY_CHUNK..((chunk + 1) * ENERGY_CHUNK).min(tets))
-                .map(|t| {
-                    model.model_of(t).energy(
-                        &mesh.element_of(t),
-                        &mesh.positions_of(t),
-                        &positions(mesh, t, u),
-                    )
-                })
+                .map(|t| E::model_energy(model.model_of(t), mesh, t, u))
                 .sum::<f64>()
         })
         .collect();
@@ -64,25 +60,16 @@ pub fn energy(mesh: &TetMesh, model: &(impl TetModels + ?Sized), u: &[f64]) -> R
 
 /// Internal force vector Σₑ fₑ at displacement `u` (full length, force units), each tet with
 /// its own model (see [`energy`]).
-pub fn internal_force(
-    mesh: &TetMesh,
+pub fn internal_force<E: ModelElement>(
+    mesh: &TetMesh<E>,
     model: &(impl TetModels + ?Sized),
     u: &[f64],
 ) -> Result<Vec<f64>> {
     check_displacement(mesh, u)?;
-    model.check_tet_count(mesh)?;
+    model.check_covers(mesh.tet_count())?;
     let mut force = vec![0.0; mesh.dof_count()];
-    for (t, tet) in mesh.tets().iter().enumerate() {
-        let f = model.model_of(t).force(
-            &mesh.element_of(t),
-            &mesh.positions_of(t),
-            &positions(mesh, t, u),
-        );
-        for (i, &n) in tet.iter().enumerate() {
-            for a in 0..3 {
-                force[3 * n + a] += f[3 * i + a];
-            }
-        }
+    for t in 0..mesh.tet_count() {
+        E::add_model_force(model.model_of(t), mesh, t, u, &mut force);
     }
     Ok(force)
 }
@@ -90,8 +77,8 @@ pub fn internal_force(
 /// Refills `tangent` (on `assembler`'s pattern) with Σₑ (element tangent), each projected onto
 /// the positive semi-definite cone when `project` is set, in parallel, O(nnz), no new pattern;
 /// each tet with its own model (see [`energy`]).
-pub fn refill_tangent(
-    mesh: &TetMesh,
+pub fn refill_tangent<E: ModelElement>(
+    mesh: &TetMesh<E>,
     assembler: &Assembler,
     model: &(impl TetModels + ?Sized),
     u: &[f64],
@@ -99,17 +86,6 @@ pub fn refill_tangent(
     tangent: &mut CscMatrix,
 ) -> Result<()> {
     check_displacement(mesh, u)?;
-    model.check_tet_count(mesh)?;
-    assembler.reassemble(
-        mesh,
-        |t| {
-            let k = model.model_of(t).tangent(
-                &mesh.element_of(t),
-                &mesh.positions_of(t),
-                &positions(mesh, t, u),
-            );
-            if project { project_psd(&k) } else { k }
-        },
-        tangent,
-    )
+    model.check_covers(mesh.tet_count())?;
+    E::refill_model_tangent(mesh, assembler, model, u, project, tangent)
 }

@@ -2,6 +2,7 @@
 
 use nalgebra::{Matrix3, Vector3};
 
+use super::law::{ConstitutiveLaw, Matrix9, tangent_of};
 use super::{ForceModel, piola_to_force, polar::rotation, tangent_from_piola_derivative};
 use crate::element::{Matrix12, Tet, Vector12, rest_shape_matrix};
 use crate::material::Material;
@@ -37,10 +38,52 @@ impl Corotational {
     }
 
     fn kinematics(tet: &Tet, x: &[Vector3<f64>; 4]) -> (Matrix3<f64>, Matrix3<f64>, Matrix3<f64>) {
-        let f = rest_shape_matrix(x) * tet.rest_inverse();
+        Self::point_kinematics(rest_shape_matrix(x) * tet.rest_inverse())
+    }
+
+    /// F, its rotation R and the symmetric stretch S = sym(RᵀF).
+    fn point_kinematics(f: Matrix3<f64>) -> (Matrix3<f64>, Matrix3<f64>, Matrix3<f64>) {
         let r = rotation(&f);
         let s = r.transpose() * f;
         (f, r, (s + s.transpose()) * 0.5)
+    }
+
+    /// μ‖F − R‖² + λ/2·tr²(S − I) (energy per rest volume).
+    fn density(&self, f: &Matrix3<f64>, r: &Matrix3<f64>, s: &Matrix3<f64>) -> f64 {
+        let trace = s.trace() - 3.0;
+        self.mu * (f - r).norm_squared() + 0.5 * self.lambda * trace * trace
+    }
+
+    /// The directional derivative dP(dF) at rotation `r` and stretch `s`, rotation terms
+    /// included (see the type's docs); returns the map dF ↦ dP.
+    fn piola_direction(
+        &self,
+        r: Matrix3<f64>,
+        s: Matrix3<f64>,
+    ) -> impl Fn(&Matrix3<f64>) -> Matrix3<f64> + '_ {
+        let system = Matrix3::identity() * s.trace() - s;
+        // Singular when two principal stretches sum to zero (a tet flattened through itself):
+        // there the rotation is not differentiable and its term is dropped.
+        let inverse = system.try_inverse();
+        let trace = s.trace() - 3.0;
+        move |df: &Matrix3<f64>| {
+            let w = inverse.map_or(Vector3::zeros(), |inv| {
+                let a = r.transpose() * df - df.transpose() * r;
+                inv * axial(&a)
+            });
+            let dr = r * w.cross_matrix();
+            df * (2.0 * self.mu)
+                + dr * (self.lambda * trace - 2.0 * self.mu)
+                + r * (self.lambda * (r.transpose() * df).trace())
+        }
+    }
+
+    /// σ = R·(λ·tr(ε)·I + 2μ·ε)·Rᵀ with ε = S − I.
+    fn stress(&self, r: &Matrix3<f64>, s: &Matrix3<f64>) -> Matrix3<f64> {
+        let strain = s - Matrix3::identity();
+        let rotated =
+            strain * (2.0 * self.mu) + Matrix3::identity() * (self.lambda * strain.trace());
+        r * rotated * r.transpose()
     }
 
     fn piola(&self, f: &Matrix3<f64>, r: &Matrix3<f64>, s: &Matrix3<f64>) -> Matrix3<f64> {
@@ -55,8 +98,7 @@ fn axial(a: &Matrix3<f64>) -> Vector3<f64> {
 impl ForceModel for Corotational {
     fn energy(&self, tet: &Tet, _rest: &[Vector3<f64>; 4], x: &[Vector3<f64>; 4]) -> f64 {
         let (f, r, s) = Self::kinematics(tet, x);
-        let trace = s.trace() - 3.0;
-        tet.volume() * (self.mu * (f - r).norm_squared() + 0.5 * self.lambda * trace * trace)
+        tet.volume() * self.density(&f, &r, &s)
     }
 
     fn force(&self, tet: &Tet, _rest: &[Vector3<f64>; 4], x: &[Vector3<f64>; 4]) -> Vector12 {
@@ -66,21 +108,7 @@ impl ForceModel for Corotational {
 
     fn tangent(&self, tet: &Tet, _rest: &[Vector3<f64>; 4], x: &[Vector3<f64>; 4]) -> Matrix12 {
         let (_, r, s) = Self::kinematics(tet, x);
-        let system = Matrix3::identity() * s.trace() - s;
-        // Singular when two principal stretches sum to zero (a tet flattened through itself):
-        // there the rotation is not differentiable and its term is dropped.
-        let inverse = system.try_inverse();
-        let trace = s.trace() - 3.0;
-        tangent_from_piola_derivative(tet, |df| {
-            let w = inverse.map_or(Vector3::zeros(), |inv| {
-                let a = r.transpose() * df - df.transpose() * r;
-                inv * axial(&a)
-            });
-            let dr = r * w.cross_matrix();
-            df * (2.0 * self.mu)
-                + dr * (self.lambda * trace - 2.0 * self.mu)
-                + r * (self.lambda * (r.transpose() * df).trace())
-        })
+        tangent_from_piola_derivative(tet, self.piola_direction(r, s))
     }
 
     fn cauchy_stress(
@@ -90,13 +118,34 @@ impl ForceModel for Corotational {
         x: &[Vector3<f64>; 4],
     ) -> Matrix3<f64> {
         let (_, r, s) = Self::kinematics(tet, x);
-        let strain = s - Matrix3::identity();
-        let rotated =
-            strain * (2.0 * self.mu) + Matrix3::identity() * (self.lambda * strain.trace());
-        r * rotated * r.transpose()
+        self.stress(&r, &s)
     }
 
     fn name(&self) -> &'static str {
         "corotational"
+    }
+}
+
+/// The same law at one point, R from the polar decomposition of that point's F (see the type's
+/// docs): P = R·(2μ·ε + λ·tr(ε)·I) = 2μ(F − R) + λ·tr(ε)·R with ε = sym(RᵀF) − I.
+impl ConstitutiveLaw for Corotational {
+    fn energy_density(&self, f: &Matrix3<f64>) -> f64 {
+        let (f, r, s) = Self::point_kinematics(*f);
+        self.density(&f, &r, &s)
+    }
+
+    fn first_piola(&self, f: &Matrix3<f64>) -> Matrix3<f64> {
+        let (f, r, s) = Self::point_kinematics(*f);
+        self.piola(&f, &r, &s)
+    }
+
+    fn piola_tangent(&self, f: &Matrix3<f64>) -> Matrix9 {
+        let (_, r, s) = Self::point_kinematics(*f);
+        tangent_of(self.piola_direction(r, s))
+    }
+
+    fn cauchy(&self, f: &Matrix3<f64>) -> Matrix3<f64> {
+        let (_, r, s) = Self::point_kinematics(*f);
+        self.stress(&r, &s)
     }
 }

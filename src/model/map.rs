@@ -4,7 +4,7 @@
 use super::{ForceModel, ModelKind};
 use crate::error::Result;
 use crate::materials::{MaterialMap, TetMaterials};
-use crate::mesh::TetMesh;
+use crate::mesh::{CellType, TetMesh};
 
 /// The force model of each tet: one model for all (any [`ForceModel`], `dyn` included), or a
 /// [`ModelMap`].
@@ -12,9 +12,17 @@ pub trait TetModels: Sync {
     /// The model of tet `tet` (which the caller checked is a tet of the mesh: see
     /// [`check_tet_count`](Self::check_tet_count)).
     fn model_of(&self, tet: usize) -> &dyn ForceModel;
-    /// An error unless these models cover exactly the tets of `mesh` (always `Ok` for one
-    /// model).
-    fn check_tet_count(&self, mesh: &TetMesh) -> Result<()>;
+    /// An error unless these models cover exactly `tets` tets (always `Ok` for one model).
+    fn check_covers(&self, tets: usize) -> Result<()>;
+
+    /// An error unless these models cover exactly the tets of `mesh`, of any element type
+    /// (always `Ok` for one model).
+    fn check_tet_count<C: CellType>(&self, mesh: &TetMesh<C>) -> Result<()>
+    where
+        Self: Sized,
+    {
+        self.check_covers(mesh.tet_count())
+    }
 }
 
 impl<T: ForceModel> TetModels for T {
@@ -23,7 +31,7 @@ impl<T: ForceModel> TetModels for T {
         self
     }
 
-    fn check_tet_count(&self, _mesh: &TetMesh) -> Result<()> {
+    fn check_covers(&self, _tets: usize) -> Result<()> {
         Ok(())
     }
 }
@@ -34,7 +42,7 @@ impl TetModels for dyn ForceModel + '_ {
         self
     }
 
-    fn check_tet_count(&self, _mesh: &TetMesh) -> Result<()> {
+    fn check_covers(&self, _tets: usize) -> Result<()> {
         Ok(())
     }
 }
@@ -47,7 +55,7 @@ impl TetModels for Box<dyn ForceModel + '_> {
         self.as_ref()
     }
 
-    fn check_tet_count(&self, _mesh: &TetMesh) -> Result<()> {
+    fn check_covers(&self, _tets: usize) -> Result<()> {
         Ok(())
     }
 }
@@ -108,7 +116,7 @@ impl TetModels for ModelMap {
         self.models[self.materials.index_of(tet)].as_ref()
     }
 
-    fn check_tet_count(&self, mesh: &TetMesh) -> Result<()> {
-        self.materials.check_tet_count(mesh)
+    fn check_covers(&self, tets: usize) -> Result<()> {
+        self.materials.check_covers(tets)
     }
 }

@@ -3,6 +3,10 @@
 //! [`assemble`] turns it into global forces and a tangent refilled on the existing sparsity
 //! pattern; solvers ([`crate::nonlinear`]) know nothing of the model's formulas.
 //!
+//! Each model is its law per point ([`ConstitutiveLaw`]: ψ(F), P(F), ∂P/∂F, σ(F)) and its
+//! 4-node tet formulas ([`ForceModel`]); [`ModelElement`] puts a model on an element: the 4-node
+//! tet's own formulas, or the law at the 10-node tet's quadrature points.
+//!
 //! - [`LinearModel`]: the Cauchy-strain model of the rest of tetfem (f = −Kₑ·u). Cheap, exact for
 //!   small motions, but a rigid rotation produces forces (the lecture's "visual artifacts").
 //! - [`Corotational`]: stiffness warping, f = −R·Kₑ·(Rᵀx − X) with R from the polar decomposition
@@ -13,29 +17,36 @@
 //!   rotations with moderate strains (it softens under strong compression).
 
 mod corotational;
+mod element_model;
+mod law;
 mod linear;
 mod map;
 mod neo_hookean;
 mod polar;
+mod quadrature_points;
 mod st_venant_kirchhoff;
 
 pub mod assemble;
 
 pub use corotational::Corotational;
+pub use element_model::ModelElement;
+pub use law::{ConstitutiveLaw, Matrix9};
 pub use linear::LinearModel;
 pub use map::{ModelMap, TetModels};
 pub use neo_hookean::NeoHookean;
 pub use polar::rotation;
 pub use st_venant_kirchhoff::StVenantKirchhoff;
 
-use nalgebra::{Matrix3, SymmetricEigen, Vector3};
+use nalgebra::{Matrix3, SMatrix, SymmetricEigen, Vector3};
 
 use crate::element::{Matrix12, Tet, Vector12};
 use crate::error::{Error, Result};
 use crate::material::Material;
 
-/// One element's hyperelastic (or warped-linear) mechanics.
-pub trait ForceModel: Sync + Send {
+/// One element's hyperelastic (or warped-linear) mechanics: the 4-node tet's own formulas
+/// (the methods below, F constant in the tet) and, through its [`ConstitutiveLaw`], any other
+/// element's quadrature ([`ModelElement`]).
+pub trait ForceModel: ConstitutiveLaw + Sync + Send {
     /// Elastic energy of the tet at deformed positions `x` (energy units).
     fn energy(&self, tet: &Tet, rest: &[Vector3<f64>; 4], x: &[Vector3<f64>; 4]) -> f64;
     /// Internal elastic force on the four nodes, f = −∂E/∂x (node-major 12-vector).
@@ -156,6 +167,33 @@ pub fn project_psd(matrix: &Matrix12) -> Matrix12 {
     }
     let clamped = eigen.eigenvalues.map(|l| l.max(0.0));
     eigen.eigenvectors * Matrix12::from_diagonal(&clamped) * eigen.eigenvectors.transpose()
+}
+
+/// [`project_psd`] for a symmetric matrix of any fixed size (the 30×30 tangent of the 10-node
+/// tet): the same Cholesky fast path, the eigendecomposition (of the rare indefinite element)
+/// on a dynamically sized copy.
+pub fn project_psd_of<const D: usize>(matrix: &SMatrix<f64, D, D>) -> SMatrix<f64, D, D> {
+    let largest_diagonal = matrix.diagonal().max();
+    if largest_diagonal > 0.0 {
+        let shifted =
+            matrix + SMatrix::<f64, D, D>::identity() * (PSD_TOLERANCE * largest_diagonal);
+        if nalgebra::Cholesky::new(shifted).is_some() {
+            return *matrix;
+        }
+    }
+    let eigen = SymmetricEigen::new(nalgebra::DMatrix::from_column_slice(
+        D,
+        D,
+        matrix.as_slice(),
+    ));
+    if eigen.eigenvalues.iter().all(|&l| l >= 0.0) {
+        return *matrix;
+    }
+    let clamped = eigen.eigenvalues.map(|l| l.max(0.0));
+    let projected = &eigen.eigenvectors
+        * nalgebra::DMatrix::from_diagonal(&clamped)
+        * eigen.eigenvectors.transpose();
+    SMatrix::<f64, D, D>::from_column_slice(projected.as_slice())
 }
 
 /// Relative tolerance of [`project_psd`]'s fast path: eigenvalues down to −1e-10·max diag K

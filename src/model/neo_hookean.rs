@@ -2,6 +2,7 @@
 
 use nalgebra::{Matrix3, Vector3};
 
+use super::law::{ConstitutiveLaw, Matrix9, tangent_of};
 use super::{ForceModel, piola_to_force, tangent_from_piola_derivative};
 use crate::element::{Matrix12, Tet, Vector12, rest_shape_matrix};
 use crate::material::Material;
@@ -53,41 +54,33 @@ fn cofactor_direction(f: &Matrix3<f64>, df: &Matrix3<f64>) -> Matrix3<f64> {
     ])
 }
 
-impl ForceModel for NeoHookean {
-    fn energy(&self, tet: &Tet, _rest: &[Vector3<f64>; 4], x: &[Vector3<f64>; 4]) -> f64 {
-        let f = rest_shape_matrix(x) * tet.rest_inverse();
+impl NeoHookean {
+    /// Ψ(F) (energy per rest volume).
+    fn density(&self, f: &Matrix3<f64>) -> f64 {
         let j = f.determinant();
         let rest = 0.5 * self.lambda_hat * (1.0 - self.alpha).powi(2);
-        tet.volume()
-            * (0.5 * self.mu * (f.norm_squared() - 3.0)
-                + 0.5 * self.lambda_hat * (j - self.alpha).powi(2)
-                - rest)
+        0.5 * self.mu * (f.norm_squared() - 3.0) + 0.5 * self.lambda_hat * (j - self.alpha).powi(2)
+            - rest
     }
 
-    fn force(&self, tet: &Tet, _rest: &[Vector3<f64>; 4], x: &[Vector3<f64>; 4]) -> Vector12 {
-        let f = rest_shape_matrix(x) * tet.rest_inverse();
-        let piola = f * self.mu + cofactor(&f) * (self.lambda_hat * (f.determinant() - self.alpha));
-        piola_to_force(tet, &piola)
+    /// P = μF + λ̂(J − α)·cof F.
+    fn piola(&self, f: &Matrix3<f64>) -> Matrix3<f64> {
+        f * self.mu + cofactor(f) * (self.lambda_hat * (f.determinant() - self.alpha))
     }
 
-    fn tangent(&self, tet: &Tet, _rest: &[Vector3<f64>; 4], x: &[Vector3<f64>; 4]) -> Matrix12 {
-        let f = rest_shape_matrix(x) * tet.rest_inverse();
+    /// The map dF ↦ dP at `f`.
+    fn piola_direction(&self, f: Matrix3<f64>) -> impl Fn(&Matrix3<f64>) -> Matrix3<f64> + '_ {
         let cof = cofactor(&f);
         let j = f.determinant();
-        tangent_from_piola_derivative(tet, |df| {
+        move |df: &Matrix3<f64>| {
             df * self.mu
                 + cof * (self.lambda_hat * cof.component_mul(df).sum())
                 + cofactor_direction(&f, df) * (self.lambda_hat * (j - self.alpha))
-        })
+        }
     }
 
-    fn cauchy_stress(
-        &self,
-        tet: &Tet,
-        _rest: &[Vector3<f64>; 4],
-        x: &[Vector3<f64>; 4],
-    ) -> Matrix3<f64> {
-        let f = rest_shape_matrix(x) * tet.rest_inverse();
+    /// σ (or τ = J·σ where J ≤ 0, see the type's docs).
+    fn stress(&self, f: &Matrix3<f64>) -> Matrix3<f64> {
         let j = f.determinant();
         let left_cauchy_green = f * f.transpose();
         let volumetric = Matrix3::identity() * (self.lambda_hat * (j - self.alpha));
@@ -97,8 +90,53 @@ impl ForceModel for NeoHookean {
             left_cauchy_green * self.mu + volumetric * j
         }
     }
+}
+
+impl ForceModel for NeoHookean {
+    fn energy(&self, tet: &Tet, _rest: &[Vector3<f64>; 4], x: &[Vector3<f64>; 4]) -> f64 {
+        tet.volume() * self.density(&(rest_shape_matrix(x) * tet.rest_inverse()))
+    }
+
+    fn force(&self, tet: &Tet, _rest: &[Vector3<f64>; 4], x: &[Vector3<f64>; 4]) -> Vector12 {
+        piola_to_force(
+            tet,
+            &self.piola(&(rest_shape_matrix(x) * tet.rest_inverse())),
+        )
+    }
+
+    fn tangent(&self, tet: &Tet, _rest: &[Vector3<f64>; 4], x: &[Vector3<f64>; 4]) -> Matrix12 {
+        let f = rest_shape_matrix(x) * tet.rest_inverse();
+        tangent_from_piola_derivative(tet, self.piola_direction(f))
+    }
+
+    fn cauchy_stress(
+        &self,
+        tet: &Tet,
+        _rest: &[Vector3<f64>; 4],
+        x: &[Vector3<f64>; 4],
+    ) -> Matrix3<f64> {
+        self.stress(&(rest_shape_matrix(x) * tet.rest_inverse()))
+    }
 
     fn name(&self) -> &'static str {
         "neo-hookean"
+    }
+}
+
+impl ConstitutiveLaw for NeoHookean {
+    fn energy_density(&self, f: &Matrix3<f64>) -> f64 {
+        self.density(f)
+    }
+
+    fn first_piola(&self, f: &Matrix3<f64>) -> Matrix3<f64> {
+        self.piola(f)
+    }
+
+    fn piola_tangent(&self, f: &Matrix3<f64>) -> Matrix9 {
+        tangent_of(self.piola_direction(*f))
+    }
+
+    fn cauchy(&self, f: &Matrix3<f64>) -> Matrix3<f64> {
+        self.stress(f)
     }
 }

@@ -2,6 +2,7 @@
 
 use nalgebra::{Matrix3, Vector3};
 
+use super::law::{ConstitutiveLaw, Matrix9, tangent_of};
 use super::{ForceModel, piola_to_force, tangent_from_piola_derivative};
 use crate::element::{Matrix12, Tet, Vector12, rest_shape_matrix};
 use crate::material::Material;
@@ -42,15 +43,46 @@ impl StVenantKirchhoff {
 
 /// Deformation gradient F and Green strain E = ½(FᵀF − I) of the tet at deformed positions `x`.
 fn kinematics(tet: &Tet, x: &[Vector3<f64>; 4]) -> (Matrix3<f64>, Matrix3<f64>) {
-    let f = rest_shape_matrix(x) * tet.rest_inverse();
+    point_kinematics(rest_shape_matrix(x) * tet.rest_inverse())
+}
+
+/// F and its Green strain E = ½(FᵀF − I).
+fn point_kinematics(f: Matrix3<f64>) -> (Matrix3<f64>, Matrix3<f64>) {
     let green = (f.transpose() * f - Matrix3::identity()) * 0.5;
     (f, green)
+}
+
+impl StVenantKirchhoff {
+    /// μ·E:E + λ/2·tr(E)² (energy per rest volume).
+    fn density(&self, green: &Matrix3<f64>) -> f64 {
+        self.mu * green.norm_squared() + 0.5 * self.lambda * green.trace().powi(2)
+    }
+
+    /// The map dF ↦ dP = dF·S + F·S(dE) at `f` with Green strain `green`.
+    fn piola_direction(
+        &self,
+        f: Matrix3<f64>,
+        green: &Matrix3<f64>,
+    ) -> impl Fn(&Matrix3<f64>) -> Matrix3<f64> + '_ {
+        let s = self.second_piola(green);
+        move |df: &Matrix3<f64>| {
+            let dgreen = (df.transpose() * f + f.transpose() * df) * 0.5;
+            df * s + f * self.second_piola(&dgreen)
+        }
+    }
+
+    /// σ = J⁻¹·F·S·Fᵀ, or τ = F·S·Fᵀ where J ≤ 0.
+    fn stress(&self, f: &Matrix3<f64>, green: &Matrix3<f64>) -> Matrix3<f64> {
+        let kirchhoff = f * self.second_piola(green) * f.transpose();
+        let j = f.determinant();
+        if j > 0.0 { kirchhoff / j } else { kirchhoff }
+    }
 }
 
 impl ForceModel for StVenantKirchhoff {
     fn energy(&self, tet: &Tet, _rest: &[Vector3<f64>; 4], x: &[Vector3<f64>; 4]) -> f64 {
         let (_, green) = kinematics(tet, x);
-        tet.volume() * (self.mu * green.norm_squared() + 0.5 * self.lambda * green.trace().powi(2))
+        tet.volume() * self.density(&green)
     }
 
     fn force(&self, tet: &Tet, _rest: &[Vector3<f64>; 4], x: &[Vector3<f64>; 4]) -> Vector12 {
@@ -60,11 +92,7 @@ impl ForceModel for StVenantKirchhoff {
 
     fn tangent(&self, tet: &Tet, _rest: &[Vector3<f64>; 4], x: &[Vector3<f64>; 4]) -> Matrix12 {
         let (f, green) = kinematics(tet, x);
-        let s = self.second_piola(&green);
-        tangent_from_piola_derivative(tet, |df| {
-            let dgreen = (df.transpose() * f + f.transpose() * df) * 0.5;
-            df * s + f * self.second_piola(&dgreen)
-        })
+        tangent_from_piola_derivative(tet, self.piola_direction(f, &green))
     }
 
     fn cauchy_stress(
@@ -74,12 +102,31 @@ impl ForceModel for StVenantKirchhoff {
         x: &[Vector3<f64>; 4],
     ) -> Matrix3<f64> {
         let (f, green) = kinematics(tet, x);
-        let kirchhoff = f * self.second_piola(&green) * f.transpose();
-        let j = f.determinant();
-        if j > 0.0 { kirchhoff / j } else { kirchhoff }
+        self.stress(&f, &green)
     }
 
     fn name(&self) -> &'static str {
         "st-venant-kirchhoff"
+    }
+}
+
+impl ConstitutiveLaw for StVenantKirchhoff {
+    fn energy_density(&self, f: &Matrix3<f64>) -> f64 {
+        self.density(&point_kinematics(*f).1)
+    }
+
+    fn first_piola(&self, f: &Matrix3<f64>) -> Matrix3<f64> {
+        let (f, green) = point_kinematics(*f);
+        f * self.second_piola(&green)
+    }
+
+    fn piola_tangent(&self, f: &Matrix3<f64>) -> Matrix9 {
+        let (f, green) = point_kinematics(*f);
+        tangent_of(self.piola_direction(f, &green))
+    }
+
+    fn cauchy(&self, f: &Matrix3<f64>) -> Matrix3<f64> {
+        let (f, green) = point_kinematics(*f);
+        self.stress(&f, &green)
     }
 }

@@ -7,13 +7,13 @@
 //! Cauchy stress and energy), which is what a run with a nonlinear model must report: the linear
 //! strain of a rigid rotation is not zero.
 
-use nalgebra::{Matrix3, Vector3};
+use nalgebra::Matrix3;
 
 use crate::element::ElementType;
 use crate::error::{Error, Result};
 use crate::materials::TetMaterials;
 use crate::mesh::{CellType, TetMesh};
-use crate::model::TetModels;
+use crate::model::{ModelElement, TetModels};
 
 pub use crate::element::von_mises;
 
@@ -103,22 +103,17 @@ pub fn cell_strain_energy_density<E: ElementType>(
 }
 
 /// Cauchy stress σ of every tet as `model` defines it ([`ForceModel::cauchy_stress`](crate::model::ForceModel::cauchy_stress), stress
-/// units) at the node-major `displacement`.
-pub fn cell_model_stress(
-    mesh: &TetMesh,
+/// units) at the node-major `displacement`: constant in a 4-node tet, the volume average over
+/// the quadrature points of a 10-node one ([`ModelElement::model_cauchy_stress`]).
+pub fn cell_model_stress<E: ModelElement>(
+    mesh: &TetMesh<E>,
     model: &(impl TetModels + ?Sized),
     displacement: &[f64],
 ) -> Result<Vec<Matrix3<f64>>> {
     check_displacement(mesh, displacement)?;
-    model.check_tet_count(mesh)?;
+    model.check_covers(mesh.tet_count())?;
     Ok((0..mesh.tet_count())
-        .map(|t| {
-            model.model_of(t).cauchy_stress(
-                &mesh.element_of(t),
-                &mesh.positions_of(t),
-                &deformed(mesh, t, displacement),
-            )
-        })
+        .map(|t| E::model_cauchy_stress(model.model_of(t), mesh, t, displacement))
         .collect())
 }
 
@@ -126,48 +121,28 @@ pub fn cell_model_stress(
 /// components): the linear strain ε = ½(∇u + ∇uᵀ) for the [linear](crate::model::ModelKind::Linear)
 /// model, the Green–Lagrange strain E = ½(FᵀF − I) (F the deformation gradient, referred to
 /// the rest configuration) for the nonlinear ones, which equals ε to first order in ∇u and,
-/// unlike ε, vanishes under any rigid rotation.
-pub fn cell_model_strain(
-    mesh: &TetMesh,
+/// unlike ε, vanishes under any rigid rotation. Volume averages for higher-order elements.
+pub fn cell_model_strain<E: ModelElement>(
+    mesh: &TetMesh<E>,
     model: &(impl TetModels + ?Sized),
     displacement: &[f64],
 ) -> Result<Vec<Matrix3<f64>>> {
     check_displacement(mesh, displacement)?;
-    model.check_tet_count(mesh)?;
+    model.check_covers(mesh.tet_count())?;
     let linear = crate::model::ModelKind::Linear.name();
-    Ok((0..mesh.tet_count())
-        .map(|t| {
-            let tet = mesh.element_of(t);
-            if model.model_of(t).name() == linear {
-                let u = per_tet_displacement(mesh, t, displacement);
-                tet.strain(&u)
-            } else {
-                let f = tet.deformation_gradient(&deformed(mesh, t, displacement));
-                (f.transpose() * f - Matrix3::identity()) * 0.5
-            }
-        })
+    let linear_strains = per_tet(mesh, displacement, |t, u| {
+        (model.model_of(t).name() == linear).then(|| E::mean_strain(&E::rest(mesh, t), u))
+    });
+    Ok(linear_strains
+        .into_iter()
+        .enumerate()
+        .map(|(t, strain)| strain.unwrap_or_else(|| E::mean_green_strain(mesh, t, displacement)))
         .collect())
 }
 
-/// Node-major displacement of tet `t`'s four nodes (`displacement`'s length checked by the
-/// caller).
-fn per_tet_displacement(
-    mesh: &TetMesh,
-    t: usize,
-    displacement: &[f64],
-) -> nalgebra::SVector<f64, 12> {
-    let mut u = nalgebra::SVector::<f64, 12>::zeros();
-    for (i, &n) in mesh.tets()[t].iter().enumerate() {
-        for a in 0..3 {
-            u[3 * i + a] = displacement[3 * n + a];
-        }
-    }
-    u
-}
-
 /// Von Mises stress of `model`'s Cauchy stress in every tet (stress units).
-pub fn cell_model_von_mises(
-    mesh: &TetMesh,
+pub fn cell_model_von_mises<E: ModelElement>(
+    mesh: &TetMesh<E>,
     model: &(impl TetModels + ?Sized),
     displacement: &[f64],
 ) -> Result<Vec<f64>> {
@@ -180,36 +155,19 @@ pub fn cell_model_von_mises(
 /// `model`'s strain energy density in every tet: its element energy over the rest volume
 /// (energy per rest volume, J/m³ = Pa in SI); summed with the rest volumes it gives the model's
 /// total elastic energy. For the linear model this is ½σ:ε.
-pub fn cell_model_energy_density(
-    mesh: &TetMesh,
+pub fn cell_model_energy_density<E: ModelElement>(
+    mesh: &TetMesh<E>,
     model: &(impl TetModels + ?Sized),
     displacement: &[f64],
 ) -> Result<Vec<f64>> {
     check_displacement(mesh, displacement)?;
-    model.check_tet_count(mesh)?;
+    model.check_covers(mesh.tet_count())?;
     Ok((0..mesh.tet_count())
         .map(|t| {
-            let tet = mesh.element_of(t);
-            let energy = model.model_of(t).energy(
-                &tet,
-                &mesh.positions_of(t),
-                &deformed(mesh, t, displacement),
-            );
-            energy / tet.volume()
+            let energy = E::model_energy(model.model_of(t), mesh, t, displacement);
+            energy / E::volume(&E::rest(mesh, t))
         })
         .collect())
-}
-
-/// x = X + u for the four nodes of tet `t` (`displacement`'s length checked by the caller).
-fn deformed(mesh: &TetMesh, t: usize, displacement: &[f64]) -> [Vector3<f64>; 4] {
-    mesh.tets()[t].map(|n| {
-        mesh.nodes()[n]
-            + Vector3::new(
-                displacement[3 * n],
-                displacement[3 * n + 1],
-                displacement[3 * n + 2],
-            )
-    })
 }
 
 /// |u| of every node (length units) from a node-major displacement (3 values per node).

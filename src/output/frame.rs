@@ -30,7 +30,7 @@ use crate::element::ElementType;
 use crate::error::Result;
 use crate::materials::TetMaterials;
 use crate::mesh::{CellType, TetMesh};
-use crate::model::TetModels;
+use crate::model::{ModelElement, TetModels};
 
 /// What a result frame holds besides the displacement: the optional fields of a run.
 #[derive(Debug, Clone, Copy, Default)]
@@ -146,9 +146,9 @@ pub fn write_result_frame<E: ElementType>(
 /// produced the displacement (its Cauchy stress, its own energy per rest volume; see
 /// [`cell_model_stress`] and [`cell_model_energy_density`]). `material_id` is the material index
 /// of `materials` (a [`MaterialMap`](crate::materials::MaterialMap), or one material: all 0).
-pub fn write_model_result_vtu(
+pub fn write_model_result_vtu<E: ModelElement>(
     path: &Path,
-    mesh: &TetMesh,
+    mesh: &TetMesh<E>,
     model: &(impl TetModels + ?Sized),
     materials: &impl TetMaterials,
     displacement: &[f64],

@@ -304,21 +304,6 @@ fn order_errors_name_the_key_and_line() {
         "{text}"
     );
 
-    let nonlinear = cantilever([2, 1, 1], "five", "[analysis]\nmodel = \"corotational\"\n");
-    let error = Scene::parse(&nonlinear, "<p2>", Path::new(".")).expect_err("corotational P2");
-    let text = error.to_string();
-    let model_line = nonlinear
-        .lines()
-        .position(|l| l.starts_with("[analysis]"))
-        .expect("analysis line")
-        + 1;
-    assert!(
-        text.contains("analysis.model")
-            && text.contains("mesh.order = 2 (line 3)")
-            && text.contains(&format!(":{model_line}:")),
-        "{text}"
-    );
-
     let file = "[mesh]\norder = 2\n[mesh.gmsh]\nfile = \"part.msh\"\n[material]\n\
                 youngs_modulus = 1e5\npoisson_ratio = 0.3\ndensity = 1.0\n";
     let error = Scene::parse(file, "<p2>", Path::new(".")).expect_err("order 2 on a file");

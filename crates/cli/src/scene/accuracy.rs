@@ -321,8 +321,8 @@ fn measured_cost_exponent(trials: &[AccuracyTrial], order: usize) -> f64 {
     }
 }
 
-/// Box meshes: both orders on the scene's cells (order 1 only for a nonlinear model, which runs
-/// on 4-node tets), the cheaper predicted one refined until its estimate meets the target or
+/// Box meshes: both orders on the scene's cells (order 1 only for a nonlinear model: the
+/// estimate and the cost model are the linear model's), the cheaper predicted one refined until its estimate meets the target or
 /// the cap stops it.
 fn choose_box(
     scene: &Scene,

@@ -9,7 +9,6 @@ use std::time::Instant;
 
 use nalgebra::Vector3;
 
-use super::element::as_linear;
 use super::restart::{self, Restart};
 use super::{
     Analysis, BuiltScene, DynamicSettings, OutputSettings, PngField, Probe, Scene, SceneElement,
@@ -258,17 +257,7 @@ impl<E: SceneElement> DynamicSetup<E> {
             // No copy of the mesh for the fast path.
             tetfem::model::ModelKind::Linear => InternalForce::Linear,
             nonlinear => InternalForce::of_models(
-                Arc::new(
-                    as_linear(&self.mesh)
-                        .ok_or_else(|| {
-                            Error::invalid_parameter(
-                                "model",
-                                nonlinear.name(),
-                                format!("runs on 4-node tets only, not on {} cells", E::NAME),
-                            )
-                        })?
-                        .clone(),
-                ),
+                Arc::new(self.mesh.clone()),
                 nonlinear.build_map(&self.materials),
                 &self.system,
             )?,
@@ -280,7 +269,7 @@ impl<E: SceneElement> DynamicSetup<E> {
     fn von_mises(&self, u: &[f64]) -> Result<Vec<f64>> {
         match &self.force {
             InternalForce::Linear => cell_von_mises(&self.mesh, &self.materials, u),
-            InternalForce::Nonlinear(n) => cell_model_von_mises(n.mesh(), n.models(), u),
+            InternalForce::Nonlinear(n) => cell_model_von_mises(&self.mesh, n.models(), u),
         }
     }
 
@@ -992,9 +981,14 @@ impl FrameWriter {
                 InternalForce::Linear => {
                     write_result_frame(&vtu, &setup.mesh, &setup.materials, u, extras)?
                 }
-                InternalForce::Nonlinear(n) => {
-                    write_model_result_vtu(&vtu, n.mesh(), n.models(), &setup.materials, u, extras)?
-                }
+                InternalForce::Nonlinear(n) => write_model_result_vtu(
+                    &vtu,
+                    &setup.mesh,
+                    n.models(),
+                    &setup.materials,
+                    u,
+                    extras,
+                )?,
             }
             pvd.push(time, &vtu)?;
             self.files.push(vtu);

@@ -12,7 +12,9 @@ use tetfem::mesh::{Tet4, TetMesh};
 
 /// An element type a scene can run on (see the [module](self) docs); pointwise evaluation
 /// (`PointwiseElement`) for the self-estimated error and the rotation check of every run.
-pub trait SceneElement: ElementType + tetfem::estimate::PointwiseElement {
+pub trait SceneElement:
+    ElementType + tetfem::estimate::PointwiseElement + tetfem::model::ModelElement
+{
     /// The scene's `mesh.order` for this element (1 or 2).
     const ORDER: usize;
 

@@ -60,7 +60,8 @@ engine = "tetfem"                   # default: tetfem's solvers in this process;
 
 [mesh]
 order = 1                           # default 1: 4-node tets; 2: 10-node (quadratic) tets, for
-                                    # [mesh.box] meshes and the linear model (static, dynamic, modal)
+                                    # [mesh.box] meshes: every model (static, dynamic; nonlinear
+                                    # ones at 4 quadrature points per tet), modal; no obstacles
 
 [mesh.box]                          # or [mesh.gmsh] / [mesh.tetgen] with: file = "part.msh"
 min = [0.0, 0.0, 0.0]               # default [0, 0, 0]
@@ -401,12 +402,6 @@ impl Scene {
         self.accuracy
     }
 
-    /// The span of the `mesh.order` key's value, if the scene has one.
-    fn order_span(&self) -> Option<Range<usize>> {
-        let only: OrderOnly = toml::from_str(&self.text).ok()?;
-        only.mesh?.order.map(|o| o.span())
-    }
-
     fn check_order(&self) -> Result<usize> {
         let only: OrderOnly = toml::from_str(&self.text).unwrap_or_default();
         let Some(order) = only.mesh.and_then(|m| m.order) else {
@@ -462,19 +457,6 @@ impl Scene {
                 format!(
                     "model = \"{name}\": modal analysis is linear only (K·φ = ω²·M·φ with the \
                      linear model's K, every model's tangent at rest); remove the key or use \"linear\""
-                ),
-            ));
-        }
-        if kind != tetfem::model::ModelKind::Linear && self.order == 2 {
-            let order_line = self
-                .order_span()
-                .map_or(0, |span| line_of(&self.text, span.start));
-            return Err(self.error(
-                "analysis.model",
-                &spanned.span(),
-                format!(
-                    "model = \"{name}\" with mesh.order = 2 (line {order_line}): the nonlinear \
-                     models run on 4-node tets only; use order = 1 or model = \"linear\""
                 ),
             ));
         }

@@ -199,20 +199,17 @@ pub fn run_static_with(scene: &Scene, options: &RunOptions) -> Result<RunSummary
     }
 }
 
-/// The nonlinear models' mesh: the scene's, which is a 4-node one (order 2 scenes with a
-/// nonlinear model are refused when parsed, so the error is a guard, not a path).
+/// The contact's mesh: the scene's, which is a 4-node one (order 2 scenes with obstacles are
+/// refused when parsed, so the error is a guard, not a path).
 pub(crate) fn linear_mesh_of<'a, E: SceneElement>(
     scene: &Scene,
     mesh: &'a tetfem::TetMesh<E>,
 ) -> Result<&'a tetfem::TetMesh> {
     as_linear(mesh).ok_or_else(|| {
         scene.error(
-            "analysis.model",
+            "obstacles",
             &(0..0),
-            format!(
-                "model = \"{}\" runs on 4-node tets only",
-                scene.model().name()
-            ),
+            "obstacles (contact) run on 4-node tets only: use mesh.order = 1",
         )
     })
 }
@@ -281,7 +278,7 @@ pub(super) fn run_static_on<E: SceneElement>(
                     tetfem::nonlinear::NewtonOptions::default(),
                 )?,
                 None => tetfem::nonlinear::solve_nonlinear_static_with_motion(
-                    linear_mesh_of(scene, &built.mesh)?,
+                    &built.mesh,
                     &model,
                     &built.constraints,
                     &built.loads,
@@ -305,7 +302,7 @@ pub(super) fn run_static_on<E: SceneElement>(
             // ‖r_f‖/‖f_f‖ at the end, as for the linear solve.
             let relative = if load > 0.0 { last / load } else { last };
             reactions = Some(tetfem::nonlinear::nonlinear_reactions(
-                linear_mesh_of(scene, &built.mesh)?,
+                &built.mesh,
                 &model,
                 &built.constraints,
                 &built.loads,
@@ -321,7 +318,7 @@ pub(super) fn run_static_on<E: SceneElement>(
     let linear = scene.model() == tetfem::model::ModelKind::Linear;
     let von_mises = match linear {
         true => tetfem::output::fields::cell_von_mises(&built.mesh, &built.materials, u)?,
-        false => cell_model_von_mises(linear_mesh_of(scene, &built.mesh)?, &model, u)?,
+        false => cell_model_von_mises(&built.mesh, &model, u)?,
     };
     let (estimated_error, indicators) = match linear {
         true => {
@@ -466,14 +463,7 @@ fn write_static_outputs<E: SceneElement>(
                 write_result_frame(&vtu, &built.mesh, &built.materials, u, extras)?
             }
             // A nonlinear model's stresses and energy are its own.
-            _ => write_model_result_vtu(
-                &vtu,
-                linear_mesh_of(scene, &built.mesh)?,
-                model,
-                &built.materials,
-                u,
-                extras,
-            )?,
+            _ => write_model_result_vtu(&vtu, &built.mesh, model, &built.materials, u, extras)?,
         }
         let mut pvd = PvdCollection::new(dir.join(format!("{}.pvd", out.stem)));
         pvd.push(0.0, &vtu)?;

@@ -1,0 +1,134 @@
+//! The force models on an element type: energy, force, tangent and stress of one element of
+//! a mesh, for [`super::assemble`] to sum. The 4-node tet keeps its own closed forms (F is
+//! constant in it: one point, the formulas of each [`ForceModel`]); other elements integrate
+//! the model's [`ConstitutiveLaw`](super::ConstitutiveLaw) at their quadrature points
+//! ([`super::quadrature_points`]).
+
+use nalgebra::{Matrix3, Vector3};
+
+use super::{ForceModel, TetModels, project_psd};
+use crate::assembly::Assembler;
+use crate::element::{ElementType, Tet4};
+use crate::error::Result;
+use crate::mesh::TetMesh;
+use crate::sparse::CscMatrix;
+
+/// An element type the force models run on. Every method takes a tet `t` of `mesh` and the
+/// full displacement `u` (3 values per node, DOF `3·node + axis`), both checked by the caller.
+pub trait ModelElement: ElementType + 'static {
+    /// Elastic energy Eₑ = ∫ψ(F) dV of tet `t` (energy units).
+    fn model_energy(model: &dyn ForceModel, mesh: &TetMesh<Self>, t: usize, u: &[f64]) -> f64;
+
+    /// Adds tet `t`'s internal force fₐ = −∫P(F)·∇Nₐ dV (force units) into the full vector
+    /// `force` at its nodes' DOFs.
+    fn add_model_force(
+        model: &dyn ForceModel,
+        mesh: &TetMesh<Self>,
+        t: usize,
+        u: &[f64],
+        force: &mut [f64],
+    );
+
+    /// Refills `tangent` (on `assembler`'s pattern) with Σₑ Kₑ, Kₑ = −∂fₑ/∂x (force/length),
+    /// each projected onto the positive semi-definite cone when `project` is set.
+    fn refill_model_tangent(
+        mesh: &TetMesh<Self>,
+        assembler: &Assembler,
+        models: &(impl TetModels + ?Sized),
+        u: &[f64],
+        project: bool,
+        tangent: &mut CscMatrix,
+    ) -> Result<()>;
+
+    /// The model's Cauchy stress σ of tet `t` (stress units): the tet's constant stress for
+    /// the 4-node tet, the volume average (1/V)∫σ dV over the quadrature points otherwise.
+    fn model_cauchy_stress(
+        model: &dyn ForceModel,
+        mesh: &TetMesh<Self>,
+        t: usize,
+        u: &[f64],
+    ) -> Matrix3<f64>;
+
+    /// The volume average (1/V)∫E dV of the Green–Lagrange strain E = ½(FᵀF − I)
+    /// (dimensionless) of tet `t`.
+    fn mean_green_strain(mesh: &TetMesh<Self>, t: usize, u: &[f64]) -> Matrix3<f64>;
+}
+
+/// x = X + u for the 4 nodes of tet `t`.
+pub(crate) fn positions(mesh: &TetMesh, t: usize, u: &[f64]) -> [Vector3<f64>; 4] {
+    mesh.tets()[t].map(|n| mesh.nodes()[n] + Vector3::new(u[3 * n], u[3 * n + 1], u[3 * n + 2]))
+}
+
+/// The 4-node tet: each model's own one-point formulas, exactly as before the seam.
+impl ModelElement for Tet4 {
+    #[inline]
+    fn model_energy(model: &dyn ForceModel, mesh: &TetMesh, t: usize, u: &[f64]) -> f64 {
+        model.energy(
+            &mesh.element_of(t),
+            &mesh.positions_of(t),
+            &positions(mesh, t, u),
+        )
+    }
+
+    #[inline]
+    fn add_model_force(
+        model: &dyn ForceModel,
+        mesh: &TetMesh,
+        t: usize,
+        u: &[f64],
+        force: &mut [f64],
+    ) {
+        let f = model.force(
+            &mesh.element_of(t),
+            &mesh.positions_of(t),
+            &positions(mesh, t, u),
+        );
+        for (i, &n) in mesh.tets()[t].iter().enumerate() {
+            for a in 0..3 {
+                force[3 * n + a] += f[3 * i + a];
+            }
+        }
+    }
+
+    fn refill_model_tangent(
+        mesh: &TetMesh,
+        assembler: &Assembler,
+        models: &(impl TetModels + ?Sized),
+        u: &[f64],
+        project: bool,
+        tangent: &mut CscMatrix,
+    ) -> Result<()> {
+        assembler.reassemble(
+            mesh,
+            |t| {
+                let k = models.model_of(t).tangent(
+                    &mesh.element_of(t),
+                    &mesh.positions_of(t),
+                    &positions(mesh, t, u),
+                );
+                if project { project_psd(&k) } else { k }
+            },
+            tangent,
+        )
+    }
+
+    fn model_cauchy_stress(
+        model: &dyn ForceModel,
+        mesh: &TetMesh,
+        t: usize,
+        u: &[f64],
+    ) -> Matrix3<f64> {
+        model.cauchy_stress(
+            &mesh.element_of(t),
+            &mesh.positions_of(t),
+            &positions(mesh, t, u),
+        )
+    }
+
+    fn mean_green_strain(mesh: &TetMesh, t: usize, u: &[f64]) -> Matrix3<f64> {
+        let f = mesh
+            .element_of(t)
+            .deformation_gradient(&positions(mesh, t, u));
+        (f.transpose() * f - Matrix3::identity()) * 0.5
+    }
+}
