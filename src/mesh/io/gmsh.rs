@@ -564,16 +564,19 @@ fn convert<'a>(
 
 /// Per element block of the file, its element count and nodes per element.
 fn element_layout(msh: &Msh) -> Vec<(usize, usize)> {
-    msh.data.elements.as_ref().map_or_else(Vec::new, |elements| {
-        elements
-            .element_blocks
-            .iter()
-            .map(|block| {
-                let nodes = block.elements.first().map_or(0, |e| e.nodes.len());
-                (block.elements.len(), nodes)
-            })
-            .collect()
-    })
+    msh.data
+        .elements
+        .as_ref()
+        .map_or_else(Vec::new, |elements| {
+            elements
+                .element_blocks
+                .iter()
+                .map(|block| {
+                    let nodes = block.elements.first().map_or(0, |e| e.nodes.len());
+                    (block.elements.len(), nodes)
+                })
+                .collect()
+        })
 }
 
 /// Writes `mesh` as MSH 4.1 ASCII (atomically), with `groups`' triangles as surface physical

@@ -2,7 +2,7 @@
 //! mesh, and point validation errors at the file line of the culprit.
 
 use std::collections::{BTreeMap, HashMap};
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use nalgebra::Vector3;
 
@@ -34,6 +34,19 @@ pub(crate) struct RawTriangleMids {
     pub line: usize,
 }
 
+/// The edge nodes a TetGen `-o2` `.face` row lists (in an order TetGen does not fix), checked
+/// to be the tets' edge nodes of the face's edges once the tets are known to be sound.
+#[derive(Debug)]
+pub(crate) struct ListedEdgeNodes {
+    pub path: PathBuf,
+    pub line: usize,
+    pub corners: [usize; 3],
+    /// The listed nodes (file-order indices; `usize::MAX`-wrapped when out of range).
+    pub listed: [usize; 3],
+    /// The file's first index, for messages.
+    pub base: usize,
+}
+
 /// What a reader collected, indices into its own node list (file order, 0-based).
 #[derive(Debug, Default)]
 pub(crate) struct RawMesh {
@@ -56,6 +69,8 @@ pub(crate) struct RawMesh {
     pub face_markers: Option<Vec<MarkedFace>>,
     /// Triangles with mid-side nodes of their own, to check against the tets.
     pub triangle_mids: Vec<RawTriangleMids>,
+    /// `.face` rows with edge nodes, to check against the tets after the tets' own checks.
+    pub listed_edge_nodes: Vec<ListedEdgeNodes>,
     pub tet_attributes: Option<Vec<f64>>,
     pub groups: Vec<RawGroup>,
     pub skipped: BTreeMap<String, usize>,
@@ -75,7 +90,7 @@ const LINEAR_NON_TET: [&str; 3] = ["Hex8", "Pri6", "Pyr5"];
 pub(crate) const VTK_EDGES: [(usize, usize); 6] = [(0, 1), (1, 2), (0, 2), (0, 3), (1, 3), (2, 3)];
 
 /// A corner pair as a key, smaller node first.
-pub(crate) fn edge_key(a: usize, b: usize) -> (usize, usize) {
+fn edge_key(a: usize, b: usize) -> (usize, usize) {
     (a.min(b), a.max(b))
 }
 
@@ -108,7 +123,7 @@ impl RawMesh {
     }
 
     /// The edge node of each edge (corner pair) of the file's 10-node tets.
-    pub fn edge_map(&self) -> HashMap<(usize, usize), usize> {
+    fn edge_map(&self) -> HashMap<(usize, usize), usize> {
         let mut map = HashMap::with_capacity(self.edge_nodes.len() * 2);
         for (tet, edges) in self.tets.iter().zip(&self.edge_nodes) {
             for (&(i, j), &m) in VTK_EDGES.iter().zip(edges) {
@@ -129,7 +144,7 @@ impl RawMesh {
                         path,
                         self.tet_lines[t],
                         format!(
-                            "tet {} gives the edge of nodes {} and {} the mid-side node {},                              another tet gives it node {}: the tets must share their edge nodes",
+                            "tet {} gives the edge of nodes {} and {} the mid-side node {}, another tet gives it node {}: the tets must share their edge nodes",
                             self.tet_ids[t],
                             self.node_ids[tet[i]],
                             self.node_ids[tet[j]],
@@ -150,11 +165,37 @@ impl RawMesh {
                         path,
                         tri.line,
                         format!(
-                            "the triangle's mid-side node {} on the edge of nodes {} and {} is                              not the tets' node {} on that edge",
+                            "the triangle's mid-side node {} on the edge of nodes {} and {} is not the tets' node {} on that edge",
                             self.node_ids[tri.mids[k]],
                             self.node_ids[a],
                             self.node_ids[b],
                             self.node_ids[m]
+                        ),
+                    ));
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// The `.face` rows' listed edge nodes against the tets' (see [`ListedEdgeNodes`]).
+    fn check_listed_edge_nodes(&self, map: &HashMap<(usize, usize), usize>) -> Result<()> {
+        for face in &self.listed_edge_nodes {
+            for k in 0..3 {
+                let (a, b) = (face.corners[k], face.corners[(k + 1) % 3]);
+                if let Some(&m) = map.get(&edge_key(a, b))
+                    && !face.listed.contains(&m)
+                {
+                    return Err(Error::parse(
+                        &face.path,
+                        face.line,
+                        format!(
+                            "the face's edge nodes {:?} do not include node {}, the tets' node \
+                             on the edge of nodes {} and {}",
+                            face.listed.map(|n| n.wrapping_add(face.base)),
+                            self.node_ids[m],
+                            self.node_ids[a],
+                            self.node_ids[b]
                         ),
                     ));
                 }
@@ -197,13 +238,7 @@ impl RawMesh {
             ));
         }
         let quadratic = self.is_quadratic();
-        let edges = if quadratic {
-            let map = self.edge_map();
-            self.check_edge_nodes(path, &map)?;
-            Some(map)
-        } else {
-            None
-        };
+        let edges = quadratic.then(|| self.edge_map());
         let as_quadratic = match (C::NODES, quadratic) {
             (4, false) | (10, true) => quadratic,
             (4, true) => {
@@ -258,7 +293,8 @@ impl RawMesh {
         let unused_nodes = self.nodes.len() - kept.len();
         let nodes: Vec<Vector3<f64>> = kept.iter().map(|&o| self.nodes[o]).collect();
         let cells = self.cells::<C>(as_quadratic, &new_index);
-        let located = |line: usize, e: &Error| Error::parse(path, line, format!("invalid mesh: {e}"));
+        let located =
+            |line: usize, e: &Error| Error::parse(path, line, format!("invalid mesh: {e}"));
         // The element's own checks (edge nodes at the midpoints), with the tet's line.
         for (t, cell) in cells.iter().enumerate() {
             C::check_cell(t, cell, &nodes).map_err(|e| {
@@ -272,6 +308,12 @@ impl RawMesh {
                     ),
                 )
             })?;
+        }
+        // After each tet's own check, so that a tet with misplaced edge nodes is named itself
+        // rather than as a neighbour's disagreement.
+        if let Some(map) = &edges {
+            self.check_edge_nodes(path, map)?;
+            self.check_listed_edge_nodes(map)?;
         }
         let mesh = TetMesh::from_cells(nodes, cells).map_err(|e| {
             let line = match &e {
@@ -317,7 +359,12 @@ impl RawMesh {
                 if as_quadratic {
                     // The edge nodes of the group's tets and of its triangles' edges (a
                     // 3-node triangle on a 10-node mesh has none of its own).
-                    all.extend(g.tets.iter().filter_map(|&t| self.edge_nodes.get(t)).flatten());
+                    all.extend(
+                        g.tets
+                            .iter()
+                            .filter_map(|&t| self.edge_nodes.get(t))
+                            .flatten(),
+                    );
                     if let Some(map) = &edges {
                         for t in &g.triangles {
                             for k in 0..3 {

@@ -24,7 +24,7 @@ use std::path::{Path, PathBuf};
 
 use nalgebra::Vector3;
 
-use super::raw::{RawMesh, edge_key};
+use super::raw::{ListedEdgeNodes, RawMesh};
 use super::text::{Records, decode, read_regular_file};
 use super::{ImportedMesh, MarkedFace};
 use crate::atomic_file::write_atomically;
@@ -294,15 +294,15 @@ fn read_faces(path: &Path, text: &str, base: usize, raw: &mut RawMesh) -> Result
         return Err(header.error(format!("the marker flag is {markers}; it must be 0 or 1")));
     }
     let node_count = raw.nodes.len();
-    let edges = raw.is_quadratic().then(|| raw.edge_map());
     let mut faces = Vec::with_capacity(count.min(text.len()));
     for i in 0..count {
         let r = records.next(&format!("face {} of {count}", i + 1))?;
         r.expect_at_least(4 + markers, "index, three nodes and the marker")?;
         // An -o2 face of TetGen ≥ 1.5 lists its three edge nodes after the corners.
-        let edge_columns = match &edges {
-            Some(_) if r.fields.len() >= 7 + markers => 3,
-            _ => 0,
+        let edge_columns = if raw.is_quadratic() && r.fields.len() >= 7 + markers {
+            3
+        } else {
+            0
         };
         let index: usize = r.number(0, "face index")?;
         if index != base + i {
@@ -322,8 +322,19 @@ fn read_faces(path: &Path, text: &str, base: usize, raw: &mut RawMesh) -> Result
             }
             *slot = n - base;
         }
-        if let Some(map) = edges.as_ref().filter(|_| edge_columns == 3) {
-            check_face_edge_nodes(&r, &nodes, base, map, raw)?;
+        if edge_columns == 3 {
+            let mut listed = [0usize; 3];
+            for (k, slot) in listed.iter_mut().enumerate() {
+                let n: usize = r.number(4 + k, "edge node index")?;
+                *slot = n.wrapping_sub(base);
+            }
+            raw.listed_edge_nodes.push(ListedEdgeNodes {
+                path: path.to_path_buf(),
+                line: r.line,
+                corners: nodes,
+                listed,
+                base,
+            });
         }
         if markers == 1 {
             let marker: i64 = r.number(4 + edge_columns, "boundary marker (an integer)")?;
@@ -337,38 +348,6 @@ fn read_faces(path: &Path, text: &str, base: usize, raw: &mut RawMesh) -> Result
     }
     if markers == 1 {
         raw.face_markers = Some(faces);
-    }
-    Ok(())
-}
-
-/// Checks that the edge nodes an `-o2` `.face` row lists (columns 4–6, in any order) are the
-/// tets' edge nodes of the face's edges, where those edges are tet edges.
-fn check_face_edge_nodes(
-    r: &super::text::Record,
-    corners: &[usize; 3],
-    base: usize,
-    map: &std::collections::HashMap<(usize, usize), usize>,
-    raw: &RawMesh,
-) -> Result<()> {
-    let mut listed = [0usize; 3];
-    for (k, slot) in listed.iter_mut().enumerate() {
-        let n: usize = r.number(4 + k, "edge node index")?;
-        *slot = n.wrapping_sub(base);
-    }
-    for k in 0..3 {
-        let (a, b) = (corners[k], corners[(k + 1) % 3]);
-        if let Some(&m) = map.get(&edge_key(a, b))
-            && !listed.contains(&m)
-        {
-            return Err(r.error(format!(
-                "the face's edge nodes {:?} do not include node {}, the tets' node on the edge \
-                 of nodes {} and {}",
-                listed.map(|n| n.wrapping_add(base)),
-                raw.node_ids[m],
-                raw.node_ids[a],
-                raw.node_ids[b]
-            )));
-        }
     }
     Ok(())
 }

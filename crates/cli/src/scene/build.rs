@@ -769,12 +769,7 @@ impl<E: ElementType> Context<'_, E> {
 
     /// The imported mesh if it has `.face` markers and `marker` among them; else an error at
     /// `key` listing the markers it has.
-    fn face_marker(
-        &self,
-        marker: i64,
-        key: &str,
-        span: &Range<usize>,
-    ) -> Result<&ImportedMesh<E>> {
+    fn face_marker(&self, marker: i64, key: &str, span: &Range<usize>) -> Result<&ImportedMesh<E>> {
         match self.imported {
             Some(i) if i.face_markers.is_some() => {
                 known_marker(marker, &i.face_marker_counts(), "face")
