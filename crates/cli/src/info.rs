@@ -160,15 +160,19 @@ impl fmt::Display for MeshInfo {
         writeln!(f, "{}", self.file)?;
         writeln!(
             f,
-            "  nodes {}, tets {} ({}), DOFs {}",
+            "  nodes {}, tets {}, DOFs {}",
             s.nodes,
             s.tets,
-            match self.element.as_str() {
-                "tet10" => "tet10: 10-node quadratic",
-                "tet4" => "tet4: 4-node linear",
-                other => other,
-            },
             3 * s.nodes
+        )?;
+        writeln!(
+            f,
+            "  element: {} ({})",
+            self.element,
+            match self.element.as_str() {
+                "tet10" => "10-node quadratic tets, order 2",
+                _ => "4-node linear tets, order 1",
+            }
         )?;
         writeln!(f, "  volume {:.6e}", s.volume)?;
         writeln!(

@@ -233,7 +233,11 @@ fn mesh_order_must_match_the_file() {
 fn info_names_the_element_type() {
     let p2 = mesh_info(&scenes().join("l_bracket_p2.msh"), None).unwrap();
     assert_eq!(p2.element, "tet10");
-    assert!(p2.to_string().contains("tet10: 10-node quadratic"), "{p2}");
+    assert!(
+        p2.to_string()
+            .contains("element: tet10 (10-node quadratic tets, order 2)"),
+        "{p2}"
+    );
     let p1 = mesh_info(&scenes().join("l_bracket.msh"), None).unwrap();
     assert_eq!(p1.element, "tet4");
     // The quadratic file's nodes: every node is a tet's (corners and edge nodes), none dropped.
