@@ -128,8 +128,8 @@ impl MaterialMap {
     ///
     /// Errors: a name that is no volume group of the file, a tet in two listed groups, or (with
     /// no default) a tet in none, each naming the tet and the groups.
-    pub fn from_gmsh_volumes(
-        imported: &ImportedMesh,
+    pub fn from_gmsh_volumes<C: CellType>(
+        imported: &ImportedMesh<C>,
         table: &[(&str, Material)],
         default: Option<Material>,
     ) -> Result<Self> {
@@ -147,8 +147,8 @@ impl MaterialMap {
     ///
     /// Errors: the file has no tet attributes, a tet claimed twice (the same value listed
     /// twice) or, with no default, a tet whose attribute is not listed, naming the tet.
-    pub fn from_tetgen_regions(
-        imported: &ImportedMesh,
+    pub fn from_tetgen_regions<C: CellType>(
+        imported: &ImportedMesh<C>,
         table: &[(f64, Material)],
         default: Option<Material>,
     ) -> Result<Self> {
@@ -412,7 +412,10 @@ fn centroid<C: CellType>(mesh: &TetMesh<C>, t: usize) -> Vector3<f64> {
 }
 
 /// The tets of the Gmsh physical volume named `key` (or with tag `key`).
-pub fn volume_group_tets<'a>(imported: &'a ImportedMesh, key: &str) -> Result<&'a [usize]> {
+pub fn volume_group_tets<'a, C: CellType>(
+    imported: &'a ImportedMesh<C>,
+    key: &str,
+) -> Result<&'a [usize]> {
     let tag: Option<i32> = key.trim().parse().ok();
     imported
         .groups
@@ -449,7 +452,7 @@ pub fn volume_group_tets<'a>(imported: &'a ImportedMesh, key: &str) -> Result<&'
 }
 
 /// The tets whose TetGen region attribute equals `value`.
-pub fn attribute_tets(imported: &ImportedMesh, value: f64) -> Result<Vec<usize>> {
+pub fn attribute_tets<C: CellType>(imported: &ImportedMesh<C>, value: f64) -> Result<Vec<usize>> {
     let Some(attributes) = &imported.tet_attributes else {
         return Err(Error::invalid_parameter(
             "region attribute",

@@ -258,12 +258,27 @@ fn mixed_and_quadratic_meshes_are_errors_naming_counts_and_the_fix() {
     let (line, message) = parse_error("mixed22.msh", mixed22.as_bytes());
     assert_eq!(line, 17, "{message}");
     assert!(message.contains("1 Pri6"), "{message}");
-    // An order-2 tet: the message says to mesh at order 1.
+    // An order-2 tet is read (as 4-node tets, its corners; tests/quadratic_mesh_io.rs reads it
+    // as a 10-node tet); beside an order-2 prism it is an error naming both and the fix.
     let tet10 = "$MeshFormat\n2.2 0 8\n$EndMeshFormat\n$Nodes\n10\n1 0 0 0\n2 1 0 0\n3 0 1 0\n4 0 0 1\n5 0.5 0 0\n6 0.5 0.5 0\n7 0 0.5 0\n8 0 0 0.5\n9 0 0.5 0.5\n10 0.5 0 0.5\n$EndNodes\n$Elements\n1\n1 11 2 1 1 1 2 3 4 5 6 7 8 9 10\n$EndElements\n";
-    let (line, message) = parse_error("tet10.msh", tet10.as_bytes());
-    assert_eq!(line, 19, "{message}");
+    let path = tmp("tet10.msh");
+    std::fs::write(&path, tet10).unwrap();
+    let corners = read_gmsh(&path).unwrap();
+    assert_eq!(corners.mesh.tets(), &[[0, 1, 2, 3]]);
+    assert_eq!(
+        corners
+            .skipped_elements
+            .get(tetfem::mesh::io::TET10_KEPT_AS_CORNERS),
+        Some(&1)
+    );
+    let prism18 = tet10.replace("$Elements\n1\n", "$Elements\n2\n").replace(
+        "$EndElements",
+        "2 13 2 1 1 1 2 3 4 5 6 7 8 9 10 1 2 3 4 5 6 7 8\n$EndElements",
+    );
+    let (line, message) = parse_error("pri18.msh", prism18.as_bytes());
+    assert_eq!(line, 20, "{message}");
     assert!(
-        message.contains("1 Tet10") && message.contains("-order 1"),
+        message.contains("1 Pri18") && message.contains("1 Tet10") && message.contains("-order 2"),
         "{message}"
     );
 }

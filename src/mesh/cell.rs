@@ -19,6 +19,9 @@ pub trait NodeList:
 {
     /// The four corner nodes.
     fn corners(&self) -> [usize; 4];
+
+    /// The cell of these node indices, if there are as many as the cell has (`None` otherwise).
+    fn from_slice(nodes: &[usize]) -> Option<Self>;
 }
 
 impl<const N: usize> NodeList for [usize; N] {
@@ -26,6 +29,10 @@ impl<const N: usize> NodeList for [usize; N] {
     fn corners(&self) -> [usize; 4] {
         const { assert!(N >= 4, "a tet cell has at least its four corners") };
         [self[0], self[1], self[2], self[3]]
+    }
+
+    fn from_slice(nodes: &[usize]) -> Option<Self> {
+        nodes.try_into().ok()
     }
 }
 

@@ -65,7 +65,7 @@ pub struct OriginalIds<'a> {
 
 impl<'a> OriginalIds<'a> {
     /// The ids an imported mesh carries.
-    pub fn of(imported: &'a crate::mesh::io::ImportedMesh) -> Self {
+    pub fn of<C: crate::mesh::CellType>(imported: &'a crate::mesh::io::ImportedMesh<C>) -> Self {
         OriginalIds {
             nodes: &imported.node_ids,
             elements: &imported.tet_ids,

@@ -11,7 +11,7 @@ use tetfem::element::Tet10;
 use tetfem::error::Result;
 use tetfem::material::Material;
 use tetfem::mesh::TetMesh;
-use tetfem::mesh::io::{ImportedMesh, read_mesh};
+use tetfem::mesh::io::{ImportedMesh, mesh_file_order, read_mesh, read_mesh_as};
 use tetfem::quality::MeshStatistics;
 
 /// One physical group or marker set of the file.
@@ -32,6 +32,9 @@ pub struct GroupInfo {
 pub struct MeshInfo {
     /// The file.
     pub file: String,
+    /// The element type of the tets: `"tet4"` (4-node, order 1) or `"tet10"` (10-node,
+    /// order 2), as a file holds them or a scene's `mesh.order` makes them.
+    pub element: String,
     /// Counts, volume and element quality.
     pub statistics: MeshStatistics,
     /// Gmsh physical groups.
@@ -81,6 +84,11 @@ pub fn mesh_info(path: &Path, material: Option<Material>) -> Result<MeshInfo> {
             }
         };
     }
+    // A file's own order decides its element type (a quadratic file read as 10-node tets).
+    if mesh_file_order(path)? == 2 {
+        let imported = read_mesh_as::<Tet10>(path)?;
+        return info_of(path, imported.mesh.clone(), Some(imported), material);
+    }
     let imported = read_mesh(path)?;
     info_of(path, imported.mesh.clone(), Some(imported), material)
 }
@@ -89,7 +97,7 @@ pub fn mesh_info(path: &Path, material: Option<Material>) -> Result<MeshInfo> {
 fn info_of<E: SceneElement>(
     path: &Path,
     mesh: TetMesh<E>,
-    imported: Option<ImportedMesh>,
+    imported: Option<ImportedMesh<E>>,
     material: Option<Material>,
 ) -> Result<MeshInfo> {
     let groups = imported
@@ -108,6 +116,7 @@ fn info_of<E: SceneElement>(
         .unwrap_or_default();
     Ok(MeshInfo {
         file: path.display().to_string(),
+        element: E::NAME.to_string(),
         statistics: mesh.statistics(),
         groups,
         node_markers: imported
@@ -155,6 +164,15 @@ impl fmt::Display for MeshInfo {
             s.nodes,
             s.tets,
             3 * s.nodes
+        )?;
+        writeln!(
+            f,
+            "  element: {} ({})",
+            self.element,
+            match self.element.as_str() {
+                "tet10" => "10-node quadratic tets, order 2",
+                _ => "4-node linear tets, order 1",
+            }
         )?;
         writeln!(f, "  volume {:.6e}", s.volume)?;
         writeln!(

@@ -304,10 +304,16 @@ fn order_errors_name_the_key_and_line() {
         "{text}"
     );
 
-    let file = "[mesh]\norder = 2\n[mesh.gmsh]\nfile = \"part.msh\"\n[material]\n\
+    // A mesh file's order is its own: order = 2 on a file of 4-node tets names what it holds.
+    let file = "[mesh]\norder = 2\n[mesh.gmsh]\nfile = \"l_bracket.msh\"\n[material]\n\
                 youngs_modulus = 1e5\npoisson_ratio = 0.3\ndensity = 1.0\n";
-    let error = Scene::parse(file, "<p2>", Path::new(".")).expect_err("order 2 on a file");
-    assert!(error.to_string().contains("mesh.order"), "{error}");
+    let scenes = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes");
+    let error = Scene::parse(file, "<p2>", &scenes).expect_err("order 2 on a linear file");
+    let text = error.to_string();
+    assert!(
+        text.contains("mesh.order") && text.contains(":2:") && text.contains("4-node tets"),
+        "{text}"
+    );
 
     // A scene of order 2 is refused by the order-1 builder (e.g. another engine's).
     let scene = parse(&cantilever([2, 1, 1], "five", ""));

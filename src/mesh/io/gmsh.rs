@@ -1,9 +1,15 @@
 //! Gmsh `.msh` files: MSH 4.1 ASCII and binary read through the `mshio` crate, MSH 2.2 ASCII
 //! through [`super::gmsh22`], MSH 4.1 ASCII written by [`write_gmsh`].
 //!
-//! Kept: 4-node tetrahedra (the mesh), 3-node triangles (boundary sets of their physical
-//! groups), and the physical groups with their names. Other element types are skipped and
-//! counted. In MSH 4.1 the physical tags of an element come from its entity in `$Entities`.
+//! Kept: 4-node (type 4) or 10-node (type 11) tetrahedra (the mesh), 3-node (type 2) and 6-node
+//! (type 9) triangles (boundary sets of their physical groups), and the physical groups with
+//! their names. Other element types are skipped and counted. In MSH 4.1 the physical tags of an
+//! element come from its entity in `$Entities`.
+//!
+//! Gmsh numbers the edges of a 10-node tet (0,1), (1,2), (2,0), (3,0), (3,2), (3,1) (its
+//! `MTetrahedron::edges_tetra`): its nodes 8 and 9 are those of edges (2,3) and (1,3), where
+//! VTK's (and [`crate::mesh::CellType`]'s quadratic tet's) are (1,3) and (2,3). A 6-node
+//! triangle's nodes 3, 4, 5 sit on its edges (0,1), (1,2), (2,0).
 
 use std::collections::{BTreeMap, HashMap};
 use std::io::Write;
@@ -13,25 +19,66 @@ use mshio::{ElementType, MshFile};
 use nalgebra::Vector3;
 
 use super::gmsh41_nodes::{Encoding, TagAt, element_line, node_tags};
-use super::raw::{RawGroup, RawMesh};
+use super::raw::{RawGroup, RawMesh, RawTriangleMids};
 use super::text::{Records, decode, line_of_offset, read_regular_file};
 use super::{ImportedMesh, PhysicalGroup, gmsh22};
 use crate::atomic_file::write_atomically;
 use crate::error::{Error, Result};
-use crate::mesh::TetMesh;
+use crate::mesh::{CellType, Tet4, TetMesh};
+
+/// Gmsh's edge nodes of a 10-node tet (element nodes 4–9) in the raw mesh's VTK edge order:
+/// VTK edge k is Gmsh node `GMSH_TET10_EDGE_NODE[k]`.
+const GMSH_TET10_EDGE_NODE: [usize; 6] = [4, 5, 6, 7, 9, 8];
+
+/// The raw mesh's corners and VTK-ordered edge nodes of a Gmsh 10-node tet's node list.
+pub(crate) fn tet10_from_gmsh(nodes: &[usize]) -> ([usize; 4], [usize; 6]) {
+    (
+        [nodes[0], nodes[1], nodes[2], nodes[3]],
+        GMSH_TET10_EDGE_NODE.map(|k| nodes[k]),
+    )
+}
 
 /// Reads a Gmsh mesh file (MSH 4.1 ASCII or binary, or MSH 2.2 ASCII): reads its bytes and
 /// hands them to [`parse_gmsh`]. A path that is not a regular file (a FIFO, a device such as
-/// `/dev/urandom`) is an [`Error::Parse`] before anything is read.
+/// `/dev/urandom`) is an [`Error::Parse`] before anything is read. As 4-node tets: of a
+/// quadratic file the corners (see [`read_gmsh_as`]).
 pub fn read_gmsh(path: &Path) -> Result<ImportedMesh> {
+    read_gmsh_as::<Tet4>(path)
+}
+
+/// [`read_gmsh`] as cells of type `C`: `Tet4` for any file (of a quadratic one its corners),
+/// `tetfem::Tet10` for a file of 10-node tets (a linear file is an error).
+pub fn read_gmsh_as<C: CellType>(path: &Path) -> Result<ImportedMesh<C>> {
     let bytes = read_regular_file(path)?;
-    parse_gmsh(path, &bytes)
+    parse_gmsh_as(path, &bytes)
 }
 
 /// Parses the contents of a Gmsh mesh file (MSH 4.1 ASCII or binary, or MSH 2.2 ASCII) held in
 /// memory. `path` is not opened: it only labels the [`Error::Parse`] errors (use the file the
-/// bytes came from, or a placeholder such as `<memory>.msh`).
+/// bytes came from, or a placeholder such as `<memory>.msh`). As 4-node tets (see
+/// [`parse_gmsh_as`]).
 pub fn parse_gmsh(path: &Path, bytes: &[u8]) -> Result<ImportedMesh> {
+    parse_gmsh_as::<Tet4>(path, bytes)
+}
+
+/// [`parse_gmsh`] as cells of type `C` (see [`read_gmsh_as`]).
+pub fn parse_gmsh_as<C: CellType>(path: &Path, bytes: &[u8]) -> Result<ImportedMesh<C>> {
+    let (raw, locate) = parse_raw(path, bytes)?;
+    raw.finish(path, &|t| locate(t).unwrap_or(0))
+}
+
+/// The element order of a Gmsh file's tets (1 or 2), from the parsed elements.
+pub(crate) fn file_order(path: &Path) -> Result<usize> {
+    let bytes = read_regular_file(path)?;
+    let (raw, _) = parse_raw(path, &bytes)?;
+    Ok(if raw.is_quadratic() { 2 } else { 1 })
+}
+
+/// The line of the raw mesh's tet `t`, where the format knows it.
+type TetLocator<'a> = Box<dyn Fn(usize) -> Option<usize> + 'a>;
+
+/// The file's elements as read, and where each tet is.
+fn parse_raw<'a>(path: &'a Path, bytes: &'a [u8]) -> Result<(RawMesh, TetLocator<'a>)> {
     let (version, binary, data_size) = format_line(path, bytes)?;
     let raw = match (version.as_str(), binary) {
         ("4.1", _) => {
@@ -64,7 +111,7 @@ pub fn parse_gmsh(path: &Path, bytes: &[u8]) -> Result<ImportedMesh> {
                     ));
                 }
             };
-            parse_v41(path, bytes, encoding)?
+            return parse_v41(path, bytes, encoding);
         }
         (v, false) if v.starts_with("2.") => gmsh22::parse(path, decode(path, bytes)?)?,
         (v, true) if v.starts_with("2.") => {
@@ -86,7 +133,8 @@ pub fn parse_gmsh(path: &Path, bytes: &[u8]) -> Result<ImportedMesh> {
             ));
         }
     };
-    raw.finish(path)
+    let lines = raw.tet_lines.clone();
+    Ok((raw, Box::new(move |t| lines.get(t).copied())))
 }
 
 /// The version, the binary flag and the data-size field from the `$MeshFormat` header's second
@@ -294,7 +342,11 @@ fn find(haystack: &[u8], needle: &[u8]) -> Option<usize> {
 
 type Msh = MshFile<u64, i32, f64>;
 
-fn parse_v41(path: &Path, bytes: &[u8], encoding: Encoding) -> Result<RawMesh> {
+fn parse_v41<'a>(
+    path: &'a Path,
+    bytes: &'a [u8],
+    encoding: Encoding,
+) -> Result<(RawMesh, TetLocator<'a>)> {
     let binary = matches!(encoding, Encoding::Binary { .. });
     // mshio is a nom parser over untrusted input; a panic inside it must not take the caller
     // down, so it is contained here and reported as a parse error.
@@ -340,7 +392,12 @@ fn parse_v41(path: &Path, bytes: &[u8], encoding: Encoding) -> Result<RawMesh> {
     convert(path, bytes, encoding, msh)
 }
 
-fn convert(path: &Path, bytes: &[u8], encoding: Encoding, msh: Msh) -> Result<RawMesh> {
+fn convert<'a>(
+    path: &'a Path,
+    bytes: &'a [u8],
+    encoding: Encoding,
+    msh: Msh,
+) -> Result<(RawMesh, TetLocator<'a>)> {
     let names = physical_names(path, bytes)?;
     // Physical tags of each entity (dim, tag).
     let mut entity_tags: HashMap<(usize, i32), Vec<i32>> = HashMap::new();
@@ -400,6 +457,8 @@ fn convert(path: &Path, bytes: &[u8], encoding: Encoding, msh: Msh) -> Result<Ra
     }
     let elements_line = line_of(bytes, "$Elements");
     let mut groups: BTreeMap<(usize, i32), RawGroup> = BTreeMap::new();
+    // (block, element in block, tag) of each tet, for the line of one in an error.
+    let mut tet_elements: Vec<(usize, usize, u64)> = Vec::new();
     if let Some(elements) = &msh.data.elements {
         // The line of element `e` of block `b` named `tag`, for errors (the section's line if
         // the section does not read as mshio read it).
@@ -454,12 +513,29 @@ fn convert(path: &Path, bytes: &[u8], encoding: Encoding, msh: Msh) -> Result<Ra
                     (ElementType::Tet4, &[a, b, c, d]) => {
                         let t = raw.tets.len();
                         each_group(&mut |g| g.tets.push(t));
-                        raw.tets.push([a, b, c, d]);
-                        raw.tet_lines.push(elements_line);
-                        raw.tet_ids.push(element.element_tag);
+                        raw.push_linear([a, b, c, d], elements_line, element.element_tag);
+                        tet_elements.push((block_index, element_index, element.element_tag));
+                    }
+                    (ElementType::Tet10, n) if n.len() == 10 => {
+                        let t = raw.tets.len();
+                        each_group(&mut |g| g.tets.push(t));
+                        let (corners, edges) = tet10_from_gmsh(n);
+                        raw.push_quadratic(corners, edges, elements_line, element.element_tag);
+                        tet_elements.push((block_index, element_index, element.element_tag));
                     }
                     (ElementType::Tri3, &[a, b, c]) => {
                         each_group(&mut |g| g.triangles.push([a, b, c]));
+                    }
+                    (ElementType::Tri6, &[a, b, c, ab, bc, ca]) => {
+                        each_group(&mut |g| {
+                            g.triangles.push([a, b, c]);
+                            g.other_nodes.extend([ab, bc, ca]);
+                        });
+                        raw.triangle_mids.push(RawTriangleMids {
+                            corners: [a, b, c],
+                            mids: [ab, bc, ca],
+                            line: line_of_element(block_index, element_index, element.element_tag),
+                        });
                     }
                     (other, _) => {
                         each_group(&mut |g| g.other_nodes.extend(&nodes));
@@ -470,7 +546,37 @@ fn convert(path: &Path, bytes: &[u8], encoding: Encoding, msh: Msh) -> Result<Ra
         }
     }
     raw.groups = groups.into_values().collect();
-    Ok(raw)
+    // Each element's line is found by reading the section up to it: only for an error.
+    let layout = element_layout(&msh);
+    let elements_start: Vec<usize> = section_starts(bytes, &["$Elements"])
+        .iter()
+        .map(|s| s.0)
+        .collect();
+    let locate = move |t: usize| {
+        let &(b, e, tag) = tet_elements.get(t)?;
+        elements_start
+            .iter()
+            .find_map(|&start| element_line(path, bytes, start, encoding, &layout, b, e, tag))
+            .or(Some(elements_line))
+    };
+    Ok((raw, Box::new(locate)))
+}
+
+/// Per element block of the file, its element count and nodes per element.
+fn element_layout(msh: &Msh) -> Vec<(usize, usize)> {
+    msh.data
+        .elements
+        .as_ref()
+        .map_or_else(Vec::new, |elements| {
+            elements
+                .element_blocks
+                .iter()
+                .map(|block| {
+                    let nodes = block.elements.first().map_or(0, |e| e.nodes.len());
+                    (block.elements.len(), nodes)
+                })
+                .collect()
+        })
 }
 
 /// Writes `mesh` as MSH 4.1 ASCII (atomically), with `groups`' triangles as surface physical

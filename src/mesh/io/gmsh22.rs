@@ -9,7 +9,8 @@ use std::path::Path;
 
 use nalgebra::Vector3;
 
-use super::raw::{RawGroup, RawMesh};
+use super::gmsh::tet10_from_gmsh;
+use super::raw::{RawGroup, RawMesh, RawTriangleMids};
 use super::text::Records;
 use crate::error::Result;
 
@@ -134,14 +135,34 @@ pub(crate) fn parse(path: &Path, text: &str) -> Result<RawMesh> {
                             if let Some(g) = group {
                                 g.tets.push(raw.tets.len());
                             }
-                            raw.tets.push([nodes[0], nodes[1], nodes[2], nodes[3]]);
-                            raw.tet_lines.push(r.line);
-                            raw.tet_ids.push(r.number(0, "element tag")?);
+                            let id = r.number(0, "element tag")?;
+                            raw.push_linear([nodes[0], nodes[1], nodes[2], nodes[3]], r.line, id);
+                        }
+                        "Tet10" => {
+                            if let Some(g) = group {
+                                g.tets.push(raw.tets.len());
+                            }
+                            let id = r.number(0, "element tag")?;
+                            let (corners, edges) = tet10_from_gmsh(&nodes);
+                            raw.push_quadratic(corners, edges, r.line, id);
                         }
                         "Tri3" => {
                             if let Some(g) = group {
                                 g.triangles.push([nodes[0], nodes[1], nodes[2]]);
                             }
+                        }
+                        "Tri6" => {
+                            let corners = [nodes[0], nodes[1], nodes[2]];
+                            let mids = [nodes[3], nodes[4], nodes[5]];
+                            if let Some(g) = group {
+                                g.triangles.push(corners);
+                                g.other_nodes.extend(mids);
+                            }
+                            raw.triangle_mids.push(RawTriangleMids {
+                                corners,
+                                mids,
+                                line: r.line,
+                            });
                         }
                         _ => {
                             if let Some(g) = group {

@@ -1,6 +1,13 @@
 //! Mesh import and export: Gmsh `.msh` (4.1 ASCII and binary through the `mshio` crate, 2.2
 //! ASCII with an own parser; 4.1 ASCII writer) and TetGen `.node`/`.ele` (reader and writer).
 //!
+//! Files of order 1 (4-node tets, Gmsh type 4) and order 2 (10-node tets: Gmsh type 11 with
+//! 6-node triangles, type 9, for its surface groups; TetGen `-o2`) are read. The `_as::<C>`
+//! readers build cells of type `C` (`Tet4`, or `tetfem::Tet10` for a quadratic file);
+//! [`mesh_file_order`] tells which a file holds, and the plain readers build 4-node tets (of a
+//! quadratic file its corners). The 10-node tet is straight-sided: an edge node away from its
+//! edge's midpoint (a curved mesh) is an error naming the tet, the node and the distance.
+//!
 //! Readers return an [`ImportedMesh`]: the validated [`TetMesh`] plus what the file says about
 //! its parts (Gmsh physical groups; TetGen node markers, `.face` markers, region attributes)
 //! and the file's own node and element ids. Nodes that no tet uses (geometry points,
@@ -15,14 +22,21 @@ mod raw;
 mod tetgen;
 mod text;
 
-pub use gmsh::{parse_gmsh, read_gmsh, write_gmsh};
-pub use tetgen::{TetgenOptions, parse_tetgen, parse_tetgen_with_faces, read_tetgen, write_tetgen};
+pub use gmsh::{parse_gmsh, parse_gmsh_as, read_gmsh, read_gmsh_as, write_gmsh};
+pub use tetgen::{
+    TetgenOptions, parse_tetgen, parse_tetgen_with_faces, parse_tetgen_with_faces_as, read_tetgen,
+    read_tetgen_as, write_tetgen,
+};
 
 use std::collections::BTreeMap;
 use std::path::Path;
 
 use crate::error::{Error, Result};
-use crate::mesh::{BoundaryFace, TetMesh};
+use crate::mesh::{BoundaryFace, CellType, NodeList, Tet4, TetMesh};
+
+/// The [`ImportedMesh::skipped_elements`] entry that counts the 10-node tets of a quadratic
+/// file read as 4-node cells (their corners kept, their edge nodes dropped).
+pub const TET10_KEPT_AS_CORNERS: &str = "Tet10 (kept as Tet4 corners)";
 
 /// A named or numbered set of mesh entities from a Gmsh physical group.
 #[derive(Debug, Clone, PartialEq)]
@@ -33,11 +47,13 @@ pub struct PhysicalGroup {
     pub tag: i32,
     /// The name from `$PhysicalNames`, if any.
     pub name: Option<String>,
-    /// Triangles of a surface group, as mesh node triples in the file's order (not oriented).
+    /// Triangles of a surface group, as mesh node triples in the file's order (not oriented);
+    /// of 6-node triangles the corners.
     pub triangles: Vec<[usize; 3]>,
     /// Tets of a volume group (mesh tet indices).
     pub tets: Vec<usize>,
-    /// Every mesh node the group's elements touch, ascending.
+    /// Every mesh node the group's elements touch, ascending; on a mesh of 10-node tets with the
+    /// edge nodes of its tets and of its triangles' edges.
     pub nodes: Vec<usize>,
 }
 
@@ -84,11 +100,12 @@ pub struct MarkedFace {
     pub marker: i64,
 }
 
-/// A mesh read from a file, with the file's extra information.
+/// A mesh read from a file as cells of type `C` (4-node tets by default), with the file's
+/// extra information.
 #[derive(Debug, Clone, PartialEq)]
-pub struct ImportedMesh {
+pub struct ImportedMesh<C: CellType = Tet4> {
     /// The validated mesh (tets reoriented where the file had them negative).
-    pub mesh: TetMesh,
+    pub mesh: TetMesh<C>,
     /// The file's id of each mesh node (Gmsh node tag, TetGen point number).
     pub node_ids: Vec<u64>,
     /// The file's id of each mesh tet (Gmsh element tag, TetGen tet number).
@@ -100,16 +117,18 @@ pub struct ImportedMesh {
     /// TetGen regional attribute (the first attribute) of each tet, when the `.ele` file has one.
     pub tet_attributes: Option<Vec<f64>>,
     /// The marked triangles of a TetGen `.face` file, when one exists beside the `.node` file
-    /// and has a marker column (triangles with a node no tet uses are dropped).
+    /// and has a marker column (triangles with a node no tet uses are dropped); of an `-o2`
+    /// file the corners.
     pub face_markers: Option<Vec<MarkedFace>>,
-    /// Elements of other types than 4-node tets and 3-node triangles that were skipped, counted
-    /// per type name (e.g. `"Lin2"`, `"Pnt"`, `"Tet10"`).
+    /// Elements of other types than tets and triangles that were skipped, counted per type
+    /// name (e.g. `"Lin2"`, `"Pnt"`); the 10-node tets of a quadratic file read as 4-node
+    /// cells as `"Tet10 (kept as Tet4 corners)"`.
     pub skipped_elements: BTreeMap<String, usize>,
     /// Nodes of the file that no tet uses (dropped).
     pub unused_nodes: usize,
 }
 
-impl ImportedMesh {
+impl<C: CellType> ImportedMesh<C> {
     /// The physical group with this name, or (if `key` is an integer) with this tag; surface
     /// groups are preferred when a tag exists in several dimensions.
     pub fn group(&self, key: &str) -> Option<&PhysicalGroup> {
@@ -152,15 +171,36 @@ impl ImportedMesh {
     }
 
     /// The nodes of the `.face` triangles with this marker, ascending (empty without `.face`
-    /// markers).
+    /// markers); on a mesh of 10-node tets with the edge nodes of the triangles' edges.
     pub fn nodes_with_face_marker(&self, marker: i64) -> Vec<usize> {
-        let mut nodes: Vec<usize> = self
+        let marked: Vec<[usize; 3]> = self
             .face_markers
             .iter()
             .flatten()
             .filter(|f| f.marker == marker)
-            .flat_map(|f| f.nodes)
+            .map(|f| f.nodes)
             .collect();
+        let mut nodes: Vec<usize> = marked.iter().flatten().copied().collect();
+        if C::NODES > 4 && !marked.is_empty() {
+            let mut edges = std::collections::HashMap::new();
+            for cell in self.mesh.tets() {
+                let corners = cell.corners();
+                for a in 0..4 {
+                    for b in a + 1..4 {
+                        if let Some(m) = C::edge_node(cell, a, b) {
+                            let (p, q) = (corners[a], corners[b]);
+                            edges.insert((p.min(q), p.max(q)), m);
+                        }
+                    }
+                }
+            }
+            for t in &marked {
+                for k in 0..3 {
+                    let (p, q) = (t[k], t[(k + 1) % 3]);
+                    nodes.extend(edges.get(&(p.min(q), p.max(q))));
+                }
+            }
+        }
         nodes.sort_unstable();
         nodes.dedup();
         nodes
@@ -211,11 +251,40 @@ fn counts(values: impl Iterator<Item = i64>) -> BTreeMap<i64, usize> {
 }
 
 /// Reads a mesh, choosing the format from the extension: `.msh` → Gmsh; `.node`, `.ele` or no
-/// extension → TetGen (`<prefix>.node` + `<prefix>.ele`).
+/// extension → TetGen (`<prefix>.node` + `<prefix>.ele`). As 4-node tets: of a quadratic file
+/// the corners (see [`read_mesh_as`]).
 pub fn read_mesh(path: &Path) -> Result<ImportedMesh> {
+    read_mesh_as::<Tet4>(path)
+}
+
+/// [`read_mesh`] as cells of type `C`: `Tet4` for any file (of a quadratic one its corners),
+/// `tetfem::Tet10` for a quadratic file (a linear one is an error naming the file).
+pub fn read_mesh_as<C: CellType>(path: &Path) -> Result<ImportedMesh<C>> {
+    match format_of(path)? {
+        Format::Gmsh => read_gmsh_as(path),
+        Format::Tetgen => read_tetgen_as(&path.with_extension("")),
+    }
+}
+
+/// The element order of a mesh file's tets: 1 (4-node tets) or 2 (10-node tets), chosen by
+/// the extension as [`read_mesh`] does. The file is parsed (a malformed one is the reader's
+/// error) but no mesh is built or validated; of a TetGen pair only the `.ele` header is read.
+pub fn mesh_file_order(path: &Path) -> Result<usize> {
+    match format_of(path)? {
+        Format::Gmsh => gmsh::file_order(path),
+        Format::Tetgen => tetgen::file_order(&path.with_extension("")),
+    }
+}
+
+enum Format {
+    Gmsh,
+    Tetgen,
+}
+
+fn format_of(path: &Path) -> Result<Format> {
     match path.extension().and_then(|e| e.to_str()) {
-        Some("msh") => read_gmsh(path),
-        Some("node") | Some("ele") | None => read_tetgen(&path.with_extension("")),
+        Some("msh") => Ok(Format::Gmsh),
+        Some("node") | Some("ele") | None => Ok(Format::Tetgen),
         Some(other) => Err(Error::parse(
             path,
             0,

@@ -1,14 +1,14 @@
 //! The format-independent last step of every reader: drop unused nodes, renumber, validate the
 //! mesh, and point validation errors at the file line of the culprit.
 
-use std::collections::BTreeMap;
-use std::path::Path;
+use std::collections::{BTreeMap, HashMap};
+use std::path::{Path, PathBuf};
 
 use nalgebra::Vector3;
 
 use super::{ImportedMesh, MarkedFace, PhysicalGroup};
 use crate::error::{Error, Result};
-use crate::mesh::TetMesh;
+use crate::mesh::{CellType, NodeList, TetMesh};
 
 /// A group as read, in file-order node indices.
 #[derive(Debug, Default)]
@@ -16,10 +16,35 @@ pub(crate) struct RawGroup {
     pub dim: usize,
     pub tag: i32,
     pub name: Option<String>,
+    /// Corner triples of the group's triangles (3- or 6-node).
     pub triangles: Vec<[usize; 3]>,
     pub tets: Vec<usize>,
-    /// Nodes of elements of other types (points, lines) that belong to the group.
+    /// Nodes of elements of other types (points, lines) that belong to the group, and the
+    /// mid-side nodes of its 6-node triangles.
     pub other_nodes: Vec<usize>,
+}
+
+/// The mid-side nodes a file gives a triangle (a Gmsh 6-node triangle, a TetGen `-o2` face),
+/// checked against the tets' edge nodes: `mids[k]` sits on the edge (`corners[k]`,
+/// `corners[(k + 1) % 3]`).
+#[derive(Debug)]
+pub(crate) struct RawTriangleMids {
+    pub corners: [usize; 3],
+    pub mids: [usize; 3],
+    pub line: usize,
+}
+
+/// The edge nodes a TetGen `-o2` `.face` row lists (in an order TetGen does not fix), checked
+/// to be the tets' edge nodes of the face's edges once the tets are known to be sound.
+#[derive(Debug)]
+pub(crate) struct ListedEdgeNodes {
+    pub path: PathBuf,
+    pub line: usize,
+    pub corners: [usize; 3],
+    /// The listed nodes (file-order indices; `usize::MAX`-wrapped when out of range).
+    pub listed: [usize; 3],
+    /// The file's first index, for messages.
+    pub base: usize,
 }
 
 /// What a reader collected, indices into its own node list (file order, 0-based).
@@ -29,28 +54,168 @@ pub(crate) struct RawMesh {
     pub node_lines: Vec<usize>,
     pub node_ids: Vec<u64>,
     pub node_markers: Option<Vec<i64>>,
+    /// The corners of each tet, in the file's order.
     pub tets: Vec<[usize; 4]>,
+    /// The edge nodes of each tet of a quadratic (10-node) file, in [`VTK_EDGES`] order of its
+    /// corners; empty for a linear file (else as long as `tets`).
+    pub edge_nodes: Vec<[usize; 6]>,
+    /// The line of the first element of the other order, when a file mixes 4- and 10-node
+    /// tets (an error).
+    pub mixed_order_line: Option<usize>,
     pub tet_lines: Vec<usize>,
     /// The file's id of each tet (same length as `tets`).
     pub tet_ids: Vec<u64>,
     /// TetGen `.face` triangles with their markers.
     pub face_markers: Option<Vec<MarkedFace>>,
+    /// Triangles with mid-side nodes of their own, to check against the tets.
+    pub triangle_mids: Vec<RawTriangleMids>,
+    /// `.face` rows with edge nodes, to check against the tets after the tets' own checks.
+    pub listed_edge_nodes: Vec<ListedEdgeNodes>,
     pub tet_attributes: Option<Vec<f64>>,
     pub groups: Vec<RawGroup>,
     pub skipped: BTreeMap<String, usize>,
-    /// The 3-D elements among `skipped` (other than 4-node tets), per type name, and the line
-    /// of the first one: they are part of the body, so the mesh cannot run without them.
+    /// The 3-D elements among `skipped` (other than 4- and 10-node tets), per type name, and
+    /// the line of the first one: they are part of the body, so the mesh cannot run without
+    /// them.
     pub skipped_volume: BTreeMap<String, usize>,
     pub skipped_volume_line: usize,
 }
 
 /// 3-D element types of order 1 other than tets (Gmsh names); every other 3-D type but Tet4
-/// is of higher order.
+/// and Tet10 is of higher order.
 const LINEAR_NON_TET: [&str; 3] = ["Hex8", "Pri6", "Pyr5"];
 
+/// The edges of a tet as pairs of its local corners, in the order of VTK's quadratic tet (type
+/// 24) — the order [`RawMesh::edge_nodes`] holds its edge nodes in.
+pub(crate) const VTK_EDGES: [(usize, usize); 6] = [(0, 1), (1, 2), (0, 2), (0, 3), (1, 3), (2, 3)];
+
+/// A corner pair as a key, smaller node first.
+fn edge_key(a: usize, b: usize) -> (usize, usize) {
+    (a.min(b), a.max(b))
+}
+
 impl RawMesh {
-    /// Compacts, validates and packages the mesh; `path` is named in errors.
-    pub fn finish(self, path: &Path) -> Result<ImportedMesh> {
+    /// Adds a 10-node tet: its corners and its edge nodes in [`VTK_EDGES`] order. A file that
+    /// mixes it with 4-node tets is an error (reported by [`finish`](Self::finish)).
+    pub fn push_quadratic(&mut self, corners: [usize; 4], edges: [usize; 6], line: usize, id: u64) {
+        if self.edge_nodes.len() != self.tets.len() {
+            self.mixed_order_line.get_or_insert(line);
+        }
+        self.tets.push(corners);
+        self.edge_nodes.push(edges);
+        self.tet_lines.push(line);
+        self.tet_ids.push(id);
+    }
+
+    /// Adds a 4-node tet (see [`push_quadratic`](Self::push_quadratic)).
+    pub fn push_linear(&mut self, corners: [usize; 4], line: usize, id: u64) {
+        if !self.edge_nodes.is_empty() {
+            self.mixed_order_line.get_or_insert(line);
+        }
+        self.tets.push(corners);
+        self.tet_lines.push(line);
+        self.tet_ids.push(id);
+    }
+
+    /// Whether the file's tets are 10-node tets.
+    pub fn is_quadratic(&self) -> bool {
+        !self.edge_nodes.is_empty()
+    }
+
+    /// The edge node of each edge (corner pair) of the file's 10-node tets.
+    fn edge_map(&self) -> HashMap<(usize, usize), usize> {
+        let mut map = HashMap::with_capacity(self.edge_nodes.len() * 2);
+        for (tet, edges) in self.tets.iter().zip(&self.edge_nodes) {
+            for (&(i, j), &m) in VTK_EDGES.iter().zip(edges) {
+                map.entry(edge_key(tet[i], tet[j])).or_insert(m);
+            }
+        }
+        map
+    }
+
+    /// Checks that the tets of the file agree on each edge's node, and that the mid-side nodes
+    /// of triangles are the edge nodes of the tets (where the triangle's edge is a tet edge).
+    fn check_edge_nodes(&self, path: &Path, map: &HashMap<(usize, usize), usize>) -> Result<()> {
+        for (t, (tet, edges)) in self.tets.iter().zip(&self.edge_nodes).enumerate() {
+            for (&(i, j), &m) in VTK_EDGES.iter().zip(edges) {
+                let first = map[&edge_key(tet[i], tet[j])];
+                if first != m {
+                    return Err(Error::parse(
+                        path,
+                        self.tet_lines[t],
+                        format!(
+                            "tet {} gives the edge of nodes {} and {} the mid-side node {}, another tet gives it node {}: the tets must share their edge nodes",
+                            self.tet_ids[t],
+                            self.node_ids[tet[i]],
+                            self.node_ids[tet[j]],
+                            self.node_ids[m],
+                            self.node_ids[first]
+                        ),
+                    ));
+                }
+            }
+        }
+        for tri in &self.triangle_mids {
+            for k in 0..3 {
+                let (a, b) = (tri.corners[k], tri.corners[(k + 1) % 3]);
+                if let Some(&m) = map.get(&edge_key(a, b))
+                    && m != tri.mids[k]
+                {
+                    return Err(Error::parse(
+                        path,
+                        tri.line,
+                        format!(
+                            "the triangle's mid-side node {} on the edge of nodes {} and {} is not the tets' node {} on that edge",
+                            self.node_ids[tri.mids[k]],
+                            self.node_ids[a],
+                            self.node_ids[b],
+                            self.node_ids[m]
+                        ),
+                    ));
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// The `.face` rows' listed edge nodes against the tets' (see [`ListedEdgeNodes`]).
+    fn check_listed_edge_nodes(&self, map: &HashMap<(usize, usize), usize>) -> Result<()> {
+        for face in &self.listed_edge_nodes {
+            for k in 0..3 {
+                let (a, b) = (face.corners[k], face.corners[(k + 1) % 3]);
+                if let Some(&m) = map.get(&edge_key(a, b))
+                    && !face.listed.contains(&m)
+                {
+                    return Err(Error::parse(
+                        &face.path,
+                        face.line,
+                        format!(
+                            "the face's edge nodes {:?} do not include node {}, the tets' node \
+                             on the edge of nodes {} and {}",
+                            face.listed.map(|n| n.wrapping_add(face.base)),
+                            self.node_ids[m],
+                            self.node_ids[a],
+                            self.node_ids[b]
+                        ),
+                    ));
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// Compacts, validates and packages the mesh as cells of type `C`; `path` is named in
+    /// errors, `line_of_tet` gives the file line of a tet (by its index in `tets`).
+    ///
+    /// A quadratic file read as 4-node cells keeps its tets' corners (the mid-side nodes are
+    /// dropped as unused, and the tets are counted in `skipped` as `"Tet10 (kept as Tet4
+    /// corners)"`); a linear file read as 10-node cells is an error, as are cells of another
+    /// node count.
+    pub fn finish<C: CellType>(
+        mut self,
+        path: &Path,
+        line_of_tet: &dyn Fn(usize) -> usize,
+    ) -> Result<ImportedMesh<C>> {
         self.check_volume_elements(path)?;
         if self.tets.is_empty() {
             let skipped: usize = self.skipped.values().sum();
@@ -58,17 +223,64 @@ impl RawMesh {
                 path,
                 self.node_lines.last().copied().unwrap_or(0),
                 format!(
-                    "the file holds no 4-node tetrahedra ({} nodes, {skipped} other elements skipped: {:?})",
+                    "the file holds no 4- or 10-node tetrahedra ({} nodes, {skipped} other elements skipped: {:?})",
                     self.nodes.len(),
                     self.skipped
                 ),
             ));
         }
+        if let Some(line) = self.mixed_order_line {
+            return Err(Error::parse(
+                path,
+                line,
+                "the file mixes 4-node and 10-node tets from this element on: a mesh is of one \
+                 order (mesh it again at order 1 or 2 throughout)",
+            ));
+        }
+        let quadratic = self.is_quadratic();
+        let edges = quadratic.then(|| self.edge_map());
+        let as_quadratic = match (C::NODES, quadratic) {
+            (4, false) | (10, true) => quadratic,
+            (4, true) => {
+                self.skipped
+                    .insert(super::TET10_KEPT_AS_CORNERS.into(), self.tets.len());
+                false
+            }
+            (10, false) => {
+                return Err(Error::parse(
+                    path,
+                    self.tet_lines.first().copied().unwrap_or(0),
+                    format!(
+                        "the file holds 4-node (linear) tets, not the 10-node tets asked for \
+                         ({}): mesh at order 2 (gmsh -order 2, tetgen -o2) or read it as a \
+                         linear mesh",
+                        C::NAME
+                    ),
+                ));
+            }
+            (n, _) => {
+                return Err(Error::parse(
+                    path,
+                    0,
+                    format!(
+                        "the mesh readers build 4- and 10-node tets, not {n}-node cells ({})",
+                        C::NAME
+                    ),
+                ));
+            }
+        };
         // New index of each used node, in file order.
         let mut new_index = vec![usize::MAX; self.nodes.len()];
         for tet in &self.tets {
             for &n in tet {
                 new_index[n] = 0;
+            }
+        }
+        if as_quadratic {
+            for tet in &self.edge_nodes {
+                for &n in tet {
+                    new_index[n] = 0;
+                }
             }
         }
         let mut kept = Vec::new();
@@ -80,11 +292,33 @@ impl RawMesh {
         }
         let unused_nodes = self.nodes.len() - kept.len();
         let nodes: Vec<Vector3<f64>> = kept.iter().map(|&o| self.nodes[o]).collect();
-        let tets: Vec<[usize; 4]> = self.tets.iter().map(|t| t.map(|n| new_index[n])).collect();
-        let mesh = TetMesh::new(nodes, tets).map_err(|e| {
+        let cells = self.cells::<C>(as_quadratic, &new_index);
+        let located =
+            |line: usize, e: &Error| Error::parse(path, line, format!("invalid mesh: {e}"));
+        // The element's own checks (edge nodes at the midpoints), with the tet's line.
+        for (t, cell) in cells.iter().enumerate() {
+            C::check_cell(t, cell, &nodes).map_err(|e| {
+                Error::parse(
+                    path,
+                    line_of_tet(t),
+                    format!(
+                        "invalid mesh: {e} (file tet {}; a curved mesh: Gmsh's \
+                         Mesh.SecondOrderLinear = 1 keeps edge nodes at the midpoints)",
+                        self.tet_ids[t]
+                    ),
+                )
+            })?;
+        }
+        // After each tet's own check, so that a tet with misplaced edge nodes is named itself
+        // rather than as a neighbour's disagreement.
+        if let Some(map) = &edges {
+            self.check_edge_nodes(path, map)?;
+            self.check_listed_edge_nodes(map)?;
+        }
+        let mesh = TetMesh::from_cells(nodes, cells).map_err(|e| {
             let line = match &e {
                 Error::DegenerateTet { tet, .. } | Error::RepeatedNode { tet, .. } => {
-                    self.tet_lines.get(*tet).copied().unwrap_or(0)
+                    line_of_tet(*tet)
                 }
                 Error::NonFiniteCoordinate { node, .. } => kept
                     .get(*node)
@@ -93,7 +327,7 @@ impl RawMesh {
                     .unwrap_or(0),
                 _ => 0,
             };
-            Error::parse(path, line, format!("invalid mesh: {e}"))
+            located(line, &e)
         })?;
         let remap = |list: &[usize]| -> Vec<usize> {
             let mut out: Vec<usize> = list
@@ -122,6 +356,23 @@ impl RawMesh {
                 let mut all: Vec<usize> = g.other_nodes.clone();
                 all.extend(g.triangles.iter().flatten());
                 all.extend(g.tets.iter().filter_map(|&t| self.tets.get(t)).flatten());
+                if as_quadratic {
+                    // The edge nodes of the group's tets and of its triangles' edges (a
+                    // 3-node triangle on a 10-node mesh has none of its own).
+                    all.extend(
+                        g.tets
+                            .iter()
+                            .filter_map(|&t| self.edge_nodes.get(t))
+                            .flatten(),
+                    );
+                    if let Some(map) = &edges {
+                        for t in &g.triangles {
+                            for k in 0..3 {
+                                all.extend(map.get(&edge_key(t[k], t[(k + 1) % 3])));
+                            }
+                        }
+                    }
+                }
                 PhysicalGroup {
                     dim: g.dim,
                     tag: g.tag,
@@ -161,6 +412,34 @@ impl RawMesh {
             mesh,
         })
     }
+
+    /// The cells of type `C` in new node indices: the corners, and (`quadratic`) each edge node
+    /// in the slot `C` keeps for its edge ([`CellType::edge_node`] of a cell numbered 0…n−1).
+    fn cells<C: CellType>(&self, quadratic: bool, new_index: &[usize]) -> Vec<C::Nodes> {
+        let identity: Vec<usize> = (0..C::NODES).collect();
+        // Both exist: `finish` admits 4-node cells and 10-node cells of a quadratic file only.
+        let Some(probe) = C::Nodes::from_slice(&identity) else {
+            return Vec::new();
+        };
+        let slots: Vec<usize> = VTK_EDGES
+            .iter()
+            .map(|&(i, j)| C::edge_node(&probe, i, j).unwrap_or(0))
+            .collect();
+        let mut cell = vec![0; C::NODES];
+        self.tets
+            .iter()
+            .enumerate()
+            .filter_map(|(t, corners)| {
+                cell[..4].copy_from_slice(&corners.map(|n| new_index[n]));
+                if quadratic {
+                    for (k, &slot) in slots.iter().enumerate() {
+                        cell[slot] = new_index[self.edge_nodes[t][k]];
+                    }
+                }
+                C::Nodes::from_slice(&cell)
+            })
+            .collect()
+    }
 }
 
 impl RawMesh {
@@ -175,7 +454,7 @@ impl RawMesh {
         }
     }
 
-    /// Rejects a mesh whose body holds 3-D elements other than 4-node tets: running on the tets
+    /// Rejects a mesh whose body holds 3-D elements other than 4- and 10-node tets: running on the tets
     /// alone would cut the body silently (a mesh of tets and prisms would lose the prisms).
     fn check_volume_elements(&self, path: &Path) -> Result<()> {
         if self.skipped_volume.is_empty() {
@@ -191,20 +470,22 @@ impl RawMesh {
             .keys()
             .any(|name| !LINEAR_NON_TET.contains(&name.as_str()));
         let fix = if higher_order {
-            "tetfem has linear 4-node tets only (no quadratic element yet): mesh at order 1 \
-             (gmsh -3 -order 1, or Mesh.ElementOrder = 1)"
+            "tetfem has 4-node and 10-node tets (orders 1 and 2): mesh at order 1 or 2 \
+             (gmsh -3 -order 2, or Mesh.ElementOrder = 2; curved or serendipity elements are \
+             not supported)"
         } else {
-            "tetfem meshes are 4-node tets only: mesh the volumes with tetrahedra alone \
+            "tetfem meshes are tets only: mesh the volumes with tetrahedra alone \
              (drop Recombine and the recombined Extrude Layers from the .geo)"
         };
         Err(Error::parse(
             path,
             self.skipped_volume_line,
             format!(
-                "the mesh has 3-D elements other than 4-node tets ({}, besides {} Tet4); \
+                "the mesh has 3-D elements other than 4- and 10-node tets ({}, besides {} {}); \
                  running without them would cut the body: {fix}",
                 counts.join(", "),
-                self.tets.len()
+                self.tets.len(),
+                if self.is_quadratic() { "Tet10" } else { "Tet4" }
             ),
         ))
     }

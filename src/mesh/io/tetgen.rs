@@ -4,21 +4,37 @@
 //! point `<index> <x> <y> <z> [attributes…] [marker]`. `.ele`: a header
 //! `<tets> <nodes per tet 4|10> <attributes>`, then `<index> <n₀> … [attributes…]`. Indices
 //! start at 0 or 1 — the first point's index tells — and run consecutively; `#` starts a
-//! comment. Of 10-node tets the four corner nodes are kept. An optional `<prefix>.face`:
-//! a header `<faces> <markers 0|1>`, then `<index> <n₀> <n₁> <n₂> [marker] …` (further
-//! columns, such as the adjacent tets of `-nn`, are ignored); its markers become face sets.
+//! comment. An optional `<prefix>.face`: a header `<faces> <markers 0|1>`, then
+//! `<index> <n₀> <n₁> <n₂> [marker] …` (further columns, such as the adjacent tets of `-nn`,
+//! are ignored); its markers become face sets.
+//!
+//! `-o2` meshes: the `.ele` lists 10 nodes per tet, the corners n₀…n₃ and then the edge nodes
+//! in TetGen's order of edges (its `edge2ver` table): (n₂,n₃), (n₀,n₃), (n₀,n₁), (n₁,n₂),
+//! (n₁,n₃), (n₀,n₂) — not VTK's (n₀,n₁), (n₁,n₂), (n₀,n₂), (n₀,n₃), (n₁,n₃), (n₂,n₃). (Files
+//! written with TetGen's `-z1`/`-R`, which swap n₀ and n₁, do not follow it: their edge nodes
+//! are refused as off the midpoints.) The `.face` of TetGen 1.5 and later lists the three edge
+//! nodes of each face after its corners (`<index> <n₀> <n₁> <n₂> <e₀> <e₁> <e₂> [marker]`, in
+//! an order that differs between `-f` and boundary faces); older versions list the corners
+//! only. The edge nodes are recognized by the column count (at least 7 + the marker flag:
+//! without them a row has at most 6 + the marker flag, with `-nn`) and checked to be the tets'
+//! edge nodes of the face; the face sets take the edge nodes from the tets.
 
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
 use nalgebra::Vector3;
 
-use super::raw::RawMesh;
+use super::raw::{ListedEdgeNodes, RawMesh};
 use super::text::{Records, decode, read_regular_file};
 use super::{ImportedMesh, MarkedFace};
 use crate::atomic_file::write_atomically;
 use crate::error::{Error, Result};
-use crate::mesh::TetMesh;
+use crate::mesh::{CellType, Tet4, TetMesh};
+
+/// The edge nodes of a TetGen `-o2` tet (its extra nodes e₀…e₅) in VTK order: VTK edge k is
+/// TetGen's extra node `TETGEN_EDGE_NODE[k]` (TetGen's edges (2,3), (0,3), (0,1), (1,2),
+/// (1,3), (0,2)).
+const TETGEN_EDGE_NODE: [usize; 6] = [2, 3, 5, 1, 4, 0];
 
 /// What [`write_tetgen`] writes besides nodes and tets.
 #[derive(Debug, Clone, Default, PartialEq)]
@@ -39,8 +55,23 @@ fn with_suffix(prefix: &Path, suffix: &str) -> PathBuf {
 
 /// Reads `<prefix>.node`, `<prefix>.ele` and, if it exists, `<prefix>.face`, and hands their
 /// bytes to [`parse_tetgen_with_faces`]; node markers, the first tet attribute and the face
-/// markers are kept.
+/// markers are kept. As 4-node tets: of an `-o2` mesh the corners (see [`read_tetgen_as`]).
 pub fn read_tetgen(prefix: &Path) -> Result<ImportedMesh> {
+    read_tetgen_as::<Tet4>(prefix)
+}
+
+/// The element order of `<prefix>.ele`'s tets (1 or 2), from its header alone.
+pub(crate) fn file_order(prefix: &Path) -> Result<usize> {
+    let ele_path = with_suffix(prefix, ".ele");
+    let bytes = read_regular_file(&ele_path)?;
+    let text = decode(&ele_path, &bytes)?;
+    let (_, per_tet, _) = ele_header(&mut Records::new(&ele_path, text, Some('#')))?;
+    Ok(if per_tet == 10 { 2 } else { 1 })
+}
+
+/// [`read_tetgen`] as cells of type `C`: `Tet4` for any mesh (of an `-o2` one the corners),
+/// `tetfem::Tet10` for an `-o2` mesh (a 4-node `.ele` is an error).
+pub fn read_tetgen_as<C: CellType>(prefix: &Path) -> Result<ImportedMesh<C>> {
     let node_path = with_suffix(prefix, ".node");
     let ele_path = with_suffix(prefix, ".ele");
     let face_path = with_suffix(prefix, ".face");
@@ -51,7 +82,7 @@ pub fn read_tetgen(prefix: &Path) -> Result<ImportedMesh> {
     } else {
         None
     };
-    parse_tetgen_with_faces(
+    parse_tetgen_with_faces_as(
         &node_path,
         &node_bytes,
         &ele_path,
@@ -84,13 +115,25 @@ pub fn parse_tetgen_with_faces(
     ele_bytes: &[u8],
     face: Option<(&Path, &[u8])>,
 ) -> Result<ImportedMesh> {
+    parse_tetgen_with_faces_as::<Tet4>(node_path, node_bytes, ele_path, ele_bytes, face)
+}
+
+/// [`parse_tetgen_with_faces`] as cells of type `C` (see [`read_tetgen_as`]).
+pub fn parse_tetgen_with_faces_as<C: CellType>(
+    node_path: &Path,
+    node_bytes: &[u8],
+    ele_path: &Path,
+    ele_bytes: &[u8],
+    face: Option<(&Path, &[u8])>,
+) -> Result<ImportedMesh<C>> {
     let mut raw = RawMesh::default();
     let base = read_nodes(node_path, decode(node_path, node_bytes)?, &mut raw)?;
     read_tets(ele_path, decode(ele_path, ele_bytes)?, base, &mut raw)?;
     if let Some((face_path, face_bytes)) = face {
         read_faces(face_path, decode(face_path, face_bytes)?, base, &mut raw)?;
     }
-    raw.finish(ele_path)
+    let lines = raw.tet_lines.clone();
+    raw.finish(ele_path, &|t| lines.get(t).copied().unwrap_or(0))
 }
 
 fn read_nodes(path: &Path, text: &str, raw: &mut RawMesh) -> Result<usize> {
@@ -163,6 +206,56 @@ fn read_nodes(path: &Path, text: &str, raw: &mut RawMesh) -> Result<usize> {
 
 fn read_tets(path: &Path, text: &str, base: usize, raw: &mut RawMesh) -> Result<()> {
     let mut records = Records::new(path, text, Some('#'));
+    let (count, per_tet, attributes) = ele_header(&mut records)?;
+    let fields = 1 + per_tet + attributes;
+    let node_count = raw.nodes.len();
+    raw.tets.reserve(count.min(text.len()));
+    let mut tet_attributes = Vec::new();
+    for i in 0..count {
+        let r = records.next(&format!("tet {} of {count}", i + 1))?;
+        r.expect_at_least(fields, "index, nodes and attributes")?;
+        let index: usize = r.number(0, "tet index")?;
+        if index != base + i {
+            return Err(r.error(format!(
+                "tet index {index} is out of sequence (expected {}, the .node file's base is {base})",
+                base + i
+            )));
+        }
+        let mut tet = [0usize; 10];
+        for (k, slot) in tet.iter_mut().enumerate().take(per_tet) {
+            let n: usize = r.number(1 + k, "node index")?;
+            if n < base || n - base >= node_count {
+                return Err(r.error(format!(
+                    "node index {n} is out of range (the .node file has points {base}..={})",
+                    (base + node_count).saturating_sub(1)
+                )));
+            }
+            *slot = n - base;
+        }
+        if attributes > 0 {
+            tet_attributes.push(r.finite(1 + per_tet, "attribute")?);
+        }
+        let corners = [tet[0], tet[1], tet[2], tet[3]];
+        if per_tet == 10 {
+            let edges = TETGEN_EDGE_NODE.map(|k| tet[4 + k]);
+            raw.push_quadratic(corners, edges, r.line, index as u64);
+        } else {
+            raw.push_linear(corners, r.line, index as u64);
+        }
+    }
+    if let Some(extra) = records.try_next() {
+        return Err(extra.error(format!(
+            "more tets than the header's count {count} (wrong count in the header?)"
+        )));
+    }
+    if attributes > 0 {
+        raw.tet_attributes = Some(tet_attributes);
+    }
+    Ok(())
+}
+
+/// The `.ele` header: tets, nodes per tet (4 or 10, default 4), attributes (default 0).
+fn ele_header(records: &mut Records) -> Result<(usize, usize, usize)> {
     let header = records.next("the header '<tets> <nodes per tet> <attributes>'")?;
     let count: usize = header.number(0, "number of tets")?;
     let per_tet: usize = if header.fields.len() > 1 {
@@ -180,55 +273,12 @@ fn read_tets(path: &Path, text: &str, base: usize, raw: &mut RawMesh) -> Result<
     } else {
         0
     };
-    let fields = attributes.checked_add(1 + per_tet).ok_or_else(|| {
-        header.error(format!(
+    if attributes.checked_add(1 + per_tet).is_none() {
+        return Err(header.error(format!(
             "{attributes} attributes per tet is more than a line can hold"
-        ))
-    })?;
-    let node_count = raw.nodes.len();
-    raw.tets.reserve(count.min(text.len()));
-    let mut tet_attributes = Vec::new();
-    for i in 0..count {
-        let r = records.next(&format!("tet {} of {count}", i + 1))?;
-        r.expect_at_least(fields, "index, nodes and attributes")?;
-        let index: usize = r.number(0, "tet index")?;
-        if index != base + i {
-            return Err(r.error(format!(
-                "tet index {index} is out of sequence (expected {}, the .node file's base is {base})",
-                base + i
-            )));
-        }
-        let mut tet = [0usize; 4];
-        for (k, slot) in tet.iter_mut().enumerate() {
-            let n: usize = r.number(1 + k, "node index")?;
-            if n < base || n - base >= node_count {
-                return Err(r.error(format!(
-                    "node index {n} is out of range (the .node file has points {base}..={})",
-                    (base + node_count).saturating_sub(1)
-                )));
-            }
-            *slot = n - base;
-        }
-        if attributes > 0 {
-            tet_attributes.push(r.finite(1 + per_tet, "attribute")?);
-        }
-        raw.tets.push(tet);
-        raw.tet_lines.push(r.line);
-        raw.tet_ids.push(index as u64);
-    }
-    if let Some(extra) = records.try_next() {
-        return Err(extra.error(format!(
-            "more tets than the header's count {count} (wrong count in the header?)"
         )));
     }
-    if per_tet == 10 {
-        raw.skipped
-            .insert("Tet10 (kept as Tet4 corners)".into(), count);
-    }
-    if attributes > 0 {
-        raw.tet_attributes = Some(tet_attributes);
-    }
-    Ok(())
+    Ok((count, per_tet, attributes))
 }
 
 fn read_faces(path: &Path, text: &str, base: usize, raw: &mut RawMesh) -> Result<()> {
@@ -248,6 +298,12 @@ fn read_faces(path: &Path, text: &str, base: usize, raw: &mut RawMesh) -> Result
     for i in 0..count {
         let r = records.next(&format!("face {} of {count}", i + 1))?;
         r.expect_at_least(4 + markers, "index, three nodes and the marker")?;
+        // An -o2 face of TetGen ≥ 1.5 lists its three edge nodes after the corners.
+        let edge_columns = if raw.is_quadratic() && r.fields.len() >= 7 + markers {
+            3
+        } else {
+            0
+        };
         let index: usize = r.number(0, "face index")?;
         if index != base + i {
             return Err(r.error(format!(
@@ -266,8 +322,22 @@ fn read_faces(path: &Path, text: &str, base: usize, raw: &mut RawMesh) -> Result
             }
             *slot = n - base;
         }
+        if edge_columns == 3 {
+            let mut listed = [0usize; 3];
+            for (k, slot) in listed.iter_mut().enumerate() {
+                let n: usize = r.number(4 + k, "edge node index")?;
+                *slot = n.wrapping_sub(base);
+            }
+            raw.listed_edge_nodes.push(ListedEdgeNodes {
+                path: path.to_path_buf(),
+                line: r.line,
+                corners: nodes,
+                listed,
+                base,
+            });
+        }
         if markers == 1 {
-            let marker: i64 = r.number(4, "boundary marker (an integer)")?;
+            let marker: i64 = r.number(4 + edge_columns, "boundary marker (an integer)")?;
             faces.push(MarkedFace { nodes, marker });
         }
     }

@@ -1,6 +1,7 @@
 //! Scene → mesh, material, constraints, loads and probes.
 
 use std::ops::Range;
+use std::path::{Path, PathBuf};
 
 use nalgebra::Vector3;
 
@@ -18,7 +19,7 @@ use tetfem::error::{Error, Result};
 use tetfem::loads::Loads;
 use tetfem::material::Material;
 use tetfem::materials::{MaterialAssignment, MaterialMap, attribute_tets, volume_group_tets};
-use tetfem::mesh::io::{ImportedMesh, read_gmsh, read_tetgen};
+use tetfem::mesh::io::{ImportedMesh, TET10_KEPT_AS_CORNERS, read_gmsh_as, read_tetgen_as};
 use tetfem::mesh::{BoundaryFace, BoxSplit, CellType, Tet4, TetMesh};
 
 use super::SceneElement;
@@ -52,7 +53,7 @@ pub struct BuiltScene<C: CellType = Tet4> {
     /// The mesh.
     pub mesh: TetMesh<C>,
     /// The file's extra information (groups, markers, skipped elements) for imported meshes.
-    pub imported: Option<ImportedMesh>,
+    pub imported: Option<ImportedMesh<C>>,
     /// The boundary faces, outward oriented.
     pub boundary: Vec<BoundaryFace>,
     /// The scene's `[material]`, or without one the first `[[materials]]` entry's: what
@@ -152,18 +153,16 @@ impl Scene {
                     .map_err(|e| self.error("mesh.box", &mesh_span, e.to_string()))?;
                 (mesh, None)
             }
+            // The file's order is the scene's (`Scene::parse` read it): E's cells are the file's.
             MeshSpec::Gmsh(f) => {
-                let imported = read_gmsh(&self.resolve(&f.file))?;
-                (E::from_linear(imported.mesh.clone())?, Some(imported))
+                let imported = read_gmsh_as::<E>(&self.resolve(&f.file))?;
+                self.check_kept_order(&imported)?;
+                (imported.mesh.clone(), Some(imported))
             }
             MeshSpec::Tetgen(f) => {
-                let path = self.resolve(&f.file);
-                let prefix = match path.extension().and_then(|e| e.to_str()) {
-                    Some("node") | Some("ele") => path.with_extension(""),
-                    _ => path,
-                };
-                let imported = read_tetgen(&prefix)?;
-                (E::from_linear(imported.mesh.clone())?, Some(imported))
+                let imported = read_tetgen_as::<E>(&tetgen_prefix(&self.resolve(&f.file)))?;
+                self.check_kept_order(&imported)?;
+                (imported.mesh.clone(), Some(imported))
             }
         };
         let boundary = mesh.boundary_faces()?;
@@ -554,7 +553,32 @@ impl Scene {
     }
 }
 
+/// The TetGen file prefix a scene's `file` names: the path without a `.node` or `.ele`
+/// extension, any other path as it is (`bar.1` for `bar.1.node`).
+pub(crate) fn tetgen_prefix(path: &Path) -> PathBuf {
+    match path.extension().and_then(|e| e.to_str()) {
+        Some("node") | Some("ele") => path.with_extension(""),
+        _ => path.to_path_buf(),
+    }
+}
+
 impl Scene {
+    /// A quadratic file read as 4-node tets (its corners) means the file changed since the
+    /// scene was parsed (which took the order from it): an error naming `mesh.order`.
+    fn check_kept_order<C: CellType>(&self, imported: &ImportedMesh<C>) -> Result<()> {
+        match imported.skipped_elements.get(TET10_KEPT_AS_CORNERS) {
+            Some(&count) => Err(self.error(
+                "mesh.order",
+                &self.spec().mesh.span(),
+                format!(
+                    "the mesh file holds {count} 10-node tets (order 2), but the scene was \
+                     read for order 1: was the file replaced? Load the scene again"
+                ),
+            )),
+            None => Ok(()),
+        }
+    }
+
     /// The material of every tet: each `[[materials]]` entry claims the tets of its `where`
     /// (a Gmsh volume group, a box over tet centroids or a TetGen region attribute), and
     /// `[material]`, if given, covers the rest (and is returned too). Errors name the entry and its line: an invalid
@@ -563,7 +587,7 @@ impl Scene {
     fn materials<C: CellType>(
         &self,
         mesh: &TetMesh<C>,
-        imported: Option<&ImportedMesh>,
+        imported: Option<&ImportedMesh<C>>,
     ) -> Result<(MaterialMap, Option<Material>)> {
         let spec = self.spec();
         let material_at = |m: &super::MaterialSpec, key: &str, span: &Range<usize>| {
@@ -705,7 +729,7 @@ fn known_marker(
 struct Context<'a, E: ElementType> {
     scene: &'a Scene,
     mesh: &'a TetMesh<E>,
-    imported: Option<&'a ImportedMesh>,
+    imported: Option<&'a ImportedMesh<E>>,
     boundary: &'a [BoundaryFace],
 }
 
@@ -745,7 +769,7 @@ impl<E: ElementType> Context<'_, E> {
 
     /// The imported mesh if it has `.face` markers and `marker` among them; else an error at
     /// `key` listing the markers it has.
-    fn face_marker(&self, marker: i64, key: &str, span: &Range<usize>) -> Result<&ImportedMesh> {
+    fn face_marker(&self, marker: i64, key: &str, span: &Range<usize>) -> Result<&ImportedMesh<E>> {
         match self.imported {
             Some(i) if i.face_markers.is_some() => {
                 known_marker(marker, &i.face_marker_counts(), "face")

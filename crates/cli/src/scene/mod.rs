@@ -61,9 +61,12 @@ engine = "tetfem"                   # default: tetfem's solvers in this process;
 [mesh]
 order = 1                           # default 1: 4-node tets; 2: 10-node (quadratic) tets, for
                                     # [mesh.box] meshes: every model (static, dynamic; nonlinear
-                                    # ones at 4 quadrature points per tet), modal; no obstacles
+                                    # ones at 4 quadrature points per tet), modal; no obstacles.
+                                    # A mesh file's order is its own (Gmsh type 11 tets, TetGen
+                                    # -o2: 2); the key, if given, must equal it
 
 [mesh.box]                          # or [mesh.gmsh] / [mesh.tetgen] with: file = "part.msh"
+                                    # (4- or 10-node tets; 3- or 6-node triangles in groups)
 min = [0.0, 0.0, 0.0]               # default [0, 0, 0]
 max = [1.0, 0.1, 0.1]               # required (m)
 cells = [10, 2, 2]                  # required
@@ -405,7 +408,8 @@ impl Scene {
     fn check_order(&self) -> Result<usize> {
         let only: OrderOnly = toml::from_str(&self.text).unwrap_or_default();
         let Some(order) = only.mesh.and_then(|m| m.order) else {
-            return Ok(1);
+            // Without the key: a mesh file's own order, a box mesh's default 1.
+            return Ok(self.file_order().unwrap_or(1));
         };
         let span = order.span();
         let value = match order.get_ref() {
@@ -421,15 +425,44 @@ impl Scene {
                 ));
             }
         };
-        if value == 2 && !matches!(self.spec.mesh.get_ref(), MeshSpec::Box(_)) {
-            return Err(self.error(
+        match self.file_order() {
+            Some(file) if file != value => Err(self.error(
                 "mesh.order",
                 &span,
-                "order = 2 applies to [mesh.box] meshes (their edge nodes are generated); a \
-                 mesh file's order is its own: remove the key",
-            ));
+                format!(
+                    "order = {value}, but the mesh file holds {} (order {file}): a mesh file's \
+                     order is its own; remove the key, or mesh the file at order {value} \
+                     ({})",
+                    if file == 2 {
+                        "10-node tets"
+                    } else {
+                        "4-node tets"
+                    },
+                    if value == 2 {
+                        "gmsh -3 -order 2, tetgen -o2"
+                    } else {
+                        "gmsh -3 -order 1, tetgen without -o2"
+                    }
+                ),
+            )),
+            _ => Ok(value),
         }
-        Ok(value)
+    }
+
+    /// The element order of the scene's mesh file: 2 if it holds 10-node tets, else 1; `None`
+    /// for a box mesh, or when the file cannot be read now (building the scene reads it again
+    /// and reports why).
+    fn file_order(&self) -> Option<usize> {
+        let path = match self.spec.mesh.get_ref() {
+            MeshSpec::Box(_) => return None,
+            MeshSpec::Gmsh(f) => self.resolve(&f.file),
+            MeshSpec::Tetgen(f) => {
+                let mut ele = build::tetgen_prefix(&self.resolve(&f.file)).into_os_string();
+                ele.push(".ele");
+                PathBuf::from(ele)
+            }
+        };
+        tetfem::mesh::io::mesh_file_order(&path).ok()
     }
 
     fn check_model(&self) -> Result<tetfem::model::ModelKind> {

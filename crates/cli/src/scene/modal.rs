@@ -239,7 +239,7 @@ pub fn normalized_shape(system: &LinearSystem, shape: &[f64]) -> Result<Vec<f64>
 fn write_modal_outputs<E: ElementType>(
     scene: &Scene,
     mesh: &tetfem::TetMesh<E>,
-    imported: Option<&tetfem::mesh::io::ImportedMesh>,
+    imported: Option<&tetfem::mesh::io::ImportedMesh<E>>,
     system: &LinearSystem,
     modes: &tetfem::modal::Modes,
     summary: &ModalSummary,
