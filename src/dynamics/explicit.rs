@@ -64,7 +64,12 @@ impl SymplecticEuler {
         let forces = match force {
             InternalForce::Linear => None,
             InternalForce::Nonlinear(f) => {
-                Some(NewtonSolver::new(f, &system, StepNewtonOptions::default())?)
+                Some(NewtonSolver::new(
+                    f,
+                    &system,
+                    StepNewtonOptions::default(),
+                    super::NonlinearSolve::Refactor,
+                )?)
             }
         };
         let n = system.free_count();
