@@ -175,7 +175,9 @@ fn breakdown(mesh: &Arc<tetfem::TetMesh>, problem: &Cantilever, system: &LinearS
     let force_time = clock.elapsed().as_secs_f64() / repeat as f64;
     let clock = Instant::now();
     for _ in 0..repeat {
-        force.tangent_into(&u, false, &mut work, &mut tangent).unwrap();
+        force
+            .tangent_into(&u, false, &mut work, &mut tangent)
+            .unwrap();
     }
     let tangent_time = clock.elapsed().as_secs_f64() / repeat as f64;
     let clock = Instant::now();

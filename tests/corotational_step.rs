@@ -143,8 +143,7 @@ fn side_by_side(
 #[test]
 fn rest_preconditioned_cg_follows_the_refactoring_trajectory_of_a_large_swing() {
     let beam = swing();
-    let (du, dv, rotation, cg, refactor) =
-        side_by_side(&beam, 0.02, 25, NonlinearSolve::default());
+    let (du, dv, rotation, cg, refactor) = side_by_side(&beam, 0.02, 25, NonlinearSolve::default());
     println!(
         "large swing, tip rotation up to {rotation:.1}°: largest relative difference {du:.2e} (u), {dv:.2e} (v); \
          CG path {} Newton its, {} CG its, {} factorizations, {} fallbacks; refactoring {} Newton its, {} factorizations",

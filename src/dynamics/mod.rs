@@ -185,14 +185,12 @@ impl ImplicitParts {
         let solver = step_solver(system, &matrix, options, &force)?;
         let newton = match force {
             InternalForce::Linear => None,
-            InternalForce::Nonlinear(f) => {
-                Some(newton::NewtonSolver::new(
-                    f,
-                    system,
-                    options.newton,
-                    options.nonlinear_solve,
-                )?)
-            }
+            InternalForce::Nonlinear(f) => Some(newton::NewtonSolver::new(
+                f,
+                system,
+                options.newton,
+                options.nonlinear_solve,
+            )?),
         };
         Ok(ImplicitParts {
             dt,

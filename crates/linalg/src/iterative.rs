@@ -322,9 +322,22 @@ pub fn conjugate_gradient(
     x: &mut [f64],
     options: CgOptions,
 ) -> Result<CgReport> {
-    Error::check_len("preconditioner dimension", matrix.dim(), preconditioner.dim())?;
-    conjugate_gradient_with(matrix, &mut |r, z| preconditioner.apply(r, z), rhs, x, options)
+    Error::check_len(
+        "preconditioner dimension",
+        matrix.dim(),
+        preconditioner.dim(),
+    )?;
+    conjugate_gradient_with(
+        matrix,
+        &mut |r, z| preconditioner.apply(r, z),
+        rhs,
+        x,
+        options,
+    )
 }
+
+/// z = P⁻¹·r as a function of (r, z): a preconditioner that needs mutable scratch.
+pub type ApplyPreconditioner<'a> = dyn FnMut(&[f64], &mut [f64]) -> Result<()> + 'a;
 
 /// [`conjugate_gradient`] with the preconditioner given as a function z = P⁻¹·r that may keep
 /// mutable scratch (a Cholesky factor of another matrix, whose triangular solves reuse their
@@ -332,7 +345,7 @@ pub fn conjugate_gradient(
 /// caller checks its dimension.
 pub fn conjugate_gradient_with(
     matrix: &CscMatrix,
-    apply: &mut dyn FnMut(&[f64], &mut [f64]) -> Result<()>,
+    apply: &mut ApplyPreconditioner<'_>,
     rhs: &[f64],
     x: &mut [f64],
     options: CgOptions,

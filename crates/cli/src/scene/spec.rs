@@ -2,9 +2,9 @@
 //! keys. Defaults are listed in [`super::REFERENCE`].
 
 use std::path::PathBuf;
+use tetfem::dynamics::NonlinearSolve;
 pub use tetfem::dynamics::{MassKind, Method};
 pub use tetfem::linalg::linear_solver::LinearMethod;
-use tetfem::dynamics::NonlinearSolve;
 
 use serde::Deserialize;
 use toml::Spanned;
