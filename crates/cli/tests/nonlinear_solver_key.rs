@@ -90,7 +90,8 @@ fn refactor_and_rest_preconditioned_give_the_same_swing() {
     assert!(d.factorizations < r.factorizations, "{d:?} vs {r:?}");
 }
 
-/// An unknown value is refused when the scene is read, naming the key and its line.
+/// An unknown value is refused when the scene is read, naming its line, the value and the
+/// allowed ones.
 #[test]
 fn an_unknown_nonlinear_solver_names_the_key_and_line() {
     let text = SWING.replace("{solver}", "nonlinear_solver = \"gauss_seidel\"");
@@ -104,5 +105,7 @@ fn an_unknown_nonlinear_solver_names_the_key_and_line() {
         Ok(_) => panic!("an unknown nonlinear_solver was accepted"),
     };
     assert!(message.contains("gauss_seidel"), "{message}");
-    assert!(message.contains(&format!("line {line}")), "{message}");
+    // The scene errors' form: `swing:LINE: value: what is allowed`.
+    assert!(message.contains(&format!("swing:{line}:")), "{message}");
+    assert!(message.contains("rest_preconditioned"), "{message}");
 }
