@@ -71,7 +71,8 @@ pub struct NewtonStats {
     /// [`NonlinearSolve::Refactor`]; with [`NonlinearSolve::RestPreconditionedCg`] one per time
     /// step value (the rest matrix) plus one per fallback.
     pub factorizations: usize,
-    /// Preconditioned CG iterations over all steps (0 with [`NonlinearSolve::Refactor`]).
+    /// Preconditioned CG iterations over all steps (0 with [`NonlinearSolve::Refactor`]); a
+    /// fallback counts its whole budget.
     pub cg_iterations: usize,
     /// Newton iterations whose CG ran out of its budget (or met non-positive curvature) and
     /// fell back to a factorization of the current Newton matrix.
