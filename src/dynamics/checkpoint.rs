@@ -215,7 +215,15 @@ impl Checkpoint {
         match &self.history.newton {
             Some(n) => {
                 out.push(1);
-                for v in [n.steps, n.total_iterations, n.max_per_step, n.last_step] {
+                for v in [
+                    n.steps,
+                    n.total_iterations,
+                    n.max_per_step,
+                    n.last_step,
+                    n.factorizations,
+                    n.cg_iterations,
+                    n.fallbacks,
+                ] {
                     put_u64(&mut out, v as u64);
                 }
             }
@@ -301,6 +309,9 @@ impl Checkpoint {
                 total_iterations: r.count()?,
                 max_per_step: r.count()?,
                 last_step: r.count()?,
+                factorizations: r.count()?,
+                cg_iterations: r.count()?,
+                fallbacks: r.count()?,
             }),
             false => None,
         };

@@ -63,9 +63,12 @@ impl SymplecticEuler {
         };
         let forces = match force {
             InternalForce::Linear => None,
-            InternalForce::Nonlinear(f) => {
-                Some(NewtonSolver::new(f, &system, StepNewtonOptions::default())?)
-            }
+            InternalForce::Nonlinear(f) => Some(NewtonSolver::new(
+                f,
+                &system,
+                StepNewtonOptions::default(),
+                super::NonlinearSolve::Refactor,
+            )?),
         };
         let n = system.free_count();
         Ok(SymplecticEuler {

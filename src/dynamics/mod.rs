@@ -22,6 +22,7 @@ mod internal_force;
 mod newmark;
 mod newton;
 mod nonlinear_euler;
+mod nonlinear_solve;
 mod reactions;
 mod stability;
 mod state;
@@ -42,6 +43,7 @@ pub use internal_force::{ForceWorkspace, InternalForce, NonlinearForce};
 pub use newmark::Newmark;
 pub use newton::{NewtonStats, StepNewtonOptions};
 pub use nonlinear_euler::NonlinearBackwardEuler;
+pub use nonlinear_solve::NonlinearSolve;
 pub use reactions::SupportReactions;
 pub use stability::{
     Certificate, CriticalStep, CriticalStepOptions, DivergenceGuard, critical_time_step,
@@ -158,6 +160,10 @@ pub struct IntegratorOptions {
     /// Tolerance and iteration limit of the implicit methods' Newton iterations per step with
     /// a nonlinear [`InternalForce`] (ignored with the linear one).
     pub newton: StepNewtonOptions,
+    /// How those Newton iterations solve their linear systems (ignored with the linear
+    /// force): [`NonlinearSolve::RestPreconditionedCg`] by default, or
+    /// [`NonlinearSolve::Refactor`]. Both stop at `newton`'s tolerance on the same residual.
+    pub nonlinear_solve: NonlinearSolve,
 }
 
 impl Default for IntegratorOptions {
@@ -167,6 +173,7 @@ impl Default for IntegratorOptions {
             linear_method: LinearMethod::Direct,
             cg: CgOptions::default(),
             newton: StepNewtonOptions::default(),
+            nonlinear_solve: NonlinearSolve::default(),
         }
     }
 }
@@ -198,9 +205,12 @@ impl ImplicitParts {
         let solver = step_solver(system, &matrix, options, &force)?;
         let newton = match force {
             InternalForce::Linear => None,
-            InternalForce::Nonlinear(f) => {
-                Some(newton::NewtonSolver::new(f, system, options.newton)?)
-            }
+            InternalForce::Nonlinear(f) => Some(newton::NewtonSolver::new(
+                f,
+                system,
+                options.newton,
+                options.nonlinear_solve,
+            )?),
         };
         Ok(ImplicitParts {
             dt,

@@ -4,8 +4,9 @@
 use std::sync::Arc;
 
 use super::internal_force::{ForceWorkspace, NonlinearForce, combine};
-use super::{LinearSystem, Mass};
+use super::{LinearSystem, Mass, NonlinearSolve};
 use crate::error::{Error, Result};
+use crate::iterative::CgOptions;
 use crate::linear_solver::LinearSolver;
 use crate::sparse::CscMatrix;
 
@@ -59,13 +60,23 @@ impl StepNewtonOptions {
 pub struct NewtonStats {
     /// Steps solved.
     pub steps: usize,
-    /// Newton iterations (each: one tangent assembly, one numerical factorization, one solve)
-    /// over all steps.
+    /// Newton iterations (each: one tangent assembly and one linear solve: a numerical
+    /// factorization and its triangular solves, or preconditioned CG) over all steps.
     pub total_iterations: usize,
     /// The most iterations one step took.
     pub max_per_step: usize,
     /// Iterations of the last step.
     pub last_step: usize,
+    /// Numerical factorizations over all steps: one per Newton iteration with
+    /// [`NonlinearSolve::Refactor`]; with [`NonlinearSolve::RestPreconditionedCg`] one per time
+    /// step value (the rest matrix) plus one per fallback.
+    pub factorizations: usize,
+    /// Preconditioned CG iterations over all steps (0 with [`NonlinearSolve::Refactor`]); a
+    /// fallback counts its whole budget.
+    pub cg_iterations: usize,
+    /// Newton iterations whose CG ran out of its budget (or met non-positive curvature) and
+    /// fell back to a factorization of the current Newton matrix.
+    pub fallbacks: usize,
 }
 
 /// The implicit equation of one step in the new displacement u' (free DOFs):
@@ -98,6 +109,15 @@ pub(crate) struct StepEquation<'a> {
 pub(crate) struct NewtonSolver {
     force: Arc<NonlinearForce>,
     options: StepNewtonOptions,
+    solve: NonlinearSolve,
+    /// The (mass scale, damping stiffness) of the Newton matrices the solver's current factor
+    /// preconditions, on the preconditioned path (`None`: no factor yet, or refactoring).
+    preconditioner_for: Option<(f64, f64)>,
+    /// The current factor is a fallback's (of a Newton matrix, not the rest one). It serves the
+    /// rest of its step only: each step starts from the rest factor, so that a step depends on
+    /// the state alone (not on which steps came before) and a restarted run continues with the
+    /// same bits as an uninterrupted one.
+    lagged: bool,
     work: ForceWorkspace,
     tangent: CscMatrix,
     /// K_T(u) of the step's start (projected), when β > 0.
@@ -124,13 +144,16 @@ impl std::fmt::Debug for NewtonSolver {
 }
 
 impl NewtonSolver {
-    /// A solver for `force` on `system` (β > 0 keeps a second tangent for the damping).
+    /// A solver for `force` on `system` whose linear solves are made as `solve` says (β > 0
+    /// keeps a second tangent for the damping).
     pub fn new(
         force: Arc<NonlinearForce>,
         system: &LinearSystem,
         options: StepNewtonOptions,
+        solve: NonlinearSolve,
     ) -> Result<Self> {
         options.check()?;
+        solve.check()?;
         let n = force.free_count();
         Error::check_len("nonlinear force free DOFs", system.free_count(), n)?;
         Ok(NewtonSolver {
@@ -142,6 +165,9 @@ impl NewtonSolver {
             },
             force,
             options,
+            solve,
+            preconditioner_for: None,
+            lagged: false,
             internal: vec![0.0; n],
             residual: vec![0.0; n],
             trial: vec![0.0; n],
@@ -285,6 +311,10 @@ impl NewtonSolver {
         time: f64,
     ) -> Result<usize> {
         u_new.copy_from_slice(equation.start);
+        if self.lagged {
+            self.preconditioner_for = None;
+            self.lagged = false;
+        }
         if let Some(k) = &mut self.damping_tangent {
             self.force
                 .tangent_into(equation.start, true, &mut self.work, k)?;
@@ -330,21 +360,13 @@ impl NewtonSolver {
                     self.options.max_iterations
                 )));
             }
-            self.factor_newton_matrix(
+            self.newton_direction(
                 system,
                 u_new,
-                s_m + s_c * damping.alpha,
-                s_c * damping.beta,
+                (s_m + s_c * damping.alpha, s_c * damping.beta),
                 matrix,
                 solver,
             )?;
-            for (d, r) in self.delta.iter_mut().zip(&self.residual) {
-                *d = -r;
-            }
-            let mut delta = std::mem::take(&mut self.delta);
-            let solved = solver.solve(matrix, &mut delta);
-            self.delta = delta;
-            solved?;
             // With contact: never past the first time of impact (IPC's 0.8 of it), and only a
             // decrease of Φ (up to its round-off) is accepted, so no iterate penetrates.
             let with_contact = self.force.contact().is_some();
@@ -412,6 +434,95 @@ impl NewtonSolver {
         Ok(iterations)
     }
 
+    /// δ = −J(u')⁻¹·r into `delta`, J = mass_scale·M + damping_stiffness·K_T(u_start) + K_T(u'),
+    /// as [`NonlinearSolve`] says: J factored, or preconditioned CG on J with the factor kept
+    /// (of the rest matrix J₀, or of the last J that CG could not solve within its budget).
+    fn newton_direction(
+        &mut self,
+        system: &LinearSystem,
+        u_new: &[f64],
+        (mass_scale, damping_stiffness): (f64, f64),
+        matrix: &mut CscMatrix,
+        solver: &mut LinearSolver,
+    ) -> Result<()> {
+        for (d, r) in self.delta.iter_mut().zip(&self.residual) {
+            *d = -r;
+        }
+        if let NonlinearSolve::RestPreconditionedCg {
+            max_cg_iterations,
+            forcing,
+        } = self.solve
+        {
+            let key = (mass_scale, damping_stiffness);
+            if self.preconditioner_for != Some(key) {
+                // J₀ = mass_scale·M + (1 + damping_stiffness)·K₀: the Newton matrix at rest.
+                combine(
+                    system.stiffness(),
+                    1.0 + damping_stiffness,
+                    system.mass(),
+                    mass_scale,
+                    matrix,
+                )?;
+                solver.factorize(matrix)?;
+                self.stats.factorizations += 1;
+                self.preconditioner_for = Some(key);
+            }
+            self.form_newton_matrix(system, u_new, false, key, matrix)?;
+            let cg = CgOptions {
+                relative_tolerance: forcing,
+                max_iterations: max_cg_iterations,
+            };
+            let mut delta = std::mem::take(&mut self.delta);
+            let solved = solver.solve_preconditioned(matrix, &mut delta, cg);
+            self.delta = delta;
+            match solved {
+                Ok(report) => {
+                    self.stats.cg_iterations += report.iterations;
+                    return Ok(());
+                }
+                // Out of budget or not positive definite along a direction: factor J itself
+                // below; its factor preconditions the rest of this step (lagged refactorization).
+                Err(tetfem_linalg::Error::Solver(_)) => {
+                    self.stats.cg_iterations += max_cg_iterations;
+                    self.stats.fallbacks += 1;
+                    self.lagged = true;
+                    for (d, r) in self.delta.iter_mut().zip(&self.residual) {
+                        *d = -r;
+                    }
+                }
+                Err(other) => return Err(other.into()),
+            }
+        }
+        self.factor_newton_matrix(system, u_new, mass_scale, damping_stiffness, matrix, solver)?;
+        self.stats.factorizations += 1;
+        let mut delta = std::mem::take(&mut self.delta);
+        let solved = solver.solve(matrix, &mut delta);
+        self.delta = delta;
+        solved?;
+        Ok(())
+    }
+
+    /// J = mass_scale·M + damping_stiffness·K_T(u_start) + K_T(u') into `matrix`, every element
+    /// tangent projected onto the positive semi-definite cone when `project` is set.
+    fn form_newton_matrix(
+        &mut self,
+        system: &LinearSystem,
+        u_new: &[f64],
+        project: bool,
+        (mass_scale, damping_stiffness): (f64, f64),
+        matrix: &mut CscMatrix,
+    ) -> Result<()> {
+        self.force
+            .tangent_into(u_new, project, &mut self.work, &mut self.tangent)?;
+        combine(&self.tangent, 1.0, system.mass(), mass_scale, matrix)?;
+        if let Some(k) = &self.damping_tangent {
+            for (a, k) in matrix.values_mut().iter_mut().zip(k.values()) {
+                *a += damping_stiffness * k;
+            }
+        }
+        Ok(())
+    }
+
     /// Forms J = mass_scale·M + damping_stiffness·K_T(u_start) + K_T(u') in `matrix` and factors
     /// it: the exact tangent first, the projected one if J is not positive definite.
     fn factor_newton_matrix(
@@ -424,14 +535,13 @@ impl NewtonSolver {
         solver: &mut LinearSolver,
     ) -> Result<()> {
         for project in [false, true] {
-            self.force
-                .tangent_into(u_new, project, &mut self.work, &mut self.tangent)?;
-            combine(&self.tangent, 1.0, system.mass(), mass_scale, matrix)?;
-            if let Some(k) = &self.damping_tangent {
-                for (a, k) in matrix.values_mut().iter_mut().zip(k.values()) {
-                    *a += damping_stiffness * k;
-                }
-            }
+            self.form_newton_matrix(
+                system,
+                u_new,
+                project,
+                (mass_scale, damping_stiffness),
+                matrix,
+            )?;
             match solver.factorize(matrix) {
                 Err(tetfem_linalg::Error::NotPositiveDefinite { .. }) if !project => continue,
                 other => return Ok(other?),

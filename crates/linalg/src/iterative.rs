@@ -322,8 +322,35 @@ pub fn conjugate_gradient(
     x: &mut [f64],
     options: CgOptions,
 ) -> Result<CgReport> {
+    Error::check_len(
+        "preconditioner dimension",
+        matrix.dim(),
+        preconditioner.dim(),
+    )?;
+    conjugate_gradient_with(
+        matrix,
+        &mut |r, z| preconditioner.apply(r, z),
+        rhs,
+        x,
+        options,
+    )
+}
+
+/// z = P⁻¹·r as a function of (r, z): a preconditioner that needs mutable scratch.
+pub type ApplyPreconditioner<'a> = dyn FnMut(&[f64], &mut [f64]) -> Result<()> + 'a;
+
+/// [`conjugate_gradient`] with the preconditioner given as a function z = P⁻¹·r that may keep
+/// mutable scratch (a Cholesky factor of another matrix, whose triangular solves reuse their
+/// workspace). P must be symmetric positive definite and `apply` must fill all of z; the
+/// caller checks its dimension.
+pub fn conjugate_gradient_with(
+    matrix: &CscMatrix,
+    apply: &mut ApplyPreconditioner<'_>,
+    rhs: &[f64],
+    x: &mut [f64],
+    options: CgOptions,
+) -> Result<CgReport> {
     let n = matrix.dim();
-    Error::check_len("preconditioner dimension", n, preconditioner.dim())?;
     if rhs.len() != n || x.len() != n {
         return Err(Error::invalid_parameter(
             "conjugate gradient vectors",
@@ -353,7 +380,7 @@ pub fn conjugate_gradient(
         .zip(rhs)
         .for_each(|(r, b)| *r = b - *r);
     let mut z = vec![0.0; n];
-    preconditioner.apply(&residual, &mut z)?;
+    apply(&residual, &mut z)?;
     let mut direction = z.clone();
     let mut product = vec![0.0; n];
     let mut rz = dot(&residual, &z);
@@ -416,7 +443,7 @@ pub fn conjugate_gradient(
                 .zip(rhs)
                 .for_each(|((r, ax), b)| *r = b - ax);
         }
-        preconditioner.apply(&residual, &mut z)?;
+        apply(&residual, &mut z)?;
         let rz_next = dot(&residual, &z);
         let beta = rz_next / rz;
         rz = rz_next;

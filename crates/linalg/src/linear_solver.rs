@@ -3,7 +3,10 @@
 
 use crate::amg::DofGeometry;
 use crate::error::{Error, Result};
-use crate::iterative::{CgOptions, Preconditioner, PreconditionerKind, conjugate_gradient};
+use crate::iterative::{
+    CgOptions, CgReport, Preconditioner, PreconditionerKind, conjugate_gradient,
+    conjugate_gradient_with,
+};
 use crate::linsolve::{CholeskyOptions, SparseCholesky};
 use crate::memory::MemoryLimits;
 use crate::sparse::CscMatrix;
@@ -572,6 +575,48 @@ impl LinearSolver {
                 })
             }
         }
+    }
+
+    /// Solves `matrix`·x = b in place by conjugate gradients preconditioned with what the last
+    /// [`factorize`](Self::factorize) prepared for *another* matrix P on the same pattern (the
+    /// Cholesky factor's two triangular solves, or the multigrid hierarchy): one factorization
+    /// reused for a family of nearby matrices, as a nonlinear step's tangents near its rest
+    /// matrix. Starts from x = 0 and stops by `options` ([`CgOptions`]); an
+    /// [`Error::Solver`] when `matrix` is not positive definite along a search direction or CG
+    /// does not converge in `options.max_iterations` (the caller then factors `matrix` itself).
+    pub fn solve_preconditioned(
+        &mut self,
+        matrix: &CscMatrix,
+        rhs: &mut [f64],
+        options: CgOptions,
+    ) -> Result<CgReport> {
+        Error::check_len("right-hand side", matrix.dim(), rhs.len())?;
+        let mut x = vec![0.0; rhs.len()];
+        let report = match &mut self.backend {
+            Backend::Direct(cholesky) => {
+                Error::check_len("factor dimension", matrix.dim(), cholesky.dim())?;
+                conjugate_gradient_with(
+                    matrix,
+                    &mut |r, z| {
+                        z.copy_from_slice(r);
+                        cholesky.solve_in_place(z)
+                    },
+                    rhs,
+                    &mut x,
+                    options,
+                )?
+            }
+            Backend::Iterative { preconditioner, .. } => {
+                let Some(preconditioner) = preconditioner else {
+                    return Err(Error::Solver(
+                        "LinearSolver::solve_preconditioned called before factorize".into(),
+                    ));
+                };
+                conjugate_gradient(matrix, preconditioner.as_ref(), rhs, &mut x, options)?
+            }
+        };
+        rhs.copy_from_slice(&x);
+        Ok(report)
     }
 
     /// Stored values of the Cholesky factor (0 for the iterative method).

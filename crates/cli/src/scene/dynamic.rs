@@ -17,7 +17,7 @@ use crate::render::{Field, RenderOptions, auto_deformation_scale, render};
 use tetfem::constraints::Constraints;
 use tetfem::dynamics::{
     Energy, IntegratorOptions, InternalForce, LinearSystem, Mass, MassKind, Method, NewtonStats,
-    Rayleigh, State, critical_time_step,
+    NonlinearSolve, Rayleigh, State, critical_time_step,
 };
 use tetfem::element::{ElementType, Tet10};
 use tetfem::error::{Error, Result};
@@ -159,6 +159,9 @@ pub struct DynamicSetup<C: CellType = Tet4> {
     /// (the integrators' default); [`run_dynamic_scene`] sets the scene's
     /// `analysis.linear_solver` (auto when unset).
     pub linear_method: LinearMethod,
+    /// How the implicit methods' Newton iterations solve with a nonlinear model:
+    /// [`NonlinearSolve::default`] unless the scene sets `analysis.nonlinear_solver`.
+    pub nonlinear_solve: NonlinearSolve,
     /// Warnings about the scene's own entries (a load acting on fixed DOFs only, no free DOF),
     /// reported with the mesh's and the material's in the run summary.
     pub input_warnings: Vec<tetfem::warning::Warning>,
@@ -222,6 +225,7 @@ impl<E: SceneElement> DynamicSetup<E> {
             probes: built.probes,
             setup_seconds: clock.elapsed().as_secs_f64(),
             linear_method: LinearMethod::Direct,
+            nonlinear_solve: NonlinearSolve::default(),
             force: InternalForce::Linear,
             reactions,
             critical: Default::default(),
@@ -355,6 +359,7 @@ impl DynamicSetup {
             probes,
             setup_seconds: clock.elapsed().as_secs_f64(),
             linear_method: LinearMethod::Direct,
+            nonlinear_solve: NonlinearSolve::default(),
             force: InternalForce::Linear,
             critical: Default::default(),
         })
@@ -571,6 +576,7 @@ fn run_dynamic_locked<E: SceneElement>(
     let steps = run.length.steps(dt)?;
     let options = IntegratorOptions {
         linear_method: setup.linear_method,
+        nonlinear_solve: setup.nonlinear_solve,
         ..IntegratorOptions::default()
     };
     let mut integrator = run.method.integrator_with_force(
@@ -1256,6 +1262,7 @@ fn run_dynamic_scene_on<E: SceneElement>(
     let mut setup =
         DynamicSetup::from_scene(scene.build_as::<E>()?, settings)?.with_model(scene.model())?;
     setup.linear_method = scene.spec().linear_method();
+    setup.nonlinear_solve = scene.spec().nonlinear_solve();
     let restart = match write_files {
         true => Some(Restart::new(scene, &setup.mesh, resume)?),
         false => None,

@@ -2,6 +2,7 @@
 //! keys. Defaults are listed in [`super::REFERENCE`].
 
 use std::path::PathBuf;
+use tetfem::dynamics::NonlinearSolve;
 pub use tetfem::dynamics::{MassKind, Method};
 pub use tetfem::linalg::linear_solver::LinearMethod;
 
@@ -567,6 +568,11 @@ pub struct AnalysisSpec {
     /// is predicted faster), `"direct"` or `"iterative"` (multigrid-preconditioned CG).
     #[serde(default)]
     pub linear_solver: Option<LinearMethod>,
+    /// Dynamic, implicit methods with a nonlinear model: how each Newton iteration solves,
+    /// `"rest_preconditioned"` (default: CG preconditioned by the rest-state factor, with a
+    /// fallback to factoring) or `"refactor"` (a factorization per Newton iteration).
+    #[serde(default)]
+    pub nonlinear_solver: Option<NonlinearSolverName>,
     /// Static: the target relative energy-norm error (0 < a < 1) tetfem chooses the element
     /// order and cells for (checked with its line by the accuracy module; here only let through).
     #[serde(default)]
@@ -583,6 +589,37 @@ impl SceneSpec {
             .as_ref()
             .and_then(|a| a.get_ref().linear_solver)
             .unwrap_or_default()
+    }
+
+    /// `analysis.nonlinear_solver` as the library's option ([`NonlinearSolve::default`] when
+    /// unset).
+    pub fn nonlinear_solve(&self) -> NonlinearSolve {
+        self.analysis
+            .as_ref()
+            .and_then(|a| a.get_ref().nonlinear_solver)
+            .unwrap_or_default()
+            .solve()
+    }
+}
+
+/// `analysis.nonlinear_solver`: the name of a [`NonlinearSolve`] (its default settings).
+#[derive(Debug, Clone, Copy, Default, Deserialize, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum NonlinearSolverName {
+    /// [`NonlinearSolve::default`]: CG preconditioned by the rest-state factor.
+    #[default]
+    RestPreconditioned,
+    /// [`NonlinearSolve::Refactor`]: a factorization per Newton iteration.
+    Refactor,
+}
+
+impl NonlinearSolverName {
+    /// The library's option of this name.
+    pub fn solve(self) -> NonlinearSolve {
+        match self {
+            NonlinearSolverName::RestPreconditioned => NonlinearSolve::default(),
+            NonlinearSolverName::Refactor => NonlinearSolve::Refactor,
+        }
     }
 }
 
