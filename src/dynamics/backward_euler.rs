@@ -127,6 +127,7 @@ impl BackwardEuler {
             predictor: &self.work,
             start: &state.displacement,
             damping_velocity: None,
+            duration: dt,
         };
         newton.solve(
             &self.system,

@@ -91,7 +91,13 @@ pub(crate) struct StepEquation<'a> {
     pub start: &'a [f64],
     /// v_c (length/time), `None` for zero.
     pub damping_velocity: Option<&'a [f64]>,
+    /// The step dt (time): moving obstacles go to their placement at `time + duration`.
+    pub duration: f64,
 }
+
+/// Most stages a step may take to move the obstacles to their end-of-step placement (see
+/// [`NewtonSolver::solve`]); more is [`Error::Diverged`] (the obstacles move too far per step).
+const MAX_MOTION_STAGES: usize = 100;
 
 /// The Newton solver of an implicit integrator with a nonlinear model: its scratch, the tangent
 /// and the iteration counts.
@@ -286,11 +292,74 @@ impl NewtonSolver {
         }
         // Friction lags its normal forces at the step's start; its smoothing distance is
         // ε_v/s_c (backward Euler: ε_v·dt; Newmark: ε_v·dt/2).
-        self.force
-            .begin_step(equation.start, 1.0 / equation.damping_scale)?;
-        let solved = self.iterate(system, equation, matrix, solver, u_new, step, time);
+        let force = Arc::clone(&self.force);
+        let Some(contact) = force.contact().filter(|c| c.is_moving()) else {
+            self.force
+                .begin_step(equation.start, 1.0 / equation.damping_scale)?;
+            let solved = self.iterate(system, equation, matrix, solver, u_new, step, time);
+            self.force.end_friction();
+            return solved;
+        };
+        let solved = self.solve_moving(contact, system, equation, matrix, solver, u_new, step, time);
         self.force.end_friction();
         solved
+    }
+
+    /// [`solve`](Self::solve) with moving obstacles: from their placement at `time` they go to
+    /// that at `time + duration` in stages. Each stage moves them by 0.8 of the largest
+    /// collision-free fraction of the remaining straight move for the current iterate
+    /// ([`Contact::motion_step_limit`](crate::contact::Contact::motion_step_limit)) and
+    /// solves the step equation there, so the next stage starts from a body that has made
+    /// room; the last stage (the whole remaining move fits) is the step's solution.
+    #[allow(clippy::too_many_arguments)]
+    fn solve_moving(
+        &mut self,
+        contact: &crate::contact::Contact,
+        system: &LinearSystem,
+        equation: &StepEquation,
+        matrix: &mut CscMatrix,
+        solver: &mut LinearSolver,
+        u_new: &mut [f64],
+        step: usize,
+        time: f64,
+    ) -> Result<usize> {
+        let placed = contact;
+        placed.set_time(time);
+        let target = contact.offsets_at(time + equation.duration);
+        self.force
+            .begin_step_toward(equation.start, 1.0 / equation.damping_scale, &target)?;
+        let (steps_before, mut iterations) = (self.stats.steps, 0);
+        for _ in 0..MAX_MOTION_STAGES {
+            let full = self.force.full_displacement(u_new)?;
+            let sigma = placed.motion_step_limit(&full, &target)?;
+            let last = sigma >= 1.0;
+            let offsets: Vec<_> = match last {
+                true => target.clone(),
+                false => placed
+                    .offsets()
+                    .iter()
+                    .zip(&target)
+                    .map(|(c, t)| c + crate::contact::STEP_FRACTION * sigma * (t - c))
+                    .collect(),
+            };
+            placed.set_offsets(offsets)?;
+            iterations += self.iterate(system, equation, matrix, solver, u_new, step, time)?;
+            if last {
+                // The stages are one step's solve.
+                self.stats.steps = steps_before + 1;
+                self.stats.last_step = iterations;
+                self.stats.max_per_step = self.stats.max_per_step.max(iterations);
+                return Ok(iterations);
+            }
+        }
+        Err(Error::Diverged {
+            step,
+            time,
+            reason: format!(
+                "the moving obstacles did not reach their placement at t = {:.6e} in {MAX_MOTION_STAGES} stages (each as far as the body makes room for); a smaller dt helps",
+                time + equation.duration
+            ),
+        })
     }
 
     /// The Newton iterations of [`solve`](Self::solve), friction lagged already.

@@ -9,6 +9,7 @@ use std::time::Instant;
 
 use nalgebra::Vector3;
 
+use super::dynamic_contact::contact_of;
 use super::element::as_linear;
 use super::{
     Analysis, BuiltScene, DynamicSettings, OutputSettings, PngField, Probe, Scene, SceneElement,
@@ -27,7 +28,7 @@ use tetfem::material::Material;
 use tetfem::mesh::{CellType, Tet4, TetMesh};
 use tetfem::output::fields::{cell_model_von_mises, cell_von_mises, displacement_magnitude};
 use tetfem::output::{
-    CsvSeries, CsvValue, FrameExtras, OriginalIds, OutputLock, PvdCollection, write_atomically,
+    ContactFields, CsvSeries, CsvValue, FrameExtras, OriginalIds, OutputLock, PvdCollection, write_atomically,
     write_model_result_vtu, write_result_frame,
 };
 use tetfem_fixtures::cantilever::Cantilever;
@@ -201,7 +202,7 @@ impl<E: SceneElement> DynamicSetup<E> {
 
     /// The setup of a built scene with its assembled system and initial state; `clock` started
     /// with the setup.
-    fn of_built(
+    pub(super) fn of_built(
         built: BuiltScene<E>,
         system: LinearSystem,
         initial: State,
@@ -814,6 +815,9 @@ impl FrameWriter {
             ] {
                 columns.push(format!("{e}_J"));
             }
+            if let Some(contact) = contact_of(&setup.force) {
+                columns.extend(super::dynamic_contact::csv_columns(contact));
+            }
             Some(CsvSeries::new(
                 s.directory.join(format!("{}.csv", s.stem)),
                 columns,
@@ -870,6 +874,10 @@ impl FrameWriter {
                 ]
                 .map(CsvValue::Real),
             );
+            if let Some(contact) = contact_of(&setup.force) {
+                let values = super::dynamic_contact::csv_values(contact, u, time)?;
+                row.extend(values.into_iter().map(CsvValue::Real));
+            }
             csv.push_values(&row)?;
         }
         if !(state.steps.is_multiple_of(self.every) || last) {
@@ -898,7 +906,19 @@ impl FrameWriter {
                 }
                 InternalForce::Nonlinear(_) => None,
             };
+            let contact_fields = match contact_of(&setup.force) {
+                Some(c) => Some(super::dynamic_contact::node_fields(
+                    c,
+                    setup.mesh.nodes(),
+                    u,
+                    time,
+                )?),
+                None => None,
+            };
             let extras = FrameExtras {
+                contact: contact_fields
+                    .as_ref()
+                    .map(|(gap, pressure)| ContactFields { gap, pressure }),
                 velocity: Some(&velocity),
                 reactions: None,
                 time: Some(time),
@@ -997,11 +1017,13 @@ impl FrameWriter {
 fn png_look<E: SceneElement>(setup: &DynamicSetup<E>, s: &OutputSettings) -> Result<PngLook> {
     let dofs = setup.system.dofs();
     let initial = dofs.expand(&setup.initial.displacement)?;
-    let doubled: Vec<f64> = dofs
-        .expand(&setup.system.static_displacement()?)?
-        .iter()
-        .map(|u| 2.0 * u)
-        .collect();
+    let contact = contact_of(&setup.force);
+    // A body held by contact alone has no static shape without it (K_ff is singular).
+    let statics = match (setup.system.static_displacement(), contact) {
+        (Err(_), Some(_)) => vec![0.0; setup.system.free_count()],
+        (u, _) => u?,
+    };
+    let doubled: Vec<f64> = dofs.expand(&statics)?.iter().map(|u| 2.0 * u).collect();
     let largest = |u: &[f64]| displacement_magnitude(u).into_iter().fold(0.0, f64::max);
     let reference = if largest(&initial) >= largest(&doubled) {
         initial
@@ -1043,7 +1065,10 @@ fn png_look<E: SceneElement>(setup: &DynamicSetup<E>, s: &OutputSettings) -> Res
             low = low.inf(x).inf(&moved);
             high = high.sup(x).sup(&moved);
         }
-        (low, high)
+        match contact {
+            Some(c) => super::dynamic_contact::view_box(c, (low, high)),
+            None => (low, high),
+        }
     });
     Ok(PngLook {
         scale,
@@ -1142,10 +1167,13 @@ fn run_dynamic_scene_on<E: SceneElement>(
     progress: &mut dyn FnMut(usize, usize) -> ControlFlow<()>,
 ) -> Result<DynamicSummary> {
     let write_files = lock.is_some();
-    let mut setup =
-        DynamicSetup::from_scene(scene.build_as::<E>()?, settings)?.with_model(scene.model())?;
-    setup.linear_method = scene.spec().linear_method();
     let method = overrides.method.unwrap_or(settings.method);
+    let mut setup = match scene.has_obstacles() {
+        true => DynamicSetup::with_contact(scene, scene.build_as::<E>()?, settings, method)?,
+        false => DynamicSetup::from_scene(scene.build_as::<E>()?, settings)?
+            .with_model(scene.model())?,
+    };
+    setup.linear_method = scene.spec().linear_method();
     let run = DynamicRun {
         title: scene.title(),
         source: scene.source_name().to_string(),

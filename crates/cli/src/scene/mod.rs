@@ -10,6 +10,7 @@ mod accuracy;
 mod build;
 mod critical;
 mod dynamic;
+mod dynamic_contact;
 mod element;
 mod estimate;
 mod modal;
