@@ -1019,9 +1019,9 @@ fn png_look<E: SceneElement>(setup: &DynamicSetup<E>, s: &OutputSettings) -> Res
     let initial = dofs.expand(&setup.initial.displacement)?;
     let contact = contact_of(&setup.force);
     // A body held by contact alone has no static shape without it (K_ff is singular).
-    let statics = match (setup.system.static_displacement(), contact) {
-        (Err(_), Some(_)) => vec![0.0; setup.system.free_count()],
-        (u, _) => u?,
+    let (statics, free_body) = match (setup.system.static_displacement(), contact) {
+        (Err(_), Some(_)) => (vec![0.0; setup.system.free_count()], true),
+        (u, _) => (u?, false),
     };
     let doubled: Vec<f64> = dofs.expand(&statics)?.iter().map(|u| 2.0 * u).collect();
     let largest = |u: &[f64]| displacement_magnitude(u).into_iter().fold(0.0, f64::max);
@@ -1050,9 +1050,22 @@ fn png_look<E: SceneElement>(setup: &DynamicSetup<E>, s: &OutputSettings) -> Res
     } else {
         reference
     };
-    let high = match s.png_field {
-        PngField::Displacement => largest(&reference),
-        PngField::VonMises => setup.von_mises(&reference)?.into_iter().fold(0.0, f64::max),
+    let high = match (s.png_field, free_body) {
+        (PngField::Displacement, false) => largest(&reference),
+        (PngField::VonMises, false) => {
+            setup.von_mises(&reference)?.into_iter().fold(0.0, f64::max)
+        }
+        // Without a static shape: a tenth of the body's size, and twice the stress of its
+        // weight W on a face-sized area (diagonal²/3; ρ·g·H for a cube resting on a face).
+        (PngField::Displacement, true) => 0.1 * body_size(&setup.mesh),
+        (PngField::VonMises, true) => {
+            let g = setup.system.gravity_load();
+            let weight = (0..3)
+                .map(|a| g.iter().skip(a).step_by(3).sum::<f64>().powi(2))
+                .sum::<f64>()
+                .sqrt();
+            2.0 * weight / (body_size(&setup.mesh).powi(2) / 3.0)
+        }
     };
     // A nonlinear model's large motion would make every frame zoom onto its own shape: one
     // camera for all, framing the body at rest and at the capped reference shape.
