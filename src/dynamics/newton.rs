@@ -304,7 +304,8 @@ impl NewtonSolver {
         let inertia = match force.contact() {
             Some(_) => {
                 for i in 0..u_new.len() {
-                    self.mixed[i] = equation.mass_scale * (equation.start[i] - equation.predictor[i]);
+                    self.mixed[i] =
+                        equation.mass_scale * (equation.start[i] - equation.predictor[i]);
                 }
                 system.mass().product_into(&self.mixed, &mut self.scratch);
                 norm(&self.scratch)

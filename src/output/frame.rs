@@ -227,9 +227,11 @@ fn write_fields<C: CellType>(
         writer = writer.point_field("reaction_force", 3, r)?;
     }
     if let Some(c) = extras.contact {
-        writer = writer
-            .point_field("contact_gap", 1, c.gap)?
-            .point_field("contact_pressure", 1, c.pressure)?;
+        writer = writer.point_field("contact_gap", 1, c.gap)?.point_field(
+            "contact_pressure",
+            1,
+            c.pressure,
+        )?;
     }
     if extras.stress_tensors {
         writer = writer

@@ -54,7 +54,14 @@ fn column(header: &[String], name: &str) -> usize {
 
 /// A 0.2 m rubber cube (E = 100 kPa, ν = 0.3, ρ = 1000 kg/m³, 4×4×4 cells) `height` m above the
 /// ground z = 0, falling under gravity with no support: only the ground holds it.
-fn drop_scene(dir: &Path, method: &str, dt: f64, duration: f64, height: f64, every: usize) -> String {
+fn drop_scene(
+    dir: &Path,
+    method: &str,
+    dt: f64,
+    duration: f64,
+    height: f64,
+    every: usize,
+) -> String {
     format!(
         r#"
 [mesh.box]
@@ -142,12 +149,19 @@ fn backward_euler_drop_above_10x_the_critical_step_settles_on_the_ground() {
     }
     // Backward Euler only dissipates; the Newton tolerance (1e-8 of the step's force scale)
     // leaves energy noise far below 1e-7 of the fall's energy scale W·h.
-    assert!(rise <= 1e-7 * scale, "energy rose by {rise:e} J after first contact");
+    assert!(
+        rise <= 1e-7 * scale,
+        "energy rose by {rise:e} J after first contact"
+    );
     // At rest the ground carries the weight. What is left of the bounce after 50 strongly
     // damped steps and Newton's 1e-8 tolerance: 1e-6 of W allowed.
     let last = rows.last().unwrap();
     let error = (last[fz] + WEIGHT).abs() / WEIGHT;
-    assert!(error <= 1e-6, "contact force {} N against W = {WEIGHT} N", last[fz]);
+    assert!(
+        error <= 1e-6,
+        "contact force {} N against W = {WEIGHT} N",
+        last[fz]
+    );
     println!(
         "dt/critical {:.2}, smallest gap {gap:.3e} m, largest energy rise {rise:.3e} J, |F + W|/W = {error:.2e}",
         summary.dt_over_critical
@@ -188,8 +202,15 @@ fn explicit_drop_below_the_critical_step_stays_above_the_ground_with_bounded_ene
         .fold(0.0, f64::max);
     // Symplectic Euler keeps a shadow energy: the drift stays a small fraction of the
     // fall's work W·h (its velocity lives half a step behind: O(dt) oscillation), 1 % of it.
-    assert!(drift <= 0.01 * WEIGHT * h, "energy drift {drift:e} J of W·h = {:e}", WEIGHT * h);
-    println!("explicit: smallest gap {gap:.3e} m, energy drift {drift:.3e} J (W·h = {:.3e} J)", WEIGHT * h);
+    assert!(
+        drift <= 0.01 * WEIGHT * h,
+        "energy drift {drift:e} J of W·h = {:e}",
+        WEIGHT * h
+    );
+    println!(
+        "explicit: smallest gap {gap:.3e} m, energy drift {drift:.3e} J (W·h = {:.3e} J)",
+        WEIGHT * h
+    );
 }
 
 /// A 0.2 m bar (x from 0 to 0.2, 0.1 × 0.1 section) clamped at x = 0.2, no gravity, with a box
@@ -238,7 +259,10 @@ fn an_obstacle_at_constant_velocity_compresses_a_clamped_bar_with_its_axial_stif
     let v = 0.01;
     let summary = run(&pushed_bar(&dir, &format!("velocity = [{v}, 0.0, 0.0]"))).unwrap();
     let (header, rows) = read_csv(&dir.join(format!("{}.csv", summary_stem(&summary))));
-    let (time, fx) = (column(&header, "time_s"), column(&header, "contact_pusher_fx_N"));
+    let (time, fx) = (
+        column(&header, "time_s"),
+        column(&header, "contact_pusher_fx_N"),
+    );
     // The force on the pusher is along −x (the bar pushes back) and grows as it advances.
     let last = rows.last().unwrap();
     let advance = v * last[time] - 0.001;

@@ -28,8 +28,8 @@ use tetfem::material::Material;
 use tetfem::mesh::{CellType, Tet4, TetMesh};
 use tetfem::output::fields::{cell_model_von_mises, cell_von_mises, displacement_magnitude};
 use tetfem::output::{
-    ContactFields, CsvSeries, CsvValue, FrameExtras, OriginalIds, OutputLock, PvdCollection, write_atomically,
-    write_model_result_vtu, write_result_frame,
+    ContactFields, CsvSeries, CsvValue, FrameExtras, OriginalIds, OutputLock, PvdCollection,
+    write_atomically, write_model_result_vtu, write_result_frame,
 };
 use tetfem_fixtures::cantilever::Cantilever;
 
@@ -1052,9 +1052,7 @@ fn png_look<E: SceneElement>(setup: &DynamicSetup<E>, s: &OutputSettings) -> Res
     };
     let high = match (s.png_field, free_body) {
         (PngField::Displacement, false) => largest(&reference),
-        (PngField::VonMises, false) => {
-            setup.von_mises(&reference)?.into_iter().fold(0.0, f64::max)
-        }
+        (PngField::VonMises, false) => setup.von_mises(&reference)?.into_iter().fold(0.0, f64::max),
         // Without a static shape: a tenth of the body's size, and twice the stress of its
         // weight W on a face-sized area (diagonal²/3; ρ·g·H for a cube resting on a face).
         (PngField::Displacement, true) => 0.1 * body_size(&setup.mesh),
@@ -1183,8 +1181,9 @@ fn run_dynamic_scene_on<E: SceneElement>(
     let method = overrides.method.unwrap_or(settings.method);
     let mut setup = match scene.has_obstacles() {
         true => DynamicSetup::with_contact(scene, scene.build_as::<E>()?, settings, method)?,
-        false => DynamicSetup::from_scene(scene.build_as::<E>()?, settings)?
-            .with_model(scene.model())?,
+        false => {
+            DynamicSetup::from_scene(scene.build_as::<E>()?, settings)?.with_model(scene.model())?
+        }
     };
     setup.linear_method = scene.spec().linear_method();
     let run = DynamicRun {

@@ -58,7 +58,11 @@ impl<E: SceneElement> DynamicSetup<E> {
         }
         let mesh = as_linear(&built.mesh)
             .ok_or_else(|| {
-                scene.error("obstacles", &span, "contact runs on 4-node tets only".to_string())
+                scene.error(
+                    "obstacles",
+                    &span,
+                    "contact runs on 4-node tets only".to_string(),
+                )
             })?
             .clone();
         let damping = Rayleigh::new(settings.damping.mass, settings.damping.stiffness)?;
@@ -80,8 +84,8 @@ impl<E: SceneElement> DynamicSetup<E> {
             .contact(&mesh, super::obstacles::stiffest(&built.materials))?
             .ok_or_else(|| scene.error("obstacles", &span, "no obstacle".to_string()))?;
         let models = scene.model().build_map(&built.materials);
-        let force = NonlinearForce::with_models(Arc::new(mesh), models, &system)?
-            .with_contact(contact)?;
+        let force =
+            NonlinearForce::with_models(Arc::new(mesh), models, &system)?.with_contact(contact)?;
         let mut setup = Self::of_built(built, system, initial, clock);
         setup.force = InternalForce::Nonlinear(Arc::new(force));
         Ok(setup)

@@ -21,7 +21,12 @@ impl Scene {
             .analysis
             .as_ref()
             .is_some_and(|a| a.get_ref().kind == AnalysisKind::Dynamic);
-        let named = match self.spec.obstacles.iter().any(|o| o.get_ref().amplitude.is_some()) {
+        let named = match self
+            .spec
+            .obstacles
+            .iter()
+            .any(|o| o.get_ref().amplitude.is_some())
+        {
             true => self.named_amplitudes()?,
             false => Default::default(),
         };
