@@ -14,9 +14,15 @@
 //! impact), [`parameters`] (d̂ and κ and their default rule), [`set`] (the contact of a mesh's
 //! boundary nodes with the obstacles).
 //!
-//! Not here yet: moving obstacles (a prescribed motion makes the first Newton iterate of a step
-//! infeasible unless the obstacle itself is stepped by CCD, as IPC does), scene keys, and
-//! friction in the static solve and the explicit method.
+//! Moving obstacles ([`ObstacleMotion`]: a prescribed translation c(t), constant velocity or a
+//! displacement times an amplitude) are placed by [`Contact::set_time`]. An implicit step takes
+//! them to their placement at t_{n+1}; since that placement can overlap the body's state at t_n
+//! (Newton's first iterate), the step moves them there in stages, each the largest collision-free
+//! fraction (×0.8) of the remaining motion for the body's converged state of the stage before
+//! ([`Contact::motion_step_limit`]), so every iterate stays outside. Friction is measured
+//! relative to the obstacle (its slip is the body's tangential motion minus the obstacle's).
+//!
+//! Not here yet: rotating obstacles, and friction in the static solve and the explicit method.
 
 pub mod barrier;
 pub mod friction;
@@ -25,7 +31,7 @@ pub mod parameters;
 pub mod set;
 
 pub use friction::FrictionLag;
-pub use obstacle::{Obstacle, Shape};
+pub use obstacle::{Obstacle, ObstacleMotion, Shape};
 pub use parameters::ContactParameters;
 pub use set::Contact;
 

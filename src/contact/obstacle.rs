@@ -3,6 +3,7 @@
 
 use nalgebra::{Matrix3, Rotation3, Vector3};
 
+use crate::amplitude::Amplitude;
 use crate::error::{Error, Result};
 
 /// The shape of a rigid obstacle. The body lives where the signed distance is positive.
@@ -33,13 +34,44 @@ pub enum Shape {
     },
 }
 
-/// A rigid, fixed obstacle with a name (the CSV columns and error messages use it).
+/// A prescribed rigid translation of an obstacle: its shape at time t is the shape at rest
+/// moved by the offset c(t) (length), so d_t(x) = d(x − c(t)). Rotations are not represented.
+#[derive(Debug, Clone, PartialEq)]
+pub enum ObstacleMotion {
+    /// c(t) = v·t: a constant velocity v (length/time).
+    Velocity(Vector3<f64>),
+    /// c(t) = D·a(t): a displacement D (length) scaled by an amplitude a(t) (dimensionless).
+    Amplitude {
+        /// D (length).
+        displacement: Vector3<f64>,
+        /// a(t).
+        amplitude: Amplitude,
+    },
+}
+
+impl ObstacleMotion {
+    /// The offset c(t) (length) at time `t`.
+    pub fn offset(&self, t: f64) -> Vector3<f64> {
+        match self {
+            ObstacleMotion::Velocity(v) => v * t,
+            ObstacleMotion::Amplitude {
+                displacement,
+                amplitude,
+            } => displacement * amplitude.value(t),
+        }
+    }
+}
+
+/// A rigid obstacle with a name (the CSV columns and error messages use it), fixed or moving
+/// by a prescribed translation ([`with_motion`](Self::with_motion)).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Obstacle {
     name: String,
     shape: Shape,
     /// Coulomb's μ ≥ 0 (0: frictionless).
     friction: f64,
+    /// Its prescribed translation (`None`: fixed).
+    motion: Option<ObstacleMotion>,
 }
 
 impl Obstacle {
@@ -70,6 +102,7 @@ impl Obstacle {
                 normal: normal / length,
             },
             friction: 0.0,
+            motion: None,
         })
     }
 
@@ -91,6 +124,7 @@ impl Obstacle {
             name,
             shape: Shape::Sphere { center, radius },
             friction: 0.0,
+            motion: None,
         })
     }
 
@@ -111,6 +145,32 @@ impl Obstacle {
     /// Coulomb's μ (0: frictionless).
     pub fn friction(&self) -> f64 {
         self.friction
+    }
+
+    /// The obstacle moving by the prescribed translation `motion` (its shape as given is its
+    /// placement at the offset c = 0; at time t it is moved by c(t), see [`ObstacleMotion`]).
+    /// [`Error::InvalidParameter`] naming `<name>.velocity` or `<name>.displacement` unless
+    /// that vector is finite.
+    pub fn with_motion(mut self, motion: ObstacleMotion) -> Result<Self> {
+        let (key, v) = match &motion {
+            ObstacleMotion::Velocity(v) => ("velocity", v),
+            ObstacleMotion::Amplitude { displacement, .. } => ("displacement", displacement),
+        };
+        check_finite(&self.name, key, v)?;
+        self.motion = Some(motion);
+        Ok(self)
+    }
+
+    /// Its prescribed translation (`None`: fixed).
+    pub fn motion(&self) -> Option<&ObstacleMotion> {
+        self.motion.as_ref()
+    }
+
+    /// The offset c(t) (length) of its placement at time `t` (zero for a fixed obstacle).
+    pub fn offset(&self, t: f64) -> Vector3<f64> {
+        self.motion
+            .as_ref()
+            .map_or_else(Vector3::zeros, |m| m.offset(t))
     }
 
     /// The axis-aligned solid box [`min`, `max`]; the body must stay outside.
@@ -161,6 +221,7 @@ impl Obstacle {
                 rotation,
             },
             friction: 0.0,
+            motion: None,
         })
     }
 

@@ -31,6 +31,30 @@ pub struct Contact {
     areas: Vec<f64>,
     /// ε_v (length/time): slip below this speed counts as sticking (friction's smoothing).
     slip_velocity: f64,
+    /// Each obstacle's current offset c (length; see [`set_time`](Self::set_time)).
+    placement: Placement,
+}
+
+/// The obstacles' current offsets, behind a lock so that a shared contact (inside an
+/// `Arc<NonlinearForce>`) can be moved through time; a clone copies the offsets.
+#[derive(Debug, Default)]
+struct Placement(std::sync::Mutex<Vec<Vector3<f64>>>);
+
+impl Placement {
+    fn get(&self) -> Vec<Vector3<f64>> {
+        // A poisoned lock only means a panic elsewhere while holding plain data: keep it.
+        self.0.lock().unwrap_or_else(|e| e.into_inner()).clone()
+    }
+
+    fn set(&self, offsets: Vec<Vector3<f64>>) {
+        *self.0.lock().unwrap_or_else(|e| e.into_inner()) = offsets;
+    }
+}
+
+impl Clone for Placement {
+    fn clone(&self) -> Self {
+        Placement(std::sync::Mutex::new(self.get()))
+    }
 }
 
 /// The default ε_v: this fraction of the bounding-box diagonal per unit time.
@@ -81,6 +105,9 @@ impl Contact {
             rest: nodes.iter().map(|&n| mesh.nodes()[n]).collect(),
             areas: nodes.iter().map(|&n| areas[n]).collect(),
             nodes,
+            placement: Placement(std::sync::Mutex::new(
+                obstacles.iter().map(|o| o.offset(0.0)).collect(),
+            )),
             obstacles,
             parameters,
         };
@@ -112,6 +139,61 @@ impl Contact {
     /// The obstacles.
     pub fn obstacles(&self) -> &[Obstacle] {
         &self.obstacles
+    }
+
+    /// Whether an obstacle moves ([`Obstacle::with_motion`]).
+    pub fn is_moving(&self) -> bool {
+        self.obstacles.iter().any(|o| o.motion().is_some())
+    }
+
+    /// Each obstacle's offset c(t) (length) at time `t`, in the obstacles' order.
+    pub fn offsets_at(&self, t: f64) -> Vec<Vector3<f64>> {
+        self.obstacles.iter().map(|o| o.offset(t)).collect()
+    }
+
+    /// The obstacles' current offsets (length): where every method of this contact places them.
+    pub fn offsets(&self) -> Vec<Vector3<f64>> {
+        self.placement.get()
+    }
+
+    /// Places the obstacles at time `t` (time): every method then sees obstacle o at its
+    /// offset c_o(t). The contact starts at t = 0.
+    pub fn set_time(&self, t: f64) {
+        self.placement.set(self.offsets_at(t));
+    }
+
+    /// Places the obstacles at `offsets` (length, one per obstacle, in their order; an
+    /// intermediate placement of a staged step). [`Error::DimensionMismatch`] on another count.
+    pub fn set_offsets(&self, offsets: Vec<Vector3<f64>>) -> Result<()> {
+        Error::check_len("obstacle offsets", self.obstacles.len(), offsets.len())?;
+        self.placement.set(offsets);
+        Ok(())
+    }
+
+    /// Continuous collision detection for the obstacles' own motion: the largest fraction
+    /// σ ∈ (0, 1] of the straight move of every obstacle from its current offset to `target`
+    /// (length, one per obstacle) that keeps every boundary node at full displacement `u`
+    /// outside every obstacle (1 when none is reached). A translation of the obstacle by Δc is
+    /// the motion −Δc of the point relative to it, so this is
+    /// [`Obstacle::time_of_impact`] of x − c along −Δc; exact for these shapes.
+    pub fn motion_step_limit(&self, u: &[f64], target: &[Vector3<f64>]) -> Result<f64> {
+        self.check_full(u)?;
+        Error::check_len("obstacle offsets", self.obstacles.len(), target.len())?;
+        let offsets = self.offsets();
+        let mut sigma: f64 = 1.0;
+        for k in 0..self.nodes.len() {
+            let x = self.position(k, u);
+            for (o, obstacle) in self.obstacles.iter().enumerate() {
+                let shift = target[o] - offsets[o];
+                if shift == Vector3::zeros() {
+                    continue;
+                }
+                if let Some(hit) = obstacle.time_of_impact(&(x - offsets[o]), &-shift) {
+                    sigma = sigma.min(hit);
+                }
+            }
+        }
+        Ok(sigma)
     }
 
     /// d̂ and κ.
@@ -146,9 +228,13 @@ impl Contact {
     /// distances) that are not strictly outside it at full displacement `u`.
     pub fn check_state(&self, u: &[f64]) -> Result<()> {
         self.check_full(u)?;
-        for obstacle in &self.obstacles {
+        let offsets = self.offsets();
+        for (obstacle, offset) in self.obstacles.iter().zip(&offsets) {
             let inside: Vec<(usize, f64)> = (0..self.nodes.len())
-                .map(|k| (self.nodes[k], obstacle.distance(&self.position(k, u))))
+                .map(|k| {
+                    let x = self.position(k, u) - offset;
+                    (self.nodes[k], obstacle.distance(&x))
+                })
                 .filter(|&(_, d)| d.is_nan() || d <= 0.0)
                 .collect();
             if !inside.is_empty() {
@@ -179,11 +265,12 @@ impl Contact {
             activation_distance: d_hat,
             stiffness: kappa,
         } = self.parameters;
+        let offsets = self.offsets();
         let mut total = 0.0;
         for k in 0..self.nodes.len() {
             let x = self.position(k, u);
-            for obstacle in &self.obstacles {
-                let d = obstacle.distance(&x);
+            for (obstacle, offset) in self.obstacles.iter().zip(&offsets) {
+                let d = obstacle.distance(&(x - offset));
                 if d < d_hat {
                     total += kappa * self.areas[k] * barrier::value(d, d_hat);
                 }
@@ -228,17 +315,47 @@ impl Contact {
         let d_hat = self.parameters.activation_distance;
         let mut gaps = Vec::with_capacity(self.nodes.len());
         let mut pressures = Vec::with_capacity(self.nodes.len());
+        let offsets = self.offsets();
         for k in 0..self.nodes.len() {
             let x = self.position(k, u);
             let mut gap = f64::INFINITY;
             let mut pressure = 0.0;
-            for obstacle in &self.obstacles {
-                let d = obstacle.distance(&x);
+            for (obstacle, offset) in self.obstacles.iter().zip(&offsets) {
+                let d = obstacle.distance(&(x - offset));
                 gap = gap.min(d);
                 pressure -= self.parameters.stiffness * barrier::derivative(d, d_hat);
             }
             gaps.push(gap);
             pressures.push(pressure);
+        }
+        Ok((gaps, pressures))
+    }
+
+    /// Per mesh node, for the `.vtu` fields `contact_gap` and `contact_pressure`: the gap, the
+    /// smallest signed distance to the obstacles at their current placement (length; every
+    /// node, interior ones too), and the contact pressure −κ·Σ_o b′(d_o) (Pa: the barrier
+    /// force κ·Aᵢ·|b′| over the node's area share Aᵢ; 0 off the boundary). `rest` the mesh's
+    /// node positions, `u` the full displacement.
+    pub fn node_fields(&self, rest: &[Vector3<f64>], u: &[f64]) -> Result<(Vec<f64>, Vec<f64>)> {
+        Error::check_len("contact node fields", 3 * rest.len(), u.len())?;
+        let offsets = self.offsets();
+        let mut gaps: Vec<f64> = rest
+            .iter()
+            .enumerate()
+            .map(|(n, x)| {
+                let x = x + Vector3::new(u[3 * n], u[3 * n + 1], u[3 * n + 2]);
+                self.obstacles
+                    .iter()
+                    .zip(&offsets)
+                    .map(|(o, c)| o.distance(&(x - c)))
+                    .fold(f64::INFINITY, f64::min)
+            })
+            .collect();
+        let mut pressures = vec![0.0; rest.len()];
+        let (boundary_gaps, boundary_pressures) = self.gaps_and_pressures(u)?;
+        for (k, &n) in self.nodes.iter().enumerate() {
+            gaps[n] = boundary_gaps[k];
+            pressures[n] = boundary_pressures[k];
         }
         Ok((gaps, pressures))
     }
@@ -253,6 +370,20 @@ impl Contact {
     /// λ = κ·Aᵢ·|b′(d)| and the tangent projector there, with smoothing distance `epsilon`
     /// (length; ε_v·dt).
     pub fn friction_lag(&self, u: &[f64], epsilon: f64) -> Result<FrictionLag> {
+        self.friction_lag_toward(u, epsilon, &self.offsets())
+    }
+
+    /// [`friction_lag`](Self::friction_lag) for a step that ends with the obstacles at
+    /// `target` (length, one offset per obstacle): the slip is measured relative to each
+    /// obstacle, P·((x − x⁰) − (c_target − c)), so a node carried along by a moving obstacle
+    /// does not slip.
+    pub fn friction_lag_toward(
+        &self,
+        u: &[f64],
+        epsilon: f64,
+        target: &[Vector3<f64>],
+    ) -> Result<FrictionLag> {
+        Error::check_len("obstacle offsets", self.obstacles.len(), target.len())?;
         if !(epsilon.is_finite() && epsilon > 0.0) {
             return Err(Error::invalid_parameter(
                 "friction smoothing distance",
@@ -262,14 +393,16 @@ impl Contact {
         }
         let mut points = Vec::new();
         let d_hat = self.parameters.activation_distance;
-        self.for_each_active(u, |n, _, obstacle, x, d, area| {
+        self.for_each_active(u, |n, o, obstacle, x, d, area| {
             if obstacle.friction() > 0.0 {
                 let normal_force =
                     -self.parameters.stiffness * area * barrier::derivative(d, d_hat);
                 let g = obstacle.gradient(x);
                 points.push(LaggedPoint {
                     node: n,
-                    start: *x,
+                    // In world coordinates: where the node would be if it moved with the
+                    // obstacle (x is relative to the obstacle's current offset).
+                    start: x + target[o],
                     limit: obstacle.friction() * normal_force,
                     projector: Matrix3::identity() - g * g.transpose(),
                 });
@@ -372,13 +505,14 @@ impl Contact {
     pub fn max_step(&self, u: &[f64], du: &[f64]) -> Result<f64> {
         self.check_full(u)?;
         Error::check_len("contact step", u.len(), du.len())?;
+        let offsets = self.offsets();
         let mut t: f64 = 1.0;
         for k in 0..self.nodes.len() {
             let n = self.nodes[k];
             let x = self.position(k, u);
             let dx = Vector3::new(du[3 * n], du[3 * n + 1], du[3 * n + 2]);
-            for obstacle in &self.obstacles {
-                if let Some(hit) = obstacle.time_of_impact(&x, &dx) {
+            for (obstacle, offset) in self.obstacles.iter().zip(&offsets) {
+                if let Some(hit) = obstacle.time_of_impact(&(x - offset), &dx) {
                     t = t.min(hit);
                 }
             }
@@ -387,8 +521,10 @@ impl Contact {
     }
 
     /// Calls `visit(node, obstacle index, obstacle, position, gap, area)` for each node within
-    /// d̂ of an obstacle; [`Error::InvalidParameter`] (via [`check_state`](Self::check_state))
-    /// if a node is on or inside one.
+    /// d̂ of an obstacle, the position relative to the obstacle's current offset (x − c: where
+    /// the obstacle's own distance, gradient and Hessian are evaluated);
+    /// [`Error::InvalidParameter`] (via [`check_state`](Self::check_state)) if a node is on or
+    /// inside one.
     fn for_each_active(
         &self,
         u: &[f64],
@@ -396,9 +532,10 @@ impl Contact {
     ) -> Result<()> {
         self.check_full(u)?;
         let d_hat = self.parameters.activation_distance;
+        let offsets = self.offsets();
         for k in 0..self.nodes.len() {
-            let x = self.position(k, u);
             for (o, obstacle) in self.obstacles.iter().enumerate() {
+                let x = self.position(k, u) - offsets[o];
                 let d = obstacle.distance(&x);
                 if d.is_nan() || d <= 0.0 {
                     return self.check_state(u);

@@ -97,7 +97,15 @@ impl SymplecticEuler {
         let energy = forces.force().energy(&self.system, state)?;
         match &self.guard {
             Some(guard) => guard.check_energy(state.steps, state.time, &energy)?,
+            // A moving obstacle does work the loads' potential does not hold.
+            None if forces.force().contact().is_some_and(|c| c.is_moving()) => {
+                self.guard = Some(DivergenceGuard::finite_only(energy))
+            }
             None => self.guard = Some(DivergenceGuard::new(energy)),
+        }
+        // Moving obstacles: the force is evaluated with them at the step's start, t.
+        if let Some(contact) = forces.force().contact() {
+            contact.set_time(state.time);
         }
         forces.net_force(
             &self.system,
@@ -117,6 +125,9 @@ impl SymplecticEuler {
         // while dt < 2·√(mᵢ/(κ·Aᵢ·b″(d))), so a step that lets a node cross an obstacle was
         // too large for the contact — a divergence, never a penetrated state.
         let force = forces.force();
+        if let Some(contact) = force.contact() {
+            contact.set_time(state.time);
+        }
         if let Some(contact) = force.contact()
             && let Err(crossed) =
                 contact.check_state(&force.full_displacement(&state.displacement)?)

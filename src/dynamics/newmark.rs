@@ -139,6 +139,7 @@ impl Newmark {
             predictor: &self.work,
             start: u,
             damping_velocity: Some(v),
+            duration: dt,
         };
         newton.solve(
             &self.system,

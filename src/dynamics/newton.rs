@@ -102,7 +102,13 @@ pub(crate) struct StepEquation<'a> {
     pub start: &'a [f64],
     /// v_c (length/time), `None` for zero.
     pub damping_velocity: Option<&'a [f64]>,
+    /// The step dt (time): moving obstacles go to their placement at `time + duration`.
+    pub duration: f64,
 }
+
+/// Most stages a step may take to move the obstacles to their end-of-step placement (see
+/// [`NewtonSolver::solve`]); more is [`Error::Diverged`] (the obstacles move too far per step).
+const MAX_MOTION_STAGES: usize = 100;
 
 /// The Newton solver of an implicit integrator with a nonlinear model: its scratch, the tangent
 /// and the iteration counts.
@@ -131,6 +137,10 @@ pub(crate) struct NewtonSolver {
     mixed: Vec<f64>,
     scratch: Vec<f64>,
     stats: NewtonStats,
+    /// A floor under the convergence reference max(‖r₀‖, ‖f‖) (force): with contact the step's
+    /// inertia scale, and the contact force of a moving obstacle's stage (whose own r₀ is what
+    /// the last small move left); 0 without contact.
+    reference_floor: f64,
 }
 
 impl std::fmt::Debug for NewtonSolver {
@@ -176,6 +186,7 @@ impl NewtonSolver {
             mixed: vec![0.0; n],
             scratch: vec![0.0; n],
             stats: NewtonStats::default(),
+            reference_floor: 0.0,
         })
     }
 
@@ -321,11 +332,108 @@ impl NewtonSolver {
         }
         // Friction lags its normal forces at the step's start; its smoothing distance is
         // ε_v/s_c (backward Euler: ε_v·dt; Newmark: ε_v·dt/2).
-        self.force
-            .begin_step(equation.start, 1.0 / equation.damping_scale)?;
-        let solved = self.iterate(system, equation, matrix, solver, u_new, step, time);
+        let force = Arc::clone(&self.force);
+        // With contact, a body in free flight has r₀ and f at round-off (no load, or gravity
+        // balanced by the ground): converge relative to the inertia scale ‖s_m·M·(u − ũ)‖ too,
+        // the force that would stop the body within the step.
+        let inertia = match force.contact() {
+            Some(_) => {
+                for i in 0..u_new.len() {
+                    self.mixed[i] =
+                        equation.mass_scale * (equation.start[i] - equation.predictor[i]);
+                }
+                system.mass().product_into(&self.mixed, &mut self.scratch);
+                norm(&self.scratch)
+            }
+            None => 0.0,
+        };
+        let Some(contact) = force.contact().filter(|c| c.is_moving()) else {
+            self.force
+                .begin_step(equation.start, 1.0 / equation.damping_scale)?;
+            self.reference_floor = inertia;
+            let solved = self.iterate(system, equation, matrix, solver, u_new, step, time);
+            self.reference_floor = 0.0;
+            self.force.end_friction();
+            return solved;
+        };
+        let solved = self.solve_moving(
+            contact, inertia, system, equation, matrix, solver, u_new, step, time,
+        );
         self.force.end_friction();
         solved
+    }
+
+    /// [`solve`](Self::solve) with moving obstacles: from their placement at `time` they go to
+    /// that at `time + duration` in stages. Each stage moves them by 0.8 of the largest
+    /// collision-free fraction of the remaining straight move for the current iterate
+    /// ([`Contact::motion_step_limit`](crate::contact::Contact::motion_step_limit)) and
+    /// solves the step equation there, so the next stage starts from a body that has made
+    /// room; the last stage (the whole remaining move fits) is the step's solution.
+    #[allow(clippy::too_many_arguments)]
+    fn solve_moving(
+        &mut self,
+        contact: &crate::contact::Contact,
+        inertia: f64,
+        system: &LinearSystem,
+        equation: &StepEquation,
+        matrix: &mut CscMatrix,
+        solver: &mut LinearSolver,
+        u_new: &mut [f64],
+        step: usize,
+        time: f64,
+    ) -> Result<usize> {
+        let placed = contact;
+        placed.set_time(time);
+        let target = contact.offsets_at(time + equation.duration);
+        self.force
+            .begin_step_toward(equation.start, 1.0 / equation.damping_scale, &target)?;
+        let (steps_before, mut iterations) = (self.stats.steps, 0);
+        for _ in 0..MAX_MOTION_STAGES {
+            let full = self.force.full_displacement(u_new)?;
+            let sigma = placed.motion_step_limit(&full, &target)?;
+            if sigma <= 0.0 {
+                return Err(Error::Diverged {
+                    step,
+                    time,
+                    reason: "a moving obstacle touches a node it cannot push away (a fixed \
+                             support in its way)"
+                        .into(),
+                });
+            }
+            let last = sigma >= 1.0;
+            let offsets: Vec<_> = match last {
+                true => target.clone(),
+                false => placed
+                    .offsets()
+                    .iter()
+                    .zip(&target)
+                    .map(|(c, t)| c + crate::contact::STEP_FRACTION * sigma * (t - c))
+                    .collect(),
+            };
+            placed.set_offsets(offsets)?;
+            // Converged relative to the force the obstacles exert at this stage's start.
+            let mut pushed = vec![0.0; full.len()];
+            placed.add_force(&full, &mut pushed)?;
+            self.reference_floor = norm(&pushed).max(inertia);
+            let solved = self.iterate(system, equation, matrix, solver, u_new, step, time);
+            self.reference_floor = 0.0;
+            iterations += solved?;
+            if last {
+                // The stages are one step's solve.
+                self.stats.steps = steps_before + 1;
+                self.stats.last_step = iterations;
+                self.stats.max_per_step = self.stats.max_per_step.max(iterations);
+                return Ok(iterations);
+            }
+        }
+        Err(Error::Diverged {
+            step,
+            time,
+            reason: format!(
+                "the moving obstacles did not reach their placement at t = {:.6e} in {MAX_MOTION_STAGES} stages (each as far as the body makes room for); a smaller dt helps",
+                time + equation.duration
+            ),
+        })
     }
 
     /// The Newton iterations of [`solve`](Self::solve), friction lagged already.
@@ -351,7 +459,9 @@ impl NewtonSolver {
                     .into(),
             ));
         }
-        let reference = r_norm.max(norm(system.external_load()));
+        let reference = r_norm
+            .max(norm(system.external_load()))
+            .max(self.reference_floor);
         let mut iterations = 0;
         while r_norm > self.options.tolerance * reference {
             if iterations == self.options.max_iterations {
@@ -409,6 +519,17 @@ impl NewtonSolver {
                     break;
                 }
                 alpha *= 0.5;
+            }
+            // With contact only a decrease of Φ is accepted, which round-off can deny a
+            // converged iterate (a body at rest in free flight: r₀ is round-off itself): a
+            // Newton step below 1e-9 of the barrier's length scale d̂ changes nothing the
+            // contact can resolve, so the iterate stands.
+            let negligible = self.force.contact().is_some_and(|c| {
+                let d_hat = c.parameters().activation_distance;
+                self.delta.iter().all(|d| d.abs() <= 1e-9 * d_hat)
+            });
+            if !accepted && negligible {
+                break;
             }
             if !accepted {
                 return Err(diverged(format!(

@@ -13,7 +13,8 @@
 //! (3, σ₁ ≥ σ₂ ≥ σ₃). The file's encoding is [`FrameExtras::format`] (binary by default).
 //! With [`FrameExtras::error_indicator`] also per tet `error_indicator`: the ZZ estimate η_K of
 //! the energy-norm error in that tet (J^½ in SI; see [`estimate`](crate::estimate)).
-//! For a mesh read from a file, [`FrameExtras::original_ids`] adds the file's node ids
+//! With contact ([`FrameExtras::contact`]) also per node `contact_gap` (length) and
+//! `contact_pressure` (Pa in SI). For a mesh read from a file, [`FrameExtras::original_ids`] adds the file's node ids
 //! (`original_node_id`) and element ids (`original_element_id`) as `Int64` arrays.
 
 use std::path::Path;
@@ -52,6 +53,19 @@ pub struct FrameExtras<'a> {
     pub original_ids: Option<OriginalIds<'a>>,
     /// The file's encoding (appended binary unless told).
     pub format: VtuFormat,
+    /// With contact: per node the gap and contact pressure
+    /// ([`Contact::node_fields`](crate::contact::Contact::node_fields)), written as the point
+    /// fields `contact_gap` (length) and `contact_pressure` (pressure, Pa in SI).
+    pub contact: Option<ContactFields<'a>>,
+}
+
+/// The contact fields of a frame: one value per mesh node each.
+#[derive(Debug, Clone, Copy)]
+pub struct ContactFields<'a> {
+    /// The smallest signed distance to the obstacles (length; > 0 outside).
+    pub gap: &'a [f64],
+    /// The barrier's pressure −κ·Σ b′(d) (pressure; 0 off the boundary and beyond d̂).
+    pub pressure: &'a [f64],
 }
 
 /// A mesh file's own numbering of the nodes and the tets of a mesh read from it.
@@ -211,6 +225,13 @@ fn write_fields<C: CellType>(
     }
     if let Some(r) = extras.reactions {
         writer = writer.point_field("reaction_force", 3, r)?;
+    }
+    if let Some(c) = extras.contact {
+        writer = writer.point_field("contact_gap", 1, c.gap)?.point_field(
+            "contact_pressure",
+            1,
+            c.pressure,
+        )?;
     }
     if extras.stress_tensors {
         writer = writer

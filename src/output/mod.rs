@@ -12,8 +12,8 @@ mod vtu;
 pub use crate::atomic_file::write_atomically;
 pub use csv::{CSV_BUFFER_BYTES, CsvSeries, CsvValue};
 pub use frame::{
-    FrameExtras, OriginalIds, write_model_result_vtu, write_result_frame, write_result_vtu,
-    write_static_result_vtu,
+    ContactFields, FrameExtras, OriginalIds, write_model_result_vtu, write_result_frame,
+    write_result_vtu, write_static_result_vtu,
 };
 pub use lock::{LOCK_FILE_NAME, OutputLock, remove_held_lock_files};
 pub use pvd::PvdCollection;

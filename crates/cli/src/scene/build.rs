@@ -349,7 +349,7 @@ impl Scene {
 
     /// The `[[amplitudes]]` entries by name; errors name the entry and its line (a bad
     /// amplitude, an empty or duplicate name).
-    fn named_amplitudes(&self) -> Result<HashMap<String, Amplitude>> {
+    pub(super) fn named_amplitudes(&self) -> Result<HashMap<String, Amplitude>> {
         let mut named = HashMap::new();
         for (i, a) in self.spec().amplitudes.iter().enumerate() {
             let key = format!("amplitudes[{i}]");
@@ -372,7 +372,7 @@ impl Scene {
     }
 
     /// The amplitude `r` refers to (a name of `named`, or given in place at `key`).
-    fn amplitude_of(
+    pub(super) fn amplitude_of(
         &self,
         r: &AmplitudeRef,
         named: &HashMap<String, Amplitude>,

@@ -9,6 +9,7 @@ use std::time::Instant;
 
 use nalgebra::Vector3;
 
+use super::dynamic_contact::contact_of;
 use super::restart::{self, Restart};
 use super::{
     Analysis, BuiltScene, DynamicSettings, OutputSettings, PngField, Probe, Scene, SceneElement,
@@ -27,8 +28,8 @@ use tetfem::material::Material;
 use tetfem::mesh::{CellType, Tet4, TetMesh};
 use tetfem::output::fields::{cell_model_von_mises, cell_von_mises, displacement_magnitude};
 use tetfem::output::{
-    CsvSeries, CsvValue, FrameExtras, OriginalIds, OutputLock, PvdCollection, write_atomically,
-    write_model_result_vtu, write_result_frame,
+    ContactFields, CsvSeries, CsvValue, FrameExtras, OriginalIds, OutputLock, PvdCollection,
+    write_atomically, write_model_result_vtu, write_result_frame,
 };
 use tetfem_fixtures::cantilever::Cantilever;
 
@@ -207,7 +208,7 @@ impl<E: SceneElement> DynamicSetup<E> {
 
     /// The setup of a built scene with its assembled system and initial state; `clock` started
     /// with the setup.
-    fn of_built(
+    pub(super) fn of_built(
         built: BuiltScene<E>,
         system: LinearSystem,
         initial: State,
@@ -868,6 +869,9 @@ impl FrameWriter {
                 columns.push(format!("{e}_J"));
             }
             columns.extend(setup.reactions.columns());
+            if let Some(contact) = contact_of(&setup.force) {
+                columns.extend(super::dynamic_contact::csv_columns(contact));
+            }
             let path = s.directory.join(format!("{}.csv", s.stem));
             Some(match resumed_at {
                 // The rows of steps 0..=k, one per step.
@@ -943,6 +947,10 @@ impl FrameWriter {
                 .map(CsvValue::Real),
             );
             row.extend(reactions.csv_values().map(CsvValue::Real));
+            if let Some(contact) = contact_of(&setup.force) {
+                let values = super::dynamic_contact::csv_values(contact, u, time)?;
+                row.extend(values.into_iter().map(CsvValue::Real));
+            }
             csv.push_values(&row)?;
         }
         if !(state.steps.is_multiple_of(self.every) || last) {
@@ -971,7 +979,19 @@ impl FrameWriter {
                 }
                 InternalForce::Nonlinear(_) => None,
             };
+            let contact_fields = match contact_of(&setup.force) {
+                Some(c) => Some(super::dynamic_contact::node_fields(
+                    c,
+                    setup.mesh.nodes(),
+                    u,
+                    time,
+                )?),
+                None => None,
+            };
             let extras = FrameExtras {
+                contact: contact_fields
+                    .as_ref()
+                    .map(|(gap, pressure)| ContactFields { gap, pressure }),
                 velocity: Some(&velocity),
                 reactions: Some(&reactions.nodal),
                 time: Some(time),
@@ -1075,11 +1095,13 @@ impl FrameWriter {
 fn png_look<E: SceneElement>(setup: &DynamicSetup<E>, s: &OutputSettings) -> Result<PngLook> {
     let dofs = setup.system.dofs();
     let initial = dofs.expand(&setup.initial.displacement)?;
-    let doubled: Vec<f64> = dofs
-        .expand(&setup.system.static_displacement()?)?
-        .iter()
-        .map(|u| 2.0 * u)
-        .collect();
+    let contact = contact_of(&setup.force);
+    // A body held by contact alone has no static shape without it (K_ff is singular).
+    let (statics, free_body) = match (setup.system.static_displacement(), contact) {
+        (Err(_), Some(_)) => (vec![0.0; setup.system.free_count()], true),
+        (u, _) => (u?, false),
+    };
+    let doubled: Vec<f64> = dofs.expand(&statics)?.iter().map(|u| 2.0 * u).collect();
     let largest = |u: &[f64]| displacement_magnitude(u).into_iter().fold(0.0, f64::max);
     let reference = if largest(&initial) >= largest(&doubled) {
         initial
@@ -1106,9 +1128,20 @@ fn png_look<E: SceneElement>(setup: &DynamicSetup<E>, s: &OutputSettings) -> Res
     } else {
         reference
     };
-    let high = match s.png_field {
-        PngField::Displacement => largest(&reference),
-        PngField::VonMises => setup.von_mises(&reference)?.into_iter().fold(0.0, f64::max),
+    let high = match (s.png_field, free_body) {
+        (PngField::Displacement, false) => largest(&reference),
+        (PngField::VonMises, false) => setup.von_mises(&reference)?.into_iter().fold(0.0, f64::max),
+        // Without a static shape: a tenth of the body's size, and twice the stress of its
+        // weight W on a face-sized area (diagonal²/3; ρ·g·H for a cube resting on a face).
+        (PngField::Displacement, true) => 0.1 * body_size(&setup.mesh),
+        (PngField::VonMises, true) => {
+            let g = setup.system.gravity_load();
+            let weight = (0..3)
+                .map(|a| g.iter().skip(a).step_by(3).sum::<f64>().powi(2))
+                .sum::<f64>()
+                .sqrt();
+            2.0 * weight / (body_size(&setup.mesh).powi(2) / 3.0)
+        }
     };
     // A nonlinear model's large motion would make every frame zoom onto its own shape: one
     // camera for all, framing the body at rest and at the capped reference shape.
@@ -1121,7 +1154,10 @@ fn png_look<E: SceneElement>(setup: &DynamicSetup<E>, s: &OutputSettings) -> Res
             low = low.inf(x).inf(&moved);
             high = high.sup(x).sup(&moved);
         }
-        (low, high)
+        match contact {
+            Some(c) => super::dynamic_contact::view_box(c, (low, high)),
+            None => (low, high),
+        }
     });
     Ok(PngLook {
         scale,
@@ -1259,8 +1295,13 @@ fn run_dynamic_scene_on<E: SceneElement>(
     progress: &mut dyn FnMut(usize, usize) -> ControlFlow<()>,
 ) -> Result<DynamicSummary> {
     let write_files = lock.is_some();
-    let mut setup =
-        DynamicSetup::from_scene(scene.build_as::<E>()?, settings)?.with_model(scene.model())?;
+    let method = overrides.method.unwrap_or(settings.method);
+    let mut setup = match scene.has_obstacles() {
+        true => DynamicSetup::with_contact(scene, scene.build_as::<E>()?, settings, method)?,
+        false => {
+            DynamicSetup::from_scene(scene.build_as::<E>()?, settings)?.with_model(scene.model())?
+        }
+    };
     setup.linear_method = scene.spec().linear_method();
     setup.nonlinear_solve = scene.spec().nonlinear_solve();
     let restart = match write_files {
@@ -1271,7 +1312,6 @@ fn run_dynamic_scene_on<E: SceneElement>(
         let steps = length.steps(setup.resolve(dt)?)?;
         restart::check_remaining(scene, at, steps, overrides.length.is_some())?;
     }
-    let method = overrides.method.unwrap_or(settings.method);
     let run = DynamicRun {
         title: scene.title(),
         source: scene.source_name().to_string(),

@@ -10,6 +10,7 @@ mod accuracy;
 mod build;
 mod critical;
 mod dynamic;
+mod dynamic_contact;
 mod element;
 mod engine;
 mod estimate;
@@ -161,8 +162,9 @@ type = "static"                     # default "static"; or "dynamic", which need
 # modes = 6                         # default 6; at most the free DOF count
 # mass = "lumped"                   # default; or "consistent"
 
-# Rigid obstacles the body must stay outside of (IPC barrier contact; static scenes, 4-node
-# tets; every model, the linear one through Newton). kind = "half_space" (point, normal: the
+# Rigid obstacles the body must stay outside of (IPC barrier contact; static and dynamic
+# scenes — backward_euler or explicit, not newmark —, 4-node tets; every model, the linear one
+# through Newton; a dynamic body may have no [[constraints]]: the obstacles may hold it). kind = "half_space" (point, normal: the
 # normal points out of the obstacle, towards the body; non-zero) | "sphere" (center, radius > 0)
 # | "box" (min, max with max > min on every axis; or center, half_extents > 0 and rotation_deg
 # about z, default 0). The body must start strictly outside every obstacle.
@@ -171,7 +173,12 @@ type = "static"                     # default "static"; or "dynamic", which need
 # point = [0.0, 0.0, -0.01]         # m
 # normal = [0.0, 0.0, 1.0]
 # name = "ground"                   # default "obstacle<i>"; letters, digits, '_', '-'
-# friction = 0.0                    # Coulomb μ ≥ 0, default 0
+# friction = 0.0                    # Coulomb μ ≥ 0, default 0 (backward Euler only)
+# velocity = [0.0, 0.0, 0.0]        # dynamic only: m/s, moves the obstacle at constant velocity
+# displacement = [0.0, 0.0, -0.01]  # dynamic only, instead: m, moved by displacement·a(t) with
+# amplitude = "press"               #   amplitude (a name of [[amplitudes]] or an inline table)
+# CSV: contact_energy_J, contact_<name>_fx_N/_fy_N/_fz_N (force on the obstacle); .vtu frames:
+# contact_gap (m), contact_pressure (Pa) per node
 # [contact]                         # only with [[obstacles]]
 # activation_distance = 1e-3        # m; default 1e-3 × the bounding-box diagonal
 # stiffness = 1e9                   # Pa/m; default E/h (stiffest E, h the mean boundary edge)

@@ -3,7 +3,7 @@
 
 use nalgebra::{Rotation3, Vector3};
 use tetfem::TetMesh;
-use tetfem::contact::{Contact, ContactParameters, Obstacle};
+use tetfem::contact::{Contact, ContactParameters, Obstacle, ObstacleMotion};
 use tetfem::error::Result;
 
 use super::{AnalysisKind, Method, ObstacleKind, Scene};
@@ -12,9 +12,24 @@ impl Scene {
     /// The `[[obstacles]]` as the library's obstacles, each key checked: errors name the key
     /// (`obstacles[i].radius`) and its line. Also refuses obstacles in modal scenes, on
     /// 10-node meshes, with `analysis.accuracy`, and with Newmark (not energy-stable with the barrier: the README's
-    /// measured drop gains about the fall's work at 10× the critical step).
+    /// measured drop gains about the fall's work at 10× the critical step), and a motion
+    /// (`velocity`, `displacement` with `amplitude`) outside dynamic scenes.
     pub(crate) fn check_obstacles(&self) -> Result<Vec<Obstacle>> {
         let mut obstacles = Vec::with_capacity(self.spec.obstacles.len());
+        let dynamic = self
+            .spec
+            .analysis
+            .as_ref()
+            .is_some_and(|a| a.get_ref().kind == AnalysisKind::Dynamic);
+        let named = match self
+            .spec
+            .obstacles
+            .iter()
+            .any(|o| o.get_ref().amplitude.is_some())
+        {
+            true => self.named_amplitudes()?,
+            false => Default::default(),
+        };
         for (i, spanned) in self.spec.obstacles.iter().enumerate() {
             let span = spanned.span();
             let o = spanned.get_ref();
@@ -27,15 +42,6 @@ impl Scene {
                         "kind",
                         "a modal analysis has no contact (it is linear about the rest state); \
                          remove [[obstacles]]"
-                            .into(),
-                    ));
-                }
-                if a.kind == AnalysisKind::Dynamic && a.method != Some(Method::Newmark) {
-                    return Err(err(
-                        "kind",
-                        "obstacles in dynamic scenes are not wired yet (the library's \
-                         NonlinearForce::with_contact does it; the scene layer runs static \
-                         contact only for now)"
                             .into(),
                     ));
                 }
@@ -183,6 +189,12 @@ impl Scene {
             let obstacle = obstacle
                 .and_then(|ob| ob.with_friction(friction))
                 .map_err(|e| err("kind", e.to_string()))?;
+            let obstacle = match self.obstacle_motion(i, o, &span, dynamic, &named)? {
+                Some(motion) => obstacle
+                    .with_motion(motion)
+                    .map_err(|e| err("velocity", e.to_string()))?,
+                None => obstacle,
+            };
             obstacles.push(obstacle);
         }
         if let Some(contact) = &self.spec.contact {
@@ -210,6 +222,74 @@ impl Scene {
             }
         }
         Ok(obstacles)
+    }
+
+    /// The motion of `[[obstacles]]` entry `i` (`None`: fixed): `velocity`, or `displacement`
+    /// with `amplitude` (a name of `named` or inline). Errors name the key and line: both
+    /// kinds, one half of the second, a non-finite vector, a motion outside a dynamic scene.
+    fn obstacle_motion(
+        &self,
+        i: usize,
+        o: &super::spec::ObstacleSpec,
+        span: &std::ops::Range<usize>,
+        dynamic: bool,
+        named: &std::collections::HashMap<String, tetfem::amplitude::Amplitude>,
+    ) -> Result<Option<ObstacleMotion>> {
+        let key = |field: &str| format!("obstacles[{i}].{field}");
+        let err = |field: &str, msg: String| self.error(&key(field), span, msg);
+        let finite = |field: &str, v: [f64; 3]| {
+            if v.iter().all(|x| x.is_finite()) {
+                Ok(Vector3::from(v))
+            } else {
+                Err(err(field, format!("{v:?}: every component must be finite")))
+            }
+        };
+        let motion = match (o.velocity, o.displacement, &o.amplitude) {
+            (None, None, None) => return Ok(None),
+            (Some(_), Some(_), _) => {
+                return Err(err(
+                    "displacement",
+                    "give velocity or displacement (with amplitude), not both".into(),
+                ));
+            }
+            (Some(_), None, Some(_)) => {
+                return Err(err(
+                    "amplitude",
+                    "scales displacement; a velocity is constant (give displacement instead)"
+                        .into(),
+                ));
+            }
+            (Some(v), None, None) => ObstacleMotion::Velocity(finite("velocity", v)?),
+            (None, Some(_), None) => {
+                return Err(err(
+                    "displacement",
+                    "needs an amplitude (a name of [[amplitudes]] or an inline table)".into(),
+                ));
+            }
+            (None, None, Some(_)) => {
+                return Err(err(
+                    "amplitude",
+                    "scales nothing: give displacement with it".into(),
+                ));
+            }
+            (None, Some(d), Some(a)) => ObstacleMotion::Amplitude {
+                displacement: finite("displacement", d)?,
+                amplitude: self.amplitude_of(a, named, &key("amplitude"), span)?,
+            },
+        };
+        if !dynamic {
+            let field = match motion {
+                ObstacleMotion::Velocity(_) => "velocity",
+                ObstacleMotion::Amplitude { .. } => "displacement",
+            };
+            return Err(err(
+                field,
+                "an obstacle moves in dynamic scenes only (a static solve has no time); remove \
+                 it or set [analysis] type = \"dynamic\""
+                    .into(),
+            ));
+        }
+        Ok(Some(motion))
     }
 
     /// Whether the scene has `[[obstacles]]`.

@@ -416,11 +416,18 @@ pub(super) fn run_static_on<E: SceneElement>(
     };
     if !options.no_files {
         let clock = Instant::now();
+        let contact_fields = match &contact {
+            Some(c) => Some(c.node_fields(built.mesh.nodes(), u)?),
+            None => None,
+        };
         summary.files = write_static_outputs(
             scene,
             &built,
             &model,
             u,
+            contact_fields
+                .as_ref()
+                .map(|(gap, pressure)| tetfem::output::ContactFields { gap, pressure }),
             reactions.as_deref(),
             indicators.as_deref(),
             &von_mises,
@@ -438,6 +445,7 @@ fn write_static_outputs<E: SceneElement>(
     built: &BuiltScene<E>,
     model: &ModelMap,
     u: &[f64],
+    contact: Option<tetfem::output::ContactFields<'_>>,
     reactions: Option<&[f64]>,
     error_indicator: Option<&[f64]>,
     von_mises: &[f64],
@@ -456,6 +464,7 @@ fn write_static_outputs<E: SceneElement>(
             original_ids: built.imported.as_ref().map(OriginalIds::of),
             error_indicator,
             format: out.vtu_format.format(),
+            contact,
             ..Default::default()
         };
         match model.kind() {

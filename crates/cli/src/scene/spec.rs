@@ -96,6 +96,17 @@ pub struct ObstacleSpec {
     /// Box by centre: its rotation about the z axis (degrees, default 0).
     #[serde(default)]
     pub rotation_deg: Option<f64>,
+    /// Dynamic scenes: a constant velocity of the obstacle (m/s); its placement at time t is
+    /// the given one moved by velocity·t. Not with `displacement`.
+    #[serde(default)]
+    pub velocity: Option<[f64; 3]>,
+    /// Dynamic scenes: a translation of the obstacle (m) scaled by `amplitude`; its placement
+    /// at time t is the given one moved by displacement·a(t).
+    #[serde(default)]
+    pub displacement: Option<[f64; 3]>,
+    /// The amplitude a(t) of `displacement`: a name of `[[amplitudes]]` or an inline table.
+    #[serde(default)]
+    pub amplitude: Option<AmplitudeRef>,
 }
 
 /// The kinds of `[[obstacles]]`.

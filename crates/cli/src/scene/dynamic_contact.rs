@@ -1,0 +1,180 @@
+//! Contact in dynamic scenes: the set-up of a run with `[[obstacles]]` (the system of a body that
+//! may be held by contact alone, every force model — the linear one too — through the Newton
+//! step with the barrier), and what the outputs add: the CSV columns of the contact energy and
+//! the force on each obstacle, the `.vtu` fields `contact_gap` and `contact_pressure`, and a
+//! camera box that holds the body's way to the obstacles.
+
+use std::sync::Arc;
+use std::time::Instant;
+
+use nalgebra::Vector3;
+use tetfem::contact::{Contact, Shape};
+use tetfem::dynamics::{InternalForce, LinearSystem, Method, NonlinearForce, Rayleigh, State};
+use tetfem::error::Result;
+
+use super::element::as_linear;
+use super::{BuiltScene, DynamicSettings, DynamicSetup, Scene, SceneElement};
+
+impl<E: SceneElement> DynamicSetup<E> {
+    /// The setup of a dynamic scene with `[[obstacles]]` (what
+    /// [`from_scene`](Self::from_scene) and [`with_model`](Self::with_model) are without them):
+    /// the system without the rigid-mode check (a body held by contact alone is well posed in
+    /// time: the mass holds its rigid modes), and the scene's model — the linear one included,
+    /// since the barrier makes every step nonlinear — with the contact
+    /// ([`NonlinearForce::with_contact`]).
+    ///
+    /// Errors (naming `obstacles` and the first entry's line): method Newmark (not
+    /// energy-stable with the barrier), loads or supports that follow an amplitude or a
+    /// prescribed non-zero displacement (the nonlinear step takes constant loads and fixed
+    /// supports); those of the contact (a body starting inside an obstacle).
+    pub fn with_contact(
+        scene: &Scene,
+        built: BuiltScene<E>,
+        settings: &DynamicSettings,
+        method: Method,
+    ) -> Result<Self> {
+        let clock = Instant::now();
+        let span = scene
+            .spec()
+            .obstacles
+            .first()
+            .map(|o| o.span())
+            .unwrap_or_default();
+        if method == Method::Newmark {
+            return Err(scene.error(
+                "obstacles",
+                &span,
+                "contact with method \"newmark\" is refused: average acceleration is not \
+                 energy-stable with the stiffening barrier; use \"backward_euler\" or \"explicit\"",
+            ));
+        }
+        if !built.time_data.is_constant() {
+            return Err(scene.error(
+                "obstacles",
+                &span,
+                "a dynamic scene with obstacles takes constant loads and fixed supports (no \
+                 amplitude on a load or support, no moving support); move an obstacle instead",
+            ));
+        }
+        let mesh = as_linear(&built.mesh)
+            .ok_or_else(|| {
+                scene.error(
+                    "obstacles",
+                    &span,
+                    "contact runs on 4-node tets only".to_string(),
+                )
+            })?
+            .clone();
+        let damping = Rayleigh::new(settings.damping.mass, settings.damping.stiffness)?;
+        let system = LinearSystem::new_free_body(
+            &built.mesh,
+            &built.materials,
+            &built.constraints,
+            &built.other_loads,
+            built.gravity,
+            settings.mass,
+            damping,
+        )?;
+        let mut initial = State::at_rest(system.free_count());
+        let velocity: Vec<f64> = (0..built.mesh.dof_count())
+            .map(|dof| settings.initial_velocity[dof % 3])
+            .collect();
+        initial.velocity = system.dofs().restrict(&velocity)?;
+        let contact = scene
+            .contact(&mesh, super::obstacles::stiffest(&built.materials))?
+            .ok_or_else(|| scene.error("obstacles", &span, "no obstacle".to_string()))?;
+        let models = scene.model().build_map(&built.materials);
+        let force =
+            NonlinearForce::with_models(Arc::new(mesh), models, &system)?.with_contact(contact)?;
+        let reactions = super::DynamicReactions::of_scene(&built, &system)?;
+        let mut setup = Self::of_built(built, system, initial, reactions, clock);
+        setup.force = InternalForce::Nonlinear(Arc::new(force));
+        Ok(setup)
+    }
+}
+
+/// The contact of a run's force law, if any.
+pub(super) fn contact_of(force: &InternalForce) -> Option<&Contact> {
+    match force {
+        InternalForce::Nonlinear(n) => n.contact(),
+        InternalForce::Linear => None,
+    }
+}
+
+/// The CSV columns a run with `contact` adds: `contact_energy_J` (the barrier's energy E_c,
+/// which `total_J` leaves out) and per obstacle `contact_<name>_fx_N`, `_fy_N`, `_fz_N`: the
+/// force the body exerts on it (N; its weight, for a body resting on the ground).
+pub(super) fn csv_columns(contact: &Contact) -> Vec<String> {
+    let mut columns = vec!["contact_energy_J".to_string()];
+    for o in contact.obstacles() {
+        for c in ["fx", "fy", "fz"] {
+            columns.push(format!("contact_{}_{c}_N", o.name()));
+        }
+    }
+    columns
+}
+
+/// The values of [`csv_columns`] at full displacement `u` and time `time` (the obstacles placed
+/// there).
+pub(super) fn csv_values(contact: &Contact, u: &[f64], time: f64) -> Result<Vec<f64>> {
+    contact.set_time(time);
+    let mut values = vec![contact.energy(u)?];
+    for f in contact.obstacle_forces(u)? {
+        values.extend(f.iter());
+    }
+    Ok(values)
+}
+
+/// Per mesh node of `nodes` (rest positions) the gap (m) and contact pressure (Pa) at full
+/// displacement `u` and time `time` ([`Contact::node_fields`]).
+pub(super) fn node_fields(
+    contact: &Contact,
+    nodes: &[Vector3<f64>],
+    u: &[f64],
+    time: f64,
+) -> Result<(Vec<f64>, Vec<f64>)> {
+    contact.set_time(time);
+    contact.node_fields(nodes, u)
+}
+
+/// The camera box `(low, high)` of a body's frames grown to hold where the body meets the
+/// obstacles at rest: a sphere's or box's bounding box, and for a half-space the body's box
+/// corners projected onto its plane (so a falling body and the ground below it stay in view).
+pub(super) fn view_box(
+    contact: &Contact,
+    (mut low, mut high): (Vector3<f64>, Vector3<f64>),
+) -> (Vector3<f64>, Vector3<f64>) {
+    let corners: Vec<Vector3<f64>> = (0..8)
+        .map(|k| {
+            Vector3::new(
+                if k & 1 == 0 { low.x } else { high.x },
+                if k & 2 == 0 { low.y } else { high.y },
+                if k & 4 == 0 { low.z } else { high.z },
+            )
+        })
+        .collect();
+    for o in contact.obstacles() {
+        let points: Vec<Vector3<f64>> = match *o.shape() {
+            Shape::HalfSpace { point, normal } => corners
+                .iter()
+                .map(|x| x - normal * normal.dot(&(x - point)))
+                .collect(),
+            Shape::Sphere { center, radius } => {
+                vec![center.add_scalar(-radius), center.add_scalar(radius)]
+            }
+            Shape::Box {
+                center,
+                half_extents,
+                rotation,
+            } => {
+                let reach = rotation.matrix().abs() * half_extents;
+                vec![center - reach, center + reach]
+            }
+        };
+        for p in points {
+            low = low.inf(&p);
+            high = high.sup(&p);
+        }
+    }
+    (low, high)
+}
