@@ -2,6 +2,7 @@
 #![allow(dead_code)]
 
 pub mod manufactured;
+pub mod restart;
 pub mod vtu;
 
 use nalgebra::Vector3;

@@ -1,5 +1,5 @@
 //! Handing a scene to the PETSc engine: `tetfem run SCENE` with `engine = "petsc"` in the scene
-//! (or `--engine petsc`), and `tetfem export --petsc DIR SCENE`, run the `tetfem-petsc` binary
+//! (or `--engine petsc`), and `tetfem export --petsc SCENE DIR`, run the `tetfem-petsc` binary
 //! on the same scene in their place.
 //!
 //! Why a hand-off and not a call: `tetfem-petsc` links PETSc and MPI (a system library behind a
@@ -37,7 +37,7 @@ pub struct PetscHandoff {
     pub vtu_format: Option<&'static str>,
     /// `--petsc-options`, split into words: PETSc options passed last, so that they win.
     pub petsc_options: Vec<String>,
-    /// `tetfem export --petsc DIR`: write the static system into DIR instead of solving.
+    /// `tetfem export --petsc SCENE DIR`: write the static system into DIR instead of solving.
     pub export: Option<PathBuf>,
 }
 

@@ -79,7 +79,7 @@ enum Command {
     Info(InfoArgs),
     /// Write a static scene's linear system for another solver, without solving it.
     ///
-    /// `--petsc DIR`: PETSc's binary format (K_ff in the engine's numbering with the
+    /// `tetfem export --petsc SCENE DIR`: PETSc's binary format (K_ff in the engine's numbering with the
     /// constrained rows and columns zeroed, the right-hand side, the node coordinates and the
     /// DOF map; README "PETSc engine"), written by the tetfem-petsc binary (run under `mpirun
     /// -n N` for N ranks).
@@ -88,12 +88,13 @@ enum Command {
 
 #[derive(Debug, Args)]
 struct ExportArgs {
+    /// The format: PETSc's binary files (the only one so far, and required).
+    #[arg(long, required = true)]
+    petsc: bool,
     /// The scene file (static).
     scene: PathBuf,
-    /// Folder for the PETSc binary files (`K.petsc`, `b.petsc`, `coordinates.petsc`,
-    /// `dofs.txt`).
-    #[arg(long)]
-    petsc: PathBuf,
+    /// Folder for the files (`K.petsc`, `b.petsc`, `coordinates.petsc`, `dofs.txt`).
+    directory: PathBuf,
 }
 
 /// The default scene's options.
@@ -303,7 +304,7 @@ fn main() -> ExitCode {
         Some(Command::Info(args)) => info(args),
         Some(Command::Export(args)) => PetscHandoff {
             scene: args.scene.clone(),
-            export: Some(args.petsc.clone()),
+            export: Some(args.directory.clone()),
             ..PetscHandoff::default()
         }
         .run(),

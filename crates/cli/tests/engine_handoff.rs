@@ -112,13 +112,13 @@ fn a_petsc_scene_is_handed_to_the_engine_with_the_shared_options() {
     assert_eq!(output.status.code(), Some(3), "{output:?}");
     let args = std::fs::read_to_string(dir.join("args.txt")).expect("the stand-in ran");
     assert_eq!(args.lines().nth(1), Some("--quiet"));
-    // tetfem export --petsc DIR SCENE is tetfem-petsc SCENE --export DIR.
+    // tetfem export --petsc SCENE DIR is tetfem-petsc SCENE --export DIR.
     let output = tetfem(
         &[
             "export",
             "--petsc",
-            "system",
             plain.to_str().expect("utf-8"),
+            "system",
         ],
         &script,
     );
