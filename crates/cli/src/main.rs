@@ -745,6 +745,13 @@ fn print_dynamic(s: &DynamicSummary, directory: &Path, header: bool) {
             r.constraint
         );
     }
+    for c in s.contact_forces.iter().flatten() {
+        let [fx, fy, fz] = c.force_n;
+        println!(
+            "  contact force on obstacle {} at the end: ({fx:+.4e}, {fy:+.4e}, {fz:+.4e}) N; peak |F| {:.4e} N at t = {:.4e} s",
+            c.obstacle, c.peak_n, c.peak_time_s
+        );
+    }
     let (a, b) = (&s.initial_energy, &s.final_energy);
     println!("  energy (J)  kinetic  elastic  gravity potential  load potential  total");
     println!(

@@ -3,7 +3,10 @@
 //! the eye, coloured by a nodal or per-tet scalar (viridis map), with mesh edges on large
 //! triangles, a colour bar, a title and a subtitle (e.g. the time). Text is drawn with the
 //! vendored DejaVu Sans font (`assets/fonts`, free licence) through `ab_glyph`; PNGs are
-//! encoded with `png`.
+//! encoded with `png`. Rigid obstacles ([`RenderOptions::obstacles`]) are drawn behind the body
+//! and named in a legend under the colour bar (`render/obstacles.rs`).
+
+mod obstacles;
 
 use std::path::Path;
 
@@ -13,6 +16,10 @@ use nalgebra::Vector3;
 use tetfem::error::{Error, Result};
 use tetfem::mesh::{CellType, TetMesh};
 use tetfem::output::write_atomically;
+
+pub use obstacles::{
+    GROUND_DEPTH, GROUND_MARGIN, OBSTACLE_CUT, OBSTACLE_EDGE, OBSTACLE_FILL, ObstacleView,
+};
 
 static FONT_BYTES: &[u8] = include_bytes!("../../../assets/fonts/DejaVuSans.ttf");
 
@@ -58,6 +65,11 @@ pub struct RenderOptions {
     /// deformed body: the frames of a run then share one camera instead of each zooming onto
     /// its own shape. `None`: fit the deformed body alone.
     pub view_box: Option<(Vector3<f64>, Vector3<f64>)>,
+    /// Rigid obstacles drawn behind the body, each placed where it is at the frame's time
+    /// ([`ObstacleView::at`]), named in a legend under the colour bar. They leave the framing
+    /// to the body (and `view_box`) unless one would fall wholly outside the plot: then the
+    /// view grows to hold it.
+    pub obstacles: Vec<ObstacleView>,
 }
 
 impl Default for RenderOptions {
@@ -72,6 +84,7 @@ impl Default for RenderOptions {
             elevation_deg: 25.0,
             range: None,
             view_box: None,
+            obstacles: Vec::new(),
         }
     }
 }
@@ -202,16 +215,85 @@ fn face_triangles(nodes: &[usize]) -> Vec<[usize; 3]> {
     }
 }
 
-/// Draws `mesh` displaced by `deformation_scale · displacement` and coloured by `field`.
-///
-/// Errors: a displacement or field of the wrong length, non-finite values, or a size outside
-/// the allowed range.
-pub fn render<C: CellType>(
+/// The orthographic camera of a picture: where a world point lands in the image.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct View {
+    /// Unit vector from the scene towards the eye (world).
+    pub eye: Vector3<f64>,
+    /// The image's x axis (to the right) in the world, unit.
+    pub right: Vector3<f64>,
+    /// The image's up axis in the world, unit (image rows grow downwards).
+    pub up: Vector3<f64>,
+    /// Pixels per length unit.
+    pub zoom: f64,
+    /// The pixel the framed middle lands on.
+    centre: (f64, f64),
+    /// The framed middle along `right` and `up` (length).
+    middle: (f64, f64),
+}
+
+impl View {
+    /// The camera of `options`' azimuth and elevation, not yet framed.
+    fn axes(options: &RenderOptions) -> View {
+        let (az, el) = (
+            options.azimuth_deg.to_radians(),
+            options.elevation_deg.to_radians(),
+        );
+        let eye = Vector3::new(el.cos() * az.cos(), el.cos() * az.sin(), el.sin());
+        let right = Vector3::z().cross(&eye).normalize();
+        let up = eye.cross(&right);
+        View {
+            eye,
+            right,
+            up,
+            zoom: 1.0,
+            centre: (0.0, 0.0),
+            middle: (0.0, 0.0),
+        }
+    }
+
+    /// The same camera zoomed so that `bounds` = [min along right, min along up, max along
+    /// right, max along up] (length) fills 95 % of the plot rectangle `plot` = [x0, y0, x1, y1]
+    /// (pixels), centred.
+    fn fitted(self, bounds: [f64; 4], plot: [f64; 4]) -> View {
+        let extent_x = (bounds[2] - bounds[0]).max(1e-300);
+        let extent_y = (bounds[3] - bounds[1]).max(1e-300);
+        View {
+            zoom: ((plot[2] - plot[0]) / extent_x).min((plot[3] - plot[1]) / extent_y) * 0.95,
+            centre: (0.5 * (plot[0] + plot[2]), 0.5 * (plot[1] + plot[3])),
+            middle: (0.5 * (bounds[0] + bounds[2]), 0.5 * (bounds[1] + bounds[3])),
+            ..self
+        }
+    }
+
+    /// The image position of world point `p` (pixels; x to the right, y down; pixel (i, j)
+    /// covers [i, i + 1) × [j, j + 1)): x = c_x + (p·right − m_x)·zoom,
+    /// y = c_y − (p·up − m_y)·zoom.
+    pub fn screen(&self, p: &Vector3<f64>) -> (f64, f64) {
+        (
+            self.centre.0 + (p.dot(&self.right) - self.middle.0) * self.zoom,
+            self.centre.1 - (p.dot(&self.up) - self.middle.1) * self.zoom,
+        )
+    }
+
+    /// p·eye (length): larger is nearer the eye.
+    pub fn depth(&self, p: &Vector3<f64>) -> f64 {
+        p.dot(&self.eye)
+    }
+}
+
+/// The plot rectangle [x0, y0, x1, y1] (pixels) of a `w` × `h` picture: below the title band,
+/// left of the colour bar.
+fn plot_area(w: u32, h: u32) -> [f64; 4] {
+    [20.0, 70.0, w as f64 - 150.0, h as f64 - 20.0]
+}
+
+/// Checks what [`render`] and [`view`] share: the image size, the displacement, the scale.
+fn check_inputs<C: CellType>(
     mesh: &TetMesh<C>,
     displacement: &[f64],
-    field: &Field,
     options: &RenderOptions,
-) -> Result<Image> {
+) -> Result<()> {
     let (w, h) = (options.width, options.height);
     if !(200..=8192).contains(&w) || !(150..=8192).contains(&h) {
         return Err(Error::invalid_parameter(
@@ -235,6 +317,130 @@ pub fn render<C: CellType>(
             "must be finite and ≥ 0",
         ));
     }
+    Ok(())
+}
+
+/// The nodes of `mesh` displaced by `scale · displacement`.
+fn deformed_nodes<C: CellType>(
+    mesh: &TetMesh<C>,
+    displacement: &[f64],
+    scale: f64,
+) -> Vec<Vector3<f64>> {
+    mesh.nodes()
+        .iter()
+        .enumerate()
+        .map(|(n, p)| {
+            p + Vector3::new(
+                displacement[3 * n],
+                displacement[3 * n + 1],
+                displacement[3 * n + 2],
+            ) * scale
+        })
+        .collect()
+}
+
+/// The camera [`render`] draws `mesh` displaced by `deformation_scale · displacement` with,
+/// and the world box it frames (the deformed boundary and `view_box`), from which a
+/// half-space's tile is laid out.
+///
+/// Framing: the deformed boundary's and `view_box`'s screen box fills 95 % of the plot; an
+/// obstacle whose outline (a sphere's disc, a box's corners, a half-space's tile) falls
+/// wholly outside the plot is then added to the box and the view fitted again.
+///
+/// Errors: those of [`render`] (size, displacement, scale).
+pub fn view<C: CellType>(
+    mesh: &TetMesh<C>,
+    displacement: &[f64],
+    options: &RenderOptions,
+) -> Result<View> {
+    check_inputs(mesh, displacement, options)?;
+    let boundary = mesh.boundary_faces()?;
+    let deformed = deformed_nodes(mesh, displacement, options.deformation_scale);
+    Ok(frame(&deformed, &boundary, options).0)
+}
+
+/// [`view`] on the deformed nodes, with the framed world box.
+fn frame(
+    deformed: &[Vector3<f64>],
+    boundary: &[tetfem::mesh::BoundaryFace],
+    options: &RenderOptions,
+) -> (View, obstacles::Framed) {
+    let camera = View::axes(options);
+    let plot = plot_area(options.width, options.height);
+    let mut bounds = [
+        f64::INFINITY,
+        f64::INFINITY,
+        f64::NEG_INFINITY,
+        f64::NEG_INFINITY,
+    ];
+    let mut world = (
+        Vector3::repeat(f64::INFINITY),
+        Vector3::repeat(f64::NEG_INFINITY),
+    );
+    let add = |p: &Vector3<f64>, bounds: &mut [f64; 4]| {
+        let (sx, sy) = (p.dot(&camera.right), p.dot(&camera.up));
+        *bounds = [
+            bounds[0].min(sx),
+            bounds[1].min(sy),
+            bounds[2].max(sx),
+            bounds[3].max(sy),
+        ];
+    };
+    for f in boundary {
+        for &n in &f.nodes {
+            add(&deformed[n], &mut bounds);
+            world = (world.0.inf(&deformed[n]), world.1.sup(&deformed[n]));
+        }
+    }
+    if let Some((low, high)) = options.view_box {
+        for corner in 0..8 {
+            let pick = |bit: usize, a: usize| {
+                if corner >> bit & 1 == 0 {
+                    low[a]
+                } else {
+                    high[a]
+                }
+            };
+            let p = Vector3::new(pick(0, 0), pick(1, 1), pick(2, 2));
+            add(&p, &mut bounds);
+            world = (world.0.inf(&p), world.1.sup(&p));
+        }
+    }
+    let fitted = camera.fitted(bounds, plot);
+    let mut grown = false;
+    for o in &options.obstacles {
+        let points = obstacles::outline_points(o, &fitted, world);
+        let screen: Vec<(f64, f64)> = points.iter().map(|p| fitted.screen(p)).collect();
+        let outside = screen.iter().all(|s| s.0 < plot[0])
+            || screen.iter().all(|s| s.0 > plot[2])
+            || screen.iter().all(|s| s.1 < plot[1])
+            || screen.iter().all(|s| s.1 > plot[3]);
+        if outside && !screen.is_empty() {
+            for p in &points {
+                add(p, &mut bounds);
+            }
+            grown = true;
+        }
+    }
+    match grown {
+        true => (camera.fitted(bounds, plot), world),
+        false => (fitted, world),
+    }
+}
+
+/// Draws `mesh` displaced by `deformation_scale · displacement` and coloured by `field`, with
+/// the obstacles of `options` behind it (see [`view`] for the framing).
+///
+/// Errors: a displacement or field of the wrong length, non-finite values, or a size outside
+/// the allowed range.
+pub fn render<C: CellType>(
+    mesh: &TetMesh<C>,
+    displacement: &[f64],
+    field: &Field,
+    options: &RenderOptions,
+) -> Result<Image> {
+    check_inputs(mesh, displacement, options)?;
+    let (w, h) = (options.width, options.height);
     let (name, values, per_node) = match field {
         Field::Nodes { name, values } => (*name, *values, true),
         Field::Cells { name, values } => (*name, *values, false),
@@ -265,83 +471,25 @@ pub fn render<C: CellType>(
     };
 
     let boundary = mesh.boundary_faces()?;
-    // Camera: eye direction d, screen axes right and up.
-    let (az, el) = (
-        options.azimuth_deg.to_radians(),
-        options.elevation_deg.to_radians(),
-    );
-    let eye = Vector3::new(el.cos() * az.cos(), el.cos() * az.sin(), el.sin());
-    let right = Vector3::z().cross(&eye).normalize();
-    let up = eye.cross(&right);
+    let deformed = deformed_nodes(mesh, displacement, options.deformation_scale);
+    let (view, framed) = frame(&deformed, &boundary, options);
+    let (right, up, eye) = (view.right, view.up, view.eye);
     let light = (eye + up * 0.5 - right * 0.3).normalize();
-    let deformed: Vec<Vector3<f64>> = mesh
-        .nodes()
-        .iter()
-        .enumerate()
-        .map(|(n, p)| {
-            p + Vector3::new(
-                displacement[3 * n],
-                displacement[3 * n + 1],
-                displacement[3 * n + 2],
-            ) * scale
-        })
-        .collect();
+    let to_screen = |p: &Vector3<f64>| {
+        let (x, y) = view.screen(p);
+        (x, y, view.depth(p))
+    };
 
     let mut image = Image::new(w, h);
-    // Layout: title band on top, colour bar on the right.
-    let (plot_x0, plot_y0) = (20.0, 70.0);
-    let (plot_x1, plot_y1) = (w as f64 - 150.0, h as f64 - 20.0);
-    let mut bounds = [
-        f64::INFINITY,
-        f64::INFINITY,
-        f64::NEG_INFINITY,
-        f64::NEG_INFINITY,
-    ];
-    for f in &boundary {
-        for &n in &f.nodes {
-            let p = deformed[n];
-            let (sx, sy) = (p.dot(&right), p.dot(&up));
-            bounds = [
-                bounds[0].min(sx),
-                bounds[1].min(sy),
-                bounds[2].max(sx),
-                bounds[3].max(sy),
-            ];
-        }
-    }
-    if let Some((low, high)) = options.view_box {
-        for corner in 0..8 {
-            let pick = |bit: usize, a: usize| {
-                if corner >> bit & 1 == 0 {
-                    low[a]
-                } else {
-                    high[a]
-                }
-            };
-            let p = Vector3::new(pick(0, 0), pick(1, 1), pick(2, 2));
-            let (sx, sy) = (p.dot(&right), p.dot(&up));
-            bounds = [
-                bounds[0].min(sx),
-                bounds[1].min(sy),
-                bounds[2].max(sx),
-                bounds[3].max(sy),
-            ];
-        }
-    }
-    let extent_x = (bounds[2] - bounds[0]).max(1e-300);
-    let extent_y = (bounds[3] - bounds[1]).max(1e-300);
-    let zoom = ((plot_x1 - plot_x0) / extent_x).min((plot_y1 - plot_y0) / extent_y) * 0.95;
-    let centre_x = 0.5 * (plot_x0 + plot_x1);
-    let centre_y = 0.5 * (plot_y0 + plot_y1);
-    let mid_x = 0.5 * (bounds[0] + bounds[2]);
-    let mid_y = 0.5 * (bounds[1] + bounds[3]);
-    let to_screen = |p: &Vector3<f64>| {
-        (
-            centre_x + (p.dot(&right) - mid_x) * zoom,
-            centre_y - (p.dot(&up) - mid_y) * zoom,
-            p.dot(&eye),
-        )
+    // Obstacles first: the body is drawn over them. They stay below the subtitle and left of
+    // the colour bar's labels.
+    let clip = obstacles::Clip {
+        x0: 0,
+        y0: 64,
+        x1: w as i64 - 145,
+        y1: h as i64,
     };
+    obstacles::draw(&mut image, &view, &options.obstacles, framed, &light, clip);
 
     let mut depth = vec![f64::NEG_INFINITY; w as usize * h as usize];
     for face in &boundary {
@@ -363,7 +511,9 @@ pub fn render<C: CellType>(
         }
     }
 
-    draw_colour_bar(&mut image);
+    let legend = obstacles::legend_rows(options.obstacles.len(), h);
+    let bar_bottom = h as f64 - 40.0 - obstacles::LEGEND_ROW * legend as f64;
+    draw_colour_bar(&mut image, bar_bottom as i64);
     let font = FontRef::try_from_slice(FONT_BYTES).map_err(|e| {
         Error::invalid_parameter("embedded font", e, "must be a valid TrueType font")
     })?;
@@ -387,7 +537,7 @@ pub fn render<C: CellType>(
     );
     let bar_x = w as f64 - 130.0;
     draw_text(&mut image, &font, name, bar_x, 56.0, 15.0, [20, 20, 20]);
-    let (bar_top, bar_bottom) = (70.0, h as f64 - 40.0);
+    let bar_top = 70.0;
     for k in 0..=4 {
         let t = k as f64 / 4.0;
         let y = bar_bottom - t * (bar_bottom - bar_top);
@@ -409,6 +559,14 @@ pub fn render<C: CellType>(
             [20, 20, 20],
         );
     }
+    obstacles::draw_legend(
+        &mut image,
+        &font,
+        &options.obstacles,
+        legend,
+        bar_x,
+        bar_bottom + 18.0,
+    );
     Ok(image)
 }
 
@@ -491,9 +649,10 @@ fn raster_triangle(
     }
 }
 
-fn draw_colour_bar(image: &mut Image) {
+/// The colour bar from y = 70 down to `bottom` (pixels), outlined.
+fn draw_colour_bar(image: &mut Image, bottom: i64) {
     let x = image.width as i64 - 130;
-    let (top, bottom) = (70i64, image.height as i64 - 40);
+    let top = 70i64;
     for y in top..=bottom {
         let t = (bottom - y) as f64 / (bottom - top).max(1) as f64;
         image.fill_rect(x, y, x + 22, y + 1, viridis(t));

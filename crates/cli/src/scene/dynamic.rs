@@ -9,12 +9,12 @@ use std::time::Instant;
 
 use nalgebra::Vector3;
 
-use super::dynamic_contact::contact_of;
+use super::dynamic_contact::{ContactForceHistory, contact_of};
 use super::restart::{self, Restart};
 use super::{
     Analysis, BuiltScene, DynamicSettings, OutputSettings, PngField, Probe, Scene, SceneElement,
 };
-use crate::render::{Field, RenderOptions, auto_deformation_scale, render};
+use crate::render::{Field, ObstacleView, RenderOptions, auto_deformation_scale, render};
 use tetfem::constraints::Constraints;
 use tetfem::dynamics::{
     Energy, IntegratorOptions, InternalForce, LinearSystem, Mass, MassKind, Method, NewtonStats,
@@ -496,8 +496,12 @@ pub struct DynamicSummary {
     /// (a warning past [`DECAY_WARNING`](tetfem::adequacy::time_step::DECAY_WARNING)).
     pub step_resolution: Option<tetfem::adequacy::time_step::StepResolution>,
     /// The step of the checkpoint a resumed run continued from (`None`: a run from the
-    /// start). `steps`, `frames`, the probes' ranges and the Newton counts are the whole run's.
+    /// start). `steps`, `frames`, the probes' ranges, the contact forces' peaks and the Newton
+    /// counts are the whole run's.
     pub resumed_from_step: Option<usize>,
+    /// With `[[obstacles]]`: per obstacle the force the body exerts on it at the last step
+    /// (N) and the peak magnitude over the run with its time (s); `None` without obstacles.
+    pub contact_forces: Option<Vec<super::ContactForceHistory>>,
 }
 
 /// Free DOFs up to which a backward-Euler run checks its step against the lowest excited mode
@@ -607,12 +611,17 @@ fn run_dynamic_locked<E: SceneElement>(
             max: [f64::NEG_INFINITY; 3],
         })
         .collect();
-    // A resume continues from the checkpoint's state, integrator history and probe extremes.
+    let mut contact_forces = contact_of(&setup.force).map(ContactForceHistory::start);
+    // A resume continues from the checkpoint's state, integrator history, probe extremes and
+    // contact force peaks.
     let first = resumed_at.unwrap_or(0);
-    if let Some(resumed) = restart
-        .as_ref()
-        .map(|r| r.restore(integrator.as_mut(), &mut probes))
-    {
+    if let Some(resumed) = restart.as_ref().map(|r| {
+        r.restore(
+            integrator.as_mut(),
+            &mut probes,
+            contact_forces.as_deref_mut().unwrap_or_default(),
+        )
+    }) {
         state = resumed?.unwrap_or(state);
     }
     let mut output_seconds = 0.0;
@@ -621,6 +630,7 @@ fn run_dynamic_locked<E: SceneElement>(
                       wall: f64,
                       writer: &mut Option<FrameWriter>,
                       probes: &mut [ProbeRange],
+                      contact_forces: &mut Option<Vec<ContactForceHistory>>,
                       last: bool|
      -> Result<Energy> {
         let clock = Instant::now();
@@ -637,15 +647,40 @@ fn run_dynamic_locked<E: SceneElement>(
             }
             means.push(mean);
         }
+        let time = step_time((setup.initial.time, setup.initial.steps), dt, state);
+        let forces = match contact_of(&setup.force) {
+            Some(c) => Some(super::dynamic_contact::obstacle_forces(c, &u, time)?),
+            None => None,
+        };
+        if let (Some(histories), Some(f)) = (contact_forces.as_mut(), forces.as_ref()) {
+            ContactForceHistory::record(histories, f, time);
+        }
         if let Some(w) = writer {
             let at = reactions.at(mesh, system, &setup.force, state)?;
-            w.record(setup, state, &u, wall, &means, &energy, &at, last)?;
+            w.record(
+                setup,
+                state,
+                &u,
+                wall,
+                &means,
+                &energy,
+                &at,
+                forces.as_deref(),
+                last,
+            )?;
         }
         output_seconds += clock.elapsed().as_secs_f64();
         Ok(energy)
     };
     let mut final_energy = match resumed_at {
-        None => record(&state, 0.0, &mut writer, &mut probes, false)?,
+        None => record(
+            &state,
+            0.0,
+            &mut writer,
+            &mut probes,
+            &mut contact_forces,
+            false,
+        )?,
         Some(_) => setup.force.energy(system, &state)?,
     };
     let (mut first_step, mut step_total) = (0.0, 0.0);
@@ -663,7 +698,14 @@ fn run_dynamic_locked<E: SceneElement>(
             first_step = wall;
         }
         step_total += wall;
-        final_energy = record(&state, wall, &mut writer, &mut probes, step == steps)?;
+        final_energy = record(
+            &state,
+            wall,
+            &mut writer,
+            &mut probes,
+            &mut contact_forces,
+            step == steps,
+        )?;
         let stop = progress(step, steps).is_break() && step < steps;
         // The checkpoint after the CSV rows up to it are written out (a resume keeps them).
         if let Some(r) = restart
@@ -673,7 +715,12 @@ fn run_dynamic_locked<E: SceneElement>(
             if let Some(w) = &mut writer {
                 w.finish_partial()?;
             }
-            r.write(integrator.as_ref(), &state, &probes)?;
+            r.write(
+                integrator.as_ref(),
+                &state,
+                &probes,
+                contact_forces.as_deref().unwrap_or_default(),
+            )?;
         }
         if stop {
             // Stop at this step boundary: every frame written so far is complete and listed
@@ -785,6 +832,7 @@ fn run_dynamic_locked<E: SceneElement>(
         deformation,
         step_resolution,
         resumed_from_step: resumed_at,
+        contact_forces,
     };
     if let Some(path) = restart.as_ref().and_then(Restart::written) {
         summary.files.push(path);
@@ -928,6 +976,7 @@ impl FrameWriter {
         probes: &[[f64; 3]],
         energy: &Energy,
         reactions: &super::ReactionsAt,
+        contact_forces: Option<&[Vector3<f64>]>,
         last: bool,
     ) -> Result<()> {
         let time = step_time(self.start, self.dt, state);
@@ -947,8 +996,8 @@ impl FrameWriter {
                 .map(CsvValue::Real),
             );
             row.extend(reactions.csv_values().map(CsvValue::Real));
-            if let Some(contact) = contact_of(&setup.force) {
-                let values = super::dynamic_contact::csv_values(contact, u, time)?;
+            if let (Some(contact), Some(forces)) = (contact_of(&setup.force), contact_forces) {
+                let values = super::dynamic_contact::csv_values(contact, u, time, forces)?;
                 row.extend(values.into_iter().map(CsvValue::Real));
             }
             csv.push_values(&row)?;
@@ -1055,6 +1104,14 @@ impl FrameWriter {
                     deformation_scale: look.scale,
                     range: Some(look.range),
                     view_box: look.view_box,
+                    obstacles: contact_of(&setup.force)
+                        .map(|c| {
+                            c.obstacles()
+                                .iter()
+                                .map(|o| ObstacleView::at(o, time))
+                                .collect()
+                        })
+                        .unwrap_or_default(),
                     ..RenderOptions::default()
                 },
             )?;

@@ -115,14 +115,79 @@ pub(super) fn csv_columns(contact: &Contact) -> Vec<String> {
 }
 
 /// The values of [`csv_columns`] at full displacement `u` and time `time` (the obstacles placed
-/// there).
-pub(super) fn csv_values(contact: &Contact, u: &[f64], time: f64) -> Result<Vec<f64>> {
+/// there), with `forces` the obstacles' forces there ([`obstacle_forces`]).
+pub(super) fn csv_values(
+    contact: &Contact,
+    u: &[f64],
+    time: f64,
+    forces: &[Vector3<f64>],
+) -> Result<Vec<f64>> {
     contact.set_time(time);
     let mut values = vec![contact.energy(u)?];
-    for f in contact.obstacle_forces(u)? {
+    for f in forces {
         values.extend(f.iter());
     }
     Ok(values)
+}
+
+/// The force the body exerts on each obstacle (N) at full displacement `u` and time `time`
+/// (the obstacles placed there): Σᵢ κ·Aᵢ·b′(dᵢ)·∇dᵢ over the boundary nodes
+/// ([`Contact::obstacle_forces`]).
+pub(super) fn obstacle_forces(
+    contact: &Contact,
+    u: &[f64],
+    time: f64,
+) -> Result<Vec<Vector3<f64>>> {
+    contact.set_time(time);
+    contact.obstacle_forces(u)
+}
+
+/// The force on one `[[obstacles]]` entry over a dynamic run (the summary's `contact_forces`).
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct ContactForceHistory {
+    /// The obstacle's name.
+    pub obstacle: String,
+    /// The force the body exerts on it at the last step (N): the same numbers as the CSV's
+    /// last `contact_<name>_fx_N`, `_fy_N`, `_fz_N`. At rest under gravity alone it balances
+    /// the load the obstacle carries (a block resting on the ground: its weight).
+    pub force_n: [f64; 3],
+    /// The largest magnitude |F| = (F_x² + F_y² + F_z²)^½ over every state of the run, the
+    /// initial one included (N).
+    pub peak_n: f64,
+    /// The time of the first state where |F| reached `peak_n` (s).
+    pub peak_time_s: f64,
+}
+
+impl ContactForceHistory {
+    /// One history per obstacle of `contact`, before any state (zero force, peak 0 at t = 0).
+    pub(super) fn start(contact: &Contact) -> Vec<ContactForceHistory> {
+        contact
+            .obstacles()
+            .iter()
+            .map(|o| ContactForceHistory {
+                obstacle: o.name().to_string(),
+                force_n: [0.0; 3],
+                peak_n: 0.0,
+                peak_time_s: 0.0,
+            })
+            .collect()
+    }
+
+    /// Takes the forces `forces` (N, one per obstacle in order) of the state at `time` (s).
+    pub(super) fn record(
+        histories: &mut [ContactForceHistory],
+        forces: &[Vector3<f64>],
+        time: f64,
+    ) {
+        for (h, f) in histories.iter_mut().zip(forces) {
+            h.force_n = (*f).into();
+            let magnitude = f.norm();
+            if magnitude > h.peak_n {
+                h.peak_n = magnitude;
+                h.peak_time_s = time;
+            }
+        }
+    }
 }
 
 /// Per mesh node of `nodes` (rest positions) the gap (m) and contact pressure (Pa) at full

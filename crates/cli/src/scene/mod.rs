@@ -34,6 +34,7 @@ pub use dynamic::{
     run_dynamic_scene,
 };
 pub use dynamic::{STEP_CHECK_DOFS, STEP_CHECK_MODES};
+pub use dynamic_contact::ContactForceHistory;
 pub use element::SceneElement;
 pub use engine::{EngineKind, EngineSettings, PetscSolver, PetscSpec, parse_petsc_options};
 pub use estimate::{ESTIMATED_ERROR_DEFINITION, EstimatedError, estimated_error_of};

@@ -108,15 +108,18 @@ impl Restart {
         self.every > 0
     }
 
-    /// Writes the checkpoint of `integrator` at `state`, with the probes' running extremes, over
-    /// the previous one (atomically). The caller has written out the CSV rows up to `state`.
+    /// Writes the checkpoint of `integrator` at `state`, with the probes' running extremes and
+    /// the contact forces' peaks (record `contact_peak`: |F| (N) and its time (s) per
+    /// obstacle), over the previous one (atomically). The caller has written out the CSV rows
+    /// up to `state`.
     pub(crate) fn write(
         &self,
         integrator: &dyn Integrator,
         state: &State,
         probes: &[ProbeRange],
+        contact: &[super::ContactForceHistory],
     ) -> Result<()> {
-        let records = vec![
+        let mut records = vec![
             (
                 "probe_min".into(),
                 probes.iter().flat_map(|p| p.min).collect(),
@@ -126,15 +129,27 @@ impl Restart {
                 probes.iter().flat_map(|p| p.max).collect(),
             ),
         ];
+        if !contact.is_empty() {
+            records.push((
+                "contact_peak".into(),
+                contact
+                    .iter()
+                    .flat_map(|c| [c.peak_n, c.peak_time_s])
+                    .collect(),
+            ));
+        }
         Checkpoint::take(integrator, state, self.fingerprint.clone(), records)?.write(&self.path)
     }
 
-    /// Restores the resume's integrator history and the probes' running extremes; returns the
+    /// Restores the resume's integrator history, the probes' running extremes and the contact
+    /// forces' peaks (a checkpoint without the `contact_peak` record, written before it
+    /// existed, leaves them at zero: the peaks are then those since the resume); returns the
     /// state to continue from (`None` for a fresh run).
     pub(crate) fn restore(
         &self,
         integrator: &mut dyn Integrator,
         probes: &mut [ProbeRange],
+        contact: &mut [super::ContactForceHistory],
     ) -> Result<Option<State>> {
         let Some(checkpoint) = &self.resume else {
             return Ok(None);
@@ -156,6 +171,22 @@ impl Restart {
         for (i, p) in probes.iter_mut().enumerate() {
             p.min.copy_from_slice(&min[3 * i..3 * i + 3]);
             p.max.copy_from_slice(&max[3 * i..3 * i + 3]);
+        }
+        if let Some(peaks) = checkpoint.record("contact_peak") {
+            if peaks.len() != 2 * contact.len() {
+                return Err(Error::Parse {
+                    path: self.path.clone(),
+                    line: 1,
+                    message: format!(
+                        "the contact_peak record holds {} values, not 2 for each of the {} obstacles",
+                        peaks.len(),
+                        contact.len()
+                    ),
+                });
+            }
+            for (c, p) in contact.iter_mut().zip(peaks.chunks_exact(2)) {
+                (c.peak_n, c.peak_time_s) = (p[0], p[1]);
+            }
         }
         Ok(Some(state))
     }

@@ -496,8 +496,12 @@ fn write_static_outputs<E: SceneElement>(
         csv.finish()?;
     }
     if out.png || options.force_png {
+        // With obstacles the body is drawn true to scale: magnified, it would seem to pass
+        // into the obstacles it touches.
         let scale = if out.deformation_scale > 0.0 {
             out.deformation_scale
+        } else if scene.has_obstacles() {
+            1.0
         } else {
             auto_deformation_scale(&built.mesh, u)
         };
@@ -521,6 +525,12 @@ fn write_static_outputs<E: SceneElement>(
                 title: summary.title.clone(),
                 subtitle: format!("static, deformation ×{}", format_scale(scale)),
                 deformation_scale: scale,
+                // A static scene's obstacles do not move (motions are refused): at rest.
+                obstacles: scene
+                    .obstacles
+                    .iter()
+                    .map(|o| crate::render::ObstacleView::at(o, 0.0))
+                    .collect(),
                 ..RenderOptions::default()
             },
         )?;

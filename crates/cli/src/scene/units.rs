@@ -41,6 +41,9 @@ pub(crate) const DYNAMIC: &[(&str, &str)] = &[
     ("step_resolution.period", "s"),
     ("step_resolution.steps_per_period", "1"),
     ("step_resolution.backward_euler_decay", "1"),
+    ("contact_forces.force_n", "N"),
+    ("contact_forces.peak_n", "N"),
+    ("contact_forces.peak_time_s", "s"),
 ];
 
 /// Units of a static run's summary.
