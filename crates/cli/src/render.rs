@@ -18,7 +18,8 @@ use tetfem::mesh::{CellType, TetMesh};
 use tetfem::output::write_atomically;
 
 pub use obstacles::{
-    GROUND_DEPTH, GROUND_MARGIN, OBSTACLE_CUT, OBSTACLE_EDGE, OBSTACLE_FILL, ObstacleView,
+    FRONT_ALPHA, GROUND_DEPTH, GROUND_MARGIN, OBSTACLE_CUT, OBSTACLE_EDGE, OBSTACLE_FILL,
+    ObstacleView,
 };
 
 static FONT_BYTES: &[u8] = include_bytes!("../../../assets/fonts/DejaVuSans.ttf");
@@ -481,15 +482,16 @@ pub fn render<C: CellType>(
     };
 
     let mut image = Image::new(w, h);
-    // Obstacles first: the body is drawn over them. They stay below the subtitle and left of
-    // the colour bar's labels.
+    // Half-spaces first, the body over them, then spheres and boxes against the body's depth
+    // (render/obstacles.rs). Obstacles stay below the subtitle and left of the colour bar's
+    // labels.
     let clip = obstacles::Clip {
         x0: 0,
         y0: 64,
         x1: w as i64 - 145,
         y1: h as i64,
     };
-    obstacles::draw(&mut image, &view, &options.obstacles, framed, &light, clip);
+    obstacles::draw_grounds(&mut image, &view, &options.obstacles, framed, clip);
 
     let mut depth = vec![f64::NEG_INFINITY; w as usize * h as usize];
     for face in &boundary {
@@ -511,6 +513,7 @@ pub fn render<C: CellType>(
         }
     }
 
+    obstacles::draw_solids(&mut image, &depth, &view, &options.obstacles, &light, clip);
     let legend = obstacles::legend_rows(options.obstacles.len(), h);
     let bar_bottom = h as f64 - 40.0 - obstacles::LEGEND_ROW * legend as f64;
     draw_colour_bar(&mut image, bar_bottom as i64);

@@ -192,6 +192,22 @@ fn a_sphere_is_a_disc_of_its_projected_radius_and_a_far_one_is_brought_into_view
     assert_ne!(pixel(&image, (cx - r + 2.0, cy)), BACKGROUND);
     assert_eq!(pixel(&image, (cx - r - 2.0, cy)), BACKGROUND);
 
+    // Where the disc overlaps the body it is nearer the eye (y < 0, the body's y ≥ 0): the body
+    // shows through, dimmed, neither its own colour nor the obstacle's. A sphere behind the
+    // body (y from 0.25 to 0.35) leaves the body's pixels as they are.
+    let (bare, _) = picture(&mesh, Vec::new(), -90.0, 0.0);
+    let over_body = camera.screen(&(center + Vector3::new(0.5 * radius, 0.0, 0.0)));
+    let (plain, covered) = (pixel(&bare, over_body), pixel(&image, over_body));
+    assert_ne!(covered, plain);
+    assert_ne!(covered, BACKGROUND);
+    let (hidden, _) = picture(
+        &mesh,
+        vec![sphere(Vector3::new(0.0, 0.3, 0.15))],
+        -90.0,
+        0.0,
+    );
+    assert_eq!(pixel(&hidden, over_body), plain);
+
     // A sphere 10 m away would be wholly outside the body's framing: the view grows to hold it.
     let far = sphere(Vector3::new(10.0, 0.1, 0.15));
     let (image, options) = picture(&mesh, vec![far.clone()], -90.0, 0.0);

@@ -1,6 +1,8 @@
-//! Rigid obstacles in a picture: each drawn behind the body (the body is the subject; a body
-//! that is outside every obstacle is never hidden by a half-space seen from its side), clipped
-//! to the plot, with its name in a legend under the colour bar.
+//! Rigid obstacles in a picture, clipped to the plot, with their names in a legend under the
+//! colour bar. The body stays on top: half-spaces are drawn before it (a body outside a
+//! half-space, seen from its side, is never behind it); spheres and boxes after it against its
+//! depth buffer, hidden where the body is nearer the eye and drawn at [`FRONT_ALPHA`] over it
+//! where they are nearer, so the body shows through and the overlap reads as in front.
 //!
 //! - A half-space is drawn as a slab of its boundary: the tile of the plane under everything the
 //!   camera frames (the framed box's footprint on the plane, grown by [`GROUND_MARGIN`] of the
@@ -215,34 +217,114 @@ impl Clip {
     }
 }
 
-/// Draws every obstacle of `obstacles` into `image` through `view`, clipped to `clip`; `light`
-/// is the unit direction the surfaces are lit from.
-pub(super) fn draw(
+/// How much of an obstacle's colour covers the body where the obstacle is nearer the eye: the
+/// body stays visible through it (drawn on top, dimmed), and the overlap reads as in front.
+pub const FRONT_ALPHA: f32 = 0.45;
+
+/// Where obstacle pixels go: the image, clipped, and the body's depth buffer (p·eye per pixel,
+/// −∞ where no body is drawn) once the body is drawn.
+struct Canvas<'a> {
+    image: &'a mut Image,
+    depth: Option<&'a [f64]>,
+    clip: Clip,
+}
+
+impl Canvas<'_> {
+    /// Puts an obstacle pixel at depth `z` (p·eye): opaque where no body is drawn, at
+    /// [`FRONT_ALPHA`] over a body behind it, nothing over a body in front of it.
+    fn put(&mut self, x: i64, y: i64, z: f64, colour: [u8; 3]) {
+        if !self.clip.contains(x, y) {
+            return;
+        }
+        let alpha = match self.depth {
+            None => 1.0,
+            Some(depth) => {
+                let body = depth[(y * self.image.width as i64 + x) as usize];
+                if body == f64::NEG_INFINITY {
+                    1.0
+                } else if z > body {
+                    FRONT_ALPHA
+                } else {
+                    return;
+                }
+            }
+        };
+        self.image.blend(x, y, colour, alpha);
+    }
+}
+
+/// Draws the half-spaces of `obstacles` (before the body, which is drawn over them: a body
+/// outside a half-space, seen from its side, is never behind it).
+pub(super) fn draw_grounds(
     image: &mut Image,
     view: &View,
     obstacles: &[ObstacleView],
     framed: Framed,
+    clip: Clip,
+) {
+    let mut canvas = Canvas {
+        image,
+        depth: None,
+        clip,
+    };
+    for obstacle in obstacles {
+        if let (Shape::HalfSpace { .. }, Some(solid)) =
+            (obstacle.shape, solid_of(&obstacle.shape, framed))
+        {
+            draw_solid(&mut canvas, view, &solid, &Vector3::zeros());
+        }
+    }
+}
+
+/// Draws the spheres and boxes of `obstacles` after the body, whose depth buffer is `depth`
+/// (see [`Canvas::put`]); `light` is the unit direction the surfaces are lit from.
+pub(super) fn draw_solids(
+    image: &mut Image,
+    depth: &[f64],
+    view: &View,
+    obstacles: &[ObstacleView],
     light: &Vector3<f64>,
     clip: Clip,
 ) {
+    let mut canvas = Canvas {
+        image,
+        depth: Some(depth),
+        clip,
+    };
     for obstacle in obstacles {
-        match (obstacle.shape, solid_of(&obstacle.shape, framed)) {
-            (Shape::Sphere { center, radius }, _) => {
-                draw_sphere(image, view, center, radius, light, clip)
+        match obstacle.shape {
+            Shape::HalfSpace { .. } => {}
+            Shape::Sphere { center, radius } => {
+                draw_sphere(&mut canvas, view, center, radius, light)
             }
-            (_, Some(solid)) => draw_solid(image, view, &solid, light, clip),
-            (_, None) => {}
+            Shape::Box {
+                center,
+                half_extents,
+                rotation,
+            } => {
+                let solid = Solid {
+                    center,
+                    half: half_extents,
+                    rotation,
+                    ground: false,
+                };
+                draw_solid(&mut canvas, view, &solid, light)
+            }
         }
     }
 }
 
 /// The faces of `solid` that face the eye (a convex solid's never overlap on screen), filled,
 /// then their edges.
-fn draw_solid(image: &mut Image, view: &View, solid: &Solid, light: &Vector3<f64>, clip: Clip) {
+fn draw_solid(canvas: &mut Canvas, view: &View, solid: &Solid, light: &Vector3<f64>) {
     let faces = solid.faces();
     let front: Vec<usize> = (0..6)
         .filter(|&f| faces[f].0.dot(&view.eye) > 1e-9)
         .collect();
+    let project = |p: &Vector3<f64>| {
+        let (x, y) = view.screen(p);
+        (x, y, view.depth(p))
+    };
     for &f in &front {
         let (normal, quad) = &faces[f];
         let colour = match (solid.ground, f == 5) {
@@ -250,36 +332,38 @@ fn draw_solid(image: &mut Image, view: &View, solid: &Solid, light: &Vector3<f64
             (true, false) => OBSTACLE_CUT,
             (false, _) => shaded(OBSTACLE_FILL, 0.78 + 0.22 * normal.dot(light).max(0.0)),
         };
-        let s = quad.map(|p| view.screen(&p));
-        fill_triangle(image, [s[0], s[1], s[2]], colour, clip);
-        fill_triangle(image, [s[0], s[2], s[3]], colour, clip);
+        let s = quad.map(|p| project(&p));
+        fill_triangle(canvas, [s[0], s[1], s[2]], colour);
+        fill_triangle(canvas, [s[0], s[2], s[3]], colour);
     }
     for &f in &front {
-        let s = faces[f].1.map(|p| view.screen(&p));
+        let s = faces[f].1.map(|p| project(&p));
         for k in 0..4 {
-            draw_line(image, s[k], s[(k + 1) % 4], OBSTACLE_EDGE, clip);
+            draw_line(canvas, s[k], s[(k + 1) % 4], OBSTACLE_EDGE);
         }
     }
 }
 
-/// A disc of the sphere's projected radius, shaded as a sphere lit from `light`, outlined.
+/// A disc of the sphere's projected radius, shaded as a sphere lit from `light`, outlined;
+/// each pixel at the depth of the sphere's near surface.
 fn draw_sphere(
-    image: &mut Image,
+    canvas: &mut Canvas,
     view: &View,
     center: Vector3<f64>,
     radius: f64,
     light: &Vector3<f64>,
-    clip: Clip,
 ) {
     let (cx, cy) = view.screen(&center);
     let r = radius * view.zoom;
     if !(r.is_finite() && cx.is_finite() && cy.is_finite()) {
         return;
     }
+    let clip = canvas.clip;
     let x0 = ((cx - r - 1.0).floor() as i64).max(clip.x0);
     let x1 = ((cx + r + 1.0).ceil() as i64).min(clip.x1 - 1);
     let y0 = ((cy - r - 1.0).floor() as i64).max(clip.y0);
     let y1 = ((cy + r + 1.0).ceil() as i64).min(clip.y1 - 1);
+    let middle = view.depth(&center);
     for y in y0..=y1 {
         for x in x0..=x1 {
             let (dx, dy) = ((x as f64 + 0.5 - cx) / r, (cy - y as f64 - 0.5) / r);
@@ -287,13 +371,15 @@ fn draw_sphere(
             if rho > 1.0 + 1.0 / r {
                 continue;
             }
+            let height = (1.0 - rho * rho).max(0.0).sqrt();
+            let z = middle + radius * height;
             if rho * r > r - 1.0 {
-                image.blend(x, y, OBSTACLE_EDGE, 1.0);
+                canvas.put(x, y, z, OBSTACLE_EDGE);
                 continue;
             }
-            let normal = view.right * dx + view.up * dy + view.eye * (1.0 - rho * rho).sqrt();
+            let normal = view.right * dx + view.up * dy + view.eye * height;
             let k = 0.7 + 0.3 * normal.dot(light).max(0.0);
-            image.blend(x, y, shaded(OBSTACLE_FILL, k), 1.0);
+            canvas.put(x, y, z, shaded(OBSTACLE_FILL, k));
         }
     }
 }
@@ -302,12 +388,14 @@ fn shaded(colour: [u8; 3], k: f64) -> [u8; 3] {
     colour.map(|c| (c as f64 * k).round().clamp(0.0, 255.0) as u8)
 }
 
-/// Fills the screen triangle `s` (pixel centres inside it, either orientation).
-fn fill_triangle(image: &mut Image, s: [(f64, f64); 3], colour: [u8; 3], clip: Clip) {
+/// Fills the screen triangle `s` = (x, y, depth) per corner (pixel centres inside it, either
+/// orientation), the depth interpolated.
+fn fill_triangle(canvas: &mut Canvas, s: [(f64, f64, f64); 3], colour: [u8; 3]) {
     let area2 = (s[1].0 - s[0].0) * (s[2].1 - s[0].1) - (s[2].0 - s[0].0) * (s[1].1 - s[0].1);
     if area2.abs() < 1e-12 || !area2.is_finite() {
         return;
     }
+    let clip = canvas.clip;
     let lo = |k: usize| {
         s.iter()
             .map(|p| [p.0, p.1][k])
@@ -327,15 +415,16 @@ fn fill_triangle(image: &mut Image, s: [(f64, f64); 3], colour: [u8; 3], clip: C
             let (px, py) = (x as f64 + 0.5, y as f64 + 0.5);
             let b0 = ((s[1].0 - px) * (s[2].1 - py) - (s[2].0 - px) * (s[1].1 - py)) / area2;
             let b1 = ((s[2].0 - px) * (s[0].1 - py) - (s[0].0 - px) * (s[2].1 - py)) / area2;
-            if b0 >= -1e-9 && b1 >= -1e-9 && 1.0 - b0 - b1 >= -1e-9 {
-                image.blend(x, y, colour, 1.0);
+            let b2 = 1.0 - b0 - b1;
+            if b0 >= -1e-9 && b1 >= -1e-9 && b2 >= -1e-9 {
+                canvas.put(x, y, b0 * s[0].2 + b1 * s[1].2 + b2 * s[2].2, colour);
             }
         }
     }
 }
 
-/// A one-pixel line from `a` to `b` (screen), clipped.
-fn draw_line(image: &mut Image, a: (f64, f64), b: (f64, f64), colour: [u8; 3], clip: Clip) {
+/// A one-pixel line from `a` to `b` (x, y, depth), clipped, the depth interpolated.
+fn draw_line(canvas: &mut Canvas, a: (f64, f64, f64), b: (f64, f64, f64), colour: [u8; 3]) {
     let length = (b.0 - a.0).abs().max((b.1 - a.1).abs());
     if !length.is_finite() {
         return;
@@ -345,10 +434,12 @@ fn draw_line(image: &mut Image, a: (f64, f64), b: (f64, f64), colour: [u8; 3], c
     for k in 0..=steps {
         let t = k as f64 / steps as f64;
         let (x, y) = (a.0 + (b.0 - a.0) * t, a.1 + (b.1 - a.1) * t);
-        let (x, y) = (x.floor() as i64, y.floor() as i64);
-        if clip.contains(x, y) {
-            image.blend(x, y, colour, 1.0);
-        }
+        canvas.put(
+            x.floor() as i64,
+            y.floor() as i64,
+            a.2 + (b.2 - a.2) * t,
+            colour,
+        );
     }
 }
 
