@@ -179,7 +179,9 @@ type = "static"                     # default "static"; or "dynamic", which need
 # displacement = [0.0, 0.0, -0.01]  # dynamic only, instead: m, moved by displacement·a(t) with
 # amplitude = "press"               #   amplitude (a name of [[amplitudes]] or an inline table)
 # CSV: contact_energy_J, contact_<name>_fx_N/_fy_N/_fz_N (force on the obstacle); .vtu frames:
-# contact_gap (m), contact_pressure (Pa) per node
+# contact_gap (m), contact_pressure (Pa) per node; summary: contact_forces per obstacle (static:
+# force_n, N; dynamic: force_n at the last step, peak_n = the largest |F| (N) at peak_time_s (s));
+# PNG frames draw every obstacle where it is at the frame's time, named in a legend
 # [contact]                         # only with [[obstacles]]
 # activation_distance = 1e-3        # m; default 1e-3 × the bounding-box diagonal
 # stiffness = 1e9                   # Pa/m; default E/h (stiffest E, h the mean boundary edge)
