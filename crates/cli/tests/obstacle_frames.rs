@@ -15,7 +15,9 @@ use tetfem_cli::render::{
     BACKGROUND, Field, GROUND_DEPTH, GROUND_MARGIN, Image, OBSTACLE_CUT, OBSTACLE_FILL,
     ObstacleView, RenderOptions, render, view,
 };
-use tetfem_cli::scene::{DynamicOverrides, DynamicSummary, Scene, run_dynamic_scene};
+use tetfem_cli::scene::{
+    DynamicOverrides, DynamicSummary, Scene, resume_dynamic_scene, run_dynamic_scene,
+};
 
 /// A 0.2 m cube standing 5 cm above the ground z = 0 (x, y in [0, 0.2], z in [0.05, 0.25]).
 fn cube() -> TetMesh {
@@ -413,4 +415,28 @@ fn a_dynamic_run_without_obstacles_has_no_contact_forces() {
     let json: serde_json::Value = serde_json::from_str(&summary.to_json()).unwrap();
     assert!(json["contact_forces"].is_null());
     assert!(json["units"].get("contact_forces.force_n").is_none());
+}
+
+#[test]
+fn a_resumed_run_keeps_the_peak_reached_before_its_checkpoint() {
+    // The landing's peak (t = 0.09 s, step 3) lies before the checkpoint at step 10: the
+    // resumed run takes it from the checkpoint's record.
+    let whole = run(&block_on_ground(&folder("whole"), 0.02, 0.9, false));
+    let dir = folder("resumed");
+    let first = block_on_ground(&dir, 0.02, 0.3, false)
+        .replace("[output]", "[output]\ncheckpoint_every = 10");
+    run(&first);
+    let rest: Scene = first
+        .replace("duration = 0.3", "duration = 0.9")
+        .parse()
+        .unwrap();
+    let resumed = resume_dynamic_scene(&rest, &DynamicOverrides::default(), false, &mut |_, _| {
+        std::ops::ControlFlow::Continue(())
+    })
+    .unwrap();
+    assert_eq!(resumed.resumed_from_step, Some(10));
+    // A resume continues bit for bit (the restart tests' guarantee): the same forces and peak.
+    assert_eq!(resumed.contact_forces, whole.contact_forces);
+    let peak = &whole.contact_forces.as_ref().unwrap()[0];
+    assert!(peak.peak_time_s < 0.3, "{}", peak.peak_time_s);
 }
