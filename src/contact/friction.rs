@@ -29,6 +29,8 @@ pub struct FrictionLag {
 pub(crate) struct LaggedPoint {
     /// The mesh node.
     pub node: usize,
+    /// The obstacle's index (in the contact's order).
+    pub obstacle: usize,
     /// Its position at the step's start (length).
     pub start: Vector3<f64>,
     /// μ·λ (force).
@@ -41,6 +43,19 @@ impl FrictionLag {
     /// Number of lagged contacts.
     pub fn len(&self) -> usize {
         self.points.len()
+    }
+
+    /// Σ μ·λ over the lagged contacts (force): the most tangential force friction can carry.
+    pub fn friction_limit(&self) -> f64 {
+        self.points.iter().map(|p| p.limit).sum()
+    }
+
+    /// Multiplies every lagged μ·λ by `factor` (a prediction of the normal forces a larger
+    /// load needs).
+    pub(crate) fn scale_limits(&mut self, factor: f64) {
+        for p in &mut self.points {
+            p.limit *= factor;
+        }
     }
 
     /// Whether no node is in frictional contact.

@@ -31,6 +31,9 @@ pub struct Contact {
     areas: Vec<f64>,
     /// ε_v (length/time): slip below this speed counts as sticking (friction's smoothing).
     slip_velocity: f64,
+    /// ε_d (length): in a static solve, slip below this distance per load step counts as
+    /// sticking (`None`: [`STATIC_SLIP_FRACTION`] × d̂).
+    slip_distance: Option<f64>,
     /// Each obstacle's current offset c (length; see [`set_time`](Self::set_time)).
     placement: Placement,
 }
@@ -59,6 +62,9 @@ impl Clone for Placement {
 
 /// The default ε_v: this fraction of the bounding-box diagonal per unit time.
 pub const SLIP_FRACTION: f64 = 1e-3;
+
+/// The default ε_d of a static solve: this fraction of the activation distance d̂.
+pub const STATIC_SLIP_FRACTION: f64 = 0.1;
 
 /// How many offending nodes an error lists.
 const LISTED: usize = 5;
@@ -102,6 +108,7 @@ impl Contact {
         let (min, max) = mesh.bounding_box();
         let contact = Contact {
             slip_velocity: SLIP_FRACTION * (max - min).norm(),
+            slip_distance: None,
             rest: nodes.iter().map(|&n| mesh.nodes()[n]).collect(),
             areas: nodes.iter().map(|&n| areas[n]).collect(),
             nodes,
@@ -134,6 +141,33 @@ impl Contact {
     /// ε_v (length/time).
     pub fn slip_velocity(&self) -> f64 {
         self.slip_velocity
+    }
+
+    /// The contact with friction's stick distance ε_d = `slip_distance` (length) for static
+    /// solves: a node whose slip over a load step stays below ε_d sticks (its friction force
+    /// μ·λ·f₁(y) grows smoothly from 0 with the slip y and reaches μ·λ at ε_d), so a sticking
+    /// contact creeps at most ε_d per load step. Default [`STATIC_SLIP_FRACTION`]·d̂ = d̂/10: with
+    /// the default 10 load steps a sticking node creeps at most d̂ in all, the scale of the
+    /// barrier's own gap error, while the friction stiffness 2μλ/ε_d stays within a small
+    /// factor of the barrier's normal stiffness (Newton's matrix stays well conditioned).
+    /// [`Error::InvalidParameter`] unless finite and > 0.
+    pub fn with_slip_distance(mut self, slip_distance: f64) -> Result<Self> {
+        if !(slip_distance.is_finite() && slip_distance > 0.0) {
+            return Err(Error::invalid_parameter(
+                "friction slip_distance",
+                slip_distance,
+                "must be finite and > 0",
+            ));
+        }
+        self.slip_distance = Some(slip_distance);
+        Ok(self)
+    }
+
+    /// ε_d (length): the static solve's stick distance per load step (see
+    /// [`with_slip_distance`](Self::with_slip_distance)).
+    pub fn slip_distance(&self) -> f64 {
+        self.slip_distance
+            .unwrap_or(STATIC_SLIP_FRACTION * self.parameters.activation_distance)
     }
 
     /// The obstacles.
@@ -400,6 +434,7 @@ impl Contact {
                 let g = obstacle.gradient(x);
                 points.push(LaggedPoint {
                     node: n,
+                    obstacle: o,
                     // In world coordinates: where the node would be if it moved with the
                     // obstacle (x is relative to the obstacle's current offset).
                     start: x + target[o],
@@ -409,6 +444,44 @@ impl Contact {
             }
         })?;
         Ok(FrictionLag { points, epsilon })
+    }
+
+    /// The friction data of a static load step (fixed obstacles at their current placement):
+    /// the normal forces λ and tangent planes at full displacement `normal_at` (the lag of the
+    /// current pass), the slip measured from the positions at full displacement `start` (the
+    /// load step's start), smoothing distance `epsilon` (length; ε_d). With `normal_at` =
+    /// `start` it is [`friction_lag`](Self::friction_lag).
+    pub fn friction_lag_from(
+        &self,
+        normal_at: &[f64],
+        start: &[f64],
+        epsilon: f64,
+    ) -> Result<FrictionLag> {
+        self.check_full(start)?;
+        Error::check_len("friction start", normal_at.len(), start.len())?;
+        let mut lag = self.friction_lag(normal_at, epsilon)?;
+        for p in &mut lag.points {
+            // World positions: the obstacles do not move within a static solve.
+            p.start = self.lagged_position(p, start)?;
+        }
+        Ok(lag)
+    }
+
+    /// The friction force on each obstacle (force units; the reaction of the body's friction
+    /// force μ·λ·(f₁(y)/y)·P·(x − x⁰)), in the obstacles' order, at full displacement `u`
+    /// with the lagged data `lag`.
+    pub fn obstacle_friction_forces(
+        &self,
+        lag: &FrictionLag,
+        u: &[f64],
+    ) -> Result<Vec<Vector3<f64>>> {
+        self.check_full(u)?;
+        let mut forces = vec![Vector3::zeros(); self.obstacles.len()];
+        for p in &lag.points {
+            let slip = p.slip(&self.lagged_position(p, u)?);
+            forces[p.obstacle] += p.limit * f1_over_y(slip.norm(), lag.epsilon) * slip;
+        }
+        Ok(forces)
     }
 
     fn lagged_position(&self, p: &LaggedPoint, u: &[f64]) -> Result<Vector3<f64>> {
