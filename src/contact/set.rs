@@ -5,7 +5,9 @@
 use nalgebra::{Matrix3, Vector3};
 
 use super::barrier;
-use super::friction::{FrictionLag, LaggedPoint, f0, f1_derivative, f1_over_y};
+use super::friction::{
+    FrictionLag, LaggedPoint, f0, f1_derivative, f1_over_y, speed_after_friction,
+};
 use super::{ContactParameters, Obstacle};
 use crate::error::{Error, Result};
 use crate::mesh::TetMesh;
@@ -482,6 +484,82 @@ impl Contact {
             forces[p.obstacle] += p.limit * f1_over_y(slip.norm(), lag.epsilon) * slip;
         }
         Ok(forces)
+    }
+
+    /// Friction in an explicit step, as an implicit velocity update per node. An explicit
+    /// friction force would be a damper of coefficient ≈ μ·λ/ε_v, stable only for
+    /// dt < 2·m/(μ·λ/ε_v) — far below the elastic critical step. With lumped mass each node's
+    /// friction involves that node alone, so it is solved exactly for the end-of-step velocity:
+    /// per boundary node i within d̂ of an obstacle o with μ > 0 at full displacement `u`
+    /// (obstacles at their current placement), with λ = κ·Aᵢ·|b′(d)| the barrier's normal force
+    /// there and v_t the tangential part of the node's velocity relative to the obstacle
+    /// (velocity (c_o(`time` + `dt`) − c_o(`time`))/`dt`), the update
+    ///
+    /// m·(v_t⁺ − v_t) = −dt·μ·λ·f₁(|v_t⁺|)·v̂_t
+    ///
+    /// (f₁ smoothed below ε_v, [`slip_velocity`](Self::slip_velocity); its root
+    /// `speed_after_friction`) keeps the direction and only shrinks the speed, at most to zero:
+    /// it never reverses it and never adds energy, whatever dt, so the explicit method's
+    /// stable step is unchanged. Sliding faster than ε_v feels exactly μ·λ; a node held below
+    /// μ·λ creeps at the speed where μ·λ·f₁ balances its load.
+    ///
+    /// `velocity` (length/time) and `inverse_mass` (1/mass) are full length (3 per node);
+    /// `inverse_mass` is 0 on fixed DOFs, which the update leaves alone (on a node with a fixed
+    /// DOF the change −(1 − s⁺/s)·v_t is applied to its free DOFs only, still dissipative: the
+    /// fixed components of v are zero). Errors: lengths, a node inside an obstacle, `dt` not
+    /// finite and > 0.
+    pub fn apply_friction_impulses(
+        &self,
+        u: &[f64],
+        velocity: &mut [f64],
+        inverse_mass: &[f64],
+        time: f64,
+        dt: f64,
+    ) -> Result<()> {
+        self.check_full(u)?;
+        Error::check_len("friction velocity", u.len(), velocity.len())?;
+        Error::check_len("friction inverse mass", u.len(), inverse_mass.len())?;
+        if !(dt.is_finite() && dt > 0.0) {
+            return Err(Error::invalid_parameter(
+                "friction time step",
+                dt,
+                "must be finite and > 0",
+            ));
+        }
+        let obstacle_velocity: Vec<Vector3<f64>> = self
+            .offsets_at(time + dt)
+            .iter()
+            .zip(self.offsets_at(time))
+            .map(|(end, start)| (end - start) / dt)
+            .collect();
+        let (d_hat, kappa, epsilon) = (
+            self.parameters.activation_distance,
+            self.parameters.stiffness,
+            self.slip_velocity,
+        );
+        self.for_each_active(u, |n, o, obstacle, x, d, area| {
+            let mu = obstacle.friction();
+            let dofs = 3 * n..3 * n + 3;
+            let inverse = inverse_mass[dofs.clone()].iter().copied().fold(0.0, f64::max);
+            if mu <= 0.0 || inverse <= 0.0 {
+                return;
+            }
+            let normal = obstacle.gradient(x);
+            let relative = Vector3::from_column_slice(&velocity[dofs.clone()]) - obstacle_velocity[o];
+            let tangential = relative - normal * normal.dot(&relative);
+            let speed = tangential.norm();
+            if speed == 0.0 {
+                return;
+            }
+            let limit = mu * kappa * area * barrier::derivative(d, d_hat).abs();
+            let after = speed_after_friction(speed, dt * limit * inverse, epsilon);
+            let change = (after / speed - 1.0) * tangential;
+            for a in 0..3 {
+                if inverse_mass[3 * n + a] > 0.0 {
+                    velocity[3 * n + a] += change[a];
+                }
+            }
+        })
     }
 
     fn lagged_position(&self, p: &LaggedPoint, u: &[f64]) -> Result<Vector3<f64>> {

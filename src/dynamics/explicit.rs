@@ -116,6 +116,18 @@ impl SymplecticEuler {
         let dt = self.dt;
         for i in 0..n {
             state.velocity[i] += dt * self.product[i] * self.inverse_mass[i];
+        }
+        // Friction acts on the new velocity implicitly, node by node (lumped mass): it shrinks
+        // the tangential speed relative to the obstacle, never reverses it, so it needs no
+        // smaller step (an explicit friction force would be a damper of rate μ·λ/(m·ε_v)).
+        forces.force().apply_friction_impulses(
+            &state.displacement,
+            &mut state.velocity,
+            &self.inverse_mass,
+            state.time,
+            dt,
+        )?;
+        for i in 0..n {
             state.displacement[i] += dt * state.velocity[i];
         }
         state.time += dt;
