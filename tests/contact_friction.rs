@@ -228,7 +228,7 @@ fn acceleration(run: &Slide) -> f64 {
 fn explicit_block_slides_with_coulomb_acceleration_above_the_friction_angle() {
     let theta = 0.7f64.atan();
     let probe = slide_with(theta, Some(EXPLICIT_FRACTION), 1);
-    // 0.5 s, as the backward Euler test (5574 steps).
+    // 0.5 s, as the backward Euler test (2787 steps).
     let run = slide_with(theta, Some(EXPLICIT_FRACTION), (0.5 / probe.dt) as usize);
     let measured = acceleration(&run);
     let expected = G * (theta.sin() - MU * theta.cos());
