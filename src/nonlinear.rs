@@ -149,6 +149,19 @@ pub fn solve_nonlinear_static_with_motion<E: ModelElement>(
 /// [`Error::NotPositiveDefinite`](crate::linalg::Error) from the factorization. The body must
 /// start outside every obstacle; a contact that Newton cannot resolve in its budget is an
 /// [`Error::Solver`] naming the load step, never a penetrated state.
+///
+/// Friction (obstacles with μ > 0), quasi-static as IPC does it: per load step the normal forces
+/// λ and tangent planes are lagged and the step adds the potential μ·λ·f₀(|P·(x − x⁰)|) of each
+/// contact node's slip from the load step's start x⁰, smoothed below the stick distance ε_d
+/// ([`Contact::slip_distance`], default d̂/10: a sticking node creeps less than ε_d per load
+/// step). The first pass lags λ at the step's start scaled by s/(s − 1) (proportional loads);
+/// each further pass re-lags λ and the planes at the last solution, until it is in equilibrium
+/// under its own lag (at most 30 passes; a failed pass is retried once with λ from where it
+/// stopped). A load along the obstacles above μ·N has no equilibrium: the solve ends with an
+/// [`Error::Solver`] naming the load step, μ·Σλ and the applied load, never with a slid-away
+/// state. The report's [`obstacle_friction_forces`](NewtonReport::obstacle_friction_forces)
+/// is the friction force on each obstacle. A body that friction must hold should start within
+/// d̂ of its obstacle (the first load step's lag is the rest state's).
 pub fn solve_nonlinear_static_with_contact(
     mesh: &TetMesh,
     model: &(impl TetModels + ?Sized),
@@ -382,7 +395,8 @@ fn solve<E: ModelElement>(
                 // normal forces carry this step's load, and solve again from the step's start.
                 if !retried && contact.check_state(&u).is_ok() {
                     retried = true;
-                    let relagged = contact.friction_lag_from(&u, &start, contact.slip_distance())?;
+                    let relagged =
+                        contact.friction_lag_from(&u, &start, contact.slip_distance())?;
                     u.clone_from(&start);
                     r = residual(&u, Some(&relagged))?;
                     lag = Some(relagged);

@@ -160,7 +160,8 @@ fn slide_with(theta: f64, explicit: Option<f64>, steps: usize) -> Slide {
         .filter(|&n| mesh.nodes()[n].z == lift)
         .map(|n| {
             let area = bottom_area(&mesh, n);
-            let stiffness = kappa * area * tetfem::contact::barrier::second_derivative(lowest_gap, d_hat);
+            let stiffness =
+                kappa * area * tetfem::contact::barrier::second_derivative(lowest_gap, d_hat);
             2.0 * (mass[3 * n] / stiffness).sqrt()
         })
         .fold(f64::INFINITY, f64::min);
@@ -178,7 +179,12 @@ fn bottom_area(mesh: &TetMesh, n: usize) -> f64 {
     mesh.boundary_faces()
         .unwrap()
         .iter()
-        .filter(|f| f.nodes.contains(&n) && f.nodes.iter().all(|&k| mesh.nodes()[k].z == mesh.nodes()[n].z))
+        .filter(|f| {
+            f.nodes.contains(&n)
+                && f.nodes
+                    .iter()
+                    .all(|&k| mesh.nodes()[k].z == mesh.nodes()[n].z)
+        })
         .map(|f| f.area_vector(mesh).unwrap().norm() / 3.0)
         .sum()
 }
@@ -257,7 +263,9 @@ fn explicit_block_sticks_below_the_friction_angle() {
     // The mean over the second half (0.5–1 s, about five periods of what ringing is left): the
     // block's displacement over it divided by its duration.
     let creep = run.speeds[n / 2..].iter().sum::<f64>() / (n - n / 2) as f64;
-    let swing = run.speeds[n / 2..].iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    let swing = run.speeds[n / 2..]
+        .iter()
+        .fold(0.0f64, |m, v| m.max(v.abs()));
     // At a steady creep s every contact node moves at s, and the per-node update balances the
     // block's load along the plane, m·g·sin θ, with Σ μ·λᵢ·f₁(s) = μ·m·g·cos θ·f₁(s): so
     // f₁(s/ε_v) = 2x − x² = tan θ/μ, x = 1 − √(1 − tan θ/μ).

@@ -21,11 +21,24 @@ mod tests {
     #[test]
     fn the_speed_after_friction_solves_its_equation() {
         let epsilon = 1e-3;
-        for (speed, c) in [(5e-3, 1e-3), (1.5e-3, 1e-3), (5e-4, 1e-3), (5e-4, 1e-9), (0.0, 1.0)] {
+        for (speed, c) in [
+            (5e-3, 1e-3),
+            (1.5e-3, 1e-3),
+            (5e-4, 1e-3),
+            (5e-4, 1e-9),
+            (0.0, 1.0),
+        ] {
             let s = speed_after_friction(speed, c, epsilon);
-            let f1 = if s >= epsilon { 1.0 } else { s * f1_over_y(s, epsilon) };
+            let f1 = if s >= epsilon {
+                1.0
+            } else {
+                s * f1_over_y(s, epsilon)
+            };
             // The root of s + c·f₁(s) = s*, to round-off of the larger term.
-            assert!((s + c * f1 - speed).abs() <= 1e-14 * speed.max(c), "{speed} {c}: {s}");
+            assert!(
+                (s + c * f1 - speed).abs() <= 1e-14 * speed.max(c),
+                "{speed} {c}: {s}"
+            );
             assert!((0.0..=speed).contains(&s));
         }
     }
@@ -122,7 +135,10 @@ pub(crate) fn speed_after_friction(speed: f64, c: f64, epsilon: f64) -> f64 {
     }
     let a = 1.0 + 2.0 * c / epsilon;
     // a² − 4·c·s*/ε² > 0 here: s* < ε + c gives 4·c·s*/ε² < 4c/ε + 4c²/ε² < a².
-    2.0 * speed / (a + (a * a - 4.0 * c * speed / (epsilon * epsilon)).max(0.0).sqrt())
+    2.0 * speed
+        / (a + (a * a - 4.0 * c * speed / (epsilon * epsilon))
+            .max(0.0)
+            .sqrt())
 }
 
 impl LaggedPoint {

@@ -540,12 +540,16 @@ impl Contact {
         self.for_each_active(u, |n, o, obstacle, x, d, area| {
             let mu = obstacle.friction();
             let dofs = 3 * n..3 * n + 3;
-            let inverse = inverse_mass[dofs.clone()].iter().copied().fold(0.0, f64::max);
+            let inverse = inverse_mass[dofs.clone()]
+                .iter()
+                .copied()
+                .fold(0.0, f64::max);
             if mu <= 0.0 || inverse <= 0.0 {
                 return;
             }
             let normal = obstacle.gradient(x);
-            let relative = Vector3::from_column_slice(&velocity[dofs.clone()]) - obstacle_velocity[o];
+            let relative =
+                Vector3::from_column_slice(&velocity[dofs.clone()]) - obstacle_velocity[o];
             let tangential = relative - normal * normal.dot(&relative);
             let speed = tangential.norm();
             if speed == 0.0 {

@@ -25,6 +25,11 @@ use crate::error::{Error, Result};
 /// becomes β·K_T(u)·v (the tangent, PSD-projected, assembled each step only when β > 0); still
 /// no solve. The critical step is then the one of the tangent at rest (K_ff), which large
 /// stretches can lower: leave a margin.
+///
+/// With frictional contact ([`NonlinearForce::apply_friction_impulses`](super::NonlinearForce::apply_friction_impulses)), friction acts on v⁺ before
+/// u⁺ is formed, node by node and implicitly: it shrinks each contact node's tangential
+/// velocity relative to the obstacle (by at most dt·μ·λ/m, smoothed below ε_v) and never
+/// reverses it, so it leaves the stable step as it is.
 #[derive(Debug)]
 pub struct SymplecticEuler {
     system: Arc<LinearSystem>,

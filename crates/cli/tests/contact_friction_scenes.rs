@@ -70,7 +70,11 @@ fn a_static_block_is_held_by_friction_below_mu_n_and_not_above() {
     // that its convergence test accepts): √n·1e-6·W bounds both.
     let bound = (summary.free_dofs as f64).sqrt() * 1e-6 * weight;
     println!("force on the ground ({fx}, {fy}, {fz}) N; load (0.3·W, 0, −W), W = {weight} N");
-    assert!((fx - 0.3 * weight).abs() <= bound, "{fx} vs {}", 0.3 * weight);
+    assert!(
+        (fx - 0.3 * weight).abs() <= bound,
+        "{fx} vs {}",
+        0.3 * weight
+    );
     assert!(fy.abs() <= bound && (fz + weight).abs() <= bound);
     // Friction carries at most μ·N (each node's μ·λᵢ·f₁ ≤ μ·λᵢ).
     assert!(fx.hypot(fy) <= MU * fz.abs() * (1.0 + 1e-12));
@@ -107,7 +111,9 @@ fn an_explicit_block_thrown_along_frictional_ground_stops_after_coulombs_distanc
         "[output]\ndirectory = \"{}\"\nvtu = false\ncsv = true",
         dir.display()
     );
-    let scene: Scene = block([0.0, 0.0, -G], -1.25e-4, &analysis, &output).parse().unwrap();
+    let scene: Scene = block([0.0, 0.0, -G], -1.25e-4, &analysis, &output)
+        .parse()
+        .unwrap();
     let summary = run_dynamic_scene(
         &scene,
         &DynamicOverrides::default(),
