@@ -84,11 +84,16 @@ fn no_frictional_equilibrium(
         "no static equilibrium with friction at load step {step}/{steps}: {cause}. Friction can \
          carry at most μ·Σλ = {:.4e} N along the obstacles (normal forces lagged at this load \
          step), against an applied load of ({:.4e}, {:.4e}, {:.4e}) N: a load along the \
-         surface above μ·N has no equilibrium (the body would slide away)",
+         surface above μ·N has no equilibrium (the body would slide away){}",
         lag.friction_limit(),
         resultant[0],
         resultant[1],
-        resultant[2]
+        resultant[2],
+        match lag.is_empty() {
+            true => "; no node was within the activation distance d̂ of a frictional obstacle at \
+                     the lag: a body that friction must hold should start within d̂ of it",
+            false => "",
+        }
     ))
 }
 

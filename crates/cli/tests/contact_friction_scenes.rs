@@ -148,3 +148,22 @@ fn an_explicit_block_thrown_along_frictional_ground_stops_after_coulombs_distanc
     // 5 % allowed.
     assert!((slid / expected - 1.0).abs() < 0.05, "{slid} vs {expected}");
 }
+
+#[test]
+fn a_slip_distance_or_velocity_not_above_zero_is_an_error_naming_the_key() {
+    for (key, value) in [("slip_distance", "0.0"), ("slip_velocity", "-1e-4")] {
+        let text = block([0.0, 0.0, -G], -8.66e-5, "", &format!("[contact]\n{key} = {value}"));
+        let result = text
+            .parse::<Scene>()
+            .and_then(|s| run_static_with(&s, &no_files()).map(|_| ()));
+        match result {
+            Err(Error::Scene { key: got, line, .. }) => {
+                assert_eq!(got, format!("contact.{key}"));
+                // The [contact] table's span: its header or its key line.
+                let header = text.lines().position(|l| l == "[contact]").unwrap() + 1;
+                assert!((header..=header + 1).contains(&line), "line {line}");
+            }
+            other => panic!("{key} = {value}: expected a scene error, got {other:?}"),
+        }
+    }
+}
