@@ -90,7 +90,8 @@ fn no_frictional_equilibrium(
         resultant[1],
         resultant[2],
         match lag.is_empty() {
-            true => "; no node was within the activation distance d̂ of a frictional obstacle at \
+            true =>
+                "; no node was within the activation distance d̂ of a frictional obstacle at \
                      the lag: a body that friction must hold should start within d̂ of it",
             false => "",
         }

@@ -152,7 +152,12 @@ fn an_explicit_block_thrown_along_frictional_ground_stops_after_coulombs_distanc
 #[test]
 fn a_slip_distance_or_velocity_not_above_zero_is_an_error_naming_the_key() {
     for (key, value) in [("slip_distance", "0.0"), ("slip_velocity", "-1e-4")] {
-        let text = block([0.0, 0.0, -G], -8.66e-5, "", &format!("[contact]\n{key} = {value}"));
+        let text = block(
+            [0.0, 0.0, -G],
+            -8.66e-5,
+            "",
+            &format!("[contact]\n{key} = {value}"),
+        );
         let result = text
             .parse::<Scene>()
             .and_then(|s| run_static_with(&s, &no_files()).map(|_| ()));
