@@ -4,7 +4,7 @@
 use crate::amplitude::STATIC_TIME;
 use crate::boundary_motion::BoundaryMotion;
 use crate::constraints::{Constraints, DofMap};
-use crate::contact::{Contact, STEP_FRACTION};
+use crate::contact::{Contact, FrictionLag, STEP_FRACTION};
 use crate::error::{Error, Result};
 use crate::linear_solver::{LinearMethod, LinearSolver, SolverOptions};
 use crate::loads::Loads;
@@ -52,6 +52,50 @@ pub struct NewtonReport {
     pub residuals: Vec<Vec<f64>>,
     /// Newton iterations in total.
     pub iterations: usize,
+    /// With contact: per obstacle (in their order) the friction force the body exerts on it,
+    /// μ·λ·(f₁(y)/y)·P·(x − x⁰) summed over its nodes at the solution under the last load
+    /// step's lag (N; zero without friction; empty without contact). Its sum with
+    /// [`Contact::obstacle_forces`] is the whole force on the obstacle.
+    pub obstacle_friction_forces: Vec<nalgebra::Vector3<f64>>,
+}
+
+/// Most friction passes (re-lags of the normal forces) per load step; more is
+/// [`Error::Solver`] naming the load step.
+const MAX_FRICTION_PASSES: usize = 30;
+
+/// The error of a load step with friction whose Newton failed (`cause`): no equilibrium exists
+/// when the load along the obstacles exceeds what friction can carry, μ·Σλ under the step's lag
+/// (`lag`), so the message names the load step, that limit and the applied load's resultant
+/// (`free_load`, the full load on the free DOFs `free_dofs`, times `factor`).
+fn no_frictional_equilibrium(
+    cause: Error,
+    step: usize,
+    steps: usize,
+    lag: &FrictionLag,
+    free_load: &[f64],
+    free_dofs: &[usize],
+    factor: f64,
+) -> Error {
+    let mut resultant = [0.0; 3];
+    for (&dof, f) in free_dofs.iter().zip(free_load) {
+        resultant[dof % 3] += factor * f;
+    }
+    Error::Solver(format!(
+        "no static equilibrium with friction at load step {step}/{steps}: {cause}. Friction can \
+         carry at most μ·Σλ = {:.4e} N along the obstacles (normal forces lagged at this load \
+         step), against an applied load of ({:.4e}, {:.4e}, {:.4e}) N: a load along the \
+         surface above μ·N has no equilibrium (the body would slide away){}",
+        lag.friction_limit(),
+        resultant[0],
+        resultant[1],
+        resultant[2],
+        match lag.is_empty() {
+            true =>
+                "; no node was within the activation distance d̂ of a frictional obstacle at \
+                     the lag: a body that friction must hold should start within d̂ of it",
+            false => "",
+        }
+    ))
 }
 
 /// Solves Σ fₑ(u) + f = 0 on the free DOFs for a nonlinear `model`.
@@ -111,6 +155,19 @@ pub fn solve_nonlinear_static_with_motion<E: ModelElement>(
 /// [`Error::NotPositiveDefinite`](crate::linalg::Error) from the factorization. The body must
 /// start outside every obstacle; a contact that Newton cannot resolve in its budget is an
 /// [`Error::Solver`] naming the load step, never a penetrated state.
+///
+/// Friction (obstacles with μ > 0), quasi-static as IPC does it: per load step the normal forces
+/// λ and tangent planes are lagged and the step adds the potential μ·λ·f₀(|P·(x − x⁰)|) of each
+/// contact node's slip from the load step's start x⁰, smoothed below the stick distance ε_d
+/// ([`Contact::slip_distance`], default d̂/10: a sticking node creeps less than ε_d per load
+/// step). The first pass lags λ at the step's start scaled by s/(s − 1) (proportional loads);
+/// each further pass re-lags λ and the planes at the last solution, until it is in equilibrium
+/// under its own lag (at most 30 passes; a failed pass is retried once with λ from where it
+/// stopped). A load along the obstacles above μ·N has no equilibrium: the solve ends with an
+/// [`Error::Solver`] naming the load step, μ·Σλ and the applied load, never with a slid-away
+/// state. The report's [`obstacle_friction_forces`](NewtonReport::obstacle_friction_forces)
+/// is the friction force on each obstacle. A body that friction must hold should start within
+/// d̂ of its obstacle (the first load step's lag is the rest state's).
 pub fn solve_nonlinear_static_with_contact(
     mesh: &TetMesh,
     model: &(impl TetModels + ?Sized),
@@ -175,6 +232,7 @@ fn solve<E: ModelElement>(
     let mut u = vec![0.0; mesh.dof_count()];
     let mut residuals = Vec::new();
     let mut iterations = 0;
+    let mut final_lag = None;
     for step in 1..=options.load_steps {
         let factor = step as f64 / options.load_steps as f64;
         for (dof, value) in dofs.prescribed().iter().enumerate() {
@@ -188,10 +246,32 @@ fn solve<E: ModelElement>(
                 u[dof] = value;
             }
         }
-        let residual = |u: &[f64]| -> Result<Vec<f64>> {
+        // Friction (quasi-static, as IPC does it): the normal forces λ and tangent planes are
+        // lagged, the slip measured from this load step's start. A pass solves with one lag;
+        // the next re-lags λ and the planes at its solution (the slip origin stays), until the
+        // solution is in equilibrium under the lag it makes. The first pass lags λ at the
+        // step's start scaled by s/(s − 1): the loads grow in proportion, and so does the
+        // normal force they need (λ of the step before would hold only (s − 1)/s of the load).
+        let start = u.clone();
+        let friction = contact.filter(|c| c.has_friction());
+        let mut lag = match friction {
+            Some(c) => {
+                let mut lag = c.friction_lag(&u, c.slip_distance())?;
+                if step > 1 {
+                    lag.scale_limits(step as f64 / (step - 1) as f64);
+                }
+                Some(lag)
+            }
+            None => None,
+        };
+        let mut retried = false;
+        let residual = |u: &[f64], lag: Option<&FrictionLag>| -> Result<Vec<f64>> {
             let mut fi = internal_force(mesh, model, u)?;
             if let Some(contact) = contact {
                 contact.add_force(u, &mut fi)?;
+                if let Some(lag) = lag {
+                    contact.add_friction_force(lag, u, &mut fi)?;
+                }
             }
             dofs.restrict(
                 &fi.iter()
@@ -200,15 +280,18 @@ fn solve<E: ModelElement>(
                     .collect::<Vec<_>>(),
             )
         };
-        let potential = |u: &[f64]| -> Result<f64> {
-            let barrier = match contact {
-                Some(contact) => contact.energy(u)?,
-                None => 0.0,
-            };
+        let potential = |u: &[f64], lag: Option<&FrictionLag>| -> Result<f64> {
+            let mut barrier = 0.0;
+            if let Some(contact) = contact {
+                barrier += contact.energy(u)?;
+                if let Some(lag) = lag {
+                    barrier += contact.friction_energy(lag, u)?;
+                }
+            }
             Ok(energy(mesh, model, u)? + barrier
                 - factor * f_full.iter().zip(u).map(|(f, u)| f * u).sum::<f64>())
         };
-        let mut r = residual(&u)?;
+        let mut r = residual(&u, lag.as_ref())?;
         // The reference scale: the full load, or for displacement-driven problems the first
         // residual of the step.
         let reference = if load_norm > 0.0 {
@@ -217,93 +300,159 @@ fn solve<E: ModelElement>(
             norm(&r).max(f64::MIN_POSITIVE)
         };
         let mut history = vec![norm(&r)];
-        let mut converged = norm(&r) <= options.tolerance * reference;
-        while !converged {
-            if history.len() > options.max_iterations {
-                return Err(Error::Solver(format!(
-                    "Newton did not converge in {} iterations at load step {step}/{} (residual {:.3e} of {:.3e})",
-                    options.max_iterations,
-                    options.load_steps,
-                    history.last().copied().unwrap_or(f64::NAN),
-                    reference
-                )));
-            }
-            // The exact tangent first (quadratic convergence); if it is not positive definite,
-            // the one with every element tangent projected onto the PSD cone (a descent
-            // direction, at the price of linear convergence while it is needed).
-            refill_tangent(mesh, assembler, model, &u, false, &mut tangent)?;
-            if let Some(contact) = contact {
-                contact.add_tangent(&u, false, &mut tangent)?;
-            }
-            restriction.restrict_into(&tangent, &mut free_tangent)?;
-            if let Err(tetfem_linalg::Error::NotPositiveDefinite { .. }) =
-                solver.factorize(&free_tangent)
-            {
-                refill_tangent(mesh, assembler, model, &u, true, &mut tangent)?;
-                if let Some(contact) = contact {
-                    contact.add_tangent(&u, true, &mut tangent)?;
-                }
-                restriction.restrict_into(&tangent, &mut free_tangent)?;
-                solver.factorize(&free_tangent)?;
-            }
-            let mut delta = r.clone();
-            solver.solve(&free_tangent, &mut delta)?;
-            let (r_norm, pi) = (norm(&r), potential(&u)?);
-            let mut alpha = 1.0;
-            if let Some(contact) = contact {
-                let mut step = vec![0.0; u.len()];
-                for (&dof, d) in dofs.free_dofs().iter().zip(&delta) {
-                    step[dof] = *d;
-                }
-                alpha = (STEP_FRACTION * contact.max_step(&u, &step)?).min(1.0);
-            }
-            let mut accepted = None;
-            for _ in 0..30 {
-                let mut trial = u.clone();
-                for (&dof, d) in dofs.free_dofs().iter().zip(&delta) {
-                    trial[dof] += alpha * d;
-                }
-                let r_trial = residual(&trial)?;
-                let better = match contact {
-                    // Only a decrease of Π (up to its round-off): the barrier keeps the gaps open.
-                    Some(_) => {
-                        let trial_pi = potential(&trial)?;
-                        trial_pi < pi
-                            || (norm(&r_trial) < r_norm && trial_pi <= pi + 1e-12 * pi.abs())
+        for pass in 1..=MAX_FRICTION_PASSES {
+            let outcome = (|| -> Result<()> {
+                let lag = lag.as_ref();
+                let mut converged = norm(&r) <= options.tolerance * reference;
+                let mut done = 0;
+                while !converged {
+                    if done >= options.max_iterations {
+                        return Err(Error::Solver(format!(
+                            "Newton did not converge in {} iterations at load step {step}/{} (residual {:.3e} of {:.3e})",
+                            options.max_iterations,
+                            options.load_steps,
+                            history.last().copied().unwrap_or(f64::NAN),
+                            reference
+                        )));
                     }
-                    None => norm(&r_trial) < r_norm || potential(&trial)? < pi,
-                };
-                if better {
-                    accepted = Some((trial, r_trial));
-                    break;
+                    // The exact tangent first (quadratic convergence); if it is not positive
+                    // definite, the one with every element tangent projected onto the PSD cone
+                    // (a descent direction, at the price of linear convergence while it is
+                    // needed). Friction's Hessian is PSD as it stands.
+                    for project in [false, true] {
+                        refill_tangent(mesh, assembler, model, &u, project, &mut tangent)?;
+                        if let Some(contact) = contact {
+                            contact.add_tangent(&u, project, &mut tangent)?;
+                            if let Some(lag) = lag {
+                                contact.add_friction_tangent(lag, &u, &mut tangent)?;
+                            }
+                        }
+                        restriction.restrict_into(&tangent, &mut free_tangent)?;
+                        match solver.factorize(&free_tangent) {
+                            Err(tetfem_linalg::Error::NotPositiveDefinite { .. }) if !project => {}
+                            other => {
+                                other?;
+                                break;
+                            }
+                        }
+                    }
+                    let mut delta = r.clone();
+                    solver.solve(&free_tangent, &mut delta)?;
+                    let (r_norm, pi) = (norm(&r), potential(&u, lag)?);
+                    let mut alpha = 1.0;
+                    if let Some(contact) = contact {
+                        let mut step = vec![0.0; u.len()];
+                        for (&dof, d) in dofs.free_dofs().iter().zip(&delta) {
+                            step[dof] = *d;
+                        }
+                        alpha = (STEP_FRACTION * contact.max_step(&u, &step)?).min(1.0);
+                    }
+                    let mut accepted = None;
+                    for _ in 0..30 {
+                        let mut trial = u.clone();
+                        for (&dof, d) in dofs.free_dofs().iter().zip(&delta) {
+                            trial[dof] += alpha * d;
+                        }
+                        let r_trial = residual(&trial, lag)?;
+                        let better = match contact {
+                            // Only a decrease of Π (up to its round-off): the barrier keeps the
+                            // gaps open.
+                            Some(_) => {
+                                let trial_pi = potential(&trial, lag)?;
+                                trial_pi < pi
+                                    || (norm(&r_trial) < r_norm
+                                        && trial_pi <= pi + 1e-12 * pi.abs())
+                            }
+                            None => norm(&r_trial) < r_norm || potential(&trial, lag)? < pi,
+                        };
+                        if better {
+                            accepted = Some((trial, r_trial));
+                            break;
+                        }
+                        alpha *= 0.5;
+                    }
+                    let Some((trial, r_trial)) = accepted else {
+                        return Err(Error::Solver(format!(
+                            "Newton line search found no decrease at load step {step} (residual {r_norm:.3e})"
+                        )));
+                    };
+                    u = trial;
+                    r = r_trial;
+                    iterations += 1;
+                    done += 1;
+                    let (before, now) = (r_norm, norm(&r));
+                    history.push(now);
+                    // Converged at the tolerance, or at the round-off floor: below 1e-6 of the
+                    // reference a residual that no longer halves is the floating-point noise of
+                    // the forces (their O(E) terms cancel to O(E·strain)), and more iterations
+                    // cannot lower it.
+                    converged = now <= options.tolerance * reference
+                        || (now <= 1e-6 * reference && now > 0.5 * before);
                 }
-                alpha *= 0.5;
-            }
-            let Some((trial, r_trial)) = accepted else {
-                return Err(Error::Solver(format!(
-                    "Newton line search found no decrease at load step {step} (residual {r_norm:.3e})"
-                )));
+                Ok(())
+            })();
+            let (Some(contact), Some(solved_with)) = (friction, lag.as_ref()) else {
+                outcome?;
+                break;
             };
-            u = trial;
-            r = r_trial;
-            iterations += 1;
-            let (before, now) = (r_norm, norm(&r));
+            if let Err(e) = outcome {
+                // Once, a lag too weak for this step's load (its normal forces from a state that
+                // carried less) may be what failed: re-lag where the failed pass stopped, whose
+                // normal forces carry this step's load, and solve again from the step's start.
+                if !retried && contact.check_state(&u).is_ok() {
+                    retried = true;
+                    let relagged =
+                        contact.friction_lag_from(&u, &start, contact.slip_distance())?;
+                    u.clone_from(&start);
+                    r = residual(&u, Some(&relagged))?;
+                    lag = Some(relagged);
+                    history.push(norm(&r));
+                    continue;
+                }
+                return Err(no_frictional_equilibrium(
+                    e,
+                    step,
+                    options.load_steps,
+                    solved_with,
+                    &dofs.restrict(f_full)?,
+                    dofs.free_dofs(),
+                    factor,
+                ));
+            }
+            // Re-lag at this pass's solution: settled when the equilibrium holds under the new
+            // lag to Newton's tolerance (or within twice the floor this pass reached).
+            let floor = history.last().copied().unwrap_or(0.0);
+            let relagged = contact.friction_lag_from(&u, &start, contact.slip_distance())?;
+            r = residual(&u, Some(&relagged))?;
+            lag = Some(relagged);
+            let now = norm(&r);
             history.push(now);
-            // Converged at the tolerance, or at the round-off floor: below 1e-6 of the reference
-            // a residual that no longer halves is the floating-point noise of the forces (their
-            // O(E) terms cancel to O(E·strain)), and more iterations cannot lower it.
-            converged = now <= options.tolerance * reference
-                || (now <= 1e-6 * reference && now > 0.5 * before);
+            if now <= options.tolerance * reference || now <= 2.0 * floor {
+                break;
+            }
+            if pass == MAX_FRICTION_PASSES {
+                return Err(Error::Solver(format!(
+                    "friction's lagged normal forces did not settle in {MAX_FRICTION_PASSES} passes at load step {step}/{} (residual {now:.3e} of {reference:.3e} under the last lag)",
+                    options.load_steps
+                )));
+            }
         }
+        final_lag = lag;
         residuals.push(history);
     }
     if u.iter().any(|v| !v.is_finite()) {
         return Err(Error::Solver("the Newton solution is not finite".into()));
     }
+    let obstacle_friction_forces = match (contact, &final_lag) {
+        (Some(contact), Some(lag)) => contact.obstacle_friction_forces(lag, &u)?,
+        (Some(contact), None) => vec![nalgebra::Vector3::zeros(); contact.obstacles().len()],
+        (None, _) => Vec::new(),
+    };
     Ok(NewtonReport {
         displacement: u,
         residuals,
         iterations,
+        obstacle_friction_forces,
     })
 }
 

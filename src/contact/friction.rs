@@ -14,6 +14,36 @@
 
 use nalgebra::{Matrix3, Vector3};
 
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_speed_after_friction_solves_its_equation() {
+        let epsilon = 1e-3;
+        for (speed, c) in [
+            (5e-3, 1e-3),
+            (1.5e-3, 1e-3),
+            (5e-4, 1e-3),
+            (5e-4, 1e-9),
+            (0.0, 1.0),
+        ] {
+            let s = speed_after_friction(speed, c, epsilon);
+            let f1 = if s >= epsilon {
+                1.0
+            } else {
+                s * f1_over_y(s, epsilon)
+            };
+            // The root of s + c·f₁(s) = s*, to round-off of the larger term.
+            assert!(
+                (s + c * f1 - speed).abs() <= 1e-14 * speed.max(c),
+                "{speed} {c}: {s}"
+            );
+            assert!((0.0..=speed).contains(&s));
+        }
+    }
+}
+
 /// The lagged friction data of one time step (built by
 /// [`Contact::friction_lag`](super::Contact::friction_lag)).
 #[derive(Debug, Clone, Default)]
@@ -29,6 +59,8 @@ pub struct FrictionLag {
 pub(crate) struct LaggedPoint {
     /// The mesh node.
     pub node: usize,
+    /// The obstacle's index (in the contact's order).
+    pub obstacle: usize,
     /// Its position at the step's start (length).
     pub start: Vector3<f64>,
     /// μ·λ (force).
@@ -41,6 +73,19 @@ impl FrictionLag {
     /// Number of lagged contacts.
     pub fn len(&self) -> usize {
         self.points.len()
+    }
+
+    /// Σ μ·λ over the lagged contacts (force): the most tangential force friction can carry.
+    pub fn friction_limit(&self) -> f64 {
+        self.points.iter().map(|p| p.limit).sum()
+    }
+
+    /// Multiplies every lagged μ·λ by `factor` (a prediction of the normal forces a larger
+    /// load needs).
+    pub(crate) fn scale_limits(&mut self, factor: f64) {
+        for p in &mut self.points {
+            p.limit *= factor;
+        }
     }
 
     /// Whether no node is in frictional contact.
@@ -74,6 +119,26 @@ pub(crate) fn f1_derivative(y: f64, epsilon: f64) -> f64 {
     } else {
         2.0 / epsilon - 2.0 * y / (epsilon * epsilon)
     }
+}
+
+/// The tangential speed after an explicit step's friction impulse (see
+/// [`Contact::apply_friction_impulses`](super::Contact::apply_friction_impulses)): the root s ∈
+/// [0, s*] of s + c·f₁(s) = s*, with s* the tangential speed before it (length/time), c = dt·μ·λ/m
+/// (length/time: the speed friction's full force μ·λ removes in one step from a node of mass m)
+/// and f₁ smoothed below the stick speed `epsilon` (ε_v). Beyond ε_v it is s* − c (Coulomb's
+/// μ·λ); below, the smaller root of the quadratic (c/ε²)·s² − (1 + 2c/ε)·s + s* = 0, written
+/// without cancellation. Never negative: an impulse brings the speed at most to zero, never
+/// reverses it.
+pub(crate) fn speed_after_friction(speed: f64, c: f64, epsilon: f64) -> f64 {
+    if speed - c >= epsilon {
+        return speed - c;
+    }
+    let a = 1.0 + 2.0 * c / epsilon;
+    // a² − 4·c·s*/ε² > 0 here: s* < ε + c gives 4·c·s*/ε² < 4c/ε + 4c²/ε² < a².
+    2.0 * speed
+        / (a + (a * a - 4.0 * c * speed / (epsilon * epsilon))
+            .max(0.0)
+            .sqrt())
 }
 
 impl LaggedPoint {

@@ -22,7 +22,11 @@
 //! ([`Contact::motion_step_limit`]), so every iterate stays outside. Friction is measured
 //! relative to the obstacle (its slip is the body's tangential motion minus the obstacle's).
 //!
-//! Not here yet: rotating obstacles, and friction in the static solve and the explicit method.
+//! Friction acts in every analysis: as a lagged potential over a time step in the implicit steps
+//! and over a load step in the static solve ([`friction`], [`Contact::friction_lag_from`]), and as
+//! a per-node implicit velocity update in explicit steps ([`Contact::apply_friction_impulses`]).
+//!
+//! Not here yet: rotating obstacles.
 
 pub mod barrier;
 pub mod friction;

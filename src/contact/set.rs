@@ -5,7 +5,9 @@
 use nalgebra::{Matrix3, Vector3};
 
 use super::barrier;
-use super::friction::{FrictionLag, LaggedPoint, f0, f1_derivative, f1_over_y};
+use super::friction::{
+    FrictionLag, LaggedPoint, f0, f1_derivative, f1_over_y, speed_after_friction,
+};
 use super::{ContactParameters, Obstacle};
 use crate::error::{Error, Result};
 use crate::mesh::TetMesh;
@@ -31,6 +33,9 @@ pub struct Contact {
     areas: Vec<f64>,
     /// ε_v (length/time): slip below this speed counts as sticking (friction's smoothing).
     slip_velocity: f64,
+    /// ε_d (length): in a static solve, slip below this distance per load step counts as
+    /// sticking (`None`: [`STATIC_SLIP_FRACTION`] × d̂).
+    slip_distance: Option<f64>,
     /// Each obstacle's current offset c (length; see [`set_time`](Self::set_time)).
     placement: Placement,
 }
@@ -59,6 +64,9 @@ impl Clone for Placement {
 
 /// The default ε_v: this fraction of the bounding-box diagonal per unit time.
 pub const SLIP_FRACTION: f64 = 1e-3;
+
+/// The default ε_d of a static solve: this fraction of the activation distance d̂.
+pub const STATIC_SLIP_FRACTION: f64 = 0.1;
 
 /// How many offending nodes an error lists.
 const LISTED: usize = 5;
@@ -102,6 +110,7 @@ impl Contact {
         let (min, max) = mesh.bounding_box();
         let contact = Contact {
             slip_velocity: SLIP_FRACTION * (max - min).norm(),
+            slip_distance: None,
             rest: nodes.iter().map(|&n| mesh.nodes()[n]).collect(),
             areas: nodes.iter().map(|&n| areas[n]).collect(),
             nodes,
@@ -134,6 +143,33 @@ impl Contact {
     /// ε_v (length/time).
     pub fn slip_velocity(&self) -> f64 {
         self.slip_velocity
+    }
+
+    /// The contact with friction's stick distance ε_d = `slip_distance` (length) for static
+    /// solves: a node whose slip over a load step stays below ε_d sticks (its friction force
+    /// μ·λ·f₁(y) grows smoothly from 0 with the slip y and reaches μ·λ at ε_d), so a sticking
+    /// contact creeps at most ε_d per load step. Default [`STATIC_SLIP_FRACTION`]·d̂ = d̂/10: with
+    /// the default 10 load steps a sticking node creeps at most d̂ in all, the scale of the
+    /// barrier's own gap error, while the friction stiffness 2μλ/ε_d stays within a small
+    /// factor of the barrier's normal stiffness (Newton's matrix stays well conditioned).
+    /// [`Error::InvalidParameter`] unless finite and > 0.
+    pub fn with_slip_distance(mut self, slip_distance: f64) -> Result<Self> {
+        if !(slip_distance.is_finite() && slip_distance > 0.0) {
+            return Err(Error::invalid_parameter(
+                "friction slip_distance",
+                slip_distance,
+                "must be finite and > 0",
+            ));
+        }
+        self.slip_distance = Some(slip_distance);
+        Ok(self)
+    }
+
+    /// ε_d (length): the static solve's stick distance per load step (see
+    /// [`with_slip_distance`](Self::with_slip_distance)).
+    pub fn slip_distance(&self) -> f64 {
+        self.slip_distance
+            .unwrap_or(STATIC_SLIP_FRACTION * self.parameters.activation_distance)
     }
 
     /// The obstacles.
@@ -400,6 +436,7 @@ impl Contact {
                 let g = obstacle.gradient(x);
                 points.push(LaggedPoint {
                     node: n,
+                    obstacle: o,
                     // In world coordinates: where the node would be if it moved with the
                     // obstacle (x is relative to the obstacle's current offset).
                     start: x + target[o],
@@ -409,6 +446,124 @@ impl Contact {
             }
         })?;
         Ok(FrictionLag { points, epsilon })
+    }
+
+    /// The friction data of a static load step (fixed obstacles at their current placement):
+    /// the normal forces λ and tangent planes at full displacement `normal_at` (the lag of the
+    /// current pass), the slip measured from the positions at full displacement `start` (the
+    /// load step's start), smoothing distance `epsilon` (length; ε_d). With `normal_at` =
+    /// `start` it is [`friction_lag`](Self::friction_lag).
+    pub fn friction_lag_from(
+        &self,
+        normal_at: &[f64],
+        start: &[f64],
+        epsilon: f64,
+    ) -> Result<FrictionLag> {
+        self.check_full(start)?;
+        Error::check_len("friction start", normal_at.len(), start.len())?;
+        let mut lag = self.friction_lag(normal_at, epsilon)?;
+        for p in &mut lag.points {
+            // World positions: the obstacles do not move within a static solve.
+            p.start = self.lagged_position(p, start)?;
+        }
+        Ok(lag)
+    }
+
+    /// The friction force on each obstacle (force units; the reaction of the body's friction
+    /// force μ·λ·(f₁(y)/y)·P·(x − x⁰)), in the obstacles' order, at full displacement `u`
+    /// with the lagged data `lag`.
+    pub fn obstacle_friction_forces(
+        &self,
+        lag: &FrictionLag,
+        u: &[f64],
+    ) -> Result<Vec<Vector3<f64>>> {
+        self.check_full(u)?;
+        let mut forces = vec![Vector3::zeros(); self.obstacles.len()];
+        for p in &lag.points {
+            let slip = p.slip(&self.lagged_position(p, u)?);
+            forces[p.obstacle] += p.limit * f1_over_y(slip.norm(), lag.epsilon) * slip;
+        }
+        Ok(forces)
+    }
+
+    /// Friction in an explicit step, as an implicit velocity update per node. An explicit
+    /// friction force would be a damper of coefficient ≈ μ·λ/ε_v, stable only for
+    /// dt < 2·m/(μ·λ/ε_v) — far below the elastic critical step. With lumped mass each node's
+    /// friction involves that node alone, so it is solved exactly for the end-of-step velocity:
+    /// per boundary node i within d̂ of an obstacle o with μ > 0 at full displacement `u`
+    /// (obstacles at their current placement), with λ = κ·Aᵢ·|b′(d)| the barrier's normal force
+    /// there and v_t the tangential part of the node's velocity relative to the obstacle
+    /// (velocity (c_o(`time` + `dt`) − c_o(`time`))/`dt`), the update
+    ///
+    /// m·(v_t⁺ − v_t) = −dt·μ·λ·f₁(|v_t⁺|)·v̂_t
+    ///
+    /// (f₁ smoothed below ε_v, [`slip_velocity`](Self::slip_velocity); its root
+    /// `speed_after_friction`) keeps the direction and only shrinks the speed, at most to zero:
+    /// it never reverses it and never adds energy, whatever dt, so the explicit method's
+    /// stable step is unchanged. Sliding faster than ε_v feels exactly μ·λ; a node held below
+    /// μ·λ creeps at the speed where μ·λ·f₁ balances its load.
+    ///
+    /// `velocity` (length/time) and `inverse_mass` (1/mass) are full length (3 per node);
+    /// `inverse_mass` is 0 on fixed DOFs, which the update leaves alone (on a node with a fixed
+    /// DOF the change −(1 − s⁺/s)·v_t is applied to its free DOFs only, still dissipative: the
+    /// fixed components of v are zero). Errors: lengths, a node inside an obstacle, `dt` not
+    /// finite and > 0.
+    pub fn apply_friction_impulses(
+        &self,
+        u: &[f64],
+        velocity: &mut [f64],
+        inverse_mass: &[f64],
+        time: f64,
+        dt: f64,
+    ) -> Result<()> {
+        self.check_full(u)?;
+        Error::check_len("friction velocity", u.len(), velocity.len())?;
+        Error::check_len("friction inverse mass", u.len(), inverse_mass.len())?;
+        if !(dt.is_finite() && dt > 0.0) {
+            return Err(Error::invalid_parameter(
+                "friction time step",
+                dt,
+                "must be finite and > 0",
+            ));
+        }
+        let obstacle_velocity: Vec<Vector3<f64>> = self
+            .offsets_at(time + dt)
+            .iter()
+            .zip(self.offsets_at(time))
+            .map(|(end, start)| (end - start) / dt)
+            .collect();
+        let (d_hat, kappa, epsilon) = (
+            self.parameters.activation_distance,
+            self.parameters.stiffness,
+            self.slip_velocity,
+        );
+        self.for_each_active(u, |n, o, obstacle, x, d, area| {
+            let mu = obstacle.friction();
+            let dofs = 3 * n..3 * n + 3;
+            let inverse = inverse_mass[dofs.clone()]
+                .iter()
+                .copied()
+                .fold(0.0, f64::max);
+            if mu <= 0.0 || inverse <= 0.0 {
+                return;
+            }
+            let normal = obstacle.gradient(x);
+            let relative =
+                Vector3::from_column_slice(&velocity[dofs.clone()]) - obstacle_velocity[o];
+            let tangential = relative - normal * normal.dot(&relative);
+            let speed = tangential.norm();
+            if speed == 0.0 {
+                return;
+            }
+            let limit = mu * kappa * area * barrier::derivative(d, d_hat).abs();
+            let after = speed_after_friction(speed, dt * limit * inverse, epsilon);
+            let change = (after / speed - 1.0) * tangential;
+            for a in 0..3 {
+                if inverse_mass[3 * n + a] > 0.0 {
+                    velocity[3 * n + a] += change[a];
+                }
+            }
+        })
     }
 
     fn lagged_position(&self, p: &LaggedPoint, u: &[f64]) -> Result<Vector3<f64>> {

@@ -25,6 +25,11 @@ use crate::error::{Error, Result};
 /// becomes β·K_T(u)·v (the tangent, PSD-projected, assembled each step only when β > 0); still
 /// no solve. The critical step is then the one of the tangent at rest (K_ff), which large
 /// stretches can lower: leave a margin.
+///
+/// With frictional contact ([`NonlinearForce::apply_friction_impulses`](super::NonlinearForce::apply_friction_impulses)), friction acts on v⁺ before
+/// u⁺ is formed, node by node and implicitly: it shrinks each contact node's tangential
+/// velocity relative to the obstacle (by at most dt·μ·λ/m, smoothed below ε_v) and never
+/// reverses it, so it leaves the stable step as it is.
 #[derive(Debug)]
 pub struct SymplecticEuler {
     system: Arc<LinearSystem>,
@@ -116,6 +121,18 @@ impl SymplecticEuler {
         let dt = self.dt;
         for i in 0..n {
             state.velocity[i] += dt * self.product[i] * self.inverse_mass[i];
+        }
+        // Friction acts on the new velocity implicitly, node by node (lumped mass): it shrinks
+        // the tangential speed relative to the obstacle, never reverses it, so it needs no
+        // smaller step (an explicit friction force would be a damper of rate μ·λ/(m·ε_v)).
+        forces.force().apply_friction_impulses(
+            &state.displacement,
+            &mut state.velocity,
+            &self.inverse_mass,
+            state.time,
+            dt,
+        )?;
+        for i in 0..n {
             state.displacement[i] += dt * state.velocity[i];
         }
         state.time += dt;

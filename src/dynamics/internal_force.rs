@@ -281,6 +281,36 @@ impl NonlinearForce {
         self.friction.lock().unwrap_or_else(|e| e.into_inner())
     }
 
+    /// Friction in an explicit step ([`Contact::apply_friction_impulses`]): updates the free
+    /// velocities `velocity` (length/time) of a step from free displacements `u` at `time`
+    /// with step `dt` (time), the lumped mass's `inverse_mass` (1/mass, free DOFs). Does
+    /// nothing without frictional contact.
+    pub fn apply_friction_impulses(
+        &self,
+        u: &[f64],
+        velocity: &mut [f64],
+        inverse_mass: &[f64],
+        time: f64,
+        dt: f64,
+    ) -> Result<()> {
+        let Some(contact) = self.contact.as_ref().filter(|c| c.has_friction()) else {
+            return Ok(());
+        };
+        Error::check_len("velocity", self.free_count(), velocity.len())?;
+        Error::check_len("inverse mass", self.free_count(), inverse_mass.len())?;
+        let full = self.full_displacement(u)?;
+        let (mut full_velocity, mut full_inverse) = (vec![0.0; full.len()], vec![0.0; full.len()]);
+        for (k, &d) in self.free_dofs.iter().enumerate() {
+            full_velocity[d] = velocity[k];
+            full_inverse[d] = inverse_mass[k];
+        }
+        contact.apply_friction_impulses(&full, &mut full_velocity, &full_inverse, time, dt)?;
+        for (v, &d) in velocity.iter_mut().zip(&self.free_dofs) {
+            *v = full_velocity[d];
+        }
+        Ok(())
+    }
+
     /// The contact, if any.
     pub fn contact(&self) -> Option<&Contact> {
         self.contact.as_ref()

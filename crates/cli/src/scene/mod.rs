@@ -174,7 +174,7 @@ type = "static"                     # default "static"; or "dynamic", which need
 # point = [0.0, 0.0, -0.01]         # m
 # normal = [0.0, 0.0, 1.0]
 # name = "ground"                   # default "obstacle<i>"; letters, digits, '_', '-'
-# friction = 0.0                    # Coulomb μ ≥ 0, default 0 (backward Euler only)
+# friction = 0.0                    # Coulomb μ ≥ 0, default 0 (static, backward_euler, explicit)
 # velocity = [0.0, 0.0, 0.0]        # dynamic only: m/s, moves the obstacle at constant velocity
 # displacement = [0.0, 0.0, -0.01]  # dynamic only, instead: m, moved by displacement·a(t) with
 # amplitude = "press"               #   amplitude (a name of [[amplitudes]] or an inline table)
@@ -185,6 +185,10 @@ type = "static"                     # default "static"; or "dynamic", which need
 # [contact]                         # only with [[obstacles]]
 # activation_distance = 1e-3        # m; default 1e-3 × the bounding-box diagonal
 # stiffness = 1e9                   # Pa/m; default E/h (stiffest E, h the mean boundary edge)
+# slip_distance = 1e-5              # m; static friction: slip per load step below it sticks
+                                    # (creeps); default d̂/10
+# slip_velocity = 1e-4              # m/s; dynamic friction: slip speed below it sticks (creeps);
+                                    # default 1e-3 × the bounding-box diagonal per second
 
 [petsc]                             # read by the PETSc engine only (engine = "petsc")
 solver = "gamg"                     # default "gamg" (CG + GAMG); "hypre" (CG + BoomerAMG); "mumps" (direct)

@@ -209,6 +209,8 @@ impl Scene {
             for (field, value) in [
                 ("activation_distance", c.activation_distance),
                 ("stiffness", c.stiffness),
+                ("slip_distance", c.slip_distance),
+                ("slip_velocity", c.slip_velocity),
             ] {
                 if let Some(v) = value
                     && (v.is_nan() || v <= 0.0 || v.is_infinite())
@@ -298,7 +300,8 @@ impl Scene {
     }
 
     /// The contact of `mesh`'s boundary with the scene's obstacles (`None` without any), with
-    /// `[contact]`'s scales or the library's defaults for the stiffest material (Pa). A body that
+    /// `[contact]`'s scales (and friction's `slip_distance`, `slip_velocity`) or the library's
+    /// defaults for the stiffest material (Pa). A body that
     /// starts inside or on an obstacle is an error naming that obstacle's key and line, the
     /// nodes and their signed distances.
     pub fn contact(&self, mesh: &TetMesh, youngs_modulus: f64) -> Result<Option<Contact>> {
@@ -320,11 +323,17 @@ impl Scene {
                 self.error(&format!("obstacles[{i}]"), &spanned.span(), e.to_string())
             })?;
         }
-        Ok(Some(Contact::new(
-            mesh,
-            self.obstacles.clone(),
-            parameters,
-        )?))
+        let mut contact = Contact::new(mesh, self.obstacles.clone(), parameters)?;
+        if let Some(c) = &self.spec.contact {
+            let c = c.get_ref();
+            if let Some(v) = c.slip_distance {
+                contact = contact.with_slip_distance(v)?;
+            }
+            if let Some(v) = c.slip_velocity {
+                contact = contact.with_slip_velocity(v)?;
+            }
+        }
+        Ok(Some(contact))
     }
 }
 

@@ -86,8 +86,9 @@ impl From<tetfem::statics::StaticTimings> for SolvePhases {
 pub struct ContactForceRow {
     /// The obstacle's name.
     pub obstacle: String,
-    /// The force the body exerts on it, Σᵢ κ·Aᵢ·b′(dᵢ)·∇d (N): at rest under gravity alone it
-    /// balances the applied load, so it equals the load resultant.
+    /// The force the body exerts on it (N): the barrier's Σᵢ κ·Aᵢ·b′(dᵢ)·∇d plus, with
+    /// friction, the friction force along it (Σ μ·λᵢ·f₁(yᵢ)·ûᵢ over its nodes). A body held by
+    /// contact alone puts the applied load's resultant on its obstacles.
     pub force_n: [f64; 3],
 }
 
@@ -226,6 +227,8 @@ pub(super) fn run_static_on<E: SceneElement>(
     let clock = Instant::now();
     let mut phases = None;
     let mut factor_len = 0;
+    // Per obstacle, the friction force the body exerts on it (N; empty without friction).
+    let mut friction_forces = Vec::new();
     // The model that runs is the model whose stress and energy are reported.
     let model = scene.model().build_map(&built.materials);
     let reactions;
@@ -308,6 +311,7 @@ pub(super) fn run_static_on<E: SceneElement>(
                 &built.loads,
                 &report.displacement,
             )?);
+            friction_forces = report.obstacle_friction_forces;
             (report.displacement, relative, dofs.free_count())
         }
     };
@@ -371,9 +375,10 @@ pub(super) fn run_static_on<E: SceneElement>(
                 .obstacle_forces(u)?
                 .iter()
                 .zip(contact.obstacles())
-                .map(|(force, obstacle)| ContactForceRow {
+                .enumerate()
+                .map(|(o, (force, obstacle))| ContactForceRow {
                     obstacle: obstacle.name().to_string(),
-                    force_n: (*force).into(),
+                    force_n: (force + friction_forces.get(o).copied().unwrap_or_default()).into(),
                 })
                 .collect(),
         ),

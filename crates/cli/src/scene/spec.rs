@@ -131,6 +131,13 @@ pub struct ContactSpec {
     /// κ (Pa/m, > 0): the contact pressure is −κ·b′(d) (default E/h, h the mean boundary edge).
     #[serde(default)]
     pub stiffness: Option<f64>,
+    /// ε_d (m, > 0): friction's stick distance per load step in static scenes (default d̂/10).
+    #[serde(default)]
+    pub slip_distance: Option<f64>,
+    /// ε_v (m/s, > 0): friction's stick speed in dynamic scenes (default 10⁻³ × the
+    /// bounding-box diagonal per second).
+    #[serde(default)]
+    pub slip_velocity: Option<f64>,
 }
 
 /// An amplitude a(t): exactly one of `constant`, `table`, `ramp`, `smooth_step`, `sine`.
