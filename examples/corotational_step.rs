@@ -7,7 +7,7 @@
 //! counts and the largest tip rotation reached.
 //!
 //! `cargo run --release --example corotational_step -- NX NY NZ [dt] [steps] [modes]`,
-//! modes a comma list of `linear`, `refactor`, `cg:MAX:FORCING` (default: all three, the CG
+//! modes a comma list of `linear`, `refactor`, `cg:MAX:FORCING[:TOLERANCE]` (default: all three, the CG
 //! one with the defaults). Threads: `RAYON_NUM_THREADS`; the Cholesky uses as many (≤ 2).
 
 use std::sync::Arc;
@@ -77,6 +77,7 @@ fn main() {
     if modes.iter().any(|m| m == "breakdown") {
         breakdown(&mesh, &problem, &system);
     }
+    let mut reference: Option<Vec<Vec<f64>>> = None;
     for mode in modes.iter().filter(|m| *m != "breakdown") {
         let (force, solve) = match mode.as_str() {
             "linear" => (InternalForce::Linear, NonlinearSolve::Refactor),
@@ -106,6 +107,10 @@ fn main() {
                 ..CholeskyOptions::default()
             },
             nonlinear_solve: solve,
+            newton: tetfem::dynamics::StepNewtonOptions {
+                tolerance: mode.split(':').nth(3).map_or(1e-8, |t| t.parse().unwrap()),
+                ..Default::default()
+            },
             ..IntegratorOptions::default()
         };
         let clock = Instant::now();
@@ -114,10 +119,29 @@ fn main() {
         let setup = clock.elapsed().as_secs_f64();
         let mut state = State::at_rest(system.free_count());
         let mut times = Vec::new();
+        let mut trajectory = Vec::new();
         for _ in 0..steps {
             let clock = Instant::now();
             integrator.step(&mut state).unwrap();
             times.push(clock.elapsed().as_secs_f64());
+            trajectory.push(state.displacement.clone());
+        }
+        match &reference {
+            None => reference = Some(trajectory),
+            Some(first) => {
+                let scale = first.iter().flatten().fold(0.0f64, |m, v| m.max(v.abs()));
+                let worst = first
+                    .iter()
+                    .zip(&trajectory)
+                    .flat_map(|(a, b)| a.iter().zip(b).map(|(x, y)| (x - y).abs()))
+                    .fold(0.0f64, f64::max);
+                println!(
+                    "{mode:>14}: largest difference from {} over the run {:.3e} m, {:.3e} of the largest displacement {scale:.3e} m",
+                    modes[0],
+                    worst,
+                    worst / scale
+                );
+            }
         }
         let tip = tip_rotation(&problem, &mesh, &system, &state);
         let stats = integrator.newton_stats().unwrap_or_default();

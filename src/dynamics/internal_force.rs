@@ -380,6 +380,29 @@ impl NonlinearForce {
         self.mesh.internal_force(self.models(), u)
     }
 
+    /// Σₑ Vₑ·Fₑ around each node at free displacements `u` into `out` (one per node of the mesh;
+    /// see [`crate::model::assemble::nodal_deformation_gradients`]).
+    pub(crate) fn nodal_deformation_gradients(
+        &self,
+        u: &[f64],
+        work: &mut ForceWorkspace,
+        out: &mut [nalgebra::Matrix3<f64>],
+    ) -> Result<()> {
+        Error::check_len("displacement", self.free_count(), u.len())?;
+        self.expand_into(u, &mut work.full);
+        self.mesh.nodal_deformation_gradients(&work.full, out)
+    }
+
+    /// Nodes of the mesh.
+    pub(crate) fn node_count(&self) -> usize {
+        self.mesh.dof_count() / 3
+    }
+
+    /// The full DOF (3·node + axis) of each free DOF, in order.
+    pub(crate) fn free_dofs(&self) -> &[usize] {
+        &self.free_dofs
+    }
+
     /// Number of free DOFs.
     pub fn free_count(&self) -> usize {
         self.free_dofs.len()
@@ -500,6 +523,11 @@ trait ForceMesh: Send + Sync {
         project: bool,
         tangent: &mut CscMatrix,
     ) -> Result<()>;
+    fn nodal_deformation_gradients(
+        &self,
+        u: &[f64],
+        out: &mut [nalgebra::Matrix3<f64>],
+    ) -> Result<()>;
     fn as_any(&self) -> &dyn std::any::Any;
 }
 
@@ -525,6 +553,14 @@ impl<E: ModelElement> ForceMesh for TetMesh<E> {
         tangent: &mut CscMatrix,
     ) -> Result<()> {
         refill_tangent(self, assembler, models, u, project, tangent)
+    }
+
+    fn nodal_deformation_gradients(
+        &self,
+        u: &[f64],
+        out: &mut [nalgebra::Matrix3<f64>],
+    ) -> Result<()> {
+        crate::model::assemble::nodal_deformation_gradients(self, u, out)
     }
 
     fn as_any(&self) -> &dyn std::any::Any {

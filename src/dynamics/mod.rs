@@ -21,6 +21,7 @@ mod inertia;
 mod internal_force;
 mod newmark;
 mod newton;
+mod nodal_rotation;
 mod nonlinear_euler;
 mod nonlinear_solve;
 mod reactions;
@@ -43,7 +44,7 @@ pub use internal_force::{ForceWorkspace, InternalForce, NonlinearForce};
 pub use newmark::Newmark;
 pub use newton::{NewtonStats, StepNewtonOptions};
 pub use nonlinear_euler::NonlinearBackwardEuler;
-pub use nonlinear_solve::NonlinearSolve;
+pub use nonlinear_solve::{AUTO_REFACTOR_BELOW, NonlinearSolve};
 pub use reactions::SupportReactions;
 pub use stability::{
     Certificate, CriticalStep, CriticalStepOptions, DivergenceGuard, critical_time_step,

@@ -4,6 +4,7 @@
 use std::sync::Arc;
 
 use super::internal_force::{ForceWorkspace, NonlinearForce, combine};
+use super::nodal_rotation::NodalRotations;
 use super::{LinearSystem, Mass, NonlinearSolve};
 use crate::error::{Error, Result};
 use crate::iterative::CgOptions;
@@ -125,10 +126,16 @@ pub(crate) struct NewtonSolver {
     /// same bits as an uninterrupted one.
     lagged: bool,
     work: ForceWorkspace,
+    /// The nodes' rotations that turn the rest factor on the preconditioned path (`None` when
+    /// refactoring).
+    rotations: Option<NodalRotations>,
     tangent: CscMatrix,
     /// K_T(u) of the step's start (projected), when β > 0.
     damping_tangent: Option<CscMatrix>,
     internal: Vec<f64>,
+    /// The free displacement `internal` is the force at, when `internal_valid`.
+    internal_at: Vec<f64>,
+    internal_valid: bool,
     residual: Vec<f64>,
     trial: Vec<f64>,
     trial_residual: Vec<f64>,
@@ -165,9 +172,14 @@ impl NewtonSolver {
         options.check()?;
         solve.check()?;
         let n = force.free_count();
+        let solve = solve.for_size(n);
         Error::check_len("nonlinear force free DOFs", system.free_count(), n)?;
         Ok(NewtonSolver {
             work: force.workspace()?,
+            rotations: match solve {
+                NonlinearSolve::Refactor => None,
+                _ => Some(NodalRotations::new(&force)),
+            },
             tangent: force.zero_tangent()?,
             damping_tangent: match system.damping().beta > 0.0 {
                 true => Some(force.zero_tangent()?),
@@ -179,6 +191,8 @@ impl NewtonSolver {
             preconditioner_for: None,
             lagged: false,
             internal: vec![0.0; n],
+            internal_at: vec![0.0; n],
+            internal_valid: false,
             residual: vec![0.0; n],
             trial: vec![0.0; n],
             trial_residual: vec![0.0; n],
@@ -217,6 +231,8 @@ impl NewtonSolver {
         let damping = system.damping();
         self.force
             .force_into(u, &mut self.work, &mut self.internal)?;
+        self.internal_at.copy_from_slice(u);
+        self.internal_valid = true;
         system.mass().product_into(v, &mut self.scratch);
         let f = system.external_load();
         for i in 0..out.len() {
@@ -242,8 +258,18 @@ impl NewtonSolver {
         out_is_trial: bool,
     ) -> Result<()> {
         let damping = system.damping();
-        self.force
-            .force_into(u_new, &mut self.work, &mut self.internal)?;
+        // A step starts where the last one's final residual was evaluated: its internal force
+        // is still here (without contact, whose force also depends on the obstacles' placement
+        // and the lagged friction).
+        let cached = self.force.contact().is_none()
+            && self.internal_valid
+            && self.internal_at.as_slice() == u_new;
+        if !cached {
+            self.force
+                .force_into(u_new, &mut self.work, &mut self.internal)?;
+            self.internal_at.copy_from_slice(u_new);
+            self.internal_valid = true;
+        }
         let (s_m, s_c) = (equation.mass_scale, equation.damping_scale);
         let vc = |i: usize| equation.damping_velocity.map_or(0.0, |v| v[i]);
         // M·(s_m·(u' − ũ) + α·w), w = s_c·(u' − u) − v_c: one mass product.
@@ -548,11 +574,41 @@ impl NewtonSolver {
                 break;
             }
         }
+        Ok(self.record(iterations))
+    }
+
+    /// Counts a solved step of `iterations` iterations.
+    fn record(&mut self, iterations: usize) -> usize {
         self.stats.steps += 1;
         self.stats.total_iterations += iterations;
         self.stats.max_per_step = self.stats.max_per_step.max(iterations);
         self.stats.last_step = iterations;
-        Ok(iterations)
+        iterations
+    }
+
+    /// Factors the rest Newton matrix J₀ = mass_scale·M + (1 + damping_stiffness)·K₀ into
+    /// `solver` (through `matrix`) unless its factor is there already.
+    fn ensure_rest_factor(
+        &mut self,
+        system: &LinearSystem,
+        (mass_scale, damping_stiffness): (f64, f64),
+        matrix: &mut CscMatrix,
+        solver: &mut LinearSolver,
+    ) -> Result<()> {
+        let key = (mass_scale, damping_stiffness);
+        if self.preconditioner_for != Some(key) {
+            combine(
+                system.stiffness(),
+                1.0 + damping_stiffness,
+                system.mass(),
+                mass_scale,
+                matrix,
+            )?;
+            solver.factorize(matrix)?;
+            self.stats.factorizations += 1;
+            self.preconditioner_for = Some(key);
+        }
+        Ok(())
     }
 
     /// δ = −J(u')⁻¹·r into `delta`, J = mass_scale·M + damping_stiffness·K_T(u_start) + K_T(u'),
@@ -575,26 +631,26 @@ impl NewtonSolver {
         } = self.solve
         {
             let key = (mass_scale, damping_stiffness);
-            if self.preconditioner_for != Some(key) {
-                // J₀ = mass_scale·M + (1 + damping_stiffness)·K₀: the Newton matrix at rest.
-                combine(
-                    system.stiffness(),
-                    1.0 + damping_stiffness,
-                    system.mass(),
-                    mass_scale,
-                    matrix,
-                )?;
-                solver.factorize(matrix)?;
-                self.stats.factorizations += 1;
-                self.preconditioner_for = Some(key);
-            }
+            self.ensure_rest_factor(system, key, matrix, solver)?;
             self.form_newton_matrix(system, u_new, false, key, matrix)?;
             let cg = CgOptions {
                 relative_tolerance: forcing,
                 max_iterations: max_cg_iterations,
             };
             let mut delta = std::mem::take(&mut self.delta);
-            let solved = solver.solve_preconditioned(matrix, &mut delta, cg);
+            // The factor turned by the nodes' rotations where it can be (the direct method).
+            let solved = match self.rotations.as_mut().filter(|_| solver.is_direct()) {
+                Some(rotations) => {
+                    rotations.update(&self.force, u_new, &mut self.work)?;
+                    let rotations = &*rotations;
+                    let turn = |v: &mut [f64], transpose: bool| match transpose {
+                        true => rotations.to_rotated_frame(v),
+                        false => rotations.back_from_rotated_frame(v),
+                    };
+                    solver.solve_preconditioned_turned(matrix, &mut delta, cg, &turn)
+                }
+                None => solver.solve_preconditioned(matrix, &mut delta, cg),
+            };
             self.delta = delta;
             match solved {
                 Ok(report) => {

@@ -18,8 +18,13 @@ pub enum NonlinearSolve {
     Refactor,
     /// Conjugate gradients on the exact J(u'), preconditioned by the factor of the rest Newton
     /// matrix J₀ = (s_m + s_c·α)·M + (1 + s_c·β)·K₀ (K₀ = K_ff, the model's tangent at rest),
-    /// factored once per time step value. For the corotational model K_T(u) is K₀ rotated
-    /// element by element, so J₀⁻¹·J has its eigenvalues near 1 and CG needs few iterations.
+    /// factored once per time step value, and turned by the rotation of the deformation at
+    /// each node: P⁻¹ = R̄·J₀⁻¹·R̄ᵀ, R̄ = diag(Rᵢ), Rᵢ the polar rotation of the volume-weighted F
+    /// of the tets around node i (nodes with a constrained DOF are not turned). For the
+    /// corotational model K_T(u) is K₀ rotated element by element and a lumped mass is
+    /// unchanged by rotations, so P⁻¹·J has its eigenvalues near 1 however far the body has
+    /// turned, and CG needs few iterations. (The iterative linear method has no factor to
+    /// turn: its preconditioner is used as it is.)
     ///
     /// When CG does not reach `forcing`·‖r‖ within `max_cg_iterations` (large rotations
     /// have moved J too far from the factor), or meets a direction of non-positive curvature,
@@ -37,16 +42,24 @@ pub enum NonlinearSolve {
         /// unchanged either way.
         forcing: f64,
     },
+    /// [`Refactor`](Self::Refactor) below [`AUTO_REFACTOR_BELOW`] free DOFs, where a
+    /// factorization is cheap; [`RestPreconditionedCg`](Self::RestPreconditionedCg) with 25 CG
+    /// iterations and η = 1e-3 (chosen by `benches/corotational.rs`, see
+    /// `validation/PERFORMANCE.md`) at and above it.
+    Auto,
 }
 
+/// Below this many free DOFs [`NonlinearSolve::Auto`] refactors: measured on the swinging
+/// rubber cantilever (`examples/corotational_step.rs`, 40 steps of 10 ms from rest, one
+/// thread), a factorization of 540 DOFs costs less than the CG iterations it saves
+/// (refactoring 2.1× faster per step on `scenes/rubber_beam_swing.toml`), while at 1,500 DOFs
+/// the preconditioned path is 1.65× faster, and its lead grows with the size.
+pub const AUTO_REFACTOR_BELOW: usize = 1000;
+
 impl Default for NonlinearSolve {
-    /// [`RestPreconditionedCg`](Self::RestPreconditionedCg) with 25 CG iterations and
-    /// η = 1e-3 (chosen by `benches/corotational.rs`, see `validation/PERFORMANCE.md`).
+    /// [`Auto`](Self::Auto).
     fn default() -> Self {
-        NonlinearSolve::RestPreconditionedCg {
-            max_cg_iterations: 25,
-            forcing: 1e-3,
-        }
+        NonlinearSolve::Auto
     }
 }
 
@@ -55,7 +68,7 @@ impl NonlinearSolve {
     /// `nonlinear_solve.forcing` (not finite or outside (0, 1)).
     pub fn check(&self) -> Result<()> {
         match *self {
-            NonlinearSolve::Refactor => Ok(()),
+            NonlinearSolve::Refactor | NonlinearSolve::Auto => Ok(()),
             NonlinearSolve::RestPreconditionedCg {
                 max_cg_iterations,
                 forcing,
@@ -79,9 +92,22 @@ impl NonlinearSolve {
         }
     }
 
-    /// The name scenes use: `refactor` or `rest_preconditioned`.
+    /// What [`Auto`](Self::Auto) is for `free_dofs` unknowns; any other choice as it is.
+    pub fn for_size(self, free_dofs: usize) -> Self {
+        match self {
+            NonlinearSolve::Auto if free_dofs < AUTO_REFACTOR_BELOW => NonlinearSolve::Refactor,
+            NonlinearSolve::Auto => NonlinearSolve::RestPreconditionedCg {
+                max_cg_iterations: 25,
+                forcing: 1e-3,
+            },
+            other => other,
+        }
+    }
+
+    /// The name scenes use: `auto`, `refactor` or `rest_preconditioned`.
     pub fn name(&self) -> &'static str {
         match self {
+            NonlinearSolve::Auto => "auto",
             NonlinearSolve::Refactor => "refactor",
             NonlinearSolve::RestPreconditionedCg { .. } => "rest_preconditioned",
         }
@@ -91,15 +117,17 @@ impl NonlinearSolve {
 impl std::str::FromStr for NonlinearSolve {
     type Err = Error;
 
-    /// `refactor`, or `rest_preconditioned` with the default CG budget and forcing term.
+    /// `auto`, `refactor`, or `rest_preconditioned` with the CG budget and forcing term that
+    /// `auto` uses.
     fn from_str(name: &str) -> Result<Self> {
         match name {
+            "auto" => Ok(NonlinearSolve::Auto),
             "refactor" => Ok(NonlinearSolve::Refactor),
-            "rest_preconditioned" => Ok(NonlinearSolve::default()),
+            "rest_preconditioned" => Ok(NonlinearSolve::Auto.for_size(AUTO_REFACTOR_BELOW)),
             other => Err(Error::invalid_parameter(
                 "nonlinear_solver",
                 other,
-                "must be 'refactor' or 'rest_preconditioned'",
+                "must be 'auto', 'refactor' or 'rest_preconditioned'",
             )),
         }
     }

@@ -89,3 +89,40 @@ pub fn refill_tangent<E: ModelElement>(
     model.check_covers(mesh.tet_count())?;
     E::refill_model_tangent(mesh, assembler, model, u, project, tangent)
 }
+
+/// The volume-weighted sum Aᵢ = Σₑ∋ᵢ Vₑ·Fₑ of the deformation gradients of the tets around each
+/// node at displacement `u` (full length), Fₑ = Ds(x)·Dm(X)⁻¹ from each tet's four corners (a
+/// 10-node tet's edge nodes take its corner F as well). `out` has one matrix per node; a node
+/// in no tet gets zero. Its polar rotation is the node's rotation of the deformation: what
+/// [`crate::dynamics::NonlinearSolve::RestPreconditionedCg`] turns the rest factor by.
+///
+/// Errors: `u` is not full length, or `out` is not one per node.
+pub fn nodal_deformation_gradients<E: ModelElement>(
+    mesh: &TetMesh<E>,
+    u: &[f64],
+    out: &mut [nalgebra::Matrix3<f64>],
+) -> Result<()> {
+    use crate::mesh::NodeList;
+    check_displacement(mesh, u)?;
+    Error::check_len("nodal deformation gradients", mesh.node_count(), out.len())?;
+    out.fill(nalgebra::Matrix3::zeros());
+    let nodes = mesh.nodes();
+    for cell in mesh.tets() {
+        let corners = cell.corners();
+        let rest = corners.map(|n| nodes[n]);
+        let deformed =
+            corners.map(|n| nodes[n] + Vector3::new(u[3 * n], u[3 * n + 1], u[3 * n + 2]));
+        let dm = crate::mesh::geometry::rest_shape_matrix(&rest);
+        // V·F = Ds·Dm⁻¹·det(Dm)/6 = Ds·adj(Dm)/6: no division, and a flat tet weighs nothing.
+        let Some(inverse) = dm.try_inverse() else {
+            continue;
+        };
+        let weighted = crate::mesh::geometry::rest_shape_matrix(&deformed)
+            * inverse
+            * (dm.determinant() / 6.0);
+        for &n in cell.as_ref() {
+            out[n] += weighted;
+        }
+    }
+    Ok(())
+}

@@ -22,7 +22,7 @@ mod law;
 mod linear;
 mod map;
 mod neo_hookean;
-mod polar;
+pub(crate) mod polar;
 mod quadrature_points;
 mod st_venant_kirchhoff;
 

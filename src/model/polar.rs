@@ -7,6 +7,10 @@ use nalgebra::Matrix3;
 /// inverted element gets a proper rotation (and a negative stretch) rather than a reflection.
 /// A non-finite or zero F returns the identity rather than NaN.
 ///
+/// A positively oriented F (det F > 0, the case of every tet that is not inverted) takes
+/// Higham's scaled Newton iteration instead, several times faster than the SVD and the same
+/// polar factor to round-off; the SVD remains for inverted, flat and badly conditioned ones.
+///
 /// R is invariant under F → s·F (s > 0), so F is divided by its largest entry first: the SVD
 /// then sees entries of order one whatever the scale of F (unscaled, an F below ~1e-154 squares
 /// to zero inside the SVD and comes back as the identity instead of its polar factor).
@@ -15,7 +19,11 @@ pub fn rotation(f: &Matrix3<f64>) -> Matrix3<f64> {
     if !(f.iter().all(|v| v.is_finite()) && scale > 0.0) {
         return Matrix3::identity();
     }
-    let svd = (f / scale).svd(true, true);
+    let f = f / scale;
+    if let Some(r) = polar_by_iteration(&f) {
+        return r;
+    }
+    let svd = f.svd(true, true);
     let (Some(mut u), Some(v_t)) = (svd.u, svd.v_t) else {
         return Matrix3::identity();
     };
@@ -28,4 +36,84 @@ pub fn rotation(f: &Matrix3<f64>) -> Matrix3<f64> {
         }
     }
     u * v_t
+}
+
+/// The polar rotation of `f` (det `f` > 0, entries of order one) by Higham's scaled Newton
+/// iteration Xₖ₊₁ = ½(γₖ·Xₖ + Xₖ⁻ᵀ/γₖ), γₖ = (‖Xₖ⁻¹‖/‖Xₖ‖)^½ (N. J. Higham, "Computing the
+/// polar decomposition — with applications", 1986): it converges quadratically to R from any
+/// nonsingular F, in four or five iterations from the small strains of a corotational tet.
+/// `None` (the caller takes the SVD) when det `f` ≤ 0 or it has not converged in 20 iterations
+/// (a nearly flat tet).
+fn polar_by_iteration(f: &Matrix3<f64>) -> Option<Matrix3<f64>> {
+    // Below this det/‖F‖³ the iteration's inverses lose the digits the SVD keeps.
+    const MIN_RELATIVE_DET: f64 = 1e-6;
+    let det = f.determinant();
+    let norm = f.norm();
+    if det.is_nan() || det <= MIN_RELATIVE_DET * norm * norm * norm {
+        return None;
+    }
+    let mut x = *f;
+    let mut scaled = true;
+    for _ in 0..20 {
+        let inverse_transpose = x.try_inverse()?.transpose();
+        // The scaling speeds up the first iterations; near R (γ → 1) it only adds round-off.
+        let gamma = match scaled {
+            true => (inverse_transpose.norm() / x.norm()).sqrt(),
+            false => 1.0,
+        };
+        let next = (x * gamma + inverse_transpose / gamma) * 0.5;
+        let change = (next - x).norm();
+        x = next;
+        // ‖R‖ = √3: a change below 1e-9 leaves an error of about its square after one more
+        // iteration, below round-off.
+        if change < 1e-9 {
+            let inverse_transpose = x.try_inverse()?.transpose();
+            return Some((x + inverse_transpose) * 0.5);
+        }
+        if change < 1e-3 {
+            scaled = false;
+        }
+    }
+    None
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use nalgebra::{Rotation3, Vector3};
+
+    /// The iteration and the SVD give the same R for stretched, sheared and rotated F, to a
+    /// few ulps of its entries (both are backward stable; 1e-14 allows their round-off).
+    #[test]
+    fn iteration_agrees_with_the_svd() {
+        let stretches = [
+            Matrix3::identity(),
+            Matrix3::new(1.01, 0.002, 0.0, 0.0, 0.99, 0.003, 0.001, 0.0, 1.02),
+            Matrix3::new(2.0, 0.5, 0.1, 0.0, 0.4, 0.3, 0.2, 0.0, 1.5),
+            Matrix3::new(1.0, 3.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0),
+        ];
+        for (k, stretch) in stretches.iter().enumerate() {
+            let turn = Rotation3::from_axis_angle(
+                &nalgebra::Unit::new_normalize(Vector3::new(1.0, 2.0 - k as f64, 0.5)),
+                0.3 + 0.7 * k as f64,
+            );
+            let f = turn.matrix() * stretch;
+            let by_iteration = polar_by_iteration(&(f / f.amax())).expect("det > 0");
+            let svd = f.svd(true, true);
+            let by_svd = svd.u.unwrap() * svd.v_t.unwrap();
+            assert!(
+                (by_iteration - by_svd).amax() < 1e-14,
+                "F #{k}: {by_iteration} against {by_svd}"
+            );
+            assert!((by_iteration.determinant() - 1.0).abs() < 1e-14);
+        }
+    }
+
+    /// An inverted F is left to the SVD (its proper rotation needs the flipped direction).
+    #[test]
+    fn inverted_f_is_not_iterated() {
+        let f = Matrix3::new(-1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0);
+        assert!(polar_by_iteration(&f).is_none());
+        assert!((rotation(&f).determinant() - 1.0).abs() < 1e-14);
+    }
 }

@@ -619,6 +619,43 @@ impl LinearSolver {
         Ok(report)
     }
 
+    /// [`solve_preconditioned`](Self::solve_preconditioned) with the factor turned by an
+    /// orthogonal map Q: P⁻¹ = Q·F⁻¹·Qᵀ, F the matrix last factored, `turn(v, true)` setting
+    /// v ← Qᵀ·v and `turn(v, false)` v ← Q·v. For a family of matrices Q·F·Qᵀ + (small), as the
+    /// Newton matrices of a body that has turned away from the state F was made at. The direct
+    /// method only: [`Error::Solver`] for the iterative one (no factor to turn).
+    pub fn solve_preconditioned_turned(
+        &mut self,
+        matrix: &CscMatrix,
+        rhs: &mut [f64],
+        options: CgOptions,
+        turn: &dyn Fn(&mut [f64], bool),
+    ) -> Result<CgReport> {
+        Error::check_len("right-hand side", matrix.dim(), rhs.len())?;
+        let Backend::Direct(cholesky) = &mut self.backend else {
+            return Err(Error::Solver(
+                "a turned preconditioner needs the direct method's factor".into(),
+            ));
+        };
+        Error::check_len("factor dimension", matrix.dim(), cholesky.dim())?;
+        let mut x = vec![0.0; rhs.len()];
+        let report = conjugate_gradient_with(
+            matrix,
+            &mut |r, z| {
+                z.copy_from_slice(r);
+                turn(z, true);
+                cholesky.solve_in_place(z)?;
+                turn(z, false);
+                Ok(())
+            },
+            rhs,
+            &mut x,
+            options,
+        )?;
+        rhs.copy_from_slice(&x);
+        Ok(report)
+    }
+
     /// Stored values of the Cholesky factor (0 for the iterative method).
     pub fn factor_len(&self) -> usize {
         match &self.backend {

@@ -786,6 +786,7 @@ fn report(cli: &Cli, runs: &[Run], failures: &[String]) -> Result<(), Box<dyn st
         writeln!(md)?;
     }
     side_by_side(&mut md, &cli.out)?;
+    kept_by_hand(&mut md, &cli.out.join("PERFORMANCE.md"));
     let time_chart = Chart {
         title: "Static pipeline: time per phase (1 thread, direct)".into(),
         x_label: "degrees of freedom".into(),
@@ -831,6 +832,30 @@ fn report(cli: &Cli, runs: &[Run], failures: &[String]) -> Result<(), Box<dyn st
     tetfem::output::write_atomically(&path, |w| w.write_all(md.as_bytes()))?;
     eprintln!("wrote {}", path.display());
     Ok(())
+}
+
+/// The marker lines around a section of `PERFORMANCE.md` that `scale` does not measure (the
+/// corotational steps of `examples/corotational_step.rs`): copied from the old report into the
+/// new one, so that regenerating the report keeps them.
+const BY_HAND_BEGIN: &str = "<!-- measured by hand: kept by scale -->";
+const BY_HAND_END: &str = "<!-- end of the part measured by hand -->";
+
+/// Appends every section of the old report at `path` between [`BY_HAND_BEGIN`] and
+/// [`BY_HAND_END`], markers included (nothing when there is no old report).
+fn kept_by_hand(md: &mut String, path: &std::path::Path) {
+    let Ok(old) = std::fs::read_to_string(path) else {
+        return;
+    };
+    let mut rest = old.as_str();
+    while let Some(start) = rest.find(BY_HAND_BEGIN) {
+        let Some(length) = rest[start..].find(BY_HAND_END) else {
+            break;
+        };
+        let end = start + length + BY_HAND_END.len();
+        md.push_str(&rest[start..end]);
+        md.push_str("\n\n");
+        rest = &rest[end..];
+    }
 }
 
 /// Copies the peers' comparison (written by `validation/side_by_side.py`, which runs scikit-fem,

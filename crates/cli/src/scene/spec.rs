@@ -587,8 +587,10 @@ pub struct AnalysisSpec {
     #[serde(default)]
     pub linear_solver: Option<LinearMethod>,
     /// Dynamic, implicit methods with a nonlinear model: how each Newton iteration solves,
-    /// `"rest_preconditioned"` (default: CG preconditioned by the rest-state factor, with a
-    /// fallback to factoring) or `"refactor"` (a factorization per Newton iteration).
+    /// `"auto"` (default: `"refactor"` below 1,000 free DOFs, `"rest_preconditioned"` above),
+    /// `"rest_preconditioned"` (CG preconditioned by the rest-state factor turned by the nodes'
+    /// rotations, with a fallback to factoring) or `"refactor"` (a factorization per Newton
+    /// iteration).
     #[serde(default)]
     pub nonlinear_solver: Option<NonlinearSolverName>,
     /// Static: the target relative energy-norm error (0 < a < 1) tetfem chooses the element
@@ -624,8 +626,12 @@ impl SceneSpec {
 #[derive(Debug, Clone, Copy, Default, Deserialize, PartialEq, Eq, serde::Serialize)]
 #[serde(rename_all = "snake_case")]
 pub enum NonlinearSolverName {
-    /// [`NonlinearSolve::default`]: CG preconditioned by the rest-state factor.
+    /// [`NonlinearSolve::Auto`]: refactoring on small meshes, the preconditioned path on
+    /// larger ones.
     #[default]
+    Auto,
+    /// [`NonlinearSolve::RestPreconditionedCg`]: CG preconditioned by the rest-state factor
+    /// turned by the nodes' rotations.
     RestPreconditioned,
     /// [`NonlinearSolve::Refactor`]: a factorization per Newton iteration.
     Refactor,
@@ -635,7 +641,10 @@ impl NonlinearSolverName {
     /// The library's option of this name.
     pub fn solve(self) -> NonlinearSolve {
         match self {
-            NonlinearSolverName::RestPreconditioned => NonlinearSolve::default(),
+            NonlinearSolverName::Auto => NonlinearSolve::Auto,
+            NonlinearSolverName::RestPreconditioned => {
+                NonlinearSolve::Auto.for_size(tetfem::dynamics::AUTO_REFACTOR_BELOW)
+            }
             NonlinearSolverName::Refactor => NonlinearSolve::Refactor,
         }
     }
