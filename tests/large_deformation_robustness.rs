@@ -391,10 +391,9 @@ fn newton_twists_a_block_by_90_degrees_with_prescribed_displacements_only() {
     }
 }
 
-#[test]
-fn the_total_energy_is_the_same_bits_on_any_number_of_threads() {
-    // rayon's unordered `sum` differed in the last bit from run to run (seen in the energy
-    // column of a nonlinear dynamic CSV); fixed chunks summed in order must not.
+/// A 3 × 1 × 1 bar of 9216 tets (two of the internal force's parallel blocks) and a random
+/// displacement of up to 0.05 per DOF drawn from `seed`.
+fn bar_with_random_displacement(seed: u64) -> (TetMesh, Vec<f64>) {
     let mesh = TetMesh::box_grid(
         Vector3::zeros(),
         Vector3::new(3.0, 1.0, 1.0),
@@ -402,10 +401,18 @@ fn the_total_energy_is_the_same_bits_on_any_number_of_threads() {
         tetfem::BoxSplit::Mirrored6,
     )
     .unwrap();
-    let mut rng = Rng::new(91);
-    let u: Vec<f64> = (0..mesh.dof_count())
+    let mut rng = Rng::new(seed);
+    let u = (0..mesh.dof_count())
         .map(|_| rng.range(-0.05, 0.05))
         .collect();
+    (mesh, u)
+}
+
+#[test]
+fn the_total_energy_is_the_same_bits_on_any_number_of_threads() {
+    // rayon's unordered `sum` differed in the last bit from run to run (seen in the energy
+    // column of a nonlinear dynamic CSV); fixed chunks summed in order must not.
+    let (mesh, u) = bar_with_random_displacement(91);
     for kind in [
         ModelKind::Corotational,
         ModelKind::NeoHookean,
@@ -429,5 +436,40 @@ fn the_total_energy_is_the_same_bits_on_any_number_of_threads() {
             "{}: {energies:?}",
             kind.name()
         );
+    }
+}
+
+/// The internal force computes tets in parallel blocks but adds them in tet order: on 1, 2 and
+/// 3 threads it has the bits of adding one tet's force after another (9216 tets: two blocks).
+#[test]
+fn the_internal_force_is_the_serial_sum_bit_for_bit_on_any_number_of_threads() {
+    use tetfem::model::ModelElement;
+    let (mesh, u) = bar_with_random_displacement(17);
+    for kind in [ModelKind::Corotational, ModelKind::NeoHookean] {
+        let model = kind.build(&material());
+        let mut serial = vec![0.0; mesh.dof_count()];
+        for t in 0..mesh.tet_count() {
+            <tetfem::Tet4 as ModelElement>::add_model_force(
+                model.as_ref(),
+                &mesh,
+                t,
+                &u,
+                &mut serial,
+            );
+        }
+        for threads in [1, 2, 3] {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap();
+            let blocked = pool
+                .install(|| tetfem::model::assemble::internal_force(&mesh, model.as_ref(), &u))
+                .unwrap();
+            let same = blocked
+                .iter()
+                .zip(&serial)
+                .all(|(a, b)| a.to_bits() == b.to_bits());
+            assert!(same, "{} on {threads} threads", kind.name());
+        }
     }
 }

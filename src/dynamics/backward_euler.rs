@@ -50,6 +50,11 @@ pub struct BackwardEuler {
     load: Vec<f64>,
     /// The Newton solver of a nonlinear force (`None`: the linear path).
     newton: Option<NewtonSolver>,
+    /// The nonlinear path's last acceleration a = (v⁺ − v)/dt (length/time², free DOFs) and
+    /// the (steps, time) of the state it ends at: the next step's first Newton iterate is
+    /// u + dt·v + dt²·a (a quadratic extrapolation of the last three positions), for that
+    /// state only. Kept in checkpoints, so a resumed run takes the same iterations.
+    acceleration: Option<(Vec<f64>, (usize, f64))>,
 }
 
 impl BackwardEuler {
@@ -95,6 +100,7 @@ impl BackwardEuler {
             blocks_work: system.stiffness_blocks().workspace(),
             load: system.load_buffer(),
             newton,
+            acceleration: None,
             system,
         })
     }
@@ -125,6 +131,14 @@ impl BackwardEuler {
         {
             *p = u + dt * v;
         }
+        let guess: Option<Vec<f64>> = match &self.acceleration {
+            Some((a, of)) if *of == (state.steps, state.time) => Some(
+                (self.work.iter().zip(a))
+                    .map(|(p, a)| p + dt * dt * a)
+                    .collect(),
+            ),
+            _ => None,
+        };
         let equation = StepEquation {
             mass_scale: 1.0 / (dt * dt),
             damping_scale: 1.0 / dt,
@@ -132,6 +146,7 @@ impl BackwardEuler {
             start: &state.displacement,
             damping_velocity: None,
             duration: dt,
+            first_iterate: guess.as_deref(),
         };
         newton.solve(
             &self.system,
@@ -142,17 +157,23 @@ impl BackwardEuler {
             state.steps,
             state.time,
         )?;
-        for ((u, v), u_new) in state
+        let mut acceleration = self.acceleration.take().map_or_else(Vec::new, |(a, _)| a);
+        acceleration.resize(n, 0.0);
+        for (((u, v), a), u_new) in state
             .displacement
             .iter_mut()
             .zip(state.velocity.iter_mut())
+            .zip(acceleration.iter_mut())
             .zip(&self.rhs)
         {
-            *v = (u_new - *u) / dt;
+            let v_new = (u_new - *u) / dt;
+            *a = (v_new - *v) / dt;
+            *v = v_new;
             *u = *u_new;
         }
         state.time += dt;
         state.steps += 1;
+        self.acceleration = Some((acceleration, (state.steps, state.time)));
         state.ensure_finite("")
     }
 
@@ -276,7 +297,7 @@ impl Integrator for BackwardEuler {
         Ok(IntegratorHistory {
             method: self.name().into(),
             guard: self.guard,
-            acceleration: None,
+            acceleration: self.acceleration.as_ref().map(|(a, _)| a.clone()),
             newton: self.newton_stats(),
         })
     }
@@ -284,6 +305,7 @@ impl Integrator for BackwardEuler {
     fn restore(&mut self, state: &State, history: &IntegratorHistory) -> Result<()> {
         history.check(self.name(), self.system.free_count(), state)?;
         self.guard = history.guard;
+        self.acceleration = (history.acceleration.clone()).map(|a| (a, (state.steps, state.time)));
         if let (Some(newton), Some(stats)) = (self.newton.as_mut(), history.newton) {
             newton.set_stats(stats);
         }

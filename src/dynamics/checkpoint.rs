@@ -49,8 +49,10 @@ pub struct IntegratorHistory {
     pub guard: Option<DivergenceGuard>,
     /// Newmark: the acceleration a (length/time², free DOFs) of the state, from the method's
     /// update a⁺ = 4/dt²·(u⁺ − u) − 4/dt·v − a, which differs from the equation of motion's
-    /// M⁻¹(f − K·u − C·v) by round-off (and by more with a nonlinear model); `None` for the
-    /// other methods and before Newmark's first step.
+    /// M⁻¹(f − K·u − C·v) by round-off (and by more with a nonlinear model). Backward Euler
+    /// with a nonlinear model: the last step's (v⁺ − v)/dt, from which the next step's Newton
+    /// iterations start (u + dt·v + dt²·a). `None` for the other methods and before the first
+    /// step.
     pub acceleration: Option<Vec<f64>>,
     /// The Newton iteration counts so far of an implicit method with a nonlinear model (`None`
     /// otherwise), so that a resumed run reports the counts of the whole run.

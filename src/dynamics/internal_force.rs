@@ -449,6 +449,35 @@ impl NonlinearForce {
         Ok(())
     }
 
+    /// [`force_into`](Self::force_into), returning the [`potential_energy`](Self::potential_energy)
+    /// at `u` from the same pass over the tets (its last bits may differ from
+    /// `potential_energy`'s, which sums the tets in another order).
+    pub fn force_and_energy_into(
+        &self,
+        u: &[f64],
+        work: &mut ForceWorkspace,
+        out: &mut [f64],
+    ) -> Result<f64> {
+        Error::check_len("displacement", self.free_count(), u.len())?;
+        Error::check_len("force", self.free_count(), out.len())?;
+        self.expand_into(u, &mut work.full);
+        let (mut full, mut energy) = self
+            .mesh
+            .internal_force_and_energy(self.models.as_ref(), &work.full)?;
+        if let Some(contact) = &self.contact {
+            contact.add_force(&work.full, &mut full)?;
+            energy += contact.energy(&work.full)?;
+            if let Some(lag) = self.friction_lock().as_ref() {
+                contact.add_friction_force(lag, &work.full, &mut full)?;
+                energy += contact.friction_energy(lag, &work.full)?;
+            }
+        }
+        for (o, &d) in out.iter_mut().zip(&self.free_dofs) {
+            *o = full[d];
+        }
+        Ok(energy)
+    }
+
     /// K_T(u) = −∂f_int/∂u (plus the contact Hessian, with contact) on the free DOFs into `out` (on K_ff's pattern, see
     /// [`zero_tangent`](Self::zero_tangent)), every element tangent projected onto the positive
     /// semi-definite cone when `project` is set ([`crate::model::project_psd`]).
@@ -515,6 +544,11 @@ trait ForceMesh: Send + Sync {
     fn dof_count(&self) -> usize;
     fn energy(&self, models: &(dyn TetModels + Send), u: &[f64]) -> Result<f64>;
     fn internal_force(&self, models: &(dyn TetModels + Send), u: &[f64]) -> Result<Vec<f64>>;
+    fn internal_force_and_energy(
+        &self,
+        models: &(dyn TetModels + Send),
+        u: &[f64],
+    ) -> Result<(Vec<f64>, f64)>;
     fn refill_tangent(
         &self,
         assembler: &Assembler,
@@ -542,6 +576,14 @@ impl<E: ModelElement> ForceMesh for TetMesh<E> {
 
     fn internal_force(&self, models: &(dyn TetModels + Send), u: &[f64]) -> Result<Vec<f64>> {
         internal_force(self, models, u)
+    }
+
+    fn internal_force_and_energy(
+        &self,
+        models: &(dyn TetModels + Send),
+        u: &[f64],
+    ) -> Result<(Vec<f64>, f64)> {
+        crate::model::assemble::internal_force_and_energy(self, models, u)
     }
 
     fn refill_tangent(

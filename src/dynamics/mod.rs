@@ -19,6 +19,7 @@ mod energy;
 mod explicit;
 mod inertia;
 mod internal_force;
+mod lbfgs;
 mod newmark;
 mod newton;
 mod nodal_rotation;
@@ -44,7 +45,7 @@ pub use internal_force::{ForceWorkspace, InternalForce, NonlinearForce};
 pub use newmark::Newmark;
 pub use newton::{NewtonStats, StepNewtonOptions};
 pub use nonlinear_euler::NonlinearBackwardEuler;
-pub use nonlinear_solve::{AUTO_REFACTOR_BELOW, NonlinearSolve};
+pub use nonlinear_solve::{AUTO_LBFGS_HISTORY, AUTO_REFACTOR_BELOW, NonlinearSolve};
 pub use reactions::SupportReactions;
 pub use stability::{
     Certificate, CriticalStep, CriticalStepOptions, DivergenceGuard, critical_time_step,

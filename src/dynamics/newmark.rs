@@ -133,6 +133,10 @@ impl Newmark {
         for i in 0..n {
             self.work[i] = u[i] + dt * v[i] + 0.25 * dt * dt * a[i];
         }
+        // u⁺ = ũ + dt²/4·a⁺: with a⁺ ≈ a, the first guess.
+        let guess: Vec<f64> = (0..n)
+            .map(|i| self.work[i] + 0.25 * dt * dt * a[i])
+            .collect();
         let equation = StepEquation {
             mass_scale: 4.0 / (dt * dt),
             damping_scale: 2.0 / dt,
@@ -140,6 +144,7 @@ impl Newmark {
             start: u,
             damping_velocity: Some(v),
             duration: dt,
+            first_iterate: Some(&guess),
         };
         newton.solve(
             &self.system,

@@ -4,6 +4,7 @@
 use std::sync::Arc;
 
 use super::internal_force::{ForceWorkspace, NonlinearForce, combine};
+use super::lbfgs::LbfgsMemory;
 use super::nodal_rotation::NodalRotations;
 use super::{LinearSystem, Mass, NonlinearSolve};
 use crate::error::{Error, Result};
@@ -62,7 +63,8 @@ pub struct NewtonStats {
     /// Steps solved.
     pub steps: usize,
     /// Newton iterations (each: one tangent assembly and one linear solve: a numerical
-    /// factorization and its triangular solves, or preconditioned CG) over all steps.
+    /// factorization and its triangular solves, or preconditioned CG) over all steps; on the
+    /// L-BFGS path, its iterations (each one force evaluation and one turned solve).
     pub total_iterations: usize,
     /// The most iterations one step took.
     pub max_per_step: usize,
@@ -76,7 +78,8 @@ pub struct NewtonStats {
     /// fallback counts its whole budget.
     pub cg_iterations: usize,
     /// Newton iterations whose CG ran out of its budget (or met non-positive curvature) and
-    /// fell back to a factorization of the current Newton matrix.
+    /// fell back to a factorization of the current Newton matrix; on the L-BFGS path, also the
+    /// steps that went on with preconditioned CG.
     pub fallbacks: usize,
 }
 
@@ -105,6 +108,11 @@ pub(crate) struct StepEquation<'a> {
     pub damping_velocity: Option<&'a [f64]>,
     /// The step dt (time): moving obstacles go to their placement at `time + duration`.
     pub duration: f64,
+    /// A guess of u' nearer than `start` (length; backward Euler: u + dt·v + dt²·a with the
+    /// last step's acceleration), which the iterations start from when its residual is the
+    /// smaller one; `None` to start at `start`. Not taken with contact: `start` is the iterate
+    /// known to be free of penetration. The convergence test is the same either way.
+    pub first_iterate: Option<&'a [f64]>,
 }
 
 /// Most stages a step may take to move the obstacles to their end-of-step placement (see
@@ -133,6 +141,12 @@ pub(crate) struct NewtonSolver {
     /// K_T(u) of the step's start (projected), when β > 0.
     damping_tangent: Option<CscMatrix>,
     internal: Vec<f64>,
+    /// The potential energy (elastic plus contact) at `internal_at`, from the same pass.
+    internal_energy: f64,
+    /// The potential energies at the points `residual` and `trial_residual` were evaluated at:
+    /// the line search's Φ needs no pass of its own over the tets.
+    residual_energy: f64,
+    trial_energy: f64,
     /// The free displacement `internal` is the force at, when `internal_valid`.
     internal_at: Vec<f64>,
     internal_valid: bool,
@@ -148,6 +162,10 @@ pub(crate) struct NewtonSolver {
     /// inertia scale, and the contact force of a moving obstacle's stage (whose own r₀ is what
     /// the last small move left); 0 without contact.
     reference_floor: f64,
+    /// The correction pairs of [`NonlinearSolve::RestPreconditionedLbfgs`] (`None` otherwise).
+    memory: Option<LbfgsMemory>,
+    /// The current step has left L-BFGS for preconditioned CG.
+    quasi_newton_failed: bool,
 }
 
 impl std::fmt::Debug for NewtonSolver {
@@ -172,7 +190,7 @@ impl NewtonSolver {
         options.check()?;
         solve.check()?;
         let n = force.free_count();
-        let solve = solve.for_size(n);
+        let solve = solve.for_problem(n, force.contact().is_some());
         Error::check_len("nonlinear force free DOFs", system.free_count(), n)?;
         Ok(NewtonSolver {
             work: force.workspace()?,
@@ -193,6 +211,9 @@ impl NewtonSolver {
             internal: vec![0.0; n],
             internal_at: vec![0.0; n],
             internal_valid: false,
+            internal_energy: 0.0,
+            residual_energy: 0.0,
+            trial_energy: 0.0,
             residual: vec![0.0; n],
             trial: vec![0.0; n],
             trial_residual: vec![0.0; n],
@@ -201,6 +222,13 @@ impl NewtonSolver {
             scratch: vec![0.0; n],
             stats: NewtonStats::default(),
             reference_floor: 0.0,
+            memory: match solve {
+                NonlinearSolve::RestPreconditionedLbfgs { history } => {
+                    Some(LbfgsMemory::new(history))
+                }
+                _ => None,
+            },
+            quasi_newton_failed: false,
         })
     }
 
@@ -229,8 +257,9 @@ impl NewtonSolver {
         out: &mut [f64],
     ) -> Result<()> {
         let damping = system.damping();
-        self.force
-            .force_into(u, &mut self.work, &mut self.internal)?;
+        self.internal_energy =
+            self.force
+                .force_and_energy_into(u, &mut self.work, &mut self.internal)?;
         self.internal_at.copy_from_slice(u);
         self.internal_valid = true;
         system.mass().product_into(v, &mut self.scratch);
@@ -265,10 +294,15 @@ impl NewtonSolver {
             && self.internal_valid
             && self.internal_at.as_slice() == u_new;
         if !cached {
-            self.force
-                .force_into(u_new, &mut self.work, &mut self.internal)?;
+            self.internal_energy =
+                self.force
+                    .force_and_energy_into(u_new, &mut self.work, &mut self.internal)?;
             self.internal_at.copy_from_slice(u_new);
             self.internal_valid = true;
+        }
+        match out_is_trial {
+            true => self.trial_energy = self.internal_energy,
+            false => self.residual_energy = self.internal_energy,
         }
         let (s_m, s_c) = (equation.mass_scale, equation.damping_scale);
         let vc = |i: usize| equation.damping_velocity.map_or(0.0, |v| v[i]);
@@ -298,12 +332,31 @@ impl NewtonSolver {
         Ok(())
     }
 
-    /// Φ(u') of `equation` (see [`StepEquation`]).
+    /// Φ at the line search's start `u_new` (its energy from the residual's pass), computed at
+    /// most once per line search: `cache` holds it after the first call.
+    fn start_potential(
+        &self,
+        cache: &mut Option<f64>,
+        system: &LinearSystem,
+        equation: &StepEquation,
+        u_new: &[f64],
+    ) -> Result<f64> {
+        if let Some(phi) = *cache {
+            return Ok(phi);
+        }
+        let phi = self.potential(system, equation, u_new, self.residual_energy)?;
+        *cache = Some(phi);
+        Ok(phi)
+    }
+
+    /// Φ(u') of `equation` (see [`StepEquation`]), `energy` the potential energy (elastic plus
+    /// contact) at u', from its residual's evaluation.
     fn potential(
         &self,
         system: &LinearSystem,
         equation: &StepEquation,
         u_new: &[f64],
+        energy: f64,
     ) -> Result<f64> {
         let damping = system.damping();
         let n = u_new.len();
@@ -325,7 +378,7 @@ impl NewtonSolver {
             }
         }
         let load = dot(system.external_load(), u_new);
-        Ok(phi + self.force.potential_energy(u_new)? - load)
+        Ok(phi + energy - load)
     }
 
     /// Solves `equation` for u' by Newton's method into `u_new` (any length-n buffer; it starts
@@ -477,6 +530,10 @@ impl NewtonSolver {
         let damping = system.damping();
         let (s_m, s_c) = (equation.mass_scale, equation.damping_scale);
         let diverged = |reason: String| Error::Diverged { step, time, reason };
+        if let Some(memory) = &mut self.memory {
+            memory.clear();
+        }
+        self.quasi_newton_failed = false;
         self.residual_into(system, equation, u_new, false)?;
         let mut r_norm = norm(&self.residual);
         if !r_norm.is_finite() {
@@ -488,13 +545,30 @@ impl NewtonSolver {
         let reference = r_norm
             .max(norm(system.external_load()))
             .max(self.reference_floor);
+        if let Some(guess) = equation
+            .first_iterate
+            .filter(|_| self.force.contact().is_none())
+        {
+            self.residual_into(system, equation, guess, true)?;
+            let guessed = norm(&self.trial_residual);
+            if guessed < r_norm {
+                u_new.copy_from_slice(guess);
+                std::mem::swap(&mut self.residual, &mut self.trial_residual);
+                std::mem::swap(&mut self.residual_energy, &mut self.trial_energy);
+                r_norm = guessed;
+            }
+        }
         let mut iterations = 0;
+        let mut budget = self.options.max_iterations;
         while r_norm > self.options.tolerance * reference {
-            if iterations == self.options.max_iterations {
-                return Err(diverged(format!(
-                    "Newton did not converge in {} iterations (residual {r_norm:.3e} of {reference:.3e}); a smaller dt helps",
-                    self.options.max_iterations
-                )));
+            if iterations == budget {
+                if self.leave_quasi_newton() {
+                    budget += self.options.max_iterations;
+                } else {
+                    return Err(diverged(format!(
+                        "Newton did not converge in {budget} iterations (residual {r_norm:.3e} of {reference:.3e}); a smaller dt helps"
+                    )));
+                }
             }
             self.newton_direction(
                 system,
@@ -502,6 +576,7 @@ impl NewtonSolver {
                 (s_m + s_c * damping.alpha, s_c * damping.beta),
                 matrix,
                 solver,
+                iterations == 0,
             )?;
             // With contact: never past the first time of impact (IPC's 0.8 of it), and only a
             // decrease of Φ (up to its round-off) is accepted, so no iterate penetrates.
@@ -524,20 +599,15 @@ impl NewtonSolver {
                 evaluated?;
                 let trial_norm = norm(&self.trial_residual);
                 let better = if with_contact {
-                    let start = match phi {
-                        Some(p) => p,
-                        None => *phi.insert(self.potential(system, equation, u_new)?),
-                    };
-                    let trial_phi = self.potential(system, equation, &self.trial)?;
+                    let start = self.start_potential(&mut phi, system, equation, u_new)?;
+                    let trial_phi =
+                        self.potential(system, equation, &self.trial, self.trial_energy)?;
                     trial_phi < start
                         || (trial_norm < r_norm && trial_phi <= start + 1e-12 * start.abs())
                 } else {
                     trial_norm < r_norm || {
-                        let start = match phi {
-                            Some(p) => p,
-                            None => *phi.insert(self.potential(system, equation, u_new)?),
-                        };
-                        self.potential(system, equation, &self.trial)? < start
+                        let start = self.start_potential(&mut phi, system, equation, u_new)?;
+                        self.potential(system, equation, &self.trial, self.trial_energy)? < start
                     }
                 };
                 if better {
@@ -557,13 +627,25 @@ impl NewtonSolver {
             if !accepted && negligible {
                 break;
             }
+            if !accepted && self.leave_quasi_newton() {
+                budget = iterations + self.options.max_iterations;
+                continue;
+            }
             if !accepted {
                 return Err(diverged(format!(
                     "the Newton line search found no decrease (residual {r_norm:.3e} of {reference:.3e}); a smaller dt helps"
                 )));
             }
+            if let Some(memory) = self.memory.as_mut().filter(|_| !self.quasi_newton_failed) {
+                let step = self.delta.iter().map(|d| alpha * d).collect();
+                let change = (self.trial_residual.iter().zip(&self.residual))
+                    .map(|(new, old)| new - old)
+                    .collect();
+                memory.push(step, change);
+            }
             u_new.copy_from_slice(&self.trial);
             std::mem::swap(&mut self.residual, &mut self.trial_residual);
+            std::mem::swap(&mut self.residual_energy, &mut self.trial_energy);
             iterations += 1;
             let before = r_norm;
             r_norm = norm(&self.residual);
@@ -575,6 +657,17 @@ impl NewtonSolver {
             }
         }
         Ok(self.record(iterations))
+    }
+
+    /// On the L-BFGS path, switches the rest of the step to preconditioned CG and returns
+    /// `true` (once per step); `false` on any other path or when switched already.
+    fn leave_quasi_newton(&mut self) -> bool {
+        if self.memory.is_none() || self.quasi_newton_failed {
+            return false;
+        }
+        self.quasi_newton_failed = true;
+        self.stats.fallbacks += 1;
+        true
     }
 
     /// Counts a solved step of `iterations` iterations.
@@ -613,7 +706,9 @@ impl NewtonSolver {
 
     /// δ = −J(u')⁻¹·r into `delta`, J = mass_scale·M + damping_stiffness·K_T(u_start) + K_T(u'),
     /// as [`NonlinearSolve`] says: J factored, or preconditioned CG on J with the factor kept
-    /// (of the rest matrix J₀, or of the last J that CG could not solve within its budget).
+    /// (of the rest matrix J₀, or of the last J that CG could not solve within its budget); or
+    /// δ = −H·r with L-BFGS's H, its H₀ the rest factor turned by the rotations at the step's
+    /// `first` iterate.
     fn newton_direction(
         &mut self,
         system: &LinearSystem,
@@ -621,16 +716,36 @@ impl NewtonSolver {
         (mass_scale, damping_stiffness): (f64, f64),
         matrix: &mut CscMatrix,
         solver: &mut LinearSolver,
+        first: bool,
     ) -> Result<()> {
         for (d, r) in self.delta.iter_mut().zip(&self.residual) {
             *d = -r;
         }
+        let key = (mass_scale, damping_stiffness);
+        let quasi_newton = self.memory.is_some() && !self.quasi_newton_failed && solver.is_direct();
+        if quasi_newton {
+            self.ensure_rest_factor(system, key, matrix, solver)?;
+        }
+        if let (Some(memory), Some(rotations), true) =
+            (&mut self.memory, &mut self.rotations, quasi_newton)
+        {
+            if first {
+                rotations.update(&self.force, u_new, &mut self.work)?;
+            }
+            let rotations = &*rotations;
+            let mut initial = |v: &mut [f64]| -> Result<()> {
+                rotations.to_rotated_frame(v);
+                solver.solve(matrix, v)?;
+                rotations.back_from_rotated_frame(v);
+                Ok(())
+            };
+            return memory.apply(&mut self.delta, &mut initial);
+        }
         if let NonlinearSolve::RestPreconditionedCg {
             max_cg_iterations,
             forcing,
-        } = self.solve
+        } = self.cg_settings()
         {
-            let key = (mass_scale, damping_stiffness);
             self.ensure_rest_factor(system, key, matrix, solver)?;
             self.form_newton_matrix(system, u_new, false, key, matrix)?;
             let cg = CgOptions {
@@ -677,6 +792,15 @@ impl NewtonSolver {
         self.delta = delta;
         solved?;
         Ok(())
+    }
+
+    /// The preconditioned-CG settings in force: the chosen ones, those an L-BFGS step falls
+    /// back on, or [`NonlinearSolve::Refactor`].
+    fn cg_settings(&self) -> NonlinearSolve {
+        match self.solve {
+            NonlinearSolve::RestPreconditionedLbfgs { .. } => super::nonlinear_solve::AUTO_CG,
+            other => other,
+        }
     }
 
     /// J = mass_scale·M + damping_stiffness·K_T(u_start) + K_T(u') into `matrix`, every element

@@ -68,10 +68,23 @@ pub fn internal_force<E: ModelElement>(
     check_displacement(mesh, u)?;
     model.check_covers(mesh.tet_count())?;
     let mut force = vec![0.0; mesh.dof_count()];
-    for t in 0..mesh.tet_count() {
-        E::add_model_force(model.model_of(t), mesh, t, u, &mut force);
-    }
+    E::add_model_forces(mesh, model, u, &mut force);
     Ok(force)
+}
+
+/// [`internal_force`] and the total elastic energy Σₑ Eₑ (energy units) in one pass over the
+/// tets: the same force bits, and the energy summed in tet order (its last bits may differ from
+/// [`energy`]'s, which sums fixed chunks).
+pub fn internal_force_and_energy<E: ModelElement>(
+    mesh: &TetMesh<E>,
+    model: &(impl TetModels + ?Sized),
+    u: &[f64],
+) -> Result<(Vec<f64>, f64)> {
+    check_displacement(mesh, u)?;
+    model.check_covers(mesh.tet_count())?;
+    let mut force = vec![0.0; mesh.dof_count()];
+    let energy = E::add_model_forces_and_energy(mesh, model, u, &mut force);
+    Ok((force, energy))
 }
 
 /// Refills `tangent` (on `assembler`'s pattern) with Σₑ (element tangent), each projected onto

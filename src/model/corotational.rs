@@ -106,6 +106,19 @@ impl ForceModel for Corotational {
         piola_to_force(tet, &self.piola(&f, &r, &s))
     }
 
+    fn force_and_energy(
+        &self,
+        tet: &Tet,
+        _rest: &[Vector3<f64>; 4],
+        x: &[Vector3<f64>; 4],
+    ) -> (Vector12, f64) {
+        let (f, r, s) = Self::kinematics(tet, x);
+        (
+            piola_to_force(tet, &self.piola(&f, &r, &s)),
+            tet.volume() * self.density(&f, &r, &s),
+        )
+    }
+
     fn tangent(&self, tet: &Tet, _rest: &[Vector3<f64>; 4], x: &[Vector3<f64>; 4]) -> Matrix12 {
         let (_, r, s) = Self::kinematics(tet, x);
         tangent_from_piola_derivative(tet, self.piola_direction(r, s))

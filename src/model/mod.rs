@@ -51,6 +51,17 @@ pub trait ForceModel: ConstitutiveLaw + Sync + Send {
     fn energy(&self, tet: &Tet, rest: &[Vector3<f64>; 4], x: &[Vector3<f64>; 4]) -> f64;
     /// Internal elastic force on the four nodes, f = −∂E/∂x (node-major 12-vector).
     fn force(&self, tet: &Tet, rest: &[Vector3<f64>; 4], x: &[Vector3<f64>; 4]) -> Vector12;
+    /// [`force`](Self::force) and [`energy`](Self::energy) together, for a model whose two
+    /// share their costly kinematics (the corotational model's polar decomposition): what a
+    /// minimization's line search needs at every trial point.
+    fn force_and_energy(
+        &self,
+        tet: &Tet,
+        rest: &[Vector3<f64>; 4],
+        x: &[Vector3<f64>; 4],
+    ) -> (Vector12, f64) {
+        (self.force(tet, rest, x), self.energy(tet, rest, x))
+    }
     /// Tangent stiffness −∂f/∂x (12×12, symmetric; may be indefinite: see [`project_psd`]).
     fn tangent(&self, tet: &Tet, rest: &[Vector3<f64>; 4], x: &[Vector3<f64>; 4]) -> Matrix12;
     /// Cauchy (true) stress σ of the tet at deformed positions `x` (stress units, Pa in SI),

@@ -236,10 +236,12 @@ impl Chart {
                     .configure_mesh()
                     .x_desc(&self.x_label)
                     .y_desc(&self.y_label)
+                    .x_labels(20)
+                    .y_labels(20)
                     .label_style(("sans-serif", 14))
                     .axis_desc_style(("sans-serif", 16))
-                    .x_label_formatter(&|v| format_tick(*v, self.log_x))
-                    .y_label_formatter(&|v| format_tick(*v, self.log_y))
+                    .x_label_formatter(&|v| format_tick(*v, self.log_x, (x0, x1)))
+                    .y_label_formatter(&|v| format_tick(*v, self.log_y, (y0, y1)))
                     .draw()
                     .map_err(|e| fail(e.to_string()))?;
                 for (k, series) in self.series.iter().enumerate() {
@@ -286,12 +288,19 @@ impl Chart {
                     .map_err(|e| fail(e.to_string()))?;
             }};
         }
+        // plotters labels a log axis only from its first power of ten on, which leaves a
+        // narrow range (say 2.3 … 110) with one label; our own ticks label 2 and 5 as well.
+        let log_axis = |lo: f64, hi: f64| {
+            let (bold, light) = log_ticks(lo, hi);
+            (lo..hi)
+                .log_scale()
+                .with_key_points(bold)
+                .with_light_points(light)
+        };
         match (self.log_x, self.log_y) {
-            (true, true) => {
-                render!(builder.build_cartesian_2d((x0..x1).log_scale(), (y0..y1).log_scale()))
-            }
-            (true, false) => render!(builder.build_cartesian_2d((x0..x1).log_scale(), y0..y1)),
-            (false, true) => render!(builder.build_cartesian_2d(x0..x1, (y0..y1).log_scale())),
+            (true, true) => render!(builder.build_cartesian_2d(log_axis(x0, x1), log_axis(y0, y1))),
+            (true, false) => render!(builder.build_cartesian_2d(log_axis(x0, x1), y0..y1)),
+            (false, true) => render!(builder.build_cartesian_2d(x0..x1, log_axis(y0, y1))),
             (false, false) => render!(
                 builder.build_cartesian_2d::<RangedCoordf64, RangedCoordf64>(
                     (x0..x1).into(),
@@ -303,9 +312,32 @@ impl Chart {
     }
 }
 
-/// Compact tick labels: plain numbers in a readable range, scientific notation outside it; on a
-/// log axis only 1, 2 and 5 times a power of ten are labelled, so labels never collide.
-fn format_tick(v: f64, log: bool) -> String {
+/// Ticks of a log axis over `lo … hi`: bold (labelled) at 1, 2 and 5 times each power of ten
+/// when the axis spans at most three decades, else at the powers of ten alone; light at every
+/// integer multiple of a power of ten.
+fn log_ticks(lo: f64, hi: f64) -> (Vec<f64>, Vec<f64>) {
+    let few_decades = hi / lo <= 1e3;
+    let (mut bold, mut light) = (Vec::new(), Vec::new());
+    for exponent in (lo.log10().floor() as i32)..=(hi.log10().ceil() as i32) {
+        for mantissa in 1..=9 {
+            let v = f64::from(mantissa) * 10f64.powi(exponent);
+            if v < lo || v > hi {
+                continue;
+            }
+            light.push(v);
+            if mantissa == 1 || (few_decades && (mantissa == 2 || mantissa == 5)) {
+                bold.push(v);
+            }
+        }
+    }
+    (bold, light)
+}
+
+/// Compact tick labels, one notation per axis: plain numbers when the axis `range` lies within
+/// 1e-3 … 1e5, scientific notation for every tick otherwise (so "0.01" never sits beside
+/// "1e-4"); on a log axis only 1, 2 and 5 times a power of ten are labelled, so labels never
+/// collide.
+fn format_tick(v: f64, log: bool, (lo, hi): (f64, f64)) -> String {
     let a = v.abs();
     if log && a > 0.0 {
         let mantissa = a / 10f64.powf(a.log10().floor());
@@ -316,11 +348,15 @@ fn format_tick(v: f64, log: bool) -> String {
             return String::new();
         }
     }
+    let plain = |x: f64| x == 0.0 || (1e-3..1e5).contains(&x.abs());
     if a == 0.0 {
         "0".into()
-    } else if (1e-3..1e5).contains(&a) {
+    } else if plain(lo) && plain(hi) {
         let s = format!("{v:.4}");
         s.trim_end_matches('0').trim_end_matches('.').to_string()
+    } else if log {
+        // The mantissa is 1, 2 or 5 here, so no digit is lost.
+        format!("{v:.0e}")
     } else {
         format!("{v:.1e}")
     }

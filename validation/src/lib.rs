@@ -3,4 +3,5 @@
 //! timed static runs of the accuracy-per-second study ([`accuracy`]).
 
 pub mod accuracy;
+pub mod cells;
 pub mod chart;

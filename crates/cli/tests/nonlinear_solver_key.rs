@@ -57,6 +57,17 @@ fn run(solver_line: &str) -> tetfem_cli::scene::DynamicSummary {
     .unwrap()
 }
 
+/// |a − b| and |b| (Euclidean).
+fn difference_and_size(a: &[f64], b: &[f64]) -> (f64, f64) {
+    let difference = a
+        .iter()
+        .zip(b)
+        .map(|(x, y)| (x - y) * (x - y))
+        .sum::<f64>()
+        .sqrt();
+    (difference, b.iter().map(|x| x * x).sum::<f64>().sqrt())
+}
+
 /// Both values run; the tips agree to 1e-6 relative (each step's Newton residual is ≤ 1e-8 of
 /// its reference on both paths, and backward Euler does not amplify the difference: the library
 /// test `tests/corotational_step.rs` measures 1e-10 on the same beam), and the refactoring one
@@ -71,13 +82,7 @@ fn refactor_and_rest_preconditioned_give_the_same_swing() {
     assert_eq!(auto.probes[0].last, refactor.probes[0].last);
     assert_eq!(auto.newton, refactor.newton);
     let (a, b) = (default.probes[0].last, refactor.probes[0].last);
-    let difference = a
-        .iter()
-        .zip(&b)
-        .map(|(x, y)| (x - y) * (x - y))
-        .sum::<f64>()
-        .sqrt();
-    let size = b.iter().map(|x| x * x).sum::<f64>().sqrt();
+    let (difference, size) = difference_and_size(&a, &b);
     let (d, r) = (default.newton.unwrap(), refactor.newton.unwrap());
     println!(
         "tip {a:?} vs {b:?}: {:.2e} relative; default {} Newton its, {} factorizations, {} CG its; refactor {} its, {} factorizations",
@@ -91,6 +96,24 @@ fn refactor_and_rest_preconditioned_give_the_same_swing() {
     assert!(difference < 1e-6 * size, "{a:?} vs {b:?}");
     assert_eq!(r.factorizations, r.total_iterations);
     assert!(d.factorizations < r.factorizations, "{d:?} vs {r:?}");
+}
+
+/// `"rest_lbfgs"` runs the tangent-free step: the same tip to 1e-6 relative (the same Newton
+/// test on the residual, as above) from one factorization, the rest matrix's.
+#[test]
+fn rest_lbfgs_gives_the_same_swing() {
+    let lbfgs = run("nonlinear_solver = \"rest_lbfgs\"");
+    let refactor = run("nonlinear_solver = \"refactor\"");
+    let (a, b) = (lbfgs.probes[0].last, refactor.probes[0].last);
+    let (difference, size) = difference_and_size(&a, &b);
+    let stats = lbfgs.newton.unwrap();
+    println!(
+        "tip {a:?} vs {b:?}: {:.2e} relative; {stats:?}",
+        difference / size
+    );
+    assert!(difference < 1e-6 * size, "{a:?} vs {b:?}");
+    assert_eq!(stats.factorizations, 1, "{stats:?}");
+    assert_eq!(stats.cg_iterations, 0, "{stats:?}");
 }
 
 /// An unknown value is refused when the scene is read, naming its line, the value and the
@@ -111,4 +134,5 @@ fn an_unknown_nonlinear_solver_names_the_key_and_line() {
     // The scene errors' form: `swing:LINE: value: what is allowed`.
     assert!(message.contains(&format!("swing:{line}:")), "{message}");
     assert!(message.contains("rest_preconditioned"), "{message}");
+    assert!(message.contains("rest_lbfgs"), "{message}");
 }

@@ -7,6 +7,7 @@ use std::process::ExitCode;
 
 use clap::Parser;
 use tetfem_validation::accuracy::static_cantilever;
+use tetfem_validation::cells::parse_cells;
 
 /// One static cantilever solve (the peers' problem) at element order 1 or 2.
 #[derive(Debug, Parser)]
@@ -20,16 +21,6 @@ struct Cli {
     /// Solves in this process; the fastest is printed (noise on a shared machine only adds).
     #[arg(long, default_value_t = 1)]
     repeat: usize,
-}
-
-fn parse_cells(text: &str) -> Result<[usize; 3], String> {
-    let values: Vec<usize> = text
-        .split(',')
-        .map(|s| s.trim().parse::<usize>().map_err(|e| format!("'{s}': {e}")))
-        .collect::<Result<_, _>>()?;
-    values
-        .try_into()
-        .map_err(|_| format!("expected NX,NY,NZ, got '{text}'"))
 }
 
 fn main() -> ExitCode {

@@ -19,6 +19,7 @@ use tetfem::{
     Assembler, CholeskyOptions, DofMap, FillOrdering, LinearMethod, LinearSolver, SolverOptions,
 };
 use tetfem_fixtures::cantilever::Cantilever;
+use tetfem_validation::cells::parse_cells;
 use tetfem_validation::chart::{Chart, Mark, Series};
 
 /// Scale study of the static solve: time and peak memory per phase against the number of DOFs.
@@ -58,15 +59,6 @@ struct Cli {
     /// then read 0. For measuring the steps at a large size without the static solve's minutes.
     #[arg(long, value_delimiter = ',')]
     steps_only: Option<Vec<String>>,
-}
-
-fn parse_cells(text: &str) -> Result<[usize; 3], String> {
-    let v: Vec<usize> = text
-        .split(',')
-        .map(|s| s.trim().parse::<usize>().map_err(|e| format!("'{s}': {e}")))
-        .collect::<Result<_, _>>()?;
-    v.try_into()
-        .map_err(|_| format!("expected NX,NY,NZ, got '{text}'"))
 }
 
 const PHASES: [&str; 7] = [

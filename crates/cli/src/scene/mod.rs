@@ -147,12 +147,14 @@ type = "static"                     # default "static"; or "dynamic", which need
 # mass = "lumped"                   # default; or "consistent"
 # initial_velocity = [0.0, 0.0, 0.0]          # m/s, default zero
 # model = "linear"                 # default; or "corotational", "neo-hookean", "st-venant-kirchhoff" (static and every dynamic method; each [[materials]] region its own model)
-# nonlinear_solver = "auto"         # default; or "rest_preconditioned", "refactor": how the implicit
-                                    # dynamic methods' Newton iterations solve with a nonlinear model
-                                    # (CG preconditioned by the rest-state factor turned by the nodes'
-                                    # rotations, falling back to a factorization; or a factorization
-                                    # per iteration; auto: refactor below 1,000 free DOFs). All stop at
-                                    # the same Newton tolerance. Ignored by static, explicit, linear
+# nonlinear_solver = "auto"         # default; or "rest_lbfgs", "rest_preconditioned", "refactor": how
+                                    # the implicit dynamic methods solve each step with a nonlinear
+                                    # model (tangent-free L-BFGS on the rest-state factor turned by the
+                                    # nodes' rotations; CG on the tangent preconditioned by that factor,
+                                    # falling back to a factorization; or a factorization per Newton
+                                    # iteration; auto: refactor below 1,000 free DOFs, rest_lbfgs from
+                                    # there, rest_preconditioned with contact). All stop at the same
+                                    # Newton tolerance. Ignored by static, explicit, linear
 # accuracy = 0.01                  # static: a target relative energy-norm error in (0, 1) instead
                                     # of a mesh resolution: box meshes get the element order and cells
                                     # predicted cheapest (from the scene's cells, refined ≤ 2× per axis

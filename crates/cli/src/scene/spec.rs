@@ -587,10 +587,12 @@ pub struct AnalysisSpec {
     #[serde(default)]
     pub linear_solver: Option<LinearMethod>,
     /// Dynamic, implicit methods with a nonlinear model: how each Newton iteration solves,
-    /// `"auto"` (default: `"refactor"` below 1,000 free DOFs, `"rest_preconditioned"` above),
-    /// `"rest_preconditioned"` (CG preconditioned by the rest-state factor turned by the nodes'
-    /// rotations, with a fallback to factoring) or `"refactor"` (a factorization per Newton
-    /// iteration).
+    /// `"auto"` (default: `"refactor"` below 1,000 free DOFs, `"rest_lbfgs"` above, or
+    /// `"rest_preconditioned"` with contact), `"rest_lbfgs"` (tangent-free L-BFGS whose initial
+    /// inverse Hessian is the rest-state factor turned by the nodes' rotations, going on with
+    /// `"rest_preconditioned"` when it runs out of iterations), `"rest_preconditioned"` (CG on
+    /// the tangent preconditioned by that factor, with a fallback to factoring) or `"refactor"`
+    /// (a factorization per Newton iteration).
     #[serde(default)]
     pub nonlinear_solver: Option<NonlinearSolverName>,
     /// Static: the target relative energy-norm error (0 < a < 1) tetfem chooses the element
@@ -626,13 +628,16 @@ impl SceneSpec {
 #[derive(Debug, Clone, Copy, Default, Deserialize, PartialEq, Eq, serde::Serialize)]
 #[serde(rename_all = "snake_case")]
 pub enum NonlinearSolverName {
-    /// [`NonlinearSolve::Auto`]: refactoring on small meshes, the preconditioned path on
-    /// larger ones.
+    /// [`NonlinearSolve::Auto`]: refactoring on small meshes, L-BFGS (with contact:
+    /// preconditioned CG) on larger ones.
     #[default]
     Auto,
     /// [`NonlinearSolve::RestPreconditionedCg`]: CG preconditioned by the rest-state factor
     /// turned by the nodes' rotations.
     RestPreconditioned,
+    /// [`NonlinearSolve::RestPreconditionedLbfgs`]: tangent-free L-BFGS, its initial inverse
+    /// Hessian the turned rest factor.
+    RestLbfgs,
     /// [`NonlinearSolve::Refactor`]: a factorization per Newton iteration.
     Refactor,
 }
@@ -643,8 +648,11 @@ impl NonlinearSolverName {
         match self {
             NonlinearSolverName::Auto => NonlinearSolve::Auto,
             NonlinearSolverName::RestPreconditioned => {
-                NonlinearSolve::Auto.for_size(tetfem::dynamics::AUTO_REFACTOR_BELOW)
+                NonlinearSolve::Auto.for_problem(tetfem::dynamics::AUTO_REFACTOR_BELOW, true)
             }
+            NonlinearSolverName::RestLbfgs => NonlinearSolve::RestPreconditionedLbfgs {
+                history: tetfem::dynamics::AUTO_LBFGS_HISTORY,
+            },
             NonlinearSolverName::Refactor => NonlinearSolve::Refactor,
         }
     }

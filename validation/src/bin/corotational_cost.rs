@@ -1,0 +1,376 @@
+//! The large-deformation step's cost against its accuracy, charted: the swinging rubber
+//! cantilever (`tetfem_fixtures::swing`, E = 1 MPa, the lecture's 6-tet split) released from
+//! rest and run for `--steps` backward-Euler steps of `--dt`, by the linear step, the
+//! refactoring Newton step (the reference trajectory), and, at each step tolerance from 1e-8 to
+//! 1e-1, Newton with CG on the turned rest factor and tangent-free L-BFGS on it. Each run's
+//! cost is its mean step time after the first (the first holds the factorization of dt) over
+//! the linear step's, measured side by side in this one process; its error is the largest
+//! distance of its displacements from the reference's over all steps and DOFs, over the
+//! reference's largest displacement. Writes `corotational_cost.csv` and `corotational_cost.png`
+//! into `--out`; `--replot` redraws the PNG from that CSV without measuring again.
+//!
+//! `cargo run --release -p tetfem-validation --bin corotational_cost -- --cells 100,20,20`
+//! (threads: RAYON_NUM_THREADS; the Cholesky uses as many, at most two).
+
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+use std::time::Instant;
+
+use clap::Parser;
+use tetfem::BoxSplit;
+use tetfem::dynamics::{Integrator, InternalForce, NewtonStats, NonlinearSolve, State};
+use tetfem_fixtures::swing::Swing;
+use tetfem_validation::cells::parse_cells;
+use tetfem_validation::chart::{Chart, Mark, Series};
+
+/// Cost against accuracy of the corotational backward-Euler step.
+#[derive(Debug, Parser)]
+struct Cli {
+    /// Cells NX,NY,NZ of the 0.5 × 0.05 × 0.05 m beam.
+    #[arg(long, value_parser = parse_cells, default_value = "50,10,10")]
+    cells: [usize; 3],
+    /// Time step (s).
+    #[arg(long, default_value_t = 0.01)]
+    dt: f64,
+    /// Steps from rest (20 steps of 10 ms turn the tip by 38°).
+    #[arg(long, default_value_t = 20)]
+    steps: usize,
+    /// Folder for the CSV and the PNG.
+    #[arg(long, default_value = "validation/report")]
+    out: PathBuf,
+    /// Redraw the PNG from the CSV already in `--out` instead of measuring.
+    #[arg(long)]
+    replot: bool,
+}
+
+/// The step tolerances charted, loosest last.
+const TOLERANCES: [f64; 7] = [1e-8, 1e-6, 1e-4, 1e-3, 1e-2, 3e-2, 1e-1];
+
+/// One run: its trajectory, mean step time after the first (s) and Newton counts.
+struct Run {
+    trajectory: Vec<Vec<f64>>,
+    step_seconds: f64,
+    stats: NewtonStats,
+}
+
+fn run(
+    swing: &Swing,
+    force: InternalForce,
+    solve: NonlinearSolve,
+    tolerance: f64,
+    cli: &Cli,
+) -> tetfem::Result<Run> {
+    let threads = rayon::current_num_threads().min(2);
+    let mut integrator = swing.integrator(force, cli.dt, solve, tolerance, threads)?;
+    let mut state = State::at_rest(swing.system.free_count());
+    let mut trajectory = Vec::with_capacity(cli.steps);
+    let mut later = 0.0;
+    for step in 0..cli.steps {
+        let clock = Instant::now();
+        integrator.step(&mut state)?;
+        if step > 0 {
+            later += clock.elapsed().as_secs_f64();
+        }
+        trajectory.push(state.displacement.clone());
+    }
+    Ok(Run {
+        trajectory,
+        step_seconds: later / (cli.steps - 1) as f64,
+        stats: integrator.newton_stats().unwrap_or_default(),
+    })
+}
+
+/// The largest |u − u_ref| over all steps and DOFs over the largest |u_ref|.
+fn distance(trajectory: &[Vec<f64>], reference: &[Vec<f64>]) -> f64 {
+    let scale = reference
+        .iter()
+        .flatten()
+        .fold(0.0f64, |m, v| m.max(v.abs()));
+    let worst = (trajectory.iter().zip(reference))
+        .flat_map(|(a, b)| a.iter().zip(b).map(|(x, y)| (x - y).abs()))
+        .fold(0.0f64, f64::max);
+    worst / scale
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let result = if cli.replot {
+        read_csv(&cli.out.join(CSV)).and_then(|(setup, rows)| plot(&setup, &rows, &cli.out))
+    } else {
+        measure(&cli).and_then(|(setup, rows)| {
+            write_csv(&cli.out.join(CSV), &setup, &rows)?;
+            plot(&setup, &rows, &cli.out)
+        })
+    };
+    match result {
+        Ok(()) => {
+            println!(
+                "wrote {}",
+                cli.out.join(CSV).with_extension("png").display()
+            );
+            ExitCode::SUCCESS
+        }
+        Err(e) => {
+            eprintln!("corotational_cost: {e}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+/// The CSV's name in `--out`; the PNG takes the same stem.
+const CSV: &str = "corotational_cost.csv";
+
+/// What one measurement ran on: free DOFs, threads, time step (s) and steps.
+struct Setup {
+    free_dofs: usize,
+    threads: usize,
+    dt: f64,
+    steps: usize,
+}
+
+/// One charted run: its method and step tolerance, mean step time (s), cost over the linear
+/// step's, distance from the refactoring trajectory (relative) and Newton counts.
+struct Row {
+    method: String,
+    tolerance: f64,
+    step_seconds: f64,
+    cost_over_linear: f64,
+    distance: f64,
+    iterations: usize,
+    cg_iterations: usize,
+    factorizations: usize,
+}
+
+const HEADER: &str = "method,tolerance,step_seconds,cost_over_linear,distance_from_refactoring,\
+iterations,cg_iterations,factorizations,free_dofs,threads,dt,steps";
+
+fn measure(cli: &Cli) -> tetfem::Result<(Setup, Vec<Row>)> {
+    if cli.steps < 2 || !(cli.dt > 0.0 && cli.dt.is_finite()) {
+        return Err(tetfem::Error::invalid_parameter(
+            "--steps/--dt",
+            format!("{}/{}", cli.steps, cli.dt),
+            "at least 2 steps (the first is not timed) and a finite dt > 0",
+        ));
+    }
+    // An unwritable folder is found before the minutes of measuring, not after.
+    std::fs::create_dir_all(&cli.out).map_err(|source| tetfem::Error::Io {
+        path: cli.out.clone(),
+        source,
+    })?;
+    let swing = Swing::new(cli.cells, BoxSplit::Lecture6, 1e6)?;
+    let setup = Setup {
+        free_dofs: swing.system.free_count(),
+        threads: rayon::current_num_threads().min(2),
+        dt: cli.dt,
+        steps: cli.steps,
+    };
+    println!(
+        "{:?} cells, {} free DOFs, dt {} s, {} steps, {} thread(s)",
+        cli.cells, setup.free_dofs, cli.dt, cli.steps, setup.threads
+    );
+    let linear = run(
+        &swing,
+        InternalForce::Linear,
+        NonlinearSolve::Refactor,
+        1e-8,
+        cli,
+    )?;
+    let reference = run(
+        &swing,
+        swing.corotational()?,
+        NonlinearSolve::Refactor,
+        1e-8,
+        cli,
+    )?;
+    let mut rows = Vec::new();
+    let mut row = |method: &str, tolerance: f64, r: &Run, distance: f64| {
+        let row = Row {
+            method: method.into(),
+            tolerance,
+            step_seconds: r.step_seconds,
+            cost_over_linear: r.step_seconds / linear.step_seconds,
+            distance,
+            iterations: r.stats.total_iterations,
+            cg_iterations: r.stats.cg_iterations,
+            factorizations: r.stats.factorizations,
+        };
+        println!(
+            "{method:>12} tolerance {tolerance:.0e}: {:.4} s per step, {:.1}× linear, distance {distance:.2e}, {} its, {} CG its",
+            row.step_seconds, row.cost_over_linear, row.iterations, row.cg_iterations
+        );
+        rows.push(row);
+    };
+    row("linear", 0.0, &linear, f64::NAN);
+    row("refactor", 1e-8, &reference, 0.0);
+    for (method, solve) in [
+        (
+            "newton_cg",
+            NonlinearSolve::RestPreconditionedCg {
+                max_cg_iterations: 25,
+                forcing: 1e-3,
+            },
+        ),
+        (
+            "lbfgs",
+            NonlinearSolve::RestPreconditionedLbfgs { history: 5 },
+        ),
+    ] {
+        for tolerance in TOLERANCES {
+            let r = run(&swing, swing.corotational()?, solve, tolerance, cli)?;
+            let d = distance(&r.trajectory, &reference.trajectory);
+            row(method, tolerance, &r, d);
+        }
+    }
+    Ok((setup, rows))
+}
+
+fn write_csv(path: &Path, setup: &Setup, rows: &[Row]) -> tetfem::Result<()> {
+    let mut csv = format!("{HEADER}\n");
+    for r in rows {
+        let _ = writeln!(
+            csv,
+            "{},{:e},{:e},{:.3},{:e},{},{},{},{},{},{},{}",
+            r.method,
+            r.tolerance,
+            r.step_seconds,
+            r.cost_over_linear,
+            r.distance,
+            r.iterations,
+            r.cg_iterations,
+            r.factorizations,
+            setup.free_dofs,
+            setup.threads,
+            setup.dt,
+            setup.steps
+        );
+    }
+    std::fs::write(path, csv).map_err(|source| tetfem::Error::Io {
+        path: path.to_path_buf(),
+        source,
+    })
+}
+
+/// Reads a CSV this program wrote, naming the line and column of anything it cannot parse.
+fn read_csv(path: &Path) -> tetfem::Result<(Setup, Vec<Row>)> {
+    let text = std::fs::read_to_string(path).map_err(|source| tetfem::Error::Io {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    let bad = |line: usize, what: &str, value: &str| {
+        tetfem::Error::invalid_parameter(
+            format!("{} line {line} {what}", path.display()),
+            value,
+            format!("a CSV with the header `{HEADER}` as this program writes it"),
+        )
+    };
+    let mut lines = text.lines().enumerate();
+    match lines.next() {
+        Some((_, header)) if header == HEADER => {}
+        other => return Err(bad(1, "header", other.map_or("", |(_, h)| h))),
+    }
+    let mut setup = None;
+    let mut rows = Vec::new();
+    for (index, line) in lines {
+        let number = index + 1;
+        let fields: Vec<&str> = line.split(',').collect();
+        if fields.len() != 12 {
+            return Err(bad(number, "field count", &fields.len().to_string()));
+        }
+        let float = |k: usize| {
+            fields[k]
+                .parse::<f64>()
+                .map_err(|_| bad(number, HEADER.split(',').nth(k).unwrap_or(""), fields[k]))
+        };
+        let count = |k: usize| {
+            fields[k]
+                .parse::<usize>()
+                .map_err(|_| bad(number, HEADER.split(',').nth(k).unwrap_or(""), fields[k]))
+        };
+        setup.get_or_insert(Setup {
+            free_dofs: count(8)?,
+            threads: count(9)?,
+            dt: float(10)?,
+            steps: count(11)?,
+        });
+        rows.push(Row {
+            method: fields[0].to_string(),
+            tolerance: float(1)?,
+            step_seconds: float(2)?,
+            cost_over_linear: float(3)?,
+            distance: float(4)?,
+            iterations: count(5)?,
+            cg_iterations: count(6)?,
+            factorizations: count(7)?,
+        });
+    }
+    let setup = setup.ok_or_else(|| bad(2, "rows", "none"))?;
+    Ok((setup, rows))
+}
+
+fn plot(setup: &Setup, rows: &[Row], out: &Path) -> tetfem::Result<()> {
+    let cost_of = |method: &str| {
+        rows.iter()
+            .find(|r| r.method == method)
+            .map(|r| r.cost_over_linear)
+    };
+    let refactor_cost = cost_of("refactor").ok_or_else(|| {
+        tetfem::Error::invalid_parameter("rows", "no refactor row", "a refactor row")
+    })?;
+    let mut series: Vec<Series> = [
+        ("newton_cg", "Newton, CG on the turned rest factor"),
+        ("lbfgs", "L-BFGS on the turned rest factor (no tangent)"),
+    ]
+    .into_iter()
+    .map(|(method, label)| {
+        Series::new(
+            format!("{label}, step tolerance 1e-8 (lowest point) … 1e-1"),
+            rows.iter()
+                .filter(|r| r.method == method)
+                .map(|r| (r.cost_over_linear, r.distance))
+                .collect(),
+            Mark::LinePoints,
+        )
+    })
+    .collect();
+    let (low, high) = series
+        .iter()
+        .flat_map(|s| s.points.iter().map(|p| p.1))
+        .filter(|y| *y > 0.0)
+        .fold((f64::INFINITY, 0.0f64), |(l, h), y| (l.min(y), h.max(y)));
+    series.push(Series::new(
+        format!("refactoring Newton (the reference), {refactor_cost:.0}× linear"),
+        vec![(refactor_cost, low), (refactor_cost, high)],
+        Mark::Dashed,
+    ));
+    series.push(Series::new(
+        "the issue's target: 3× a linear step",
+        vec![(3.0, low), (3.0, high)],
+        Mark::Dashed,
+    ));
+    let (left, right) = series
+        .iter()
+        .flat_map(|s| s.points.iter().map(|p| p.0))
+        .fold((f64::INFINITY, 0.0f64), |(l, r), x| (l.min(x), r.max(x)));
+    series.push(Series::new(
+        "1e-4 of the largest displacement",
+        vec![(left, 1e-4), (right, 1e-4)],
+        Mark::Dashed,
+    ));
+    let chart = Chart {
+        title: format!(
+            "Corotational backward-Euler step, {} DOFs, {} steps of {} ms, {} thread(s)",
+            setup.free_dofs,
+            setup.steps,
+            setup.dt * 1e3,
+            setup.threads
+        ),
+        x_label: "cost of a step / cost of a linear step (–)".into(),
+        y_label: "largest distance from the refactoring trajectory / largest displacement (–)"
+            .into(),
+        log_x: true,
+        log_y: true,
+        series,
+    };
+    chart.write_png(&out.join(CSV).with_extension("png"), 1100, 700)
+}
