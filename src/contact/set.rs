@@ -508,6 +508,10 @@ impl Contact {
     /// DOF the change −(1 − s⁺/s)·v_t is applied to its free DOFs only, still dissipative: the
     /// fixed components of v are zero). Errors: lengths, a node inside an obstacle, `dt` not
     /// finite and > 0.
+    ///
+    /// Returns the friction force the body exerted on each obstacle over the step (force
+    /// units, the obstacles' order): −Σᵢ mᵢ·Δvᵢ/dt over its nodes, the reaction of the
+    /// impulses.
     pub fn apply_friction_impulses(
         &self,
         u: &[f64],
@@ -515,7 +519,7 @@ impl Contact {
         inverse_mass: &[f64],
         time: f64,
         dt: f64,
-    ) -> Result<()> {
+    ) -> Result<Vec<Vector3<f64>>> {
         self.check_full(u)?;
         Error::check_len("friction velocity", u.len(), velocity.len())?;
         Error::check_len("friction inverse mass", u.len(), inverse_mass.len())?;
@@ -537,6 +541,7 @@ impl Contact {
             self.parameters.stiffness,
             self.slip_velocity,
         );
+        let mut forces = vec![Vector3::zeros(); self.obstacles.len()];
         self.for_each_active(u, |n, o, obstacle, x, d, area| {
             let mu = obstacle.friction();
             let dofs = 3 * n..3 * n + 3;
@@ -561,9 +566,11 @@ impl Contact {
             for a in 0..3 {
                 if inverse_mass[3 * n + a] > 0.0 {
                     velocity[3 * n + a] += change[a];
+                    forces[o][a] -= change[a] / (inverse_mass[3 * n + a] * dt);
                 }
             }
-        })
+        })?;
+        Ok(forces)
     }
 
     fn lagged_position(&self, p: &LaggedPoint, u: &[f64]) -> Result<Vector3<f64>> {

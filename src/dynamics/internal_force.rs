@@ -128,6 +128,9 @@ pub struct NonlinearForce {
     contact: Option<Contact>,
     /// Friction's data lagged at the current step's start ([`begin_step`](Self::begin_step)).
     friction: std::sync::Mutex<Option<FrictionLag>>,
+    /// The friction force on each obstacle over the last step
+    /// ([`friction_forces`](Self::friction_forces)).
+    last_friction_forces: std::sync::Mutex<Option<Vec<nalgebra::Vector3<f64>>>>,
 }
 
 impl NonlinearForce {
@@ -222,6 +225,7 @@ impl NonlinearForce {
             pattern,
             contact: None,
             friction: std::sync::Mutex::new(None),
+            last_friction_forces: std::sync::Mutex::new(None),
         })
     }
 
@@ -276,9 +280,39 @@ impl NonlinearForce {
         *self.friction_lock() = None;
     }
 
+    /// Keeps the friction force the body exerts on each obstacle at free displacements `u`
+    /// (an implicit step's solution) with the lagged data of [`begin_step`](Self::begin_step):
+    /// the smoothed Coulomb force μ·λ·(f₁(y)/y)·P·(x − x⁰) of each node, its reaction summed
+    /// per obstacle ([`Contact::obstacle_friction_forces`]). Does nothing without lagged
+    /// friction.
+    pub fn keep_friction_forces(&self, u: &[f64]) -> Result<()> {
+        let lag = self.friction_lock();
+        let (Some(contact), Some(lag)) = (&self.contact, lag.as_ref()) else {
+            return Ok(());
+        };
+        let forces = contact.obstacle_friction_forces(lag, &self.full_displacement(u)?)?;
+        *self.last_friction_lock() = Some(forces);
+        Ok(())
+    }
+
+    /// The friction force the body exerted on each obstacle over the last step (force units,
+    /// the obstacles' order): an implicit step's smoothed Coulomb force at its solution, an
+    /// explicit step's −Σ m·Δv/dt of its friction impulses. `None` before the first step and
+    /// without friction. Add it to [`Contact::obstacle_forces`] (the barrier's normal force)
+    /// for the whole force on each obstacle.
+    pub fn friction_forces(&self) -> Option<Vec<nalgebra::Vector3<f64>>> {
+        self.last_friction_lock().clone()
+    }
+
     fn friction_lock(&self) -> std::sync::MutexGuard<'_, Option<FrictionLag>> {
         // A poisoned lock only means a panic elsewhere while holding plain data: keep it.
         self.friction.lock().unwrap_or_else(|e| e.into_inner())
+    }
+
+    fn last_friction_lock(&self) -> std::sync::MutexGuard<'_, Option<Vec<nalgebra::Vector3<f64>>>> {
+        self.last_friction_forces
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
     }
 
     /// Friction in an explicit step ([`Contact::apply_friction_impulses`]): updates the free
@@ -304,7 +338,9 @@ impl NonlinearForce {
             full_velocity[d] = velocity[k];
             full_inverse[d] = inverse_mass[k];
         }
-        contact.apply_friction_impulses(&full, &mut full_velocity, &full_inverse, time, dt)?;
+        let forces =
+            contact.apply_friction_impulses(&full, &mut full_velocity, &full_inverse, time, dt)?;
+        *self.last_friction_lock() = Some(forces);
         for (v, &d) in velocity.iter_mut().zip(&self.free_dofs) {
             *v = full_velocity[d];
         }

@@ -430,14 +430,24 @@ impl NewtonSolver {
             self.force
                 .begin_step(equation.start, 1.0 / equation.damping_scale)?;
             self.reference_floor = inertia;
-            let solved = self.iterate(system, equation, matrix, solver, u_new, step, time);
+            let solved = self
+                .iterate(system, equation, matrix, solver, u_new, step, time)
+                .and_then(|iterations| {
+                    self.force.keep_friction_forces(u_new)?;
+                    Ok(iterations)
+                });
             self.reference_floor = 0.0;
             self.force.end_friction();
             return solved;
         };
-        let solved = self.solve_moving(
-            contact, inertia, system, equation, matrix, solver, u_new, step, time,
-        );
+        let solved = self
+            .solve_moving(
+                contact, inertia, system, equation, matrix, solver, u_new, step, time,
+            )
+            .and_then(|iterations| {
+                self.force.keep_friction_forces(u_new)?;
+                Ok(iterations)
+            });
         self.force.end_friction();
         solved
     }

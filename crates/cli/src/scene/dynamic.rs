@@ -648,10 +648,7 @@ fn run_dynamic_locked<E: SceneElement>(
             means.push(mean);
         }
         let time = step_time((setup.initial.time, setup.initial.steps), dt, state);
-        let forces = match contact_of(&setup.force) {
-            Some(c) => Some(super::dynamic_contact::obstacle_forces(c, &u, time)?),
-            None => None,
-        };
+        let forces = super::dynamic_contact::obstacle_forces(&setup.force, &u, time)?;
         if let (Some(histories), Some(f)) = (contact_forces.as_mut(), forces.as_ref()) {
             ContactForceHistory::record(histories, f, time);
         }

@@ -103,7 +103,8 @@ pub(super) fn contact_of(force: &InternalForce) -> Option<&Contact> {
 
 /// The CSV columns a run with `contact` adds: `contact_energy_J` (the barrier's energy E_c,
 /// which `total_J` leaves out) and per obstacle `contact_<name>_fx_N`, `_fy_N`, `_fz_N`: the
-/// force the body exerts on it (N; its weight, for a body resting on the ground).
+/// force the body exerts on it, normal and friction (N; its weight, for a body resting on the
+/// ground; see [`obstacle_forces`]).
 pub(super) fn csv_columns(contact: &Contact) -> Vec<String> {
     let mut columns = vec!["contact_energy_J".to_string()];
     for o in contact.obstacles() {
@@ -131,15 +132,30 @@ pub(super) fn csv_values(
 }
 
 /// The force the body exerts on each obstacle (N) at full displacement `u` and time `time`
-/// (the obstacles placed there): Σᵢ κ·Aᵢ·b′(dᵢ)·∇dᵢ over the boundary nodes
-/// ([`Contact::obstacle_forces`]).
+/// (the obstacles placed there), or `None` without contact: the barrier's normal force
+/// Σᵢ κ·Aᵢ·b′(dᵢ)·∇dᵢ over the boundary nodes ([`Contact::obstacle_forces`]) plus, with
+/// friction, the friction force of the step that reached `u`
+/// ([`NonlinearForce::friction_forces`](tetfem::dynamics::NonlinearForce::friction_forces);
+/// none at the initial state).
 pub(super) fn obstacle_forces(
-    contact: &Contact,
+    force: &InternalForce,
     u: &[f64],
     time: f64,
-) -> Result<Vec<Vector3<f64>>> {
+) -> Result<Option<Vec<Vector3<f64>>>> {
+    let InternalForce::Nonlinear(nonlinear) = force else {
+        return Ok(None);
+    };
+    let Some(contact) = nonlinear.contact() else {
+        return Ok(None);
+    };
     contact.set_time(time);
-    contact.obstacle_forces(u)
+    let mut forces = contact.obstacle_forces(u)?;
+    if let Some(friction) = nonlinear.friction_forces() {
+        for (total, f) in forces.iter_mut().zip(friction) {
+            *total += f;
+        }
+    }
+    Ok(Some(forces))
 }
 
 /// The force on one `[[obstacles]]` entry over a dynamic run (the summary's `contact_forces`).
