@@ -268,3 +268,74 @@ fn non_positive_pivot_names_the_failing_row() {
     // that is neither the permuted nor the original position of the failing pivot).
     assert!(pivot(NumericFactorization::Faer, 1) < k.dim());
 }
+
+/// The single-precision copy of the factor solves as a factor rounded to f32: not the f64
+/// solution bit for bit, but a solve of K perturbed by f32's rounding, on one and two threads
+/// alike; it goes stale with the next factorization (an error, not the old factor's answer),
+/// and a simplicial factor or an unfactored matrix has none.
+#[test]
+fn the_single_precision_copy_solves_with_the_rounded_factor() {
+    let (k, b) = cantilever_system([30, 6, 6]);
+    let mut cholesky = SparseCholesky::analyze_with(&k, on_threads(2)).unwrap();
+    assert!(matches!(
+        cholesky.make_single_precision_copy(),
+        Err(Error::Solver(_))
+    ));
+    cholesky.factorize(&k).unwrap();
+    assert!(cholesky.make_single_precision_copy().unwrap());
+    let mut exact = b.clone();
+    cholesky.solve_in_place(&mut exact).unwrap();
+    let mut one = b.clone();
+    cholesky
+        .solve_in_place_with(&mut one, TriangularSolve::SupernodalSingle { threads: 1 })
+        .unwrap();
+    let mut two = b.clone();
+    cholesky.solve_in_place_single(&mut two).unwrap();
+    // The normwise backward error η = ‖K·x − b‖ / (‖K‖_F·‖x‖ + ‖b‖): the relative size of the
+    // smallest perturbation of K and b that x solves exactly.
+    let norm = |v: &[f64]| v.iter().map(|x| x * x).sum::<f64>().sqrt();
+    let k_norm = norm(k.values());
+    let backward_error = |x: &[f64]| {
+        let r: Vec<f64> = k
+            .mul(x)
+            .unwrap()
+            .iter()
+            .zip(&b)
+            .map(|(a, b)| a - b)
+            .collect();
+        norm(&r) / (k_norm * norm(x) + norm(&b))
+    };
+    let (single, double) = (backward_error(&one), backward_error(&exact));
+    let difference = max_relative_difference(&exact, &one);
+    println!(
+        "backward error: f32 copy {single:.2e}, f64 factor {double:.2e}; difference of the \
+         solutions {difference:.2e}; 1 vs 2 threads {:.2e}",
+        max_relative_difference(&one, &two)
+    );
+    // Rounding L to f32 perturbs each value by at most 2⁻²⁴ ≈ 6e-8 relative, so η stays below
+    // that (measured 3.4e-10: ‖K‖_F, the sum over all entries, overstates the perturbation of
+    // any one row), far above the f64 factor's round-off (measured 3.8e-18); a solve that read
+    // the wrong values would be off by O(1).
+    assert!(single < 6e-8, "{single:e}");
+    assert!(double < 1e-14, "{double:e}");
+    assert!(
+        difference > 1e-10,
+        "{difference:e}: the f64 factor was read"
+    );
+    // The two-thread split only reorders additions in f64.
+    assert!(max_relative_difference(&one, &two) < 1e-12);
+
+    cholesky.factorize(&k).unwrap();
+    assert!(!cholesky.has_single_precision_copy());
+    assert!(matches!(
+        cholesky.solve_in_place_single(&mut two),
+        Err(Error::Solver(_))
+    ));
+
+    let (small, _) = cantilever_system([1, 1, 1]);
+    let mut simplicial = SparseCholesky::analyze(&small).unwrap();
+    simplicial.factorize(&small).unwrap();
+    if simplicial.supernodal_split().is_none() {
+        assert!(!simplicial.make_single_precision_copy().unwrap());
+    }
+}

@@ -710,6 +710,9 @@ impl NewtonSolver {
             solver.factorize(matrix)?;
             self.stats.factorizations += 1;
             self.preconditioner_for = Some(key);
+            // The rest factor only approximates J (L-BFGS's H₀, CG's preconditioner): its
+            // solves may read it rounded to f32, half the bytes (where memory allows a copy).
+            solver.make_single_precision_copy()?;
         }
         Ok(())
     }
@@ -745,7 +748,7 @@ impl NewtonSolver {
             let rotations = &*rotations;
             let mut initial = |v: &mut [f64]| -> Result<()> {
                 rotations.to_rotated_frame(v);
-                solver.solve(matrix, v)?;
+                solver.solve_approximate(matrix, v)?;
                 rotations.back_from_rotated_frame(v);
                 Ok(())
             };

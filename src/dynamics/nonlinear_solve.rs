@@ -24,7 +24,10 @@ pub enum NonlinearSolve {
     /// corotational model K_T(u) is K₀ rotated element by element and a lumped mass is
     /// unchanged by rotations, so P⁻¹·J has its eigenvalues near 1 however far the body has
     /// turned, and CG needs few iterations. (The iterative linear method has no factor to
-    /// turn: its preconditioner is used as it is.)
+    /// turn: its preconditioner is used as it is.) The preconditioner's triangular solves read
+    /// the factor rounded to f32 where memory allows the copy
+    /// (`LinearSolver::make_single_precision_copy`: half the bytes, 1.27× on the step at 132k
+    /// DOFs, the same iterations), still a fixed SPD operator as CG needs.
     ///
     /// When CG does not reach `forcing`·‖r‖ within `max_cg_iterations` (large rotations
     /// have moved J too far from the factor), or meets a direction of non-positive curvature,
@@ -48,8 +51,9 @@ pub enum NonlinearSolve {
     /// step's start, H₀ = R̄·J₀⁻¹·R̄ᵀ (as [`RestPreconditionedCg`](Self::RestPreconditionedCg)'s
     /// preconditioner), corrected by the step's last `history` pairs of steps and residual
     /// changes. No tangent is assembled: an iteration is one force evaluation and one pair of
-    /// triangular solves, about a linear step's cost, against a tangent assembly (about five
-    /// force evaluations for the corotational model) and 3–4 preconditioned CG iterations per
+    /// triangular solves (on the factor's f32 copy where memory allows it, as above), about a
+    /// linear step's cost, against a tangent assembly (about five force evaluations for the
+    /// corotational model) and 3–4 preconditioned CG iterations per
     /// Newton iteration. It converges linearly, not quadratically, so it gains most at the
     /// loose tolerances of animation (`StepNewtonOptions::tolerance`, which the user sets; the
     /// trajectory's distance from Newton's at each tolerance is in `validation/PERFORMANCE.md`).

@@ -577,11 +577,38 @@ impl LinearSolver {
         }
     }
 
+    /// Keeps a single-precision copy of the direct method's current factor for
+    /// [`solve_approximate`](Self::solve_approximate) and the preconditioned solves
+    /// ([`SparseCholesky::make_single_precision_copy`]); returns whether there is one (never
+    /// for the iterative method, a simplicial factor, or too little memory). The next
+    /// [`factorize`](Self::factorize) makes it stale, and those solves read the f64 factor
+    /// again.
+    pub fn make_single_precision_copy(&mut self) -> Result<bool> {
+        match &mut self.backend {
+            Backend::Direct(cholesky) => cholesky.make_single_precision_copy(),
+            Backend::Iterative { .. } => Ok(false),
+        }
+    }
+
+    /// [`solve`](Self::solve) for a caller that needs an approximation of A⁻¹·b only (a
+    /// preconditioner, a quasi-Newton method's initial Hessian): the triangular solves read
+    /// the single-precision copy of the factor when there is a current one (1.6× faster
+    /// measured at 132k DOFs; the result that of A perturbed by about 1e-7·cond relative),
+    /// else the f64 factor, or the iterative method's CG.
+    pub fn solve_approximate(&mut self, matrix: &CscMatrix, rhs: &mut [f64]) -> Result<()> {
+        match &mut self.backend {
+            Backend::Direct(cholesky) => solve_as_preconditioner(cholesky, rhs),
+            Backend::Iterative { .. } => self.solve(matrix, rhs).map(|_| ()),
+        }
+    }
+
     /// Solves `matrix`·x = b in place by conjugate gradients preconditioned with what the last
     /// [`factorize`](Self::factorize) prepared for *another* matrix P on the same pattern (the
     /// Cholesky factor's two triangular solves, or the multigrid hierarchy): one factorization
     /// reused for a family of nearby matrices, as a nonlinear step's tangents near its rest
-    /// matrix. Starts from x = 0 and stops by `options` ([`CgOptions`]); an
+    /// matrix; the factor's single-precision copy when there is a current one
+    /// ([`make_single_precision_copy`](Self::make_single_precision_copy)). Starts from x = 0
+    /// and stops by `options` ([`CgOptions`]); an
     /// [`Error::Solver`] when `matrix` is not positive definite along a search direction or CG
     /// does not converge in `options.max_iterations` (the caller then factors `matrix` itself).
     pub fn solve_preconditioned(
@@ -599,7 +626,7 @@ impl LinearSolver {
                     matrix,
                     &mut |r, z| {
                         z.copy_from_slice(r);
-                        cholesky.solve_in_place(z)
+                        solve_as_preconditioner(cholesky, z)
                     },
                     rhs,
                     &mut x,
@@ -644,7 +671,7 @@ impl LinearSolver {
             &mut |r, z| {
                 z.copy_from_slice(r);
                 turn(z, true);
-                cholesky.solve_in_place(z)?;
+                solve_as_preconditioner(cholesky, z)?;
                 turn(z, false);
                 Ok(())
             },
@@ -682,5 +709,16 @@ impl LinearSolver {
     /// readable line).
     pub fn choice(&self) -> &MethodChoice {
         &self.choice
+    }
+}
+
+/// A solve with the factor where only an approximation of A⁻¹ is needed (a preconditioner, an
+/// initial inverse Hessian): by its single-precision copy when there is a current one
+/// ([`SparseCholesky::make_single_precision_copy`]), else by the f64 factor. Either way a
+/// fixed symmetric positive definite operator, as preconditioned CG requires.
+fn solve_as_preconditioner(cholesky: &mut SparseCholesky, rhs: &mut [f64]) -> Result<()> {
+    match cholesky.has_single_precision_copy() {
+        true => cholesky.solve_in_place_single(rhs),
+        false => cholesky.solve_in_place(rhs),
     }
 }

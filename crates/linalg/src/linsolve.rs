@@ -20,6 +20,7 @@ use faer::sparse::linalg::cholesky::{
 use faer::{Conj, Side};
 
 use crate::error::{Error, Result};
+use crate::memory::MemoryLimits;
 use crate::ordering::{FillOrdering, inverse_permutation, nested_dissection};
 use crate::sparse::CscMatrix;
 pub use counts::FactorCounts;
@@ -59,6 +60,15 @@ pub enum TriangularSolve {
         /// 1 = sequential; 2 or more = two threads.
         threads: usize,
     },
+    /// The supernodal kernels on the single-precision copy of the factor
+    /// ([`SparseCholesky::make_single_precision_copy`]): half the bytes to stream, the
+    /// arithmetic still in f64, the result that of a factor rounded to f32 (relative
+    /// perturbation of A about 1e-7·cond), for preconditioners and quasi-Newton steps. An
+    /// error when the copy is missing or older than the factor, or the factor is simplicial.
+    SupernodalSingle {
+        /// 1 = sequential; 2 or more = two threads.
+        threads: usize,
+    },
 }
 
 /// Which kernel performs the numeric factorization of [`SparseCholesky::factorize_with`].
@@ -79,6 +89,10 @@ pub struct SparseCholesky {
     pattern: Arc<SymbolicSparseColMat<usize>>,
     symbolic: SymbolicCholesky<usize>,
     factor: Vec<f64>,
+    /// The factor rounded to f32 ([`make_single_precision_copy`](Self::make_single_precision_copy));
+    /// valid while `single_current`.
+    single: Vec<f32>,
+    single_current: bool,
     factor_workspace: MemBuffer,
     solve_workspace: MemBuffer,
     /// Supernode layout and two-thread split of the own triangular solves (`None`: simplicial).
@@ -149,6 +163,8 @@ impl SparseCholesky {
             pattern: Arc::clone(matrix.pattern()),
             symbolic,
             factor: Vec::new(),
+            single: Vec::new(),
+            single_current: false,
             factor_workspace: MemBuffer::new(StackReq::EMPTY),
             solve_workspace: MemBuffer::new(StackReq::EMPTY),
             allocated: false,
@@ -193,6 +209,7 @@ impl SparseCholesky {
         kernel: NumericFactorization,
     ) -> Result<()> {
         self.factored = false;
+        self.single_current = false;
         if !Arc::ptr_eq(&self.pattern, matrix.pattern())
             && (self.pattern.col_ptr() != matrix.col_ptr()
                 || self.pattern.row_idx() != matrix.row_idx())
@@ -288,6 +305,16 @@ impl SparseCholesky {
                 format!("must equal the matrix dimension {}", self.dim()),
             ));
         }
+        if let TriangularSolve::SupernodalSingle { threads } = kernel {
+            let (Some(plan), true) = (&self.plan, self.single_current) else {
+                return Err(Error::Solver(
+                    "single-precision solve without a current single-precision copy of a supernodal factor"
+                        .into(),
+                ));
+            };
+            plan.solve_in_place(&self.single, rhs, threads, &mut self.supernodal_workspace);
+            return Ok(());
+        }
         if let (TriangularSolve::Supernodal { threads }, Some(plan)) = (kernel, &self.plan) {
             plan.solve_in_place(&self.factor, rhs, threads, &mut self.supernodal_workspace);
             return Ok(());
@@ -302,6 +329,55 @@ impl SparseCholesky {
             stack,
         );
         Ok(())
+    }
+
+    /// Rounds the current factor to f32 and keeps it beside the f64 one for
+    /// [`TriangularSolve::SupernodalSingle`] (4 bytes per factor value, allocated once; a
+    /// later factorization makes it stale until this is called again). Returns whether a
+    /// current copy is there: `false` for a simplicial factor (small matrices, whose solves
+    /// faer does) and when the copy would take more than half of the memory still available
+    /// ([`MemoryLimits`]) or cannot be allocated — the f64 factor then serves alone, at its
+    /// speed. Errors: no factorization yet.
+    pub fn make_single_precision_copy(&mut self) -> Result<bool> {
+        if !self.factored {
+            return Err(Error::Solver(
+                "single-precision copy requested before a successful numeric factorization".into(),
+            ));
+        }
+        if self.plan.is_none() {
+            return Ok(false);
+        }
+        if self.single.len() != self.factor.len() {
+            let bytes = (self.factor.len() * std::mem::size_of::<f32>()) as u64;
+            let crowded = MemoryLimits::current()
+                .available()
+                .is_some_and(|available| bytes > available / 2);
+            self.single = Vec::new();
+            if crowded || self.single.try_reserve_exact(self.factor.len()).is_err() {
+                return Ok(false);
+            }
+            self.single.resize(self.factor.len(), 0.0);
+        }
+        // Rounding to nearest: every value of an SPD factor is far inside f32's range
+        // (|Lᵢⱼ| ≤ √Aⱼⱼ), so none overflows or flushes to zero in practice.
+        for (single, &value) in self.single.iter_mut().zip(&self.factor) {
+            *single = value as f32;
+        }
+        self.single_current = true;
+        Ok(true)
+    }
+
+    /// Whether a single-precision copy of the current factor is there
+    /// ([`make_single_precision_copy`](Self::make_single_precision_copy)).
+    pub fn has_single_precision_copy(&self) -> bool {
+        self.single_current
+    }
+
+    /// Solves A·x = b in place with the single-precision copy of the factor on the options'
+    /// threads ([`TriangularSolve::SupernodalSingle`]).
+    pub fn solve_in_place_single(&mut self, rhs: &mut [f64]) -> Result<()> {
+        let threads = self.threads;
+        self.solve_in_place_with(rhs, TriangularSolve::SupernodalSingle { threads })
     }
 
     /// The row of the matrix in its own numbering of permuted index `index`.

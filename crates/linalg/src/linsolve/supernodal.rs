@@ -17,6 +17,27 @@ mod factor;
 
 pub(crate) use factor::{Columns, FactorPlan, FactorWorkspace};
 
+/// A stored value of the factor: `f64`, or `f32` for a copy kept in single precision (half the
+/// bytes a bandwidth-bound solve streams); the arithmetic is in `f64` either way.
+pub(crate) trait FactorValue: Copy + Send + Sync {
+    /// The value as `f64` (exact for both).
+    fn wide(self) -> f64;
+}
+
+impl FactorValue for f64 {
+    #[inline(always)]
+    fn wide(self) -> f64 {
+        self
+    }
+}
+
+impl FactorValue for f32 {
+    #[inline(always)]
+    fn wide(self) -> f64 {
+        f64::from(self)
+    }
+}
+
 /// One supernode: its columns `first..first + ncols` and the layout of its values (column-major,
 /// `ncols + below` rows: the dense diagonal block, then the rows listed in the factor's row
 /// indices from `row_start`).
@@ -264,9 +285,9 @@ impl SupernodalPlan {
 
     /// Solves A·x = b in place. `factor` holds the factor's values and `rhs.len()` the dimension
     /// (both checked by the caller).
-    pub(crate) fn solve_in_place(
+    pub(crate) fn solve_in_place<T: FactorValue>(
         &self,
-        factor: &[f64],
+        factor: &[T],
         rhs: &mut [f64],
         threads: usize,
         ws: &mut SupernodalWorkspace,
@@ -332,7 +353,13 @@ impl SupernodalPlan {
         }
     }
 
-    fn forward(&self, list: &[usize], factor: &[f64], x: &mut [f64], acc: &mut [f64]) {
+    fn forward<T: FactorValue>(
+        &self,
+        list: &[usize],
+        factor: &[T],
+        x: &mut [f64],
+        acc: &mut [f64],
+    ) {
         #[cfg(target_arch = "x86_64")]
         if self.avx2 {
             // SAFETY: `new` detected AVX2 and FMA on this CPU.
@@ -344,7 +371,13 @@ impl SupernodalPlan {
         }
     }
 
-    fn backward(&self, list: &[usize], factor: &[f64], x: &mut [f64], acc: &mut [f64]) {
+    fn backward<T: FactorValue>(
+        &self,
+        list: &[usize],
+        factor: &[T],
+        x: &mut [f64],
+        acc: &mut [f64],
+    ) {
         #[cfg(target_arch = "x86_64")]
         if self.avx2 {
             // SAFETY: `new` detected AVX2 and FMA on this CPU.
@@ -358,7 +391,13 @@ impl SupernodalPlan {
 
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2,fma")]
-    fn forward_avx2(&self, list: &[usize], factor: &[f64], x: &mut [f64], acc: &mut [f64]) {
+    fn forward_avx2<T: FactorValue>(
+        &self,
+        list: &[usize],
+        factor: &[T],
+        x: &mut [f64],
+        acc: &mut [f64],
+    ) {
         for &s in list {
             self.forward_node(s, factor, x, acc);
         }
@@ -366,7 +405,13 @@ impl SupernodalPlan {
 
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2,fma")]
-    fn backward_avx2(&self, list: &[usize], factor: &[f64], x: &mut [f64], acc: &mut [f64]) {
+    fn backward_avx2<T: FactorValue>(
+        &self,
+        list: &[usize],
+        factor: &[T],
+        x: &mut [f64],
+        acc: &mut [f64],
+    ) {
         for &s in list.iter().rev() {
             self.backward_node(s, factor, x, acc);
         }
@@ -375,7 +420,7 @@ impl SupernodalPlan {
     /// x_s ← L_ss⁻¹·x_s, then x[rows] −= L_below·x_s through a dense accumulator (so that the
     /// inner loops are contiguous and vectorize, and the scatter runs once per supernode).
     #[inline(always)]
-    fn forward_node(&self, s: usize, factor: &[f64], x: &mut [f64], acc: &mut [f64]) {
+    fn forward_node<T: FactorValue>(&self, s: usize, factor: &[T], x: &mut [f64], acc: &mut [f64]) {
         let node = self.nodes[s];
         let w = node.ncols;
         let ld = w + node.below;
@@ -385,14 +430,14 @@ impl SupernodalPlan {
         let xs = &mut x[node.first..][..w];
         let wide = w / 8 * 8;
         for j in (0..wide).step_by(8) {
-            let c: [&[f64]; 8] = std::array::from_fn(|k| &block[(j + k) * ld..][..ld]);
+            let c: [&[T]; 8] = std::array::from_fn(|k| &block[(j + k) * ld..][..ld]);
             let mut a = [0.0; 8];
             for k in 0..8 {
                 let mut v = xs[j + k];
                 for p in 0..k {
-                    v -= c[p][j + k] * a[p];
+                    v -= c[p][j + k].wide() * a[p];
                 }
-                a[k] = v / c[k][j + k];
+                a[k] = v / c[k][j + k].wide();
                 xs[j + k] = a[k];
             }
             axpy8(&mut xs[j + 8..], c.map(|c| &c[j + 8..w]), a);
@@ -404,10 +449,12 @@ impl SupernodalPlan {
             let c1 = &block[(j + 1) * ld..][..ld];
             let c2 = &block[(j + 2) * ld..][..ld];
             let c3 = &block[(j + 3) * ld..][..ld];
-            let x0 = xs[j] / c0[j];
-            let x1 = (xs[j + 1] - c0[j + 1] * x0) / c1[j + 1];
-            let x2 = (xs[j + 2] - c0[j + 2] * x0 - c1[j + 2] * x1) / c2[j + 2];
-            let x3 = (xs[j + 3] - c0[j + 3] * x0 - c1[j + 3] * x1 - c2[j + 3] * x2) / c3[j + 3];
+            let x0 = xs[j] / c0[j].wide();
+            let x1 = (xs[j + 1] - c0[j + 1].wide() * x0) / c1[j + 1].wide();
+            let x2 = (xs[j + 2] - c0[j + 2].wide() * x0 - c1[j + 2].wide() * x1) / c2[j + 2].wide();
+            let x3 =
+                (xs[j + 3] - c0[j + 3].wide() * x0 - c1[j + 3].wide() * x1 - c2[j + 3].wide() * x2)
+                    / c3[j + 3].wide();
             xs[j] = x0;
             xs[j + 1] = x1;
             xs[j + 2] = x2;
@@ -426,13 +473,13 @@ impl SupernodalPlan {
         }
         for j in full..w {
             let c = &block[j * ld..][..ld];
-            let xj = xs[j] / c[j];
+            let xj = xs[j] / c[j].wide();
             xs[j] = xj;
             for (y, l) in xs[j + 1..].iter_mut().zip(&c[j + 1..w]) {
-                *y -= l * xj;
+                *y -= l.wide() * xj;
             }
             for (y, l) in acc.iter_mut().zip(&c[w..]) {
-                *y -= l * xj;
+                *y -= l.wide() * xj;
             }
         }
         let rows = &self.row_idx[node.row_start..][..node.below];
@@ -443,7 +490,13 @@ impl SupernodalPlan {
 
     /// x_s ← L_ssᵀ⁻¹·(x_s − L_belowᵀ·x[rows]), the rows gathered into a dense vector first.
     #[inline(always)]
-    fn backward_node(&self, s: usize, factor: &[f64], x: &mut [f64], acc: &mut [f64]) {
+    fn backward_node<T: FactorValue>(
+        &self,
+        s: usize,
+        factor: &[T],
+        x: &mut [f64],
+        acc: &mut [f64],
+    ) {
         let node = self.nodes[s];
         let w = node.ncols;
         let ld = w + node.below;
@@ -460,7 +513,7 @@ impl SupernodalPlan {
         for j in (full..w).rev() {
             let c = &block[j * ld..][..ld];
             let d = dot(&c[j + 1..w], &xs[j + 1..]) + dot(&c[w..], g);
-            xs[j] = (xs[j] - d) / c[j];
+            xs[j] = (xs[j] - d) / c[j].wide();
         }
         for j in (wide..full).step_by(4).rev() {
             let c0 = &block[j * ld..][..ld];
@@ -473,26 +526,32 @@ impl SupernodalPlan {
                 &xs[j + 4..],
             );
             let bot = dot4([&c0[w..], &c1[w..], &c2[w..], &c3[w..]], g);
-            let x3 = (xs[j + 3] - top[3] - bot[3]) / c3[j + 3];
-            let x2 = (xs[j + 2] - top[2] - bot[2] - c2[j + 3] * x3) / c2[j + 2];
-            let x1 = (xs[j + 1] - top[1] - bot[1] - c1[j + 2] * x2 - c1[j + 3] * x3) / c1[j + 1];
-            let x0 = (xs[j] - top[0] - bot[0] - c0[j + 1] * x1 - c0[j + 2] * x2 - c0[j + 3] * x3)
-                / c0[j];
+            let x3 = (xs[j + 3] - top[3] - bot[3]) / c3[j + 3].wide();
+            let x2 = (xs[j + 2] - top[2] - bot[2] - c2[j + 3].wide() * x3) / c2[j + 2].wide();
+            let x1 = (xs[j + 1] - top[1] - bot[1] - c1[j + 2].wide() * x2 - c1[j + 3].wide() * x3)
+                / c1[j + 1].wide();
+            let x0 = (xs[j]
+                - top[0]
+                - bot[0]
+                - c0[j + 1].wide() * x1
+                - c0[j + 2].wide() * x2
+                - c0[j + 3].wide() * x3)
+                / c0[j].wide();
             xs[j] = x0;
             xs[j + 1] = x1;
             xs[j + 2] = x2;
             xs[j + 3] = x3;
         }
         for j in (0..wide).step_by(8).rev() {
-            let c: [&[f64]; 8] = std::array::from_fn(|k| &block[(j + k) * ld..][..ld]);
+            let c: [&[T]; 8] = std::array::from_fn(|k| &block[(j + k) * ld..][..ld]);
             let top = dot8(c.map(|c| &c[j + 8..w]), &xs[j + 8..]);
             let bot = dot8(c.map(|c| &c[w..]), g);
             for k in (0..8).rev() {
                 let mut v = xs[j + k] - top[k] - bot[k];
                 for p in k + 1..8 {
-                    v -= c[k][j + p] * xs[j + p];
+                    v -= c[k][j + p].wide() * xs[j + p];
                 }
-                xs[j + k] = v / c[k][j + k];
+                xs[j + k] = v / c[k][j + k].wide();
             }
         }
     }
@@ -500,18 +559,22 @@ impl SupernodalPlan {
 
 /// y −= Σₖ cₖ·aₖ over eight columns.
 #[inline(always)]
-fn axpy8(y: &mut [f64], c: [&[f64]; 8], a: [f64; 8]) {
+fn axpy8<T: FactorValue>(y: &mut [f64], c: [&[T]; 8], a: [f64; 8]) {
     let n = y.len();
     let [c0, c1, c2, c3, c4, c5, c6, c7] = c.map(|c| &c[..n]);
     for i in 0..n {
-        y[i] -= (c0[i] * a[0] + c1[i] * a[1] + c2[i] * a[2] + c3[i] * a[3])
-            + (c4[i] * a[4] + c5[i] * a[5] + c6[i] * a[6] + c7[i] * a[7]);
+        y[i] -=
+            (c0[i].wide() * a[0] + c1[i].wide() * a[1] + c2[i].wide() * a[2] + c3[i].wide() * a[3])
+                + (c4[i].wide() * a[4]
+                    + c5[i].wide() * a[5]
+                    + c6[i].wide() * a[6]
+                    + c7[i].wide() * a[7]);
     }
 }
 
 /// Eight dot products of columns with one vector in one pass over the vector.
 #[inline(always)]
-fn dot8(c: [&[f64]; 8], v: &[f64]) -> [f64; 8] {
+fn dot8<T: FactorValue>(c: [&[T]; 8], v: &[f64]) -> [f64; 8] {
     const L: usize = 4;
     let n = v.len();
     let c = c.map(|c| &c[..n]);
@@ -522,24 +585,29 @@ fn dot8(c: [&[f64]; 8], v: &[f64]) -> [f64; 8] {
         for (s, c) in s.iter_mut().zip(&c) {
             let c = &c[base..base + L];
             for k in 0..L {
-                s[k] += c[k] * v[k];
+                s[k] += c[k].wide() * v[k];
             }
         }
     }
     let mut out = [0.0; 8];
     for ((o, s), c) in out.iter_mut().zip(&s).zip(&c) {
-        *o = s.iter().sum::<f64>() + c[m..].iter().zip(&v[m..]).map(|(a, b)| a * b).sum::<f64>();
+        *o = s.iter().sum::<f64>()
+            + c[m..]
+                .iter()
+                .zip(&v[m..])
+                .map(|(a, b)| a.wide() * b)
+                .sum::<f64>();
     }
     out
 }
 
 /// y −= Σₖ cₖ·aₖ over four columns (all slices of y's length).
 #[inline(always)]
-fn axpy4(y: &mut [f64], c: [&[f64]; 4], a: [f64; 4]) {
+fn axpy4<T: FactorValue>(y: &mut [f64], c: [&[T]; 4], a: [f64; 4]) {
     let n = y.len();
     let (c0, c1, c2, c3) = (&c[0][..n], &c[1][..n], &c[2][..n], &c[3][..n]);
     for ((((y, l0), l1), l2), l3) in y.iter_mut().zip(c0).zip(c1).zip(c2).zip(c3) {
-        *y -= l0 * a[0] + l1 * a[1] + l2 * a[2] + l3 * a[3];
+        *y -= l0.wide() * a[0] + l1.wide() * a[1] + l2.wide() * a[2] + l3.wide() * a[3];
     }
 }
 
@@ -548,7 +616,7 @@ const LANES: usize = 8;
 /// Dot product with `LANES` independent partial sums, so that it vectorizes (a single running
 /// sum would serialise on the addition's latency and cannot be reordered by the compiler).
 #[inline(always)]
-fn dot(a: &[f64], b: &[f64]) -> f64 {
+fn dot<T: FactorValue>(a: &[T], b: &[f64]) -> f64 {
     let n = a.len().min(b.len());
     let (a, b) = (&a[..n], &b[..n]);
     let mut sum = [0.0; LANES];
@@ -556,21 +624,21 @@ fn dot(a: &[f64], b: &[f64]) -> f64 {
     let mut bc = b.chunks_exact(LANES);
     for (a, b) in (&mut ac).zip(&mut bc) {
         for k in 0..LANES {
-            sum[k] += a[k] * b[k];
+            sum[k] += a[k].wide() * b[k];
         }
     }
     let tail: f64 = ac
         .remainder()
         .iter()
         .zip(bc.remainder())
-        .map(|(a, b)| a * b)
+        .map(|(a, b)| a.wide() * b)
         .sum();
     sum.iter().sum::<f64>() + tail
 }
 
 /// Four dot products of columns with one vector in one pass over the vector.
 #[inline(always)]
-fn dot4(c: [&[f64]; 4], v: &[f64]) -> [f64; 4] {
+fn dot4<T: FactorValue>(c: [&[T]; 4], v: &[f64]) -> [f64; 4] {
     let n = v.len();
     let (c0, c1, c2, c3) = (&c[0][..n], &c[1][..n], &c[2][..n], &c[3][..n]);
     let mut s = [[0.0; LANES]; 4];
@@ -583,10 +651,10 @@ fn dot4(c: [&[f64]; 4], v: &[f64]) -> [f64; 4] {
         .zip(c3[..chunks].chunks_exact(LANES))
     {
         for k in 0..LANES {
-            s[0][k] += l0[k] * v[k];
-            s[1][k] += l1[k] * v[k];
-            s[2][k] += l2[k] * v[k];
-            s[3][k] += l3[k] * v[k];
+            s[0][k] += l0[k].wide() * v[k];
+            s[1][k] += l1[k].wide() * v[k];
+            s[2][k] += l2[k].wide() * v[k];
+            s[3][k] += l3[k].wide() * v[k];
         }
     }
     let mut out = [0.0; 4];
@@ -594,10 +662,10 @@ fn dot4(c: [&[f64]; 4], v: &[f64]) -> [f64; 4] {
         *o = s.iter().sum();
     }
     for i in chunks..n {
-        out[0] += c0[i] * v[i];
-        out[1] += c1[i] * v[i];
-        out[2] += c2[i] * v[i];
-        out[3] += c3[i] * v[i];
+        out[0] += c0[i].wide() * v[i];
+        out[1] += c1[i].wide() * v[i];
+        out[2] += c2[i].wide() * v[i];
+        out[3] += c3[i].wide() * v[i];
     }
     out
 }
