@@ -278,6 +278,25 @@ impl NewtonSolver {
         Ok(())
     }
 
+    /// The energies of `state` (½vᵀMv, the load potentials) with its elastic part from the pass
+    /// [`net_force`](Self::net_force) made at `state.displacement`: the model's energy plus, with
+    /// contact, the barrier's, so an explicit step's divergence guard needs no second pass over
+    /// the tets. Where the last pass was elsewhere, the model's energy is computed afresh.
+    pub fn energy_at_net_force(
+        &self,
+        system: &LinearSystem,
+        state: &super::State,
+    ) -> Result<super::Energy> {
+        if !(self.internal_valid && self.internal_at == state.displacement) {
+            return self.force.energy(system, state);
+        }
+        Ok(super::Energy {
+            kinetic: 0.5 * system.mass().quadratic_form(&state.velocity)?,
+            elastic: self.internal_energy,
+            ..system.energy_potentials(state)?
+        })
+    }
+
     /// r(u') of `equation` into the residual, or the trial residual when `out_is_trial`.
     fn residual_into(
         &mut self,
