@@ -49,8 +49,9 @@ enum SupportMass {
 /// The bookkeeping of [the module's formula](self) for one [`LinearSystem`]: the full
 /// stiffness and mass rows of its constrained DOFs, the loads on them with their amplitudes, and
 /// the supports' motion. Built once (one assembly of K and M); each
-/// [`at`](Self::at) costs about one product with those rows (plus, for a nonlinear model, one
-/// internal-force evaluation, and for a consistent mass one CG solve with M_ff).
+/// [`at`](Self::at) costs about one product with those rows (plus, for a nonlinear model, the
+/// forces of the tets touching a support — on 4-node tets; the whole mesh's on others — and
+/// for a consistent mass one CG solve with M_ff, which needs the whole internal force).
 #[derive(Debug, Clone)]
 pub struct SupportReactions {
     /// The constrained DOFs (full indices), ascending.
@@ -231,7 +232,7 @@ impl SupportReactions {
                 }
             }
             InternalForce::Nonlinear(f) => {
-                let mut internal = f.model_internal_force(&u)?;
+                let mut internal = support_internal_force(f, &u, &self.support_tets)?;
                 if let Some(contact) = f.contact() {
                     contact.add_force(&u, &mut internal)?;
                 }
@@ -347,6 +348,28 @@ impl SupportReactions {
         )?;
         Ok(a_f)
     }
+}
+
+/// The model's internal force (full length, force units) exact on the constrained rows: on
+/// 4-node tets summed over `tets` alone (every tet with a constrained node), in tet order, so
+/// those rows get the very bits of the whole mesh's sum at a fraction of its cost (the rows
+/// of free nodes away from the supports are left partial); on other elements the whole mesh's.
+fn support_internal_force(
+    force: &super::NonlinearForce,
+    u: &[f64],
+    tets: &[usize],
+) -> Result<Vec<f64>> {
+    use crate::model::ModelElement;
+    let Some(mesh) = force.mesh::<Tet4>() else {
+        return force.model_internal_force(u);
+    };
+    Error::check_len("displacement", mesh.dof_count(), u.len())?;
+    let models = force.models();
+    let mut out = vec![0.0; u.len()];
+    for &t in tets {
+        Tet4::add_model_force(models.model_of(t), mesh, t, u, &mut out);
+    }
+    Ok(out)
 }
 
 /// Σₑ Kₑ(u)·vₑ over `tets` (full length): each tet's tangent of the nonlinear model at u,
