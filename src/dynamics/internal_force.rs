@@ -564,11 +564,20 @@ impl NonlinearForce {
     /// potentials −f_g·u and −f·u.
     pub fn energy(&self, system: &LinearSystem, state: &State) -> Result<Energy> {
         state.check_len(self.free_count())?;
-        let potentials = system.energy_potentials(state)?;
+        Self::energy_with_elastic(system, state, self.elastic_energy(&state.displacement)?)
+    }
+
+    /// The energies of `state` with its elastic part `elastic` given (energy units): ½vᵀMv and
+    /// the system's load potentials computed here.
+    pub(crate) fn energy_with_elastic(
+        system: &LinearSystem,
+        state: &State,
+        elastic: f64,
+    ) -> Result<Energy> {
         Ok(Energy {
             kinetic: 0.5 * system.mass().quadratic_form(&state.velocity)?,
-            elastic: self.elastic_energy(&state.displacement)?,
-            ..potentials
+            elastic,
+            ..system.energy_potentials(state)?
         })
     }
 }

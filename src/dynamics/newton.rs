@@ -290,11 +290,7 @@ impl NewtonSolver {
         if !(self.internal_valid && self.internal_at == state.displacement) {
             return self.force.energy(system, state);
         }
-        Ok(super::Energy {
-            kinetic: 0.5 * system.mass().quadratic_form(&state.velocity)?,
-            elastic: self.internal_energy,
-            ..system.energy_potentials(state)?
-        })
+        NonlinearForce::energy_with_elastic(system, state, self.internal_energy)
     }
 
     /// r(u') of `equation` into the residual, or the trial residual when `out_is_trial`.

@@ -45,6 +45,13 @@ pub fn rotation(f: &Matrix3<f64>) -> Matrix3<f64> {
 /// products lose the digits it keeps.
 const MIN_RELATIVE_DET: f64 = 1e-6;
 
+/// Whether `f` (of Frobenius norm `norm`) is inverted, flat or NaN: det F ≤ 1e-6·‖F‖³, which
+/// neither iteration takes.
+fn too_flat(f: &Matrix3<f64>, norm: f64) -> bool {
+    let det = f.determinant();
+    det.is_nan() || det <= MIN_RELATIVE_DET * norm * norm * norm
+}
+
 /// The polar rotation of `f` (entries of order one) by the Newton–Schulz iteration
 /// Xₖ₊₁ = Xₖ·(I − Eₖ/2), Eₖ = XₖᵀXₖ − I, from X₀ = F·√3/‖F‖ (its singular values' root mean
 /// square 1; Higham, *Functions of Matrices*, 2008, §8.3). Each singular value goes
@@ -55,8 +62,7 @@ const MIN_RELATIVE_DET: f64 = 1e-6;
 /// below 1e-8 within eight iterations (stretches far apart converge only linearly).
 fn polar_by_schulz(f: &Matrix3<f64>) -> Option<Matrix3<f64>> {
     let norm_squared = f.norm_squared();
-    let det = f.determinant();
-    if det.is_nan() || det <= MIN_RELATIVE_DET * norm_squared * norm_squared.sqrt() {
+    if too_flat(f, norm_squared.sqrt()) {
         return None;
     }
     let mut x = f * (3.0 / norm_squared).sqrt();
@@ -85,9 +91,7 @@ fn polar_by_schulz(f: &Matrix3<f64>) -> Option<Matrix3<f64>> {
 /// `None` (the caller takes the SVD) when det `f` ≤ 0 or it has not converged in 20 iterations
 /// (a nearly flat tet).
 fn polar_by_iteration(f: &Matrix3<f64>) -> Option<Matrix3<f64>> {
-    let det = f.determinant();
-    let norm = f.norm();
-    if det.is_nan() || det <= MIN_RELATIVE_DET * norm * norm * norm {
+    if too_flat(f, f.norm()) {
         return None;
     }
     let mut x = *f;
