@@ -124,6 +124,11 @@ fn a_restored_run_continues_with_the_same_bits_for_every_method() {
             "{case}: Newmark keeps an acceleration, and nonlinear backward Euler the one its \
              Newton iterations start from"
         );
+        assert_eq!(
+            read.history.previous_acceleration.is_some(),
+            method == Method::BackwardEuler && nonlinear,
+            "{case}: nonlinear backward Euler keeps the step before's too"
+        );
 
         let (mut second, _) = integrator(method, nonlinear, dt);
         let mut resumed = read.restore(second.as_mut()).unwrap();

@@ -6,17 +6,19 @@
 //! The format lives here, next to the types it stores (the state, the divergence guard, Newton's
 //! counts), rather than in `output`: those are dynamics' types, and `output` stays free of them.
 //!
-//! File layout (version 1), all integers u64 and all reals f64, little-endian (reals as their
+//! File layout (version 2), all integers u64 and all reals f64, little-endian (reals as their
 //! IEEE-754 bits, so every value reads back to the same bits):
 //!
 //! ```text
 //! magic  "TETFEMCP"            8 bytes
-//! version                      u32 (1)
+//! version                      u32 (2; version 1 files, without the previous
+//!                              acceleration, are read too)
 //! method                       string (u64 byte length, UTF-8)
 //! steps, time, dt              u64, f64, f64
 //! displacement, velocity       vector (u64 length, that many f64)
 //! guard                        u8 flag; if 1: kinetic, elastic, gravity, load, factor (5 f64)
 //! acceleration                 u8 flag; if 1: vector
+//! previous acceleration        u8 flag; if 1: vector (version 2 only)
 //! newton                       u8 flag; if 1: steps, total, max per step, last (4 u64)
 //! fingerprint                  u64 count; each: name string, value string
 //! records                      u64 count; each: name string, vector
@@ -34,7 +36,7 @@ use crate::error::{Error, Result};
 /// The first 8 bytes of a checkpoint file.
 pub const CHECKPOINT_MAGIC: &[u8; 8] = b"TETFEMCP";
 /// The version of the format this code writes and reads.
-pub const CHECKPOINT_VERSION: u32 = 1;
+pub const CHECKPOINT_VERSION: u32 = 2;
 
 /// What an integrator carries from one step to the next beyond the [`State`]: with it and the
 /// state, a rebuilt integrator continues with the same bits as the one that took it.
@@ -51,9 +53,14 @@ pub struct IntegratorHistory {
     /// update a⁺ = 4/dt²·(u⁺ − u) − 4/dt·v − a, which differs from the equation of motion's
     /// M⁻¹(f − K·u − C·v) by round-off (and by more with a nonlinear model). Backward Euler
     /// with a nonlinear model: the last step's (v⁺ − v)/dt, from which the next step's Newton
-    /// iterations start (u + dt·v + dt²·a). `None` for the other methods and before the first
-    /// step.
+    /// iterations start (u + dt·v + dt²·(2a − a₋₁)). `None` for the other methods and before
+    /// the first step.
     pub acceleration: Option<Vec<f64>>,
+    /// Backward Euler with a nonlinear model: the acceleration of the step before
+    /// [`acceleration`](Self::acceleration)'s, when known (from its second step on), for the
+    /// next iterations' start u + dt·v + dt²·(2a − a₋₁). `None` otherwise, and from a
+    /// version 1 checkpoint.
+    pub previous_acceleration: Option<Vec<f64>>,
     /// The Newton iteration counts so far of an implicit method with a nonlinear model (`None`
     /// otherwise), so that a resumed run reports the counts of the whole run.
     pub newton: Option<NewtonStats>,
@@ -86,6 +93,9 @@ impl IntegratorHistory {
         state.check_len(free_dofs)?;
         if let Some(a) = &self.acceleration {
             Error::check_len("checkpoint acceleration", free_dofs, a.len())?;
+        }
+        if let Some(a) = &self.previous_acceleration {
+            Error::check_len("checkpoint previous acceleration", free_dofs, a.len())?;
         }
         Ok(())
     }
@@ -207,12 +217,17 @@ impl Checkpoint {
             }
             None => out.push(0),
         }
-        match &self.history.acceleration {
-            Some(a) => {
-                out.push(1);
-                put_reals(&mut out, a);
+        for vector in [
+            &self.history.acceleration,
+            &self.history.previous_acceleration,
+        ] {
+            match vector {
+                Some(a) => {
+                    out.push(1);
+                    put_reals(&mut out, a);
+                }
+                None => out.push(0),
             }
-            None => out.push(0),
         }
         match &self.history.newton {
             Some(n) => {
@@ -256,11 +271,11 @@ impl Checkpoint {
             ));
         }
         let version = u32::from_le_bytes(r.take(4)?.try_into().unwrap_or_default());
-        if version != CHECKPOINT_VERSION {
+        if !(1..=CHECKPOINT_VERSION).contains(&version) {
             return Err(r.error(
                 8,
                 format!(
-                    "checkpoint version {version}; this build reads version {CHECKPOINT_VERSION}"
+                    "checkpoint version {version}; this build reads versions 1 to {CHECKPOINT_VERSION}"
                 ),
             ));
         }
@@ -302,6 +317,10 @@ impl Checkpoint {
             false => None,
         };
         let acceleration = match r.flag()? {
+            true => Some(r.reals()?),
+            false => None,
+        };
+        let previous_acceleration = match version >= 2 && r.flag()? {
             true => Some(r.reals()?),
             false => None,
         };
@@ -353,6 +372,7 @@ impl Checkpoint {
                 method,
                 guard,
                 acceleration,
+                previous_acceleration,
                 newton,
             },
             fingerprint,
@@ -473,5 +493,56 @@ impl Reader<'_> {
     fn reals(&mut self) -> Result<Vec<f64>> {
         let n = self.length(8)?;
         (0..n).map(|_| self.real()).collect()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A version 1 file (written before the previous acceleration was kept) still reads, every
+    /// field the same and the previous acceleration absent; a version beyond this build's is
+    /// refused naming both versions.
+    #[test]
+    fn version_1_files_read_without_the_previous_acceleration() {
+        let checkpoint = Checkpoint {
+            state: State {
+                displacement: vec![1.0, -2.0],
+                velocity: vec![0.5, 0.25],
+                time: 0.125,
+                steps: 3,
+            },
+            dt: 1e-3,
+            history: IntegratorHistory {
+                method: "backward-euler".into(),
+                acceleration: Some(vec![3.0, 4.0]),
+                ..IntegratorHistory::default()
+            },
+            fingerprint: vec![("scene".into(), "abc".into())],
+            records: vec![],
+        };
+        let current = checkpoint.to_bytes();
+        // The previous acceleration's flag follows the acceleration: magic, version, the
+        // method (length and bytes), steps, time, dt, u and v (length and 2 values each), the
+        // guard's flag, the acceleration's flag, length and 2 values.
+        let at = 8 + 4 + (8 + 14) + 3 * 8 + 2 * (8 + 16) + 1 + (1 + 8 + 16);
+        assert_eq!(current[at], 0, "the previous acceleration's absent flag");
+        let mut old = current[..current.len() - 8].to_vec();
+        old.remove(at);
+        old[8..12].copy_from_slice(&1_u32.to_le_bytes());
+        old.extend_from_slice(&fingerprint_hash(&old).to_le_bytes());
+        let read = Checkpoint::from_bytes(&old, Path::new("v1.bin")).unwrap();
+        assert_eq!(read, checkpoint);
+
+        let mut future = current[..current.len() - 8].to_vec();
+        future[8..12].copy_from_slice(&(CHECKPOINT_VERSION + 1).to_le_bytes());
+        future.extend_from_slice(&fingerprint_hash(&future).to_le_bytes());
+        let refused = Checkpoint::from_bytes(&future, Path::new("v3.bin")).unwrap_err();
+        assert!(
+            refused
+                .to_string()
+                .contains("version 3; this build reads versions 1 to 2"),
+            "{refused}"
+        );
     }
 }

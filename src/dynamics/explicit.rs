@@ -254,6 +254,7 @@ impl Integrator for SymplecticEuler {
             method: self.name().into(),
             guard: self.guard,
             acceleration: None,
+            previous_acceleration: None,
             newton: None,
         })
     }

@@ -457,6 +457,7 @@ impl NonlinearForce {
     pub fn workspace(&self) -> Result<ForceWorkspace> {
         Ok(ForceWorkspace {
             full: vec![0.0; self.mesh.dof_count()],
+            full_force: vec![0.0; self.mesh.dof_count()],
             full_tangent: CscMatrix::zeros(Arc::clone(self.assembler.pattern()))?,
             free_tangent: CscMatrix::zeros(Arc::clone(self.restriction.pattern()))?,
         })
@@ -497,14 +498,15 @@ impl NonlinearForce {
         Error::check_len("displacement", self.free_count(), u.len())?;
         Error::check_len("force", self.free_count(), out.len())?;
         self.expand_into(u, &mut work.full);
-        let (mut full, mut energy) = self
-            .mesh
-            .internal_force_and_energy(self.models.as_ref(), &work.full)?;
+        let full = &mut work.full_force;
+        let mut energy =
+            self.mesh
+                .internal_force_and_energy_into(self.models.as_ref(), &work.full, full)?;
         if let Some(contact) = &self.contact {
-            contact.add_force(&work.full, &mut full)?;
+            contact.add_force(&work.full, full)?;
             energy += contact.energy(&work.full)?;
             if let Some(lag) = self.friction_lock().as_ref() {
-                contact.add_friction_force(lag, &work.full, &mut full)?;
+                contact.add_friction_force(lag, &work.full, full)?;
                 energy += contact.friction_energy(lag, &work.full)?;
             }
         }
@@ -589,11 +591,12 @@ trait ForceMesh: Send + Sync {
     fn dof_count(&self) -> usize;
     fn energy(&self, models: &(dyn TetModels + Send), u: &[f64]) -> Result<f64>;
     fn internal_force(&self, models: &(dyn TetModels + Send), u: &[f64]) -> Result<Vec<f64>>;
-    fn internal_force_and_energy(
+    fn internal_force_and_energy_into(
         &self,
         models: &(dyn TetModels + Send),
         u: &[f64],
-    ) -> Result<(Vec<f64>, f64)>;
+        force: &mut [f64],
+    ) -> Result<f64>;
     fn refill_tangent(
         &self,
         assembler: &Assembler,
@@ -623,12 +626,13 @@ impl<E: ModelElement> ForceMesh for TetMesh<E> {
         internal_force(self, models, u)
     }
 
-    fn internal_force_and_energy(
+    fn internal_force_and_energy_into(
         &self,
         models: &(dyn TetModels + Send),
         u: &[f64],
-    ) -> Result<(Vec<f64>, f64)> {
-        crate::model::assemble::internal_force_and_energy(self, models, u)
+        force: &mut [f64],
+    ) -> Result<f64> {
+        crate::model::assemble::internal_force_and_energy_into(self, models, u, force)
     }
 
     fn refill_tangent(
@@ -659,6 +663,7 @@ impl<E: ModelElement> ForceMesh for TetMesh<E> {
 #[derive(Debug, Clone)]
 pub struct ForceWorkspace {
     full: Vec<f64>,
+    full_force: Vec<f64>,
     full_tangent: CscMatrix,
     free_tangent: CscMatrix,
 }

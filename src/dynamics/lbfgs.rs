@@ -20,6 +20,9 @@ pub(crate) struct LbfgsMemory {
     pairs: VecDeque<Pair>,
     capacity: usize,
     alphas: Vec<f64>,
+    /// Vectors of forgotten or refused pairs, handed out again by [`buffer`](Self::buffer):
+    /// a fresh vector per pair would be zero-filled by the kernel page by page, every iteration.
+    spare: Vec<Vec<f64>>,
 }
 
 impl LbfgsMemory {
@@ -29,12 +32,22 @@ impl LbfgsMemory {
             pairs: VecDeque::with_capacity(capacity),
             capacity,
             alphas: Vec::with_capacity(capacity),
+            spare: Vec::new(),
         }
     }
 
     /// Forgets every pair (a new minimization).
     pub fn clear(&mut self) {
-        self.pairs.clear();
+        while let Some(pair) = self.pairs.pop_front() {
+            self.spare.extend([pair.step, pair.change]);
+        }
+    }
+
+    /// A vector of length `len` for the next pair's s or y (its values unspecified).
+    pub fn buffer(&mut self, len: usize) -> Vec<f64> {
+        let mut v = self.spare.pop().unwrap_or_default();
+        v.resize(len, 0.0);
+        v
     }
 
     /// Keeps the pair (s, y) when the curvature yᵀs is positive beyond round-off
@@ -42,14 +55,18 @@ impl LbfgsMemory {
     /// it was kept.
     pub fn push(&mut self, step: Vec<f64>, change: Vec<f64>) -> bool {
         if self.capacity == 0 {
+            self.spare.extend([step, change]);
             return false;
         }
         let curvature = dot(&step, &change);
         if curvature.is_nan() || curvature <= 1e-12 * norm(&step) * norm(&change) {
+            self.spare.extend([step, change]);
             return false;
         }
-        if self.pairs.len() == self.capacity {
-            self.pairs.pop_front();
+        if self.pairs.len() == self.capacity
+            && let Some(oldest) = self.pairs.pop_front()
+        {
+            self.spare.extend([oldest.step, oldest.change]);
         }
         self.pairs.push_back(Pair {
             step,

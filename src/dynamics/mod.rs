@@ -163,8 +163,8 @@ pub struct IntegratorOptions {
     /// a nonlinear [`InternalForce`] (ignored with the linear one).
     pub newton: StepNewtonOptions,
     /// How those Newton iterations solve their linear systems (ignored with the linear
-    /// force): [`NonlinearSolve::RestPreconditionedCg`] by default, or
-    /// [`NonlinearSolve::Refactor`]. Both stop at `newton`'s tolerance on the same residual.
+    /// force): [`NonlinearSolve::Auto`] by default (see there), or one path named. All stop
+    /// at `newton`'s tolerance on the same residual.
     pub nonlinear_solve: NonlinearSolve,
 }
 

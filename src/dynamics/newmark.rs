@@ -102,7 +102,7 @@ impl Newmark {
     /// The energies of `state` under this integrator's force law.
     fn energy_of(&mut self, state: &State) -> Result<super::Energy> {
         match &self.newton {
-            Some(newton) => newton.force().energy(&self.system, state),
+            Some(newton) => newton.elastic_energy_of(&self.system, state),
             None => self.system.energy_using(state, &mut self.work),
         }
     }
@@ -320,6 +320,7 @@ impl Integrator for Newmark {
                 .acceleration_of
                 .is_some()
                 .then(|| self.acceleration.clone()),
+            previous_acceleration: None,
             newton: self.newton_stats(),
         })
     }

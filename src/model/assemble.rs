@@ -80,11 +80,25 @@ pub fn internal_force_and_energy<E: ModelElement>(
     model: &(impl TetModels + ?Sized),
     u: &[f64],
 ) -> Result<(Vec<f64>, f64)> {
-    check_displacement(mesh, u)?;
-    model.check_covers(mesh.tet_count())?;
     let mut force = vec![0.0; mesh.dof_count()];
-    let energy = E::add_model_forces_and_energy(mesh, model, u, &mut force);
+    let energy = internal_force_and_energy_into(mesh, model, u, &mut force)?;
     Ok((force, energy))
+}
+
+/// [`internal_force_and_energy`] with the force written into `force` (full length, overwritten):
+/// an iteration that evaluates the force many times keeps one buffer instead of allocating (and
+/// the kernel zero-filling) a new vector every time.
+pub fn internal_force_and_energy_into<E: ModelElement>(
+    mesh: &TetMesh<E>,
+    model: &(impl TetModels + ?Sized),
+    u: &[f64],
+    force: &mut [f64],
+) -> Result<f64> {
+    check_displacement(mesh, u)?;
+    Error::check_len("force", mesh.dof_count(), force.len())?;
+    model.check_covers(mesh.tet_count())?;
+    force.fill(0.0);
+    Ok(E::add_model_forces_and_energy(mesh, model, u, force))
 }
 
 /// Refills `tangent` (on `assembler`'s pattern) with Σₑ (element tangent), each projected onto

@@ -40,5 +40,9 @@ pub fn assert_same_history(resumed: &IntegratorHistory, straight: &IntegratorHis
         resumed.acceleration, straight.acceleration,
         "{case}: Newmark's acceleration"
     );
+    assert_eq!(
+        resumed.previous_acceleration, straight.previous_acceleration,
+        "{case}: backward Euler's previous acceleration"
+    );
     assert_same_newton(resumed.newton, straight.newton, case);
 }

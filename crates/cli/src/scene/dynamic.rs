@@ -18,7 +18,7 @@ use crate::render::{Field, ObstacleView, RenderOptions, auto_deformation_scale, 
 use tetfem::constraints::Constraints;
 use tetfem::dynamics::{
     Energy, IntegratorOptions, InternalForce, LinearSystem, Mass, MassKind, Method, NewtonStats,
-    NonlinearSolve, Rayleigh, State, critical_time_step,
+    NonlinearSolve, Rayleigh, State, StepNewtonOptions, critical_time_step,
 };
 use tetfem::element::{ElementType, Tet10};
 use tetfem::error::{Error, Result};
@@ -163,6 +163,9 @@ pub struct DynamicSetup<C: CellType = Tet4> {
     /// How the implicit methods' Newton iterations solve with a nonlinear model:
     /// [`NonlinearSolve::default`] unless the scene sets `analysis.nonlinear_solver`.
     pub nonlinear_solve: NonlinearSolve,
+    /// Those iterations' tolerance and budget: [`StepNewtonOptions::default`], the tolerance
+    /// the scene's `analysis.newton_tolerance` where [`run_dynamic_scene`] sets it.
+    pub newton: StepNewtonOptions,
     /// Warnings about the scene's own entries (a load acting on fixed DOFs only, no free DOF),
     /// reported with the mesh's and the material's in the run summary.
     pub input_warnings: Vec<tetfem::warning::Warning>,
@@ -227,6 +230,7 @@ impl<E: SceneElement> DynamicSetup<E> {
             setup_seconds: clock.elapsed().as_secs_f64(),
             linear_method: LinearMethod::Direct,
             nonlinear_solve: NonlinearSolve::default(),
+            newton: StepNewtonOptions::default(),
             force: InternalForce::Linear,
             reactions,
             critical: Default::default(),
@@ -361,6 +365,7 @@ impl DynamicSetup {
             setup_seconds: clock.elapsed().as_secs_f64(),
             linear_method: LinearMethod::Direct,
             nonlinear_solve: NonlinearSolve::default(),
+            newton: StepNewtonOptions::default(),
             force: InternalForce::Linear,
             critical: Default::default(),
         })
@@ -582,6 +587,7 @@ fn run_dynamic_locked<E: SceneElement>(
     let options = IntegratorOptions {
         linear_method: setup.linear_method,
         nonlinear_solve: setup.nonlinear_solve,
+        newton: setup.newton,
         ..IntegratorOptions::default()
     };
     let mut integrator = run.method.integrator_with_force(
@@ -1358,6 +1364,7 @@ fn run_dynamic_scene_on<E: SceneElement>(
     };
     setup.linear_method = scene.spec().linear_method();
     setup.nonlinear_solve = scene.spec().nonlinear_solve();
+    setup.newton.tolerance = settings.newton_tolerance;
     let restart = match write_files {
         true => Some(Restart::new(scene, &setup.mesh, resume)?),
         false => None,

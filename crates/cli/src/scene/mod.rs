@@ -50,6 +50,7 @@ pub use spec::*;
 use std::ops::Range;
 use std::path::{Path, PathBuf};
 
+use tetfem::dynamics::StepNewtonOptions;
 use tetfem::error::{Error, Result};
 
 /// Every key a scene may hold, with its default. Paths written in a scene are relative to the
@@ -155,6 +156,9 @@ type = "static"                     # default "static"; or "dynamic", which need
                                     # iteration; auto: refactor below 1,000 free DOFs, rest_lbfgs from
                                     # there, rest_preconditioned with contact). All stop at the same
                                     # Newton tolerance. Ignored by static, explicit, linear
+# newton_tolerance = 1e-8           # default; in (0, 1): each implicit step's Newton tolerance
+                                    # with a nonlinear model, ‖r‖ ≤ t·max(‖r₀‖, ‖f‖); 1e-2 is
+                                    # interactive (see the README's large-deformation step)
 # accuracy = 0.01                  # static: a target relative energy-norm error in (0, 1) instead
                                     # of a mesh resolution: box meshes get the element order and cells
                                     # predicted cheapest (from the scene's cells, refined ≤ 2× per axis
@@ -239,6 +243,9 @@ pub struct DynamicSettings {
     pub mass: MassKind,
     /// Initial velocity of every node (m/s).
     pub initial_velocity: [f64; 3],
+    /// The implicit methods' Newton tolerance per step with a nonlinear model (relative, in
+    /// (0, 1); default 1e-8).
+    pub newton_tolerance: f64,
 }
 
 impl DynamicSettings {
@@ -587,6 +594,7 @@ impl Scene {
                 ("damping", a.damping.is_some()),
                 ("mass", with_mass && a.mass.is_some()),
                 ("initial_velocity", a.initial_velocity.is_some()),
+                ("newton_tolerance", a.newton_tolerance.is_some()),
             ]
             .into_iter()
             .find(|(_, set)| *set)
@@ -659,6 +667,17 @@ impl Scene {
                         "every component must be finite".into(),
                     ));
                 }
+                let newton_tolerance = a
+                    .newton_tolerance
+                    .unwrap_or(StepNewtonOptions::default().tolerance);
+                if !(newton_tolerance > 0.0 && newton_tolerance < 1.0) {
+                    return Err(err(
+                        "newton_tolerance",
+                        format!(
+                            "newton_tolerance = {newton_tolerance} must be finite, > 0 and < 1"
+                        ),
+                    ));
+                }
                 Ok(Analysis::Dynamic(DynamicSettings {
                     method: a.method.unwrap_or_default(),
                     dt,
@@ -666,6 +685,7 @@ impl Scene {
                     damping,
                     mass: a.mass.unwrap_or_default(),
                     initial_velocity,
+                    newton_tolerance,
                 }))
             }
         }
