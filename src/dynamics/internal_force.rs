@@ -453,7 +453,8 @@ impl NonlinearForce {
     }
 
     /// Scratch for [`force_into`](Self::force_into) and [`tangent_into`](Self::tangent_into):
-    /// a full displacement and the full-pattern tangent.
+    /// a full displacement, a full force (kept, not allocated per evaluation) and the
+    /// full-pattern tangent.
     pub fn workspace(&self) -> Result<ForceWorkspace> {
         Ok(ForceWorkspace {
             full: vec![0.0; self.mesh.dof_count()],
