@@ -119,14 +119,12 @@ impl BackwardEuler {
         };
         let dt = self.dt;
         let energy = newton.elastic_energy_of(&self.system, state)?;
-        match &self.guard {
-            Some(guard) => guard.check_energy(state.steps, state.time, &energy)?,
-            // A moving obstacle does work the loads' potential does not hold.
-            None if newton.force().contact().is_some_and(|c| c.is_moving()) => {
-                self.guard = Some(DivergenceGuard::finite_only(energy))
-            }
-            None => self.guard = Some(DivergenceGuard::new(energy)),
-        }
+        DivergenceGuard::check_or_start(
+            &mut self.guard,
+            (state.steps, state.time),
+            energy,
+            newton.force().contact().is_some_and(|c| c.is_moving()),
+        )?;
         // The predictor ũ = u + dt·v: where the body would go with no force.
         for ((p, u), v) in self
             .work

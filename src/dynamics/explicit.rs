@@ -112,14 +112,12 @@ impl SymplecticEuler {
         // The guard's energies come out of the force's pass (a second pass over the tets
         // for the energy alone took as long again).
         let energy = forces.energy_at_net_force(&self.system, state)?;
-        match &self.guard {
-            Some(guard) => guard.check_energy(state.steps, state.time, &energy)?,
-            // A moving obstacle does work the loads' potential does not hold.
-            None if forces.force().contact().is_some_and(|c| c.is_moving()) => {
-                self.guard = Some(DivergenceGuard::finite_only(energy))
-            }
-            None => self.guard = Some(DivergenceGuard::new(energy)),
-        }
+        DivergenceGuard::check_or_start(
+            &mut self.guard,
+            (state.steps, state.time),
+            energy,
+            forces.force().contact().is_some_and(|c| c.is_moving()),
+        )?;
         let dt = self.dt;
         for i in 0..n {
             state.velocity[i] += dt * self.product[i] * self.inverse_mass[i];

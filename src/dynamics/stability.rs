@@ -301,6 +301,27 @@ impl DivergenceGuard {
         Ok(DivergenceGuard { start, factor })
     }
 
+    /// Checks the energies `energy` of the state after `step` steps at `time` against `guard`,
+    /// or, before the first check, sets `guard` up from them: finite values only when
+    /// `moving_obstacles` (a moving obstacle does work the loads' potential does not hold).
+    pub(crate) fn check_or_start(
+        guard: &mut Option<Self>,
+        (step, time): (usize, f64),
+        energy: Energy,
+        moving_obstacles: bool,
+    ) -> Result<()> {
+        match guard {
+            Some(guard) => guard.check_energy(step, time, &energy),
+            None => {
+                *guard = Some(match moving_obstacles {
+                    true => DivergenceGuard::finite_only(energy),
+                    false => DivergenceGuard::new(energy),
+                });
+                Ok(())
+            }
+        }
+    }
+
     /// Checks `state` with its energies `energy`; `Err(Diverged)` names the step and time.
     pub fn check(&self, state: &State, energy: &Energy) -> Result<()> {
         state.ensure_finite("")?;
