@@ -12,7 +12,7 @@
 //! consistent (SI in every shipped scene: m, kg, s, N, Pa).
 //!
 //! ```
-//! use nalgebra::Vector3;
+//! use tetfem::nalgebra::Vector3;
 //! use tetfem::{BoxSplit, Constraints, Loads, Material, TetMesh, solve_static};
 //!
 //! // A 1 m × 0.1 m × 0.1 m steel bar, clamped at x = 0, pulled by 1 kN at x = 1 m.
@@ -30,6 +30,9 @@
 //! # Ok::<(), tetfem::Error>(())
 //! ```
 
+/// nalgebra, re-exported so that a user's crate needs only `tetfem` in its `Cargo.toml` for the
+/// vectors and matrices of the API (`tetfem::nalgebra::Vector3`, or `Vector3` from the prelude).
+pub use nalgebra;
 pub use tetfem_linalg as linalg;
 // The linear algebra under its own names inside this crate (`crate::sparse::CscMatrix`, ...):
 // the analyses use it throughout, the public surface has it as `tetfem::linalg`.
@@ -85,3 +88,37 @@ pub use statics::{StaticSolution, StaticSolver, solve_static};
 #[doc = include_str!("../README.md")]
 #[cfg(doctest)]
 pub struct ReadmeDoctests;
+
+#[cfg(test)]
+mod readme_tests {
+    /// The README's Rust blocks compile as doctests, where tetfem's dev-dependencies are in
+    /// scope too; a user's crate has only `tetfem` (the `Cargo.toml` lines the README shows).
+    /// So each block may name `tetfem`, `std` and `core` paths only: a `nalgebra::…` path
+    /// would compile here and fail in the reader's crate.
+    #[test]
+    fn readme_rust_blocks_name_no_crate_but_tetfem() {
+        let readme = include_str!("../README.md");
+        let mut offending = Vec::new();
+        let mut in_rust = false;
+        for (number, line) in readme.lines().enumerate() {
+            let trimmed = line.trim();
+            if trimmed.starts_with("```") {
+                in_rust = !in_rust && trimmed == "```rust";
+                continue;
+            }
+            let code = trimmed.trim_start_matches("# ");
+            if !in_rust {
+                continue;
+            }
+            let named = code
+                .strip_prefix("use ")
+                .or_else(|| code.strip_prefix("extern crate "))
+                .map(|path| path.split([':', ';', ' ', '{']).next().unwrap_or(""));
+            let bare_nalgebra = code.contains("nalgebra::") && !code.contains("tetfem::nalgebra::");
+            if bare_nalgebra || named.is_some_and(|c| !["tetfem", "std", "core"].contains(&c)) {
+                offending.push(format!("README.md:{}: {code}", number + 1));
+            }
+        }
+        assert!(offending.is_empty(), "{offending:#?}");
+    }
+}

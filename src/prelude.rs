@@ -4,8 +4,7 @@
 //! Newton with a force model); a dynamic system, an integrator and the explicit critical step.
 //!
 //! ```
-//! use nalgebra::Vector3;
-//! use tetfem::prelude::*;
+//! use tetfem::prelude::*; // Vector3 too: no other crate is needed
 //!
 //! // A 1 m steel bar in 20 × 2 × 2 cells, clamped at x = 0, pulled by 1 kN at x = 1 m.
 //! let mesh = TetMesh::box_grid(Vector3::zeros(), Vector3::new(1.0, 0.1, 0.1), [20, 2, 2], BoxSplit::default())?;
@@ -35,3 +34,4 @@ pub use crate::model::ModelKind;
 pub use crate::nonlinear::{NewtonOptions, solve_nonlinear_static};
 pub use crate::problem::Problem;
 pub use crate::statics::{StaticSolution, StaticSolver, solve_static};
+pub use nalgebra::{Matrix3, Vector3};

@@ -156,9 +156,12 @@ fn backward_euler_drop_at_100x_the_critical_step_rests_on_the_static_solution() 
         "largest difference from the static contact solution {worst:.3e} m; its largest sag {sag:.3e} m; speed {:.3e}",
         state.velocity.iter().fold(0.0f64, |m, v| m.max(v.abs()))
     );
-    // Within 1e-3 of the static deformation's size (issue 18): at rest, backward Euler's
-    // step equation is the static one.
-    assert!(worst <= 1e-3 * sag, "{worst:e} vs sag {sag:e}");
+    // At rest (speed 0 at the end) backward Euler's step equation is the static one, and both
+    // solves stop at a residual test (the step's 1e-8 of its reference, the static 1e-10 of
+    // the load): the two solutions differ by the step tolerance times the conditioning of the
+    // contact-stiffened Newton matrix. 1e-7 of the sag is 10× the step tolerance; measured
+    // 3.8e-12 m against a 2.07e-3 m sag (1.8e-9 of it).
+    assert!(worst <= 1e-7 * sag, "{worst:e} vs sag {sag:e}");
 }
 
 #[test]

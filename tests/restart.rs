@@ -286,3 +286,89 @@ fn damaged_or_foreign_files_are_parse_errors_naming_the_file() {
         other => panic!("expected an I/O error, got {other:?}"),
     }
 }
+
+/// The default large-deformation paths restart bit-identically too: L-BFGS on the turned rest
+/// factor (what `NonlinearSolve::Auto` picks from 1,000 free DOFs without contact) and
+/// rest-preconditioned CG, each named on a small beam and, for `Auto`, on a beam above the
+/// crossover (1,800 free DOFs). Each step starts from the rest factor and an empty L-BFGS
+/// memory, so a resumed run repeats the bits and every Newton count, factorizations aside.
+#[test]
+fn the_default_large_deformation_paths_restart_with_the_same_bits() {
+    use tetfem::dynamics::NonlinearSolve;
+    let lbfgs = NonlinearSolve::RestPreconditionedLbfgs { history: 5 };
+    let cg = NonlinearSolve::RestPreconditionedCg {
+        max_cg_iterations: 25,
+        forcing: 1e-3,
+    };
+    for (cells, solve, label) in [
+        ([8, 2, 2], lbfgs, "L-BFGS"),
+        ([8, 2, 2], cg, "rest-preconditioned CG"),
+        (
+            [24, 4, 4],
+            NonlinearSolve::Auto,
+            "Auto above 1,000 free DOFs",
+        ),
+    ] {
+        let beam = Cantilever {
+            length: 4.0,
+            split: BoxSplit::Lecture6,
+            ..Cantilever::peer_benchmark(cells)
+        };
+        let mesh = Arc::new(beam.mesh().unwrap());
+        let system = Arc::new(
+            LinearSystem::new(
+                &mesh,
+                &beam.material,
+                &beam.constraints(&mesh).unwrap(),
+                &beam.loads(&mesh).unwrap(),
+                Vector3::new(0.0, 0.0, -9.81),
+                MassKind::Lumped,
+                Rayleigh::new(0.0, 0.0).unwrap(),
+            )
+            .unwrap(),
+        );
+        let dt = 5.0 * critical_time_step(&system).unwrap().dt;
+        let make = || {
+            let force = force(true, &system, &mesh, &beam.material);
+            let options = IntegratorOptions {
+                nonlinear_solve: solve,
+                ..IntegratorOptions::default()
+            };
+            Method::BackwardEuler
+                .integrator_with_force(Arc::clone(&system), force, dt, options)
+                .unwrap()
+        };
+        let n = system.free_count();
+        let mut straight = make();
+        let mut whole = State::at_rest(n);
+        for _ in 0..30 {
+            straight.step(&mut whole).unwrap();
+        }
+        let mut first = make();
+        let mut state = State::at_rest(n);
+        for _ in 0..15 {
+            first.step(&mut state).unwrap();
+        }
+        let checkpoint = Checkpoint::take(first.as_ref(), &state, vec![], vec![]).unwrap();
+        let read = Checkpoint::from_bytes(&checkpoint.to_bytes(), Path::new("mem")).unwrap();
+        let mut second = make();
+        let mut resumed = read.restore(second.as_mut()).unwrap();
+        for _ in 0..15 {
+            second.step(&mut resumed).unwrap();
+        }
+        let stats = straight.newton_stats().unwrap();
+        println!("{label}: {n} free DOFs, {stats:?}");
+        assert_eq!(
+            bits(&resumed.displacement),
+            bits(&whole.displacement),
+            "{label}: u"
+        );
+        assert_eq!(bits(&resumed.velocity), bits(&whole.velocity), "{label}: v");
+        common::restart::assert_same_newton(second.newton_stats(), Some(stats), label);
+        // The named path ran (its own counters moved) and the beam moved.
+        assert!(whole.displacement.iter().any(|u| u.abs() > 1e-6), "{label}");
+        if solve == cg {
+            assert!(stats.cg_iterations > 0, "{label}: {stats:?}");
+        }
+    }
+}

@@ -664,9 +664,19 @@ impl Contact {
     /// (1 when no node reaches an obstacle within the step). Exact for these shapes (see
     /// [`Obstacle::time_of_impact`]); a line search scales it by 0.8 as IPC does, so the gap
     /// keeps at least a fifth of its size along a straight approach.
+    ///
+    /// A non-finite entry of `du` is [`Error::InvalidParameter`] naming its DOF: no fraction of
+    /// such a step is known to be safe (a NaN would otherwise meet no obstacle and pass as 1).
     pub fn max_step(&self, u: &[f64], du: &[f64]) -> Result<f64> {
         self.check_full(u)?;
         Error::check_len("contact step", u.len(), du.len())?;
+        if let Some(dof) = du.iter().position(|v| !v.is_finite()) {
+            return Err(Error::invalid_parameter(
+                format!("contact step du[{dof}]"),
+                du[dof],
+                "must be finite to bound the step by the first time of impact",
+            ));
+        }
         let offsets = self.offsets();
         let mut t: f64 = 1.0;
         for k in 0..self.nodes.len() {

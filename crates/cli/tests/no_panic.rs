@@ -1659,3 +1659,332 @@ fn scenes_integrator_options_amg_and_method_choice() {
     let _ = std::fs::remove_dir_all(&dir);
     s.finish();
 }
+
+/// The entry points added since the sweeps above were written: amplitudes and moving
+/// supports, rigid obstacles and contact, checkpoints, the error estimate and the adequacy
+/// checks, 10-node tets, material maps and the force seam, each with hostile input.
+#[test]
+fn amplitudes_contact_checkpoints_estimates_tet10_materials_and_forces() {
+    use tetfem::Tet10;
+    use tetfem::adequacy::rotation::largest_rotation_and_strain;
+    use tetfem::adequacy::time_step::step_resolution;
+    use tetfem::amplitude::Amplitude;
+    use tetfem::boundary_motion::RigidMotion;
+    use tetfem::contact::{Contact, ContactParameters, Obstacle, ObstacleMotion};
+    use tetfem::dynamics::{Checkpoint, InternalForce, NonlinearForce};
+    use tetfem::estimate::estimate_error;
+    use tetfem::materials::{MaterialAssignment, MaterialMap};
+
+    let mut s = Sweep::new();
+    let mesh = bar();
+    let m = material();
+
+    // Amplitudes: bad tables and intervals are errors; every value is total (NaN time,
+    // infinities, a subnormal table interval) and finite where the data are.
+    s.err("Amplitude::table empty", "InvalidParameter", || {
+        Amplitude::table(vec![], vec![])
+    });
+    s.err("Amplitude::table lengths", "InvalidParameter", || {
+        Amplitude::table(vec![0.0, 1.0], vec![0.0])
+    });
+    s.err("Amplitude::table decreasing", "InvalidParameter", || {
+        Amplitude::table(vec![1.0, 0.0], vec![0.0, 1.0])
+    });
+    s.err("Amplitude::table NaN value", "InvalidParameter", || {
+        Amplitude::table(vec![0.0, 1.0], vec![0.0, NAN])
+    });
+    s.err("Amplitude::ramp reversed", "InvalidParameter", || {
+        Amplitude::ramp(1.0, 0.0)
+    });
+    s.err(
+        "Amplitude::smooth_step infinite",
+        "InvalidParameter",
+        || Amplitude::smooth_step(0.0, INF),
+    );
+    s.err(
+        "Amplitude::sine negative frequency",
+        "InvalidParameter",
+        || Amplitude::sine(1.0, -1.0, 0.0, 0.0),
+    );
+    let table = Amplitude::table(vec![0.0, 1.0, 2.0], vec![0.0, 1.0, 0.5]).unwrap();
+    let sine = Amplitude::sine(1.0, 5.0, 0.0, 0.0).unwrap();
+    for t in [NAN, INF, -INF, -1e300, 1e300, f64::MIN_POSITIVE] {
+        s.value(&format!("Amplitude::derivatives table at {t}"), || {
+            table.derivatives(t)
+        });
+        s.value(&format!("Amplitude::derivatives sine at {t}"), || {
+            sine.derivatives(t)
+        });
+    }
+    if let Some(Ok(tiny)) = s.run("Amplitude::table subnormal interval", || {
+        Amplitude::table(vec![0.0, 1e-320], vec![0.0, 1.0])
+    }) {
+        let a = s.run("Amplitude::value inside a subnormal interval", || {
+            tiny.derivatives(5e-321)
+        });
+        if let Some(a) = a.filter(|a| !a[0].is_finite()) {
+            s.failures.push(format!(
+                "subnormal table interval: a(5e-321) = {a:?}, not finite"
+            ));
+        }
+    }
+    s.err("RigidMotion::new zero axis", "InvalidParameter", || {
+        RigidMotion::new(
+            v(0., 0., 0.),
+            v(0., 0., 0.),
+            1.0,
+            v(0., 0., 0.),
+            Amplitude::default(),
+        )
+    });
+    s.err("RigidMotion::new NaN angle", "InvalidParameter", || {
+        RigidMotion::new(
+            v(1., 0., 0.),
+            v(0., 0., 0.),
+            NAN,
+            v(0., 0., 0.),
+            Amplitude::default(),
+        )
+    });
+
+    // Obstacles and contact: non-finite shapes, friction and motions; the body inside an
+    // obstacle; no obstacle; two with one name; bad parameters; wrong lengths.
+    s.err("Obstacle::sphere NaN centre", "InvalidParameter", || {
+        Obstacle::sphere("s", v(NAN, 0., 0.), 1.0)
+    });
+    s.err(
+        "Obstacle::sphere negative radius",
+        "InvalidParameter",
+        || Obstacle::sphere("s", v(0., 0., 0.), -1.0),
+    );
+    s.err(
+        "Obstacle::half_space zero normal",
+        "InvalidParameter",
+        || Obstacle::half_space("g", v(0., 0., 0.), v(0., 0., 0.)),
+    );
+    s.err(
+        "Obstacle::aligned_box min > max",
+        "InvalidParameter",
+        || Obstacle::aligned_box("b", v(1., 1., 1.), v(0., 0., 0.)),
+    );
+    s.err(
+        "Obstacle::with_friction negative",
+        "InvalidParameter",
+        || Obstacle::sphere("s", v(10., 0., 0.), 1.0)?.with_friction(-0.5),
+    );
+    s.err("Obstacle::with_friction NaN", "InvalidParameter", || {
+        Obstacle::sphere("s", v(10., 0., 0.), 1.0)?.with_friction(NAN)
+    });
+    s.err(
+        "Obstacle::with_motion infinite velocity",
+        "InvalidParameter",
+        || {
+            Obstacle::sphere("s", v(10., 0., 0.), 1.0)?
+                .with_motion(ObstacleMotion::Velocity(v(INF, 0., 0.)))
+        },
+    );
+    let parameters = ContactParameters::for_mesh(&mesh, m.youngs_modulus()).unwrap();
+    s.err(
+        "ContactParameters::for_mesh E = NaN",
+        "InvalidParameter",
+        || ContactParameters::for_mesh(&mesh, NAN),
+    );
+    s.err("Contact::new no obstacle", "InvalidParameter", || {
+        Contact::new(&mesh, vec![], parameters)
+    });
+    s.err(
+        "Contact::new two obstacles one name",
+        "InvalidParameter",
+        || {
+            let a = Obstacle::sphere("s", v(10., 0., 0.), 1.0)?;
+            let b = Obstacle::sphere("s", v(-10., 0., 0.), 1.0)?;
+            Contact::new(&mesh, vec![a, b], parameters)
+        },
+    );
+    s.err("Contact::new zero stiffness", "InvalidParameter", || {
+        let bad = ContactParameters {
+            stiffness: 0.0,
+            ..parameters
+        };
+        Contact::new(
+            &mesh,
+            vec![Obstacle::sphere("s", v(10., 0., 0.), 1.0)?],
+            bad,
+        )
+    });
+    s.err(
+        "Contact::new body inside a half-space",
+        "InvalidParameter",
+        || {
+            let ground = Obstacle::half_space("g", v(0., 0., 0.5), v(0., 0., 1.))?;
+            Contact::new(&mesh, vec![ground], parameters)
+        },
+    );
+    let contact = Contact::new(
+        &mesh,
+        vec![Obstacle::half_space("g", v(0., 0., -0.5), v(0., 0., 1.)).unwrap()],
+        parameters,
+    )
+    .unwrap();
+    let dofs = mesh.dof_count();
+    s.err("Contact::energy short u", "InvalidParameter", || {
+        contact.energy(&[0.0; 3])
+    });
+    s.err(
+        "Contact::add_force short force",
+        "DimensionMismatch",
+        || contact.add_force(&vec![0.0; dofs], &mut [0.0; 3]),
+    );
+    s.err("Contact::max_step NaN step", "InvalidParameter", || {
+        let mut du = vec![0.0; dofs];
+        du[0] = NAN;
+        contact.max_step(&vec![0.0; dofs], &du)
+    });
+    s.err(
+        "Contact::set_offsets wrong count",
+        "DimensionMismatch",
+        || contact.set_offsets(vec![]),
+    );
+    s.err("Contact::with_slip_velocity 0", "InvalidParameter", || {
+        Contact::new(
+            &mesh,
+            vec![Obstacle::half_space("g", v(0., 0., -0.5), v(0., 0., 1.))?],
+            parameters,
+        )?
+        .with_slip_velocity(0.0)
+    });
+
+    // Checkpoints: empty, truncated and foreign bytes are parse errors naming the file.
+    let path = Path::new("hostile/checkpoint.bin");
+    s.err("Checkpoint::from_bytes empty", "Parse", || {
+        Checkpoint::from_bytes(&[], path)
+    });
+    s.err("Checkpoint::from_bytes garbage", "Parse", || {
+        Checkpoint::from_bytes(&[0xff; 4096], path)
+    });
+    s.err("Checkpoint::read missing file", "Io", || {
+        Checkpoint::read(Path::new("/nonexistent/tetfem/checkpoint.bin"))
+    });
+
+    // The error estimate and the adequacy checks: wrong lengths, NaN, tets without material.
+    let u = vec![0.0; dofs];
+    s.err("estimate_error short u", "DimensionMismatch", || {
+        estimate_error(&mesh, &m, &u[1..])
+    });
+    s.err("estimate_error NaN u", "InvalidParameter", || {
+        let mut bad = u.clone();
+        bad[4] = NAN;
+        estimate_error(&mesh, &m, &bad)
+    });
+    s.err(
+        "estimate_error map of another mesh",
+        "InvalidParameter",
+        || estimate_error(&mesh, &MaterialMap::uniform(m.clone(), 1), &u),
+    );
+    s.ok("estimate_error of u = 0", || estimate_error(&mesh, &m, &u));
+    s.err(
+        "largest_rotation_and_strain short u",
+        "DimensionMismatch",
+        || largest_rotation_and_strain(&mesh, &u[..3]),
+    );
+    let system = LinearSystem::new(
+        &mesh,
+        &m,
+        &clamped(&mesh),
+        &Loads::new(&mesh),
+        v(0., 0., -9.81),
+        MassKind::Lumped,
+        Rayleigh::default(),
+    )
+    .unwrap();
+    let free = system.free_count();
+    s.err("step_resolution dt = 0", "InvalidParameter", || {
+        step_resolution(&system, &vec![1.0; free], 2, 0.0)
+    });
+    s.err(
+        "step_resolution short excitation",
+        "DimensionMismatch",
+        || step_resolution(&system, &[1.0], 2, 1e-3),
+    );
+
+    // 10-node tets: from a linear mesh; wrong lengths in their estimate.
+    let quadratic = s.run("TetMesh::<Tet10>::from_linear", || {
+        TetMesh::<Tet10>::from_linear(&mesh)
+    });
+    if let Some(Ok(quadratic)) = quadratic {
+        s.err(
+            "estimate_error Tet10 with a Tet4 u",
+            "DimensionMismatch",
+            || estimate_error(&quadratic, &m, &u),
+        );
+        s.ok("estimate_error Tet10 u = 0", || {
+            estimate_error(&quadratic, &m, &vec![0.0; quadratic.dof_count()])
+        });
+    } else {
+        s.failures
+            .push("TetMesh::<Tet10>::from_linear failed".into());
+    }
+
+    // Material maps: a tet index out of range, a tet claimed twice, tets without material.
+    s.err(
+        "MaterialMap::new index out of range",
+        "InvalidParameter",
+        || MaterialMap::new(vec![m.clone()], vec!["a".into()], vec![0, 0, 7]),
+    );
+    s.err(
+        "MaterialMap::new names and materials differ",
+        "DimensionMismatch",
+        || MaterialMap::new(vec![m.clone()], vec![], vec![0]),
+    );
+    let tets = mesh.tet_count();
+    s.err(
+        "MaterialAssignment::assign tet out of range",
+        "InvalidParameter",
+        || MaterialAssignment::new(tets).assign("a", m.clone(), [tets + 5]),
+    );
+    s.err(
+        "MaterialAssignment::assign a tet twice",
+        "InvalidParameter",
+        || {
+            let mut assignment = MaterialAssignment::new(tets);
+            assignment.assign("a", m.clone(), [0])?;
+            assignment.assign("b", m.clone(), [0])
+        },
+    );
+    s.err(
+        "MaterialAssignment::finish without default",
+        "InvalidParameter",
+        || {
+            let mut assignment = MaterialAssignment::new(tets);
+            assignment.assign("a", m.clone(), [0])?;
+            assignment.finish(None)
+        },
+    );
+
+    // The force seam: a force for another mesh's system.
+    let other = Arc::new(other_mesh());
+    s.err(
+        "NonlinearForce::new another mesh",
+        "InvalidParameter",
+        || {
+            NonlinearForce::new(
+                Arc::clone(&other),
+                ModelKind::Corotational.build(&m),
+                &system,
+            )
+        },
+    );
+    s.ok("InternalForce::of_model linear is the fast path", || {
+        InternalForce::of_model(Arc::new(bar()), ModelKind::Linear.build(&m), &system).map(
+            |force| match force {
+                InternalForce::Linear => Ok(()),
+                InternalForce::Nonlinear(_) => Err(Error::invalid_parameter(
+                    "force",
+                    "nonlinear",
+                    "the linear model must take the fast path",
+                )),
+            },
+        )?
+    });
+    s.finish();
+}
