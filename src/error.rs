@@ -256,6 +256,27 @@ pub enum Error {
         frames: usize,
     },
 
+    /// The caller's interrupt test ([`crate::linalg::interrupt::with_check`]: Ctrl-C in the
+    /// Python package) stopped a solve or a time step between two iterations. Nothing was
+    /// written: a time step leaves the state of the step before, a solve returns no result.
+    #[error("stopped by the caller's interrupt during {during}")]
+    Stopped {
+        /// Where it stopped (e.g. "conjugate gradient iteration 12", "Newton iteration 3 of
+        /// load step 2/10").
+        during: String,
+    },
+
+    /// A nonlinear iteration (Newton's method, its line search) ended without reaching its
+    /// tolerance: `method` names it, `message` the iterations taken, the residual reached and
+    /// the one asked for.
+    #[error("{method}: {message}")]
+    NotConverged {
+        /// What failed, e.g. "Newton's method".
+        method: String,
+        /// Where and how far it got.
+        message: String,
+    },
+
     /// Another run holds the output folder (its lock file): two runs into one folder would mix
     /// their frames.
     #[error(
@@ -361,6 +382,7 @@ impl From<tetfem_linalg::Error> for Error {
                 Error::NotPositiveDefinite { pivot, dimension }
             }
             Linalg::Solver(message) => Error::Solver(message),
+            Linalg::Stopped { during } => Error::Stopped { during },
             Linalg::InsufficientMemory {
                 what,
                 needed,

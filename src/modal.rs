@@ -119,6 +119,8 @@ pub fn lowest_modes(system: &LinearSystem, count: usize) -> Result<Modes> {
     let mut best_iteration = 0;
     let mut residuals = Vec::new();
     for iteration in 1..=MAX_ITERATIONS {
+        // A caller's Ctrl-C between iterations.
+        crate::linalg::interrupt::poll(|| format!("modal subspace iteration {iteration}"))?;
         // Y = K⁻¹ M X
         let mut y = Vec::with_capacity(p);
         for column in &x {

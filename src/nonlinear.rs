@@ -109,6 +109,11 @@ fn no_frictional_equilibrium(
 /// `model`: one force model for every tet, or a [`ModelMap`](crate::model::ModelMap) with one
 /// model per material (each tet takes its material's). `mesh`: 4-node tets, or 10-node ones
 /// (the models at their quadrature points, see [`ModelElement`]).
+///
+/// Errors: [`Error::NotConverged`] (method "Newton's method") when a load step does not reach
+/// ‖r_f‖ ≤ tolerance·‖f_f‖ in `max_iterations` or its line search finds no decrease, naming
+/// the load step and the residual reached; [`Error::Stopped`] when the caller's interrupt
+/// test ([`crate::linalg::interrupt`]) says stop between two iterations.
 pub fn solve_nonlinear_static<E: ModelElement>(
     mesh: &TetMesh<E>,
     model: &(impl TetModels + ?Sized),
@@ -154,7 +159,7 @@ pub fn solve_nonlinear_static_with_motion<E: ModelElement>(
 /// direction held by neither makes the tangent singular, reported as
 /// [`Error::NotPositiveDefinite`](crate::linalg::Error) from the factorization. The body must
 /// start outside every obstacle; a contact that Newton cannot resolve in its budget is an
-/// [`Error::Solver`] naming the load step, never a penetrated state.
+/// [`Error::NotConverged`] naming the load step, never a penetrated state.
 ///
 /// Friction (obstacles with μ > 0), quasi-static as IPC does it: per load step the normal forces
 /// λ and tangent planes are lagged and the step adds the potential μ·λ·f₀(|P·(x − x⁰)|) of each
@@ -306,14 +311,28 @@ fn solve<E: ModelElement>(
                 let mut converged = norm(&r) <= options.tolerance * reference;
                 let mut done = 0;
                 while !converged {
+                    // A caller's Ctrl-C between iterations (nothing is returned but the error).
+                    crate::linalg::interrupt::poll(|| {
+                        format!(
+                            "Newton iteration {} of load step {step}/{}",
+                            done + 1,
+                            options.load_steps
+                        )
+                    })?;
                     if done >= options.max_iterations {
-                        return Err(Error::Solver(format!(
-                            "Newton did not converge in {} iterations at load step {step}/{} (residual {:.3e} of {:.3e})",
-                            options.max_iterations,
-                            options.load_steps,
-                            history.last().copied().unwrap_or(f64::NAN),
-                            reference
-                        )));
+                        let reached = history.last().copied().unwrap_or(f64::NAN);
+                        return Err(Error::NotConverged {
+                            method: "Newton's method".into(),
+                            message: format!(
+                                "no convergence in {} iterations at load step {step}/{}: residual \
+                                 ‖r_f‖ = {reached:.3e}, {:.3e} of the reference {reference:.3e} \
+                                 (tolerance {:e}); more load steps or iterations may help",
+                                options.max_iterations,
+                                options.load_steps,
+                                reached / reference,
+                                options.tolerance
+                            ),
+                        });
                     }
                     // The exact tangent first (quadratic convergence); if it is not positive
                     // definite, the one with every element tangent projected onto the PSD cone
@@ -372,9 +391,17 @@ fn solve<E: ModelElement>(
                         alpha *= 0.5;
                     }
                     let Some((trial, r_trial)) = accepted else {
-                        return Err(Error::Solver(format!(
-                            "Newton line search found no decrease at load step {step} (residual {r_norm:.3e})"
-                        )));
+                        return Err(Error::NotConverged {
+                            method: "Newton's method".into(),
+                            message: format!(
+                                "the line search found no decrease at load step {step}/{} \
+                                 (residual ‖r_f‖ = {r_norm:.3e}, {:.3e} of the reference \
+                                 {reference:.3e}; tolerance {:e})",
+                                options.load_steps,
+                                r_norm / reference,
+                                options.tolerance
+                            ),
+                        });
                     };
                     u = trial;
                     r = r_trial;
@@ -396,6 +423,10 @@ fn solve<E: ModelElement>(
                 break;
             };
             if let Err(e) = outcome {
+                // The caller's interrupt is no weak lag: stop.
+                if matches!(e, Error::Stopped { .. }) {
+                    return Err(e);
+                }
                 // Once, a lag too weak for this step's load (its normal forces from a state that
                 // carried less) may be what failed: re-lag where the failed pass stopped, whose
                 // normal forces carry this step's load, and solve again from the step's start.
@@ -441,7 +472,10 @@ fn solve<E: ModelElement>(
         residuals.push(history);
     }
     if u.iter().any(|v| !v.is_finite()) {
-        return Err(Error::Solver("the Newton solution is not finite".into()));
+        return Err(Error::NotConverged {
+            method: "Newton's method".into(),
+            message: "the solution is not finite".into(),
+        });
     }
     let obstacle_friction_forces = match (contact, &final_lag) {
         (Some(contact), Some(lag)) => contact.obstacle_friction_forces(lag, &u)?,

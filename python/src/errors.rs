@@ -29,6 +29,7 @@ fn class_name(error: &tetfem::Error) -> &'static str {
         E::NotPositiveDefinite { .. }
         | E::InaccurateSolve { .. }
         | E::Solver(_)
+        | E::NotConverged { .. }
         | E::InsufficientMemory { .. } => "SolverError",
         E::Scene { .. } => "SceneError",
         E::Io { .. } | E::OutputLocked { .. } => "TetfemIOError",

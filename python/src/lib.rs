@@ -8,6 +8,7 @@ use pyo3::prelude::*;
 mod arrays;
 mod constraints;
 mod errors;
+mod interrupt;
 mod loads;
 mod material;
 mod matrices;

@@ -10,6 +10,7 @@ use tetfem::modal::{lowest_modes, lowest_modes_with_force};
 use crate::arrays;
 use crate::constraints::PyConstraints;
 use crate::errors::OrRaise;
+use crate::interrupt::detach_interruptible;
 use crate::material::materials_of;
 use crate::mesh::{MeshData, PyMesh};
 use crate::names;
@@ -44,12 +45,10 @@ pub fn modes_of(
     data: &MeshData,
     count: usize,
 ) -> PyResult<ModalResult> {
-    let modes = py
-        .detach(|| match force {
-            Some(force) => lowest_modes_with_force(system, force, count),
-            None => lowest_modes(system, count),
-        })
-        .or_raise(py)?;
+    let modes = detach_interruptible(py, || match force {
+        Some(force) => lowest_modes_with_force(system, force, count),
+        None => lowest_modes(system, count),
+    })?;
     let dofs = data.mesh.dof_count();
     let mut shapes = vec![0.0; modes.shapes.len() * dofs];
     for (k, shape) in modes.shapes.iter().enumerate() {

@@ -1,8 +1,10 @@
 //! `tetfem.Simulation`: time integration of M·ü + C·u̇ + K·u = f (or a nonlinear force model)
 //! with any of the library's methods, stepped from Python with the GIL released.
 
-use std::sync::Arc;
+use std::sync::{Arc, Mutex, MutexGuard, TryLockError};
+use std::thread::ThreadId;
 
+use pyo3::marker::Ungil;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use tetfem::dynamics::{
@@ -16,7 +18,8 @@ use tetfem::output::fields::{cell_model_von_mises, cell_von_mises};
 
 use crate::arrays;
 use crate::constraints::PyConstraints;
-use crate::errors::{OrRaise, invalid};
+use crate::errors::{OrRaise, invalid, raise};
+use crate::interrupt::detach_interruptible;
 use crate::loads::PyLoads;
 use crate::material::materials_of;
 use crate::mesh::{MeshData, PyMesh};
@@ -90,15 +93,64 @@ fn energy_dict<'py>(py: Python<'py>, e: &Energy) -> PyResult<Bound<'py, PyDict>>
 /// other loads are constant. The run starts at time 0 from ``initial_displacement`` (n, 3), m
 /// (default zero) and ``initial_velocity`` (3,) or (n, 3), m/s (default zero); both are taken on
 /// the free DOFs. ``linear_solver`` (implicit methods): ``"auto"``, ``"direct"`` or
-/// ``"iterative"``. Steps run with the GIL released.
-#[pyclass(name = "Simulation", module = "tetfem")]
+/// ``"iterative"``. Steps run with the GIL released; Ctrl-C stops ``run`` and ``step`` with
+/// ``KeyboardInterrupt`` between steps or inside a step's iterations, the state left at the
+/// last completed step. While ``run`` or ``step`` works in one thread, every call from another
+/// thread raises ``TetfemError`` ("busy"): use one Simulation per thread.
+#[pyclass(name = "Simulation", module = "tetfem", frozen)]
 pub struct PySimulation {
     data: Arc<MeshData>,
     materials: MaterialMap,
     system: Arc<LinearSystem>,
     force: InternalForce,
+    /// The method's name (the integrator's, kept here so that it reads without the lock).
+    method: &'static str,
+    /// The integrator and the state, locked by each call that reads or steps them (with
+    /// `try_lock` only: a call never waits for a step, so no thread waits for the lock while
+    /// holding the GIL that the stepping thread needs).
+    stepping: Mutex<Stepping>,
+    /// The thread whose `run` or `step` is in progress: calls from other threads are refused
+    /// for its whole duration, also between its steps (while its callback runs), so that two
+    /// runs never interleave their steps.
+    runner: Mutex<Option<ThreadId>>,
+}
+
+/// What a step changes: the integrator (its factor, its last acceleration) and the state.
+struct Stepping {
     stepper: Stepper,
     state: State,
+}
+
+/// Marks the current thread as the Simulation's runner until dropped, then restores the
+/// runner before it (a `run` inside a callback of the same thread's `run` nests).
+struct RunnerGuard<'a> {
+    runner: &'a Mutex<Option<ThreadId>>,
+    previous: Option<ThreadId>,
+}
+
+impl Drop for RunnerGuard<'_> {
+    fn drop(&mut self) {
+        *lock_ignoring_poison(self.runner) = self.previous;
+    }
+}
+
+/// The runner slot's lock. It is held for a read or a write of the slot only (never across a
+/// call), so waiting for it is short and cannot deadlock; a panic cannot leave the slot half
+/// written (an `Option<ThreadId>` is written whole), so a poisoned lock is still valid.
+fn lock_ignoring_poison<T>(mutex: &Mutex<T>) -> MutexGuard<'_, T> {
+    mutex.lock().unwrap_or_else(std::sync::PoisonError::into_inner)
+}
+
+/// The `TetfemError` of a call made while another thread runs the Simulation.
+fn busy(py: Python<'_>, what: &str) -> PyErr {
+    raise(
+        py,
+        "TetfemError",
+        format!(
+            "Simulation is busy: {what} is running in another thread; wait for it to return \
+             (read the state from run's callback meanwhile), or use one Simulation per thread"
+        ),
+    )
 }
 
 impl PySimulation {
@@ -116,20 +168,56 @@ impl PySimulation {
         })
     }
 
-    /// One step and the energies after it, with the GIL released.
-    fn step_with_energy(&mut self, py: Python<'_>) -> PyResult<Energy> {
-        let PySimulation {
-            stepper,
-            state,
-            force,
-            system,
-            ..
-        } = self;
-        py.detach(|| {
-            stepper.integrator().step(state)?;
-            force.energy(system, state)
+    /// The integrator and the state, for a call of this thread: `TetfemError` (busy) when
+    /// another thread's `run` or `step` is in progress.
+    fn stepping(&self, py: Python<'_>) -> PyResult<MutexGuard<'_, Stepping>> {
+        let current = std::thread::current().id();
+        if lock_ignoring_poison(&self.runner).is_some_and(|runner| runner != current) {
+            return Err(busy(py, "run() or step()"));
+        }
+        match self.stepping.try_lock() {
+            Ok(guard) => Ok(guard),
+            // A step is in progress: another thread's that started after the check above, or
+            // this thread's own when a Python signal handler calls back in during it.
+            Err(TryLockError::WouldBlock) => Err(busy(py, "a step")),
+            Err(TryLockError::Poisoned(_)) => Err(raise(
+                py,
+                "TetfemError",
+                "Simulation is unusable: a step panicked part-way (a bug: please report it)"
+                    .into(),
+            )),
+        }
+    }
+
+    /// Marks this thread as the runner (see [`RunnerGuard`]): `TetfemError` (busy) when
+    /// another thread is.
+    fn claim(&self, py: Python<'_>) -> PyResult<RunnerGuard<'_>> {
+        let current = std::thread::current().id();
+        let mut runner = lock_ignoring_poison(&self.runner);
+        if runner.is_some_and(|other| other != current) {
+            return Err(busy(py, "run() or step()"));
+        }
+        let previous = runner.replace(current);
+        Ok(RunnerGuard {
+            runner: &self.runner,
+            previous,
         })
-        .or_raise(py)
+    }
+
+    /// One step and `after` of the state it leaves, with the GIL released and Ctrl-C honoured
+    /// inside (see [`detach_interruptible`]); with the time and step count after it.
+    fn advance<T: Ungil>(
+        &self,
+        py: Python<'_>,
+        after: impl Ungil + FnOnce(&State) -> tetfem::Result<T>,
+    ) -> PyResult<(T, f64, usize)> {
+        let mut guard = self.stepping(py)?;
+        let Stepping { stepper, state } = &mut *guard;
+        let value = detach_interruptible(py, || {
+            stepper.integrator().step(state)?;
+            after(state)
+        })?;
+        Ok((value, state.time, state.steps))
     }
 
     /// The free-DOF entries of `value`, given as (3,) for every node or (n, 3), finite.
@@ -239,23 +327,30 @@ impl PySimulation {
             materials,
             system,
             force,
-            stepper,
-            state,
+            method: stepper.get().name(),
+            stepping: Mutex::new(Stepping { stepper, state }),
+            runner: Mutex::new(None),
         })
     }
 
     /// Advances one time step (GIL released). On ``DivergedError`` the state
-    /// holds the failed step's values, for inspection.
-    fn step(&mut self, py: Python<'_>) -> PyResult<()> {
-        let PySimulation { stepper, state, .. } = self;
-        py.detach(|| stepper.integrator().step(state)).or_raise(py)
+    /// holds the failed step's values, for inspection; on ``KeyboardInterrupt`` (Ctrl-C
+    /// inside the step's iterations) the state of the step before.
+    fn step(&self, py: Python<'_>) -> PyResult<()> {
+        let _runner = self.claim(py)?;
+        self.advance(py, |_| Ok(())).map(|_| ())
     }
 
     /// Takes ``steps`` steps and returns the energy history after each step as numpy arrays of
-    /// that length: ``time`` (s), ``step``, ``kinetic``, ``elastic``, ``gravity_potential``,
-    /// ``load_potential``, ``total`` (J). ``callback(simulation)`` is called after each step
-    /// (with the GIL); if it returns ``False`` the run stops there (the arrays are then
-    /// shorter); an exception it raises propagates.
+    /// that length: ``time`` (s, float64), ``step`` (int64), ``kinetic``, ``elastic``,
+    /// ``gravity_potential``, ``load_potential``, ``total`` (J, float64). ``callback(simulation)``
+    /// is called after each step (with the GIL); if it returns ``False`` the run stops there
+    /// (the arrays are then shorter); an exception it raises propagates. Ctrl-C raises
+    /// ``KeyboardInterrupt`` between steps or inside a step's iterations (within 0.05 s and
+    /// one iteration), the Simulation left at the last completed step (``steps`` and ``time``
+    /// those of that step; the history up to it is lost with the return value, so record it
+    /// in a callback when it matters). While it runs, calls from other threads raise
+    /// ``TetfemError`` (busy).
     #[pyo3(signature = (steps, callback = None))]
     fn run<'py>(
         slf: &Bound<'py, Self>,
@@ -263,16 +358,18 @@ impl PySimulation {
         callback: Option<Bound<'py, PyAny>>,
     ) -> PyResult<Bound<'py, PyDict>> {
         let py = slf.py();
-        let mut columns: [Vec<f64>; 7] = Default::default();
+        let sim = slf.get();
+        let _runner = sim.claim(py)?;
+        let mut counts: Vec<usize> = Vec::new();
+        let mut columns: [Vec<f64>; 6] = Default::default();
         for _ in 0..steps {
-            let (energy, time, step) = {
-                let mut sim = slf.borrow_mut();
-                let energy = sim.step_with_energy(py)?;
-                (energy, sim.state.time, sim.state.steps)
-            };
+            // Ctrl-C that arrived during the last step's final iterations, or between steps.
+            py.check_signals()?;
+            let (energy, time, step) =
+                sim.advance(py, |state| sim.force.energy(&sim.system, state))?;
+            counts.push(step);
             let row = [
                 time,
-                step as f64,
                 energy.kinetic,
                 energy.elastic,
                 energy.gravity_potential,
@@ -292,7 +389,6 @@ impl PySimulation {
         let d = PyDict::new(py);
         let names = [
             "time",
-            "step",
             "kinetic",
             "elastic",
             "gravity_potential",
@@ -302,45 +398,52 @@ impl PySimulation {
         for (name, column) in names.into_iter().zip(columns) {
             d.set_item(name, arrays::vector(py, column))?;
         }
+        d.set_item("step", arrays::index_vector(py, &counts))?;
         Ok(d)
     }
 
     /// The energies of the current state as a dict (J): kinetic ½vᵀMv, elastic (½uᵀKu
     /// for the linear model), gravity_potential, load_potential (−f·u) and their total.
     fn energy<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let guard = self.stepping(py)?;
+        let state = &guard.state;
         let e = py
-            .detach(|| self.force.energy(&self.system, &self.state))
+            .detach(|| self.force.energy(&self.system, state))
             .or_raise(py)?;
         energy_dict(py, &e)
     }
 
     /// Simulated time (s).
     #[getter]
-    fn time(&self) -> f64 {
-        self.state.time
+    fn time(&self, py: Python<'_>) -> PyResult<f64> {
+        Ok(self.stepping(py)?.state.time)
     }
 
     /// Steps taken.
     #[getter]
-    fn steps(&self) -> usize {
-        self.state.steps
+    fn steps(&self, py: Python<'_>) -> PyResult<usize> {
+        Ok(self.stepping(py)?.state.steps)
     }
 
     /// The time step (s); setting it makes implicit methods refactor on the next step.
     #[getter]
-    fn dt(&self) -> f64 {
-        self.stepper.get().time_step()
+    fn dt(&self, py: Python<'_>) -> PyResult<f64> {
+        Ok(self.stepping(py)?.stepper.get().time_step())
     }
 
     #[setter]
-    fn set_dt(&mut self, py: Python<'_>, dt: f64) -> PyResult<()> {
-        self.stepper.integrator().set_time_step(dt).or_raise(py)
+    fn set_dt(&self, py: Python<'_>, dt: f64) -> PyResult<()> {
+        self.stepping(py)?
+            .stepper
+            .integrator()
+            .set_time_step(dt)
+            .or_raise(py)
     }
 
     /// The method's name (``backward-euler``, ``newmark``, ``explicit``).
     #[getter]
     fn method(&self) -> &'static str {
-        self.stepper.get().name()
+        self.method
     }
 
     /// The force model's name (``linear``, ``corotational``, ``neo-hookean``).
@@ -358,33 +461,33 @@ impl PySimulation {
     /// Displacement of every node, shape (n, 3), m (prescribed values on constrained DOFs).
     #[getter]
     fn displacement<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        arrays::rows3(
-            py,
-            self.system
-                .dofs()
-                .expand(&self.state.displacement)
-                .or_raise(py)?,
-        )
+        let u = self.stepping(py)?.state.displacement.clone();
+        arrays::rows3(py, self.system.dofs().expand(&u).or_raise(py)?)
     }
 
     /// Sets the displacement (shape (n, 3), m) of the free DOFs; the constrained ones keep
     /// their prescribed values. Time and step count are unchanged.
     #[setter]
-    fn set_displacement(&mut self, py: Python<'_>, value: &Bound<'_, PyAny>) -> PyResult<()> {
-        self.state.displacement = self.free_values(py, value, "displacement")?;
+    fn set_displacement(&self, py: Python<'_>, value: &Bound<'_, PyAny>) -> PyResult<()> {
+        // Read before the lock: converting `value` may run Python code (an array-like's
+        // methods) that reads this Simulation.
+        let values = self.free_values(py, value, "displacement")?;
+        self.stepping(py)?.state.displacement = values;
         Ok(())
     }
 
     /// Velocity of every node, shape (n, 3), m/s (zero on constrained DOFs).
     #[getter]
     fn velocity<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        self.scatter(py, &self.state.velocity)
+        let v = self.stepping(py)?.state.velocity.clone();
+        self.scatter(py, &v)
     }
 
     /// Sets the velocity (shape (3,) for every node or (n, 3), m/s) of the free DOFs.
     #[setter]
-    fn set_velocity(&mut self, py: Python<'_>, value: &Bound<'_, PyAny>) -> PyResult<()> {
-        self.state.velocity = self.free_values(py, value, "velocity")?;
+    fn set_velocity(&self, py: Python<'_>, value: &Bound<'_, PyAny>) -> PyResult<()> {
+        let values = self.free_values(py, value, "velocity")?;
+        self.stepping(py)?.state.velocity = values;
         Ok(())
     }
 
@@ -399,11 +502,13 @@ impl PySimulation {
     /// Von Mises stress of every tet at the current state, shape (m,), Pa: the Cauchy stress
     /// of the model that runs.
     fn von_mises<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        let u = self
-            .system
-            .dofs()
-            .expand(&self.state.displacement)
-            .or_raise(py)?;
+        let u = {
+            let guard = self.stepping(py)?;
+            self.system
+                .dofs()
+                .expand(&guard.state.displacement)
+                .or_raise(py)?
+        };
         let mesh = &self.data.mesh;
         let v = match &self.force {
             InternalForce::Linear => cell_von_mises(mesh, &self.materials, &u),
@@ -439,14 +544,21 @@ impl PySimulation {
         modes_of(py, &self.system, Some(&self.force), &self.data, count)
     }
 
-    fn __repr__(&self) -> String {
-        format!(
-            "Simulation(method={}, model={}, dt={:e} s, t={:e} s, {} steps)",
-            self.stepper.get().name(),
-            self.force.name(),
-            self.stepper.get().time_step(),
-            self.state.time,
-            self.state.steps
-        )
+    fn __repr__(&self, py: Python<'_>) -> String {
+        match self.stepping(py) {
+            Ok(guard) => format!(
+                "Simulation(method={}, model={}, dt={:e} s, t={:e} s, {} steps)",
+                self.method,
+                self.force.name(),
+                guard.stepper.get().time_step(),
+                guard.state.time,
+                guard.state.steps
+            ),
+            Err(_) => format!(
+                "Simulation(method={}, model={}, busy: running in another thread)",
+                self.method,
+                self.force.name()
+            ),
+        }
     }
 }

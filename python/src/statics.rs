@@ -2,7 +2,7 @@
 //! force model), `tetfem.StaticSolver` (factor once, solve many load cases; K and K_ff) and the
 //! `tetfem.StaticResult` they return.
 
-use std::sync::Arc;
+use std::sync::{Arc, Mutex, MutexGuard, TryLockError};
 
 use nalgebra::Matrix3;
 use numpy::{PyArray1, PyArrayMethods};
@@ -17,7 +17,8 @@ use tetfem::statics::{StaticSolution, StaticSolver};
 
 use crate::arrays::{self, index_vector};
 use crate::constraints::PyConstraints;
-use crate::errors::{OrRaise, raise};
+use crate::errors::{OrRaise, invalid, raise};
+use crate::interrupt::detach_interruptible;
 use crate::loads::PyLoads;
 use crate::material::materials_of;
 use crate::mesh::{MeshData, PyMesh};
@@ -146,12 +147,18 @@ pub fn check_same_mesh(
 /// ``"linear"`` (one sparse solve: ``linear_solver`` ``"auto"`` picks the Cholesky factorization
 /// or multigrid-preconditioned CG by predicted time, ``"direct"`` / ``"iterative"`` force one),
 /// or a nonlinear model ``"corotational"`` / ``"neo-hookean"`` / ``"st-venant-kirchhoff"``
-/// (each material its own) solved by Newton's method in
-/// ``load_steps`` increments to ‖r_f‖ ≤ ``tolerance``·‖f_f‖ with at most ``max_iterations``
-/// per step. The work runs with the GIL released. Raises ``NotConstrainedError`` when the
-/// constraints leave a rigid-body motion, ``SolverError`` when the solve fails.
+/// (each material its own) solved by Newton's method in ``load_steps`` increments with at most
+/// ``max_iterations`` per step. ``tolerance``: the relative residual asked for, ‖r_f‖ ≤
+/// ``tolerance``·‖f_f‖ (the linear solve's ‖K_ff·u_f − r_f‖/‖r_f‖, or Newton's residual over
+/// the load); a solve that ends above it raises ``SolverError`` naming the tolerance and the
+/// residual reached (a tolerance below double precision's floor for the matrix cannot be
+/// met). ``None`` (the default): the library's own acceptance (Newton to 1e-10 or its
+/// round-off floor, CG to 1e-10 or its rounding floor, the direct solve refined to 1e-8),
+/// the residual reached in ``relative_residual``. The work runs with the GIL released; Ctrl-C
+/// raises ``KeyboardInterrupt`` between two iterations. Raises ``NotConstrainedError`` when
+/// the constraints leave a rigid-body motion, ``SolverError`` when the solve fails.
 #[pyfunction]
-#[pyo3(signature = (mesh, material, constraints, loads, model = "linear", linear_solver = "auto", load_steps = 10, tolerance = 1e-10, max_iterations = 30))]
+#[pyo3(signature = (mesh, material, constraints, loads, model = "linear", linear_solver = "auto", load_steps = 10, tolerance = None, max_iterations = 30))]
 #[allow(clippy::too_many_arguments)]
 pub fn solve_static(
     py: Python<'_>,
@@ -162,7 +169,7 @@ pub fn solve_static(
     model: &str,
     linear_solver: &str,
     load_steps: usize,
-    tolerance: f64,
+    tolerance: Option<f64>,
     max_iterations: usize,
 ) -> PyResult<StaticResult> {
     let data = &mesh.get().data;
@@ -170,52 +177,60 @@ pub fn solve_static(
     let materials = materials_of(py, material, data)?;
     let kind = names::model(py, model)?;
     let method = names::linear_solver(py, linear_solver)?;
+    if let Some(t) = tolerance.filter(|t| !(t.is_finite() && *t > 0.0 && *t < 1.0)) {
+        return Err(invalid(py, "tolerance", t, "must be finite, > 0 and < 1 (or None)"));
+    }
     let constraints = &constraints.constraints;
     let loads = &loads.all;
     if kind == ModelKind::Linear {
-        let options = SolverOptions {
+        let mut options = SolverOptions {
             method,
             ..SolverOptions::default()
         };
-        let solution = py
-            .detach(|| {
-                StaticSolver::with_options(&data.mesh, &materials, constraints, options)?
-                    .solve(loads)
-            })
-            .or_raise(py)?;
+        if let Some(t) = tolerance {
+            // CG accepts a true residual up to 10× its tolerance (its recursive residual
+            // drifts): a tenth of the one asked for, so that it stops at or below it.
+            options.cg.relative_tolerance = t / 10.0;
+        }
+        let solution = detach_interruptible(py, || {
+            StaticSolver::with_options(&data.mesh, &materials, constraints, options)?.solve(loads)
+        })?;
+        check_tolerance(py, tolerance, solution.relative_residual, &solver_text(&solution.info))?;
         return linear_result(py, data, &materials, solution);
     }
     let options = NewtonOptions {
         load_steps,
-        tolerance,
+        tolerance: tolerance.unwrap_or(NewtonOptions::default().tolerance),
         max_iterations,
         ..NewtonOptions::default()
     };
     let models = kind.build_map(&materials);
-    let (report, relative, stress) = py
-        .detach(|| -> tetfem::Result<_> {
-            let report = solve_nonlinear_static(&data.mesh, &models, constraints, loads, options)?;
-            // ‖r_f‖/‖f_f‖ at the end, as the scene runner reports it.
-            let load = DofMap::new(constraints)
-                .restrict(loads.as_slice())?
-                .iter()
-                .map(|f| f * f)
-                .sum::<f64>()
-                .sqrt();
-            let last = report
-                .residuals
-                .last()
-                .and_then(|r| r.last())
-                .copied()
-                .unwrap_or(0.0);
-            let relative = if load > 0.0 { last / load } else { last };
-            let stress = cell_model_stress(&data.mesh, &models, &report.displacement)?;
-            Ok((report, relative, stress))
-        })
-        .or_raise(py)?;
+    let (report, (relative, reached), stress) = detach_interruptible(py, || -> tetfem::Result<_> {
+        let report = solve_nonlinear_static(&data.mesh, &models, constraints, loads, options)?;
+        // ‖r_f‖/‖f_f‖ at the end, as the scene runner reports it.
+        let load = DofMap::new(constraints)
+            .restrict(loads.as_slice())?
+            .iter()
+            .map(|f| f * f)
+            .sum::<f64>()
+            .sqrt();
+        let last_step = report.residuals.last().map_or(&[][..], Vec::as_slice);
+        let last = last_step.last().copied().unwrap_or(0.0);
+        let relative = if load > 0.0 { last / load } else { last };
+        // Against Newton's own reference: the load, or without one (prescribed displacements
+        // only) the last load step's first residual.
+        let reached = match (load > 0.0, last_step.first()) {
+            (false, Some(&first)) => last / first.max(f64::MIN_POSITIVE),
+            _ => relative,
+        };
+        let stress = cell_model_stress(&data.mesh, &models, &report.displacement)?;
+        Ok((report, (relative, reached), stress))
+    })?;
+    let solver = format!("newton ({} iterations)", report.iterations);
+    check_tolerance(py, tolerance, reached, &solver)?;
     let (stress, von_mises) = stress_arrays(py, &stress)?;
     Ok(StaticResult {
-        solver: format!("newton ({} iterations)", report.iterations),
+        solver,
         displacement: arrays::rows3(py, report.displacement)?.unbind(),
         stress,
         von_mises,
@@ -225,15 +240,63 @@ pub fn solve_static(
     })
 }
 
+/// `SolverError` when a solve asked for `tolerance` ended at a relative residual `reached`
+/// above it (`solver`: how it solved, for the message).
+fn check_tolerance(
+    py: Python<'_>,
+    tolerance: Option<f64>,
+    reached: f64,
+    solver: &str,
+) -> PyResult<()> {
+    match tolerance {
+        Some(t) if !(reached <= t) => Err(raise(
+            py,
+            "SolverError",
+            format!(
+                "the static solve did not reach tolerance = {t:e}: its relative residual is \
+                 {reached:.3e} ({solver}); a tolerance below the rounding floor of double \
+                 precision for this matrix (about machine epsilon × its condition number) \
+                 cannot be met: ask for {reached:.1e} or more, or leave tolerance = None for \
+                 the library's own acceptance"
+            ),
+        )),
+        _ => Ok(()),
+    }
+}
+
 /// A factored linear static problem: K assembled and K_ff factored once (GIL released), then
 /// ``solve(loads)`` for any number of load cases. ``stiffness()`` and ``free_stiffness()``
 /// give K (all DOFs, N/m) and K_ff (free DOFs, in the order of ``free_dofs``) as SciPy CSR
-/// matrices (or ``(indptr, indices, data, shape)`` without SciPy).
-#[pyclass(name = "StaticSolver", module = "tetfem")]
+/// matrices (or ``(indptr, indices, data, shape)`` without SciPy). While ``solve`` works in one
+/// thread, calls from other threads raise ``TetfemError`` (busy).
+#[pyclass(name = "StaticSolver", module = "tetfem", frozen)]
 pub struct PyStaticSolver {
     data: Arc<MeshData>,
     materials: MaterialMap,
-    solver: StaticSolver,
+    /// Locked by each call (`try_lock` only: a call never waits while holding the GIL).
+    solver: Mutex<StaticSolver>,
+}
+
+impl PyStaticSolver {
+    /// The solver, or `TetfemError` (busy) while another thread's `solve` uses it.
+    fn solver(&self, py: Python<'_>) -> PyResult<MutexGuard<'_, StaticSolver>> {
+        match self.solver.try_lock() {
+            Ok(guard) => Ok(guard),
+            Err(TryLockError::WouldBlock) => Err(raise(
+                py,
+                "TetfemError",
+                "StaticSolver is busy: solve() is running in another thread; wait for it to \
+                 return, or use one StaticSolver per thread"
+                    .into(),
+            )),
+            Err(TryLockError::Poisoned(_)) => Err(raise(
+                py,
+                "TetfemError",
+                "StaticSolver is unusable: a solve panicked part-way (a bug: please report it)"
+                    .into(),
+            )),
+        }
+    }
 }
 
 #[pymethods]
@@ -261,12 +324,12 @@ impl PyStaticSolver {
         Ok(PyStaticSolver {
             data,
             materials,
-            solver,
+            solver: Mutex::new(solver),
         })
     }
 
     /// The displacement under ``loads`` (a ``StaticResult``; GIL released).
-    fn solve(&mut self, py: Python<'_>, loads: PyRef<'_, PyLoads>) -> PyResult<StaticResult> {
+    fn solve(&self, py: Python<'_>, loads: PyRef<'_, PyLoads>) -> PyResult<StaticResult> {
         if !Arc::ptr_eq(&self.data, &loads.data) {
             return Err(raise(
                 py,
@@ -274,31 +337,32 @@ impl PyStaticSolver {
                 "the loads were made for another mesh: make them with Loads(mesh) of this solver's mesh".into(),
             ));
         }
-        let solver = &mut self.solver;
+        let mut solver = self.solver(py)?;
+        let solver = &mut *solver;
         let all = &loads.all;
-        let solution = py.detach(|| solver.solve(all)).or_raise(py)?;
+        let solution = detach_interruptible(py, || solver.solve(all))?;
         linear_result(py, &self.data, &self.materials, solution)
     }
 
     /// The stiffness matrix K of all DOFs (3·node + axis), N/m.
     fn stiffness<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        csr(py, self.solver.stiffness())
+        csr(py, self.solver(py)?.stiffness())
     }
 
     /// The stiffness matrix K_ff of the free DOFs (rows and columns in ``free_dofs`` order), N/m.
     fn free_stiffness<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        csr(py, self.solver.free_stiffness())
+        csr(py, self.solver(py)?.free_stiffness())
     }
 
     /// The free DOFs (3·node + axis), ascending int64 array: row i of K_ff is DOF free_dofs[i].
     #[getter]
-    fn free_dofs<'py>(&self, py: Python<'py>) -> Bound<'py, PyAny> {
-        index_vector(py, self.solver.dofs().free_dofs())
+    fn free_dofs<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        Ok(index_vector(py, self.solver(py)?.dofs().free_dofs()))
     }
 
     /// Stored values of the Cholesky factor (0 on the iterative path).
     #[getter]
-    fn factor_len(&self) -> usize {
-        self.solver.factor_len()
+    fn factor_len(&self, py: Python<'_>) -> PyResult<usize> {
+        Ok(self.solver(py)?.factor_len())
     }
 }

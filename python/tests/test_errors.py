@@ -152,3 +152,51 @@ def test_scene_error_names_line_and_key(tmp_path):
 def test_missing_mesh_file(tmp_path):
     with pytest.raises(tetfem.TetfemError):
         tetfem.Mesh.read(tmp_path / "nothing.msh")
+
+
+def test_a_tolerance_the_solve_cannot_reach_raises_naming_it_and_the_residual():
+    """tolerance=1e-14 is below double precision's floor for a beam's stiffness: before, the
+    solve returned a residual far above it without a word."""
+    mesh = tetfem.Mesh.box(max=(1.0, 0.1, 0.1), cells=(40, 4, 4))
+    steel = tetfem.Material.steel()
+    constraints = tetfem.Constraints(mesh).fix(mesh.nodes_on_plane("x", 0.0))
+    loads = tetfem.Loads(mesh).add_gravity((0, 0, -9.81), steel)
+    for solver in ["iterative", "direct"]:
+        default = tetfem.solve_static(mesh, steel, constraints, loads, linear_solver=solver)
+        # The floor of this matrix is above 1e-14 (ε·κ, κ ~ 1e6 here); a solve that reaches it
+        # anyway would make this test vacuous.
+        assert default.relative_residual > 1e-14, (solver, default.relative_residual)
+        with pytest.raises(tetfem.SolverError, match=r"did not reach tolerance = 1e-14: its relative residual is \d"):
+            tetfem.solve_static(mesh, steel, constraints, loads, linear_solver=solver, tolerance=1e-14)
+        # A tolerance above what it reaches is met, and says so.
+        met = tetfem.solve_static(mesh, steel, constraints, loads, linear_solver=solver, tolerance=1e-6)
+        assert met.relative_residual <= 1e-6
+    with pytest.raises(tetfem.SolverError, match="did not reach tolerance = 1e-14"):
+        tetfem.solve_static(mesh, steel, constraints, loads, model="corotational", tolerance=1e-14)
+    with pytest.raises(tetfem.InvalidInputError, match="tolerance = 0"):
+        tetfem.solve_static(mesh, steel, constraints, loads, tolerance=0.0)
+
+
+def test_a_newton_failure_is_labelled_newton_not_linear_solver():
+    mesh = tetfem.Mesh.box(max=(1.0, 0.1, 0.1), cells=(10, 2, 2))
+    rubber = tetfem.Material(1e6, 0.45, 1000.0)
+    constraints = tetfem.Constraints(mesh).fix(mesh.nodes_on_plane("x", 0.0))
+    # A tip load far beyond what 2 iterations of one load step can equilibrate.
+    loads = tetfem.Loads(mesh).add_total_force(mesh.faces_on_plane("x", 1.0), (0.0, 0.0, -500.0))
+    with pytest.raises(tetfem.SolverError) as raised:
+        tetfem.solve_static(
+            mesh, rubber, constraints, loads, model="neo-hookean", load_steps=1, max_iterations=2
+        )
+    message = str(raised.value)
+    assert message.startswith("Newton's method: no convergence in 2 iterations at load step 1/1"), message
+    assert "linear solver" not in message and "residual" in message
+
+
+def test_history_steps_are_integers():
+    mesh = tetfem.Mesh.box(max=(1.0, 0.1, 0.1), cells=(6, 2, 2))
+    steel = tetfem.Material.steel()
+    constraints = tetfem.Constraints(mesh).fix(mesh.nodes_on_plane("x", 0.0))
+    sim = tetfem.Simulation(mesh, steel, constraints, dt=1e-4)
+    history = sim.run(3)
+    assert history["step"].dtype == np.int64 and history["step"].tolist() == [1, 2, 3]
+    assert history["time"].dtype == np.float64

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 import tetfem
-from conftest import SCENES
+from conftest import SCENES, optional_import
 
 
 @pytest.mark.parametrize("split,per_cell", [("mirrored6", 6), ("lecture6", 6), ("five", 5)])
@@ -79,7 +79,7 @@ def test_reactions_balance_the_loads():
 
 
 def test_stiffness_matrices():
-    scipy = pytest.importorskip("scipy.sparse", reason="scipy not installed: CSR tests skipped")
+    scipy = optional_import("scipy.sparse", reason="scipy not installed: CSR tests skipped")
     from scipy.sparse.linalg import spsolve
 
     mesh = tetfem.Mesh.box(max=(1.0, 0.1, 0.1), cells=(10, 2, 2))
@@ -153,7 +153,7 @@ def test_tetgen_files_with_markers_and_attributes(tmp_path):
 
 
 def test_global_stiffness_and_mass_matrices():
-    pytest.importorskip("scipy.sparse", reason="scipy not installed: CSR tests skipped")
+    optional_import("scipy.sparse", reason="scipy not installed: CSR tests skipped")
     mesh = tetfem.Mesh.box(max=(1.0, 0.1, 0.1), cells=(10, 2, 2))
     steel = tetfem.Material.steel()
     constraints = tetfem.Constraints(mesh).fix(mesh.nodes_on_plane("x", 0.0))
@@ -186,7 +186,7 @@ def test_matrices_without_scipy_are_csr_arrays(monkeypatch):
     monkeypatch.undo()
     assert shape == (mesh.dof_count, mesh.dof_count) and len(indptr) == mesh.dof_count + 1
     assert mass.sum() == pytest.approx(3 * 7850.0 * mesh.volume, rel=1e-12)
-    scipy = pytest.importorskip("scipy.sparse", reason="scipy not installed: comparison skipped")
+    scipy = optional_import("scipy.sparse", reason="scipy not installed: comparison skipped")
     k = tetfem.stiffness_matrix(mesh, steel)
     assert np.array_equal(k.indptr, indptr) and np.array_equal(k.indices, indices)
     assert np.array_equal(k.data, data) and scipy.issparse(k)

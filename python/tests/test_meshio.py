@@ -4,8 +4,9 @@ import numpy as np
 import pytest
 
 import tetfem
+from conftest import optional_import
 
-meshio = pytest.importorskip("meshio", reason="meshio not installed: round-trip test skipped")
+meshio = optional_import("meshio", reason="meshio not installed: round-trip test skipped")
 
 
 def test_round_trip_through_a_vtu_file(tmp_path):

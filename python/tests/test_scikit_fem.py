@@ -1,12 +1,13 @@
-"""Cross-check with scikit-fem on the same mesh, when it is installed (skipped otherwise)."""
+"""Cross-check with scikit-fem on the same mesh, when it is installed (skipped otherwise, except under CI)."""
 
 import numpy as np
 import pytest
 
 import tetfem
+from conftest import optional_import
 
-skfem = pytest.importorskip("skfem", reason="scikit-fem not installed: cross-check skipped")
-pytest.importorskip("scipy.sparse", reason="scipy not installed: cross-check skipped")
+skfem = optional_import("skfem", reason="scikit-fem not installed: cross-check skipped")
+optional_import("scipy.sparse", reason="scipy not installed: cross-check skipped")
 
 
 def test_stiffness_and_cantilever_tip_agree_with_scikit_fem():

@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 
 import tetfem
-from conftest import REPO, SCENES, probe_mean
+from conftest import REPO, SCENES, probe_mean, skip_outside_ci
 
 
 def cantilever_static():
@@ -111,7 +111,7 @@ def tetfem_binary():
 def test_tip_matches_the_tetfem_binary(tmp_path):
     binary = tetfem_binary()
     if binary is None:
-        pytest.skip("no tetfem binary: run `cargo build --release` first (CI has one)")
+        skip_outside_ci("no tetfem binary: run `cargo build --release` first (CI has one)")
     out = subprocess.run(
         [binary, "run", str(SCENES / "cantilever_static.toml"), "--json", "--quiet", "--out", str(tmp_path)],
         check=True,
@@ -131,7 +131,7 @@ def test_default_run_static_tip_matches_the_binary(cells, tmp_path):
     gravity) against the same beam built here: equal bits."""
     binary = tetfem_binary()
     if binary is None:
-        pytest.skip("no tetfem binary: run `cargo build --release` first (CI has one)")
+        skip_outside_ci("no tetfem binary: run `cargo build --release` first (CI has one)")
     cell_text = ",".join(map(str, cells))
     out = subprocess.run(
         [binary, "--cells", cell_text, "--static-only", "--json", "--quiet", "--out", str(tmp_path)],

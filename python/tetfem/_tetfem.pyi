@@ -1,7 +1,7 @@
 """Type stubs of tetfem's native module (``tetfem._tetfem``); see the docstrings for units."""
 
 from os import PathLike
-from typing import Any, final, Callable, Dict, List, Optional, Sequence, Tuple, Union
+from typing import Any, final, Callable, Dict, List, Literal, Optional, Sequence, Tuple, Union
 
 import numpy as np
 import numpy.typing as npt
@@ -28,7 +28,19 @@ __all__ = [
 _ArrayLike = npt.ArrayLike
 _FloatArray = npt.NDArray[np.float64]
 _IndexArray = npt.NDArray[np.int64]
-_Axis = Union[int, str]
+# The names each option accepts (an InvalidInputError lists them for any other value).
+_Axis = Union[Literal[0, 1, 2], Literal["x", "y", "z", "X", "Y", "Z"]]
+# Any non-empty set of axes, each letter once (the module also takes upper case and repeats).
+_Axes = Literal[
+    "x", "y", "z", "xy", "xz", "yx", "yz", "zx", "zy", "xyz", "xzy", "yxz", "yzx", "zxy", "zyx"
+]
+_Split = Literal["mirrored6", "lecture6", "five"]
+_Method = Literal["backward-euler", "backward_euler", "newmark", "explicit"]
+_Model = Literal[
+    "linear", "corotational", "neo-hookean", "neo_hookean", "st-venant-kirchhoff", "st_venant_kirchhoff"
+]
+_Mass = Literal["lumped", "consistent"]
+_LinearSolver = Literal["auto", "direct", "iterative"]
 _Path = Union[str, "PathLike[str]"]
 # A scipy.sparse.csr_matrix when SciPy is installed, else (indptr, indices, data, shape).
 _SparseMatrix = Any
@@ -41,7 +53,7 @@ class Mesh:
         max: _ArrayLike,
         cells: _ArrayLike,
         min: Optional[_ArrayLike] = None,
-        split: str = "mirrored6",
+        split: _Split = "mirrored6",
     ) -> "Mesh": ...
     @staticmethod
     def read(path: _Path) -> "Mesh": ...
@@ -123,8 +135,8 @@ _Materials = Union[Material, MaterialMap]
 @final
 class Constraints:
     def __new__(cls, mesh: Mesh) -> "Constraints": ...
-    def fix(self, nodes: _ArrayLike, axes: str = "xyz") -> "Constraints": ...
-    def prescribe(self, nodes: _ArrayLike, displacement: _ArrayLike, axes: str = "xyz") -> "Constraints": ...
+    def fix(self, nodes: _ArrayLike, axes: _Axes = "xyz") -> "Constraints": ...
+    def prescribe(self, nodes: _ArrayLike, displacement: _ArrayLike, axes: _Axes = "xyz") -> "Constraints": ...
     def prescribe_linear(
         self, nodes: _ArrayLike, gradient: _ArrayLike, offset: Optional[_ArrayLike] = None
     ) -> "Constraints": ...
@@ -163,7 +175,7 @@ class StaticResult:
 @final
 class StaticSolver:
     def __new__(
-        cls, mesh: Mesh, material: _Materials, constraints: Constraints, linear_solver: str = "auto"
+        cls, mesh: Mesh, material: _Materials, constraints: Constraints, linear_solver: _LinearSolver = "auto"
     ) -> "StaticSolver": ...
     def solve(self, loads: Loads) -> StaticResult: ...
     def stiffness(self) -> _SparseMatrix: ...
@@ -191,18 +203,18 @@ class Simulation:
         loads: Optional[Loads] = None,
         *,
         dt: Union[float, str],
-        method: str = "backward-euler",
-        model: str = "linear",
-        mass: str = "lumped",
+        method: _Method = "backward-euler",
+        model: _Model = "linear",
+        mass: _Mass = "lumped",
         damping: Tuple[float, float] = ...,  # (0.0, 0.0): no damping
         initial_displacement: Optional[_ArrayLike] = None,
         initial_velocity: Optional[_ArrayLike] = None,
-        linear_solver: str = "auto",
+        linear_solver: _LinearSolver = "auto",
     ) -> "Simulation": ...
     def step(self) -> None: ...
     def run(
         self, steps: int, callback: Optional[Callable[["Simulation"], Optional[bool]]] = None
-    ) -> Dict[str, _FloatArray]: ...
+    ) -> Dict[str, npt.NDArray[Any]]: ...  # "step" int64, the others float64
     def energy(self) -> Dict[str, float]: ...
     @property
     def time(self) -> float: ...
@@ -240,15 +252,15 @@ def solve_static(
     material: _Materials,
     constraints: Constraints,
     loads: Loads,
-    model: str = "linear",
-    linear_solver: str = "auto",
+    model: _Model = "linear",
+    linear_solver: _LinearSolver = "auto",
     load_steps: int = 10,
-    tolerance: float = 1e-10,
+    tolerance: Optional[float] = None,
     max_iterations: int = 30,
 ) -> StaticResult: ...
 def modal_analysis(
-    mesh: Mesh, material: _Materials, constraints: Constraints, count: int = 6, mass: str = "lumped"
+    mesh: Mesh, material: _Materials, constraints: Constraints, count: int = 6, mass: _Mass = "lumped"
 ) -> ModalResult: ...
 def run_scene(path: _Path, output_dir: Optional[_Path] = None, write_files: bool = True) -> Dict[str, Any]: ...
 def stiffness_matrix(mesh: Mesh, material: _Materials) -> _SparseMatrix: ...
-def mass_matrix(mesh: Mesh, material: _Materials, mass: str = "lumped") -> _SparseMatrix: ...
+def mass_matrix(mesh: Mesh, material: _Materials, mass: _Mass = "lumped") -> _SparseMatrix: ...

@@ -612,6 +612,11 @@ impl NewtonSolver {
         let mut iterations = 0;
         let mut budget = self.options.max_iterations;
         while r_norm > self.options.tolerance * reference {
+            // A caller's Ctrl-C between iterations: u_new is this solver's scratch, the state
+            // is written only after a converged step.
+            crate::linalg::interrupt::poll(|| {
+                format!("Newton iteration {} of step {}", iterations + 1, step + 1)
+            })?;
             if iterations == budget {
                 if self.leave_quasi_newton() {
                     budget += self.options.max_iterations;

@@ -49,6 +49,14 @@ pub enum Error {
     #[error("linear solver: {0}")]
     Solver(String),
 
+    /// The caller's interrupt test ([`crate::interrupt::with_check`], e.g. Ctrl-C in a front
+    /// end) stopped a computation between two of its iterations; its result was not written.
+    #[error("stopped by the caller's interrupt during {during}")]
+    Stopped {
+        /// Where it stopped (e.g. "conjugate gradient iteration 12").
+        during: String,
+    },
+
     /// A computation would need more memory than the process may still take (the least of
     /// MemAvailable, the cgroup's limit and the resource limits; see [`crate::memory`]). Raised
     /// before the allocation, so that nothing is aborted halfway.

@@ -387,6 +387,9 @@ pub fn conjugate_gradient_with(
     let target = options.relative_tolerance * rhs_norm;
     let mut replacements = 0;
     for iteration in 1..=options.max_iterations {
+        // A caller's Ctrl-C between iterations (x is the caller's buffer, left part-way: the
+        // callers copy it out only on success).
+        crate::interrupt::poll(|| format!("conjugate gradient iteration {iteration}"))?;
         matrix.product_into(&direction, &mut product);
         let curvature = dot(&direction, &product);
         if curvature.is_nan() || curvature <= 0.0 {

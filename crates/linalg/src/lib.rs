@@ -9,6 +9,8 @@
 //!   coordinates ([`amg::DofGeometry`]);
 //! - [`linear_solver`]: the choice between the direct and the iterative path, by a measured
 //!   cost model within the memory budget;
+//! - [`interrupt`]: a caller's "stop now?" test, polled between iterations (Ctrl-C in a front
+//!   end);
 //! - [`memory`]: the memory the process may still take, checked before large allocations.
 //!
 //! Every fallible function returns [`Result`]; its [`Error`] names the culprit.
@@ -17,6 +19,7 @@ pub mod amg;
 pub mod block_sparse;
 pub mod bytes;
 pub mod error;
+pub mod interrupt;
 pub mod iterative;
 pub mod linear_solver;
 pub mod linsolve;
