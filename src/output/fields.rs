@@ -11,6 +11,7 @@ use nalgebra::Matrix3;
 
 use crate::element::ElementType;
 use crate::error::{Error, Result};
+use crate::estimate::PointwiseElement;
 use crate::materials::TetMaterials;
 use crate::mesh::{CellType, TetMesh};
 use crate::model::{ModelElement, TetModels};
@@ -46,7 +47,9 @@ fn per_tet<C: CellType, T>(
 }
 
 /// Cauchy stress σ of every tet for a node-major displacement (constant per linear tet; the
-/// volume average for higher-order elements, [`ElementType::mean_stress`]).
+/// volume average for higher-order elements, [`ElementType::mean_stress`], which for the
+/// straight-sided 10-node tet, whose stress is linear, is its value at the centroid). For the
+/// stress at the nodes of each tet see [`tet_node_stress`].
 ///
 /// `materials`: one [`Material`](crate::material::Material) for every tet, or a
 /// [`MaterialMap`](crate::materials::MaterialMap) (each tet's stress from its own material).
@@ -228,9 +231,12 @@ pub fn principal_stresses(stresses: &[Matrix3<f64>]) -> Vec<f64> {
         .collect()
 }
 
-/// Recovered nodal stress: at each node the volume-weighted average of the stresses of the tets
-/// around it, Σₑ Vₑσₑ / Σₑ Vₑ (stress units; zero at a node no tet uses). Smooth where the
-/// per-tet stress jumps, for contour plots; it is an average, not a more accurate stress.
+/// Recovered nodal stress from one stress per tet: at each node the volume-weighted average of
+/// the stresses of the tets around it, Σₑ Vₑσₑ / Σₑ Vₑ (stress units; zero at a node no tet
+/// uses). Smooth where the per-tet stress jumps, for contour plots; it is an average, not a
+/// more accurate stress. For a 10-node tet, whose stress varies in the tet, average its values
+/// at the nodes instead ([`tet_node_stress`], [`recovered_nodal_stress`]): averaging the tet
+/// means flattens a stress gradient.
 ///
 /// Errors: `stresses` does not hold one tensor per tet.
 pub fn nodal_stress<C: CellType>(
@@ -244,6 +250,115 @@ pub fn nodal_stress<C: CellType>(
         let volume = crate::mesh::geometry::signed_volume(&mesh.corner_positions_of(t));
         for &n in tet.as_ref() {
             sum[n] += stresses[t] * volume;
+            weight[n] += volume;
+        }
+    }
+    Ok(sum
+        .into_iter()
+        .zip(weight)
+        .map(|(s, w)| if w > 0.0 { s / w } else { s })
+        .collect())
+}
+
+/// `f(t, i, uₑ)` for every node i of every tet t (tet-major: entry `t·NODES + i`), with tet t's
+/// node-major element displacement uₑ.
+fn per_tet_node<C: CellType>(
+    mesh: &TetMesh<C>,
+    displacement: &[f64],
+    mut f: impl FnMut(usize, usize, &[f64]) -> Matrix3<f64>,
+) -> Vec<Matrix3<f64>> {
+    let mut element = vec![0.0; 3 * C::NODES];
+    let mut values = Vec::with_capacity(mesh.tet_count() * C::NODES);
+    for (t, tet) in mesh.tets().iter().enumerate() {
+        for (i, &n) in tet.as_ref().iter().enumerate() {
+            element[3 * i..3 * i + 3].copy_from_slice(&displacement[3 * n..3 * n + 3]);
+        }
+        values.extend((0..C::NODES).map(|i| f(t, i, &element)));
+    }
+    values
+}
+
+/// The linear-elastic Cauchy stress σₑ(xᵢ) = λ tr(ε) I + 2με of each tet at each of its own
+/// nodes (stress units), from that tet's displacement field alone: tet-major, entry
+/// `t·NODES + i` is tet t at its local node i. A 4-node tet's stress is constant, so its four
+/// values are its [`cell_stress`] (the same bits); a 10-node tet's strain is linear in the tet
+/// and is evaluated at each of its ten nodes, so a stress varying linearly in space is
+/// reproduced exactly where the tet mean is not.
+///
+/// Errors: `displacement` does not hold 3 values per node, or `materials` does not cover the
+/// tets.
+pub fn tet_node_stress<E: PointwiseElement>(
+    mesh: &TetMesh<E>,
+    materials: &impl TetMaterials,
+    displacement: &[f64],
+) -> Result<Vec<Matrix3<f64>>> {
+    check_displacement(mesh, displacement)?;
+    materials.check_tet_count(mesh)?;
+    if E::DEGREE < 2 {
+        // Constant in the tet: its mean, by the cell field's own formula (bit-identical).
+        let cells = cell_stress(mesh, materials, displacement)?;
+        return Ok(cells
+            .iter()
+            .flat_map(|s| std::iter::repeat_n(*s, E::NODES))
+            .collect());
+    }
+    Ok(per_tet_node(mesh, displacement, |t, i, u| {
+        let corners = crate::estimate::recovery::corners_of(mesh, t);
+        let gradient = E::displacement_gradient_at(&corners, &E::node_barycentric(i), u);
+        crate::estimate::recovery::hooke(materials.material_of(t), &gradient)
+    }))
+}
+
+/// `model`'s Cauchy stress of each tet at each of its own nodes (stress units), tet-major as
+/// [`tet_node_stress`]: for a 4-node tet its [`cell_model_stress`] at all four nodes (the same
+/// bits); for a 10-node tet the model's σ(F) with F = I + ∇u evaluated at each node (the
+/// quadrature points' law, [`ConstitutiveLaw::cauchy`](crate::model::ConstitutiveLaw::cauchy),
+/// at the node instead of at the points).
+///
+/// Errors: `displacement` does not hold 3 values per node, or `model` does not cover the tets.
+pub fn tet_node_model_stress<E: ModelElement + PointwiseElement>(
+    mesh: &TetMesh<E>,
+    model: &(impl TetModels + ?Sized),
+    displacement: &[f64],
+) -> Result<Vec<Matrix3<f64>>> {
+    check_displacement(mesh, displacement)?;
+    model.check_covers(mesh.tet_count())?;
+    if E::DEGREE < 2 {
+        let cells = cell_model_stress(mesh, model, displacement)?;
+        return Ok(cells
+            .iter()
+            .flat_map(|s| std::iter::repeat_n(*s, E::NODES))
+            .collect());
+    }
+    Ok(per_tet_node(mesh, displacement, |t, i, u| {
+        let corners = crate::estimate::recovery::corners_of(mesh, t);
+        let gradient = E::displacement_gradient_at(&corners, &E::node_barycentric(i), u);
+        model.model_of(t).cauchy(&(Matrix3::identity() + gradient))
+    }))
+}
+
+/// Recovered nodal stress from each tet's stress at its own nodes ([`tet_node_stress`],
+/// tet-major, `NODES` per tet): at node n the volume-weighted average over the tets e that hold
+/// it, σ*(n) = Σₑ Vₑ σₑ(xₙ) / Σₑ Vₑ (stress units; zero at a node no tet uses). Where the
+/// finite element stress is continuous (a stress field the elements represent exactly) this is
+/// that stress; for 4-node tets it equals [`nodal_stress`] of the cell stresses, bit for bit.
+///
+/// Errors: `node_stresses` does not hold `NODES` tensors per tet.
+pub fn recovered_nodal_stress<C: CellType>(
+    mesh: &TetMesh<C>,
+    node_stresses: &[Matrix3<f64>],
+) -> Result<Vec<Matrix3<f64>>> {
+    Error::check_len(
+        "node_stresses",
+        mesh.tet_count() * C::NODES,
+        node_stresses.len(),
+    )?;
+    let mut sum = vec![Matrix3::zeros(); mesh.node_count()];
+    let mut weight = vec![0.0; mesh.node_count()];
+    for (t, tet) in mesh.tets().iter().enumerate() {
+        let volume = crate::mesh::geometry::signed_volume(&mesh.corner_positions_of(t));
+        for (i, &n) in tet.as_ref().iter().enumerate() {
+            sum[n] += node_stresses[t * C::NODES + i] * volume;
             weight[n] += volume;
         }
     }

@@ -2,15 +2,20 @@
 //!
 //! Every result file holds, per node: `displacement` (3), `displacement_magnitude`,
 //! `velocity` (3, dynamic frames), `reaction_force` (3, linear static results); per tet:
-//! `von_mises`, `strain_energy_density` and `material_id` (the index of its material); for
+//! `von_mises`, `strain_energy_density` and `material_id` (the index of its material, `Int32`:
+//! ParaView colours it by category); for
 //! frames of a run, the time as `TimeValue` field data. With [`FrameExtras::stress_tensors`]
 //! (static results and, since frames are binary, dynamic frames too) also per node
-//! `stress_nodal` (6: XX, YY, ZZ, XY, YZ, XZ, the volume-weighted average of the tets around
-//! the node) and `von_mises_nodal` (of that average: smooth contours), and per tet `stress`
-//! (6, same order), `strain` (6, same order, dimensionless, tensor shear components ε_xy — not
+//! `stress_nodal` (6: XX, YY, ZZ, XY, YZ, XZ: at each node the volume-weighted average of the
+//! stresses of the tets around it evaluated at that node, [`tet_node_stress`] and
+//! [`recovered_nodal_stress`]; a 4-node tet's stress is constant, a 10-node tet's linear, so a
+//! linear stress field is output exactly) and `von_mises_nodal` (of that average: smooth
+//! contours), and per tet `stress` (6, same order; the tet's mean, for a 10-node tet its value at
+//! the centroid), `strain` (6, same order, dimensionless, tensor shear components ε_xy — not
 //! the engineering γ_xy = 2ε_xy; the linear strain for the linear model, the Green–Lagrange
-//! strain ½(FᵀF − I) for the nonlinear ones, [`cell_model_strain`]) and `principal_stress`
-//! (3, σ₁ ≥ σ₂ ≥ σ₃). The file's encoding is [`FrameExtras::format`] (binary by default).
+//! strain ½(FᵀF − I) for the nonlinear ones, [`cell_model_strain`]) and the principal stresses
+//! as three scalars `principal_stress_1` ≥ `principal_stress_2` ≥ `principal_stress_3` (not one
+//! 3-vector, whose magnitude ParaView would offer and which means nothing). The file's encoding is [`FrameExtras::format`] (binary by default).
 //! With [`FrameExtras::error_indicator`] also per tet `error_indicator`: the ZZ estimate η_K of
 //! the energy-norm error in that tet (J^½ in SI; see [`estimate`](crate::estimate)).
 //! With contact ([`FrameExtras::contact`]) also per node `contact_gap` (length) and
@@ -23,12 +28,12 @@ use nalgebra::Matrix3;
 
 use super::fields::{
     cell_model_energy_density, cell_model_strain, cell_model_stress, cell_strain,
-    cell_strain_energy_density, cell_stress, displacement_magnitude, nodal_stress,
-    principal_stresses, stress_components, von_mises,
+    cell_strain_energy_density, cell_stress, displacement_magnitude, principal_stresses,
+    recovered_nodal_stress, stress_components, tet_node_model_stress, tet_node_stress, von_mises,
 };
 use super::{VtuFormat, VtuWriter};
-use crate::element::ElementType;
 use crate::error::Result;
+use crate::estimate::PointwiseElement;
 use crate::materials::TetMaterials;
 use crate::mesh::{CellType, TetMesh};
 use crate::model::{ModelElement, TetModels};
@@ -91,7 +96,7 @@ impl<'a> OriginalIds<'a> {
 /// energy density those of the linear model with each tet's material (one
 /// [`Material`](crate::material::Material) or a [`MaterialMap`](crate::materials::MaterialMap));
 /// see [`write_model_result_vtu`] for a nonlinear run.
-pub fn write_result_vtu<E: ElementType>(
+pub fn write_result_vtu<E: PointwiseElement>(
     path: &Path,
     mesh: &TetMesh<E>,
     materials: &impl TetMaterials,
@@ -112,7 +117,7 @@ pub fn write_result_vtu<E: ElementType>(
 
 /// As [`write_result_vtu`] for a static solution, with its reactions as the point field
 /// `reaction_force` (force units; K·u − f on the constrained DOFs, zero on the free ones).
-pub fn write_static_result_vtu<E: ElementType>(
+pub fn write_static_result_vtu<E: PointwiseElement>(
     path: &Path,
     mesh: &TetMesh<E>,
     materials: &impl TetMaterials,
@@ -133,7 +138,7 @@ pub fn write_static_result_vtu<E: ElementType>(
 }
 
 /// [`write_result_vtu`] with every optional field: velocity, reactions, time.
-pub fn write_result_frame<E: ElementType>(
+pub fn write_result_frame<E: PointwiseElement>(
     path: &Path,
     mesh: &TetMesh<E>,
     materials: &impl TetMaterials,
@@ -141,17 +146,19 @@ pub fn write_result_frame<E: ElementType>(
     extras: FrameExtras<'_>,
 ) -> Result<()> {
     let stresses = cell_stress(mesh, materials, displacement)?;
-    let strains = match extras.stress_tensors {
-        true => cell_strain(mesh, displacement)?,
-        false => Vec::new(),
+    let (strains, node_stresses) = match extras.stress_tensors {
+        true => (
+            cell_strain(mesh, displacement)?,
+            tet_node_stress(mesh, materials, displacement)?,
+        ),
+        false => (Vec::new(), Vec::new()),
     };
     let energy = cell_strain_energy_density(mesh, materials, displacement)?;
-    let ids: Vec<f64> = (0..mesh.tet_count())
-        .map(|t| materials.index_of(t) as f64)
-        .collect();
+    let ids = material_ids(mesh, materials)?;
     let tensors = Tensors {
         stresses: &stresses,
         strains: &strains,
+        node_stresses: &node_stresses,
     };
     write_fields(path, mesh, displacement, extras, tensors, &energy, &ids)
 }
@@ -160,7 +167,7 @@ pub fn write_result_frame<E: ElementType>(
 /// produced the displacement (its Cauchy stress, its own energy per rest volume; see
 /// [`cell_model_stress`] and [`cell_model_energy_density`]). `material_id` is the material index
 /// of `materials` (a [`MaterialMap`](crate::materials::MaterialMap), or one material: all 0).
-pub fn write_model_result_vtu<E: ModelElement>(
+pub fn write_model_result_vtu<E: ModelElement + PointwiseElement>(
     path: &Path,
     mesh: &TetMesh<E>,
     model: &(impl TetModels + ?Sized),
@@ -170,25 +177,45 @@ pub fn write_model_result_vtu<E: ModelElement>(
 ) -> Result<()> {
     materials.check_tet_count(mesh)?;
     let stresses = cell_model_stress(mesh, model, displacement)?;
-    let strains = match extras.stress_tensors {
-        true => cell_model_strain(mesh, model, displacement)?,
-        false => Vec::new(),
+    let (strains, node_stresses) = match extras.stress_tensors {
+        true => (
+            cell_model_strain(mesh, model, displacement)?,
+            tet_node_model_stress(mesh, model, displacement)?,
+        ),
+        false => (Vec::new(), Vec::new()),
     };
     let energy = cell_model_energy_density(mesh, model, displacement)?;
-    let ids: Vec<f64> = (0..mesh.tet_count())
-        .map(|t| materials.index_of(t) as f64)
-        .collect();
+    let ids = material_ids(mesh, materials)?;
     let tensors = Tensors {
         stresses: &stresses,
         strains: &strains,
+        node_stresses: &node_stresses,
     };
     write_fields(path, mesh, displacement, extras, tensors, &energy, &ids)
 }
 
-/// Per-tet stress, and strain (empty unless [`FrameExtras::stress_tensors`]).
+/// The material index of every tet, as the `Int32` the `.vtu` holds.
+fn material_ids<C: CellType>(mesh: &TetMesh<C>, materials: &impl TetMaterials) -> Result<Vec<i32>> {
+    (0..mesh.tet_count())
+        .map(|t| {
+            let index = materials.index_of(t);
+            i32::try_from(index).map_err(|_| {
+                crate::error::Error::invalid_parameter(
+                    "material index",
+                    index,
+                    "must be at most 2^31 - 1 (written as VTK Int32)",
+                )
+            })
+        })
+        .collect()
+}
+
+/// Per-tet stress, and strain and each tet's stress at its nodes (tet-major; both empty
+/// unless [`FrameExtras::stress_tensors`]).
 struct Tensors<'t> {
     stresses: &'t [Matrix3<f64>],
     strains: &'t [Matrix3<f64>],
+    node_stresses: &'t [Matrix3<f64>],
 }
 
 fn write_fields<C: CellType>(
@@ -198,20 +225,25 @@ fn write_fields<C: CellType>(
     extras: FrameExtras<'_>,
     tensors: Tensors<'_>,
     energy: &[f64],
-    material_ids: &[f64],
+    material_ids: &[i32],
 ) -> Result<()> {
     let stresses = tensors.stresses;
     let magnitude = displacement_magnitude(displacement);
     let von_mises_cells: Vec<f64> = stresses.iter().map(von_mises).collect();
-    let (mut nodal_components, mut von_mises_nodes, mut components, mut principal) =
-        (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+    let (mut nodal_components, mut von_mises_nodes, mut components) =
+        (Vec::new(), Vec::new(), Vec::new());
+    let mut principal: Vec<Vec<f64>> = Vec::new();
     let strain_components = stress_components(tensors.strains);
     if extras.stress_tensors {
-        let nodal = nodal_stress(mesh, stresses)?;
+        let nodal = recovered_nodal_stress(mesh, tensors.node_stresses)?;
         nodal_components = stress_components(&nodal);
         von_mises_nodes = nodal.iter().map(von_mises).collect();
         components = stress_components(stresses);
-        principal = principal_stresses(stresses);
+        // σ₁, σ₂, σ₃ of each tet, split into one scalar array each.
+        let all = principal_stresses(stresses);
+        principal = (0..3)
+            .map(|k| all.iter().skip(k).step_by(3).copied().collect::<Vec<f64>>())
+            .collect();
     }
     let mut writer = VtuWriter::new(mesh).format(extras.format);
     if let Some(t) = extras.time {
@@ -245,12 +277,14 @@ fn write_fields<C: CellType>(
         writer = writer
             .cell_field("stress", 6, &components)?
             .cell_field("strain", 6, &strain_components)?
-            .cell_field("principal_stress", 3, &principal)?;
+            .cell_field("principal_stress_1", 1, &principal[0])?
+            .cell_field("principal_stress_2", 1, &principal[1])?
+            .cell_field("principal_stress_3", 1, &principal[2])?;
     }
     if let Some(eta) = extras.error_indicator {
         writer = writer.cell_field("error_indicator", 1, eta)?;
     }
-    writer = writer.cell_field("material_id", 1, material_ids)?;
+    writer = writer.cell_index_field("material_id", material_ids)?;
     if let Some(ids) = extras.original_ids {
         writer = writer
             .point_id_field("original_node_id", ids.nodes)?

@@ -6,6 +6,7 @@ mod csv;
 pub mod fields;
 mod frame;
 mod lock;
+pub mod probe;
 mod pvd;
 mod vtu;
 
@@ -16,5 +17,6 @@ pub use frame::{
     write_result_vtu, write_static_result_vtu,
 };
 pub use lock::{LOCK_FILE_NAME, OutputLock, remove_held_lock_files};
+pub use probe::{PointLocation, evaluate_at_point};
 pub use pvd::PvdCollection;
 pub use vtu::{VtuFormat, VtuWriter};

@@ -60,6 +60,8 @@ pub struct VtuWriter<'a, C: CellType = Tet4> {
     /// Integer per-node and per-tet arrays (VTK `Int64`): ids such as a mesh file's own.
     point_ids: Vec<(String, &'a [u64])>,
     cell_ids: Vec<(String, &'a [u64])>,
+    /// Small integer per-tet arrays (VTK `Int32`): indices such as a tet's material.
+    cell_indices: Vec<(String, &'a [i32])>,
     /// Whole-dataset values (VTK `FieldData`): a frequency, a time.
     field_data: Vec<(String, f64)>,
     format: VtuFormat,
@@ -75,6 +77,8 @@ enum Array<'b> {
     Field(&'b [f64], usize),
     /// Integer ids, one per node or per tet (written as `Int64`).
     Ids(&'b [u64]),
+    /// Small integers, one per tet (written as `Int32`).
+    Indices(&'b [i32]),
 }
 
 impl<'a, C: CellType> VtuWriter<'a, C> {
@@ -86,6 +90,7 @@ impl<'a, C: CellType> VtuWriter<'a, C> {
             cell_fields: Vec::new(),
             point_ids: Vec::new(),
             cell_ids: Vec::new(),
+            cell_indices: Vec::new(),
             field_data: Vec::new(),
             format: VtuFormat::default(),
         }
@@ -105,6 +110,22 @@ impl<'a, C: CellType> VtuWriter<'a, C> {
     pub fn cell_id_field(mut self, name: &str, values: &'a [u64]) -> Result<Self> {
         check_ids(name, values, self.mesh.tet_count(), "tet")?;
         self.cell_ids.push((name.to_string(), values));
+        Ok(self)
+    }
+
+    /// Adds a per-tet integer array of small values (one per tet, VTK `Int32`), e.g. each
+    /// tet's material index: ParaView colours it by its discrete values (categories), which a
+    /// `Float64` field would not offer. [`Error::InvalidParameter`] unless there is one value
+    /// per tet.
+    pub fn cell_index_field(mut self, name: &str, values: &'a [i32]) -> Result<Self> {
+        if values.len() != self.mesh.tet_count() {
+            return Err(Error::invalid_parameter(
+                format!("field '{name}'"),
+                format!("{} values", values.len()),
+                format!("needs one value per tet ({} tets)", self.mesh.tet_count()),
+            ));
+        }
+        self.cell_indices.push((name.to_string(), values));
         Ok(self)
     }
 
@@ -233,9 +254,19 @@ impl<'a, C: CellType> VtuWriter<'a, C> {
             Array::Types,
         )?;
         writeln!(out, "      </Cells>")?;
-        for (section, fields, ids) in [
-            ("PointData", &self.point_fields, &self.point_ids),
-            ("CellData", &self.cell_fields, &self.cell_ids),
+        for (section, fields, ids, indices) in [
+            (
+                "PointData",
+                &self.point_fields,
+                &self.point_ids,
+                &Vec::new(),
+            ),
+            (
+                "CellData",
+                &self.cell_fields,
+                &self.cell_ids,
+                &self.cell_indices,
+            ),
         ] {
             writeln!(out, "      <{section}>")?;
             for (name, components, values) in fields {
@@ -258,6 +289,17 @@ impl<'a, C: CellType> VtuWriter<'a, C> {
                         xml_escape(name)
                     ),
                     Array::Ids(values),
+                )?;
+            }
+            for (name, values) in indices {
+                open(
+                    out,
+                    indent,
+                    format!(
+                        r#"type="Int32" Name="{}" NumberOfComponents="1""#,
+                        xml_escape(name)
+                    ),
+                    Array::Indices(values),
                 )?;
             }
             writeln!(out, "      </{section}>")?;
@@ -286,6 +328,7 @@ impl<'a, C: CellType> VtuWriter<'a, C> {
             Array::Types => tets,
             Array::Field(values, _) => 8 * values.len(),
             Array::Ids(values) => 8 * values.len(),
+            Array::Indices(values) => 4 * values.len(),
         }
     }
 
@@ -320,6 +363,11 @@ impl<'a, C: CellType> VtuWriter<'a, C> {
                 }
             }
             Array::Ids(values) => {
+                for v in values.iter() {
+                    writeln!(out, "{v}")?;
+                }
+            }
+            Array::Indices(values) => {
                 for v in values.iter() {
                     writeln!(out, "{v}")?;
                 }
@@ -362,6 +410,11 @@ impl<'a, C: CellType> VtuWriter<'a, C> {
             Array::Ids(values) => {
                 for &v in values.iter() {
                     bytes.extend_from_slice(&(v as i64).to_le_bytes());
+                }
+            }
+            Array::Indices(values) => {
+                for &v in values.iter() {
+                    bytes.extend_from_slice(&v.to_le_bytes());
                 }
             }
         }

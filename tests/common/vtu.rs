@@ -13,7 +13,7 @@ pub struct VtuArray {
     pub section: String,
     /// Its `Name` (`Points` for the unnamed coordinates).
     pub name: String,
-    /// `Float64`, `Int64` or `UInt8`.
+    /// `Float64`, `Int64`, `Int32` or `UInt8`.
     pub vtk_type: String,
     pub components: usize,
     /// The values, converted to f64 (exact for the integers a mesh holds).
@@ -174,6 +174,12 @@ fn decode(vtk_type: &str, raw: &[u8], name: &str) -> Vec<f64> {
             assert_eq!(raw.len() % 8, 0, "{name}");
             raw.chunks_exact(8)
                 .map(|b| i64::from_le_bytes(b.try_into().unwrap()) as f64)
+                .collect()
+        }
+        "Int32" => {
+            assert_eq!(raw.len() % 4, 0, "{name}");
+            raw.chunks_exact(4)
+                .map(|b| f64::from(i32::from_le_bytes(b.try_into().unwrap())))
                 .collect()
         }
         "UInt8" => raw.iter().map(|&b| f64::from(b)).collect(),
