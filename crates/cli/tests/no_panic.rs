@@ -1881,7 +1881,7 @@ fn amplitudes_contact_checkpoints_estimates_tet10_materials_and_forces() {
     s.err(
         "estimate_error map of another mesh",
         "InvalidParameter",
-        || estimate_error(&mesh, &MaterialMap::uniform(m.clone(), 1), &u),
+        || estimate_error(&mesh, &MaterialMap::uniform(m, 1), &u),
     );
     s.ok("estimate_error of u = 0", || estimate_error(&mesh, &m, &u));
     s.err(
@@ -1931,26 +1931,26 @@ fn amplitudes_contact_checkpoints_estimates_tet10_materials_and_forces() {
     s.err(
         "MaterialMap::new index out of range",
         "InvalidParameter",
-        || MaterialMap::new(vec![m.clone()], vec!["a".into()], vec![0, 0, 7]),
+        || MaterialMap::new(vec![m], vec!["a".into()], vec![0, 0, 7]),
     );
     s.err(
         "MaterialMap::new names and materials differ",
         "DimensionMismatch",
-        || MaterialMap::new(vec![m.clone()], vec![], vec![0]),
+        || MaterialMap::new(vec![m], vec![], vec![0]),
     );
     let tets = mesh.tet_count();
     s.err(
         "MaterialAssignment::assign tet out of range",
         "InvalidParameter",
-        || MaterialAssignment::new(tets).assign("a", m.clone(), [tets + 5]),
+        || MaterialAssignment::new(tets).assign("a", m, [tets + 5]),
     );
     s.err(
         "MaterialAssignment::assign a tet twice",
         "InvalidParameter",
         || {
             let mut assignment = MaterialAssignment::new(tets);
-            assignment.assign("a", m.clone(), [0])?;
-            assignment.assign("b", m.clone(), [0])
+            assignment.assign("a", m, [0])?;
+            assignment.assign("b", m, [0])
         },
     );
     s.err(
@@ -1958,7 +1958,7 @@ fn amplitudes_contact_checkpoints_estimates_tet10_materials_and_forces() {
         "InvalidParameter",
         || {
             let mut assignment = MaterialAssignment::new(tets);
-            assignment.assign("a", m.clone(), [0])?;
+            assignment.assign("a", m, [0])?;
             assignment.finish(None)
         },
     );
