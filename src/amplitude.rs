@@ -72,18 +72,32 @@ fn finite(name: &str, value: f64) -> Result<f64> {
     }
 }
 
-fn interval(start: f64, end: f64) -> Result<(f64, f64)> {
+/// `(start, end)` checked: both finite, end > start, and the width end − start such that
+/// 1/width^`power` is finite (the rate of a ramp divides by the width, the acceleration of a
+/// smooth step by its square: a width of 1e-320 s would make them infinite).
+fn interval(start: f64, end: f64, power: i32) -> Result<(f64, f64)> {
     finite("start", start)?;
     finite("end", end)?;
-    if end > start {
-        Ok((start, end))
-    } else {
-        Err(Error::invalid_parameter(
+    if end <= start {
+        return Err(Error::invalid_parameter(
             "end",
             end,
             format!("must be after start ({start})"),
-        ))
+        ));
     }
+    let width = end - start;
+    if !(width.is_finite() && width.powi(power).recip().is_finite()) {
+        return Err(Error::invalid_parameter(
+            "end",
+            end,
+            format!(
+                "end − start = {width:e} s: its rate or acceleration (1/width^{power}) is not finite; use a width between {:e} and {:e} s",
+                f64::MAX.powf(-1.0 / f64::from(power)),
+                f64::MAX
+            ),
+        ));
+    }
+    Ok((start, end))
 }
 
 impl Amplitude {
@@ -111,23 +125,43 @@ impl Amplitude {
                     ),
                 ));
             }
+            // The segment's rate ȧ = Δa/Δt must be a number: points 1e-320 s apart (or values
+            // ±1e308 apart) would give an infinite rate, and an infinite load rate.
+            if i > 0 {
+                let (dt, da) = (t - times[i - 1], a - values[i - 1]);
+                if !(dt.is_finite() && (da / dt).is_finite()) {
+                    return Err(Error::invalid_parameter(
+                        format!("time of point {i}"),
+                        t,
+                        format!(
+                            "the segment from point {} (t = {:e}, a = {:e}) has slope Δa/Δt = {da:e}/{dt:e}, not finite; points must be far enough apart for a finite rate",
+                            i - 1,
+                            times[i - 1],
+                            values[i - 1]
+                        ),
+                    ));
+                }
+            }
         }
         Ok(Amplitude::Table { times, values })
     }
 
-    /// A ramp from 0 at `start` to 1 at `end` (s): both finite, end > start.
+    /// A ramp from 0 at `start` to 1 at `end` (s): both finite, end > start, its rate
+    /// 1/(end − start) finite.
     pub fn ramp(start: f64, end: f64) -> Result<Self> {
-        let (start, end) = interval(start, end)?;
+        let (start, end) = interval(start, end, 1)?;
         Ok(Amplitude::Ramp { start, end })
     }
 
-    /// The quintic smooth step from 0 at `start` to 1 at `end` (s): both finite, end > start.
+    /// The quintic smooth step from 0 at `start` to 1 at `end` (s): both finite, end > start,
+    /// its acceleration scale 1/(end − start)² finite.
     pub fn smooth_step(start: f64, end: f64) -> Result<Self> {
-        let (start, end) = interval(start, end)?;
+        let (start, end) = interval(start, end, 2)?;
         Ok(Amplitude::SmoothStep { start, end })
     }
 
-    /// A·sin(2πf(t − start) + φ): all finite, f ≥ 0 (Hz).
+    /// A·sin(2πf(t − start) + φ): all finite, f ≥ 0 (Hz), the acceleration's scale
+    /// |A|·(2πf)² finite.
     pub fn sine(amplitude: f64, frequency_hz: f64, phase: f64, start: f64) -> Result<Self> {
         finite("amplitude", amplitude)?;
         finite("phase", phase)?;
@@ -137,6 +171,16 @@ impl Amplitude {
                 "frequency_hz",
                 frequency_hz,
                 "must be finite and ≥ 0",
+            ));
+        }
+        let omega = 2.0 * std::f64::consts::PI * frequency_hz;
+        if !(amplitude.abs() * omega * omega).is_finite() {
+            return Err(Error::invalid_parameter(
+                "frequency_hz",
+                frequency_hz,
+                format!(
+                    "the acceleration |A|·(2πf)² of this sine (A = {amplitude:e}) is not finite; use a lower frequency"
+                ),
             ));
         }
         Ok(Amplitude::Sine {
@@ -166,8 +210,54 @@ impl Amplitude {
         }
     }
 
-    /// [a(t), ȧ(t), ä(t)] (1, 1/s, 1/s²).
+    /// Whether a(t) = 0 for every t in [`start`, `end`] (s): the data it scales never act
+    /// over a run of those times (a table whose non-zero values lie outside them, a ramp that
+    /// starts after them, a sine of amplitude 0, or of 0 Hz or starting after them with
+    /// sin φ = 0 to 1e-12). Piecewise linear tables vanish on an interval exactly when they do
+    /// at its ends and at their points inside it.
+    pub fn vanishes_on(&self, start: f64, end: f64) -> bool {
+        match self {
+            Amplitude::Constant(c) => *c == 0.0,
+            Amplitude::Table { times, values } => {
+                self.value(start) == 0.0
+                    && self.value(end) == 0.0
+                    && times
+                        .iter()
+                        .zip(values)
+                        .all(|(t, v)| *t <= start || *t >= end || *v == 0.0)
+            }
+            Amplitude::Ramp { start: t0, .. } | Amplitude::SmoothStep { start: t0, .. } => {
+                end <= *t0
+            }
+            Amplitude::Sine {
+                amplitude,
+                frequency_hz,
+                phase,
+                start: t0,
+            } => {
+                let still = *frequency_hz == 0.0 || end <= *t0;
+                *amplitude == 0.0 || (still && phase.sin().abs() <= 1e-12)
+            }
+        }
+    }
+
+    /// The frequency (Hz) of a sine amplitude, `None` for the others.
+    pub fn frequency_hz(&self) -> Option<f64> {
+        match self {
+            Amplitude::Sine { frequency_hz, .. } => Some(*frequency_hz),
+            _ => None,
+        }
+    }
+
+    /// [a(t), ȧ(t), ä(t)] (1, 1/s, 1/s²), defined for every t: a NaN time has no value, so it
+    /// gives [NaN, NaN, NaN] (as `f64::sin` does; callers that take times from outside check
+    /// them, see [`checked_derivatives`](Self::checked_derivatives)); t = ±∞ gives the ends'
+    /// values for the amplitudes that hold them (table, ramp, smooth step) and NaN for a sine.
+    /// The constructors keep every result of a finite t finite.
     pub fn derivatives(&self, t: f64) -> [f64; 3] {
+        if t.is_nan() {
+            return [f64::NAN; 3];
+        }
         match self {
             Amplitude::Constant(c) => [*c, 0.0, 0.0],
             Amplitude::Table { times, values } => table_at(times, values, t),
@@ -217,7 +307,13 @@ impl Amplitude {
         }
     }
 
-    /// a(t).
+    /// [`derivatives`](Self::derivatives) at a time from outside: [`Error::InvalidParameter`]
+    /// naming the time unless it is finite.
+    pub fn checked_derivatives(&self, t: f64) -> Result<[f64; 3]> {
+        Ok(self.derivatives(finite("time", t)?))
+    }
+
+    /// a(t) (NaN for a NaN t, see [`derivatives`](Self::derivatives)).
     pub fn value(&self, t: f64) -> f64 {
         self.derivatives(t)[0]
     }
@@ -246,10 +342,14 @@ fn table_at(times: &[f64], values: &[f64], t: f64) -> [f64; 3] {
     if t >= times[last] {
         return [values[last], 0.0, 0.0];
     }
-    // The segment [tᵢ, tᵢ₊₁) holding t.
-    let i = times.partition_point(|&ti| ti <= t) - 1;
-    let slope = (values[i + 1] - values[i]) / (times[i + 1] - times[i]);
-    [values[i] + slope * (t - times[i]), slope, 0.0]
+    // The segment [tᵢ, tᵢ₊₁) holding t: t > t₀ here (a NaN t never gets here), so at least one
+    // time is ≤ t and the index does not underflow.
+    let i = times.partition_point(|&ti| ti <= t).saturating_sub(1);
+    let (width, rise) = (times[i + 1] - times[i], values[i + 1] - values[i]);
+    // The fraction of the segment, in [0, 1], rather than slope·(t − tᵢ): the product of a huge
+    // slope and a tiny offset can overflow where the value itself is between two finite ones.
+    let fraction = (t - times[i]) / width;
+    [values[i] + rise * fraction, rise / width, 0.0]
 }
 
 #[cfg(test)]
@@ -274,6 +374,81 @@ mod tests {
         assert!(e.to_string().contains("value of point 1"), "{e}");
         assert!(Amplitude::ramp(1.0, 1.0).is_err());
         assert!(Amplitude::sine(1.0, -1.0, 0.0, 0.0).is_err());
+    }
+
+    /// A NaN time (a damaged checkpoint's, a caller's) gives NaN for every kind, never a panic
+    /// (the table's segment search underflowed) nor a number (a ramp answered 1); the checked
+    /// entry point refuses it naming the time. The ends hold at ±∞.
+    #[test]
+    fn a_nan_time_has_no_value() {
+        let kinds = [
+            Amplitude::Constant(2.0),
+            Amplitude::table(vec![0.0, 1.0, 3.0], vec![0.0, 2.0, 1.0]).unwrap(),
+            Amplitude::table(vec![0.5], vec![3.0]).unwrap(),
+            Amplitude::ramp(0.0, 1.0).unwrap(),
+            Amplitude::smooth_step(0.0, 1.0).unwrap(),
+            Amplitude::sine(1.0, 2.0, 0.3, 0.0).unwrap(),
+        ];
+        for a in &kinds {
+            assert!(a.derivatives(f64::NAN).iter().all(|v| v.is_nan()), "{a:?}");
+            assert!(a.value(f64::NAN).is_nan() && a.rate(f64::NAN).is_nan(), "{a:?}");
+            assert!(a.acceleration(f64::NAN).is_nan(), "{a:?}");
+            let e = a.checked_derivatives(f64::NAN).unwrap_err();
+            assert!(e.to_string().contains("time"), "{e}");
+            assert_eq!(a.checked_derivatives(0.25).unwrap(), a.derivatives(0.25));
+        }
+        assert_eq!(kinds[1].derivatives(f64::INFINITY), [1.0, 0.0, 0.0]);
+        assert_eq!(kinds[1].derivatives(f64::NEG_INFINITY), [0.0, 0.0, 0.0]);
+        assert_eq!(kinds[3].derivatives(f64::INFINITY), [1.0, 0.0, 0.0]);
+    }
+
+    /// Intervals too short for a finite rate (a denormal table segment gave a(t) = ∞) are
+    /// refused at construction, naming the point; short but representable ones interpolate
+    /// exactly (the fraction of the segment is 1/2 exactly here).
+    #[test]
+    fn intervals_too_short_for_a_finite_rate_are_refused() {
+        let e = Amplitude::table(vec![0.0, 1e-320], vec![0.0, 1.0]).unwrap_err();
+        assert!(e.to_string().contains("time of point 1"), "{e}");
+        assert!(e.to_string().contains("slope"), "{e}");
+        let e = Amplitude::table(vec![0.0, 1.0], vec![-1e308, 1e308]).unwrap_err();
+        assert!(e.to_string().contains("not finite"), "{e}");
+        assert!(Amplitude::ramp(0.0, 1e-320).is_err());
+        assert!(Amplitude::ramp(-1e308, 1e308).is_err());
+        // The smooth step's ä scales as 1/width²: 1e-160² underflows.
+        assert!(Amplitude::smooth_step(0.0, 1e-160).is_err());
+        assert!(Amplitude::smooth_step(0.0, 1e-150).is_ok());
+        let e = Amplitude::sine(1.0, 1e160, 0.0, 0.0).unwrap_err();
+        assert!(e.to_string().contains("frequency_hz"), "{e}");
+
+        let short = Amplitude::table(vec![0.0, 1e-300], vec![0.0, 1e8]).unwrap();
+        assert_eq!(short.derivatives(5e-301), [5e7, 1e308, 0.0]);
+        for t in [1e-310, 3e-301, 9.9e-301] {
+            let a = short.value(t);
+            assert!(a.is_finite() && (0.0..=1e8).contains(&a), "{t}: {a}");
+        }
+    }
+
+    /// An amplitude zero over a run's whole time span is recognised (issue 33: a table after
+    /// the run, a 0 Hz sine of phase 0, a ramp starting after it), one non-zero anywhere in it
+    /// is not.
+    #[test]
+    fn amplitudes_that_vanish_over_a_run() {
+        let late = Amplitude::table(vec![2.0, 3.0], vec![0.0, 1.0]).unwrap();
+        assert!(late.vanishes_on(0.0, 1.0) && late.vanishes_on(0.0, 2.0));
+        assert!(!late.vanishes_on(0.0, 2.5));
+        let early = Amplitude::table(vec![-3.0, -2.0], vec![1.0, 0.0]).unwrap();
+        assert!(early.vanishes_on(0.0, 1.0) && !early.vanishes_on(-2.5, 1.0));
+        // Zero at both ends of the run, not in between.
+        let bump = Amplitude::table(vec![0.0, 0.5, 1.0], vec![0.0, 1.0, 0.0]).unwrap();
+        assert!(!bump.vanishes_on(0.0, 1.0));
+        assert!(Amplitude::sine(1.0, 0.0, 0.0, 0.0).unwrap().vanishes_on(0.0, 1.0));
+        assert!(!Amplitude::sine(1.0, 0.0, 0.5, 0.0).unwrap().vanishes_on(0.0, 1.0));
+        assert!(!Amplitude::sine(1.0, 5.0, 0.0, 0.0).unwrap().vanishes_on(0.0, 1.0));
+        assert!(Amplitude::sine(0.0, 5.0, 0.3, 0.0).unwrap().vanishes_on(0.0, 1.0));
+        assert!(Amplitude::ramp(2.0, 3.0).unwrap().vanishes_on(0.0, 1.0));
+        assert!(!Amplitude::ramp(0.5, 3.0).unwrap().vanishes_on(0.0, 1.0));
+        assert!(Amplitude::Constant(0.0).vanishes_on(0.0, 1.0));
+        assert!(!Amplitude::default().vanishes_on(0.0, 1.0));
     }
 
     /// The rates are the derivatives of the values: central differences agree to

@@ -18,6 +18,11 @@ use crate::amplitude::Amplitude;
 use crate::constraints::Constraints;
 use crate::error::{Error, Result};
 
+/// The largest |angle| (radians) a [`RigidMotion`] takes: the rounding of θ itself, ε·|θ|,
+/// is 2.2e-10 rad there (R(θ) moves a node at 1 m by that much); at 1e300° sin and cos of the
+/// angle are noise.
+pub const MAX_RIGID_ANGLE: f64 = 1e6;
+
 /// A rigid motion of a node set: rotation by θ(t) = `angle`·a(t) about the line through `point`
 /// along `axis`, then translation by `translation`·a(t):
 ///
@@ -34,7 +39,7 @@ pub struct RigidMotion {
 impl RigidMotion {
     /// A rigid motion: `axis` (any length > 0, normalized here), `point` on it (length units),
     /// `angle` θ_max (radians), `translation` d (length units). [`Error::InvalidParameter`] for
-    /// an axis of zero length or a non-finite entry.
+    /// an axis of zero length, a non-finite entry or |angle| > [`MAX_RIGID_ANGLE`].
     pub fn new(
         axis: Vector3<f64>,
         point: Vector3<f64>,
@@ -52,6 +57,17 @@ impl RigidMotion {
                 "rigid motion",
                 bad,
                 "axis, point, angle and translation must be finite",
+            ));
+        }
+        if angle.abs() > MAX_RIGID_ANGLE {
+            return Err(Error::invalid_parameter(
+                "rigid motion angle",
+                format!("{angle:e} rad ({:e}°)", angle.to_degrees()),
+                format!(
+                    "|angle| must be at most {MAX_RIGID_ANGLE:e} rad ({:.3e}°, {:.3e} turns): beyond it the angle's own round-off passes 2e-10 rad",
+                    MAX_RIGID_ANGLE.to_degrees(),
+                    MAX_RIGID_ANGLE / std::f64::consts::TAU
+                ),
             ));
         }
         let length = axis.norm();

@@ -437,3 +437,14 @@ impl Error {
         }
     }
 }
+
+/// A number for a message, never hundreds of digits: `{}` (shortest round trip, fixed point)
+/// for magnitudes in [1e-3, 1e6) and for 0, `{:e}` (shortest round trip, scientific) otherwise,
+/// so 1e300 prints as `1e300`, not as 301 digits, and 1e-320 as `1e-320`, not as 0.000….
+pub fn short_number(value: f64) -> String {
+    if value == 0.0 || !value.is_finite() || (1e-3..1e6).contains(&value.abs()) {
+        format!("{value}")
+    } else {
+        format!("{value:e}")
+    }
+}

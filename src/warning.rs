@@ -78,6 +78,36 @@ pub enum Warning {
         /// The model to use (a scene's `model` value).
         suggested_model: &'static str,
     },
+    /// An amplitude that is zero over the run's whole time span: the data it scales never act
+    /// (a table before or after the run's times, a ramp starting after it, a 0 Hz sine).
+    AmplitudeVanishes {
+        /// The amplitude's scene key (e.g. `loads[0].amplitude`).
+        key: String,
+        /// The run's first time (s).
+        from: f64,
+        /// The run's last time (s).
+        to: f64,
+    },
+    /// A static analysis takes a time-varying amplitude at [`STATIC_TIME`](crate::amplitude::STATIC_TIME):
+    /// what a static scene applies may not be what its author meant.
+    StaticAmplitude {
+        /// The amplitude's scene key.
+        key: String,
+        /// The time it is sampled at (s).
+        time: f64,
+        /// a(time) (dimensionless).
+        value: f64,
+    },
+    /// A sine amplitude above the Nyquist frequency 1/(2·dt) of the run's step: the run samples
+    /// it fewer than twice per period and sees an aliased, slower load.
+    AliasedAmplitude {
+        /// The amplitude's scene key.
+        key: String,
+        /// Its frequency (Hz).
+        frequency_hz: f64,
+        /// The run's step (s).
+        dt: f64,
+    },
     /// Backward Euler's step resolves the lowest excited mode so coarsely that its numerical
     /// damping removes more than [`DECAY_WARNING`](crate::adequacy::time_step::DECAY_WARNING) of
     /// the amplitude per period.
@@ -150,6 +180,33 @@ impl fmt::Display for Warning {
                  dt below period/190 for at most {:.0} %, or method = \"newmark\" (no numerical damping)",
                 100.0 * decay,
                 100.0 * limit
+            ),
+            Warning::AmplitudeVanishes { key, from, to } => write!(
+                f,
+                "{key} is 0 over the whole run (t = {} to {} s): what it scales never acts; \
+                 check its times (a table before or after the run, a ramp starting after it, a 0 Hz sine)",
+                crate::error::short_number(*from),
+                crate::error::short_number(*to)
+            ),
+            Warning::StaticAmplitude { key, time, value } => write!(
+                f,
+                "{key} varies in time, and a static analysis takes it at t = {time} s, where it is {}; \
+                 give the factor as a constant if that is not what you meant",
+                crate::error::short_number(*value)
+            ),
+            Warning::AliasedAmplitude {
+                key,
+                frequency_hz,
+                dt,
+            } => write!(
+                f,
+                "{key} oscillates at {} Hz, above the Nyquist frequency 1/(2·dt) = {} Hz of dt = {} s: \
+                 the run samples it {:.2} times per period and sees an aliased, slower load; use dt ≤ 1/(20·f) = {} s",
+                crate::error::short_number(*frequency_hz),
+                crate::error::short_number(0.5 / dt),
+                crate::error::short_number(*dt),
+                1.0 / (frequency_hz * dt),
+                crate::error::short_number(0.05 / frequency_hz)
             ),
             Warning::NoFreeDofs { dofs } => write!(
                 f,

@@ -314,3 +314,57 @@ fn cost_of_the_certificate() {
         );
     }
 }
+
+/// Issue 33 item 11: with Rayleigh damping C = α·M + β·K the explicit step is
+/// (2/ω_max)(√(1 + ξ²) − ξ), ξ = α/(2ω_max) + β·ω_max/2 (the root of h²ω² + 2(α + βω²)h = 4,
+/// where the symplectic Euler step's 2×2 amplification matrix of the top mode leaves the unit
+/// circle). The critical step ignored β, so 0.9× it diverged with ξ = 0.26 (theory: 0.774×
+/// the undamped step). Checked against the dense ω_max; then a run started on the top mode
+/// (the first to go unstable) stays bounded at 0.9× the new step, and diverges at 0.9× the
+/// undamped one and at 1.05× the new one (so the bound is the scheme's, not just a safe one).
+#[test]
+fn rayleigh_damping_lowers_the_critical_step_as_the_scheme_requires() {
+    use std::sync::Arc;
+    use tetfem::dynamics::{Integrator, State, SymplecticEuler};
+    let undamped = steel_beam([4.0, 1.0, 1.0], [12, 2, 2], BoxSplit::Lecture6);
+    let (values, vectors) = dense_eigen(&undamped);
+    let omega = values.last().unwrap().sqrt();
+    // ξ = 0.01 + 0.25 at the dense ω_max: mostly stiffness damping, as in the issue's scene.
+    let damping = Rayleigh::new(0.02 * omega, 0.5 / omega).unwrap();
+    let xi: f64 = 0.26;
+    let theory = 2.0 / omega * ((1.0 + xi * xi).sqrt() - xi);
+    let no_damping = critical_time_step(&undamped).unwrap().dt;
+    let damped = Arc::new(undamped.with_damping(damping));
+    let step = critical_time_step(&damped).unwrap();
+    println!("theory {theory:e}, certified {:e}, undamped {no_damping:e}", step.dt);
+    // The certified ω_max is within 1e-3 above the dense one (the bracket's tolerance, see
+    // above), and the damped step decreases with ω, so the step lies in [1 − 1e-3, 1]·theory;
+    // the dense value is accurate to ~1e-13, hence the 1e-12 above.
+    assert!(step.dt <= theory * (1.0 + 1e-12), "{:e} > {theory:e}", step.dt);
+    assert!(step.dt >= theory * (1.0 - 1e-3), "{:e} ≪ {theory:e}", step.dt);
+    assert!((step.dt / no_damping - 0.774).abs() < 1e-3, "{}", step.dt / no_damping);
+
+    // The top mode's displacement x = M^(−1/2)·z.
+    let m = lumped(&damped);
+    let top = vectors.column(values.len() - 1);
+    let start: Vec<f64> = (0..m.len()).map(|i| 1e-6 * top[i] / m[i].sqrt()).collect();
+    let run = |dt: f64| -> tetfem::Result<State> {
+        let mut integrator = SymplecticEuler::new(Arc::clone(&damped), dt)?;
+        let mut state = State::at_rest(m.len());
+        state.displacement.clone_from(&start);
+        for _ in 0..2000 {
+            integrator.step(&mut state)?;
+        }
+        Ok(state)
+    };
+    let stable = run(0.9 * step.dt).expect("0.9× the damped step is stable");
+    // Damped and unloaded: the top mode decays (its amplitude only shrinks).
+    let size = |u: &[f64]| u.iter().map(|v| v * v).sum::<f64>().sqrt();
+    assert!(size(&stable.displacement) < size(&start));
+    for factor in [0.9 * no_damping / step.dt, 1.05] {
+        match run(factor * step.dt) {
+            Err(Error::Diverged { .. }) => {}
+            other => panic!("{factor}× the damped step: {:?}", other.map(|s| s.steps)),
+        }
+    }
+}

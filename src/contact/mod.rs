@@ -35,7 +35,7 @@ pub mod parameters;
 pub mod set;
 
 pub use friction::FrictionLag;
-pub use obstacle::{Obstacle, ObstacleMotion, Shape};
+pub use obstacle::{MAX_FRICTION, Obstacle, ObstacleMotion, Shape};
 pub use parameters::ContactParameters;
 pub use set::Contact;
 

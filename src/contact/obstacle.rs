@@ -62,6 +62,11 @@ impl ObstacleMotion {
     }
 }
 
+/// The largest Coulomb coefficient an obstacle takes: measured material pairs lie below ~2
+/// (rubber on rough surfaces), and at 100 a contact holds a tangential load 100 times its normal
+/// one, which is sticking for any load a run sees; 1e300 is an input error (μ·λ overflows).
+pub const MAX_FRICTION: f64 = 100.0;
+
 /// A rigid obstacle with a name (the CSV columns and error messages use it), fixed or moving
 /// by a prescribed translation ([`with_motion`](Self::with_motion)).
 #[derive(Debug, Clone, PartialEq)]
@@ -129,13 +134,15 @@ impl Obstacle {
     }
 
     /// The obstacle with Coulomb friction coefficient `mu` (dimensionless; see
-    /// [`super::friction`]). [`Error::InvalidParameter`] unless finite and ≥ 0.
+    /// [`super::friction`]). [`Error::InvalidParameter`] unless in [0, [`MAX_FRICTION`]].
     pub fn with_friction(mut self, mu: f64) -> Result<Self> {
-        if !(mu.is_finite() && mu >= 0.0) {
+        if !(mu.is_finite() && (0.0..=MAX_FRICTION).contains(&mu)) {
             return Err(Error::invalid_parameter(
                 format!("obstacle {}: friction", self.name),
-                mu,
-                "must be finite and ≥ 0",
+                crate::error::short_number(mu),
+                format!(
+                    "must be between 0 and {MAX_FRICTION} (measured pairs lie below ~2; at {MAX_FRICTION} a contact already holds a tangential load {MAX_FRICTION}× its normal one)"
+                ),
             ));
         }
         self.friction = mu;

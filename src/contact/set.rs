@@ -74,8 +74,8 @@ const LISTED: usize = 5;
 impl Contact {
     /// The contact of `mesh`'s boundary nodes with `obstacles` under `parameters`.
     ///
-    /// Errors: no obstacle; two obstacles with one name; parameters not finite and > 0; the
-    /// body at rest inside an obstacle or within reach of d ≤ 0 (see
+    /// Errors: no obstacle; two obstacles with one name; parameters not finite and > 0, an
+    /// activation distance above the mesh's bounding-box diagonal; the body at rest inside an obstacle or within reach of d ≤ 0 (see
     /// [`check_state`](Self::check_state)).
     pub fn new(
         mesh: &TetMesh,
@@ -83,6 +83,22 @@ impl Contact {
         parameters: ContactParameters,
     ) -> Result<Self> {
         parameters.check()?;
+        // A barrier reaching farther than the body is large pushes from everywhere (the
+        // default d̂ is 1e-3 of the diagonal); 1e300 is an input error, not a model.
+        let (min, max) = mesh.bounding_box();
+        let diagonal = (max - min).norm();
+        if parameters.activation_distance > diagonal {
+            return Err(Error::invalid_parameter(
+                "contact activation_distance",
+                crate::error::short_number(parameters.activation_distance),
+                format!(
+                    "must be at most the body's bounding-box diagonal, {} (the default is {} of it, {})",
+                    crate::error::short_number(diagonal),
+                    super::parameters::ACTIVATION_FRACTION,
+                    crate::error::short_number(super::parameters::ACTIVATION_FRACTION * diagonal)
+                ),
+            ));
+        }
         if obstacles.is_empty() {
             return Err(Error::invalid_parameter(
                 "contact obstacles",

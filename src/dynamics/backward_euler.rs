@@ -202,6 +202,7 @@ impl BackwardEuler {
         let (mass_scale, stiffness_scale) = (1.0 + dt * damping.alpha, dt * damping.beta + dt * dt);
         self.system
             .combine_into(stiffness_scale, mass_scale, &mut self.matrix)?;
+        super::check_step_matrix(&self.matrix, dt, "(1 + dt·α)·M + (dt·β + dt²)·K")?;
         self.solver.factorize(&self.matrix)?;
         self.factored_for = Some(dt);
         Ok(())

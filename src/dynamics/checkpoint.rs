@@ -155,6 +155,37 @@ impl Checkpoint {
         Ok(self.state.clone())
     }
 
+    /// Checks that the checkpoint's step count, time and time step agree for a run that
+    /// started at `start_time` after `start_steps` steps: its time must be
+    /// t₀ + (steps − steps₀)·dt up to the round-off of the integrators' running sum t += dt,
+    /// at most (n + 2)·ε·(|t₀| + n·dt) after n steps (each addition rounds by at most ε/2 of
+    /// the running time, which stays below |t₀| + n·dt). A step count shifted by one step is
+    /// caught while n²·ε < 1 (n below 6.7e7 steps). Errors: [`Error::InvalidParameter`]
+    /// naming the field (`steps` before the start, or `time`), its value and the time expected.
+    pub fn check_clock(&self, start_time: f64, start_steps: usize) -> Result<()> {
+        let (steps, time, dt) = (self.state.steps, self.state.time, self.dt);
+        let Some(n) = steps.checked_sub(start_steps) else {
+            return Err(Error::invalid_parameter(
+                "checkpoint steps",
+                steps,
+                format!("the run starts after {start_steps} steps; a checkpoint cannot be before its start"),
+            ));
+        };
+        let n = n as f64;
+        let expected = start_time + n * dt;
+        let tolerance = (n + 2.0) * f64::EPSILON * (start_time.abs() + n * dt);
+        if !((time - expected).abs() <= tolerance) {
+            return Err(Error::invalid_parameter(
+                "checkpoint time",
+                format!("{time:e} s"),
+                format!(
+                    "step {steps} of dt = {dt:e} s from t = {start_time:e} s is at t = {expected:e} s (± {tolerance:.1e} s of round-off): the checkpoint's step count, time and time step disagree; run again without --resume"
+                ),
+            ));
+        }
+        Ok(())
+    }
+
     /// The fingerprint entry `name`, if stored.
     pub fn fingerprint_entry(&self, name: &str) -> Option<&str> {
         self.fingerprint
@@ -295,8 +326,16 @@ impl Checkpoint {
         r.bytes = payload;
         let method = r.string()?;
         let steps = r.count()?;
+        let at = r.at;
         let time = r.real()?;
+        if !time.is_finite() {
+            return Err(r.error(at, format!("time = {time}: must be finite")));
+        }
+        let at = r.at;
         let dt = r.real()?;
+        if !(dt.is_finite() && dt > 0.0) {
+            return Err(r.error(at, format!("dt = {dt:e}: must be finite and > 0")));
+        }
         let displacement = r.reals()?;
         let velocity = r.reals()?;
         let guard = match r.flag()? {
@@ -499,6 +538,41 @@ impl Reader<'_> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The clock check accepts the running sum t += dt of a long run from a nonzero start
+    /// (its round-off is inside the bound) and refuses a step count shifted by one step, or a
+    /// checkpoint before the start, naming the field, its value and the time expected.
+    #[test]
+    fn the_clock_check_accepts_round_off_and_refuses_a_shifted_step_count() {
+        let (start, dt, n) = (0.3, 1e-3 / 3.0, 200_000);
+        let mut time = start;
+        for _ in 0..n {
+            time += dt;
+        }
+        let checkpoint = |steps: usize| Checkpoint {
+            state: State {
+                displacement: vec![],
+                velocity: vec![],
+                time,
+                steps,
+            },
+            dt,
+            history: IntegratorHistory::default(),
+            fingerprint: vec![],
+            records: vec![],
+        };
+        // The round-off of 2e5 additions is well above one ulp: the check needs its bound.
+        assert_ne!(time, start + n as f64 * dt);
+        checkpoint(n + 5).check_clock(start, 5).unwrap();
+        for shifted in [n - 1, n + 1] {
+            let e = checkpoint(shifted).check_clock(start, 0).unwrap_err();
+            let text = e.to_string();
+            assert!(text.contains("checkpoint time"), "{text}");
+            assert!(text.contains(&format!("step {shifted} of dt")), "{text}");
+        }
+        let e = checkpoint(3).check_clock(start, 5).unwrap_err();
+        assert!(e.to_string().contains("checkpoint steps = 3"), "{e}");
+    }
 
     /// A version 1 file (written before the previous acceleration was kept) still reads, every
     /// field the same and the previous acceleration absent; a version beyond this build's is

@@ -14,7 +14,8 @@ use crate::error::{Error, Result};
 
 /// Symplectic Euler, M·(v⁺ − v)/dt = f − K·u − C·v, then u⁺ = u + dt·v⁺: the velocity form of
 /// central differences. No linear solve (the mass is lumped), one product with K per step; stable
-/// only for dt < 2/ω_max ([`super::critical_time_step`]). An explicit run above the critical
+/// only for dt < 2/ω_max without damping, (2/ω_max)(√(1 + ξ²) − ξ) with Rayleigh damping of
+/// ratio ξ at ω_max ([`super::critical_time_step`], [`super::damped_critical_step`]). An explicit run above the critical
 /// step is allowed — the [`DivergenceGuard`] stops it with [`Error::Diverged`] once it blows up.
 ///
 /// As in every leapfrog scheme the velocity it stores lives half a step behind the displacement

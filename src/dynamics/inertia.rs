@@ -157,3 +157,68 @@ pub(super) fn rounding_margin(cholesky: &SparseCholesky) -> f64 {
     let r = counts.max_row_and_column as f64;
     2.0 * (2.0 * u + r * gamma * (1.0 + gamma) * (1.0 + 2.0 * u))
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use faer::sparse::SymbolicSparseColMat;
+    use std::sync::Arc;
+
+    /// The n×n matrix of `pattern` ("dense" or "diagonal") with `diagonal` on its diagonal and
+    /// 1 elsewhere on the pattern.
+    fn matrix(dense: bool, diagonal: &[f64]) -> CscMatrix {
+        let n = diagonal.len();
+        let (col_ptr, row_idx): (Vec<usize>, Vec<usize>) = match dense {
+            true => ((0..=n).map(|j| j * n).collect(), (0..n * n).map(|e| e % n).collect()),
+            false => ((0..=n).collect(), (0..n).collect()),
+        };
+        let values = (0..row_idx.len())
+            .map(|e| {
+                let j = col_ptr.partition_point(|&p| p <= e) - 1;
+                if row_idx[e] == j { diagonal[j] } else { 1.0 }
+            })
+            .collect();
+        let pattern = Arc::new(SymbolicSparseColMat::new_checked(
+            n, n, col_ptr, None, row_idx,
+        ));
+        CscMatrix::from_values(pattern, values).unwrap()
+    }
+
+    /// The margin is 2·(2u + r·γ_c(1 + γ_c)(1 + 2u)), γ_c = c·u/(1 − c·u): to first order in u,
+    /// 2u·(2 + r·c). A dense 5×5 factor has c = 5 + 1 and r = 5: 64u; a diagonal one c = 2,
+    /// r = 1: 8u. The second-order terms are ~r·c²·u² relative ~1e-15 of it, hence the 1e-12.
+    /// A sign error in any term (2u − …, γ(1 − γ), σ·(1 − 2u)) moves it by ≥ 4u.
+    #[test]
+    fn the_rounding_margin_is_the_first_order_bound() {
+        let u = f64::EPSILON / 2.0;
+        for (dense, expected) in [(true, 64.0), (false, 8.0)] {
+            let a = matrix(dense, &[10.0; 5]);
+            let margin = rounding_margin(&SparseCholesky::analyze(&a).unwrap()) / u;
+            assert!(
+                margin >= expected && margin <= expected * (1.0 + 1e-12),
+                "dense {dense}: margin {margin}u, expected {expected}u"
+            );
+        }
+    }
+
+    /// The probe factors σ/(1 + η)·M − K, so a σ within the margin above λ_max is never
+    /// certified. K = diag(1, …, 5), M = I: λ_max = 5 exactly. A candidate 5(1 + η/2) makes the
+    /// probe's last pivot 5(1 + η/2)/(1 + η) − 5 < 0, so the search raises σ (by 0.2 %) until
+    /// it is proven; the probe shifted the other way (σ·(1 + η), a sign error) would succeed
+    /// and certify σ < 5(1 + η), which this test refuses.
+    #[test]
+    fn a_candidate_within_the_margin_is_not_certified() {
+        let k = matrix(false, &[1.0, 2.0, 3.0, 4.0, 5.0]);
+        let mass = [1.0; 5];
+        let eta = rounding_margin(&SparseCholesky::analyze(&k).unwrap());
+        let candidate = 5.0 * (1.0 + eta / 2.0);
+        let certified = certify(&k, &mass, candidate, 10.0, Some(1 << 30)).unwrap();
+        assert_eq!(certified.certificate, Certificate::Inertia);
+        assert!(certified.sigma >= 5.0 * (1.0 + eta), "{certified:?}, η = {eta:e}");
+        assert!(certified.factorizations >= 2, "{certified:?}");
+        // Above the margin the candidate itself is proven at once.
+        let above = 5.0 * (1.0 + 2.0 * eta);
+        let certified = certify(&k, &mass, above, 10.0, Some(1 << 30)).unwrap();
+        assert_eq!((certified.sigma, certified.factorizations), (above, 1));
+    }
+}

@@ -49,7 +49,7 @@ pub use nonlinear_solve::{AUTO_LBFGS_HISTORY, AUTO_REFACTOR_BELOW, NonlinearSolv
 pub use reactions::SupportReactions;
 pub use stability::{
     Certificate, CriticalStep, CriticalStepOptions, DivergenceGuard, critical_time_step,
-    critical_time_step_with, element_critical_step,
+    critical_time_step_with, damped_critical_step, element_critical_step,
 };
 pub use state::State;
 pub use system::{LinearSystem, Mass, MassKind};
@@ -125,6 +125,25 @@ pub fn check_time_step(dt: f64) -> Result<f64> {
             dt,
             "the time step must be finite and > 0",
         ))
+    }
+}
+
+/// [`Error::InvalidParameter`] naming `dt` if the implicit step matrix `matrix`, formed with
+/// the time step `dt` as `formula` states, has a non-finite entry: dt = 1e200 s makes dt² (or
+/// 1/dt²) overflow, which the factorization would report as a bare "matrix value inf".
+fn check_step_matrix(matrix: &CscMatrix, dt: f64, formula: &str) -> Result<()> {
+    match matrix.values().iter().position(|v| !v.is_finite()) {
+        None => Ok(()),
+        Some(k) => Err(Error::invalid_parameter(
+            "dt",
+            format!("{} s", crate::error::short_number(dt)),
+            format!(
+                "the step matrix {formula} overflows with it (entry {k} = {}): the time step is \
+                 far outside the time scales of the model's stiffness and mass; use a dt near its \
+                 natural periods",
+                matrix.values()[k]
+            ),
+        )),
     }
 }
 

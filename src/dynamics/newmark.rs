@@ -189,6 +189,7 @@ impl Newmark {
         );
         self.system
             .combine_into(stiffness_scale, mass_scale, &mut self.matrix)?;
+        super::check_step_matrix(&self.matrix, dt, "(1 + 2β/dt)·K + (4/dt² + 2α/dt)·M")?;
         self.solver.factorize(&self.matrix)?;
         self.factored_for = Some(dt);
         Ok(())

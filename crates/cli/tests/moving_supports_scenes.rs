@@ -276,6 +276,12 @@ fn bad_time_data_names_key_and_line() {
         "constraints[0].rigid_motion.axis",
         9,
     );
+    // An angle of 1e300° was accepted: sin and cos of it are noise (issue 33).
+    expect_scene_error(
+        &format!("{BASE}{clamp}rigid_motion = {{ axis = [1.0, 0.0, 0.0], angle_deg = 1e300 }}\n"),
+        "constraints[0].rigid_motion.angle_deg",
+        9,
+    );
     expect_scene_error(
         &format!(
             "{BASE}{clamp}displacement = [0.0, 0.0, 0.01]\namplitude = {{ sine = {{ frequency_hz = -5.0 }} }}\n"

@@ -353,6 +353,55 @@ fn a_resume_with_nothing_left_to_run_names_the_duration() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+/// A checkpoint whose step count disagrees with its time (forged, or damaged and re-summed)
+/// resumed with a trajectory shifted in time, exit 0; a NaN time was accepted; a CSV of
+/// another run was continued. Each is refused naming the file, the field, its value and what
+/// was expected.
+#[test]
+fn a_resume_cross_checks_the_checkpoints_step_time_and_csv() {
+    let dir = scratch("clock");
+    let text = scene_text("explicit", "linear", 5e-6, 100);
+    let longer = scene_text("explicit", "linear", 5e-6, 120);
+    run(&text, &dir);
+    let path = checkpoint_path(scene_in(&text, &dir).output());
+    let good = Checkpoint::read(&path).unwrap();
+    assert_eq!((good.state.steps, good.dt), (100, 5e-6));
+
+    let mut shifted = good.clone();
+    shifted.state.steps = 60;
+    shifted.write(&path).unwrap();
+    let message = resume(&longer, &dir).unwrap_err().to_string();
+    assert!(message.contains("checkpoint.bin"), "{message}");
+    let time = format!("checkpoint time = {:e} s", good.state.time);
+    assert!(message.contains(&time), "{message}");
+    assert!(message.contains("step 60 of dt = 5e-6 s"), "{message}");
+    assert!(message.contains(&format!("is at t = {:e} s", 60.0 * 5e-6)), "{message}");
+
+    let mut nan = good.clone();
+    nan.state.time = f64::NAN;
+    nan.write(&path).unwrap();
+    let message = resume(&longer, &dir).unwrap_err().to_string();
+    assert!(message.contains("checkpoint.bin"), "{message}");
+    assert!(message.contains("time = NaN: must be finite"), "{message}");
+
+    // The CSV of a run with another time step: its row of step 100 is at t = 4e-4 s.
+    good.write(&path).unwrap();
+    let other = scratch("clock-other");
+    run(&scene_text("explicit", "linear", 4e-6, 100), &other);
+    std::fs::copy(other.join("scene.csv"), dir.join("scene.csv")).unwrap();
+    let message = resume(&longer, &dir).unwrap_err().to_string();
+    assert!(message.contains("scene.csv:102"), "{message}");
+    let row = format!("time_s = {:e}, step = 100", 100.0 * 4e-6);
+    assert!(message.contains(&row), "{message}");
+    assert!(message.contains(&format!("t = {:e} s", 100.0 * 5e-6)), "{message}");
+    let _ = std::fs::remove_dir_all(&other);
+
+    // The checkpoint and CSV as written resume.
+    run(&text, &dir);
+    assert_eq!(resume(&longer, &dir).unwrap().steps, 120);
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 #[test]
 fn checkpoint_every_must_be_a_non_negative_integer_of_a_dynamic_scene() {
     let text = scene_text("newmark", "linear", 1e-4, 10);

@@ -211,3 +211,73 @@ fn a_tiny_displacement_is_reported_not_rounded_to_zero() {
         summary.max_displacement
     );
 }
+
+/// The amplitude warnings of a scene (issue 33), with the load of `amplitude` on the free end.
+fn amplitude_warnings(analysis: &str, amplitude: &str) -> Vec<Warning> {
+    let text = BASE.replace("[analysis]\ntype = \"static\"\n", analysis);
+    let load = TIP_LOAD.replace("\ntotal_force", &format!("\namplitude = {amplitude}\ntotal_force"));
+    Scene::parse(&format!("{text}{CLAMP}{load}"), "inline", Path::new("."))
+        .unwrap()
+        .build()
+        .unwrap()
+        .warnings()
+}
+
+const DYNAMIC: &str = "[analysis]\ntype = \"dynamic\"\ndt = 1e-3\nduration = 0.5\n";
+
+/// Misleading successes of issue 33: an amplitude zero over the whole run (a table after the
+/// run's times, a 0 Hz sine, a ramp starting after it) ran "fine" with the load never acting;
+/// a sine far above 1/dt was sampled into an aliased load; a static scene took a time-varying
+/// amplitude at t = 1 s without saying so. Each is now a warning naming the key; an amplitude
+/// that acts within the run, at a resolvable frequency, gives none.
+#[test]
+fn amplitudes_that_never_act_or_alias_are_warnings_naming_the_key() {
+    let key = "loads[0].amplitude";
+    for zero in [
+        "{ table = [[1.0, 0.0], [2.0, 1.0]] }",
+        "{ table = [[-2.0, 1.0], [-1.0, 0.0]] }",
+        "{ sine = { frequency_hz = 0.0 } }",
+        "{ ramp = { start = 0.6, end = 1.0 } }",
+    ] {
+        let warnings = amplitude_warnings(DYNAMIC, zero);
+        let expected = Warning::AmplitudeVanishes {
+            key: key.into(),
+            from: 0.0,
+            to: 0.5,
+        };
+        assert_eq!(warnings, vec![expected.clone()], "{zero}");
+        let text = expected.to_string();
+        assert!(text.contains("loads[0].amplitude is 0 over the whole run (t = 0 to 0.5 s)"), "{text}");
+    }
+    // 2 kHz at dt = 1 ms: half a sample per period.
+    let aliased = amplitude_warnings(DYNAMIC, "{ sine = { frequency_hz = 2000.0 } }");
+    assert_eq!(
+        aliased,
+        vec![Warning::AliasedAmplitude {
+            key: key.into(),
+            frequency_hz: 2000.0,
+            dt: 1e-3
+        }]
+    );
+    assert!(aliased[0].to_string().contains("Nyquist frequency 1/(2·dt) = 500 Hz"), "{}", aliased[0]);
+    for fine in [
+        "{ table = [[0.0, 0.0], [0.25, 1.0]] }",
+        "{ sine = { frequency_hz = 50.0 } }",
+        "{ ramp = { start = 0.4, end = 1.0 } }",
+    ] {
+        assert_eq!(amplitude_warnings(DYNAMIC, fine), vec![], "{fine}");
+    }
+    // A static scene takes the ramp at t = 1 s, where it is 0.25.
+    let sampled = amplitude_warnings("[analysis]\ntype = \"static\"\n", "{ ramp = { start = 0.0, end = 4.0 } }");
+    assert_eq!(
+        sampled,
+        vec![Warning::StaticAmplitude {
+            key: key.into(),
+            time: 1.0,
+            value: 0.25
+        }]
+    );
+    assert!(sampled[0].to_string().contains("at t = 1 s, where it is 0.25"), "{}", sampled[0]);
+    let constant = amplitude_warnings("[analysis]\ntype = \"static\"\n", "{ constant = 2.0 }");
+    assert_eq!(constant, vec![]);
+}

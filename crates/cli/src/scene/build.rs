@@ -11,6 +11,7 @@ use nalgebra::Matrix3;
 
 use super::{AmplitudeRef, AmplitudeSpec, MeshSpec, RegionSelector, Scene, Selector, SplitSpec};
 use tetfem::amplitude::{Amplitude, STATIC_TIME};
+use tetfem::warning::Warning;
 use tetfem::boundary_motion::{BoundaryMotion, Motion, RigidMotion};
 use tetfem::constraints::Constraints;
 use tetfem::dynamics::TimeData;
@@ -187,10 +188,20 @@ impl Scene {
         let mut constrained_by: Vec<Option<usize>> = vec![None; mesh.dof_count()];
         let mut constraint_dofs = Vec::with_capacity(spec.constraints.len());
         let mut moment_points = Vec::with_capacity(spec.constraints.len());
+        let mut input_warnings = Vec::new();
         for (i, c) in spec.constraints.iter().enumerate() {
             let key = format!("constraints[{i}]");
             let span = c.span();
             let c = c.get_ref();
+            let given = [
+                c.amplitude.as_ref(),
+                c.rigid_motion.as_ref().and_then(|r| r.amplitude.as_ref()),
+            ];
+            for r in given.into_iter().flatten() {
+                let amplitude_key = format!("{key}.amplitude");
+                let amplitude = self.amplitude_of(r, &named, &amplitude_key, &span)?;
+                input_warnings.extend(self.amplitude_warnings(&amplitude_key, &amplitude));
+            }
             let nodes = ctx.nodes(&c.select, &key, &span)?;
             let point = c.moment_about.unwrap_or_default();
             if point.iter().any(|v| !v.is_finite()) {
@@ -256,7 +267,6 @@ impl Scene {
             }
             constraint_dofs.push(dofs);
         }
-        let mut input_warnings = Vec::new();
         if constraints.count() == mesh.dof_count() {
             input_warnings.push(tetfem::warning::Warning::NoFreeDofs {
                 dofs: mesh.dof_count(),
@@ -272,6 +282,7 @@ impl Scene {
                 Some(r) => self.amplitude_of(r, &named, &format!("{key}.amplitude"), &l.span())?,
                 None => Amplitude::default(),
             };
+            input_warnings.extend(self.amplitude_warnings(&format!("{key}.amplitude"), &amplitude));
             if !amplitude.is_one() {
                 // Kept apart: the dynamic system scales it by a(t) at each step.
                 let mut single = Loads::new(&mesh);
@@ -345,6 +356,42 @@ impl Scene {
             time_data,
             motions,
         })
+    }
+
+    /// Warnings about the amplitude at `key` for this scene's analysis: zero over a dynamic
+    /// run's whole span [0, steps·dt] ([`Warning::AmplitudeVanishes`]), a sine above the
+    /// Nyquist frequency 1/(2·dt) ([`Warning::AliasedAmplitude`]), or a time-varying one that a
+    /// static analysis takes at [`STATIC_TIME`] ([`Warning::StaticAmplitude`]).
+    fn amplitude_warnings(&self, key: &str, amplitude: &Amplitude) -> Vec<Warning> {
+        let mut warnings = Vec::new();
+        match self.analysis() {
+            super::Analysis::Dynamic(d) => {
+                let end = d.steps() as f64 * d.dt;
+                if amplitude.vanishes_on(0.0, end) {
+                    warnings.push(Warning::AmplitudeVanishes {
+                        key: key.to_string(),
+                        from: 0.0,
+                        to: end,
+                    });
+                }
+                if let Some(f) = amplitude.frequency_hz().filter(|f| f * d.dt > 0.5) {
+                    warnings.push(Warning::AliasedAmplitude {
+                        key: key.to_string(),
+                        frequency_hz: f,
+                        dt: d.dt,
+                    });
+                }
+            }
+            super::Analysis::Static if !amplitude.is_constant() => {
+                warnings.push(Warning::StaticAmplitude {
+                    key: key.to_string(),
+                    time: STATIC_TIME,
+                    value: amplitude.value(STATIC_TIME),
+                });
+            }
+            _ => {}
+        }
+        warnings
     }
 
     /// The `[[amplitudes]]` entries by name; errors name the entry and its line (a bad
@@ -535,7 +582,15 @@ impl Scene {
                 rigid.translation.into(),
                 inner.or(amplitude).unwrap_or_default(),
             )
-            .map_err(|e| self.error(&key, span, e.to_string()))?;
+            .map_err(|e| {
+                let entry = match &e {
+                    Error::InvalidParameter { name, .. } if name.ends_with("angle") => {
+                        format!("{key}.angle_deg")
+                    }
+                    _ => key.clone(),
+                };
+                self.error(&entry, span, e.to_string())
+            })?;
             return Ok(Some(Motion::Rigid(motion)));
         }
         match (c.displacement, amplitude) {

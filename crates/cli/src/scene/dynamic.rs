@@ -21,7 +21,7 @@ use tetfem::dynamics::{
     NonlinearSolve, Rayleigh, State, StepNewtonOptions, critical_time_step,
 };
 use tetfem::element::{ElementType, Tet10};
-use tetfem::error::{Error, Result};
+use tetfem::error::{Error, Result, short_number};
 use tetfem::linalg::linear_solver::LinearMethod;
 use tetfem::loads::Loads;
 use tetfem::material::Material;
@@ -108,7 +108,7 @@ impl RunLength {
             RunLength::Duration(d) if !(d.is_finite() && d >= dt) => {
                 return Err(Error::invalid_parameter(
                     "duration",
-                    d,
+                    short_number(d),
                     format!("must be finite and at least dt = {dt:e}"),
                 ));
             }
@@ -117,7 +117,7 @@ impl RunLength {
                 if steps > MAX_STEPS as f64 {
                     return Err(Error::invalid_parameter(
                         "duration",
-                        d,
+                        short_number(d),
                         format!(
                             "takes ⌈duration/dt⌉ = {steps:e} steps at dt = {dt:e}, above the limit of {MAX_STEPS} steps (MAX_STEPS); choose a larger dt or a shorter duration"
                         ),
@@ -129,7 +129,7 @@ impl RunLength {
         if !(steps as f64 * dt).is_finite() {
             return Err(Error::invalid_parameter(
                 "dt",
-                dt,
+                short_number(dt),
                 format!("the end time {steps} steps × dt overflows"),
             ));
         }
@@ -1369,6 +1369,15 @@ fn run_dynamic_scene_on<E: SceneElement>(
         true => Some(Restart::new(scene, &setup.mesh, resume)?),
         false => None,
     };
+    if let Some(r) = &restart {
+        let output = scene.output();
+        let csv = output.directory.join(format!("{}.csv", output.stem));
+        r.check_clock(
+            setup.initial.time,
+            setup.initial.steps,
+            output.csv.then_some(csv.as_path()),
+        )?;
+    }
     if let Some(at) = restart.as_ref().and_then(Restart::resumed_at) {
         let steps = length.steps(setup.resolve(dt)?)?;
         restart::check_remaining(scene, at, steps, overrides.length.is_some())?;

@@ -51,7 +51,7 @@ use std::ops::Range;
 use std::path::{Path, PathBuf};
 
 use tetfem::dynamics::StepNewtonOptions;
-use tetfem::error::{Error, Result};
+use tetfem::error::{Error, Result, short_number};
 
 /// Every key a scene may hold, with its default. Paths written in a scene are relative to the
 /// scene file's folder; without `output.directory` the outputs go to `out/<scene file stem>` in
@@ -632,7 +632,7 @@ impl Scene {
                     err("dt", "a dynamic analysis needs a time step dt (s)".into())
                 })?;
                 if !(dt.is_finite() && dt > 0.0) {
-                    return Err(err("dt", format!("dt = {dt} must be finite and > 0")));
+                    return Err(err("dt", format!("dt = {} must be finite and > 0", short_number(dt))));
                 }
                 let duration = a.duration.ok_or_else(|| {
                     err("duration", "a dynamic analysis needs a duration (s)".into())
@@ -640,7 +640,11 @@ impl Scene {
                 if !(duration.is_finite() && duration >= dt) {
                     return Err(err(
                         "duration",
-                        format!("duration = {duration} must be finite and at least dt = {dt}"),
+                        format!(
+                            "duration = {} must be finite and at least dt = {}",
+                            short_number(duration),
+                            short_number(dt)
+                        ),
                     ));
                 }
                 if let Err(Error::InvalidParameter { requirement, .. }) =
@@ -648,7 +652,7 @@ impl Scene {
                 {
                     return Err(err(
                         "duration",
-                        format!("duration = {duration} {requirement}"),
+                        format!("duration = {} {requirement}", short_number(duration)),
                     ));
                 }
                 let damping = a.damping.unwrap_or_default();
@@ -657,7 +661,7 @@ impl Scene {
                     ("damping.stiffness", damping.stiffness),
                 ] {
                     if !(v.is_finite() && v >= 0.0) {
-                        return Err(err(key, format!("{v} must be finite and ≥ 0")));
+                        return Err(err(key, format!("{} must be finite and ≥ 0", short_number(v))));
                     }
                 }
                 let initial_velocity = a.initial_velocity.unwrap_or([0.0; 3]);

@@ -88,6 +88,62 @@ impl Restart {
         })
     }
 
+    /// Cross-checks the resume's checkpoint against the run's start (`start_time` s after
+    /// `start_steps` steps) and the CSV `csv` it continues (if any): its step count, time and
+    /// dt must agree ([`Checkpoint::check_clock`]), and the CSV row of its step must hold that
+    /// step and its time, t₀ + (steps − steps₀)·dt as the run writes it. A checkpoint whose
+    /// step count was shifted would otherwise resume a trajectory shifted in time. Errors name
+    /// the file, the field, its value and what was expected. Nothing to check on a fresh run;
+    /// a CSV without the row is left to [`CsvSeries::reopen`](tetfem::output::CsvSeries::reopen)
+    /// to refuse.
+    pub(crate) fn check_clock(
+        &self,
+        start_time: f64,
+        start_steps: usize,
+        csv: Option<&Path>,
+    ) -> Result<()> {
+        let Some(checkpoint) = &self.resume else {
+            return Ok(());
+        };
+        checkpoint
+            .check_clock(start_time, start_steps)
+            .map_err(|e| Error::Parse {
+                path: self.path.clone(),
+                line: 1,
+                message: e.to_string(),
+            })?;
+        let Some(csv) = csv.filter(|p| p.exists()) else {
+            return Ok(());
+        };
+        let steps = checkpoint.state.steps;
+        let time = start_time + (steps - start_steps) as f64 * checkpoint.dt;
+        let text = std::fs::read_to_string(csv).map_err(|source| Error::Io {
+            path: csv.to_path_buf(),
+            source,
+        })?;
+        // Line 1 is the header, the row of step k (counted from the start) line k + 2.
+        let Some(row) = text.lines().nth(steps - start_steps + 1) else {
+            return Ok(());
+        };
+        let mut fields = row.split(',');
+        let (found_time, found_step) = (fields.next(), fields.next());
+        let parsed_time = found_time.and_then(|t| t.parse::<f64>().ok());
+        let parsed_step = found_step.and_then(|s| s.parse::<usize>().ok());
+        if parsed_time != Some(time) || parsed_step != Some(steps) {
+            return Err(Error::Parse {
+                path: csv.to_path_buf(),
+                line: steps - start_steps + 2,
+                message: format!(
+                    "time_s = {}, step = {}: checkpoint {} is at step {steps}, t = {time:e} s, so this row must hold them; the CSV belongs to another run (run again without --resume)",
+                    found_time.unwrap_or("(missing)"),
+                    found_step.unwrap_or("(missing)"),
+                    self.path.display()
+                ),
+            });
+        }
+        Ok(())
+    }
+
     /// The step of the checkpoint a resume continues from.
     pub(crate) fn resumed_at(&self) -> Option<usize> {
         self.resume.as_ref().map(|c| c.state.steps)
