@@ -205,3 +205,36 @@ fn reading_a_large_msh41_file() {
     );
     assert_eq!(read.mesh.tet_count(), mesh.tet_count());
 }
+
+/// Issue 33: a file cut before `$EndElements` was reported as mshio's "Tag" (the next tag it
+/// expected) at the file's end; the message now says what is missing.
+#[test]
+fn a_missing_end_elements_is_named() {
+    let full = ascii("3 1 2 3 4\n4 2 3 4 5\n");
+    let cut = full.replace("$EndElements\n", "");
+    let (line, message) = parse_error("no_end.msh", cut.as_bytes());
+    assert_eq!(line, cut.lines().count(), "{message}");
+    assert!(
+        message.contains("$EndElements") && message.contains("truncated"),
+        "{message}"
+    );
+    // A block announcing more elements than it has runs into the end marker: named there.
+    let short = full.replace("3 1 4 2\n", "3 1 4 3\n");
+    let (line, message) = parse_error("short_block.msh", short.as_bytes());
+    assert_eq!(line, line_of(&short, "$EndElements"), "{message}");
+    assert!(message.contains("announces 3 elements"), "{message}");
+}
+
+/// Issue 33: the only tet of a file repeating a node left 3 used nodes, reported as "empty
+/// mesh: 3 nodes and 1 tetrahedra"; the tet and its line are named instead.
+#[test]
+fn a_tet_with_a_repeated_node_is_named_at_its_line() {
+    let text = "$MeshFormat\n2.2 0 8\n$EndMeshFormat\n$Nodes\n4\n1 0 0 0\n2 1 0 0\n3 0 1 0\n\
+                4 0 0 1\n$EndNodes\n$Elements\n1\n7 4 2 1 1 1 2 3 3\n$EndElements\n";
+    let (line, message) = parse_error("repeated.msh", text.as_bytes());
+    assert_eq!(line, line_of(text, "7 4 2 1 1 1 2 3 3"), "{message}");
+    assert!(
+        message.contains("appears more than once") && !message.contains("empty mesh"),
+        "{message}"
+    );
+}

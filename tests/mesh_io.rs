@@ -5,7 +5,7 @@ use std::path::{Path, PathBuf};
 
 use nalgebra::Vector3;
 use tetfem::mesh::io::{
-    PhysicalGroup, TetgenOptions, read_gmsh, read_mesh, read_tetgen, write_gmsh, write_tetgen,
+    PhysicalGroup, SKIPPED_EDGES, TetgenOptions, read_gmsh, read_mesh, read_tetgen, write_gmsh, write_tetgen,
 };
 use tetfem::{BoxSplit, Error, TetMesh};
 
@@ -300,6 +300,32 @@ fn tetgen_one_based_with_markers_and_comments() {
     assert_eq!(m.node_markers, Some(vec![5, 0, 0, 5]));
     assert_eq!(m.nodes_with_marker(5), vec![0, 3]);
     assert_eq!(m.mesh.tets(), &[[0, 1, 2, 3]]);
+}
+
+/// Issue 33: a `<prefix>.edge` file beside the mesh was ignored without a word. It is still
+/// not read (no selection or load acts on edges), and its rows are counted as skipped, as a
+/// Gmsh file's line elements are; node markers match by equality (TetGen's markers are labels:
+/// marker 5 does not select a node marked 1 or 4, whatever their bits).
+#[test]
+fn a_tetgen_edge_file_is_counted_as_skipped() {
+    let prefix = tetgen_case("edges_tg", NODE, ELE);
+    // A previous run's .edge file would be read as this one's.
+    let _ = std::fs::remove_file(prefix.with_extension("edge"));
+    let without = read_tetgen(&prefix).unwrap();
+    assert!(!without.skipped_elements.contains_key(SKIPPED_EDGES));
+    std::fs::write(
+        prefix.with_extension("edge"),
+        "# edges\n3 1\n1 1 2 5\n2 2 3 0\n\n3 1 4 5\n",
+    )
+    .unwrap();
+    let with = read_tetgen(&prefix).unwrap();
+    assert_eq!(with.skipped_elements.get(SKIPPED_EDGES), Some(&3));
+    assert_eq!(with.mesh, without.mesh);
+    let marked = NODE.replace("2 1 0 0 0", "2 1 0 0 1").replace("3 0 1 0 0", "3 0 1 0 4");
+    let m = read_tetgen(&tetgen_case("bits_tg", &marked, ELE)).unwrap();
+    assert_eq!(m.nodes_with_marker(5), vec![0, 3]);
+    assert_eq!(m.nodes_with_marker(1), vec![1]);
+    assert_eq!(m.nodes_with_marker(4), vec![2]);
 }
 
 #[test]

@@ -670,3 +670,26 @@ fn linear_files_keep_their_order() {
     let tetgen = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/tetgen_bar.ele");
     assert_eq!(mesh_file_order(&tetgen).unwrap(), 1);
 }
+
+/// Issue 33: a 10-node element line one node tag short shifted mshio's stream of numbers, and
+/// the error came where the stream finally failed (190 lines later on the reporter's file);
+/// the short line itself is named, with the count it has and the count its type needs.
+#[test]
+fn a_tet10_line_short_of_a_node_tag_is_named_at_its_line() {
+    let mesh = box_mesh(BoxSplit::Lecture6);
+    let text = msh41(&mesh, &[]);
+    let elements = text.lines().position(|l| l == "$Elements").unwrap();
+    // Tet 3 of the block: header, block header, then tets 1, 2, 3.
+    let target = elements + 2 + 3;
+    let lines: Vec<&str> = text.lines().collect();
+    let short_line = lines[target].rsplit_once(' ').unwrap().0.to_string();
+    let mut edited: Vec<String> = lines.iter().map(|l| l.to_string()).collect();
+    edited[target] = short_line;
+    let bad = edited.join("\n") + "\n";
+    let (_, line, message) = parse_error::<Tet10>("short.msh", &bad);
+    assert_eq!(line, target + 1, "{message}");
+    assert!(
+        message.contains("9 node tags") && message.contains("Tet10") && message.contains("10"),
+        "{message}"
+    );
+}

@@ -85,7 +85,10 @@ impl<C: CellType> TetMesh<C> {
     /// Validates nodes and cells of type `C` and builds the mesh; the checks of
     /// [`TetMesh::new`], with the corners' orientation fixed by [`CellType::swap_corners_1_2`].
     pub fn from_cells(nodes: Vec<Vector3<f64>>, mut tets: Vec<C::Nodes>) -> Result<Self> {
-        if nodes.len() < 4 || tets.is_empty() {
+        // Fewer than 4 nodes with a tet means that tet repeats a node or names one out of
+        // range: the checks below name it (a reader that drops unused nodes turns a single tet
+        // with a repeated node into 3 nodes, which "empty mesh" would misreport).
+        if tets.is_empty() {
             return Err(Error::EmptyMesh {
                 nodes: nodes.len(),
                 tets: tets.len(),

@@ -18,7 +18,7 @@ use std::path::Path;
 use mshio::{ElementType, MshFile};
 use nalgebra::Vector3;
 
-use super::gmsh41_nodes::{Encoding, TagAt, element_line, node_tags};
+use super::gmsh41_nodes::{Encoding, TagAt, ascii_elements_fault, element_lines, node_tags};
 use super::raw::{RawGroup, RawMesh, RawTriangleMids};
 use super::text::{Records, decode, line_of_offset, read_regular_file};
 use super::{ImportedMesh, PhysicalGroup, gmsh22};
@@ -63,22 +63,17 @@ pub fn parse_gmsh(path: &Path, bytes: &[u8]) -> Result<ImportedMesh> {
 
 /// [`parse_gmsh`] as cells of type `C` (see [`read_gmsh_as`]).
 pub fn parse_gmsh_as<C: CellType>(path: &Path, bytes: &[u8]) -> Result<ImportedMesh<C>> {
-    let (raw, locate) = parse_raw(path, bytes)?;
-    raw.finish(path, &|t| locate(t).unwrap_or(0))
+    parse_raw(path, bytes)?.finish(path)
 }
 
-/// The element order of a Gmsh file's tets (1 or 2), from the parsed elements.
-pub(crate) fn file_order(path: &Path) -> Result<usize> {
+/// The file's elements as read (with the line of each), before the mesh is built.
+pub(crate) fn read_raw(path: &Path) -> Result<RawMesh> {
     let bytes = read_regular_file(path)?;
-    let (raw, _) = parse_raw(path, &bytes)?;
-    Ok(if raw.is_quadratic() { 2 } else { 1 })
+    parse_raw(path, &bytes)
 }
 
-/// The line of the raw mesh's tet `t`, where the format knows it.
-type TetLocator<'a> = Box<dyn Fn(usize) -> Option<usize> + 'a>;
-
-/// The file's elements as read, and where each tet is.
-fn parse_raw<'a>(path: &'a Path, bytes: &'a [u8]) -> Result<(RawMesh, TetLocator<'a>)> {
+/// The file's elements as read, with the line of each.
+fn parse_raw(path: &Path, bytes: &[u8]) -> Result<RawMesh> {
     let (version, binary, data_size) = format_line(path, bytes)?;
     let raw = match (version.as_str(), binary) {
         ("4.1", _) => {
@@ -133,8 +128,7 @@ fn parse_raw<'a>(path: &'a Path, bytes: &'a [u8]) -> Result<(RawMesh, TetLocator
             ));
         }
     };
-    let lines = raw.tet_lines.clone();
-    Ok((raw, Box::new(move |t| lines.get(t).copied())))
+    Ok(raw)
 }
 
 /// The version, the binary flag and the data-size field from the `$MeshFormat` header's second
@@ -342,11 +336,7 @@ fn find(haystack: &[u8], needle: &[u8]) -> Option<usize> {
 
 type Msh = MshFile<u64, i32, f64>;
 
-fn parse_v41<'a>(
-    path: &'a Path,
-    bytes: &'a [u8],
-    encoding: Encoding,
-) -> Result<(RawMesh, TetLocator<'a>)> {
+fn parse_v41(path: &Path, bytes: &[u8], encoding: Encoding) -> Result<RawMesh> {
     let binary = matches!(encoding, Encoding::Binary { .. });
     // mshio is a nom parser over untrusted input; a panic inside it must not take the caller
     // down, so it is contained here and reported as a parse error.
@@ -367,9 +357,20 @@ fn parse_v41<'a>(
             (offset, parts.join(": "))
         })
     });
+    // mshio reports a fault of an element line where its stream of numbers fails, often
+    // lines later: on its failure an ASCII section is read line by line to name the line.
+    let elements_fault = || {
+        section_starts(bytes, &["$Elements"])
+            .first()
+            .filter(|_| !binary)
+            .and_then(|&(start, _, _)| ascii_elements_fault(path, bytes, start))
+    };
     let msh: Msh = match parsed {
         Ok(Ok(msh)) => msh,
         Ok(Err((offset, message))) => {
+            if let Some(fault) = elements_fault() {
+                return Err(fault);
+            }
             let at = if binary {
                 format!(" (byte offset {offset})")
             } else {
@@ -382,6 +383,9 @@ fn parse_v41<'a>(
             ));
         }
         Err(_) => {
+            if let Some(fault) = elements_fault() {
+                return Err(fault);
+            }
             return Err(Error::parse(
                 path,
                 0,
@@ -392,12 +396,7 @@ fn parse_v41<'a>(
     convert(path, bytes, encoding, msh)
 }
 
-fn convert<'a>(
-    path: &'a Path,
-    bytes: &'a [u8],
-    encoding: Encoding,
-    msh: Msh,
-) -> Result<(RawMesh, TetLocator<'a>)> {
+fn convert(path: &Path, bytes: &[u8], encoding: Encoding, msh: Msh) -> Result<RawMesh> {
     let names = physical_names(path, bytes)?;
     // Physical tags of each entity (dim, tag).
     let mut entity_tags: HashMap<(usize, i32), Vec<i32>> = HashMap::new();
@@ -456,28 +455,17 @@ fn convert<'a>(
         }
     }
     let elements_line = line_of(bytes, "$Elements");
+    let lines = element_lines_of(path, bytes, encoding, &msh);
+    // The line of element `e` of block `b` (the section's line if the section does not read
+    // as mshio read it).
+    let line_at = |b: usize, e: usize| {
+        lines
+            .as_ref()
+            .and_then(|l| l.get(b)?.get(e))
+            .map_or(elements_line, |&(_, line)| line)
+    };
     let mut groups: BTreeMap<(usize, i32), RawGroup> = BTreeMap::new();
-    // (block, element in block, tag) of each tet, for the line of one in an error.
-    let mut tet_elements: Vec<(usize, usize, u64)> = Vec::new();
     if let Some(elements) = &msh.data.elements {
-        // The line of element `e` of block `b` named `tag`, for errors (the section's line if
-        // the section does not read as mshio read it).
-        let line_of_element = |b: usize, e: usize, tag: u64| {
-            let layout: Vec<(usize, usize)> = elements
-                .element_blocks
-                .iter()
-                .map(|block| {
-                    let nodes = block.elements.first().map_or(0, |e| e.nodes.len());
-                    (block.elements.len(), nodes)
-                })
-                .collect();
-            section_starts(bytes, &["$Elements"])
-                .iter()
-                .find_map(|&(start, _, _)| {
-                    element_line(path, bytes, start, encoding, &layout, b, e, tag)
-                })
-                .unwrap_or(elements_line)
-        };
         for (block_index, block) in elements.element_blocks.iter().enumerate() {
             let dim = usize::try_from(block.entity_dim).unwrap_or(0);
             let physical = entity_tags
@@ -485,12 +473,13 @@ fn convert<'a>(
                 .cloned()
                 .unwrap_or_default();
             for (element_index, element) in block.elements.iter().enumerate() {
+                let line = line_at(block_index, element_index);
                 let mut nodes = Vec::with_capacity(element.nodes.len());
                 for &tag in &element.nodes {
                     let index = *tag_index.get(&tag).ok_or_else(|| {
                         Error::parse(
                             path,
-                            line_of_element(block_index, element_index, element.element_tag),
+                            line,
                             format!(
                                 "element {} (entity {dim}:{}) refers to node tag {tag}, which $Nodes does not define",
                                 element.element_tag, block.entity_tag
@@ -513,15 +502,13 @@ fn convert<'a>(
                     (ElementType::Tet4, &[a, b, c, d]) => {
                         let t = raw.tets.len();
                         each_group(&mut |g| g.tets.push(t));
-                        raw.push_linear([a, b, c, d], elements_line, element.element_tag);
-                        tet_elements.push((block_index, element_index, element.element_tag));
+                        raw.push_linear([a, b, c, d], line, element.element_tag);
                     }
                     (ElementType::Tet10, n) if n.len() == 10 => {
                         let t = raw.tets.len();
                         each_group(&mut |g| g.tets.push(t));
                         let (corners, edges) = tet10_from_gmsh(n);
-                        raw.push_quadratic(corners, edges, elements_line, element.element_tag);
-                        tet_elements.push((block_index, element_index, element.element_tag));
+                        raw.push_quadratic(corners, edges, line, element.element_tag);
                     }
                     (ElementType::Tri3, &[a, b, c]) => {
                         each_group(&mut |g| g.triangles.push([a, b, c]));
@@ -534,49 +521,50 @@ fn convert<'a>(
                         raw.triangle_mids.push(RawTriangleMids {
                             corners: [a, b, c],
                             mids: [ab, bc, ca],
-                            line: line_of_element(block_index, element_index, element.element_tag),
+                            line,
                         });
                     }
                     (other, _) => {
                         each_group(&mut |g| g.other_nodes.extend(&nodes));
-                        raw.skip(&format!("{other:?}"), dim == 3, elements_line);
+                        raw.skip(&format!("{other:?}"), dim == 3, line);
                     }
                 }
             }
         }
     }
     raw.groups = groups.into_values().collect();
-    // Each element's line is found by reading the section up to it: only for an error.
-    let layout = element_layout(&msh);
-    let elements_start: Vec<usize> = section_starts(bytes, &["$Elements"])
-        .iter()
-        .map(|s| s.0)
-        .collect();
-    let locate = move |t: usize| {
-        let &(b, e, tag) = tet_elements.get(t)?;
-        elements_start
-            .iter()
-            .find_map(|&start| element_line(path, bytes, start, encoding, &layout, b, e, tag))
-            .or(Some(elements_line))
-    };
-    Ok((raw, Box::new(locate)))
+    Ok(raw)
 }
 
-/// Per element block of the file, its element count and nodes per element.
-fn element_layout(msh: &Msh) -> Vec<(usize, usize)> {
-    msh.data
-        .elements
-        .as_ref()
-        .map_or_else(Vec::new, |elements| {
-            elements
-                .element_blocks
-                .iter()
-                .map(|block| {
-                    let nodes = block.elements.first().map_or(0, |e| e.nodes.len());
-                    (block.elements.len(), nodes)
-                })
-                .collect()
+/// The tag and line of every element of the file's `$Elements` section, per block, from one
+/// pass over the first line reading `$Elements` at which the section reads as mshio read it
+/// (the same block sizes and element tags); `None` if none does.
+fn element_lines_of(
+    path: &Path,
+    bytes: &[u8],
+    encoding: Encoding,
+    msh: &Msh,
+) -> Option<Vec<Vec<TagAt>>> {
+    let elements = msh.data.elements.as_ref()?;
+    let layout: Vec<(usize, usize)> = elements
+        .element_blocks
+        .iter()
+        .map(|block| {
+            let nodes = block.elements.first().map_or(0, |e| e.nodes.len());
+            (block.elements.len(), nodes)
         })
+        .collect();
+    let same_tags = |lines: &Vec<Vec<TagAt>>| {
+        lines.iter().zip(&elements.element_blocks).all(|(l, b)| {
+            l.iter()
+                .zip(&b.elements)
+                .all(|(&(tag, _), e)| tag == e.element_tag)
+        })
+    };
+    section_starts(bytes, &["$Elements"])
+        .iter()
+        .filter_map(|&(start, _, _)| element_lines(path, bytes, start, encoding, &layout))
+        .find(same_tags)
 }
 
 /// Writes `mesh` as MSH 4.1 ASCII (atomically), with `groups`' triangles as surface physical
@@ -669,4 +657,81 @@ pub fn write_gmsh(path: &Path, mesh: &TetMesh, groups: &[PhysicalGroup]) -> Resu
         }
         writeln!(out, "$EndElements")
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use std::fmt::Write as _;
+
+    use super::*;
+    use crate::element::Tet10;
+    use crate::mesh::BoxSplit;
+
+    /// Gmsh's node k of a 10-node tet is VTK's (the mesh's) node `VTK_OF_GMSH[k]`.
+    const VTK_OF_GMSH: [usize; 10] = [0, 1, 2, 3, 4, 5, 6, 7, 9, 8];
+
+    /// MSH 4.1 ASCII of the unit box's 10-node tets on `cells`, with every boundary face as a
+    /// 6-node triangle of one surface group; the numbers of tets and triangles.
+    fn quadratic_box(cells: [usize; 3]) -> (String, usize, usize) {
+        let linear =
+            TetMesh::box_grid(Vector3::zeros(), Vector3::repeat(1.0), cells, BoxSplit::Lecture6)
+                .unwrap();
+        let mesh = TetMesh::<Tet10>::from_linear(&linear).unwrap();
+        let boundary = mesh.boundary_faces().unwrap();
+        let n = mesh.node_count();
+        let (tets, tris) = (mesh.tet_count(), boundary.len());
+        let mut s = String::from(
+            "$MeshFormat\n4.1 0 8\n$EndMeshFormat\n$Entities\n0 0 1 1\n\
+             1 0 0 0 1 1 1 1 2 0\n1 0 0 0 1 1 1 1 1 0\n$EndEntities\n",
+        );
+        writeln!(s, "$Nodes\n1 {n} 1 {n}\n3 1 0 {n}").unwrap();
+        for k in 1..=n {
+            writeln!(s, "{k}").unwrap();
+        }
+        for p in mesh.nodes() {
+            writeln!(s, "{} {} {}", p.x, p.y, p.z).unwrap();
+        }
+        writeln!(s, "$EndNodes\n$Elements\n2 {0} 1 {0}", tets + tris).unwrap();
+        writeln!(s, "3 1 11 {tets}").unwrap();
+        for (t, cell) in mesh.tets().iter().enumerate() {
+            write!(s, "{}", t + 1).unwrap();
+            for k in VTK_OF_GMSH {
+                write!(s, " {}", cell[k] + 1).unwrap();
+            }
+            s.push('\n');
+        }
+        writeln!(s, "2 1 9 {tris}").unwrap();
+        for (i, face) in boundary.iter().enumerate() {
+            let cell = &mesh.tets()[face.tet];
+            let local = |node: usize| cell[..4].iter().position(|&c| c == node).unwrap();
+            let [a, b, c] = face.nodes;
+            let edge = |p: usize, q: usize| Tet10::edge_node(cell, local(p), local(q)).unwrap();
+            let nodes = [a, b, c, edge(a, b), edge(b, c), edge(c, a)];
+            write!(s, "{}", tets + i + 1).unwrap();
+            for v in nodes {
+                write!(s, " {}", v + 1).unwrap();
+            }
+            s.push('\n');
+        }
+        s.push_str("$EndElements\n");
+        (s, tets, tris)
+    }
+
+    /// Issue 33 item 12: reading a quadratic file is linear in its size. Each 6-node triangle
+    /// used to find its line by reading the `$Elements` section up to it (a file of 19k tets
+    /// took 122 s); the section is now read once for the lines of all elements, whatever the
+    /// number of triangles. Counted, not timed.
+    #[test]
+    fn a_quadratic_file_reads_its_element_lines_in_one_pass() {
+        for cells in [[2, 2, 2], [6, 5, 4]] {
+            let (text, tets, tris) = quadratic_box(cells);
+            super::super::gmsh41_nodes::SECTION_SCANS.with(|n| n.set(0));
+            let imported = parse_gmsh_as::<Tet10>(Path::new("box.msh"), text.as_bytes()).unwrap();
+            let scans = super::super::gmsh41_nodes::SECTION_SCANS.with(|n| n.get());
+            assert_eq!(imported.mesh.tet_count(), tets);
+            assert_eq!(imported.groups[0].triangles.len(), tris);
+            assert!(tris >= 48, "{tris} triangles: too few to tell one pass from one per triangle");
+            assert_eq!(scans, 1, "{tris} triangles read with {scans} passes over $Elements");
+        }
+    }
 }

@@ -15,7 +15,7 @@ use super::text::Records;
 use crate::error::Result;
 
 /// Gmsh element type codes → (name, node count) for the types a 2.2 file may hold.
-fn element_type(code: u32) -> Option<(&'static str, usize)> {
+pub(crate) fn element_type(code: u32) -> Option<(&'static str, usize)> {
     Some(match code {
         1 => ("Lin2", 2),
         2 => ("Tri3", 3),

@@ -11,8 +11,8 @@
 //! then its coordinates. In binary files the counts and tags are size_t of `size` bytes, the
 //! three block ints 4 bytes and the coordinates 8-byte doubles, in the byte order of the file.
 //!
-//! mshio gives no positions for elements either: [`element_line`] finds the line of one element
-//! of the `$Elements` section (header `<blocks> <elements> <min tag> <max tag>`, per block
+//! mshio gives no positions for elements either: [`element_lines`] finds the line of every
+//! element of the `$Elements` section (header `<blocks> <elements> <min tag> <max tag>`, per block
 //! `<entity dim> <entity tag> <element type> <elements in block>`, then per element its tag and
 //! node tags, all size_t in binary files but the three block ints), for errors that name it.
 
@@ -71,42 +71,54 @@ pub(crate) fn node_tags(
     Ok(out)
 }
 
-/// The 1-based line of element number `element` (0-based, in file order) of block `block` of
-/// the `$Elements` section that starts at byte `start` (just after the `$Elements` line), if the
-/// section reads as mshio read it: `layout` gives per block its element count and the nodes per
-/// element, and the element found must have the tag `tag`. `None` when it does not (the caller
-/// then names the section's line). For binary data the line is the line count up to the
-/// element's byte offset. Reads the section up to the element: for error messages only.
-#[allow(clippy::too_many_arguments)]
-pub(crate) fn element_line(
+/// The tag and 1-based line of every element of the `$Elements` section that starts at byte
+/// `start` (just after the `$Elements` line), per block in file order, if the section reads as
+/// mshio read it: `layout` gives per block its element count and the nodes per element. `None`
+/// when it does not (the caller then names the section's line). For binary data the line is
+/// the line count up to the element's byte offset. One pass over the section: the lines of all
+/// elements cost what reading the section once costs (finding each element's line by reading
+/// the section up to it made reading a file of n 6-node triangles O(n × file size)).
+pub(crate) fn element_lines(
     path: &Path,
     bytes: &[u8],
     start: usize,
     encoding: Encoding,
     layout: &[(usize, usize)],
-    block: usize,
-    element: usize,
-    tag: u64,
-) -> Option<usize> {
+) -> Option<Vec<Vec<TagAt>>> {
+    #[cfg(test)]
+    SECTION_SCANS.with(|n| n.set(n.get() + 1));
     let mut cursor = Cursor::new(path, bytes, start, encoding);
     let size_t = |c: &mut Cursor| c.size_t("").ok();
     for _ in 0..4 {
         size_t(&mut cursor)?;
     }
-    for (b, &(count, nodes)) in layout.iter().enumerate().take(block + 1) {
+    let mut out = Vec::with_capacity(layout.len());
+    for &(count, nodes) in layout {
         for _ in 0..3 {
             cursor.int("").ok()?;
         }
         if size_t(&mut cursor)? != count as u64 {
             return None;
         }
-        let skipped = if b == block { element } else { count };
-        for _ in 0..skipped.checked_mul(nodes + 1)? {
-            size_t(&mut cursor)?;
+        // No reservation from the count: each element consumes input (see `node_tags`).
+        let mut block = Vec::new();
+        for _ in 0..count {
+            let line = cursor.line();
+            block.push((size_t(&mut cursor)?, line));
+            for _ in 0..nodes {
+                size_t(&mut cursor)?;
+            }
         }
+        out.push(block);
     }
-    let line = cursor.line();
-    (size_t(&mut cursor)? == tag).then_some(line)
+    Some(out)
+}
+
+#[cfg(test)]
+thread_local! {
+    /// How many times [`element_lines`] read an `$Elements` section on this thread: the
+    /// structural check that a read is linear in the file's size.
+    pub(crate) static SECTION_SCANS: std::cell::Cell<usize> = const { std::cell::Cell::new(0) };
 }
 
 struct Cursor<'a> {
@@ -228,5 +240,92 @@ impl<'a> Cursor<'a> {
             Encoding::Ascii => self.token(what).map(|_| ()),
             Encoding::Binary { .. } => self.raw(8, what).map(|_| ()),
         }
+    }
+}
+
+/// The first fault of an ASCII MSH 4.1 `$Elements` section read line by line, as Gmsh writes
+/// it (a header line, per block a line `<entity dim> <entity tag> <element type> <count>` and
+/// one line `<tag> <node tags…>` per element, then `$EndElements`): an element line with
+/// another number of node tags than its type has, a block cut short by a `$` line, or a
+/// missing `$EndElements`. mshio reads the section as a stream of numbers, so such a fault
+/// surfaces where the shifted stream finally fails to parse, lines later (or as the next
+/// tag it expected, "Tag", at the file's end); this names the line itself. `None` if the
+/// section reads well this way, or holds element types whose node count is not known here
+/// (the caller keeps mshio's message). For errors only: called when mshio failed.
+pub(crate) fn ascii_elements_fault(path: &Path, bytes: &[u8], start: usize) -> Option<Error> {
+    let text = String::from_utf8_lossy(&bytes[start.min(bytes.len())..]);
+    let first_line = line_of_offset(bytes, start);
+    let mut lines = text
+        .lines()
+        .enumerate()
+        .map(|(i, l)| (first_line + i, l.trim()))
+        .filter(|(_, l)| !l.is_empty());
+    let fault = |line: usize, message: String| Some(Error::parse(path, line, message));
+    let truncated = |line: usize| {
+        fault(
+            line,
+            "the file ends inside the $Elements section: no $EndElements (the file is truncated?)"
+                .to_string(),
+        )
+    };
+    let last_line = first_line + text.lines().count().saturating_sub(1);
+    let Some((_, header)) = lines.next() else {
+        return truncated(last_line);
+    };
+    let numbers = |l: &str| -> Option<Vec<u64>> { l.split_whitespace().map(|f| f.parse().ok()).collect() };
+    let blocks = match numbers(header).as_deref() {
+        Some(&[blocks, _, _, _]) => blocks,
+        _ => return None,
+    };
+    for b in 0..blocks {
+        let Some((line, block)) = lines.next() else {
+            return truncated(last_line);
+        };
+        let Some(&[_, _, code, count]) = numbers(block).as_deref() else {
+            return fault(
+                line,
+                format!(
+                    "expected the header of element block {} of {blocks} ('<entity dim> <entity tag> <element type> <count>'), found '{block}'",
+                    b + 1
+                ),
+            );
+        };
+        let (name, nodes) = super::gmsh22::element_type(u32::try_from(code).ok()?)?;
+        for k in 0..count {
+            let Some((line, element)) = lines.next() else {
+                return truncated(last_line);
+            };
+            let fields = element.split_whitespace().count();
+            if element.starts_with('$') {
+                return fault(
+                    line,
+                    format!(
+                        "element block {} announces {count} elements, but '{element}' follows after {k}",
+                        b + 1
+                    ),
+                );
+            }
+            if fields != 1 + nodes {
+                return fault(
+                    line,
+                    format!(
+                        "element line with {} node tags: a {name} element (type {code}) has {nodes} ('<tag> <{nodes} node tags>'; element {} of block {})",
+                        fields.saturating_sub(1),
+                        k + 1,
+                        b + 1
+                    ),
+                );
+            }
+        }
+    }
+    match lines.next() {
+        None => truncated(last_line),
+        Some((_, "$EndElements")) => None,
+        Some((line, other)) => fault(
+            line,
+            format!(
+                "expected $EndElements after the {blocks} element blocks the header announces, found '{other}'"
+            ),
+        ),
     }
 }

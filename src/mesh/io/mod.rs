@@ -24,12 +24,13 @@ mod text;
 
 pub use gmsh::{parse_gmsh, parse_gmsh_as, read_gmsh, read_gmsh_as, write_gmsh};
 pub use tetgen::{
-    TetgenOptions, parse_tetgen, parse_tetgen_with_faces, parse_tetgen_with_faces_as, read_tetgen,
+    SKIPPED_EDGES, TetgenOptions, parse_tetgen, parse_tetgen_with_faces, parse_tetgen_with_faces_as,
+    read_tetgen,
     read_tetgen_as, write_tetgen,
 };
 
 use std::collections::BTreeMap;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use crate::error::{Error, Result};
 use crate::mesh::{BoundaryFace, CellType, NodeList, Tet4, TetMesh};
@@ -143,6 +144,13 @@ impl<C: CellType> ImportedMesh<C> {
     }
 
     /// Nodes whose TetGen boundary marker equals `marker` (empty without markers).
+    ///
+    /// Equality, not bits: TetGen's markers are labels, not bit masks of groups. Its output
+    /// `.node` copies each input point's marker and gives a point it inserts the marker of the
+    /// facet it lies on (`tetgenmesh::outnodes`, TetGen 1.5), so a node where two marked
+    /// facets meet carries one of their markers, never their combination. To select every node
+    /// of a marked surface, select its faces' nodes (`.face` markers,
+    /// [`nodes_with_face_marker`](Self::nodes_with_face_marker)).
     pub fn nodes_with_marker(&self, marker: i64) -> Vec<usize> {
         match &self.node_markers {
             Some(m) => (0..m.len()).filter(|&n| m[n] == marker).collect(),
@@ -269,10 +277,72 @@ pub fn read_mesh_as<C: CellType>(path: &Path) -> Result<ImportedMesh<C>> {
 /// The element order of a mesh file's tets: 1 (4-node tets) or 2 (10-node tets), chosen by
 /// the extension as [`read_mesh`] does. The file is parsed (a malformed one is the reader's
 /// error) but no mesh is built or validated; of a TetGen pair only the `.ele` header is read.
+/// To read the mesh too, [`MeshFile`] parses the file once for both.
 pub fn mesh_file_order(path: &Path) -> Result<usize> {
     match format_of(path)? {
-        Format::Gmsh => gmsh::file_order(path),
+        Format::Gmsh => Ok(order_of(&gmsh::read_raw(path)?)),
         Format::Tetgen => tetgen::file_order(&path.with_extension("")),
+    }
+}
+
+fn order_of(raw: &raw::RawMesh) -> usize {
+    if raw.is_quadratic() { 2 } else { 1 }
+}
+
+/// A mesh file parsed but not yet built: its element [`order`](Self::order) is known, and
+/// [`build_as`](Self::build_as) validates it and builds the cells of either order without
+/// reading the file again (a caller that picks the cell type by the file's order parses the
+/// file once, where [`mesh_file_order`] and then [`read_mesh_as`] parse it twice).
+pub struct MeshFile {
+    /// The path errors name (of a TetGen pair the `.ele` file).
+    path: PathBuf,
+    raw: raw::RawMesh,
+}
+
+impl std::fmt::Debug for MeshFile {
+    /// The path and the counts (not the parsed data, which can be large).
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("MeshFile")
+            .field("path", &self.path)
+            .field("order", &self.order())
+            .field("nodes", &self.raw.nodes.len())
+            .field("tets", &self.raw.tets.len())
+            .finish()
+    }
+}
+
+impl MeshFile {
+    /// Reads and parses a mesh file (the format from the extension, as [`read_mesh`]): every
+    /// error of the file's syntax is reported here, those of the mesh itself (degenerate tets,
+    /// edge nodes off their edges) by [`build_as`](Self::build_as).
+    pub fn read(path: &Path) -> Result<MeshFile> {
+        match format_of(path)? {
+            Format::Gmsh => Ok(MeshFile {
+                path: path.to_path_buf(),
+                raw: gmsh::read_raw(path)?,
+            }),
+            Format::Tetgen => {
+                let (raw, path) = tetgen::read_raw(&path.with_extension(""))?;
+                Ok(MeshFile { path, raw })
+            }
+        }
+    }
+
+    /// The element order of the file's tets: 1 (4-node tets) or 2 (10-node tets).
+    pub fn order(&self) -> usize {
+        order_of(&self.raw)
+    }
+
+    /// The file this was read from (of a TetGen pair the `.ele` file).
+    pub fn path(&self) -> &Path {
+        &self.path
+    }
+
+    /// The mesh as cells of type `C`, as [`read_mesh_as`] builds it: `Tet4` for any file (of a
+    /// quadratic one its corners), `tetfem::Tet10` for a quadratic file (a linear one is an
+    /// error naming the file).
+    pub fn build_as<C: CellType>(self) -> Result<ImportedMesh<C>> {
+        self.raw.finish(&self.path)
     }
 }
 

@@ -205,17 +205,14 @@ impl RawMesh {
     }
 
     /// Compacts, validates and packages the mesh as cells of type `C`; `path` is named in
-    /// errors, `line_of_tet` gives the file line of a tet (by its index in `tets`).
+    /// errors, with the file line of the culprit (a tet's from `tet_lines`).
     ///
     /// A quadratic file read as 4-node cells keeps its tets' corners (the mid-side nodes are
     /// dropped as unused, and the tets are counted in `skipped` as `"Tet10 (kept as Tet4
     /// corners)"`); a linear file read as 10-node cells is an error, as are cells of another
     /// node count.
-    pub fn finish<C: CellType>(
-        mut self,
-        path: &Path,
-        line_of_tet: &dyn Fn(usize) -> usize,
-    ) -> Result<ImportedMesh<C>> {
+    pub fn finish<C: CellType>(mut self, path: &Path) -> Result<ImportedMesh<C>> {
+        let line_of_tet = |t: usize| self.tet_lines.get(t).copied().unwrap_or(0);
         self.check_volume_elements(path)?;
         if self.tets.is_empty() {
             let skipped: usize = self.skipped.values().sum();
@@ -249,7 +246,7 @@ impl RawMesh {
             (10, false) => {
                 return Err(Error::parse(
                     path,
-                    self.tet_lines.first().copied().unwrap_or(0),
+                    line_of_tet(0),
                     format!(
                         "the file holds 4-node (linear) tets, not the 10-node tets asked for \
                          ({}): mesh at order 2 (gmsh -order 2, tetgen -o2) or read it as a \

@@ -55,7 +55,8 @@ fn with_suffix(prefix: &Path, suffix: &str) -> PathBuf {
 
 /// Reads `<prefix>.node`, `<prefix>.ele` and, if it exists, `<prefix>.face`, and hands their
 /// bytes to [`parse_tetgen_with_faces`]; node markers, the first tet attribute and the face
-/// markers are kept. As 4-node tets: of an `-o2` mesh the corners (see [`read_tetgen_as`]).
+/// markers are kept. A `<prefix>.edge` file is not read: its rows are counted in
+/// [`ImportedMesh::skipped_elements`] as [`SKIPPED_EDGES`]. As 4-node tets: of an `-o2` mesh the corners (see [`read_tetgen_as`]).
 pub fn read_tetgen(prefix: &Path) -> Result<ImportedMesh> {
     read_tetgen_as::<Tet4>(prefix)
 }
@@ -72,6 +73,31 @@ pub(crate) fn file_order(prefix: &Path) -> Result<usize> {
 /// [`read_tetgen`] as cells of type `C`: `Tet4` for any mesh (of an `-o2` one the corners),
 /// `tetfem::Tet10` for an `-o2` mesh (a 4-node `.ele` is an error).
 pub fn read_tetgen_as<C: CellType>(prefix: &Path) -> Result<ImportedMesh<C>> {
+    let (raw, ele_path) = read_raw(prefix)?;
+    raw.finish(&ele_path)
+}
+
+/// The [`ImportedMesh::skipped_elements`] entry that counts the rows of a `<prefix>.edge`
+/// file: its edges (and their markers) are not read, since no selection or load acts on edges.
+pub const SKIPPED_EDGES: &str = "Lin2 (TetGen .edge rows, not read)";
+
+/// The rows of a `.edge` file after its header (records that are not blank or comments), or 0
+/// if it is not text: it is counted, not read.
+fn edge_rows(path: &Path, bytes: &[u8]) -> usize {
+    let Ok(text) = decode(path, bytes) else {
+        return 0;
+    };
+    let mut records = Records::new(path, text, Some('#'));
+    let mut rows: usize = 0;
+    while records.try_next().is_some() {
+        rows += 1;
+    }
+    rows.saturating_sub(1)
+}
+
+/// The files' nodes, tets and faces as read (with the line of each), before the mesh is
+/// built, and the `.ele` path that errors about the tets name.
+pub(crate) fn read_raw(prefix: &Path) -> Result<(RawMesh, PathBuf)> {
     let node_path = with_suffix(prefix, ".node");
     let ele_path = with_suffix(prefix, ".ele");
     let face_path = with_suffix(prefix, ".face");
@@ -82,13 +108,20 @@ pub fn read_tetgen_as<C: CellType>(prefix: &Path) -> Result<ImportedMesh<C>> {
     } else {
         None
     };
-    parse_tetgen_with_faces_as(
+    let mut raw = parse_raw(
         &node_path,
         &node_bytes,
         &ele_path,
         &ele_bytes,
         face_bytes.as_deref().map(|b| (face_path.as_path(), b)),
-    )
+    )?;
+    let edge_path = with_suffix(prefix, ".edge");
+    if edge_path.exists() {
+        let bytes = read_regular_file(&edge_path)?;
+        raw.skipped
+            .insert(SKIPPED_EDGES.into(), edge_rows(&edge_path, &bytes));
+    }
+    Ok((raw, ele_path))
 }
 
 /// Parses the contents of a TetGen `.node` file and its `.ele` file held in memory; node markers
@@ -126,14 +159,24 @@ pub fn parse_tetgen_with_faces_as<C: CellType>(
     ele_bytes: &[u8],
     face: Option<(&Path, &[u8])>,
 ) -> Result<ImportedMesh<C>> {
+    parse_raw(node_path, node_bytes, ele_path, ele_bytes, face)?.finish(ele_path)
+}
+
+/// The nodes, tets and faces of the files' bytes, before the mesh is built.
+fn parse_raw(
+    node_path: &Path,
+    node_bytes: &[u8],
+    ele_path: &Path,
+    ele_bytes: &[u8],
+    face: Option<(&Path, &[u8])>,
+) -> Result<RawMesh> {
     let mut raw = RawMesh::default();
     let base = read_nodes(node_path, decode(node_path, node_bytes)?, &mut raw)?;
     read_tets(ele_path, decode(ele_path, ele_bytes)?, base, &mut raw)?;
     if let Some((face_path, face_bytes)) = face {
         read_faces(face_path, decode(face_path, face_bytes)?, base, &mut raw)?;
     }
-    let lines = raw.tet_lines.clone();
-    raw.finish(ele_path, &|t| lines.get(t).copied().unwrap_or(0))
+    Ok(raw)
 }
 
 fn read_nodes(path: &Path, text: &str, raw: &mut RawMesh) -> Result<usize> {
