@@ -53,6 +53,7 @@ pub mod element;
 pub mod error;
 pub mod error_norms;
 pub mod estimate;
+pub mod input_file;
 pub mod loads;
 pub mod material;
 pub mod materials;

@@ -63,32 +63,70 @@ pub struct NewtonReport {
 /// [`Error::Solver`] naming the load step.
 const MAX_FRICTION_PASSES: usize = 30;
 
-/// The error of a load step with friction whose Newton failed (`cause`): no equilibrium exists
-/// when the load along the obstacles exceeds what friction can carry, μ·Σλ under the step's lag
-/// (`lag`), so the message names the load step, that limit and the applied load's resultant
-/// (`free_load`, the full load on the free DOFs `free_dofs`, times `factor`).
+/// The error of a load step with friction whose Newton failed (`cause`), naming the load
+/// step and what the lag (`lag`) lets friction carry. Three cases:
+/// - no node within d̂ (`d_hat`, length) of a frictional obstacle at the lag, on a body without
+///   constraints (`constrained` false): neither the barrier nor friction holds it at the step's
+///   start, so it is free to move rigidly (the tangent is singular) — the message says so,
+///   whatever the load's direction;
+/// - the load along the obstacles' surfaces (the applied resultant, `free_load` on the free
+///   DOFs `free_dofs` times `factor`, projected with the first lagged contact's tangent
+///   projector) within μ·Σλ: friction is not the limit, and the message says that;
+/// - a load along the surfaces above μ·Σλ: no frictional equilibrium exists (the body slides).
+#[allow(clippy::too_many_arguments)]
 fn no_frictional_equilibrium(
     cause: Error,
-    step: usize,
-    steps: usize,
+    (step, steps): (usize, usize),
     lag: &FrictionLag,
     free_load: &[f64],
     free_dofs: &[usize],
     factor: f64,
+    constrained: bool,
+    d_hat: f64,
 ) -> Error {
-    let mut resultant = [0.0; 3];
+    let mut resultant = nalgebra::Vector3::zeros();
     for (&dof, f) in free_dofs.iter().zip(free_load) {
         resultant[dof % 3] += factor * f;
     }
+    let (limit, [x, y, z]) = (
+        lag.friction_limit(),
+        [resultant.x, resultant.y, resultant.z],
+    );
+    if lag.is_empty() && !constrained {
+        return Error::Solver(format!(
+            "no static equilibrium at load step {step}/{steps}: {cause}. The body is \
+             unconstrained: it has no constraints, and at this load step's start no node is \
+             within the activation distance d̂ = {d_hat:.3e} of an obstacle, so neither the \
+             barrier (along the obstacles' normals) nor friction (along their surfaces) holds \
+             it: it is free to move as a rigid body under the load ({x:.4e}, {y:.4e}, {z:.4e}) \
+             N. Constrain it ([[constraints]] on a face or a point) or start it within d̂ of \
+             the obstacle it rests on"
+        ));
+    }
+    let along = lag
+        .points
+        .first()
+        .map_or(resultant.norm(), |p| (p.projector * resultant).norm());
+    if along <= limit {
+        return Error::Solver(format!(
+            "no static equilibrium at load step {step}/{steps}: {cause}. Friction is not the \
+             limit: the load along the obstacles' surfaces ({along:.4e} N of the applied \
+             ({x:.4e}, {y:.4e}, {z:.4e}) N) is within what friction can carry (μ·Σλ = \
+             {limit:.4e} N at this load step's lag); the body is free in a direction nothing \
+             holds{}",
+            match constrained {
+                true => "",
+                false =>
+                    " (it has no constraints: friction and the obstacles' normals alone hold it)",
+            }
+        ));
+    }
     Error::Solver(format!(
         "no static equilibrium with friction at load step {step}/{steps}: {cause}. Friction can \
-         carry at most μ·Σλ = {:.4e} N along the obstacles (normal forces lagged at this load \
-         step), against an applied load of ({:.4e}, {:.4e}, {:.4e}) N: a load along the \
-         surface above μ·N has no equilibrium (the body would slide away){}",
-        lag.friction_limit(),
-        resultant[0],
-        resultant[1],
-        resultant[2],
+         carry at most μ·Σλ = {limit:.4e} N along the obstacles (normal forces lagged at this \
+         load step), against an applied load of ({x:.4e}, {y:.4e}, {z:.4e}) N ({along:.4e} N \
+         along the surface): a load along the surface above μ·N has no equilibrium (the body \
+         would slide away){}",
         match lag.is_empty() {
             true =>
                 "; no node was within the activation distance d̂ of a frictional obstacle at \
@@ -442,12 +480,13 @@ fn solve<E: ModelElement>(
                 }
                 return Err(no_frictional_equilibrium(
                     e,
-                    step,
-                    options.load_steps,
+                    (step, options.load_steps),
                     solved_with,
                     &dofs.restrict(f_full)?,
                     dofs.free_dofs(),
                     factor,
+                    dofs.free_dofs().len() < f_full.len(),
+                    contact.parameters().activation_distance,
                 ));
             }
             // Re-lag at this pass's solution: settled when the equilibrium holds under the new

@@ -71,6 +71,38 @@ pub const STATIC_SLIP_FRACTION: f64 = 0.1;
 /// How many offending nodes an error lists.
 const LISTED: usize = 5;
 
+/// Boundary nodes inside or on an obstacle (see [`Contact::nodes_inside`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct NodesInside {
+    /// The obstacle's name.
+    pub obstacle: String,
+    /// Each node inside or on it, with its signed distance (length; ≤ 0, or NaN).
+    pub nodes: Vec<(usize, f64)>,
+}
+
+/// "N boundary nodes inside or on it (node a at d, …)", the first [`LISTED`] nodes named.
+impl std::fmt::Display for NodesInside {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let listed: Vec<String> = self
+            .nodes
+            .iter()
+            .take(LISTED)
+            .map(|(n, d)| format!("node {n} at {d:.3e}"))
+            .collect();
+        write!(
+            f,
+            "{} boundary nodes inside or on it ({}{})",
+            self.nodes.len(),
+            listed.join(", "),
+            if self.nodes.len() > LISTED {
+                ", …"
+            } else {
+                ""
+            }
+        )
+    }
+}
+
 impl Contact {
     /// The contact of `mesh`'s boundary nodes with `obstacles` under `parameters`.
     ///
@@ -279,35 +311,38 @@ impl Contact {
     /// [`Error::InvalidParameter`] naming the obstacle and the first nodes (with their signed
     /// distances) that are not strictly outside it at full displacement `u`.
     pub fn check_state(&self, u: &[f64]) -> Result<()> {
+        match self.nodes_inside(u)? {
+            None => Ok(()),
+            Some(inside) => Err(Error::invalid_parameter(
+                format!("obstacle {}", inside.obstacle),
+                inside.to_string(),
+                "the body must start strictly outside every obstacle (signed distance > 0)",
+            )),
+        }
+    }
+
+    /// The first obstacle (in order) that boundary nodes are inside or on at full displacement
+    /// `u`, with those nodes and their signed distances; `None` when every node is strictly
+    /// outside every obstacle.
+    pub fn nodes_inside(&self, u: &[f64]) -> Result<Option<NodesInside>> {
         self.check_full(u)?;
         let offsets = self.offsets();
         for (obstacle, offset) in self.obstacles.iter().zip(&offsets) {
-            let inside: Vec<(usize, f64)> = (0..self.nodes.len())
+            let nodes: Vec<(usize, f64)> = (0..self.nodes.len())
                 .map(|k| {
                     let x = self.position(k, u) - offset;
                     (self.nodes[k], obstacle.distance(&x))
                 })
                 .filter(|&(_, d)| d.is_nan() || d <= 0.0)
                 .collect();
-            if !inside.is_empty() {
-                let listed: Vec<String> = inside
-                    .iter()
-                    .take(LISTED)
-                    .map(|(n, d)| format!("node {n} at {d:.3e}"))
-                    .collect();
-                return Err(Error::invalid_parameter(
-                    format!("obstacle {}", obstacle.name()),
-                    format!(
-                        "{} boundary nodes inside or on it ({}{})",
-                        inside.len(),
-                        listed.join(", "),
-                        if inside.len() > LISTED { ", …" } else { "" }
-                    ),
-                    "the body must start strictly outside every obstacle (signed distance > 0)",
-                ));
+            if !nodes.is_empty() {
+                return Ok(Some(NodesInside {
+                    obstacle: obstacle.name().to_string(),
+                    nodes,
+                }));
             }
         }
-        Ok(())
+        Ok(None)
     }
 
     /// E_c(u) (energy units) at full displacement `u`; +∞ if a node is on or inside an obstacle.

@@ -209,14 +209,13 @@ impl Checkpoint {
         crate::atomic_file::write_atomically(path, |out| out.write_all(&bytes))
     }
 
-    /// Reads a checkpoint file. Errors: [`Error::Io`] naming the path (e.g. no such file),
+    /// Reads a checkpoint file. Errors: [`Error::Io`] naming the path (e.g. no such file), an
+    /// [`Error::Parse`] for a path that is not a regular file (a FIFO, a link to `/dev/zero`:
+    /// refused before reading, see [`crate::input_file::read_regular_file`]),
     /// [`Error::Parse`] for a file that is not a checkpoint of this version, truncated or
     /// damaged (naming the byte offset).
     pub fn read(path: &Path) -> Result<Self> {
-        let bytes = std::fs::read(path).map_err(|source| Error::Io {
-            path: path.to_path_buf(),
-            source,
-        })?;
+        let bytes = crate::input_file::read_regular_file(path, "a checkpoint")?;
         Self::from_bytes(&bytes, path)
     }
 

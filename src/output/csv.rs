@@ -99,7 +99,7 @@ impl CsvSeries {
             path: path.clone(),
             source,
         };
-        let text = std::fs::read(&path).map_err(io_error)?;
+        let text = crate::input_file::read_regular_file(&path, "a CSV time series")?;
         let header: Vec<String> = columns.iter().map(|c| csv_field(c)).collect();
         let header = format!("{}\n", header.join(","));
         let parse_error = |line, message: String| Error::Parse {

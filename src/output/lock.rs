@@ -51,6 +51,24 @@ impl OutputLock {
             .take_while(|d| !d.as_os_str().is_empty() && !d.exists())
             .map(Path::to_path_buf)
             .collect();
+        // The nearest existing ancestor must be a folder: `create_dir_all` would say only
+        // "File exists" or "Not a directory".
+        if let Some(file) = directory
+            .ancestors()
+            .find(|d| !d.as_os_str().is_empty() && d.exists())
+            .filter(|d| !d.is_dir())
+        {
+            return Err(Error::Io {
+                path: file.to_path_buf(),
+                source: std::io::Error::new(
+                    std::io::ErrorKind::NotADirectory,
+                    format!(
+                        "the output folder {} cannot be made: this path is a file, not a folder; choose another output folder",
+                        directory.display()
+                    ),
+                ),
+            });
+        }
         std::fs::create_dir_all(directory).map_err(io_error(directory))?;
         // A run releasing its lock removes the file before unlocking it, so a run that opened
         // the file just before may lock a file that no longer has a name; then it tries again.

@@ -6,6 +6,7 @@ mod csv;
 pub mod fields;
 mod frame;
 mod lock;
+mod obstacles;
 pub mod probe;
 mod pvd;
 mod vtu;
@@ -17,6 +18,7 @@ pub use frame::{
     write_result_vtu, write_static_result_vtu,
 };
 pub use lock::{LOCK_FILE_NAME, OutputLock, remove_held_lock_files};
+pub use obstacles::{ObstacleSurface, obstacle_surface, write_obstacles_vtp};
 pub use probe::{PointLocation, evaluate_at_point};
 pub use pvd::PvdCollection;
 pub use vtu::{VtuFormat, VtuWriter};

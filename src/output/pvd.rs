@@ -31,10 +31,7 @@ impl PvdCollection {
     /// without a readable time or file ([`Error::Parse`] naming its line).
     pub fn read(path: impl Into<PathBuf>) -> Result<Self> {
         let path = path.into();
-        let text = std::fs::read_to_string(&path).map_err(|source| Error::Io {
-            path: path.clone(),
-            source,
-        })?;
+        let text = crate::input_file::read_regular_text(&path, "a ParaView collection (.pvd)")?;
         let mut frames = Vec::new();
         for (i, line) in text.lines().enumerate() {
             if !line.trim_start().starts_with("<DataSet") {

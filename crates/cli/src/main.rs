@@ -267,26 +267,26 @@ fn parse_material(text: &str) -> Result<Material, String> {
 /// Set by the first Ctrl-C (or SIGTERM, SIGHUP); dynamic runs stop at the next step boundary.
 static INTERRUPTED: AtomicBool = AtomicBool::new(false);
 
-/// Set once a dynamic run is about to step: from then on the first signal stops it cleanly.
+/// Set while a dynamic run steps (from the end of its set-up to its last step, see
+/// [`Progress::update`]): then the first signal stops it cleanly at the next step boundary.
 static STOP_AT_STEP: AtomicBool = AtomicBool::new(false);
 
-/// From here on, the first Ctrl-C, SIGTERM or SIGHUP stops the dynamic run at the next step
-/// boundary: the frames written are kept (the .pvd lists exactly those), the CSV rows are
-/// written out, the output folder's lock is released and the process exits with 130.
-fn handle_ctrl_c() {
-    STOP_AT_STEP.store(true, Ordering::SeqCst);
-}
-
 /// Ctrl-C (SIGINT), SIGTERM and SIGHUP (what `timeout`, `kill` and batch schedulers send, and
-/// a closed terminal): during a dynamic run the first one stops it cleanly (see
-/// [`handle_ctrl_c`]); otherwise, and on a second signal, the process exits at once with 130
-/// after removing its output-folder lock files (files are written atomically, so none is left
-/// half-written; the CSV holds whole rows up to its last write, at least up to the last frame).
+/// a closed terminal): while a dynamic run steps the first one stops it at the next step
+/// boundary (the frames written are kept, the .pvd lists exactly those, the CSV rows are written
+/// out, the lock is released, exit status 130); otherwise (a static solve, a dynamic run's
+/// set-up — assembly, factorization, critical step — or its end) and on a second signal, the
+/// process exits at once with 130 after removing its output-folder lock files (files are
+/// written atomically, so none is left half-written; the CSV holds whole rows up to its last
+/// write, at least up to the last frame).
 fn install_signal_handler() {
     let installed = ctrlc::set_handler(|| {
         let first = !INTERRUPTED.swap(true, Ordering::SeqCst);
         if !(first && STOP_AT_STEP.load(Ordering::SeqCst)) {
             tetfem::output::remove_held_lock_files();
+            eprintln!(
+                "tetfem: interrupted outside the time stepping (or a second signal): stopped at once"
+            );
             std::process::exit(130);
         }
     });
@@ -317,7 +317,10 @@ fn main() -> ExitCode {
         }
         Err(error) => {
             eprintln!("error: {error}");
-            if let Error::Diverged { .. } = error {
+            // A contact divergence names its own remedy (the barrier's step, not the bulk's).
+            if let Error::Diverged { reason, .. } = &error
+                && !reason.contains("barrier")
+            {
                 eprintln!(
                     "hint: the explicit method is stable only below its critical step; choose a smaller --dt (e.g. 0.9crit) or an implicit --method"
                 );
@@ -347,7 +350,12 @@ impl Progress {
     }
 
     /// Shows progress; `Break` once Ctrl-C was pressed, so that the run stops at this step.
+    /// Called when the stepping begins and after each step: from the first call until the last
+    /// step the first signal stops the run at a step boundary (set before `INTERRUPTED` is
+    /// read: a signal the handler let through is seen here at the latest at the next step);
+    /// before it (the set-up) and after the last step a signal exits at once.
     fn update(&mut self, done: usize, total: usize) -> ControlFlow<()> {
+        STOP_AT_STEP.store(done < total, Ordering::SeqCst);
         if INTERRUPTED.load(Ordering::SeqCst) {
             return ControlFlow::Break(());
         }
@@ -679,7 +687,6 @@ fn run_default_dynamic(
         },
         force_png: cli.png,
     };
-    handle_ctrl_c();
     let mut progress = Progress::new(cli.quiet || cli.json);
     let summary = run_dynamic(&setup, &run, Some(&outputs), &mut |done, total| {
         progress.update(done, total)
@@ -979,7 +986,6 @@ fn run_scene(args: &RunArgs) -> tetfem::Result<()> {
                     (None, None) => None,
                 },
             };
-            handle_ctrl_c();
             let mut progress = Progress::new(args.quiet);
             let mut report = |d, t| progress.update(d, t);
             let summary = match args.resume {

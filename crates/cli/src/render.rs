@@ -102,7 +102,18 @@ pub struct Image {
     pub height: u32,
     /// `3·width·height` bytes, RGB.
     pub pixels: Vec<u8>,
+    /// What the picture shows, as (keyword, text) pairs written as PNG `iTXt` (UTF-8 text) chunks: [`render`]
+    /// records the field, the colour bar's range and the deformation scale (see
+    /// [`PNG_TEXT_RANGE`]), so that a program can read what a picture's colours mean.
+    pub text: Vec<(String, String)>,
 }
+
+/// The `iTXt` keyword of a rendered PNG's colour bar range: "low high", in the field's units.
+pub const PNG_TEXT_RANGE: &str = "tetfem:colour_range";
+/// The `iTXt` keyword of a rendered PNG's field name (e.g. "|u| (m)").
+pub const PNG_TEXT_FIELD: &str = "tetfem:field";
+/// The `iTXt` keyword of a rendered PNG's deformation scale (the magnification of u).
+pub const PNG_TEXT_SCALE: &str = "tetfem:deformation_scale";
 
 impl Image {
     fn new(width: u32, height: u32) -> Image {
@@ -114,6 +125,7 @@ impl Image {
             width,
             height,
             pixels,
+            text: Vec::new(),
         }
     }
 
@@ -152,6 +164,11 @@ impl Image {
             let mut encoder = png::Encoder::new(out, self.width, self.height);
             encoder.set_color(png::ColorType::Rgb);
             encoder.set_depth(png::BitDepth::Eight);
+            for (keyword, text) in &self.text {
+                encoder
+                    .add_itxt_chunk(keyword.clone(), text.clone())
+                    .map_err(std::io::Error::other)?;
+            }
             let mut writer = encoder.write_header().map_err(std::io::Error::other)?;
             writer
                 .write_image_data(&self.pixels)
@@ -482,6 +499,17 @@ pub fn render<C: CellType>(
     };
 
     let mut image = Image::new(w, h);
+    image.text = vec![
+        (PNG_TEXT_FIELD.to_string(), name.to_string()),
+        (
+            PNG_TEXT_RANGE.to_string(),
+            format!("{lo_value:e} {hi_value:e}"),
+        ),
+        (
+            PNG_TEXT_SCALE.to_string(),
+            format!("{:e}", options.deformation_scale),
+        ),
+    ];
     // Half-spaces first, the body over them, then spheres and boxes against the body's depth
     // (render/obstacles.rs). Obstacles stay below the subtitle and left of the colour bar's
     // labels.

@@ -339,6 +339,93 @@ fn a_second_run_into_a_busy_folder_stops_naming_the_first() {
     check_frames(&frames);
 }
 
+/// A dynamic scene whose set-up (assembly of a 30 000-DOF system, its static shape for the
+/// PNG-free frame look, and Newmark's factorization of M + β·dt²·K) takes seconds, far longer
+/// than the moment the test waits before signalling.
+const SLOW_SETUP_SCENE: &str = r#"
+title = "slow set-up"
+[mesh.box]
+max = [6.0, 1.2, 1.2]
+cells = [60, 12, 12]
+[material]
+youngs_modulus = 200e9
+poisson_ratio = 0.3
+density = 7850.0
+[[constraints]]
+where = { plane = { axis = "x", at = 0.0 } }
+[[loads]]
+where = { plane = { axis = "x", at = 6.0 } }
+total_force = [0.0, 0.0, -10e3]
+[analysis]
+type = "dynamic"
+method = "newmark"
+dt = 1e-4
+duration = 1.0
+"#;
+
+/// A signal during a dynamic run's set-up (assembly, factorization) stops it at once, as one
+/// outside the stepping should: exit status 130 within seconds, no step taken (the message is
+/// not "interrupted after step 1", which it was when the first signal waited for the first
+/// step), no frame or CSV written, the folder's lock removed.
+#[test]
+fn a_signal_during_the_set_up_exits_at_once() {
+    for signal in ["INT", "TERM"] {
+        let dir = out_dir(&format!("interrupt-setup-{signal}"));
+        let out = dir.join("out");
+        let scene = dir.join(format!("{STEM}.toml"));
+        std::fs::write(&scene, SLOW_SETUP_SCENE).unwrap();
+        let mut child = Run(Command::new(env!("CARGO_BIN_EXE_tetfem"))
+            .arg("run")
+            .arg(&scene)
+            .args(["--quiet", "--out"])
+            .arg(&out)
+            .stdout(Stdio::null())
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap());
+        // The lock is taken before the scene is built: from then on the run is in its set-up.
+        let deadline = Instant::now() + Duration::from_secs(60);
+        while !out.join(tetfem::output::LOCK_FILE_NAME).exists() {
+            assert!(
+                child.try_wait().unwrap().is_none(),
+                "{}",
+                stderr_of(&mut child)
+            );
+            assert!(Instant::now() < deadline, "no lock after a minute");
+            std::thread::sleep(Duration::from_millis(5));
+        }
+        std::thread::sleep(Duration::from_millis(100));
+        send(signal, &child);
+        let sent = Instant::now();
+        // 10 s: a generous bound for process exit on a loaded machine; before the fix the
+        // run went on through the set-up and a first step (minutes under load).
+        let status = wait_with_deadline(&mut child, 10);
+        let stderr = stderr_of(&mut child);
+        println!(
+            "SIG{signal}: exited {:.3} s after the signal",
+            sent.elapsed().as_secs_f64()
+        );
+        assert_eq!(status.code(), Some(130), "SIG{signal}: {stderr}");
+        assert!(
+            !stderr.contains("interrupted after step"),
+            "SIG{signal}: a step was taken first: {stderr}"
+        );
+        assert!(
+            stderr.contains("outside the time stepping"),
+            "SIG{signal}: {stderr}"
+        );
+        assert!(
+            listed_frames(&out).is_empty() && !out.join(format!("{STEM}.csv")).exists(),
+            "SIG{signal}: outputs written"
+        );
+        assert!(
+            leftovers(&out).is_empty(),
+            "SIG{signal}: {:?}",
+            leftovers(&out)
+        );
+    }
+}
+
 /// Peak memory of a long explicit run must not grow with the step count (it used to keep every
 /// CSV row: ~120 B per step). A measurement, not a unit test: `cargo test --release --test
 /// interrupts -- --ignored`. It reads the child's VmHWM (Linux) until the child exits.

@@ -6,44 +6,10 @@ use std::str::FromStr;
 
 use crate::error::{Error, Result};
 
-/// The bytes of a mesh file, which must be a regular file: its size bounds everything a reader
-/// holds for it. A stream (a FIFO, `/dev/urandom`, `/dev/zero`) has no size and never ends, so
-/// it is refused before any byte is read; a file that grows while being read is read up to the
-/// size it had when opened.
+/// The bytes of a mesh file, which must be a regular file (see
+/// [`crate::input_file::read_regular_file`]).
 pub(crate) fn read_regular_file(path: &Path) -> Result<Vec<u8>> {
-    use std::io::Read;
-    let io = |source| Error::Io {
-        path: path.to_path_buf(),
-        source,
-    };
-    // Checked before opening too: opening a FIFO without a writer blocks.
-    let kind = std::fs::metadata(path).map_err(io)?.file_type();
-    if !kind.is_file() {
-        let what = if kind.is_dir() {
-            "a directory"
-        } else {
-            "not a regular file (a FIFO, socket or device)"
-        };
-        return Err(Error::parse(
-            path,
-            0,
-            format!("{what}: a mesh must be a regular file, whose size bounds what is read"),
-        ));
-    }
-    let file = std::fs::File::open(path).map_err(io)?;
-    let size = file.metadata().map_err(io)?.len();
-    let mut bytes = Vec::new();
-    bytes
-        .try_reserve_exact(usize::try_from(size).unwrap_or(usize::MAX))
-        .map_err(|_| {
-            Error::parse(
-                path,
-                0,
-                format!("the file ({size} bytes) is larger than the memory can hold"),
-            )
-        })?;
-    file.take(size).read_to_end(&mut bytes).map_err(io)?;
-    Ok(bytes)
+    crate::input_file::read_regular_file(path, "a mesh")
 }
 
 /// Decodes a whole file as UTF-8, or names the line of the first invalid byte.

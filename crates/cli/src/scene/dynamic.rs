@@ -14,7 +14,7 @@ use super::restart::{self, Restart};
 use super::{
     Analysis, BuiltScene, DynamicSettings, OutputSettings, PngField, Probe, Scene, SceneElement,
 };
-use crate::render::{Field, ObstacleView, RenderOptions, auto_deformation_scale, render};
+use crate::render::{Field, ObstacleView, RenderOptions, render};
 use tetfem::constraints::Constraints;
 use tetfem::dynamics::{
     Energy, IntegratorOptions, InternalForce, LinearSystem, Mass, MassKind, Method, NewtonStats,
@@ -29,7 +29,7 @@ use tetfem::mesh::{CellType, Tet4, TetMesh};
 use tetfem::output::fields::{cell_model_von_mises, cell_von_mises, displacement_magnitude};
 use tetfem::output::{
     ContactFields, CsvSeries, CsvValue, FrameExtras, OriginalIds, OutputLock, PvdCollection,
-    write_atomically, write_model_result_vtu, write_result_frame,
+    write_atomically, write_model_result_vtu, write_obstacles_vtp, write_result_frame,
 };
 use tetfem_fixtures::cantilever::Cantilever;
 
@@ -532,9 +532,11 @@ pub struct DynamicOutputs {
     pub force_png: bool,
 }
 
-/// Integrates `setup` as `run` says, calling `progress(steps_done, steps_total)` after each step;
-/// when it returns `ControlFlow::Break` the run stops there with [`Error::Interrupted`] (how the
-/// command-line tool handles Ctrl-C).
+/// Integrates `setup` as `run` says, calling `progress(steps_done, steps_total)` once when the
+/// set-up is done and the stepping begins (`steps_done` = the step it starts from: 0, or the
+/// checkpoint's on a resume) and after each step; when it returns `ControlFlow::Break` before
+/// the last step the run stops there with [`Error::Interrupted`] (how the command-line tool
+/// handles Ctrl-C).
 ///
 /// Outputs (when `outputs` is given) go to the settings' folder: `<stem>_<step>.vtu` every
 /// `every` steps and at the last step, with `<stem>.pvd` listing them and their times (rewritten
@@ -569,6 +571,17 @@ pub fn run_dynamic<E: SceneElement>(
         None => None,
     };
     run_dynamic_locked(setup, run, outputs, lock, None, progress)
+}
+
+/// The [`Error::Interrupted`] of a run stopped at the boundary after `step` (at `time`, s), once
+/// the CSV rows up to there are written out: every frame written so far is complete and listed
+/// in the `.pvd` (rewritten after each frame).
+fn interrupted(writer: &mut Option<FrameWriter>, step: usize, time: f64) -> Result<Error> {
+    let frames = writer.as_ref().map_or(0, |w| w.frames);
+    if let Some(w) = writer {
+        w.finish_partial()?;
+    }
+    Ok(Error::Interrupted { step, time, frames })
 }
 
 /// [`run_dynamic`] once the output folder's lock (if any) is held.
@@ -686,6 +699,13 @@ fn run_dynamic_locked<E: SceneElement>(
         )?,
         Some(_) => setup.force.energy(system, &state)?,
     };
+    // The stepping begins: `progress` learns it before the first step (the command-line tool
+    // lets the first signal stop the run at a step boundary only from here on; during the
+    // set-up above it exits at once) and may stop the run here already.
+    if progress(first, steps).is_break() && first < steps {
+        let time = step_time((setup.initial.time, setup.initial.steps), dt, &state);
+        return Err(interrupted(&mut writer, first, time)?);
+    }
     let (mut first_step, mut step_total) = (0.0, 0.0);
     for step in first + 1..=steps {
         let clock = Instant::now();
@@ -726,17 +746,8 @@ fn run_dynamic_locked<E: SceneElement>(
             )?;
         }
         if stop {
-            // Stop at this step boundary: every frame written so far is complete and listed
-            // in the .pvd (rewritten after each frame); the CSV gets the rows up to here.
-            let frames = writer.as_ref().map_or(0, |w| w.frames);
-            if let Some(w) = &mut writer {
-                w.finish_partial()?;
-            }
-            return Err(Error::Interrupted {
-                step,
-                time: step_time((setup.initial.time, setup.initial.steps), dt, &state),
-                frames,
-            });
+            let time = step_time((setup.initial.time, setup.initial.steps), dt, &state);
+            return Err(interrupted(&mut writer, step, time)?);
         }
     }
     let clock = Instant::now();
@@ -860,6 +871,9 @@ struct FrameWriter {
     every: usize,
     frames: usize,
     pvd: Option<PvdCollection>,
+    /// With obstacles and `.vtu` frames: `<stem>_obstacles.pvd`, listing a
+    /// `<stem>_obstacles_<step>.vtp` of the obstacles' surfaces per frame.
+    obstacle_pvd: Option<PvdCollection>,
     csv: Option<CsvSeries>,
     files: Vec<PathBuf>,
     digits: usize,
@@ -876,13 +890,45 @@ fn step_time(start: (f64, usize), dt: f64, state: &State) -> f64 {
     start.0 + state.steps.saturating_sub(start.1) as f64 * dt
 }
 
-/// The fixed look of the PNG frames.
+/// The look of the PNG frames: set before the run from what the start state, the static shape
+/// and the prescribed motion let foresee (see [`png_look`]), held from frame to frame, and
+/// widened only by a frame that reaches beyond it (see [`PngLook::fit`]).
 struct PngLook {
     scale: f64,
     range: (f64, f64),
     field: PngField,
     /// The camera's box for a nonlinear model's frames (see [`png_look`]).
     view_box: Option<(Vector3<f64>, Vector3<f64>)>,
+    /// Whether the magnification is chosen here (not set by `output.deformation_scale`, and a
+    /// linear model's: a nonlinear one is drawn true to scale).
+    auto_scale: bool,
+    /// The largest |u| (m) the automatic magnification draws as a tenth of the body's size.
+    scale_for: f64,
+    /// The body's size: its bounding-box diagonal (m).
+    size: f64,
+}
+
+/// How far above a frame's largest value a widened colour range (or magnification) reaches:
+/// room for a swing that keeps growing, so that the look changes a few times, not every frame.
+const LOOK_HEADROOM: f64 = 1.25;
+
+impl PngLook {
+    /// Widens the look for a frame whose largest |u| is `largest_u` (m) and whose largest
+    /// drawn value is `largest_value` (the field's units): a value above the colour range
+    /// raises its top to [`LOOK_HEADROOM`] × that value, and with an automatic magnification a
+    /// |u| above the one it was chosen for lowers it to draw [`LOOK_HEADROOM`] × that |u| as a
+    /// tenth of the body's size (the rule of [`crate::render::auto_deformation_scale`]). The look never
+    /// narrows: every frame's colour bar covers that frame's values, and consecutive frames
+    /// share one look until one reaches beyond it.
+    fn fit(&mut self, largest_u: f64, largest_value: f64) {
+        if largest_value.is_finite() && largest_value > self.range.1 {
+            self.range.1 = LOOK_HEADROOM * largest_value;
+        }
+        if self.auto_scale && largest_u.is_finite() && largest_u > self.scale_for {
+            self.scale_for = LOOK_HEADROOM * largest_u;
+            self.scale = (0.1 * self.size / self.scale_for).max(1.0);
+        }
+    }
 }
 
 impl FrameWriter {
@@ -933,7 +979,10 @@ impl FrameWriter {
             None
         };
         let png = if s.png || outputs.force_png {
-            Some(png_look(setup, s)?)
+            let frame_times = (0..=steps)
+                .filter(|k| k.is_multiple_of(s.every) || *k == steps)
+                .map(|k| setup.initial.time + k.saturating_sub(setup.initial.steps) as f64 * dt);
+            Some(png_look(setup, s, &frame_times.collect::<Vec<f64>>())?)
         } else {
             None
         };
@@ -943,14 +992,29 @@ impl FrameWriter {
             (false, _) => None,
             (true, None) => Some(PvdCollection::new(pvd_path)),
             // The frames up to the checkpoint, at its time only where its step is on the grid.
+            // The run wrote a frame at each step of [start, k] on the frame interval.
             (true, Some(k)) => Some(restart::truncate_frames(
                 &pvd_path,
                 start.0 + k.saturating_sub(start.1) as f64 * dt,
                 k.is_multiple_of(s.every),
+                (k / s.every + 1).saturating_sub(start.1.div_ceil(s.every)),
+            )?),
+        };
+        let obstacle_pvd_path = s.directory.join(format!("{}_obstacles.pvd", s.stem));
+        let obstacle_pvd = match (s.vtu && contact_of(&setup.force).is_some(), resumed_at) {
+            (false, _) => None,
+            (true, None) => Some(PvdCollection::new(obstacle_pvd_path)),
+            // The obstacles' frames up to the checkpoint, one per body frame.
+            (true, Some(k)) => Some(restart::truncate_frames(
+                &obstacle_pvd_path,
+                start.0 + k.saturating_sub(start.1) as f64 * dt,
+                k.is_multiple_of(s.every),
+                pvd.as_ref().map_or(0, |p| p.frames().len()),
             )?),
         };
         let files: Vec<PathBuf> = pvd
             .iter()
+            .chain(&obstacle_pvd)
             .flat_map(|p| p.frames())
             .map(|(_, f)| s.directory.join(f))
             .collect();
@@ -959,8 +1023,9 @@ impl FrameWriter {
             png,
             title: run.title.clone(),
             every: s.every,
-            frames: files.len(),
+            frames: pvd.as_ref().map_or(0, |p| p.frames().len()),
             pvd,
+            obstacle_pvd,
             csv,
             files,
             digits: steps.to_string().len().max(4),
@@ -1071,17 +1136,26 @@ impl FrameWriter {
             pvd.push(time, &vtu)?;
             self.files.push(vtu);
         }
-        if let Some(look) = &self.png {
-            let magnitude;
+        if let (Some(pvd), Some(contact)) = (&mut self.obstacle_pvd, contact_of(&setup.force)) {
+            let vtp = dir.join(format!(
+                "{}_obstacles_{:0w$}.vtp",
+                self.settings.stem,
+                state.steps,
+                w = self.digits
+            ));
+            let (center, tile) = obstacle_tile(&setup.mesh);
+            write_obstacles_vtp(&vtp, contact.obstacles(), time, center, tile)?;
+            pvd.push(time, &vtp)?;
+            self.files.push(vtp);
+        }
+        if let Some(look) = &mut self.png {
+            let magnitude = displacement_magnitude(u);
             let stress;
             let field = match look.field {
-                PngField::Displacement => {
-                    magnitude = displacement_magnitude(u);
-                    Field::Nodes {
-                        name: "|u| (m)",
-                        values: &magnitude,
-                    }
-                }
+                PngField::Displacement => Field::Nodes {
+                    name: "|u| (m)",
+                    values: &magnitude,
+                },
                 PngField::VonMises => {
                     stress = setup.von_mises(u)?;
                     Field::Cells {
@@ -1090,6 +1164,11 @@ impl FrameWriter {
                     }
                 }
             };
+            let largest = |v: &[f64]| v.iter().copied().fold(0.0, f64::max);
+            let drawn = match &field {
+                Field::Nodes { values, .. } | Field::Cells { values, .. } => largest(values),
+            };
+            look.fit(largest(&magnitude), drawn);
             let image = render(
                 &setup.mesh,
                 u,
@@ -1137,7 +1216,7 @@ impl FrameWriter {
     /// Writes out and syncs the CSV, and lists every file written.
     fn finish(self) -> Result<Vec<PathBuf>> {
         let mut files = self.files;
-        if let Some(pvd) = &self.pvd {
+        for pvd in self.pvd.iter().chain(&self.obstacle_pvd) {
             pvd.write()?;
             files.push(pvd.path().to_path_buf());
         }
@@ -1149,10 +1228,21 @@ impl FrameWriter {
     }
 }
 
-/// A magnification and colour range that suit every frame: from the larger of the initial
-/// displacement and twice the static one (a suddenly applied load overshoots to about twice its
-/// static deflection).
-fn png_look<E: SceneElement>(setup: &DynamicSetup<E>, s: &OutputSettings) -> Result<PngLook> {
+/// The most frame times [`png_look`] samples the prescribed motion at (evenly spread over the
+/// frames): a bound on its cost; a frame between them that moves further widens the look.
+const LOOK_MOTION_SAMPLES: usize = 256;
+
+/// The magnification and colour range the frames start with: from the largest of the initial
+/// displacement, twice the static one (a suddenly applied load overshoots to about twice its
+/// static deflection) and, with moving supports, the static one plus the supports' largest
+/// prescribed displacement (sampled at up to [`LOOK_MOTION_SAMPLES`] of `frame_times`, s). A
+/// frame that reaches beyond them widens them ([`PngLook::fit`]): e.g. a body on a shaken
+/// base resonating above the base's amplitude.
+fn png_look<E: SceneElement>(
+    setup: &DynamicSetup<E>,
+    s: &OutputSettings,
+    frame_times: &[f64],
+) -> Result<PngLook> {
     let dofs = setup.system.dofs();
     let initial = dofs.expand(&setup.initial.displacement)?;
     let contact = contact_of(&setup.force);
@@ -1168,20 +1258,25 @@ fn png_look<E: SceneElement>(setup: &DynamicSetup<E>, s: &OutputSettings) -> Res
     } else {
         doubled
     };
+    // A body on moving supports follows them: it moves by about their displacement on top of
+    // its static shape.
+    let shaken = largest(&dofs.expand(&statics)?) + prescribed_peak(setup, frame_times)?;
     let nonlinear = setup.force.is_nonlinear();
     // A nonlinear model's displacements are drawn as they are (magnifying a large rotation
     // would tear the picture), and the linear static shape can be far beyond its swing: its
     // colour range is capped at the body's size (bounding-box diagonal), its stress range
     // taken from the model's stress at that capped shape.
+    let size = body_size(&setup.mesh);
+    let foreseen = largest(&reference).max(shaken);
     let scale = if s.deformation_scale > 0.0 {
         s.deformation_scale
-    } else if nonlinear {
+    } else if nonlinear || foreseen <= 0.0 || !foreseen.is_finite() {
         1.0
     } else {
-        auto_deformation_scale(&setup.mesh, &reference)
+        // The rule of `auto_deformation_scale`, for the foreseen largest |u|.
+        (0.1 * size / foreseen).max(1.0)
     };
     let reference = if nonlinear {
-        let size = body_size(&setup.mesh);
         let big = largest(&reference);
         let shrink = if big > size { size / big } else { 1.0 };
         reference.iter().map(|u| shrink * u).collect()
@@ -1189,7 +1284,8 @@ fn png_look<E: SceneElement>(setup: &DynamicSetup<E>, s: &OutputSettings) -> Res
         reference
     };
     let high = match (s.png_field, free_body) {
-        (PngField::Displacement, false) => largest(&reference),
+        (PngField::Displacement, false) if nonlinear => largest(&reference).max(shaken.min(size)),
+        (PngField::Displacement, false) => foreseen,
         (PngField::VonMises, false) => setup.von_mises(&reference)?.into_iter().fold(0.0, f64::max),
         // Without a static shape: a tenth of the body's size, and twice the stress of its
         // weight W on a face-sized area (diagonal²/3; ρ·g·H for a cube resting on a face).
@@ -1219,12 +1315,40 @@ fn png_look<E: SceneElement>(setup: &DynamicSetup<E>, s: &OutputSettings) -> Res
             None => (low, high),
         }
     });
+    let auto_scale = s.deformation_scale <= 0.0 && !nonlinear;
     Ok(PngLook {
         scale,
         range: (0.0, if high > 0.0 { high } else { 1.0 }),
         field: s.png_field,
         view_box,
+        auto_scale,
+        scale_for: foreseen,
+        size,
     })
+}
+
+/// The largest prescribed displacement |u_c(t)| (m) of a moving support node over the sampled
+/// frame times (0 without moving supports).
+fn prescribed_peak<E: SceneElement>(setup: &DynamicSetup<E>, frame_times: &[f64]) -> Result<f64> {
+    if !setup.system.has_moving_supports() {
+        return Ok(0.0);
+    }
+    let stride = frame_times.len().div_ceil(LOOK_MOTION_SAMPLES).max(1);
+    let free = vec![0.0; setup.system.free_count()];
+    let mut peak = 0.0f64;
+    for &t in frame_times.iter().step_by(stride) {
+        let u = setup.system.expand_at(t, &free)?;
+        peak = displacement_magnitude(&u).into_iter().fold(peak, f64::max);
+    }
+    Ok(peak)
+}
+
+/// Where a half-space obstacle's tile is drawn (see [`write_obstacles_vtp`]): centred under the
+/// body's bounding-box centre, with a side of three times its diagonal (length units), so that
+/// the body and its swing stand on it.
+pub(crate) fn obstacle_tile<C: CellType>(mesh: &TetMesh<C>) -> (Vector3<f64>, f64) {
+    let (low, high) = mesh.bounding_box();
+    (0.5 * (low + high), 3.0 * (high - low).norm())
 }
 
 /// The diagonal of the mesh's bounding box (length units).

@@ -333,10 +333,7 @@ impl std::str::FromStr for Scene {
 impl Scene {
     /// Reads and parses a scene file; relative paths in it are taken from its folder.
     pub fn load(path: &Path) -> Result<Scene> {
-        let text = std::fs::read_to_string(path).map_err(|source| Error::Io {
-            path: path.to_path_buf(),
-            source,
-        })?;
+        let text = tetfem::input_file::read_regular_text(path, "a scene file")?;
         let base = path.parent().unwrap_or(Path::new("."));
         let mut scene = Scene::parse(&text, &path.display().to_string(), base)?;
         if let Some(stem) = path.file_stem() {
@@ -349,6 +346,21 @@ impl Scene {
     /// Parses scene text; `source_name` is named in errors, `base_dir` resolves relative paths.
     pub fn parse(text: &str, source_name: &str, base_dir: &Path) -> Result<Scene> {
         let spec: SceneSpec = toml::from_str(text).map_err(|e| {
+            // An integer beyond TOML's range comes without a span: find it in the text.
+            if e.span().is_none()
+                && let Some((line, key, value)) = integer_out_of_range(text)
+            {
+                return Error::Scene {
+                    source_name: source_name.to_string(),
+                    key,
+                    line,
+                    message: format!(
+                        "{value} is beyond the integers a scene can hold (at most {}): {}",
+                        i64::MAX,
+                        e.message().trim()
+                    ),
+                };
+            }
             let span = e.span().unwrap_or(0..0);
             let key = error_key(e.message(), text, &span);
             Error::Scene {
@@ -754,6 +766,25 @@ impl Scene {
             Some(d) => self.resolve(d),
             None => PathBuf::from("out").join(&self.stem),
         };
+        // Counts a scene may hold but TOML cannot write back (a checkpoint's fingerprint is the
+        // scene as TOML): beyond i64, refused here at their line rather than later at "line 0".
+        for (key, value) in [
+            ("output.every", Some(every)),
+            ("output.checkpoint_every", o.checkpoint_every),
+        ] {
+            if value.is_some_and(|v| i64::try_from(v).is_err()) {
+                return Err(Error::Scene {
+                    source_name: self.source_name.clone(),
+                    key: key.into(),
+                    line: restart::key_line(&self.text, key).unwrap_or(0),
+                    message: format!(
+                        "{} is beyond the integers a scene can hold (at most {})",
+                        value.unwrap_or_default(),
+                        i64::MAX
+                    ),
+                });
+            }
+        }
         Ok(OutputSettings {
             directory,
             stem: self.stem.clone(),
@@ -769,6 +800,28 @@ impl Scene {
             checkpoint_every: o.checkpoint_every.unwrap_or(0),
         })
     }
+}
+
+/// The first `key = <integer>` line of a scene text whose integer does not fit TOML's 64-bit
+/// signed integers: (1-based line, dotted key within its table, the integer as written).
+pub(crate) fn integer_out_of_range(text: &str) -> Option<(usize, String, String)> {
+    let mut start = 0;
+    for (i, line) in text.split_inclusive('\n').enumerate() {
+        let before = &text[..start];
+        start += line.len();
+        let Some((key, value)) = line.split('#').next().unwrap_or("").split_once('=') else {
+            continue;
+        };
+        let value = value.trim();
+        let digits: String = value.chars().filter(|&c| c != '_').collect();
+        let unsigned = digits.strip_prefix(['+', '-']).unwrap_or(&digits);
+        let integer = !unsigned.is_empty() && unsigned.bytes().all(|b| b.is_ascii_digit());
+        if integer && digits.parse::<i64>().is_err() {
+            let key = within_table(before, key.trim().trim_matches('"').to_string());
+            return Some((i + 1, key, value.to_string()));
+        }
+    }
+    None
 }
 
 /// 1-based line of byte `offset` in `text` (0 when the text is empty).

@@ -449,18 +449,49 @@ fn mesh_hash<C: CellType>(mesh: &TetMesh<C>) -> String {
 /// Keeps the `.pvd` frames of `pvd_path` up to the checkpoint time `time` (a frame at exactly
 /// that time only when `keep_at_time`: the uninterrupted run writes one there only on its
 /// frame interval), removes the `.vtu` files of the frames dropped, rewrites the collection and
-/// returns it. No collection file: an empty one.
+/// returns it. The run wrote `expected` frames up to there: a collection that is missing, or
+/// lists another number of frames up to there (damaged, or written by hand), or a listed frame
+/// file that is missing, is an error naming the file (continuing would silently drop frames).
 pub(crate) fn truncate_frames(
     pvd_path: &Path,
     time: f64,
     keep_at_time: bool,
+    expected: usize,
 ) -> Result<tetfem::output::PvdCollection> {
-    let mut pvd = match pvd_path.exists() {
-        true => tetfem::output::PvdCollection::read(pvd_path)?,
-        false => return Ok(tetfem::output::PvdCollection::new(pvd_path)),
+    let refuse = |path: &Path, what: String| Error::Parse {
+        path: path.to_path_buf(),
+        line: 1,
+        message: format!(
+            "--resume: {what}; the frames of the run before its checkpoint cannot be continued (restore the file, or run again without --resume)"
+        ),
     };
+    if !pvd_path.exists() {
+        return match expected {
+            0 => Ok(tetfem::output::PvdCollection::new(pvd_path)),
+            n => Err(refuse(
+                pvd_path,
+                format!("the collection is missing; the run wrote {n} frames up to its checkpoint"),
+            )),
+        };
+    }
+    let mut pvd = tetfem::output::PvdCollection::read(pvd_path)?;
     let dir = pvd_path.parent().unwrap_or(Path::new("")).to_path_buf();
     let dropped = pvd.retain(|t, _| t < time || (t == time && keep_at_time));
+    if pvd.frames().len() != expected {
+        return Err(refuse(
+            pvd_path,
+            format!(
+                "the collection lists {} frames up to the checkpoint (t = {time:e} s), the run wrote {expected} there: it is damaged",
+                pvd.frames().len()
+            ),
+        ));
+    }
+    if let Some((_, name)) = pvd.frames().iter().find(|(_, f)| !dir.join(f).is_file()) {
+        return Err(refuse(
+            &dir.join(name),
+            format!("this frame, listed in {}, is missing", pvd_path.display()),
+        ));
+    }
     for name in dropped {
         let file = dir.join(name);
         if file.exists() {

@@ -483,6 +483,14 @@ fn write_static_outputs<E: SceneElement>(
         pvd.push(0.0, &vtu)?;
         files.push(vtu);
         files.push(pvd.path().to_path_buf());
+        // The obstacles' surfaces beside the body, for ParaView (at rest: a static scene's
+        // obstacles do not move).
+        if !scene.obstacles.is_empty() {
+            let vtp = dir.join(format!("{}_obstacles.vtp", out.stem));
+            let (center, tile) = super::dynamic::obstacle_tile(&built.mesh);
+            tetfem::output::write_obstacles_vtp(&vtp, &scene.obstacles, 0.0, center, tile)?;
+            files.push(vtp);
+        }
     }
     if out.csv && !built.probes.is_empty() {
         let mut columns = vec!["time_s".to_string()];

@@ -230,13 +230,60 @@ fn one() -> f64 {
 }
 
 /// `amplitude = "name"` (a `[[amplitudes]]` entry) or an inline amplitude table.
-#[derive(Debug, Clone, Deserialize, PartialEq)]
-#[serde(untagged)]
+#[derive(Debug, Clone, PartialEq)]
 pub enum AmplitudeRef {
     /// The name of an `[[amplitudes]]` entry.
     Named(String),
     /// An amplitude given in place.
     Inline(AmplitudeSpec),
+}
+
+/// What an `amplitude` key allows, for its error messages.
+const AMPLITUDE_ALLOWED: &str = "the name of an [[amplitudes]] entry, or an inline table of exactly one of constant = a, table = [[t, a], ...] (rows of two numbers: time in s, value), ramp = { start, end }, smooth_step = { start, end }, sine = { frequency_hz, amplitude, phase, start }";
+
+/// The first row of an inline amplitude's `table` that is not two values, described.
+fn table_row_error(amplitude: &toml::Table) -> Option<String> {
+    let rows = amplitude.get("table")?.as_array()?;
+    let (i, row) = rows
+        .iter()
+        .enumerate()
+        .find(|(_, row)| row.as_array().is_none_or(|r| r.len() != 2))?;
+    let found = match row.as_array() {
+        Some(r) => format!("{} values", r.len()),
+        None => format!("a {}", row.type_str()),
+    };
+    Some(format!(
+        "table: row {} ({row}) holds {found}, not two (time in s, value)",
+        i + 1
+    ))
+}
+
+/// By hand rather than `#[serde(untagged)]`, whose only error ("data did not match any variant
+/// of untagged enum") says neither what was wrong nor what is allowed: a string is a name, a
+/// table an inline amplitude whose own error (e.g. a `table` row of 3 numbers) is kept.
+impl<'de> Deserialize<'de> for AmplitudeRef {
+    fn deserialize<D: serde::Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
+        use serde::de::Error as _;
+        match toml::Value::deserialize(deserializer)? {
+            toml::Value::String(name) => Ok(AmplitudeRef::Named(name)),
+            toml::Value::Table(t) => {
+                let message = match table_row_error(&t) {
+                    Some(row) => row,
+                    None => match AmplitudeSpec::deserialize(toml::Value::Table(t)) {
+                        Ok(spec) => return Ok(AmplitudeRef::Inline(spec)),
+                        Err(e) => e.message().trim().to_string(),
+                    },
+                };
+                Err(D::Error::custom(format!(
+                    "{message}; allowed: {AMPLITUDE_ALLOWED}"
+                )))
+            }
+            other => Err(D::Error::custom(format!(
+                "found a {}; allowed: {AMPLITUDE_ALLOWED}",
+                other.type_str()
+            ))),
+        }
+    }
 }
 
 /// `linear_field = { A = [[..], [..], [..]], b = [..] }`: u = A·x + b (A dimensionless, b in m).
