@@ -301,10 +301,9 @@ pub enum Error {
     /// MemAvailable, the cgroup's limit and the resource limits; see [`crate::memory`]). Raised
     /// before the allocation, so that nothing is aborted halfway.
     #[error(
-        "not enough memory for {what}: needs {}, but only {} is available ({limit}); use a coarser mesh{}",
+        "not enough memory for {what}: needs {}, but only {} is available ({limit}); {hint}",
         tetfem_linalg::memory::format_bytes(*.needed),
         tetfem_linalg::memory::format_bytes(*.available as u128),
-        if .what.contains("Cholesky") { " or the iterative solver (linear_solver = \"iterative\")" } else { "" }
     )]
     InsufficientMemory {
         /// What was to be built, with the estimate's parts.
@@ -315,6 +314,8 @@ pub enum Error {
         available: u64,
         /// Every bound found, the tightest first.
         limit: String,
+        /// What to change, for the path that needs the memory (e.g. "use a coarser mesh").
+        hint: String,
     },
 
     /// A mesh or data file is malformed: truncated, wrong counts, a bad index, an unsupported
@@ -388,11 +389,13 @@ impl From<tetfem_linalg::Error> for Error {
                 needed,
                 available,
                 limit,
+                hint,
             } => Error::InsufficientMemory {
                 what,
                 needed,
                 available,
                 limit,
+                hint,
             },
             // `tetfem_linalg::Error` is non-exhaustive: a variant added there reads as a solver
             // failure here until it gets its own.

@@ -5,7 +5,7 @@
 //! [`Error::InsufficientMemory`] instead of being aborted by the allocator halfway.
 
 pub use tetfem_linalg::memory::{
-    CacheLevel, DenseKernelReservation, FALLBACK_L3_BYTES, MemoryBound, MemoryLimits,
+    COARSER_MESH, CacheLevel, DenseKernelReservation, FALLBACK_L3_BYTES, MemoryBound, MemoryLimits,
     cache_size_bytes, cpu_list_len, dense_kernel_reservation, format_bytes, gemm_l3_bytes,
     meminfo_available, physical_cores, soft_limit, status_bytes,
 };
@@ -17,6 +17,56 @@ use crate::error::Result;
 /// Resident memory only: the dense kernels' address-space reservation is kept back from the
 /// address-space bounds instead ([`DenseKernelReservation`]).
 pub const PROCESS_BASELINE: u128 = 16_000_000;
+
+/// How a run solves, for the address space it maps beyond its resident estimate (the dense
+/// kernels' buffers, [`DenseKernelReservation`], counted by `RLIMIT_AS`/`RLIMIT_DATA` only) and
+/// for the hint of its [`Error::InsufficientMemory`](crate::Error::InsufficientMemory).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum RunPath {
+    /// Conjugate gradients with smoothed aggregation (static solves, implicit steps, Newton's
+    /// linear solves): the coarsest level's supernodal Cholesky runs the dense kernels on one
+    /// thread, so one buffer.
+    Iterative,
+    /// A Cholesky factor of K_ff (`linear_solver = "direct"`, a modal run): the buffers of
+    /// every thread of the factorization (the pool's and the calling thread's).
+    Direct,
+    /// Explicit steps: no factorization, so no buffer (the critical step's inertia check is
+    /// skipped, for Gershgorin's bound, when its buffers do not fit).
+    Explicit,
+}
+
+impl RunPath {
+    /// Bytes of dense-kernel buffers this path maps (address space only).
+    pub fn dense_kernel_bytes(self) -> u64 {
+        let reservation = dense_kernel_reservation();
+        match self {
+            RunPath::Iterative => reservation.for_threads(1),
+            RunPath::Direct => reservation.bytes,
+            RunPath::Explicit => 0,
+        }
+    }
+
+    /// The memory bounds of this process for this path, read now: [`MemoryLimits::current`]
+    /// with [`dense_kernel_bytes`](Self::dense_kernel_bytes) kept back from the address-space
+    /// bounds.
+    pub fn limits(self) -> MemoryLimits {
+        MemoryLimits::current().keeping_back(self.dense_kernel_bytes())
+    }
+
+    /// What to change when the run does not fit.
+    pub fn hint(self) -> &'static str {
+        match self {
+            RunPath::Iterative | RunPath::Explicit => COARSER_MESH,
+            RunPath::Direct => {
+                "use the iterative solver (linear_solver = \"iterative\"), which holds no \
+                 factor, or a coarser mesh"
+            }
+        }
+    }
+}
+
+/// Bytes per stored entry of K of the multigrid hierarchy (see [`StaticEstimate`]).
+pub const ITERATIVE_BYTES_PER_ENTRY: u128 = 80;
 
 /// The linear solver the estimate assumes.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -44,9 +94,14 @@ pub enum SolverMemory {
 ///   arrays (up to 2 × 16·nnz);
 /// - solver: the factor ([`SolverMemory::Factor`]) and the symbolic analysis (ordering graph,
 ///   supernodal structure: 24·nnz, measured at 12–24 bytes per K_ff entry above the factor on
-///   beams of 70k–210k DOFs), or the multigrid hierarchy (48·nnz: the smoothed prolongator and
-///   the coarse operators, 3 × K_ff's 16·nnz, measured up to 2.8 × on beams of 25k–520k DOFs)
-///   with the DOF geometry and the CG vectors (200 bytes per DOF);
+///   beams of 70k–210k DOFs), or the multigrid hierarchy (80·nnz: the finest matrix's copy,
+///   the smoothed prolongator, its transpose and the coarse operators) with the DOF geometry and
+///   the CG vectors (200 bytes per DOF). The hierarchy was first taken as 48·nnz (3 × K_ff's
+///   16·nnz); the CLI's static runs then peaked 23–26 bytes per entry of K above the estimate
+///   (issue 33: VmHWM 192 MB against 157.8 MB on a 100×10×10 beam of 36k DOFs, 1.382 GB against
+///   1.125 GB at 200×20×20, 266k DOFs; 10.7 GB against 8.57 GB at 1.95M DOFs), so 32 more
+///   bytes per entry: 1.06× and 1.07× the first two peaks, and +2.4–2.8 GB on the third
+///   (76–88M entries for 5–6 tets per node);
 /// - outputs: displacement, reactions and the per-tet fields (48·N + 32·T), the output files'
 ///   buffers (another 48·N + 32·T).
 ///
@@ -95,7 +150,7 @@ impl StaticEstimate {
         let nnz = stiffness_entries(n, t, nodes_per_tet);
         let dofs = 3 * n;
         let solver = match solver {
-            SolverMemory::Iterative => 48 * nnz + 200 * dofs,
+            SolverMemory::Iterative => ITERATIVE_BYTES_PER_ENTRY * nnz + 200 * dofs,
             SolverMemory::Factor(bytes) => bytes + 24 * nnz,
         };
         let face_nodes = if nodes_per_tet > 4 { 6 } else { 3 };
@@ -159,7 +214,6 @@ impl StaticEstimate {
         Ok(limits.ensure_fits(format!("{what}: {}", self.describe()), self.peak())?)
     }
 }
-
 /// Stored entries nnz of the full (both triangles) stiffness pattern of a mesh of N `nodes`
 /// and T `tets` of `nodes_per_tet` nodes: 3×3 blocks of every node pair that shares a tet.
 ///
@@ -250,19 +304,20 @@ pub fn box_static_estimate(
 }
 
 /// `Ok` if a box of `cells` (`tets_per_cell` tets each, of `nodes_per_tet` nodes: 4 or 10)
-/// can be solved statically (or, with
-/// `dynamic`, integrated) in the memory available now, with the least-memory solver; otherwise
-/// [`Error::InsufficientMemory`] with what is needed and what is available. Computed from the
-/// counts alone, in microseconds, for any `cells`.
+/// can be solved statically (or, with `dynamic`, integrated) on `path` in the memory
+/// available now (the dense kernels' buffers of `path` kept back from the address-space
+/// bounds); otherwise [`Error::InsufficientMemory`] with what is needed, what is available and
+/// the hint of `path`. Computed from the counts alone, in microseconds, for any `cells`.
 pub fn check_box_run(
     cells: [usize; 3],
     tets_per_cell: usize,
     nodes_per_tet: usize,
     dynamic: bool,
+    path: RunPath,
 ) -> Result<()> {
     let estimate =
         box_static_estimate(cells, tets_per_cell, nodes_per_tet, SolverMemory::Iterative);
-    let limits = MemoryLimits::current();
+    let limits = path.limits();
     let what = format!(
         "a {} run on a {}×{}×{} box of {}-node tets",
         if dynamic { "dynamic" } else { "static" },
@@ -271,19 +326,19 @@ pub fn check_box_run(
         cells[2],
         nodes_per_tet
     );
-    if dynamic {
-        let needed = estimate.peak() + estimate.dynamic_extra();
-        Ok(limits.ensure_fits(
+    let (what, needed) = if dynamic {
+        (
             format!(
                 "{what}: {} + {} for the dynamic system",
                 estimate.describe(),
                 format_bytes(estimate.dynamic_extra())
             ),
-            needed,
-        )?)
+            estimate.peak() + estimate.dynamic_extra(),
+        )
     } else {
-        estimate.ensure_fits(&what, &limits)
-    }
+        (format!("{what}: {}", estimate.describe()), estimate.peak())
+    };
+    Ok(limits.ensure_fits_or(what, needed, path.hint())?)
 }
 
 #[cfg(test)]
@@ -304,7 +359,9 @@ mod tests {
             bounds: vec![MemoryBound {
                 source: "test bound",
                 bytes: 1 << 40,
+                address_space: false,
             }],
+            dense_kernels: 0,
         };
         let e = box_static_estimate([usize::MAX; 3], 6, 10, SolverMemory::Iterative);
         assert!(e.peak() > 1 << 40);

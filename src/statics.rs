@@ -5,11 +5,11 @@ use std::time::{Duration, Instant};
 use crate::constraints::{Constraints, DofMap};
 use crate::element::ElementType;
 use crate::error::{Error, Result};
-use crate::linear_solver::{LinearSolver, SolveInfo, SolverOptions};
+use crate::linear_solver::{LinearMethod, LinearSolver, SolveInfo, SolverOptions};
 use crate::loads::Loads;
 use crate::material::Material;
 use crate::materials::TetMaterials;
-use crate::memory::{MemoryLimits, SolverMemory, StaticEstimate};
+use crate::memory::{RunPath, SolverMemory, StaticEstimate};
 use crate::mesh::TetMesh;
 use crate::problem::Problem;
 use crate::sparse::CscMatrix;
@@ -101,12 +101,19 @@ impl StaticSolver {
             E::NODES,
             SolverMemory::Iterative,
         );
-        MemoryLimits::current().ensure_fits(
+        let path = match options.method {
+            LinearMethod::Direct => RunPath::Direct,
+            // Auto factors only what fits beside the dense kernels' buffers, and solves
+            // iteratively otherwise.
+            LinearMethod::Iterative | LinearMethod::Auto => RunPath::Iterative,
+        };
+        path.limits().ensure_fits_or(
             format!(
                 "the static solve: {}, of which the mesh is held already",
                 estimate.describe()
             ),
             estimate.beyond_mesh(),
+            path.hint(),
         )?;
         materials.check_tet_count(mesh)?;
         let problem = Problem::new(mesh, constraints)?;

@@ -93,4 +93,88 @@ fn huge_friction_and_activation_distance_are_refused_with_the_range() {
     };
     // The floor is 0.1 below the cube, inside d̂ = 1.7: accepted (the barrier acts at once).
     assert!(Contact::new(&cube(), vec![plane()], widest).is_ok());
+/// A 0.1 m cube of 2×2×2 cells: boundary nodes 50 mm apart, so a small obstacle fits between
+/// them.
+fn coarse_cube() -> TetMesh {
+    TetMesh::box_grid(
+        Vector3::zeros(),
+        Vector3::repeat(0.1),
+        [2, 2, 2],
+        BoxSplit::Lecture6,
+    )
+    .unwrap()
+}
+
+fn ball(center_z: f64) -> Obstacle {
+    // R = 15 mm over the middle of a top-face quadrant, (25, 25) mm: the nearest top nodes are
+    // 35.4 mm away sideways, so every node is outside whatever the height.
+    Obstacle::sphere("ball", Vector3::new(0.025, 0.025, center_z), 0.015).unwrap()
+}
+
+#[test]
+fn an_obstacle_reaching_into_a_face_between_its_nodes_is_refused_with_its_depth() {
+    // Issue 33 item 7: the sphere reaches 5 mm below the top face z = 0.1 between nodes; the
+    // node check alone accepted it and the body fell through with zero contact force.
+    let message = Contact::new(&coarse_cube(), vec![ball(0.11)], parameters())
+        .unwrap_err()
+        .to_string();
+    assert!(message.contains("obstacle ball"), "{message}");
+    // The depth is R − (z_c − 0.1) = 15 − 10 mm, exactly 5 mm up to rounding.
+    assert!(message.contains("5.000e-3 deep"), "{message}");
+    assert!(message.contains("boundary face"), "{message}");
+    assert!(message.contains("touching is allowed"), "{message}");
+    // The same for a box reaching 5 mm into the face between nodes.
+    let block = Obstacle::aligned_box(
+        "block",
+        Vector3::new(0.01, 0.01, 0.095),
+        Vector3::new(0.04, 0.04, 0.2),
+    )
+    .unwrap();
+    let message = Contact::new(&coarse_cube(), vec![block], parameters())
+        .unwrap_err()
+        .to_string();
+    assert!(message.contains("obstacle block"), "{message}");
+    assert!(message.contains("5.000e-3 deep"), "{message}");
+}
+
+#[test]
+fn an_obstacle_wholly_inside_the_body_is_refused() {
+    let inner = Obstacle::sphere("inner", Vector3::repeat(0.05), 0.015).unwrap();
+    let message = Contact::new(&coarse_cube(), vec![inner], parameters())
+        .unwrap_err()
+        .to_string();
+    assert!(message.contains("obstacle inner"), "{message}");
+    assert!(message.contains("wholly inside the body"), "{message}");
+    // Its surface is 50 − 15 mm below the nearest face.
+    assert!(message.contains("at least 3.500e-2 below"), "{message}");
+    let block =
+        Obstacle::aligned_box("core", Vector3::repeat(0.04), Vector3::repeat(0.06)).unwrap();
+    let message = Contact::new(&coarse_cube(), vec![block], parameters())
+        .unwrap_err()
+        .to_string();
+    assert!(message.contains("obstacle core"), "{message}");
+    assert!(message.contains("wholly inside the body"), "{message}");
+}
+
+#[test]
+fn a_sphere_just_touching_or_just_outside_a_face_is_accepted() {
+    // Tangent to the top face at (25, 25, 100) mm: depth 0 up to rounding, so accepted.
+    Contact::new(&coarse_cube(), vec![ball(0.115)], parameters()).unwrap();
+    // 1 µm above it.
+    Contact::new(&coarse_cube(), vec![ball(0.115 + 1e-6)], parameters()).unwrap();
+    // 1 µm into it is refused: the tolerance is rounding (1e-9 of the diagonal), not microns.
+    let message = Contact::new(&coarse_cube(), vec![ball(0.115 - 1e-6)], parameters())
+        .unwrap_err()
+        .to_string();
+    assert!(message.contains("1.000e-6 deep"), "{message}");
+    // Far outside, and a box resting flat on the top face between the nodes (touching over
+    // an area: every point of that patch computes to a gap of 0 up to rounding).
+    Contact::new(&coarse_cube(), vec![ball(0.5)], parameters()).unwrap();
+    let block = Obstacle::aligned_box(
+        "block",
+        Vector3::new(0.01, 0.01, 0.1),
+        Vector3::new(0.04, 0.04, 0.2),
+    )
+    .unwrap();
+    Contact::new(&coarse_cube(), vec![block], parameters()).unwrap();
 }

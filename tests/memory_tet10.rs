@@ -3,8 +3,8 @@
 
 use nalgebra::Vector3;
 use tetfem::memory::{
-    MemoryBound, MemoryLimits, SolverMemory, StaticEstimate, box_node_count, box_static_estimate,
-    check_box_run,
+    MemoryBound, MemoryLimits, RunPath, SolverMemory, StaticEstimate, box_node_count,
+    box_static_estimate, check_box_run,
 };
 use tetfem::{BoxSplit, Material, Tet10, TetMesh, assembly::stiffness_matrix};
 
@@ -87,14 +87,16 @@ fn an_order_two_box_too_large_is_refused_before_meshing() {
         bounds: vec![MemoryBound {
             source: "test bound",
             bytes: u64::try_from(2 * p1.peak()).unwrap(),
+            address_space: false,
         }],
+        dense_kernels: 0,
     };
     p1.ensure_fits("order 1", &limits).unwrap();
     let err = p2.ensure_fits("order 2", &limits).unwrap_err().to_string();
     assert!(err.contains("test bound") && err.contains("nodes"), "{err}");
     // A box beyond any machine at order 2: refused at once from the counts, with the box's
     // size and the element named.
-    let err = check_box_run([5000, 5000, 5000], 6, 10, false)
+    let err = check_box_run([5000, 5000, 5000], 6, 10, false, RunPath::Iterative)
         .unwrap_err()
         .to_string();
     println!("{err}");

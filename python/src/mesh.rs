@@ -388,7 +388,14 @@ impl PyMesh {
         };
         let cells = arrays::counts3(py, cells, "cells")?;
         let split = names::split(py, split)?;
-        tetfem::memory::check_box_run(cells, split.tets_per_cell(), 4, false).or_raise(py)?;
+        tetfem::memory::check_box_run(
+            cells,
+            split.tets_per_cell(),
+            4,
+            false,
+            tetfem::memory::RunPath::Iterative,
+        )
+        .or_raise(py)?;
         let mesh = py
             .detach(|| TetMesh::box_grid(min, max, cells, split))
             .or_raise(py)?;

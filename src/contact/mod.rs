@@ -11,7 +11,8 @@
 //!
 //! One idea per file: [`barrier`] (b, b′, b″), [`friction`] (IPC's lagged smoothed Coulomb
 //! friction), [`obstacle`] (half-space, sphere, box: signed distance, its derivatives, time of
-//! impact), [`parameters`] (d̂ and κ and their default rule), [`set`] (the contact of a mesh's
+//! impact), [`overlap`] (the start check of the boundary surface against the obstacles),
+//! [`parameters`] (d̂ and κ and their default rule), [`set`] (the contact of a mesh's
 //! boundary nodes with the obstacles).
 //!
 //! Moving obstacles ([`ObstacleMotion`]: a prescribed translation c(t), constant velocity or a
@@ -31,6 +32,7 @@
 pub mod barrier;
 pub mod friction;
 pub mod obstacle;
+pub mod overlap;
 pub mod parameters;
 pub mod set;
 

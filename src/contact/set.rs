@@ -107,8 +107,10 @@ impl Contact {
     /// The contact of `mesh`'s boundary nodes with `obstacles` under `parameters`.
     ///
     /// Errors: no obstacle; two obstacles with one name; parameters not finite and > 0, an
-    /// activation distance above the mesh's bounding-box diagonal; the body at rest inside an obstacle or within reach of d ≤ 0 (see
-    /// [`check_state`](Self::check_state)).
+    /// activation distance above the mesh's bounding-box diagonal; the body at rest inside an
+    /// obstacle or within reach of d ≤ 0 (see [`check_state`](Self::check_state)); an obstacle
+    /// that reaches into a boundary face between its nodes or lies wholly inside the body (see
+    /// [`super::overlap`]).
     pub fn new(
         mesh: &TetMesh,
         obstacles: Vec<Obstacle>,
@@ -148,7 +150,8 @@ impl Contact {
             }
         }
         let mut areas = vec![0.0; mesh.node_count()];
-        for face in mesh.boundary_faces()? {
+        let faces = mesh.boundary_faces()?;
+        for face in &faces {
             let third = face.area_vector(mesh)?.norm() / 3.0;
             for &n in &face.nodes {
                 areas[n] += third;
@@ -169,6 +172,14 @@ impl Contact {
             parameters,
         };
         contact.check_state(&vec![0.0; mesh.dof_count()])?;
+        // The nodes are outside; the faces between them and the obstacles' interiors next.
+        super::overlap::check_surface(
+            mesh.nodes(),
+            &faces,
+            &contact.obstacles,
+            &contact.offsets(),
+            (max - min).norm(),
+        )?;
         Ok(contact)
     }
 

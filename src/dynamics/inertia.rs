@@ -85,6 +85,19 @@ pub(super) fn certify(
     if (8 + ANALYSIS_BYTES_PER_ENTRY) * nnz + cholesky.factor_bytes() as u128 > allowance {
         return Ok(fallback);
     }
+    // A supernodal factor also maps the dense kernels' buffers, counted by the address-space
+    // limits only: if they do not fit there the check is skipped (Gershgorin's bound needs no
+    // factor) rather than stopping an explicit run that needs no factor otherwise.
+    if cholesky.is_supernodal() {
+        let buffers = crate::memory::dense_kernel_reservation().for_threads(cholesky.threads());
+        let fits = MemoryLimits::current()
+            .keeping_back(buffers)
+            .ensure_fits("", cholesky.factor_bytes() as u128)
+            .is_ok();
+        if !fits {
+            return Ok(fallback);
+        }
+    }
     let margin = rounding_margin(&cholesky);
     let mut factorizations = 0;
     // σ·M − K at the probe σ/(1 + η), positive definite or not.

@@ -424,45 +424,64 @@ fn a_signal_during_the_set_up_exits_at_once() {
             leftovers(&out)
         );
     }
+/// The peak RSS (VmHWM, kB) of a run of `steps` steps, read from the child's
+/// /proc/PID/status every 10 ms until it exits (VmHWM only grows, so the last read is the peak
+/// up to then); fails past `seconds`.
+fn peak_rss_kb(steps: u64, seconds: u64) -> u64 {
+    let dir = out_dir(&format!("interrupt-memory-{steps}"));
+    let mut child = spawn_run(&dir, steps);
+    let status_file = format!("/proc/{}/status", child.id());
+    let mut peak_kb = 0u64;
+    let deadline = Instant::now() + Duration::from_secs(seconds);
+    while child.try_wait().unwrap().is_none() {
+        assert!(
+            Instant::now() < deadline,
+            "{steps} steps took over {seconds} s"
+        );
+        if let Ok(text) = std::fs::read_to_string(&status_file)
+            && let Some(line) = text.lines().find(|l| l.starts_with("VmHWM:"))
+        {
+            peak_kb = line
+                .split_whitespace()
+                .nth(1)
+                .and_then(|v| v.parse().ok())
+                .unwrap_or(peak_kb);
+        }
+        std::thread::sleep(Duration::from_millis(10));
+    }
+    let status = child.wait().unwrap();
+    assert!(status.success(), "{steps} steps: {status}");
+    println!("{steps} steps: peak RSS {peak_kb} kB");
+    peak_kb
 }
 
 /// Peak memory of a long explicit run must not grow with the step count (it used to keep every
 /// CSV row: ~120 B per step). A measurement, not a unit test: `cargo test --release --test
-/// interrupts -- --ignored`. It reads the child's VmHWM (Linux) until the child exits.
+/// interrupts -- --ignored`. [`peak_memory_is_flat_over_ten_times_the_steps`] is its CI size.
 #[test]
 #[ignore]
 fn peak_memory_is_flat_over_a_million_steps() {
-    let mut peaks = Vec::new();
-    for steps in [100_000u64, 1_000_000] {
-        let dir = out_dir(&format!("interrupt-memory-{steps}"));
-        let mut child = spawn_run(&dir, steps);
-        let status_file = format!("/proc/{}/status", child.id());
-        let mut peak_kb = 0u64;
-        let deadline = Instant::now() + Duration::from_secs(600);
-        while child.try_wait().unwrap().is_none() {
-            assert!(
-                Instant::now() < deadline,
-                "{steps} steps took over 10 minutes"
-            );
-            if let Ok(text) = std::fs::read_to_string(&status_file)
-                && let Some(line) = text.lines().find(|l| l.starts_with("VmHWM:"))
-            {
-                peak_kb = line
-                    .split_whitespace()
-                    .nth(1)
-                    .and_then(|v| v.parse().ok())
-                    .unwrap_or(peak_kb);
-            }
-            std::thread::sleep(Duration::from_millis(10));
-        }
-        println!("{steps} steps: peak RSS {peak_kb} kB");
-        peaks.push(peak_kb);
-    }
+    let peaks = [100_000u64, 1_000_000].map(|steps| peak_rss_kb(steps, 600));
     // 900 000 more steps kept in memory at ~120 B each would add ~105 MB; allow 5 MB of noise
     // (allocator, page cache accounting) for a run whose memory does not grow.
     assert!(
         peaks[1] < peaks[0] + 5_000,
         "peak RSS {} kB at 10⁵ steps, {} kB at 10⁶",
+        peaks[0],
+        peaks[1]
+    );
+}
+
+/// The memory-flat promise at CI size: 2·10⁴ and 2·10⁵ steps (a few seconds each). Anything
+/// kept per step grows the peak by 180 000 × its size: a CSV row (~120 B) would add ~21 MB,
+/// four times the 5 MB allowed for noise (allocator, page accounting), so even 30 B per step
+/// is caught.
+#[test]
+fn peak_memory_is_flat_over_ten_times_the_steps() {
+    let peaks = [20_000u64, 200_000].map(|steps| peak_rss_kb(steps, 60));
+    assert!(
+        peaks[1] < peaks[0] + 5_000,
+        "peak RSS {} kB at 2·10⁴ steps, {} kB at 2·10⁵",
         peaks[0],
         peaks[1]
     );

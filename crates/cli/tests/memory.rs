@@ -340,3 +340,118 @@ fn iterative_and_direct_scenes_agree_dynamic() {
     );
     assert_ne!(iterative, direct);
 }
+
+/// A small explicit scene (`cells`³ cube of 1 m, steel-like rubber, 2000 steps: long enough to
+/// read its peak address space while it runs).
+fn explicit_scene(cells: usize, steps: usize) -> String {
+    format!(
+        "[mesh.box]\nmax = [1.0, 1.0, 1.0]\ncells = [{cells}, {cells}, {cells}]\n\
+         [material]\nyoungs_modulus = 1e6\npoisson_ratio = 0.3\ndensity = 1000.0\n\
+         [[constraints]]\nwhere = {{ plane = {{ axis = \"z\", at = 0.0 }} }}\n\
+         [[loads]]\nwhere = {{ plane = {{ axis = \"z\", at = 1.0 }} }}\ntotal_force = [100.0, 0.0, -200.0]\n\
+         [analysis]\ntype = \"dynamic\"\nmethod = \"explicit\"\ndt = 1e-5\nduration = {}\n\
+         [output]\nvtu = false\n",
+        steps as f64 * 1e-5
+    )
+}
+
+/// Address space (bytes) left above a small run's measured peak: room for what a 5 ms poll can
+/// miss at its end (the run's last output, a few pages).
+const MARGIN: u64 = 32_000_000;
+
+/// The children's rayon pool: fixed, so that their thread count and dense-kernel buffers do
+/// not depend on the machine's cores.
+const POOL: u64 = 2;
+
+/// `tetfem run scene --quiet` under `sh -c 'ulimit -v KB; exec …'` (the shell's own limit, as a
+/// user sets it), on a [`POOL`]-thread pool.
+fn run_under_ulimit(kib: u64, scene: &Path) -> std::process::Output {
+    Command::new("sh")
+        .arg("-c")
+        .arg(format!("ulimit -v {kib} && exec \"$0\" run \"$1\" --quiet"))
+        .arg(tetfem())
+        .arg(scene)
+        .env("RAYON_NUM_THREADS", POOL.to_string())
+        .output()
+        .expect("sh runs")
+}
+
+/// The peak address space (VmPeak, bytes) of `tetfem run scene --quiet` without a limit, read
+/// from /proc/PID/status every 5 ms while it runs.
+fn peak_address_space(scene: &Path) -> u64 {
+    let mut child = Command::new(tetfem())
+        .args(["run", scene.to_str().unwrap(), "--quiet"])
+        .env("RAYON_NUM_THREADS", POOL.to_string())
+        .stdout(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    let status_file = format!("/proc/{}/status", child.id());
+    let mut peak = 0;
+    while child.try_wait().unwrap().is_none() {
+        if let Ok(text) = std::fs::read_to_string(&status_file) {
+            peak = status_bytes(&text, "VmPeak:").unwrap_or(0).max(peak);
+        }
+        std::thread::sleep(std::time::Duration::from_millis(5));
+    }
+    assert!(child.wait().unwrap().success());
+    peak
+}
+
+#[test]
+fn an_explicit_run_is_not_charged_the_dense_kernel_buffers() {
+    // Issue 33 item 6: under `ulimit -v` every run was refused that could not also hold the
+    // dense kernels' buffers (2·L3 per thread: 1.6 GB on a machine with a 260 MiB L3, 0.2 GB
+    // with a 32 MiB one), though an explicit run never factors. The limit here is the run's
+    // own measured peak address space plus MARGIN: it fits, and the old check, which wanted
+    // all the buffers on top of what the process held (~0.1 GB of VmSize with its threads'
+    // malloc arenas), refused it wherever the buffers exceed the margin (measured here: 3 ×
+    // 67.1 MB of buffers, a 216 MB peak; the old check refused up to a 0.3 GB limit).
+    if !cfg!(target_arch = "x86_64") {
+        return; // no buffers to charge
+    }
+    let dir = out_dir("explicit_ulimit");
+    let small = write_scene(&dir, "small", &explicit_scene(3, 2000));
+    let peak = peak_address_space(&small);
+    let limit = peak + MARGIN;
+    let output = run_under_ulimit(limit / 1024, &small);
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(
+        output.status.success(),
+        "explicit run (peak {peak} B) under {limit} B: {:?}\n{stderr}",
+        output.status
+    );
+
+    // (b) One that does not fit is refused before it allocates, with the explicit path's hint
+    // (a coarser mesh) and no word of the buffers it will not map: a 60³ cube needs several GB
+    // by the estimate, far over the MARGIN left above the small run's peak.
+    let large = write_scene(&dir, "large", &explicit_scene(60, 10));
+    let output = run_under_ulimit(limit / 1024, &large);
+    assert_clean_memory_error(&output, "60³ explicit under the limit");
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(stderr.contains("use a coarser mesh"), "{stderr}");
+    assert!(!stderr.contains("dense kernels"), "{stderr}");
+}
+
+#[test]
+fn a_direct_run_whose_buffers_do_not_fit_is_refused_with_the_direct_hint() {
+    // (b) for a path that factors: under the limit of the explicit test the direct path's
+    // estimate and its buffers do not fit, so it is refused before the mesh is built, naming
+    // the solver to switch to and the buffers (the old hint was "use a coarser mesh" alone).
+    if !cfg!(target_arch = "x86_64") {
+        return;
+    }
+    let dir = out_dir("direct_ulimit");
+    let small = write_scene(&dir, "small", &explicit_scene(3, 2000));
+    let limit = peak_address_space(&small) + MARGIN;
+    let direct = write_scene(&dir, "direct", &cube_scene(30, "direct", false));
+    let output = run_under_ulimit(limit / 1024, &direct);
+    assert_clean_memory_error(&output, "direct under the limit");
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    for word in [
+        "linear_solver = \"iterative\"",
+        "dense kernels",
+        "ulimit -v",
+    ] {
+        assert!(stderr.contains(word), "no '{word}' in {stderr}");
+    }
+}

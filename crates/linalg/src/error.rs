@@ -61,10 +61,9 @@ pub enum Error {
     /// MemAvailable, the cgroup's limit and the resource limits; see [`crate::memory`]). Raised
     /// before the allocation, so that nothing is aborted halfway.
     #[error(
-        "not enough memory for {what}: needs {}, but only {} is available ({limit}); use a coarser mesh{}",
+        "not enough memory for {what}: needs {}, but only {} is available ({limit}); {hint}",
         crate::bytes::format_bytes(*.needed),
         crate::bytes::format_bytes(*.available as u128),
-        if .what.contains("Cholesky") { " or the iterative solver (linear_solver = \"iterative\")" } else { "" }
     )]
     InsufficientMemory {
         /// What was to be built, with the estimate's parts.
@@ -75,6 +74,8 @@ pub enum Error {
         available: u64,
         /// Every bound found, the tightest first.
         limit: String,
+        /// What to change, for the path that needs the memory (e.g. "use a coarser mesh").
+        hint: String,
     },
 }
 

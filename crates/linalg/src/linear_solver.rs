@@ -8,7 +8,7 @@ use crate::iterative::{
     conjugate_gradient_with,
 };
 use crate::linsolve::{CholeskyOptions, SparseCholesky};
-use crate::memory::MemoryLimits;
+use crate::memory::{MemoryLimits, dense_kernel_reservation};
 use crate::sparse::CscMatrix;
 
 /// Direct, iterative, or chosen by predicted time within the memory budget.
@@ -489,16 +489,23 @@ impl LinearSolver {
             });
         }
         let cholesky = SparseCholesky::analyze_with(matrix, options.cholesky)?;
-        let limits = MemoryLimits::current();
+        // A supernodal factor maps the dense kernels' buffers too (address space only).
+        let buffers = match cholesky.is_supernodal() {
+            true => dense_kernel_reservation().for_threads(cholesky.threads()),
+            false => 0,
+        };
+        let limits = MemoryLimits::current().keeping_back(buffers);
         if options.method == LinearMethod::Direct {
             // Requested, so no fallback: stop here rather than be aborted by the allocator.
-            limits.ensure_fits(
+            limits.ensure_fits_or(
                 format!(
                     "the Cholesky factor of {} free DOFs ({} stored values and the workspace)",
                     matrix.dim(),
                     cholesky.factor_len()
                 ),
                 cholesky.factor_bytes() as u128,
+                "use the iterative solver (linear_solver = \"iterative\"), which holds no \
+                 factor, or a coarser mesh",
             )?;
         }
         let inputs = ChoiceInputs {

@@ -20,7 +20,7 @@ use faer::sparse::linalg::cholesky::{
 use faer::{Conj, Side};
 
 use crate::error::{Error, Result};
-use crate::memory::MemoryLimits;
+use crate::memory::{COARSER_MESH, MemoryLimits, dense_kernel_reservation};
 use crate::ordering::{FillOrdering, inverse_permutation, nested_dissection};
 use crate::sparse::CscMatrix;
 pub use counts::FactorCounts;
@@ -179,6 +179,23 @@ impl SparseCholesky {
     fn allocate(&mut self) -> Result<()> {
         if self.allocated {
             return Ok(());
+        }
+        if self.plan.is_some() {
+            // The supernodal kernel multiplies dense blocks with faer's kernels, which map
+            // their per-thread buffers on first use and abort the process if the mapping is
+            // refused: check them (address-space bounds only) with the factor, before both.
+            let buffers = dense_kernel_reservation().for_threads(self.threads);
+            MemoryLimits::current()
+                .keeping_back(buffers)
+                .ensure_fits_or(
+                    format!(
+                        "the Cholesky factor of {} DOFs ({} stored values and the workspace)",
+                        self.dim(),
+                        self.factor_len()
+                    ),
+                    self.factor_bytes() as u128,
+                    COARSER_MESH,
+                )?;
         }
         let out_of_memory = |what: &str| Error::Solver(format!("out of memory for the {what}"));
         self.solve_workspace =
@@ -390,6 +407,17 @@ impl SparseCholesky {
     /// The factor's values (faer's layout; empty before the first factorization).
     pub fn factor_values(&self) -> &[f64] {
         &self.factor
+    }
+
+    /// Whether the factor is supernodal: its numeric factorization then runs faer's dense
+    /// kernels, which map [`dense_kernel_reservation`] buffers (known after the analysis).
+    pub fn is_supernodal(&self) -> bool {
+        self.plan.is_some()
+    }
+
+    /// Threads of the numeric factorization (at least 1).
+    pub fn threads(&self) -> usize {
+        self.threads
     }
 
     /// Whether the factor is supernodal, and then the fractions of its values in the top of the

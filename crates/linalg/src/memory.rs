@@ -8,10 +8,14 @@
 //! `memory.limit_in_bytes − memory.usage_in_bytes`), and the resource limits of
 //! /proc/self/limits less what the process already holds (`RLIMIT_AS` − `VmSize`,
 //! `RLIMIT_DATA` − `VmData`, from /proc/self/status). Read from /proc and /sys only: no libc.
-//! The two resource-limit bounds also keep back the address space that faer's dense kernels
-//! reserve per thread on first use ([`dense_kernel_reservation`]: 2·L3 per thread, 1.64 GB
-//! on a machine with a 260 MiB L3 and a 2-thread pool), which the estimates, being about
-//! resident memory, do not count.
+//!
+//! The first two bound resident memory, the last two address space: every mapping counts
+//! against them, touched or not. A computation that factorizes also maps the buffers faer's
+//! dense kernels reserve per thread ([`dense_kernel_reservation`]: 2·L3 per thread, 1.64 GB on a
+//! machine with a 260 MiB L3 and a 2-thread pool, 0.2 GB with a 32 MiB L3), which are almost
+//! never touched: [`MemoryLimits::for_factorization`] keeps them back from the address-space
+//! bounds, and only paths that run a supernodal factorization use it ([`MemoryLimits::current`]
+//! does not), so that an explicit or iterative run is not refused for buffers it never maps.
 
 pub use crate::bytes::format_bytes;
 use crate::error::{Error, Result};
@@ -23,6 +27,9 @@ pub struct MemoryBound {
     pub source: &'static str,
     /// Bytes still available under it.
     pub bytes: u64,
+    /// Whether it bounds address space (`RLIMIT_AS`, `RLIMIT_DATA`: every mapping counts,
+    /// touched or not) rather than resident memory (`MemAvailable`, a cgroup's limit).
+    pub address_space: bool,
 }
 
 /// The bounds that apply to this process (those that could be read; none where /proc is
@@ -31,13 +38,20 @@ pub struct MemoryBound {
 pub struct MemoryLimits {
     /// Every bound found.
     pub bounds: Vec<MemoryBound>,
+    /// Bytes of dense-kernel buffers already kept back from the address-space bounds
+    /// ([`for_factorization`](Self::for_factorization); 0 otherwise), named in the error's hint.
+    pub dense_kernels: u64,
 }
+
+/// The hint of an [`Error::InsufficientMemory`] when the caller gives none.
+pub const COARSER_MESH: &str = "use a coarser mesh";
 
 /// A cgroup v1 limit this large means "no limit" (the kernel reports 2^63 rounded to a page).
 const CGROUP_V1_UNLIMITED: u64 = 1 << 60;
 
 impl MemoryLimits {
-    /// The bounds of the running process, read now.
+    /// The bounds of the running process, read now, for a computation that does not factorize
+    /// (nothing kept back for the dense kernels: see [`for_factorization`](Self::for_factorization)).
     pub fn current() -> Self {
         let read = |path: &str| std::fs::read_to_string(path).ok();
         let mut bounds = Vec::new();
@@ -45,6 +59,7 @@ impl MemoryLimits {
             bounds.push(MemoryBound {
                 source: "MemAvailable",
                 bytes,
+                address_space: false,
             });
         }
         if let Some(bound) = read("/proc/self/cgroup").and_then(|t| cgroup_bound(&t)) {
@@ -52,34 +67,52 @@ impl MemoryLimits {
         }
         let status = read("/proc/self/status").unwrap_or_default();
         if let Some(limits) = read("/proc/self/limits") {
-            let reservation = dense_kernel_reservation().bytes;
             for (limit_name, held_key, source) in [
                 (
                     "Max address space",
                     "VmSize:",
-                    "address-space limit (RLIMIT_AS) less VmSize and the dense kernels' buffers",
+                    "address-space limit (RLIMIT_AS) less VmSize",
                 ),
                 (
                     "Max data size",
                     "VmData:",
-                    "data limit (RLIMIT_DATA) less VmData and the dense kernels' buffers",
+                    "data limit (RLIMIT_DATA) less VmData",
                 ),
             ] {
                 if let Some(limit) = soft_limit(&limits, limit_name) {
                     let held = status_bytes(&status, held_key).unwrap_or(0);
-                    // The dense kernels' reservation is kept back from these two bounds
-                    // only: its pages are never all touched, so MemAvailable and the
-                    // cgroup's usage see only the part used (counted in the estimates),
-                    // while VmSize and VmData (a private writable mapping) grow by all of it
-                    // the moment a thread first multiplies.
                     bounds.push(MemoryBound {
                         source,
-                        bytes: limit.saturating_sub(held).saturating_sub(reservation),
+                        bytes: limit.saturating_sub(held),
+                        address_space: true,
                     });
                 }
             }
         }
-        MemoryLimits { bounds }
+        MemoryLimits {
+            bounds,
+            dense_kernels: 0,
+        }
+    }
+
+    /// [`current`](Self::current) for a computation that runs a supernodal factorization: the
+    /// dense kernels' buffers ([`dense_kernel_reservation`]) are kept back from the
+    /// address-space bounds only. Their pages are never all touched, so `MemAvailable` and the
+    /// cgroup's usage see only the part used (counted in the estimates), while VmSize and
+    /// VmData (a private writable mapping) grow by all of it the moment a thread first
+    /// multiplies, and a mapping refused there aborts the process.
+    pub fn for_factorization() -> Self {
+        Self::current().keeping_back(dense_kernel_reservation().bytes)
+    }
+
+    /// These limits with `bytes` of dense-kernel buffers kept back from the address-space
+    /// bounds (see [`for_factorization`](Self::for_factorization)).
+    pub fn keeping_back(mut self, bytes: u64) -> Self {
+        for bound in self.bounds.iter_mut().filter(|b| b.address_space) {
+            bound.bytes = bound.bytes.saturating_sub(bytes);
+        }
+        self.dense_kernels += bytes;
+        self
     }
 
     /// The tightest bound (`None`: unlimited).
@@ -93,15 +126,39 @@ impl MemoryLimits {
     }
 
     /// `Ok` if `needed` bytes fit, otherwise [`Error::InsufficientMemory`] naming `what`,
-    /// the bytes needed, the bytes available and the bound that binds.
+    /// the bytes needed, the bytes available and the bound that binds, with the hint
+    /// [`COARSER_MESH`].
     pub fn ensure_fits(&self, what: impl Into<String>, needed: u128) -> Result<()> {
+        self.ensure_fits_or(what, needed, COARSER_MESH)
+    }
+
+    /// [`ensure_fits`](Self::ensure_fits) with the `hint` that fits the caller's path (e.g.
+    /// "use the iterative solver" for a factor). When the binding bound is an address-space
+    /// one that had dense-kernel buffers kept back, the hint also names them and what lowers
+    /// them.
+    pub fn ensure_fits_or(&self, what: impl Into<String>, needed: u128, hint: &str) -> Result<()> {
         match self.tightest() {
-            Some(bound) if needed > u128::from(bound.bytes) => Err(Error::InsufficientMemory {
-                what: what.into(),
-                needed,
-                available: bound.bytes,
-                limit: self.describe(),
-            }),
+            Some(bound) if needed > u128::from(bound.bytes) => {
+                let mut hint = hint.to_string();
+                if bound.address_space && self.dense_kernels > 0 {
+                    let per_thread = dense_kernel_reservation().per_thread;
+                    hint.push_str(&format!(
+                        "; the address-space limit must also hold the {} of buffers the \
+                         factorization's dense kernels map (2·L3 = {} per thread, {} threads): \
+                         raise `ulimit -v` or run on fewer threads (RAYON_NUM_THREADS)",
+                        format_bytes(u128::from(self.dense_kernels)),
+                        format_bytes(u128::from(per_thread)),
+                        self.dense_kernels.div_ceil(per_thread.max(1))
+                    ));
+                }
+                Err(Error::InsufficientMemory {
+                    what: what.into(),
+                    needed,
+                    available: bound.bytes,
+                    limit: self.describe(),
+                    hint,
+                })
+            }
             _ => Ok(()),
         }
     }
@@ -184,6 +241,7 @@ fn cgroup_bound(cgroup: &str) -> Option<MemoryBound> {
                     return Some(MemoryBound {
                         source,
                         bytes: limit.saturating_sub(used),
+                        address_space: false,
                     });
                 }
             }
@@ -207,8 +265,10 @@ fn cgroup_bound(cgroup: &str) -> Option<MemoryBound> {
 /// machine, L3 = 260 MiB, 2 cores).
 ///
 /// The buffer is almost never touched in full, so it costs address space (VmSize, VmData)
-/// and not resident memory: it is kept back from the `RLIMIT_AS` and `RLIMIT_DATA` bounds
-/// only. Counting it against `MemAvailable` or a cgroup limit would refuse runs that fit.
+/// and not resident memory: [`MemoryLimits::for_factorization`] keeps it back from the
+/// `RLIMIT_AS` and `RLIMIT_DATA` bounds only (counting it against `MemAvailable` or a cgroup
+/// limit would refuse runs that fit), and only for computations that factorize: a simplicial
+/// factor, the explicit step, CG's products and the assembly never call these kernels.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct DenseKernelReservation {
     /// The kernels' L3 size (bytes), as computed above; [`FALLBACK_L3_BYTES`] when
@@ -223,6 +283,19 @@ pub struct DenseKernelReservation {
     pub threads: u64,
     /// `per_thread` × `threads` (bytes); 0 off x86_64, where the kernels are not used.
     pub bytes: u64,
+}
+
+impl DenseKernelReservation {
+    /// Bytes a factorization on `threads` threads maps: one buffer (the calling thread's) for
+    /// one thread, all of [`bytes`](Self::bytes) for more (measured: a two-thread
+    /// factorization maps the main thread's and both pool workers' buffers); 0 off x86_64.
+    pub fn for_threads(&self, threads: usize) -> u64 {
+        match (self.bytes, threads) {
+            (0, _) => 0,
+            (_, 0 | 1) => self.per_thread,
+            _ => self.bytes,
+        }
+    }
 }
 
 /// The L3 size assumed when /sys does not give one (bytes): 256 MiB, above the L3 of all but a
@@ -424,6 +497,51 @@ mod tests {
         assert_eq!(r.threads, rayon::current_num_threads() as u64 + 1);
         if cfg!(target_arch = "x86_64") {
             assert_eq!(r.bytes, r.per_thread * r.threads);
+            assert_eq!(r.for_threads(1), r.per_thread);
+            assert_eq!(r.for_threads(2), r.bytes);
         }
+    }
+
+    fn bound(source: &'static str, bytes: u64, address_space: bool) -> MemoryBound {
+        MemoryBound {
+            source,
+            bytes,
+            address_space,
+        }
+    }
+
+    #[test]
+    fn dense_kernel_buffers_are_kept_back_from_address_space_bounds_only() {
+        let limits = MemoryLimits {
+            bounds: vec![
+                bound("MemAvailable", 8_000, false),
+                bound("address-space limit", 5_000, true),
+            ],
+            dense_kernels: 0,
+        };
+        // Without a factorization the address-space bound is the tightest, whole.
+        assert_eq!(limits.available(), Some(5_000));
+        limits.ensure_fits("explicit", 4_900).unwrap();
+        let factoring = limits.clone().keeping_back(3_000);
+        assert_eq!(factoring.available(), Some(2_000));
+        assert_eq!(factoring.bounds[0].bytes, 8_000, "resident bound untouched");
+        let message = factoring
+            .ensure_fits_or("a factor", 2_500, "use the iterative solver")
+            .unwrap_err()
+            .to_string();
+        assert!(message.contains("use the iterative solver"), "{message}");
+        assert!(message.contains("dense kernels map"), "{message}");
+        assert!(message.contains("ulimit -v"), "{message}");
+        // A resident bound that binds gets the caller's hint alone.
+        let resident = MemoryLimits {
+            bounds: vec![bound("MemAvailable", 1_000, false)],
+            dense_kernels: 0,
+        }
+        .keeping_back(3_000);
+        let message = resident
+            .ensure_fits("a run", 2_000)
+            .unwrap_err()
+            .to_string();
+        assert!(message.ends_with("use a coarser mesh"), "{message}");
     }
 }

@@ -146,8 +146,14 @@ impl Scene {
                     self.analysis(),
                     super::Analysis::Dynamic(_) | super::Analysis::Modal(_)
                 );
-                tetfem::memory::check_box_run(b.cells, split.tets_per_cell(), E::NODES, dynamic)
-                    .map_err(|e| self.error("mesh.box", &mesh_span, e.to_string()))?;
+                tetfem::memory::check_box_run(
+                    b.cells,
+                    split.tets_per_cell(),
+                    E::NODES,
+                    dynamic,
+                    self.run_path(),
+                )
+                .map_err(|e| self.error("mesh.box", &mesh_span, e.to_string()))?;
                 let linear = TetMesh::box_grid(b.min.into(), b.max.into(), b.cells, split)
                     .map_err(|e| self.error("mesh.box", &mesh_span, e.to_string()))?;
                 let mesh = E::from_linear(linear)

@@ -408,6 +408,23 @@ impl Scene {
         Ok(scene)
     }
 
+    /// How the scene's run solves, for the memory check: explicit steps factor nothing, a
+    /// modal run factors K, and the others follow `analysis.linear_solver` (auto counts as
+    /// iterative: it factors only what fits beside the dense kernels' buffers).
+    pub fn run_path(&self) -> tetfem::memory::RunPath {
+        use tetfem::memory::RunPath;
+        match &self.analysis {
+            Analysis::Dynamic(d) if d.method == tetfem::dynamics::Method::Explicit => {
+                RunPath::Explicit
+            }
+            Analysis::Modal(_) => RunPath::Direct,
+            _ => match self.spec.linear_method() {
+                LinearMethod::Direct => RunPath::Direct,
+                LinearMethod::Iterative | LinearMethod::Auto => RunPath::Iterative,
+            },
+        }
+    }
+
     /// The schema-level content.
     pub fn spec(&self) -> &SceneSpec {
         &self.spec
