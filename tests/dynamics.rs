@@ -852,8 +852,14 @@ fn a_time_step_that_overflows_the_step_matrix_is_named() {
             .and_then(|mut integrator| integrator.step(&mut state))
     };
     let message = first_step(1e200).unwrap_err().to_string();
-    assert!(message.contains("invalid parameter dt = 1e200 s"), "{message}");
-    assert!(message.contains("(1 + dt·α)·M + (dt·β + dt²)·K overflows"), "{message}");
+    assert!(
+        message.contains("invalid parameter dt = 1e200 s"),
+        "{message}"
+    );
+    assert!(
+        message.contains("(1 + dt·α)·M + (dt·β + dt²)·K overflows"),
+        "{message}"
+    );
     first_step(1e100).unwrap();
 }
 
@@ -879,5 +885,8 @@ fn a_critical_step_out_of_floating_point_range_names_the_material_scale() {
     .unwrap();
     let message = critical_time_step(&system).unwrap_err().to_string();
     assert!(message.contains("stiffness-to-mass ratio"), "{message}");
-    assert!(message.contains("check the density and Young's modulus"), "{message}");
+    assert!(
+        message.contains("check the density and Young's modulus"),
+        "{message}"
+    );
 }

@@ -371,7 +371,12 @@ fn point_probe_is_exact_for_linear_fields_on_p1_and_names_a_point_outside() {
         );
     }
     let location = PointLocation::find(&mesh, &Vector3::new(0.1, 0.55, 0.61)).unwrap();
-    assert!(location.barycentric.iter().all(|&l| l >= 0.0 && l <= 1.0));
+    assert!(
+        location
+            .barycentric
+            .iter()
+            .all(|&l| (0.0..=1.0).contains(&l))
+    );
     let sum: f64 = location.barycentric.iter().sum();
     assert!((sum - 1.0).abs() < 1e-15, "Σ L = {sum}");
     // Outside, or not a number: an error naming the point, not a value of some tet.

@@ -138,7 +138,9 @@ impl Drop for RunnerGuard<'_> {
 /// call), so waiting for it is short and cannot deadlock; a panic cannot leave the slot half
 /// written (an `Option<ThreadId>` is written whole), so a poisoned lock is still valid.
 fn lock_ignoring_poison<T>(mutex: &Mutex<T>) -> MutexGuard<'_, T> {
-    mutex.lock().unwrap_or_else(std::sync::PoisonError::into_inner)
+    mutex
+        .lock()
+        .unwrap_or_else(std::sync::PoisonError::into_inner)
 }
 
 /// The `TetfemError` of a call made while another thread runs the Simulation.
@@ -183,8 +185,7 @@ impl PySimulation {
             Err(TryLockError::Poisoned(_)) => Err(raise(
                 py,
                 "TetfemError",
-                "Simulation is unusable: a step panicked part-way (a bug: please report it)"
-                    .into(),
+                "Simulation is unusable: a step panicked part-way (a bug: please report it)".into(),
             )),
         }
     }

@@ -168,13 +168,17 @@ impl Checkpoint {
             return Err(Error::invalid_parameter(
                 "checkpoint steps",
                 steps,
-                format!("the run starts after {start_steps} steps; a checkpoint cannot be before its start"),
+                format!(
+                    "the run starts after {start_steps} steps; a checkpoint cannot be before its start"
+                ),
             ));
         };
         let n = n as f64;
         let expected = start_time + n * dt;
         let tolerance = (n + 2.0) * f64::EPSILON * (start_time.abs() + n * dt);
-        if !((time - expected).abs() <= tolerance) {
+        // Written so that a NaN time (which compares false) is refused too.
+        let within = (time - expected).abs() <= tolerance;
+        if !within {
             return Err(Error::invalid_parameter(
                 "checkpoint time",
                 format!("{time:e} s"),

@@ -424,6 +424,8 @@ fn a_signal_during_the_set_up_exits_at_once() {
             leftovers(&out)
         );
     }
+}
+
 /// The peak RSS (VmHWM, kB) of a run of `steps` steps, read from the child's
 /// /proc/PID/status every 10 ms until it exits (VmHWM only grows, so the last read is the peak
 /// up to then); fails past `seconds`.
