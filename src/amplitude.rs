@@ -391,7 +391,10 @@ mod tests {
         ];
         for a in &kinds {
             assert!(a.derivatives(f64::NAN).iter().all(|v| v.is_nan()), "{a:?}");
-            assert!(a.value(f64::NAN).is_nan() && a.rate(f64::NAN).is_nan(), "{a:?}");
+            assert!(
+                a.value(f64::NAN).is_nan() && a.rate(f64::NAN).is_nan(),
+                "{a:?}"
+            );
             assert!(a.acceleration(f64::NAN).is_nan(), "{a:?}");
             let e = a.checked_derivatives(f64::NAN).unwrap_err();
             assert!(e.to_string().contains("time"), "{e}");
@@ -441,10 +444,26 @@ mod tests {
         // Zero at both ends of the run, not in between.
         let bump = Amplitude::table(vec![0.0, 0.5, 1.0], vec![0.0, 1.0, 0.0]).unwrap();
         assert!(!bump.vanishes_on(0.0, 1.0));
-        assert!(Amplitude::sine(1.0, 0.0, 0.0, 0.0).unwrap().vanishes_on(0.0, 1.0));
-        assert!(!Amplitude::sine(1.0, 0.0, 0.5, 0.0).unwrap().vanishes_on(0.0, 1.0));
-        assert!(!Amplitude::sine(1.0, 5.0, 0.0, 0.0).unwrap().vanishes_on(0.0, 1.0));
-        assert!(Amplitude::sine(0.0, 5.0, 0.3, 0.0).unwrap().vanishes_on(0.0, 1.0));
+        assert!(
+            Amplitude::sine(1.0, 0.0, 0.0, 0.0)
+                .unwrap()
+                .vanishes_on(0.0, 1.0)
+        );
+        assert!(
+            !Amplitude::sine(1.0, 0.0, 0.5, 0.0)
+                .unwrap()
+                .vanishes_on(0.0, 1.0)
+        );
+        assert!(
+            !Amplitude::sine(1.0, 5.0, 0.0, 0.0)
+                .unwrap()
+                .vanishes_on(0.0, 1.0)
+        );
+        assert!(
+            Amplitude::sine(0.0, 5.0, 0.3, 0.0)
+                .unwrap()
+                .vanishes_on(0.0, 1.0)
+        );
         assert!(Amplitude::ramp(2.0, 3.0).unwrap().vanishes_on(0.0, 1.0));
         assert!(!Amplitude::ramp(0.5, 3.0).unwrap().vanishes_on(0.0, 1.0));
         assert!(Amplitude::Constant(0.0).vanishes_on(0.0, 1.0));

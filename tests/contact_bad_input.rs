@@ -71,9 +71,8 @@ fn zero_sizes_and_bad_friction_are_refused_by_name() {
 /// the values at the ends of the ranges are taken.
 #[test]
 fn huge_friction_and_activation_distance_are_refused_with_the_range() {
-    let plane = || {
-        Obstacle::half_space("floor", Vector3::new(0.0, 0.0, -0.1), Vector3::z()).unwrap()
-    };
+    let plane =
+        || Obstacle::half_space("floor", Vector3::new(0.0, 0.0, -0.1), Vector3::z()).unwrap();
     let message = plane().with_friction(1e300).unwrap_err().to_string();
     assert!(message.contains("floor: friction = 1e300"), "{message}");
     assert!(message.contains("between 0 and 100"), "{message}");
@@ -85,8 +84,14 @@ fn huge_friction_and_activation_distance_are_refused_with_the_range() {
     let message = Contact::new(&cube(), vec![plane()], far)
         .unwrap_err()
         .to_string();
-    assert!(message.contains("contact activation_distance = 1e300"), "{message}");
-    assert!(message.contains("at most the body's bounding-box diagonal, 1.732"), "{message}");
+    assert!(
+        message.contains("contact activation_distance = 1e300"),
+        "{message}"
+    );
+    assert!(
+        message.contains("at most the body's bounding-box diagonal, 1.732"),
+        "{message}"
+    );
     let widest = ContactParameters {
         activation_distance: 1.7,
         ..parameters()

@@ -168,7 +168,9 @@ impl Checkpoint {
             return Err(Error::invalid_parameter(
                 "checkpoint steps",
                 steps,
-                format!("the run starts after {start_steps} steps; a checkpoint cannot be before its start"),
+                format!(
+                    "the run starts after {start_steps} steps; a checkpoint cannot be before its start"
+                ),
             ));
         };
         let n = n as f64;

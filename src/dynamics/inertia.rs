@@ -169,7 +169,10 @@ mod tests {
     fn matrix(dense: bool, diagonal: &[f64]) -> CscMatrix {
         let n = diagonal.len();
         let (col_ptr, row_idx): (Vec<usize>, Vec<usize>) = match dense {
-            true => ((0..=n).map(|j| j * n).collect(), (0..n * n).map(|e| e % n).collect()),
+            true => (
+                (0..=n).map(|j| j * n).collect(),
+                (0..n * n).map(|e| e % n).collect(),
+            ),
             false => ((0..=n).collect(), (0..n).collect()),
         };
         let values = (0..row_idx.len())
@@ -214,7 +217,10 @@ mod tests {
         let candidate = 5.0 * (1.0 + eta / 2.0);
         let certified = certify(&k, &mass, candidate, 10.0, Some(1 << 30)).unwrap();
         assert_eq!(certified.certificate, Certificate::Inertia);
-        assert!(certified.sigma >= 5.0 * (1.0 + eta), "{certified:?}, η = {eta:e}");
+        assert!(
+            certified.sigma >= 5.0 * (1.0 + eta),
+            "{certified:?}, η = {eta:e}"
+        );
         assert!(certified.factorizations >= 2, "{certified:?}");
         // Above the margin the candidate itself is proven at once.
         let above = 5.0 * (1.0 + 2.0 * eta);

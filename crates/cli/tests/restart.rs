@@ -375,7 +375,10 @@ fn a_resume_cross_checks_the_checkpoints_step_time_and_csv() {
     let time = format!("checkpoint time = {:e} s", good.state.time);
     assert!(message.contains(&time), "{message}");
     assert!(message.contains("step 60 of dt = 5e-6 s"), "{message}");
-    assert!(message.contains(&format!("is at t = {:e} s", 60.0 * 5e-6)), "{message}");
+    assert!(
+        message.contains(&format!("is at t = {:e} s", 60.0 * 5e-6)),
+        "{message}"
+    );
 
     let mut nan = good.clone();
     nan.state.time = f64::NAN;
@@ -393,7 +396,10 @@ fn a_resume_cross_checks_the_checkpoints_step_time_and_csv() {
     assert!(message.contains("scene.csv:102"), "{message}");
     let row = format!("time_s = {:e}, step = 100", 100.0 * 4e-6);
     assert!(message.contains(&row), "{message}");
-    assert!(message.contains(&format!("t = {:e} s", 100.0 * 5e-6)), "{message}");
+    assert!(
+        message.contains(&format!("t = {:e} s", 100.0 * 5e-6)),
+        "{message}"
+    );
     let _ = std::fs::remove_dir_all(&other);
 
     // The checkpoint and CSV as written resume.

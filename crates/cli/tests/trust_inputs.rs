@@ -215,7 +215,10 @@ fn a_tiny_displacement_is_reported_not_rounded_to_zero() {
 /// The amplitude warnings of a scene (issue 33), with the load of `amplitude` on the free end.
 fn amplitude_warnings(analysis: &str, amplitude: &str) -> Vec<Warning> {
     let text = BASE.replace("[analysis]\ntype = \"static\"\n", analysis);
-    let load = TIP_LOAD.replace("\ntotal_force", &format!("\namplitude = {amplitude}\ntotal_force"));
+    let load = TIP_LOAD.replace(
+        "\ntotal_force",
+        &format!("\namplitude = {amplitude}\ntotal_force"),
+    );
     Scene::parse(&format!("{text}{CLAMP}{load}"), "inline", Path::new("."))
         .unwrap()
         .build()
@@ -247,7 +250,10 @@ fn amplitudes_that_never_act_or_alias_are_warnings_naming_the_key() {
         };
         assert_eq!(warnings, vec![expected.clone()], "{zero}");
         let text = expected.to_string();
-        assert!(text.contains("loads[0].amplitude is 0 over the whole run (t = 0 to 0.5 s)"), "{text}");
+        assert!(
+            text.contains("loads[0].amplitude is 0 over the whole run (t = 0 to 0.5 s)"),
+            "{text}"
+        );
     }
     // 2 kHz at dt = 1 ms: half a sample per period.
     let aliased = amplitude_warnings(DYNAMIC, "{ sine = { frequency_hz = 2000.0 } }");
@@ -259,7 +265,13 @@ fn amplitudes_that_never_act_or_alias_are_warnings_naming_the_key() {
             dt: 1e-3
         }]
     );
-    assert!(aliased[0].to_string().contains("Nyquist frequency 1/(2·dt) = 500 Hz"), "{}", aliased[0]);
+    assert!(
+        aliased[0]
+            .to_string()
+            .contains("Nyquist frequency 1/(2·dt) = 500 Hz"),
+        "{}",
+        aliased[0]
+    );
     for fine in [
         "{ table = [[0.0, 0.0], [0.25, 1.0]] }",
         "{ sine = { frequency_hz = 50.0 } }",
@@ -268,7 +280,10 @@ fn amplitudes_that_never_act_or_alias_are_warnings_naming_the_key() {
         assert_eq!(amplitude_warnings(DYNAMIC, fine), vec![], "{fine}");
     }
     // A static scene takes the ramp at t = 1 s, where it is 0.25.
-    let sampled = amplitude_warnings("[analysis]\ntype = \"static\"\n", "{ ramp = { start = 0.0, end = 4.0 } }");
+    let sampled = amplitude_warnings(
+        "[analysis]\ntype = \"static\"\n",
+        "{ ramp = { start = 0.0, end = 4.0 } }",
+    );
     assert_eq!(
         sampled,
         vec![Warning::StaticAmplitude {
@@ -277,7 +292,13 @@ fn amplitudes_that_never_act_or_alias_are_warnings_naming_the_key() {
             value: 0.25
         }]
     );
-    assert!(sampled[0].to_string().contains("at t = 1 s, where it is 0.25"), "{}", sampled[0]);
+    assert!(
+        sampled[0]
+            .to_string()
+            .contains("at t = 1 s, where it is 0.25"),
+        "{}",
+        sampled[0]
+    );
     let constant = amplitude_warnings("[analysis]\ntype = \"static\"\n", "{ constant = 2.0 }");
     assert_eq!(constant, vec![]);
 }

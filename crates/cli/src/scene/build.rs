@@ -11,7 +11,6 @@ use nalgebra::Matrix3;
 
 use super::{AmplitudeRef, AmplitudeSpec, MeshSpec, RegionSelector, Scene, Selector, SplitSpec};
 use tetfem::amplitude::{Amplitude, STATIC_TIME};
-use tetfem::warning::Warning;
 use tetfem::boundary_motion::{BoundaryMotion, Motion, RigidMotion};
 use tetfem::constraints::Constraints;
 use tetfem::dynamics::TimeData;
@@ -22,6 +21,7 @@ use tetfem::material::Material;
 use tetfem::materials::{MaterialAssignment, MaterialMap, attribute_tets, volume_group_tets};
 use tetfem::mesh::io::{ImportedMesh, TET10_KEPT_AS_CORNERS, read_gmsh_as, read_tetgen_as};
 use tetfem::mesh::{BoundaryFace, BoxSplit, CellType, Tet4, TetMesh};
+use tetfem::warning::Warning;
 
 use super::SceneElement;
 

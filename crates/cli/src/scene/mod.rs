@@ -632,7 +632,10 @@ impl Scene {
                     err("dt", "a dynamic analysis needs a time step dt (s)".into())
                 })?;
                 if !(dt.is_finite() && dt > 0.0) {
-                    return Err(err("dt", format!("dt = {} must be finite and > 0", short_number(dt))));
+                    return Err(err(
+                        "dt",
+                        format!("dt = {} must be finite and > 0", short_number(dt)),
+                    ));
                 }
                 let duration = a.duration.ok_or_else(|| {
                     err("duration", "a dynamic analysis needs a duration (s)".into())
@@ -661,7 +664,10 @@ impl Scene {
                     ("damping.stiffness", damping.stiffness),
                 ] {
                     if !(v.is_finite() && v >= 0.0) {
-                        return Err(err(key, format!("{} must be finite and ≥ 0", short_number(v))));
+                        return Err(err(
+                            key,
+                            format!("{} must be finite and ≥ 0", short_number(v)),
+                        ));
                     }
                 }
                 let initial_velocity = a.initial_velocity.unwrap_or([0.0; 3]);
