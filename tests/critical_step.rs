@@ -353,11 +353,11 @@ fn rayleigh_damping_lowers_the_critical_step_as_the_scheme_requires() {
         "{:e} ≪ {theory:e}",
         step.dt
     );
-    assert!(
-        (step.dt / no_damping - 0.774).abs() < 1e-3,
-        "{}",
-        step.dt / no_damping
-    );
+    // The ratio to the undamped step, √(1 + ξ²) − ξ = 0.7733 at ξ = 0.26 (the 0.774×):
+    // at the certified ω̄ ≤ (1 + 5e-4)·ω, ξ is at most 1.3e-4 larger, and the ratio's slope in ξ
+    // is below 1, hence 3e-4.
+    let ratio = step.dt / no_damping;
+    assert!((ratio - theory * omega / 2.0).abs() < 3e-4, "{ratio}");
 
     // The top mode's displacement x = M^(−1/2)·z.
     let m = lumped(&damped);
