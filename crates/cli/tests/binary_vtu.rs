@@ -204,7 +204,9 @@ fn static_dynamic_and_modal_scene_outputs_read_back_identically_in_both_formats(
         for name in [
             "stress",
             "strain",
-            "principal_stress",
+            "principal_stress_1",
+            "principal_stress_2",
+            "principal_stress_3",
             "stress_nodal",
             "von_mises_nodal",
             "velocity",
@@ -348,7 +350,9 @@ fn a_dynamic_frame_s_tensors_equal_the_static_writer_s_for_the_same_u() {
         for name in [
             "stress",
             "strain",
-            "principal_stress",
+            "principal_stress_1",
+            "principal_stress_2",
+            "principal_stress_3",
             "stress_nodal",
             "von_mises_nodal",
             "von_mises",

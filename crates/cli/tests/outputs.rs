@@ -342,7 +342,9 @@ fn result_files_hold_stress_tensors_principal_and_nodal_stresses() {
     for (name, expected) in [
         ("stress", [0.0, 0.0, 0.0, tau, 0.0, 0.0].as_slice()),
         ("stress_nodal", [0.0, 0.0, 0.0, tau, 0.0, 0.0].as_slice()),
-        ("principal_stress", [tau, 0.0, -tau].as_slice()),
+        ("principal_stress_1", [tau].as_slice()),
+        ("principal_stress_2", [0.0].as_slice()),
+        ("principal_stress_3", [-tau].as_slice()),
     ] {
         let values = &arrays[name];
         assert_eq!(values.len() % expected.len(), 0, "{name}");
@@ -359,4 +361,16 @@ fn result_files_hold_stress_tensors_principal_and_nodal_stresses() {
     }
     assert!(arrays["material_id"].iter().all(|&id| id == 0.0));
     assert_eq!(arrays["TimeValue"], vec![0.25]);
+    // For ParaView: the material an integer (coloured by category), the principal stresses
+    // three named scalars (a 3-vector would offer a meaningless magnitude).
+    let file = vtu::read_vtu(&path);
+    assert_eq!(file.array("material_id").vtk_type, "Int32");
+    assert!(!file.has("principal_stress"));
+    for k in 1..=3 {
+        let array = file.array(&format!("principal_stress_{k}"));
+        assert_eq!(
+            (array.components, array.values.len()),
+            (1, mesh.tet_count())
+        );
+    }
 }

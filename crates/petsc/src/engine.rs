@@ -567,6 +567,8 @@ pub fn solve_scene(petsc: &Petsc, scene: &Scene, options: EngineOptions) -> Resu
         .map(|(displacement, probe)| ProbeValue {
             name: probe.name.clone(),
             displacement,
+            // The distributed run gathers no element's displacement for a point's stress.
+            stress_pa: None,
         })
         .collect();
     let mut max_displacement = [local

@@ -12,8 +12,10 @@ use crate::ffi::{Matrix, Petsc, Vector};
 use crate::partition::Partition;
 use crate::pvtu::PvtuFiles;
 
-/// Mean displacement of each probe (3 per probe), from this rank's entries `local` of a
-/// distributed vector (its owned DOFs, in PETSc order), summed over the ranks. Collective.
+/// What each probe records (3 per probe): the mean displacement of its nodes, or for a point
+/// probe Σᵢ Nᵢ uᵢ over the nodes of the tet holding the point ([`Probe::displacement`]), from
+/// this rank's entries `local` of a distributed vector (its owned DOFs, in PETSc order),
+/// summed over the ranks. Collective.
 pub fn probe_means(
     petsc: &Petsc,
     partition: &Partition,
@@ -24,12 +26,15 @@ pub fn probe_means(
     let mut sums: Vec<f64> = Vec::with_capacity(3 * probes.len());
     for probe in probes {
         let mut sum = [0.0; 3];
-        for &old in &probe.nodes {
+        for (j, &old) in probe.nodes.iter().enumerate() {
             let new = partition.new_of_old(old);
             if nodes.contains(&new) {
+                // A node set's nodes count alike (their mean below); a point's by its shape
+                // function there.
+                let weight = probe.point.as_ref().map_or(1.0, |p| p.weights[j]);
                 let i = 3 * (new - nodes.start);
                 for k in 0..3 {
-                    sum[k] += local[i + k];
+                    sum[k] += weight * local[i + k];
                 }
             }
         }
@@ -40,7 +45,10 @@ pub fn probe_means(
         .iter()
         .zip(sums.chunks_exact(3))
         .map(|(probe, sum)| {
-            let count = probe.nodes.len().max(1) as f64;
+            let count = match probe.point {
+                Some(_) => 1.0,
+                None => probe.nodes.len().max(1) as f64,
+            };
             [sum[0] / count, sum[1] / count, sum[2] / count]
         })
         .collect())

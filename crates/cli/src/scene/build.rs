@@ -24,17 +24,49 @@ use tetfem::mesh::{BoundaryFace, BoxSplit, CellType, Tet4, TetMesh};
 use tetfem::warning::Warning;
 
 use super::SceneElement;
+use tetfem::output::PointLocation;
 
-/// A named node set whose mean displacement is recorded.
+/// A named node set whose mean displacement is recorded, or a point whose displacement (and,
+/// in a static run, stress) is.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Probe {
     /// The probe's name.
     pub name: String,
-    /// Its nodes (non-empty).
+    /// Its nodes (non-empty): the node set, or for a point probe the nodes of the tet holding
+    /// the point.
     pub nodes: Vec<usize>,
+    /// For a point probe (`at`): where the point lies and the weights of `nodes` there.
+    pub point: Option<PointProbe>,
+}
+
+/// A probe at a point: the tet holding it and its shape functions' values there.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PointProbe {
+    /// The point (m).
+    pub at: [f64; 3],
+    /// Its tet and barycentric coordinates.
+    pub location: PointLocation,
+    /// The shape functions Nᵢ of the tet's nodes at the point (dimensionless, Σ = 1): u(x) =
+    /// Σᵢ Nᵢ uᵢ.
+    pub weights: Vec<f64>,
 }
 
 impl Probe {
+    /// What the probe records of a node-major displacement (length units): the mean of its
+    /// nodes' displacements, or for a point probe u(x) = Σᵢ Nᵢ(x) uᵢ of the tet holding it.
+    pub fn displacement(&self, displacement: &[f64]) -> Vector3<f64> {
+        let Some(point) = &self.point else {
+            return self.mean_displacement(displacement);
+        };
+        let mut sum = Vector3::zeros();
+        for (&n, &w) in self.nodes.iter().zip(&point.weights) {
+            if let Some(u) = displacement.get(3 * n..3 * n + 3) {
+                sum += Vector3::new(u[0], u[1], u[2]) * w;
+            }
+        }
+        sum
+    }
+
     /// Mean displacement of the probe's nodes (length units).
     pub fn mean_displacement(&self, displacement: &[f64]) -> Vector3<f64> {
         let mut sum = Vector3::zeros();
@@ -104,6 +136,37 @@ impl<C: CellType> BuiltScene<C> {
 }
 
 impl Scene {
+    /// The probe `name` at the point `at` of a `[[probes]]` entry (`key`, `span`): the tet
+    /// holding it and its shape functions' values there; a point outside the mesh is an error
+    /// naming `<key>.at`.
+    fn point_probe<E: SceneElement>(
+        &self,
+        mesh: &TetMesh<E>,
+        name: &str,
+        at: [f64; 3],
+        key: &str,
+        span: &Range<usize>,
+    ) -> Result<Probe> {
+        let location = PointLocation::find(mesh, &Vector3::from(at)).map_err(|e| {
+            let message = match e {
+                Error::InvalidParameter { requirement, .. } => requirement,
+                other => other.to_string(),
+            };
+            self.error(&format!("{key}.at"), span, format!("{at:?} {message}"))
+        })?;
+        let mut weights = vec![0.0; E::NODES];
+        E::shape_values_at(&location.barycentric, &mut weights);
+        Ok(Probe {
+            name: name.to_string(),
+            nodes: mesh.tets()[location.tet].as_ref().to_vec(),
+            point: Some(PointProbe {
+                at,
+                location,
+                weights,
+            }),
+        })
+    }
+
     /// Builds the mesh (generating or reading it), the material, the constraints, the loads and
     /// the probes. Selections that match nothing are errors naming the scene entry and line.
     /// A scene of `mesh.order = 2` is an error here (naming the key): build it with
@@ -348,9 +411,21 @@ impl Scene {
                     ),
                 ));
             }
-            probes.push(Probe {
-                name: p.name.clone(),
-                nodes: ctx.nodes(&p.select, &key, &span)?,
+            probes.push(match (&p.select, p.at) {
+                (Some(select), None) => Probe {
+                    name: p.name.clone(),
+                    nodes: ctx.nodes(select, &key, &span)?,
+                    point: None,
+                },
+                (None, Some(at)) => self.point_probe(&mesh, &p.name, at, &key, &span)?,
+                _ => {
+                    return Err(self.error(
+                        &key,
+                        &span,
+                        "needs exactly one of `where` (a node set: their mean displacement) \
+                         and `at` (a point [x, y, z] in m: u and σ there)",
+                    ));
+                }
             });
         }
         Ok(BuiltScene {

@@ -347,6 +347,7 @@ impl DynamicSetup {
         let probes = vec![Probe {
             name: "tip".into(),
             nodes: cantilever.tip_nodes(&mesh),
+            point: None,
         }];
         let reactions = super::DynamicReactions::single(
             released_reactions(&system, &mesh, &material, gravity)?,
@@ -658,7 +659,7 @@ fn run_dynamic_locked<E: SceneElement>(
         let u = system.expand_at(state.time, &state.displacement)?;
         let mut means = Vec::with_capacity(setup.probes.len());
         for (probe, range) in setup.probes.iter().zip(probes.iter_mut()) {
-            let mean: [f64; 3] = probe.mean_displacement(&u).into();
+            let mean: [f64; 3] = probe.displacement(&u).into();
             range.last = mean;
             for a in 0..3 {
                 range.min[a] = range.min[a].min(mean[a]);

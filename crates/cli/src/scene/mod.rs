@@ -26,7 +26,7 @@ pub use accuracy::{
     AccuracyPrediction, AccuracyReport, AccuracyTarget, AccuracyTrial, DEFAULT_COST_EXPONENT,
     DEFAULT_MAX_DOFS, MAX_REFINEMENT_RATIO,
 };
-pub use build::{BuiltScene, Probe};
+pub use build::{BuiltScene, PointProbe, Probe};
 pub use critical::{CriticalStepReport, critical_step_of};
 pub use dynamic::{
     DynamicOutputs, DynamicOverrides, DynamicRun, DynamicSetup, DynamicSummary, EnergyTerms,
@@ -140,6 +140,12 @@ total_force = [0.0, 0.0, -1000.0]
 [[probes]]                          # mean displacement of a node set, in the CSV series
 name = "tip"
 where = { plane = { axis = "x", at = 1.0 } }
+
+[[probes]]                          # or at a point inside the mesh (instead of where): u there
+name = "inside"                     # from the shape functions of the tet holding it (columns
+at = [0.5, 0.05, 0.05]              # <name>_ux_m..); static runs also its stress σ there, that
+                                    # tet's own (linear in a 10-node tet; <name>_sxx_pa, _syy_pa,
+                                    # _szz_pa, _sxy_pa, _syz_pa, _sxz_pa; summary stress_pa); m
 
 [analysis]
 type = "static"                     # default "static"; or "dynamic", which needs dt, duration:

@@ -17,6 +17,9 @@ use tetfem::output::{
 };
 use tetfem::statics::StaticSolver;
 
+/// The CSV column stems of a point probe's stress, in the `.vtu`'s tensor order.
+const STRESS_COLUMNS: [&str; 6] = ["sxx", "syy", "szz", "sxy", "syz", "sxz"];
+
 /// Choices a caller (the command line) makes on top of the scene.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct RunOptions {
@@ -26,13 +29,17 @@ pub struct RunOptions {
     pub no_files: bool,
 }
 
-/// The mean displacement of one probe.
+/// The mean displacement of one probe, or its displacement and stress at its point.
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
 pub struct ProbeValue {
     /// The probe's name.
     pub name: String,
-    /// Mean displacement (m) of its nodes.
+    /// Mean displacement (m) of its nodes; for a point probe the displacement at the point.
     pub displacement: [f64; 3],
+    /// A point probe's Cauchy stress at the point (Pa; XX, YY, ZZ, XY, YZ, XZ), from the
+    /// shape functions of the tet holding it and the model that ran (absent for a node set).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub stress_pa: Option<[f64; 6]>,
 }
 
 /// The reaction resultant of one `[[constraints]]` entry (static runs, and each step of dynamic
@@ -340,14 +347,7 @@ pub(super) fn run_static_on<E: SceneElement>(
         false => None,
     };
     let magnitude = displacement_magnitude(u);
-    let probes: Vec<ProbeValue> = built
-        .probes
-        .iter()
-        .map(|p| ProbeValue {
-            name: p.name.clone(),
-            displacement: p.mean_displacement(u).into(),
-        })
-        .collect();
+    let probes = probe_values(&built, &model, linear, u)?;
     let reaction_rows = match &reactions {
         Some(r) => Some(
             built
@@ -444,6 +444,44 @@ pub(super) fn run_static_on<E: SceneElement>(
     Ok(summary)
 }
 
+/// Each probe's value at the solution `u`: a point probe's stress is the linear model's with
+/// each tet's material when `linear`, else `model`'s own.
+fn probe_values<E: SceneElement>(
+    built: &BuiltScene<E>,
+    model: &ModelMap,
+    linear: bool,
+    u: &[f64],
+) -> Result<Vec<ProbeValue>> {
+    built
+        .probes
+        .iter()
+        .map(|p| {
+            let stress = match &p.point {
+                None => None,
+                Some(point) => {
+                    let s = match linear {
+                        true => point.location.stress(&built.mesh, &built.materials, u)?,
+                        false => point.location.model_stress(&built.mesh, model, u)?,
+                    };
+                    Some([
+                        s[(0, 0)],
+                        s[(1, 1)],
+                        s[(2, 2)],
+                        s[(0, 1)],
+                        s[(1, 2)],
+                        s[(0, 2)],
+                    ])
+                }
+            };
+            Ok(ProbeValue {
+                name: p.name.clone(),
+                displacement: p.displacement(u).into(),
+                stress_pa: stress,
+            })
+        })
+        .collect()
+}
+
 #[allow(clippy::too_many_arguments)]
 fn write_static_outputs<E: SceneElement>(
     scene: &Scene,
@@ -498,11 +536,17 @@ fn write_static_outputs<E: SceneElement>(
             for c in ["ux", "uy", "uz"] {
                 columns.push(format!("{}_{c}_m", p.name));
             }
+            if p.point.is_some() {
+                for c in STRESS_COLUMNS {
+                    columns.push(format!("{}_{c}_pa", p.name));
+                }
+            }
         }
         let mut csv = CsvSeries::new(dir.join(format!("{}_probes.csv", out.stem)), columns)?;
         let mut row = vec![0.0];
         for p in &summary.probes {
             row.extend(p.displacement);
+            row.extend(p.stress_pa.iter().flatten());
         }
         csv.push(&row)?;
         files.push(csv.path().to_path_buf());

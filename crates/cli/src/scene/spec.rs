@@ -812,7 +812,8 @@ pub enum PngField {
     VonMises,
 }
 
-/// `[[probes]]`: the mean displacement of a node set, recorded in the time series.
+/// `[[probes]]`: the mean displacement of a node set (`where`), or the displacement and the
+/// stress at a point (`at`), recorded in the time series. Exactly one of the two.
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct ProbeSpec {
@@ -820,5 +821,7 @@ pub struct ProbeSpec {
     pub name: String,
     /// The nodes.
     #[serde(rename = "where")]
-    pub select: Selector,
+    pub select: Option<Selector>,
+    /// A point (m) inside the mesh: u and σ from the shape functions of the tet holding it.
+    pub at: Option<[f64; 3]>,
 }

@@ -52,6 +52,7 @@ pub(crate) const STATIC: &[(&str, &str)] = &[
     ("max_von_mises", "Pa"),
     ("relative_residual", "1"),
     ("probes.displacement", "m"),
+    ("probes.stress_pa", "Pa"),
     ("applied_load_n", "N"),
     ("reactions.force_n", "N"),
     ("reactions.moment_nm", "N·m"),
@@ -112,21 +113,8 @@ pub(crate) fn to_json_with_units(summary: &impl Serialize, units: &[(&str, &str)
     };
     if let Some(object) = value.as_object_mut() {
         let present = |key: &str| {
-            let mut node = Some(&*object);
-            let mut parts = key.split('.').peekable();
-            while let (Some(map), Some(part)) = (node, parts.next()) {
-                let mut child = map.get(part);
-                // Array fields (probes, reactions, modes): look into their first element.
-                while let Some(serde_json::Value::Array(items)) = child {
-                    child = items.first();
-                }
-                match (child, parts.peek()) {
-                    (Some(v), None) => return !v.is_null(),
-                    (Some(serde_json::Value::Object(m)), Some(_)) => node = Some(m),
-                    _ => return false,
-                }
-            }
-            false
+            let parts: Vec<&str> = key.split('.').collect();
+            has_path(&*object, &parts)
         };
         let table: serde_json::Map<String, serde_json::Value> = units
             .iter()
@@ -136,4 +124,21 @@ pub(crate) fn to_json_with_units(summary: &impl Serialize, units: &[(&str, &str)
         object.insert("units".into(), serde_json::Value::Object(table));
     }
     value.to_string()
+}
+
+/// Whether `parts` leads to a non-null value under `map`; array fields (probes, reactions,
+/// modes) count if any of their elements has it (a node-set probe has no `stress_pa`, a point
+/// probe after it has).
+fn has_path(map: &serde_json::Map<String, serde_json::Value>, parts: &[&str]) -> bool {
+    fn value_has(value: &serde_json::Value, rest: &[&str]) -> bool {
+        match value {
+            serde_json::Value::Array(items) => items.iter().any(|v| value_has(v, rest)),
+            serde_json::Value::Object(m) if !rest.is_empty() => has_path(m, rest),
+            v => rest.is_empty() && !v.is_null(),
+        }
+    }
+    match parts.split_first() {
+        Some((first, rest)) => map.get(*first).is_some_and(|v| value_has(v, rest)),
+        None => false,
+    }
 }
