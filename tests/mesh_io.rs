@@ -309,6 +309,8 @@ fn tetgen_one_based_with_markers_and_comments() {
 #[test]
 fn a_tetgen_edge_file_is_counted_as_skipped() {
     let prefix = tetgen_case("edges_tg", NODE, ELE);
+    // A previous run's .edge file would be read as this one's.
+    let _ = std::fs::remove_file(prefix.with_extension("edge"));
     let without = read_tetgen(&prefix).unwrap();
     assert!(!without.skipped_elements.contains_key(SKIPPED_EDGES));
     std::fs::write(

@@ -2,13 +2,14 @@
 //! or a Gmsh/TetGen file; node, tet and face selections as numpy index arrays.
 
 use std::collections::HashMap;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 use nalgebra::Vector3;
+use pyo3::exceptions::PyUserWarning;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
-use tetfem::mesh::io::{ImportedMesh, read_mesh};
+use tetfem::mesh::io::{ImportedMesh, PhysicalGroup, TET10_KEPT_AS_CORNERS, read_mesh};
 use tetfem::mesh::{BoundaryFace, TetMesh};
 
 use crate::arrays::{self, floats, index_rows, index_vector, indices};
@@ -27,6 +28,8 @@ pub struct MeshData {
     pub boundary: Vec<BoundaryFace>,
     /// Boundary face index by its sorted node triple.
     face_index: HashMap<[usize; 3], usize>,
+    /// What reading the file changed, as sentences (a quadratic file read as its corners).
+    read_notes: Vec<String>,
 }
 
 impl MeshData {
@@ -43,6 +46,7 @@ impl MeshData {
             imported,
             boundary,
             face_index,
+            read_notes: Vec::new(),
         })
     }
 
@@ -132,6 +136,34 @@ impl MeshData {
         })
     }
 
+    /// The imported mesh, if it has `.face` markers and `marker` among them; else an
+    /// `InvalidInputError` naming the marker and listing those the file has.
+    fn face_marker_mesh(&self, py: Python<'_>, marker: i64) -> PyResult<&ImportedMesh> {
+        let imported = self.imported(py, "a face marker selection")?;
+        let counts = imported.face_marker_counts();
+        if imported.face_markers.is_none() {
+            return Err(invalid(
+                py,
+                "marker",
+                marker,
+                "needs a TetGen mesh with a .face file with a marker column",
+            ));
+        }
+        if !counts.contains_key(&marker) {
+            let known: Vec<String> = counts
+                .iter()
+                .map(|(m, n)| format!("{m} ({n} faces)"))
+                .collect();
+            return Err(invalid(
+                py,
+                "marker",
+                marker,
+                &format!("the mesh has no face marker {marker} (it has: {})", known.join(", ")),
+            ));
+        }
+        Ok(imported)
+    }
+
     fn group(&self, py: Python<'_>, name: &str) -> PyResult<&tetfem::mesh::io::PhysicalGroup> {
         let imported = self.imported(py, "a group selection")?;
         imported.group(name).ok_or_else(|| {
@@ -151,6 +183,121 @@ impl MeshData {
             )
         })
     }
+}
+
+/// `mesh` as if read from a file with the physical groups `groups` (see `Mesh(points, tets,
+/// groups)`); every index checked against the mesh.
+fn with_groups(
+    py: Python<'_>,
+    mesh: &TetMesh,
+    groups: &Bound<'_, PyAny>,
+) -> PyResult<ImportedMesh> {
+    let mut out: Vec<PhysicalGroup> = Vec::new();
+    for (i, group) in groups.try_iter()?.enumerate() {
+        let group = group?;
+        let key = format!("groups[{i}]");
+        let group = group.cast::<PyDict>().map_err(|_| {
+            invalid(
+                py,
+                &key,
+                "not a dict",
+                "must be a dict with dim, tag and optional name, nodes, triangles, tets",
+            )
+        })?;
+        let dim = required(py, group, &key, "dim")?;
+        let dim = match usize::try_from(dim) {
+            Ok(d) if d <= 3 => d,
+            _ => return Err(invalid(py, &format!("{key}.dim"), dim, "must be 0, 1, 2 or 3")),
+        };
+        let tag = required(py, group, &key, "tag")?;
+        let tag = i32::try_from(tag).map_err(|_| {
+            invalid(py, &format!("{key}.tag"), tag, "must fit a 32-bit integer (a Gmsh tag)")
+        })?;
+        let name: Option<String> = match group.get_item("name")? {
+            Some(v) if !v.is_none() => Some(v.extract::<String>().map_err(|_| {
+                invalid(py, &format!("{key}.name"), v.to_string(), "must be a str or None")
+            })?),
+            _ => None,
+        };
+        let list = |field: &str, columns: Option<usize>| -> PyResult<Vec<usize>> {
+            match group.get_item(field)? {
+                Some(v) if !v.is_none() => Ok(indices(py, &v, &format!("{key}.{field}"), columns)?.0),
+                _ => Ok(Vec::new()),
+            }
+        };
+        let mut nodes = list("nodes", None)?;
+        let triangles: Vec<[usize; 3]> = list("triangles", Some(3))?
+            .chunks_exact(3)
+            .map(|t| [t[0], t[1], t[2]])
+            .collect();
+        let tets = list("tets", None)?;
+        if let Some(&bad) = tets.iter().find(|&&t| t >= mesh.tet_count()) {
+            return Err(invalid(
+                py,
+                &format!("{key}.tets"),
+                bad,
+                &format!("tet {bad} does not exist (the mesh has {} tets)", mesh.tet_count()),
+            ));
+        }
+        nodes.extend(triangles.iter().flatten());
+        nodes.extend(tets.iter().flat_map(|&t| mesh.tets()[t]));
+        if let Some(&bad) = nodes.iter().find(|&&n| n >= mesh.node_count()) {
+            return Err(invalid(
+                py,
+                &format!("{key}.nodes"),
+                bad,
+                &format!("node {bad} does not exist (the mesh has {} nodes)", mesh.node_count()),
+            ));
+        }
+        nodes.sort_unstable();
+        nodes.dedup();
+        out.push(PhysicalGroup {
+            dim,
+            tag,
+            name,
+            triangles,
+            tets,
+            nodes,
+        });
+    }
+    out.sort_by_key(|g| (g.dim, g.tag));
+    Ok(ImportedMesh {
+        mesh: mesh.clone(),
+        node_ids: (0..mesh.node_count() as u64).collect(),
+        tet_ids: (0..mesh.tet_count() as u64).collect(),
+        groups: out,
+        node_markers: None,
+        tet_attributes: None,
+        face_markers: None,
+        skipped_elements: Default::default(),
+        unused_nodes: 0,
+    })
+}
+
+/// The integer entry `field` of a group dict, required.
+fn required(py: Python<'_>, group: &Bound<'_, PyDict>, key: &str, field: &str) -> PyResult<i64> {
+    let value = group
+        .get_item(field)?
+        .ok_or_else(|| invalid(py, &format!("{key}.{field}"), "missing", "is required"))?;
+    value.extract::<i64>().map_err(|_| {
+        invalid(py, &format!("{key}.{field}"), value.to_string(), "must be an integer")
+    })
+}
+
+/// The warning for a quadratic file read as 4-node tets (its corners), naming the file, the
+/// order and what was dropped; `None` for a linear file.
+fn quadratic_note(path: &Path, imported: &ImportedMesh) -> Option<String> {
+    let tets = *imported.skipped_elements.get(TET10_KEPT_AS_CORNERS)?;
+    Some(format!(
+        "{}: the file holds {tets} 10-node tets (order 2, {} nodes); tetfem.Mesh has 4-node \
+         tets (order 1), so it kept their corners ({} nodes) and dropped the {} edge and \
+         other unused nodes: analyses of this Mesh are linear (P1). For P2, run a scene with \
+         this mesh file on the tetfem command line",
+        path.display(),
+        imported.mesh.node_count() + imported.unused_nodes,
+        imported.mesh.node_count(),
+        imported.unused_nodes
+    ))
 }
 
 fn sorted(mut nodes: [usize; 3]) -> [usize; 3] {
@@ -186,8 +333,21 @@ impl PyMesh {
     /// A mesh from node coordinates ``points`` (shape (n, 3), length units) and tets ``tets``
     /// (shape (m, 4), node indices from 0). Raises ``MeshError`` for NaN or infinite
     /// coordinates, out-of-range or repeated node indices, degenerate or duplicate tets.
+    ///
+    /// ``groups`` (optional) gives it physical groups as ``Mesh.read`` does for a Gmsh file
+    /// (for ``nodes_in_group``, ``faces_in_group``, ``tets_in_group`` and region materials): a
+    /// list of dicts with ``dim`` (0 points … 3 volumes), ``tag`` (int), ``name`` (str or
+    /// None) and any of ``nodes`` (node indices), ``triangles`` (shape (f, 3), node indices)
+    /// and ``tets`` (tet indices); a group's nodes are its ``nodes`` and those of its
+    /// triangles and tets. ``tetfem.from_meshio`` builds them from Gmsh physical tags.
     #[new]
-    fn new(py: Python<'_>, points: &Bound<'_, PyAny>, tets: &Bound<'_, PyAny>) -> PyResult<Self> {
+    #[pyo3(signature = (points, tets, groups = None))]
+    fn new(
+        py: Python<'_>,
+        points: &Bound<'_, PyAny>,
+        tets: &Bound<'_, PyAny>,
+        groups: Option<&Bound<'_, PyAny>>,
+    ) -> PyResult<Self> {
         // Non-finite coordinates are left to the library, whose message names the node.
         let (flat, _) = floats(py, points, "points", Some(3), true)?;
         let (tet_flat, _) = indices(py, tets, "tets", Some(4))?;
@@ -200,7 +360,11 @@ impl PyMesh {
             .map(|t| [t[0], t[1], t[2], t[3]])
             .collect();
         let mesh = py.detach(|| TetMesh::new(nodes, tets)).or_raise(py)?;
-        Self::of(py, mesh, None)
+        let imported = match groups {
+            Some(groups) => Some(with_groups(py, &mesh, groups)?),
+            None => None,
+        };
+        Self::of(py, mesh, imported)
     }
 
     /// The box [min, max] (length units) in ``cells`` = (nx, ny, nz) cubes, each split into
@@ -232,14 +396,29 @@ impl PyMesh {
     }
 
     /// Reads a Gmsh ``.msh`` (4.1 or 2.2) or a TetGen ``.node``/``.ele`` pair (the path of
-    /// either file, or their common prefix). Its physical groups (Gmsh), node markers and tet
-    /// attributes (TetGen) are kept for selections. Raises ``MeshError`` for a file that does not
-    /// parse or holds an invalid mesh, ``TetfemIOError`` if it cannot be read.
+    /// either file, or their common prefix). Its physical groups (Gmsh), node markers, face
+    /// markers and tet attributes (TetGen) are kept for selections. Raises ``MeshError`` for a
+    /// file that does not parse or holds an invalid mesh, ``TetfemIOError`` if it cannot be read.
+    ///
+    /// ``Mesh`` holds 4-node tets: of a quadratic file (10-node tets, order 2) it keeps the
+    /// corners and drops the edge nodes, and says so in ``warnings`` and with a ``UserWarning``
+    /// naming the file (a P2 analysis runs from a scene on the command line).
     #[staticmethod]
     fn read(py: Python<'_>, path: PathBuf) -> PyResult<Self> {
         let imported = py.detach(|| read_mesh(&path)).or_raise(py)?;
+        let note = quadratic_note(&path, &imported);
         let mesh = imported.mesh.clone();
-        Self::of(py, mesh, Some(imported))
+        let mut data = py
+            .detach(|| MeshData::new(mesh, Some(imported)))
+            .or_raise(py)?;
+        if let Some(note) = note {
+            py.import("warnings")?
+                .call_method1("warn", (note.clone(), py.get_type::<PyUserWarning>()))?;
+            data.read_notes.push(note);
+        }
+        Ok(PyMesh {
+            data: Arc::new(data),
+        })
     }
 
     /// Node coordinates, shape (n, 3), length units (a copy).
@@ -323,15 +502,13 @@ impl PyMesh {
             .collect()
     }
 
-    /// Warnings about valid but suspect input (poor tets, unused nodes), as sentences.
+    /// Warnings about valid but suspect input (poor tets, unused nodes, a quadratic file read
+    /// as its corners), as sentences.
     #[getter]
     fn warnings(&self) -> Vec<String> {
-        self.data
-            .mesh
-            .warnings()
-            .iter()
-            .map(ToString::to_string)
-            .collect()
+        let mut out = self.data.read_notes.clone();
+        out.extend(self.data.mesh.warnings().iter().map(ToString::to_string));
+        out
     }
 
     /// Nodes with |x[axis] − at| ≤ tolerance (axis 0/1/2 or "x"/"y"/"z"; length units; default
@@ -395,6 +572,34 @@ impl PyMesh {
             ));
         }
         Ok(index_vector(py, &imported.nodes_with_marker(marker)))
+    }
+
+    /// The boundary faces that are triangles of the TetGen ``.face`` file with boundary marker
+    /// ``marker``, shape (f, 3), in boundary order (``where = { face_marker = … }`` of scenes).
+    /// A marker the file does not have raises ``InvalidInputError`` listing those it has.
+    fn faces_with_marker<'py>(
+        &self,
+        py: Python<'py>,
+        marker: i64,
+    ) -> PyResult<Bound<'py, PyAny>> {
+        let imported = self.data.face_marker_mesh(py, marker)?;
+        let faces: Vec<[usize; 3]> = imported
+            .faces_with_marker(marker, &self.data.boundary)
+            .iter()
+            .map(|f| f.nodes)
+            .collect();
+        index_rows(py, &faces)
+    }
+
+    /// The nodes of the TetGen ``.face`` triangles with boundary marker ``marker``, ascending
+    /// (as ``faces_with_marker``, but interior triangles count too).
+    fn nodes_with_face_marker<'py>(
+        &self,
+        py: Python<'py>,
+        marker: i64,
+    ) -> PyResult<Bound<'py, PyAny>> {
+        let imported = self.data.face_marker_mesh(py, marker)?;
+        Ok(index_vector(py, &imported.nodes_with_face_marker(marker)))
     }
 
     /// Tets whose centroid lies in the closed box [min, max] (length units), ascending: the

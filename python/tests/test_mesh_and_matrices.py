@@ -190,3 +190,37 @@ def test_matrices_without_scipy_are_csr_arrays(monkeypatch):
     k = tetfem.stiffness_matrix(mesh, steel)
     assert np.array_equal(k.indptr, indptr) and np.array_equal(k.indices, indices)
     assert np.array_equal(k.data, data) and scipy.issparse(k)
+
+
+def test_a_quadratic_file_read_as_corners_says_so():
+    """Issue 33: ``Mesh.read`` of a 10-node file kept its 185 corners of 990 nodes with
+    ``warnings == []``. ``Mesh`` has 4-node tets: it still keeps the corners, and says so in
+    ``warnings`` and with a ``UserWarning``, naming the file and the order."""
+    path = SCENES / "l_bracket_p2.msh"
+    with pytest.warns(UserWarning, match="l_bracket_p2.msh.*10-node tets .order 2"):
+        mesh = tetfem.Mesh.read(path)
+    assert mesh.node_count == 185
+    notes = [w for w in mesh.warnings if "order 2" in w]
+    assert len(notes) == 1 and "990 nodes" in notes[0] and str(path) in notes[0], mesh.warnings
+    linear = tetfem.Mesh.read(SCENES / "l_bracket.msh")
+    assert not [w for w in linear.warnings if "order 2" in w]
+
+
+def test_tetgen_faces_are_selected_by_marker():
+    """Issue 33: Python could not select TetGen faces by marker. ``faces_with_marker`` gives
+    the boundary faces that are ``.face`` triangles with the marker, as scenes'
+    ``{ face_marker = … }`` do: checked against the file's own rows."""
+    mesh = tetfem.Mesh.read(SCENES / "tetgen_bar.node")
+    rows = [line.split() for line in (SCENES / "tetgen_bar.face").read_text().splitlines()]
+    rows = [r for r in rows[2:] if r and not r[0].startswith("#")]
+    for marker in (0, 1, 2):
+        # The .node file is 1-based and every point is used, so node i is file point i + 1.
+        expected = sorted(tuple(sorted(int(n) - 1 for n in r[1:4])) for r in rows if int(r[4]) == marker)
+        got = sorted(tuple(sorted(f)) for f in mesh.faces_with_marker(marker).tolist())
+        assert got == expected
+        nodes = sorted({n for face in expected for n in face})
+        assert mesh.nodes_with_face_marker(marker).tolist() == nodes
+    with pytest.raises(tetfem.InvalidInputError, match=r"no face marker 5 \(it has: 0 \(160 faces\)"):
+        mesh.faces_with_marker(5)
+    with pytest.raises(tetfem.InvalidInputError, match="face marker"):
+        tetfem.Mesh.box(max=(1.0, 1.0, 1.0), cells=(1, 1, 1)).faces_with_marker(1)

@@ -4,6 +4,7 @@ import numpy as np
 import pytest
 
 import tetfem
+from conftest import SCENES
 
 meshio = pytest.importorskip("meshio", reason="meshio not installed: round-trip test skipped")
 
@@ -35,3 +36,28 @@ def test_mesh_methods_delegate_to_the_functions():
     mesh = tetfem.Mesh.box(max=(1.0, 0.1, 0.1), cells=(3, 1, 1))
     again = tetfem.Mesh.from_meshio(mesh.to_meshio(cell_data={"index": np.arange(mesh.tet_count)}))
     assert np.array_equal(again.points, mesh.points) and np.array_equal(again.tets, mesh.tets)
+
+
+def test_from_meshio_keeps_the_gmsh_physical_groups():
+    """Issue 33: ``from_meshio`` dropped the physical groups meshio reads from a ``.msh`` file
+    (``cell_data["gmsh:physical"]``, named by ``field_data``). They now select the same
+    nodes (by position: meshio keeps the file's unused nodes, so indices differ), faces and
+    tets as ``Mesh.read`` of the same file."""
+    path = SCENES / "l_bracket.msh"
+    read = tetfem.Mesh.read(path)
+    converted = tetfem.from_meshio(meshio.read(path))
+    summary = lambda mesh: sorted((g["dim"], g["tag"], g["name"], g["tets"]) for g in mesh.groups)
+    assert summary(converted) == summary(read) and len(read.groups) > 0
+    for group in read.groups:
+        name = group["name"]
+        points = lambda mesh: sorted(map(tuple, mesh.points[mesh.nodes_in_group(name)].tolist()))
+        assert points(converted) == points(read)
+        if group["dim"] == 2:
+            faces = lambda mesh: sorted(
+                sorted(map(tuple, mesh.points[face].tolist())) for face in mesh.faces_in_group(name)
+            )
+            assert faces(converted) == faces(read) and len(faces(read)) > 0
+        if group["dim"] == 3:
+            assert len(converted.tets_in_group(name)) == len(read.tets_in_group(name))
+    # Without Gmsh tags there are no groups (and no error).
+    assert tetfem.from_meshio(read.to_meshio()).groups == []

@@ -10,8 +10,8 @@ use tetfem::dynamics::ElementStepBound;
 use tetfem::element::Tet10;
 use tetfem::error::Result;
 use tetfem::material::Material;
-use tetfem::mesh::TetMesh;
-use tetfem::mesh::io::{ImportedMesh, mesh_file_order, read_mesh, read_mesh_as};
+use tetfem::mesh::{Tet4, TetMesh};
+use tetfem::mesh::io::{ImportedMesh, MeshFile};
 use tetfem::quality::MeshStatistics;
 
 /// One physical group or marker set of the file.
@@ -84,12 +84,14 @@ pub fn mesh_info(path: &Path, material: Option<Material>) -> Result<MeshInfo> {
             }
         };
     }
-    // A file's own order decides its element type (a quadratic file read as 10-node tets).
-    if mesh_file_order(path)? == 2 {
-        let imported = read_mesh_as::<Tet10>(path)?;
+    // A file's own order decides its element type (a quadratic file read as 10-node tets);
+    // the file is parsed once for both.
+    let file = MeshFile::read(path)?;
+    if file.order() == 2 {
+        let imported = file.build_as::<Tet10>()?;
         return info_of(path, imported.mesh.clone(), Some(imported), material);
     }
-    let imported = read_mesh(path)?;
+    let imported = file.build_as::<Tet4>()?;
     info_of(path, imported.mesh.clone(), Some(imported), material)
 }
 

@@ -154,13 +154,21 @@ impl Scene {
                 (mesh, None)
             }
             // The file's order is the scene's (`Scene::parse` read it): E's cells are the file's.
+            // The file as parsed for the order, or (taken by an earlier build, or unreadable
+            // then) read now.
             MeshSpec::Gmsh(f) => {
-                let imported = read_gmsh_as::<E>(&self.resolve(&f.file))?;
+                let imported = match self.take_mesh_file() {
+                    Some(file) => file.build_as::<E>()?,
+                    None => read_gmsh_as::<E>(&self.resolve(&f.file))?,
+                };
                 self.check_kept_order(&imported)?;
                 (imported.mesh.clone(), Some(imported))
             }
             MeshSpec::Tetgen(f) => {
-                let imported = read_tetgen_as::<E>(&tetgen_prefix(&self.resolve(&f.file)))?;
+                let imported = match self.take_mesh_file() {
+                    Some(file) => file.build_as::<E>()?,
+                    None => read_tetgen_as::<E>(&tetgen_prefix(&self.resolve(&f.file)))?,
+                };
                 self.check_kept_order(&imported)?;
                 (imported.mesh.clone(), Some(imported))
             }

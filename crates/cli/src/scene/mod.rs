@@ -49,9 +49,11 @@ pub use spec::*;
 
 use std::ops::Range;
 use std::path::{Path, PathBuf};
+use std::sync::{Arc, Mutex};
 
 use tetfem::dynamics::StepNewtonOptions;
 use tetfem::error::{Error, Result};
+use tetfem::mesh::io::MeshFile;
 
 /// Every key a scene may hold, with its default. Paths written in a scene are relative to the
 /// scene file's folder; without `output.directory` the outputs go to `out/<scene file stem>` in
@@ -313,6 +315,10 @@ pub struct Scene {
     obstacles: Vec<tetfem::contact::Obstacle>,
     /// `engine`, `[petsc]`, checked.
     engine: EngineSettings,
+    /// The mesh file as parsed for its order, kept for the first build (which takes it), so
+    /// that a scene parses its mesh file once; shared by clones (a clone's build after
+    /// another's reads the file again).
+    mesh_file: Arc<Mutex<Option<MeshFile>>>,
 }
 
 impl std::str::FromStr for Scene {
@@ -378,6 +384,7 @@ impl Scene {
             },
             obstacles: Vec::new(),
             engine: EngineSettings::default(),
+            mesh_file: Arc::default(),
         };
         scene.analysis = scene.check_analysis()?;
         scene.order = scene.check_order()?;
@@ -480,18 +487,34 @@ impl Scene {
 
     /// The element order of the scene's mesh file: 2 if it holds 10-node tets, else 1; `None`
     /// for a box mesh, or when the file cannot be read now (building the scene reads it again
-    /// and reports why).
+    /// and reports why). The parsed file is kept for [`take_mesh_file`](Self::take_mesh_file).
     fn file_order(&self) -> Option<usize> {
-        let path = match self.spec.mesh.get_ref() {
-            MeshSpec::Box(_) => return None,
-            MeshSpec::Gmsh(f) => self.resolve(&f.file),
+        let path = self.mesh_path()?;
+        let file = MeshFile::read(&path).ok()?;
+        let order = file.order();
+        if let Ok(mut slot) = self.mesh_file.lock() {
+            *slot = Some(file);
+        }
+        Some(order)
+    }
+
+    /// The path of the scene's mesh file (of a TetGen pair the `.ele` file); `None` for a box.
+    fn mesh_path(&self) -> Option<PathBuf> {
+        match self.spec.mesh.get_ref() {
+            MeshSpec::Box(_) => None,
+            MeshSpec::Gmsh(f) => Some(self.resolve(&f.file)),
             MeshSpec::Tetgen(f) => {
                 let mut ele = build::tetgen_prefix(&self.resolve(&f.file)).into_os_string();
                 ele.push(".ele");
-                PathBuf::from(ele)
+                Some(PathBuf::from(ele))
             }
-        };
-        tetfem::mesh::io::mesh_file_order(&path).ok()
+        }
+    }
+
+    /// The mesh file as parsed when the scene was, if no build has taken it yet: building
+    /// from it does not parse the file a second time.
+    pub(crate) fn take_mesh_file(&self) -> Option<MeshFile> {
+        self.mesh_file.lock().ok()?.take()
     }
 
     fn check_model(&self) -> Result<tetfem::model::ModelKind> {
