@@ -5,7 +5,8 @@ use std::path::{Path, PathBuf};
 
 use nalgebra::Vector3;
 use tetfem::mesh::io::{
-    PhysicalGroup, SKIPPED_EDGES, TetgenOptions, read_gmsh, read_mesh, read_tetgen, write_gmsh, write_tetgen,
+    PhysicalGroup, SKIPPED_EDGES, TetgenOptions, read_gmsh, read_mesh, read_tetgen, write_gmsh,
+    write_tetgen,
 };
 use tetfem::{BoxSplit, Error, TetMesh};
 
@@ -321,7 +322,9 @@ fn a_tetgen_edge_file_is_counted_as_skipped() {
     let with = read_tetgen(&prefix).unwrap();
     assert_eq!(with.skipped_elements.get(SKIPPED_EDGES), Some(&3));
     assert_eq!(with.mesh, without.mesh);
-    let marked = NODE.replace("2 1 0 0 0", "2 1 0 0 1").replace("3 0 1 0 0", "3 0 1 0 4");
+    let marked = NODE
+        .replace("2 1 0 0 0", "2 1 0 0 1")
+        .replace("3 0 1 0 0", "3 0 1 0 4");
     let m = read_tetgen(&tetgen_case("bits_tg", &marked, ELE)).unwrap();
     assert_eq!(m.nodes_with_marker(5), vec![0, 3]);
     assert_eq!(m.nodes_with_marker(1), vec![1]);

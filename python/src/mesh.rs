@@ -158,7 +158,10 @@ impl MeshData {
                 py,
                 "marker",
                 marker,
-                &format!("the mesh has no face marker {marker} (it has: {})", known.join(", ")),
+                &format!(
+                    "the mesh has no face marker {marker} (it has: {})",
+                    known.join(", ")
+                ),
             ));
         }
         Ok(imported)
@@ -207,21 +210,40 @@ fn with_groups(
         let dim = required(py, group, &key, "dim")?;
         let dim = match usize::try_from(dim) {
             Ok(d) if d <= 3 => d,
-            _ => return Err(invalid(py, &format!("{key}.dim"), dim, "must be 0, 1, 2 or 3")),
+            _ => {
+                return Err(invalid(
+                    py,
+                    &format!("{key}.dim"),
+                    dim,
+                    "must be 0, 1, 2 or 3",
+                ));
+            }
         };
         let tag = required(py, group, &key, "tag")?;
         let tag = i32::try_from(tag).map_err(|_| {
-            invalid(py, &format!("{key}.tag"), tag, "must fit a 32-bit integer (a Gmsh tag)")
+            invalid(
+                py,
+                &format!("{key}.tag"),
+                tag,
+                "must fit a 32-bit integer (a Gmsh tag)",
+            )
         })?;
         let name: Option<String> = match group.get_item("name")? {
             Some(v) if !v.is_none() => Some(v.extract::<String>().map_err(|_| {
-                invalid(py, &format!("{key}.name"), v.to_string(), "must be a str or None")
+                invalid(
+                    py,
+                    &format!("{key}.name"),
+                    v.to_string(),
+                    "must be a str or None",
+                )
             })?),
             _ => None,
         };
         let list = |field: &str, columns: Option<usize>| -> PyResult<Vec<usize>> {
             match group.get_item(field)? {
-                Some(v) if !v.is_none() => Ok(indices(py, &v, &format!("{key}.{field}"), columns)?.0),
+                Some(v) if !v.is_none() => {
+                    Ok(indices(py, &v, &format!("{key}.{field}"), columns)?.0)
+                }
                 _ => Ok(Vec::new()),
             }
         };
@@ -236,7 +258,10 @@ fn with_groups(
                 py,
                 &format!("{key}.tets"),
                 bad,
-                &format!("tet {bad} does not exist (the mesh has {} tets)", mesh.tet_count()),
+                &format!(
+                    "tet {bad} does not exist (the mesh has {} tets)",
+                    mesh.tet_count()
+                ),
             ));
         }
         nodes.extend(triangles.iter().flatten());
@@ -246,7 +271,10 @@ fn with_groups(
                 py,
                 &format!("{key}.nodes"),
                 bad,
-                &format!("node {bad} does not exist (the mesh has {} nodes)", mesh.node_count()),
+                &format!(
+                    "node {bad} does not exist (the mesh has {} nodes)",
+                    mesh.node_count()
+                ),
             ));
         }
         nodes.sort_unstable();
@@ -280,7 +308,12 @@ fn required(py: Python<'_>, group: &Bound<'_, PyDict>, key: &str, field: &str) -
         .get_item(field)?
         .ok_or_else(|| invalid(py, &format!("{key}.{field}"), "missing", "is required"))?;
     value.extract::<i64>().map_err(|_| {
-        invalid(py, &format!("{key}.{field}"), value.to_string(), "must be an integer")
+        invalid(
+            py,
+            &format!("{key}.{field}"),
+            value.to_string(),
+            "must be an integer",
+        )
     })
 }
 
@@ -577,11 +610,7 @@ impl PyMesh {
     /// The boundary faces that are triangles of the TetGen ``.face`` file with boundary marker
     /// ``marker``, shape (f, 3), in boundary order (``where = { face_marker = … }`` of scenes).
     /// A marker the file does not have raises ``InvalidInputError`` listing those it has.
-    fn faces_with_marker<'py>(
-        &self,
-        py: Python<'py>,
-        marker: i64,
-    ) -> PyResult<Bound<'py, PyAny>> {
+    fn faces_with_marker<'py>(&self, py: Python<'py>, marker: i64) -> PyResult<Bound<'py, PyAny>> {
         let imported = self.data.face_marker_mesh(py, marker)?;
         let faces: Vec<[usize; 3]> = imported
             .faces_with_marker(marker, &self.data.boundary)

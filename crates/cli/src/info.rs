@@ -10,8 +10,8 @@ use tetfem::dynamics::ElementStepBound;
 use tetfem::element::Tet10;
 use tetfem::error::Result;
 use tetfem::material::Material;
-use tetfem::mesh::{Tet4, TetMesh};
 use tetfem::mesh::io::{ImportedMesh, MeshFile};
+use tetfem::mesh::{Tet4, TetMesh};
 use tetfem::quality::MeshStatistics;
 
 /// One physical group or marker set of the file.

@@ -673,9 +673,13 @@ mod tests {
     /// MSH 4.1 ASCII of the unit box's 10-node tets on `cells`, with every boundary face as a
     /// 6-node triangle of one surface group; the numbers of tets and triangles.
     fn quadratic_box(cells: [usize; 3]) -> (String, usize, usize) {
-        let linear =
-            TetMesh::box_grid(Vector3::zeros(), Vector3::repeat(1.0), cells, BoxSplit::Lecture6)
-                .unwrap();
+        let linear = TetMesh::box_grid(
+            Vector3::zeros(),
+            Vector3::repeat(1.0),
+            cells,
+            BoxSplit::Lecture6,
+        )
+        .unwrap();
         let mesh = TetMesh::<Tet10>::from_linear(&linear).unwrap();
         let boundary = mesh.boundary_faces().unwrap();
         let n = mesh.node_count();
@@ -730,8 +734,14 @@ mod tests {
             let scans = super::super::gmsh41_nodes::SECTION_SCANS.with(|n| n.get());
             assert_eq!(imported.mesh.tet_count(), tets);
             assert_eq!(imported.groups[0].triangles.len(), tris);
-            assert!(tris >= 48, "{tris} triangles: too few to tell one pass from one per triangle");
-            assert_eq!(scans, 1, "{tris} triangles read with {scans} passes over $Elements");
+            assert!(
+                tris >= 48,
+                "{tris} triangles: too few to tell one pass from one per triangle"
+            );
+            assert_eq!(
+                scans, 1,
+                "{tris} triangles read with {scans} passes over $Elements"
+            );
         }
     }
 }

@@ -272,7 +272,8 @@ pub(crate) fn ascii_elements_fault(path: &Path, bytes: &[u8], start: usize) -> O
     let Some((_, header)) = lines.next() else {
         return truncated(last_line);
     };
-    let numbers = |l: &str| -> Option<Vec<u64>> { l.split_whitespace().map(|f| f.parse().ok()).collect() };
+    let numbers =
+        |l: &str| -> Option<Vec<u64>> { l.split_whitespace().map(|f| f.parse().ok()).collect() };
     let blocks = match numbers(header).as_deref() {
         Some(&[blocks, _, _, _]) => blocks,
         _ => return None,

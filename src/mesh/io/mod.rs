@@ -24,9 +24,8 @@ mod text;
 
 pub use gmsh::{parse_gmsh, parse_gmsh_as, read_gmsh, read_gmsh_as, write_gmsh};
 pub use tetgen::{
-    SKIPPED_EDGES, TetgenOptions, parse_tetgen, parse_tetgen_with_faces, parse_tetgen_with_faces_as,
-    read_tetgen,
-    read_tetgen_as, write_tetgen,
+    SKIPPED_EDGES, TetgenOptions, parse_tetgen, parse_tetgen_with_faces,
+    parse_tetgen_with_faces_as, read_tetgen, read_tetgen_as, write_tetgen,
 };
 
 use std::collections::BTreeMap;
