@@ -29,33 +29,33 @@ pub fn run_scene<'py>(
     write_files: bool,
 ) -> PyResult<Bound<'py, PyAny>> {
     let json = detach_interruptible(py, || -> tetfem::Result<String> {
-            let mut scene = Scene::load(&path)?;
-            if let Some(dir) = output_dir {
-                scene.set_output_directory(dir);
+        let mut scene = Scene::load(&path)?;
+        if let Some(dir) = output_dir {
+            scene.set_output_directory(dir);
+        }
+        Ok(match scene.analysis() {
+            Analysis::Static => {
+                let options = RunOptions {
+                    no_files: !write_files,
+                    ..RunOptions::default()
+                };
+                run_static_with(&scene, &options)?.to_json()
             }
-            Ok(match scene.analysis() {
-                Analysis::Static => {
-                    let options = RunOptions {
-                        no_files: !write_files,
-                        ..RunOptions::default()
-                    };
-                    run_static_with(&scene, &options)?.to_json()
-                }
-                Analysis::Dynamic(_) => run_dynamic_scene(
-                    &scene,
-                    &DynamicOverrides::default(),
-                    write_files,
-                    false,
-                    // The runner's own stop hook (the CLI's Ctrl-C), fed by the interrupt test
-                    // that `detach_interruptible` installs.
-                    &mut |_, _| match tetfem::linalg::interrupt::poll(String::new) {
-                        Ok(()) => ControlFlow::Continue(()),
-                        Err(_) => ControlFlow::Break(()),
-                    },
-                )?
-                .to_json(),
-                Analysis::Modal(_) => run_modal_scene(&scene, !write_files)?.to_json(),
-            })
-        })?;
+            Analysis::Dynamic(_) => run_dynamic_scene(
+                &scene,
+                &DynamicOverrides::default(),
+                write_files,
+                false,
+                // The runner's own stop hook (the CLI's Ctrl-C), fed by the interrupt test
+                // that `detach_interruptible` installs.
+                &mut |_, _| match tetfem::linalg::interrupt::poll(String::new) {
+                    Ok(()) => ControlFlow::Continue(()),
+                    Err(_) => ControlFlow::Break(()),
+                },
+            )?
+            .to_json(),
+            Analysis::Modal(_) => run_modal_scene(&scene, !write_files)?.to_json(),
+        })
+    })?;
     py.import("json")?.call_method1("loads", (json,))
 }

@@ -4,7 +4,6 @@
 use std::sync::{Arc, Mutex, MutexGuard, TryLockError};
 use std::thread::ThreadId;
 
-use pyo3::marker::Ungil;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use tetfem::dynamics::{
@@ -138,7 +137,9 @@ impl Drop for RunnerGuard<'_> {
 /// call), so waiting for it is short and cannot deadlock; a panic cannot leave the slot half
 /// written (an `Option<ThreadId>` is written whole), so a poisoned lock is still valid.
 fn lock_ignoring_poison<T>(mutex: &Mutex<T>) -> MutexGuard<'_, T> {
-    mutex.lock().unwrap_or_else(std::sync::PoisonError::into_inner)
+    mutex
+        .lock()
+        .unwrap_or_else(std::sync::PoisonError::into_inner)
 }
 
 /// The `TetfemError` of a call made while another thread runs the Simulation.
@@ -183,8 +184,7 @@ impl PySimulation {
             Err(TryLockError::Poisoned(_)) => Err(raise(
                 py,
                 "TetfemError",
-                "Simulation is unusable: a step panicked part-way (a bug: please report it)"
-                    .into(),
+                "Simulation is unusable: a step panicked part-way (a bug: please report it)".into(),
             )),
         }
     }
@@ -206,10 +206,10 @@ impl PySimulation {
 
     /// One step and `after` of the state it leaves, with the GIL released and Ctrl-C honoured
     /// inside (see [`detach_interruptible`]); with the time and step count after it.
-    fn advance<T: Ungil>(
+    fn advance<T: Send>(
         &self,
         py: Python<'_>,
-        after: impl Ungil + FnOnce(&State) -> tetfem::Result<T>,
+        after: impl Send + FnOnce(&State) -> tetfem::Result<T>,
     ) -> PyResult<(T, f64, usize)> {
         let mut guard = self.stepping(py)?;
         let Stepping { stepper, state } = &mut *guard;

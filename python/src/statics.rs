@@ -178,7 +178,12 @@ pub fn solve_static(
     let kind = names::model(py, model)?;
     let method = names::linear_solver(py, linear_solver)?;
     if let Some(t) = tolerance.filter(|t| !(t.is_finite() && *t > 0.0 && *t < 1.0)) {
-        return Err(invalid(py, "tolerance", t, "must be finite, > 0 and < 1 (or None)"));
+        return Err(invalid(
+            py,
+            "tolerance",
+            t,
+            "must be finite, > 0 and < 1 (or None)",
+        ));
     }
     let constraints = &constraints.constraints;
     let loads = &loads.all;
@@ -195,7 +200,12 @@ pub fn solve_static(
         let solution = detach_interruptible(py, || {
             StaticSolver::with_options(&data.mesh, &materials, constraints, options)?.solve(loads)
         })?;
-        check_tolerance(py, tolerance, solution.relative_residual, &solver_text(&solution.info))?;
+        check_tolerance(
+            py,
+            tolerance,
+            solution.relative_residual,
+            &solver_text(&solution.info),
+        )?;
         return linear_result(py, data, &materials, solution);
     }
     let options = NewtonOptions {
@@ -205,27 +215,28 @@ pub fn solve_static(
         ..NewtonOptions::default()
     };
     let models = kind.build_map(&materials);
-    let (report, (relative, reached), stress) = detach_interruptible(py, || -> tetfem::Result<_> {
-        let report = solve_nonlinear_static(&data.mesh, &models, constraints, loads, options)?;
-        // ‖r_f‖/‖f_f‖ at the end, as the scene runner reports it.
-        let load = DofMap::new(constraints)
-            .restrict(loads.as_slice())?
-            .iter()
-            .map(|f| f * f)
-            .sum::<f64>()
-            .sqrt();
-        let last_step = report.residuals.last().map_or(&[][..], Vec::as_slice);
-        let last = last_step.last().copied().unwrap_or(0.0);
-        let relative = if load > 0.0 { last / load } else { last };
-        // Against Newton's own reference: the load, or without one (prescribed displacements
-        // only) the last load step's first residual.
-        let reached = match (load > 0.0, last_step.first()) {
-            (false, Some(&first)) => last / first.max(f64::MIN_POSITIVE),
-            _ => relative,
-        };
-        let stress = cell_model_stress(&data.mesh, &models, &report.displacement)?;
-        Ok((report, (relative, reached), stress))
-    })?;
+    let (report, (relative, reached), stress) =
+        detach_interruptible(py, || -> tetfem::Result<_> {
+            let report = solve_nonlinear_static(&data.mesh, &models, constraints, loads, options)?;
+            // ‖r_f‖/‖f_f‖ at the end, as the scene runner reports it.
+            let load = DofMap::new(constraints)
+                .restrict(loads.as_slice())?
+                .iter()
+                .map(|f| f * f)
+                .sum::<f64>()
+                .sqrt();
+            let last_step = report.residuals.last().map_or(&[][..], Vec::as_slice);
+            let last = last_step.last().copied().unwrap_or(0.0);
+            let relative = if load > 0.0 { last / load } else { last };
+            // Against Newton's own reference: the load, or without one (prescribed displacements
+            // only) the last load step's first residual.
+            let reached = match (load > 0.0, last_step.first()) {
+                (false, Some(&first)) => last / first.max(f64::MIN_POSITIVE),
+                _ => relative,
+            };
+            let stress = cell_model_stress(&data.mesh, &models, &report.displacement)?;
+            Ok((report, (relative, reached), stress))
+        })?;
     let solver = format!("newton ({} iterations)", report.iterations);
     check_tolerance(py, tolerance, reached, &solver)?;
     let (stress, von_mises) = stress_arrays(py, &stress)?;
@@ -249,7 +260,7 @@ fn check_tolerance(
     solver: &str,
 ) -> PyResult<()> {
     match tolerance {
-        Some(t) if !(reached <= t) => Err(raise(
+        Some(t) if reached > t || reached.is_nan() => Err(raise(
             py,
             "SolverError",
             format!(

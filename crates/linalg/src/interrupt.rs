@@ -77,7 +77,11 @@ mod tests {
                 counted.set(counted.get() + 1);
                 counted.get() >= 3
             },
-            || (0..4).map(|i| poll(|| format!("poll {i}")).is_ok()).collect(),
+            || {
+                (0..4)
+                    .map(|i| poll(|| format!("poll {i}")).is_ok())
+                    .collect()
+            },
         );
         assert_eq!(results, [true, true, false, false]);
         assert_eq!(calls.get(), 4);
@@ -101,8 +105,7 @@ mod tests {
             }
             col_ptr.push(rows.len());
         }
-        let pattern =
-            faer::sparse::SymbolicSparseColMat::new_checked(n, n, col_ptr, None, rows);
+        let pattern = faer::sparse::SymbolicSparseColMat::new_checked(n, n, col_ptr, None, rows);
         crate::sparse::CscMatrix::from_values(std::sync::Arc::new(pattern), values)
             .expect("a valid pattern")
     }
