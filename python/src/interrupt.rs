@@ -11,7 +11,6 @@ use std::cell::Cell;
 use std::sync::{Arc, Mutex, PoisonError};
 use std::time::{Duration, Instant};
 
-use pyo3::marker::Ungil;
 use pyo3::prelude::*;
 
 use crate::errors::library_error;
@@ -39,8 +38,8 @@ type Pending = Arc<Mutex<Option<PyErr>>>;
 /// also when `work` finished regardless; or `work`'s error as its Python exception.
 pub fn detach_interruptible<T, F>(py: Python<'_>, work: F) -> PyResult<T>
 where
-    F: Ungil + FnOnce() -> tetfem::Result<T>,
-    T: Ungil,
+    F: Send + FnOnce() -> tetfem::Result<T>,
+    T: Send,
 {
     let main = on_main_thread(py)?;
     let pending: Pending = Arc::new(Mutex::new(None));

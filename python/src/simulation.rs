@@ -4,7 +4,6 @@
 use std::sync::{Arc, Mutex, MutexGuard, TryLockError};
 use std::thread::ThreadId;
 
-use pyo3::marker::Ungil;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use tetfem::dynamics::{
@@ -207,10 +206,10 @@ impl PySimulation {
 
     /// One step and `after` of the state it leaves, with the GIL released and Ctrl-C honoured
     /// inside (see [`detach_interruptible`]); with the time and step count after it.
-    fn advance<T: Ungil>(
+    fn advance<T: Send>(
         &self,
         py: Python<'_>,
-        after: impl Ungil + FnOnce(&State) -> tetfem::Result<T>,
+        after: impl Send + FnOnce(&State) -> tetfem::Result<T>,
     ) -> PyResult<(T, f64, usize)> {
         let mut guard = self.stepping(py)?;
         let Stepping { stepper, state } = &mut *guard;

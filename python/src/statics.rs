@@ -260,7 +260,7 @@ fn check_tolerance(
     solver: &str,
 ) -> PyResult<()> {
     match tolerance {
-        Some(t) if !(reached <= t) => Err(raise(
+        Some(t) if reached > t || reached.is_nan() => Err(raise(
             py,
             "SolverError",
             format!(
