@@ -284,14 +284,16 @@ mod tests {
         // Lifted to z = 1.25: outside (g = 0.25 there, positive).
         let lifted = t.map(|x| x + Vector3::new(0.0, 0.0, 0.75));
         assert!((box_least_gap(lifted, &h) - 0.25).abs() < 1e-12);
-        // A small triangle whose corners are all outside but which cuts a box edge.
+        // A small triangle whose corners are all outside but which cuts the box's edge at
+        // x = y = 1: its deepest point is the midpoint (0.95, 0.95, 0) of the edge from
+        // (0.7, 1.2) to (1.2, 0.7), where g = 0.95 − 1 = −0.05.
         let across = [
-            Vector3::new(0.9, 1.2, 0.0),
-            Vector3::new(1.2, 0.9, 0.0),
-            Vector3::new(1.2, 1.2, 0.1),
+            Vector3::new(0.7, 1.2, 0.0),
+            Vector3::new(1.2, 0.7, 0.0),
+            Vector3::new(1.2, 1.2, 0.0),
         ];
         assert!(across.iter().all(|p| (p.abs() - h).max() > 0.0));
-        assert!(box_least_gap(across, &h) < 0.0);
+        assert!((box_least_gap(across, &h) + 0.05).abs() < 1e-12);
     }
 
     #[test]
