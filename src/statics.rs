@@ -179,9 +179,7 @@ impl StaticSolver {
         let mut free = rhs.clone();
         let info = self.solver.solve(&self.free_stiffness, &mut free)?;
         if let Some(i) = free.iter().position(|v| !v.is_finite()) {
-            return Err(Error::Solver(format!(
-                "the solution is not finite at free DOF {i}; the loads or the matrix hold non-finite or huge values"
-            )));
+            return Err(self.out_of_range(i, forces));
         }
         let mut relative_residual = self.relative_residual(&free, &rhs)?;
         if info == SolveInfo::Direct {
@@ -234,6 +232,30 @@ impl StaticSolver {
             reactions,
             info,
         })
+    }
+
+    /// The error for a displacement that left the floating-point range at free DOF `free`:
+    /// loads far above the stiffness (E = 1e-300 Pa under 1e200 N), named with both scales so
+    /// that the user can find the unit mistake.
+    fn out_of_range(&self, free: usize, forces: &[f64]) -> Error {
+        let largest = |values: &[f64]| values.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        let diagonal: Vec<f64> = (0..self.free_stiffness.dim())
+            .map(|i| self.free_stiffness.get(i, i).unwrap_or(0.0))
+            .collect();
+        Error::invalid_parameter(
+            "loads against stiffness",
+            format!(
+                "loads up to {:e} (force units) on stiffness diagonal entries of {:e} to {:e} \
+                 (force/length)",
+                largest(forces),
+                diagonal.iter().copied().fold(f64::INFINITY, f64::min),
+                largest(&diagonal)
+            ),
+            format!(
+                "the displacement u = K⁻¹f leaves the floating-point range (at free DOF \
+                 {free}): check the scale and units of the loads and of Young's modulus"
+            ),
+        )
     }
 
     /// ‖K_ff·u_f − r_f‖ / ‖r_f‖ (‖K_ff·u_f − r_f‖ when r_f = 0).

@@ -247,8 +247,9 @@ const MIXED41: &str = "$MeshFormat\n4.1 0 8\n$EndMeshFormat\n$Nodes\n1 7 1 7\n3 
 #[test]
 fn mixed_and_quadratic_meshes_are_errors_naming_counts_and_the_fix() {
     let (line, message) = parse_error("mixed41.msh", MIXED41.as_bytes());
-    // mshio gives no positions: the $Elements line.
-    assert_eq!(line, 22, "{message}");
+    // The prism's own line (line 27: the element block of type 6 starts on line 26), found on
+    // the error path by reading the section alongside mshio's result.
+    assert_eq!(line, 27, "{message}");
     assert!(
         message.contains("1 Pri6") && message.contains("1 Tet4") && message.contains("Recombine"),
         "{message}"

@@ -265,7 +265,12 @@ impl Integrator for BackwardEuler {
         let energy = Energy::for_guard(sums[0], twice_elastic, sums[1]);
         match &self.guard {
             Some(guard) => guard.check_energy(state.steps, state.time, &energy)?,
-            None => self.guard = Some(self.system.divergence_guard(energy)),
+            None => {
+                self.guard = Some(
+                    self.system
+                        .divergence_guard(energy, (state.steps, state.time))?,
+                )
+            }
         }
         self.solver.solve(&self.matrix, &mut self.rhs)?;
         let finite = state

@@ -1,5 +1,7 @@
 //! Energy bookkeeping of a dynamic state.
 
+use crate::error::{Error, Result};
+
 /// Energies of a state (energy units, J in SI). The loads are constant, so each has a potential
 /// −f·u, and the work they did since the start is minus the change of that potential.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
@@ -38,6 +40,25 @@ impl Energy {
         -(self.gravity_potential + self.load_potential
             - start.gravity_potential
             - start.load_potential)
+    }
+
+    /// `Ok` if these are the energies of a state a run can start from: [`Error::Diverged`] at
+    /// `step`, `time` if the kinetic or elastic energy is not finite (½·vᵀ·M·v overflows for an
+    /// initial velocity of 1e300 m/s), which would otherwise surface later as a NaN in an output.
+    pub fn check_start(&self, step: usize, time: f64) -> Result<()> {
+        if (self.kinetic + self.elastic).is_finite() {
+            return Ok(());
+        }
+        Err(Error::Diverged {
+            step,
+            time,
+            reason: format!(
+                "the starting state's kinetic energy ({:e}) or elastic energy ({:e}) is not \
+                 finite: its velocity or displacement is beyond the floating-point range (check \
+                 the initial velocity and its units)",
+                self.kinetic, self.elastic
+            ),
+        })
     }
 
     /// Size of the energy terms, Σ|term|: a scale for relative comparisons.

@@ -231,7 +231,12 @@ impl Integrator for SymplecticEuler {
         state.steps += 1;
         match &self.guard {
             Some(guard) => guard.check_energy(before_steps, before_time, &energy)?,
-            None => self.guard = Some(self.system.divergence_guard(energy)),
+            None => {
+                self.guard = Some(
+                    self.system
+                        .divergence_guard(energy, (before_steps, before_time))?,
+                )
+            }
         }
         if !sums[2].is_finite() {
             state.ensure_finite("; is dt above the critical step?")?;

@@ -243,9 +243,10 @@ impl Integrator for Newmark {
             self.initial_acceleration(state)?;
         }
         if self.guard.is_none() {
+            let start = self.system.energy_using(state, &mut self.work)?;
             self.guard = Some(
                 self.system
-                    .divergence_guard(self.system.energy_using(state, &mut self.work)?),
+                    .divergence_guard(start, (state.steps, state.time))?,
             );
         }
         let (dt, damping) = (self.dt, self.system.damping());

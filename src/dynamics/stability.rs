@@ -184,6 +184,18 @@ pub fn critical_time_step_with(
             })
             .collect(),
     };
+    // The iteration runs on A/G (G Gershgorin's bound, so every quantity is ≤ 1 in size) with z
+    // normalised by its largest entry: a finite ω_max² near the floating-point range (ρ = 1e-300
+    // kg/m³ gives G ≈ 1e307) would otherwise overflow in z·z and the residual's squares.
+    let largest = z.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    if !(largest.is_finite() && largest > 0.0) {
+        return Err(Error::invalid_parameter(
+            "critical step start vector",
+            format!("M^(1/2)·start has largest entry {largest:e}"),
+            "must be finite and nonzero (check the density's scale)",
+        ));
+    }
+    z.iter_mut().for_each(|v| *v /= largest);
     let (mut x, mut kx, mut az) = (vec![0.0; n], vec![0.0; n], vec![0.0; n]);
     let mut bracket: (f64, f64) = (0.0, gershgorin);
     let mut iterations = MAX_POWER_ITERATIONS;
@@ -194,7 +206,7 @@ pub fn critical_time_step_with(
         }
         k.product_into(&x, &mut kx);
         for i in 0..n {
-            az[i] = inverse_root[i] * kx[i];
+            az[i] = inverse_root[i] * kx[i] / gershgorin;
         }
         let zz: f64 = z.iter().map(|v| v * v).sum();
         let theta = z.iter().zip(&az).map(|(a, b)| a * b).sum::<f64>() / zz;
@@ -208,10 +220,15 @@ pub fn critical_time_step_with(
         if !(theta.is_finite() && delta.is_finite() && theta > 0.0) {
             return Err(Error::Solver(format!(
                 "power iteration for ω_max broke down at iteration {iteration} \
-                 (Rayleigh quotient {theta:e}, residual {delta:e})"
+                 (Rayleigh quotient {:e}, residual {:e})",
+                theta * gershgorin,
+                delta * gershgorin
             )));
         }
-        bracket = (theta, (theta + delta).min(gershgorin));
+        bracket = (
+            theta * gershgorin,
+            ((theta + delta) * gershgorin).min(gershgorin),
+        );
         if delta <= BRACKET_TOLERANCE * theta {
             iterations = iteration;
             break;
@@ -351,6 +368,7 @@ impl DivergenceGuard {
         match guard {
             Some(guard) => guard.check_energy(step, time, &energy),
             None => {
+                energy.check_start(step, time)?;
                 *guard = Some(match moving_obstacles {
                     true => DivergenceGuard::finite_only(energy),
                     false => DivergenceGuard::new(energy),

@@ -474,11 +474,18 @@ impl LinearSystem {
     /// [`DivergenceGuard::new`], or with data that follow time ([`is_time_varying`](Self::is_time_varying))
     /// the check of finite values only ([`DivergenceGuard::finite_only`]): moving supports and
     /// loads with amplitudes do work the energies' constant load potentials do not account for.
-    pub fn divergence_guard(&self, start: Energy) -> DivergenceGuard {
-        match self.is_time_varying() {
+    /// [`Error::Diverged`] at `step`, `time` if the start's energies are not finite
+    /// ([`Energy::check_start`]).
+    pub fn divergence_guard(
+        &self,
+        start: Energy,
+        (step, time): (usize, f64),
+    ) -> Result<DivergenceGuard> {
+        start.check_start(step, time)?;
+        Ok(match self.is_time_varying() {
             true => DivergenceGuard::finite_only(start),
             false => DivergenceGuard::new(start),
-        }
+        })
     }
 
     /// The gravity part of [`external_load`](Self::external_load) (force units, free DOFs).

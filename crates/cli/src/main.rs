@@ -317,9 +317,11 @@ fn main() -> ExitCode {
         }
         Err(error) => {
             eprintln!("error: {error}");
-            // A contact divergence names its own remedy (the barrier's step, not the bulk's).
+            // A contact divergence names its own remedy (the barrier's step, not the bulk's),
+            // and a start beyond the floating-point range is the input's, not the step's.
             if let Error::Diverged { reason, .. } = &error
                 && !reason.contains("barrier")
+                && !reason.contains("starting state")
             {
                 eprintln!(
                     "hint: the explicit method is stable only below its critical step; choose a smaller --dt (e.g. 0.9crit) or an implicit --method"

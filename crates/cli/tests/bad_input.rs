@@ -653,3 +653,51 @@ fn generated_box_meshes_carry_no_warnings() {
         );
     }
 }
+
+/// Issue 33: an initial velocity of 1e300 m/s wrote a NaN reaction field (blamed on ParaView)
+/// instead of naming the input: ½·vᵀ·M·v overflows, and the run now stops before its first
+/// frame with `Diverged` at step 0 naming the starting state and the initial velocity.
+#[test]
+fn an_initial_velocity_beyond_the_floating_point_range_is_named_at_step_0() {
+    let text = format!(
+        "{BASE}\n[analysis]\ntype = \"dynamic\"\nmethod = \"backward_euler\"\ndt = 0.01\n\
+         duration = 0.1\ninitial_velocity = [0.0, 0.0, 1e300]\n"
+    );
+    let result = scene(&text).and_then(|s| {
+        tetfem_cli::scene::run_dynamic_scene(&s, &Default::default(), false, false, &mut |_, _| {
+            std::ops::ControlFlow::Continue(())
+        })
+    });
+    match result {
+        Err(err @ Error::Diverged { step: 0, .. }) => {
+            let message = err.to_string();
+            assert!(
+                message.contains("starting state") && message.contains("initial velocity"),
+                "{message}"
+            );
+        }
+        other => panic!("expected Diverged at step 0, got {other:?}"),
+    }
+}
+
+/// Issue 33: E = 1e-300 Pa under a 1e200 N load gave a `-inf` field blamed on ParaView (then
+/// "linear solver: the solution is not finite"); u = K⁻¹f overflows, and the error now names
+/// both scales and the inputs to check.
+#[test]
+fn loads_too_large_for_the_stiffness_name_both_scales_and_the_units() {
+    let mesh = bar();
+    let material = Material::new(1e-300, 0.3, 1000.0).unwrap();
+    let mut loads = Loads::new(&mesh);
+    for node in mesh.nodes_on_plane(0, 4.0, 1e-9) {
+        loads.add_nodal_force(node, v(0., 0., -1e200)).unwrap();
+    }
+    match solve_static(&mesh, &material, &clamped(&mesh), &loads) {
+        Err(err @ Error::InvalidParameter { .. }) => {
+            let message = err.to_string();
+            for word in ["loads up to 1e200", "Young's modulus", "units"] {
+                assert!(message.contains(word), "no '{word}' in {message}");
+            }
+        }
+        other => panic!("expected InvalidParameter, got {other:?}"),
+    }
+}

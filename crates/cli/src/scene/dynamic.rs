@@ -206,19 +206,23 @@ impl<E: SceneElement> DynamicSetup<E> {
             .collect();
         initial.velocity = system.dofs().restrict(&velocity)?;
         let reactions = super::DynamicReactions::of_scene(&built, &system)?;
-        Ok(Self::of_built(built, system, initial, reactions, clock))
+        Self::of_built(built, system, initial, reactions, clock)
     }
 
     /// The setup of a built scene with its assembled system and initial state; `clock` started
-    /// with the setup.
+    /// with the setup. [`Error::Diverged`] at step 0 if the initial state's energy is not finite
+    /// (an initial velocity of 1e300 m/s), before any frame is written.
     pub(super) fn of_built(
         built: BuiltScene<E>,
         system: LinearSystem,
         initial: State,
         reactions: super::DynamicReactions,
         clock: Instant,
-    ) -> Self {
-        DynamicSetup {
+    ) -> Result<Self> {
+        system
+            .energy(&initial)?
+            .check_start(initial.steps, initial.time)?;
+        Ok(DynamicSetup {
             original_ids: built.imported.map(|i| (i.node_ids, i.tet_ids)),
             input_warnings: built.input_warnings,
             mesh: built.mesh,
@@ -234,7 +238,7 @@ impl<E: SceneElement> DynamicSetup<E> {
             force: InternalForce::Linear,
             reactions,
             critical: Default::default(),
-        }
+        })
     }
 
     /// A built scene released from rest in its static shape under all its loads, with every
@@ -254,7 +258,7 @@ impl<E: SceneElement> DynamicSetup<E> {
             released_reactions(&system, &built.mesh, &built.materials, built.gravity)?,
             &built,
         );
-        Ok(Self::of_built(built, system, initial, reactions, clock))
+        Self::of_built(built, system, initial, reactions, clock)
     }
 
     /// The same setup with the force model `kind`, one model per material of

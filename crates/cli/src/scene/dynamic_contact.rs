@@ -87,7 +87,7 @@ impl<E: SceneElement> DynamicSetup<E> {
         let force =
             NonlinearForce::with_models(Arc::new(mesh), models, &system)?.with_contact(contact)?;
         let reactions = super::DynamicReactions::of_scene(&built, &system)?;
-        let mut setup = Self::of_built(built, system, initial, reactions, clock);
+        let mut setup = Self::of_built(built, system, initial, reactions, clock)?;
         setup.force = InternalForce::Nonlinear(Arc::new(force));
         Ok(setup)
     }

@@ -117,10 +117,8 @@ impl Restart {
         };
         let steps = checkpoint.state.steps;
         let time = start_time + (steps - start_steps) as f64 * checkpoint.dt;
-        let text = std::fs::read_to_string(csv).map_err(|source| Error::Io {
-            path: csv.to_path_buf(),
-            source,
-        })?;
+        // A FIFO or a link to /dev/zero in the CSV's place would block or read without end.
+        let text = tetfem::input_file::read_regular_text(csv, "a CSV time series")?;
         // Line 1 is the header, the row of step k (counted from the start) line k + 2.
         let Some(row) = text.lines().nth(steps - start_steps + 1) else {
             return Ok(());
