@@ -785,6 +785,13 @@ fn print_static(s: &RunSummary, directory: &Path) {
         "  static: {} nodes, {} tets, {} free DOFs; relative residual {:.2e}",
         s.nodes, s.tets, s.free_dofs, s.relative_residual
     );
+    if let Some(n) = &s.newton {
+        println!(
+            "  Newton: {} load steps, {} iterations in all (tolerance {:e} per step; \
+             analysis.load_steps, newton_tolerance)",
+            n.load_steps, n.iterations, n.tolerance
+        );
+    }
     println!(
         "  max |u| = {:.4e} m, max von Mises = {:.4e} Pa",
         s.max_displacement, s.max_von_mises

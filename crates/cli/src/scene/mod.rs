@@ -42,8 +42,8 @@ pub use modal::{ModalSummary, ModeRow, run_modal_scene};
 pub use reactions::{DynamicReactions, ReactionsAt};
 pub use restart::{RESUMABLE_KEYS, checkpoint_path};
 pub use run::{
-    ContactForceRow, ProbeValue, ReactionRow, RunOptions, RunSummary, SolvePhases, run_static,
-    run_static_with,
+    ContactForceRow, ProbeValue, ReactionRow, RunOptions, RunSummary, SolvePhases, StaticNewton,
+    run_static, run_static_with,
 };
 pub use spec::*;
 
@@ -166,7 +166,11 @@ type = "static"                     # default "static"; or "dynamic", which need
                                     # Newton tolerance. Ignored by static, explicit, linear
 # newton_tolerance = 1e-8           # default; in (0, 1): each implicit step's Newton tolerance
                                     # with a nonlinear model, ‖r‖ ≤ t·max(‖r₀‖, ‖f‖); 1e-2 is
-                                    # interactive (see the README's large-deformation step)
+                                    # interactive (see the README's large-deformation step).
+                                    # Static (nonlinear model or obstacles): each load step's,
+                                    # ‖r_f‖ ≤ t·‖f_f‖, default 1e-10
+# load_steps = 10                   # static, nonlinear model or obstacles: load increments, each
+                                    # solved by Newton, in 1..=100000 (more rescue a failed solve)
 # accuracy = 0.01                  # static: a target relative energy-norm error in (0, 1) instead
                                     # of a mesh resolution: box meshes get the element order and cells
                                     # predicted cheapest (from the scene's cells, refined ≤ 2× per axis
@@ -235,6 +239,10 @@ pub struct ModalSettings {
 
 /// Modes a modal scene asks for when it does not say.
 pub const DEFAULT_MODES: usize = 6;
+
+/// The most load steps a static scene may ask for (`analysis.load_steps`): each is at least
+/// one Newton solve, and more than this is a typing slip rather than a rescue.
+pub const MAX_LOAD_STEPS: usize = 100_000;
 
 /// The time integration settings of a dynamic scene, validated.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
@@ -314,6 +322,8 @@ pub struct Scene {
     stem: String,
     analysis: Analysis,
     model: tetfem::model::ModelKind,
+    /// A static run's Newton settings (`load_steps`, `newton_tolerance`), checked.
+    static_newton: tetfem::nonlinear::NewtonOptions,
     order: usize,
     accuracy: Option<AccuracyTarget>,
     output: OutputSettings,
@@ -384,6 +394,7 @@ impl Scene {
             stem: "scene".to_string(),
             analysis: Analysis::Static,
             model: tetfem::model::ModelKind::Linear,
+            static_newton: tetfem::nonlinear::NewtonOptions::default(),
             order: 1,
             accuracy: None,
             output: OutputSettings {
@@ -411,6 +422,7 @@ impl Scene {
         scene.output = scene.output_settings()?;
         scene.obstacles = scene.check_obstacles()?;
         scene.engine = scene.check_engine()?;
+        scene.static_newton = scene.check_static_newton()?;
         Ok(scene)
     }
 
@@ -464,6 +476,65 @@ impl Scene {
     /// The force model (`analysis.model`; linear by default).
     pub fn model(&self) -> tetfem::model::ModelKind {
         self.model
+    }
+
+    /// A static run's Newton settings: `analysis.load_steps` and `analysis.newton_tolerance`
+    /// over [`NewtonOptions::default`](tetfem::nonlinear::NewtonOptions::default) (used with a
+    /// nonlinear model or obstacles).
+    pub fn static_newton(&self) -> tetfem::nonlinear::NewtonOptions {
+        self.static_newton
+    }
+
+    /// The static Newton keys, checked: only a static run that Newton solves (a nonlinear model
+    /// or obstacles) takes them; `load_steps` in 1..=[`MAX_LOAD_STEPS`], `newton_tolerance` in
+    /// (0, 1).
+    fn check_static_newton(&self) -> Result<tetfem::nonlinear::NewtonOptions> {
+        let mut options = tetfem::nonlinear::NewtonOptions::default();
+        let Some(spanned) = &self.spec.analysis else {
+            return Ok(options);
+        };
+        let (a, span) = (spanned.get_ref(), spanned.span());
+        if a.kind != AnalysisKind::Static {
+            return Ok(options);
+        }
+        let err = |key: &str, msg: String| self.error(&format!("analysis.{key}"), &span, msg);
+        let newton = self.model != tetfem::model::ModelKind::Linear || !self.obstacles.is_empty();
+        for (key, set) in [
+            ("load_steps", a.load_steps.is_some()),
+            ("newton_tolerance", a.newton_tolerance.is_some()),
+        ] {
+            if set && !newton {
+                return Err(err(
+                    key,
+                    "a linear static solve without obstacles takes no Newton setting (it is one \
+                     linear solve); set model = \"corotational\" (or another nonlinear model), \
+                     add [[obstacles]], or remove the key"
+                        .into(),
+                ));
+            }
+        }
+        if let Some(steps) = a.load_steps {
+            if !(1..=MAX_LOAD_STEPS).contains(&steps) {
+                return Err(err(
+                    "load_steps",
+                    format!("load_steps = {steps} must be in 1..={MAX_LOAD_STEPS}"),
+                ));
+            }
+            options.load_steps = steps;
+        }
+        if let Some(tolerance) = a.newton_tolerance {
+            if !(tolerance > 0.0 && tolerance < 1.0) {
+                return Err(err(
+                    "newton_tolerance",
+                    format!(
+                        "newton_tolerance = {} must be finite, > 0 and < 1",
+                        short_number(tolerance)
+                    ),
+                ));
+            }
+            options.tolerance = tolerance;
+        }
+        Ok(options)
     }
 
     /// The element order (`mesh.order`): 1 (4-node tets, the default) or 2 (10-node tets).
@@ -643,7 +714,8 @@ impl Scene {
                 "only a modal analysis takes this key; set type = \"modal\" or remove it".into(),
             ));
         }
-        // The keys only a dynamic analysis takes (`mass` a modal one takes too).
+        // The keys only a dynamic analysis takes (`mass` a modal one takes too,
+        // `newton_tolerance` a static one).
         let dynamic_key = |with_mass: bool| {
             [
                 ("method", a.method.is_some()),
@@ -652,12 +724,21 @@ impl Scene {
                 ("damping", a.damping.is_some()),
                 ("mass", with_mass && a.mass.is_some()),
                 ("initial_velocity", a.initial_velocity.is_some()),
-                ("newton_tolerance", a.newton_tolerance.is_some()),
+                (
+                    "newton_tolerance",
+                    a.kind == AnalysisKind::Modal && a.newton_tolerance.is_some(),
+                ),
             ]
             .into_iter()
             .find(|(_, set)| *set)
             .map(|(key, _)| key)
         };
+        if a.kind != AnalysisKind::Static && a.load_steps.is_some() {
+            return Err(err(
+                "load_steps",
+                "only a static analysis takes this key (a dynamic one steps in time: dt)".into(),
+            ));
+        }
         match a.kind {
             AnalysisKind::Modal => {
                 if let Some(key) = dynamic_key(false) {

@@ -156,6 +156,22 @@ pub struct RunSummary {
     pub accuracy: Option<super::AccuracyReport>,
     /// With `[[obstacles]]`: the total contact force on each (`None` without obstacles).
     pub contact_forces: Option<Vec<ContactForceRow>>,
+    /// With a nonlinear model or obstacles (Newton): the load steps and the Newton iterations
+    /// they took in all (`None` for one linear solve).
+    pub newton: Option<StaticNewton>,
+}
+
+/// What a static Newton solve took: `load_steps` increments (`analysis.load_steps`), and
+/// `iterations` Newton iterations in all, to the relative residual `tolerance`
+/// (`analysis.newton_tolerance`).
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct StaticNewton {
+    /// The load increments.
+    pub load_steps: usize,
+    /// Newton iterations over all load steps.
+    pub iterations: usize,
+    /// Each load step's tolerance on ‖r_f‖/‖f_f‖.
+    pub tolerance: f64,
 }
 
 impl RunSummary {
@@ -255,6 +271,7 @@ pub(super) fn run_static_on<E: SceneElement>(
              or an amplitude on a constraint)",
         ));
     }
+    let mut newton = None;
     let (displacement, relative_residual, free_dofs) = match scene.model() {
         tetfem::model::ModelKind::Linear if contact.is_none() => {
             let options = tetfem::linalg::linear_solver::SolverOptions {
@@ -285,7 +302,7 @@ pub(super) fn run_static_on<E: SceneElement>(
                     &built.constraints,
                     &built.loads,
                     contact,
-                    tetfem::nonlinear::NewtonOptions::default(),
+                    scene.static_newton(),
                 )?,
                 None => tetfem::nonlinear::solve_nonlinear_static_with_motion(
                     &built.mesh,
@@ -293,7 +310,7 @@ pub(super) fn run_static_on<E: SceneElement>(
                     &built.constraints,
                     &built.loads,
                     &built.motions,
-                    tetfem::nonlinear::NewtonOptions::default(),
+                    scene.static_newton(),
                 )?,
             };
             let dofs = tetfem::constraints::DofMap::new(&built.constraints);
@@ -319,6 +336,11 @@ pub(super) fn run_static_on<E: SceneElement>(
                 &report.displacement,
             )?);
             friction_forces = report.obstacle_friction_forces;
+            newton = Some(StaticNewton {
+                load_steps: report.residuals.len(),
+                iterations: report.iterations,
+                tolerance: scene.static_newton().tolerance,
+            });
             (report.displacement, relative, dofs.free_count())
         }
     };
@@ -386,6 +408,7 @@ pub(super) fn run_static_on<E: SceneElement>(
     };
     let mut summary = RunSummary {
         contact_forces,
+        newton,
         warnings: built
             .warnings()
             .iter()

@@ -646,9 +646,15 @@ pub struct AnalysisSpec {
     /// ‖r‖ ≤ t·max(‖r₀‖, ‖f‖), finite, > 0 and < 1 (default 1e-8: the steps of every
     /// `nonlinear_solver` agree to it). A loose one buys speed with accuracy: on the swinging
     /// beam of the README's cost table 1e-2 keeps the trajectory within 5.5e-5 of the converged
-    /// one at 2.6× a linear step's cost, against 8.7× at 1e-8.
+    /// one at 2.6× a linear step's cost, against 8.7× at 1e-8. Static, with a nonlinear model or
+    /// obstacles: the Newton tolerance of each load step, ‖r_f‖ ≤ t·‖f_f‖ (default 1e-10).
     #[serde(default)]
     pub newton_tolerance: Option<f64>,
+    /// Static, with a nonlinear model or obstacles: the loads and prescribed displacements are
+    /// applied in this many equal increments, each solved by Newton (default 10, at most
+    /// 100 000). More steps rescue a solve whose Newton fails (a large load, a first contact).
+    #[serde(default)]
+    pub load_steps: Option<usize>,
     /// Static: the target relative energy-norm error (0 < a < 1) tetfem chooses the element
     /// order and cells for (checked with its line by the accuracy module; here only let through).
     #[serde(default)]
