@@ -235,8 +235,9 @@ impl StaticSolver {
     }
 
     /// The error for a displacement that left the floating-point range at free DOF `free`:
-    /// loads far above the stiffness (E = 1e-300 Pa under 1e200 N), named with both scales so
-    /// that the user can find the unit mistake.
+    /// loads or prescribed displacements far above the stiffness (E = 1e-300 Pa under 1e200 N,
+    /// a support moved by 1e308 m), named with the scales so that the user can find the unit
+    /// mistake.
     fn out_of_range(&self, free: usize, forces: &[f64]) -> Error {
         let largest = |values: &[f64]| values.iter().fold(0.0f64, |m, v| m.max(v.abs()));
         let diagonal: Vec<f64> = (0..self.free_stiffness.dim())
@@ -245,15 +246,17 @@ impl StaticSolver {
         Error::invalid_parameter(
             "loads against stiffness",
             format!(
-                "loads up to {:e} (force units) on stiffness diagonal entries of {:e} to {:e} \
-                 (force/length)",
+                "loads up to {:e} (force units) and prescribed displacements up to {:e} (length) \
+                 on stiffness diagonal entries of {:e} to {:e} (force/length)",
                 largest(forces),
+                largest(self.dofs.prescribed()),
                 diagonal.iter().copied().fold(f64::INFINITY, f64::min),
                 largest(&diagonal)
             ),
             format!(
-                "the displacement u = K⁻¹f leaves the floating-point range (at free DOF \
-                 {free}): check the scale and units of the loads and of Young's modulus"
+                "the displacement u = K⁻¹(f − K_fc·u_c) leaves the floating-point range (at free \
+                 DOF {free}): check the scale and units of the loads, the prescribed \
+                 displacements and Young's modulus"
             ),
         )
     }

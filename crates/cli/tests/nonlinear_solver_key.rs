@@ -195,9 +195,16 @@ fn a_bad_newton_tolerance_names_the_key_and_line() {
         .replace("dt = 1e-2\n", "")
         .replace("duration = 0.3\n", "")
         .replace("{solver}", "newton_tolerance = 1e-2");
-    let message = match Scene::parse(&text, "swing", Path::new(".")) {
+    // A static scene with a nonlinear model takes it for each load step's Newton solve
+    // (issue 33; crates/cli/tests/static_newton.rs), a modal one does not.
+    let scene = Scene::parse(&text, "swing", Path::new(".")).unwrap();
+    assert_eq!(scene.static_newton().tolerance, 1e-2);
+    let modal = text
+        .replace("type = \"static\"", "type = \"modal\"")
+        .replace("model = \"corotational\"\n", "");
+    let message = match Scene::parse(&modal, "swing", Path::new(".")) {
         Err(e) => e.to_string(),
-        Ok(_) => panic!("a static scene took newton_tolerance"),
+        Ok(_) => panic!("a modal scene took newton_tolerance"),
     };
     assert!(message.contains("only a dynamic analysis"), "{message}");
     assert!(message.contains("newton_tolerance"), "{message}");
