@@ -286,6 +286,16 @@ fn set_up<'p>(petsc: &'p Petsc, scene: &Scene) -> Result<SetUp<'p>> {
             ));
         }
     }
+    // A key the engine would ignore: a run asked for pictures must not end without them and
+    // look complete.
+    if scene.output().png {
+        return Err(Error::invalid(
+            format!("output.png of {}", scene.source_name()),
+            "true",
+            "the PETSc engine writes .pvtu frames, not PNG pictures: set png = false (and open \
+             the .pvd in ParaView) or run the scene with tetfem's own engine",
+        ));
+    }
     if scene.has_obstacles() {
         return Err(Error::invalid(
             format!("[[obstacles]] of {}", scene.source_name()),

@@ -222,8 +222,28 @@ mod with_petsc {
         Some(run.summary)
     }
 
+    /// The shipped scene `name` with `png = false`: the engine writes no pictures and
+    /// refuses a scene that asks for them. Written once per process under a name of its own,
+    /// then renamed into place (tests running at once write the same bytes).
+    fn without_png(name: &str) -> PathBuf {
+        let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("petsc-tests-scenes");
+        std::fs::create_dir_all(&dir).expect("scene folder");
+        let path = dir.join(name);
+        let text = std::fs::read_to_string(scenes().join(name))
+            .expect("scene")
+            .replace("png = true", "png = false");
+        let partial = dir.join(format!(
+            "{name}.{}.{:?}",
+            std::process::id(),
+            std::thread::current().id()
+        ));
+        std::fs::write(&partial, text).expect("scene written");
+        std::fs::rename(&partial, &path).expect("scene renamed");
+        path
+    }
+
     fn cantilever() -> PathBuf {
-        scenes().join("cantilever_static.toml")
+        without_png("cantilever_static.toml")
     }
 
     #[test]
@@ -301,7 +321,7 @@ mod with_petsc {
 
     #[test]
     fn materials_per_region_and_the_analytic_stretch_on_two_ranks() {
-        let scene = scenes().join("bimaterial_bar.toml");
+        let scene = without_png("bimaterial_bar.toml");
         let Some(s) = agrees("bimaterial_2", 2, &scene, &[]) else {
             return;
         };
@@ -1025,6 +1045,16 @@ gravity = [0.0, -9.81, 0.0]
             run_missing.stderr.contains("no_such_scene.toml"),
             "{}",
             run_missing.stderr
+        );
+        // A key the engine would ignore is refused (issue 33): a run asked for PNG frames must
+        // not end without them looking complete.
+        let with_png = scenes().join("cantilever_static.toml");
+        let run_png = run("png_scene", 1, &with_png, &[]).expect("ran before");
+        assert!(!run_png.success);
+        assert!(
+            run_png.stderr.contains("output.png") && run_png.stderr.contains("png = false"),
+            "{}",
+            run_png.stderr
         );
         let run_solver =
             run("bad_solver", 1, &cantilever(), &["--solver", "lu"]).expect("ran before");
