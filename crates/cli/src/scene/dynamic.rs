@@ -960,6 +960,11 @@ impl FrameWriter {
                 for c in ["ux", "uy", "uz"] {
                     columns.push(format!("{}_{c}_m", p.name));
                 }
+                if p.point.is_some() {
+                    for c in super::run::STRESS_COLUMNS {
+                        columns.push(format!("{}_{c}_pa", p.name));
+                    }
+                }
             }
             for e in [
                 "kinetic",
@@ -1055,8 +1060,11 @@ impl FrameWriter {
         let time = step_time(self.start, self.dt, state);
         if let Some(csv) = &mut self.csv {
             let mut row: Vec<CsvValue> = vec![time.into(), state.steps.into(), wall.into()];
-            for p in probes {
-                row.extend(p.iter().map(|&v| CsvValue::Real(v)));
+            for (probe, value) in setup.probes.iter().zip(probes) {
+                row.extend(value.iter().map(|&v| CsvValue::Real(v)));
+                if let Some(point) = &probe.point {
+                    row.extend(point_stress(setup, point, u)?.map(CsvValue::Real));
+                }
             }
             row.extend(
                 [
@@ -1564,4 +1572,30 @@ fn released_system<E: ElementType>(
     };
     let initial = State::released_from(system(loads)?.static_displacement()?);
     Ok((initial, system(&Loads::new(mesh))?))
+}
+
+/// A point probe's Cauchy stress at its point (Pa; XX, YY, ZZ, XY, YZ, XZ) from the full
+/// displacement `u`: the linear model's with the tet's material, or the run's force model's,
+/// as the static summary reports it.
+fn point_stress<E: SceneElement>(
+    setup: &DynamicSetup<E>,
+    point: &super::PointProbe,
+    u: &[f64],
+) -> Result<[f64; 6]> {
+    let s = match &setup.force {
+        InternalForce::Linear => point.location.stress(&setup.mesh, &setup.materials, u)?,
+        InternalForce::Nonlinear(force) => {
+            point
+                .location
+                .model_stress(&setup.mesh, force.models(), u)?
+        }
+    };
+    Ok([
+        s[(0, 0)],
+        s[(1, 1)],
+        s[(2, 2)],
+        s[(0, 1)],
+        s[(1, 2)],
+        s[(0, 2)],
+    ])
 }

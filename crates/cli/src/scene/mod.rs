@@ -143,7 +143,7 @@ where = { plane = { axis = "x", at = 1.0 } }
 
 [[probes]]                          # or at a point inside the mesh (instead of where): u there
 name = "inside"                     # from the shape functions of the tet holding it (columns
-at = [0.5, 0.05, 0.05]              # <name>_ux_m..); static runs also its stress σ there, that
+at = [0.5, 0.05, 0.05]              # <name>_ux_m..), and its stress σ there (every analysis), that
                                     # tet's own (linear in a 10-node tet; <name>_sxx_pa, _syy_pa,
                                     # _szz_pa, _sxy_pa, _syz_pa, _sxz_pa; summary stress_pa); m
 

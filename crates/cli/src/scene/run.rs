@@ -18,7 +18,7 @@ use tetfem::output::{
 use tetfem::statics::StaticSolver;
 
 /// The CSV column stems of a point probe's stress, in the `.vtu`'s tensor order.
-const STRESS_COLUMNS: [&str; 6] = ["sxx", "syy", "szz", "sxy", "syz", "sxz"];
+pub(super) const STRESS_COLUMNS: [&str; 6] = ["sxx", "syy", "szz", "sxy", "syz", "sxz"];
 
 /// Choices a caller (the command line) makes on top of the scene.
 #[derive(Debug, Clone, Default, PartialEq)]
