@@ -19,59 +19,11 @@
 use nalgebra::{Matrix3, Vector3};
 
 use super::{ElementType, Tet, Weights};
-use crate::error::{Error, Result};
+use crate::error::Result;
 use crate::material::Material;
-use crate::mesh::{CellType, TetMesh};
+use crate::mesh::TetMesh;
 
-/// The quadratic 10-node tet (see the [module](self) docs).
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
-pub struct Tet10;
-
-/// The corners (i, j) of edge node 4 + k.
-pub const EDGES: [(usize, usize); 6] = [(0, 1), (1, 2), (0, 2), (0, 3), (1, 3), (2, 3)];
-
-/// Relative distance of an edge node from its edge's midpoint above which a mesh is rejected:
-/// the element assumes straight edges, and a node this far off is a curved (isoparametric)
-/// element it would silently get wrong. The bound is round-off of a midpoint, with room.
-pub const MIDPOINT_TOLERANCE: f64 = 1e-9;
-
-impl CellType for Tet10 {
-    type Nodes = [usize; 10];
-    const NODES: usize = 10;
-    const NAME: &'static str = "tet10";
-    const VTK_CELL_TYPE: u8 = 24;
-
-    fn edge_node(nodes: &[usize; 10], a: usize, b: usize) -> Option<usize> {
-        let key = (a.min(b), a.max(b));
-        EDGES.iter().position(|&e| e == key).map(|k| nodes[4 + k])
-    }
-
-    /// Corners 1 ↔ 2 carry edges (0,1) ↔ (0,2) and (1,3) ↔ (2,3) with them; (1,2) stays.
-    fn swap_corners_1_2(nodes: &mut [usize; 10]) {
-        nodes.swap(1, 2);
-        nodes.swap(4, 6);
-        nodes.swap(8, 9);
-    }
-
-    fn check_cell(tet: usize, cell: &[usize; 10], nodes: &[Vector3<f64>]) -> Result<()> {
-        for (k, &(i, j)) in EDGES.iter().enumerate() {
-            let (a, b, m) = (nodes[cell[i]], nodes[cell[j]], nodes[cell[4 + k]]);
-            let offset = (m - (a + b) * 0.5).norm() / (b - a).norm();
-            // A NaN offset (coincident corners are rejected before, so only overflow) fails too.
-            if offset.is_nan() || offset > MIDPOINT_TOLERANCE {
-                return Err(Error::invalid_parameter(
-                    format!("tet {tet}: edge node {} (local {})", cell[4 + k], 4 + k),
-                    format!(
-                        "{offset:e} edge lengths from the midpoint of nodes {} and {}",
-                        cell[i], cell[j]
-                    ),
-                    format!("at most {MIDPOINT_TOLERANCE:e}: the 10-node tet is straight-sided"),
-                ));
-            }
-        }
-        Ok(())
-    }
-}
+pub use crate::mesh::cell::{EDGES, MIDPOINT_TOLERANCE, Tet10};
 
 /// The degree-2 rule: 4 points at barycentric (α, β, β, β) and its permutations, weights V/4.
 const RULE_ALPHA: f64 = 0.585_410_196_624_968_5;

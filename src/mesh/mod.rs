@@ -7,7 +7,7 @@ pub mod io;
 mod select;
 mod topology;
 
-pub use cell::{CellType, NodeList, Tet4};
+pub use cell::{CellType, NodeList, Tet4, Tet10};
 pub use generate::{BoxSplit, box_node_index};
 pub use topology::{BoundaryFace, FaceTopology};
 

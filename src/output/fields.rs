@@ -199,19 +199,20 @@ pub fn displacement_magnitude(displacement: &[f64]) -> Vec<f64> {
 /// components), in ParaView's order for a symmetric tensor: XX, YY, ZZ, XY, YZ, XZ (the
 /// tensor's units).
 pub fn stress_components(stresses: &[Matrix3<f64>]) -> Vec<f64> {
-    stresses
-        .iter()
-        .flat_map(|s| {
-            [
-                s[(0, 0)],
-                s[(1, 1)],
-                s[(2, 2)],
-                s[(0, 1)],
-                s[(1, 2)],
-                s[(0, 2)],
-            ]
-        })
-        .collect()
+    stresses.iter().flat_map(symmetric_components).collect()
+}
+
+/// The six independent components of one symmetric tensor in ParaView's order XX, YY, ZZ, XY,
+/// YZ, XZ (the upper triangle; the tensor's units).
+pub fn symmetric_components(s: &Matrix3<f64>) -> [f64; 6] {
+    [
+        s[(0, 0)],
+        s[(1, 1)],
+        s[(2, 2)],
+        s[(0, 1)],
+        s[(1, 2)],
+        s[(0, 2)],
+    ]
 }
 
 /// The principal stresses σ₁ ≥ σ₂ ≥ σ₃ of each stress tensor (its eigenvalues, stress units),

@@ -664,8 +664,8 @@ mod tests {
     use std::fmt::Write as _;
 
     use super::*;
-    use crate::element::Tet10;
     use crate::mesh::BoxSplit;
+    use crate::mesh::Tet10;
 
     /// Gmsh's node k of a 10-node tet is VTK's (the mesh's) node `VTK_OF_GMSH[k]`.
     const VTK_OF_GMSH: [usize; 10] = [0, 1, 2, 3, 4, 5, 6, 7, 9, 8];

@@ -1590,12 +1590,5 @@ fn point_stress<E: SceneElement>(
                 .model_stress(&setup.mesh, force.models(), u)?
         }
     };
-    Ok([
-        s[(0, 0)],
-        s[(1, 1)],
-        s[(2, 2)],
-        s[(0, 1)],
-        s[(1, 2)],
-        s[(0, 2)],
-    ])
+    Ok(tetfem::output::fields::symmetric_components(&s))
 }

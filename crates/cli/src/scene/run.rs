@@ -486,14 +486,7 @@ fn probe_values<E: SceneElement>(
                         true => point.location.stress(&built.mesh, &built.materials, u)?,
                         false => point.location.model_stress(&built.mesh, model, u)?,
                     };
-                    Some([
-                        s[(0, 0)],
-                        s[(1, 1)],
-                        s[(2, 2)],
-                        s[(0, 1)],
-                        s[(1, 2)],
-                        s[(0, 2)],
-                    ])
+                    Some(tetfem::output::fields::symmetric_components(&s))
                 }
             };
             Ok(ProbeValue {
