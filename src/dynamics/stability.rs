@@ -184,9 +184,10 @@ pub fn critical_time_step_with(
             })
             .collect(),
     };
-    // The iteration runs on A/G (G Gershgorin's bound, so every quantity is ≤ 1 in size) with z
-    // normalised by its largest entry: a finite ω_max² near the floating-point range (ρ = 1e-300
-    // kg/m³ gives G ≈ 1e307) would otherwise overflow in z·z and the residual's squares.
+    // The iteration runs on A/s with z scaled to entries of order 1, s the power of two at or
+    // below Gershgorin's bound G: a finite ω_max² near the floating-point range (ρ = 1e-300
+    // kg/m³ gives G ≈ 1e307) would otherwise overflow in z·z and the residual's squares. Powers
+    // of two scale exactly, so every iterate, θ and δ keep the bits of the unscaled iteration.
     let largest = z.iter().fold(0.0f64, |m, v| m.max(v.abs()));
     if !(largest.is_finite() && largest > 0.0) {
         return Err(Error::invalid_parameter(
@@ -195,7 +196,9 @@ pub fn critical_time_step_with(
             "must be finite and nonzero (check the density's scale)",
         ));
     }
-    z.iter_mut().for_each(|v| *v /= largest);
+    let start_scale = power_of_two_at_or_below(largest);
+    z.iter_mut().for_each(|v| *v /= start_scale);
+    let scale = power_of_two_at_or_below(gershgorin);
     let (mut x, mut kx, mut az) = (vec![0.0; n], vec![0.0; n], vec![0.0; n]);
     let mut bracket: (f64, f64) = (0.0, gershgorin);
     let mut iterations = MAX_POWER_ITERATIONS;
@@ -206,7 +209,7 @@ pub fn critical_time_step_with(
         }
         k.product_into(&x, &mut kx);
         for i in 0..n {
-            az[i] = inverse_root[i] * kx[i] / gershgorin;
+            az[i] = inverse_root[i] * kx[i] / scale;
         }
         let zz: f64 = z.iter().map(|v| v * v).sum();
         let theta = z.iter().zip(&az).map(|(a, b)| a * b).sum::<f64>() / zz;
@@ -221,14 +224,11 @@ pub fn critical_time_step_with(
             return Err(Error::Solver(format!(
                 "power iteration for ω_max broke down at iteration {iteration} \
                  (Rayleigh quotient {:e}, residual {:e})",
-                theta * gershgorin,
-                delta * gershgorin
+                theta * scale,
+                delta * scale
             )));
         }
-        bracket = (
-            theta * gershgorin,
-            ((theta + delta) * gershgorin).min(gershgorin),
-        );
+        bracket = (theta * scale, ((theta + delta) * scale).min(gershgorin));
         if delta <= BRACKET_TOLERANCE * theta {
             iterations = iteration;
             break;
@@ -276,6 +276,13 @@ pub fn critical_time_step_with(
 pub fn damped_critical_step(omega_max: f64, damping: super::Rayleigh) -> f64 {
     let xi = damping.ratio_at(omega_max);
     2.0 / (omega_max * (1.0f64.hypot(xi) + xi))
+}
+
+/// 2^⌊log₂ x⌋ for a finite x > 0 (clamped to the normal range): a scale that multiplies and
+/// divides without rounding.
+fn power_of_two_at_or_below(x: f64) -> f64 {
+    let exponent = (x.log2().floor() as i64).clamp(-1022, 1023);
+    f64::from_bits(((exponent + 1023) as u64) << 52)
 }
 
 /// Gershgorin's bound on λ_max(M^(−1/2)·K·M^(−1/2)): maxᵢ Σⱼ |Kᵢⱼ|·sᵢ·sⱼ with sᵢ = 1/√mᵢ.

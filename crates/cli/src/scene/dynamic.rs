@@ -3,7 +3,7 @@
 //! of probes, energies and wall time per step, PNG frames, and a JSON summary.
 
 use std::ops::ControlFlow;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::Instant;
 
@@ -1059,28 +1059,15 @@ impl FrameWriter {
     ) -> Result<()> {
         let time = step_time(self.start, self.dt, state);
         if let Some(csv) = &mut self.csv {
-            let mut row: Vec<CsvValue> = vec![time.into(), state.steps.into(), wall.into()];
-            for (probe, value) in setup.probes.iter().zip(probes) {
-                row.extend(value.iter().map(|&v| CsvValue::Real(v)));
-                if let Some(point) = &probe.point {
-                    row.extend(point_stress(setup, point, u)?.map(CsvValue::Real));
-                }
-            }
-            row.extend(
-                [
-                    energy.kinetic,
-                    energy.elastic,
-                    energy.gravity_potential,
-                    energy.load_potential,
-                    energy.total(),
-                ]
-                .map(CsvValue::Real),
-            );
-            row.extend(reactions.csv_values().map(CsvValue::Real));
-            if let (Some(contact), Some(forces)) = (contact_of(&setup.force), contact_forces) {
-                let values = super::dynamic_contact::csv_values(contact, u, time, forces)?;
-                row.extend(values.into_iter().map(CsvValue::Real));
-            }
+            let row = csv_row(
+                setup,
+                (time, state.steps, wall),
+                u,
+                probes,
+                energy,
+                reactions,
+                contact_forces,
+            )?;
             csv.push_values(&row)?;
         }
         if !(state.steps.is_multiple_of(self.every) || last) {
@@ -1098,54 +1085,16 @@ impl FrameWriter {
         );
         let dir = self.settings.directory.clone();
         if let Some(pvd) = &mut self.pvd {
-            let mut velocity = vec![0.0; u.len()];
-            for (&dof, v) in setup.system.dofs().free_dofs().iter().zip(&state.velocity) {
-                velocity[dof] = *v;
-            }
             let vtu = dir.join(format!("{name}.vtu"));
-            let indicators = match &setup.force {
-                InternalForce::Linear => {
-                    Some(super::estimated_error_of(&setup.mesh, &setup.materials, u)?.1)
-                }
-                InternalForce::Nonlinear(_) => None,
-            };
-            let contact_fields = match contact_of(&setup.force) {
-                Some(c) => Some(super::dynamic_contact::node_fields(
-                    c,
-                    setup.mesh.nodes(),
-                    u,
-                    time,
-                )?),
-                None => None,
-            };
-            let extras = FrameExtras {
-                contact: contact_fields
-                    .as_ref()
-                    .map(|(gap, pressure)| ContactFields { gap, pressure }),
-                velocity: Some(&velocity),
-                reactions: Some(&reactions.nodal),
-                time: Some(time),
-                stress_tensors: true,
-                format: self.settings.vtu_format.format(),
-                error_indicator: indicators.as_deref(),
-                original_ids: setup
-                    .original_ids
-                    .as_ref()
-                    .map(|(nodes, elements)| OriginalIds { nodes, elements }),
-            };
-            match &setup.force {
-                InternalForce::Linear => {
-                    write_result_frame(&vtu, &setup.mesh, &setup.materials, u, extras)?
-                }
-                InternalForce::Nonlinear(n) => write_model_result_vtu(
-                    &vtu,
-                    &setup.mesh,
-                    n.models(),
-                    &setup.materials,
-                    u,
-                    extras,
-                )?,
-            }
+            write_frame_vtu(
+                setup,
+                state,
+                u,
+                time,
+                reactions,
+                self.settings.vtu_format.format(),
+                &vtu,
+            )?;
             pvd.push(time, &vtu)?;
             self.files.push(vtu);
         }
@@ -1591,4 +1540,98 @@ fn point_stress<E: SceneElement>(
         }
     };
     Ok(tetfem::output::fields::symmetric_components(&s))
+}
+
+/// One CSV row of a dynamic run at `(time, step, wall seconds per step)`: the probes (a point
+/// probe's stress after its displacement), the energies, the reactions and, with contact, the
+/// obstacles' columns; in the order of the header `FrameWriter::new` writes.
+fn csv_row<E: SceneElement>(
+    setup: &DynamicSetup<E>,
+    (time, step, wall): (f64, usize, f64),
+    u: &[f64],
+    probes: &[[f64; 3]],
+    energy: &Energy,
+    reactions: &super::ReactionsAt,
+    contact_forces: Option<&[Vector3<f64>]>,
+) -> Result<Vec<CsvValue>> {
+    let mut row: Vec<CsvValue> = vec![time.into(), step.into(), wall.into()];
+    for (probe, value) in setup.probes.iter().zip(probes) {
+        row.extend(value.iter().map(|&v| CsvValue::Real(v)));
+        if let Some(point) = &probe.point {
+            row.extend(point_stress(setup, point, u)?.map(CsvValue::Real));
+        }
+    }
+    row.extend(
+        [
+            energy.kinetic,
+            energy.elastic,
+            energy.gravity_potential,
+            energy.load_potential,
+            energy.total(),
+        ]
+        .map(CsvValue::Real),
+    );
+    row.extend(reactions.csv_values().map(CsvValue::Real));
+    if let (Some(contact), Some(forces)) = (contact_of(&setup.force), contact_forces) {
+        let values = super::dynamic_contact::csv_values(contact, u, time, forces)?;
+        row.extend(values.into_iter().map(CsvValue::Real));
+    }
+    Ok(row)
+}
+
+/// Writes the `.vtu` frame of `state` (full displacement `u`, at `time`) to `path`: velocity,
+/// reactions, contact fields, stresses and, for the linear model, the error indicator; the
+/// model's own stresses for a nonlinear one.
+fn write_frame_vtu<E: SceneElement>(
+    setup: &DynamicSetup<E>,
+    state: &State,
+    u: &[f64],
+    time: f64,
+    reactions: &super::ReactionsAt,
+    format: tetfem::output::VtuFormat,
+    path: &Path,
+) -> Result<()> {
+    let mut velocity = vec![0.0; u.len()];
+    for (&dof, v) in setup.system.dofs().free_dofs().iter().zip(&state.velocity) {
+        velocity[dof] = *v;
+    }
+    let indicators = match &setup.force {
+        InternalForce::Linear => {
+            Some(super::estimated_error_of(&setup.mesh, &setup.materials, u)?.1)
+        }
+        InternalForce::Nonlinear(_) => None,
+    };
+    let contact_fields = match contact_of(&setup.force) {
+        Some(c) => Some(super::dynamic_contact::node_fields(
+            c,
+            setup.mesh.nodes(),
+            u,
+            time,
+        )?),
+        None => None,
+    };
+    let extras = FrameExtras {
+        contact: contact_fields
+            .as_ref()
+            .map(|(gap, pressure)| ContactFields { gap, pressure }),
+        velocity: Some(&velocity),
+        reactions: Some(&reactions.nodal),
+        time: Some(time),
+        stress_tensors: true,
+        format,
+        error_indicator: indicators.as_deref(),
+        original_ids: setup
+            .original_ids
+            .as_ref()
+            .map(|(nodes, elements)| OriginalIds { nodes, elements }),
+    };
+    match &setup.force {
+        InternalForce::Linear => {
+            write_result_frame(path, &setup.mesh, &setup.materials, u, extras)?
+        }
+        InternalForce::Nonlinear(n) => {
+            write_model_result_vtu(path, &setup.mesh, n.models(), &setup.materials, u, extras)?
+        }
+    }
+    Ok(())
 }

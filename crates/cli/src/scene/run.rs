@@ -248,13 +248,8 @@ pub(super) fn run_static_on<E: SceneElement>(
     let built = scene.build_as::<E>()?;
     let build_seconds = clock.elapsed().as_secs_f64();
     let clock = Instant::now();
-    let mut phases = None;
-    let mut factor_len = 0;
-    // Per obstacle, the friction force the body exerts on it (N; empty without friction).
-    let mut friction_forces = Vec::new();
     // The model that runs is the model whose stress and energy are reported.
     let model = scene.model().build_map(&built.materials);
-    let reactions;
     // With obstacles every model (the linear one too) goes through the contact Newton solve.
     let contact = match scene.has_obstacles() {
         true => scene.contact(
@@ -271,79 +266,20 @@ pub(super) fn run_static_on<E: SceneElement>(
              or an amplitude on a constraint)",
         ));
     }
-    let mut newton = None;
-    let (displacement, relative_residual, free_dofs) = match scene.model() {
-        tetfem::model::ModelKind::Linear if contact.is_none() => {
-            let options = tetfem::linalg::linear_solver::SolverOptions {
-                method: scene.spec().linear_method(),
-                ..Default::default()
-            };
-            let mut solver = StaticSolver::with_options(
-                &built.mesh,
-                &built.materials,
-                &built.constraints,
-                options,
-            )?;
-            let solution = solver.solve(&built.loads)?;
-            phases = Some(solver.timings().into());
-            reactions = Some(solution.reactions.clone());
-            factor_len = solver.factor_len();
-            (
-                solution.displacement,
-                solution.relative_residual,
-                solver.dofs().free_count(),
-            )
-        }
-        _ => {
-            let report = match &contact {
-                Some(contact) => tetfem::nonlinear::solve_nonlinear_static_with_contact(
-                    linear_mesh_of(scene, &built.mesh)?,
-                    &model,
-                    &built.constraints,
-                    &built.loads,
-                    contact,
-                    scene.static_newton(),
-                )?,
-                None => tetfem::nonlinear::solve_nonlinear_static_with_motion(
-                    &built.mesh,
-                    &model,
-                    &built.constraints,
-                    &built.loads,
-                    &built.motions,
-                    scene.static_newton(),
-                )?,
-            };
-            let dofs = tetfem::constraints::DofMap::new(&built.constraints);
-            let load: f64 = dofs
-                .restrict(built.loads.as_slice())?
-                .iter()
-                .map(|f| f * f)
-                .sum::<f64>()
-                .sqrt();
-            let last = report
-                .residuals
-                .last()
-                .and_then(|r| r.last())
-                .copied()
-                .unwrap_or(0.0);
-            // ‖r_f‖/‖f_f‖ at the end, as for the linear solve.
-            let relative = if load > 0.0 { last / load } else { last };
-            reactions = Some(tetfem::nonlinear::nonlinear_reactions(
-                &built.mesh,
-                &model,
-                &built.constraints,
-                &built.loads,
-                &report.displacement,
-            )?);
-            friction_forces = report.obstacle_friction_forces;
-            newton = Some(StaticNewton {
-                load_steps: report.residuals.len(),
-                iterations: report.iterations,
-                tolerance: scene.static_newton().tolerance,
-            });
-            (report.displacement, relative, dofs.free_count())
-        }
+    let solved = match (scene.model(), &contact) {
+        (tetfem::model::ModelKind::Linear, None) => solve_linear(scene, &built)?,
+        (_, contact) => solve_by_newton(scene, &built, &model, contact.as_ref())?,
     };
+    let StaticSolve {
+        displacement,
+        relative_residual,
+        free_dofs,
+        phases,
+        factor_len,
+        friction_forces,
+        newton,
+    } = solved.0;
+    let reactions = Some(solved.1);
     let solve_seconds = clock.elapsed().as_secs_f64();
     let u = &displacement;
     // The linear model's fields come straight from u: the force-model route forms x = X + u and
@@ -465,6 +401,107 @@ pub(super) fn run_static_on<E: SceneElement>(
         summary.output_seconds = clock.elapsed().as_secs_f64();
     }
     Ok(summary)
+}
+
+/// What a static solve gives the report: the displacement (every DOF), ‖r_f‖/‖f_f‖, the free
+/// DOF count, the linear solve's phases and factor size (`None`, 0 for Newton), per obstacle the
+/// friction force the body exerts on it (N; empty without friction) and Newton's counts.
+struct StaticSolve {
+    displacement: Vec<f64>,
+    relative_residual: f64,
+    free_dofs: usize,
+    phases: Option<SolvePhases>,
+    factor_len: usize,
+    friction_forces: Vec<nalgebra::Vector3<f64>>,
+    newton: Option<StaticNewton>,
+}
+
+/// The linear model without obstacles: one linear solve with the scene's `linear_solver`, and
+/// its reactions K·u − f.
+fn solve_linear<E: SceneElement>(
+    scene: &Scene,
+    built: &BuiltScene<E>,
+) -> Result<(StaticSolve, Vec<f64>)> {
+    let options = tetfem::linalg::linear_solver::SolverOptions {
+        method: scene.spec().linear_method(),
+        ..Default::default()
+    };
+    let mut solver =
+        StaticSolver::with_options(&built.mesh, &built.materials, &built.constraints, options)?;
+    let solution = solver.solve(&built.loads)?;
+    let solve = StaticSolve {
+        displacement: solution.displacement,
+        relative_residual: solution.relative_residual,
+        free_dofs: solver.dofs().free_count(),
+        phases: Some(solver.timings().into()),
+        factor_len: solver.factor_len(),
+        friction_forces: Vec::new(),
+        newton: None,
+    };
+    Ok((solve, solution.reactions))
+}
+
+/// A nonlinear model or obstacles: Newton over the scene's load steps
+/// ([`Scene::static_newton`]), and the reactions −(Σₑ fₑ(u) + f).
+fn solve_by_newton<E: SceneElement>(
+    scene: &Scene,
+    built: &BuiltScene<E>,
+    model: &ModelMap,
+    contact: Option<&tetfem::contact::Contact>,
+) -> Result<(StaticSolve, Vec<f64>)> {
+    let report = match contact {
+        Some(contact) => tetfem::nonlinear::solve_nonlinear_static_with_contact(
+            linear_mesh_of(scene, &built.mesh)?,
+            model,
+            &built.constraints,
+            &built.loads,
+            contact,
+            scene.static_newton(),
+        )?,
+        None => tetfem::nonlinear::solve_nonlinear_static_with_motion(
+            &built.mesh,
+            model,
+            &built.constraints,
+            &built.loads,
+            &built.motions,
+            scene.static_newton(),
+        )?,
+    };
+    let dofs = tetfem::constraints::DofMap::new(&built.constraints);
+    let load: f64 = dofs
+        .restrict(built.loads.as_slice())?
+        .iter()
+        .map(|f| f * f)
+        .sum::<f64>()
+        .sqrt();
+    let last = report
+        .residuals
+        .last()
+        .and_then(|r| r.last())
+        .copied()
+        .unwrap_or(0.0);
+    let reactions = tetfem::nonlinear::nonlinear_reactions(
+        &built.mesh,
+        model,
+        &built.constraints,
+        &built.loads,
+        &report.displacement,
+    )?;
+    let solve = StaticSolve {
+        // ‖r_f‖/‖f_f‖ at the end, as for the linear solve.
+        relative_residual: if load > 0.0 { last / load } else { last },
+        free_dofs: dofs.free_count(),
+        phases: None,
+        factor_len: 0,
+        newton: Some(StaticNewton {
+            load_steps: report.residuals.len(),
+            iterations: report.iterations,
+            tolerance: scene.static_newton().tolerance,
+        }),
+        friction_forces: report.obstacle_friction_forces,
+        displacement: report.displacement,
+    };
+    Ok((solve, reactions))
 }
 
 /// Each probe's value at the solution `u`: a point probe's stress is the linear model's with
