@@ -3,8 +3,8 @@
 use nalgebra::Vector3;
 
 use crate::element::ElementType;
+use crate::element::PointwiseElement;
 use crate::error::{Error, Result};
-use crate::estimate::PointwiseElement;
 use crate::materials::TetMaterials;
 use crate::mesh::{BoundaryFace, CellType, TetMesh};
 
@@ -93,7 +93,7 @@ impl Loads {
         let mut shape = vec![0.0; E::NODES];
         for (t, tet) in mesh.tets().iter().enumerate() {
             let x = mesh.corner_positions_of(t);
-            let volume = crate::estimate::recovery::corners_of(mesh, t).volume();
+            let volume = crate::element::pointwise::corners_of(mesh, t).volume();
             for q in &rule {
                 let b3 = q.barycentric;
                 let l = [1.0 - b3.x - b3.y - b3.z, b3.x, b3.y, b3.z];

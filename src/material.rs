@@ -137,3 +137,18 @@ impl Material {
         d
     }
 }
+
+impl Material {
+    /// Warnings about values that are valid but give poor answers on linear tets:
+    /// [`Warning::NearlyIncompressible`](crate::warning::Warning::NearlyIncompressible) for
+    /// ν > [`NEARLY_INCOMPRESSIBLE_POISSON`](crate::warning::NEARLY_INCOMPRESSIBLE_POISSON).
+    pub fn warnings(&self) -> Vec<crate::warning::Warning> {
+        if self.poisson_ratio() > crate::warning::NEARLY_INCOMPRESSIBLE_POISSON {
+            vec![crate::warning::Warning::NearlyIncompressible {
+                poisson_ratio: self.poisson_ratio(),
+            }]
+        } else {
+            Vec::new()
+        }
+    }
+}

@@ -134,8 +134,7 @@ pub struct MeshStatistics {
     pub poor_tets: usize,
 }
 
-/// Dihedral angle (degrees) under which [`MeshStatistics::poor_tets`] counts a tet.
-pub const POOR_DIHEDRAL_DEG: f64 = 5.0;
+pub use crate::warning::POOR_DIHEDRAL_DEG;
 
 impl<C: crate::mesh::CellType> TetMesh<C> {
     /// Quality of every tet (of its corners), in tet order.
@@ -178,5 +177,46 @@ impl<C: crate::mesh::CellType> TetMesh<C> {
                 .filter(|q| q.min_dihedral * deg < POOR_DIHEDRAL_DEG)
                 .count(),
         }
+    }
+}
+
+/// A mesh's warnings live with its quality measures, so that the mesh module knows nothing of
+/// them.
+impl<C: crate::mesh::CellType> crate::mesh::TetMesh<C> {
+    /// Warnings about this mesh: unused nodes, mixed orientation, poor elements (see
+    /// [`Warning`](crate::warning::Warning)). One pass over the tets, O(tets).
+    pub fn warnings(&self) -> Vec<crate::warning::Warning> {
+        let mut warnings = Vec::new();
+        let unused = self.unused_nodes();
+        if let Some(&first) = unused.first() {
+            warnings.push(crate::warning::Warning::UnusedNodes {
+                count: unused.len(),
+                first,
+            });
+        }
+        if self.reoriented_count() > 0 && self.reoriented_count() < self.tet_count() {
+            warnings.push(crate::warning::Warning::MixedOrientation {
+                reoriented: self.reoriented_count(),
+                tets: self.tet_count(),
+            });
+        }
+        let q = self.tet_qualities();
+        let deg = 180.0 / std::f64::consts::PI;
+        let poor = q
+            .iter()
+            .filter(|q| q.min_dihedral * deg < POOR_DIHEDRAL_DEG)
+            .count();
+        if poor > 0 {
+            let dihedral = Summary::of(q.iter().map(|q| q.min_dihedral * deg));
+            let mut altitudes: Vec<f64> = q.iter().map(|q| q.min_altitude).collect();
+            altitudes.sort_unstable_by(f64::total_cmp);
+            warnings.push(crate::warning::Warning::PoorElements {
+                count: poor,
+                worst_tet: dihedral.min_tet,
+                worst_dihedral_deg: dihedral.min,
+                dt_factor: altitudes[0] / altitudes[altitudes.len() / 2],
+            });
+        }
+        warnings
     }
 }

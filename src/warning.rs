@@ -1,11 +1,16 @@
 //! Warnings: input that is valid but likely to give a poor or surprising answer.
 //!
-//! The library never prints; it returns these from [`TetMesh::warnings`](crate::mesh::TetMesh::warnings),
-//! [`Material::warnings`](crate::material::Material::warnings) and
-//! [`BuiltScene::warnings`](crate::scene::BuiltScene::warnings) (constraints and loads), and the scene runner and the
+//! The library never prints; it returns these from [`TetMesh::warnings`](crate::mesh::TetMesh::warnings)
+//! (in `quality.rs`, beside the measures it reads), [`Material::warnings`](crate::material::Material::warnings)
+//! and the scenes' `BuiltScene::warnings` (constraints and loads), and the scene runner and the
 //! command-line tool print them (`warning: …` on standard error) and list them in `--json`.
+//! This module is a base every layer may use: it knows only the error module's number format.
 
 use std::fmt;
+
+/// Smallest dihedral angle (degrees) of a tet that is not reported as poor by
+/// [`Warning::PoorElements`]: below it stiffness and stresses are unreliable.
+pub const POOR_DIHEDRAL_DEG: f64 = 5.0;
 
 /// Poisson's ratio above which [`Warning::NearlyIncompressible`] is raised: λ/μ = 2ν/(1−2ν) = 9
 /// at ν = 0.45, and linear tets lock volumetrically as λ/μ grows (too stiff in bending).
@@ -31,7 +36,7 @@ pub enum Warning {
         /// Tets in the mesh.
         tets: usize,
     },
-    /// Tets with a dihedral angle below [`POOR_DIHEDRAL_DEG`](crate::quality::POOR_DIHEDRAL_DEG)
+    /// Tets with a dihedral angle below [`POOR_DIHEDRAL_DEG`]
     /// (slivers, needles, caps): their stiffness is poorly conditioned, their stresses
     /// unreliable, and the smallest altitude sets the explicit critical step.
     PoorElements {
@@ -144,7 +149,7 @@ impl fmt::Display for Warning {
                 "{count} tets have a dihedral angle under {}° (worst: tet {worst_tet}, {worst_dihedral_deg:.2}°); \
                  their stresses are unreliable, and the smallest altitude makes the explicit critical step \
                  {dt_factor:.2e} of what the median tet would allow",
-                crate::quality::POOR_DIHEDRAL_DEG
+                POOR_DIHEDRAL_DEG
             ),
             Warning::NearlyIncompressible { poisson_ratio } => write!(
                 f,
@@ -213,62 +218,6 @@ impl fmt::Display for Warning {
                 "all {dofs} DOFs are constrained: nothing is solved, the displacement is the \
                  prescribed one and the loads change only the reactions"
             ),
-        }
-    }
-}
-
-/// A mesh's warnings live with the warnings, so that the mesh knows nothing of them.
-impl<C: crate::mesh::CellType> crate::mesh::TetMesh<C> {
-    /// Warnings about this mesh: unused nodes, mixed orientation, poor elements (see
-    /// [`Warning`](crate::warning::Warning)). One pass over the tets, O(tets).
-    pub fn warnings(&self) -> Vec<Warning> {
-        let mut warnings = Vec::new();
-        let unused = self.unused_nodes();
-        if let Some(&first) = unused.first() {
-            warnings.push(Warning::UnusedNodes {
-                count: unused.len(),
-                first,
-            });
-        }
-        if self.reoriented_count() > 0 && self.reoriented_count() < self.tet_count() {
-            warnings.push(Warning::MixedOrientation {
-                reoriented: self.reoriented_count(),
-                tets: self.tet_count(),
-            });
-        }
-        let q = self.tet_qualities();
-        let deg = 180.0 / std::f64::consts::PI;
-        let poor = q
-            .iter()
-            .filter(|q| q.min_dihedral * deg < crate::quality::POOR_DIHEDRAL_DEG)
-            .count();
-        if poor > 0 {
-            let dihedral = crate::quality::Summary::of(q.iter().map(|q| q.min_dihedral * deg));
-            let mut altitudes: Vec<f64> = q.iter().map(|q| q.min_altitude).collect();
-            altitudes.sort_unstable_by(f64::total_cmp);
-            warnings.push(Warning::PoorElements {
-                count: poor,
-                worst_tet: dihedral.min_tet,
-                worst_dihedral_deg: dihedral.min,
-                dt_factor: altitudes[0] / altitudes[altitudes.len() / 2],
-            });
-        }
-        warnings
-    }
-}
-
-/// A material's warnings live with the warnings, so that the material knows nothing of them.
-impl crate::material::Material {
-    /// Warnings about values that are valid but give poor answers on linear tets:
-    /// [`Warning::NearlyIncompressible`](crate::warning::Warning::NearlyIncompressible) for
-    /// ν > [`NEARLY_INCOMPRESSIBLE_POISSON`](crate::warning::NEARLY_INCOMPRESSIBLE_POISSON).
-    pub fn warnings(&self) -> Vec<crate::warning::Warning> {
-        if self.poisson_ratio() > crate::warning::NEARLY_INCOMPRESSIBLE_POISSON {
-            vec![crate::warning::Warning::NearlyIncompressible {
-                poisson_ratio: self.poisson_ratio(),
-            }]
-        } else {
-            Vec::new()
         }
     }
 }

@@ -1,11 +1,11 @@
 //! `tetfem.run_scene`: a TOML scene run by the command-line tool's own runner
-//! (`tetfem_cli::scene`), its summary handed back as a dict.
+//! (`tetfem_scene`), its summary handed back as a dict.
 
 use std::ops::ControlFlow;
 use std::path::PathBuf;
 
 use pyo3::prelude::*;
-use tetfem_cli::scene::{
+use tetfem_scene::{
     Analysis, DynamicOverrides, RunOptions, Scene, run_dynamic_scene, run_modal_scene,
     run_static_with,
 };

@@ -8,11 +8,13 @@
 //! - [`tet10`]: the quadratic 10-node tet ([`Tet10`]), linear strain.
 
 mod element_type;
+pub mod pointwise;
 pub mod tet10;
 mod tet4;
 
 pub use crate::mesh::{CellType, Tet4};
 pub use element_type::{ElementType, Weights};
+pub use pointwise::PointwiseElement;
 pub use tet4::{
     FACES, Matrix6x12, Matrix12, Tet, Vector12, rest_shape_matrix, shape_quality, signed_volume,
     von_mises,

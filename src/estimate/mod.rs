@@ -26,12 +26,14 @@
 //! Across an interface between materials the exact stress jumps (only the traction is
 //! continuous) and the recovered one does not, so η_K overestimates along such interfaces.
 
-pub mod pointwise;
 pub mod recovery;
 
 use nalgebra::{Matrix3, Vector3};
 
-pub use pointwise::PointwiseElement;
+/// The element seam of pointwise evaluation, kept here under its earlier path; it lives with
+/// the elements (`crate::element::pointwise`), since loads evaluate fields with it too.
+pub use crate::element::PointwiseElement;
+pub use crate::element::pointwise;
 use recovery::{corners_of, gather, hooke};
 
 use crate::error::{Error, Result};

@@ -3,8 +3,8 @@
 
 use nalgebra::Matrix3;
 
-use super::pointwise::PointwiseElement;
-use crate::element::Tet;
+use crate::element::PointwiseElement;
+pub(crate) use crate::element::pointwise::corners_of;
 use crate::material::Material;
 use crate::materials::TetMaterials;
 use crate::mesh::TetMesh;
@@ -14,13 +14,6 @@ pub(crate) fn hooke(material: &Material, gradient: &Matrix3<f64>) -> Matrix3<f64
     let strain = (gradient + gradient.transpose()) * 0.5;
     Matrix3::identity() * (material.lame_lambda() * strain.trace())
         + strain * (2.0 * material.shear_modulus())
-}
-
-/// The corner geometry of tet `t` (straight-sided for every shipped element).
-pub(crate) fn corners_of<E: PointwiseElement>(mesh: &TetMesh<E>, t: usize) -> Tet {
-    // Cannot fail: `from_cells` rejected degenerate corners and reoriented negative ones.
-    Tet::new(&mesh.corner_positions_of(t))
-        .expect("TetMesh invariant: every tet is positively oriented and non-degenerate")
 }
 
 /// The node-major displacement of tet `t`'s nodes, written into `element` (3·NODES values).

@@ -14,7 +14,7 @@ use std::time::Instant;
 
 use tetfem::linalg::linear_solver::SolverOptions;
 use tetfem::{LinearMethod, StaticSolver};
-use tetfem_cli::scene::Scene;
+use tetfem_scene::Scene;
 
 fn run(scene: PathBuf, file: PathBuf) -> Result<(), String> {
     let text = std::fs::read_to_string(&file).map_err(|e| format!("{}: {e}", file.display()))?;

@@ -23,7 +23,7 @@ use std::time::Instant;
 
 use tetfem::dynamics::{MassKind, Method};
 use tetfem::materials::TetMaterials;
-use tetfem_cli::scene::{Analysis, BuiltScene, ProbeValue, Scene};
+use tetfem_scene::{Analysis, BuiltScene, ProbeValue, Scene};
 
 use crate::error::{Error, Result};
 use crate::ffi::{Krylov, MatOption, Matrix, Petsc, Vector, petsc_int, reason_name};

@@ -22,11 +22,11 @@ use std::io::Write as _;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
-use tetfem_cli::scene::{Scene, VtuEncoding};
 use tetfem_petsc::engine::{EngineOptions, SolverPreset, export_scene, solve_scene, summary_path};
 use tetfem_petsc::ffi::Petsc;
 use tetfem_petsc::pvtu::write_file;
 use tetfem_petsc::{Error, Result};
+use tetfem_scene::{Scene, VtuEncoding};
 
 const USAGE: &str = "usage: mpirun -n N tetfem-petsc SCENE.toml [--solver gamg|hypre|mumps] \
 [--out DIR] [--displacement FILE] [--export DIR] [--json] [--quiet] [--no-files] \

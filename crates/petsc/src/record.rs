@@ -5,7 +5,7 @@ use std::path::PathBuf;
 
 use tetfem::TetMesh;
 use tetfem::output::{CsvSeries, CsvValue, VtuFormat};
-use tetfem_cli::scene::Probe;
+use tetfem_scene::Probe;
 
 use crate::error::{Error, Result};
 use crate::ffi::{Matrix, Petsc, Vector};

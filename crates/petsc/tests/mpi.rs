@@ -25,8 +25,8 @@ mod with_petsc {
     use serde_json::Value;
     use tetfem::linalg::linear_solver::SolverOptions;
     use tetfem::{LinearMethod, StaticSolver};
-    use tetfem_cli::scene::Scene;
     use tetfem_petsc::pvtu::read_array;
+    use tetfem_scene::Scene;
 
     /// The 1e-8 relative agreement issue 20 asks for (2-norm over every DOF). The direct solve
     /// is backward stable (residual ~1e-15); the iterative presets stop at a true relative
@@ -445,7 +445,7 @@ gravity = [0.0, -9.81, 0.0]
     /// scene's steps: the displacement of every DOF and the kinetic and elastic energy at the
     /// end.
     fn integrate_in_tetfem(scene: &Path) -> (Vec<f64>, [f64; 2]) {
-        use tetfem_cli::scene::{Analysis, DynamicSetup};
+        use tetfem_scene::{Analysis, DynamicSetup};
         let scene = Scene::load(scene).expect("scene");
         let Analysis::Dynamic(settings) = *scene.analysis() else {
             panic!("a dynamic scene");

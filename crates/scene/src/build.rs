@@ -26,6 +26,9 @@ use tetfem::warning::Warning;
 use super::SceneElement;
 use tetfem::output::PointLocation;
 
+/// The CSV column stems of a point probe's stress, in the `.vtu`'s tensor order.
+pub(crate) const STRESS_COLUMNS: [&str; 6] = ["sxx", "syy", "szz", "sxy", "syz", "sxz"];
+
 /// A named node set whose mean displacement is recorded, or a point whose displacement (and,
 /// in a static run, stress) is.
 #[derive(Debug, Clone, PartialEq)]

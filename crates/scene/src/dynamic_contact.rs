@@ -8,7 +8,7 @@ use std::sync::Arc;
 use std::time::Instant;
 
 use nalgebra::Vector3;
-use tetfem::contact::{Contact, Shape};
+use tetfem::contact::Contact;
 use tetfem::dynamics::{InternalForce, LinearSystem, Method, NonlinearForce, Rayleigh, State};
 use tetfem::error::Result;
 
@@ -216,46 +216,4 @@ pub(super) fn node_fields(
 ) -> Result<(Vec<f64>, Vec<f64>)> {
     contact.set_time(time);
     contact.node_fields(nodes, u)
-}
-
-/// The camera box `(low, high)` of a body's frames grown to hold where the body meets the
-/// obstacles at rest: a sphere's or box's bounding box, and for a half-space the body's box
-/// corners projected onto its plane (so a falling body and the ground below it stay in view).
-pub(super) fn view_box(
-    contact: &Contact,
-    (mut low, mut high): (Vector3<f64>, Vector3<f64>),
-) -> (Vector3<f64>, Vector3<f64>) {
-    let corners: Vec<Vector3<f64>> = (0..8)
-        .map(|k| {
-            Vector3::new(
-                if k & 1 == 0 { low.x } else { high.x },
-                if k & 2 == 0 { low.y } else { high.y },
-                if k & 4 == 0 { low.z } else { high.z },
-            )
-        })
-        .collect();
-    for o in contact.obstacles() {
-        let points: Vec<Vector3<f64>> = match *o.shape() {
-            Shape::HalfSpace { point, normal } => corners
-                .iter()
-                .map(|x| x - normal * normal.dot(&(x - point)))
-                .collect(),
-            Shape::Sphere { center, radius } => {
-                vec![center.add_scalar(-radius), center.add_scalar(radius)]
-            }
-            Shape::Box {
-                center,
-                half_extents,
-                rotation,
-            } => {
-                let reach = rotation.matrix().abs() * half_extents;
-                vec![center - reach, center + reach]
-            }
-        };
-        for p in points {
-            low = low.inf(&p);
-            high = high.sup(&p);
-        }
-    }
-    (low, high)
 }

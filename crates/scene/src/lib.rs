@@ -16,10 +16,17 @@ mod engine;
 mod estimate;
 mod modal;
 mod obstacles;
+// Without the `png` feature the frames' code is a stand-in that refuses (a scene asking for
+// PNGs is refused when read, so it is never reached).
+#[cfg_attr(not(feature = "png"), path = "png_frames_off.rs")]
+mod png_frames;
 mod reactions;
+#[cfg(feature = "png")]
+pub mod render;
 mod restart;
 mod run;
 mod spec;
+mod statics;
 mod units;
 
 pub use accuracy::{
@@ -30,8 +37,7 @@ pub use build::{BuiltScene, PointProbe, Probe};
 pub use critical::{CriticalStepReport, critical_step_of};
 pub use dynamic::{
     DynamicOutputs, DynamicOverrides, DynamicRun, DynamicSetup, DynamicSummary, EnergyTerms,
-    MAX_STEPS, ProbeRange, RunLength, TimeStep, resume_dynamic_scene, run_dynamic,
-    run_dynamic_scene,
+    MAX_STEPS, RunLength, TimeStep, resume_dynamic_scene, run_dynamic, run_dynamic_scene,
 };
 pub use dynamic::{STEP_CHECK_DOFS, STEP_CHECK_MODES};
 pub use dynamic_contact::ContactForceHistory;
@@ -40,12 +46,12 @@ pub use engine::{EngineKind, EngineSettings, PetscSolver, PetscSpec, parse_petsc
 pub use estimate::{ESTIMATED_ERROR_DEFINITION, EstimatedError, estimated_error_of};
 pub use modal::{ModalSummary, ModeRow, run_modal_scene};
 pub use reactions::{DynamicReactions, ReactionsAt};
-pub use restart::{RESUMABLE_KEYS, checkpoint_path};
+pub use restart::{ProbeRange, RESUMABLE_KEYS, checkpoint_path};
 pub use run::{
     ContactForceRow, ProbeValue, ReactionRow, RunOptions, RunSummary, SolvePhases, StaticNewton,
-    run_static, run_static_with,
 };
 pub use spec::*;
+pub use statics::{run_static, run_static_with};
 
 use std::ops::Range;
 use std::path::{Path, PathBuf};
@@ -858,6 +864,16 @@ impl Scene {
                 key: "output.checkpoint_every".into(),
                 line: restart::key_line(&self.text, "output.checkpoint_every").unwrap_or(0),
                 message: "only a dynamic analysis writes checkpoints; remove the key".into(),
+            });
+        }
+        if o.png == Some(true) && !cfg!(feature = "png") {
+            return Err(Error::Scene {
+                source_name: self.source_name.clone(),
+                key: "output.png".into(),
+                line: restart::key_line(&self.text, "output.png").unwrap_or(0),
+                message: "this build of tetfem-scene has no PNG frames (its `png` feature is \
+                          off); set png = false, or build with the feature"
+                    .into(),
             });
         }
         let png_size = o.png_size.unwrap_or([960, 600]);

@@ -5,6 +5,7 @@ use nalgebra::{Rotation3, Vector3};
 use tetfem::TetMesh;
 use tetfem::contact::{Contact, ContactParameters, Obstacle, ObstacleMotion};
 use tetfem::error::Result;
+use tetfem::mesh::CellType;
 
 use super::{AnalysisKind, Method, ObstacleKind, Scene};
 
@@ -345,4 +346,12 @@ pub(crate) fn stiffest(materials: &tetfem::MaterialMap) -> f64 {
         .iter()
         .map(|m| m.youngs_modulus())
         .fold(0.0, f64::max)
+}
+
+/// Where a half-space obstacle's tile is drawn (see [`write_obstacles_vtp`]): centred under the
+/// body's bounding-box centre, with a side of three times its diagonal (length units), so that
+/// the body and its swing stand on it.
+pub(crate) fn obstacle_tile<C: CellType>(mesh: &TetMesh<C>) -> (Vector3<f64>, f64) {
+    let (low, high) = mesh.bounding_box();
+    (0.5 * (low + high), 3.0 * (high - low).norm())
 }

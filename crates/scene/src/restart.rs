@@ -22,7 +22,6 @@ use tetfem::dynamics::{Checkpoint, Integrator, State, fingerprint_hash};
 use tetfem::error::{Error, Result};
 use tetfem::mesh::{CellType, TetMesh};
 
-use super::dynamic::ProbeRange;
 use super::{OutputSettings, Scene};
 
 /// The scene keys a resume may change (every other key must be as the checkpoint saw it).
@@ -498,4 +497,17 @@ pub(crate) fn truncate_frames(
     }
     pvd.write()?;
     Ok(pvd)
+}
+
+/// A probe's mean displacement at the end of the run and its range over the run.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct ProbeRange {
+    /// The probe's name.
+    pub name: String,
+    /// Mean displacement (length units) at the last step.
+    pub last: [f64; 3],
+    /// Smallest value of each component over the run (the initial state included).
+    pub min: [f64; 3],
+    /// Largest value of each component over the run.
+    pub max: [f64; 3],
 }

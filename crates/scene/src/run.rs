@@ -4,11 +4,9 @@ use std::path::PathBuf;
 use std::time::Instant;
 
 use super::element::as_linear;
-use super::{Analysis, BuiltScene, PngField, Scene, SceneElement};
-use crate::render::{Field, RenderOptions, auto_deformation_scale, render};
-use tetfem::element::Tet10;
-use tetfem::error::{Error, Result};
-use tetfem::mesh::Tet4;
+use super::{BuiltScene, Scene, SceneElement};
+use crate::png_frames::{StaticLook, static_picture};
+use tetfem::error::Result;
 use tetfem::model::ModelMap;
 use tetfem::output::fields::{cell_model_von_mises, displacement_magnitude};
 use tetfem::output::{
@@ -16,9 +14,6 @@ use tetfem::output::{
     write_result_frame,
 };
 use tetfem::statics::StaticSolver;
-
-/// The CSV column stems of a point probe's stress, in the `.vtu`'s tensor order.
-pub(super) const STRESS_COLUMNS: [&str; 6] = ["sxx", "syy", "szz", "sxy", "syz", "sxz"];
 
 /// Choices a caller (the command line) makes on top of the scene.
 #[derive(Debug, Clone, Default, PartialEq)]
@@ -185,41 +180,6 @@ impl RunSummary {
                 &[super::units::STATIC, super::units::ACCURACY].concat(),
             ),
         }
-    }
-}
-
-/// [`run_static_with`] with default options.
-pub fn run_static(scene: &Scene) -> Result<RunSummary> {
-    run_static_with(scene, &RunOptions::default())
-}
-
-/// Builds and solves a static scene, then writes what its `[output]` asks for into its output
-/// folder: `<stem>.vtu` (displacement, |u|, von Mises, strain energy density) with a one-frame
-/// `<stem>.pvd`, `<stem>_probes.csv`, `<stem>.png`, and `<stem>_summary.json`.
-///
-/// Writing files, it first takes the folder's [`OutputLock`] (before building anything): another
-/// run writing there is an [`Error::OutputLocked`]; a lock left by a killed run is taken over,
-/// with a warning in the summary.
-pub fn run_static_with(scene: &Scene, options: &RunOptions) -> Result<RunSummary> {
-    scene.require_tetfem_engine()?;
-    if !matches!(scene.analysis(), Analysis::Static) {
-        return Err(Error::Scene {
-            source_name: scene.source_name().to_string(),
-            key: "analysis.type".into(),
-            line: 0,
-            message: "this scene is not static; run_static solves static scenes only".into(),
-        });
-    }
-    let lock = match options.no_files {
-        true => None,
-        false => Some(OutputLock::acquire(&scene.output().directory)?),
-    };
-    if let Some(target) = scene.accuracy() {
-        return super::accuracy::run_accuracy(scene, options, lock, target);
-    }
-    match scene.order() {
-        2 => run_static_on::<Tet10>(scene, options, lock),
-        _ => run_static_on::<Tet4>(scene, options, lock),
     }
 }
 
@@ -578,7 +538,7 @@ fn write_static_outputs<E: SceneElement>(
         // obstacles do not move).
         if !scene.obstacles.is_empty() {
             let vtp = dir.join(format!("{}_obstacles.vtp", out.stem));
-            let (center, tile) = super::dynamic::obstacle_tile(&built.mesh);
+            let (center, tile) = super::obstacles::obstacle_tile(&built.mesh);
             tetfem::output::write_obstacles_vtp(&vtp, &scene.obstacles, 0.0, center, tile)?;
             files.push(vtp);
         }
@@ -590,7 +550,7 @@ fn write_static_outputs<E: SceneElement>(
                 columns.push(format!("{}_{c}_m", p.name));
             }
             if p.point.is_some() {
-                for c in STRESS_COLUMNS {
+                for c in super::build::STRESS_COLUMNS {
                     columns.push(format!("{}_{c}_pa", p.name));
                 }
             }
@@ -606,47 +566,14 @@ fn write_static_outputs<E: SceneElement>(
         csv.finish()?;
     }
     if out.png || options.force_png {
-        // With obstacles the body is drawn true to scale: magnified, it would seem to pass
-        // into the obstacles it touches.
-        let scale = if out.deformation_scale > 0.0 {
-            out.deformation_scale
-        } else if scene.has_obstacles() {
-            1.0
-        } else {
-            auto_deformation_scale(&built.mesh, u)
+        let path = dir.join(format!("{}.png", out.stem));
+        let look = StaticLook {
+            title: &summary.title,
+            magnitude,
+            von_mises,
+            path: &path,
         };
-        let field = match out.png_field {
-            PngField::Displacement => Field::Nodes {
-                name: "|u| (m)",
-                values: magnitude,
-            },
-            PngField::VonMises => Field::Cells {
-                name: "von Mises (Pa)",
-                values: von_mises,
-            },
-        };
-        let image = render(
-            &built.mesh,
-            u,
-            &field,
-            &RenderOptions {
-                width: out.png_size[0],
-                height: out.png_size[1],
-                title: summary.title.clone(),
-                subtitle: format!("static, deformation ×{}", format_scale(scale)),
-                deformation_scale: scale,
-                // A static scene's obstacles do not move (motions are refused): at rest.
-                obstacles: scene
-                    .obstacles
-                    .iter()
-                    .map(|o| crate::render::ObstacleView::at(o, 0.0))
-                    .collect(),
-                ..RenderOptions::default()
-            },
-        )?;
-        let png = dir.join(format!("{}.png", out.stem));
-        image.write_png(&png)?;
-        files.push(png);
+        files.push(static_picture(scene, &built.mesh, u, &look)?);
     }
     let json = dir.join(format!("{}_summary.json", out.stem));
     let mut with_files = summary.clone();
@@ -655,15 +582,4 @@ fn write_static_outputs<E: SceneElement>(
     write_atomically(&json, |w| writeln!(w, "{}", with_files.to_json()))?;
     files.push(json);
     Ok(files)
-}
-
-fn format_scale(scale: f64) -> String {
-    if scale >= 100.0 {
-        format!("{scale:.0}")
-    } else {
-        format!("{scale:.3}")
-            .trim_end_matches('0')
-            .trim_end_matches('.')
-            .to_string()
-    }
 }

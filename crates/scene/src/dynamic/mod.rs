@@ -2,6 +2,11 @@
 //! loaded shape — and writing its outputs: `.vtu` frames with a `.pvd` collection, a CSV series
 //! of probes, energies and wall time per step, PNG frames, and a JSON summary.
 
+// Without the `png` feature the frames' code is a stand-in that refuses.
+#[cfg_attr(not(feature = "png"), path = "png_look_off.rs")]
+mod png_look;
+use png_look::{PngFrame, PngLook, dynamic_look};
+
 use std::ops::ControlFlow;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -10,11 +15,9 @@ use std::time::Instant;
 use nalgebra::Vector3;
 
 use super::dynamic_contact::{ContactForceHistory, contact_of};
-use super::restart::{self, Restart};
-use super::{
-    Analysis, BuiltScene, DynamicSettings, OutputSettings, PngField, Probe, Scene, SceneElement,
-};
-use crate::render::{Field, ObstacleView, RenderOptions, render};
+use super::obstacles::obstacle_tile;
+use super::restart::{self, ProbeRange, Restart};
+use super::{Analysis, BuiltScene, DynamicSettings, OutputSettings, Probe, Scene, SceneElement};
 use tetfem::constraints::Constraints;
 use tetfem::dynamics::{
     Energy, IntegratorOptions, InternalForce, LinearSystem, Mass, MassKind, Method, NewtonStats,
@@ -26,7 +29,7 @@ use tetfem::linalg::linear_solver::LinearMethod;
 use tetfem::loads::Loads;
 use tetfem::material::Material;
 use tetfem::mesh::{CellType, Tet4, TetMesh};
-use tetfem::output::fields::{cell_model_von_mises, cell_von_mises, displacement_magnitude};
+use tetfem::output::fields::{cell_model_von_mises, cell_von_mises};
 use tetfem::output::{
     ContactFields, CsvSeries, CsvValue, FrameExtras, OriginalIds, OutputLock, PvdCollection,
     write_atomically, write_model_result_vtu, write_obstacles_vtp, write_result_frame,
@@ -279,7 +282,9 @@ impl<E: SceneElement> DynamicSetup<E> {
     }
 
     /// The model's von Mises stress per tet (Pa) at full displacement `u`.
-    fn von_mises(&self, u: &[f64]) -> Result<Vec<f64>> {
+    // Only the PNG frames colour by it; the .vtu frames write the stress tensor.
+    #[cfg_attr(not(feature = "png"), allow(dead_code))]
+    pub(crate) fn von_mises(&self, u: &[f64]) -> Result<Vec<f64>> {
         match &self.force {
             InternalForce::Linear => cell_von_mises(&self.mesh, &self.materials, u),
             InternalForce::Nonlinear(n) => cell_model_von_mises(&self.mesh, n.models(), u),
@@ -417,19 +422,6 @@ impl From<Energy> for EnergyTerms {
             total: e.total(),
         }
     }
-}
-
-/// A probe's mean displacement at the end of the run and its range over the run.
-#[derive(Debug, Clone, PartialEq, serde::Serialize)]
-pub struct ProbeRange {
-    /// The probe's name.
-    pub name: String,
-    /// Mean displacement (length units) at the last step.
-    pub last: [f64; 3],
-    /// Smallest value of each component over the run (the initial state included).
-    pub min: [f64; 3],
-    /// Largest value of each component over the run.
-    pub max: [f64; 3],
 }
 
 /// What a dynamic run did, for printing or as one JSON object (`--json`).
@@ -895,47 +887,6 @@ fn step_time(start: (f64, usize), dt: f64, state: &State) -> f64 {
     start.0 + state.steps.saturating_sub(start.1) as f64 * dt
 }
 
-/// The look of the PNG frames: set before the run from what the start state, the static shape
-/// and the prescribed motion let foresee (see [`png_look`]), held from frame to frame, and
-/// widened only by a frame that reaches beyond it (see [`PngLook::fit`]).
-struct PngLook {
-    scale: f64,
-    range: (f64, f64),
-    field: PngField,
-    /// The camera's box for a nonlinear model's frames (see [`png_look`]).
-    view_box: Option<(Vector3<f64>, Vector3<f64>)>,
-    /// Whether the magnification is chosen here (not set by `output.deformation_scale`, and a
-    /// linear model's: a nonlinear one is drawn true to scale).
-    auto_scale: bool,
-    /// The largest |u| (m) the automatic magnification draws as a tenth of the body's size.
-    scale_for: f64,
-    /// The body's size: its bounding-box diagonal (m).
-    size: f64,
-}
-
-/// How far above a frame's largest value a widened colour range (or magnification) reaches:
-/// room for a swing that keeps growing, so that the look changes a few times, not every frame.
-const LOOK_HEADROOM: f64 = 1.25;
-
-impl PngLook {
-    /// Widens the look for a frame whose largest |u| is `largest_u` (m) and whose largest
-    /// drawn value is `largest_value` (the field's units): a value above the colour range
-    /// raises its top to [`LOOK_HEADROOM`] × that value, and with an automatic magnification a
-    /// |u| above the one it was chosen for lowers it to draw [`LOOK_HEADROOM`] × that |u| as a
-    /// tenth of the body's size (the rule of [`crate::render::auto_deformation_scale`]). The look never
-    /// narrows: every frame's colour bar covers that frame's values, and consecutive frames
-    /// share one look until one reaches beyond it.
-    fn fit(&mut self, largest_u: f64, largest_value: f64) {
-        if largest_value.is_finite() && largest_value > self.range.1 {
-            self.range.1 = LOOK_HEADROOM * largest_value;
-        }
-        if self.auto_scale && largest_u.is_finite() && largest_u > self.scale_for {
-            self.scale_for = LOOK_HEADROOM * largest_u;
-            self.scale = (0.1 * self.size / self.scale_for).max(1.0);
-        }
-    }
-}
-
 impl FrameWriter {
     fn new<E: SceneElement>(
         setup: &DynamicSetup<E>,
@@ -961,7 +912,7 @@ impl FrameWriter {
                     columns.push(format!("{}_{c}_m", p.name));
                 }
                 if p.point.is_some() {
-                    for c in super::run::STRESS_COLUMNS {
+                    for c in super::build::STRESS_COLUMNS {
                         columns.push(format!("{}_{c}_pa", p.name));
                     }
                 }
@@ -992,7 +943,7 @@ impl FrameWriter {
             let frame_times = (0..=steps)
                 .filter(|k| k.is_multiple_of(s.every) || *k == steps)
                 .map(|k| setup.initial.time + k.saturating_sub(setup.initial.steps) as f64 * dt);
-            Some(png_look(setup, s, &frame_times.collect::<Vec<f64>>())?)
+            Some(dynamic_look(setup, s, &frame_times.collect::<Vec<f64>>())?)
         } else {
             None
         };
@@ -1111,57 +1062,14 @@ impl FrameWriter {
             self.files.push(vtp);
         }
         if let Some(look) = &mut self.png {
-            let magnitude = displacement_magnitude(u);
-            let stress;
-            let field = match look.field {
-                PngField::Displacement => Field::Nodes {
-                    name: "|u| (m)",
-                    values: &magnitude,
-                },
-                PngField::VonMises => {
-                    stress = setup.von_mises(u)?;
-                    Field::Cells {
-                        name: "von Mises (Pa)",
-                        values: &stress,
-                    }
-                }
+            let frame = PngFrame {
+                time,
+                step: state.steps,
+                title: &self.title,
+                size: self.settings.png_size,
+                path: &dir.join(format!("{name}.png")),
             };
-            let largest = |v: &[f64]| v.iter().copied().fold(0.0, f64::max);
-            let drawn = match &field {
-                Field::Nodes { values, .. } | Field::Cells { values, .. } => largest(values),
-            };
-            look.fit(largest(&magnitude), drawn);
-            let image = render(
-                &setup.mesh,
-                u,
-                &field,
-                &RenderOptions {
-                    width: self.settings.png_size[0],
-                    height: self.settings.png_size[1],
-                    title: self.title.clone(),
-                    subtitle: format!(
-                        "t = {:.4e} s (step {}), deformation ×{}",
-                        time,
-                        state.steps,
-                        format_scale(look.scale)
-                    ),
-                    deformation_scale: look.scale,
-                    range: Some(look.range),
-                    view_box: look.view_box,
-                    obstacles: contact_of(&setup.force)
-                        .map(|c| {
-                            c.obstacles()
-                                .iter()
-                                .map(|o| ObstacleView::at(o, time))
-                                .collect()
-                        })
-                        .unwrap_or_default(),
-                    ..RenderOptions::default()
-                },
-            )?;
-            let png = dir.join(format!("{name}.png"));
-            image.write_png(&png)?;
-            self.files.push(png);
+            self.files.push(look.draw(setup, u, &frame)?);
         }
         self.frames += 1;
         Ok(())
@@ -1187,153 +1095,6 @@ impl FrameWriter {
             csv.finish()?;
         }
         Ok(files)
-    }
-}
-
-/// The most frame times [`png_look`] samples the prescribed motion at (evenly spread over the
-/// frames): a bound on its cost; a frame between them that moves further widens the look.
-const LOOK_MOTION_SAMPLES: usize = 256;
-
-/// The magnification and colour range the frames start with: from the largest of the initial
-/// displacement, twice the static one (a suddenly applied load overshoots to about twice its
-/// static deflection) and, with moving supports, the static one plus the supports' largest
-/// prescribed displacement (sampled at up to [`LOOK_MOTION_SAMPLES`] of `frame_times`, s). A
-/// frame that reaches beyond them widens them ([`PngLook::fit`]): e.g. a body on a shaken
-/// base resonating above the base's amplitude.
-fn png_look<E: SceneElement>(
-    setup: &DynamicSetup<E>,
-    s: &OutputSettings,
-    frame_times: &[f64],
-) -> Result<PngLook> {
-    let dofs = setup.system.dofs();
-    let initial = dofs.expand(&setup.initial.displacement)?;
-    let contact = contact_of(&setup.force);
-    // A body held by contact alone has no static shape without it (K_ff is singular).
-    let (statics, free_body) = match (setup.system.static_displacement(), contact) {
-        (Err(_), Some(_)) => (vec![0.0; setup.system.free_count()], true),
-        (u, _) => (u?, false),
-    };
-    let doubled: Vec<f64> = dofs.expand(&statics)?.iter().map(|u| 2.0 * u).collect();
-    let largest = |u: &[f64]| displacement_magnitude(u).into_iter().fold(0.0, f64::max);
-    let reference = if largest(&initial) >= largest(&doubled) {
-        initial
-    } else {
-        doubled
-    };
-    // A body on moving supports follows them: it moves by about their displacement on top of
-    // its static shape.
-    let shaken = largest(&dofs.expand(&statics)?) + prescribed_peak(setup, frame_times)?;
-    let nonlinear = setup.force.is_nonlinear();
-    // A nonlinear model's displacements are drawn as they are (magnifying a large rotation
-    // would tear the picture), and the linear static shape can be far beyond its swing: its
-    // colour range is capped at the body's size (bounding-box diagonal), its stress range
-    // taken from the model's stress at that capped shape.
-    let size = body_size(&setup.mesh);
-    let foreseen = largest(&reference).max(shaken);
-    let scale = if s.deformation_scale > 0.0 {
-        s.deformation_scale
-    } else if nonlinear || foreseen <= 0.0 || !foreseen.is_finite() {
-        1.0
-    } else {
-        // The rule of `auto_deformation_scale`, for the foreseen largest |u|.
-        (0.1 * size / foreseen).max(1.0)
-    };
-    let reference = if nonlinear {
-        let big = largest(&reference);
-        let shrink = if big > size { size / big } else { 1.0 };
-        reference.iter().map(|u| shrink * u).collect()
-    } else {
-        reference
-    };
-    let high = match (s.png_field, free_body) {
-        (PngField::Displacement, false) if nonlinear => largest(&reference).max(shaken.min(size)),
-        (PngField::Displacement, false) => foreseen,
-        (PngField::VonMises, false) => setup.von_mises(&reference)?.into_iter().fold(0.0, f64::max),
-        // Without a static shape: a tenth of the body's size, and twice the stress of its
-        // weight W on a face-sized area (diagonal²/3; ρ·g·H for a cube resting on a face).
-        (PngField::Displacement, true) => 0.1 * body_size(&setup.mesh),
-        (PngField::VonMises, true) => {
-            let g = setup.system.gravity_load();
-            let weight = (0..3)
-                .map(|a| g.iter().skip(a).step_by(3).sum::<f64>().powi(2))
-                .sum::<f64>()
-                .sqrt();
-            2.0 * weight / (body_size(&setup.mesh).powi(2) / 3.0)
-        }
-    };
-    // A nonlinear model's large motion would make every frame zoom onto its own shape: one
-    // camera for all, framing the body at rest and at the capped reference shape.
-    let view_box = nonlinear.then(|| {
-        let mut low = Vector3::repeat(f64::INFINITY);
-        let mut high = Vector3::repeat(f64::NEG_INFINITY);
-        for (n, x) in setup.mesh.nodes().iter().enumerate() {
-            let moved =
-                x + Vector3::new(reference[3 * n], reference[3 * n + 1], reference[3 * n + 2]);
-            low = low.inf(x).inf(&moved);
-            high = high.sup(x).sup(&moved);
-        }
-        match contact {
-            Some(c) => super::dynamic_contact::view_box(c, (low, high)),
-            None => (low, high),
-        }
-    });
-    let auto_scale = s.deformation_scale <= 0.0 && !nonlinear;
-    Ok(PngLook {
-        scale,
-        range: (0.0, if high > 0.0 { high } else { 1.0 }),
-        field: s.png_field,
-        view_box,
-        auto_scale,
-        scale_for: foreseen,
-        size,
-    })
-}
-
-/// The largest prescribed displacement |u_c(t)| (m) of a moving support node over the sampled
-/// frame times (0 without moving supports).
-fn prescribed_peak<E: SceneElement>(setup: &DynamicSetup<E>, frame_times: &[f64]) -> Result<f64> {
-    if !setup.system.has_moving_supports() {
-        return Ok(0.0);
-    }
-    let stride = frame_times.len().div_ceil(LOOK_MOTION_SAMPLES).max(1);
-    let free = vec![0.0; setup.system.free_count()];
-    let mut peak = 0.0f64;
-    for &t in frame_times.iter().step_by(stride) {
-        let u = setup.system.expand_at(t, &free)?;
-        peak = displacement_magnitude(&u).into_iter().fold(peak, f64::max);
-    }
-    Ok(peak)
-}
-
-/// Where a half-space obstacle's tile is drawn (see [`write_obstacles_vtp`]): centred under the
-/// body's bounding-box centre, with a side of three times its diagonal (length units), so that
-/// the body and its swing stand on it.
-pub(crate) fn obstacle_tile<C: CellType>(mesh: &TetMesh<C>) -> (Vector3<f64>, f64) {
-    let (low, high) = mesh.bounding_box();
-    (0.5 * (low + high), 3.0 * (high - low).norm())
-}
-
-/// The diagonal of the mesh's bounding box (length units).
-fn body_size<C: CellType>(mesh: &TetMesh<C>) -> f64 {
-    let (mut low, mut high) = (
-        Vector3::repeat(f64::INFINITY),
-        Vector3::repeat(f64::NEG_INFINITY),
-    );
-    for x in mesh.nodes() {
-        low = low.inf(x);
-        high = high.sup(x);
-    }
-    (high - low).norm()
-}
-
-fn format_scale(scale: f64) -> String {
-    if scale >= 100.0 {
-        format!("{scale:.0}")
-    } else {
-        format!("{scale:.3}")
-            .trim_end_matches('0')
-            .trim_end_matches('.')
-            .to_string()
     }
 }
 

@@ -80,3 +80,10 @@ impl PointwiseElement for Tet10 {
         grad
     }
 }
+
+/// The corner geometry of tet `t` (straight-sided for every shipped element).
+pub(crate) fn corners_of<E: PointwiseElement>(mesh: &crate::mesh::TetMesh<E>, t: usize) -> Tet {
+    // Cannot fail: `from_cells` rejected degenerate corners and reoriented negative ones.
+    Tet::new(&mesh.corner_positions_of(t))
+        .expect("TetMesh invariant: every tet is positively oriented and non-degenerate")
+}
