@@ -1314,6 +1314,40 @@ gravity = [0.0, -9.81, 0.0]
             "{}",
             run_png.stderr
         );
+        // The other keys it would ignore, each named in the error.
+        let base = std::fs::read_to_string(cantilever()).expect("scene");
+        for (label, text, key) in [
+            (
+                "order_2",
+                base.replacen("[mesh", "[mesh]\norder = 2\n\n[mesh", 1),
+                "mesh.order",
+            ),
+            (
+                "linear_solver",
+                format!("{base}\n[analysis]\nlinear_solver = \"direct\"\n"),
+                "analysis.linear_solver",
+            ),
+            (
+                "checkpoint",
+                // A dynamic scene: a static one refuses the key when parsed already.
+                std::fs::read_to_string(scenes().join("cantilever_dynamic.toml"))
+                    .expect("scene")
+                    .replace("png = true", "png = false")
+                    .replace("[output]", "[output]\ncheckpoint_every = 5"),
+                "the PETSc engine writes no checkpoints",
+            ),
+        ] {
+            let scene = dir.join(format!("{label}.toml"));
+            std::fs::write(&scene, text).expect("scene written");
+            let refused = run(label, 1, &scene, &[]).expect("ran before");
+            assert!(!refused.success, "{label}");
+            assert!(refused.stderr.contains(key), "{label}: {}", refused.stderr);
+            assert!(
+                refused.stderr.contains("engine"),
+                "{label}: {}",
+                refused.stderr
+            );
+        }
         let run_solver =
             run("bad_solver", 1, &cantilever(), &["--solver", "lu"]).expect("ran before");
         assert!(!run_solver.success);
