@@ -145,6 +145,20 @@ pub fn write_result_frame<E: PointwiseElement>(
     displacement: &[f64],
     extras: FrameExtras<'_>,
 ) -> Result<()> {
+    result_frame_arrays(mesh, materials, displacement, extras)?
+        .writer(mesh)?
+        .write(path)
+}
+
+/// The arrays [`write_result_frame`] writes, computed and not written: what a distributed run
+/// restricts to its piece of the mesh ([`FrameArrays::restrict`]) so that each piece carries
+/// the fields of the whole run's frame.
+pub fn result_frame_arrays<E: PointwiseElement>(
+    mesh: &TetMesh<E>,
+    materials: &impl TetMaterials,
+    displacement: &[f64],
+    extras: FrameExtras<'_>,
+) -> Result<FrameArrays> {
     let stresses = cell_stress(mesh, materials, displacement)?;
     let (strains, node_stresses) = match extras.stress_tensors {
         true => (
@@ -160,7 +174,7 @@ pub fn write_result_frame<E: PointwiseElement>(
         strains: &strains,
         node_stresses: &node_stresses,
     };
-    write_fields(path, mesh, displacement, extras, tensors, &energy, &ids)
+    frame_arrays(mesh, displacement, extras, tensors, energy, ids)
 }
 
 /// As [`write_result_vtu`], with the stresses and energy density of the force model that
@@ -175,6 +189,20 @@ pub fn write_model_result_vtu<E: ModelElement + PointwiseElement>(
     displacement: &[f64],
     extras: FrameExtras<'_>,
 ) -> Result<()> {
+    model_result_frame_arrays(mesh, model, materials, displacement, extras)?
+        .writer(mesh)?
+        .write(path)
+}
+
+/// The arrays [`write_model_result_vtu`] writes, computed and not written (see
+/// [`result_frame_arrays`]).
+pub fn model_result_frame_arrays<E: ModelElement + PointwiseElement>(
+    mesh: &TetMesh<E>,
+    model: &(impl TetModels + ?Sized),
+    materials: &impl TetMaterials,
+    displacement: &[f64],
+    extras: FrameExtras<'_>,
+) -> Result<FrameArrays> {
     materials.check_tet_count(mesh)?;
     let stresses = cell_model_stress(mesh, model, displacement)?;
     let (strains, node_stresses) = match extras.stress_tensors {
@@ -191,7 +219,108 @@ pub fn write_model_result_vtu<E: ModelElement + PointwiseElement>(
         strains: &strains,
         node_stresses: &node_stresses,
     };
-    write_fields(path, mesh, displacement, extras, tensors, &energy, &ids)
+    frame_arrays(mesh, displacement, extras, tensors, energy, ids)
+}
+
+/// The arrays of one result frame (see the [module](self) docs for which), in the order they are
+/// written, with the frame's time and encoding: computed by [`result_frame_arrays`] or
+/// [`model_result_frame_arrays`], written by [`FrameArrays::writer`].
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct FrameArrays {
+    /// The frame's time (time units), written as `TimeValue` field data.
+    pub time: Option<f64>,
+    /// Per-node fields: name, components per node, values (node-major).
+    pub point_fields: Vec<(String, usize, Vec<f64>)>,
+    /// Per-tet fields: name, components per tet, values (tet-major).
+    pub cell_fields: Vec<(String, usize, Vec<f64>)>,
+    /// Per-node integer ids (VTK `Int64`): name, values.
+    pub point_ids: Vec<(String, Vec<u64>)>,
+    /// Per-tet integer ids (VTK `Int64`): name, values.
+    pub cell_ids: Vec<(String, Vec<u64>)>,
+    /// Per-tet small integers (VTK `Int32`, e.g. `material_id`): name, values.
+    pub cell_indices: Vec<(String, Vec<i32>)>,
+    /// The file's encoding.
+    pub format: VtuFormat,
+}
+
+impl FrameArrays {
+    /// The arrays of a piece of the mesh: the nodes `nodes` and the tets `tets` (indices into
+    /// the frame's mesh, in the piece's order), every array restricted to them.
+    /// [`Error::InvalidParameter`](crate::error::Error::InvalidParameter) naming a node or tet
+    /// beyond an array.
+    pub fn restrict(&self, nodes: &[usize], tets: &[usize]) -> Result<FrameArrays> {
+        Ok(FrameArrays {
+            time: self.time,
+            point_fields: self
+                .point_fields
+                .iter()
+                .map(|(name, c, values)| Ok((name.clone(), *c, pick(name, values, *c, nodes)?)))
+                .collect::<Result<_>>()?,
+            cell_fields: self
+                .cell_fields
+                .iter()
+                .map(|(name, c, values)| Ok((name.clone(), *c, pick(name, values, *c, tets)?)))
+                .collect::<Result<_>>()?,
+            point_ids: self
+                .point_ids
+                .iter()
+                .map(|(name, values)| Ok((name.clone(), pick(name, values, 1, nodes)?)))
+                .collect::<Result<_>>()?,
+            cell_ids: self
+                .cell_ids
+                .iter()
+                .map(|(name, values)| Ok((name.clone(), pick(name, values, 1, tets)?)))
+                .collect::<Result<_>>()?,
+            cell_indices: self
+                .cell_indices
+                .iter()
+                .map(|(name, values)| Ok((name.clone(), pick(name, values, 1, tets)?)))
+                .collect::<Result<_>>()?,
+            format: self.format,
+        })
+    }
+
+    /// A writer of `mesh` holding every array (checked for length against `mesh`), in the
+    /// frame's encoding; more arrays may be added before writing.
+    pub fn writer<'a, C: CellType>(&'a self, mesh: &'a TetMesh<C>) -> Result<VtuWriter<'a, C>> {
+        let mut writer = VtuWriter::new(mesh).format(self.format);
+        if let Some(t) = self.time {
+            writer = writer.field_data("TimeValue", t)?;
+        }
+        for (name, components, values) in &self.point_fields {
+            writer = writer.point_field(name, *components, values)?;
+        }
+        for (name, components, values) in &self.cell_fields {
+            writer = writer.cell_field(name, *components, values)?;
+        }
+        for (name, values) in &self.cell_indices {
+            writer = writer.cell_index_field(name, values)?;
+        }
+        for (name, values) in &self.point_ids {
+            writer = writer.point_id_field(name, values)?;
+        }
+        for (name, values) in &self.cell_ids {
+            writer = writer.cell_id_field(name, values)?;
+        }
+        Ok(writer)
+    }
+}
+
+/// The `components` values of each of `items` in `values` (item-major).
+fn pick<T: Copy>(name: &str, values: &[T], components: usize, items: &[usize]) -> Result<Vec<T>> {
+    let mut picked = Vec::with_capacity(components * items.len());
+    for &i in items {
+        let range = components * i..components * (i + 1);
+        let item = values.get(range).ok_or_else(|| {
+            crate::error::Error::invalid_parameter(
+                format!("index into array '{name}'"),
+                i,
+                format!("must be below {}", values.len() / components.max(1)),
+            )
+        })?;
+        picked.extend_from_slice(item);
+    }
+    Ok(picked)
 }
 
 /// The material index of every tet, as the `Int32` the `.vtu` holds.
@@ -218,77 +347,85 @@ struct Tensors<'t> {
     node_stresses: &'t [Matrix3<f64>],
 }
 
-fn write_fields<C: CellType>(
-    path: &Path,
+/// Computes the arrays of a frame from the stresses, energies and material indices.
+fn frame_arrays<C: CellType>(
     mesh: &TetMesh<C>,
     displacement: &[f64],
     extras: FrameExtras<'_>,
     tensors: Tensors<'_>,
-    energy: &[f64],
-    material_ids: &[i32],
-) -> Result<()> {
+    energy: Vec<f64>,
+    material_ids: Vec<i32>,
+) -> Result<FrameArrays> {
     let stresses = tensors.stresses;
-    let magnitude = displacement_magnitude(displacement);
-    let von_mises_cells: Vec<f64> = stresses.iter().map(von_mises).collect();
-    let (mut nodal_components, mut von_mises_nodes, mut components) =
-        (Vec::new(), Vec::new(), Vec::new());
-    let mut principal: Vec<Vec<f64>> = Vec::new();
-    let strain_components = stress_components(tensors.strains);
-    if extras.stress_tensors {
-        let nodal = recovered_nodal_stress(mesh, tensors.node_stresses)?;
-        nodal_components = stress_components(&nodal);
-        von_mises_nodes = nodal.iter().map(von_mises).collect();
-        components = stress_components(stresses);
-        // σ₁, σ₂, σ₃ of each tet, split into one scalar array each.
-        let all = principal_stresses(stresses);
-        principal = (0..3)
-            .map(|k| all.iter().skip(k).step_by(3).copied().collect::<Vec<f64>>())
-            .collect();
-    }
-    let mut writer = VtuWriter::new(mesh).format(extras.format);
-    if let Some(t) = extras.time {
-        writer = writer.field_data("TimeValue", t)?;
-    }
-    writer = writer
-        .point_field("displacement", 3, displacement)?
-        .point_field("displacement_magnitude", 1, &magnitude)?;
+    let mut arrays = FrameArrays {
+        time: extras.time,
+        format: extras.format,
+        ..FrameArrays::default()
+    };
+    let mut point = |name: &str, components: usize, values: Vec<f64>| {
+        arrays
+            .point_fields
+            .push((name.to_string(), components, values));
+    };
+    point("displacement", 3, displacement.to_vec());
+    point(
+        "displacement_magnitude",
+        1,
+        displacement_magnitude(displacement),
+    );
     if let Some(v) = extras.velocity {
-        writer = writer.point_field("velocity", 3, v)?;
+        point("velocity", 3, v.to_vec());
     }
     if let Some(r) = extras.reactions {
-        writer = writer.point_field("reaction_force", 3, r)?;
+        point("reaction_force", 3, r.to_vec());
     }
     if let Some(c) = extras.contact {
-        writer = writer.point_field("contact_gap", 1, c.gap)?.point_field(
-            "contact_pressure",
-            1,
-            c.pressure,
-        )?;
+        point("contact_gap", 1, c.gap.to_vec());
+        point("contact_pressure", 1, c.pressure.to_vec());
     }
     if extras.stress_tensors {
-        writer = writer
-            .point_field("stress_nodal", 6, &nodal_components)?
-            .point_field("von_mises_nodal", 1, &von_mises_nodes)?;
+        let nodal = recovered_nodal_stress(mesh, tensors.node_stresses)?;
+        point("stress_nodal", 6, stress_components(&nodal));
+        point("von_mises_nodal", 1, nodal.iter().map(von_mises).collect());
     }
-    writer = writer
-        .cell_field("von_mises", 1, &von_mises_cells)?
-        .cell_field("strain_energy_density", 1, energy)?;
+    let mut cell = |name: &str, components: usize, values: Vec<f64>| {
+        arrays
+            .cell_fields
+            .push((name.to_string(), components, values));
+    };
+    cell("von_mises", 1, stresses.iter().map(von_mises).collect());
+    cell("strain_energy_density", 1, energy);
     if extras.stress_tensors {
-        writer = writer
-            .cell_field("stress", 6, &components)?
-            .cell_field("strain", 6, &strain_components)?
-            .cell_field("principal_stress_1", 1, &principal[0])?
-            .cell_field("principal_stress_2", 1, &principal[1])?
-            .cell_field("principal_stress_3", 1, &principal[2])?;
+        cell("stress", 6, stress_components(stresses));
+        cell("strain", 6, stress_components(tensors.strains));
+        // σ₁, σ₂, σ₃ of each tet, split into one scalar array each.
+        let all = principal_stresses(stresses);
+        for (k, name) in [
+            "principal_stress_1",
+            "principal_stress_2",
+            "principal_stress_3",
+        ]
+        .into_iter()
+        .enumerate()
+        {
+            cell(name, 1, all.iter().skip(k).step_by(3).copied().collect());
+        }
     }
     if let Some(eta) = extras.error_indicator {
-        writer = writer.cell_field("error_indicator", 1, eta)?;
+        cell("error_indicator", 1, eta.to_vec());
     }
-    writer = writer.cell_index_field("material_id", material_ids)?;
+    arrays
+        .cell_indices
+        .push(("material_id".to_string(), material_ids));
     if let Some(ids) = extras.original_ids {
-        writer = writer
-            .point_id_field("original_node_id", ids.nodes)?
-            .cell_id_field("original_element_id", ids.elements)?;
+        arrays
+            .point_ids
+            .push(("original_node_id".to_string(), ids.nodes.to_vec()));
+        arrays
+            .cell_ids
+            .push(("original_element_id".to_string(), ids.elements.to_vec()));
     }
-    writer.write(path)
+    // The lengths are checked here, where a caller's wrong array is still named as before.
+    arrays.writer(mesh)?;
+    Ok(arrays)
 }

@@ -14,8 +14,9 @@ mod vtu;
 pub use crate::atomic_file::write_atomically;
 pub use csv::{CSV_BUFFER_BYTES, CsvSeries, CsvValue};
 pub use frame::{
-    ContactFields, FrameExtras, OriginalIds, write_model_result_vtu, write_result_frame,
-    write_result_vtu, write_static_result_vtu,
+    ContactFields, FrameArrays, FrameExtras, OriginalIds, model_result_frame_arrays,
+    result_frame_arrays, write_model_result_vtu, write_result_frame, write_result_vtu,
+    write_static_result_vtu,
 };
 pub use lock::{LOCK_FILE_NAME, OutputLock, remove_held_lock_files};
 pub use obstacles::{ObstacleSurface, obstacle_surface, write_obstacles_vtp};

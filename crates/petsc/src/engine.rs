@@ -23,13 +23,16 @@ use std::time::Instant;
 
 use tetfem::dynamics::{MassKind, Method};
 use tetfem::materials::TetMaterials;
-use tetfem_scene::{Analysis, BuiltScene, ProbeValue, Scene};
+use tetfem_scene::{
+    Analysis, BuiltScene, DynamicSummary, Scene, SolvePhases, StaticSolve, estimated_error_of,
+    static_frame_arrays, write_static_probe_csv,
+};
 
 use crate::error::{Error, Result};
 use crate::ffi::{Krylov, MatOption, Matrix, Petsc, Vector, petsc_int, reason_name};
 use crate::partition::Partition;
 use crate::pvtu::PvtuFiles;
-use crate::record::{Piece, Recorder, probe_means};
+use crate::record::{Piece, Recorded, Recorder, StepState, Supports, full_values};
 
 /// What a run computes and writes besides the solve.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -137,14 +140,10 @@ pub struct PhaseSeconds {
     pub output: f64,
 }
 
-/// What a distributed static solve did: the summary rank 0 writes, with globally reduced
-/// quantities.
+/// What the PETSc engine did besides what the in-process run reports: the `"petsc"` group of
+/// the summary JSON, identical on every rank.
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
 pub struct PetscSummary {
-    /// The scene's title.
-    pub title: String,
-    /// The scene file.
-    pub scene: String,
     /// `"petsc"`.
     pub engine: String,
     /// PETSc's version string.
@@ -153,16 +152,10 @@ pub struct PetscSummary {
     pub built_against: String,
     /// MPI ranks.
     pub ranks: usize,
-    /// Nodes of the mesh.
-    pub nodes: usize,
-    /// Tets of the mesh.
-    pub tets: usize,
     /// Rows of the PETSc matrix (3 per node, constrained DOFs included).
     pub dofs: usize,
     /// Constrained DOFs (rows zeroed with MatZeroRowsColumns).
     pub constrained_dofs: usize,
-    /// Free DOFs.
-    pub free_dofs: usize,
     /// Tets each rank assembled.
     pub tets_per_rank: Vec<usize>,
     /// Matrix rows each rank owns.
@@ -171,7 +164,7 @@ pub struct PetscSummary {
     pub nonzeros_per_rank: Vec<usize>,
     /// The solver preset.
     pub solver: SolverPreset,
-    /// `"static"` or `"backward_euler"`.
+    /// `"static"`, `"backward_euler"` or `"newmark"`.
     pub analysis: String,
     /// Time steps taken (0 for a static solve).
     pub steps: usize,
@@ -187,33 +180,26 @@ pub struct PetscSummary {
     pub max_step_iterations: i32,
     /// PETSc's converged reason (of the last solve).
     pub converged_reason: String,
-    /// ‖b − A·x‖/‖b‖ of the system solved (the last step's, for a dynamic run), computed after
-    /// the solve.
+    /// ‖b − A·x‖/‖b‖ of the system PETSc solved (constrained rows included; the last step's,
+    /// for a dynamic run), computed after the solve.
     pub relative_residual: f64,
-    /// Mean displacement of each probe (m; at the end time of a dynamic run), summed over the
-    /// ranks owning its nodes.
-    pub probes: Vec<ProbeValue>,
-    /// Largest nodal displacement magnitude (m).
-    pub max_displacement: f64,
-    /// The total reaction force of the constraints (N per axis): Σ over constrained DOFs of
-    /// K·u − f, each rank summing K·u over its own tets (static solves; zero for a dynamic run).
-    pub reaction: [f64; 3],
     /// Wall time of each phase (max over ranks).
     pub seconds: PhaseSeconds,
     /// Peak resident memory of each rank (bytes, VmHWM; 0 where /proc is not readable).
     pub peak_memory_per_rank: Vec<u64>,
-    /// The parallel output's `.pvd` and `.pvtu` (the pieces are beside them), when written.
-    pub files: Vec<PathBuf>,
 }
 
 /// A distributed solve's result.
 #[derive(Debug, Clone, PartialEq)]
 pub struct SolveResult {
-    /// The summary (identical on every rank).
+    /// The engine's own figures (identical on every rank).
     pub summary: PetscSummary,
+    /// On rank 0: the summary JSON object rank 0 writes, the in-process run's keys and values
+    /// ([`tetfem_scene::RunSummary`] or [`tetfem_scene::DynamicSummary`], with their
+    /// `units`) and [`summary`](Self::summary) under `"petsc"`; `None` on the other ranks.
+    pub report: Option<serde_json::Value>,
     /// The displacement of every DOF in the mesh's numbering (3·node + axis; at the end time of
-    /// a dynamic run), on rank 0 when
-    /// asked for (gathered), `None` otherwise.
+    /// a dynamic run), on rank 0 when asked for (gathered), `None` otherwise.
     pub displacement: Option<Vec<f64>>,
 }
 
@@ -250,7 +236,6 @@ struct SetUp<'p> {
     owned: std::ops::Range<usize>,
     owned_indices: Vec<i32>,
     matrix: Matrix<'p>,
-    x: Vector<'p>,
     b: Vector<'p>,
     coordinates: Vector<'p>,
     constrained_rows: Vec<i32>,
@@ -261,8 +246,15 @@ struct SetUp<'p> {
     seconds: PhaseSeconds,
 }
 
-/// Everything before the solve, shared by [`solve_scene`] and [`export_scene`]. Collective.
-fn set_up<'p>(petsc: &'p Petsc, scene: &Scene) -> Result<SetUp<'p>> {
+/// [`Error::Invalid`] naming the scene key `key` (with its `value`) that the engine does not
+/// honour, and why (`reason`).
+fn refused(scene: &Scene, key: &str, value: impl std::fmt::Display, reason: &str) -> Error {
+    Error::invalid(format!("{key} of {}", scene.source_name()), value, reason)
+}
+
+/// Refuses what the engine does not run and every scene key it would ignore, naming the key: a
+/// run must not end without what its scene asked for and look complete.
+fn check_supported(scene: &Scene) -> Result<()> {
     match scene.analysis() {
         Analysis::Static | Analysis::Dynamic(_) => {}
         #[allow(unreachable_patterns)]
@@ -286,8 +278,6 @@ fn set_up<'p>(petsc: &'p Petsc, scene: &Scene) -> Result<SetUp<'p>> {
             ));
         }
     }
-    // A key the engine would ignore: a run asked for pictures must not end without them and
-    // look complete.
     if scene.output().png {
         return Err(Error::invalid(
             format!("output.png of {}", scene.source_name()),
@@ -310,6 +300,50 @@ fn set_up<'p>(petsc: &'p Petsc, scene: &Scene) -> Result<SetUp<'p>> {
             "the PETSc engine solves the linear model only so far (\"linear\")",
         ));
     }
+    if scene.order() != 1 {
+        return Err(refused(
+            scene,
+            "mesh.order",
+            scene.order(),
+            "the PETSc engine assembles 4-node tets only so far (mesh.order = 1); run 10-node \
+             scenes with tetfem's own engine",
+        ));
+    }
+    if scene.accuracy().is_some() {
+        return Err(refused(
+            scene,
+            "analysis.accuracy",
+            "set",
+            "the PETSc engine solves the scene's mesh as given; the accuracy-driven choice of \
+             order and cells runs with tetfem's own engine",
+        ));
+    }
+    let analysis = scene.spec().analysis.as_ref().map(|a| a.get_ref());
+    if let Some(method) = analysis.and_then(|a| a.linear_solver) {
+        return Err(refused(
+            scene,
+            "analysis.linear_solver",
+            format!("{method:?}"),
+            "the PETSc engine solves with its preset ([petsc] solver = \"gamg\", \"hypre\" or \
+             \"mumps\", or --solver): remove analysis.linear_solver",
+        ));
+    }
+    if scene.output().checkpoint_every > 0 {
+        return Err(refused(
+            scene,
+            "output.checkpoint_every",
+            scene.output().checkpoint_every,
+            "the PETSc engine writes no checkpoints (a run is not resumable): set 0 or run the \
+             scene with tetfem's own engine",
+        ));
+    }
+    Ok(())
+}
+
+/// Everything before the solve, shared by [`solve_scene`] and [`export_scene`], and the
+/// solution vector holding the prescribed values on the constrained rows. Collective.
+fn set_up<'p>(petsc: &'p Petsc, scene: &Scene) -> Result<(SetUp<'p>, Vector<'p>)> {
+    check_supported(scene)?;
     let (rank, size) = (petsc.rank(), petsc.size());
     let mut seconds = PhaseSeconds::default();
 
@@ -429,14 +463,13 @@ fn set_up<'p>(petsc: &'p Petsc, scene: &Scene) -> Result<SetUp<'p>> {
         .chain(&preallocation.off_diagonal)
         .map(|&c| c as usize)
         .sum();
-    Ok(SetUp {
+    let set = SetUp {
         built,
         partition,
         dofs,
         owned,
         owned_indices,
         matrix,
-        x,
         b,
         coordinates,
         constrained_rows,
@@ -445,263 +478,425 @@ fn set_up<'p>(petsc: &'p Petsc, scene: &Scene) -> Result<SetUp<'p>> {
         my_tets,
         nonzeros,
         seconds,
-    })
+    };
+    Ok((set, x))
 }
 
-/// Solves a static linear scene, or integrates a dynamic one by backward Euler or Newmark (linear model,
-/// lumped mass, Rayleigh damping, constant loads), on all ranks of `petsc` with the preset `options.solver`
-/// (options given on the command line win over the preset's); gathers the displacement on
-/// rank 0 and writes the parallel output as `options` ask. Collective: every rank calls it
-/// with the same scene and options.
+/// Solves a static linear scene, or integrates a dynamic one by backward Euler or Newmark (linear
+/// model, lumped mass, Rayleigh damping, constant loads), on all ranks of `petsc` with the preset
+/// `options.solver` (options given on the command line win over the preset's); gathers the
+/// displacement on rank 0 and writes the parallel output as `options` ask, with the in-process
+/// run's fields, CSV columns and summary keys (see [`SolveResult::report`]). Collective: every
+/// rank calls it with the same scene and options.
 pub fn solve_scene(petsc: &Petsc, scene: &Scene, options: EngineOptions) -> Result<SolveResult> {
-    let solver = options.solver;
-    let (rank, size) = (petsc.rank(), petsc.size());
-    let SetUp {
-        built,
-        partition,
-        dofs,
-        owned,
-        owned_indices,
-        matrix,
-        mut x,
-        b,
-        coordinates,
-        constrained_rows,
-        constrained_values,
-        mean_diagonal,
-        my_tets,
-        nonzeros,
-        mut seconds,
-    } = set_up(petsc, scene)?;
-    let mesh = &built.mesh;
-    let old_dof = |new: usize| 3 * partition.old_of_new(new / 3) + new % 3;
-
+    let (mut set, mut x) = set_up(petsc, scene)?;
     // The scene's `[petsc] options` first, so that they win over the preset's; options from
     // the command line are in the database already and win over both.
     for (name, value) in &scene.engine().petsc_options {
         petsc.set_default_option_or_flag(name, value.as_deref())?;
     }
-    for (name, value) in solver.options() {
+    for (name, value) in options.solver.options() {
         petsc.set_default_option(name, value)?;
     }
-    let mut files: Vec<PathBuf> = Vec::new();
-    let outcome = match scene.analysis() {
-        Analysis::Static => solve_static(petsc, &matrix, &b, &mut x, &mut seconds)?,
+    let (outcome, report) = match scene.analysis() {
+        Analysis::Static => {
+            let outcome = solve_static(petsc, &set.matrix, &set.b, &mut x, &mut set.seconds)?;
+            exact_constraints(&set, &mut x)?;
+            let report = report_static(petsc, scene, &mut set, &x, options)?;
+            (outcome, report)
+        }
         Analysis::Dynamic(settings) => {
-            let clock = Instant::now();
-            // Lumped mass ρₑVₑ/4 per node and axis of each of this rank's tets, summed across
-            // ranks at assembly (a node shared by two parts gets both parts' shares).
-            let mut mass = x.duplicate()?;
-            mass.fill(0.0)?;
-            let mut mass_indices = Vec::with_capacity(12 * my_tets);
-            let mut mass_values = Vec::with_capacity(12 * my_tets);
-            for t in partition.tets_of(rank) {
-                let share = mesh
-                    .element(t)?
-                    .lumped_mass(built.materials.material_of(t).density());
-                for &node in &mesh.tets()[t] {
-                    for axis in 0..3 {
-                        mass_indices.push(partition.global_dof(node, axis) as i32);
-                        mass_values.push(share);
-                    }
-                }
-            }
-            mass.add_and_assemble(&mass_indices, &mass_values)?;
-            let velocity: Vec<f64> = owned
-                .clone()
-                .map(|d| match built.constraints.get(old_dof(d)) {
-                    Some(_) => 0.0,
-                    None => settings.initial_velocity[d % 3],
-                })
-                .collect();
-            let mut v = x.duplicate()?;
-            v.set_and_assemble(&owned_indices, &velocity)?;
-            seconds.constraints += clock.elapsed().as_secs_f64();
-            let output = scene.output();
-            let mut recorder = Recorder::new(
-                petsc,
-                mesh,
-                &partition,
-                &built.probes,
-                output.directory.clone(),
-                output.stem.clone(),
-                options.write_vtu && output.vtu,
-                options.write_vtu && output.csv,
-                output.vtu_format.format(),
-                output.every,
-                settings.steps(),
-                0.5 * mean_diagonal * constrained_values.iter().map(|u| u * u).sum::<f64>(),
-            )?;
-            let step = Implicit {
-                method: settings.method,
-                owned_rows: &owned_indices,
-                stiffness: &matrix,
-                mass: &mass,
-                load: &b,
-                coordinates: &coordinates,
-                constrained_rows: &constrained_rows,
-                dt: settings.dt,
-                alpha: settings.damping.mass,
-                beta: settings.damping.stiffness,
-                steps: settings.steps(),
-            };
-            let outcome = step.integrate(petsc, &mut x, &mut v, &mut recorder, &mut seconds)?;
-            files = recorder.files();
-            outcome
+            let (outcome, recorded, files) =
+                integrate(petsc, scene, settings, &mut set, &mut x, options)?;
+            exact_constraints(&set, &mut x)?;
+            let report = report_dynamic(petsc, scene, settings, &set, &x, recorded, files)?;
+            (outcome, report)
         }
         // Refused by set_up already; kept for analyses the scenes may gain.
         #[allow(unreachable_patterns)]
         _ => return Err(unsupported_analysis(scene)),
     };
-    drop(coordinates);
-    // The Krylov method solves the decoupled rows d·u = d·u_c only to its tolerance; the free
-    // rows never saw them (their columns are zero), so setting them to u_c exactly is the
-    // solution of the eliminated system.
-    x.set_and_assemble(&constrained_rows, &constrained_values)?;
-
     let relative_residual = match outcome.relative_residual {
         Some(r) => r,
-        None => {
-            let mut residual = x.duplicate()?;
-            matrix.mult(&x, &mut residual)?;
-            residual.axpy(-1.0, &b)?;
-            let b_norm = b.norm()?;
-            residual.norm()? / if b_norm > 0.0 { b_norm } else { 1.0 }
-        }
+        None => true_residual(petsc, &set, &x)?[0],
     };
+    let displacement = match options.gather_displacement {
+        true => x.gather_to_zero(petsc)?.map(|all| {
+            let mut full = vec![0.0; set.dofs];
+            for (new, value) in all.into_iter().enumerate() {
+                full[3 * set.partition.old_of_new(new / 3) + new % 3] = value;
+            }
+            full
+        }),
+        false => None,
+    };
+    let summary = petsc_summary(petsc, &set, options.solver, outcome, relative_residual)?;
+    let report = match report {
+        Some(text) => {
+            let mut value: serde_json::Value = serde_json::from_str(&text)
+                .map_err(|e| Error::invalid("summary", e, "must be JSON"))?;
+            let petsc_group = serde_json::to_value(&summary)
+                .map_err(|e| Error::invalid("PETSc summary", e, "must serialize to JSON"))?;
+            if let Some(object) = value.as_object_mut() {
+                object.insert("petsc".to_string(), petsc_group);
+            }
+            Some(value)
+        }
+        None => None,
+    };
+    Ok(SolveResult {
+        summary,
+        report,
+        displacement,
+    })
+}
 
-    let local = x.local_values()?;
-    let probes = probe_means(petsc, &partition, &built.probes, &local)?
-        .into_iter()
-        .zip(&built.probes)
-        .map(|(displacement, probe)| ProbeValue {
-            name: probe.name.clone(),
-            displacement,
-            // The distributed run gathers no element's displacement for a point's stress.
-            stress_pa: None,
-        })
-        .collect();
-    let mut max_displacement = [local
-        .chunks_exact(3)
-        .map(|u| (u[0] * u[0] + u[1] * u[1] + u[2] * u[2]).sqrt())
-        .fold(0.0, f64::max)];
-    petsc.max(&mut max_displacement)?;
+/// Sets the constrained entries of `x` to u_c exactly: the Krylov method solves the decoupled
+/// rows d·u = d·u_c only to its tolerance; the free rows never saw them (their columns are
+/// zero), so this is the solution of the eliminated system. Collective.
+fn exact_constraints<'p>(set: &SetUp<'p>, x: &mut Vector<'p>) -> Result<()> {
+    x.set_and_assemble(&set.constrained_rows, &set.constrained_values)
+}
 
-    // The static solve's one frame (a dynamic run wrote its frames as it went).
-    if matches!(scene.analysis(), Analysis::Static) && options.write_vtu && scene.output().vtu {
-        let clock = Instant::now();
-        let output = scene.output();
+/// ‖b − A·x‖/‖b‖ of the system PETSc solved, and ‖r_f‖/‖b_f‖ over the free rows only (the
+/// in-process run's relative residual: the constrained rows' residual is 0 exactly once
+/// [`exact_constraints`] ran, and their b is d·u_c). Collective.
+fn true_residual<'p>(petsc: &Petsc, set: &SetUp<'p>, x: &Vector<'p>) -> Result<[f64; 2]> {
+    let mut residual = x.duplicate()?;
+    set.matrix.mult(x, &mut residual)?;
+    residual.axpy(-1.0, &set.b)?;
+    let (r, b) = (residual.norm()?, set.b.norm()?);
+    let d = set.mean_diagonal;
+    let mut constrained = [set
+        .constrained_values
+        .iter()
+        .map(|u| (d * u) * (d * u))
+        .sum::<f64>()];
+    petsc.sum(&mut constrained)?;
+    let b_free = (b * b - constrained[0]).max(0.0).sqrt();
+    let ratio = |r: f64, b: f64| r / if b > 0.0 { b } else { 1.0 };
+    Ok([ratio(r, b), ratio(r, b_free)])
+}
+
+/// The in-process run's report of the static solution `x` (every rank evaluates it from the
+/// whole displacement: its piece's fields need the whole mesh's recovered nodal stress and
+/// error indicators), each rank's piece of the `.vtu` and rank 0's probe CSV; the summary JSON
+/// text (with `units`) on rank 0, `None` elsewhere. Collective.
+fn report_static<'p>(
+    petsc: &'p Petsc,
+    scene: &Scene,
+    set: &mut SetUp<'p>,
+    x: &Vector<'p>,
+    options: EngineOptions,
+) -> Result<Option<String>> {
+    let [_, free_residual] = true_residual(petsc, set, x)?;
+    let rank = petsc.rank();
+    let built = &set.built;
+    let reactions = Supports::new(built, &set.partition, rank).reactions(petsc, built, x)?;
+    let seconds = set.seconds;
+    let solved = StaticSolve {
+        displacement: full_values(x, &set.partition, set.dofs)?,
+        relative_residual: free_residual,
+        free_dofs: tetfem::DofMap::new(&built.constraints).free_count(),
+        // The engine's phases under the in-process names: METIS and numbering as the pattern,
+        // PETSc's preconditioner set-up (GAMG, BoomerAMG, MUMPS) as the factorization.
+        phases: Some(SolvePhases {
+            pattern: seconds.partition,
+            assembly: seconds.assembly,
+            constraints: seconds.constraints,
+            symbolic: 0.0,
+            factorization: seconds.setup,
+            solve: seconds.solve,
+        }),
+        factor_len: 0,
+        friction_forces: Vec::new(),
+        newton: None,
+        reactions,
+    };
+    let model = scene.model().build_map(&built.materials);
+    let solve_seconds =
+        seconds.partition + seconds.assembly + seconds.constraints + seconds.setup + seconds.solve;
+    let report = petsc.agree(
+        tetfem_scene::report_static(
+            scene,
+            built,
+            &model,
+            &solved,
+            None,
+            [seconds.build, solve_seconds],
+            None,
+        )
+        .map_err(Error::from),
+    )?;
+    let clock = Instant::now();
+    let output = scene.output();
+    let mut files = Vec::new();
+    if options.write_vtu && output.vtu {
+        let arrays = petsc.agree(
+            static_frame_arrays(
+                scene,
+                built,
+                &model,
+                &solved.displacement,
+                None,
+                Some(&solved.reactions),
+                report.indicators.as_deref(),
+            )
+            .map_err(Error::from),
+        )?;
         let frame =
             PvtuFiles::new(&output.directory, &output.stem).with_format(output.vtu_format.format());
-        Piece::new(mesh, &partition, rank).write(petsc, mesh, &x, &frame)?;
+        Piece::new(&built.mesh, &set.partition, rank).write(petsc, &built.mesh, &arrays, &frame)?;
         let listed = match rank {
             0 => frame.write_pvd(&[(0.0, frame.pvtu())]).map(|_| ()),
             _ => Ok(()),
         };
         petsc.agree(listed)?;
-        files = vec![frame.pvd(), frame.pvtu()];
-        seconds.output = clock.elapsed().as_secs_f64();
+        files.extend([frame.pvd(), frame.pvtu()]);
     }
+    if options.write_vtu && output.csv && !built.probes.is_empty() {
+        let path = output
+            .directory
+            .join(format!("{}_petsc_probes.csv", output.stem));
+        let written = match rank {
+            0 => write_static_probe_csv(path.clone(), built, &report.summary).map_err(Error::from),
+            _ => Ok(path.clone()),
+        };
+        files.push(petsc.agree(written)?);
+    }
+    set.seconds.output = clock.elapsed().as_secs_f64();
+    if rank != 0 {
+        return Ok(None);
+    }
+    let mut summary = report.summary;
+    summary.output_seconds = set.seconds.output;
+    if options.write_vtu {
+        files.push(summary_path(scene));
+    }
+    summary.files = files;
+    Ok(Some(summary.to_json()))
+}
 
-    // Σ_c (K·u)_c over this rank's tets (each tet counted by one rank), with the values of
-    // their nodes fetched from the other ranks; then Σ_c f_c taken off once (on rank 0).
-    let mut reaction = [0.0; 3];
-    if matches!(scene.analysis(), Analysis::Static) {
-        let piece = Piece::new(mesh, &partition, rank);
-        let values = x.entries(piece.indices())?;
-        let mut u_e = [0.0; 12];
-        for &t in piece.tets() {
-            let tet = mesh.tets()[t];
-            for (a, &node) in tet.iter().enumerate() {
-                let i = piece.position(node).ok_or_else(|| {
-                    Error::invalid(
-                        format!("node of tet {t}"),
-                        node,
-                        "must be in this rank's piece",
-                    )
-                })?;
-                u_e[3 * a..3 * a + 3].copy_from_slice(&values[3 * i..3 * i + 3]);
-            }
-            let ke = mesh.element(t)?.stiffness(built.materials.material_of(t));
-            for (a, &node) in tet.iter().enumerate() {
-                for axis in 0..3 {
-                    if built.constraints.get(3 * node + axis).is_some() {
-                        let row = 3 * a + axis;
-                        reaction[axis] += (0..12).map(|j| ke[(row, j)] * u_e[j]).sum::<f64>();
-                    }
-                }
+/// Integrates a dynamic scene (every rank): the lumped mass, the initial velocity, the
+/// recording and the time loop; returns the outcome, what was recorded and rank 0's files.
+/// Collective.
+fn integrate<'p>(
+    petsc: &'p Petsc,
+    scene: &Scene,
+    settings: &tetfem_scene::DynamicSettings,
+    set: &mut SetUp<'p>,
+    x: &mut Vector<'p>,
+    options: EngineOptions,
+) -> Result<(Outcome, Recorded, Vec<PathBuf>)> {
+    let clock = Instant::now();
+    let rank = petsc.rank();
+    let (built, partition) = (&set.built, &set.partition);
+    let mesh = &built.mesh;
+    // Lumped mass ρₑVₑ/4 per node and axis of each of this rank's tets, summed across ranks at
+    // assembly (a node shared by two parts gets both parts' shares).
+    let mut mass = x.duplicate()?;
+    mass.fill(0.0)?;
+    let mut mass_indices = Vec::with_capacity(12 * set.my_tets);
+    let mut mass_values = Vec::with_capacity(12 * set.my_tets);
+    for t in partition.tets_of(rank) {
+        let share = mesh
+            .element(t)?
+            .lumped_mass(built.materials.material_of(t).density());
+        for &node in &mesh.tets()[t] {
+            for axis in 0..3 {
+                mass_indices.push(partition.global_dof(node, axis) as i32);
+                mass_values.push(share);
             }
         }
-        if rank == 0 {
-            let forces = built.loads.as_slice();
-            for (dof, f) in forces.iter().enumerate() {
-                if built.constraints.get(dof).is_some() {
-                    reaction[dof % 3] -= f;
-                }
-            }
-        }
-        petsc.sum(&mut reaction)?;
     }
-
-    let displacement = if options.gather_displacement {
-        x.gather_to_zero(petsc)?.map(|all| {
-            let mut full = vec![0.0; dofs];
-            for (new, value) in all.into_iter().enumerate() {
-                full[old_dof(new)] = value;
+    mass.add_and_assemble(&mass_indices, &mass_values)?;
+    let velocity: Vec<f64> = set
+        .owned
+        .clone()
+        .map(|d| {
+            match built
+                .constraints
+                .get(3 * partition.old_of_new(d / 3) + d % 3)
+            {
+                Some(_) => 0.0,
+                None => settings.initial_velocity[d % 3],
             }
-            full
         })
-    } else {
-        None
+        .collect();
+    let mut v = x.duplicate()?;
+    v.set_and_assemble(&set.owned_indices, &velocity)?;
+    set.seconds.constraints += clock.elapsed().as_secs_f64();
+    let output = scene.output();
+    let d = set.mean_diagonal;
+    let mut recorder = Recorder::new(
+        petsc,
+        built,
+        partition,
+        output.directory.clone(),
+        output.stem.clone(),
+        options.write_vtu && output.vtu,
+        options.write_vtu && output.csv,
+        output.vtu_format.format(),
+        output.every,
+        settings.steps(),
+        0.5 * d * set.constrained_values.iter().map(|u| u * u).sum::<f64>(),
+        settings.damping.stiffness,
+    )?;
+    let step = Implicit {
+        method: settings.method,
+        owned_rows: &set.owned_indices,
+        stiffness: &set.matrix,
+        mass: &mass,
+        load: &set.b,
+        coordinates: &set.coordinates,
+        constrained_rows: &set.constrained_rows,
+        dt: settings.dt,
+        alpha: settings.damping.mass,
+        beta: settings.damping.stiffness,
+        steps: settings.steps(),
     };
+    let outcome = step.integrate(petsc, x, &mut v, &mut recorder, &mut set.seconds)?;
+    let files = recorder.files();
+    Ok((outcome, recorder.report, files))
+}
 
+/// The in-process dynamic summary's keys for the run that ended at `x` (rank 0's JSON text
+/// with `units`; `None` elsewhere): the estimate and the deformation of the last state (from the
+/// whole displacement), the explicit critical step by the element bound (the power iteration
+/// would need the assembled matrix on one process), no step-resolution check (a modal solve of
+/// the assembled system). Collective.
+fn report_dynamic<'p>(
+    petsc: &'p Petsc,
+    scene: &Scene,
+    settings: &tetfem_scene::DynamicSettings,
+    set: &SetUp<'p>,
+    x: &Vector<'p>,
+    recorded: Recorded,
+    mut files: Vec<PathBuf>,
+) -> Result<Option<String>> {
+    let u = full_values(x, &set.partition, set.dofs)?;
+    let built = &set.built;
+    let summary = || -> Result<Option<String>> {
+        if petsc.rank() != 0 {
+            return Ok(None);
+        }
+        let clock = Instant::now();
+        let (estimate, _) = estimated_error_of(&built.mesh, &built.materials, &u)?;
+        let estimate_seconds = clock.elapsed().as_secs_f64();
+        let deformation = tetfem::adequacy::rotation::largest_rotation_and_strain(&built.mesh, &u)?;
+        let critical =
+            tetfem::dynamics::element_step_bound_of(&built.mesh, &built.materials)?.dt_element;
+        let (dt, steps, seconds) = (settings.dt, settings.steps(), set.seconds);
+        if !files.is_empty() {
+            files.push(summary_path(scene));
+        }
+        let summary = DynamicSummary {
+            title: scene.title(),
+            scene: scene.source_name().to_string(),
+            analysis: "dynamic".into(),
+            method: match settings.method {
+                Method::Newmark => "newmark",
+                _ => "backward-euler",
+            }
+            .into(),
+            nodes: built.mesh.node_count(),
+            tets: built.mesh.tet_count(),
+            free_dofs: tetfem::DofMap::new(&built.constraints).free_count(),
+            dt,
+            critical_step: critical,
+            critical_step_source: "element bound".into(),
+            dt_over_critical: dt / critical,
+            steps,
+            end_time: steps as f64 * dt,
+            setup_seconds: seconds.build
+                + seconds.partition
+                + seconds.assembly
+                + seconds.constraints
+                + seconds.setup,
+            first_step_seconds: recorded.first_step_seconds,
+            mean_step_seconds: match steps {
+                0 | 1 => recorded.first_step_seconds,
+                _ => (recorded.step_seconds - recorded.first_step_seconds) / (steps - 1) as f64,
+            },
+            step_seconds: recorded.step_seconds,
+            output_seconds: seconds.output,
+            initial_energy: recorded.initial_energy,
+            final_energy: recorded.final_energy,
+            probes: recorded.probes,
+            reactions: recorded.reactions,
+            frames: recorded.frames,
+            files,
+            model: "linear".into(),
+            newton: None,
+            warnings: built
+                .warnings()
+                .iter()
+                .map(ToString::to_string)
+                .chain(deformation.warning().map(|w| w.to_string()))
+                .collect(),
+            estimated_error: Some(estimate),
+            estimate_seconds,
+            deformation: Some(deformation),
+            step_resolution: None,
+            resumed_from_step: None,
+            contact_forces: None,
+        };
+        Ok(Some(summary.to_json()))
+    };
+    petsc.agree(summary())
+}
+
+/// The engine's own figures, reduced over the ranks. Collective.
+fn petsc_summary(
+    petsc: &Petsc,
+    set: &SetUp<'_>,
+    solver: SolverPreset,
+    outcome: Outcome,
+    relative_residual: f64,
+) -> Result<PetscSummary> {
+    let (rank, size) = (petsc.rank(), petsc.size());
     // Per-rank counts: each rank fills its slot, the sum gathers them.
     let mut per_rank = vec![0.0; 4 * size];
-    per_rank[rank] = my_tets as f64;
-    per_rank[size + rank] = owned.len() as f64;
-    per_rank[2 * size + rank] = nonzeros as f64;
+    per_rank[rank] = set.my_tets as f64;
+    per_rank[size + rank] = set.owned.len() as f64;
+    per_rank[2 * size + rank] = set.nonzeros as f64;
     per_rank[3 * size + rank] = peak_memory() as f64;
     petsc.sum(&mut per_rank)?;
-    let mut constrained = [constrained_rows.len() as f64];
+    let mut constrained = [set.constrained_rows.len() as f64];
     petsc.sum(&mut constrained)?;
+    let s = set.seconds;
     let mut times = [
-        seconds.build,
-        seconds.partition,
-        seconds.assembly,
-        seconds.constraints,
-        seconds.setup,
-        seconds.solve,
-        seconds.output,
+        s.build,
+        s.partition,
+        s.assembly,
+        s.constraints,
+        s.setup,
+        s.solve,
+        s.output,
     ];
     petsc.max(&mut times)?;
-    let seconds = PhaseSeconds {
-        build: times[0],
-        partition: times[1],
-        assembly: times[2],
-        constraints: times[3],
-        setup: times[4],
-        solve: times[5],
-        output: times[6],
-    };
+    let [
+        build,
+        partition,
+        assembly,
+        constraints,
+        setup,
+        solve,
+        output,
+    ] = times;
     let column = |i: usize| -> Vec<usize> {
         per_rank[i * size..(i + 1) * size]
             .iter()
             .map(|&v| v as usize)
             .collect()
     };
-    let constrained_dofs = constrained[0] as usize;
-    let summary = PetscSummary {
-        title: scene.title(),
-        scene: scene.source_name().to_string(),
+    Ok(PetscSummary {
         engine: "petsc".to_string(),
         petsc_version: petsc.version()?,
         built_against: env!("TETFEM_PETSC_BUILT_AGAINST").to_string(),
         ranks: size,
-        nodes: mesh.node_count(),
-        tets: mesh.tet_count(),
-        dofs,
-        constrained_dofs,
-        free_dofs: dofs - constrained_dofs,
+        dofs: set.dofs,
+        constrained_dofs: constrained[0] as usize,
         tets_per_rank: column(0),
         rows_per_rank: column(1),
         nonzeros_per_rank: column(2),
@@ -715,16 +910,16 @@ pub fn solve_scene(petsc: &Petsc, scene: &Scene, options: EngineOptions) -> Resu
         max_step_iterations: outcome.max_step_iterations,
         converged_reason: reason_name(outcome.reason).to_string(),
         relative_residual,
-        probes,
-        max_displacement: max_displacement[0],
-        reaction,
-        seconds,
+        seconds: PhaseSeconds {
+            build,
+            partition,
+            assembly,
+            constraints,
+            setup,
+            solve,
+            output,
+        },
         peak_memory_per_rank: column(3).into_iter().map(|v| v as u64).collect(),
-        files,
-    };
-    Ok(SolveResult {
-        summary,
-        displacement,
     })
 }
 
@@ -749,7 +944,7 @@ pub fn export_scene(petsc: &Petsc, scene: &Scene, directory: &Path) -> Result<Ve
             "the export writes the static system (\"static\")",
         ));
     }
-    let set = set_up(petsc, scene)?;
+    let (set, _) = set_up(petsc, scene)?;
     let created = match petsc.rank() {
         0 => std::fs::create_dir_all(directory).map_err(|source| Error::Io {
             path: directory.to_path_buf(),
@@ -931,19 +1126,18 @@ impl<'p> Implicit<'_, 'p> {
         let mut relative_residual = 0.0;
         let mut recording = 0.0;
         let record_clock = Instant::now();
-        recorder.record(
-            petsc,
-            0,
-            0.0,
+        let state = StepState {
+            step: 0,
+            time: 0.0,
+            wall: 0.0,
             u,
             v,
-            self.stiffness,
-            self.mass,
-            &mut work,
-            self.steps == 0,
-        )?;
+            last: self.steps == 0,
+        };
+        recorder.record(petsc, state, self.stiffness, self.mass, &mut work)?;
         recording += record_clock.elapsed().as_secs_f64();
         for step in 0..self.steps {
+            let step_clock = Instant::now();
             if newmark {
                 // rhs = f − K·u + C·v + M·(4/dt·v + a) = f − K·(u − β·v) + M·((4/dt + α)·v + a)
                 work.waxpy(-self.beta, v, u)?;
@@ -989,17 +1183,15 @@ impl<'p> Implicit<'_, 'p> {
                 u.axpy(dt, v)?;
             }
             let record_clock = Instant::now();
-            recorder.record(
-                petsc,
-                step + 1,
-                (step + 1) as f64 * dt,
+            let state = StepState {
+                step: step + 1,
+                time: (step + 1) as f64 * dt,
+                wall: step_clock.elapsed().as_secs_f64(),
                 u,
                 v,
-                self.stiffness,
-                self.mass,
-                &mut work,
-                step + 1 == self.steps,
-            )?;
+                last: step + 1 == self.steps,
+            };
+            recorder.record(petsc, state, self.stiffness, self.mass, &mut work)?;
             recording += record_clock.elapsed().as_secs_f64();
         }
         seconds.solve = clock.elapsed().as_secs_f64() - recording;

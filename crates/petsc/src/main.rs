@@ -22,7 +22,9 @@ use std::io::Write as _;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
-use tetfem_petsc::engine::{EngineOptions, SolverPreset, export_scene, solve_scene, summary_path};
+use tetfem_petsc::engine::{
+    EngineOptions, PetscSummary, SolverPreset, export_scene, solve_scene, summary_path,
+};
 use tetfem_petsc::ffi::Petsc;
 use tetfem_petsc::pvtu::write_file;
 use tetfem_petsc::{Error, Result};
@@ -144,7 +146,10 @@ fn run(petsc: &Petsc, args: &Arguments) -> Result<()> {
     if petsc.rank() != 0 {
         return Ok(());
     }
-    let json = serde_json::to_string_pretty(&result.summary)
+    let Some(report) = &result.report else {
+        return Ok(());
+    };
+    let json = serde_json::to_string_pretty(report)
         .map_err(|e| Error::invalid("summary", e, "must serialize to JSON"))?;
     if !args.no_files {
         write_file(&summary_path(&scene), &json)?;
@@ -156,52 +161,62 @@ fn run(petsc: &Petsc, args: &Arguments) -> Result<()> {
     if args.json {
         println!("{json}");
     } else if !args.quiet {
-        let s = &result.summary;
-        println!(
-            "{}: {} DOFs ({} free) on {} ranks, {} + {} ({}): {} iterations, {}, relative residual {:.2e}",
-            s.title,
-            s.dofs,
-            s.free_dofs,
-            s.ranks,
-            s.ksp_type,
-            s.pc_type,
-            s.solver.name(),
-            s.iterations,
-            s.converged_reason,
-            s.relative_residual
-        );
-        if s.steps > 0 {
-            println!(
-                "  {} steps of {} s ({}), at most {} iterations per step",
-                s.steps, s.dt, s.analysis, s.max_step_iterations
-            );
-        }
-        println!(
-            "  seconds: build {:.3}, partition {:.3}, assembly {:.3}, constraints {:.3}, set-up {:.3}, solve {:.3}",
-            s.seconds.build,
-            s.seconds.partition,
-            s.seconds.assembly,
-            s.seconds.constraints,
-            s.seconds.setup,
-            s.seconds.solve
-        );
-        if s.steps == 0 {
-            println!(
-                "  reaction of the constraints: [{:.6e}, {:.6e}, {:.6e}] N",
-                s.reaction[0], s.reaction[1], s.reaction[2]
-            );
-        }
-        for file in &s.files {
-            println!("  wrote {}", file.display());
-        }
-        for p in &s.probes {
-            println!(
-                "  probe {}: u = [{:.6e}, {:.6e}, {:.6e}] m",
-                p.name, p.displacement[0], p.displacement[1], p.displacement[2]
-            );
-        }
+        print_summary(report, &result.summary);
     }
     Ok(())
+}
+
+/// The human-readable lines of a run: the in-process keys of `report` and the engine's `s`.
+fn print_summary(report: &serde_json::Value, s: &PetscSummary) {
+    println!(
+        "{}: {} DOFs ({} free) on {} ranks, {} + {} ({}): {} iterations, {}, relative residual {:.2e}",
+        report["title"].as_str().unwrap_or_default(),
+        s.dofs,
+        report["free_dofs"],
+        s.ranks,
+        s.ksp_type,
+        s.pc_type,
+        s.solver.name(),
+        s.iterations,
+        s.converged_reason,
+        s.relative_residual
+    );
+    if s.steps > 0 {
+        println!(
+            "  {} steps of {} s ({}), at most {} iterations per step",
+            s.steps, s.dt, s.analysis, s.max_step_iterations
+        );
+    }
+    println!(
+        "  seconds: build {:.3}, partition {:.3}, assembly {:.3}, constraints {:.3}, set-up {:.3}, solve {:.3}",
+        s.seconds.build,
+        s.seconds.partition,
+        s.seconds.assembly,
+        s.seconds.constraints,
+        s.seconds.setup,
+        s.seconds.solve
+    );
+    let empty = Vec::new();
+    for row in report["reactions"].as_array().unwrap_or(&empty) {
+        println!(
+            "  reaction of {}: {} N",
+            row["constraint"].as_str().unwrap_or_default(),
+            row["force_n"]
+        );
+    }
+    for file in report["files"].as_array().unwrap_or(&empty) {
+        println!("  wrote {}", file.as_str().unwrap_or_default());
+    }
+    for p in report["probes"].as_array().unwrap_or(&empty) {
+        let value = match p.get("displacement") {
+            Some(u) => u,
+            None => &p["last"],
+        };
+        println!(
+            "  probe {}: u = {value} m",
+            p["name"].as_str().unwrap_or_default()
+        );
+    }
 }
 
 fn main() -> ExitCode {

@@ -9,16 +9,19 @@
 //! binary by default (the scene's `output.vtu_format`), or ASCII with numbers in Rust's
 //! shortest round-trip form; either way a reader gets the solver's f64 values back bit for bit.
 //!
-//! Point data: `displacement` (m, 3 components) and `node` (`Int64`: the node's index in the
-//! mesh, to match pieces with the whole); cell data: `rank` and `tet` (`Int64`: the tet's index
-//! in the mesh). Nodes on a boundary between pieces appear in each piece that uses them (with
-//! equal values).
+//! Each piece carries the arrays of the in-process run's `.vtu` for that analysis (a
+//! [`FrameArrays`] of the whole mesh restricted to the piece: `displacement`, the stresses, von
+//! Mises, principal stresses, `material_id`…, see [`tetfem::output`]'s frame docs), plus point
+//! data `node` (`Int64`: the node's index in the mesh, to match pieces with the whole) and cell
+//! data `rank` and `tet` (`Int64`: the tet's index in the mesh). Nodes on a boundary between
+//! pieces appear in each piece that uses them (with equal values: nodal fields are the whole
+//! mesh's).
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 use tetfem::TetMesh;
-use tetfem::output::{VtuFormat, VtuWriter};
+use tetfem::output::{FrameArrays, VtuFormat};
 
 use crate::error::{Error, Result};
 
@@ -89,24 +92,18 @@ impl PvtuFiles {
         }
     }
 
-    /// Writes the piece of rank `rank`: the tets `tets` of `mesh`, with the displacement of
-    /// their nodes, `nodes` (ascending mesh indices of every node of `tets`) and
-    /// `displacement` (3 per entry of `nodes`).
+    /// Writes the piece of rank `rank`: the tets `tets` of `mesh` with their nodes `nodes`
+    /// (ascending mesh indices of every node of `tets`) and `arrays`, the frame's arrays
+    /// restricted to them ([`FrameArrays::restrict`]: one tuple per entry of `nodes` and of
+    /// `tets`), plus `node`, `rank` and `tet`. The encoding is this set of files' format.
     pub fn write_piece(
         &self,
         rank: usize,
         mesh: &TetMesh,
         tets: &[usize],
         nodes: &[usize],
-        displacement: &[f64],
+        arrays: &FrameArrays,
     ) -> Result<PathBuf> {
-        if displacement.len() != 3 * nodes.len() {
-            return Err(Error::invalid(
-                "piece displacement values",
-                displacement.len(),
-                format!("must be 3 per node ({} nodes)", nodes.len()),
-            ));
-        }
         let local = |node: usize| {
             nodes.binary_search(&node).map_err(|_| {
                 Error::invalid(
@@ -134,9 +131,9 @@ impl PvtuFiles {
         let tet_ids: Vec<u64> = tets.iter().map(|&t| t as u64).collect();
         let ranks = vec![rank as u64; tets.len()];
         let path = self.piece(rank);
-        VtuWriter::new(&piece)
-            .format(self.format)
-            .point_field("displacement", 3, displacement)
+        arrays
+            .writer(&piece)
+            .map(|w| w.format(self.format))
             .and_then(|w| w.point_id_field("node", &node_ids))
             .and_then(|w| w.cell_id_field("rank", &ranks))
             .and_then(|w| w.cell_id_field("tet", &tet_ids))
@@ -144,8 +141,10 @@ impl PvtuFiles {
         Ok(path)
     }
 
-    /// Writes the `.pvtu` listing the pieces of `ranks` ranks (rank 0 calls it).
-    pub fn write_pvtu(&self, ranks: usize) -> Result<PathBuf> {
+    /// Writes the `.pvtu` listing the pieces of `ranks` ranks (rank 0 calls it), declaring the
+    /// arrays of `arrays` (names, components, types: those of every piece) with `node`, `rank`
+    /// and `tet`.
+    pub fn write_pvtu(&self, ranks: usize, arrays: &FrameArrays) -> Result<PathBuf> {
         let pieces = self.pieces();
         let folder = pieces
             .file_name()
@@ -153,12 +152,42 @@ impl PvtuFiles {
             .unwrap_or_default();
         let mut text = String::from(
             "<?xml version=\"1.0\"?>\n<VTKFile type=\"PUnstructuredGrid\" version=\"0.1\" \
-             byte_order=\"LittleEndian\">\n<PUnstructuredGrid GhostLevel=\"0\">\n\
-             <PPointData Vectors=\"displacement\">\n\
-             <PDataArray type=\"Float64\" Name=\"displacement\" NumberOfComponents=\"3\"/>\n\
-             <PDataArray type=\"Int64\" Name=\"node\"/>\n</PPointData>\n<PCellData>\n\
-             <PDataArray type=\"Int64\" Name=\"rank\"/>\n<PDataArray type=\"Int64\" Name=\"tet\"/>\n\
-             </PCellData>\n<PPoints>\n\
+             byte_order=\"LittleEndian\">\n<PUnstructuredGrid GhostLevel=\"0\">\n",
+        );
+        if arrays.time.is_some() {
+            text.push_str(
+                "<PFieldData>\n<PDataArray type=\"Float64\" Name=\"TimeValue\"/>\n</PFieldData>\n",
+            );
+        }
+        let declare = |text: &mut String, kind: &str, name: &str, components: usize| {
+            let _ = writeln!(
+                text,
+                "<PDataArray type=\"{kind}\" Name=\"{name}\" NumberOfComponents=\"{components}\"/>"
+            );
+        };
+        text.push_str("<PPointData Vectors=\"displacement\">\n");
+        for (name, components, _) in &arrays.point_fields {
+            declare(&mut text, "Float64", name, *components);
+        }
+        for (name, _) in &arrays.point_ids {
+            declare(&mut text, "Int64", name, 1);
+        }
+        declare(&mut text, "Int64", "node", 1);
+        text.push_str("</PPointData>\n<PCellData>\n");
+        for (name, components, _) in &arrays.cell_fields {
+            declare(&mut text, "Float64", name, *components);
+        }
+        for (name, _) in &arrays.cell_ids {
+            declare(&mut text, "Int64", name, 1);
+        }
+        for name in ["rank", "tet"] {
+            declare(&mut text, "Int64", name, 1);
+        }
+        for (name, _) in &arrays.cell_indices {
+            declare(&mut text, "Int32", name, 1);
+        }
+        text.push_str(
+            "</PCellData>\n<PPoints>\n\
              <PDataArray type=\"Float64\" Name=\"Points\" NumberOfComponents=\"3\"/>\n</PPoints>\n",
         );
         for rank in 0..ranks {
@@ -283,6 +312,10 @@ mod tests {
         let displacement: Vec<f64> = (0..3 * nodes.len())
             .map(|i| (i as f64 + 0.1) / 3.0)
             .collect();
+        let arrays = FrameArrays {
+            point_fields: vec![("displacement".into(), 3, displacement.clone())],
+            ..FrameArrays::default()
+        };
         let dir = std::env::temp_dir().join(format!("tetfem-pvtu-unit-{}", std::process::id()));
         let expected_connectivity: Vec<f64> = tets
             .iter()
@@ -296,7 +329,7 @@ mod tests {
                 Some(f) => PvtuFiles::new(&dir, "box").with_format(f),
             };
             let path = files
-                .write_piece(1, &mesh, &tets, &nodes, &displacement)
+                .write_piece(1, &mesh, &tets, &nodes, &arrays)
                 .expect("written");
             let bytes = std::fs::read(&path).expect("read back");
             let text = String::from_utf8_lossy(&bytes);
@@ -324,8 +357,14 @@ mod tests {
             assert_eq!(read_array(&bytes, "node").expect("node"), node_ids);
         }
         let files = PvtuFiles::new(&dir, "box");
-        let pvtu_path = files.write_pvtu(2).expect("pvtu");
+        let pvtu_path = files.write_pvtu(2, &arrays).expect("pvtu");
         let pvtu = std::fs::read_to_string(&pvtu_path).expect("pvtu");
+        for name in ["displacement", "node", "rank", "tet"] {
+            assert!(
+                pvtu.contains(&format!("Name=\"{name}\"")),
+                "{name} declared"
+            );
+        }
         assert!(pvtu.contains("Source=\"box_petsc/box_0.vtu\""));
         assert!(pvtu.contains("Source=\"box_petsc/box_1.vtu\""));
         let pvd = std::fs::read_to_string(files.write_pvd(&[(0.0, pvtu_path)]).expect("pvd"))
@@ -349,7 +388,16 @@ mod tests {
         .expect("a valid box");
         let dir = std::env::temp_dir().join(format!("tetfem-pvtu-unit-bad-{}", std::process::id()));
         let message = PvtuFiles::new(&dir, "b")
-            .write_piece(0, &mesh, &[0], &[0], &[0.0; 3])
+            .write_piece(
+                0,
+                &mesh,
+                &[0],
+                &[0],
+                &FrameArrays {
+                    point_fields: vec![("displacement".into(), 3, vec![0.0; 3])],
+                    ..FrameArrays::default()
+                },
+            )
             .expect_err("tet 0 has nodes beyond node 0")
             .to_string();
         assert!(

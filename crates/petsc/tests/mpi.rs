@@ -190,34 +190,77 @@ mod with_petsc {
         println!(
             "{name}: {} ranks, {} + {}, {} iterations, true relative residual {:.2e}, \
              relative difference to the direct solve {difference:.2e}, set-up {:.3} s, solve {:.3} s",
-            s["ranks"],
-            s["ksp_type"],
-            s["pc_type"],
-            s["iterations"],
-            s["relative_residual"].as_f64().unwrap_or(f64::NAN),
-            s["seconds"]["setup"],
-            s["seconds"]["solve"]
+            s["petsc"]["ranks"],
+            s["petsc"]["ksp_type"],
+            s["petsc"]["pc_type"],
+            s["petsc"]["iterations"],
+            s["petsc"]["relative_residual"].as_f64().unwrap_or(f64::NAN),
+            s["petsc"]["seconds"]["setup"],
+            s["petsc"]["seconds"]["solve"]
         );
         assert!(
             difference <= AGREEMENT,
             "{name}: relative difference {difference:e} to the direct solve"
         );
-        assert_eq!(s["ranks"], ranks);
-        // The reaction summed over the ranks: −(the applied resultant) at equilibrium, and
-        // tetfem's reactions summed; to 1e-8 of the load (the solves' accuracy, with margin).
-        let scale = resultant.iter().map(|f| f * f).sum::<f64>().sqrt();
-        for axis in 0..3 {
-            let got = s["reaction"][axis].as_f64().expect("reaction");
-            assert!(
-                (got + resultant[axis]).abs() <= 1e-8 * scale,
-                "{name}: reaction {got:e} against load {:e} on axis {axis}",
-                resultant[axis]
-            );
-            assert!(
-                (got - reaction[axis]).abs() <= 1e-8 * scale,
-                "{name}: reaction {got:e} against tetfem's {:e} on axis {axis}",
-                reaction[axis]
-            );
+        assert_eq!(s["petsc"]["ranks"], ranks);
+        // Each constraint entry's reaction as the in-process run's (a DOF in two entries counts
+        // in both, so the rows need not sum to the load), and with disjoint entries the rows
+        // summed as tetfem's reactions summed; to 1e-8 of the largest force (the solves'
+        // accuracy, with margin).
+        let theirs = tetfem_scene::run_static_with(
+            &Scene::load(scene).expect("scene"),
+            &tetfem_scene::RunOptions {
+                no_files: true,
+                ..Default::default()
+            },
+        )
+        .expect("in-process run");
+        let rows = s["reactions"].as_array().expect("reaction rows");
+        assert_eq!(
+            rows.len(),
+            theirs.reactions.as_ref().map_or(0, Vec::len),
+            "{name}"
+        );
+        let largest = theirs
+            .reactions
+            .iter()
+            .flatten()
+            .flat_map(|r| r.force_n)
+            .chain(resultant)
+            .fold(0.0, |m: f64, f| m.max(f.abs()));
+        for (row, their) in rows.iter().zip(theirs.reactions.iter().flatten()) {
+            for axis in 0..3 {
+                let got = row["force_n"][axis].as_f64().expect("reaction");
+                assert!(
+                    (got - their.force_n[axis]).abs() <= 1e-8 * largest,
+                    "{name}: {} {got:e} against the in-process {:e} on axis {axis}",
+                    their.constraint,
+                    their.force_n[axis]
+                );
+            }
+        }
+        let total: Vec<f64> = (0..3)
+            .map(|axis| {
+                rows.iter()
+                    .map(|r| r["force_n"][axis].as_f64().expect("reaction"))
+                    .sum()
+            })
+            .collect();
+        if rows.len() == 1 {
+            for axis in 0..3 {
+                assert!(
+                    (total[axis] + resultant[axis]).abs() <= 1e-8 * largest,
+                    "{name}: reaction {:e} against load {:e} on axis {axis}",
+                    total[axis],
+                    resultant[axis]
+                );
+                assert!(
+                    (total[axis] - reaction[axis]).abs() <= 1e-8 * largest,
+                    "{name}: reaction {:e} against tetfem's {:e} on axis {axis}",
+                    total[axis],
+                    reaction[axis]
+                );
+            }
         }
         Some(run.summary)
     }
@@ -251,12 +294,12 @@ mod with_petsc {
         let Some(s) = agrees("cantilever_gamg_1", 1, &cantilever(), &[]) else {
             return;
         };
-        assert_eq!(s["ksp_type"], "cg");
-        assert_eq!(s["pc_type"], "gamg");
+        assert_eq!(s["petsc"]["ksp_type"], "cg");
+        assert_eq!(s["petsc"]["pc_type"], "gamg");
         // Measured 32 (1 rank) and 34 (2 ranks) to a 1e-12 residual; GAMG without the
         // rigid-body near-null space needs several times as many on this slender beam, so 60
         // catches a lost near-null space while leaving room for PETSc's heuristics.
-        let iterations = s["iterations"].as_i64().expect("iterations");
+        let iterations = s["petsc"]["iterations"].as_i64().expect("iterations");
         assert!(iterations <= 60, "{iterations} GAMG iterations");
     }
 
@@ -265,12 +308,12 @@ mod with_petsc {
         let Some(s) = agrees("cantilever_gamg_2", 2, &cantilever(), &[]) else {
             return;
         };
-        let iterations = s["iterations"].as_i64().expect("iterations");
+        let iterations = s["petsc"]["iterations"].as_i64().expect("iterations");
         // As on one rank (measured 34); the partition changes GAMG's aggregates a little.
         assert!(iterations <= 60, "{iterations} GAMG iterations");
         // Distributed: each rank assembled some tets and owns some rows, none all of them.
         let list = |key: &str| -> Vec<u64> {
-            s[key]
+            s["petsc"][key]
                 .as_array()
                 .expect(key)
                 .iter()
@@ -283,7 +326,10 @@ mod with_petsc {
             list("nonzeros_per_rank"),
         );
         assert_eq!(tets.iter().sum::<u64>(), s["tets"].as_u64().expect("tets"));
-        assert_eq!(rows.iter().sum::<u64>(), s["dofs"].as_u64().expect("dofs"));
+        assert_eq!(
+            rows.iter().sum::<u64>(),
+            s["petsc"]["dofs"].as_u64().expect("dofs")
+        );
         let total_nonzeros: u64 = nonzeros.iter().sum();
         for rank in 0..2 {
             assert!(tets[rank] > 0 && rows[rank] > 0, "rank {rank} has no work");
@@ -307,7 +353,7 @@ mod with_petsc {
         ) else {
             return;
         };
-        assert_eq!(s["pc_type"], "cholesky");
+        assert_eq!(s["petsc"]["pc_type"], "cholesky");
         let Some(s) = agrees(
             "cantilever_hypre_2",
             2,
@@ -316,7 +362,7 @@ mod with_petsc {
         ) else {
             return;
         };
-        assert_eq!(s["pc_type"], "hypre");
+        assert_eq!(s["petsc"]["pc_type"], "hypre");
     }
 
     #[test]
@@ -428,7 +474,7 @@ gravity = [0.0, -9.81, 0.0]
         let Some(s) = agrees("prescribed_2", 2, &scene, &[]) else {
             return;
         };
-        assert!(s["constrained_dofs"].as_u64().expect("count") > 0);
+        assert!(s["petsc"]["constrained_dofs"].as_u64().expect("count") > 0);
         // The prescribed values come back exactly (the engine sets them after the solve; the
         // free rows' equations K_ff·u_f = f_f − K_fc·u_c never depended on them).
         let run = run("prescribed_2_values", 2, &scene, &[]).expect("ran before");
@@ -498,14 +544,14 @@ gravity = [0.0, -9.81, 0.0]
             };
             assert!(run.success, "{label}: {}", run.stderr);
             let s = &run.summary;
-            assert_eq!(s["analysis"], "newmark");
+            assert_eq!(s["petsc"]["analysis"], "newmark");
             assert_eq!(s["steps"], 50);
             let (reference, energies) = integrate_in_tetfem(&scene);
             let difference = relative_difference(&run.displacement, &reference);
             println!(
                 "{label}: 50 Newmark steps, GAMG {} iterations in all, at most {} per step, \
                  relative difference to tetfem {difference:.2e}",
-                s["iterations"], s["max_step_iterations"]
+                s["petsc"]["iterations"], s["petsc"]["max_step_iterations"]
             );
             // 50 solves to a 1e-12 residual of the well-conditioned 4/dt²·M + K: as for the
             // static solves and backward Euler.
@@ -520,13 +566,15 @@ gravity = [0.0, -9.81, 0.0]
                 .map(|l| l.split(',').map(|v| v.parse().expect("number")).collect())
                 .collect();
             let last = rows.last().expect("rows");
-            for (got, want) in last[5..7].iter().zip(energies) {
+            // Columns: time, step, wall, tip (3), kinetic, elastic, ….
+            for (got, want) in last[6..8].iter().zip(energies) {
                 // Reduced over the ranks from displacements that agree to ~1e-12.
                 assert!(
                     ((got - want) / want).abs() <= AGREEMENT,
                     "{label}: energy {got:e} vs tetfem {want:e}"
                 );
             }
+            same_as_in_process(&label, &scene, s, &csv);
         }
     }
 
@@ -556,16 +604,16 @@ gravity = [0.0, -9.81, 0.0]
             };
             assert!(run.success, "{label}: {}", run.stderr);
             let s = &run.summary;
-            assert_eq!(s["analysis"], "backward_euler");
+            assert_eq!(s["petsc"]["analysis"], "backward_euler");
             assert_eq!(s["steps"], 50);
             let (reference, energies) = integrate_in_tetfem(&scene);
             let difference = relative_difference(&run.displacement, &reference);
             println!(
                 "{label}: 50 steps, GAMG {} iterations in all, at most {} per step, last step's \
                  relative residual {:.2e}, relative difference to tetfem {difference:.2e}",
-                s["iterations"],
-                s["max_step_iterations"],
-                s["relative_residual"].as_f64().unwrap_or(f64::NAN)
+                s["petsc"]["iterations"],
+                s["petsc"]["max_step_iterations"],
+                s["petsc"]["relative_residual"].as_f64().unwrap_or(f64::NAN)
             );
             // 50 solves, each to a 1e-12 residual, of a well-conditioned M + dt²K: the same
             // 1e-8 as the static solves.
@@ -592,31 +640,233 @@ gravity = [0.0, -9.81, 0.0]
             let csv = std::fs::read_to_string(out.join(format!("{name}_petsc.csv"))).expect("csv");
             let rows: Vec<&str> = csv.lines().collect();
             assert_eq!(
-                rows[0],
-                "time_s,step,tip_ux_m,tip_uy_m,tip_uz_m,kinetic_J,elastic_J"
-            );
-            assert_eq!(
                 rows.len(),
                 52,
                 "{label}: header, the initial state and 50 steps"
             );
-            let last: Vec<f64> = rows[51]
-                .split(',')
-                .map(|v| v.parse().expect("number"))
-                .collect();
             assert_eq!(rows[51].split(',').nth(1), Some("50"), "step as digits");
-            // The energies reduced over the ranks against tetfem's; both O(1e-1) J or more
-            // here, computed from displacements that agree to ~1e-12.
-            for (got, want) in last[5..7].iter().zip(energies) {
+            let last = numbers(rows[51]);
+            // Columns: time, step, wall, tip (3), kinetic, elastic, …. The energies reduced over
+            // the ranks against tetfem's; both O(1e-1) J or more here, computed from
+            // displacements that agree to ~1e-12.
+            for (got, want) in last[6..8].iter().zip(energies) {
                 assert!(
                     ((got - want) / want).abs() <= AGREEMENT,
                     "{label}: energy {got:e} vs tetfem {want:e}"
                 );
             }
             // The tip probe's CSV value is the summary's.
-            let tip_z = s["probes"][0]["displacement"][2].as_f64().expect("probe");
-            assert_eq!(last[4], tip_z, "{label}");
+            let tip_z = s["probes"][0]["last"][2].as_f64().expect("probe");
+            assert_eq!(last[5], tip_z, "{label}");
+            same_as_in_process(&label, &scene, s, &csv);
         }
+    }
+
+    /// The values of a CSV row.
+    fn numbers(row: &str) -> Vec<f64> {
+        row.split(',').map(|v| v.parse().expect("number")).collect()
+    }
+
+    /// The in-process run of the dynamic `scene` (`tetfem run`'s library call) against the
+    /// engine's summary `s` and CSV `csv`: the same top-level keys, the same CSV header, and every
+    /// row's values (the wall time apart) equal to 1e-8 of the largest magnitude of the columns
+    /// of their unit (the displacements agree to ~1e-12, AGREEMENT leaves the margin of the
+    /// static tests).
+    fn same_as_in_process(label: &str, scene: &Path, s: &Value, csv: &str) {
+        use tetfem_scene::{DynamicOverrides, run_dynamic_scene};
+        let out = scratch(&format!("{label}_in_process"));
+        let mut scene = Scene::load(scene).expect("scene");
+        scene.set_output_directory(out.clone());
+        let stem = scene.output().stem.clone();
+        run_dynamic_scene(
+            &scene,
+            &DynamicOverrides::default(),
+            true,
+            false,
+            &mut |_, _| std::ops::ControlFlow::Continue(()),
+        )
+        .expect("in-process run");
+        let summary: Value = serde_json::from_str(
+            &std::fs::read_to_string(out.join(format!("{stem}_summary.json"))).expect("summary"),
+        )
+        .expect("JSON");
+        let mut keys = top_level_keys(s);
+        assert!(keys.remove("petsc"), "{label}: the engine's group");
+        assert_eq!(keys, top_level_keys(&summary), "{label}: summary keys");
+        let theirs = std::fs::read_to_string(out.join(format!("{stem}.csv"))).expect("csv");
+        let (ours, theirs): (Vec<&str>, Vec<&str>) =
+            (csv.lines().collect(), theirs.lines().collect());
+        assert_eq!(ours[0], theirs[0], "{label}: CSV header");
+        assert_eq!(ours.len(), theirs.len(), "{label}: CSV rows");
+        let (ours, theirs): (Vec<Vec<f64>>, Vec<Vec<f64>>) = (
+            ours[1..].iter().map(|r| numbers(r)).collect(),
+            theirs[1..].iter().map(|r| numbers(r)).collect(),
+        );
+        let columns: Vec<&str> = csv.lines().next().expect("header").split(',').collect();
+        for (c, column) in columns.iter().enumerate() {
+            if *column == "wall_seconds_per_step" {
+                continue;
+            }
+            // Relative to the largest value of any column of the same unit (a component that
+            // stays at round-off, e.g. the tip's u_x ~1e-18 m, is compared at the tip's scale).
+            let unit = |name: &str| name.rsplit('_').next().unwrap_or_default().to_string();
+            let scale = columns
+                .iter()
+                .enumerate()
+                .filter(|(_, other)| unit(other) == unit(column))
+                .flat_map(|(k, _)| theirs.iter().map(move |r| r[k].abs()))
+                .fold(0.0, f64::max);
+            let worst = ours
+                .iter()
+                .zip(&theirs)
+                .map(|(a, b)| (a[c] - b[c]).abs())
+                .fold(0.0, f64::max);
+            assert!(
+                worst <= AGREEMENT * scale.max(1e-300),
+                "{label}: column {column} differs by {worst:e} (scale {scale:e})"
+            );
+            println!("{label}: {column}: worst difference {worst:.2e} of {scale:.2e}");
+        }
+    }
+
+    /// The top-level keys of a summary.
+    fn top_level_keys(summary: &Value) -> std::collections::BTreeSet<String> {
+        summary
+            .as_object()
+            .expect("an object")
+            .keys()
+            .cloned()
+            .collect()
+    }
+
+    /// The names of the point and cell arrays a `.vtu` or `.pvtu` declares (the points' and
+    /// cells' own arrays apart).
+    fn array_names(text: &str) -> std::collections::BTreeSet<String> {
+        text.split("Name=\"")
+            .skip(1)
+            .filter_map(|rest| rest.split('"').next())
+            .filter(|n| !["Points", "connectivity", "offsets", "types", "TimeValue"].contains(n))
+            .map(str::to_string)
+            .collect()
+    }
+
+    #[test]
+    fn static_outputs_match_the_in_process_run_on_one_and_two_ranks() {
+        use tetfem_scene::{RunOptions, run_static_with};
+        // The in-process run of the same scene: its summary JSON and .vtu.
+        let out = scratch("static_in_process");
+        let mut scene = Scene::load(&cantilever()).expect("scene");
+        scene.set_output_directory(out.clone());
+        let stem = scene.output().stem.clone();
+        run_static_with(&scene, &RunOptions::default()).expect("in-process run");
+        let theirs: Value = serde_json::from_str(
+            &std::fs::read_to_string(out.join(format!("{stem}_summary.json"))).expect("json"),
+        )
+        .expect("JSON");
+        let vtu = std::fs::read(out.join(format!("{stem}.vtu"))).expect("vtu");
+        let their_von_mises = read_array(&vtu, "von_mises").expect("von_mises");
+        let their_stress = read_array(&vtu, "stress").expect("stress");
+        for ranks in [1, 2] {
+            let label = format!("static_parity_{ranks}");
+            let Some(run) = run(&label, ranks, &cantilever(), &[]) else {
+                return;
+            };
+            assert!(run.success, "{label}: {}", run.stderr);
+            let ours = &run.summary;
+            let mut keys = top_level_keys(ours);
+            assert!(keys.remove("petsc"), "{label}: the engine's group");
+            assert_eq!(keys, top_level_keys(&theirs), "{label}: summary keys");
+            for key in ["nodes", "tets", "free_dofs", "analysis", "title", "units"] {
+                assert_eq!(ours[key], theirs[key], "{label}: {key}");
+            }
+            // Both solves reach their own floor: Cholesky ~1e-15, CG + GAMG ~1e-11 (the
+            // preset's 1e-12 recursive residual, measured 5.5e-11 true).
+            for s in [ours, &theirs] {
+                let r = s["relative_residual"].as_f64().expect("residual");
+                assert!(r <= 1e-10, "{label}: relative residual {r:e}");
+            }
+            // Quantities of the displacement, which agrees to ~1e-11 (the static tests'
+            // AGREEMENT = 1e-8 leaves the margin), each relative to its own size.
+            let close = |path: &[&str], scale: f64| {
+                let pick = |s: &Value| {
+                    path.iter()
+                        .fold(s, |v, k| match k.parse::<usize>() {
+                            Ok(i) => &v[i],
+                            Err(_) => &v[*k],
+                        })
+                        .as_f64()
+                        .unwrap_or_else(|| panic!("{label}: {path:?} is a number"))
+                };
+                let (a, b) = (pick(ours), pick(&theirs));
+                assert!(
+                    (a - b).abs() <= AGREEMENT * scale.max(b.abs()),
+                    "{label}: {path:?} {a:e} against the in-process {b:e}"
+                );
+                println!("{label}: {path:?} {a:e} (in-process {b:e})");
+            };
+            close(&["max_displacement"], 0.0);
+            close(&["max_von_mises"], 0.0);
+            close(&["estimated_error", "relative"], 0.0);
+            close(&["estimated_error", "eta"], 0.0);
+            close(&["deformation", "max_rotation_deg"], 0.0);
+            let load = theirs["applied_load_n"][2].as_f64().expect("load").abs();
+            for axis in ["0", "1", "2"] {
+                close(&["applied_load_n", axis], load);
+                close(&["reactions", "0", "force_n", axis], load);
+                close(&["probes", "0", "displacement", axis], 1e-3);
+            }
+            // The pieces: the in-process .vtu's arrays plus the engine's own, and each tet's
+            // von Mises stress and stress tensor as the in-process run's, to 1e-8 of the
+            // largest von Mises stress (the stresses are linear in u).
+            let pvtu =
+                std::fs::read_to_string(run_dir(&label).join("cantilever_static_petsc.pvtu"))
+                    .expect("pvtu");
+            let mut expected = array_names(&String::from_utf8_lossy(&vtu));
+            expected.extend(["node", "rank", "tet"].map(String::from));
+            assert_eq!(array_names(&pvtu), expected, "{label}: declared arrays");
+            let scale = their_von_mises.iter().fold(0.0, |m: f64, v| m.max(v.abs()));
+            let mut worst = 0.0f64;
+            let mut cells = 0;
+            for rank in 0..ranks {
+                let piece = std::fs::read(run_dir(&label).join(format!(
+                    "cantilever_static_petsc/cantilever_static_{rank}.vtu"
+                )))
+                .expect("piece");
+                assert_eq!(
+                    array_names(&String::from_utf8_lossy(&piece)),
+                    expected,
+                    "{label}: piece {rank}'s arrays"
+                );
+                let tets = read_array(&piece, "tet").expect("tet");
+                let von_mises = read_array(&piece, "von_mises").expect("von_mises");
+                let stress = read_array(&piece, "stress").expect("stress");
+                for (i, &t) in tets.iter().enumerate() {
+                    let t = t as usize;
+                    worst = worst.max((von_mises[i] - their_von_mises[t]).abs());
+                    for k in 0..6 {
+                        worst = worst.max((stress[6 * i + k] - their_stress[6 * t + k]).abs());
+                    }
+                }
+                cells += tets.len();
+            }
+            assert_eq!(
+                cells,
+                their_von_mises.len(),
+                "{label}: every tet in one piece"
+            );
+            println!("{label}: per-tet stress differs by at most {worst:.2e} Pa of {scale:.2e}");
+            assert!(
+                worst <= AGREEMENT * scale,
+                "{label}: stress {worst:e} of {scale:e}"
+            );
+        }
+    }
+
+    /// Where [`run`] put the outputs of the run `name`.
+    fn run_dir(name: &str) -> PathBuf {
+        Path::new(env!("CARGO_TARGET_TMPDIR"))
+            .join("petsc-tests")
+            .join(name)
     }
 
     #[test]
@@ -719,8 +969,14 @@ gravity = [0.0, -9.81, 0.0]
             return;
         };
         assert!(success, "{stderr}");
-        assert_eq!(s["ranks"], 2, "both ranks of mpirun ran the engine");
-        assert_eq!(s["pc_type"], "cholesky", "the scene's [petsc] solver");
+        assert_eq!(
+            s["petsc"]["ranks"], 2,
+            "both ranks of mpirun ran the engine"
+        );
+        assert_eq!(
+            s["petsc"]["pc_type"], "cholesky",
+            "the scene's [petsc] solver"
+        );
         // The tip probe (mean uz of its nodes) against tetfem's direct solve: both direct, so to
         // the issue's 1e-8.
         let built = Scene::load(&cantilever())
@@ -742,7 +998,7 @@ gravity = [0.0, -9.81, 0.0]
             format!("engine = \"petsc\"\n{text}\n[petsc]\noptions = \"-ksp_rtol 1e-4\"\n"),
         )
         .expect("scene written");
-        let iterations = |s: &Value| s["iterations"].as_i64().expect("iterations");
+        let iterations = |s: &Value| s["petsc"]["iterations"].as_i64().expect("iterations");
         let (ok, loose, stderr) =
             run_through_cli("handoff_loose", &loose_scene, &[]).expect("ran before");
         assert!(ok, "{stderr}");
@@ -757,7 +1013,7 @@ gravity = [0.0, -9.81, 0.0]
             run_through_cli("handoff_preset", &cantilever(), &["--engine", "petsc"])
                 .expect("ran before");
         assert!(ok, "{stderr}");
-        assert_eq!(preset["pc_type"], "gamg");
+        assert_eq!(preset["petsc"]["pc_type"], "gamg");
         assert!(
             iterations(&loose) < iterations(&preset),
             "rtol 1e-4: {} iterations, 1e-12: {}",
@@ -982,9 +1238,11 @@ gravity = [0.0, -9.81, 0.0]
             return;
         };
         assert!(run.success, "{}", run.stderr);
-        assert_eq!(run.summary["pc_type"], "jacobi");
+        assert_eq!(run.summary["petsc"]["pc_type"], "jacobi");
         // Loosened to 1e-6: the true residual is near it, far above the preset's 1e-12.
-        let residual = run.summary["relative_residual"].as_f64().expect("residual");
+        let residual = run.summary["petsc"]["relative_residual"]
+            .as_f64()
+            .expect("residual");
         assert!(residual > 1e-9 && residual < 1e-5, "{residual:e}");
     }
 
@@ -1056,6 +1314,40 @@ gravity = [0.0, -9.81, 0.0]
             "{}",
             run_png.stderr
         );
+        // The other keys it would ignore, each named in the error.
+        let base = std::fs::read_to_string(cantilever()).expect("scene");
+        for (label, text, key) in [
+            (
+                "order_2",
+                base.replacen("[mesh", "[mesh]\norder = 2\n\n[mesh", 1),
+                "mesh.order",
+            ),
+            (
+                "linear_solver",
+                format!("{base}\n[analysis]\nlinear_solver = \"direct\"\n"),
+                "analysis.linear_solver",
+            ),
+            (
+                "checkpoint",
+                // A dynamic scene: a static one refuses the key when parsed already.
+                std::fs::read_to_string(scenes().join("cantilever_dynamic.toml"))
+                    .expect("scene")
+                    .replace("png = true", "png = false")
+                    .replace("[output]", "[output]\ncheckpoint_every = 5"),
+                "the PETSc engine writes no checkpoints",
+            ),
+        ] {
+            let scene = dir.join(format!("{label}.toml"));
+            std::fs::write(&scene, text).expect("scene written");
+            let refused = run(label, 1, &scene, &[]).expect("ran before");
+            assert!(!refused.success, "{label}");
+            assert!(refused.stderr.contains(key), "{label}: {}", refused.stderr);
+            assert!(
+                refused.stderr.contains("engine"),
+                "{label}: {}",
+                refused.stderr
+            );
+        }
         let run_solver =
             run("bad_solver", 1, &cantilever(), &["--solver", "lu"]).expect("ran before");
         assert!(!run_solver.success);

@@ -39,16 +39,21 @@ pub use dynamic::{
     DynamicOutputs, DynamicOverrides, DynamicRun, DynamicSetup, DynamicSummary, EnergyTerms,
     MAX_STEPS, RunLength, TimeStep, resume_dynamic_scene, run_dynamic, run_dynamic_scene,
 };
-pub use dynamic::{STEP_CHECK_DOFS, STEP_CHECK_MODES};
+pub use dynamic::{
+    STEP_CHECK_DOFS, STEP_CHECK_MODES, csv_columns as dynamic_csv_columns,
+    frame_arrays as dynamic_frame_arrays,
+};
 pub use dynamic_contact::ContactForceHistory;
 pub use element::SceneElement;
 pub use engine::{EngineKind, EngineSettings, PetscSolver, PetscSpec, parse_petsc_options};
 pub use estimate::{ESTIMATED_ERROR_DEFINITION, EstimatedError, estimated_error_of};
 pub use modal::{ModalSummary, ModeRow, run_modal_scene};
-pub use reactions::{DynamicReactions, ReactionsAt};
+pub use reactions::{DynamicReactions, ReactionsAt, reaction_columns};
 pub use restart::{ProbeRange, RESUMABLE_KEYS, checkpoint_path};
 pub use run::{
     ContactForceRow, ProbeValue, ReactionRow, RunOptions, RunSummary, SolvePhases, StaticNewton,
+    StaticReport, StaticSolve, reaction_rows, report_static, static_frame_arrays,
+    write_static_probe_csv,
 };
 pub use spec::*;
 pub use statics::{run_static, run_static_with};

@@ -87,13 +87,7 @@ impl DynamicReactions {
     /// `reaction<i>_Mx_Nm`, `_My_Nm`, `_Mz_Nm` (moment, N·m), i the set's index (the scene's
     /// `constraints[i]`).
     pub fn columns(&self) -> Vec<String> {
-        let mut columns = Vec::with_capacity(6 * self.sets.len());
-        for i in 0..self.sets.len() {
-            for c in ["Fx_N", "Fy_N", "Fz_N", "Mx_Nm", "My_Nm", "Mz_Nm"] {
-                columns.push(format!("reaction{i}_{c}"));
-            }
-        }
-        columns
+        reaction_columns(self.sets.len())
     }
 
     /// The reactions at `state` of `system` under `force` on `mesh` (the setup's).
@@ -130,4 +124,16 @@ impl ReactionsAt {
             .iter()
             .flat_map(|r| r.force_n.into_iter().chain(r.moment_nm))
     }
+}
+
+/// The CSV columns of `sets` support sets, six per set in order: `reaction<i>_Fx_N`, `_Fy_N`,
+/// `_Fz_N` (force) and `reaction<i>_Mx_Nm`, `_My_Nm`, `_Mz_Nm` (moment, N·m).
+pub fn reaction_columns(sets: usize) -> Vec<String> {
+    let mut columns = Vec::with_capacity(6 * sets);
+    for i in 0..sets {
+        for c in ["Fx_N", "Fy_N", "Fz_N", "Mx_Nm", "My_Nm", "Mz_Nm"] {
+            columns.push(format!("reaction{i}_{c}"));
+        }
+    }
+    columns
 }

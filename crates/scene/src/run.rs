@@ -10,8 +10,8 @@ use tetfem::error::Result;
 use tetfem::model::ModelMap;
 use tetfem::output::fields::{cell_model_von_mises, displacement_magnitude};
 use tetfem::output::{
-    CsvSeries, OriginalIds, OutputLock, PvdCollection, write_atomically, write_model_result_vtu,
-    write_result_frame,
+    CsvSeries, OriginalIds, OutputLock, PvdCollection, model_result_frame_arrays,
+    result_frame_arrays, write_atomically,
 };
 use tetfem::statics::StaticSolver;
 
@@ -230,24 +230,79 @@ pub(super) fn run_static_on<E: SceneElement>(
         (tetfem::model::ModelKind::Linear, None) => solve_linear(scene, &built)?,
         (_, contact) => solve_by_newton(scene, &built, &model, contact.as_ref())?,
     };
-    let StaticSolve {
-        displacement,
-        relative_residual,
-        free_dofs,
-        phases,
-        factor_len,
-        friction_forces,
-        newton,
-    } = solved.0;
-    let reactions = Some(solved.1);
     let solve_seconds = clock.elapsed().as_secs_f64();
-    let u = &displacement;
+    let StaticReport {
+        mut summary,
+        von_mises,
+        indicators,
+    } = report_static(
+        scene,
+        &built,
+        &model,
+        &solved,
+        contact.as_ref(),
+        [build_seconds, solve_seconds],
+        lock.as_ref().and_then(OutputLock::warning),
+    )?;
+    let u = &solved.displacement;
+    if !options.no_files {
+        let clock = Instant::now();
+        let contact_fields = match &contact {
+            Some(c) => Some(c.node_fields(built.mesh.nodes(), u)?),
+            None => None,
+        };
+        summary.files = write_static_outputs(
+            scene,
+            &built,
+            &model,
+            u,
+            contact_fields
+                .as_ref()
+                .map(|(gap, pressure)| tetfem::output::ContactFields { gap, pressure }),
+            Some(&solved.reactions),
+            indicators.as_deref(),
+            &von_mises,
+            options,
+            &summary,
+        )?;
+        summary.output_seconds = clock.elapsed().as_secs_f64();
+    }
+    Ok(summary)
+}
+
+/// A static solution's summary, with the per-tet fields its outputs reuse: von Mises (Pa) and,
+/// for the linear model, the error indicators η_K (J^½).
+#[derive(Debug, Clone, PartialEq)]
+pub struct StaticReport {
+    /// The summary (no files yet, `output_seconds` 0).
+    pub summary: RunSummary,
+    /// Each tet's von Mises stress (Pa) of the model that ran.
+    pub von_mises: Vec<f64>,
+    /// Each tet's ZZ error indicator η_K (J^½; the linear model only).
+    pub indicators: Option<Vec<f64>>,
+}
+
+/// The report of the static solution `solved` of `scene` (built as `built`, run with `model`
+/// and the obstacles' `contact`): what `tetfem run` prints and writes, from the displacement
+/// and the reactions alone, so that a solve elsewhere (the PETSc engine) reports alike.
+/// `seconds`: the wall time (s) of the build and of the solve; `lock_warning`: the output
+/// lock's, if any.
+pub fn report_static<E: SceneElement>(
+    scene: &Scene,
+    built: &BuiltScene<E>,
+    model: &ModelMap,
+    solved: &StaticSolve,
+    contact: Option<&tetfem::contact::Contact>,
+    seconds: [f64; 2],
+    lock_warning: Option<String>,
+) -> Result<StaticReport> {
+    let u = &solved.displacement;
     // The linear model's fields come straight from u: the force-model route forms x = X + u and
     // takes u = x − X back, which costs digits (~1e-11 relative in σ_vM on a steel beam).
     let linear = scene.model() == tetfem::model::ModelKind::Linear;
     let von_mises = match linear {
         true => tetfem::output::fields::cell_von_mises(&built.mesh, &built.materials, u)?,
-        false => cell_model_von_mises(&built.mesh, &model, u)?,
+        false => cell_model_von_mises(&built.mesh, model, u)?,
     };
     let (estimated_error, indicators) = match linear {
         true => {
@@ -265,29 +320,8 @@ pub(super) fn run_static_on<E: SceneElement>(
         false => None,
     };
     let magnitude = displacement_magnitude(u);
-    let probes = probe_values(&built, &model, linear, u)?;
-    let reaction_rows = match &reactions {
-        Some(r) => Some(
-            built
-                .constraint_dofs
-                .iter()
-                .enumerate()
-                .zip(&built.moment_points)
-                .map(|((i, dofs), point)| {
-                    let (force, moment) =
-                        tetfem::statics::reaction_resultant(&built.mesh, r, dofs, *point)?;
-                    Ok(ReactionRow {
-                        constraint: format!("constraints[{i}]"),
-                        force_n: force.into(),
-                        moment_point_m: (*point).into(),
-                        moment_nm: moment.into(),
-                    })
-                })
-                .collect::<Result<Vec<_>>>()?,
-        ),
-        None => None,
-    };
-    let contact_forces = match &contact {
+    let reactions = reaction_rows(built, &solved.reactions)?;
+    let contact_forces = match contact {
         Some(contact) => Some(
             contact
                 .obstacle_forces(u)?
@@ -296,92 +330,105 @@ pub(super) fn run_static_on<E: SceneElement>(
                 .enumerate()
                 .map(|(o, (force, obstacle))| ContactForceRow {
                     obstacle: obstacle.name().to_string(),
-                    force_n: (force + friction_forces.get(o).copied().unwrap_or_default()).into(),
+                    force_n: (force + solved.friction_forces.get(o).copied().unwrap_or_default())
+                        .into(),
                 })
                 .collect(),
         ),
         None => None,
     };
-    let mut summary = RunSummary {
+    let summary = RunSummary {
         contact_forces,
-        newton,
+        newton: solved.newton,
         warnings: built
             .warnings()
             .iter()
             .map(ToString::to_string)
             .chain(deformation.and_then(|d| d.warning()).map(|w| w.to_string()))
-            .chain(lock.as_ref().and_then(OutputLock::warning))
+            .chain(lock_warning)
             .collect(),
         title: scene.title(),
         scene: scene.source_name().to_string(),
         analysis: "static".into(),
         nodes: built.mesh.node_count(),
         tets: built.mesh.tet_count(),
-        free_dofs,
+        free_dofs: solved.free_dofs,
         max_displacement: magnitude.iter().fold(0.0, |a: f64, &b| a.max(b)),
         max_von_mises: von_mises.iter().fold(0.0, |a: f64, &b| a.max(b)),
-        relative_residual,
-        probes,
+        relative_residual: solved.relative_residual,
+        probes: probe_values(built, model, linear, u)?,
         applied_load_n: built.loads.resultant().into(),
-        reactions: reaction_rows,
-        build_seconds,
-        solve_seconds,
+        reactions: Some(reactions),
+        build_seconds: seconds[0],
+        solve_seconds: seconds[1],
         output_seconds: 0.0,
-        phases,
+        phases: solved.phases,
         critical_step: match scene.output().critical_step {
-            true => Some(super::critical_step_of(&built)?),
+            true => Some(super::critical_step_of(built)?),
             false => None,
         },
-        factor_len,
+        factor_len: solved.factor_len,
         files: Vec::new(),
         estimated_error,
         deformation,
         accuracy: None,
     };
-    if !options.no_files {
-        let clock = Instant::now();
-        let contact_fields = match &contact {
-            Some(c) => Some(c.node_fields(built.mesh.nodes(), u)?),
-            None => None,
-        };
-        summary.files = write_static_outputs(
-            scene,
-            &built,
-            &model,
-            u,
-            contact_fields
-                .as_ref()
-                .map(|(gap, pressure)| tetfem::output::ContactFields { gap, pressure }),
-            reactions.as_deref(),
-            indicators.as_deref(),
-            &von_mises,
-            options,
-            &summary,
-        )?;
-        summary.output_seconds = clock.elapsed().as_secs_f64();
-    }
-    Ok(summary)
+    Ok(StaticReport {
+        summary,
+        von_mises,
+        indicators,
+    })
 }
 
-/// What a static solve gives the report: the displacement (every DOF), ‖r_f‖/‖f_f‖, the free
-/// DOF count, the linear solve's phases and factor size (`None`, 0 for Newton), per obstacle the
-/// friction force the body exerts on it (N; empty without friction) and Newton's counts.
-struct StaticSolve {
-    displacement: Vec<f64>,
-    relative_residual: f64,
-    free_dofs: usize,
-    phases: Option<SolvePhases>,
-    factor_len: usize,
-    friction_forces: Vec<nalgebra::Vector3<f64>>,
-    newton: Option<StaticNewton>,
+/// The reaction resultant of each `[[constraints]]` entry of `built` from the nodal reactions
+/// `reactions` (N, every DOF).
+pub fn reaction_rows<E: SceneElement>(
+    built: &BuiltScene<E>,
+    reactions: &[f64],
+) -> Result<Vec<ReactionRow>> {
+    built
+        .constraint_dofs
+        .iter()
+        .enumerate()
+        .zip(&built.moment_points)
+        .map(|((i, dofs), point)| {
+            let (force, moment) =
+                tetfem::statics::reaction_resultant(&built.mesh, reactions, dofs, *point)?;
+            Ok(ReactionRow {
+                constraint: format!("constraints[{i}]"),
+                force_n: force.into(),
+                moment_point_m: (*point).into(),
+                moment_nm: moment.into(),
+            })
+        })
+        .collect()
+}
+
+/// What a static solve gives its report ([`report_static`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct StaticSolve {
+    /// The displacement of every DOF (m; node-major).
+    pub displacement: Vec<f64>,
+    /// ‖r_f‖/‖f_f‖ at the solution.
+    pub relative_residual: f64,
+    /// The free DOF count.
+    pub free_dofs: usize,
+    /// The linear solve's phases (`None` for Newton).
+    pub phases: Option<SolvePhases>,
+    /// Stored values of the Cholesky factor (0 for an iterative or a Newton solve).
+    pub factor_len: usize,
+    /// Per obstacle the friction force the body exerts on it (N; empty without friction).
+    pub friction_forces: Vec<nalgebra::Vector3<f64>>,
+    /// Newton's counts (`None` for one linear solve).
+    pub newton: Option<StaticNewton>,
+    /// The reaction of every DOF (N; K·u − f for the linear model, −(Σₑ fₑ(u) + f) for the
+    /// nonlinear ones; zero on the free DOFs).
+    pub reactions: Vec<f64>,
 }
 
 /// The linear model without obstacles: one linear solve with the scene's `linear_solver`, and
 /// its reactions K·u − f.
-fn solve_linear<E: SceneElement>(
-    scene: &Scene,
-    built: &BuiltScene<E>,
-) -> Result<(StaticSolve, Vec<f64>)> {
+fn solve_linear<E: SceneElement>(scene: &Scene, built: &BuiltScene<E>) -> Result<StaticSolve> {
     let options = tetfem::linalg::linear_solver::SolverOptions {
         method: scene.spec().linear_method(),
         ..Default::default()
@@ -397,8 +444,9 @@ fn solve_linear<E: SceneElement>(
         factor_len: solver.factor_len(),
         friction_forces: Vec::new(),
         newton: None,
+        reactions: solution.reactions,
     };
-    Ok((solve, solution.reactions))
+    Ok(solve)
 }
 
 /// A nonlinear model or obstacles: Newton over the scene's load steps
@@ -408,7 +456,7 @@ fn solve_by_newton<E: SceneElement>(
     built: &BuiltScene<E>,
     model: &ModelMap,
     contact: Option<&tetfem::contact::Contact>,
-) -> Result<(StaticSolve, Vec<f64>)> {
+) -> Result<StaticSolve> {
     let report = match contact {
         Some(contact) => tetfem::nonlinear::solve_nonlinear_static_with_contact(
             linear_mesh_of(scene, &built.mesh)?,
@@ -460,8 +508,9 @@ fn solve_by_newton<E: SceneElement>(
         }),
         friction_forces: report.obstacle_friction_forces,
         displacement: report.displacement,
+        reactions,
     };
-    Ok((solve, reactions))
+    Ok(solve)
 }
 
 /// Each probe's value at the solution `u`: a point probe's stress is the linear model's with
@@ -514,22 +563,9 @@ fn write_static_outputs<E: SceneElement>(
     let mut files = Vec::new();
     if out.vtu {
         let vtu = dir.join(format!("{}.vtu", out.stem));
-        let extras = tetfem::output::FrameExtras {
-            reactions,
-            stress_tensors: true,
-            original_ids: built.imported.as_ref().map(OriginalIds::of),
-            error_indicator,
-            format: out.vtu_format.format(),
-            contact,
-            ..Default::default()
-        };
-        match model.kind() {
-            tetfem::model::ModelKind::Linear => {
-                write_result_frame(&vtu, &built.mesh, &built.materials, u, extras)?
-            }
-            // A nonlinear model's stresses and energy are its own.
-            _ => write_model_result_vtu(&vtu, &built.mesh, model, &built.materials, u, extras)?,
-        }
+        static_frame_arrays(scene, built, model, u, contact, reactions, error_indicator)?
+            .writer(&built.mesh)?
+            .write(&vtu)?;
         let mut pvd = PvdCollection::new(dir.join(format!("{}.pvd", out.stem)));
         pvd.push(0.0, &vtu)?;
         files.push(vtu);
@@ -544,26 +580,8 @@ fn write_static_outputs<E: SceneElement>(
         }
     }
     if out.csv && !built.probes.is_empty() {
-        let mut columns = vec!["time_s".to_string()];
-        for p in &built.probes {
-            for c in ["ux", "uy", "uz"] {
-                columns.push(format!("{}_{c}_m", p.name));
-            }
-            if p.point.is_some() {
-                for c in super::build::STRESS_COLUMNS {
-                    columns.push(format!("{}_{c}_pa", p.name));
-                }
-            }
-        }
-        let mut csv = CsvSeries::new(dir.join(format!("{}_probes.csv", out.stem)), columns)?;
-        let mut row = vec![0.0];
-        for p in &summary.probes {
-            row.extend(p.displacement);
-            row.extend(p.stress_pa.iter().flatten());
-        }
-        csv.push(&row)?;
-        files.push(csv.path().to_path_buf());
-        csv.finish()?;
+        let path = dir.join(format!("{}_probes.csv", out.stem));
+        files.push(write_static_probe_csv(path, built, summary)?);
     }
     if out.png || options.force_png {
         let path = dir.join(format!("{}.png", out.stem));
@@ -582,4 +600,66 @@ fn write_static_outputs<E: SceneElement>(
     write_atomically(&json, |w| writeln!(w, "{}", with_files.to_json()))?;
     files.push(json);
     Ok(files)
+}
+
+/// The arrays of a static result's `.vtu` (see [`tetfem::output::FrameArrays`]): the fields
+/// of the model that ran at the displacement `u` (m, every DOF), with the nodal `reactions`
+/// (N), the stress tensors, the error indicators η_K (J^½), the mesh file's ids and, with
+/// contact, its gap and pressure; in the scene's `output.vtu_format`.
+pub fn static_frame_arrays<E: SceneElement>(
+    scene: &Scene,
+    built: &BuiltScene<E>,
+    model: &ModelMap,
+    u: &[f64],
+    contact: Option<tetfem::output::ContactFields<'_>>,
+    reactions: Option<&[f64]>,
+    error_indicator: Option<&[f64]>,
+) -> Result<tetfem::output::FrameArrays> {
+    let extras = tetfem::output::FrameExtras {
+        reactions,
+        stress_tensors: true,
+        original_ids: built.imported.as_ref().map(OriginalIds::of),
+        error_indicator,
+        format: scene.output().vtu_format.format(),
+        contact,
+        ..Default::default()
+    };
+    match model.kind() {
+        tetfem::model::ModelKind::Linear => {
+            result_frame_arrays(&built.mesh, &built.materials, u, extras)
+        }
+        // A nonlinear model's stresses and energy are its own.
+        _ => model_result_frame_arrays(&built.mesh, model, &built.materials, u, extras),
+    }
+}
+
+/// Writes a static run's probe CSV to `path`: one row at time 0 with each probe's displacement
+/// (`<probe>_ux_m` …) and a point probe's stress (`<probe>_sxx_pa` …) from `summary`'s probes.
+/// Returns `path`.
+pub fn write_static_probe_csv<E: SceneElement>(
+    path: PathBuf,
+    built: &BuiltScene<E>,
+    summary: &RunSummary,
+) -> Result<PathBuf> {
+    let mut columns = vec!["time_s".to_string()];
+    for p in &built.probes {
+        for c in ["ux", "uy", "uz"] {
+            columns.push(format!("{}_{c}_m", p.name));
+        }
+        if p.point.is_some() {
+            for c in super::build::STRESS_COLUMNS {
+                columns.push(format!("{}_{c}_pa", p.name));
+            }
+        }
+    }
+    let mut csv = CsvSeries::new(path, columns)?;
+    let mut row = vec![0.0];
+    for p in &summary.probes {
+        row.extend(p.displacement);
+        row.extend(p.stress_pa.iter().flatten());
+    }
+    csv.push(&row)?;
+    let path = csv.path().to_path_buf();
+    csv.finish()?;
+    Ok(path)
 }

@@ -32,7 +32,7 @@ use tetfem::mesh::{CellType, Tet4, TetMesh};
 use tetfem::output::fields::{cell_model_von_mises, cell_von_mises};
 use tetfem::output::{
     ContactFields, CsvSeries, CsvValue, FrameExtras, OriginalIds, OutputLock, PvdCollection,
-    write_atomically, write_model_result_vtu, write_obstacles_vtp, write_result_frame,
+    write_atomically, write_obstacles_vtp,
 };
 use tetfem_fixtures::cantilever::Cantilever;
 
@@ -902,31 +902,7 @@ impl FrameWriter {
             source,
         })?;
         let csv = if s.csv {
-            let mut columns: Vec<String> = vec![
-                "time_s".into(),
-                "step".into(),
-                "wall_seconds_per_step".into(),
-            ];
-            for p in &setup.probes {
-                for c in ["ux", "uy", "uz"] {
-                    columns.push(format!("{}_{c}_m", p.name));
-                }
-                if p.point.is_some() {
-                    for c in super::build::STRESS_COLUMNS {
-                        columns.push(format!("{}_{c}_pa", p.name));
-                    }
-                }
-            }
-            for e in [
-                "kinetic",
-                "elastic",
-                "gravity_potential",
-                "load_potential",
-                "total",
-            ] {
-                columns.push(format!("{e}_J"));
-            }
-            columns.extend(setup.reactions.columns());
+            let mut columns = csv_columns(&setup.probes, setup.reactions.columns());
             if let Some(contact) = contact_of(&setup.force) {
                 columns.extend(super::dynamic_contact::csv_columns(contact));
             }
@@ -1303,6 +1279,39 @@ fn point_stress<E: SceneElement>(
     Ok(tetfem::output::fields::symmetric_components(&s))
 }
 
+/// The columns of a dynamic run's CSV before the contact's: `time_s`, `step`,
+/// `wall_seconds_per_step`, each probe's displacement (`<probe>_ux_m` …) and a point probe's
+/// stress (`<probe>_sxx_pa` …), the energies (`kinetic_J`, `elastic_J`, `gravity_potential_J`,
+/// `load_potential_J`, `total_J`) and `reactions` ([`DynamicReactions::columns`](super::DynamicReactions::columns)).
+pub fn csv_columns(probes: &[super::Probe], reactions: Vec<String>) -> Vec<String> {
+    let mut columns: Vec<String> = vec![
+        "time_s".into(),
+        "step".into(),
+        "wall_seconds_per_step".into(),
+    ];
+    for p in probes {
+        for c in ["ux", "uy", "uz"] {
+            columns.push(format!("{}_{c}_m", p.name));
+        }
+        if p.point.is_some() {
+            for c in super::build::STRESS_COLUMNS {
+                columns.push(format!("{}_{c}_pa", p.name));
+            }
+        }
+    }
+    for e in [
+        "kinetic",
+        "elastic",
+        "gravity_potential",
+        "load_potential",
+        "total",
+    ] {
+        columns.push(format!("{e}_J"));
+    }
+    columns.extend(reactions);
+    columns
+}
+
 /// One CSV row of a dynamic run at `(time, step, wall seconds per step)`: the probes (a point
 /// probe's stress after its displacement), the energies, the reactions and, with contact, the
 /// obstacles' columns; in the order of the header `FrameWriter::new` writes.
@@ -1356,12 +1365,6 @@ fn write_frame_vtu<E: SceneElement>(
     for (&dof, v) in setup.system.dofs().free_dofs().iter().zip(&state.velocity) {
         velocity[dof] = *v;
     }
-    let indicators = match &setup.force {
-        InternalForce::Linear => {
-            Some(super::estimated_error_of(&setup.mesh, &setup.materials, u)?.1)
-        }
-        InternalForce::Nonlinear(_) => None,
-    };
     let contact_fields = match contact_of(&setup.force) {
         Some(c) => Some(super::dynamic_contact::node_fields(
             c,
@@ -1378,21 +1381,42 @@ fn write_frame_vtu<E: SceneElement>(
         velocity: Some(&velocity),
         reactions: Some(&reactions.nodal),
         time: Some(time),
-        stress_tensors: true,
         format,
-        error_indicator: indicators.as_deref(),
         original_ids: setup
             .original_ids
             .as_ref()
             .map(|(nodes, elements)| OriginalIds { nodes, elements }),
+        ..FrameExtras::default()
     };
-    match &setup.force {
-        InternalForce::Linear => {
-            write_result_frame(path, &setup.mesh, &setup.materials, u, extras)?
-        }
+    frame_arrays(&setup.mesh, &setup.materials, &setup.force, u, extras)?
+        .writer(&setup.mesh)?
+        .write(path)?;
+    Ok(())
+}
+
+/// The arrays of a dynamic run's `.vtu` frame at the full displacement `u`: `extras` (velocity,
+/// reactions, time, ids, contact, encoding) with the stress tensors and, for the linear
+/// `force`, the error indicators η_K of `u` (J^½); a nonlinear force's own stresses and energy.
+pub fn frame_arrays<E: SceneElement>(
+    mesh: &TetMesh<E>,
+    materials: &tetfem::materials::MaterialMap,
+    force: &InternalForce,
+    u: &[f64],
+    extras: FrameExtras<'_>,
+) -> Result<tetfem::output::FrameArrays> {
+    let indicators = match force {
+        InternalForce::Linear => Some(super::estimated_error_of(mesh, materials, u)?.1),
+        InternalForce::Nonlinear(_) => None,
+    };
+    let extras = FrameExtras {
+        stress_tensors: true,
+        error_indicator: indicators.as_deref(),
+        ..extras
+    };
+    match force {
+        InternalForce::Linear => tetfem::output::result_frame_arrays(mesh, materials, u, extras),
         InternalForce::Nonlinear(n) => {
-            write_model_result_vtu(path, &setup.mesh, n.models(), &setup.materials, u, extras)?
+            tetfem::output::model_result_frame_arrays(mesh, n.models(), materials, u, extras)
         }
     }
-    Ok(())
 }
