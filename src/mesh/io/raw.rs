@@ -212,8 +212,69 @@ impl RawMesh {
     /// corners)"`); a linear file read as 10-node cells is an error, as are cells of another
     /// node count.
     pub fn finish<C: CellType>(mut self, path: &Path) -> Result<ImportedMesh<C>> {
-        let line_of_tet = |t: usize| self.tet_lines.get(t).copied().unwrap_or(0);
         self.check_volume_elements(path)?;
+        self.check_tets_present(path)?;
+        let edges = self.is_quadratic().then(|| self.edge_map());
+        let as_quadratic = self.read_order::<C>(path)?;
+        let (new_index, kept) = self.numbering(as_quadratic);
+        let unused_nodes = self.nodes.len() - kept.len();
+        let nodes: Vec<Vector3<f64>> = kept.iter().map(|&o| self.nodes[o]).collect();
+        let cells = self.cells::<C>(as_quadratic, &new_index);
+        self.check_cells::<C>(path, &cells, &nodes)?;
+        // After each tet's own check, so that a tet with misplaced edge nodes is named itself
+        // rather than as a neighbour's disagreement.
+        if let Some(map) = &edges {
+            self.check_edge_nodes(path, map)?;
+            self.check_listed_edge_nodes(map)?;
+        }
+        let mesh = TetMesh::from_cells(nodes, cells).map_err(|e| {
+            let line = match &e {
+                Error::DegenerateTet { tet, .. } | Error::RepeatedNode { tet, .. } => {
+                    self.line_of_tet(*tet)
+                }
+                Error::NonFiniteCoordinate { node, .. } => kept
+                    .get(*node)
+                    .and_then(|&o| self.node_lines.get(o))
+                    .copied()
+                    .unwrap_or(0),
+                _ => 0,
+            };
+            Error::parse(path, line, format!("invalid mesh: {e}"))
+        })?;
+        let groups = self.physical_groups(as_quadratic, edges.as_ref(), &new_index);
+        let keep = |v: Vec<i64>| kept.iter().map(|&o| v[o]).collect();
+        // A marked triangle with a node no tet uses cannot be a face of the mesh.
+        let face_markers = self.face_markers.map(|faces| {
+            faces
+                .into_iter()
+                .filter(|f| f.nodes.iter().all(|&n| is_kept(&new_index, n)))
+                .map(|f| MarkedFace {
+                    nodes: f.nodes.map(|n| new_index[n]),
+                    marker: f.marker,
+                })
+                .collect()
+        });
+        Ok(ImportedMesh {
+            node_ids: kept.iter().map(|&o| self.node_ids[o]).collect(),
+            tet_ids: self.tet_ids,
+            face_markers,
+            node_markers: self.node_markers.map(keep),
+            tet_attributes: self.tet_attributes,
+            groups,
+            skipped_elements: self.skipped,
+            unused_nodes,
+            mesh,
+        })
+    }
+
+    /// The file line of tet `t` (0 when unknown).
+    fn line_of_tet(&self, t: usize) -> usize {
+        self.tet_lines.get(t).copied().unwrap_or(0)
+    }
+
+    /// A file with tets, all of one order (named at the last node's line or the first tet of
+    /// the other order).
+    fn check_tets_present(&self, path: &Path) -> Result<()> {
         if self.tets.is_empty() {
             let skipped: usize = self.skipped.values().sum();
             return Err(Error::parse(
@@ -234,39 +295,45 @@ impl RawMesh {
                  order (mesh it again at order 1 or 2 throughout)",
             ));
         }
-        let quadratic = self.is_quadratic();
-        let edges = quadratic.then(|| self.edge_map());
-        let as_quadratic = match (C::NODES, quadratic) {
-            (4, false) | (10, true) => quadratic,
+        Ok(())
+    }
+
+    /// Whether the tets are read as 10-node cells: a quadratic file as `Tet10`, or as `Tet4`
+    /// keeping the corners (counted in `skipped`); a linear file read as 10-node cells, or a
+    /// cell type of another node count, is an error.
+    fn read_order<C: CellType>(&mut self, path: &Path) -> Result<bool> {
+        match (C::NODES, self.is_quadratic()) {
+            (4, false) => Ok(false),
+            (10, true) => Ok(true),
             (4, true) => {
                 self.skipped
                     .insert(super::TET10_KEPT_AS_CORNERS.into(), self.tets.len());
-                false
+                Ok(false)
             }
-            (10, false) => {
-                return Err(Error::parse(
-                    path,
-                    line_of_tet(0),
-                    format!(
-                        "the file holds 4-node (linear) tets, not the 10-node tets asked for \
-                         ({}): mesh at order 2 (gmsh -order 2, tetgen -o2) or read it as a \
-                         linear mesh",
-                        C::NAME
-                    ),
-                ));
-            }
-            (n, _) => {
-                return Err(Error::parse(
-                    path,
-                    0,
-                    format!(
-                        "the mesh readers build 4- and 10-node tets, not {n}-node cells ({})",
-                        C::NAME
-                    ),
-                ));
-            }
-        };
-        // New index of each used node, in file order.
+            (10, false) => Err(Error::parse(
+                path,
+                self.line_of_tet(0),
+                format!(
+                    "the file holds 4-node (linear) tets, not the 10-node tets asked for \
+                     ({}): mesh at order 2 (gmsh -order 2, tetgen -o2) or read it as a \
+                     linear mesh",
+                    C::NAME
+                ),
+            )),
+            (n, _) => Err(Error::parse(
+                path,
+                0,
+                format!(
+                    "the mesh readers build 4- and 10-node tets, not {n}-node cells ({})",
+                    C::NAME
+                ),
+            )),
+        }
+    }
+
+    /// The new index of each file node (`usize::MAX` for a node no kept cell uses), in file
+    /// order, and the file index of each kept node.
+    fn numbering(&self, as_quadratic: bool) -> (Vec<usize>, Vec<usize>) {
         let mut new_index = vec![usize::MAX; self.nodes.len()];
         for tet in &self.tets {
             for &n in tet {
@@ -287,17 +354,22 @@ impl RawMesh {
                 kept.push(old);
             }
         }
-        let unused_nodes = self.nodes.len() - kept.len();
-        let nodes: Vec<Vector3<f64>> = kept.iter().map(|&o| self.nodes[o]).collect();
-        let cells = self.cells::<C>(as_quadratic, &new_index);
-        let located =
-            |line: usize, e: &Error| Error::parse(path, line, format!("invalid mesh: {e}"));
-        // The element's own checks (edge nodes at the midpoints), with the tet's line.
+        (new_index, kept)
+    }
+
+    /// The element's own checks of each cell (edge nodes at the midpoints), naming the tet's
+    /// line and file id.
+    fn check_cells<C: CellType>(
+        &self,
+        path: &Path,
+        cells: &[C::Nodes],
+        nodes: &[Vector3<f64>],
+    ) -> Result<()> {
         for (t, cell) in cells.iter().enumerate() {
-            C::check_cell(t, cell, &nodes).map_err(|e| {
+            C::check_cell(t, cell, nodes).map_err(|e| {
                 Error::parse(
                     path,
-                    line_of_tet(t),
+                    self.line_of_tet(t),
                     format!(
                         "invalid mesh: {e} (file tet {}; a curved mesh: Gmsh's \
                          Mesh.SecondOrderLinear = 1 keeps edge nodes at the midpoints)",
@@ -306,26 +378,18 @@ impl RawMesh {
                 )
             })?;
         }
-        // After each tet's own check, so that a tet with misplaced edge nodes is named itself
-        // rather than as a neighbour's disagreement.
-        if let Some(map) = &edges {
-            self.check_edge_nodes(path, map)?;
-            self.check_listed_edge_nodes(map)?;
-        }
-        let mesh = TetMesh::from_cells(nodes, cells).map_err(|e| {
-            let line = match &e {
-                Error::DegenerateTet { tet, .. } | Error::RepeatedNode { tet, .. } => {
-                    line_of_tet(*tet)
-                }
-                Error::NonFiniteCoordinate { node, .. } => kept
-                    .get(*node)
-                    .and_then(|&o| self.node_lines.get(o))
-                    .copied()
-                    .unwrap_or(0),
-                _ => 0,
-            };
-            located(line, &e)
-        })?;
+        Ok(())
+    }
+
+    /// The physical groups in new node numbers, sorted by (dimension, tag): each with its
+    /// triangles that are faces of the kept mesh, its tets, and every node it holds (with a
+    /// quadratic mesh, the edge nodes of its tets and of its triangles' edges too).
+    fn physical_groups(
+        &self,
+        as_quadratic: bool,
+        edges: Option<&HashMap<(usize, usize), usize>>,
+        new_index: &[usize],
+    ) -> Vec<PhysicalGroup> {
         let remap = |list: &[usize]| -> Vec<usize> {
             let mut out: Vec<usize> = list
                 .iter()
@@ -338,16 +402,13 @@ impl RawMesh {
         };
         let mut groups: Vec<PhysicalGroup> = self
             .groups
-            .into_iter()
+            .iter()
             .map(|g| {
                 // Triangles with a node outside the tet mesh cannot be faces of it.
                 let triangles: Vec<[usize; 3]> = g
                     .triangles
                     .iter()
-                    .filter(|t| {
-                        t.iter()
-                            .all(|&n| new_index.get(n).is_some_and(|&i| i != usize::MAX))
-                    })
+                    .filter(|t| t.iter().all(|&n| is_kept(new_index, n)))
                     .map(|t| t.map(|n| new_index[n]))
                     .collect();
                 let mut all: Vec<usize> = g.other_nodes.clone();
@@ -362,7 +423,7 @@ impl RawMesh {
                             .filter_map(|&t| self.edge_nodes.get(t))
                             .flatten(),
                     );
-                    if let Some(map) = &edges {
+                    if let Some(map) = edges {
                         for t in &g.triangles {
                             for k in 0..3 {
                                 all.extend(map.get(&edge_key(t[k], t[(k + 1) % 3])));
@@ -373,41 +434,15 @@ impl RawMesh {
                 PhysicalGroup {
                     dim: g.dim,
                     tag: g.tag,
-                    name: g.name,
+                    name: g.name.clone(),
                     triangles,
-                    tets: g.tets,
+                    tets: g.tets.clone(),
                     nodes: remap(&all),
                 }
             })
             .collect();
         groups.sort_by_key(|g| (g.dim, g.tag));
-        let keep = |v: Vec<i64>| kept.iter().map(|&o| v[o]).collect();
-        // A marked triangle with a node no tet uses cannot be a face of the mesh.
-        let face_markers = self.face_markers.map(|faces| {
-            faces
-                .into_iter()
-                .filter(|f| {
-                    f.nodes
-                        .iter()
-                        .all(|&n| new_index.get(n).is_some_and(|&i| i != usize::MAX))
-                })
-                .map(|f| MarkedFace {
-                    nodes: f.nodes.map(|n| new_index[n]),
-                    marker: f.marker,
-                })
-                .collect()
-        });
-        Ok(ImportedMesh {
-            node_ids: kept.iter().map(|&o| self.node_ids[o]).collect(),
-            tet_ids: self.tet_ids,
-            face_markers,
-            node_markers: self.node_markers.map(keep),
-            tet_attributes: self.tet_attributes,
-            groups,
-            skipped_elements: self.skipped,
-            unused_nodes,
-            mesh,
-        })
+        groups
     }
 
     /// The cells of type `C` in new node indices: the corners, and (`quadratic`) each edge node
@@ -486,4 +521,9 @@ impl RawMesh {
             ),
         ))
     }
+}
+
+/// Whether file node `n` is used by a kept cell (`new_index` from `RawMesh::numbering`).
+fn is_kept(new_index: &[usize], n: usize) -> bool {
+    new_index.get(n).is_some_and(|&i| i != usize::MAX)
 }
