@@ -97,15 +97,7 @@ pub fn nested_dissection(pattern: &SymbolicSparseColMat<usize>) -> Result<Vec<us
     let mut options = [0i32; metis_sys::METIS_NOPTIONS as usize];
     let mut perm = vec![0i32; groups];
     let mut iperm = vec![0i32; groups];
-    // METIS draws from one process-wide random generator (GKlib's static Mersenne-Twister
-    // state, reseeded at each call): two calls from two threads at once interleave their draws,
-    // so each gets another ordering than it would alone (and the C code races on that state).
-    // One call at a time keeps the ordering, hence every factor and solution, the same bits
-    // whatever else the process runs; ordering is a small part of a factorization's time.
-    static METIS: std::sync::Mutex<()> = std::sync::Mutex::new(());
-    let _one_at_a_time = METIS
-        .lock()
-        .unwrap_or_else(|poisoned| poisoned.into_inner());
+    let _one_at_a_time = metis_lock();
     // SAFETY: every pointer refers to a live, correctly sized buffer for the duration of the
     // call (xadj: groups + 1, adjncy: xadj[groups], weights/perm/iperm: groups, options:
     // METIS_NOPTIONS); METIS reads the graph and writes only perm and iperm; the lock above
@@ -163,3 +155,17 @@ pub fn inverse_permutation(perm: &[usize]) -> Result<Vec<usize>> {
     }
     Ok(inverse)
 }
+
+/// The process's one METIS lock: hold its guard around every METIS call (this crate's
+/// orderings, the PETSc engine's partition). METIS draws from one process-wide random
+/// generator (GKlib's static Mersenne-Twister state, reseeded at each call): two calls from
+/// two threads at once interleave their draws, so each gets another ordering than it would
+/// alone (and the C code races on that state). One call at a time keeps every ordering, hence
+/// every factor, solution and partition, the same bits whatever else the process runs.
+pub fn metis_lock() -> std::sync::MutexGuard<'static, ()> {
+    static METIS: std::sync::Mutex<()> = std::sync::Mutex::new(());
+    METIS
+        .lock()
+        .unwrap_or_else(|poisoned| poisoned.into_inner())
+}
+

@@ -214,11 +214,9 @@ fn metis_parts(mesh: &TetMesh, parts: usize) -> Result<Vec<u32>> {
     let mut objval = 0i32;
     let mut epart = vec![0i32; tets.len()];
     let mut npart = vec![0i32; mesh.node_count()];
-    // METIS's random state is process-wide: one call at a time in this process.
-    static METIS: std::sync::Mutex<()> = std::sync::Mutex::new(());
-    let _one_at_a_time = METIS
-        .lock()
-        .unwrap_or_else(|poisoned| poisoned.into_inner());
+    // METIS's random state is process-wide: one call at a time in this process, under the
+    // same lock as the orderings of the linear algebra.
+    let _one_at_a_time = tetfem::linalg::ordering::metis_lock();
     // SAFETY: every pointer refers to a live buffer of the size METIS_PartMeshDual reads or
     // writes for these arguments (eptr: ne + 1, eind: eptr[ne] = 4·ne, epart: ne, npart: nn,
     // options: METIS_NOPTIONS); the null vwgt, vsize and tpwgts ask for unit weights and equal
