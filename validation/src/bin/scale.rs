@@ -568,6 +568,30 @@ fn report(cli: &Cli, runs: &[Run], failures: &[String]) -> Result<(), Box<dyn st
         .filter(|r| r.method == "direct" && r.threads == 1)
         .collect();
     let mut md = String::new();
+    write_header(&mut md, cli, bandwidth, one_thread)?;
+    write_phase_table(&mut md, runs, failures)?;
+    let phase_series = write_growth(&mut md, &serial)?;
+    write_floors(&mut md, runs, bandwidth, one_thread)?;
+    write_iterative_steps(&mut md, runs)?;
+    side_by_side(&mut md, &cli.out)?;
+    kept_by_hand(&mut md, &cli.out.join("PERFORMANCE.md"));
+    write_charts(cli, runs, &serial, phase_series)?;
+    writeln!(md, "![time per phase](performance_time.png)")?;
+    writeln!(md)?;
+    writeln!(md, "![peak memory](performance_memory.png)")?;
+    let path = cli.out.join("PERFORMANCE.md");
+    tetfem::output::write_atomically(&path, |w| w.write_all(md.as_bytes()))?;
+    eprintln!("wrote {}", path.display());
+    Ok(())
+}
+
+/// The report's title, provenance and the machine and problem it measured.
+fn write_header(
+    md: &mut String,
+    cli: &Cli,
+    bandwidth: f64,
+    one_thread: f64,
+) -> Result<(), Box<dyn std::error::Error>> {
     writeln!(md, "# tetfem performance: scale study")?;
     writeln!(md)?;
     writeln!(
@@ -591,6 +615,15 @@ fn report(cli: &Cli, runs: &[Run], failures: &[String]) -> Result<(), Box<dyn st
         commit()
     )?;
     writeln!(md)?;
+    Ok(())
+}
+
+/// The table of every run's phase times and peak memory, and the runs that did not finish.
+fn write_phase_table(
+    md: &mut String,
+    runs: &[Run],
+    failures: &[String],
+) -> Result<(), Box<dyn std::error::Error>> {
     writeln!(md, "## Time per phase [s], peak memory [MiB]")?;
     writeln!(md)?;
     writeln!(
@@ -636,6 +669,15 @@ fn report(cli: &Cli, runs: &[Run], failures: &[String]) -> Result<(), Box<dyn st
             writeln!(md, "- k = {}", f.trim_start_matches("FAILED "))?;
         }
     }
+    Ok(())
+}
+
+/// The growth exponents of each phase (and of memory and fill) over the serial direct runs
+/// of ≥ 10k DOFs; returns each phase's time series for the chart.
+fn write_growth(
+    md: &mut String,
+    serial: &[&Run],
+) -> Result<Vec<Series>, Box<dyn std::error::Error>> {
     writeln!(md)?;
     writeln!(
         md,
@@ -675,6 +717,16 @@ fn report(cli: &Cli, runs: &[Run], failures: &[String]) -> Result<(), Box<dyn st
         writeln!(md, "| peak memory | {:.2} |", growth_exponent(&memory))?;
         writeln!(md, "| factor values | {:.2} |", growth_exponent(&fill))?;
     }
+    Ok(phase_series)
+}
+
+/// The solve and the time steps against their memory-bandwidth floors.
+fn write_floors(
+    md: &mut String,
+    runs: &[Run],
+    bandwidth: f64,
+    one_thread: f64,
+) -> Result<(), Box<dyn std::error::Error>> {
     writeln!(md)?;
     writeln!(md, "## Solve and time steps against their bandwidth floors")?;
     writeln!(md)?;
@@ -742,6 +794,11 @@ fn report(cli: &Cli, runs: &[Run], failures: &[String]) -> Result<(), Box<dyn st
         writeln!(md, "{row}")?;
     }
     writeln!(md)?;
+    Ok(())
+}
+
+/// The iterative runs' backward-Euler steps, where they took some.
+fn write_iterative_steps(md: &mut String, runs: &[Run]) -> Result<(), Box<dyn std::error::Error>> {
     let iterative_steps: Vec<&Run> = runs
         .iter()
         .filter(|r| r.method == "iterative" && r.iterative_steps[1] > 0.0)
@@ -777,8 +834,16 @@ fn report(cli: &Cli, runs: &[Run], failures: &[String]) -> Result<(), Box<dyn st
         }
         writeln!(md)?;
     }
-    side_by_side(&mut md, &cli.out)?;
-    kept_by_hand(&mut md, &cli.out.join("PERFORMANCE.md"));
+    Ok(())
+}
+
+/// The time-per-phase and peak-memory charts next to the report.
+fn write_charts(
+    cli: &Cli,
+    runs: &[Run],
+    serial: &[&Run],
+    phase_series: Vec<Series>,
+) -> Result<(), Box<dyn std::error::Error>> {
     let time_chart = Chart {
         title: "Static pipeline: time per phase (1 thread, direct)".into(),
         x_label: "degrees of freedom".into(),
@@ -817,12 +882,6 @@ fn report(cli: &Cli, runs: &[Run], failures: &[String]) -> Result<(), Box<dyn st
         series: memory_series,
     };
     memory_chart.write_png(&cli.out.join("performance_memory.png"), 900, 620)?;
-    writeln!(md, "![time per phase](performance_time.png)")?;
-    writeln!(md)?;
-    writeln!(md, "![peak memory](performance_memory.png)")?;
-    let path = cli.out.join("PERFORMANCE.md");
-    tetfem::output::write_atomically(&path, |w| w.write_all(md.as_bytes()))?;
-    eprintln!("wrote {}", path.display());
     Ok(())
 }
 

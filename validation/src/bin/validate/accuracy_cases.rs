@@ -56,7 +56,21 @@ pub fn accuracy_per_second(context: &Context) -> Result<Section> {
     let extrapolated = richardson(tips[0], tips[1], tips[2], 2.0)?;
     let reference = extrapolated.value;
     let (_, timoshenko) = Cantilever::peer_benchmark([10, 1, 1]).beam_theory_tip();
+    let points = timed_points(p1_sizes, p2_sizes, reference)?;
+    let mut body = accuracy_table(&points, reference_sizes, &extrapolated, timoshenko);
+    body.push('\n');
+    body.push_str(&accuracy_chart(context, &points)?);
+    let checks = accuracy_checks(context, &mut body, &points, reference, timoshenko);
+    Ok(Section {
+        title: "Accuracy per second (static, P1 and P2)".into(),
+        body,
+        checks,
+    })
+}
 
+/// The timed P1 and P2 runs on `p1_sizes` and `p2_sizes` (cells along the beam), each with its
+/// tip error against `reference`.
+fn timed_points(p1_sizes: &[usize], p2_sizes: &[usize], reference: f64) -> Result<Vec<Point>> {
     let mut points = Vec::new();
     for &n in p1_sizes {
         // 160×16×16 takes tens of seconds per solve: once is enough to place it on the chart.
@@ -74,12 +88,34 @@ pub fn accuracy_per_second(context: &Context) -> Result<Section> {
             run,
         });
     }
-    let on_front = |p: &Point| {
-        !points
-            .iter()
-            .any(|q| q.run.seconds < p.run.seconds && q.error < p.error)
-    };
+    Ok(points)
+}
 
+/// Whether `p` is on the Pareto front of `points` (no run both faster and more accurate).
+fn on_front(points: &[Point], p: &Point) -> bool {
+    !points
+        .iter()
+        .any(|q| q.run.seconds < p.run.seconds && q.error < p.error)
+}
+
+/// The fastest run of `points` within relative error `target`, of element order `order` (any
+/// without one).
+fn cheapest(points: &[Point], order: Option<usize>, target: f64) -> Option<&Point> {
+    points
+        .iter()
+        .filter(|p| p.error <= target && order.is_none_or(|o| p.run.order == o))
+        .min_by(|a, b| a.run.seconds.total_cmp(&b.run.seconds))
+}
+
+/// The section's text: the problem, the reference, every run's row (Pareto front marked) and
+/// the cheapest run within 10 %, 1 %, 0.1 %.
+fn accuracy_table(
+    points: &[Point],
+    reference_sizes: [usize; 3],
+    extrapolated: &tetfem::convergence::Richardson,
+    timoshenko: f64,
+) -> String {
+    let reference = extrapolated.value;
     let [r0, r1, r2] = reference_sizes;
     let mut body = format!(
         "The peers' cantilever (L = 10, W = H = 1, E = 1e5, ν = 0.3, end load 1, lecture split of n × n/10 × n/10 cells) \
@@ -93,7 +129,7 @@ pub fn accuracy_per_second(context: &Context) -> Result<Section> {
         extrapolated.order,
         100.0 * (timoshenko.abs() / reference.abs() - 1.0),
     );
-    for p in &points {
+    for p in points {
         let [x, y, z] = p.run.cells;
         let _ = writeln!(
             body,
@@ -103,22 +139,16 @@ pub fn accuracy_per_second(context: &Context) -> Result<Section> {
             p.run.tip,
             p.error,
             p.run.seconds,
-            if on_front(p) { "◆" } else { "" }
+            if on_front(points, p) { "◆" } else { "" }
         );
     }
     let _ = writeln!(body);
-    let cheapest = |order: Option<usize>, target: f64| {
-        points
-            .iter()
-            .filter(|p| p.error <= target && order.is_none_or(|o| p.run.order == o))
-            .min_by(|a, b| a.run.seconds.total_cmp(&b.run.seconds))
-    };
     for target in [0.1, 0.01, 0.001] {
         let _ = writeln!(
             body,
             "- Cheapest run within {:.1}% error: {}",
             100.0 * target,
-            cheapest(None, target).map_or("none in this sweep".to_string(), |p| format!(
+            cheapest(points, None, target).map_or("none in this sweep".to_string(), |p| format!(
                 "{} ({} free DOFs, {:.4} s, error {:.2e})",
                 p.label(),
                 p.run.free_dofs,
@@ -127,7 +157,11 @@ pub fn accuracy_per_second(context: &Context) -> Result<Section> {
             ))
         );
     }
+    body
+}
 
+/// The accuracy-per-second chart (P1, P2 and the Pareto front), as the report's link to it.
+fn accuracy_chart(context: &Context, points: &[Point]) -> Result<String> {
     let mut series: Vec<Series> = [1, 2]
         .iter()
         .map(|&order| {
@@ -148,7 +182,7 @@ pub fn accuracy_per_second(context: &Context) -> Result<Section> {
         .collect();
     let mut front: Vec<(f64, f64)> = points
         .iter()
-        .filter(|p| on_front(p))
+        .filter(|p| on_front(points, p))
         .map(|p| (p.run.seconds, p.error))
         .collect();
     front.sort_by(|a, b| a.0.total_cmp(&b.0));
@@ -161,9 +195,18 @@ pub fn accuracy_per_second(context: &Context) -> Result<Section> {
         log_y: true,
         series,
     };
-    body.push('\n');
-    body.push_str(&chart_link(context, &chart, "accuracy_static.png")?);
+    chart_link(context, &chart, "accuracy_static.png")
+}
 
+/// The checks: P2 within 1 % at ≤ 20k DOFs, the reference against Timoshenko, and (full report
+/// only) P1's time to 1 % against P2's; the time ratio's line written into `body`.
+fn accuracy_checks(
+    context: &Context,
+    body: &mut String,
+    points: &[Point],
+    reference: f64,
+    timoshenko: f64,
+) -> Vec<Check> {
     // Issue 19's bar for the element: 1 % of the converged answer at ≤ 20k DOFs.
     let small_p2 = points
         .iter()
@@ -172,8 +215,8 @@ pub fn accuracy_per_second(context: &Context) -> Result<Section> {
         .fold(f64::INFINITY, f64::min);
     // P1's time to 1 %: its cheapest run that gets there, or, when none does, its slowest run
     // (still above 1 %, so a lower bound on what P1 would need).
-    let p2_one_percent = cheapest(Some(2), 0.01);
-    let p1_one_percent = cheapest(Some(1), 0.01).or_else(|| {
+    let p2_one_percent = cheapest(points, Some(2), 0.01);
+    let p1_one_percent = cheapest(points, Some(1), 0.01).or_else(|| {
         points
             .iter()
             .filter(|p| p.run.order == 1)
@@ -183,7 +226,7 @@ pub fn accuracy_per_second(context: &Context) -> Result<Section> {
         (Some(p1), Some(p2)) => p1.run.seconds / p2.run.seconds,
         _ => 0.0,
     };
-    let p1_reaches = cheapest(Some(1), 0.01).is_some();
+    let p1_reaches = cheapest(points, Some(1), 0.01).is_some();
     let speed_check = Check {
         name: format!(
             "time to 1 % error: P1 ({}) / P2",
@@ -226,9 +269,5 @@ pub fn accuracy_per_second(context: &Context) -> Result<Section> {
     if !context.quick {
         checks.insert(1, speed_check);
     }
-    Ok(Section {
-        title: "Accuracy per second (static, P1 and P2)".into(),
-        body,
-        checks,
-    })
+    checks
 }

@@ -346,6 +346,30 @@ pub fn manufactured(context: &Context) -> Result<Section> {
             .map(|o| format!("{o:.3}"))
             .collect::<Vec<_>>()
     );
+    body.push_str(&manufactured_chart(context, &l2, &energy)?);
+    Ok(Section {
+        title: "Manufactured solution".into(),
+        body,
+        checks: vec![
+            Check {
+                name: "L2 order".into(),
+                bound: "2 ± 0.15".into(),
+                measured: format!("{p2:.3}"),
+                pass: (p2 - 2.0).abs() <= 0.15,
+            },
+            Check {
+                name: "energy order".into(),
+                bound: "1 ± 0.15".into(),
+                measured: format!("{p1:.3}"),
+                pass: (p1 - 1.0).abs() <= 0.15,
+            },
+        ],
+    })
+}
+
+/// The manufactured solution's convergence chart (L2 and energy-norm errors against h, with
+/// slopes 2 and 1 from the first level), as the report's link to it.
+fn manufactured_chart(context: &Context, l2: &Study, energy: &Study) -> Result<String> {
     let reference = |study: &Study, order: f64| {
         let first = study.levels[0];
         study
@@ -366,34 +390,16 @@ pub fn manufactured(context: &Context) -> Result<Section> {
                 l2.levels.iter().map(|l| (l.h, l.error)).collect(),
                 Mark::LinePoints,
             ),
-            Series::new("slope 2", reference(&l2, 2.0), Mark::Dashed),
+            Series::new("slope 2", reference(l2, 2.0), Mark::Dashed),
             Series::new(
                 "energy-norm error",
                 energy.levels.iter().map(|l| (l.h, l.error)).collect(),
                 Mark::LinePoints,
             ),
-            Series::new("slope 1", reference(&energy, 1.0), Mark::Dashed),
+            Series::new("slope 1", reference(energy, 1.0), Mark::Dashed),
         ],
     };
-    body.push_str(&chart_link(context, &chart, "manufactured.png")?);
-    Ok(Section {
-        title: "Manufactured solution".into(),
-        body,
-        checks: vec![
-            Check {
-                name: "L2 order".into(),
-                bound: "2 ± 0.15".into(),
-                measured: format!("{p2:.3}"),
-                pass: (p2 - 2.0).abs() <= 0.15,
-            },
-            Check {
-                name: "energy order".into(),
-                bound: "1 ± 0.15".into(),
-                measured: format!("{p1:.3}"),
-                pass: (p1 - 1.0).abs() <= 0.15,
-            },
-        ],
-    })
+    chart_link(context, &chart, "manufactured.png")
 }
 
 /// The cantilever against Timoshenko, with its observed order and the honest bending error.
@@ -632,6 +638,61 @@ pub fn cross_check(_context: &Context) -> Result<(Section, Vec<Skipped>)> {
     ))
 }
 
+/// The findings under the model-choice table: where the linear model's tip-vector error
+/// crosses 1 % and 10 % (`threshold`) and its vertical deflection 1 % (`z_threshold`, tip
+/// rotations in degrees), and the corotational model's largest error up to 60°.
+fn write_model_choice_findings(
+    body: &mut String,
+    threshold: [Option<f64>; 2],
+    z_threshold: Option<f64>,
+    corot_worst: f64,
+    dofs: usize,
+) {
+    let describe = |t: Option<f64>| {
+        t.map_or("not reached in the sweep".to_string(), |r| {
+            format!("at a tip rotation of about {r:.1}°")
+        })
+    };
+    let _ = writeln!(
+        body,
+        "\nFrom these data (tip-vector error, the stricter measure: the vertical deflection alone stays accurate longer \
+         because it misses the tip's swing toward the clamp): the linear model's error exceeds 1 % {} and 10 % {}; below that a scene needs no more than \
+         the linear model. The vertical deflection alone passes 1 % {}. The corotational model stays within {:.3} % of \
+         Neo-Hookean up to 60° of tip rotation (both are rotation-invariant; they differ only by the material law at finite \
+         strain). Costs are per Newton iteration of the whole solve on this {}-DOF mesh (assembly of the tangent + numeric \
+         refactorization + solve).\n",
+        describe(threshold[0]),
+        describe(threshold[1]),
+        describe(z_threshold),
+        100.0 * corot_worst,
+        dofs
+    );
+}
+
+/// The tip displacement of `kind` (built on `base`'s material) under loads `l`, solved by
+/// Newton with `options`, and the solve's wall time per Newton iteration (ms).
+fn timed_solve(
+    mesh: &TetMesh,
+    base: &Cantilever,
+    kind: ModelKind,
+    constraints: &Constraints,
+    l: &Loads,
+    options: NewtonOptions,
+) -> Result<(Vec<f64>, f64)> {
+    let model = kind.build(&base.material);
+    let clock = Instant::now();
+    let report = solve_nonlinear_static(mesh, model.as_ref(), constraints, l, options)?;
+    let per_iteration = clock.elapsed().as_secs_f64() * 1e3 / report.iterations.max(1) as f64;
+    Ok((report.displacement, per_iteration))
+}
+
+/// The rotation (degrees) at which an error crosses `level` between two points (rotation,
+/// error) that bracket it, interpolated linearly in log(error).
+fn log_crossing((r0, e0): (f64, f64), (r1, e1): (f64, f64), level: f64) -> f64 {
+    let t = (level.ln() - e0.max(1e-16).ln()) / (e1.ln() - e0.max(1e-16).ln());
+    r0 + t * (r1 - r0)
+}
+
 /// Linear vs corotational vs Neo-Hookean as the load grows, against Neo-Hookean as reference.
 pub fn model_choice(context: &Context) -> Result<Section> {
     let cells = if context.quick {
@@ -686,16 +747,9 @@ pub fn model_choice(context: &Context) -> Result<Section> {
             ModelKind::Corotational,
             ModelKind::NeoHookean,
         ] {
-            let model = kind.build(&base.material);
-            let clock = Instant::now();
-            let report = solve_nonlinear_static(&mesh, model.as_ref(), &constraints, &l, options)?;
-            let per_iteration =
-                clock.elapsed().as_secs_f64() * 1e3 / report.iterations.max(1) as f64;
-            results.push((
-                tip(&report.displacement)?,
-                per_iteration,
-                report.displacement,
-            ));
+            let (displacement, per_iteration) =
+                timed_solve(&mesh, &base, kind, &constraints, &l, options)?;
+            results.push((tip(&displacement)?, per_iteration, displacement));
         }
         let reference = results[2].0;
         let rotation = {
@@ -731,8 +785,7 @@ pub fn model_choice(context: &Context) -> Result<Section> {
             && e_z > 0.01
             && e_prev <= 0.01
         {
-            let t = (0.01f64.ln() - e_prev.max(1e-16).ln()) / (e_z.ln() - e_prev.max(1e-16).ln());
-            z_threshold = Some(r_prev + t * (rotation - r_prev));
+            z_threshold = Some(log_crossing((r_prev, e_prev), (rotation, e_z), 0.01));
         }
         previous_z = Some((rotation, e_z));
         linear_series.push((rotation.max(1e-3), e_lin));
@@ -742,31 +795,17 @@ pub fn model_choice(context: &Context) -> Result<Section> {
         if let Some(&(r_prev, e_prev)) = linear_series.iter().rev().nth(1) {
             for (k, level) in [0.01f64, 0.1].iter().enumerate() {
                 if threshold[k].is_none() && e_lin > *level && e_prev <= *level {
-                    let t = (level.ln() - e_prev.max(1e-16).ln())
-                        / (e_lin.ln() - e_prev.max(1e-16).ln());
-                    threshold[k] = Some(r_prev + t * (rotation - r_prev));
+                    threshold[k] = Some(log_crossing((r_prev, e_prev), (rotation, e_lin), *level));
                 }
             }
         }
     }
-    let describe = |t: Option<f64>| {
-        t.map_or("not reached in the sweep".to_string(), |r| {
-            format!("at a tip rotation of about {r:.1}°")
-        })
-    };
-    let _ = writeln!(
-        body,
-        "\nFrom these data (tip-vector error, the stricter measure: the vertical deflection alone stays accurate longer \
-         because it misses the tip's swing toward the clamp): the linear model's error exceeds 1 % {} and 10 % {}; below that a scene needs no more than \
-         the linear model. The vertical deflection alone passes 1 % {}. The corotational model stays within {:.3} % of \
-         Neo-Hookean up to 60° of tip rotation (both are rotation-invariant; they differ only by the material law at finite \
-         strain). Costs are per Newton iteration of the whole solve on this {}-DOF mesh (assembly of the tangent + numeric \
-         refactorization + solve).\n",
-        describe(threshold[0]),
-        describe(threshold[1]),
-        describe(z_threshold),
-        100.0 * corot_worst,
-        mesh.dof_count()
+    write_model_choice_findings(
+        &mut body,
+        threshold,
+        z_threshold,
+        corot_worst,
+        mesh.dof_count(),
     );
     let chart = Chart {
         title: "Model choice: tip error against Neo-Hookean as the load grows".into(),

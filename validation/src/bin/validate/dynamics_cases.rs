@@ -123,35 +123,7 @@ pub fn modal(context: &Context) -> Result<Section> {
     let mut values: Vec<[f64; 3]> = Vec::new();
     for &n in sizes {
         let b = beam(length, width, [n, n / 5, n / 10])?;
-        let modes = lowest_modes(&b.system, 14)?;
-        // Bending in z: modes whose mean tip z-displacement is large (≥ half the largest
-        // z-amplitude of the shape). Torsion, axial and y-bending modes move the tip's mean z
-        // hardly at all; z-bending modes have their largest z-motion at the tip. (On coarse
-        // meshes the lecture split's asymmetry couples y- and z-bending; the tip must also move
-        // at least twice as much in z as in y.)
-        let bending: Vec<f64> = modes
-            .shapes
-            .iter()
-            .zip(modes.frequencies())
-            .filter(|(phi, _)| {
-                let tip = b.tip.iter().map(|&i| phi[i]).sum::<f64>() / b.tip.len() as f64;
-                let largest = phi
-                    .iter()
-                    .enumerate()
-                    .filter(|(i, _)| b.system.dofs().free_dofs()[*i] % 3 == 2)
-                    .fold(0.0f64, |m, (_, v)| m.max(v.abs()));
-                let tip_y = b.tip_y.iter().map(|&i| phi[i]).sum::<f64>() / b.tip_y.len() as f64;
-                tip.abs() >= 0.5 * largest && tip.abs() >= 2.0 * tip_y.abs()
-            })
-            .map(|(_, f)| f)
-            .take(3)
-            .collect();
-        if bending.len() < 3 {
-            return Err(Error::Solver(format!(
-                "only {} z-bending modes among the lowest 14",
-                bending.len()
-            )));
-        }
+        let bending = z_bending_frequencies(&b)?;
         let mut row = format!("| {n}×{}×{} | {} |", n / 5, n / 10, b.dofs);
         for k in 0..3 {
             let e = relative(bending[k], exact[k]);
@@ -170,37 +142,7 @@ pub fn modal(context: &Context) -> Result<Section> {
         values.push([bending[0], bending[1], bending[2]]);
         let _ = writeln!(body, "{row}");
     }
-    // Convergence of each mode on its own: successive changes shrink, and with three levels a
-    // Richardson extrapolation estimates the converged 3D frequency.
-    let mut converging = true;
-    let mut limits = String::new();
-    for k in 0..3 {
-        let v: Vec<f64> = values.iter().map(|l| l[k]).collect();
-        for w in v.windows(3) {
-            converging &= (w[2] - w[1]).abs() < (w[1] - w[0]).abs();
-        }
-        if v.len() >= 3 {
-            let _ = write!(
-                limits,
-                "mode {}: {} ",
-                k + 1,
-                match tetfem::convergence::richardson(
-                    v[v.len() - 3],
-                    v[v.len() - 2],
-                    v[v.len() - 1],
-                    2.0
-                ) {
-                    Ok(r) => format!(
-                        "{:.5e} ({:+.2}% vs Euler–Bernoulli, observed order {:.2});",
-                        r.value,
-                        100.0 * (r.value - exact[k]) / exact[k],
-                        r.order
-                    ),
-                    Err(_) => "not in the asymptotic range;".to_string(),
-                }
-            );
-        }
-    }
+    let (converging, limits) = richardson_limits(&values, &exact);
     if !limits.is_empty() {
         let _ = writeln!(
             body,
@@ -409,6 +351,40 @@ pub fn speed_accuracy(context: &Context) -> Result<Section> {
             [40, 8, 4],
         )
     };
+    let sweep = sweep_methods(&meshes, reference_cells)?;
+    let points = &sweep.points;
+    let pareto: Vec<&RunPoint> = points
+        .iter()
+        .filter(|p| {
+            !points
+                .iter()
+                .any(|q| q.seconds < p.seconds && q.error < p.error)
+        })
+        .collect();
+    let mut body = speed_accuracy_table(&sweep, reference_cells, &pareto);
+    body.push('\n');
+    body.push_str(&speed_accuracy_chart(context, points, &pareto)?);
+    let checks = speed_accuracy_checks(&mut body, points, &meshes);
+    Ok(Section {
+        title: "Speed vs accuracy".into(),
+        body,
+        checks,
+    })
+}
+
+/// The runs of [`speed_accuracy`]: every method over its dt sweep on each mesh, with the
+/// reference's period T₁, sample count and step count.
+struct Sweep {
+    points: Vec<RunPoint>,
+    period: f64,
+    samples: usize,
+    reference_steps: usize,
+}
+
+/// Runs the reference (P2 on `reference_cells`, Newmark at T₁/4096) and then every method
+/// over its dt sweep on each of `meshes` (cells, order), measuring each run's tip-trajectory
+/// error against the reference and its wall time.
+fn sweep_methods(meshes: &[([usize; 3], usize)], reference_cells: [usize; 3]) -> Result<Sweep> {
     let finest = beam_of_order(10.0, 2.0, reference_cells, 2)?;
     let period = 2.0 * std::f64::consts::PI / lowest_modes(&finest.system, 1)?.omega[0];
     let samples = 32usize;
@@ -426,7 +402,7 @@ pub fn speed_accuracy(context: &Context) -> Result<Section> {
     }
     let scale = reference.iter().fold(0.0f64, |m, r| m.max(r.abs()));
     let mut points = Vec::new();
-    for &(cells, order) in &meshes {
+    for &(cells, order) in meshes {
         let b = beam_of_order(10.0, 2.0, cells, order)?;
         let (system, start) = b.released()?;
         let dt_crit = critical_time_step(&system)?.dt;
@@ -472,14 +448,26 @@ pub fn speed_accuracy(context: &Context) -> Result<Section> {
             }
         }
     }
-    let pareto: Vec<&RunPoint> = points
-        .iter()
-        .filter(|p| {
-            !points
-                .iter()
-                .any(|q| q.seconds < p.seconds && q.error < p.error)
-        })
-        .collect();
+    Ok(Sweep {
+        points,
+        period,
+        samples,
+        reference_steps,
+    })
+}
+
+/// The table of every run (Pareto front marked) and the cheapest run within 10 %, 1 %, 0.1 %.
+fn speed_accuracy_table(
+    sweep: &Sweep,
+    reference_cells: [usize; 3],
+    pareto: &[&RunPoint],
+) -> String {
+    let (points, period, samples, reference_steps) = (
+        &sweep.points,
+        sweep.period,
+        sweep.samples,
+        sweep.reference_steps,
+    );
     let mut body = format!(
         "Cantilever 10 × 2 × 1 (E = 1e5, ν = 0.3, ρ = 1000) released from its static shape under a unit end load; one period \
          T₁ = {period:.4} of the first mode (of the reference mesh). Error: max |tip − reference| over {samples} sample times / \
@@ -489,7 +477,7 @@ pub fn speed_accuracy(context: &Context) -> Result<Section> {
          | mesh | method | dt / dt_crit | error | wall time [s] | Pareto |\n|---|---|---|---|---|---|\n",
         reference_cells[0], reference_cells[1], reference_cells[2],
     );
-    for p in &points {
+    for p in points {
         let on_front = pareto.iter().any(|q| std::ptr::eq(*q, p));
         let _ = writeln!(
             body,
@@ -518,6 +506,16 @@ pub fn speed_accuracy(context: &Context) -> Result<Section> {
             ))
         );
     }
+    body
+}
+
+/// The speed–accuracy chart (a series per method and order, and the Pareto front), as the
+/// report's link to it.
+fn speed_accuracy_chart(
+    context: &Context,
+    points: &[RunPoint],
+    pareto: &[&RunPoint],
+) -> Result<String> {
     let mut series = Vec::new();
     for order in [1, 2] {
         for method in ["backward-euler", "newmark", "explicit"] {
@@ -543,8 +541,17 @@ pub fn speed_accuracy(context: &Context) -> Result<Section> {
         log_y: true,
         series,
     };
-    body.push('\n');
-    body.push_str(&chart_link(context, &chart, "speed_accuracy.png")?);
+    chart_link(context, &chart, "speed_accuracy.png")
+}
+
+/// The checks of [`speed_accuracy`] (implicit runs at large dt complete; backward Euler's error
+/// on the finest mesh against the first mode's predicted amplitude loss; Newmark better than
+/// backward Euler at every dt), their rows written into `body`.
+fn speed_accuracy_checks(
+    body: &mut String,
+    points: &[RunPoint],
+    meshes: &[([usize; 3], usize)],
+) -> Vec<Check> {
     let implicit_large = points
         .iter()
         .any(|p| p.method != "explicit" && p.dt_over_crit > 10.0);
@@ -626,11 +633,77 @@ pub fn speed_accuracy(context: &Context) -> Result<Section> {
         measured: format!("largest ratio {worst_ratio:.3}"),
         pass: newmark_better && !newmark.is_empty(),
     });
-    Ok(Section {
-        title: "Speed vs accuracy".into(),
-        body,
-        checks,
-    })
+    checks
+}
+
+/// The three lowest z-bending frequencies (Hz) among the 14 lowest modes of beam `b`: modes
+/// whose mean tip z-displacement is large (≥ half the largest z-amplitude of the shape).
+/// Torsion, axial and y-bending modes move the tip's mean z hardly at all; z-bending modes have
+/// their largest z-motion at the tip. (On coarse meshes the lecture split's asymmetry couples y-
+/// and z-bending; the tip must also move at least twice as much in z as in y.)
+fn z_bending_frequencies(b: &Beam) -> Result<Vec<f64>> {
+    let modes = lowest_modes(&b.system, 14)?;
+    let bending: Vec<f64> = modes
+        .shapes
+        .iter()
+        .zip(modes.frequencies())
+        .filter(|(phi, _)| {
+            let tip = b.tip.iter().map(|&i| phi[i]).sum::<f64>() / b.tip.len() as f64;
+            let largest = phi
+                .iter()
+                .enumerate()
+                .filter(|(i, _)| b.system.dofs().free_dofs()[*i] % 3 == 2)
+                .fold(0.0f64, |m, (_, v)| m.max(v.abs()));
+            let tip_y = b.tip_y.iter().map(|&i| phi[i]).sum::<f64>() / b.tip_y.len() as f64;
+            tip.abs() >= 0.5 * largest && tip.abs() >= 2.0 * tip_y.abs()
+        })
+        .map(|(_, f)| f)
+        .take(3)
+        .collect();
+    if bending.len() < 3 {
+        return Err(Error::Solver(format!(
+            "only {} z-bending modes among the lowest 14",
+            bending.len()
+        )));
+    }
+    Ok(bending)
+}
+
+/// Whether each mode's successive changes over the levels `values` shrink, and the Richardson
+/// extrapolation of the last three levels of each mode against `exact` (Euler–Bernoulli, Hz).
+fn richardson_limits(values: &[[f64; 3]], exact: &[f64]) -> (bool, String) {
+    // Convergence of each mode on its own: successive changes shrink, and with three levels a
+    // Richardson extrapolation estimates the converged 3D frequency.
+    let mut converging = true;
+    let mut limits = String::new();
+    for k in 0..3 {
+        let v: Vec<f64> = values.iter().map(|l| l[k]).collect();
+        for w in v.windows(3) {
+            converging &= (w[2] - w[1]).abs() < (w[1] - w[0]).abs();
+        }
+        if v.len() >= 3 {
+            let _ = write!(
+                limits,
+                "mode {}: {} ",
+                k + 1,
+                match tetfem::convergence::richardson(
+                    v[v.len() - 3],
+                    v[v.len() - 2],
+                    v[v.len() - 1],
+                    2.0
+                ) {
+                    Ok(r) => format!(
+                        "{:.5e} ({:+.2}% vs Euler–Bernoulli, observed order {:.2});",
+                        r.value,
+                        100.0 * (r.value - exact[k]) / exact[k],
+                        r.order
+                    ),
+                    Err(_) => "not in the asymptotic range;".to_string(),
+                }
+            );
+        }
+    }
+    (converging, limits)
 }
 
 /// Largest stable explicit step against element size (by bisection) vs 2/ω_max; implicit runs
