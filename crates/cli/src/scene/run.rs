@@ -574,12 +574,17 @@ fn write_static_outputs<E: SceneElement>(
         pvd.push(0.0, &vtu)?;
         files.push(vtu);
         files.push(pvd.path().to_path_buf());
-        // The obstacles' surfaces beside the body, for ParaView (at rest: a static scene's
-        // obstacles do not move).
+        // The obstacles' surfaces beside the body, for ParaView: where the solution has them,
+        // moving ones at the end of the static step's pseudo-time (TimeValue t = 1), fixed ones
+        // at rest (t = 0, as before obstacles could move here).
         if !scene.obstacles.is_empty() {
             let vtp = dir.join(format!("{}_obstacles.vtp", out.stem));
             let (center, tile) = super::dynamic::obstacle_tile(&built.mesh);
-            tetfem::output::write_obstacles_vtp(&vtp, &scene.obstacles, 0.0, center, tile)?;
+            let time = match scene.obstacles.iter().any(|o| o.motion().is_some()) {
+                true => tetfem::amplitude::STATIC_TIME,
+                false => 0.0,
+            };
+            tetfem::output::write_obstacles_vtp(&vtp, &scene.obstacles, time, center, tile)?;
             files.push(vtp);
         }
     }
@@ -635,11 +640,12 @@ fn write_static_outputs<E: SceneElement>(
                 title: summary.title.clone(),
                 subtitle: format!("static, deformation ×{}", format_scale(scale)),
                 deformation_scale: scale,
-                // A static scene's obstacles do not move (motions are refused): at rest.
+                // Where the solution has them: a moving obstacle at the end of the static
+                // step's pseudo-time, t = 1 (a fixed one anywhere).
                 obstacles: scene
                     .obstacles
                     .iter()
-                    .map(|o| crate::render::ObstacleView::at(o, 0.0))
+                    .map(|o| crate::render::ObstacleView::at(o, tetfem::amplitude::STATIC_TIME))
                     .collect(),
                 ..RenderOptions::default()
             },
