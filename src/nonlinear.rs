@@ -1,10 +1,13 @@
 //! Nonlinear static equilibrium with a [`ForceModel`]: Newton's method with a backtracking line
 //! search and load stepping, one symbolic factorization for all iterations.
 
+use nalgebra::Vector3;
+
 use crate::amplitude::STATIC_TIME;
+use crate::assembly::Assembler;
 use crate::boundary_motion::BoundaryMotion;
-use crate::constraints::{Constraints, DofMap};
-use crate::contact::{Contact, FrictionLag, STEP_FRACTION};
+use crate::constraints::{Constraints, DofMap, Restriction};
+use crate::contact::{Contact, FrictionLag, MAX_MOTION_STAGES, MotionStage, STEP_FRACTION};
 use crate::error::{Error, Result};
 use crate::linear_solver::{LinearMethod, LinearSolver, SolverOptions};
 use crate::loads::Loads;
@@ -12,6 +15,7 @@ use crate::mesh::TetMesh;
 use crate::model::assemble::{energy, internal_force, refill_tangent};
 use crate::model::{ModelElement, TetModels};
 use crate::problem::Problem;
+use crate::sparse::CscMatrix;
 
 /// Settings of [`solve_nonlinear_static`].
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -211,6 +215,29 @@ pub fn solve_nonlinear_static_with_motion<E: ModelElement>(
 /// state. The report's [`obstacle_friction_forces`](NewtonReport::obstacle_friction_forces)
 /// is the friction force on each obstacle. A body that friction must hold should start within
 /// d̂ of its obstacle (the first load step's lag is the rest state's).
+///
+/// Moving obstacles ([`Obstacle::with_motion`](crate::contact::Obstacle::with_motion)) follow
+/// their motion c(t) over the static step's pseudo-time t ∈ [0, 1] (dimensionless, as in
+/// Abaqus's static step of time period 1; it is also the time an
+/// [`Amplitude`](crate::amplitude::Amplitude) is evaluated at): the solve starts with them at
+/// c(0) ([`Contact::set_time`]`(0)`), and load step k of N places them at c(t_k), t_k = k/N,
+/// together with the load factor λ_k = k/N — an
+/// [`ObstacleMotion::Amplitude`](crate::contact::ObstacleMotion) with a ramp from 0 to 1
+/// reaches its displacement at the last load step, a
+/// [`Velocity`](crate::contact::ObstacleMotion::Velocity) v has moved by v·1 there. Within a
+/// load step they are moved in stages as an implicit dynamic step moves them
+/// ([`Contact::advance_stage`]): each stage as far as the body leaves free (×0.8), the body
+/// solved there, so no Newton iterate has a node inside an obstacle; each move raises the
+/// step's reference to its new residual and to the obstacles' force, and a Newton step below
+/// 10⁻⁹·d̂ on every DOF ends the iterations. Friction's slip is then relative to the obstacle
+/// (a node the obstacle carries along does not slip; [`Contact::friction_lag_moving`]). On
+/// return the obstacles are at c(1), where the solution is in equilibrium with them (so
+/// [`Contact::obstacle_forces`] and [`Contact::node_fields`] of the solution see them there).
+/// A load step whose obstacles do not reach their placement in
+/// [`MAX_MOTION_STAGES`] stages (a gap held in
+/// equilibrium is a fraction of d̂, and each stage advances them by about that), or whose
+/// obstacle touches a node a support holds in its path, is an [`Error::NotConverged`] naming
+/// the load step, the obstacle and what to do (more load steps move them less per step).
 pub fn solve_nonlinear_static_with_contact(
     mesh: &TetMesh,
     model: &(impl TetModels + ?Sized),
@@ -230,9 +257,9 @@ pub fn solve_nonlinear_static_with_contact(
     )
 }
 
-fn solve<E: ModelElement>(
+fn solve<E: ModelElement, M: TetModels + ?Sized>(
     mesh: &TetMesh<E>,
-    model: &(impl TetModels + ?Sized),
+    model: &M,
     constraints: &Constraints,
     loads: &Loads,
     motion: &BoundaryMotion,
@@ -260,21 +287,36 @@ fn solve<E: ModelElement>(
     let problem = match contact {
         None => Problem::new(mesh, constraints)?,
         Some(contact) => {
+            // Moving obstacles start at their placement at the pseudo-time t = 0.
+            if contact.is_moving() {
+                contact.set_time(0.0);
+            }
             contact.check_state(&vec![0.0; mesh.dof_count()])?;
             Problem::with_dofs(mesh, DofMap::new(constraints))?
         }
     };
-    let (dofs, assembler, restriction) =
-        (problem.dofs(), problem.assembler(), problem.restriction());
-    let mut tangent = problem.zero_matrix()?;
-    let mut free_tangent = problem.zero_free_matrix()?;
+    let dofs = problem.dofs();
+    let tangent = problem.zero_matrix()?;
+    let free_tangent = problem.zero_free_matrix()?;
     let geometry = dofs.geometry_for_method(options.solver.method, mesh)?;
-    let mut solver = LinearSolver::analyze_with_geometry(&free_tangent, options.solver, geometry)?;
-    let f_full = loads.as_slice();
-    let load_norm = norm(&dofs.restrict(f_full)?);
+    let solver = LinearSolver::analyze_with_geometry(&free_tangent, options.solver, geometry)?;
+    let mut newton = StaticNewton {
+        mesh,
+        model,
+        contact,
+        dofs,
+        assembler: problem.assembler(),
+        restriction: problem.restriction(),
+        f_full: loads.as_slice(),
+        options,
+        tangent,
+        free_tangent,
+        solver,
+        iterations: 0,
+    };
+    let load_norm = norm(&dofs.restrict(loads.as_slice())?);
     let mut u = vec![0.0; mesh.dof_count()];
     let mut residuals = Vec::new();
-    let mut iterations = 0;
     let mut final_lag = None;
     for step in 1..=options.load_steps {
         let factor = step as f64 / options.load_steps as f64;
@@ -289,224 +331,7 @@ fn solve<E: ModelElement>(
                 u[dof] = value;
             }
         }
-        // Friction (quasi-static, as IPC does it): the normal forces λ and tangent planes are
-        // lagged, the slip measured from this load step's start. A pass solves with one lag;
-        // the next re-lags λ and the planes at its solution (the slip origin stays), until the
-        // solution is in equilibrium under the lag it makes. The first pass lags λ at the
-        // step's start scaled by s/(s − 1): the loads grow in proportion, and so does the
-        // normal force they need (λ of the step before would hold only (s − 1)/s of the load).
-        let start = u.clone();
-        let friction = contact.filter(|c| c.has_friction());
-        let mut lag = match friction {
-            Some(c) => {
-                let mut lag = c.friction_lag(&u, c.slip_distance())?;
-                if step > 1 {
-                    lag.scale_limits(step as f64 / (step - 1) as f64);
-                }
-                Some(lag)
-            }
-            None => None,
-        };
-        let mut retried = false;
-        let residual = |u: &[f64], lag: Option<&FrictionLag>| -> Result<Vec<f64>> {
-            let mut fi = internal_force(mesh, model, u)?;
-            if let Some(contact) = contact {
-                contact.add_force(u, &mut fi)?;
-                if let Some(lag) = lag {
-                    contact.add_friction_force(lag, u, &mut fi)?;
-                }
-            }
-            dofs.restrict(
-                &fi.iter()
-                    .zip(f_full)
-                    .map(|(a, b)| a + factor * b)
-                    .collect::<Vec<_>>(),
-            )
-        };
-        let potential = |u: &[f64], lag: Option<&FrictionLag>| -> Result<f64> {
-            let mut barrier = 0.0;
-            if let Some(contact) = contact {
-                barrier += contact.energy(u)?;
-                if let Some(lag) = lag {
-                    barrier += contact.friction_energy(lag, u)?;
-                }
-            }
-            Ok(energy(mesh, model, u)? + barrier
-                - factor * f_full.iter().zip(u).map(|(f, u)| f * u).sum::<f64>())
-        };
-        let mut r = residual(&u, lag.as_ref())?;
-        // The reference scale: the full load, or for displacement-driven problems the first
-        // residual of the step.
-        let reference = if load_norm > 0.0 {
-            load_norm
-        } else {
-            norm(&r).max(f64::MIN_POSITIVE)
-        };
-        let mut history = vec![norm(&r)];
-        for pass in 1..=MAX_FRICTION_PASSES {
-            let outcome = (|| -> Result<()> {
-                let lag = lag.as_ref();
-                let mut converged = norm(&r) <= options.tolerance * reference;
-                let mut done = 0;
-                while !converged {
-                    // A caller's Ctrl-C between iterations (nothing is returned but the error).
-                    crate::linalg::interrupt::poll(|| {
-                        format!(
-                            "Newton iteration {} of load step {step}/{}",
-                            done + 1,
-                            options.load_steps
-                        )
-                    })?;
-                    if done >= options.max_iterations {
-                        let reached = history.last().copied().unwrap_or(f64::NAN);
-                        return Err(Error::NotConverged {
-                            method: "Newton's method".into(),
-                            message: format!(
-                                "no convergence in {} iterations at load step {step}/{}: residual \
-                                 ‖r_f‖ = {reached:.3e}, {:.3e} of the reference {reference:.3e} \
-                                 (tolerance {:e}); more load steps or iterations may help",
-                                options.max_iterations,
-                                options.load_steps,
-                                reached / reference,
-                                options.tolerance
-                            ),
-                        });
-                    }
-                    // The exact tangent first (quadratic convergence); if it is not positive
-                    // definite, the one with every element tangent projected onto the PSD cone
-                    // (a descent direction, at the price of linear convergence while it is
-                    // needed). Friction's Hessian is PSD as it stands.
-                    for project in [false, true] {
-                        refill_tangent(mesh, assembler, model, &u, project, &mut tangent)?;
-                        if let Some(contact) = contact {
-                            contact.add_tangent(&u, project, &mut tangent)?;
-                            if let Some(lag) = lag {
-                                contact.add_friction_tangent(lag, &u, &mut tangent)?;
-                            }
-                        }
-                        restriction.restrict_into(&tangent, &mut free_tangent)?;
-                        match solver.factorize(&free_tangent) {
-                            Err(tetfem_linalg::Error::NotPositiveDefinite { .. }) if !project => {}
-                            other => {
-                                other?;
-                                break;
-                            }
-                        }
-                    }
-                    let mut delta = r.clone();
-                    solver.solve(&free_tangent, &mut delta)?;
-                    let (r_norm, pi) = (norm(&r), potential(&u, lag)?);
-                    let mut alpha = 1.0;
-                    if let Some(contact) = contact {
-                        let mut step = vec![0.0; u.len()];
-                        for (&dof, d) in dofs.free_dofs().iter().zip(&delta) {
-                            step[dof] = *d;
-                        }
-                        alpha = (STEP_FRACTION * contact.max_step(&u, &step)?).min(1.0);
-                    }
-                    let mut accepted = None;
-                    for _ in 0..30 {
-                        let mut trial = u.clone();
-                        for (&dof, d) in dofs.free_dofs().iter().zip(&delta) {
-                            trial[dof] += alpha * d;
-                        }
-                        let r_trial = residual(&trial, lag)?;
-                        let better = match contact {
-                            // Only a decrease of Π (up to its round-off): the barrier keeps the
-                            // gaps open.
-                            Some(_) => {
-                                let trial_pi = potential(&trial, lag)?;
-                                trial_pi < pi
-                                    || (norm(&r_trial) < r_norm
-                                        && trial_pi <= pi + 1e-12 * pi.abs())
-                            }
-                            None => norm(&r_trial) < r_norm || potential(&trial, lag)? < pi,
-                        };
-                        if better {
-                            accepted = Some((trial, r_trial));
-                            break;
-                        }
-                        alpha *= 0.5;
-                    }
-                    let Some((trial, r_trial)) = accepted else {
-                        return Err(Error::NotConverged {
-                            method: "Newton's method".into(),
-                            message: format!(
-                                "the line search found no decrease at load step {step}/{} \
-                                 (residual ‖r_f‖ = {r_norm:.3e}, {:.3e} of the reference \
-                                 {reference:.3e}; tolerance {:e})",
-                                options.load_steps,
-                                r_norm / reference,
-                                options.tolerance
-                            ),
-                        });
-                    };
-                    u = trial;
-                    r = r_trial;
-                    iterations += 1;
-                    done += 1;
-                    let (before, now) = (r_norm, norm(&r));
-                    history.push(now);
-                    // Converged at the tolerance, or at the round-off floor: below 1e-6 of the
-                    // reference a residual that no longer halves is the floating-point noise of
-                    // the forces (their O(E) terms cancel to O(E·strain)), and more iterations
-                    // cannot lower it.
-                    converged = now <= options.tolerance * reference
-                        || (now <= 1e-6 * reference && now > 0.5 * before);
-                }
-                Ok(())
-            })();
-            let (Some(contact), Some(solved_with)) = (friction, lag.as_ref()) else {
-                outcome?;
-                break;
-            };
-            if let Err(e) = outcome {
-                // The caller's interrupt is no weak lag: stop.
-                if matches!(e, Error::Stopped { .. }) {
-                    return Err(e);
-                }
-                // Once, a lag too weak for this step's load (its normal forces from a state that
-                // carried less) may be what failed: re-lag where the failed pass stopped, whose
-                // normal forces carry this step's load, and solve again from the step's start.
-                if !retried && contact.check_state(&u).is_ok() {
-                    retried = true;
-                    let relagged =
-                        contact.friction_lag_from(&u, &start, contact.slip_distance())?;
-                    u.clone_from(&start);
-                    r = residual(&u, Some(&relagged))?;
-                    lag = Some(relagged);
-                    history.push(norm(&r));
-                    continue;
-                }
-                return Err(no_frictional_equilibrium(
-                    e,
-                    (step, options.load_steps),
-                    solved_with,
-                    &dofs.restrict(f_full)?,
-                    dofs.free_dofs(),
-                    factor,
-                    dofs.free_dofs().len() < f_full.len(),
-                    contact.parameters().activation_distance,
-                ));
-            }
-            // Re-lag at this pass's solution: settled when the equilibrium holds under the new
-            // lag to Newton's tolerance (or within twice the floor this pass reached).
-            let floor = history.last().copied().unwrap_or(0.0);
-            let relagged = contact.friction_lag_from(&u, &start, contact.slip_distance())?;
-            r = residual(&u, Some(&relagged))?;
-            lag = Some(relagged);
-            let now = norm(&r);
-            history.push(now);
-            if now <= options.tolerance * reference || now <= 2.0 * floor {
-                break;
-            }
-            if pass == MAX_FRICTION_PASSES {
-                return Err(Error::Solver(format!(
-                    "friction's lagged normal forces did not settle in {MAX_FRICTION_PASSES} passes at load step {step}/{} (residual {now:.3e} of {reference:.3e} under the last lag)",
-                    options.load_steps
-                )));
-            }
-        }
+        let (history, lag) = newton.load_step(&mut u, step, load_norm)?;
         final_lag = lag;
         residuals.push(history);
     }
@@ -524,9 +349,497 @@ fn solve<E: ModelElement>(
     Ok(NewtonReport {
         displacement: u,
         residuals,
-        iterations,
+        iterations: newton.iterations,
         obstacle_friction_forces,
     })
+}
+
+/// What the Newton iterations of one load step need to know about it: its number `step`
+/// (1-based), its load factor λ = `factor` (= its pseudo-time t), and the reference ‖·‖ its
+/// residual converges relative to (force).
+#[derive(Debug, Clone, Copy)]
+struct LoadStep {
+    step: usize,
+    factor: f64,
+    reference: f64,
+}
+
+/// The moving obstacles of one load step: their offsets at its start (`from`) and at its
+/// pseudo-time (`to`; length, one per obstacle).
+struct StepMotion {
+    from: Vec<Vector3<f64>>,
+    to: Vec<Vector3<f64>>,
+}
+
+/// A static solve's parts that every load step uses: the mesh, model, loads and contact, the
+/// DOF map and assembly, the tangent's storage and its factorization (one symbolic analysis),
+/// and the Newton iterations taken so far.
+struct StaticNewton<'a, E: ModelElement, M: TetModels + ?Sized> {
+    mesh: &'a TetMesh<E>,
+    model: &'a M,
+    contact: Option<&'a Contact>,
+    dofs: &'a DofMap,
+    assembler: &'a Assembler,
+    restriction: &'a Restriction,
+    f_full: &'a [f64],
+    options: NewtonOptions,
+    tangent: CscMatrix,
+    free_tangent: CscMatrix,
+    solver: LinearSolver,
+    iterations: usize,
+}
+
+impl<E: ModelElement, M: TetModels + ?Sized> StaticNewton<'_, E, M> {
+    /// The free residual r_f of Σ fₑ(u) + contact (+ friction under `lag`) + λ·f at full
+    /// displacement `u`, λ = `factor`.
+    fn residual(&self, u: &[f64], lag: Option<&FrictionLag>, factor: f64) -> Result<Vec<f64>> {
+        let mut fi = internal_force(self.mesh, self.model, u)?;
+        if let Some(contact) = self.contact {
+            contact.add_force(u, &mut fi)?;
+            if let Some(lag) = lag {
+                contact.add_friction_force(lag, u, &mut fi)?;
+            }
+        }
+        self.dofs.restrict(
+            &fi.iter()
+                .zip(self.f_full)
+                .map(|(a, b)| a + factor * b)
+                .collect::<Vec<_>>(),
+        )
+    }
+
+    /// The total potential Π = E + E_c (+ friction's under `lag`) − λ·fᵀu at `u` (energy).
+    fn potential(&self, u: &[f64], lag: Option<&FrictionLag>, factor: f64) -> Result<f64> {
+        let mut barrier = 0.0;
+        if let Some(contact) = self.contact {
+            barrier += contact.energy(u)?;
+            if let Some(lag) = lag {
+                barrier += contact.friction_energy(lag, u)?;
+            }
+        }
+        Ok(energy(self.mesh, self.model, u)? + barrier
+            - factor * self.f_full.iter().zip(u).map(|(f, u)| f * u).sum::<f64>())
+    }
+
+    /// Load step `step` from the state `u` (its prescribed values set already): the obstacles
+    /// moved to their placement at its pseudo-time, friction's passes (see
+    /// [`solve_nonlinear_static_with_contact`]), each pass's Newton iterations. Returns the
+    /// residual norms it saw and the friction lag it ended under.
+    fn load_step(
+        &mut self,
+        u: &mut Vec<f64>,
+        step: usize,
+        load_norm: f64,
+    ) -> Result<(Vec<f64>, Option<FrictionLag>)> {
+        let factor = step as f64 / self.options.load_steps as f64;
+        // Moving obstacles go from where the last load step left them to their placement at
+        // this load step's pseudo-time t = λ.
+        let moving = self.contact.filter(|c| c.is_moving()).map(|c| StepMotion {
+            from: c.offsets(),
+            to: c.offsets_at(factor),
+        });
+        // Friction (quasi-static, as IPC does it): the normal forces λ and tangent planes are
+        // lagged, the slip measured from this load step's start (carried along by a moving
+        // obstacle: the slip is relative to it). A pass solves with one lag; the next re-lags λ
+        // and the planes at its solution (the slip origin stays), until the solution is in
+        // equilibrium under the lag it makes. The first pass lags λ at the step's start scaled
+        // by s/(s − 1): the loads grow in proportion, and so does the normal force they need
+        // (λ of the step before would hold only (s − 1)/s of the load).
+        let start = u.clone();
+        let friction = self.contact.filter(|c| c.has_friction());
+        let relag = |contact: &Contact, normal_at: &[f64]| match &moving {
+            Some(m) => contact.friction_lag_moving(
+                normal_at,
+                &start,
+                (&m.from, &m.to),
+                contact.slip_distance(),
+            ),
+            None => contact.friction_lag_from(normal_at, &start, contact.slip_distance()),
+        };
+        let mut lag = match friction {
+            Some(c) => {
+                let mut lag = match &moving {
+                    Some(m) => c.friction_lag_toward(u, c.slip_distance(), &m.to)?,
+                    None => c.friction_lag(u, c.slip_distance())?,
+                };
+                if step > 1 {
+                    lag.scale_limits(step as f64 / (step - 1) as f64);
+                }
+                Some(lag)
+            }
+            None => None,
+        };
+        let mut retried = false;
+        let mut r = self.residual(u, lag.as_ref(), factor)?;
+        // The reference scale: the full load, or for displacement-driven problems the first
+        // residual of the step (moving obstacles raise it, see `solve_placed`).
+        let mut at = LoadStep {
+            step,
+            factor,
+            reference: if load_norm > 0.0 {
+                load_norm
+            } else {
+                norm(&r).max(f64::MIN_POSITIVE)
+            },
+        };
+        let mut history = vec![norm(&r)];
+        for pass in 1..=MAX_FRICTION_PASSES {
+            let outcome =
+                self.solve_placed(u, &mut r, &mut history, lag.as_ref(), &mut at, &moving);
+            let (Some(contact), Some(solved_with)) = (friction, lag.as_ref()) else {
+                outcome?;
+                break;
+            };
+            if let Err(e) = outcome {
+                // The caller's interrupt is no weak lag: stop.
+                if matches!(e, Error::Stopped { .. }) {
+                    return Err(e);
+                }
+                // Once, a lag too weak for this step's load (its normal forces from a state that
+                // carried less) may be what failed: re-lag where the failed pass stopped, whose
+                // normal forces carry this step's load, and solve again from the step's start
+                // (moving obstacles back where they were then, to be moved again).
+                if !retried && contact.check_state(u).is_ok() {
+                    retried = true;
+                    let relagged = relag(contact, u)?;
+                    u.clone_from(&start);
+                    if let Some(m) = &moving {
+                        contact.set_offsets(m.from.clone())?;
+                    }
+                    r = self.residual(u, Some(&relagged), factor)?;
+                    lag = Some(relagged);
+                    history.push(norm(&r));
+                    continue;
+                }
+                let error = no_frictional_equilibrium(
+                    e,
+                    (step, self.options.load_steps),
+                    solved_with,
+                    &self.dofs.restrict(self.f_full)?,
+                    self.dofs.free_dofs(),
+                    factor,
+                    self.dofs.free_dofs().len() < self.f_full.len(),
+                    contact.parameters().activation_distance,
+                );
+                return Err(match &moving {
+                    Some(m) => self.with_sliding_hint(error, contact, solved_with, m),
+                    None => error,
+                });
+            }
+            // Re-lag at this pass's solution: settled when the equilibrium holds under the new
+            // lag to Newton's tolerance (or within twice the floor this pass reached).
+            let floor = history.last().copied().unwrap_or(0.0);
+            let relagged = relag(contact, u)?;
+            r = self.residual(u, Some(&relagged), factor)?;
+            lag = Some(relagged);
+            let now = norm(&r);
+            history.push(now);
+            if now <= self.options.tolerance * at.reference || now <= 2.0 * floor {
+                break;
+            }
+            if pass == MAX_FRICTION_PASSES {
+                return Err(Error::Solver(format!(
+                    "friction's lagged normal forces did not settle in {MAX_FRICTION_PASSES} passes at load step {step}/{} (residual {now:.3e} of {:.3e} under the last lag)",
+                    self.options.load_steps, at.reference
+                )));
+            }
+        }
+        Ok((history, lag))
+    }
+
+    /// `error` (a load step's failed friction solve) with, when a frictional obstacle moved
+    /// along its surface by more than the stick distance ε_d in the load step (`motion`, at
+    /// the lagged contacts of `lag`), why that may be the cause and what helps: its nodes start
+    /// the step sliding relative to it, where friction's potential is linear in the slip (no
+    /// stiffness along it), so a body held along the surface by that friction alone is free
+    /// there and the tangent singular.
+    fn with_sliding_hint(
+        &self,
+        error: Error,
+        contact: &Contact,
+        lag: &FrictionLag,
+        motion: &StepMotion,
+    ) -> Error {
+        let (slide, obstacle) = lag
+            .points
+            .iter()
+            .map(|p| {
+                let o = p.obstacle;
+                ((p.projector * (motion.to[o] - motion.from[o])).norm(), o)
+            })
+            .fold((0.0, 0), |a, b| if b.0 > a.0 { b } else { a });
+        let epsilon = contact.slip_distance();
+        let Error::Solver(message) = error else {
+            return error;
+        };
+        if slide <= epsilon {
+            return Error::Solver(message);
+        }
+        let n = self.options.load_steps;
+        let needed = (n as f64 * slide / epsilon).ceil();
+        Error::Solver(format!(
+            "{message}. Obstacle {obstacle} ('{}') moved along its surface by {slide:.3e} in \
+             this load step, more than friction's stick distance ε_d = {epsilon:.3e}: the nodes \
+             it carries start the load step sliding on it, where friction has no stiffness along \
+             the slip, so a body held along the surface by that friction alone is free there. \
+             At least {needed} load steps (load_steps, now {n}) or a slip_distance above \
+             {slide:.3e} let them start within ε_d",
+            contact.obstacles()[obstacle].name()
+        ))
+    }
+
+    /// One pass's solve of load step `at`: with fixed obstacles (`moving` `None`) Newton from
+    /// `u`; with moving ones, the obstacles go from where they are to `moving.to` in stages
+    /// ([`Contact::advance_stage`]), Newton solving the body at each, so every iterate stays
+    /// outside them. After each move the residual `r` is taken anew and the step's reference
+    /// raised to it and to the obstacles' force on the free DOFs (a displacement-driven step's
+    /// first residual, before the move, is only the last step's round-off).
+    ///
+    /// Errors (naming the load step): an obstacle that touches a node it cannot push away, the
+    /// obstacles still short of their placement after [`MAX_MOTION_STAGES`] stages; Newton's.
+    fn solve_placed(
+        &mut self,
+        u: &mut Vec<f64>,
+        r: &mut Vec<f64>,
+        history: &mut Vec<f64>,
+        lag: Option<&FrictionLag>,
+        at: &mut LoadStep,
+        moving: &Option<StepMotion>,
+    ) -> Result<()> {
+        let (Some(contact), Some(motion)) = (self.contact, moving) else {
+            return self.newton(u, r, history, lag, *at);
+        };
+        for _ in 0..MAX_MOTION_STAGES {
+            let stage = contact.advance_stage(u, &motion.to)?;
+            if stage == MotionStage::Blocked {
+                return Err(self.staging_error(contact, u, &motion.to, at, true));
+            }
+            *r = self.residual(u, lag, at.factor)?;
+            let mut pushed = vec![0.0; u.len()];
+            contact.add_force(u, &mut pushed)?;
+            at.reference = at
+                .reference
+                .max(norm(r))
+                .max(norm(&self.dofs.restrict(&pushed)?));
+            history.push(norm(r));
+            self.newton(u, r, history, lag, *at)?;
+            if stage == MotionStage::Last {
+                return Ok(());
+            }
+        }
+        Err(self.staging_error(contact, u, &motion.to, at, false))
+    }
+
+    /// The error of load step `at` whose obstacles could not be moved to `target` for the body
+    /// at `u`: `blocked` (a node touches one that cannot push it away) or out of stages. It
+    /// names the obstacle that limits the move (the one whose own move alone is the shortest
+    /// collision-free one) and what to do.
+    fn staging_error(
+        &self,
+        contact: &Contact,
+        u: &[f64],
+        target: &[Vector3<f64>],
+        at: &LoadStep,
+        blocked: bool,
+    ) -> Error {
+        let offsets = contact.offsets();
+        let limiting = (0..target.len())
+            .filter(|&o| target[o] != offsets[o])
+            .map(|o| {
+                let mut alone = offsets.clone();
+                alone[o] = target[o];
+                (o, contact.motion_step_limit(u, &alone).unwrap_or(f64::NAN))
+            })
+            .min_by(|a, b| a.1.total_cmp(&b.1))
+            .map_or_else(String::new, |(o, _)| {
+                format!(
+                    " (obstacle {o}, '{}', limits it)",
+                    contact.obstacles()[o].name()
+                )
+            });
+        let n = self.options.load_steps;
+        let (step, t) = (at.step, at.factor);
+        Error::NotConverged {
+            method: "static solve with moving obstacles".into(),
+            message: match blocked {
+                true => format!(
+                    "at load step {step}/{n} (pseudo-time t = {t}) a moving obstacle touches a \
+                     node it cannot push away{limiting}: a support holds the node in its path. \
+                     More load steps do not help; move the obstacle's path or free the node"
+                ),
+                false => format!(
+                    "at load step {step}/{n} the moving obstacles did not reach their placement \
+                     at pseudo-time t = {t} in {MAX_MOTION_STAGES} stages{limiting}: each stage \
+                     moves them {STEP_FRACTION} of the way the body leaves free and solves the \
+                     body there, and a gap held in equilibrium is a fraction of the activation \
+                     distance d̂ = {:.3e}. More load steps (load_steps, now {n}; a scene's \
+                     analysis.load_steps) move them less per load step",
+                    contact.parameters().activation_distance
+                ),
+            },
+        }
+    }
+
+    /// Newton's iterations of load step `at` from `u` (residual `r` there), friction lagged by
+    /// `lag`, until ‖r_f‖ ≤ tolerance·reference (or the round-off floor; with moving obstacles
+    /// also a Newton step below 10⁻⁹·d̂ on every DOF: nothing the barrier resolves). Appends
+    /// each residual norm to `history`.
+    fn newton(
+        &mut self,
+        u: &mut Vec<f64>,
+        r: &mut Vec<f64>,
+        history: &mut Vec<f64>,
+        lag: Option<&FrictionLag>,
+        at: LoadStep,
+    ) -> Result<()> {
+        let (
+            options,
+            LoadStep {
+                step, reference, ..
+            },
+        ) = (self.options, at);
+        let negligible = self
+            .contact
+            .filter(|c| c.is_moving())
+            .map(|c| 1e-9 * c.parameters().activation_distance);
+        let mut converged = norm(r) <= options.tolerance * reference;
+        let mut done = 0;
+        while !converged {
+            // A caller's Ctrl-C between iterations (nothing is returned but the error).
+            crate::linalg::interrupt::poll(|| {
+                format!(
+                    "Newton iteration {} of load step {step}/{}",
+                    done + 1,
+                    options.load_steps
+                )
+            })?;
+            if done >= options.max_iterations {
+                let reached = history.last().copied().unwrap_or(f64::NAN);
+                return Err(Error::NotConverged {
+                    method: "Newton's method".into(),
+                    message: format!(
+                        "no convergence in {} iterations at load step {step}/{}: residual \
+                         ‖r_f‖ = {reached:.3e}, {:.3e} of the reference {reference:.3e} \
+                         (tolerance {:e}); more load steps or iterations may help",
+                        options.max_iterations,
+                        options.load_steps,
+                        reached / reference,
+                        options.tolerance
+                    ),
+                });
+            }
+            let delta = self.direction(u, r, lag)?;
+            if negligible.is_some_and(|small| delta.iter().all(|d| d.abs() <= small)) {
+                break;
+            }
+            let r_norm = norm(r);
+            let Some((trial, r_trial)) = self.line_search(u, &delta, r_norm, lag, at)? else {
+                return Err(Error::NotConverged {
+                    method: "Newton's method".into(),
+                    message: format!(
+                        "the line search found no decrease at load step {step}/{} (residual \
+                         ‖r_f‖ = {r_norm:.3e}, {:.3e} of the reference {reference:.3e}; \
+                         tolerance {:e})",
+                        options.load_steps,
+                        r_norm / reference,
+                        options.tolerance
+                    ),
+                });
+            };
+            *u = trial;
+            *r = r_trial;
+            self.iterations += 1;
+            done += 1;
+            let (before, now) = (r_norm, norm(r));
+            history.push(now);
+            // Converged at the tolerance, or at the round-off floor: below 1e-6 of the
+            // reference a residual that no longer halves is the floating-point noise of the
+            // forces (their O(E) terms cancel to O(E·strain)), and more iterations cannot
+            // lower it.
+            converged = now <= options.tolerance * reference
+                || (now <= 1e-6 * reference && now > 0.5 * before);
+        }
+        Ok(())
+    }
+
+    /// The Newton step Δu on the free DOFs at `u` (free residual `r`): K_t·Δu = r with the
+    /// exact tangent first (quadratic convergence); if it is not positive definite, the one
+    /// with every element tangent projected onto the PSD cone (a descent direction, at the
+    /// price of linear convergence while it is needed). Friction's Hessian is PSD as it stands.
+    fn direction(&mut self, u: &[f64], r: &[f64], lag: Option<&FrictionLag>) -> Result<Vec<f64>> {
+        for project in [false, true] {
+            refill_tangent(
+                self.mesh,
+                self.assembler,
+                self.model,
+                u,
+                project,
+                &mut self.tangent,
+            )?;
+            if let Some(contact) = self.contact {
+                contact.add_tangent(u, project, &mut self.tangent)?;
+                if let Some(lag) = lag {
+                    contact.add_friction_tangent(lag, u, &mut self.tangent)?;
+                }
+            }
+            self.restriction
+                .restrict_into(&self.tangent, &mut self.free_tangent)?;
+            match self.solver.factorize(&self.free_tangent) {
+                Err(tetfem_linalg::Error::NotPositiveDefinite { .. }) if !project => {}
+                other => {
+                    other?;
+                    break;
+                }
+            }
+        }
+        let mut delta = r.to_vec();
+        self.solver.solve(&self.free_tangent, &mut delta)?;
+        Ok(delta)
+    }
+
+    /// The backtracking line search along the free step `delta` from `u` (residual norm
+    /// `r_norm`): from 1, or with contact from [`STEP_FRACTION`] of the collision-free step,
+    /// halved up to 30 times until the residual norm or Π decreases — with contact only a
+    /// decrease of Π (up to its round-off), so the barrier keeps the gaps open. Returns the
+    /// accepted state and its free residual (`None`: no decrease found).
+    fn line_search(
+        &self,
+        u: &[f64],
+        delta: &[f64],
+        r_norm: f64,
+        lag: Option<&FrictionLag>,
+        at: LoadStep,
+    ) -> Result<Option<(Vec<f64>, Vec<f64>)>> {
+        let factor = at.factor;
+        let pi = self.potential(u, lag, factor)?;
+        let mut alpha = 1.0;
+        if let Some(contact) = self.contact {
+            let mut step = vec![0.0; u.len()];
+            for (&dof, d) in self.dofs.free_dofs().iter().zip(delta) {
+                step[dof] = *d;
+            }
+            alpha = (STEP_FRACTION * contact.max_step(u, &step)?).min(1.0);
+        }
+        for _ in 0..30 {
+            let mut trial = u.to_vec();
+            for (&dof, d) in self.dofs.free_dofs().iter().zip(delta) {
+                trial[dof] += alpha * d;
+            }
+            let r_trial = self.residual(&trial, lag, factor)?;
+            let better = match self.contact {
+                Some(_) => {
+                    let trial_pi = self.potential(&trial, lag, factor)?;
+                    trial_pi < pi || (norm(&r_trial) < r_norm && trial_pi <= pi + 1e-12 * pi.abs())
+                }
+                None => norm(&r_trial) < r_norm || self.potential(&trial, lag, factor)? < pi,
+            };
+            if better {
+                return Ok(Some((trial, r_trial)));
+            }
+            alpha *= 0.5;
+        }
+        Ok(None)
+    }
 }
 
 /// The support reactions of a nonlinear static solution: Rᵢ = −(Σₑ fₑ(u) + f)ᵢ on every

@@ -13,15 +13,18 @@
 //! friction), [`obstacle`] (half-space, sphere, box: signed distance, its derivatives, time of
 //! impact), [`overlap`] (the start check of the boundary surface against the obstacles),
 //! [`parameters`] (d̂ and κ and their default rule), [`set`] (the contact of a mesh's
-//! boundary nodes with the obstacles).
+//! boundary nodes with the obstacles), [`staging`] (moving obstacles in collision-free stages).
 //!
 //! Moving obstacles ([`ObstacleMotion`]: a prescribed translation c(t), constant velocity or a
 //! displacement times an amplitude) are placed by [`Contact::set_time`]. An implicit step takes
 //! them to their placement at t_{n+1}; since that placement can overlap the body's state at t_n
 //! (Newton's first iterate), the step moves them there in stages, each the largest collision-free
 //! fraction (×0.8) of the remaining motion for the body's converged state of the stage before
-//! ([`Contact::motion_step_limit`]), so every iterate stays outside. Friction is measured
-//! relative to the obstacle (its slip is the body's tangential motion minus the obstacle's).
+//! ([`Contact::motion_step_limit`], [`Contact::advance_stage`]), so every iterate stays outside.
+//! Friction is measured relative to the obstacle (its slip is the body's tangential motion minus
+//! the obstacle's). A static solve moves them too, over its pseudo-time t ∈ [0, 1] (load step k
+//! of n at t = k/n, see [`crate::nonlinear::solve_nonlinear_static_with_contact`]), staged the
+//! same way within each load step.
 //!
 //! Friction acts in every analysis: as a lagged potential over a time step in the implicit steps
 //! and over a load step in the static solve ([`friction`], [`Contact::friction_lag_from`]), and as
@@ -35,11 +38,13 @@ pub mod obstacle;
 pub mod overlap;
 pub mod parameters;
 pub mod set;
+pub mod staging;
 
 pub use friction::FrictionLag;
 pub use obstacle::{MAX_FRICTION, Obstacle, ObstacleMotion, Shape};
 pub use parameters::ContactParameters;
 pub use set::{Contact, NodesInside};
+pub use staging::{MAX_MOTION_STAGES, MotionStage};
 
 /// The fraction of the collision-free step a line search starts from (IPC's 0.8).
 pub const STEP_FRACTION: f64 = 0.8;

@@ -531,6 +531,27 @@ impl Contact {
         Ok(lag)
     }
 
+    /// [`friction_lag_from`](Self::friction_lag_from) for a static load step whose obstacles
+    /// move from the offsets `from` (at the load step's start) to `to` (its end; length, one
+    /// per obstacle): the slip is measured relative to each obstacle o, from the start position
+    /// carried along by its move, P·((x − x⁰) − (c_to − c_from)), so a node that the obstacle
+    /// carries along does not slip. With `from` = `to` it is `friction_lag_from`.
+    pub fn friction_lag_moving(
+        &self,
+        normal_at: &[f64],
+        start: &[f64],
+        (from, to): (&[Vector3<f64>], &[Vector3<f64>]),
+        epsilon: f64,
+    ) -> Result<FrictionLag> {
+        Error::check_len("obstacle offsets", self.obstacles.len(), from.len())?;
+        Error::check_len("obstacle offsets", self.obstacles.len(), to.len())?;
+        let mut lag = self.friction_lag_from(normal_at, start, epsilon)?;
+        for p in &mut lag.points {
+            p.start += to[p.obstacle] - from[p.obstacle];
+        }
+        Ok(lag)
+    }
+
     /// The friction force on each obstacle (force units; the reaction of the body's friction
     /// force μ·λ·(f₁(y)/y)·P·(x − x⁰)), in the obstacles' order, at full displacement `u`
     /// with the lagged data `lag`.

@@ -7,6 +7,7 @@ use super::internal_force::{ForceWorkspace, NonlinearForce, combine};
 use super::lbfgs::LbfgsMemory;
 use super::nodal_rotation::NodalRotations;
 use super::{LinearSystem, Mass, NonlinearSolve};
+use crate::contact::{MAX_MOTION_STAGES, MotionStage};
 use crate::error::{Error, Result};
 use crate::iterative::CgOptions;
 use crate::linear_solver::LinearSolver;
@@ -115,10 +116,6 @@ pub(crate) struct StepEquation<'a> {
     /// penetration. The convergence test is the same either way.
     pub first_iterate: Option<&'a [f64]>,
 }
-
-/// Most stages a step may take to move the obstacles to their end-of-step placement (see
-/// [`NewtonSolver::solve`]); more is [`Error::Diverged`] (the obstacles move too far per step).
-const MAX_MOTION_STAGES: usize = 100;
 
 /// The Newton solver of an implicit integrator with a nonlinear model: its scratch, the tangent
 /// and the iteration counts.
@@ -484,9 +481,10 @@ impl NewtonSolver {
     }
 
     /// [`solve`](Self::solve) with moving obstacles: from their placement at `time` they go to
-    /// that at `time + duration` in stages. Each stage moves them by 0.8 of the largest
-    /// collision-free fraction of the remaining straight move for the current iterate
-    /// ([`Contact::motion_step_limit`](crate::contact::Contact::motion_step_limit)) and
+    /// that at `time + duration` in stages, at most [`MAX_MOTION_STAGES`] (more is
+    /// [`Error::Diverged`]: the obstacles move too far per step). Each stage moves them by 0.8
+    /// of the largest collision-free fraction of the remaining straight move for the current
+    /// iterate ([`Contact::advance_stage`](crate::contact::Contact::advance_stage)) and
     /// solves the step equation there, so the next stage starts from a body that has made
     /// room; the last stage (the whole remaining move fits) is the step's solution.
     #[allow(clippy::too_many_arguments)]
@@ -510,27 +508,18 @@ impl NewtonSolver {
         let (steps_before, mut iterations) = (self.stats.steps, 0);
         for _ in 0..MAX_MOTION_STAGES {
             let full = self.force.full_displacement(u_new)?;
-            let sigma = placed.motion_step_limit(&full, &target)?;
-            if sigma <= 0.0 {
-                return Err(Error::Diverged {
-                    step,
-                    time,
-                    reason: "a moving obstacle touches a node it cannot push away (a fixed \
-                             support in its way)"
-                        .into(),
-                });
-            }
-            let last = sigma >= 1.0;
-            let offsets: Vec<_> = match last {
-                true => target.clone(),
-                false => placed
-                    .offsets()
-                    .iter()
-                    .zip(&target)
-                    .map(|(c, t)| c + crate::contact::STEP_FRACTION * sigma * (t - c))
-                    .collect(),
+            let last = match placed.advance_stage(&full, &target)? {
+                MotionStage::Blocked => {
+                    return Err(Error::Diverged {
+                        step,
+                        time,
+                        reason: "a moving obstacle touches a node it cannot push away (a fixed \
+                                 support in its way)"
+                            .into(),
+                    });
+                }
+                stage => stage == MotionStage::Last,
             };
-            placed.set_offsets(offsets)?;
             // Converged relative to the force the obstacles exert at this stage's start.
             let mut pushed = vec![0.0; full.len()];
             placed.add_force(&full, &mut pushed)?;

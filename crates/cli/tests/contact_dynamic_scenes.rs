@@ -362,7 +362,9 @@ fn bad_moving_obstacle_keys_are_errors_naming_key_and_line() {
         assert_eq!(l, line, "{message}");
         assert!(message.contains(words), "{message}");
     }
-    // A static scene has no time: a moving obstacle there is refused at its key.
+    // A static scene has no seconds: a velocity there is refused at its key, naming the key
+    // to give instead (a displacement over the load steps' pseudo-time is taken, see
+    // static_moving_obstacle.rs).
     let static_scene = base
         .replace("MOTION", "velocity = [1.0, 0.0, 0.0]")
         .replace(
@@ -372,7 +374,29 @@ fn bad_moving_obstacle_keys_are_errors_naming_key_and_line() {
     match static_scene.parse::<Scene>() {
         Err(Error::Scene { key, message, .. }) => {
             assert_eq!(key, "obstacles[0].velocity");
-            assert!(message.contains("dynamic scenes only"), "{message}");
+            assert!(message.contains("no seconds"), "{message}");
+            assert!(message.contains("give displacement"), "{message}");
+            assert!(message.contains("last load step"), "{message}");
+        }
+        other => panic!("expected a scene error, got {other:?}"),
+    }
+    // A modal scene has no contact: a moving obstacle is refused at its motion's key.
+    let modal_scene = base
+        .replace(
+            "MOTION",
+            "displacement = [1.0, 0.0, 0.0]\namplitude = { ramp = { start = 0.0, end = 1.0 } }",
+        )
+        .replace(
+            "type = \"dynamic\"\nmethod = \"backward_euler\"\ndt = 0.01\nduration = 0.6\n",
+            "type = \"modal\"\n",
+        );
+    match modal_scene.parse::<Scene>() {
+        Err(Error::Scene { key, message, .. }) => {
+            assert_eq!(key, "obstacles[0].displacement");
+            assert!(
+                message.contains("modal analysis has no contact"),
+                "{message}"
+            );
         }
         other => panic!("expected a scene error, got {other:?}"),
     }

@@ -1848,6 +1848,19 @@ fn amplitudes_contact_checkpoints_estimates_tet10_materials_and_forces() {
         "DimensionMismatch",
         || contact.set_offsets(vec![]),
     );
+    s.err(
+        "Contact::advance_stage wrong count",
+        "DimensionMismatch",
+        || contact.advance_stage(&vec![0.0; dofs], &[]),
+    );
+    s.err(
+        "Contact::friction_lag_moving wrong count",
+        "DimensionMismatch",
+        || {
+            let u = vec![0.0; dofs];
+            contact.friction_lag_moving(&u, &u, (&[], &[]), 1e-3)
+        },
+    );
     s.err("Contact::with_slip_velocity 0", "InvalidParameter", || {
         Contact::new(
             &mesh,

@@ -181,7 +181,9 @@ type = "static"                     # default "static"; or "dynamic", which need
                                     # Static (nonlinear model or obstacles): each load step's,
                                     # ‖r_f‖ ≤ t·‖f_f‖, default 1e-10
 # load_steps = 10                   # static, nonlinear model or obstacles: load increments, each
-                                    # solved by Newton, in 1..=100000 (more rescue a failed solve)
+                                    # solved by Newton, in 1..=100000 (more rescue a failed solve);
+                                    # load step k of n is at the pseudo-time t = k/n that moving
+                                    # [[obstacles]] follow
 # accuracy = 0.01                  # static: a target relative energy-norm error in (0, 1) instead
                                     # of a mesh resolution: box meshes get the element order and cells
                                     # predicted cheapest (from the scene's cells, refined ≤ 2× per axis
@@ -206,8 +208,16 @@ type = "static"                     # default "static"; or "dynamic", which need
 # name = "ground"                   # default "obstacle<i>"; letters, digits, '_', '-'
 # friction = 0.0                    # Coulomb μ ≥ 0, default 0 (static, backward_euler, explicit)
 # velocity = [0.0, 0.0, 0.0]        # dynamic only: m/s, moves the obstacle at constant velocity
-# displacement = [0.0, 0.0, -0.01]  # dynamic only, instead: m, moved by displacement·a(t) with
-# amplitude = "press"               #   amplitude (a name of [[amplitudes]] or an inline table)
+                                    # (refused in static scenes: no seconds; give displacement)
+# displacement = [0.0, 0.0, -0.01]  # instead: m, moved by displacement·a(t) with amplitude (a
+# amplitude = "press"               #   name of [[amplitudes]] or an inline table). Static: t is
+                                    #   the pseudo-time k/n at load step k of n (load_steps),
+                                    #   amplitude optional (default a ramp 0 → 1 over t ∈ [0, 1]:
+                                    #   all of it at the last load step); each load step moves it
+                                    #   in stages no node crosses (too far for one: an error
+                                    #   asking for more load_steps); friction's slip is relative
+                                    #   to it (a body carried along its surface by friction alone
+                                    #   needs each load step's move along it below slip_distance)
 # CSV: contact_energy_J, contact_<name>_fx_N/_fy_N/_fz_N (force on the obstacle); .vtu frames:
 # contact_gap (m), contact_pressure (Pa) per node; summary: contact_forces per obstacle (static:
 # force_n, N; dynamic: force_n at the last step, peak_n = the largest |F| (N) at peak_time_s (s));

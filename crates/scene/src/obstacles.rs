@@ -13,15 +13,17 @@ impl Scene {
     /// The `[[obstacles]]` as the library's obstacles, each key checked: errors name the key
     /// (`obstacles[i].radius`) and its line. Also refuses obstacles in modal scenes, on
     /// 10-node meshes, with `analysis.accuracy`, and with Newmark (not energy-stable with the barrier: the README's
-    /// measured drop gains about the fall's work at 10× the critical step), and a motion
-    /// (`velocity`, `displacement` with `amplitude`) outside dynamic scenes.
+    /// measured drop gains about the fall's work at 10× the critical step). A motion: dynamic
+    /// scenes take `velocity` or `displacement` with `amplitude`; static ones `displacement`
+    /// (with an optional `amplitude`) over the pseudo-time t ∈ [0, 1], not `velocity`; modal
+    /// ones none (no obstacle at all).
     pub(crate) fn check_obstacles(&self) -> Result<Vec<Obstacle>> {
         let mut obstacles = Vec::with_capacity(self.spec.obstacles.len());
-        let dynamic = self
+        let kind = self
             .spec
             .analysis
             .as_ref()
-            .is_some_and(|a| a.get_ref().kind == AnalysisKind::Dynamic);
+            .map_or(AnalysisKind::Static, |a| a.get_ref().kind);
         let named = match self
             .spec
             .obstacles
@@ -36,43 +38,7 @@ impl Scene {
             let o = spanned.get_ref();
             let key = |field: &str| format!("obstacles[{i}].{field}");
             let err = |field: &str, msg: String| self.error(&key(field), &span, msg);
-            if let Some(analysis) = &self.spec.analysis {
-                let a = analysis.get_ref();
-                if a.kind == AnalysisKind::Modal {
-                    return Err(err(
-                        "kind",
-                        "a modal analysis has no contact (it is linear about the rest state); \
-                         remove [[obstacles]]"
-                            .into(),
-                    ));
-                }
-                if a.kind == AnalysisKind::Dynamic && a.method == Some(Method::Newmark) {
-                    return Err(err(
-                        "kind",
-                        "contact with method = \"newmark\" is refused: average acceleration is \
-                         not energy-stable with the stiffening barrier (a dropped block gains \
-                         about the fall's work at 10× the critical step); use \"backward_euler\" \
-                         (recommended) or \"explicit\""
-                            .into(),
-                    ));
-                }
-            }
-            if let Some(analysis) = &self.spec.analysis
-                && analysis.get_ref().accuracy.is_some()
-            {
-                return Err(err(
-                    "kind",
-                    "[[obstacles]] with analysis.accuracy is not supported: the accuracy search \
-                     solves without contact; give the mesh's cells instead"
-                        .into(),
-                ));
-            }
-            if self.order == 2 {
-                return Err(err(
-                    "kind",
-                    "contact runs on 4-node tets only; use mesh.order = 1".into(),
-                ));
-            }
+            self.refuse_obstacle_here(i, o, &span)?;
             let name = o.name.clone().unwrap_or_else(|| format!("obstacle{i}"));
             let valid_name = !name.is_empty()
                 && name
@@ -92,94 +58,7 @@ impl Scene {
                     format!("'{name}' is used by an earlier obstacle"),
                 ));
             }
-            let allowed: &[&str] = match o.kind {
-                ObstacleKind::HalfSpace => &["point", "normal"],
-                ObstacleKind::Sphere => &["center", "radius"],
-                ObstacleKind::Box if o.min.is_some() || o.max.is_some() => &["min", "max"],
-                ObstacleKind::Box => &["center", "half_extents", "rotation_deg"],
-            };
-            let given = [
-                ("point", o.point.is_some()),
-                ("normal", o.normal.is_some()),
-                ("center", o.center.is_some()),
-                ("radius", o.radius.is_some()),
-                ("min", o.min.is_some()),
-                ("max", o.max.is_some()),
-                ("half_extents", o.half_extents.is_some()),
-                ("rotation_deg", o.rotation_deg.is_some()),
-            ];
-            if let Some((field, _)) = given.iter().find(|(f, g)| *g && !allowed.contains(f)) {
-                return Err(err(
-                    field,
-                    format!(
-                        "a {:?} obstacle takes {} (not {field})",
-                        o.kind,
-                        allowed.join(", ")
-                    ),
-                ));
-            }
-            let required = |field: &str, value: Option<[f64; 3]>| {
-                let v = value.ok_or_else(|| {
-                    err(field, format!("missing: a {:?} obstacle needs it", o.kind))
-                })?;
-                if v.iter().all(|x| x.is_finite()) {
-                    Ok(Vector3::from(v))
-                } else {
-                    Err(err(field, format!("{v:?}: every component must be finite")))
-                }
-            };
-            let obstacle = match o.kind {
-                ObstacleKind::HalfSpace => {
-                    let point = required("point", o.point)?;
-                    let normal = required("normal", o.normal)?;
-                    if normal.norm() == 0.0 {
-                        return Err(err("normal", "[0, 0, 0]: must be non-zero".into()));
-                    }
-                    Obstacle::half_space(name, point, normal)
-                }
-                ObstacleKind::Sphere => {
-                    let center = required("center", o.center)?;
-                    let radius = o.radius.ok_or_else(|| {
-                        err("radius", "missing: a sphere obstacle needs it".into())
-                    })?;
-                    if radius.is_nan() || radius <= 0.0 || radius.is_infinite() {
-                        return Err(err("radius", format!("{radius}: must be finite and > 0")));
-                    }
-                    Obstacle::sphere(name, center, radius)
-                }
-                ObstacleKind::Box if o.min.is_some() || o.max.is_some() => {
-                    let min = required("min", o.min)?;
-                    let max = required("max", o.max)?;
-                    if let Some(axis) = (0..3).find(|&k| max[k] <= min[k]) {
-                        return Err(err(
-                            "max",
-                            format!(
-                                "{:?}: must exceed min = {:?} on every axis (axis {axis} does not)",
-                                o.max.unwrap_or_default(),
-                                o.min.unwrap_or_default()
-                            ),
-                        ));
-                    }
-                    Obstacle::aligned_box(name, min, max)
-                }
-                ObstacleKind::Box => {
-                    let center = required("center", o.center)?;
-                    let half = required("half_extents", o.half_extents)?;
-                    if half.iter().any(|h| *h <= 0.0) {
-                        return Err(err(
-                            "half_extents",
-                            format!("{:?}: each must be > 0", half.as_slice()),
-                        ));
-                    }
-                    let angle = o.rotation_deg.unwrap_or(0.0);
-                    if !angle.is_finite() {
-                        return Err(err("rotation_deg", format!("{angle}: must be finite")));
-                    }
-                    let rotation =
-                        Rotation3::from_axis_angle(&Vector3::z_axis(), angle.to_radians());
-                    Obstacle::oriented_box(name, center, half, rotation)
-                }
-            };
+            let obstacle = self.obstacle_shape(i, o, &span, name)?;
             let friction = o.friction.unwrap_or(0.0);
             if friction.is_nan() || friction < 0.0 || friction.is_infinite() {
                 return Err(err(
@@ -190,7 +69,7 @@ impl Scene {
             let obstacle = obstacle
                 .and_then(|ob| ob.with_friction(friction))
                 .map_err(|e| err("kind", e.to_string()))?;
-            let obstacle = match self.obstacle_motion(i, o, &span, dynamic, &named)? {
+            let obstacle = match self.obstacle_motion(i, o, &span, kind, &named)? {
                 Some(motion) => obstacle
                     .with_motion(motion)
                     .map_err(|e| err("velocity", e.to_string()))?,
@@ -227,15 +106,178 @@ impl Scene {
         Ok(obstacles)
     }
 
-    /// The motion of `[[obstacles]]` entry `i` (`None`: fixed): `velocity`, or `displacement`
-    /// with `amplitude` (a name of `named` or inline). Errors name the key and line: both
-    /// kinds, one half of the second, a non-finite vector, a motion outside a dynamic scene.
+    /// Refuses `[[obstacles]]` entry `i` where contact does not run: a modal analysis (named
+    /// at the motion's key for a moving obstacle), Newmark, `analysis.accuracy`, 10-node tets.
+    fn refuse_obstacle_here(
+        &self,
+        i: usize,
+        o: &super::spec::ObstacleSpec,
+        span: &std::ops::Range<usize>,
+    ) -> Result<()> {
+        let err =
+            |field: &str, msg: String| self.error(&format!("obstacles[{i}].{field}"), span, msg);
+        if let Some(analysis) = &self.spec.analysis {
+            let a = analysis.get_ref();
+            if a.kind == AnalysisKind::Modal {
+                // A moving obstacle is named by its motion's key.
+                let field = match (o.velocity, o.displacement) {
+                    (Some(_), _) => "velocity",
+                    (None, Some(_)) => "displacement",
+                    (None, None) => "kind",
+                };
+                return Err(err(
+                    field,
+                    "a modal analysis has no contact (it is linear about the rest state), \
+                     so no obstacle, fixed or moving; remove [[obstacles]]"
+                        .into(),
+                ));
+            }
+            if a.kind == AnalysisKind::Dynamic && a.method == Some(Method::Newmark) {
+                return Err(err(
+                    "kind",
+                    "contact with method = \"newmark\" is refused: average acceleration is \
+                     not energy-stable with the stiffening barrier (a dropped block gains \
+                     about the fall's work at 10× the critical step); use \"backward_euler\" \
+                     (recommended) or \"explicit\""
+                        .into(),
+                ));
+            }
+        }
+        if let Some(analysis) = &self.spec.analysis
+            && analysis.get_ref().accuracy.is_some()
+        {
+            return Err(err(
+                "kind",
+                "[[obstacles]] with analysis.accuracy is not supported: the accuracy search \
+                 solves without contact; give the mesh's cells instead"
+                    .into(),
+            ));
+        }
+        if self.order == 2 {
+            return Err(err(
+                "kind",
+                "contact runs on 4-node tets only; use mesh.order = 1".into(),
+            ));
+        }
+        Ok(())
+    }
+
+    /// The shape of `[[obstacles]]` entry `i` named `name` from its keys, each checked (the
+    /// outer error: one not of its kind, a missing or non-finite one, naming the key and line);
+    /// the inner result is the library constructor's (reported at `kind` after the friction
+    /// check).
+    fn obstacle_shape(
+        &self,
+        i: usize,
+        o: &super::spec::ObstacleSpec,
+        span: &std::ops::Range<usize>,
+        name: String,
+    ) -> Result<Result<Obstacle>> {
+        let err =
+            |field: &str, msg: String| self.error(&format!("obstacles[{i}].{field}"), span, msg);
+        let allowed: &[&str] = match o.kind {
+            ObstacleKind::HalfSpace => &["point", "normal"],
+            ObstacleKind::Sphere => &["center", "radius"],
+            ObstacleKind::Box if o.min.is_some() || o.max.is_some() => &["min", "max"],
+            ObstacleKind::Box => &["center", "half_extents", "rotation_deg"],
+        };
+        let given = [
+            ("point", o.point.is_some()),
+            ("normal", o.normal.is_some()),
+            ("center", o.center.is_some()),
+            ("radius", o.radius.is_some()),
+            ("min", o.min.is_some()),
+            ("max", o.max.is_some()),
+            ("half_extents", o.half_extents.is_some()),
+            ("rotation_deg", o.rotation_deg.is_some()),
+        ];
+        if let Some((field, _)) = given.iter().find(|(f, g)| *g && !allowed.contains(f)) {
+            return Err(err(
+                field,
+                format!(
+                    "a {:?} obstacle takes {} (not {field})",
+                    o.kind,
+                    allowed.join(", ")
+                ),
+            ));
+        }
+        let required = |field: &str, value: Option<[f64; 3]>| {
+            let v = value
+                .ok_or_else(|| err(field, format!("missing: a {:?} obstacle needs it", o.kind)))?;
+            if v.iter().all(|x| x.is_finite()) {
+                Ok(Vector3::from(v))
+            } else {
+                Err(err(field, format!("{v:?}: every component must be finite")))
+            }
+        };
+        let obstacle = match o.kind {
+            ObstacleKind::HalfSpace => {
+                let point = required("point", o.point)?;
+                let normal = required("normal", o.normal)?;
+                if normal.norm() == 0.0 {
+                    return Err(err("normal", "[0, 0, 0]: must be non-zero".into()));
+                }
+                Obstacle::half_space(name, point, normal)
+            }
+            ObstacleKind::Sphere => {
+                let center = required("center", o.center)?;
+                let radius = o
+                    .radius
+                    .ok_or_else(|| err("radius", "missing: a sphere obstacle needs it".into()))?;
+                if radius.is_nan() || radius <= 0.0 || radius.is_infinite() {
+                    return Err(err("radius", format!("{radius}: must be finite and > 0")));
+                }
+                Obstacle::sphere(name, center, radius)
+            }
+            ObstacleKind::Box if o.min.is_some() || o.max.is_some() => {
+                let min = required("min", o.min)?;
+                let max = required("max", o.max)?;
+                if let Some(axis) = (0..3).find(|&k| max[k] <= min[k]) {
+                    return Err(err(
+                        "max",
+                        format!(
+                            "{:?}: must exceed min = {:?} on every axis (axis {axis} does not)",
+                            o.max.unwrap_or_default(),
+                            o.min.unwrap_or_default()
+                        ),
+                    ));
+                }
+                Obstacle::aligned_box(name, min, max)
+            }
+            ObstacleKind::Box => {
+                let center = required("center", o.center)?;
+                let half = required("half_extents", o.half_extents)?;
+                if half.iter().any(|h| *h <= 0.0) {
+                    return Err(err(
+                        "half_extents",
+                        format!("{:?}: each must be > 0", half.as_slice()),
+                    ));
+                }
+                let angle = o.rotation_deg.unwrap_or(0.0);
+                if !angle.is_finite() {
+                    return Err(err("rotation_deg", format!("{angle}: must be finite")));
+                }
+                let rotation = Rotation3::from_axis_angle(&Vector3::z_axis(), angle.to_radians());
+                Obstacle::oriented_box(name, center, half, rotation)
+            }
+        };
+        Ok(obstacle)
+    }
+
+    /// The motion of `[[obstacles]]` entry `i` (`None`: fixed) in an analysis of `kind`:
+    /// `velocity`, or `displacement` with `amplitude` (a name of `named` or inline). A static
+    /// scene moves the obstacle over the pseudo-time t ∈ [0, 1] of its load steps (load step k
+    /// of n at t = k/n): `displacement` alone is scaled by a ramp from 0 at t = 0 to 1 at t = 1
+    /// (reached at the last load step), with `amplitude` by a(t); `velocity` is refused there
+    /// (a static solve has no seconds). Errors name the key and line: both kinds, an amplitude
+    /// without displacement, a displacement without amplitude in a dynamic scene, a non-finite
+    /// vector, a velocity in a static scene.
     fn obstacle_motion(
         &self,
         i: usize,
         o: &super::spec::ObstacleSpec,
         span: &std::ops::Range<usize>,
-        dynamic: bool,
+        kind: AnalysisKind,
         named: &std::collections::HashMap<String, tetfem::amplitude::Amplitude>,
     ) -> Result<Option<ObstacleMotion>> {
         let key = |field: &str| format!("obstacles[{i}].{field}");
@@ -262,11 +304,30 @@ impl Scene {
                         .into(),
                 ));
             }
+            (Some(v), None, None) if kind == AnalysisKind::Static => {
+                return Err(err(
+                    "velocity",
+                    format!(
+                        "{v:?}: a static solve has no seconds for a velocity to act over; give \
+                         displacement = [..] (m) instead: the obstacle is moved by \
+                         displacement·t over the load steps' pseudo-time t = k/n and reaches \
+                         it at the last load step (or by displacement·a(t) with amplitude)"
+                    ),
+                ));
+            }
             (Some(v), None, None) => ObstacleMotion::Velocity(finite("velocity", v)?),
+            (None, Some(d), None) if kind == AnalysisKind::Static => ObstacleMotion::Amplitude {
+                displacement: finite("displacement", d)?,
+                // The whole displacement at the pseudo-time t = 1, the last load step.
+                amplitude: tetfem::amplitude::Amplitude::ramp(0.0, 1.0)
+                    .map_err(|e| err("displacement", e.to_string()))?,
+            },
             (None, Some(_), None) => {
                 return Err(err(
                     "displacement",
-                    "needs an amplitude (a name of [[amplitudes]] or an inline table)".into(),
+                    "needs an amplitude in a dynamic scene (a name of [[amplitudes]] or an \
+                     inline table)"
+                        .into(),
                 ));
             }
             (None, None, Some(_)) => {
@@ -280,18 +341,6 @@ impl Scene {
                 amplitude: self.amplitude_of(a, named, &key("amplitude"), span)?,
             },
         };
-        if !dynamic {
-            let field = match motion {
-                ObstacleMotion::Velocity(_) => "velocity",
-                ObstacleMotion::Amplitude { .. } => "displacement",
-            };
-            return Err(err(
-                field,
-                "an obstacle moves in dynamic scenes only (a static solve has no time); remove \
-                 it or set [analysis] type = \"dynamic\""
-                    .into(),
-            ));
-        }
         Ok(Some(motion))
     }
 

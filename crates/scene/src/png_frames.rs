@@ -69,11 +69,12 @@ pub(crate) fn static_picture<C: CellType>(
             title: look.title.to_string(),
             subtitle: format!("static, deformation ×{}", format_scale(scale)),
             deformation_scale: scale,
-            // A static scene's obstacles do not move (motions are refused): at rest.
+            // Where the solution has them: a moving obstacle at the end of the static
+            // step's pseudo-time, t = 1 (a fixed one anywhere).
             obstacles: scene
                 .obstacles
                 .iter()
-                .map(|o| ObstacleView::at(o, 0.0))
+                .map(|o| ObstacleView::at(o, tetfem::amplitude::STATIC_TIME))
                 .collect(),
             ..RenderOptions::default()
         },

@@ -570,12 +570,17 @@ fn write_static_outputs<E: SceneElement>(
         pvd.push(0.0, &vtu)?;
         files.push(vtu);
         files.push(pvd.path().to_path_buf());
-        // The obstacles' surfaces beside the body, for ParaView (at rest: a static scene's
-        // obstacles do not move).
+        // The obstacles' surfaces beside the body, for ParaView: where the solution has them,
+        // moving ones at the end of the static step's pseudo-time (TimeValue t = 1), fixed ones
+        // at rest (t = 0, as before obstacles could move here).
         if !scene.obstacles.is_empty() {
             let vtp = dir.join(format!("{}_obstacles.vtp", out.stem));
             let (center, tile) = super::obstacles::obstacle_tile(&built.mesh);
-            tetfem::output::write_obstacles_vtp(&vtp, &scene.obstacles, 0.0, center, tile)?;
+            let time = match scene.obstacles.iter().any(|o| o.motion().is_some()) {
+                true => tetfem::amplitude::STATIC_TIME,
+                false => 0.0,
+            };
+            tetfem::output::write_obstacles_vtp(&vtp, &scene.obstacles, time, center, tile)?;
             files.push(vtp);
         }
     }

@@ -97,11 +97,15 @@ pub struct ObstacleSpec {
     #[serde(default)]
     pub rotation_deg: Option<f64>,
     /// Dynamic scenes: a constant velocity of the obstacle (m/s); its placement at time t is
-    /// the given one moved by velocity·t. Not with `displacement`.
+    /// the given one moved by velocity·t. Not with `displacement`; refused in static scenes
+    /// (a static solve has no seconds: give `displacement`).
     #[serde(default)]
     pub velocity: Option<[f64; 3]>,
-    /// Dynamic scenes: a translation of the obstacle (m) scaled by `amplitude`; its placement
-    /// at time t is the given one moved by displacement·a(t).
+    /// A translation of the obstacle (m) scaled by `amplitude`; its placement at time t is the
+    /// given one moved by displacement·a(t). Dynamic scenes: t in seconds, `amplitude`
+    /// required. Static scenes: t is the pseudo-time t ∈ [0, 1] (load step k of n at t = k/n),
+    /// `amplitude` optional (default a ramp from 0 at t = 0 to 1 at t = 1: the whole
+    /// displacement at the last load step).
     #[serde(default)]
     pub displacement: Option<[f64; 3]>,
     /// The amplitude a(t) of `displacement`: a name of `[[amplitudes]]` or an inline table.
