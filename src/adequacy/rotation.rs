@@ -20,7 +20,7 @@ use crate::model::rotation;
 ///
 /// Measured on the peer cantilever (L = 10, W = H = 1, E = 1e5, ν = 0.3, 20×2×2 cells of the
 /// lecture's split, clamped at x = 0, uniform end traction) by
-/// `model_choice_curve` in `tests/model_adequacy.rs`, which prints the whole table (run it
+/// `model_choice_curve` in `tests/core/model_adequacy.rs`, which prints the whole table (run it
 /// with `--ignored --nocapture`); `curve_points_are_reproduced` there recomputes two points
 /// and checks them against this table. The error grows about linearly with the rotation
 /// (≈ (2/5)·θ in radians: the tip's missing swing), so between points it is interpolated

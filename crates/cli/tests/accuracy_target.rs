@@ -109,7 +109,7 @@ fn cantilever_target_picks_order_2_and_its_true_error_meets_it() {
 
     // The true error: ‖u − u_h‖_E² = f·u − f·u_h (Galerkin orthogonality, a(v, v) = f(v) for u
     // and u_h), f·u by Richardson's extrapolation of the P2 compliances on 20×2×2, 40×4×4 and
-    // 80×8×8 cells (as tests/error_estimate.rs of the root crate).
+    // 80×8×8 cells (as tests/core/error_estimate.rs of the root crate).
     let c: Vec<f64> = [2, 4, 8]
         .iter()
         .map(|&k| compliance(&run(&beam([10 * k, k, k], 2, ""))))
@@ -126,7 +126,7 @@ fn cantilever_target_picks_order_2_and_its_true_error_meets_it() {
          {true_relative:.4}, estimate {estimate:.4}, effectivity {effectivity:.3}"
     );
     // The estimator's effectivity band measured on this cantilever for P1 and P2
-    // (tests/error_estimate.rs): within it, an estimate ≤ target means a true error ≤ target/0.7.
+    // (tests/core/error_estimate.rs): within it, an estimate ≤ target means a true error ≤ target/0.7.
     assert!(
         (0.7..=1.5).contains(&effectivity),
         "effectivity {effectivity}"

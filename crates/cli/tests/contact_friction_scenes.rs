@@ -101,7 +101,7 @@ fn an_explicit_block_thrown_along_frictional_ground_stops_after_coulombs_distanc
     let _ = std::fs::remove_dir_all(&dir);
     let v0 = 0.3;
     // dt = 1.5e-4 s, about a fifth of the critical step (7.2e-4 s; the barrier's own stable
-    // step at the resting gap is larger, see tests/contact_friction.rs); stiffness damping
+    // step at the resting gap is larger, see tests/core/contact_friction.rs); stiffness damping
     // β = 2e-4 s (damping ratio ≤ 0.3 at the highest mode) quiets the ringing of the start
     // without slowing a rigid slide (K_T·v = 0 for a translation). 0.1 s: the slide lasts
     // v₀/(μg) = 0.061 s.

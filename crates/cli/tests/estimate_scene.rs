@@ -68,7 +68,7 @@ fn static_summary_and_vtu_carry_the_estimate() {
         c.relative, f.relative
     );
     // Halving h lowers the estimate: 0.585 → 0.442 measured (the P1 energy error of these
-    // bending-locked meshes falls slower than h; tests/error_estimate.rs has the effectivities).
+    // bending-locked meshes falls slower than h; tests/core/error_estimate.rs has the effectivities).
     // A factor 1.3 fails if the estimate does not follow the refinement.
     assert!(
         c.relative > 1.3 * f.relative,

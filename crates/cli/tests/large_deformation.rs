@@ -413,7 +413,7 @@ fn nonlinear_backward_euler_on_two_cholesky_threads_matches_one_thread() {
     use std::sync::Arc;
     use tetfem::CholeskyOptions;
     use tetfem::dynamics::{NonlinearBackwardEuler, State};
-    // The beam of tests/dynamics.rs's two-thread check, whose factor splits into two halves.
+    // The beam of tests/core/dynamics.rs's two-thread check, whose factor splits into two halves.
     let problem = Cantilever {
         end_load: 600.0,
         ..Cantilever::peer_benchmark([30, 6, 6])

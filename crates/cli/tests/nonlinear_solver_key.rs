@@ -71,7 +71,7 @@ fn difference_and_size(a: &[f64], b: &[f64]) -> (f64, f64) {
 
 /// Both values run; the tips agree to 1e-6 relative (each step's Newton residual is ≤ 1e-8 of
 /// its reference on both paths, and backward Euler does not amplify the difference: the library
-/// test `tests/corotational_step.rs` measures 1e-10 on the same beam), and the refactoring one
+/// test `tests/core/corotational_step.rs` measures 1e-10 on the same beam), and the refactoring one
 /// factors once per Newton iteration while the default factors less often.
 #[test]
 fn refactor_and_rest_preconditioned_give_the_same_swing() {

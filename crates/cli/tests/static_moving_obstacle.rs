@@ -91,7 +91,7 @@ fn a_plate_moved_down_in_a_static_scene_presses_the_column() {
     let d_hat = 1e-3 * (0.1f64.powi(2) * 2.0 + HEIGHT * HEIGHT).sqrt();
     assert!(top < -1.9e-3 && top > -1.9e-3 - d_hat, "{top}");
     // Uniaxial (ν = 0): F = E·A·|u|/L for a uniform top; the top nodes' gaps differ by a
-    // fraction of d̂, a 2 % spread of u at 2 mm (tests/contact_static_moving.rs measures the
+    // fraction of d̂, a 2 % spread of u at 2 mm (tests/core/contact_static_moving.rs measures the
     // bracket exactly): 3 %.
     let expected = E * AREA * top.abs() / HEIGHT;
     println!(
@@ -135,7 +135,7 @@ fn an_amplitude_is_taken_at_the_load_steps_pseudo_time() {
 #[test]
 fn a_press_too_far_for_its_load_steps_is_an_error_naming_load_steps() {
     // 40 mm (10 % strain) in one load step: the staging needs ~2000 stages (see
-    // tests/contact_static_moving.rs), beyond the 100 a load step takes.
+    // tests/core/contact_static_moving.rs), beyond the 100 a load step takes.
     match run(&column("displacement = [0.0, 0.0, -0.04]", 1)) {
         Err(e) => {
             let message = e.to_string();

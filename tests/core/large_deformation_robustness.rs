@@ -3,7 +3,7 @@
 //! f = −R·Kₑ·(Rᵀx − X); tangents on inverted tets and where the rotation is not differentiable;
 //! the PSD projection; Newton driven by prescribed displacements alone.
 
-mod common;
+use crate::common;
 
 use common::{Rng, random_tet};
 use nalgebra::{Matrix3, Rotation3, SymmetricEigen, Unit, Vector3};

@@ -3,7 +3,7 @@
 //! a checkpoint through its file bytes, a fresh integrator restored from it and 100 more steps
 //! give the same bits as 200 steps in one go. Bad checkpoints are refused by name.
 
-mod common;
+use crate::common;
 
 use std::path::Path;
 use std::sync::Arc;

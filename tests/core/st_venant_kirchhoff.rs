@@ -2,7 +2,7 @@
 //! identities (Hooke's law at rest, rotation invariance, the reflection blind spot), an exact
 //! tangent, and Newton through the unchanged nonlinear statics.
 
-mod common;
+use crate::common;
 
 use common::{Rng, random_tet};
 use nalgebra::{Matrix3, Rotation3, Unit, Vector3};

@@ -1,7 +1,7 @@
 //! Convergence rates against exact answers: a manufactured solution on the unit cube (L2 order
 //! 2, energy order 1), the quadrature rule, and the convergence-study helpers.
 
-mod common;
+use crate::common;
 
 use common::manufactured::Manufactured;
 use nalgebra::Vector3;

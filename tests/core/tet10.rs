@@ -1,7 +1,7 @@
 //! The quadratic 10-node tet through the element seam: its reference data against independent
 //! quadrature, and the whole static path (assembly, constraints, loads, solve, output) on it.
 
-mod common;
+use crate::common;
 
 use nalgebra::{Matrix3, Vector3};
 use tetfem::element::tet10::{self, EDGES, REFERENCE_MASS};

@@ -194,7 +194,7 @@ fn gmsh41_nodes_in_any_tag_order_read_as_the_same_mesh() {
     }
 }
 
-/// The 1-tet file of tests/mesh_io.rs with its tags in another order and one of them given
+/// The 1-tet file of tests/core/mesh_io.rs with its tags in another order and one of them given
 /// twice or missing.
 const MSH41: &str = "$MeshFormat\n4.1 0 8\n$EndMeshFormat\n$Nodes\n1 4 1 4\n3 1 0 4\n4\n3\n2\n1\n0 0 1\n0 1 0\n1 0 0\n0 0 0\n$EndNodes\n$Elements\n1 1 1 1\n3 1 4 1\n1 1 2 3 4\n$EndElements\n";
 
@@ -259,7 +259,7 @@ fn mixed_and_quadratic_meshes_are_errors_naming_counts_and_the_fix() {
     let (line, message) = parse_error("mixed22.msh", mixed22.as_bytes());
     assert_eq!(line, 17, "{message}");
     assert!(message.contains("1 Pri6"), "{message}");
-    // An order-2 tet is read (as 4-node tets, its corners; tests/quadratic_mesh_io.rs reads it
+    // An order-2 tet is read (as 4-node tets, its corners; tests/core/quadratic_mesh_io.rs reads it
     // as a 10-node tet); beside an order-2 prism it is an error naming both and the fix.
     let tet10 = "$MeshFormat\n2.2 0 8\n$EndMeshFormat\n$Nodes\n10\n1 0 0 0\n2 1 0 0\n3 0 1 0\n4 0 0 1\n5 0.5 0 0\n6 0.5 0.5 0\n7 0 0.5 0\n8 0 0 0.5\n9 0 0.5 0.5\n10 0.5 0 0.5\n$EndNodes\n$Elements\n1\n1 11 2 1 1 1 2 3 4 5 6 7 8 9 10\n$EndElements\n";
     let path = tmp("tet10.msh");

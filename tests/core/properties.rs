@@ -5,7 +5,7 @@
 //! quoted next to each bound were measured over many more random cases than the properties run,
 //! with `cargo test --release --test properties -- --ignored --nocapture` (`measure_margins`).
 
-mod common;
+use crate::common;
 
 use std::collections::HashMap;
 use std::fmt;

@@ -1,7 +1,7 @@
 //! Manufactured-solution convergence rates of the linear (P1) and the quadratic (P2) tet under
 //! uniform refinement of the unit cube: L2 error O(h^{p+1}), energy error O(h^p).
 
-mod common;
+use crate::common;
 
 use common::manufactured::Manufactured;
 use nalgebra::Vector3;

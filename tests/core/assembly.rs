@@ -1,7 +1,7 @@
 //! Global assembly: the scatter-map assembly equals a naive dense one, K is symmetric with the
 //! rigid motions in its null space, and the masses sum to ρ·volume.
 
-mod common;
+use crate::common;
 
 use common::Rng;
 use nalgebra::{DMatrix, Vector3};

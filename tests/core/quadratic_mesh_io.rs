@@ -308,7 +308,7 @@ fn gmsh_tet10_files_read_back_as_the_generated_mesh_and_solve_the_same() {
 }
 
 /// The displacement field of the quadratic patch test and its constant body force (as in
-/// tests/tet10.rs: u quadratic, σ linear, b = −∇·σ).
+/// tests/core/tet10.rs: u quadratic, σ linear, b = −∇·σ).
 fn quadratic_field(x: &Vector3<f64>) -> Vector3<f64> {
     Vector3::new(
         1e-3 * (x.x * x.x + 0.5 * x.y * x.z - 0.3 * x.z),

@@ -1,7 +1,7 @@
 //! Static equilibrium: patch tests (linear fields reproduced exactly), uniaxial tension, the
 //! cantilever against beam theory and against independent FEM codes, and constraint errors.
 
-mod common;
+use crate::common;
 
 use common::Rng;
 use nalgebra::{Matrix3, Vector3};

@@ -1,7 +1,7 @@
 //! Element-level identities: symmetry, rigid-body null space, the B-matrix form, renumbering
 //! invariance, and the lecture's face-force recipe.
 
-mod common;
+use crate::common;
 
 use common::{Rng, random_tet};
 use nalgebra::{SymmetricEigen, Vector3};

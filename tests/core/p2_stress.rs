@@ -3,7 +3,7 @@
 //! strain is linear in the tet, so a stress field linear in space is output exactly at the
 //! nodes; the tet mean (the old nodal source) is not.
 
-mod common;
+use crate::common;
 
 use nalgebra::{Matrix3, Vector3};
 use tetfem::output::fields::{cell_stress, nodal_stress, recovered_nodal_stress, tet_node_stress};
