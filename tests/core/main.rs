@@ -3,12 +3,12 @@
 //!
 //! Run one subject with `cargo test --release --test core -- MODULE::` (e.g. `statics::`).
 
-mod common;
 mod amg;
 mod assembly;
 mod atomic_writes;
 mod beam_theory;
 mod block_sparse;
+mod common;
 mod contact_bad_input;
 mod contact_drop;
 mod contact_friction;

@@ -1,11 +1,11 @@
 //! Binary `.vtu` (appended raw, the default) read back through the tests' own reader
-//! (tests/common/vtu.rs: roxmltree for the XML, the appended block decoded by hand): every array
+//! (tests/core/common/vtu.rs: roxmltree for the XML, the appended block decoded by hand): every array
 //! bit for bit as written, for the library's writer (linear and quadratic cells) and for static,
 //! dynamic and modal scene outputs; the stress and strain tensors every frame carries; the
 //! `.pvd` times t = n·dt without a running sum's drift; and, where Python has meshio, meshio
 //! reading the same files.
 
-#[path = "../../../tests/common/vtu.rs"]
+#[path = "../../../tests/core/common/vtu.rs"]
 mod vtu;
 
 use std::path::{Path, PathBuf};

@@ -1,6 +1,6 @@
 //! The `tetfem` binary: default scene run, its `.vtu` output read back, help and errors.
 
-#[path = "../../../tests/common/mod.rs"]
+#[path = "../../../tests/core/common/mod.rs"]
 mod common;
 
 use std::path::PathBuf;

@@ -3,7 +3,7 @@
 //! obstacle moving at constant velocity and one lowered by an amplitude, and the keys of a
 //! moving obstacle checked with their key and line.
 
-#[path = "../../../tests/common/vtu.rs"]
+#[path = "../../../tests/core/common/vtu.rs"]
 mod vtu;
 
 use std::path::{Path, PathBuf};

@@ -1,7 +1,7 @@
 //! The self-estimated error and the model-adequacy checks of scene runs: summary keys, the
 //! `.vtu` cell field, and the warnings.
 
-#[path = "../../../tests/common/vtu.rs"]
+#[path = "../../../tests/core/common/vtu.rs"]
 mod vtu;
 use std::path::Path;
 

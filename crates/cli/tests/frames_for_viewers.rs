@@ -3,7 +3,7 @@
 //! ("deformation ×3508", a colour bar to 2.9e-5 m while |u| reached 9.3e-4 m); and obstacles
 //! were only in the PNGs, not in files ParaView opens.
 
-#[path = "../../../tests/common/mod.rs"]
+#[path = "../../../tests/core/common/mod.rs"]
 mod common;
 
 use std::ops::ControlFlow;

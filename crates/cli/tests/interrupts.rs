@@ -9,7 +9,7 @@
 //! whole; beyond it there may be more whole rows and, only if the kill hit a write, one
 //! unterminated fragment at the very end.
 
-#[path = "../../../tests/common/mod.rs"]
+#[path = "../../../tests/core/common/mod.rs"]
 mod common;
 
 use std::io::Read;

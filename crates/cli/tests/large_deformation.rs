@@ -2,7 +2,7 @@
 //! small-strain limit, exact tangents, inverted tets, a cantilever bent past 45° and Newton's
 //! quadratic convergence.
 
-#[path = "../../../tests/common/mod.rs"]
+#[path = "../../../tests/core/common/mod.rs"]
 mod common;
 
 use common::{Rng, random_tet};

@@ -168,6 +168,40 @@ fn from_above_the_ground_tile_shows_beside_the_body_in_its_own_colour() {
     assert_eq!(pixel(&bare, (sx, sy)), BACKGROUND);
 }
 
+/// A platen (a half-space above the body, its normal down) seen from above is in front of the
+/// body: the body's top face shows through it, blended with the platen's colour; a floor under
+/// the body seen from above is behind it: the same pixel is the bare body's. Before the fix
+/// every half-space was drawn before the body, so the platen vanished behind the top face.
+#[test]
+fn a_platen_above_the_body_seen_from_above_is_drawn_over_it() {
+    let mesh = cube();
+    let platen = {
+        let obstacle = Obstacle::half_space(
+            "platen",
+            Vector3::new(0.0, 0.0, 0.26),
+            Vector3::new(0.0, 0.0, -1.0),
+        )
+        .unwrap();
+        ObstacleView::at(&obstacle, 0.0)
+    };
+    let (bare, options) = picture(&mesh, Vec::new(), -60.0, 25.0);
+    let (pressed, _) = picture(&mesh, vec![platen], -60.0, 25.0);
+    let (on_floor, _) = picture(&mesh, vec![ground()], -60.0, 25.0);
+    let u = vec![0.0; mesh.dof_count()];
+    // The centre of the top face: the body, nearest the eye there among its faces.
+    let top = view(&mesh, &u, &options)
+        .unwrap()
+        .screen(&Vector3::new(0.1, 0.1, 0.25));
+    let body = pixel(&bare, top);
+    assert_ne!(body, BACKGROUND, "the top face is at {top:?}");
+    // The floor does not change the body's pixel (the same camera: the framing is the body's).
+    assert_eq!(pixel(&on_floor, top), body);
+    // The platen covers it partly: neither the bare body's colour nor the opaque fill.
+    let covered = pixel(&pressed, top);
+    assert_ne!(covered, body);
+    assert_ne!(covered, OBSTACLE_FILL);
+}
+
 #[test]
 fn a_sphere_is_a_disc_of_its_projected_radius_and_a_far_one_is_brought_into_view() {
     let mesh = cube();

@@ -2,7 +2,7 @@
 //! structure; derived fields against closed forms; the PNG renderer; mesh quality and the
 //! critical time step.
 
-#[path = "../../../tests/common/vtu.rs"]
+#[path = "../../../tests/core/common/vtu.rs"]
 mod vtu;
 
 use std::collections::HashMap;

@@ -7,7 +7,7 @@
 //! changed scene, with nothing left to run; `checkpoint_every` negative, fractional, or in a
 //! static scene — each an error naming the key and its line (or the file).
 
-#[path = "../../../tests/common/mod.rs"]
+#[path = "../../../tests/core/common/mod.rs"]
 mod common;
 
 use std::ops::ControlFlow;

@@ -541,7 +541,14 @@ pub fn render<C: CellType>(
         }
     }
 
-    obstacles::draw_solids(&mut image, &depth, &view, &options.obstacles, &light, clip);
+    obstacles::draw_solids(
+        &mut image,
+        &depth,
+        &view,
+        &options.obstacles,
+        (&light, framed),
+        clip,
+    );
     let legend = obstacles::legend_rows(options.obstacles.len(), h);
     let bar_bottom = h as f64 - 40.0 - obstacles::LEGEND_ROW * legend as f64;
     draw_colour_bar(&mut image, bar_bottom as i64);

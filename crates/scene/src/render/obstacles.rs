@@ -1,7 +1,8 @@
 //! Rigid obstacles in a picture, clipped to the plot, with their names in a legend under the
-//! colour bar. The body stays on top: half-spaces are drawn before it (a body outside a
-//! half-space, seen from its side, is never behind it); spheres and boxes after it against its
-//! depth buffer, hidden where the body is nearer the eye and drawn at [`FRONT_ALPHA`] over it
+//! colour bar. The body stays on top: half-spaces seen from the body's side are drawn before it
+//! (a body outside a half-space, seen from its side, is never behind it); spheres, boxes and
+//! half-spaces seen from their solid side (a platen above a body seen from above) after it
+//! against its depth buffer, hidden where the body is nearer the eye and drawn at [`FRONT_ALPHA`] over it
 //! where they are nearer, so the body shows through and the overlap reads as in front.
 //!
 //! - A half-space is drawn as a slab of its boundary: the tile of the plane under everything the
@@ -253,8 +254,17 @@ impl Canvas<'_> {
     }
 }
 
-/// Draws the half-spaces of `obstacles` (before the body, which is drawn over them: a body
-/// outside a half-space, seen from its side, is never behind it).
+/// Whether the eye sees half-space boundary `normal` (pointing out of the obstacle, to the
+/// body's side) from the body's side: a floor seen from above. Then the body, outside the
+/// obstacle, is never behind the plane; a platen above a body seen from above is the other
+/// case, and is in front of it.
+fn seen_from_outside(view: &View, normal: &Vector3<f64>) -> bool {
+    view.eye.dot(normal) >= 0.0
+}
+
+/// Draws the half-spaces of `obstacles` seen from the body's side (before the body, which is
+/// drawn over them: a body outside a half-space, seen from its side, is never behind it); the
+/// others are drawn with the solids, over the body ([`draw_solids`]).
 pub(super) fn draw_grounds(
     image: &mut Image,
     view: &View,
@@ -268,22 +278,24 @@ pub(super) fn draw_grounds(
         clip,
     };
     for obstacle in obstacles {
-        if let (Shape::HalfSpace { .. }, Some(solid)) =
+        if let (Shape::HalfSpace { normal, .. }, Some(solid)) =
             (obstacle.shape, solid_of(&obstacle.shape, framed))
+            && seen_from_outside(view, &normal)
         {
             draw_solid(&mut canvas, view, &solid, &Vector3::zeros());
         }
     }
 }
 
-/// Draws the spheres and boxes of `obstacles` after the body, whose depth buffer is `depth`
-/// (see [`Canvas::put`]); `light` is the unit direction the surfaces are lit from.
+/// Draws the spheres, boxes and half-spaces seen from their solid side of `obstacles` after
+/// the body, whose depth buffer is `depth` (see [`Canvas::put`]); `light` is the unit direction
+/// the surfaces are lit from, `framed` what the camera frames (a half-space's tile).
 pub(super) fn draw_solids(
     image: &mut Image,
     depth: &[f64],
     view: &View,
     obstacles: &[ObstacleView],
-    light: &Vector3<f64>,
+    (light, framed): (&Vector3<f64>, Framed),
     clip: Clip,
 ) {
     let mut canvas = Canvas {
@@ -293,7 +305,13 @@ pub(super) fn draw_solids(
     };
     for obstacle in obstacles {
         match obstacle.shape {
-            Shape::HalfSpace { .. } => {}
+            Shape::HalfSpace { normal, .. } => {
+                if let Some(solid) = solid_of(&obstacle.shape, framed)
+                    && !seen_from_outside(view, &normal)
+                {
+                    draw_solid(&mut canvas, view, &solid, &Vector3::zeros());
+                }
+            }
             Shape::Sphere { center, radius } => {
                 draw_sphere(&mut canvas, view, center, radius, light)
             }
