@@ -1,14 +1,15 @@
 //! `tetfem.Simulation`: time integration of M·ü + C·u̇ + K·u = f (or a nonlinear force model)
 //! with any of the library's methods, stepped from Python with the GIL released.
 
+use std::path::PathBuf;
 use std::sync::{Arc, Mutex, MutexGuard, TryLockError};
 use std::thread::ThreadId;
 
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use tetfem::dynamics::{
-    BackwardEuler, Energy, Integrator, IntegratorOptions, InternalForce, LinearSystem, Mass,
-    Method, Newmark, Rayleigh, State, SymplecticEuler, critical_time_step,
+    BackwardEuler, Checkpoint, Energy, Integrator, IntegratorOptions, InternalForce, LinearSystem,
+    Mass, Method, Newmark, Rayleigh, State, SymplecticEuler, critical_time_step,
 };
 use tetfem::loads::Loads;
 use tetfem::materials::MaterialMap;
@@ -167,6 +168,16 @@ impl PySimulation {
                 tetfem::dynamics::element_step_bound_of(&data.mesh, materials)?.dt_element
             }
         })
+    }
+
+    /// What a checkpoint of this run stores to recognise it: the method, the model and the
+    /// free DOF count.
+    fn fingerprint(&self, state: &State) -> Vec<(String, String)> {
+        vec![
+            ("method".into(), self.method.into()),
+            ("model".into(), self.model().into()),
+            ("free DOFs".into(), state.displacement.len().to_string()),
+        ]
     }
 
     /// The integrator and the state, for a call of this thread: `TetfemError` (busy) when
@@ -339,6 +350,48 @@ impl PySimulation {
     fn step(&self, py: Python<'_>) -> PyResult<()> {
         let _runner = self.claim(py)?;
         self.advance(py, |_| Ok(())).map(|_| ())
+    }
+
+    /// Writes a checkpoint of the run to ``path`` (a small binary file, written atomically):
+    /// the state (u, v, time, step count), what the method carries from one step to the next
+    /// and the time step, with the method, model and free DOF count as its fingerprint.
+    /// ``restore(path)`` on a Simulation built the same way continues bit for bit as if never
+    /// interrupted. Raises ``TetfemIOError`` when the file cannot be written.
+    fn checkpoint(&self, py: Python<'_>, path: PathBuf) -> PyResult<()> {
+        let guard = self.stepping(py)?;
+        let fingerprint = self.fingerprint(&guard.state);
+        let checkpoint =
+            Checkpoint::take(guard.stepper.get(), &guard.state, fingerprint, Vec::new())
+                .or_raise(py)?;
+        drop(guard);
+        py.detach(|| checkpoint.write(&path)).or_raise(py)
+    }
+
+    /// Continues from the checkpoint at ``path`` (see ``checkpoint``): the state, the
+    /// method's history and the time step become the checkpoint's. A checkpoint of another
+    /// method, model or free DOF count raises ``InvalidInputError`` naming the entry and both
+    /// values; a damaged file ``TetfemError`` naming the byte offset.
+    fn restore(&self, py: Python<'_>, path: PathBuf) -> PyResult<()> {
+        let checkpoint = py.detach(|| Checkpoint::read(&path)).or_raise(py)?;
+        let mut guard = self.stepping(py)?;
+        for (name, ours) in self.fingerprint(&guard.state) {
+            let theirs = checkpoint.fingerprint_entry(&name).unwrap_or("none");
+            if theirs != ours {
+                return Err(invalid(
+                    py,
+                    &format!("checkpoint {name}"),
+                    theirs,
+                    &format!(
+                        "this Simulation has {name} = {ours}: restore a checkpoint of a Simulation built the same way"
+                    ),
+                ));
+            }
+        }
+        let stepping = &mut *guard;
+        let integrator = stepping.stepper.integrator();
+        integrator.set_time_step(checkpoint.dt).or_raise(py)?;
+        stepping.state = checkpoint.restore(integrator).or_raise(py)?;
+        Ok(())
     }
 
     /// Takes ``steps`` steps and returns the energy history after each step as numpy arrays of
