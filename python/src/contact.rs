@@ -6,8 +6,8 @@ use tetfem::contact::{Contact, ContactParameters, Obstacle};
 use tetfem::materials::MaterialMap;
 
 use crate::arrays;
-use crate::errors::OrRaise;
-use crate::mesh::MeshData;
+use crate::errors::{OrRaise, invalid};
+use crate::mesh::{Cells, MeshData};
 
 /// A rigid obstacle the body may touch but not enter (length units; SI m). Make one with
 /// ``Obstacle.half_space(name, point, normal)`` (the side the normal points to is free),
@@ -120,7 +120,16 @@ pub fn contact_of(
     let Some(obstacles) = obstacles.filter(|o| !o.is_empty()) else {
         return Ok(None);
     };
-    let mesh = &data.mesh;
+    // The library's `Contact` is built on a 4-node mesh (as scenes, which refuse obstacles
+    // with `mesh.order = 2`).
+    let Cells::P1(mesh) = &data.mesh else {
+        return Err(invalid(
+            py,
+            "obstacles",
+            format!("{} obstacles on a mesh of order 2", obstacles.len()),
+            "obstacles (contact) run on 4-node tets only: use a mesh of order 1",
+        ));
+    };
     let stiffest = materials
         .materials()
         .iter()

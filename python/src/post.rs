@@ -10,7 +10,7 @@ use tetfem::estimate::estimate_error as estimate;
 use crate::arrays;
 use crate::errors::{OrRaise, invalid};
 use crate::material::materials_of;
-use crate::mesh::{MeshData, PyMesh};
+use crate::mesh::{MeshData, PyMesh, on_cells};
 
 /// The displacement (n, 3) of `data`'s nodes, flat node-major; wrong shapes raise
 /// `InvalidInputError` naming ``displacement``.
@@ -47,7 +47,7 @@ pub fn estimate_error<'py>(
     let materials = materials_of(py, material, data)?;
     let u = displacement_of(py, data, displacement)?;
     let e = py
-        .detach(|| estimate(&data.mesh, &materials, &u))
+        .detach(|| on_cells!(&data.mesh, m => estimate(m, &materials, &u)))
         .or_raise(py)?;
     let d = PyDict::new(py);
     d.set_item("relative", e.relative())?;
@@ -73,7 +73,7 @@ pub fn model_advice<'py>(
     let data = &mesh.get().data;
     let u = displacement_of(py, data, displacement)?;
     let d = py
-        .detach(|| largest_rotation_and_strain(&data.mesh, &u))
+        .detach(|| on_cells!(&data.mesh, m => largest_rotation_and_strain(m, &u)))
         .or_raise(py)?;
     let out = PyDict::new(py);
     out.set_item("max_rotation_deg", d.max_rotation_deg)?;

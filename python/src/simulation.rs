@@ -22,7 +22,7 @@ use crate::errors::{OrRaise, invalid, raise};
 use crate::interrupt::detach_interruptible;
 use crate::loads::PyLoads;
 use crate::material::materials_of;
-use crate::mesh::{MeshData, PyMesh};
+use crate::mesh::{MeshData, PyMesh, on_cells};
 use crate::modal::{ModalResult, modes_of};
 use crate::names;
 use crate::sparse::{csr, diagonal};
@@ -165,7 +165,8 @@ impl PySimulation {
         Ok(match system.mass() {
             Mass::Lumped(_) => critical_time_step(system)?.dt,
             Mass::Consistent(_) => {
-                tetfem::dynamics::element_step_bound_of(&data.mesh, materials)?.dt_element
+                on_cells!(&data.mesh, m => tetfem::dynamics::element_step_bound_of_type(m, materials))?
+                    .dt_element
             }
         })
     }
@@ -284,14 +285,16 @@ impl PySimulation {
         };
         let rayleigh = Rayleigh::new(damping.0, damping.1).or_raise(py)?;
         let dt = names::time_step(py, dt)?;
-        let empty = Loads::new(&data.mesh);
+        let empty = on_cells!(&data.mesh, m => Loads::new(m));
         let (other, gravity) = match &loads {
             Some(l) => (&l.other, l.gravity),
             None => (&empty, nalgebra::Vector3::zeros()),
         };
         let c = &constraints.constraints;
         let system = py
-            .detach(|| LinearSystem::new(&data.mesh, &materials, c, other, gravity, mass, rayleigh))
+            .detach(|| {
+                on_cells!(&data.mesh, m => LinearSystem::new(m, &materials, c, other, gravity, mass, rayleigh))
+            })
             .or_raise(py)?;
         let system = Arc::new(system);
         let free = system.free_count();
@@ -318,9 +321,12 @@ impl PySimulation {
             ModelKind::Linear => InternalForce::Linear,
             nonlinear => {
                 let models = nonlinear.build_map(&materials);
-                let mesh = Arc::new(data.mesh.clone());
-                py.detach(|| InternalForce::of_models(mesh, models, &system))
-                    .or_raise(py)?
+                py.detach(|| {
+                    on_cells!(&data.mesh, m => {
+                        InternalForce::of_models(Arc::new(m.clone()), models, &system)
+                    })
+                })
+                .or_raise(py)?
             }
         };
         let dt = match dt {
@@ -563,10 +569,10 @@ impl PySimulation {
                 .or_raise(py)?
         };
         let mesh = &self.data.mesh;
-        let v = match &self.force {
-            InternalForce::Linear => cell_von_mises(mesh, &self.materials, &u),
-            InternalForce::Nonlinear(n) => cell_model_von_mises(mesh, n.models(), &u),
-        }
+        let v = on_cells!(mesh, m => match &self.force {
+            InternalForce::Linear => cell_von_mises(m, &self.materials, &u),
+            InternalForce::Nonlinear(n) => cell_model_von_mises(m, n.models(), &u),
+        })
         .or_raise(py)?;
         Ok(arrays::vector(py, v))
     }

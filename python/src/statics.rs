@@ -23,7 +23,7 @@ use crate::errors::{OrRaise, invalid, raise};
 use crate::interrupt::detach_interruptible;
 use crate::loads::PyLoads;
 use crate::material::materials_of;
-use crate::mesh::{MeshData, PyMesh};
+use crate::mesh::{MeshData, PyMesh, on_cells};
 use crate::names;
 use crate::sparse::csr;
 
@@ -109,7 +109,7 @@ fn linear_result(
     solution: StaticSolution,
 ) -> PyResult<StaticResult> {
     let stress = py
-        .detach(|| cell_stress(&data.mesh, materials, &solution.displacement))
+        .detach(|| on_cells!(&data.mesh, m => cell_stress(m, materials, &solution.displacement)))
         .or_raise(py)?;
     let (stress, von_mises) = stress_arrays(py, &stress)?;
     Ok(StaticResult {
@@ -229,23 +229,25 @@ pub fn solve_static(
     let constraints = &constraints.constraints;
     let loads = &loads.all;
     let (solved, stress) = detach_interruptible(py, || -> tetfem::Result<_> {
-        let solved = solve_static_model(
-            &data.mesh,
-            &models,
-            constraints,
-            loads,
-            &BoundaryMotion::new(),
-            contact.as_ref(),
-            linear,
-            newton,
-        )?;
-        // The linear model's stress straight from u (the force-model route forms x = X + u
-        // and takes u = x − X back, which costs digits); a nonlinear model's is its own.
-        let stress = match kind {
-            ModelKind::Linear => cell_stress(&data.mesh, &materials, &solved.displacement)?,
-            _ => cell_model_stress(&data.mesh, &models, &solved.displacement)?,
-        };
-        Ok((solved, stress))
+        on_cells!(&data.mesh, mesh => {
+            let solved = solve_static_model(
+                mesh,
+                &models,
+                constraints,
+                loads,
+                &BoundaryMotion::new(),
+                contact.as_ref(),
+                linear,
+                newton,
+            )?;
+            // The linear model's stress straight from u (the force-model route forms x = X + u
+            // and takes u = x − X back, which costs digits); a nonlinear model's is its own.
+            let stress = match kind {
+                ModelKind::Linear => cell_stress(mesh, &materials, &solved.displacement)?,
+                _ => cell_model_stress(mesh, &models, &solved.displacement)?,
+            };
+            Ok((solved, stress))
+        })
     })?;
     let (solver, reached) = match &solved.path {
         StaticPath::Linear { info, .. } => (solver_text(info), solved.relative_residual),
@@ -371,7 +373,7 @@ impl PyStaticSolver {
         };
         let c = &constraints.constraints;
         let solver = py
-            .detach(|| StaticSolver::with_options(&data.mesh, &materials, c, options))
+            .detach(|| on_cells!(&data.mesh, m => StaticSolver::with_options(m, &materials, c, options)))
             .or_raise(py)?;
         Ok(PyStaticSolver {
             data,
