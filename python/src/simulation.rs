@@ -9,7 +9,7 @@ use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use tetfem::dynamics::{
     BackwardEuler, Checkpoint, Energy, Integrator, IntegratorOptions, InternalForce, LinearSystem,
-    Mass, Method, Newmark, Rayleigh, State, SymplecticEuler, critical_time_step,
+    Mass, Method, Newmark, NonlinearForce, Rayleigh, State, SymplecticEuler, critical_time_step,
 };
 use tetfem::loads::Loads;
 use tetfem::materials::MaterialMap;
@@ -18,6 +18,7 @@ use tetfem::output::fields::{cell_model_von_mises, cell_von_mises};
 
 use crate::arrays;
 use crate::constraints::PyConstraints;
+use crate::contact::{PyObstacle, contact_of};
 use crate::errors::{OrRaise, invalid, raise};
 use crate::interrupt::detach_interruptible;
 use crate::loads::PyLoads;
@@ -256,7 +257,7 @@ impl PySimulation {
 #[pymethods]
 impl PySimulation {
     #[new]
-    #[pyo3(signature = (mesh, material, constraints, loads = None, *, dt, method = "backward-euler", model = "linear", mass = "lumped", damping = (0.0, 0.0), initial_displacement = None, initial_velocity = None, linear_solver = "auto"))]
+    #[pyo3(signature = (mesh, material, constraints, loads = None, *, dt, method = "backward-euler", model = "linear", mass = "lumped", damping = (0.0, 0.0), initial_displacement = None, initial_velocity = None, linear_solver = "auto", obstacles = None, contact_distance = None, contact_stiffness = None))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         py: Python<'_>,
@@ -272,6 +273,9 @@ impl PySimulation {
         initial_displacement: Option<&Bound<'_, PyAny>>,
         initial_velocity: Option<&Bound<'_, PyAny>>,
         linear_solver: &str,
+        obstacles: Option<Vec<PyRef<'_, PyObstacle>>>,
+        contact_distance: Option<f64>,
+        contact_stiffness: Option<f64>,
     ) -> PyResult<Self> {
         let data = Arc::clone(&mesh.get().data);
         check_same_mesh(py, &data, &constraints, loads.as_deref())?;
@@ -290,10 +294,23 @@ impl PySimulation {
             Some(l) => (&l.other, l.gravity),
             None => (&empty, nalgebra::Vector3::zeros()),
         };
+        let contact = contact_of(
+            py,
+            &data,
+            &materials,
+            obstacles,
+            contact_distance,
+            contact_stiffness,
+        )?;
         let c = &constraints.constraints;
+        // With obstacles, as the scene runner builds it: a body held by contact alone is well
+        // posed in time (the mass holds its rigid modes), so no rigid-mode check.
         let system = py
             .detach(|| {
-                on_cells!(&data.mesh, m => LinearSystem::new(m, &materials, c, other, gravity, mass, rayleigh))
+                on_cells!(&data.mesh, m => match contact.is_some() {
+                    true => LinearSystem::new_free_body(m, &materials, c, other, gravity, mass, rayleigh),
+                    false => LinearSystem::new(m, &materials, c, other, gravity, mass, rayleigh),
+                })
             })
             .or_raise(py)?;
         let system = Arc::new(system);
@@ -316,15 +333,21 @@ impl PySimulation {
             let values = arrays::rows_per_item(py, v, "initial_velocity", n)?;
             state.velocity = system.dofs().restrict(&values).or_raise(py)?;
         }
-        // As the scene runner builds it: the linear fast path, or the model of each material.
-        let force = match kind {
-            ModelKind::Linear => InternalForce::Linear,
-            nonlinear => {
-                let models = nonlinear.build_map(&materials);
+        // As the scene runner builds it: the linear fast path, or the model of each material;
+        // with obstacles every model (the linear one too) with the contact barrier.
+        let force = match (kind, contact) {
+            (ModelKind::Linear, None) => InternalForce::Linear,
+            (kind, contact) => {
+                let models = kind.build_map(&materials);
                 py.detach(|| {
-                    on_cells!(&data.mesh, m => {
-                        InternalForce::of_models(Arc::new(m.clone()), models, &system)
-                    })
+                    let force = on_cells!(&data.mesh, m => {
+                        NonlinearForce::with_models(Arc::new(m.clone()), models, &system)
+                    })?;
+                    let force = match contact {
+                        Some(contact) => force.with_contact(contact)?,
+                        None => force,
+                    };
+                    tetfem::Result::Ok(InternalForce::Nonlinear(Arc::new(force)))
                 })
                 .or_raise(py)?
             }

@@ -236,6 +236,9 @@ class Simulation:
         initial_displacement: Optional[_ArrayLike] = None,
         initial_velocity: Optional[_ArrayLike] = None,
         linear_solver: _LinearSolver = "auto",
+        obstacles: Optional[Sequence[Obstacle]] = None,
+        contact_distance: Optional[float] = None,
+        contact_stiffness: Optional[float] = None,
     ) -> "Simulation": ...
     def step(self) -> None: ...
     def run(
