@@ -877,6 +877,159 @@ pub fn nonlinear_reactions<E: ModelElement>(
         .collect())
 }
 
+/// How [`solve_static_model`] solved: one linear solve, or Newton over load steps.
+#[derive(Debug, Clone, PartialEq)]
+pub enum StaticPath {
+    /// The linear model without obstacles: K_ff factored (or CG) once, one solve.
+    Linear {
+        /// How the linear system was solved.
+        info: crate::linear_solver::SolveInfo,
+        /// Wall time of each phase.
+        timings: crate::statics::StaticTimings,
+        /// Stored values of the Cholesky factor (0 on the iterative path).
+        factor_len: usize,
+    },
+    /// A nonlinear model, or obstacles with any model: Newton's method over load steps.
+    Newton {
+        /// Residual norms ‖r_f‖ (force units) of each iteration, one list per load step (see
+        /// [`NewtonReport::residuals`]).
+        residuals: Vec<Vec<f64>>,
+        /// Newton iterations over all load steps.
+        iterations: usize,
+    },
+}
+
+/// The result of [`solve_static_model`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct StaticModelSolution {
+    /// Displacement of every DOF (length units), prescribed values included.
+    pub displacement: Vec<f64>,
+    /// The support reactions of every DOF (force units): K·u − f for the linear model,
+    /// −(Σₑ fₑ(u) + f) for the nonlinear ones ([`nonlinear_reactions`]); zero on free DOFs.
+    pub reactions: Vec<f64>,
+    /// ‖r_f‖/‖f_f‖ at the solution (the linear solve's relative residual; Newton's last
+    /// residual over the load norm, or the residual itself in force units without a load).
+    pub relative_residual: f64,
+    /// The free DOF count.
+    pub free_dofs: usize,
+    /// Per obstacle (in the contact's order) the whole force the body exerts on it (force
+    /// units): the barrier's [`Contact::obstacle_forces`] plus friction
+    /// ([`NewtonReport::obstacle_friction_forces`]); empty without contact.
+    pub obstacle_forces: Vec<nalgebra::Vector3<f64>>,
+    /// Which path ran, with its counts.
+    pub path: StaticPath,
+}
+
+/// Static equilibrium of `model` on `mesh`, the one dispatch every front end calls: the
+/// linear model without `contact` is one linear solve with `linear` ([`StaticSolver`]); any
+/// other model, or contact with any model, is Newton with `newton` (moving supports `motion`
+/// applied per load step as [`solve_nonlinear_static_with_motion`] does). The reactions come
+/// with either path.
+///
+/// [`StaticSolver`]: crate::statics::StaticSolver
+///
+/// Errors: those of the solve taken; contact on a mesh of other cells than 4-node tets, or
+/// contact together with moving supports, is [`Error::InvalidParameter`] naming the pair.
+#[allow(clippy::too_many_arguments)]
+pub fn solve_static_model<E: ModelElement>(
+    mesh: &TetMesh<E>,
+    model: &crate::model::ModelMap,
+    constraints: &Constraints,
+    loads: &Loads,
+    motion: &BoundaryMotion,
+    contact: Option<&Contact>,
+    linear: SolverOptions,
+    newton: NewtonOptions,
+) -> Result<StaticModelSolution> {
+    let free_dofs = DofMap::new(constraints).free_count();
+    if model.kind() == crate::model::ModelKind::Linear && contact.is_none() {
+        let mut solver = crate::statics::StaticSolver::with_options(
+            mesh,
+            model.materials(),
+            constraints,
+            linear,
+        )?;
+        let solution = solver.solve(loads)?;
+        return Ok(StaticModelSolution {
+            displacement: solution.displacement,
+            reactions: solution.reactions,
+            relative_residual: solution.relative_residual,
+            free_dofs,
+            obstacle_forces: Vec::new(),
+            path: StaticPath::Linear {
+                info: solution.info,
+                timings: solver.timings(),
+                factor_len: solver.factor_len(),
+            },
+        });
+    }
+    let report = match contact {
+        Some(contact) => {
+            if !motion.is_empty() {
+                return Err(Error::invalid_parameter(
+                    "static contact",
+                    "obstacles with moving supports",
+                    "a static solve with obstacles takes no moving supports",
+                ));
+            }
+            let linear_mesh = (mesh as &dyn std::any::Any)
+                .downcast_ref::<TetMesh>()
+                .ok_or_else(|| {
+                    Error::invalid_parameter(
+                        "static contact",
+                        E::NAME,
+                        "obstacles (contact) run on 4-node tets (tet4) only",
+                    )
+                })?;
+            solve_nonlinear_static_with_contact(
+                linear_mesh,
+                model,
+                constraints,
+                loads,
+                contact,
+                newton,
+            )?
+        }
+        None => {
+            solve_nonlinear_static_with_motion(mesh, model, constraints, loads, motion, newton)?
+        }
+    };
+    let load = norm(&DofMap::new(constraints).restrict(loads.as_slice())?);
+    let last = report
+        .residuals
+        .last()
+        .and_then(|r| r.last())
+        .copied()
+        .unwrap_or(0.0);
+    let reactions = nonlinear_reactions(mesh, model, constraints, loads, &report.displacement)?;
+    let obstacle_forces = match contact {
+        Some(contact) => contact
+            .obstacle_forces(&report.displacement)?
+            .iter()
+            .enumerate()
+            .map(|(o, f)| {
+                f + report
+                    .obstacle_friction_forces
+                    .get(o)
+                    .copied()
+                    .unwrap_or_default()
+            })
+            .collect(),
+        None => Vec::new(),
+    };
+    Ok(StaticModelSolution {
+        relative_residual: if load > 0.0 { last / load } else { last },
+        free_dofs,
+        obstacle_forces,
+        reactions,
+        displacement: report.displacement,
+        path: StaticPath::Newton {
+            residuals: report.residuals,
+            iterations: report.iterations,
+        },
+    })
+}
+
 fn norm(v: &[f64]) -> f64 {
     v.iter().map(|x| x * x).sum::<f64>().sqrt()
 }

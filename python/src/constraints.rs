@@ -8,7 +8,7 @@ use tetfem::constraints::Constraints;
 
 use crate::arrays::{self, floats, index_vector, indices};
 use crate::errors::{OrRaise, invalid};
-use crate::mesh::{MeshData, PyMesh};
+use crate::mesh::{MeshData, PyMesh, on_cells};
 use crate::names;
 
 /// Dirichlet conditions on the nodes of ``mesh``: ``fix`` (zero displacement on chosen axes),
@@ -69,7 +69,7 @@ impl PyConstraints {
     #[new]
     fn new(mesh: &Bound<'_, PyMesh>) -> Self {
         let data = Arc::clone(&mesh.get().data);
-        let constraints = Constraints::new(&data.mesh);
+        let constraints = on_cells!(&data.mesh, m => Constraints::new(m));
         PyConstraints { data, constraints }
     }
 

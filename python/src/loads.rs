@@ -10,7 +10,7 @@ use tetfem::loads::Loads;
 use crate::arrays;
 use crate::errors::{OrRaise, invalid};
 use crate::material::materials_of;
-use crate::mesh::{MeshData, PyMesh};
+use crate::mesh::{MeshData, PyMesh, on_cells};
 
 /// External loads on ``mesh``, accumulated in the order they are added (SI units in the
 /// docstrings; any consistent units work). Gravity is also kept apart (``gravity``), as the
@@ -49,7 +49,7 @@ impl PyLoads {
     #[new]
     fn new(mesh: &Bound<'_, PyMesh>) -> Self {
         let data = Arc::clone(&mesh.get().data);
-        let all = Loads::new(&data.mesh);
+        let all = on_cells!(&data.mesh, m => Loads::new(m));
         let other = all.clone();
         PyLoads {
             data,
@@ -71,7 +71,7 @@ impl PyLoads {
         let materials = materials_of(py, material, &slf.data)?;
         let data = Arc::clone(&slf.data);
         let mut all = slf.all.clone();
-        all.add_gravity(&data.mesh, &materials, g).or_raise(py)?;
+        on_cells!(&data.mesh, m => all.add_gravity(m, &materials, g)).or_raise(py)?;
         slf.all = all;
         slf.gravity += g;
         Ok(slf)
@@ -85,7 +85,10 @@ impl PyLoads {
         let py = slf.py();
         let b = arrays::vector3(py, force_density, "force_density")?;
         let data = Arc::clone(&slf.data);
-        slf.add_to_both(py, |l| l.add_body_force(&data.mesh, b).map(|_| ()))?;
+        slf.add_to_both(
+            py,
+            |l| on_cells!(&data.mesh, m => l.add_body_force(m, b).map(|_| ())),
+        )?;
         Ok(slf)
     }
 
@@ -100,7 +103,10 @@ impl PyLoads {
         let t = arrays::vector3(py, traction, "traction")?;
         let data = Arc::clone(&slf.data);
         let faces = data.faces_of(py, faces, "faces")?;
-        slf.add_to_both(py, |l| l.add_traction(&data.mesh, &faces, t).map(|_| ()))?;
+        slf.add_to_both(
+            py,
+            |l| on_cells!(&data.mesh, m => l.add_traction(m, &faces, t).map(|_| ())),
+        )?;
         Ok(slf)
     }
 
@@ -115,10 +121,10 @@ impl PyLoads {
         let f = arrays::vector3(py, force, "force")?;
         let data = Arc::clone(&slf.data);
         let faces = data.faces_of(py, faces, "faces")?;
-        slf.add_to_both(py, |l| {
-            l.add_total_force_on_faces(&data.mesh, &faces, f)
-                .map(|_| ())
-        })?;
+        slf.add_to_both(
+            py,
+            |l| on_cells!(&data.mesh, m => l.add_total_force_on_faces(m, &faces, f).map(|_| ())),
+        )?;
         Ok(slf)
     }
 
@@ -137,8 +143,10 @@ impl PyLoads {
         let faces = data.faces_of(py, faces, "faces")?;
         slf.add_to_both(py, |l| {
             for face in &faces {
-                let normal = face.area_vector(&data.mesh)?.normalize();
-                l.add_traction(&data.mesh, std::slice::from_ref(face), -normal * pressure)?;
+                on_cells!(&data.mesh, m => {
+                    let normal = face.area_vector(m)?.normalize();
+                    l.add_traction(m, std::slice::from_ref(face), -normal * pressure)?;
+                });
             }
             Ok(())
         })?;

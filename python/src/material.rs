@@ -6,7 +6,7 @@ use tetfem::materials::{MaterialMap, TetMaterials};
 
 use crate::arrays::{index_vector, indices};
 use crate::errors::{OrRaise, invalid};
-use crate::mesh::MeshData;
+use crate::mesh::{MeshData, on_cells};
 
 /// An isotropic linear elastic material: Young's modulus E (Pa in SI, finite and > 0),
 /// Poisson's ratio ν (in the open interval (−1, 0.5)) and density ρ (kg/m³, finite and > 0).
@@ -173,7 +173,7 @@ pub fn materials_of(
     }
     if let Ok(map) = value.cast::<PyMaterialMap>() {
         let map = map.get().map.clone();
-        map.check_tet_count(&mesh.mesh).or_raise(py)?;
+        on_cells!(&mesh.mesh, m => map.check_tet_count(m)).or_raise(py)?;
         return Ok(map);
     }
     Err(invalid(

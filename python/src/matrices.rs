@@ -7,7 +7,7 @@ use tetfem::dynamics::MassKind;
 
 use crate::errors::OrRaise;
 use crate::material::materials_of;
-use crate::mesh::PyMesh;
+use crate::mesh::{PyMesh, on_cells};
 use crate::names;
 use crate::sparse::{csr, diagonal};
 
@@ -23,7 +23,7 @@ pub fn stiffness_matrix<'py>(
     let data = &mesh.get().data;
     let materials = materials_of(py, material, data)?;
     let k = py
-        .detach(|| Assembler::new(&data.mesh).stiffness(&data.mesh, &materials))
+        .detach(|| on_cells!(&data.mesh, m => Assembler::new(m).stiffness(m, &materials)))
         .or_raise(py)?;
     csr(py, &k)
 }
@@ -44,13 +44,15 @@ pub fn mass_matrix<'py>(
     match names::mass(py, mass)? {
         MassKind::Lumped => {
             let m = py
-                .detach(|| lumped_mass_of(&data.mesh, &materials))
+                .detach(|| on_cells!(&data.mesh, m => lumped_mass_of(m, &materials)))
                 .or_raise(py)?;
             diagonal(py, &m)
         }
         MassKind::Consistent => {
             let m = py
-                .detach(|| Assembler::new(&data.mesh).consistent_mass(&data.mesh, &materials))
+                .detach(
+                    || on_cells!(&data.mesh, m => Assembler::new(m).consistent_mass(m, &materials)),
+                )
                 .or_raise(py)?;
             csr(py, &m)
         }

@@ -9,21 +9,90 @@ use nalgebra::Vector3;
 use pyo3::exceptions::PyUserWarning;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
-use tetfem::mesh::io::{ImportedMesh, PhysicalGroup, TET10_KEPT_AS_CORNERS, read_mesh};
-use tetfem::mesh::{BoundaryFace, TetMesh};
+use tetfem::element::Tet10;
+use tetfem::mesh::io::{ImportedMesh, MeshFile, PhysicalGroup, TET10_KEPT_AS_CORNERS};
+use tetfem::mesh::{BoundaryFace, CellType, NodeList, Tet4, TetMesh};
 
 use crate::arrays::{self, floats, index_rows, index_vector, indices};
 use crate::errors::{OrRaise, invalid, raise};
 use crate::names;
+
+/// A value of each cell type: of the 4-node tet (`P1`, order 1) or of the 10-node tet (`P2`,
+/// order 2). [`on_cells!`] runs one generic expression on either.
+#[derive(Debug)]
+pub enum Cells<A, B> {
+    /// Of the 4-node tet.
+    P1(A),
+    /// Of the 10-node tet.
+    P2(B),
+}
+
+/// A validated mesh of either cell type.
+pub type AnyMesh = Cells<TetMesh, TetMesh<Tet10>>;
+
+/// A mesh read from a file, of either cell type.
+pub type AnyImported = Cells<ImportedMesh, ImportedMesh<Tet10>>;
+
+/// `on_cells!(value, m => body)`: `body` with `m` bound to the contents of a [`Cells`] value,
+/// compiled once per cell type (the one dispatch of every call on a mesh of either order).
+macro_rules! on_cells {
+    ($value:expr, $m:ident => $body:expr) => {
+        match $value {
+            $crate::mesh::Cells::P1($m) => $body,
+            $crate::mesh::Cells::P2($m) => $body,
+        }
+    };
+}
+pub(crate) use on_cells;
+
+impl AnyMesh {
+    /// The element order: 1 (4-node tets) or 2 (10-node tets).
+    pub fn order(&self) -> usize {
+        match self {
+            Cells::P1(_) => 1,
+            Cells::P2(_) => 2,
+        }
+    }
+
+    /// Number of nodes (corners and, of order 2, edge nodes).
+    pub fn node_count(&self) -> usize {
+        on_cells!(self, m => m.node_count())
+    }
+
+    /// Number of tets.
+    pub fn tet_count(&self) -> usize {
+        on_cells!(self, m => m.tet_count())
+    }
+
+    /// Degrees of freedom: 3 per node.
+    pub fn dof_count(&self) -> usize {
+        on_cells!(self, m => m.dof_count())
+    }
+
+    /// Node coordinates (length units).
+    pub fn nodes(&self) -> &[Vector3<f64>] {
+        on_cells!(self, m => m.nodes())
+    }
+
+    /// The four corner nodes of every tet.
+    pub fn corners(&self) -> Vec<[usize; 4]> {
+        on_cells!(self, m => m.tets().iter().map(NodeList::corners).collect())
+    }
+
+    /// (min, max) corners of the bounding box (length units).
+    pub fn bounding_box(&self) -> (Vector3<f64>, Vector3<f64>) {
+        on_cells!(self, m => m.bounding_box())
+    }
+}
 
 /// A mesh with what selections and loads need: its boundary faces (outward oriented) and, for
 /// a mesh read from a file, the file's groups, markers and attributes.
 #[derive(Debug)]
 pub struct MeshData {
     /// The validated mesh.
-    pub mesh: TetMesh,
+    pub mesh: AnyMesh,
     /// Groups, markers and attributes of a mesh read from a file.
-    pub imported: Option<ImportedMesh>,
+    pub imported: Option<AnyImported>,
     /// The boundary faces, outward oriented, in the library's order.
     pub boundary: Vec<BoundaryFace>,
     /// Boundary face index by its sorted node triple.
@@ -34,8 +103,8 @@ pub struct MeshData {
 
 impl MeshData {
     /// The mesh with its boundary faces.
-    pub fn new(mesh: TetMesh, imported: Option<ImportedMesh>) -> tetfem::Result<Self> {
-        let boundary = mesh.boundary_faces()?;
+    pub fn new(mesh: AnyMesh, imported: Option<AnyImported>) -> tetfem::Result<Self> {
+        let boundary = on_cells!(&mesh, m => m.boundary_faces())?;
         let face_index = boundary
             .iter()
             .enumerate()
@@ -126,7 +195,7 @@ impl MeshData {
         1e-6 * (hi - lo).norm()
     }
 
-    fn imported(&self, py: Python<'_>, what: &str) -> PyResult<&ImportedMesh> {
+    fn imported(&self, py: Python<'_>, what: &str) -> PyResult<&AnyImported> {
         self.imported.as_ref().ok_or_else(|| {
             raise(
                 py,
@@ -138,10 +207,10 @@ impl MeshData {
 
     /// The imported mesh, if it has `.face` markers and `marker` among them; else an
     /// `InvalidInputError` naming the marker and listing those the file has.
-    fn face_marker_mesh(&self, py: Python<'_>, marker: i64) -> PyResult<&ImportedMesh> {
+    fn face_marker_mesh(&self, py: Python<'_>, marker: i64) -> PyResult<&AnyImported> {
         let imported = self.imported(py, "a face marker selection")?;
-        let counts = imported.face_marker_counts();
-        if imported.face_markers.is_none() {
+        let counts = on_cells!(imported, i => i.face_marker_counts());
+        if on_cells!(imported, i => i.face_markers.is_none()) {
             return Err(invalid(
                 py,
                 "marker",
@@ -169,8 +238,11 @@ impl MeshData {
 
     fn group(&self, py: Python<'_>, name: &str) -> PyResult<&tetfem::mesh::io::PhysicalGroup> {
         let imported = self.imported(py, "a group selection")?;
-        imported.group(name).ok_or_else(|| {
-            let known: Vec<String> = imported.groups.iter().map(|g| g.label()).collect();
+        on_cells!(imported, i => i.group(name)).ok_or_else(|| {
+            let known: Vec<String> = on_cells!(imported, i => &i.groups)
+                .iter()
+                .map(|g| g.label())
+                .collect();
             invalid(
                 py,
                 "group",
@@ -319,13 +391,13 @@ fn required(py: Python<'_>, group: &Bound<'_, PyDict>, key: &str, field: &str) -
 
 /// The warning for a quadratic file read as 4-node tets (its corners), naming the file, the
 /// order and what was dropped; `None` for a linear file.
-fn quadratic_note(path: &Path, imported: &ImportedMesh) -> Option<String> {
+fn quadratic_note<C: CellType>(path: &Path, imported: &ImportedMesh<C>) -> Option<String> {
     let tets = *imported.skipped_elements.get(TET10_KEPT_AS_CORNERS)?;
     Some(format!(
         "{}: the file holds {tets} 10-node tets (order 2, {} nodes); tetfem.Mesh has 4-node \
-         tets (order 1), so it kept their corners ({} nodes) and dropped the {} edge and \
-         other unused nodes: analyses of this Mesh are linear (P1). For P2, run a scene with \
-         this mesh file on the tetfem command line",
+         tets (order 1) as asked (order=1), so it kept their corners ({} nodes) and dropped \
+         the {} edge and other unused nodes: analyses of this Mesh are linear (P1). For P2, \
+         read it with order=2 or None (the file's order)",
         path.display(),
         imported.mesh.node_count() + imported.unused_nodes,
         imported.mesh.node_count(),
@@ -353,7 +425,7 @@ pub struct PyMesh {
 
 impl PyMesh {
     /// A `Mesh` of `mesh`, its boundary found with the GIL released.
-    fn of(py: Python<'_>, mesh: TetMesh, imported: Option<ImportedMesh>) -> PyResult<Self> {
+    fn of(py: Python<'_>, mesh: AnyMesh, imported: Option<AnyImported>) -> PyResult<Self> {
         let data = py.detach(|| MeshData::new(mesh, imported)).or_raise(py)?;
         Ok(PyMesh {
             data: Arc::new(data),
@@ -394,26 +466,40 @@ impl PyMesh {
             .collect();
         let mesh = py.detach(|| TetMesh::new(nodes, tets)).or_raise(py)?;
         let imported = match groups {
-            Some(groups) => Some(with_groups(py, &mesh, groups)?),
+            Some(groups) => Some(Cells::P1(with_groups(py, &mesh, groups)?)),
             None => None,
         };
-        Self::of(py, mesh, imported)
+        Self::of(py, Cells::P1(mesh), imported)
     }
 
     /// The box [min, max] (length units) in ``cells`` = (nx, ny, nz) cubes, each split into
     /// tets: ``"mirrored6"`` (6 per cell, the lecture's table mirrored in alternate cells: no
     /// sideways lean in bending), ``"lecture6"`` (6 per cell, one diagonal everywhere) or
-    /// ``"five"`` (5 per cell, alternating). A box too large for the memory available raises
-    /// ``SolverError`` before anything is allocated.
+    /// ``"five"`` (5 per cell, alternating). ``order`` 1 gives 4-node tets, 2 10-node tets
+    /// (a node added at each edge's midpoint, as scenes' ``mesh.order = 2``). A box too large
+    /// for the memory available raises ``SolverError`` before anything is allocated.
     #[staticmethod]
-    #[pyo3(name = "box", signature = (max, cells, min = None, split = "mirrored6"))]
+    #[pyo3(name = "box", signature = (max, cells, min = None, split = "mirrored6", order = 1))]
     fn box_grid(
         py: Python<'_>,
         max: &Bound<'_, PyAny>,
         cells: &Bound<'_, PyAny>,
         min: Option<&Bound<'_, PyAny>>,
         split: &str,
+        order: usize,
     ) -> PyResult<Self> {
+        let nodes_per_tet = match order {
+            1 => Tet4::NODES,
+            2 => Tet10::NODES,
+            _ => {
+                return Err(invalid(
+                    py,
+                    "order",
+                    order,
+                    "must be 1 (4-node tets) or 2 (10-node tets)",
+                ));
+            }
+        };
         let max = arrays::vector3(py, max, "max")?;
         let min = match min {
             Some(m) => arrays::vector3(py, m, "min")?,
@@ -424,13 +510,19 @@ impl PyMesh {
         tetfem::memory::check_box_run(
             cells,
             split.tets_per_cell(),
-            4,
+            nodes_per_tet,
             false,
             tetfem::memory::RunPath::Iterative,
         )
         .or_raise(py)?;
         let mesh = py
-            .detach(|| TetMesh::box_grid(min, max, cells, split))
+            .detach(|| -> tetfem::Result<AnyMesh> {
+                let linear = TetMesh::box_grid(min, max, cells, split)?;
+                Ok(match order {
+                    2 => Cells::P2(TetMesh::<Tet10>::from_linear(&linear)?),
+                    _ => Cells::P1(linear),
+                })
+            })
             .or_raise(py)?;
         Self::of(py, mesh, None)
     }
@@ -440,14 +532,37 @@ impl PyMesh {
     /// markers and tet attributes (TetGen) are kept for selections. Raises ``MeshError`` for a
     /// file that does not parse or holds an invalid mesh, ``TetfemIOError`` if it cannot be read.
     ///
-    /// ``Mesh`` holds 4-node tets: of a quadratic file (10-node tets, order 2) it keeps the
-    /// corners and drops the edge nodes, and says so in ``warnings`` and with a ``UserWarning``
-    /// naming the file (a P2 analysis runs from a scene on the command line).
+    /// ``order`` None reads the file's own order: 4-node tets (order 1) or 10-node tets
+    /// (order 2, every analysis then runs on them). ``order=1`` reads a quadratic file as its
+    /// corners, dropping the edge nodes, and says so in ``warnings`` and with a ``UserWarning``
+    /// naming the file; ``order=2`` of a linear file raises ``MeshError`` naming the file.
     #[staticmethod]
-    fn read(py: Python<'_>, path: PathBuf) -> PyResult<Self> {
-        let imported = py.detach(|| read_mesh(&path)).or_raise(py)?;
-        let note = quadratic_note(&path, &imported);
-        let mesh = imported.mesh.clone();
+    #[pyo3(signature = (path, order = None))]
+    fn read(py: Python<'_>, path: PathBuf, order: Option<usize>) -> PyResult<Self> {
+        if let Some(bad) = order.filter(|o| !matches!(o, 1 | 2)) {
+            return Err(invalid(
+                py,
+                "order",
+                bad,
+                "must be None (the file's order), 1 (4-node tets) or 2 (10-node tets)",
+            ));
+        }
+        let read = || -> tetfem::Result<(AnyImported, Option<String>)> {
+            let file = MeshFile::read(&path)?;
+            Ok(match order.unwrap_or(file.order()) {
+                2 => (Cells::P2(file.build_as::<Tet10>()?), None),
+                _ => {
+                    let imported = file.build_as::<Tet4>()?;
+                    let note = quadratic_note(&path, &imported);
+                    (Cells::P1(imported), note)
+                }
+            })
+        };
+        let (imported, note) = py.detach(read).or_raise(py)?;
+        let mesh = match &imported {
+            Cells::P1(i) => Cells::P1(i.mesh.clone()),
+            Cells::P2(i) => Cells::P2(i.mesh.clone()),
+        };
         let mut data = py
             .detach(|| MeshData::new(mesh, Some(imported)))
             .or_raise(py)?;
@@ -474,10 +589,17 @@ impl PyMesh {
         arrays::rows3(py, flat)
     }
 
-    /// Tets as node indices, shape (m, 4), int64, positively oriented (a copy).
+    /// Tets as node indices, shape (m, 4) (order 1) or (m, 10) (order 2), int64, positively oriented (a copy).
     #[getter]
     fn tets<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        index_rows(py, self.data.mesh.tets())
+        on_cells!(&self.data.mesh, m => index_rows(py, m.tets()))
+    }
+
+    /// The element order: 1 (4-node tets) or 2 (10-node tets: four corners, then the nodes
+    /// of edges 01, 12, 02, 03, 13, 23).
+    #[getter]
+    fn order(&self) -> usize {
+        self.data.mesh.order()
     }
 
     /// Number of nodes.
@@ -501,13 +623,13 @@ impl PyMesh {
     /// Total volume (length³ units).
     #[getter]
     fn volume(&self) -> f64 {
-        self.data.mesh.volume()
+        on_cells!(&self.data.mesh, m => m.volume())
     }
 
     /// Number of tets that were given negatively oriented and reoriented.
     #[getter]
     fn reoriented_count(&self) -> usize {
-        self.data.mesh.reoriented_count()
+        on_cells!(&self.data.mesh, m => m.reoriented_count())
     }
 
     /// (min, max) corners of the bounding box, each shape (3,), length units.
@@ -527,8 +649,7 @@ impl PyMesh {
         let Some(imported) = &self.data.imported else {
             return Ok(Vec::new());
         };
-        imported
-            .groups
+        on_cells!(imported, i => &i.groups)
             .iter()
             .map(|g| {
                 let d = PyDict::new(py);
@@ -547,7 +668,8 @@ impl PyMesh {
     #[getter]
     fn warnings(&self) -> Vec<String> {
         let mut out = self.data.read_notes.clone();
-        out.extend(self.data.mesh.warnings().iter().map(ToString::to_string));
+        let warnings = on_cells!(&self.data.mesh, m => m.warnings());
+        out.extend(warnings.iter().map(ToString::to_string));
         out
     }
 
@@ -563,10 +685,7 @@ impl PyMesh {
     ) -> PyResult<Bound<'py, PyAny>> {
         let axis = names::axis(py, axis)?;
         let tolerance = tolerance.unwrap_or_else(|| self.data.default_tolerance());
-        let nodes = self
-            .data
-            .mesh
-            .try_nodes_on_plane(axis, at, tolerance)
+        let nodes = on_cells!(&self.data.mesh, m => m.try_nodes_on_plane(axis, at, tolerance))
             .or_raise(py)?;
         Ok(index_vector(py, &nodes))
     }
@@ -580,7 +699,8 @@ impl PyMesh {
     ) -> PyResult<Bound<'py, PyAny>> {
         let min = arrays::vector3(py, min, "min")?;
         let max = arrays::vector3(py, max, "max")?;
-        Ok(index_vector(py, &self.data.mesh.nodes_in_box(min, max)))
+        let nodes = on_cells!(&self.data.mesh, m => m.nodes_in_box(min, max));
+        Ok(index_vector(py, &nodes))
     }
 
     /// Nodes whose entry of the boolean ``mask`` (shape (n,)) is true, e.g.
@@ -603,7 +723,7 @@ impl PyMesh {
     /// Nodes whose TetGen boundary marker equals ``marker``, ascending.
     fn nodes_with_marker<'py>(&self, py: Python<'py>, marker: i64) -> PyResult<Bound<'py, PyAny>> {
         let imported = self.data.imported(py, "a marker selection")?;
-        if imported.node_markers.is_none() {
+        if on_cells!(imported, i => i.node_markers.is_none()) {
             return Err(invalid(
                 py,
                 "marker",
@@ -611,7 +731,8 @@ impl PyMesh {
                 "needs a TetGen mesh with node markers",
             ));
         }
-        Ok(index_vector(py, &imported.nodes_with_marker(marker)))
+        let nodes = on_cells!(imported, i => i.nodes_with_marker(marker));
+        Ok(index_vector(py, &nodes))
     }
 
     /// The boundary faces that are triangles of the TetGen ``.face`` file with boundary marker
@@ -619,11 +740,11 @@ impl PyMesh {
     /// A marker the file does not have raises ``InvalidInputError`` listing those it has.
     fn faces_with_marker<'py>(&self, py: Python<'py>, marker: i64) -> PyResult<Bound<'py, PyAny>> {
         let imported = self.data.face_marker_mesh(py, marker)?;
-        let faces: Vec<[usize; 3]> = imported
-            .faces_with_marker(marker, &self.data.boundary)
-            .iter()
-            .map(|f| f.nodes)
-            .collect();
+        let faces: Vec<[usize; 3]> = on_cells!(imported, i => i
+            .faces_with_marker(marker, &self.data.boundary))
+        .iter()
+        .map(|f| f.nodes)
+        .collect();
         index_rows(py, &faces)
     }
 
@@ -635,7 +756,8 @@ impl PyMesh {
         marker: i64,
     ) -> PyResult<Bound<'py, PyAny>> {
         let imported = self.data.face_marker_mesh(py, marker)?;
-        Ok(index_vector(py, &imported.nodes_with_face_marker(marker)))
+        let nodes = on_cells!(imported, i => i.nodes_with_face_marker(marker));
+        Ok(index_vector(py, &nodes))
     }
 
     /// Tets whose centroid lies in the closed box [min, max] (length units), ascending: the
@@ -649,14 +771,14 @@ impl PyMesh {
         let min = arrays::vector3(py, min, "min")?;
         let max = arrays::vector3(py, max, "max")?;
         let mesh = &self.data.mesh;
+        let nodes = mesh.nodes();
         let tets: Vec<usize> = (0..mesh.tet_count())
-            .filter(|&t| {
-                let c = mesh.tets()[t]
-                    .iter()
-                    .fold(Vector3::zeros(), |s, &n| s + mesh.nodes()[n])
-                    / 4.0;
+            .zip(mesh.corners())
+            .filter(|(_, corners)| {
+                let c = corners.iter().fold(Vector3::zeros(), |s, &n| s + nodes[n]) / 4.0;
                 (0..3).all(|a| c[a] >= min[a] && c[a] <= max[a])
             })
+            .map(|(t, _)| t)
             .collect();
         Ok(index_vector(py, &tets))
     }
@@ -664,14 +786,16 @@ impl PyMesh {
     /// Tets of a Gmsh physical volume (by name or tag).
     fn tets_in_group<'py>(&self, py: Python<'py>, name: &str) -> PyResult<Bound<'py, PyAny>> {
         let imported = self.data.imported(py, "a volume group selection")?;
-        let tets = tetfem::materials::volume_group_tets(imported, name).or_raise(py)?;
+        let tets =
+            on_cells!(imported, i => tetfem::materials::volume_group_tets(i, name)).or_raise(py)?;
         Ok(index_vector(py, tets))
     }
 
     /// Tets whose TetGen region attribute equals ``value``.
     fn tets_with_attribute<'py>(&self, py: Python<'py>, value: f64) -> PyResult<Bound<'py, PyAny>> {
         let imported = self.data.imported(py, "an attribute selection")?;
-        let tets = tetfem::materials::attribute_tets(imported, value).or_raise(py)?;
+        let tets =
+            on_cells!(imported, i => tetfem::materials::attribute_tets(i, value)).or_raise(py)?;
         Ok(index_vector(py, &tets))
     }
 
@@ -774,9 +898,10 @@ impl PyMesh {
 
     fn __repr__(&self) -> String {
         format!(
-            "Mesh({} nodes, {} tets, {} boundary faces)",
+            "Mesh({} nodes, {} tets of order {}, {} boundary faces)",
             self.data.mesh.node_count(),
             self.data.mesh.tet_count(),
+            self.data.mesh.order(),
             self.data.boundary.len()
         )
     }

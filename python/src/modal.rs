@@ -12,7 +12,7 @@ use crate::constraints::PyConstraints;
 use crate::errors::OrRaise;
 use crate::interrupt::detach_interruptible;
 use crate::material::materials_of;
-use crate::mesh::{MeshData, PyMesh};
+use crate::mesh::{MeshData, PyMesh, on_cells};
 use crate::names;
 use crate::statics::check_same_mesh;
 
@@ -99,15 +99,15 @@ pub fn modal_analysis(
     let c = &constraints.constraints;
     let system = py
         .detach(|| {
-            LinearSystem::new(
-                &data.mesh,
+            on_cells!(&data.mesh, m => LinearSystem::new(
+                m,
                 &materials,
                 c,
-                &Loads::new(&data.mesh),
+                &Loads::new(m),
                 Vector3::zeros(),
                 mass,
                 Rayleigh::default(),
-            )
+            ))
         })
         .or_raise(py)?;
     modes_of(py, &system, None, data, count)

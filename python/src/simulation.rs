@@ -1,14 +1,15 @@
 //! `tetfem.Simulation`: time integration of M·ü + C·u̇ + K·u = f (or a nonlinear force model)
 //! with any of the library's methods, stepped from Python with the GIL released.
 
+use std::path::PathBuf;
 use std::sync::{Arc, Mutex, MutexGuard, TryLockError};
 use std::thread::ThreadId;
 
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use tetfem::dynamics::{
-    BackwardEuler, Energy, Integrator, IntegratorOptions, InternalForce, LinearSystem, Mass,
-    Method, Newmark, Rayleigh, State, SymplecticEuler, critical_time_step,
+    BackwardEuler, Checkpoint, Energy, Integrator, IntegratorOptions, InternalForce, LinearSystem,
+    Mass, Method, Newmark, NonlinearForce, Rayleigh, State, SymplecticEuler, critical_time_step,
 };
 use tetfem::loads::Loads;
 use tetfem::materials::MaterialMap;
@@ -17,11 +18,12 @@ use tetfem::output::fields::{cell_model_von_mises, cell_von_mises};
 
 use crate::arrays;
 use crate::constraints::PyConstraints;
+use crate::contact::{PyObstacle, contact_of};
 use crate::errors::{OrRaise, invalid, raise};
 use crate::interrupt::detach_interruptible;
 use crate::loads::PyLoads;
 use crate::material::materials_of;
-use crate::mesh::{MeshData, PyMesh};
+use crate::mesh::{MeshData, PyMesh, on_cells};
 use crate::modal::{ModalResult, modes_of};
 use crate::names;
 use crate::sparse::{csr, diagonal};
@@ -164,9 +166,20 @@ impl PySimulation {
         Ok(match system.mass() {
             Mass::Lumped(_) => critical_time_step(system)?.dt,
             Mass::Consistent(_) => {
-                tetfem::dynamics::element_step_bound_of(&data.mesh, materials)?.dt_element
+                on_cells!(&data.mesh, m => tetfem::dynamics::element_step_bound_of_type(m, materials))?
+                    .dt_element
             }
         })
+    }
+
+    /// What a checkpoint of this run stores to recognise it: the method, the model and the
+    /// free DOF count.
+    fn fingerprint(&self, state: &State) -> Vec<(String, String)> {
+        vec![
+            ("method".into(), self.method.into()),
+            ("model".into(), self.model().into()),
+            ("free DOFs".into(), state.displacement.len().to_string()),
+        ]
     }
 
     /// The integrator and the state, for a call of this thread: `TetfemError` (busy) when
@@ -244,7 +257,7 @@ impl PySimulation {
 #[pymethods]
 impl PySimulation {
     #[new]
-    #[pyo3(signature = (mesh, material, constraints, loads = None, *, dt, method = "backward-euler", model = "linear", mass = "lumped", damping = (0.0, 0.0), initial_displacement = None, initial_velocity = None, linear_solver = "auto"))]
+    #[pyo3(signature = (mesh, material, constraints, loads = None, *, dt, method = "backward-euler", model = "linear", mass = "lumped", damping = (0.0, 0.0), initial_displacement = None, initial_velocity = None, linear_solver = "auto", obstacles = None, contact_distance = None, contact_stiffness = None))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         py: Python<'_>,
@@ -260,6 +273,9 @@ impl PySimulation {
         initial_displacement: Option<&Bound<'_, PyAny>>,
         initial_velocity: Option<&Bound<'_, PyAny>>,
         linear_solver: &str,
+        obstacles: Option<Vec<PyRef<'_, PyObstacle>>>,
+        contact_distance: Option<f64>,
+        contact_stiffness: Option<f64>,
     ) -> PyResult<Self> {
         let data = Arc::clone(&mesh.get().data);
         check_same_mesh(py, &data, &constraints, loads.as_deref())?;
@@ -273,14 +289,29 @@ impl PySimulation {
         };
         let rayleigh = Rayleigh::new(damping.0, damping.1).or_raise(py)?;
         let dt = names::time_step(py, dt)?;
-        let empty = Loads::new(&data.mesh);
+        let empty = on_cells!(&data.mesh, m => Loads::new(m));
         let (other, gravity) = match &loads {
             Some(l) => (&l.other, l.gravity),
             None => (&empty, nalgebra::Vector3::zeros()),
         };
+        let contact = contact_of(
+            py,
+            &data,
+            &materials,
+            obstacles,
+            contact_distance,
+            contact_stiffness,
+        )?;
         let c = &constraints.constraints;
+        // With obstacles, as the scene runner builds it: a body held by contact alone is well
+        // posed in time (the mass holds its rigid modes), so no rigid-mode check.
         let system = py
-            .detach(|| LinearSystem::new(&data.mesh, &materials, c, other, gravity, mass, rayleigh))
+            .detach(|| {
+                on_cells!(&data.mesh, m => match contact.is_some() {
+                    true => LinearSystem::new_free_body(m, &materials, c, other, gravity, mass, rayleigh),
+                    false => LinearSystem::new(m, &materials, c, other, gravity, mass, rayleigh),
+                })
+            })
             .or_raise(py)?;
         let system = Arc::new(system);
         let free = system.free_count();
@@ -302,14 +333,23 @@ impl PySimulation {
             let values = arrays::rows_per_item(py, v, "initial_velocity", n)?;
             state.velocity = system.dofs().restrict(&values).or_raise(py)?;
         }
-        // As the scene runner builds it: the linear fast path, or the model of each material.
-        let force = match kind {
-            ModelKind::Linear => InternalForce::Linear,
-            nonlinear => {
-                let models = nonlinear.build_map(&materials);
-                let mesh = Arc::new(data.mesh.clone());
-                py.detach(|| InternalForce::of_models(mesh, models, &system))
-                    .or_raise(py)?
+        // As the scene runner builds it: the linear fast path, or the model of each material;
+        // with obstacles every model (the linear one too) with the contact barrier.
+        let force = match (kind, contact) {
+            (ModelKind::Linear, None) => InternalForce::Linear,
+            (kind, contact) => {
+                let models = kind.build_map(&materials);
+                py.detach(|| {
+                    let force = on_cells!(&data.mesh, m => {
+                        NonlinearForce::with_models(Arc::new(m.clone()), models, &system)
+                    })?;
+                    let force = match contact {
+                        Some(contact) => force.with_contact(contact)?,
+                        None => force,
+                    };
+                    tetfem::Result::Ok(InternalForce::Nonlinear(Arc::new(force)))
+                })
+                .or_raise(py)?
             }
         };
         let dt = match dt {
@@ -339,6 +379,48 @@ impl PySimulation {
     fn step(&self, py: Python<'_>) -> PyResult<()> {
         let _runner = self.claim(py)?;
         self.advance(py, |_| Ok(())).map(|_| ())
+    }
+
+    /// Writes a checkpoint of the run to ``path`` (a small binary file, written atomically):
+    /// the state (u, v, time, step count), what the method carries from one step to the next
+    /// and the time step, with the method, model and free DOF count as its fingerprint.
+    /// ``restore(path)`` on a Simulation built the same way continues bit for bit as if never
+    /// interrupted. Raises ``TetfemIOError`` when the file cannot be written.
+    fn checkpoint(&self, py: Python<'_>, path: PathBuf) -> PyResult<()> {
+        let guard = self.stepping(py)?;
+        let fingerprint = self.fingerprint(&guard.state);
+        let checkpoint =
+            Checkpoint::take(guard.stepper.get(), &guard.state, fingerprint, Vec::new())
+                .or_raise(py)?;
+        drop(guard);
+        py.detach(|| checkpoint.write(&path)).or_raise(py)
+    }
+
+    /// Continues from the checkpoint at ``path`` (see ``checkpoint``): the state, the
+    /// method's history and the time step become the checkpoint's. A checkpoint of another
+    /// method, model or free DOF count raises ``InvalidInputError`` naming the entry and both
+    /// values; a damaged file ``TetfemError`` naming the byte offset.
+    fn restore(&self, py: Python<'_>, path: PathBuf) -> PyResult<()> {
+        let checkpoint = py.detach(|| Checkpoint::read(&path)).or_raise(py)?;
+        let mut guard = self.stepping(py)?;
+        for (name, ours) in self.fingerprint(&guard.state) {
+            let theirs = checkpoint.fingerprint_entry(&name).unwrap_or("none");
+            if theirs != ours {
+                return Err(invalid(
+                    py,
+                    &format!("checkpoint {name}"),
+                    theirs,
+                    &format!(
+                        "this Simulation has {name} = {ours}: restore a checkpoint of a Simulation built the same way"
+                    ),
+                ));
+            }
+        }
+        let stepping = &mut *guard;
+        let integrator = stepping.stepper.integrator();
+        integrator.set_time_step(checkpoint.dt).or_raise(py)?;
+        stepping.state = checkpoint.restore(integrator).or_raise(py)?;
+        Ok(())
     }
 
     /// Takes ``steps`` steps and returns the energy history after each step as numpy arrays of
@@ -510,10 +592,10 @@ impl PySimulation {
                 .or_raise(py)?
         };
         let mesh = &self.data.mesh;
-        let v = match &self.force {
-            InternalForce::Linear => cell_von_mises(mesh, &self.materials, &u),
-            InternalForce::Nonlinear(n) => cell_model_von_mises(mesh, n.models(), &u),
-        }
+        let v = on_cells!(mesh, m => match &self.force {
+            InternalForce::Linear => cell_von_mises(m, &self.materials, &u),
+            InternalForce::Nonlinear(n) => cell_model_von_mises(m, n.models(), &u),
+        })
         .or_raise(py)?;
         Ok(arrays::vector(py, v))
     }

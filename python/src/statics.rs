@@ -7,29 +7,32 @@ use std::sync::{Arc, Mutex, MutexGuard, TryLockError};
 use nalgebra::Matrix3;
 use numpy::{PyArray1, PyArrayMethods};
 use pyo3::prelude::*;
+use tetfem::boundary_motion::BoundaryMotion;
 use tetfem::constraints::DofMap;
 use tetfem::linalg::linear_solver::{SolveInfo, SolverOptions};
 use tetfem::materials::MaterialMap;
 use tetfem::model::ModelKind;
-use tetfem::nonlinear::{NewtonOptions, solve_nonlinear_static};
+use tetfem::nonlinear::{NewtonOptions, StaticPath, solve_static_model};
 use tetfem::output::fields::{cell_model_stress, cell_stress};
 use tetfem::statics::{StaticSolution, StaticSolver};
 
 use crate::arrays::{self, index_vector};
 use crate::constraints::PyConstraints;
+use crate::contact::{PyObstacle, contact_of};
 use crate::errors::{OrRaise, invalid, raise};
 use crate::interrupt::detach_interruptible;
 use crate::loads::PyLoads;
 use crate::material::materials_of;
-use crate::mesh::{MeshData, PyMesh};
+use crate::mesh::{MeshData, PyMesh, on_cells};
 use crate::names;
 use crate::sparse::csr;
 
 /// The result of a static solve. Units SI as given (m, Pa, N).
 ///
 /// Attributes: ``displacement`` (n, 3) m; ``stress`` (m, 3, 3) Cauchy stress per tet, Pa;
-/// ``von_mises`` (m,) Pa; ``reactions`` (n, 3) N (K·u − f, non-zero on constrained DOFs only;
-/// None for nonlinear models); ``relative_residual`` ‖K_ff·u_f − r_f‖/‖r_f‖ (for nonlinear
+/// ``von_mises`` (m,) Pa; ``reactions`` (n, 3) N (K·u − f for the linear model, −(Σₑ fₑ(u) +
+/// f) for the nonlinear ones; non-zero on constrained DOFs only); ``contact_forces`` (o, 3) N
+/// with obstacles (else None); ``relative_residual`` ‖K_ff·u_f − r_f‖/‖r_f‖ (for nonlinear
 /// models the final Newton residual ‖r_f‖ over the load norm ‖f_f‖, or ‖r_f‖ in N when there
 /// is no load); ``model``; ``solver`` (``"direct"`` or ``"iterative (k iterations)"``,
 /// ``"newton (k iterations)"``).
@@ -41,8 +44,12 @@ pub struct StaticResult {
     stress: Py<PyAny>,
     /// Von Mises stress of every tet, shape (m,), Pa.
     von_mises: Py<PyAny>,
-    /// Reaction forces K·u − f, shape (n, 3), N (None for nonlinear models).
-    reactions: Option<Py<PyAny>>,
+    /// Reaction forces, shape (n, 3), N: K·u − f for the linear model, −(Σₑ fₑ(u) + f) for
+    /// the nonlinear ones; non-zero on constrained DOFs only.
+    reactions: Py<PyAny>,
+    /// With obstacles: the force the body exerts on each (barrier plus friction), shape
+    /// (o, 3), N, in the order given; None without obstacles.
+    contact_forces: Option<Py<PyAny>>,
     /// Relative residual of the solve (dimensionless).
     relative_residual: f64,
     /// The force model that ran.
@@ -102,16 +109,17 @@ fn linear_result(
     solution: StaticSolution,
 ) -> PyResult<StaticResult> {
     let stress = py
-        .detach(|| cell_stress(&data.mesh, materials, &solution.displacement))
+        .detach(|| on_cells!(&data.mesh, m => cell_stress(m, materials, &solution.displacement)))
         .or_raise(py)?;
     let (stress, von_mises) = stress_arrays(py, &stress)?;
     Ok(StaticResult {
         displacement: arrays::rows3(py, solution.displacement)?.unbind(),
         stress,
         von_mises,
-        reactions: Some(arrays::rows3(py, solution.reactions)?.unbind()),
+        reactions: arrays::rows3(py, solution.reactions)?.unbind(),
         relative_residual: solution.relative_residual,
         model: "linear".into(),
+        contact_forces: None,
         solver: solver_text(&solution.info),
     })
 }
@@ -148,7 +156,13 @@ pub fn check_same_mesh(
 /// or multigrid-preconditioned CG by predicted time, ``"direct"`` / ``"iterative"`` force one),
 /// or a nonlinear model ``"corotational"`` / ``"neo-hookean"`` / ``"st-venant-kirchhoff"``
 /// (each material its own) solved by Newton's method in ``load_steps`` increments with at most
-/// ``max_iterations`` per step. ``tolerance``: the relative residual asked for, ‖r_f‖ ≤
+/// ``max_iterations`` per step. ``obstacles``: a list of ``Obstacle`` the body may touch (with
+/// their friction); with any, every model (the linear one too) is solved by Newton with the
+/// contact barrier, of activation distance ``contact_distance`` (length; default 1e-3 × the
+/// bounding-box diagonal) and stiffness ``contact_stiffness`` (Pa/m; default E/h of the
+/// stiffest material), and ``contact_forces`` gives the force on each. Which path runs is the
+/// library's one dispatch (``tetfem::nonlinear::solve_static_model``), as in scenes.
+/// ``tolerance``: the relative residual asked for, ‖r_f‖ ≤
 /// ``tolerance``·‖f_f‖ (the linear solve's ‖K_ff·u_f − r_f‖/‖r_f‖, or Newton's residual over
 /// the load); a solve that ends above it raises ``SolverError`` naming the tolerance and the
 /// residual reached (a tolerance below double precision's floor for the matrix cannot be
@@ -158,7 +172,7 @@ pub fn check_same_mesh(
 /// raises ``KeyboardInterrupt`` between two iterations. Raises ``NotConstrainedError`` when
 /// the constraints leave a rigid-body motion, ``SolverError`` when the solve fails.
 #[pyfunction]
-#[pyo3(signature = (mesh, material, constraints, loads, model = "linear", linear_solver = "auto", load_steps = 10, tolerance = None, max_iterations = 30))]
+#[pyo3(signature = (mesh, material, constraints, loads, model = "linear", linear_solver = "auto", load_steps = 10, tolerance = None, max_iterations = 30, obstacles = None, contact_distance = None, contact_stiffness = None))]
 #[allow(clippy::too_many_arguments)]
 pub fn solve_static(
     py: Python<'_>,
@@ -171,6 +185,9 @@ pub fn solve_static(
     load_steps: usize,
     tolerance: Option<f64>,
     max_iterations: usize,
+    obstacles: Option<Vec<PyRef<'_, PyObstacle>>>,
+    contact_distance: Option<f64>,
+    contact_stiffness: Option<f64>,
 ) -> PyResult<StaticResult> {
     let data = &mesh.get().data;
     check_same_mesh(py, data, &constraints, Some(&loads))?;
@@ -185,69 +202,95 @@ pub fn solve_static(
             "must be finite, > 0 and < 1 (or None)",
         ));
     }
-    let constraints = &constraints.constraints;
-    let loads = &loads.all;
-    if kind == ModelKind::Linear {
-        let mut options = SolverOptions {
-            method,
-            ..SolverOptions::default()
-        };
-        if let Some(t) = tolerance {
-            // CG accepts a true residual up to 10× its tolerance (its recursive residual
-            // drifts): a tenth of the one asked for, so that it stops at or below it.
-            options.cg.relative_tolerance = t / 10.0;
-        }
-        let solution = detach_interruptible(py, || {
-            StaticSolver::with_options(&data.mesh, &materials, constraints, options)?.solve(loads)
-        })?;
-        check_tolerance(
-            py,
-            tolerance,
-            solution.relative_residual,
-            &solver_text(&solution.info),
-        )?;
-        return linear_result(py, data, &materials, solution);
+    let contact = contact_of(
+        py,
+        data,
+        &materials,
+        obstacles,
+        contact_distance,
+        contact_stiffness,
+    )?;
+    let mut linear = SolverOptions {
+        method,
+        ..SolverOptions::default()
+    };
+    if let Some(t) = tolerance {
+        // CG accepts a true residual up to 10× its tolerance (its recursive residual
+        // drifts): a tenth of the one asked for, so that it stops at or below it.
+        linear.cg.relative_tolerance = t / 10.0;
     }
-    let options = NewtonOptions {
+    let newton = NewtonOptions {
         load_steps,
         tolerance: tolerance.unwrap_or(NewtonOptions::default().tolerance),
         max_iterations,
         ..NewtonOptions::default()
     };
     let models = kind.build_map(&materials);
-    let (report, (relative, reached), stress) =
-        detach_interruptible(py, || -> tetfem::Result<_> {
-            let report = solve_nonlinear_static(&data.mesh, &models, constraints, loads, options)?;
-            // ‖r_f‖/‖f_f‖ at the end, as the scene runner reports it.
-            let load = DofMap::new(constraints)
-                .restrict(loads.as_slice())?
-                .iter()
-                .map(|f| f * f)
-                .sum::<f64>()
-                .sqrt();
-            let last_step = report.residuals.last().map_or(&[][..], Vec::as_slice);
-            let last = last_step.last().copied().unwrap_or(0.0);
-            let relative = if load > 0.0 { last / load } else { last };
-            // Against Newton's own reference: the load, or without one (prescribed displacements
-            // only) the last load step's first residual.
-            let reached = match (load > 0.0, last_step.first()) {
-                (false, Some(&first)) => last / first.max(f64::MIN_POSITIVE),
-                _ => relative,
+    let constraints = &constraints.constraints;
+    let loads = &loads.all;
+    let (solved, stress) = detach_interruptible(py, || -> tetfem::Result<_> {
+        on_cells!(&data.mesh, mesh => {
+            let solved = solve_static_model(
+                mesh,
+                &models,
+                constraints,
+                loads,
+                &BoundaryMotion::new(),
+                contact.as_ref(),
+                linear,
+                newton,
+            )?;
+            // The linear model's stress straight from u (the force-model route forms x = X + u
+            // and takes u = x − X back, which costs digits); a nonlinear model's is its own.
+            let stress = match kind {
+                ModelKind::Linear => cell_stress(mesh, &materials, &solved.displacement)?,
+                _ => cell_model_stress(mesh, &models, &solved.displacement)?,
             };
-            let stress = cell_model_stress(&data.mesh, &models, &report.displacement)?;
-            Ok((report, (relative, reached), stress))
-        })?;
-    let solver = format!("newton ({} iterations)", report.iterations);
+            Ok((solved, stress))
+        })
+    })?;
+    let (solver, reached) = match &solved.path {
+        StaticPath::Linear { info, .. } => (solver_text(info), solved.relative_residual),
+        StaticPath::Newton {
+            residuals,
+            iterations,
+        } => {
+            // Against Newton's own reference: the load, or without one (prescribed
+            // displacements only) the last load step's first residual.
+            let last_step = residuals.last().map_or(&[][..], Vec::as_slice);
+            let free_load = DofMap::new(constraints)
+                .restrict(loads.as_slice())
+                .or_raise(py)?;
+            let loaded = free_load.iter().any(|f| *f != 0.0);
+            let reached = match (loaded, last_step.first(), last_step.last()) {
+                (false, Some(&first), Some(&last)) => last / first.max(f64::MIN_POSITIVE),
+                _ => solved.relative_residual,
+            };
+            (format!("newton ({iterations} iterations)"), reached)
+        }
+    };
     check_tolerance(py, tolerance, reached, &solver)?;
     let (stress, von_mises) = stress_arrays(py, &stress)?;
+    let contact_forces = match contact {
+        Some(_) => {
+            let flat: Vec<f64> = solved
+                .obstacle_forces
+                .iter()
+                .flat_map(|f| [f.x, f.y, f.z])
+                .collect();
+            Some(arrays::rows3(py, flat)?.unbind())
+        }
+        None => None,
+    };
     Ok(StaticResult {
         solver,
-        displacement: arrays::rows3(py, report.displacement)?.unbind(),
+        displacement: arrays::rows3(py, solved.displacement)?.unbind(),
         stress,
         von_mises,
-        reactions: None,
-        relative_residual: relative,
+        reactions: arrays::rows3(py, solved.reactions)?.unbind(),
+        relative_residual: solved.relative_residual,
         model: kind.name().into(),
+        contact_forces,
     })
 }
 
@@ -330,7 +373,7 @@ impl PyStaticSolver {
         };
         let c = &constraints.constraints;
         let solver = py
-            .detach(|| StaticSolver::with_options(&data.mesh, &materials, c, options))
+            .detach(|| on_cells!(&data.mesh, m => StaticSolver::with_options(m, &materials, c, options)))
             .or_raise(py)?;
         Ok(PyStaticSolver {
             data,

@@ -15,6 +15,7 @@ __all__ = [
     "Loads",
     "StaticResult",
     "StaticSolver",
+    "Obstacle",
     "Simulation",
     "ModalResult",
     "solve_static",
@@ -22,6 +23,8 @@ __all__ = [
     "run_scene",
     "stiffness_matrix",
     "mass_matrix",
+    "estimate_error",
+    "model_advice",
     "__version__",
 ]
 
@@ -56,9 +59,12 @@ class Mesh:
         cells: _ArrayLike,
         min: Optional[_ArrayLike] = None,
         split: _Split = "mirrored6",
+        order: Literal[1, 2] = 1,
     ) -> "Mesh": ...
     @staticmethod
-    def read(path: _Path) -> "Mesh": ...
+    def read(path: _Path, order: Optional[Literal[1, 2]] = None) -> "Mesh": ...
+    @property
+    def order(self) -> Literal[1, 2]: ...
     @property
     def points(self) -> _FloatArray: ...
     @property
@@ -166,11 +172,27 @@ class Loads:
     def resultant(self) -> _FloatArray: ...
 
 @final
+@final
+class Obstacle:
+    @staticmethod
+    def half_space(name: str, point: _ArrayLike, normal: _ArrayLike, friction: float = 0.0) -> Obstacle: ...
+    @staticmethod
+    def sphere(name: str, center: _ArrayLike, radius: float, friction: float = 0.0) -> Obstacle: ...
+    @staticmethod
+    def box(name: str, min: _ArrayLike, max: _ArrayLike, friction: float = 0.0) -> Obstacle: ...
+    @property
+    def name(self) -> str: ...
+    @property
+    def friction(self) -> float: ...
+    def distance(self, point: _ArrayLike) -> float: ...
+
+@final
 class StaticResult:
     displacement: _FloatArray
     stress: _FloatArray
     von_mises: _FloatArray
-    reactions: Optional[_FloatArray]
+    reactions: _FloatArray
+    contact_forces: Optional[_FloatArray]
     relative_residual: float
     model: str
     solver: str
@@ -214,6 +236,9 @@ class Simulation:
         initial_displacement: Optional[_ArrayLike] = None,
         initial_velocity: Optional[_ArrayLike] = None,
         linear_solver: _LinearSolver = "auto",
+        obstacles: Optional[Sequence[Obstacle]] = None,
+        contact_distance: Optional[float] = None,
+        contact_stiffness: Optional[float] = None,
     ) -> "Simulation": ...
     def step(self) -> None: ...
     def run(
@@ -250,6 +275,8 @@ class Simulation:
     @property
     def free_dofs(self) -> _IndexArray: ...
     def modes(self, count: int = 6) -> ModalResult: ...
+    def checkpoint(self, path: _Path) -> None: ...
+    def restore(self, path: _Path) -> None: ...
 
 def solve_static(
     mesh: Mesh,
@@ -261,6 +288,9 @@ def solve_static(
     load_steps: int = 10,
     tolerance: Optional[float] = None,
     max_iterations: int = 30,
+    obstacles: Optional[Sequence[Obstacle]] = None,
+    contact_distance: Optional[float] = None,
+    contact_stiffness: Optional[float] = None,
 ) -> StaticResult: ...
 def modal_analysis(
     mesh: Mesh, material: _Materials, constraints: Constraints, count: int = 6, mass: _Mass = "lumped"
@@ -268,3 +298,5 @@ def modal_analysis(
 def run_scene(path: _Path, output_dir: Optional[_Path] = None, write_files: bool = True) -> Dict[str, Any]: ...
 def stiffness_matrix(mesh: Mesh, material: _Materials) -> _SparseMatrix: ...
 def mass_matrix(mesh: Mesh, material: _Materials, mass: _Mass = "lumped") -> _SparseMatrix: ...
+def estimate_error(mesh: Mesh, material: _Materials, displacement: _ArrayLike) -> Dict[str, Any]: ...
+def model_advice(mesh: Mesh, displacement: _ArrayLike) -> Dict[str, Any]: ...

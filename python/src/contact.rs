@@ -1,0 +1,147 @@
+//! `tetfem.Obstacle`: rigid obstacles (half-space, sphere, box) with Coulomb friction, for the
+//! contact of `tetfem.solve_static(..., obstacles=[...])`.
+
+use pyo3::prelude::*;
+use tetfem::contact::{Contact, ContactParameters, Obstacle};
+use tetfem::materials::MaterialMap;
+
+use crate::arrays;
+use crate::errors::{OrRaise, invalid};
+use crate::mesh::{Cells, MeshData};
+
+/// A rigid obstacle the body may touch but not enter (length units; SI m). Make one with
+/// ``Obstacle.half_space(name, point, normal)`` (the side the normal points to is free),
+/// ``Obstacle.sphere(name, center, radius)`` or ``Obstacle.box(name, min, max)`` (an
+/// axis-aligned box). ``friction`` is Coulomb's μ (0: frictionless). Invalid geometry raises
+/// ``InvalidInputError`` naming the obstacle and its key.
+#[pyclass(name = "Obstacle", module = "tetfem", frozen)]
+pub struct PyObstacle {
+    /// The library's obstacle.
+    pub obstacle: Obstacle,
+}
+
+impl PyObstacle {
+    fn of(py: Python<'_>, obstacle: tetfem::Result<Obstacle>, friction: f64) -> PyResult<Self> {
+        let obstacle = obstacle
+            .and_then(|o| o.with_friction(friction))
+            .or_raise(py)?;
+        Ok(PyObstacle { obstacle })
+    }
+}
+
+#[pymethods]
+impl PyObstacle {
+    /// The half-space behind the plane through ``point`` with outward ``normal`` (any length):
+    /// the body stays on the side the normal points to.
+    #[staticmethod]
+    #[pyo3(signature = (name, point, normal, friction = 0.0))]
+    fn half_space(
+        py: Python<'_>,
+        name: &str,
+        point: &Bound<'_, PyAny>,
+        normal: &Bound<'_, PyAny>,
+        friction: f64,
+    ) -> PyResult<Self> {
+        let point = arrays::vector3(py, point, "point")?;
+        let normal = arrays::vector3(py, normal, "normal")?;
+        Self::of(py, Obstacle::half_space(name, point, normal), friction)
+    }
+
+    /// The solid sphere of ``center`` and ``radius`` (> 0).
+    #[staticmethod]
+    #[pyo3(signature = (name, center, radius, friction = 0.0))]
+    fn sphere(
+        py: Python<'_>,
+        name: &str,
+        center: &Bound<'_, PyAny>,
+        radius: f64,
+        friction: f64,
+    ) -> PyResult<Self> {
+        let center = arrays::vector3(py, center, "center")?;
+        Self::of(py, Obstacle::sphere(name, center, radius), friction)
+    }
+
+    /// The solid axis-aligned box [min, max].
+    #[staticmethod]
+    #[pyo3(name = "box", signature = (name, min, max, friction = 0.0))]
+    fn aligned_box(
+        py: Python<'_>,
+        name: &str,
+        min: &Bound<'_, PyAny>,
+        max: &Bound<'_, PyAny>,
+        friction: f64,
+    ) -> PyResult<Self> {
+        let min = arrays::vector3(py, min, "min")?;
+        let max = arrays::vector3(py, max, "max")?;
+        Self::of(py, Obstacle::aligned_box(name, min, max), friction)
+    }
+
+    /// The obstacle's name.
+    #[getter]
+    fn name(&self) -> &str {
+        self.obstacle.name()
+    }
+
+    /// Coulomb's friction coefficient μ (dimensionless).
+    #[getter]
+    fn friction(&self) -> f64 {
+        self.obstacle.friction()
+    }
+
+    /// The signed distance (length units) from ``point`` to the obstacle's surface: > 0
+    /// outside, < 0 inside.
+    fn distance(&self, py: Python<'_>, point: &Bound<'_, PyAny>) -> PyResult<f64> {
+        Ok(self
+            .obstacle
+            .distance(&arrays::vector3(py, point, "point")?))
+    }
+
+    fn __repr__(&self) -> String {
+        format!(
+            "Obstacle({}, friction={})",
+            self.obstacle.name(),
+            self.obstacle.friction()
+        )
+    }
+}
+
+/// The contact of `obstacles` with the body `data` of `materials`: the barrier's default
+/// scales ([`ContactParameters::for_mesh`] with the stiffest Young's modulus, which the
+/// barrier must hold) unless `distance` (d̂, length) or `stiffness` (κ, Pa/m) are given.
+/// `None` without obstacles.
+pub fn contact_of(
+    py: Python<'_>,
+    data: &MeshData,
+    materials: &MaterialMap,
+    obstacles: Option<Vec<PyRef<'_, PyObstacle>>>,
+    distance: Option<f64>,
+    stiffness: Option<f64>,
+) -> PyResult<Option<Contact>> {
+    let Some(obstacles) = obstacles.filter(|o| !o.is_empty()) else {
+        return Ok(None);
+    };
+    // The library's `Contact` is built on a 4-node mesh (as scenes, which refuse obstacles
+    // with `mesh.order = 2`).
+    let Cells::P1(mesh) = &data.mesh else {
+        return Err(invalid(
+            py,
+            "obstacles",
+            format!("{} obstacles on a mesh of order 2", obstacles.len()),
+            "obstacles (contact) run on 4-node tets only: use a mesh of order 1",
+        ));
+    };
+    let stiffest = materials
+        .materials()
+        .iter()
+        .map(|m| m.youngs_modulus())
+        .fold(0.0, f64::max);
+    let obstacles: Vec<Obstacle> = obstacles.iter().map(|o| o.obstacle.clone()).collect();
+    py.detach(|| {
+        let mut parameters = ContactParameters::for_mesh(mesh, stiffest)?;
+        parameters.activation_distance = distance.unwrap_or(parameters.activation_distance);
+        parameters.stiffness = stiffness.unwrap_or(parameters.stiffness);
+        Contact::new(mesh, obstacles, parameters)
+    })
+    .map(Some)
+    .or_raise(py)
+}
