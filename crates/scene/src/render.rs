@@ -446,6 +446,33 @@ fn frame(
     }
 }
 
+/// The colour bar's range of `field` on `mesh`: `range` if given, else the values' own; checks
+/// that the field holds one finite value per node (or per tet), naming it otherwise.
+fn colour_range<C: CellType>(
+    mesh: &TetMesh<C>,
+    field: &Field,
+    range: Option<(f64, f64)>,
+) -> Result<(f64, f64)> {
+    let (name, values, expected) = match field {
+        Field::Nodes { name, values } => (*name, *values, mesh.node_count()),
+        Field::Cells { name, values } => (*name, *values, mesh.tet_count()),
+    };
+    if values.len() != expected || values.iter().any(|v| !v.is_finite()) {
+        return Err(Error::invalid_parameter(
+            format!("field '{name}'"),
+            format!("{} values", values.len()),
+            format!("must hold {expected} finite values"),
+        ));
+    }
+    Ok(range.unwrap_or_else(|| {
+        values
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| {
+                (a.min(v), b.max(v))
+            })
+    }))
+}
+
 /// Draws `mesh` displaced by `deformation_scale · displacement` and coloured by `field`, with
 /// the obstacles of `options` behind it (see [`view`] for the framing).
 ///
@@ -463,25 +490,7 @@ pub fn render<C: CellType>(
         Field::Nodes { name, values } => (*name, *values, true),
         Field::Cells { name, values } => (*name, *values, false),
     };
-    let expected = if per_node {
-        mesh.node_count()
-    } else {
-        mesh.tet_count()
-    };
-    if values.len() != expected || values.iter().any(|v| !v.is_finite()) {
-        return Err(Error::invalid_parameter(
-            format!("field '{name}'"),
-            format!("{} values", values.len()),
-            format!("must hold {expected} finite values"),
-        ));
-    }
-    let (lo_value, hi_value) = options.range.unwrap_or_else(|| {
-        values
-            .iter()
-            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| {
-                (a.min(v), b.max(v))
-            })
-    });
+    let (lo_value, hi_value) = colour_range(mesh, field, options.range)?;
     let span = if hi_value - lo_value > 1e-300 {
         hi_value - lo_value
     } else {
