@@ -108,6 +108,10 @@ pub(crate) struct StepEquation<'a> {
     pub damping_velocity: Option<&'a [f64]>,
     /// The step dt (time): moving obstacles go to their placement at `time + duration`.
     pub duration: f64,
+    /// f, the external load of the step equation (force units, free DOFs): the system's load
+    /// at the step's end without the supports' elastic coupling
+    /// ([`LinearSystem::model_load_at`]).
+    pub load: &'a [f64],
     /// A guess of u' nearer than `start` (length; backward Euler: u + dt·v + dt²·(2a − a₋₁)
     /// with the last two steps' accelerations, or u + dt·v + dt²·a after one step), which the
     /// iterations start from when its residual or its Φ is the smaller one; `None` to start at
@@ -249,14 +253,17 @@ impl NewtonSolver {
     }
 
     /// f + f_int(u) − C(u)·v into `out` (C = αM + βK_T(u), K_T projected): the force that
-    /// accelerates the state (u, v), for explicit steps and Newmark's initial acceleration.
+    /// accelerates the state (u, v), for explicit steps and Newmark's initial acceleration;
+    /// `f` the external load at the state's time ([`LinearSystem::model_load_at`]), the
+    /// force's supports set to that time ([`NonlinearForce::set_time`]).
     pub fn net_force(
         &mut self,
         system: &LinearSystem,
-        u: &[f64],
-        v: &[f64],
+        (u, v): (&[f64], &[f64]),
+        f: &[f64],
         out: &mut [f64],
     ) -> Result<()> {
+        Error::check_len("load", out.len(), f.len())?;
         let damping = system.damping();
         self.internal_energy =
             self.force
@@ -264,7 +271,6 @@ impl NewtonSolver {
         self.internal_at.copy_from_slice(u);
         self.internal_valid = true;
         system.mass().product_into(v, &mut self.scratch);
-        let f = system.external_load();
         for i in 0..out.len() {
             out[i] = f[i] + self.internal[i] - damping.alpha * self.scratch[i];
         }
@@ -321,7 +327,9 @@ impl NewtonSolver {
         // A step starts where the last one's final residual was evaluated: its internal force
         // is still here (without contact, whose force also depends on the obstacles' placement
         // and the lagged friction).
+        // Nor with moving supports: the same free u is another full displacement at another time.
         let cached = self.force.contact().is_none()
+            && !system.has_moving_supports()
             && self.internal_valid
             && self.internal_at.as_slice() == u_new;
         if !cached {
@@ -347,7 +355,7 @@ impl NewtonSolver {
             false => &mut self.residual,
         };
         system.mass().product_into(&self.mixed, out);
-        let f = system.external_load();
+        let f = equation.load;
         for i in 0..u_new.len() {
             out[i] -= self.internal[i] + f[i];
         }
@@ -408,7 +416,7 @@ impl NewtonSolver {
                 phi -= damping.beta * dot(&mv, u_new);
             }
         }
-        let load = dot(system.external_load(), u_new);
+        let load = dot(equation.load, u_new);
         Ok(phi + energy - load)
     }
 
@@ -583,9 +591,14 @@ impl NewtonSolver {
                     .into(),
             ));
         }
-        let reference = r_norm
-            .max(norm(system.external_load()))
-            .max(self.reference_floor);
+        let reference = r_norm.max(norm(equation.load)).max(self.reference_floor);
+        // With prescribed displacements the supports' pull on the free DOFs is in the internal
+        // force, not in f: the linear system's load at the step's end (which holds it as
+        // −K_fc·u_c) keeps the reference at the forces' scale; it is f itself without them.
+        let reference = match system.has_support_coupling() {
+            true => reference.max(system.load_norm_at(time + equation.duration)?),
+            false => reference,
+        };
         if let Some(guess) = equation
             .first_iterate
             .filter(|_| self.force.contact().is_none())
