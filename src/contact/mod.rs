@@ -39,7 +39,7 @@ pub mod set;
 pub use friction::FrictionLag;
 pub use obstacle::{MAX_FRICTION, Obstacle, ObstacleMotion, Shape};
 pub use parameters::ContactParameters;
-pub use set::{Contact, NodesInside};
+pub use set::{Contact, NodesInside, contact_faces};
 
 /// The fraction of the collision-free step a line search starts from (IPC's 0.8).
 pub const STEP_FRACTION: f64 = 0.8;

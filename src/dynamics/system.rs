@@ -199,6 +199,35 @@ impl LinearSystem {
         )
     }
 
+    /// [`new_free_body`](Self::new_free_body) with loads and prescribed displacements that
+    /// follow time (see [`with_time_data`](Self::with_time_data)): a body held by contact,
+    /// under loads with amplitudes or on moving supports. With constant `data` it is
+    /// [`new_free_body`](Self::new_free_body), bit for bit. Errors: those of both.
+    #[allow(clippy::too_many_arguments)]
+    pub fn new_free_body_with_time_data<E: crate::element::ElementType>(
+        mesh: &TetMesh<E>,
+        materials: &impl TetMaterials,
+        constraints: &Constraints,
+        loads: &Loads,
+        gravity: Vector3<f64>,
+        mass: MassKind,
+        damping: Rayleigh,
+        data: &TimeData,
+    ) -> Result<Self> {
+        let data = (!data.is_constant()).then_some(data);
+        Self::assemble(
+            mesh,
+            materials,
+            constraints,
+            loads,
+            gravity,
+            mass,
+            damping,
+            data,
+            false,
+        )
+    }
+
     /// [`new`](Self::new), with time-varying `data` and the rigid-mode check when `check_held`
     /// is set.
     #[allow(clippy::too_many_arguments)]
