@@ -42,6 +42,7 @@ pub(crate) use tetfem_linalg::{
 
 pub mod adequacy;
 pub mod amplitude;
+pub mod analysis;
 pub mod assembly;
 pub mod atomic_file;
 pub mod boundary_motion;

@@ -113,6 +113,16 @@ pub enum Warning {
         /// The run's step (s).
         dt: f64,
     },
+    /// A combination that runs, but whose integrator does not bound the energy with what it is
+    /// combined with (see [`Combination::check`](crate::analysis::Combination::check)).
+    EnergyNotBounded {
+        /// The integrator (a scene's `method` value).
+        method: &'static str,
+        /// What it is combined with (e.g. `obstacles`).
+        with: &'static str,
+        /// The measured behaviour.
+        measured: String,
+    },
     /// Backward Euler's step resolves the lowest excited mode so coarsely that its numerical
     /// damping removes more than [`DECAY_WARNING`](crate::adequacy::time_step::DECAY_WARNING) of
     /// the amplitude per period.
@@ -186,6 +196,11 @@ impl fmt::Display for Warning {
                 100.0 * decay,
                 100.0 * limit
             ),
+            Warning::EnergyNotBounded {
+                method,
+                with,
+                measured,
+            } => write!(f, "method \"{method}\" with {with}: {measured}"),
             Warning::AmplitudeVanishes { key, from, to } => write!(
                 f,
                 "{key} is 0 over the whole run (t = {} to {} s): what it scales never acts; \

@@ -27,6 +27,7 @@ LAYERS = {
         'problem',
         'model contact',
         'statics nonlinear dynamics modal',
+        'analysis',
         'estimate adequacy convergence error_norms',
         'output',
         'prelude',

@@ -1,7 +1,7 @@
 //! The barrier's two scales: the activation distance d̂ and the stiffness κ.
 
 use crate::error::{Error, Result};
-use crate::mesh::TetMesh;
+use crate::mesh::{CellType, TetMesh};
 
 /// The scales of the contact barrier E_c = κ·Σᵢ Aᵢ·Σ_o b(d_o(xᵢ)) (see [`super::Contact`]).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -22,8 +22,11 @@ impl ContactParameters {
     /// a few times the stiffness E/h of the surface layer of elements, so the barrier neither
     /// dominates the Newton matrix nor lets the gap close to round-off.
     ///
+    /// On 10-node tets h is that of the contact triangles ([`super::set::contact_faces`]:
+    /// each face split at its mid-edge nodes), the spacing of the contact points.
+    ///
     /// Errors: the modulus is not finite and > 0; the mesh's faces cannot be found.
-    pub fn for_mesh(mesh: &TetMesh, youngs_modulus: f64) -> Result<Self> {
+    pub fn for_mesh<C: CellType>(mesh: &TetMesh<C>, youngs_modulus: f64) -> Result<Self> {
         if !(youngs_modulus.is_finite() && youngs_modulus > 0.0) {
             return Err(Error::invalid_parameter(
                 "contact youngs_modulus",
@@ -32,7 +35,7 @@ impl ContactParameters {
             ));
         }
         let (min, max) = mesh.bounding_box();
-        let faces = mesh.boundary_faces()?;
+        let faces = super::set::contact_faces(mesh)?;
         let nodes = mesh.nodes();
         let mut total = 0.0;
         for face in &faces {

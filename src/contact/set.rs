@@ -10,7 +10,7 @@ use super::friction::{
 };
 use super::{ContactParameters, Obstacle};
 use crate::error::{Error, Result};
-use crate::mesh::TetMesh;
+use crate::mesh::{BoundaryFace, CellType, NodeList, TetMesh};
 use crate::sparse::CscMatrix;
 
 /// Node-versus-obstacle contact of a mesh's boundary nodes with rigid obstacles:
@@ -111,8 +111,13 @@ impl Contact {
     /// obstacle or within reach of d ≤ 0 (see [`check_state`](Self::check_state)); an obstacle
     /// that reaches into a boundary face between its nodes or lies wholly inside the body (see
     /// [`super::overlap`]).
-    pub fn new(
-        mesh: &TetMesh,
+    ///
+    /// Any cell type: on 10-node tets the contact points are the boundary's corner and
+    /// mid-edge nodes, each boundary face split into its four straight sub-triangles
+    /// ([`contact_faces`]) for the nodes' area shares (A/12 at a corner, A/4 at a mid-edge
+    /// node of a face of area A) and the overlap check.
+    pub fn new<C: CellType>(
+        mesh: &TetMesh<C>,
         obstacles: Vec<Obstacle>,
         parameters: ContactParameters,
     ) -> Result<Self> {
@@ -150,7 +155,7 @@ impl Contact {
             }
         }
         let mut areas = vec![0.0; mesh.node_count()];
-        let faces = mesh.boundary_faces()?;
+        let faces = contact_faces(mesh)?;
         for face in &faces {
             let third = face.area_vector(mesh)?.norm() / 3.0;
             for &n in &face.nodes {
@@ -828,4 +833,41 @@ fn add_node_blocks(matrix: &mut CscMatrix, blocks: Vec<(usize, Matrix3<f64>)>) -
         }
     }
     Ok(())
+}
+
+/// The triangles of `mesh`'s boundary that carry its contact points, outward oriented: the
+/// boundary faces themselves on 4-node tets; on cells with edge nodes (10-node tets) each face
+/// (n₀, n₁, n₂) with its mid-edge nodes m₀₁, m₁₂, m₂₀ as the four sub-triangles (n₀, m₀₁, m₂₀),
+/// (m₀₁, n₁, m₁₂), (m₂₀, m₁₂, n₂), (m₀₁, m₁₂, m₂₀) of its straight-sided shape.
+///
+/// Errors: those of [`TetMesh::boundary_faces`].
+pub fn contact_faces<C: CellType>(mesh: &TetMesh<C>) -> Result<Vec<BoundaryFace>> {
+    let faces = mesh.boundary_faces()?;
+    let mut out = Vec::with_capacity(faces.len());
+    for face in faces {
+        let cell = &mesh.tets()[face.tet];
+        let corners = cell.corners();
+        let local = face
+            .nodes
+            .map(|n| corners.iter().position(|&c| c == n).unwrap_or(0));
+        let mid = |a: usize, b: usize| C::edge_node(cell, local[a], local[b]);
+        let [n0, n1, n2] = face.nodes;
+        match (mid(0, 1), mid(1, 2), mid(2, 0)) {
+            (Some(m01), Some(m12), Some(m20)) => {
+                for nodes in [
+                    [n0, m01, m20],
+                    [m01, n1, m12],
+                    [m20, m12, n2],
+                    [m01, m12, m20],
+                ] {
+                    out.push(BoundaryFace {
+                        tet: face.tet,
+                        nodes,
+                    });
+                }
+            }
+            _ => out.push(face),
+        }
+    }
+    Ok(out)
 }

@@ -92,6 +92,7 @@ impl BackwardEuler {
             newton,
         } = super::ImplicitParts::new(&system, force, dt, &options)?;
         let n = system.free_count();
+        let load = system.model_load_buffer(newton.is_some());
         Ok(BackwardEuler {
             dt,
             matrix,
@@ -102,7 +103,7 @@ impl BackwardEuler {
             product: vec![0.0; n],
             rhs: vec![0.0; n],
             blocks_work: system.stiffness_blocks().workspace(),
-            load: system.load_buffer(),
+            load,
             newton,
             acceleration: None,
             previous_acceleration: None,
@@ -118,12 +119,14 @@ impl BackwardEuler {
             return Ok(());
         };
         let dt = self.dt;
+        newton.force().set_time(&self.system, state.time)?;
         let energy = newton.elastic_energy_of(&self.system, state)?;
         DivergenceGuard::check_or_start(
             &mut self.guard,
             (state.steps, state.time),
             energy,
-            newton.force().contact().is_some_and(|c| c.is_moving()),
+            newton.force().contact().is_some_and(|c| c.is_moving())
+                || self.system.is_time_varying(),
         )?;
         // The predictor ũ = u + dt·v: where the body would go with no force.
         for ((p, u), v) in self
@@ -155,6 +158,11 @@ impl BackwardEuler {
             ),
             _ => None,
         };
+        // The load and the supports at the step's end, t + dt: the method is implicit in both.
+        newton.force().set_time(&self.system, state.time + dt)?;
+        let load = self
+            .system
+            .model_load_at(state.time + dt, true, &mut self.load)?;
         let equation = StepEquation {
             mass_scale: 1.0 / (dt * dt),
             damping_scale: 1.0 / dt,
@@ -163,6 +171,7 @@ impl BackwardEuler {
             damping_velocity: None,
             duration: dt,
             first_iterate: guess.as_deref(),
+            load,
         };
         newton.solve(
             &self.system,

@@ -77,6 +77,7 @@ impl SymplecticEuler {
             )?),
         };
         let n = system.free_count();
+        let load = system.model_load_buffer(forces.is_some());
         Ok(SymplecticEuler {
             forces,
             dt,
@@ -85,7 +86,7 @@ impl SymplecticEuler {
             work: vec![0.0; n],
             product: vec![0.0; n],
             blocks_work: system.stiffness_blocks().workspace(),
-            load: system.load_buffer(),
+            load,
             system,
         })
     }
@@ -104,10 +105,15 @@ impl SymplecticEuler {
         if let Some(contact) = forces.force().contact() {
             contact.set_time(state.time);
         }
+        // So are the load and the supports.
+        forces.force().set_time(&self.system, state.time)?;
+        let load = self
+            .system
+            .model_load_at(state.time, true, &mut self.load)?;
         forces.net_force(
             &self.system,
-            &state.displacement,
-            &state.velocity,
+            (&state.displacement, &state.velocity),
+            load,
             &mut self.product,
         )?;
         // The guard's energies come out of the force's pass (a second pass over the tets
@@ -117,7 +123,8 @@ impl SymplecticEuler {
             &mut self.guard,
             (state.steps, state.time),
             energy,
-            forces.force().contact().is_some_and(|c| c.is_moving()),
+            forces.force().contact().is_some_and(|c| c.is_moving())
+                || self.system.is_time_varying(),
         )?;
         let dt = self.dt;
         for i in 0..n {

@@ -109,8 +109,11 @@ impl InternalForce {
 /// gives the explicit critical step and the symbolic analysis the implicit methods refactor on;
 /// the stiffness part of Rayleigh damping uses the tangent at the start of each step instead.
 ///
-/// Prescribed displacements must be zero: the linear system folds −K_fc·u_c into its loads,
-/// which has no meaning for a nonlinear force.
+/// Prescribed displacements may be non-zero and may move in time: the force is evaluated on the
+/// full displacement, the constrained DOFs at u_c(t) of the time last set
+/// ([`set_time`](Self::set_time)), and the step equations take the system's loads without the
+/// coupling −K_fc·u_c that the linear system folds into them
+/// ([`LinearSystem::model_load_at`]), so it is not counted twice.
 pub struct NonlinearForce {
     /// The mesh, of 4-node or 10-node tets (its element type erased: see [`ForceMesh`]).
     mesh: Arc<dyn ForceMesh>,
@@ -123,7 +126,9 @@ pub struct NonlinearForce {
     /// K_ff's pattern (the `Arc` of the system's stiffness): the tangents are handed out on it.
     pattern: Arc<faer::sparse::SymbolicSparseColMat<usize>>,
     free_dofs: Vec<usize>,
-    prescribed: Vec<f64>,
+    /// The full displacement of the constrained DOFs (length), at the time last set
+    /// ([`set_time`](Self::set_time)); zero on the free DOFs' places.
+    prescribed: std::sync::RwLock<Vec<f64>>,
     /// Contact with rigid obstacles, when given ([`with_contact`](Self::with_contact)).
     contact: Option<Contact>,
     /// Friction's data lagged at the current step's start ([`begin_step`](Self::begin_step)).
@@ -136,8 +141,8 @@ pub struct NonlinearForce {
 impl NonlinearForce {
     /// The force of `model` on `mesh` for `system`, which must have been built on `mesh`.
     ///
-    /// Errors ([`Error::InvalidParameter`]): the system's DOF map is not of this mesh, a
-    /// prescribed displacement is not zero (naming the DOF), or the restricted assembly pattern
+    /// Errors ([`Error::InvalidParameter`]): the system's DOF map is not of this mesh, or the
+    /// restricted assembly pattern
     /// is not the system's K_ff pattern (a system from [`LinearSystem::from_parts`] with
     /// another stiffness).
     pub fn new<E: ModelElement>(
@@ -180,29 +185,6 @@ impl NonlinearForce {
                 format!("must be the system's mesh ({} DOFs)", dofs.full_count()),
             ));
         }
-        if system.is_time_varying() {
-            return Err(Error::invalid_parameter(
-                "loads and constraints",
-                "amplitudes or moving supports",
-                "a nonlinear force model in dynamics supports constant loads and fixed constraints only",
-            ));
-        }
-        if let Some((dof, value)) = dofs
-            .prescribed()
-            .iter()
-            .enumerate()
-            .find(|&(dof, &v)| dofs.free_index(dof).is_none() && v != 0.0)
-        {
-            return Err(Error::invalid_parameter(
-                format!(
-                    "prescribed displacement of DOF {dof} (node {}, axis {})",
-                    dof / 3,
-                    dof % 3
-                ),
-                value,
-                "a nonlinear force model in dynamics supports fixed (zero) constraints only",
-            ));
-        }
         let (assembler, restriction) = Problem::with_dofs(&mesh, dofs.clone())?.into_assembly();
         let pattern = Arc::clone(system.stiffness().pattern());
         let same = restriction.pattern().col_ptr() == pattern.col_ptr()
@@ -216,7 +198,7 @@ impl NonlinearForce {
         }
         Ok(NonlinearForce {
             free_dofs: dofs.free_dofs().to_vec(),
-            prescribed: dofs.prescribed().to_vec(),
+            prescribed: std::sync::RwLock::new(dofs.prescribed().to_vec()),
             mesh,
             models,
             name,
@@ -444,9 +426,32 @@ impl NonlinearForce {
         self.free_dofs.len()
     }
 
+    /// Sets the time the force is evaluated at: the moving constrained DOFs of `system` (the
+    /// system this force was built for) go to u_c(`t`) ([`LinearSystem::prescribed_at`]).
+    /// Without moving supports it does nothing. The integrators call it before each evaluation
+    /// at a new time (a step's start for the explicit method, its end for the implicit ones).
+    pub fn set_time(&self, system: &LinearSystem, t: f64) -> Result<()> {
+        if !system.has_moving_supports() {
+            return Ok(());
+        }
+        let values = system.prescribed_at(t)?;
+        Error::check_len(
+            "prescribed displacement",
+            self.mesh.dof_count(),
+            values.len(),
+        )?;
+        *self.prescribed_lock() = values;
+        Ok(())
+    }
+
+    fn prescribed_lock(&self) -> std::sync::RwLockWriteGuard<'_, Vec<f64>> {
+        // A poisoned lock only means a panic elsewhere while holding plain data: keep it.
+        self.prescribed.write().unwrap_or_else(|e| e.into_inner())
+    }
+
     /// The full displacement (prescribed values at the constrained DOFs) of free values `u`.
     fn expand_into(&self, u: &[f64], full: &mut [f64]) {
-        full.copy_from_slice(&self.prescribed);
+        full.copy_from_slice(&self.prescribed.read().unwrap_or_else(|e| e.into_inner()));
         for (&d, &v) in self.free_dofs.iter().zip(u) {
             full[d] = v;
         }
@@ -563,8 +568,9 @@ impl NonlinearForce {
         self.mesh.energy(self.models.as_ref(), &full)
     }
 
-    /// The energies of `state`: ½vᵀMv, the model's elastic energy, and the system's load
-    /// potentials −f_g·u and −f·u.
+    /// The energies of `state`: ½vᵀMv, the model's elastic energy (the supports at the time
+    /// last set), and the system's load potentials −f_g·u and −f·u (f without the supports'
+    /// coupling: [`LinearSystem::model_energy_potentials`]).
     pub fn energy(&self, system: &LinearSystem, state: &State) -> Result<Energy> {
         state.check_len(self.free_count())?;
         Self::energy_with_elastic(system, state, self.elastic_energy(&state.displacement)?)
@@ -580,7 +586,7 @@ impl NonlinearForce {
         Ok(Energy {
             kinetic: 0.5 * system.mass().quadratic_form(&state.velocity)?,
             elastic,
-            ..system.energy_potentials(state)?
+            ..system.model_energy_potentials(state)?
         })
     }
 }

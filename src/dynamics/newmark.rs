@@ -82,8 +82,9 @@ impl Newmark {
             newton,
         } = super::ImplicitParts::new(&system, force, dt, &options)?;
         let n = system.free_count();
+        let load = system.model_load_buffer(newton.is_some());
         Ok(Newmark {
-            load: system.load_buffer(),
+            load,
             system,
             dt,
             matrix,
@@ -112,18 +113,28 @@ impl Newmark {
     fn nonlinear_step(&mut self, state: &mut State) -> Result<()> {
         let n = self.system.free_count();
         state.check_len(n)?;
+        if let Some(newton) = &self.newton {
+            newton.force().set_time(&self.system, state.time)?;
+        }
         if self.guard.is_none() {
-            self.guard = Some(DivergenceGuard::new(self.energy_of(state)?));
+            let start = self.energy_of(state)?;
+            self.guard = Some(match self.system.is_time_varying() {
+                true => DivergenceGuard::finite_only(start),
+                false => DivergenceGuard::new(start),
+            });
         }
         let Some(newton) = self.newton.as_mut() else {
             return Ok(());
         };
         let dt = self.dt;
         if self.acceleration_of != Some((state.steps, state.time)) {
+            let load = self
+                .system
+                .model_load_at(state.time, true, &mut self.load)?;
             newton.net_force(
                 &self.system,
-                &state.displacement,
-                &state.velocity,
+                (&state.displacement, &state.velocity),
+                load,
                 &mut self.acceleration,
             )?;
             solve_mass(self.system.mass(), &mut self.acceleration)?;
@@ -137,6 +148,11 @@ impl Newmark {
         let guess: Vec<f64> = (0..n)
             .map(|i| self.work[i] + 0.25 * dt * dt * a[i])
             .collect();
+        // The equation of motion at t + dt, with the load and the supports of that time.
+        newton.force().set_time(&self.system, state.time + dt)?;
+        let load = self
+            .system
+            .model_load_at(state.time + dt, true, &mut self.load)?;
         let equation = StepEquation {
             mass_scale: 4.0 / (dt * dt),
             damping_scale: 2.0 / dt,
@@ -145,6 +161,7 @@ impl Newmark {
             damping_velocity: Some(v),
             duration: dt,
             first_iterate: Some(&guess),
+            load,
         };
         newton.solve(
             &self.system,

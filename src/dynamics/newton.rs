@@ -109,6 +109,10 @@ pub(crate) struct StepEquation<'a> {
     pub damping_velocity: Option<&'a [f64]>,
     /// The step dt (time): moving obstacles go to their placement at `time + duration`.
     pub duration: f64,
+    /// f, the external load of the step equation (force units, free DOFs): the system's load
+    /// at the step's end without the supports' elastic coupling
+    /// ([`LinearSystem::model_load_at`]).
+    pub load: &'a [f64],
     /// A guess of u' nearer than `start` (length; backward Euler: u + dt·v + dt²·(2a − a₋₁)
     /// with the last two steps' accelerations, or u + dt·v + dt²·a after one step), which the
     /// iterations start from when its residual or its Φ is the smaller one; `None` to start at
@@ -246,14 +250,17 @@ impl NewtonSolver {
     }
 
     /// f + f_int(u) − C(u)·v into `out` (C = αM + βK_T(u), K_T projected): the force that
-    /// accelerates the state (u, v), for explicit steps and Newmark's initial acceleration.
+    /// accelerates the state (u, v), for explicit steps and Newmark's initial acceleration;
+    /// `f` the external load at the state's time ([`LinearSystem::model_load_at`]), the
+    /// force's supports set to that time ([`NonlinearForce::set_time`]).
     pub fn net_force(
         &mut self,
         system: &LinearSystem,
-        u: &[f64],
-        v: &[f64],
+        (u, v): (&[f64], &[f64]),
+        f: &[f64],
         out: &mut [f64],
     ) -> Result<()> {
+        Error::check_len("load", out.len(), f.len())?;
         let damping = system.damping();
         self.internal_energy =
             self.force
@@ -261,7 +268,6 @@ impl NewtonSolver {
         self.internal_at.copy_from_slice(u);
         self.internal_valid = true;
         system.mass().product_into(v, &mut self.scratch);
-        let f = system.external_load();
         for i in 0..out.len() {
             out[i] = f[i] + self.internal[i] - damping.alpha * self.scratch[i];
         }
@@ -318,7 +324,9 @@ impl NewtonSolver {
         // A step starts where the last one's final residual was evaluated: its internal force
         // is still here (without contact, whose force also depends on the obstacles' placement
         // and the lagged friction).
+        // Nor with moving supports: the same free u is another full displacement at another time.
         let cached = self.force.contact().is_none()
+            && !system.has_moving_supports()
             && self.internal_valid
             && self.internal_at.as_slice() == u_new;
         if !cached {
@@ -344,7 +352,7 @@ impl NewtonSolver {
             false => &mut self.residual,
         };
         system.mass().product_into(&self.mixed, out);
-        let f = system.external_load();
+        let f = equation.load;
         for i in 0..u_new.len() {
             out[i] -= self.internal[i] + f[i];
         }
@@ -405,7 +413,7 @@ impl NewtonSolver {
                 phi -= damping.beta * dot(&mv, u_new);
             }
         }
-        let load = dot(system.external_load(), u_new);
+        let load = dot(equation.load, u_new);
         Ok(phi + energy - load)
     }
 
@@ -572,9 +580,14 @@ impl NewtonSolver {
                     .into(),
             ));
         }
-        let reference = r_norm
-            .max(norm(system.external_load()))
-            .max(self.reference_floor);
+        let reference = r_norm.max(norm(equation.load)).max(self.reference_floor);
+        // With prescribed displacements the supports' pull on the free DOFs is in the internal
+        // force, not in f: the linear system's load at the step's end (which holds it as
+        // −K_fc·u_c) keeps the reference at the forces' scale; it is f itself without them.
+        let reference = match system.has_support_coupling() {
+            true => reference.max(system.load_norm_at(time + equation.duration)?),
+            false => reference,
+        };
         if let Some(guess) = equation
             .first_iterate
             .filter(|_| self.force.contact().is_none())
@@ -634,32 +647,48 @@ impl NewtonSolver {
             };
             let mut phi = None;
             let mut accepted = false;
-            for _ in 0..30 {
-                for i in 0..u_new.len() {
-                    self.trial[i] = u_new[i] + alpha * self.delta[i];
-                }
-                let trial = std::mem::take(&mut self.trial);
-                let evaluated = self.residual_into(system, equation, &trial, true);
-                self.trial = trial;
-                evaluated?;
-                let trial_norm = norm(&self.trial_residual);
-                let better = if with_contact {
-                    let start = self.start_potential(&mut phi, system, equation, u_new)?;
-                    let trial_phi =
-                        self.potential(system, equation, &self.trial, self.trial_energy)?;
-                    trial_phi < start
-                        || (trial_norm < r_norm && trial_phi <= start + 1e-12 * start.abs())
-                } else {
-                    trial_norm < r_norm || {
-                        let start = self.start_potential(&mut phi, system, equation, u_new)?;
-                        self.potential(system, equation, &self.trial, self.trial_energy)? < start
-                    }
-                };
-                if better {
-                    accepted = true;
+            let first_alpha = alpha;
+            // With contact a second search, only when the first found nothing: round-off can
+            // hide Φ's decrease near the solution (a model's energy sums terms far larger than
+            // its change, e.g. Neo-Hookean's ln J), so it accepts a residual decrease whose Φ
+            // rises by at most the first-order change α·|r·δ| the step predicts.
+            let slope = dot(&self.residual, &self.delta).abs();
+            for relaxed in [false, true] {
+                if accepted || (relaxed && !with_contact) {
                     break;
                 }
-                alpha *= 0.5;
+                alpha = first_alpha;
+                for _ in 0..30 {
+                    for i in 0..u_new.len() {
+                        self.trial[i] = u_new[i] + alpha * self.delta[i];
+                    }
+                    let trial = std::mem::take(&mut self.trial);
+                    let evaluated = self.residual_into(system, equation, &trial, true);
+                    self.trial = trial;
+                    evaluated?;
+                    let trial_norm = norm(&self.trial_residual);
+                    let better = if with_contact {
+                        let start = self.start_potential(&mut phi, system, equation, u_new)?;
+                        let trial_phi =
+                            self.potential(system, equation, &self.trial, self.trial_energy)?;
+                        let slack = match relaxed {
+                            false => 1e-12 * start.abs(),
+                            true => (1e-12 * start.abs()).max(alpha * slope),
+                        };
+                        trial_phi < start || (trial_norm < r_norm && trial_phi <= start + slack)
+                    } else {
+                        trial_norm < r_norm || {
+                            let start = self.start_potential(&mut phi, system, equation, u_new)?;
+                            self.potential(system, equation, &self.trial, self.trial_energy)?
+                                < start
+                        }
+                    };
+                    if better {
+                        accepted = true;
+                        break;
+                    }
+                    alpha *= 0.5;
+                }
             }
             // With contact only a decrease of Φ is accepted, which round-off can deny a
             // converged iterate (a body at rest in free flight: r₀ is round-off itself): a

@@ -2,7 +2,7 @@
 //! [`BackwardEuler`] with an [`InternalForce::Nonlinear`], kept for its callers. It writes no
 //! set-up of its own: the system comes from [`LinearSystem::new`] (the shared
 //! [`Problem`](crate::problem::Problem): DOF map, rigid-mode check, pattern, restriction), the
-//! force and its zero-constraint check from [`NonlinearForce::new`], the step's matrix, solver
+//! force from [`NonlinearForce::new`], the step's matrix, solver
 //! and Newton solver from [`BackwardEuler::with_force`] (the implicit methods' shared parts).
 
 use std::sync::Arc;
@@ -52,13 +52,12 @@ impl std::fmt::Debug for NonlinearBackwardEuler {
 }
 
 impl NonlinearBackwardEuler {
-    /// Sets up the method for `mesh` (4-node or 10-node tets; fixed DOFs must be zero-valued), `model`, lumped mass of
+    /// Sets up the method for `mesh` (4-node or 10-node tets; prescribed displacements may be non-zero), `model`, lumped mass of
     /// `material`, constant `loads` plus `gravity` (acceleration), and time step `dt`.
     ///
     /// Errors: dt not finite and > 0; constraints or loads of another mesh
     /// ([`Error::DimensionMismatch`]); constraints that leave a rigid motion free (from
-    /// [`LinearSystem::new`]); a non-zero prescribed displacement, naming its DOF (from
-    /// [`NonlinearForce::new`]).
+    /// [`LinearSystem::new`]).
     pub fn new<E: ModelElement>(
         mesh: Arc<TetMesh<E>>,
         material: &Material,

@@ -189,8 +189,8 @@ impl SupportReactions {
     ///
     /// A nonlinear model's stiffness damping uses its PSD-projected tangent at the state's u (the
     /// implicit methods freeze it at each step's start). With a consistent mass and a nonlinear
-    /// model the free rows' load is the system's constant [`external_load`](LinearSystem::external_load)
-    /// (what the nonlinear integrators step with).
+    /// model the free rows' load is the system's [`model_load_at`](LinearSystem::model_load_at)
+    /// the state's time (what the nonlinear integrators step with).
     ///
     /// Errors: the state or the system is not the one this was built for (length mismatch), a
     /// non-finite state, or the free acceleration's solve failing.
@@ -323,7 +323,9 @@ impl SupportReactions {
                     }
                     false => vec![0.0; u.len()],
                 };
-                let f = system.external_load();
+                // The load at the state's time, the supports' coupling in `internal` already.
+                let mut buffer = system.model_load_buffer(true);
+                let f = system.model_load_at(state.time, true, &mut buffer)?;
                 for (i, &d) in system.dofs().free_dofs().iter().enumerate() {
                     rhs[i] = f[i] + internal[d] - damping.alpha * product[i] - damping.beta * kv[d];
                 }

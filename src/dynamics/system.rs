@@ -95,6 +95,11 @@ pub struct LinearSystem {
     /// Loads with amplitudes and moving supports (`None`: everything constant, the loads are
     /// [`external_load`](Self::external_load) at every time).
     time: Option<Box<TimeVarying>>,
+    /// K_fc·u_c of the prescribed displacements that do not move (force units, free rows),
+    /// which [`other_load`](Self::other_load) holds with a minus sign; `None` when they are all
+    /// zero. A nonlinear force evaluates the supports' elastic coupling itself, on the full
+    /// displacement, and takes the loads without it ([`model_load_at`](Self::model_load_at)).
+    support_coupling: Option<Vec<f64>>,
 }
 
 impl LinearSystem {
@@ -194,6 +199,35 @@ impl LinearSystem {
         )
     }
 
+    /// [`new_free_body`](Self::new_free_body) with loads and prescribed displacements that
+    /// follow time (see [`with_time_data`](Self::with_time_data)): a body held by contact,
+    /// under loads with amplitudes or on moving supports. With constant `data` it is
+    /// [`new_free_body`](Self::new_free_body), bit for bit. Errors: those of both.
+    #[allow(clippy::too_many_arguments)]
+    pub fn new_free_body_with_time_data<E: crate::element::ElementType>(
+        mesh: &TetMesh<E>,
+        materials: &impl TetMaterials,
+        constraints: &Constraints,
+        loads: &Loads,
+        gravity: Vector3<f64>,
+        mass: MassKind,
+        damping: Rayleigh,
+        data: &TimeData,
+    ) -> Result<Self> {
+        let data = (!data.is_constant()).then_some(data);
+        Self::assemble(
+            mesh,
+            materials,
+            constraints,
+            loads,
+            gravity,
+            mass,
+            damping,
+            data,
+            false,
+        )
+    }
+
     /// [`new`](Self::new), with time-varying `data` and the rigid-mode check when `check_held`
     /// is set.
     #[allow(clippy::too_many_arguments)]
@@ -279,6 +313,10 @@ impl LinearSystem {
             .zip(&coupling)
             .map(|(f, k)| f - k)
             .collect();
+        let support_coupling = match coupling.iter().any(|&k| k != 0.0) {
+            true => Some(dofs.restrict(&coupling)?),
+            false => None,
+        };
         let geometry = dofs.geometry(mesh)?;
         let mut system = Self::from_parts(
             stiffness,
@@ -290,6 +328,7 @@ impl LinearSystem {
         )?;
         system.geometry = Some(geometry);
         system.time = time;
+        system.support_coupling = support_coupling;
         Ok(system)
     }
 
@@ -357,6 +396,7 @@ impl LinearSystem {
             dofs,
             geometry: None,
             time: None,
+            support_coupling: None,
         })
     }
 
@@ -435,6 +475,92 @@ impl LinearSystem {
                 Ok(buffer)
             }
         }
+    }
+
+    /// The external load on the free DOFs at time `t` that the step equations of a force law
+    /// take (force units): for the linear one (`nonlinear` false) exactly
+    /// [`external_load_at`](Self::external_load_at); for a nonlinear one the same load without
+    /// the supports' elastic coupling −K_fc·u_c (constant supports) and −K_fm·u_m(t) (moving
+    /// ones), which its internal force f_int(u_f, u_c(t)) holds already, evaluated on the full
+    /// displacement:
+    ///
+    /// f_nl(t) = a_g(t)·f_g + f₀ + K_fc·u_c + Σ aₖ(t)·fₖ − β·K_fm·u̇_m(t) − M_fm·(ü_m(t) + α·u̇_m(t)).
+    ///
+    /// With fixed zero supports and constant loads it is [`external_load`](Self::external_load)
+    /// itself (`buffer` untouched), so the nonlinear runs of before keep their bits; otherwise
+    /// it is written into `buffer`, which must have the free DOF count
+    /// ([`model_load_buffer`](Self::model_load_buffer)).
+    pub fn model_load_at<'a>(
+        &'a self,
+        t: f64,
+        nonlinear: bool,
+        buffer: &'a mut [f64],
+    ) -> Result<&'a [f64]> {
+        if !nonlinear {
+            return self.external_load_at(t, buffer);
+        }
+        match (&self.time, &self.support_coupling) {
+            (None, None) => return Ok(&self.external),
+            (Some(time), _) => {
+                let damping = (self.damping.alpha, self.damping.beta);
+                time.load_without_stiffness_coupling_into(
+                    t,
+                    &self.gravity_load,
+                    &self.other_load,
+                    damping,
+                    buffer,
+                )?;
+            }
+            (None, Some(_)) => {
+                Error::check_len("load buffer", self.free_count(), buffer.len())?;
+                buffer.copy_from_slice(&self.external);
+            }
+        }
+        if let Some(coupling) = &self.support_coupling {
+            for (f, k) in buffer.iter_mut().zip(coupling) {
+                *f += k;
+            }
+        }
+        Ok(buffer)
+    }
+
+    /// Whether prescribed displacements pull on the free DOFs: some constant one is not zero,
+    /// or some support moves (then a nonlinear force's load [`model_load_at`](Self::model_load_at)
+    /// lacks their coupling, which its internal force holds).
+    pub fn has_support_coupling(&self) -> bool {
+        self.support_coupling.is_some() || self.has_moving_supports()
+    }
+
+    /// ‖f(t)‖ of [`external_load_at`](Self::external_load_at) (force units): the scale of the
+    /// forces on the free DOFs, the supports' coupling included.
+    pub fn load_norm_at(&self, t: f64) -> Result<f64> {
+        let mut buffer = self.load_buffer();
+        let f = self.external_load_at(t, &mut buffer)?;
+        Ok(dot(f, f).sqrt())
+    }
+
+    /// A load buffer for [`model_load_at`](Self::model_load_at) with `nonlinear` (the free DOF
+    /// count when it is needed, empty otherwise).
+    pub fn model_load_buffer(&self, nonlinear: bool) -> Vec<f64> {
+        match nonlinear && self.support_coupling.is_some() {
+            true => vec![0.0; self.free_count()],
+            false => self.load_buffer(),
+        }
+    }
+
+    /// The full displacement of the constrained DOFs at time `t` (zero on the free DOFs): the
+    /// prescribed values, the moving ones at u_c(t) (length, every DOF of the mesh).
+    pub fn prescribed_at(&self, t: f64) -> Result<Vec<f64>> {
+        let mut full = self.dofs.prescribed().to_vec();
+        for &d in self.dofs.free_dofs() {
+            full[d] = 0.0;
+        }
+        if let Some(time) = self.time.as_ref().filter(|t| t.has_motion()) {
+            for (&dof, [u, _, _]) in time.moving_dofs().iter().zip(time.motion_at(t)?) {
+                full[dof] = u;
+            }
+        }
+        Ok(full)
     }
 
     /// Whether the loads or prescribed displacements follow time (then the integrators need a
@@ -554,6 +680,18 @@ impl LinearSystem {
             load_potential: -dot(&self.other_load, &state.displacement),
             ..Energy::default()
         })
+    }
+
+    /// The load potentials of `state` under a nonlinear force law: those of
+    /// [`energy_potentials`](Self::energy_potentials) with the supports' coupling K_fc·u_c
+    /// taken out of the load potential, −(f₀ + K_fc·u_c)·u (the model's elastic energy holds
+    /// it, evaluated on the full displacement).
+    pub fn model_energy_potentials(&self, state: &State) -> Result<Energy> {
+        let mut energy = self.energy_potentials(state)?;
+        if let Some(coupling) = &self.support_coupling {
+            energy.load_potential -= dot(coupling, &state.displacement);
+        }
+        Ok(energy)
     }
 
     /// The static solution K_ff⁻¹·f (free DOFs). [`Error::InvalidParameter`] naming the free DOF

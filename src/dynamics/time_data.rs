@@ -132,6 +132,33 @@ impl TimeVarying {
         damping: (f64, f64),
         out: &mut [f64],
     ) -> Result<()> {
+        self.load_with_coupling_into(t, gravity, constant, damping, true, out)
+    }
+
+    /// [`load_into`](Self::load_into) without the moving DOFs' elastic coupling −K_fm·u_m(t)
+    /// (their damping and inertia coupling kept): the load of a nonlinear force law, whose
+    /// internal force is evaluated on the full displacement with u_m(t) in it.
+    pub fn load_without_stiffness_coupling_into(
+        &self,
+        t: f64,
+        gravity: &[f64],
+        constant: &[f64],
+        damping: (f64, f64),
+        out: &mut [f64],
+    ) -> Result<()> {
+        self.load_with_coupling_into(t, gravity, constant, damping, false, out)
+    }
+
+    /// f(t) into `out`, with the moving DOFs' term K_fm·u_m(t) when `elastic` is set.
+    fn load_with_coupling_into(
+        &self,
+        t: f64,
+        gravity: &[f64],
+        constant: &[f64],
+        damping: (f64, f64),
+        elastic: bool,
+        out: &mut [f64],
+    ) -> Result<()> {
         Error::check_len("load buffer", constant.len(), out.len())?;
         let a_g = self.gravity.value(t);
         for ((o, g), c) in out.iter_mut().zip(gravity).zip(constant) {
@@ -150,7 +177,10 @@ impl TimeVarying {
         let motion = self.motion_at(t)?;
         for (j, [u, v, a]) in motion.iter().enumerate() {
             // K_fm·u + β·K_fm·u̇ (+ M_fm·(ü + α·u̇) for consistent mass).
-            let stiffness_factor = u + beta * v;
+            let stiffness_factor = match elastic {
+                true => u + beta * v,
+                false => beta * v,
+            };
             for &(row, k) in &self.stiffness_columns[j] {
                 out[row] -= k * stiffness_factor;
             }

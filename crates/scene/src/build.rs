@@ -268,7 +268,8 @@ impl Scene {
         let mut constrained_by: Vec<Option<usize>> = vec![None; mesh.dof_count()];
         let mut constraint_dofs = Vec::with_capacity(spec.constraints.len());
         let mut moment_points = Vec::with_capacity(spec.constraints.len());
-        let mut input_warnings = Vec::new();
+        // What the scene combines runs, some of it with a warning (checked when parsed).
+        let mut input_warnings = self.check_combination()?;
         for (i, c) in spec.constraints.iter().enumerate() {
             let key = format!("constraints[{i}]");
             let span = c.span();

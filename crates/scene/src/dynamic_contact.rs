@@ -9,10 +9,9 @@ use std::time::Instant;
 
 use nalgebra::Vector3;
 use tetfem::contact::Contact;
-use tetfem::dynamics::{InternalForce, LinearSystem, Method, NonlinearForce, Rayleigh, State};
+use tetfem::dynamics::{InternalForce, LinearSystem, NonlinearForce, Rayleigh, State};
 use tetfem::error::Result;
 
-use super::element::as_linear;
 use super::{BuiltScene, DynamicSettings, DynamicSetup, Scene, SceneElement};
 
 impl<E: SceneElement> DynamicSetup<E> {
@@ -23,15 +22,14 @@ impl<E: SceneElement> DynamicSetup<E> {
     /// since the barrier makes every step nonlinear — with the contact
     /// ([`NonlinearForce::with_contact`]).
     ///
-    /// Errors (naming `obstacles` and the first entry's line): method Newmark (not
-    /// energy-stable with the barrier), loads or supports that follow an amplitude or a
-    /// prescribed non-zero displacement (the nonlinear step takes constant loads and fixed
-    /// supports); those of the contact (a body starting inside an obstacle).
+    /// Every method, element order, amplitude and moving support: what may be combined is the
+    /// library's rule ([`Scene::combination`]), checked when the scene was parsed.
+    ///
+    /// Errors: those of the contact (a body starting inside an obstacle).
     pub fn with_contact(
         scene: &Scene,
         built: BuiltScene<E>,
         settings: &DynamicSettings,
-        method: Method,
     ) -> Result<Self> {
         let clock = Instant::now();
         let span = scene
@@ -40,33 +38,8 @@ impl<E: SceneElement> DynamicSetup<E> {
             .first()
             .map(|o| o.span())
             .unwrap_or_default();
-        if method == Method::Newmark {
-            return Err(scene.error(
-                "obstacles",
-                &span,
-                "contact with method \"newmark\" is refused: average acceleration is not \
-                 energy-stable with the stiffening barrier; use \"backward_euler\" or \"explicit\"",
-            ));
-        }
-        if !built.time_data.is_constant() {
-            return Err(scene.error(
-                "obstacles",
-                &span,
-                "a dynamic scene with obstacles takes constant loads and fixed supports (no \
-                 amplitude on a load or support, no moving support); move an obstacle instead",
-            ));
-        }
-        let mesh = as_linear(&built.mesh)
-            .ok_or_else(|| {
-                scene.error(
-                    "obstacles",
-                    &span,
-                    "contact runs on 4-node tets only".to_string(),
-                )
-            })?
-            .clone();
         let damping = Rayleigh::new(settings.damping.mass, settings.damping.stiffness)?;
-        let system = LinearSystem::new_free_body(
+        let system = LinearSystem::new_free_body_with_time_data(
             &built.mesh,
             &built.materials,
             &built.constraints,
@@ -74,6 +47,7 @@ impl<E: SceneElement> DynamicSetup<E> {
             built.gravity,
             settings.mass,
             damping,
+            &built.time_data,
         )?;
         let mut initial = State::at_rest(system.free_count());
         let velocity: Vec<f64> = (0..built.mesh.dof_count())
@@ -81,11 +55,11 @@ impl<E: SceneElement> DynamicSetup<E> {
             .collect();
         initial.velocity = system.dofs().restrict(&velocity)?;
         let contact = scene
-            .contact(&mesh, super::obstacles::stiffest(&built.materials))?
+            .contact(&built.mesh, super::obstacles::stiffest(&built.materials))?
             .ok_or_else(|| scene.error("obstacles", &span, "no obstacle".to_string()))?;
         let models = scene.model().build_map(&built.materials);
-        let force =
-            NonlinearForce::with_models(Arc::new(mesh), models, &system)?.with_contact(contact)?;
+        let force = NonlinearForce::with_models(Arc::new(built.mesh.clone()), models, &system)?
+            .with_contact(contact)?;
         let reactions = super::DynamicReactions::of_scene(&built, &system)?;
         let mut setup = Self::of_built(built, system, initial, reactions, clock)?;
         setup.force = InternalForce::Nonlinear(Arc::new(force));

@@ -2,8 +2,6 @@
 //! becomes a mesh of it, and its explicit critical-step bound. Implemented for the 4-node tet
 //! (order 1) and the 10-node tet (order 2).
 
-use std::any::Any;
-
 use tetfem::dynamics::{ElementStepBound, element_step_bound_of, element_step_bound_of_type};
 use tetfem::element::{ElementType, Tet10};
 use tetfem::error::Result;
@@ -53,11 +51,4 @@ impl SceneElement for Tet10 {
     ) -> Result<ElementStepBound> {
         element_step_bound_of_type(mesh, materials)
     }
-}
-
-/// The mesh as a 4-node mesh, when it is one: what the force models and the paths written for
-/// the linear tet only take. Scenes of order 2 refuse the nonlinear models when they are
-/// parsed, so a runner that gets `None` here has a bug, reported as an error.
-pub(crate) fn as_linear<E: ElementType>(mesh: &TetMesh<E>) -> Option<&TetMesh> {
-    (mesh as &dyn Any).downcast_ref::<TetMesh>()
 }

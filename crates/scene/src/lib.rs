@@ -8,6 +8,7 @@
 
 mod accuracy;
 mod build;
+mod combination;
 mod critical;
 mod dynamic;
 mod dynamic_contact;
@@ -439,6 +440,7 @@ impl Scene {
         scene.analysis = scene.check_analysis()?;
         scene.order = scene.check_order()?;
         scene.model = scene.check_model()?;
+        scene.check_combination()?;
         scene.accuracy = accuracy::check_accuracy(&scene, text)?;
         scene.output = scene.output_settings()?;
         scene.obstacles = scene.check_obstacles()?;
@@ -661,17 +663,6 @@ impl Scene {
                 ),
             )
         })?;
-        if kind != tetfem::model::ModelKind::Linear && spanned.get_ref().kind == AnalysisKind::Modal
-        {
-            return Err(self.error(
-                "analysis.model",
-                &spanned.span(),
-                format!(
-                    "model = \"{name}\": modal analysis is linear only (K·φ = ω²·M·φ with the \
-                     linear model's K, every model's tangent at rest); remove the key or use \"linear\""
-                ),
-            ));
-        }
         Ok(kind)
     }
 

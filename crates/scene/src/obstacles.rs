@@ -7,16 +7,16 @@ use tetfem::contact::{Contact, ContactParameters, Obstacle, ObstacleMotion};
 use tetfem::error::Result;
 use tetfem::mesh::CellType;
 
-use super::{AnalysisKind, Method, ObstacleKind, Scene};
+use super::{AnalysisKind, ObstacleKind, Scene};
 
 impl Scene {
     /// The `[[obstacles]]` as the library's obstacles, each key checked: errors name the key
-    /// (`obstacles[i].radius`) and its line. Also refuses obstacles in modal scenes, on
-    /// 10-node meshes, with `analysis.accuracy`, and with Newmark (not energy-stable with the barrier: the README's
-    /// measured drop gains about the fall's work at 10× the critical step). A motion: dynamic
-    /// scenes take `velocity` or `displacement` with `amplitude`; static ones `displacement`
-    /// (with an optional `amplitude`) over the pseudo-time t ∈ [0, 1], not `velocity`; modal
-    /// ones none (no obstacle at all).
+    /// (`obstacles[i].radius`) and its line. Also refuses obstacles with `analysis.accuracy`
+    /// (the accuracy search solves without contact). A motion: dynamic scenes take `velocity` or
+    /// `displacement` with `amplitude`; static ones `displacement` (with an optional
+    /// `amplitude`) over the pseudo-time t ∈ [0, 1], not `velocity`. What obstacles may be
+    /// combined with (modal, Newmark, 10-node tets, …) is the library's rule
+    /// ([`Scene::combination`]).
     pub(crate) fn check_obstacles(&self) -> Result<Vec<Obstacle>> {
         let mut obstacles = Vec::with_capacity(self.spec.obstacles.len());
         let kind = self
@@ -38,7 +38,7 @@ impl Scene {
             let o = spanned.get_ref();
             let key = |field: &str| format!("obstacles[{i}].{field}");
             let err = |field: &str, msg: String| self.error(&key(field), &span, msg);
-            self.refuse_obstacle_here(i, o, &span)?;
+            self.refuse_obstacle_here(i, &span)?;
             let name = o.name.clone().unwrap_or_else(|| format!("obstacle{i}"));
             let valid_name = !name.is_empty()
                 && name
@@ -106,43 +106,12 @@ impl Scene {
         Ok(obstacles)
     }
 
-    /// Refuses `[[obstacles]]` entry `i` where contact does not run: a modal analysis (named
-    /// at the motion's key for a moving obstacle), Newmark, `analysis.accuracy`, 10-node tets.
-    fn refuse_obstacle_here(
-        &self,
-        i: usize,
-        o: &super::spec::ObstacleSpec,
-        span: &std::ops::Range<usize>,
-    ) -> Result<()> {
+    /// Refuses `[[obstacles]]` entry `i` with `analysis.accuracy` (the scenes' accuracy search
+    /// solves without contact); what else contact may not be combined with is the library's
+    /// rule ([`Scene::combination`]).
+    fn refuse_obstacle_here(&self, i: usize, span: &std::ops::Range<usize>) -> Result<()> {
         let err =
             |field: &str, msg: String| self.error(&format!("obstacles[{i}].{field}"), span, msg);
-        if let Some(analysis) = &self.spec.analysis {
-            let a = analysis.get_ref();
-            if a.kind == AnalysisKind::Modal {
-                // A moving obstacle is named by its motion's key.
-                let field = match (o.velocity, o.displacement) {
-                    (Some(_), _) => "velocity",
-                    (None, Some(_)) => "displacement",
-                    (None, None) => "kind",
-                };
-                return Err(err(
-                    field,
-                    "a modal analysis has no contact (it is linear about the rest state), \
-                     so no obstacle, fixed or moving; remove [[obstacles]]"
-                        .into(),
-                ));
-            }
-            if a.kind == AnalysisKind::Dynamic && a.method == Some(Method::Newmark) {
-                return Err(err(
-                    "kind",
-                    "contact with method = \"newmark\" is refused: average acceleration is \
-                     not energy-stable with the stiffening barrier (a dropped block gains \
-                     about the fall's work at 10× the critical step); use \"backward_euler\" \
-                     (recommended) or \"explicit\""
-                        .into(),
-                ));
-            }
-        }
         if let Some(analysis) = &self.spec.analysis
             && analysis.get_ref().accuracy.is_some()
         {
@@ -151,12 +120,6 @@ impl Scene {
                 "[[obstacles]] with analysis.accuracy is not supported: the accuracy search \
                  solves without contact; give the mesh's cells instead"
                     .into(),
-            ));
-        }
-        if self.order == 2 {
-            return Err(err(
-                "kind",
-                "contact runs on 4-node tets only; use mesh.order = 1".into(),
             ));
         }
         Ok(())
@@ -354,7 +317,11 @@ impl Scene {
     /// defaults for the stiffest material (Pa). A body that
     /// starts inside or on an obstacle is an error naming that obstacle's key and line, the
     /// nodes and their signed distances.
-    pub fn contact(&self, mesh: &TetMesh, youngs_modulus: f64) -> Result<Option<Contact>> {
+    pub fn contact<C: CellType>(
+        &self,
+        mesh: &TetMesh<C>,
+        youngs_modulus: f64,
+    ) -> Result<Option<Contact>> {
         if self.obstacles.is_empty() {
             return Ok(None);
         }

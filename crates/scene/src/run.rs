@@ -3,7 +3,6 @@
 use std::path::PathBuf;
 use std::time::Instant;
 
-use super::element::as_linear;
 use super::{BuiltScene, Scene, SceneElement};
 use crate::png_frames::{StaticLook, static_picture};
 use tetfem::error::Result;
@@ -183,21 +182,6 @@ impl RunSummary {
     }
 }
 
-/// The contact's mesh: the scene's, which is a 4-node one (order 2 scenes with obstacles are
-/// refused when parsed, so the error is a guard, not a path).
-pub(crate) fn linear_mesh_of<'a, E: SceneElement>(
-    scene: &Scene,
-    mesh: &'a tetfem::TetMesh<E>,
-) -> Result<&'a tetfem::TetMesh> {
-    as_linear(mesh).ok_or_else(|| {
-        scene.error(
-            "obstacles",
-            &(0..0),
-            "obstacles (contact) run on 4-node tets only: use mesh.order = 1",
-        )
-    })
-}
-
 /// [`run_static_with`] on the element of the scene's order, with the output lock (if any) held.
 pub(super) fn run_static_on<E: SceneElement>(
     scene: &Scene,
@@ -212,20 +196,9 @@ pub(super) fn run_static_on<E: SceneElement>(
     let model = scene.model().build_map(&built.materials);
     // With obstacles every model (the linear one too) goes through the contact Newton solve.
     let contact = match scene.has_obstacles() {
-        true => scene.contact(
-            linear_mesh_of(scene, &built.mesh)?,
-            super::obstacles::stiffest(&built.materials),
-        )?,
+        true => scene.contact(&built.mesh, super::obstacles::stiffest(&built.materials))?,
         false => None,
     };
-    if contact.is_some() && !built.motions.is_empty() {
-        return Err(scene.error(
-            "obstacles",
-            &(0..0),
-            "a static scene with obstacles takes no moving supports (linear_field, rigid_motion \
-             or an amplitude on a constraint)",
-        ));
-    }
     let solved = match (scene.model(), &contact) {
         (tetfem::model::ModelKind::Linear, None) => solve_linear(scene, &built)?,
         (_, contact) => solve_by_newton(scene, &built, &model, contact.as_ref())?,
@@ -457,24 +430,15 @@ fn solve_by_newton<E: SceneElement>(
     model: &ModelMap,
     contact: Option<&tetfem::contact::Contact>,
 ) -> Result<StaticSolve> {
-    let report = match contact {
-        Some(contact) => tetfem::nonlinear::solve_nonlinear_static_with_contact(
-            linear_mesh_of(scene, &built.mesh)?,
-            model,
-            &built.constraints,
-            &built.loads,
-            contact,
-            scene.static_newton(),
-        )?,
-        None => tetfem::nonlinear::solve_nonlinear_static_with_motion(
-            &built.mesh,
-            model,
-            &built.constraints,
-            &built.loads,
-            &built.motions,
-            scene.static_newton(),
-        )?,
-    };
+    let report = tetfem::nonlinear::solve_nonlinear_static_with_motion_and_contact(
+        &built.mesh,
+        model,
+        &built.constraints,
+        &built.loads,
+        &built.motions,
+        contact,
+        scene.static_newton(),
+    )?;
     let dofs = tetfem::constraints::DofMap::new(&built.constraints);
     let load: f64 = dofs
         .restrict(built.loads.as_slice())?

@@ -266,8 +266,8 @@ impl<E: SceneElement> DynamicSetup<E> {
 
     /// The same setup with the force model `kind`, one model per material of
     /// [`materials`](Self::materials) (on a copy of the mesh; the linear model gives
-    /// [`InternalForce::Linear`], the fast path). Errors: a non-zero prescribed displacement
-    /// with a nonlinear model, naming its DOF.
+    /// [`InternalForce::Linear`], the fast path). Errors: those of
+    /// [`InternalForce::of_models`].
     pub fn with_model(mut self, kind: tetfem::model::ModelKind) -> Result<Self> {
         self.force = match kind {
             // No copy of the mesh for the fast path.
@@ -1180,7 +1180,7 @@ fn run_dynamic_scene_on<E: SceneElement>(
     let write_files = lock.is_some();
     let method = overrides.method.unwrap_or(settings.method);
     let mut setup = match scene.has_obstacles() {
-        true => DynamicSetup::with_contact(scene, scene.build_as::<E>()?, settings, method)?,
+        true => DynamicSetup::with_contact(scene, scene.build_as::<E>()?, settings)?,
         false => {
             DynamicSetup::from_scene(scene.build_as::<E>()?, settings)?.with_model(scene.model())?
         }
