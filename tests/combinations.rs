@@ -401,7 +401,7 @@ fn run_dynamic<E: ModelElement>(
     // at half the critical step. With obstacles Newmark has no bound (the library warns); it
     // must only keep every node outside (checked above).
     let ok = match (method, cell.obstacles) {
-        (_, _) if !(work > 0.0) => false,
+        (_, _) if work.is_nan() || work <= 0.0 => false,
         (Method::BackwardEuler, _) => ratio <= 1.0 + 1e-6,
         (Method::Newmark, false) => (ratio - 1.0).abs() <= 1e-6,
         (Method::Newmark, true) => ratio.is_finite(),
