@@ -368,6 +368,64 @@ impl NewtonSolver {
         Ok(())
     }
 
+    /// The backtracking line search of [`iterate`](Self::iterate) along the Newton step δ
+    /// from `u_new` (residual norm `r_norm`), from the step fraction `first_alpha`, halving up
+    /// to 30 times: returns whether a fraction was accepted, and the last one tried. Without
+    /// contact a decrease of the residual norm or of Φ is accepted; with contact a decrease of
+    /// Φ, or of the residual with Φ not above its round-off. With contact a second search,
+    /// only when the first found nothing: round-off can hide Φ's decrease near the solution (a
+    /// model's energy sums terms far larger than its change, e.g. Neo-Hookean's ln J), so it
+    /// accepts a residual decrease whose Φ rises by at most the first-order change α·|r·δ| the
+    /// step predicts. The trial's residual is left in `trial_residual`.
+    fn line_search(
+        &mut self,
+        system: &LinearSystem,
+        equation: &StepEquation,
+        u_new: &[f64],
+        (first_alpha, r_norm): (f64, f64),
+    ) -> Result<(bool, f64)> {
+        let with_contact = self.force.contact().is_some();
+        let mut phi = None;
+        let mut alpha = first_alpha;
+        let slope = dot(&self.residual, &self.delta).abs();
+        for relaxed in [false, true] {
+            if relaxed && !with_contact {
+                break;
+            }
+            alpha = first_alpha;
+            for _ in 0..30 {
+                for i in 0..u_new.len() {
+                    self.trial[i] = u_new[i] + alpha * self.delta[i];
+                }
+                let trial = std::mem::take(&mut self.trial);
+                let evaluated = self.residual_into(system, equation, &trial, true);
+                self.trial = trial;
+                evaluated?;
+                let trial_norm = norm(&self.trial_residual);
+                let better = if with_contact {
+                    let start = self.start_potential(&mut phi, system, equation, u_new)?;
+                    let trial_phi =
+                        self.potential(system, equation, &self.trial, self.trial_energy)?;
+                    let slack = match relaxed {
+                        false => 1e-12 * start.abs(),
+                        true => (1e-12 * start.abs()).max(alpha * slope),
+                    };
+                    trial_phi < start || (trial_norm < r_norm && trial_phi <= start + slack)
+                } else {
+                    trial_norm < r_norm || {
+                        let start = self.start_potential(&mut phi, system, equation, u_new)?;
+                        self.potential(system, equation, &self.trial, self.trial_energy)? < start
+                    }
+                };
+                if better {
+                    return Ok((true, alpha));
+                }
+                alpha *= 0.5;
+            }
+        }
+        Ok((false, alpha))
+    }
+
     /// Φ at the line search's start `u_new` (its energy from the residual's pass), computed at
     /// most once per line search: `cache` holds it after the first call.
     fn start_potential(
@@ -639,57 +697,14 @@ impl NewtonSolver {
             // With contact: never past the first time of impact (IPC's 0.8 of it), and only a
             // decrease of Φ (up to its round-off) is accepted, so no iterate penetrates.
             let with_contact = self.force.contact().is_some();
-            let mut alpha = match with_contact {
+            let first_alpha = match with_contact {
                 true => (crate::contact::STEP_FRACTION
                     * self.force.contact_step_limit(u_new, &self.delta)?)
                 .min(1.0),
                 false => 1.0,
             };
-            let mut phi = None;
-            let mut accepted = false;
-            let first_alpha = alpha;
-            // With contact a second search, only when the first found nothing: round-off can
-            // hide Φ's decrease near the solution (a model's energy sums terms far larger than
-            // its change, e.g. Neo-Hookean's ln J), so it accepts a residual decrease whose Φ
-            // rises by at most the first-order change α·|r·δ| the step predicts.
-            let slope = dot(&self.residual, &self.delta).abs();
-            for relaxed in [false, true] {
-                if accepted || (relaxed && !with_contact) {
-                    break;
-                }
-                alpha = first_alpha;
-                for _ in 0..30 {
-                    for i in 0..u_new.len() {
-                        self.trial[i] = u_new[i] + alpha * self.delta[i];
-                    }
-                    let trial = std::mem::take(&mut self.trial);
-                    let evaluated = self.residual_into(system, equation, &trial, true);
-                    self.trial = trial;
-                    evaluated?;
-                    let trial_norm = norm(&self.trial_residual);
-                    let better = if with_contact {
-                        let start = self.start_potential(&mut phi, system, equation, u_new)?;
-                        let trial_phi =
-                            self.potential(system, equation, &self.trial, self.trial_energy)?;
-                        let slack = match relaxed {
-                            false => 1e-12 * start.abs(),
-                            true => (1e-12 * start.abs()).max(alpha * slope),
-                        };
-                        trial_phi < start || (trial_norm < r_norm && trial_phi <= start + slack)
-                    } else {
-                        trial_norm < r_norm || {
-                            let start = self.start_potential(&mut phi, system, equation, u_new)?;
-                            self.potential(system, equation, &self.trial, self.trial_energy)?
-                                < start
-                        }
-                    };
-                    if better {
-                        accepted = true;
-                        break;
-                    }
-                    alpha *= 0.5;
-                }
-            }
+            let (accepted, alpha) =
+                self.line_search(system, equation, u_new, (first_alpha, r_norm))?;
             // With contact only a decrease of Φ is accepted, which round-off can deny a
             // converged iterate (a body at rest in free flight: r₀ is round-off itself): a
             // Newton step below 1e-9 of the barrier's length scale d̂ changes nothing the

@@ -471,7 +471,14 @@ impl LinearSystem {
             None => Ok(&self.external),
             Some(time) => {
                 let damping = (self.damping.alpha, self.damping.beta);
-                time.load_into(t, &self.gravity_load, &self.other_load, damping, buffer)?;
+                time.load_into(
+                    t,
+                    &self.gravity_load,
+                    &self.other_load,
+                    damping,
+                    true,
+                    buffer,
+                )?;
                 Ok(buffer)
             }
         }
@@ -503,11 +510,12 @@ impl LinearSystem {
             (None, None) => return Ok(&self.external),
             (Some(time), _) => {
                 let damping = (self.damping.alpha, self.damping.beta);
-                time.load_without_stiffness_coupling_into(
+                time.load_into(
                     t,
                     &self.gravity_load,
                     &self.other_load,
                     damping,
+                    false,
                     buffer,
                 )?;
             }

@@ -123,34 +123,11 @@ impl TimeVarying {
     }
 
     /// f(t) into `out` (free DOFs): see the module's formula. `gravity` and `constant` are the
-    /// system's f_g and f₀; (α, β) its Rayleigh coefficients.
+    /// system's f_g and f₀; (α, β) its Rayleigh coefficients. Without `elastic` the moving
+    /// DOFs' elastic coupling −K_fm·u_m(t) is left out (their damping and inertia coupling
+    /// kept): the load of a nonlinear force law, whose internal force is evaluated on the full
+    /// displacement with u_m(t) in it.
     pub fn load_into(
-        &self,
-        t: f64,
-        gravity: &[f64],
-        constant: &[f64],
-        damping: (f64, f64),
-        out: &mut [f64],
-    ) -> Result<()> {
-        self.load_with_coupling_into(t, gravity, constant, damping, true, out)
-    }
-
-    /// [`load_into`](Self::load_into) without the moving DOFs' elastic coupling −K_fm·u_m(t)
-    /// (their damping and inertia coupling kept): the load of a nonlinear force law, whose
-    /// internal force is evaluated on the full displacement with u_m(t) in it.
-    pub fn load_without_stiffness_coupling_into(
-        &self,
-        t: f64,
-        gravity: &[f64],
-        constant: &[f64],
-        damping: (f64, f64),
-        out: &mut [f64],
-    ) -> Result<()> {
-        self.load_with_coupling_into(t, gravity, constant, damping, false, out)
-    }
-
-    /// f(t) into `out`, with the moving DOFs' term K_fm·u_m(t) when `elastic` is set.
-    fn load_with_coupling_into(
         &self,
         t: f64,
         gravity: &[f64],
