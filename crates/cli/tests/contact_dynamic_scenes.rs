@@ -380,7 +380,8 @@ fn bad_moving_obstacle_keys_are_errors_naming_key_and_line() {
         }
         other => panic!("expected a scene error, got {other:?}"),
     }
-    // A modal scene has no contact: a moving obstacle is refused at its motion's key.
+    // A modal scene has no contact: the library's combination rule refuses the pair, which
+    // the scene names at the obstacle's entry.
     let modal_scene = base
         .replace(
             "MOTION",
@@ -392,7 +393,7 @@ fn bad_moving_obstacle_keys_are_errors_naming_key_and_line() {
         );
     match modal_scene.parse::<Scene>() {
         Err(Error::Scene { key, message, .. }) => {
-            assert_eq!(key, "obstacles[0].displacement");
+            assert_eq!(key, "obstacles[0].kind");
             assert!(
                 message.contains("modal analysis has no contact"),
                 "{message}"
