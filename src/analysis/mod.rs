@@ -3,5 +3,7 @@
 //! PETSc engine).
 
 pub mod combination;
+pub mod definition;
 
 pub use combination::{Analysis, Combination};
+pub use definition::{Definition, DefinitionBuilder};

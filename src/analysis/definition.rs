@@ -1,0 +1,196 @@
+//! The problem definition every analysis runs: what the body is (mesh, materials per region,
+//! force model), how it is held (constraints and their motion), what acts on it (loads with
+//! their time functions, gravity) and what it may touch (obstacles with their contact
+//! parameters). Front ends (scenes, Python, the PETSc engine) build one with
+//! [`Definition::builder`]; [`Definition::check`] says once, in the library, whether an analysis
+//! may run it ([`Combination::check`]).
+//!
+//! Time: static analyses evaluate amplitudes and motions at the pseudo-time
+//! [`STATIC_TIME`](crate::amplitude::STATIC_TIME) (load steps follow t ∈ (0, 1]); transient
+//! ones from t = 0.
+
+use nalgebra::Vector3;
+
+use crate::boundary_motion::BoundaryMotion;
+use crate::constraints::Constraints;
+use crate::contact::Contact;
+use crate::dynamics::TimeData;
+use crate::element::Tet4;
+use crate::error::{Error, Result};
+use crate::loads::Loads;
+use crate::materials::MaterialMap;
+use crate::mesh::{CellType, TetMesh};
+use crate::model::ModelKind;
+use crate::warning::Warning;
+
+use super::combination::{Analysis, Combination};
+
+/// A whole problem: body, supports, loads and obstacles, on a mesh of cell type `C` (4-node
+/// tets by default, or 10-node ones).
+///
+/// Units: those of the mesh (length, m in SI) and the materials (stress Pa, density kg/m³);
+/// loads in force units (N), gravity in length/time² (m/s²).
+#[derive(Debug, Clone)]
+pub struct Definition<C: CellType = Tet4> {
+    /// The mesh.
+    pub mesh: TetMesh<C>,
+    /// The material of every tet (one region or several).
+    pub materials: MaterialMap,
+    /// The force model: [`ModelKind::Linear`] (small strain, the linear fast path) or a
+    /// large-deformation one.
+    pub model: ModelKind,
+    /// The constraints, with their prescribed values at the analysis' start (t = 0 for a
+    /// transient run, [`STATIC_TIME`](crate::amplitude::STATIC_TIME) for a static one).
+    pub constraints: Constraints,
+    /// The constant loads other than gravity (N, every DOF of the mesh).
+    pub loads: Loads,
+    /// The gravity acceleration (m/s²); its load ρ·g over the volume is assembled by each
+    /// analysis (a transient one tracks it apart, to follow `time_data.gravity`).
+    pub gravity: Vector3<f64>,
+    /// What follows time: loads with amplitudes, gravity's amplitude, supports that move.
+    pub time_data: TimeData,
+    /// Every prescribed motion of the supports (constant ones too): what the load steps of a
+    /// nonlinear static solve follow.
+    pub motions: BoundaryMotion,
+    /// The rigid obstacles and their contact parameters, if any.
+    pub contact: Option<Contact>,
+}
+
+impl<C: CellType> Definition<C> {
+    /// A builder on `mesh` with `materials`: the linear model, no constraint, no load, no
+    /// gravity, nothing following time, no obstacle.
+    pub fn builder(mesh: TetMesh<C>, materials: MaterialMap) -> DefinitionBuilder<C> {
+        let constraints = Constraints::new(&mesh);
+        let loads = Loads::new(&mesh);
+        DefinitionBuilder {
+            definition: Definition {
+                mesh,
+                materials,
+                model: ModelKind::Linear,
+                constraints,
+                loads,
+                gravity: Vector3::zeros(),
+                time_data: TimeData::default(),
+                motions: BoundaryMotion::new(),
+                contact: None,
+            },
+        }
+    }
+
+    /// The choices of this definition under `analysis`, as [`Combination::check`] takes them.
+    pub fn combination(&self, analysis: Analysis) -> Combination {
+        let friction = self
+            .contact
+            .as_ref()
+            .is_some_and(|c| c.obstacles().iter().any(|o| o.friction() > 0.0));
+        Combination {
+            model: self.model,
+            order: if C::NODES == 10 { 2 } else { 1 },
+            analysis,
+            time_varying_loads: !self.time_data.loads.is_empty()
+                || !self.time_data.gravity.is_one(),
+            moving_supports: !self.time_data.motion.is_empty() || !self.motions.is_constant(),
+            obstacles: self.contact.is_some(),
+            friction,
+            regions: self.materials.materials().len() > 1,
+        }
+    }
+
+    /// Whether `analysis` may run this definition: its warnings, or the library's one error
+    /// naming the pair that clashes ([`Combination::check`]).
+    pub fn check(&self, analysis: Analysis) -> Result<Vec<Warning>> {
+        self.combination(analysis).check()
+    }
+}
+
+/// Builds a [`Definition`], checking each part against the mesh as it is given (a part made
+/// for another mesh is an [`Error::InvalidParameter`] naming it).
+#[derive(Debug, Clone)]
+pub struct DefinitionBuilder<C: CellType = Tet4> {
+    definition: Definition<C>,
+}
+
+impl<C: CellType> DefinitionBuilder<C> {
+    /// The force model (default [`ModelKind::Linear`]).
+    pub fn model(mut self, model: ModelKind) -> Self {
+        self.definition.model = model;
+        self
+    }
+
+    /// The constraints (made for the mesh's nodes).
+    pub fn constraints(mut self, constraints: Constraints) -> Result<Self> {
+        ensure_dofs(
+            "constraints",
+            constraints.dof_count(),
+            &self.definition.mesh,
+        )?;
+        self.definition.constraints = constraints;
+        Ok(self)
+    }
+
+    /// The constant loads other than gravity (made for the mesh's nodes).
+    pub fn loads(mut self, loads: Loads) -> Result<Self> {
+        ensure_dofs("loads", loads.as_slice().len(), &self.definition.mesh)?;
+        self.definition.loads = loads;
+        Ok(self)
+    }
+
+    /// The gravity acceleration (m/s²; finite).
+    pub fn gravity(mut self, gravity: Vector3<f64>) -> Result<Self> {
+        if !gravity.iter().all(|g| g.is_finite()) {
+            return Err(Error::invalid_parameter(
+                "gravity",
+                format!("{gravity:?}"),
+                "must be finite (m/s²)",
+            ));
+        }
+        self.definition.gravity = gravity;
+        Ok(self)
+    }
+
+    /// Loads with amplitudes, gravity's amplitude and supports that move in time.
+    pub fn time_data(mut self, time_data: TimeData) -> Self {
+        self.definition.time_data = time_data;
+        self
+    }
+
+    /// Every prescribed motion of the supports (what nonlinear static load steps follow).
+    pub fn motions(mut self, motions: BoundaryMotion) -> Self {
+        self.definition.motions = motions;
+        self
+    }
+
+    /// The obstacles with their contact parameters.
+    pub fn contact(mut self, contact: Contact) -> Self {
+        self.definition.contact = Some(contact);
+        self
+    }
+
+    /// The definition, with the materials checked to cover every tet.
+    pub fn build(self) -> Result<Definition<C>> {
+        let tets = self.definition.mesh.tet_count();
+        if self.definition.materials.tet_count() != tets {
+            return Err(Error::invalid_parameter(
+                "materials",
+                self.definition.materials.tet_count(),
+                format!("must give a material for each of the mesh's {tets} tets"),
+            ));
+        }
+        Ok(self.definition)
+    }
+}
+
+/// [`Error::InvalidParameter`] naming `what` unless it holds 3 values per node of `mesh`.
+fn ensure_dofs<C: CellType>(what: &str, len: usize, mesh: &TetMesh<C>) -> Result<()> {
+    if len == mesh.dof_count() {
+        return Ok(());
+    }
+    Err(Error::invalid_parameter(
+        what,
+        len,
+        format!(
+            "must hold 3 values per node of the mesh ({} DOFs)",
+            mesh.dof_count()
+        ),
+    ))
+}
