@@ -138,6 +138,26 @@ impl<C: CellType> BuiltScene<C> {
     }
 }
 
+/// What the `[[constraints]]` entries build (see [`BuiltScene`]'s fields of these names).
+struct BuiltConstraints {
+    constraints: Constraints,
+    constraint_dofs: Vec<Vec<usize>>,
+    moment_points: Vec<Vector3<f64>>,
+    motions: BoundaryMotion,
+}
+
+/// What the `[[loads]]` entries build: the loads at the analysis' time, the constant ones
+/// other than gravity, the summed gravity (see [`BuiltScene`]), the loads with an amplitude
+/// (for [`TimeData::loads`]: a dynamic run scales each by a(t) at every step) and the warnings
+/// about them, in scene order.
+struct BuiltLoads {
+    loads: Loads,
+    other_loads: Loads,
+    gravity: Vector3<f64>,
+    timed: Vec<(Loads, Amplitude)>,
+    warnings: Vec<Warning>,
+}
+
 impl Scene {
     /// The probe `name` at the point `at` of a `[[probes]]` entry (`key`, `span`): the tet
     /// holding it and its shape functions' values there; a point outside the mesh is an error
@@ -183,23 +203,78 @@ impl Scene {
     /// up as any other node, and a face set holds the faces whose three corners are
     /// selected). Another element type than the scene's order is an error naming `mesh.order`.
     pub fn build_as<E: SceneElement>(&self) -> Result<BuiltScene<E>> {
-        if E::ORDER != self.order() {
-            return Err(self.error(
-                "mesh.order",
-                &self.spec().mesh.span(),
-                format!(
-                    "the scene asks for order {} but this runner builds it with {} cells \
-                     (order {}); it does not run order {} scenes",
-                    self.order(),
-                    E::NAME,
-                    E::ORDER,
-                    self.order()
-                ),
-            ));
+        self.check_element_order::<E>()?;
+        let (mesh, imported) = self.build_mesh::<E>()?;
+        let boundary = mesh.boundary_faces()?;
+        let (materials, default) = self.materials(&mesh, imported.as_ref())?;
+        let material = default.unwrap_or(materials.materials()[0]);
+        let ctx = Context {
+            scene: self,
+            mesh: &mesh,
+            imported: imported.as_ref(),
+            boundary: &boundary,
+        };
+        let named = self.named_amplitudes()?;
+        // Static and modal analyses take the data at STATIC_TIME, a dynamic run starts at 0.
+        let time = match self.analysis() {
+            super::Analysis::Dynamic(_) => 0.0,
+            _ => STATIC_TIME,
+        };
+        let mut time_data = TimeData::default();
+        // What the scene combines runs, some of it with a warning (checked when parsed).
+        let mut input_warnings = self.check_combination()?;
+        let built =
+            self.build_constraints(&ctx, &named, time, &mut time_data, &mut input_warnings)?;
+        let built_loads = self.build_loads(&ctx, &materials, &named, time, &built.constraints)?;
+        input_warnings.extend(built_loads.warnings);
+        time_data.loads.extend(built_loads.timed);
+        let probes = self.build_probes(&ctx)?;
+        Ok(BuiltScene {
+            mesh,
+            imported,
+            boundary,
+            material,
+            materials,
+            constraints: built.constraints,
+            constraint_dofs: built.constraint_dofs,
+            moment_points: built.moment_points,
+            loads: built_loads.loads,
+            other_loads: built_loads.other_loads,
+            gravity: built_loads.gravity,
+            probes,
+            input_warnings,
+            time_data,
+            motions: built.motions,
+        })
+    }
+
+    /// An error naming `mesh.order` unless `E` is the element of the scene's order: a runner
+    /// built for one order must not silently run a scene written for the other.
+    fn check_element_order<E: SceneElement>(&self) -> Result<()> {
+        if E::ORDER == self.order() {
+            return Ok(());
         }
+        Err(self.error(
+            "mesh.order",
+            &self.spec().mesh.span(),
+            format!(
+                "the scene asks for order {} but this runner builds it with {} cells \
+                 (order {}); it does not run order {} scenes",
+                self.order(),
+                E::NAME,
+                E::ORDER,
+                self.order()
+            ),
+        ))
+    }
+
+    /// The mesh of `[mesh]` with `E`'s cells: a generated box (its memory estimate checked
+    /// first), or a Gmsh or TetGen file with what the import kept of it (regions, original
+    /// ids) for the selections that name them.
+    fn build_mesh<E: SceneElement>(&self) -> Result<(TetMesh<E>, Option<ImportedMesh<E>>)> {
         let spec = self.spec();
         let mesh_span = spec.mesh.span();
-        let (mesh, imported) = match spec.mesh.get_ref() {
+        Ok(match spec.mesh.get_ref() {
             MeshSpec::Box(b) => {
                 let split = match b.split {
                     SplitSpec::Lecture6 => BoxSplit::Lecture6,
@@ -245,62 +320,37 @@ impl Scene {
                 self.check_kept_order(&imported)?;
                 (imported.mesh.clone(), Some(imported))
             }
-        };
-        let boundary = mesh.boundary_faces()?;
-        let (materials, default) = self.materials(&mesh, imported.as_ref())?;
-        let material = default.unwrap_or(materials.materials()[0]);
-        let ctx = Context {
-            scene: self,
-            mesh: &mesh,
-            imported: imported.as_ref(),
-            boundary: &boundary,
-        };
-        let named = self.named_amplitudes()?;
-        // Static and modal analyses take the data at STATIC_TIME, a dynamic run starts at 0.
-        let time = match self.analysis() {
-            super::Analysis::Dynamic(_) => 0.0,
-            _ => STATIC_TIME,
-        };
-        let mut time_data = TimeData::default();
+        })
+    }
+
+    /// The `[[constraints]]` entries, in scene order: fixed axes, prescribed displacements and
+    /// motions at `time` into the constraints, the moving ones also into `time_data.motion`,
+    /// and each entry's DOFs and moment point for its reaction. A DOF constrained twice is an
+    /// error naming both entries.
+    fn build_constraints<E: SceneElement>(
+        &self,
+        ctx: &Context<'_, E>,
+        named: &HashMap<String, Amplitude>,
+        time: f64,
+        time_data: &mut TimeData,
+        input_warnings: &mut Vec<Warning>,
+    ) -> Result<BuiltConstraints> {
+        let spec = self.spec();
+        let mesh = ctx.mesh;
         let mut motions = BoundaryMotion::new();
-        let mut constraints = Constraints::new(&mesh);
+        let mut constraints = Constraints::new(mesh);
         // Which scene entry constrained each DOF, to name both entries of a conflict.
         let mut constrained_by: Vec<Option<usize>> = vec![None; mesh.dof_count()];
         let mut constraint_dofs = Vec::with_capacity(spec.constraints.len());
         let mut moment_points = Vec::with_capacity(spec.constraints.len());
-        // What the scene combines runs, some of it with a warning (checked when parsed).
-        let mut input_warnings = self.check_combination()?;
         for (i, c) in spec.constraints.iter().enumerate() {
             let key = format!("constraints[{i}]");
             let span = c.span();
             let c = c.get_ref();
-            let given = [
-                c.amplitude.as_ref(),
-                c.rigid_motion.as_ref().and_then(|r| r.amplitude.as_ref()),
-            ];
-            for r in given.into_iter().flatten() {
-                let amplitude_key = format!("{key}.amplitude");
-                let amplitude = self.amplitude_of(r, &named, &amplitude_key, &span)?;
-                input_warnings.extend(self.amplitude_warnings(&amplitude_key, &amplitude));
-            }
+            input_warnings.extend(self.constraint_amplitude_warnings(c, named, &key, &span)?);
             let nodes = ctx.nodes(&c.select, &key, &span)?;
-            let point = c.moment_about.unwrap_or_default();
-            if point.iter().any(|v| !v.is_finite()) {
-                return Err(self.error(
-                    &format!("{key}.moment_about"),
-                    &span,
-                    format!("{point:?} must be three finite coordinates (m)"),
-                ));
-            }
-            moment_points.push(Vector3::from(point));
-            let mut axes = [false; 3];
-            match &c.fix {
-                Some(list) if list.is_empty() => {
-                    return Err(self.error(&format!("{key}.fix"), &span, "lists no axis"));
-                }
-                Some(list) => list.iter().for_each(|a| axes[a.index()] = true),
-                None => axes = [true; 3],
-            }
+            moment_points.push(self.moment_point(c, &key, &span)?);
+            let axes = self.constrained_axes(c, &key, &span)?;
             let at = |e: Error| match &e {
                 Error::ConflictingConstraint { node, axis, .. } => {
                     let earlier = constrained_by[3 * node + axis]
@@ -311,7 +361,7 @@ impl Scene {
                 }
                 _ => self.error(&key, &span, e.to_string()),
             };
-            match self.motion_of(c, &named, &key, &span)? {
+            match self.motion_of(c, named, &key, &span)? {
                 Some(motion) => {
                     let mut single = BoundaryMotion::new();
                     single.add(&nodes, axes, motion.clone()).map_err(at)?;
@@ -353,46 +403,139 @@ impl Scene {
                 dofs: mesh.dof_count(),
             });
         }
-        let mut loads = Loads::new(&mesh);
-        let mut other_loads = Loads::new(&mesh);
+        Ok(BuiltConstraints {
+            constraints,
+            constraint_dofs,
+            moment_points,
+            motions,
+        })
+    }
+
+    /// The warnings about a constraint's amplitudes (its own and its rigid motion's); an
+    /// amplitude that names nothing is an error at `<key>.amplitude`.
+    fn constraint_amplitude_warnings(
+        &self,
+        c: &super::ConstraintSpec,
+        named: &HashMap<String, Amplitude>,
+        key: &str,
+        span: &Range<usize>,
+    ) -> Result<Vec<Warning>> {
+        let mut warnings = Vec::new();
+        let given = [
+            c.amplitude.as_ref(),
+            c.rigid_motion.as_ref().and_then(|r| r.amplitude.as_ref()),
+        ];
+        for r in given.into_iter().flatten() {
+            let amplitude_key = format!("{key}.amplitude");
+            let amplitude = self.amplitude_of(r, named, &amplitude_key, span)?;
+            warnings.extend(self.amplitude_warnings(&amplitude_key, &amplitude));
+        }
+        Ok(warnings)
+    }
+
+    /// The point (m) a constraint's reaction moment is taken about (`moment_about`, default the
+    /// origin); a non-finite coordinate is an error naming the key, not a NaN moment later.
+    fn moment_point(
+        &self,
+        c: &super::ConstraintSpec,
+        key: &str,
+        span: &Range<usize>,
+    ) -> Result<Vector3<f64>> {
+        let point = c.moment_about.unwrap_or_default();
+        if point.iter().any(|v| !v.is_finite()) {
+            return Err(self.error(
+                &format!("{key}.moment_about"),
+                span,
+                format!("{point:?} must be three finite coordinates (m)"),
+            ));
+        }
+        Ok(Vector3::from(point))
+    }
+
+    /// The axes a constraint holds: those of `fix`, or all three without it. An empty `fix`
+    /// is an error: it would constrain nothing, surely not what was meant.
+    fn constrained_axes(
+        &self,
+        c: &super::ConstraintSpec,
+        key: &str,
+        span: &Range<usize>,
+    ) -> Result<[bool; 3]> {
+        let mut axes = [false; 3];
+        match &c.fix {
+            Some(list) if list.is_empty() => {
+                return Err(self.error(&format!("{key}.fix"), span, "lists no axis"));
+            }
+            Some(list) => list.iter().for_each(|a| axes[a.index()] = true),
+            None => axes = [true; 3],
+        }
+        Ok(axes)
+    }
+
+    /// The `[[loads]]` entries at `time` (see [`BuiltLoads`]); `constraints` are there to warn
+    /// about a load that only acts on constrained DOFs.
+    fn build_loads<E: SceneElement>(
+        &self,
+        ctx: &Context<'_, E>,
+        materials: &MaterialMap,
+        named: &HashMap<String, Amplitude>,
+        time: f64,
+        constraints: &Constraints,
+    ) -> Result<BuiltLoads> {
+        let mesh = ctx.mesh;
+        let mut loads = Loads::new(mesh);
+        let mut other_loads = Loads::new(mesh);
         let mut gravity = Vector3::zeros();
-        for (i, l) in spec.loads.iter().enumerate() {
+        let mut timed = Vec::new();
+        let mut input_warnings = Vec::new();
+        for (i, l) in self.spec().loads.iter().enumerate() {
             let key = format!("loads[{i}]");
             let before = loads.as_slice().to_vec();
             let amplitude = match &l.get_ref().amplitude {
-                Some(r) => self.amplitude_of(r, &named, &format!("{key}.amplitude"), &l.span())?,
+                Some(r) => self.amplitude_of(r, named, &format!("{key}.amplitude"), &l.span())?,
                 None => Amplitude::default(),
             };
             input_warnings.extend(self.amplitude_warnings(&format!("{key}.amplitude"), &amplitude));
             if !amplitude.is_one() {
                 // Kept apart: the dynamic system scales it by a(t) at each step.
-                let mut single = Loads::new(&mesh);
-                ctx.add_load(&mut single, &materials, l.get_ref(), &key, &l.span())?;
+                let mut single = Loads::new(mesh);
+                ctx.add_load(&mut single, materials, l.get_ref(), &key, &l.span())?;
                 loads
                     .add_scaled(&single, amplitude.value(time))
                     .map_err(|e| self.error(&key, &l.span(), e.to_string()))?;
                 // The load itself, not its value at this time (a ramp is 0 at the start).
                 let zero = vec![0.0; single.as_slice().len()];
                 if let Some(warning) =
-                    on_fixed_dofs_only(&key, &zero, single.as_slice(), &constraints)
+                    on_fixed_dofs_only(&key, &zero, single.as_slice(), constraints)
                 {
                     input_warnings.push(warning);
                 }
-                time_data.loads.push((single, amplitude));
+                timed.push((single, amplitude));
                 continue;
             }
-            ctx.add_load(&mut loads, &materials, l.get_ref(), &key, &l.span())?;
-            if let Some(warning) = on_fixed_dofs_only(&key, &before, loads.as_slice(), &constraints)
+            ctx.add_load(&mut loads, materials, l.get_ref(), &key, &l.span())?;
+            if let Some(warning) = on_fixed_dofs_only(&key, &before, loads.as_slice(), constraints)
             {
                 input_warnings.push(warning);
             }
             match l.get_ref().gravity {
                 Some(g) => gravity += Vector3::from(g),
-                None => ctx.add_load(&mut other_loads, &materials, l.get_ref(), &key, &l.span())?,
+                None => ctx.add_load(&mut other_loads, materials, l.get_ref(), &key, &l.span())?,
             }
         }
+        Ok(BuiltLoads {
+            loads,
+            other_loads,
+            gravity,
+            timed,
+            warnings: input_warnings,
+        })
+    }
+
+    /// The `[[probes]]` entries: a node set (`where`) or a point (`at`), each under a unique
+    /// name that can head a CSV column.
+    fn build_probes<E: SceneElement>(&self, ctx: &Context<'_, E>) -> Result<Vec<Probe>> {
         let mut probes: Vec<Probe> = Vec::new();
-        for (i, p) in spec.probes.iter().enumerate() {
+        for (i, p) in self.spec().probes.iter().enumerate() {
             let key = format!("probes[{i}]");
             let span = p.span();
             let p = p.get_ref();
@@ -421,7 +564,7 @@ impl Scene {
                     nodes: ctx.nodes(select, &key, &span)?,
                     point: None,
                 },
-                (None, Some(at)) => self.point_probe(&mesh, &p.name, at, &key, &span)?,
+                (None, Some(at)) => self.point_probe(ctx.mesh, &p.name, at, &key, &span)?,
                 _ => {
                     return Err(self.error(
                         &key,
@@ -432,23 +575,7 @@ impl Scene {
                 }
             });
         }
-        Ok(BuiltScene {
-            mesh,
-            imported,
-            boundary,
-            material,
-            materials,
-            constraints,
-            constraint_dofs,
-            moment_points,
-            loads,
-            other_loads,
-            gravity,
-            probes,
-            input_warnings,
-            time_data,
-            motions,
-        })
+        Ok(probes)
     }
 
     /// Warnings about the amplitude at `key` for this scene's analysis: zero over a dynamic

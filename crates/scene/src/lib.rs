@@ -726,25 +726,6 @@ impl Scene {
                 "only a modal analysis takes this key; set type = \"modal\" or remove it".into(),
             ));
         }
-        // The keys only a dynamic analysis takes (`mass` a modal one takes too,
-        // `newton_tolerance` a static one).
-        let dynamic_key = |with_mass: bool| {
-            [
-                ("method", a.method.is_some()),
-                ("dt", a.dt.is_some()),
-                ("duration", a.duration.is_some()),
-                ("damping", a.damping.is_some()),
-                ("mass", with_mass && a.mass.is_some()),
-                ("initial_velocity", a.initial_velocity.is_some()),
-                (
-                    "newton_tolerance",
-                    a.kind == AnalysisKind::Modal && a.newton_tolerance.is_some(),
-                ),
-            ]
-            .into_iter()
-            .find(|(_, set)| *set)
-            .map(|(key, _)| key)
-        };
         if a.kind != AnalysisKind::Static && a.load_steps.is_some() {
             return Err(err(
                 "load_steps",
@@ -753,7 +734,7 @@ impl Scene {
         }
         match a.kind {
             AnalysisKind::Modal => {
-                if let Some(key) = dynamic_key(false) {
+                if let Some(key) = Self::dynamic_only_key(a, false) {
                     return Err(err(
                         key,
                         "only a dynamic analysis takes this key; a modal one takes modes and mass"
@@ -770,7 +751,7 @@ impl Scene {
                 }))
             }
             AnalysisKind::Static => {
-                if let Some(key) = dynamic_key(true) {
+                if let Some(key) = Self::dynamic_only_key(a, true) {
                     return Err(err(
                         key,
                         "only a dynamic analysis takes this key; set type = \"dynamic\" or remove it".into(),
@@ -778,78 +759,105 @@ impl Scene {
                 }
                 Ok(Analysis::Static)
             }
-            AnalysisKind::Dynamic => {
-                let dt = a.dt.ok_or_else(|| {
-                    err("dt", "a dynamic analysis needs a time step dt (s)".into())
-                })?;
-                if !(dt.is_finite() && dt > 0.0) {
-                    return Err(err(
-                        "dt",
-                        format!("dt = {} must be finite and > 0", short_number(dt)),
-                    ));
-                }
-                let duration = a.duration.ok_or_else(|| {
-                    err("duration", "a dynamic analysis needs a duration (s)".into())
-                })?;
-                if !(duration.is_finite() && duration >= dt) {
-                    return Err(err(
-                        "duration",
-                        format!(
-                            "duration = {} must be finite and at least dt = {}",
-                            short_number(duration),
-                            short_number(dt)
-                        ),
-                    ));
-                }
-                if let Err(Error::InvalidParameter { requirement, .. }) =
-                    RunLength::Duration(duration).steps(dt)
-                {
-                    return Err(err(
-                        "duration",
-                        format!("duration = {} {requirement}", short_number(duration)),
-                    ));
-                }
-                let damping = a.damping.unwrap_or_default();
-                for (key, v) in [
-                    ("damping.mass", damping.mass),
-                    ("damping.stiffness", damping.stiffness),
-                ] {
-                    if !(v.is_finite() && v >= 0.0) {
-                        return Err(err(
-                            key,
-                            format!("{} must be finite and ≥ 0", short_number(v)),
-                        ));
-                    }
-                }
-                let initial_velocity = a.initial_velocity.unwrap_or([0.0; 3]);
-                if initial_velocity.iter().any(|v| !v.is_finite()) {
-                    return Err(err(
-                        "initial_velocity",
-                        "every component must be finite".into(),
-                    ));
-                }
-                let newton_tolerance = a
-                    .newton_tolerance
-                    .unwrap_or(StepNewtonOptions::default().tolerance);
-                if !(newton_tolerance > 0.0 && newton_tolerance < 1.0) {
-                    return Err(err(
-                        "newton_tolerance",
-                        format!(
-                            "newton_tolerance = {newton_tolerance} must be finite, > 0 and < 1"
-                        ),
-                    ));
-                }
-                Ok(Analysis::Dynamic(DynamicSettings {
-                    method: a.method.unwrap_or_default(),
-                    dt,
-                    duration,
-                    damping,
-                    mass: a.mass.unwrap_or_default(),
-                    initial_velocity,
-                    newton_tolerance,
-                }))
+            AnalysisKind::Dynamic => Self::check_dynamic_analysis(a, err).map(Analysis::Dynamic),
+        }
+    }
+
+    /// The first key of `[analysis]` that only a dynamic analysis takes, if one is set in `a`
+    /// (`mass` a modal one takes too: `with_mass` false leaves it out; `newton_tolerance` a static
+    /// one takes too, so it only counts against a modal analysis). Named so that a key set for
+    /// the wrong analysis is an error rather than silently unused.
+    fn dynamic_only_key(a: &spec::AnalysisSpec, with_mass: bool) -> Option<&'static str> {
+        [
+            ("method", a.method.is_some()),
+            ("dt", a.dt.is_some()),
+            ("duration", a.duration.is_some()),
+            ("damping", a.damping.is_some()),
+            ("mass", with_mass && a.mass.is_some()),
+            ("initial_velocity", a.initial_velocity.is_some()),
+            (
+                "newton_tolerance",
+                a.kind == AnalysisKind::Modal && a.newton_tolerance.is_some(),
+            ),
+        ]
+        .into_iter()
+        .find(|(_, set)| *set)
+        .map(|(key, _)| key)
+    }
+
+    /// The settings of a dynamic `[analysis]`, every value checked (`err` makes the error at
+    /// `analysis.<key>`): dt and duration required, finite and > 0 with a step count that fits,
+    /// damping ≥ 0, a finite initial velocity, a Newton tolerance in (0, 1).
+    fn check_dynamic_analysis(
+        a: &spec::AnalysisSpec,
+        err: impl Fn(&str, String) -> Error,
+    ) -> Result<DynamicSettings> {
+        let dt =
+            a.dt.ok_or_else(|| err("dt", "a dynamic analysis needs a time step dt (s)".into()))?;
+        if !(dt.is_finite() && dt > 0.0) {
+            return Err(err(
+                "dt",
+                format!("dt = {} must be finite and > 0", short_number(dt)),
+            ));
+        }
+        let duration = a
+            .duration
+            .ok_or_else(|| err("duration", "a dynamic analysis needs a duration (s)".into()))?;
+        if !(duration.is_finite() && duration >= dt) {
+            return Err(err(
+                "duration",
+                format!(
+                    "duration = {} must be finite and at least dt = {}",
+                    short_number(duration),
+                    short_number(dt)
+                ),
+            ));
+        }
+        if let Err(Error::InvalidParameter { requirement, .. }) =
+            RunLength::Duration(duration).steps(dt)
+        {
+            return Err(err(
+                "duration",
+                format!("duration = {} {requirement}", short_number(duration)),
+            ));
+        }
+        let damping = a.damping.unwrap_or_default();
+        for (key, v) in [
+            ("damping.mass", damping.mass),
+            ("damping.stiffness", damping.stiffness),
+        ] {
+            if !(v.is_finite() && v >= 0.0) {
+                return Err(err(
+                    key,
+                    format!("{} must be finite and ≥ 0", short_number(v)),
+                ));
             }
         }
+        let initial_velocity = a.initial_velocity.unwrap_or([0.0; 3]);
+        if initial_velocity.iter().any(|v| !v.is_finite()) {
+            return Err(err(
+                "initial_velocity",
+                "every component must be finite".into(),
+            ));
+        }
+        let newton_tolerance = a
+            .newton_tolerance
+            .unwrap_or(StepNewtonOptions::default().tolerance);
+        if !(newton_tolerance > 0.0 && newton_tolerance < 1.0) {
+            return Err(err(
+                "newton_tolerance",
+                format!("newton_tolerance = {newton_tolerance} must be finite, > 0 and < 1"),
+            ));
+        }
+        Ok(DynamicSettings {
+            method: a.method.unwrap_or_default(),
+            dt,
+            duration,
+            damping,
+            mass: a.mass.unwrap_or_default(),
+            initial_velocity,
+            newton_tolerance,
+        })
     }
 
     fn output_settings(&self) -> Result<OutputSettings> {

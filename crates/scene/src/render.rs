@@ -14,7 +14,7 @@ use ab_glyph::{Font, FontRef, PxScale, ScaleFont, point};
 use nalgebra::Vector3;
 
 use tetfem::error::{Error, Result};
-use tetfem::mesh::{CellType, TetMesh};
+use tetfem::mesh::{BoundaryFace, CellType, TetMesh};
 use tetfem::output::write_atomically;
 
 pub use obstacles::{
@@ -496,29 +496,21 @@ pub fn render<C: CellType>(
     } else {
         1.0
     };
+    let colouring = Colouring {
+        values,
+        per_node,
+        lo: lo_value,
+        span,
+    };
 
     let boundary = mesh.boundary_faces()?;
     let deformed = deformed_nodes(mesh, displacement, options.deformation_scale);
     let (view, framed) = frame(&deformed, &boundary, options);
     let (right, up, eye) = (view.right, view.up, view.eye);
     let light = (eye + up * 0.5 - right * 0.3).normalize();
-    let to_screen = |p: &Vector3<f64>| {
-        let (x, y) = view.screen(p);
-        (x, y, view.depth(p))
-    };
 
     let mut image = Image::new(w, h);
-    image.text = vec![
-        (PNG_TEXT_FIELD.to_string(), name.to_string()),
-        (
-            PNG_TEXT_RANGE.to_string(),
-            format!("{lo_value:e} {hi_value:e}"),
-        ),
-        (
-            PNG_TEXT_SCALE.to_string(),
-            format!("{:e}", options.deformation_scale),
-        ),
-    ];
+    image.text = png_text(name, lo_value, hi_value, options.deformation_scale);
     // Half-spaces first, the body over them, then spheres and boxes against the body's depth
     // (render/obstacles.rs). Obstacles stay below the subtitle and left of the colour bar's
     // labels.
@@ -529,27 +521,9 @@ pub fn render<C: CellType>(
         y1: h as i64,
     };
     obstacles::draw_grounds(&mut image, &view, &options.obstacles, framed, clip);
-
-    let mut depth = vec![f64::NEG_INFINITY; w as usize * h as usize];
-    for face in &boundary {
-        for triangle in face_triangles(&face.element_nodes(mesh)?) {
-            let p = triangle.map(|n| deformed[n]);
-            let normal = (p[1] - p[0]).cross(&(p[2] - p[0]));
-            let norm = normal.norm();
-            if norm <= 0.0 || !norm.is_finite() {
-                continue;
-            }
-            let shade = 0.35 + 0.65 * (normal / norm).dot(&light).abs();
-            let s = p.map(|q| to_screen(&q));
-            let v = if per_node {
-                triangle.map(|n| values[n])
-            } else {
-                [values[face.tet]; 3]
-            };
-            raster_triangle(&mut image, &mut depth, &s, &v, shade, lo_value, span);
-        }
-    }
-
+    let depth = draw_body(
+        &mut image, mesh, &boundary, &deformed, &view, &light, &colouring,
+    )?;
     obstacles::draw_solids(
         &mut image,
         &depth,
@@ -558,40 +532,135 @@ pub fn render<C: CellType>(
         (&light, framed),
         clip,
     );
+
     let legend = obstacles::legend_rows(options.obstacles.len(), h);
     let bar_bottom = h as f64 - 40.0 - obstacles::LEGEND_ROW * legend as f64;
     draw_colour_bar(&mut image, bar_bottom as i64);
     let font = FontRef::try_from_slice(FONT_BYTES).map_err(|e| {
         Error::invalid_parameter("embedded font", e, "must be a valid TrueType font")
     })?;
-    draw_text(
+    draw_titles(&mut image, &font, options);
+    let bar_x = w as f64 - 130.0;
+    draw_bar_labels(
         &mut image,
         &font,
-        &options.title,
-        20.0,
-        32.0,
-        24.0,
-        [20, 20, 20],
+        name,
+        (lo_value, hi_value),
+        bar_x,
+        bar_bottom,
     );
-    draw_text(
+    obstacles::draw_legend(
         &mut image,
         &font,
+        &options.obstacles,
+        legend,
+        bar_x,
+        bar_bottom + 18.0,
+    );
+    Ok(image)
+}
+
+/// How the body's faces are coloured: by node values (interpolated) or by tet values
+/// (constant over a face), mapped linearly from `lo` over `span` onto the colour bar.
+struct Colouring<'a> {
+    values: &'a [f64],
+    per_node: bool,
+    lo: f64,
+    span: f64,
+}
+
+/// The PNG text chunks that let a reader of the image recover what it shows: the field's
+/// name, its colour range and the deformation scale.
+fn png_text(name: &str, lo_value: f64, hi_value: f64, scale: f64) -> Vec<(String, String)> {
+    vec![
+        (PNG_TEXT_FIELD.to_string(), name.to_string()),
+        (
+            PNG_TEXT_RANGE.to_string(),
+            format!("{lo_value:e} {hi_value:e}"),
+        ),
+        (PNG_TEXT_SCALE.to_string(), format!("{scale:e}")),
+    ]
+}
+
+/// Rasterizes the deformed boundary faces, shaded by their angle to `light` and coloured by
+/// `colouring`; returns the depth buffer, which the solid obstacles are drawn against so that
+/// the body hides what lies behind it.
+fn draw_body<C: CellType>(
+    image: &mut Image,
+    mesh: &TetMesh<C>,
+    boundary: &[BoundaryFace],
+    deformed: &[Vector3<f64>],
+    view: &View,
+    light: &Vector3<f64>,
+    colouring: &Colouring,
+) -> Result<Vec<f64>> {
+    let to_screen = |p: &Vector3<f64>| {
+        let (x, y) = view.screen(p);
+        (x, y, view.depth(p))
+    };
+    let mut depth = vec![f64::NEG_INFINITY; image.width as usize * image.height as usize];
+    for face in boundary {
+        for triangle in face_triangles(&face.element_nodes(mesh)?) {
+            let p = triangle.map(|n| deformed[n]);
+            let normal = (p[1] - p[0]).cross(&(p[2] - p[0]));
+            let norm = normal.norm();
+            if norm <= 0.0 || !norm.is_finite() {
+                continue;
+            }
+            let shade = 0.35 + 0.65 * (normal / norm).dot(light).abs();
+            let s = p.map(|q| to_screen(&q));
+            let v = if colouring.per_node {
+                triangle.map(|n| colouring.values[n])
+            } else {
+                [colouring.values[face.tet]; 3]
+            };
+            raster_triangle(
+                image,
+                &mut depth,
+                &s,
+                &v,
+                shade,
+                colouring.lo,
+                colouring.span,
+            );
+        }
+    }
+    Ok(depth)
+}
+
+/// The title and, below it, the subtitle, at the top left.
+fn draw_titles(image: &mut Image, font: &FontRef, options: &RenderOptions) {
+    draw_text(image, font, &options.title, 20.0, 32.0, 24.0, [20, 20, 20]);
+    draw_text(
+        image,
+        font,
         &options.subtitle,
         20.0,
         56.0,
         16.0,
         [80, 80, 80],
     );
-    let bar_x = w as f64 - 130.0;
-    draw_text(&mut image, &font, name, bar_x, 56.0, 15.0, [20, 20, 20]);
+}
+
+/// The field's name above the colour bar at `bar_x` and five values of `range` (lo, hi)
+/// with tick marks, evenly from the bar's bottom (`bar_bottom`, pixels) to its top.
+fn draw_bar_labels(
+    image: &mut Image,
+    font: &FontRef,
+    name: &str,
+    (lo_value, hi_value): (f64, f64),
+    bar_x: f64,
+    bar_bottom: f64,
+) {
+    draw_text(image, font, name, bar_x, 56.0, 15.0, [20, 20, 20]);
     let bar_top = 70.0;
     for k in 0..=4 {
         let t = k as f64 / 4.0;
         let y = bar_bottom - t * (bar_bottom - bar_top);
         let label = format_number(lo_value + t * (hi_value - lo_value));
         draw_text(
-            &mut image,
-            &font,
+            image,
+            font,
             &label,
             bar_x + 30.0,
             y + 5.0,
@@ -606,15 +675,6 @@ pub fn render<C: CellType>(
             [20, 20, 20],
         );
     }
-    obstacles::draw_legend(
-        &mut image,
-        &font,
-        &options.obstacles,
-        legend,
-        bar_x,
-        bar_bottom + 18.0,
-    );
-    Ok(image)
 }
 
 /// Fills one screen triangle with z-buffering, interpolating the scalar; darkens a thin band
