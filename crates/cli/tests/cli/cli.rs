@@ -1,7 +1,6 @@
 //! The `tetfem` binary: default scene run, its `.vtu` output read back, help and errors.
 
-#[path = "../../../tests/core/common/mod.rs"]
-mod common;
+use crate::common;
 
 use std::path::PathBuf;
 use std::process::Command;
@@ -9,7 +8,9 @@ use std::process::Command;
 use tetfem_fixtures::cantilever::Cantilever;
 
 fn out_dir(name: &str) -> PathBuf {
-    let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join(name);
+    let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR"))
+        .join("cli")
+        .join(name);
     let _ = std::fs::remove_dir_all(&dir);
     dir
 }

@@ -2,8 +2,7 @@
 //! and parse), `--json`, `info`, the default scene's dynamic part, divergence of the explicit
 //! method above its critical step, help and bad arguments.
 
-#[path = "../../../tests/core/common/mod.rs"]
-mod common;
+use crate::common;
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};

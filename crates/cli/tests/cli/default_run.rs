@@ -4,8 +4,7 @@
 //! `--json`); and the options of `tetfem run` no other test exercises (`--method newmark`,
 //! `--png`, `--duration`, warnings in `--json`).
 
-#[path = "../../../tests/core/common/mod.rs"]
-mod common;
+use crate::common;
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};

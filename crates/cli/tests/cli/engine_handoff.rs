@@ -9,7 +9,9 @@ use std::process::{Command, Output};
 use tetfem_cli::scene::{EngineKind, PetscSolver, RunOptions, Scene, run_static_with};
 
 fn scratch(name: &str) -> PathBuf {
-    let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join(name);
+    let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR"))
+        .join("engine_handoff")
+        .join(name);
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).expect("scratch folder");
     dir

@@ -3,8 +3,7 @@
 //! obstacle moving at constant velocity and one lowered by an amplitude, and the keys of a
 //! moving obstacle checked with their key and line.
 
-#[path = "../../../tests/core/common/vtu.rs"]
-mod vtu;
+use crate::common::vtu;
 
 use std::path::{Path, PathBuf};
 
@@ -13,7 +12,7 @@ use tetfem_cli::scene::{DynamicOverrides, DynamicSummary, Scene, run_dynamic_sce
 
 /// A fresh output folder for one test.
 fn folder(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("tetfem_contact_dynamic_{name}"));
+    let dir = crate::common::scratch_dir("contact_dynamic_scenes", name);
     let _ = std::fs::remove_dir_all(&dir);
     dir
 }

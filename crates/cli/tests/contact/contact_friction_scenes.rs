@@ -97,7 +97,7 @@ fn a_static_block_is_held_by_friction_below_mu_n_and_not_above() {
 
 #[test]
 fn an_explicit_block_thrown_along_frictional_ground_stops_after_coulombs_distance() {
-    let dir: PathBuf = std::env::temp_dir().join("tetfem_contact_friction_explicit");
+    let dir: PathBuf = crate::common::scratch_dir("contact_friction_scenes", "explicit");
     let _ = std::fs::remove_dir_all(&dir);
     let v0 = 0.3;
     // dt = 1.5e-4 s, about a fifth of the critical step (7.2e-4 s; the barrier's own stable
@@ -178,7 +178,7 @@ fn a_slip_distance_or_velocity_not_above_zero_is_an_error_naming_the_key() {
 /// Runs `analysis` on the block under `gravity` with a CSV, and returns per row the time (s)
 /// and the force on the ground, (t, F_x, F_z) (N).
 fn ground_force_rows(name: &str, gravity: [f64; 3], analysis: &str) -> Vec<(f64, f64, f64)> {
-    let dir: PathBuf = std::env::temp_dir().join(name);
+    let dir: PathBuf = crate::common::scratch_dir("contact_friction_scenes", name);
     let _ = std::fs::remove_dir_all(&dir);
     let output = format!(
         "[output]\ndirectory = \"{}\"\nvtu = false\ncsv = true",

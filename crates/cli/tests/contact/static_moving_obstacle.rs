@@ -170,7 +170,7 @@ fn a_velocity_in_a_static_scene_is_refused_naming_displacement() {
 
 #[test]
 fn the_obstacles_file_has_the_plate_where_its_motion_ends() {
-    let dir = std::env::temp_dir().join("tetfem_static_moving_obstacle_vtp");
+    let dir = crate::common::scratch_dir("static_moving_obstacle", "vtp");
     let _ = std::fs::remove_dir_all(&dir);
     let text = format!(
         "{}\n[output]\ndirectory = \"{}\"\n",

@@ -5,8 +5,7 @@
 //! `.pvd` times t = n·dt without a running sum's drift; and, where Python has meshio, meshio
 //! reading the same files.
 
-#[path = "../../../tests/core/common/vtu.rs"]
-mod vtu;
+use crate::common::vtu;
 
 use std::path::{Path, PathBuf};
 

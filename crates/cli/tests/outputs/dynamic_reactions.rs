@@ -3,8 +3,7 @@
 //! summary. A damped hanging bar settles to its weight; at every step the reactions close the
 //! global momentum balance of each integrator's state; a shaken base carries the body's inertia.
 
-#[path = "../../../tests/core/common/vtu.rs"]
-mod vtu;
+use crate::common::vtu;
 
 use std::ops::ControlFlow;
 use std::path::{Path, PathBuf};

@@ -3,8 +3,7 @@
 //! ("deformation ×3508", a colour bar to 2.9e-5 m while |u| reached 9.3e-4 m); and obstacles
 //! were only in the PNGs, not in files ParaView opens.
 
-#[path = "../../../tests/core/common/mod.rs"]
-mod common;
+use crate::common;
 
 use std::ops::ControlFlow;
 use std::path::{Path, PathBuf};

@@ -2,8 +2,7 @@
 //! `original_node_id` (point data) and `original_element_id` (cell data), `Int64`, for Gmsh
 //! files whose tags have gaps and are out of order, and for TetGen files numbered from 0 or 1.
 
-#[path = "../../../tests/core/common/vtu.rs"]
-mod vtu;
+use crate::common::vtu;
 use std::ops::ControlFlow;
 use std::path::{Path, PathBuf};
 

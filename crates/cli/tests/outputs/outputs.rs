@@ -2,8 +2,7 @@
 //! structure; derived fields against closed forms; the PNG renderer; mesh quality and the
 //! critical time step.
 
-#[path = "../../../tests/core/common/vtu.rs"]
-mod vtu;
+use crate::common::vtu;
 
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};

@@ -3,8 +3,7 @@
 //! end, u_z = ρg(z² − L²)/(2E), no lateral motion, so the clamped top face is exact too) is
 //! quadratic: the 10-node tet reproduces it, and its stress, linear in z, at every point.
 
-#[path = "../../../tests/core/common/vtu.rs"]
-mod vtu;
+use crate::common::vtu;
 
 use std::path::Path;
 

@@ -1,8 +1,7 @@
 //! Reaction forces of static scenes (linear, and nonlinear models solved by Newton): per node in
 //! the `.vtu`, per constraint entry in the summary, and in balance with the applied loads.
 
-#[path = "../../../tests/core/common/vtu.rs"]
-mod vtu;
+use crate::common::vtu;
 
 use std::path::Path;
 

@@ -7,8 +7,7 @@
 //! changed scene, with nothing left to run; `checkpoint_every` negative, fractional, or in a
 //! static scene — each an error naming the key and its line (or the file).
 
-#[path = "../../../tests/core/common/mod.rs"]
-mod common;
+use crate::common;
 
 use std::ops::ControlFlow;
 use std::path::{Path, PathBuf};

@@ -7,7 +7,7 @@
 //! companion `<name>.expect` holding text that the error message must contain (the culprit it
 //! must name).
 
-#[path = "../../../fuzz/harness.rs"]
+#[path = "../../../../fuzz/harness.rs"]
 mod harness;
 
 use std::panic::{AssertUnwindSafe, catch_unwind};

@@ -9,8 +9,7 @@
 //! whole; beyond it there may be more whole rows and, only if the kill hit a write, one
 //! unterminated fragment at the very end.
 
-#[path = "../../../tests/core/common/mod.rs"]
-mod common;
+use crate::common;
 
 use std::io::Read;
 use std::path::{Path, PathBuf};
@@ -48,7 +47,9 @@ every = 2000
 const STEM: &str = "run";
 
 fn out_dir(name: &str) -> PathBuf {
-    let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join(name);
+    let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR"))
+        .join("interrupts")
+        .join(name);
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).unwrap();
     dir
@@ -458,8 +459,8 @@ fn peak_rss_kb(steps: u64, seconds: u64) -> u64 {
 }
 
 /// Peak memory of a long explicit run must not grow with the step count (it used to keep every
-/// CSV row: ~120 B per step). A measurement, not a unit test: `cargo test --release --test
-/// interrupts -- --ignored`. [`peak_memory_is_flat_over_ten_times_the_steps`] is its CI size.
+/// CSV row: ~120 B per step). A measurement, not a unit test: `cargo test --release -p
+/// tetfem-cli --test robustness interrupts:: -- --ignored`. [`peak_memory_is_flat_over_ten_times_the_steps`] is its CI size.
 #[test]
 #[ignore]
 fn peak_memory_is_flat_over_a_million_steps() {

@@ -181,10 +181,13 @@ fn child_static_peak() {
 
 /// Runs [`child_static_peak`] and returns (measured VmHWM, estimate) in bytes.
 fn measured_and_estimated(cells: [usize; 3], method: &str) -> (u64, u128) {
+    // The test's name within this binary: its module path without the crate's name.
+    let module = module_path!().split_once("::").map_or("", |(_, m)| m);
+    let test = format!("{module}::child_static_peak");
     let output = Command::new(std::env::current_exe().unwrap())
         .args([
             "--exact",
-            "child_static_peak",
+            &test,
             "--ignored",
             "--nocapture",
             "--test-threads=1",

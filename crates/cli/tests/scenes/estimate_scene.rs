@@ -1,8 +1,7 @@
 //! The self-estimated error and the model-adequacy checks of scene runs: summary keys, the
 //! `.vtu` cell field, and the warnings.
 
-#[path = "../../../tests/core/common/vtu.rs"]
-mod vtu;
+use crate::common::vtu;
 use std::path::Path;
 
 use tetfem_cli::scene::{RunOptions, Scene, run_static_with};

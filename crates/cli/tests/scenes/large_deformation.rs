@@ -2,8 +2,7 @@
 //! small-strain limit, exact tangents, inverted tets, a cantilever bent past 45° and Newton's
 //! quadratic convergence.
 
-#[path = "../../../tests/core/common/mod.rs"]
-mod common;
+use crate::common;
 
 use common::{Rng, random_tet};
 use nalgebra::{Rotation3, Unit, Vector3};

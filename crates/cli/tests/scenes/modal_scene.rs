@@ -2,8 +2,7 @@
 //! masses are complete and match a rod's analytic values, the files hold what they say, and bad
 //! keys are errors naming the key and its line.
 
-#[path = "../../../tests/core/common/vtu.rs"]
-mod vtu;
+use crate::common::vtu;
 
 use std::path::Path;
 

@@ -196,7 +196,7 @@ fn a_bad_newton_tolerance_names_the_key_and_line() {
         .replace("duration = 0.3\n", "")
         .replace("{solver}", "newton_tolerance = 1e-2");
     // A static scene with a nonlinear model takes it for each load step's Newton solve
-    // (issue 33; crates/cli/tests/static_newton.rs), a modal one does not.
+    // (issue 33; crates/cli/tests/scenes/static_newton.rs), a modal one does not.
     let scene = Scene::parse(&text, "swing", Path::new(".")).unwrap();
     assert_eq!(scene.static_newton().tolerance, 1e-2);
     let modal = text

@@ -1,8 +1,7 @@
 //! Scenes of `mesh.order = 2` (10-node tets): each analysis against the library on the same
 //! Tet10 mesh, the cantilever against its converged answer, and the errors of the key.
 
-#[path = "../../../tests/core/common/vtu.rs"]
-mod vtu;
+use crate::common::vtu;
 use std::ops::ControlFlow;
 use std::path::Path;
 
