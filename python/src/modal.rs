@@ -1,15 +1,14 @@
 //! Natural modes from Python: `tetfem.modal_analysis` and the `tetfem.ModalResult` it returns.
 
-use nalgebra::Vector3;
 use numpy::{PyArray1, PyArrayMethods};
 use pyo3::prelude::*;
-use tetfem::dynamics::{InternalForce, LinearSystem, Rayleigh};
-use tetfem::loads::Loads;
-use tetfem::modal::{lowest_modes, lowest_modes_with_force};
+use tetfem::analysis::{Definition, Modal};
+use tetfem::constraints::DofMap;
+use tetfem::dynamics::{InternalForce, LinearSystem};
+use tetfem::modal::{Modes, lowest_modes, lowest_modes_with_force};
 
 use crate::arrays;
 use crate::constraints::PyConstraints;
-use crate::errors::OrRaise;
 use crate::interrupt::detach_interruptible;
 use crate::material::materials_of;
 use crate::mesh::{MeshData, PyMesh, on_cells};
@@ -49,14 +48,24 @@ pub fn modes_of(
         Some(force) => lowest_modes_with_force(system, force, count),
         None => lowest_modes(system, count),
     })?;
-    let dofs = data.mesh.dof_count();
-    let mut shapes = vec![0.0; modes.shapes.len() * dofs];
+    result_of(py, &modes, system.dofs(), data)
+}
+
+/// The Python result of `modes` whose shapes live on the free DOFs of `dofs` (mesh of `data`).
+fn result_of(
+    py: Python<'_>,
+    modes: &Modes,
+    dofs: &DofMap,
+    data: &MeshData,
+) -> PyResult<ModalResult> {
+    let full = data.mesh.dof_count();
+    let mut shapes = vec![0.0; modes.shapes.len() * full];
     for (k, shape) in modes.shapes.iter().enumerate() {
-        for (&dof, &v) in system.dofs().free_dofs().iter().zip(shape) {
-            shapes[k * dofs + dof] = v;
+        for (&dof, &v) in dofs.free_dofs().iter().zip(shape) {
+            shapes[k * full + dof] = v;
         }
     }
-    let shapes = PyArray1::from_vec(py, shapes).reshape([modes.shapes.len(), dofs / 3, 3])?;
+    let shapes = PyArray1::from_vec(py, shapes).reshape([modes.shapes.len(), full / 3, 3])?;
     Ok(ModalResult {
         frequencies: arrays::vector(py, modes.frequencies()).unbind(),
         omega: arrays::vector(py, modes.omega.clone()).unbind(),
@@ -97,18 +106,16 @@ pub fn modal_analysis(
     let materials = materials_of(py, material, data)?;
     let mass = names::mass(py, mass)?;
     let c = &constraints.constraints;
-    let system = py
-        .detach(|| {
-            on_cells!(&data.mesh, m => LinearSystem::new(
-                m,
-                &materials,
-                c,
-                &Loads::new(m),
-                Vector3::zeros(),
-                mass,
-                Rayleigh::default(),
-            ))
+    // The library's modal analysis of the definition (its combination rule, its assembly).
+    let (modes, dofs) = detach_interruptible(py, || -> tetfem::Result<_> {
+        on_cells!(&data.mesh, m => {
+            let definition = Definition::builder(m.clone(), materials.clone())
+                .constraints(c.clone())?
+                .build()?;
+            let analysis = Modal::new(&definition, mass)?;
+            let outcome = analysis.solve(count)?;
+            Ok((outcome.modes, analysis.system().dofs().clone()))
         })
-        .or_raise(py)?;
-    modes_of(py, &system, None, data, count)
+    })?;
+    result_of(py, &modes, &dofs, data)
 }

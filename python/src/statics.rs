@@ -7,13 +7,12 @@ use std::sync::{Arc, Mutex, MutexGuard, TryLockError};
 use nalgebra::Matrix3;
 use numpy::{PyArray1, PyArrayMethods};
 use pyo3::prelude::*;
-use tetfem::boundary_motion::BoundaryMotion;
+use tetfem::analysis::{Definition, Static, StaticOptions, StaticPath};
 use tetfem::constraints::DofMap;
 use tetfem::linalg::linear_solver::{SolveInfo, SolverOptions};
 use tetfem::materials::MaterialMap;
-use tetfem::model::ModelKind;
-use tetfem::nonlinear::{NewtonOptions, StaticPath, solve_static_model};
-use tetfem::output::fields::{cell_model_stress, cell_stress};
+use tetfem::nonlinear::NewtonOptions;
+use tetfem::output::fields::cell_stress;
 use tetfem::statics::{StaticSolution, StaticSolver};
 
 use crate::arrays::{self, index_vector};
@@ -161,7 +160,7 @@ pub fn check_same_mesh(
 /// contact barrier, of activation distance ``contact_distance`` (length; default 1e-3 × the
 /// bounding-box diagonal) and stiffness ``contact_stiffness`` (Pa/m; default E/h of the
 /// stiffest material), and ``contact_forces`` gives the force on each. Which path runs is the
-/// library's one dispatch (``tetfem::nonlinear::solve_static_model``), as in scenes.
+/// library's one dispatch (``tetfem::analysis::Static``), as in scenes.
 /// ``tolerance``: the relative residual asked for, ‖r_f‖ ≤
 /// ``tolerance``·‖f_f‖ (the linear solve's ‖K_ff·u_f − r_f‖/‖r_f‖, or Newton's residual over
 /// the load); a solve that ends above it raises ``SolverError`` naming the tolerance and the
@@ -225,27 +224,25 @@ pub fn solve_static(
         max_iterations,
         ..NewtonOptions::default()
     };
-    let models = kind.build_map(&materials);
     let constraints = &constraints.constraints;
     let loads = &loads.all;
+    let has_contact = contact.is_some();
+    let options = StaticOptions { linear, newton };
     let (solved, stress) = detach_interruptible(py, || -> tetfem::Result<_> {
         on_cells!(&data.mesh, mesh => {
-            let solved = solve_static_model(
-                mesh,
-                &models,
-                constraints,
-                loads,
-                &BoundaryMotion::new(),
-                contact.as_ref(),
-                linear,
-                newton,
-            )?;
-            // The linear model's stress straight from u (the force-model route forms x = X + u
-            // and takes u = x − X back, which costs digits); a nonlinear model's is its own.
-            let stress = match kind {
-                ModelKind::Linear => cell_stress(mesh, &materials, &solved.displacement)?,
-                _ => cell_model_stress(mesh, &models, &solved.displacement)?,
-            };
+            let mut builder = Definition::builder(mesh.clone(), materials.clone())
+                .model(kind)
+                .constraints(constraints.clone())?
+                .loads(loads.clone())?;
+            if let Some(contact) = contact {
+                builder = builder.contact(contact);
+            }
+            let definition = builder.build()?;
+            // The library's one dispatch, as in scenes; the stress is the model's own (the
+            // linear one's straight from u).
+            let analysis = Static::new(&definition, options)?;
+            let solved = analysis.solve()?;
+            let stress = analysis.stresses(&solved.displacement)?;
             Ok((solved, stress))
         })
     })?;
@@ -271,8 +268,8 @@ pub fn solve_static(
     };
     check_tolerance(py, tolerance, reached, &solver)?;
     let (stress, von_mises) = stress_arrays(py, &stress)?;
-    let contact_forces = match contact {
-        Some(_) => {
+    let contact_forces = match has_contact {
+        true => {
             let flat: Vec<f64> = solved
                 .obstacle_forces
                 .iter()
@@ -280,7 +277,7 @@ pub fn solve_static(
                 .collect();
             Some(arrays::rows3(py, flat)?.unbind())
         }
-        None => None,
+        false => None,
     };
     Ok(StaticResult {
         solver,

@@ -4,6 +4,10 @@
 
 pub mod combination;
 pub mod definition;
+pub mod modal_analysis;
+pub mod static_analysis;
 
 pub use combination::{Analysis, Combination};
 pub use definition::{Definition, DefinitionBuilder};
+pub use modal_analysis::{Modal, ModalOutcome};
+pub use static_analysis::{Static, StaticOptions, StaticOutcome, StaticPath};

@@ -139,6 +139,12 @@ impl ModelKind {
         }
     }
 
+    /// Whether this is the small-deformation linear model (σ = C:ε, K constant): what the
+    /// linear fast paths (one factorization, modal analysis, the recovery estimate) need.
+    pub fn is_linear(self) -> bool {
+        self == ModelKind::Linear
+    }
+
     /// One model of this kind per material of `materials`, chosen per tet.
     pub fn build_map(self, materials: &crate::materials::MaterialMap) -> ModelMap {
         ModelMap::new(self, materials)

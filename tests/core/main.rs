@@ -4,6 +4,7 @@
 //! Run one subject with `cargo test --release --test core -- MODULE::` (e.g. `statics::`).
 
 mod amg;
+mod analysis_static_modal;
 mod assembly;
 mod atomic_writes;
 mod beam_theory;

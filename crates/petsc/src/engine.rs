@@ -293,7 +293,7 @@ fn check_supported(scene: &Scene) -> Result<()> {
             "the PETSc engine has no contact so far (run the scene with `tetfem run`)",
         ));
     }
-    if scene.model() != tetfem::model::ModelKind::Linear {
+    if !scene.model().is_linear() {
         return Err(Error::invalid(
             format!("analysis.model of {}", scene.source_name()),
             scene.model().name(),

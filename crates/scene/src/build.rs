@@ -1257,3 +1257,31 @@ impl<E: ElementType> Context<'_, E> {
         Ok(())
     }
 }
+
+impl<C: CellType> BuiltScene<C> {
+    /// The problem definition of this scene for the library's analyses
+    /// ([`tetfem::analysis::Static`], [`tetfem::analysis::Modal`], …): its mesh, materials,
+    /// constraints, loads, gravity, time data and motions, with the force model `model` and the
+    /// obstacles' `contact`. The static load is the scene's own sum `loads` (gravity and the
+    /// amplitude loads at [`STATIC_TIME`] included, in the scene's order), so a static run
+    /// solves for exactly the vector it always has.
+    pub fn definition(
+        &self,
+        model: tetfem::model::ModelKind,
+        contact: Option<tetfem::contact::Contact>,
+    ) -> Result<tetfem::analysis::Definition<C>> {
+        let builder =
+            tetfem::analysis::Definition::builder(self.mesh.clone(), self.materials.clone())
+                .model(model)
+                .constraints(self.constraints.clone())?
+                .loads(self.other_loads.clone())?
+                .gravity(self.gravity)?
+                .time_data(self.time_data.clone())
+                .motions(self.motions.clone())
+                .static_load(self.loads.clone())?;
+        match contact {
+            Some(contact) => builder.contact(contact).build(),
+            None => builder.build(),
+        }
+    }
+}

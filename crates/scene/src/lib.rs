@@ -415,7 +415,7 @@ impl Scene {
             base_dir: base_dir.to_path_buf(),
             stem: "scene".to_string(),
             analysis: Analysis::Static,
-            model: tetfem::model::ModelKind::Linear,
+            model: tetfem::model::ModelKind::default(),
             static_newton: tetfem::nonlinear::NewtonOptions::default(),
             order: 1,
             accuracy: None,
@@ -521,7 +521,7 @@ impl Scene {
             return Ok(options);
         }
         let err = |key: &str, msg: String| self.error(&format!("analysis.{key}"), &span, msg);
-        let newton = self.model != tetfem::model::ModelKind::Linear || !self.obstacles.is_empty();
+        let newton = !self.model.is_linear() || !self.obstacles.is_empty();
         for (key, set) in [
             ("load_steps", a.load_steps.is_some()),
             ("newton_tolerance", a.newton_tolerance.is_some()),
@@ -648,10 +648,10 @@ impl Scene {
 
     fn check_model(&self) -> Result<tetfem::model::ModelKind> {
         let Some(spanned) = &self.spec.analysis else {
-            return Ok(tetfem::model::ModelKind::Linear);
+            return Ok(tetfem::model::ModelKind::default());
         };
         let Some(name) = &spanned.get_ref().model else {
-            return Ok(tetfem::model::ModelKind::Linear);
+            return Ok(tetfem::model::ModelKind::default());
         };
         let kind: tetfem::model::ModelKind = name.parse().map_err(|_| {
             self.error(

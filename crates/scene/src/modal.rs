@@ -5,12 +5,11 @@ use std::path::PathBuf;
 use std::time::Instant;
 
 use super::{Analysis, ModalSettings, Scene, SceneElement};
-use tetfem::assembly::lumped_mass_of;
-use tetfem::dynamics::{LinearSystem, Rayleigh};
+use tetfem::analysis::Modal;
+use tetfem::dynamics::LinearSystem;
 use tetfem::element::{ElementType, Tet10};
 use tetfem::error::{Error, Result};
 use tetfem::mesh::Tet4;
-use tetfem::modal::{effective_mass_fractions, lowest_modes};
 use tetfem::output::{OutputLock, PvdCollection, VtuWriter, write_atomically};
 
 /// One mode of a modal run.
@@ -25,7 +24,7 @@ pub struct ModeRow {
     /// Angular frequency ω (rad/s).
     pub omega_rad_per_s: f64,
     /// Effective modal mass fraction in x, y, z (dimensionless, see
-    /// [`effective_mass_fractions`]).
+    /// [`tetfem::modal::effective_mass_fractions`]).
     pub effective_mass_fraction: [f64; 3],
     /// The eigen-residual the mode was converged to (dimensionless, see
     /// [`tetfem::modal::Modes::residuals`]).
@@ -119,15 +118,11 @@ fn run_modal_on<E: SceneElement>(
     let built = scene.build_as::<E>()?;
     let build_seconds = clock.elapsed().as_secs_f64();
     let clock = Instant::now();
-    let system = LinearSystem::new(
-        &built.mesh,
-        &built.materials,
-        &built.constraints,
-        &built.other_loads,
-        built.gravity,
-        settings.mass,
-        Rayleigh::default(),
-    )?;
+    // Obstacles never reach here (the combination rule refuses them with a modal analysis
+    // when the scene is read); a nonlinear model is the library's named error.
+    let definition = built.definition(scene.model(), None)?;
+    let analysis = Modal::new(&definition, settings.mass)?;
+    let system = analysis.system();
     let free = system.free_count();
     if settings.modes > free {
         let span = scene
@@ -145,9 +140,9 @@ fn run_modal_on<E: SceneElement>(
             ),
         ));
     }
-    let modes = lowest_modes(&system, settings.modes)?;
-    let row_sums = lumped_mass_of(&built.mesh, &built.materials)?;
-    let fractions = effective_mass_fractions(&modes, system.dofs(), &row_sums)?;
+    let outcome = analysis.solve(settings.modes)?;
+    let fractions = analysis.effective_mass_fractions(&outcome)?;
+    let modes = outcome.modes;
     let solve_seconds = clock.elapsed().as_secs_f64();
     let rows: Vec<ModeRow> = modes
         .omega
@@ -205,7 +200,7 @@ fn run_modal_on<E: SceneElement>(
             scene,
             &built.mesh,
             built.imported.as_ref(),
-            &system,
+            system,
             &modes,
             &summary,
         )?;

@@ -5,6 +5,7 @@ use std::time::Instant;
 
 use super::{BuiltScene, Scene, SceneElement};
 use crate::png_frames::{StaticLook, static_picture};
+use tetfem::analysis::{Static, StaticOptions, StaticOutcome};
 use tetfem::error::Result;
 use tetfem::model::ModelMap;
 use tetfem::output::fields::{cell_model_von_mises, displacement_magnitude};
@@ -12,7 +13,6 @@ use tetfem::output::{
     CsvSeries, OriginalIds, OutputLock, PvdCollection, model_result_frame_arrays,
     result_frame_arrays, write_atomically,
 };
-use tetfem::statics::StaticSolver;
 
 /// Choices a caller (the command line) makes on top of the scene.
 #[derive(Debug, Clone, Default, PartialEq)]
@@ -192,17 +192,25 @@ pub(super) fn run_static_on<E: SceneElement>(
     let built = scene.build_as::<E>()?;
     let build_seconds = clock.elapsed().as_secs_f64();
     let clock = Instant::now();
-    // The model that runs is the model whose stress and energy are reported.
-    let model = scene.model().build_map(&built.materials);
-    // With obstacles every model (the linear one too) goes through the contact Newton solve.
+    // With obstacles every model (the linear one too) goes through the contact Newton solve:
+    // the library's one dispatch (tetfem::analysis::Static) decides.
     let contact = match scene.has_obstacles() {
         true => scene.contact(&built.mesh, super::obstacles::stiffest(&built.materials))?,
         false => None,
     };
-    let solved = match (scene.model(), &contact) {
-        (tetfem::model::ModelKind::Linear, None) => solve_linear(scene, &built)?,
-        (_, contact) => solve_by_newton(scene, &built, &model, contact.as_ref())?,
+    let definition = built.definition(scene.model(), contact)?;
+    let solver_options = StaticOptions {
+        linear: tetfem::linalg::linear_solver::SolverOptions {
+            method: scene.spec().linear_method(),
+            ..Default::default()
+        },
+        newton: scene.static_newton(),
     };
+    let analysis = Static::new(&definition, solver_options)?;
+    let solved = StaticSolve::of(analysis.solve()?, solver_options.newton.tolerance);
+    // The model that runs is the model whose stress and energy are reported.
+    let model = analysis.model();
+    let contact = definition.contact.as_ref();
     let solve_seconds = clock.elapsed().as_secs_f64();
     let StaticReport {
         mut summary,
@@ -211,23 +219,23 @@ pub(super) fn run_static_on<E: SceneElement>(
     } = report_static(
         scene,
         &built,
-        &model,
+        model,
         &solved,
-        contact.as_ref(),
+        contact,
         [build_seconds, solve_seconds],
         lock.as_ref().and_then(OutputLock::warning),
     )?;
     let u = &solved.displacement;
     if !options.no_files {
         let clock = Instant::now();
-        let contact_fields = match &contact {
+        let contact_fields = match contact {
             Some(c) => Some(c.node_fields(built.mesh.nodes(), u)?),
             None => None,
         };
         summary.files = write_static_outputs(
             scene,
             &built,
-            &model,
+            model,
             u,
             contact_fields
                 .as_ref()
@@ -272,7 +280,7 @@ pub fn report_static<E: SceneElement>(
     let u = &solved.displacement;
     // The linear model's fields come straight from u: the force-model route forms x = X + u and
     // takes u = x − X back, which costs digits (~1e-11 relative in σ_vM on a steel beam).
-    let linear = scene.model() == tetfem::model::ModelKind::Linear;
+    let linear = scene.model().is_linear();
     let von_mises = match linear {
         true => tetfem::output::fields::cell_von_mises(&built.mesh, &built.materials, u)?,
         false => cell_model_von_mises(&built.mesh, model, u)?,
@@ -399,82 +407,27 @@ pub struct StaticSolve {
     pub reactions: Vec<f64>,
 }
 
-/// The linear model without obstacles: one linear solve with the scene's `linear_solver`, and
-/// its reactions K·u − f.
-fn solve_linear<E: SceneElement>(scene: &Scene, built: &BuiltScene<E>) -> Result<StaticSolve> {
-    let options = tetfem::linalg::linear_solver::SolverOptions {
-        method: scene.spec().linear_method(),
-        ..Default::default()
-    };
-    let mut solver =
-        StaticSolver::with_options(&built.mesh, &built.materials, &built.constraints, options)?;
-    let solution = solver.solve(&built.loads)?;
-    let solve = StaticSolve {
-        displacement: solution.displacement,
-        relative_residual: solution.relative_residual,
-        free_dofs: solver.dofs().free_count(),
-        phases: Some(solver.timings().into()),
-        factor_len: solver.factor_len(),
-        friction_forces: Vec::new(),
-        newton: None,
-        reactions: solution.reactions,
-    };
-    Ok(solve)
-}
-
-/// A nonlinear model or obstacles: Newton over the scene's load steps
-/// ([`Scene::static_newton`]), and the reactions −(Σₑ fₑ(u) + f).
-fn solve_by_newton<E: SceneElement>(
-    scene: &Scene,
-    built: &BuiltScene<E>,
-    model: &ModelMap,
-    contact: Option<&tetfem::contact::Contact>,
-) -> Result<StaticSolve> {
-    let report = tetfem::nonlinear::solve_nonlinear_static_with_motion_and_contact(
-        &built.mesh,
-        model,
-        &built.constraints,
-        &built.loads,
-        &built.motions,
-        contact,
-        scene.static_newton(),
-    )?;
-    let dofs = tetfem::constraints::DofMap::new(&built.constraints);
-    let load: f64 = dofs
-        .restrict(built.loads.as_slice())?
-        .iter()
-        .map(|f| f * f)
-        .sum::<f64>()
-        .sqrt();
-    let last = report
-        .residuals
-        .last()
-        .and_then(|r| r.last())
-        .copied()
-        .unwrap_or(0.0);
-    let reactions = tetfem::nonlinear::nonlinear_reactions(
-        &built.mesh,
-        model,
-        &built.constraints,
-        &built.loads,
-        &report.displacement,
-    )?;
-    let solve = StaticSolve {
-        // ‖r_f‖/‖f_f‖ at the end, as for the linear solve.
-        relative_residual: if load > 0.0 { last / load } else { last },
-        free_dofs: dofs.free_count(),
-        phases: None,
-        factor_len: 0,
-        newton: Some(StaticNewton {
-            load_steps: report.residuals.len(),
-            iterations: report.iterations,
-            tolerance: scene.static_newton().tolerance,
-        }),
-        friction_forces: report.obstacle_friction_forces,
-        displacement: report.displacement,
-        reactions,
-    };
-    Ok(solve)
+impl StaticSolve {
+    /// What the report takes of the library's static `outcome`; `tolerance`: Newton's
+    /// (`analysis.newton_tolerance`), reported with its counts.
+    pub fn of(outcome: StaticOutcome, tolerance: f64) -> Self {
+        StaticSolve {
+            relative_residual: outcome.relative_residual,
+            free_dofs: outcome.free_dofs,
+            phases: outcome.timings().map(SolvePhases::from),
+            factor_len: outcome.factor_len(),
+            newton: outcome
+                .newton_counts()
+                .map(|(load_steps, iterations)| StaticNewton {
+                    load_steps,
+                    iterations,
+                    tolerance,
+                }),
+            friction_forces: outcome.friction_forces,
+            displacement: outcome.displacement,
+            reactions: outcome.reactions,
+        }
+    }
 }
 
 /// Each probe's value at the solution `u`: a point probe's stress is the linear model's with
@@ -593,12 +546,10 @@ pub fn static_frame_arrays<E: SceneElement>(
         contact,
         ..Default::default()
     };
-    match model.kind() {
-        tetfem::model::ModelKind::Linear => {
-            result_frame_arrays(&built.mesh, &built.materials, u, extras)
-        }
+    match model.kind().is_linear() {
+        true => result_frame_arrays(&built.mesh, &built.materials, u, extras),
         // A nonlinear model's stresses and energy are its own.
-        _ => model_result_frame_arrays(&built.mesh, model, &built.materials, u, extras),
+        false => model_result_frame_arrays(&built.mesh, model, &built.materials, u, extras),
     }
 }
 
