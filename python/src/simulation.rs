@@ -91,7 +91,9 @@ fn energy_dict<'py>(py: Python<'py>, e: &Energy) -> PyResult<Bound<'py, PyDict>>
 /// ``model``: ``"linear"``, ``"corotational"``, ``"neo-hookean"`` or ``"st-venant-kirchhoff"``
 /// (each material its own; the implicit methods then iterate Newton per step). ``mass``: ``"lumped"`` or ``"consistent"``. ``damping``: Rayleigh
 /// (α in 1/s, β in s), C = α·M + β·K. ``loads``: gravity is tracked as its own potential, the
-/// other loads are constant. The run starts at time 0 from ``initial_displacement`` (n, 3), m
+/// other loads are constant, those added with an ``amplitude`` follow it in time (and
+/// ``Constraints`` with an ``amplitude`` or ``prescribe_rigid`` move the supports), as the
+/// scene runner's ``TimeData``. The run starts at time 0 from ``initial_displacement`` (n, 3), m
 /// (default zero) and ``initial_velocity`` (3,) or (n, 3), m/s (default zero); both are taken on
 /// the free DOFs. ``linear_solver`` (implicit methods): ``"auto"``, ``"direct"`` or
 /// ``"iterative"``. Steps run with the GIL released; Ctrl-C stops ``run`` and ``step`` with
@@ -303,14 +305,15 @@ impl PySimulation {
             contact_stiffness,
         )?;
         let c = &constraints.constraints;
+        let time_data = crate::timed::time_data(loads.as_deref(), &constraints);
         // With obstacles, as the scene runner builds it: a body held by contact alone is well
         // posed in time (the mass holds its rigid modes), so no rigid-mode check.
+        let free_body = contact.is_some();
         let system = py
             .detach(|| {
-                on_cells!(&data.mesh, m => match contact.is_some() {
-                    true => LinearSystem::new_free_body(m, &materials, c, other, gravity, mass, rayleigh),
-                    false => LinearSystem::new(m, &materials, c, other, gravity, mass, rayleigh),
-                })
+                on_cells!(&data.mesh, m => crate::timed::system(
+                    m, &materials, c, other, gravity, mass, rayleigh, &time_data, free_body,
+                ))
             })
             .or_raise(py)?;
         let system = Arc::new(system);
@@ -540,11 +543,15 @@ impl PySimulation {
         self.system.free_count()
     }
 
-    /// Displacement of every node, shape (n, 3), m (prescribed values on constrained DOFs).
+    /// Displacement of every node, shape (n, 3), m (prescribed values on constrained DOFs,
+    /// moving supports at the current time).
     #[getter]
     fn displacement<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        let u = self.stepping(py)?.state.displacement.clone();
-        arrays::rows3(py, self.system.dofs().expand(&u).or_raise(py)?)
+        let (u, time) = {
+            let guard = self.stepping(py)?;
+            (guard.state.displacement.clone(), guard.state.time)
+        };
+        arrays::rows3(py, self.system.expand_at(time, &u).or_raise(py)?)
     }
 
     /// Sets the displacement (shape (n, 3), m) of the free DOFs; the constrained ones keep
@@ -587,8 +594,7 @@ impl PySimulation {
         let u = {
             let guard = self.stepping(py)?;
             self.system
-                .dofs()
-                .expand(&guard.state.displacement)
+                .expand_at(guard.state.time, &guard.state.displacement)
                 .or_raise(py)?
         };
         let mesh = &self.data.mesh;

@@ -7,12 +7,11 @@ use std::sync::{Arc, Mutex, MutexGuard, TryLockError};
 use nalgebra::Matrix3;
 use numpy::{PyArray1, PyArrayMethods};
 use pyo3::prelude::*;
-use tetfem::boundary_motion::BoundaryMotion;
 use tetfem::constraints::DofMap;
 use tetfem::linalg::linear_solver::{SolveInfo, SolverOptions};
 use tetfem::materials::MaterialMap;
 use tetfem::model::ModelKind;
-use tetfem::nonlinear::{NewtonOptions, StaticPath, solve_static_model};
+use tetfem::nonlinear::{NewtonOptions, StaticPath};
 use tetfem::output::fields::{cell_model_stress, cell_stress};
 use tetfem::statics::{StaticSolution, StaticSolver};
 
@@ -161,7 +160,11 @@ pub fn check_same_mesh(
 /// contact barrier, of activation distance ``contact_distance`` (length; default 1e-3 × the
 /// bounding-box diagonal) and stiffness ``contact_stiffness`` (Pa/m; default E/h of the
 /// stiffest material), and ``contact_forces`` gives the force on each. Which path runs is the
-/// library's one dispatch (``tetfem::nonlinear::solve_static_model``), as in scenes.
+/// library's one dispatch (``tetfem::nonlinear::solve_static_model``), as in scenes; obstacles
+/// on a 10-node mesh, or with moving supports, by Newton with the barrier as the scene runner
+/// solves them. Loads and prescribed motions with an ``amplitude`` enter at their value at the
+/// pseudo-time t = 1 (``STATIC_TIME``); a nonlinear solve's load steps follow the motions
+/// (rigid ones by exact rotations).
 /// ``tolerance``: the relative residual asked for, ‖r_f‖ ≤
 /// ``tolerance``·‖f_f‖ (the linear solve's ‖K_ff·u_f − r_f‖/‖r_f‖, or Newton's residual over
 /// the load); a solve that ends above it raises ``SolverError`` naming the tolerance and the
@@ -226,16 +229,17 @@ pub fn solve_static(
         ..NewtonOptions::default()
     };
     let models = kind.build_map(&materials);
+    let motions = &constraints.motions;
     let constraints = &constraints.constraints;
     let loads = &loads.all;
     let (solved, stress) = detach_interruptible(py, || -> tetfem::Result<_> {
         on_cells!(&data.mesh, mesh => {
-            let solved = solve_static_model(
+            let solved = crate::static_paths::solve_model(
                 mesh,
                 &models,
                 constraints,
                 loads,
-                &BoundaryMotion::new(),
+                motions,
                 contact.as_ref(),
                 linear,
                 newton,
