@@ -107,7 +107,13 @@ impl PyAmplitude {
     /// (dimensionless), ``frequency`` f (Hz, ≥ 0), ``phase`` φ (rad), ``start`` (s).
     #[staticmethod]
     #[pyo3(signature = (amplitude, frequency, phase = 0.0, start = 0.0))]
-    fn sine(py: Python<'_>, amplitude: f64, frequency: f64, phase: f64, start: f64) -> PyResult<Self> {
+    fn sine(
+        py: Python<'_>,
+        amplitude: f64,
+        frequency: f64,
+        phase: f64,
+        start: f64,
+    ) -> PyResult<Self> {
         Ok(PyAmplitude {
             amplitude: Amplitude::sine(amplitude, frequency, phase, start).or_raise(py)?,
         })

@@ -131,7 +131,7 @@ impl PyLoads {
         mut slf: PyRefMut<'py, Self>,
         force_density: &Bound<'py, PyAny>,
         amplitude: Option<&Bound<'py, PyAny>>,
-) -> PyResult<PyRefMut<'py, Self>> {
+    ) -> PyResult<PyRefMut<'py, Self>> {
         let py = slf.py();
         let b = arrays::vector3(py, force_density, "force_density")?;
         let data = Arc::clone(&slf.data);
@@ -151,7 +151,7 @@ impl PyLoads {
         faces: &Bound<'py, PyAny>,
         traction: &Bound<'py, PyAny>,
         amplitude: Option<&Bound<'py, PyAny>>,
-) -> PyResult<PyRefMut<'py, Self>> {
+    ) -> PyResult<PyRefMut<'py, Self>> {
         let py = slf.py();
         let t = arrays::vector3(py, traction, "traction")?;
         let data = Arc::clone(&slf.data);
@@ -172,7 +172,7 @@ impl PyLoads {
         faces: &Bound<'py, PyAny>,
         force: &Bound<'py, PyAny>,
         amplitude: Option<&Bound<'py, PyAny>>,
-) -> PyResult<PyRefMut<'py, Self>> {
+    ) -> PyResult<PyRefMut<'py, Self>> {
         let py = slf.py();
         let f = arrays::vector3(py, force, "force")?;
         let data = Arc::clone(&slf.data);
@@ -193,7 +193,7 @@ impl PyLoads {
         faces: &Bound<'py, PyAny>,
         pressure: f64,
         amplitude: Option<&Bound<'py, PyAny>>,
-) -> PyResult<PyRefMut<'py, Self>> {
+    ) -> PyResult<PyRefMut<'py, Self>> {
         let py = slf.py();
         if !pressure.is_finite() {
             return Err(invalid(py, "pressure", pressure, "must be finite"));
@@ -220,7 +220,7 @@ impl PyLoads {
         nodes: &Bound<'py, PyAny>,
         force: &Bound<'py, PyAny>,
         amplitude: Option<&Bound<'py, PyAny>>,
-) -> PyResult<PyRefMut<'py, Self>> {
+    ) -> PyResult<PyRefMut<'py, Self>> {
         let py = slf.py();
         let (nodes, _) = arrays::indices(py, nodes, "nodes", None)?;
         let values = arrays::rows_per_item(py, force, "force", nodes.len())?;
