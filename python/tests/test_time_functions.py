@@ -149,6 +149,8 @@ def test_nonlinear_reactions_with_a_moving_support_balance():
 
 AMPLITUDE_SCENE = """
 title = "cantilever under a ramped tip load on a shaken base"
+[mesh]
+order = {order}
 [mesh.box]
 max = [1.0, 0.1, 0.1]
 cells = [10, 2, 2]
@@ -182,17 +184,20 @@ duration = 0.01
 """
 
 
-@pytest.mark.parametrize("method,model", [("newmark", "linear"), ("backward_euler", "corotational")])
-def test_amplitudes_in_simulation_equal_the_scene_runner(tmp_path, method, model):
+@pytest.mark.parametrize(
+    "method,model,order",
+    [("newmark", "linear", 1), ("backward_euler", "corotational", 1), ("newmark", "linear", 2)],
+)
+def test_amplitudes_in_simulation_equal_the_scene_runner(tmp_path, method, model, order):
     scene = tmp_path / "shaken.toml"
-    scene.write_text(AMPLITUDE_SCENE.format(method=method, model=model))
+    scene.write_text(AMPLITUDE_SCENE.format(method=method, model=model, order=order))
     summary = tetfem.run_scene(scene, output_dir=tmp_path / "out")
     with open(tmp_path / "out" / "shaken.csv", newline="") as f:
         rows = list(csv.DictReader(f))
     steps = summary["steps"]
     assert steps == 50 and len(rows) == steps + 1
 
-    mesh, steel, _ = beam()
+    mesh, steel, _ = beam(order=order)
     base = mesh.nodes_on_plane("x", 0.0)
     constraints = tetfem.Constraints(mesh).prescribe(
         base, (0.0, 0.0, 1e-4), amplitude=tetfem.Amplitude.sine(1.0, 50.0)
@@ -217,7 +222,7 @@ def test_amplitudes_in_simulation_equal_the_scene_runner(tmp_path, method, model
     scene_tip = np.array([[float(r[f"tip_u{a}_m"]) for a in "xyz"] for r in rows[1:]])
     ours = np.array(trajectory)
     scale = np.abs(scene_tip).max()
-    print(f"{method}/{model}: tip max {scale:.3e} m, max difference {np.abs(ours - scene_tip).max():.1e} m")
+    print(f"{method}/{model}/P{order}: tip max {scale:.3e} m, max difference {np.abs(ours - scene_tip).max():.1e} m")
     # The same library calls on the same data: equal to the CSV's printed digits (the CSV
     # writes 17 significant digits, so 1e-12 relative is far above its rounding).
     assert np.abs(ours - scene_tip).max() <= 1e-12 * scale
