@@ -19,6 +19,7 @@ mod modal;
 mod names;
 mod post;
 mod scene;
+mod sim_reactions;
 mod simulation;
 mod sparse;
 mod static_paths;

@@ -108,6 +108,8 @@ pub struct PySimulation {
     force: InternalForce,
     /// The method's name (the integrator's, kept here so that it reads without the lock).
     method: &'static str,
+    /// The support reactions' inputs (see `reactions`).
+    reactions: crate::sim_reactions::Reactions,
     /// The integrator and the state, locked by each call that reads or steps them (with
     /// `try_lock` only: a call never waits for a step, so no thread waits for the lock while
     /// holding the GIL that the stepping thread needs).
@@ -366,6 +368,7 @@ impl PySimulation {
             .detach(|| Stepper::new(method, &system, force.clone(), dt, options))
             .or_raise(py)?;
         Ok(PySimulation {
+            reactions: crate::sim_reactions::Reactions::new(other.clone(), gravity, time_data),
             data,
             materials,
             system,
@@ -604,6 +607,29 @@ impl PySimulation {
         })
         .or_raise(py)?;
         Ok(arrays::vector(py, v))
+    }
+
+    /// The support reactions at the current state, shape (n, 3), N: the force each support
+    /// exerts on the body so that the equation of motion holds on its rows, r_c = M·a + C·v −
+    /// f_int(u) − f_ext(t) (moving supports and loads with amplitudes at the current time;
+    /// zero on free DOFs), as the scene runner's reaction columns. Summed over all nodes,
+    /// Σr + Σf_ext = Σ M·a + α·Σ M·v. The first call assembles the constrained rows of K and M.
+    fn reactions<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        let guard = self.stepping(py)?;
+        let state = &guard.state;
+        let r = py
+            .detach(|| {
+                self.reactions.at(
+                    &self.data,
+                    &self.materials,
+                    &self.system,
+                    &self.force,
+                    state,
+                )
+            })
+            .or_raise(py)?;
+        drop(guard);
+        arrays::rows3(py, r)
     }
 
     /// The stiffness K_ff on the free DOFs (N/m), SciPy CSR or (indptr, indices, data, shape).

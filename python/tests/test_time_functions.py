@@ -211,12 +211,13 @@ def test_amplitudes_in_simulation_equal_the_scene_runner(tmp_path, method, model
         mesh, steel, constraints, loads, dt=2e-4, method=method.replace("_", "-"), model=model
     )
     tip = mesh.nodes_on_plane("x", 1.0)
-    trajectory, bases = [], []
+    trajectory, bases, reactions = [], [], []
 
     def record(s):
         u = s.displacement
         trajectory.append(probe_mean(u, tip))
         bases.append(u[base, 2].copy())
+        reactions.append(s.reactions().sum(axis=0))
 
     history = sim.run(steps, callback=record)
     scene_tip = np.array([[float(r[f"tip_u{a}_m"]) for a in "xyz"] for r in rows[1:]])
@@ -228,6 +229,12 @@ def test_amplitudes_in_simulation_equal_the_scene_runner(tmp_path, method, model
     assert np.abs(ours - scene_tip).max() <= 1e-12 * scale
     kinetic = np.array([float(r["kinetic_J"]) for r in rows[1:]])
     assert np.abs(history["kinetic"] - kinetic).max() <= 1e-12 * np.abs(kinetic).max()
+    # The shaken base's reaction (M·a + C·v − f_int − f_ext on its rows, the base moving at
+    # u_c(t)): the scene's one support set. Summed by numpy here, in node order there: equal
+    # to the sums' rounding, 1e-12 of the largest reaction.
+    scene_r = np.array([[float(r[f"reaction0_F{a}_N"]) for a in "xyz"] for r in rows[1:]])
+    assert np.abs(np.array(reactions) - scene_r).max() <= 1e-12 * np.abs(scene_r).max()
+    assert np.abs(scene_r).max() > 1.0  # N: the base pushes the beam around
     # The loads and the base moved: a tip well away from rest, and the base at 1e-4·sin(2π·50·t).
     assert scale > 1e-5
     times = history["time"]
