@@ -3,9 +3,13 @@
 
 use std::sync::Arc;
 
+use nalgebra::{Matrix3, Vector3};
 use pyo3::prelude::*;
+use tetfem::amplitude::STATIC_TIME;
+use tetfem::boundary_motion::{BoundaryMotion, Motion, RigidMotion};
 use tetfem::constraints::Constraints;
 
+use crate::amplitude::amplitude_of;
 use crate::arrays::{self, floats, index_vector, indices};
 use crate::errors::{OrRaise, invalid};
 use crate::mesh::{MeshData, PyMesh, on_cells};
@@ -13,14 +17,27 @@ use crate::names;
 
 /// Dirichlet conditions on the nodes of ``mesh``: ``fix`` (zero displacement on chosen axes),
 /// ``prescribe`` (given displacements, length units) and ``prescribe_linear`` (a linear field
-/// u = A·x + b). A DOF given two different values raises ``InvalidInputError`` naming the node,
+/// u = A·x + b) and ``prescribe_rigid`` (a rigid motion: rotation about an axis and
+/// translation). A DOF given two different values raises ``InvalidInputError`` naming the node,
 /// the axis and both values.
+///
+/// ``prescribe``, ``prescribe_linear`` and ``prescribe_rigid`` take ``amplitude=`` (an
+/// ``Amplitude``, a number or an (k, 2) array of (t, a) pairs): the support then moves with
+/// a(t) (``tetfem::boundary_motion::BoundaryMotion``): a ``Simulation`` follows it in time
+/// (displacement, velocity and acceleration of the support), a static solve takes its value at
+/// the pseudo-time t = 1 (a nonlinear one through its load steps, a rigid motion by exact
+/// rotations).
 #[pyclass(name = "Constraints", module = "tetfem")]
 pub struct PyConstraints {
     /// The mesh these constraints are made for.
     pub data: Arc<MeshData>,
-    /// The constraints.
+    /// The constraints, moving ones at their values at [`STATIC_TIME`].
     pub constraints: Constraints,
+    /// Every prescribed motion (constant ones too): what a nonlinear static solve's load steps
+    /// follow.
+    pub motions: BoundaryMotion,
+    /// The motions that change in time: what a `Simulation` moves.
+    pub moving: BoundaryMotion,
 }
 
 impl PyConstraints {
@@ -62,6 +79,34 @@ impl PyConstraints {
         self.constraints = trial;
         Ok(())
     }
+
+    /// Moves the chosen `axes` of `nodes` by `motion`: prescribed at its value at
+    /// [`STATIC_TIME`], kept in `motions` (and in `moving` unless constant). An error leaves
+    /// the constraints unchanged.
+    fn add_motion(
+        &mut self,
+        py: Python<'_>,
+        nodes: &[usize],
+        axes: [bool; 3],
+        motion: Motion,
+    ) -> PyResult<()> {
+        let mut trial = self.constraints.clone();
+        let mut motions = self.motions.clone();
+        let mut moving = self.moving.clone();
+        let mut single = BoundaryMotion::new();
+        single.add(nodes, axes, motion.clone()).or_raise(py)?;
+        single
+            .prescribe_at(self.data.mesh.nodes(), STATIC_TIME, &mut trial)
+            .or_raise(py)?;
+        if !motion.is_constant() {
+            moving.add(nodes, axes, motion.clone()).or_raise(py)?;
+        }
+        motions.add(nodes, axes, motion).or_raise(py)?;
+        self.constraints = trial;
+        self.motions = motions;
+        self.moving = moving;
+        Ok(())
+    }
 }
 
 #[pymethods]
@@ -70,7 +115,12 @@ impl PyConstraints {
     fn new(mesh: &Bound<'_, PyMesh>) -> Self {
         let data = Arc::clone(&mesh.get().data);
         let constraints = on_cells!(&data.mesh, m => Constraints::new(m));
-        PyConstraints { data, constraints }
+        PyConstraints {
+            data,
+            constraints,
+            motions: BoundaryMotion::new(),
+            moving: BoundaryMotion::new(),
+        }
     }
 
     /// Fixes the chosen axes of ``nodes`` at zero (all three: a clamp; fewer: a roller or a
@@ -90,31 +140,78 @@ impl PyConstraints {
 
     /// Prescribes the displacement (length units) of the chosen axes of ``nodes``:
     /// ``displacement`` of shape (3,) for all of them, or (k, 3) with one row per node of
-    /// ``nodes`` (in its order). Returns self.
-    #[pyo3(signature = (nodes, displacement, axes = "xyz"))]
+    /// ``nodes`` (in its order). With ``amplitude``: u(t) = displacement·a(t) (a (3,)
+    /// displacement only). Returns self.
+    #[pyo3(signature = (nodes, displacement, axes = "xyz", amplitude = None))]
     fn prescribe<'py>(
         mut slf: PyRefMut<'py, Self>,
         nodes: &Bound<'py, PyAny>,
         displacement: &Bound<'py, PyAny>,
         axes: &str,
+        amplitude: Option<&Bound<'py, PyAny>>,
     ) -> PyResult<PyRefMut<'py, Self>> {
         let py = slf.py();
         let axes = names::axes(py, axes)?;
         let nodes = slf.nodes_in_order(py, nodes)?;
+        if amplitude.is_some_and(|a| !a.is_none()) {
+            let amplitude = amplitude_of(py, amplitude)?;
+            let displacement = arrays::vector3(py, displacement, "displacement")?;
+            let motion = Motion::Uniform {
+                displacement,
+                amplitude,
+            };
+            slf.add_motion(py, &nodes, axes, motion)?;
+            return Ok(slf);
+        }
         let values = arrays::rows_per_item(py, displacement, "displacement", nodes.len())?;
         slf.prescribe_rows(py, &nodes, &values, axes)?;
         Ok(slf)
     }
 
+    /// Moves ``nodes`` rigidly: a rotation by θ(t) = ``angle``·a(t) (rad) about the line
+    /// through ``point`` along ``axis`` (any length > 0), then a translation
+    /// ``translation``·a(t) (length units): u = p + R(θ)·(x − p) + d·a(t) − x, an exact
+    /// rotation (``tetfem::boundary_motion::RigidMotion``). ``amplitude`` defaults to constant
+    /// 1; ``axes`` chooses the constrained axes. Returns self.
+    #[pyo3(signature = (nodes, axis = None, point = None, angle = 0.0, translation = None, amplitude = None, axes = "xyz"))]
+    #[allow(clippy::too_many_arguments)]
+    fn prescribe_rigid<'py>(
+        mut slf: PyRefMut<'py, Self>,
+        nodes: &Bound<'py, PyAny>,
+        axis: Option<&Bound<'py, PyAny>>,
+        point: Option<&Bound<'py, PyAny>>,
+        angle: f64,
+        translation: Option<&Bound<'py, PyAny>>,
+        amplitude: Option<&Bound<'py, PyAny>>,
+        axes: &str,
+    ) -> PyResult<PyRefMut<'py, Self>> {
+        let py = slf.py();
+        let axes = names::axes(py, axes)?;
+        let nodes = slf.nodes_in_order(py, nodes)?;
+        let vector = |v: Option<&Bound<'py, PyAny>>, name: &str, default: Vector3<f64>| match v {
+            Some(v) => arrays::vector3(py, v, name),
+            None => Ok(default),
+        };
+        let axis = vector(axis, "axis", Vector3::z())?;
+        let point = vector(point, "point", Vector3::zeros())?;
+        let translation = vector(translation, "translation", Vector3::zeros())?;
+        let amplitude = amplitude_of(py, amplitude)?;
+        let rigid = RigidMotion::new(axis, point, angle, translation, amplitude).or_raise(py)?;
+        slf.add_motion(py, &nodes, axes, Motion::Rigid(rigid))?;
+        Ok(slf)
+    }
+
     /// Prescribes the linear displacement field u(x) = gradient · x + offset on all three
     /// axes of ``nodes`` (``gradient`` shape (3, 3), dimensionless; ``offset`` length units),
-    /// e.g. the boundary values of a patch test. Returns self.
-    #[pyo3(signature = (nodes, gradient, offset = None))]
+    /// e.g. the boundary values of a patch test. With ``amplitude``: u(x, t) = (gradient · x +
+    /// offset)·a(t). Returns self.
+    #[pyo3(signature = (nodes, gradient, offset = None, amplitude = None))]
     fn prescribe_linear<'py>(
         mut slf: PyRefMut<'py, Self>,
         nodes: &Bound<'py, PyAny>,
         gradient: &Bound<'py, PyAny>,
         offset: Option<&Bound<'py, PyAny>>,
+        amplitude: Option<&Bound<'py, PyAny>>,
     ) -> PyResult<PyRefMut<'py, Self>> {
         let py = slf.py();
         let nodes = slf.nodes_in_order(py, nodes)?;
@@ -131,6 +228,13 @@ impl PyConstraints {
             Some(o) => arrays::vector3(py, o, "offset")?,
             None => nalgebra::Vector3::zeros(),
         };
+        if amplitude.is_some_and(|a| !a.is_none()) {
+            let amplitude = amplitude_of(py, amplitude)?;
+            let matrix = Matrix3::from_row_slice(&a);
+            let motion = Motion::linear_field(matrix, b, amplitude).or_raise(py)?;
+            slf.add_motion(py, &nodes, [true; 3], motion)?;
+            return Ok(slf);
+        }
         let points = slf.data.mesh.nodes();
         let values: Vec<f64> = nodes
             .iter()

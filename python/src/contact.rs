@@ -6,8 +6,8 @@ use tetfem::contact::{Contact, ContactParameters, Obstacle};
 use tetfem::materials::MaterialMap;
 
 use crate::arrays;
-use crate::errors::{OrRaise, invalid};
-use crate::mesh::{Cells, MeshData};
+use crate::errors::OrRaise;
+use crate::mesh::{MeshData, on_cells};
 
 /// A rigid obstacle the body may touch but not enter (length units; SI m). Make one with
 /// ``Obstacle.half_space(name, point, normal)`` (the side the normal points to is free),
@@ -120,27 +120,21 @@ pub fn contact_of(
     let Some(obstacles) = obstacles.filter(|o| !o.is_empty()) else {
         return Ok(None);
     };
-    // The library's `Contact` is built on a 4-node mesh (as scenes, which refuse obstacles
-    // with `mesh.order = 2`).
-    let Cells::P1(mesh) = &data.mesh else {
-        return Err(invalid(
-            py,
-            "obstacles",
-            format!("{} obstacles on a mesh of order 2", obstacles.len()),
-            "obstacles (contact) run on 4-node tets only: use a mesh of order 1",
-        ));
-    };
     let stiffest = materials
         .materials()
         .iter()
         .map(|m| m.youngs_modulus())
         .fold(0.0, f64::max);
     let obstacles: Vec<Obstacle> = obstacles.iter().map(|o| o.obstacle.clone()).collect();
+    // On either element order: on 10-node tets the contact points are the boundary's corner
+    // and mid-edge nodes (`Contact::new`).
     py.detach(|| {
-        let mut parameters = ContactParameters::for_mesh(mesh, stiffest)?;
-        parameters.activation_distance = distance.unwrap_or(parameters.activation_distance);
-        parameters.stiffness = stiffness.unwrap_or(parameters.stiffness);
-        Contact::new(mesh, obstacles, parameters)
+        on_cells!(&data.mesh, mesh => {
+            let mut parameters = ContactParameters::for_mesh(mesh, stiffest)?;
+            parameters.activation_distance = distance.unwrap_or(parameters.activation_distance);
+            parameters.stiffness = stiffness.unwrap_or(parameters.stiffness);
+            Contact::new(mesh, obstacles, parameters)
+        })
     })
     .map(Some)
     .or_raise(py)

@@ -5,6 +5,7 @@
 
 use pyo3::prelude::*;
 
+mod amplitude;
 mod arrays;
 mod constraints;
 mod contact;
@@ -18,9 +19,11 @@ mod modal;
 mod names;
 mod post;
 mod scene;
+mod sim_reactions;
 mod simulation;
 mod sparse;
 mod statics;
+mod timed;
 
 /// The native module: every class and function of the `tetfem` package.
 #[pymodule]
@@ -32,6 +35,7 @@ fn _tetfem(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<loads::PyLoads>()?;
     m.add_class::<statics::StaticResult>()?;
     m.add_class::<contact::PyObstacle>()?;
+    m.add_class::<amplitude::PyAmplitude>()?;
     m.add_class::<statics::PyStaticSolver>()?;
     m.add_class::<simulation::PySimulation>()?;
     m.add_class::<modal::ModalResult>()?;
@@ -42,6 +46,7 @@ fn _tetfem(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(post::model_advice, m)?)?;
     m.add_function(wrap_pyfunction!(matrices::stiffness_matrix, m)?)?;
     m.add_function(wrap_pyfunction!(matrices::mass_matrix, m)?)?;
+    m.add("STATIC_TIME", tetfem::amplitude::STATIC_TIME)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())
 }

@@ -91,7 +91,9 @@ fn energy_dict<'py>(py: Python<'py>, e: &Energy) -> PyResult<Bound<'py, PyDict>>
 /// ``model``: ``"linear"``, ``"corotational"``, ``"neo-hookean"`` or ``"st-venant-kirchhoff"``
 /// (each material its own; the implicit methods then iterate Newton per step). ``mass``: ``"lumped"`` or ``"consistent"``. ``damping``: Rayleigh
 /// (α in 1/s, β in s), C = α·M + β·K. ``loads``: gravity is tracked as its own potential, the
-/// other loads are constant. The run starts at time 0 from ``initial_displacement`` (n, 3), m
+/// other loads are constant, those added with an ``amplitude`` follow it in time (and
+/// ``Constraints`` with an ``amplitude`` or ``prescribe_rigid`` move the supports), as the
+/// scene runner's ``TimeData``. The run starts at time 0 from ``initial_displacement`` (n, 3), m
 /// (default zero) and ``initial_velocity`` (3,) or (n, 3), m/s (default zero); both are taken on
 /// the free DOFs. ``linear_solver`` (implicit methods): ``"auto"``, ``"direct"`` or
 /// ``"iterative"``. Steps run with the GIL released; Ctrl-C stops ``run`` and ``step`` with
@@ -106,6 +108,8 @@ pub struct PySimulation {
     force: InternalForce,
     /// The method's name (the integrator's, kept here so that it reads without the lock).
     method: &'static str,
+    /// The support reactions' inputs (see `reactions`).
+    reactions: crate::sim_reactions::Reactions,
     /// The integrator and the state, locked by each call that reads or steps them (with
     /// `try_lock` only: a call never waits for a step, so no thread waits for the lock while
     /// holding the GIL that the stepping thread needs).
@@ -303,14 +307,15 @@ impl PySimulation {
             contact_stiffness,
         )?;
         let c = &constraints.constraints;
+        let time_data = crate::timed::time_data(loads.as_deref(), &constraints);
         // With obstacles, as the scene runner builds it: a body held by contact alone is well
         // posed in time (the mass holds its rigid modes), so no rigid-mode check.
+        let free_body = contact.is_some();
         let system = py
             .detach(|| {
-                on_cells!(&data.mesh, m => match contact.is_some() {
-                    true => LinearSystem::new_free_body(m, &materials, c, other, gravity, mass, rayleigh),
-                    false => LinearSystem::new(m, &materials, c, other, gravity, mass, rayleigh),
-                })
+                on_cells!(&data.mesh, m => crate::timed::system(
+                    m, &materials, c, other, gravity, mass, rayleigh, &time_data, free_body,
+                ))
             })
             .or_raise(py)?;
         let system = Arc::new(system);
@@ -363,6 +368,7 @@ impl PySimulation {
             .detach(|| Stepper::new(method, &system, force.clone(), dt, options))
             .or_raise(py)?;
         Ok(PySimulation {
+            reactions: crate::sim_reactions::Reactions::new(other.clone(), gravity, time_data),
             data,
             materials,
             system,
@@ -540,11 +546,15 @@ impl PySimulation {
         self.system.free_count()
     }
 
-    /// Displacement of every node, shape (n, 3), m (prescribed values on constrained DOFs).
+    /// Displacement of every node, shape (n, 3), m (prescribed values on constrained DOFs,
+    /// moving supports at the current time).
     #[getter]
     fn displacement<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        let u = self.stepping(py)?.state.displacement.clone();
-        arrays::rows3(py, self.system.dofs().expand(&u).or_raise(py)?)
+        let (u, time) = {
+            let guard = self.stepping(py)?;
+            (guard.state.displacement.clone(), guard.state.time)
+        };
+        arrays::rows3(py, self.system.expand_at(time, &u).or_raise(py)?)
     }
 
     /// Sets the displacement (shape (n, 3), m) of the free DOFs; the constrained ones keep
@@ -587,8 +597,7 @@ impl PySimulation {
         let u = {
             let guard = self.stepping(py)?;
             self.system
-                .dofs()
-                .expand(&guard.state.displacement)
+                .expand_at(guard.state.time, &guard.state.displacement)
                 .or_raise(py)?
         };
         let mesh = &self.data.mesh;
@@ -598,6 +607,29 @@ impl PySimulation {
         })
         .or_raise(py)?;
         Ok(arrays::vector(py, v))
+    }
+
+    /// The support reactions at the current state, shape (n, 3), N: the force each support
+    /// exerts on the body so that the equation of motion holds on its rows, r_c = M·a + C·v −
+    /// f_int(u) − f_ext(t) (moving supports and loads with amplitudes at the current time;
+    /// zero on free DOFs), as the scene runner's reaction columns. Summed over all nodes,
+    /// Σr + Σf_ext = Σ M·a + α·Σ M·v. The first call assembles the constrained rows of K and M.
+    fn reactions<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        let guard = self.stepping(py)?;
+        let state = &guard.state;
+        let r = py
+            .detach(|| {
+                self.reactions.at(
+                    &self.data,
+                    &self.materials,
+                    &self.system,
+                    &self.force,
+                    state,
+                )
+            })
+            .or_raise(py)?;
+        drop(guard);
+        arrays::rows3(py, r)
     }
 
     /// The stiffness K_ff on the free DOFs (N/m), SciPy CSR or (indptr, indices, data, shape).

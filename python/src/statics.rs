@@ -160,7 +160,10 @@ pub fn check_same_mesh(
 /// contact barrier, of activation distance ``contact_distance`` (length; default 1e-3 × the
 /// bounding-box diagonal) and stiffness ``contact_stiffness`` (Pa/m; default E/h of the
 /// stiffest material), and ``contact_forces`` gives the force on each. Which path runs is the
-/// library's one dispatch (``tetfem::analysis::Static``), as in scenes.
+/// library's one dispatch (``tetfem::analysis::Static``), as in scenes (obstacles on either
+/// element order, with moving supports too). Loads and prescribed motions with an
+/// ``amplitude`` enter at their value at the pseudo-time t = 1 (``STATIC_TIME``); a nonlinear
+/// solve's load steps follow the motions (rigid ones by exact rotations).
 /// ``tolerance``: the relative residual asked for, ‖r_f‖ ≤
 /// ``tolerance``·‖f_f‖ (the linear solve's ‖K_ff·u_f − r_f‖/‖r_f‖, or Newton's residual over
 /// the load); a solve that ends above it raises ``SolverError`` naming the tolerance and the
@@ -224,6 +227,7 @@ pub fn solve_static(
         max_iterations,
         ..NewtonOptions::default()
     };
+    let motions = &constraints.motions;
     let constraints = &constraints.constraints;
     let loads = &loads.all;
     let has_contact = contact.is_some();
@@ -233,7 +237,8 @@ pub fn solve_static(
             let mut builder = Definition::builder(mesh.clone(), materials.clone())
                 .model(kind)
                 .constraints(constraints.clone())?
-                .loads(loads.clone())?;
+                .loads(loads.clone())?
+                .motions(motions.clone());
             if let Some(contact) = contact {
                 builder = builder.contact(contact);
             }

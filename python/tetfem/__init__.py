@@ -23,6 +23,8 @@ Example::
 
 from . import errors
 from ._tetfem import (
+    STATIC_TIME,
+    Amplitude,
     Constraints,
     Loads,
     Material,
@@ -55,6 +57,8 @@ from .errors import (
 )
 
 __all__ = [
+    "Amplitude",
+    "STATIC_TIME",
     "Constraints",
     "Loads",
     "Material",

@@ -7,6 +7,7 @@ import numpy as np
 import numpy.typing as npt
 
 __version__: str
+STATIC_TIME: float
 __all__ = [
     "Mesh",
     "Material",
@@ -16,6 +17,7 @@ __all__ = [
     "StaticResult",
     "StaticSolver",
     "Obstacle",
+    "Amplitude",
     "Simulation",
     "ModalResult",
     "solve_static",
@@ -25,6 +27,7 @@ __all__ = [
     "mass_matrix",
     "estimate_error",
     "model_advice",
+    "STATIC_TIME",
     "__version__",
 ]
 
@@ -47,6 +50,27 @@ _LinearSolver = Literal["auto", "direct", "iterative"]
 _Path = Union[str, "PathLike[str]"]
 # A scipy.sparse.csr_matrix when SciPy is installed, else (indptr, indices, data, shape).
 _SparseMatrix = Any
+
+@final
+class Amplitude:
+    @staticmethod
+    def constant(value: float) -> "Amplitude": ...
+    @staticmethod
+    def table(points: _ArrayLike, values: Optional[_ArrayLike] = None) -> "Amplitude": ...
+    @staticmethod
+    def ramp(start: float = 0.0, end: float = 1.0) -> "Amplitude": ...
+    @staticmethod
+    def smooth_step(start: float = 0.0, end: float = 1.0) -> "Amplitude": ...
+    @staticmethod
+    def sine(amplitude: float, frequency: float, phase: float = 0.0, start: float = 0.0) -> "Amplitude": ...
+    def value(self, t: Any) -> Any: ...  # float for a float, an array for an array
+    def rate(self, t: Any) -> Any: ...
+    def acceleration(self, t: Any) -> Any: ...
+    @property
+    def is_constant(self) -> bool: ...
+
+# An amplitude= keyword: an Amplitude, a constant, or (k, 2) rows of (t, a) (a table).
+_AmplitudeLike = Union[Amplitude, float, _ArrayLike, None]
 
 @final
 class Mesh:
@@ -146,9 +170,25 @@ _Materials = Union[Material, MaterialMap]
 class Constraints:
     def __new__(cls, mesh: Mesh) -> "Constraints": ...
     def fix(self, nodes: _ArrayLike, axes: _Axes = "xyz") -> "Constraints": ...
-    def prescribe(self, nodes: _ArrayLike, displacement: _ArrayLike, axes: _Axes = "xyz") -> "Constraints": ...
+    def prescribe(
+        self, nodes: _ArrayLike, displacement: _ArrayLike, axes: _Axes = "xyz", amplitude: _AmplitudeLike = None
+    ) -> "Constraints": ...
     def prescribe_linear(
-        self, nodes: _ArrayLike, gradient: _ArrayLike, offset: Optional[_ArrayLike] = None
+        self,
+        nodes: _ArrayLike,
+        gradient: _ArrayLike,
+        offset: Optional[_ArrayLike] = None,
+        amplitude: _AmplitudeLike = None,
+    ) -> "Constraints": ...
+    def prescribe_rigid(
+        self,
+        nodes: _ArrayLike,
+        axis: Optional[_ArrayLike] = None,
+        point: Optional[_ArrayLike] = None,
+        angle: float = 0.0,
+        translation: Optional[_ArrayLike] = None,
+        amplitude: _AmplitudeLike = None,
+        axes: _Axes = "xyz",
     ) -> "Constraints": ...
     @property
     def count(self) -> int: ...
@@ -158,12 +198,14 @@ class Constraints:
 @final
 class Loads:
     def __new__(cls, mesh: Mesh) -> "Loads": ...
-    def add_gravity(self, acceleration: _ArrayLike, material: _Materials) -> "Loads": ...
-    def add_body_force(self, force_density: _ArrayLike) -> "Loads": ...
-    def add_traction(self, faces: _ArrayLike, traction: _ArrayLike) -> "Loads": ...
-    def add_total_force(self, faces: _ArrayLike, force: _ArrayLike) -> "Loads": ...
-    def add_pressure(self, faces: _ArrayLike, pressure: float) -> "Loads": ...
-    def add_nodal_force(self, nodes: _ArrayLike, force: _ArrayLike) -> "Loads": ...
+    def add_gravity(
+        self, acceleration: _ArrayLike, material: _Materials, amplitude: _AmplitudeLike = None
+    ) -> "Loads": ...
+    def add_body_force(self, force_density: _ArrayLike, amplitude: _AmplitudeLike = None) -> "Loads": ...
+    def add_traction(self, faces: _ArrayLike, traction: _ArrayLike, amplitude: _AmplitudeLike = None) -> "Loads": ...
+    def add_total_force(self, faces: _ArrayLike, force: _ArrayLike, amplitude: _AmplitudeLike = None) -> "Loads": ...
+    def add_pressure(self, faces: _ArrayLike, pressure: float, amplitude: _AmplitudeLike = None) -> "Loads": ...
+    def add_nodal_force(self, nodes: _ArrayLike, force: _ArrayLike, amplitude: _AmplitudeLike = None) -> "Loads": ...
     @property
     def forces(self) -> _FloatArray: ...
     @property
@@ -171,7 +213,6 @@ class Loads:
     @property
     def resultant(self) -> _FloatArray: ...
 
-@final
 @final
 class Obstacle:
     @staticmethod
@@ -270,6 +311,7 @@ class Simulation:
     @property
     def critical_time_step(self) -> float: ...
     def von_mises(self) -> _FloatArray: ...
+    def reactions(self) -> _FloatArray: ...
     def free_stiffness(self) -> _SparseMatrix: ...
     def free_mass(self) -> _SparseMatrix: ...
     @property
