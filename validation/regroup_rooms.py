@@ -84,6 +84,12 @@ ANALYSIS_DOC = """//!
 //! The analysis room also holds every solve of a problem: the set-up made once ([`problem`]),
 //! one linear solve ([`statics`]), Newton with load steps ([`nonlinear`]), time integration
 //! ([`dynamics`]) and modes ([`modal`])."""
+LIB_FLOW = """//! The modules live in rooms, in layer order (a room uses only itself and the rooms before it):
+//! [`base`] → [`mesh`] → [`fe`] → [`bc`] → [`model`], [`contact`] → [`analysis`] → [`post`].
+//! Data flows one way: mesh → material → element → assembly → analysis (its linear solves
+//! through [`linalg`]) → outputs.
+//!
+"""
 ROOM_ORDER = 'base mesh fe bc model contact analysis post'.split()
 LAYERS_SRC = [
     'base',
@@ -232,7 +238,8 @@ def rewrite_file_paths(text):
 
 def rewrite_lib(text):
     """The crate root: `pub mod x;` of moved modules become the rooms' lines; `pub use x::`
-    and bare [`x`] doc links get the room."""
+    and bare [`x`] doc links get the room; the doc's "Data flow one way" line names the rooms."""
+    text = re.sub(r'//! Data flow one way:(?:.*\n)*?//!\n', LIB_FLOW, text, count=1)
     lines = [l for l in text.split('\n') if not re.fullmatch(rf'pub mod ({ALT});', l)]
     have = {mt.group(1) for l in lines for mt in [re.fullmatch(r'pub mod (\w+);', l)] if mt}
     last = max(k for k, l in enumerate(lines) if re.fullmatch(r'pub mod \w+;', l))
