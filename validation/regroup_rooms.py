@@ -262,6 +262,7 @@ def write_rooms(dry):
             if not os.path.exists(path):
                 with open(path, 'w') as f:
                     f.write(ROOM_DOCS[room] + '\n\n' + '\n'.join(decls) + '\n')
+            run(['git', 'add', path], check=False)  # so that the lead's commit has it
             continue
         # A room that already is a module: add what is missing.
         text = open(path).read()
