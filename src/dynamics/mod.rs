@@ -21,7 +21,7 @@ mod inertia;
 mod internal_force;
 mod lbfgs;
 mod newmark;
-mod newton;
+pub(crate) mod newton;
 mod nodal_rotation;
 mod nonlinear_solve;
 mod reactions;
