@@ -8,6 +8,7 @@ use crate::assembly::Assembler;
 use crate::boundary_motion::BoundaryMotion;
 use crate::constraints::{Constraints, DofMap, Restriction};
 use crate::contact::{Contact, FrictionLag, MAX_MOTION_STAGES, MotionStage, STEP_FRACTION};
+use crate::dynamics::newton::line_search::{Backtracking, LineFunction};
 use crate::error::{Error, Result};
 use crate::linear_solver::{LinearMethod, LinearSolver, SolverOptions};
 use crate::loads::Loads;
@@ -751,7 +752,7 @@ impl<E: ModelElement, M: TetModels + ?Sized> StaticNewton<'_, E, M> {
                 break;
             }
             let r_norm = norm(r);
-            let Some((trial, r_trial)) = self.line_search(u, &delta, r_norm, lag, at)? else {
+            let Some((trial, r_trial)) = self.line_search(u, &delta, r, lag, at)? else {
                 // Below 1e-6 of the reference the residual is the forces' round-off (see
                 // below): with contact, whose line search asks for a decrease of Π that
                 // round-off can deny, a search finding none there is the floor.
@@ -821,69 +822,86 @@ impl<E: ModelElement, M: TetModels + ?Sized> StaticNewton<'_, E, M> {
         Ok(delta)
     }
 
-    /// The backtracking line search along the free step `delta` from `u` (residual norm
-    /// `r_norm`): from 1, or with contact from [`STEP_FRACTION`] of the collision-free step,
-    /// halved up to 30 times until the residual norm or Π decreases — with contact only a
-    /// decrease of Π (up to its round-off), so the barrier keeps the gaps open. Returns the
-    /// accepted state and its free residual (`None`: no decrease found).
+    /// The backtracking line search along the free step `delta` from `u` (residual `r`):
+    /// from 1, or with contact from [`STEP_FRACTION`] of the collision-free step, halved up to
+    /// 30 times until the residual norm or Π decreases — with contact only a decrease of Π (up
+    /// to its round-off), so the barrier keeps the gaps open. It is the implicit steps' search
+    /// ([`Backtracking`]) on this problem's line. Returns the accepted state and its free
+    /// residual (`None`: no decrease found).
     fn line_search(
         &self,
         u: &[f64],
         delta: &[f64],
-        r_norm: f64,
+        r: &[f64],
         lag: Option<&FrictionLag>,
         at: LoadStep,
     ) -> Result<Option<(Vec<f64>, Vec<f64>)>> {
-        let factor = at.factor;
-        let pi = self.potential(u, lag, factor)?;
-        let mut alpha = 1.0;
+        let mut line = StaticLine {
+            newton: self,
+            u,
+            delta,
+            lag,
+            factor: at.factor,
+            start: None,
+            trial: Vec::new(),
+            r_trial: Vec::new(),
+        };
+        // Π at the start first, as before the search was shared (its errors come first).
+        line.start_potential()?;
+        let mut first_alpha = 1.0;
         if let Some(contact) = self.contact {
             let mut step = vec![0.0; u.len()];
             for (&dof, d) in self.dofs.free_dofs().iter().zip(delta) {
                 step[dof] = *d;
             }
-            alpha = (STEP_FRACTION * contact.max_step(u, &step)?).min(1.0);
+            first_alpha = (STEP_FRACTION * contact.max_step(u, &step)?).min(1.0);
         }
-        // With contact a second search when the first found nothing: round-off can hide Π's
-        // decrease near the solution, so it accepts a residual decrease whose Π rises by at
-        // most the first-order change α·|r·δ|.
-        let first_alpha = alpha;
-        let mut slope = 0.0;
-        for relaxed in [false, true] {
-            if relaxed {
-                if self.contact.is_none() {
-                    break;
-                }
-                let r = self.residual(u, lag, factor)?;
-                slope = r.iter().zip(delta).map(|(a, b)| a * b).sum::<f64>().abs();
-            }
-            alpha = first_alpha;
-            for _ in 0..30 {
-                let mut trial = u.to_vec();
-                for (&dof, d) in self.dofs.free_dofs().iter().zip(delta) {
-                    trial[dof] += alpha * d;
-                }
-                let r_trial = self.residual(&trial, lag, factor)?;
-                let better = match self.contact {
-                    // Only a decrease of Π (up to its round-off): the barrier keeps the gaps
-                    // open.
-                    Some(_) => {
-                        let trial_pi = self.potential(&trial, lag, factor)?;
-                        let slack = match relaxed {
-                            false => 1e-12 * pi.abs(),
-                            true => (1e-12 * pi.abs()).max(alpha * slope),
-                        };
-                        trial_pi < pi || (norm(&r_trial) < r_norm && trial_pi <= pi + slack)
-                    }
-                    None => norm(&r_trial) < r_norm || self.potential(&trial, lag, factor)? < pi,
-                };
-                if better {
-                    return Ok(Some((trial, r_trial)));
-                }
-                alpha *= 0.5;
-            }
+        // |r·δ|, the first-order change of Π along the step (the relaxed search's slack).
+        let slope = r.iter().zip(delta).map(|(a, b)| a * b).sum::<f64>().abs();
+        let search = Backtracking::for_contact(self.contact.is_some());
+        let (accepted, _) = search.search(&mut line, first_alpha, norm(r), slope)?;
+        Ok(accepted.then_some((line.trial, line.r_trial)))
+    }
+}
+
+/// A static Newton step's line u + α·δ (free step δ scattered onto the full displacement)
+/// for [`Backtracking`]: the free residual and Π at its trial points.
+struct StaticLine<'s, 'a, E: ModelElement, M: TetModels + ?Sized> {
+    newton: &'s StaticNewton<'a, E, M>,
+    u: &'s [f64],
+    delta: &'s [f64],
+    lag: Option<&'s FrictionLag>,
+    /// The load factor λ of the load step.
+    factor: f64,
+    /// Π at `u`, once computed.
+    start: Option<f64>,
+    /// The last trial state (full) and its free residual.
+    trial: Vec<f64>,
+    r_trial: Vec<f64>,
+}
+
+impl<E: ModelElement, M: TetModels + ?Sized> LineFunction for StaticLine<'_, '_, E, M> {
+    fn trial(&mut self, alpha: f64) -> Result<f64> {
+        let mut trial = self.u.to_vec();
+        for (&dof, d) in self.newton.dofs.free_dofs().iter().zip(self.delta) {
+            trial[dof] += alpha * d;
         }
-        Ok(None)
+        self.r_trial = self.newton.residual(&trial, self.lag, self.factor)?;
+        self.trial = trial;
+        Ok(norm(&self.r_trial))
+    }
+
+    fn start_potential(&mut self) -> Result<f64> {
+        if let Some(pi) = self.start {
+            return Ok(pi);
+        }
+        let pi = self.newton.potential(self.u, self.lag, self.factor)?;
+        self.start = Some(pi);
+        Ok(pi)
+    }
+
+    fn trial_potential(&mut self) -> Result<f64> {
+        self.newton.potential(&self.trial, self.lag, self.factor)
     }
 }
 

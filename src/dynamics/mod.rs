@@ -21,9 +21,8 @@ mod inertia;
 mod internal_force;
 mod lbfgs;
 mod newmark;
-mod newton;
+pub(crate) mod newton;
 mod nodal_rotation;
-mod nonlinear_euler;
 mod nonlinear_solve;
 mod reactions;
 mod stability;
@@ -44,7 +43,6 @@ pub use explicit::SymplecticEuler;
 pub use internal_force::{ForceWorkspace, InternalForce, NonlinearForce};
 pub use newmark::Newmark;
 pub use newton::{NewtonStats, StepNewtonOptions};
-pub use nonlinear_euler::NonlinearBackwardEuler;
 pub use nonlinear_solve::{AUTO_LBFGS_HISTORY, AUTO_REFACTOR_BELOW, NonlinearSolve};
 pub use reactions::SupportReactions;
 pub use stability::{

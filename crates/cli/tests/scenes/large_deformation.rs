@@ -274,7 +274,8 @@ fn model_names_parse() {
 fn corotational_backward_euler_at_100x_the_critical_step_survives_a_large_swing() {
     use std::sync::Arc;
     use tetfem::dynamics::{
-        LinearSystem, MassKind, NonlinearBackwardEuler, Rayleigh, State, critical_time_step,
+        BackwardEuler, Integrator, IntegratorOptions, InternalForce, LinearSystem, MassKind,
+        NonlinearForce, Rayleigh, State, critical_time_step,
     };
     let cells = [20, 2, 2];
     let problem = Cantilever {
@@ -296,24 +297,23 @@ fn corotational_backward_euler_at_100x_the_critical_step_survives_a_large_swing(
     .unwrap();
     let dt = 100.0 * critical_time_step(&linear).unwrap().dt;
     let model = ModelKind::Corotational.build(&problem.material);
-    let mut integrator = NonlinearBackwardEuler::new(
-        Arc::clone(&mesh),
-        &problem.material,
-        model,
-        &constraints,
-        &loads,
-        Vector3::zeros(),
+    let system = Arc::new(linear);
+    let force = Arc::new(NonlinearForce::new(Arc::clone(&mesh), model, &system).unwrap());
+    let mut integrator = BackwardEuler::with_force(
+        Arc::clone(&system),
+        InternalForce::Nonlinear(Arc::clone(&force)),
         dt,
+        IntegratorOptions::default(),
     )
     .unwrap();
-    let mut state = State::at_rest(integrator.free_count());
+    let mut state = State::at_rest(system.free_count());
     let mut largest_rotation: f64 = 0.0;
     let mut energies = Vec::new();
     for _ in 0..400 {
         integrator.step(&mut state).unwrap();
-        let u = integrator.dofs().expand(&state.displacement).unwrap();
+        let u = system.dofs().expand(&state.displacement).unwrap();
         largest_rotation = largest_rotation.max(centerline(&mesh, cells, &u).1);
-        energies.push(integrator.energy(&state).unwrap());
+        energies.push(force.energy(&system, &state).unwrap().total());
     }
     let highest_energy = energies.iter().copied().fold(f64::NEG_INFINITY, f64::max);
     let rises: Vec<(usize, f64)> = energies
@@ -328,7 +328,7 @@ fn corotational_backward_euler_at_100x_the_critical_step_survives_a_large_swing(
         energies[energies.len() - 1],
         rises.iter().filter(|r| r.1 > 1e-9).collect::<Vec<_>>()
     );
-    let u = integrator.dofs().expand(&state.displacement).unwrap();
+    let u = system.dofs().expand(&state.displacement).unwrap();
     let (length, rotation) = centerline(&mesh, cells, &u);
     // The static large-deflection answer the damped swing settles toward.
     let statics = solve_nonlinear_static(
@@ -411,7 +411,10 @@ fn scenes_choose_the_model_by_name() {
 fn nonlinear_backward_euler_on_two_cholesky_threads_matches_one_thread() {
     use std::sync::Arc;
     use tetfem::CholeskyOptions;
-    use tetfem::dynamics::{NonlinearBackwardEuler, State};
+    use tetfem::dynamics::{
+        BackwardEuler, Integrator, IntegratorOptions, InternalForce, LinearSystem, MassKind,
+        NonlinearForce, Rayleigh, State,
+    };
     // The beam of tests/core/dynamics.rs's two-thread check, whose factor splits into two halves.
     let problem = Cantilever {
         end_load: 600.0,
@@ -420,15 +423,34 @@ fn nonlinear_backward_euler_on_two_cholesky_threads_matches_one_thread() {
     let mesh = Arc::new(problem.mesh().unwrap());
     let constraints = problem.constraints(&mesh).unwrap();
     let loads = problem.loads(&mesh).unwrap();
-    let build = || {
-        NonlinearBackwardEuler::new(
-            Arc::clone(&mesh),
+    let system = Arc::new(
+        LinearSystem::new(
+            &mesh,
             &problem.material,
-            ModelKind::Corotational.build(&problem.material),
             &constraints,
             &loads,
             Vector3::zeros(),
+            MassKind::Lumped,
+            Rayleigh::default(),
+        )
+        .unwrap(),
+    );
+    // Backward Euler with the corotational force, its step factored with `cholesky`.
+    let build = |cholesky: CholeskyOptions| {
+        let force = NonlinearForce::new(
+            Arc::clone(&mesh),
+            ModelKind::Corotational.build(&problem.material),
+            &system,
+        )
+        .unwrap();
+        BackwardEuler::with_force(
+            Arc::clone(&system),
+            InternalForce::Nonlinear(Arc::new(force)),
             1e-3,
+            IntegratorOptions {
+                cholesky,
+                ..IntegratorOptions::default()
+            },
         )
         .unwrap()
     };
@@ -439,13 +461,13 @@ fn nonlinear_backward_euler_on_two_cholesky_threads_matches_one_thread() {
     let run = |threads: Option<usize>| {
         pool.install(|| {
             let mut integrator = match threads {
-                Some(threads) => build().with_cholesky(CholeskyOptions {
+                Some(threads) => build(CholeskyOptions {
                     threads,
                     ..Default::default()
                 }),
-                None => build(),
+                None => build(IntegratorOptions::default().cholesky),
             };
-            let mut state = State::at_rest(integrator.free_count());
+            let mut state = State::at_rest(system.free_count());
             for _ in 0..5 {
                 integrator.step(&mut state).unwrap();
             }

@@ -1,17 +1,24 @@
 //! Newton's method for the implicit equation of one time step with a nonlinear force model,
 //! written once for every implicit integrator (each supplies its scales and predictor).
+//!
+//! This module (`src/dynamics/newton/`) is where the implicit steps' Newton lives: the loop
+//! ([`NewtonSolver`], with only the loop's own state: iterate, residuals, counts), its
+//! direction strategies, each a type owning its state ([`direction`]: refactoring,
+//! rest-preconditioned CG, L-BFGS), and its backtracking line search ([`line_search`]).
+
+mod direction;
+pub(crate) mod line_search;
 
 use std::sync::Arc;
 
-use super::internal_force::{ForceWorkspace, NonlinearForce, combine};
-use super::lbfgs::LbfgsMemory;
-use super::nodal_rotation::NodalRotations;
+use super::internal_force::{ForceWorkspace, NonlinearForce};
 use super::{LinearSystem, Mass, NonlinearSolve};
 use crate::contact::{MAX_MOTION_STAGES, MotionStage};
 use crate::error::{Error, Result};
-use crate::iterative::CgOptions;
 use crate::linear_solver::LinearSolver;
 use crate::sparse::CscMatrix;
+use direction::{NewtonMatrix, StepDirection};
+use line_search::{Backtracking, LineFunction};
 
 /// Settings of the Newton iterations of an implicit step with a nonlinear force model.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -121,24 +128,16 @@ pub(crate) struct StepEquation<'a> {
     pub first_iterate: Option<&'a [f64]>,
 }
 
-/// The Newton solver of an implicit integrator with a nonlinear model: its scratch, the tangent
-/// and the iteration counts.
+/// The Newton solver of an implicit integrator with a nonlinear model: its scratch, the tangent,
+/// the iteration counts, and the direction strategy (which owns the strategy's own state).
 pub(crate) struct NewtonSolver {
     force: Arc<NonlinearForce>,
     options: StepNewtonOptions,
-    solve: NonlinearSolve,
-    /// The (mass scale, damping stiffness) of the Newton matrices the solver's current factor
-    /// preconditions, on the preconditioned path (`None`: no factor yet, or refactoring).
-    preconditioner_for: Option<(f64, f64)>,
-    /// The current factor is a fallback's (of a Newton matrix, not the rest one). It serves the
-    /// rest of its step only: each step starts from the rest factor, so that a step depends on
-    /// the state alone (not on which steps came before) and a restarted run continues with the
-    /// same bits as an uninterrupted one.
-    lagged: bool,
+    /// How each iteration finds its direction ([`NonlinearSolve`] resolved for the problem).
+    direction: Box<dyn StepDirection>,
+    /// The line search along each direction.
+    line_search: Backtracking,
     work: ForceWorkspace,
-    /// The nodes' rotations that turn the rest factor on the preconditioned path (`None` when
-    /// refactoring).
-    rotations: Option<NodalRotations>,
     tangent: CscMatrix,
     /// K_T(u) of the step's start (projected), when β > 0.
     damping_tangent: Option<CscMatrix>,
@@ -164,10 +163,6 @@ pub(crate) struct NewtonSolver {
     /// inertia scale, and the contact force of a moving obstacle's stage (whose own r₀ is what
     /// the last small move left); 0 without contact.
     reference_floor: f64,
-    /// The correction pairs of [`NonlinearSolve::RestPreconditionedLbfgs`] (`None` otherwise).
-    memory: Option<LbfgsMemory>,
-    /// The current step has left L-BFGS for preconditioned CG.
-    quasi_newton_failed: bool,
 }
 
 impl std::fmt::Debug for NewtonSolver {
@@ -196,10 +191,8 @@ impl NewtonSolver {
         Error::check_len("nonlinear force free DOFs", system.free_count(), n)?;
         Ok(NewtonSolver {
             work: force.workspace()?,
-            rotations: match solve {
-                NonlinearSolve::Refactor => None,
-                _ => Some(NodalRotations::new(&force)),
-            },
+            direction: direction::choose(solve, &force),
+            line_search: Backtracking::for_contact(force.contact().is_some()),
             tangent: force.zero_tangent()?,
             damping_tangent: match system.damping().beta > 0.0 {
                 true => Some(force.zero_tangent()?),
@@ -207,9 +200,6 @@ impl NewtonSolver {
             },
             force,
             options,
-            solve,
-            preconditioner_for: None,
-            lagged: false,
             internal: vec![0.0; n],
             internal_at: vec![0.0; n],
             internal_valid: false,
@@ -224,13 +214,6 @@ impl NewtonSolver {
             scratch: vec![0.0; n],
             stats: NewtonStats::default(),
             reference_floor: 0.0,
-            memory: match solve {
-                NonlinearSolve::RestPreconditionedLbfgs { history } => {
-                    Some(LbfgsMemory::new(history))
-                }
-                _ => None,
-            },
-            quasi_newton_failed: false,
         })
     }
 
@@ -368,62 +351,27 @@ impl NewtonSolver {
         Ok(())
     }
 
-    /// The backtracking line search of [`iterate`](Self::iterate) along the Newton step δ
-    /// from `u_new` (residual norm `r_norm`), from the step fraction `first_alpha`, halving up
-    /// to 30 times: returns whether a fraction was accepted, and the last one tried. Without
-    /// contact a decrease of the residual norm or of Φ is accepted; with contact a decrease of
-    /// Φ, or of the residual with Φ not above its round-off. With contact a second search,
-    /// only when the first found nothing: round-off can hide Φ's decrease near the solution (a
-    /// model's energy sums terms far larger than its change, e.g. Neo-Hookean's ln J), so it
-    /// accepts a residual decrease whose Φ rises by at most the first-order change α·|r·δ| the
-    /// step predicts. The trial's residual is left in `trial_residual`.
-    fn line_search(
+    /// The line search of [`iterate`](Self::iterate) along the Newton step δ from `u_new`
+    /// (residual norm `r_norm`) from the step fraction `first_alpha` (see [`Backtracking`]):
+    /// returns whether a fraction was accepted, and the last one tried. The trial's residual
+    /// is left in `trial_residual`, the trial point in `trial`.
+    fn search_line(
         &mut self,
         system: &LinearSystem,
         equation: &StepEquation,
         u_new: &[f64],
         (first_alpha, r_norm): (f64, f64),
     ) -> Result<(bool, f64)> {
-        let with_contact = self.force.contact().is_some();
-        let mut phi = None;
-        let mut alpha = first_alpha;
         let slope = dot(&self.residual, &self.delta).abs();
-        for relaxed in [false, true] {
-            if relaxed && !with_contact {
-                break;
-            }
-            alpha = first_alpha;
-            for _ in 0..30 {
-                for i in 0..u_new.len() {
-                    self.trial[i] = u_new[i] + alpha * self.delta[i];
-                }
-                let trial = std::mem::take(&mut self.trial);
-                let evaluated = self.residual_into(system, equation, &trial, true);
-                self.trial = trial;
-                evaluated?;
-                let trial_norm = norm(&self.trial_residual);
-                let better = if with_contact {
-                    let start = self.start_potential(&mut phi, system, equation, u_new)?;
-                    let trial_phi =
-                        self.potential(system, equation, &self.trial, self.trial_energy)?;
-                    let slack = match relaxed {
-                        false => 1e-12 * start.abs(),
-                        true => (1e-12 * start.abs()).max(alpha * slope),
-                    };
-                    trial_phi < start || (trial_norm < r_norm && trial_phi <= start + slack)
-                } else {
-                    trial_norm < r_norm || {
-                        let start = self.start_potential(&mut phi, system, equation, u_new)?;
-                        self.potential(system, equation, &self.trial, self.trial_energy)? < start
-                    }
-                };
-                if better {
-                    return Ok((true, alpha));
-                }
-                alpha *= 0.5;
-            }
-        }
-        Ok((false, alpha))
+        let search = self.line_search;
+        let mut line = StepLine {
+            solver: self,
+            system,
+            equation,
+            u_new,
+            start_phi: None,
+        };
+        search.search(&mut line, first_alpha, r_norm, slope)
     }
 
     /// Φ at the line search's start `u_new` (its energy from the residual's pass), computed at
@@ -495,10 +443,7 @@ impl NewtonSolver {
         time: f64,
     ) -> Result<usize> {
         u_new.copy_from_slice(equation.start);
-        if self.lagged {
-            self.preconditioner_for = None;
-            self.lagged = false;
-        }
+        self.direction.begin_step();
         if let Some(k) = &mut self.damping_tangent {
             self.force
                 .tangent_into(equation.start, true, &mut self.work, k)?;
@@ -626,10 +571,7 @@ impl NewtonSolver {
         let damping = system.damping();
         let (s_m, s_c) = (equation.mass_scale, equation.damping_scale);
         let diverged = |reason: String| Error::Diverged { step, time, reason };
-        if let Some(memory) = &mut self.memory {
-            memory.clear();
-        }
-        self.quasi_newton_failed = false;
+        self.direction.begin_iterations();
         self.residual_into(system, equation, u_new, false)?;
         let mut r_norm = norm(&self.residual);
         if !r_norm.is_finite() {
@@ -678,7 +620,7 @@ impl NewtonSolver {
                 format!("Newton iteration {} of step {}", iterations + 1, step + 1)
             })?;
             if iterations == budget {
-                if self.leave_quasi_newton() {
+                if self.direction.fall_back(&mut self.stats) {
                     budget += self.options.max_iterations;
                 } else {
                     return Err(diverged(format!(
@@ -704,7 +646,7 @@ impl NewtonSolver {
                 false => 1.0,
             };
             let (accepted, alpha) =
-                self.line_search(system, equation, u_new, (first_alpha, r_norm))?;
+                self.search_line(system, equation, u_new, (first_alpha, r_norm))?;
             // With contact only a decrease of Φ is accepted, which round-off can deny a
             // converged iterate (a body at rest in free flight: r₀ is round-off itself): a
             // Newton step below 1e-9 of the barrier's length scale d̂ changes nothing the
@@ -719,7 +661,7 @@ impl NewtonSolver {
             if !accepted && (negligible || r_norm <= 1e-6 * reference) {
                 break;
             }
-            if !accepted && self.leave_quasi_newton() {
+            if !accepted && self.direction.fall_back(&mut self.stats) {
                 budget = iterations + self.options.max_iterations;
                 continue;
             }
@@ -728,21 +670,8 @@ impl NewtonSolver {
                     "the Newton line search found no decrease (residual {r_norm:.3e} of {reference:.3e}); a smaller dt helps"
                 )));
             }
-            if let Some(memory) = self.memory.as_mut().filter(|_| !self.quasi_newton_failed) {
-                let n = self.delta.len();
-                let (mut step, mut change) = (memory.buffer(n), memory.buffer(n));
-                for (s, d) in step.iter_mut().zip(&self.delta) {
-                    *s = alpha * d;
-                }
-                for ((c, new), old) in change
-                    .iter_mut()
-                    .zip(&self.trial_residual)
-                    .zip(&self.residual)
-                {
-                    *c = new - old;
-                }
-                memory.push(step, change);
-            }
+            self.direction
+                .accepted(alpha, &self.delta, &self.residual, &self.trial_residual);
             u_new.copy_from_slice(&self.trial);
             std::mem::swap(&mut self.residual, &mut self.trial_residual);
             std::mem::swap(&mut self.residual_energy, &mut self.trial_energy);
@@ -759,17 +688,6 @@ impl NewtonSolver {
         Ok(self.record(iterations))
     }
 
-    /// On the L-BFGS path, switches the rest of the step to preconditioned CG and returns
-    /// `true` (once per step); `false` on any other path or when switched already.
-    fn leave_quasi_newton(&mut self) -> bool {
-        if self.memory.is_none() || self.quasi_newton_failed {
-            return false;
-        }
-        self.quasi_newton_failed = true;
-        self.stats.fallbacks += 1;
-        true
-    }
-
     /// Counts a solved step of `iterations` iterations.
     fn record(&mut self, iterations: usize) -> usize {
         self.stats.steps += 1;
@@ -779,179 +697,76 @@ impl NewtonSolver {
         iterations
     }
 
-    /// Factors the rest Newton matrix J₀ = mass_scale·M + (1 + damping_stiffness)·K₀ into
-    /// `solver` (through `matrix`) unless its factor is there already.
-    fn ensure_rest_factor(
-        &mut self,
-        system: &LinearSystem,
-        (mass_scale, damping_stiffness): (f64, f64),
-        matrix: &mut CscMatrix,
-        solver: &mut LinearSolver,
-    ) -> Result<()> {
-        let key = (mass_scale, damping_stiffness);
-        if self.preconditioner_for != Some(key) {
-            combine(
-                system.stiffness(),
-                1.0 + damping_stiffness,
-                system.mass(),
-                mass_scale,
-                matrix,
-            )?;
-            solver.factorize(matrix)?;
-            self.stats.factorizations += 1;
-            self.preconditioner_for = Some(key);
-            // The rest factor only approximates J (L-BFGS's H₀, CG's preconditioner): its
-            // solves may read it rounded to f32, half the bytes (where memory allows a copy).
-            solver.make_single_precision_copy()?;
-        }
-        Ok(())
-    }
-
-    /// δ = −J(u')⁻¹·r into `delta`, J = mass_scale·M + damping_stiffness·K_T(u_start) + K_T(u'),
-    /// as [`NonlinearSolve`] says: J factored, or preconditioned CG on J with the factor kept
-    /// (of the rest matrix J₀, or of the last J that CG could not solve within its budget); or
-    /// δ = −H·r with L-BFGS's H, its H₀ the rest factor turned by the rotations at the step's
-    /// `first` iterate.
+    /// δ ≈ −J(u')⁻¹·r into `delta` by the direction strategy, J = mass_scale·M +
+    /// damping_stiffness·K_T(u_start) + K_T(u') formed in `matrix` and solved with `solver`
+    /// as the strategy says; `first`: the run's first iteration.
     fn newton_direction(
         &mut self,
         system: &LinearSystem,
         u_new: &[f64],
-        (mass_scale, damping_stiffness): (f64, f64),
+        scales: (f64, f64),
         matrix: &mut CscMatrix,
         solver: &mut LinearSolver,
         first: bool,
     ) -> Result<()> {
-        for (d, r) in self.delta.iter_mut().zip(&self.residual) {
-            *d = -r;
+        let mut newton = NewtonMatrix {
+            system,
+            force: &self.force,
+            work: &mut self.work,
+            tangent: &mut self.tangent,
+            damping_tangent: self.damping_tangent.as_ref(),
+            scales,
+            matrix,
+            solver,
+        };
+        self.direction.direction(
+            &mut newton,
+            u_new,
+            &self.residual,
+            &mut self.delta,
+            first,
+            &mut self.stats,
+        )
+    }
+}
+
+/// The step equation along the Newton line u_new + α·δ, for the line search: the solver's
+/// residual and Φ at its trial points.
+struct StepLine<'a> {
+    solver: &'a mut NewtonSolver,
+    system: &'a LinearSystem,
+    equation: &'a StepEquation<'a>,
+    u_new: &'a [f64],
+    /// Φ at `u_new`, computed at most once per search.
+    start_phi: Option<f64>,
+}
+
+impl LineFunction for StepLine<'_> {
+    fn trial(&mut self, alpha: f64) -> Result<f64> {
+        let solver = &mut *self.solver;
+        for i in 0..self.u_new.len() {
+            solver.trial[i] = self.u_new[i] + alpha * solver.delta[i];
         }
-        let key = (mass_scale, damping_stiffness);
-        let quasi_newton = self.memory.is_some() && !self.quasi_newton_failed && solver.is_direct();
-        if quasi_newton {
-            self.ensure_rest_factor(system, key, matrix, solver)?;
-        }
-        if let (Some(memory), Some(rotations), true) =
-            (&mut self.memory, &mut self.rotations, quasi_newton)
-        {
-            if first {
-                rotations.update(&self.force, u_new, &mut self.work)?;
-            }
-            let rotations = &*rotations;
-            let mut initial = |v: &mut [f64]| -> Result<()> {
-                rotations.to_rotated_frame(v);
-                solver.solve_approximate(matrix, v)?;
-                rotations.back_from_rotated_frame(v);
-                Ok(())
-            };
-            return memory.apply(&mut self.delta, &mut initial);
-        }
-        if let NonlinearSolve::RestPreconditionedCg {
-            max_cg_iterations,
-            forcing,
-        } = self.cg_settings()
-        {
-            self.ensure_rest_factor(system, key, matrix, solver)?;
-            self.form_newton_matrix(system, u_new, false, key, matrix)?;
-            let cg = CgOptions {
-                relative_tolerance: forcing,
-                max_iterations: max_cg_iterations,
-            };
-            let mut delta = std::mem::take(&mut self.delta);
-            // The factor turned by the nodes' rotations where it can be (the direct method).
-            let solved = match self.rotations.as_mut().filter(|_| solver.is_direct()) {
-                Some(rotations) => {
-                    rotations.update(&self.force, u_new, &mut self.work)?;
-                    let rotations = &*rotations;
-                    let turn = |v: &mut [f64], transpose: bool| match transpose {
-                        true => rotations.to_rotated_frame(v),
-                        false => rotations.back_from_rotated_frame(v),
-                    };
-                    solver.solve_preconditioned_turned(matrix, &mut delta, cg, &turn)
-                }
-                None => solver.solve_preconditioned(matrix, &mut delta, cg),
-            };
-            self.delta = delta;
-            match solved {
-                Ok(report) => {
-                    self.stats.cg_iterations += report.iterations;
-                    return Ok(());
-                }
-                // Out of budget or not positive definite along a direction: factor J itself
-                // below; its factor preconditions the rest of this step (lagged refactorization).
-                Err(tetfem_linalg::Error::Solver(_)) => {
-                    self.stats.cg_iterations += max_cg_iterations;
-                    self.stats.fallbacks += 1;
-                    self.lagged = true;
-                    for (d, r) in self.delta.iter_mut().zip(&self.residual) {
-                        *d = -r;
-                    }
-                }
-                Err(other) => return Err(other.into()),
-            }
-        }
-        self.factor_newton_matrix(system, u_new, mass_scale, damping_stiffness, matrix, solver)?;
-        self.stats.factorizations += 1;
-        let mut delta = std::mem::take(&mut self.delta);
-        let solved = solver.solve(matrix, &mut delta);
-        self.delta = delta;
-        solved?;
-        Ok(())
+        let trial = std::mem::take(&mut solver.trial);
+        let evaluated = solver.residual_into(self.system, self.equation, &trial, true);
+        solver.trial = trial;
+        evaluated?;
+        Ok(norm(&solver.trial_residual))
     }
 
-    /// The preconditioned-CG settings in force: the chosen ones, those an L-BFGS step falls
-    /// back on, or [`NonlinearSolve::Refactor`].
-    fn cg_settings(&self) -> NonlinearSolve {
-        match self.solve {
-            NonlinearSolve::RestPreconditionedLbfgs { .. } => super::nonlinear_solve::AUTO_CG,
-            other => other,
-        }
+    fn start_potential(&mut self) -> Result<f64> {
+        self.solver
+            .start_potential(&mut self.start_phi, self.system, self.equation, self.u_new)
     }
 
-    /// J = mass_scale·M + damping_stiffness·K_T(u_start) + K_T(u') into `matrix`, every element
-    /// tangent projected onto the positive semi-definite cone when `project` is set.
-    fn form_newton_matrix(
-        &mut self,
-        system: &LinearSystem,
-        u_new: &[f64],
-        project: bool,
-        (mass_scale, damping_stiffness): (f64, f64),
-        matrix: &mut CscMatrix,
-    ) -> Result<()> {
-        self.force
-            .tangent_into(u_new, project, &mut self.work, &mut self.tangent)?;
-        combine(&self.tangent, 1.0, system.mass(), mass_scale, matrix)?;
-        if let Some(k) = &self.damping_tangent {
-            for (a, k) in matrix.values_mut().iter_mut().zip(k.values()) {
-                *a += damping_stiffness * k;
-            }
-        }
-        Ok(())
-    }
-
-    /// Forms J = mass_scale·M + damping_stiffness·K_T(u_start) + K_T(u') in `matrix` and factors
-    /// it: the exact tangent first, the projected one if J is not positive definite.
-    fn factor_newton_matrix(
-        &mut self,
-        system: &LinearSystem,
-        u_new: &[f64],
-        mass_scale: f64,
-        damping_stiffness: f64,
-        matrix: &mut CscMatrix,
-        solver: &mut LinearSolver,
-    ) -> Result<()> {
-        for project in [false, true] {
-            self.form_newton_matrix(
-                system,
-                u_new,
-                project,
-                (mass_scale, damping_stiffness),
-                matrix,
-            )?;
-            match solver.factorize(matrix) {
-                Err(tetfem_linalg::Error::NotPositiveDefinite { .. }) if !project => continue,
-                other => return Ok(other?),
-            }
-        }
-        Ok(())
+    fn trial_potential(&mut self) -> Result<f64> {
+        let solver = &*self.solver;
+        solver.potential(
+            self.system,
+            self.equation,
+            &solver.trial,
+            solver.trial_energy,
+        )
     }
 }
 
