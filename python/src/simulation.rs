@@ -13,8 +13,6 @@ use tetfem::dynamics::{
 };
 use tetfem::loads::Loads;
 use tetfem::materials::MaterialMap;
-use tetfem::model::ModelKind;
-use tetfem::output::fields::{cell_model_von_mises, cell_von_mises};
 
 use crate::arrays;
 use crate::constraints::PyConstraints;
@@ -340,23 +338,22 @@ impl PySimulation {
         }
         // As the scene runner builds it: the linear fast path, or the model of each material;
         // with obstacles every model (the linear one too) with the contact barrier.
-        let force = match (kind, contact) {
-            (ModelKind::Linear, None) => InternalForce::Linear,
-            (kind, contact) => {
-                let models = kind.build_map(&materials);
-                py.detach(|| {
+        let force = py
+            .detach(|| match contact {
+                None => on_cells!(&data.mesh, m => {
+                    InternalForce::of_kind(kind, m, &materials, &system)
+                }),
+                Some(contact) => {
+                    let models = kind.build_map(&materials);
                     let force = on_cells!(&data.mesh, m => {
                         NonlinearForce::with_models(Arc::new(m.clone()), models, &system)
                     })?;
-                    let force = match contact {
-                        Some(contact) => force.with_contact(contact)?,
-                        None => force,
-                    };
-                    tetfem::Result::Ok(InternalForce::Nonlinear(Arc::new(force)))
-                })
-                .or_raise(py)?
-            }
-        };
+                    tetfem::Result::Ok(InternalForce::Nonlinear(Arc::new(
+                        force.with_contact(contact)?,
+                    )))
+                }
+            })
+            .or_raise(py)?;
         let dt = match dt {
             names::TimeStep::Seconds(dt) => dt,
             names::TimeStep::Critical(factor) => {
@@ -601,11 +598,8 @@ impl PySimulation {
                 .or_raise(py)?
         };
         let mesh = &self.data.mesh;
-        let v = on_cells!(mesh, m => match &self.force {
-            InternalForce::Linear => cell_von_mises(m, &self.materials, &u),
-            InternalForce::Nonlinear(n) => cell_model_von_mises(m, n.models(), &u),
-        })
-        .or_raise(py)?;
+        let v =
+            on_cells!(mesh, m => self.force.cell_von_mises(m, &self.materials, &u)).or_raise(py)?;
         Ok(arrays::vector(py, v))
     }
 

@@ -703,3 +703,37 @@ pub(crate) fn combine(
         }
     }
 }
+
+impl InternalForce {
+    /// The force of the model `kind`, one per material of `materials` (see
+    /// [`ModelKind::build_map`]), on a copy of `mesh` for `system`; the linear kind gives
+    /// [`InternalForce::Linear`] without copying the mesh (the fast path). Every front end
+    /// builds its force here, so that none branches on the model.
+    ///
+    /// Errors: those of [`InternalForce::of_models`].
+    pub fn of_kind<E: ModelElement>(
+        kind: ModelKind,
+        mesh: &TetMesh<E>,
+        materials: &crate::materials::MaterialMap,
+        system: &LinearSystem,
+    ) -> Result<Self> {
+        match kind {
+            // No copy of the mesh for the fast path.
+            ModelKind::Linear => Ok(InternalForce::Linear),
+            nonlinear => InternalForce::of_models(
+                Arc::new(mesh.clone()),
+                nonlinear.build_map(materials),
+                system,
+            ),
+        }
+    }
+
+    /// The contact of a nonlinear force with obstacles ([`NonlinearForce::contact`]); `None`
+    /// for the linear force, which has none.
+    pub fn contact(&self) -> Option<&Contact> {
+        match self {
+            InternalForce::Nonlinear(n) => n.contact(),
+            InternalForce::Linear => None,
+        }
+    }
+}

@@ -32,6 +32,7 @@ use super::fields::{
     recovered_nodal_stress, stress_components, tet_node_model_stress, tet_node_stress, von_mises,
 };
 use super::{VtuFormat, VtuWriter};
+use crate::dynamics::InternalForce;
 use crate::error::Result;
 use crate::estimate::PointwiseElement;
 use crate::materials::TetMaterials;
@@ -428,4 +429,135 @@ fn frame_arrays<C: CellType>(
     // The lengths are checked here, where a caller's wrong array is still named as before.
     arrays.writer(mesh)?;
     Ok(arrays)
+}
+
+/// The outputs whose formula depends on the force model: here, once, so that no front end
+/// (scene, Python, PETSc engine) branches on [`InternalForce::Linear`] to pick between the
+/// linear model's formula (Hooke's law on the small strain, the ZZ error estimate) and a
+/// nonlinear model's own (its Cauchy stress σ(F), its energy density).
+impl InternalForce {
+    /// The von Mises stress per tet (stress units) at the full displacement `u`: the linear
+    /// model's with each tet's material, or the nonlinear model's Cauchy stress.
+    ///
+    /// Errors: `u` does not hold 3 values per node, or `materials` (the model) does not cover
+    /// the tets.
+    pub fn cell_von_mises<E: ModelElement>(
+        &self,
+        mesh: &TetMesh<E>,
+        materials: &impl TetMaterials,
+        u: &[f64],
+    ) -> Result<Vec<f64>> {
+        match self {
+            InternalForce::Linear => super::fields::cell_von_mises(mesh, materials, u),
+            InternalForce::Nonlinear(n) => super::fields::cell_model_von_mises(mesh, n.models(), u),
+        }
+    }
+
+    /// The Cauchy stress (stress units) at `point` from the full displacement `u`: the linear
+    /// model's with the tet's material ([`PointLocation::stress`]) or the nonlinear model's
+    /// ([`PointLocation::model_stress`]).
+    ///
+    /// Errors: as those two.
+    pub fn point_stress<E: PointwiseElement>(
+        &self,
+        point: &super::PointLocation,
+        mesh: &TetMesh<E>,
+        materials: &impl TetMaterials,
+        u: &[f64],
+    ) -> Result<Matrix3<f64>> {
+        match self {
+            InternalForce::Linear => point.stress(mesh, materials, u),
+            InternalForce::Nonlinear(n) => point.model_stress(mesh, n.models(), u),
+        }
+    }
+
+    /// The arrays of a result frame at the full displacement `u`: [`result_frame_arrays`] for
+    /// the linear model, [`model_result_frame_arrays`] (the model's own stresses and energy
+    /// density) for a nonlinear one; `materials` gives `material_id` (and the linear model's
+    /// stresses).
+    ///
+    /// Errors: as those two.
+    pub fn result_frame_arrays<E: ModelElement + PointwiseElement>(
+        &self,
+        mesh: &TetMesh<E>,
+        materials: &impl TetMaterials,
+        u: &[f64],
+        extras: FrameExtras<'_>,
+    ) -> Result<FrameArrays> {
+        match self {
+            InternalForce::Linear => result_frame_arrays(mesh, materials, u, extras),
+            InternalForce::Nonlinear(n) => {
+                model_result_frame_arrays(mesh, n.models(), materials, u, extras)
+            }
+        }
+    }
+
+    /// The ZZ estimate of the energy-norm error of the full displacement `u`
+    /// ([`estimate_error`](crate::estimate::estimate_error)) for the linear model; `None` for a
+    /// nonlinear one, whose error the estimator (built on Hooke's law) does not measure.
+    ///
+    /// Errors: as [`estimate_error`](crate::estimate::estimate_error).
+    pub fn estimated_error<E: PointwiseElement>(
+        &self,
+        mesh: &TetMesh<E>,
+        materials: &impl TetMaterials,
+        u: &[f64],
+    ) -> Result<Option<crate::estimate::ErrorEstimate>> {
+        match self {
+            InternalForce::Linear => Ok(Some(crate::estimate::estimate_error(mesh, materials, u)?)),
+            InternalForce::Nonlinear(_) => Ok(None),
+        }
+    }
+
+    /// The largest element rotation and strain of the full displacement `u`
+    /// ([`largest_rotation_and_strain`](crate::adequacy::rotation::largest_rotation_and_strain)),
+    /// which say whether the linear model is adequate; `None` for a nonlinear model, which
+    /// takes large rotations by construction.
+    ///
+    /// Errors: as that function.
+    pub fn deformation<E: PointwiseElement>(
+        &self,
+        mesh: &TetMesh<E>,
+        u: &[f64],
+    ) -> Result<Option<crate::adequacy::rotation::Deformation>> {
+        match self {
+            InternalForce::Linear => Ok(Some(
+                crate::adequacy::rotation::largest_rotation_and_strain(mesh, u)?,
+            )),
+            InternalForce::Nonlinear(_) => Ok(None),
+        }
+    }
+
+    /// For backward Euler with the linear model: how `dt` (time units) resolves the lowest of
+    /// `modes` modes that the load excites, and the method's decay per period there
+    /// ([`step_resolution`](crate::adequacy::time_step::step_resolution)); the load is the
+    /// system's external load or, when that is zero, the `initial` displacement (free DOFs).
+    /// `None` for another method or a nonlinear model, whose modes the check does not know.
+    ///
+    /// Errors: as that function.
+    pub fn step_resolution(
+        &self,
+        method: crate::dynamics::Method,
+        system: &crate::dynamics::LinearSystem,
+        initial: &[f64],
+        modes: usize,
+        dt: f64,
+    ) -> Result<Option<crate::adequacy::time_step::StepResolution>> {
+        match (method, self) {
+            (crate::dynamics::Method::BackwardEuler, InternalForce::Linear) => {
+                // The load excites the motion; with no load, the initial displacement does.
+                let excitation = match system.external_load().iter().any(|f| *f != 0.0) {
+                    true => system.external_load().to_vec(),
+                    false => initial.to_vec(),
+                };
+                Ok(Some(crate::adequacy::time_step::step_resolution(
+                    system,
+                    &excitation,
+                    modes,
+                    dt,
+                )?))
+            }
+            _ => Ok(None),
+        }
+    }
 }

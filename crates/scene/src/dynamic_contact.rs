@@ -69,10 +69,7 @@ impl<E: SceneElement> DynamicSetup<E> {
 
 /// The contact of a run's force law, if any.
 pub(super) fn contact_of(force: &InternalForce) -> Option<&Contact> {
-    match force {
-        InternalForce::Nonlinear(n) => n.contact(),
-        InternalForce::Linear => None,
-    }
+    force.contact()
 }
 
 /// The CSV columns a run with `contact` adds: `contact_energy_J` (the barrier's energy E_c,

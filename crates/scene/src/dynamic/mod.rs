@@ -29,7 +29,6 @@ use tetfem::linalg::linear_solver::LinearMethod;
 use tetfem::loads::Loads;
 use tetfem::material::Material;
 use tetfem::mesh::{CellType, Tet4, TetMesh};
-use tetfem::output::fields::{cell_model_von_mises, cell_von_mises};
 use tetfem::output::{
     ContactFields, CsvSeries, CsvValue, FrameExtras, OriginalIds, OutputLock, PvdCollection,
     write_atomically, write_obstacles_vtp,
@@ -269,15 +268,7 @@ impl<E: SceneElement> DynamicSetup<E> {
     /// [`InternalForce::Linear`], the fast path). Errors: those of
     /// [`InternalForce::of_models`].
     pub fn with_model(mut self, kind: tetfem::model::ModelKind) -> Result<Self> {
-        self.force = match kind {
-            // No copy of the mesh for the fast path.
-            tetfem::model::ModelKind::Linear => InternalForce::Linear,
-            nonlinear => InternalForce::of_models(
-                Arc::new(self.mesh.clone()),
-                nonlinear.build_map(&self.materials),
-                &self.system,
-            )?,
-        };
+        self.force = InternalForce::of_kind(kind, &self.mesh, &self.materials, &self.system)?;
         Ok(self)
     }
 
@@ -285,10 +276,7 @@ impl<E: SceneElement> DynamicSetup<E> {
     // Only the PNG frames colour by it; the .vtu frames write the stress tensor.
     #[cfg_attr(not(feature = "png"), allow(dead_code))]
     pub(crate) fn von_mises(&self, u: &[f64]) -> Result<Vec<f64>> {
-        match &self.force {
-            InternalForce::Linear => cell_von_mises(&self.mesh, &self.materials, u),
-            InternalForce::Nonlinear(n) => cell_model_von_mises(&self.mesh, n.models(), u),
-        }
+        self.force.cell_von_mises(&self.mesh, &self.materials, u)
     }
 
     /// The period 2π/ω₁ (time units) of the lowest natural mode of the constrained body, from
@@ -751,40 +739,27 @@ fn run_dynamic_locked<E: SceneElement>(
     let final_reactions = reactions.at(mesh, system, &setup.force, &state)?.rows;
     output_seconds += clock.elapsed().as_secs_f64();
     let clock = Instant::now();
-    let estimated_error = match setup.force {
-        InternalForce::Linear => {
-            let u = system.dofs().expand(&state.displacement)?;
-            Some(super::estimated_error_of(mesh, &setup.materials, &u)?.0)
-        }
-        InternalForce::Nonlinear(_) => None,
-    };
+    let u = system.dofs().expand(&state.displacement)?;
+    let estimated_error = setup
+        .force
+        .estimated_error(mesh, &setup.materials, &u)?
+        .map(|e| super::EstimatedError {
+            relative: e.relative(),
+            eta: e.estimate,
+            energy_norm: e.energy_norm,
+            definition: super::ESTIMATED_ERROR_DEFINITION,
+        });
     let estimate_seconds = clock.elapsed().as_secs_f64();
-    let deformation = match setup.force {
-        InternalForce::Linear => {
-            let u = system.dofs().expand(&state.displacement)?;
-            Some(tetfem::adequacy::rotation::largest_rotation_and_strain(
-                mesh, &u,
-            )?)
-        }
-        InternalForce::Nonlinear(_) => None,
-    };
-    let step_resolution = match (&run.method, &setup.force) {
-        (tetfem::dynamics::Method::BackwardEuler, InternalForce::Linear)
-            if system.free_count() <= STEP_CHECK_DOFS =>
-        {
-            // The load excites the motion; with no load, the initial displacement does.
-            let excitation = match system.external_load().iter().any(|f| *f != 0.0) {
-                true => system.external_load().to_vec(),
-                false => setup.initial.displacement.clone(),
-            };
-            Some(tetfem::adequacy::time_step::step_resolution(
-                system,
-                &excitation,
-                STEP_CHECK_MODES,
-                dt,
-            )?)
-        }
-        _ => None,
+    let deformation = setup.force.deformation(mesh, &u)?;
+    let step_resolution = match system.free_count() <= STEP_CHECK_DOFS {
+        true => setup.force.step_resolution(
+            run.method,
+            system,
+            &setup.initial.displacement,
+            STEP_CHECK_MODES,
+            dt,
+        )?,
+        false => None,
     };
     let mut files = Vec::new();
     let mut frames = 0;
@@ -1268,14 +1243,9 @@ fn point_stress<E: SceneElement>(
     point: &super::PointProbe,
     u: &[f64],
 ) -> Result<[f64; 6]> {
-    let s = match &setup.force {
-        InternalForce::Linear => point.location.stress(&setup.mesh, &setup.materials, u)?,
-        InternalForce::Nonlinear(force) => {
-            point
-                .location
-                .model_stress(&setup.mesh, force.models(), u)?
-        }
-    };
+    let s = setup
+        .force
+        .point_stress(&point.location, &setup.mesh, &setup.materials, u)?;
     Ok(tetfem::output::fields::symmetric_components(&s))
 }
 
@@ -1404,19 +1374,11 @@ pub fn frame_arrays<E: SceneElement>(
     u: &[f64],
     extras: FrameExtras<'_>,
 ) -> Result<tetfem::output::FrameArrays> {
-    let indicators = match force {
-        InternalForce::Linear => Some(super::estimated_error_of(mesh, materials, u)?.1),
-        InternalForce::Nonlinear(_) => None,
-    };
+    let estimate = force.estimated_error(mesh, materials, u)?;
     let extras = FrameExtras {
         stress_tensors: true,
-        error_indicator: indicators.as_deref(),
+        error_indicator: estimate.as_ref().map(|e| e.indicators.as_slice()),
         ..extras
     };
-    match force {
-        InternalForce::Linear => tetfem::output::result_frame_arrays(mesh, materials, u, extras),
-        InternalForce::Nonlinear(n) => {
-            tetfem::output::model_result_frame_arrays(mesh, n.models(), materials, u, extras)
-        }
-    }
+    force.result_frame_arrays(mesh, materials, u, extras)
 }
