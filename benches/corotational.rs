@@ -14,7 +14,7 @@ use std::time::Duration;
 
 use criterion::{BatchSize, BenchmarkId, Criterion, criterion_group, criterion_main};
 use tetfem::BoxSplit;
-use tetfem::dynamics::{Integrator, InternalForce, NonlinearSolve, State};
+use tetfem::analysis::dynamics::{Integrator, InternalForce, NonlinearSolve, State};
 use tetfem_fixtures::swing::Swing;
 
 const DT: f64 = 1e-2;

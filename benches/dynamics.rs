@@ -9,7 +9,9 @@ use std::time::Duration;
 
 use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
 use nalgebra::Vector3;
-use tetfem::dynamics::{LinearSystem, MassKind, Method, Rayleigh, State, critical_time_step};
+use tetfem::analysis::dynamics::{
+    LinearSystem, MassKind, Method, Rayleigh, State, critical_time_step,
+};
 use tetfem::linalg::block_sparse::BlockMatrix3;
 use tetfem::{CscMatrix, SparseCholesky};
 use tetfem_fixtures::cantilever::Cantilever;
@@ -92,7 +94,7 @@ fn stepping(c: &mut Criterion) {
                 .collect(),
         )
         .unwrap();
-        if let tetfem::dynamics::Mass::Lumped(m) = system.mass() {
+        if let tetfem::analysis::dynamics::Mass::Lumped(m) = system.mass() {
             a.add_diagonal(1.0, m).unwrap();
         }
         let mut cholesky = SparseCholesky::analyze(&a).unwrap();

@@ -20,7 +20,7 @@ use std::sync::Arc;
 use std::time::Instant;
 
 use tetfem::BoxSplit;
-use tetfem::dynamics::{Integrator, InternalForce, NonlinearSolve, State};
+use tetfem::analysis::dynamics::{Integrator, InternalForce, NonlinearSolve, State};
 use tetfem::model::ModelKind;
 use tetfem_fixtures::swing::Swing;
 
@@ -132,7 +132,7 @@ fn main() {
 /// last mode's final state (the bent, turned beam), or at a uniform 1 mm shift (F = I) when
 /// `breakdown` is the only mode.
 fn breakdown(swing: &Swing, state: Option<Vec<f64>>) {
-    let force = tetfem::dynamics::NonlinearForce::new(
+    let force = tetfem::analysis::dynamics::NonlinearForce::new(
         Arc::clone(&swing.mesh),
         ModelKind::Corotational.build(&swing.problem.material),
         &swing.system,

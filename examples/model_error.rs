@@ -18,8 +18,8 @@
 
 use std::time::Instant;
 
+use tetfem::analysis::nonlinear::{NewtonOptions, solve_nonlinear_static};
 use tetfem::model::{ForceModel, ModelKind, assemble, project_psd};
-use tetfem::nonlinear::{NewtonOptions, solve_nonlinear_static};
 use tetfem::{Assembler, CscMatrix, DofMap, SparseCholesky};
 use tetfem_fixtures::cantilever::Cantilever;
 

@@ -9,7 +9,7 @@
 use std::io::Write;
 use std::time::Instant;
 
-use tetfem::element::ElementType;
+use tetfem::fe::element::ElementType;
 use tetfem::{Tet10, TetMesh, solve_static};
 use tetfem_fixtures::cantilever::Cantilever;
 

@@ -12,10 +12,10 @@ use std::hint::black_box;
 use std::time::Instant;
 
 use std::sync::Arc;
-use tetfem::assembly::Assembler;
-use tetfem::element::{Matrix12, Tet};
+use tetfem::fe::assembly::Assembler;
+use tetfem::fe::element::{Matrix12, Tet};
+use tetfem::fe::material::Material;
 use tetfem::linalg::sparse::CscMatrix;
-use tetfem::material::Material;
 use tetfem::mesh::TetMesh;
 use tetfem_fixtures::cantilever::Cantilever;
 

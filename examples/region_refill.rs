@@ -12,7 +12,7 @@ use std::sync::Arc;
 use std::time::Instant;
 
 use nalgebra::Vector3;
-use tetfem::assembly::Assembler;
+use tetfem::fe::assembly::Assembler;
 use tetfem::linalg::sparse::CscMatrix;
 use tetfem::{BoxSplit, Material, MaterialAssignment, MaterialMap, TetMaterials, TetMesh};
 

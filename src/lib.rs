@@ -5,8 +5,10 @@
 //! consistent mass, Dirichlet constraints eliminated exactly, gravity, nodal and surface loads,
 //! and static equilibrium solved with faer's sparse Cholesky.
 //!
-//! Data flow one way: [`mesh`] → [`material`] → [`element`] → [`assembly`] →
-//! [`constraints`] / [`loads`] → [`statics`] (through [`linsolve`]) → [`output`].
+//! The modules live in rooms, in layer order (a room uses only itself and the rooms before it):
+//! [`base`] → [`mesh`] → [`fe`] → [`bc`] → [`model`], [`contact`] → [`analysis`] → [`post`].
+//! Data flows one way: mesh → material → element → assembly → analysis (its linear solves
+//! through [`linalg`]) → outputs.
 //!
 //! Conventions: f64 everywhere; DOF `3·node + axis`; units are the caller's but must be
 //! consistent (SI in every shipped scene: m, kg, s, N, Pa).
@@ -40,51 +42,30 @@ pub(crate) use tetfem_linalg::{
     amg, block_sparse, iterative, linear_solver, linsolve, ordering, sparse,
 };
 
-pub mod adequacy;
-pub mod amplitude;
 pub mod analysis;
-pub mod assembly;
-pub mod atomic_file;
-pub mod boundary_motion;
-pub mod constraints;
+pub mod base;
+pub mod bc;
 pub mod contact;
-pub mod convergence;
-pub mod dynamics;
-pub mod element;
-pub mod error;
-pub mod error_norms;
-pub mod estimate;
-pub mod input_file;
-pub mod loads;
-pub mod material;
-pub mod materials;
-pub mod memory;
+pub mod fe;
 pub mod mesh;
-pub mod modal;
 pub mod model;
-pub mod nonlinear;
-pub mod output;
+pub mod post;
 pub mod prelude;
-pub mod problem;
-pub mod quadrature;
-pub mod quality;
-pub mod statics;
-pub mod warning;
 
-pub use assembly::{Assembler, lumped_mass};
-pub use constraints::{Constraints, DofMap};
-pub use element::{ElementType, Tet, Tet4, Tet10};
-pub use error::{Error, Result};
+pub use analysis::problem::Problem;
+pub use analysis::statics::{StaticSolution, StaticSolver, solve_static};
+pub use base::error::{Error, Result};
+pub use bc::constraints::{Constraints, DofMap};
+pub use bc::loads::Loads;
+pub use fe::assembly::{Assembler, lumped_mass};
+pub use fe::element::{ElementType, Tet, Tet4, Tet10};
+pub use fe::material::Material;
+pub use fe::materials::{MaterialAssignment, MaterialMap, TetMaterials};
 pub use linear_solver::{LinearMethod, LinearSolver, SolverOptions};
 pub use linsolve::{CholeskyOptions, NumericFactorization, SparseCholesky, TriangularSolve};
-pub use loads::Loads;
-pub use material::Material;
-pub use materials::{MaterialAssignment, MaterialMap, TetMaterials};
 pub use mesh::{BoxSplit, CellType, TetMesh};
 pub use ordering::FillOrdering;
-pub use problem::Problem;
 pub use sparse::CscMatrix;
-pub use statics::{StaticSolution, StaticSolver, solve_static};
 
 /// The README's code blocks, compiled and run as doctests so that they stay true.
 #[doc = include_str!("../README.md")]

@@ -20,18 +20,18 @@
 //! # Ok::<(), tetfem::Error>(())
 //! ```
 
-pub use crate::constraints::{Constraints, DofMap};
-pub use crate::dynamics::{
+pub use crate::analysis::dynamics::{
     CriticalStep, Integrator, IntegratorOptions, LinearSystem, MassKind, Method, Rayleigh, State,
     critical_time_step,
 };
-pub use crate::error::{Error, Result};
-pub use crate::loads::Loads;
-pub use crate::material::Material;
-pub use crate::materials::{MaterialAssignment, MaterialMap};
+pub use crate::analysis::nonlinear::{NewtonOptions, solve_nonlinear_static};
+pub use crate::analysis::problem::Problem;
+pub use crate::analysis::statics::{StaticSolution, StaticSolver, solve_static};
+pub use crate::base::error::{Error, Result};
+pub use crate::bc::constraints::{Constraints, DofMap};
+pub use crate::bc::loads::Loads;
+pub use crate::fe::material::Material;
+pub use crate::fe::materials::{MaterialAssignment, MaterialMap};
 pub use crate::mesh::{BoxSplit, TetMesh};
 pub use crate::model::ModelKind;
-pub use crate::nonlinear::{NewtonOptions, solve_nonlinear_static};
-pub use crate::problem::Problem;
-pub use crate::statics::{StaticSolution, StaticSolver, solve_static};
 pub use nalgebra::{Matrix3, Vector3};

@@ -15,21 +15,13 @@ import re, os, glob, collections, sys
 # first; a module may use its own layer and those above it.
 LAYERS = {
     'src': [
-        'error atomic_file input_file memory warning',
+        'base',
         'mesh',
-        'material',
-        'element quadrature',
-        'materials',
-        'quality',
-        'assembly',
-        'constraints loads',
-        'amplitude boundary_motion',
-        'problem',
+        'fe',
+        'bc',
         'model contact',
-        'statics nonlinear dynamics modal',
         'analysis',
-        'estimate adequacy convergence error_norms',
-        'output',
+        'post',
         'prelude',
     ],
 }

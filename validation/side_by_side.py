@@ -96,7 +96,7 @@ def accuracy_peer(n: int, solver: str, order: int, threads: int = 1) -> dict:
 
 
 def richardson(coarse: float, medium: float, fine: float, ratio: float = 2.0) -> tuple[float, float]:
-    """Extrapolated value and observed order from three levels (as tetfem::convergence::richardson)."""
+    """Extrapolated value and observed order from three levels (as tetfem::post::convergence::richardson)."""
     d1, d2 = medium - coarse, fine - medium
     order = math.log(d1 / d2) / math.log(ratio)
     return fine + d2 / (ratio ** order - 1.0), order

@@ -1,10 +1,10 @@
-//! `tetfem.Amplitude`: the library's time functions a(t) (`tetfem::amplitude::Amplitude`) for
+//! `tetfem.Amplitude`: the library's time functions a(t) (`tetfem::bc::amplitude::Amplitude`) for
 //! loads and moving supports, and the `amplitude=` keyword every load and prescribed motion
 //! takes (an `Amplitude`, a number, or a table of (t, a) pairs as an (k, 2) array).
 
 use numpy::{PyArrayDyn, PyArrayMethods, PyUntypedArrayMethods};
 use pyo3::prelude::*;
-use tetfem::amplitude::Amplitude;
+use tetfem::bc::amplitude::Amplitude;
 
 use crate::arrays;
 use crate::errors::{OrRaise, invalid};

@@ -5,9 +5,9 @@ use std::sync::Arc;
 
 use nalgebra::{Matrix3, Vector3};
 use pyo3::prelude::*;
-use tetfem::amplitude::STATIC_TIME;
-use tetfem::boundary_motion::{BoundaryMotion, Motion, RigidMotion};
-use tetfem::constraints::Constraints;
+use tetfem::bc::amplitude::STATIC_TIME;
+use tetfem::bc::boundary_motion::{BoundaryMotion, Motion, RigidMotion};
+use tetfem::bc::constraints::Constraints;
 
 use crate::amplitude::amplitude_of;
 use crate::arrays::{self, floats, index_vector, indices};
@@ -23,7 +23,7 @@ use crate::names;
 ///
 /// ``prescribe``, ``prescribe_linear`` and ``prescribe_rigid`` take ``amplitude=`` (an
 /// ``Amplitude``, a number or an (k, 2) array of (t, a) pairs): the support then moves with
-/// a(t) (``tetfem::boundary_motion::BoundaryMotion``): a ``Simulation`` follows it in time
+/// a(t) (``tetfem::bc::boundary_motion::BoundaryMotion``): a ``Simulation`` follows it in time
 /// (displacement, velocity and acceleration of the support), a static solve takes its value at
 /// the pseudo-time t = 1 (a nonlinear one through its load steps, a rigid motion by exact
 /// rotations).
@@ -171,7 +171,7 @@ impl PyConstraints {
     /// Moves ``nodes`` rigidly: a rotation by θ(t) = ``angle``·a(t) (rad) about the line
     /// through ``point`` along ``axis`` (any length > 0), then a translation
     /// ``translation``·a(t) (length units): u = p + R(θ)·(x − p) + d·a(t) − x, an exact
-    /// rotation (``tetfem::boundary_motion::RigidMotion``). ``amplitude`` defaults to constant
+    /// rotation (``tetfem::bc::boundary_motion::RigidMotion``). ``amplitude`` defaults to constant
     /// 1; ``axes`` chooses the constrained axes. Returns self.
     #[pyo3(signature = (nodes, axis = None, point = None, angle = 0.0, translation = None, amplitude = None, axes = "xyz"))]
     #[allow(clippy::too_many_arguments)]

@@ -3,7 +3,7 @@
 
 use pyo3::prelude::*;
 use tetfem::contact::{Contact, ContactParameters, Obstacle};
-use tetfem::materials::MaterialMap;
+use tetfem::fe::materials::MaterialMap;
 
 use crate::arrays;
 use crate::errors::OrRaise;

@@ -46,7 +46,7 @@ fn _tetfem(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(post::model_advice, m)?)?;
     m.add_function(wrap_pyfunction!(matrices::stiffness_matrix, m)?)?;
     m.add_function(wrap_pyfunction!(matrices::mass_matrix, m)?)?;
-    m.add("STATIC_TIME", tetfem::amplitude::STATIC_TIME)?;
+    m.add("STATIC_TIME", tetfem::bc::amplitude::STATIC_TIME)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())
 }

@@ -5,8 +5,8 @@ use std::sync::Arc;
 
 use nalgebra::Vector3;
 use pyo3::prelude::*;
-use tetfem::amplitude::{Amplitude, STATIC_TIME};
-use tetfem::loads::Loads;
+use tetfem::bc::amplitude::{Amplitude, STATIC_TIME};
+use tetfem::bc::loads::Loads;
 
 use crate::amplitude::amplitude_of;
 use crate::arrays;
@@ -20,7 +20,7 @@ use crate::mesh::{MeshData, PyMesh, on_cells};
 ///
 /// Every ``add_*`` takes ``amplitude=``: the load times a(t), an ``Amplitude``, a number or an
 /// (k, 2) array of (t, a) pairs (a table). A ``Simulation`` scales it by a(t) at each step's
-/// time (``tetfem::dynamics::TimeData``); a static solve takes a(1) (the pseudo-time
+/// time (``tetfem::analysis::dynamics::TimeData``); a static solve takes a(1) (the pseudo-time
 /// ``STATIC_TIME``), which is what ``forces`` and ``resultant`` hold.
 #[pyclass(name = "Loads", module = "tetfem")]
 pub struct PyLoads {

@@ -1,8 +1,8 @@
 //! `tetfem.Material` (isotropic linear elastic) and `tetfem.MaterialMap` (a material per tet).
 
 use pyo3::prelude::*;
-use tetfem::material::Material;
-use tetfem::materials::{MaterialMap, TetMaterials};
+use tetfem::fe::material::Material;
+use tetfem::fe::materials::{MaterialMap, TetMaterials};
 
 use crate::arrays::{index_vector, indices};
 use crate::errors::{OrRaise, invalid};

@@ -2,8 +2,8 @@
 //! `tetfem.mass_matrix` (SciPy CSR, or the CSR arrays without SciPy).
 
 use pyo3::prelude::*;
-use tetfem::assembly::{Assembler, lumped_mass_of};
-use tetfem::dynamics::MassKind;
+use tetfem::analysis::dynamics::MassKind;
+use tetfem::fe::assembly::{Assembler, lumped_mass_of};
 
 use crate::errors::OrRaise;
 use crate::material::materials_of;

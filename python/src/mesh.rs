@@ -9,7 +9,7 @@ use nalgebra::Vector3;
 use pyo3::exceptions::PyUserWarning;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
-use tetfem::element::Tet10;
+use tetfem::fe::element::Tet10;
 use tetfem::mesh::io::{ImportedMesh, MeshFile, PhysicalGroup, TET10_KEPT_AS_CORNERS};
 use tetfem::mesh::{BoundaryFace, CellType, NodeList, Tet4, TetMesh};
 
@@ -507,12 +507,12 @@ impl PyMesh {
         };
         let cells = arrays::counts3(py, cells, "cells")?;
         let split = names::split(py, split)?;
-        tetfem::memory::check_box_run(
+        tetfem::base::memory::check_box_run(
             cells,
             split.tets_per_cell(),
             nodes_per_tet,
             false,
-            tetfem::memory::RunPath::Iterative,
+            tetfem::base::memory::RunPath::Iterative,
         )
         .or_raise(py)?;
         let mesh = py
@@ -786,16 +786,16 @@ impl PyMesh {
     /// Tets of a Gmsh physical volume (by name or tag).
     fn tets_in_group<'py>(&self, py: Python<'py>, name: &str) -> PyResult<Bound<'py, PyAny>> {
         let imported = self.data.imported(py, "a volume group selection")?;
-        let tets =
-            on_cells!(imported, i => tetfem::materials::volume_group_tets(i, name)).or_raise(py)?;
+        let tets = on_cells!(imported, i => tetfem::fe::materials::volume_group_tets(i, name))
+            .or_raise(py)?;
         Ok(index_vector(py, tets))
     }
 
     /// Tets whose TetGen region attribute equals ``value``.
     fn tets_with_attribute<'py>(&self, py: Python<'py>, value: f64) -> PyResult<Bound<'py, PyAny>> {
         let imported = self.data.imported(py, "an attribute selection")?;
-        let tets =
-            on_cells!(imported, i => tetfem::materials::attribute_tets(i, value)).or_raise(py)?;
+        let tets = on_cells!(imported, i => tetfem::fe::materials::attribute_tets(i, value))
+            .or_raise(py)?;
         Ok(index_vector(py, &tets))
     }
 

@@ -2,10 +2,10 @@
 
 use numpy::{PyArray1, PyArrayMethods};
 use pyo3::prelude::*;
+use tetfem::analysis::dynamics::{InternalForce, LinearSystem};
+use tetfem::analysis::modal::{Modes, lowest_modes, lowest_modes_with_force};
 use tetfem::analysis::{Definition, Modal};
-use tetfem::constraints::DofMap;
-use tetfem::dynamics::{InternalForce, LinearSystem};
-use tetfem::modal::{Modes, lowest_modes, lowest_modes_with_force};
+use tetfem::bc::constraints::DofMap;
 
 use crate::arrays;
 use crate::constraints::PyConstraints;

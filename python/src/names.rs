@@ -2,7 +2,7 @@
 //! parsed with an `InvalidInputError` that lists the allowed names.
 
 use pyo3::prelude::*;
-use tetfem::dynamics::{MassKind, Method};
+use tetfem::analysis::dynamics::{MassKind, Method};
 use tetfem::linalg::linear_solver::LinearMethod;
 use tetfem::mesh::BoxSplit;
 use tetfem::model::ModelKind;

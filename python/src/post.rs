@@ -4,8 +4,8 @@
 
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
-use tetfem::adequacy::rotation::largest_rotation_and_strain;
-use tetfem::estimate::estimate_error as estimate;
+use tetfem::post::adequacy::rotation::largest_rotation_and_strain;
+use tetfem::post::estimate::estimate_error as estimate;
 
 use crate::arrays;
 use crate::errors::{OrRaise, invalid};

@@ -5,9 +5,9 @@
 use std::sync::Mutex;
 
 use nalgebra::Vector3;
-use tetfem::dynamics::{InternalForce, LinearSystem, State, SupportReactions, TimeData};
-use tetfem::loads::Loads;
-use tetfem::materials::MaterialMap;
+use tetfem::analysis::dynamics::{InternalForce, LinearSystem, State, SupportReactions, TimeData};
+use tetfem::bc::loads::Loads;
+use tetfem::fe::materials::MaterialMap;
 
 use crate::mesh::{MeshData, on_cells};
 

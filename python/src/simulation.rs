@@ -7,12 +7,12 @@ use std::thread::ThreadId;
 
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
-use tetfem::dynamics::{
+use tetfem::analysis::dynamics::{
     BackwardEuler, Checkpoint, Energy, Integrator, IntegratorOptions, InternalForce, LinearSystem,
     Mass, Method, Newmark, NonlinearForce, Rayleigh, State, SymplecticEuler, critical_time_step,
 };
-use tetfem::loads::Loads;
-use tetfem::materials::MaterialMap;
+use tetfem::bc::loads::Loads;
+use tetfem::fe::materials::MaterialMap;
 
 use crate::arrays;
 use crate::constraints::PyConstraints;
@@ -168,7 +168,7 @@ impl PySimulation {
         Ok(match system.mass() {
             Mass::Lumped(_) => critical_time_step(system)?.dt,
             Mass::Consistent(_) => {
-                on_cells!(&data.mesh, m => tetfem::dynamics::element_step_bound_of_type(m, materials))?
+                on_cells!(&data.mesh, m => tetfem::analysis::dynamics::element_step_bound_of_type(m, materials))?
                     .dt_element
             }
         })

@@ -7,13 +7,13 @@ use std::sync::{Arc, Mutex, MutexGuard, TryLockError};
 use nalgebra::Matrix3;
 use numpy::{PyArray1, PyArrayMethods};
 use pyo3::prelude::*;
+use tetfem::analysis::nonlinear::NewtonOptions;
+use tetfem::analysis::statics::{StaticSolution, StaticSolver};
 use tetfem::analysis::{Definition, Static, StaticOptions, StaticPath};
-use tetfem::constraints::DofMap;
+use tetfem::bc::constraints::DofMap;
+use tetfem::fe::materials::MaterialMap;
 use tetfem::linalg::linear_solver::{SolveInfo, SolverOptions};
-use tetfem::materials::MaterialMap;
-use tetfem::nonlinear::NewtonOptions;
-use tetfem::output::fields::cell_stress;
-use tetfem::statics::{StaticSolution, StaticSolver};
+use tetfem::post::output::fields::cell_stress;
 
 use crate::arrays::{self, index_vector};
 use crate::constraints::PyConstraints;
@@ -85,7 +85,7 @@ fn stress_arrays(py: Python<'_>, stress: &[Matrix3<f64>]) -> PyResult<(Py<PyAny>
         .iter()
         .flat_map(|s| (0..3).flat_map(move |i| (0..3).map(move |j| s[(i, j)])))
         .collect();
-    let von_mises: Vec<f64> = stress.iter().map(tetfem::element::von_mises).collect();
+    let von_mises: Vec<f64> = stress.iter().map(tetfem::fe::element::von_mises).collect();
     let stress = PyArray1::from_vec(py, flat).reshape([stress.len(), 3, 3])?;
     Ok((
         stress.into_any().unbind(),

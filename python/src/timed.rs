@@ -3,10 +3,10 @@
 //! `prescribe_rigid`), as the library's `TimeData`, and the system built with it.
 
 use nalgebra::Vector3;
-use tetfem::dynamics::{LinearSystem, MassKind, Rayleigh, TimeData};
-use tetfem::element::ElementType;
-use tetfem::loads::Loads;
-use tetfem::materials::MaterialMap;
+use tetfem::analysis::dynamics::{LinearSystem, MassKind, Rayleigh, TimeData};
+use tetfem::bc::loads::Loads;
+use tetfem::fe::element::ElementType;
+use tetfem::fe::materials::MaterialMap;
 use tetfem::mesh::TetMesh;
 
 use crate::constraints::PyConstraints;
@@ -31,7 +31,7 @@ pub fn time_data(loads: Option<&PyLoads>, constraints: &PyConstraints) -> TimeDa
 pub fn system<E: ElementType>(
     mesh: &TetMesh<E>,
     materials: &MaterialMap,
-    constraints: &tetfem::constraints::Constraints,
+    constraints: &tetfem::bc::constraints::Constraints,
     loads: &Loads,
     gravity: Vector3<f64>,
     mass: MassKind,

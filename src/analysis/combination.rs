@@ -12,10 +12,10 @@
 //! Newmark (average acceleration) with obstacles is not energy-stable with the stiffening
 //! barrier.
 
-use crate::dynamics::Method;
-use crate::error::{Error, Result};
+use crate::analysis::dynamics::Method;
+use crate::base::error::{Error, Result};
+use crate::base::warning::Warning;
 use crate::model::ModelKind;
-use crate::warning::Warning;
 
 /// The analysis of a run.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

@@ -6,22 +6,22 @@
 //! may run it ([`Combination::check`]).
 //!
 //! Time: static analyses evaluate amplitudes and motions at the pseudo-time
-//! [`STATIC_TIME`](crate::amplitude::STATIC_TIME) (load steps follow t ∈ (0, 1]); transient
+//! [`STATIC_TIME`](crate::bc::amplitude::STATIC_TIME) (load steps follow t ∈ (0, 1]); transient
 //! ones from t = 0.
 
 use nalgebra::Vector3;
 
-use crate::boundary_motion::BoundaryMotion;
-use crate::constraints::Constraints;
+use crate::analysis::dynamics::TimeData;
+use crate::base::error::{Error, Result};
+use crate::base::warning::Warning;
+use crate::bc::boundary_motion::BoundaryMotion;
+use crate::bc::constraints::Constraints;
+use crate::bc::loads::Loads;
 use crate::contact::Contact;
-use crate::dynamics::TimeData;
-use crate::element::Tet4;
-use crate::error::{Error, Result};
-use crate::loads::Loads;
-use crate::materials::MaterialMap;
+use crate::fe::element::Tet4;
+use crate::fe::materials::MaterialMap;
 use crate::mesh::{CellType, TetMesh};
 use crate::model::ModelKind;
-use crate::warning::Warning;
 
 use super::combination::{Analysis, Combination};
 
@@ -40,7 +40,7 @@ pub struct Definition<C: CellType = Tet4> {
     /// large-deformation one.
     pub model: ModelKind,
     /// The constraints, with their prescribed values at the analysis' start (t = 0 for a
-    /// transient run, [`STATIC_TIME`](crate::amplitude::STATIC_TIME) for a static one).
+    /// transient run, [`STATIC_TIME`](crate::bc::amplitude::STATIC_TIME) for a static one).
     pub constraints: Constraints,
     /// The constant loads other than gravity (N, every DOF of the mesh).
     pub loads: Loads,
@@ -56,7 +56,7 @@ pub struct Definition<C: CellType = Tet4> {
     pub contact: Option<Contact>,
     /// The whole static load (N, every DOF) when the front end assembled it itself (a scene's
     /// loads in its own sum order, gravity and amplitude loads at
-    /// [`STATIC_TIME`](crate::amplitude::STATIC_TIME) included); `None`: a static analysis
+    /// [`STATIC_TIME`](crate::bc::amplitude::STATIC_TIME) included); `None`: a static analysis
     /// forms it from `loads`, `gravity` and `time_data` ([`Definition::static_load`]).
     /// Transient analyses do not read it.
     pub static_load: Option<Loads>,
@@ -175,7 +175,7 @@ impl<C: CellType> DefinitionBuilder<C> {
 
     /// The whole static load, as the front end assembled it (made for the mesh's nodes): what
     /// a static analysis solves for instead of forming it from the loads, gravity and the
-    /// amplitude loads at [`STATIC_TIME`](crate::amplitude::STATIC_TIME) (the same forces, in
+    /// amplitude loads at [`STATIC_TIME`](crate::bc::amplitude::STATIC_TIME) (the same forces, in
     /// the front end's sum order: its results stay bit-identical).
     pub fn static_load(mut self, load: Loads) -> Result<Self> {
         ensure_dofs("static load", load.as_slice().len(), &self.definition.mesh)?;

@@ -1,11 +1,20 @@
 //! Analyses of a problem, above the statics, nonlinear, dynamics and modal layers: what may be
 //! combined with what ([`combination`]), said once for every front end (scenes, Python, the
 //! PETSc engine).
+//!
+//! The analysis room also holds every solve of a problem: the set-up made once ([`problem`]),
+//! one linear solve ([`statics`]), Newton with load steps ([`nonlinear`]), time integration
+//! ([`dynamics`]) and modes ([`modal`]).
 
 pub mod combination;
 pub mod definition;
+pub mod dynamics;
+pub mod modal;
 pub mod modal_analysis;
+pub mod nonlinear;
+pub mod problem;
 pub mod static_analysis;
+pub mod statics;
 
 pub use combination::{Analysis, Combination};
 pub use definition::{Definition, DefinitionBuilder};

@@ -2,13 +2,13 @@
 //! constrained body about its rest state (the linear model's K, every model's tangent at rest),
 //! by subspace iteration ([`lowest_modes`]).
 
-use crate::assembly::lumped_mass_of;
-use crate::dynamics::{LinearSystem, MassKind, Rayleigh};
-use crate::element::ElementType;
-use crate::element::Tet4;
-use crate::error::Result;
-use crate::modal::{Modes, effective_mass_fractions, lowest_modes};
-use crate::warning::Warning;
+use crate::analysis::dynamics::{LinearSystem, MassKind, Rayleigh};
+use crate::analysis::modal::{Modes, effective_mass_fractions, lowest_modes};
+use crate::base::error::Result;
+use crate::base::warning::Warning;
+use crate::fe::assembly::lumped_mass_of;
+use crate::fe::element::ElementType;
+use crate::fe::element::Tet4;
 
 use super::combination::Analysis;
 use super::definition::Definition;

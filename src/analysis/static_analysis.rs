@@ -9,20 +9,20 @@ use std::time::Duration;
 
 use nalgebra::{Matrix3, Vector3};
 
-use crate::amplitude::STATIC_TIME;
-use crate::constraints::DofMap;
-use crate::element::Tet4;
-use crate::error::{Error, Result};
-use crate::estimate::{ErrorEstimate, PointwiseElement, estimate_error};
-use crate::linear_solver::{SolveInfo, SolverOptions};
-use crate::loads::Loads;
-use crate::model::{ModelElement, ModelMap};
-use crate::nonlinear::{
+use crate::analysis::nonlinear::{
     NewtonOptions, nonlinear_reactions, solve_nonlinear_static_with_motion_and_contact,
 };
-use crate::output::fields::{cell_model_stress, cell_stress};
-use crate::statics::{StaticSolver, StaticTimings};
-use crate::warning::Warning;
+use crate::analysis::statics::{StaticSolver, StaticTimings};
+use crate::base::error::{Error, Result};
+use crate::base::warning::Warning;
+use crate::bc::amplitude::STATIC_TIME;
+use crate::bc::constraints::DofMap;
+use crate::bc::loads::Loads;
+use crate::fe::element::Tet4;
+use crate::linear_solver::{SolveInfo, SolverOptions};
+use crate::model::{ModelElement, ModelMap};
+use crate::post::estimate::{ErrorEstimate, PointwiseElement, estimate_error};
+use crate::post::output::fields::{cell_model_stress, cell_stress};
 
 use super::combination::Analysis;
 use super::definition::Definition;
@@ -51,7 +51,7 @@ pub enum StaticPath {
     /// A nonlinear model, or obstacles with any model: Newton's method over load steps.
     Newton {
         /// Residual norms ‖r_f‖ (force units) of each iteration, one list per load step (see
-        /// [`NewtonReport::residuals`](crate::nonlinear::NewtonReport::residuals)).
+        /// [`NewtonReport::residuals`](crate::analysis::nonlinear::NewtonReport::residuals)).
         residuals: Vec<Vec<f64>>,
         /// Newton iterations over all load steps.
         iterations: usize,
@@ -275,7 +275,7 @@ impl<'a, C: ModelElement> Static<'a, C> {
         Ok(self
             .stresses(u)?
             .iter()
-            .map(crate::element::von_mises)
+            .map(crate::fe::element::von_mises)
             .collect())
     }
 }

@@ -23,7 +23,7 @@
 //! ([`Contact::motion_step_limit`], [`Contact::advance_stage`]), so every iterate stays outside.
 //! Friction is measured relative to the obstacle (its slip is the body's tangential motion minus
 //! the obstacle's). A static solve moves them too, over its pseudo-time t ∈ [0, 1] (load step k
-//! of n at t = k/n, see [`crate::nonlinear::solve_nonlinear_static_with_contact`]), staged the
+//! of n at t = k/n, see [`crate::analysis::nonlinear::solve_nonlinear_static_with_contact`]), staged the
 //! same way within each load step.
 //!
 //! Friction acts in every analysis: as a lagged potential over a time step in the implicit steps

@@ -3,8 +3,8 @@
 
 use nalgebra::{Matrix3, Rotation3, Vector3};
 
-use crate::amplitude::Amplitude;
-use crate::error::{Error, Result};
+use crate::base::error::{Error, Result};
+use crate::bc::amplitude::Amplitude;
 
 /// The shape of a rigid obstacle. The body lives where the signed distance is positive.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -139,7 +139,7 @@ impl Obstacle {
         if !(mu.is_finite() && (0.0..=MAX_FRICTION).contains(&mu)) {
             return Err(Error::invalid_parameter(
                 format!("obstacle {}: friction", self.name),
-                crate::error::short_number(mu),
+                crate::base::error::short_number(mu),
                 format!(
                     "must be between 0 and {MAX_FRICTION} (measured pairs lie below ~2; at {MAX_FRICTION} a contact already holds a tangential load {MAX_FRICTION}× its normal one)"
                 ),

@@ -22,7 +22,7 @@
 use nalgebra::{Matrix3, Vector3};
 
 use super::{Obstacle, Shape};
-use crate::error::{Error, Result};
+use crate::base::error::{Error, Result};
 use crate::mesh::BoundaryFace;
 
 /// A depth at most this fraction of the body's bounding-box diagonal counts as touching

@@ -1,6 +1,6 @@
 //! The barrier's two scales: the activation distance d̂ and the stiffness κ.
 
-use crate::error::{Error, Result};
+use crate::base::error::{Error, Result};
 use crate::mesh::{CellType, TetMesh};
 
 /// The scales of the contact barrier E_c = κ·Σᵢ Aᵢ·Σ_o b(d_o(xᵢ)) (see [`super::Contact`]).

@@ -9,7 +9,7 @@ use super::friction::{
     FrictionLag, LaggedPoint, f0, f1_derivative, f1_over_y, speed_after_friction,
 };
 use super::{ContactParameters, Obstacle};
-use crate::error::{Error, Result};
+use crate::base::error::{Error, Result};
 use crate::mesh::{BoundaryFace, CellType, NodeList, TetMesh};
 use crate::sparse::CscMatrix;
 
@@ -129,12 +129,14 @@ impl Contact {
         if parameters.activation_distance > diagonal {
             return Err(Error::invalid_parameter(
                 "contact activation_distance",
-                crate::error::short_number(parameters.activation_distance),
+                crate::base::error::short_number(parameters.activation_distance),
                 format!(
                     "must be at most the body's bounding-box diagonal, {} (the default is {} of it, {})",
-                    crate::error::short_number(diagonal),
+                    crate::base::error::short_number(diagonal),
                     super::parameters::ACTIVATION_FRACTION,
-                    crate::error::short_number(super::parameters::ACTIVATION_FRACTION * diagonal)
+                    crate::base::error::short_number(
+                        super::parameters::ACTIVATION_FRACTION * diagonal
+                    )
                 ),
             ));
         }

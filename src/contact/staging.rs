@@ -4,13 +4,13 @@
 //! each moves them [`STEP_FRACTION`] of the largest collision-free fraction of the remaining
 //! straight move for the body's current state ([`Contact::motion_step_limit`]), and the caller
 //! solves the body's equation there before the next, so every iterate stays outside every
-//! obstacle. The dynamic step ([`crate::dynamics`]) and the static solve
-//! ([`crate::nonlinear::solve_nonlinear_static_with_contact`]) share this.
+//! obstacle. The dynamic step ([`crate::analysis::dynamics`]) and the static solve
+//! ([`crate::analysis::nonlinear::solve_nonlinear_static_with_contact`]) share this.
 
 use nalgebra::Vector3;
 
 use super::{Contact, STEP_FRACTION};
-use crate::error::Result;
+use crate::base::error::Result;
 
 /// The most stages one solve takes to move the obstacles to their target placement; a solve
 /// still short of it after these is an error naming what to shorten (the time step, or the load

@@ -4,13 +4,13 @@
 //! that det[x₁−x₀ x₂−x₀ x₃−x₀] > 0), which carry the geometry, the quality checks and the face
 //! topology. Higher-order cells add nodes after the corners (the 10-node tet one per edge). The
 //! mesh knows only this layout; what an element computes on it (shape functions, stiffness, mass,
-//! consistent loads) is [`crate::element::ElementType`], one layer up.
+//! consistent loads) is [`crate::fe::element::ElementType`], one layer up.
 
 use std::fmt::Debug;
 
 use nalgebra::Vector3;
 
-use crate::error::{Error, Result};
+use crate::base::error::{Error, Result};
 
 /// The node indices of one cell, `[usize; N]`: the four corners first, then any higher-order
 /// nodes. Implemented for node arrays of every length ≥ 4.
@@ -39,7 +39,7 @@ impl<const N: usize> NodeList for [usize; N] {
 /// A tetrahedral cell type: the node layout of one cell (see the [module](self) docs).
 ///
 /// A new element type implements this (its topology) and
-/// [`ElementType`](crate::element::ElementType) (its mechanics) in its own file; meshes,
+/// [`ElementType`](crate::fe::element::ElementType) (its mechanics) in its own file; meshes,
 /// assembly, constraints, loads and outputs are generic over it.
 pub trait CellType: Copy + Debug + Default + PartialEq + Send + Sync + 'static {
     /// Node indices of one cell, `[usize; NODES]`.
@@ -88,7 +88,7 @@ impl CellType for Tet4 {
 
 /// The quadratic 10-node tet: corners 0–3, then the nodes of the edges in [`EDGES`] order
 /// (VTK's `VTK_QUADRATIC_TETRA`), straight-sided. Its mechanics (shape functions, mass, loads)
-/// are the element's ([`crate::element::Tet10`] docs, `src/element/tet10.rs`).
+/// are the element's ([`crate::fe::element::Tet10`] docs, `src/fe/element/tet10.rs`).
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub struct Tet10;
 

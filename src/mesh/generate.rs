@@ -3,7 +3,7 @@
 use nalgebra::Vector3;
 
 use super::TetMesh;
-use crate::error::{Error, Result};
+use crate::base::error::{Error, Result};
 use crate::mesh::geometry::signed_volume;
 
 /// How each cube of a box grid is split into tets.
@@ -186,14 +186,14 @@ impl BoxSplit {
 /// Before anything is allocated: [`Error::InsufficientMemory`] (turned into
 /// [`Error::InvalidParameter`] on `cells` by [`TetMesh::box_grid`]) if the box mesh itself (24 bytes
 /// per node, 32 per tet) does not fit in the memory available now (see
-/// [`MemoryLimits`](crate::memory::MemoryLimits)). Counts in u128: any `cells` is answered
+/// [`MemoryLimits`](crate::base::memory::MemoryLimits)). Counts in u128: any `cells` is answered
 /// at once.
 fn check_box_mesh_size(cells: [usize; 3], split: BoxSplit) -> Result<()> {
-    let (nodes, tets) = crate::memory::box_counts(cells, split.tets_per_cell());
+    let (nodes, tets) = crate::base::memory::box_counts(cells, split.tets_per_cell());
     let bytes = nodes
         .saturating_mul(24)
         .saturating_add(tets.saturating_mul(32));
-    Ok(crate::memory::MemoryLimits::current().ensure_fits(
+    Ok(crate::base::memory::MemoryLimits::current().ensure_fits(
         format!(
             "the box mesh of {}×{}×{} cells ({nodes} nodes, {tets} tets)",
             cells[0], cells[1], cells[2]

@@ -1,5 +1,5 @@
 //! Geometry of one tetrahedron from its four corner positions: volume, shape matrix, quality
-//! and the local faces. The mesh checks and the elements ([`crate::element`], which re-exports
+//! and the local faces. The mesh checks and the elements ([`crate::fe::element`], which re-exports
 //! these) both use it.
 
 use nalgebra::{Matrix3, Vector3};

@@ -13,7 +13,7 @@ pub use topology::{BoundaryFace, FaceTopology};
 
 use nalgebra::Vector3;
 
-use crate::error::{Error, Result};
+use crate::base::error::{Error, Result};
 use crate::mesh::geometry::{shape_quality, signed_volume};
 
 /// Tets whose [`shape_quality`] 6√2·|V|/l_max³ falls below this are rejected as degenerate.

@@ -3,7 +3,7 @@
 use nalgebra::Vector3;
 
 use super::{BoundaryFace, CellType, TetMesh};
-use crate::error::{Error, Result};
+use crate::base::error::{Error, Result};
 
 /// [`Error::InvalidParameter`] unless `tolerance` (a selection distance, length units) is
 /// finite and ≥ 0: a negative or NaN one silently selects nothing and an infinite one

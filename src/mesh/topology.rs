@@ -3,7 +3,7 @@
 use nalgebra::Vector3;
 
 use super::{CellType, NodeList, TetMesh};
-use crate::error::{Error, Result};
+use crate::base::error::{Error, Result};
 use crate::mesh::geometry::FACES;
 
 /// A boundary triangle: a tet face that no other tet shares.

@@ -9,8 +9,8 @@ use nalgebra::Vector3;
 
 use super::TetModels;
 use super::element_model::{ModelElement, positions};
-use crate::assembly::Assembler;
-use crate::error::{Error, Result};
+use crate::base::error::{Error, Result};
+use crate::fe::assembly::Assembler;
 use crate::mesh::{CellType, TetMesh};
 use crate::sparse::CscMatrix;
 
@@ -121,7 +121,7 @@ pub fn refill_tangent<E: ModelElement>(
 /// node at displacement `u` (full length), Fₑ = Ds(x)·Dm(X)⁻¹ from each tet's four corners (a
 /// 10-node tet's edge nodes take its corner F as well). `out` has one matrix per node; a node
 /// in no tet gets zero. Its polar rotation is the node's rotation of the deformation: what
-/// [`crate::dynamics::NonlinearSolve::RestPreconditionedCg`] turns the rest factor by.
+/// [`crate::analysis::dynamics::NonlinearSolve::RestPreconditionedCg`] turns the rest factor by.
 ///
 /// Errors: `u` is not full length, or `out` is not one per node.
 pub fn nodal_deformation_gradients<E: ModelElement>(

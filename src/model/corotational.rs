@@ -4,8 +4,8 @@ use nalgebra::{Matrix3, Vector3};
 
 use super::law::{ConstitutiveLaw, Matrix9, tangent_of};
 use super::{ForceModel, piola_to_force, polar::rotation, tangent_from_piola_derivative};
-use crate::element::{Matrix12, Tet, Vector12, rest_shape_matrix};
-use crate::material::Material;
+use crate::fe::element::{Matrix12, Tet, Vector12, rest_shape_matrix};
+use crate::fe::material::Material;
 
 /// Linear elasticity in a frame that rotates with each tet: R from the polar decomposition of
 /// F = Ds·Dm⁻¹ ([`rotation`], robust to inverted tets), S = RᵀF, strain S − I.

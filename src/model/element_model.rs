@@ -7,9 +7,9 @@
 use nalgebra::{Matrix3, Vector3};
 
 use super::{ForceModel, TetModels, Vector12, project_psd};
-use crate::assembly::Assembler;
-use crate::element::{ElementType, Tet4};
-use crate::error::Result;
+use crate::base::error::Result;
+use crate::fe::assembly::Assembler;
+use crate::fe::element::{ElementType, Tet4};
 use crate::mesh::TetMesh;
 use crate::sparse::CscMatrix;
 

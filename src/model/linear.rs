@@ -4,8 +4,8 @@ use nalgebra::{Matrix3, Vector3};
 
 use super::ForceModel;
 use super::law::{ConstitutiveLaw, Matrix9, tangent_of};
-use crate::element::{Matrix12, Tet, Vector12};
-use crate::material::Material;
+use crate::fe::element::{Matrix12, Tet, Vector12};
+use crate::fe::material::Material;
 
 /// f = −Kₑ·u, u = x − X; energy ½uᵀKₑu; tangent Kₑ (constant); stress σ = λ·tr(ε)·I + 2μ·ε
 /// of the small strain ε = sym ∇u.

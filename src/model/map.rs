@@ -1,9 +1,9 @@
 //! Force models per region: one [`ForceModel`] per material of a
-//! [`MaterialMap`](crate::materials::MaterialMap), chosen per tet by its material index.
+//! [`MaterialMap`](crate::fe::materials::MaterialMap), chosen per tet by its material index.
 
 use super::{ForceModel, ModelKind};
-use crate::error::Result;
-use crate::materials::{MaterialMap, TetMaterials};
+use crate::base::error::Result;
+use crate::fe::materials::{MaterialMap, TetMaterials};
 use crate::mesh::{CellType, TetMesh};
 
 /// The force model of each tet: one model for all (any [`ForceModel`], `dyn` included), or a

@@ -1,7 +1,7 @@
 //! Force models: the elastic energy, internal force and tangent stiffness of one tet at a
 //! deformed configuration. The split follows Vega FEM: a model knows one element's mechanics;
 //! [`assemble`] turns it into global forces and a tangent refilled on the existing sparsity
-//! pattern; solvers ([`crate::nonlinear`]) know nothing of the model's formulas.
+//! pattern; solvers ([`crate::analysis::nonlinear`]) know nothing of the model's formulas.
 //!
 //! Each model is its law per point ([`ConstitutiveLaw`]: ψ(F), P(F), ∂P/∂F, σ(F)) and its
 //! 4-node tet formulas ([`ForceModel`]); [`ModelElement`] puts a model on an element: the 4-node
@@ -39,9 +39,9 @@ pub use st_venant_kirchhoff::StVenantKirchhoff;
 
 use nalgebra::{Matrix3, SMatrix, SymmetricEigen, Vector3};
 
-use crate::element::{Matrix12, Tet, Vector12};
-use crate::error::{Error, Result};
-use crate::material::Material;
+use crate::base::error::{Error, Result};
+use crate::fe::element::{Matrix12, Tet, Vector12};
+use crate::fe::material::Material;
 
 /// One element's hyperelastic (or warped-linear) mechanics: the 4-node tet's own formulas
 /// (the methods below, F constant in the tet) and, through its [`ConstitutiveLaw`], any other
@@ -146,7 +146,7 @@ impl ModelKind {
     }
 
     /// One model of this kind per material of `materials`, chosen per tet.
-    pub fn build_map(self, materials: &crate::materials::MaterialMap) -> ModelMap {
+    pub fn build_map(self, materials: &crate::fe::materials::MaterialMap) -> ModelMap {
         ModelMap::new(self, materials)
     }
 

@@ -4,8 +4,8 @@ use nalgebra::{Matrix3, Vector3};
 
 use super::law::{ConstitutiveLaw, Matrix9, tangent_of};
 use super::{ForceModel, piola_to_force, tangent_from_piola_derivative};
-use crate::element::{Matrix12, Tet, Vector12, rest_shape_matrix};
-use crate::material::Material;
+use crate::fe::element::{Matrix12, Tet, Vector12, rest_shape_matrix};
+use crate::fe::material::Material;
 
 /// Ψ(F) = μ/2·(tr(FᵀF) − 3) + λ̂/2·(J − α)² − λ̂/2·(1 − α)², with J = det F, λ̂ = λ + μ and
 /// α = 1 + μ/λ̂ (energy per rest volume).

@@ -24,10 +24,10 @@ use nalgebra::{Matrix3, SMatrix, Vector3};
 
 use super::element_model::ModelElement;
 use super::{ForceModel, TetModels, project_psd_of};
-use crate::assembly::Assembler;
-use crate::element::ElementType;
-use crate::element::tet10::{Tet10, Tet10Rest};
-use crate::error::Result;
+use crate::base::error::Result;
+use crate::fe::assembly::Assembler;
+use crate::fe::element::ElementType;
+use crate::fe::element::tet10::{Tet10, Tet10Rest};
 use crate::mesh::TetMesh;
 use crate::sparse::CscMatrix;
 

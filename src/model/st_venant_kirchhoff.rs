@@ -4,8 +4,8 @@ use nalgebra::{Matrix3, Vector3};
 
 use super::law::{ConstitutiveLaw, Matrix9, tangent_of};
 use super::{ForceModel, piola_to_force, tangent_from_piola_derivative};
-use crate::element::{Matrix12, Tet, Vector12, rest_shape_matrix};
-use crate::material::Material;
+use crate::fe::element::{Matrix12, Tet, Vector12, rest_shape_matrix};
+use crate::fe::material::Material;
 
 /// Ψ(F) = μ·E:E + λ/2·tr(E)² with the Green strain E = ½(FᵀF − I) (energy per rest volume):
 /// the linear model's energy with ε replaced by E, so it is rotation-invariant and equal to

@@ -5,16 +5,16 @@
 //! old `lowest_modes` call found.
 
 use nalgebra::Vector3;
-use tetfem::analysis::{Definition, Modal, Static, StaticOptions};
-use tetfem::contact::{Contact, ContactParameters, Obstacle};
-use tetfem::dynamics::{LinearSystem, MassKind, Rayleigh};
-use tetfem::materials::MaterialMap;
-use tetfem::modal::lowest_modes;
-use tetfem::model::ModelKind;
-use tetfem::nonlinear::{
+use tetfem::analysis::dynamics::{LinearSystem, MassKind, Rayleigh};
+use tetfem::analysis::modal::lowest_modes;
+use tetfem::analysis::nonlinear::{
     NewtonOptions, solve_nonlinear_static, solve_nonlinear_static_with_contact,
 };
-use tetfem::statics::StaticSolver;
+use tetfem::analysis::statics::StaticSolver;
+use tetfem::analysis::{Definition, Modal, Static, StaticOptions};
+use tetfem::contact::{Contact, ContactParameters, Obstacle};
+use tetfem::fe::materials::MaterialMap;
+use tetfem::model::ModelKind;
 use tetfem::{BoxSplit, Constraints, Error, Loads, Material, TetMesh};
 
 const LENGTH: f64 = 0.4;

@@ -20,19 +20,19 @@
 use std::sync::Arc;
 
 use nalgebra::Vector3;
-use tetfem::amplitude::{Amplitude, STATIC_TIME};
-use tetfem::analysis::{Analysis, Combination};
-use tetfem::boundary_motion::{BoundaryMotion, Motion};
-use tetfem::contact::{Contact, ContactParameters, Obstacle};
-use tetfem::dynamics::{
+use tetfem::analysis::dynamics::{
     IntegratorOptions, InternalForce, LinearSystem, MassKind, Method, NonlinearForce, Rayleigh,
     State, TimeData,
 };
-use tetfem::materials::MaterialMap;
+use tetfem::analysis::nonlinear::{NewtonOptions, nonlinear_reactions};
+use tetfem::analysis::{Analysis, Combination};
+use tetfem::base::warning::Warning;
+use tetfem::bc::amplitude::{Amplitude, STATIC_TIME};
+use tetfem::bc::boundary_motion::{BoundaryMotion, Motion};
+use tetfem::contact::{Contact, ContactParameters, Obstacle};
+use tetfem::fe::materials::MaterialMap;
 use tetfem::mesh::NodeList;
 use tetfem::model::{ModelElement, ModelKind};
-use tetfem::nonlinear::{NewtonOptions, nonlinear_reactions};
-use tetfem::warning::Warning;
 use tetfem::{BoxSplit, Constraints, Error, Loads, Material, Tet10, TetMesh};
 
 /// Loads and supports of a cell.
@@ -209,7 +209,7 @@ fn run_static<E: ModelElement>(cell: &Cell, c: &Case<E>) -> Result<String, Strin
             .prescribe_at(c.mesh.nodes(), STATIC_TIME, &mut constraints)
             .map_err(|e| format!("open: {e}"))?;
     }
-    let report = tetfem::nonlinear::solve_nonlinear_static_with_motion_and_contact(
+    let report = tetfem::analysis::nonlinear::solve_nonlinear_static_with_motion_and_contact(
         c.mesh.as_ref(),
         &models,
         &constraints,
@@ -247,7 +247,7 @@ fn run_static<E: ModelElement>(cell: &Cell, c: &Case<E>) -> Result<String, Strin
         let mut barrier = vec![0.0; u.len()];
         k.add_force(u, &mut barrier)
             .map_err(|e| format!("open: {e}"))?;
-        let dofs = tetfem::constraints::DofMap::new(&constraints);
+        let dofs = tetfem::bc::constraints::DofMap::new(&constraints);
         for &d in dofs.free_dofs() {
             on_body[d % 3] += barrier[d];
         }
@@ -265,9 +265,13 @@ fn run_static<E: ModelElement>(cell: &Cell, c: &Case<E>) -> Result<String, Strin
     }
     let mut note = format!("balance {:.1e}", balance.norm() / TIP_LOAD);
     if cell.model != ModelKind::Linear && !cell.obstacles {
-        let linear =
-            tetfem::statics::solve_static(c.mesh.as_ref(), &c.materials, &constraints, &loads)
-                .map_err(|e| format!("open: {e}"))?;
+        let linear = tetfem::analysis::statics::solve_static(
+            c.mesh.as_ref(),
+            &c.materials,
+            &constraints,
+            &loads,
+        )
+        .map_err(|e| format!("open: {e}"))?;
         let size = max_abs(&linear.displacement);
         let gap = max_abs(
             &u.iter()
@@ -316,7 +320,7 @@ fn run_dynamic<E: ModelElement>(
     // Half the explicit critical step, for every method (the explicit one needs it; contact's
     // barrier stiffens near the ground, hence the half).
     let dt = 0.5
-        * tetfem::dynamics::critical_time_step(&system)
+        * tetfem::analysis::dynamics::critical_time_step(&system)
             .map_err(err)?
             .dt;
     let steps = (DURATION / dt).ceil() as usize;
@@ -428,7 +432,7 @@ fn run_modal<E: ModelElement>(c: &Case<E>) -> Result<String, String> {
         Rayleigh::default(),
     )
     .map_err(err)?;
-    let modes = tetfem::modal::lowest_modes(&system, 2).map_err(err)?;
+    let modes = tetfem::analysis::modal::lowest_modes(&system, 2).map_err(err)?;
     let mut worst = 0.0f64;
     for (omega, phi) in modes.omega.iter().zip(&modes.shapes) {
         let k = system

@@ -4,13 +4,13 @@
 use std::sync::Arc;
 
 use nalgebra::Vector3;
-use tetfem::contact::{Contact, ContactParameters, Obstacle};
-use tetfem::dynamics::{
+use tetfem::analysis::dynamics::{
     BackwardEuler, Integrator, IntegratorOptions, InternalForce, LinearSystem, MassKind, Newmark,
     NonlinearForce, Rayleigh, State, SymplecticEuler, critical_time_step,
 };
+use tetfem::analysis::nonlinear::{NewtonOptions, solve_nonlinear_static_with_contact};
+use tetfem::contact::{Contact, ContactParameters, Obstacle};
 use tetfem::model::ModelKind;
-use tetfem::nonlinear::{NewtonOptions, solve_nonlinear_static_with_contact};
 use tetfem::{BoxSplit, Constraints, Loads, Material, TetMesh};
 
 const SIDE: f64 = 0.2;

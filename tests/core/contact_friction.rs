@@ -6,11 +6,11 @@
 use std::sync::Arc;
 
 use nalgebra::Vector3;
-use tetfem::contact::{Contact, ContactParameters, Obstacle};
-use tetfem::dynamics::{
+use tetfem::analysis::dynamics::{
     BackwardEuler, Integrator, IntegratorOptions, InternalForce, LinearSystem, Mass, MassKind,
     NonlinearForce, Rayleigh, State, SymplecticEuler, critical_time_step,
 };
+use tetfem::contact::{Contact, ContactParameters, Obstacle};
 use tetfem::model::ModelKind;
 use tetfem::{BoxSplit, Constraints, Loads, Material, TetMesh};
 

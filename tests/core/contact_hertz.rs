@@ -2,9 +2,9 @@
 //! indentation compared with Hertz's law P = (4/3)·E*·R^{1/2}·δ^{3/2}, E* = E/(1 − ν²).
 
 use nalgebra::Vector3;
+use tetfem::analysis::nonlinear::{NewtonOptions, solve_nonlinear_static_with_contact};
 use tetfem::contact::{Contact, ContactParameters, Obstacle};
 use tetfem::model::ModelKind;
-use tetfem::nonlinear::{NewtonOptions, solve_nonlinear_static_with_contact};
 use tetfem::{BoxSplit, Constraints, Loads, Material, TetMesh};
 
 const RADIUS: f64 = 10.0;

@@ -3,9 +3,11 @@
 //! force equal to F and at most μ·N, and the solve is an error naming the load step for F > μ·N.
 
 use nalgebra::Vector3;
+use tetfem::analysis::nonlinear::{
+    NewtonOptions, NewtonReport, solve_nonlinear_static_with_contact,
+};
 use tetfem::contact::{Contact, ContactParameters, Obstacle};
 use tetfem::model::ModelKind;
-use tetfem::nonlinear::{NewtonOptions, NewtonReport, solve_nonlinear_static_with_contact};
 use tetfem::{BoxSplit, Constraints, Error, Loads, Material, TetMesh};
 
 const SIDE: f64 = 0.1;
@@ -16,7 +18,14 @@ const MU: f64 = 0.5;
 /// bottom z = 0 half an activation distance above a frictional ground (so the barrier and the
 /// friction act from the first load step), under gravity tilted to give a lateral body load
 /// `lateral`·m·g along x. Returns the solve, the contact, the mesh and the weight W = m·g (N).
-fn block_on_ground(lateral: f64) -> (tetfem::error::Result<NewtonReport>, Contact, TetMesh, f64) {
+fn block_on_ground(
+    lateral: f64,
+) -> (
+    tetfem::base::error::Result<NewtonReport>,
+    Contact,
+    TetMesh,
+    f64,
+) {
     let mesh = TetMesh::box_grid(
         Vector3::zeros(),
         Vector3::repeat(SIDE),

@@ -3,12 +3,12 @@
 //! load step so that no Newton iterate has a node inside it.
 
 use nalgebra::Vector3;
-use tetfem::amplitude::Amplitude;
-use tetfem::contact::{Contact, ContactParameters, Obstacle, ObstacleMotion};
-use tetfem::model::ModelKind;
-use tetfem::nonlinear::{
+use tetfem::analysis::nonlinear::{
     NewtonOptions, NewtonReport, nonlinear_reactions, solve_nonlinear_static_with_contact,
 };
+use tetfem::bc::amplitude::Amplitude;
+use tetfem::contact::{Contact, ContactParameters, Obstacle, ObstacleMotion};
+use tetfem::model::ModelKind;
 use tetfem::{BoxSplit, Constraints, Error, Loads, Material, TetMesh};
 
 /// The column's cross-section side (m).
@@ -23,7 +23,7 @@ const E: f64 = 1e6;
 /// pseudo-time by a ramp, solved in `load_steps` with `model`. Returns the solve, the contact
 /// (its obstacle at its final placement), the mesh, the constraints and the plate's start gap.
 struct Pressed {
-    report: tetfem::error::Result<NewtonReport>,
+    report: tetfem::base::error::Result<NewtonReport>,
     contact: Contact,
     mesh: TetMesh,
     constraints: Constraints,
@@ -223,7 +223,7 @@ fn the_same_press_in_enough_load_steps_is_staged_to_the_end() {
 fn carried(
     shift: f64,
     slip_distance: Option<f64>,
-) -> (tetfem::error::Result<NewtonReport>, Contact, TetMesh) {
+) -> (tetfem::base::error::Result<NewtonReport>, Contact, TetMesh) {
     let mesh = TetMesh::box_grid(
         Vector3::zeros(),
         Vector3::repeat(0.1),

@@ -5,9 +5,9 @@ use crate::common;
 
 use common::manufactured::Manufactured;
 use nalgebra::Vector3;
-use tetfem::convergence::{Study, richardson};
-use tetfem::error_norms::{energy_error, l2_error};
-use tetfem::quadrature::tet_rule;
+use tetfem::fe::quadrature::tet_rule;
+use tetfem::post::convergence::{Study, richardson};
+use tetfem::post::error_norms::{energy_error, l2_error};
 use tetfem::{BoxSplit, Constraints, Loads, Material, TetMesh, solve_static};
 
 #[test]
@@ -46,13 +46,13 @@ fn manufactured_solution_converges_at_order_two_in_l2_and_one_in_energy() {
             "n = {n:>2}: h = {h:.4}, DOFs {:>6}, L2 error {e_l2:.4e}, energy error {e_energy:.4e}",
             mesh.dof_count()
         );
-        l2.push(tetfem::convergence::Level {
+        l2.push(tetfem::post::convergence::Level {
             h,
             dofs: mesh.dof_count(),
             error: e_l2,
             seconds: 0.0,
         });
-        energy.push(tetfem::convergence::Level {
+        energy.push(tetfem::post::convergence::Level {
             h,
             dofs: mesh.dof_count(),
             error: e_energy,
@@ -105,7 +105,7 @@ fn quadrature_is_exact_to_degree_five() {
     ] {
         let exact = 6.0 * tet.volume() * factorial(a) * factorial(b) * factorial(c) * factorial(d)
             / factorial(a + b + c + d + 3);
-        let approx = tetfem::quadrature::integrate(&tet, &x, &rule, |_, n| {
+        let approx = tetfem::fe::quadrature::integrate(&tet, &x, &rule, |_, n| {
             n[0].powi(a as i32) * n[1].powi(b as i32) * n[2].powi(c as i32) * n[3].powi(d as i32)
         });
         let degree = a + b + c + d;
@@ -146,7 +146,7 @@ fn study_helpers_compute_orders_and_extrapolate() {
         assert!((order - 1.0).abs() < 1e-12);
     }
     assert!(Study::new(vec![]).unwrap().fitted_order().is_err());
-    let duplicate = tetfem::convergence::Level {
+    let duplicate = tetfem::post::convergence::Level {
         h: 0.5,
         dofs: 1,
         error: 1.0,

@@ -11,7 +11,7 @@ use std::sync::Arc;
 
 use nalgebra::Vector3;
 use tetfem::BoxSplit;
-use tetfem::dynamics::{
+use tetfem::analysis::dynamics::{
     BackwardEuler, Integrator, IntegratorOptions, Method, NewtonStats, NonlinearSolve, State,
     StepNewtonOptions,
 };
@@ -361,7 +361,7 @@ fn bad_nonlinear_solve_options_are_named() {
     assert_eq!(
         "rest_lbfgs".parse::<NonlinearSolve>().unwrap(),
         NonlinearSolve::RestPreconditionedLbfgs {
-            history: tetfem::dynamics::AUTO_LBFGS_HISTORY
+            history: tetfem::analysis::dynamics::AUTO_LBFGS_HISTORY
         }
     );
 }

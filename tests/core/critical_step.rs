@@ -6,7 +6,7 @@
 use std::time::Instant;
 
 use nalgebra::{DMatrix, SymmetricEigen, Vector3};
-use tetfem::dynamics::{
+use tetfem::analysis::dynamics::{
     Certificate, CriticalStepOptions, LinearSystem, Mass, MassKind, Rayleigh, critical_time_step,
     critical_time_step_with,
 };
@@ -289,7 +289,7 @@ fn cost_of_the_certificate() {
         )
         .unwrap();
         let power_time = started.elapsed().as_secs_f64();
-        // The rounding margin η of the check (the formula of src/dynamics/inertia.rs).
+        // The rounding margin η of the check (the formula of src/analysis/dynamics/inertia.rs).
         let counts = SparseCholesky::analyze(system.stiffness())
             .unwrap()
             .factor_counts();
@@ -325,7 +325,7 @@ fn cost_of_the_certificate() {
 #[test]
 fn rayleigh_damping_lowers_the_critical_step_as_the_scheme_requires() {
     use std::sync::Arc;
-    use tetfem::dynamics::{Integrator, State, SymplecticEuler};
+    use tetfem::analysis::dynamics::{Integrator, State, SymplecticEuler};
     let undamped = steel_beam([4.0, 1.0, 1.0], [12, 2, 2], BoxSplit::Lecture6);
     let (values, vectors) = dense_eigen(&undamped);
     let omega = values.last().unwrap().sqrt();

@@ -4,12 +4,12 @@
 use std::sync::Arc;
 
 use nalgebra::Vector3;
-use tetfem::dynamics::{
+use tetfem::analysis::dynamics::{
     BackwardEuler, Integrator, IntegratorOptions, InternalForce, LinearSystem, MassKind, Method,
     NonlinearForce, Rayleigh, State, critical_time_step, element_critical_step,
 };
+use tetfem::analysis::modal::lowest_modes;
 use tetfem::linalg::iterative::CgOptions;
-use tetfem::modal::lowest_modes;
 use tetfem::model::ModelKind;
 use tetfem::{BoxSplit, CholeskyOptions, Error, LinearMethod, Material, SparseCholesky};
 use tetfem_fixtures::cantilever::Cantilever;
@@ -101,8 +101,10 @@ fn explicit_is_stable_below_the_critical_step_and_diverges_above_it() {
         let mut state = start.clone();
         let mut worst: f64 = 0.0;
         let inverse_mass: Vec<f64> = match system.mass() {
-            tetfem::dynamics::Mass::Lumped(m) => m.iter().map(|m| 1.0 / m).collect(),
-            tetfem::dynamics::Mass::Consistent(_) => unreachable!("lumped by construction"),
+            tetfem::analysis::dynamics::Mass::Lumped(m) => m.iter().map(|m| 1.0 / m).collect(),
+            tetfem::analysis::dynamics::Mass::Consistent(_) => {
+                unreachable!("lumped by construction")
+            }
         };
         for _ in 0..10_000 {
             stable.step(&mut state).unwrap();
@@ -277,7 +279,8 @@ fn modal_frequencies_converge_toward_euler_bernoulli() {
         previous_error = error;
         // Modes: M-orthonormal, and K·φ = ω²·M·φ to round-off.
         for (w, phi) in modes.omega.iter().zip(&modes.shapes) {
-            let norm = tetfem::modal::mass_inner_product(system.mass(), phi, phi).unwrap();
+            let norm =
+                tetfem::analysis::modal::mass_inner_product(system.mass(), phi, phi).unwrap();
             assert!((norm - 1.0).abs() < 1e-9);
             let k_phi = system.stiffness().mul(phi).unwrap();
             let mut m_phi = vec![0.0; phi.len()];
@@ -294,9 +297,12 @@ fn modal_frequencies_converge_toward_euler_bernoulli() {
                 "eigen-residual {residual:e} vs {scale:e}"
             );
         }
-        let cross =
-            tetfem::modal::mass_inner_product(system.mass(), &modes.shapes[0], &modes.shapes[1])
-                .unwrap();
+        let cross = tetfem::analysis::modal::mass_inner_product(
+            system.mass(),
+            &modes.shapes[0],
+            &modes.shapes[1],
+        )
+        .unwrap();
         assert!(cross.abs() < 1e-9);
     }
     // At 4 cells through the height the error measured here is 14 %; bound it by 20 %.
@@ -517,8 +523,8 @@ fn one_step_matches_its_formula_with_damping_and_partial_constraints() {
     let n = system.free_count();
     let k = system.stiffness();
     let m = match system.mass() {
-        tetfem::dynamics::Mass::Lumped(m) => m.clone(),
-        tetfem::dynamics::Mass::Consistent(_) => unreachable!(),
+        tetfem::analysis::dynamics::Mass::Lumped(m) => m.clone(),
+        tetfem::analysis::dynamics::Mass::Consistent(_) => unreachable!(),
     };
     let f = system.external_load();
     let start = State {

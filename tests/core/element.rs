@@ -5,7 +5,7 @@ use crate::common;
 
 use common::{Rng, random_tet};
 use nalgebra::{SymmetricEigen, Vector3};
-use tetfem::element::{Tet, Vector12};
+use tetfem::fe::element::{Tet, Vector12};
 use tetfem::{Material, TetMesh};
 
 fn material() -> Material {
@@ -232,14 +232,15 @@ fn consistent_mass_is_its_closed_form_and_the_integral_of_shape_products() {
     let tet = Tet::new(&x).unwrap();
     let rho = 1200.0;
     let m = tet.consistent_mass(rho);
-    let rule = tetfem::quadrature::tet_rule();
+    let rule = tetfem::fe::quadrature::tet_rule();
     let scale = rho * tet.volume();
     for a in 0..4 {
         for b in 0..4 {
             // Closed form ρV/20·(1 + δ_ab), and ρ∫N_a·N_b dV by the degree-5 rule (exact for
             // this quadratic integrand): both agree with M to round-off of O(1) sums.
             let closed = scale / 20.0 * if a == b { 2.0 } else { 1.0 };
-            let integral = rho * tetfem::quadrature::integrate(&tet, &x, &rule, |_, n| n[a] * n[b]);
+            let integral =
+                rho * tetfem::fe::quadrature::integrate(&tet, &x, &rule, |_, n| n[a] * n[b]);
             assert!((integral - closed).abs() < 1e-13 * scale);
             for i in 0..3 {
                 for j in 0..3 {

@@ -1,13 +1,13 @@
-//! The ZZ error estimate (tetfem::estimate) against the true energy-norm error: its
+//! The ZZ error estimate (tetfem::post::estimate) against the true energy-norm error: its
 //! effectivity η / ‖u − u_h‖_E on a manufactured solution and on the cantilever, for P1 and P2
 //! under refinement.
 
 use std::f64::consts::PI;
 
 use nalgebra::{Matrix3, Vector3};
-use tetfem::convergence::richardson;
-use tetfem::estimate::{PointwiseElement, Recovery, estimate_error, estimate_error_with};
-use tetfem::quadrature::tet_rule;
+use tetfem::fe::quadrature::tet_rule;
+use tetfem::post::convergence::richardson;
+use tetfem::post::estimate::{PointwiseElement, Recovery, estimate_error, estimate_error_with};
 use tetfem::{BoxSplit, Constraints, Loads, Material, Tet, Tet10, TetMesh, solve_static};
 use tetfem_fixtures::cantilever::Cantilever;
 

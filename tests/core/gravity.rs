@@ -5,7 +5,7 @@
 use std::sync::Arc;
 
 use nalgebra::Vector3;
-use tetfem::dynamics::{LinearSystem, MassKind, Method, Rayleigh, State};
+use tetfem::analysis::dynamics::{LinearSystem, MassKind, Method, Rayleigh, State};
 use tetfem::{BoxSplit, Loads, Material, TetMesh};
 use tetfem_fixtures::cantilever::Cantilever;
 

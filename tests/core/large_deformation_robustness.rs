@@ -7,9 +7,9 @@ use crate::common;
 
 use common::{Rng, random_tet};
 use nalgebra::{Matrix3, Rotation3, SymmetricEigen, Unit, Vector3};
-use tetfem::element::{Matrix12, Tet, Vector12, signed_volume};
+use tetfem::analysis::nonlinear::{NewtonOptions, solve_nonlinear_static};
+use tetfem::fe::element::{Matrix12, Tet, Vector12, signed_volume};
 use tetfem::model::{ForceModel, ModelKind, PSD_TOLERANCE, project_psd, rotation};
-use tetfem::nonlinear::{NewtonOptions, solve_nonlinear_static};
 use tetfem::{BoxSplit, Constraints, Loads, Material, TetMesh};
 
 fn material() -> Material {
@@ -480,7 +480,7 @@ fn the_internal_force_is_the_serial_sum_bit_for_bit_on_any_number_of_threads() {
 /// the same order), at a bent, turned state 10 steps into the swing.
 #[test]
 fn support_reactions_use_the_whole_mesh_force_bits_on_the_constrained_rows() {
-    use tetfem::dynamics::{
+    use tetfem::analysis::dynamics::{
         Integrator, InternalForce, NonlinearSolve, State, SupportReactions, TimeData,
     };
     use tetfem_fixtures::swing::Swing;

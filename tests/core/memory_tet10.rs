@@ -2,11 +2,11 @@
 //! node count against the generated mesh, and a too-large order-2 box refused before meshing.
 
 use nalgebra::Vector3;
-use tetfem::memory::{
+use tetfem::base::memory::{
     MemoryBound, MemoryLimits, RunPath, SolverMemory, StaticEstimate, box_node_count,
     box_static_estimate, check_box_run,
 };
-use tetfem::{BoxSplit, Material, Tet10, TetMesh, assembly::stiffness_matrix};
+use tetfem::{BoxSplit, Material, Tet10, TetMesh, fe::assembly::stiffness_matrix};
 
 /// Bytes of a CSC matrix as stored: column starts and row indices (usize) and values (f64).
 fn csc_bytes(col_starts: usize, entries: usize) -> u128 {

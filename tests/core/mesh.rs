@@ -2,7 +2,7 @@
 //! errors for each kind of invalid input.
 
 use nalgebra::Vector3;
-use tetfem::element::signed_volume;
+use tetfem::fe::element::signed_volume;
 use tetfem::mesh::{DEGENERATE_QUALITY, box_node_index};
 use tetfem::{BoxSplit, Error, TetMesh};
 

@@ -5,9 +5,9 @@ use crate::common;
 
 use common::manufactured::Manufactured;
 use nalgebra::Vector3;
-use tetfem::convergence::{Level, Study};
-use tetfem::error_norms::{energy_error, l2_error};
-use tetfem::estimate::PointwiseElement;
+use tetfem::post::convergence::{Level, Study};
+use tetfem::post::error_norms::{energy_error, l2_error};
+use tetfem::post::estimate::PointwiseElement;
 use tetfem::{BoxSplit, Constraints, Loads, Material, Tet4, Tet10, TetMesh, solve_static};
 
 /// The L2 and energy studies of one element over boxes of `cells`³ cubes.

@@ -2,9 +2,9 @@
 //! same (K, M) on small meshes, and convergence on slender steel beams.
 
 use nalgebra::{DMatrix, DVector, SymmetricEigen, Vector3};
-use tetfem::dynamics::{LinearSystem, Mass, MassKind, Rayleigh, critical_time_step};
+use tetfem::analysis::dynamics::{LinearSystem, Mass, MassKind, Rayleigh, critical_time_step};
+use tetfem::analysis::modal::{RESIDUAL_TOLERANCE, lowest_modes};
 use tetfem::linalg::sparse::CscMatrix;
-use tetfem::modal::{RESIDUAL_TOLERANCE, lowest_modes};
 use tetfem::{BoxSplit, Material};
 use tetfem_fixtures::cantilever::Cantilever;
 

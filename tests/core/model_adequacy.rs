@@ -1,20 +1,22 @@
-//! Model adequacy (tetfem::adequacy): the measured model-choice curve, the rotation check that
+//! Model adequacy (tetfem::post::adequacy): the measured model-choice curve, the rotation check that
 //! names the model to use, and backward Euler's decay per period against a one-DOF run.
 
 use std::sync::Arc;
 
 use nalgebra::Vector3;
-use tetfem::adequacy::rotation::{
+use tetfem::analysis::dynamics::{
+    BackwardEuler, Integrator, LinearSystem, MassKind, Rayleigh, State,
+};
+use tetfem::analysis::nonlinear::{NewtonOptions, solve_nonlinear_static};
+use tetfem::model::ModelKind;
+use tetfem::post::adequacy::rotation::{
     LINEAR_MODEL_ERROR_CURVE, LINEAR_MODEL_ERROR_THRESHOLD, largest_rotation_and_strain,
     linear_model_error,
 };
-use tetfem::adequacy::time_step::{
+use tetfem::post::adequacy::time_step::{
     DECAY_WARNING, backward_euler_amplitude_per_period, backward_euler_decay_per_period,
     step_resolution,
 };
-use tetfem::dynamics::{BackwardEuler, Integrator, LinearSystem, MassKind, Rayleigh, State};
-use tetfem::model::ModelKind;
-use tetfem::nonlinear::{NewtonOptions, solve_nonlinear_static};
 use tetfem::{Constraints, Loads, Material, TetMesh, solve_static};
 use tetfem_fixtures::cantilever::Cantilever;
 

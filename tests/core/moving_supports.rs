@@ -8,12 +8,12 @@ use std::f64::consts::PI;
 use std::sync::Arc;
 
 use nalgebra::Vector3;
-use tetfem::amplitude::Amplitude;
-use tetfem::boundary_motion::Motion;
-use tetfem::dynamics::{LinearSystem, MassKind, Method, Rayleigh, State, TimeData};
+use tetfem::analysis::dynamics::{LinearSystem, MassKind, Method, Rayleigh, State, TimeData};
+use tetfem::analysis::modal::{lowest_modes, mass_inner_product};
+use tetfem::bc::amplitude::Amplitude;
+use tetfem::bc::boundary_motion::Motion;
 use tetfem::linalg::linsolve::SparseCholesky;
 use tetfem::mesh::BoxSplit;
-use tetfem::modal::{lowest_modes, mass_inner_product};
 use tetfem::{Constraints, Loads, Material, TetMesh};
 
 /// A 1 m cantilever, twice as wide (y) as it is thick (z): its lowest mode is the bending

@@ -3,10 +3,10 @@
 //! linear P2, Newton on a large-deflection cantilever, and the 4-node path left as it was.
 
 use nalgebra::{Matrix3, Rotation3, Vector3};
+use tetfem::analysis::nonlinear::{NewtonOptions, solve_nonlinear_static};
 use tetfem::model::assemble::{energy, internal_force, refill_tangent};
 use tetfem::model::{ModelKind, TetModels};
-use tetfem::nonlinear::{NewtonOptions, solve_nonlinear_static};
-use tetfem::output::fields::cell_model_stress;
+use tetfem::post::output::fields::cell_model_stress;
 use tetfem::{
     Assembler, BoxSplit, CellType, Constraints, Loads, Material, Tet10, TetMesh, solve_static,
 };

@@ -6,11 +6,11 @@
 use std::sync::Arc;
 
 use nalgebra::Vector3;
-use tetfem::amplitude::Amplitude;
-use tetfem::boundary_motion::Motion;
-use tetfem::dynamics::{
+use tetfem::analysis::dynamics::{
     IntegratorOptions, InternalForce, LinearSystem, MassKind, Method, Rayleigh, State, TimeData,
 };
+use tetfem::bc::amplitude::Amplitude;
+use tetfem::bc::boundary_motion::Motion;
 use tetfem::model::{ModelElement, ModelKind};
 use tetfem::{BoxSplit, Constraints, Loads, Material, Tet10, TetMesh};
 
@@ -202,7 +202,10 @@ fn small_ramped_loads_give_the_linear_trajectory_with_every_nonlinear_model() {
         }
     });
     // Half the explicit critical step, for every method; 0.02 s is 0.4 of the axial period.
-    let dt = 0.5 * tetfem::dynamics::critical_time_step(&system).unwrap().dt;
+    let dt = 0.5
+        * tetfem::analysis::dynamics::critical_time_step(&system)
+            .unwrap()
+            .dt;
     let steps = (0.02 / dt).ceil() as usize;
     for method in METHODS {
         let run = |kind: ModelKind| {

@@ -6,8 +6,10 @@
 use crate::common;
 
 use nalgebra::{Matrix3, Vector3};
-use tetfem::output::fields::{cell_stress, nodal_stress, recovered_nodal_stress, tet_node_stress};
-use tetfem::output::{
+use tetfem::post::output::fields::{
+    cell_stress, nodal_stress, recovered_nodal_stress, tet_node_stress,
+};
+use tetfem::post::output::{
     FrameExtras, PointLocation, VtuFormat, evaluate_at_point, write_result_frame,
 };
 use tetfem::{

@@ -14,7 +14,7 @@ use nalgebra::{Matrix3, Rotation3, SymmetricEigen, Unit, Vector3};
 use proptest::prelude::*;
 use proptest::strategy::ValueTree;
 use proptest::test_runner::{FileFailurePersistence, RngAlgorithm, RngSeed, TestRng, TestRunner};
-use tetfem::element::{Matrix12, Tet, Vector12, shape_quality, signed_volume};
+use tetfem::fe::element::{Matrix12, Tet, Vector12, shape_quality, signed_volume};
 use tetfem::mesh::box_node_index;
 use tetfem::model::{Corotational, ForceModel, LinearModel, NeoHookean};
 use tetfem::{

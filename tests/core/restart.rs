@@ -9,7 +9,7 @@ use std::path::Path;
 use std::sync::Arc;
 
 use nalgebra::Vector3;
-use tetfem::dynamics::{
+use tetfem::analysis::dynamics::{
     Checkpoint, Integrator, IntegratorOptions, InternalForce, LinearSystem, MassKind, Method,
     NonlinearForce, Rayleigh, State, critical_time_step,
 };
@@ -316,7 +316,7 @@ fn damaged_or_foreign_files_are_parse_errors_naming_the_file() {
 /// memory, so a resumed run repeats the bits and every Newton count, factorizations aside.
 #[test]
 fn the_default_large_deformation_paths_restart_with_the_same_bits() {
-    use tetfem::dynamics::NonlinearSolve;
+    use tetfem::analysis::dynamics::NonlinearSolve;
     let lbfgs = NonlinearSolve::RestPreconditionedLbfgs { history: 5 };
     let cg = NonlinearSolve::RestPreconditionedCg {
         max_cg_iterations: 25,

@@ -4,12 +4,12 @@
 use crate::common;
 
 use nalgebra::{Matrix3, Vector3};
-use tetfem::element::tet10::{self, EDGES, REFERENCE_MASS};
-use tetfem::element::{ElementType, Tet};
+use tetfem::fe::element::tet10::{self, EDGES, REFERENCE_MASS};
+use tetfem::fe::element::{ElementType, Tet};
+use tetfem::fe::quadrature::tet_rule;
 use tetfem::mesh::BoundaryFace;
-use tetfem::output::fields::{cell_strain_energy_density, cell_stress};
-use tetfem::output::{VtuFormat, VtuWriter};
-use tetfem::quadrature::tet_rule;
+use tetfem::post::output::fields::{cell_strain_energy_density, cell_stress};
+use tetfem::post::output::{VtuFormat, VtuWriter};
 use tetfem::{
     Assembler, BoxSplit, CellType, Constraints, Error, Loads, Material, Tet4, Tet10, TetMesh,
     lumped_mass, solve_static,
@@ -166,7 +166,7 @@ fn rigid_motions_cost_no_force_and_masses_add_up() {
     )
     .unwrap();
     let mesh = TetMesh::<Tet10>::from_linear(&linear).unwrap();
-    let k = tetfem::assembly::stiffness_matrix(&mesh, &material).unwrap();
+    let k = tetfem::fe::assembly::stiffness_matrix(&mesh, &material).unwrap();
     let rotation = Matrix3::new(0.0, -0.3, 0.2, 0.3, 0.0, -0.1, -0.2, 0.1, 0.0);
     let u: Vec<f64> = mesh
         .nodes()
@@ -424,18 +424,18 @@ fn edge_nodes_off_their_midpoints_and_reversed_cells() {
 /// The peer cantilever's dynamic system on `mesh` (clamped at x = 0, no load).
 fn cantilever_system<E: ElementType>(
     mesh: &TetMesh<E>,
-    mass: tetfem::dynamics::MassKind,
-) -> tetfem::dynamics::LinearSystem {
+    mass: tetfem::analysis::dynamics::MassKind,
+) -> tetfem::analysis::dynamics::LinearSystem {
     let problem = tetfem_fixtures::cantilever::Cantilever::peer_benchmark([1, 1, 1]);
     let constraints = problem.constraints(mesh).unwrap();
-    tetfem::dynamics::LinearSystem::new(
+    tetfem::analysis::dynamics::LinearSystem::new(
         mesh,
         &problem.material,
         &constraints,
         &Loads::new(mesh),
         Vector3::zeros(),
         mass,
-        tetfem::dynamics::Rayleigh::default(),
+        tetfem::analysis::dynamics::Rayleigh::default(),
     )
     .unwrap()
 }
@@ -445,7 +445,7 @@ fn quadratic_tets_remove_the_bending_lock_from_the_first_frequency() {
     // The first bending frequency of the L/h = 10 cantilever: P2 on 10×1×1 cells is within
     // 2 % of P2 on 40×4×4 (converged to about 0.05 %, as its static tip), P1 on the same coarse
     // mesh is locked stiff, its frequency far above.
-    use tetfem::dynamics::MassKind;
+    use tetfem::analysis::dynamics::MassKind;
     let first = |cells: [usize; 3], quadratic: bool| {
         let linear = tetfem_fixtures::cantilever::Cantilever::peer_benchmark(cells)
             .mesh()
@@ -458,7 +458,7 @@ fn quadratic_tets_remove_the_bending_lock_from_the_first_frequency() {
         } else {
             cantilever_system(&linear, MassKind::Consistent)
         };
-        tetfem::modal::lowest_modes(&system, 1)
+        tetfem::analysis::modal::lowest_modes(&system, 1)
             .unwrap()
             .frequencies()[0]
     };
@@ -479,14 +479,14 @@ fn newmark_on_quadratic_tets_conserves_energy() {
     // Average acceleration conserves the discrete energy ½vᵀMv + ½uᵀKu exactly for a linear
     // system, whatever the mass matrix (HRZ-lumped or consistent): only the round-off of 200
     // solves remains.
-    use tetfem::dynamics::{MassKind, Method, State};
+    use tetfem::analysis::dynamics::{MassKind, Method, State};
     let linear = tetfem_fixtures::cantilever::Cantilever::peer_benchmark([8, 1, 1])
         .mesh()
         .unwrap();
     let mesh = TetMesh::<Tet10>::from_linear(&linear).unwrap();
     for mass in [MassKind::Lumped, MassKind::Consistent] {
         let system = std::sync::Arc::new(cantilever_system(&mesh, mass));
-        let modes = tetfem::modal::lowest_modes(&system, 1).unwrap();
+        let modes = tetfem::analysis::modal::lowest_modes(&system, 1).unwrap();
         let period = 2.0 * std::f64::consts::PI / modes.omega[0];
         let mut state = State::released_from(modes.shapes[0].clone());
         let mut integrator = Method::Newmark

@@ -3,7 +3,7 @@
 //! linear tet's own bound and against the assembled system's step.
 
 use nalgebra::{DMatrix, Vector3};
-use tetfem::dynamics::{
+use tetfem::analysis::dynamics::{
     LinearSystem, Mass, MassKind, Rayleigh, critical_time_step, element_step_bound_of,
     element_step_bound_of_type,
 };

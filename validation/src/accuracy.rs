@@ -10,7 +10,7 @@
 
 use std::time::Instant;
 
-use tetfem::element::ElementType;
+use tetfem::fe::element::ElementType;
 use tetfem::{Result, Tet10, TetMesh, solve_static};
 use tetfem_fixtures::cantilever::Cantilever;
 

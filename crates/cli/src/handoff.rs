@@ -11,7 +11,7 @@
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-use tetfem::error::{Error, Result};
+use tetfem::base::error::{Error, Result};
 
 /// The environment variable that names the `tetfem-petsc` binary to use (default: the one
 /// beside the running `tetfem`, else the first on `PATH`).

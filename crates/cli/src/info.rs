@@ -6,13 +6,13 @@ use std::fmt;
 use std::path::Path;
 
 use crate::scene::{Scene, SceneElement};
-use tetfem::dynamics::ElementStepBound;
-use tetfem::element::Tet10;
-use tetfem::error::Result;
-use tetfem::material::Material;
+use tetfem::analysis::dynamics::ElementStepBound;
+use tetfem::base::error::Result;
+use tetfem::fe::element::Tet10;
+use tetfem::fe::material::Material;
+use tetfem::fe::quality::MeshStatistics;
 use tetfem::mesh::io::{ImportedMesh, MeshFile};
 use tetfem::mesh::{Tet4, TetMesh};
-use tetfem::quality::MeshStatistics;
 
 /// One physical group or marker set of the file.
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
@@ -54,7 +54,7 @@ pub struct MeshInfo {
     pub material: Option<(f64, f64, f64)>,
     /// The explicit critical step, when a material is known.
     pub critical_step: Option<ElementStepBound>,
-    /// Warnings about the mesh and the material (see [`tetfem::warning`]), as sentences.
+    /// Warnings about the mesh and the material (see [`tetfem::base::warning`]), as sentences.
     pub warnings: Vec<String>,
 }
 

@@ -10,7 +10,7 @@ use std::time::{Duration, Instant};
 
 use clap::{Args, Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
-use tetfem::dynamics::Method;
+use tetfem::analysis::dynamics::Method;
 use tetfem::{Error, Material};
 use tetfem_cli::handoff::PetscHandoff;
 use tetfem_cli::info::mesh_info;
@@ -283,7 +283,7 @@ fn install_signal_handler() {
     let installed = ctrlc::set_handler(|| {
         let first = !INTERRUPTED.swap(true, Ordering::SeqCst);
         if !(first && STOP_AT_STEP.load(Ordering::SeqCst)) {
-            tetfem::output::remove_held_lock_files();
+            tetfem::post::output::remove_held_lock_files();
             eprintln!(
                 "tetfem: interrupted outside the time stepping (or a second signal): stopped at once"
             );

@@ -21,8 +21,8 @@ use std::path::{Path, PathBuf};
 use std::str::FromStr;
 use std::time::Instant;
 
-use tetfem::dynamics::{MassKind, Method};
-use tetfem::materials::TetMaterials;
+use tetfem::analysis::dynamics::{MassKind, Method};
+use tetfem::fe::materials::TetMaterials;
 use tetfem_scene::{
     Analysis, BuiltScene, DynamicSummary, Scene, SolvePhases, StaticSolve, estimated_error_of,
     static_frame_arrays, write_static_probe_csv,
@@ -369,7 +369,7 @@ fn set_up<'p>(petsc: &'p Petsc, scene: &Scene) -> Result<(SetUp<'p>, Vector<'p>)
             ));
         }
         let dofs = tetfem::DofMap::new(&built.constraints);
-        tetfem::constraints::ensure_held(&built.mesh, &built.mesh.face_topology()?, &dofs)?;
+        tetfem::bc::constraints::ensure_held(&built.mesh, &built.mesh.face_topology()?, &dofs)?;
         Ok(built)
     }))?;
     let mesh = &built.mesh;
@@ -783,9 +783,11 @@ fn report_dynamic<'p>(
         let clock = Instant::now();
         let (estimate, _) = estimated_error_of(&built.mesh, &built.materials, &u)?;
         let estimate_seconds = clock.elapsed().as_secs_f64();
-        let deformation = tetfem::adequacy::rotation::largest_rotation_and_strain(&built.mesh, &u)?;
+        let deformation =
+            tetfem::post::adequacy::rotation::largest_rotation_and_strain(&built.mesh, &u)?;
         let critical =
-            tetfem::dynamics::element_step_bound_of(&built.mesh, &built.materials)?.dt_element;
+            tetfem::analysis::dynamics::element_step_bound_of(&built.mesh, &built.materials)?
+                .dt_element;
         let (dt, steps, seconds) = (settings.dt, settings.steps(), set.seconds);
         if !files.is_empty() {
             files.push(summary_path(scene));

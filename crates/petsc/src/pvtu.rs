@@ -11,7 +11,7 @@
 //!
 //! Each piece carries the arrays of the in-process run's `.vtu` for that analysis (a
 //! [`FrameArrays`] of the whole mesh restricted to the piece: `displacement`, the stresses, von
-//! Mises, principal stresses, `material_id`…, see [`tetfem::output`]'s frame docs), plus point
+//! Mises, principal stresses, `material_id`…, see [`tetfem::post::output`]'s frame docs), plus point
 //! data `node` (`Int64`: the node's index in the mesh, to match pieces with the whole) and cell
 //! data `rank` and `tet` (`Int64`: the tet's index in the mesh). Nodes on a boundary between
 //! pieces appear in each piece that uses them (with equal values: nodal fields are the whole
@@ -21,7 +21,7 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 use tetfem::TetMesh;
-use tetfem::output::{FrameArrays, VtuFormat};
+use tetfem::post::output::{FrameArrays, VtuFormat};
 
 use crate::error::{Error, Result};
 

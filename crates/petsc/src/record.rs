@@ -5,10 +5,10 @@
 use std::path::PathBuf;
 
 use tetfem::TetMesh;
-use tetfem::dynamics::InternalForce;
-use tetfem::materials::TetMaterials;
-use tetfem::output::fields::symmetric_components;
-use tetfem::output::{CsvSeries, CsvValue, FrameArrays, FrameExtras, OriginalIds, VtuFormat};
+use tetfem::analysis::dynamics::InternalForce;
+use tetfem::fe::materials::TetMaterials;
+use tetfem::post::output::fields::symmetric_components;
+use tetfem::post::output::{CsvSeries, CsvValue, FrameArrays, FrameExtras, OriginalIds, VtuFormat};
 use tetfem_scene::{
     BuiltScene, EnergyTerms, Probe, ProbeRange, ReactionRow, dynamic_csv_columns,
     dynamic_frame_arrays, reaction_columns, reaction_rows,
@@ -547,7 +547,8 @@ impl<'a> Recorder<'a> {
             dynamic_frame_arrays(
                 &built.mesh,
                 &built.materials,
-                &InternalForce::Linear,
+                // The engine runs the linear model only (its set-up refuses the others).
+                &InternalForce::default(),
                 &u,
                 extras,
             )

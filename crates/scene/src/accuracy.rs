@@ -19,10 +19,10 @@ use toml::Spanned;
 
 use super::run::{RunOptions, RunSummary, run_static_on};
 use super::{MeshSpec, Scene};
-use tetfem::element::Tet10;
-use tetfem::error::Result;
+use tetfem::base::error::Result;
+use tetfem::fe::element::Tet10;
 use tetfem::mesh::Tet4;
-use tetfem::output::{OutputLock, write_atomically};
+use tetfem::post::output::{OutputLock, write_atomically};
 
 /// The cost exponent γ in t ∝ N^γ taken before two solves of one order measure it: a sparse
 /// Cholesky factorization of a 3-D mesh costs O(N²) flops by nested dissection, and the

@@ -10,21 +10,21 @@ use std::collections::HashMap;
 use nalgebra::Matrix3;
 
 use super::{AmplitudeRef, AmplitudeSpec, MeshSpec, RegionSelector, Scene, Selector, SplitSpec};
-use tetfem::amplitude::{Amplitude, STATIC_TIME};
-use tetfem::boundary_motion::{BoundaryMotion, Motion, RigidMotion};
-use tetfem::constraints::Constraints;
-use tetfem::dynamics::TimeData;
-use tetfem::element::ElementType;
-use tetfem::error::{Error, Result};
-use tetfem::loads::Loads;
-use tetfem::material::Material;
-use tetfem::materials::{MaterialAssignment, MaterialMap, attribute_tets, volume_group_tets};
+use tetfem::analysis::dynamics::TimeData;
+use tetfem::base::error::{Error, Result};
+use tetfem::base::warning::Warning;
+use tetfem::bc::amplitude::{Amplitude, STATIC_TIME};
+use tetfem::bc::boundary_motion::{BoundaryMotion, Motion, RigidMotion};
+use tetfem::bc::constraints::Constraints;
+use tetfem::bc::loads::Loads;
+use tetfem::fe::element::ElementType;
+use tetfem::fe::material::Material;
+use tetfem::fe::materials::{MaterialAssignment, MaterialMap, attribute_tets, volume_group_tets};
 use tetfem::mesh::io::{ImportedMesh, TET10_KEPT_AS_CORNERS, read_gmsh_as, read_tetgen_as};
 use tetfem::mesh::{BoundaryFace, BoxSplit, CellType, Tet4, TetMesh};
-use tetfem::warning::Warning;
 
 use super::SceneElement;
-use tetfem::output::PointLocation;
+use tetfem::post::output::PointLocation;
 
 /// The CSV column stems of a point probe's stress, in the `.vtu`'s tensor order.
 pub(crate) const STRESS_COLUMNS: [&str; 6] = ["sxx", "syy", "szz", "sxy", "syz", "sxz"];
@@ -108,7 +108,7 @@ pub struct BuiltScene<C: CellType = Tet4> {
     /// The loads, as one nodal force vector (gravity included).
     pub loads: Loads,
     /// The loads other than gravity (what a dynamic run passes to
-    /// [`LinearSystem::new`](tetfem::dynamics::LinearSystem::new), which tracks gravity apart).
+    /// [`LinearSystem::new`](tetfem::analysis::dynamics::LinearSystem::new), which tracks gravity apart).
     pub other_loads: Loads,
     /// The sum of the scene's gravity entries (acceleration, m/s² in SI).
     pub gravity: Vector3<f64>,
@@ -116,21 +116,21 @@ pub struct BuiltScene<C: CellType = Tet4> {
     pub probes: Vec<Probe>,
     /// Warnings about the constraints and the loads (a load on constrained DOFs only, no free
     /// DOF), found while building.
-    pub input_warnings: Vec<tetfem::warning::Warning>,
+    pub input_warnings: Vec<tetfem::base::warning::Warning>,
     /// What follows time in a dynamic run: the loads with an amplitude (not in `other_loads`
     /// nor `gravity`) and the constraints that move. `constraints` and `loads` hold their
     /// values at the analysis' time: 0 for a dynamic run, [`STATIC_TIME`] otherwise.
     pub time_data: TimeData,
     /// Every `linear_field`, `rigid_motion` and amplitude-scaled `displacement` constraint,
     /// constant or not: what the load steps of a nonlinear static solve follow
-    /// ([`solve_nonlinear_static_with_motion`](tetfem::nonlinear::solve_nonlinear_static_with_motion)).
+    /// ([`solve_nonlinear_static_with_motion`](tetfem::analysis::nonlinear::solve_nonlinear_static_with_motion)).
     pub motions: BoundaryMotion,
 }
 
 impl<C: CellType> BuiltScene<C> {
     /// The mesh's, the material's, the constraints' and the loads' warnings (see
-    /// [`tetfem::warning`]).
-    pub fn warnings(&self) -> Vec<tetfem::warning::Warning> {
+    /// [`tetfem::base::warning`]).
+    pub fn warnings(&self) -> Vec<tetfem::base::warning::Warning> {
         let mut warnings = self.mesh.warnings();
         warnings.extend(self.materials.warnings());
         warnings.extend(self.input_warnings.iter().cloned());
@@ -287,7 +287,7 @@ impl Scene {
                     self.analysis(),
                     super::Analysis::Dynamic(_) | super::Analysis::Modal(_)
                 );
-                tetfem::memory::check_box_run(
+                tetfem::base::memory::check_box_run(
                     b.cells,
                     split.tets_per_cell(),
                     E::NODES,
@@ -399,7 +399,7 @@ impl Scene {
             constraint_dofs.push(dofs);
         }
         if constraints.count() == mesh.dof_count() {
-            input_warnings.push(tetfem::warning::Warning::NoFreeDofs {
+            input_warnings.push(tetfem::base::warning::Warning::NoFreeDofs {
                 dofs: mesh.dof_count(),
             });
         }
@@ -959,19 +959,19 @@ impl Scene {
     }
 }
 
-/// [`Warning::LoadOnFixedDofs`](tetfem::warning::Warning::LoadOnFixedDofs) if the load that
+/// [`Warning::LoadOnFixedDofs`](tetfem::base::warning::Warning::LoadOnFixedDofs) if the load that
 /// turned the force vector `before` into `after` is non-zero only on constrained DOFs.
 fn on_fixed_dofs_only(
     key: &str,
     before: &[f64],
     after: &[f64],
     constraints: &Constraints,
-) -> Option<tetfem::warning::Warning> {
+) -> Option<tetfem::base::warning::Warning> {
     let loaded: Vec<usize> = (0..after.len())
         .filter(|&d| after[d] != before[d])
         .collect();
     let all_fixed = loaded.iter().all(|&d| constraints.get(d).is_some());
-    (!loaded.is_empty() && all_fixed).then(|| tetfem::warning::Warning::LoadOnFixedDofs {
+    (!loaded.is_empty() && all_fixed).then(|| tetfem::base::warning::Warning::LoadOnFixedDofs {
         load: key.to_string(),
         dofs: loaded.len(),
     })

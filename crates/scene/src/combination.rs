@@ -4,8 +4,8 @@
 //! line of the pair the library refuses.
 
 use tetfem::analysis::{self, Combination};
-use tetfem::error::{Error, Result};
-use tetfem::warning::Warning;
+use tetfem::base::error::{Error, Result};
+use tetfem::base::warning::Warning;
 
 use super::{Analysis, Scene};
 

@@ -1,12 +1,12 @@
 //! The explicit critical step of a static or modal scene, for its summary.
 
 use super::BuiltScene;
-use tetfem::dynamics::{LinearSystem, MassKind, Rayleigh, critical_time_step};
-use tetfem::error::Result;
+use tetfem::analysis::dynamics::{LinearSystem, MassKind, Rayleigh, critical_time_step};
+use tetfem::base::error::Result;
 
 /// The explicit critical step of a scene's body: the largest stable step of the explicit
 /// method with a lumped mass, 2/ω_max, proven from above (see
-/// [`tetfem::dynamics::critical_time_step`]).
+/// [`tetfem::analysis::dynamics::critical_time_step`]).
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
 pub struct CriticalStepReport {
     /// The step (s).
@@ -18,7 +18,7 @@ pub struct CriticalStepReport {
 
 /// [`CriticalStepReport`] of a built scene: its linear system with a lumped mass (the
 /// scene's loads do not enter).
-pub fn critical_step_of<C: tetfem::element::ElementType>(
+pub fn critical_step_of<C: tetfem::fe::element::ElementType>(
     built: &BuiltScene<C>,
 ) -> Result<CriticalStepReport> {
     let system = LinearSystem::new(

@@ -8,9 +8,9 @@ use std::sync::Arc;
 use std::time::Instant;
 
 use nalgebra::Vector3;
+use tetfem::analysis::dynamics::{InternalForce, LinearSystem, NonlinearForce, Rayleigh, State};
+use tetfem::base::error::Result;
 use tetfem::contact::Contact;
-use tetfem::dynamics::{InternalForce, LinearSystem, NonlinearForce, Rayleigh, State};
-use tetfem::error::Result;
 
 use super::{BuiltScene, DynamicSettings, DynamicSetup, Scene, SceneElement};
 
@@ -106,7 +106,7 @@ pub(super) fn csv_values(
 /// (the obstacles placed there), or `None` without contact: the barrier's normal force
 /// Σᵢ κ·Aᵢ·b′(dᵢ)·∇dᵢ over the boundary nodes ([`Contact::obstacle_forces`]) plus, with
 /// friction, the friction force of the step that reached `u`
-/// ([`NonlinearForce::friction_forces`](tetfem::dynamics::NonlinearForce::friction_forces);
+/// ([`NonlinearForce::friction_forces`](tetfem::analysis::dynamics::NonlinearForce::friction_forces);
 /// none at the initial state).
 pub(super) fn obstacle_forces(
     force: &InternalForce,

@@ -2,16 +2,18 @@
 //! becomes a mesh of it, and its explicit critical-step bound. Implemented for the 4-node tet
 //! (order 1) and the 10-node tet (order 2).
 
-use tetfem::dynamics::{ElementStepBound, element_step_bound_of, element_step_bound_of_type};
-use tetfem::element::{ElementType, Tet10};
-use tetfem::error::Result;
-use tetfem::materials::TetMaterials;
+use tetfem::analysis::dynamics::{
+    ElementStepBound, element_step_bound_of, element_step_bound_of_type,
+};
+use tetfem::base::error::Result;
+use tetfem::fe::element::{ElementType, Tet10};
+use tetfem::fe::materials::TetMaterials;
 use tetfem::mesh::{Tet4, TetMesh};
 
 /// An element type a scene can run on (see the [module](self) docs); pointwise evaluation
 /// (`PointwiseElement`) for the self-estimated error and the rotation check of every run.
 pub trait SceneElement:
-    ElementType + tetfem::estimate::PointwiseElement + tetfem::model::ModelElement
+    ElementType + tetfem::post::estimate::PointwiseElement + tetfem::model::ModelElement
 {
     /// The scene's `mesh.order` for this element (1 or 2).
     const ORDER: usize;

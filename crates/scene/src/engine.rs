@@ -8,7 +8,7 @@ use serde::Deserialize;
 use toml::Spanned;
 
 use super::Scene;
-use tetfem::error::Result;
+use tetfem::base::error::Result;
 
 /// `engine = …`: what solves the scene.
 #[derive(Debug, Clone, Copy, Default, Deserialize, PartialEq, Eq, serde::Serialize)]

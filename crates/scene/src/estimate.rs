@@ -1,9 +1,9 @@
 //! The run's self-estimated discretization error, for the summaries and the `.vtu` files.
 
-use tetfem::error::Result;
-use tetfem::estimate::{PointwiseElement, estimate_error};
-use tetfem::materials::TetMaterials;
+use tetfem::base::error::Result;
+use tetfem::fe::materials::TetMaterials;
 use tetfem::mesh::TetMesh;
+use tetfem::post::estimate::{PointwiseElement, estimate_error};
 
 /// What `estimated_error` in a summary means, written into the summary itself.
 pub const ESTIMATED_ERROR_DEFINITION: &str = "ZZ estimate (patch-recovered stress) of the \
@@ -11,7 +11,7 @@ pub const ESTIMATED_ERROR_DEFINITION: &str = "ZZ estimate (patch-recovered stres
     tets of the integral of (s* - s_h):C^-1:(s* - s_h), the .vtu cell field error_indicator is \
     each tet's eta_K (J^1/2)";
 
-/// The ZZ error estimate of one displacement (see [`tetfem::estimate`]).
+/// The ZZ error estimate of one displacement (see [`tetfem::post::estimate`]).
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
 pub struct EstimatedError {
     /// η / (‖u_h‖_E² + η²)^½: the estimated relative error in the energy norm (dimensionless).

@@ -63,8 +63,8 @@ use std::ops::Range;
 use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex};
 
-use tetfem::dynamics::StepNewtonOptions;
-use tetfem::error::{Error, Result, short_number};
+use tetfem::analysis::dynamics::StepNewtonOptions;
+use tetfem::base::error::{Error, Result, short_number};
 use tetfem::mesh::io::MeshFile;
 
 /// Every key a scene may hold, with its default. Paths written in a scene are relative to the
@@ -345,7 +345,7 @@ pub struct Scene {
     analysis: Analysis,
     model: tetfem::model::ModelKind,
     /// A static run's Newton settings (`load_steps`, `newton_tolerance`), checked.
-    static_newton: tetfem::nonlinear::NewtonOptions,
+    static_newton: tetfem::analysis::nonlinear::NewtonOptions,
     order: usize,
     accuracy: Option<AccuracyTarget>,
     output: OutputSettings,
@@ -371,7 +371,7 @@ impl std::str::FromStr for Scene {
 impl Scene {
     /// Reads and parses a scene file; relative paths in it are taken from its folder.
     pub fn load(path: &Path) -> Result<Scene> {
-        let text = tetfem::input_file::read_regular_text(path, "a scene file")?;
+        let text = tetfem::base::input_file::read_regular_text(path, "a scene file")?;
         let base = path.parent().unwrap_or(Path::new("."));
         let mut scene = Scene::parse(&text, &path.display().to_string(), base)?;
         if let Some(stem) = path.file_stem() {
@@ -416,7 +416,7 @@ impl Scene {
             stem: "scene".to_string(),
             analysis: Analysis::Static,
             model: tetfem::model::ModelKind::default(),
-            static_newton: tetfem::nonlinear::NewtonOptions::default(),
+            static_newton: tetfem::analysis::nonlinear::NewtonOptions::default(),
             order: 1,
             accuracy: None,
             output: OutputSettings {
@@ -452,10 +452,10 @@ impl Scene {
     /// How the scene's run solves, for the memory check: explicit steps factor nothing, a
     /// modal run factors K, and the others follow `analysis.linear_solver` (auto counts as
     /// iterative: it factors only what fits beside the dense kernels' buffers).
-    pub fn run_path(&self) -> tetfem::memory::RunPath {
-        use tetfem::memory::RunPath;
+    pub fn run_path(&self) -> tetfem::base::memory::RunPath {
+        use tetfem::base::memory::RunPath;
         match &self.analysis {
-            Analysis::Dynamic(d) if d.method == tetfem::dynamics::Method::Explicit => {
+            Analysis::Dynamic(d) if d.method == tetfem::analysis::dynamics::Method::Explicit => {
                 RunPath::Explicit
             }
             Analysis::Modal(_) => RunPath::Direct,
@@ -502,17 +502,17 @@ impl Scene {
     }
 
     /// A static run's Newton settings: `analysis.load_steps` and `analysis.newton_tolerance`
-    /// over [`NewtonOptions::default`](tetfem::nonlinear::NewtonOptions::default) (used with a
+    /// over [`NewtonOptions::default`](tetfem::analysis::nonlinear::NewtonOptions::default) (used with a
     /// nonlinear model or obstacles).
-    pub fn static_newton(&self) -> tetfem::nonlinear::NewtonOptions {
+    pub fn static_newton(&self) -> tetfem::analysis::nonlinear::NewtonOptions {
         self.static_newton
     }
 
     /// The static Newton keys, checked: only a static run that Newton solves (a nonlinear model
     /// or obstacles) takes them; `load_steps` in 1..=[`MAX_LOAD_STEPS`], `newton_tolerance` in
     /// (0, 1).
-    fn check_static_newton(&self) -> Result<tetfem::nonlinear::NewtonOptions> {
-        let mut options = tetfem::nonlinear::NewtonOptions::default();
+    fn check_static_newton(&self) -> Result<tetfem::analysis::nonlinear::NewtonOptions> {
+        let mut options = tetfem::analysis::nonlinear::NewtonOptions::default();
         let Some(spanned) = &self.spec.analysis else {
             return Ok(options);
         };

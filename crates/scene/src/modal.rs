@@ -6,11 +6,11 @@ use std::time::Instant;
 
 use super::{Analysis, ModalSettings, Scene, SceneElement};
 use tetfem::analysis::Modal;
-use tetfem::dynamics::LinearSystem;
-use tetfem::element::{ElementType, Tet10};
-use tetfem::error::{Error, Result};
+use tetfem::analysis::dynamics::LinearSystem;
+use tetfem::base::error::{Error, Result};
+use tetfem::fe::element::{ElementType, Tet10};
 use tetfem::mesh::Tet4;
-use tetfem::output::{OutputLock, PvdCollection, VtuWriter, write_atomically};
+use tetfem::post::output::{OutputLock, PvdCollection, VtuWriter, write_atomically};
 
 /// One mode of a modal run.
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
@@ -24,10 +24,10 @@ pub struct ModeRow {
     /// Angular frequency ω (rad/s).
     pub omega_rad_per_s: f64,
     /// Effective modal mass fraction in x, y, z (dimensionless, see
-    /// [`tetfem::modal::effective_mass_fractions`]).
+    /// [`tetfem::analysis::modal::effective_mass_fractions`]).
     pub effective_mass_fraction: [f64; 3],
     /// The eigen-residual the mode was converged to (dimensionless, see
-    /// [`tetfem::modal::Modes::residuals`]).
+    /// [`tetfem::analysis::modal::Modes::residuals`]).
     pub residual: f64,
 }
 
@@ -236,7 +236,7 @@ fn write_modal_outputs<E: ElementType>(
     mesh: &tetfem::TetMesh<E>,
     imported: Option<&tetfem::mesh::io::ImportedMesh<E>>,
     system: &LinearSystem,
-    modes: &tetfem::modal::Modes,
+    modes: &tetfem::analysis::modal::Modes,
     summary: &ModalSummary,
 ) -> Result<Vec<PathBuf>> {
     let out = scene.output();

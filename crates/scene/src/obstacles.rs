@@ -3,8 +3,8 @@
 
 use nalgebra::{Rotation3, Vector3};
 use tetfem::TetMesh;
+use tetfem::base::error::Result;
 use tetfem::contact::{Contact, ContactParameters, Obstacle, ObstacleMotion};
-use tetfem::error::Result;
 use tetfem::mesh::CellType;
 
 use super::{AnalysisKind, ObstacleKind, Scene};
@@ -241,7 +241,7 @@ impl Scene {
         o: &super::spec::ObstacleSpec,
         span: &std::ops::Range<usize>,
         kind: AnalysisKind,
-        named: &std::collections::HashMap<String, tetfem::amplitude::Amplitude>,
+        named: &std::collections::HashMap<String, tetfem::bc::amplitude::Amplitude>,
     ) -> Result<Option<ObstacleMotion>> {
         let key = |field: &str| format!("obstacles[{i}].{field}");
         let err = |field: &str, msg: String| self.error(&key(field), span, msg);
@@ -282,7 +282,7 @@ impl Scene {
             (None, Some(d), None) if kind == AnalysisKind::Static => ObstacleMotion::Amplitude {
                 displacement: finite("displacement", d)?,
                 // The whole displacement at the pseudo-time t = 1, the last load step.
-                amplitude: tetfem::amplitude::Amplitude::ramp(0.0, 1.0)
+                amplitude: tetfem::bc::amplitude::Amplitude::ramp(0.0, 1.0)
                     .map_err(|e| err("displacement", e.to_string()))?,
             },
             (None, Some(_), None) => {

@@ -5,7 +5,7 @@ use std::path::{Path, PathBuf};
 
 use crate::render::{Field, ObstacleView, RenderOptions, auto_deformation_scale, render};
 use crate::{PngField, Scene};
-use tetfem::error::Result;
+use tetfem::base::error::Result;
 use tetfem::mesh::{CellType, TetMesh};
 
 /// A magnification as the frames' subtitles print it: whole above 100, else up to three
@@ -74,7 +74,7 @@ pub(crate) fn static_picture<C: CellType>(
             obstacles: scene
                 .obstacles
                 .iter()
-                .map(|o| ObstacleView::at(o, tetfem::amplitude::STATIC_TIME))
+                .map(|o| ObstacleView::at(o, tetfem::bc::amplitude::STATIC_TIME))
                 .collect(),
             ..RenderOptions::default()
         },

@@ -9,7 +9,7 @@
 use std::path::{Path, PathBuf};
 
 use crate::Scene;
-use tetfem::error::{Error, Result};
+use tetfem::base::error::{Error, Result};
 use tetfem::mesh::{CellType, TetMesh};
 
 pub(crate) fn no_png() -> Error {

@@ -6,8 +6,8 @@
 use nalgebra::Vector3;
 
 use super::{BuiltScene, ReactionRow};
-use tetfem::dynamics::{InternalForce, LinearSystem, State, SupportReactions};
-use tetfem::error::Result;
+use tetfem::analysis::dynamics::{InternalForce, LinearSystem, State, SupportReactions};
+use tetfem::base::error::Result;
 use tetfem::mesh::CellType;
 
 /// One support: its name in the summary, its DOFs and the point its moment is about (m).
@@ -38,7 +38,7 @@ impl DynamicReactions {
     /// The reactions of a scene's dynamic system (built from `built` as
     /// [`DynamicSetup::from_scene`](super::DynamicSetup::from_scene) does): one set per
     /// `[[constraints]]` entry (`constraints[i]`), moments about each entry's `moment_about`.
-    pub fn of_scene<C: tetfem::element::ElementType>(
+    pub fn of_scene<C: tetfem::fe::element::ElementType>(
         built: &BuiltScene<C>,
         system: &LinearSystem,
     ) -> Result<Self> {
@@ -103,8 +103,9 @@ impl DynamicReactions {
             .sets
             .iter()
             .map(|set| {
-                let (force, moment) =
-                    tetfem::statics::reaction_resultant(mesh, &nodal, &set.dofs, set.point)?;
+                let (force, moment) = tetfem::analysis::statics::reaction_resultant(
+                    mesh, &nodal, &set.dofs, set.point,
+                )?;
                 Ok(ReactionRow {
                     constraint: set.name.clone(),
                     force_n: force.into(),

@@ -13,9 +13,9 @@ use std::path::Path;
 use ab_glyph::{Font, FontRef, PxScale, ScaleFont, point};
 use nalgebra::Vector3;
 
-use tetfem::error::{Error, Result};
+use tetfem::base::error::{Error, Result};
 use tetfem::mesh::{BoundaryFace, CellType, TetMesh};
-use tetfem::output::write_atomically;
+use tetfem::post::output::write_atomically;
 
 pub use obstacles::{
     FRONT_ALPHA, GROUND_DEPTH, GROUND_MARGIN, OBSTACLE_CUT, OBSTACLE_EDGE, OBSTACLE_FILL,

@@ -18,8 +18,8 @@ use std::collections::BTreeMap;
 use std::ops::Range;
 use std::path::{Path, PathBuf};
 
-use tetfem::dynamics::{Checkpoint, Integrator, State, fingerprint_hash};
-use tetfem::error::{Error, Result};
+use tetfem::analysis::dynamics::{Checkpoint, Integrator, State, fingerprint_hash};
+use tetfem::base::error::{Error, Result};
 use tetfem::mesh::{CellType, TetMesh};
 
 use super::{OutputSettings, Scene};
@@ -93,7 +93,7 @@ impl Restart {
     /// step and its time, t₀ + (steps − steps₀)·dt as the run writes it. A checkpoint whose
     /// step count was shifted would otherwise resume a trajectory shifted in time. Errors name
     /// the file, the field, its value and what was expected. Nothing to check on a fresh run;
-    /// a CSV without the row is left to [`CsvSeries::reopen`](tetfem::output::CsvSeries::reopen)
+    /// a CSV without the row is left to [`CsvSeries::reopen`](tetfem::post::output::CsvSeries::reopen)
     /// to refuse.
     pub(crate) fn check_clock(
         &self,
@@ -117,7 +117,7 @@ impl Restart {
         let steps = checkpoint.state.steps;
         let time = start_time + (steps - start_steps) as f64 * checkpoint.dt;
         // A FIFO or a link to /dev/zero in the CSV's place would block or read without end.
-        let text = tetfem::input_file::read_regular_text(csv, "a CSV time series")?;
+        let text = tetfem::base::input_file::read_regular_text(csv, "a CSV time series")?;
         // Line 1 is the header, the row of step k (counted from the start) line k + 2.
         let Some(row) = text.lines().nth(steps - start_steps + 1) else {
             return Ok(());
@@ -454,7 +454,7 @@ pub(crate) fn truncate_frames(
     time: f64,
     keep_at_time: bool,
     expected: usize,
-) -> Result<tetfem::output::PvdCollection> {
+) -> Result<tetfem::post::output::PvdCollection> {
     let refuse = |path: &Path, what: String| Error::Parse {
         path: path.to_path_buf(),
         line: 1,
@@ -464,14 +464,14 @@ pub(crate) fn truncate_frames(
     };
     if !pvd_path.exists() {
         return match expected {
-            0 => Ok(tetfem::output::PvdCollection::new(pvd_path)),
+            0 => Ok(tetfem::post::output::PvdCollection::new(pvd_path)),
             n => Err(refuse(
                 pvd_path,
                 format!("the collection is missing; the run wrote {n} frames up to its checkpoint"),
             )),
         };
     }
-    let mut pvd = tetfem::output::PvdCollection::read(pvd_path)?;
+    let mut pvd = tetfem::post::output::PvdCollection::read(pvd_path)?;
     let dir = pvd_path.parent().unwrap_or(Path::new("")).to_path_buf();
     let dropped = pvd.retain(|t, _| t < time || (t == time && keep_at_time));
     if pvd.frames().len() != expected {

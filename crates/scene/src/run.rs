@@ -6,10 +6,10 @@ use std::time::Instant;
 use super::{BuiltScene, Scene, SceneElement};
 use crate::png_frames::{StaticLook, static_picture};
 use tetfem::analysis::{Static, StaticOptions, StaticOutcome};
-use tetfem::error::Result;
+use tetfem::base::error::Result;
 use tetfem::model::ModelMap;
-use tetfem::output::fields::{cell_model_von_mises, displacement_magnitude};
-use tetfem::output::{
+use tetfem::post::output::fields::{cell_model_von_mises, displacement_magnitude};
+use tetfem::post::output::{
     CsvSeries, OriginalIds, OutputLock, PvdCollection, model_result_frame_arrays,
     result_frame_arrays, write_atomically,
 };
@@ -52,7 +52,7 @@ pub struct ReactionRow {
 }
 
 /// Wall time (s) of each phase of a linear static solve, from
-/// [`StaticTimings`](tetfem::statics::StaticTimings).
+/// [`StaticTimings`](tetfem::analysis::statics::StaticTimings).
 #[derive(Debug, Clone, Copy, PartialEq, Default, serde::Serialize)]
 pub struct SolvePhases {
     /// Pattern and scatter map.
@@ -69,8 +69,8 @@ pub struct SolvePhases {
     pub solve: f64,
 }
 
-impl From<tetfem::statics::StaticTimings> for SolvePhases {
-    fn from(t: tetfem::statics::StaticTimings) -> Self {
+impl From<tetfem::analysis::statics::StaticTimings> for SolvePhases {
+    fn from(t: tetfem::analysis::statics::StaticTimings) -> Self {
         SolvePhases {
             pattern: t.pattern.as_secs_f64(),
             assembly: t.assembly.as_secs_f64(),
@@ -137,14 +137,14 @@ pub struct RunSummary {
     pub factor_len: usize,
     /// Files written.
     pub files: Vec<PathBuf>,
-    /// Warnings about the mesh and the material (see [`tetfem::warning`]), as sentences.
+    /// Warnings about the mesh and the material (see [`tetfem::base::warning`]), as sentences.
     pub warnings: Vec<String>,
     /// The self-estimated relative energy-norm error of the solution (linear model; `None` for
     /// the nonlinear ones), with its definition.
     pub estimated_error: Option<super::EstimatedError>,
     /// The linear solution's largest element rotation and strain (`None` for the nonlinear
     /// models); past the measured threshold a warning names the model to use.
-    pub deformation: Option<tetfem::adequacy::rotation::Deformation>,
+    pub deformation: Option<tetfem::post::adequacy::rotation::Deformation>,
     /// With `[analysis] accuracy`: the meshes tried, the order and cells chosen and why, the
     /// estimate reached and whether it meets the target (else `None`).
     pub accuracy: Option<super::AccuracyReport>,
@@ -239,7 +239,7 @@ pub(super) fn run_static_on<E: SceneElement>(
             u,
             contact_fields
                 .as_ref()
-                .map(|(gap, pressure)| tetfem::output::ContactFields { gap, pressure }),
+                .map(|(gap, pressure)| tetfem::post::output::ContactFields { gap, pressure }),
             Some(&solved.reactions),
             indicators.as_deref(),
             &von_mises,
@@ -282,7 +282,7 @@ pub fn report_static<E: SceneElement>(
     // takes u = x − X back, which costs digits (~1e-11 relative in σ_vM on a steel beam).
     let linear = scene.model().is_linear();
     let von_mises = match linear {
-        true => tetfem::output::fields::cell_von_mises(&built.mesh, &built.materials, u)?,
+        true => tetfem::post::output::fields::cell_von_mises(&built.mesh, &built.materials, u)?,
         false => cell_model_von_mises(&built.mesh, model, u)?,
     };
     let (estimated_error, indicators) = match linear {
@@ -294,10 +294,9 @@ pub fn report_static<E: SceneElement>(
         false => (None, None),
     };
     let deformation = match linear {
-        true => Some(tetfem::adequacy::rotation::largest_rotation_and_strain(
-            &built.mesh,
-            u,
-        )?),
+        true => {
+            Some(tetfem::post::adequacy::rotation::largest_rotation_and_strain(&built.mesh, u)?)
+        }
         false => None,
     };
     let magnitude = displacement_magnitude(u);
@@ -373,8 +372,12 @@ pub fn reaction_rows<E: SceneElement>(
         .enumerate()
         .zip(&built.moment_points)
         .map(|((i, dofs), point)| {
-            let (force, moment) =
-                tetfem::statics::reaction_resultant(&built.mesh, reactions, dofs, *point)?;
+            let (force, moment) = tetfem::analysis::statics::reaction_resultant(
+                &built.mesh,
+                reactions,
+                dofs,
+                *point,
+            )?;
             Ok(ReactionRow {
                 constraint: format!("constraints[{i}]"),
                 force_n: force.into(),
@@ -449,7 +452,7 @@ fn probe_values<E: SceneElement>(
                         true => point.location.stress(&built.mesh, &built.materials, u)?,
                         false => point.location.model_stress(&built.mesh, model, u)?,
                     };
-                    Some(tetfem::output::fields::symmetric_components(&s))
+                    Some(tetfem::post::output::fields::symmetric_components(&s))
                 }
             };
             Ok(ProbeValue {
@@ -467,7 +470,7 @@ fn write_static_outputs<E: SceneElement>(
     built: &BuiltScene<E>,
     model: &ModelMap,
     u: &[f64],
-    contact: Option<tetfem::output::ContactFields<'_>>,
+    contact: Option<tetfem::post::output::ContactFields<'_>>,
     reactions: Option<&[f64]>,
     error_indicator: Option<&[f64]>,
     von_mises: &[f64],
@@ -494,10 +497,10 @@ fn write_static_outputs<E: SceneElement>(
             let vtp = dir.join(format!("{}_obstacles.vtp", out.stem));
             let (center, tile) = super::obstacles::obstacle_tile(&built.mesh);
             let time = match scene.obstacles.iter().any(|o| o.motion().is_some()) {
-                true => tetfem::amplitude::STATIC_TIME,
+                true => tetfem::bc::amplitude::STATIC_TIME,
                 false => 0.0,
             };
-            tetfem::output::write_obstacles_vtp(&vtp, &scene.obstacles, time, center, tile)?;
+            tetfem::post::output::write_obstacles_vtp(&vtp, &scene.obstacles, time, center, tile)?;
             files.push(vtp);
         }
     }
@@ -524,7 +527,7 @@ fn write_static_outputs<E: SceneElement>(
     Ok(files)
 }
 
-/// The arrays of a static result's `.vtu` (see [`tetfem::output::FrameArrays`]): the fields
+/// The arrays of a static result's `.vtu` (see [`tetfem::post::output::FrameArrays`]): the fields
 /// of the model that ran at the displacement `u` (m, every DOF), with the nodal `reactions`
 /// (N), the stress tensors, the error indicators η_K (J^½), the mesh file's ids and, with
 /// contact, its gap and pressure; in the scene's `output.vtu_format`.
@@ -533,11 +536,11 @@ pub fn static_frame_arrays<E: SceneElement>(
     built: &BuiltScene<E>,
     model: &ModelMap,
     u: &[f64],
-    contact: Option<tetfem::output::ContactFields<'_>>,
+    contact: Option<tetfem::post::output::ContactFields<'_>>,
     reactions: Option<&[f64]>,
     error_indicator: Option<&[f64]>,
-) -> Result<tetfem::output::FrameArrays> {
-    let extras = tetfem::output::FrameExtras {
+) -> Result<tetfem::post::output::FrameArrays> {
+    let extras = tetfem::post::output::FrameExtras {
         reactions,
         stress_tensors: true,
         original_ids: built.imported.as_ref().map(OriginalIds::of),

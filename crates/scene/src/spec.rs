@@ -2,8 +2,8 @@
 //! keys. Defaults are listed in [`super::REFERENCE`].
 
 use std::path::PathBuf;
-use tetfem::dynamics::NonlinearSolve;
-pub use tetfem::dynamics::{MassKind, Method};
+use tetfem::analysis::dynamics::NonlinearSolve;
+pub use tetfem::analysis::dynamics::{MassKind, Method};
 pub use tetfem::linalg::linear_solver::LinearMethod;
 
 use serde::Deserialize;
@@ -711,11 +711,10 @@ impl NonlinearSolverName {
     pub fn solve(self) -> NonlinearSolve {
         match self {
             NonlinearSolverName::Auto => NonlinearSolve::Auto,
-            NonlinearSolverName::RestPreconditioned => {
-                NonlinearSolve::Auto.for_problem(tetfem::dynamics::AUTO_REFACTOR_BELOW, true)
-            }
+            NonlinearSolverName::RestPreconditioned => NonlinearSolve::Auto
+                .for_problem(tetfem::analysis::dynamics::AUTO_REFACTOR_BELOW, true),
             NonlinearSolverName::RestLbfgs => NonlinearSolve::RestPreconditionedLbfgs {
-                history: tetfem::dynamics::AUTO_LBFGS_HISTORY,
+                history: tetfem::analysis::dynamics::AUTO_LBFGS_HISTORY,
             },
             NonlinearSolverName::Refactor => NonlinearSolve::Refactor,
         }
@@ -794,19 +793,19 @@ pub struct OutputSpec {
 #[derive(Debug, Clone, Copy, Default, Deserialize, PartialEq, Eq, serde::Serialize)]
 #[serde(rename_all = "snake_case")]
 pub enum VtuEncoding {
-    /// Appended raw binary ([`tetfem::output::VtuFormat::Binary`]).
+    /// Appended raw binary ([`tetfem::post::output::VtuFormat::Binary`]).
     #[default]
     Binary,
-    /// Numbers as text ([`tetfem::output::VtuFormat::Ascii`]).
+    /// Numbers as text ([`tetfem::post::output::VtuFormat::Ascii`]).
     Ascii,
 }
 
 impl VtuEncoding {
     /// The library's format.
-    pub fn format(self) -> tetfem::output::VtuFormat {
+    pub fn format(self) -> tetfem::post::output::VtuFormat {
         match self {
-            VtuEncoding::Binary => tetfem::output::VtuFormat::Binary,
-            VtuEncoding::Ascii => tetfem::output::VtuFormat::Ascii,
+            VtuEncoding::Binary => tetfem::post::output::VtuFormat::Binary,
+            VtuEncoding::Ascii => tetfem::post::output::VtuFormat::Ascii,
         }
     }
 }

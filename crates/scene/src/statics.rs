@@ -1,10 +1,10 @@
 //! The static scene's entry: a scene with `analysis.accuracy` goes to the accuracy search
 //! (`accuracy.rs`, which solves through `run.rs`), any other to one solve (`run.rs`).
 
-use tetfem::element::Tet10;
-use tetfem::error::{Error, Result};
+use tetfem::base::error::{Error, Result};
+use tetfem::fe::element::Tet10;
 use tetfem::mesh::Tet4;
-use tetfem::output::OutputLock;
+use tetfem::post::output::OutputLock;
 
 use super::run::{RunOptions, RunSummary, run_static_on};
 use super::{Analysis, Scene};

@@ -22,8 +22,8 @@ use super::gmsh41_nodes::{Encoding, TagAt, ascii_elements_fault, element_lines, 
 use super::raw::{RawGroup, RawMesh, RawTriangleMids};
 use super::text::{Records, decode, line_of_offset, read_regular_file};
 use super::{ImportedMesh, PhysicalGroup, gmsh22};
-use crate::atomic_file::write_atomically;
-use crate::error::{Error, Result};
+use crate::base::atomic_file::write_atomically;
+use crate::base::error::{Error, Result};
 use crate::mesh::{CellType, Tet4, TetMesh};
 
 /// Gmsh's edge nodes of a 10-node tet (element nodes 4–9) in the raw mesh's VTK edge order:

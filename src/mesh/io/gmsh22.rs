@@ -12,7 +12,7 @@ use nalgebra::Vector3;
 use super::gmsh::tet10_from_gmsh;
 use super::raw::{RawGroup, RawMesh, RawTriangleMids};
 use super::text::{Record, Records};
-use crate::error::Result;
+use crate::base::error::Result;
 
 /// Gmsh element type codes → (name, node count) for the types a 2.2 file may hold.
 pub(crate) fn element_type(code: u32) -> Option<(&'static str, usize)> {

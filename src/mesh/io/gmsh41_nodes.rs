@@ -19,7 +19,7 @@
 use std::path::Path;
 
 use super::text::line_of_offset;
-use crate::error::{Error, Result};
+use crate::base::error::{Error, Result};
 
 /// One node tag and the 1-based file line it is on (for binary data, the line count up to its
 /// byte offset).

@@ -31,7 +31,7 @@ pub use tetgen::{
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
-use crate::error::{Error, Result};
+use crate::base::error::{Error, Result};
 use crate::mesh::{BoundaryFace, CellType, NodeList, Tet4, TetMesh};
 
 /// The [`ImportedMesh::skipped_elements`] entry that counts the 10-node tets of a quadratic

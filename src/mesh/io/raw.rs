@@ -7,7 +7,7 @@ use std::path::{Path, PathBuf};
 use nalgebra::Vector3;
 
 use super::{ImportedMesh, MarkedFace, PhysicalGroup};
-use crate::error::{Error, Result};
+use crate::base::error::{Error, Result};
 use crate::mesh::{CellType, NodeList, TetMesh};
 
 /// A group as read, in file-order node indices.

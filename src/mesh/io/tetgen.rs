@@ -27,8 +27,8 @@ use nalgebra::Vector3;
 use super::raw::{ListedEdgeNodes, RawMesh};
 use super::text::{Records, decode, read_regular_file};
 use super::{ImportedMesh, MarkedFace};
-use crate::atomic_file::write_atomically;
-use crate::error::{Error, Result};
+use crate::base::atomic_file::write_atomically;
+use crate::base::error::{Error, Result};
 use crate::mesh::{CellType, Tet4, TetMesh};
 
 /// The edge nodes of a TetGen `-o2` tet (its extra nodes e₀…e₅) in VTK order: VTK edge k is

@@ -4,12 +4,12 @@
 use std::path::Path;
 use std::str::FromStr;
 
-use crate::error::{Error, Result};
+use crate::base::error::{Error, Result};
 
 /// The bytes of a mesh file, which must be a regular file (see
-/// [`crate::input_file::read_regular_file`]).
+/// [`crate::base::input_file::read_regular_file`]).
 pub(crate) fn read_regular_file(path: &Path) -> Result<Vec<u8>> {
-    crate::input_file::read_regular_file(path, "a mesh")
+    crate::base::input_file::read_regular_file(path, "a mesh")
 }
 
 /// Decodes a whole file as UTF-8, or names the line of the first invalid byte.

@@ -43,7 +43,9 @@ pub fn random_tet(rng: &mut Rng) -> [Vector3<f64>; 4] {
             origin + Vector3::new(0.0, 1.0, 0.0) + rng.vector(-0.3, 0.3),
             origin + Vector3::new(0.0, 0.0, 1.0) + rng.vector(-0.3, 0.3),
         ];
-        if tetfem::element::shape_quality(&x) > 0.2 && tetfem::element::signed_volume(&x) > 0.0 {
+        if tetfem::fe::element::shape_quality(&x) > 0.2
+            && tetfem::fe::element::signed_volume(&x) > 0.0
+        {
             return x;
         }
     }

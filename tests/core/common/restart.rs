@@ -1,6 +1,6 @@
 //! Comparing a resumed run's bookkeeping with an uninterrupted one's.
 
-use tetfem::dynamics::{IntegratorHistory, NewtonStats};
+use tetfem::analysis::dynamics::{IntegratorHistory, NewtonStats};
 
 /// Asserts `resumed` and `straight` Newton counts are the same run's: every count equal except
 /// `factorizations`, which may be one higher. A factor cannot be checkpointed, so a resumed

@@ -19,7 +19,7 @@ use std::time::Instant;
 
 use clap::Parser;
 use tetfem::BoxSplit;
-use tetfem::dynamics::{Integrator, InternalForce, NewtonStats, NonlinearSolve, State};
+use tetfem::analysis::dynamics::{Integrator, InternalForce, NewtonStats, NonlinearSolve, State};
 use tetfem_fixtures::swing::Swing;
 use tetfem_validation::cells::parse_cells;
 use tetfem_validation::chart::{Chart, Mark, Series};

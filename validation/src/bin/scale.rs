@@ -12,7 +12,7 @@ use std::time::Instant;
 
 use clap::Parser;
 use nalgebra::Vector3;
-use tetfem::dynamics::{
+use tetfem::analysis::dynamics::{
     IntegratorOptions, LinearSystem, MassKind, Method, Rayleigh, State, critical_time_step,
 };
 use tetfem::{
@@ -159,7 +159,7 @@ fn run_one(
     lap(&mut run);
     let constraints = problem.constraints(&mesh)?;
     let dofs = DofMap::new(&constraints);
-    tetfem::constraints::ensure_held(&mesh, &mesh.face_topology()?, &dofs)?;
+    tetfem::bc::constraints::ensure_held(&mesh, &mesh.face_topology()?, &dofs)?;
     let k_ff = dofs.restriction(k_full.pattern())?.restrict(&k_full)?;
     let rhs = dofs.restrict(problem.loads(&mesh)?.as_slice())?;
     lap(&mut run);
@@ -550,7 +550,7 @@ fn study(cli: &Cli) -> Result<(), Box<dyn std::error::Error>> {
             .chain(failures.iter().cloned())
             .map(|l| l + "\n")
             .collect();
-        tetfem::output::write_atomically(&raw_path, |w| w.write_all(lines.as_bytes()))?;
+        tetfem::post::output::write_atomically(&raw_path, |w| w.write_all(lines.as_bytes()))?;
     }
     runs.sort_by_key(|r| (r.method != "direct", r.threads, r.k));
     report(cli, &runs, &failures)
@@ -580,7 +580,7 @@ fn report(cli: &Cli, runs: &[Run], failures: &[String]) -> Result<(), Box<dyn st
     writeln!(md)?;
     writeln!(md, "![peak memory](performance_memory.png)")?;
     let path = cli.out.join("PERFORMANCE.md");
-    tetfem::output::write_atomically(&path, |w| w.write_all(md.as_bytes()))?;
+    tetfem::post::output::write_atomically(&path, |w| w.write_all(md.as_bytes()))?;
     eprintln!("wrote {}", path.display());
     Ok(())
 }

@@ -17,7 +17,7 @@ fn folder(name: &str) -> PathBuf {
     dir
 }
 
-fn run(text: &str) -> tetfem::error::Result<DynamicSummary> {
+fn run(text: &str) -> tetfem::base::error::Result<DynamicSummary> {
     let scene: Scene = text.parse()?;
     run_dynamic_scene(
         &scene,

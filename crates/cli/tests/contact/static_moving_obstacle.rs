@@ -49,7 +49,7 @@ normal = [0.0, 0.0, -1.0]
     )
 }
 
-fn run(text: &str) -> tetfem::error::Result<RunSummary> {
+fn run(text: &str) -> tetfem::base::error::Result<RunSummary> {
     let scene: Scene = text.parse()?;
     run_static_with(
         &scene,

@@ -11,7 +11,7 @@ use std::path::{Path, PathBuf};
 
 use nalgebra::{Matrix3, Vector3};
 use tetfem::model::{Corotational, NeoHookean};
-use tetfem::output::{
+use tetfem::post::output::{
     FrameExtras, VtuFormat, VtuWriter, write_model_result_vtu, write_result_frame,
     write_static_result_vtu,
 };

@@ -9,7 +9,7 @@ use std::ops::ControlFlow;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
-use tetfem::dynamics::{IntegratorOptions, Method, State};
+use tetfem::analysis::dynamics::{IntegratorOptions, Method, State};
 use tetfem_cli::scene::{Analysis, DynamicOverrides, DynamicSetup, Scene, run_dynamic_scene};
 
 fn out_dir(name: &str) -> PathBuf {
@@ -60,7 +60,7 @@ fn a_damped_hanging_bar_settles_to_its_weight() {
         panic!("dynamic scene")
     };
     let setup = DynamicSetup::from_scene(s.build().unwrap(), settings).unwrap();
-    let modes = tetfem::modal::lowest_modes(&setup.system, 1).unwrap();
+    let modes = tetfem::analysis::modal::lowest_modes(&setup.system, 1).unwrap();
     assert!(alpha < 2.0 * modes.omega[0], "ω₁ = {}", modes.omega[0]);
 
     let summary = run_dynamic_scene(
@@ -126,7 +126,7 @@ fn a_damped_hanging_bar_settles_to_its_weight() {
 /// `free_acceleration` on the free DOFs and the supports' prescribed motion at time t.
 fn momentum_terms(
     setup: &DynamicSetup,
-    motion: &tetfem::boundary_motion::BoundaryMotion,
+    motion: &tetfem::bc::boundary_motion::BoundaryMotion,
     masses: &[f64],
     velocity: &[f64],
     free_acceleration: &[f64],
@@ -174,7 +174,7 @@ fn momentum_imbalance(shaken: &Shaken, method: Method, dt: f64, steps: usize) ->
             IntegratorOptions::default(),
         )
         .unwrap();
-    let masses = tetfem::assembly::lumped_mass_of(&setup.mesh, &setup.materials).unwrap();
+    let masses = tetfem::fe::assembly::lumped_mass_of(&setup.mesh, &setup.materials).unwrap();
     let alpha = setup.system.damping().alpha;
     let mut reactions = setup.reactions.clone();
     let mut state = setup.initial.clone();
@@ -237,7 +237,7 @@ fn momentum_imbalance(shaken: &Shaken, method: Method, dt: f64, steps: usize) ->
 /// A dynamic setup with its supports' motion and its loads' resultant per axis (N; constant).
 struct Shaken {
     setup: DynamicSetup,
-    motion: tetfem::boundary_motion::BoundaryMotion,
+    motion: tetfem::bc::boundary_motion::BoundaryMotion,
     loads: [f64; 3],
 }
 

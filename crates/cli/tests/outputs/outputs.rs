@@ -8,12 +8,12 @@ use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
 use nalgebra::{Matrix3, Vector3};
-use tetfem::dynamics::element_step_bound;
-use tetfem::output::fields::{
+use tetfem::analysis::dynamics::element_step_bound;
+use tetfem::fe::quality::tet_quality;
+use tetfem::post::output::fields::{
     cell_strain_energy_density, cell_von_mises, displacement_magnitude, von_mises,
 };
-use tetfem::output::{CsvSeries, PvdCollection, write_result_vtu};
-use tetfem::quality::tet_quality;
+use tetfem::post::output::{CsvSeries, PvdCollection, write_result_vtu};
 use tetfem::{Assembler, BoxSplit, Material, TetMesh};
 use tetfem_cli::info::mesh_info;
 use tetfem_cli::render::{BACKGROUND, Field, RenderOptions, render};
@@ -322,12 +322,12 @@ fn result_files_hold_stress_tensors_principal_and_nodal_stresses() {
         .flat_map(|p| [gamma * p.y, 0.0, 0.0])
         .collect();
     let path = tmp("shear_fields.vtu");
-    tetfem::output::write_result_frame(
+    tetfem::post::output::write_result_frame(
         &path,
         &mesh,
         &material,
         &displacement,
-        tetfem::output::FrameExtras {
+        tetfem::post::output::FrameExtras {
             time: Some(0.25),
             stress_tensors: true,
             ..Default::default()

@@ -7,7 +7,7 @@ use crate::common::vtu;
 
 use std::path::Path;
 
-use tetfem::error::Error;
+use tetfem::base::error::Error;
 use tetfem_cli::scene::{RunOptions, Scene, run_static_with};
 
 const RHO_G: f64 = 7850.0 * 9.81;

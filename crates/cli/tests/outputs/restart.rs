@@ -13,8 +13,8 @@ use std::ops::ControlFlow;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-use tetfem::dynamics::Checkpoint;
-use tetfem::error::Error;
+use tetfem::analysis::dynamics::Checkpoint;
+use tetfem::base::error::Error;
 use tetfem_cli::scene::{
     DynamicOverrides, DynamicSummary, Scene, checkpoint_path, resume_dynamic_scene,
     run_dynamic_scene,

@@ -5,9 +5,11 @@
 use std::path::Path;
 
 use nalgebra::Vector3;
-use tetfem::dynamics::{LinearSystem, MassKind, Method, Rayleigh, State, check_time_step};
+use tetfem::analysis::dynamics::{
+    LinearSystem, MassKind, Method, Rayleigh, State, check_time_step,
+};
+use tetfem::base::warning::Warning;
 use tetfem::mesh::BoxSplit;
-use tetfem::warning::Warning;
 use tetfem::{Constraints, Error, Loads, Material, TetMesh, solve_static};
 use tetfem_cli::scene::Scene;
 

@@ -208,7 +208,7 @@ fn leftovers(out: &Path) -> Vec<String> {
     std::fs::read_dir(out)
         .unwrap()
         .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
-        .filter(|n| n.contains(".tmp-") || n == tetfem::output::LOCK_FILE_NAME)
+        .filter(|n| n.contains(".tmp-") || n == tetfem::post::output::LOCK_FILE_NAME)
         .collect()
 }
 
@@ -286,7 +286,7 @@ fn sigkill_keeps_whole_rows_up_to_the_last_frame_and_the_next_run_cleans_up() {
     // The killed run's lock file is left (nobody holds its OS lock); a temporary file like
     // the one a kill during a frame write leaves.
     let pid = child.id().to_string();
-    let lock = out.join(tetfem::output::LOCK_FILE_NAME);
+    let lock = out.join(tetfem::post::output::LOCK_FILE_NAME);
     assert_eq!(std::fs::read_to_string(&lock).unwrap().trim(), pid);
     let temporary = out.join(format!("{STEM}_99999999.vtu.tmp-{pid}"));
     std::fs::write(&temporary, "<?xml version=\"1.0\"?><VTKFile").unwrap();
@@ -386,7 +386,7 @@ fn a_signal_during_the_set_up_exits_at_once() {
             .unwrap());
         // The lock is taken before the scene is built: from then on the run is in its set-up.
         let deadline = Instant::now() + Duration::from_secs(60);
-        while !out.join(tetfem::output::LOCK_FILE_NAME).exists() {
+        while !out.join(tetfem::post::output::LOCK_FILE_NAME).exists() {
             assert!(
                 child.try_wait().unwrap().is_none(),
                 "{}",

@@ -5,9 +5,9 @@
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
+use tetfem::analysis::statics::StaticSolver;
+use tetfem::base::memory::{SolverMemory, StaticEstimate, status_bytes};
 use tetfem::linalg::linear_solver::{LinearMethod, SolverOptions};
-use tetfem::memory::{SolverMemory, StaticEstimate, status_bytes};
-use tetfem::statics::StaticSolver;
 use tetfem_cli::{Scene, run_static};
 use tetfem_fixtures::cantilever::Cantilever;
 
@@ -153,10 +153,10 @@ fn child_static_peak() {
         StaticSolver::with_options(&mesh, &beam.material, &constraints, options).unwrap();
     let solution = solver.solve(&loads).unwrap();
     let stress =
-        tetfem::output::fields::cell_von_mises(&mesh, &beam.material, &solution.displacement)
+        tetfem::post::output::fields::cell_von_mises(&mesh, &beam.material, &solution.displacement)
             .unwrap();
     let path = out_dir("child").join(format!("{}.vtu", parts[3]));
-    tetfem::output::VtuWriter::new(&mesh)
+    tetfem::post::output::VtuWriter::new(&mesh)
         .point_field("displacement", 3, &solution.displacement)
         .unwrap()
         .cell_field("von_mises_stress", 1, &stress)
@@ -252,7 +252,7 @@ fn direct_over_the_address_space_limit_is_an_error_and_auto_still_solves() {
     // holds (0.24–0.43 GB measured at the checks): under 1.2 GB above one thread's buffers.
     // Measured on two machines (L3 = 260 and 480 MiB: buffers 3 × 0.545 and 3 × 1.007 GB):
     // direct refused up to buffers + 1.016 and + 0.73 GB, auto solving from 1.49 and 1.6 GB.
-    let per_thread = tetfem::memory::dense_kernel_reservation().per_thread;
+    let per_thread = tetfem::base::memory::dense_kernel_reservation().per_thread;
     let limit = per_thread * (POOL + 1) + 250_000_000;
     // The same limit wherever 2·L3 per thread is ≥ 0.48 GB (both machines above); on a small
     // L3 the auto run gets the room it needs.

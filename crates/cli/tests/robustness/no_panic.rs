@@ -12,16 +12,21 @@ use std::path::Path;
 use std::sync::Arc;
 
 use nalgebra::{Matrix3, Vector3};
-use tetfem::assembly::{Assembler, lumped_mass, stiffness_matrix};
-use tetfem::constraints::{DofMap, ensure_held};
-use tetfem::convergence::{Level, Study, fit_slope, richardson};
-use tetfem::dynamics::{
+use tetfem::analysis::dynamics::{
     BackwardEuler, DivergenceGuard, Energy, Integrator, IntegratorOptions, InternalForce,
     LinearSystem, Mass, MassKind, Method, NonlinearForce, Rayleigh, State, critical_time_step,
     element_critical_step,
 };
-use tetfem::element::{Matrix12, Tet, rest_shape_matrix, shape_quality, signed_volume, von_mises};
-use tetfem::error_norms::{energy_error, l2_error};
+use tetfem::analysis::modal::{lowest_modes, mass_inner_product};
+use tetfem::analysis::nonlinear::{NewtonOptions, solve_nonlinear_static};
+use tetfem::analysis::statics::StaticSolver;
+use tetfem::bc::constraints::{DofMap, ensure_held};
+use tetfem::fe::assembly::{Assembler, lumped_mass, stiffness_matrix};
+use tetfem::fe::element::{
+    Matrix12, Tet, rest_shape_matrix, shape_quality, signed_volume, von_mises,
+};
+use tetfem::fe::quadrature::{integrate, shape_values, tet_rule};
+use tetfem::fe::quality::tet_quality;
 use tetfem::linalg::amg::{NearNullSpace, SmoothedAggregation};
 use tetfem::linalg::iterative::{BlockJacobi, CgOptions, Preconditioner, conjugate_gradient};
 use tetfem::linalg::linear_solver::{LinearMethod, LinearSolver, SolverOptions};
@@ -30,16 +35,15 @@ use tetfem::linalg::ordering::{inverse_permutation, nested_dissection};
 use tetfem::linalg::sparse::CscMatrix;
 use tetfem::mesh::io::{read_gmsh, read_mesh, read_tetgen, write_gmsh};
 use tetfem::mesh::{BoundaryFace, BoxSplit};
-use tetfem::modal::{lowest_modes, mass_inner_product};
 use tetfem::model::{ModelKind, assemble, project_psd};
-use tetfem::nonlinear::{NewtonOptions, solve_nonlinear_static};
-use tetfem::output::fields::{
+use tetfem::post::convergence::{Level, Study, fit_slope, richardson};
+use tetfem::post::error_norms::{energy_error, l2_error};
+use tetfem::post::output::fields::{
     cell_strain_energy_density, cell_stress, cell_von_mises, displacement_magnitude,
 };
-use tetfem::output::{CsvSeries, PvdCollection, VtuWriter, write_atomically, write_result_vtu};
-use tetfem::quadrature::{integrate, shape_values, tet_rule};
-use tetfem::quality::tet_quality;
-use tetfem::statics::StaticSolver;
+use tetfem::post::output::{
+    CsvSeries, PvdCollection, VtuWriter, write_atomically, write_result_vtu,
+};
 use tetfem::{Constraints, Error, Loads, Material, TetMesh, solve_static};
 use tetfem_cli::render::{Field, RenderOptions, auto_deformation_scale, render, viridis};
 use tetfem_cli::scene::Scene;
@@ -358,7 +362,7 @@ fn mesh_construction_and_queries() {
     s.value("element methods with NaN", || {
         let t = mesh.element(0).unwrap();
         let m = material();
-        let u = tetfem::element::Vector12::from_element(NAN);
+        let u = tetfem::fe::element::Vector12::from_element(NAN);
         (
             t.strain(&u),
             t.stress(&m, &u),
@@ -369,7 +373,7 @@ fn mesh_construction_and_queries() {
         )
     });
     s.value("critical_time_step", || {
-        tetfem::dynamics::element_step_bound(&mesh, &material())
+        tetfem::analysis::dynamics::element_step_bound(&mesh, &material())
     });
     s.value("element_critical_step", || {
         element_critical_step(&mesh, &material())
@@ -1697,14 +1701,14 @@ fn scenes_integrator_options_amg_and_method_choice() {
 #[test]
 fn amplitudes_contact_checkpoints_estimates_tet10_materials_and_forces() {
     use tetfem::Tet10;
-    use tetfem::adequacy::rotation::largest_rotation_and_strain;
-    use tetfem::adequacy::time_step::step_resolution;
-    use tetfem::amplitude::Amplitude;
-    use tetfem::boundary_motion::RigidMotion;
+    use tetfem::analysis::dynamics::Checkpoint;
+    use tetfem::bc::amplitude::Amplitude;
+    use tetfem::bc::boundary_motion::RigidMotion;
     use tetfem::contact::{Contact, ContactParameters, Obstacle, ObstacleMotion};
-    use tetfem::dynamics::Checkpoint;
-    use tetfem::estimate::estimate_error;
-    use tetfem::materials::{MaterialAssignment, MaterialMap};
+    use tetfem::fe::materials::{MaterialAssignment, MaterialMap};
+    use tetfem::post::adequacy::rotation::largest_rotation_and_strain;
+    use tetfem::post::adequacy::time_step::step_resolution;
+    use tetfem::post::estimate::estimate_error;
 
     let mut s = Sweep::new();
     let mesh = bar();

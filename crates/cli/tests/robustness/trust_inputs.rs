@@ -4,7 +4,7 @@
 use std::path::Path;
 
 use nalgebra::Vector3;
-use tetfem::warning::Warning;
+use tetfem::base::warning::Warning;
 use tetfem::{BoxSplit, Constraints, Error, Loads, Material, TetMesh, solve_static};
 use tetfem_cli::scene::{RunOptions, Scene, run_static_with};
 

@@ -8,7 +8,7 @@ use std::path::Path;
 
 use nalgebra::{Matrix3, Rotation3, Vector3};
 use tetfem::model::{Corotational, ForceModel, LinearModel, NeoHookean};
-use tetfem::output::fields::{
+use tetfem::post::output::fields::{
     cell_model_energy_density, cell_model_stress, cell_model_von_mises, cell_strain_energy_density,
     cell_stress, cell_von_mises, displacement_magnitude,
 };

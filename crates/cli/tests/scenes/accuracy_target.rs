@@ -3,7 +3,7 @@
 
 use std::path::Path;
 
-use tetfem::error::Error;
+use tetfem::base::error::Error;
 use tetfem_cli::scene::{RunOptions, RunSummary, Scene, run_static_with};
 
 /// The README's peer cantilever (L = 10, W = H = 1, E = 1e5, ν = 0.3, end load 1) on `cells`

@@ -6,9 +6,9 @@ use crate::common;
 
 use common::{Rng, random_tet};
 use nalgebra::{Rotation3, Unit, Vector3};
-use tetfem::element::{Tet, Vector12, signed_volume};
+use tetfem::analysis::nonlinear::{NewtonOptions, solve_nonlinear_static};
+use tetfem::fe::element::{Tet, Vector12, signed_volume};
 use tetfem::model::{ForceModel, ModelKind};
-use tetfem::nonlinear::{NewtonOptions, solve_nonlinear_static};
 use tetfem::{Material, TetMesh};
 use tetfem_fixtures::cantilever::Cantilever;
 
@@ -273,7 +273,7 @@ fn model_names_parse() {
 #[test]
 fn corotational_backward_euler_at_100x_the_critical_step_survives_a_large_swing() {
     use std::sync::Arc;
-    use tetfem::dynamics::{
+    use tetfem::analysis::dynamics::{
         BackwardEuler, Integrator, IntegratorOptions, InternalForce, LinearSystem, MassKind,
         NonlinearForce, Rayleigh, State, critical_time_step,
     };
@@ -411,7 +411,7 @@ fn scenes_choose_the_model_by_name() {
 fn nonlinear_backward_euler_on_two_cholesky_threads_matches_one_thread() {
     use std::sync::Arc;
     use tetfem::CholeskyOptions;
-    use tetfem::dynamics::{
+    use tetfem::analysis::dynamics::{
         BackwardEuler, Integrator, IntegratorOptions, InternalForce, LinearSystem, MassKind,
         NonlinearForce, Rayleigh, State,
     };

@@ -7,8 +7,8 @@ use crate::common::vtu;
 use std::path::Path;
 
 use tetfem::Error;
-use tetfem::dynamics::{LinearSystem, Rayleigh};
-use tetfem::modal::lowest_modes;
+use tetfem::analysis::dynamics::{LinearSystem, Rayleigh};
+use tetfem::analysis::modal::lowest_modes;
 use tetfem_cli::scene::{Analysis, Scene, run_modal_scene};
 
 /// A bar [0, L] × [0, 0.25] × [0, 0.25] clamped at x = 0, E = 1e5, ν = `nu`, ρ = 1000.
@@ -82,7 +82,7 @@ fn all_modes_together_carry_the_free_mass() {
     let summary = run_modal_scene(&scene, true).unwrap();
     assert_eq!(summary.free_dofs, 24, "2×1×1 cells: 8 free nodes");
     let built = scene.build().unwrap();
-    let mass = tetfem::assembly::lumped_mass_of(&built.mesh, &built.materials).unwrap();
+    let mass = tetfem::fe::assembly::lumped_mass_of(&built.mesh, &built.materials).unwrap();
     let dofs = tetfem::DofMap::new(&built.constraints);
     for (d, total) in summary.cumulative_mass_fraction.iter().enumerate() {
         let all: f64 = mass.iter().skip(d).step_by(3).sum();
@@ -300,11 +300,11 @@ fn static_and_modal_summaries_report_the_critical_step_when_asked() {
         &built.constraints,
         &built.other_loads,
         built.gravity,
-        tetfem::dynamics::MassKind::Lumped,
+        tetfem::analysis::dynamics::MassKind::Lumped,
         Rayleigh::default(),
     )
     .unwrap();
-    let expected = tetfem::dynamics::critical_time_step(&system).unwrap();
+    let expected = tetfem::analysis::dynamics::critical_time_step(&system).unwrap();
     let modal = run_modal_scene(&scene, true)
         .unwrap()
         .critical_step

@@ -7,8 +7,8 @@ use std::path::{Path, PathBuf};
 
 use nalgebra::{Matrix3, Rotation3, Vector3};
 use tetfem::Error;
+use tetfem::analysis::nonlinear::{NewtonOptions, solve_nonlinear_static_with_motion};
 use tetfem::model::ModelKind;
-use tetfem::nonlinear::{NewtonOptions, solve_nonlinear_static_with_motion};
 use tetfem_cli::scene::{
     Analysis, DynamicOverrides, DynamicSetup, RunOptions, Scene, run_dynamic_scene, run_static_with,
 };

@@ -9,15 +9,15 @@ use std::sync::Arc;
 
 use nalgebra::Vector3;
 use tetfem::TetMesh;
-use tetfem::dynamics::{
+use tetfem::analysis::dynamics::{
     BackwardEuler, Energy, Integrator, IntegratorOptions, InternalForce, LinearSystem, MassKind,
     Method, Newmark, NewtonStats, Rayleigh, State, SymplecticEuler, critical_time_step,
 };
-use tetfem::loads::Loads;
-use tetfem::materials::{MaterialAssignment, MaterialMap, TetMaterials};
+use tetfem::analysis::nonlinear::{NewtonOptions, solve_nonlinear_static};
+use tetfem::bc::loads::Loads;
+use tetfem::fe::materials::{MaterialAssignment, MaterialMap, TetMaterials};
 use tetfem::mesh::BoxSplit;
 use tetfem::model::ModelKind;
-use tetfem::nonlinear::{NewtonOptions, solve_nonlinear_static};
 use tetfem_fixtures::cantilever::Cantilever;
 
 const GRAVITY: f64 = 9.81;
@@ -528,7 +528,7 @@ fn nonlinear_dynamics_errors_name_the_culprit() {
         (1e-8, 0, "newton.max_iterations"),
     ] {
         let options = IntegratorOptions {
-            newton: tetfem::dynamics::StepNewtonOptions {
+            newton: tetfem::analysis::dynamics::StepNewtonOptions {
                 tolerance,
                 max_iterations,
             },
@@ -549,7 +549,7 @@ fn nonlinear_dynamics_errors_name_the_culprit() {
     }
     // One iteration allowed at a large step of a large swing: not enough.
     let options = IntegratorOptions {
-        newton: tetfem::dynamics::StepNewtonOptions {
+        newton: tetfem::analysis::dynamics::StepNewtonOptions {
             tolerance: 1e-12,
             max_iterations: 1,
         },
@@ -837,7 +837,7 @@ fn two_material_scene_runs_each_tets_model_through_the_runner() {
 /// setup's `first_mode_period` says the same after `with_model`.
 #[test]
 fn modal_analysis_with_a_nonlinear_model_is_an_error_naming_it() {
-    use tetfem::modal::{lowest_modes, lowest_modes_with_force};
+    use tetfem::analysis::modal::{lowest_modes, lowest_modes_with_force};
     let beam = swing(1e6, [6, 2, 2], MassKind::Lumped, Rayleigh::default());
     let modes = lowest_modes(&beam.system, 3).unwrap();
     assert_eq!(

@@ -5,13 +5,13 @@ use std::ops::ControlFlow;
 use std::path::Path;
 
 use nalgebra::Vector3;
-use tetfem::constraints::Constraints;
-use tetfem::element::Tet10;
-use tetfem::loads::Loads;
-use tetfem::material::Material;
+use tetfem::analysis::nonlinear::{NewtonOptions, solve_nonlinear_static};
+use tetfem::bc::constraints::Constraints;
+use tetfem::bc::loads::Loads;
+use tetfem::fe::element::Tet10;
+use tetfem::fe::material::Material;
 use tetfem::mesh::{BoxSplit, TetMesh};
 use tetfem::model::ModelKind;
-use tetfem::nonlinear::{NewtonOptions, solve_nonlinear_static};
 use tetfem_cli::scene::{DynamicOverrides, RunOptions, Scene, run_dynamic_scene, run_static_with};
 
 /// A soft cantilever (L = 4, 1 × 1 section, E = 1e6, ν = 0.3) of 8×2×2 five-tet cells at order

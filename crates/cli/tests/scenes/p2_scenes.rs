@@ -6,14 +6,14 @@ use std::ops::ControlFlow;
 use std::path::Path;
 
 use nalgebra::Vector3;
-use tetfem::constraints::Constraints;
-use tetfem::dynamics::{LinearSystem, MassKind, Rayleigh, critical_time_step};
-use tetfem::element::Tet10;
-use tetfem::loads::Loads;
-use tetfem::material::Material;
+use tetfem::analysis::dynamics::{LinearSystem, MassKind, Rayleigh, critical_time_step};
+use tetfem::analysis::modal::lowest_modes;
+use tetfem::bc::constraints::Constraints;
+use tetfem::bc::loads::Loads;
+use tetfem::fe::element::Tet10;
+use tetfem::fe::material::Material;
 use tetfem::mesh::{BoundaryFace, BoxSplit, TetMesh};
-use tetfem::modal::lowest_modes;
-use tetfem::output::fields::displacement_magnitude;
+use tetfem::post::output::fields::displacement_magnitude;
 use tetfem_cli::scene::{
     DynamicOverrides, RunOptions, Scene, run_dynamic_scene, run_modal_scene, run_static_with,
 };
@@ -235,7 +235,7 @@ fn explicit_p2_scene_uses_the_library_critical_step_and_the_element_bound_is_bel
     // Bit for bit: the same HRZ-lumped M and K.
     assert_eq!(summary.critical_step, critical);
     // The element bound never exceeds the assembled step (element eigenvalue theorem).
-    let bound = tetfem::dynamics::element_step_bound_of_type(&lib.mesh, &lib.material)
+    let bound = tetfem::analysis::dynamics::element_step_bound_of_type(&lib.mesh, &lib.material)
         .expect("bound")
         .dt_element;
     println!("P2 6×1×1: critical step {critical:e}, element bound {bound:e}");

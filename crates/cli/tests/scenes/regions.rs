@@ -5,13 +5,13 @@
 use std::path::{Path, PathBuf};
 
 use nalgebra::{DMatrix, DVector, Vector3};
-use tetfem::assembly::{Assembler, lumped_mass, lumped_mass_of};
-use tetfem::dynamics::{LinearSystem, MassKind, Rayleigh};
+use tetfem::analysis::dynamics::{LinearSystem, MassKind, Rayleigh};
+use tetfem::analysis::nonlinear::{NewtonOptions, solve_nonlinear_static};
+use tetfem::fe::assembly::{Assembler, lumped_mass, lumped_mass_of};
 use tetfem::mesh::io::{TetgenOptions, read_gmsh, read_tetgen, write_tetgen};
 use tetfem::model::assemble::{internal_force, refill_tangent};
 use tetfem::model::{Corotational, ModelKind};
-use tetfem::nonlinear::{NewtonOptions, solve_nonlinear_static};
-use tetfem::output::fields::{cell_strain_energy_density, cell_von_mises};
+use tetfem::post::output::fields::{cell_strain_energy_density, cell_von_mises};
 use tetfem::{
     BoxSplit, Constraints, Error, Loads, Material, MaterialAssignment, MaterialMap, StaticSolver,
     TetMesh, solve_static,
@@ -210,8 +210,8 @@ fn uniform_map_is_bit_identical_to_one_material() {
         cell_strain_energy_density(&mesh, &map, &u1.displacement).unwrap()
     );
     assert_eq!(
-        tetfem::dynamics::element_step_bound(&mesh, &material),
-        tetfem::dynamics::element_step_bound_of(&mesh, &map).unwrap()
+        tetfem::analysis::dynamics::element_step_bound(&mesh, &material),
+        tetfem::analysis::dynamics::element_step_bound_of(&mesh, &map).unwrap()
     );
 
     let system = |m: &dyn Fn() -> LinearSystem| m();
@@ -585,7 +585,7 @@ fn l_bracket_scene_with_two_materials_matches_the_library() {
     println!("compliance ratio aluminium leg / all steel: {ratio}");
     assert!(ratio > 1.05, "{ratio}");
     let summary = run_static_with(&scene, &no_files()).unwrap();
-    let magnitude = tetfem::output::fields::displacement_magnitude(&u_scene);
+    let magnitude = tetfem::post::output::fields::displacement_magnitude(&u_scene);
     let largest = magnitude.iter().copied().fold(0.0, f64::max);
     // The same solve inside the runner (direct or iterative by its choice: 1e-6 covers an
     // iterative solve's tolerance).
@@ -630,8 +630,10 @@ fn dynamic_scene_assembles_each_tets_density_and_stiffness() {
         setup.system.stiffness().values(),
         library.stiffness().values()
     );
-    let (tetfem::dynamics::Mass::Lumped(m_scene), tetfem::dynamics::Mass::Lumped(m_library)) =
-        (setup.system.mass(), library.mass())
+    let (
+        tetfem::analysis::dynamics::Mass::Lumped(m_scene),
+        tetfem::analysis::dynamics::Mass::Lumped(m_library),
+    ) = (setup.system.mass(), library.mass())
     else {
         panic!("lumped mass expected");
     };

@@ -6,10 +6,10 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 use nalgebra::Vector3;
-use tetfem::dynamics::{LinearSystem, MassKind, Rayleigh, State};
+use tetfem::analysis::dynamics::{LinearSystem, MassKind, Rayleigh, State};
+use tetfem::analysis::nonlinear::{NewtonOptions, solve_nonlinear_static};
 use tetfem::mesh::io::{TetgenOptions, read_gmsh, write_tetgen};
 use tetfem::model::ModelKind;
-use tetfem::nonlinear::{NewtonOptions, solve_nonlinear_static};
 use tetfem::{BoxSplit, Constraints, Error, Loads, Material, TetMesh, solve_static};
 use tetfem_cli::scene::{
     Analysis, DynamicOverrides, Method, REFERENCE, RunLength, RunOptions, Scene, run_dynamic_scene,
@@ -518,7 +518,7 @@ fn dynamic_scene_matches_the_library_integrator() {
         )
         .unwrap(),
     );
-    let mut integrator = tetfem::dynamics::Method::BackwardEuler
+    let mut integrator = tetfem::analysis::dynamics::Method::BackwardEuler
         .integrator(Arc::clone(&system), settings.dt)
         .unwrap();
     let mut state = State::at_rest(system.free_count());

@@ -5,7 +5,9 @@
 // Without the `png` feature the frames' code is a stand-in that refuses.
 #[cfg_attr(not(feature = "png"), path = "png_look_off.rs")]
 mod png_look;
+mod run_loop;
 use png_look::{PngFrame, PngLook, dynamic_look};
+use run_loop::run_dynamic_locked;
 
 use std::ops::ControlFlow;
 use std::path::{Path, PathBuf};
@@ -18,18 +20,18 @@ use super::dynamic_contact::{ContactForceHistory, contact_of};
 use super::obstacles::obstacle_tile;
 use super::restart::{self, ProbeRange, Restart};
 use super::{Analysis, BuiltScene, DynamicSettings, OutputSettings, Probe, Scene, SceneElement};
-use tetfem::constraints::Constraints;
-use tetfem::dynamics::{
+use tetfem::analysis::dynamics::{
     Energy, IntegratorOptions, InternalForce, LinearSystem, Mass, MassKind, Method, NewtonStats,
     NonlinearSolve, Rayleigh, State, StepNewtonOptions, critical_time_step,
 };
-use tetfem::element::{ElementType, Tet10};
-use tetfem::error::{Error, Result, short_number};
+use tetfem::base::error::{Error, Result, short_number};
+use tetfem::bc::constraints::Constraints;
+use tetfem::bc::loads::Loads;
+use tetfem::fe::element::{ElementType, Tet10};
+use tetfem::fe::material::Material;
 use tetfem::linalg::linear_solver::LinearMethod;
-use tetfem::loads::Loads;
-use tetfem::material::Material;
 use tetfem::mesh::{CellType, Tet4, TetMesh};
-use tetfem::output::{
+use tetfem::post::output::{
     ContactFields, CsvSeries, CsvValue, FrameExtras, OriginalIds, OutputLock, PvdCollection,
     write_atomically, write_obstacles_vtp,
 };
@@ -97,7 +99,7 @@ impl RunLength {
     /// number). Errors name the key (`steps`, `duration`, or `dt` when the end time n·dt
     /// overflows), its value and the limit: 1 ≤ steps ≤ [`MAX_STEPS`], dt ≤ duration.
     pub fn steps(self, dt: f64) -> Result<usize> {
-        let dt = tetfem::dynamics::check_time_step(dt)?;
+        let dt = tetfem::analysis::dynamics::check_time_step(dt)?;
         let steps = match self {
             RunLength::Steps(n) if (1..=MAX_STEPS).contains(&n) => n,
             RunLength::Steps(n) => {
@@ -148,7 +150,7 @@ pub struct DynamicSetup<C: CellType = Tet4> {
     /// The material (the scene's default; see `materials` for each tet's).
     pub material: Material,
     /// The material of every tet.
-    pub materials: tetfem::materials::MaterialMap,
+    pub materials: tetfem::fe::materials::MaterialMap,
     /// M·ü + C·u̇ + K·u = f on the free DOFs.
     pub system: Arc<LinearSystem>,
     /// The state at time 0.
@@ -170,7 +172,7 @@ pub struct DynamicSetup<C: CellType = Tet4> {
     pub newton: StepNewtonOptions,
     /// Warnings about the scene's own entries (a load acting on fixed DOFs only, no free DOF),
     /// reported with the mesh's and the material's in the run summary.
-    pub input_warnings: Vec<tetfem::warning::Warning>,
+    pub input_warnings: Vec<tetfem::base::warning::Warning>,
     /// The elastic force law: linear as built; [`with_model`](Self::with_model) (which
     /// [`run_dynamic_scene`] calls with the scene's `analysis.model`) sets a nonlinear one.
     /// Energies, stresses and `.vtu` fields of the run are the model's.
@@ -237,7 +239,7 @@ impl<E: SceneElement> DynamicSetup<E> {
             linear_method: LinearMethod::Direct,
             nonlinear_solve: NonlinearSolve::default(),
             newton: StepNewtonOptions::default(),
-            force: InternalForce::Linear,
+            force: InternalForce::default(),
             reactions,
             critical: Default::default(),
         })
@@ -280,11 +282,11 @@ impl<E: SceneElement> DynamicSetup<E> {
     }
 
     /// The period 2π/ω₁ (time units) of the lowest natural mode of the constrained body, from
-    /// [`lowest_modes_with_force`](tetfem::modal::lowest_modes_with_force) with the setup's
+    /// [`lowest_modes_with_force`](tetfem::analysis::modal::lowest_modes_with_force) with the setup's
     /// force: modal analysis is linear only, so after [`with_model`](Self::with_model) with a
     /// nonlinear model it is [`Error::InvalidParameter`] naming the model.
     pub fn first_mode_period(&self) -> Result<f64> {
-        let modes = tetfem::modal::lowest_modes_with_force(&self.system, &self.force, 1)?;
+        let modes = tetfem::analysis::modal::lowest_modes_with_force(&self.system, &self.force, 1)?;
         match modes.omega.first() {
             Some(&omega) if omega.is_finite() && omega > 0.0 => {
                 Ok(2.0 * std::f64::consts::PI / omega)
@@ -320,7 +322,7 @@ impl<E: SceneElement> DynamicSetup<E> {
             TimeStep::Seconds(dt) => dt,
             TimeStep::CriticalMultiple(f) => f * self.critical_step()?.0,
         };
-        tetfem::dynamics::check_time_step(dt)
+        tetfem::analysis::dynamics::check_time_step(dt)
     }
 }
 
@@ -354,7 +356,7 @@ impl DynamicSetup {
             reactions,
             original_ids: None,
             input_warnings: Vec::new(),
-            materials: tetfem::materials::MaterialMap::uniform(material, mesh.tet_count()),
+            materials: tetfem::fe::materials::MaterialMap::uniform(material, mesh.tet_count()),
             mesh,
             material,
             system: Arc::new(system),
@@ -364,7 +366,7 @@ impl DynamicSetup {
             linear_method: LinearMethod::Direct,
             nonlinear_solve: NonlinearSolve::default(),
             newton: StepNewtonOptions::default(),
-            force: InternalForce::Linear,
+            force: InternalForce::default(),
             critical: Default::default(),
         })
     }
@@ -459,7 +461,7 @@ pub struct DynamicSummary {
     pub probes: Vec<ProbeRange>,
     /// The support reactions at the last step, per `[[constraints]]` entry (the default run:
     /// its clamp): r = M·a + C·v − f_int − f_ext summed over the entry's DOFs (N) and its moment
-    /// about the entry's `moment_about` (N·m); see [`tetfem::dynamics::SupportReactions`].
+    /// about the entry's `moment_about` (N·m); see [`tetfem::analysis::dynamics::SupportReactions`].
     pub reactions: Vec<super::ReactionRow>,
     /// Frames written (`.vtu`).
     pub frames: usize,
@@ -470,7 +472,7 @@ pub struct DynamicSummary {
     /// Newton iterations of an implicit method with a nonlinear model (total, most in one
     /// step); `None` for the linear model and the explicit method.
     pub newton: Option<NewtonStats>,
-    /// Warnings about the mesh and the material (see [`tetfem::warning`]), as sentences.
+    /// Warnings about the mesh and the material (see [`tetfem::base::warning`]), as sentences.
     pub warnings: Vec<String>,
     /// The self-estimated relative energy-norm error of the last state (the last frame), with
     /// its definition; `None` for a nonlinear model.
@@ -480,11 +482,11 @@ pub struct DynamicSummary {
     pub estimate_seconds: f64,
     /// The last state's largest element rotation and strain (`None` for a nonlinear model);
     /// past the measured threshold a warning names the model to use.
-    pub deformation: Option<tetfem::adequacy::rotation::Deformation>,
+    pub deformation: Option<tetfem::post::adequacy::rotation::Deformation>,
     /// Backward Euler with the linear model on at most [`STEP_CHECK_DOFS`] free DOFs: how dt
     /// resolves the lowest mode the load excites, and the method's decay per period there
-    /// (a warning past [`DECAY_WARNING`](tetfem::adequacy::time_step::DECAY_WARNING)).
-    pub step_resolution: Option<tetfem::adequacy::time_step::StepResolution>,
+    /// (a warning past [`DECAY_WARNING`](tetfem::post::adequacy::time_step::DECAY_WARNING)).
+    pub step_resolution: Option<tetfem::post::adequacy::time_step::StepResolution>,
     /// The step of the checkpoint a resumed run continued from (`None`: a run from the
     /// start). `steps`, `frames`, the probes' ranges, the contact forces' peaks and the Newton
     /// counts are the whole run's.
@@ -567,272 +569,6 @@ fn interrupted(writer: &mut Option<FrameWriter>, step: usize, time: f64) -> Resu
         w.finish_partial()?;
     }
     Ok(Error::Interrupted { step, time, frames })
-}
-
-/// [`run_dynamic`] once the output folder's lock (if any) is held.
-fn run_dynamic_locked<E: SceneElement>(
-    setup: &DynamicSetup<E>,
-    run: &DynamicRun,
-    outputs: Option<&DynamicOutputs>,
-    lock: Option<OutputLock>,
-    restart: Option<Restart>,
-    progress: &mut dyn FnMut(usize, usize) -> ControlFlow<()>,
-) -> Result<DynamicSummary> {
-    let clock = Instant::now();
-    let (critical, critical_source) = setup.critical_step()?;
-    let dt = setup.resolve(run.dt)?;
-    let steps = run.length.steps(dt)?;
-    let options = IntegratorOptions {
-        linear_method: setup.linear_method,
-        nonlinear_solve: setup.nonlinear_solve,
-        newton: setup.newton,
-        ..IntegratorOptions::default()
-    };
-    let mut integrator = run.method.integrator_with_force(
-        Arc::clone(&setup.system),
-        setup.force.clone(),
-        dt,
-        options,
-    )?;
-    let setup_seconds = setup.setup_seconds + clock.elapsed().as_secs_f64();
-
-    let system = &setup.system;
-    let mesh = &setup.mesh;
-    let mut state = setup.initial.clone();
-    let initial_energy = setup.force.energy(system, &state)?;
-    let resumed_at = restart.as_ref().and_then(Restart::resumed_at);
-    let mut writer = match outputs {
-        Some(o) => Some(FrameWriter::new(setup, run, o, steps, dt, resumed_at)?),
-        None => None,
-    };
-    let mut probes: Vec<ProbeRange> = setup
-        .probes
-        .iter()
-        .map(|p| ProbeRange {
-            name: p.name.clone(),
-            last: [0.0; 3],
-            min: [f64::INFINITY; 3],
-            max: [f64::NEG_INFINITY; 3],
-        })
-        .collect();
-    let mut contact_forces = contact_of(&setup.force).map(ContactForceHistory::start);
-    // A resume continues from the checkpoint's state, integrator history, probe extremes and
-    // contact force peaks.
-    let first = resumed_at.unwrap_or(0);
-    if let Some(resumed) = restart.as_ref().map(|r| {
-        r.restore(
-            integrator.as_mut(),
-            &mut probes,
-            contact_forces.as_deref_mut().unwrap_or_default(),
-        )
-    }) {
-        state = resumed?.unwrap_or(state);
-    }
-    let mut output_seconds = 0.0;
-    let mut reactions = setup.reactions.clone();
-    let mut record = |state: &State,
-                      wall: f64,
-                      writer: &mut Option<FrameWriter>,
-                      probes: &mut [ProbeRange],
-                      contact_forces: &mut Option<Vec<ContactForceHistory>>,
-                      last: bool|
-     -> Result<Energy> {
-        let clock = Instant::now();
-        let energy = setup.force.energy(system, state)?;
-        // The constrained DOFs at their values of this time (moving supports: u_c(t)).
-        let u = system.expand_at(state.time, &state.displacement)?;
-        let mut means = Vec::with_capacity(setup.probes.len());
-        for (probe, range) in setup.probes.iter().zip(probes.iter_mut()) {
-            let mean: [f64; 3] = probe.displacement(&u).into();
-            range.last = mean;
-            for a in 0..3 {
-                range.min[a] = range.min[a].min(mean[a]);
-                range.max[a] = range.max[a].max(mean[a]);
-            }
-            means.push(mean);
-        }
-        let time = step_time((setup.initial.time, setup.initial.steps), dt, state);
-        let forces = super::dynamic_contact::obstacle_forces(&setup.force, &u, time)?;
-        if let (Some(histories), Some(f)) = (contact_forces.as_mut(), forces.as_ref()) {
-            ContactForceHistory::record(histories, f, time);
-        }
-        if let Some(w) = writer {
-            let at = reactions.at(mesh, system, &setup.force, state)?;
-            w.record(
-                setup,
-                state,
-                &u,
-                wall,
-                &means,
-                &energy,
-                &at,
-                forces.as_deref(),
-                last,
-            )?;
-        }
-        output_seconds += clock.elapsed().as_secs_f64();
-        Ok(energy)
-    };
-    let mut final_energy = match resumed_at {
-        None => record(
-            &state,
-            0.0,
-            &mut writer,
-            &mut probes,
-            &mut contact_forces,
-            false,
-        )?,
-        Some(_) => setup.force.energy(system, &state)?,
-    };
-    // The stepping begins: `progress` learns it before the first step (the command-line tool
-    // lets the first signal stop the run at a step boundary only from here on; during the
-    // set-up above it exits at once) and may stop the run here already.
-    if progress(first, steps).is_break() && first < steps {
-        let time = step_time((setup.initial.time, setup.initial.steps), dt, &state);
-        return Err(interrupted(&mut writer, first, time)?);
-    }
-    let (mut first_step, mut step_total) = (0.0, 0.0);
-    for step in first + 1..=steps {
-        let clock = Instant::now();
-        let result = integrator.step(&mut state);
-        let wall = clock.elapsed().as_secs_f64();
-        if let Err(error) = result {
-            if let Some(w) = &mut writer {
-                w.finish_partial()?;
-            }
-            return Err(error);
-        }
-        if step == first + 1 {
-            first_step = wall;
-        }
-        step_total += wall;
-        final_energy = record(
-            &state,
-            wall,
-            &mut writer,
-            &mut probes,
-            &mut contact_forces,
-            step == steps,
-        )?;
-        let stop = progress(step, steps).is_break() && step < steps;
-        // The checkpoint after the CSV rows up to it are written out (a resume keeps them).
-        if let Some(r) = restart
-            .as_ref()
-            .filter(|r| r.due(step) || (stop && r.enabled()))
-        {
-            if let Some(w) = &mut writer {
-                w.finish_partial()?;
-            }
-            r.write(
-                integrator.as_ref(),
-                &state,
-                &probes,
-                contact_forces.as_deref().unwrap_or_default(),
-            )?;
-        }
-        if stop {
-            let time = step_time((setup.initial.time, setup.initial.steps), dt, &state);
-            return Err(interrupted(&mut writer, step, time)?);
-        }
-    }
-    let clock = Instant::now();
-    let final_reactions = reactions.at(mesh, system, &setup.force, &state)?.rows;
-    output_seconds += clock.elapsed().as_secs_f64();
-    let clock = Instant::now();
-    let u = system.dofs().expand(&state.displacement)?;
-    let estimated_error = setup
-        .force
-        .estimated_error(mesh, &setup.materials, &u)?
-        .map(|e| super::EstimatedError {
-            relative: e.relative(),
-            eta: e.estimate,
-            energy_norm: e.energy_norm,
-            definition: super::ESTIMATED_ERROR_DEFINITION,
-        });
-    let estimate_seconds = clock.elapsed().as_secs_f64();
-    let deformation = setup.force.deformation(mesh, &u)?;
-    let step_resolution = match system.free_count() <= STEP_CHECK_DOFS {
-        true => setup.force.step_resolution(
-            run.method,
-            system,
-            &setup.initial.displacement,
-            STEP_CHECK_MODES,
-            dt,
-        )?,
-        false => None,
-    };
-    let mut files = Vec::new();
-    let mut frames = 0;
-    if let Some(w) = writer {
-        frames = w.frames;
-        files = w.finish()?;
-    }
-    let mut summary = DynamicSummary {
-        warnings: setup
-            .mesh
-            .warnings()
-            .iter()
-            .chain(&setup.materials.warnings())
-            .chain(&setup.input_warnings)
-            .map(ToString::to_string)
-            .chain(deformation.and_then(|d| d.warning()).map(|w| w.to_string()))
-            .chain(
-                step_resolution
-                    .and_then(|r| r.warning())
-                    .map(|w| w.to_string()),
-            )
-            .chain(lock.as_ref().and_then(OutputLock::warning))
-            .collect(),
-        title: run.title.clone(),
-        scene: run.source.clone(),
-        analysis: "dynamic".into(),
-        method: integrator.name().into(),
-        nodes: mesh.node_count(),
-        tets: mesh.tet_count(),
-        free_dofs: system.free_count(),
-        dt,
-        critical_step: critical,
-        critical_step_source: critical_source.into(),
-        dt_over_critical: dt / critical,
-        steps,
-        end_time: step_time((setup.initial.time, setup.initial.steps), dt, &state),
-        setup_seconds,
-        first_step_seconds: first_step,
-        mean_step_seconds: if steps - first > 1 {
-            (step_total - first_step) / (steps - first - 1) as f64
-        } else {
-            first_step
-        },
-        step_seconds: step_total,
-        output_seconds,
-        initial_energy: initial_energy.into(),
-        final_energy: final_energy.into(),
-        probes,
-        reactions: final_reactions,
-        frames,
-        files,
-        model: setup.force.name().into(),
-        newton: integrator.newton_stats(),
-        estimated_error,
-        estimate_seconds,
-        deformation,
-        step_resolution,
-        resumed_from_step: resumed_at,
-        contact_forces,
-    };
-    if let Some(path) = restart.as_ref().and_then(Restart::written) {
-        summary.files.push(path);
-    }
-    if let Some(o) = outputs {
-        let json = o
-            .settings
-            .directory
-            .join(format!("{}_summary.json", o.settings.stem));
-        summary.files.push(json.clone());
-        write_atomically(&json, |w| writeln!(w, "{}", summary.to_json()))?;
-    }
-    drop(lock);
-    Ok(summary)
 }
 
 /// Writes the frames and the series of a run as it goes.
@@ -1148,7 +884,7 @@ fn run_dynamic_scene_on<E: SceneElement>(
     dt: TimeStep,
     length: RunLength,
     lock: Option<OutputLock>,
-    resume: Option<tetfem::dynamics::Checkpoint>,
+    resume: Option<tetfem::analysis::dynamics::Checkpoint>,
     force_png: bool,
     progress: &mut dyn FnMut(usize, usize) -> ControlFlow<()>,
 ) -> Result<DynamicSummary> {
@@ -1198,16 +934,16 @@ fn run_dynamic_scene_on<E: SceneElement>(
 fn released_reactions<E: ElementType>(
     system: &LinearSystem,
     mesh: &TetMesh<E>,
-    materials: &impl tetfem::materials::TetMaterials,
+    materials: &impl tetfem::fe::materials::TetMaterials,
     gravity: Vector3<f64>,
-) -> Result<tetfem::dynamics::SupportReactions> {
-    tetfem::dynamics::SupportReactions::new(
+) -> Result<tetfem::analysis::dynamics::SupportReactions> {
+    tetfem::analysis::dynamics::SupportReactions::new(
         system,
         mesh,
         materials,
         &Loads::new(mesh),
         gravity,
-        &tetfem::dynamics::TimeData::default(),
+        &tetfem::analysis::dynamics::TimeData::default(),
     )
 }
 
@@ -1215,7 +951,7 @@ fn released_reactions<E: ElementType>(
 /// loads removed and gravity kept (lumped mass, no damping), which it swings in.
 fn released_system<E: ElementType>(
     mesh: &TetMesh<E>,
-    material: &impl tetfem::materials::TetMaterials,
+    material: &impl tetfem::fe::materials::TetMaterials,
     constraints: &Constraints,
     loads: &Loads,
     gravity: Vector3<f64>,
@@ -1246,7 +982,7 @@ fn point_stress<E: SceneElement>(
     let s = setup
         .force
         .point_stress(&point.location, &setup.mesh, &setup.materials, u)?;
-    Ok(tetfem::output::fields::symmetric_components(&s))
+    Ok(tetfem::post::output::fields::symmetric_components(&s))
 }
 
 /// The columns of a dynamic run's CSV before the contact's: `time_s`, `step`,
@@ -1328,7 +1064,7 @@ fn write_frame_vtu<E: SceneElement>(
     u: &[f64],
     time: f64,
     reactions: &super::ReactionsAt,
-    format: tetfem::output::VtuFormat,
+    format: tetfem::post::output::VtuFormat,
     path: &Path,
 ) -> Result<()> {
     let mut velocity = vec![0.0; u.len()];
@@ -1369,11 +1105,11 @@ fn write_frame_vtu<E: SceneElement>(
 /// `force`, the error indicators η_K of `u` (J^½); a nonlinear force's own stresses and energy.
 pub fn frame_arrays<E: SceneElement>(
     mesh: &TetMesh<E>,
-    materials: &tetfem::materials::MaterialMap,
+    materials: &tetfem::fe::materials::MaterialMap,
     force: &InternalForce,
     u: &[f64],
     extras: FrameExtras<'_>,
-) -> Result<tetfem::output::FrameArrays> {
+) -> Result<tetfem::post::output::FrameArrays> {
     let estimate = force.estimated_error(mesh, materials, u)?;
     let extras = FrameExtras {
         stress_tensors: true,

@@ -11,10 +11,10 @@ use crate::dynamic_contact::contact_of;
 use crate::png_frames::format_scale;
 use crate::render::{Field, ObstacleView, RenderOptions, render};
 use crate::{OutputSettings, PngField, SceneElement};
+use tetfem::base::error::Result;
 use tetfem::contact::{Contact, Shape};
-use tetfem::error::Result;
 use tetfem::mesh::{CellType, TetMesh};
-use tetfem::output::fields::displacement_magnitude;
+use tetfem::post::output::fields::displacement_magnitude;
 
 /// The look of the PNG frames: set before the run from what the start state, the static shape
 /// and the prescribed motion let foresee (see [`PngLook::new`]), held from frame to frame, and

@@ -10,7 +10,7 @@ use std::path::{Path, PathBuf};
 use super::DynamicSetup;
 use crate::png_frames::no_png;
 use crate::{OutputSettings, SceneElement};
-use tetfem::error::Result;
+use tetfem::base::error::Result;
 
 /// The frames' look (none without the feature).
 pub(crate) struct PngLook;

@@ -4,7 +4,7 @@
 use std::fmt::Write as _;
 
 use tetfem::Result;
-use tetfem::convergence::richardson;
+use tetfem::post::convergence::richardson;
 use tetfem_fixtures::cantilever::Cantilever;
 use tetfem_validation::accuracy::{StaticRun, static_cantilever};
 use tetfem_validation::chart::{Chart, Mark, Series};
@@ -112,7 +112,7 @@ fn cheapest(points: &[Point], order: Option<usize>, target: f64) -> Option<&Poin
 fn accuracy_table(
     points: &[Point],
     reference_sizes: [usize; 3],
-    extrapolated: &tetfem::convergence::Richardson,
+    extrapolated: &tetfem::post::convergence::Richardson,
     timoshenko: f64,
 ) -> String {
     let reference = extrapolated.value;

@@ -6,11 +6,11 @@ use std::fmt::Write as _;
 use std::time::Instant;
 
 use nalgebra::{Matrix3, Vector3};
-use tetfem::convergence::{Level, Study};
-use tetfem::element::Vector12;
-use tetfem::error_norms::{energy_error, l2_error};
+use tetfem::analysis::nonlinear::{NewtonOptions, solve_nonlinear_static};
+use tetfem::fe::element::Vector12;
 use tetfem::model::ModelKind;
-use tetfem::nonlinear::{NewtonOptions, solve_nonlinear_static};
+use tetfem::post::convergence::{Level, Study};
+use tetfem::post::error_norms::{energy_error, l2_error};
 use tetfem::{BoxSplit, Constraints, Loads, Material, Result, TetMesh, solve_static};
 use tetfem_fixtures::cantilever::Cantilever;
 use tetfem_validation::chart::{Chart, Mark, Series};
@@ -472,7 +472,7 @@ pub fn cantilever(context: &Context) -> Result<Section> {
             .iter()
             .map(|o| format!("{o:.2}"))
             .collect::<Vec<_>>(),
-        match tetfem::convergence::richardson(
+        match tetfem::post::convergence::richardson(
             values[values.len() - 3],
             values[values.len() - 2],
             values[values.len() - 1],

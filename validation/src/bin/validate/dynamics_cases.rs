@@ -5,9 +5,11 @@ use std::sync::Arc;
 use std::time::Instant;
 
 use nalgebra::Vector3;
-use tetfem::dynamics::{LinearSystem, Mass, MassKind, Method, Rayleigh, State, critical_time_step};
-use tetfem::element::ElementType;
-use tetfem::modal::lowest_modes;
+use tetfem::analysis::dynamics::{
+    LinearSystem, Mass, MassKind, Method, Rayleigh, State, critical_time_step,
+};
+use tetfem::analysis::modal::lowest_modes;
+use tetfem::fe::element::ElementType;
 use tetfem::{BoxSplit, Error, Result, Tet10, TetMesh};
 use tetfem_fixtures::cantilever::Cantilever;
 use tetfem_validation::chart::{Chart, Mark, Series};
@@ -686,7 +688,7 @@ fn richardson_limits(values: &[[f64; 3]], exact: &[f64]) -> (bool, String) {
                 limits,
                 "mode {}: {} ",
                 k + 1,
-                match tetfem::convergence::richardson(
+                match tetfem::post::convergence::richardson(
                     v[v.len() - 3],
                     v[v.len() - 2],
                     v[v.len() - 1],
@@ -768,7 +770,7 @@ pub fn stability_map(context: &Context) -> Result<Section> {
         theory.push((h, dt_crit));
         implicit_points.push((h, 1000.0 * dt_crit));
     }
-    let slope = tetfem::convergence::fit_slope(found.iter().copied())?;
+    let slope = tetfem::post::convergence::fit_slope(found.iter().copied())?;
     let _ = writeln!(
         body,
         "\nThe explicit limit follows dt_crit ∝ h (fitted slope {slope:.3}); the implicit methods have no limit (stable at 1000× the explicit one, the largest tried).\n"

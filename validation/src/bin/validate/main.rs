@@ -219,7 +219,7 @@ fn write_report(
         "REPORT.md"
     };
     let path = context.out.join(name);
-    tetfem::output::write_atomically(&path, |w| w.write_all(md.as_bytes()))?;
+    tetfem::post::output::write_atomically(&path, |w| w.write_all(md.as_bytes()))?;
     Ok(path)
 }
 

@@ -1,0 +1,374 @@
+//! The time loop of a dynamic scene: the integrator steps, a [`StepRecorder`] keeps each step's
+//! probes, contact forces, reactions and outputs, checkpoints are written when due, `progress`
+//! may stop the run at a step boundary, and the summary closes the run.
+
+use super::*;
+use tetfem::analysis::dynamics::Integrator;
+
+/// [`run_dynamic`] once the output folder's lock (if any) is held.
+pub(super) fn run_dynamic_locked<E: SceneElement>(
+    setup: &DynamicSetup<E>,
+    run: &DynamicRun,
+    outputs: Option<&DynamicOutputs>,
+    lock: Option<OutputLock>,
+    restart: Option<Restart>,
+    progress: &mut dyn FnMut(usize, usize) -> ControlFlow<()>,
+) -> Result<DynamicSummary> {
+    let clock = Instant::now();
+    let (critical, critical_source) = setup.critical_step()?;
+    let dt = setup.resolve(run.dt)?;
+    let steps = run.length.steps(dt)?;
+    let options = IntegratorOptions {
+        linear_method: setup.linear_method,
+        nonlinear_solve: setup.nonlinear_solve,
+        newton: setup.newton,
+        ..IntegratorOptions::default()
+    };
+    let mut integrator = run.method.integrator_with_force(
+        Arc::clone(&setup.system),
+        setup.force.clone(),
+        dt,
+        options,
+    )?;
+    let setup_seconds = setup.setup_seconds + clock.elapsed().as_secs_f64();
+    let mut state = setup.initial.clone();
+    let initial_energy = setup.force.energy(&setup.system, &state)?;
+    let resumed_at = restart.as_ref().and_then(Restart::resumed_at);
+    let mut recorder = StepRecorder::new(setup, run, outputs, steps, dt, resumed_at)?;
+    // A resume continues from the checkpoint's state, integrator history, probe extremes and
+    // contact force peaks.
+    let first = resumed_at.unwrap_or(0);
+    if let Some(r) = restart.as_ref() {
+        state = recorder.restore(r, integrator.as_mut())?.unwrap_or(state);
+    }
+    let start_energy = match resumed_at {
+        None => recorder.record(&state, 0.0, false)?,
+        Some(_) => setup.force.energy(&setup.system, &state)?,
+    };
+    // The stepping begins: `progress` learns it before the first step (the command-line tool
+    // lets the first signal stop the run at a step boundary only from here on; during the
+    // set-up above it exits at once) and may stop the run here already.
+    if progress(first, steps).is_break() && first < steps {
+        let time = step_time((setup.initial.time, setup.initial.steps), dt, &state);
+        return Err(interrupted(&mut recorder.writer, first, time)?);
+    }
+    let clocks = step_through(
+        integrator.as_mut(),
+        &mut state,
+        &mut recorder,
+        restart.as_ref(),
+        (first, steps),
+        progress,
+    )?;
+    let tally = RunTally {
+        critical: (critical, critical_source),
+        dt,
+        steps,
+        first,
+        setup_seconds,
+        clocks,
+        energies: (initial_energy, clocks.final_energy.unwrap_or(start_energy)),
+        resumed_at,
+    };
+    let mut summary = close_run(setup, run, integrator.as_ref(), &state, recorder, &tally)?;
+    summary
+        .warnings
+        .extend(lock.as_ref().and_then(OutputLock::warning));
+    if let Some(path) = restart.as_ref().and_then(Restart::written) {
+        summary.files.push(path);
+    }
+    if let Some(o) = outputs {
+        let json = o
+            .settings
+            .directory
+            .join(format!("{}_summary.json", o.settings.stem));
+        summary.files.push(json.clone());
+        write_atomically(&json, |w| writeln!(w, "{}", summary.to_json()))?;
+    }
+    drop(lock);
+    Ok(summary)
+}
+
+/// Wall times of the stepping (s) and the energy after the last step taken.
+#[derive(Debug, Clone, Copy, Default)]
+struct StepClocks {
+    first_step: f64,
+    step_total: f64,
+    final_energy: Option<Energy>,
+}
+
+/// Steps `first + 1..=steps`: each step recorded, a checkpoint written when due (or when
+/// `progress` stops the run and checkpoints are on), an integrator failure leaving whole rows
+/// and frames behind.
+fn step_through<E: SceneElement>(
+    integrator: &mut dyn Integrator,
+    state: &mut State,
+    recorder: &mut StepRecorder<'_, E>,
+    restart: Option<&Restart>,
+    (first, steps): (usize, usize),
+    progress: &mut dyn FnMut(usize, usize) -> ControlFlow<()>,
+) -> Result<StepClocks> {
+    let mut clocks = StepClocks::default();
+    for step in first + 1..=steps {
+        let clock = Instant::now();
+        let result = integrator.step(state);
+        let wall = clock.elapsed().as_secs_f64();
+        if let Err(error) = result {
+            if let Some(w) = &mut recorder.writer {
+                w.finish_partial()?;
+            }
+            return Err(error);
+        }
+        if step == first + 1 {
+            clocks.first_step = wall;
+        }
+        clocks.step_total += wall;
+        clocks.final_energy = Some(recorder.record(state, wall, step == steps)?);
+        let stop = progress(step, steps).is_break() && step < steps;
+        // The checkpoint after the CSV rows up to it are written out (a resume keeps them).
+        if let Some(r) = restart.filter(|r| r.due(step) || (stop && r.enabled())) {
+            if let Some(w) = &mut recorder.writer {
+                w.finish_partial()?;
+            }
+            r.write(
+                &*integrator,
+                state,
+                &recorder.probes,
+                recorder.contact_forces.as_deref().unwrap_or_default(),
+            )?;
+        }
+        if stop {
+            let setup = recorder.setup;
+            let time = step_time(
+                (setup.initial.time, setup.initial.steps),
+                recorder.dt,
+                state,
+            );
+            return Err(interrupted(&mut recorder.writer, step, time)?);
+        }
+    }
+    Ok(clocks)
+}
+
+/// What a run keeps of each step: the probes' last values and extremes, the obstacles' force
+/// history, the support reactions and the writer's rows and frames.
+struct StepRecorder<'s, E: SceneElement> {
+    setup: &'s DynamicSetup<E>,
+    dt: f64,
+    writer: Option<FrameWriter>,
+    probes: Vec<ProbeRange>,
+    contact_forces: Option<Vec<ContactForceHistory>>,
+    reactions: super::super::DynamicReactions,
+    /// Wall time spent recording (s).
+    output_seconds: f64,
+}
+
+impl<'s, E: SceneElement> StepRecorder<'s, E> {
+    /// The recorder of a run of `steps` steps of `dt` (s), with its writer if `outputs`.
+    fn new(
+        setup: &'s DynamicSetup<E>,
+        run: &DynamicRun,
+        outputs: Option<&DynamicOutputs>,
+        steps: usize,
+        dt: f64,
+        resumed_at: Option<usize>,
+    ) -> Result<Self> {
+        let writer = match outputs {
+            Some(o) => Some(FrameWriter::new(setup, run, o, steps, dt, resumed_at)?),
+            None => None,
+        };
+        let probes = setup
+            .probes
+            .iter()
+            .map(|p| ProbeRange {
+                name: p.name.clone(),
+                last: [0.0; 3],
+                min: [f64::INFINITY; 3],
+                max: [f64::NEG_INFINITY; 3],
+            })
+            .collect();
+        Ok(StepRecorder {
+            setup,
+            dt,
+            writer,
+            probes,
+            contact_forces: contact_of(&setup.force).map(ContactForceHistory::start),
+            reactions: setup.reactions.clone(),
+            output_seconds: 0.0,
+        })
+    }
+
+    /// Restores the integrator's history, the probe extremes and the contact force peaks from
+    /// `restart`'s checkpoint; the checkpoint's state if it resumes one.
+    fn restore(
+        &mut self,
+        restart: &Restart,
+        integrator: &mut dyn Integrator,
+    ) -> Result<Option<State>> {
+        restart.restore(
+            integrator,
+            &mut self.probes,
+            self.contact_forces.as_deref_mut().unwrap_or_default(),
+        )
+    }
+
+    /// Records `state` (taken in `wall` s; `last` for the run's last step): its energy, the
+    /// probes' means, the obstacles' forces and, with a writer, its CSV row and frame.
+    fn record(&mut self, state: &State, wall: f64, last: bool) -> Result<Energy> {
+        let clock = Instant::now();
+        let setup = self.setup;
+        let system = &setup.system;
+        let energy = setup.force.energy(system, state)?;
+        // The constrained DOFs at their values of this time (moving supports: u_c(t)).
+        let u = system.expand_at(state.time, &state.displacement)?;
+        let mut means = Vec::with_capacity(setup.probes.len());
+        for (probe, range) in setup.probes.iter().zip(self.probes.iter_mut()) {
+            let mean: [f64; 3] = probe.displacement(&u).into();
+            range.last = mean;
+            for a in 0..3 {
+                range.min[a] = range.min[a].min(mean[a]);
+                range.max[a] = range.max[a].max(mean[a]);
+            }
+            means.push(mean);
+        }
+        let time = step_time((setup.initial.time, setup.initial.steps), self.dt, state);
+        let forces = super::super::dynamic_contact::obstacle_forces(&setup.force, &u, time)?;
+        if let (Some(histories), Some(f)) = (self.contact_forces.as_mut(), forces.as_ref()) {
+            ContactForceHistory::record(histories, f, time);
+        }
+        if let Some(w) = &mut self.writer {
+            let at = self
+                .reactions
+                .at(&setup.mesh, system, &setup.force, state)?;
+            w.record(
+                setup,
+                state,
+                &u,
+                wall,
+                &means,
+                &energy,
+                &at,
+                forces.as_deref(),
+                last,
+            )?;
+        }
+        self.output_seconds += clock.elapsed().as_secs_f64();
+        Ok(energy)
+    }
+}
+
+/// The figures of a finished stepping that its summary reports.
+struct RunTally {
+    /// The critical step (s) and where it comes from.
+    critical: (f64, &'static str),
+    dt: f64,
+    steps: usize,
+    /// The step the run started from (0, or a checkpoint's).
+    first: usize,
+    setup_seconds: f64,
+    clocks: StepClocks,
+    /// The energies at the start and at the end.
+    energies: (Energy, Energy),
+    /// The checkpoint's step the run resumed from, if it did.
+    resumed_at: Option<usize>,
+}
+
+/// The summary of a finished run: the final reactions, the estimated error, the deformation
+/// and step-resolution checks (their warnings with the mesh's, the materials' and the
+/// scene's), the files written.
+fn close_run<E: SceneElement>(
+    setup: &DynamicSetup<E>,
+    run: &DynamicRun,
+    integrator: &dyn Integrator,
+    state: &State,
+    mut recorder: StepRecorder<'_, E>,
+    tally: &RunTally,
+) -> Result<DynamicSummary> {
+    let (mesh, system) = (&setup.mesh, &setup.system);
+    let clock = Instant::now();
+    let final_reactions = recorder
+        .reactions
+        .at(mesh, system, &setup.force, state)?
+        .rows;
+    recorder.output_seconds += clock.elapsed().as_secs_f64();
+    let clock = Instant::now();
+    let u = system.dofs().expand(&state.displacement)?;
+    let estimated_error = setup
+        .force
+        .estimated_error(mesh, &setup.materials, &u)?
+        .map(|e| super::super::EstimatedError {
+            relative: e.relative(),
+            eta: e.estimate,
+            energy_norm: e.energy_norm,
+            definition: super::super::ESTIMATED_ERROR_DEFINITION,
+        });
+    let estimate_seconds = clock.elapsed().as_secs_f64();
+    let deformation = setup.force.deformation(mesh, &u)?;
+    let step_resolution = match system.free_count() <= STEP_CHECK_DOFS {
+        true => setup.force.step_resolution(
+            run.method,
+            system,
+            &setup.initial.displacement,
+            STEP_CHECK_MODES,
+            tally.dt,
+        )?,
+        false => None,
+    };
+    let (mut files, mut frames) = (Vec::new(), 0);
+    if let Some(w) = recorder.writer {
+        frames = w.frames;
+        files = w.finish()?;
+    }
+    let (first, steps, clocks) = (tally.first, tally.steps, tally.clocks);
+    Ok(DynamicSummary {
+        warnings: mesh
+            .warnings()
+            .iter()
+            .chain(&setup.materials.warnings())
+            .chain(&setup.input_warnings)
+            .map(ToString::to_string)
+            .chain(deformation.and_then(|d| d.warning()).map(|w| w.to_string()))
+            .chain(
+                step_resolution
+                    .and_then(|r| r.warning())
+                    .map(|w| w.to_string()),
+            )
+            .collect(),
+        title: run.title.clone(),
+        scene: run.source.clone(),
+        analysis: "dynamic".into(),
+        method: integrator.name().into(),
+        nodes: mesh.node_count(),
+        tets: mesh.tet_count(),
+        free_dofs: system.free_count(),
+        dt: tally.dt,
+        critical_step: tally.critical.0,
+        critical_step_source: tally.critical.1.into(),
+        dt_over_critical: tally.dt / tally.critical.0,
+        steps,
+        end_time: step_time((setup.initial.time, setup.initial.steps), tally.dt, state),
+        setup_seconds: tally.setup_seconds,
+        first_step_seconds: clocks.first_step,
+        mean_step_seconds: if steps - first > 1 {
+            (clocks.step_total - clocks.first_step) / (steps - first - 1) as f64
+        } else {
+            clocks.first_step
+        },
+        step_seconds: clocks.step_total,
+        output_seconds: recorder.output_seconds,
+        initial_energy: tally.energies.0.into(),
+        final_energy: tally.energies.1.into(),
+        probes: recorder.probes,
+        reactions: final_reactions,
+        frames,
+        files,
+        model: setup.force.name().into(),
+        newton: integrator.newton_stats(),
+        estimated_error,
+        estimate_seconds,
+        deformation,
+        step_resolution,
+        resumed_from_step: tally.resumed_at,
+        contact_forces: recorder.contact_forces,
+    })
+}

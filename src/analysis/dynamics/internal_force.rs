@@ -1,0 +1,739 @@
+//! The internal-force seam of the integrators: which elastic force law a time step uses.
+//!
+//! Every integrator takes an [`InternalForce`]. [`InternalForce::Linear`] is f_int = −K_ff·u with
+//! the [`LinearSystem`]'s constant K_ff: the integrators then run their linear code unchanged
+//! (one factorization per dt, the 3×3 node-block products, the fused step loops), so the linear
+//! results are the same bits as before the seam existed. [`InternalForce::Nonlinear`] is a
+//! [`ForceModel`] (corotational, Neo-Hookean, …) for every tet, or one per material
+//! ([`ModelMap`]): f_int(u) = Σₑ fₑ(X + u), each tet with its own model, and the tangent
+//! K_T(u) = −∂f_int/∂u on K_ff's own pattern, so the implicit methods refactor numerically on
+//! the symbolic analysis they made for K_ff.
+
+use std::sync::Arc;
+
+use super::{Energy, LinearSystem, Mass, State};
+use crate::analysis::problem::Problem;
+use crate::base::error::{Error, Result};
+use crate::bc::constraints::Restriction;
+use crate::contact::{Contact, FrictionLag};
+use crate::fe::assembly::Assembler;
+use crate::mesh::TetMesh;
+use crate::model::assemble::{energy, internal_force, refill_tangent};
+use crate::model::{ForceModel, ModelElement, ModelKind, ModelMap, TetModels};
+use crate::sparse::CscMatrix;
+
+/// The elastic force law of a dynamic run.
+#[derive(Clone, Default)]
+pub enum InternalForce {
+    /// f_int = −K_ff·u with the system's constant stiffness: every linear fast path.
+    #[default]
+    Linear,
+    /// A nonlinear [`ForceModel`] (one for every tet, or one per material) on the system's
+    /// mesh (see [`NonlinearForce`]).
+    Nonlinear(Arc<NonlinearForce>),
+}
+
+impl std::fmt::Debug for InternalForce {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            InternalForce::Linear => f.write_str("Linear"),
+            InternalForce::Nonlinear(n) => write!(f, "Nonlinear({})", n.name),
+        }
+    }
+}
+
+impl InternalForce {
+    /// The force of `model` on `mesh` for `system` (see [`NonlinearForce::new`]); the
+    /// linear model's name (`linear`) gives [`InternalForce::Linear`], so that a linear run
+    /// takes the fast path whatever the caller asked through.
+    pub fn of_model<E: ModelElement>(
+        mesh: Arc<TetMesh<E>>,
+        model: Box<dyn ForceModel>,
+        system: &LinearSystem,
+    ) -> Result<Self> {
+        if model.name() == "linear" {
+            return Ok(InternalForce::Linear);
+        }
+        Ok(InternalForce::Nonlinear(Arc::new(NonlinearForce::new(
+            mesh, model, system,
+        )?)))
+    }
+
+    /// The force of one model per material (`models`, e.g. [`ModelKind::build_map`] of the
+    /// system's [`MaterialMap`](crate::fe::materials::MaterialMap)) on `mesh` for `system` (see
+    /// [`NonlinearForce::with_models`]); a map of linear models gives [`InternalForce::Linear`],
+    /// the fast path on the system's K_ff (which holds each tet's own material when the system
+    /// was built from the same map).
+    pub fn of_models<E: ModelElement>(
+        mesh: Arc<TetMesh<E>>,
+        models: ModelMap,
+        system: &LinearSystem,
+    ) -> Result<Self> {
+        if models.kind() == ModelKind::Linear {
+            return Ok(InternalForce::Linear);
+        }
+        Ok(InternalForce::Nonlinear(Arc::new(
+            NonlinearForce::with_models(mesh, models, system)?,
+        )))
+    }
+
+    /// The model's name: `linear`, `corotational`, `neo-hookean`.
+    pub fn name(&self) -> &'static str {
+        match self {
+            InternalForce::Linear => "linear",
+            InternalForce::Nonlinear(n) => n.name,
+        }
+    }
+
+    /// Whether this is a nonlinear model (the implicit methods then iterate Newton per step).
+    pub fn is_nonlinear(&self) -> bool {
+        matches!(self, InternalForce::Nonlinear(_))
+    }
+
+    /// The energies of `state` under this force law: for the linear one exactly
+    /// [`LinearSystem::energy`] (elastic ½uᵀK_ff·u), for a nonlinear one the model's elastic
+    /// energy Σₑ Eₑ(X + u) (energy units) with the same kinetic term and load potentials.
+    pub fn energy(&self, system: &LinearSystem, state: &State) -> Result<Energy> {
+        match self {
+            InternalForce::Linear => system.energy(state),
+            InternalForce::Nonlinear(n) => n.energy(system, state),
+        }
+    }
+}
+
+/// A nonlinear force law on the free DOFs of a [`LinearSystem`]: one [`ForceModel`] for every
+/// tet, or one per material ([`ModelMap`]), each tet's force and tangent from its own model.
+///
+/// The system supplies the mass, damping, loads and DOF map. Its K_ff is the model's tangent at
+/// rest (for the corotational and Neo-Hookean models it equals the linear stiffness there): it
+/// gives the explicit critical step and the symbolic analysis the implicit methods refactor on;
+/// the stiffness part of Rayleigh damping uses the tangent at the start of each step instead.
+///
+/// Prescribed displacements may be non-zero and may move in time: the force is evaluated on the
+/// full displacement, the constrained DOFs at u_c(t) of the time last set
+/// ([`set_time`](Self::set_time)), and the step equations take the system's loads without the
+/// coupling −K_fc·u_c that the linear system folds into them
+/// ([`LinearSystem::model_load_at`]), so it is not counted twice.
+pub struct NonlinearForce {
+    /// The mesh, of 4-node or 10-node tets (its element type erased: see [`ForceMesh`]).
+    mesh: Arc<dyn ForceMesh>,
+    /// The model of each tet: a boxed [`ForceModel`] or a [`ModelMap`].
+    models: Box<dyn TetModels + Send>,
+    /// The models' name (`corotational`, `neo-hookean`, …).
+    name: &'static str,
+    assembler: Assembler,
+    restriction: Restriction,
+    /// K_ff's pattern (the `Arc` of the system's stiffness): the tangents are handed out on it.
+    pattern: Arc<faer::sparse::SymbolicSparseColMat<usize>>,
+    free_dofs: Vec<usize>,
+    /// The full displacement of the constrained DOFs (length), at the time last set
+    /// ([`set_time`](Self::set_time)); zero on the free DOFs' places.
+    prescribed: std::sync::RwLock<Vec<f64>>,
+    /// Contact with rigid obstacles, when given ([`with_contact`](Self::with_contact)).
+    contact: Option<Contact>,
+    /// Friction's data lagged at the current step's start ([`begin_step`](Self::begin_step)).
+    friction: std::sync::Mutex<Option<FrictionLag>>,
+    /// The friction force on each obstacle over the last step
+    /// ([`friction_forces`](Self::friction_forces)).
+    last_friction_forces: std::sync::Mutex<Option<Vec<nalgebra::Vector3<f64>>>>,
+}
+
+impl NonlinearForce {
+    /// The force of `model` on `mesh` for `system`, which must have been built on `mesh`.
+    ///
+    /// Errors ([`Error::InvalidParameter`]): the system's DOF map is not of this mesh, or the
+    /// restricted assembly pattern
+    /// is not the system's K_ff pattern (a system from [`LinearSystem::from_parts`] with
+    /// another stiffness).
+    pub fn new<E: ModelElement>(
+        mesh: Arc<TetMesh<E>>,
+        model: Box<dyn ForceModel>,
+        system: &LinearSystem,
+    ) -> Result<Self> {
+        let name = model.name();
+        Self::of_tet_models(mesh, Box::new(model), name, system)
+    }
+
+    /// The force of one model per material (`models`) on `mesh` for `system`: each tet's force
+    /// and tangent from the model of its material, so regions of different stiffness (and
+    /// density, through the system's mass) move together.
+    ///
+    /// Errors: those of [`new`](Self::new), and [`Error::InvalidParameter`] when the map's
+    /// material map does not give a material to each of the mesh's tets (naming both counts).
+    pub fn with_models<E: ModelElement>(
+        mesh: Arc<TetMesh<E>>,
+        models: ModelMap,
+        system: &LinearSystem,
+    ) -> Result<Self> {
+        models.check_tet_count(&mesh)?;
+        let name = models.kind().name();
+        Self::of_tet_models(mesh, Box::new(models), name, system)
+    }
+
+    /// The checks and set-up of [`new`](Self::new) and [`with_models`](Self::with_models).
+    fn of_tet_models<E: ModelElement>(
+        mesh: Arc<TetMesh<E>>,
+        models: Box<dyn TetModels + Send>,
+        name: &'static str,
+        system: &LinearSystem,
+    ) -> Result<Self> {
+        let dofs = system.dofs();
+        if dofs.full_count() != mesh.dof_count() {
+            return Err(Error::invalid_parameter(
+                "nonlinear force mesh",
+                format!("{} DOFs", mesh.dof_count()),
+                format!("must be the system's mesh ({} DOFs)", dofs.full_count()),
+            ));
+        }
+        let (assembler, restriction) = Problem::with_dofs(&mesh, dofs.clone())?.into_assembly();
+        let pattern = Arc::clone(system.stiffness().pattern());
+        let same = restriction.pattern().col_ptr() == pattern.col_ptr()
+            && restriction.pattern().row_idx() == pattern.row_idx();
+        if !same {
+            return Err(Error::invalid_parameter(
+                "system stiffness",
+                format!("{} stored entries", system.stiffness().nnz()),
+                "must be on the pattern of the mesh's assembly restricted to the free DOFs (build the system with LinearSystem::new on this mesh)",
+            ));
+        }
+        Ok(NonlinearForce {
+            free_dofs: dofs.free_dofs().to_vec(),
+            prescribed: std::sync::RwLock::new(dofs.prescribed().to_vec()),
+            mesh,
+            models,
+            name,
+            assembler,
+            restriction,
+            pattern,
+            contact: None,
+            friction: std::sync::Mutex::new(None),
+            last_friction_forces: std::sync::Mutex::new(None),
+        })
+    }
+
+    /// Adds contact with rigid obstacles (see [`crate::contact`]): the force, tangent and
+    /// energy then include the barrier's, and the implicit methods' Newton line search never
+    /// steps past the first time of impact. A linear model with contact goes through here
+    /// too (build this force with the linear [`ForceModel`]): the linear fast paths factor once
+    /// and cannot see contact.
+    ///
+    /// Errors: the contact is not of this mesh (a boundary node beyond its nodes).
+    pub fn with_contact(mut self, contact: Contact) -> Result<Self> {
+        contact.check_state(&vec![0.0; self.mesh.dof_count()])?;
+        self.contact = Some(contact);
+        Ok(self)
+    }
+
+    /// Starts a time step from free displacements `u` with step `dt` (time): with frictional
+    /// contact, lags the normal forces and tangent planes there and sets the smoothing distance
+    /// ε = ε_v·`dt` (see [`crate::contact::friction`]); the force, tangent and
+    /// [`potential_energy`](Self::potential_energy) include friction until the next call or
+    /// [`end_friction`](Self::end_friction). Without friction it does nothing.
+    pub fn begin_step(&self, u: &[f64], dt: f64) -> Result<()> {
+        match &self.contact {
+            Some(contact) => self.begin_step_toward(u, dt, &contact.offsets()),
+            None => Ok(()),
+        }
+    }
+
+    /// [`begin_step`](Self::begin_step) for a step at whose end the obstacles sit at offsets
+    /// `target` (length, one per obstacle): friction then opposes the slip relative to each
+    /// moving obstacle ([`Contact::friction_lag_toward`]).
+    pub fn begin_step_toward(
+        &self,
+        u: &[f64],
+        dt: f64,
+        target: &[nalgebra::Vector3<f64>],
+    ) -> Result<()> {
+        let Some(contact) = self.contact.as_ref().filter(|c| c.has_friction()) else {
+            return Ok(());
+        };
+        let lag = contact.friction_lag_toward(
+            &self.full_displacement(u)?,
+            contact.slip_velocity() * dt,
+            target,
+        )?;
+        *self.friction_lock() = Some(lag);
+        Ok(())
+    }
+
+    /// Drops the lagged friction (explicit steps and energy evaluations see none).
+    pub fn end_friction(&self) {
+        *self.friction_lock() = None;
+    }
+
+    /// Keeps the friction force the body exerts on each obstacle at free displacements `u`
+    /// (an implicit step's solution) with the lagged data of [`begin_step`](Self::begin_step):
+    /// the smoothed Coulomb force μ·λ·(f₁(y)/y)·P·(x − x⁰) of each node, its reaction summed
+    /// per obstacle ([`Contact::obstacle_friction_forces`]). Does nothing without lagged
+    /// friction.
+    pub fn keep_friction_forces(&self, u: &[f64]) -> Result<()> {
+        let lag = self.friction_lock();
+        let (Some(contact), Some(lag)) = (&self.contact, lag.as_ref()) else {
+            return Ok(());
+        };
+        let forces = contact.obstacle_friction_forces(lag, &self.full_displacement(u)?)?;
+        *self.last_friction_lock() = Some(forces);
+        Ok(())
+    }
+
+    /// The friction force the body exerted on each obstacle over the last step (force units,
+    /// the obstacles' order): an implicit step's smoothed Coulomb force at its solution, an
+    /// explicit step's −Σ m·Δv/dt of its friction impulses. `None` before the first step and
+    /// without friction. Add it to [`Contact::obstacle_forces`] (the barrier's normal force)
+    /// for the whole force on each obstacle.
+    pub fn friction_forces(&self) -> Option<Vec<nalgebra::Vector3<f64>>> {
+        self.last_friction_lock().clone()
+    }
+
+    fn friction_lock(&self) -> std::sync::MutexGuard<'_, Option<FrictionLag>> {
+        // A poisoned lock only means a panic elsewhere while holding plain data: keep it.
+        self.friction.lock().unwrap_or_else(|e| e.into_inner())
+    }
+
+    fn last_friction_lock(&self) -> std::sync::MutexGuard<'_, Option<Vec<nalgebra::Vector3<f64>>>> {
+        self.last_friction_forces
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+    }
+
+    /// Friction in an explicit step ([`Contact::apply_friction_impulses`]): updates the free
+    /// velocities `velocity` (length/time) of a step from free displacements `u` at `time`
+    /// with step `dt` (time), the lumped mass's `inverse_mass` (1/mass, free DOFs). Does
+    /// nothing without frictional contact.
+    pub fn apply_friction_impulses(
+        &self,
+        u: &[f64],
+        velocity: &mut [f64],
+        inverse_mass: &[f64],
+        time: f64,
+        dt: f64,
+    ) -> Result<()> {
+        let Some(contact) = self.contact.as_ref().filter(|c| c.has_friction()) else {
+            return Ok(());
+        };
+        Error::check_len("velocity", self.free_count(), velocity.len())?;
+        Error::check_len("inverse mass", self.free_count(), inverse_mass.len())?;
+        let full = self.full_displacement(u)?;
+        let (mut full_velocity, mut full_inverse) = (vec![0.0; full.len()], vec![0.0; full.len()]);
+        for (k, &d) in self.free_dofs.iter().enumerate() {
+            full_velocity[d] = velocity[k];
+            full_inverse[d] = inverse_mass[k];
+        }
+        let forces =
+            contact.apply_friction_impulses(&full, &mut full_velocity, &full_inverse, time, dt)?;
+        *self.last_friction_lock() = Some(forces);
+        for (v, &d) in velocity.iter_mut().zip(&self.free_dofs) {
+            *v = full_velocity[d];
+        }
+        Ok(())
+    }
+
+    /// The contact, if any.
+    pub fn contact(&self) -> Option<&Contact> {
+        self.contact.as_ref()
+    }
+
+    /// The full displacement of free displacements `u` (prescribed values at constrained DOFs).
+    pub fn full_displacement(&self, u: &[f64]) -> Result<Vec<f64>> {
+        Error::check_len("displacement", self.free_count(), u.len())?;
+        let mut full = vec![0.0; self.mesh.dof_count()];
+        self.expand_into(u, &mut full);
+        Ok(full)
+    }
+
+    /// The largest fraction t ∈ (0, 1] of the step `du` from `u` (free DOFs) that keeps every
+    /// boundary node outside every obstacle (1 without contact; see
+    /// [`Contact::max_step`]).
+    pub fn contact_step_limit(&self, u: &[f64], du: &[f64]) -> Result<f64> {
+        let Some(contact) = &self.contact else {
+            return Ok(1.0);
+        };
+        Error::check_len("step", self.free_count(), du.len())?;
+        let full = self.full_displacement(u)?;
+        let mut full_step = vec![0.0; full.len()];
+        for (&d, &v) in self.free_dofs.iter().zip(du) {
+            full_step[d] = v;
+        }
+        contact.max_step(&full, &full_step)
+    }
+
+    /// The contact energy E_c(u) (energy units) of free displacements `u`, 0 without contact.
+    pub fn contact_energy(&self, u: &[f64]) -> Result<f64> {
+        match &self.contact {
+            Some(contact) => contact.energy(&self.full_displacement(u)?),
+            None => Ok(0.0),
+        }
+    }
+
+    /// The energy whose gradient is −(f_int + f_contact): elastic plus contact, plus the lagged
+    /// friction potential during a step (energy units).
+    pub fn potential_energy(&self, u: &[f64]) -> Result<f64> {
+        let mut total = self.elastic_energy(u)? + self.contact_energy(u)?;
+        if let (Some(contact), Some(lag)) = (&self.contact, self.friction_lock().as_ref()) {
+            total += contact.friction_energy(lag, &self.full_displacement(u)?)?;
+        }
+        Ok(total)
+    }
+
+    /// The model of each tet (one for all, or one per material): what the outputs evaluate
+    /// stresses and energy densities with.
+    pub fn models(&self) -> &(dyn TetModels + Send) {
+        self.models.as_ref()
+    }
+
+    /// The models' name: `corotational`, `neo-hookean`, …
+    pub fn name(&self) -> &'static str {
+        self.name
+    }
+
+    /// The mesh, if its elements are `E` (`Tet4` or `Tet10`; `None` for the other type).
+    pub fn mesh<E: ModelElement>(&self) -> Option<&TetMesh<E>> {
+        self.mesh.as_any().downcast_ref::<TetMesh<E>>()
+    }
+
+    /// The model's internal force f = −∂E/∂x (force units) at the full displacement `u`
+    /// (every DOF, node-major), contact excluded, on whatever element the mesh has.
+    pub fn model_internal_force(&self, u: &[f64]) -> Result<Vec<f64>> {
+        self.mesh.internal_force(self.models(), u)
+    }
+
+    /// Σₑ Vₑ·Fₑ around each node at free displacements `u` into `out` (one per node of the mesh;
+    /// see [`crate::model::assemble::nodal_deformation_gradients`]).
+    pub(crate) fn nodal_deformation_gradients(
+        &self,
+        u: &[f64],
+        work: &mut ForceWorkspace,
+        out: &mut [nalgebra::Matrix3<f64>],
+    ) -> Result<()> {
+        Error::check_len("displacement", self.free_count(), u.len())?;
+        self.expand_into(u, &mut work.full);
+        self.mesh.nodal_deformation_gradients(&work.full, out)
+    }
+
+    /// Nodes of the mesh.
+    pub(crate) fn node_count(&self) -> usize {
+        self.mesh.dof_count() / 3
+    }
+
+    /// The full DOF (3·node + axis) of each free DOF, in order.
+    pub(crate) fn free_dofs(&self) -> &[usize] {
+        &self.free_dofs
+    }
+
+    /// Number of free DOFs.
+    pub fn free_count(&self) -> usize {
+        self.free_dofs.len()
+    }
+
+    /// Sets the time the force is evaluated at: the moving constrained DOFs of `system` (the
+    /// system this force was built for) go to u_c(`t`) ([`LinearSystem::prescribed_at`]).
+    /// Without moving supports it does nothing. The integrators call it before each evaluation
+    /// at a new time (a step's start for the explicit method, its end for the implicit ones).
+    pub fn set_time(&self, system: &LinearSystem, t: f64) -> Result<()> {
+        if !system.has_moving_supports() {
+            return Ok(());
+        }
+        let values = system.prescribed_at(t)?;
+        Error::check_len(
+            "prescribed displacement",
+            self.mesh.dof_count(),
+            values.len(),
+        )?;
+        *self.prescribed_lock() = values;
+        Ok(())
+    }
+
+    fn prescribed_lock(&self) -> std::sync::RwLockWriteGuard<'_, Vec<f64>> {
+        // A poisoned lock only means a panic elsewhere while holding plain data: keep it.
+        self.prescribed.write().unwrap_or_else(|e| e.into_inner())
+    }
+
+    /// The full displacement (prescribed values at the constrained DOFs) of free values `u`.
+    fn expand_into(&self, u: &[f64], full: &mut [f64]) {
+        full.copy_from_slice(&self.prescribed.read().unwrap_or_else(|e| e.into_inner()));
+        for (&d, &v) in self.free_dofs.iter().zip(u) {
+            full[d] = v;
+        }
+    }
+
+    /// Scratch for [`force_into`](Self::force_into) and [`tangent_into`](Self::tangent_into):
+    /// a full displacement, a full force (kept, not allocated per evaluation) and the
+    /// full-pattern tangent.
+    pub fn workspace(&self) -> Result<ForceWorkspace> {
+        Ok(ForceWorkspace {
+            full: vec![0.0; self.mesh.dof_count()],
+            full_force: vec![0.0; self.mesh.dof_count()],
+            full_tangent: CscMatrix::zeros(Arc::clone(self.assembler.pattern()))?,
+            free_tangent: CscMatrix::zeros(Arc::clone(self.restriction.pattern()))?,
+        })
+    }
+
+    /// A matrix of zeros on K_ff's pattern (the one [`tangent_into`](Self::tangent_into) fills).
+    pub fn zero_tangent(&self) -> Result<CscMatrix> {
+        Ok(CscMatrix::zeros(Arc::clone(&self.pattern))?)
+    }
+
+    /// f_int(u) = Σₑ fₑ(X + u) (plus the contact force, with contact) on the free DOFs (force units) into `out`; `u` on the free DOFs.
+    pub fn force_into(&self, u: &[f64], work: &mut ForceWorkspace, out: &mut [f64]) -> Result<()> {
+        Error::check_len("displacement", self.free_count(), u.len())?;
+        Error::check_len("force", self.free_count(), out.len())?;
+        self.expand_into(u, &mut work.full);
+        let mut full = self.mesh.internal_force(self.models.as_ref(), &work.full)?;
+        if let Some(contact) = &self.contact {
+            contact.add_force(&work.full, &mut full)?;
+            if let Some(lag) = self.friction_lock().as_ref() {
+                contact.add_friction_force(lag, &work.full, &mut full)?;
+            }
+        }
+        for (o, &d) in out.iter_mut().zip(&self.free_dofs) {
+            *o = full[d];
+        }
+        Ok(())
+    }
+
+    /// [`force_into`](Self::force_into), returning the [`potential_energy`](Self::potential_energy)
+    /// at `u` from the same pass over the tets (its last bits may differ from
+    /// `potential_energy`'s, which sums the tets in another order).
+    pub fn force_and_energy_into(
+        &self,
+        u: &[f64],
+        work: &mut ForceWorkspace,
+        out: &mut [f64],
+    ) -> Result<f64> {
+        Error::check_len("displacement", self.free_count(), u.len())?;
+        Error::check_len("force", self.free_count(), out.len())?;
+        self.expand_into(u, &mut work.full);
+        let full = &mut work.full_force;
+        let mut energy =
+            self.mesh
+                .internal_force_and_energy_into(self.models.as_ref(), &work.full, full)?;
+        if let Some(contact) = &self.contact {
+            contact.add_force(&work.full, full)?;
+            energy += contact.energy(&work.full)?;
+            if let Some(lag) = self.friction_lock().as_ref() {
+                contact.add_friction_force(lag, &work.full, full)?;
+                energy += contact.friction_energy(lag, &work.full)?;
+            }
+        }
+        for (o, &d) in out.iter_mut().zip(&self.free_dofs) {
+            *o = full[d];
+        }
+        Ok(energy)
+    }
+
+    /// K_T(u) = −∂f_int/∂u (plus the contact Hessian, with contact) on the free DOFs into `out` (on K_ff's pattern, see
+    /// [`zero_tangent`](Self::zero_tangent)), every element tangent projected onto the positive
+    /// semi-definite cone when `project` is set ([`crate::model::project_psd`]).
+    pub fn tangent_into(
+        &self,
+        u: &[f64],
+        project: bool,
+        work: &mut ForceWorkspace,
+        out: &mut CscMatrix,
+    ) -> Result<()> {
+        Error::check_len("displacement", self.free_count(), u.len())?;
+        if !Arc::ptr_eq(out.pattern(), &self.pattern) {
+            return Err(Error::invalid_parameter(
+                "tangent",
+                format!("{} stored entries", out.nnz()),
+                "must be on K_ff's pattern (NonlinearForce::zero_tangent)",
+            ));
+        }
+        self.expand_into(u, &mut work.full);
+        self.mesh.refill_tangent(
+            &self.assembler,
+            self.models.as_ref(),
+            &work.full,
+            project,
+            &mut work.full_tangent,
+        )?;
+        if let Some(contact) = &self.contact {
+            contact.add_tangent(&work.full, project, &mut work.full_tangent)?;
+            if let Some(lag) = self.friction_lock().as_ref() {
+                contact.add_friction_tangent(lag, &work.full, &mut work.full_tangent)?;
+            }
+        }
+        self.restriction
+            .restrict_into(&work.full_tangent, &mut work.free_tangent)?;
+        out.values_mut().copy_from_slice(work.free_tangent.values());
+        Ok(())
+    }
+
+    /// The model's elastic energy Σₑ Eₑ(X + u) (energy units) of free displacements `u`.
+    pub fn elastic_energy(&self, u: &[f64]) -> Result<f64> {
+        Error::check_len("displacement", self.free_count(), u.len())?;
+        let mut full = vec![0.0; self.mesh.dof_count()];
+        self.expand_into(u, &mut full);
+        self.mesh.energy(self.models.as_ref(), &full)
+    }
+
+    /// The energies of `state`: ½vᵀMv, the model's elastic energy (the supports at the time
+    /// last set), and the system's load potentials −f_g·u and −f·u (f without the supports'
+    /// coupling: [`LinearSystem::model_energy_potentials`]).
+    pub fn energy(&self, system: &LinearSystem, state: &State) -> Result<Energy> {
+        state.check_len(self.free_count())?;
+        Self::energy_with_elastic(system, state, self.elastic_energy(&state.displacement)?)
+    }
+
+    /// The energies of `state` with its elastic part `elastic` given (energy units): ½vᵀMv and
+    /// the system's load potentials computed here.
+    pub(crate) fn energy_with_elastic(
+        system: &LinearSystem,
+        state: &State,
+        elastic: f64,
+    ) -> Result<Energy> {
+        Ok(Energy {
+            kinetic: 0.5 * system.mass().quadratic_form(&state.velocity)?,
+            elastic,
+            ..system.model_energy_potentials(state)?
+        })
+    }
+}
+
+/// A mesh of any [`ModelElement`] with the element type erased, so that [`NonlinearForce`] (and
+/// every integrator holding it) is one type for 4-node and 10-node tets; each method is the
+/// [`crate::model::assemble`] function of the same name on the concrete mesh.
+trait ForceMesh: Send + Sync {
+    fn dof_count(&self) -> usize;
+    fn energy(&self, models: &(dyn TetModels + Send), u: &[f64]) -> Result<f64>;
+    fn internal_force(&self, models: &(dyn TetModels + Send), u: &[f64]) -> Result<Vec<f64>>;
+    fn internal_force_and_energy_into(
+        &self,
+        models: &(dyn TetModels + Send),
+        u: &[f64],
+        force: &mut [f64],
+    ) -> Result<f64>;
+    fn refill_tangent(
+        &self,
+        assembler: &Assembler,
+        models: &(dyn TetModels + Send),
+        u: &[f64],
+        project: bool,
+        tangent: &mut CscMatrix,
+    ) -> Result<()>;
+    fn nodal_deformation_gradients(
+        &self,
+        u: &[f64],
+        out: &mut [nalgebra::Matrix3<f64>],
+    ) -> Result<()>;
+    fn as_any(&self) -> &dyn std::any::Any;
+}
+
+impl<E: ModelElement> ForceMesh for TetMesh<E> {
+    fn dof_count(&self) -> usize {
+        TetMesh::dof_count(self)
+    }
+
+    fn energy(&self, models: &(dyn TetModels + Send), u: &[f64]) -> Result<f64> {
+        energy(self, models, u)
+    }
+
+    fn internal_force(&self, models: &(dyn TetModels + Send), u: &[f64]) -> Result<Vec<f64>> {
+        internal_force(self, models, u)
+    }
+
+    fn internal_force_and_energy_into(
+        &self,
+        models: &(dyn TetModels + Send),
+        u: &[f64],
+        force: &mut [f64],
+    ) -> Result<f64> {
+        crate::model::assemble::internal_force_and_energy_into(self, models, u, force)
+    }
+
+    fn refill_tangent(
+        &self,
+        assembler: &Assembler,
+        models: &(dyn TetModels + Send),
+        u: &[f64],
+        project: bool,
+        tangent: &mut CscMatrix,
+    ) -> Result<()> {
+        refill_tangent(self, assembler, models, u, project, tangent)
+    }
+
+    fn nodal_deformation_gradients(
+        &self,
+        u: &[f64],
+        out: &mut [nalgebra::Matrix3<f64>],
+    ) -> Result<()> {
+        crate::model::assemble::nodal_deformation_gradients(self, u, out)
+    }
+
+    fn as_any(&self) -> &dyn std::any::Any {
+        self
+    }
+}
+
+/// Scratch vectors and matrices of [`NonlinearForce`]'s assembly (one per integrator).
+#[derive(Debug, Clone)]
+pub struct ForceWorkspace {
+    full: Vec<f64>,
+    full_force: Vec<f64>,
+    full_tangent: CscMatrix,
+    free_tangent: CscMatrix,
+}
+
+/// out = a·K + b·M entry-wise on K's pattern (K any matrix on K_ff's pattern, e.g. a tangent):
+/// the Newton matrices of the implicit methods.
+pub(crate) fn combine(
+    stiffness: &CscMatrix,
+    stiffness_scale: f64,
+    mass: &Mass,
+    mass_scale: f64,
+    out: &mut CscMatrix,
+) -> Result<()> {
+    match mass {
+        Mass::Consistent(m) => {
+            Ok(out.set_linear_combination(stiffness_scale, stiffness, mass_scale, m)?)
+        }
+        Mass::Lumped(m) => {
+            if !Arc::ptr_eq(out.pattern(), stiffness.pattern()) {
+                return Err(Error::invalid_parameter(
+                    "matrix",
+                    "another pattern",
+                    "must be on K_ff's pattern",
+                ));
+            }
+            for (a, k) in out.values_mut().iter_mut().zip(stiffness.values()) {
+                *a = stiffness_scale * k;
+            }
+            Ok(out.add_diagonal(mass_scale, m)?)
+        }
+    }
+}
+
+impl InternalForce {
+    /// The force of the model `kind`, one per material of `materials` (see
+    /// [`ModelKind::build_map`]), on a copy of `mesh` for `system`; the linear kind gives
+    /// [`InternalForce::Linear`] without copying the mesh (the fast path). Every front end
+    /// builds its force here, so that none branches on the model.
+    ///
+    /// Errors: those of [`InternalForce::of_models`].
+    pub fn of_kind<E: ModelElement>(
+        kind: ModelKind,
+        mesh: &TetMesh<E>,
+        materials: &crate::fe::materials::MaterialMap,
+        system: &LinearSystem,
+    ) -> Result<Self> {
+        match kind {
+            // No copy of the mesh for the fast path.
+            ModelKind::Linear => Ok(InternalForce::Linear),
+            nonlinear => InternalForce::of_models(
+                Arc::new(mesh.clone()),
+                nonlinear.build_map(materials),
+                system,
+            ),
+        }
+    }
+
+    /// The contact of a nonlinear force with obstacles ([`NonlinearForce::contact`]); `None`
+    /// for the linear force, which has none.
+    pub fn contact(&self) -> Option<&Contact> {
+        match self {
+            InternalForce::Nonlinear(n) => n.contact(),
+            InternalForce::Linear => None,
+        }
+    }
+}

@@ -1,0 +1,362 @@
+//! Implicit Newmark, average acceleration (β = ¼, γ = ½): second order, unconditionally stable,
+//! and for linear undamped motion it conserves the total energy exactly (up to round-off).
+
+use std::sync::Arc;
+
+use super::newton::{NewtonSolver, StepEquation, solve_mass};
+use super::{
+    DivergenceGuard, Integrator, IntegratorHistory, IntegratorOptions, InternalForce, LinearSystem,
+    Mass, NewtonStats, State, check_time_step,
+};
+use crate::base::error::Result;
+use crate::linear_solver::LinearSolver;
+use crate::linsolve::SparseCholesky;
+use crate::sparse::CscMatrix;
+
+/// Newmark's average-acceleration method:
+///
+/// K_eff·u⁺ = f + M·(4/dt²·u + 4/dt·v + a) + C·(2/dt·u + v),  K_eff = K + 2/dt·C + 4/dt²·M,
+/// a⁺ = 4/dt²·(u⁺ − u) − 4/dt·v − a,  v⁺ = v + dt/2·(a + a⁺).
+///
+/// K_eff is factored once per dt value (symbolic analysis once). The acceleration is part of the
+/// method's state: it is computed from the equation of motion on the first step, and again
+/// whenever the [`State`] given is not the one this integrator left (its time or step count
+/// changed).
+///
+/// With a nonlinear [`InternalForce`], K·u⁺ becomes −f_int(u⁺) and the step equation in u⁺,
+///
+/// 4/dt²·M·(u⁺ − u − dt·v − dt²/4·a) + C·(2/dt·(u⁺ − u) − v) − f_int(u⁺) − f = 0,
+///
+/// is solved by Newton's method ([`super::StepNewtonOptions`]; C's stiffness part the tangent
+/// at u), then a⁺ and v⁺ follow from the same two formulas. Undamped, the method then conserves
+/// kinetic + the model's elastic energy − the loads' work to the Newton tolerance (the
+/// trapezoidal rule on the force, exact for the quadratic energy only).
+#[derive(Debug)]
+pub struct Newmark {
+    system: Arc<LinearSystem>,
+    dt: f64,
+    matrix: CscMatrix,
+    solver: LinearSolver,
+    factored_for: Option<f64>,
+    guard: Option<DivergenceGuard>,
+    acceleration: Vec<f64>,
+    /// (steps, time) of the state the stored acceleration belongs to.
+    acceleration_of: Option<(usize, f64)>,
+    work: Vec<f64>,
+    product: Vec<f64>,
+    rhs: Vec<f64>,
+    /// f(t) of time-varying data (empty for constant data: see [`LinearSystem::load_buffer`]).
+    load: Vec<f64>,
+    /// The Newton solver of a nonlinear force (`None`: the linear path).
+    newton: Option<NewtonSolver>,
+}
+
+impl Newmark {
+    /// An integrator with time step `dt` and default [`IntegratorOptions`].
+    pub fn new(system: Arc<LinearSystem>, dt: f64) -> Result<Self> {
+        Self::with_options(system, dt, IntegratorOptions::default())
+    }
+
+    /// An integrator with time step `dt` whose factorization and solves use
+    /// `options` (direct or iterative, ordering and threads).
+    pub fn with_options(
+        system: Arc<LinearSystem>,
+        dt: f64,
+        options: IntegratorOptions,
+    ) -> Result<Self> {
+        Self::with_force(system, InternalForce::Linear, dt, options)
+    }
+
+    /// An integrator with the elastic force `force` (the linear one is
+    /// [`with_options`](Self::with_options)), time step `dt` and `options`.
+    pub fn with_force(
+        system: Arc<LinearSystem>,
+        force: InternalForce,
+        dt: f64,
+        options: IntegratorOptions,
+    ) -> Result<Self> {
+        let super::ImplicitParts {
+            dt,
+            matrix,
+            solver,
+            newton,
+        } = super::ImplicitParts::new(&system, force, dt, &options)?;
+        let n = system.free_count();
+        let load = system.model_load_buffer(newton.is_some());
+        Ok(Newmark {
+            load,
+            system,
+            dt,
+            matrix,
+            solver,
+            factored_for: None,
+            guard: None,
+            acceleration: vec![0.0; n],
+            acceleration_of: None,
+            work: vec![0.0; n],
+            product: vec![0.0; n],
+            rhs: vec![0.0; n],
+            newton,
+        })
+    }
+
+    /// The energies of `state` under this integrator's force law.
+    fn energy_of(&mut self, state: &State) -> Result<super::Energy> {
+        match &self.newton {
+            Some(newton) => newton.elastic_energy_of(&self.system, state),
+            None => self.system.energy_using(state, &mut self.work),
+        }
+    }
+
+    /// A step with the nonlinear force: a = M⁻¹·(f + f_int(u) − C·v) when needed, Newton on
+    /// the step equation in u⁺, then the linear method's update of a and v.
+    fn nonlinear_step(&mut self, state: &mut State) -> Result<()> {
+        let n = self.system.free_count();
+        state.check_len(n)?;
+        if let Some(newton) = &self.newton {
+            newton.force().set_time(&self.system, state.time)?;
+        }
+        if self.guard.is_none() {
+            let start = self.energy_of(state)?;
+            self.guard = Some(match self.system.is_time_varying() {
+                true => DivergenceGuard::finite_only(start),
+                false => DivergenceGuard::new(start),
+            });
+        }
+        let Some(newton) = self.newton.as_mut() else {
+            return Ok(());
+        };
+        let dt = self.dt;
+        if self.acceleration_of != Some((state.steps, state.time)) {
+            let load = self
+                .system
+                .model_load_at(state.time, true, &mut self.load)?;
+            newton.net_force(
+                &self.system,
+                (&state.displacement, &state.velocity),
+                load,
+                &mut self.acceleration,
+            )?;
+            solve_mass(self.system.mass(), &mut self.acceleration)?;
+            self.acceleration_of = Some((state.steps, state.time));
+        }
+        let (u, v, a) = (&state.displacement, &state.velocity, &self.acceleration);
+        for i in 0..n {
+            self.work[i] = u[i] + dt * v[i] + 0.25 * dt * dt * a[i];
+        }
+        // u⁺ = ũ + dt²/4·a⁺: with a⁺ ≈ a, the first guess.
+        let guess: Vec<f64> = (0..n)
+            .map(|i| self.work[i] + 0.25 * dt * dt * a[i])
+            .collect();
+        // The equation of motion at t + dt, with the load and the supports of that time.
+        newton.force().set_time(&self.system, state.time + dt)?;
+        let load = self
+            .system
+            .model_load_at(state.time + dt, true, &mut self.load)?;
+        let equation = StepEquation {
+            mass_scale: 4.0 / (dt * dt),
+            damping_scale: 2.0 / dt,
+            predictor: &self.work,
+            start: u,
+            damping_velocity: Some(v),
+            duration: dt,
+            first_iterate: Some(&guess),
+            load,
+        };
+        newton.solve(
+            &self.system,
+            &equation,
+            &mut self.matrix,
+            &mut self.solver,
+            &mut self.rhs,
+            state.steps,
+            state.time,
+        )?;
+        self.advance(state);
+        let energy = self.energy_of(state)?;
+        match &self.guard {
+            Some(guard) => guard.check(state, &energy),
+            None => Ok(()),
+        }
+    }
+
+    /// a⁺ = 4/dt²·(u⁺ − u) − 4/dt·v − a,  v⁺ = v + dt/2·(a + a⁺),  u ← u⁺ (u⁺ in `rhs`).
+    fn advance(&mut self, state: &mut State) {
+        let dt = self.dt;
+        for i in 0..self.rhs.len() {
+            let u_new = self.rhs[i];
+            let a_new = 4.0 / (dt * dt) * (u_new - state.displacement[i])
+                - 4.0 / dt * state.velocity[i]
+                - self.acceleration[i];
+            state.velocity[i] += 0.5 * dt * (self.acceleration[i] + a_new);
+            state.displacement[i] = u_new;
+            self.acceleration[i] = a_new;
+        }
+        state.time += dt;
+        state.steps += 1;
+        self.acceleration_of = Some((state.steps, state.time));
+    }
+
+    fn factor(&mut self) -> Result<()> {
+        let (dt, damping) = (self.dt, self.system.damping());
+        // K_eff = (1 + 2β/dt)·K + (4/dt² + 2α/dt)·M
+        let (stiffness_scale, mass_scale) = (
+            1.0 + 2.0 * damping.beta / dt,
+            4.0 / (dt * dt) + 2.0 * damping.alpha / dt,
+        );
+        self.system
+            .combine_into(stiffness_scale, mass_scale, &mut self.matrix)?;
+        super::check_step_matrix(&self.matrix, dt, "(1 + 2β/dt)·K + (4/dt² + 2α/dt)·M")?;
+        self.solver.factorize(&self.matrix)?;
+        self.factored_for = Some(dt);
+        Ok(())
+    }
+
+    /// a = M⁻¹·(f − K·u − C·v).
+    fn initial_acceleration(&mut self, state: &State) -> Result<()> {
+        let damping = self.system.damping();
+        let n = self.system.free_count();
+        for i in 0..n {
+            self.work[i] = state.displacement[i] + damping.beta * state.velocity[i];
+        }
+        self.system
+            .stiffness()
+            .product_into(&self.work, &mut self.product);
+        self.system
+            .mass()
+            .product_into(&state.velocity, &mut self.work);
+        let f = self.system.external_load_at(state.time, &mut self.load)?;
+        for i in 0..n {
+            self.acceleration[i] = f[i] - self.product[i] - damping.alpha * self.work[i];
+        }
+        match self.system.mass() {
+            Mass::Lumped(m) => self
+                .acceleration
+                .iter_mut()
+                .zip(m)
+                .for_each(|(a, m)| *a /= m),
+            Mass::Consistent(m) => {
+                let mut cholesky = SparseCholesky::analyze(m)?;
+                cholesky.factorize(m)?;
+                cholesky.solve_in_place(&mut self.acceleration)?;
+            }
+        }
+        self.acceleration_of = Some((state.steps, state.time));
+        Ok(())
+    }
+}
+
+impl Integrator for Newmark {
+    fn step(&mut self, state: &mut State) -> Result<()> {
+        if self.newton.is_some() {
+            return self.nonlinear_step(state);
+        }
+        let n = self.system.free_count();
+        state.check_len(n)?;
+        if self.factored_for != Some(self.dt) {
+            self.factor()?;
+        }
+        if self.acceleration_of != Some((state.steps, state.time)) {
+            self.initial_acceleration(state)?;
+        }
+        if self.guard.is_none() {
+            let start = self.system.energy_using(state, &mut self.work)?;
+            self.guard = Some(
+                self.system
+                    .divergence_guard(start, (state.steps, state.time))?,
+            );
+        }
+        let (dt, damping) = (self.dt, self.system.damping());
+        let (u, v, a) = (&state.displacement, &state.velocity, &self.acceleration);
+        // M·(4/dt²·u + 4/dt·v + a + α·(2/dt·u + v)) + β·K·(2/dt·u + v) + f
+        for i in 0..n {
+            self.work[i] = 4.0 / (dt * dt) * u[i]
+                + 4.0 / dt * v[i]
+                + a[i]
+                + damping.alpha * (2.0 / dt * u[i] + v[i]);
+        }
+        self.system.mass().product_into(&self.work, &mut self.rhs);
+        if damping.beta != 0.0 {
+            for i in 0..n {
+                self.work[i] = 2.0 / dt * u[i] + v[i];
+            }
+            self.system
+                .stiffness()
+                .product_into(&self.work, &mut self.product);
+            for i in 0..n {
+                self.rhs[i] += damping.beta * self.product[i];
+            }
+        }
+        // The equation of motion at t + dt, with the load and moving supports of that time.
+        let f = self
+            .system
+            .external_load_at(state.time + dt, &mut self.load)?;
+        for i in 0..n {
+            self.rhs[i] += f[i];
+        }
+        self.solver.solve(&self.matrix, &mut self.rhs)?;
+        self.advance(state);
+        let energy = self.system.energy_using(state, &mut self.work)?;
+        match &self.guard {
+            Some(guard) => guard.check(state, &energy),
+            None => Ok(()),
+        }
+    }
+
+    fn time_step(&self) -> f64 {
+        self.dt
+    }
+
+    fn set_time_step(&mut self, dt: f64) -> Result<()> {
+        self.dt = check_time_step(dt)?;
+        Ok(())
+    }
+
+    fn factor_len(&self) -> Option<usize> {
+        Some(self.solver.factor_len())
+    }
+
+    fn linear_solver(&self) -> Option<&LinearSolver> {
+        Some(&self.solver)
+    }
+
+    fn name(&self) -> &'static str {
+        "newmark"
+    }
+
+    fn newton_stats(&self) -> Option<NewtonStats> {
+        self.newton.as_ref().map(NewtonSolver::stats)
+    }
+
+    /// The guard, Newton's counts, and the acceleration when it belongs to the state the
+    /// integrator left (after a step; before the first one it is computed from the equation
+    /// of motion, as on a fresh start).
+    fn history(&self) -> Result<IntegratorHistory> {
+        Ok(IntegratorHistory {
+            method: self.name().into(),
+            guard: self.guard,
+            acceleration: self
+                .acceleration_of
+                .is_some()
+                .then(|| self.acceleration.clone()),
+            previous_acceleration: None,
+            newton: self.newton_stats(),
+        })
+    }
+
+    fn restore(&mut self, state: &State, history: &IntegratorHistory) -> Result<()> {
+        history.check(self.name(), self.system.free_count(), state)?;
+        self.guard = history.guard;
+        match &history.acceleration {
+            Some(a) => {
+                self.acceleration.copy_from_slice(a);
+                self.acceleration_of = Some((state.steps, state.time));
+            }
+            None => self.acceleration_of = None,
+        }
+        if let (Some(newton), Some(stats)) = (self.newton.as_mut(), history.newton) {
+            newton.set_stats(stats);
+        }
+        Ok(())
+    }
+}

@@ -1,0 +1,375 @@
+//! The Newton direction δ ≈ −J⁻¹·r of one iteration, as a strategy that owns its state: the
+//! [`StepDirection`] trait and its three types, chosen from [`NonlinearSolve`] by [`choose`]:
+//!
+//! - [`Refactor`]: J formed and factored numerically every iteration (no state of its own: the
+//!   factor lives in the integrator's [`LinearSolver`], whose symbolic analysis it shares with
+//!   the linear path);
+//! - [`RestPreconditionedCg`]: preconditioned CG on J, the factor that of the rest matrix
+//!   J₀ = s·M + (1 + β_s)·K₀ turned by the nodes' rotations, or after a fallback the factor of
+//!   the J CG could not solve (lagged for the rest of that step);
+//! - [`Lbfgs`]: δ = −H·r with L-BFGS's H (its correction pairs), H₀ the turned rest factor;
+//!   when it fails within a step it goes on with its own [`RestPreconditionedCg`] (the same
+//!   rest factor and rotations).
+//!
+//! The loop (`super::NewtonSolver`) keeps only its own state (iterate, residuals, counts) and
+//! hands a strategy the [`NewtonMatrix`]: what J is formed from and where it is factored.
+
+use super::NewtonStats;
+use crate::analysis::dynamics::internal_force::{ForceWorkspace, NonlinearForce, combine};
+use crate::analysis::dynamics::lbfgs::LbfgsMemory;
+use crate::analysis::dynamics::nodal_rotation::NodalRotations;
+use crate::analysis::dynamics::{LinearSystem, NonlinearSolve};
+use crate::base::error::Result;
+use crate::iterative::CgOptions;
+use crate::linear_solver::LinearSolver;
+use crate::sparse::CscMatrix;
+
+/// What the Newton matrix J = mass_scale·M + damping_stiffness·K_T(u_start) + K_T(u') of one
+/// iteration is formed from (the force, its scratch and tangents) and where it goes (`matrix`,
+/// on K_ff's pattern, factored or preconditioned by `solver`).
+pub(crate) struct NewtonMatrix<'a> {
+    /// The system: its mass and rest stiffness K₀ = K_ff.
+    pub system: &'a LinearSystem,
+    /// The force law whose tangent K_T is.
+    pub force: &'a NonlinearForce,
+    /// The force's scratch.
+    pub work: &'a mut ForceWorkspace,
+    /// K_T(u') (on the force's pattern).
+    pub tangent: &'a mut CscMatrix,
+    /// K_T(u_start) of the damping, when β > 0.
+    pub damping_tangent: Option<&'a CscMatrix>,
+    /// (mass_scale, damping_stiffness): (s_m + s_c·α, s_c·β) (1/time², dimensionless).
+    pub scales: (f64, f64),
+    /// J, or the rest matrix J₀ whose factor preconditions it.
+    pub matrix: &'a mut CscMatrix,
+    /// The linear solver of J.
+    pub solver: &'a mut LinearSolver,
+}
+
+impl NewtonMatrix<'_> {
+    /// J into `matrix`, every element tangent projected onto the positive semi-definite cone
+    /// when `project` is set.
+    fn form(&mut self, u_new: &[f64], project: bool) -> Result<()> {
+        let (mass_scale, damping_stiffness) = self.scales;
+        self.force
+            .tangent_into(u_new, project, self.work, self.tangent)?;
+        combine(
+            self.tangent,
+            1.0,
+            self.system.mass(),
+            mass_scale,
+            self.matrix,
+        )?;
+        if let Some(k) = self.damping_tangent {
+            for (a, k) in self.matrix.values_mut().iter_mut().zip(k.values()) {
+                *a += damping_stiffness * k;
+            }
+        }
+        Ok(())
+    }
+
+    /// Forms J and factors it: the exact tangent first, the projected one if J is not positive
+    /// definite.
+    fn factor(&mut self, u_new: &[f64]) -> Result<()> {
+        for project in [false, true] {
+            self.form(u_new, project)?;
+            match self.solver.factorize(self.matrix) {
+                Err(tetfem_linalg::Error::NotPositiveDefinite { .. }) if !project => continue,
+                other => return Ok(other?),
+            }
+        }
+        Ok(())
+    }
+
+    /// δ = −J⁻¹·r by a fresh factorization of J (counted), `delta` holding −r on entry.
+    fn factor_and_solve(
+        &mut self,
+        u_new: &[f64],
+        delta: &mut [f64],
+        stats: &mut NewtonStats,
+    ) -> Result<()> {
+        self.factor(u_new)?;
+        stats.factorizations += 1;
+        self.solver.solve(self.matrix, delta)?;
+        Ok(())
+    }
+}
+
+/// How one Newton iteration finds its direction; each implementation owns its state.
+pub(crate) trait StepDirection: Send {
+    /// A new time step (all its stages): state that serves one step only is dropped.
+    fn begin_step(&mut self) {}
+
+    /// A new run of iterations (one stage of a step): state of the last run is dropped.
+    fn begin_iterations(&mut self) {}
+
+    /// δ ≈ −J(u')⁻¹·r into `delta` (`residual` r at `u_new`; `first`: the run's first
+    /// iteration), counting factorizations, CG iterations and fallbacks in `stats`.
+    fn direction(
+        &mut self,
+        newton: &mut NewtonMatrix,
+        u_new: &[f64],
+        residual: &[f64],
+        delta: &mut [f64],
+        first: bool,
+        stats: &mut NewtonStats,
+    ) -> Result<()>;
+
+    /// The line search accepted the step s = alpha·δ, the residual going from `residual` to
+    /// `trial_residual` (a quasi-Newton memory keeps the pair).
+    fn accepted(&mut self, _alpha: f64, _delta: &[f64], _residual: &[f64], _trial: &[f64]) {}
+
+    /// The iterations ran out or found no decrease: switches to a fallback for the rest of the
+    /// run and returns `true` (counted in `stats`), or `false` when there is none.
+    fn fall_back(&mut self, _stats: &mut NewtonStats) -> bool {
+        false
+    }
+}
+
+/// The strategy of `solve` (already resolved for the problem's size, see
+/// [`NonlinearSolve::for_problem`]) for `force`.
+pub(crate) fn choose(solve: NonlinearSolve, force: &NonlinearForce) -> Box<dyn StepDirection> {
+    match solve {
+        NonlinearSolve::Refactor => Box::new(Refactor),
+        NonlinearSolve::RestPreconditionedLbfgs { history } => Box::new(Lbfgs {
+            memory: LbfgsMemory::new(history),
+            failed: false,
+            cg: RestPreconditionedCg::new(super::super::nonlinear_solve::AUTO_CG, force),
+        }),
+        cg => Box::new(RestPreconditionedCg::new(cg, force)),
+    }
+}
+
+/// Newton's own direction: J formed and factored every iteration (the exact tangent, or the
+/// projected one where J is not positive definite).
+pub(crate) struct Refactor;
+
+impl StepDirection for Refactor {
+    fn direction(
+        &mut self,
+        newton: &mut NewtonMatrix,
+        u_new: &[f64],
+        residual: &[f64],
+        delta: &mut [f64],
+        _first: bool,
+        stats: &mut NewtonStats,
+    ) -> Result<()> {
+        negate(residual, delta);
+        newton.factor_and_solve(u_new, delta, stats)
+    }
+}
+
+/// Inexact Newton: CG on J to the relative tolerance `forcing`, preconditioned by the factor of
+/// the rest matrix J₀ (turned by the nodes' rotations on the direct path), at most
+/// `max_cg_iterations`; a CG that fails factors J itself, whose factor then preconditions the
+/// rest of that step.
+pub(crate) struct RestPreconditionedCg {
+    max_cg_iterations: usize,
+    forcing: f64,
+    /// The nodes' rotations that turn the rest factor.
+    rotations: NodalRotations,
+    /// The (mass scale, damping stiffness) of the rest matrix the solver's current factor is
+    /// of (`None`: no factor yet, or a fallback's).
+    preconditioner_for: Option<(f64, f64)>,
+    /// The current factor is a fallback's (of a Newton matrix, not the rest one). It serves the
+    /// rest of its step only: each step starts from the rest factor, so that a step depends on
+    /// the state alone (not on which steps came before) and a restarted run continues with the
+    /// same bits as an uninterrupted one.
+    lagged: bool,
+}
+
+impl RestPreconditionedCg {
+    /// The strategy of `settings` (a [`NonlinearSolve::RestPreconditionedCg`]; any other takes
+    /// the automatic CG settings) for `force`.
+    fn new(settings: NonlinearSolve, force: &NonlinearForce) -> Self {
+        let (max_cg_iterations, forcing) = match settings {
+            NonlinearSolve::RestPreconditionedCg {
+                max_cg_iterations,
+                forcing,
+            } => (max_cg_iterations, forcing),
+            _ => match super::super::nonlinear_solve::AUTO_CG {
+                NonlinearSolve::RestPreconditionedCg {
+                    max_cg_iterations,
+                    forcing,
+                } => (max_cg_iterations, forcing),
+                _ => (0, 0.0),
+            },
+        };
+        RestPreconditionedCg {
+            max_cg_iterations,
+            forcing,
+            rotations: NodalRotations::new(force),
+            preconditioner_for: None,
+            lagged: false,
+        }
+    }
+
+    /// Factors the rest Newton matrix J₀ = mass_scale·M + (1 + damping_stiffness)·K₀ into the
+    /// solver (through its matrix) unless its factor is there already.
+    fn ensure_rest_factor(
+        &mut self,
+        newton: &mut NewtonMatrix,
+        stats: &mut NewtonStats,
+    ) -> Result<()> {
+        let key = newton.scales;
+        if self.preconditioner_for != Some(key) {
+            let (mass_scale, damping_stiffness) = key;
+            combine(
+                newton.system.stiffness(),
+                1.0 + damping_stiffness,
+                newton.system.mass(),
+                mass_scale,
+                newton.matrix,
+            )?;
+            newton.solver.factorize(newton.matrix)?;
+            stats.factorizations += 1;
+            self.preconditioner_for = Some(key);
+            // The rest factor only approximates J (L-BFGS's H₀, CG's preconditioner): its
+            // solves may read it rounded to f32, half the bytes (where memory allows a copy).
+            newton.solver.make_single_precision_copy()?;
+        }
+        Ok(())
+    }
+}
+
+impl StepDirection for RestPreconditionedCg {
+    fn begin_step(&mut self) {
+        if self.lagged {
+            self.preconditioner_for = None;
+            self.lagged = false;
+        }
+    }
+
+    fn direction(
+        &mut self,
+        newton: &mut NewtonMatrix,
+        u_new: &[f64],
+        residual: &[f64],
+        delta: &mut [f64],
+        _first: bool,
+        stats: &mut NewtonStats,
+    ) -> Result<()> {
+        negate(residual, delta);
+        self.ensure_rest_factor(newton, stats)?;
+        newton.form(u_new, false)?;
+        let cg = CgOptions {
+            relative_tolerance: self.forcing,
+            max_iterations: self.max_cg_iterations,
+        };
+        // The factor turned by the nodes' rotations where it can be (the direct method).
+        let solved = match newton.solver.is_direct() {
+            true => {
+                self.rotations.update(newton.force, u_new, newton.work)?;
+                let rotations = &self.rotations;
+                let turn = |v: &mut [f64], transpose: bool| match transpose {
+                    true => rotations.to_rotated_frame(v),
+                    false => rotations.back_from_rotated_frame(v),
+                };
+                newton
+                    .solver
+                    .solve_preconditioned_turned(newton.matrix, delta, cg, &turn)
+            }
+            false => newton.solver.solve_preconditioned(newton.matrix, delta, cg),
+        };
+        match solved {
+            Ok(report) => {
+                stats.cg_iterations += report.iterations;
+                Ok(())
+            }
+            // Out of budget or not positive definite along a direction: factor J itself;
+            // its factor preconditions the rest of this step (lagged refactorization).
+            Err(tetfem_linalg::Error::Solver(_)) => {
+                stats.cg_iterations += self.max_cg_iterations;
+                stats.fallbacks += 1;
+                self.lagged = true;
+                negate(residual, delta);
+                newton.factor_and_solve(u_new, delta, stats)
+            }
+            Err(other) => Err(other.into()),
+        }
+    }
+}
+
+/// Quasi-Newton: δ = −H·r with L-BFGS's inverse Hessian H from the run's correction pairs, its
+/// H₀ the rest factor turned by the rotations at the run's first iterate (on the direct path;
+/// on the iterative one, and after a failure within a run, its preconditioned CG).
+pub(crate) struct Lbfgs {
+    /// The correction pairs of the current run.
+    memory: LbfgsMemory,
+    /// The current run has left L-BFGS for preconditioned CG.
+    failed: bool,
+    /// The fallback, whose rest factor and rotations are H₀'s too.
+    cg: RestPreconditionedCg,
+}
+
+impl StepDirection for Lbfgs {
+    fn begin_step(&mut self) {
+        self.cg.begin_step();
+    }
+
+    fn begin_iterations(&mut self) {
+        self.memory.clear();
+        self.failed = false;
+    }
+
+    fn direction(
+        &mut self,
+        newton: &mut NewtonMatrix,
+        u_new: &[f64],
+        residual: &[f64],
+        delta: &mut [f64],
+        first: bool,
+        stats: &mut NewtonStats,
+    ) -> Result<()> {
+        if self.failed || !newton.solver.is_direct() {
+            return self
+                .cg
+                .direction(newton, u_new, residual, delta, first, stats);
+        }
+        negate(residual, delta);
+        self.cg.ensure_rest_factor(newton, stats)?;
+        if first {
+            self.cg.rotations.update(newton.force, u_new, newton.work)?;
+        }
+        let rotations = &self.cg.rotations;
+        let (solver, matrix) = (&mut *newton.solver, &*newton.matrix);
+        let mut initial = |v: &mut [f64]| -> Result<()> {
+            rotations.to_rotated_frame(v);
+            solver.solve_approximate(matrix, v)?;
+            rotations.back_from_rotated_frame(v);
+            Ok(())
+        };
+        self.memory.apply(delta, &mut initial)
+    }
+
+    fn accepted(&mut self, alpha: f64, delta: &[f64], residual: &[f64], trial: &[f64]) {
+        if self.failed {
+            return;
+        }
+        let n = delta.len();
+        let (mut step, mut change) = (self.memory.buffer(n), self.memory.buffer(n));
+        for (s, d) in step.iter_mut().zip(delta) {
+            *s = alpha * d;
+        }
+        for ((c, new), old) in change.iter_mut().zip(trial).zip(residual) {
+            *c = new - old;
+        }
+        self.memory.push(step, change);
+    }
+
+    fn fall_back(&mut self, stats: &mut NewtonStats) -> bool {
+        if self.failed {
+            return false;
+        }
+        self.failed = true;
+        stats.fallbacks += 1;
+        true
+    }
+}
+
+/// `out` = −r.
+fn negate(r: &[f64], out: &mut [f64]) {
+    for (d, r) in out.iter_mut().zip(r) {
+        *d = -r;
+    }
+}

@@ -1,0 +1,795 @@
+//! Newton's method for the implicit equation of one time step with a nonlinear force model,
+//! written once for every implicit integrator (each supplies its scales and predictor).
+//!
+//! This module (`src/analysis/dynamics/newton/`) is where the implicit steps' Newton lives: the loop
+//! ([`NewtonSolver`], with only the loop's own state: iterate, residuals, counts), its
+//! direction strategies, each a type owning its state ([`direction`]: refactoring,
+//! rest-preconditioned CG, L-BFGS), and its backtracking line search ([`line_search`]).
+
+mod direction;
+pub(crate) mod line_search;
+
+use std::sync::Arc;
+
+use super::internal_force::{ForceWorkspace, NonlinearForce};
+use super::{LinearSystem, Mass, NonlinearSolve};
+use crate::base::error::{Error, Result};
+use crate::contact::{MAX_MOTION_STAGES, MotionStage};
+use crate::linear_solver::LinearSolver;
+use crate::sparse::CscMatrix;
+use direction::{NewtonMatrix, StepDirection};
+use line_search::{Backtracking, LineFunction};
+
+/// Settings of the Newton iterations of an implicit step with a nonlinear force model.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct StepNewtonOptions {
+    /// A step has converged when ‖r‖ ≤ tolerance·max(‖r₀‖, ‖f‖), r₀ the residual of the
+    /// implicit equation at the step's start u' = u and f the external load (default 1e-8),
+    /// or at the round-off floor of the internal forces: below 1e-6 of that reference, a
+    /// residual that no longer halves (the O(E·|X|) terms of an element force cancel to
+    /// O(E·strain), and more iterations cannot lower the noise that leaves).
+    pub tolerance: f64,
+    /// Newton iterations allowed per step (default 25); more is [`Error::Diverged`] naming the
+    /// step, with the residual reached.
+    pub max_iterations: usize,
+}
+
+impl Default for StepNewtonOptions {
+    fn default() -> Self {
+        StepNewtonOptions {
+            tolerance: 1e-8,
+            max_iterations: 25,
+        }
+    }
+}
+
+impl StepNewtonOptions {
+    /// [`Error::InvalidParameter`] unless the tolerance is finite and in (0, 1) and at least one
+    /// iteration is allowed.
+    pub fn check(&self) -> Result<()> {
+        if !(self.tolerance > 0.0 && self.tolerance < 1.0) {
+            return Err(Error::invalid_parameter(
+                "newton.tolerance",
+                self.tolerance,
+                "must be finite, > 0 and < 1",
+            ));
+        }
+        if self.max_iterations == 0 {
+            return Err(Error::invalid_parameter(
+                "newton.max_iterations",
+                0,
+                "must be at least 1",
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// Newton iteration counts of an implicit integrator with a nonlinear model.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize)]
+pub struct NewtonStats {
+    /// Steps solved.
+    pub steps: usize,
+    /// Newton iterations (each: one tangent assembly and one linear solve: a numerical
+    /// factorization and its triangular solves, or preconditioned CG) over all steps; on the
+    /// L-BFGS path, its iterations (each one force evaluation and one turned solve).
+    pub total_iterations: usize,
+    /// The most iterations one step took.
+    pub max_per_step: usize,
+    /// Iterations of the last step.
+    pub last_step: usize,
+    /// Numerical factorizations over all steps: one per Newton iteration with
+    /// [`NonlinearSolve::Refactor`]; with [`NonlinearSolve::RestPreconditionedCg`] one per time
+    /// step value (the rest matrix) plus one per fallback.
+    pub factorizations: usize,
+    /// Preconditioned CG iterations over all steps (0 with [`NonlinearSolve::Refactor`]); a
+    /// fallback counts its whole budget.
+    pub cg_iterations: usize,
+    /// Newton iterations whose CG ran out of its budget (or met non-positive curvature) and
+    /// fell back to a factorization of the current Newton matrix; on the L-BFGS path, also the
+    /// steps that went on with preconditioned CG.
+    pub fallbacks: usize,
+}
+
+/// The implicit equation of one step in the new displacement u' (free DOFs):
+///
+/// r(u') = s_m·M·(u' − ũ) + C·(s_c·(u' − u) − v_c) − f_int(u') − f = 0,
+///
+/// C = α·M + β·K_T(u) the Rayleigh damping with the stiffness part frozen at the tangent of the
+/// step's start u (PSD-projected, so it dissipates). Backward Euler: s_m = 1/dt², ũ = u + dt·v,
+/// s_c = 1/dt, v_c = 0. Newmark (average acceleration): s_m = 4/dt², ũ = u + dt·v + dt²/4·a,
+/// s_c = 2/dt, v_c = v. With C constant over the step it is the gradient of
+///
+/// Φ(u') = ½s_m·|u' − ũ|²_M + ½s_c·|u' − u|²_C − (C·v_c)·u' + W(u') − f·u',
+///
+/// which the line search may fall back on.
+pub(crate) struct StepEquation<'a> {
+    /// s_m (1/time²).
+    pub mass_scale: f64,
+    /// s_c (1/time).
+    pub damping_scale: f64,
+    /// ũ (length).
+    pub predictor: &'a [f64],
+    /// u, the displacement the step starts from; also Newton's first iterate.
+    pub start: &'a [f64],
+    /// v_c (length/time), `None` for zero.
+    pub damping_velocity: Option<&'a [f64]>,
+    /// The step dt (time): moving obstacles go to their placement at `time + duration`.
+    pub duration: f64,
+    /// f, the external load of the step equation (force units, free DOFs): the system's load
+    /// at the step's end without the supports' elastic coupling
+    /// ([`LinearSystem::model_load_at`]).
+    pub load: &'a [f64],
+    /// A guess of u' nearer than `start` (length; backward Euler: u + dt·v + dt²·(2a − a₋₁)
+    /// with the last two steps' accelerations, or u + dt·v + dt²·a after one step), which the
+    /// iterations start from when its residual or its Φ is the smaller one; `None` to start at
+    /// `start`. Not taken with contact: `start` is the iterate known to be free of
+    /// penetration. The convergence test is the same either way.
+    pub first_iterate: Option<&'a [f64]>,
+}
+
+/// The Newton solver of an implicit integrator with a nonlinear model: its scratch, the tangent,
+/// the iteration counts, and the direction strategy (which owns the strategy's own state).
+pub(crate) struct NewtonSolver {
+    force: Arc<NonlinearForce>,
+    options: StepNewtonOptions,
+    /// How each iteration finds its direction ([`NonlinearSolve`] resolved for the problem).
+    direction: Box<dyn StepDirection>,
+    /// The line search along each direction.
+    line_search: Backtracking,
+    work: ForceWorkspace,
+    tangent: CscMatrix,
+    /// K_T(u) of the step's start (projected), when β > 0.
+    damping_tangent: Option<CscMatrix>,
+    internal: Vec<f64>,
+    /// The potential energy (elastic plus contact) at `internal_at`, from the same pass.
+    internal_energy: f64,
+    /// The potential energies at the points `residual` and `trial_residual` were evaluated at:
+    /// the line search's Φ needs no pass of its own over the tets.
+    residual_energy: f64,
+    trial_energy: f64,
+    /// The free displacement `internal` is the force at, when `internal_valid`.
+    internal_at: Vec<f64>,
+    internal_valid: bool,
+    residual: Vec<f64>,
+    trial: Vec<f64>,
+    trial_residual: Vec<f64>,
+    delta: Vec<f64>,
+    /// The combination a residual multiplies by M (or by K_T(u) for the damping).
+    mixed: Vec<f64>,
+    scratch: Vec<f64>,
+    stats: NewtonStats,
+    /// A floor under the convergence reference max(‖r₀‖, ‖f‖) (force): with contact the step's
+    /// inertia scale, and the contact force of a moving obstacle's stage (whose own r₀ is what
+    /// the last small move left); 0 without contact.
+    reference_floor: f64,
+}
+
+impl std::fmt::Debug for NewtonSolver {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("NewtonSolver")
+            .field("model", &self.force.name())
+            .field("options", &self.options)
+            .field("stats", &self.stats)
+            .finish_non_exhaustive()
+    }
+}
+
+impl NewtonSolver {
+    /// A solver for `force` on `system` whose linear solves are made as `solve` says (β > 0
+    /// keeps a second tangent for the damping).
+    pub fn new(
+        force: Arc<NonlinearForce>,
+        system: &LinearSystem,
+        options: StepNewtonOptions,
+        solve: NonlinearSolve,
+    ) -> Result<Self> {
+        options.check()?;
+        solve.check()?;
+        let n = force.free_count();
+        let solve = solve.for_problem(n, force.contact().is_some());
+        Error::check_len("nonlinear force free DOFs", system.free_count(), n)?;
+        Ok(NewtonSolver {
+            work: force.workspace()?,
+            direction: direction::choose(solve, &force),
+            line_search: Backtracking::for_contact(force.contact().is_some()),
+            tangent: force.zero_tangent()?,
+            damping_tangent: match system.damping().beta > 0.0 {
+                true => Some(force.zero_tangent()?),
+                false => None,
+            },
+            force,
+            options,
+            internal: vec![0.0; n],
+            internal_at: vec![0.0; n],
+            internal_valid: false,
+            internal_energy: 0.0,
+            residual_energy: 0.0,
+            trial_energy: 0.0,
+            residual: vec![0.0; n],
+            trial: vec![0.0; n],
+            trial_residual: vec![0.0; n],
+            delta: vec![0.0; n],
+            mixed: vec![0.0; n],
+            scratch: vec![0.0; n],
+            stats: NewtonStats::default(),
+            reference_floor: 0.0,
+        })
+    }
+
+    /// The force law.
+    pub fn force(&self) -> &NonlinearForce {
+        &self.force
+    }
+
+    /// The counts so far.
+    pub fn stats(&self) -> NewtonStats {
+        self.stats
+    }
+
+    /// Sets the counts (a run restored from a checkpoint continues its counts).
+    pub fn set_stats(&mut self, stats: NewtonStats) {
+        self.stats = stats;
+    }
+
+    /// f + f_int(u) − C(u)·v into `out` (C = αM + βK_T(u), K_T projected): the force that
+    /// accelerates the state (u, v), for explicit steps and Newmark's initial acceleration;
+    /// `f` the external load at the state's time ([`LinearSystem::model_load_at`]), the
+    /// force's supports set to that time ([`NonlinearForce::set_time`]).
+    pub fn net_force(
+        &mut self,
+        system: &LinearSystem,
+        (u, v): (&[f64], &[f64]),
+        f: &[f64],
+        out: &mut [f64],
+    ) -> Result<()> {
+        Error::check_len("load", out.len(), f.len())?;
+        let damping = system.damping();
+        self.internal_energy =
+            self.force
+                .force_and_energy_into(u, &mut self.work, &mut self.internal)?;
+        self.internal_at.copy_from_slice(u);
+        self.internal_valid = true;
+        system.mass().product_into(v, &mut self.scratch);
+        for i in 0..out.len() {
+            out[i] = f[i] + self.internal[i] - damping.alpha * self.scratch[i];
+        }
+        if damping.beta > 0.0 {
+            self.force
+                .tangent_into(u, true, &mut self.work, &mut self.tangent)?;
+            self.tangent.product_into(v, &mut self.scratch);
+            for (o, kv) in out.iter_mut().zip(&self.scratch) {
+                *o -= damping.beta * kv;
+            }
+        }
+        Ok(())
+    }
+
+    /// The energies of `state` (½vᵀMv, the load potentials) with its elastic part from the pass
+    /// [`net_force`](Self::net_force) made at `state.displacement`: the model's energy plus, with
+    /// contact, the barrier's, so an explicit step's divergence guard needs no second pass over
+    /// the tets. Where the last pass was elsewhere, the model's energy is computed afresh.
+    pub fn energy_at_net_force(
+        &self,
+        system: &LinearSystem,
+        state: &super::State,
+    ) -> Result<super::Energy> {
+        if !(self.internal_valid && self.internal_at == state.displacement) {
+            return self.force.energy(system, state);
+        }
+        NonlinearForce::energy_with_elastic(system, state, self.internal_energy)
+    }
+
+    /// The energies of `state` with the model's elastic energy (no contact term), for an
+    /// implicit step's divergence guard: from the last residual's pass when it was made at
+    /// `state.displacement` (the end of the last step) without contact, else a pass of its own.
+    /// Before, every implicit corotational step made that pass over the tets for the guard alone.
+    pub fn elastic_energy_of(
+        &self,
+        system: &LinearSystem,
+        state: &super::State,
+    ) -> Result<super::Energy> {
+        match self.force.contact().is_none() {
+            true => self.energy_at_net_force(system, state),
+            false => self.force.energy(system, state),
+        }
+    }
+
+    /// r(u') of `equation` into the residual, or the trial residual when `out_is_trial`.
+    fn residual_into(
+        &mut self,
+        system: &LinearSystem,
+        equation: &StepEquation,
+        u_new: &[f64],
+        out_is_trial: bool,
+    ) -> Result<()> {
+        let damping = system.damping();
+        // A step starts where the last one's final residual was evaluated: its internal force
+        // is still here (without contact, whose force also depends on the obstacles' placement
+        // and the lagged friction).
+        // Nor with moving supports: the same free u is another full displacement at another time.
+        let cached = self.force.contact().is_none()
+            && !system.has_moving_supports()
+            && self.internal_valid
+            && self.internal_at.as_slice() == u_new;
+        if !cached {
+            self.internal_energy =
+                self.force
+                    .force_and_energy_into(u_new, &mut self.work, &mut self.internal)?;
+            self.internal_at.copy_from_slice(u_new);
+            self.internal_valid = true;
+        }
+        match out_is_trial {
+            true => self.trial_energy = self.internal_energy,
+            false => self.residual_energy = self.internal_energy,
+        }
+        let (s_m, s_c) = (equation.mass_scale, equation.damping_scale);
+        let vc = |i: usize| equation.damping_velocity.map_or(0.0, |v| v[i]);
+        // M·(s_m·(u' − ũ) + α·w), w = s_c·(u' − u) − v_c: one mass product.
+        for i in 0..u_new.len() {
+            let w = s_c * (u_new[i] - equation.start[i]) - vc(i);
+            self.mixed[i] = s_m * (u_new[i] - equation.predictor[i]) + damping.alpha * w;
+        }
+        let out = match out_is_trial {
+            true => &mut self.trial_residual,
+            false => &mut self.residual,
+        };
+        system.mass().product_into(&self.mixed, out);
+        let f = equation.load;
+        for i in 0..u_new.len() {
+            out[i] -= self.internal[i] + f[i];
+        }
+        if let Some(k) = &self.damping_tangent {
+            for i in 0..u_new.len() {
+                self.mixed[i] = s_c * (u_new[i] - equation.start[i]) - vc(i);
+            }
+            k.product_into(&self.mixed, &mut self.scratch);
+            for (o, kw) in out.iter_mut().zip(&self.scratch) {
+                *o += damping.beta * kw;
+            }
+        }
+        Ok(())
+    }
+
+    /// The line search of [`iterate`](Self::iterate) along the Newton step δ from `u_new`
+    /// (residual norm `r_norm`) from the step fraction `first_alpha` (see [`Backtracking`]):
+    /// returns whether a fraction was accepted, and the last one tried. The trial's residual
+    /// is left in `trial_residual`, the trial point in `trial`.
+    fn search_line(
+        &mut self,
+        system: &LinearSystem,
+        equation: &StepEquation,
+        u_new: &[f64],
+        (first_alpha, r_norm): (f64, f64),
+    ) -> Result<(bool, f64)> {
+        let slope = dot(&self.residual, &self.delta).abs();
+        let search = self.line_search;
+        let mut line = StepLine {
+            solver: self,
+            system,
+            equation,
+            u_new,
+            start_phi: None,
+        };
+        search.search(&mut line, first_alpha, r_norm, slope)
+    }
+
+    /// Φ at the line search's start `u_new` (its energy from the residual's pass), computed at
+    /// most once per line search: `cache` holds it after the first call.
+    fn start_potential(
+        &self,
+        cache: &mut Option<f64>,
+        system: &LinearSystem,
+        equation: &StepEquation,
+        u_new: &[f64],
+    ) -> Result<f64> {
+        if let Some(phi) = *cache {
+            return Ok(phi);
+        }
+        let phi = self.potential(system, equation, u_new, self.residual_energy)?;
+        *cache = Some(phi);
+        Ok(phi)
+    }
+
+    /// Φ(u') of `equation` (see [`StepEquation`]), `energy` the potential energy (elastic plus
+    /// contact) at u', from its residual's evaluation.
+    fn potential(
+        &self,
+        system: &LinearSystem,
+        equation: &StepEquation,
+        u_new: &[f64],
+        energy: f64,
+    ) -> Result<f64> {
+        let damping = system.damping();
+        let n = u_new.len();
+        let p: Vec<f64> = (0..n).map(|i| u_new[i] - equation.predictor[i]).collect();
+        let q: Vec<f64> = (0..n).map(|i| u_new[i] - equation.start[i]).collect();
+        let mass = system.mass();
+        let mut phi = 0.5 * equation.mass_scale * mass.quadratic_form(&p)?
+            + 0.5 * equation.damping_scale * damping.alpha * mass.quadratic_form(&q)?;
+        if let Some(k) = &self.damping_tangent {
+            phi += 0.5 * equation.damping_scale * damping.beta * k.quadratic_form(&q)?;
+        }
+        if let Some(vc) = equation.damping_velocity {
+            let mut mv = vec![0.0; n];
+            mass.product_into(vc, &mut mv);
+            phi -= damping.alpha * dot(&mv, u_new);
+            if let Some(k) = &self.damping_tangent {
+                k.product_into(vc, &mut mv);
+                phi -= damping.beta * dot(&mv, u_new);
+            }
+        }
+        let load = dot(equation.load, u_new);
+        Ok(phi + energy - load)
+    }
+
+    /// Solves `equation` for u' by Newton's method into `u_new` (any length-n buffer; it starts
+    /// at u), forming the Newton matrix J = (s_m + s_c·α)·M + s_c·β·K_T(u) + K_T(u') in `matrix`
+    /// (on K_ff's pattern) and solving with `solver` (refactored numerically each iteration on
+    /// its fixed symbolic analysis). The exact tangent is tried first (quadratic convergence);
+    /// where J is not positive definite, the PSD-projected one. A backtracking line search
+    /// accepts a step when the residual norm or Φ decreases. Returns the iterations taken;
+    /// [`Error::Diverged`] (naming `step` and `time`) when the residual stops being finite or
+    /// the iterations run out.
+    #[allow(clippy::too_many_arguments)]
+    pub fn solve(
+        &mut self,
+        system: &LinearSystem,
+        equation: &StepEquation,
+        matrix: &mut CscMatrix,
+        solver: &mut LinearSolver,
+        u_new: &mut [f64],
+        step: usize,
+        time: f64,
+    ) -> Result<usize> {
+        u_new.copy_from_slice(equation.start);
+        self.direction.begin_step();
+        if let Some(k) = &mut self.damping_tangent {
+            self.force
+                .tangent_into(equation.start, true, &mut self.work, k)?;
+        }
+        // Friction lags its normal forces at the step's start; its smoothing distance is
+        // ε_v/s_c (backward Euler: ε_v·dt; Newmark: ε_v·dt/2).
+        let force = Arc::clone(&self.force);
+        // With contact, a body in free flight has r₀ and f at round-off (no load, or gravity
+        // balanced by the ground): converge relative to the inertia scale ‖s_m·M·(u − ũ)‖ too,
+        // the force that would stop the body within the step.
+        let inertia = match force.contact() {
+            Some(_) => {
+                for i in 0..u_new.len() {
+                    self.mixed[i] =
+                        equation.mass_scale * (equation.start[i] - equation.predictor[i]);
+                }
+                system.mass().product_into(&self.mixed, &mut self.scratch);
+                norm(&self.scratch)
+            }
+            None => 0.0,
+        };
+        let Some(contact) = force.contact().filter(|c| c.is_moving()) else {
+            self.force
+                .begin_step(equation.start, 1.0 / equation.damping_scale)?;
+            self.reference_floor = inertia;
+            let solved = self
+                .iterate(system, equation, matrix, solver, u_new, step, time)
+                .and_then(|iterations| {
+                    self.force.keep_friction_forces(u_new)?;
+                    Ok(iterations)
+                });
+            self.reference_floor = 0.0;
+            self.force.end_friction();
+            return solved;
+        };
+        let solved = self
+            .solve_moving(
+                contact, inertia, system, equation, matrix, solver, u_new, step, time,
+            )
+            .and_then(|iterations| {
+                self.force.keep_friction_forces(u_new)?;
+                Ok(iterations)
+            });
+        self.force.end_friction();
+        solved
+    }
+
+    /// [`solve`](Self::solve) with moving obstacles: from their placement at `time` they go to
+    /// that at `time + duration` in stages, at most [`MAX_MOTION_STAGES`] (more is
+    /// [`Error::Diverged`]: the obstacles move too far per step). Each stage moves them by 0.8
+    /// of the largest collision-free fraction of the remaining straight move for the current
+    /// iterate ([`Contact::advance_stage`](crate::contact::Contact::advance_stage)) and
+    /// solves the step equation there, so the next stage starts from a body that has made
+    /// room; the last stage (the whole remaining move fits) is the step's solution.
+    #[allow(clippy::too_many_arguments)]
+    fn solve_moving(
+        &mut self,
+        contact: &crate::contact::Contact,
+        inertia: f64,
+        system: &LinearSystem,
+        equation: &StepEquation,
+        matrix: &mut CscMatrix,
+        solver: &mut LinearSolver,
+        u_new: &mut [f64],
+        step: usize,
+        time: f64,
+    ) -> Result<usize> {
+        let placed = contact;
+        placed.set_time(time);
+        let target = contact.offsets_at(time + equation.duration);
+        self.force
+            .begin_step_toward(equation.start, 1.0 / equation.damping_scale, &target)?;
+        let (steps_before, mut iterations) = (self.stats.steps, 0);
+        for _ in 0..MAX_MOTION_STAGES {
+            let full = self.force.full_displacement(u_new)?;
+            let last = match placed.advance_stage(&full, &target)? {
+                MotionStage::Blocked => {
+                    return Err(Error::Diverged {
+                        step,
+                        time,
+                        reason: "a moving obstacle touches a node it cannot push away (a fixed \
+                                 support in its way)"
+                            .into(),
+                    });
+                }
+                stage => stage == MotionStage::Last,
+            };
+            // Converged relative to the force the obstacles exert at this stage's start.
+            let mut pushed = vec![0.0; full.len()];
+            placed.add_force(&full, &mut pushed)?;
+            self.reference_floor = norm(&pushed).max(inertia);
+            let solved = self.iterate(system, equation, matrix, solver, u_new, step, time);
+            self.reference_floor = 0.0;
+            iterations += solved?;
+            if last {
+                // The stages are one step's solve.
+                self.stats.steps = steps_before + 1;
+                self.stats.last_step = iterations;
+                self.stats.max_per_step = self.stats.max_per_step.max(iterations);
+                return Ok(iterations);
+            }
+        }
+        Err(Error::Diverged {
+            step,
+            time,
+            reason: format!(
+                "the moving obstacles did not reach their placement at t = {:.6e} in {MAX_MOTION_STAGES} stages (each as far as the body makes room for); a smaller dt helps",
+                time + equation.duration
+            ),
+        })
+    }
+
+    /// The Newton iterations of [`solve`](Self::solve), friction lagged already.
+    #[allow(clippy::too_many_arguments)]
+    fn iterate(
+        &mut self,
+        system: &LinearSystem,
+        equation: &StepEquation,
+        matrix: &mut CscMatrix,
+        solver: &mut LinearSolver,
+        u_new: &mut [f64],
+        step: usize,
+        time: f64,
+    ) -> Result<usize> {
+        let damping = system.damping();
+        let (s_m, s_c) = (equation.mass_scale, equation.damping_scale);
+        let diverged = |reason: String| Error::Diverged { step, time, reason };
+        self.direction.begin_iterations();
+        self.residual_into(system, equation, u_new, false)?;
+        let mut r_norm = norm(&self.residual);
+        if !r_norm.is_finite() {
+            return Err(diverged(
+                "a displacement or velocity is no longer finite (the Newton residual is not)"
+                    .into(),
+            ));
+        }
+        let reference = r_norm.max(norm(equation.load)).max(self.reference_floor);
+        // With prescribed displacements the supports' pull on the free DOFs is in the internal
+        // force, not in f: the linear system's load at the step's end (which holds it as
+        // −K_fc·u_c) keeps the reference at the forces' scale; it is f itself without them.
+        let reference = match system.has_support_coupling() {
+            true => reference.max(system.load_norm_at(time + equation.duration)?),
+            false => reference,
+        };
+        if let Some(guess) = equation
+            .first_iterate
+            .filter(|_| self.force.contact().is_none())
+        {
+            self.residual_into(system, equation, guess, true)?;
+            let guessed = norm(&self.trial_residual);
+            // Φ too, as the line search accepts: the guess is nearer in the soft, large modes a
+            // step is mostly made of, while its residual can be the larger one (up to 3.9× r(u)
+            // on a swinging beam), dominated by the stiff modes' small errors. Taken by Φ as
+            // well, the guess u + dt·v + dt²·a brought an L-BFGS swing to the same distance from
+            // the refactoring trajectory (4e-5) in 52 iterations instead of 77 (50×10×10 cells,
+            // 20 steps).
+            let lower_potential = || -> Result<bool> {
+                let start = self.potential(system, equation, u_new, self.residual_energy)?;
+                Ok(self.potential(system, equation, guess, self.trial_energy)? < start)
+            };
+            if guessed < r_norm || lower_potential()? {
+                u_new.copy_from_slice(guess);
+                std::mem::swap(&mut self.residual, &mut self.trial_residual);
+                std::mem::swap(&mut self.residual_energy, &mut self.trial_energy);
+                r_norm = guessed;
+            }
+        }
+        let mut iterations = 0;
+        let mut budget = self.options.max_iterations;
+        while r_norm > self.options.tolerance * reference {
+            // A caller's Ctrl-C between iterations: u_new is this solver's scratch, the state
+            // is written only after a converged step.
+            crate::linalg::interrupt::poll(|| {
+                format!("Newton iteration {} of step {}", iterations + 1, step + 1)
+            })?;
+            if iterations == budget {
+                if self.direction.fall_back(&mut self.stats) {
+                    budget += self.options.max_iterations;
+                } else {
+                    return Err(diverged(format!(
+                        "Newton did not converge in {budget} iterations (residual {r_norm:.3e} of {reference:.3e}); a smaller dt helps"
+                    )));
+                }
+            }
+            self.newton_direction(
+                system,
+                u_new,
+                (s_m + s_c * damping.alpha, s_c * damping.beta),
+                matrix,
+                solver,
+                iterations == 0,
+            )?;
+            // With contact: never past the first time of impact (IPC's 0.8 of it), and only a
+            // decrease of Φ (up to its round-off) is accepted, so no iterate penetrates.
+            let with_contact = self.force.contact().is_some();
+            let first_alpha = match with_contact {
+                true => (crate::contact::STEP_FRACTION
+                    * self.force.contact_step_limit(u_new, &self.delta)?)
+                .min(1.0),
+                false => 1.0,
+            };
+            let (accepted, alpha) =
+                self.search_line(system, equation, u_new, (first_alpha, r_norm))?;
+            // With contact only a decrease of Φ is accepted, which round-off can deny a
+            // converged iterate (a body at rest in free flight: r₀ is round-off itself): a
+            // Newton step below 1e-9 of the barrier's length scale d̂ changes nothing the
+            // contact can resolve, so the iterate stands.
+            let negligible = self.force.contact().is_some_and(|c| {
+                let d_hat = c.parameters().activation_distance;
+                self.delta.iter().all(|d| d.abs() <= 1e-9 * d_hat)
+            });
+            // Below 1e-6 of the reference the residual is the round-off of the element forces
+            // (see `StepNewtonOptions::tolerance`): a line search finding no decrease there is
+            // the floor reached, as is a residual that no longer halves below.
+            if !accepted && (negligible || r_norm <= 1e-6 * reference) {
+                break;
+            }
+            if !accepted && self.direction.fall_back(&mut self.stats) {
+                budget = iterations + self.options.max_iterations;
+                continue;
+            }
+            if !accepted {
+                return Err(diverged(format!(
+                    "the Newton line search found no decrease (residual {r_norm:.3e} of {reference:.3e}); a smaller dt helps"
+                )));
+            }
+            self.direction
+                .accepted(alpha, &self.delta, &self.residual, &self.trial_residual);
+            u_new.copy_from_slice(&self.trial);
+            std::mem::swap(&mut self.residual, &mut self.trial_residual);
+            std::mem::swap(&mut self.residual_energy, &mut self.trial_energy);
+            iterations += 1;
+            let before = r_norm;
+            r_norm = norm(&self.residual);
+            if !r_norm.is_finite() {
+                return Err(diverged("the Newton residual is no longer finite".into()));
+            }
+            if r_norm <= 1e-6 * reference && r_norm > 0.5 * before {
+                break;
+            }
+        }
+        Ok(self.record(iterations))
+    }
+
+    /// Counts a solved step of `iterations` iterations.
+    fn record(&mut self, iterations: usize) -> usize {
+        self.stats.steps += 1;
+        self.stats.total_iterations += iterations;
+        self.stats.max_per_step = self.stats.max_per_step.max(iterations);
+        self.stats.last_step = iterations;
+        iterations
+    }
+
+    /// δ ≈ −J(u')⁻¹·r into `delta` by the direction strategy, J = mass_scale·M +
+    /// damping_stiffness·K_T(u_start) + K_T(u') formed in `matrix` and solved with `solver`
+    /// as the strategy says; `first`: the run's first iteration.
+    fn newton_direction(
+        &mut self,
+        system: &LinearSystem,
+        u_new: &[f64],
+        scales: (f64, f64),
+        matrix: &mut CscMatrix,
+        solver: &mut LinearSolver,
+        first: bool,
+    ) -> Result<()> {
+        let mut newton = NewtonMatrix {
+            system,
+            force: &self.force,
+            work: &mut self.work,
+            tangent: &mut self.tangent,
+            damping_tangent: self.damping_tangent.as_ref(),
+            scales,
+            matrix,
+            solver,
+        };
+        self.direction.direction(
+            &mut newton,
+            u_new,
+            &self.residual,
+            &mut self.delta,
+            first,
+            &mut self.stats,
+        )
+    }
+}
+
+/// The step equation along the Newton line u_new + α·δ, for the line search: the solver's
+/// residual and Φ at its trial points.
+struct StepLine<'a> {
+    solver: &'a mut NewtonSolver,
+    system: &'a LinearSystem,
+    equation: &'a StepEquation<'a>,
+    u_new: &'a [f64],
+    /// Φ at `u_new`, computed at most once per search.
+    start_phi: Option<f64>,
+}
+
+impl LineFunction for StepLine<'_> {
+    fn trial(&mut self, alpha: f64) -> Result<f64> {
+        let solver = &mut *self.solver;
+        for i in 0..self.u_new.len() {
+            solver.trial[i] = self.u_new[i] + alpha * solver.delta[i];
+        }
+        let trial = std::mem::take(&mut solver.trial);
+        let evaluated = solver.residual_into(self.system, self.equation, &trial, true);
+        solver.trial = trial;
+        evaluated?;
+        Ok(norm(&solver.trial_residual))
+    }
+
+    fn start_potential(&mut self) -> Result<f64> {
+        self.solver
+            .start_potential(&mut self.start_phi, self.system, self.equation, self.u_new)
+    }
+
+    fn trial_potential(&mut self) -> Result<f64> {
+        let solver = &*self.solver;
+        solver.potential(
+            self.system,
+            self.equation,
+            &solver.trial,
+            solver.trial_energy,
+        )
+    }
+}
+
+/// The lumped or consistent mass solve a = M⁻¹·b in place (Newmark's initial acceleration).
+pub(crate) fn solve_mass(mass: &Mass, b: &mut [f64]) -> Result<()> {
+    match mass {
+        Mass::Lumped(m) => {
+            b.iter_mut().zip(m).for_each(|(a, m)| *a /= m);
+            Ok(())
+        }
+        Mass::Consistent(m) => {
+            let mut cholesky = crate::linsolve::SparseCholesky::analyze(m)?;
+            cholesky.factorize(m)?;
+            cholesky.solve_in_place(b)?;
+            Ok(())
+        }
+    }
+}
+
+fn dot(a: &[f64], b: &[f64]) -> f64 {
+    a.iter().zip(b).map(|(x, y)| x * y).sum()
+}
+
+fn norm(v: &[f64]) -> f64 {
+    dot(v, v).sqrt()
+}

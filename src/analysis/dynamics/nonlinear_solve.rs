@@ -1,0 +1,195 @@
+//! How the Newton iterations of an implicit step with a nonlinear force model solve their
+//! linear systems: a new factorization each iteration, or conjugate gradients preconditioned by
+//! one factorization kept across iterations and steps.
+
+use crate::base::error::{Error, Result};
+
+/// The linear solve J(u')·δ = −r of each Newton iteration of an implicit step with a nonlinear
+/// [`InternalForce`](super::InternalForce), J(u') = (s_m + s_c·α)·M + s_c·β·K_T(u) + K_T(u')
+/// (see [`StepNewtonOptions`](super::StepNewtonOptions); s_m = 1/dt², s_c = 1/dt for backward
+/// Euler). Either way Newton stops by the same test on the nonlinear residual
+/// (‖r‖ ≤ tolerance·max(‖r₀‖, ‖f‖)), so the two give the same step to that tolerance; they
+/// differ in cost only.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum NonlinearSolve {
+    /// Refill J(u') and factor it numerically every Newton iteration (on the symbolic analysis
+    /// made once): quadratic convergence, one factorization per iteration. At 133k DOFs a
+    /// factorization costs about 70 triangular solve pairs, so this is 25–80× a linear step.
+    Refactor,
+    /// Conjugate gradients on the exact J(u'), preconditioned by the factor of the rest Newton
+    /// matrix J₀ = (s_m + s_c·α)·M + (1 + s_c·β)·K₀ (K₀ = K_ff, the model's tangent at rest),
+    /// factored once per time step value, and turned by the rotation of the deformation at
+    /// each node: P⁻¹ = R̄·J₀⁻¹·R̄ᵀ, R̄ = diag(Rᵢ), Rᵢ the polar rotation of the volume-weighted F
+    /// of the tets around node i (nodes with a constrained DOF are not turned). For the
+    /// corotational model K_T(u) is K₀ rotated element by element and a lumped mass is
+    /// unchanged by rotations, so P⁻¹·J has its eigenvalues near 1 however far the body has
+    /// turned, and CG needs few iterations. (The iterative linear method has no factor to
+    /// turn: its preconditioner is used as it is.) The preconditioner's triangular solves read
+    /// the factor rounded to f32 where memory allows the copy
+    /// (`LinearSolver::make_single_precision_copy`: half the bytes, 1.27× on the step at 132k
+    /// DOFs, the same iterations), still a fixed SPD operator as CG needs.
+    ///
+    /// When CG does not reach `forcing`·‖r‖ within `max_cg_iterations` (large rotations
+    /// have moved J too far from the factor), or meets a direction of non-positive curvature,
+    /// that Newton iteration falls back to [`Refactor`](Self::Refactor)'s factorization of
+    /// J(u') (projected onto the positive semi-definite cone if J is not positive definite),
+    /// and the new factor then preconditions the following iterations and steps (lagged
+    /// refactorization) until the time step changes.
+    RestPreconditionedCg {
+        /// CG iterations allowed per Newton iteration before falling back to a factorization
+        /// (≥ 1).
+        max_cg_iterations: usize,
+        /// The forcing term η of the inexact Newton iteration: CG stops at
+        /// ‖J·δ + r‖ ≤ η·‖r‖ (in (0, 1)). A small η keeps Newton's quadratic convergence, a
+        /// large one trades CG iterations for Newton iterations; the step's own tolerance is
+        /// unchanged either way.
+        forcing: f64,
+    },
+    /// Limited-memory BFGS on the step's potential Φ (the quasi-Newton method of Liu, Bouaziz
+    /// & Kavan, "Quasi-Newton methods for real-time simulation of hyperelastic materials",
+    /// 2017), its initial inverse Hessian the rest factor turned by the nodes' rotations at the
+    /// step's start, H₀ = R̄·J₀⁻¹·R̄ᵀ (as [`RestPreconditionedCg`](Self::RestPreconditionedCg)'s
+    /// preconditioner), corrected by the step's last `history` pairs of steps and residual
+    /// changes. No tangent is assembled: an iteration is one force evaluation and one pair of
+    /// triangular solves (on the factor's f32 copy where memory allows it, as above), about a
+    /// linear step's cost, against a tangent assembly (about five force evaluations for the
+    /// corotational model) and 3–4 preconditioned CG iterations per
+    /// Newton iteration. It converges linearly, not quadratically, so it gains most at the
+    /// loose tolerances of animation (`StepNewtonOptions::tolerance`, which the user sets; the
+    /// trajectory's distance from Newton's at each tolerance is in `validation/PERFORMANCE.md`).
+    ///
+    /// Each step starts from an empty history, so a step depends on its state alone. A step
+    /// that has not converged within `StepNewtonOptions::max_iterations`, or whose line search
+    /// finds no decrease, goes on from where it stands with
+    /// [`RestPreconditionedCg`](Self::RestPreconditionedCg) (25 iterations, η = 1e-3) and a
+    /// fresh iteration budget (counted in [`NewtonStats::fallbacks`](super::NewtonStats)). With
+    /// the iterative linear method (no factor to turn) the steps are preconditioned CG's.
+    RestPreconditionedLbfgs {
+        /// Correction pairs kept (0: a chord iteration with P⁻¹ alone).
+        history: usize,
+    },
+    /// [`Refactor`](Self::Refactor) below [`AUTO_REFACTOR_BELOW`] free DOFs, where a
+    /// factorization is cheap; at and above it [`RestPreconditionedLbfgs`](Self::RestPreconditionedLbfgs)
+    /// with [`AUTO_LBFGS_HISTORY`] pairs, or, with contact (whose barrier stiffness the rest
+    /// factor does not know), [`RestPreconditionedCg`](Self::RestPreconditionedCg) with 25 CG
+    /// iterations and η = 1e-3. Both chosen by `examples/corotational_step.rs`, see
+    /// `validation/PERFORMANCE.md`.
+    Auto,
+}
+
+/// Below this many free DOFs [`NonlinearSolve::Auto`] refactors. Measured on the swinging
+/// rubber cantilever (`examples/corotational_step.rs`, 40 steps of 10 ms from rest, one
+/// thread, side by side): refactoring and L-BFGS take 1.5 and 1.5 ms per step at 270 DOFs,
+/// 2.4 and 2.1 ms at 378, 7.0 and 6.0 ms at 960, 20.6 and 16.1 ms at 2,250 (Newton-CG: 4.0,
+/// 4.9, 10.7, 24.4 ms). Below 1,000 DOFs L-BFGS gains at most 15 %, and the exact Newton step
+/// (2–4 iterations, quadratic convergence) is the one that cannot be slowed by a model or a
+/// load the rest factor knows nothing of; above it L-BFGS's lead grows with the size.
+pub const AUTO_REFACTOR_BELOW: usize = 1000;
+
+/// The correction pairs [`NonlinearSolve::Auto`] keeps on the L-BFGS path: on the swinging
+/// cantilever 5 and 10 pairs take the same iterations (125 over 20 steps of 10 ms at 18k DOFs,
+/// tolerance 1e-3), 0 (the chord iteration) 7 % more, and each pair costs two vectors.
+pub const AUTO_LBFGS_HISTORY: usize = 5;
+
+/// The CG settings of [`NonlinearSolve::Auto`]'s preconditioned path, and of an L-BFGS step's
+/// fallback: 25 iterations, η = 1e-3.
+pub(crate) const AUTO_CG: NonlinearSolve = NonlinearSolve::RestPreconditionedCg {
+    max_cg_iterations: 25,
+    forcing: 1e-3,
+};
+
+impl Default for NonlinearSolve {
+    /// [`Auto`](Self::Auto).
+    fn default() -> Self {
+        NonlinearSolve::Auto
+    }
+}
+
+impl NonlinearSolve {
+    /// [`Error::InvalidParameter`] naming `nonlinear_solve.max_cg_iterations` (0) or
+    /// `nonlinear_solve.forcing` (not finite or outside (0, 1)).
+    pub fn check(&self) -> Result<()> {
+        match *self {
+            NonlinearSolve::Refactor | NonlinearSolve::Auto => Ok(()),
+            NonlinearSolve::RestPreconditionedLbfgs { history } => match history <= 100 {
+                true => Ok(()),
+                false => Err(Error::invalid_parameter(
+                    "nonlinear_solve.history",
+                    history,
+                    "must be at most 100 (each pair holds two vectors of the free DOFs)",
+                )),
+            },
+            NonlinearSolve::RestPreconditionedCg {
+                max_cg_iterations,
+                forcing,
+            } => {
+                if max_cg_iterations == 0 {
+                    return Err(Error::invalid_parameter(
+                        "nonlinear_solve.max_cg_iterations",
+                        0,
+                        "must be at least 1",
+                    ));
+                }
+                if !(forcing > 0.0 && forcing < 1.0) {
+                    return Err(Error::invalid_parameter(
+                        "nonlinear_solve.forcing",
+                        forcing,
+                        "must be finite, > 0 and < 1",
+                    ));
+                }
+                Ok(())
+            }
+        }
+    }
+
+    /// What [`Auto`](Self::Auto) is for `free_dofs` unknowns without contact; any other choice
+    /// as it is.
+    pub fn for_size(self, free_dofs: usize) -> Self {
+        self.for_problem(free_dofs, false)
+    }
+
+    /// What [`Auto`](Self::Auto) is for `free_dofs` unknowns, with or without contact; any other
+    /// choice as it is.
+    pub fn for_problem(self, free_dofs: usize, with_contact: bool) -> Self {
+        match self {
+            NonlinearSolve::Auto if free_dofs < AUTO_REFACTOR_BELOW => NonlinearSolve::Refactor,
+            NonlinearSolve::Auto if with_contact => AUTO_CG,
+            NonlinearSolve::Auto => NonlinearSolve::RestPreconditionedLbfgs {
+                history: AUTO_LBFGS_HISTORY,
+            },
+            other => other,
+        }
+    }
+
+    /// The name scenes use: `auto`, `refactor`, `rest_preconditioned` or `rest_lbfgs`.
+    pub fn name(&self) -> &'static str {
+        match self {
+            NonlinearSolve::Auto => "auto",
+            NonlinearSolve::Refactor => "refactor",
+            NonlinearSolve::RestPreconditionedCg { .. } => "rest_preconditioned",
+            NonlinearSolve::RestPreconditionedLbfgs { .. } => "rest_lbfgs",
+        }
+    }
+}
+
+impl std::str::FromStr for NonlinearSolve {
+    type Err = Error;
+
+    /// `auto`, `refactor`, `rest_preconditioned` (with the CG budget and forcing term that
+    /// `auto` uses) or `rest_lbfgs` (with `auto`'s history).
+    fn from_str(name: &str) -> Result<Self> {
+        match name {
+            "auto" => Ok(NonlinearSolve::Auto),
+            "refactor" => Ok(NonlinearSolve::Refactor),
+            "rest_preconditioned" => Ok(AUTO_CG),
+            "rest_lbfgs" => Ok(NonlinearSolve::RestPreconditionedLbfgs {
+                history: AUTO_LBFGS_HISTORY,
+            }),
+            other => Err(Error::invalid_parameter(
+                "nonlinear_solver",
+                other,
+                "must be 'auto', 'refactor', 'rest_preconditioned' or 'rest_lbfgs'",
+            )),
+        }
+    }
+}

@@ -1,0 +1,945 @@
+//! Nonlinear static equilibrium with a [`ForceModel`]: Newton's method with a backtracking line
+//! search and load stepping, one symbolic factorization for all iterations.
+
+use nalgebra::Vector3;
+
+use crate::analysis::dynamics::newton::line_search::{Backtracking, LineFunction};
+use crate::analysis::problem::Problem;
+use crate::base::error::{Error, Result};
+use crate::bc::amplitude::STATIC_TIME;
+use crate::bc::boundary_motion::BoundaryMotion;
+use crate::bc::constraints::{Constraints, DofMap, Restriction};
+use crate::bc::loads::Loads;
+use crate::contact::{Contact, FrictionLag, MAX_MOTION_STAGES, MotionStage, STEP_FRACTION};
+use crate::fe::assembly::Assembler;
+use crate::linear_solver::{LinearMethod, LinearSolver, SolverOptions};
+use crate::mesh::TetMesh;
+use crate::model::assemble::{energy, internal_force, refill_tangent};
+use crate::model::{ModelElement, TetModels};
+use crate::sparse::CscMatrix;
+
+/// Settings of [`solve_nonlinear_static`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct NewtonOptions {
+    /// Load steps: the loads and prescribed displacements are applied in this many equal
+    /// increments (default 10).
+    pub load_steps: usize,
+    /// Converged when ‖r_f‖ ≤ tolerance·‖f_f‖ (default 1e-10; ‖f_f‖ the full load).
+    pub tolerance: f64,
+    /// Newton iterations allowed per load step (default 30).
+    pub max_iterations: usize,
+    /// The linear solver for the Newton systems (always direct here: the tangent changes every
+    /// iteration, and the symbolic analysis is reused).
+    pub solver: SolverOptions,
+}
+
+impl Default for NewtonOptions {
+    fn default() -> Self {
+        NewtonOptions {
+            load_steps: 10,
+            tolerance: 1e-10,
+            max_iterations: 30,
+            solver: SolverOptions {
+                method: LinearMethod::Direct,
+                ..SolverOptions::default()
+            },
+        }
+    }
+}
+
+/// The result of a nonlinear static solve.
+#[derive(Debug, Clone, PartialEq)]
+pub struct NewtonReport {
+    /// Displacement of every DOF (prescribed values included).
+    pub displacement: Vec<f64>,
+    /// Residual norms ‖r_f‖ of each Newton iteration (first entry: before the first update),
+    /// one list per load step.
+    pub residuals: Vec<Vec<f64>>,
+    /// Newton iterations in total.
+    pub iterations: usize,
+    /// With contact: per obstacle (in their order) the friction force the body exerts on it,
+    /// μ·λ·(f₁(y)/y)·P·(x − x⁰) summed over its nodes at the solution under the last load
+    /// step's lag (N; zero without friction; empty without contact). Its sum with
+    /// [`Contact::obstacle_forces`] is the whole force on the obstacle.
+    pub obstacle_friction_forces: Vec<nalgebra::Vector3<f64>>,
+}
+
+/// Most friction passes (re-lags of the normal forces) per load step; more is
+/// [`Error::Solver`] naming the load step.
+const MAX_FRICTION_PASSES: usize = 30;
+
+/// The error of a load step with friction whose Newton failed (`cause`), naming the load
+/// step and what the lag (`lag`) lets friction carry. Three cases:
+/// - no node within d̂ (`d_hat`, length) of a frictional obstacle at the lag, on a body without
+///   constraints (`constrained` false): neither the barrier nor friction holds it at the step's
+///   start, so it is free to move rigidly (the tangent is singular) — the message says so,
+///   whatever the load's direction;
+/// - the load along the obstacles' surfaces (the applied resultant, `free_load` on the free
+///   DOFs `free_dofs` times `factor`, projected with the first lagged contact's tangent
+///   projector) within μ·Σλ: friction is not the limit, and the message says that;
+/// - a load along the surfaces above μ·Σλ: no frictional equilibrium exists (the body slides).
+#[allow(clippy::too_many_arguments)]
+fn no_frictional_equilibrium(
+    cause: Error,
+    (step, steps): (usize, usize),
+    lag: &FrictionLag,
+    free_load: &[f64],
+    free_dofs: &[usize],
+    factor: f64,
+    constrained: bool,
+    d_hat: f64,
+) -> Error {
+    let mut resultant = nalgebra::Vector3::zeros();
+    for (&dof, f) in free_dofs.iter().zip(free_load) {
+        resultant[dof % 3] += factor * f;
+    }
+    let (limit, [x, y, z]) = (
+        lag.friction_limit(),
+        [resultant.x, resultant.y, resultant.z],
+    );
+    if lag.is_empty() && !constrained {
+        return Error::Solver(format!(
+            "no static equilibrium at load step {step}/{steps}: {cause}. The body is \
+             unconstrained: it has no constraints, and at this load step's start no node is \
+             within the activation distance d̂ = {d_hat:.3e} of an obstacle, so neither the \
+             barrier (along the obstacles' normals) nor friction (along their surfaces) holds \
+             it: it is free to move as a rigid body under the load ({x:.4e}, {y:.4e}, {z:.4e}) \
+             N. Constrain it ([[constraints]] on a face or a point) or start it within d̂ of \
+             the obstacle it rests on"
+        ));
+    }
+    let along = lag
+        .points
+        .first()
+        .map_or(resultant.norm(), |p| (p.projector * resultant).norm());
+    if along <= limit {
+        return Error::Solver(format!(
+            "no static equilibrium at load step {step}/{steps}: {cause}. Friction is not the \
+             limit: the load along the obstacles' surfaces ({along:.4e} N of the applied \
+             ({x:.4e}, {y:.4e}, {z:.4e}) N) is within what friction can carry (μ·Σλ = \
+             {limit:.4e} N at this load step's lag); the body is free in a direction nothing \
+             holds{}",
+            match constrained {
+                true => "",
+                false =>
+                    " (it has no constraints: friction and the obstacles' normals alone hold it)",
+            }
+        ));
+    }
+    Error::Solver(format!(
+        "no static equilibrium with friction at load step {step}/{steps}: {cause}. Friction can \
+         carry at most μ·Σλ = {limit:.4e} N along the obstacles (normal forces lagged at this \
+         load step), against an applied load of ({x:.4e}, {y:.4e}, {z:.4e}) N ({along:.4e} N \
+         along the surface): a load along the surface above μ·N has no equilibrium (the body \
+         would slide away){}",
+        match lag.is_empty() {
+            true =>
+                "; no node was within the activation distance d̂ of a frictional obstacle at \
+                     the lag: a body that friction must hold should start within d̂ of it",
+            false => "",
+        }
+    ))
+}
+
+/// Solves Σ fₑ(u) + f = 0 on the free DOFs for a nonlinear `model`.
+///
+/// Per load step λ = s/N: Newton iterations K_t·Δu = r with the exact tangent, or — where that
+/// is not positive definite — with every element tangent projected onto the PSD cone (then K_t
+/// is SPD with the constraints), and a backtracking line search that accepts
+/// a step when the residual norm or the total potential Π = E − λ·fᵀu decreases. The symbolic
+/// Cholesky analysis of the tangent's pattern is done once.
+///
+/// `model`: one force model for every tet, or a [`ModelMap`](crate::model::ModelMap) with one
+/// model per material (each tet takes its material's). `mesh`: 4-node tets, or 10-node ones
+/// (the models at their quadrature points, see [`ModelElement`]).
+///
+/// Errors: [`Error::NotConverged`] (method "Newton's method") when a load step does not reach
+/// ‖r_f‖ ≤ tolerance·‖f_f‖ in `max_iterations` or its line search finds no decrease, naming
+/// the load step and the residual reached; [`Error::Stopped`] when the caller's interrupt
+/// test ([`crate::linalg::interrupt`]) says stop between two iterations.
+pub fn solve_nonlinear_static<E: ModelElement>(
+    mesh: &TetMesh<E>,
+    model: &(impl TetModels + ?Sized),
+    constraints: &Constraints,
+    loads: &Loads,
+    options: NewtonOptions,
+) -> Result<NewtonReport> {
+    solve(
+        mesh,
+        model,
+        constraints,
+        loads,
+        &BoundaryMotion::new(),
+        None,
+        options,
+    )
+}
+
+/// [`solve_nonlinear_static`] with moving supports: at load step λ = s/N the DOFs of `motion`
+/// take its values at [`STATIC_TIME`] with the amplitudes scaled by λ
+/// ([`BoundaryMotion::evaluate_scaled`]) instead of λ times their final value, so a clamp under
+/// a [`RigidMotion`](crate::bc::boundary_motion::RigidMotion) turns through exact rotations by λ·θ
+/// (a chord λ·u would shrink the clamped section on the way: by cos(θ/2) halfway through a
+/// rotation by θ). `constraints` must hold the motion's DOFs at their values at
+/// [`STATIC_TIME`] (see [`BoundaryMotion::prescribe_at`]).
+pub fn solve_nonlinear_static_with_motion<E: ModelElement>(
+    mesh: &TetMesh<E>,
+    model: &(impl TetModels + ?Sized),
+    constraints: &Constraints,
+    loads: &Loads,
+    motion: &BoundaryMotion,
+    options: NewtonOptions,
+) -> Result<NewtonReport> {
+    solve(mesh, model, constraints, loads, motion, None, options)
+}
+
+/// [`solve_nonlinear_static`] with contact against rigid obstacles (see [`crate::contact`]):
+/// the barrier's force and Hessian join the model's, each line search starts at 0.8 of the
+/// collision-free step ([`Contact::max_step`]) and accepts only a decrease of the potential
+/// Π = E + E_c − λ·fᵀu (up to its round-off), so no iterate penetrates an obstacle.
+///
+/// The constraints need not hold every rigid mode (the obstacles may hold the body): a
+/// direction held by neither makes the tangent singular, reported as
+/// [`Error::NotPositiveDefinite`](crate::linalg::Error) from the factorization. The body must
+/// start outside every obstacle; a contact that Newton cannot resolve in its budget is an
+/// [`Error::NotConverged`] naming the load step, never a penetrated state.
+///
+/// Friction (obstacles with μ > 0), quasi-static as IPC does it: per load step the normal forces
+/// λ and tangent planes are lagged and the step adds the potential μ·λ·f₀(|P·(x − x⁰)|) of each
+/// contact node's slip from the load step's start x⁰, smoothed below the stick distance ε_d
+/// ([`Contact::slip_distance`], default d̂/10: a sticking node creeps less than ε_d per load
+/// step). The first pass lags λ at the step's start scaled by s/(s − 1) (proportional loads);
+/// each further pass re-lags λ and the planes at the last solution, until it is in equilibrium
+/// under its own lag (at most 30 passes; a failed pass is retried once with λ from where it
+/// stopped). A load along the obstacles above μ·N has no equilibrium: the solve ends with an
+/// [`Error::Solver`] naming the load step, μ·Σλ and the applied load, never with a slid-away
+/// state. The report's [`obstacle_friction_forces`](NewtonReport::obstacle_friction_forces)
+/// is the friction force on each obstacle. A body that friction must hold should start within
+/// d̂ of its obstacle (the first load step's lag is the rest state's).
+///
+/// Moving obstacles ([`Obstacle::with_motion`](crate::contact::Obstacle::with_motion)) follow
+/// their motion c(t) over the static step's pseudo-time t ∈ [0, 1] (dimensionless, as in
+/// Abaqus's static step of time period 1; it is also the time an
+/// [`Amplitude`](crate::bc::amplitude::Amplitude) is evaluated at): the solve starts with them at
+/// c(0) ([`Contact::set_time`]`(0)`), and load step k of N places them at c(t_k), t_k = k/N,
+/// together with the load factor λ_k = k/N — an
+/// [`ObstacleMotion::Amplitude`](crate::contact::ObstacleMotion) with a ramp from 0 to 1
+/// reaches its displacement at the last load step, a
+/// [`Velocity`](crate::contact::ObstacleMotion::Velocity) v has moved by v·1 there. Within a
+/// load step they are moved in stages as an implicit dynamic step moves them
+/// ([`Contact::advance_stage`]): each stage as far as the body leaves free (×0.8), the body
+/// solved there, so no Newton iterate has a node inside an obstacle; each move raises the
+/// step's reference to its new residual and to the obstacles' force, and a Newton step below
+/// 10⁻⁹·d̂ on every DOF ends the iterations. Friction's slip is then relative to the obstacle
+/// (a node the obstacle carries along does not slip; [`Contact::friction_lag_moving`]). On
+/// return the obstacles are at c(1), where the solution is in equilibrium with them (so
+/// [`Contact::obstacle_forces`] and [`Contact::node_fields`] of the solution see them there).
+/// A load step whose obstacles do not reach their placement in
+/// [`MAX_MOTION_STAGES`] stages (a gap held in
+/// equilibrium is a fraction of d̂, and each stage advances them by about that), or whose
+/// obstacle touches a node a support holds in its path, is an [`Error::NotConverged`] naming
+/// the load step, the obstacle and what to do (more load steps move them less per step).
+///
+/// Any element type: on 10-node tets the contact points are the boundary's corner and
+/// mid-edge nodes ([`Contact::new`]).
+pub fn solve_nonlinear_static_with_contact<E: ModelElement>(
+    mesh: &TetMesh<E>,
+    model: &(impl TetModels + ?Sized),
+    constraints: &Constraints,
+    loads: &Loads,
+    contact: &Contact,
+    options: NewtonOptions,
+) -> Result<NewtonReport> {
+    solve(
+        mesh,
+        model,
+        constraints,
+        loads,
+        &BoundaryMotion::new(),
+        Some(contact),
+        options,
+    )
+}
+
+/// The static solve of every combination: [`solve_nonlinear_static_with_motion`]'s moving
+/// supports (taken through the load steps) and, when `contact` is given,
+/// [`solve_nonlinear_static_with_contact`]'s obstacles, together; their errors.
+pub fn solve_nonlinear_static_with_motion_and_contact<E: ModelElement>(
+    mesh: &TetMesh<E>,
+    model: &(impl TetModels + ?Sized),
+    constraints: &Constraints,
+    loads: &Loads,
+    motion: &BoundaryMotion,
+    contact: Option<&Contact>,
+    options: NewtonOptions,
+) -> Result<NewtonReport> {
+    solve(mesh, model, constraints, loads, motion, contact, options)
+}
+
+fn solve<E: ModelElement, M: TetModels + ?Sized>(
+    mesh: &TetMesh<E>,
+    model: &M,
+    constraints: &Constraints,
+    loads: &Loads,
+    motion: &BoundaryMotion,
+    contact: Option<&Contact>,
+    options: NewtonOptions,
+) -> Result<NewtonReport> {
+    if options.load_steps == 0 || !(options.tolerance > 0.0 && options.tolerance.is_finite()) {
+        return Err(Error::invalid_parameter(
+            "Newton options",
+            format!(
+                "{} load steps, tolerance {}",
+                options.load_steps, options.tolerance
+            ),
+            "need at least one load step and a finite tolerance > 0",
+        ));
+    }
+    if constraints.dof_count() != mesh.dof_count() || loads.as_slice().len() != mesh.dof_count() {
+        return Err(Error::invalid_parameter(
+            "constraints/loads",
+            "another mesh",
+            "must be made for this mesh",
+        ));
+    }
+    model.check_covers(mesh.tet_count())?;
+    let problem = match contact {
+        None => Problem::new(mesh, constraints)?,
+        Some(contact) => {
+            // Moving obstacles start at their placement at the pseudo-time t = 0.
+            if contact.is_moving() {
+                contact.set_time(0.0);
+            }
+            contact.check_state(&vec![0.0; mesh.dof_count()])?;
+            Problem::with_dofs(mesh, DofMap::new(constraints))?
+        }
+    };
+    let dofs = problem.dofs();
+    let tangent = problem.zero_matrix()?;
+    let free_tangent = problem.zero_free_matrix()?;
+    let geometry = dofs.geometry_for_method(options.solver.method, mesh)?;
+    let solver = LinearSolver::analyze_with_geometry(&free_tangent, options.solver, geometry)?;
+    let mut newton = StaticNewton {
+        mesh,
+        model,
+        contact,
+        dofs,
+        assembler: problem.assembler(),
+        restriction: problem.restriction(),
+        f_full: loads.as_slice(),
+        options,
+        tangent,
+        free_tangent,
+        solver,
+        iterations: 0,
+    };
+    let load_norm = norm(&dofs.restrict(loads.as_slice())?);
+    let mut u = vec![0.0; mesh.dof_count()];
+    let mut residuals = Vec::new();
+    let mut final_lag = None;
+    for step in 1..=options.load_steps {
+        let factor = step as f64 / options.load_steps as f64;
+        for (dof, value) in dofs.prescribed().iter().enumerate() {
+            if dofs.free_index(dof).is_none() {
+                u[dof] = factor * value;
+            }
+        }
+        if !motion.is_empty() {
+            let values = motion.evaluate_scaled(mesh.nodes(), STATIC_TIME, factor)?;
+            for (dof, [value, _, _]) in motion.dofs().into_iter().zip(values) {
+                u[dof] = value;
+            }
+        }
+        let (history, lag) = newton.load_step(&mut u, step, load_norm)?;
+        final_lag = lag;
+        residuals.push(history);
+    }
+    if u.iter().any(|v| !v.is_finite()) {
+        return Err(Error::NotConverged {
+            method: "Newton's method".into(),
+            message: "the solution is not finite".into(),
+        });
+    }
+    let obstacle_friction_forces = match (contact, &final_lag) {
+        (Some(contact), Some(lag)) => contact.obstacle_friction_forces(lag, &u)?,
+        (Some(contact), None) => vec![nalgebra::Vector3::zeros(); contact.obstacles().len()],
+        (None, _) => Vec::new(),
+    };
+    Ok(NewtonReport {
+        displacement: u,
+        residuals,
+        iterations: newton.iterations,
+        obstacle_friction_forces,
+    })
+}
+
+/// What the Newton iterations of one load step need to know about it: its number `step`
+/// (1-based), its load factor λ = `factor` (= its pseudo-time t), and the reference ‖·‖ its
+/// residual converges relative to (force).
+#[derive(Debug, Clone, Copy)]
+struct LoadStep {
+    step: usize,
+    factor: f64,
+    reference: f64,
+}
+
+/// The moving obstacles of one load step: their offsets at its start (`from`) and at its
+/// pseudo-time (`to`; length, one per obstacle).
+struct StepMotion {
+    from: Vec<Vector3<f64>>,
+    to: Vec<Vector3<f64>>,
+}
+
+/// A static solve's parts that every load step uses: the mesh, model, loads and contact, the
+/// DOF map and assembly, the tangent's storage and its factorization (one symbolic analysis),
+/// and the Newton iterations taken so far.
+struct StaticNewton<'a, E: ModelElement, M: TetModels + ?Sized> {
+    mesh: &'a TetMesh<E>,
+    model: &'a M,
+    contact: Option<&'a Contact>,
+    dofs: &'a DofMap,
+    assembler: &'a Assembler,
+    restriction: &'a Restriction,
+    f_full: &'a [f64],
+    options: NewtonOptions,
+    tangent: CscMatrix,
+    free_tangent: CscMatrix,
+    solver: LinearSolver,
+    iterations: usize,
+}
+
+impl<E: ModelElement, M: TetModels + ?Sized> StaticNewton<'_, E, M> {
+    /// The free residual r_f of Σ fₑ(u) + contact (+ friction under `lag`) + λ·f at full
+    /// displacement `u`, λ = `factor`.
+    fn residual(&self, u: &[f64], lag: Option<&FrictionLag>, factor: f64) -> Result<Vec<f64>> {
+        let mut fi = internal_force(self.mesh, self.model, u)?;
+        if let Some(contact) = self.contact {
+            contact.add_force(u, &mut fi)?;
+            if let Some(lag) = lag {
+                contact.add_friction_force(lag, u, &mut fi)?;
+            }
+        }
+        self.dofs.restrict(
+            &fi.iter()
+                .zip(self.f_full)
+                .map(|(a, b)| a + factor * b)
+                .collect::<Vec<_>>(),
+        )
+    }
+
+    /// The total potential Π = E + E_c (+ friction's under `lag`) − λ·fᵀu at `u` (energy).
+    fn potential(&self, u: &[f64], lag: Option<&FrictionLag>, factor: f64) -> Result<f64> {
+        let mut barrier = 0.0;
+        if let Some(contact) = self.contact {
+            barrier += contact.energy(u)?;
+            if let Some(lag) = lag {
+                barrier += contact.friction_energy(lag, u)?;
+            }
+        }
+        Ok(energy(self.mesh, self.model, u)? + barrier
+            - factor * self.f_full.iter().zip(u).map(|(f, u)| f * u).sum::<f64>())
+    }
+
+    /// Load step `step` from the state `u` (its prescribed values set already): the obstacles
+    /// moved to their placement at its pseudo-time, friction's passes (see
+    /// [`solve_nonlinear_static_with_contact`]), each pass's Newton iterations. Returns the
+    /// residual norms it saw and the friction lag it ended under.
+    fn load_step(
+        &mut self,
+        u: &mut Vec<f64>,
+        step: usize,
+        load_norm: f64,
+    ) -> Result<(Vec<f64>, Option<FrictionLag>)> {
+        let factor = step as f64 / self.options.load_steps as f64;
+        // Moving obstacles go from where the last load step left them to their placement at
+        // this load step's pseudo-time t = λ.
+        let moving = self.contact.filter(|c| c.is_moving()).map(|c| StepMotion {
+            from: c.offsets(),
+            to: c.offsets_at(factor),
+        });
+        // Friction (quasi-static, as IPC does it): the normal forces λ and tangent planes are
+        // lagged, the slip measured from this load step's start (carried along by a moving
+        // obstacle: the slip is relative to it). A pass solves with one lag; the next re-lags λ
+        // and the planes at its solution (the slip origin stays), until the solution is in
+        // equilibrium under the lag it makes. The first pass lags λ at the step's start scaled
+        // by s/(s − 1): the loads grow in proportion, and so does the normal force they need
+        // (λ of the step before would hold only (s − 1)/s of the load).
+        let start = u.clone();
+        let friction = self.contact.filter(|c| c.has_friction());
+        let relag = |contact: &Contact, normal_at: &[f64]| match &moving {
+            Some(m) => contact.friction_lag_moving(
+                normal_at,
+                &start,
+                (&m.from, &m.to),
+                contact.slip_distance(),
+            ),
+            None => contact.friction_lag_from(normal_at, &start, contact.slip_distance()),
+        };
+        let mut lag = match friction {
+            Some(c) => {
+                let mut lag = match &moving {
+                    Some(m) => c.friction_lag_toward(u, c.slip_distance(), &m.to)?,
+                    None => c.friction_lag(u, c.slip_distance())?,
+                };
+                if step > 1 {
+                    lag.scale_limits(step as f64 / (step - 1) as f64);
+                }
+                Some(lag)
+            }
+            None => None,
+        };
+        let mut retried = false;
+        let mut r = self.residual(u, lag.as_ref(), factor)?;
+        // The reference scale: the full load, or for displacement-driven problems the first
+        // residual of the step (moving obstacles raise it, see `solve_placed`).
+        let mut at = LoadStep {
+            step,
+            factor,
+            reference: if load_norm > 0.0 {
+                load_norm
+            } else {
+                norm(&r).max(f64::MIN_POSITIVE)
+            },
+        };
+        let mut history = vec![norm(&r)];
+        for pass in 1..=MAX_FRICTION_PASSES {
+            let outcome =
+                self.solve_placed(u, &mut r, &mut history, lag.as_ref(), &mut at, &moving);
+            let (Some(contact), Some(solved_with)) = (friction, lag.as_ref()) else {
+                outcome?;
+                break;
+            };
+            if let Err(e) = outcome {
+                // The caller's interrupt is no weak lag: stop.
+                if matches!(e, Error::Stopped { .. }) {
+                    return Err(e);
+                }
+                // Once, a lag too weak for this step's load (its normal forces from a state that
+                // carried less) may be what failed: re-lag where the failed pass stopped, whose
+                // normal forces carry this step's load, and solve again from the step's start
+                // (moving obstacles back where they were then, to be moved again).
+                if !retried && contact.check_state(u).is_ok() {
+                    retried = true;
+                    let relagged = relag(contact, u)?;
+                    u.clone_from(&start);
+                    if let Some(m) = &moving {
+                        contact.set_offsets(m.from.clone())?;
+                    }
+                    r = self.residual(u, Some(&relagged), factor)?;
+                    lag = Some(relagged);
+                    history.push(norm(&r));
+                    continue;
+                }
+                let error = no_frictional_equilibrium(
+                    e,
+                    (step, self.options.load_steps),
+                    solved_with,
+                    &self.dofs.restrict(self.f_full)?,
+                    self.dofs.free_dofs(),
+                    factor,
+                    self.dofs.free_dofs().len() < self.f_full.len(),
+                    contact.parameters().activation_distance,
+                );
+                return Err(match &moving {
+                    Some(m) => self.with_sliding_hint(error, contact, solved_with, m),
+                    None => error,
+                });
+            }
+            // Re-lag at this pass's solution: settled when the equilibrium holds under the new
+            // lag to Newton's tolerance (or within twice the floor this pass reached).
+            let floor = history.last().copied().unwrap_or(0.0);
+            let relagged = relag(contact, u)?;
+            r = self.residual(u, Some(&relagged), factor)?;
+            lag = Some(relagged);
+            let now = norm(&r);
+            history.push(now);
+            if now <= self.options.tolerance * at.reference || now <= 2.0 * floor {
+                break;
+            }
+            if pass == MAX_FRICTION_PASSES {
+                return Err(Error::Solver(format!(
+                    "friction's lagged normal forces did not settle in {MAX_FRICTION_PASSES} passes at load step {step}/{} (residual {now:.3e} of {:.3e} under the last lag)",
+                    self.options.load_steps, at.reference
+                )));
+            }
+        }
+        Ok((history, lag))
+    }
+
+    /// `error` (a load step's failed friction solve) with, when a frictional obstacle moved
+    /// along its surface by more than the stick distance ε_d in the load step (`motion`, at
+    /// the lagged contacts of `lag`), why that may be the cause and what helps: its nodes start
+    /// the step sliding relative to it, where friction's potential is linear in the slip (no
+    /// stiffness along it), so a body held along the surface by that friction alone is free
+    /// there and the tangent singular.
+    fn with_sliding_hint(
+        &self,
+        error: Error,
+        contact: &Contact,
+        lag: &FrictionLag,
+        motion: &StepMotion,
+    ) -> Error {
+        let (slide, obstacle) = lag
+            .points
+            .iter()
+            .map(|p| {
+                let o = p.obstacle;
+                ((p.projector * (motion.to[o] - motion.from[o])).norm(), o)
+            })
+            .fold((0.0, 0), |a, b| if b.0 > a.0 { b } else { a });
+        let epsilon = contact.slip_distance();
+        let Error::Solver(message) = error else {
+            return error;
+        };
+        if slide <= epsilon {
+            return Error::Solver(message);
+        }
+        let n = self.options.load_steps;
+        let needed = (n as f64 * slide / epsilon).ceil();
+        Error::Solver(format!(
+            "{message}. Obstacle {obstacle} ('{}') moved along its surface by {slide:.3e} in \
+             this load step, more than friction's stick distance ε_d = {epsilon:.3e}: the nodes \
+             it carries start the load step sliding on it, where friction has no stiffness along \
+             the slip, so a body held along the surface by that friction alone is free there. \
+             At least {needed} load steps (load_steps, now {n}) or a slip_distance above \
+             {slide:.3e} let them start within ε_d",
+            contact.obstacles()[obstacle].name()
+        ))
+    }
+
+    /// One pass's solve of load step `at`: with fixed obstacles (`moving` `None`) Newton from
+    /// `u`; with moving ones, the obstacles go from where they are to `moving.to` in stages
+    /// ([`Contact::advance_stage`]), Newton solving the body at each, so every iterate stays
+    /// outside them. After each move the residual `r` is taken anew and the step's reference
+    /// raised to it and to the obstacles' force on the free DOFs (a displacement-driven step's
+    /// first residual, before the move, is only the last step's round-off).
+    ///
+    /// Errors (naming the load step): an obstacle that touches a node it cannot push away, the
+    /// obstacles still short of their placement after [`MAX_MOTION_STAGES`] stages; Newton's.
+    fn solve_placed(
+        &mut self,
+        u: &mut Vec<f64>,
+        r: &mut Vec<f64>,
+        history: &mut Vec<f64>,
+        lag: Option<&FrictionLag>,
+        at: &mut LoadStep,
+        moving: &Option<StepMotion>,
+    ) -> Result<()> {
+        let (Some(contact), Some(motion)) = (self.contact, moving) else {
+            return self.newton(u, r, history, lag, *at);
+        };
+        for _ in 0..MAX_MOTION_STAGES {
+            let stage = contact.advance_stage(u, &motion.to)?;
+            if stage == MotionStage::Blocked {
+                return Err(self.staging_error(contact, u, &motion.to, at, true));
+            }
+            *r = self.residual(u, lag, at.factor)?;
+            let mut pushed = vec![0.0; u.len()];
+            contact.add_force(u, &mut pushed)?;
+            at.reference = at
+                .reference
+                .max(norm(r))
+                .max(norm(&self.dofs.restrict(&pushed)?));
+            history.push(norm(r));
+            self.newton(u, r, history, lag, *at)?;
+            if stage == MotionStage::Last {
+                return Ok(());
+            }
+        }
+        Err(self.staging_error(contact, u, &motion.to, at, false))
+    }
+
+    /// The error of load step `at` whose obstacles could not be moved to `target` for the body
+    /// at `u`: `blocked` (a node touches one that cannot push it away) or out of stages. It
+    /// names the obstacle that limits the move (the one whose own move alone is the shortest
+    /// collision-free one) and what to do.
+    fn staging_error(
+        &self,
+        contact: &Contact,
+        u: &[f64],
+        target: &[Vector3<f64>],
+        at: &LoadStep,
+        blocked: bool,
+    ) -> Error {
+        let offsets = contact.offsets();
+        let limiting = (0..target.len())
+            .filter(|&o| target[o] != offsets[o])
+            .map(|o| {
+                let mut alone = offsets.clone();
+                alone[o] = target[o];
+                (o, contact.motion_step_limit(u, &alone).unwrap_or(f64::NAN))
+            })
+            .min_by(|a, b| a.1.total_cmp(&b.1))
+            .map_or_else(String::new, |(o, _)| {
+                format!(
+                    " (obstacle {o}, '{}', limits it)",
+                    contact.obstacles()[o].name()
+                )
+            });
+        let n = self.options.load_steps;
+        let (step, t) = (at.step, at.factor);
+        Error::NotConverged {
+            method: "static solve with moving obstacles".into(),
+            message: match blocked {
+                true => format!(
+                    "at load step {step}/{n} (pseudo-time t = {t}) a moving obstacle touches a \
+                     node it cannot push away{limiting}: a support holds the node in its path. \
+                     More load steps do not help; move the obstacle's path or free the node"
+                ),
+                false => format!(
+                    "at load step {step}/{n} the moving obstacles did not reach their placement \
+                     at pseudo-time t = {t} in {MAX_MOTION_STAGES} stages{limiting}: each stage \
+                     moves them {STEP_FRACTION} of the way the body leaves free and solves the \
+                     body there, and a gap held in equilibrium is a fraction of the activation \
+                     distance d̂ = {:.3e}. More load steps (load_steps, now {n}; a scene's \
+                     analysis.load_steps) move them less per load step",
+                    contact.parameters().activation_distance
+                ),
+            },
+        }
+    }
+
+    /// Newton's iterations of load step `at` from `u` (residual `r` there), friction lagged by
+    /// `lag`, until ‖r_f‖ ≤ tolerance·reference (or the round-off floor; with moving obstacles
+    /// also a Newton step below 10⁻⁹·d̂ on every DOF: nothing the barrier resolves). Appends
+    /// each residual norm to `history`.
+    fn newton(
+        &mut self,
+        u: &mut Vec<f64>,
+        r: &mut Vec<f64>,
+        history: &mut Vec<f64>,
+        lag: Option<&FrictionLag>,
+        at: LoadStep,
+    ) -> Result<()> {
+        let (
+            options,
+            LoadStep {
+                step, reference, ..
+            },
+        ) = (self.options, at);
+        let negligible = self
+            .contact
+            .filter(|c| c.is_moving())
+            .map(|c| 1e-9 * c.parameters().activation_distance);
+        let mut converged = norm(r) <= options.tolerance * reference;
+        let mut done = 0;
+        while !converged {
+            // A caller's Ctrl-C between iterations (nothing is returned but the error).
+            crate::linalg::interrupt::poll(|| {
+                format!(
+                    "Newton iteration {} of load step {step}/{}",
+                    done + 1,
+                    options.load_steps
+                )
+            })?;
+            if done >= options.max_iterations {
+                let reached = history.last().copied().unwrap_or(f64::NAN);
+                return Err(Error::NotConverged {
+                    method: "Newton's method".into(),
+                    message: format!(
+                        "no convergence in {} iterations at load step {step}/{}: residual \
+                         ‖r_f‖ = {reached:.3e}, {:.3e} of the reference {reference:.3e} \
+                         (tolerance {:e}); more load steps or iterations may help",
+                        options.max_iterations,
+                        options.load_steps,
+                        reached / reference,
+                        options.tolerance
+                    ),
+                });
+            }
+            let delta = self.direction(u, r, lag)?;
+            if negligible.is_some_and(|small| delta.iter().all(|d| d.abs() <= small)) {
+                break;
+            }
+            let r_norm = norm(r);
+            let Some((trial, r_trial)) = self.line_search(u, &delta, r, lag, at)? else {
+                // Below 1e-6 of the reference the residual is the forces' round-off (see
+                // below): with contact, whose line search asks for a decrease of Π that
+                // round-off can deny, a search finding none there is the floor.
+                if self.contact.is_some() && r_norm <= 1e-6 * reference {
+                    break;
+                }
+                return Err(Error::NotConverged {
+                    method: "Newton's method".into(),
+                    message: format!(
+                        "the line search found no decrease at load step {step}/{} (residual \
+                         ‖r_f‖ = {r_norm:.3e}, {:.3e} of the reference {reference:.3e}; \
+                         tolerance {:e})",
+                        options.load_steps,
+                        r_norm / reference,
+                        options.tolerance
+                    ),
+                });
+            };
+            *u = trial;
+            *r = r_trial;
+            self.iterations += 1;
+            done += 1;
+            let (before, now) = (r_norm, norm(r));
+            history.push(now);
+            // Converged at the tolerance, or at the round-off floor: below 1e-6 of the
+            // reference a residual that no longer halves is the floating-point noise of the
+            // forces (their O(E) terms cancel to O(E·strain)), and more iterations cannot
+            // lower it.
+            converged = now <= options.tolerance * reference
+                || (now <= 1e-6 * reference && now > 0.5 * before);
+        }
+        Ok(())
+    }
+
+    /// The Newton step Δu on the free DOFs at `u` (free residual `r`): K_t·Δu = r with the
+    /// exact tangent first (quadratic convergence); if it is not positive definite, the one
+    /// with every element tangent projected onto the PSD cone (a descent direction, at the
+    /// price of linear convergence while it is needed). Friction's Hessian is PSD as it stands.
+    fn direction(&mut self, u: &[f64], r: &[f64], lag: Option<&FrictionLag>) -> Result<Vec<f64>> {
+        for project in [false, true] {
+            refill_tangent(
+                self.mesh,
+                self.assembler,
+                self.model,
+                u,
+                project,
+                &mut self.tangent,
+            )?;
+            if let Some(contact) = self.contact {
+                contact.add_tangent(u, project, &mut self.tangent)?;
+                if let Some(lag) = lag {
+                    contact.add_friction_tangent(lag, u, &mut self.tangent)?;
+                }
+            }
+            self.restriction
+                .restrict_into(&self.tangent, &mut self.free_tangent)?;
+            match self.solver.factorize(&self.free_tangent) {
+                Err(tetfem_linalg::Error::NotPositiveDefinite { .. }) if !project => {}
+                other => {
+                    other?;
+                    break;
+                }
+            }
+        }
+        let mut delta = r.to_vec();
+        self.solver.solve(&self.free_tangent, &mut delta)?;
+        Ok(delta)
+    }
+
+    /// The backtracking line search along the free step `delta` from `u` (residual `r`):
+    /// from 1, or with contact from [`STEP_FRACTION`] of the collision-free step, halved up to
+    /// 30 times until the residual norm or Π decreases — with contact only a decrease of Π (up
+    /// to its round-off), so the barrier keeps the gaps open. It is the implicit steps' search
+    /// ([`Backtracking`]) on this problem's line. Returns the accepted state and its free
+    /// residual (`None`: no decrease found).
+    fn line_search(
+        &self,
+        u: &[f64],
+        delta: &[f64],
+        r: &[f64],
+        lag: Option<&FrictionLag>,
+        at: LoadStep,
+    ) -> Result<Option<(Vec<f64>, Vec<f64>)>> {
+        let mut line = StaticLine {
+            newton: self,
+            u,
+            delta,
+            lag,
+            factor: at.factor,
+            start: None,
+            trial: Vec::new(),
+            r_trial: Vec::new(),
+        };
+        // Π at the start first, as before the search was shared (its errors come first).
+        line.start_potential()?;
+        let mut first_alpha = 1.0;
+        if let Some(contact) = self.contact {
+            let mut step = vec![0.0; u.len()];
+            for (&dof, d) in self.dofs.free_dofs().iter().zip(delta) {
+                step[dof] = *d;
+            }
+            first_alpha = (STEP_FRACTION * contact.max_step(u, &step)?).min(1.0);
+        }
+        // |r·δ|, the first-order change of Π along the step (the relaxed search's slack).
+        let slope = r.iter().zip(delta).map(|(a, b)| a * b).sum::<f64>().abs();
+        let search = Backtracking::for_contact(self.contact.is_some());
+        let (accepted, _) = search.search(&mut line, first_alpha, norm(r), slope)?;
+        Ok(accepted.then_some((line.trial, line.r_trial)))
+    }
+}
+
+/// A static Newton step's line u + α·δ (free step δ scattered onto the full displacement)
+/// for [`Backtracking`]: the free residual and Π at its trial points.
+struct StaticLine<'s, 'a, E: ModelElement, M: TetModels + ?Sized> {
+    newton: &'s StaticNewton<'a, E, M>,
+    u: &'s [f64],
+    delta: &'s [f64],
+    lag: Option<&'s FrictionLag>,
+    /// The load factor λ of the load step.
+    factor: f64,
+    /// Π at `u`, once computed.
+    start: Option<f64>,
+    /// The last trial state (full) and its free residual.
+    trial: Vec<f64>,
+    r_trial: Vec<f64>,
+}
+
+impl<E: ModelElement, M: TetModels + ?Sized> LineFunction for StaticLine<'_, '_, E, M> {
+    fn trial(&mut self, alpha: f64) -> Result<f64> {
+        let mut trial = self.u.to_vec();
+        for (&dof, d) in self.newton.dofs.free_dofs().iter().zip(self.delta) {
+            trial[dof] += alpha * d;
+        }
+        self.r_trial = self.newton.residual(&trial, self.lag, self.factor)?;
+        self.trial = trial;
+        Ok(norm(&self.r_trial))
+    }
+
+    fn start_potential(&mut self) -> Result<f64> {
+        if let Some(pi) = self.start {
+            return Ok(pi);
+        }
+        let pi = self.newton.potential(self.u, self.lag, self.factor)?;
+        self.start = Some(pi);
+        Ok(pi)
+    }
+
+    fn trial_potential(&mut self) -> Result<f64> {
+        self.newton.potential(&self.trial, self.lag, self.factor)
+    }
+}
+
+/// The support reactions of a nonlinear static solution: Rᵢ = −(Σₑ fₑ(u) + f)ᵢ on every
+/// constrained DOF i, zero on the free ones (full length, force units). The element forces
+/// fₑ are those the model exerts on the nodes (−K·u for the linear model, so R = K·u − f as in
+/// [`StaticSolution::reactions`](crate::analysis::statics::StaticSolution::reactions)). R is what the
+/// supports exert on the body: Σ R + Σ f equals, per axis, the sum of the free residual
+/// components (at most √n_f·‖r_f‖, what Newton left), as Σₑ fₑ sums to zero exactly up to
+/// round-off (each element's forces balance).
+///
+/// Errors: `u`, `constraints` or `loads` not made for `mesh`, or `model` not one per tet.
+pub fn nonlinear_reactions<E: ModelElement>(
+    mesh: &TetMesh<E>,
+    model: &(impl TetModels + ?Sized),
+    constraints: &Constraints,
+    loads: &Loads,
+    u: &[f64],
+) -> Result<Vec<f64>> {
+    if constraints.dof_count() != mesh.dof_count() || loads.as_slice().len() != mesh.dof_count() {
+        return Err(Error::invalid_parameter(
+            "constraints/loads",
+            "another mesh",
+            "must be made for this mesh",
+        ));
+    }
+    let force = internal_force(mesh, model, u)?;
+    Ok(force
+        .iter()
+        .zip(loads.as_slice())
+        .enumerate()
+        .map(|(dof, (fi, f))| match constraints.get(dof) {
+            Some(_) => -(fi + f),
+            None => 0.0,
+        })
+        .collect())
+}
+
+fn norm(v: &[f64]) -> f64 {
+    v.iter().map(|x| x * x).sum::<f64>().sqrt()
+}

@@ -1,0 +1,11 @@
+//! The base room: what every other room uses and which knows no mechanics — the one error
+//! type ([`error`]: each variant names its culprit), the warning type ([`warning`]: valid but
+//! suspect input), whole-file atomic writes ([`atomic_file`]), input file reading
+//! ([`input_file`]: sizes and line numbers) and peak-memory estimates made before allocating
+//! ([`memory`]).
+
+pub mod atomic_file;
+pub mod error;
+pub mod input_file;
+pub mod memory;
+pub mod warning;

@@ -1,0 +1,175 @@
+//! A posteriori error estimate of a linear-elastic solution: the Zienkiewicz–Zhu (ZZ)
+//! recovered-stress estimator, per element and in total, in the energy norm.
+//!
+//! From the finite element stress σ_h (constant per P1 tet, linear per P2 tet) a continuous
+//! stress σ* is recovered at the nodes ([`recovery`]: volume-weighted averaging of each tet's
+//! own stress at the node) and interpolated with the element's shape functions. Per tet K
+//!
+//! η_K² = ∫_K (σ* − σ_h) : C⁻¹ : (σ* − σ_h) dV,  C⁻¹σ = (σ − λ/(3λ + 2μ) tr(σ) I) / (2μ),
+//!
+//! integrated exactly (degree 2p: the 4-point degree-2 rule for P1, the degree-5 rule of
+//! [`quadrature`](crate::fe::quadrature) for P2). η_K has the units of √energy (J^½ in SI): η_K²
+//! is an energy, like the energy norm ‖v‖_E² = ∫ ε(v):C:ε(v) dV = vᵀKv. The global estimate
+//! is η = (Σ η_K²)^½ and the relative estimate η / (‖u_h‖_E² + η²)^½, which estimates
+//! ‖u − u_h‖_E / ‖u‖_E because ‖u‖_E² = ‖u_h‖_E² + ‖u − u_h‖_E² for a conforming Galerkin
+//! solution (Galerkin orthogonality, homogeneous or exactly represented Dirichlet data).
+//!
+//! The reference points are Zienkiewicz & Zhu, "A simple error estimator and adaptive
+//! procedure for practical engineering analysis" (IJNME 24, 1987) and MFEM's example 21 (ZZ
+//! estimator for elasticity with a flux recovered in the H¹ space). Measured effectivities
+//! (η / true error) are in `tests/core/error_estimate.rs` and the README's accuracy section:
+//! patch recovery ([`Recovery::PatchRecovery`], the default) keeps them in [0.7, 1.5] for P1
+//! and P2; plain averaging ([`Recovery::Averaging`]) does for P1 only.
+//!
+//! The estimate measures the linear-elastic (small-strain) stress: for a run with a nonlinear
+//! model it is the discretization error of the linearized problem, not of that model.
+//! Across an interface between materials the exact stress jumps (only the traction is
+//! continuous) and the recovered one does not, so η_K overestimates along such interfaces.
+
+pub mod recovery;
+
+use nalgebra::{Matrix3, Vector3};
+
+/// The element seam of pointwise evaluation, kept here under its earlier path; it lives with
+/// the elements (`crate::fe::element::pointwise`), since loads evaluate fields with it too.
+pub use crate::fe::element::PointwiseElement;
+pub use crate::fe::element::pointwise;
+use recovery::{corners_of, gather, hooke};
+
+use crate::base::error::{Error, Result};
+use crate::fe::materials::TetMaterials;
+use crate::fe::quadrature::{QuadraturePoint, tet_rule};
+use crate::mesh::TetMesh;
+
+/// The error estimate of one displacement field (see the [module](self) docs).
+#[derive(Debug, Clone, PartialEq)]
+pub struct ErrorEstimate {
+    /// η_K per tet, in √energy units (J^½ in SI).
+    pub indicators: Vec<f64>,
+    /// The global estimate η = (Σ η_K²)^½ (J^½).
+    pub estimate: f64,
+    /// The energy norm of the finite element solution, ‖u_h‖_E = (u_hᵀKu_h)^½ (J^½).
+    pub energy_norm: f64,
+}
+
+impl ErrorEstimate {
+    /// The relative estimate η / (‖u_h‖_E² + η²)^½ (dimensionless), an estimate of
+    /// ‖u − u_h‖_E / ‖u‖_E; 0 for a zero field.
+    pub fn relative(&self) -> f64 {
+        let total = (self.energy_norm.powi(2) + self.estimate.powi(2)).sqrt();
+        if total > 0.0 {
+            self.estimate / total
+        } else {
+            0.0
+        }
+    }
+}
+
+/// The degree-2 rule (4 points at barycentric (α, β, β, β) and permutations, weights ¼), exact
+/// for the quadratic integrand of a P1 tet.
+fn degree_two_rule() -> Vec<QuadraturePoint> {
+    const ALPHA: f64 = 0.585_410_196_624_968_5;
+    const BETA: f64 = 0.138_196_601_125_010_5;
+    (0..4)
+        .map(|q| {
+            let l: [f64; 4] = std::array::from_fn(|i| if i == q { ALPHA } else { BETA });
+            QuadraturePoint {
+                barycentric: Vector3::new(l[1], l[2], l[3]),
+                weight: 0.25,
+            }
+        })
+        .collect()
+}
+
+/// e:C⁻¹:e for a stress difference e, with Lamé λ and shear modulus μ (energy per volume).
+fn complementary_energy(e: &Matrix3<f64>, lambda: f64, mu: f64) -> f64 {
+    let trace = e.trace();
+    (e.component_mul(e).sum() - lambda / (3.0 * lambda + 2.0 * mu) * trace * trace) / (2.0 * mu)
+}
+
+/// The ZZ estimate of `displacement` (node-major, 3 values per node) on `mesh` with each
+/// tet's material (one [`Material`](crate::fe::material::Material) or a
+/// [`MaterialMap`](crate::fe::materials::MaterialMap)); see the [module](self) docs. O(tets).
+///
+/// Errors: `displacement` does not hold 3 values per node, a value is not finite, or
+/// `materials` does not cover the tets.
+pub fn estimate_error<E: PointwiseElement>(
+    mesh: &TetMesh<E>,
+    materials: &impl TetMaterials,
+    displacement: &[f64],
+) -> Result<ErrorEstimate> {
+    estimate_error_with(mesh, materials, displacement, Recovery::default())
+}
+
+/// How the continuous stress σ* is recovered from the element stresses.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub enum Recovery {
+    /// Volume-weighted nodal averaging ([`recovery::averaged_nodal_stress`]).
+    Averaging,
+    /// Superconvergent patch recovery ([`recovery::spr_nodal_stress`]).
+    #[default]
+    PatchRecovery,
+}
+
+/// [`estimate_error`] with a chosen [`Recovery`].
+pub fn estimate_error_with<E: PointwiseElement>(
+    mesh: &TetMesh<E>,
+    materials: &impl TetMaterials,
+    displacement: &[f64],
+    recovery: Recovery,
+) -> Result<ErrorEstimate> {
+    Error::check_len("displacement", mesh.dof_count(), displacement.len())?;
+    materials.check_tet_count(mesh)?;
+    if let Some(dof) = displacement.iter().position(|v| !v.is_finite()) {
+        return Err(Error::invalid_parameter(
+            format!("displacement[{dof}]"),
+            displacement[dof],
+            "must be finite to estimate its error",
+        ));
+    }
+    let recovered = match recovery {
+        Recovery::Averaging => recovery::averaged_nodal_stress(mesh, materials, displacement),
+        Recovery::PatchRecovery => recovery::spr_nodal_stress(mesh, materials, displacement)?,
+    };
+    let rule = if E::DEGREE <= 1 {
+        degree_two_rule()
+    } else {
+        tet_rule()
+    };
+    let mut element = vec![0.0; 3 * E::NODES];
+    let mut shape = vec![0.0; E::NODES];
+    let mut indicators = Vec::with_capacity(mesh.tet_count());
+    let mut energy = 0.0;
+    for t in 0..mesh.tet_count() {
+        gather(mesh, t, displacement, &mut element);
+        let corners = corners_of(mesh, t);
+        let material = materials.material_of(t);
+        let (lambda, mu) = (material.lame_lambda(), material.shear_modulus());
+        let nodes = mesh.tets()[t].as_ref();
+        let mut squared = 0.0;
+        for q in &rule {
+            let b = q.barycentric;
+            let l = [1.0 - b.x - b.y - b.z, b.x, b.y, b.z];
+            E::shape_values_at(&l, &mut shape);
+            let smooth: Matrix3<f64> = nodes
+                .iter()
+                .zip(&shape)
+                .map(|(&n, &s)| recovered[n] * s)
+                .sum();
+            let fe = hooke(
+                material,
+                &E::displacement_gradient_at(&corners, &l, &element),
+            );
+            squared += q.weight * complementary_energy(&(smooth - fe), lambda, mu);
+        }
+        let volume = corners.volume();
+        indicators.push((squared * volume).max(0.0).sqrt());
+        energy += 2.0 * volume * E::strain_energy_density(&E::rest(mesh, t), material, &element);
+    }
+    let estimate = indicators.iter().map(|e| e * e).sum::<f64>().sqrt();
+    Ok(ErrorEstimate {
+        indicators,
+        estimate,
+        energy_norm: energy.max(0.0).sqrt(),
+    })
+}
