@@ -7,13 +7,13 @@
 
 use std::time::Duration;
 
-use nalgebra::{Matrix3, Vector3};
+use nalgebra::Vector3;
 
 use crate::analysis::nonlinear::{
     NewtonOptions, nonlinear_reactions, solve_nonlinear_static_with_motion_and_contact,
 };
 use crate::analysis::statics::{StaticSolver, StaticTimings};
-use crate::base::error::{Error, Result};
+use crate::base::error::Result;
 use crate::base::warning::Warning;
 use crate::bc::amplitude::STATIC_TIME;
 use crate::bc::constraints::DofMap;
@@ -21,8 +21,6 @@ use crate::bc::loads::Loads;
 use crate::fe::element::Tet4;
 use crate::linear_solver::{SolveInfo, SolverOptions};
 use crate::model::{ModelElement, ModelMap};
-use crate::post::estimate::{ErrorEstimate, PointwiseElement, estimate_error};
-use crate::post::output::fields::{cell_model_stress, cell_stress};
 
 use super::combination::Analysis;
 use super::definition::Definition;
@@ -131,8 +129,9 @@ pub struct Static<'a, C: ModelElement = Tet4> {
 }
 
 impl<'a, C: ModelElement> Static<'a, C> {
-    /// The analysis of `definition` with `options`: [`Error::InvalidParameter`] naming the pair
-    /// the library's combination rule refuses ([`Definition::check`]), else the analysis with
+    /// The analysis of `definition` with `options`:
+    /// [`Error::InvalidParameter`](crate::Error::InvalidParameter) naming the pair the
+    /// library's combination rule refuses ([`Definition::check`]), else the analysis with
     /// the rule's warnings ([`warnings`](Self::warnings)).
     pub fn new(definition: &'a Definition<C>, options: StaticOptions) -> Result<Self> {
         let warnings = definition.check(Analysis::Static)?;
@@ -256,47 +255,6 @@ impl<'a, C: ModelElement> Static<'a, C> {
                 iterations: report.iterations,
             },
         })
-    }
-
-    /// The Cauchy stress of every tet (Pa, at its centroid or mean over its quadrature
-    /// points) of the definition's model at the displacement `u`: the linear model's σ = C:ε
-    /// straight from u (the force-model route forms x = X + u and takes u = x − X back, which
-    /// costs digits, ~1e-11 relative in σ_vM on a steel beam), a nonlinear model's own.
-    pub fn stresses(&self, u: &[f64]) -> Result<Vec<Matrix3<f64>>> {
-        let d = self.definition;
-        match d.model.is_linear() {
-            true => cell_stress(&d.mesh, &d.materials, u),
-            false => cell_model_stress(&d.mesh, &self.model, u),
-        }
-    }
-
-    /// The von Mises stress of every tet (Pa) of [`stresses`](Self::stresses).
-    pub fn von_mises(&self, u: &[f64]) -> Result<Vec<f64>> {
-        Ok(self
-            .stresses(u)?
-            .iter()
-            .map(crate::fe::element::von_mises)
-            .collect())
-    }
-}
-
-impl<C: ModelElement + PointwiseElement> Static<'_, C> {
-    /// The recovery (ZZ) estimate of the energy-norm error of the solution `u`
-    /// ([`estimate_error`]). It recovers the linear model's stress σ = C:ε, so it applies to
-    /// the linear model only: for a nonlinear model (whose stress is not linear in ε) it is
-    /// [`Error::InvalidParameter`] naming the model.
-    pub fn estimated_error(&self, u: &[f64]) -> Result<ErrorEstimate> {
-        let d = self.definition;
-        if !d.model.is_linear() {
-            return Err(Error::invalid_parameter(
-                "model with the estimated error",
-                d.model.name(),
-                "the recovery estimate recovers the linear model's stress σ = C:ε and its \
-                 energy norm; a large-deformation model's stress is not linear in ε (estimate \
-                 the linear model's solution on the same mesh)",
-            ));
-        }
-        estimate_error(&d.mesh, &d.materials, u)
     }
 }
 

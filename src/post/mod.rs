@@ -8,3 +8,4 @@ pub mod convergence;
 pub mod error_norms;
 pub mod estimate;
 pub mod output;
+pub mod static_results;
