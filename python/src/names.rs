@@ -109,13 +109,8 @@ pub fn linear_solver(py: Python<'_>, name: &str) -> PyResult<LinearMethod> {
     }
 }
 
-/// A time step: seconds, or a multiple of the explicit critical step.
-pub enum TimeStep {
-    /// Seconds (checked by the integrator: finite and > 0).
-    Seconds(f64),
-    /// This multiple of the explicit critical step (finite and > 0).
-    Critical(f64),
-}
+/// A time step: seconds, or a multiple of the explicit critical step (the library's).
+pub use tetfem::analysis::transient::TimeStep;
 
 /// A time step given as a float (s) or as text `"<factor>crit"` (e.g. `"0.9crit"`).
 pub fn time_step(py: Python<'_>, value: &Bound<'_, PyAny>) -> PyResult<TimeStep> {
@@ -133,7 +128,7 @@ pub fn time_step(py: Python<'_>, value: &Bound<'_, PyAny>) -> PyResult<TimeStep>
         )
     })?;
     match text.strip_suffix("crit").map(|f| f.trim().parse::<f64>()) {
-        Some(Ok(f)) if f.is_finite() && f > 0.0 => Ok(TimeStep::Critical(f)),
+        Some(Ok(f)) if f.is_finite() && f > 0.0 => Ok(TimeStep::CriticalMultiple(f)),
         _ => Err(invalid(py, "dt", format!("'{text}'"), allowed)),
     }
 }

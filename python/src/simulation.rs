@@ -7,10 +7,11 @@ use std::thread::ThreadId;
 
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
+use tetfem::analysis::Definition;
 use tetfem::analysis::dynamics::{
-    BackwardEuler, Checkpoint, Energy, Integrator, IntegratorOptions, InternalForce, LinearSystem,
-    Mass, Method, Newmark, NonlinearForce, Rayleigh, State, SymplecticEuler, critical_time_step,
+    Checkpoint, Energy, IntegratorOptions, InternalForce, LinearSystem, Mass, Rayleigh, State,
 };
+use tetfem::analysis::transient::{Transient, TransientOptions, critical_step};
 use tetfem::bc::loads::Loads;
 use tetfem::fe::materials::MaterialMap;
 
@@ -26,50 +27,6 @@ use crate::modal::{ModalResult, modes_of};
 use crate::names;
 use crate::sparse::{csr, diagonal};
 use crate::statics::check_same_mesh;
-
-/// The integrator of each method, held by its concrete type (each is `Send + Sync`, which a
-/// Python object's contents must be).
-enum Stepper {
-    BackwardEuler(BackwardEuler),
-    Newmark(Newmark),
-    Explicit(SymplecticEuler),
-}
-
-impl Stepper {
-    /// The integrator `method` with `force`, as `Method::integrator_with_force` builds it.
-    fn new(
-        method: Method,
-        system: &Arc<LinearSystem>,
-        force: InternalForce,
-        dt: f64,
-        options: IntegratorOptions,
-    ) -> tetfem::Result<Self> {
-        let system = Arc::clone(system);
-        Ok(match method {
-            Method::BackwardEuler => {
-                Stepper::BackwardEuler(BackwardEuler::with_force(system, force, dt, options)?)
-            }
-            Method::Newmark => Stepper::Newmark(Newmark::with_force(system, force, dt, options)?),
-            Method::Explicit => Stepper::Explicit(SymplecticEuler::with_force(system, force, dt)?),
-        })
-    }
-
-    fn integrator(&mut self) -> &mut dyn Integrator {
-        match self {
-            Stepper::BackwardEuler(i) => i,
-            Stepper::Newmark(i) => i,
-            Stepper::Explicit(i) => i,
-        }
-    }
-
-    fn get(&self) -> &dyn Integrator {
-        match self {
-            Stepper::BackwardEuler(i) => i,
-            Stepper::Newmark(i) => i,
-            Stepper::Explicit(i) => i,
-        }
-    }
-}
 
 /// Energies as a dict: kinetic, elastic, gravity_potential, load_potential, total (J).
 fn energy_dict<'py>(py: Python<'py>, e: &Energy) -> PyResult<Bound<'py, PyDict>> {
@@ -118,11 +75,9 @@ pub struct PySimulation {
     runner: Mutex<Option<ThreadId>>,
 }
 
-/// What a step changes: the integrator (its factor, its last acceleration) and the state.
-struct Stepping {
-    stepper: Stepper,
-    state: State,
-}
+/// What a step changes: the library's transient run (its integrator's factor and history,
+/// and the state).
+type Stepping = Transient;
 
 /// Marks the current thread as the Simulation's runner until dropped, then restores the
 /// runner before it (a `run` inside a callback of the same thread's `run` nests).
@@ -159,19 +114,13 @@ fn busy(py: Python<'_>, what: &str) -> PyErr {
 }
 
 impl PySimulation {
-    /// The explicit critical step (s), found as the scene runner finds it.
+    /// The explicit critical step (s): the library's one policy, as the scene runner's.
     fn critical(
         system: &LinearSystem,
         data: &MeshData,
         materials: &MaterialMap,
     ) -> tetfem::Result<f64> {
-        Ok(match system.mass() {
-            Mass::Lumped(_) => critical_time_step(system)?.dt,
-            Mass::Consistent(_) => {
-                on_cells!(&data.mesh, m => tetfem::analysis::dynamics::element_step_bound_of_type(m, materials))?
-                    .dt_element
-            }
-        })
+        Ok(on_cells!(&data.mesh, m => critical_step(system, m, materials))?.dt)
     }
 
     /// What a checkpoint of this run stores to recognise it: the method, the model and the
@@ -227,11 +176,12 @@ impl PySimulation {
         after: impl Send + FnOnce(&State) -> tetfem::Result<T>,
     ) -> PyResult<(T, f64, usize)> {
         let mut guard = self.stepping(py)?;
-        let Stepping { stepper, state } = &mut *guard;
+        let transient = &mut *guard;
         let value = detach_interruptible(py, || {
-            stepper.integrator().step(state)?;
-            after(state)
+            transient.step()?;
+            after(transient.state())
         })?;
+        let state = transient.state();
         Ok((value, state.time, state.steps))
     }
 
@@ -306,72 +256,69 @@ impl PySimulation {
         )?;
         let c = &constraints.constraints;
         let time_data = crate::timed::time_data(loads.as_deref(), &constraints);
-        // With obstacles, as the scene runner builds it: a body held by contact alone is well
-        // posed in time (the mass holds its rigid modes), so no rigid-mode check.
-        let free_body = contact.is_some();
-        let system = py
-            .detach(|| {
-                on_cells!(&data.mesh, m => crate::timed::system(
-                    m, &materials, c, other, gravity, mass, rayleigh, &time_data, free_body,
-                ))
-            })
-            .or_raise(py)?;
-        let system = Arc::new(system);
-        let free = system.free_count();
-        let mut state = State::at_rest(free);
         let n = data.mesh.node_count();
-        if let Some(u) = initial_displacement {
-            let (values, rows) = arrays::floats(py, u, "initial_displacement", Some(3), false)?;
-            if rows != n {
-                return Err(invalid(
-                    py,
-                    "initial_displacement.shape",
-                    format!("({rows}, 3)"),
-                    &format!("must be ({n}, 3): one row per node"),
-                ));
-            }
-            state.displacement = system.dofs().restrict(&values).or_raise(py)?;
-        }
-        if let Some(v) = initial_velocity {
-            let values = arrays::rows_per_item(py, v, "initial_velocity", n)?;
-            state.velocity = system.dofs().restrict(&values).or_raise(py)?;
-        }
-        // As the scene runner builds it: the linear fast path, or the model of each material;
-        // with obstacles every model (the linear one too) with the contact barrier.
-        let force = py
-            .detach(|| match contact {
-                None => on_cells!(&data.mesh, m => {
-                    InternalForce::of_kind(kind, m, &materials, &system)
-                }),
-                Some(contact) => {
-                    let models = kind.build_map(&materials);
-                    let force = on_cells!(&data.mesh, m => {
-                        NonlinearForce::with_models(Arc::new(m.clone()), models, &system)
-                    })?;
-                    tetfem::Result::Ok(InternalForce::Nonlinear(Arc::new(
-                        force.with_contact(contact)?,
-                    )))
+        // The initial values' shapes are checked before the assembly.
+        let initial_u = match initial_displacement {
+            Some(u) => {
+                let (values, rows) = arrays::floats(py, u, "initial_displacement", Some(3), false)?;
+                if rows != n {
+                    return Err(invalid(
+                        py,
+                        "initial_displacement.shape",
+                        format!("({rows}, 3)"),
+                        &format!("must be ({n}, 3): one row per node"),
+                    ));
                 }
+                Some(values)
+            }
+            None => None,
+        };
+        let initial_v = match initial_velocity {
+            Some(v) => Some(arrays::rows_per_item(py, v, "initial_velocity", n)?),
+            None => None,
+        };
+        let options = TransientOptions {
+            method,
+            dt,
+            mass,
+            damping: rayleigh,
+            solver: options,
+        };
+        // The library's transient set-up, as the scene runner's: the system (without the
+        // rigid-mode check when obstacles may hold the body), the linear fast path or each
+        // material's model, with obstacles every model with the contact barrier.
+        let mut transient = py
+            .detach(|| {
+                on_cells!(&data.mesh, m => {
+                    let mut builder = Definition::builder(m.clone(), materials.clone())
+                        .model(kind)
+                        .constraints(c.clone())?
+                        .loads(other.clone())?
+                        .gravity(gravity)?
+                        .time_data(time_data.clone());
+                    if let Some(contact) = contact {
+                        builder = builder.contact(contact);
+                    }
+                    Transient::new(&builder.build()?, options)
+                })
             })
             .or_raise(py)?;
-        let dt = match dt {
-            names::TimeStep::Seconds(dt) => dt,
-            names::TimeStep::Critical(factor) => {
-                let critical = py.detach(|| Self::critical(&system, &data, &materials));
-                factor * critical.or_raise(py)?
-            }
-        };
-        let stepper = py
-            .detach(|| Stepper::new(method, &system, force.clone(), dt, options))
-            .or_raise(py)?;
+        let system = Arc::clone(transient.system());
+        let state = transient.state_mut();
+        if let Some(u) = initial_u {
+            state.displacement = system.dofs().restrict(&u).or_raise(py)?;
+        }
+        if let Some(v) = initial_v {
+            state.velocity = system.dofs().restrict(&v).or_raise(py)?;
+        }
         Ok(PySimulation {
             reactions: crate::sim_reactions::Reactions::new(other.clone(), gravity, time_data),
             data,
             materials,
+            force: transient.force().clone(),
             system,
-            force,
-            method: stepper.get().name(),
-            stepping: Mutex::new(Stepping { stepper, state }),
+            method: transient.integrator().name(),
+            stepping: Mutex::new(transient),
             runner: Mutex::new(None),
         })
     }
@@ -391,9 +338,9 @@ impl PySimulation {
     /// interrupted. Raises ``TetfemIOError`` when the file cannot be written.
     fn checkpoint(&self, py: Python<'_>, path: PathBuf) -> PyResult<()> {
         let guard = self.stepping(py)?;
-        let fingerprint = self.fingerprint(&guard.state);
+        let fingerprint = self.fingerprint(guard.state());
         let checkpoint =
-            Checkpoint::take(guard.stepper.get(), &guard.state, fingerprint, Vec::new())
+            Checkpoint::take(guard.integrator(), guard.state(), fingerprint, Vec::new())
                 .or_raise(py)?;
         drop(guard);
         py.detach(|| checkpoint.write(&path)).or_raise(py)
@@ -406,7 +353,7 @@ impl PySimulation {
     fn restore(&self, py: Python<'_>, path: PathBuf) -> PyResult<()> {
         let checkpoint = py.detach(|| Checkpoint::read(&path)).or_raise(py)?;
         let mut guard = self.stepping(py)?;
-        for (name, ours) in self.fingerprint(&guard.state) {
+        for (name, ours) in self.fingerprint(guard.state()) {
             let theirs = checkpoint.fingerprint_entry(&name).unwrap_or("none");
             if theirs != ours {
                 return Err(invalid(
@@ -419,10 +366,9 @@ impl PySimulation {
                 ));
             }
         }
-        let stepping = &mut *guard;
-        let integrator = stepping.stepper.integrator();
+        let (integrator, state) = guard.parts_mut();
         integrator.set_time_step(checkpoint.dt).or_raise(py)?;
-        stepping.state = checkpoint.restore(integrator).or_raise(py)?;
+        *state = checkpoint.restore(integrator).or_raise(py)?;
         Ok(())
     }
 
@@ -491,7 +437,7 @@ impl PySimulation {
     /// for the linear model), gravity_potential, load_potential (−f·u) and their total.
     fn energy<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
         let guard = self.stepping(py)?;
-        let state = &guard.state;
+        let state = guard.state();
         let e = py
             .detach(|| self.force.energy(&self.system, state))
             .or_raise(py)?;
@@ -501,26 +447,25 @@ impl PySimulation {
     /// Simulated time (s).
     #[getter]
     fn time(&self, py: Python<'_>) -> PyResult<f64> {
-        Ok(self.stepping(py)?.state.time)
+        Ok(self.stepping(py)?.state().time)
     }
 
     /// Steps taken.
     #[getter]
     fn steps(&self, py: Python<'_>) -> PyResult<usize> {
-        Ok(self.stepping(py)?.state.steps)
+        Ok(self.stepping(py)?.state().steps)
     }
 
     /// The time step (s); setting it makes implicit methods refactor on the next step.
     #[getter]
     fn dt(&self, py: Python<'_>) -> PyResult<f64> {
-        Ok(self.stepping(py)?.stepper.get().time_step())
+        Ok(self.stepping(py)?.dt())
     }
 
     #[setter]
     fn set_dt(&self, py: Python<'_>, dt: f64) -> PyResult<()> {
         self.stepping(py)?
-            .stepper
-            .integrator()
+            .integrator_mut()
             .set_time_step(dt)
             .or_raise(py)
     }
@@ -549,7 +494,7 @@ impl PySimulation {
     fn displacement<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
         let (u, time) = {
             let guard = self.stepping(py)?;
-            (guard.state.displacement.clone(), guard.state.time)
+            (guard.state().displacement.clone(), guard.state().time)
         };
         arrays::rows3(py, self.system.expand_at(time, &u).or_raise(py)?)
     }
@@ -561,14 +506,14 @@ impl PySimulation {
         // Read before the lock: converting `value` may run Python code (an array-like's
         // methods) that reads this Simulation.
         let values = self.free_values(py, value, "displacement")?;
-        self.stepping(py)?.state.displacement = values;
+        self.stepping(py)?.state_mut().displacement = values;
         Ok(())
     }
 
     /// Velocity of every node, shape (n, 3), m/s (zero on constrained DOFs).
     #[getter]
     fn velocity<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        let v = self.stepping(py)?.state.velocity.clone();
+        let v = self.stepping(py)?.state().velocity.clone();
         self.scatter(py, &v)
     }
 
@@ -576,7 +521,7 @@ impl PySimulation {
     #[setter]
     fn set_velocity(&self, py: Python<'_>, value: &Bound<'_, PyAny>) -> PyResult<()> {
         let values = self.free_values(py, value, "velocity")?;
-        self.stepping(py)?.state.velocity = values;
+        self.stepping(py)?.state_mut().velocity = values;
         Ok(())
     }
 
@@ -594,7 +539,7 @@ impl PySimulation {
         let u = {
             let guard = self.stepping(py)?;
             self.system
-                .expand_at(guard.state.time, &guard.state.displacement)
+                .expand_at(guard.state().time, &guard.state().displacement)
                 .or_raise(py)?
         };
         let mesh = &self.data.mesh;
@@ -610,7 +555,7 @@ impl PySimulation {
     /// Σr + Σf_ext = Σ M·a + α·Σ M·v. The first call assembles the constrained rows of K and M.
     fn reactions<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
         let guard = self.stepping(py)?;
-        let state = &guard.state;
+        let state = guard.state();
         let r = py
             .detach(|| {
                 self.reactions.at(
@@ -658,9 +603,9 @@ impl PySimulation {
                 "Simulation(method={}, model={}, dt={:e} s, t={:e} s, {} steps)",
                 self.method,
                 self.force.name(),
-                guard.stepper.get().time_step(),
-                guard.state.time,
-                guard.state.steps
+                guard.dt(),
+                guard.state().time,
+                guard.state().steps
             ),
             Err(_) => format!(
                 "Simulation(method={}, model={}, busy: running in another thread)",

@@ -1,13 +1,9 @@
 //! What a `Simulation` follows in time: the loads with an amplitude (`Loads.add_*(...,
 //! amplitude=...)`) and the supports that move (`Constraints.prescribe*(..., amplitude=...)`,
-//! `prescribe_rigid`), as the library's `TimeData`, and the system built with it.
+//! `prescribe_rigid`), as the library's `TimeData` (which the library's transient set-up
+//! assembles the system with).
 
-use nalgebra::Vector3;
-use tetfem::analysis::dynamics::{LinearSystem, MassKind, Rayleigh, TimeData};
-use tetfem::bc::loads::Loads;
-use tetfem::fe::element::ElementType;
-use tetfem::fe::materials::MaterialMap;
-use tetfem::mesh::TetMesh;
+use tetfem::analysis::dynamics::TimeData;
 
 use crate::constraints::PyConstraints;
 use crate::loads::PyLoads;
@@ -20,45 +16,5 @@ pub fn time_data(loads: Option<&PyLoads>, constraints: &PyConstraints) -> TimeDa
         loads: loads.map(|l| l.timed.clone()).unwrap_or_default(),
         motion: constraints.moving.clone(),
         ..TimeData::default()
-    }
-}
-
-/// The system of a run, as the scene runner builds it: with `data` (its loads scaled by a(t)
-/// each step, its moving DOFs following their motion), without the rigid-mode check when
-/// `free_body` (a body that obstacles may hold). With constant `data` it is
-/// `LinearSystem::new` (or `new_free_body`) bit for bit.
-#[allow(clippy::too_many_arguments)]
-pub fn system<E: ElementType>(
-    mesh: &TetMesh<E>,
-    materials: &MaterialMap,
-    constraints: &tetfem::bc::constraints::Constraints,
-    loads: &Loads,
-    gravity: Vector3<f64>,
-    mass: MassKind,
-    damping: Rayleigh,
-    data: &TimeData,
-    free_body: bool,
-) -> tetfem::Result<LinearSystem> {
-    match free_body {
-        true => LinearSystem::new_free_body_with_time_data(
-            mesh,
-            materials,
-            constraints,
-            loads,
-            gravity,
-            mass,
-            damping,
-            data,
-        ),
-        false => LinearSystem::with_time_data(
-            mesh,
-            materials,
-            constraints,
-            loads,
-            gravity,
-            mass,
-            damping,
-            data,
-        ),
     }
 }

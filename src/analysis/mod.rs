@@ -15,8 +15,10 @@ pub mod nonlinear;
 pub mod problem;
 pub mod static_analysis;
 pub mod statics;
+pub mod transient;
 
 pub use combination::{Analysis, Combination};
 pub use definition::{Definition, DefinitionBuilder};
 pub use modal_analysis::{Modal, ModalOutcome};
 pub use static_analysis::{Static, StaticOptions, StaticOutcome, StaticPath};
+pub use transient::{Transient, TransientOptions};

@@ -5,6 +5,7 @@
 
 mod amg;
 mod analysis_static_modal;
+mod analysis_transient;
 mod assembly;
 mod atomic_writes;
 mod beam_theory;

@@ -1,70 +1,33 @@
-//! Contact in dynamic scenes: the set-up of a run with `[[obstacles]]` (the system of a body that
-//! may be held by contact alone, every force model — the linear one too — through the Newton
-//! step with the barrier), and what the outputs add: the CSV columns of the contact energy and
+//! Contact in dynamic scenes: the contact of a run with `[[obstacles]]` (the library's transient
+//! set-up makes every force model — the linear one too — step through Newton with its barrier),
+//! and what the outputs add: the CSV columns of the contact energy and
 //! the force on each obstacle, the `.vtu` fields `contact_gap` and `contact_pressure`, and a
 //! camera box that holds the body's way to the obstacles.
 
-use std::sync::Arc;
-use std::time::Instant;
-
 use nalgebra::Vector3;
-use tetfem::analysis::dynamics::{InternalForce, LinearSystem, NonlinearForce, Rayleigh, State};
+use tetfem::analysis::dynamics::InternalForce;
 use tetfem::base::error::Result;
 use tetfem::contact::Contact;
 
-use super::{BuiltScene, DynamicSettings, DynamicSetup, Scene, SceneElement};
+use super::{BuiltScene, Scene, SceneElement};
 
-impl<E: SceneElement> DynamicSetup<E> {
-    /// The setup of a dynamic scene with `[[obstacles]]` (what
-    /// [`from_scene`](Self::from_scene) and [`with_model`](Self::with_model) are without them):
-    /// the system without the rigid-mode check (a body held by contact alone is well posed in
-    /// time: the mass holds its rigid modes), and the scene's model — the linear one included,
-    /// since the barrier makes every step nonlinear — with the contact
-    /// ([`NonlinearForce::with_contact`]).
-    ///
-    /// Every method, element order, amplitude and moving support: what may be combined is the
-    /// library's rule ([`Scene::combination`]), checked when the scene was parsed.
-    ///
-    /// Errors: those of the contact (a body starting inside an obstacle).
-    pub fn with_contact(
-        scene: &Scene,
-        built: BuiltScene<E>,
-        settings: &DynamicSettings,
-    ) -> Result<Self> {
-        let clock = Instant::now();
-        let span = scene
-            .spec()
-            .obstacles
-            .first()
-            .map(|o| o.span())
-            .unwrap_or_default();
-        let damping = Rayleigh::new(settings.damping.mass, settings.damping.stiffness)?;
-        let system = LinearSystem::new_free_body_with_time_data(
-            &built.mesh,
-            &built.materials,
-            &built.constraints,
-            &built.other_loads,
-            built.gravity,
-            settings.mass,
-            damping,
-            &built.time_data,
-        )?;
-        let mut initial = State::at_rest(system.free_count());
-        let velocity: Vec<f64> = (0..built.mesh.dof_count())
-            .map(|dof| settings.initial_velocity[dof % 3])
-            .collect();
-        initial.velocity = system.dofs().restrict(&velocity)?;
-        let contact = scene
-            .contact(&built.mesh, super::obstacles::stiffest(&built.materials))?
-            .ok_or_else(|| scene.error("obstacles", &span, "no obstacle".to_string()))?;
-        let models = scene.model().build_map(&built.materials);
-        let force = NonlinearForce::with_models(Arc::new(built.mesh.clone()), models, &system)?
-            .with_contact(contact)?;
-        let reactions = super::DynamicReactions::of_scene(&built, &system)?;
-        let mut setup = Self::of_built(built, system, initial, reactions, clock)?;
-        setup.force = InternalForce::Nonlinear(Arc::new(force));
-        Ok(setup)
-    }
+/// The contact of a dynamic scene's `[[obstacles]]` on the body of `built` (the barrier's
+/// stiffness scaled by its stiffest material).
+///
+/// Errors: those of the obstacles' placement; a scene without obstacle names the key.
+pub(super) fn scene_contact<E: SceneElement>(
+    scene: &Scene,
+    built: &BuiltScene<E>,
+) -> Result<Contact> {
+    let span = scene
+        .spec()
+        .obstacles
+        .first()
+        .map(|o| o.span())
+        .unwrap_or_default();
+    scene
+        .contact(&built.mesh, super::obstacles::stiffest(&built.materials))?
+        .ok_or_else(|| scene.error("obstacles", &span, "no obstacle".to_string()))
 }
 
 /// The contact of a run's force law, if any.

@@ -150,3 +150,36 @@ pub fn element_step_bound_of_type<E: crate::fe::element::ElementType>(
         p_wave_speed: speeds.iter().copied().fold(0.0, f64::max),
     })
 }
+
+/// An element type with its own bound on the explicit critical step: the one each analysis
+/// and front end uses, so that a scene, Python and a Rust caller find the same bits.
+pub trait StepBoundElement: crate::fe::element::ElementType {
+    /// The element bound of `mesh` with `materials` (see [`ElementStepBound`]).
+    ///
+    /// Errors: `materials` do not cover the mesh's tets.
+    fn step_bound(
+        mesh: &TetMesh<Self>,
+        materials: &impl crate::fe::materials::TetMaterials,
+    ) -> crate::base::error::Result<ElementStepBound>;
+}
+
+impl StepBoundElement for crate::fe::element::Tet4 {
+    /// [`element_step_bound_of`]: the linear tet's own bound (λ_max(Kₑ) over the equal masses
+    /// ρVₑ/4), the bits every run has reported since the first release.
+    fn step_bound(
+        mesh: &TetMesh,
+        materials: &impl crate::fe::materials::TetMaterials,
+    ) -> crate::base::error::Result<ElementStepBound> {
+        element_step_bound_of(mesh, materials)
+    }
+}
+
+impl StepBoundElement for crate::fe::element::Tet10 {
+    /// [`element_step_bound_of_type`]: Kₑ scaled by the lumped mass shares of the 10 nodes.
+    fn step_bound(
+        mesh: &TetMesh<crate::fe::element::Tet10>,
+        materials: &impl crate::fe::materials::TetMaterials,
+    ) -> crate::base::error::Result<ElementStepBound> {
+        element_step_bound_of_type(mesh, materials)
+    }
+}

@@ -36,7 +36,8 @@ pub use checkpoint::{
 };
 pub use damping::Rayleigh;
 pub use element_bound::{
-    ElementStepBound, element_step_bound, element_step_bound_of, element_step_bound_of_type,
+    ElementStepBound, StepBoundElement, element_step_bound, element_step_bound_of,
+    element_step_bound_of_type,
 };
 pub use energy::Energy;
 pub use explicit::SymplecticEuler;
@@ -59,8 +60,10 @@ use crate::linear_solver::{LinearMethod, LinearSolver, SolverOptions};
 use crate::linsolve::CholeskyOptions;
 use crate::sparse::CscMatrix;
 
-/// A time-stepping method for a [`LinearSystem`].
-pub trait Integrator {
+/// A time-stepping method for a [`LinearSystem`]. `Send` so that a run may live in an
+/// object another thread steps (a Python `Simulation`, a [`Transient`](crate::analysis::Transient)
+/// moved to a worker).
+pub trait Integrator: Send {
     /// Advances `state` by one step of [`time_step`](Self::time_step). On
     /// [`Error::Diverged`] the state holds the values of the failed step (for inspection).
     fn step(&mut self, state: &mut State) -> Result<()>;

@@ -21,10 +21,11 @@ use super::obstacles::obstacle_tile;
 use super::restart::{self, ProbeRange, Restart};
 use super::{Analysis, BuiltScene, DynamicSettings, OutputSettings, Probe, Scene, SceneElement};
 use tetfem::analysis::dynamics::{
-    Energy, IntegratorOptions, InternalForce, LinearSystem, Mass, MassKind, Method, NewtonStats,
-    NonlinearSolve, Rayleigh, State, StepNewtonOptions, critical_time_step,
+    Energy, IntegratorOptions, InternalForce, LinearSystem, MassKind, Method, NewtonStats,
+    NonlinearSolve, Rayleigh, State, StepNewtonOptions,
 };
-use tetfem::base::error::{Error, Result, short_number};
+pub use tetfem::analysis::transient::{MAX_STEPS, RunLength, TimeStep};
+use tetfem::base::error::{Error, Result};
 use tetfem::bc::constraints::Constraints;
 use tetfem::bc::loads::Loads;
 use tetfem::fe::element::{ElementType, Tet10};
@@ -36,110 +37,6 @@ use tetfem::post::output::{
     write_atomically, write_obstacles_vtp,
 };
 use tetfem_fixtures::cantilever::Cantilever;
-
-/// A time step: in time units, or as a multiple of the explicit critical step.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub enum TimeStep {
-    /// A step in time units (s in SI).
-    Seconds(f64),
-    /// This many times the explicit critical step of the system (e.g. 50 for 50 × dt_crit).
-    CriticalMultiple(f64),
-}
-
-impl std::str::FromStr for TimeStep {
-    type Err = Error;
-
-    /// `"2e-5"` (time units) or `"50crit"` (50 × the explicit critical step); either must be
-    /// finite and > 0.
-    fn from_str(text: &str) -> Result<Self> {
-        let text = text.trim();
-        let (number, critical) = match text.strip_suffix("crit") {
-            Some(n) => (n.trim(), true),
-            None => (text, false),
-        };
-        let value: f64 = number.parse().map_err(|_| {
-            Error::invalid_parameter(
-                "dt",
-                text,
-                "must be a time step like 2e-5 (s) or a multiple of the explicit critical step like 50crit",
-            )
-        })?;
-        if !(value.is_finite() && value > 0.0) {
-            return Err(Error::invalid_parameter(
-                "dt",
-                text,
-                "must be finite and > 0",
-            ));
-        }
-        Ok(if critical {
-            TimeStep::CriticalMultiple(value)
-        } else {
-            TimeStep::Seconds(value)
-        })
-    }
-}
-
-/// How long to run.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub enum RunLength {
-    /// A number of steps (1 to [`MAX_STEPS`]).
-    Steps(usize),
-    /// A simulated time (time units, ≥ dt): ⌈duration/dt⌉ steps, at most [`MAX_STEPS`].
-    Duration(f64),
-}
-
-/// The most steps a dynamic run may take: 10⁹. At a microsecond per step on the smallest mesh
-/// that is a quarter of an hour, on a real mesh days: a larger count is a unit mistake in dt or
-/// the duration (dt = 1e-300 would otherwise run forever), rejected before any work.
-pub const MAX_STEPS: usize = 1_000_000_000;
-
-impl RunLength {
-    /// The number of steps at `dt` (time units): `n` itself, or ⌈duration/dt⌉ (less a 1e-9
-    /// slack, so that a duration that is a whole number of steps up to round-off takes that
-    /// number). Errors name the key (`steps`, `duration`, or `dt` when the end time n·dt
-    /// overflows), its value and the limit: 1 ≤ steps ≤ [`MAX_STEPS`], dt ≤ duration.
-    pub fn steps(self, dt: f64) -> Result<usize> {
-        let dt = tetfem::analysis::dynamics::check_time_step(dt)?;
-        let steps = match self {
-            RunLength::Steps(n) if (1..=MAX_STEPS).contains(&n) => n,
-            RunLength::Steps(n) => {
-                return Err(Error::invalid_parameter(
-                    "steps",
-                    n,
-                    format!("must be at least 1 and at most {MAX_STEPS} (MAX_STEPS)"),
-                ));
-            }
-            RunLength::Duration(d) if !(d.is_finite() && d >= dt) => {
-                return Err(Error::invalid_parameter(
-                    "duration",
-                    short_number(d),
-                    format!("must be finite and at least dt = {dt:e}"),
-                ));
-            }
-            RunLength::Duration(d) => {
-                let steps = (d / dt - 1e-9).ceil();
-                if steps > MAX_STEPS as f64 {
-                    return Err(Error::invalid_parameter(
-                        "duration",
-                        short_number(d),
-                        format!(
-                            "takes ⌈duration/dt⌉ = {steps:e} steps at dt = {dt:e}, above the limit of {MAX_STEPS} steps (MAX_STEPS); choose a larger dt or a shorter duration"
-                        ),
-                    ));
-                }
-                steps as usize
-            }
-        };
-        if !(steps as f64 * dt).is_finite() {
-            return Err(Error::invalid_parameter(
-                "dt",
-                short_number(dt),
-                format!("the end time {steps} steps × dt overflows"),
-            ));
-        }
-        Ok(steps)
-    }
-}
 
 /// A dynamic problem ready to integrate: the mesh (of 4-node tets by default, or 10-node ones),
 /// the assembled system and the initial state.
@@ -187,30 +84,61 @@ pub struct DynamicSetup<C: CellType = Tet4> {
 }
 
 impl<E: SceneElement> DynamicSetup<E> {
-    /// The system of a built scene with its dynamic settings: gravity tracked apart, the other
-    /// loads constant, Rayleigh damping and mass kind as set, starting at rest in the reference
-    /// configuration with the scene's initial velocity on every free DOF.
+    /// The system of a built scene with its dynamic settings and the linear model, without its
+    /// obstacles: [`of_scene`](Self::of_scene) with those left out.
     pub fn from_scene(built: BuiltScene<E>, settings: &DynamicSettings) -> Result<Self> {
         let clock = Instant::now();
+        let definition = built.definition(tetfem::model::ModelKind::Linear, None)?;
+        Self::of_definition(built, &definition, settings, clock)
+    }
+
+    /// The setup of a dynamic scene as it runs: the problem of `built` with the scene's model
+    /// and its obstacles' contact ([`BuiltScene::definition`]), assembled by the library's
+    /// transient set-up ([`Definition::transient_system`], [`Definition::transient_force`]:
+    /// gravity tracked apart, the other loads constant or following their amplitudes, Rayleigh
+    /// damping and mass kind as set; with obstacles the body may be held by contact alone and
+    /// every model, the linear one too, steps through Newton with the barrier), starting at
+    /// rest in the reference configuration with the scene's initial velocity on every free DOF.
+    ///
+    /// What may be combined is the library's rule ([`Scene::combination`]), checked when the
+    /// scene was parsed. Errors: those of the system and of the contact (a body starting inside
+    /// an obstacle).
+    ///
+    /// [`Definition::transient_system`]: tetfem::analysis::Definition::transient_system
+    /// [`Definition::transient_force`]: tetfem::analysis::Definition::transient_force
+    pub fn of_scene(
+        scene: &Scene,
+        built: BuiltScene<E>,
+        settings: &DynamicSettings,
+    ) -> Result<Self> {
+        let clock = Instant::now();
+        let contact = match scene.has_obstacles() {
+            true => Some(super::dynamic_contact::scene_contact(scene, &built)?),
+            false => None,
+        };
+        let definition = built.definition(scene.model(), contact)?;
+        Self::of_definition(built, &definition, settings, clock)
+    }
+
+    /// [`of_scene`](Self::of_scene) on the scene's `definition`; `clock` started with the setup.
+    fn of_definition(
+        built: BuiltScene<E>,
+        definition: &tetfem::analysis::Definition<E>,
+        settings: &DynamicSettings,
+        clock: Instant,
+    ) -> Result<Self> {
         let damping = Rayleigh::new(settings.damping.mass, settings.damping.stiffness)?;
-        let mass = settings.mass;
-        let system = LinearSystem::with_time_data(
-            &built.mesh,
-            &built.materials,
-            &built.constraints,
-            &built.other_loads,
-            built.gravity,
-            mass,
-            damping,
-            &built.time_data,
-        )?;
+        let system = definition.transient_system(settings.mass, damping)?;
         let mut initial = State::at_rest(system.free_count());
         let velocity: Vec<f64> = (0..built.mesh.dof_count())
             .map(|dof| settings.initial_velocity[dof % 3])
             .collect();
         initial.velocity = system.dofs().restrict(&velocity)?;
+        let force = definition.transient_force(&system)?;
         let reactions = super::DynamicReactions::of_scene(&built, &system)?;
-        Self::of_built(built, system, initial, reactions, clock)
+        let mut setup = Self::of_built(built, system, initial, reactions, clock)?;
+        setup.force = force;
+        Ok(setup)
     }
 
     /// The setup of a built scene with its assembled system and initial state; `clock` started
@@ -295,34 +223,22 @@ impl<E: SceneElement> DynamicSetup<E> {
         }
     }
 
-    /// The explicit critical step and how it was found: 2/ω_max by power iteration (proven by an
-    /// inertia check, `"power iteration"`, or by Gershgorin's looser bound where the check's
-    /// factor would not fit, `"Gershgorin bound"`) for a lumped mass, else the element bound
-    /// (which is never above it). Computed once, then remembered.
+    /// The explicit critical step and how it was found: the library's one policy
+    /// ([`critical_step`](tetfem::analysis::transient::critical_step): power iteration or
+    /// Gershgorin's bound for a lumped mass, the element bound for a consistent one). Computed
+    /// once, then remembered.
     pub fn critical_step(&self) -> Result<(f64, &'static str)> {
         if let Some(c) = self.critical.get() {
             return Ok(*c);
         }
-        let c = match self.system.mass() {
-            Mass::Lumped(_) => {
-                let step = critical_time_step(&self.system)?;
-                (step.dt, step.certificate.source())
-            }
-            Mass::Consistent(_) => (
-                E::step_bound(&self.mesh, &self.materials)?.dt_element,
-                "element bound",
-            ),
-        };
-        Ok(*self.critical.get_or_init(|| c))
+        let limit =
+            tetfem::analysis::transient::critical_step(&self.system, &self.mesh, &self.materials)?;
+        Ok(*self.critical.get_or_init(|| (limit.dt, limit.source)))
     }
 
     /// A time step in time units: `dt` itself, or its multiple of [`critical_step`](Self::critical_step).
     pub fn resolve(&self, dt: TimeStep) -> Result<f64> {
-        let dt = match dt {
-            TimeStep::Seconds(dt) => dt,
-            TimeStep::CriticalMultiple(f) => f * self.critical_step()?.0,
-        };
-        tetfem::analysis::dynamics::check_time_step(dt)
+        dt.seconds(|| Ok(self.critical_step()?.0))
     }
 }
 
@@ -890,12 +806,7 @@ fn run_dynamic_scene_on<E: SceneElement>(
 ) -> Result<DynamicSummary> {
     let write_files = lock.is_some();
     let method = overrides.method.unwrap_or(settings.method);
-    let mut setup = match scene.has_obstacles() {
-        true => DynamicSetup::with_contact(scene, scene.build_as::<E>()?, settings)?,
-        false => {
-            DynamicSetup::from_scene(scene.build_as::<E>()?, settings)?.with_model(scene.model())?
-        }
-    };
+    let mut setup = DynamicSetup::of_scene(scene, scene.build_as::<E>()?, settings)?;
     setup.linear_method = scene.spec().linear_method();
     setup.nonlinear_solve = scene.spec().nonlinear_solve();
     setup.newton.tolerance = settings.newton_tolerance;

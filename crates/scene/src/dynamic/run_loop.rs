@@ -1,9 +1,11 @@
-//! The time loop of a dynamic scene: the integrator steps, a [`StepRecorder`] keeps each step's
-//! probes, contact forces, reactions and outputs, checkpoints are written when due, `progress`
-//! may stop the run at a step boundary, and the summary closes the run.
+//! The time loop of a dynamic scene: the core's one loop ([`Transient::run`]) steps, and a
+//! [`StepWatcher`] (the scene's [`Observer`]) has a [`StepRecorder`] keep each step's probes,
+//! contact forces, reactions and outputs, writes checkpoints when due, and lets `progress`
+//! stop the run at a step boundary; the summary closes the run.
 
 use super::*;
 use tetfem::analysis::dynamics::Integrator;
+use tetfem::analysis::transient::{Flow, Observer, RunEnd, StepView, Transient};
 
 /// [`run_dynamic`] once the output folder's lock (if any) is held.
 pub(super) fn run_dynamic_locked<E: SceneElement>(
@@ -24,42 +26,59 @@ pub(super) fn run_dynamic_locked<E: SceneElement>(
         newton: setup.newton,
         ..IntegratorOptions::default()
     };
-    let mut integrator = run.method.integrator_with_force(
+    let mut transient = Transient::from_parts(
         Arc::clone(&setup.system),
         setup.force.clone(),
+        setup.initial.clone(),
+        run.method,
         dt,
         options,
     )?;
     let setup_seconds = setup.setup_seconds + clock.elapsed().as_secs_f64();
-    let mut state = setup.initial.clone();
-    let initial_energy = setup.force.energy(&setup.system, &state)?;
+    let initial_energy = transient.energy()?;
     let resumed_at = restart.as_ref().and_then(Restart::resumed_at);
     let mut recorder = StepRecorder::new(setup, run, outputs, steps, dt, resumed_at)?;
     // A resume continues from the checkpoint's state, integrator history, probe extremes and
     // contact force peaks.
     let first = resumed_at.unwrap_or(0);
     if let Some(r) = restart.as_ref() {
-        state = recorder.restore(r, integrator.as_mut())?.unwrap_or(state);
+        let (integrator, state) = transient.parts_mut();
+        if let Some(restored) = recorder.restore(r, integrator)? {
+            *state = restored;
+        }
     }
     let start_energy = match resumed_at {
-        None => recorder.record(&state, 0.0, false)?,
-        Some(_) => setup.force.energy(&setup.system, &state)?,
+        None => recorder.record(transient.state(), 0.0, false)?,
+        Some(_) => transient.energy()?,
     };
     // The stepping begins: `progress` learns it before the first step (the command-line tool
     // lets the first signal stop the run at a step boundary only from here on; during the
     // set-up above it exits at once) and may stop the run here already.
     if progress(first, steps).is_break() && first < steps {
-        let time = step_time((setup.initial.time, setup.initial.steps), dt, &state);
+        let time = step_time(
+            (setup.initial.time, setup.initial.steps),
+            dt,
+            transient.state(),
+        );
         return Err(interrupted(&mut recorder.writer, first, time)?);
     }
-    let clocks = step_through(
-        integrator.as_mut(),
-        &mut state,
-        &mut recorder,
-        restart.as_ref(),
-        (first, steps),
+    let mut watcher = StepWatcher {
+        recorder: &mut recorder,
+        restart: restart.as_ref(),
         progress,
-    )?;
+        first,
+        clocks: StepClocks::default(),
+    };
+    let end = transient.run((first, steps), &mut watcher)?;
+    let clocks = watcher.clocks;
+    if let RunEnd::Stopped { step } = end {
+        let time = step_time(
+            (setup.initial.time, setup.initial.steps),
+            dt,
+            transient.state(),
+        );
+        return Err(interrupted(&mut recorder.writer, step, time)?);
+    }
     let tally = RunTally {
         critical: (critical, critical_source),
         dt,
@@ -70,11 +89,29 @@ pub(super) fn run_dynamic_locked<E: SceneElement>(
         energies: (initial_energy, clocks.final_energy.unwrap_or(start_energy)),
         resumed_at,
     };
-    let mut summary = close_run(setup, run, integrator.as_ref(), &state, recorder, &tally)?;
+    let summary = close_run(
+        setup,
+        run,
+        transient.integrator(),
+        transient.state(),
+        recorder,
+        &tally,
+    )?;
+    write_summary(summary, outputs, lock, restart.as_ref())
+}
+
+/// The summary of a finished run with the lock's warning and the checkpoint's path, written
+/// to `<stem>_summary.json` when the run writes files; then the folder's lock is released.
+fn write_summary(
+    mut summary: DynamicSummary,
+    outputs: Option<&DynamicOutputs>,
+    lock: Option<OutputLock>,
+    restart: Option<&Restart>,
+) -> Result<DynamicSummary> {
     summary
         .warnings
         .extend(lock.as_ref().and_then(OutputLock::warning));
-    if let Some(path) = restart.as_ref().and_then(Restart::written) {
+    if let Some(path) = restart.and_then(Restart::written) {
         summary.files.push(path);
     }
     if let Some(o) = outputs {
@@ -97,57 +134,52 @@ struct StepClocks {
     final_energy: Option<Energy>,
 }
 
-/// Steps `first + 1..=steps`: each step recorded, a checkpoint written when due (or when
-/// `progress` stops the run and checkpoints are on), an integrator failure leaving whole rows
+/// The scene's observer of the time loop: each step recorded, a checkpoint written when due
+/// (or when `progress` stops the run and checkpoints are on), a failed step leaving whole rows
 /// and frames behind.
-fn step_through<E: SceneElement>(
-    integrator: &mut dyn Integrator,
-    state: &mut State,
-    recorder: &mut StepRecorder<'_, E>,
-    restart: Option<&Restart>,
-    (first, steps): (usize, usize),
-    progress: &mut dyn FnMut(usize, usize) -> ControlFlow<()>,
-) -> Result<StepClocks> {
-    let mut clocks = StepClocks::default();
-    for step in first + 1..=steps {
-        let clock = Instant::now();
-        let result = integrator.step(state);
-        let wall = clock.elapsed().as_secs_f64();
-        if let Err(error) = result {
-            if let Some(w) = &mut recorder.writer {
-                w.finish_partial()?;
-            }
-            return Err(error);
+struct StepWatcher<'r, 's, E: SceneElement> {
+    recorder: &'r mut StepRecorder<'s, E>,
+    restart: Option<&'r Restart>,
+    progress: &'r mut dyn FnMut(usize, usize) -> ControlFlow<()>,
+    /// The step the run started from.
+    first: usize,
+    clocks: StepClocks,
+}
+
+impl<E: SceneElement> Observer for StepWatcher<'_, '_, E> {
+    fn observe(&mut self, view: &StepView<'_>) -> Result<Flow> {
+        let (step, steps) = (view.step, view.last);
+        if step == self.first + 1 {
+            self.clocks.first_step = view.wall;
         }
-        if step == first + 1 {
-            clocks.first_step = wall;
-        }
-        clocks.step_total += wall;
-        clocks.final_energy = Some(recorder.record(state, wall, step == steps)?);
-        let stop = progress(step, steps).is_break() && step < steps;
+        self.clocks.step_total += view.wall;
+        let energy = self.recorder.record(view.state, view.wall, step == steps)?;
+        self.clocks.final_energy = Some(energy);
+        let stop = (self.progress)(step, steps).is_break() && step < steps;
         // The checkpoint after the CSV rows up to it are written out (a resume keeps them).
-        if let Some(r) = restart.filter(|r| r.due(step) || (stop && r.enabled())) {
-            if let Some(w) = &mut recorder.writer {
+        if let Some(r) = self
+            .restart
+            .filter(|r| r.due(step) || (stop && r.enabled()))
+        {
+            if let Some(w) = &mut self.recorder.writer {
                 w.finish_partial()?;
             }
             r.write(
-                &*integrator,
-                state,
-                &recorder.probes,
-                recorder.contact_forces.as_deref().unwrap_or_default(),
+                view.integrator,
+                view.state,
+                &self.recorder.probes,
+                self.recorder.contact_forces.as_deref().unwrap_or_default(),
             )?;
         }
-        if stop {
-            let setup = recorder.setup;
-            let time = step_time(
-                (setup.initial.time, setup.initial.steps),
-                recorder.dt,
-                state,
-            );
-            return Err(interrupted(&mut recorder.writer, step, time)?);
+        Ok(if stop { Flow::Stop } else { Flow::Continue })
+    }
+
+    fn step_failed(&mut self, _error: &Error) -> Result<()> {
+        match &mut self.recorder.writer {
+            Some(w) => w.finish_partial(),
+            None => Ok(()),
         }
     }
-    Ok(clocks)
 }
 
 /// What a run keeps of each step: the probes' last values and extremes, the obstacles' force

@@ -1,0 +1,16 @@
+//! Transient analysis: the equation of motion M·ü + C·u̇ + f_int(u) = f(t) of a
+//! [`Definition`](crate::analysis::Definition) stepped in time by one integrator
+//! ([`Transient`]), through one time loop ([`Transient::run`]) that [`Observer`]s watch and may
+//! stop. The time step ([`TimeStep`], [`RunLength`]) and the explicit critical step
+//! ([`critical_step`]) are defined here once for every front end.
+
+mod critical;
+mod observer;
+mod run;
+mod setup;
+mod time_step;
+
+pub use critical::{StepLimit, critical_step};
+pub use observer::{Flow, Observer, StepView, Unobserved};
+pub use run::{RunEnd, Transient, TransientOptions};
+pub use time_step::{MAX_STEPS, RunLength, TimeStep};

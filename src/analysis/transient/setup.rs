@@ -1,0 +1,55 @@
+//! What a transient analysis assembles from a [`Definition`]: the system M·ü + C·u̇ + K·u =
+//! f(t) on the free DOFs and the elastic force law. Said once here for scenes, Python and Rust
+//! callers, so that the same definition steps with the same bits everywhere.
+
+use std::sync::Arc;
+
+use crate::analysis::Definition;
+use crate::analysis::dynamics::{InternalForce, LinearSystem, MassKind, NonlinearForce, Rayleigh};
+use crate::base::error::Result;
+use crate::model::ModelElement;
+
+impl<C: ModelElement> Definition<C> {
+    /// The system of a transient run with `mass` and Rayleigh `damping`: the loads other than
+    /// gravity constant or scaled by their amplitudes a(t), gravity tracked apart (its own
+    /// potential), the supports following `time_data`'s motions.
+    ///
+    /// With obstacles the body may be held by contact alone, which is well posed in time (the
+    /// mass holds its rigid modes): the rigid-mode check of the stiffness is then skipped
+    /// ([`LinearSystem::new_free_body_with_time_data`]); without, a body free to move rigidly is
+    /// the error of [`LinearSystem::with_time_data`].
+    pub fn transient_system(&self, mass: MassKind, damping: Rayleigh) -> Result<LinearSystem> {
+        let build = match self.contact.is_some() {
+            true => LinearSystem::new_free_body_with_time_data::<C>,
+            false => LinearSystem::with_time_data::<C>,
+        };
+        build(
+            &self.mesh,
+            &self.materials,
+            &self.constraints,
+            &self.loads,
+            self.gravity,
+            mass,
+            damping,
+            &self.time_data,
+        )
+    }
+
+    /// The elastic force law of a transient run on `system` (built by
+    /// [`transient_system`](Self::transient_system)): the linear fast path
+    /// ([`InternalForce::Linear`]) for the linear model without obstacles; otherwise the
+    /// definition's model, one per material (on a copy of the mesh), with the contact barrier
+    /// of the obstacles if any (the linear model too: the barrier makes every step nonlinear).
+    ///
+    /// Errors: those of [`InternalForce::of_models`] and of the contact (a body starting inside
+    /// an obstacle, [`NonlinearForce::with_contact`]).
+    pub fn transient_force(&self, system: &LinearSystem) -> Result<InternalForce> {
+        let Some(contact) = &self.contact else {
+            return InternalForce::of_kind(self.model, &self.mesh, &self.materials, system);
+        };
+        let models = self.model.build_map(&self.materials);
+        let force = NonlinearForce::with_models(Arc::new(self.mesh.clone()), models, system)?
+            .with_contact(contact.clone())?;
+        Ok(InternalForce::Nonlinear(Arc::new(force)))
+    }
+}
