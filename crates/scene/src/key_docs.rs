@@ -48,7 +48,7 @@ pub struct SchemaItem {
     pub variants_are_tables: bool,
     /// Its doc comment, lines joined by spaces.
     pub doc: String,
-    /// The source file it is declared in (as in [`SOURCES`]).
+    /// The source file it is declared in (relative to the workspace root).
     pub source: &'static str,
     /// Its keys or values, in declaration order.
     pub entries: Vec<SchemaEntry>,
