@@ -15,6 +15,7 @@ mod dynamic_contact;
 mod element;
 mod engine;
 mod estimate;
+pub mod key_docs;
 mod modal;
 mod obstacles;
 // Without the `png` feature the frames' code is a stand-in that refuses (a scene asking for
@@ -168,6 +169,10 @@ type = "static"                     # default "static"; or "dynamic", which need
 # mass = "lumped"                   # default; or "consistent"
 # initial_velocity = [0.0, 0.0, 0.0]          # m/s, default zero
 # model = "linear"                 # default; or "corotational", "neo-hookean", "st-venant-kirchhoff" (static and every dynamic method; each [[materials]] region its own model)
+# linear_solver = "auto"            # default: the Cholesky factorization when its factor fits the
+                                    # memory budget and is predicted faster; or "direct",
+                                    # "iterative" (multigrid-preconditioned CG). Static (linear
+                                    # model) and the implicit dynamic methods
 # nonlinear_solver = "auto"         # default; or "rest_lbfgs", "rest_preconditioned", "refactor": how
                                     # the implicit dynamic methods solve each step with a nonlinear
                                     # model (tangent-free L-BFGS on the rest-state factor turned by the
