@@ -1,12 +1,15 @@
-//! `tetfem.Obstacle`: rigid obstacles (half-space, sphere, box) with Coulomb friction, for the
-//! contact of `tetfem.solve_static(..., obstacles=[...])`.
+//! `tetfem.Obstacle`: rigid obstacles (half-space, sphere, box) with Coulomb friction, fixed or
+//! moving by a prescribed translation, for the contact of `tetfem.solve_static(...,
+//! obstacles=[...])` and `tetfem.Simulation(..., obstacles=[...])`.
 
 use pyo3::prelude::*;
-use tetfem::contact::{Contact, ContactParameters, Obstacle};
+use tetfem::bc::amplitude::{Amplitude, STATIC_TIME};
+use tetfem::contact::{Contact, ContactParameters, Obstacle, ObstacleMotion};
 use tetfem::fe::materials::MaterialMap;
 
+use crate::amplitude::amplitude_of;
 use crate::arrays;
-use crate::errors::OrRaise;
+use crate::errors::{OrRaise, invalid};
 use crate::mesh::{MeshData, on_cells};
 
 /// A rigid obstacle the body may touch but not enter (length units; SI m). Make one with
@@ -76,6 +79,76 @@ impl PyObstacle {
         Self::of(py, Obstacle::aligned_box(name, min, max), friction)
     }
 
+    /// The same obstacle moving by a prescribed translation c(t) (its shape at time t is the
+    /// shape at rest moved by c(t); rotations are not represented): ``velocity`` v (m/s),
+    /// c(t) = v·t; or ``displacement`` D (m) with an optional ``amplitude`` a(t) (an
+    /// ``Amplitude``, a number or an (k, 2) table), c(t) = D·a(t); without one a ramp from 0 at
+    /// t = 0 to 1 at t = 1 s, so that the obstacle starts where it was made and has moved by D at
+    /// ``STATIC_TIME`` (as a scene's static ``displacement``). A static solve follows the
+    /// pseudo-time t ∈ (0, 1] of its load steps (a velocity has moved the obstacle by v·1 at
+    /// the end); a ``Simulation`` the run's time.
+    /// Exactly one of ``velocity`` and ``displacement``; ``amplitude`` only with
+    /// ``displacement``; each finite. Errors raise ``InvalidInputError`` naming the keyword.
+    #[pyo3(signature = (*, velocity = None, displacement = None, amplitude = None))]
+    fn moving(
+        &self,
+        py: Python<'_>,
+        velocity: Option<&Bound<'_, PyAny>>,
+        displacement: Option<&Bound<'_, PyAny>>,
+        amplitude: Option<&Bound<'_, PyAny>>,
+    ) -> PyResult<Self> {
+        let motion = match (velocity, displacement) {
+            (Some(v), None) if amplitude.is_none() => {
+                ObstacleMotion::Velocity(arrays::vector3(py, v, "velocity")?)
+            }
+            (Some(_), None) => {
+                return Err(invalid(
+                    py,
+                    "amplitude",
+                    "given with velocity",
+                    "scales a displacement: give displacement with amplitude, or velocity alone",
+                ));
+            }
+            (None, Some(d)) => ObstacleMotion::Amplitude {
+                displacement: arrays::vector3(py, d, "displacement")?,
+                amplitude: match amplitude.filter(|a| !a.is_none()) {
+                    Some(a) => amplitude_of(py, Some(a))?,
+                    None => Amplitude::ramp(0.0, STATIC_TIME).or_raise(py)?,
+                },
+            },
+            (v, _) => {
+                return Err(invalid(
+                    py,
+                    if v.is_some() {
+                        "velocity"
+                    } else {
+                        "displacement"
+                    },
+                    if v.is_some() {
+                        "given with displacement"
+                    } else {
+                        "None"
+                    },
+                    "give exactly one of velocity and displacement",
+                ));
+            }
+        };
+        let obstacle = self.obstacle.clone().with_motion(motion).or_raise(py)?;
+        Ok(PyObstacle { obstacle })
+    }
+
+    /// The obstacle's offset c(t) (m) at time ``t`` (s): zero for a fixed one.
+    fn offset<'py>(&self, py: Python<'py>, t: f64) -> Bound<'py, PyAny> {
+        let c = self.obstacle.offset(t);
+        arrays::vector(py, vec![c.x, c.y, c.z])
+    }
+
+    /// Whether the obstacle moves (see ``moving``).
+    #[getter]
+    fn is_moving(&self) -> bool {
+        self.obstacle.motion().is_some()
+    }
+
     /// The obstacle's name.
     #[getter]
     fn name(&self) -> &str {
@@ -97,8 +170,17 @@ impl PyObstacle {
     }
 
     fn __repr__(&self) -> String {
+        let motion = match self.obstacle.motion() {
+            None => String::new(),
+            Some(ObstacleMotion::Velocity(v)) => format!(", velocity=({}, {}, {})", v.x, v.y, v.z),
+            Some(ObstacleMotion::Amplitude {
+                displacement: d, ..
+            }) => {
+                format!(", displacement=({}, {}, {}) × a(t)", d.x, d.y, d.z)
+            }
+        };
         format!(
-            "Obstacle({}, friction={})",
+            "Obstacle({}, friction={}{motion})",
             self.obstacle.name(),
             self.obstacle.friction()
         )

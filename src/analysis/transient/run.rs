@@ -83,6 +83,7 @@ pub enum RunEnd {
 /// let mut run = Transient::new(&definition, options)?;
 /// run.run((0, 20), &mut Unobserved)?;
 /// assert_eq!(run.state().steps, 20);
+/// # Ok(()) }
 /// ```
 pub struct Transient {
     system: Arc<LinearSystem>,
