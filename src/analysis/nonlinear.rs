@@ -3,6 +3,7 @@
 
 use nalgebra::Vector3;
 
+use crate::analysis::dynamics::internal_force::coordinate_scale;
 use crate::analysis::dynamics::newton::line_search::{Backtracking, LineFunction};
 use crate::analysis::problem::Problem;
 use crate::base::error::{Error, Result};
@@ -701,7 +702,8 @@ impl<E: ModelElement, M: TetModels + ?Sized> StaticNewton<'_, E, M> {
 
     /// Newton's iterations of load step `at` from `u` (residual `r` there), friction lagged by
     /// `lag`, until ‖r_f‖ ≤ tolerance·reference (or the round-off floor; with moving obstacles
-    /// also a Newton step below 10⁻⁹·d̂ on every DOF: nothing the barrier resolves). Appends
+    /// also a Newton step below 10⁻⁹·d̂ on every DOF: nothing the barrier resolves; or one below
+    /// the positions' resolution 4ε·max|X|: no force changes). Appends
     /// each residual norm to `history`.
     fn newton(
         &mut self,
@@ -717,10 +719,16 @@ impl<E: ModelElement, M: TetModels + ?Sized> StaticNewton<'_, E, M> {
                 step, reference, ..
             },
         ) = (self.options, at);
-        let negligible = self
+        // A Newton step below the positions' resolution 4ε·max|X| changes no force (the test
+        // that holds at zero load, where r is the forces' round-off and no step lowers it);
+        // with moving obstacles one below 1e-9·d̂ changes nothing the barrier resolves.
+        let resolution = 4.0 * f64::EPSILON * coordinate_scale(self.mesh.nodes());
+        let smallest = self
             .contact
             .filter(|c| c.is_moving())
-            .map(|c| 1e-9 * c.parameters().activation_distance);
+            .map_or(resolution, |c| {
+                resolution.max(1e-9 * c.parameters().activation_distance)
+            });
         let mut converged = norm(r) <= options.tolerance * reference;
         let mut done = 0;
         while !converged {
@@ -748,7 +756,7 @@ impl<E: ModelElement, M: TetModels + ?Sized> StaticNewton<'_, E, M> {
                 });
             }
             let delta = self.direction(u, r, lag)?;
-            if negligible.is_some_and(|small| delta.iter().all(|d| d.abs() <= small)) {
+            if delta.iter().all(|d| d.abs() <= smallest) {
                 break;
             }
             let r_norm = norm(r);

@@ -12,6 +12,7 @@ mod beam_theory;
 mod block_sparse;
 mod combinations;
 mod common;
+mod contact_at_rest;
 mod contact_bad_input;
 mod contact_drop;
 mod contact_friction;

@@ -387,6 +387,14 @@ impl NonlinearForce {
         self.name
     }
 
+    /// The smallest Newton step (length) that changes the positions x = X + u the forces are
+    /// evaluated at: 4ε times the largest coordinate magnitude of the mesh. A step below it on
+    /// every DOF changes no force, so Newton's iterate stands (the test that holds at zero
+    /// load, where the residual is the forces' round-off and no step lowers it).
+    pub fn step_resolution(&self) -> f64 {
+        4.0 * f64::EPSILON * self.mesh.coordinate_scale()
+    }
+
     /// The mesh, if its elements are `E` (`Tet4` or `Tet10`; `None` for the other type).
     pub fn mesh<E: ModelElement>(&self) -> Option<&TetMesh<E>> {
         self.mesh.as_any().downcast_ref::<TetMesh<E>>()
@@ -618,6 +626,7 @@ trait ForceMesh: Send + Sync {
         out: &mut [nalgebra::Matrix3<f64>],
     ) -> Result<()>;
     fn as_any(&self) -> &dyn std::any::Any;
+    fn coordinate_scale(&self) -> f64;
 }
 
 impl<E: ModelElement> ForceMesh for TetMesh<E> {
@@ -664,6 +673,19 @@ impl<E: ModelElement> ForceMesh for TetMesh<E> {
     fn as_any(&self) -> &dyn std::any::Any {
         self
     }
+
+    fn coordinate_scale(&self) -> f64 {
+        coordinate_scale(self.nodes())
+    }
+}
+
+/// The largest magnitude of a coordinate of `nodes` (length): a displacement change below
+/// a few ε times it is lost when the positions x = X + u are formed, so no force sees it.
+pub(crate) fn coordinate_scale(nodes: &[nalgebra::Vector3<f64>]) -> f64 {
+    nodes
+        .iter()
+        .flat_map(|x| x.iter().map(|c| c.abs()))
+        .fold(0.0, f64::max)
 }
 
 /// Scratch vectors and matrices of [`NonlinearForce`]'s assembly (one per integrator).

@@ -18,7 +18,7 @@ mod element_bound;
 mod energy;
 mod explicit;
 mod inertia;
-mod internal_force;
+pub(crate) mod internal_force;
 mod lbfgs;
 mod newmark;
 pub(crate) mod newton;

@@ -163,6 +163,8 @@ pub(crate) struct NewtonSolver {
     /// inertia scale, and the contact force of a moving obstacle's stage (whose own r₀ is what
     /// the last small move left); 0 without contact.
     reference_floor: f64,
+    /// The smallest step that changes a force ([`NonlinearForce::step_resolution`], length).
+    step_resolution: f64,
 }
 
 impl std::fmt::Debug for NewtonSolver {
@@ -188,6 +190,7 @@ impl NewtonSolver {
         solve.check()?;
         let n = force.free_count();
         let solve = solve.for_problem(n, force.contact().is_some());
+        let step_resolution = force.step_resolution();
         Error::check_len("nonlinear force free DOFs", system.free_count(), n)?;
         Ok(NewtonSolver {
             work: force.workspace()?,
@@ -214,6 +217,7 @@ impl NewtonSolver {
             scratch: vec![0.0; n],
             stats: NewtonStats::default(),
             reference_floor: 0.0,
+            step_resolution,
         })
     }
 
@@ -636,6 +640,15 @@ impl NewtonSolver {
                 solver,
                 iterations == 0,
             )?;
+            // A Newton step that changes no force (below the positions' resolution 4ε·max|X|
+            // on every DOF) leaves the iterate standing. This is the test that holds at zero
+            // load (a body at rest, an obstacle still out of reach): r₀ is then the forces'
+            // round-off itself (a corotational block's polar decompositions of F = I leave
+            // ~1e-13 N), which no step can lower, while a line search that round-off lets accept
+            // such steps (or denies every one) would otherwise fail the step.
+            if self.delta.iter().all(|d| d.abs() <= self.step_resolution) {
+                break;
+            }
             // With contact: never past the first time of impact (IPC's 0.8 of it), and only a
             // decrease of Φ (up to its round-off) is accepted, so no iterate penetrates.
             let with_contact = self.force.contact().is_some();
@@ -648,9 +661,8 @@ impl NewtonSolver {
             let (accepted, alpha) =
                 self.search_line(system, equation, u_new, (first_alpha, r_norm))?;
             // With contact only a decrease of Φ is accepted, which round-off can deny a
-            // converged iterate (a body at rest in free flight: r₀ is round-off itself): a
-            // Newton step below 1e-9 of the barrier's length scale d̂ changes nothing the
-            // contact can resolve, so the iterate stands.
+            // converged iterate: a Newton step below 1e-9 of the barrier's length scale d̂
+            // changes nothing the contact can resolve, so the iterate stands.
             let negligible = self.force.contact().is_some_and(|c| {
                 let d_hat = c.parameters().activation_distance;
                 self.delta.iter().all(|d| d.abs() <= 1e-9 * d_hat)
