@@ -91,6 +91,9 @@ fn main() -> ExitCode {
         ("stability map", |c| {
             Ok((dynamics_cases::stability_map(c)?, vec![]))
         }),
+        ("explicit limit against element size", |c| {
+            Ok((dynamics_cases::explicit_limit_vs_size(c)?, vec![]))
+        }),
         ("energy", |c| {
             Ok((dynamics_cases::energy_history(c)?, vec![]))
         }),
