@@ -789,3 +789,35 @@ impl Map {
         md
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::{Grid, explicit_limit};
+
+    #[test]
+    fn the_grid_spans_the_issue_range_log_spaced() {
+        for quick in [false, true] {
+            let grid = Grid::new(quick);
+            let r = &grid.ratios;
+            // 0.1 and 1000 to round-off (10^(k/n) by powf), at least 12 values outside quick.
+            assert!((r[0] - 0.1).abs() < 1e-12 && (r[r.len() - 1] - 1000.0).abs() < 1e-9);
+            assert!(quick || r.len() >= 12, "{} ratios", r.len());
+            let step = r[1] / r[0];
+            assert!(
+                r.windows(2)
+                    .all(|w| (w[1] / w[0] - step).abs() < 1e-9 * step)
+            );
+        }
+    }
+
+    #[test]
+    fn the_explicit_limit_is_the_root_of_the_jury_condition() {
+        // h = limit·2/ω solves (hω)² + 2·(2ξω)·h = 4, i.e. 4ℓ² + 8ξℓ = 4, for every ξ.
+        for xi in [0.0, 0.05, 0.26, 1.0, 2.0, 50.0] {
+            let l = explicit_limit(xi);
+            assert!((l * l + 2.0 * xi * l - 1.0).abs() < 1e-12, "ξ = {xi}: {l}");
+        }
+        // The issue's 0.774× at ξ = 0.26.
+        assert!((explicit_limit(0.26) - 0.7733).abs() < 1e-4);
+    }
+}

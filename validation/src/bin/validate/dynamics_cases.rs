@@ -615,7 +615,7 @@ fn speed_accuracy_chart(
         log_y: true,
         series,
     };
-    chart_link(context, &chart, "speed_accuracy.png")
+    chart_link(context, &chart, "speed_accuracy_dynamic.png")
 }
 
 /// The checks of [`speed_accuracy`] (implicit runs at large dt complete; backward Euler's error
