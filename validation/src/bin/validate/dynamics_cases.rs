@@ -101,35 +101,9 @@ pub fn modal(context: &Context) -> Result<Section> {
     } else {
         &[20, 40, 80]
     };
-    let beta_l = [1.875_104_068_7, 4.694_091_132_9, 7.854_757_438_2];
-    let material = Cantilever::peer_benchmark([1, 1, 1]).material;
-    let inertia = width * f64::powi(height, 3) / 12.0;
-    let scale =
-        (material.youngs_modulus() * inertia / (material.density() * width * height)).sqrt();
-    let exact: Vec<f64> = beta_l
-        .iter()
-        .map(|b| b * b / (2.0 * std::f64::consts::PI * length * length) * scale)
-        .collect();
-    // The converged reference: quadratic tets (eigenvalue error O(h⁴) against the linear tets'
-    // O(h²)) on the mesh of half the finest linear one's cells, as many DOFs as the finest
-    // linear level; its own error estimated from the quadratic level below it (full suite).
+    let exact = euler_bernoulli(length, width, height);
     let finest = sizes[sizes.len() - 1];
-    let reference_cells = |n: usize| [n, n / 5, n / 10];
-    let converged = z_bending_frequencies(&beam_of_order(
-        length,
-        width,
-        reference_cells(finest / 2),
-        2,
-    )?)?;
-    let coarser = match finest / 4 >= 20 {
-        true => Some(z_bending_frequencies(&beam_of_order(
-            length,
-            width,
-            reference_cells(finest / 4),
-            2,
-        )?)?),
-        false => None,
-    };
+    let (converged, reference_error) = quadratic_reference(length, width, finest)?;
     let mut body = String::from(
         "| cells | DOFs | f₁ (error) | f₂ (error) | f₃ (error) |\n|---|---|---|---|---|\n",
     );
@@ -185,31 +159,7 @@ pub fn modal(context: &Context) -> Result<Section> {
 Richardson-extrapolated 3D frequencies of the linear tets: {limits}"
         );
     }
-    // The reference's own error: a quadratic level with half the cells is ~16× less accurate,
-    // so |f(h) − f(2h)| overestimates the finer one's error by ~15×: taken whole, it is safe.
-    let reference_error = coarser.as_ref().map(|c| {
-        (0..3)
-            .map(|k| relative(c[k], converged[k]))
-            .fold(0.0f64, f64::max)
-    });
-    let _ = writeln!(
-        body,
-        "\nErrors (in brackets and in the chart) are against the reference, quadratic tets on {}×{}×{} cells{}. \
-         Linear tets are stiff in bending, so the frequencies start high and fall under refinement towards it. \
-         Euler–Bernoulli is listed for comparison only: it ignores shear deformation and rotary inertia, whose \
-         effect grows with the mode number, so the 3D frequencies of modes 2 and 3 converge below it (against \
-         it, mode 3 seemed to diverge).\n",
-        finest / 2,
-        finest / 10,
-        finest / 20,
-        match reference_error {
-            Some(e) => format!(
-                " (its own error below {:.1e}: the largest change of any mode from the quadratic level with half its cells)",
-                e
-            ),
-            None => " (its own error is estimated in the full suite only)".into(),
-        }
-    );
+    body.push_str(&modal_note(finest, reference_error));
     let chart = Chart {
         title: "Bending frequencies of linear tets vs a converged reference".into(),
         x_label: "degrees of freedom".into(),
@@ -274,6 +224,64 @@ Richardson-extrapolated 3D frequencies of the linear tets: {limits}"
         body,
         checks,
     })
+}
+
+/// Euler–Bernoulli's first three bending frequencies (Hz) of the clamped beam L × W × H of the
+/// peers' material: f = (βL)²/(2πL²)·√(EI/(ρA)).
+fn euler_bernoulli(length: f64, width: f64, height: f64) -> Vec<f64> {
+    let beta_l = [1.875_104_068_7, 4.694_091_132_9, 7.854_757_438_2];
+    let material = Cantilever::peer_benchmark([1, 1, 1]).material;
+    let inertia = width * f64::powi(height, 3) / 12.0;
+    let scale =
+        (material.youngs_modulus() * inertia / (material.density() * width * height)).sqrt();
+    beta_l
+        .iter()
+        .map(|b| b * b / (2.0 * std::f64::consts::PI * length * length) * scale)
+        .collect()
+}
+
+/// The modal case's converged reference: quadratic tets (eigenvalue error O(h⁴) against the
+/// linear tets' O(h²)) on half the finest linear level's cells (as many DOFs), and its own
+/// error when the quadratic level below it is fine enough to resolve the modes (finest ≥ 80):
+/// the largest relative change of any mode from it. A level with half the cells is ~16× less
+/// accurate, so that change overestimates the reference's error by ~15×: taken whole, it is safe.
+fn quadratic_reference(length: f64, width: f64, finest: usize) -> Result<(Vec<f64>, Option<f64>)> {
+    let cells = |n: usize| [n, n / 5, n / 10];
+    let converged = z_bending_frequencies(&beam_of_order(length, width, cells(finest / 2), 2)?)?;
+    let error = match finest / 4 >= 20 {
+        true => {
+            let coarser =
+                z_bending_frequencies(&beam_of_order(length, width, cells(finest / 4), 2)?)?;
+            Some(
+                (0..3)
+                    .map(|k| relative(coarser[k], converged[k]))
+                    .fold(0.0f64, f64::max),
+            )
+        }
+        false => None,
+    };
+    Ok((converged, error))
+}
+
+/// What the modal table's errors are measured against, and why not Euler–Bernoulli.
+fn modal_note(finest: usize, reference_error: Option<f64>) -> String {
+    format!(
+        "\nErrors (in brackets and in the chart) are against the reference, quadratic tets on {}×{}×{} cells{}. \
+         Linear tets are stiff in bending, so the frequencies start high and fall under refinement towards it. \
+         Euler–Bernoulli is listed for comparison only: it ignores shear deformation and rotary inertia, whose \
+         effect grows with the mode number, so the 3D frequencies of modes 2 and 3 converge below it (against \
+         it, mode 3 seemed to diverge).\n",
+        finest / 2,
+        finest / 10,
+        finest / 20,
+        match reference_error {
+            Some(e) => format!(
+                " (its own error below {:.1e}: the largest change of any mode from the quadratic level with half its cells)",
+                e
+            ),
+            None => " (its own error is estimated in the full suite only)".into(),
+        }
+    )
 }
 
 /// The modal case's independent checks on the coarsest mesh: the 14 lowest frequencies from
