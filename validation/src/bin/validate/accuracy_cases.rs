@@ -284,7 +284,7 @@ pub fn peers_speed_accuracy(context: &Context) -> Option<Section> {
     let mut body = format!(
         "Written by `python3 validation/side_by_side.py --accuracy` (needs the peers' harness, \
          `validation/setup_peers.sh`; `validate` copies its last result here). Static cantilever \
-         10 × 1 × 1 (n × n/10 × n/10 cells of the lecture split, E = 1e5, ν = 0.3, end load 1), \
+         L × W × H = 10 × 1 × 1 (n × n/10 × n/10 cells of the lecture split, E = 1e5, ν = 0.3, end load 1), \
          identical meshes in every code; time from mesh to displacement, one thread each; error of \
          the tip deflection against the reference. {header}.\n\n\
          | code | elements | mesh | free DOFs | relative error | wall time (s) | Pareto front |\n|---|---|---|---|---|---|---|\n"
