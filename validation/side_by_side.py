@@ -80,8 +80,45 @@ def accuracy_tetfem(n: int, order: int, threads: int = 1) -> dict:
     return dict(tip=r["tip"], dofs=r["free_dofs"], seconds=r["seconds"])
 
 
+def real_coretype() -> str:
+    """OpenBLAS's kernel for this CPU, to name in OPENBLAS_CORETYPE (see ../shared/notes/peers-blas.md:
+    the environment may pin a generic kernel, which makes CHOLMOD about 2x slower)."""
+    override = os.environ.get("TETFEM_PEERS_CORETYPE")
+    if override:
+        return override
+    with open("/proc/cpuinfo") as f:
+        info = f.read()
+    flags = next((l for l in info.splitlines() if l.startswith("flags")), "").split()
+    if "avx512f" in flags:
+        return "SkylakeX"
+    if "avx2" in flags:
+        return "Zen" if "AuthenticAMD" in info else "Haswell"
+    return "Prescott"
+
+
+def peer_env(threads: int) -> dict:
+    """The peers' environment: `threads` BLAS/OpenMP threads and OpenBLAS's real kernel."""
+    env = dict(os.environ, OPENBLAS_NUM_THREADS=str(threads), OMP_NUM_THREADS=str(threads),
+               OPENBLAS_CORETYPE=real_coretype())
+    env.pop("OPENBLAS_L2_SIZE", None)
+    return env
+
+
+def blas_probe(threads: int = 1) -> str:
+    """Which OpenBLAS kernel and thread count a peer process gets (CHOLMOD's system OpenBLAS)."""
+    code = ("import ctypes\n"
+            "l = ctypes.CDLL('libopenblas.so.0')\n"
+            "l.openblas_get_corename.restype = ctypes.c_char_p\n"
+            "print(l.openblas_get_corename().decode(), l.openblas_get_num_threads())")
+    out = subprocess.run([PYTHON, "-c", code], capture_output=True, text=True, env=peer_env(threads))
+    if out.returncode != 0:
+        return f"unknown ({out.stderr.strip()[-200:]})"
+    core, n = out.stdout.split()
+    return f"system OpenBLAS, kernel {core} (OPENBLAS_CORETYPE={real_coretype()}), {n} thread(s)"
+
+
 def accuracy_peer(n: int, solver: str, order: int, threads: int = 1) -> dict:
-    env = dict(os.environ, OPENBLAS_NUM_THREADS=str(threads), OMP_NUM_THREADS=str(threads))
+    env = peer_env(threads)
     with tempfile.TemporaryDirectory() as d:
         path = os.path.join(d, "r.json")
         cmd = [PYTHON, "cantilever_static.py", "--nx", str(n), "--ny", str(n // 10), "--nz", str(n // 10),
@@ -109,6 +146,8 @@ def accuracy_section(repeat: int) -> list[str]:
     codes = [("tetfem", 1, [10, 20, 40, 80, 160]), ("tetfem", 2, [10, 20, 40]),
              ("scikit-fem", 1, [10, 20, 40, 80, 160]), ("scikit-fem", 2, [10, 20, 40]),
              ("MFEM", 1, [10, 20, 40, 80, 160]), ("MFEM", 2, [10, 20, 40])]
+    blas = blas_probe(1)
+    print(f"side_by_side: peers' BLAS: {blas}", file=sys.stderr)
     runs = {}
     for _ in range(repeat):
         for code, order, sizes in codes:
@@ -153,6 +192,20 @@ def accuracy_section(repeat: int) -> list[str]:
             p = cheapest(code, order, target)
             cells.append(f"{p['n']}x{p['n'] // 10}x{p['n'] // 10}, {p['seconds']:.4f} s" if p else "none")
         lines.append(f"| {code} | P{order} | " + " | ".join(cells) + " |")
+    # The fronts' positions: each code's least time to a given accuracy, over both orders.
+    lines += ["", "| code | least time to 1 % | to 0.1 % |", "|---|---|---|"]
+    for code in ("tetfem", "scikit-fem", "MFEM"):
+        cells = []
+        for target in (0.01, 0.001):
+            ok = [p for p in points if p["code"] == code and p["error"] <= target]
+            best = min(ok, key=lambda p: p["seconds"]) if ok else None
+            cells.append(f"{best['seconds']:.4f} s (P{best['order']}, {best['n']}x{best['n'] // 10}x{best['n'] // 10})"
+                         if best else "not reached")
+        lines.append(f"| {code} | " + " | ".join(cells) + " |")
+    write_speed_accuracy(points, front, ref, blas)
+    lines += ["", f"Peers' BLAS: {blas}. tetfem: one rayon thread (RAYON_NUM_THREADS=1), its own Rust kernels.", "",
+              "![Speed against accuracy: static cantilever, tetfem and peers](report/speed_accuracy.png)",
+              "", "Data: [report/speed_accuracy.csv](report/speed_accuracy.csv)."]
     ours = cheapest("tetfem", 2, 0.01)
     mfem2 = cheapest("MFEM", 2, 0.01)
     p1 = cheapest("tetfem", 1, 0.01)
@@ -169,6 +222,22 @@ def accuracy_section(repeat: int) -> list[str]:
             lines.append(f"- MFEM order 2 reaches 1 % in {mfem2['seconds']:.4f} s: "
                          f"{mfem2['seconds'] / ours['seconds']:.1f}× tetfem P2's time.")
     return lines
+
+
+def write_speed_accuracy(points: list[dict], front: list[dict], ref: float, blas: str) -> None:
+    """validation/report/speed_accuracy.csv and .png (drawn by speed_accuracy_chart.py in the peers'
+    Python, which has matplotlib)."""
+    report = os.path.join(ROOT, "validation", "report")
+    os.makedirs(report, exist_ok=True)
+    csv = os.path.join(report, "speed_accuracy.csv")
+    with open(csv, "w") as f:
+        f.write(f"# static cantilever tip, reference {ref:.12e}; peers' BLAS: {blas}\n")
+        f.write("code,order,mesh,free_dofs,tip,relative_error,seconds,pareto\n")
+        for p in sorted(points, key=lambda p: (p["code"], p["order"], p["n"])):
+            f.write(f"{p['code']},{p['order']},{p['n']}x{p['n'] // 10}x{p['n'] // 10},{p['dofs']},{p['tip']:.12e},"
+                    f"{p['error']:.6e},{p['seconds']:.6e},{int(p in front)}\n")
+    subprocess.run([PYTHON, os.path.join(ROOT, "validation", "speed_accuracy_chart.py"), csv,
+                    os.path.join(report, "speed_accuracy.png")], check=True)
 
 
 def fastest(runs: list[dict]) -> dict:

@@ -22,6 +22,7 @@ mod contact_static_moving;
 mod convergence;
 mod corotational_step;
 mod critical_step;
+mod critical_step_damping;
 mod dynamics;
 mod element;
 mod error_estimate;

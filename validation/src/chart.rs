@@ -11,6 +11,12 @@ use tetfem::base::error::{Error, Result};
 
 static FONT: &[u8] = include_bytes!("../../assets/fonts/DejaVuSans.ttf");
 
+/// Registers the vendored font as "sans-serif" (idempotent): for charts drawn outside
+/// [`Chart`], such as the stability map.
+pub fn register() {
+    let _ = register_font("sans-serif", FontStyle::Normal, FONT);
+}
+
 /// How a series is drawn.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Mark {
@@ -78,7 +84,7 @@ impl Chart {
     /// Writes the chart as a `width`×`height` PNG, atomically (temporary file, then rename).
     /// Points that cannot be drawn (non-finite, or ≤ 0 on a log axis) are skipped.
     pub fn write_png(&self, path: &Path, width: u32, height: u32) -> Result<()> {
-        let _ = register_font("sans-serif", FontStyle::Normal, FONT);
+        register();
         let mut temporary = path.as_os_str().to_owned();
         temporary.push(format!(".tmp-{}.png", std::process::id()));
         let temporary = std::path::PathBuf::from(temporary);
@@ -269,8 +275,15 @@ impl Chart {
                             .draw_series(points.iter().map(|&p| Circle::new(p, 4, color.filled())))
                             .map_err(|e| fail(e.to_string()))?,
                     };
+                    // The legend shows the series' own mark: a dot for points, a line else.
+                    let dots = series.mark == Mark::Points;
                     anno.label(series.label.clone()).legend(move |(x, y)| {
-                        PathElement::new(vec![(x, y), (x + 20, y)], legend_style)
+                        // Relative to (x, y): a dot of radius 4 and no line, or a line alone.
+                        let (radius, end) = if dots { (4, 10) } else { (0, 20) };
+                        let start = if dots { 10 } else { 0 };
+                        EmptyElement::at((x, y))
+                            + Circle::new((10, 0), radius, color.filled())
+                            + PathElement::new(vec![(start, 0), (end, 0)], legend_style)
                     });
                     if series.mark == Mark::LinePoints {
                         chart

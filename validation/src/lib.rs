@@ -5,3 +5,4 @@
 pub mod accuracy;
 pub mod cells;
 pub mod chart;
+pub mod stability_map;

@@ -271,3 +271,47 @@ fn accuracy_checks(
     }
     checks
 }
+
+/// The peers' side of speed against accuracy (issue 37, item 1a): the table of
+/// `report/speed_accuracy.csv`, which `python3 validation/side_by_side.py --accuracy` writes with
+/// `report/speed_accuracy.png` (it needs the peers' Python, so `validate` reads its last result
+/// rather than running it). `None` when the file is not there.
+pub fn peers_speed_accuracy(context: &Context) -> Option<Section> {
+    let path = context.out.join("report").join("speed_accuracy.csv");
+    let text = std::fs::read_to_string(&path).ok()?;
+    let mut lines = text.lines();
+    let header = lines.next()?.trim_start_matches("# ").to_string();
+    let mut body = format!(
+        "Written by `python3 validation/side_by_side.py --accuracy` (needs the peers' harness, \
+         `validation/setup_peers.sh`; `validate` copies its last result here). Static cantilever \
+         L × W × H = 10 × 1 × 1 (n × n/10 × n/10 cells of the lecture split, E = 1e5, ν = 0.3, end load 1), \
+         identical meshes in every code; time from mesh to displacement, one thread each; error of \
+         the tip deflection against the reference. {header}.\n\n\
+         | code | elements | mesh | free DOFs | relative error | wall time (s) | Pareto front |\n|---|---|---|---|---|---|---|\n"
+    );
+    for line in lines.skip(1) {
+        let f: Vec<&str> = line.split(',').collect();
+        if f.len() < 8 {
+            continue;
+        }
+        let _ = writeln!(
+            body,
+            "| {} | P{} | {} | {} | {} | {} | {} |",
+            f[0],
+            f[1],
+            f[2],
+            f[3],
+            f[5],
+            f[6],
+            if f[7] == "1" { "◆" } else { "" }
+        );
+    }
+    body.push_str(
+        "\n![Speed against accuracy: static cantilever, tetfem and peers](report/speed_accuracy.png)\n",
+    );
+    Some(Section {
+        title: "Speed against accuracy beside the peers (static cantilever)".into(),
+        body,
+        checks: vec![],
+    })
+}

@@ -84,12 +84,35 @@ fn main() -> ExitCode {
         ("accuracy per second", |c| {
             Ok((accuracy_cases::accuracy_per_second(c)?, vec![]))
         }),
+        ("speed vs accuracy beside the peers", |c| {
+            Ok(match accuracy_cases::peers_speed_accuracy(c) {
+                Some(section) => (section, vec![]),
+                None => (
+                    Section {
+                        title: "Speed against accuracy beside the peers (static cantilever)".into(),
+                        body: "No `report/speed_accuracy.csv` in the output folder: run \
+                               `python3 validation/side_by_side.py --accuracy` first.\n"
+                            .into(),
+                        checks: vec![],
+                    },
+                    vec![Skipped {
+                        name: "speed against accuracy beside the peers".into(),
+                        reason:
+                            "report/speed_accuracy.csv not written (side_by_side.py --accuracy)"
+                                .into(),
+                    }],
+                ),
+            })
+        }),
         ("modal", |c| Ok((dynamics_cases::modal(c)?, vec![]))),
         ("speed vs accuracy", |c| {
             Ok((dynamics_cases::speed_accuracy(c)?, vec![]))
         }),
         ("stability map", |c| {
             Ok((dynamics_cases::stability_map(c)?, vec![]))
+        }),
+        ("explicit limit against element size", |c| {
+            Ok((dynamics_cases::explicit_limit_vs_size(c)?, vec![]))
         }),
         ("energy", |c| {
             Ok((dynamics_cases::energy_history(c)?, vec![]))
