@@ -31,6 +31,7 @@
 //! assert!((stretch - 5e-7).abs() < 0.05 * 5e-7);
 //! # Ok::<(), tetfem::Error>(())
 //! ```
+#![warn(missing_docs)]
 
 /// nalgebra, re-exported so that a user's crate needs only `tetfem` in its `Cargo.toml` for the
 /// vectors and matrices of the API (`tetfem::nalgebra::Vector3`, or `Vector3` from the prelude).

@@ -52,7 +52,7 @@ pub struct BlockWorkspace {
 impl BlockMatrix3 {
     /// Copies `matrix` (on the free DOFs, symmetric, full pattern) into node blocks.
     /// `free_dofs[i]` is the full index 3·node + axis of free DOF i, ascending (as
-    /// [`DofMap::free_dofs`](crate::DofMap::free_dofs) gives them).
+    /// `tetfem::DofMap::free_dofs` gives them).
     ///
     /// Errors if the lengths disagree, `free_dofs` is not ascending, or there are more than 2³²
     /// blocks.

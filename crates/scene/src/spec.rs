@@ -49,7 +49,7 @@ pub struct SceneSpec {
     /// The barrier's scales (defaults: [`tetfem::contact::ContactParameters::for_mesh`]).
     #[serde(default)]
     pub contact: Option<Spanned<ContactSpec>>,
-    /// What solves the scene (default: tetfem itself; see [`super::engine`]).
+    /// What solves the scene (default: tetfem itself; see the book's *PETSc and MPI* chapter).
     #[serde(default)]
     pub engine: Option<Spanned<super::engine::EngineKind>>,
     /// The PETSc engine's solver preset and options.
