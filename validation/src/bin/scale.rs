@@ -886,7 +886,7 @@ fn write_charts(
 }
 
 /// The marker lines around a section of `PERFORMANCE.md` that `scale` does not measure (the
-/// corotational steps of `examples/corotational_step.rs`): copied from the old report into the
+/// corotational steps of `benches/corotational_step.rs`): copied from the old report into the
 /// new one, so that regenerating the report keeps them.
 const BY_HAND_BEGIN: &str = "<!-- measured by hand: kept by scale -->";
 const BY_HAND_END: &str = "<!-- end of the part measured by hand -->";
