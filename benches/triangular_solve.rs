@@ -67,8 +67,7 @@ fn stream_sum_twice_two_threads(values: &[f64]) -> f64 {
 }
 
 fn main() -> tetfem::Result<()> {
-    // `cargo bench` appends `--bench` to a harness-less target's arguments: not one of ours.
-    let args: Vec<String> = std::env::args().filter(|a| a != "--bench").collect();
+    let args: Vec<String> = std::env::args().filter(|a| a != "--bench").collect(); // cargo's flag
     let cells: Vec<usize> = args
         .get(1)
         .map_or("100,20,20", String::as_str)
