@@ -1,9 +1,22 @@
 //! # tetfem
 //!
-//! Elastic solids with the finite element method on linear tetrahedra: element stiffness from
-//! the linear (Cauchy) strain and Hooke's law, one global sparse stiffness K, lumped and
-//! consistent mass, Dirichlet constraints eliminated exactly, gravity, nodal and surface loads,
-//! and static equilibrium solved with faer's sparse Cholesky.
+//! Elastic solids with the finite element method on 4-node (linear) and 10-node (quadratic)
+//! tetrahedra: static equilibrium (linear, or Newton with corotational and hyperelastic force
+//! models), time integration (explicit, backward Euler, Newmark), modes, contact with rigid
+//! obstacles, error estimates and ParaView output.
+//!
+//! Where to start:
+//! - the book in `docs/` (`mdbook build docs`): getting started, scenes, the library guide,
+//!   Python, dynamics, contact, quadratic elements, outputs, theory;
+//! - a problem is an [`analysis::Definition`] (mesh, materials, constraints, loads, gravity,
+//!   contact) run by an analysis: [`analysis::Static`], [`analysis::Transient`] or
+//!   [`analysis::Modal`];
+//! - [`prelude`] imports the common path in one line (`use tetfem::prelude::*;`), and the
+//!   runnable programs in `examples/` each teach one idea.
+//!
+//! Below the analyses: element stiffness from the linear (Cauchy) strain and Hooke's law, one
+//! global sparse stiffness K, lumped and consistent mass, Dirichlet constraints eliminated
+//! exactly, gravity, nodal and surface loads, and sparse Cholesky solves through [`linalg`].
 //!
 //! The modules live in rooms, in layer order (a room uses only itself and the rooms before it):
 //! [`base`] → [`mesh`] → [`fe`] → [`bc`] → [`model`], [`contact`] → [`analysis`] → [`post`].
@@ -31,6 +44,7 @@
 //! assert!((stretch - 5e-7).abs() < 0.05 * 5e-7);
 //! # Ok::<(), tetfem::Error>(())
 //! ```
+#![warn(missing_docs)]
 
 /// nalgebra, re-exported so that a user's crate needs only `tetfem` in its `Cargo.toml` for the
 /// vectors and matrices of the API (`tetfem::nalgebra::Vector3`, or `Vector3` from the prelude).

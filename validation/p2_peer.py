@@ -2,7 +2,7 @@
 """tetfem's quadratic tet (Tet10) against scikit-fem's ElementTetP2 on identical meshes.
 
 The peer cantilever (L = 10, W = H = 1, E = 1e5, nu = 0.3, clamped at x = 0, end load P = 1 as
-a uniform traction on x = L) is solved by `cargo run --release --example quadratic_cantilever
+a uniform traction on x = L) is solved by `cargo bench --bench quadratic_cantilever
 -- --write DIR CELLS...`, which writes each linear mesh (nodes, tets) and tetfem's P2 solution
 at every node (corners and edge midpoints). scikit-fem builds P2 on the same linear mesh (its
 edge DOFs are the edge midpoints), assembles, clamps and loads the same way, and solves; the

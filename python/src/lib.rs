@@ -2,6 +2,7 @@
 //! constraints, loads, static, dynamic and modal analyses and scenes of the tetfem library,
 //! with numpy arrays in and out. The Python package (`python/tetfem/`) re-exports it and adds
 //! the exception classes (`tetfem.errors`).
+#![warn(missing_docs)]
 
 use pyo3::prelude::*;
 

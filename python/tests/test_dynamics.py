@@ -74,7 +74,7 @@ def test_every_method_and_model_runs(method, model):
 # undamped system exactly, so only the solves' rounding remains (measured 4.5e-12 over 300
 # steps; 1e-9 leaves margin). The explicit method's energy (u at whole, v at staggered steps)
 # oscillates by O((ω·dt)²) of the highest modes at 0.9× the critical step: measured 2.0e-3 on
-# this 20×2×2 mesh (the README: coarse meshes can miss 1e-3), so 5e-3 bounds it without
+# this 20×2×2 mesh (`docs/src/getting-started.md`: coarse meshes can miss 1e-3), so 5e-3 bounds it without
 # hiding a growth (a diverging run grows without bound).
 @pytest.mark.parametrize("method,tolerance", [("newmark", 1e-9), ("explicit", 5e-3)])
 def test_energy_conserving_methods_keep_the_total(method, tolerance):

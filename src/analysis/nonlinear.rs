@@ -1,4 +1,4 @@
-//! Nonlinear static equilibrium with a [`ForceModel`]: Newton's method with a backtracking line
+//! Nonlinear static equilibrium with a [`ForceModel`](crate::model::ForceModel): Newton's method with a backtracking line
 //! search and load stepping, one symbolic factorization for all iterations.
 
 use nalgebra::Vector3;

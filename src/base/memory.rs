@@ -2,7 +2,7 @@
 //! and checked against what the process may still take ([`MemoryLimits`], from
 //! `tetfem_linalg::memory`, which also keeps back the address space faer's dense kernels
 //! reserve per thread), so that a run too large for the machine stops with an
-//! [`Error::InsufficientMemory`] instead of being aborted by the allocator halfway.
+//! [`Error::InsufficientMemory`](crate::Error::InsufficientMemory) instead of being aborted by the allocator halfway.
 
 pub use tetfem_linalg::memory::{
     COARSER_MESH, CacheLevel, DenseKernelReservation, FALLBACK_L3_BYTES, MemoryBound, MemoryLimits,
@@ -20,7 +20,7 @@ pub const PROCESS_BASELINE: u128 = 16_000_000;
 
 /// How a run solves, for the address space it maps beyond its resident estimate (the dense
 /// kernels' buffers, [`DenseKernelReservation`], counted by `RLIMIT_AS`/`RLIMIT_DATA` only) and
-/// for the hint of its [`Error::InsufficientMemory`](crate::Error::InsufficientMemory).
+/// for the hint of its [`Error::InsufficientMemory`](crate::Error::InsufficientMemory)(crate::Error::InsufficientMemory).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum RunPath {
     /// Conjugate gradients with smoothed aggregation (static solves, implicit steps, Newton's
@@ -208,7 +208,7 @@ impl StaticEstimate {
         )
     }
 
-    /// `Ok` if the whole run fits in `limits`, otherwise [`Error::InsufficientMemory`] for
+    /// `Ok` if the whole run fits in `limits`, otherwise [`Error::InsufficientMemory`](crate::Error::InsufficientMemory) for
     /// `what` with this estimate's parts.
     pub fn ensure_fits(&self, what: &str, limits: &MemoryLimits) -> Result<()> {
         Ok(limits.ensure_fits(format!("{what}: {}", self.describe()), self.peak())?)
@@ -306,7 +306,7 @@ pub fn box_static_estimate(
 /// `Ok` if a box of `cells` (`tets_per_cell` tets each, of `nodes_per_tet` nodes: 4 or 10)
 /// can be solved statically (or, with `dynamic`, integrated) on `path` in the memory
 /// available now (the dense kernels' buffers of `path` kept back from the address-space
-/// bounds); otherwise [`Error::InsufficientMemory`] with what is needed, what is available and
+/// bounds); otherwise [`Error::InsufficientMemory`](crate::Error::InsufficientMemory) with what is needed, what is available and
 /// the hint of `path`. Computed from the counts alone, in microseconds, for any `cells`.
 pub fn check_box_run(
     cells: [usize; 3],

@@ -11,7 +11,7 @@
 //!   "Real-Time Collision Detection", §5.1.5);
 //! - box: in the box's frame, the least g(p) = maxᵢ(|pᵢ| − hᵢ) over the triangle, a linear
 //!   program in the barycentric coordinates (λ₁, λ₂) and the bound t solved exactly by its
-//!   vertices (see [`box_least_gap`]); g equals the signed distance wherever g ≤ 0, so its sign
+//!   vertices (`box_least_gap`); g equals the signed distance wherever g ≤ 0, so its sign
 //!   and, inside, its value are the box's.
 //!
 //! An obstacle that no face reaches is either wholly outside the body or wholly inside it

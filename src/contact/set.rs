@@ -19,7 +19,7 @@ use crate::sparse::CscMatrix;
 ///
 /// i over the boundary nodes, Aᵢ a third of the area of the boundary triangles around node i at
 /// rest (so the contact pressure −κ·b′(d) does not depend on the surface mesh), b the IPC
-/// barrier with activation distance d̂ ([`barrier`](super::barrier)). Each term involves one
+/// barrier with activation distance d̂ ([`barrier`]). Each term involves one
 /// node, so the Hessian is 3×3 blocks on the diagonal: entries the assembly pattern has already.
 #[derive(Debug, Clone)]
 pub struct Contact {
@@ -80,7 +80,7 @@ pub struct NodesInside {
     pub nodes: Vec<(usize, f64)>,
 }
 
-/// "N boundary nodes inside or on it (node a at d, …)", the first [`LISTED`] nodes named.
+/// "N boundary nodes inside or on it (node a at d, …)", the first five nodes named.
 impl std::fmt::Display for NodesInside {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         let listed: Vec<String> = self

@@ -84,8 +84,8 @@ fn element_tangent(law: &dyn ForceModel, rest: &Tet10Rest, ue: &[f64; 30]) -> Ma
     (k + k.transpose()) * 0.5
 }
 
-/// The 10-node tet: the model's law at the four points of the degree-2 rule (see the
-/// [module](self) docs).
+/// The 10-node tet: the model's law at the four points of the degree-2 rule (4 points,
+/// weights V/4; why this rule: see the source, `src/model/quadrature_points.rs`).
 impl ModelElement for Tet10 {
     fn model_energy(model: &dyn ForceModel, mesh: &TetMesh<Tet10>, t: usize, u: &[f64]) -> f64 {
         let (rest, ue) = element(mesh, t, u);

@@ -239,7 +239,7 @@ fn cg_with_sa_amg_matches_the_direct_solve_with_mesh_independent_iterations() {
         iterations.push(its);
     }
     // Measured 35 and 39 iterations with three levels each (IC(0) at tolerance 1e-8: 140 and
-    // 316, doubling per refinement; examples/preconditioners.rs). The default hierarchy gives
+    // 316, doubling per refinement; benches/preconditioners.rs). The default hierarchy gives
     // 28–29 from 10k to 1M DOFs (the scale study).
     assert!(
         iterations.iter().all(|&i| i <= 50),

@@ -5,7 +5,7 @@ use tetfem::Material;
 use tetfem_fixtures::beam_theory::RectangularCantilever;
 use tetfem_fixtures::cantilever::Cantilever;
 
-/// The README's cantilever (`Cantilever::peer_benchmark`): L = 10, W = H = 1, E = 1e5, ν = 0.3.
+/// The peer cantilever of `docs/src/quadratic.md` (`Cantilever::peer_benchmark`): L = 10, W = H = 1, E = 1e5, ν = 0.3.
 fn readme_beam() -> RectangularCantilever {
     Cantilever::peer_benchmark([10, 1, 1]).beam()
 }

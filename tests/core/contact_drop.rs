@@ -308,5 +308,5 @@ fn newmark_drop_onto_a_box_table_never_enters_it() {
     // No energy bound is asserted: average acceleration is not energy-stable with the stiff,
     // stiffening barrier (measured: the block gains about the fall's work at 10× the critical
     // step, and the divergence guard stops it at 1×); backward Euler is the method for contact
-    // (README, "Contact with rigid obstacles").
+    // (the book, `docs/src/contact.md`).
 }

@@ -11,7 +11,7 @@ use tetfem::linalg::linear_solver::{
 use tetfem::{CscMatrix, LinearMethod, SolverOptions, SparseCholesky, StaticSolver};
 use tetfem_fixtures::cantilever::Cantilever;
 
-/// Sizes of the scale study's beams (5k×k×k cells) as `examples/solver_choice.rs` prints them:
+/// Sizes of the scale study's beams (5k×k×k cells) as `benches/solver_choice.rs` prints them:
 /// (nnz(K_ff), factor values, factor flops).
 const BEAM_K8: (usize, usize, f64) = (381_798, 2_662_479, 8.0438e8);
 const BEAM_K20: (usize, usize, f64) = (5_624_442, 110_591_901, 1.6369e11);

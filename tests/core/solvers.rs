@@ -262,7 +262,7 @@ fn incomplete_cholesky_cuts_cg_iterations_on_stiffness_matrices() {
     };
     let jacobi = iterations(&BlockJacobi::new(k).unwrap());
     let ic = iterations(&IncompleteCholesky::new(k).unwrap());
-    // Measured 480 vs 140 at tolerance 1e-8 (examples/preconditioners.rs); the claim in the
+    // Measured 480 vs 140 at tolerance 1e-8 (benches/preconditioners.rs); the claim in the
     // docs is "3–4× fewer", asserted with margin.
     assert!(
         2 * ic < jacobi,

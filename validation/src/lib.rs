@@ -1,6 +1,7 @@
 //! tetfem's validation suite and scale study (the `validate` and `scale` programs) and the
 //! charts they draw ([`chart`]: error against wall time and the like, PNG and SVG), and the
 //! timed static runs of the accuracy-per-second study ([`accuracy`]).
+#![warn(missing_docs)]
 
 pub mod accuracy;
 pub mod cells;

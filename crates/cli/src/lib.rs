@@ -3,6 +3,7 @@
 //! ([`render`]) are the `tetfem-scene` crate's, re-exported here under the names the command
 //! has always used. The `tetfem` command (`src/main.rs`) adds the command line, progress bars
 //! and signal handling.
+#![warn(missing_docs)]
 
 pub mod handoff;
 pub mod info;

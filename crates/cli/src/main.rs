@@ -81,7 +81,7 @@ enum Command {
     ///
     /// `tetfem export --petsc SCENE DIR`: PETSc's binary format (K_ff in the engine's numbering with the
     /// constrained rows and columns zeroed, the right-hand side, the node coordinates and the
-    /// DOF map; README "PETSc engine"), written by the tetfem-petsc binary (run under `mpirun
+    /// DOF map; the book's chapter "PETSc and MPI"), written by the tetfem-petsc binary (run under `mpirun
     /// -n N` for N ranks).
     Export(ExportArgs),
 }

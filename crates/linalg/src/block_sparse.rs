@@ -7,7 +7,7 @@
 //! dense 3×3 blocks; storing one 4-byte block-column index per 9 values brings that to
 //! 8 + 4/9 ≈ 8.44 B per entry — close to the 8 B of the values alone, the floor of any format
 //! that stores both halves. [`SymmetricBlockMatrix3`] stores the upper half only and is what the
-//! time steppers use; [`BlockMatrix3`] stays for comparison (`examples/explicit_product.rs`).
+//! time steppers use; [`BlockMatrix3`] stays for comparison (`benches/explicit_product.rs`).
 
 use rayon::prelude::*;
 
@@ -52,7 +52,7 @@ pub struct BlockWorkspace {
 impl BlockMatrix3 {
     /// Copies `matrix` (on the free DOFs, symmetric, full pattern) into node blocks.
     /// `free_dofs[i]` is the full index 3·node + axis of free DOF i, ascending (as
-    /// [`DofMap::free_dofs`](crate::DofMap::free_dofs) gives them).
+    /// `tetfem::DofMap::free_dofs` gives them).
     ///
     /// Errors if the lengths disagree, `free_dofs` is not ascending, or there are more than 2³²
     /// blocks.
@@ -320,7 +320,7 @@ impl BlockMatrix3 {
     /// One chunk of block rows from `first` (as many as `y[0]` holds), cut into `S` parts of
     /// about equal stored blocks that advance together, one block row of each per turn: the
     /// hardware prefetchers then follow S sequential streams, and one core reads memory
-    /// faster than it does along a single stream (measured in examples/explicit_product.rs).
+    /// faster than it does along a single stream (measured in benches/explicit_product.rs).
     /// Returns the chunk's (x₀ᵀ·y₀, x₁ᵀ·y₁), its parts' sums added in order.
     fn chunk_times<const S: usize, const TWO: bool>(
         &self,
@@ -532,7 +532,7 @@ pub fn simd_available() -> bool {
 
 /// Concurrent sequential streams each parallel task of a product follows (see
 /// [`BlockMatrix3::mul_vec_with_streams`] to measure others). Two, as measured with
-/// `examples/explicit_product.rs` on a shared 2-core EPYC (best of 20, interleaved): at 132k
+/// `benches/explicit_product.rs` on a shared 2-core EPYC (best of 20, interleaved): at 132k
 /// and 435k DOFs two streams took 0.81–0.93× the time of one on one and two threads, while
 /// four and eight took 1.2–2.1× *longer* than one, although a plain read of the values runs
 /// 1.5–1.8× faster as four streams than as one. Presumably because each part of a product is

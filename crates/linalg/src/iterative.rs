@@ -9,7 +9,7 @@
 //!   on stiffness matrices, but on slender-beam stiffness matrices (κ ~ 1e8) still hundreds to
 //!   thousands of iterations, growing with the mesh;
 //! - smoothed-aggregation algebraic multigrid ([`crate::amg`]) with the rigid-body modes: an
-//!   iteration count nearly independent of the mesh (`examples/preconditioners.rs`), the
+//!   iteration count nearly independent of the mesh (`benches/preconditioners.rs`), the
 //!   default of the iterative path.
 
 pub use crate::preconditioner::Preconditioner;
@@ -119,7 +119,7 @@ pub enum PreconditionerKind {
     /// [`BlockJacobi`]: parallel and cheapest to build; enough for M + dt²K.
     BlockJacobi,
     /// [`IncompleteCholesky`] IC(0): 3–4× fewer iterations than block Jacobi on stiffness
-    /// matrices (measured by `examples/preconditioners.rs`), sequential sweeps.
+    /// matrices (measured by `benches/preconditioners.rs`), sequential sweeps.
     IncompleteCholesky,
     /// [`SmoothedAggregation`] algebraic multigrid with the
     /// rigid-body modes (given a [`DofGeometry`]; the translations

@@ -14,6 +14,7 @@
 //! - [`memory`]: the memory the process may still take, checked before large allocations.
 //!
 //! Every fallible function returns [`Result`]; its [`Error`] names the culprit.
+#![warn(missing_docs)]
 
 pub mod amg;
 pub mod block_sparse;

@@ -146,7 +146,7 @@ pub struct CostModel {
 impl Default for CostModel {
     fn default() -> Self {
         // Fitted to validation/scale_results.txt (commit 186ade2: METIS ordering, CG to 1e-10;
-        // flops and nnz(K_ff) of those beams from `cargo run --release --example solver_choice`),
+        // flops and nnz(K_ff) of those beams from `cargo bench --bench solver_choice`),
         // sizes from k = 12 (31k DOFs) up, where the rates have settled. Ratios time/size:
         CostModel {
             // Numeric factorization, flops / time, with tetfem's supernodal kernel (scale study

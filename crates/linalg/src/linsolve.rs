@@ -212,7 +212,7 @@ impl SparseCholesky {
     /// Numeric factorization of `matrix`, which must have the analysed pattern. Reuses the
     /// symbolic analysis and the factor's storage. Runs tetfem's supernodal kernel on the
     /// options' threads (two at most); measured side by side with faer's in
-    /// `examples/factorization.rs`.
+    /// `benches/factorization.rs`.
     pub fn factorize(&mut self, matrix: &CscMatrix) -> Result<()> {
         self.factorize_with(matrix, NumericFactorization::Supernodal)
     }
@@ -297,7 +297,7 @@ impl SparseCholesky {
 
     /// Solves A·x = b in place (`rhs` holds b on entry, x on return), with tetfem's supernodal
     /// kernels on the options' threads (faer's solve for a simplicial factor). Measured with
-    /// `examples/triangular_solve.rs` (10k–430k DOFs): on one thread 1.4–1.7× faster than
+    /// `benches/triangular_solve.rs` (10k–430k DOFs): on one thread 1.4–1.7× faster than
     /// faer's solve, and 1.1–1.2× the time of reading the factor's values twice as four
     /// concurrent streams once the factor outgrows the cache; two threads gain only when the
     /// memory bus is not already busy (on an idle machine they ran at the two-thread read's

@@ -19,6 +19,8 @@
 //! the crate's only `unsafe` besides the METIS call in [`partition`]), wrapped in types that
 //! destroy their PETSc object on drop and cannot outlive the PETSc session.
 
+#![warn(missing_docs)]
+
 #[cfg(feature = "petsc")]
 pub mod engine;
 pub mod error;

@@ -5,8 +5,8 @@
 //! Files, for output folder `DIR` and stem `S` (the scene file's stem): `DIR/S_petsc.pvd`,
 //! `DIR/S_petsc.pvtu`, `DIR/S_petsc/S_<rank>.vtu`; a dynamic run writes one frame per output
 //! step, `DIR/S_petsc_<step>.pvtu` with `DIR/S_petsc/S_<step>_<rank>.vtu`, all listed with
-//! their times in the `.pvd`. Each piece is written by the core's [`VtuWriter`]: appended raw
-//! binary by default (the scene's `output.vtu_format`), or ASCII with numbers in Rust's
+//! their times in the `.pvd`. Each piece is written by the core's
+//! [`VtuWriter`](tetfem::post::output::VtuWriter): appended raw binary by default (the scene's `output.vtu_format`), or ASCII with numbers in Rust's
 //! shortest round-trip form; either way a reader gets the solver's f64 values back bit for bit.
 //!
 //! Each piece carries the arrays of the in-process run's `.vtu` for that analysis (a

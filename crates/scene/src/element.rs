@@ -7,7 +7,8 @@ use tetfem::base::error::Result;
 use tetfem::fe::element::{ElementType, Tet10};
 use tetfem::mesh::{Tet4, TetMesh};
 
-/// An element type a scene can run on (see the [module](self) docs); pointwise evaluation
+/// An element type a scene can run on (4- or 10-node tet), with how a box mesh becomes a mesh of
+/// it; pointwise evaluation
 /// (`PointwiseElement`) for the self-estimated error and the rotation check of every run.
 pub trait SceneElement:
     ElementType

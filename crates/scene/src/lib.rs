@@ -5,6 +5,7 @@
 //! [`REFERENCE`], the one place where defaults are documented (it is itself a valid scene, and a
 //! test parses it). Unknown keys, values of the wrong type and invalid values are
 //! [`Error::Scene`] errors naming the key and its line.
+#![warn(missing_docs)]
 
 mod accuracy;
 mod build;

@@ -49,7 +49,7 @@ pub struct SceneSpec {
     /// The barrier's scales (defaults: [`tetfem::contact::ContactParameters::for_mesh`]).
     #[serde(default)]
     pub contact: Option<Spanned<ContactSpec>>,
-    /// What solves the scene (default: tetfem itself; see [`super::engine`]).
+    /// What solves the scene (default: tetfem itself; see the book's *PETSc and MPI* chapter).
     #[serde(default)]
     pub engine: Option<Spanned<super::engine::EngineKind>>,
     /// The PETSc engine's solver preset and options.
@@ -649,8 +649,9 @@ pub struct AnalysisSpec {
     /// Dynamic, implicit methods with a nonlinear model: each step's Newton tolerance,
     /// ‖r‖ ≤ t·max(‖r₀‖, ‖f‖), finite, > 0 and < 1 (default 1e-8: the steps of every
     /// `nonlinear_solver` agree to it). A loose one buys speed with accuracy: on the swinging
-    /// beam of the README's cost table 1e-2 keeps the trajectory within 5.5e-5 of the converged
-    /// one at 2.6× a linear step's cost, against 8.7× at 1e-8. Static, with a nonlinear model or
+    /// beam of the cost table in the book's *Large deformation* chapter, 1e-2 keeps the
+    /// trajectory within 5.5e-5 of the converged one at 2.6× a linear step's cost, against 8.7×
+    /// at 1e-8. Static, with a nonlinear model or
     /// obstacles: the Newton tolerance of each load step, ‖r_f‖ ≤ t·‖f_f‖ (default 1e-10).
     #[serde(default)]
     pub newton_tolerance: Option<f64>,

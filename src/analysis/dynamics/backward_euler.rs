@@ -139,7 +139,7 @@ impl BackwardEuler {
         }
         // The first iterate extrapolates the acceleration linearly where the last two steps'
         // are known: u + dt·v + dt²·(2a − a₋₁), a cubic through the last four positions. On
-        // the swinging beam of `examples/corotational_step.rs` (132k DOFs, 20 steps) it took
+        // the swinging beam of `benches/corotational_step.rs` (132k DOFs, 20 steps) it took
         // L-BFGS from 48 to 41 iterations at a step tolerance of 1e-2 against u + dt·v + dt²·a,
         // the trajectory staying within 5.5e-5 of a converged one. Newton takes it only when
         // its residual or Φ is below u's.

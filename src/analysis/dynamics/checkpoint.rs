@@ -101,7 +101,9 @@ impl IntegratorHistory {
     }
 }
 
-/// A checkpoint of a dynamic run (see the [module](self) for the file format).
+/// A checkpoint of a dynamic run. The file format (magic `TETFEMCP`, version, fingerprint, then
+/// the state) is documented with the source, `src/analysis/dynamics/checkpoint.rs`, and in the
+/// book's Restart chapter.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Checkpoint {
     /// The state after [`State::steps`] steps, its time the integrator's own running time.
@@ -223,7 +225,7 @@ impl Checkpoint {
         Self::from_bytes(&bytes, path)
     }
 
-    /// The file's bytes (see the [module](self)).
+    /// The file's bytes, in the format of [`Checkpoint`].
     pub fn to_bytes(&self) -> Vec<u8> {
         let s = &self.state;
         let mut out = Vec::with_capacity(64 + 16 * s.displacement.len());

@@ -72,13 +72,13 @@ pub enum NonlinearSolve {
     /// factorization is cheap; at and above it [`RestPreconditionedLbfgs`](Self::RestPreconditionedLbfgs)
     /// with [`AUTO_LBFGS_HISTORY`] pairs, or, with contact (whose barrier stiffness the rest
     /// factor does not know), [`RestPreconditionedCg`](Self::RestPreconditionedCg) with 25 CG
-    /// iterations and η = 1e-3. Both chosen by `examples/corotational_step.rs`, see
+    /// iterations and η = 1e-3. Both chosen by `benches/corotational_step.rs`, see
     /// `validation/PERFORMANCE.md`.
     Auto,
 }
 
 /// Below this many free DOFs [`NonlinearSolve::Auto`] refactors. Measured on the swinging
-/// rubber cantilever (`examples/corotational_step.rs`, 40 steps of 10 ms from rest, one
+/// rubber cantilever (`benches/corotational_step.rs`, 40 steps of 10 ms from rest, one
 /// thread, side by side): refactoring and L-BFGS take 1.5 and 1.5 ms per step at 270 DOFs,
 /// 2.4 and 2.1 ms at 378, 7.0 and 6.0 ms at 960, 20.6 and 16.1 ms at 2,250 (Newton-CG: 4.0,
 /// 4.9, 10.7, 24.4 ms). Below 1,000 DOFs L-BFGS gains at most 15 %, and the exact Newton step

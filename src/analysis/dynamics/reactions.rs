@@ -46,7 +46,9 @@ enum SupportMass {
     Consistent(Vec<Row>),
 }
 
-/// The bookkeeping of [the module's formula](self) for one [`LinearSystem`]: the full
+/// The bookkeeping of the reaction formula r_c = [M·a]_c + [C·v]_c − f_int,c(u) − f_ext,c(t)
+/// (C = α·M + β·K; u, v, a the full displacement, velocity and acceleration at the state's time
+/// t; derivation with the source, `src/analysis/dynamics/reactions.rs`) for one [`LinearSystem`]: the full
 /// stiffness and mass rows of its constrained DOFs, the loads on them with their amplitudes, and
 /// the supports' motion. Built once (one assembly of K and M); each
 /// [`at`](Self::at) costs about one product with those rows (plus, for a nonlinear model, the
@@ -183,7 +185,7 @@ impl SupportReactions {
     }
 
     /// The reactions r_c (force units, N in SI) at `state` of `system` under the elastic force
-    /// `force` (see [the module's formula](self)): full length, zero on the free DOFs — the
+    /// `force` (the formula of [`SupportReactions`]): full length, zero on the free DOFs — the
     /// layout of [`StaticSolution::reactions`](crate::analysis::statics::StaticSolution::reactions), so
     /// [`reaction_resultant`](crate::analysis::statics::reaction_resultant) sums them per support.
     ///

@@ -17,8 +17,9 @@ pub struct StepLimit {
     pub source: &'static str,
 }
 
-/// The critical step of `system` assembled on `mesh` with `materials` (see the
-/// [module](self) docs): what a step given as a multiple of it (`"50crit"`) multiplies and what
+/// The critical step of `system` assembled on `mesh` with `materials`: for a lumped mass
+/// 2/ω_max by power iteration ([`critical_time_step`]), for a consistent mass the element bound
+/// ([`StepBoundElement::step_bound`]): what a step given as a multiple of it (`"50crit"`) multiplies and what
 /// run summaries report.
 ///
 /// Errors: those of [`critical_time_step`] (a system without free DOF) and of the element

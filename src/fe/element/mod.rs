@@ -2,9 +2,9 @@
 //! linear-elastic stiffness, masses and consistent loads.
 //!
 //! An element type is one file here implementing [`ElementType`] (and, for a new node layout,
-//! [`CellType`](crate::mesh::CellType)); assembly, constraints, loads and outputs take it as a
+//! [`CellType`]); assembly, constraints, loads and outputs take it as a
 //! type parameter:
-//! - [`tet4`]: the linear 4-node tet ([`Tet4`], its rest data [`Tet`]), constant strain;
+//! - `tet4`: the linear 4-node tet ([`Tet4`], its rest data [`Tet`]), constant strain;
 //! - [`tet10`]: the quadratic 10-node tet ([`Tet10`]), linear strain.
 
 mod element_type;

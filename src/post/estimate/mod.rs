@@ -17,7 +17,8 @@
 //! The reference points are Zienkiewicz & Zhu, "A simple error estimator and adaptive
 //! procedure for practical engineering analysis" (IJNME 24, 1987) and MFEM's example 21 (ZZ
 //! estimator for elasticity with a flux recovered in the H¹ space). Measured effectivities
-//! (η / true error) are in `tests/core/error_estimate.rs` and the README's accuracy section:
+//! (η / true error) are in `tests/core/error_estimate.rs` and the book's chapter *Quadratic elements and
+//! error estimates* (`docs/src/quadratic.md`):
 //! patch recovery ([`Recovery::PatchRecovery`], the default) keeps them in [0.7, 1.5] for P1
 //! and P2; plain averaging ([`Recovery::Averaging`]) does for P1 only.
 //!

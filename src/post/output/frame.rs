@@ -93,7 +93,8 @@ impl<'a> OriginalIds<'a> {
     }
 }
 
-/// Writes `path` (atomically) with the fields of the [module](self) docs, the stresses and the
+/// Writes `path` (atomically) with the fields listed in the book's *Outputs and ParaView*
+/// chapter (and with the source, `src/post/output/frame.rs`), the stresses and the
 /// energy density those of the linear model with each tet's material (one
 /// [`Material`](crate::fe::material::Material) or a [`MaterialMap`](crate::fe::materials::MaterialMap));
 /// see [`write_model_result_vtu`] for a nonlinear run.
@@ -223,7 +224,7 @@ pub fn model_result_frame_arrays<E: ModelElement + PointwiseElement>(
     frame_arrays(mesh, displacement, extras, tensors, energy, ids)
 }
 
-/// The arrays of one result frame (see the [module](self) docs for which), in the order they are
+/// The arrays of one result frame (those of [`write_result_vtu`]), in the order they are
 /// written, with the frame's time and encoding: computed by [`result_frame_arrays`] or
 /// [`model_result_frame_arrays`], written by [`FrameArrays::writer`].
 #[derive(Debug, Clone, PartialEq, Default)]
@@ -454,8 +455,8 @@ impl InternalForce {
     }
 
     /// The Cauchy stress (stress units) at `point` from the full displacement `u`: the linear
-    /// model's with the tet's material ([`PointLocation::stress`]) or the nonlinear model's
-    /// ([`PointLocation::model_stress`]).
+    /// model's with the tet's material ([`PointLocation::stress`](crate::post::output::PointLocation::stress)) or the nonlinear model's
+    /// ([`PointLocation::model_stress`](crate::post::output::PointLocation::model_stress)).
     ///
     /// Errors: as those two.
     pub fn point_stress<E: PointwiseElement>(

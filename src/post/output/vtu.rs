@@ -21,9 +21,10 @@ use crate::mesh::{CellType, Tet4, TetMesh};
 /// How a [`VtuWriter`] encodes its arrays.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum VtuFormat {
-    /// Appended raw binary with `UInt64` block headers (see the [module](self) docs): about half
-    /// the ASCII size (8 bytes per f64 against ~20 characters), and written without formatting
-    /// numbers (3.8× faster on the default run's frames, README).
+    /// Appended raw binary (VTK's `<AppendedData encoding="raw">`: each array a little-endian
+    /// `UInt64` byte count, so that an array may exceed 4 GiB, then its little-endian values):
+    /// about half the ASCII size (8 bytes per f64 against ~20 characters), and written without formatting
+    /// numbers (3.8× faster on the default run's frames, `docs/src/scenes/amplitudes.md`).
     #[default]
     Binary,
     /// Numbers as text in the XML (`{:e}`, the shortest representation that reads back to the

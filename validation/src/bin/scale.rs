@@ -94,11 +94,11 @@ struct Run {
     /// Triad bandwidth measured in the run's own process, with its thread count [B/s].
     bandwidth: f64,
     /// Iterative runs: backward-Euler steps at 100 critical steps solved by CG + SA-AMG: the
-    /// first step (multigrid setup of M + dt²K included) [s], the best of the next three [s],
-    /// and the process's peak memory after them [MiB] (zeros: not run).
+    /// first step (multigrid setup of M + dt²K included) (s), the best of the next three (s),
+    /// and the process's peak memory after them (MiB) (zeros: not run).
     iterative_steps: [f64; 3],
     /// Best of three in-place refills of K's values on its pattern
-    /// (`Assembler::refill_stiffness`) [s] (0: not run).
+    /// (`Assembler::refill_stiffness`) (s) (0: not run).
     refill_seconds: f64,
 }
 
@@ -886,7 +886,7 @@ fn write_charts(
 }
 
 /// The marker lines around a section of `PERFORMANCE.md` that `scale` does not measure (the
-/// corotational steps of `examples/corotational_step.rs`): copied from the old report into the
+/// corotational steps of `benches/corotational_step.rs`): copied from the old report into the
 /// new one, so that regenerating the report keeps them.
 const BY_HAND_BEGIN: &str = "<!-- measured by hand: kept by scale -->";
 const BY_HAND_END: &str = "<!-- end of the part measured by hand -->";

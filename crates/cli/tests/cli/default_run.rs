@@ -251,7 +251,7 @@ fn tip_approaches_euler_bernoulli_from_the_stiff_side() {
 
 #[test]
 fn newmark_and_explicit_keep_the_total_energy_of_the_start() {
-    // The README's claim: "Newmark and explicit end with the total energy of the start to
+    // The book's claim (`docs/src/getting-started.md`): "Newmark and explicit end with the total energy of the start to
     // 1e-3". Undamped, constant loads: the trapezoidal rule conserves this quadratic energy
     // exactly, so Newmark gets a round-off bound (solves to a relative residual ~1e-10). Central
     // differences conserve a shadow energy instead; the true one oscillates by an amount set by
@@ -419,7 +419,7 @@ fn run_newmark_and_duration_override_the_scene() {
     // A suddenly applied constant load from rest, undamped: the total energy (with the load's
     // potential) starts at 0 and Newmark's trapezoidal rule conserves it exactly, so what is
     // left is round-off of the solves (relative residual ~1e-10) on the exchanged energies
-    // (elastic + kinetic); the README only claims 1e-3.
+    // (elastic + kinetic); the book only claims 1e-3.
     let start = number(&out["initial_energy"]["total"]);
     let end = &out["final_energy"];
     let exchanged = number(&end["elastic"]) + number(&end["kinetic"]);

@@ -6,7 +6,7 @@ use std::path::Path;
 use tetfem::base::error::Error;
 use tetfem_cli::scene::{RunOptions, RunSummary, Scene, run_static_with};
 
-/// The README's peer cantilever (L = 10, W = H = 1, E = 1e5, ν = 0.3, end load 1) on `cells`
+/// The peer cantilever (`docs/src/quadratic.md`) (L = 10, W = H = 1, E = 1e5, ν = 0.3, end load 1) on `cells`
 /// with `[mesh] order` and the extra `[analysis]` lines.
 fn beam(cells: [usize; 3], order: usize, analysis: &str) -> Scene {
     let text = format!(

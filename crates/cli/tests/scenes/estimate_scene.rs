@@ -6,7 +6,7 @@ use std::path::Path;
 
 use tetfem_cli::scene::{RunOptions, Scene, run_static_with};
 
-/// The README's peer cantilever (L = 10, W = H = 1, E = 1e5) with `cells` and end load `load`.
+/// The peer cantilever (`docs/src/quadratic.md`) (L = 10, W = H = 1, E = 1e5) with `cells` and end load `load`.
 fn beam(cells: [usize; 3], load: f64, model: &str) -> Scene {
     let text = format!(
         r#"

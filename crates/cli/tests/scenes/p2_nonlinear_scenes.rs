@@ -122,7 +122,7 @@ fn p2_corotational_static_scene_runs_and_is_the_library_solve() {
 #[test]
 fn p2_models_agree_with_each_other_at_moderate_strain() {
     // Corotational and Neo-Hookean differ only at finite strain: on this beam (strains of a few
-    // per cent) their tips agree to 1 %, as on 4-node tets (0.13 % up to 60°, README).
+    // per cent) their tips agree to 1 %, as on 4-node tets (0.13 % up to 60°, `docs/src/large-deformation.md`).
     let tips: Vec<[f64; 3]> = ["corotational", "neo-hookean"]
         .iter()
         .map(|model| {

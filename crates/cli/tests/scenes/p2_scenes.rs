@@ -148,7 +148,7 @@ fn static_scene_equals_solve_static_on_the_same_tet10_mesh_bit_for_bit() {
 }
 
 /// The converged tip deflection of the peer cantilever: Richardson extrapolation of P2 runs
-/// (`cargo run --release --example quadratic_cantilever -- 20,2,2 40,4,4 80,8,8`, lecture split)
+/// (`cargo bench --bench quadratic_cantilever -- 20,2,2 40,4,4 80,8,8`, lecture split)
 /// at 20×2×2, 40×4×4 and 80×8×8 cells: −3.982739688e−2, −3.997624764e−2, −4.001844903e−2; the
 /// differences shrink by 3.53 (observed rate 1.82), and u₈₀ + Δ/(3.53 − 1) = −4.00351e−2 (with
 /// the nominal rate 2 instead, −4.00325e−2). Timoshenko's beam value 0.040306 lies 0.68 %

@@ -831,7 +831,7 @@ pub fn model_choice(context: &Context) -> Result<Section> {
             crossing_check("10 %", threshold[1], [12.0, 16.0]),
             Check {
                 name: "corotational vs Neo-Hookean, tip vector, rotations ≤ 60°".into(),
-                // The README's claim. Both models are rotation-invariant and share the
+                // The book's claim (`docs/src/large-deformation.md`). Both models are rotation-invariant and share the
                 // small-strain limit; they differ by the material law at finite strain, which
                 // at these strains (≲ 1 %) is of the order of the strain itself.
                 bound: "≤ 0.3 %".into(),

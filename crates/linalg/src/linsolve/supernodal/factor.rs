@@ -22,7 +22,7 @@
 //! then each top supernode is factored with both threads, which split its target columns for
 //! the updates and share the dense kernels.
 //!
-//! Measured side by side with faer's kernel (`examples/factorization.rs`, 139k DOFs, quiet
+//! Measured side by side with faer's kernel (`benches/factorization.rs`, 139k DOFs, quiet
 //! machine): 0.88× its time on one thread, 0.63× on two; against CHOLMOD with METIS in one run
 //! (`validation/SIDE_BY_SIDE.md`): 0.64–0.82× on one thread, 0.76–0.79× on two at 140k–266k DOFs.
 

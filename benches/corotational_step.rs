@@ -9,7 +9,7 @@
 //! prints its largest difference from the first one's trajectory over the run (put `refactor`
 //! first to compare with it).
 //!
-//! `cargo run --release --example corotational_step -- NX NY NZ [dt] [steps] [modes]`,
+//! `cargo bench --bench corotational_step -- NX NY NZ [dt] [steps] [modes]`,
 //! modes a comma list of `linear`, `refactor`, `cg:MAX:FORCING[:TOLERANCE]`,
 //! `lbfgs:HISTORY:-[:TOLERANCE]` (L-BFGS; the third field is unused) and `breakdown` (times
 //! the force, tangent and energy at the last mode's final state) (default:
@@ -25,7 +25,11 @@ use tetfem::model::ModelKind;
 use tetfem_fixtures::swing::Swing;
 
 fn main() {
-    let args: Vec<String> = std::env::args().skip(1).collect();
+    // `cargo bench` appends `--bench` to a harness-less target's arguments: not one of ours.
+    let args: Vec<String> = std::env::args()
+        .skip(1)
+        .filter(|a| a != "--bench")
+        .collect();
     let number = |i: usize, default: f64| -> f64 {
         args.get(i)
             .map(|a| a.parse().expect("a number"))

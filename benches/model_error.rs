@@ -1,7 +1,7 @@
 //! Linear vs corotational vs Neo-Hookean as the load grows, against a converged Neo-Hookean
 //! reference, under three error measures, and the cost of one Newton iteration of each model.
 //!
-//! `cargo run --release --example model_error [cells_x cells_yz]` (default 20 2: the validation
+//! `cargo bench --bench model_error [-- cells_x cells_yz]` (default 20 2: the validation
 //! report's 567-DOF beam; 40 4 takes about a minute).
 //!
 //! The problem is the peer cantilever (L = 10, 1×1 section, E = 1e5, ν = 0.3) under a dead end

@@ -1,6 +1,6 @@
 //! Cost of one Newton iteration per force model on a ~133k-DOF cantilever (100×20×20 cells):
 //! tangent assembly, numeric refactorization and solve, against the linear model's reused
-//! factorization. `cargo run --release --example model_cost`.
+//! factorization. `cargo bench --bench model_cost`.
 
 use std::time::Instant;
 

@@ -9,7 +9,7 @@
 //! format: reading the same number of values (8 B each) once, as one sequential stream per
 //! thread and as four.
 //!
-//! `cargo run --release --example explicit_product -- 100,20,20` (cells; RAYON_NUM_THREADS sets
+//! `cargo bench --bench explicit_product -- 100,20,20` (cells; RAYON_NUM_THREADS sets
 //! the threads of the two matrix products; the element loop is serial, as a scatter-add needs
 //! coloring to run in parallel).
 
@@ -69,8 +69,10 @@ impl ElementLoop {
 }
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
+    // `cargo bench` appends `--bench` to a harness-less target's arguments: not one of ours.
     let cells: Vec<usize> = std::env::args()
-        .nth(1)
+        .skip(1)
+        .find(|a| a != "--bench")
         .unwrap_or_else(|| "100,20,20".into())
         .split(',')
         .map(|s| s.parse())

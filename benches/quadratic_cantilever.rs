@@ -3,7 +3,7 @@
 //! side, and with `--write DIR` each quadratic solution as CSV for the scikit-fem comparison
 //! (`validation/p2_peer.py`).
 //!
-//! Usage: `cargo run --release --example quadratic_cantilever -- [--write DIR] NX,NY,NZ ...`
+//! Usage: `cargo bench --bench quadratic_cantilever -- [--write DIR] NX,NY,NZ ...`
 //! (default 10,1,1 20,2,2 40,4,4).
 
 use std::io::Write;
@@ -39,7 +39,11 @@ fn write_csv(path: &std::path::Path, header: &str, rows: impl Iterator<Item = St
 }
 
 fn main() -> tetfem::Result<()> {
-    let mut args: Vec<String> = std::env::args().skip(1).collect();
+    // `cargo bench` appends `--bench` to a harness-less target's arguments: not one of ours.
+    let mut args: Vec<String> = std::env::args()
+        .skip(1)
+        .filter(|a| a != "--bench")
+        .collect();
     let write = match args.iter().position(|a| a == "--write") {
         Some(i) => {
             let dir = std::path::PathBuf::from(args.get(i + 1).expect("--write takes a folder"));

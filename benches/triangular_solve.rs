@@ -5,7 +5,7 @@
 //! thread and as four concurrent streams per thread (which one thread reads much faster), and
 //! tetfem's kernels on the factor's single-precision copy.
 //!
-//! `cargo run --release --example triangular_solve -- NX,NY,NZ [REPS]` (default 100,20,20, 9).
+//! `cargo bench --bench triangular_solve -- NX,NY,NZ [REPS]` (default 100,20,20, 9).
 
 use std::hint::black_box;
 use std::time::Instant;
@@ -67,7 +67,7 @@ fn stream_sum_twice_two_threads(values: &[f64]) -> f64 {
 }
 
 fn main() -> tetfem::Result<()> {
-    let args: Vec<String> = std::env::args().collect();
+    let args: Vec<String> = std::env::args().filter(|a| a != "--bench").collect(); // cargo's flag
     let cells: Vec<usize> = args
         .get(1)
         .map_or("100,20,20", String::as_str)

@@ -4,7 +4,7 @@
 //! flops printed here are those the cost model's rates were fitted with
 //! (`validation/scale_results.txt` holds the measured times).
 //!
-//! `cargo run --release --example solver_choice -- 8 12 16 20` (k values; default 8 12 16 20).
+//! `cargo bench --bench solver_choice -- 8 12 16 20` (k values; default 8 12 16 20).
 
 use tetfem::linalg::linear_solver::{ChoiceInputs, choose_method};
 use tetfem::{SolverOptions, SparseCholesky};

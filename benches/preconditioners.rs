@@ -1,7 +1,7 @@
 //! Conjugate gradients on the cantilever stiffness K_ff (the peers' benchmark beam, 10×1×1,
 //! clamped at x = 0, end load) with each preconditioner, against the direct solve:
 //! iterations, setup and solve time, and the relative difference of the solution.
-//! `cargo run --release --example preconditioners [-- [--tol T] NX,NY,NZ ...]` (default
+//! `cargo bench --bench preconditioners [-- [--tol T] NX,NY,NZ ...]` (default
 //! tolerance 1e-8, sizes 40,8,8 and 80,16,16). SA-AMG is run with the rigid-body modes from
 //! the mesh and, for comparison, with the translations only (no geometry).
 
