@@ -134,11 +134,21 @@ fn main() -> tetfem::Result<()> {
             Some(TriangularSolve::SupernodalSingle { threads: 2 }),
         ),
     ];
-    cholesky.make_single_precision_copy()?;
+    // No copy without a supernodal plan (a small factor) or without the memory for it: the
+    // f32 rows are then skipped, not an error.
+    let single = cholesky.make_single_precision_copy()?;
+    if !single {
+        println!(
+            "no single-precision copy (no supernodal plan at this size, or no memory): f32 rows skipped"
+        );
+    }
     let mut best = [f64::INFINITY; 9];
     let mut solutions: Vec<Vec<f64>> = vec![Vec::new(); 9];
     for _ in 0..reps {
         for (k, (_, kernel)) in kernels.iter().enumerate() {
+            if !single && matches!(kernel, Some(TriangularSolve::SupernodalSingle { .. })) {
+                continue;
+            }
             let mut x = b.clone();
             let clock = Instant::now();
             match kernel {
@@ -193,10 +203,12 @@ fn main() -> tetfem::Result<()> {
         diff(&solutions[0], &solutions[1]),
         diff(&solutions[0], &solutions[2])
     );
-    println!(
-        "max |x_faer − x_f32 copy| / max |x_faer|: {:.2e}",
-        diff(&solutions[0], &solutions[7])
-    );
+    if single {
+        println!(
+            "max |x_faer − x_f32 copy| / max |x_faer|: {:.2e}",
+            diff(&solutions[0], &solutions[7])
+        );
+    }
     let residual: f64 = k_ff
         .mul(&solutions[1])?
         .iter()
