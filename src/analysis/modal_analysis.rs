@@ -23,6 +23,29 @@ pub struct ModalOutcome {
 /// The modal analysis of one [`Definition`]: [`new`](Self::new) checks the combination (a
 /// nonlinear model or obstacles are the library's named errors) and assembles K and M,
 /// [`solve`](Self::solve) finds the modes.
+///
+/// ```
+/// use tetfem::analysis::{Definition, Modal, dynamics::MassKind};
+/// use tetfem::nalgebra::Vector3;
+/// use tetfem::{BoxSplit, Constraints, Material, MaterialMap, TetMesh};
+/// # fn main() -> tetfem::Result<()> {
+/// // A 1 m steel cantilever, 0.1 m square section, clamped at x = 0.
+/// let size = Vector3::new(1.0, 0.1, 0.1);
+/// let mesh = TetMesh::box_grid(Vector3::zeros(), size, [20, 2, 2], BoxSplit::Mirrored6)?;
+/// let steel = MaterialMap::uniform(Material::new(200e9, 0.3, 7850.0)?, mesh.tet_count());
+/// let mut constraints = Constraints::new(&mesh);
+/// constraints.fix_nodes(&mesh.nodes_on_plane(0, 0.0, 1e-9))?;
+/// let beam = Definition::builder(mesh, steel).constraints(constraints)?.build()?;
+/// let modes = Modal::new(&beam, MassKind::Lumped)?.solve(2)?.modes;
+/// // Euler–Bernoulli's first bending frequency, 1.875²/(2π)·√(EI/(ρAL⁴)) = 81.5 Hz: linear
+/// // tets on this coarse mesh are stiffer (shear locking), never softer by more than the
+/// // beam's shear deformation (~1 %).
+/// let f1 = modes.omega[0] / (2.0 * std::f64::consts::PI);
+/// let euler_bernoulli = 1.875f64.powi(2) / (2.0 * std::f64::consts::PI)
+///     * (200e9 * 0.1f64.powi(4) / 12.0 / (7850.0 * 0.01)).sqrt();
+/// assert!(f1 > 0.98 * euler_bernoulli && f1 < 2.0 * euler_bernoulli, "{f1} Hz");
+/// # Ok(()) }
+/// ```
 #[derive(Debug)]
 pub struct Modal<'a, C: ElementType = Tet4> {
     definition: &'a Definition<C>,

@@ -120,6 +120,31 @@ impl StaticOutcome {
 
 /// The static analysis of one [`Definition`]: [`new`](Self::new) checks the combination,
 /// [`solve`](Self::solve) runs the one dispatch.
+///
+/// ```
+/// use tetfem::analysis::{Definition, Static};
+/// use tetfem::nalgebra::Vector3;
+/// use tetfem::{BoxSplit, Constraints, Loads, Material, MaterialMap, TetMesh};
+/// # fn main() -> tetfem::Result<()> {
+/// // A 1 m steel cantilever, 0.1 m square section, clamped at x = 0, 1 kN down at its end.
+/// let size = Vector3::new(1.0, 0.1, 0.1);
+/// let mesh = TetMesh::box_grid(Vector3::zeros(), size, [20, 2, 2], BoxSplit::Mirrored6)?;
+/// let steel = MaterialMap::uniform(Material::new(200e9, 0.3, 7850.0)?, mesh.tet_count());
+/// let mut constraints = Constraints::new(&mesh);
+/// constraints.fix_nodes(&mesh.nodes_on_plane(0, 0.0, 1e-9))?;
+/// let mut loads = Loads::new(&mesh);
+/// let end = mesh.faces_on_plane(&mesh.boundary_faces()?, 0, 1.0, 1e-9);
+/// loads.add_total_force_on_faces(&mesh, &end, Vector3::new(0.0, 0.0, -1e3))?; // N
+/// let beam = Definition::builder(mesh, steel)
+///     .constraints(constraints)?
+///     .loads(loads)?
+///     .build()?;
+/// let outcome = Static::new(&beam, Default::default())?.solve()?;
+/// // The clamp carries the load: Σ r_z = +1 kN (K's rows sum to zero along a translation).
+/// let lift: f64 = outcome.reactions.iter().skip(2).step_by(3).sum();
+/// assert!((lift - 1e3).abs() < 1e-6 * 1e3);
+/// # Ok(()) }
+/// ```
 #[derive(Debug)]
 pub struct Static<'a, C: ModelElement = Tet4> {
     definition: &'a Definition<C>,
