@@ -3,7 +3,6 @@
 //! obstacles=[...])` and `tetfem.Simulation(..., obstacles=[...])`.
 
 use pyo3::prelude::*;
-use tetfem::bc::amplitude::{Amplitude, STATIC_TIME};
 use tetfem::contact::{Contact, ContactParameters, Obstacle, ObstacleMotion};
 use tetfem::fe::materials::MaterialMap;
 
@@ -109,13 +108,16 @@ impl PyObstacle {
                     "scales a displacement: give displacement with amplitude, or velocity alone",
                 ));
             }
-            (None, Some(d)) => ObstacleMotion::Amplitude {
-                displacement: arrays::vector3(py, d, "displacement")?,
-                amplitude: match amplitude.filter(|a| !a.is_none()) {
-                    Some(a) => amplitude_of(py, Some(a))?,
-                    None => Amplitude::ramp(0.0, STATIC_TIME).or_raise(py)?,
-                },
-            },
+            (None, Some(d)) => {
+                let displacement = arrays::vector3(py, d, "displacement")?;
+                match amplitude.filter(|a| !a.is_none()) {
+                    Some(a) => ObstacleMotion::Amplitude {
+                        displacement,
+                        amplitude: amplitude_of(py, Some(a))?,
+                    },
+                    None => ObstacleMotion::reaching(displacement).or_raise(py)?,
+                }
+            }
             (v, _) => {
                 return Err(invalid(
                     py,

@@ -127,8 +127,9 @@ pub fn time_step(py: Python<'_>, value: &Bound<'_, PyAny>) -> PyResult<TimeStep>
             allowed,
         )
     })?;
-    match text.strip_suffix("crit").map(|f| f.trim().parse::<f64>()) {
-        Some(Ok(f)) if f.is_finite() && f > 0.0 => Ok(TimeStep::CriticalMultiple(f)),
+    // The library's parser (a float in text is refused here: seconds come as a float).
+    match text.parse::<TimeStep>() {
+        Ok(step @ TimeStep::CriticalMultiple(_)) => Ok(step),
         _ => Err(invalid(py, "dt", format!("'{text}'"), allowed)),
     }
 }

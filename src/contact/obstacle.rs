@@ -50,6 +50,17 @@ pub enum ObstacleMotion {
 }
 
 impl ObstacleMotion {
+    /// The displacement D (length) reached at [`STATIC_TIME`](crate::bc::amplitude::STATIC_TIME)
+    /// on a ramp from 0 at t = 0: c(t) = D·t up to t = 1, then D. What a static solve makes of
+    /// a displacement given without an amplitude (its load steps follow the pseudo-time
+    /// t = k/n), for scenes and Python alike.
+    pub fn reaching(displacement: Vector3<f64>) -> Result<Self> {
+        Ok(ObstacleMotion::Amplitude {
+            displacement,
+            amplitude: Amplitude::ramp(0.0, crate::bc::amplitude::STATIC_TIME)?,
+        })
+    }
+
     /// The offset c(t) (length) at time `t`.
     pub fn offset(&self, t: f64) -> Vector3<f64> {
         match self {

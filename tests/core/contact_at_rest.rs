@@ -44,6 +44,11 @@ fn block_and_sphere(model: ModelKind, speed: f64) -> Definition {
     }
 }
 
+/// The largest displacement magnitude of any DOF (m).
+fn largest(u: &[f64]) -> f64 {
+    u.iter().fold(0.0f64, |m, u| m.max(u.abs()))
+}
+
 #[test]
 fn a_body_at_rest_with_no_load_converges_while_an_obstacle_approaches() {
     for model in [
@@ -58,11 +63,7 @@ fn a_body_at_rest_with_no_load_converges_while_an_obstacle_approaches() {
         // barrier's reach d̂ = 1.7e-4 m): nothing acts on the block, which stays at rest.
         run.run((0, 10), &mut Unobserved)
             .unwrap_or_else(|e| panic!("{model:?}: {e}"));
-        let moved = run
-            .state()
-            .displacement
-            .iter()
-            .fold(0.0f64, |m, u| m.max(u.abs()));
+        let moved = largest(&run.state().displacement);
         // Round-off only: the block's forces are ~1e-14 N of noise on 1e-3 kg nodes.
         assert!(moved < 1e-12, "{model:?}: moved {moved:e} m");
     }
@@ -83,11 +84,7 @@ fn a_clamped_body_at_rest_with_no_load_converges_without_contact() {
             let mut run = Transient::new(&definition, options).unwrap();
             run.run((0, 5), &mut Unobserved)
                 .unwrap_or_else(|e| panic!("{model:?} {method:?}: {e}"));
-            let moved = run
-                .state()
-                .displacement
-                .iter()
-                .fold(0.0f64, |m, u| m.max(u.abs()));
+            let moved = largest(&run.state().displacement);
             assert!(moved < 1e-12, "{model:?} {method:?}: moved {moved:e} m");
         }
     }
@@ -105,10 +102,7 @@ fn a_static_solve_with_no_load_is_the_rest_state() {
         let outcome = analysis
             .solve()
             .unwrap_or_else(|e| panic!("{model:?}: {e}"));
-        let moved = outcome
-            .displacement
-            .iter()
-            .fold(0.0f64, |m, u| m.max(u.abs()));
+        let moved = largest(&outcome.displacement);
         // Round-off only (see above).
         assert!(moved < 1e-12, "{model:?}: moved {moved:e} m");
     }

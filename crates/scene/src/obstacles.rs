@@ -279,12 +279,11 @@ impl Scene {
                 ));
             }
             (Some(v), None, None) => ObstacleMotion::Velocity(finite("velocity", v)?),
-            (None, Some(d), None) if kind == AnalysisKind::Static => ObstacleMotion::Amplitude {
-                displacement: finite("displacement", d)?,
-                // The whole displacement at the pseudo-time t = 1, the last load step.
-                amplitude: tetfem::bc::amplitude::Amplitude::ramp(0.0, 1.0)
-                    .map_err(|e| err("displacement", e.to_string()))?,
-            },
+            // The whole displacement at the pseudo-time t = 1, the last load step.
+            (None, Some(d), None) if kind == AnalysisKind::Static => {
+                ObstacleMotion::reaching(finite("displacement", d)?)
+                    .map_err(|e| err("displacement", e.to_string()))?
+            }
             (None, Some(_), None) => {
                 return Err(err(
                     "displacement",
