@@ -1,0 +1,262 @@
+#!/usr/bin/env python3
+"""Writes the book's tables of measured figures from the programs that measure them.
+
+Each table sits in a chapter between two marker comments,
+
+    <!-- figures: NAME (written by docs/figures.py: do not edit) -->
+    ...
+    <!-- end figures: NAME -->
+
+and this script replaces what lies between them, heading every table with the date, the
+machine and the commit it was measured on. A chapter states what a table shows; its figures
+come only from here (or from a report a program wrote, linked where it is cited), never typed.
+
+Tables (all from release binaries of this checkout; `cargo build --release --workspace` first):
+
+- default_run (getting-started.md): the report of `cargo run --release` (target/release/tetfem).
+- accuracy (quadratic.md): tetfem P1 and P2 on the peers' cantilever, time to accuracy, one
+  thread, fastest of 2 interleaved runs (target/release/accuracy, as side_by_side.py runs it).
+- peers (quadratic.md): tetfem beside scikit-fem and MFEM, rendered from
+  validation/report/speed_accuracy.csv as `side_by_side.py --accuracy` wrote it (the peers are
+  not installed on every machine; the CSV's commit and date head the table).
+- corotational (large-deformation.md): the corotational step's cost against a linear step at
+  18k DOFs on 1 and 2 threads (target/release/corotational_cost, each row one process, its
+  methods side by side), and the 132k-DOF row from validation/report/corotational_cost.csv
+  (the CSV that program wrote; about 10 minutes to measure, so not rerun here).
+
+Measured on 2026-12-04 (a shared 2-core machine with other builds running): about 3 minutes
+for all of them. Times on a shared machine are noisy; compare the ratios within one table.
+
+Run: python3 docs/figures.py [NAME ...]   (default: every table)
+     python3 docs/figures.py --check       (every marker pair present and well formed; no run)
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import re
+import subprocess
+import sys
+import tempfile
+from datetime import datetime, timezone
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+BOOK = os.path.join(ROOT, "docs", "src")
+RELEASE = os.path.join(ROOT, "target", "release")
+BEGIN = "<!-- figures: {} (written by docs/figures.py: do not edit) -->"
+END = "<!-- end figures: {} -->"
+
+
+def git(*args: str) -> str:
+    return subprocess.run(["git", *args], cwd=ROOT, capture_output=True, text=True, check=True).stdout.strip()
+
+
+def machine() -> str:
+    """The machine in a phrase: cores, CPU model, and whether others were loading it."""
+    model = "unknown CPU"
+    try:
+        with open("/proc/cpuinfo") as f:
+            model = next((line.split(":", 1)[1].strip() for line in f if line.startswith("model name")), model)
+    except OSError:
+        pass
+    load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
+    return f"{os.cpu_count()} cores ({model}), load average {load:.1f} at the start"
+
+
+def stamp(what: str) -> str:
+    """The heading line of a table measured now."""
+    # Uncommitted edits to the book itself do not change what is measured; to the code they do.
+    changed = git("status", "--porcelain", "--untracked-files=no", "--", ".", ":(exclude)docs")
+    dirty = " with uncommitted changes to the code" if changed else ""
+    return (f"*Written by `python3 docs/figures.py` from {what}, "
+            f"{datetime.now(timezone.utc):%Y-%m-%d %H:%M} UTC, commit {git('rev-parse', '--short', 'HEAD')}{dirty}, "
+            f"{machine()}.*")
+
+
+def committed_stamp(path: str, writer: str) -> str:
+    """The heading line of a table rendered from a file a program wrote and that was committed."""
+    commit, date = git("log", "-1", "--format=%h %cs", "--", path).split()
+    return (f"*Written by `python3 docs/figures.py` from `{os.path.relpath(path, ROOT)}`, which {writer} "
+            f"wrote (committed {date} in {commit}).*")
+
+
+def run(args: list[str], threads: int | None = None) -> str:
+    env = dict(os.environ)
+    if threads is not None:
+        env["RAYON_NUM_THREADS"] = str(threads)
+    return subprocess.run(args, cwd=ROOT, capture_output=True, text=True, check=True, env=env).stdout
+
+
+def default_run() -> list[str]:
+    with tempfile.TemporaryDirectory() as out:
+        report = run([os.path.join(RELEASE, "tetfem"), "--quiet", "--out", out])
+    report = report.replace(out, "out")  # the folder as the default run names it
+    return [stamp("one run of `cargo run --release`"), "", "```text", report.rstrip("\n"), "```"]
+
+
+# The peers' cantilever at n × n/10 × n/10 cells: P1 and P2 on the same meshes.
+SIZES = {1: [10, 20, 40, 80, 160], 2: [10, 20, 40, 80]}
+
+
+def accuracy() -> list[str]:
+    binary = os.path.join(RELEASE, "accuracy")
+    best: dict = {}
+    for _ in range(2):  # interleaved: a slow moment of the machine hits one run of each, not all
+        for order, sizes in SIZES.items():
+            for n in sizes:
+                r = json.loads(run([binary, "--order", str(order), "--cells", f"{n},{n // 10},{n // 10}"], threads=1))
+                if (order, n) not in best or r["seconds"] < best[(order, n)]["seconds"]:
+                    best[(order, n)] = r
+    # Richardson extrapolation of the P2 tips at 20, 40, 80 cells along (the reference no run gives).
+    t1, t2, t3 = (best[(2, n)]["tip"] for n in (20, 40, 80))
+    rate = math.log2((t2 - t1) / (t3 - t2))
+    reference = t3 + (t3 - t2) / (2**rate - 1)
+    lines = [stamp("`target/release/accuracy`, one thread, fastest of 2 interleaved runs"), "",
+             f"Reference tip: Richardson extrapolation of the P2 tips at 20, 40 and 80 cells along, "
+             f"{reference:.6e} (observed order {rate:.2f}).", "",
+             "| elements | cells | free DOFs | tip | error | wall time [s] |", "|---|---|---|---|---|---|"]
+    for (order, n), r in sorted(best.items()):
+        error = abs(r["tip"] - reference) / abs(reference)
+        lines.append(f"| P{order} | {n}×{n // 10}×{n // 10} | {r['free_dofs']} | {r['tip']:.9e} | "
+                     f"{100 * error:#.3g} % | {r['seconds']:#.3g} |")
+
+    def cheapest(order: int, target: float):
+        ok = [(r["seconds"], n) for (o, n), r in best.items()
+              if o == order and abs(r["tip"] - reference) <= target * abs(reference)]
+        return min(ok) if ok else None
+
+    lines.append("")
+    for target in (0.1, 0.01):
+        p1, p2 = cheapest(1, target), cheapest(2, target)
+        p1_text = (f"P1 in {p1[0]:.3g} s ({p1[1]} cells along)" if p1 else
+                   f"no P1 run of the sweep (the finest, {best[(1, 160)]['seconds']:.3g} s, is "
+                   f"{100 * abs(best[(1, 160)]['tip'] - reference) / abs(reference):.2g} % off)")
+        ratio = f": P1 takes {p1[0] / p2[0]:.0f}× longer" if p1 and p2 else (
+            f": at least {best[(1, 160)]['seconds'] / p2[0]:.0f}× longer for P1" if p2 else "")
+        lines.append(f"- within {100 * target:g} %: P2 in {p2[0]:.3g} s ({p2[1]} cells along), {p1_text}{ratio}."
+                     if p2 else f"- within {100 * target:g} %: no P2 run of the sweep.")
+    return lines
+
+
+def peers() -> list[str]:
+    path = os.path.join(ROOT, "validation", "report", "speed_accuracy.csv")
+    with open(path) as f:
+        rows = [line.rstrip("\n").split(",") for line in f if line.strip() and not line.startswith("#")]
+    header, rows = rows[0], rows[1:]
+    points = [dict(zip(header, row)) for row in rows]
+
+    def cheapest(code: str, order: str, target: float):
+        ok = [p for p in points if p["code"] == code and p["order"] == order and float(p["relative_error"]) <= target]
+        return min(ok, key=lambda p: float(p["seconds"])) if ok else None
+
+    def finest(code: str, order: str):
+        return max((p for p in points if p["code"] == code and p["order"] == order), key=lambda p: int(p["free_dofs"]))
+
+    lines = [committed_stamp(path, "`python3 validation/side_by_side.py --accuracy`"), "",
+             "One thread each; the tip's error against the reference of the CSV's first line.", "",
+             "| code | P1: cheapest within 10 % | P1, finest mesh | P2: cheapest within 1 % | P2, finest mesh |",
+             "| --- | --- | --- | --- | --- |"]
+    for code in ("tetfem", "scikit-fem", "MFEM"):
+        cells = []
+        for order, target in (("1", 0.1), ("2", 0.01)):
+            p = cheapest(code, order, target)
+            f = finest(code, order)
+            cells.append(f"{p['mesh']}, {float(p['seconds']):.3g} s" if p else "none")
+            cells.append(f"{f['mesh']}: error {100 * float(f['relative_error']):.2g} %, {float(f['seconds']):.3g} s")
+        lines.append(f"| {code} | " + " | ".join(cells) + " |")
+    ours, theirs = cheapest("tetfem", "2", 0.01), cheapest("MFEM", "2", 0.01)
+    skfem = cheapest("scikit-fem", "2", 0.01)
+    if ours and theirs and skfem:
+        lines += ["", f"To 1 %: tetfem P2 in {float(ours['seconds']):.3g} s, "
+                  f"{float(theirs['seconds']) / float(ours['seconds']):.1f}× sooner than MFEM order 2 and "
+                  f"{float(skfem['seconds']) / float(ours['seconds']):.1f}× sooner than scikit-fem P2 on the same mesh."]
+    return lines
+
+
+COST_COLUMNS = "| cells | free DOFs | threads | linear step [s] | refactoring, 1e-8 [s] (its) | " \
+    "Newton-CG, 1e-8 [s] (its, CG its) | L-BFGS, 1e-8 [s] (its) | L-BFGS, 1e-2 [s] (its, distance) | " \
+    "ratios to linear: refactoring / Newton-CG 1e-8 / L-BFGS 1e-8 / 3e-3 / 1e-2 / 1e-1 |"
+
+
+def cost_row(csv_path: str, cells: str) -> str:
+    with open(csv_path) as f:
+        header, *rows = [line.rstrip("\n").split(",") for line in f if line.strip()]
+    by = {(r[0], float(r[1])): dict(zip(header, r)) for r in rows}
+    linear, refactor = by[("linear", 0.0)], by[("refactor", 1e-8)]
+    cg, lbfgs, loose = by[("newton_cg", 1e-8)], by[("lbfgs", 1e-8)], by[("lbfgs", 1e-2)]
+    ratios = " / ".join(f"{float(r['cost_over_linear']):.1f}" for r in
+                        (refactor, cg, lbfgs, by[("lbfgs", 3e-3)], loose, by[("lbfgs", 1e-1)]))
+    sec = lambda r: f"{float(r['step_seconds']):#.3g}"  # noqa: E731
+    return (f"| {cells} | {linear['free_dofs']} | {linear['threads']} | {sec(linear)} | "
+            f"{sec(refactor)} ({refactor['iterations']}) | {sec(cg)} ({cg['iterations']}, {cg['cg_iterations']}) | "
+            f"{sec(lbfgs)} ({lbfgs['iterations']}) | {sec(loose)} ({loose['iterations']}, "
+            f"{float(loose['distance_from_refactoring']):.1e}".replace("e-0", "e-") + f") | {ratios} |")
+
+
+def corotational() -> list[str]:
+    binary = os.path.join(RELEASE, "corotational_cost")
+    rows = []
+    for threads in (1, 2):
+        with tempfile.TemporaryDirectory() as out:
+            run([binary, "--cells", "50,10,10", "--out", out], threads=threads)
+            rows.append(cost_row(os.path.join(out, "corotational_cost.csv"), "50×10×10"))
+    committed = os.path.join(ROOT, "validation", "report", "corotational_cost.csv")
+    return [stamp("`target/release/corotational_cost --cells 50,10,10`, `RAYON_NUM_THREADS` = 1, then 2"), "",
+            COST_COLUMNS, "|---|---|---|---|---|---|---|---|---|", *rows, "",
+            committed_stamp(committed, "`corotational_cost --cells 100,20,20` (one thread)"), "",
+            COST_COLUMNS, "|---|---|---|---|---|---|---|---|---|", cost_row(committed, "100×20×20")]
+
+
+TABLES = {
+    "default_run": ("getting-started.md", default_run),
+    "accuracy": ("quadratic.md", accuracy),
+    "peers": ("quadratic.md", peers),
+    "corotational": ("large-deformation.md", corotational),
+}
+
+
+def span(text: str, name: str, chapter: str) -> tuple[int, int]:
+    """Where the table NAME's lines go in a chapter: after its begin marker, before its end marker."""
+    begin, end = BEGIN.format(name), END.format(name)
+    if text.count(begin) != 1 or text.count(end) != 1 or text.index(begin) > text.index(end):
+        raise SystemExit(f"docs/src/{chapter}: needs exactly one '{begin}' followed by one '{end}'")
+    return text.index(begin) + len(begin), text.index(end)
+
+
+def main(args: list[str]) -> int:
+    check = "--check" in args
+    names = [a for a in args if a != "--check"] or list(TABLES)
+    unknown = [n for n in names if n not in TABLES]
+    if unknown:
+        print(f"figures: unknown table {', '.join(unknown)}; tables: {', '.join(TABLES)}", file=sys.stderr)
+        return 2
+    for name in names:
+        chapter, measure = TABLES[name]
+        path = os.path.join(BOOK, chapter)
+        with open(path, encoding="utf-8") as f:
+            text = f.read()
+        start, stop = span(text, name, chapter)
+        if check:
+            continue
+        print(f"figures: {name} ({chapter})", file=sys.stderr)
+        body = "\n".join(measure())
+        text = text[:start] + "\n" + body + "\n" + text[stop:]
+        with open(path, "w", encoding="utf-8") as f:
+            f.write(text)
+    # A marker left in a chapter for a table this script does not know would never be rewritten.
+    for chapter in sorted(os.listdir(BOOK)) + [os.path.join("scenes", c) for c in sorted(os.listdir(os.path.join(BOOK, "scenes")))]:
+        if not chapter.endswith(".md"):
+            continue
+        with open(os.path.join(BOOK, chapter), encoding="utf-8") as f:
+            for found in re.findall(r"<!-- figures: (\S+) \(written by", f.read()):
+                if found not in TABLES:
+                    print(f"figures: docs/src/{chapter} has a marker for unknown table '{found}'", file=sys.stderr)
+                    return 1
+    print("figures: markers well formed" if check else "figures: done", file=sys.stderr)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[1:]))
