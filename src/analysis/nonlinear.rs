@@ -629,6 +629,9 @@ impl<E: ModelElement, M: TetModels + ?Sized> StaticNewton<'_, E, M> {
         let (Some(contact), Some(motion)) = (self.contact, moving) else {
             return self.newton(u, r, history, lag, *at);
         };
+        if self.solve_carried(contact, u, r, history, lag, at, &motion.to)? {
+            return Ok(());
+        }
         for _ in 0..MAX_MOTION_STAGES {
             let stage = contact.advance_stage(u, &motion.to)?;
             if stage == MotionStage::Blocked {
@@ -648,6 +651,53 @@ impl<E: ModelElement, M: TetModels + ?Sized> StaticNewton<'_, E, M> {
             }
         }
         Err(self.staging_error(contact, u, &motion.to, at, false))
+    }
+
+    /// Load step `at` with the obstacles moved to `target` at once and the body carried with
+    /// them ([`Contact::carried_start`]), Newton from there: `true` when it converged (`u` and
+    /// `r` its solution); `false` when no carried start exists or Newton did not converge from
+    /// it, with `u`, `r` and the obstacles as they were (the caller stages the move instead).
+    #[allow(clippy::too_many_arguments)]
+    fn solve_carried(
+        &mut self,
+        contact: &Contact,
+        u: &mut Vec<f64>,
+        r: &mut Vec<f64>,
+        history: &mut Vec<f64>,
+        lag: Option<&FrictionLag>,
+        at: &mut LoadStep,
+        target: &[Vector3<f64>],
+    ) -> Result<bool> {
+        let mut free = vec![false; u.len()];
+        for &d in self.dofs.free_dofs() {
+            free[d] = true;
+        }
+        let Some(start) = contact.carried_start(self.mesh.nodes(), u, target, &free)? else {
+            return Ok(false);
+        };
+        let (before, offsets, reference) = (u.clone(), contact.offsets(), at.reference);
+        contact.set_offsets(target.to_vec())?;
+        let mut carried = start;
+        let mut residual = self.residual(&carried, lag, at.factor)?;
+        let mut pushed = vec![0.0; carried.len()];
+        contact.add_force(&carried, &mut pushed)?;
+        at.reference = reference
+            .max(norm(&residual))
+            .max(norm(&self.dofs.restrict(&pushed)?));
+        let mut tried = history.clone();
+        tried.push(norm(&residual));
+        match self.newton(&mut carried, &mut residual, &mut tried, lag, *at) {
+            Ok(()) => {
+                (*u, *r, *history) = (carried, residual, tried);
+                Ok(true)
+            }
+            Err(Error::NotConverged { .. } | Error::Solver(_)) => {
+                contact.set_offsets(offsets)?;
+                (*u, at.reference) = (before, reference);
+                Ok(false)
+            }
+            Err(e) => Err(e),
+        }
     }
 
     /// The error of load step `at` whose obstacles could not be moved to `target` for the body
@@ -831,7 +881,7 @@ impl<E: ModelElement, M: TetModels + ?Sized> StaticNewton<'_, E, M> {
     }
 
     /// The backtracking line search along the free step `delta` from `u` (residual `r`):
-    /// from 1, or with contact from [`STEP_FRACTION`] of the collision-free step, halved up to
+    /// from 1, or with contact from [`crate::contact::first_step_fraction`] of the collision-free step, halved up to
     /// 30 times until the residual norm or Π decreases — with contact only a decrease of Π (up
     /// to its round-off), so the barrier keeps the gaps open. It is the implicit steps' search
     /// ([`Backtracking`]) on this problem's line. Returns the accepted state and its free
@@ -862,7 +912,7 @@ impl<E: ModelElement, M: TetModels + ?Sized> StaticNewton<'_, E, M> {
             for (&dof, d) in self.dofs.free_dofs().iter().zip(delta) {
                 step[dof] = *d;
             }
-            first_alpha = (STEP_FRACTION * contact.max_step(u, &step)?).min(1.0);
+            first_alpha = crate::contact::first_step_fraction(contact.max_step(u, &step)?);
         }
         // |r·δ|, the first-order change of Π along the step (the relaxed search's slack).
         let slope = r.iter().zip(delta).map(|(a, b)| a * b).sum::<f64>().abs();

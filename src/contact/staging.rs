@@ -1,4 +1,5 @@
-//! Moving obstacles in stages. A solve that moves the obstacles — an implicit time step, a static
+//! Moving obstacles in stages: the fall-back of a solve whose body cannot be carried with the
+//! obstacles ([`super::carry`]). A solve that moves the obstacles — an implicit time step, a static
 //! load step — takes them from their current placement to a target one; since the target can
 //! overlap the body's state at the solve's start (its first iterate), they get there in stages:
 //! each moves them [`STEP_FRACTION`] of the largest collision-free fraction of the remaining

@@ -36,6 +36,7 @@ mod mesh_trust;
 mod mms_rates;
 mod modal;
 mod model_adequacy;
+mod moving_obstacle_steps;
 mod moving_supports;
 mod nonlinear_tet10;
 mod nonlinear_time_varying;

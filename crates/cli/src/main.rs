@@ -318,10 +318,14 @@ fn main() -> ExitCode {
         Err(error) => {
             eprintln!("error: {error}");
             // A contact divergence names its own remedy (the barrier's step, not the bulk's),
-            // and a start beyond the floating-point range is the input's, not the step's.
+            // a start beyond the floating-point range is the input's, not the step's, and an
+            // implicit step's Newton failure is not the explicit method's (its reason names
+            // Newton and its remedy).
             if let Error::Diverged { reason, .. } = &error
                 && !reason.contains("barrier")
                 && !reason.contains("starting state")
+                && !reason.contains("Newton")
+                && !reason.contains("moving obstacles")
             {
                 eprintln!(
                     "hint: the explicit method is stable only below its critical step; choose a smaller --dt (e.g. 0.9crit) or an implicit --method"

@@ -358,6 +358,27 @@ impl NonlinearForce {
         contact.max_step(&full, &full_step)
     }
 
+    /// A first iterate for a step that takes the moving obstacles to `target` (length, one
+    /// offset per obstacle) from free displacements `u`: the body carried with them
+    /// ([`Contact::carried_start`], free DOFs only), `None` where no collision-free carry is
+    /// found (or without contact).
+    pub fn carried_start(
+        &self,
+        u: &[f64],
+        target: &[nalgebra::Vector3<f64>],
+    ) -> Result<Option<Vec<f64>>> {
+        let Some(contact) = &self.contact else {
+            return Ok(None);
+        };
+        let full = self.full_displacement(u)?;
+        let mut free = vec![false; full.len()];
+        for &d in &self.free_dofs {
+            free[d] = true;
+        }
+        let carried = contact.carried_start(self.mesh.rest_nodes(), &full, target, &free)?;
+        Ok(carried.map(|start| self.free_dofs.iter().map(|&d| start[d]).collect()))
+    }
+
     /// The contact energy E_c(u) (energy units) of free displacements `u`, 0 without contact.
     pub fn contact_energy(&self, u: &[f64]) -> Result<f64> {
         match &self.contact {
@@ -627,6 +648,7 @@ trait ForceMesh: Send + Sync {
     ) -> Result<()>;
     fn as_any(&self) -> &dyn std::any::Any;
     fn coordinate_scale(&self) -> f64;
+    fn rest_nodes(&self) -> &[nalgebra::Vector3<f64>];
 }
 
 impl<E: ModelElement> ForceMesh for TetMesh<E> {
@@ -676,6 +698,10 @@ impl<E: ModelElement> ForceMesh for TetMesh<E> {
 
     fn coordinate_scale(&self) -> f64 {
         coordinate_scale(self.nodes())
+    }
+
+    fn rest_nodes(&self) -> &[nalgebra::Vector3<f64>] {
+        self.nodes()
     }
 }
 

@@ -495,8 +495,10 @@ impl NewtonSolver {
         solved
     }
 
-    /// [`solve`](Self::solve) with moving obstacles: from their placement at `time` they go to
-    /// that at `time + duration` in stages, at most [`MAX_MOTION_STAGES`] (more is
+    /// [`solve`](Self::solve) with moving obstacles: they go from their placement at `time` to
+    /// that at `time + duration` at once, Newton starting from the body carried with them
+    /// ([`NonlinearForce::carried_start`]: one solve per step). Where no carried start exists or
+    /// Newton does not converge from it, they go there in stages, at most [`MAX_MOTION_STAGES`] (more is
     /// [`Error::Diverged`]: the obstacles move too far per step). Each stage moves them by 0.8
     /// of the largest collision-free fraction of the remaining straight move for the current
     /// iterate ([`Contact::advance_stage`](crate::contact::Contact::advance_stage)) and
@@ -520,6 +522,20 @@ impl NewtonSolver {
         let target = contact.offsets_at(time + equation.duration);
         self.force
             .begin_step_toward(equation.start, 1.0 / equation.damping_scale, &target)?;
+        if let Some(start) = self.force.carried_start(equation.start, &target)? {
+            u_new.copy_from_slice(&start);
+            placed.set_offsets(target.clone())?;
+            match self
+                .iterate_from_carry(inertia, system, equation, matrix, solver, u_new, step, time)
+            {
+                Err(Error::Diverged { .. }) => {
+                    // The carried start did not converge: stage the move from the step's start.
+                    placed.set_time(time);
+                    u_new.copy_from_slice(equation.start);
+                }
+                solved => return solved,
+            }
+        }
         let (steps_before, mut iterations) = (self.stats.steps, 0);
         for _ in 0..MAX_MOTION_STAGES {
             let full = self.force.full_displacement(u_new)?;
@@ -558,6 +574,33 @@ impl NewtonSolver {
                 time + equation.duration
             ),
         })
+    }
+
+    /// The Newton iterations of a moving-obstacle step from the body carried with the obstacles
+    /// (`u_new`, the obstacles at their target: [`NonlinearForce::carried_start`]), converged
+    /// relative to the force the obstacles exert there (or the inertia scale).
+    #[allow(clippy::too_many_arguments)]
+    fn iterate_from_carry(
+        &mut self,
+        inertia: f64,
+        system: &LinearSystem,
+        equation: &StepEquation,
+        matrix: &mut CscMatrix,
+        solver: &mut LinearSolver,
+        u_new: &mut [f64],
+        step: usize,
+        time: f64,
+    ) -> Result<usize> {
+        let Some(contact) = self.force.contact() else {
+            return self.iterate(system, equation, matrix, solver, u_new, step, time);
+        };
+        let full = self.force.full_displacement(u_new)?;
+        let mut pushed = vec![0.0; full.len()];
+        contact.add_force(&full, &mut pushed)?;
+        self.reference_floor = norm(&pushed).max(inertia);
+        let solved = self.iterate(system, equation, matrix, solver, u_new, step, time);
+        self.reference_floor = 0.0;
+        solved
     }
 
     /// The Newton iterations of [`solve`](Self::solve), friction lagged already.
@@ -653,9 +696,9 @@ impl NewtonSolver {
             // decrease of Φ (up to its round-off) is accepted, so no iterate penetrates.
             let with_contact = self.force.contact().is_some();
             let first_alpha = match with_contact {
-                true => (crate::contact::STEP_FRACTION
-                    * self.force.contact_step_limit(u_new, &self.delta)?)
-                .min(1.0),
+                true => crate::contact::first_step_fraction(
+                    self.force.contact_step_limit(u_new, &self.delta)?,
+                ),
                 false => 1.0,
             };
             let (accepted, alpha) =
