@@ -39,6 +39,7 @@ pub mod overlap;
 pub mod parameters;
 pub mod set;
 pub mod staging;
+pub mod velocity;
 
 pub use friction::FrictionLag;
 pub use obstacle::{MAX_FRICTION, Obstacle, ObstacleMotion, Shape};
