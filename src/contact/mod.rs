@@ -46,6 +46,7 @@ pub mod overlap;
 pub mod parameters;
 pub mod set;
 pub mod staging;
+pub mod velocity;
 
 pub use friction::FrictionLag;
 pub use obstacle::{MAX_FRICTION, Obstacle, ObstacleMotion, Shape};

@@ -873,3 +873,12 @@ pub fn contact_faces<C: CellType>(mesh: &TetMesh<C>) -> Result<Vec<BoundaryFace>
     }
     Ok(out)
 }
+
+/// What the velocity-level contact of explicit steps reads per node ([`super::velocity`]).
+impl Contact {
+    /// The rest position (length) and the lumped area share Aᵢ (length²) of the `k`-th contact
+    /// node, in the order of [`nodes`](Self::nodes).
+    pub(crate) fn rest_and_area(&self, k: usize) -> (Vector3<f64>, f64) {
+        (self.rest[k], self.areas[k])
+    }
+}

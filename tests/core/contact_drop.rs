@@ -217,7 +217,7 @@ fn explicit_drop_below_the_critical_step_stays_above_the_ground() {
     let start = total_energy(&state);
     // The energy scale: the gravity work of the fall, m·g·DROP.
     let fall = rubber.density() * SIDE.powi(3) * 9.81 * DROP;
-    let (mut lowest_seen, mut drift) = (f64::INFINITY, 0.0f64);
+    let (mut lowest_seen, mut rise) = (f64::INFINITY, f64::NEG_INFINITY);
     // 0.25 s: the fall (0.064 s) and a few bounces.
     let steps = (0.25 / dt) as usize;
     for _ in 0..steps {
@@ -227,17 +227,20 @@ fn explicit_drop_below_the_critical_step_stays_above_the_ground() {
             .map(|n| mesh.nodes()[n].z + full[3 * n + 2])
             .fold(f64::INFINITY, f64::min);
         lowest_seen = lowest_seen.min(z);
-        drift = drift.max((total_energy(&state) - start).abs());
+        rise = rise.max(total_energy(&state) - start);
     }
+    let loss = start - total_energy(&state);
     println!(
-        "explicit: dt = {dt:.3e} s, {steps} steps, lowest node {lowest_seen:.3e} m, energy drift {:.3e} of the fall's {fall:.3e} J",
-        drift
+        "explicit: dt = {dt:.3e} s, {steps} steps, lowest node {lowest_seen:.3e} m, largest energy rise {rise:.3e} J, lost {loss:.3e} J of the fall's {fall:.3e} J"
     );
-    // The barrier keeps every gap open (a crossing would have been Error::Diverged).
+    // Explicit contact acts on the velocity (issue 35): every gap stays open (a crossing
+    // would have been Error::Diverged), whatever κ.
     assert!(lowest_seen > 0.0);
-    // Symplectic Euler conserves a modified energy: the drift is O(ω·dt) of the energy in
-    // play; 5 % of the fall's work bounds it at this step.
-    assert!(drift < 0.05 * fall, "{drift:e} vs {fall:e}");
+    // The contact is inelastic: energy never rises above the start by more than symplectic
+    // Euler's O(ω·dt) oscillation of the energy in play (5 % of the fall's work bounds it at
+    // this step), and the impacts lose some (measured: a third over the bounces of 0.25 s).
+    assert!(rise < 0.05 * fall, "{rise:e} vs {fall:e}");
+    assert!(loss > 0.0 && loss < fall, "{loss:e} vs {fall:e}");
 }
 
 #[test]

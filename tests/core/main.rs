@@ -26,6 +26,7 @@ mod critical_step_damping;
 mod dynamics;
 mod element;
 mod error_estimate;
+mod explicit_contact;
 mod gmsh_element_lines;
 mod gravity;
 mod large_deformation_robustness;

@@ -4,6 +4,7 @@ use std::sync::Arc;
 
 use rayon::prelude::*;
 
+use super::NonlinearForce;
 use super::newton::NewtonSolver;
 use super::{
     DivergenceGuard, Energy, Integrator, IntegratorHistory, InternalForce, LinearSystem, Mass,
@@ -11,6 +12,7 @@ use super::{
 };
 use crate::base::error::{Error, Result};
 use crate::block_sparse::SymmetricWorkspace;
+use crate::contact::velocity::ImpulseStep;
 
 /// Symplectic Euler, M·(v⁺ − v)/dt = f − K·u − C·v, then u⁺ = u + dt·v⁺: the velocity form of
 /// central differences. No linear solve (the mass is lumped), one product with K per step; stable
@@ -27,10 +29,14 @@ use crate::block_sparse::SymmetricWorkspace;
 /// no solve. The critical step is then the one of the tangent at rest (K_ff), which large
 /// stretches can lower: leave a margin.
 ///
-/// With frictional contact ([`NonlinearForce::apply_friction_impulses`](super::NonlinearForce::apply_friction_impulses)), friction acts on v⁺ before
-/// u⁺ is formed, node by node and implicitly: it shrinks each contact node's tangential
-/// velocity relative to the obstacle (by at most dt·μ·λ/m, smoothed below ε_v) and never
-/// reverses it, so it leaves the stable step as it is.
+/// With contact, the contact acts on v⁺ before u⁺ is formed, at the velocity level and node by
+/// node ([`Contact::apply_contact_impulses`](crate::contact::Contact::apply_contact_impulses), why in [`crate::contact::velocity`]): each contact
+/// node's velocity relative to each obstacle is limited so that u + dt·v⁺ keeps a positive gap
+/// (the barrier's reach d̂) to the obstacle's placement at t + dt — an inelastic impulse, its
+/// reaction the force reported on the obstacle — and friction shrinks the tangential relative
+/// velocity by at most μ times the normal impulse, never reversing it. Neither touches the
+/// stable step: the critical step of the body is the critical step of the run, and no node
+/// passes through an obstacle at any dt.
 #[derive(Debug)]
 pub struct SymplecticEuler {
     system: Arc<LinearSystem>,
@@ -130,25 +136,19 @@ impl SymplecticEuler {
         for i in 0..n {
             state.velocity[i] += dt * self.product[i] * self.inverse_mass[i];
         }
-        // Friction acts on the new velocity implicitly, node by node (lumped mass): it shrinks
-        // the tangential speed relative to the obstacle, never reverses it, so it needs no
-        // smaller step (an explicit friction force would be a damper of rate μ·λ/(m·ε_v)).
-        forces.force().apply_friction_impulses(
-            &state.displacement,
-            &mut state.velocity,
-            &self.inverse_mass,
-            state.time,
-            dt,
-        )?;
+        // Contact acts on the new velocity, node by node (lumped mass): no node ends the step
+        // inside an obstacle, and friction follows from the normal impulse. Neither needs a
+        // smaller step (a barrier or friction force would: its stiffness grows without bound).
+        contact_impulses(&self.system, &self.inverse_mass, forces.force(), state, dt)?;
         for i in 0..n {
             state.displacement[i] += dt * state.velocity[i];
         }
         state.time += dt;
         state.steps += 1;
         state.ensure_finite("; is dt above the critical step?")?;
-        // The barrier is as stiff as κ·Aᵢ·b″(d) ≈ κ·Aᵢ·d̂²/d² at a node of gap d: stable only
-        // while dt < 2·√(mᵢ/(κ·Aᵢ·b″(d))), so a step that lets a node cross an obstacle was
-        // too large for the contact — a divergence, never a penetrated state.
+        // The impulses hold every free node outside; one that crossed all the same (pushed by
+        // one obstacle into another, or with a support that moves it) is a divergence, never a
+        // penetrated state.
         let force = forces.force();
         if let Some(contact) = force.contact() {
             contact.set_time(state.time);
@@ -161,17 +161,61 @@ impl SymplecticEuler {
                 step: state.steps,
                 time: state.time,
                 reason: format!(
-                    "nodes crossed into obstacle {}: {inside}. The step dt = {dt:e} is above the \
-                     contact barrier's stable step: near an obstacle the barrier stiffens as \
-                     κ·A·d̂²/d² at a node of gap d, so a step stable for the body alone lets a \
-                     node jump through the barrier. Choose a smaller dt, a larger activation \
-                     distance, or the backward_euler method (stable at any step)",
+                    "nodes crossed into obstacle {}: {inside}. The explicit method's contact \
+                     limits each free node's velocity so that it ends the step outside every \
+                     obstacle; these were carried in by their supports or pushed by one \
+                     obstacle into another at dt = {dt:e}. Choose a smaller dt, or the \
+                     backward_euler method",
                     inside.obstacle
                 ),
             });
         }
         Ok(())
     }
+}
+
+/// Contact in an explicit step ([`Contact::apply_contact_impulses`](crate::contact::Contact::apply_contact_impulses), see
+/// [`crate::contact::velocity`]): limits the new free velocity `state.velocity` so that every
+/// contact node ends the step (at `state.displacement` + dt·v) outside every obstacle placed at
+/// t + dt, with friction from the normal impulse, and keeps the impulses' reaction on each
+/// obstacle ([`NonlinearForce::keep_impulse_forces`]). The constrained DOFs move at their
+/// prescribed velocity over the step. Does nothing without contact.
+fn contact_impulses(
+    system: &LinearSystem,
+    inverse_mass: &[f64],
+    force: &NonlinearForce,
+    state: &mut State,
+    dt: f64,
+) -> Result<()> {
+    let Some(contact) = force.contact() else {
+        return Ok(());
+    };
+    // The force's supports are at the step's start (set for its evaluation).
+    let start = force.full_displacement(&state.displacement)?;
+    let mut velocity = vec![0.0; start.len()];
+    if system.has_moving_supports() {
+        let end = system.prescribed_at(state.time + dt)?;
+        for (v, (e, s)) in velocity.iter_mut().zip(end.iter().zip(&start)) {
+            *v = (e - s) / dt;
+        }
+    }
+    let mut inverse = vec![0.0; start.len()];
+    let free = system.dofs().free_dofs();
+    for (k, &d) in free.iter().enumerate() {
+        velocity[d] = state.velocity[k];
+        inverse[d] = inverse_mass[k];
+    }
+    let step = ImpulseStep {
+        step: state.steps + 1,
+        time: state.time,
+        dt,
+    };
+    let forces = contact.apply_contact_impulses(&start, &mut velocity, &inverse, step)?;
+    force.keep_impulse_forces(forces);
+    for (v, &d) in state.velocity.iter_mut().zip(free) {
+        *v = velocity[d];
+    }
+    Ok(())
 }
 
 impl Integrator for SymplecticEuler {

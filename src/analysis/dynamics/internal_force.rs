@@ -279,9 +279,10 @@ impl NonlinearForce {
 
     /// The friction force the body exerted on each obstacle over the last step (force units,
     /// the obstacles' order): an implicit step's smoothed Coulomb force at its solution, an
-    /// explicit step's −Σ m·Δv/dt of its friction impulses. `None` before the first step and
-    /// without friction. Add it to [`Contact::obstacle_forces`] (the barrier's normal force)
-    /// for the whole force on each obstacle.
+    /// explicit step's −Σ m·Δv/dt of its contact impulses, normal and friction
+    /// ([`keep_impulse_forces`](Self::keep_impulse_forces)). `None` before the first step and,
+    /// in implicit steps, without friction. Add it to [`Contact::obstacle_forces`] (the
+    /// barrier's normal force) for the whole force on each obstacle.
     pub fn friction_forces(&self) -> Option<Vec<nalgebra::Vector3<f64>>> {
         self.last_friction_lock().clone()
     }
@@ -327,6 +328,14 @@ impl NonlinearForce {
             *v = full_velocity[d];
         }
         Ok(())
+    }
+
+    /// Keeps `forces` (force units, one per obstacle in order) as what
+    /// [`friction_forces`](Self::friction_forces) reports: an explicit step's contact impulses
+    /// ([`Contact::apply_contact_impulses`]), the force the body exerted on each obstacle over
+    /// the step besides the barrier's.
+    pub fn keep_impulse_forces(&self, forces: Vec<nalgebra::Vector3<f64>>) {
+        *self.last_friction_lock() = Some(forces);
     }
 
     /// The contact, if any.

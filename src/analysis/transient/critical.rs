@@ -2,6 +2,12 @@
 //! power iteration on the assembled system ([`critical_time_step`]: proven by an inertia check,
 //! or Gershgorin's looser bound where the check's factor would not fit), for a consistent mass
 //! the element bound ([`StepBoundElement::step_bound`], never above the system's step).
+//!
+//! Contact adds nothing to it: explicit steps enforce contact on the velocity
+//! ([`crate::contact::velocity`]), which has no stiffness, so the body's critical step is the
+//! run's and a step up to it lets no node through an obstacle. The barrier's stiffness
+//! κ·Aᵢ·b″(d) — unbounded as d → 0, so no critical step could include it — acts only on a node
+//! that starts inside its reach, and there a step it makes unstable is refused by name.
 
 use crate::analysis::dynamics::{LinearSystem, Mass, StepBoundElement, critical_time_step};
 use crate::base::error::Result;

@@ -182,8 +182,8 @@ fn summary_stem(summary: &DynamicSummary) -> String {
 #[test]
 fn explicit_drop_below_the_critical_step_stays_above_the_ground_with_bounded_energy() {
     let dir = folder("explicit_drop");
-    // A 1 mm fall at a hundredth of the critical step: the barrier's own stiffness
-    // κ·A·b″(d) bounds the explicit step as the gap closes (the library's measured rule).
+    // A 1 mm fall at a hundredth of the critical step (explicit contact holds at any step up
+    // to the critical one since issue 35; the scene kept from when the barrier bounded it).
     let h = 0.001;
     let summary = run(&drop_scene(&dir, "explicit", 2.5e-5, 0.06, h, 200)).unwrap();
     let (gap, _) = smallest_gap(&dir);
@@ -195,19 +195,24 @@ fn explicit_drop_below_the_critical_step_stays_above_the_ground_with_bounded_ene
         column(&header, "contact_ground_fz_N"),
     );
     assert!(rows.iter().any(|r| r[fz] < 0.0), "the block never touched");
-    let drift = rows
+    let energy = |r: &Vec<f64>| r[total] + r[barrier];
+    let rise = rows
         .iter()
-        .map(|r| (r[total] + r[barrier] - rows[0][total]).abs())
-        .fold(0.0, f64::max);
-    // Symplectic Euler keeps a shadow energy: the drift stays a small fraction of the
-    // fall's work W·h (its velocity lives half a step behind: O(dt) oscillation), 1 % of it.
+        .map(|r| energy(r) - energy(&rows[0]))
+        .fold(f64::NEG_INFINITY, f64::max);
+    let loss = energy(&rows[0]) - energy(&rows[rows.len() - 1]);
+    // Explicit contact is an inelastic impulse on the velocity (issue 35): the energy never
+    // rises above the start by more than symplectic Euler's shadow-energy oscillation (its
+    // velocity lives half a step behind: O(dt)), 1 % of the fall's work W·h, and the impact
+    // loses some of it (measured: 8 %), never all.
     assert!(
-        drift <= 0.01 * WEIGHT * h,
-        "energy drift {drift:e} J of W·h = {:e}",
+        rise <= 0.01 * WEIGHT * h,
+        "energy rise {rise:e} J of W·h = {:e}",
         WEIGHT * h
     );
+    assert!(loss > 0.0 && loss < WEIGHT * h, "lost {loss:e} J");
     println!(
-        "explicit: smallest gap {gap:.3e} m, energy drift {drift:.3e} J (W·h = {:.3e} J)",
+        "explicit: smallest gap {gap:.3e} m, energy rise {rise:.3e} J, lost {loss:.3e} J (W·h = {:.3e} J)",
         WEIGHT * h
     );
 }

@@ -183,11 +183,12 @@ friction = 0.5
     );
 }
 
-/// An explicit drop onto the ground with a step above the barrier's stable step: nodes end up
-/// inside the ground. The message blamed the start state ("the body must start strictly
-/// outside every obstacle"); it now names the nodes that crossed, the step and the remedies.
+/// An explicit drop onto the ground with a step above the barrier's stable step: nodes ended
+/// up inside the ground (first blamed on the start state, then Error::Diverged naming the
+/// step). Since issue 35 explicit contact acts on the velocity, so the drop runs at this step
+/// (below the body's critical step) with no node through the ground.
 #[test]
-fn the_explicit_contact_divergence_blames_the_step_not_the_start() {
+fn an_explicit_drop_at_a_step_the_barrier_could_not_hold_runs() {
     let text = r#"title = "drop"
 [mesh.box]
 min = [0.0, 0.0, 0.05]
@@ -211,15 +212,7 @@ point = [0.0, 0.0, 0.0]
 normal = [0.0, 0.0, 1.0]
 "#;
     let s = scene(text).unwrap();
-    match run_dynamic_scene(&s, &Default::default(), false, false, &mut go) {
-        Err(Error::Diverged { reason, .. }) => {
-            assert!(
-                reason.contains("nodes crossed into obstacle ground")
-                    && reason.contains("dt = 4e-4 is above the contact barrier's stable step")
-                    && !reason.contains("must start"),
-                "{reason}"
-            );
-        }
-        other => panic!("{other:?}"),
+    if let Err(e) = run_dynamic_scene(&s, &Default::default(), false, false, &mut go) {
+        panic!("{e}");
     }
 }
