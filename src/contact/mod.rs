@@ -33,8 +33,10 @@
 //! staged) the same way within each load step.
 //!
 //! Friction acts in every analysis: as a lagged potential over a time step in the implicit steps
-//! and over a load step in the static solve ([`friction`], [`Contact::friction_lag_from`]), and as
-//! a per-node implicit velocity update in explicit steps ([`Contact::apply_friction_impulses`]).
+//! and over a load step in the static solve ([`friction`], [`Contact::friction_lag_from`]), and in
+//! explicit steps from the normal impulse of the velocity-level contact ([`velocity`],
+//! [`Contact::apply_contact_impulses`]): there no node comes nearer an obstacle than the gap it
+//! started the step with or d̂, so explicit contact needs no barrier stiffness in its stable step.
 //!
 //! Not here yet: rotating obstacles.
 
