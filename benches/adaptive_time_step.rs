@@ -95,7 +95,10 @@ fn fixed(
     let mut observing = 0.0;
     run.run((0, steps), &mut |view: &StepView<'_>| -> Result<Flow> {
         let watch = Instant::now();
-        let k = (view.step % per_interval == 0).then_some(view.step / per_interval);
+        let k = view
+            .step
+            .is_multiple_of(per_interval)
+            .then_some(view.step / per_interval);
         samples.keep(k, view.state);
         observing += watch.elapsed().as_secs_f64();
         Ok(Flow::Continue)
@@ -138,7 +141,10 @@ fn main() -> Result<()> {
         run.integrator().name(),
         INTERVAL / per_interval as f64
     );
-    println!("{:<28} {:>9} {:>12} {:>12} {:>10}", "run", "steps", "true error", "estimate", "wall (s)");
+    println!(
+        "{:<28} {:>9} {:>12} {:>12} {:>10}",
+        "run", "steps", "true error", "estimate", "wall (s)"
+    );
     println!(
         "{:<28} {:>9} {:>12.3e} {:>12.3e} {:>10.4}",
         format!("adaptive ({} rejected)", report.rejected),

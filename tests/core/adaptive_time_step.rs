@@ -128,7 +128,7 @@ fn reference(
     // Sampled by step count: over millions of steps the running sum t += dt drifts from k·interval.
     run.run((0, steps), &mut |view: &StepView<'_>| -> Result<Flow> {
         let mut state = view.state.clone();
-        if view.step % per_interval as usize == 0 {
+        if view.step.is_multiple_of(per_interval as usize) {
             state.time = (view.step / per_interval as usize) as f64 * interval;
         }
         samples.keep(&state, interval);

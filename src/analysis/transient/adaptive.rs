@@ -9,9 +9,13 @@
 //! accelerations at the step's two ends (a = the method's own acceleration):
 //!
 //! - Newmark (β = ¼, γ = ½, the trapezoidal rule on u̇ = v, v̇ = a) — Zienkiewicz & Xie (1991):
-//!   e_u ≈ (β − 1/6)·dt²·(a⁺ − a) = dt²/12·(a⁺ − a), and on the velocity the trapezoidal
-//!   rule's e_v ≈ dt³/12·ä with ä from the last three accelerations (a divided difference
-//!   on the uneven steps; none on the first step).
+//!   e_u ≈ (β − 1/6)·dt²·(a⁺ − a) = dt³/12·ȧ, and on the velocity the trapezoidal rule's
+//!   e_v ≈ dt³/12·ä. ȧ and ä are taken as central differences over two steps
+//!   (ȧ ≈ (a⁺ − a₋)/(t⁺ − t₋), ä the change of two such over a step) rather than a⁺ − a: the
+//!   method keeps the modes it does not resolve (ω·dt ≫ 1) that a sudden load excites,
+//!   alternating in sign from step to step with accelerations of the loads' order but
+//!   displacements ω²·dt² times smaller, and the central differences cancel them. On the first
+//!   step ȧ ≈ (a⁺ − a)/dt; ä from the third step on.
 //! - Backward Euler (v⁺ = v + dt·a⁺, u⁺ = u + dt·v⁺): the difference from the trapezoidal rule
 //!   from the same start, which is its leading local error dt²/2·ÿ:
 //!   e_u ≈ dt/2·(v⁺ − v), e_v ≈ dt/2·(a⁺ − a), a = (v − v₋)/dt₋ the previous step's.
@@ -32,7 +36,7 @@
 //! error is O(dt^(p+1)), the error per unit step O(dt^p)), clamped: a rejected step retries
 //! from the saved state (state and [`Integrator::history`](crate::analysis::dynamics::Integrator::history)
 //! restored: no trace of it remains) at q·dt within [0.1, 0.8]·dt; after an accepted step dt
-//! grows only when q ≥ 1.5 (at most doubling) and shrinks to at most 0.8·dt when q < 1. Each
+//! grows only when q ≥ 1.5 (at most doubling; not right after a rejection) and shrinks to at most 0.8·dt when q < 1. Each
 //! change of dt refactors the implicit step matrix, so dt is kept while it is good enough.
 //!
 //! From rest, the first steps' u⁺ and local error are both O(dt²): relative to the motion so
@@ -415,6 +419,7 @@ impl Transient {
             steps: Vec::new(),
         };
         let mut wall = 0.0;
+        let mut just_rejected = false;
         while report.accepted + report.rejected < MAX_STEPS {
             let time = self.state.time;
             let target = landings.target();
@@ -460,6 +465,7 @@ impl Transient {
                     self.state = saved.0;
                     self.integrator.restore(&self.state, &saved.1)?;
                     report.rejected += 1;
+                    just_rejected = true;
                     if dt <= min_dt * (1.0 + 1e-9) {
                         return Err(below_min_dt(control, min_dt, time));
                     }
@@ -476,7 +482,13 @@ impl Transient {
             estimator.accept(trial, self.state.time);
             let previous = report.steps.last().map(|(_, dt)| *dt);
             report.note_step(self.state.time, dt, previous);
-            let next = next_step(want, dt, q).clamp(min_dt, max_dt);
+            // No growth right after a rejection: the step that was too long is not tried again
+            // at once (it would likely be rejected, at two refactorizations).
+            let next = match std::mem::take(&mut just_rejected) {
+                true => next_step(want, dt, q).min(want),
+                false => next_step(want, dt, q),
+            }
+            .clamp(min_dt, max_dt);
             if next != want {
                 want = next;
                 planned = None;
