@@ -379,7 +379,8 @@ impl Landings {
 
 impl Transient {
     /// Runs from the current state to `end_time` (time units) with the step chosen by
-    /// `control` (see the [module doc](self) of `adaptive` for the estimate and the rule),
+    /// `control` (see the [module doc](crate::analysis::transient::adaptive) for the estimate
+    /// and the rule),
     /// starting from the integrator's current dt. `observer` sees every accepted step (never a
     /// rejected one); its [`StepView::last`] is an estimate (the steps taken plus the time left
     /// over the current dt) until the last step, where it equals `step`. The run lands exactly

@@ -5,7 +5,7 @@
 //! ([`critical_step`]) are defined here once for every front end; an error-controlled run
 //! ([`Transient::run_adaptive`], [`AdaptiveStep`]) chooses its own steps.
 
-mod adaptive;
+pub mod adaptive;
 mod critical;
 mod observer;
 mod run;
