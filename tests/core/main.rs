@@ -3,6 +3,7 @@
 //!
 //! Run one subject with `cargo test --release --test core -- MODULE::` (e.g. `statics::`).
 
+mod adaptive_time_step;
 mod amg;
 mod analysis_static_modal;
 mod analysis_transient;

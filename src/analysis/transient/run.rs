@@ -86,12 +86,14 @@ pub enum RunEnd {
 /// # Ok(()) }
 /// ```
 pub struct Transient {
-    system: Arc<LinearSystem>,
-    force: InternalForce,
-    integrator: Box<dyn Integrator>,
-    state: State,
+    pub(super) system: Arc<LinearSystem>,
+    pub(super) force: InternalForce,
+    pub(super) integrator: Box<dyn Integrator>,
+    pub(super) state: State,
     limit: Option<StepLimit>,
     warnings: Vec<Warning>,
+    /// The method the integrator implements (an adaptive run needs an implicit one).
+    pub(super) method: Method,
 }
 
 impl std::fmt::Debug for Transient {
@@ -156,6 +158,7 @@ impl Transient {
             state: initial,
             limit: None,
             warnings: Vec::new(),
+            method,
         })
     }
 

@@ -1,0 +1,633 @@
+//! Error-controlled time stepping: [`Transient::run_adaptive`] chooses each step's dt from an
+//! estimate of the local truncation error of the implicit methods, so that a run asks for an
+//! accuracy ([`AdaptiveStep::tolerance`]) instead of a step, and reports its own estimate of
+//! the error of its trajectory ([`AdaptiveReport::estimated_error`]).
+//!
+//! # The estimate (a posteriori, from values every step has anyway)
+//!
+//! The state is y = (u, v). A step's local error is estimated in both parts, from the
+//! accelerations at the step's two ends (a = the method's own acceleration):
+//!
+//! - Newmark (β = ¼, γ = ½, the trapezoidal rule on u̇ = v, v̇ = a) — Zienkiewicz & Xie (1991):
+//!   e_u ≈ (β − 1/6)·dt²·(a⁺ − a) = dt³/12·ȧ, and on the velocity the trapezoidal rule's
+//!   e_v ≈ dt³/12·ä. ȧ and ä are taken as central differences over two steps
+//!   (ȧ ≈ (a⁺ − a₋)/(t⁺ − t₋), ä the change of two such over a step) rather than a⁺ − a: the
+//!   method keeps the modes it does not resolve (ω·dt ≫ 1) that a sudden load excites,
+//!   alternating in sign from step to step with accelerations of the loads' order but
+//!   displacements ω²·dt² times smaller, and the central differences cancel them. On the first
+//!   step ȧ ≈ (a⁺ − a)/dt; ä from the third step on.
+//! - Backward Euler (v⁺ = v + dt·a⁺, u⁺ = u + dt·v⁺): the difference from the trapezoidal rule
+//!   from the same start, which is its leading local error dt²/2·ÿ:
+//!   e_u ≈ dt/2·(v⁺ − v), e_v ≈ dt/2·(a⁺ − a), a = (v − v₋)/dt₋ the previous step's.
+//!
+//! Both cost a few vector operations per step, against the 3× of step doubling (a step and two
+//! half steps) — and with a factored linear system step doubling would also refactor for the
+//! half step. Step doubling was therefore not chosen.
+//!
+//! # The norm and the control
+//!
+//! The relative local error of a step is ρ = √((‖e_u‖/S_u)² + (‖e_v‖/S_v)²) (Euclidean norms on
+//! the free DOFs), S_u and S_v the largest ‖u‖ and ‖v‖ of the run so far: for an oscillation
+//! the two parts are the sine and cosine parts of one phase (Newmark) or amplitude (backward
+//! Euler) error, so ρ is that error whatever the phase. The control is error per unit step: a
+//! step of dt is accepted when ρ ≤ tol·dt/T (T the run's duration), so that the accepted
+//! steps' errors add up to at most tol over the run. Then dt is scaled by
+//! q = 0.9·(tol·dt/(T·ρ))^(1/p), p the method's order (1: backward Euler, 2: Newmark; the local
+//! error is O(dt^(p+1)), the error per unit step O(dt^p)), clamped: a rejected step retries
+//! from the saved state (state and [`Integrator::history`](crate::analysis::dynamics::Integrator::history)
+//! restored: no trace of it remains) at q·dt within [0.1, 0.8]·dt; after an accepted step dt
+//! grows only when q ≥ 1.5 (at most doubling; not right after a rejection) and shrinks to at most 0.8·dt when q < 1. Each
+//! change of dt refactors the implicit step matrix, so dt is kept while it is good enough.
+//!
+//! From rest, the first steps' u⁺ and local error are both O(dt²): relative to the motion so
+//! far they are O(1) whatever dt. The control's S_u is therefore at least an a priori amplitude
+//! (the linear static displacement under the loads, or the supports' motion; see
+//! `amplitude_floor`); the reported estimate uses the run's own final S_u.
+//!
+//! Backward Euler's first step has no earlier acceleration for e_v: it is judged by e_u alone.
+//!
+//! A Newton iteration that does not converge (a nonlinear model, contact) rejects the step
+//! too, at half the step.
+//!
+//! # The reported error
+//!
+//! [`AdaptiveReport::estimated_error`] = Σ over accepted steps of √((‖e_u‖/S_u)² +
+//! (‖e_v‖/S_v)²) with the run's final S_u, S_v: the local errors accumulated (propagation
+//! neither damped nor amplified, as for the undamped oscillations these methods keep), relative
+//! to the trajectory's amplitude. It estimates max over time of
+//! √((‖u − u_exact‖/S_u)² + (‖v − v_exact‖/S_v)²).
+//!
+//! # Times
+//!
+//! The run ends exactly at its end time, and lands exactly on every multiple of
+//! [`AdaptiveStep::output_interval`] from its start (outputs are written there, not
+//! interpolated): the time to the next landing is divided into n equal steps,
+//! n = ⌈remaining/dt⌉, so that dt stays the same across an interval (no refactorization) and
+//! the last step's end is set to the landing time (a round-off correction).
+
+use std::time::Instant;
+
+use super::observer::{Flow, Observer, StepView};
+use super::run::{RunEnd, Transient};
+use super::time_step::MAX_STEPS;
+use crate::analysis::dynamics::{Method, State};
+use crate::base::error::{Error, Result, short_number};
+
+/// The safety factor on the step the error model predicts.
+const SAFETY: f64 = 0.9;
+/// An accepted step grows dt only when the model allows this factor: a refactorization is not
+/// worth a smaller gain.
+const GROW_AT: f64 = 1.5;
+/// The largest growth of dt after one step.
+const MAX_GROWTH: f64 = 2.0;
+/// The largest step after a shrink, relative to the step before (so that a step just within the
+/// tolerance does not come back just outside it).
+const SHRINK_TO: f64 = 0.8;
+/// The smallest step after a rejection, relative to the rejected one.
+const MIN_SHRINK: f64 = 0.1;
+
+/// Error-controlled time stepping ([`Transient::run_adaptive`]; see the module doc for the
+/// estimate and the control).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct AdaptiveStep {
+    /// The relative error of the trajectory asked for (dimensionless, 0 < tol < 1): the
+    /// accepted steps' local errors, relative to the run's amplitude, add up to at most this.
+    pub tolerance: f64,
+    /// The smallest step (time units); a step that would need a smaller one to meet the
+    /// tolerance is an error. 0: the duration / [`MAX_STEPS`].
+    pub min_dt: f64,
+    /// The largest step (time units); infinite for none.
+    pub max_dt: f64,
+    /// Land on every multiple of this from the run's start (time units; the scene's output
+    /// interval), or only on the end time (`None`).
+    pub output_interval: Option<f64>,
+}
+
+impl AdaptiveStep {
+    /// `tolerance` with no step bounds and no output interval. Errors: a tolerance not in (0, 1).
+    pub fn new(tolerance: f64) -> Result<Self> {
+        if !(tolerance > 0.0 && tolerance < 1.0) {
+            return Err(Error::invalid_parameter(
+                "time_tolerance",
+                short_number(tolerance),
+                "must be a relative error between 0 and 1 (e.g. 1e-3)",
+            ));
+        }
+        Ok(AdaptiveStep {
+            tolerance,
+            min_dt: 0.0,
+            max_dt: f64::INFINITY,
+            output_interval: None,
+        })
+    }
+
+    /// Whether `method` can adapt its step: the implicit ones. The explicit method's step is
+    /// bounded by stability, not accuracy (its error at a stable step is already small), and it
+    /// has no error estimate here. This is the one place that says so.
+    pub fn check_method(method: Method) -> Result<()> {
+        match method {
+            Method::BackwardEuler | Method::Newmark => Ok(()),
+            Method::Explicit => Err(Error::invalid_parameter(
+                "time_tolerance",
+                "with method = explicit",
+                "error-controlled time stepping needs an implicit method (backward_euler or \
+                 newmark); the explicit method's step is set by stability (dt = \"0.9crit\")",
+            )),
+        }
+    }
+
+    /// The step bounds for a run of `duration`, checked.
+    fn bounds(&self, duration: f64) -> Result<(f64, f64)> {
+        if !(duration.is_finite() && duration > 0.0) {
+            return Err(Error::invalid_parameter(
+                "duration",
+                short_number(duration),
+                "an adaptive run needs an end time after its start",
+            ));
+        }
+        let min_dt = match self.min_dt {
+            0.0 => duration / MAX_STEPS as f64,
+            m => m,
+        };
+        let max_dt = self.max_dt.min(duration);
+        if !(min_dt.is_finite() && min_dt > 0.0 && min_dt <= max_dt) {
+            return Err(Error::invalid_parameter(
+                "min_dt",
+                short_number(self.min_dt),
+                format!(
+                    "must be finite, > 0 and at most max_dt = {}",
+                    short_number(max_dt)
+                ),
+            ));
+        }
+        if let Some(i) = self
+            .output_interval
+            .filter(|i| !(i.is_finite() && *i > 0.0))
+        {
+            return Err(Error::invalid_parameter(
+                "output_interval",
+                short_number(i),
+                "must be finite and > 0",
+            ));
+        }
+        Ok((min_dt, max_dt))
+    }
+}
+
+/// What an adaptive run did.
+#[derive(Debug, Clone, PartialEq)]
+pub struct AdaptiveReport {
+    /// Whether it ran to its end time or an observer stopped it.
+    pub end: RunEnd,
+    /// Steps taken (kept).
+    pub accepted: usize,
+    /// Steps rejected and retried with a smaller dt (error above the tolerance, or Newton not
+    /// converged).
+    pub rejected: usize,
+    /// The run's estimate of the relative error of its trajectory (see the module doc):
+    /// Σ √((‖e_u‖/S_u)² + (‖e_v‖/S_v)²) over the accepted steps.
+    pub estimated_error: f64,
+    /// The smallest and the largest accepted step (time units).
+    pub dt_range: (f64, f64),
+    /// How many times dt changed between accepted steps (each refactors the step matrix).
+    pub dt_changes: usize,
+    /// The accepted steps' (end time, dt), in order: how dt followed the motion.
+    pub steps: Vec<(f64, f64)>,
+}
+
+/// The accelerations an estimate needs and the scales it is relative to.
+struct Estimator {
+    method: Method,
+    /// The accelerations at the last (up to three) accepted steps' ends, with their times,
+    /// oldest first (Newmark: the method's; backward Euler: each step's (v⁺ − v)/dt).
+    accelerations: std::collections::VecDeque<(f64, Vec<f64>)>,
+    /// Largest ‖u‖ and ‖v‖ so far.
+    scale: (f64, f64),
+    /// The a priori amplitudes the control's S_u and S_v are at least (see
+    /// `Transient::amplitude_floor`); 0 when the run does not start at rest.
+    floor: (f64, f64),
+    /// Accepted steps' (‖e_u‖, ‖e_v‖).
+    local: Vec<(f64, f64)>,
+}
+
+/// One step's estimate, kept if the step is.
+struct Trial {
+    error: (f64, f64),
+    acceleration: Vec<f64>,
+    scale: (f64, f64),
+}
+
+fn norm(x: impl Iterator<Item = f64>) -> f64 {
+    x.map(|x| x * x).sum::<f64>().sqrt()
+}
+
+/// a/b, 0 when b is 0 (no motion yet: no error either).
+fn ratio(a: f64, b: f64) -> f64 {
+    if b > 0.0 { a / b } else { 0.0 }
+}
+
+impl Estimator {
+    fn new(method: Method, start: &State) -> Self {
+        let scale = (
+            norm(start.displacement.iter().copied()),
+            norm(start.velocity.iter().copied()),
+        );
+        Estimator {
+            method,
+            accelerations: std::collections::VecDeque::new(),
+            scale,
+            floor: (0.0, 0.0),
+            local: Vec::new(),
+        }
+    }
+
+    /// The local error of the step `before` → `after` of `dt`; `method_acceleration` is
+    /// Newmark's a⁺ (from its history).
+    fn trial(
+        &self,
+        before: &State,
+        after: &State,
+        dt: f64,
+        method_acceleration: Option<Vec<f64>>,
+    ) -> Trial {
+        let (v, v_new) = (&before.velocity, &after.velocity);
+        let scale = (
+            self.scale.0.max(norm(after.displacement.iter().copied())),
+            self.scale.1.max(norm(v_new.iter().copied())),
+        );
+        let last = self.accelerations.back().map(|(_, a)| a.as_slice());
+        let (error, acceleration) = match (self.method, method_acceleration) {
+            (Method::Newmark, Some(a_new)) => {
+                // a from v⁺ = v + dt/2·(a + a⁺) when this is the first step.
+                let first: Vec<f64>;
+                let a = match last {
+                    Some(a) => a,
+                    None => {
+                        first = (0..v.len())
+                            .map(|i| 2.0 * (v_new[i] - v[i]) / dt - a_new[i])
+                            .collect();
+                        &first
+                    }
+                };
+                (self.newmark_error(dt, after.time, a, &a_new), a_new)
+            }
+            _ => {
+                let a_new: Vec<f64> = v_new.iter().zip(v).map(|(p, v)| (p - v) / dt).collect();
+                let e_u = 0.5 * dt * norm(v_new.iter().zip(v).map(|(p, v)| p - v));
+                let e_v = match last {
+                    Some(a) => 0.5 * dt * norm(a_new.iter().zip(a).map(|(p, a)| p - a)),
+                    None => 0.0,
+                };
+                ((e_u, e_v), a_new)
+            }
+        };
+        Trial {
+            error,
+            acceleration,
+            scale,
+        }
+    }
+
+    /// Newmark's (‖e_u‖, ‖e_v‖) = dt³/12·(‖ȧ‖, ‖ä‖) for the step ending at `time` with a⁺ =
+    /// `a_new` from a = `a`. ȧ and ä are central differences over two steps (a⁺ − a₋ over
+    /// t⁺ − t₋, and the change of two such over a step): the trapezoidal rule keeps the modes
+    /// it does not resolve (ω·dt ≫ 1) alternating in sign from step to step, with accelerations
+    /// of the loads' order but displacements ω²·dt² times smaller, and these differences cancel
+    /// them where a⁺ − a would count them in full. On the first step (no a₋) ȧ ≈ (a⁺ − a)/dt
+    /// and ä is not estimated, nor on the second.
+    fn newmark_error(&self, dt: f64, time: f64, a: &[f64], a_new: &[f64]) -> (f64, f64) {
+        let n = self.accelerations.len();
+        let at = |k: usize| &self.accelerations[k];
+        let rate = |(t1, a1): (f64, &[f64]), (t0, a0): (f64, &[f64])| -> Vec<f64> {
+            a1.iter()
+                .zip(a0)
+                .map(|(x, y)| (x - y) / (t1 - t0))
+                .collect()
+        };
+        let jerk = match n {
+            0 | 1 => rate((time, a_new), (time - dt, a)),
+            _ => rate((time, a_new), (at(n - 2).0, &at(n - 2).1)),
+        };
+        let e_v = match n {
+            0..=2 => 0.0,
+            _ => {
+                let before = rate((at(n - 1).0, &at(n - 1).1), (at(n - 3).0, &at(n - 3).1));
+                let h = at(n - 1).0 - at(n - 2).0;
+                norm(jerk.iter().zip(&before).map(|(j, b)| (j - b) / h))
+            }
+        };
+        let cube = dt.powi(3) / 12.0;
+        (cube * norm(jerk.into_iter()), cube * e_v)
+    }
+
+    /// The relative local error the control judges: ρ with S_u at least the a priori floor.
+    fn controlled(&self, trial: &Trial) -> f64 {
+        let u = ratio(trial.error.0, trial.scale.0.max(self.floor.0));
+        u.hypot(ratio(trial.error.1, trial.scale.1.max(self.floor.1)))
+    }
+
+    /// The method's order p: the error per unit step is O(dt^p).
+    fn order(&self) -> f64 {
+        match self.method {
+            Method::Newmark => 2.0,
+            _ => 1.0,
+        }
+    }
+
+    fn accept(&mut self, trial: Trial, time: f64) {
+        if self.accelerations.len() == 3 {
+            self.accelerations.pop_front();
+        }
+        self.accelerations.push_back((time, trial.acceleration));
+        self.scale = trial.scale;
+        self.local.push(trial.error);
+    }
+
+    /// Σ of the accepted steps' errors relative to the final scales.
+    fn global(&self) -> f64 {
+        let (su, sv) = self.scale;
+        (self.local.iter())
+            .map(|(eu, ev)| ratio(*eu, su).hypot(ratio(*ev, sv)))
+            .sum()
+    }
+}
+
+/// Where the run must land: the multiples of the output interval, then the end.
+struct Landings {
+    start: f64,
+    end: f64,
+    interval: Option<f64>,
+    /// Landings passed.
+    passed: usize,
+}
+
+impl Landings {
+    /// The next landing time.
+    fn target(&self) -> f64 {
+        match self.interval {
+            Some(i) => (self.start + (self.passed + 1) as f64 * i).min(self.end),
+            None => self.end,
+        }
+    }
+
+    /// A step of at most `want` that divides the time from `time` to the next landing evenly.
+    fn plan(&self, time: f64, want: f64) -> f64 {
+        let remaining = self.target() - time;
+        remaining / (remaining / want - 1e-9).ceil().max(1.0)
+    }
+}
+
+impl Transient {
+    /// Runs from the current state to `end_time` (time units) with the step chosen by
+    /// `control` (see the [module doc](crate::analysis::transient::adaptive) for the estimate
+    /// and the rule),
+    /// starting from the integrator's current dt. `observer` sees every accepted step (never a
+    /// rejected one); its [`StepView::last`] is an estimate (the steps taken plus the time left
+    /// over the current dt) until the last step, where it equals `step`. The run lands exactly
+    /// on `end_time` and on each multiple of the output interval.
+    ///
+    /// Errors: the explicit method ([`AdaptiveStep::check_method`]), an end time not after the
+    /// state's, bounds out of order, a step that would need less than `min_dt` (naming the
+    /// tolerance and the time), more than [`MAX_STEPS`] attempts; a step's own error other than
+    /// a Newton iteration not converging (after [`Observer::step_failed`]); the observer's.
+    pub fn run_adaptive(
+        &mut self,
+        end_time: f64,
+        control: &AdaptiveStep,
+        observer: &mut dyn Observer,
+    ) -> Result<AdaptiveReport> {
+        AdaptiveStep::check_method(self.method)?;
+        let start = self.state.time;
+        let duration = end_time - start;
+        let (min_dt, max_dt) = control.bounds(duration)?;
+        let mut estimator = Estimator::new(self.method, &self.state);
+        estimator.floor = self.amplitude_floor(duration)?;
+        let mut landings = Landings {
+            start,
+            end: end_time,
+            interval: control.output_interval,
+            passed: 0,
+        };
+        let mut want = self.integrator.time_step().clamp(min_dt, max_dt);
+        let mut planned: Option<f64> = None;
+        let mut report = AdaptiveReport {
+            end: RunEnd::Finished,
+            accepted: 0,
+            rejected: 0,
+            estimated_error: 0.0,
+            dt_range: (f64::INFINITY, 0.0),
+            dt_changes: 0,
+            steps: Vec::new(),
+        };
+        let mut wall = 0.0;
+        let mut just_rejected = false;
+        while report.accepted + report.rejected < MAX_STEPS {
+            let time = self.state.time;
+            let target = landings.target();
+            let dt = match planned {
+                Some(dt) if target - time >= dt * (1.0 - 1e-6) => dt,
+                // The same step as before up to round-off keeps its bits: no refactorization.
+                _ => match (landings.plan(time, want), report.steps.last()) {
+                    (dt, Some((_, before))) if (dt - before).abs() <= 1e-9 * before => *before,
+                    (dt, _) => dt,
+                },
+            };
+            planned = Some(dt);
+            let lands = target - time <= dt * (1.0 + 1e-6);
+            self.integrator.set_time_step(dt)?;
+            let saved = (self.state.clone(), self.integrator.history()?);
+            let clock = Instant::now();
+            let outcome = self.integrator.step(&mut self.state);
+            wall += clock.elapsed().as_secs_f64();
+            let ideal = match outcome {
+                Ok(()) => {
+                    let a = match self.method {
+                        Method::Newmark => self.integrator.history()?.acceleration,
+                        _ => None,
+                    };
+                    let trial = estimator.trial(&saved.0, &self.state, dt, a);
+                    let rate = estimator.controlled(&trial) * duration / (control.tolerance * dt);
+                    let q = SAFETY * rate.powf(-1.0 / estimator.order());
+                    if rate <= 1.0 {
+                        Ok((trial, q))
+                    } else {
+                        Err(q.clamp(MIN_SHRINK, SHRINK_TO))
+                    }
+                }
+                Err(Error::NotConverged { .. }) => Err(0.5),
+                Err(error) => {
+                    observer.step_failed(&error)?;
+                    return Err(error);
+                }
+            };
+            let (trial, q) = match ideal {
+                Ok(accepted) => accepted,
+                Err(shrink) => {
+                    self.state = saved.0;
+                    self.integrator.restore(&self.state, &saved.1)?;
+                    report.rejected += 1;
+                    just_rejected = true;
+                    if dt <= min_dt * (1.0 + 1e-9) {
+                        return Err(below_min_dt(control, min_dt, time));
+                    }
+                    want = (dt * shrink).max(min_dt);
+                    planned = None;
+                    continue;
+                }
+            };
+            if lands {
+                self.land(target)?;
+                landings.passed += 1;
+                planned = None;
+            }
+            estimator.accept(trial, self.state.time);
+            let previous = report.steps.last().map(|(_, dt)| *dt);
+            report.note_step(self.state.time, dt, previous);
+            // No growth right after a rejection: the step that was too long is not tried again
+            // at once (it would likely be rejected, at two refactorizations).
+            let next = match std::mem::take(&mut just_rejected) {
+                true => next_step(want, dt, q).min(want),
+                false => next_step(want, dt, q),
+            }
+            .clamp(min_dt, max_dt);
+            if next != want {
+                want = next;
+                planned = None;
+            }
+            let done = lands && self.state.time >= end_time;
+            let left = ((end_time - self.state.time) / want).ceil().max(0.0) as usize;
+            let view = StepView {
+                step: self.state.steps,
+                last: self.state.steps + if done { 0 } else { left.max(1) },
+                state: &self.state,
+                wall: std::mem::take(&mut wall),
+                integrator: self.integrator.as_ref(),
+                system: &self.system,
+                force: &self.force,
+            };
+            if observer.observe(&view)? == Flow::Stop && !done {
+                report.end = RunEnd::Stopped {
+                    step: self.state.steps,
+                };
+                break;
+            }
+            if done {
+                break;
+            }
+        }
+        if report.end == RunEnd::Finished && self.state.time < end_time {
+            return Err(Error::invalid_parameter(
+                "time_tolerance",
+                short_number(control.tolerance),
+                format!("took more than {MAX_STEPS} step attempts (MAX_STEPS) before the end time"),
+            ));
+        }
+        report.estimated_error = estimator.global();
+        Ok(report)
+    }
+
+    /// Sets the time of the state just stepped to the landing time `target` (a round-off
+    /// correction) and tells the integrator, whose history is keyed to the state's time.
+    fn land(&mut self, target: f64) -> Result<()> {
+        if self.state.time != target {
+            let history = self.integrator.history()?;
+            self.state.time = target;
+            self.integrator.restore(&self.state, &history)?;
+        }
+        Ok(())
+    }
+}
+
+impl Transient {
+    /// The a priori amplitudes (‖u‖, ‖v‖) of a run that starts at rest ((0, 0) otherwise).
+    /// Displacement: the linear static displacement under the loads, u_s = K_ff⁻¹·f, or the
+    /// largest ‖u_c(t)‖ of the supports' motion at 33 times of the run if larger; velocity:
+    /// ω·‖u_s‖ with ω² = fᵀu_s/(u_sᵀ·M·u_s), Rayleigh's quotient of the static shape (close to
+    /// the first natural frequency), or the supports' largest mean speed between those times
+    /// if larger. For a body held only by obstacles (K_ff singular), the distance ‖M⁻¹·f‖·T²/8
+    /// and the speed ‖M⁻¹·f‖·T/2 the loads' acceleration gives in half the run. From rest the
+    /// first step's motion and its local error are of the same order in dt (the loads excite
+    /// every mode at once), so scales that are only the motion so far would judge them O(1)
+    /// whatever dt.
+    fn amplitude_floor(&self, duration: f64) -> Result<(f64, f64)> {
+        let at_rest = (self.state.displacement.iter())
+            .chain(&self.state.velocity)
+            .all(|x| *x == 0.0);
+        if !at_rest {
+            return Ok((0.0, 0.0));
+        }
+        let mass = self.system.mass();
+        let mut floor = match self.system.static_displacement() {
+            Ok(u) => {
+                let mut mu = vec![0.0; u.len()];
+                mass.mul_vec(&u, &mut mu)?;
+                let work: f64 = self
+                    .system
+                    .external_load()
+                    .iter()
+                    .zip(&u)
+                    .map(|(f, u)| f * u)
+                    .sum();
+                let inertia: f64 = u.iter().zip(&mu).map(|(u, m)| u * m).sum();
+                let size = norm(u.into_iter());
+                (size, size * ratio(work, inertia).max(0.0).sqrt())
+            }
+            Err(_) => {
+                let mut a = self.system.external_load().to_vec();
+                crate::analysis::dynamics::newton::solve_mass(mass, &mut a)?;
+                let a = norm(a.into_iter());
+                (a * duration * duration / 8.0, a * duration / 2.0)
+            }
+        };
+        if self.system.has_moving_supports() {
+            let h = duration / 32.0;
+            let mut before = self.system.prescribed_at(self.state.time)?;
+            for k in 1..=32 {
+                let now = self.system.prescribed_at(self.state.time + h * k as f64)?;
+                let speed = norm(now.iter().zip(&before).map(|(a, b)| a - b)) / h;
+                floor = (floor.0.max(norm(now.iter().copied())), floor.1.max(speed));
+                before = now;
+            }
+        }
+        Ok(floor)
+    }
+}
+
+impl AdaptiveReport {
+    fn note_step(&mut self, time: f64, dt: f64, previous: Option<f64>) {
+        self.accepted += 1;
+        self.dt_range = (self.dt_range.0.min(dt), self.dt_range.1.max(dt));
+        if previous.is_some_and(|p| p != dt) {
+            self.dt_changes += 1;
+        }
+        self.steps.push((time, dt));
+    }
+}
+
+/// The step wanted after an accepted step of `dt` (planned from `want`) whose error allows
+/// `q`·dt: grown when the gain is worth a refactorization, shrunk when the step was only just
+/// within the tolerance, kept otherwise.
+fn next_step(want: f64, dt: f64, q: f64) -> f64 {
+    let ideal = q * dt;
+    if ideal >= GROW_AT * want {
+        ideal.min(MAX_GROWTH * want)
+    } else if q < 1.0 {
+        ideal.min(SHRINK_TO * want)
+    } else {
+        want
+    }
+}
+
+/// The error of a step that cannot meet the tolerance at the smallest step.
+fn below_min_dt(control: &AdaptiveStep, min_dt: f64, time: f64) -> Error {
+    Error::invalid_parameter(
+        "time_tolerance",
+        short_number(control.tolerance),
+        format!(
+            "not met at t = {} s even with the smallest step min_dt = {} s; raise the \
+             tolerance or lower min_dt",
+            short_number(time),
+            short_number(min_dt)
+        ),
+    )
+}
