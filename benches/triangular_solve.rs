@@ -181,7 +181,6 @@ fn main() -> tetfem::Result<()> {
     print_results(&names, &best, &solutions, (bytes, len, single), &k_ff, &b)
 }
 
-
 /// The table of best times (s, GB/s and ratios to the streaming floor), the solutions'
 /// agreement with faer's and the own solve's residual; `(bytes, len, single)`: bytes read per
 /// solve, the factor's length, whether the f32 rows ran.

@@ -83,6 +83,12 @@ fn run_press(model: ModelKind, speed: f64, ground: bool, multiple: f64, travel: 
     run.run((0, steps), &mut watch)
         .unwrap_or_else(|e| panic!("{model:?} {multiple}x ground {ground}: {e}"));
     let stats = run.integrator().newton_stats().unwrap();
+    println!(
+        "{model:?} {multiple}x ground {ground}: {} steps, {:.2} Newton iterations per step, most {}",
+        stats.steps,
+        stats.total_iterations as f64 / stats.steps as f64,
+        stats.max_per_step
+    );
     Pressed {
         mean: stats.total_iterations as f64 / stats.steps as f64,
         most: stats.max_per_step,

@@ -221,8 +221,9 @@ type = "static"                     # default "static"; or "dynamic", which need
                                     #   the pseudo-time k/n at load step k of n (load_steps),
                                     #   amplitude optional (default a ramp 0 → 1 over t ∈ [0, 1]:
                                     #   all of it at the last load step); each load step moves it
-                                    #   in stages no node crosses (too far for one: an error
-                                    #   asking for more load_steps); friction's slip is relative
+                                    #   at once, the body carried with it (where it cannot be: in
+                                    #   stages, too far for them an error asking for more
+                                    #   load_steps); friction's slip is relative
                                     #   to it (a body carried along its surface by friction alone
                                     #   needs each load step's move along it below slip_distance)
 # CSV: contact_energy_J, contact_<name>_fx_N/_fy_N/_fz_N (force on the obstacle); .vtu frames:
