@@ -309,7 +309,7 @@ impl Contact {
     }
 
     /// Length of the full displacement vectors this contact reads (3 per mesh node).
-    fn check_full(&self, u: &[f64]) -> Result<()> {
+    pub(super) fn check_full(&self, u: &[f64]) -> Result<()> {
         let needed = self.nodes.last().map_or(0, |n| 3 * n + 3);
         if u.len() < needed || !u.len().is_multiple_of(3) {
             return Err(Error::invalid_parameter(

@@ -112,14 +112,7 @@ impl Contact {
                 "must be finite and > 0",
             ));
         }
-        let needed = self.nodes().last().map_or(0, |n| 3 * n + 3);
-        if u.len() < needed {
-            return Err(Error::invalid_parameter(
-                "contact displacement",
-                format!("{} entries", u.len()),
-                format!("must be the full displacement of the mesh (≥ {needed}, 3 per node)"),
-            ));
-        }
+        self.check_full(u)?;
         let offsets = (
             self.offsets_at(step.time),
             self.offsets_at(step.time + step.dt),

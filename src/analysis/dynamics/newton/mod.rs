@@ -525,8 +525,7 @@ impl NewtonSolver {
         if let Some(start) = self.force.carried_start(equation.start, &target)? {
             u_new.copy_from_slice(&start);
             placed.set_offsets(target.clone())?;
-            match self
-                .iterate_from_carry(inertia, system, equation, matrix, solver, u_new, step, time)
+            match self.iterate_pushed(inertia, system, equation, matrix, solver, u_new, step, time)
             {
                 Err(Error::Diverged { .. }) => {
                     // The carried start did not converge: stage the move from the step's start.
@@ -551,13 +550,8 @@ impl NewtonSolver {
                 }
                 stage => stage == MotionStage::Last,
             };
-            // Converged relative to the force the obstacles exert at this stage's start.
-            let mut pushed = vec![0.0; full.len()];
-            placed.add_force(&full, &mut pushed)?;
-            self.reference_floor = norm(&pushed).max(inertia);
-            let solved = self.iterate(system, equation, matrix, solver, u_new, step, time);
-            self.reference_floor = 0.0;
-            iterations += solved?;
+            iterations +=
+                self.iterate_pushed(inertia, system, equation, matrix, solver, u_new, step, time)?;
             if last {
                 // The stages are one step's solve.
                 self.stats.steps = steps_before + 1;
@@ -576,11 +570,13 @@ impl NewtonSolver {
         })
     }
 
-    /// The Newton iterations of a moving-obstacle step from the body carried with the obstacles
-    /// (`u_new`, the obstacles at their target: [`NonlinearForce::carried_start`]), converged
-    /// relative to the force the obstacles exert there (or the inertia scale).
+    /// The Newton iterations of a moving-obstacle step from `u_new` with the obstacles where
+    /// they now are (at their target, the body carried with them:
+    /// [`NonlinearForce::carried_start`]; or at a stage), converged relative to the force the
+    /// obstacles exert there (or the inertia scale): the first residual is only what the last
+    /// move left.
     #[allow(clippy::too_many_arguments)]
-    fn iterate_from_carry(
+    fn iterate_pushed(
         &mut self,
         inertia: f64,
         system: &LinearSystem,
