@@ -917,7 +917,7 @@ impl<E: ModelElement, M: TetModels + ?Sized> StaticNewton<'_, E, M> {
         // |r·δ|, the first-order change of Π along the step (the relaxed search's slack).
         let slope = r.iter().zip(delta).map(|(a, b)| a * b).sum::<f64>().abs();
         let search = Backtracking::for_contact(self.contact.is_some());
-        let (accepted, _) = search.search(&mut line, first_alpha, norm(r), slope)?;
+        let (accepted, _) = search.search(&mut line, first_alpha, (norm(r), false), slope)?;
         Ok(accepted.then_some((line.trial, line.r_trial)))
     }
 }

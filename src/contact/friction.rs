@@ -88,6 +88,17 @@ impl FrictionLag {
         }
     }
 
+    /// The smoothing distance ε (length).
+    pub fn epsilon(&self) -> f64 {
+        self.epsilon
+    }
+
+    /// Sets the smoothing distance ε (length; a stage of the smoothing continuation of the
+    /// implicit steps' Newton, which ends at the step's own ε).
+    pub(crate) fn set_epsilon(&mut self, epsilon: f64) {
+        self.epsilon = epsilon;
+    }
+
     /// Whether no node is in frictional contact.
     pub fn is_empty(&self) -> bool {
         self.points.is_empty()

@@ -671,6 +671,17 @@ impl Contact {
         Ok(self.position(k, u))
     }
 
+    /// The largest slip |P·(x − x⁰)| of the lagged contacts at full displacement `u` (length; 0
+    /// without any).
+    pub(crate) fn largest_slip(&self, lag: &FrictionLag, u: &[f64]) -> Result<f64> {
+        self.check_full(u)?;
+        let mut largest: f64 = 0.0;
+        for p in &lag.points {
+            largest = largest.max(p.slip(&self.lagged_position(p, u)?).norm());
+        }
+        Ok(largest)
+    }
+
     /// The friction potential Σ μ·λ·f₀(|P·(x − x⁰)|) (energy units) at full displacement `u`.
     pub fn friction_energy(&self, lag: &FrictionLag, u: &[f64]) -> Result<f64> {
         self.check_full(u)?;

@@ -21,6 +21,7 @@ mod contact_hertz;
 mod contact_static_friction;
 mod contact_static_moving;
 mod convergence;
+mod conveyor;
 mod corotational_step;
 mod critical_step;
 mod critical_step_damping;

@@ -257,6 +257,26 @@ impl NonlinearForce {
         Ok(())
     }
 
+    /// The lagged friction's smoothing distance ε and its largest slip at free displacements
+    /// `u` (both length), when a step has lagged friction with at least one node in contact.
+    pub(crate) fn friction_smoothing_and_slip(&self, u: &[f64]) -> Result<Option<(f64, f64)>> {
+        let lag = self.friction_lock();
+        let (Some(contact), Some(lag)) = (&self.contact, lag.as_ref().filter(|l| !l.is_empty()))
+        else {
+            return Ok(None);
+        };
+        let slip = contact.largest_slip(lag, &self.full_displacement(u)?)?;
+        Ok(Some((lag.epsilon(), slip)))
+    }
+
+    /// Sets the lagged friction's smoothing distance ε (length); nothing without lagged
+    /// friction.
+    pub(crate) fn set_friction_smoothing(&self, epsilon: f64) {
+        if let Some(lag) = self.friction_lock().as_mut() {
+            lag.set_epsilon(epsilon);
+        }
+    }
+
     /// Drops the lagged friction (explicit steps and energy evaluations see none).
     pub fn end_friction(&self) {
         *self.friction_lock() = None;

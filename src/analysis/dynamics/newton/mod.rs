@@ -8,6 +8,7 @@
 
 mod direction;
 pub(crate) mod line_search;
+mod smoothing;
 
 use std::sync::Arc;
 
@@ -163,6 +164,8 @@ pub(crate) struct NewtonSolver {
     /// inertia scale, and the contact force of a moving obstacle's stage (whose own r₀ is what
     /// the last small move left); 0 without contact.
     reference_floor: f64,
+    /// The convergence reference of the last Newton iterations (force).
+    last_reference: f64,
     /// The smallest step that changes a force ([`NonlinearForce::step_resolution`], length).
     step_resolution: f64,
 }
@@ -217,6 +220,7 @@ impl NewtonSolver {
             scratch: vec![0.0; n],
             stats: NewtonStats::default(),
             reference_floor: 0.0,
+            last_reference: 0.0,
             step_resolution,
         })
     }
@@ -364,9 +368,10 @@ impl NewtonSolver {
         system: &LinearSystem,
         equation: &StepEquation,
         u_new: &[f64],
-        (first_alpha, r_norm): (f64, f64),
+        (first_alpha, r_norm, reference): (f64, f64, f64),
     ) -> Result<(bool, f64)> {
         let slope = dot(&self.residual, &self.delta).abs();
+        let near = r_norm <= line_search::NEAR_SOLUTION * reference;
         let search = self.line_search;
         let mut line = StepLine {
             solver: self,
@@ -375,7 +380,7 @@ impl NewtonSolver {
             u_new,
             start_phi: None,
         };
-        search.search(&mut line, first_alpha, r_norm, slope)
+        search.search(&mut line, first_alpha, (r_norm, near), slope)
     }
 
     /// Φ at the line search's start `u_new` (its energy from the residual's pass), computed at
@@ -599,9 +604,10 @@ impl NewtonSolver {
         solved
     }
 
-    /// The Newton iterations of [`solve`](Self::solve), friction lagged already.
+    /// The Newton iterations of [`solve`](Self::solve) at the lagged friction's smoothing
+    /// distance as it stands (see [`iterate`](Self::iterate)).
     #[allow(clippy::too_many_arguments)]
-    fn iterate(
+    fn iterate_at_smoothing(
         &mut self,
         system: &LinearSystem,
         equation: &StepEquation,
@@ -631,6 +637,7 @@ impl NewtonSolver {
             true => reference.max(system.load_norm_at(time + equation.duration)?),
             false => reference,
         };
+        self.last_reference = reference;
         if let Some(guess) = equation
             .first_iterate
             .filter(|_| self.force.contact().is_none())
@@ -698,7 +705,7 @@ impl NewtonSolver {
                 false => 1.0,
             };
             let (accepted, alpha) =
-                self.search_line(system, equation, u_new, (first_alpha, r_norm))?;
+                self.search_line(system, equation, u_new, (first_alpha, r_norm, reference))?;
             // With contact only a decrease of Φ is accepted, which round-off can deny a
             // converged iterate: a Newton step below 1e-9 of the barrier's length scale d̂
             // changes nothing the contact can resolve, so the iterate stands.

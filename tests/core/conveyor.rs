@@ -1,0 +1,191 @@
+//! Issue 35, item 2: friction against a moving surface. A block set down on a floor moving at
+//! the belt's speed slides on it, is accelerated by Coulomb's μ·N = μ·m·g, and then sticks and
+//! rides at the belt's speed. Backward Euler's Newton failed at the block's first steps on the
+//! belt, for every dt and model: every node started the step at the belt's whole move of
+//! slip, ~300 × IPC's smoothing distance ε_v·dt, and the iterations overshot the stick–slip
+//! transition (now: the step starts from the integrator's prediction, and a step that still
+//! fails is solved again through a continuation of ε; `newton/smoothing.rs`).
+
+use nalgebra::Vector3;
+use tetfem::analysis::Definition;
+use tetfem::analysis::dynamics::Method;
+use tetfem::analysis::transient::{Flow, StepView, TimeStep, Transient, TransientOptions};
+use tetfem::bc::amplitude::Amplitude;
+use tetfem::contact::{Contact, ContactParameters, Obstacle, ObstacleMotion};
+use tetfem::fe::materials::MaterialMap;
+use tetfem::model::ModelKind;
+use tetfem::{BoxSplit, Material, TetMesh};
+
+/// μ of the belt.
+const FRICTION: f64 = 0.2;
+/// The belt's speed (m/s).
+const BELT: f64 = 0.2;
+/// g (m/s²).
+const GRAVITY: f64 = 9.81;
+/// The belt starts at this time (s), when the block has settled on it.
+const START: f64 = 0.05;
+/// The runs' end (s): 0.1 s after the block has reached the belt's speed.
+const END: f64 = 0.25;
+
+/// A 10 × 10 × 5 cm soft block (E = 1 MPa, ν = 0.3, ρ = 1000 kg/m³, 4 × 4 × 2 cells) set
+/// down under gravity 0.1 mm above a floor with friction [`FRICTION`] (0.1 mm is within the
+/// barrier's reach d̂ = 10⁻³ × the diagonal = 0.15 mm), which is still until [`START`] and
+/// then moves along x at [`BELT`].
+fn belt(model: ModelKind) -> Definition {
+    let motion = ObstacleMotion::Amplitude {
+        displacement: Vector3::new(BELT * (END - START), 0.0, 0.0),
+        amplitude: Amplitude::table(vec![0.0, START, END], vec![0.0, 0.0, 1.0]).unwrap(),
+    };
+    block_over_belt(model, 1e-4, motion, (1e6, FRICTION))
+}
+
+/// The block of [`belt`] with its bottom `lift` m above a floor moving by `motion`, Young's
+/// modulus and friction `(youngs, mu)`.
+fn block_over_belt(
+    model: ModelKind,
+    lift: f64,
+    motion: ObstacleMotion,
+    (youngs, mu): (f64, f64),
+) -> Definition {
+    let mesh = TetMesh::box_grid(
+        Vector3::new(0.0, 0.0, lift),
+        Vector3::new(0.1, 0.1, 0.05 + lift),
+        [4, 4, 2],
+        BoxSplit::Mirrored6,
+    )
+    .unwrap();
+    let materials = MaterialMap::uniform(
+        Material::new(youngs, 0.3, 1000.0).unwrap(),
+        mesh.tet_count(),
+    );
+    let floor = Obstacle::half_space("belt", Vector3::zeros(), Vector3::z())
+        .unwrap()
+        .with_friction(mu)
+        .unwrap()
+        .with_motion(motion)
+        .unwrap();
+    let parameters = ContactParameters::for_mesh(&mesh, youngs).unwrap();
+    let contact = Contact::new(&mesh, vec![floor], parameters).unwrap();
+    Definition::builder(mesh, materials)
+        .model(model)
+        .contact(contact)
+        .gravity(Vector3::new(0.0, 0.0, -GRAVITY))
+        .unwrap()
+        .build()
+        .unwrap()
+}
+
+/// The block's mean velocity along the belt, Σ(M·v)_x / Σ M_xx (m/s), after each step of a run
+/// to [`END`] at `dt` s (index 0: the start).
+fn block_speeds(model: ModelKind, method: Method, dt: f64) -> Vec<f64> {
+    belt_speeds(&belt(model), method, dt)
+}
+
+/// [`block_speeds`] of the block of `definition`.
+fn belt_speeds(definition: &Definition, method: Method, dt: f64) -> Vec<f64> {
+    let model = definition.model;
+    let options = TransientOptions::new(method, TimeStep::Seconds(dt));
+    let mut run = Transient::new(definition, options).unwrap();
+    let contact = definition.contact.clone().unwrap();
+    let mass = run.system().mass().clone();
+    let ones = vec![1.0; run.state().velocity.len()];
+    let mut row = vec![0.0; ones.len()];
+    mass.mul_vec(&ones, &mut row).unwrap();
+    let total: f64 = row.iter().step_by(3).sum();
+    let mut speeds = vec![0.0];
+    let steps = (END / dt).round() as usize;
+    let mut watch = |view: &StepView<'_>| {
+        contact.set_time(view.state.time);
+        if let Some(inside) = contact.nodes_inside(&view.state.displacement)? {
+            panic!("{model:?} {method:?} step {}: {inside}", view.step);
+        }
+        let mut momentum = vec![0.0; ones.len()];
+        mass.mul_vec(&view.state.velocity, &mut momentum)?;
+        speeds.push(momentum.iter().step_by(3).sum::<f64>() / total);
+        Ok(Flow::Continue)
+    };
+    run.run((0, steps), &mut watch)
+        .unwrap_or_else(|e| panic!("{model:?} {method:?} dt {dt}: {e}"));
+    speeds
+}
+
+#[test]
+fn a_block_on_a_conveyor_slides_at_mu_g_then_rides_at_the_belt_speed() {
+    // Coulomb: the belt drags the block at μ·g until it moves with it after BELT/(μ·g) =
+    // 0.102 s. Backward Euler at 1, 5 and 10 ms (the explicit critical step of this block is
+    // ~0.2 ms: 5–50×).
+    let sliding = BELT / (FRICTION * GRAVITY);
+    for model in [ModelKind::NeoHookean, ModelKind::Linear] {
+        for dt in [1e-3, 5e-3, 1e-2] {
+            let speeds = block_speeds(model, Method::BackwardEuler, dt);
+            // The acceleration over the first half of the sliding phase.
+            let (start, half) = (
+                (START / dt).round() as usize,
+                (0.5 * sliding / dt).round() as usize,
+            );
+            let acceleration = (speeds[start + half] - speeds[start]) / (half as f64 * dt);
+            println!(
+                "{model:?} dt {dt}: a = {acceleration:.4} m/s² (μg = {:.4}), final {:.5} m/s",
+                FRICTION * GRAVITY,
+                speeds.last().unwrap()
+            );
+            // The issue's 2 %: μ·λ of a lagged normal force that matches the weight once
+            // the block has settled.
+            assert!(
+                (acceleration / (FRICTION * GRAVITY) - 1.0).abs() <= 0.02,
+                "{model:?} dt {dt}: acceleration {acceleration}"
+            );
+            // Riding: the issue's 1 % of the belt's speed, on every one of the last 10 steps.
+            for v in &speeds[speeds.len() - 10..] {
+                assert!((v / BELT - 1.0).abs() <= 0.01, "{model:?} dt {dt}: {v} m/s");
+            }
+        }
+    }
+}
+
+#[test]
+fn the_explicit_method_carries_the_block_as_backward_euler_does() {
+    let sliding = BELT / (FRICTION * GRAVITY);
+    // At 0.1 ms, half its critical step (~0.2 ms). (Newmark is not here: its divergence guard
+    // stops this run at its first step, the block set down inside the barrier's reach.)
+    for (method, dt) in [(Method::Explicit, 1e-4)] {
+        let speeds = block_speeds(ModelKind::NeoHookean, method, dt);
+        let (start, half) = (
+            (START / dt).round() as usize,
+            (0.5 * sliding / dt).round() as usize,
+        );
+        let acceleration = (speeds[start + half] - speeds[start]) / (half as f64 * dt);
+        println!(
+            "{method:?} dt {dt}: a = {acceleration:.4} m/s² (μg = {:.4}), final {:.5} m/s",
+            FRICTION * GRAVITY,
+            speeds.last().unwrap()
+        );
+        // The issue's 2 % and 1 % (measured: −0.6 % and +0.04 %, the velocity-level
+        // friction's creep below ε_v and the settling's bounce).
+        assert!(
+            (acceleration / (FRICTION * GRAVITY) - 1.0).abs() <= 0.02,
+            "{method:?}: acceleration {acceleration}"
+        );
+        for v in &speeds[speeds.len() - 10..] {
+            assert!((v / BELT - 1.0).abs() <= 0.01, "{method:?}: {v} m/s");
+        }
+    }
+}
+
+#[test]
+fn a_block_dropped_onto_a_running_belt_lands_and_rides_it() {
+    // The issue's reproduction (`scenes/soft_block_drop.toml` on a belt), on a smaller block:
+    // E = 100 kPa, μ = 0.5, dropped from 5 cm onto a belt already running, at 20 ms (> 10× the
+    // critical step). The landing step's every node starts at the belt's whole move of slip
+    // (4 mm, ~600 ε): Newton from there failed; it is solved through the continuation of the
+    // smoothing distance.
+    let moving = ObstacleMotion::Velocity(Vector3::new(BELT, 0.0, 0.0));
+    for model in [ModelKind::Linear, ModelKind::NeoHookean] {
+        let definition = block_over_belt(model, 0.05, moving.clone(), (1e5, 0.5));
+        let speeds = belt_speeds(&definition, Method::BackwardEuler, 0.02);
+        let last = speeds.last().unwrap();
+        println!("{model:?}: final {last:.5} m/s");
+        // After 0.25 s: the landing (0.1 s) and BELT/(μ·g) = 0.04 s of sliding are over.
+        assert!((last / BELT - 1.0).abs() <= 0.01, "{model:?}: {last} m/s");
+    }
+}
