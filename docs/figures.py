@@ -42,6 +42,7 @@ import re
 import subprocess
 import sys
 import tempfile
+import time
 from datetime import datetime, timezone
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
@@ -69,8 +70,10 @@ def machine() -> str:
 
 def stamp(what: str) -> str:
     """The heading line of a table measured now."""
-    # Uncommitted edits to the book itself do not change what is measured; to the code they do.
-    changed = git("status", "--porcelain", "--untracked-files=no", "--", ".", ":(exclude)docs")
+    # Uncommitted edits to the book, to Markdown files (where tables are written) and to this script
+    # do not change what is measured; to the code they do.
+    changed = git("status", "--porcelain", "--untracked-files=no", "--", ".", ":(exclude)docs",
+                  ":(exclude,glob)**/*.md")
     dirty = " with uncommitted changes to the code" if changed else ""
     return (f"*Written by `python3 docs/figures.py` from {what}, "
             f"{datetime.now(timezone.utc):%Y-%m-%d %H:%M} UTC, commit {git('rev-parse', '--short', 'HEAD')}{dirty}, "
@@ -257,21 +260,114 @@ def vtu_formats() -> list[str]:
     return lines
 
 
-TABLES = {
-    "default_run": ("getting-started.md", default_run),
-    "accuracy": ("quadratic.md", accuracy),
-    "peers": ("quadratic.md", peers),
-    "corotational": ("large-deformation.md", corotational),
-    "vtu_formats": (os.path.join("scenes", "amplitudes.md"), vtu_formats),
+def vector_mm(v: list[float]) -> str:
+    """A displacement in mm, components below 1e-6 mm (round-off of a symmetric scene) as 0."""
+    return "(" + ", ".join(f"{1e3 * c:.4g}" if abs(1e3 * c) >= 1e-6 else "0" for c in v) + ") mm"
+
+
+def vector_n(v: list[float]) -> str:
+    """A force in N, components below 1e-6 of the largest (round-off) as 0."""
+    big = max(abs(c) for c in v) or 1.0
+    return "(" + ", ".join(f"{c:.5g}" if abs(c) >= 1e-6 * big else "0" for c in v) + ") N"
+
+
+def scene_results(s: dict) -> str:
+    """What a scene's summary reports that its description talks about, in one cell."""
+    out = []
+    if s["analysis"] == "modal":
+        out.append("f = " + ", ".join(f"{m['frequency_hz']:.4g}" for m in s["modes"][:3]) + " … Hz")
+    if s["analysis"] == "dynamic":
+        out.append(f"dt = {s['dt_over_critical']:.3g}× the explicit critical step")
+    accuracy = s.get("accuracy")
+    if accuracy:
+        out.append(f"chose order {accuracy['order']} on {'×'.join(map(str, accuracy['cells']))} cells "
+                   f"after {len(accuracy['trials'])} solves")
+    error = s.get("estimated_error")
+    if error:
+        out.append(f"estimated error {100 * error['relative']:.3g} %")
+    for probe in s.get("probes") or []:
+        if "displacement" in probe:  # a static probe: its mean displacement
+            out.append(f"`{probe['name']}` u = {vector_mm(probe['displacement'])}")
+        else:  # a dynamic probe: at the last step, and its extremes over the run per axis
+            reach = [max(abs(lo), abs(hi)) for lo, hi in zip(probe["min"], probe["max"])]
+            out.append(f"`{probe['name']}` u at the end {vector_mm(probe['last'])}, largest |u| per axis "
+                       f"{vector_mm(reach)}")
+    for contact in s.get("contact_forces") or []:
+        text = f"`{contact['obstacle']}` force {vector_n(contact['force_n'])}"
+        if contact.get("peak_n") is not None:
+            text += f" at the end, peak {contact['peak_n']:.4g} N at t = {contact['peak_time_s']:.3g} s"
+        out.append(text)
+    newton = s.get("newton")
+    if newton:
+        if "total_iterations" in newton:
+            out.append(f"Newton: {newton['total_iterations']} iterations over {newton['steps']} steps "
+                       f"(at most {newton['max_per_step']} per step)")
+        else:
+            out.append(f"Newton: {newton['iterations']} iterations over {newton['load_steps']} load steps")
+    return "; ".join(out)
+
+
+def scenes() -> list[str]:
+    """Every shipped scene run once by the release binary: its size, steps, results and wall time."""
+    binary = os.path.join(RELEASE, "tetfem")
+    folder = os.path.join(ROOT, "scenes")
+    lines = [stamp("one run of `target/release/tetfem run scenes/NAME.toml --json` per scene (all threads, "
+                   "outputs as the scene asks, PNG included); wall time from the start of the process to its end"),
+             "", "| scene | analysis | tets / nodes / free DOFs | steps | results (from the run's summary) | "
+             "wall time [s] | of it writing outputs [s] |", "| --- | --- | --- | --- | --- | --- | --- |"]
+    for name in sorted(f for f in os.listdir(folder) if f.endswith(".toml")):
+        with tempfile.TemporaryDirectory() as out:
+            start = time.perf_counter()
+            s = json.loads(run([binary, "run", os.path.join("scenes", name), "--json", "--quiet", "--out", out]))
+            wall = time.perf_counter() - start
+        if s["analysis"] == "dynamic":
+            steps = f"{s['steps']}"
+        elif (s.get("newton") or {}).get("load_steps"):
+            steps = f"{s['newton']['load_steps']} load steps"
+        else:
+            steps = "1 solve" if s["analysis"] == "static" else f"{len(s['modes'])} modes"
+        lines.append(f"| `{name}` | {s['analysis']} | {s['tets']} / {s['nodes']} / {s['free_dofs']} | {steps} | "
+                     f"{scene_results(s)} | {wall:.2f} | {s['output_seconds']:.2f} |")
+    return lines
+
+
+TABLES = {  # name: (the file it is written into, relative to the repository, and its program)
+    "default_run": ("docs/src/getting-started.md", default_run),
+    "accuracy": ("docs/src/quadratic.md", accuracy),
+    "peers": ("docs/src/quadratic.md", peers),
+    "corotational": ("docs/src/large-deformation.md", corotational),
+    "vtu_formats": ("docs/src/scenes/amplitudes.md", vtu_formats),
+    "scenes": ("scenes/README.md", scenes),
 }
 
+# Tables whose figures are deterministic (no time in them) and cheap to re-derive: `--check`
+# recomputes them and fails when the committed text differs below the heading line (whose date
+# and commit change with every run).
+CHECKED: set = set()
 
-def span(text: str, name: str, chapter: str) -> tuple[int, int]:
-    """Where the table NAME's lines go in a chapter: after its begin marker, before its end marker."""
+
+def span(text: str, name: str, path: str) -> tuple[int, int]:
+    """Where the table NAME's lines go in a file: after its begin marker, before its end marker."""
     begin, end = BEGIN.format(name), END.format(name)
     if text.count(begin) != 1 or text.count(end) != 1 or text.index(begin) > text.index(end):
-        raise SystemExit(f"docs/src/{chapter}: needs exactly one '{begin}' followed by one '{end}'")
+        raise SystemExit(f"{path}: needs exactly one '{begin}' followed by one '{end}'")
     return text.index(begin) + len(begin), text.index(end)
+
+
+def marked_files() -> list[str]:
+    """Every file that may hold a table's markers: the book's chapters and the Markdown files it
+    includes or links as the home of figures (relative to the repository)."""
+    found = []
+    for folder, _, files in os.walk(BOOK):
+        found += [os.path.relpath(os.path.join(folder, f), ROOT) for f in files if f.endswith(".md")]
+    found += ["README.md", os.path.join("scenes", "README.md"), os.path.join("python", "README.md")]
+    found += [os.path.join("validation", f) for f in os.listdir(os.path.join(ROOT, "validation")) if f.endswith(".md")]
+    return sorted(found)
+
+
+def below_heading(body: str) -> str:
+    """A table's text without its first line (the heading with date, commit and machine)."""
+    return body.strip("\n").split("\n", 1)[-1].strip("\n")
 
 
 def main(args: list[str]) -> int:
@@ -281,29 +377,36 @@ def main(args: list[str]) -> int:
     if unknown:
         print(f"figures: unknown table {', '.join(unknown)}; tables: {', '.join(TABLES)}", file=sys.stderr)
         return 2
+    stale = []
     for name in names:
-        chapter, measure = TABLES[name]
-        path = os.path.join(BOOK, chapter)
+        relative, measure = TABLES[name]
+        path = os.path.join(ROOT, relative)
         with open(path, encoding="utf-8") as f:
             text = f.read()
-        start, stop = span(text, name, chapter)
+        start, stop = span(text, name, relative)
         if check:
+            if name in CHECKED and below_heading(text[start:stop]) != below_heading("\n".join(measure())):
+                stale.append(f"{relative}: table '{name}' differs from what its program writes now "
+                             f"(python3 docs/figures.py {name} rewrites it)")
             continue
-        print(f"figures: {name} ({chapter})", file=sys.stderr)
+        print(f"figures: {name} ({relative})", file=sys.stderr)
         body = "\n".join(measure())
         text = text[:start] + "\n" + body + "\n" + text[stop:]
         with open(path, "w", encoding="utf-8") as f:
             f.write(text)
-    # A marker left in a chapter for a table this script does not know would never be rewritten.
-    for chapter in sorted(os.listdir(BOOK)) + [os.path.join("scenes", c) for c in sorted(os.listdir(os.path.join(BOOK, "scenes")))]:
-        if not chapter.endswith(".md"):
-            continue
-        with open(os.path.join(BOOK, chapter), encoding="utf-8") as f:
+    # A marker left in a file for a table this script does not know would never be rewritten.
+    for relative in marked_files():
+        with open(os.path.join(ROOT, relative), encoding="utf-8") as f:
             for found in re.findall(r"<!-- figures: (\S+) \(written by", f.read()):
                 if found not in TABLES:
-                    print(f"figures: docs/src/{chapter} has a marker for unknown table '{found}'", file=sys.stderr)
+                    print(f"figures: {relative} has a marker for unknown table '{found}'", file=sys.stderr)
                     return 1
-    print("figures: markers well formed" if check else "figures: done", file=sys.stderr)
+    if stale:
+        print("figures: " + "\nfigures: ".join(stale), file=sys.stderr)
+        return 1
+    checked = [n for n in names if n in CHECKED]
+    print(f"figures: markers well formed; {', '.join(checked) or 'no table'} as its program writes it now"
+          if check else "figures: done", file=sys.stderr)
     return 0
 
 
