@@ -331,6 +331,98 @@ def scenes() -> list[str]:
     return lines
 
 
+def core_test(filter_: str) -> str:
+    """The printed output of the core test binary's tests matching `filter_`, one thread: a test
+    that checks a bound prints the figures it checked, and those are the figures of the table."""
+    built = run(["cargo", "test", "--release", "--test", "core", "--no-run", "--message-format=json"])
+    binary = next(json.loads(line)["executable"] for line in built.splitlines()
+                  if '"executable":"' in line and json.loads(line)["target"]["name"] == "core")
+    return run([binary, filter_, "--nocapture", "--test-threads=1"])
+
+
+def test_stamp(what: str, checked: bool) -> str:
+    """The heading of a table printed by a test (deterministic: no machine or load matters)."""
+    again = ("`python3 docs/figures.py --check` recomputes it" if checked else
+             "too long for `--check` to recompute (the test checks its bounds on every `cargo test`)")
+    return (f"*Written by `python3 docs/figures.py` from what {what} prints (`cargo test --release --test core "
+            f"-- --nocapture`), {datetime.now(timezone.utc):%Y-%m-%d} UTC, commit {git('rev-parse', '--short', 'HEAD')}; "
+            f"deterministic; {again}.*")
+
+
+def mms_rates() -> list[str]:
+    """tests/core/mms_rates.rs: L2 and energy errors of P1 and P2 on the manufactured solution."""
+    out = core_test("mms_rates::")
+    levels = re.findall(r"P(\d) n = *(\d+): h = [\d.]+, DOFs +(\d+), L2 error (\S+), energy error (\S+)", out)
+    orders = {d: (l2, en) for d, l2, en in re.findall(r"P(\d): L2 orders \[([^\]]*)\].*?energy orders \[([^\]]*)\]", out)}
+    lines = [test_stamp("[`tests/core/mms_rates.rs`](../../tests/core/mms_rates.rs)", "mms_rates" in CHECKED), "",
+             "| element | cells | DOFs | L2 error | energy error | L2 order | energy order |",
+             "| --- | --- | --- | --- | --- | --- | --- |"]
+    seen: dict = {}
+    for degree, n, dofs, l2, energy in sorted(levels, key=lambda r: (r[0], int(r[1]))):
+        k = seen.get(degree, 0)
+        seen[degree] = k + 1
+        rates = ["", ""]
+        if k > 0:
+            rates = [f"{float(orders[degree][i].split(',')[k - 1]):.3f}" for i in (0, 1)]
+        # The errors as the test prints them (5 digits): rounding them again could differ in the last.
+        lines.append(f"| P{degree} | {n}³ | {int(dofs):,}".replace(",", " ") +
+                     f" | {l2} | {energy} | {rates[0]} | {rates[1]} |")
+    return lines
+
+
+def effectivity() -> list[str]:
+    """tests/core/error_estimate.rs: the ZZ estimate's effectivity at three levels of each case."""
+    out = core_test("error_estimate::")
+    lines = [test_stamp("[`tests/core/error_estimate.rs`](../../tests/core/error_estimate.rs)", "effectivity" in CHECKED), "",
+             "| case | level 1 | level 2 | level 3 |", "| --- | --- | --- | --- |"]
+    cases = re.findall(r"(manufactured|cantilever), (P\d), (\S+) cells: effectivities \[([^\]]*)\]", out)
+    for kind, element, levels, values in sorted(cases, key=lambda c: (c[0] != "manufactured", c[1])):
+        lines.append(f"| {kind}, {element} ({levels.replace('/', ', ')} cells) | " +
+                     " | ".join(v.strip() for v in values.split(",")) + " |")
+    averaging = re.search(r"averaging: P1 16³ (\S+), P2 8³ (\S+)", out)
+    reference = re.search(r"reference compliance (\S+) \(observed order (\S+)\)", out)
+    if averaging:
+        lines += ["", f"Plain averaging (`Recovery::Averaging`) on the manufactured solution: P1 on 16³ cells "
+                  f"{averaging.group(1)}, P2 on 8³ cells {averaging.group(2)}."]
+    if reference:
+        lines += ["", f"Cantilever reference compliance f·u = {reference.group(1)} (Richardson, observed order "
+                  f"{reference.group(2)})."]
+    return lines
+
+
+def adequacy_curve() -> list[str]:
+    """The linear model's error against the largest rotation: the constant the run warns from."""
+    path = os.path.join(ROOT, "src", "post", "adequacy", "rotation.rs")
+    with open(path, encoding="utf-8") as f:
+        body = re.search(r"LINEAR_MODEL_ERROR_CURVE: \[\(f64, f64\); \d+\] = \[(.*?)\];", f.read(), re.S).group(1)
+    points = [(float(a), float(b)) for a, b in re.findall(r"\(([\d.]+), ([\d.]+)\)", body)]
+    return [f"*Written by `python3 docs/figures.py` from the constant `LINEAR_MODEL_ERROR_CURVE` in "
+            f"[`src/post/adequacy/rotation.rs`](../../src/post/adequacy/rotation.rs) (checked by `--check`).*", "",
+            "| largest rotation | " + " | ".join(f"{a:g}°" for a, _ in points) + " |",
+            "| --- | " + " | ".join("---" for _ in points) + " |",
+            "| linear model's error | " + " | ".join(f"{100 * b:.3g} %" for _, b in points) + " |"]
+
+
+def accuracy_target() -> list[str]:
+    """scenes/cantilever_accuracy.toml: the solves an accuracy target tries, and its choice."""
+    with tempfile.TemporaryDirectory() as out:
+        s = json.loads(run([os.path.join(RELEASE, "tetfem"), "run", "scenes/cantilever_accuracy.toml", "--json",
+                            "--quiet", "--out", out]))
+    a = s["accuracy"]
+    lines = [f"*Written by `python3 docs/figures.py` from the summary of `target/release/tetfem run "
+             f"scenes/cantilever_accuracy.toml`, commit {git('rev-parse', '--short', 'HEAD')} (its times left out: "
+             f"the rest is deterministic, and `--check` recomputes it).*", "",
+             "| solve | order | cells | DOFs | estimated error |", "| --- | --- | --- | --- | --- |"]
+    for i, t in enumerate(a["trials"], 1):
+        lines.append(f"| {i} | {t['order']} | {'×'.join(map(str, t['cells']))} | {t['dofs']:,} | "
+                     f"{100 * t['estimate']:.3g} % |".replace(",", " "))
+    predicted = ", ".join(f"≈ {p['dofs']:,.0f} DOFs for order {p['order']}".replace(",", " ") for p in a["predictions"])
+    lines += ["", f"Predicted from the first solves to reach {100 * a['target']:g} %: {predicted}. Chosen: order "
+              f"{a['order']} on {'×'.join(map(str, a['cells']))} cells, estimate {100 * a['estimated_error']:.3g} % "
+              f"({'met' if a['met'] else 'not met'})."]
+    return lines
+
+
 TABLES = {  # name: (the file it is written into, relative to the repository, and its program)
     "default_run": ("docs/src/getting-started.md", default_run),
     "accuracy": ("docs/src/quadratic.md", accuracy),
@@ -338,12 +430,16 @@ TABLES = {  # name: (the file it is written into, relative to the repository, an
     "corotational": ("docs/src/large-deformation.md", corotational),
     "vtu_formats": ("docs/src/scenes/amplitudes.md", vtu_formats),
     "scenes": ("scenes/README.md", scenes),
+    "mms_rates": ("docs/src/quadratic.md", mms_rates),
+    "effectivity": ("docs/src/quadratic.md", effectivity),
+    "adequacy_curve": ("docs/src/quadratic.md", adequacy_curve),
+    "accuracy_target": ("docs/src/quadratic.md", accuracy_target),
 }
 
 # Tables whose figures are deterministic (no time in them) and cheap to re-derive: `--check`
 # recomputes them and fails when the committed text differs below the heading line (whose date
 # and commit change with every run).
-CHECKED: set = set()
+CHECKED = {"mms_rates", "adequacy_curve", "accuracy_target"}
 
 
 def span(text: str, name: str, path: str) -> tuple[int, int]:
