@@ -25,12 +25,31 @@ Tables (all from release binaries of this checkout; `cargo build --release --wor
   18k DOFs on one thread (target/release/corotational_cost, run twice, each method's fastest
   step; two threads on a shared 2-core machine measure the neighbours more than the code), and the 132k-DOF row from validation/report/corotational_cost.csv
   (the CSV that program wrote; about 10 minutes to measure, so not rerun here).
+- scenes (scenes/README.md, included in the book): every shipped scene run once by
+  target/release/tetfem (`run --json`): size, steps, the results its summary reports and the
+  wall time of the process (about 25 s in all).
+- mms_rates (quadratic.md): P1 and P2 errors and orders on the manufactured solution, as
+  tests/core/mms_rates.rs prints them (the core test binary, `--nocapture`; about 13 s).
+- effectivity (quadratic.md): the error estimate's effectivities, as tests/core/error_estimate.rs
+  prints them (about 50 s).
+- adequacy_curve (quadratic.md): the linear model's error against the rotation, read from the
+  constant LINEAR_MODEL_ERROR_CURVE in src/post/adequacy/rotation.rs (the code's own table).
+- accuracy_target (quadratic.md): the solves `accuracy = 0.05` tries on
+  scenes/cantilever_accuracy.toml and its choice, from the run's summary, times left out.
 
-Measured on 2026-12-04 on a shared 2-core machine: 337 s for all of them at a load average
-of 8–10 (other sessions' builds and tests). Times on a shared machine are noisy; compare the ratios within one table.
+Timings are never compared: a run on another day or machine gives other times. The tables in
+CHECKED (deterministic, and cheap to recompute) are: `--check` recomputes them and fails when
+the text below their heading line differs, so a change of the code that moves one of their
+figures fails CI until the table is rewritten (`python3 docs/figures.py NAME`). It needs the
+release binaries and the core test binary that `cargo test --release` builds (about 15 s).
+
+Measured on 2026-12-04 on a shared 2-core machine: 337 s for the first five at a load average
+of 8–10 (other sessions' builds and tests). Times on a shared machine are noisy; compare the
+ratios within one table.
 
 Run: python3 docs/figures.py [NAME ...]   (default: every table)
-     python3 docs/figures.py --check       (every marker pair present and well formed; no run)
+     python3 docs/figures.py --check       (every marker pair present and well formed, and the
+                                            tables in CHECKED as their programs write them now)
 """
 
 from __future__ import annotations
