@@ -34,6 +34,8 @@ Tables (all from release binaries of this checkout; `cargo build --release --wor
   prints them (about 50 s).
 - adequacy_curve (quadratic.md): the linear model's error against the rotation, read from the
   constant LINEAR_MODEL_ERROR_CURVE in src/post/adequacy/rotation.rs (the code's own table).
+- rubber_orders (large-deformation.md): scenes/rubber_cantilever_large.toml at orders 1 and 2
+  on 20×2×2 and 40×4×4 cells, the tips against the finest P2 run's, with wall times.
 - accuracy_target (quadratic.md): the solves `accuracy = 0.05` tries on
   scenes/cantilever_accuracy.toml and its choice, from the run's summary, times left out.
 
@@ -442,6 +444,35 @@ def accuracy_target() -> list[str]:
     return lines
 
 
+def rubber_orders() -> list[str]:
+    """scenes/rubber_cantilever_large.toml at orders 1 and 2 on two meshes: the tip against the
+    finest P2 run's (the large-deformation models on 10-node tets)."""
+    with open(os.path.join(ROOT, "scenes", "rubber_cantilever_large.toml"), encoding="utf-8") as f:
+        scene = f.read()
+    runs = []
+    for order, cells in ((1, (20, 2, 2)), (1, (40, 4, 4)), (2, (20, 2, 2)), (2, (40, 4, 4))):
+        text = scene.replace("cells = [20, 2, 2]", f"cells = [{', '.join(map(str, cells))}]")
+        text = text.replace("[mesh.box]", f"[mesh]\norder = {order}\n\n[mesh.box]").replace("png = true", "png = false")
+        with tempfile.TemporaryDirectory() as out:
+            path = os.path.join(out, "rubber.toml")
+            with open(path, "w", encoding="utf-8") as f:
+                f.write(text)
+            start = time.perf_counter()
+            summary = json.loads(run([os.path.join(RELEASE, "tetfem"), "run", path, "--json", "--quiet", "--out", out]))
+            runs.append((order, cells, summary, time.perf_counter() - start))
+    reference = runs[-1][2]["probes"][0]["displacement"][2]
+    lines = [stamp("`target/release/tetfem run` of `scenes/rubber_cantilever_large.toml` with `[mesh] order` and "
+                   "`cells` changed (no PNG), once each; the tips are deterministic, the times are not"), "",
+             "| order | cells | free DOFs | tip u_z [m] | off the P2 40×4×4 tip | Newton iterations | wall time [s] |",
+             "| --- | --- | --- | --- | --- | --- | --- |"]
+    for order, cells, s, seconds in runs:
+        tip = s["probes"][0]["displacement"][2]
+        off = "reference" if s is runs[-1][2] else f"{100 * abs(tip - reference) / abs(reference):.2g} %"
+        lines.append(f"| {order} | {'×'.join(map(str, cells))} | {s['free_dofs']} | {tip:.5f} | {off} | "
+                     f"{s['newton']['iterations']} | {seconds:.2f} |")
+    return lines
+
+
 TABLES = {  # name: (the file it is written into, relative to the repository, and its program)
     "default_run": ("docs/src/getting-started.md", default_run),
     "accuracy": ("docs/src/quadratic.md", accuracy),
@@ -453,6 +484,7 @@ TABLES = {  # name: (the file it is written into, relative to the repository, an
     "effectivity": ("docs/src/quadratic.md", effectivity),
     "adequacy_curve": ("docs/src/quadratic.md", adequacy_curve),
     "accuracy_target": ("docs/src/quadratic.md", accuracy_target),
+    "rubber_orders": ("docs/src/large-deformation.md", rubber_orders),
 }
 
 # Tables whose figures are deterministic (no time in them) and cheap to re-derive: `--check`
