@@ -77,6 +77,12 @@ def git(*args: str) -> str:
     return subprocess.run(["git", *args], cwd=ROOT, capture_output=True, text=True, check=True).stdout.strip()
 
 
+# The load average when the table being written started to be measured (set by main before it
+# runs a table's program: a heading written after the runs would otherwise give the load at
+# their end, which includes the runs themselves).
+START_LOAD = None
+
+
 def machine() -> str:
     """The machine in a phrase: cores, CPU model, and whether others were loading it."""
     model = "unknown CPU"
@@ -85,7 +91,7 @@ def machine() -> str:
             model = next((line.split(":", 1)[1].strip() for line in f if line.startswith("model name")), model)
     except OSError:
         pass
-    load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
+    load = START_LOAD if START_LOAD is not None else os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
     return f"{os.cpu_count()} cores ({model}), load average {load:.1f} at the start"
 
 
@@ -518,6 +524,7 @@ def below_heading(body: str) -> str:
 
 
 def main(args: list[str]) -> int:
+    global START_LOAD
     check = "--check" in args
     names = [a for a in args if a != "--check"] or list(TABLES)
     unknown = [n for n in names if n not in TABLES]
@@ -537,6 +544,7 @@ def main(args: list[str]) -> int:
                              f"(python3 docs/figures.py {name} rewrites it)")
             continue
         print(f"figures: {name} ({relative})", file=sys.stderr)
+        START_LOAD = os.getloadavg()[0] if hasattr(os, "getloadavg") else None
         body = "\n".join(measure())
         text = text[:start] + "\n" + body + "\n" + text[stop:]
         with open(path, "w", encoding="utf-8") as f:
