@@ -25,12 +25,33 @@ Tables (all from release binaries of this checkout; `cargo build --release --wor
   18k DOFs on one thread (target/release/corotational_cost, run twice, each method's fastest
   step; two threads on a shared 2-core machine measure the neighbours more than the code), and the 132k-DOF row from validation/report/corotational_cost.csv
   (the CSV that program wrote; about 10 minutes to measure, so not rerun here).
+- scenes (scenes/README.md, included in the book): every shipped scene run once by
+  target/release/tetfem (`run --json`): size, steps, the results its summary reports and the
+  wall time of the process (about 25 s in all).
+- mms_rates (quadratic.md): P1 and P2 errors and orders on the manufactured solution, as
+  tests/core/mms_rates.rs prints them (the core test binary, `--nocapture`; about 13 s).
+- effectivity (quadratic.md): the error estimate's effectivities, as tests/core/error_estimate.rs
+  prints them (about 50 s).
+- adequacy_curve (quadratic.md): the linear model's error against the rotation, read from the
+  constant LINEAR_MODEL_ERROR_CURVE in src/post/adequacy/rotation.rs (the code's own table).
+- rubber_orders (large-deformation.md): scenes/rubber_cantilever_large.toml at orders 1 and 2
+  on 20×2×2 and 40×4×4 cells, the tips against the finest P2 run's, with wall times.
+- accuracy_target (quadratic.md): the solves `accuracy = 0.05` tries on
+  scenes/cantilever_accuracy.toml and its choice, from the run's summary, times left out.
 
-Measured on 2026-12-04 on a shared 2-core machine: 337 s for all of them at a load average
-of 8–10 (other sessions' builds and tests). Times on a shared machine are noisy; compare the ratios within one table.
+Timings are never compared: a run on another day or machine gives other times. The tables in
+CHECKED (deterministic, and cheap to recompute) are: `--check` recomputes them and fails when
+the text below their heading line differs, so a change of the code that moves one of their
+figures fails CI until the table is rewritten (`python3 docs/figures.py NAME`). It needs the
+release binaries and the core test binary that `cargo test --release` builds (about 15 s).
+
+Measured on 2026-12-04 on a shared 2-core machine: 337 s for the first five at a load average
+of 8–10 (other sessions' builds and tests). Times on a shared machine are noisy; compare the
+ratios within one table.
 
 Run: python3 docs/figures.py [NAME ...]   (default: every table)
-     python3 docs/figures.py --check       (every marker pair present and well formed; no run)
+     python3 docs/figures.py --check       (every marker pair present and well formed, and the
+                                            tables in CHECKED as their programs write them now)
 """
 
 from __future__ import annotations
@@ -42,6 +63,7 @@ import re
 import subprocess
 import sys
 import tempfile
+import time
 from datetime import datetime, timezone
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
@@ -55,6 +77,12 @@ def git(*args: str) -> str:
     return subprocess.run(["git", *args], cwd=ROOT, capture_output=True, text=True, check=True).stdout.strip()
 
 
+# The load average when the table being written started to be measured (set by main before it
+# runs a table's program: a heading written after the runs would otherwise give the load at
+# their end, which includes the runs themselves).
+START_LOAD = None
+
+
 def machine() -> str:
     """The machine in a phrase: cores, CPU model, and whether others were loading it."""
     model = "unknown CPU"
@@ -63,14 +91,16 @@ def machine() -> str:
             model = next((line.split(":", 1)[1].strip() for line in f if line.startswith("model name")), model)
     except OSError:
         pass
-    load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
+    load = START_LOAD if START_LOAD is not None else os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
     return f"{os.cpu_count()} cores ({model}), load average {load:.1f} at the start"
 
 
 def stamp(what: str) -> str:
     """The heading line of a table measured now."""
-    # Uncommitted edits to the book itself do not change what is measured; to the code they do.
-    changed = git("status", "--porcelain", "--untracked-files=no", "--", ".", ":(exclude)docs")
+    # Uncommitted edits to the book, to Markdown files (where tables are written) and to this script
+    # do not change what is measured; to the code they do.
+    changed = git("status", "--porcelain", "--untracked-files=no", "--", ".", ":(exclude)docs",
+                  ":(exclude,glob)**/*.md")
     dirty = " with uncommitted changes to the code" if changed else ""
     return (f"*Written by `python3 docs/figures.py` from {what}, "
             f"{datetime.now(timezone.utc):%Y-%m-%d %H:%M} UTC, commit {git('rev-parse', '--short', 'HEAD')}{dirty}, "
@@ -257,53 +287,281 @@ def vtu_formats() -> list[str]:
     return lines
 
 
-TABLES = {
-    "default_run": ("getting-started.md", default_run),
-    "accuracy": ("quadratic.md", accuracy),
-    "peers": ("quadratic.md", peers),
-    "corotational": ("large-deformation.md", corotational),
-    "vtu_formats": (os.path.join("scenes", "amplitudes.md"), vtu_formats),
+def vector_mm(v: list[float]) -> str:
+    """A displacement in mm, components below 1e-6 mm (round-off of a symmetric scene) as 0."""
+    return "(" + ", ".join(f"{1e3 * c:.4g}" if abs(1e3 * c) >= 1e-6 else "0" for c in v) + ") mm"
+
+
+def vector_n(v: list[float]) -> str:
+    """A force in N, components below 1e-6 of the largest (round-off) as 0."""
+    big = max(abs(c) for c in v) or 1.0
+    return "(" + ", ".join(f"{c:.5g}" if abs(c) >= 1e-6 * big else "0" for c in v) + ") N"
+
+
+def scene_results(s: dict) -> str:
+    """What a scene's summary reports that its description talks about, in one cell."""
+    out = []
+    if s["analysis"] == "modal":
+        out.append("f = " + ", ".join(f"{m['frequency_hz']:.4g}" for m in s["modes"][:3]) + " … Hz")
+    if s["analysis"] == "dynamic":
+        out.append(f"dt = {s['dt_over_critical']:.3g}× the explicit critical step")
+    accuracy = s.get("accuracy")
+    if accuracy:
+        out.append(f"chose order {accuracy['order']} on {'×'.join(map(str, accuracy['cells']))} cells "
+                   f"after {len(accuracy['trials'])} solves")
+    error = s.get("estimated_error")
+    if error:
+        out.append(f"estimated error {100 * error['relative']:.3g} %")
+    for probe in s.get("probes") or []:
+        if "displacement" in probe:  # a static probe: its mean displacement
+            out.append(f"`{probe['name']}` u = {vector_mm(probe['displacement'])}")
+        else:  # a dynamic probe: at the last step, and its extremes over the run per axis
+            reach = [max(abs(lo), abs(hi)) for lo, hi in zip(probe["min"], probe["max"])]
+            out.append(f"`{probe['name']}` u at the end {vector_mm(probe['last'])}, largest |u| per axis "
+                       f"{vector_mm(reach)}")
+    for contact in s.get("contact_forces") or []:
+        text = f"`{contact['obstacle']}` force {vector_n(contact['force_n'])}"
+        if contact.get("peak_n") is not None:
+            text += f" at the end, peak {contact['peak_n']:.4g} N at t = {contact['peak_time_s']:.3g} s"
+        out.append(text)
+    newton = s.get("newton")
+    if newton:
+        if "total_iterations" in newton:
+            out.append(f"Newton: {newton['total_iterations']} iterations over {newton['steps']} steps "
+                       f"(at most {newton['max_per_step']} per step)")
+        else:
+            out.append(f"Newton: {newton['iterations']} iterations over {newton['load_steps']} load steps")
+    return "; ".join(out)
+
+
+def scenes() -> list[str]:
+    """Every shipped scene run once by the release binary: its size, steps, results and wall time."""
+    binary = os.path.join(RELEASE, "tetfem")
+    folder = os.path.join(ROOT, "scenes")
+    lines = [stamp("one run of `target/release/tetfem run scenes/NAME.toml --json` per scene (all threads, "
+                   "outputs as the scene asks, PNG included); wall time from the start of the process to its end"),
+             "", "| scene | analysis | tets / nodes / free DOFs | steps | results (from the run's summary) | "
+             "wall time [s] | of it writing outputs [s] |", "| --- | --- | --- | --- | --- | --- | --- |"]
+    for name in sorted(f for f in os.listdir(folder) if f.endswith(".toml")):
+        with tempfile.TemporaryDirectory() as out:
+            start = time.perf_counter()
+            s = json.loads(run([binary, "run", os.path.join("scenes", name), "--json", "--quiet", "--out", out]))
+            wall = time.perf_counter() - start
+        if s["analysis"] == "dynamic":
+            steps = f"{s['steps']}"
+        elif (s.get("newton") or {}).get("load_steps"):
+            steps = f"{s['newton']['load_steps']} load steps"
+        else:
+            steps = "1 solve" if s["analysis"] == "static" else f"{len(s['modes'])} modes"
+        lines.append(f"| `{name}` | {s['analysis']} | {s['tets']} / {s['nodes']} / {s['free_dofs']} | {steps} | "
+                     f"{scene_results(s)} | {wall:.2f} | {s['output_seconds']:.2f} |")
+    return lines
+
+
+def core_test(filter_: str) -> str:
+    """The printed output of the core test binary's tests matching `filter_`, one thread: a test
+    that checks a bound prints the figures it checked, and those are the figures of the table."""
+    built = run(["cargo", "test", "--release", "--test", "core", "--no-run", "--message-format=json"])
+    binary = next(json.loads(line)["executable"] for line in built.splitlines()
+                  if '"executable":"' in line and json.loads(line)["target"]["name"] == "core")
+    return run([binary, filter_, "--nocapture", "--test-threads=1"])
+
+
+def test_stamp(what: str, checked: bool) -> str:
+    """The heading of a table printed by a test (deterministic: no machine or load matters)."""
+    again = ("`python3 docs/figures.py --check` recomputes it" if checked else
+             "too long for `--check` to recompute (the test checks its bounds on every `cargo test`)")
+    return (f"*Written by `python3 docs/figures.py` from what {what} prints (`cargo test --release --test core "
+            f"-- --nocapture`), {datetime.now(timezone.utc):%Y-%m-%d} UTC, commit {git('rev-parse', '--short', 'HEAD')}; "
+            f"deterministic; {again}.*")
+
+
+def mms_rates() -> list[str]:
+    """tests/core/mms_rates.rs: L2 and energy errors of P1 and P2 on the manufactured solution."""
+    out = core_test("mms_rates::")
+    levels = re.findall(r"P(\d) n = *(\d+): h = [\d.]+, DOFs +(\d+), L2 error (\S+), energy error (\S+)", out)
+    orders = {d: (l2, en) for d, l2, en in re.findall(r"P(\d): L2 orders \[([^\]]*)\].*?energy orders \[([^\]]*)\]", out)}
+    lines = [test_stamp("[`tests/core/mms_rates.rs`](../../tests/core/mms_rates.rs)", "mms_rates" in CHECKED), "",
+             "| element | cells | DOFs | L2 error | energy error | L2 order | energy order |",
+             "| --- | --- | --- | --- | --- | --- | --- |"]
+    seen: dict = {}
+    for degree, n, dofs, l2, energy in sorted(levels, key=lambda r: (r[0], int(r[1]))):
+        k = seen.get(degree, 0)
+        seen[degree] = k + 1
+        rates = ["", ""]
+        if k > 0:
+            rates = [f"{float(orders[degree][i].split(',')[k - 1]):.3f}" for i in (0, 1)]
+        # The errors as the test prints them (5 digits): rounding them again could differ in the last.
+        lines.append(f"| P{degree} | {n}³ | {int(dofs):,}".replace(",", " ") +
+                     f" | {l2} | {energy} | {rates[0]} | {rates[1]} |")
+    return lines
+
+
+def effectivity() -> list[str]:
+    """tests/core/error_estimate.rs: the ZZ estimate's effectivity at three levels of each case."""
+    out = core_test("error_estimate::")
+    lines = [test_stamp("[`tests/core/error_estimate.rs`](../../tests/core/error_estimate.rs)", "effectivity" in CHECKED), "",
+             "| case | level 1 | level 2 | level 3 |", "| --- | --- | --- | --- |"]
+    cases = re.findall(r"(manufactured|cantilever), (P\d), (\S+) cells: effectivities \[([^\]]*)\]", out)
+    for kind, element, levels, values in sorted(cases, key=lambda c: (c[0] != "manufactured", c[1])):
+        lines.append(f"| {kind}, {element} ({levels.replace('/', ', ')} cells) | " +
+                     " | ".join(v.strip() for v in values.split(",")) + " |")
+    averaging = re.search(r"averaging: P1 16³ (\S+), P2 8³ (\S+)", out)
+    reference = re.search(r"reference compliance (\S+) \(observed order (\S+)\)", out)
+    if averaging:
+        lines += ["", f"Plain averaging (`Recovery::Averaging`) on the manufactured solution: P1 on 16³ cells "
+                  f"{averaging.group(1)}, P2 on 8³ cells {averaging.group(2)}."]
+    if reference:
+        lines += ["", f"Cantilever reference compliance f·u = {reference.group(1)} (Richardson, observed order "
+                  f"{reference.group(2)})."]
+    return lines
+
+
+def adequacy_curve() -> list[str]:
+    """The linear model's error against the largest rotation: the constant the run warns from."""
+    path = os.path.join(ROOT, "src", "post", "adequacy", "rotation.rs")
+    with open(path, encoding="utf-8") as f:
+        body = re.search(r"LINEAR_MODEL_ERROR_CURVE: \[\(f64, f64\); \d+\] = \[(.*?)\];", f.read(), re.S).group(1)
+    points = [(float(a), float(b)) for a, b in re.findall(r"\(([\d.]+), ([\d.]+)\)", body)]
+    return [f"*Written by `python3 docs/figures.py` from the constant `LINEAR_MODEL_ERROR_CURVE` in "
+            f"[`src/post/adequacy/rotation.rs`](../../src/post/adequacy/rotation.rs) (checked by `--check`).*", "",
+            "| largest rotation | " + " | ".join(f"{a:g}°" for a, _ in points) + " |",
+            "| --- | " + " | ".join("---" for _ in points) + " |",
+            "| linear model's error | " + " | ".join(f"{100 * b:.3g} %" for _, b in points) + " |"]
+
+
+def accuracy_target() -> list[str]:
+    """scenes/cantilever_accuracy.toml: the solves an accuracy target tries, and its choice."""
+    with tempfile.TemporaryDirectory() as out:
+        s = json.loads(run([os.path.join(RELEASE, "tetfem"), "run", "scenes/cantilever_accuracy.toml", "--json",
+                            "--quiet", "--out", out]))
+    a = s["accuracy"]
+    lines = [f"*Written by `python3 docs/figures.py` from the summary of `target/release/tetfem run "
+             f"scenes/cantilever_accuracy.toml`, commit {git('rev-parse', '--short', 'HEAD')} (its times left out: "
+             f"the rest is deterministic, and `--check` recomputes it).*", "",
+             "| solve | order | cells | DOFs | estimated error |", "| --- | --- | --- | --- | --- |"]
+    for i, t in enumerate(a["trials"], 1):
+        lines.append(f"| {i} | {t['order']} | {'×'.join(map(str, t['cells']))} | {t['dofs']:,} | "
+                     f"{100 * t['estimate']:.3g} % |".replace(",", " "))
+    predicted = ", ".join(f"≈ {p['dofs']:,.0f} DOFs for order {p['order']}".replace(",", " ") for p in a["predictions"])
+    lines += ["", f"Predicted from the first solves to reach {100 * a['target']:g} %: {predicted}. Chosen: order "
+              f"{a['order']} on {'×'.join(map(str, a['cells']))} cells, estimate {100 * a['estimated_error']:.3g} % "
+              f"({'met' if a['met'] else 'not met'})."]
+    return lines
+
+
+def rubber_orders() -> list[str]:
+    """scenes/rubber_cantilever_large.toml at orders 1 and 2 on two meshes: the tip against the
+    finest P2 run's (the large-deformation models on 10-node tets)."""
+    with open(os.path.join(ROOT, "scenes", "rubber_cantilever_large.toml"), encoding="utf-8") as f:
+        scene = f.read()
+    runs = []
+    for order, cells in ((1, (20, 2, 2)), (1, (40, 4, 4)), (2, (20, 2, 2)), (2, (40, 4, 4))):
+        text = scene.replace("cells = [20, 2, 2]", f"cells = [{', '.join(map(str, cells))}]")
+        text = text.replace("[mesh.box]", f"[mesh]\norder = {order}\n\n[mesh.box]").replace("png = true", "png = false")
+        with tempfile.TemporaryDirectory() as out:
+            path = os.path.join(out, "rubber.toml")
+            with open(path, "w", encoding="utf-8") as f:
+                f.write(text)
+            start = time.perf_counter()
+            summary = json.loads(run([os.path.join(RELEASE, "tetfem"), "run", path, "--json", "--quiet", "--out", out]))
+            runs.append((order, cells, summary, time.perf_counter() - start))
+    reference = runs[-1][2]["probes"][0]["displacement"][2]
+    lines = [stamp("`target/release/tetfem run` of `scenes/rubber_cantilever_large.toml` with `[mesh] order` and "
+                   "`cells` changed (no PNG), once each; the tips are deterministic, the times are not"), "",
+             "| order | cells | free DOFs | tip u_z [m] | off the P2 40×4×4 tip | Newton iterations | wall time [s] |",
+             "| --- | --- | --- | --- | --- | --- | --- |"]
+    for order, cells, s, seconds in runs:
+        tip = s["probes"][0]["displacement"][2]
+        off = "reference" if s is runs[-1][2] else f"{100 * abs(tip - reference) / abs(reference):.2g} %"
+        lines.append(f"| {order} | {'×'.join(map(str, cells))} | {s['free_dofs']} | {tip:.5f} | {off} | "
+                     f"{s['newton']['iterations']} | {seconds:.2f} |")
+    return lines
+
+
+TABLES = {  # name: (the file it is written into, relative to the repository, and its program)
+    "default_run": ("docs/src/getting-started.md", default_run),
+    "accuracy": ("docs/src/quadratic.md", accuracy),
+    "peers": ("docs/src/quadratic.md", peers),
+    "corotational": ("docs/src/large-deformation.md", corotational),
+    "vtu_formats": ("docs/src/scenes/amplitudes.md", vtu_formats),
+    "scenes": ("scenes/README.md", scenes),
+    "mms_rates": ("docs/src/quadratic.md", mms_rates),
+    "effectivity": ("docs/src/quadratic.md", effectivity),
+    "adequacy_curve": ("docs/src/quadratic.md", adequacy_curve),
+    "accuracy_target": ("docs/src/quadratic.md", accuracy_target),
+    "rubber_orders": ("docs/src/large-deformation.md", rubber_orders),
 }
 
+# Tables whose figures are deterministic (no time in them) and cheap to re-derive: `--check`
+# recomputes them and fails when the committed text differs below the heading line (whose date
+# and commit change with every run).
+CHECKED = {"mms_rates", "adequacy_curve", "accuracy_target"}
 
-def span(text: str, name: str, chapter: str) -> tuple[int, int]:
-    """Where the table NAME's lines go in a chapter: after its begin marker, before its end marker."""
+
+def span(text: str, name: str, path: str) -> tuple[int, int]:
+    """Where the table NAME's lines go in a file: after its begin marker, before its end marker."""
     begin, end = BEGIN.format(name), END.format(name)
     if text.count(begin) != 1 or text.count(end) != 1 or text.index(begin) > text.index(end):
-        raise SystemExit(f"docs/src/{chapter}: needs exactly one '{begin}' followed by one '{end}'")
+        raise SystemExit(f"{path}: needs exactly one '{begin}' followed by one '{end}'")
     return text.index(begin) + len(begin), text.index(end)
 
 
+def marked_files() -> list[str]:
+    """Every file that may hold a table's markers: the book's chapters and the Markdown files it
+    includes or links as the home of figures (relative to the repository)."""
+    found = []
+    for folder, _, files in os.walk(BOOK):
+        found += [os.path.relpath(os.path.join(folder, f), ROOT) for f in files if f.endswith(".md")]
+    found += ["README.md", os.path.join("scenes", "README.md"), os.path.join("python", "README.md")]
+    found += [os.path.join("validation", f) for f in os.listdir(os.path.join(ROOT, "validation")) if f.endswith(".md")]
+    return sorted(found)
+
+
+def below_heading(body: str) -> str:
+    """A table's text without its first line (the heading with date, commit and machine)."""
+    return body.strip("\n").split("\n", 1)[-1].strip("\n")
+
+
 def main(args: list[str]) -> int:
+    global START_LOAD
     check = "--check" in args
     names = [a for a in args if a != "--check"] or list(TABLES)
     unknown = [n for n in names if n not in TABLES]
     if unknown:
         print(f"figures: unknown table {', '.join(unknown)}; tables: {', '.join(TABLES)}", file=sys.stderr)
         return 2
+    stale = []
     for name in names:
-        chapter, measure = TABLES[name]
-        path = os.path.join(BOOK, chapter)
+        relative, measure = TABLES[name]
+        path = os.path.join(ROOT, relative)
         with open(path, encoding="utf-8") as f:
             text = f.read()
-        start, stop = span(text, name, chapter)
+        start, stop = span(text, name, relative)
         if check:
+            if name in CHECKED and below_heading(text[start:stop]) != below_heading("\n".join(measure())):
+                stale.append(f"{relative}: table '{name}' differs from what its program writes now "
+                             f"(python3 docs/figures.py {name} rewrites it)")
             continue
-        print(f"figures: {name} ({chapter})", file=sys.stderr)
+        print(f"figures: {name} ({relative})", file=sys.stderr)
+        START_LOAD = os.getloadavg()[0] if hasattr(os, "getloadavg") else None
         body = "\n".join(measure())
         text = text[:start] + "\n" + body + "\n" + text[stop:]
         with open(path, "w", encoding="utf-8") as f:
             f.write(text)
-    # A marker left in a chapter for a table this script does not know would never be rewritten.
-    for chapter in sorted(os.listdir(BOOK)) + [os.path.join("scenes", c) for c in sorted(os.listdir(os.path.join(BOOK, "scenes")))]:
-        if not chapter.endswith(".md"):
-            continue
-        with open(os.path.join(BOOK, chapter), encoding="utf-8") as f:
+    # A marker left in a file for a table this script does not know would never be rewritten.
+    for relative in marked_files():
+        with open(os.path.join(ROOT, relative), encoding="utf-8") as f:
             for found in re.findall(r"<!-- figures: (\S+) \(written by", f.read()):
                 if found not in TABLES:
-                    print(f"figures: docs/src/{chapter} has a marker for unknown table '{found}'", file=sys.stderr)
+                    print(f"figures: {relative} has a marker for unknown table '{found}'", file=sys.stderr)
                     return 1
-    print("figures: markers well formed" if check else "figures: done", file=sys.stderr)
+    if stale:
+        print("figures: " + "\nfigures: ".join(stale), file=sys.stderr)
+        return 1
+    checked = [n for n in names if n in CHECKED]
+    print(f"figures: markers well formed; {', '.join(checked) or 'no table'} as its program writes it now"
+          if check else "figures: done", file=sys.stderr)
     return 0
 
 

@@ -14,9 +14,11 @@
 //! - [`prelude`] imports the common path in one line (`use tetfem::prelude::*;`), and the
 //!   runnable programs in `examples/` each teach one idea.
 //!
-//! Below the analyses: element stiffness from the linear (Cauchy) strain and Hooke's law, one
-//! global sparse stiffness K, lumped and consistent mass, Dirichlet constraints eliminated
-//! exactly, gravity, nodal and surface loads, and sparse Cholesky solves through [`linalg`].
+//! Below the analyses: element stiffness from the linear (Cauchy) strain and Hooke's law (the
+//! linear model; the corotational and hyperelastic models assemble their forces and tangents from
+//! the deformation gradient F per quadrature point), one global sparse stiffness K, lumped and
+//! consistent mass, Dirichlet constraints eliminated exactly, gravity, nodal and surface loads,
+//! and sparse Cholesky solves through [`linalg`].
 //!
 //! The modules live in rooms, in layer order (a room uses only itself and the rooms before it):
 //! [`base`] → [`mesh`] → [`fe`] → [`bc`] → [`model`], [`contact`] → [`analysis`] → [`post`].
