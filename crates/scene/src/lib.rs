@@ -170,7 +170,8 @@ type = "static"                     # default "static"; or "dynamic", which need
 # time_tolerance = 1e-3             # dynamic, backward_euler or newmark: the relative trajectory
                                     # error asked for, in (0, 1); dt is then the first step, each
                                     # step's dt chosen from its local error estimate, and frames
-                                    # land exactly on multiples of [output] every × dt. Summary:
+                                    # land exactly on multiples of [output] every × dt (no step
+                                    # is longer: no other bound is needed). Summary:
                                     # time_stepping (the run's own error estimate, accepted and
                                     # rejected steps, dt_min, dt_max). Not with explicit,
                                     # checkpoint_every, --resume or --steps. Default: none (fixed dt)

@@ -3,9 +3,9 @@
 //! of probes, energies and wall time per step, PNG frames, and a JSON summary.
 
 // Without the `png` feature the frames' code is a stand-in that refuses.
+mod adaptive;
 #[cfg_attr(not(feature = "png"), path = "png_look_off.rs")]
 mod png_look;
-mod adaptive;
 mod run_loop;
 use adaptive::FrameClock;
 pub use adaptive::TimeStepping;
@@ -27,8 +27,8 @@ use tetfem::analysis::dynamics::{
     Energy, IntegratorOptions, InternalForce, LinearSystem, MassKind, Method, NewtonStats,
     NonlinearSolve, Rayleigh, State, StepNewtonOptions,
 };
-pub use tetfem::analysis::transient::{MAX_STEPS, RunLength, TimeStep};
 use tetfem::analysis::transient::AdaptiveStep;
+pub use tetfem::analysis::transient::{MAX_STEPS, RunLength, TimeStep};
 use tetfem::base::error::{Error, Result};
 use tetfem::bc::constraints::Constraints;
 use tetfem::bc::loads::Loads;
