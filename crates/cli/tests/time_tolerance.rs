@@ -158,13 +158,12 @@ fn frames_land_and_the_estimate_meets_the_true_error() {
     // The estimate's norm: √((‖Δu‖/S_u)² + (‖Δv‖/S_v)²), S the reference's largest ‖u‖, ‖v‖
     // (here over the frames, every 1/30 of the period: within 1 − cos(π/30) = 0.5 % of the
     // largest over every step), the worst over the frames.
-    let scale = |part: fn(&(Vec<f64>, Vec<f64>)) -> &Vec<f64>| {
-        exact
-            .iter()
-            .map(|f| norm(part(f).iter().copied()))
+    let largest = |part: usize| {
+        (exact.iter())
+            .map(|f| norm([&f.0, &f.1][part].iter().copied()))
             .fold(0.0, f64::max)
     };
-    let (su, sv) = (scale(|f| &f.0), scale(|f| &f.1));
+    let (su, sv) = (largest(0), largest(1));
     let truth = run
         .iter()
         .zip(&exact)
