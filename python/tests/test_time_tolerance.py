@@ -77,3 +77,35 @@ def test_a_fixed_step_summary_has_no_time_stepping(tmp_path):
 def test_the_explicit_method_is_refused_naming_the_key(tmp_path):
     with pytest.raises(tetfem.SceneError, match="time_tolerance.*explicit"):
         tetfem.run_scene(write(tmp_path, "explicit"), write_files=False)
+
+
+def swing_simulation(method="newmark"):
+    """The beam of SWING through the Simulation API."""
+    mesh = tetfem.Mesh.box(max=(0.5, 0.05, 0.05), cells=(10, 1, 1), split="mirrored6")
+    material = tetfem.Material(1e7, 0.3, 1000.0)
+    constraints = tetfem.Constraints(mesh).fix(mesh.nodes_on_plane("x", 0.0))
+    loads = tetfem.Loads(mesh).add_gravity((0.0, 0.0, -9.81), material)
+    return tetfem.Simulation(mesh, material, constraints, loads, dt=1e-3, method=method)
+
+
+def test_simulation_run_adaptive_equals_the_scene_run(tmp_path):
+    sim = swing_simulation()
+    result = sim.run_adaptive(0.1, 1e-2, output_interval=1e-2)
+    summary = tetfem.run_scene(write(tmp_path, "newmark"), write_files=False)
+    stepping = summary["time_stepping"]
+    # The same library run on the same beam: the same steps and the same estimate, bit for bit.
+    assert result["accepted_steps"] == stepping["accepted_steps"]
+    assert result["rejected_steps"] == stepping["rejected_steps"]
+    assert result["estimated_error"] == stepping["estimated_error"]
+    assert (result["dt_min"], result["dt_max"]) == (stepping["dt_min"], stepping["dt_max"])
+    assert sim.time == 0.1 and sim.steps == result["accepted_steps"]
+    assert len(result["time"]) == len(result["dt"]) == result["accepted_steps"]
+    # Every output time is landed on exactly.
+    landed = set(result["time"].tolist())
+    assert all(k * 1e-2 in landed for k in range(1, 11))
+
+
+def test_simulation_run_adaptive_refuses_the_explicit_method():
+    sim = swing_simulation("explicit")
+    with pytest.raises(tetfem.InvalidInputError, match="time_tolerance"):
+        sim.run_adaptive(0.1, 1e-2)
