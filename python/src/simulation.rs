@@ -11,7 +11,9 @@ use tetfem::analysis::Definition;
 use tetfem::analysis::dynamics::{
     Checkpoint, Energy, IntegratorOptions, InternalForce, LinearSystem, Mass, Rayleigh, State,
 };
-use tetfem::analysis::transient::{Transient, TransientOptions, critical_step};
+use tetfem::analysis::transient::{
+    AdaptiveStep, Flow, StepView, Transient, TransientOptions, critical_step,
+};
 use tetfem::bc::loads::Loads;
 use tetfem::fe::materials::MaterialMap;
 
@@ -430,6 +432,58 @@ impl PySimulation {
             d.set_item(name, arrays::vector(py, column))?;
         }
         d.set_item("step", arrays::index_vector(py, &counts))?;
+        Ok(d)
+    }
+
+    /// Runs from the current state to ``end_time`` (s) with error-controlled time stepping
+    /// (implicit methods): each step's dt is chosen from an estimate of its local error so that
+    /// the trajectory's relative error stays within ``tolerance`` (0 < tol < 1), starting from
+    /// the current ``dt``; the library's ``Transient::run_adaptive``, as the scene key
+    /// ``analysis.time_tolerance`` runs it. ``output_interval`` (s): land exactly on every
+    /// multiple of it from the current time (default: only on ``end_time``); ``min_dt`` (s, 0:
+    /// the duration / 1e9) and ``max_dt`` (s) bound the step. Returns a dict: ``time`` and
+    /// ``dt`` (float64 arrays: each accepted step's end time and length), ``estimated_error``
+    /// (the run's own estimate of its relative trajectory error), ``accepted_steps``,
+    /// ``rejected_steps``, ``dt_changes``, ``dt_min``, ``dt_max`` (s). Afterwards ``dt`` is the
+    /// last step's. Raises ``InvalidInputError`` for the explicit method, a tolerance out of
+    /// range or one not met at ``min_dt`` (naming ``time_tolerance``); Ctrl-C raises
+    /// ``KeyboardInterrupt`` at a step boundary or inside a step.
+    #[pyo3(signature = (end_time, tolerance, *, output_interval = None, min_dt = 0.0, max_dt = f64::INFINITY))]
+    fn run_adaptive<'py>(
+        slf: &Bound<'py, Self>,
+        end_time: f64,
+        tolerance: f64,
+        output_interval: Option<f64>,
+        min_dt: f64,
+        max_dt: f64,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        let py = slf.py();
+        let sim = slf.get();
+        let _runner = sim.claim(py)?;
+        let mut control = AdaptiveStep::new(tolerance).or_raise(py)?;
+        control.output_interval = output_interval;
+        control.min_dt = min_dt;
+        control.max_dt = max_dt;
+        let mut guard = sim.stepping(py)?;
+        let transient = &mut *guard;
+        let report = detach_interruptible(py, || {
+            // Ctrl-C between steps (inside a step the solvers poll it themselves).
+            let mut observer = |_: &StepView<'_>| -> tetfem::Result<Flow> {
+                tetfem::linalg::interrupt::poll(|| "an adaptive run".into())?;
+                Ok(Flow::Continue)
+            };
+            transient.run_adaptive(end_time, &control, &mut observer)
+        })?;
+        let d = PyDict::new(py);
+        let (times, dts): (Vec<f64>, Vec<f64>) = report.steps.iter().copied().unzip();
+        d.set_item("time", arrays::vector(py, times))?;
+        d.set_item("dt", arrays::vector(py, dts))?;
+        d.set_item("estimated_error", report.estimated_error)?;
+        d.set_item("accepted_steps", report.accepted)?;
+        d.set_item("rejected_steps", report.rejected)?;
+        d.set_item("dt_changes", report.dt_changes)?;
+        d.set_item("dt_min", report.dt_range.0)?;
+        d.set_item("dt_max", report.dt_range.1)?;
         Ok(d)
     }
 

@@ -295,6 +295,15 @@ class Simulation:
     def run(
         self, steps: int, callback: Optional[Callable[["Simulation"], Optional[bool]]] = None
     ) -> Dict[str, npt.NDArray[Any]]: ...  # "step" int64, the others float64
+    def run_adaptive(
+        self,
+        end_time: float,
+        tolerance: float,
+        *,
+        output_interval: Optional[float] = None,
+        min_dt: float = 0.0,
+        max_dt: float = ...,
+    ) -> Dict[str, Any]: ...  # "time", "dt" float64 arrays; estimates, counts, dt_min, dt_max
     def energy(self) -> Dict[str, float]: ...
     @property
     def time(self) -> float: ...

@@ -8,11 +8,14 @@ use std::collections::BTreeMap;
 
 use nalgebra::Vector3;
 use tetfem::analysis::Definition;
-use tetfem::analysis::dynamics::{IntegratorOptions, Method, Rayleigh, State};
+use tetfem::analysis::dynamics::{IntegratorOptions, Method, Rayleigh, State, TimeData};
 use tetfem::analysis::transient::{
     AdaptiveReport, AdaptiveStep, Flow, StepView, TimeStep, Transient, TransientOptions,
 };
 use tetfem::base::error::Result;
+use tetfem::bc::amplitude::Amplitude;
+use tetfem::bc::boundary_motion::Motion;
+use tetfem::contact::{Contact, ContactParameters, Obstacle};
 use tetfem::fe::materials::MaterialMap;
 use tetfem::model::ModelKind;
 use tetfem::{BoxSplit, Constraints, Material, TetMesh};
@@ -300,4 +303,137 @@ fn explicit_is_refused_by_name() {
         error.contains("time_tolerance") && error.contains("explicit"),
         "{error}"
     );
+}
+
+/// A rubber cube of 0.1 m (E = 100 kPa, ν = 0.3, ρ = 1000 kg/m³, linear model) released from
+/// rest 5 mm above a fixed ground under gravity: it falls (32 ms), lands on the IPC barrier and
+/// bounces; nothing holds it but the ground. The linear model steps through Newton with the
+/// barrier (backward Euler; the library's contact takes the implicit methods).
+fn drop_on_ground() -> Definition {
+    let mesh = TetMesh::box_grid(
+        Vector3::new(0.0, 0.0, 5e-3),
+        Vector3::new(0.1, 0.1, 0.105),
+        [2, 2, 2],
+        BoxSplit::Mirrored6,
+    )
+    .unwrap();
+    let rubber = Material::new(1e5, 0.3, 1000.0).unwrap();
+    let parameters = ContactParameters::for_mesh(&mesh, rubber.youngs_modulus()).unwrap();
+    let ground = Obstacle::half_space("ground", Vector3::zeros(), Vector3::z()).unwrap();
+    let contact = Contact::new(&mesh, vec![ground], parameters).unwrap();
+    let materials = MaterialMap::uniform(rubber, mesh.tet_count());
+    Definition::builder(mesh, materials)
+        .gravity(Vector3::new(0.0, 0.0, -9.81))
+        .unwrap()
+        .contact(contact)
+        .build()
+        .unwrap()
+}
+
+/// The mean vertical displacement of the nodes (the body is free: every DOF is free, in node
+/// order): the centroid's height change for equal nodal masses.
+fn mean_z(u: &[f64]) -> f64 {
+    u.iter().skip(2).step_by(3).sum::<f64>() / (u.len() / 3) as f64
+}
+
+impl Samples {
+    /// max over the common landings of |z̄ − z̄_ref| over the largest |z̄_ref|: the error of the
+    /// centroid's trajectory relative to its travel.
+    fn centroid_error_of(&self, run: &Samples) -> f64 {
+        let travel = (self.at.values())
+            .map(|(u, _)| mean_z(u).abs())
+            .fold(0.0, f64::max);
+        (run.at.iter())
+            .map(|(k, (u, _))| (mean_z(u) - mean_z(&self.at[k].0)).abs() / travel)
+            .fold(0.0, f64::max)
+    }
+}
+
+/// The contact drop over 80 ms (fall, impact at 32 ms, rebound) by backward Euler at a
+/// tolerance of 5 %. The error measure asserted is the centroid's trajectory (above): after the
+/// impact the barrier's stiff contact excites the block's internal modes, which backward Euler
+/// damps out at the steps the control picks and which a run at 1/16 of them resolves, so the
+/// full state's difference there measures the reference's ringing rather than the run's error
+/// of its motion; the centroid is what a drop is run for. The full-state error (the estimate's
+/// own norm) is printed beside it.
+///
+/// Measured: the adaptive run does not reach the end. At the impact (t ≈ 31 ms) the accepted
+/// steps shrink by 0.8× each, every one just within the tolerance, from 1.4e-5 s down to the
+/// smallest step 8e-11 s (duration/MAX_STEPS), where a step is rejected: the error per unit
+/// step e_v/dt stays constant as dt falls, i.e. the estimated jerk grows as 1/dt — the IPC
+/// barrier's force grows without bound as a gap closes, and its acceleration is not smooth on
+/// any step the control tries. The same at tolerances 1e-2, 5e-2, 0.15 and 0.3. Ignored (not
+/// loosened) until the control treats contact onset (e.g. error per step rather than per unit
+/// step across an impact, or the contact's own time scale as a floor).
+#[test]
+#[ignore = "contact onset: the adaptive run cannot meet any tolerance (see the doc comment)"]
+fn contact_drop_effectivity() {
+    let definition = drop_on_ground();
+    let span = (0.08, 0.002);
+    let method = Method::BackwardEuler;
+    let (report, samples) =
+        adaptive(&definition, method, (1e-3, 5e-2), span, Rayleigh::default()).unwrap();
+    let exact = reference(
+        &definition,
+        method,
+        report.dt_range.0,
+        span,
+        Rayleigh::default(),
+    );
+    let (centroid, full) = (exact.centroid_error_of(&samples), exact.error_of(&samples));
+    let estimated = report.estimated_error;
+    eprintln!(
+        "contact drop: estimated {estimated:.3e}; true: centroid {centroid:.3e} (ratio {:.2}), \
+         full state {full:.3e} (ratio {:.2}); {} steps, {} rejected, dt {:.2e}..{:.2e}",
+        estimated / centroid,
+        estimated / full,
+        report.accepted,
+        report.rejected,
+        report.dt_range.0,
+        report.dt_range.1
+    );
+    assert_effective(estimated, centroid, "contact drop (centroid)");
+}
+
+/// The cantilever of [`swing`] without gravity, its clamp shaken along z by 5 mm·sin(2π·2 Hz·t)
+/// (below its first mode, 3.2 Hz) from rest, with a little stiffness damping (β = 1e-4 s, as in
+/// `swing_damped_steps_grow`: the modes the sudden start excites above 4000 rad/s die out),
+/// over half a second by Newmark at a tolerance of 1e-2. The support's velocity jumps from 0 to
+/// A·ω at the start: the first steps are 2e-6 s (measured), so the reference at 1/16 of them
+/// takes 4 million steps (about a minute here; the one tolerance keeps the test to that).
+#[test]
+fn shaken_base_effectivity() {
+    let mesh = TetMesh::box_grid(
+        Vector3::zeros(),
+        Vector3::new(0.5, 0.05, 0.05),
+        [10, 1, 1],
+        BoxSplit::Mirrored6,
+    )
+    .unwrap();
+    let materials =
+        MaterialMap::uniform(Material::new(1e7, 0.3, 1000.0).unwrap(), mesh.tet_count());
+    let clamp = mesh.nodes_on_plane(0, 0.0, 1e-9);
+    let mut constraints = Constraints::new(&mesh);
+    constraints.fix_nodes(&clamp).unwrap();
+    let mut data = TimeData::default();
+    let shake = Motion::Uniform {
+        displacement: Vector3::new(0.0, 0.0, 5e-3),
+        amplitude: Amplitude::sine(1.0, 2.0, 0.0, 0.0).unwrap(),
+    };
+    data.motion.add(&clamp, [true; 3], shake).unwrap();
+    let definition = Definition::builder(mesh, materials)
+        .constraints(constraints)
+        .unwrap()
+        .time_data(data)
+        .build()
+        .unwrap();
+    let damping = Rayleigh::new(0.0, 1e-4).unwrap();
+    let (estimated, truth, _) = effectivity(
+        &definition,
+        Method::Newmark,
+        (1e-3, 1e-2),
+        (0.5, 0.01),
+        damping,
+    );
+    assert_effective(estimated, truth, "shaken base");
 }

@@ -722,6 +722,12 @@ fn print_dynamic(s: &DynamicSummary, directory: &Path, header: bool) {
         "  {}: dt = {:.4e} s = {:.1} × the critical step, {} steps to t = {:.4e} s",
         s.method, s.dt, s.dt_over_critical, s.steps, s.end_time
     );
+    if let Some(t) = &s.time_stepping {
+        println!(
+            "  time_tolerance {:.1e}: estimated trajectory error {:.2e}; {} steps accepted, {} rejected; dt {:.4e} to {:.4e} s (dt above is the first step)",
+            t.tolerance, t.estimated_error, t.accepted_steps, t.rejected_steps, t.dt_min, t.dt_max
+        );
+    }
     if let Some(n) = &s.newton {
         println!(
             "  {} model: {} Newton iterations in all, at most {} in one step",

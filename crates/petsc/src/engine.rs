@@ -842,6 +842,7 @@ fn report_dynamic<'p>(
             step_resolution: None,
             resumed_from_step: None,
             contact_forces: None,
+            time_stepping: None,
         };
         Ok(Some(summary.to_json()))
     };

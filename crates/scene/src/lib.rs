@@ -40,7 +40,8 @@ pub use build::{BuiltScene, PointProbe, Probe};
 pub use critical::{CriticalStepReport, critical_step_of};
 pub use dynamic::{
     DynamicOutputs, DynamicOverrides, DynamicRun, DynamicSetup, DynamicSummary, EnergyTerms,
-    MAX_STEPS, RunLength, TimeStep, resume_dynamic_scene, run_dynamic, run_dynamic_scene,
+    MAX_STEPS, RunLength, TimeStep, TimeStepping, resume_dynamic_scene, run_dynamic,
+    run_dynamic_scene,
 };
 pub use dynamic::{
     STEP_CHECK_DOFS, STEP_CHECK_MODES, csv_columns as dynamic_csv_columns,
@@ -166,6 +167,14 @@ type = "static"                     # default "static"; or "dynamic", which need
 # method = "backward_euler"         # default; or "explicit", "newmark"
 # dt = 1e-4                         # s, > 0
 # duration = 0.1                    # s, ≥ dt, at most 1e9 steps (⌈duration/dt⌉)
+# time_tolerance = 1e-3             # dynamic, backward_euler or newmark: the relative trajectory
+                                    # error asked for, in (0, 1); dt is then the first step, each
+                                    # step's dt chosen from its local error estimate, and frames
+                                    # land exactly on multiples of [output] every × dt (no step
+                                    # is longer: no other bound is needed). Summary:
+                                    # time_stepping (the run's own error estimate, accepted and
+                                    # rejected steps, dt_min, dt_max). Not with explicit,
+                                    # checkpoint_every, --resume or --steps. Default: none (fixed dt)
 # damping = { mass = 0.0, stiffness = 0.0 }   # Rayleigh α (1/s), β (s); default none
 # mass = "lumped"                   # default; or "consistent"
 # initial_velocity = [0.0, 0.0, 0.0]          # m/s, default zero
@@ -778,6 +787,7 @@ impl Scene {
         [
             ("method", a.method.is_some()),
             ("dt", a.dt.is_some()),
+            ("time_tolerance", a.time_tolerance.is_some()),
             ("duration", a.duration.is_some()),
             ("damping", a.damping.is_some()),
             ("mass", with_mass && a.mass.is_some()),

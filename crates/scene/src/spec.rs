@@ -609,9 +609,16 @@ pub struct AnalysisSpec {
     /// Dynamic: `"backward_euler"` (default), `"explicit"` or `"newmark"`.
     #[serde(default)]
     pub method: Option<Method>,
-    /// Dynamic: the time step (s).
+    /// Dynamic: the time step (s); with `time_tolerance` the first step.
     #[serde(default)]
     pub dt: Option<f64>,
+    /// Dynamic, implicit methods: the relative error of the trajectory asked for (0 < tol < 1):
+    /// the step is chosen from an estimate of each step's local error
+    /// ([`tetfem::analysis::transient::AdaptiveStep`]), `dt` is the first step, frames land on
+    /// the multiples of `[output] every`·dt, and the summary reports the run's own error
+    /// estimate. Unset (default): every step is `dt`.
+    #[serde(default)]
+    pub time_tolerance: Option<f64>,
     /// Dynamic: the simulated time (s).
     #[serde(default)]
     pub duration: Option<f64>,

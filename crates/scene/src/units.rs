@@ -44,6 +44,11 @@ pub(crate) const DYNAMIC: &[(&str, &str)] = &[
     ("contact_forces.force_n", "N"),
     ("contact_forces.peak_n", "N"),
     ("contact_forces.peak_time_s", "s"),
+    ("time_stepping.tolerance", "1"),
+    ("time_stepping.estimated_error", "1"),
+    ("time_stepping.dt_min", "s"),
+    ("time_stepping.dt_max", "s"),
+    ("time_stepping.output_interval", "s"),
 ];
 
 /// Units of a static run's summary.

@@ -3,9 +3,12 @@
 //! of probes, energies and wall time per step, PNG frames, and a JSON summary.
 
 // Without the `png` feature the frames' code is a stand-in that refuses.
+mod adaptive;
 #[cfg_attr(not(feature = "png"), path = "png_look_off.rs")]
 mod png_look;
 mod run_loop;
+use adaptive::FrameClock;
+pub use adaptive::TimeStepping;
 use png_look::{PngFrame, PngLook, dynamic_look};
 use run_loop::run_dynamic_locked;
 
@@ -24,6 +27,7 @@ use tetfem::analysis::dynamics::{
     Energy, IntegratorOptions, InternalForce, LinearSystem, MassKind, Method, NewtonStats,
     NonlinearSolve, Rayleigh, State, StepNewtonOptions,
 };
+use tetfem::analysis::transient::AdaptiveStep;
 pub use tetfem::analysis::transient::{MAX_STEPS, RunLength, TimeStep};
 use tetfem::base::error::{Error, Result};
 use tetfem::bc::constraints::Constraints;
@@ -410,6 +414,11 @@ pub struct DynamicSummary {
     /// With `[[obstacles]]`: per obstacle the force the body exerts on it at the last step
     /// (N) and the peak magnitude over the run with its time (s); `None` without obstacles.
     pub contact_forces: Option<Vec<super::ContactForceHistory>>,
+    /// With `[analysis] time_tolerance`: the error-controlled run's own error estimate, its
+    /// accepted and rejected steps and its smallest and largest step (then `dt` is the first
+    /// step, `steps` the accepted ones); absent (`None`, and not in the JSON) otherwise.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub time_stepping: Option<TimeStepping>,
 }
 
 /// Free DOFs up to which a backward-Euler run checks its step against the lowest excited mode
@@ -473,7 +482,7 @@ pub fn run_dynamic<E: SceneElement>(
         Some(o) => Some(OutputLock::acquire(&o.settings.directory)?),
         None => None,
     };
-    run_dynamic_locked(setup, run, outputs, lock, None, progress)
+    run_dynamic_locked(setup, run, outputs, (lock, None), None, progress)
 }
 
 /// The [`Error::Interrupted`] of a run stopped at the boundary after `step` (at `time`, s), once
@@ -492,7 +501,6 @@ struct FrameWriter {
     settings: OutputSettings,
     png: Option<PngLook>,
     title: String,
-    every: usize,
     frames: usize,
     pvd: Option<PvdCollection>,
     /// With obstacles and `.vtu` frames: `<stem>_obstacles.pvd`, listing a
@@ -501,9 +509,8 @@ struct FrameWriter {
     csv: Option<CsvSeries>,
     files: Vec<PathBuf>,
     digits: usize,
-    /// The time of the run's first state and its fixed step, for [`step_time`].
-    start: (f64, usize),
-    dt: f64,
+    /// The states' times and which are frames.
+    clock: FrameClock,
 }
 
 /// The time of `state`, t = t₀ + (n − n₀)·dt from the run's first state (t₀, n₀) and its
@@ -520,10 +527,15 @@ impl FrameWriter {
         run: &DynamicRun,
         outputs: &DynamicOutputs,
         steps: usize,
-        dt: f64,
+        clock: FrameClock,
         resumed_at: Option<usize>,
     ) -> Result<Self> {
         let s = &outputs.settings;
+        // A resume runs at a fixed step (an error-controlled run is refused one).
+        let dt = match clock {
+            FrameClock::Steps { dt, .. } => dt,
+            FrameClock::Landings { interval, .. } => interval,
+        };
         std::fs::create_dir_all(&s.directory).map_err(|source| Error::Io {
             path: s.directory.clone(),
             source,
@@ -543,10 +555,7 @@ impl FrameWriter {
             None
         };
         let png = if s.png || outputs.force_png {
-            let frame_times = (0..=steps)
-                .filter(|k| k.is_multiple_of(s.every) || *k == steps)
-                .map(|k| setup.initial.time + k.saturating_sub(setup.initial.steps) as f64 * dt);
-            Some(dynamic_look(setup, s, &frame_times.collect::<Vec<f64>>())?)
+            Some(dynamic_look(setup, s, &clock.frame_times(steps))?)
         } else {
             None
         };
@@ -586,15 +595,13 @@ impl FrameWriter {
             settings: s.clone(),
             png,
             title: run.title.clone(),
-            every: s.every,
             frames: pvd.as_ref().map_or(0, |p| p.frames().len()),
             pvd,
             obstacle_pvd,
             csv,
             files,
             digits: steps.to_string().len().max(4),
-            start,
-            dt,
+            clock,
         })
     }
 
@@ -611,7 +618,7 @@ impl FrameWriter {
         contact_forces: Option<&[Vector3<f64>]>,
         last: bool,
     ) -> Result<()> {
-        let time = step_time(self.start, self.dt, state);
+        let time = self.clock.time(state);
         if let Some(csv) = &mut self.csv {
             let row = csv_row(
                 setup,
@@ -624,7 +631,7 @@ impl FrameWriter {
             )?;
             csv.push_values(&row)?;
         }
-        if !(state.steps.is_multiple_of(self.every) || last) {
+        if !(self.clock.is_frame(state) || last) {
             return Ok(());
         }
         // The rows up to this frame go to disk before the frame is listed in the .pvd.
@@ -767,8 +774,9 @@ fn run_dynamic_scene_as(
         .length
         .unwrap_or(RunLength::Duration(settings.duration));
     let dt = overrides.dt.unwrap_or(TimeStep::Seconds(settings.dt));
-    // Before the expensive work: the step count when dt is known without the system, and the
-    // output folder's lock.
+    // Before the expensive work: what cannot combine with an error-controlled step, the step
+    // count when dt is known without the system, and the output folder's lock.
+    let adaptive = adaptive::scene_control(scene, settings, overrides, resume)?;
     if let TimeStep::Seconds(dt) = dt {
         length.steps(dt)?;
     }
@@ -782,25 +790,38 @@ fn run_dynamic_scene_as(
     };
     match scene.order() {
         2 => run_dynamic_scene_on::<Tet10>(
-            scene, settings, overrides, dt, length, lock, resume, force_png, progress,
+            scene,
+            settings,
+            overrides,
+            (dt, length, adaptive),
+            (lock, resume),
+            force_png,
+            progress,
         ),
         _ => run_dynamic_scene_on::<Tet4>(
-            scene, settings, overrides, dt, length, lock, resume, force_png, progress,
+            scene,
+            settings,
+            overrides,
+            (dt, length, adaptive),
+            (lock, resume),
+            force_png,
+            progress,
         ),
     }
 }
 
 /// [`run_dynamic_scene`] on the element of the scene's order, with the output lock (if any)
-/// held (`lock` is `None` when no files are written).
-#[allow(clippy::too_many_arguments)]
+/// held (`lock` is `None` when no files are written); `adaptive` the error control of
+/// `time_tolerance`, if set.
 fn run_dynamic_scene_on<E: SceneElement>(
     scene: &Scene,
     settings: &DynamicSettings,
     overrides: &DynamicOverrides,
-    dt: TimeStep,
-    length: RunLength,
-    lock: Option<OutputLock>,
-    resume: Option<tetfem::analysis::dynamics::Checkpoint>,
+    (dt, length, adaptive): (TimeStep, RunLength, Option<AdaptiveStep>),
+    (lock, resume): (
+        Option<OutputLock>,
+        Option<tetfem::analysis::dynamics::Checkpoint>,
+    ),
     force_png: bool,
     progress: &mut dyn FnMut(usize, usize) -> ControlFlow<()>,
 ) -> Result<DynamicSummary> {
@@ -838,7 +859,23 @@ fn run_dynamic_scene_on<E: SceneElement>(
         settings: scene.output().clone(),
         force_png,
     });
-    run_dynamic_locked(&setup, &run, outputs.as_ref(), lock, restart, progress)
+    // The frames' interval, landed on exactly: `every` steps of the first dt.
+    let adaptive = match adaptive {
+        Some(mut control) => {
+            let every = scene.output().every as f64;
+            control.output_interval = Some(every * setup.resolve(dt)?);
+            Some(control)
+        }
+        None => None,
+    };
+    run_dynamic_locked(
+        &setup,
+        &run,
+        outputs.as_ref(),
+        (lock, restart),
+        adaptive,
+        progress,
+    )
 }
 
 /// The support reactions of a [`released_system`]: gravity its only load.

@@ -5,39 +5,29 @@
 
 use super::*;
 use tetfem::analysis::dynamics::Integrator;
-use tetfem::analysis::transient::{Flow, Observer, RunEnd, StepView, Transient};
+use tetfem::analysis::transient::{AdaptiveStep, Flow, Observer, RunEnd, StepView, Transient};
 
-/// [`run_dynamic`] once the output folder's lock (if any) is held.
+/// [`run_dynamic`] once the output folder's lock (if any) is held; with `adaptive`
+/// (`time_tolerance`, its output interval set) the library's error-controlled run, `run.dt` its
+/// first step.
 pub(super) fn run_dynamic_locked<E: SceneElement>(
     setup: &DynamicSetup<E>,
     run: &DynamicRun,
     outputs: Option<&DynamicOutputs>,
-    lock: Option<OutputLock>,
-    restart: Option<Restart>,
+    (lock, restart): (Option<OutputLock>, Option<Restart>),
+    adaptive: Option<AdaptiveStep>,
     progress: &mut dyn FnMut(usize, usize) -> ControlFlow<()>,
 ) -> Result<DynamicSummary> {
     let clock = Instant::now();
     let (critical, critical_source) = setup.critical_step()?;
     let dt = setup.resolve(run.dt)?;
     let steps = run.length.steps(dt)?;
-    let options = IntegratorOptions {
-        linear_method: setup.linear_method,
-        nonlinear_solve: setup.nonlinear_solve,
-        newton: setup.newton,
-        ..IntegratorOptions::default()
-    };
-    let mut transient = Transient::from_parts(
-        Arc::clone(&setup.system),
-        setup.force.clone(),
-        setup.initial.clone(),
-        run.method,
-        dt,
-        options,
-    )?;
+    let frame_clock = frame_clock(setup, run, outputs, dt, adaptive.as_ref());
+    let mut transient = start_transient(setup, run, dt)?;
     let setup_seconds = setup.setup_seconds + clock.elapsed().as_secs_f64();
     let initial_energy = transient.energy()?;
     let resumed_at = restart.as_ref().and_then(Restart::resumed_at);
-    let mut recorder = StepRecorder::new(setup, run, outputs, steps, dt, resumed_at)?;
+    let mut recorder = StepRecorder::new(setup, run, outputs, steps, frame_clock, resumed_at)?;
     // A resume continues from the checkpoint's state, integrator history, probe extremes and
     // contact force peaks.
     let first = resumed_at.unwrap_or(0);
@@ -55,11 +45,7 @@ pub(super) fn run_dynamic_locked<E: SceneElement>(
     // lets the first signal stop the run at a step boundary only from here on; during the
     // set-up above it exits at once) and may stop the run here already.
     if progress(first, steps).is_break() && first < steps {
-        let time = step_time(
-            (setup.initial.time, setup.initial.steps),
-            dt,
-            transient.state(),
-        );
+        let time = frame_clock.time(transient.state());
         return Err(interrupted(&mut recorder.writer, first, time)?);
     }
     let mut watcher = StepWatcher {
@@ -69,25 +55,36 @@ pub(super) fn run_dynamic_locked<E: SceneElement>(
         first,
         clocks: StepClocks::default(),
     };
-    let end = transient.run((first, steps), &mut watcher)?;
+    let (end, time_stepping) = match &adaptive {
+        None => (transient.run((first, steps), &mut watcher)?, None),
+        Some(control) => {
+            let end_time = match frame_clock {
+                FrameClock::Landings { end, .. } => end,
+                FrameClock::Steps { .. } => steps as f64 * dt,
+            };
+            let report = transient.run_adaptive(end_time, control, &mut watcher)?;
+            (report.end, Some(TimeStepping::of(&report, control)))
+        }
+    };
     let clocks = watcher.clocks;
     if let RunEnd::Stopped { step } = end {
-        let time = step_time(
-            (setup.initial.time, setup.initial.steps),
-            dt,
-            transient.state(),
-        );
+        let time = frame_clock.time(transient.state());
         return Err(interrupted(&mut recorder.writer, step, time)?);
     }
     let tally = RunTally {
         critical: (critical, critical_source),
         dt,
-        steps,
+        steps: match time_stepping {
+            Some(_) => transient.state().steps,
+            None => steps,
+        },
         first,
         setup_seconds,
         clocks,
         energies: (initial_energy, clocks.final_energy.unwrap_or(start_energy)),
         resumed_at,
+        frame_clock,
+        time_stepping,
     };
     let summary = close_run(
         setup,
@@ -98,6 +95,59 @@ pub(super) fn run_dynamic_locked<E: SceneElement>(
         &tally,
     )?;
     write_summary(summary, outputs, lock, restart.as_ref())
+}
+
+/// The library's transient run of `setup` with `run`'s method at `dt` (s) and the setup's
+/// solvers.
+fn start_transient<E: SceneElement>(
+    setup: &DynamicSetup<E>,
+    run: &DynamicRun,
+    dt: f64,
+) -> Result<Transient> {
+    let options = IntegratorOptions {
+        linear_method: setup.linear_method,
+        nonlinear_solve: setup.nonlinear_solve,
+        newton: setup.newton,
+        ..IntegratorOptions::default()
+    };
+    Transient::from_parts(
+        Arc::clone(&setup.system),
+        setup.force.clone(),
+        setup.initial.clone(),
+        run.method,
+        dt,
+        options,
+    )
+}
+
+/// The times of a run's states and its frames: steps of `dt` with a frame every
+/// `[output] every` steps, or with `adaptive` the landings on its output interval to the end
+/// of `run.length` (a step count there counts steps of `dt`).
+fn frame_clock<E: SceneElement>(
+    setup: &DynamicSetup<E>,
+    run: &DynamicRun,
+    outputs: Option<&DynamicOutputs>,
+    dt: f64,
+    adaptive: Option<&AdaptiveStep>,
+) -> FrameClock {
+    let every = outputs.map_or(1, |o| o.settings.every);
+    let start = setup.initial.time;
+    match adaptive {
+        None => FrameClock::Steps {
+            start: (start, setup.initial.steps),
+            dt,
+            every,
+        },
+        Some(control) => FrameClock::Landings {
+            start,
+            interval: control.output_interval.unwrap_or(every as f64 * dt),
+            end: start
+                + match run.length {
+                    RunLength::Duration(d) => d,
+                    RunLength::Steps(n) => n as f64 * dt,
+                },
+        },
+    }
 }
 
 /// The summary of a finished run with the lock's warning and the checkpoint's path, written
@@ -186,7 +236,7 @@ impl<E: SceneElement> Observer for StepWatcher<'_, '_, E> {
 /// history, the support reactions and the writer's rows and frames.
 struct StepRecorder<'s, E: SceneElement> {
     setup: &'s DynamicSetup<E>,
-    dt: f64,
+    clock: FrameClock,
     writer: Option<FrameWriter>,
     probes: Vec<ProbeRange>,
     contact_forces: Option<Vec<ContactForceHistory>>,
@@ -196,17 +246,18 @@ struct StepRecorder<'s, E: SceneElement> {
 }
 
 impl<'s, E: SceneElement> StepRecorder<'s, E> {
-    /// The recorder of a run of `steps` steps of `dt` (s), with its writer if `outputs`.
+    /// The recorder of a run of `steps` steps (an error-controlled one: about as many) on
+    /// `clock`, with its writer if `outputs`.
     fn new(
         setup: &'s DynamicSetup<E>,
         run: &DynamicRun,
         outputs: Option<&DynamicOutputs>,
         steps: usize,
-        dt: f64,
+        clock: FrameClock,
         resumed_at: Option<usize>,
     ) -> Result<Self> {
         let writer = match outputs {
-            Some(o) => Some(FrameWriter::new(setup, run, o, steps, dt, resumed_at)?),
+            Some(o) => Some(FrameWriter::new(setup, run, o, steps, clock, resumed_at)?),
             None => None,
         };
         let probes = setup
@@ -221,7 +272,7 @@ impl<'s, E: SceneElement> StepRecorder<'s, E> {
             .collect();
         Ok(StepRecorder {
             setup,
-            dt,
+            clock,
             writer,
             probes,
             contact_forces: contact_of(&setup.force).map(ContactForceHistory::start),
@@ -263,7 +314,7 @@ impl<'s, E: SceneElement> StepRecorder<'s, E> {
             }
             means.push(mean);
         }
-        let time = step_time((setup.initial.time, setup.initial.steps), self.dt, state);
+        let time = self.clock.time(state);
         let forces = super::super::dynamic_contact::obstacle_forces(&setup.force, &u, time)?;
         if let (Some(histories), Some(f)) = (self.contact_forces.as_mut(), forces.as_ref()) {
             ContactForceHistory::record(histories, f, time);
@@ -303,6 +354,10 @@ struct RunTally {
     energies: (Energy, Energy),
     /// The checkpoint's step the run resumed from, if it did.
     resumed_at: Option<usize>,
+    /// The states' times.
+    frame_clock: FrameClock,
+    /// What an error-controlled run did.
+    time_stepping: Option<TimeStepping>,
 }
 
 /// The summary of a finished run: the final reactions, the estimated error, the deformation
@@ -342,7 +397,8 @@ fn close_run<E: SceneElement>(
             system,
             &setup.initial.displacement,
             STEP_CHECK_MODES,
-            tally.dt,
+            // An error-controlled run: its largest step, where the mode is resolved worst.
+            tally.time_stepping.as_ref().map_or(tally.dt, |t| t.dt_max),
         )?,
         false => None,
     };
@@ -378,7 +434,7 @@ fn close_run<E: SceneElement>(
         critical_step_source: tally.critical.1.into(),
         dt_over_critical: tally.dt / tally.critical.0,
         steps,
-        end_time: step_time((setup.initial.time, setup.initial.steps), tally.dt, state),
+        end_time: tally.frame_clock.time(state),
         setup_seconds: tally.setup_seconds,
         first_step_seconds: clocks.first_step,
         mean_step_seconds: if steps - first > 1 {
@@ -402,5 +458,6 @@ fn close_run<E: SceneElement>(
         step_resolution,
         resumed_from_step: tally.resumed_at,
         contact_forces: recorder.contact_forces,
+        time_stepping: tally.time_stepping.clone(),
     })
 }
