@@ -579,7 +579,7 @@ fn print_default_static(cli: &DefaultScene, beam: &Cantilever, s: &RunSummary, d
     print_estimated_error(s.estimated_error.as_ref());
     print_files(&s.files, directory);
     println!(
-        "    (.vtu: displacement, displacement_magnitude [m], reaction_force [N] per node; von_mises [Pa], strain_energy_density [J/m³] per tet)"
+        "    (.vtu: displacement [m], reaction_force [N], nodal stress per node; stress, von_mises [Pa], principal stresses, strain, error indicator per tet: every field in the book's Outputs)"
     );
 }
 
