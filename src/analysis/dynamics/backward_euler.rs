@@ -125,8 +125,7 @@ impl BackwardEuler {
             &mut self.guard,
             (state.steps, state.time),
             energy,
-            newton.force().contact().is_some_and(|c| c.is_moving())
-                || self.system.is_time_varying(),
+            newton.force().does_work_off_the_potentials(&self.system),
         )?;
         // The predictor ũ = u + dt·v: where the body would go with no force.
         for ((p, u), v) in self

@@ -277,6 +277,14 @@ impl NonlinearForce {
         }
     }
 
+    /// Whether a run of this force on `system` is driven by work that the energies' constant
+    /// load potentials do not hold: moving obstacles, or data that follow time (moving supports,
+    /// loads with amplitudes; [`LinearSystem::is_time_varying`]). Its divergence guard then
+    /// checks finite values only: the implicit methods' one rule.
+    pub(crate) fn does_work_off_the_potentials(&self, system: &super::LinearSystem) -> bool {
+        self.contact.as_ref().is_some_and(|c| c.is_moving()) || system.is_time_varying()
+    }
+
     /// Drops the lagged friction (explicit steps and energy evaluations see none).
     pub fn end_friction(&self) {
         *self.friction_lock() = None;

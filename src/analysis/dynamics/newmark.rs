@@ -116,9 +116,13 @@ impl Newmark {
         if let Some(newton) = &self.newton {
             newton.force().set_time(&self.system, state.time)?;
         }
+        let Some(newton) = self.newton.as_ref() else {
+            return Ok(());
+        };
         if self.guard.is_none() {
+            let finite_only = newton.force().does_work_off_the_potentials(&self.system);
             let start = self.energy_of(state)?;
-            self.guard = Some(match self.system.is_time_varying() {
+            self.guard = Some(match finite_only {
                 true => DivergenceGuard::finite_only(start),
                 false => DivergenceGuard::new(start),
             });
