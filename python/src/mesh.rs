@@ -410,8 +410,8 @@ fn sorted(mut nodes: [usize; 3]) -> [usize; 3] {
     nodes
 }
 
-/// A tetrahedral mesh (linear tets). Coordinates in length units (m in SI, as in every
-/// shipped scene); node and tet indices start at 0.
+/// A tetrahedral mesh (4-node tets, or 10-node with `order = 2`). Coordinates in length units
+/// (m in SI, as in every shipped scene); node and tet indices start at 0.
 ///
 /// Build one with ``Mesh.box(max, cells)``, ``Mesh(points, tets)`` or ``Mesh.read(path)``.
 /// Invalid input raises ``MeshError`` (non-finite coordinates, degenerate or duplicate tets,

@@ -22,7 +22,8 @@ use tetfem_cli::scene::{
 };
 use tetfem_fixtures::cantilever::Cantilever;
 
-/// Elastic solids on linear tetrahedra: static and dynamic FEM runs from TOML scenes.
+/// Elastic solids on 4- and 10-node tetrahedra, linear and nonlinear: static, dynamic and modal
+/// FEM runs from TOML scenes.
 ///
 /// With no subcommand, runs the embedded default scene: a steel cantilever (1 m × 0.1 m × 0.1 m,
 /// E = 200 GPa, ν = 0.3, ρ = 7850 kg/m³) clamped at x = 0 under gravity and a 10 kN end load.
