@@ -1,4 +1,5 @@
-//! The continuation of friction's smoothing distance within an implicit step.
+//! Where a contact step's Newton iterations start, and the continuation of friction's smoothing
+//! distance when they fail.
 //!
 //! IPC's friction (see [`crate::contact::friction`]) is Coulomb's force smoothed over a slip of
 //! ε = ε_v·dt: its curvature along the slip is 2·μ·λ/ε at rest and falls to zero at ε. With
@@ -9,11 +10,13 @@
 //! against ε = 7 µm) needed 25 iterations of 1/16 steps and failed; a block landing on a still
 //! floor starts where it sticks (zero slip) and converges in 7.
 //!
-//! When the step starts with a slip larger than [`GROWTH`]·ε, the iterations therefore first
-//! solve the step with ε widened to the start's slip, where the model is right, and then shrink
-//! ε by [`GROWTH`] per stage, each stage starting from the last one's solution, to the step's
-//! own ε: the last stage solves the step's equation itself, so the solution is unchanged. A
-//! step starting at (nearly) zero slip — every step on a still obstacle — runs as before.
+//! Two remedies. A contact step starts from the integrator's prediction where the path there is
+//! collision-free and its Φ lower (`start_from_prediction`): a node riding a belt then starts at
+//! zero slip. And a step whose Newton fails from a start slipping by more than [`GROWTH`]·ε is
+//! solved again from that start, first with ε widened to the start's slip, where the model is
+//! right, then with ε shrunk by [`GROWTH`] per stage, each stage starting from the last one's
+//! solution, down to the step's own ε: the last stage solves the step's equation itself, so the
+//! solution is the step's. A step that converges at once is not touched by the continuation.
 
 use super::{NewtonSolver, StepEquation};
 use crate::analysis::dynamics::LinearSystem;
@@ -26,9 +29,10 @@ use crate::sparse::CscMatrix;
 const GROWTH: f64 = 8.0;
 
 impl NewtonSolver {
-    /// The Newton iterations of [`solve`](Self::solve), friction lagged already: at the lagged
-    /// smoothing distance, or through the continuation of the module doc when the step starts
-    /// slipping by more than [`GROWTH`]·ε. Counts one step whatever the stages.
+    /// The Newton iterations of [`solve`](Self::solve), friction lagged already: from the
+    /// prediction where it is better, at the lagged smoothing distance, and again through the
+    /// continuation of the module doc when that fails from a start slipping by more than
+    /// [`GROWTH`]·ε. Counts one step whatever the stages.
     #[allow(clippy::too_many_arguments)]
     pub(super) fn iterate(
         &mut self,
