@@ -109,7 +109,13 @@ def test_a_static_solver_solving_in_another_thread_is_busy_not_a_panic():
 
 
 def sigint_after(seconds):
-    """A started timer that sends SIGINT to this process (as Ctrl-C does) after ``seconds``."""
+    """A started timer that sends SIGINT to this process (as Ctrl-C does) after ``seconds``.
+
+    Python's own handler (KeyboardInterrupt) is installed first: a process started in the
+    background by a non-interactive shell inherits SIGINT ignored, and Python then installs no
+    handler, so the signal would be dropped before tetfem could see it (a CI script run with
+    ``&`` failed these tests that way)."""
+    signal.signal(signal.SIGINT, signal.default_int_handler)
     timer = threading.Timer(seconds, os.kill, (os.getpid(), signal.SIGINT))
     timer.start()
     return timer
