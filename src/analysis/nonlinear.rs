@@ -4,7 +4,7 @@
 use nalgebra::Vector3;
 
 use crate::analysis::dynamics::internal_force::coordinate_scale;
-use crate::analysis::dynamics::newton::line_search::{Backtracking, LineFunction};
+use crate::analysis::dynamics::newton::line_search::{Backtracking, LineFunction, NEAR_SOLUTION};
 use crate::analysis::problem::Problem;
 use crate::base::error::{Error, Result};
 use crate::bc::amplitude::STATIC_TIME;
@@ -917,7 +917,8 @@ impl<E: ModelElement, M: TetModels + ?Sized> StaticNewton<'_, E, M> {
         // |r·δ|, the first-order change of Π along the step (the relaxed search's slack).
         let slope = r.iter().zip(delta).map(|(a, b)| a * b).sum::<f64>().abs();
         let search = Backtracking::for_contact(self.contact.is_some());
-        let (accepted, _) = search.search(&mut line, first_alpha, (norm(r), false), slope)?;
+        let near_level = NEAR_SOLUTION * at.reference;
+        let (accepted, _) = search.search(&mut line, first_alpha, (norm(r), near_level), slope)?;
         Ok(accepted.then_some((line.trial, line.r_trial)))
     }
 }

@@ -24,22 +24,25 @@ pub(crate) trait LineFunction {
 /// second search, only when the first found nothing: round-off can hide Φ's decrease near the
 /// solution (a model's energy sums terms far larger than its change, e.g. Neo-Hookean's ln J),
 /// so it accepts a residual decrease whose Φ rises by at most the first-order change α·|r·δ|
-/// the step predicts. Near the solution (`near`: a residual below [`NEAR_SOLUTION`] of the
-/// step's forces) a step that halves the residual is accepted first, whatever Φ does: Φ's
-/// round-off there can exceed the decrease it should show by far more than the
-/// step's first-order change (a block settling on a frictional floor: the Newton step took the
-/// residual from 4.1e-6 N to 1.0e-10 N, a decrease of Φ of ~3e-17 J predicted, while Φ, a sum
-/// of terms that cancel to 1.6e-4 J, moved by +2.4e-14 J), and a halving is Newton's own
-/// quadratic convergence, which no step outside the solution's basin shows. Judged by Φ
-/// there, a step is accepted or not by Φ's noise: tiny fractions whose Φ happens to fall.
+/// the step predicts. A step that lands near the solution (a trial residual below
+/// [`NEAR_SOLUTION`] of the step's forces, `near_level`) and halves the residual is accepted
+/// first, whatever Φ does: Φ's round-off there can exceed the decrease it should show by far
+/// more than the step's first-order change (a block settling on a frictional floor: the Newton
+/// step took the residual from 4.1e-6 N to 1.0e-10 N, a decrease of Φ of ~3e-17 J predicted,
+/// while Φ, a sum of terms that cancel to 1.6e-4 J, moved by +2.4e-14 J; a 10-node
+/// Neo-Hookean block pressed on a floor: 1.5e-4 N to 1.5e-11 N, Φ = −5.4e-11 J moved by
+/// +8.4e-14 J, the noise of its elements' ln J and tr C − 3 at μ·V ≈ 70 J each), and such a
+/// landing is Newton's own quadratic convergence, which no step outside the solution's basin
+/// shows. Judged by Φ there, a step is accepted or not by Φ's noise: tiny fractions whose Φ
+/// happens to fall.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub(crate) struct Backtracking {
     /// Φ decides first, with the relaxed second search (contact: no iterate may penetrate).
     potential_first: bool,
 }
 
-/// The residual, relative to the step's forces, below which a contact step is near its
-/// solution (see [`Backtracking`]).
+/// The residual, relative to the step's forces, below which a contact step's trial point is
+/// near its solution (see [`Backtracking`]).
 pub(crate) const NEAR_SOLUTION: f64 = 1e-3;
 
 /// Halvings of the step fraction per search (down to 2⁻³⁰ ≈ 1e-9 of the first fraction).
@@ -54,14 +57,14 @@ impl Backtracking {
     }
 
     /// Searches `line` from the fraction `first_alpha`, `r_norm` the residual norm at its
-    /// start and `slope` |r·δ| there, `near` whether the residual is below [`NEAR_SOLUTION`]
-    /// of the step's forces: returns whether a fraction was accepted, and the last one tried
-    /// (the line's last trial is the accepted point).
+    /// start and `slope` |r·δ| there, `near_level` [`NEAR_SOLUTION`] of the step's forces
+    /// (force): returns whether a fraction was accepted, and the last one tried (the line's
+    /// last trial is the accepted point).
     pub fn search(
         &self,
         line: &mut dyn LineFunction,
         first_alpha: f64,
-        (r_norm, near): (f64, bool),
+        (r_norm, near_level): (f64, f64),
         slope: f64,
     ) -> Result<(bool, f64)> {
         let mut alpha = first_alpha;
@@ -79,7 +82,7 @@ impl Backtracking {
                         false => 1e-12 * start.abs(),
                         true => (1e-12 * start.abs()).max(alpha * slope),
                     };
-                    (near && trial_norm <= 0.5 * r_norm)
+                    trial_norm <= near_level.min(0.5 * r_norm)
                         || trial_phi < start
                         || (trial_norm < r_norm && trial_phi <= start + slack)
                 } else {

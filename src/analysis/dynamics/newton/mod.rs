@@ -371,7 +371,7 @@ impl NewtonSolver {
         (first_alpha, r_norm, reference): (f64, f64, f64),
     ) -> Result<(bool, f64)> {
         let slope = dot(&self.residual, &self.delta).abs();
-        let near = r_norm <= line_search::NEAR_SOLUTION * reference;
+        let near_level = line_search::NEAR_SOLUTION * reference;
         let search = self.line_search;
         let mut line = StepLine {
             solver: self,
@@ -380,7 +380,7 @@ impl NewtonSolver {
             u_new,
             start_phi: None,
         };
-        search.search(&mut line, first_alpha, (r_norm, near), slope)
+        search.search(&mut line, first_alpha, (r_norm, near_level), slope)
     }
 
     /// Φ at the line search's start `u_new` (its energy from the residual's pass), computed at
