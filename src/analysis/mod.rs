@@ -4,13 +4,15 @@
 //!
 //! The analysis room also holds every solve of a problem: the set-up made once ([`problem`]),
 //! one linear solve ([`statics`]), Newton with load steps ([`nonlinear`]), time integration
-//! ([`dynamics`]) and modes ([`modal`]).
+//! ([`dynamics`]) and modes ([`modal`]); the one Newton loop both nonlinear solves iterate in
+//! (`newton`).
 
 pub mod combination;
 pub mod definition;
 pub mod dynamics;
 pub mod modal;
 pub mod modal_analysis;
+pub(crate) mod newton;
 pub mod nonlinear;
 pub mod problem;
 pub mod static_analysis;

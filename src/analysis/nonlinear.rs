@@ -4,7 +4,8 @@
 use nalgebra::Vector3;
 
 use crate::analysis::dynamics::internal_force::coordinate_scale;
-use crate::analysis::dynamics::newton::line_search::{Backtracking, LineFunction, NEAR_SOLUTION};
+use crate::analysis::newton::iteration::{self, NewtonSystem, Stall};
+use crate::analysis::newton::line_search::{Backtracking, LineFunction, NEAR_SOLUTION};
 use crate::analysis::problem::Problem;
 use crate::base::error::{Error, Result};
 use crate::bc::amplitude::STATIC_TIME;
@@ -751,10 +752,9 @@ impl<E: ModelElement, M: TetModels + ?Sized> StaticNewton<'_, E, M> {
     }
 
     /// Newton's iterations of load step `at` from `u` (residual `r` there), friction lagged by
-    /// `lag`, until ‖r_f‖ ≤ tolerance·reference (or the round-off floor; with moving obstacles
-    /// also a Newton step below 10⁻⁹·d̂ on every DOF: nothing the barrier resolves; or one below
-    /// the positions' resolution 4ε·max|X|: no force changes). Appends
-    /// each residual norm to `history`.
+    /// `lag`, until ‖r_f‖ ≤ tolerance·reference or the round-off floor: the one Newton
+    /// loop ([`iteration::iterate`]) on this load step's equation ([`LoadStepSystem`]).
+    /// Appends each residual norm to `history`.
     fn newton(
         &mut self,
         u: &mut Vec<f64>,
@@ -779,70 +779,47 @@ impl<E: ModelElement, M: TetModels + ?Sized> StaticNewton<'_, E, M> {
             .map_or(resolution, |c| {
                 resolution.max(1e-9 * c.parameters().activation_distance)
             });
-        let mut converged = norm(r) <= options.tolerance * reference;
-        let mut done = 0;
-        while !converged {
-            // A caller's Ctrl-C between iterations (nothing is returned but the error).
-            crate::linalg::interrupt::poll(|| {
-                format!(
-                    "Newton iteration {} of load step {step}/{}",
-                    done + 1,
-                    options.load_steps
-                )
-            })?;
-            if done >= options.max_iterations {
-                let reached = history.last().copied().unwrap_or(f64::NAN);
-                return Err(Error::NotConverged {
-                    method: "Newton's method".into(),
-                    message: format!(
-                        "no convergence in {} iterations at load step {step}/{}: residual \
-                         ‖r_f‖ = {reached:.3e}, {:.3e} of the reference {reference:.3e} \
-                         (tolerance {:e}); more load steps or iterations may help",
-                        options.max_iterations,
-                        options.load_steps,
-                        reached / reference,
-                        options.tolerance
-                    ),
-                });
-            }
-            let delta = self.direction(u, r, lag)?;
-            if delta.iter().all(|d| d.abs() <= smallest) {
-                break;
-            }
-            let r_norm = norm(r);
-            let Some((trial, r_trial)) = self.line_search(u, &delta, r, lag, at)? else {
-                // Below 1e-6 of the reference the residual is the forces' round-off (see
-                // below): with contact, whose line search asks for a decrease of Π that
-                // round-off can deny, a search finding none there is the floor.
-                if self.contact.is_some() && r_norm <= 1e-6 * reference {
-                    break;
+        let r_norm = norm(r);
+        let mut system = LoadStepSystem {
+            newton: self,
+            u,
+            r,
+            history,
+            lag,
+            at,
+            smallest,
+            delta: Vec::new(),
+            trial: None,
+        };
+        let limits = (options.tolerance, options.max_iterations);
+        let stall = match iteration::iterate(&mut system, (r_norm, reference), limits)? {
+            Ok(_) => return Ok(()),
+            Err(stall) => stall,
+        };
+        let n = options.load_steps;
+        Err(Error::NotConverged {
+            method: "Newton's method".into(),
+            message: match stall {
+                Stall::OutOfIterations { residual, .. } => format!(
+                    "no convergence in {} iterations at load step {step}/{n}: residual \
+                     ‖r_f‖ = {residual:.3e}, {:.3e} of the reference {reference:.3e} \
+                     (tolerance {:e}); more load steps or iterations may help",
+                    options.max_iterations,
+                    residual / reference,
+                    options.tolerance
+                ),
+                Stall::NoDecrease { residual } => format!(
+                    "the line search found no decrease at load step {step}/{n} (residual \
+                     ‖r_f‖ = {residual:.3e}, {:.3e} of the reference {reference:.3e}; \
+                     tolerance {:e})",
+                    residual / reference,
+                    options.tolerance
+                ),
+                Stall::NotFinite => {
+                    format!("the residual is no longer finite at load step {step}/{n}")
                 }
-                return Err(Error::NotConverged {
-                    method: "Newton's method".into(),
-                    message: format!(
-                        "the line search found no decrease at load step {step}/{} (residual \
-                         ‖r_f‖ = {r_norm:.3e}, {:.3e} of the reference {reference:.3e}; \
-                         tolerance {:e})",
-                        options.load_steps,
-                        r_norm / reference,
-                        options.tolerance
-                    ),
-                });
-            };
-            *u = trial;
-            *r = r_trial;
-            self.iterations += 1;
-            done += 1;
-            let (before, now) = (r_norm, norm(r));
-            history.push(now);
-            // Converged at the tolerance, or at the round-off floor: below 1e-6 of the
-            // reference a residual that no longer halves is the floating-point noise of the
-            // forces (their O(E) terms cancel to O(E·strain)), and more iterations cannot
-            // lower it.
-            converged = now <= options.tolerance * reference
-                || (now <= 1e-6 * reference && now > 0.5 * before);
-        }
-        Ok(())
+            },
+        })
     }
 
     /// The Newton step Δu on the free DOFs at `u` (free residual `r`): K_t·Δu = r with the
@@ -883,7 +860,7 @@ impl<E: ModelElement, M: TetModels + ?Sized> StaticNewton<'_, E, M> {
     /// The backtracking line search along the free step `delta` from `u` (residual `r`):
     /// from 1, or with contact from [`crate::contact::first_step_fraction`] of the collision-free step, halved up to
     /// 30 times until the residual norm or Π decreases — with contact only a decrease of Π (up
-    /// to its round-off), so the barrier keeps the gaps open. It is the implicit steps' search
+    /// to its round-off), so the barrier keeps the gaps open. It is every Newton's search
     /// ([`Backtracking`]) on this problem's line. Returns the accepted state and its free
     /// residual (`None`: no decrease found).
     fn line_search(
@@ -920,6 +897,61 @@ impl<E: ModelElement, M: TetModels + ?Sized> StaticNewton<'_, E, M> {
         let near_level = NEAR_SOLUTION * at.reference;
         let (accepted, _) = search.search(&mut line, first_alpha, (norm(r), near_level), slope)?;
         Ok(accepted.then_some((line.trial, line.r_trial)))
+    }
+}
+
+/// A load step's equation at the iterate `u` (residual `r`) as the Newton loop drives it
+/// ([`iteration::NewtonSystem`]): the exact-then-projected tangent's direction, the line search
+/// of [`StaticNewton::line_search`], the iterate moved to the accepted trial and its residual
+/// norm appended to `history`.
+struct LoadStepSystem<'s, 'a, E: ModelElement, M: TetModels + ?Sized> {
+    newton: &'s mut StaticNewton<'a, E, M>,
+    u: &'s mut Vec<f64>,
+    r: &'s mut Vec<f64>,
+    history: &'s mut Vec<f64>,
+    lag: Option<&'s FrictionLag>,
+    at: LoadStep,
+    /// The smallest Newton step that changes a force (length).
+    smallest: f64,
+    /// The free Newton step δ of the iteration.
+    delta: Vec<f64>,
+    /// The accepted trial state (full) and its free residual.
+    trial: Option<(Vec<f64>, Vec<f64>)>,
+}
+
+impl<E: ModelElement, M: TetModels + ?Sized> NewtonSystem for LoadStepSystem<'_, '_, E, M> {
+    fn direction(&mut self, _first: bool) -> Result<()> {
+        self.delta = self.newton.direction(self.u, self.r, self.lag)?;
+        Ok(())
+    }
+
+    fn step_is_unresolved(&self) -> bool {
+        self.delta.iter().all(|d| d.abs() <= self.smallest)
+    }
+
+    fn search(&mut self, _r_norm: f64, _reference: f64) -> Result<(bool, f64)> {
+        self.trial = self
+            .newton
+            .line_search(self.u, &self.delta, self.r, self.lag, self.at)?;
+        Ok((self.trial.is_some(), 1.0))
+    }
+
+    fn accept(&mut self, _alpha: f64) -> f64 {
+        if let Some((trial, r_trial)) = self.trial.take() {
+            *self.u = trial;
+            *self.r = r_trial;
+        }
+        self.newton.iterations += 1;
+        let now = norm(self.r);
+        self.history.push(now);
+        now
+    }
+
+    fn describe(&self, iteration: usize) -> String {
+        format!(
+            "Newton iteration {iteration} of load step {}/{}",
+            self.at.step, self.newton.options.load_steps
+        )
     }
 }
 

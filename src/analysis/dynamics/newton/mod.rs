@@ -1,25 +1,27 @@
-//! Newton's method for the implicit equation of one time step with a nonlinear force model,
+//! The implicit equation of one time step with a nonlinear force model as a Newton system,
 //! written once for every implicit integrator (each supplies its scales and predictor).
 //!
-//! This module (`src/analysis/dynamics/newton/`) is where the implicit steps' Newton lives: the loop
-//! ([`NewtonSolver`], with only the loop's own state: iterate, residuals, counts), its
-//! direction strategies, each a type owning its state ([`direction`]: refactoring,
-//! rest-preconditioned CG, L-BFGS), and its backtracking line search ([`line_search`]).
+//! This module (`src/analysis/dynamics/newton/`) is the step's side of Newton's method
+//! ([`NewtonSolver`]: the step equation's residual and Φ, the iterate, counts), its direction
+//! strategies, each a type owning its state ([`direction`]: refactoring, rest-preconditioned
+//! CG, L-BFGS), and where a contact step starts ([`smoothing`]). The loop and the line search
+//! are the one Newton of every nonlinear solve (`crate::analysis::newton`), which a static
+//! load step iterates in too.
 
 mod direction;
-pub(crate) mod line_search;
 mod smoothing;
 
 use std::sync::Arc;
 
 use super::internal_force::{ForceWorkspace, NonlinearForce};
 use super::{LinearSystem, Mass, NonlinearSolve};
+use crate::analysis::newton::iteration::{self, NewtonSystem, Stall};
+use crate::analysis::newton::line_search::{self, Backtracking, LineFunction};
 use crate::base::error::{Error, Result};
 use crate::contact::{MAX_MOTION_STAGES, MotionStage};
 use crate::linear_solver::LinearSolver;
 use crate::sparse::CscMatrix;
 use direction::{NewtonMatrix, StepDirection};
-use line_search::{Backtracking, LineFunction};
 
 /// Settings of the Newton iterations of an implicit step with a nonlinear force model.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -661,89 +663,33 @@ impl NewtonSolver {
                 r_norm = guessed;
             }
         }
-        let mut iterations = 0;
-        let mut budget = self.options.max_iterations;
-        while r_norm > self.options.tolerance * reference {
-            // A caller's Ctrl-C between iterations: u_new is this solver's scratch, the state
-            // is written only after a converged step.
-            crate::linalg::interrupt::poll(|| {
-                format!("Newton iteration {} of step {}", iterations + 1, step + 1)
-            })?;
-            if iterations == budget {
-                if self.direction.fall_back(&mut self.stats) {
-                    budget += self.options.max_iterations;
-                } else {
-                    return Err(diverged(format!(
-                        "Newton did not converge in {budget} iterations (residual {r_norm:.3e} of {reference:.3e}); a smaller dt helps"
-                    )));
-                }
-            }
-            self.newton_direction(
-                system,
-                u_new,
-                (s_m + s_c * damping.alpha, s_c * damping.beta),
-                matrix,
-                solver,
-                iterations == 0,
-            )?;
-            // A Newton step that changes no force (below the positions' resolution 4ε·max|X|
-            // on every DOF) leaves the iterate standing. This is the test that holds at zero
-            // load (a body at rest, an obstacle still out of reach): r₀ is then the forces'
-            // round-off itself (a corotational block's polar decompositions of F = I leave
-            // ~1e-13 N), which no step can lower, while a line search that round-off lets accept
-            // such steps (or denies every one) would otherwise fail the step.
-            if self.delta.iter().all(|d| d.abs() <= self.step_resolution) {
-                break;
-            }
-            // With contact: never past the first time of impact (IPC's 0.8 of it), and only a
-            // decrease of Φ (up to its round-off) is accepted, so no iterate penetrates.
-            let with_contact = self.force.contact().is_some();
-            let first_alpha = match with_contact {
-                true => crate::contact::first_step_fraction(
-                    self.force.contact_step_limit(u_new, &self.delta)?,
-                ),
-                false => 1.0,
-            };
-            let (accepted, alpha) =
-                self.search_line(system, equation, u_new, (first_alpha, r_norm, reference))?;
-            // With contact only a decrease of Φ is accepted, which round-off can deny a
-            // converged iterate: a Newton step below 1e-9 of the barrier's length scale d̂
-            // changes nothing the contact can resolve, so the iterate stands.
-            let negligible = self.force.contact().is_some_and(|c| {
-                let d_hat = c.parameters().activation_distance;
-                self.delta.iter().all(|d| d.abs() <= 1e-9 * d_hat)
-            });
-            // Below 1e-6 of the reference the residual is the round-off of the element forces
-            // (see `StepNewtonOptions::tolerance`): a line search finding no decrease there is
-            // the floor reached, as is a residual that no longer halves below.
-            if !accepted && (negligible || r_norm <= 1e-6 * reference) {
-                break;
-            }
-            if !accepted && self.direction.fall_back(&mut self.stats) {
-                budget = iterations + self.options.max_iterations;
-                continue;
-            }
-            if !accepted {
-                return Err(diverged(format!(
-                    "the Newton line search found no decrease (residual {r_norm:.3e} of {reference:.3e}); a smaller dt helps"
-                )));
-            }
-            self.direction
-                .accepted(alpha, &self.delta, &self.residual, &self.trial_residual);
-            u_new.copy_from_slice(&self.trial);
-            std::mem::swap(&mut self.residual, &mut self.trial_residual);
-            std::mem::swap(&mut self.residual_energy, &mut self.trial_energy);
-            iterations += 1;
-            let before = r_norm;
-            r_norm = norm(&self.residual);
-            if !r_norm.is_finite() {
-                return Err(diverged("the Newton residual is no longer finite".into()));
-            }
-            if r_norm <= 1e-6 * reference && r_norm > 0.5 * before {
-                break;
+        let scales = (s_m + s_c * damping.alpha, s_c * damping.beta);
+        let limits = (self.options.tolerance, self.options.max_iterations);
+        let mut step_system = StepSystem {
+            solver: self,
+            system,
+            equation,
+            matrix,
+            linear: solver,
+            u_new,
+            scales,
+            step,
+        };
+        match iteration::iterate(&mut step_system, (r_norm, reference), limits)? {
+            Ok(iterations) => Ok(self.record(iterations)),
+            Err(Stall::OutOfIterations {
+                iterations,
+                residual,
+            }) => Err(diverged(format!(
+                "Newton did not converge in {iterations} iterations (residual {residual:.3e} of {reference:.3e}); a smaller dt helps"
+            ))),
+            Err(Stall::NoDecrease { residual }) => Err(diverged(format!(
+                "the Newton line search found no decrease (residual {residual:.3e} of {reference:.3e}); a smaller dt helps"
+            ))),
+            Err(Stall::NotFinite) => {
+                Err(diverged("the Newton residual is no longer finite".into()))
             }
         }
-        Ok(self.record(iterations))
     }
 
     /// Counts a solved step of `iterations` iterations.
@@ -825,6 +771,91 @@ impl LineFunction for StepLine<'_> {
             &solver.trial,
             solver.trial_energy,
         )
+    }
+}
+
+/// The step equation at the iterate `u_new` as the Newton loop drives it
+/// ([`iteration::NewtonSystem`]): the direction by the solver's strategy, the line search with
+/// contact's collision-free first fraction, the iterate moved to the accepted trial.
+struct StepSystem<'a> {
+    solver: &'a mut NewtonSolver,
+    system: &'a LinearSystem,
+    equation: &'a StepEquation<'a>,
+    matrix: &'a mut CscMatrix,
+    linear: &'a mut LinearSolver,
+    u_new: &'a mut [f64],
+    /// (s_m + s_c·α, s_c·β): J's scales of M and of the damping's K_T(u).
+    scales: (f64, f64),
+    /// The step's index (0-based).
+    step: usize,
+}
+
+impl NewtonSystem for StepSystem<'_> {
+    fn direction(&mut self, first: bool) -> Result<()> {
+        self.solver.newton_direction(
+            self.system,
+            self.u_new,
+            self.scales,
+            self.matrix,
+            self.linear,
+            first,
+        )
+    }
+
+    fn step_is_unresolved(&self) -> bool {
+        let resolution = self.solver.step_resolution;
+        self.solver.delta.iter().all(|d| d.abs() <= resolution)
+    }
+
+    fn search(&mut self, r_norm: f64, reference: f64) -> Result<(bool, f64)> {
+        // With contact: never past the first time of impact (IPC's 0.8 of it), and only a
+        // decrease of Φ (up to its round-off) is accepted, so no iterate penetrates.
+        let first_alpha = match self.solver.force.contact().is_some() {
+            true => crate::contact::first_step_fraction(
+                self.solver
+                    .force
+                    .contact_step_limit(self.u_new, &self.solver.delta)?,
+            ),
+            false => 1.0,
+        };
+        self.solver.search_line(
+            self.system,
+            self.equation,
+            self.u_new,
+            (first_alpha, r_norm, reference),
+        )
+    }
+
+    fn failed_search_is_floor(&self) -> bool {
+        // With contact only a decrease of Φ is accepted, which round-off can deny a
+        // converged iterate: a Newton step below 1e-9 of the barrier's length scale d̂
+        // changes nothing the contact can resolve, so the iterate stands.
+        self.solver.force.contact().is_some_and(|c| {
+            let d_hat = c.parameters().activation_distance;
+            self.solver.delta.iter().all(|d| d.abs() <= 1e-9 * d_hat)
+        })
+    }
+
+    fn accept(&mut self, alpha: f64) -> f64 {
+        let solver = &mut *self.solver;
+        solver.direction.accepted(
+            alpha,
+            &solver.delta,
+            &solver.residual,
+            &solver.trial_residual,
+        );
+        self.u_new.copy_from_slice(&solver.trial);
+        std::mem::swap(&mut solver.residual, &mut solver.trial_residual);
+        std::mem::swap(&mut solver.residual_energy, &mut solver.trial_energy);
+        norm(&solver.residual)
+    }
+
+    fn fall_back(&mut self) -> bool {
+        self.solver.direction.fall_back(&mut self.solver.stats)
+    }
+
+    fn describe(&self, iteration: usize) -> String {
+        format!("Newton iteration {iteration} of step {}", self.step + 1)
     }
 }
 

@@ -1,0 +1,116 @@
+//! The Newton loop itself, written once for every nonlinear solve in tetfem: a static load
+//! step (the equation Σ fₑ(u) + λ·f = 0, the step equation without mass) and an implicit time
+//! step (with it) both iterate here. What differs between them — the residual, the direction
+//! (a factored tangent or a strategy of [`super::direction`]), the line along it — is the
+//! [`NewtonSystem`] the loop drives, as MFEM's one `NewtonSolver` drives any `Operator`; the
+//! loop owns the rules: when an iterate has converged, when a step is too small to change a
+//! force, when a failed search is the round-off floor, when the budget is spent.
+
+use crate::base::error::Result;
+
+/// Below this fraction of the reference the residual is the round-off of the element forces
+/// (their O(E·|X|) terms cancel to O(E·strain)): a residual there that no longer halves, or a
+/// line search that finds no decrease, is the floor reached.
+pub(crate) const ROUND_OFF_FLOOR: f64 = 1e-6;
+
+/// One nonlinear equation r(u) = 0 as the Newton loop sees it, at its current iterate u (whose
+/// residual it holds).
+pub(crate) trait NewtonSystem {
+    /// Computes the Newton direction δ at the current iterate; `first`: the loop's first
+    /// iteration.
+    fn direction(&mut self, first: bool) -> Result<()>;
+
+    /// Whether every component of δ is below the smallest change of the iterate that changes a
+    /// force (the positions' resolution 4ε·max|X|; with moving obstacles 1e-9·d̂): the iterate
+    /// then stands (the test that holds at zero load, where r is the forces' round-off and no
+    /// step lowers it).
+    fn step_is_unresolved(&self) -> bool;
+
+    /// The line search along δ from the current iterate (residual norm `r_norm`, converging
+    /// relative to `reference`): whether a fraction was accepted and which (the trial point
+    /// is kept for [`accept`](Self::accept)).
+    fn search(&mut self, r_norm: f64, reference: f64) -> Result<(bool, f64)>;
+
+    /// Whether a search that found no decrease is the floor of what the equation resolves
+    /// beyond the loop's own round-off rule (with contact: δ below 1e-9·d̂ everywhere, which
+    /// the barrier does not resolve).
+    fn failed_search_is_floor(&self) -> bool {
+        false
+    }
+
+    /// Makes the accepted trial point (fraction `alpha` of δ) the iterate; returns its
+    /// residual norm.
+    fn accept(&mut self, alpha: f64) -> f64;
+
+    /// Another direction strategy when the budget is spent or the search failed (L-BFGS and
+    /// CG fall back to a factorization): whether one was taken (the budget is then renewed).
+    fn fall_back(&mut self) -> bool {
+        false
+    }
+
+    /// What the caller's interrupt test names while `iteration` (1-based) runs.
+    fn describe(&self, iteration: usize) -> String;
+}
+
+/// Why the loop stopped short of convergence, with the residual norm it reached (force).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) enum Stall {
+    /// The iterations allowed (renewed by each fallback) ran out.
+    OutOfIterations { iterations: usize, residual: f64 },
+    /// The line search found no decrease above the round-off floor.
+    NoDecrease { residual: f64 },
+    /// The residual is no longer finite.
+    NotFinite,
+}
+
+/// Newton's iterations on `system` from residual norm `r_norm` until ‖r‖ ≤
+/// `tolerance`·`reference` or the round-off floor, at most `max_iterations` per direction
+/// strategy. Returns the iterations taken, or the [`Stall`] (the caller names its problem in
+/// its error); errors of the system's evaluations and of the interrupt test pass through.
+pub(crate) fn iterate(
+    system: &mut dyn NewtonSystem,
+    (mut r_norm, reference): (f64, f64),
+    (tolerance, max_iterations): (f64, usize),
+) -> Result<std::result::Result<usize, Stall>> {
+    let mut iterations = 0;
+    let mut budget = max_iterations;
+    while r_norm > tolerance * reference {
+        // A caller's Ctrl-C between iterations: the iterate is the system's scratch, the
+        // caller's state is written only after a converged solve.
+        crate::linalg::interrupt::poll(|| system.describe(iterations + 1))?;
+        if iterations == budget {
+            if !system.fall_back() {
+                return Ok(Err(Stall::OutOfIterations {
+                    iterations: budget,
+                    residual: r_norm,
+                }));
+            }
+            budget += max_iterations;
+        }
+        system.direction(iterations == 0)?;
+        if system.step_is_unresolved() {
+            break;
+        }
+        let (accepted, alpha) = system.search(r_norm, reference)?;
+        if !accepted {
+            if system.failed_search_is_floor() || r_norm <= ROUND_OFF_FLOOR * reference {
+                break;
+            }
+            if system.fall_back() {
+                budget = iterations + max_iterations;
+                continue;
+            }
+            return Ok(Err(Stall::NoDecrease { residual: r_norm }));
+        }
+        let before = r_norm;
+        r_norm = system.accept(alpha);
+        iterations += 1;
+        if !r_norm.is_finite() {
+            return Ok(Err(Stall::NotFinite));
+        }
+        if r_norm <= ROUND_OFF_FLOOR * reference && r_norm > 0.5 * before {
+            break;
+        }
+    }
+    Ok(Ok(iterations))
+}
