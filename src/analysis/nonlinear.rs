@@ -4,6 +4,7 @@
 use nalgebra::Vector3;
 
 use crate::analysis::dynamics::internal_force::coordinate_scale;
+use crate::analysis::newton::factor_exact_or_projected;
 use crate::analysis::newton::iteration::{self, NewtonSystem, Stall};
 use crate::analysis::newton::line_search::{Backtracking, LineFunction, NEAR_SOLUTION};
 use crate::analysis::problem::Problem;
@@ -827,31 +828,19 @@ impl<E: ModelElement, M: TetModels + ?Sized> StaticNewton<'_, E, M> {
     /// with every element tangent projected onto the PSD cone (a descent direction, at the
     /// price of linear convergence while it is needed). Friction's Hessian is PSD as it stands.
     fn direction(&mut self, u: &[f64], r: &[f64], lag: Option<&FrictionLag>) -> Result<Vec<f64>> {
-        for project in [false, true] {
-            refill_tangent(
-                self.mesh,
-                self.assembler,
-                self.model,
-                u,
-                project,
-                &mut self.tangent,
-            )?;
-            if let Some(contact) = self.contact {
-                contact.add_tangent(u, project, &mut self.tangent)?;
+        let (mesh, assembler, model, contact) =
+            (self.mesh, self.assembler, self.model, self.contact);
+        let (tangent, restriction) = (&mut self.tangent, self.restriction);
+        factor_exact_or_projected(&mut self.solver, &mut self.free_tangent, |project, free| {
+            refill_tangent(mesh, assembler, model, u, project, tangent)?;
+            if let Some(contact) = contact {
+                contact.add_tangent(u, project, tangent)?;
                 if let Some(lag) = lag {
-                    contact.add_friction_tangent(lag, u, &mut self.tangent)?;
+                    contact.add_friction_tangent(lag, u, tangent)?;
                 }
             }
-            self.restriction
-                .restrict_into(&self.tangent, &mut self.free_tangent)?;
-            match self.solver.factorize(&self.free_tangent) {
-                Err(tetfem_linalg::Error::NotPositiveDefinite { .. }) if !project => {}
-                other => {
-                    other?;
-                    break;
-                }
-            }
-        }
+            restriction.restrict_into(tangent, free)
+        })?;
         let mut delta = r.to_vec();
         self.solver.solve(&self.free_tangent, &mut delta)?;
         Ok(delta)

@@ -1,6 +1,7 @@
 //! Newton's method, written once for every nonlinear solve in tetfem: the loop
 //! ([`iteration::iterate`] over a [`NewtonSystem`](iteration::NewtonSystem)) and its
-//! backtracking line search ([`line_search::Backtracking`]).
+//! backtracking line search ([`line_search::Backtracking`]); and how a direction that factors
+//! Newton's matrix does it ([`factor_exact_or_projected`]).
 //!
 //! Two equations are solved with it, each a `NewtonSystem` that supplies its residual, its
 //! direction and the line along it, while the loop owns the rules (convergence, the round-off
@@ -13,3 +14,28 @@
 
 pub(crate) mod iteration;
 pub(crate) mod line_search;
+
+use crate::base::error::Result;
+use crate::linear_solver::LinearSolver;
+use crate::sparse::CscMatrix;
+
+/// Newton's matrix factored as every direction that factors it does: the one `form` makes
+/// from the exact tangent (`project` false: quadratic convergence) first, and where that is not
+/// positive definite (a buckling or compressed hyperelastic element, the barrier's concave
+/// part) the one with every element tangent projected onto the PSD cone (a descent direction,
+/// at the price of linear convergence while it is needed). `form(project, matrix)` fills
+/// `matrix`, which `solver` then factors numerically on its symbolic analysis.
+pub(crate) fn factor_exact_or_projected(
+    solver: &mut LinearSolver,
+    matrix: &mut CscMatrix,
+    mut form: impl FnMut(bool, &mut CscMatrix) -> Result<()>,
+) -> Result<()> {
+    for project in [false, true] {
+        form(project, matrix)?;
+        match solver.factorize(matrix) {
+            Err(tetfem_linalg::Error::NotPositiveDefinite { .. }) if !project => continue,
+            other => return Ok(other?),
+        }
+    }
+    Ok(())
+}

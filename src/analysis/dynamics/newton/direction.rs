@@ -19,6 +19,7 @@ use crate::analysis::dynamics::internal_force::{ForceWorkspace, NonlinearForce, 
 use crate::analysis::dynamics::lbfgs::LbfgsMemory;
 use crate::analysis::dynamics::nodal_rotation::NodalRotations;
 use crate::analysis::dynamics::{LinearSystem, NonlinearSolve};
+use crate::analysis::newton::factor_exact_or_projected;
 use crate::base::error::Result;
 use crate::iterative::CgOptions;
 use crate::linear_solver::LinearSolver;
@@ -50,35 +51,23 @@ impl NewtonMatrix<'_> {
     /// J into `matrix`, every element tangent projected onto the positive semi-definite cone
     /// when `project` is set.
     fn form(&mut self, u_new: &[f64], project: bool) -> Result<()> {
-        let (mass_scale, damping_stiffness) = self.scales;
-        self.force
-            .tangent_into(u_new, project, self.work, self.tangent)?;
-        combine(
-            self.tangent,
-            1.0,
-            self.system.mass(),
-            mass_scale,
+        let parts = (self.system, self.force, self.damping_tangent, self.scales);
+        form_into(
+            parts,
+            (self.work, self.tangent),
+            (u_new, project),
             self.matrix,
-        )?;
-        if let Some(k) = self.damping_tangent {
-            for (a, k) in self.matrix.values_mut().iter_mut().zip(k.values()) {
-                *a += damping_stiffness * k;
-            }
-        }
-        Ok(())
+        )
     }
 
     /// Forms J and factors it: the exact tangent first, the projected one if J is not positive
     /// definite.
     fn factor(&mut self, u_new: &[f64]) -> Result<()> {
-        for project in [false, true] {
-            self.form(u_new, project)?;
-            match self.solver.factorize(self.matrix) {
-                Err(tetfem_linalg::Error::NotPositiveDefinite { .. }) if !project => continue,
-                other => return Ok(other?),
-            }
-        }
-        Ok(())
+        let parts = (self.system, self.force, self.damping_tangent, self.scales);
+        let (work, tangent) = (&mut *self.work, &mut *self.tangent);
+        factor_exact_or_projected(self.solver, self.matrix, |project, matrix| {
+            form_into(parts, (&mut *work, &mut *tangent), (u_new, project), matrix)
+        })
     }
 
     /// δ = −J⁻¹·r by a fresh factorization of J (counted), `delta` holding −r on entry.
@@ -93,6 +82,35 @@ impl NewtonMatrix<'_> {
         self.solver.solve(self.matrix, delta)?;
         Ok(())
     }
+}
+
+/// The parts J is formed from: the system (M), the force (K_T), the damping's K_T(u_start)
+/// and the scales (mass_scale, damping_stiffness).
+type MatrixParts<'a> = (
+    &'a LinearSystem,
+    &'a NonlinearForce,
+    Option<&'a CscMatrix>,
+    (f64, f64),
+);
+
+/// J = mass_scale·M + damping_stiffness·K_T(u_start) + K_T(u') into `matrix` (see
+/// [`NewtonMatrix`]), K_T(u') formed in `tangent` with the force's scratch `work`, every element
+/// tangent projected onto the PSD cone when `project` is set.
+fn form_into(
+    (system, force, damping_tangent, scales): MatrixParts,
+    (work, tangent): (&mut ForceWorkspace, &mut CscMatrix),
+    (u_new, project): (&[f64], bool),
+    matrix: &mut CscMatrix,
+) -> Result<()> {
+    let (mass_scale, damping_stiffness) = scales;
+    force.tangent_into(u_new, project, work, tangent)?;
+    combine(tangent, 1.0, system.mass(), mass_scale, matrix)?;
+    if let Some(k) = damping_tangent {
+        for (a, k) in matrix.values_mut().iter_mut().zip(k.values()) {
+            *a += damping_stiffness * k;
+        }
+    }
+    Ok(())
 }
 
 /// How one Newton iteration finds its direction; each implementation owns its state.
