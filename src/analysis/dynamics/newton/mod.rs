@@ -154,6 +154,10 @@ pub(crate) struct NewtonSolver {
     /// The free displacement `internal` is the force at, when `internal_valid`.
     internal_at: Vec<f64>,
     internal_valid: bool,
+    /// `residual` (and `residual_energy`) hold the step equation's residual at the iterate the
+    /// iterations begin from: the contact step's predicted start evaluated it (its force is not
+    /// cached), so the iterations need no pass of their own there.
+    residual_at_start: bool,
     residual: Vec<f64>,
     trial: Vec<f64>,
     trial_residual: Vec<f64>,
@@ -211,6 +215,7 @@ impl NewtonSolver {
             internal: vec![0.0; n],
             internal_at: vec![0.0; n],
             internal_valid: false,
+            residual_at_start: false,
             internal_energy: 0.0,
             residual_energy: 0.0,
             trial_energy: 0.0,
@@ -623,7 +628,9 @@ impl NewtonSolver {
         let (s_m, s_c) = (equation.mass_scale, equation.damping_scale);
         let diverged = |reason: String| Error::Diverged { step, time, reason };
         self.direction.begin_iterations();
-        self.residual_into(system, equation, u_new, false)?;
+        if !std::mem::take(&mut self.residual_at_start) {
+            self.residual_into(system, equation, u_new, false)?;
+        }
         let mut r_norm = norm(&self.residual);
         if !r_norm.is_finite() {
             return Err(diverged(

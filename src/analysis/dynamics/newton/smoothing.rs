@@ -44,6 +44,7 @@ impl NewtonSolver {
         step: usize,
         time: f64,
     ) -> Result<usize> {
+        self.residual_at_start = false;
         self.start_from_prediction(system, equation, u_new)?;
         let Some((epsilon, slip)) = self.force.friction_smoothing_and_slip(u_new)? else {
             return self.iterate_at_smoothing(system, equation, matrix, solver, u_new, step, time);
@@ -115,7 +116,12 @@ impl NewtonSolver {
         self.residual_into(system, equation, guess, true)?;
         if self.potential(system, equation, guess, self.trial_energy)? < at_start {
             u_new.copy_from_slice(guess);
+            std::mem::swap(&mut self.residual, &mut self.trial_residual);
+            std::mem::swap(&mut self.residual_energy, &mut self.trial_energy);
         }
+        // The residual at the iterate the iterations begin from is evaluated (see
+        // `residual_at_start`).
+        self.residual_at_start = true;
         Ok(())
     }
 }
