@@ -50,8 +50,14 @@ of 8–10 (other sessions' builds and tests). Times on a shared machine are nois
 ratios within one table.
 
 Run: python3 docs/figures.py [NAME ...]   (default: every table)
-     python3 docs/figures.py --check       (every marker pair present and well formed, and the
-                                            tables in CHECKED as their programs write them now)
+     python3 docs/figures.py --check       (every marker pair present and well formed, the
+                                            tables in CHECKED as their programs write them now,
+                                            and what --links checks)
+     python3 docs/figures.py --links       (no program run, under a second: every relative link
+                                            of the book names a file that exists, and every
+                                            '#anchor' into a chapter one of its headings; the
+                                            prose cites tests and reports by such links)
+     python3 docs/figures.py --help        (this text)
 """
 
 from __future__ import annotations
@@ -523,8 +529,68 @@ def below_heading(body: str) -> str:
     return body.strip("\n").split("\n", 1)[-1].strip("\n")
 
 
+# A Markdown link [text](target) whose target is a path (not a web address or an e-mail).
+LINK = re.compile(r"\]\(([^)\s]+)\)")
+HEADING = re.compile(r"^#{1,6}\s+(.*?)\s*#*\s*$", re.MULTILINE)
+INCLUDE = re.compile(r"\{\{#include\s+([^}\s]+)\s*\}\}")
+
+
+def anchor(heading: str) -> str:
+    """The id mdbook gives a heading: lower case, letters, digits, '_' and '-' kept, spaces to
+    '-', everything else (backquotes, punctuation) dropped."""
+    return "".join(c if c.isalnum() or c in "_-" else "-" if c == " " else ""
+                   for c in heading.strip().lower())
+
+
+def page_anchors(path: str) -> set[str]:
+    """The heading ids of a chapter, with those of the files it includes (mdbook renders an
+    included file's headings on the page)."""
+    with open(path, encoding="utf-8") as f:
+        text = f.read()
+    for included in INCLUDE.findall(text):
+        target = os.path.normpath(os.path.join(os.path.dirname(path), included.split(":")[0]))
+        if os.path.isfile(target):
+            with open(target, encoding="utf-8") as f:
+                text += "\n" + f.read()
+    # Fenced code holds comment lines that start with '#': they are not headings.
+    text = re.sub(r"```.*?```", "", text, flags=re.DOTALL)
+    return {anchor(h) for h in HEADING.findall(text)}
+
+
+def broken_links() -> list[str]:
+    """Every relative link in the book's chapters (and scenes/README.md, which the book
+    includes) whose file does not exist, or whose '#anchor' into a chapter names no heading.
+    Cheap: reads the Markdown only, runs nothing."""
+    pages = [os.path.join(folder, f) for folder, _, files in os.walk(BOOK) for f in files if f.endswith(".md")]
+    pages.append(os.path.join(ROOT, "scenes", "README.md"))
+    broken = []
+    for page in sorted(pages):
+        with open(page, encoding="utf-8") as f:
+            text = re.sub(r"```.*?```", "", f.read(), flags=re.DOTALL)
+        for target in LINK.findall(text):
+            if target.startswith(("http://", "https://", "mailto:")):
+                continue
+            path, _, fragment = target.partition("#")
+            resolved = os.path.normpath(os.path.join(os.path.dirname(page), path)) if path else page
+            where = f"{os.path.relpath(page, ROOT)}: ({target})"
+            if not os.path.exists(resolved):
+                broken.append(f"{where} names no file")
+            elif fragment and resolved.endswith(".md") and resolved.startswith(BOOK) \
+                    and fragment not in page_anchors(resolved):
+                broken.append(f"{where} names no heading of {os.path.relpath(resolved, ROOT)}")
+    return broken
+
+
 def main(args: list[str]) -> int:
     global START_LOAD
+    if "--help" in args or "-h" in args:
+        print(__doc__)
+        return 0
+    if "--links" in args:
+        broken = broken_links()
+        print("\n".join(f"figures: {b}" for b in broken) or "figures: every relative link of the book resolves",
+              file=sys.stderr)
+        return 1 if broken else 0
     check = "--check" in args
     names = [a for a in args if a != "--check"] or list(TABLES)
     unknown = [n for n in names if n not in TABLES]
@@ -556,11 +622,14 @@ def main(args: list[str]) -> int:
                 if found not in TABLES:
                     print(f"figures: {relative} has a marker for unknown table '{found}'", file=sys.stderr)
                     return 1
+    if check:
+        # The prose cites its figures by links to tests and reports: a moved file breaks them.
+        stale += broken_links()
     if stale:
         print("figures: " + "\nfigures: ".join(stale), file=sys.stderr)
         return 1
     checked = [n for n in names if n in CHECKED]
-    print(f"figures: markers well formed; {', '.join(checked) or 'no table'} as its program writes it now"
+    print(f"figures: markers well formed; {', '.join(checked) or 'no table'} as its program writes it now; every relative link resolves"
           if check else "figures: done", file=sys.stderr)
     return 0
 
