@@ -1266,13 +1266,13 @@ impl<C: tetfem::ElementType> BuiltScene<C> {
     /// assemble their own system (PETSc); the in-process run takes it through its
     /// [`definition`](Self::definition).
     pub fn static_load(&self) -> Result<Loads> {
-        Ok(tetfem::analysis::static_load_of(
+        tetfem::analysis::static_load_of(
             &self.mesh,
             &self.materials,
             &self.other_loads,
             self.gravity,
             &self.time_data,
-        )?)
+        )
     }
 }
 
