@@ -26,7 +26,8 @@ use crate::mesh::{MeshData, PyMesh, on_cells};
 pub struct PyLoads {
     /// The mesh these loads are made for.
     pub data: Arc<MeshData>,
-    /// Every load, gravity included (what a static solve takes).
+    /// Every load, gravity included, in the order added (what `forces` and `resultant` show;
+    /// a static solve takes the library's sum of `other`, `gravity` and `timed` instead).
     pub all: Loads,
     /// Every load but gravity (what a dynamic system takes beside `gravity`).
     pub other: Loads,
@@ -235,7 +236,10 @@ impl PyLoads {
     }
 
     /// The nodal forces of every load (gravity included), shape (n, 3), N; loads with an
-    /// amplitude at its value at t = 1 (what a static solve takes).
+    /// amplitude at its value at t = 1: the forces a static solve takes, summed here in the
+    /// order of the ``add_*`` calls (a static solve takes the library's sum of the same forces,
+    /// constant loads, then gravity with the solve's material, then the amplitude loads: equal
+    /// to round-off).
     #[getter]
     fn forces<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
         arrays::rows3(py, self.all.as_slice().to_vec())

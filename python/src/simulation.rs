@@ -9,10 +9,11 @@ use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use tetfem::analysis::Definition;
 use tetfem::analysis::dynamics::{
-    Checkpoint, Energy, IntegratorOptions, InternalForce, LinearSystem, Mass, Rayleigh, State,
+    Checkpoint, Energy, IntegratorHistory, IntegratorOptions, InternalForce, LinearSystem, Mass,
+    Rayleigh, State,
 };
 use tetfem::analysis::transient::{
-    AdaptiveStep, Flow, StepView, Transient, TransientOptions, critical_step,
+    AdaptiveStep, Flow, Observer, StepView, Transient, TransientOptions, critical_step,
 };
 use tetfem::bc::loads::Loads;
 use tetfem::fe::materials::MaterialMap;
@@ -75,6 +76,129 @@ pub struct PySimulation {
     /// for its whole duration, also between its steps (while its callback runs), so that two
     /// runs never interleave their steps.
     runner: Mutex<Option<ThreadId>>,
+    /// What `run`'s callback reads: the state after the step it is called for (set by the
+    /// run's observer before each call, cleared when the run returns). The library's loop holds
+    /// `stepping` for the whole run, so reads from the callback (the runner's thread) come
+    /// from here.
+    seen: Mutex<Option<Arc<Seen>>>,
+}
+
+/// The run as its callback sees it after a step: the state, the time step and what the
+/// integrator carries (for a checkpoint taken in the callback; `None` if it takes none).
+struct Seen {
+    state: State,
+    dt: f64,
+    history: Option<IntegratorHistory>,
+}
+
+/// The integrator and state for a read: the run's own when no run holds them, else (inside
+/// `run`'s callback) what the callback was called after.
+enum Reading<'a> {
+    Live(MutexGuard<'a, Stepping>),
+    Seen(Arc<Seen>),
+}
+
+impl Reading<'_> {
+    fn state(&self) -> &State {
+        match self {
+            Reading::Live(guard) => guard.state(),
+            Reading::Seen(seen) => &seen.state,
+        }
+    }
+
+    fn dt(&self) -> f64 {
+        match self {
+            Reading::Live(guard) => guard.dt(),
+            Reading::Seen(seen) => seen.dt,
+        }
+    }
+
+    /// The checkpoint of this state (see `Simulation.checkpoint`) under `fingerprint`.
+    fn checkpoint(
+        &self,
+        method: &str,
+        fingerprint: Vec<(String, String)>,
+    ) -> tetfem::Result<Checkpoint> {
+        match self {
+            Reading::Live(guard) => {
+                Checkpoint::take(guard.integrator(), guard.state(), fingerprint, Vec::new())
+            }
+            Reading::Seen(seen) => Ok(Checkpoint {
+                state: seen.state.clone(),
+                dt: seen.dt,
+                history: seen.history.clone().ok_or_else(|| {
+                    tetfem::Error::invalid_parameter(
+                        "method",
+                        method,
+                        "this integrator does not take or restore checkpoints",
+                    )
+                })?,
+                fingerprint,
+                records: Vec::new(),
+            }),
+        }
+    }
+}
+
+/// `Simulation.run`'s observer of the library's time loop: after each step, the energy row;
+/// with a callback, the state it may read ([`PySimulation::seen`]) and the call (attached to
+/// the interpreter), whose `False` stops the run and whose exception is kept for the caller
+/// (the run then stops at that step).
+struct RunObserver<'a> {
+    sim: &'a PySimulation,
+    this: &'a Py<PySimulation>,
+    callback: Option<&'a Py<PyAny>>,
+    counts: Vec<usize>,
+    /// time, kinetic, elastic, gravity_potential, load_potential, total.
+    columns: [Vec<f64>; 6],
+    /// The exception the callback raised.
+    raised: Option<PyErr>,
+}
+
+impl Observer for RunObserver<'_> {
+    fn observe(&mut self, view: &StepView<'_>) -> tetfem::Result<Flow> {
+        let state = view.state;
+        let energy = self.sim.force.energy(&self.sim.system, state)?;
+        self.counts.push(state.steps);
+        let row = [
+            state.time,
+            energy.kinetic,
+            energy.elastic,
+            energy.gravity_potential,
+            energy.load_potential,
+            energy.total(),
+        ];
+        for (column, value) in self.columns.iter_mut().zip(row) {
+            column.push(value);
+        }
+        if let Some(callback) = self.callback {
+            *lock_ignoring_poison(&self.sim.seen) = Some(Arc::new(Seen {
+                state: state.clone(),
+                dt: view.integrator.time_step(),
+                history: view.integrator.history().ok(),
+            }));
+            let this = self.this;
+            let answer = Python::attach(|py| -> PyResult<bool> {
+                let answer = callback.bind(py).call1((this.bind(py),))?;
+                Ok(answer.is(pyo3::types::PyBool::new(py, false).as_any()))
+            });
+            match answer {
+                Ok(false) => {}
+                Ok(true) => return Ok(Flow::Stop),
+                Err(error) => {
+                    self.raised = Some(error);
+                    return Ok(Flow::Stop);
+                }
+            }
+        }
+        // Ctrl-C between steps (inside a step the solvers poll it themselves).
+        if view.step < view.last {
+            tetfem::linalg::interrupt::poll(|| {
+                format!("Simulation.run after step {}", state.steps)
+            })?;
+        }
+        Ok(Flow::Continue)
+    }
 }
 
 /// What a step changes: the library's transient run (its integrator's factor and history,
@@ -137,16 +261,46 @@ impl PySimulation {
 
     /// The integrator and the state, for a call of this thread: `TetfemError` (busy) when
     /// another thread's `run` or `step` is in progress.
+    /// Inside `run`'s callback (this thread's run holds the lock), the `TetfemError` of a call
+    /// that would change or step the Simulation.
     fn stepping(&self, py: Python<'_>) -> PyResult<MutexGuard<'_, Stepping>> {
+        match self.try_stepping(py)? {
+            Some(guard) => Ok(guard),
+            None if lock_ignoring_poison(&self.seen).is_some() => Err(raise(
+                py,
+                "TetfemError",
+                "Simulation.run's callback reads the state after each step but cannot change \
+                 or step the Simulation: return False to stop the run, then change it"
+                    .into(),
+            )),
+            // A step is in progress: another thread's that started after the runner check,
+            // or this thread's own when a Python signal handler calls back in during it.
+            None => Err(busy(py, "a step")),
+        }
+    }
+
+    /// The integrator and state to read: as [`stepping`](Self::stepping), but inside `run`'s
+    /// callback the state the callback was called after.
+    fn reading(&self, py: Python<'_>) -> PyResult<Reading<'_>> {
+        if let Some(guard) = self.try_stepping(py)? {
+            return Ok(Reading::Live(guard));
+        }
+        match lock_ignoring_poison(&self.seen).clone() {
+            Some(seen) => Ok(Reading::Seen(seen)),
+            None => Err(busy(py, "a step")),
+        }
+    }
+
+    /// The lock of the integrator and the state if free (`None`: held, by a step or this
+    /// thread's run); `TetfemError` (busy) when another thread's `run` or `step` is in progress.
+    fn try_stepping(&self, py: Python<'_>) -> PyResult<Option<MutexGuard<'_, Stepping>>> {
         let current = std::thread::current().id();
         if lock_ignoring_poison(&self.runner).is_some_and(|runner| runner != current) {
             return Err(busy(py, "run() or step()"));
         }
         match self.stepping.try_lock() {
-            Ok(guard) => Ok(guard),
-            // A step is in progress: another thread's that started after the check above, or
-            // this thread's own when a Python signal handler calls back in during it.
-            Err(TryLockError::WouldBlock) => Err(busy(py, "a step")),
+            Ok(guard) => Ok(Some(guard)),
+            Err(TryLockError::WouldBlock) => Ok(None),
             Err(TryLockError::Poisoned(_)) => Err(raise(
                 py,
                 "TetfemError",
@@ -322,6 +476,7 @@ impl PySimulation {
             method: transient.integrator().name(),
             stepping: Mutex::new(transient),
             runner: Mutex::new(None),
+            seen: Mutex::new(None),
         })
     }
 
@@ -339,12 +494,10 @@ impl PySimulation {
     /// ``restore(path)`` on a Simulation built the same way continues bit for bit as if never
     /// interrupted. Raises ``TetfemIOError`` when the file cannot be written.
     fn checkpoint(&self, py: Python<'_>, path: PathBuf) -> PyResult<()> {
-        let guard = self.stepping(py)?;
-        let fingerprint = self.fingerprint(guard.state());
-        let checkpoint =
-            Checkpoint::take(guard.integrator(), guard.state(), fingerprint, Vec::new())
-                .or_raise(py)?;
-        drop(guard);
+        let reading = self.reading(py)?;
+        let fingerprint = self.fingerprint(reading.state());
+        let checkpoint = reading.checkpoint(self.method, fingerprint).or_raise(py)?;
+        drop(reading);
         py.detach(|| checkpoint.write(&path)).or_raise(py)
     }
 
@@ -374,11 +527,15 @@ impl PySimulation {
         Ok(())
     }
 
-    /// Takes ``steps`` steps and returns the energy history after each step as numpy arrays of
-    /// that length: ``time`` (s, float64), ``step`` (int64), ``kinetic``, ``elastic``,
-    /// ``gravity_potential``, ``load_potential``, ``total`` (J, float64). ``callback(simulation)``
-    /// is called after each step (with the GIL); if it returns ``False`` the run stops there
-    /// (the arrays are then shorter); an exception it raises propagates. Ctrl-C raises
+    /// Takes ``steps`` steps (the library's time loop, ``Transient::run``, as a scene's run) and
+    /// returns the energy history after each step as numpy arrays of that length: ``time`` (s,
+    /// float64), ``step`` (int64), ``kinetic``, ``elastic``, ``gravity_potential``,
+    /// ``load_potential``, ``total`` (J, float64). ``callback(simulation)`` is called after each
+    /// step (with the GIL); it reads the state that step left (``time``, ``steps``, ``dt``,
+    /// ``displacement``, ``velocity``, ``energy()``, ``von_mises()``, ``reactions()``,
+    /// ``checkpoint(path)``) but cannot change or step the Simulation (``TetfemError``: return
+    /// ``False``, change it, run again); if it returns ``False`` the run stops there (the arrays
+    /// are then shorter); an exception it raises propagates, the run stopped at that step. Ctrl-C raises
     /// ``KeyboardInterrupt`` between steps or inside a step's iterations (within 0.05 s and
     /// one iteration), the Simulation left at the last completed step (``steps`` and ``time``
     /// those of that step; the history up to it is lost with the return value, so record it
@@ -393,32 +550,30 @@ impl PySimulation {
         let py = slf.py();
         let sim = slf.get();
         let _runner = sim.claim(py)?;
-        let mut counts: Vec<usize> = Vec::new();
-        let mut columns: [Vec<f64>; 6] = Default::default();
-        for _ in 0..steps {
-            // Ctrl-C that arrived during the last step's final iterations, or between steps.
-            py.check_signals()?;
-            let (energy, time, step) =
-                sim.advance(py, |state| sim.force.energy(&sim.system, state))?;
-            counts.push(step);
-            let row = [
-                time,
-                energy.kinetic,
-                energy.elastic,
-                energy.gravity_potential,
-                energy.load_potential,
-                energy.total(),
-            ];
-            for (column, value) in columns.iter_mut().zip(row) {
-                column.push(value);
-            }
-            if let Some(callback) = &callback {
-                let answer = callback.call1((slf,))?;
-                if answer.is(pyo3::types::PyBool::new(py, false).as_any()) {
-                    break;
-                }
-            }
+        let mut guard = sim.stepping(py)?;
+        let transient = &mut *guard;
+        let (this, callback) = (slf.clone().unbind(), callback.map(Bound::unbind));
+        let mut observer = RunObserver {
+            sim,
+            this: &this,
+            callback: callback.as_ref(),
+            counts: Vec::new(),
+            columns: Default::default(),
+            raised: None,
+        };
+        let first = transient.state().steps;
+        // The library's time loop, detached from the interpreter (the observer attaches for
+        // the callback); Ctrl-C inside a step's iterations or between steps.
+        let ran = detach_interruptible(py, || {
+            transient.run((first, first.saturating_add(steps)), &mut observer)
+        });
+        *lock_ignoring_poison(&sim.seen) = None;
+        drop(guard);
+        ran?;
+        if let Some(error) = observer.raised.take() {
+            return Err(error);
         }
+        let (counts, columns) = (observer.counts, observer.columns);
         let d = PyDict::new(py);
         let names = [
             "time",
@@ -490,8 +645,8 @@ impl PySimulation {
     /// The energies of the current state as a dict (J): kinetic ½vᵀMv, elastic (½uᵀKu
     /// for the linear model), gravity_potential, load_potential (−f·u) and their total.
     fn energy<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
-        let guard = self.stepping(py)?;
-        let state = guard.state();
+        let reading = self.reading(py)?;
+        let state = reading.state();
         let e = py
             .detach(|| self.force.energy(&self.system, state))
             .or_raise(py)?;
@@ -501,19 +656,19 @@ impl PySimulation {
     /// Simulated time (s).
     #[getter]
     fn time(&self, py: Python<'_>) -> PyResult<f64> {
-        Ok(self.stepping(py)?.state().time)
+        Ok(self.reading(py)?.state().time)
     }
 
     /// Steps taken.
     #[getter]
     fn steps(&self, py: Python<'_>) -> PyResult<usize> {
-        Ok(self.stepping(py)?.state().steps)
+        Ok(self.reading(py)?.state().steps)
     }
 
     /// The time step (s); setting it makes implicit methods refactor on the next step.
     #[getter]
     fn dt(&self, py: Python<'_>) -> PyResult<f64> {
-        Ok(self.stepping(py)?.dt())
+        Ok(self.reading(py)?.dt())
     }
 
     #[setter]
@@ -547,8 +702,8 @@ impl PySimulation {
     #[getter]
     fn displacement<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
         let (u, time) = {
-            let guard = self.stepping(py)?;
-            (guard.state().displacement.clone(), guard.state().time)
+            let reading = self.reading(py)?;
+            (reading.state().displacement.clone(), reading.state().time)
         };
         arrays::rows3(py, self.system.expand_at(time, &u).or_raise(py)?)
     }
@@ -567,7 +722,7 @@ impl PySimulation {
     /// Velocity of every node, shape (n, 3), m/s (zero on constrained DOFs).
     #[getter]
     fn velocity<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        let v = self.stepping(py)?.state().velocity.clone();
+        let v = self.reading(py)?.state().velocity.clone();
         self.scatter(py, &v)
     }
 
@@ -591,9 +746,9 @@ impl PySimulation {
     /// of the model that runs.
     fn von_mises<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
         let u = {
-            let guard = self.stepping(py)?;
+            let reading = self.reading(py)?;
             self.system
-                .expand_at(guard.state().time, &guard.state().displacement)
+                .expand_at(reading.state().time, &reading.state().displacement)
                 .or_raise(py)?
         };
         let mesh = &self.data.mesh;
@@ -608,8 +763,8 @@ impl PySimulation {
     /// zero on free DOFs), as the scene runner's reaction columns. Summed over all nodes,
     /// Σr + Σf_ext = Σ M·a + α·Σ M·v. The first call assembles the constrained rows of K and M.
     fn reactions<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        let guard = self.stepping(py)?;
-        let state = guard.state();
+        let reading = self.reading(py)?;
+        let state = reading.state();
         let r = py
             .detach(|| {
                 self.reactions.at(
@@ -621,7 +776,7 @@ impl PySimulation {
                 )
             })
             .or_raise(py)?;
-        drop(guard);
+        drop(reading);
         arrays::rows3(py, r)
     }
 
@@ -652,14 +807,14 @@ impl PySimulation {
     }
 
     fn __repr__(&self, py: Python<'_>) -> String {
-        match self.stepping(py) {
-            Ok(guard) => format!(
+        match self.reading(py) {
+            Ok(reading) => format!(
                 "Simulation(method={}, model={}, dt={:e} s, t={:e} s, {} steps)",
                 self.method,
                 self.force.name(),
-                guard.dt(),
-                guard.state().time,
-                guard.state().steps
+                reading.dt(),
+                reading.state().time,
+                reading.state().steps
             ),
             Err(_) => format!(
                 "Simulation(method={}, model={}, busy: running in another thread)",

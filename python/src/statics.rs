@@ -9,7 +9,7 @@ use numpy::{PyArray1, PyArrayMethods};
 use pyo3::prelude::*;
 use tetfem::analysis::nonlinear::NewtonOptions;
 use tetfem::analysis::statics::{StaticSolution, StaticSolver};
-use tetfem::analysis::{Definition, Static, StaticOptions, StaticPath};
+use tetfem::analysis::{Definition, Static, StaticOptions, StaticPath, static_load_of};
 use tetfem::bc::constraints::DofMap;
 use tetfem::fe::materials::MaterialMap;
 use tetfem::linalg::linear_solver::{SolveInfo, SolverOptions};
@@ -162,7 +162,8 @@ pub fn check_same_mesh(
 /// stiffest material), and ``contact_forces`` gives the force on each. Which path runs is the
 /// library's one dispatch (``tetfem::analysis::Static``), as in scenes (obstacles on either
 /// element order, with moving supports too). Loads and prescribed motions with an
-/// ``amplitude`` enter at their value at the pseudo-time t = 1 (``STATIC_TIME``); a nonlinear
+/// ``amplitude`` enter at their value at the pseudo-time t = 1 (``STATIC_TIME``), summed by the
+/// library (gravity's ρ from ``material``, as in a ``Simulation``); a nonlinear
 /// solve's load steps follow the motions (rigid ones by exact rotations).
 /// ``tolerance``: the relative residual asked for, ‖r_f‖ ≤
 /// ``tolerance``·‖f_f‖ (the linear solve's ‖K_ff·u_f − r_f‖/‖r_f‖, or Newton's residual over
@@ -228,16 +229,21 @@ pub fn solve_static(
         ..NewtonOptions::default()
     };
     let motions = &constraints.motions;
+    let time_data = crate::timed::time_data(Some(&loads), &constraints);
     let constraints = &constraints.constraints;
-    let loads = &loads.all;
+    let (other, gravity) = (&loads.other, loads.gravity);
     let has_contact = contact.is_some();
     let options = StaticOptions { linear, newton };
-    let (solved, stress) = detach_interruptible(py, || -> tetfem::Result<_> {
+    let (solved, stress, load) = detach_interruptible(py, || -> tetfem::Result<_> {
         on_cells!(&data.mesh, mesh => {
+            // The loads as the library sums them (Definition::static_load: constant loads,
+            // gravity, amplitude loads at STATIC_TIME), not `loads.all`.
             let mut builder = Definition::builder(mesh.clone(), materials.clone())
                 .model(kind)
                 .constraints(constraints.clone())?
-                .loads(loads.clone())?
+                .loads(other.clone())?
+                .gravity(gravity)?
+                .time_data(time_data)
                 .motions(motions.clone());
             if let Some(contact) = contact {
                 builder = builder.contact(contact);
@@ -248,7 +254,7 @@ pub fn solve_static(
             let analysis = Static::new(&definition, options)?;
             let solved = analysis.solve()?;
             let stress = analysis.stresses(&solved.displacement)?;
-            Ok((solved, stress))
+            Ok((solved, stress, definition.static_load()?))
         })
     })?;
     let (solver, reached) = match &solved.path {
@@ -261,7 +267,7 @@ pub fn solve_static(
             // displacements only) the last load step's first residual.
             let last_step = residuals.last().map_or(&[][..], Vec::as_slice);
             let free_load = DofMap::new(constraints)
-                .restrict(loads.as_slice())
+                .restrict(load.as_slice())
                 .or_raise(py)?;
             let loaded = free_load.iter().any(|f| *f != 0.0);
             let reached = match (loaded, last_step.first(), last_step.last()) {
@@ -395,8 +401,17 @@ impl PyStaticSolver {
         }
         let mut solver = self.solver(py)?;
         let solver = &mut *solver;
-        let all = &loads.all;
-        let solution = detach_interruptible(py, || solver.solve(all))?;
+        // The library's sum of the loads (as a static analysis takes it), not `loads.all`;
+        // gravity's ρ is this solver's material's.
+        let time_data = tetfem::analysis::dynamics::TimeData {
+            loads: loads.timed.clone(),
+            ..Default::default()
+        };
+        let (other, gravity, materials) = (&loads.other, loads.gravity, &self.materials);
+        let solution = detach_interruptible(py, || {
+            let load = on_cells!(&self.data.mesh, m => static_load_of(m, materials, other, gravity, &time_data))?;
+            solver.solve(&load)
+        })?;
         linear_result(py, &self.data, &self.materials, solution)
     }
 

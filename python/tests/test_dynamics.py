@@ -112,8 +112,10 @@ def test_explicit_past_the_critical_step_raises_diverged():
     constraints = tetfem.Constraints(mesh).fix(mesh.nodes_on_plane("x", 0.0))
     loads = tetfem.Loads(mesh).add_total_force(mesh.faces_on_plane("x", 1.0), (0, 0, -1e4))
     sim = tetfem.Simulation(mesh, steel, constraints, loads, dt="2crit", method="explicit")
-    with pytest.raises(tetfem.DivergedError, match="diverged"):
+    with pytest.raises(tetfem.DivergedError, match="diverged") as raised:
         sim.run(100000)
+    # The library's error names the remedy (the explicit method's, not a front end's hint).
+    assert "a dt below the critical step (e.g. 0.9 of it) or an implicit method" in str(raised.value)
 
 
 def test_callback_returning_false_stops_the_run():
@@ -121,6 +123,60 @@ def test_callback_returning_false_stops_the_run():
     history = sim.run(50, callback=lambda s: s.steps < 7)
     assert sim.steps == 7 and len(history["time"]) == 7
     assert history["time"][-1] == sim.time
+
+
+def test_run_is_the_library_loop_and_its_callback_sees_each_step_state():
+    """The callback is called after step k with step k's state (the library's loop holds the
+    Simulation meanwhile, so reads come from what it saw): steps k, time k·dt, the energy row
+    the run returns for that step; the run stopped by False leaves the Simulation at the last
+    state the callback saw. Changing the Simulation inside the callback is refused."""
+    _, sim = cantilever_dynamic()
+    dt = sim.dt
+    seen = []
+
+    def watch(s):
+        seen.append((s.steps, s.time, s.displacement.copy(), s.energy()["total"]))
+        return s.steps < 5
+
+    history = sim.run(20, callback=watch)
+    assert [k for k, *_ in seen] == [1, 2, 3, 4, 5]
+    assert history["step"].tolist() == [1, 2, 3, 4, 5]
+    # time is k additions of dt: equal to k·dt up to k round-offs.
+    for k, t, *_ in seen:
+        assert t == pytest.approx(k * dt, rel=1e-14)
+    # The returned rows are the steps the callback saw, bit for bit.
+    assert history["time"].tolist() == [t for _, t, *_ in seen]
+    assert history["total"].tolist() == [e for *_, e in seen]
+    # The state moves step to step, and the Simulation is left at the last one seen.
+    assert not np.array_equal(seen[0][2], seen[-1][2])
+    assert np.array_equal(sim.displacement, seen[-1][2]) and sim.steps == 5
+
+    def change(s):
+        s.dt = 1e-5
+
+    with pytest.raises(tetfem.TetfemError, match="callback"):
+        sim.run(3, callback=change)
+    # Refused inside the callback: the run stopped after its first step, dt unchanged.
+    assert sim.steps == 6 and sim.dt == dt
+
+
+def test_a_checkpoint_taken_in_the_callback_resumes_bit_for_bit(tmp_path):
+    """A checkpoint written by the callback after step 3 holds step 3's state and the method's
+    history (Newmark's acceleration): restored, 2 more steps equal the run that went on."""
+    _, sim = cantilever_dynamic("newmark")
+    path = tmp_path / "step3.bin"
+
+    def at_three(s):
+        if s.steps == 3:
+            s.checkpoint(path)
+
+    sim.run(5, callback=at_three)
+    _, again = cantilever_dynamic("newmark")
+    again.restore(path)
+    assert again.steps == 3
+    again.run(2)
+    assert np.array_equal(again.displacement, sim.displacement)
+    assert np.array_equal(again.velocity, sim.velocity)
 
 
 def test_callback_exception_propagates():

@@ -54,12 +54,6 @@ pub struct Definition<C: CellType = Tet4> {
     pub motions: BoundaryMotion,
     /// The rigid obstacles and their contact parameters, if any.
     pub contact: Option<Contact>,
-    /// The whole static load (N, every DOF) when the front end assembled it itself (a scene's
-    /// loads in its own sum order, gravity and amplitude loads at
-    /// [`STATIC_TIME`](crate::bc::amplitude::STATIC_TIME) included); `None`: a static analysis
-    /// forms it from `loads`, `gravity` and `time_data` ([`Definition::static_load`]).
-    /// Transient analyses do not read it.
-    pub static_load: Option<Loads>,
 }
 
 impl<C: CellType> Definition<C> {
@@ -79,7 +73,6 @@ impl<C: CellType> Definition<C> {
                 time_data: TimeData::default(),
                 motions: BoundaryMotion::new(),
                 contact: None,
-                static_load: None,
             },
         }
     }
@@ -171,16 +164,6 @@ impl<C: CellType> DefinitionBuilder<C> {
     pub fn contact(mut self, contact: Contact) -> Self {
         self.definition.contact = Some(contact);
         self
-    }
-
-    /// The whole static load, as the front end assembled it (made for the mesh's nodes): what
-    /// a static analysis solves for instead of forming it from the loads, gravity and the
-    /// amplitude loads at [`STATIC_TIME`](crate::bc::amplitude::STATIC_TIME) (the same forces, in
-    /// the front end's sum order: its results stay bit-identical).
-    pub fn static_load(mut self, load: Loads) -> Result<Self> {
-        ensure_dofs("static load", load.as_slice().len(), &self.definition.mesh)?;
-        self.definition.static_load = Some(load);
-        Ok(self)
     }
 
     /// The definition, with the materials checked to cover every tet.

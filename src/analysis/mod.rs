@@ -22,5 +22,5 @@ pub mod transient;
 pub use combination::{Analysis, Combination};
 pub use definition::{Definition, DefinitionBuilder};
 pub use modal_analysis::{Modal, ModalOutcome};
-pub use static_analysis::{Static, StaticOptions, StaticOutcome, StaticPath};
+pub use static_analysis::{Static, StaticOptions, StaticOutcome, StaticPath, static_load_of};
 pub use transient::{Transient, TransientOptions};

@@ -9,6 +9,7 @@ use std::time::Duration;
 
 use nalgebra::Vector3;
 
+use crate::analysis::dynamics::TimeData;
 use crate::analysis::nonlinear::{
     NewtonOptions, nonlinear_reactions, solve_nonlinear_static_with_motion_and_contact,
 };
@@ -18,8 +19,10 @@ use crate::base::warning::Warning;
 use crate::bc::amplitude::STATIC_TIME;
 use crate::bc::constraints::DofMap;
 use crate::bc::loads::Loads;
-use crate::fe::element::Tet4;
+use crate::fe::element::{ElementType, Tet4};
+use crate::fe::materials::MaterialMap;
 use crate::linear_solver::{SolveInfo, SolverOptions};
+use crate::mesh::TetMesh;
 use crate::model::{ModelElement, ModelMap};
 
 use super::combination::Analysis;
@@ -284,24 +287,43 @@ impl<'a, C: ModelElement> Static<'a, C> {
 }
 
 impl<C: ModelElement> Definition<C> {
-    /// The static load (force units, every DOF): the front end's whole load if it gave one
-    /// ([`DefinitionBuilder::static_load`](super::DefinitionBuilder::static_load)), else the
-    /// constant loads, plus gravity's ρ·g (times its amplitude at
-    /// [`STATIC_TIME`]) and each amplitude load at [`STATIC_TIME`].
+    /// The static load (force units, every DOF): [`static_load_of`] this definition's mesh,
+    /// materials, constant loads, gravity and time data. Every front end's static solve takes
+    /// this one sum.
     pub fn static_load(&self) -> Result<Loads> {
-        if let Some(load) = &self.static_load {
-            return Ok(load.clone());
-        }
-        let mut load = self.loads.clone();
-        let factor = self.time_data.gravity.value(STATIC_TIME);
-        if self.gravity != Vector3::zeros() && factor != 0.0 {
-            load.add_gravity(&self.mesh, &self.materials, self.gravity * factor)?;
-        }
-        for (loads, amplitude) in &self.time_data.loads {
-            load.add_scaled(loads, amplitude.value(STATIC_TIME))?;
-        }
-        Ok(load)
+        static_load_of(
+            &self.mesh,
+            &self.materials,
+            &self.loads,
+            self.gravity,
+            &self.time_data,
+        )
     }
+}
+
+/// The static load (force units, every DOF) on `mesh` with `materials`: the constant `loads`,
+/// plus gravity's ρ·g (`gravity` in m/s², ρ of each tet's material, times gravity's amplitude
+/// at [`STATIC_TIME`]), plus each amplitude load of `time_data` times its amplitude at
+/// [`STATIC_TIME`], summed in that order. [`Definition::static_load`] is this of its own data;
+/// a front end with a prefactored solver (Python's `StaticSolver`) calls it directly, so that
+/// every static solve takes the same sum. Errors: a load not made for `mesh`
+/// ([`crate::Error::DimensionMismatch`]).
+pub fn static_load_of<C: ElementType>(
+    mesh: &TetMesh<C>,
+    materials: &MaterialMap,
+    loads: &Loads,
+    gravity: Vector3<f64>,
+    time_data: &TimeData,
+) -> Result<Loads> {
+    let mut load = loads.clone();
+    let factor = time_data.gravity.value(STATIC_TIME);
+    if gravity != Vector3::zeros() && factor != 0.0 {
+        load.add_gravity(mesh, materials, gravity * factor)?;
+    }
+    for (loads, amplitude) in &time_data.loads {
+        load.add_scaled(loads, amplitude.value(STATIC_TIME))?;
+    }
+    Ok(load)
 }
 
 fn norm(v: &[f64]) -> f64 {

@@ -317,21 +317,10 @@ fn main() -> ExitCode {
             ExitCode::from(130)
         }
         Err(error) => {
+            // The library's error names its remedy where it knows one (an explicit run above
+            // its critical step: tetfem::analysis::dynamics::EXPLICIT_REMEDY); nothing is added
+            // here, so an implicit step's Newton failure gets no explicit-method advice.
             eprintln!("error: {error}");
-            // A contact divergence names its own remedy (the barrier's step, not the bulk's),
-            // a start beyond the floating-point range is the input's, not the step's, and an
-            // implicit step's Newton failure is not the explicit method's (its reason names
-            // Newton and its remedy).
-            if let Error::Diverged { reason, .. } = &error
-                && !reason.contains("barrier")
-                && !reason.contains("starting state")
-                && !reason.contains("Newton")
-                && !reason.contains("moving obstacles")
-            {
-                eprintln!(
-                    "hint: the explicit method is stable only below its critical step; choose a smaller --dt (e.g. 0.9crit) or an implicit --method"
-                );
-            }
             ExitCode::FAILURE
         }
     }

@@ -370,6 +370,12 @@ fn set_up<'p>(petsc: &'p Petsc, scene: &Scene) -> Result<(SetUp<'p>, Vector<'p>)
         }
         let dofs = tetfem::DofMap::new(&built.constraints);
         tetfem::bc::constraints::ensure_held(&built.mesh, &built.mesh.face_topology()?, &dofs)?;
+        // A static solve takes the library's sum of the loads (as the in-process run does),
+        // not the scene's own: the right-hand side and the reactions both read `loads`.
+        let mut built = built;
+        if !dynamic {
+            built.loads = built.static_load()?;
+        }
         Ok(built)
     }))?;
     let mesh = &built.mesh;

@@ -1258,13 +1258,30 @@ impl<E: ElementType> Context<'_, E> {
     }
 }
 
+impl<C: tetfem::ElementType> BuiltScene<C> {
+    /// The load a static solve of this scene takes: the library's sum
+    /// ([`tetfem::analysis::static_load_of`]) of `other_loads`, `gravity` and the amplitude
+    /// loads of `time_data` at [`STATIC_TIME`] (N, every DOF). Equal to `loads` of a static
+    /// scene up to round-off (`loads` is summed in the scene's order). For engines that
+    /// assemble their own system (PETSc); the in-process run takes it through its
+    /// [`definition`](Self::definition).
+    pub fn static_load(&self) -> Result<Loads> {
+        tetfem::analysis::static_load_of(
+            &self.mesh,
+            &self.materials,
+            &self.other_loads,
+            self.gravity,
+            &self.time_data,
+        )
+    }
+}
+
 impl<C: CellType> BuiltScene<C> {
     /// The problem definition of this scene for the library's analyses
     /// ([`tetfem::analysis::Static`], [`tetfem::analysis::Modal`], …): its mesh, materials,
     /// constraints, loads, gravity, time data and motions, with the force model `model` and the
-    /// obstacles' `contact`. The static load is the scene's own sum `loads` (gravity and the
-    /// amplitude loads at [`STATIC_TIME`] included, in the scene's order), so a static run
-    /// solves for exactly the vector it always has.
+    /// obstacles' `contact`. A static run solves for the library's sum of these
+    /// ([`Definition::static_load`](tetfem::analysis::Definition::static_load)), not `loads`.
     pub fn definition(
         &self,
         model: tetfem::model::ModelKind,
@@ -1277,8 +1294,7 @@ impl<C: CellType> BuiltScene<C> {
                 .loads(self.other_loads.clone())?
                 .gravity(self.gravity)?
                 .time_data(self.time_data.clone())
-                .motions(self.motions.clone())
-                .static_load(self.loads.clone())?;
+                .motions(self.motions.clone());
         match contact {
             Some(contact) => builder.contact(contact).build(),
             None => builder.build(),

@@ -14,6 +14,26 @@ use crate::base::error::{Error, Result};
 use crate::block_sparse::SymmetricWorkspace;
 use crate::contact::velocity::ImpulseStep;
 
+/// The remedy an explicit run's divergence names (appended to [`Error::Diverged`]'s reason by
+/// [`SymplecticEuler`] when its divergence guard or its finite check stops it): the method is
+/// stable only for dt below the critical step 2/ω_max, so a smaller step or an unconditionally
+/// stable method removes the growth. Not appended to errors of the starting state or of
+/// contact, which name their own cause.
+pub const EXPLICIT_REMEDY: &str = "the explicit method is stable only below its critical step: \
+     choose a dt below the critical step (e.g. 0.9 of it) or an implicit method";
+
+/// `error` with [`EXPLICIT_REMEDY`] appended to its reason if it is an [`Error::Diverged`].
+fn with_remedy(error: Error) -> Error {
+    match error {
+        Error::Diverged { step, time, reason } => Error::Diverged {
+            step,
+            time,
+            reason: format!("{reason}; {EXPLICIT_REMEDY}"),
+        },
+        other => other,
+    }
+}
+
 /// Symplectic Euler, M·(v⁺ − v)/dt = f − K·u − C·v, then u⁺ = u + dt·v⁺: the velocity form of
 /// central differences. No linear solve (the mass is lumped), one product with K per step; stable
 /// only for dt < 2/ω_max without damping, (2/ω_max)(√(1 + ξ²) − ξ) with Rayleigh damping of
@@ -125,12 +145,13 @@ impl SymplecticEuler {
         // The guard's energies come out of the force's pass (a second pass over the tets
         // for the energy alone took as long again).
         let energy = forces.energy_at_net_force(&self.system, state)?;
-        DivergenceGuard::check_or_start(
+        DivergenceGuard::check_or_start_with(
             &mut self.guard,
             (state.steps, state.time),
             energy,
             forces.force().contact().is_some_and(|c| c.is_moving())
                 || self.system.is_time_varying(),
+            with_remedy,
         )?;
         let dt = self.dt;
         for i in 0..n {
@@ -145,7 +166,7 @@ impl SymplecticEuler {
         }
         state.time += dt;
         state.steps += 1;
-        state.ensure_finite("; is dt above the critical step?")?;
+        state.ensure_finite("").map_err(with_remedy)?;
         // The impulses hold every free node outside; one that crossed all the same (pushed by
         // one obstacle into another, or with a support that moves it) is a divergence, never a
         // penetrated state.
@@ -281,7 +302,9 @@ impl Integrator for SymplecticEuler {
         state.time += dt;
         state.steps += 1;
         match &self.guard {
-            Some(guard) => guard.check_energy(before_steps, before_time, &energy)?,
+            Some(guard) => guard
+                .check_energy(before_steps, before_time, &energy)
+                .map_err(with_remedy)?,
             None => {
                 self.guard = Some(
                     self.system
@@ -290,7 +313,7 @@ impl Integrator for SymplecticEuler {
             }
         }
         if !sums[2].is_finite() {
-            state.ensure_finite("; is dt above the critical step?")?;
+            state.ensure_finite("").map_err(with_remedy)?;
         }
         Ok(())
     }

@@ -40,7 +40,7 @@ pub use element_bound::{
     element_step_bound_of_type,
 };
 pub use energy::Energy;
-pub use explicit::SymplecticEuler;
+pub use explicit::{EXPLICIT_REMEDY, SymplecticEuler};
 pub use internal_force::{ForceWorkspace, InternalForce, NonlinearForce};
 pub use newmark::Newmark;
 pub use newton::{NewtonStats, StepNewtonOptions};

@@ -368,12 +368,24 @@ impl DivergenceGuard {
     /// `moving_obstacles` (a moving obstacle does work the loads' potential does not hold).
     pub(crate) fn check_or_start(
         guard: &mut Option<Self>,
-        (step, time): (usize, f64),
+        at: (usize, f64),
         energy: Energy,
         moving_obstacles: bool,
     ) -> Result<()> {
+        Self::check_or_start_with(guard, at, energy, moving_obstacles, |error| error)
+    }
+
+    /// [`check_or_start`](Self::check_or_start) with the check's error passed through `remedy`,
+    /// which adds the method's advice (the start's error is the input's: it is not passed).
+    pub(crate) fn check_or_start_with(
+        guard: &mut Option<Self>,
+        (step, time): (usize, f64),
+        energy: Energy,
+        moving_obstacles: bool,
+        remedy: fn(Error) -> Error,
+    ) -> Result<()> {
         match guard {
-            Some(guard) => guard.check_energy(step, time, &energy),
+            Some(guard) => guard.check_energy(step, time, &energy).map_err(remedy),
             None => {
                 energy.check_start(step, time)?;
                 *guard = Some(match moving_obstacles {
@@ -410,8 +422,7 @@ impl DivergenceGuard {
                 step,
                 time,
                 reason: format!(
-                    "kinetic + elastic energy {motion:.3e} exceeds {:.0}× what the start and the loads supplied ({:.3e}); \
-                     for the explicit method, is dt above the critical step?",
+                    "kinetic + elastic energy {motion:.3e} exceeds {:.0}× what the start and the loads supplied ({:.3e})",
                     self.factor,
                     allowed / self.factor
                 ),

@@ -287,12 +287,47 @@ fn explicit_above_its_critical_step_fails_with_a_divergence_message() {
     assert!(!output.status.success());
     let stderr = text(&output.stderr);
     assert!(stderr.contains("diverged"), "{stderr}");
+    assert!(
+        stderr.contains(tetfem::analysis::dynamics::EXPLICIT_REMEDY),
+        "the library's remedy: {stderr}"
+    );
     assert!(!stderr.contains("panicked"), "{stderr}");
     // The same run below the critical step completes.
     let summary = json(&expect_success(&run("0.9crit")));
     assert_eq!(summary["method"], "explicit");
     assert_eq!(summary["steps"], 400);
     assert!((summary["dt_over_critical"].as_f64().unwrap() - 0.9).abs() < 1e-12);
+}
+
+/// An implicit step whose Newton fails is reported with the library's own remedy (a smaller dt)
+/// and no explicit-method advice: the CLI prints the error as it is.
+#[test]
+fn an_implicit_newton_failure_gets_no_explicit_method_advice() {
+    let dir = out_dir("newton-failure");
+    std::fs::create_dir_all(&dir).unwrap();
+    // The rubber beam's swing under 10⁴ g in one step of 1 s: far beyond what Newton's 25
+    // iterations reach from rest (the last residual is ~13× the scale it is measured against).
+    let source = std::fs::read_to_string(scene("rubber_beam_swing.toml"))
+        .unwrap()
+        .replace("dt = 5e-3", "dt = 1.0")
+        .replace("-9.81", "-1e5");
+    let path = dir.join("newton_failure.toml");
+    std::fs::write(&path, source).unwrap();
+    let output = tetfem(&[
+        "run",
+        path.to_str().unwrap(),
+        "--out",
+        dir.to_str().unwrap(),
+        "-q",
+    ]);
+    assert!(!output.status.success());
+    let stderr = text(&output.stderr);
+    assert!(
+        stderr.contains("diverged") && stderr.contains("Newton did not converge"),
+        "{stderr}"
+    );
+    assert!(!stderr.contains("critical step"), "{stderr}");
+    assert!(!stderr.contains("explicit"), "{stderr}");
 }
 
 #[test]
