@@ -303,6 +303,30 @@ impl Contact {
         self.parameters
     }
 
+    /// The same contact (nodes, obstacles and their placement, friction's scales) under other
+    /// barrier scales `parameters`: what a solve that changes d̂ or κ between its stages takes
+    /// (a smaller d̂ brings the barrier's equilibrium gaps nearer zero). A state outside every
+    /// obstacle stays admissible under any d̂ and κ: gaps are checked against zero, not d̂.
+    ///
+    /// Errors: `parameters` not finite and > 0, or a d̂ above this contact's (the constructor
+    /// bounded that one by the body's size).
+    pub fn with_parameters(&self, parameters: ContactParameters) -> Result<Contact> {
+        parameters.check()?;
+        if parameters.activation_distance > self.parameters.activation_distance {
+            return Err(Error::invalid_parameter(
+                "contact activation_distance",
+                crate::base::error::short_number(parameters.activation_distance),
+                format!(
+                    "must be at most the contact's own, {}",
+                    crate::base::error::short_number(self.parameters.activation_distance)
+                ),
+            ));
+        }
+        let mut contact = self.clone();
+        contact.parameters = parameters;
+        Ok(contact)
+    }
+
     /// The boundary nodes that take part, ascending.
     pub fn nodes(&self) -> &[usize] {
         &self.nodes
