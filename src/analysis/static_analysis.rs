@@ -81,6 +81,16 @@ pub struct StaticOutcome {
     /// Per obstacle the friction part of `obstacle_forces` (force units; empty without
     /// contact, zero without friction).
     pub friction_forces: Vec<Vector3<f64>>,
+    /// With contact: the barrier's scales the solution is in equilibrium under (the
+    /// definition's contact's, or the smaller d̂ its continuation reached; see
+    /// [`NewtonReport::contact_parameters`](crate::analysis::nonlinear::NewtonReport::contact_parameters)):
+    /// evaluate gaps and pressures of the solution under these
+    /// ([`Contact::with_parameters`](crate::contact::Contact::with_parameters)). `None`
+    /// without contact.
+    pub contact_parameters: Option<crate::contact::ContactParameters>,
+    /// With contact: the solution's gap error (dimensionless; see
+    /// [`NewtonReport::gap_error`](crate::analysis::nonlinear::NewtonReport::gap_error)).
+    pub gap_error: Option<f64>,
     /// Which path ran, with its counts.
     pub path: StaticPath,
 }
@@ -215,6 +225,8 @@ impl<'a, C: ModelElement> Static<'a, C> {
                 free_dofs,
                 obstacle_forces: Vec::new(),
                 friction_forces: Vec::new(),
+                contact_parameters: None,
+                gap_error: None,
                 path: StaticPath::Linear {
                     info: solution.info,
                     timings: solver.timings(),
@@ -251,7 +263,12 @@ impl<'a, C: ModelElement> Static<'a, C> {
             load,
             &report.displacement,
         )?;
-        let obstacle_forces = match &d.contact {
+        // The solution is in equilibrium under the barrier its continuation ended with.
+        let solved_contact = match (&d.contact, report.contact_parameters) {
+            (Some(contact), Some(parameters)) => Some(contact.with_parameters(parameters)?),
+            _ => None,
+        };
+        let obstacle_forces = match &solved_contact {
             Some(contact) => contact
                 .obstacle_forces(&report.displacement)?
                 .iter()
@@ -276,6 +293,8 @@ impl<'a, C: ModelElement> Static<'a, C> {
             free_dofs,
             obstacle_forces,
             friction_forces: report.obstacle_friction_forces,
+            contact_parameters: report.contact_parameters,
+            gap_error: report.gap_error,
             reactions,
             displacement: report.displacement,
             path: StaticPath::Newton {

@@ -53,7 +53,7 @@ pub mod velocity;
 pub use friction::FrictionLag;
 pub use obstacle::{MAX_FRICTION, Obstacle, ObstacleMotion, Shape};
 pub use parameters::ContactParameters;
-pub use set::{Contact, NodesInside, contact_faces};
+pub use set::{Contact, GAP_TOLERANCE, NodesInside, contact_faces};
 pub use staging::{MAX_MOTION_STAGES, MotionStage};
 
 /// The fraction of the collision-free step a line search starts from (IPC's 0.8).

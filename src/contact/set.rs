@@ -13,6 +13,11 @@ use crate::base::error::{Error, Result};
 use crate::mesh::{BoundaryFace, CellType, NodeList, TetMesh};
 use crate::sparse::CscMatrix;
 
+/// The default gap error of a static contact solution (see [`Contact::with_gap_tolerance`]):
+/// the barrier's force-weighted gap at most 1e-8 of the largest displacement, so that the
+/// contact force is within about that of the exact (node-to-obstacle) contact of the mesh.
+pub const GAP_TOLERANCE: f64 = 1e-8;
+
 /// Node-versus-obstacle contact of a mesh's boundary nodes with rigid obstacles:
 ///
 /// E_c(u) = κ·Σᵢ Aᵢ·Σ_o b(d_o(Xᵢ + uᵢ)),
@@ -38,6 +43,8 @@ pub struct Contact {
     slip_distance: Option<f64>,
     /// Each obstacle's current offset c (length; see [`set_time`](Self::set_time)).
     placement: Placement,
+    /// The gap error a static solve drives its barrier to (dimensionless).
+    gap_tolerance: f64,
 }
 
 /// The obstacles' current offsets, behind a lock so that a shared contact (inside an
@@ -177,6 +184,7 @@ impl Contact {
             )),
             obstacles,
             parameters,
+            gap_tolerance: GAP_TOLERANCE,
         };
         contact.check_state(&vec![0.0; mesh.dof_count()])?;
         // The nodes are outside; the faces between them and the obstacles' interiors next.
@@ -298,6 +306,29 @@ impl Contact {
         Ok(sigma)
     }
 
+    /// The contact with the gap error `tolerance` a static solve drives its barrier to (see
+    /// [`complementarity`](Self::complementarity) and
+    /// [`solve_nonlinear_static_with_contact`](crate::analysis::nonlinear::solve_nonlinear_static_with_contact);
+    /// default [`GAP_TOLERANCE`]). [`Error::InvalidParameter`] naming `contact gap_tolerance`
+    /// unless finite and in (0, 1).
+    pub fn with_gap_tolerance(mut self, tolerance: f64) -> Result<Self> {
+        if !(tolerance.is_finite() && tolerance > 0.0 && tolerance < 1.0) {
+            return Err(Error::invalid_parameter(
+                "contact gap_tolerance",
+                tolerance,
+                "must be finite and in (0, 1)",
+            ));
+        }
+        self.gap_tolerance = tolerance;
+        Ok(self)
+    }
+
+    /// The gap error a static solve drives its barrier to (dimensionless; see
+    /// [`with_gap_tolerance`](Self::with_gap_tolerance)).
+    pub fn gap_tolerance(&self) -> f64 {
+        self.gap_tolerance
+    }
+
     /// d̂ and κ.
     pub fn parameters(&self) -> ContactParameters {
         self.parameters
@@ -323,6 +354,8 @@ impl Contact {
             ));
         }
         let mut contact = self.clone();
+        // Friction's stick distance stays what it was (its default follows d̂).
+        contact.slip_distance = Some(self.slip_distance());
         contact.parameters = parameters;
         Ok(contact)
     }
@@ -435,6 +468,24 @@ impl Contact {
                 * obstacle.gradient(x);
         })?;
         Ok(forces)
+    }
+
+    /// The barrier's complementarity at `u`: (Σᵢ λᵢ·dᵢ, Σᵢ λᵢ) over every node and obstacle
+    /// it pushes, λᵢ = −κ·Aᵢ·b′(dᵢ) the node's normal force (force units) and dᵢ its gap
+    /// (length); the first in energy units. An exact contact has λᵢ·dᵢ = 0 (a node is touching
+    /// or free); the barrier holds each pushed node at a gap dᵢ ∈ (0, d̂), so
+    /// Σλd/Σλ is the force-weighted gap by which its solution misses the exact one — what
+    /// [`crate::analysis::nonlinear`]'s continuation of d̂ drives down.
+    pub fn complementarity(&self, u: &[f64]) -> Result<(f64, f64)> {
+        let (mut work, mut total) = (0.0, 0.0);
+        self.for_each_active(u, |_, _, _, _, d, area| {
+            let lambda = -self.parameters.stiffness
+                * area
+                * barrier::derivative(d, self.parameters.activation_distance);
+            work += lambda * d;
+            total += lambda;
+        })?;
+        Ok((work, total))
     }
 
     /// Per boundary node (ascending, as [`nodes`](Self::nodes)): the smallest gap over the

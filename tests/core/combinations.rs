@@ -244,6 +244,8 @@ fn run_static<E: ModelElement>(cell: &Cell, c: &Case<E>) -> Result<String, Strin
     // the reactions −(Σ fₑ + f) do not see), and friction's (zero on a clamped node: no slip).
     let mut on_body = Vector3::zeros();
     if let Some(k) = &c.contact {
+        // Under the barrier the solution ended under (the solve's continuation of d̂).
+        let k = report.solved_contact(k).map_err(|e| format!("open: {e}"))?;
         let mut barrier = vec![0.0; u.len()];
         k.add_force(u, &mut barrier)
             .map_err(|e| format!("open: {e}"))?;

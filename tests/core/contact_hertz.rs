@@ -67,7 +67,12 @@ fn press(lift: f64) -> (f64, f64) {
     let top = mesh.nodes_where(|x| x.norm_squared() - 1.0 < 1e-12 && (x.z - 1.0).abs() < 1e-9)[0];
     // Approach of the base towards the sphere minus the rise of the surface under it.
     let indentation = lift - u[3 * top + 2];
-    let force = contact.obstacle_forces(u).unwrap()[0].z;
+    let force = report
+        .solved_contact(&contact)
+        .unwrap()
+        .obstacle_forces(u)
+        .unwrap()[0]
+        .z;
     (4.0 * force, indentation)
 }
 

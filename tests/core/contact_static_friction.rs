@@ -72,7 +72,11 @@ fn held(lateral: f64) {
     let (report, contact, mesh, weight) = block_on_ground(lateral);
     let report = report.unwrap();
     let u = &report.displacement;
-    let normal = contact.obstacle_forces(u).unwrap()[0];
+    let normal = report
+        .solved_contact(&contact)
+        .unwrap()
+        .obstacle_forces(u)
+        .unwrap()[0];
     let friction = report.obstacle_friction_forces[0];
     let total = normal + friction;
     // Σ over the nodes of each axis' equations: the element forces sum to zero exactly (up to

@@ -93,7 +93,8 @@ fn check_pressed(p: &Pressed, model: ModelKind, press: f64) -> (f64, [f64; 3]) {
     // (a) Σ over each axis of the equilibrium equations: the element forces sum to zero (up to
     // round-off), so |F_plate − ΣR| ≤ Σ|r_i| ≤ √n_f·‖r_f‖ with ‖r_f‖ where Newton stopped;
     // 1e-12 of the force covers the round-off of the sums.
-    let force = p.contact.obstacle_forces(u).unwrap()[0];
+    let solved = report.solved_contact(&p.contact).unwrap();
+    let force = solved.obstacle_forces(u).unwrap()[0];
     let reactions = nonlinear_reactions(
         &p.mesh,
         model.build(&p.material).as_ref(),
@@ -132,7 +133,7 @@ fn check_pressed(p: &Pressed, model: ModelKind, press: f64) -> (f64, [f64; 3]) {
         assert!((uz + press - p.start_gap).abs() < d_hat);
     }
     // (d) No node inside (or on) the plate at the end: every signed distance > 0.
-    let (gaps, _) = p.contact.node_fields(p.mesh.nodes(), u).unwrap();
+    let (gaps, _) = solved.node_fields(p.mesh.nodes(), u).unwrap();
     let lowest = gaps.iter().copied().fold(f64::INFINITY, f64::min);
     assert!(lowest > 0.0, "a node inside the plate: {lowest:e}");
     let mean = top.iter().sum::<f64>() / top.len() as f64;
@@ -303,8 +304,12 @@ fn a_floor_moving_sideways_carries_a_block_by_friction() {
     let mean_x = (0..mesh.node_count()).map(|n| u[3 * n]).sum::<f64>() / mesh.node_count() as f64;
     let friction = report.obstacle_friction_forces[0];
     let fixed_friction = fixed.obstacle_friction_forces[0];
-    let normal = contact.obstacle_forces(u).unwrap()[0];
-    let fixed_normal = fixed_contact.obstacle_forces(&fixed.displacement).unwrap()[0];
+    let normal = (report.solved_contact(&contact).unwrap())
+        .obstacle_forces(u)
+        .unwrap()[0];
+    let fixed_normal = (fixed.solved_contact(&fixed_contact).unwrap())
+        .obstacle_forces(&fixed.displacement)
+        .unwrap()[0];
     println!(
         "floor shifted {shift} m: block mean u_x {mean_x:.9e} m, largest |u − shift − u_fixed| {difference:.3e} m; on the floor: friction {friction:?} N (fixed floor {fixed_friction:?} N), normal {normal:?} N (fixed floor {fixed_normal:?} N)"
     );

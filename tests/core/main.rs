@@ -16,6 +16,7 @@ mod common;
 mod contact_at_rest;
 mod contact_bad_input;
 mod contact_drop;
+mod contact_exact;
 mod contact_friction;
 mod contact_hertz;
 mod contact_static_friction;

@@ -340,13 +340,18 @@ impl Scene {
             })?;
         }
         let mut contact = Contact::new(mesh, self.obstacles.clone(), parameters)?;
-        if let Some(c) = &self.spec.contact {
-            let c = c.get_ref();
+        if let Some(spanned) = &self.spec.contact {
+            let c = spanned.get_ref();
             if let Some(v) = c.slip_distance {
                 contact = contact.with_slip_distance(v)?;
             }
             if let Some(v) = c.slip_velocity {
                 contact = contact.with_slip_velocity(v)?;
+            }
+            if let Some(v) = c.gap_tolerance {
+                contact = contact.with_gap_tolerance(v).map_err(|e| {
+                    self.error("contact.gap_tolerance", &spanned.span(), e.to_string())
+                })?;
             }
         }
         Ok(Some(contact))

@@ -150,9 +150,27 @@ pub struct RunSummary {
     pub accuracy: Option<super::AccuracyReport>,
     /// With `[[obstacles]]`: the total contact force on each (`None` without obstacles).
     pub contact_forces: Option<Vec<ContactForceRow>>,
+    /// With `[[obstacles]]`: the barrier the solution ended under and by how much its gaps
+    /// miss an exact contact's (`None` without obstacles).
+    pub contact_barrier: Option<ContactBarrier>,
     /// With a nonlinear model or obstacles (Newton): the load steps and the Newton iterations
     /// they took in all (`None` for one linear solve).
     pub newton: Option<StaticNewton>,
+}
+
+/// The barrier a static contact solution ended under: its activation distance (m; the
+/// scene's `[contact] activation_distance`, or the smaller one the library's continuation
+/// reached) and the gap error Σλd/Σλ/max|u| (dimensionless: the force-weighted gap of the
+/// pushed nodes over the largest displacement), with the tolerance it was driven to
+/// (`[contact] gap_tolerance`).
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct ContactBarrier {
+    /// d̂ at the solution (m).
+    pub activation_distance_m: f64,
+    /// Σλᵢdᵢ/Σλᵢ/max|u| at the solution.
+    pub gap_error: f64,
+    /// The gap error asked for.
+    pub gap_tolerance: f64,
 }
 
 /// What a static Newton solve took: `load_steps` increments (`analysis.load_steps`), and
@@ -210,7 +228,12 @@ pub(super) fn run_static_on<E: SceneElement>(
     let solved = StaticSolve::of(analysis.solve()?, solver_options.newton.tolerance);
     // The model that runs is the model whose stress and energy are reported.
     let model = analysis.model();
-    let contact = definition.contact.as_ref();
+    // Gaps, pressures and forces under the barrier the solution is in equilibrium under.
+    let contact = match (definition.contact.as_ref(), solved.barrier) {
+        (Some(c), Some((parameters, _))) => Some(c.with_parameters(parameters)?),
+        (c, _) => c.cloned(),
+    };
+    let contact = contact.as_ref();
     let solve_seconds = clock.elapsed().as_secs_f64();
     let StaticReport {
         mut summary,
@@ -317,8 +340,17 @@ pub fn report_static<E: SceneElement>(
         ),
         None => None,
     };
+    let contact_barrier = match (contact, solved.barrier) {
+        (Some(contact), Some((parameters, gap_error))) => Some(ContactBarrier {
+            activation_distance_m: parameters.activation_distance,
+            gap_error,
+            gap_tolerance: contact.gap_tolerance(),
+        }),
+        _ => None,
+    };
     let summary = RunSummary {
         contact_forces,
+        contact_barrier,
         newton: solved.newton,
         warnings: built
             .warnings()
@@ -403,6 +435,9 @@ pub struct StaticSolve {
     pub factor_len: usize,
     /// Per obstacle the friction force the body exerts on it (N; empty without friction).
     pub friction_forces: Vec<nalgebra::Vector3<f64>>,
+    /// With obstacles: the barrier's scales the solution is in equilibrium under (see
+    /// [`StaticOutcome::contact_parameters`]) and its gap error.
+    pub barrier: Option<(tetfem::contact::ContactParameters, f64)>,
     /// Newton's counts (`None` for one linear solve).
     pub newton: Option<StaticNewton>,
     /// The reaction of every DOF (N; K·u − f for the linear model, −(Σₑ fₑ(u) + f) for the
@@ -427,6 +462,7 @@ impl StaticSolve {
                     tolerance,
                 }),
             friction_forces: outcome.friction_forces,
+            barrier: outcome.contact_parameters.zip(outcome.gap_error),
             displacement: outcome.displacement,
             reactions: outcome.reactions,
         }

@@ -142,6 +142,10 @@ pub struct ContactSpec {
     /// bounding-box diagonal per second).
     #[serde(default)]
     pub slip_velocity: Option<f64>,
+    /// The gap error a static solve drives the barrier to, in (0, 1) (default
+    /// [`tetfem::contact::GAP_TOLERANCE`]).
+    #[serde(default)]
+    pub gap_tolerance: Option<f64>,
 }
 
 /// An amplitude a(t): exactly one of `constant`, `table`, `ramp`, `smooth_step`, `sine`.

@@ -78,6 +78,9 @@ pub(crate) const STATIC: &[(&str, &str)] = &[
     ("phases.solve", "s"),
     ("critical_step.seconds", "s"),
     ("contact_forces.force_n", "N"),
+    ("contact_barrier.activation_distance_m", "m"),
+    ("contact_barrier.gap_error", "1"),
+    ("contact_barrier.gap_tolerance", "1"),
 ];
 
 /// Units of a static summary's `accuracy` (with `[analysis] accuracy` only: every unit names a

@@ -1,6 +1,8 @@
 //! Nonlinear static equilibrium with a [`ForceModel`](crate::model::ForceModel): Newton's method with a backtracking line
 //! search and load stepping, one symbolic factorization for all iterations.
 
+mod continuation;
+
 use nalgebra::Vector3;
 
 use crate::analysis::dynamics::internal_force::coordinate_scale;
@@ -65,6 +67,31 @@ pub struct NewtonReport {
     /// step's lag (N; zero without friction; empty without contact). Its sum with
     /// [`Contact::obstacle_forces`] is the whole force on the obstacle.
     pub obstacle_friction_forces: Vec<nalgebra::Vector3<f64>>,
+    /// With contact: the barrier's scales the solution is in equilibrium under — the given
+    /// contact's, or a smaller d̂ its continuation reached in the last load step (see
+    /// [`solve_nonlinear_static_with_contact`]). Evaluate the solution's contact forces, gaps
+    /// and pressures under these ([`Contact::with_parameters`]); `None` without contact.
+    pub contact_parameters: Option<crate::contact::ContactParameters>,
+    /// With contact: the gap error of the solution, Σλᵢdᵢ/Σλᵢ over the nodes the barrier
+    /// pushes divided by the largest displacement (dimensionless; 0 when nothing touches) —
+    /// by how much, relative to the motion, the barrier's gaps miss an exact contact's
+    /// ([`Contact::complementarity`]). At most [`Contact::gap_tolerance`] unless the
+    /// continuation ran out of stages.
+    pub gap_error: Option<f64>,
+}
+
+impl NewtonReport {
+    /// `contact` (the one the solve was given) under the barrier the solution is in
+    /// equilibrium under ([`contact_parameters`](Self::contact_parameters)): what to evaluate
+    /// the solution's contact forces, gaps and pressures with. The given contact's own d̂ would
+    /// read the gaps its continuation closed to ~1e-13 m as enormous forces. Without contact
+    /// in the solve, `contact` as it is.
+    pub fn solved_contact(&self, contact: &Contact) -> Result<Contact> {
+        match self.contact_parameters {
+            Some(parameters) => contact.with_parameters(parameters),
+            None => Ok(contact.clone()),
+        }
+    }
 }
 
 /// Most friction passes (re-lags of the normal forces) per load step; more is
@@ -322,6 +349,7 @@ fn solve<E: ModelElement, M: TetModels + ?Sized>(
     let free_tangent = problem.zero_free_matrix()?;
     let geometry = dofs.geometry_for_method(options.solver.method, mesh)?;
     let solver = LinearSolver::analyze_with_geometry(&free_tangent, options.solver, geometry)?;
+    let ladder = continuation::ladder(contact)?;
     let mut newton = StaticNewton {
         mesh,
         model,
@@ -335,6 +363,8 @@ fn solve<E: ModelElement, M: TetModels + ?Sized>(
         free_tangent,
         solver,
         iterations: 0,
+        ladder: &ladder,
+        barrier: None,
     };
     let load_norm = norm(&dofs.restrict(loads.as_slice())?);
     let mut u = vec![0.0; mesh.dof_count()];
@@ -373,6 +403,8 @@ fn solve<E: ModelElement, M: TetModels + ?Sized>(
         residuals,
         iterations: newton.iterations,
         obstacle_friction_forces,
+        contact_parameters: newton.barrier.map(|b| b.parameters),
+        gap_error: newton.barrier.map(|b| b.gap_error),
     })
 }
 
@@ -393,6 +425,14 @@ struct StepMotion {
     to: Vec<Vector3<f64>>,
 }
 
+/// What a load step's passes and continuation stages share: the state it started from (the
+/// origin of friction's slip), its obstacles' move, and friction's current lag.
+struct StepState<'s> {
+    start: &'s [f64],
+    moving: &'s Option<StepMotion>,
+    lag: Option<FrictionLag>,
+}
+
 /// A static solve's parts that every load step uses: the mesh, model, loads and contact, the
 /// DOF map and assembly, the tangent's storage and its factorization (one symbolic analysis),
 /// and the Newton iterations taken so far.
@@ -409,6 +449,11 @@ struct StaticNewton<'a, E: ModelElement, M: TetModels + ?Sized> {
     free_tangent: CscMatrix,
     solver: LinearSolver,
     iterations: usize,
+    /// The contact under ever smaller d̂ ([`continuation`]): the stages a load step may take
+    /// after it converged under the given contact.
+    ladder: &'a [Contact],
+    /// The barrier the last load step ended under, and its gap error.
+    barrier: Option<continuation::BarrierEnd>,
 }
 
 impl<E: ModelElement, M: TetModels + ?Sized> StaticNewton<'_, E, M> {
@@ -445,8 +490,9 @@ impl<E: ModelElement, M: TetModels + ?Sized> StaticNewton<'_, E, M> {
 
     /// Load step `step` from the state `u` (its prescribed values set already): the obstacles
     /// moved to their placement at its pseudo-time, friction's passes (see
-    /// [`solve_nonlinear_static_with_contact`]), each pass's Newton iterations. Returns the
-    /// residual norms it saw and the friction lag it ended under.
+    /// [`solve_nonlinear_static_with_contact`]), each pass's Newton iterations, then the
+    /// barrier's continuation ([`continuation`]). Returns the residual norms it saw and the
+    /// friction lag it ended under.
     fn load_step(
         &mut self,
         u: &mut Vec<f64>,
@@ -468,17 +514,7 @@ impl<E: ModelElement, M: TetModels + ?Sized> StaticNewton<'_, E, M> {
         // by s/(s − 1): the loads grow in proportion, and so does the normal force they need
         // (λ of the step before would hold only (s − 1)/s of the load).
         let start = u.clone();
-        let friction = self.contact.filter(|c| c.has_friction());
-        let relag = |contact: &Contact, normal_at: &[f64]| match &moving {
-            Some(m) => contact.friction_lag_moving(
-                normal_at,
-                &start,
-                (&m.from, &m.to),
-                contact.slip_distance(),
-            ),
-            None => contact.friction_lag_from(normal_at, &start, contact.slip_distance()),
-        };
-        let mut lag = match friction {
+        let lag = match self.contact.filter(|c| c.has_friction()) {
             Some(c) => {
                 let mut lag = match &moving {
                     Some(m) => c.friction_lag_toward(u, c.slip_distance(), &m.to)?,
@@ -491,7 +527,6 @@ impl<E: ModelElement, M: TetModels + ?Sized> StaticNewton<'_, E, M> {
             }
             None => None,
         };
-        let mut retried = false;
         let mut r = self.residual(u, lag.as_ref(), factor)?;
         // The reference scale: the full load, or for displacement-driven problems the first
         // residual of the step (moving obstacles raise it, see `solve_placed`).
@@ -505,12 +540,54 @@ impl<E: ModelElement, M: TetModels + ?Sized> StaticNewton<'_, E, M> {
             },
         };
         let mut history = vec![norm(&r)];
+        let mut step_state = StepState {
+            start: &start,
+            moving: &moving,
+            lag,
+        };
+        self.settle(u, &mut r, &mut history, &mut step_state, &mut at)?;
+        // The solution the solve returns is the last load step's; the ones before are its
+        // path, solved under the given d̂ (the next load step's obstacles may move, which is
+        // what that d̂ is sized for; from gaps a continuation closed to 1e-13 m, the given
+        // barrier's first forces are ~1e11 N and swamp the step's reference).
+        if step == self.options.load_steps {
+            self.continue_barrier(u, &mut history, &mut step_state, &mut at)?;
+        }
+        Ok((history, step_state.lag))
+    }
+
+    /// Friction's lag of this load step's solution at `normal_at`, the slip measured from
+    /// the step's start (relative to the obstacles' move over the step when they move).
+    fn relag(contact: &Contact, normal_at: &[f64], state: &StepState<'_>) -> Result<FrictionLag> {
+        match state.moving {
+            Some(m) => contact.friction_lag_moving(
+                normal_at,
+                state.start,
+                (&m.from, &m.to),
+                contact.slip_distance(),
+            ),
+            None => contact.friction_lag_from(normal_at, state.start, contact.slip_distance()),
+        }
+    }
+
+    /// The load step solved from `u` (residual `r` under `state.lag`) with the obstacles
+    /// placed or moved ([`solve_placed`](Self::solve_placed)), friction re-lagged at each
+    /// pass's solution until the solution is in equilibrium under the lag it makes.
+    fn settle(
+        &mut self,
+        u: &mut Vec<f64>,
+        r: &mut Vec<f64>,
+        history: &mut Vec<f64>,
+        state: &mut StepState<'_>,
+        at: &mut LoadStep,
+    ) -> Result<()> {
+        let (step, factor) = (at.step, at.factor);
+        let friction = self.contact.filter(|c| c.has_friction());
+        let mut retried = false;
         for pass in 1..=MAX_FRICTION_PASSES {
-            let outcome =
-                self.solve_placed(u, &mut r, &mut history, lag.as_ref(), &mut at, &moving);
-            let (Some(contact), Some(solved_with)) = (friction, lag.as_ref()) else {
-                outcome?;
-                break;
+            let outcome = self.solve_placed(u, r, history, state.lag.as_ref(), at, state.moving);
+            let (Some(contact), Some(solved_with)) = (friction, state.lag.as_ref()) else {
+                return outcome;
             };
             if let Err(e) = outcome {
                 // The caller's interrupt is no weak lag: stop.
@@ -523,14 +600,14 @@ impl<E: ModelElement, M: TetModels + ?Sized> StaticNewton<'_, E, M> {
                 // (moving obstacles back where they were then, to be moved again).
                 if !retried && contact.check_state(u).is_ok() {
                     retried = true;
-                    let relagged = relag(contact, u)?;
-                    u.clone_from(&start);
-                    if let Some(m) = &moving {
+                    let relagged = Self::relag(contact, u, state)?;
+                    *u = state.start.to_vec();
+                    if let Some(m) = state.moving {
                         contact.set_offsets(m.from.clone())?;
                     }
-                    r = self.residual(u, Some(&relagged), factor)?;
-                    lag = Some(relagged);
-                    history.push(norm(&r));
+                    *r = self.residual(u, Some(&relagged), factor)?;
+                    state.lag = Some(relagged);
+                    history.push(norm(r));
                     continue;
                 }
                 let error = no_frictional_equilibrium(
@@ -543,7 +620,7 @@ impl<E: ModelElement, M: TetModels + ?Sized> StaticNewton<'_, E, M> {
                     self.dofs.free_dofs().len() < self.f_full.len(),
                     contact.parameters().activation_distance,
                 );
-                return Err(match &moving {
+                return Err(match state.moving {
                     Some(m) => self.with_sliding_hint(error, contact, solved_with, m),
                     None => error,
                 });
@@ -551,13 +628,13 @@ impl<E: ModelElement, M: TetModels + ?Sized> StaticNewton<'_, E, M> {
             // Re-lag at this pass's solution: settled when the equilibrium holds under the new
             // lag to Newton's tolerance (or within twice the floor this pass reached).
             let floor = history.last().copied().unwrap_or(0.0);
-            let relagged = relag(contact, u)?;
-            r = self.residual(u, Some(&relagged), factor)?;
-            lag = Some(relagged);
-            let now = norm(&r);
+            let relagged = Self::relag(contact, u, state)?;
+            *r = self.residual(u, Some(&relagged), factor)?;
+            state.lag = Some(relagged);
+            let now = norm(r);
             history.push(now);
             if now <= self.options.tolerance * at.reference || now <= 2.0 * floor {
-                break;
+                return Ok(());
             }
             if pass == MAX_FRICTION_PASSES {
                 return Err(Error::Solver(format!(
@@ -566,7 +643,7 @@ impl<E: ModelElement, M: TetModels + ?Sized> StaticNewton<'_, E, M> {
                 )));
             }
         }
-        Ok((history, lag))
+        Ok(())
     }
 
     /// `error` (a load step's failed friction solve) with, when a frictional obstacle moved
