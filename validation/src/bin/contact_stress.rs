@@ -1,6 +1,6 @@
 //! The contact stress suite of issue 35 (see `tetfem_validation::contact_stress`): writes
 //! `<out>/report/contact_stress.csv` and `.png` and `<out>/CONTACT_STRESS.md`, and prints the
-//! table. `--quick` (the CI-sized run, ≤ 60 s on 2 cores) writes `quick_contact_stress.*` in
+//! table. `--quick` (the CI-sized run: 9 s measured on 2 cores, ≤ 60 s) writes `quick_contact_stress.*` in
 //! `report/` and no markdown file.
 //!
 //! `cargo run --release -p tetfem-validation --bin contact_stress -- [--quick] [--out validation]`
@@ -28,7 +28,7 @@ const HEADER: &str = "# Contact stress suite (issue 35)
 
 Written by `cargo run --release -p tetfem-validation --bin contact_stress` (rerun it to
 refresh this file, `validation/report/contact_stress.csv` and `contact_stress.png`; `--quick`
-is the CI-sized run, ~40 s on 2 cores, writing `quick_contact_stress.*` only).
+is the CI-sized run, ~10 s on 2 cores, writing `quick_contact_stress.*` only).
 
 Five scenes against rigid obstacles (a block dropped on the ground; a sphere pressing into a
 block resting on the ground; a block on a moving frictional floor; a block pinched between two
