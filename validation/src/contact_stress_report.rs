@@ -40,7 +40,7 @@ fn gap(cell: &Cell) -> String {
 }
 
 impl Suite {
-    /// The cells as CSV: scene, method, dt multiple, dt (s), outcome, steps taken and planned,
+    /// The cells as CSV: scene, method (quoted: "backward Euler, linear"), dt multiple, dt (s), outcome, steps taken and planned,
     /// Newton iterations mean and max (empty for the explicit method), worst gap (m), energy
     /// growth, wall seconds, note.
     pub fn csv(&self) -> String {
@@ -54,7 +54,7 @@ impl Suite {
             };
             let _ = writeln!(
                 text,
-                "{},{},{},{:e},{},{},{},{},{},{:e},{:.3e},{:.3},\"{}\"",
+                "{},\"{}\",{},{:e},{},{},{},{},{},{:e},{:.3e},{:.3},\"{}\"",
                 c.scene.name(),
                 c.scheme.name(),
                 c.multiple,
