@@ -608,18 +608,19 @@ fn classify(cell: &mut Cell, end: Result<()>, watch: &Watch, cut: bool) {
     cell.outcome = match end {
         Err(e) => {
             cell.note = e.to_string();
+            // The run wraps a step's failure in `Diverged` with the step's own message as its
+            // reason (budget exhaustion is `Diverged` by the issue): classed by that message.
+            let staging = cell.note.contains("did not reach their placement");
+            let newton =
+                cell.note.contains("Newton did not converge") || cell.note.contains("line search");
             match e {
-                Error::Diverged { .. } => Outcome::Diverged,
-                Error::NotConverged { .. }
-                    if cell.note.contains("did not reach their placement") =>
-                {
-                    Outcome::StagingFailure
-                }
+                _ if staging => Outcome::StagingFailure,
                 Error::NotConverged { .. } => Outcome::NewtonFailure,
+                _ if newton => Outcome::NewtonFailure,
+                Error::Diverged { .. } => Outcome::Diverged,
                 // Refused before the first step: the library's check of the combination (the
                 // explicit method's barrier stiffness against its step).
                 Error::InvalidParameter { .. } if cell.steps.0 == 0 => Outcome::Refused,
-                _ if cell.note.contains("did not reach their placement") => Outcome::StagingFailure,
                 _ => Outcome::Error,
             }
         }
