@@ -6,4 +6,6 @@
 pub mod accuracy;
 pub mod cells;
 pub mod chart;
+pub mod contact_stress;
+pub mod contact_stress_report;
 pub mod stability_map;

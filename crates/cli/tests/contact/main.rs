@@ -1,6 +1,7 @@
 //! The CLI crate's contact tests, one binary (linked once) with a module per subject: each
 //! module is what was one test file (`crates/cli/tests/<module>.rs`), its tests unchanged.
-//! Scenes with obstacles: resting, friction, moving obstacles, dynamic drops and the obstacle frames.
+//! Scenes with obstacles: resting, friction, moving obstacles, dynamic drops, the shipped sphere
+//! press and the obstacle frames.
 //!
 //! Shared helpers are `common` (crates/cli/tests/common, which includes the core's
 //! tests/core/common). The modules' tests run on parallel threads of this one process: each
@@ -15,4 +16,5 @@ mod contact_dynamic_scenes;
 mod contact_friction_scenes;
 mod contact_scenes;
 mod obstacle_frames;
+mod sphere_press;
 mod static_moving_obstacle;
