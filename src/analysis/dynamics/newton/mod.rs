@@ -137,6 +137,9 @@ pub(crate) struct StepEquation<'a> {
     pub friction_passes: bool,
 }
 
+/// The obstacles' offsets (length, one per obstacle) at a step's start and at its end.
+type ObstacleMove<'a> = (&'a [nalgebra::Vector3<f64>], &'a [nalgebra::Vector3<f64>]);
+
 /// Most friction passes (solves under a re-lagged friction) in one implicit step
 /// ([`StepEquation::friction_passes`]), as in a static load step; more is [`Error::Diverged`]
 /// naming the step.
@@ -550,11 +553,7 @@ impl NewtonSolver {
         u_new: &mut [f64],
         step: usize,
         time: f64,
-        (inertia, motion, first): (
-            f64,
-            (&[nalgebra::Vector3<f64>], &[nalgebra::Vector3<f64>]),
-            usize,
-        ),
+        (inertia, motion, first): (f64, ObstacleMove<'_>, usize),
     ) -> Result<usize> {
         if !equation.friction_passes || !self.force.has_friction_lag() {
             return Ok(first);
