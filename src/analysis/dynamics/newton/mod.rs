@@ -478,8 +478,9 @@ impl NewtonSolver {
             self.force
                 .tangent_into(equation.start, true, &mut self.work, k)?;
         }
-        // Friction lags its normal forces at the step's start; its smoothing distance is
-        // ε_v/s_c (backward Euler: ε_v·dt; Newmark: ε_v·dt/2).
+        // Friction lags its normal forces at the step's start (and, with
+        // `friction_passes`, re-lags them at the solution: `settle_friction`); its smoothing
+        // distance is ε_v/s_c (backward Euler: ε_v·dt; Newmark: ε_v·dt/2).
         let force = Arc::clone(&self.force);
         // With contact, a body in free flight has r₀ and f at round-off (no load, or gravity
         // balanced by the ground): converge relative to the inertia scale ‖s_m·M·(u − ũ)‖ too,
