@@ -165,6 +165,7 @@ impl Newmark {
             damping_velocity: Some(v),
             duration: dt,
             first_iterate: Some(&guess),
+            friction_passes: true,
             load,
         };
         newton.solve(
