@@ -468,6 +468,8 @@ impl<E: ModelElement, M: TetModels + ?Sized> StaticNewton<'_, E, M> {
         // by s/(s − 1): the loads grow in proportion, and so does the normal force they need
         // (λ of the step before would hold only (s − 1)/s of the load).
         let start = u.clone();
+        // A spinning obstacle turns by |ω|·Δt over the load step's pseudo-time Δt = 1/n.
+        let duration = 1.0 / self.options.load_steps as f64;
         let friction = self.contact.filter(|c| c.has_friction());
         let relag = |contact: &Contact, normal_at: &[f64]| match &moving {
             Some(m) => contact.friction_lag_moving(
@@ -475,13 +477,14 @@ impl<E: ModelElement, M: TetModels + ?Sized> StaticNewton<'_, E, M> {
                 &start,
                 (&m.from, &m.to),
                 contact.slip_distance(),
+                duration,
             ),
             None => contact.friction_lag_from(normal_at, &start, contact.slip_distance()),
         };
         let mut lag = match friction {
             Some(c) => {
                 let mut lag = match &moving {
-                    Some(m) => c.friction_lag_toward(u, c.slip_distance(), &m.to)?,
+                    Some(m) => c.friction_lag_toward(u, c.slip_distance(), &m.to, duration)?,
                     None => c.friction_lag(u, c.slip_distance())?,
                 };
                 if step > 1 {

@@ -51,7 +51,7 @@ pub mod staging;
 pub mod velocity;
 
 pub use friction::FrictionLag;
-pub use obstacle::{MAX_FRICTION, Obstacle, ObstacleMotion, Shape};
+pub use obstacle::{MAX_FRICTION, Obstacle, ObstacleMotion, SPIN_TOLERANCE, Shape, Spin};
 pub use parameters::ContactParameters;
 pub use set::{Contact, NodesInside, contact_faces};
 pub use staging::{MAX_MOTION_STAGES, MotionStage};

@@ -532,8 +532,12 @@ impl NewtonSolver {
         let placed = contact;
         placed.set_time(time);
         let target = contact.offsets_at(time + equation.duration);
-        self.force
-            .begin_step_toward(equation.start, 1.0 / equation.damping_scale, &target)?;
+        self.force.begin_step_toward(
+            equation.start,
+            1.0 / equation.damping_scale,
+            &target,
+            equation.duration,
+        )?;
         if let Some(start) = self.force.carried_start(equation.start, &target)? {
             u_new.copy_from_slice(&start);
             placed.set_offsets(target.clone())?;
