@@ -35,7 +35,8 @@ pub enum Shape {
 }
 
 /// A prescribed rigid translation of an obstacle: its shape at time t is the shape at rest
-/// moved by the offset c(t) (length), so d_t(x) = d(x − c(t)). Rotations are not represented.
+/// moved by the offset c(t) (length), so d_t(x) = d(x − c(t)). A spin in place is
+/// [`Obstacle::with_spin`]; rotations that move the shape are not represented.
 #[derive(Debug, Clone, PartialEq)]
 pub enum ObstacleMotion {
     /// c(t) = v·t: a constant velocity v (length/time).
@@ -79,7 +80,8 @@ impl ObstacleMotion {
 pub const MAX_FRICTION: f64 = 100.0;
 
 /// A rigid obstacle with a name (the CSV columns and error messages use it), fixed or moving
-/// by a prescribed translation ([`with_motion`](Self::with_motion)).
+/// by a prescribed translation ([`with_motion`](Self::with_motion)), and spinning in place or
+/// not ([`with_spin`](Self::with_spin)).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Obstacle {
     name: String,
@@ -539,6 +541,42 @@ mod tests {
         );
         assert!(Obstacle::half_space("g", Vector3::zeros(), Vector3::zeros()).is_err());
         assert!(Obstacle::sphere("s", Vector3::zeros(), 0.0).is_err());
+    }
+
+    #[test]
+    fn a_spin_turns_the_surface_exactly_and_only_in_place() {
+        let table = Obstacle::half_space("t", Vector3::zeros(), Vector3::z()).unwrap();
+        let quarter = std::f64::consts::FRAC_PI_2;
+        let spun = table
+            .clone()
+            .with_spin(Vector3::new(0.0, 0.0, quarter), Vector3::new(1.0, 0.0, 0.0))
+            .unwrap();
+        // A quarter turn about the axis through (1, 0, 0): (2, 0, 5) goes to (1, 1, 5), a
+        // displacement (−1, 1, 0) to round-off (the exact rotation, not ω × r·Δt = (0, π/2, 0)).
+        let shift = spun.surface_turn(&Vector3::new(2.0, 0.0, 5.0), 1.0);
+        assert!(
+            (shift - Vector3::new(-1.0, 1.0, 0.0)).amax() < 1e-15,
+            "{shift}"
+        );
+        assert_eq!(table.surface_turn(&Vector3::x(), 1.0), Vector3::zeros());
+        // The shape's queries are the still shape's.
+        assert_eq!(spun.distance(&Vector3::new(3.0, 2.0, 0.5)), 0.5);
+        // A tilted axis, a box, an axis off a sphere's centre: refused, naming the key.
+        let tilted = table.with_spin(Vector3::new(0.1, 0.0, 1.0), Vector3::zeros());
+        assert!(tilted.unwrap_err().to_string().contains("t: spin ="));
+        let b = Obstacle::aligned_box("b", Vector3::zeros(), Vector3::repeat(1.0)).unwrap();
+        assert!(b.with_spin(Vector3::z(), Vector3::zeros()).is_err());
+        let ball = Obstacle::sphere("s", Vector3::new(0.0, 0.0, 1.0), 0.5).unwrap();
+        let off = ball.clone().with_spin(Vector3::x(), Vector3::zeros());
+        assert!(
+            off.unwrap_err()
+                .to_string()
+                .contains("s: spin_axis_point =")
+        );
+        let roller = ball
+            .with_spin(Vector3::x(), Vector3::new(0.0, 0.0, 1.0))
+            .unwrap();
+        assert!(roller.spin().is_some());
     }
 
     #[test]
