@@ -3,7 +3,7 @@
 //! obstacles=[...])` and `tetfem.Simulation(..., obstacles=[...])`.
 
 use pyo3::prelude::*;
-use tetfem::contact::{Contact, ContactParameters, Obstacle, ObstacleMotion};
+use tetfem::contact::{Contact, ContactParameters, Obstacle, ObstacleMotion, Shape};
 use tetfem::fe::materials::MaterialMap;
 
 use crate::amplitude::amplitude_of;
@@ -79,7 +79,7 @@ impl PyObstacle {
     }
 
     /// The same obstacle moving by a prescribed translation c(t) (its shape at time t is the
-    /// shape at rest moved by c(t); rotations are not represented): ``velocity`` v (m/s),
+    /// shape at rest moved by c(t); a spin is ``spinning``): ``velocity`` v (m/s),
     /// c(t) = v·t; or ``displacement`` D (m) with an optional ``amplitude`` a(t) (an
     /// ``Amplitude``, a number or an (k, 2) table), c(t) = D·a(t); without one a ramp from 0 at
     /// t = 0 to 1 at t = 1 s, so that the obstacle starts where it was made and has moved by D at
@@ -139,6 +139,44 @@ impl PyObstacle {
         Ok(PyObstacle { obstacle })
     }
 
+    /// The same obstacle spinning at the constant angular velocity ``omega`` ω (rad/s, a vector
+    /// along the axis, right-handed) about the axis through ``axis_point`` p (m; default the
+    /// sphere's centre or the half-space's point; it moves with the obstacle's translation): its
+    /// surface at x moves at ċ(t) + ω × (x − (p + c(t))), and friction's slip is measured
+    /// against it (over a step, the exact turn by |ω|·dt). Only spins that leave the shape in
+    /// place: a half-space about an axis along its normal (a turntable), a sphere about an
+    /// axis through its centre (a roller); a box cannot spin. A static solve turns it by |ω|·t
+    /// over its pseudo-time t ∈ (0, 1]. A zero ``omega`` is no spin. Errors raise
+    /// ``InvalidInputError`` naming ``spin`` or ``spin_axis_point``.
+    #[pyo3(signature = (omega, axis_point = None))]
+    fn spinning(
+        &self,
+        py: Python<'_>,
+        omega: &Bound<'_, PyAny>,
+        axis_point: Option<&Bound<'_, PyAny>>,
+    ) -> PyResult<Self> {
+        let omega = arrays::vector3(py, omega, "omega")?;
+        let pivot = match axis_point.filter(|p| !p.is_none()) {
+            Some(p) => arrays::vector3(py, p, "axis_point")?,
+            None => match *self.obstacle.shape() {
+                Shape::Sphere { center, .. } => center,
+                Shape::HalfSpace { point, .. } => point,
+                Shape::Box { center, .. } => center,
+            },
+        };
+        let obstacle = self.obstacle.clone().with_spin(omega, pivot).or_raise(py)?;
+        Ok(PyObstacle { obstacle })
+    }
+
+    /// The spin ω (rad/s, a vector) of a spinning obstacle (see ``spinning``), ``None`` for
+    /// one that does not turn.
+    #[getter]
+    fn spin<'py>(&self, py: Python<'py>) -> Option<Bound<'py, PyAny>> {
+        self.obstacle
+            .spin()
+            .map(|s| arrays::vector(py, vec![s.omega.x, s.omega.y, s.omega.z]))
+    }
+
     /// The obstacle's offset c(t) (m) at time ``t`` (s): zero for a fixed one.
     fn offset<'py>(&self, py: Python<'py>, t: f64) -> Bound<'py, PyAny> {
         let c = self.obstacle.offset(t);
@@ -181,8 +219,12 @@ impl PyObstacle {
                 format!(", displacement=({}, {}, {}) × a(t)", d.x, d.y, d.z)
             }
         };
+        let spin = match self.obstacle.spin() {
+            None => String::new(),
+            Some(s) => format!(", spin=({}, {}, {})", s.omega.x, s.omega.y, s.omega.z),
+        };
         format!(
-            "Obstacle({}, friction={}{motion})",
+            "Obstacle({}, friction={}{motion}{spin})",
             self.obstacle.name(),
             self.obstacle.friction()
         )

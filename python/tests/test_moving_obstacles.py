@@ -135,3 +135,38 @@ def test_a_static_solve_follows_the_obstacle_to_its_end():
     rx = result.reactions[:, 0].sum()
     assert fx_obstacle != 0.0
     assert abs(rx - fx_obstacle) <= 1e-6 * abs(fx_obstacle), (rx, fx_obstacle)
+
+
+def test_a_block_rides_a_turntable_and_the_spin_s_sign_sets_its_way():
+    # Issue 35: a 4 × 4 × 2 cm soft block at radius 0.1 m on a table spinning about +z through
+    # the origin at half the slip spin (ω²r = μg/2), set d̂/2 = 3e-5 m above it, 0.3 s of backward
+    # Euler at 5 ms (tests/core/turntable.rs runs the same in Rust).
+    table = tetfem.Obstacle.half_space("table", (0, 0, 0), (0, 0, 1), friction=0.5)
+    omega = np.sqrt(0.5 * 0.5 * 9.81 / 0.1)
+    with pytest.raises(tetfem.InvalidInputError, match="spin"):
+        table.spinning((1.0, 0.0, omega))  # a tilted axis would move the plane
+    assert table.spin is None
+    velocities = []
+    for sign in (1.0, -1.0):
+        spun = table.spinning((0.0, 0.0, sign * omega))
+        assert spun.spin.tolist() == [0.0, 0.0, sign * omega]
+        mesh = tetfem.Mesh.box(min=(0.08, -0.02, 3e-5), max=(0.12, 0.02, 0.02003), cells=(4, 4, 2))
+        soft = tetfem.Material(1e6, 0.3, 1000.0)
+        gravity = tetfem.Loads(mesh).add_gravity((0.0, 0.0, -9.81), soft)
+        sim = tetfem.Simulation(
+            mesh, soft, tetfem.Constraints(mesh), gravity, dt=0.005, model="neo-hookean",
+            obstacles=[spun],
+        )
+        sim.run(60)
+        x = mesh.points + sim.displacement
+        # A body turning rigidly at ω has the mean velocity ω × (mean position); its component
+        # along the table's motion there is compared, within the 1 % the issue asks of a block
+        # that sticks (backward Euler's velocity is the chord of the step's arc, which points
+        # ω·dt/2 = 0.012 rad behind the end position's tangent: 1.2 % across it).
+        expected = np.cross((0.0, 0.0, sign * omega), x.mean(axis=0))
+        v = sim.velocity.mean(axis=0)
+        along = v @ expected / np.linalg.norm(expected)
+        assert abs(along / np.linalg.norm(expected) - 1.0) <= 0.01, (v, expected)
+        velocities.append(v)
+    # Reversing the spin reverses the block's way round.
+    assert velocities[0][1] > 0.0 > velocities[1][1]

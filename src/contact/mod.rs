@@ -38,7 +38,19 @@
 //! [`Contact::apply_contact_impulses`]): there no node comes nearer an obstacle than the gap it
 //! started the step with or d̂, so explicit contact needs no barrier stiffness in its stable step.
 //!
-//! Not here yet: rotating obstacles.
+//! Spinning obstacles ([`Obstacle::with_spin`], [`Spin`]): a constant angular velocity ω about
+//! an axis through a point p that moves with the obstacle's translation, so that its material
+//! point at x moves at v(x, t) = ċ(t) + ω × (x − (p + c(t))). Only the spins that leave the shape
+//! in place are represented — a half-space about an axis along its normal (a turntable), a
+//! sphere about an axis through its centre (a roller) —, so distance, gradient, Hessian, time of
+//! impact, the carried start and the stages are those of the translation alone, and the spin
+//! enters friction only: the lagged slip of a step of duration Δt is measured from the start
+//! point turned with the surface by the exact rotation R(ω·Δt) ([`Obstacle::surface_turn`],
+//! [`Contact::friction_lag_toward`]; a static load step turns it by |ω| times its pseudo-time),
+//! and the explicit step's friction takes the surface point's mean velocity over the step. A
+//! spin that would move the shape (a box, a tilted half-space axis, an axis off a sphere's
+//! centre) is refused: rotating shapes would need the distance of a turned shape and continuous
+//! collision detection along its arc.
 
 pub mod barrier;
 pub mod carry;
@@ -51,7 +63,7 @@ pub mod staging;
 pub mod velocity;
 
 pub use friction::FrictionLag;
-pub use obstacle::{MAX_FRICTION, Obstacle, ObstacleMotion, Shape};
+pub use obstacle::{MAX_FRICTION, Obstacle, ObstacleMotion, SPIN_TOLERANCE, Shape, Spin};
 pub use parameters::ContactParameters;
 pub use set::{Contact, GAP_TOLERANCE, NodesInside, contact_faces};
 pub use staging::{MAX_MOTION_STAGES, MotionStage};

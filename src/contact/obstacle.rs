@@ -35,7 +35,8 @@ pub enum Shape {
 }
 
 /// A prescribed rigid translation of an obstacle: its shape at time t is the shape at rest
-/// moved by the offset c(t) (length), so d_t(x) = d(x − c(t)). Rotations are not represented.
+/// moved by the offset c(t) (length), so d_t(x) = d(x − c(t)). A spin in place is
+/// [`Obstacle::with_spin`]; rotations that move the shape are not represented.
 #[derive(Debug, Clone, PartialEq)]
 pub enum ObstacleMotion {
     /// c(t) = v·t: a constant velocity v (length/time).
@@ -79,7 +80,8 @@ impl ObstacleMotion {
 pub const MAX_FRICTION: f64 = 100.0;
 
 /// A rigid obstacle with a name (the CSV columns and error messages use it), fixed or moving
-/// by a prescribed translation ([`with_motion`](Self::with_motion)).
+/// by a prescribed translation ([`with_motion`](Self::with_motion)), and spinning in place or
+/// not ([`with_spin`](Self::with_spin)).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Obstacle {
     name: String,
@@ -88,7 +90,37 @@ pub struct Obstacle {
     friction: f64,
     /// Its prescribed translation (`None`: fixed).
     motion: Option<ObstacleMotion>,
+    /// Its spin (`None`: it does not turn).
+    spin: Option<Spin>,
 }
+
+/// A constant spin of an obstacle: the angular velocity ω (rad/time, a vector along the axis,
+/// right-handed) about the axis through the pivot p, a point of the obstacle's placement as given
+/// that moves with its translation c(t). The obstacle's material point at x moves at
+///
+/// v(x, t) = ċ(t) + ω × (x − (p + c(t))),
+///
+/// and over a step of duration Δt it goes from x to c(t + Δt) + p + R(ω·Δt)·(x − c(t) − p), R
+/// the exact rotation by the angle |ω|·Δt about ω (not the first-order x + ω × r·Δt, which
+/// spirals outward on large steps).
+///
+/// Only spins that leave the obstacle's shape in place are represented, so its distance,
+/// gradient, Hessian and time of impact do not change and only friction's slip does: a
+/// half-space spinning about an axis along its normal (a turntable), a sphere about an axis
+/// through its centre (a roller, a ball). See [`Obstacle::with_spin`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Spin {
+    /// ω (rad/time).
+    pub omega: Vector3<f64>,
+    /// p (length), in the obstacle's placement as given (it moves with c(t)).
+    pub pivot: Vector3<f64>,
+}
+
+/// The relative tolerance of [`Obstacle::with_spin`]'s checks that a spin leaves the shape in
+/// place (|ω̂ × n| for a half-space; |p − c| over the radius for a sphere): round-off of unit
+/// vectors and coordinates typed in a scene, far below any tilt that would move the shape
+/// visibly (1e-9 rad of tilt moves a 1 m turntable's rim by 1 nm).
+pub const SPIN_TOLERANCE: f64 = 1e-9;
 
 impl Obstacle {
     /// The half-space below the plane through `point` with normal `normal` (normalized here):
@@ -119,6 +151,7 @@ impl Obstacle {
             },
             friction: 0.0,
             motion: None,
+            spin: None,
         })
     }
 
@@ -141,6 +174,7 @@ impl Obstacle {
             shape: Shape::Sphere { center, radius },
             friction: 0.0,
             motion: None,
+            spin: None,
         })
     }
 
@@ -182,6 +216,74 @@ impl Obstacle {
     /// Its prescribed translation (`None`: fixed).
     pub fn motion(&self) -> Option<&ObstacleMotion> {
         self.motion.as_ref()
+    }
+
+    /// The obstacle spinning at the constant angular velocity `omega` (rad/time, a vector along
+    /// the axis, right-handed) about the axis through `pivot` (length, a point of its placement
+    /// as given, moving with its translation): see [`Spin`] for the surface velocity
+    /// v(x, t) = ċ(t) + ω × (x − (p + c(t))). A zero `omega` is no spin.
+    ///
+    /// Allowed: spins that leave the shape in place — a half-space about an axis along its
+    /// normal (any pivot: a turntable), a sphere about an axis through its centre (`pivot` the
+    /// centre: a roller or ball). Its distance, gradient, Hessian and time of impact are then
+    /// those of the still shape, and the spin acts through friction only (the slip is measured
+    /// against the surface's motion).
+    ///
+    /// Errors ([`Error::InvalidParameter`] naming `obstacle <name>: spin` or `spin_axis_point`):
+    /// a non-finite vector; a spin that would move the shape (a box, a half-space about a tilted
+    /// axis, a sphere about an axis off its centre; tolerance [`SPIN_TOLERANCE`]).
+    pub fn with_spin(mut self, omega: Vector3<f64>, pivot: Vector3<f64>) -> Result<Self> {
+        check_finite(&self.name, "spin", &omega)?;
+        check_finite(&self.name, "spin_axis_point", &pivot)?;
+        let rate = omega.norm();
+        if rate == 0.0 {
+            self.spin = None;
+            return Ok(self);
+        }
+        let allowed = "a spin must leave the obstacle's shape in place: a half_space about an \
+                       axis along its normal, a sphere about an axis through its centre \
+                       (spin_axis_point = the centre); a box cannot spin";
+        let (key, value, fits) = match self.shape {
+            Shape::HalfSpace { normal, .. } => (
+                "spin",
+                format!("{:?} (normal {:?})", omega.as_slice(), normal.as_slice()),
+                (omega / rate).cross(&normal).norm() <= SPIN_TOLERANCE,
+            ),
+            Shape::Sphere { center, radius } => (
+                "spin_axis_point",
+                format!("{:?} (centre {:?})", pivot.as_slice(), center.as_slice()),
+                (pivot - center).norm() <= SPIN_TOLERANCE * radius,
+            ),
+            Shape::Box { .. } => ("spin", format!("{:?}", omega.as_slice()), false),
+        };
+        if !fits {
+            return Err(Error::invalid_parameter(
+                format!("obstacle {}: {key}", self.name),
+                value,
+                allowed,
+            ));
+        }
+        self.spin = Some(Spin { omega, pivot });
+        Ok(self)
+    }
+
+    /// Its spin (`None`: it does not turn).
+    pub fn spin(&self) -> Option<&Spin> {
+        self.spin.as_ref()
+    }
+
+    /// The rotational part of the displacement over a step of `duration` (time) of its material
+    /// point at `q` (length, relative to its current offset: x − c(t)): (R(ω·Δt) − I)·(q − p),
+    /// R the exact rotation by |ω|·Δt about ω (length; zero without a spin). The whole
+    /// displacement of that point is this plus the translation c(t + Δt) − c(t).
+    pub fn surface_turn(&self, q: &Vector3<f64>, duration: f64) -> Vector3<f64> {
+        match self.spin {
+            Some(Spin { omega, pivot }) => {
+                let r = q - pivot;
+                Rotation3::from_scaled_axis(omega * duration) * r - r
+            }
+            None => Vector3::zeros(),
+        }
     }
 
     /// The offset c(t) (length) of its placement at time `t` (zero for a fixed obstacle).
@@ -240,6 +342,7 @@ impl Obstacle {
             },
             friction: 0.0,
             motion: None,
+            spin: None,
         })
     }
 
@@ -438,6 +541,42 @@ mod tests {
         );
         assert!(Obstacle::half_space("g", Vector3::zeros(), Vector3::zeros()).is_err());
         assert!(Obstacle::sphere("s", Vector3::zeros(), 0.0).is_err());
+    }
+
+    #[test]
+    fn a_spin_turns_the_surface_exactly_and_only_in_place() {
+        let table = Obstacle::half_space("t", Vector3::zeros(), Vector3::z()).unwrap();
+        let quarter = std::f64::consts::FRAC_PI_2;
+        let spun = table
+            .clone()
+            .with_spin(Vector3::new(0.0, 0.0, quarter), Vector3::new(1.0, 0.0, 0.0))
+            .unwrap();
+        // A quarter turn about the axis through (1, 0, 0): (2, 0, 5) goes to (1, 1, 5), a
+        // displacement (−1, 1, 0) to round-off (the exact rotation, not ω × r·Δt = (0, π/2, 0)).
+        let shift = spun.surface_turn(&Vector3::new(2.0, 0.0, 5.0), 1.0);
+        assert!(
+            (shift - Vector3::new(-1.0, 1.0, 0.0)).amax() < 1e-15,
+            "{shift}"
+        );
+        assert_eq!(table.surface_turn(&Vector3::x(), 1.0), Vector3::zeros());
+        // The shape's queries are the still shape's.
+        assert_eq!(spun.distance(&Vector3::new(3.0, 2.0, 0.5)), 0.5);
+        // A tilted axis, a box, an axis off a sphere's centre: refused, naming the key.
+        let tilted = table.with_spin(Vector3::new(0.1, 0.0, 1.0), Vector3::zeros());
+        assert!(tilted.unwrap_err().to_string().contains("t: spin ="));
+        let b = Obstacle::aligned_box("b", Vector3::zeros(), Vector3::repeat(1.0)).unwrap();
+        assert!(b.with_spin(Vector3::z(), Vector3::zeros()).is_err());
+        let ball = Obstacle::sphere("s", Vector3::new(0.0, 0.0, 1.0), 0.5).unwrap();
+        let off = ball.clone().with_spin(Vector3::x(), Vector3::zeros());
+        assert!(
+            off.unwrap_err()
+                .to_string()
+                .contains("s: spin_axis_point =")
+        );
+        let roller = ball
+            .with_spin(Vector3::x(), Vector3::new(0.0, 0.0, 1.0))
+            .unwrap();
+        assert!(roller.spin().is_some());
     }
 
     #[test]

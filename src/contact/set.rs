@@ -251,9 +251,13 @@ impl Contact {
         &self.obstacles
     }
 
-    /// Whether an obstacle moves ([`Obstacle::with_motion`]).
+    /// Whether an obstacle moves ([`Obstacle::with_motion`]) or spins ([`Obstacle::with_spin`]:
+    /// its shape stays, but friction's slip is measured against its turning surface, so a step
+    /// needs its duration: the moving obstacles' path of the solvers).
     pub fn is_moving(&self) -> bool {
-        self.obstacles.iter().any(|o| o.motion().is_some())
+        self.obstacles
+            .iter()
+            .any(|o| o.motion().is_some() || o.spin().is_some())
     }
 
     /// Each obstacle's offset c(t) (length) at time `t`, in the obstacles' order.
@@ -549,19 +553,24 @@ impl Contact {
     /// [`super::friction`]): per node within d̂ of an obstacle with μ > 0, the normal force
     /// λ = κ·Aᵢ·|b′(d)| and the tangent projector there, with smoothing distance `epsilon`
     /// (length; ε_v·dt).
+    /// Obstacles that spin do not turn here (a step of zero duration): steps with spinning
+    /// obstacles take [`friction_lag_toward`](Self::friction_lag_toward).
     pub fn friction_lag(&self, u: &[f64], epsilon: f64) -> Result<FrictionLag> {
-        self.friction_lag_toward(u, epsilon, &self.offsets())
+        self.friction_lag_toward(u, epsilon, &self.offsets(), 0.0)
     }
 
-    /// [`friction_lag`](Self::friction_lag) for a step that ends with the obstacles at
-    /// `target` (length, one offset per obstacle): the slip is measured relative to each
-    /// obstacle, P·((x − x⁰) − (c_target − c)), so a node carried along by a moving obstacle
-    /// does not slip.
+    /// [`friction_lag`](Self::friction_lag) for a step of `duration` (time; pseudo-time in a
+    /// static solve) that ends with the obstacles at `target` (length, one offset per
+    /// obstacle): the slip is measured relative to the motion of each obstacle's material point
+    /// under the node, P·((x − x⁰) − (c_target − c) − (R(ω·Δt) − I)·(x⁰ − c − p)) with the
+    /// obstacle's spin ω about p ([`Obstacle::surface_turn`]; zero without one), so a node
+    /// carried along by a moving or turning obstacle does not slip.
     pub fn friction_lag_toward(
         &self,
         u: &[f64],
         epsilon: f64,
         target: &[Vector3<f64>],
+        duration: f64,
     ) -> Result<FrictionLag> {
         Error::check_len("obstacle offsets", self.obstacles.len(), target.len())?;
         if !(epsilon.is_finite() && epsilon > 0.0) {
@@ -582,8 +591,8 @@ impl Contact {
                     node: n,
                     obstacle: o,
                     // In world coordinates: where the node would be if it moved with the
-                    // obstacle (x is relative to the obstacle's current offset).
-                    start: x + target[o],
+                    // obstacle's surface (x is relative to the obstacle's current offset).
+                    start: x + obstacle.surface_turn(x, duration) + target[o],
                     limit: obstacle.friction() * normal_force,
                     projector: Matrix3::identity() - g * g.transpose(),
                 });
@@ -617,19 +626,25 @@ impl Contact {
     /// move from the offsets `from` (at the load step's start) to `to` (its end; length, one
     /// per obstacle): the slip is measured relative to each obstacle o, from the start position
     /// carried along by its move, P·((x − x⁰) − (c_to − c_from)), so a node that the obstacle
-    /// carries along does not slip. With `from` = `to` it is `friction_lag_from`.
+    /// carries along does not slip; with a spin, the start position also turns with the
+    /// obstacle's surface over the load step's `duration` (pseudo-time),
+    /// (R(ω·Δt) − I)·(x⁰ − c_from − p) ([`Obstacle::surface_turn`]). With `from` = `to` and no
+    /// spin it is `friction_lag_from`.
     pub fn friction_lag_moving(
         &self,
         normal_at: &[f64],
         start: &[f64],
         (from, to): (&[Vector3<f64>], &[Vector3<f64>]),
         epsilon: f64,
+        duration: f64,
     ) -> Result<FrictionLag> {
         Error::check_len("obstacle offsets", self.obstacles.len(), from.len())?;
         Error::check_len("obstacle offsets", self.obstacles.len(), to.len())?;
         let mut lag = self.friction_lag_from(normal_at, start, epsilon)?;
         for p in &mut lag.points {
-            p.start += to[p.obstacle] - from[p.obstacle];
+            let relative = p.start - from[p.obstacle];
+            p.start += to[p.obstacle] - from[p.obstacle]
+                + self.obstacles[p.obstacle].surface_turn(&relative, duration);
         }
         Ok(lag)
     }
@@ -657,8 +672,10 @@ impl Contact {
     /// friction involves that node alone, so it is solved exactly for the end-of-step velocity:
     /// per boundary node i within d̂ of an obstacle o with μ > 0 at full displacement `u`
     /// (obstacles at their current placement), with λ = κ·Aᵢ·|b′(d)| the barrier's normal force
-    /// there and v_t the tangential part of the node's velocity relative to the obstacle
-    /// (velocity (c_o(`time` + `dt`) − c_o(`time`))/`dt`), the update
+    /// there and v_t the tangential part of the node's velocity relative to the obstacle's
+    /// material point under it (its mean velocity over the step: (c_o(`time` + `dt`) −
+    /// c_o(`time`))/`dt` plus the spin's exact turn [`Obstacle::surface_turn`] over `dt`, divided
+    /// by `dt`), the update
     ///
     /// m·(v_t⁺ − v_t) = −dt·μ·λ·f₁(|v_t⁺|)·v̂_t
     ///
@@ -718,8 +735,9 @@ impl Contact {
                 return;
             }
             let normal = obstacle.gradient(x);
-            let relative =
-                Vector3::from_column_slice(&velocity[dofs.clone()]) - obstacle_velocity[o];
+            let relative = Vector3::from_column_slice(&velocity[dofs.clone()])
+                - obstacle_velocity[o]
+                - obstacle.surface_turn(x, dt) / dt;
             let tangential = relative - normal * normal.dot(&relative);
             let speed = tangential.norm();
             if speed == 0.0 {

@@ -31,7 +31,10 @@
 //! Coulomb law below the stick speed ε_v, as everywhere in the library), never reverses it.
 //!
 //! Moving obstacles: the end gap is measured against the placement c(t + dt), so a node in the
-//! path of a moving obstacle is carried along with it. Fixed DOFs (inverse mass 0) are left
+//! path of a moving obstacle is carried along with it. A spinning obstacle's shape stays in
+//! place ([`super::obstacle::Spin`]): its spin enters friction only, whose relative velocity is
+//! taken against the mean velocity of the obstacle's material point under the node over the
+//! step (the exact turn by |ω|·dt over dt). Fixed DOFs (inverse mass 0) are left
 //! alone: the limit acts on a node's free DOFs only, and a node held where an obstacle will be
 //! at the step's end is [`Error::Diverged`] naming the step, the node and the obstacle.
 
@@ -272,7 +275,12 @@ impl Contact {
             if mu <= 0.0 || pair.normal_speed <= 0.0 {
                 continue;
             }
-            let relative = v - (end[o] - start[o]) / step.dt;
+            // The mean velocity of the obstacle's material point under the node over the step:
+            // its translation and its spin's exact turn.
+            let surface = (end[o] - start[o]
+                + obstacle.surface_turn(&(node.x - start[o]), step.dt))
+                / step.dt;
+            let relative = v - surface;
             let tangential = relative - pair.normal * pair.normal.dot(&relative);
             let speed = tangential.norm();
             if speed == 0.0 {

@@ -55,3 +55,4 @@ mod statics;
 mod supernodal;
 mod tet10;
 mod tet10_critical_step;
+mod turntable;

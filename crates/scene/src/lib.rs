@@ -235,6 +235,13 @@ type = "static"                     # default "static"; or "dynamic", which need
                                     #   load_steps); friction's slip is relative
                                     #   to it (a body carried along its surface by friction alone
                                     #   needs each load step's move along it below slip_distance)
+# spin = [0.0, 0.0, 2.0]            # dynamic only: rad/s, a constant spin about the axis through
+# spin_axis_point = [0.0, 0.0, 0.0] #   spin_axis_point (m; default the sphere's center or the
+                                    #   half-space's point): the surface at x moves at
+                                    #   ω × (x − p) (plus velocity); friction's slip is relative to
+                                    #   it. Only spins that leave the shape in place: a half_space
+                                    #   about its normal (a turntable), a sphere about its centre
+                                    #   (a roller); not a box, not in static scenes
 # CSV: contact_energy_J, contact_<name>_fx_N/_fy_N/_fz_N (force on the obstacle); .vtu frames:
 # contact_gap (m), contact_pressure (Pa) per node; summary: contact_forces per obstacle (static:
 # force_n, N; dynamic: force_n at the last step, peak_n = the largest |F| (N) at peak_time_s (s));

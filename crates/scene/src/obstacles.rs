@@ -4,7 +4,7 @@
 use nalgebra::{Rotation3, Vector3};
 use tetfem::TetMesh;
 use tetfem::base::error::Result;
-use tetfem::contact::{Contact, ContactParameters, Obstacle, ObstacleMotion};
+use tetfem::contact::{Contact, ContactParameters, Obstacle, ObstacleMotion, Shape};
 use tetfem::mesh::CellType;
 
 use super::{AnalysisKind, ObstacleKind, Scene};
@@ -75,7 +75,7 @@ impl Scene {
                     .map_err(|e| err("velocity", e.to_string()))?,
                 None => obstacle,
             };
-            obstacles.push(obstacle);
+            obstacles.push(self.obstacle_spin(i, o, &span, kind, obstacle)?);
         }
         if let Some(contact) = &self.spec.contact {
             if obstacles.is_empty() {
@@ -227,6 +227,56 @@ impl Scene {
         Ok(obstacle)
     }
 
+    /// `obstacle` (`[[obstacles]]` entry `i`) with its `spin` about `spin_axis_point` (default
+    /// the sphere's centre or the half-space's point), in an analysis of `kind`. Errors name
+    /// the key and line: a spin in a static scene (no seconds), a point without a spin, a
+    /// non-finite vector, a spin that would move the shape (the library's rule,
+    /// [`Obstacle::with_spin`]).
+    fn obstacle_spin(
+        &self,
+        i: usize,
+        o: &super::spec::ObstacleSpec,
+        span: &std::ops::Range<usize>,
+        kind: AnalysisKind,
+        obstacle: Obstacle,
+    ) -> Result<Obstacle> {
+        let err =
+            |field: &str, msg: String| self.error(&format!("obstacles[{i}].{field}"), span, msg);
+        let omega = match (o.spin, o.spin_axis_point) {
+            (None, None) => return Ok(obstacle),
+            (None, Some(_)) => {
+                return Err(err(
+                    "spin_axis_point",
+                    "places the axis of a spin: give spin = [..] (rad/s) with it".into(),
+                ));
+            }
+            (Some(w), _) if kind == AnalysisKind::Static => {
+                return Err(err(
+                    "spin",
+                    format!(
+                        "{w:?}: a static solve has no seconds for a spin to act over (spinning \
+                         obstacles are for dynamic scenes)"
+                    ),
+                ));
+            }
+            (Some(w), _) => Vector3::from(w),
+        };
+        let pivot = match (o.spin_axis_point, obstacle.shape()) {
+            (Some(p), _) => Vector3::from(p),
+            (None, Shape::Sphere { center, .. }) => *center,
+            (None, Shape::HalfSpace { point, .. }) => *point,
+            (None, Shape::Box { center, .. }) => *center,
+        };
+        obstacle.with_spin(omega, pivot).map_err(|e| {
+            // The library names the vector at fault: report it at that key.
+            let message = e.to_string();
+            match message.contains(": spin_axis_point =") {
+                true => err("spin_axis_point", message),
+                false => err("spin", message),
+            }
+        })
+    }
+
     /// The motion of `[[obstacles]]` entry `i` (`None`: fixed) in an analysis of `kind`:
     /// `velocity`, or `displacement` with `amplitude` (a name of `named` or inline). A static
     /// scene moves the obstacle over the pseudo-time t ∈ [0, 1] of its load steps (load step k
@@ -374,4 +424,84 @@ pub(crate) fn stiffest(materials: &tetfem::MaterialMap) -> f64 {
 pub(crate) fn obstacle_tile<C: CellType>(mesh: &TetMesh<C>) -> (Vector3<f64>, f64) {
     let (low, high) = mesh.bounding_box();
     (0.5 * (low + high), 3.0 * (high - low).norm())
+}
+
+#[cfg(test)]
+mod tests {
+    use tetfem::Error;
+
+    use crate::Scene;
+
+    /// A block over an obstacle given by `obstacle` (its keys), in a scene of analysis `kind`.
+    fn scene(kind: &str, obstacle: &str) -> String {
+        let analysis = match kind {
+            "dynamic" => {
+                "type = \"dynamic\"\nmethod = \"backward_euler\"\ndt = 0.01\nduration = 0.1"
+            }
+            _ => "type = \"static\"",
+        };
+        format!(
+            "[mesh.box]\nmin = [0.0, 0.0, 0.05]\nmax = [0.2, 0.2, 0.25]\ncells = [2, 2, 2]\n\
+             [material]\nyoungs_modulus = 1e5\npoisson_ratio = 0.3\ndensity = 1000.0\n\
+             [[loads]]\ngravity = [0.0, 0.0, -9.81]\n[analysis]\n{analysis}\n\
+             [[obstacles]]\n{obstacle}\nfriction = 0.5\n"
+        )
+    }
+
+    /// The key a scene's error names, or `None` when it parses.
+    fn key_of(text: &str) -> Option<(String, String)> {
+        match text.parse::<Scene>() {
+            Ok(_) => None,
+            Err(Error::Scene { key, message, .. }) => Some((key, message)),
+            Err(e) => panic!("{e}"),
+        }
+    }
+
+    #[test]
+    fn spin_keys_are_checked_with_their_key() {
+        let ground = "kind = \"half_space\"\npoint = [0.0, 0.0, 0.0]\nnormal = [0.0, 0.0, 1.0]";
+        // A turntable parses, with the axis point defaulted or given.
+        assert_eq!(
+            key_of(&scene(
+                "dynamic",
+                &format!("{ground}\nspin = [0.0, 0.0, 2.0]")
+            )),
+            None
+        );
+        let given = format!("{ground}\nspin = [0.0, 0.0, -2.0]\nspin_axis_point = [1.0, 2.0, 0.0]");
+        assert_eq!(key_of(&scene("dynamic", &given)), None);
+        // A tilted axis would move the plane; a box cannot spin; a sphere off its centre.
+        let tilted = format!("{ground}\nspin = [1.0, 0.0, 2.0]");
+        let (key, message) = key_of(&scene("dynamic", &tilted)).unwrap();
+        assert_eq!(key, "obstacles[0].spin", "{message}");
+        assert!(
+            message.contains("half_space about an axis along its normal"),
+            "{message}"
+        );
+        let cube =
+            "kind = \"box\"\nmin = [0.0, 0.0, -1.0]\nmax = [1.0, 1.0, 0.0]\nspin = [0.0, 0.0, 1.0]";
+        assert_eq!(
+            key_of(&scene("dynamic", cube)).unwrap().0,
+            "obstacles[0].spin"
+        );
+        let ball =
+            "kind = \"sphere\"\ncenter = [0.1, 0.1, -1.0]\nradius = 1.0\nspin = [1.0, 0.0, 0.0]";
+        assert_eq!(key_of(&scene("dynamic", ball)), None);
+        let off = format!("{ball}\nspin_axis_point = [0.0, 0.0, 0.0]");
+        assert_eq!(
+            key_of(&scene("dynamic", &off)).unwrap().0,
+            "obstacles[0].spin_axis_point"
+        );
+        // A static solve has no seconds; an axis point without a spin places nothing.
+        let spun = format!("{ground}\nspin = [0.0, 0.0, 2.0]");
+        assert_eq!(
+            key_of(&scene("static", &spun)).unwrap().0,
+            "obstacles[0].spin"
+        );
+        let lone = format!("{ground}\nspin_axis_point = [0.0, 0.0, 0.0]");
+        assert_eq!(
+            key_of(&scene("dynamic", &lone)).unwrap().0,
+            "obstacles[0].spin_axis_point"
+        );
+    }
 }

@@ -111,6 +111,18 @@ pub struct ObstacleSpec {
     /// The amplitude a(t) of `displacement`: a name of `[[amplitudes]]` or an inline table.
     #[serde(default)]
     pub amplitude: Option<AmplitudeRef>,
+    /// Dynamic scenes: a constant spin, the angular velocity ω (rad/s, a vector along the axis,
+    /// right-handed) about the axis through `spin_axis_point`; the surface at x moves at
+    /// ω × (x − p) plus the obstacle's translation, and friction's slip is measured against it.
+    /// Only spins that leave the shape in place: a `half_space` about an axis along its
+    /// `normal` (a turntable), a `sphere` about an axis through its `center` (a roller); a `box`
+    /// cannot spin. Refused in static scenes (a static solve has no seconds).
+    #[serde(default)]
+    pub spin: Option<[f64; 3]>,
+    /// The point p the spin's axis passes through (m; default the sphere's `center`, the
+    /// half-space's `point`); it moves with the obstacle's translation.
+    #[serde(default)]
+    pub spin_axis_point: Option<[f64; 3]>,
 }
 
 /// The kinds of `[[obstacles]]`.

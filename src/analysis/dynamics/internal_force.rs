@@ -231,19 +231,21 @@ impl NonlinearForce {
     /// [`end_friction`](Self::end_friction). Without friction it does nothing.
     pub fn begin_step(&self, u: &[f64], dt: f64) -> Result<()> {
         match &self.contact {
-            Some(contact) => self.begin_step_toward(u, dt, &contact.offsets()),
+            Some(contact) => self.begin_step_toward(u, dt, &contact.offsets(), 0.0),
             None => Ok(()),
         }
     }
 
     /// [`begin_step`](Self::begin_step) for a step at whose end the obstacles sit at offsets
     /// `target` (length, one per obstacle): friction then opposes the slip relative to each
-    /// moving obstacle ([`Contact::friction_lag_toward`]).
+    /// moving obstacle, turned by its spin over the step's `duration` (time;
+    /// [`Contact::friction_lag_toward`]).
     pub fn begin_step_toward(
         &self,
         u: &[f64],
         dt: f64,
         target: &[nalgebra::Vector3<f64>],
+        duration: f64,
     ) -> Result<()> {
         let Some(contact) = self.contact.as_ref().filter(|c| c.has_friction()) else {
             return Ok(());
@@ -252,6 +254,7 @@ impl NonlinearForce {
             &self.full_displacement(u)?,
             contact.slip_velocity() * dt,
             target,
+            duration,
         )?;
         *self.friction_lock() = Some(lag);
         Ok(())
@@ -289,13 +292,15 @@ impl NonlinearForce {
     /// free displacements `u` (the obstacles where they now are, at the step's end), the slip
     /// still measured from the step's start `start` (free displacements) carried along by each
     /// obstacle's move `from` → `to` (offsets, length; equal for still obstacles;
-    /// [`Contact::friction_lag_moving`]), at the lag's smoothing distance as it stands. Does
-    /// nothing without lagged friction.
+    /// [`Contact::friction_lag_moving`]; a spinning obstacle turned over the step's
+    /// `duration`, time), at the lag's smoothing distance as it stands. Does nothing without
+    /// lagged friction.
     pub(crate) fn relag_friction(
         &self,
         u: &[f64],
         start: &[f64],
         (from, to): (&[nalgebra::Vector3<f64>], &[nalgebra::Vector3<f64>]),
+        duration: f64,
     ) -> Result<()> {
         let mut lag = self.friction_lock();
         let (Some(contact), Some(current)) = (&self.contact, lag.as_ref()) else {
@@ -306,6 +311,7 @@ impl NonlinearForce {
             &self.full_displacement(start)?,
             (from, to),
             current.epsilon(),
+            duration,
         )?;
         *lag = Some(relagged);
         Ok(())

@@ -430,6 +430,8 @@ struct StepMotion {
 struct StepState<'s> {
     start: &'s [f64],
     moving: &'s Option<StepMotion>,
+    /// The load step's pseudo-time Δt = 1/n (a spinning obstacle turns by |ω|·Δt).
+    duration: f64,
     lag: Option<FrictionLag>,
 }
 
@@ -514,10 +516,12 @@ impl<E: ModelElement, M: TetModels + ?Sized> StaticNewton<'_, E, M> {
         // by s/(s − 1): the loads grow in proportion, and so does the normal force they need
         // (λ of the step before would hold only (s − 1)/s of the load).
         let start = u.clone();
+        // A spinning obstacle turns by |ω|·Δt over the load step's pseudo-time Δt = 1/n.
+        let duration = 1.0 / self.options.load_steps as f64;
         let lag = match self.contact.filter(|c| c.has_friction()) {
             Some(c) => {
                 let mut lag = match &moving {
-                    Some(m) => c.friction_lag_toward(u, c.slip_distance(), &m.to)?,
+                    Some(m) => c.friction_lag_toward(u, c.slip_distance(), &m.to, duration)?,
                     None => c.friction_lag(u, c.slip_distance())?,
                 };
                 if step > 1 {
@@ -543,6 +547,7 @@ impl<E: ModelElement, M: TetModels + ?Sized> StaticNewton<'_, E, M> {
         let mut step_state = StepState {
             start: &start,
             moving: &moving,
+            duration,
             lag,
         };
         self.settle(u, &mut r, &mut history, &mut step_state, &mut at)?;
@@ -565,6 +570,7 @@ impl<E: ModelElement, M: TetModels + ?Sized> StaticNewton<'_, E, M> {
                 state.start,
                 (&m.from, &m.to),
                 contact.slip_distance(),
+                state.duration,
             ),
             None => contact.friction_lag_from(normal_at, state.start, contact.slip_distance()),
         }

@@ -1890,7 +1890,7 @@ fn amplitudes_contact_checkpoints_estimates_tet10_materials_and_forces() {
         "DimensionMismatch",
         || {
             let u = vec![0.0; dofs];
-            contact.friction_lag_moving(&u, &u, (&[], &[]), 1e-3)
+            contact.friction_lag_moving(&u, &u, (&[], &[]), 1e-3, 0.1)
         },
     );
     s.err("Contact::with_slip_velocity 0", "InvalidParameter", || {

@@ -567,7 +567,8 @@ impl NewtonSolver {
         let mut pass = 1;
         let settled = loop {
             let reached = norm(&self.residual);
-            self.force.relag_friction(u_new, equation.start, motion)?;
+            self.force
+                .relag_friction(u_new, equation.start, motion, equation.duration)?;
             self.residual_into(system, equation, u_new, false)?;
             let now = norm(&self.residual);
             if now <= self.options.tolerance * reference || now <= 2.0 * reached {
@@ -620,8 +621,12 @@ impl NewtonSolver {
         let placed = contact;
         placed.set_time(time);
         let target = contact.offsets_at(time + equation.duration);
-        self.force
-            .begin_step_toward(equation.start, 1.0 / equation.damping_scale, &target)?;
+        self.force.begin_step_toward(
+            equation.start,
+            1.0 / equation.damping_scale,
+            &target,
+            equation.duration,
+        )?;
         if let Some(start) = self.force.carried_start(equation.start, &target)? {
             u_new.copy_from_slice(&start);
             placed.set_offsets(target.clone())?;
