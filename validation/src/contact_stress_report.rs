@@ -199,15 +199,6 @@ pub fn draw(suite: &Suite, path: &Path) -> Result<()> {
     for (scene, area) in Scene::ALL.iter().zip(&areas) {
         draw_scene(suite, *scene, area).map_err(fail)?;
     }
-    if let Some(spare) = areas.get(Scene::ALL.len()) {
-        spare
-            .draw(&Text::new(
-                "turntable: waits for spinning obstacles",
-                (40, 200),
-                ("sans-serif", 22).into_font(),
-            ))
-            .map_err(|e| fail(e.to_string()))?;
-    }
     let shown: Vec<Outcome> = Outcome::ALL
         .into_iter()
         .filter(|&o| suite.cells.iter().any(|c| c.outcome == o))

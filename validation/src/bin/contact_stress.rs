@@ -30,12 +30,13 @@ Written by `cargo run --release -p tetfem-validation --bin contact_stress` (reru
 refresh this file, `validation/report/contact_stress.csv` and `contact_stress.png`; `--quick`
 is the CI-sized run, ~10 s on 2 cores, writing `quick_contact_stress.*` only).
 
-Five scenes against rigid obstacles (a block dropped on the ground; a sphere pressing into a
+Six scenes against rigid obstacles (a block dropped on the ground; a sphere pressing into a
 block resting on the ground; a block on a moving frictional floor; a block pinched between two
-plates moving towards each other; a clamped rubber beam swung against a box), each run by four
+plates moving towards each other; a clamped rubber beam swung against a box; a block on a
+turntable spinning below its slip radius), each run by four
 methods (backward Euler, Newmark and explicit with the neo-Hookean model; backward Euler with
 the linear model, where Newton meets only contact's nonlinearity) at dt = 0.5, 1, 10 and 100×
-the explicit critical step of the scene's mesh. The turntable waits for spinning obstacles.
+the explicit critical step of the scene's mesh.
 
 What each column is:
 - **outcome**: completed; energy growth (completed, but max_t [H − W] − H(0) above 10 % of the
