@@ -616,6 +616,8 @@ fn report_static<'p>(
         }),
         factor_len: 0,
         friction_forces: Vec::new(),
+        // The engine refuses obstacles: no barrier.
+        barrier: None,
         newton: None,
         reactions,
     };
