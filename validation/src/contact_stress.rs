@@ -715,9 +715,12 @@ mod tests {
             let rest = vec![0.0; 3 * definition.mesh.node_count()];
             // Every boundary node strictly outside at t = 0 (the start the runs need).
             assert!(contact.nodes_inside(&rest).unwrap().is_none(), "{scene:?}");
-            // The press, the conveyor and the pinch have moving obstacles; the drop and the
-            // whip do not.
-            let moving = matches!(scene, Scene::Press | Scene::Conveyor | Scene::Pinch);
+            // The press, the conveyor, the pinch and the turntable (a spin) have moving
+            // obstacles; the drop and the whip do not.
+            let moving = matches!(
+                scene,
+                Scene::Press | Scene::Conveyor | Scene::Pinch | Scene::Turntable
+            );
             assert_eq!(contact.is_moving(), moving, "{scene:?}");
         }
     }
