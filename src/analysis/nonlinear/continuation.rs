@@ -16,11 +16,15 @@
 //! barrier's guarantee (no iterate inside an obstacle) forbids. Since λᵢ·dᵢ ≈ κ·Aᵢ·d̂² for
 //! dᵢ ≪ d̂, each stage divides the gap error by about 100.
 //!
-//! The rule: after a load step converged under the given contact, while its gap error
+//! The rule: after the last load step converged under the given contact, while its gap error
 //! ε = (Σλᵢdᵢ/Σλᵢ)/max|u| is above [`Contact::gap_tolerance`], solve the step again from its
 //! solution under d̂ ← d̂/10 (κ kept; friction re-lagged under it), at most
-//! [`MAX_BARRIER_STAGES`] times. The next load step starts under the given d̂ again: its
-//! obstacles may move, and moving them is what the given d̂ is sized for.
+//! [`MAX_BARRIER_STAGES`] times. A stage is not taken where its gaps would near the
+//! coordinates' round-off, and is undone when it fails or leaves a worse equilibrium (see
+//! `solve_stage`). The load steps before the last keep the given d̂: they are the path to the
+//! solution, their obstacles may move (what the given d̂ is sized for), and from gaps a
+//! continuation closed to ~1e-13 m the given barrier's first forces (~1e11 N) would swamp the
+//! next step's reference.
 
 use crate::base::error::{Error, Result};
 use crate::contact::{Contact, ContactParameters};
@@ -126,9 +130,8 @@ impl<'a, E: ModelElement, M: TetModels + ?Sized> StaticNewton<'a, E, M> {
     /// `given` under a smaller d̂; `previous` the barrier `u` was solved under), friction
     /// re-lagged under it: `true` when it converged to the tolerance, to the residual the
     /// solve before reached, or below a tenth of the change it made to the obstacles' normal
-    /// force; `false` when it stopped short of all three or did not converge (the caller
-    /// restores `u`). The given
-    /// contact is in place again on return.
+    /// force; `false` when it stopped short of all three or failed (the caller restores `u`).
+    /// The given contact is in place again on return.
     fn solve_stage(
         &mut self,
         stage: &'a Contact,
