@@ -115,8 +115,12 @@ def test_static_contact_equals_the_scene_runner(tmp_path, model, mu, fx):
 @pytest.mark.parametrize("model,mu,fx", [("linear", 0.0, 0.0), ("corotational", 0.0, 0.0), ("linear", 0.5, 0.05)])
 def test_static_contact_forces_and_reactions_balance_the_load(model, mu, fx):
     mesh, loads, result = floor_case(model, mu, fx)
-    # The tip reaches the floor (the free beam would sag past it) but does not enter it.
-    assert result.displacement[:, 2].min() > -0.005
+    # The tip reaches the floor (the free beam would sag past it) but does not enter it: no
+    # node of the beam's underside (z = 0) goes below the floor at z = −0.005. (Nodes above
+    # it may: the static solve's contact is exact, the underside on the floor, and the tip's
+    # cross-section squashed and turned under the floor's push.)
+    bottom = np.asarray(mesh.nodes_on_plane("z", 0.0))
+    assert result.displacement[bottom, 2].min() > -0.005
     assert result.displacement[:, 2].min() < -0.004
     # Supports push with R, the floor with −F_c (F_c the force on it): R + f − F_c = 0 up to
     # Newton's residual (1e-10 of the 1 N load, times √n_f, plus round-off): 1e-7 N.

@@ -13,7 +13,8 @@ use crate::base::error::{Error, Result};
 use crate::mesh::{BoundaryFace, CellType, NodeList, TetMesh};
 use crate::sparse::CscMatrix;
 
-/// The default gap error of a static contact solution (see [`Contact::with_gap_tolerance`]):
+/// The default gap error of a static frictionless contact solution (see
+/// [`Contact::with_gap_tolerance`]; with friction the static solve keeps the given d̂):
 /// the barrier's force-weighted gap at most 1e-8 of the largest displacement, so that the
 /// contact force is within about that of the exact (node-to-obstacle) contact of the mesh.
 pub const GAP_TOLERANCE: f64 = 1e-8;

@@ -253,11 +253,12 @@ type = "static"                     # default "static"; or "dynamic", which need
                                     # (creeps); default d̂/10
 # slip_velocity = 1e-4              # m/s; dynamic friction: slip speed below it sticks (creeps);
                                     # default 1e-3 × the bounding-box diagonal per second
-# gap_tolerance = 1e-8              # static: the barrier's gap error Σλd/Σλ/max|u| (the pushed
-                                    # nodes' force-weighted gap over the largest displacement) is
-                                    # driven below it by shrinking d̂ ÷10 per stage (≤ 6 stages,
-                                    # stopped where gaps near the coordinates' round-off); the
-                                    # summary's contact_barrier gives the d̂ reached and the error
+# gap_tolerance = 1e-8              # static, frictionless: the barrier's gap error Σλd/Σλ/max|u|
+                                    # (the pushed nodes' force-weighted gap over the largest
+                                    # displacement) is driven below it by shrinking d̂ ÷10 per
+                                    # stage (≤ 6 stages, stopped where gaps near the coordinates'
+                                    # round-off); with friction d̂ stays; the summary's
+                                    # contact_barrier gives the d̂ reached and the error
 
 [petsc]                             # read by the PETSc engine only (engine = "petsc")
 solver = "gamg"                     # default "gamg" (CG + GAMG); "hypre" (CG + BoomerAMG); "mumps" (direct)

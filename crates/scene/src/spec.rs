@@ -154,8 +154,8 @@ pub struct ContactSpec {
     /// bounding-box diagonal per second).
     #[serde(default)]
     pub slip_velocity: Option<f64>,
-    /// The gap error a static solve drives the barrier to, in (0, 1) (default
-    /// [`tetfem::contact::GAP_TOLERANCE`]).
+    /// The gap error a static frictionless solve drives the barrier to, in (0, 1) (default
+    /// [`tetfem::contact::GAP_TOLERANCE`]; with friction the given d̂ stays).
     #[serde(default)]
     pub gap_tolerance: Option<f64>,
 }

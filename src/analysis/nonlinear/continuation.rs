@@ -16,7 +16,9 @@
 //! barrier's guarantee (no iterate inside an obstacle) forbids. Since λᵢ·dᵢ ≈ κ·Aᵢ·d̂² for
 //! dᵢ ≪ d̂, each stage divides the gap error by about 100.
 //!
-//! The rule: after the last load step converged under the given contact, while its gap error
+//! The rule (frictionless contact; with friction the given d̂ stays and its gap error is
+//! reported, see `continue_barrier`): after the last load step converged under the given
+//! contact, while its gap error
 //! ε = (Σλᵢdᵢ/Σλᵢ)/max|u| is above [`Contact::gap_tolerance`], solve the step again from its
 //! solution under d̂ ← d̂/10 (κ kept; friction re-lagged under it), at most
 //! [`MAX_BARRIER_STAGES`] times. A stage is not taken where its gaps would near the
@@ -100,7 +102,15 @@ impl<'a, E: ModelElement, M: TetModels + ?Sized> StaticNewton<'a, E, M> {
             parameters: given.parameters(),
             gap_error,
         };
-        let ladder = self.ladder;
+        // With friction the gap a stage closes after the whole load is on would be a slip of
+        // its own, resisted by friction: on a cantilever pulled sideways onto a floor (μ = 0.5)
+        // the floor's friction turned from along the pull to 0.18 N against it. Friction's
+        // path needs the exact contact at every load step; the given d̂ stays, its gap error
+        // reported.
+        let ladder = match given.has_friction() {
+            true => &[][..],
+            false => self.ladder,
+        };
         let mut current = given;
         for stage in ladder {
             if end.gap_error <= tolerance || gap * SHRINK * SHRINK < floor {

@@ -76,7 +76,8 @@ pub struct NewtonReport {
     /// pushes divided by the largest displacement (dimensionless; 0 when nothing touches) —
     /// by how much, relative to the motion, the barrier's gaps miss an exact contact's
     /// ([`Contact::complementarity`]). At most [`Contact::gap_tolerance`] unless the
-    /// continuation ran out of stages.
+    /// continuation ran out of stages or the contact has friction (whose solve keeps the
+    /// given d̂).
     pub gap_error: Option<f64>,
 }
 
