@@ -96,6 +96,21 @@ pub struct StaticOutcome {
 }
 
 impl StaticOutcome {
+    /// `contact` (the definition's) under the barrier this solution is in equilibrium under
+    /// ([`contact_parameters`](Self::contact_parameters)): what to evaluate its gaps,
+    /// pressures and contact forces with — the given d̂ would read the gaps a continuation
+    /// closed as enormous forces. `None` without contact; `contact` as it is for a solve
+    /// that did not go through the barrier (the linear path).
+    pub fn solved_contact(
+        &self,
+        contact: Option<&crate::contact::Contact>,
+    ) -> Result<Option<crate::contact::Contact>> {
+        match (contact, self.contact_parameters) {
+            (Some(c), Some(parameters)) => Ok(Some(c.with_parameters(parameters)?)),
+            (c, _) => Ok(c.cloned()),
+        }
+    }
+
     /// The linear solve's phase timings (`None` for Newton).
     pub fn timings(&self) -> Option<StaticTimings> {
         match &self.path {
@@ -264,9 +279,9 @@ impl<'a, C: ModelElement> Static<'a, C> {
             &report.displacement,
         )?;
         // The solution is in equilibrium under the barrier its continuation ended with.
-        let solved_contact = match (&d.contact, report.contact_parameters) {
-            (Some(contact), Some(parameters)) => Some(contact.with_parameters(parameters)?),
-            _ => None,
+        let solved_contact = match &d.contact {
+            Some(contact) => Some(report.solved_contact(contact)?),
+            None => None,
         };
         let obstacle_forces = match &solved_contact {
             Some(contact) => contact

@@ -225,14 +225,12 @@ pub(super) fn run_static_on<E: SceneElement>(
         newton: scene.static_newton(),
     };
     let analysis = Static::new(&definition, solver_options)?;
-    let solved = StaticSolve::of(analysis.solve()?, solver_options.newton.tolerance);
+    let outcome = analysis.solve()?;
+    // Gaps, pressures and forces under the barrier the solution is in equilibrium under.
+    let contact = outcome.solved_contact(definition.contact.as_ref())?;
+    let solved = StaticSolve::of(outcome, solver_options.newton.tolerance);
     // The model that runs is the model whose stress and energy are reported.
     let model = analysis.model();
-    // Gaps, pressures and forces under the barrier the solution is in equilibrium under.
-    let contact = match (definition.contact.as_ref(), solved.barrier) {
-        (Some(c), Some((parameters, _))) => Some(c.with_parameters(parameters)?),
-        (c, _) => c.cloned(),
-    };
     let contact = contact.as_ref();
     let solve_seconds = clock.elapsed().as_secs_f64();
     let StaticReport {

@@ -48,11 +48,8 @@ pub(super) struct BarrierEnd {
     pub gap_error: f64,
 }
 
-/// The given contact under d̂·10⁻ᵏ, k = 1 … [`MAX_BARRIER_STAGES`] (empty without contact).
-pub(super) fn ladder(contact: Option<&Contact>) -> Result<Vec<Contact>> {
-    let Some(contact) = contact else {
-        return Ok(Vec::new());
-    };
+/// The given contact under d̂·10⁻ᵏ, k = 1 … [`MAX_BARRIER_STAGES`].
+fn ladder(contact: &Contact) -> Result<Vec<Contact>> {
     let given = contact.parameters();
     (1..=MAX_BARRIER_STAGES as i32)
         .map(|k| {
@@ -107,15 +104,19 @@ impl<'a, E: ModelElement, M: TetModels + ?Sized> StaticNewton<'a, E, M> {
         // the floor's friction turned from along the pull to 0.18 N against it. Friction's
         // path needs the exact contact at every load step; the given d̂ stays, its gap error
         // reported.
-        let ladder = match given.has_friction() {
-            true => &[][..],
-            false => self.ladder,
-        };
         let mut current = given;
-        for stage in ladder {
-            if end.gap_error <= tolerance || gap * SHRINK * SHRINK < floor {
+        for k in 0..MAX_BARRIER_STAGES {
+            if given.has_friction() || end.gap_error <= tolerance || gap * SHRINK * SHRINK < floor {
                 break;
             }
+            // Built once per solve, at the first stage taken: most solves end within the
+            // tolerance under the given contact, or have friction.
+            if self.ladder.get().is_none() {
+                let _ = self.ladder.set(ladder(given)?);
+            }
+            let Some(stage) = self.ladder.get().and_then(|l| l.get(k)) else {
+                break;
+            };
             let before = (u.clone(), state.lag.clone(), history.len());
             let converged = self.solve_stage(stage, (given, current), u, history, state, at)?;
             if !converged {

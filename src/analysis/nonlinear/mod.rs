@@ -350,7 +350,7 @@ fn solve<E: ModelElement, M: TetModels + ?Sized>(
     let free_tangent = problem.zero_free_matrix()?;
     let geometry = dofs.geometry_for_method(options.solver.method, mesh)?;
     let solver = LinearSolver::analyze_with_geometry(&free_tangent, options.solver, geometry)?;
-    let ladder = continuation::ladder(contact)?;
+    let ladder = std::cell::OnceCell::new();
     let mut newton = StaticNewton {
         mesh,
         model,
@@ -453,8 +453,8 @@ struct StaticNewton<'a, E: ModelElement, M: TetModels + ?Sized> {
     solver: LinearSolver,
     iterations: usize,
     /// The contact under ever smaller d̂ ([`continuation`]): the stages a load step may take
-    /// after it converged under the given contact.
-    ladder: &'a [Contact],
+    /// after it converged under the given contact, built when the first stage is taken.
+    ladder: &'a std::cell::OnceCell<Vec<Contact>>,
     /// The barrier the last load step ended under, and its gap error.
     barrier: Option<continuation::BarrierEnd>,
 }
