@@ -36,6 +36,9 @@ Tables (all from release binaries of this checkout; `cargo build --release --wor
   constant LINEAR_MODEL_ERROR_CURVE in src/post/adequacy/rotation.rs (the code's own table).
 - rubber_orders (large-deformation.md): scenes/rubber_cantilever_large.toml at orders 1 and 2
   on 20×2×2 and 40×4×4 cells, the tips against the finest P2 run's, with wall times.
+- scaling, scaling_model (validation/SCALING.md): the PETSc engine on 1 and 2 ranks and the
+  memory/time arithmetic on it, rendered from validation/report/scaling.csv as
+  `python3 validation/scaling.py` wrote it (PETSc is not installed on every machine; ~15 min).
 - accuracy_target (quadratic.md): the solves `accuracy = 0.05` tries on
   scenes/cantilever_accuracy.toml and its choice, from the run's summary, times left out.
 
@@ -62,6 +65,7 @@ Run: python3 docs/figures.py [NAME ...]   (default: every table)
 
 from __future__ import annotations
 
+import csv
 import json
 import math
 import os
@@ -485,6 +489,95 @@ def rubber_orders() -> list[str]:
     return lines
 
 
+def read_scaling() -> tuple[str, str, list[dict]]:
+    """validation/report/scaling.csv: its path, its heading comment and its rows."""
+    path = os.path.join(ROOT, "validation", "report", "scaling.csv")
+    with open(path) as f:
+        comment = f.readline().lstrip("# ").strip()
+        rows = list(csv.DictReader(f))
+    return path, comment, rows
+
+
+def peak_mb(row: dict) -> float:
+    """The larger rank's peak resident set of a run (MB)."""
+    return max(float(m) for m in row["peak_mb_per_rank"].split(";"))
+
+
+def scaling_pairs(rows: list[dict]) -> list[tuple[dict, dict]]:
+    """The GAMG runs as (1 rank, 2 ranks) pairs, by size."""
+    gamg = [r for r in rows if r["solver"] == "gamg"]
+    one = {r["dofs"]: r for r in gamg if r["ranks"] == "1"}
+    return [(one[r["dofs"]], r) for r in gamg if r["ranks"] == "2" and r["dofs"] in one]
+
+
+def scaling() -> list[str]:
+    path, comment, rows = read_scaling()
+    lines = [committed_stamp(path, "`python3 validation/scaling.py`") + f" *Measured {comment}.*", "",
+             "| DOFs | solver | ranks | Krylov its | true rel. residual | vs direct | build | partition | assembly | "
+             "constraints | set-up | solve | peak RSS per rank (MB) |", "|" + " --- |" * 13]
+    for r in rows:
+        times = " | ".join(f"{float(r[p]):.2f}" for p in ("build", "partition", "assembly", "constraints", "setup", "solve"))
+        lines.append(f"| {int(r['dofs']):,} | {r['solver']} | {r['ranks']} | {r['iterations']} | "
+                     f"{float(r['relative_residual']):.1e} | {float(r['vs_direct']):.1e} | {times} | "
+                     f"{r['peak_mb_per_rank'].replace(';', ', ')} |")
+    gamg = [r for r in rows if r["solver"] == "gamg"]
+    its = [int(r["iterations"]) for r in gamg]
+    agreement = [float(r["vs_direct"]) for r in rows]
+    largest = max(gamg, key=lambda r: int(r["dofs"]))
+    memory = ", ".join(f"{peak_mb(two) / peak_mb(one):.2f}× at {int(one['dofs']):,}" for one, two in scaling_pairs(rows))
+    lines += ["", f"- **GAMG iterations**: {min(its)}–{max(its)} from {int(gamg[0]['dofs']):,} to "
+              f"{int(largest['dofs']):,} DOFs, on 1 or 2 ranks.",
+              f"- **Memory per rank at 2 ranks** against the 1-rank peak: {memory}.",
+              f"- **Agreement** with tetfem's single-process Cholesky (‖u − u_direct‖₂/‖u_direct‖₂): "
+              f"{min(agreement):.1e} to {max(agreement):.1e}.",
+              f"- **tetfem's single-process Cholesky** at {int(largest['dofs']):,} DOFs: "
+              f"{float(largest['direct_seconds']):.1f} s and {float(largest['direct_peak_mb']) / 1024:.1f} GB."]
+    for r in rows:
+        if r["solver"] != "gamg":
+            name = {"hypre": "CG + BoomerAMG", "mumps": "MUMPS's Cholesky"}.get(r["solver"], r["solver"])
+            ranks = "1 rank" if r["ranks"] == "1" else f"{r['ranks']} ranks"
+            its = "" if r["solver"] == "mumps" else f"{r['iterations']} iterations, "
+            lines.append(f"- **{name}** at {int(r['dofs']):,} DOFs on {ranks}: {its}set-up + solve {float(r['setup']) + float(r['solve']):.1f} s, "
+                         f"{peak_mb(r):,.0f} MB per rank, {float(r['vs_direct']):.1e} from the direct solve.")
+    return lines
+
+
+def scaling_model() -> list[str]:
+    """SCALING.md's arithmetic on the measured memory and times (no run)."""
+    path, _, rows = read_scaling()
+    pairs = scaling_pairs(rows)[-2:]
+    lines = [committed_stamp(path, "`python3 validation/scaling.py`") + " *Arithmetic on its rows.*", "",
+             "| DOFs | M₁ (MB) | M₂ (MB) | D = 2(M₁ − M₂) | R = 2M₂ − M₁ |", "| --- | --- | --- | --- | --- |"]
+    split = []
+    for one, two in pairs:
+        n, m1, m2 = int(one["dofs"]), peak_mb(one), peak_mb(two)
+        d, r = 2 * (m1 - m2), 2 * m2 - m1
+        split.append((n, d, r))
+        lines.append(f"| {n:,} | {m1:,.0f} | {m2:,.0f} | {d:,.0f} MB ({d * 1024 / n:.1f} kB/DOF) | {r:,.0f} MB |")
+    (n0, _, r0), (n1, d1, r1) = split
+    slope = (r1 - r0) / (n1 - n0)  # MB per DOF of the whole problem, held by every rank
+    base, per_dof = r0 - slope * n0, d1 / n1
+    lines += ["", f"A straight line through the two R values: R ≈ {base:.0f} MB + {slope * 1024:.2f} kB per DOF of the "
+              f"whole problem; D per DOF taken at its {n1:,}-DOF value, {per_dof * 1024:.1f} kB. Per rank, for n DOFs "
+              f"on N ranks: M(n, N) ≈ {base:.0f} MB + {slope * 1024:.2f} kB·n + {per_dof * 1024:.1f} kB·n/N.", "",
+              "| n | N | replicated | distributed | per rank |", "| --- | --- | --- | --- | --- |"]
+    for n, ranks in ((1e6, 4), (1e7, 32), (1e8, 256), (1e9, 2048)):
+        rep, dist = slope * n / 1024, per_dof * n / ranks / 1024
+        size = f"{n:.0e}".replace("e+0", "e")
+        lines.append(f"| {size} | {ranks:,} | {rep:,.1f} GB | {dist:,.1f} GB | {base / 1024 + rep + dist:,.1f} GB |")
+    big = max((r for r in rows if r["solver"] == "gamg" and r["ranks"] == "1"), key=lambda r: int(r["dofs"]))
+    small = max((one for one, _ in pairs[:-1]), key=lambda r: int(r["dofs"]))
+    per = lambda r: (float(r["setup"]) + float(r["solve"])) / int(r["dofs"]) * 1e6  # noqa: E731
+    serial = (float(big["build"]) + float(big["partition"])) / int(big["dofs"]) * 1e9 / 3600
+    lines += ["", f"The replicated part reaches 3 GB (a usual memory per core on a cluster node) at "
+              f"{3 * 1024 / slope / 1e6:.1f} million DOFs. Set-up + solve per DOF on 1 rank: {per(small):.0f} µs at "
+              f"{int(small['dofs']):,} DOFs ({small['iterations']} iterations), {per(big):.0f} µs at "
+              f"{int(big['dofs']):,} ({big['iterations']}). The serial build + METIS at {int(big['dofs']):,} DOFs, "
+              f"{float(big['build']) + float(big['partition']):.1f} s, is {serial:.1f} h at 1e9 DOFs if linear in n, "
+              "on every rank."]
+    return lines
+
+
 TABLES = {  # name: (the file it is written into, relative to the repository, and its program)
     "default_run": ("docs/src/getting-started.md", default_run),
     "accuracy": ("docs/src/quadratic.md", accuracy),
@@ -497,12 +590,14 @@ TABLES = {  # name: (the file it is written into, relative to the repository, an
     "adequacy_curve": ("docs/src/quadratic.md", adequacy_curve),
     "accuracy_target": ("docs/src/quadratic.md", accuracy_target),
     "rubber_orders": ("docs/src/large-deformation.md", rubber_orders),
+    "scaling": ("validation/SCALING.md", scaling),
+    "scaling_model": ("validation/SCALING.md", scaling_model),
 }
 
 # Tables whose figures are deterministic (no time in them) and cheap to re-derive: `--check`
 # recomputes them and fails when the committed text differs below the heading line (whose date
 # and commit change with every run).
-CHECKED = {"mms_rates", "adequacy_curve", "accuracy_target"}
+CHECKED = {"mms_rates", "adequacy_curve", "accuracy_target", "scaling", "scaling_model"}
 
 
 def span(text: str, name: str, path: str) -> tuple[int, int]:
