@@ -369,7 +369,7 @@ fn explicit_corotational_below_the_critical_step_conserves_energy() {
 /// The shipped scene runs through the scene API (fewer steps than its full duration) with the
 /// corotational model, reports its Newton iterations, and its tip turns past 45°.
 #[test]
-fn rubber_beam_swing_scene_swings_past_45_degrees() {
+fn rubber_beam_swing_scene_swings_past_100_degrees() {
     let path = std::path::Path::new(concat!(
         concat!(env!("CARGO_MANIFEST_DIR"), "/../.."),
         "/scenes/rubber_beam_swing.toml"
@@ -420,7 +420,9 @@ fn rubber_beam_swing_scene_swings_past_45_degrees() {
         largest = largest.max((x(top) - x(bottom)).angle(&Vector3::z()).to_degrees());
     }
     println!("scene tip rotation: largest {largest:.1}° in {steps} steps");
-    assert!(largest > 45.0, "{largest}°");
+    // The scene's descriptions (its comment, the scenes table, the large-deformation
+    // chapter) say its tip swings past 100°: measured 105.4° in these 0.6 s.
+    assert!(largest > 100.0, "{largest}°");
     // The probe's range says the same: the tip dropped by more than 0.6·L.
     assert!(
         summary.probes[0].min[2] < -0.6 * length,
