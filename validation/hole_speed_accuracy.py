@@ -475,6 +475,18 @@ def time_to(points, code, target):
     return min(ok, key=lambda p: p["seconds"]) if ok else None
 
 
+def draw(csv: str) -> None:
+    """validation/report/speed_accuracy_hole.png from the CSV (speed_accuracy_chart.py in the peers'
+    Python, which has matplotlib)."""
+    report = os.path.dirname(csv)
+    subprocess.run([PEERS_PYTHON, os.path.join(ROOT, "validation", "speed_accuracy_chart.py"), csv,
+                    os.path.join(report, "speed_accuracy_hole.png"), "--fronts",
+                    "--title", "Plate with a hole (3-D, 1/8 model): speed against accuracy of the hole-edge stress\n"
+                    "tetfem, scikit-fem and MFEM on identical meshes; MFEM curved: the same vertices, curved P2",
+                    "--xlabel", "wall time, constraints + assembly + factorization + solve + recovery (s, one thread)",
+                    "--ylabel", r"relative error of $\sigma_{xx}$ at (0, a, 0) vs curved MFEM order-4 reference"], check=True)
+
+
 def write_outputs(points, ref, spread, ref_runs, blas, repeat, loads, binding) -> list[str]:
     report = os.path.join(ROOT, "validation", "report")
     os.makedirs(report, exist_ok=True)
@@ -486,12 +498,7 @@ def write_outputs(points, ref, spread, ref_runs, blas, repeat, loads, binding) -
         for p in sorted(points, key=lambda p: (p["code"], p["order"], p["n"])):
             f.write(f"{p['code']},{p['order']},{mesh_name(p['n'])},{p['n']},{p['dofs']},{p['sxx']:.12e},"
                     f"{p['error']:.6e},{p['seconds']:.6e},{p['mesh_seconds']:.6e},{int(p in front)}\n")
-    subprocess.run([PEERS_PYTHON, os.path.join(ROOT, "validation", "speed_accuracy_chart.py"), csv,
-                    os.path.join(report, "speed_accuracy_hole.png"), "--fronts",
-                    "--title", "Plate with a hole (3-D, 1/8 model): speed against accuracy of the hole-edge stress, "
-                    "identical meshes",
-                    "--xlabel", "wall time, constraints + assembly + factorization + solve + recovery (s, one thread)",
-                    "--ylabel", r"relative error of $\sigma_{xx}$ at (0, a, 0) vs curved MFEM order-4 reference"], check=True)
+    draw(csv)
     spreads = []
     for order in (1, 2):
         for n in sorted({p["n"] for p in points if p["order"] == order}):
@@ -573,7 +580,11 @@ def main() -> int:
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--quick", action="store_true", help="small meshes only (a check of the harness)")
     ap.add_argument("--out", default=os.path.join(ROOT, "validation", "SPEED_ACCURACY.md"))
+    ap.add_argument("--chart-only", action="store_true", help="redraw the PNG from the last CSV, run nothing")
     a = ap.parse_args()
+    if a.chart_only:
+        draw(os.path.join(ROOT, "validation", "report", "speed_accuracy_hole.csv"))
+        return 0
     for python in (PEERS_PYTHON, TETFEM_PYTHON):
         if not os.path.exists(python):
             print(f"hole: {python} not found (validation/setup_peers.sh; TETFEM_PEERS_PYTHON / TETFEM_PYTHON). "

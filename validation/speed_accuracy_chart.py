@@ -121,7 +121,7 @@ def main() -> int:
             if pts:
                 ax.step([float(r["seconds"]) for r in pts], [float(r["relative_error"]) for r in pts],
                         where="post", color=COLOURS[code], linestyle="--", linewidth=2.2, alpha=0.45,
-                        label=f"{code} front (P1 and P2)")
+                        label=f"{code}: its own front")
     front = sorted((r for r in rows if r["pareto"] == "1"), key=lambda r: float(r["seconds"]))
     if front:
         ax.step([float(r["seconds"]) for r in front], [float(r["relative_error"]) for r in front],
