@@ -20,6 +20,8 @@ Usage (from the project root, after `validation/setup_peers.sh`):
     python3 validation/side_by_side.py                 # sizes 80,160,200 at 1 and 2 threads
     python3 validation/side_by_side.py --sizes 40,80 --threads 1 --repeat 1   # quick
     python3 validation/side_by_side.py --accuracy      # the accuracy-per-second section
+    python3 validation/side_by_side.py --accuracy-hole # plate with a hole: validation/SPEED_ACCURACY.md
+                                                       # (runs validation/hole_speed_accuracy.py)
 """
 
 from __future__ import annotations
@@ -260,7 +262,12 @@ def main() -> int:
     ap.add_argument("--repeat", type=int, default=2)
     ap.add_argument("--out", default=os.path.join(ROOT, "validation", "SIDE_BY_SIDE.md"))
     ap.add_argument("--accuracy", action="store_true", help="measure the accuracy-per-second section only")
+    ap.add_argument("--accuracy-hole", action="store_true",
+                    help="speed against accuracy on the plate with a hole (hole_speed_accuracy.py, --repeat passes)")
     a = ap.parse_args()
+    if a.accuracy_hole:
+        return subprocess.run([sys.executable, os.path.join(ROOT, "validation", "hole_speed_accuracy.py"),
+                               "--repeat", str(a.repeat)]).returncode
     if not os.path.exists(PYTHON):
         print(f"side_by_side: peers' Python not found at {PYTHON}; run validation/setup_peers.sh "
               "or set TETFEM_PEERS_PYTHON. Skipping.", file=sys.stderr)
