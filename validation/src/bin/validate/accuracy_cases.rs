@@ -272,45 +272,127 @@ fn accuracy_checks(
     checks
 }
 
-/// The peers' side of speed against accuracy (issue 37, item 1a): the table of
-/// `report/speed_accuracy.csv`, which `python3 validation/side_by_side.py --accuracy` writes with
-/// `report/speed_accuracy.png` (it needs the peers' Python, so `validate` reads its last result
-/// rather than running it). `None` when the file is not there.
-pub fn peers_speed_accuracy(context: &Context) -> Option<Section> {
-    let path = context.out.join("report").join("speed_accuracy.csv");
+/// A speed-against-accuracy comparison with the peers that a Python program of
+/// `validation/` writes as a CSV and a chart under `report/` (it needs the peers' harness,
+/// `validation/setup_peers.sh`, so `validate` reads its last result rather than running it).
+pub struct PeerComparison {
+    /// The section's title.
+    pub title: &'static str,
+    /// The CSV under `report/` (first line a `# ` comment: reference, BLAS, threads).
+    pub csv: &'static str,
+    /// The chart under `report/`.
+    pub png: &'static str,
+    /// The command that writes both.
+    pub writer: &'static str,
+    /// What is compared, and how.
+    pub problem: &'static str,
+    /// The table's columns: (heading, the CSV's column); a `pareto` column, when listed, is
+    /// shown as ◆ on the front.
+    pub columns: &'static [(&'static str, &'static str)],
+}
+
+/// The three comparisons of issue 37's item 1: (a) the static cantilever, (b) the plate with
+/// a hole, (c) the swinging beam.
+pub const PEER_COMPARISONS: [PeerComparison; 3] = [
+    PeerComparison {
+        title: "Speed against accuracy beside the peers (static cantilever)",
+        csv: "speed_accuracy.csv",
+        png: "speed_accuracy.png",
+        writer: "python3 validation/side_by_side.py --accuracy",
+        problem: "Static cantilever L × W × H = 10 × 1 × 1 (n × n/10 × n/10 cells of the lecture \
+                  split, E = 1e5, ν = 0.3, end load 1), identical meshes in every code; time from \
+                  mesh to displacement, one thread each; error of the tip deflection against the \
+                  reference.",
+        columns: &[
+            ("code", "code"),
+            ("order", "order"),
+            ("mesh", "mesh"),
+            ("free DOFs", "free_dofs"),
+            ("relative error", "relative_error"),
+            ("wall time (s)", "seconds"),
+            ("Pareto front", "pareto"),
+        ],
+    },
+    PeerComparison {
+        title: "Speed against accuracy beside the peers (plate with a hole)",
+        csv: "speed_accuracy_hole.csv",
+        png: "speed_accuracy_hole.png",
+        writer: "python3 validation/side_by_side.py --accuracy-hole",
+        problem: "A 3-D plate with a central hole under tension (one eighth, symmetry rollers), \
+                  σ_xx at the hole's edge by tetfem's nodal recovery in every code, identical \
+                  meshes (MFEM curved: the same vertices with curved P2); time from mesh to \
+                  recovered stress, one thread each (see `validation/SPEED_ACCURACY.md`).",
+        columns: &[
+            ("code", "code"),
+            ("order", "order"),
+            ("mesh", "mesh"),
+            ("free DOFs", "free_dofs"),
+            ("σ_xx", "sxx"),
+            ("relative error", "relative_error"),
+            ("wall time (s)", "seconds"),
+            ("Pareto front", "pareto"),
+        ],
+    },
+    PeerComparison {
+        title: "Speed against accuracy beside the peers (swinging beam)",
+        csv: "speed_accuracy_swing.csv",
+        png: "speed_accuracy_swing.png",
+        writer: "python3 validation/dynamic_speed_accuracy.py",
+        problem: "The swinging beam over one period, backward Euler and Newmark at 32–1024 steps \
+                  per period, identical meshes, M and K in both codes; error of the tip \
+                  trajectory against a converged reference, one thread each (see \
+                  `validation/SPEED_ACCURACY.md`).",
+        columns: &[
+            ("code", "code"),
+            ("order", "order"),
+            ("mesh", "mesh"),
+            ("method", "method"),
+            ("steps per period", "steps_per_period"),
+            ("relative error", "relative_error"),
+            ("wall time (s)", "seconds"),
+            ("Pareto front", "pareto"),
+        ],
+    },
+];
+
+/// The section of `comparison`: its CSV as a table and its chart; `None` when the CSV is not
+/// in the output folder.
+pub fn peers_speed_accuracy(context: &Context, comparison: &PeerComparison) -> Option<Section> {
+    let path = context.out.join("report").join(comparison.csv);
     let text = std::fs::read_to_string(&path).ok()?;
     let mut lines = text.lines();
     let header = lines.next()?.trim_start_matches("# ").to_string();
+    let names: Vec<&str> = lines.next()?.split(',').collect();
+    let index: Vec<usize> = comparison
+        .columns
+        .iter()
+        .map(|(_, column)| names.iter().position(|n| n == column))
+        .collect::<Option<_>>()?;
+    let headings: Vec<&str> = comparison.columns.iter().map(|(h, _)| *h).collect();
     let mut body = format!(
-        "Written by `python3 validation/side_by_side.py --accuracy` (needs the peers' harness, \
-         `validation/setup_peers.sh`; `validate` copies its last result here). Static cantilever \
-         L × W × H = 10 × 1 × 1 (n × n/10 × n/10 cells of the lecture split, E = 1e5, ν = 0.3, end load 1), \
-         identical meshes in every code; time from mesh to displacement, one thread each; error of \
-         the tip deflection against the reference. {header}.\n\n\
-         | code | elements | mesh | free DOFs | relative error | wall time (s) | Pareto front |\n|---|---|---|---|---|---|---|\n"
+        "Written by `{}` (needs the peers' harness, `validation/setup_peers.sh`; `validate` \
+         reads its last result). {} {header}.\n\n| {} |\n|{}\n",
+        comparison.writer,
+        comparison.problem,
+        headings.join(" | "),
+        "---|".repeat(headings.len()),
     );
-    for line in lines.skip(1) {
+    for line in lines {
         let f: Vec<&str> = line.split(',').collect();
-        if f.len() < 8 {
-            continue;
-        }
-        let _ = writeln!(
-            body,
-            "| {} | P{} | {} | {} | {} | {} | {} |",
-            f[0],
-            f[1],
-            f[2],
-            f[3],
-            f[5],
-            f[6],
-            if f[7] == "1" { "◆" } else { "" }
-        );
+        let cells: Vec<&str> = index
+            .iter()
+            .zip(comparison.columns)
+            .map(|(&i, (_, column))| match (*column, f.get(i).copied()) {
+                ("pareto", Some("1")) => "◆",
+                ("pareto", _) => "",
+                (_, value) => value.unwrap_or(""),
+            })
+            .collect();
+        let _ = writeln!(body, "| {} |", cells.join(" | "));
     }
-    body.push_str(
-        "\n![Speed against accuracy: static cantilever, tetfem and peers](report/speed_accuracy.png)\n",
-    );
+    let _ = writeln!(body, "\n![{}](report/{})", comparison.title, comparison.png);
     Some(Section {
-        title: "Speed against accuracy beside the peers (static cantilever)".into(),
+        title: comparison.title.into(),
         body,
         checks: vec![],
     })

@@ -65,6 +65,31 @@ pub struct Context {
     pub out: PathBuf,
 }
 
+/// A comparison with the peers as a case: its section, or a skip naming the program that
+/// writes its CSV when the CSV is not in the output folder.
+fn peers_case(context: &Context, comparison: &accuracy_cases::PeerComparison) -> Outcome {
+    match accuracy_cases::peers_speed_accuracy(context, comparison) {
+        Some(section) => (section, vec![]),
+        None => (
+            Section {
+                title: comparison.title.into(),
+                body: format!(
+                    "No `report/{}` in the output folder: run `{}` first.\n",
+                    comparison.csv, comparison.writer
+                ),
+                checks: vec![],
+            },
+            vec![Skipped {
+                name: comparison.title.to_lowercase(),
+                reason: format!(
+                    "report/{} not written ({})",
+                    comparison.csv, comparison.writer
+                ),
+            }],
+        ),
+    }
+}
+
 fn main() -> ExitCode {
     let cli = Cli::parse();
     let context = Context {
@@ -84,25 +109,15 @@ fn main() -> ExitCode {
         ("accuracy per second", |c| {
             Ok((accuracy_cases::accuracy_per_second(c)?, vec![]))
         }),
-        ("speed vs accuracy beside the peers", |c| {
-            Ok(match accuracy_cases::peers_speed_accuracy(c) {
-                Some(section) => (section, vec![]),
-                None => (
-                    Section {
-                        title: "Speed against accuracy beside the peers (static cantilever)".into(),
-                        body: "No `report/speed_accuracy.csv` in the output folder: run \
-                               `python3 validation/side_by_side.py --accuracy` first.\n"
-                            .into(),
-                        checks: vec![],
-                    },
-                    vec![Skipped {
-                        name: "speed against accuracy beside the peers".into(),
-                        reason:
-                            "report/speed_accuracy.csv not written (side_by_side.py --accuracy)"
-                                .into(),
-                    }],
-                ),
-            })
+        ("speed vs accuracy beside the peers: cantilever", |c| {
+            Ok(peers_case(c, &accuracy_cases::PEER_COMPARISONS[0]))
+        }),
+        (
+            "speed vs accuracy beside the peers: plate with a hole",
+            |c| Ok(peers_case(c, &accuracy_cases::PEER_COMPARISONS[1])),
+        ),
+        ("speed vs accuracy beside the peers: swinging beam", |c| {
+            Ok(peers_case(c, &accuracy_cases::PEER_COMPARISONS[2]))
         }),
         ("modal", |c| Ok((dynamics_cases::modal(c)?, vec![]))),
         ("speed vs accuracy", |c| {
