@@ -478,5 +478,8 @@ fn a_resumed_run_keeps_the_peak_reached_before_its_checkpoint() {
     assert_eq!(resumed.contact_barrier, whole.contact_barrier);
     let barrier = whole.contact_barrier.unwrap();
     assert!(barrier.gap_error_max > 0.0, "{barrier:?}");
-    assert!(barrier.smallest_gap_m.is_some_and(|g| g > 0.0), "{barrier:?}");
+    assert!(
+        barrier.smallest_gap_m.is_some_and(|g| g > 0.0),
+        "{barrier:?}"
+    );
 }

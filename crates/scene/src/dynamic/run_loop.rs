@@ -407,25 +407,22 @@ fn close_run<E: SceneElement>(
     };
     let (mut files, mut frames) = (Vec::new(), 0);
     if let Some(w) = recorder.writer {
-        frames = w.frames;
-        files = w.finish()?;
+        (frames, files) = (w.frames, w.finish()?);
     }
     let (first, steps, clocks) = (tally.first, tally.steps, tally.clocks);
     let barrier = setup.force.barrier_record();
+    // The run's own checks: deformation, step resolution, the barrier's reach.
+    let checks = [
+        deformation.and_then(|d| d.warning()),
+        step_resolution.and_then(|r| r.warning()),
+        barrier.and_then(|b| b.warning()),
+    ];
     Ok(DynamicSummary {
-        warnings: mesh
-            .warnings()
-            .iter()
+        warnings: (mesh.warnings().iter())
             .chain(&setup.materials.warnings())
             .chain(&setup.input_warnings)
+            .chain(checks.iter().flatten())
             .map(ToString::to_string)
-            .chain(deformation.and_then(|d| d.warning()).map(|w| w.to_string()))
-            .chain(
-                step_resolution
-                    .and_then(|r| r.warning())
-                    .map(|w| w.to_string()),
-            )
-            .chain(barrier.and_then(|b| b.warning()).map(|w| w.to_string()))
             .collect(),
         title: run.title.clone(),
         scene: run.source.clone(),
