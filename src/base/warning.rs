@@ -137,8 +137,9 @@ pub enum Warning {
         limit: f64,
     },
     /// A dynamic run's contact barrier held pushed nodes so far off the obstacles that its
-    /// contact forces may be off the exact contact of the mesh by more than 1 %: its gap error
-    /// ε = (Σλd/Σλ)/max|u| passed `limit` ([`GAP_ERROR_WARNING`](crate::contact::GAP_ERROR_WARNING),
+    /// contact forces may be off the exact contact of the mesh by more than 1 % of the run's
+    /// largest: its gap error ε = (Σλd/Σλ)/max|u|, each step's weighted by its contact force
+    /// over the largest, passed `limit` ([`GAP_ERROR_WARNING`](crate::contact::GAP_ERROR_WARNING),
     /// from the force error measured per unit of gap error).
     BarrierGapError {
         /// The run's largest gap error (dimensionless).
@@ -247,8 +248,9 @@ impl fmt::Display for Warning {
             } => write!(
                 f,
                 "the contact barrier's gap error reached {gap_error:.2e} (its pushed nodes' force-weighted gap \
-                 over the largest displacement), above {limit:.2e}: its contact forces may be off the exact \
-                 contact by up to {:.1} % (at most {} times the gap error, measured); a smaller [contact] \
+                 over the largest displacement, each step's weighted by its contact force over the run's \
+                 largest), above {limit:.2e}: its contact forces may be off the exact contact by up to {:.1} % \
+                 of the largest (at most {} times the gap error, measured); a smaller [contact] \
                  activation_distance than {} lowers it",
                 100.0 * gap_error * crate::contact::FORCE_ERROR_PER_GAP_ERROR,
                 crate::contact::FORCE_ERROR_PER_GAP_ERROR,

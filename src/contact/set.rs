@@ -40,6 +40,8 @@ pub struct BarrierGaps {
     /// The gap error ε: the weighted gap over max|u| (dimensionless; 0 at rest), as the static
     /// solve reports it.
     pub gap_error: f64,
+    /// The barrier's total normal force Σᵢλᵢ on the body (force units; 0 when it pushes none).
+    pub pushed_force: f64,
     /// The smallest signed distance of a contact node to an obstacle (length; ≤ 0 for a node on
     /// or inside one; +∞ without contact nodes).
     pub smallest_gap: f64,
@@ -552,6 +554,7 @@ impl Contact {
             } else {
                 0.0
             },
+            pushed_force: total,
             smallest_gap: smallest,
         })
     }

@@ -227,8 +227,9 @@ impl Checkpoint {
                 path: path.to_path_buf(),
                 line: 1,
                 message: format!(
-                    "the {BARRIER_RECORD} record holds {} values, not 7",
-                    values.len()
+                    "the {BARRIER_RECORD} record holds {} values, not {}",
+                    values.len(),
+                    BarrierRecord::VALUES
                 ),
             })
     }

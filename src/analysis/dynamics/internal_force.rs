@@ -45,6 +45,11 @@ pub struct BarrierRecord {
     pub smallest_iterate_gap: f64,
     /// Accepted steps measured.
     pub steps: usize,
+    /// The largest total normal force Σλ of the barrier over the accepted steps (force units).
+    pub peak_force: f64,
+    /// The largest ε·Σλ over the accepted steps (force units): the force error the rule
+    /// bounds, over [`FORCE_ERROR_PER_GAP_ERROR`](crate::contact::FORCE_ERROR_PER_GAP_ERROR).
+    pub peak_gap_force: f64,
 }
 
 impl BarrierRecord {
@@ -57,14 +62,31 @@ impl BarrierRecord {
             smallest_step_gap: f64::INFINITY,
             smallest_iterate_gap: f64::INFINITY,
             steps: 0,
+            peak_force: 0.0,
+            peak_gap_force: 0.0,
         }
     }
 
-    fn take_step(&mut self, gap_error: f64, smallest_gap: f64) {
-        self.gap_error_max = self.gap_error_max.max(gap_error);
-        self.gap_error_final = gap_error;
-        self.smallest_step_gap = self.smallest_step_gap.min(smallest_gap);
+    fn take_step(&mut self, gaps: &crate::contact::BarrierGaps) {
+        self.gap_error_max = self.gap_error_max.max(gaps.gap_error);
+        self.gap_error_final = gaps.gap_error;
+        self.smallest_step_gap = self.smallest_step_gap.min(gaps.smallest_gap);
+        self.peak_force = self.peak_force.max(gaps.pushed_force);
+        self.peak_gap_force = self.peak_gap_force.max(gaps.gap_error * gaps.pushed_force);
         self.steps += 1;
+    }
+
+    /// The gap error the warning judges: max(ε·Σλ)/max(Σλ) over the accepted steps — each
+    /// step's gap error weighted by its contact force relative to the run's largest, so that
+    /// the force error it bounds is relative to the largest contact force of the run. (Early in
+    /// a contact, when the body has barely moved, ε is large but its force is small: the
+    /// shipped sphere press read ε = 0.24 at its first touching steps.) 0 when the barrier
+    /// pushed nothing.
+    pub fn weighted_gap_error(&self) -> f64 {
+        match self.peak_force > 0.0 {
+            true => self.peak_gap_force / self.peak_force,
+            false => 0.0,
+        }
     }
 
     /// The smallest gap over every state measured, steps and iterates (length; +∞ when none).
@@ -72,19 +94,21 @@ impl BarrierRecord {
         self.smallest_step_gap.min(self.smallest_iterate_gap)
     }
 
-    /// [`Warning::BarrierGapError`] when the largest gap error passed
-    /// [`GAP_ERROR_WARNING`], where the measured relation puts the contact force's error
-    /// above 1 %.
+    /// [`Warning::BarrierGapError`] when the force-weighted gap error
+    /// ([`weighted_gap_error`](Self::weighted_gap_error)) passed [`GAP_ERROR_WARNING`], where
+    /// the measured relation puts the contact force's error above 1 % of the run's largest.
     pub fn warning(&self) -> Option<Warning> {
-        (self.gap_error_max > GAP_ERROR_WARNING).then_some(Warning::BarrierGapError {
-            gap_error: self.gap_error_max,
+        let gap_error = self.weighted_gap_error();
+        (gap_error > GAP_ERROR_WARNING).then_some(Warning::BarrierGapError {
+            gap_error,
             limit: GAP_ERROR_WARNING,
             activation_distance: self.parameters.activation_distance,
         })
     }
 
     /// The record as numbers, for a checkpoint's records: d̂, κ, the largest and last gap
-    /// errors, the smallest step and iterate gaps, the step count (as f64: exact below 2⁵³).
+    /// errors, the smallest step and iterate gaps, the step count (as f64: exact below 2⁵³),
+    /// the peak force and the peak ε·Σλ.
     pub fn to_values(&self) -> Vec<f64> {
         vec![
             self.parameters.activation_distance,
@@ -94,12 +118,28 @@ impl BarrierRecord {
             self.smallest_step_gap,
             self.smallest_iterate_gap,
             self.steps as f64,
+            self.peak_force,
+            self.peak_gap_force,
         ]
     }
 
+    /// How many numbers [`to_values`](Self::to_values) gives.
+    pub const VALUES: usize = 9;
+
     /// The record of [`to_values`](Self::to_values)'s numbers; `None` for another count.
     pub fn from_values(values: &[f64]) -> Option<Self> {
-        let &[d_hat, kappa, max, last, step_gap, iterate_gap, steps] = values else {
+        let &[
+            d_hat,
+            kappa,
+            max,
+            last,
+            step_gap,
+            iterate_gap,
+            steps,
+            peak,
+            peak_gap,
+        ] = values
+        else {
             return None;
         };
         Some(BarrierRecord {
@@ -112,6 +152,8 @@ impl BarrierRecord {
             smallest_step_gap: step_gap,
             smallest_iterate_gap: iterate_gap,
             steps: steps as usize,
+            peak_force: peak,
+            peak_gap_force: peak_gap,
         })
     }
 }
@@ -477,7 +519,7 @@ impl NonlinearForce {
         };
         let gaps = contact.barrier_gaps(&self.full_displacement(u)?)?;
         if let Some(record) = self.barrier_lock().as_mut() {
-            record.take_step(gaps.gap_error, gaps.smallest_gap);
+            record.take_step(&gaps);
         }
         Ok(())
     }
