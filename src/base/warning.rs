@@ -136,6 +136,19 @@ pub enum Warning {
         /// The level it passed (dimensionless).
         limit: f64,
     },
+    /// A dynamic run's contact barrier held pushed nodes so far off the obstacles that its
+    /// contact forces may be off the exact contact of the mesh by more than 1 % of the run's
+    /// largest: its gap error ε = (Σλd/Σλ)/max|u|, each step's weighted by its contact force
+    /// over the largest, passed `limit` ([`GAP_ERROR_WARNING`](crate::contact::GAP_ERROR_WARNING),
+    /// from the force error measured per unit of gap error).
+    BarrierGapError {
+        /// The run's largest gap error (dimensionless).
+        gap_error: f64,
+        /// The level it passed (dimensionless).
+        limit: f64,
+        /// The barrier's activation distance d̂ (length).
+        activation_distance: f64,
+    },
 }
 
 impl fmt::Display for Warning {
@@ -227,6 +240,21 @@ impl fmt::Display for Warning {
                 crate::base::error::short_number(*dt),
                 1.0 / (frequency_hz * dt),
                 crate::base::error::short_number(0.05 / frequency_hz)
+            ),
+            Warning::BarrierGapError {
+                gap_error,
+                limit,
+                activation_distance,
+            } => write!(
+                f,
+                "the contact barrier's gap error reached {gap_error:.2e} (its pushed nodes' force-weighted gap \
+                 over the largest displacement, each step's weighted by its contact force over the run's \
+                 largest), above {limit:.2e}: its contact forces may be off the exact contact by up to {:.1} % \
+                 of the largest (at most {} times the gap error, measured); a smaller [contact] \
+                 activation_distance than {} lowers it",
+                100.0 * gap_error * crate::contact::FORCE_ERROR_PER_GAP_ERROR,
+                crate::contact::FORCE_ERROR_PER_GAP_ERROR,
+                crate::base::error::short_number(*activation_distance)
             ),
             Warning::NoFreeDofs { dofs } => write!(
                 f,

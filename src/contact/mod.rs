@@ -65,7 +65,10 @@ pub mod velocity;
 pub use friction::FrictionLag;
 pub use obstacle::{MAX_FRICTION, Obstacle, ObstacleMotion, SPIN_TOLERANCE, Shape, Spin};
 pub use parameters::ContactParameters;
-pub use set::{Contact, GAP_TOLERANCE, NodesInside, contact_faces};
+pub use set::{
+    BarrierGaps, Contact, FORCE_ERROR_PER_GAP_ERROR, GAP_ERROR_WARNING, GAP_TOLERANCE, NodesInside,
+    contact_faces,
+};
 pub use staging::{MAX_MOTION_STAGES, MotionStage};
 
 /// The fraction of the collision-free step a line search starts from (IPC's 0.8).

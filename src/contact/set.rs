@@ -19,6 +19,34 @@ use crate::sparse::CscMatrix;
 /// contact force is within about that of the exact (node-to-obstacle) contact of the mesh.
 pub const GAP_TOLERANCE: f64 = 1e-8;
 
+/// The contact force's error per unit of gap error when the barrier keeps its reach (no
+/// continuation): the barrier's force on the body exceeds the exact contact of the mesh by
+/// between 2.2 and 5.9 times the gap error ε = (Σλᵢdᵢ/Σλᵢ)/max|u|, measured on the lens of
+/// `tests/core/contact_exact.rs` pressed by 0.2 %, 0.5 % and 1 % of its radius under d̂, d̂/2
+/// and d̂/4 (`tests/core/barrier_reach.rs`); the ratio grows as ε shrinks, 6 bounds it.
+pub const FORCE_ERROR_PER_GAP_ERROR: f64 = 6.0;
+
+/// The gap error above which a dynamic run's contact forces may be off the exact contact of
+/// the mesh by more than 1 %: 0.01 / [`FORCE_ERROR_PER_GAP_ERROR`] ≈ 1.7e-3 (a warning, see
+/// [`Warning::BarrierGapError`](crate::base::warning::Warning::BarrierGapError)).
+pub const GAP_ERROR_WARNING: f64 = 0.01 / FORCE_ERROR_PER_GAP_ERROR;
+
+/// The barrier's gaps at one state ([`Contact::barrier_gaps`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct BarrierGaps {
+    /// The force-weighted gap Σᵢλᵢdᵢ/Σᵢλᵢ of the nodes the barrier pushes (length; 0 when it
+    /// pushes none).
+    pub weighted_gap: f64,
+    /// The gap error ε: the weighted gap over max|u| (dimensionless; 0 at rest), as the static
+    /// solve reports it.
+    pub gap_error: f64,
+    /// The barrier's total normal force Σᵢλᵢ on the body (force units; 0 when it pushes none).
+    pub pushed_force: f64,
+    /// The smallest signed distance of a contact node to an obstacle (length; ≤ 0 for a node on
+    /// or inside one; +∞ without contact nodes).
+    pub smallest_gap: f64,
+}
+
 /// Node-versus-obstacle contact of a mesh's boundary nodes with rigid obstacles:
 ///
 /// E_c(u) = κ·Σᵢ Aᵢ·Σ_o b(d_o(Xᵢ + uᵢ)),
@@ -491,6 +519,61 @@ impl Contact {
             total += lambda;
         })?;
         Ok((work, total))
+    }
+
+    /// The barrier's gaps at full displacement `u` with the obstacles at their current placement
+    /// ([`BarrierGaps`]): its complementarity over the nodes it pushes (a node on or inside an
+    /// obstacle pushes nothing here; it is the smallest gap) and the smallest gap. One pass over
+    /// the contact nodes and obstacles; never an error for a node inside (a measurement).
+    pub fn barrier_gaps(&self, u: &[f64]) -> Result<BarrierGaps> {
+        self.check_full(u)?;
+        let ContactParameters {
+            activation_distance: d_hat,
+            stiffness: kappa,
+        } = self.parameters;
+        let offsets = self.offsets();
+        let (mut work, mut total, mut smallest) = (0.0, 0.0, f64::INFINITY);
+        for k in 0..self.nodes.len() {
+            let x = self.position(k, u);
+            for (obstacle, offset) in self.obstacles.iter().zip(&offsets) {
+                let d = obstacle.distance(&(x - offset));
+                smallest = smallest.min(if d.is_nan() { f64::NEG_INFINITY } else { d });
+                if d > 0.0 && d < d_hat {
+                    let lambda = -kappa * self.areas[k] * barrier::derivative(d, d_hat);
+                    work += lambda * d;
+                    total += lambda;
+                }
+            }
+        }
+        let weighted_gap = if total > 0.0 { work / total } else { 0.0 };
+        let largest = u.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        Ok(BarrierGaps {
+            weighted_gap,
+            gap_error: if largest > 0.0 {
+                weighted_gap / largest
+            } else {
+                0.0
+            },
+            pushed_force: total,
+            smallest_gap: smallest,
+        })
+    }
+
+    /// The smallest signed distance of a contact node to an obstacle at full displacement `u`,
+    /// the obstacles at their current placement (length; ≤ 0 for a node on or inside one, −∞
+    /// for a NaN position; +∞ without contact nodes).
+    pub fn smallest_gap(&self, u: &[f64]) -> Result<f64> {
+        self.check_full(u)?;
+        let offsets = self.offsets();
+        let mut smallest = f64::INFINITY;
+        for k in 0..self.nodes.len() {
+            let x = self.position(k, u);
+            for (obstacle, offset) in self.obstacles.iter().zip(&offsets) {
+                let d = obstacle.distance(&(x - offset));
+                smallest = smallest.min(if d.is_nan() { f64::NEG_INFINITY } else { d });
+            }
+        }
+        Ok(smallest)
     }
 
     /// Per boundary node (ascending, as [`nodes`](Self::nodes)): the smallest gap over the

@@ -11,20 +11,20 @@ use tetfem::model::ModelKind;
 use tetfem::{BoxSplit, Constraints, Loads, Material, TetMesh, solve_static};
 
 /// The sphere's radius the base follows (m).
-const RADIUS: f64 = 0.05;
+pub(crate) const RADIUS: f64 = 0.05;
 /// Half the block's width (m) and its height (m).
 const HALF_WIDTH: f64 = 0.01;
 const HEIGHT: f64 = 0.01;
 /// The start gap between the tip and the plane (m): inside the default d̂ (3e-5 m here).
-const START_GAP: f64 = 1e-5;
+pub(crate) const START_GAP: f64 = 1e-5;
 
-fn material() -> Material {
+pub(crate) fn material() -> Material {
     Material::new(1e6, 0.3, 1000.0).unwrap()
 }
 
 /// The lens: a 16 × 16 × 8 cell box over [−w, w]² × [0, H] whose base is bent to the
 /// paraboloid, the top kept flat: z ↦ f + z·(H − f)/H with f = (x² + y²)/(2R).
-fn lens() -> TetMesh {
+pub(crate) fn lens() -> TetMesh {
     let block = TetMesh::box_grid(
         Vector3::new(-HALF_WIDTH, -HALF_WIDTH, 0.0),
         Vector3::new(HALF_WIDTH, HALF_WIDTH, HEIGHT),
@@ -42,7 +42,7 @@ fn lens() -> TetMesh {
 }
 
 /// The top face moved down by `approach` (m) on every axis's value (0, 0, −approach).
-fn pressed_top(mesh: &TetMesh, approach: f64) -> Constraints {
+pub(crate) fn pressed_top(mesh: &TetMesh, approach: f64) -> Constraints {
     let mut constraints = Constraints::new(mesh);
     for n in mesh.nodes_on_plane(2, HEIGHT, 1e-9) {
         constraints
@@ -57,7 +57,7 @@ fn pressed_top(mesh: &TetMesh, approach: f64) -> Constraints {
 /// active nodes are held on the plane (z only; x and y free), solved linearly; a held node
 /// whose reaction pulls (λ < 0) is released, a free node below the plane is held; until the
 /// set repeats. Returns the plane's force (N, along +z on the body) and the active nodes.
-fn exact(mesh: &TetMesh, approach: f64) -> (f64, Vec<usize>) {
+pub(crate) fn exact(mesh: &TetMesh, approach: f64) -> (f64, Vec<usize>) {
     let base: Vec<usize> = (0..mesh.node_count())
         .filter(|&n| mesh.nodes()[n].z < HEIGHT - 1e-9)
         .collect();

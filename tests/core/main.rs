@@ -9,6 +9,7 @@ mod analysis_static_modal;
 mod analysis_transient;
 mod assembly;
 mod atomic_writes;
+mod barrier_reach;
 mod beam_theory;
 mod block_sparse;
 mod combinations;

@@ -24,12 +24,10 @@
 //! **Measured per cell** ([`Cell`]): the outcome ([`Outcome`]); the worst gap — the most
 //! negative (else smallest) signed distance of any boundary node to any obstacle at every
 //! accepted step ([`Contact::gaps_and_pressures`] with the obstacles placed at the step's
-//! time), so a negative value is a penetration depth. Newton's iterates inside a step are not
-//! measured one by one: the barrier's energy is +∞ at any state with a node on or inside an
-//! obstacle ([`Contact::energy`]) and the line search accepts only a decrease of the
-//! incremental potential from a finite start, after continuous collision detection limits the
-//! step, so no accepted iterate can be inside; the accepted steps' gaps check the end of that
-//! argument. Newton iterations per step (mean and max, the integrator's `newton_stats`; none
+//! time), so a negative value is a penetration depth; and the worst gap at any iterate — the
+//! same over every accepted Newton iterate inside every step, measured by the library after
+//! each ([`BarrierRecord::smallest_iterate_gap`](tetfem::analysis::dynamics::BarrierRecord)),
+//! and over the accepted steps (the explicit method's only states). Newton iterations per step (mean and max, the integrator's `newton_stats`; none
 //! for the explicit method, which solves nothing); the energy growth (below); the wall time
 //! of the cell.
 //!
@@ -65,6 +63,8 @@ use tetfem::contact::{Contact, ContactParameters, Obstacle, ObstacleMotion};
 use tetfem::fe::materials::MaterialMap;
 use tetfem::model::ModelKind;
 use tetfem::{BoxSplit, Constraints, Material, TetMesh};
+
+use crate::watch::EnergyRecord;
 
 /// The dt multiples of the explicit critical step every method runs at.
 pub const MULTIPLES: [f64; 4] = [0.5, 1.0, 10.0, 100.0];
@@ -385,6 +385,10 @@ pub struct Cell {
     /// The smallest signed gap of any boundary node to any obstacle over the accepted steps
     /// (m; negative: a penetration that deep; +∞ if no step was accepted).
     pub worst_gap: f64,
+    /// The smallest signed gap over every accepted Newton iterate of every step (the library's
+    /// [`BarrierRecord`](tetfem::analysis::dynamics::BarrierRecord), measured inside Newton)
+    /// and every accepted step (the explicit method's only states) (m; +∞ if none).
+    pub worst_iterate_gap: f64,
     /// max_t [H − W] − H(0) over E_scale (see the module doc).
     pub growth: f64,
     /// Wall time of the cell (s): setup and every step.
@@ -396,14 +400,10 @@ pub struct Cell {
 /// Watches a cell's run: gaps, energy, obstacle work, Newton counts and the wall budget.
 struct Watch {
     contact: Contact,
-    explicit: bool,
-    previous: Option<State>,
     /// The previous step's time and the obstacles' forces on the body then.
     last: (f64, Vec<Vector3<f64>>),
     work: f64,
-    start: Option<f64>,
-    highest: f64,
-    scale: f64,
+    energy: EnergyRecord,
     worst_gap: f64,
     iterations: Vec<usize>,
     clock: Instant,
@@ -430,7 +430,7 @@ impl Watch {
     }
 
     /// H of `state` (kinetic + elastic + potentials + barrier) and kinetic + elastic.
-    fn energy(&self, view: &StepView<'_>, state: &State) -> Result<(f64, f64)> {
+    fn energies(&self, view: &StepView<'_>, state: &State) -> Result<(f64, f64)> {
         let energy = view.force.energy(view.system, state)?;
         self.contact.set_time(state.time);
         let full = view.system.expand_at(state.time, &state.displacement)?;
@@ -470,29 +470,11 @@ impl Observer for Watch {
             return Ok(Flow::Stop);
         }
         self.add_work(view, &full)?;
-        // The explicit method's stored velocity is half a step behind its displacement (see
-        // the stability map): measure the previous displacement with the mean velocity.
-        let measured = match (self.explicit, &self.previous) {
-            (false, _) => Some(view.state.clone()),
-            (true, None) => None,
-            (true, Some(previous)) => Some(State {
-                velocity: previous
-                    .velocity
-                    .iter()
-                    .zip(&view.state.velocity)
-                    .map(|(a, b)| 0.5 * (a + b))
-                    .collect(),
-                ..previous.clone()
-            }),
-        };
-        if let Some(state) = measured {
-            let (total, motion) = self.energy(view, &state)?;
-            let start = *self.start.get_or_insert(total);
-            self.highest = self.highest.max(total - self.work);
-            self.scale = self.scale.max(motion).max(start.abs()).max(self.work.abs());
-        }
-        if self.explicit {
-            self.previous = Some(view.state.clone());
+        // The explicit method's stored velocity is half a step behind its displacement: the
+        // record measures the previous displacement with the mean velocity.
+        if let Some(state) = self.energy.measured(view.state) {
+            let (total, motion) = self.energies(view, &state)?;
+            self.energy.take(total, self.work, motion);
         }
         if self.clock.elapsed().as_secs_f64() > self.wall {
             self.over = true;
@@ -525,6 +507,7 @@ fn run_cell(context: &SceneContext, scheme: Scheme, multiple: f64, budget: &Budg
         steps: (0, planned),
         iterations: None,
         worst_gap: f64::INFINITY,
+        worst_iterate_gap: f64::INFINITY,
         growth: 0.0,
         seconds: 0.0,
         note: String::new(),
@@ -592,13 +575,9 @@ fn run_watched(
         .collect();
     let mut watch = Watch {
         contact,
-        explicit: method == Method::Explicit,
         last: (initial.time, forces),
-        previous: Some(initial),
+        energy: EnergyRecord::new(method == Method::Explicit, initial),
         work: 0.0,
-        start: None,
-        highest: f64::NEG_INFINITY,
-        scale: 0.0,
         worst_gap: f64::INFINITY,
         iterations: Vec::new(),
         clock,
@@ -608,6 +587,10 @@ fn run_watched(
     let end = run.run((0, planned.min(budget.steps)), &mut watch);
     cell.steps.0 = run.state().steps;
     classify(cell, end.map(|_| ()), &watch, planned > budget.steps);
+    let iterates = run
+        .barrier_record()
+        .map_or(f64::INFINITY, |r| r.smallest_iterate_gap);
+    cell.worst_iterate_gap = iterates.min(watch.worst_gap);
     Ok(())
 }
 
@@ -621,8 +604,8 @@ fn classify(cell: &mut Cell, end: Result<()>, watch: &Watch, cut: bool) {
             watch.iterations.iter().copied().max().unwrap_or(0),
         ));
     }
-    if let Some(start) = watch.start {
-        cell.growth = (watch.highest - start) / watch.scale.max(f64::MIN_POSITIVE);
+    if let Some(growth) = watch.energy.growth() {
+        cell.growth = growth;
     }
     cell.outcome = match end {
         Err(e) => {

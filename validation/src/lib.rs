@@ -9,3 +9,4 @@ pub mod chart;
 pub mod contact_stress;
 pub mod contact_stress_report;
 pub mod stability_map;
+pub mod watch;

@@ -25,6 +25,8 @@ use tetfem::fe::materials::MaterialMap;
 use tetfem::model::ModelKind;
 use tetfem::{BoxSplit, Constraints, Material, TetMesh};
 
+use crate::watch::EnergyRecord;
+
 /// What a cell's run did, in the order the classification tests it.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum Class {
@@ -223,11 +225,7 @@ fn definition(model: ModelKind, ground: bool) -> Result<Definition> {
 
 /// Watches a cell's run: the penetration test and the energy record.
 struct Watch {
-    explicit: bool,
-    previous: Option<State>,
-    start: Option<f64>,
-    highest: f64,
-    scale: f64,
+    energy: EnergyRecord,
     penetrated: bool,
 }
 
@@ -257,30 +255,9 @@ impl Observer for Watch {
                 return Ok(Flow::Stop);
             }
         }
-        // The explicit method's stored velocity is the mean over the step that produced the
-        // displacement (half a step behind it): the velocity at the previous displacement's
-        // time is, to second order, the mean of the previous and the current stored velocity.
-        let measured = match (self.explicit, &self.previous) {
-            (false, _) => Some(view.state.clone()),
-            (true, None) => None,
-            (true, Some(previous)) => Some(State {
-                velocity: previous
-                    .velocity
-                    .iter()
-                    .zip(&view.state.velocity)
-                    .map(|(a, b)| 0.5 * (a + b))
-                    .collect(),
-                ..previous.clone()
-            }),
-        };
-        if let Some(state) = measured {
+        if let Some(state) = self.energy.measured(view.state) {
             let (total, motion) = Watch::energy(view, &state)?;
-            self.start.get_or_insert(total);
-            self.highest = self.highest.max(total);
-            self.scale = self.scale.max(motion);
-        }
-        if self.explicit {
-            self.previous = Some(view.state.clone());
+            self.energy.take(total, 0.0, motion);
         }
         Ok(Flow::Continue)
     }
@@ -330,17 +307,13 @@ fn run_cell(panel: Panel, ratio: f64, xi: f64, context: &CellContext) -> Cell {
     }
     let initial = run.state().clone();
     let mut watch = Watch {
-        explicit: panel.method == Method::Explicit,
-        previous: Some(initial),
-        start: None,
-        highest: f64::NEG_INFINITY,
-        scale: 0.0,
+        energy: EnergyRecord::new(panel.method == Method::Explicit, initial),
         penetrated: false,
     };
     let end = run.run((0, context.steps), &mut watch);
     cell.steps = run.state().steps;
-    if let Some(start) = watch.start {
-        cell.growth = (watch.highest - start) / watch.scale.max(start.abs()).max(f64::MIN_POSITIVE);
+    if let Some(growth) = watch.energy.growth() {
+        cell.growth = growth;
     }
     cell.class = match end {
         Err(Error::Diverged { .. }) => Class::Diverged,

@@ -850,6 +850,7 @@ fn report_dynamic<'p>(
             step_resolution: None,
             resumed_from_step: None,
             contact_forces: None,
+            contact_barrier: None,
             time_stepping: None,
         };
         Ok(Some(summary.to_json()))

@@ -151,3 +151,40 @@ pub(super) fn node_fields(
     contact.set_time(time);
     contact.node_fields(nodes, u)
 }
+
+/// The barrier of a dynamic run with `[[obstacles]]` (the summary's `contact_barrier`): a
+/// dynamic run keeps the scene's activation distance (a moving body has no equilibrium to
+/// continue d̂ to, as a static solve does), so its contact forces carry the barrier's gap error
+/// Σλd/Σλ/max|u|, measured by the library at every accepted step
+/// ([`BarrierRecord`](tetfem::analysis::dynamics::BarrierRecord)); past
+/// [`GAP_ERROR_WARNING`](tetfem::contact::GAP_ERROR_WARNING) the summary warns that the forces
+/// may be off the exact contact by more than 1 %.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct DynamicContactBarrier {
+    /// The barrier's activation distance d̂ (m; the scene's `[contact] activation_distance` or
+    /// its default).
+    pub activation_distance_m: f64,
+    /// The barrier's stiffness κ (Pa/m).
+    pub stiffness: f64,
+    /// The largest gap error over the accepted steps.
+    pub gap_error_max: f64,
+    /// The gap error of the last step.
+    pub gap_error_final: f64,
+    /// The smallest gap of a contact node to an obstacle over every accepted step and every
+    /// accepted Newton iterate inside the steps (m; `None` before the first step).
+    pub smallest_gap_m: Option<f64>,
+}
+
+impl DynamicContactBarrier {
+    /// The summary's view of the library's record.
+    pub(super) fn of(record: &tetfem::analysis::dynamics::BarrierRecord) -> Self {
+        let smallest = record.smallest_gap();
+        DynamicContactBarrier {
+            activation_distance_m: record.parameters.activation_distance,
+            stiffness: record.parameters.stiffness,
+            gap_error_max: record.gap_error_max,
+            gap_error_final: record.gap_error_final,
+            smallest_gap_m: smallest.is_finite().then_some(smallest),
+        }
+    }
+}

@@ -47,7 +47,7 @@ pub use dynamic::{
     STEP_CHECK_DOFS, STEP_CHECK_MODES, csv_columns as dynamic_csv_columns,
     frame_arrays as dynamic_frame_arrays,
 };
-pub use dynamic_contact::ContactForceHistory;
+pub use dynamic_contact::{ContactForceHistory, DynamicContactBarrier};
 pub use element::SceneElement;
 pub use engine::{EngineKind, EngineSettings, PetscSolver, PetscSpec, parse_petsc_options};
 pub use estimate::{ESTIMATED_ERROR_DEFINITION, EstimatedError, estimated_error_of};

@@ -18,7 +18,9 @@ use std::collections::BTreeMap;
 use std::ops::Range;
 use std::path::{Path, PathBuf};
 
-use tetfem::analysis::dynamics::{Checkpoint, Integrator, State, fingerprint_hash};
+use tetfem::analysis::dynamics::{
+    BARRIER_RECORD, Checkpoint, Integrator, InternalForce, State, fingerprint_hash,
+};
 use tetfem::base::error::{Error, Result};
 use tetfem::mesh::{CellType, TetMesh};
 
@@ -163,14 +165,18 @@ impl Restart {
 
     /// Writes the checkpoint of `integrator` at `state`, with the probes' running extremes and
     /// the contact forces' peaks (record `contact_peak`: |F| (N) and its time (s) per
-    /// obstacle), over the previous one (atomically). The caller has written out the CSV rows
+    /// obstacle) and, with contact, the barrier's record (record `contact_barrier`, see
+    /// [`Checkpoint::barrier_record`]), over the previous one (atomically). The caller has written out the CSV rows
     /// up to `state`.
     pub(crate) fn write(
         &self,
         integrator: &dyn Integrator,
         state: &State,
         probes: &[ProbeRange],
-        contact: &[super::ContactForceHistory],
+        (contact, barrier): (
+            &[super::ContactForceHistory],
+            Option<tetfem::analysis::dynamics::BarrierRecord>,
+        ),
     ) -> Result<()> {
         let mut records = vec![
             (
@@ -191,16 +197,20 @@ impl Restart {
                     .collect(),
             ));
         }
+        if let Some(b) = barrier {
+            records.push((BARRIER_RECORD.into(), b.to_values()));
+        }
         Checkpoint::take(integrator, state, self.fingerprint.clone(), records)?.write(&self.path)
     }
 
-    /// Restores the resume's integrator history, the probes' running extremes and the contact
-    /// forces' peaks (a checkpoint without the `contact_peak` record, written before it
+    /// Restores the resume's integrator history, the barrier's record into `force` (none in a
+    /// checkpoint written before it existed: the resumed run then measures from the resume),
+    /// the probes' running extremes and the contact forces' peaks (a checkpoint without the `contact_peak` record, written before it
     /// existed, leaves them at zero: the peaks are then those since the resume); returns the
     /// state to continue from (`None` for a fresh run).
     pub(crate) fn restore(
         &self,
-        integrator: &mut dyn Integrator,
+        (integrator, force): (&mut dyn Integrator, &InternalForce),
         probes: &mut [ProbeRange],
         contact: &mut [super::ContactForceHistory],
     ) -> Result<Option<State>> {
@@ -208,6 +218,11 @@ impl Restart {
             return Ok(None);
         };
         let state = checkpoint.restore(integrator)?;
+        if let (InternalForce::Nonlinear(f), Some(record)) =
+            (force, checkpoint.barrier_record(&self.path)?)
+        {
+            f.set_barrier_record(Some(record));
+        }
         let bad = || Error::Parse {
             path: self.path.clone(),
             line: 1,

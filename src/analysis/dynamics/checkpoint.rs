@@ -30,11 +30,14 @@
 
 use std::path::Path;
 
-use super::{DivergenceGuard, Energy, Integrator, NewtonStats, State};
+use super::{BarrierRecord, DivergenceGuard, Energy, Integrator, NewtonStats, State};
 use crate::base::error::{Error, Result};
 
 /// The first 8 bytes of a checkpoint file.
 pub const CHECKPOINT_MAGIC: &[u8; 8] = b"TETFEMCP";
+/// The name of the caller record that holds a run's [`BarrierRecord`] (see
+/// [`Checkpoint::barrier_record`]); a record, so the file's version stays.
+pub const BARRIER_RECORD: &str = "contact_barrier";
 /// The version of the format this code writes and reads.
 pub const CHECKPOINT_VERSION: u32 = 2;
 
@@ -206,6 +209,29 @@ impl Checkpoint {
             .iter()
             .find(|(n, _)| n == name)
             .map(|(_, v)| v.as_slice())
+    }
+
+    /// The contact barrier's record of the run ([`BarrierRecord`], stored as the record
+    /// [`BARRIER_RECORD`] by [`BarrierRecord::to_values`]), so that a resumed run reports the
+    /// gap errors and smallest gaps of the whole run. `Ok(None)` when the checkpoint has none
+    /// (a run without contact, or a checkpoint written before the record existed: the resumed
+    /// run then reports what it measures after the resume); [`Error::Parse`] naming `path` and
+    /// the record for another count of values.
+    pub fn barrier_record(&self, path: &Path) -> Result<Option<BarrierRecord>> {
+        let Some(values) = self.record(BARRIER_RECORD) else {
+            return Ok(None);
+        };
+        BarrierRecord::from_values(values)
+            .map(Some)
+            .ok_or_else(|| Error::Parse {
+                path: path.to_path_buf(),
+                line: 1,
+                message: format!(
+                    "the {BARRIER_RECORD} record holds {} values, not {}",
+                    values.len(),
+                    BarrierRecord::VALUES
+                ),
+            })
     }
 
     /// Writes the checkpoint to `path` atomically (a temporary file renamed over it once

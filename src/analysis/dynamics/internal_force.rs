@@ -14,13 +14,149 @@ use std::sync::Arc;
 use super::{Energy, LinearSystem, Mass, State};
 use crate::analysis::problem::Problem;
 use crate::base::error::{Error, Result};
+use crate::base::warning::Warning;
 use crate::bc::constraints::Restriction;
-use crate::contact::{Contact, FrictionLag};
+use crate::contact::{Contact, ContactParameters, FrictionLag, GAP_ERROR_WARNING};
 use crate::fe::assembly::Assembler;
 use crate::mesh::TetMesh;
 use crate::model::assemble::{energy, internal_force, refill_tangent};
 use crate::model::{ForceModel, ModelElement, ModelKind, ModelMap, TetModels};
 use crate::sparse::CscMatrix;
+
+/// What the contact barrier did over a dynamic run ([`NonlinearForce::barrier_record`]): a
+/// dynamic run keeps the barrier's reach d̂ (a moving body has no equilibrium to continue d̂
+/// to, as a static solve does), so its contact forces carry the barrier's gap error, measured
+/// at every accepted step: ε = (Σᵢλᵢdᵢ/Σᵢλᵢ)/max|u|, the pushed nodes' force-weighted gap over
+/// the largest displacement ([`Contact::barrier_gaps`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct BarrierRecord {
+    /// d̂ (length) and κ (pressure) of the run's barrier.
+    pub parameters: ContactParameters,
+    /// The largest gap error over the accepted steps (dimensionless).
+    pub gap_error_max: f64,
+    /// The gap error of the last accepted step (dimensionless).
+    pub gap_error_final: f64,
+    /// The smallest signed distance of a contact node to an obstacle over the accepted steps
+    /// (length; +∞ before the first).
+    pub smallest_step_gap: f64,
+    /// The same over every accepted Newton iterate of every step, rejected steps of an
+    /// error-controlled run included (length; +∞ when no iterate was taken: the explicit
+    /// method solves nothing).
+    pub smallest_iterate_gap: f64,
+    /// Accepted steps measured.
+    pub steps: usize,
+    /// The largest total normal force Σλ of the barrier over the accepted steps (force units).
+    pub peak_force: f64,
+    /// The largest ε·Σλ over the accepted steps (force units): the force error the rule
+    /// bounds, over [`FORCE_ERROR_PER_GAP_ERROR`](crate::contact::FORCE_ERROR_PER_GAP_ERROR).
+    pub peak_gap_force: f64,
+}
+
+impl BarrierRecord {
+    /// The record of a run under `parameters` before its first step.
+    pub fn start(parameters: ContactParameters) -> Self {
+        BarrierRecord {
+            parameters,
+            gap_error_max: 0.0,
+            gap_error_final: 0.0,
+            smallest_step_gap: f64::INFINITY,
+            smallest_iterate_gap: f64::INFINITY,
+            steps: 0,
+            peak_force: 0.0,
+            peak_gap_force: 0.0,
+        }
+    }
+
+    fn take_step(&mut self, gaps: &crate::contact::BarrierGaps) {
+        self.gap_error_max = self.gap_error_max.max(gaps.gap_error);
+        self.gap_error_final = gaps.gap_error;
+        self.smallest_step_gap = self.smallest_step_gap.min(gaps.smallest_gap);
+        self.peak_force = self.peak_force.max(gaps.pushed_force);
+        self.peak_gap_force = self.peak_gap_force.max(gaps.gap_error * gaps.pushed_force);
+        self.steps += 1;
+    }
+
+    /// The gap error the warning judges: max(ε·Σλ)/max(Σλ) over the accepted steps — each
+    /// step's gap error weighted by its contact force relative to the run's largest, so that
+    /// the force error it bounds is relative to the largest contact force of the run. (Early in
+    /// a contact, when the body has barely moved, ε is large but its force is small: the
+    /// shipped sphere press read ε = 0.24 at its first touching steps.) 0 when the barrier
+    /// pushed nothing.
+    pub fn weighted_gap_error(&self) -> f64 {
+        match self.peak_force > 0.0 {
+            true => self.peak_gap_force / self.peak_force,
+            false => 0.0,
+        }
+    }
+
+    /// The smallest gap over every state measured, steps and iterates (length; +∞ when none).
+    pub fn smallest_gap(&self) -> f64 {
+        self.smallest_step_gap.min(self.smallest_iterate_gap)
+    }
+
+    /// [`Warning::BarrierGapError`] when the force-weighted gap error
+    /// ([`weighted_gap_error`](Self::weighted_gap_error)) passed [`GAP_ERROR_WARNING`], where
+    /// the measured relation puts the contact force's error above 1 % of the run's largest.
+    pub fn warning(&self) -> Option<Warning> {
+        let gap_error = self.weighted_gap_error();
+        (gap_error > GAP_ERROR_WARNING).then_some(Warning::BarrierGapError {
+            gap_error,
+            limit: GAP_ERROR_WARNING,
+            activation_distance: self.parameters.activation_distance,
+        })
+    }
+
+    /// The record as numbers, for a checkpoint's records: d̂, κ, the largest and last gap
+    /// errors, the smallest step and iterate gaps, the step count (as f64: exact below 2⁵³),
+    /// the peak force and the peak ε·Σλ.
+    pub fn to_values(&self) -> Vec<f64> {
+        vec![
+            self.parameters.activation_distance,
+            self.parameters.stiffness,
+            self.gap_error_max,
+            self.gap_error_final,
+            self.smallest_step_gap,
+            self.smallest_iterate_gap,
+            self.steps as f64,
+            self.peak_force,
+            self.peak_gap_force,
+        ]
+    }
+
+    /// How many numbers [`to_values`](Self::to_values) gives.
+    pub const VALUES: usize = 9;
+
+    /// The record of [`to_values`](Self::to_values)'s numbers; `None` for another count.
+    pub fn from_values(values: &[f64]) -> Option<Self> {
+        let &[
+            d_hat,
+            kappa,
+            max,
+            last,
+            step_gap,
+            iterate_gap,
+            steps,
+            peak,
+            peak_gap,
+        ] = values
+        else {
+            return None;
+        };
+        Some(BarrierRecord {
+            parameters: ContactParameters {
+                activation_distance: d_hat,
+                stiffness: kappa,
+            },
+            gap_error_max: max,
+            gap_error_final: last,
+            smallest_step_gap: step_gap,
+            smallest_iterate_gap: iterate_gap,
+            steps: steps as usize,
+            peak_force: peak,
+            peak_gap_force: peak_gap,
+        })
+    }
+}
 
 /// The elastic force law of a dynamic run.
 #[derive(Clone, Default)]
@@ -136,6 +272,8 @@ pub struct NonlinearForce {
     /// The friction force on each obstacle over the last step
     /// ([`friction_forces`](Self::friction_forces)).
     last_friction_forces: std::sync::Mutex<Option<Vec<nalgebra::Vector3<f64>>>>,
+    /// What the barrier did over the run so far, with contact ([`barrier_record`](Self::barrier_record)).
+    barrier: std::sync::Mutex<Option<BarrierRecord>>,
 }
 
 impl NonlinearForce {
@@ -208,6 +346,7 @@ impl NonlinearForce {
             contact: None,
             friction: std::sync::Mutex::new(None),
             last_friction_forces: std::sync::Mutex::new(None),
+            barrier: std::sync::Mutex::new(None),
         })
     }
 
@@ -220,6 +359,7 @@ impl NonlinearForce {
     /// Errors: the contact is not of this mesh (a boundary node beyond its nodes).
     pub fn with_contact(mut self, contact: Contact) -> Result<Self> {
         contact.check_state(&vec![0.0; self.mesh.dof_count()])?;
+        self.barrier = std::sync::Mutex::new(Some(BarrierRecord::start(contact.parameters())));
         self.contact = Some(contact);
         Ok(self)
     }
@@ -352,6 +492,56 @@ impl NonlinearForce {
     /// barrier's normal force) for the whole force on each obstacle.
     pub fn friction_forces(&self) -> Option<Vec<nalgebra::Vector3<f64>>> {
         self.last_friction_lock().clone()
+    }
+
+    /// What the barrier did over the accepted steps and Newton iterates so far
+    /// ([`BarrierRecord`]); `None` without contact.
+    pub fn barrier_record(&self) -> Option<BarrierRecord> {
+        *self.barrier_lock()
+    }
+
+    /// Starts the record over (a new run on this force) or sets it to `record` (a resumed
+    /// run's, from its checkpoint). Does nothing without contact.
+    pub fn set_barrier_record(&self, record: Option<BarrierRecord>) {
+        if let Some(contact) = &self.contact {
+            *self.barrier_lock() =
+                Some(record.unwrap_or_else(|| BarrierRecord::start(contact.parameters())));
+        }
+    }
+
+    /// Takes the accepted step's state at free displacements `u` into the record: its gap
+    /// error and smallest gap, the obstacles at their current placement (the step's end, where
+    /// the integrator left them). Nothing without contact: a run without obstacles pays
+    /// nothing.
+    pub fn note_accepted_step(&self, u: &[f64]) -> Result<()> {
+        let Some(contact) = &self.contact else {
+            return Ok(());
+        };
+        let gaps = contact.barrier_gaps(&self.full_displacement(u)?)?;
+        if let Some(record) = self.barrier_lock().as_mut() {
+            record.take_step(&gaps);
+        }
+        Ok(())
+    }
+
+    /// Takes an accepted Newton iterate at free displacements `u` (every one, inside a step)
+    /// into the record's smallest gap. A measurement only: the length is the solver's own, so
+    /// it cannot fail, and it would not stop the solve if it did.
+    pub(crate) fn note_iterate(&self, u: &[f64]) {
+        let Some(contact) = &self.contact else {
+            return;
+        };
+        let smallest = self
+            .full_displacement(u)
+            .and_then(|full| contact.smallest_gap(&full));
+        if let (Ok(gap), Some(record)) = (smallest, self.barrier_lock().as_mut()) {
+            record.smallest_iterate_gap = record.smallest_iterate_gap.min(gap);
+        }
+    }
+
+    fn barrier_lock(&self) -> std::sync::MutexGuard<'_, Option<BarrierRecord>> {
+        // A poisoned lock only means a panic elsewhere while holding plain data: keep it.
+        self.barrier.lock().unwrap_or_else(|e| e.into_inner())
     }
 
     fn friction_lock(&self) -> std::sync::MutexGuard<'_, Option<FrictionLag>> {
@@ -849,6 +1039,24 @@ impl InternalForce {
                 nonlinear.build_map(materials),
                 system,
             ),
+        }
+    }
+
+    /// The barrier's record of a nonlinear force with contact
+    /// ([`NonlinearForce::barrier_record`]); `None` otherwise.
+    pub fn barrier_record(&self) -> Option<BarrierRecord> {
+        match self {
+            InternalForce::Nonlinear(n) => n.barrier_record(),
+            InternalForce::Linear => None,
+        }
+    }
+
+    /// [`NonlinearForce::note_accepted_step`] at `state`'s displacement; nothing without
+    /// contact.
+    pub fn note_accepted_step(&self, state: &State) -> Result<()> {
+        match self {
+            InternalForce::Nonlinear(n) => n.note_accepted_step(&state.displacement),
+            InternalForce::Linear => Ok(()),
         }
     }
 

@@ -32,7 +32,8 @@ mod time_data;
 
 pub use backward_euler::BackwardEuler;
 pub use checkpoint::{
-    CHECKPOINT_MAGIC, CHECKPOINT_VERSION, Checkpoint, IntegratorHistory, fingerprint_hash,
+    BARRIER_RECORD, CHECKPOINT_MAGIC, CHECKPOINT_VERSION, Checkpoint, IntegratorHistory,
+    fingerprint_hash,
 };
 pub use damping::Rayleigh;
 pub use element_bound::{
@@ -41,7 +42,7 @@ pub use element_bound::{
 };
 pub use energy::Energy;
 pub use explicit::{EXPLICIT_REMEDY, SymplecticEuler};
-pub use internal_force::{ForceWorkspace, InternalForce, NonlinearForce};
+pub use internal_force::{BarrierRecord, ForceWorkspace, InternalForce, NonlinearForce};
 pub use newmark::Newmark;
 pub use newton::{NewtonStats, StepNewtonOptions};
 pub use nonlinear_solve::{AUTO_LBFGS_HISTORY, AUTO_REFACTOR_BELOW, NonlinearSolve};

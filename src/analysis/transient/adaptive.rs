@@ -513,6 +513,7 @@ impl Transient {
             }
             let done = lands && self.state.time >= end_time;
             let left = ((end_time - self.state.time) / want).ceil().max(0.0) as usize;
+            self.force.note_accepted_step(&self.state)?;
             let view = StepView {
                 step: self.state.steps,
                 last: self.state.steps + if done { 0 } else { left.max(1) },

@@ -8,8 +8,8 @@ use super::critical::{StepLimit, critical_step};
 use super::observer::{Flow, Observer, StepView};
 use super::time_step::TimeStep;
 use crate::analysis::dynamics::{
-    Energy, Integrator, IntegratorOptions, InternalForce, LinearSystem, MassKind, Method, Rayleigh,
-    State, StepBoundElement,
+    BarrierRecord, Energy, Integrator, IntegratorOptions, InternalForce, LinearSystem, MassKind,
+    Method, Rayleigh, State, StepBoundElement,
 };
 use crate::analysis::{Analysis, Definition};
 use crate::base::error::Result;
@@ -151,6 +151,10 @@ impl Transient {
     ) -> Result<Self> {
         let integrator =
             method.integrator_with_force(Arc::clone(&system), force.clone(), dt, solver)?;
+        // A new run: the barrier's record starts over (a front end may run one force twice).
+        if let InternalForce::Nonlinear(n) = &force {
+            n.set_barrier_record(None);
+        }
         Ok(Transient {
             system,
             force,
@@ -187,6 +191,7 @@ impl Transient {
                     return Err(error);
                 }
             };
+            self.force.note_accepted_step(&self.state)?;
             let view = StepView {
                 step,
                 last,
@@ -257,5 +262,11 @@ impl Transient {
     /// The combination rule's warnings about the definition.
     pub fn warnings(&self) -> &[Warning] {
         &self.warnings
+    }
+
+    /// What the contact barrier did over the run's accepted steps and Newton iterates
+    /// ([`BarrierRecord`]: gap errors, smallest gaps); `None` without contact.
+    pub fn barrier_record(&self) -> Option<BarrierRecord> {
+        self.force.barrier_record()
     }
 }

@@ -48,9 +48,10 @@ What each column is:
 - **Newton mean / max**: iterations per accepted step (the integrator's counts; — for the
   explicit method).
 - **worst gap**: the smallest signed distance of any boundary node to any obstacle over every
-  accepted step (negative: inside). Newton's iterates within a step are not measured one by one:
-  the barrier energy is +∞ at any state with a node inside and the line search accepts only a
-  decrease from a finite start, so no accepted iterate can be inside.
+  accepted step (negative: inside).
+- **worst gap at any iterate**: the same over every accepted Newton iterate inside every step
+  (measured by the library after each, `BarrierRecord::smallest_iterate_gap`) and every
+  accepted step — the explicit method's only states, so its two gap columns agree.
 - **energy growth**: (max_t [H(t) − W(t)] − H(0)) / E_scale (negative: dissipated).
 - **wall**: the cell's wall time, setup included (cells run two at a time on 2 cores).
 ";

@@ -473,4 +473,13 @@ fn a_resumed_run_keeps_the_peak_reached_before_its_checkpoint() {
     assert_eq!(resumed.contact_forces, whole.contact_forces);
     let peak = &whole.contact_forces.as_ref().unwrap()[0];
     assert!(peak.peak_time_s < 0.3, "{}", peak.peak_time_s);
+    // The barrier's record too (the checkpoint's `contact_barrier` record): the landing's
+    // gap errors and smallest gap before the checkpoint are the whole run's.
+    assert_eq!(resumed.contact_barrier, whole.contact_barrier);
+    let barrier = whole.contact_barrier.unwrap();
+    assert!(barrier.gap_error_max > 0.0, "{barrier:?}");
+    assert!(
+        barrier.smallest_gap_m.is_some_and(|g| g > 0.0),
+        "{barrier:?}"
+    );
 }

@@ -414,6 +414,11 @@ pub struct DynamicSummary {
     /// With `[[obstacles]]`: per obstacle the force the body exerts on it at the last step
     /// (N) and the peak magnitude over the run with its time (s); `None` without obstacles.
     pub contact_forces: Option<Vec<super::ContactForceHistory>>,
+    /// With `[[obstacles]]`: the barrier's activation distance and stiffness, its largest and
+    /// last gap error over the accepted steps and the smallest gap over every step and Newton
+    /// iterate (see [`DynamicContactBarrier`](super::DynamicContactBarrier)); `None` without
+    /// obstacles.
+    pub contact_barrier: Option<super::DynamicContactBarrier>,
     /// With `[analysis] time_tolerance`: the error-controlled run's own error estimate, its
     /// accepted and rejected steps and its smallest and largest step (then `dt` is the first
     /// step, `steps` the accepted ones); absent (`None`, and not in the JSON) otherwise.

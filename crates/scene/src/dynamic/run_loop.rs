@@ -218,7 +218,10 @@ impl<E: SceneElement> Observer for StepWatcher<'_, '_, E> {
                 view.integrator,
                 view.state,
                 &self.recorder.probes,
-                self.recorder.contact_forces.as_deref().unwrap_or_default(),
+                (
+                    self.recorder.contact_forces.as_deref().unwrap_or_default(),
+                    view.force.barrier_record(),
+                ),
             )?;
         }
         Ok(if stop { Flow::Stop } else { Flow::Continue })
@@ -289,7 +292,7 @@ impl<'s, E: SceneElement> StepRecorder<'s, E> {
         integrator: &mut dyn Integrator,
     ) -> Result<Option<State>> {
         restart.restore(
-            integrator,
+            (integrator, &self.setup.force),
             &mut self.probes,
             self.contact_forces.as_deref_mut().unwrap_or_default(),
         )
@@ -404,23 +407,22 @@ fn close_run<E: SceneElement>(
     };
     let (mut files, mut frames) = (Vec::new(), 0);
     if let Some(w) = recorder.writer {
-        frames = w.frames;
-        files = w.finish()?;
+        (frames, files) = (w.frames, w.finish()?);
     }
     let (first, steps, clocks) = (tally.first, tally.steps, tally.clocks);
+    let barrier = setup.force.barrier_record();
+    // The run's own checks: deformation, step resolution, the barrier's reach.
+    let checks = [
+        deformation.and_then(|d| d.warning()),
+        step_resolution.and_then(|r| r.warning()),
+        barrier.and_then(|b| b.warning()),
+    ];
     Ok(DynamicSummary {
-        warnings: mesh
-            .warnings()
-            .iter()
+        warnings: (mesh.warnings().iter())
             .chain(&setup.materials.warnings())
             .chain(&setup.input_warnings)
+            .chain(checks.iter().flatten())
             .map(ToString::to_string)
-            .chain(deformation.and_then(|d| d.warning()).map(|w| w.to_string()))
-            .chain(
-                step_resolution
-                    .and_then(|r| r.warning())
-                    .map(|w| w.to_string()),
-            )
             .collect(),
         title: run.title.clone(),
         scene: run.source.clone(),
@@ -458,6 +460,9 @@ fn close_run<E: SceneElement>(
         step_resolution,
         resumed_from_step: tally.resumed_at,
         contact_forces: recorder.contact_forces,
+        contact_barrier: barrier
+            .as_ref()
+            .map(super::super::DynamicContactBarrier::of),
         time_stepping: tally.time_stepping.clone(),
     })
 }

@@ -945,6 +945,8 @@ impl NewtonSystem for StepSystem<'_> {
             &solver.trial_residual,
         );
         self.u_new.copy_from_slice(&solver.trial);
+        // The smallest gap of every accepted iterate (with contact; nothing without).
+        solver.force.note_iterate(self.u_new);
         std::mem::swap(&mut solver.residual, &mut solver.trial_residual);
         std::mem::swap(&mut solver.residual_energy, &mut solver.trial_energy);
         norm(&solver.residual)
