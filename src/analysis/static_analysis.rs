@@ -91,6 +91,9 @@ pub struct StaticOutcome {
     /// With contact: the solution's gap error (dimensionless; see
     /// [`NewtonReport::gap_error`](crate::analysis::nonlinear::NewtonReport::gap_error)).
     pub gap_error: Option<f64>,
+    /// With contact: the smallest gap of any accepted Newton iterate (length; see
+    /// [`NewtonReport::smallest_iterate_gap`](crate::analysis::nonlinear::NewtonReport::smallest_iterate_gap)).
+    pub smallest_iterate_gap: Option<f64>,
     /// Which path ran, with its counts.
     pub path: StaticPath,
 }
@@ -242,6 +245,7 @@ impl<'a, C: ModelElement> Static<'a, C> {
                 friction_forces: Vec::new(),
                 contact_parameters: None,
                 gap_error: None,
+                smallest_iterate_gap: None,
                 path: StaticPath::Linear {
                     info: solution.info,
                     timings: solver.timings(),
@@ -310,6 +314,7 @@ impl<'a, C: ModelElement> Static<'a, C> {
             friction_forces: report.obstacle_friction_forces,
             contact_parameters: report.contact_parameters,
             gap_error: report.gap_error,
+            smallest_iterate_gap: report.smallest_iterate_gap,
             reactions,
             displacement: report.displacement,
             path: StaticPath::Newton {

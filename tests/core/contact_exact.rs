@@ -117,6 +117,16 @@ fn barrier(mesh: &TetMesh, approach: f64, gap_tolerance: f64) -> (f64, Vec<usize
     )
     .unwrap();
     let u = &report.displacement;
+    // Every accepted Newton iterate (load step and continuation stages) kept every node above
+    // the plane — the barrier's guarantee, measured — and the solution is one of them.
+    let (iterates, solution) = (
+        report.smallest_iterate_gap.unwrap(),
+        contact.smallest_gap(u).unwrap(),
+    );
+    assert!(
+        iterates > 0.0 && iterates <= solution,
+        "{iterates} m at an iterate, {solution} m at the solution"
+    );
     // Forces and gaps under the barrier the solution is in equilibrium under.
     let solved = contact
         .with_parameters(report.contact_parameters.unwrap())

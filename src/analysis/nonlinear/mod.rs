@@ -79,6 +79,12 @@ pub struct NewtonReport {
     /// continuation ran out of stages or the contact has friction (whose solve keeps the
     /// given d̂).
     pub gap_error: Option<f64>,
+    /// With contact: the smallest signed distance of any boundary node to any obstacle over
+    /// every accepted Newton iterate of every load step and continuation stage (length;
+    /// [`Contact::smallest_gap`]). Positive by the barrier's argument (a state with a node
+    /// inside has infinite energy, and the line search accepts only a decrease from a finite
+    /// start); this measures it. `None` without contact.
+    pub smallest_iterate_gap: Option<f64>,
 }
 
 impl NewtonReport {
@@ -366,6 +372,7 @@ fn solve<E: ModelElement, M: TetModels + ?Sized>(
         iterations: 0,
         ladder: &ladder,
         barrier: None,
+        smallest_iterate_gap: f64::INFINITY,
     };
     let load_norm = norm(&dofs.restrict(loads.as_slice())?);
     let mut u = vec![0.0; mesh.dof_count()];
@@ -406,6 +413,7 @@ fn solve<E: ModelElement, M: TetModels + ?Sized>(
         obstacle_friction_forces,
         contact_parameters: newton.barrier.map(|b| b.parameters),
         gap_error: newton.barrier.map(|b| b.gap_error),
+        smallest_iterate_gap: contact.map(|_| newton.smallest_iterate_gap),
     })
 }
 
@@ -457,6 +465,8 @@ struct StaticNewton<'a, E: ModelElement, M: TetModels + ?Sized> {
     ladder: &'a std::cell::OnceCell<Vec<Contact>>,
     /// The barrier the last load step ended under, and its gap error.
     barrier: Option<continuation::BarrierEnd>,
+    /// The smallest gap of any accepted iterate so far (length; ∞ without contact).
+    smallest_iterate_gap: f64,
 }
 
 impl<E: ModelElement, M: TetModels + ?Sized> StaticNewton<'_, E, M> {
@@ -1013,6 +1023,12 @@ impl<E: ModelElement, M: TetModels + ?Sized> NewtonSystem for LoadStepSystem<'_,
         if let Some((trial, r_trial)) = self.trial.take() {
             *self.u = trial;
             *self.r = r_trial;
+        }
+        if let Some(contact) = self.newton.contact {
+            // Measured, not needed by the solve: a length mismatch cannot occur here (the
+            // contact was checked against this mesh) and would only leave the record as it was.
+            let gap = contact.smallest_gap(self.u).unwrap_or(f64::INFINITY);
+            self.newton.smallest_iterate_gap = self.newton.smallest_iterate_gap.min(gap);
         }
         self.newton.iterations += 1;
         let now = norm(self.r);
