@@ -3,7 +3,7 @@
 
 use std::sync::Arc;
 
-use super::newton::{NewtonSolver, StepEquation, solve_mass};
+use super::newton::{NewtonSolver, StepEquation, contact_force_and_energy, solve_mass};
 use super::{
     DivergenceGuard, Integrator, IntegratorHistory, IntegratorOptions, InternalForce, LinearSystem,
     Mass, NewtonStats, State, check_time_step,
@@ -49,6 +49,48 @@ pub struct Newmark {
     load: Vec<f64>,
     /// The Newton solver of a nonlinear force (`None`: the linear path).
     newton: Option<NewtonSolver>,
+    /// With contact: the acceleration of the step's non-contact forces,
+    /// a_el = a − M⁻¹·f_c(u), the predictor's and the update's a (see [`Newmark`]).
+    elastic_acceleration: Vec<f64>,
+    /// With contact and a consistent mass: M's factor for M⁻¹·f_c, made once.
+    mass_factor: MassFactor,
+}
+
+/// A consistent mass's Cholesky factor, kept (`None` until needed).
+#[derive(Default)]
+struct MassFactor(Option<SparseCholesky>);
+
+impl std::fmt::Debug for MassFactor {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(if self.0.is_some() {
+            "MassFactor(factored)"
+        } else {
+            "MassFactor(none)"
+        })
+    }
+}
+
+impl MassFactor {
+    /// b ← M⁻¹·b.
+    fn solve(&mut self, mass: &Mass, b: &mut [f64]) -> Result<()> {
+        match mass {
+            Mass::Lumped(m) => {
+                b.iter_mut().zip(m).for_each(|(a, m)| *a /= m);
+                Ok(())
+            }
+            Mass::Consistent(m) => {
+                if self.0.is_none() {
+                    let mut cholesky = SparseCholesky::analyze(m)?;
+                    cholesky.factorize(m)?;
+                    self.0 = Some(cholesky);
+                }
+                match &mut self.0 {
+                    Some(cholesky) => Ok(cholesky.solve_in_place(b)?),
+                    None => Ok(()),
+                }
+            }
+        }
+    }
 }
 
 impl Newmark {
@@ -97,6 +139,8 @@ impl Newmark {
             product: vec![0.0; n],
             rhs: vec![0.0; n],
             newton,
+            elastic_acceleration: Vec::new(),
+            mass_factor: MassFactor::default(),
         })
     }
 
@@ -115,6 +159,11 @@ impl Newmark {
         state.check_len(n)?;
         if let Some(newton) = &self.newton {
             newton.force().set_time(&self.system, state.time)?;
+            // Moving obstacles where they are at the step's start (a rejected step may have
+            // left them staged part-way): f_c(u) below is taken there.
+            if let Some(contact) = newton.force().contact().filter(|c| c.is_moving()) {
+                contact.set_time(state.time);
+            }
         }
         let Some(newton) = self.newton.as_ref() else {
             return Ok(());
@@ -144,7 +193,19 @@ impl Newmark {
             solve_mass(self.system.mass(), &mut self.acceleration)?;
             self.acceleration_of = Some((state.steps, state.time));
         }
-        let (u, v, a) = (&state.displacement, &state.velocity, &self.acceleration);
+        // With contact the contact force is taken at the step's end alone (see [`Newmark`]):
+        // the predictor and the update use the acceleration of the other forces.
+        let end_point = newton.force().contact().is_some();
+        if end_point {
+            let mut contact = contact_force_and_energy(newton.force(), &state.displacement)?.0;
+            self.mass_factor.solve(self.system.mass(), &mut contact)?;
+            self.elastic_acceleration = (0..n).map(|i| self.acceleration[i] - contact[i]).collect();
+        }
+        let (u, v) = (&state.displacement, &state.velocity);
+        let a = match end_point {
+            true => &self.elastic_acceleration,
+            false => &self.acceleration,
+        };
         for i in 0..n {
             self.work[i] = u[i] + dt * v[i] + 0.25 * dt * dt * a[i];
         }
@@ -170,6 +231,10 @@ impl Newmark {
             // the passes' gain is on sliding (the Coulomb impulse at 2 and 5 ms: −4.0 % and
             // −8.4 % without them, −0.35 % and −0.6 % with them). Left open (issue 35).
             friction_passes: false,
+            contact_weight: match end_point {
+                true => 2.0,
+                false => 1.0,
+            },
             load,
         };
         newton.solve(
@@ -181,12 +246,33 @@ impl Newmark {
             state.steps,
             state.time,
         )?;
-        self.advance(state);
+        match end_point {
+            true => self.advance_end_point(state)?,
+            false => self.advance(state),
+        }
         let energy = self.energy_of(state)?;
         match &self.guard {
             Some(guard) => guard.check(state, &energy),
             None => Ok(()),
         }
+    }
+
+    /// The update of a contact step, from a_el (`elastic_acceleration`):
+    /// ã = 4/dt²·(u⁺ − u) − 4/dt·v − a_el (= a_el⁺ + 2·M⁻¹·f_c(u⁺)), v⁺ = v + dt/2·(a_el + ã),
+    /// u ← u⁺, and the state's acceleration a⁺ = ã − M⁻¹·f_c(u⁺) (its forces at u⁺, the
+    /// contact's once: what [`net_force`](NewtonSolver::net_force) gives on a fresh start).
+    fn advance_end_point(&mut self, state: &mut State) -> Result<()> {
+        std::mem::swap(&mut self.acceleration, &mut self.elastic_acceleration);
+        self.advance(state);
+        let Some(newton) = &self.newton else {
+            return Ok(());
+        };
+        let mut contact = contact_force_and_energy(newton.force(), &state.displacement)?.0;
+        self.mass_factor.solve(self.system.mass(), &mut contact)?;
+        for (a, c) in self.acceleration.iter_mut().zip(&contact) {
+            *a -= c;
+        }
+        Ok(())
     }
 
     /// a⁺ = 4/dt²·(u⁺ − u) − 4/dt·v − a,  v⁺ = v + dt/2·(a + a⁺),  u ← u⁺ (u⁺ in `rhs`).
