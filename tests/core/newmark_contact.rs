@@ -172,16 +172,22 @@ fn newmark_drop_never_gains_energy_at_any_step() {
 }
 
 #[test]
-fn newmark_drop_rebounds_more_elastically_as_the_step_shrinks() {
+fn newmark_drop_rebounds_less_at_long_steps() {
     let restitution: Vec<f64> = [0.5, 1.0, 10.0]
         .iter()
         .map(|&m| run_drop(ModelKind::NeoHookean, m).restitution)
         .collect();
     println!("restitution at 0.5, 1, 10× dt_crit: {restitution:?}");
-    // The barrier's loss per step is its convexity gap over the step's move through the barrier:
-    // fewer, longer steps through the contact lose more. Some of the fall's energy stays in the
-    // block's vibration after the impact, so even the exact elastic impact rebounds below 1.
+    // Measured: 0.565, 0.560, 0.254 (and 0.567, 0.565, 0.562, 0.557 at 0.25, 0.1, 0.05 and
+    // 0.02×: no approach to 1 as dt shrinks). The barrier's loss per step is its convexity gap
+    // over the step's move: its stiffness at a contact node grows without bound as the gap
+    // closes, so no step resolves the contact nodes' normal oscillation and the end-point rule
+    // removes it (their normal kinetic energy at each touch, as in Deuflhard, Krause & Ertel's
+    // contact-stabilised Newmark): a loss tied to the contact nodes' share of the mass on this
+    // 4×4×4 mesh, not to dt. Longer steps through the impact lose more on top of it.
     assert!(restitution[0] >= restitution[1] && restitution[1] >= restitution[2]);
+    // Some of the fall's energy stays in the block's vibration after the impact, so even the
+    // exact elastic impact rebounds below 1; the bound 0.5 is under the measured 0.56.
     assert!(restitution[0] > 0.5 && restitution[0] <= 1.0);
 }
 
