@@ -91,7 +91,7 @@ impl ContactBlocks {
 /// the force law's own evaluation is the step's).
 pub(crate) fn extra_weight(force: &NonlinearForce, equation: &StepEquation) -> Option<f64> {
     (force.contact().is_some() && equation.contact_weight != 1.0)
-        .then(|| equation.contact_weight - 1.0)
+        .then_some(equation.contact_weight - 1.0)
 }
 
 /// The contact force −∂E_c/∂u (force units) on the free DOFs at free displacements `u`, and
