@@ -46,8 +46,8 @@ use crate::sparse::CscMatrix;
 /// other forces, and the barrier weighted by 2 (the gradient of Φ with 2·E_c: the line search
 /// and its collision-free first fraction unchanged); a⁺ = 4/dt²·(u⁺ − u) − 4/dt·v − a_el −
 /// M⁻¹·f_c(u⁺) is again the acceleration of all the forces at u⁺, so the stored acceleration
-/// (and a checkpoint's) means what a fresh start computes. Friction (lagged) stays on the
-/// trapezoid, its normal forces re-lagged at each step's solution.
+/// (and a checkpoint's) means what a fresh start computes. Friction (lagged at the step's
+/// start) stays on the trapezoid.
 #[derive(Debug)]
 pub struct Newmark {
     system: Arc<LinearSystem>,
@@ -243,13 +243,14 @@ impl Newmark {
             damping_velocity: Some(v),
             duration: dt,
             first_iterate: Some(&guess),
-            // On: friction's normal forces re-lagged at the step's solution. With the contact
-            // force at the step's end the block on a turntable (tests/core/turntable.rs,
-            // undamped) rides at ω·r within 5e-4 at 2, 5 and 10 ms with them; without them it
-            // drifts outward at 2 ms (0.17 mm in 0.05 s) and slides off at 5 and 10 ms (0.76
-            // against 0.83 m/s, 0.68 against 1.49 m/s). On the conveyor they change the sliding
-            // block's drag by under 0.1 % (tests/core/conveyor.rs).
-            friction_passes: true,
+            // Off. With the contact force at the step's end the passes keep an undamped block
+            // riding a turntable at ω·r within 5e-4 at 2, 5 and 10 ms (without them it drifts
+            // out at 2 ms and slides off at 5 and 10 ms; with β = 1e-4 s of stiffness damping
+            // it rides at 2 ms, tests/core/turntable.rs), but they change the conveyor's drag by
+            // under 0.1 % and in the contact stress suite they took 1.2–2.7× the Newton
+            // iterations per step (drop 6.2 → 9.5 at 0.5× dt_crit) and failed the drop at 10×
+            // (Newton at step 4), which completes without them.
+            friction_passes: false,
             contact_weight: match end_point {
                 true => 2.0,
                 false => 1.0,
