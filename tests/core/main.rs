@@ -43,6 +43,7 @@ mod modal;
 mod model_adequacy;
 mod moving_obstacle_steps;
 mod moving_supports;
+mod newmark_contact;
 mod nonlinear_tet10;
 mod nonlinear_time_varying;
 mod p2_stress;

@@ -15,6 +15,7 @@
 //! hands a strategy the [`NewtonMatrix`]: what J is formed from and where it is factored.
 
 use super::NewtonStats;
+use super::weight::ContactBlocks;
 use crate::analysis::dynamics::internal_force::{ForceWorkspace, NonlinearForce, combine};
 use crate::analysis::dynamics::lbfgs::LbfgsMemory;
 use crate::analysis::dynamics::nodal_rotation::NodalRotations;
@@ -45,6 +46,9 @@ pub(crate) struct NewtonMatrix<'a> {
     pub matrix: &'a mut CscMatrix,
     /// The linear solver of J.
     pub solver: &'a mut LinearSolver,
+    /// The barrier's Hessian counted (w − 1) more times in J, with its scratch (see
+    /// [`super::StepEquation::contact_weight`]); `None` for w = 1.
+    pub contact_extra: Option<(&'a mut ContactBlocks, f64)>,
 }
 
 impl NewtonMatrix<'_> {
@@ -57,6 +61,12 @@ impl NewtonMatrix<'_> {
             (self.work, self.tangent),
             (u_new, project),
             self.matrix,
+        )?;
+        add_contact_extra(
+            self.force,
+            &mut self.contact_extra,
+            (u_new, project),
+            self.matrix,
         )
     }
 
@@ -65,8 +75,10 @@ impl NewtonMatrix<'_> {
     fn factor(&mut self, u_new: &[f64]) -> Result<()> {
         let parts = (self.system, self.force, self.damping_tangent, self.scales);
         let (work, tangent) = (&mut *self.work, &mut *self.tangent);
+        let extra = &mut self.contact_extra;
         factor_exact_or_projected(self.solver, self.matrix, |project, matrix| {
-            form_into(parts, (&mut *work, &mut *tangent), (u_new, project), matrix)
+            form_into(parts, (&mut *work, &mut *tangent), (u_new, project), matrix)?;
+            add_contact_extra(parts.1, extra, (u_new, project), matrix)
         })
     }
 
@@ -111,6 +123,22 @@ fn form_into(
         }
     }
     Ok(())
+}
+
+/// Adds (w − 1)·∂²E_c(u') into J when the step weighs the barrier by w ≠ 1 (`extra`), the
+/// barrier's curvature term dropped when `project` is set.
+fn add_contact_extra(
+    force: &NonlinearForce,
+    extra: &mut Option<(&mut ContactBlocks, f64)>,
+    (u_new, project): (&[f64], bool),
+    matrix: &mut CscMatrix,
+) -> Result<()> {
+    match (extra, force.contact()) {
+        (Some((blocks, w)), Some(contact)) => {
+            blocks.add(force, contact, (u_new, project, *w), matrix)
+        }
+        _ => Ok(()),
+    }
 }
 
 /// How one Newton iteration finds its direction; each implementation owns its state.

@@ -10,6 +10,9 @@
 
 mod direction;
 mod smoothing;
+mod weight;
+
+pub(crate) use weight::contact_force_and_energy;
 
 use std::sync::Arc;
 
@@ -135,6 +138,10 @@ pub(crate) struct StepEquation<'a> {
     /// [`NewtonSolver::solve`]). Newmark takes them: undamped, its block on a barrier keeps
     /// bouncing and λ of the step's start is not the step's.
     pub friction_passes: bool,
+    /// w, the weight of the contact barrier in the step equation (dimensionless): the residual
+    /// holds −w·f_c(u'), Φ holds w·E_c(u') and J w·∂²E_c. Backward Euler 1; Newmark 2, its
+    /// contact force taken at the step's end (see [`super::Newmark`]).
+    pub contact_weight: f64,
 }
 
 /// The obstacles' offsets (length, one per obstacle) at a step's start and at its end.
@@ -188,6 +195,11 @@ pub(crate) struct NewtonSolver {
     last_reference: f64,
     /// The smallest step that changes a force ([`NonlinearForce::step_resolution`], length).
     step_resolution: f64,
+    /// The scratch of a contact weight other than 1 ([`StepEquation::contact_weight`]), made
+    /// at the first such step.
+    contact_blocks: Option<weight::ContactBlocks>,
+    /// The weight of the step being solved, for the Newton matrix.
+    contact_weight: f64,
 }
 
 impl std::fmt::Debug for NewtonSolver {
@@ -243,6 +255,8 @@ impl NewtonSolver {
             reference_floor: 0.0,
             last_reference: 0.0,
             step_resolution,
+            contact_blocks: None,
+            contact_weight: 1.0,
         })
     }
 
@@ -348,9 +362,18 @@ impl NewtonSolver {
             self.internal_at.copy_from_slice(u_new);
             self.internal_valid = true;
         }
+        // The barrier's share beyond the force law's one (Newmark's end-point contact).
+        let extra = match weight::extra_weight(&self.force, equation) {
+            Some(extra) => Some((extra, weight::contact_force_and_energy(&self.force, u_new)?)),
+            None => None,
+        };
+        let energy = match &extra {
+            Some((w, (_, e))) => self.internal_energy + w * e,
+            None => self.internal_energy,
+        };
         match out_is_trial {
-            true => self.trial_energy = self.internal_energy,
-            false => self.residual_energy = self.internal_energy,
+            true => self.trial_energy = energy,
+            false => self.residual_energy = energy,
         }
         let (s_m, s_c) = (equation.mass_scale, equation.damping_scale);
         let vc = |i: usize| equation.damping_velocity.map_or(0.0, |v| v[i]);
@@ -367,6 +390,11 @@ impl NewtonSolver {
         let f = equation.load;
         for i in 0..u_new.len() {
             out[i] -= self.internal[i] + f[i];
+        }
+        if let Some((w, (contact_force, _))) = &extra {
+            for (o, fc) in out.iter_mut().zip(contact_force) {
+                *o -= w * fc;
+            }
         }
         if let Some(k) = &self.damping_tangent {
             for i in 0..u_new.len() {
@@ -474,6 +502,13 @@ impl NewtonSolver {
     ) -> Result<usize> {
         u_new.copy_from_slice(equation.start);
         self.direction.begin_step();
+        self.contact_weight = 1.0;
+        if weight::extra_weight(&self.force, equation).is_some() {
+            if self.contact_blocks.is_none() {
+                self.contact_blocks = Some(weight::ContactBlocks::new(&self.force, matrix)?);
+            }
+            self.contact_weight = equation.contact_weight;
+        }
         if let Some(k) = &mut self.damping_tangent {
             self.force
                 .tangent_into(equation.start, true, &mut self.work, k)?;
@@ -813,6 +848,10 @@ impl NewtonSolver {
         solver: &mut LinearSolver,
         first: bool,
     ) -> Result<()> {
+        let contact_extra = match (&mut self.contact_blocks, self.contact_weight) {
+            (Some(blocks), w) if w != 1.0 => Some((blocks, w - 1.0)),
+            _ => None,
+        };
         let mut newton = NewtonMatrix {
             system,
             force: &self.force,
@@ -822,6 +861,7 @@ impl NewtonSolver {
             scales,
             matrix,
             solver,
+            contact_extra,
         };
         self.direction.direction(
             &mut newton,
