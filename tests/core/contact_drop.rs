@@ -13,10 +13,12 @@ use tetfem::contact::{Contact, ContactParameters, Obstacle};
 use tetfem::model::ModelKind;
 use tetfem::{BoxSplit, Constraints, Loads, Material, TetMesh};
 
-const SIDE: f64 = 0.2;
-const DROP: f64 = 0.02;
+pub(crate) const SIDE: f64 = 0.2;
+pub(crate) const DROP: f64 = 0.02;
 
-fn block() -> (TetMesh, Material, Constraints) {
+/// A 20 cm rubber block (E = 100 kPa, 4×4×4 cells) with its underside DROP above z = 0, held
+/// on its two mirror planes.
+pub(crate) fn block() -> (TetMesh, Material, Constraints) {
     let mesh = TetMesh::box_grid(
         Vector3::new(0.0, 0.0, DROP),
         Vector3::new(SIDE, SIDE, DROP + SIDE),

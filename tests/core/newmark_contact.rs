@@ -12,41 +12,14 @@ use tetfem::analysis::dynamics::{
 };
 use tetfem::contact::{Contact, ContactParameters, Obstacle};
 use tetfem::model::ModelKind;
-use tetfem::{BoxSplit, Constraints, Loads, Material, TetMesh};
+use tetfem::{Loads, TetMesh};
 
-const SIDE: f64 = 0.2;
-const DROP: f64 = 0.02;
+use super::contact_drop::{DROP, SIDE, block};
+
 const GRAVITY: f64 = 9.81;
 /// Long enough for the fall (0.064 s), the impact and the rise back to the apex; short of a
 /// second impact.
 const DURATION: f64 = 0.25;
-
-/// The soft block of `contact_drop.rs` (20 cm, E = 100 kPa), its underside DROP above a
-/// frictionless floor at z = 0, held on its two mirror planes against the free x, y and turn.
-fn block() -> (TetMesh, Material, Constraints) {
-    let mesh = TetMesh::box_grid(
-        Vector3::new(0.0, 0.0, DROP),
-        Vector3::new(SIDE, SIDE, DROP + SIDE),
-        [4, 4, 4],
-        BoxSplit::Lecture6,
-    )
-    .unwrap();
-    let rubber = Material::new(1e5, 0.3, 1000.0).unwrap();
-    let mut constraints = Constraints::new(&mesh);
-    constraints
-        .fix_axes(
-            &mesh.nodes_on_plane(0, 0.5 * SIDE, 1e-9),
-            [true, false, false],
-        )
-        .unwrap();
-    constraints
-        .fix_axes(
-            &mesh.nodes_on_plane(1, 0.5 * SIDE, 1e-9),
-            [false, true, false],
-        )
-        .unwrap();
-    (mesh, rubber, constraints)
-}
 
 /// A Newmark drop: the system, the force (model and floor) and the integrator at
 /// `multiple` × the explicit critical step.
