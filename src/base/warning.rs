@@ -139,13 +139,16 @@ pub enum Warning {
     /// A dynamic run's contact barrier held pushed nodes so far off the obstacles that its
     /// contact forces may be off the exact contact of the mesh by more than 1 % of the run's
     /// largest: its gap error ε = (Σλd/Σλ)/max|u|, each step's weighted by its contact force
-    /// over the largest, passed `limit` ([`GAP_ERROR_WARNING`](crate::contact::GAP_ERROR_WARNING),
-    /// from the force error measured per unit of gap error).
+    /// over the largest, passed `limit` (the contact module's `GAP_ERROR_WARNING`, from the
+    /// force error measured per unit of gap error).
     BarrierGapError {
         /// The run's largest gap error (dimensionless).
         gap_error: f64,
         /// The level it passed (dimensionless).
         limit: f64,
+        /// The measured bound on the force error per unit of gap error (dimensionless; the
+        /// contact module's `FORCE_ERROR_PER_GAP_ERROR`).
+        force_error_per_gap_error: f64,
         /// The barrier's activation distance d̂ (length).
         activation_distance: f64,
     },
@@ -244,6 +247,7 @@ impl fmt::Display for Warning {
             Warning::BarrierGapError {
                 gap_error,
                 limit,
+                force_error_per_gap_error,
                 activation_distance,
             } => write!(
                 f,
@@ -252,8 +256,8 @@ impl fmt::Display for Warning {
                  largest), above {limit:.2e}: its contact forces may be off the exact contact by up to {:.1} % \
                  of the largest (at most {} times the gap error, measured); a smaller [contact] \
                  activation_distance than {} lowers it",
-                100.0 * gap_error * crate::contact::FORCE_ERROR_PER_GAP_ERROR,
-                crate::contact::FORCE_ERROR_PER_GAP_ERROR,
+                100.0 * gap_error * force_error_per_gap_error,
+                force_error_per_gap_error,
                 crate::base::error::short_number(*activation_distance)
             ),
             Warning::NoFreeDofs { dofs } => write!(

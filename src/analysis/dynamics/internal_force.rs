@@ -102,6 +102,7 @@ impl BarrierRecord {
         (gap_error > GAP_ERROR_WARNING).then_some(Warning::BarrierGapError {
             gap_error,
             limit: GAP_ERROR_WARNING,
+            force_error_per_gap_error: crate::contact::FORCE_ERROR_PER_GAP_ERROR,
             activation_distance: self.parameters.activation_distance,
         })
     }
