@@ -113,13 +113,11 @@ pub enum Warning {
         /// The run's step (s).
         dt: f64,
     },
-    /// A combination that runs, but whose integrator does not bound the energy with what it is
-    /// combined with (see [`Combination::check`](crate::analysis::Combination::check)).
-    EnergyNotBounded {
+    /// A combination that runs, but whose integrator loses energy at each impact on an
+    /// obstacle (see [`Combination::check`](crate::analysis::Combination::check)).
+    ImpactLosesEnergy {
         /// The integrator (a scene's `method` value).
         method: &'static str,
-        /// What it is combined with (e.g. `obstacles`).
-        with: &'static str,
         /// The measured behaviour.
         measured: String,
     },
@@ -212,11 +210,9 @@ impl fmt::Display for Warning {
                 100.0 * decay,
                 100.0 * limit
             ),
-            Warning::EnergyNotBounded {
-                method,
-                with,
-                measured,
-            } => write!(f, "method \"{method}\" with {with}: {measured}"),
+            Warning::ImpactLosesEnergy { method, measured } => {
+                write!(f, "method \"{method}\" with obstacles: {measured}")
+            }
             Warning::AmplitudeVanishes { key, from, to } => write!(
                 f,
                 "{key} is 0 over the whole run (t = {} to {} s): what it scales never acts; \

@@ -511,7 +511,7 @@ fn every_combination_runs_or_is_a_named_physics_refusal() {
                                 (Ok(warnings), false) => {
                                     let warned = warnings
                                         .iter()
-                                        .any(|w| matches!(w, Warning::EnergyNotBounded { .. }));
+                                        .any(|w| matches!(w, Warning::ImpactLosesEnergy { .. }));
                                     let newmark_contact = obstacles
                                         && analysis == Analysis::Transient(Method::Newmark);
                                     assert_eq!(warned, newmark_contact, "{cell:?}");

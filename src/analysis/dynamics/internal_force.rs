@@ -828,6 +828,34 @@ impl NonlinearForce {
         work: &mut ForceWorkspace,
         out: &mut CscMatrix,
     ) -> Result<()> {
+        self.tangent_of_into(u, project, true, work, out)
+    }
+
+    /// The model's own tangent K_T(u) on the free DOFs into `out`, contact and friction left
+    /// out: the stiffness of Rayleigh damping C = α·M + β·K_T, a property of the material. The
+    /// barrier's Hessian, orders of magnitude above it near a closing gap and changing from
+    /// step to step, would make the damping step-dependent; with Newmark's damping force
+    /// carried in its acceleration from the step before, the mismatch put energy in (the
+    /// stability map's damped Newmark·ground cells).
+    pub fn material_tangent_into(
+        &self,
+        u: &[f64],
+        project: bool,
+        work: &mut ForceWorkspace,
+        out: &mut CscMatrix,
+    ) -> Result<()> {
+        self.tangent_of_into(u, project, false, work, out)
+    }
+
+    /// [`tangent_into`](Self::tangent_into), with contact's part when `with_contact`.
+    fn tangent_of_into(
+        &self,
+        u: &[f64],
+        project: bool,
+        with_contact: bool,
+        work: &mut ForceWorkspace,
+        out: &mut CscMatrix,
+    ) -> Result<()> {
         Error::check_len("displacement", self.free_count(), u.len())?;
         if !Arc::ptr_eq(out.pattern(), &self.pattern) {
             return Err(Error::invalid_parameter(
@@ -844,7 +872,7 @@ impl NonlinearForce {
             project,
             &mut work.full_tangent,
         )?;
-        if let Some(contact) = &self.contact {
+        if let Some(contact) = self.contact.as_ref().filter(|_| with_contact) {
             contact.add_tangent(&work.full, project, &mut work.full_tangent)?;
             if let Some(lag) = self.friction_lock().as_ref() {
                 contact.add_friction_tangent(lag, &work.full, &mut work.full_tangent)?;

@@ -299,7 +299,7 @@ impl NewtonSolver {
         }
         if damping.beta > 0.0 {
             self.force
-                .tangent_into(u, true, &mut self.work, &mut self.tangent)?;
+                .material_tangent_into(u, true, &mut self.work, &mut self.tangent)?;
             self.tangent.product_into(v, &mut self.scratch);
             for (o, kv) in out.iter_mut().zip(&self.scratch) {
                 *o -= damping.beta * kv;
@@ -511,7 +511,7 @@ impl NewtonSolver {
         }
         if let Some(k) = &mut self.damping_tangent {
             self.force
-                .tangent_into(equation.start, true, &mut self.work, k)?;
+                .material_tangent_into(equation.start, true, &mut self.work, k)?;
         }
         // Friction lags its normal forces at the step's start (and, with
         // `friction_passes`, re-lags them at the solution: `settle_friction`); its smoothing

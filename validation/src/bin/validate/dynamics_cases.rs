@@ -832,8 +832,8 @@ pub fn stability_map(context: &Context) -> Result<Section> {
         "\nReading: backward Euler is stable in every cell, with every model and with the ground. \
          Newmark is stable on the linear free beam at every dt, not with the corotational model \
          (energy growth and divergence from about 10× dt_crit: average acceleration conserves energy \
-         only for a linear force); with the ground it is stable undamped (the contact force at the step's \
-         end only removes energy) but gains energy at large steps once damped (the library warns of it). \
+         only for a linear force); with the ground and the linear model it is stable in every cell (the \
+         contact force at the step's end only removes energy; the damping's stiffness is the material's). \
          The explicit method's measured limit on the free beam is the formula's at every damping, with \
          either model; with the ground it diverges at every ratio down to 0.1 without damping: the \
          barrier's stiffness, which grows without bound as a gap closes, is not in dt_crit.\n\n",
