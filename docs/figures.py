@@ -19,7 +19,7 @@ Tables (all from release binaries of this checkout; `cargo build --release --wor
 - peers (quadratic.md): tetfem beside scikit-fem and MFEM, rendered from
   validation/report/speed_accuracy.csv as `side_by_side.py --accuracy` wrote it (the peers are
   not installed on every machine; the CSV's commit and date head the table).
-- vtu_formats (scenes/amplitudes.md): the default run with binary and ASCII `.vtu` files, sizes
+- vtu_formats (scenes/index.md): the default run with binary and ASCII `.vtu` files, sizes
   and writing times, fastest of 2 interleaved runs.
 - corotational (large-deformation.md): the corotational step's cost against a linear step at
   18k DOFs on one thread (target/release/corotational_cost, run twice, each method's fastest
@@ -583,7 +583,7 @@ TABLES = {  # name: (the file it is written into, relative to the repository, an
     "accuracy": ("docs/src/quadratic.md", accuracy),
     "peers": ("docs/src/quadratic.md", peers),
     "corotational": ("docs/src/large-deformation.md", corotational),
-    "vtu_formats": ("docs/src/scenes/amplitudes.md", vtu_formats),
+    "vtu_formats": ("docs/src/scenes/index.md", vtu_formats),
     "scenes": ("scenes/README.md", scenes),
     "mms_rates": ("docs/src/quadratic.md", mms_rates),
     "effectivity": ("docs/src/quadratic.md", effectivity),
