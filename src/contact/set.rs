@@ -434,23 +434,21 @@ impl Contact {
     /// outside every obstacle.
     pub fn nodes_inside(&self, u: &[f64]) -> Result<Option<NodesInside>> {
         self.check_full(u)?;
-        let offsets = self.offsets();
-        for (obstacle, offset) in self.obstacles.iter().zip(&offsets) {
-            let nodes: Vec<(usize, f64)> = (0..self.nodes.len())
-                .map(|k| {
-                    let x = self.position(k, u) - offset;
-                    (self.nodes[k], obstacle.distance(&x))
-                })
-                .filter(|&(_, d)| d.is_nan() || d <= 0.0)
-                .collect();
-            if !nodes.is_empty() {
-                return Ok(Some(NodesInside {
-                    obstacle: obstacle.name().to_string(),
-                    nodes,
-                }));
+        let mut inside: Vec<Vec<(usize, f64)>> = vec![Vec::new(); self.obstacles.len()];
+        self.for_each_gap(u, |k, o, _, d| {
+            if d.is_nan() || d <= 0.0 {
+                inside[o].push((self.nodes[k], d));
             }
-        }
-        Ok(None)
+        });
+        Ok(self
+            .obstacles
+            .iter()
+            .zip(inside)
+            .find(|(_, nodes)| !nodes.is_empty())
+            .map(|(obstacle, nodes)| NodesInside {
+                obstacle: obstacle.name().to_string(),
+                nodes,
+            }))
     }
 
     /// E_c(u) (energy units) at full displacement `u`; +∞ if a node is on or inside an obstacle.
@@ -460,17 +458,12 @@ impl Contact {
             activation_distance: d_hat,
             stiffness: kappa,
         } = self.parameters;
-        let offsets = self.offsets();
         let mut total = 0.0;
-        for k in 0..self.nodes.len() {
-            let x = self.position(k, u);
-            for (obstacle, offset) in self.obstacles.iter().zip(&offsets) {
-                let d = obstacle.distance(&(x - offset));
-                if d < d_hat {
-                    total += kappa * self.areas[k] * barrier::value(d, d_hat);
-                }
+        self.for_each_gap(u, |k, _, _, d| {
+            if d < d_hat {
+                total += kappa * self.areas[k] * barrier::value(d, d_hat);
             }
-        }
+        });
         Ok(total)
     }
 
@@ -531,20 +524,15 @@ impl Contact {
             activation_distance: d_hat,
             stiffness: kappa,
         } = self.parameters;
-        let offsets = self.offsets();
         let (mut work, mut total, mut smallest) = (0.0, 0.0, f64::INFINITY);
-        for k in 0..self.nodes.len() {
-            let x = self.position(k, u);
-            for (obstacle, offset) in self.obstacles.iter().zip(&offsets) {
-                let d = obstacle.distance(&(x - offset));
-                smallest = smallest.min(if d.is_nan() { f64::NEG_INFINITY } else { d });
-                if d > 0.0 && d < d_hat {
-                    let lambda = -kappa * self.areas[k] * barrier::derivative(d, d_hat);
-                    work += lambda * d;
-                    total += lambda;
-                }
+        self.for_each_gap(u, |k, _, _, d| {
+            smallest = smallest.min(if d.is_nan() { f64::NEG_INFINITY } else { d });
+            if d > 0.0 && d < d_hat {
+                let lambda = -kappa * self.areas[k] * barrier::derivative(d, d_hat);
+                work += lambda * d;
+                total += lambda;
             }
-        }
+        });
         let weighted_gap = if total > 0.0 { work / total } else { 0.0 };
         let largest = u.iter().fold(0.0f64, |m, v| m.max(v.abs()));
         Ok(BarrierGaps {
@@ -564,15 +552,10 @@ impl Contact {
     /// for a NaN position; +∞ without contact nodes).
     pub fn smallest_gap(&self, u: &[f64]) -> Result<f64> {
         self.check_full(u)?;
-        let offsets = self.offsets();
         let mut smallest = f64::INFINITY;
-        for k in 0..self.nodes.len() {
-            let x = self.position(k, u);
-            for (obstacle, offset) in self.obstacles.iter().zip(&offsets) {
-                let d = obstacle.distance(&(x - offset));
-                smallest = smallest.min(if d.is_nan() { f64::NEG_INFINITY } else { d });
-            }
-        }
+        self.for_each_gap(u, |_, _, _, d| {
+            smallest = smallest.min(if d.is_nan() { f64::NEG_INFINITY } else { d });
+        });
         Ok(smallest)
     }
 
@@ -581,21 +564,12 @@ impl Contact {
     pub fn gaps_and_pressures(&self, u: &[f64]) -> Result<(Vec<f64>, Vec<f64>)> {
         self.check_full(u)?;
         let d_hat = self.parameters.activation_distance;
-        let mut gaps = Vec::with_capacity(self.nodes.len());
-        let mut pressures = Vec::with_capacity(self.nodes.len());
-        let offsets = self.offsets();
-        for k in 0..self.nodes.len() {
-            let x = self.position(k, u);
-            let mut gap = f64::INFINITY;
-            let mut pressure = 0.0;
-            for (obstacle, offset) in self.obstacles.iter().zip(&offsets) {
-                let d = obstacle.distance(&(x - offset));
-                gap = gap.min(d);
-                pressure -= self.parameters.stiffness * barrier::derivative(d, d_hat);
-            }
-            gaps.push(gap);
-            pressures.push(pressure);
-        }
+        let mut gaps = vec![f64::INFINITY; self.nodes.len()];
+        let mut pressures = vec![0.0; self.nodes.len()];
+        self.for_each_gap(u, |k, _, _, d| {
+            gaps[k] = gaps[k].min(d);
+            pressures[k] -= self.parameters.stiffness * barrier::derivative(d, d_hat);
+        });
         Ok((gaps, pressures))
     }
 
@@ -982,20 +956,36 @@ impl Contact {
     ) -> Result<()> {
         self.check_full(u)?;
         let d_hat = self.parameters.activation_distance;
+        // Nothing is visited after the first node found inside: the call is an error then.
+        let mut inside = false;
+        self.for_each_gap(u, |k, o, x, d| {
+            if d.is_nan() || d <= 0.0 {
+                inside = true;
+            } else if !inside && d < d_hat {
+                visit(self.nodes[k], o, &self.obstacles[o], x, d, self.areas[k]);
+            }
+        });
+        match inside {
+            true => self.check_state(u),
+            false => Ok(()),
+        }
+    }
+
+    /// Calls `visit(k, o, x, d)` for each contact node `k` (an index into
+    /// [`nodes`](Self::nodes)) and each obstacle `o`, node by node: `x` the node's position at
+    /// full displacement `u` relative to the obstacle's current offset (x − c, where the
+    /// obstacle's own distance, gradient and Hessian are evaluated), `d` its signed distance
+    /// (length; NaN for a NaN position). The one loop under every gap-reading measure; `u`
+    /// checked by the caller.
+    fn for_each_gap(&self, u: &[f64], mut visit: impl FnMut(usize, usize, &Vector3<f64>, f64)) {
         let offsets = self.offsets();
         for k in 0..self.nodes.len() {
+            let x = self.position(k, u);
             for (o, obstacle) in self.obstacles.iter().enumerate() {
-                let x = self.position(k, u) - offsets[o];
-                let d = obstacle.distance(&x);
-                if d.is_nan() || d <= 0.0 {
-                    return self.check_state(u);
-                }
-                if d < d_hat {
-                    visit(self.nodes[k], o, obstacle, &x, d, self.areas[k]);
-                }
+                let relative = x - offsets[o];
+                visit(k, o, &relative, obstacle.distance(&relative));
             }
         }
-        Ok(())
     }
 }
 

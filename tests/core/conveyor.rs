@@ -179,7 +179,6 @@ fn newmark_drags_a_bouncing_block_by_coulombs_impulse() {
     // the contact force at the step's end it hardly bounces (|Δv_z| ≤ 3 mm/s) and measures
     // −1.0 %, −2.0 %, −4.8 %: half a step of friction impulse short out of the window
     // (dt/(2T), T = 50 ms), the trapezoid on the friction force that starts with the belt.
-    // Friction's re-lag at each step's solution (off for Newmark) changes these by under 0.1 %.
     let definition = belt(ModelKind::NeoHookean);
     let sliding = BELT / (FRICTION * GRAVITY);
     let dt = 1e-3;

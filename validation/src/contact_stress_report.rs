@@ -39,6 +39,15 @@ fn micrometres(gap: f64) -> String {
     }
 }
 
+/// A gap in µm to 0.1 µm, signed, for the chart's cells (the table keeps 1 nm: a cell is
+/// 1/16 of a panel's width and the longer figure ran over its edges).
+fn micrometres_short(gap: f64) -> String {
+    match gap.is_finite() {
+        true => format!("{:+.1} µm", gap * 1e6).replace('-', "−"),
+        false => "—".into(),
+    }
+}
+
 /// The worst gap of the accepted steps ([`micrometres`]).
 fn gap(cell: &Cell) -> String {
     micrometres(cell.worst_gap)
@@ -189,7 +198,7 @@ pub fn draw(suite: &Suite, path: &Path) -> Result<()> {
     let (top, rest) = root.split_vertically(80);
     for (k, line) in [
         "Contact stress suite: outcome per method (rows) and time step (columns: dt / dt_crit, dt_crit the explicit critical step of the scene's mesh)",
-        "In each cell: Newton iterations per step, mean / max (implicit methods); the worst gap of any boundary node to any obstacle over the accepted steps and over every accepted Newton iterate (\"iterates\"; µm, < 0: inside); steps taken / planned",
+        "In each cell: Newton iterations per step, mean / max (implicit methods); the worst gap of any boundary node to any obstacle over the accepted steps and over every accepted Newton iterate (\"iter.\"; µm, < 0: inside); steps taken / planned",
     ]
     .iter()
     .enumerate()
@@ -277,8 +286,8 @@ fn draw_scene(suite: &Suite, scene: Scene, area: &Area<'_>) -> std::result::Resu
                     Some((mean, max)) => format!("N {mean:.1} / {max}"),
                     None => "no Newton".into(),
                 },
-                format!("gap {}", gap(c)),
-                format!("iterates {}", micrometres(c.worst_iterate_gap)),
+                format!("gap {}", micrometres_short(c.worst_gap)),
+                format!("iter. {}", micrometres_short(c.worst_iterate_gap)),
                 format!("{}/{} steps", c.steps.0, c.steps.1),
             ];
             for (k, line) in lines.iter().enumerate() {

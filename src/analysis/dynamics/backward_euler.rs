@@ -175,7 +175,6 @@ impl BackwardEuler {
             // bounce is damped), while the passes took 3.1× and 1.9× the Newton iterations on
             // the shipped soft_block_drop and rubber_beam_floor (max 73 and 34 per step
             // against 12 and 11) and moved their outputs (the soft block's slide −22 %).
-            friction_passes: false,
             // The implicit end-point rule is already dissipative for the barrier.
             contact_weight: 1.0,
             load,

@@ -429,42 +429,6 @@ impl NonlinearForce {
         self.contact.as_ref().is_some_and(|c| c.is_moving()) || system.is_time_varying()
     }
 
-    /// Re-lags a step's friction at its solution: the normal forces λ and tangent planes at
-    /// free displacements `u` (the obstacles where they now are, at the step's end), the slip
-    /// still measured from the step's start `start` (free displacements) carried along by each
-    /// obstacle's move `from` → `to` (offsets, length; equal for still obstacles;
-    /// [`Contact::friction_lag_moving`]; a spinning obstacle turned over the step's
-    /// `duration`, time), at the lag's smoothing distance as it stands. Does nothing without
-    /// lagged friction.
-    pub(crate) fn relag_friction(
-        &self,
-        u: &[f64],
-        start: &[f64],
-        (from, to): (&[nalgebra::Vector3<f64>], &[nalgebra::Vector3<f64>]),
-        duration: f64,
-    ) -> Result<()> {
-        let mut lag = self.friction_lock();
-        let (Some(contact), Some(current)) = (&self.contact, lag.as_ref()) else {
-            return Ok(());
-        };
-        let relagged = contact.friction_lag_moving(
-            &self.full_displacement(u)?,
-            &self.full_displacement(start)?,
-            (from, to),
-            current.epsilon(),
-            duration,
-        )?;
-        *lag = Some(relagged);
-        Ok(())
-    }
-
-    /// Whether a step has lagged friction (frictional contact between
-    /// [`begin_step`](Self::begin_step) and [`end_friction`](Self::end_friction)), even with no
-    /// node in contact at the lag.
-    pub(crate) fn has_friction_lag(&self) -> bool {
-        self.friction_lock().is_some()
-    }
-
     /// Drops the lagged friction (explicit steps and energy evaluations see none).
     pub fn end_friction(&self) {
         *self.friction_lock() = None;

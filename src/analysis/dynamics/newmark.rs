@@ -250,7 +250,6 @@ impl Newmark {
             // under 0.1 % and in the contact stress suite they took 1.2–2.7× the Newton
             // iterations per step (drop 6.2 → 9.5 at 0.5× dt_crit) and failed the drop at 10×
             // (Newton at step 4), which completes without them.
-            friction_passes: false,
             contact_weight: match end_point {
                 true => 2.0,
                 false => 1.0,

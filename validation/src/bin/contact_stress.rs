@@ -40,7 +40,10 @@ the explicit critical step of the scene's mesh.
 
 What each column is:
 - **outcome**: completed; energy growth (completed, but max_t [H − W] − H(0) above 10 % of the
-  energy scale, H = kinetic + elastic + gravity + barrier energy, W the moving obstacles' work);
+  energy scale, H = kinetic + elastic + gravity + barrier energy, W the moving obstacles' work:
+  each step's obstacle move times the force as the method applied it over the step — at the
+  step's end for backward Euler and for Newmark's barrier, the mean of the step's ends for
+  Newmark's friction and the explicit method);
   penetration (a node on or inside an obstacle at an accepted step); Newton failure; staging
   failure (the moving obstacles did not reach their placement); diverged (the integrator's
   guard); refused (the library refused the combination, its message quoted); over budget (the

@@ -132,25 +132,11 @@ pub(crate) struct StepEquation<'a> {
     /// `start`. Not taken with contact: `start` is the iterate known to be free of
     /// penetration. The convergence test is the same either way.
     pub first_iterate: Option<&'a [f64]>,
-    /// Whether friction's normal forces and tangent planes, lagged at the step's start, are
-    /// re-lagged at the step's solution and the step solved again, in passes, until it is in
-    /// equilibrium under the lag it makes ([`MAX_FRICTION_PASSES`]; see
-    /// [`NewtonSolver::solve`]). Newmark takes them: undamped, its block on a barrier keeps
-    /// bouncing and λ of the step's start is not the step's.
-    pub friction_passes: bool,
     /// w, the weight of the contact barrier in the step equation (dimensionless): the residual
     /// holds −w·f_c(u'), Φ holds w·E_c(u') and J w·∂²E_c. Backward Euler 1; Newmark 2, its
     /// contact force taken at the step's end (see [`super::Newmark`]).
     pub contact_weight: f64,
 }
-
-/// The obstacles' offsets (length, one per obstacle) at a step's start and at its end.
-type ObstacleMove<'a> = (&'a [nalgebra::Vector3<f64>], &'a [nalgebra::Vector3<f64>]);
-
-/// Most friction passes (solves under a re-lagged friction) in one implicit step
-/// ([`StepEquation::friction_passes`]), as in a static load step; more is [`Error::Diverged`]
-/// naming the step.
-pub const MAX_FRICTION_PASSES: usize = 30;
 
 /// The Newton solver of an implicit integrator with a nonlinear model: its scratch, the tangent,
 /// the iteration counts, and the direction strategy (which owns the strategy's own state).
@@ -513,9 +499,9 @@ impl NewtonSolver {
             self.force
                 .material_tangent_into(equation.start, true, &mut self.work, k)?;
         }
-        // Friction lags its normal forces at the step's start (and, with
-        // `friction_passes`, re-lags them at the solution: `settle_friction`); its smoothing
-        // distance is ε_v/s_c (backward Euler: ε_v·dt; Newmark: ε_v·dt/2).
+        // Friction lags its normal forces and tangent planes at the step's start, once per
+        // step (IPC's lagged friction); its smoothing distance is ε_v/s_c (backward Euler:
+        // ε_v·dt; Newmark: ε_v·dt/2).
         let force = Arc::clone(&self.force);
         // With contact, a body in free flight has r₀ and f at round-off (no load, or gravity
         // balanced by the ground): converge relative to the inertia scale ‖s_m·M·(u − ũ)‖ too,
@@ -535,15 +521,9 @@ impl NewtonSolver {
             self.force
                 .begin_step(equation.start, 1.0 / equation.damping_scale)?;
             self.reference_floor = inertia;
-            let offsets = force.contact().map(|c| c.offsets()).unwrap_or_default();
             let solved = self
                 .iterate(system, equation, matrix, solver, u_new, step, time)
                 .and_then(|iterations| {
-                    let motion = (offsets.as_slice(), offsets.as_slice());
-                    let passes = (inertia, motion, iterations);
-                    let iterations = self.settle_friction(
-                        system, equation, matrix, solver, u_new, step, time, passes,
-                    )?;
                     self.force.keep_friction_forces(u_new)?;
                     Ok(iterations)
                 });
@@ -551,84 +531,17 @@ impl NewtonSolver {
             self.force.end_friction();
             return solved;
         };
-        let from = contact.offsets_at(time);
         let solved = self
             .solve_moving(
                 contact, inertia, system, equation, matrix, solver, u_new, step, time,
             )
             .and_then(|iterations| {
-                let to = contact.offsets();
-                let passes = (inertia, (from.as_slice(), to.as_slice()), iterations);
-                let iterations = self
-                    .settle_friction(system, equation, matrix, solver, u_new, step, time, passes)?;
                 self.force.keep_friction_forces(u_new)?;
                 Ok(iterations)
             });
         self.reference_floor = 0.0;
         self.force.end_friction();
         solved
-    }
-
-    /// Friction's passes of a solved step (when [`StepEquation::friction_passes`] and the step
-    /// has lagged friction), as the static solve makes them in a load step: re-lags λ and the
-    /// tangent planes at the solution `u_new` (the slip still from the step's start, carried
-    /// by each obstacle's move `motion` = (offsets at the step's start, at its end)) and,
-    /// unless the step is in equilibrium under the new lag — its residual ≤ tolerance × the
-    /// first pass's reference, or ≤ 2× the residual the last pass reached (its floor) —
-    /// solves the step again from there. `passes` = (the inertia scale, `motion`, the
-    /// iterations of the first pass); returns the step's iterations over all passes, counted
-    /// as one step. [`Error::Diverged`] naming the step when [`MAX_FRICTION_PASSES`] do not
-    /// settle.
-    #[allow(clippy::too_many_arguments)]
-    fn settle_friction(
-        &mut self,
-        system: &LinearSystem,
-        equation: &StepEquation,
-        matrix: &mut CscMatrix,
-        solver: &mut LinearSolver,
-        u_new: &mut [f64],
-        step: usize,
-        time: f64,
-        (inertia, motion, first): (f64, ObstacleMove<'_>, usize),
-    ) -> Result<usize> {
-        if !equation.friction_passes || !self.force.has_friction_lag() {
-            return Ok(first);
-        }
-        let (steps, reference) = (self.stats.steps, self.last_reference);
-        // Later passes start at the last one's solution: converge relative to the first
-        // pass's forces, not to what the re-lag left.
-        self.reference_floor = inertia.max(reference);
-        let mut iterations = first;
-        let mut pass = 1;
-        let settled = loop {
-            let reached = norm(&self.residual);
-            self.force
-                .relag_friction(u_new, equation.start, motion, equation.duration)?;
-            self.residual_into(system, equation, u_new, false)?;
-            let now = norm(&self.residual);
-            if now <= self.options.tolerance * reference || now <= 2.0 * reached {
-                break Ok(iterations);
-            }
-            if pass == MAX_FRICTION_PASSES {
-                break Err(Error::Diverged {
-                    step,
-                    time,
-                    reason: format!(
-                        "friction's lagged normal forces did not settle in {MAX_FRICTION_PASSES} passes (residual {now:.3e} of {reference:.3e} under the last lag); a smaller dt helps"
-                    ),
-                });
-            }
-            match self.iterate(system, equation, matrix, solver, u_new, step, time) {
-                Ok(n) => iterations += n,
-                Err(e) => break Err(e),
-            }
-            pass += 1;
-        };
-        // The passes are one step's solve.
-        self.stats.steps = steps;
-        self.stats.last_step = iterations;
-        self.stats.max_per_step = self.stats.max_per_step.max(iterations);
-        settled
     }
 
     /// [`solve`](Self::solve) with moving obstacles: they go from their placement at `time` to
