@@ -69,6 +69,10 @@ pub struct Newmark {
     /// With contact: the acceleration of the step's non-contact forces,
     /// a_el = a − M⁻¹·f_c(u), the predictor's and the update's a (see [`Newmark`]).
     elastic_acceleration: Vec<f64>,
+    /// With contact: M⁻¹·f_c(u) at the state a contact step left, and (steps, time) of that
+    /// state — the next step's start reuses it rather than evaluate the contact and solve
+    /// with M again.
+    contact_acceleration: (Vec<f64>, Option<(usize, f64)>),
     /// With contact and a consistent mass: M's factor for M⁻¹·f_c, made once.
     mass_factor: MassFactor,
 }
@@ -157,6 +161,7 @@ impl Newmark {
             rhs: vec![0.0; n],
             newton,
             elastic_acceleration: Vec::new(),
+            contact_acceleration: (Vec::new(), None),
             mass_factor: MassFactor::default(),
         })
     }
@@ -214,8 +219,12 @@ impl Newmark {
         // the predictor and the update use the acceleration of the other forces.
         let end_point = newton.force().contact().is_some();
         if end_point {
-            let mut contact = contact_force_and_energy(newton.force(), &state.displacement)?.0;
-            self.mass_factor.solve(self.system.mass(), &mut contact)?;
+            if self.contact_acceleration.1 != Some((state.steps, state.time)) {
+                let mut contact = contact_force_and_energy(newton.force(), &state.displacement)?.0;
+                self.mass_factor.solve(self.system.mass(), &mut contact)?;
+                self.contact_acceleration = (contact, None);
+            }
+            let contact = &self.contact_acceleration.0;
             self.elastic_acceleration = (0..n).map(|i| self.acceleration[i] - contact[i]).collect();
         }
         let (u, v) = (&state.displacement, &state.velocity);
@@ -243,13 +252,6 @@ impl Newmark {
             damping_velocity: Some(v),
             duration: dt,
             first_iterate: Some(&guess),
-            // Off. With the contact force at the step's end the passes keep an undamped block
-            // riding a turntable at ω·r within 5e-4 at 2, 5 and 10 ms (without them it drifts
-            // out at 2 ms and slides off at 5 and 10 ms; with β = 1e-4 s of stiffness damping
-            // it rides at 2 ms, tests/core/turntable.rs), but they change the conveyor's drag by
-            // under 0.1 % and in the contact stress suite they took 1.2–2.7× the Newton
-            // iterations per step (drop 6.2 → 9.5 at 0.5× dt_crit) and failed the drop at 10×
-            // (Newton at step 4), which completes without them.
             contact_weight: match end_point {
                 true => 2.0,
                 false => 1.0,
@@ -291,6 +293,7 @@ impl Newmark {
         for (a, c) in self.acceleration.iter_mut().zip(&contact) {
             *a -= c;
         }
+        self.contact_acceleration = (contact, Some((state.steps, state.time)));
         Ok(())
     }
 
