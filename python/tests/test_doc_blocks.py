@@ -40,7 +40,9 @@ def fenced_blocks(text):
         char = stripped[:1] if stripped[:1] in ("`", "~") else ""
         run = len(stripped) - len(stripped.lstrip(char)) if char else 0
         if current is None:
-            if run >= 3:
+            # A backtick fence's info string holds no backtick (CommonMark): a line such as
+            # ```` ```toml ```` is inline code, not a fence.
+            if run >= 3 and not (char == "`" and "`" in stripped[run:]):
                 words = stripped[run:].replace(",", " ").split()
                 current = (i + 1, words, char, run, indent, [])
             continue
@@ -127,3 +129,10 @@ def test_a_transcript_with_another_message_fails(tmp_path, monkeypatch):
     assert broken != text
     with pytest.raises(AssertionError, match="the transcript differs"):
         run_block("python/README.md", line, broken, namespace)
+
+
+def test_fences_are_read_as_commonmark_reads_them():
+    """A backtick run with a backtick after it is inline code, an indented fence's indentation
+    is removed from its lines, ``~~~`` fences count, the info string is split at commas."""
+    text = "a\n```` ```python ```` is inline\n  ```python,ignore-check\n  x = 1\n  ```\n~~~sh\ny\n~~~\n"
+    assert fenced_blocks(text) == [(3, ["python", "ignore-check"], "x = 1\n"), (6, ["sh"], "y\n")]

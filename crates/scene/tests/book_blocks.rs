@@ -62,7 +62,11 @@ fn fenced_blocks(file: &str, text: &str) -> Vec<Block> {
         let fence_char = trimmed.chars().next().filter(|c| *c == '`' || *c == '~');
         let fence_len = fence_char.map_or(0, |c| trimmed.chars().take_while(|&x| x == c).count());
         match open.as_mut() {
-            None if fence_len >= 3 => {
+            // A backtick fence's info string holds no backtick (CommonMark): a line such as
+            // ```` ```toml ```` is inline code, not a fence.
+            None if fence_len >= 3
+                && !(fence_char == Some('`') && trimmed[fence_len..].contains('`')) =>
+            {
                 let info = trimmed[fence_len..]
                     .split([',', ' '])
                     .filter(|w| !w.is_empty())
@@ -412,6 +416,21 @@ fn every_toml_block_is_a_scene_the_code_accepts() {
         "toml blocks failing:\n{}",
         errors.join("\n")
     );
+}
+
+/// Fences as CommonMark reads them: a backtick run with a backtick after it is inline code, an
+/// indented fence's indentation is removed from its lines, `~~~` fences count, and the info
+/// string's words are split at commas.
+#[test]
+fn fences_are_read_as_commonmark_reads_them() {
+    let text = "a\n```` ```toml ```` is inline\n  ```toml,ignore-check\n  x = 1\n  ```\n\
+                ~~~python\ny\n~~~\n";
+    let blocks = fenced_blocks("t.md", text);
+    assert_eq!(blocks.len(), 2, "{blocks:?}");
+    assert_eq!(blocks[0].line, 3);
+    assert_eq!(blocks[0].info, ["toml", "ignore-check"]);
+    assert_eq!(blocks[0].text, "x = 1\n");
+    assert_eq!((blocks[1].line, &blocks[1].text[..]), (6, "y\n"));
 }
 
 /// The walk must see the blocks, not an empty list that passes: the README's scene, the
