@@ -18,6 +18,10 @@
 //! - a block whose info string carries `ignore-check` (```` ```toml,ignore-check ````) is not
 //!   checked: an example that is wrong on purpose (an error message's cause), or TOML that is
 //!   not a scene (a `Cargo.toml` excerpt). The book's introduction says so for contributors.
+//!
+//! Every ```` ```rust ```` block of the same files must sit in a file that a crate's docs
+//! include (`#[doc = include_str!(…)]`), so that `cargo test --release` compiles and runs it as a
+//! doctest. (The ```` ```python ```` blocks are run by `python/tests/test_doc_blocks.py`.)
 
 use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};
@@ -148,8 +152,8 @@ fn includes(folder: &Path, text: &str) -> Vec<String> {
         .collect()
 }
 
-/// Every ```` ```toml ```` block of the book and the READMEs.
-fn toml_blocks() -> Vec<Block> {
+/// Every block of the book and the READMEs whose info string starts with `lang`.
+fn blocks_of(lang: &str) -> Vec<Block> {
     markdown_files()
         .iter()
         .flat_map(|file| {
@@ -157,8 +161,13 @@ fn toml_blocks() -> Vec<Block> {
                 .unwrap_or_else(|e| panic!("read {file}: {e}"));
             fenced_blocks(file, &text)
         })
-        .filter(|b| b.info.first().is_some_and(|lang| lang == "toml"))
+        .filter(|b| b.info.first().is_some_and(|l| l == lang))
         .collect()
+}
+
+/// Every ```` ```toml ```` block of the book and the READMEs.
+fn toml_blocks() -> Vec<Block> {
+    blocks_of("toml")
 }
 
 /// Whether a block is marked as not to be checked.
@@ -504,4 +513,74 @@ fn a_renamed_key_or_a_wrong_value_fails() {
     );
     let unknown = fragment("[petsc]\nsolvers = \"gamg\"\n").join("\n");
     assert!(unknown.contains("petsc.solvers: no such key"), "{unknown}");
+}
+
+/// The Markdown files some crate's documentation includes (`#[doc = include_str!("…")]` in a
+/// `.rs` file of `src/` or `crates/*/src/`), relative to the root: rustdoc compiles and runs
+/// their Rust blocks as that crate's doctests, which `cargo test --release` in CI runs.
+fn doctested_files() -> BTreeSet<String> {
+    let root = root();
+    let mut folders = vec![PathBuf::from("src")];
+    for entry in std::fs::read_dir(root.join("crates")).expect("read crates/") {
+        let krate = entry.expect("a crate").file_name();
+        folders.push(Path::new("crates").join(krate).join("src"));
+    }
+    let mut files = BTreeSet::new();
+    while let Some(folder) = folders.pop() {
+        let Ok(entries) = std::fs::read_dir(root.join(&folder)) else {
+            continue;
+        };
+        for path in entries.map(|e| e.expect("a folder entry").path()) {
+            let relative = folder.join(path.file_name().expect("a file name"));
+            if path.is_dir() {
+                folders.push(relative);
+            } else if relative.extension().is_some_and(|e| e == "rs") {
+                let text = std::fs::read_to_string(&path).expect("read a source file");
+                for line in text.lines() {
+                    let Some(target) = line
+                        .trim()
+                        .strip_prefix("#[doc = include_str!(\"")
+                        .and_then(|rest| rest.strip_suffix("\")]"))
+                    else {
+                        continue;
+                    };
+                    let fake = format!("{{{{#include {target}}}}}");
+                    files.extend(includes(&folder, &fake));
+                }
+            }
+        }
+    }
+    files
+}
+
+/// Every Rust block of the book and the READMEs is compiled in CI: it sits in a file that a
+/// crate's documentation includes (so `cargo test --release` runs it as a doctest), and no
+/// `ignore` attribute keeps rustdoc from compiling it.
+#[test]
+fn every_rust_block_is_a_doctest() {
+    let doctested = doctested_files();
+    for file in [
+        "README.md",
+        "docs/src/library.md",
+        "docs/src/quadratic.md",
+        "docs/src/dynamics.md",
+    ] {
+        assert!(doctested.contains(file), "{file} not in {doctested:?}");
+    }
+    let rust = blocks_of("rust");
+    assert!(
+        rust.len() >= 6,
+        "the README's and the chapters' blocks: {rust:?}"
+    );
+    let not_compiled: Vec<String> = rust
+        .iter()
+        .filter(|b| !doctested.contains(&b.file) || b.info.iter().any(|w| w == "ignore"))
+        .map(|b| b.at(0))
+        .collect();
+    println!("{} rust blocks, in {doctested:?}", rust.len());
+    assert!(
+        not_compiled.is_empty(),
+        "Rust blocks no doctest compiles (include the chapter in crates/scene/src/key_docs.rs \
+         as the others are): {not_compiled:?}"
+    );
 }
