@@ -1,5 +1,6 @@
 //! Tetrahedral meshes: validated storage, generators, topology and node/face selection.
 
+pub mod bodies;
 pub mod cell;
 mod generate;
 pub mod geometry;
@@ -7,6 +8,7 @@ pub mod io;
 mod select;
 mod topology;
 
+pub use bodies::{Bodies, Placement};
 pub use cell::{CellType, NodeList, Tet4, Tet10};
 pub use generate::{BoxSplit, box_node_index};
 pub use topology::{BoundaryFace, FaceTopology};

@@ -12,6 +12,7 @@ mod atomic_writes;
 mod barrier_reach;
 mod beam_theory;
 mod block_sparse;
+mod bodies;
 mod combinations;
 mod common;
 mod contact_at_rest;
