@@ -50,6 +50,8 @@ mod p2_stress;
 mod properties;
 mod quadratic_mesh_io;
 mod restart;
+mod self_contact_distance;
+mod self_contact_surface;
 mod solver_choice;
 mod solvers;
 mod st_venant_kirchhoff;

@@ -1,0 +1,15 @@
+//! Body–body and self-contact geometry on a boundary surface (issue 36): the surface of a tet
+//! mesh ([`boundary`]), point–triangle and edge–edge distances with their derivatives
+//! ([`distance`]), the barrier potential over every pair within reach ([`potential`]), a
+//! bounding-volume hierarchy for the broad phase ([`bvh`]), additive continuous collision
+//! detection ([`ccd`]), and an exact triangle–triangle intersection test that shares no code
+//! with the barrier ([`intersect`], on the exact orientation predicates of [`predicates`]).
+//!
+//! Positions are arrays indexed by mesh node id (length units, m); pairs that share a vertex
+//! are adjacent by topology and never contact pairs.
+
+pub mod boundary;
+pub mod distance;
+
+pub use boundary::Surface;
+pub use distance::DistanceType;
