@@ -9,7 +9,11 @@
 //! are adjacent by topology and never contact pairs.
 
 pub mod boundary;
+pub mod bvh;
 pub mod distance;
+pub mod potential;
 
 pub use boundary::Surface;
+pub use bvh::{Aabb, Bvh, Candidates, candidates};
 pub use distance::DistanceType;
+pub use potential::{ActivePair, Pair, SurfaceBarrier};
