@@ -10,10 +10,15 @@
 
 pub mod boundary;
 pub mod bvh;
+pub mod ccd;
 pub mod distance;
+pub mod intersect;
 pub mod potential;
+pub mod predicates;
 
 pub use boundary::Surface;
 pub use bvh::{Aabb, Bvh, Candidates, candidates};
+pub use ccd::{SEPARATION_FRACTION, max_step};
 pub use distance::DistanceType;
+pub use intersect::{surface_intersections, triangles_intersect};
 pub use potential::{ActivePair, Pair, SurfaceBarrier};
