@@ -190,11 +190,15 @@ pub fn candidates(
     }
     let margin = 0.5 * inflation;
     let swept = |nodes: &[usize]| {
-        let mut points: Vec<Vector3<f64>> = nodes.iter().map(|&n| positions[n]).collect();
+        let mut b = Aabb::of_points(nodes.iter().map(|&n| &positions[n]));
         if let Some(dx) = displacement {
-            points.extend(nodes.iter().map(|&n| positions[n] + dx[n]));
+            for &n in nodes {
+                let end = positions[n] + dx[n];
+                b.min = b.min.inf(&end);
+                b.max = b.max.sup(&end);
+            }
         }
-        Aabb::of_points(&points).inflated(margin)
+        b.inflated(margin)
     };
     let triangles = Bvh::new(surface.triangles().iter().map(|t| swept(t)).collect());
     let edge_boxes: Vec<Aabb> = surface.edges().iter().map(|e| swept(e)).collect();
