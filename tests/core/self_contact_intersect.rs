@@ -177,3 +177,40 @@ fn no_intersections_on_the_fixtures_and_some_after_a_push() {
     let (beam, y) = folded_beam(16, 0.04);
     assert!(!surface_intersections(&beam, &y).unwrap().is_empty());
 }
+
+#[test]
+fn adjacent_triangles_meet_only_where_folded() {
+    let x = vec![
+        v(0.0, 0.0, 0.0),    // 0: shared vertex
+        v(1.0, 0.0, 0.0),    // 1
+        v(0.0, 1.0, 0.0),    // 2
+        v(0.3, 0.3, 1.0),    // 3
+        v(0.3, 0.3, -1.0),   // 4: 3–4 pierces (0, 1, 2) at (0.3, 0.3, 0)
+        v(-1.0, -1.0, 1.0),  // 5
+        v(-1.0, -1.0, -1.0), // 6: 5–6 passes outside it
+        v(0.5, 0.5, 0.0),    // 7: coplanar, same side of edge 0–1 as 2
+        v(0.5, -0.5, 0.0),   // 8: coplanar, the other side
+        v(0.5, 0.5, 1e-300), // 9: off the plane by a denormal's worth
+    ];
+    let touch = |a: [usize; 3], b: [usize; 3]| {
+        let one = tetfem::contact::surface::intersect::adjacent_triangles_intersect(&a, &b, &x);
+        let other = tetfem::contact::surface::intersect::adjacent_triangles_intersect(&b, &a, &x);
+        assert_eq!(one, other);
+        one
+    };
+    assert!(
+        touch([0, 1, 2], [0, 3, 4]),
+        "crossing beyond the shared vertex"
+    );
+    assert!(
+        !touch([0, 1, 2], [0, 5, 6]),
+        "meeting at the shared vertex only"
+    );
+    assert!(touch([0, 1, 2], [1, 0, 7]), "folded flat onto each other");
+    assert!(!touch([0, 1, 2], [1, 0, 8]), "a flat surface");
+    assert!(!touch([0, 1, 2], [1, 0, 9]), "folded, but not flat");
+    assert!(
+        !touch([0, 1, 2], [3, 4, 5]),
+        "not adjacent: not this test's question"
+    );
+}

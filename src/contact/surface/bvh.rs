@@ -223,8 +223,8 @@ pub fn candidates(
     Ok(out)
 }
 
-/// The pairs of non-adjacent triangles of `surface` whose boxes at `positions` overlap (the
-/// candidates of the intersection check), (a, b) with a < b, sorted.
+/// The pairs of triangles of `surface` whose boxes at `positions` overlap (the candidates of
+/// the intersection check; adjacent ones included), (a, b) with a < b, sorted.
 pub fn triangle_pairs(
     surface: &Surface,
     positions: &[Vector3<f64>],
@@ -239,7 +239,7 @@ pub fn triangle_pairs(
     let mut pairs = Vec::new();
     for (a, bbox) in boxes.iter().enumerate() {
         bvh.query(bbox, |b| {
-            if a < b && !surface.triangles_adjacent(a, b) {
+            if a < b {
                 pairs.push((a, b));
             }
         });

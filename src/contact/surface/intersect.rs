@@ -7,7 +7,8 @@
 //! end of that set lies on the boundary of one triangle and inside the other. So six exact
 //! segment–triangle tests decide it. Triangles that only touch (at a point or along a segment)
 //! count as intersecting: the sets are closed, and two non-adjacent surface triangles at
-//! distance zero are what the barrier must never let happen.
+//! distance zero are what the barrier must never let happen. Triangles that share a vertex or
+//! an edge are checked for meeting anywhere else ([`adjacent_triangles_intersect`]).
 
 use nalgebra::Vector3;
 
@@ -23,10 +24,11 @@ pub fn triangles_intersect(t1: &[Vector3<f64>; 3], t2: &[Vector3<f64>; 3]) -> bo
         || (0..3).any(|k| segment_meets_triangle(&t2[k], &t2[(k + 1) % 3], t1))
 }
 
-/// The pairs (a, b), a < b, of triangles of `surface` that share no vertex and intersect at
-/// `positions` (indexed by node id, m): the broad phase's overlapping boxes
-/// ([`triangle_pairs`]), each decided exactly by [`triangles_intersect`]. Triangles that share
-/// a vertex are adjacent by topology and not tested.
+/// The pairs (a, b), a < b, of triangles of `surface` that intersect at `positions` (indexed
+/// by node id, m): the broad phase's overlapping boxes ([`triangle_pairs`]), each decided
+/// exactly — by [`triangles_intersect`] for triangles that share no vertex, and by
+/// [`adjacent_triangles_intersect`] (a meeting beyond their shared vertex or edge: a fold) for
+/// those that do.
 ///
 /// Errors: positions not covering the surface or not finite.
 pub fn surface_intersections(
@@ -36,13 +38,56 @@ pub fn surface_intersections(
     let tris = surface.triangles();
     Ok(triangle_pairs(surface, positions)?
         .into_iter()
-        .filter(|&(a, b)| {
-            triangles_intersect(
+        .filter(|&(a, b)| match surface.triangles_adjacent(a, b) {
+            true => adjacent_triangles_intersect(&tris[a], &tris[b], positions),
+            false => triangles_intersect(
                 &tris[a].map(|n| positions[n]),
                 &tris[b].map(|n| positions[n]),
-            )
+            ),
         })
         .collect())
+}
+
+/// Whether triangles `ta` and `tb` (node ids into `positions`) that share one vertex or one
+/// edge meet anywhere else (exact). Sharing one vertex v: their common set is a segment from v
+/// (or a sector, when coplanar) whose far end lies on the edge opposite v of one of them and
+/// in the other, so they meet beyond v exactly when an opposite edge meets the other triangle.
+/// Sharing an edge: not coplanar, they meet on that edge only; coplanar, they overlap exactly
+/// when their third vertices lie on the same side of it (folded flat onto each other).
+/// Triangles sharing no vertex, or all three, are `false`.
+pub fn adjacent_triangles_intersect(
+    ta: &[usize; 3],
+    tb: &[usize; 3],
+    positions: &[Vector3<f64>],
+) -> bool {
+    let shared: Vec<usize> = ta.iter().copied().filter(|n| tb.contains(n)).collect();
+    let x = |t: &[usize; 3]| t.map(|n| positions[n]);
+    let others = |t: &[usize; 3]| -> Vec<Vector3<f64>> {
+        t.iter()
+            .filter(|n| !shared.contains(n))
+            .map(|&n| positions[n])
+            .collect()
+    };
+    match shared.len() {
+        1 => {
+            let (oa, ob) = (others(ta), others(tb));
+            segment_meets_triangle(&oa[0], &oa[1], &x(tb))
+                || segment_meets_triangle(&ob[0], &ob[1], &x(ta))
+        }
+        2 => {
+            let (v, u) = (positions[shared[0]], positions[shared[1]]);
+            let (a, b) = (others(ta)[0], others(tb)[0]);
+            if orient3d(&v, &u, &a, &b) != 0 {
+                return false;
+            }
+            let normal = (u - v).cross(&(a - v));
+            let drop = normal.iamax();
+            let (i, j) = ((drop + 1) % 3, (drop + 2) % 3);
+            let p = |y: &Vector3<f64>| [y[i], y[j]];
+            orient2d(p(&v), p(&u), p(&a)) * orient2d(p(&v), p(&u), p(&b)) > 0
+        }
+        _ => false,
+    }
 }
 
 /// Whether the closed segment [a, b] meets the closed triangle `t`.
