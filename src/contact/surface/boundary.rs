@@ -121,6 +121,15 @@ impl Surface {
         self.rest_edge_length2[e]
     }
 
+    /// The shortest edge at rest (length; +∞ for an empty surface): an activation distance d̂
+    /// above it lets the barrier reach across a single element.
+    pub fn shortest_rest_edge(&self) -> f64 {
+        self.rest_edge_length2
+            .iter()
+            .fold(f64::INFINITY, |m, &l| m.min(l))
+            .sqrt()
+    }
+
     /// The triangles that have mesh node `node` as a corner (empty for a node off the surface).
     pub fn triangles_around(&self, node: usize) -> &[usize] {
         match self.vertices.binary_search(&node) {
