@@ -169,3 +169,44 @@ fn projected_hessian_is_positive_semi_definite_and_the_full_one_matches_differen
         );
     }
 }
+
+#[test]
+fn candidates_swept_along_a_step_serve_every_point_of_it() {
+    for (name, surface, x, barrier) in scenes() {
+        let mut rng = crate::common::Rng::new(43);
+        let dx: Vec<Vector3<f64>> = x.iter().map(|_| rng.vector(-2e-3, 2e-3)).collect();
+        let d_hat = barrier.activation_distance;
+        let found = tetfem::contact::surface::candidates(&surface, &x, Some(&dx), d_hat).unwrap();
+        for alpha in [0.0, 0.3, 1.0] {
+            let y: Vec<Vector3<f64>> = x.iter().zip(&dx).map(|(p, d)| p + alpha * d).collect();
+            let direct = barrier.energy(&surface, &y).unwrap();
+            let among = barrier.energy_among(&surface, &y, &found).unwrap();
+            let (mut g1, mut g2) = (vec![0.0; 3 * y.len()], vec![0.0; 3 * y.len()]);
+            barrier.add_gradient(&surface, &y, &mut g1).unwrap();
+            barrier
+                .add_gradient_among(&surface, &y, &found, &mut g2)
+                .unwrap();
+            let h1 = barrier.hessian_triplets(&surface, &y, true).unwrap();
+            let h2 = barrier
+                .hessian_triplets_among(&surface, &y, &found, true)
+                .unwrap();
+            // The same pairs summed in another order: equal up to round-off of the sums.
+            assert!(
+                (direct - among).abs() <= 1e-13 * direct.abs(),
+                "{name}: {direct} vs {among}"
+            );
+            let scale = g1.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+            assert!(
+                g1.iter()
+                    .zip(&g2)
+                    .all(|(a, b)| (a - b).abs() <= 1e-12 * scale),
+                "{name}"
+            );
+            let total = |h: &[(usize, usize, f64)]| h.iter().map(|t| t.2.abs()).sum::<f64>();
+            assert!(
+                (total(&h1) - total(&h2)).abs() <= 1e-12 * total(&h1),
+                "{name}"
+            );
+        }
+    }
+}

@@ -1,9 +1,10 @@
 //! The broad phase: a bounding-volume hierarchy of axis-aligned boxes over a surface's
 //! triangles and edges, which returns the point–triangle and edge–edge pairs whose boxes —
 //! inflated by the reach d̂ and swept over a step's motion — overlap. Built in O(n log n)
-//! (median splits), each query O(log n + pairs found).
+//! (median splits), each query O(log n + pairs found); the queries run in parallel.
 
 use nalgebra::Vector3;
+use rayon::prelude::*;
 
 use super::boundary::Surface;
 use crate::base::error::{Error, Result};
@@ -203,21 +204,35 @@ pub fn candidates(
     let triangles = Bvh::new(surface.triangles().iter().map(|t| swept(t)).collect());
     let edge_boxes: Vec<Aabb> = surface.edges().iter().map(|e| swept(e)).collect();
     let edges = Bvh::new(edge_boxes.clone());
-    let mut out = Candidates::default();
-    for &n in surface.vertices() {
-        triangles.query(&swept(&[n]), |t| {
-            if !surface.point_triangle_adjacent(n, t) {
-                out.point_triangle.push((n, t));
-            }
-        });
-    }
-    for (a, bbox) in edge_boxes.iter().enumerate() {
-        edges.query(bbox, |b| {
-            if a < b && !surface.edges_adjacent(a, b) {
-                out.edge_edge.push((a, b));
-            }
-        });
-    }
+    // Queries run in parallel on rayon's pool; the sort makes the result independent of it.
+    let mut out = Candidates {
+        point_triangle: surface
+            .vertices()
+            .par_iter()
+            .flat_map_iter(|&n| {
+                let mut found = Vec::new();
+                triangles.query(&swept(&[n]), |t| {
+                    if !surface.point_triangle_adjacent(n, t) {
+                        found.push((n, t));
+                    }
+                });
+                found
+            })
+            .collect(),
+        edge_edge: edge_boxes
+            .par_iter()
+            .enumerate()
+            .flat_map_iter(|(a, bbox)| {
+                let mut found = Vec::new();
+                edges.query(bbox, |b| {
+                    if a < b && !surface.edges_adjacent(a, b) {
+                        found.push((a, b));
+                    }
+                });
+                found
+            })
+            .collect(),
+    };
     out.point_triangle.sort_unstable();
     out.edge_edge.sort_unstable();
     Ok(out)

@@ -124,17 +124,43 @@ impl SurfaceBarrier {
         surface: &Surface,
         positions: &[Vector3<f64>],
     ) -> Result<Vec<ActivePair>> {
-        let found = candidates(surface, positions, None, self.activation_distance)?;
-        Ok(self.active_among(surface, positions, &found))
+        self.active(surface, positions, None)
     }
 
-    /// The pairs among `found` closer than d̂ at `positions`.
+    /// The pairs among `found` closer than d̂ at `positions`: `found` computed once for a
+    /// stretch of positions — e.g. [`candidates`] swept along a line-search direction and
+    /// inflated by d̂, which holds every pair within d̂ anywhere along it — saves the broad
+    /// phase at each evaluation.
+    ///
+    /// Errors: positions not covering the surface or not finite; a candidate naming a node,
+    /// triangle or edge `surface` does not have ([`Error::InvalidParameter`]).
     pub fn active_among(
         &self,
         surface: &Surface,
         positions: &[Vector3<f64>],
         found: &Candidates,
-    ) -> Vec<ActivePair> {
+    ) -> Result<Vec<ActivePair>> {
+        self.active(surface, positions, Some(found))
+    }
+
+    fn active(
+        &self,
+        surface: &Surface,
+        positions: &[Vector3<f64>],
+        found: Option<&Candidates>,
+    ) -> Result<Vec<ActivePair>> {
+        let computed;
+        let found = match found {
+            Some(f) => {
+                surface.check_positions("surface barrier", positions)?;
+                check_candidates(surface, positions.len(), f)?;
+                f
+            }
+            None => {
+                computed = candidates(surface, positions, None, self.activation_distance)?;
+                &computed
+            }
+        };
         let pairs = found
             .point_triangle
             .iter()
@@ -146,7 +172,7 @@ impl SurfaceBarrier {
                     .map(|&(a, b)| Pair::EdgeEdge { a, b }),
             );
         let d_hat2 = self.activation_distance * self.activation_distance;
-        pairs
+        Ok(pairs
             .filter_map(|pair| {
                 let nodes = pair.nodes(surface);
                 let x = nodes.map(|n| positions[n]);
@@ -159,14 +185,35 @@ impl SurfaceBarrier {
                     distance: s.sqrt(),
                 })
             })
-            .collect()
+            .collect())
     }
 
-    /// B(x) (J): +∞ when a pair touches or crosses (d = 0).
+    /// B(x) (J): +∞ when a pair touches or crosses (d = 0). Errors: positions not covering
+    /// the surface or not finite.
     pub fn energy(&self, surface: &Surface, positions: &[Vector3<f64>]) -> Result<f64> {
+        self.energy_with(surface, positions, None)
+    }
+
+    /// [`energy`](Self::energy) over the pairs among `found` (see
+    /// [`active_among`](Self::active_among)).
+    pub fn energy_among(
+        &self,
+        surface: &Surface,
+        positions: &[Vector3<f64>],
+        found: &Candidates,
+    ) -> Result<f64> {
+        self.energy_with(surface, positions, Some(found))
+    }
+
+    fn energy_with(
+        &self,
+        surface: &Surface,
+        positions: &[Vector3<f64>],
+        found: Option<&Candidates>,
+    ) -> Result<f64> {
         let d_hat = self.activation_distance;
         let mut total = 0.0;
-        for p in self.active_pairs(surface, positions)? {
+        for p in self.active(surface, positions, found)? {
             if p.distance <= 0.0 {
                 return Ok(f64::INFINITY);
             }
@@ -179,12 +226,35 @@ impl SurfaceBarrier {
     /// Adds ∂B/∂x (N; the contact force is its negative) into `gradient`, a DOF vector
     /// (3·node + axis) of length 3·`positions.len()`.
     ///
-    /// Errors: a length mismatch; a pair at distance 0 (touching or crossing: no force is
-    /// defined), [`Error::InvalidParameter`] naming its nodes.
+    /// Errors: a length mismatch; positions not covering the surface or not finite; a pair at
+    /// distance 0 (touching or crossing: no force is defined), [`Error::InvalidParameter`]
+    /// naming its nodes.
     pub fn add_gradient(
         &self,
         surface: &Surface,
         positions: &[Vector3<f64>],
+        gradient: &mut [f64],
+    ) -> Result<()> {
+        self.add_gradient_with(surface, positions, None, gradient)
+    }
+
+    /// [`add_gradient`](Self::add_gradient) over the pairs among `found` (see
+    /// [`active_among`](Self::active_among)).
+    pub fn add_gradient_among(
+        &self,
+        surface: &Surface,
+        positions: &[Vector3<f64>],
+        found: &Candidates,
+        gradient: &mut [f64],
+    ) -> Result<()> {
+        self.add_gradient_with(surface, positions, Some(found), gradient)
+    }
+
+    fn add_gradient_with(
+        &self,
+        surface: &Surface,
+        positions: &[Vector3<f64>],
+        found: Option<&Candidates>,
         gradient: &mut [f64],
     ) -> Result<()> {
         Error::check_len(
@@ -192,7 +262,7 @@ impl SurfaceBarrier {
             3 * positions.len(),
             gradient.len(),
         )?;
-        for (nodes, g) in self.local_terms(surface, positions, false)?.0 {
+        for (nodes, g) in self.local_terms(surface, positions, found, false)?.0 {
             for (i, n) in nodes.iter().enumerate() {
                 for a in 0..3 {
                     gradient[3 * n + a] += self.stiffness * g[3 * i + a];
@@ -211,7 +281,29 @@ impl SurfaceBarrier {
         positions: &[Vector3<f64>],
         project: bool,
     ) -> Result<Vec<(usize, usize, f64)>> {
-        let blocks = self.local_terms(surface, positions, true)?.1;
+        self.hessian_triplets_with(surface, positions, None, project)
+    }
+
+    /// [`hessian_triplets`](Self::hessian_triplets) over the pairs among `found` (see
+    /// [`active_among`](Self::active_among)).
+    pub fn hessian_triplets_among(
+        &self,
+        surface: &Surface,
+        positions: &[Vector3<f64>],
+        found: &Candidates,
+        project: bool,
+    ) -> Result<Vec<(usize, usize, f64)>> {
+        self.hessian_triplets_with(surface, positions, Some(found), project)
+    }
+
+    fn hessian_triplets_with(
+        &self,
+        surface: &Surface,
+        positions: &[Vector3<f64>],
+        found: Option<&Candidates>,
+        project: bool,
+    ) -> Result<Vec<(usize, usize, f64)>> {
+        let blocks = self.local_terms(surface, positions, found, true)?.1;
         let mut triplets = Vec::with_capacity(144 * blocks.len());
         for (nodes, mut h) in blocks {
             if project {
@@ -260,11 +352,12 @@ impl SurfaceBarrier {
         &self,
         surface: &Surface,
         positions: &[Vector3<f64>],
+        found: Option<&Candidates>,
         hessian: bool,
     ) -> Result<(Local<Gradient12>, Local<Hessian12>)> {
         let d_hat = self.activation_distance;
         let (mut gradients, mut hessians) = (Vec::new(), Vec::new());
-        for p in self.active_pairs(surface, positions)? {
+        for p in self.active(surface, positions, found)? {
             let d = p.distance;
             if d <= 0.0 {
                 return Err(Error::invalid_parameter(
@@ -296,6 +389,31 @@ impl SurfaceBarrier {
         }
         Ok((gradients, hessians))
     }
+}
+
+/// [`Error::InvalidParameter`] naming the first candidate whose node, triangle or edge is not
+/// `surface`'s (or whose node is beyond `node_count` positions).
+fn check_candidates(surface: &Surface, node_count: usize, found: &Candidates) -> Result<()> {
+    let (triangles, edges) = (surface.triangles().len(), surface.edges().len());
+    for &(node, t) in &found.point_triangle {
+        if node >= node_count || t >= triangles {
+            return Err(Error::invalid_parameter(
+                "surface barrier candidate (node, triangle)",
+                format!("({node}, {t})"),
+                format!("a node below {node_count} and a triangle below {triangles}"),
+            ));
+        }
+    }
+    for &(a, b) in &found.edge_edge {
+        if a >= edges || b >= edges {
+            return Err(Error::invalid_parameter(
+                "surface barrier candidate (edge, edge)",
+                format!("({a}, {b})"),
+                format!("edges below {edges}"),
+            ));
+        }
+    }
+    Ok(())
 }
 
 /// The nearest positive semi-definite matrix (Frobenius norm) to a symmetric `h`: its
