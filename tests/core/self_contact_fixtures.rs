@@ -5,21 +5,37 @@ use std::f64::consts::PI;
 
 use nalgebra::{Rotation3, Vector3};
 use tetfem::contact::surface::Surface;
-use tetfem::{BoxSplit, TetMesh};
+use tetfem::{BoxSplit, CellType, Tet10, TetMesh};
 
 use crate::common::Rng;
 
 /// Two 0.1 m blocks of `cells`³ cells: A at [0, 0.1]³, B above it turned by 0.4 rad about z and
 /// tilted by `tilt` rad about x, its lowest node `gap` above A's top; node ids of B follow A's.
 pub fn two_blocks(cells: usize, gap: f64, tilt: f64) -> (Surface, Vec<Vector3<f64>>) {
-    let mesh = TetMesh::box_grid(
+    two_of(&block(cells), gap, tilt)
+}
+
+/// [`two_blocks`] of 10-node tets (contact on the quadratic faces' linear sub-triangles).
+pub fn two_quadratic_blocks(cells: usize, gap: f64, tilt: f64) -> (Surface, Vec<Vector3<f64>>) {
+    two_of(
+        &TetMesh::<Tet10>::from_linear(&block(cells)).unwrap(),
+        gap,
+        tilt,
+    )
+}
+
+fn block(cells: usize) -> TetMesh {
+    TetMesh::box_grid(
         Vector3::zeros(),
         Vector3::repeat(0.1),
         [cells; 3],
         BoxSplit::Lecture6,
     )
-    .unwrap();
-    let base = Surface::from_mesh(&mesh).unwrap();
+    .unwrap()
+}
+
+fn two_of<C: CellType>(mesh: &TetMesh<C>, gap: f64, tilt: f64) -> (Surface, Vec<Vector3<f64>>) {
+    let base = Surface::from_mesh(mesh).unwrap();
     let n = mesh.node_count();
     let turn = Rotation3::from_euler_angles(tilt, 0.0, 0.4);
     let centre = Vector3::repeat(0.05);

@@ -5,7 +5,7 @@
 use nalgebra::{DMatrix, Vector3};
 use tetfem::contact::surface::{Surface, SurfaceBarrier};
 
-use crate::self_contact_fixtures::{folded_beam, jitter, two_blocks};
+use crate::self_contact_fixtures::{folded_beam, jitter, two_blocks, two_quadratic_blocks};
 
 /// (name, surface, positions, barrier): each with pairs of every kind within reach.
 fn scenes() -> Vec<(&'static str, Surface, Vec<Vector3<f64>>, SurfaceBarrier)> {
@@ -15,11 +15,20 @@ fn scenes() -> Vec<(&'static str, Surface, Vec<Vector3<f64>>, SurfaceBarrier)> {
     jitter(&mut x, 1e-3, 1);
     let (beam, mut y) = folded_beam(10, 0.06);
     jitter(&mut y, 1e-3, 2);
+    // The same blocks of 10-node tets: contact on the faces' linear sub-triangles.
+    let (quadratic, mut z) = two_quadratic_blocks(1, 0.004, 0.05);
+    jitter(&mut z, 1e-3, 3);
     vec![
         (
             "two blocks",
             blocks,
             x,
+            SurfaceBarrier::new(0.01, 1e4).unwrap(),
+        ),
+        (
+            "two quadratic blocks",
+            quadratic,
+            z,
             SurfaceBarrier::new(0.01, 1e4).unwrap(),
         ),
         (

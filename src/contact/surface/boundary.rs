@@ -116,9 +116,9 @@ impl Surface {
         &self.vertices
     }
 
-    /// |b − a|² of edge `e` at rest (length²).
-    pub fn rest_edge_length2(&self, e: usize) -> f64 {
-        self.rest_edge_length2[e]
+    /// |b − a|² of edge `e` at rest (length²); `None` for an edge the surface does not have.
+    pub fn rest_edge_length2(&self, e: usize) -> Option<f64> {
+        self.rest_edge_length2.get(e).copied()
     }
 
     /// The shortest edge at rest (length; +∞ for an empty surface): an activation distance d̂
@@ -142,21 +142,28 @@ impl Surface {
     }
 
     /// Whether point `node` and triangle `t` share a vertex (the node is a corner of `t`): such
-    /// a pair is adjacent by topology and never a contact pair.
+    /// a pair is adjacent by topology and never a contact pair. `false` for a triangle the
+    /// surface does not have.
     pub fn point_triangle_adjacent(&self, node: usize, t: usize) -> bool {
-        self.triangles[t].contains(&node)
+        self.triangles.get(t).is_some_and(|t| t.contains(&node))
     }
 
     /// Whether edges `a` and `b` share a vertex (or are the same edge): adjacent by topology.
+    /// `false` for an edge the surface does not have.
     pub fn edges_adjacent(&self, a: usize, b: usize) -> bool {
-        let (ea, eb) = (self.edges[a], self.edges[b]);
-        ea.iter().any(|n| eb.contains(n))
+        match (self.edges.get(a), self.edges.get(b)) {
+            (Some(ea), Some(eb)) => ea.iter().any(|n| eb.contains(n)),
+            _ => false,
+        }
     }
 
-    /// Whether triangles `a` and `b` share a vertex (or are the same triangle).
+    /// Whether triangles `a` and `b` share a vertex (or are the same triangle). `false` for a
+    /// triangle the surface does not have.
     pub fn triangles_adjacent(&self, a: usize, b: usize) -> bool {
-        let (ta, tb) = (self.triangles[a], self.triangles[b]);
-        ta.iter().any(|n| tb.contains(n))
+        match (self.triangles.get(a), self.triangles.get(b)) {
+            (Some(ta), Some(tb)) => ta.iter().any(|n| tb.contains(n)),
+            _ => false,
+        }
     }
 
     /// [`Error::DimensionMismatch`] unless `positions` covers every surface node, and

@@ -30,7 +30,8 @@ const MAX_ITERATIONS: usize = 10_000;
 /// `x`, moving by t·`dx`; see the module docs), keeping at least `separation` times the start
 /// distance. `limit` when the pair cannot close the gap within it.
 ///
-/// Errors: a start distance of zero ([`Error::InvalidParameter`]: no fraction of any motion is
+/// Errors ([`Error::InvalidParameter`]): a position or motion not finite; `separation` not in
+/// (0, 1) or `limit` not in (0, 1]; a start distance of zero (no fraction of any motion is
 /// known to be safe).
 pub fn pair_step(
     pair: Pair,
@@ -39,6 +40,24 @@ pub fn pair_step(
     separation: f64,
     limit: f64,
 ) -> Result<f64> {
+    if let Some(v) = x
+        .iter()
+        .chain(dx)
+        .find(|v| !v.iter().all(|c| c.is_finite()))
+    {
+        return Err(Error::invalid_parameter(
+            format!("continuous collision detection of {pair:?}: a position or motion"),
+            format!("{:?}", v.as_slice()),
+            "must be finite",
+        ));
+    }
+    if !(separation > 0.0 && separation < 1.0 && limit > 0.0 && limit <= 1.0) {
+        return Err(Error::invalid_parameter(
+            "continuous collision detection (separation, limit)",
+            format!("({separation}, {limit})"),
+            "separation in (0, 1) and limit in (0, 1]",
+        ));
+    }
     let mean = (dx[0] + dx[1] + dx[2] + dx[3]) / 4.0;
     let p = dx.map(|d| d - mean);
     let l_p = match pair {

@@ -112,7 +112,8 @@ pub fn edge_edge_squared_distance(
     squared_distance(kind, &[*a0, *a1, *b0, *b1])
 }
 
-/// The squared distance s = |r|² (length²) of type `kind` between the pair's points `x`.
+/// The squared distance s = |r|² (length²) of type `kind` between the pair's points `x` (NaN
+/// for a type whose local indices are not distinct and below 4).
 pub fn squared_distance(kind: DistanceType, x: &[Vector3<f64>; 4]) -> f64 {
     residual(kind, x).0.norm_squared()
 }
@@ -175,6 +176,15 @@ fn residual(
 ) -> (Vector3<f64>, [f64; 4], [[f64; 2]; 4], usize) {
     let mut w = [0.0; 4];
     let mut dw = [[0.0; 2]; 4];
+    let in_range = match kind {
+        DistanceType::PointPoint(i, j) => i.max(j) < 4 && i != j,
+        DistanceType::PointEdge(i, a, b) => i.max(a).max(b) < 4 && i != a && i != b && a != b,
+        _ => true,
+    };
+    if !in_range {
+        // A type built with local indices outside the pair's four points: no distance.
+        return (Vector3::repeat(f64::NAN), w, dw, 0);
+    }
     let m = match kind {
         DistanceType::PointPoint(i, j) => {
             w[i] = 1.0;

@@ -47,8 +47,9 @@ pub enum Pair {
 
 impl Pair {
     /// The pair's four mesh nodes in the order of [`super::distance`]: (point, triangle) or
-    /// (edge a, edge b).
-    pub fn nodes(&self, surface: &Surface) -> [usize; 4] {
+    /// (edge a, edge b). The triangle or edges must be `surface`'s (checked where candidates
+    /// enter, [`SurfaceBarrier::active_among`]).
+    pub(crate) fn nodes(&self, surface: &Surface) -> [usize; 4] {
         match *self {
             Pair::PointTriangle { node, triangle } => {
                 let [a, b, c] = surface.triangles()[triangle];
@@ -339,8 +340,9 @@ impl SurfaceBarrier {
     ) -> (f64, Gradient12, Hessian12) {
         match p.pair {
             Pair::EdgeEdge { a, b } => {
-                let threshold =
-                    mollifier_threshold(surface.rest_edge_length2(a), surface.rest_edge_length2(b));
+                // Candidates were checked against the surface: both edges exist.
+                let rest = |e| surface.rest_edge_length2(e).unwrap_or(f64::NAN);
+                let threshold = mollifier_threshold(rest(a), rest(b));
                 edge_edge_mollifier(&p.nodes.map(|n| positions[n]), threshold)
             }
             Pair::PointTriangle { .. } => (1.0, Gradient12::zeros(), Hessian12::zeros()),
