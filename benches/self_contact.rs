@@ -1,7 +1,8 @@
 //! The broad phase of body–body contact (issue 36) at three surface sizes, each 4× the last:
 //! two blocks of c³ cells (c = 8, 16, 32: 1,536, 6,144 and 24,576 surface triangles) stacked
 //! half a reach d̂ apart, the upper one turned about z so that its surface grid does not line
-//! up with the lower one's. Timed: the candidate pairs within d̂ (building the two
+//! up with the lower one's. Timed: the hierarchy over the triangles alone (`bvh_build`), the
+//! candidate pairs within d̂ (building the two
 //! hierarchies and querying every vertex and edge), and the barrier's active pairs on top
 //! (the narrow phase's exact distances). With n triangles a BVH costs n log n to build and
 //! log n + k per query, so the time per triangle should grow like log n — read the ratios
@@ -14,7 +15,7 @@ use std::time::Duration;
 
 use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
 use nalgebra::{Rotation3, Vector3};
-use tetfem::contact::surface::{Surface, SurfaceBarrier, candidates};
+use tetfem::contact::surface::{Aabb, Bvh, Surface, SurfaceBarrier, candidates};
 use tetfem::{BoxSplit, TetMesh};
 
 /// Two 0.1 m blocks of `cells`³ cells, the upper one turned by 0.3 rad about z, `gap` above.
@@ -60,6 +61,14 @@ fn broad_phase(c: &mut Criterion) {
             surface.triangles().len(),
             found.point_triangle.len() + found.edge_edge.len()
         );
+        let boxes: Vec<Aabb> = surface
+            .triangles()
+            .iter()
+            .map(|t| Aabb::of_points(t.iter().map(|&n| &x[n])).inflated(0.5 * d_hat))
+            .collect();
+        group.bench_function(BenchmarkId::new("bvh_build", &label), |b| {
+            b.iter(|| black_box(Bvh::new(boxes.clone())))
+        });
         group.bench_function(BenchmarkId::new("candidates", &label), |b| {
             b.iter(|| black_box(candidates(&surface, &x, None, d_hat).unwrap()))
         });
