@@ -135,8 +135,13 @@ impl Bvh {
         if self.nodes.is_empty() {
             return;
         }
-        let mut stack = vec![0usize];
-        while let Some(n) = stack.pop() {
+        // Median splits halve every range, so the depth is at most log₂(n) + 1 and a pending
+        // stack of 64 holds any tree (one right sibling per level, plus the root).
+        let mut stack = [0usize; 64];
+        let mut len = 1;
+        while len > 0 {
+            len -= 1;
+            let n = stack[len];
             let node = &self.nodes[n];
             if !node.bbox.overlaps(query) {
                 continue;
@@ -149,8 +154,9 @@ impl Bvh {
                 }
             } else {
                 // The left child is built right after its parent.
-                stack.push(n + 1);
-                stack.push(node.right);
+                stack[len] = node.right;
+                stack[len + 1] = n + 1;
+                len += 2;
             }
         }
     }
