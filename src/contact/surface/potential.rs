@@ -76,7 +76,7 @@ impl Pair {
 pub struct ActivePair {
     /// The primitives.
     pub pair: Pair,
-    /// Their mesh nodes (see [`Pair::nodes`]).
+    /// Their mesh nodes: (point, triangle) or (edge a, edge b), as in [`super::distance`].
     pub nodes: [usize; 4],
     /// The type of their closest features.
     pub kind: DistanceType,
