@@ -60,6 +60,7 @@ pub mod overlap;
 pub mod parameters;
 pub mod set;
 pub mod staging;
+pub mod surface;
 pub mod velocity;
 
 pub use friction::FrictionLag;
