@@ -14,7 +14,10 @@
 //! friction), [`obstacle`] (half-space, sphere, box: signed distance, its derivatives, time of
 //! impact), [`overlap`] (the start check of the boundary surface against the obstacles),
 //! [`parameters`] (d̂ and κ and their default rule), [`set`] (the contact of a mesh's
-//! boundary nodes with the obstacles), [`staging`] (moving obstacles in collision-free stages, the fall-back).
+//! boundary nodes with the obstacles), [`staging`] (moving obstacles in collision-free stages, the fall-back),
+//! [`surface`] (body–body and self-contact geometry on a boundary surface: the surface,
+//! point–triangle and edge–edge distances, their barrier, the broad phase, additive CCD and an
+//! exact intersection test; not yet wired into a solve).
 //!
 //! Moving obstacles ([`ObstacleMotion`]: a prescribed translation c(t), constant velocity or a
 //! displacement times an amplitude) are placed by [`Contact::set_time`]. An implicit step takes
