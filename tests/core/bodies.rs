@@ -142,3 +142,31 @@ fn bad_bodies_are_errors_naming_what_is_wrong() {
         "{message}"
     );
 }
+
+#[test]
+fn bodies_placed_into_each_other_are_refused_naming_both() {
+    use tetfem::contact::surface::{Surface, overlapping_bodies};
+    // The beam and a copy turned a quarter about z through its origin: they cross near the
+    // origin (the copy spans x ∈ [−0.2, 0], y ∈ [0, 1]; the beam x ∈ [0, 1], y ∈ [0, 0.2]),
+    // touching along the plane x = 0 — reported, as touching triangles are. Moved 0.5 m
+    // along −x the copy is clear of the beam: no error.
+    let turned = Placement::identity()
+        .rotated(Vector3::z(), FRAC_PI_2)
+        .unwrap();
+    for (shift, overlaps) in [(0.0, true), (-0.5, false)] {
+        let placed = Placement {
+            translation: Vector3::new(shift, 0.0, 0.0),
+            ..turned
+        };
+        let bodies = Bodies::new(vec![(beam(), Placement::identity()), (beam(), placed)]).unwrap();
+        let surface = Surface::from_mesh(bodies.mesh()).unwrap();
+        let result = overlapping_bodies(&surface, bodies.mesh().nodes(), &bodies.node_bodies());
+        match overlaps {
+            true => {
+                let message = result.unwrap_err().to_string();
+                assert!(message.contains("bodies 0 and 1"), "{message}");
+            }
+            false => result.unwrap(),
+        }
+    }
+}
