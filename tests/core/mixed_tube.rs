@@ -247,3 +247,15 @@ fn mixed_solver_refuses_bad_input_by_name() {
     let error = solver.solve(&Loads::new(&linear)).unwrap_err();
     assert!(error.to_string().contains("loads"), "{error}");
 }
+
+#[test]
+fn incompressible_material_points_to_the_mixed_formulation() {
+    let message = Material::new(1e6, 0.5, 1000.0).unwrap_err().to_string();
+    assert!(
+        message.contains("poisson_ratio") && message.contains("formulation = \"mixed\""),
+        "{message}"
+    );
+    // Above 0.5 the old message stays: the material is not rubber but wrong.
+    let message = Material::new(1e6, 0.6, 1000.0).unwrap_err().to_string();
+    assert!(message.contains("open interval (-1, 0.5)"), "{message}");
+}
