@@ -356,37 +356,52 @@ fn saddle_point_matrix(
 ) -> Result<CscMatrix> {
     let free_count = dofs.free_count();
     let dim = free_count + pressure_nodes.count();
-    // (column, row, value) of −B, −Bᵀ and −M_p/κ, summed after sorting.
-    let mut entries = Vec::with_capacity(mesh.tet_count() * (2 * 120 + 16));
-    for (t, tet) in mesh.tets().iter().enumerate() {
-        let corners = pressure_nodes.of_tet(tet);
-        let b = &couplings[t];
-        for (k, &p) in corners.iter().enumerate() {
-            let row = free_count + p;
-            for (i, &n) in tet.iter().enumerate() {
-                for a in 0..3 {
-                    if let Some(free) = dofs.free_index(3 * n + a) {
-                        entries.push((free, row, -b[k][i][a]));
-                        entries.push((row, free, -b[k][i][a]));
+    // Every (column, row, value) of −B, −Bᵀ and −M_p/κ, tet by tet.
+    let visit = |add: &mut dyn FnMut(usize, usize, f64)| {
+        for (t, tet) in mesh.tets().iter().enumerate() {
+            let corners = pressure_nodes.of_tet(tet);
+            let b = &couplings[t];
+            for (k, &p) in corners.iter().enumerate() {
+                let row = free_count + p;
+                for (i, &n) in tet.iter().enumerate() {
+                    for a in 0..3 {
+                        if let Some(free) = dofs.free_index(3 * n + a) {
+                            add(free, row, -b[k][i][a]);
+                            add(row, free, -b[k][i][a]);
+                        }
                     }
                 }
             }
-        }
-        let rest = Tet10::rest(mesh, t);
-        let scale = inverse_bulk(t);
-        for (k, &p) in corners.iter().enumerate() {
-            for (l, &q) in corners.iter().enumerate() {
-                let value = -scale * pressure_mass(&rest, k, l);
-                entries.push((free_count + q, free_count + p, value));
+            let rest = Tet10::rest(mesh, t);
+            let scale = inverse_bulk(t);
+            for (k, &p) in corners.iter().enumerate() {
+                for (l, &q) in corners.iter().enumerate() {
+                    add(
+                        free_count + q,
+                        free_count + p,
+                        -scale * pressure_mass(&rest, k, l),
+                    );
+                }
             }
         }
+    };
+    // Bucketed by column in two passes (count, then fill): each column's few entries are
+    // sorted on their own, not millions of triplets globally.
+    let mut start = vec![0usize; dim + 1];
+    visit(&mut |column, _, _| start[column + 1] += 1);
+    for column in 0..dim {
+        start[column + 1] += start[column];
     }
-    entries.sort_unstable_by_key(|&(column, row, _)| (column, row));
+    let mut fill = start.clone();
+    let mut bucket = vec![(0usize, 0.0f64); start[dim]];
+    visit(&mut |column, row, value| {
+        bucket[fill[column]] = (row, value);
+        fill[column] += 1;
+    });
     let mut col_ptr = Vec::with_capacity(dim + 1);
-    let mut row_idx = Vec::with_capacity(free_deviatoric.nnz() + entries.len());
+    let mut row_idx = Vec::with_capacity(free_deviatoric.nnz() + bucket.len());
     let mut values = Vec::with_capacity(row_idx.capacity());
     col_ptr.push(0);
-    let mut next = 0;
     for column in 0..dim {
         if column < free_count {
             let range = free_deviatoric.col_ptr()[column]..free_deviatoric.col_ptr()[column + 1];
@@ -394,10 +409,13 @@ fn saddle_point_matrix(
             values.extend_from_slice(&free_deviatoric.values()[range]);
         }
         // The added entries of this column have rows above every K_dev row (pressures) or,
-        // in a pressure column, are the only ones: appended in sorted order, duplicates summed.
-        while next < entries.len() && entries[next].0 == column {
-            let (_, row, value) = entries[next];
-            if row_idx.len() > col_ptr[column] && row_idx.last() == Some(&row) {
+        // in a pressure column, are the only ones: appended in sorted order, duplicates summed
+        // (in tet order, so the sum does not depend on the sort).
+        let entries = &mut bucket[start[column]..start[column + 1]];
+        entries.sort_by_key(|&(row, _)| row);
+        let first = row_idx.len();
+        for &(row, value) in entries.iter() {
+            if row_idx.len() > first && row_idx.last() == Some(&row) {
                 if let Some(last) = values.last_mut() {
                     *last += value;
                 }
@@ -405,7 +423,6 @@ fn saddle_point_matrix(
                 row_idx.push(row);
                 values.push(value);
             }
-            next += 1;
         }
         col_ptr.push(row_idx.len());
     }
