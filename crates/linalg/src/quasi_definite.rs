@@ -28,8 +28,10 @@
 //! positive definite, e.g. a body its supports do not hold).
 //!
 //! Cost: the factor of the whole (n₁+n₂)-square matrix on a nested-dissection or AMD ordering,
-//! faer's supernodal LDLᵀ; the pressure rows of a mixed P2–P1 system add about 1/25 to the
-//! rows.
+//! faer's supernodal LDLᵀ on one thread. The corner pressures of a mixed P2–P1 system add a few
+//! per cent to the rows (6 % on the Lamé tube meshes of tetfem's tests); measured there at 60k
+//! unknowns, this factorization took 1.3× the time of tetfem's own supernodal Cholesky of the
+//! P2 displacement system of the same mesh.
 
 use std::sync::Arc;
 

@@ -28,8 +28,17 @@
 //! methods for the Stokes problem"; a mesh of one layer of tets may violate it), so the
 //! pressure does not checkerboard and the displacement converges at the P2 rate uniformly in
 //! κ. The saddle point is solved whole, without condensation, by one quasi-definite LDLᵀ
-//! ([`QuasiDefiniteLdlt`](crate::linalg::QuasiDefiniteLdlt)) with about 1/25 more rows than
-//! the P2 system.
+//! ([`QuasiDefiniteLdlt`](crate::linalg::QuasiDefiniteLdlt)) with a few per cent more rows
+//! than the P2 system (the corner pressures: 6 % on the Lamé tube meshes).
+//!
+//! Measured on Lamé's thick-walled tube in plane strain (`tests/core/mixed_tube.rs`, the
+//! `locking` bin of the validation crate; 6 × 24 × 2 cells): the radial displacement at the
+//! bore is 0.9993 of Lamé's at every ν from 0.3 to 0.4999, where the linear tet on the same
+//! mesh gives 0.988, 0.883, 0.612, 0.478 at ν = 0.3, 0.49, 0.499, 0.4999 and the plain
+//! quadratic tet 0.9993 to 0.9958; the pressure's L2 error falls at rate 2.4–2.6 under
+//! refinement with every tet's mean within 0.4 % of the exact constant (the linear tet's
+//! −κ tr ε scatters by 54×). The whole mixed solve costs about 1.5× the quadratic tet's
+//! displacement solve of the same mesh.
 
 use nalgebra::SMatrix;
 
