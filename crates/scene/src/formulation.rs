@@ -33,8 +33,8 @@ pub enum Formulation {
 
 /// What a mixed scene needs, said in the error of a scene that lacks it.
 const MIXED_NEEDS: &str = "formulation = \"mixed\" is for static scenes with the linear model on \
-                           10-node tets ([mesh] order = 2), without obstacles, accuracy or point \
-                           probes";
+                           10-node tets ([mesh] order = 2) on tetfem's own engine, without \
+                           obstacles, accuracy or point probes";
 
 impl Scene {
     /// The scene's formulation (checked when the scene was read).
@@ -65,6 +65,9 @@ impl Scene {
                     Some("[[obstacles]]".to_string())
                 } else if self.accuracy().is_some() {
                     Some("analysis.accuracy".to_string())
+                } else if self.engine().kind != super::EngineKind::Tetfem {
+                    // The distributed engine assembles the displacement element only.
+                    Some("engine = \"petsc\"".to_string())
                 } else if self.spec.probes.iter().any(|p| p.get_ref().at.is_some()) {
                     // A point probe reports the displacement element's stress there.
                     Some("a point probe ([[probes]] at)".to_string())
@@ -338,6 +341,7 @@ vtu_format = "ascii"
                 "modal",
             ),
             ("\"mixed\"", "\"hybrid\"", "unknown formulation 'hybrid'"),
+            ("[mesh]", "engine = \"petsc\"\n[mesh]", "engine = \"petsc\""),
         ] {
             let message = parse(&BLOCK.replace(from, to)).unwrap_err().to_string();
             assert!(

@@ -659,8 +659,8 @@ pub struct AnalysisSpec {
     /// P2–P1) element, which does not lock as Poisson's ratio approaches 0.5 (rubber: ν up to
     /// 0.4999…) and writes the pressure (Pa, positive in compression) as the `.vtu` point field
     /// `pressure`. Mixed: static scenes with the linear model on 10-node tets (`[mesh] order =
-    /// 2`) only, without obstacles or `accuracy`; solved by a sparse LDLᵀ whatever
-    /// `linear_solver` says.
+    /// 2`) on tetfem's own engine only, without obstacles, `accuracy` or point probes; solved
+    /// by a sparse LDLᵀ whatever `linear_solver` says.
     #[serde(default)]
     pub formulation: Option<String>,
     /// Static (linear model) and dynamic (implicit methods): how the linear systems are solved,
