@@ -3,13 +3,15 @@
 //! PETSc engine).
 //!
 //! The analysis room also holds every solve of a problem: the set-up made once ([`problem`]),
-//! one linear solve ([`statics`]), Newton with load steps ([`nonlinear`]), time integration
-//! ([`dynamics`]) and modes ([`modal`]); the one Newton loop both nonlinear solves iterate in
-//! (`newton`).
+//! one linear solve ([`statics`]), its mixed displacement–pressure form for nearly
+//! incompressible materials ([`mixed_statics`]), Newton with load steps ([`nonlinear`]), time
+//! integration ([`dynamics`]) and modes ([`modal`]); the one Newton loop both nonlinear solves
+//! iterate in (`newton`).
 
 pub mod combination;
 pub mod definition;
 pub mod dynamics;
+pub mod mixed_statics;
 pub mod modal;
 pub mod modal_analysis;
 pub(crate) mod newton;

@@ -32,6 +32,18 @@ impl Material {
                 requirement: "must be finite and > 0",
             });
         }
+        if poisson_ratio == 0.5 {
+            // The incompressible limit itself: λ and κ are infinite, in every formulation; the
+            // mixed one reaches ν as close to it as wanted without locking.
+            return Err(Error::InvalidMaterial {
+                field: "poisson_ratio",
+                value: poisson_ratio,
+                requirement: "must be below 0.5 (ν = 0.5 makes the bulk modulus infinite): for \
+                              rubber use ν = 0.4999 with the mixed formulation (scene key \
+                              formulation = \"mixed\" with element = \"tet10\"; library: \
+                              solve_static_mixed), which does not lock",
+            });
+        }
         if !(poisson_ratio.is_finite() && poisson_ratio > -1.0 && poisson_ratio < 0.5) {
             return Err(Error::InvalidMaterial {
                 field: "poisson_ratio",

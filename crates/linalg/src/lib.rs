@@ -4,6 +4,8 @@
 //! - [`block_sparse`]: the same in 3×3 node blocks, for bandwidth-bound products;
 //! - [`ordering`]: fill-reducing orderings (METIS nested dissection, AMD);
 //! - [`linsolve`]: sparse Cholesky (supernodal, over faer) and its triangular solves;
+//! - [`quasi_definite`]: sparse LDLᵀ without pivoting of symmetric quasi-definite matrices
+//!   (mixed displacement–pressure systems);
 //! - [`iterative`]: preconditioned conjugate gradients and its preconditioners;
 //! - [`amg`]: smoothed-aggregation multigrid, with a near-null space built from plain DOF
 //!   coordinates ([`amg::DofGeometry`]);
@@ -27,10 +29,12 @@ pub mod linsolve;
 pub mod memory;
 pub mod ordering;
 pub mod preconditioner;
+pub mod quasi_definite;
 pub mod sparse;
 
 pub use error::{Error, Result};
 pub use linear_solver::{LinearMethod, LinearSolver, SolverOptions};
 pub use linsolve::{CholeskyOptions, NumericFactorization, SparseCholesky, TriangularSolve};
 pub use ordering::FillOrdering;
+pub use quasi_definite::QuasiDefiniteLdlt;
 pub use sparse::CscMatrix;

@@ -16,6 +16,7 @@ mod dynamic_contact;
 mod element;
 mod engine;
 mod estimate;
+mod formulation;
 pub mod key_docs;
 mod modal;
 mod obstacles;
@@ -51,6 +52,7 @@ pub use dynamic_contact::{ContactForceHistory, DynamicContactBarrier};
 pub use element::SceneElement;
 pub use engine::{EngineKind, EngineSettings, PetscSolver, PetscSpec, parse_petsc_options};
 pub use estimate::{ESTIMATED_ERROR_DEFINITION, EstimatedError, estimated_error_of};
+pub use formulation::Formulation;
 pub use modal::{ModalSummary, ModeRow, run_modal_scene};
 pub use reactions::{DynamicReactions, ReactionsAt, reaction_columns};
 pub use restart::{ProbeRange, RESUMABLE_KEYS, checkpoint_path};
@@ -179,6 +181,9 @@ type = "static"                     # default "static"; or "dynamic", which need
 # mass = "lumped"                   # default; or "consistent"
 # initial_velocity = [0.0, 0.0, 0.0]          # m/s, default zero
 # model = "linear"                 # default; or "corotational", "neo-hookean", "st-venant-kirchhoff" (static and every dynamic method; each [[materials]] region its own model)
+# formulation = "displacement"      # default; or "mixed": displacement–pressure P2–P1, no locking
+                                    # as ν → 0.5 (static, linear model, [mesh] order = 2 only);
+                                    # the .vtu gets the point field "pressure" (Pa)
 # linear_solver = "auto"            # default: the Cholesky factorization when its factor fits the
                                     # memory budget and is predicted faster; or "direct",
                                     # "iterative" (multigrid-preconditioned CG). Static (linear
@@ -475,6 +480,7 @@ impl Scene {
         scene.obstacles = scene.check_obstacles()?;
         scene.engine = scene.check_engine()?;
         scene.static_newton = scene.check_static_newton()?;
+        scene.check_formulation()?;
         Ok(scene)
     }
 

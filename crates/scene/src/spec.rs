@@ -655,6 +655,14 @@ pub struct AnalysisSpec {
     /// gets its own model of this kind (static and dynamic).
     #[serde(default)]
     pub model: Option<String>,
+    /// `"displacement"` (default) or `"mixed"`: the mixed displacement–pressure (Taylor–Hood
+    /// P2–P1) element, which does not lock as Poisson's ratio approaches 0.5 (rubber: ν up to
+    /// 0.4999…) and writes the pressure (Pa, positive in compression) as the `.vtu` point field
+    /// `pressure`. Mixed: static scenes with the linear model on 10-node tets (`[mesh] order =
+    /// 2`) on tetfem's own engine only, without obstacles, `accuracy` or point probes; solved
+    /// by a sparse LDLᵀ whatever `linear_solver` says.
+    #[serde(default)]
+    pub formulation: Option<String>,
     /// Static (linear model) and dynamic (implicit methods): how the linear systems are solved,
     /// `"auto"` (default: the Cholesky factorization when its factor fits the memory budget and
     /// is predicted faster), `"direct"` or `"iterative"` (multigrid-preconditioned CG).

@@ -35,6 +35,9 @@ pub fn run_static_with(scene: &Scene, options: &RunOptions) -> Result<RunSummary
         true => None,
         false => Some(OutputLock::acquire(&scene.output().directory)?),
     };
+    if scene.formulation() == super::Formulation::Mixed {
+        return super::formulation::run_mixed(scene, options, lock);
+    }
     if let Some(target) = scene.accuracy() {
         return super::accuracy::run_accuracy(scene, options, lock, target);
     }

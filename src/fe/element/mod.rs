@@ -5,10 +5,13 @@
 //! [`CellType`]); assembly, constraints, loads and outputs take it as a
 //! type parameter:
 //! - `tet4`: the linear 4-node tet ([`Tet4`], its rest data [`Tet`]), constant strain;
-//! - [`tet10`]: the quadratic 10-node tet ([`Tet10`]), linear strain.
+//! - [`tet10`]: the quadratic 10-node tet ([`Tet10`]), linear strain;
+//! - [`taylor_hood`]: the mixed P2–P1 tet (10-node displacement, corner pressure) for nearly
+//!   incompressible materials.
 
 mod element_type;
 pub mod pointwise;
+pub mod taylor_hood;
 pub mod tet10;
 mod tet4;
 

@@ -1,0 +1,356 @@
+//! `analysis.formulation`: the plain displacement element, or the mixed displacement–pressure
+//! one (Taylor–Hood P2–P1, [`tetfem::MixedStaticSolver`]) for nearly incompressible materials,
+//! checked once when the scene is read, and the mixed static run with its outputs (the
+//! pressure as a point field, the stress tensors' mean part from the solved pressure).
+
+use std::path::PathBuf;
+use std::time::Instant;
+
+use tetfem::base::error::Result;
+use tetfem::base::warning::Warning;
+use tetfem::fe::element::Tet10;
+use tetfem::model::{ModelKind, ModelMap};
+use tetfem::post::output::fields::displacement_magnitude;
+use tetfem::post::output::{FrameArrays, OutputLock, PvdCollection, write_atomically};
+use tetfem::{MixedStaticSolution, MixedStaticSolver, TetMaterials};
+
+use super::run::{
+    RunOptions, RunSummary, StaticReport, StaticSolve, report_static, static_frame_arrays,
+    write_static_probe_csv,
+};
+use super::{Analysis, BuiltScene, Scene};
+use crate::png_frames::{StaticLook, static_picture};
+
+/// How a static scene's elasticity is discretized (`analysis.formulation`).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub enum Formulation {
+    /// Displacement only (the default): every element order, analysis and model.
+    #[default]
+    Displacement,
+    /// Displacement and pressure (Taylor–Hood P2–P1): static, linear model, 10-node tets.
+    Mixed,
+}
+
+/// What a mixed scene needs, said in the error of a scene that lacks it.
+const MIXED_NEEDS: &str = "formulation = \"mixed\" is for static scenes with the linear model on \
+                           10-node tets ([mesh] order = 2) on tetfem's own engine, without \
+                           obstacles, accuracy or point probes";
+
+impl Scene {
+    /// The scene's formulation (checked when the scene was read).
+    pub fn formulation(&self) -> Formulation {
+        self.check_formulation().unwrap_or_default()
+    }
+
+    /// `analysis.formulation`: its value, and for `"mixed"` the rest of the scene it needs;
+    /// an error naming the key, the value and what is allowed otherwise.
+    pub(crate) fn check_formulation(&self) -> Result<Formulation> {
+        let Some(spanned) = &self.spec.analysis else {
+            return Ok(Formulation::Displacement);
+        };
+        let Some(name) = &spanned.get_ref().formulation else {
+            return Ok(Formulation::Displacement);
+        };
+        let error = |message: String| self.error("analysis.formulation", &spanned.span(), message);
+        match name.as_str() {
+            "displacement" => Ok(Formulation::Displacement),
+            "mixed" => {
+                let refusal = if !matches!(self.analysis(), Analysis::Static) {
+                    Some("a dynamic or modal analysis".to_string())
+                } else if !self.model().is_linear() {
+                    Some(format!("model = \"{}\"", self.model().name()))
+                } else if self.order() != 2 {
+                    Some(format!("[mesh] order = {}", self.order()))
+                } else if !self.spec.obstacles.is_empty() {
+                    Some("[[obstacles]]".to_string())
+                } else if self.accuracy().is_some() {
+                    Some("analysis.accuracy".to_string())
+                } else if self.engine().kind != super::EngineKind::Tetfem {
+                    // The distributed engine assembles the displacement element only.
+                    Some("engine = \"petsc\"".to_string())
+                } else if self.spec.probes.iter().any(|p| p.get_ref().at.is_some()) {
+                    // A point probe reports the displacement element's stress there.
+                    Some("a point probe ([[probes]] at)".to_string())
+                } else {
+                    None
+                };
+                match refusal {
+                    Some(what) => Err(error(format!(
+                        "\"mixed\" cannot be combined with {what}: {MIXED_NEEDS}"
+                    ))),
+                    None => Ok(Formulation::Mixed),
+                }
+            }
+            other => Err(error(format!(
+                "unknown formulation '{other}': use \"displacement\" (the default) or \"mixed\" \
+                 ({MIXED_NEEDS})"
+            ))),
+        }
+    }
+}
+
+/// A mixed static scene: build on 10-node tets, solve for displacement and pressure, report as
+/// a displacement run does (no self-estimated error: the ZZ estimate's stress is the
+/// displacement element's), and write `<stem>.vtu` with the point field `pressure` (Pa),
+/// `.pvd`, probes CSV, PNG and summary as asked.
+pub(crate) fn run_mixed(
+    scene: &Scene,
+    options: &RunOptions,
+    lock: Option<OutputLock>,
+) -> Result<RunSummary> {
+    let clock = Instant::now();
+    let built = scene.build_as::<Tet10>()?;
+    let build_seconds = clock.elapsed().as_secs_f64();
+    let clock = Instant::now();
+    let loads = built.static_load()?;
+    let mut solver = MixedStaticSolver::new(&built.mesh, &built.materials, &built.constraints)?;
+    let solution = solver.solve(&loads)?;
+    let solved = StaticSolve {
+        displacement: solution.displacement.clone(),
+        relative_residual: solution.relative_residual,
+        free_dofs: solver.dofs().free_count(),
+        phases: None,
+        factor_len: solver.factor_len(),
+        friction_forces: Vec::new(),
+        barrier: None,
+        newton: None,
+        reactions: solution.reactions.clone(),
+    };
+    let solve_seconds = clock.elapsed().as_secs_f64();
+    // Von Mises depends on the deviatoric stress 2μ dev ε only, which the displacement gives.
+    let model = ModelMap::new(ModelKind::Linear, &built.materials);
+    let StaticReport {
+        mut summary,
+        von_mises,
+        ..
+    } = report_static(
+        scene,
+        &built,
+        &model,
+        &solved,
+        None,
+        [build_seconds, solve_seconds],
+        lock.as_ref().and_then(OutputLock::warning),
+    )?;
+    summary.estimated_error = None;
+    // The material's near-incompressibility warning is about the displacement element's
+    // locking, which the mixed one does not have.
+    let locking: Vec<String> = built
+        .materials
+        .material_list()
+        .iter()
+        .flat_map(|m| m.warnings())
+        .filter(|w| matches!(w, Warning::NearlyIncompressible { .. }))
+        .map(|w| w.to_string())
+        .collect();
+    summary.warnings.retain(|w| !locking.contains(w));
+    if !options.no_files {
+        let clock = Instant::now();
+        summary.files = write_mixed_outputs(
+            scene, &built, &model, &solution, &von_mises, options, &summary,
+        )?;
+        summary.output_seconds = clock.elapsed().as_secs_f64();
+    }
+    Ok(summary)
+}
+
+/// The mixed run's files (see [`run_mixed`]).
+fn write_mixed_outputs(
+    scene: &Scene,
+    built: &BuiltScene<Tet10>,
+    model: &ModelMap,
+    solution: &MixedStaticSolution,
+    von_mises: &[f64],
+    options: &RunOptions,
+    summary: &RunSummary,
+) -> Result<Vec<PathBuf>> {
+    let out = scene.output();
+    let dir = &out.directory;
+    let u = &solution.displacement;
+    let mut files = Vec::new();
+    if out.vtu {
+        let vtu = dir.join(format!("{}.vtu", out.stem));
+        let mut arrays = static_frame_arrays(
+            scene,
+            built,
+            model,
+            u,
+            None,
+            Some(&solution.reactions),
+            None,
+        )?;
+        mixed_arrays(&mut arrays, built, &solution.pressure);
+        arrays.writer(&built.mesh)?.write(&vtu)?;
+        let mut pvd = PvdCollection::new(dir.join(format!("{}.pvd", out.stem)));
+        pvd.push(0.0, &vtu)?;
+        files.push(vtu);
+        files.push(pvd.path().to_path_buf());
+    }
+    if out.csv && !built.probes.is_empty() {
+        let path = dir.join(format!("{}_probes.csv", out.stem));
+        files.push(write_static_probe_csv(path, built, summary)?);
+    }
+    if out.png || options.force_png {
+        let path = dir.join(format!("{}.png", out.stem));
+        let look = StaticLook {
+            title: &summary.title,
+            magnitude: &displacement_magnitude(u),
+            von_mises,
+            path: &path,
+        };
+        files.push(static_picture(scene, &built.mesh, u, &look)?);
+    }
+    let json = dir.join(format!("{}_summary.json", out.stem));
+    let mut with_files = summary.clone();
+    with_files.files = files.clone();
+    with_files.files.push(json.clone());
+    write_atomically(&json, |w| writeln!(w, "{}", with_files.to_json()))?;
+    files.push(json);
+    Ok(files)
+}
+
+/// The displacement element's arrays made the mixed solution's: the point field `pressure`
+/// (Pa) added; the stress tensors' mean part replaced by −p (`stress`: each tet's mean corner
+/// pressure, `stress_nodal`: the node's), since λ·tr ε is what locks; the arrays built from
+/// that mean part (principal stresses, strain energy density) dropped rather than left wrong.
+fn mixed_arrays(arrays: &mut FrameArrays, built: &BuiltScene<Tet10>, pressure: &[f64]) {
+    let tet_pressure: Vec<f64> = built
+        .mesh
+        .tets()
+        .iter()
+        .map(|tet| tet[..4].iter().map(|&n| pressure[n]).sum::<f64>() / 4.0)
+        .collect();
+    let replace_mean = |values: &mut [f64], pressures: &[f64]| {
+        for (tensor, p) in values.chunks_exact_mut(6).zip(pressures) {
+            let mean = (tensor[0] + tensor[1] + tensor[2]) / 3.0;
+            for component in &mut tensor[..3] {
+                *component += -mean - p;
+            }
+        }
+    };
+    for (name, _, values) in &mut arrays.point_fields {
+        if name == "stress_nodal" {
+            replace_mean(values, pressure);
+        }
+    }
+    for (name, _, values) in &mut arrays.cell_fields {
+        if name == "stress" {
+            replace_mean(values, &tet_pressure);
+        }
+    }
+    arrays.cell_fields.retain(|(name, _, _)| {
+        !(name.starts_with("principal_stress") || name == "strain_energy_density")
+    });
+    arrays
+        .point_fields
+        .push(("pressure".to_string(), 1, pressure.to_vec()));
+}
+
+#[cfg(test)]
+mod tests {
+    use std::path::Path;
+
+    use super::*;
+
+    /// A 1 × 0.5 × 0.5 m rubber block (ν = 0.4999) on rollers at x = 0, y = 0, z = 0, pulled by
+    /// a uniform traction of 1 kPa on x = 1: uniaxial stress, an affine displacement.
+    const BLOCK: &str = r#"
+[mesh]
+order = 2
+[mesh.box]
+max = [1.0, 0.5, 0.5]
+cells = [2, 1, 1]
+[material]
+youngs_modulus = 1e6
+poisson_ratio = 0.4999
+density = 1000.0
+[[constraints]]
+where = { plane = { axis = "x", at = 0.0 } }
+fix = ["x"]
+[[constraints]]
+where = { plane = { axis = "y", at = 0.0 } }
+fix = ["y"]
+[[constraints]]
+where = { plane = { axis = "z", at = 0.0 } }
+fix = ["z"]
+[[loads]]
+where = { plane = { axis = "x", at = 1.0 } }
+traction = [1000.0, 0.0, 0.0]
+[analysis]
+formulation = "mixed"
+[output]
+vtu_format = "ascii"
+"#;
+
+    fn parse(text: &str) -> Result<Scene> {
+        Scene::parse(text, "block.toml", Path::new("."))
+    }
+
+    #[test]
+    fn a_mixed_block_in_uniaxial_tension_is_exact_and_writes_its_pressure() {
+        let directory = std::env::temp_dir().join(format!("tetfem_mixed_{}", std::process::id()));
+        let mut scene = parse(BLOCK).unwrap();
+        assert_eq!(scene.formulation(), Formulation::Mixed);
+        scene.set_output_directory(directory.clone());
+        let summary = super::super::run_static(&scene).unwrap();
+        // u_x(1) = σL/E = 1e-3 m exactly (the field is affine; the lateral contraction
+        // ν·σ/E·0.5 = 2.5e-4 m at the far corner adds to |u|): round-off only.
+        let exact = (1e-3f64.powi(2) + 2.0 * (0.4999e-3 * 0.5f64).powi(2)).sqrt();
+        assert!(
+            (summary.max_displacement - exact).abs() < 1e-9 * exact,
+            "{summary:?}"
+        );
+        // σ_vM = |σ_xx| = 1 kPa in every tet.
+        assert!(
+            (summary.max_von_mises - 1000.0).abs() < 1e-6 * 1000.0,
+            "{summary:?}"
+        );
+        // The .vtu's pressure is −σ_xx/3 at every node.
+        let path = summary
+            .files
+            .iter()
+            .find(|f| f.extension().is_some_and(|e| e == "vtu"));
+        let vtu = std::fs::read_to_string(path.expect("a .vtu among the files")).unwrap();
+        let start = vtu.find("Name=\"pressure\"").expect("a pressure array");
+        let body = &vtu[start..];
+        let body = &body[body.find('>').unwrap() + 1..body.find("</DataArray>").unwrap()];
+        let values: Vec<f64> = body
+            .split_whitespace()
+            .map(|v| v.parse().unwrap())
+            .collect();
+        assert_eq!(values.len(), summary.nodes);
+        for p in values {
+            // Round-off of a system with κ/μ = 5e3.
+            assert!((p + 1000.0 / 3.0).abs() < 1e-6 * 1000.0, "pressure {p}");
+        }
+        let _ = std::fs::remove_dir_all(directory);
+    }
+
+    #[test]
+    fn mixed_is_refused_where_it_does_not_apply_naming_the_key() {
+        for (from, to, culprit) in [
+            ("order = 2\n", "order = 1\n", "[mesh] order = 1"),
+            (
+                "formulation = \"mixed\"",
+                "formulation = \"mixed\"\nmodel = \"neo-hookean\"",
+                "model = \"neo-hookean\"",
+            ),
+            (
+                "formulation = \"mixed\"",
+                "formulation = \"mixed\"\ntype = \"modal\"",
+                "modal",
+            ),
+            ("\"mixed\"", "\"hybrid\"", "unknown formulation 'hybrid'"),
+            ("[mesh]", "engine = \"petsc\"\n[mesh]", "engine = \"petsc\""),
+        ] {
+            let message = parse(&BLOCK.replace(from, to)).unwrap_err().to_string();
+            assert!(
+                message.contains("analysis.formulation") && message.contains(culprit),
+                "{culprit}: {message}"
+            );
+        }
+        let plain =
+            parse(&BLOCK.replace("formulation = \"mixed\"", "formulation = \"displacement\""));
+        assert_eq!(plain.unwrap().formulation(), Formulation::Displacement);
+    }
+}

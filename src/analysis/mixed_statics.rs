@@ -1,0 +1,432 @@
+//! Static equilibrium of the linear model in the mixed displacement–pressure form (Taylor–Hood
+//! P2–P1 on 10-node tets, [`taylor_hood`](crate::fe::element::taylor_hood)): no volumetric
+//! locking as Poisson's ratio approaches 0.5.
+//!
+//! On the free displacement DOFs f and the corner pressures p the system is
+//!
+//! ```text
+//!   ⎡ K_dev,ff   −B_fᵀ   ⎤ ⎡u_f⎤   ⎡ f_f − K_dev,fc·u_c ⎤
+//!   ⎣ −B_f      −M_p/κ   ⎦ ⎣ p ⎦ = ⎣ B_c·u_c            ⎦
+//! ```
+//!
+//! (u_c the prescribed displacements), symmetric quasi-definite for ν < 0.5 once the supports
+//! hold every rigid motion, so it is factored by an LDLᵀ without pivoting on a nested-dissection
+//! ordering ([`QuasiDefiniteLdlt`]), then refined as the displacement solve is
+//! ([`RESIDUAL_LIMIT`]).
+
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+use faer::sparse::SymbolicSparseColMat;
+
+use crate::analysis::problem::Problem;
+use crate::analysis::statics::RESIDUAL_LIMIT;
+use crate::base::error::{Error, Result};
+use crate::base::memory::{RunPath, SolverMemory, StaticEstimate};
+use crate::bc::constraints::{Constraints, DofMap};
+use crate::bc::loads::Loads;
+use crate::fe::element::taylor_hood::{
+    Coupling, PressureNodes, coupling, deviatoric_stiffness, pressure_mass,
+};
+use crate::fe::element::tet10::EDGES;
+use crate::fe::element::{ElementType, Tet10};
+use crate::fe::materials::TetMaterials;
+use crate::linalg::QuasiDefiniteLdlt;
+use crate::mesh::{CellType, TetMesh};
+use crate::ordering::FillOrdering;
+use crate::sparse::CscMatrix;
+
+/// Steps of iterative refinement tried when the residual is above [`RESIDUAL_LIMIT`] (as the
+/// displacement solve: refinement converges linearly, three steps that do not reach it mean
+/// more will not).
+const MAX_REFINEMENTS: usize = 3;
+
+/// The result of a mixed static solve.
+#[derive(Debug, Clone, PartialEq)]
+pub struct MixedStaticSolution {
+    /// Displacement of every DOF (length units), prescribed values included.
+    pub displacement: Vec<f64>,
+    /// Pressure p = −tr σ / 3 at every node (Pa; positive in compression): the solved value
+    /// at tet corners, the mean of its edge's corners at an edge node (the linear field there),
+    /// 0 at nodes of no tet.
+    pub pressure: Vec<f64>,
+    /// Relative residual ‖A·x − r‖/‖r‖ of the whole saddle-point system (0 when r = 0).
+    pub relative_residual: f64,
+    /// Reaction forces K_dev·u − Bᵀp − f: non-zero only on constrained DOFs (force units).
+    pub reactions: Vec<f64>,
+}
+
+/// Wall time of each phase of a mixed static solve.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct MixedTimings {
+    /// Pattern, constraint set-up and rigid-mode check.
+    pub setup: Duration,
+    /// Element matrices and the saddle-point matrix.
+    pub assembly: Duration,
+    /// Ordering and symbolic analysis of the LDLᵀ.
+    pub symbolic: Duration,
+    /// Numeric LDLᵀ factorization.
+    pub factorization: Duration,
+    /// Right-hand side, solves, refinement and reactions of the last solve.
+    pub solve: Duration,
+}
+
+/// A factored mixed static problem: assemble and factor once, solve for any number of load
+/// cases.
+#[derive(Debug)]
+pub struct MixedStaticSolver {
+    /// K_dev on every DOF (force/length).
+    deviatoric: CscMatrix,
+    /// The saddle-point matrix on the free DOFs then the pressures.
+    system: CscMatrix,
+    dofs: DofMap,
+    pressure_nodes: PressureNodes,
+    /// Per tet: its nodes and its coupling B (for B_c·u_c and Bᵀp).
+    tets: Vec<[usize; 10]>,
+    couplings: Vec<Coupling>,
+    ldlt: QuasiDefiniteLdlt,
+    node_count: usize,
+    timings: MixedTimings,
+}
+
+impl MixedStaticSolver {
+    /// Assembles the mixed system of `mesh` with `materials` (one [`Material`](crate::Material)
+    /// or a [`MaterialMap`](crate::MaterialMap); every material's ν < 0.5, so κ is finite),
+    /// checks that `constraints` hold every rigid-body mode ([`Error::NotConstrained`]) and
+    /// factors it.
+    ///
+    /// A material boundary inside the body gets a continuous pressure across it (the pressure
+    /// space is continuous), an approximation where the bulk moduli differ.
+    pub fn new(
+        mesh: &TetMesh<Tet10>,
+        materials: &impl TetMaterials,
+        constraints: &Constraints,
+    ) -> Result<Self> {
+        if constraints.dof_count() != mesh.dof_count() {
+            return Err(Error::invalid_parameter(
+                "constraints",
+                format!("{} DOFs", constraints.dof_count()),
+                format!("must be made for this mesh ({} DOFs)", mesh.dof_count()),
+            ));
+        }
+        let estimate = StaticEstimate::for_element(
+            mesh.node_count(),
+            mesh.tet_count(),
+            Tet10::NODES,
+            SolverMemory::Iterative,
+        );
+        RunPath::Direct.limits().ensure_fits_or(
+            format!(
+                "the mixed static solve: {}, of which the mesh is held already",
+                estimate.describe()
+            ),
+            estimate.beyond_mesh(),
+            RunPath::Direct.hint(),
+        )?;
+        materials.check_tet_count(mesh)?;
+        let mut timings = MixedTimings::default();
+        let clock = Instant::now();
+        let problem = Problem::new(mesh, constraints)?;
+        timings.setup = clock.elapsed();
+
+        let clock = Instant::now();
+        let shear: Vec<f64> = materials
+            .material_list()
+            .iter()
+            .map(|m| m.shear_modulus())
+            .collect();
+        let inverse_bulk: Vec<f64> = materials
+            .material_list()
+            .iter()
+            .map(|m| 1.0 / m.bulk_modulus())
+            .collect();
+        let mut deviatoric = problem.zero_matrix()?;
+        problem.assembler().reassemble_elements(
+            mesh,
+            |t| deviatoric_stiffness(&Tet10::rest(mesh, t), shear[materials.index_of(t)]),
+            &mut deviatoric,
+        )?;
+        let free_deviatoric = problem.restrict(&deviatoric)?;
+        let pressure_nodes = PressureNodes::new(mesh);
+        let couplings: Vec<Coupling> = (0..mesh.tet_count())
+            .map(|t| coupling(&Tet10::rest(mesh, t)))
+            .collect();
+        let dofs = problem.into_dofs();
+        let system = saddle_point_matrix(
+            mesh,
+            &free_deviatoric,
+            &dofs,
+            &pressure_nodes,
+            &couplings,
+            |t| inverse_bulk[materials.index_of(t)],
+        )?;
+        timings.assembly = clock.elapsed();
+
+        let clock = Instant::now();
+        let mut ldlt =
+            QuasiDefiniteLdlt::analyze(&system, dofs.free_count(), FillOrdering::NestedDissection)?;
+        timings.symbolic = clock.elapsed();
+        let clock = Instant::now();
+        ldlt.factorize(&system)?;
+        timings.factorization = clock.elapsed();
+
+        Ok(MixedStaticSolver {
+            deviatoric,
+            system,
+            dofs,
+            pressure_nodes,
+            tets: mesh.tets().to_vec(),
+            couplings,
+            ldlt,
+            node_count: mesh.node_count(),
+            timings,
+        })
+    }
+
+    /// Solves for the displacement and the pressure under `loads`.
+    pub fn solve(&mut self, loads: &Loads) -> Result<MixedStaticSolution> {
+        let forces = loads.as_slice();
+        Error::check_len("loads", self.dofs.full_count(), forces.len())?;
+        let clock = Instant::now();
+        let free_count = self.dofs.free_count();
+        // r_u = f − K_dev·u_c on the free DOFs; r_p = B·u_c.
+        let coupling_load = self.deviatoric.mul(self.dofs.prescribed())?;
+        let full: Vec<f64> = forces
+            .iter()
+            .zip(&coupling_load)
+            .map(|(f, k)| f - k)
+            .collect();
+        let mut rhs = self.dofs.restrict(&full)?;
+        rhs.extend(self.divergence(self.dofs.prescribed()));
+        let mut x = rhs.clone();
+        self.ldlt.solve_in_place(&mut x)?;
+        let mut relative_residual = self.relative_residual(&x, &rhs)?;
+        // Iterative refinement with the same factor, as the displacement solve does.
+        let mut refinements = 0;
+        while relative_residual > RESIDUAL_LIMIT && refinements < MAX_REFINEMENTS {
+            refinements += 1;
+            let product = self.system.mul(&x)?;
+            let mut correction: Vec<f64> = rhs.iter().zip(&product).map(|(r, a)| r - a).collect();
+            self.ldlt.solve_in_place(&mut correction)?;
+            let refined: Vec<f64> = x.iter().zip(&correction).map(|(u, d)| u + d).collect();
+            let refined_residual = self.relative_residual(&refined, &rhs)?;
+            if refined_residual >= relative_residual || refined_residual.is_nan() {
+                break;
+            }
+            x = refined;
+            relative_residual = refined_residual;
+        }
+        if relative_residual > RESIDUAL_LIMIT || !relative_residual.is_finite() {
+            return Err(Error::InaccurateSolve {
+                relative_residual,
+                limit: RESIDUAL_LIMIT,
+                refinements,
+                cause: "stiffness or element sizes that differ by many orders of magnitude, or \
+                        loads and prescribed displacements of wildly different scales"
+                    .to_string(),
+            });
+        }
+        let corner_pressure = x.split_off(free_count);
+        let displacement = self.dofs.expand(&x)?;
+        let pressure_force = self.pressure_force(&corner_pressure);
+        let elastic = self.deviatoric.mul(&displacement)?;
+        let reactions = (0..forces.len())
+            .map(|dof| {
+                if self.dofs.free_index(dof).is_some() {
+                    0.0
+                } else {
+                    elastic[dof] - pressure_force[dof] - forces[dof]
+                }
+            })
+            .collect();
+        let pressure = self.nodal_pressure(&corner_pressure);
+        self.timings.solve = clock.elapsed();
+        Ok(MixedStaticSolution {
+            displacement,
+            pressure,
+            relative_residual,
+            reactions,
+        })
+    }
+
+    /// B·u per pressure unknown for a full displacement `u`: ∫ L_k div u dV (length³).
+    fn divergence(&self, u: &[f64]) -> Vec<f64> {
+        let mut out = vec![0.0; self.pressure_nodes.count()];
+        for (tet, b) in self.tets.iter().zip(&self.couplings) {
+            let corners = self.pressure_nodes.of_tet(tet);
+            for (k, &p) in corners.iter().enumerate() {
+                for (i, &n) in tet.iter().enumerate() {
+                    for a in 0..3 {
+                        out[p] += b[k][i][a] * u[3 * n + a];
+                    }
+                }
+            }
+        }
+        out
+    }
+
+    /// Bᵀ·p on every DOF: the nodal forces ∫ p div v dV of the corner pressures (force units).
+    fn pressure_force(&self, corner: &[f64]) -> Vec<f64> {
+        let mut out = vec![0.0; 3 * self.node_count];
+        for (tet, b) in self.tets.iter().zip(&self.couplings) {
+            let corners = self.pressure_nodes.of_tet(tet);
+            for (k, &p) in corners.iter().enumerate() {
+                for (i, &n) in tet.iter().enumerate() {
+                    for a in 0..3 {
+                        out[3 * n + a] += b[k][i][a] * corner[p];
+                    }
+                }
+            }
+        }
+        out
+    }
+
+    /// The pressure at every node from the corner values.
+    fn nodal_pressure(&self, corner: &[f64]) -> Vec<f64> {
+        let mut field = vec![0.0; self.node_count];
+        for (&n, &p) in self.pressure_nodes.nodes().iter().zip(corner) {
+            field[n] = p;
+        }
+        for tet in &self.tets {
+            for (e, &(i, j)) in EDGES.iter().enumerate() {
+                field[tet[4 + e]] = 0.5 * (field[tet[i]] + field[tet[j]]);
+            }
+        }
+        field
+    }
+
+    /// ‖A·x − r‖ / ‖r‖ (‖A·x − r‖ when r = 0).
+    fn relative_residual(&self, x: &[f64], rhs: &[f64]) -> Result<f64> {
+        let product = self.system.mul(x)?;
+        let norm = |v: &mut dyn Iterator<Item = f64>| v.map(|a| a * a).sum::<f64>().sqrt();
+        let residual = norm(&mut product.iter().zip(rhs).map(|(a, b)| a - b));
+        let scale = norm(&mut rhs.iter().copied());
+        Ok(if scale > 0.0 {
+            residual / scale
+        } else {
+            residual
+        })
+    }
+
+    /// The free/constrained displacement DOF numbering.
+    pub fn dofs(&self) -> &DofMap {
+        &self.dofs
+    }
+
+    /// The pressure unknowns (the tets' corner nodes).
+    pub fn pressure_nodes(&self) -> &PressureNodes {
+        &self.pressure_nodes
+    }
+
+    /// The saddle-point matrix: the free displacement DOFs, then the pressure unknowns.
+    pub fn system(&self) -> &CscMatrix {
+        &self.system
+    }
+
+    /// Number of stored values of the LDLᵀ factor.
+    pub fn factor_len(&self) -> usize {
+        self.ldlt.factor_len()
+    }
+
+    /// Wall time per phase so far.
+    pub fn timings(&self) -> MixedTimings {
+        self.timings
+    }
+}
+
+/// One-shot mixed static solve: [`MixedStaticSolver::new`] then [`MixedStaticSolver::solve`].
+pub fn solve_static_mixed(
+    mesh: &TetMesh<Tet10>,
+    materials: &impl TetMaterials,
+    constraints: &Constraints,
+    loads: &Loads,
+) -> Result<MixedStaticSolution> {
+    MixedStaticSolver::new(mesh, materials, constraints)?.solve(loads)
+}
+
+/// The saddle-point matrix [K_dev,ff −B_fᵀ; −B_f −M_p/κ] (both triangles, sorted rows): the
+/// free displacement DOFs are rows and columns `0..n_f`, pressure unknown k is `n_f + k`.
+fn saddle_point_matrix(
+    mesh: &TetMesh<Tet10>,
+    free_deviatoric: &CscMatrix,
+    dofs: &DofMap,
+    pressure_nodes: &PressureNodes,
+    couplings: &[Coupling],
+    inverse_bulk: impl Fn(usize) -> f64,
+) -> Result<CscMatrix> {
+    let free_count = dofs.free_count();
+    let dim = free_count + pressure_nodes.count();
+    // Every (column, row, value) of −B, −Bᵀ and −M_p/κ, tet by tet.
+    let visit = |add: &mut dyn FnMut(usize, usize, f64)| {
+        for (t, tet) in mesh.tets().iter().enumerate() {
+            let corners = pressure_nodes.of_tet(tet);
+            let b = &couplings[t];
+            for (k, &p) in corners.iter().enumerate() {
+                let row = free_count + p;
+                for (i, &n) in tet.iter().enumerate() {
+                    for a in 0..3 {
+                        if let Some(free) = dofs.free_index(3 * n + a) {
+                            add(free, row, -b[k][i][a]);
+                            add(row, free, -b[k][i][a]);
+                        }
+                    }
+                }
+            }
+            let rest = Tet10::rest(mesh, t);
+            let scale = inverse_bulk(t);
+            for (k, &p) in corners.iter().enumerate() {
+                for (l, &q) in corners.iter().enumerate() {
+                    add(
+                        free_count + q,
+                        free_count + p,
+                        -scale * pressure_mass(&rest, k, l),
+                    );
+                }
+            }
+        }
+    };
+    // Bucketed by column in two passes (count, then fill): each column's few entries are
+    // sorted on their own, not millions of triplets globally.
+    let mut start = vec![0usize; dim + 1];
+    visit(&mut |column, _, _| start[column + 1] += 1);
+    for column in 0..dim {
+        start[column + 1] += start[column];
+    }
+    let mut fill = start.clone();
+    let mut bucket = vec![(0usize, 0.0f64); start[dim]];
+    visit(&mut |column, row, value| {
+        bucket[fill[column]] = (row, value);
+        fill[column] += 1;
+    });
+    let mut col_ptr = Vec::with_capacity(dim + 1);
+    let mut row_idx = Vec::with_capacity(free_deviatoric.nnz() + bucket.len());
+    let mut values = Vec::with_capacity(row_idx.capacity());
+    col_ptr.push(0);
+    for column in 0..dim {
+        if column < free_count {
+            let range = free_deviatoric.col_ptr()[column]..free_deviatoric.col_ptr()[column + 1];
+            row_idx.extend_from_slice(&free_deviatoric.row_idx()[range.clone()]);
+            values.extend_from_slice(&free_deviatoric.values()[range]);
+        }
+        // The added entries of this column have rows above every K_dev row (pressures) or,
+        // in a pressure column, are the only ones: appended in sorted order, duplicates summed
+        // (in tet order, so the sum does not depend on the sort).
+        let entries = &mut bucket[start[column]..start[column + 1]];
+        entries.sort_by_key(|&(row, _)| row);
+        let first = row_idx.len();
+        for &(row, value) in entries.iter() {
+            if row_idx.len() > first && row_idx.last() == Some(&row) {
+                if let Some(last) = values.last_mut() {
+                    *last += value;
+                }
+            } else {
+                row_idx.push(row);
+                values.push(value);
+            }
+        }
+        col_ptr.push(row_idx.len());
+    }
+    // Valid by construction (sorted, in range, square).
+    let pattern = SymbolicSparseColMat::new_checked(dim, dim, col_ptr, None, row_idx);
+    Ok(CscMatrix::from_values(Arc::new(pattern), values)?)
+}
