@@ -331,8 +331,10 @@ fn likely_cause(materials: &[Material]) -> String {
     let ratio = material.lame_lambda() / material.shear_modulus();
     if nu > crate::base::warning::NEARLY_INCOMPRESSIBLE_POISSON {
         format!(
-            "Poisson's ratio {nu} is too close to 0.5 (λ/μ = {ratio:.1e}); use ν ≤ 0.49 (linear \
-             tets lock at such ν anyway)"
+            "Poisson's ratio {nu} is too close to 0.5 (λ/μ = {ratio:.1e}) for the displacement \
+             solve: use the mixed displacement–pressure element on 10-node tets \
+             (`solve_static_mixed`, scene key `formulation = \"mixed\"`), which solves at any \
+             ν < 0.5, or ν ≤ 0.49 (linear tets lock at such ν anyway)"
         )
     } else {
         "stiffness or element sizes that differ by many orders of magnitude (see the mesh \

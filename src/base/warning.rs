@@ -178,7 +178,9 @@ impl fmt::Display for Warning {
             Warning::NearlyIncompressible { poisson_ratio } => write!(
                 f,
                 "Poisson's ratio {poisson_ratio} is close to 0.5 (λ/μ = {:.0}): linear tets lock volumetrically \
-                 and come out too stiff; refine, or use ν ≤ {NEARLY_INCOMPRESSIBLE_POISSON}",
+                 and come out too stiff; use the mixed displacement–pressure element on 10-node \
+                 tets (`formulation = \"mixed\"`, `solve_static_mixed`), refine, or use \
+                 ν ≤ {NEARLY_INCOMPRESSIBLE_POISSON}",
                 2.0 * poisson_ratio / (1.0 - 2.0 * poisson_ratio)
             ),
             Warning::LoadOnFixedDofs { load, dofs } => write!(
