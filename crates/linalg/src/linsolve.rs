@@ -227,23 +227,7 @@ impl SparseCholesky {
     ) -> Result<()> {
         self.factored = false;
         self.single_current = false;
-        if !Arc::ptr_eq(&self.pattern, matrix.pattern())
-            && (self.pattern.col_ptr() != matrix.col_ptr()
-                || self.pattern.row_idx() != matrix.row_idx())
-        {
-            return Err(Error::invalid_parameter(
-                "matrix",
-                "a different sparsity pattern",
-                "must have the pattern the factorization was analysed for",
-            ));
-        }
-        if let Some(k) = matrix.values().iter().position(|v| !v.is_finite()) {
-            return Err(Error::invalid_parameter(
-                "matrix value",
-                format!("entry {k} = {}", matrix.values()[k]),
-                "must be finite",
-            ));
-        }
+        check_refill(&self.pattern, matrix, "factorization")?;
         self.allocate()?;
         if let (NumericFactorization::Supernodal, Some(plan), Some(factor_plan)) =
             (kernel, &self.plan, &self.factor_plan)
@@ -489,4 +473,31 @@ impl SparseCholesky {
                 .sum(),
         }
     }
+}
+
+/// [`Error::InvalidParameter`] unless `matrix` is on `pattern` (the one a factorization of kind
+/// `what` was analysed for: the same pattern, or an equal one) with every value finite — the
+/// check before each numeric factorization of a refilled matrix.
+pub(crate) fn check_refill(
+    pattern: &Arc<SymbolicSparseColMat<usize>>,
+    matrix: &CscMatrix,
+    what: &str,
+) -> Result<()> {
+    if !Arc::ptr_eq(pattern, matrix.pattern())
+        && (pattern.col_ptr() != matrix.col_ptr() || pattern.row_idx() != matrix.row_idx())
+    {
+        return Err(Error::invalid_parameter(
+            "matrix",
+            "a different sparsity pattern",
+            format!("must have the pattern the {what} was analysed for"),
+        ));
+    }
+    if let Some(k) = matrix.values().iter().position(|v| !v.is_finite()) {
+        return Err(Error::invalid_parameter(
+            "matrix value",
+            format!("entry {k} = {}", matrix.values()[k]),
+            "must be finite",
+        ));
+    }
+    Ok(())
 }

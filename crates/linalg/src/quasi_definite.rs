@@ -137,23 +137,7 @@ impl QuasiDefiniteLdlt {
     ///   positive definite, e.g. a body its supports do not hold).
     pub fn factorize(&mut self, matrix: &CscMatrix) -> Result<()> {
         self.factored = false;
-        if !Arc::ptr_eq(&self.pattern, matrix.pattern())
-            && (self.pattern.col_ptr() != matrix.col_ptr()
-                || self.pattern.row_idx() != matrix.row_idx())
-        {
-            return Err(Error::invalid_parameter(
-                "matrix",
-                "a different sparsity pattern",
-                "must have the pattern the LDLᵀ was analysed for",
-            ));
-        }
-        if let Some(k) = matrix.values().iter().position(|v| !v.is_finite()) {
-            return Err(Error::invalid_parameter(
-                "matrix value",
-                format!("entry {k} = {}", matrix.values()[k]),
-                "must be finite",
-            ));
-        }
+        crate::linsolve::check_refill(&self.pattern, matrix, "LDLᵀ")?;
         for row in self.positive..self.dim() {
             let diagonal = matrix.get(row, row).unwrap_or(0.0);
             if diagonal >= 0.0 {

@@ -11,7 +11,7 @@ use tetfem::base::warning::Warning;
 use tetfem::fe::element::Tet10;
 use tetfem::model::{ModelKind, ModelMap};
 use tetfem::post::output::fields::displacement_magnitude;
-use tetfem::post::output::{FrameArrays, OutputLock, PvdCollection, write_atomically};
+use tetfem::post::output::{FrameArrays, OutputLock, PvdCollection};
 use tetfem::{MixedStaticSolution, MixedStaticSolver, TetMaterials};
 
 use super::run::{
@@ -200,13 +200,7 @@ fn write_mixed_outputs(
         };
         files.push(static_picture(scene, &built.mesh, u, &look)?);
     }
-    let json = dir.join(format!("{}_summary.json", out.stem));
-    let mut with_files = summary.clone();
-    with_files.files = files.clone();
-    with_files.files.push(json.clone());
-    write_atomically(&json, |w| writeln!(w, "{}", with_files.to_json()))?;
-    files.push(json);
-    Ok(files)
+    crate::run::finish_with_summary(dir, &out.stem, summary, files)
 }
 
 /// The displacement element's arrays made the mixed solution's: the point field `pressure`

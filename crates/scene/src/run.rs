@@ -552,7 +552,18 @@ fn write_static_outputs<E: SceneElement>(
         };
         files.push(static_picture(scene, &built.mesh, u, &look)?);
     }
-    let json = dir.join(format!("{}_summary.json", out.stem));
+    finish_with_summary(dir, &out.stem, summary, files)
+}
+
+/// Writes a static run's `<stem>_summary.json` into `dir` — `summary` listing every file of
+/// the run, itself included — and returns `files` with it, the run's file list.
+pub(crate) fn finish_with_summary(
+    dir: &std::path::Path,
+    stem: &str,
+    summary: &RunSummary,
+    mut files: Vec<PathBuf>,
+) -> Result<Vec<PathBuf>> {
+    let json = dir.join(format!("{stem}_summary.json"));
     let mut with_files = summary.clone();
     with_files.files = files.clone();
     with_files.files.push(json.clone());
