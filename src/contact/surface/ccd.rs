@@ -15,7 +15,7 @@ use nalgebra::Vector3;
 use super::boundary::Surface;
 use super::bvh::candidates;
 use super::distance::{edge_edge_squared_distance, point_triangle_squared_distance};
-use super::potential::Pair;
+use super::potential::{Pair, pairs_of};
 use crate::base::error::{Error, Result};
 
 /// s: the fraction of its start distance every pair keeps at the returned step (IPC's line
@@ -130,16 +130,7 @@ pub fn max_step(
         ));
     }
     let found = candidates(surface, positions, Some(displacement), 0.0)?;
-    let pairs = found
-        .point_triangle
-        .iter()
-        .map(|&(node, triangle)| Pair::PointTriangle { node, triangle })
-        .chain(
-            found
-                .edge_edge
-                .iter()
-                .map(|&(a, b)| Pair::EdgeEdge { a, b }),
-        );
+    let pairs = pairs_of(&found);
     let mut alpha: f64 = 1.0;
     for pair in pairs {
         let nodes = pair.nodes(surface);

@@ -45,6 +45,16 @@ pub enum Pair {
     },
 }
 
+/// Every candidate pair of `found` as a [`Pair`]: point–triangle pairs, then edge–edge pairs,
+/// each in `found`'s order.
+pub(crate) fn pairs_of(found: &Candidates) -> impl Iterator<Item = Pair> + '_ {
+    let points = found.point_triangle.iter();
+    let edges = found.edge_edge.iter();
+    points
+        .map(|&(node, triangle)| Pair::PointTriangle { node, triangle })
+        .chain(edges.map(|&(a, b)| Pair::EdgeEdge { a, b }))
+}
+
 impl Pair {
     /// The pair's four mesh nodes in the order of [`super::distance`]: (point, triangle) or
     /// (edge a, edge b). The triangle or edges must be `surface`'s (checked where candidates
@@ -162,16 +172,7 @@ impl SurfaceBarrier {
                 &computed
             }
         };
-        let pairs = found
-            .point_triangle
-            .iter()
-            .map(|&(node, triangle)| Pair::PointTriangle { node, triangle })
-            .chain(
-                found
-                    .edge_edge
-                    .iter()
-                    .map(|&(a, b)| Pair::EdgeEdge { a, b }),
-            );
+        let pairs = pairs_of(found);
         let d_hat2 = self.activation_distance * self.activation_distance;
         Ok(pairs
             .filter_map(|pair| {
