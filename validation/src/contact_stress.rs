@@ -733,6 +733,19 @@ mod tests {
     use tetfem::analysis::dynamics::{MassKind, Rayleigh, critical_time_step};
     use tetfem::model::ModelKind;
 
+    /// The suite's context of `scene`: its explicit critical step on the lumped linear system.
+    fn context_of(scene: Scene) -> SceneContext {
+        let system = scene
+            .build(ModelKind::Linear)
+            .unwrap()
+            .transient_system(MassKind::Lumped, Rayleigh::default())
+            .unwrap();
+        SceneContext {
+            scene,
+            dt_crit: critical_time_step(&system).unwrap().dt,
+        }
+    }
+
     #[test]
     fn every_scene_starts_outside_its_obstacles_and_the_movers_move() {
         for scene in Scene::ALL {
@@ -755,16 +768,7 @@ mod tests {
     fn backward_euler_presses_at_10x_the_critical_step_without_a_node_inside() {
         // One cell of the suite, the target: completed, no gap ≤ 0, ≤ 8 Newton
         // iterations per step on average and ≤ 40 in one (measured 3.9 / 8).
-        let scene = Scene::Press;
-        let system = scene
-            .build(ModelKind::Linear)
-            .unwrap()
-            .transient_system(MassKind::Lumped, Rayleigh::default())
-            .unwrap();
-        let context = SceneContext {
-            scene,
-            dt_crit: critical_time_step(&system).unwrap().dt,
-        };
+        let context = context_of(Scene::Press);
         let cell = run_cell(&context, Scheme::BackwardEuler, 10.0, &Budget::new(false));
         assert_eq!(cell.outcome, Outcome::Completed, "{}", cell.note);
         assert_eq!(cell.steps.0, cell.steps.1);
@@ -781,15 +785,7 @@ mod tests {
         // applied, H − W stays at or below its start (the step's barrier term only removes
         // energy, see `Newmark`): the class bound is 10 % (ENERGY_GROWTH_BOUND).
         for scene in [Scene::Press, Scene::Pinch] {
-            let system = scene
-                .build(ModelKind::Linear)
-                .unwrap()
-                .transient_system(MassKind::Lumped, Rayleigh::default())
-                .unwrap();
-            let context = SceneContext {
-                scene,
-                dt_crit: critical_time_step(&system).unwrap().dt,
-            };
+            let context = context_of(scene);
             for multiple in [10.0, 100.0] {
                 let cell = run_cell(&context, Scheme::Newmark, multiple, &Budget::new(false));
                 assert_eq!(
