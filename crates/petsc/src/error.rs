@@ -61,11 +61,13 @@ pub enum Error {
         /// The values seen.
         detail: String,
     },
-    /// Other ranks failed (each reports its own error); this one stopped with them.
-    #[error("rank(s) {ranks:?} failed (see their messages); this rank stopped with them")]
+    /// Other ranks failed (each also reports its own error); this one stopped with them.
+    #[error("rank(s) {ranks:?} failed ({}); this rank stopped with them", messages.join("; "))]
     OtherRanksFailed {
         /// The ranks that failed.
         ranks: Vec<usize>,
+        /// Their errors, in the order of `ranks` (each cut at 1 KiB).
+        messages: Vec<String>,
     },
     /// A file could not be written.
     #[error("cannot write {path}: {source}")]

@@ -49,6 +49,8 @@ const MAT_COPY_VALUES: c_int = 1;
 const FILE_MODE_WRITE: c_int = 1;
 /// `PetscCopyMode`.
 const PETSC_COPY_VALUES: c_int = 0;
+/// The longest error message one rank shares with the others in [`Petsc::agree`] (bytes).
+const MESSAGE_BYTES: usize = 1024;
 
 /// The `MatOption`s the engine sets (values of petscmat.h 3.18).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -419,18 +421,61 @@ impl Petsc {
     }
 
     /// `result` on every rank if it is `Ok` on every rank; otherwise this rank's own error, or
-    /// [`Error::OtherRanksFailed`] on the ranks that succeeded. Collective: what makes a
-    /// failure of one rank (before a collective call) an error on all instead of a hang.
+    /// [`Error::OtherRanksFailed`] (carrying the failed ranks' messages) on the ranks that
+    /// succeeded. Collective: what makes a failure of one rank (before a collective call) an
+    /// error on all instead of a hang.
     pub fn agree<T>(&self, result: Result<T>) -> Result<T> {
-        let mut failed = vec![0.0; self.size];
-        failed[self.rank] = if result.is_ok() { 0.0 } else { 1.0 };
-        self.sum(&mut failed)?;
-        let ranks: Vec<usize> = (0..self.size).filter(|&r| failed[r] > 0.0).collect();
+        let own = result.as_ref().err().map(ToString::to_string);
+        let messages = self.share_messages(own.as_deref())?;
+        let failed: Vec<(usize, String)> = messages
+            .into_iter()
+            .enumerate()
+            .filter_map(|(rank, message)| message.map(|m| (rank, m)))
+            .collect();
         match result {
             Err(e) => Err(e),
-            Ok(_) if !ranks.is_empty() => Err(Error::OtherRanksFailed { ranks }),
+            Ok(_) if !failed.is_empty() => Err(Error::OtherRanksFailed {
+                ranks: failed.iter().map(|(rank, _)| *rank).collect(),
+                messages: failed.into_iter().map(|(_, m)| m).collect(),
+            }),
             Ok(value) => Ok(value),
         }
+    }
+
+    /// Every rank's `message` (`None` where a rank has none), on every rank. Each rank's
+    /// message travels in its own slot of [`MESSAGE_BYTES`] bytes, one byte per `u64`, so
+    /// an element-wise maximum over the ranks is a gather; a longer message is cut at a
+    /// character boundary. The culprit's words then reach the ranks that stop with it: under
+    /// mpirun the first rank to exit with an error ends the job, and a failed rank's own
+    /// line on stderr may be lost with it.
+    fn share_messages(&self, message: Option<&str>) -> Result<Vec<Option<String>>> {
+        // Slot layout: byte 0 says whether the rank failed (1) or not (0), then the text.
+        let mut slots = vec![0u64; self.size * (MESSAGE_BYTES + 1)];
+        if let Some(text) = message {
+            let slot = &mut slots[self.rank * (MESSAGE_BYTES + 1)..][..MESSAGE_BYTES + 1];
+            slot[0] = 1;
+            let mut end = text.len().min(MESSAGE_BYTES);
+            while !text.is_char_boundary(end) {
+                end -= 1;
+            }
+            for (cell, byte) in slot[1..].iter_mut().zip(text[..end].bytes()) {
+                *cell = u64::from(byte);
+            }
+        }
+        self.max_u64(&mut slots)?;
+        Ok(slots
+            .chunks(MESSAGE_BYTES + 1)
+            .map(|slot| {
+                (slot[0] == 1).then(|| {
+                    let bytes: Vec<u8> = slot[1..]
+                        .iter()
+                        .take_while(|&&b| b != 0)
+                        .map(|&b| b as u8)
+                        .collect();
+                    String::from_utf8_lossy(&bytes).into_owned()
+                })
+            })
+            .collect())
     }
 
     /// Element-wise sum of `values` over all ranks (in place).
@@ -450,6 +495,16 @@ impl Petsc {
         let (op, kind) = (
             (&raw const ompi_mpi_op_max).cast(),
             (&raw const ompi_mpi_double).cast(),
+        );
+        self.allreduce(values, kind, op, "MPI_Allreduce(MPI_MAX)")
+    }
+
+    /// Element-wise maximum of `values` over all ranks (in place).
+    fn max_u64(&self, values: &mut [u64]) -> Result<()> {
+        // MPI_MAX / MPI_UNSIGNED_LONG (u64 on the 64-bit Linux this targets).
+        let (op, kind) = (
+            (&raw const ompi_mpi_op_max).cast(),
+            (&raw const ompi_mpi_unsigned_long).cast(),
         );
         self.allreduce(values, kind, op, "MPI_Allreduce(MPI_MAX)")
     }
