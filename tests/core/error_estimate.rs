@@ -8,8 +8,10 @@ use nalgebra::{Matrix3, Vector3};
 use tetfem::fe::quadrature::tet_rule;
 use tetfem::post::convergence::richardson;
 use tetfem::post::estimate::{PointwiseElement, Recovery, estimate_error, estimate_error_with};
-use tetfem::{BoxSplit, Constraints, Loads, Material, Tet, Tet10, TetMesh, solve_static};
+use tetfem::{BoxSplit, Constraints, Material, Tet10, TetMesh, solve_static};
 use tetfem_fixtures::cantilever::Cantilever;
+
+use crate::common::manufactured::{barycentric, body_loads, corners};
 
 /// u = α d φ with φ = sin πx sin πy sin πz: zero on the faces of the unit cube.
 struct Manufactured {
@@ -59,41 +61,6 @@ fn trig(p: &Vector3<f64>) -> ([f64; 3], [f64; 3]) {
         [(PI * p.x).sin(), (PI * p.y).sin(), (PI * p.z).sin()],
         [(PI * p.x).cos(), (PI * p.y).cos(), (PI * p.z).cos()],
     )
-}
-
-fn corners<E: PointwiseElement>(mesh: &TetMesh<E>, t: usize) -> ([Vector3<f64>; 4], Tet) {
-    let tet = mesh.tets()[t].as_ref();
-    let x: [Vector3<f64>; 4] = std::array::from_fn(|i| mesh.nodes()[tet[i]]);
-    (x, Tet::new(&x).expect("mesh tets are valid"))
-}
-
-/// Consistent nodal loads ∫ b Nᵢ dV of a body-force field, by the degree-5 rule.
-fn body_loads<E: PointwiseElement>(
-    mesh: &TetMesh<E>,
-    b: impl Fn(&Vector3<f64>) -> Vector3<f64>,
-) -> Loads {
-    let mut loads = Loads::new(mesh);
-    let rule = tet_rule();
-    let mut n = vec![0.0; E::NODES];
-    for t in 0..mesh.tet_count() {
-        let (x, tet) = corners(mesh, t);
-        for q in &rule {
-            let l = barycentric(&q.barycentric);
-            let p = x[0] * l[0] + x[1] * l[1] + x[2] * l[2] + x[3] * l[3];
-            let force = b(&p) * (q.weight * tet.volume());
-            E::shape_values_at(&l, &mut n);
-            for (i, &node) in mesh.tets()[t].as_ref().iter().enumerate() {
-                loads
-                    .add_nodal_force(node, force * n[i])
-                    .expect("node in range");
-            }
-        }
-    }
-    loads
-}
-
-fn barycentric(b: &Vector3<f64>) -> [f64; 4] {
-    [1.0 - b.x - b.y - b.z, b.x, b.y, b.z]
 }
 
 /// ‖u − u_h‖_E = (∫ (ε_h − ε):C:(ε_h − ε) dV)^½ by the degree-5 rule (exact for the P2

@@ -31,6 +31,7 @@ mod critical_step_damping;
 mod dynamics;
 mod element;
 mod error_estimate;
+mod error_estimate_model;
 mod explicit_contact;
 mod gmsh_element_lines;
 mod gravity;

@@ -37,18 +37,33 @@ pub fn averaged_nodal_stress<E: PointwiseElement>(
     materials: &impl TetMaterials,
     displacement: &[f64],
 ) -> Vec<Matrix3<f64>> {
+    averaged_nodal(mesh, displacement, &|t, gradient| {
+        hooke(materials.material_of(t), gradient)
+    })
+}
+
+/// The stress of tet `t` at a displacement gradient ∇u (dimensionless): a symmetric tensor in
+/// stress units. Hooke's σ for the linear estimate, a model's second Piola–Kirchhoff S for
+/// the estimate of a nonlinear model.
+pub(crate) type StressOf<'a> = dyn Fn(usize, &Matrix3<f64>) -> Matrix3<f64> + 'a;
+
+/// [`averaged_nodal_stress`] of any [`StressOf`].
+pub(crate) fn averaged_nodal<E: PointwiseElement>(
+    mesh: &TetMesh<E>,
+    displacement: &[f64],
+    stress: &StressOf,
+) -> Vec<Matrix3<f64>> {
     let mut sum = vec![Matrix3::zeros(); mesh.node_count()];
     let mut weight = vec![0.0; mesh.node_count()];
     let mut element = vec![0.0; 3 * E::NODES];
     for t in 0..mesh.tet_count() {
         gather(mesh, t, displacement, &mut element);
         let corners = corners_of(mesh, t);
-        let material = materials.material_of(t);
         let volume = corners.volume();
         for (i, &n) in mesh.tets()[t].as_ref().iter().enumerate() {
             let l = E::node_barycentric(i);
             let gradient = E::displacement_gradient_at(&corners, &l, &element);
-            sum[n] += hooke(material, &gradient) * volume;
+            sum[n] += stress(t, &gradient) * volume;
             weight[n] += volume;
         }
     }
@@ -80,7 +95,7 @@ fn monomials(degree: usize, d: &nalgebra::Vector3<f64>, terms: &mut [f64; 10]) -
 /// the centroid for P1: where the element's stress is most accurate) with their positions.
 fn samples<E: PointwiseElement>(
     mesh: &TetMesh<E>,
-    materials: &impl TetMaterials,
+    stress: &StressOf,
     displacement: &[f64],
     t: usize,
     element: &mut [f64],
@@ -102,7 +117,7 @@ fn samples<E: PointwiseElement>(
         .map(|l| {
             let p = x[0] * l[0] + x[1] * l[1] + x[2] * l[2] + x[3] * l[3];
             let gradient = E::displacement_gradient_at(&corners, l, element);
-            (p, hooke(materials.material_of(t), &gradient))
+            (p, stress(t, &gradient))
         })
         .collect()
 }
@@ -122,6 +137,17 @@ pub fn spr_nodal_stress<E: PointwiseElement>(
     materials: &impl TetMaterials,
     displacement: &[f64],
 ) -> crate::base::error::Result<Vec<Matrix3<f64>>> {
+    spr_nodal(mesh, displacement, &|t, gradient| {
+        hooke(materials.material_of(t), gradient)
+    })
+}
+
+/// [`spr_nodal_stress`] of any [`StressOf`].
+pub(crate) fn spr_nodal<E: PointwiseElement>(
+    mesh: &TetMesh<E>,
+    displacement: &[f64],
+    stress: &StressOf,
+) -> crate::base::error::Result<Vec<Matrix3<f64>>> {
     let mut on_boundary = vec![false; mesh.node_count()];
     for face in mesh.boundary_faces()? {
         for n in face.nodes {
@@ -136,7 +162,7 @@ pub fn spr_nodal_stress<E: PointwiseElement>(
     }
     let mut element = vec![0.0; 3 * E::NODES];
     let tet_samples: Vec<_> = (0..mesh.tet_count())
-        .map(|t| samples(mesh, materials, displacement, t, &mut element))
+        .map(|t| samples(mesh, stress, displacement, t, &mut element))
         .collect();
     let mut sum = vec![Matrix3::zeros(); mesh.node_count()];
     let mut count = vec![0usize; mesh.node_count()];
@@ -204,7 +230,7 @@ pub fn spr_nodal_stress<E: PointwiseElement>(
             }
         }
     }
-    let averaged = averaged_nodal_stress(mesh, materials, displacement);
+    let averaged = averaged_nodal(mesh, displacement, stress);
     Ok(sum
         .into_iter()
         .zip(count)

@@ -3,7 +3,9 @@
 use std::f64::consts::PI;
 
 use nalgebra::{Matrix3, Vector3};
-use tetfem::Material;
+use tetfem::fe::quadrature::tet_rule;
+use tetfem::post::estimate::PointwiseElement;
+use tetfem::{Loads, Material, Tet, TetMesh};
 
 /// Manufactured field u = α·φ·(1, 1, 1) + A·x + c with φ = sin πx sin πy sin πz: smooth, not
 /// zero on the boundary (the linear part gives non-homogeneous Dirichlet data), and with a body
@@ -63,4 +65,41 @@ impl Manufactured {
         let laplacian = -3.0 * pi2 * phi;
         -(Vector3::repeat(mu * laplacian) + hessian * Vector3::repeat(lambda + mu)) * self.alpha
     }
+}
+
+/// Tet `t`'s corner positions and its straight-sided geometry.
+pub fn corners<E: PointwiseElement>(mesh: &TetMesh<E>, t: usize) -> ([Vector3<f64>; 4], Tet) {
+    let tet = mesh.tets()[t].as_ref();
+    let x: [Vector3<f64>; 4] = std::array::from_fn(|i| mesh.nodes()[tet[i]]);
+    (x, Tet::new(&x).expect("mesh tets are valid"))
+}
+
+/// Consistent nodal loads ∫ b Nᵢ dV of a body-force field, by the degree-5 rule.
+pub fn body_loads<E: PointwiseElement>(
+    mesh: &TetMesh<E>,
+    b: impl Fn(&Vector3<f64>) -> Vector3<f64>,
+) -> Loads {
+    let mut loads = Loads::new(mesh);
+    let rule = tet_rule();
+    let mut n = vec![0.0; E::NODES];
+    for t in 0..mesh.tet_count() {
+        let (x, tet) = corners(mesh, t);
+        for q in &rule {
+            let l = barycentric(&q.barycentric);
+            let p = x[0] * l[0] + x[1] * l[1] + x[2] * l[2] + x[3] * l[3];
+            let force = b(&p) * (q.weight * tet.volume());
+            E::shape_values_at(&l, &mut n);
+            for (i, &node) in mesh.tets()[t].as_ref().iter().enumerate() {
+                loads
+                    .add_nodal_force(node, force * n[i])
+                    .expect("node in range");
+            }
+        }
+    }
+    loads
+}
+
+/// L₀…L₃ of a quadrature point given by (L₁, L₂, L₃).
+pub fn barycentric(b: &Vector3<f64>) -> [f64; 4] {
+    [1.0 - b.x - b.y - b.z, b.x, b.y, b.z]
 }
