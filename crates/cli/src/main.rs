@@ -573,11 +573,16 @@ fn print_default_static(cli: &DefaultScene, beam: &Cantilever, s: &RunSummary, d
     );
 }
 
-/// The self-estimated error line of a summary (nothing for a nonlinear model).
+/// The self-estimated error line of a summary.
 fn print_estimated_error(e: Option<&tetfem_cli::scene::EstimatedError>) {
     if let Some(e) = e {
+        let of = if e.definition == tetfem_cli::scene::MODEL_ESTIMATED_ERROR_DEFINITION {
+            "Green strain in the relative energy norm, ZZ patch recovery of the model's S"
+        } else {
+            "relative energy norm, ZZ patch recovery"
+        };
         println!(
-            "  estimated error {:.2} % (relative energy norm, ZZ patch recovery; per tet: error_indicator in the .vtu)",
+            "  estimated error {:.2} % ({of}; per tet: error_indicator in the .vtu)",
             100.0 * e.relative
         );
     }

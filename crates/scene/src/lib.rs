@@ -51,7 +51,10 @@ pub use dynamic::{
 pub use dynamic_contact::{ContactForceHistory, DynamicContactBarrier};
 pub use element::SceneElement;
 pub use engine::{EngineKind, EngineSettings, PetscSolver, PetscSpec, parse_petsc_options};
-pub use estimate::{ESTIMATED_ERROR_DEFINITION, EstimatedError, estimated_error_of};
+pub use estimate::{
+    ESTIMATED_ERROR_DEFINITION, EstimatedError, MODEL_ESTIMATED_ERROR_DEFINITION,
+    estimated_error_of, model_estimated_error_of,
+};
 pub use formulation::Formulation;
 pub use modal::{ModalSummary, ModeRow, run_modal_scene};
 pub use reactions::{DynamicReactions, ReactionsAt, reaction_columns};

@@ -307,13 +307,10 @@ pub fn report_static<E: SceneElement>(
         false => cell_model_von_mises(&built.mesh, model, u)?,
     };
     let (estimated_error, indicators) = match linear {
-        true => {
-            let (estimate, indicators) =
-                super::estimated_error_of(&built.mesh, &built.materials, u)?;
-            (Some(estimate), Some(indicators))
-        }
-        false => (None, None),
+        true => super::estimated_error_of(&built.mesh, &built.materials, u)?,
+        false => super::model_estimated_error_of(&built.mesh, model, u)?,
     };
+    let (estimated_error, indicators) = (Some(estimated_error), Some(indicators));
     let deformation = match linear {
         true => {
             Some(tetfem::post::adequacy::rotation::largest_rotation_and_strain(&built.mesh, u)?)

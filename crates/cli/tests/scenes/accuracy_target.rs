@@ -251,9 +251,16 @@ fn nonlinear_model_runs_as_given_on_the_cells_chosen_for_its_linearization() {
         "{}",
         report.estimate_of
     );
-    // The run reported is the corotational one (no linear estimate of its own) on the cells
-    // chosen: 3 × its nodes are the last trial's DOFs.
-    assert!(summary.estimated_error.is_none());
+    // The run reported is the corotational one (its estimate is of its own model, not the
+    // trials' linearized one) on the cells chosen: 3 × its nodes are the last trial's DOFs.
+    assert_eq!(
+        summary
+            .estimated_error
+            .as_ref()
+            .expect("estimate")
+            .definition,
+        tetfem_cli::scene::MODEL_ESTIMATED_ERROR_DEFINITION
+    );
     assert_eq!(
         3 * summary.nodes,
         report.trials.last().expect("a trial").dofs
