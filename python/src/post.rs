@@ -4,13 +4,15 @@
 
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
+use tetfem::model::ModelMap;
 use tetfem::post::adequacy::rotation::largest_rotation_and_strain;
-use tetfem::post::estimate::estimate_error as estimate;
+use tetfem::post::estimate::{Recovery, estimate_map_error};
 
 use crate::arrays;
 use crate::errors::{OrRaise, invalid};
 use crate::material::materials_of;
 use crate::mesh::{MeshData, PyMesh, on_cells};
+use crate::names;
 
 /// The displacement (n, 3) of `data`'s nodes, flat node-major; wrong shapes raise
 /// `InvalidInputError` naming ``displacement``.
@@ -31,23 +33,29 @@ fn displacement_of(
     Ok(flat)
 }
 
-/// The Zienkiewicz–Zhu estimate of the discretization error of the linear-elastic
-/// ``displacement`` (n, 3), m, on ``mesh`` with ``material``: a dict with ``relative``
-/// η/(‖u_h‖_E² + η²)^½ (the estimated relative energy-norm error, dimensionless), ``eta`` η =
-/// (Σ η_K²)^½ (J^½), ``energy_norm`` ‖u_h‖_E = (u_hᵀKu_h)^½ (J^½) and ``indicators`` each
-/// tet's η_K (m,), J^½: the ``estimated_error`` of a scene's summary.
+/// The Zienkiewicz–Zhu estimate of the discretization error of ``displacement`` (n, 3), m, on
+/// ``mesh`` with ``material``: a dict with ``relative`` η/(‖u_h‖_E² + η²)^½ (the estimated
+/// relative energy-norm error, dimensionless), ``eta`` η = (Σ η_K²)^½ (J^½), ``energy_norm``
+/// ‖u_h‖_E = (u_hᵀKu_h)^½ (J^½) and ``indicators`` each tet's η_K (m,), J^½: the
+/// ``estimated_error`` of a scene's summary. ``model``: the force model the displacement came
+/// from; for a nonlinear one the estimate is on its second Piola–Kirchhoff stress S (the
+/// Green strain's error; ``energy_norm`` is then (∫ S_h : C⁻¹ : S_h dV)^½).
 #[pyfunction]
+#[pyo3(signature = (mesh, material, displacement, model = "linear"))]
 pub fn estimate_error<'py>(
     py: Python<'py>,
     mesh: &Bound<'py, PyMesh>,
     material: &Bound<'py, PyAny>,
     displacement: &Bound<'py, PyAny>,
+    model: &str,
 ) -> PyResult<Bound<'py, PyDict>> {
     let data = &mesh.get().data;
-    let materials = materials_of(py, material, data)?;
+    let models = ModelMap::new(names::model(py, model)?, &materials_of(py, material, data)?);
     let u = displacement_of(py, data, displacement)?;
     let e = py
-        .detach(|| on_cells!(&data.mesh, m => estimate(m, &materials, &u)))
+        .detach(|| {
+            on_cells!(&data.mesh, m => estimate_map_error(m, &models, &u, Recovery::PatchRecovery))
+        })
         .or_raise(py)?;
     let d = PyDict::new(py);
     d.set_item("relative", e.relative())?;

@@ -250,3 +250,23 @@ def test_restore_refuses_another_simulation(tmp_path):
     (tmp_path / "bad.ckpt").write_bytes(b"not a checkpoint")
     with pytest.raises(tetfem.TetfemError):
         newmark.restore(tmp_path / "bad.ckpt")
+
+
+def test_estimate_error_of_a_nonlinear_model_equals_the_scene_summary():
+    # rubber_cantilever_large.toml: a corotational beam whose tip turns ~43°; its summary's
+    # estimate is of the model's own run (second Piola–Kirchhoff stress).
+    summary = tetfem.run_scene(SCENES / "rubber_cantilever_large.toml", write_files=False)
+    assert "Piola" in summary["estimated_error"]["definition"]
+    # The same beam, supports, load and Newton from Python.
+    mesh = tetfem.Mesh.box(max=(0.5, 0.05, 0.05), cells=(20, 2, 2), split="five")
+    rubber = tetfem.Material(5e6, 0.45, 1100.0)
+    constraints = tetfem.Constraints(mesh).fix(mesh.nodes_on_plane("x", 0.0))
+    loads = tetfem.Loads(mesh)
+    loads.add_total_force(mesh.faces_on_plane("x", 0.5), (0.0, 0.0, -30.0))
+    result = tetfem.solve_static(mesh, rubber, constraints, loads, model="corotational")
+    estimate = tetfem.estimate_error(mesh, rubber, result.displacement, model="corotational")
+    # Both Newton runs stop at 1e-10 of the load, and the estimate is smooth in u: 1e-7.
+    assert estimate["relative"] == pytest.approx(summary["estimated_error"]["relative"], rel=1e-7)
+    # The small-strain estimate of the same displacement is another number: the beam turns.
+    small = tetfem.estimate_error(mesh, rubber, result.displacement)
+    assert abs(small["relative"] - estimate["relative"]) > 1e-3

@@ -2,7 +2,8 @@
 //! of its Green strain, on a manufactured large deformation of the unit cube: the effectivity
 //! η / ‖E − E_h‖_C in the band for every nonlinear model, P1 and P2, under refinement;
 //! the same estimate for the same deformation turned 30° as a whole (the second
-//! Piola–Kirchhoff stress does not see the turn); an inverted tet named.
+//! Piola–Kirchhoff stress does not see the turn); an inverted tet estimated, a flattened one
+//! named.
 
 use std::f64::consts::PI;
 
@@ -11,7 +12,9 @@ use tetfem::analysis::nonlinear::{NewtonOptions, solve_nonlinear_static};
 use tetfem::fe::materials::MaterialMap;
 use tetfem::fe::quadrature::tet_rule;
 use tetfem::model::{ModelKind, ModelMap, TetModels};
-use tetfem::post::estimate::{PointwiseElement, Recovery, estimate_model_error};
+use tetfem::post::estimate::{
+    PointwiseElement, Recovery, estimate_map_error, estimate_model_error,
+};
 use tetfem::{BoxSplit, Constraints, Material, Tet10, TetMesh};
 
 use crate::common::manufactured::{barycentric, body_loads, corners};
@@ -137,7 +140,7 @@ fn estimate_and_truth<E: PointwiseElement + tetfem::model::ModelElement>(
     };
     let solution = solve_nonlinear_static(mesh, &models, &constraints, &loads, options)
         .unwrap_or_else(|e| panic!("{} solves: {e}", kind.name()));
-    let estimate = estimate_model_error(
+    let estimate = estimate_map_error(
         mesh,
         &models,
         &solution.displacement,
@@ -223,23 +226,34 @@ fn a_turn_of_the_whole_body_leaves_the_estimate_unchanged() {
 }
 
 #[test]
-fn an_inverted_tet_is_named() {
+fn an_inverted_tet_is_estimated_and_a_flattened_one_is_named() {
     let mesh = unit_cube(1);
     let material = Material::new(1e5, 0.3, 1000.0).expect("valid");
-    let models = ModelMap::new(
-        ModelKind::NeoHookean,
-        &MaterialMap::uniform(material, mesh.tet_count()),
-    );
-    // x = −X on one axis turns every tet inside out (det F = −1).
+    let materials = MaterialMap::uniform(material, mesh.tet_count());
+    let recovery = Recovery::PatchRecovery;
+    // x = −X on one axis turns every tet inside out (det F = −1): every model here defines P
+    // there (the stable Neo-Hookean form, the corotational rotation taking the reflection), so
+    // S = F⁻¹P is finite and the estimate too.
     let mut u = vec![0.0; mesh.dof_count()];
     for (n, p) in mesh.nodes().iter().enumerate() {
         u[3 * n] = -2.0 * p.x;
     }
-    let error = estimate_model_error(&mesh, &models, &u, Recovery::PatchRecovery)
-        .expect_err("an inverted body has no S");
+    for kind in [ModelKind::NeoHookean, ModelKind::Corotational] {
+        let models = ModelMap::new(kind, &materials);
+        let estimate = estimate_model_error(&mesh, &models, &materials, &u, recovery)
+            .unwrap_or_else(|e| panic!("{} at det F = -1: {e}", kind.name()));
+        assert!(estimate.estimate.is_finite(), "{estimate:?}");
+    }
+    // x = 0 on one axis (F singular): no S = F⁻¹P for any model.
+    for (n, p) in mesh.nodes().iter().enumerate() {
+        u[3 * n] = -p.x;
+    }
+    let models = ModelMap::new(ModelKind::Corotational, &materials);
+    let error = estimate_model_error(&mesh, &models, &materials, &u, recovery)
+        .expect_err("no S where F is singular");
     let text = error.to_string();
     assert!(
-        text.contains("tet 0") && text.contains("det F = -1e0"),
+        text.contains("tet 0") && text.contains("det F = 0e0"),
         "{text}"
     );
 }

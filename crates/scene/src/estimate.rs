@@ -4,7 +4,7 @@ use tetfem::base::error::Result;
 use tetfem::fe::materials::TetMaterials;
 use tetfem::mesh::TetMesh;
 use tetfem::model::ModelMap;
-use tetfem::post::estimate::{PointwiseElement, Recovery, estimate_error, estimate_model_error};
+use tetfem::post::estimate::{PointwiseElement, Recovery, estimate_error, estimate_map_error};
 
 /// What `estimated_error` in a summary means, written into the summary itself.
 pub const ESTIMATED_ERROR_DEFINITION: &str = "ZZ estimate (patch-recovered stress) of the \
@@ -61,7 +61,7 @@ pub fn model_estimated_error_of<E: PointwiseElement>(
     if models.kind().is_linear() {
         return estimated_error_of(mesh, models.materials(), displacement);
     }
-    let estimate = estimate_model_error(mesh, models, displacement, Recovery::PatchRecovery)?;
+    let estimate = estimate_map_error(mesh, models, displacement, Recovery::PatchRecovery)?;
     Ok((
         EstimatedError {
             relative: estimate.relative(),

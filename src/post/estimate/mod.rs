@@ -38,7 +38,7 @@ use nalgebra::{Matrix3, Vector3};
 /// the elements (`crate::fe::element::pointwise`), since loads evaluate fields with it too.
 pub use crate::fe::element::PointwiseElement;
 pub use crate::fe::element::pointwise;
-pub use model::estimate_model_error;
+pub use model::{estimate_map_error, estimate_model_error};
 use recovery::{corners_of, gather, hooke};
 
 use crate::base::error::{Error, Result};

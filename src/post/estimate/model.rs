@@ -32,25 +32,42 @@ use crate::fe::materials::TetMaterials;
 use crate::mesh::TetMesh;
 use crate::model::{ModelKind, ModelMap, TetModels};
 
-/// The ZZ estimate of `displacement` (node-major, 3 values per node) under the force models of
-/// `models` (see the [module](self) docs). For the linear model it is
-/// [`estimate_error_with`], σ and ε of small strain, bit for bit.
+/// The estimate of a run with the models of `models`: [`estimate_error_with`] for the linear
+/// model, [`estimate_model_error`] for the others.
 ///
-/// Errors: `displacement` does not hold 3 values per node or a value is not finite;
-/// `models` does not cover the tets; a tet is inverted (det F ≤ 0) at a point where its stress
-/// is sampled, so it has no S (the error names the tet and its det F).
-pub fn estimate_model_error<E: PointwiseElement>(
+/// Errors: as those two.
+pub fn estimate_map_error<E: PointwiseElement>(
     mesh: &TetMesh<E>,
     models: &ModelMap,
     displacement: &[f64],
     recovery: Recovery,
 ) -> Result<ErrorEstimate> {
-    let materials = models.materials();
-    if models.kind() == ModelKind::Linear {
-        return estimate_error_with(mesh, materials, displacement, recovery);
+    match models.kind() {
+        ModelKind::Linear => estimate_error_with(mesh, models.materials(), displacement, recovery),
+        _ => estimate_model_error(mesh, models, models.materials(), displacement, recovery),
     }
+}
+
+/// The ZZ estimate of `displacement` (node-major, 3 values per node) under the force models of
+/// `models` (one for every tet, or a [`ModelMap`](crate::model::ModelMap)), with the metric of
+/// each tet's material in `materials` (see the [module](self) docs). Meant for the nonlinear
+/// models: the linear model's own estimate is [`estimate_error_with`] (σ and ε of small
+/// strain), which [`estimate_map_error`] picks for it.
+///
+/// Errors: `displacement` does not hold 3 values per node or a value is not finite;
+/// `models` or `materials` do not cover the tets; a tet has no finite S at a point where its
+/// stress is sampled (F singular, or P not finite there): the error names the tet and its
+/// det F. An inverted tet (det F < 0) has an S under every model here.
+pub fn estimate_model_error<E: PointwiseElement>(
+    mesh: &TetMesh<E>,
+    models: &(impl TetModels + ?Sized),
+    materials: &impl TetMaterials,
+    displacement: &[f64],
+    recovery: Recovery,
+) -> Result<ErrorEstimate> {
     Error::check_len("displacement", mesh.dof_count(), displacement.len())?;
     models.check_covers(mesh.tet_count())?;
+    materials.check_tet_count(mesh)?;
     if let Some(dof) = displacement.iter().position(|v| !v.is_finite()) {
         return Err(Error::invalid_parameter(
             format!("displacement[{dof}]"),
@@ -73,8 +90,8 @@ pub fn estimate_model_error<E: PointwiseElement>(
         return Err(Error::invalid_parameter(
             format!("tet {t}"),
             format!("det F = {det:e}"),
-            "must be > 0 where its stress is sampled: an inverted tet has no second \
-             Piola–Kirchhoff stress to estimate an error from",
+            "must give a finite second Piola–Kirchhoff stress where the tet's stress is \
+             sampled (F invertible, and P finite under the model) to estimate an error from",
         ));
     }
     let estimate = indicators.iter().map(|e| e * e).sum::<f64>().sqrt();
@@ -99,18 +116,18 @@ fn recovered<E: PointwiseElement>(
 }
 
 /// S = F⁻¹·P(F) of tet `t`'s model at F = I + ∇u, symmetrized (its skew part is round-off);
-/// `Err(det F)` where det F ≤ 0.
+/// `Err(det F)` where F is singular or S is not finite.
 fn second_piola(
-    models: &ModelMap,
+    models: &(impl TetModels + ?Sized),
     t: usize,
     gradient: &Matrix3<f64>,
 ) -> std::result::Result<Matrix3<f64>, f64> {
     let f = Matrix3::identity() + gradient;
     let det = f.determinant();
-    if det.is_nan() || det <= 0.0 {
-        return Err(det);
-    }
-    let inverse = f.try_inverse().ok_or(det)?;
+    let inverse = f.try_inverse().filter(|_| det != 0.0).ok_or(det)?;
     let s = inverse * models.model_of(t).first_piola(&f);
-    Ok((s + s.transpose()) * 0.5)
+    match s.iter().all(|v| v.is_finite()) {
+        true => Ok((s + s.transpose()) * 0.5),
+        false => Err(det),
+    }
 }

@@ -36,7 +36,7 @@ use crate::analysis::dynamics::InternalForce;
 use crate::base::error::Result;
 use crate::fe::materials::TetMaterials;
 use crate::mesh::{CellType, TetMesh};
-use crate::model::{ModelElement, TetModels};
+use crate::model::{ModelElement, ModelKind, TetModels};
 use crate::post::estimate::PointwiseElement;
 
 /// What a result frame holds besides the displacement: the optional fields of a run.
@@ -493,22 +493,29 @@ impl InternalForce {
         }
     }
 
-    /// The ZZ estimate of the energy-norm error of the full displacement `u`
-    /// ([`estimate_error`](crate::post::estimate::estimate_error)) for the linear model; `None` for a
-    /// nonlinear one, whose error the estimator (built on Hooke's law) does not measure.
+    /// The ZZ estimate of the energy-norm error of the full displacement `u`:
+    /// [`estimate_error`](crate::post::estimate::estimate_error) for the linear model (with or
+    /// without obstacles), [`estimate_model_error`](crate::post::estimate::estimate_model_error)
+    /// on the second Piola–Kirchhoff stress for a nonlinear one.
     ///
-    /// Errors: as [`estimate_error`](crate::post::estimate::estimate_error).
+    /// Errors: as those two.
     pub fn estimated_error<E: PointwiseElement>(
         &self,
         mesh: &TetMesh<E>,
         materials: &impl TetMaterials,
         u: &[f64],
-    ) -> Result<Option<crate::post::estimate::ErrorEstimate>> {
+    ) -> Result<crate::post::estimate::ErrorEstimate> {
         match self {
-            InternalForce::Linear => Ok(Some(crate::post::estimate::estimate_error(
-                mesh, materials, u,
-            )?)),
-            InternalForce::Nonlinear(_) => Ok(None),
+            InternalForce::Nonlinear(n) if n.name() != ModelKind::Linear.name() => {
+                crate::post::estimate::estimate_model_error(
+                    mesh,
+                    n.models(),
+                    materials,
+                    u,
+                    crate::post::estimate::Recovery::PatchRecovery,
+                )
+            }
+            _ => crate::post::estimate::estimate_error(mesh, materials, u),
         }
     }
 

@@ -1054,8 +1054,8 @@ fn write_frame_vtu<E: SceneElement>(
 }
 
 /// The arrays of a dynamic run's `.vtu` frame at the full displacement `u`: `extras` (velocity,
-/// reactions, time, ids, contact, encoding) with the stress tensors and, for the linear
-/// `force`, the error indicators η_K of `u` (J^½); a nonlinear force's own stresses and energy.
+/// reactions, time, ids, contact, encoding) with the stress tensors and the error indicators
+/// η_K of `u` (J^½; a nonlinear force's on its S); a nonlinear force's own stresses and energy.
 pub fn frame_arrays<E: SceneElement>(
     mesh: &TetMesh<E>,
     materials: &tetfem::fe::materials::MaterialMap,
@@ -1066,7 +1066,7 @@ pub fn frame_arrays<E: SceneElement>(
     let estimate = force.estimated_error(mesh, materials, u)?;
     let extras = FrameExtras {
         stress_tensors: true,
-        error_indicator: estimate.as_ref().map(|e| e.indicators.as_slice()),
+        error_indicator: Some(estimate.indicators.as_slice()),
         ..extras
     };
     force.result_frame_arrays(mesh, materials, u, extras)

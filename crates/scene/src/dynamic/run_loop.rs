@@ -383,15 +383,18 @@ fn close_run<E: SceneElement>(
     recorder.output_seconds += clock.elapsed().as_secs_f64();
     let clock = Instant::now();
     let u = system.dofs().expand(&state.displacement)?;
-    let estimated_error = setup
-        .force
-        .estimated_error(mesh, &setup.materials, &u)?
-        .map(|e| super::super::EstimatedError {
-            relative: e.relative(),
-            eta: e.estimate,
-            energy_norm: e.energy_norm,
-            definition: super::super::ESTIMATED_ERROR_DEFINITION,
-        });
+    let e = setup.force.estimated_error(mesh, &setup.materials, &u)?;
+    // A linear model with obstacles runs as a nonlinear force, and keeps the linear estimate.
+    let nonlinear = setup.force.name() != tetfem::model::ModelKind::Linear.name();
+    let estimated_error = Some(super::super::EstimatedError {
+        relative: e.relative(),
+        eta: e.estimate,
+        energy_norm: e.energy_norm,
+        definition: match nonlinear {
+            true => super::super::MODEL_ESTIMATED_ERROR_DEFINITION,
+            false => super::super::ESTIMATED_ERROR_DEFINITION,
+        },
+    });
     let estimate_seconds = clock.elapsed().as_secs_f64();
     let deformation = setup.force.deformation(mesh, &u)?;
     let step_resolution = match system.free_count() <= STEP_CHECK_DOFS {
