@@ -49,7 +49,7 @@ pub fn estimate_map_error<E: PointwiseElement>(
 }
 
 /// The ZZ estimate of `displacement` (node-major, 3 values per node) under the force models of
-/// `models` (one for every tet, or a [`ModelMap`](crate::model::ModelMap)), with the metric of
+/// `models` (one for every tet, or a [`ModelMap`]), with the metric of
 /// each tet's material in `materials` (see the [module](self) docs). Meant for the nonlinear
 /// models: the linear model's own estimate is [`estimate_error_with`] (σ and ε of small
 /// strain), which [`estimate_map_error`] picks for it.
