@@ -9,7 +9,8 @@
 //! runs of one order measure it). Both orders are solved on the scene's cells, the cheaper
 //! predicted one is refined (ratio ≤ 2 per axis) until its estimate meets the target or the
 //! next mesh would pass the DOF cap, which the summary then says: the target is never passed
-//! over in silence.
+//! over in silence. Every trial runs the scene's own model, so a nonlinear scene is estimated
+//! on its own run ([`tetfem::post::estimate::model`]), not on a linearization.
 
 use std::ops::Range;
 use std::time::Instant;
@@ -102,8 +103,8 @@ pub struct AccuracyReport {
     /// Why: the choice, and when the target is not met, what stopped the refinement or what
     /// would meet it.
     pub reason: String,
-    /// What the estimate is of: the linear problem, or (nonlinear scene models) its
-    /// linearization.
+    /// What the estimate is of: the linear problem, or the run of the scene's nonlinear model
+    /// (the Green strain's error, on its second Piola–Kirchhoff stress).
     pub estimate_of: String,
 }
 
@@ -192,23 +193,22 @@ pub(crate) fn run_accuracy(
     lock: Option<OutputLock>,
     target: AccuracyTarget,
 ) -> Result<RunSummary> {
-    let linear = scene.model().is_linear();
-    let estimate_of = match linear {
+    let estimate_of = match scene.model().is_linear() {
         true => "the linear problem".to_string(),
         false => format!(
-            "the linearized problem (the linear model on the same mesh): model = \"{}\" ran as \
-             given, on 4-node tets",
+            "the run's own model = \"{}\" (the Green strain's error, on its second \
+             Piola–Kirchhoff stress)",
             scene.model().name()
         ),
     };
     let (mut report, mut summary) = match scene.spec().mesh.get_ref() {
-        MeshSpec::Box(b) => choose_box(scene, target, b.cells, linear)?,
+        MeshSpec::Box(b) => choose_box(scene, target, b.cells)?,
         _ => check_file_mesh(scene, target)?,
     };
     report.estimate_of = estimate_of;
-    // The run reported: the chosen one again with the scene's model and outputs (the trials
-    // write no files), unless it is already that run.
-    if !options.no_files || !linear {
+    // The run reported: the chosen one again with the scene's outputs (the trials write no
+    // files), unless it is already that run.
+    if !options.no_files {
         let final_scene = variant(scene, report.order, report.cells, scene.model());
         summary = match report.order {
             2 => run_static_on::<Tet10>(&final_scene, options, lock)?,
@@ -262,10 +262,10 @@ fn box_dofs(cells: [usize; 3], order: usize) -> usize {
     3 * cells.iter().map(|&n| order * n + 1).product::<usize>()
 }
 
-/// One linear-model solve without files: the trial and its summary.
+/// One solve of the scene's model without files: the trial and its summary (its estimate is
+/// of that model's run, on the second Piola–Kirchhoff stress for a nonlinear one).
 fn trial(scene: &Scene, order: usize, cells: [usize; 3]) -> Result<(AccuracyTrial, RunSummary)> {
-    // The default model is the linear one, the problem the recovery estimate measures.
-    let variant = variant(scene, order, cells, tetfem::model::ModelKind::default());
+    let variant = variant(scene, order, cells, scene.model());
     let options = RunOptions {
         no_files: true,
         ..Default::default()
@@ -329,12 +329,10 @@ fn choose_box(
     scene: &Scene,
     target: AccuracyTarget,
     start: [usize; 3],
-    linear: bool,
 ) -> Result<(AccuracyReport, RunSummary)> {
-    let orders: &[usize] = if linear { &[1, 2] } else { &[1] };
     let mut trials = Vec::new();
     let mut last = Vec::new();
-    for &order in orders {
+    for order in [1, 2] {
         if box_dofs(start, order) > target.max_dofs && !trials.is_empty() {
             continue;
         }
