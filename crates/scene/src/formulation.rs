@@ -6,7 +6,8 @@
 use std::path::PathBuf;
 use std::time::Instant;
 
-use tetfem::base::error::Result;
+use tetfem::analysis::Combination;
+use tetfem::base::error::{Error, Result};
 use tetfem::base::warning::Warning;
 use tetfem::fe::element::Tet10;
 use tetfem::model::{ModelKind, ModelMap};
@@ -18,23 +19,15 @@ use super::run::{
     RunOptions, RunSummary, StaticReport, StaticSolve, report_static, static_frame_arrays,
     write_static_probe_csv,
 };
-use super::{Analysis, BuiltScene, Scene};
+use super::{BuiltScene, Scene};
 use crate::png_frames::{StaticLook, static_picture};
 
-/// How a static scene's elasticity is discretized (`analysis.formulation`).
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
-pub enum Formulation {
-    /// Displacement only (the default): every element order, analysis and model.
-    #[default]
-    Displacement,
-    /// Displacement and pressure (Taylor–Hood P2–P1): static, linear model, 10-node tets.
-    Mixed,
-}
+pub use tetfem::analysis::combination::Formulation;
 
 /// What a mixed scene needs, said in the error of a scene that lacks it.
-const MIXED_NEEDS: &str = "formulation = \"mixed\" is for static scenes with the linear model on \
-                           10-node tets ([mesh] order = 2) on tetfem's own engine, without \
-                           obstacles, accuracy or point probes";
+const MIXED_NEEDS: &str = "formulation = \"mixed\" is for static scenes with the linear or the \
+                           Neo-Hookean model on 10-node tets ([mesh] order = 2) on tetfem's own \
+                           engine, without obstacles, accuracy or point probes";
 
 impl Scene {
     /// The scene's formulation (checked when the scene was read).
@@ -55,25 +48,46 @@ impl Scene {
         match name.as_str() {
             "displacement" => Ok(Formulation::Displacement),
             "mixed" => {
-                let refusal = if !matches!(self.analysis(), Analysis::Static) {
-                    Some("a dynamic or modal analysis".to_string())
-                } else if !self.model().is_linear() {
-                    Some(format!("model = \"{}\"", self.model().name()))
-                } else if self.order() != 2 {
-                    Some(format!("[mesh] order = {}", self.order()))
-                } else if !self.spec.obstacles.is_empty() {
-                    Some("[[obstacles]]".to_string())
-                } else if self.accuracy().is_some() {
-                    Some("analysis.accuracy".to_string())
-                } else if self.engine().kind != super::EngineKind::Tetfem {
-                    // The distributed engine assembles the displacement element only.
-                    Some("engine = \"petsc\"".to_string())
-                } else if self.spec.probes.iter().any(|p| p.get_ref().at.is_some()) {
-                    // A point probe reports the displacement element's stress there.
-                    Some("a point probe ([[probes]] at)".to_string())
-                } else {
-                    None
+                // The physics' refusals are the library's ([`Combination::check`]); the scene
+                // names its own key for the pair, and refuses what only its run lacks.
+                let combination = Combination {
+                    formulation: Formulation::Mixed,
+                    ..self.combination()
                 };
+                let refusal = match combination.check() {
+                    Err(Error::InvalidParameter { name, .. }) => {
+                        Some(match name.trim_start_matches("formulation mixed with ") {
+                            "analysis" => "a dynamic or modal analysis".to_string(),
+                            "model" => format!("model = \"{}\"", self.model().name()),
+                            "element order" => format!("[mesh] order = {}", self.order()),
+                            "obstacles" => "[[obstacles]]".to_string(),
+                            "moving supports" => {
+                                "constraints that move (amplitude, linear_field or rigid_motion) \
+                                 with the Neo-Hookean model"
+                                    .to_string()
+                            }
+                            other => other.to_string(),
+                        })
+                    }
+                    Err(other) => return Err(other),
+                    Ok(_) => None,
+                };
+                let refusal = refusal.or_else(|| {
+                    if !self.model().is_linear() {
+                        // The scene's mixed run solves the linear model only (so far).
+                        Some(format!("model = \"{}\"", self.model().name()))
+                    } else if self.accuracy().is_some() {
+                        Some("analysis.accuracy".to_string())
+                    } else if self.engine().kind != super::EngineKind::Tetfem {
+                        // The distributed engine assembles the displacement element only.
+                        Some("engine = \"petsc\"".to_string())
+                    } else if self.spec.probes.iter().any(|p| p.get_ref().at.is_some()) {
+                        // A point probe reports the displacement element's stress there.
+                        Some("a point probe ([[probes]] at)".to_string())
+                    } else {
+                        None
+                    }
+                });
                 match refusal {
                     Some(what) => Err(error(format!(
                         "\"mixed\" cannot be combined with {what}: {MIXED_NEEDS}"
@@ -326,8 +340,8 @@ vtu_format = "ascii"
             ("order = 2\n", "order = 1\n", "[mesh] order = 1"),
             (
                 "formulation = \"mixed\"",
-                "formulation = \"mixed\"\nmodel = \"neo-hookean\"",
-                "model = \"neo-hookean\"",
+                "formulation = \"mixed\"\nmodel = \"corotational\"",
+                "model = \"corotational\"",
             ),
             (
                 "formulation = \"mixed\"",
