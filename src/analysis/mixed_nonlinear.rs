@@ -62,6 +62,11 @@ pub struct MixedNewtonReport {
     pub residuals: Vec<Vec<f64>>,
     /// Newton iterations in total.
     pub iterations: usize,
+    /// The last load step's final merit over its reference (the full load's norm, or with no
+    /// load its first residual): at most the tolerance, or the round-off floor.
+    pub relative_residual: f64,
+    /// Reaction forces f_int(u, p) − f: non-zero only on constrained DOFs (force units).
+    pub reactions: Vec<f64>,
 }
 
 /// Solves the static equilibrium of the mixed Neo-Hookean model (see the [module](self) docs)
@@ -103,6 +108,7 @@ pub fn solve_static_mixed_nonlinear(
     let dofs = system.problem.dofs();
     let load_norm = norm(&dofs.restrict(loads.as_slice())?);
     let mut residuals = Vec::new();
+    let mut relative_residual = 0.0;
     for step in 1..=options.load_steps {
         let factor = step as f64 / options.load_steps as f64;
         let dofs = system.problem.dofs();
@@ -154,9 +160,26 @@ pub fn solve_static_mixed_nonlinear(
                 ),
             });
         }
+        relative_residual = system.history.last().copied().unwrap_or(0.0) / reference;
         residuals.push(std::mem::take(&mut system.history));
     }
+    let dofs = system.problem.dofs();
+    let reactions = system
+        .unbalanced(&system.u, &system.p)?
+        .map(|(forces, _)| {
+            forces
+                .iter()
+                .enumerate()
+                .map(|(dof, r)| match dofs.free_index(dof) {
+                    Some(_) => 0.0,
+                    None => *r,
+                })
+                .collect()
+        })
+        .unwrap_or_default();
     Ok(MixedNewtonReport {
+        relative_residual,
+        reactions,
         pressure: nodal_pressure(
             mesh.tets(),
             &system.pressure_nodes,
@@ -276,34 +299,9 @@ impl<'a> MixedSystem<'a> {
         p: &[f64],
         tangent: bool,
     ) -> Result<Option<(Vec<f64>, Option<crate::sparse::CscMatrix>)>> {
-        let mut states: Vec<MixedElementState> = Vec::with_capacity(self.mesh.tet_count());
-        for (t, tet) in self.mesh.tets().iter().enumerate() {
-            let u_e: [f64; 30] = std::array::from_fn(|k| u[3 * tet[k / 3] + k % 3]);
-            let corners = self.pressure_nodes.of_tet(tet);
-            let p_e: [f64; PRESSURE_NODES] = std::array::from_fn(|k| p[corners[k]]);
-            let (mu, inverse_bulk) = self.moduli[t];
-            match mixed_neo_hookean(&self.rests[t], &u_e, &p_e, mu, inverse_bulk) {
-                Some(state) => states.push(state),
-                None => return Ok(None),
-            }
-        }
-        let mut internal: Vec<f64> = self.load.iter().map(|f| -f).collect();
-        let mut pressure_residual = vec![0.0; self.pressure_nodes.count()];
-        for (tet, state) in self.mesh.tets().iter().zip(&states) {
-            for (k, &n) in tet.iter().enumerate() {
-                for a in 0..3 {
-                    internal[3 * n + a] += state.force[3 * k + a];
-                }
-            }
-            for (&c, r) in self
-                .pressure_nodes
-                .of_tet(tet)
-                .iter()
-                .zip(&state.pressure_residual)
-            {
-                pressure_residual[c] += r;
-            }
-        }
+        let Some((internal, pressure_residual, states)) = self.unbalanced_states(u, p) else {
+            return Ok(None);
+        };
         let mut residual = self.problem.dofs().restrict(&internal)?;
         residual.extend(pressure_residual);
         if !tangent {
@@ -326,6 +324,52 @@ impl<'a> MixedSystem<'a> {
             |t| self.moduli[t].1,
         )?;
         Ok(Some((residual, Some(matrix))))
+    }
+
+    /// f_int(u, p) − λ·f on every DOF and R_p, with the element states; `None` when a tet
+    /// is inverted at a quadrature point.
+    fn unbalanced_states(
+        &self,
+        u: &[f64],
+        p: &[f64],
+    ) -> Option<(Vec<f64>, Vec<f64>, Vec<MixedElementState>)> {
+        let mut states: Vec<MixedElementState> = Vec::with_capacity(self.mesh.tet_count());
+        for (t, tet) in self.mesh.tets().iter().enumerate() {
+            let u_e: [f64; 30] = std::array::from_fn(|k| u[3 * tet[k / 3] + k % 3]);
+            let corners = self.pressure_nodes.of_tet(tet);
+            let p_e: [f64; PRESSURE_NODES] = std::array::from_fn(|k| p[corners[k]]);
+            let (mu, inverse_bulk) = self.moduli[t];
+            states.push(mixed_neo_hookean(
+                &self.rests[t],
+                &u_e,
+                &p_e,
+                mu,
+                inverse_bulk,
+            )?);
+        }
+        let mut internal: Vec<f64> = self.load.iter().map(|f| -f).collect();
+        let mut pressure_residual = vec![0.0; self.pressure_nodes.count()];
+        for (tet, state) in self.mesh.tets().iter().zip(&states) {
+            for (k, &n) in tet.iter().enumerate() {
+                for a in 0..3 {
+                    internal[3 * n + a] += state.force[3 * k + a];
+                }
+            }
+            for (&c, r) in self
+                .pressure_nodes
+                .of_tet(tet)
+                .iter()
+                .zip(&state.pressure_residual)
+            {
+                pressure_residual[c] += r;
+            }
+        }
+        Some((internal, pressure_residual, states))
+    }
+
+    /// f_int(u, p) − λ·f on every DOF and R_p (see [`Self::unbalanced_states`]).
+    fn unbalanced(&self, u: &[f64], p: &[f64]) -> Result<Option<(Vec<f64>, Vec<f64>)>> {
+        Ok(self.unbalanced_states(u, p).map(|(f, r, _)| (f, r)))
     }
 
     /// ‖(R_u, (μ/ℓ)·R_p)‖ (force).
