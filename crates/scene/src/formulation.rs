@@ -10,6 +10,7 @@ use tetfem::analysis::Combination;
 use tetfem::base::error::{Error, Result};
 use tetfem::base::warning::Warning;
 use tetfem::fe::element::Tet10;
+use tetfem::fe::element::taylor_hood::tets_without_an_interior_corner;
 use tetfem::model::ModelMap;
 use tetfem::post::output::fields::displacement_magnitude;
 use tetfem::post::output::{FrameArrays, OutputLock, PvdCollection};
@@ -194,6 +195,16 @@ pub(crate) fn run_mixed(
         .map(|w| w.to_string())
         .collect();
     summary.warnings.retain(|w| !locking.contains(w));
+    let unstable = tets_without_an_interior_corner(&built.mesh)?;
+    if !unstable.is_empty() && unstable.len() == built.mesh.tet_count() {
+        summary.warnings.push(format!(
+            "formulation = \"mixed\": none of the {} tets has a corner inside the body (a mesh \
+             one tet thick), so the P2–P1 element's stability condition (every tet with an \
+             interior corner, Boffi 1997) does not hold and the pressure may oscillate; mesh \
+             at least two tets through the thinnest part",
+            unstable.len()
+        ));
+    }
     if !options.no_files {
         let clock = Instant::now();
         summary.files = write_mixed_outputs(
@@ -392,6 +403,12 @@ vtu_format = "ascii"
         assert!(
             (summary.max_von_mises - 1000.0).abs() < 3e-3 * 1000.0,
             "{summary:?}"
+        );
+        // The block is one cell thick: no tet has a corner inside it.
+        assert!(
+            summary.warnings.iter().any(|w| w.contains("Boffi")),
+            "{:?}",
+            summary.warnings
         );
         let _ = std::fs::remove_dir_all(directory);
     }
