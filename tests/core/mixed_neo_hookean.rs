@@ -435,3 +435,37 @@ fn a_mesh_one_tet_thick_has_no_interior_corner() {
     // Measured 0.09 %: 0.5 % says the one-layer mesh is not broken on this problem.
     assert!((tips[0] / tips[1] - 1.0).abs() < 0.005, "{tips:?}");
 }
+
+#[test]
+fn a_panel_its_supports_do_not_hold_is_an_error_not_a_panic() {
+    // Only u_z held: the panel is free to move in x–y, so the leading block of the saddle is
+    // singular.
+    let (cook, linear) = cook(4, CookMembrane::default().traction);
+    let mesh = TetMesh::<Tet10>::from_linear(&linear).unwrap();
+    let mut constraints = Constraints::new(&mesh);
+    constraints
+        .fix_axes(&mesh.nodes_on_plane(2, 0.0, 1e-9), [false, false, true])
+        .unwrap();
+    let error = solve_static_mixed_nonlinear(
+        &mesh,
+        &cook.material().unwrap(),
+        &constraints,
+        &cook.loads(&mesh).unwrap(),
+        options(1),
+    )
+    .unwrap_err();
+    assert!(
+        matches!(error, tetfem::Error::NotConstrained { .. }),
+        "{error}"
+    );
+    // Loads of another mesh: named.
+    let error = solve_static_mixed_nonlinear(
+        &mesh,
+        &cook.material().unwrap(),
+        &cook.constraints(&mesh).unwrap(),
+        &Loads::new(&linear),
+        options(1),
+    )
+    .unwrap_err();
+    assert!(error.to_string().contains("loads"), "{error}");
+}
