@@ -469,3 +469,78 @@ fn a_panel_its_supports_do_not_hold_is_an_error_not_a_panic() {
     .unwrap_err();
     assert!(error.to_string().contains("loads"), "{error}");
 }
+
+#[test]
+fn the_library_refuses_what_the_mixed_element_cannot_do_naming_the_pair() {
+    use tetfem::analysis::combination::{Analysis, Combination, Formulation};
+    use tetfem::analysis::dynamics::Method;
+    let mixed = Combination {
+        formulation: Formulation::Mixed,
+        order: 2,
+        ..Combination::default()
+    };
+    for model in [ModelKind::Linear, ModelKind::NeoHookean] {
+        assert!(
+            Combination {
+                model,
+                ..mixed.clone()
+            }
+            .check()
+            .is_ok()
+        );
+    }
+    for (combination, pair) in [
+        (
+            Combination {
+                analysis: Analysis::Transient(Method::BackwardEuler),
+                ..mixed.clone()
+            },
+            "formulation mixed with analysis",
+        ),
+        (
+            Combination {
+                model: ModelKind::Corotational,
+                ..mixed.clone()
+            },
+            "formulation mixed with model",
+        ),
+        (
+            Combination {
+                order: 1,
+                ..mixed.clone()
+            },
+            "formulation mixed with element order",
+        ),
+        (
+            Combination {
+                obstacles: true,
+                ..mixed.clone()
+            },
+            "formulation mixed with obstacles",
+        ),
+        (
+            Combination {
+                model: ModelKind::NeoHookean,
+                moving_supports: true,
+                ..mixed.clone()
+            },
+            "formulation mixed with moving supports",
+        ),
+    ] {
+        let error = combination.check().unwrap_err();
+        assert!(
+            matches!(&error, tetfem::Error::InvalidParameter { name, .. } if name == pair),
+            "{pair}: {error}"
+        );
+    }
+    // The displacement formulation keeps every combination it had.
+    assert!(
+        Combination {
+            model: ModelKind::Corotational,
+            order: 1,
+            ..Combination::default()
+        }
+        .check()
+        .is_ok()
+    );
+}
