@@ -8,6 +8,11 @@
 //! - a modal analysis with obstacles: contact is a one-sided, nonlinear constraint, with no
 //!   eigenproblem about the rest state.
 //!
+//! - the mixed displacement–pressure formulation ([`Formulation::Mixed`]) with what it does not
+//!   compute: an analysis other than static, a model other than the linear and the Neo-Hookean
+//!   one, 4-node tets (Taylor–Hood needs the quadratic displacement), obstacles, and with the
+//!   Neo-Hookean model supports that move (its load steps scale prescribed values by λ).
+//!
 //! Combinations that run but whose behaviour the user should know of give a [`Warning`]:
 //! Newmark (average acceleration) with obstacles is not energy-stable with the stiffening
 //! barrier.
@@ -48,6 +53,18 @@ fn method_name(method: Method) -> &'static str {
     }
 }
 
+/// How the elasticity is discretized.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub enum Formulation {
+    /// Displacement only (the default): every element order, analysis and model.
+    #[default]
+    Displacement,
+    /// Displacement and pressure (Taylor–Hood P2–P1, no volumetric locking as ν → 0.5): static,
+    /// 10-node tets, the linear model ([`crate::MixedStaticSolver`]) or the Neo-Hookean one
+    /// ([`crate::analysis::mixed_nonlinear`]).
+    Mixed,
+}
+
 /// One run's choices, checked together by [`check`](Self::check).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Combination {
@@ -67,6 +84,8 @@ pub struct Combination {
     pub friction: bool,
     /// More than one material region.
     pub regions: bool,
+    /// The element formulation.
+    pub formulation: Formulation,
 }
 
 impl Default for Combination {
@@ -82,6 +101,7 @@ impl Default for Combination {
             obstacles: false,
             friction: false,
             regions: false,
+            formulation: Formulation::Displacement,
         }
     }
 }
@@ -116,6 +136,9 @@ impl Combination {
                 ));
             }
         }
+        if self.formulation == Formulation::Mixed {
+            self.check_mixed()?;
+        }
         let mut warnings = Vec::new();
         if self.obstacles && self.analysis == Analysis::Transient(Method::Newmark) {
             warnings.push(Warning::ImpactLosesEnergy {
@@ -128,5 +151,50 @@ impl Combination {
             });
         }
         Ok(warnings)
+    }
+
+    /// The refusals of [`Formulation::Mixed`] (see the [module](self) docs), each naming
+    /// `formulation mixed with <the other key>`.
+    fn check_mixed(&self) -> Result<()> {
+        let refuse = |what: &str, value: String, why: &str| {
+            Err(Error::invalid_parameter(
+                format!("formulation mixed with {what}"),
+                value,
+                format!("the mixed (Taylor–Hood P2–P1) element {why}"),
+            ))
+        };
+        if self.analysis != Analysis::Static {
+            return refuse(
+                "analysis",
+                self.analysis.name(),
+                "is static only; use the displacement formulation",
+            );
+        }
+        if !matches!(self.model, ModelKind::Linear | ModelKind::NeoHookean) {
+            return refuse(
+                "model",
+                self.model.name().to_string(),
+                "has the linear and the Neo-Hookean model only",
+            );
+        }
+        if self.order != 2 {
+            return refuse(
+                "element order",
+                self.order.to_string(),
+                "needs 10-node tets (order 2): its displacement is quadratic",
+            );
+        }
+        if self.obstacles {
+            return refuse("obstacles", "obstacles".into(), "has no contact");
+        }
+        if self.moving_supports && self.model == ModelKind::NeoHookean {
+            return refuse(
+                "moving supports",
+                "moving supports".into(),
+                "with the Neo-Hookean model scales prescribed displacements by the load factor \
+                 (a chord, not a rotation); hold the supports fixed",
+            );
+        }
+        Ok(())
     }
 }

@@ -93,6 +93,7 @@ impl<C: CellType> Definition<C> {
             obstacles: self.contact.is_some(),
             friction,
             regions: self.materials.materials().len() > 1,
+            formulation: crate::analysis::combination::Formulation::Displacement,
         }
     }
 

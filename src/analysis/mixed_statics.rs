@@ -239,7 +239,12 @@ impl MixedStaticSolver {
                 }
             })
             .collect();
-        let pressure = self.nodal_pressure(&corner_pressure);
+        let pressure = nodal_pressure(
+            &self.tets,
+            &self.pressure_nodes,
+            self.node_count,
+            &corner_pressure,
+        );
         self.timings.solve = clock.elapsed();
         Ok(MixedStaticSolution {
             displacement,
@@ -281,20 +286,6 @@ impl MixedStaticSolver {
         out
     }
 
-    /// The pressure at every node from the corner values.
-    fn nodal_pressure(&self, corner: &[f64]) -> Vec<f64> {
-        let mut field = vec![0.0; self.node_count];
-        for (&n, &p) in self.pressure_nodes.nodes().iter().zip(corner) {
-            field[n] = p;
-        }
-        for tet in &self.tets {
-            for (e, &(i, j)) in EDGES.iter().enumerate() {
-                field[tet[4 + e]] = 0.5 * (field[tet[i]] + field[tet[j]]);
-            }
-        }
-        field
-    }
-
     /// ‖A·x − r‖ / ‖r‖ (‖A·x − r‖ when r = 0).
     fn relative_residual(&self, x: &[f64], rhs: &[f64]) -> Result<f64> {
         let product = self.system.mul(x)?;
@@ -334,6 +325,27 @@ impl MixedStaticSolver {
     }
 }
 
+/// The pressure at every node from the corner values `corner` (one per unknown of
+/// `pressure_nodes`): the value at corners, the mean of its edge's corners at an edge node (the
+/// linear field there), 0 at nodes of no tet.
+pub(crate) fn nodal_pressure(
+    tets: &[[usize; 10]],
+    pressure_nodes: &PressureNodes,
+    node_count: usize,
+    corner: &[f64],
+) -> Vec<f64> {
+    let mut field = vec![0.0; node_count];
+    for (&n, &p) in pressure_nodes.nodes().iter().zip(corner) {
+        field[n] = p;
+    }
+    for tet in tets {
+        for (e, &(i, j)) in EDGES.iter().enumerate() {
+            field[tet[4 + e]] = 0.5 * (field[tet[i]] + field[tet[j]]);
+        }
+    }
+    field
+}
+
 /// One-shot mixed static solve: [`MixedStaticSolver::new`] then [`MixedStaticSolver::solve`].
 pub fn solve_static_mixed(
     mesh: &TetMesh<Tet10>,
@@ -346,7 +358,7 @@ pub fn solve_static_mixed(
 
 /// The saddle-point matrix [K_dev,ff −B_fᵀ; −B_f −M_p/κ] (both triangles, sorted rows): the
 /// free displacement DOFs are rows and columns `0..n_f`, pressure unknown k is `n_f + k`.
-fn saddle_point_matrix(
+pub(crate) fn saddle_point_matrix(
     mesh: &TetMesh<Tet10>,
     free_deviatoric: &CscMatrix,
     dofs: &DofMap,

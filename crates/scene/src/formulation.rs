@@ -6,35 +6,29 @@
 use std::path::PathBuf;
 use std::time::Instant;
 
-use tetfem::base::error::Result;
+use tetfem::analysis::Combination;
+use tetfem::base::error::{Error, Result};
 use tetfem::base::warning::Warning;
 use tetfem::fe::element::Tet10;
-use tetfem::model::{ModelKind, ModelMap};
+use tetfem::fe::element::taylor_hood::tets_without_an_interior_corner;
+use tetfem::model::ModelMap;
 use tetfem::post::output::fields::displacement_magnitude;
 use tetfem::post::output::{FrameArrays, OutputLock, PvdCollection};
-use tetfem::{MixedStaticSolution, MixedStaticSolver, TetMaterials};
+use tetfem::{MixedStaticSolution, MixedStaticSolver, TetMaterials, solve_static_mixed_nonlinear};
 
 use super::run::{
-    RunOptions, RunSummary, StaticReport, StaticSolve, report_static, static_frame_arrays,
-    write_static_probe_csv,
+    RunOptions, RunSummary, StaticNewton, StaticReport, StaticSolve, report_static,
+    static_frame_arrays, write_static_probe_csv,
 };
-use super::{Analysis, BuiltScene, Scene};
+use super::{BuiltScene, Scene};
 use crate::png_frames::{StaticLook, static_picture};
 
-/// How a static scene's elasticity is discretized (`analysis.formulation`).
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
-pub enum Formulation {
-    /// Displacement only (the default): every element order, analysis and model.
-    #[default]
-    Displacement,
-    /// Displacement and pressure (Taylor–Hood P2–P1): static, linear model, 10-node tets.
-    Mixed,
-}
+pub use tetfem::analysis::combination::Formulation;
 
 /// What a mixed scene needs, said in the error of a scene that lacks it.
-const MIXED_NEEDS: &str = "formulation = \"mixed\" is for static scenes with the linear model on \
-                           10-node tets ([mesh] order = 2) on tetfem's own engine, without \
-                           obstacles, accuracy or point probes";
+const MIXED_NEEDS: &str = "formulation = \"mixed\" is for static scenes with the linear or the \
+                           Neo-Hookean model on 10-node tets ([mesh] order = 2) on tetfem's own \
+                           engine, without obstacles, accuracy or point probes";
 
 impl Scene {
     /// The scene's formulation (checked when the scene was read).
@@ -55,25 +49,43 @@ impl Scene {
         match name.as_str() {
             "displacement" => Ok(Formulation::Displacement),
             "mixed" => {
-                let refusal = if !matches!(self.analysis(), Analysis::Static) {
-                    Some("a dynamic or modal analysis".to_string())
-                } else if !self.model().is_linear() {
-                    Some(format!("model = \"{}\"", self.model().name()))
-                } else if self.order() != 2 {
-                    Some(format!("[mesh] order = {}", self.order()))
-                } else if !self.spec.obstacles.is_empty() {
-                    Some("[[obstacles]]".to_string())
-                } else if self.accuracy().is_some() {
-                    Some("analysis.accuracy".to_string())
-                } else if self.engine().kind != super::EngineKind::Tetfem {
-                    // The distributed engine assembles the displacement element only.
-                    Some("engine = \"petsc\"".to_string())
-                } else if self.spec.probes.iter().any(|p| p.get_ref().at.is_some()) {
-                    // A point probe reports the displacement element's stress there.
-                    Some("a point probe ([[probes]] at)".to_string())
-                } else {
-                    None
+                // The physics' refusals are the library's ([`Combination::check`]); the scene
+                // names its own key for the pair, and refuses what only its run lacks.
+                let combination = Combination {
+                    formulation: Formulation::Mixed,
+                    ..self.combination()
                 };
+                let refusal = match combination.check() {
+                    Err(Error::InvalidParameter { name, .. }) => {
+                        Some(match name.trim_start_matches("formulation mixed with ") {
+                            "analysis" => "a dynamic or modal analysis".to_string(),
+                            "model" => format!("model = \"{}\"", self.model().name()),
+                            "element order" => format!("[mesh] order = {}", self.order()),
+                            "obstacles" => "[[obstacles]]".to_string(),
+                            "moving supports" => {
+                                "constraints that move (amplitude, linear_field or rigid_motion) \
+                                 with the Neo-Hookean model"
+                                    .to_string()
+                            }
+                            other => other.to_string(),
+                        })
+                    }
+                    Err(other) => return Err(other),
+                    Ok(_) => None,
+                };
+                let refusal = refusal.or_else(|| {
+                    if self.accuracy().is_some() {
+                        Some("analysis.accuracy".to_string())
+                    } else if self.engine().kind != super::EngineKind::Tetfem {
+                        // The distributed engine assembles the displacement element only.
+                        Some("engine = \"petsc\"".to_string())
+                    } else if self.spec.probes.iter().any(|p| p.get_ref().at.is_some()) {
+                        // A point probe reports the displacement element's stress there.
+                        Some("a point probe ([[probes]] at)".to_string())
+                    } else {
+                        None
+                    }
+                });
                 match refusal {
                     Some(what) => Err(error(format!(
                         "\"mixed\" cannot be combined with {what}: {MIXED_NEEDS}"
@@ -89,7 +101,9 @@ impl Scene {
     }
 }
 
-/// A mixed static scene: build on 10-node tets, solve for displacement and pressure, report as
+/// A mixed static scene: build on 10-node tets, solve for displacement and pressure (the linear
+/// model in one saddle solve, the Neo-Hookean one by Newton's load steps of
+/// `analysis.load_steps`/`newton_tolerance`), report as
 /// a displacement run does (no self-estimated error: the ZZ estimate's stress is the
 /// displacement element's), and write `<stem>.vtu` with the point field `pressure` (Pa),
 /// `.pvd`, probes CSV, PNG and summary as asked.
@@ -103,22 +117,59 @@ pub(crate) fn run_mixed(
     let build_seconds = clock.elapsed().as_secs_f64();
     let clock = Instant::now();
     let loads = built.static_load()?;
-    let mut solver = MixedStaticSolver::new(&built.mesh, &built.materials, &built.constraints)?;
-    let solution = solver.solve(&loads)?;
-    let solved = StaticSolve {
-        displacement: solution.displacement.clone(),
-        relative_residual: solution.relative_residual,
-        free_dofs: solver.dofs().free_count(),
-        phases: None,
-        factor_len: solver.factor_len(),
-        friction_forces: Vec::new(),
-        barrier: None,
-        newton: None,
-        reactions: solution.reactions.clone(),
+    let (solved, solution) = if scene.model().is_linear() {
+        let mut solver = MixedStaticSolver::new(&built.mesh, &built.materials, &built.constraints)?;
+        let solution = solver.solve(&loads)?;
+        let solved = StaticSolve {
+            displacement: solution.displacement.clone(),
+            relative_residual: solution.relative_residual,
+            free_dofs: solver.dofs().free_count(),
+            phases: None,
+            factor_len: solver.factor_len(),
+            friction_forces: Vec::new(),
+            barrier: None,
+            newton: None,
+            reactions: solution.reactions.clone(),
+        };
+        (solved, solution)
+    } else {
+        // The library's check let only the Neo-Hookean model through.
+        let options = scene.static_newton();
+        let report = solve_static_mixed_nonlinear(
+            &built.mesh,
+            &built.materials,
+            &built.constraints,
+            &loads,
+            options,
+        )?;
+        let solved = StaticSolve {
+            displacement: report.displacement.clone(),
+            relative_residual: report.relative_residual,
+            free_dofs: built.constraints.dof_count() - built.constraints.count(),
+            phases: None,
+            factor_len: 0,
+            friction_forces: Vec::new(),
+            barrier: None,
+            newton: Some(StaticNewton {
+                load_steps: options.load_steps,
+                iterations: report.iterations,
+                tolerance: options.tolerance,
+            }),
+            reactions: report.reactions.clone(),
+        };
+        let solution = MixedStaticSolution {
+            displacement: report.displacement,
+            pressure: report.pressure,
+            relative_residual: report.relative_residual,
+            reactions: report.reactions,
+        };
+        (solved, solution)
     };
     let solve_seconds = clock.elapsed().as_secs_f64();
-    // Von Mises depends on the deviatoric stress 2μ dev ε only, which the displacement gives.
-    let model = ModelMap::new(ModelKind::Linear, &built.materials);
+    // Von Mises depends on the deviatoric stress only, which the displacement gives: 2μ dev ε
+    // (linear), μ·J^(−5/3)·dev(F·Fᵀ) (Neo-Hookean: the displacement model's μ/J·dev(F·Fᵀ)
+    // differs by J^(2/3) = 1 + O(p/κ)).
+    let model = ModelMap::new(scene.model(), &built.materials);
     let StaticReport {
         mut summary,
         von_mises,
@@ -144,6 +195,16 @@ pub(crate) fn run_mixed(
         .map(|w| w.to_string())
         .collect();
     summary.warnings.retain(|w| !locking.contains(w));
+    let unstable = tets_without_an_interior_corner(&built.mesh)?;
+    if !unstable.is_empty() && unstable.len() == built.mesh.tet_count() {
+        summary.warnings.push(format!(
+            "formulation = \"mixed\": none of the {} tets has a corner inside the body (a mesh \
+             one tet thick), so the P2–P1 element's stability condition (every tet with an \
+             interior corner, Boffi 1997) does not hold and the pressure may oscillate; mesh \
+             at least two tets through the thinnest part",
+            unstable.len()
+        ));
+    }
     if !options.no_files {
         let clock = Instant::now();
         summary.files = write_mixed_outputs(
@@ -321,13 +382,45 @@ vtu_format = "ascii"
     }
 
     #[test]
+    fn a_mixed_neo_hookean_block_in_small_tension_is_the_linear_one() {
+        let text = BLOCK.replace(
+            "formulation = \"mixed\"",
+            "formulation = \"mixed\"\nmodel = \"neo-hookean\"\nload_steps = 2",
+        );
+        let mut scene = parse(&text).unwrap();
+        assert_eq!(scene.formulation(), Formulation::Mixed);
+        let directory =
+            std::env::temp_dir().join(format!("tetfem_mixed_nh_{}", std::process::id()));
+        scene.set_output_directory(directory.clone());
+        let summary = super::super::run_static(&scene).unwrap();
+        // The linear answer (the uniaxial test above) to the strain's order, 1e-3: the
+        // Neo-Hookean stress at a stretch of 1e-3 differs from Hooke's by that fraction.
+        let exact = (1e-3f64.powi(2) + 2.0 * (0.4999e-3 * 0.5f64).powi(2)).sqrt();
+        assert!(
+            (summary.max_displacement - exact).abs() < 3e-3 * exact,
+            "{summary:?}"
+        );
+        assert!(
+            (summary.max_von_mises - 1000.0).abs() < 3e-3 * 1000.0,
+            "{summary:?}"
+        );
+        // The block is one cell thick: no tet has a corner inside it.
+        assert!(
+            summary.warnings.iter().any(|w| w.contains("Boffi")),
+            "{:?}",
+            summary.warnings
+        );
+        let _ = std::fs::remove_dir_all(directory);
+    }
+
+    #[test]
     fn mixed_is_refused_where_it_does_not_apply_naming_the_key() {
         for (from, to, culprit) in [
             ("order = 2\n", "order = 1\n", "[mesh] order = 1"),
             (
                 "formulation = \"mixed\"",
-                "formulation = \"mixed\"\nmodel = \"neo-hookean\"",
-                "model = \"neo-hookean\"",
+                "formulation = \"mixed\"\nmodel = \"corotational\"",
+                "model = \"corotational\"",
             ),
             (
                 "formulation = \"mixed\"",

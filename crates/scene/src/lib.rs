@@ -185,7 +185,8 @@ type = "static"                     # default "static"; or "dynamic", which need
 # initial_velocity = [0.0, 0.0, 0.0]          # m/s, default zero
 # model = "linear"                 # default; or "corotational", "neo-hookean", "st-venant-kirchhoff" (static and every dynamic method; each [[materials]] region its own model)
 # formulation = "displacement"      # default; or "mixed": displacement–pressure P2–P1, no locking
-                                    # as ν → 0.5 (static, linear model, [mesh] order = 2 only);
+                                    # as ν → 0.5 (static, the linear or the Neo-Hookean model,
+                                    # [mesh] order = 2 only);
                                     # the .vtu gets the point field "pressure" (Pa)
 # linear_solver = "auto"            # default: the Cholesky factorization when its factor fits the
                                     # memory budget and is predicted faster; or "direct",

@@ -12,6 +12,7 @@
 mod element_type;
 pub mod pointwise;
 pub mod taylor_hood;
+pub mod taylor_hood_neo_hookean;
 pub mod tet10;
 mod tet4;
 

@@ -162,3 +162,23 @@ impl PressureNodes {
         std::array::from_fn(|k| self.index[tet[k]].unwrap_or(usize::MAX))
     }
 }
+
+/// The tets of `mesh` none of whose four corners is inside the body (every corner on a
+/// boundary face), ascending. P2–P1 is stable on meshes where every tet has an interior corner
+/// (Boffi 1997's sufficient condition); a tet without one has pressure modes its displacement
+/// barely controls (a mesh one tet thick has nothing else).
+pub fn tets_without_an_interior_corner(mesh: &TetMesh<Tet10>) -> crate::Result<Vec<usize>> {
+    let mut on_boundary = vec![false; mesh.node_count()];
+    for face in mesh.boundary_faces()? {
+        for n in face.nodes {
+            on_boundary[n] = true;
+        }
+    }
+    Ok(mesh
+        .tets()
+        .iter()
+        .enumerate()
+        .filter(|(_, tet)| tet[..PRESSURE_NODES].iter().all(|&n| on_boundary[n]))
+        .map(|(t, _)| t)
+        .collect())
+}

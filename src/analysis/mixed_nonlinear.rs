@@ -1,0 +1,491 @@
+//! Static equilibrium of nearly incompressible Neo-Hookean rubber at large deformation in the
+//! mixed displacement–pressure form (Taylor–Hood P2–P1,
+//! [`taylor_hood_neo_hookean`](crate::fe::element::taylor_hood_neo_hookean)): no volumetric
+//! locking as Poisson's ratio approaches 0.5.
+//!
+//! On the free displacement DOFs and the corner pressures, per load step λ = s/N (loads and
+//! prescribed displacements scaled by λ, as [`solve_nonlinear_static`](crate::analysis::nonlinear::solve_nonlinear_static)
+//! does), Newton's iterations solve
+//!
+//! ```text
+//!   ⎡ K_uu   −Gᵀ   ⎤ ⎡δu⎤     ⎡ R_u = f_int(u, p) − λ·f ⎤
+//!   ⎣ −G   −M_p/κ  ⎦ ⎣δp⎦ = − ⎣ R_p(u, p)               ⎦
+//! ```
+//!
+//! with the one Newton loop of tetfem and its backtracking line search. The merit is the
+//! residual norm ‖(R_u, (μ/ℓ)·R_p)‖, not the energy: the mixed energy is a saddle (a maximum
+//! in p), so its decrease is no test of progress. The weight μ/ℓ (ℓ the cube root of the mean
+//! tet volume, μ the largest shear modulus) is that of the saddle's natural norm: the Schur
+//! complement B·K⁻¹·Bᵀ + M_p/κ that maps R_p (a volume) to a pressure scales as V/μ, and K as
+//! μ·ℓ, so R_p·μ/ℓ is a force comparable with R_u. (κ/ℓ, the weight of the pressure's own
+//! block, would make the merit of a nearly incompressible body its J − 1 alone: measured on
+//! Cook's membrane, the line search then cut every Newton step to below 1 % and stalled.) Converged when that norm is ≤ `tolerance` times the full load's
+//! norm (or, with no load, the step's first residual).
+//!
+//! The tangent is symmetric; it is quasi-definite (K_uu positive definite on the free DOFs,
+//! −M_p/κ negative definite) near the rest state, so the LDLᵀ without pivoting of the linear
+//! mixed solve ([`QuasiDefiniteLdlt`]) factors it, its symbolic analysis done once. At large
+//! compressive pressure (−p·∂cof F/∂F in K_uu) or near a buckling load K_uu can stop being
+//! positive definite: the factorization then fails and the solve returns its error (the row
+//! and pivot), naming the load step — more load steps do not help a true instability, but they
+//! do help a step that overshoots into it.
+
+use nalgebra::Vector3;
+
+use crate::analysis::mixed_statics::{nodal_pressure, saddle_point_matrix};
+use crate::analysis::newton::iteration::{self, NewtonSystem, Stall};
+use crate::analysis::newton::line_search::{Backtracking, LineFunction, NEAR_SOLUTION};
+use crate::analysis::nonlinear::NewtonOptions;
+use crate::analysis::problem::Problem;
+use crate::base::error::{Error, Result};
+use crate::bc::constraints::Constraints;
+use crate::bc::loads::Loads;
+use crate::fe::element::taylor_hood::{Coupling, PRESSURE_NODES, PressureNodes};
+use crate::fe::element::taylor_hood_neo_hookean::{MixedElementState, mixed_neo_hookean};
+use crate::fe::element::tet10::Tet10Rest;
+use crate::fe::element::{ElementType, Tet10};
+use crate::fe::materials::TetMaterials;
+use crate::linalg::QuasiDefiniteLdlt;
+use crate::mesh::TetMesh;
+use crate::ordering::FillOrdering;
+
+/// The result of [`solve_static_mixed_nonlinear`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct MixedNewtonReport {
+    /// Displacement of every DOF (length), prescribed values included.
+    pub displacement: Vec<f64>,
+    /// Pressure p = −tr σ/3 at every node (Pa, positive in compression): the solved value at
+    /// tet corners, the mean of its edge's corners at an edge node, 0 at nodes of no tet.
+    pub pressure: Vec<f64>,
+    /// The merit ‖(R_u, (μ/ℓ)·R_p)‖ (force) of each Newton iterate (first entry: before the
+    /// first update), one list per load step.
+    pub residuals: Vec<Vec<f64>>,
+    /// Newton iterations in total.
+    pub iterations: usize,
+    /// The last load step's final merit over its reference (the full load's norm, or with no
+    /// load its first residual): at most the tolerance, or the round-off floor.
+    pub relative_residual: f64,
+    /// Reaction forces f_int(u, p) − f: non-zero only on constrained DOFs (force units).
+    pub reactions: Vec<f64>,
+}
+
+/// Solves the static equilibrium of the mixed Neo-Hookean model (see the [module](self) docs)
+/// on the 10-node `mesh` with `materials` (μ and κ of each; ν < 0.5), `constraints` (holding
+/// every rigid motion) and `loads`, in `options.load_steps` equal load steps.
+///
+/// Errors: [`Error::InvalidParameter`] for options, constraints or loads not made for this
+/// mesh, or from the LDLᵀ when the tangent is not quasi-definite (a support that does not hold
+/// a rigid motion, an instability); [`Error::NotConverged`] naming the load step and residual
+/// when Newton's iterations stall or a tet inverts at every fraction of the step;
+/// [`Error::Stopped`] on the caller's interrupt.
+pub fn solve_static_mixed_nonlinear(
+    mesh: &TetMesh<Tet10>,
+    materials: &impl TetMaterials,
+    constraints: &Constraints,
+    loads: &Loads,
+    options: NewtonOptions,
+) -> Result<MixedNewtonReport> {
+    if options.load_steps == 0 || !(options.tolerance > 0.0 && options.tolerance.is_finite()) {
+        return Err(Error::invalid_parameter(
+            "Newton options",
+            format!(
+                "{} load steps, tolerance {}",
+                options.load_steps, options.tolerance
+            ),
+            "need at least one load step and a finite tolerance > 0",
+        ));
+    }
+    if constraints.dof_count() != mesh.dof_count() {
+        return Err(Error::invalid_parameter(
+            "constraints",
+            format!("{} DOFs", constraints.dof_count()),
+            format!("must be made for this mesh ({} DOFs)", mesh.dof_count()),
+        ));
+    }
+    Error::check_len("loads", mesh.dof_count(), loads.as_slice().len())?;
+    materials.check_tet_count(mesh)?;
+    let mut system = MixedSystem::new(mesh, materials, constraints)?;
+    let dofs = system.problem.dofs();
+    let load_norm = norm(&dofs.restrict(loads.as_slice())?);
+    let mut residuals = Vec::new();
+    let mut relative_residual = 0.0;
+    for step in 1..=options.load_steps {
+        let factor = step as f64 / options.load_steps as f64;
+        let dofs = system.problem.dofs();
+        for (dof, value) in dofs.prescribed().iter().enumerate() {
+            if dofs.free_index(dof).is_none() {
+                system.u[dof] = factor * value;
+            }
+        }
+        system.load = loads.as_slice().iter().map(|f| factor * f).collect();
+        system.step = step;
+        let (u, p) = (system.u.clone(), system.p.clone());
+        let r_norm = match system.evaluate(&u, &p, false)? {
+            Some((residual, _)) => {
+                system.residual = residual;
+                system.merit(&system.residual)
+            }
+            None => {
+                return Err(Error::NotConverged {
+                    method: "Newton's method (mixed)".into(),
+                    message: format!(
+                        "the prescribed displacements of load step {step}/{} invert a tet; \
+                         use more load steps",
+                        options.load_steps
+                    ),
+                });
+            }
+        };
+        let reference = if load_norm > 0.0 {
+            load_norm
+        } else {
+            r_norm.max(f64::MIN_POSITIVE)
+        };
+        system.history = vec![r_norm];
+        let limits = (options.tolerance, options.max_iterations);
+        let stall = iteration::iterate(&mut system, (r_norm, reference), limits)?.err();
+        if let Some(stall) = stall {
+            let reached = match stall {
+                Stall::OutOfIterations { residual, .. } | Stall::NoDecrease { residual } => {
+                    format!("{residual:.3e}")
+                }
+                Stall::NotFinite => "not finite".into(),
+            };
+            return Err(Error::NotConverged {
+                method: "Newton's method (mixed)".into(),
+                message: format!(
+                    "load step {step}/{} stalled ({stall:?}) at residual {reached}, reference \
+                     {reference:.3e}; use more load steps",
+                    options.load_steps
+                ),
+            });
+        }
+        relative_residual = system.history.last().copied().unwrap_or(0.0) / reference;
+        residuals.push(std::mem::take(&mut system.history));
+    }
+    let dofs = system.problem.dofs();
+    let reactions = system
+        .unbalanced(&system.u, &system.p)?
+        .map(|(forces, _)| {
+            forces
+                .iter()
+                .enumerate()
+                .map(|(dof, r)| match dofs.free_index(dof) {
+                    Some(_) => 0.0,
+                    None => *r,
+                })
+                .collect()
+        })
+        .unwrap_or_default();
+    Ok(MixedNewtonReport {
+        relative_residual,
+        reactions,
+        pressure: nodal_pressure(
+            mesh.tets(),
+            &system.pressure_nodes,
+            mesh.node_count(),
+            &system.p,
+        ),
+        displacement: system.u,
+        residuals,
+        iterations: system.iterations,
+    })
+}
+
+/// The mixed problem at its current iterate, as the Newton loop drives it.
+struct MixedSystem<'a> {
+    mesh: &'a TetMesh<Tet10>,
+    problem: Problem<'a, Tet10>,
+    rests: Vec<Tet10Rest>,
+    /// μ and 1/κ of each tet (Pa, 1/Pa).
+    moduli: Vec<(f64, f64)>,
+    pressure_nodes: PressureNodes,
+    /// The LDLᵀ of the tangent's pattern (analysed once, in [`MixedSystem::new`]).
+    ldlt: Option<QuasiDefiniteLdlt>,
+    /// μ/ℓ (Pa/length): the pressure residual's weight in the merit.
+    pressure_weight: f64,
+    /// The largest κ (Pa).
+    largest_bulk: f64,
+    /// The change of a coordinate below which no force changes (length).
+    resolution: f64,
+    u: Vec<f64>,
+    p: Vec<f64>,
+    load: Vec<f64>,
+    /// R at the iterate: free displacement DOFs, then pressures.
+    residual: Vec<f64>,
+    delta: Vec<f64>,
+    trial: Option<(Vec<f64>, Vec<f64>, Vec<f64>)>,
+    history: Vec<f64>,
+    iterations: usize,
+    step: usize,
+}
+
+impl<'a> MixedSystem<'a> {
+    fn new(
+        mesh: &'a TetMesh<Tet10>,
+        materials: &impl TetMaterials,
+        constraints: &Constraints,
+    ) -> Result<Self> {
+        let problem = Problem::new(mesh, constraints)?;
+        let rests: Vec<Tet10Rest> = (0..mesh.tet_count())
+            .map(|t| Tet10::rest(mesh, t))
+            .collect();
+        let moduli: Vec<(f64, f64)> = (0..mesh.tet_count())
+            .map(|t| {
+                let m = materials.material_of(t);
+                (m.shear_modulus(), 1.0 / m.bulk_modulus())
+            })
+            .collect();
+        let pressure_nodes = PressureNodes::new(mesh);
+        let volume: f64 = rests.iter().map(Tet10Rest::volume).sum();
+        let length = (volume / mesh.tet_count().max(1) as f64).cbrt();
+        let bulk = materials
+            .material_list()
+            .iter()
+            .map(|m| m.bulk_modulus())
+            .fold(0.0, f64::max);
+        let shear = materials
+            .material_list()
+            .iter()
+            .map(|m| m.shear_modulus())
+            .fold(0.0, f64::max);
+        let scale = mesh
+            .nodes()
+            .iter()
+            .map(|x: &Vector3<f64>| x.amax())
+            .fold(0.0, f64::max);
+        let u = vec![0.0; mesh.dof_count()];
+        let p = vec![0.0; pressure_nodes.count()];
+        let mut system = MixedSystem {
+            mesh,
+            problem,
+            rests,
+            moduli,
+            pressure_nodes,
+            ldlt: None,
+            pressure_weight: shear / length,
+            largest_bulk: bulk,
+            resolution: 4.0 * f64::EPSILON * scale,
+            load: vec![0.0; u.len()],
+            u,
+            p,
+            residual: Vec::new(),
+            delta: Vec::new(),
+            trial: None,
+            history: Vec::new(),
+            iterations: 0,
+            step: 0,
+        };
+        let (u, p) = (system.u.clone(), system.p.clone());
+        let tangent = match system.evaluate(&u, &p, true)? {
+            Some((_, Some(tangent))) => tangent,
+            // The rest state has J = 1 at every point and its tangent is formed.
+            _ => return Err(Error::Solver("no tangent at the rest state".into())),
+        };
+        let free = system.problem.dofs().free_count();
+        system.ldlt = Some(QuasiDefiniteLdlt::analyze(
+            &tangent,
+            free,
+            FillOrdering::NestedDissection,
+        )?);
+        Ok(system)
+    }
+
+    /// R (free displacement DOFs, then pressures) and, when `tangent`, the saddle matrix at
+    /// (`u`, `p`); `None` when a tet is inverted at a quadrature point.
+    fn evaluate(
+        &self,
+        u: &[f64],
+        p: &[f64],
+        tangent: bool,
+    ) -> Result<Option<(Vec<f64>, Option<crate::sparse::CscMatrix>)>> {
+        let Some((internal, pressure_residual, states)) = self.unbalanced_states(u, p) else {
+            return Ok(None);
+        };
+        let mut residual = self.problem.dofs().restrict(&internal)?;
+        residual.extend(pressure_residual);
+        if !tangent {
+            return Ok(Some((residual, None)));
+        }
+        let mut stiffness = self.problem.zero_matrix()?;
+        self.problem.assembler().reassemble_elements(
+            self.mesh,
+            |t| states[t].stiffness,
+            &mut stiffness,
+        )?;
+        let free_stiffness = self.problem.restrict(&stiffness)?;
+        let couplings: Vec<Coupling> = states.iter().map(|s| s.coupling).collect();
+        let matrix = saddle_point_matrix(
+            self.mesh,
+            &free_stiffness,
+            self.problem.dofs(),
+            &self.pressure_nodes,
+            &couplings,
+            |t| self.moduli[t].1,
+        )?;
+        Ok(Some((residual, Some(matrix))))
+    }
+
+    /// f_int(u, p) − λ·f on every DOF and R_p, with the element states; `None` when a tet
+    /// is inverted at a quadrature point.
+    fn unbalanced_states(
+        &self,
+        u: &[f64],
+        p: &[f64],
+    ) -> Option<(Vec<f64>, Vec<f64>, Vec<MixedElementState>)> {
+        let mut states: Vec<MixedElementState> = Vec::with_capacity(self.mesh.tet_count());
+        for (t, tet) in self.mesh.tets().iter().enumerate() {
+            let u_e: [f64; 30] = std::array::from_fn(|k| u[3 * tet[k / 3] + k % 3]);
+            let corners = self.pressure_nodes.of_tet(tet);
+            let p_e: [f64; PRESSURE_NODES] = std::array::from_fn(|k| p[corners[k]]);
+            let (mu, inverse_bulk) = self.moduli[t];
+            states.push(mixed_neo_hookean(
+                &self.rests[t],
+                &u_e,
+                &p_e,
+                mu,
+                inverse_bulk,
+            )?);
+        }
+        let mut internal: Vec<f64> = self.load.iter().map(|f| -f).collect();
+        let mut pressure_residual = vec![0.0; self.pressure_nodes.count()];
+        for (tet, state) in self.mesh.tets().iter().zip(&states) {
+            for (k, &n) in tet.iter().enumerate() {
+                for a in 0..3 {
+                    internal[3 * n + a] += state.force[3 * k + a];
+                }
+            }
+            for (&c, r) in self
+                .pressure_nodes
+                .of_tet(tet)
+                .iter()
+                .zip(&state.pressure_residual)
+            {
+                pressure_residual[c] += r;
+            }
+        }
+        Some((internal, pressure_residual, states))
+    }
+
+    /// f_int(u, p) − λ·f on every DOF and R_p (see [`Self::unbalanced_states`]).
+    fn unbalanced(&self, u: &[f64], p: &[f64]) -> Result<Option<(Vec<f64>, Vec<f64>)>> {
+        Ok(self.unbalanced_states(u, p).map(|(f, r, _)| (f, r)))
+    }
+
+    /// ‖(R_u, (μ/ℓ)·R_p)‖ (force).
+    fn merit(&self, residual: &[f64]) -> f64 {
+        let free = self.problem.dofs().free_count();
+        let (r_u, r_p) = residual.split_at(free);
+        let w = self.pressure_weight;
+        (r_u.iter().map(|r| r * r).sum::<f64>() + r_p.iter().map(|r| (w * r).powi(2)).sum::<f64>())
+            .sqrt()
+    }
+
+    /// (u, p) + α·δ.
+    fn stepped(&self, alpha: f64) -> (Vec<f64>, Vec<f64>) {
+        let dofs = self.problem.dofs();
+        let free = dofs.free_count();
+        let mut u = self.u.clone();
+        for (k, &dof) in dofs.free_dofs().iter().enumerate() {
+            u[dof] += alpha * self.delta[k];
+        }
+        let p = self
+            .p
+            .iter()
+            .zip(&self.delta[free..])
+            .map(|(p, d)| p + alpha * d)
+            .collect();
+        (u, p)
+    }
+}
+
+impl NewtonSystem for MixedSystem<'_> {
+    fn direction(&mut self, _first: bool) -> Result<()> {
+        let (u, p) = (self.u.clone(), self.p.clone());
+        let Some((_, Some(tangent))) = self.evaluate(&u, &p, true)? else {
+            return Err(Error::Solver(
+                "the accepted iterate has an inverted tet".into(),
+            ));
+        };
+        let Some(ldlt) = self.ldlt.as_mut() else {
+            return Err(Error::Solver("the mixed tangent was not analysed".into()));
+        };
+        ldlt.factorize(&tangent).map_err(|e| {
+            Error::Solver(format!(
+                "the mixed Neo-Hookean tangent at load step {} is not quasi-definite (an \
+                 instability, a compressed tet, or supports that do not hold a rigid motion): \
+                 {e}",
+                self.step
+            ))
+        })?;
+        self.delta = self.residual.iter().map(|r| -r).collect();
+        Ok(ldlt.solve_in_place(&mut self.delta)?)
+    }
+
+    /// δu below the positions' resolution 4ε·max|X| and δp below the pressure's, 4ε·κ (the
+    /// round-off of κ·(J − 1) near J = 1) or 4ε·max|p|: the iterate then stands.
+    fn step_is_unresolved(&self) -> bool {
+        let free = self.problem.dofs().free_count();
+        let pressure_scale = self.p.iter().fold(self.largest_bulk, |m, p| m.max(p.abs()));
+        self.delta[..free]
+            .iter()
+            .all(|d| d.abs() <= self.resolution)
+            && self.delta[free..]
+                .iter()
+                .all(|d| d.abs() <= 4.0 * f64::EPSILON * pressure_scale)
+    }
+
+    fn search(&mut self, r_norm: f64, reference: f64) -> Result<(bool, f64)> {
+        // Without contact the search accepts a decrease of the residual norm (the potential
+        // here is constant: see the module docs on the saddle).
+        Backtracking::for_contact(false).search(self, 1.0, (r_norm, NEAR_SOLUTION * reference), 0.0)
+    }
+
+    fn accept(&mut self, _alpha: f64) -> f64 {
+        if let Some((u, p, residual)) = self.trial.take() {
+            (self.u, self.p, self.residual) = (u, p, residual);
+        }
+        self.iterations += 1;
+        let now = self.merit(&self.residual);
+        self.history.push(now);
+        now
+    }
+
+    fn describe(&self, iteration: usize) -> String {
+        format!(
+            "mixed Neo-Hookean Newton iteration {iteration} of load step {}",
+            self.step
+        )
+    }
+}
+
+impl LineFunction for MixedSystem<'_> {
+    fn trial(&mut self, alpha: f64) -> Result<f64> {
+        let (u, p) = self.stepped(alpha);
+        match self.evaluate(&u, &p, false)? {
+            Some((residual, _)) => {
+                let merit = self.merit(&residual);
+                self.trial = Some((u, p, residual));
+                Ok(merit)
+            }
+            // An inverted tet: never accepted.
+            None => {
+                self.trial = None;
+                Ok(f64::INFINITY)
+            }
+        }
+    }
+
+    /// The mixed energy is a saddle, no merit: constant, so only the residual decides.
+    fn start_potential(&mut self) -> Result<f64> {
+        Ok(0.0)
+    }
+
+    fn trial_potential(&mut self) -> Result<f64> {
+        Ok(0.0)
+    }
+}
+
+fn norm(v: &[f64]) -> f64 {
+    v.iter().map(|x| x * x).sum::<f64>().sqrt()
+}
