@@ -331,7 +331,7 @@ fn lame_tube_at_a_small_pressure_agrees_with_the_linear_mixed_answer() {
 
 /// The tip displacement of the linear Cook's membrane in plane strain (mm), from scikit-fem
 /// 12.0.2's Taylor–Hood P2–P1 triangles on 128 × 128 cells (148 739 unknowns), the script
-/// `scenes/cook_membrane_mixed.skfem.py`: an independent code and element (triangles, its own
+/// `validation/cook_membrane_skfem.py`: an independent code and element (triangles, its own
 /// quadrature and solver) on the same geometry, μ, κ and traction. Its sequence 7.994 (n = 16),
 /// 8.038 (32), 8.058 (64), 8.0675 (128) halves its differences, so the limit is ≈ 8.077, 0.12 %
 /// above this value.
