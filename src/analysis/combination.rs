@@ -6,7 +6,10 @@
 //! - a modal analysis with a nonlinear model: K·φ = ω²·M·φ is the eigenproblem of the linear
 //!   model about the rest state (every model's tangent at rest is the linear K);
 //! - a modal analysis with obstacles: contact is a one-sided, nonlinear constraint, with no
-//!   eigenproblem about the rest state.
+//!   eigenproblem about the rest state;
+//! - body–body and self-contact (`surface_contact`) with any analysis but a backward Euler
+//!   transient: the surface barrier enters the implicit Newton step with its collision-free
+//!   line search there; the static solve, Newmark and the explicit method do not carry it yet.
 //!
 //! Combinations that run but whose behaviour the user should know of give a [`Warning`]:
 //! Newmark (average acceleration) with obstacles is not energy-stable with the stiffening
@@ -67,6 +70,9 @@ pub struct Combination {
     pub friction: bool,
     /// More than one material region.
     pub regions: bool,
+    /// Body–body and self-contact on the boundary surface (several bodies, or one that may
+    /// fold onto itself).
+    pub surface_contact: bool,
 }
 
 impl Default for Combination {
@@ -82,6 +88,7 @@ impl Default for Combination {
             obstacles: false,
             friction: false,
             regions: false,
+            surface_contact: false,
         }
     }
 }
@@ -96,6 +103,14 @@ impl Combination {
                 "element order",
                 self.order,
                 "must be 1 (4-node tets) or 2 (10-node tets)",
+            ));
+        }
+        if self.surface_contact && self.analysis != Analysis::Transient(Method::BackwardEuler) {
+            return Err(Error::invalid_parameter(
+                format!("surface_contact with analysis {}", self.analysis.name()),
+                "surface contact",
+                "body–body and self-contact runs in a dynamic backward_euler analysis only (the \
+                 static solve, newmark, explicit and modal analyses do not carry it yet)",
             ));
         }
         if self.analysis == Analysis::Modal {

@@ -496,6 +496,7 @@ fn every_combination_runs_or_is_a_named_physics_refusal() {
                                 obstacles,
                                 friction: obstacles,
                                 regions,
+                                surface_contact: false,
                             };
                             let physics_refuses = analysis == Analysis::Modal
                                 && (model != ModelKind::Linear || obstacles);

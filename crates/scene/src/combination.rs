@@ -32,6 +32,7 @@ impl Scene {
                 .iter()
                 .any(|o| o.get_ref().friction.is_some_and(|mu| mu > 0.0)),
             regions: !spec.materials.is_empty(),
+            surface_contact: false,
         }
     }
 

@@ -279,6 +279,8 @@ pub struct NonlinearForce {
     /// Body–body and self-contact of the boundary surface, when given
     /// ([`with_surface_contact`](Self::with_surface_contact)).
     surface: Option<SurfaceContact>,
+    /// The free index of each full DOF (`usize::MAX` where constrained).
+    free_index: Vec<usize>,
 }
 
 impl NonlinearForce {
@@ -339,6 +341,7 @@ impl NonlinearForce {
                 "must be on the pattern of the mesh's assembly restricted to the free DOFs (build the system with LinearSystem::new on this mesh)",
             ));
         }
+        let mesh_dofs = mesh.dof_count();
         Ok(NonlinearForce {
             free_dofs: dofs.free_dofs().to_vec(),
             prescribed: std::sync::RwLock::new(dofs.prescribed().to_vec()),
@@ -353,6 +356,13 @@ impl NonlinearForce {
             last_friction_forces: std::sync::Mutex::new(None),
             barrier: std::sync::Mutex::new(None),
             surface: None,
+            free_index: {
+                let mut index = vec![usize::MAX; mesh_dofs];
+                for (k, &d) in dofs.free_dofs().iter().enumerate() {
+                    index[d] = k;
+                }
+                index
+            },
         })
     }
 
@@ -373,6 +383,22 @@ impl NonlinearForce {
         )?;
         self.surface = Some(surface);
         Ok(self)
+    }
+
+    /// The surface barrier's Hessian entries the last tangent lumped onto the diagonal
+    /// ([`SurfaceContact::lumped_entries`]) on the free DOFs: (row, column or `None` where the
+    /// column is constrained, v). Empty without surface contact or when every entry was on the
+    /// pattern.
+    pub(crate) fn lumped_tangent_entries(&self) -> Vec<(usize, Option<usize>, f64)> {
+        let Some(surface) = &self.surface else {
+            return Vec::new();
+        };
+        let index = |d: usize| Some(self.free_index[d]).filter(|&k| k != usize::MAX);
+        surface
+            .lumped_entries()
+            .into_iter()
+            .filter_map(|(r, c, v)| Some((index(r)?, index(c), v)))
+            .collect()
     }
 
     /// The body–body and self-contact, if any.

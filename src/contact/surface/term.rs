@@ -15,12 +15,16 @@
 //!
 //! The tangent's pattern: the system's stiffness pattern couples the nodes of a tet only, and
 //! a contact pair couples nodes that share no tet (of another body, or far along one). The
-//! solvers factor on that fixed pattern, so the pairs' entries outside it are not dropped but
-//! moved onto the diagonal: an off-pattern entry v at (r, c) is replaced by |v| at (r, r) (and
-//! its mirror by |v| at (c, c)). The change, [[|v|, −v], [−v, |v|]] per entry pair, is positive
-//! semi-definite, so the tangent stays PSD and bounds the projected Hessian from above: Newton
-//! then converges linearly across bodies (a damped, Jacobi-like contact coupling) and keeps its
-//! quadratic rate within a body's own pairs. [`TangentFill`] counts what went where.
+//! solvers factor on that fixed pattern (its symbolic analysis made once), so the pairs'
+//! entries outside it are moved onto the diagonal: an off-pattern entry v at (r, c) is replaced
+//! by |v| at (r, r) (and its mirror by |v| at (c, c)). The change, [[|v|, −v], [−v, |v|]] per
+//! entry pair, is positive semi-definite, so this tangent P stays PSD and bounds the exact
+//! projected Hessian J from above. Alone it converges linearly (it resists the bodies' common
+//! motion that contact transmits: 392 Newton iterations over the 24 steps of the two-block
+//! impact test). The entries moved are kept ([`SurfaceContact::lumped_entries`]) and the
+//! refactoring Newton path solves with the exact J by conjugate gradients preconditioned by
+//! P's factor (P⁻¹J has its spectrum in (0, 1]): 58 iterations over those 24 steps.
+//! [`TangentFill`] counts what went where.
 
 use std::sync::{Arc, Mutex};
 
@@ -61,6 +65,10 @@ pub struct SurfaceContact {
     rest: Vec<Vector3<f64>>,
     reach: Mutex<Option<Reach>>,
     fill: Mutex<TangentFill>,
+    /// The entries the last tangent moved onto the diagonal, (row, column, v) over the full
+    /// DOFs: what [`lumped_entries`](SurfaceContact::lumped_entries) gives a solver that
+    /// corrects for them.
+    lumped: Mutex<Vec<(usize, usize, f64)>>,
 }
 
 impl std::fmt::Debug for SurfaceContact {
@@ -95,6 +103,7 @@ impl SurfaceContact {
             rest: mesh.nodes().to_vec(),
             reach: Mutex::new(None),
             fill: Mutex::new(TangentFill::default()),
+            lumped: Mutex::new(Vec::new()),
         })
     }
 
@@ -208,6 +217,7 @@ impl SurfaceContact {
             .barrier
             .hessian_triplets_among(&self.surface, &x, &found, project)?;
         let mut fill = TangentFill::default();
+        let mut lumped = Vec::new();
         for (r, c, v) in triplets {
             match entry(matrix, r, c) {
                 Some(k) => {
@@ -224,11 +234,24 @@ impl SurfaceContact {
                     })?;
                     matrix.values_mut()[k] += v.abs();
                     fill.lumped += 1;
+                    lumped.push((r, c, v));
                 }
             }
         }
         *self.fill.lock().unwrap_or_else(|e| e.into_inner()) = fill;
+        *self.lumped.lock().unwrap_or_else(|e| e.into_inner()) = lumped;
         Ok(fill)
+    }
+
+    /// The entries (row, column, v) over the full DOFs that the last
+    /// [`add_tangent`](Self::add_tangent) found outside the pattern and moved onto the diagonal
+    /// as |v| at (row, row): the exact Hessian is that tangent plus, per entry, v at
+    /// (row, column) less |v| at (row, row).
+    pub fn lumped_entries(&self) -> Vec<(usize, usize, f64)> {
+        self.lumped
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .clone()
     }
 
     /// Where the last tangent's entries went ([`TangentFill`]).
