@@ -16,8 +16,9 @@ use tetfem::base::warning::Warning;
 use tetfem::contact::surface::{SurfaceBarrier, SurfaceContact};
 use tetfem::fe::materials::MaterialMap;
 use tetfem::mesh::bodies::{Bodies, Placement};
+use tetfem::model::ModelElement;
 use tetfem::model::ModelKind;
-use tetfem::{BoxSplit, Constraints, Error, Loads, Material, TetMesh};
+use tetfem::{BoxSplit, CellType, Constraints, Error, Loads, Material, Tet10, TetMesh};
 
 const SIDE: f64 = 0.1;
 /// d̂ (m): a tenth of the 1/3-cell edge (0.033 m), well below the shortest surface edge.
@@ -52,8 +53,8 @@ fn rubber() -> Material {
 }
 
 /// A free body system (no supports, no gravity) and its force with surface contact.
-fn setup(
-    bodies: &Bodies,
+fn setup<C: ModelElement>(
+    bodies: &Bodies<C>,
     kind: ModelKind,
     barrier: SurfaceBarrier,
 ) -> (Arc<LinearSystem>, Arc<NonlinearForce>) {
@@ -78,7 +79,11 @@ fn setup(
 }
 
 /// Per body: (mass, x-momentum) from the system's mass and the state's velocity.
-fn body_momenta(system: &LinearSystem, bodies: &Bodies, velocity: &[f64]) -> Vec<(f64, f64)> {
+fn body_momenta<C: CellType>(
+    system: &LinearSystem,
+    bodies: &Bodies<C>,
+    velocity: &[f64],
+) -> Vec<(f64, f64)> {
     let n = velocity.len();
     let mut mv = vec![0.0; n];
     let mut m1 = vec![0.0; n];
@@ -107,8 +112,13 @@ struct Impact {
 
 /// Two blocks at ±`speed` (m/s) along x, `steps` backward Euler steps of `dt` (s); after each
 /// step the exact intersection test and the smallest distance.
-fn head_on(kind: ModelKind, speed: f64, dt: f64, steps: usize) -> Impact {
-    let bodies = two_blocks(3, 0.01);
+fn head_on<C: ModelElement>(
+    bodies: Bodies<C>,
+    kind: ModelKind,
+    speed: f64,
+    dt: f64,
+    steps: usize,
+) -> Impact {
     let barrier = SurfaceBarrier::new(D_HAT, KAPPA).unwrap();
     let (system, force) = setup(&bodies, kind, barrier);
     let options = IntegratorOptions {
@@ -225,15 +235,26 @@ fn check_impact(name: &str, r: &Impact) {
 /// 1 ms see the blocks part.
 #[test]
 fn neo_hookean_blocks_collide_head_on_and_bounce() {
-    let r = head_on(ModelKind::NeoHookean, 1.0, 1e-3, 24);
+    let r = head_on(two_blocks(3, 0.01), ModelKind::NeoHookean, 1.0, 1e-3, 24);
     check_impact("neo-hookean", &r);
 }
 
 /// The linear model goes through the same nonlinear force (its fast paths cannot see contact).
 #[test]
 fn linear_blocks_collide_head_on_and_bounce() {
-    let r = head_on(ModelKind::Linear, 1.0, 1e-3, 24);
+    let r = head_on(two_blocks(3, 0.01), ModelKind::Linear, 1.0, 1e-3, 24);
     check_impact("linear", &r);
+}
+
+/// 10-node tets: contact on the quadratic faces' linear sub-triangles (the mid-edge nodes are
+/// surface vertices), the same run on 2×2×2-cell blocks of 10-node tets.
+#[test]
+fn quadratic_blocks_collide_head_on_and_bounce() {
+    let b = Placement::translated(Vector3::new(SIDE + 0.01, 0.0, 0.0)).unwrap();
+    let quadratic = || TetMesh::<Tet10>::from_linear(&block(2)).unwrap();
+    let bodies = Bodies::new(vec![(quadratic(), Placement::identity()), (quadratic(), b)]).unwrap();
+    let r = head_on(bodies, ModelKind::NeoHookean, 1.0, 1e-3, 24);
+    check_impact("neo-hookean, 10-node tets", &r);
 }
 
 /// The force is −∂(E + B)/∂u: central differences of the potential energy agree with it near
