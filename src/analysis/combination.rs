@@ -1,13 +1,16 @@
 //! The rule of what may be combined in one run, said once in the library: a force model, an
 //! element order, an analysis, loads that follow amplitudes, supports that move, obstacles with
-//! friction, material regions. Every combination the library can compute is allowed; the only
-//! refusals are the physics' own, each an [`Error::InvalidParameter`] naming the pair:
+//! friction, material regions, body–body contact, the element formulation. Every combination
+//! the library can compute is allowed; the refusals are the physics' own and what the library
+//! does not compute yet, each an [`Error::InvalidParameter`] naming the pair:
 //!
 //! - a modal analysis with a nonlinear model: K·φ = ω²·M·φ is the eigenproblem of the linear
 //!   model about the rest state (every model's tangent at rest is the linear K);
 //! - a modal analysis with obstacles: contact is a one-sided, nonlinear constraint, with no
-//!   eigenproblem about the rest state.
-//!
+//!   eigenproblem about the rest state;
+//! - body–body and self-contact (`surface_contact`) with any analysis but a backward Euler
+//!   transient: the surface barrier enters the implicit Newton step with its collision-free
+//!   line search there; the static solve, Newmark and the explicit method do not carry it yet;
 //! - the mixed displacement–pressure formulation ([`Formulation::Mixed`]) with what it does not
 //!   compute: an analysis other than static, a model other than the linear and the Neo-Hookean
 //!   one, 4-node tets (Taylor–Hood needs the quadratic displacement), obstacles, and with the
@@ -86,6 +89,9 @@ pub struct Combination {
     pub regions: bool,
     /// The element formulation.
     pub formulation: Formulation,
+    /// Body–body and self-contact on the boundary surface (several bodies, or one that may
+    /// fold onto itself).
+    pub surface_contact: bool,
 }
 
 impl Default for Combination {
@@ -102,6 +108,7 @@ impl Default for Combination {
             friction: false,
             regions: false,
             formulation: Formulation::Displacement,
+            surface_contact: false,
         }
     }
 }
@@ -116,6 +123,14 @@ impl Combination {
                 "element order",
                 self.order,
                 "must be 1 (4-node tets) or 2 (10-node tets)",
+            ));
+        }
+        if self.surface_contact && self.analysis != Analysis::Transient(Method::BackwardEuler) {
+            return Err(Error::invalid_parameter(
+                format!("surface_contact with analysis {}", self.analysis.name()),
+                "surface contact",
+                "body–body and self-contact runs in a dynamic backward_euler analysis only (the \
+                 static solve, newmark, explicit and modal analyses do not carry it yet)",
             ));
         }
         if self.analysis == Analysis::Modal {

@@ -18,6 +18,7 @@ use crate::bc::boundary_motion::BoundaryMotion;
 use crate::bc::constraints::Constraints;
 use crate::bc::loads::Loads;
 use crate::contact::Contact;
+use crate::contact::surface::{Surface, SurfaceBarrier};
 use crate::fe::element::Tet4;
 use crate::fe::materials::MaterialMap;
 use crate::mesh::{CellType, TetMesh};
@@ -54,6 +55,19 @@ pub struct Definition<C: CellType = Tet4> {
     pub motions: BoundaryMotion,
     /// The rigid obstacles and their contact parameters, if any.
     pub contact: Option<Contact>,
+    /// Body–body and self-contact of the boundary surface, if any.
+    pub surface_contact: Option<SurfaceContactData>,
+}
+
+/// Body–body and self-contact as a definition holds it: the barrier and the body of each mesh
+/// node ([`crate::mesh::Bodies::node_bodies`]); a transient run builds its
+/// [`SurfaceContact`](crate::contact::surface::SurfaceContact) from them.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SurfaceContactData {
+    /// d̂ (m) and κ (J/m²).
+    pub barrier: SurfaceBarrier,
+    /// The body of each mesh node (names the bodies of an overlap at the start).
+    pub body_of_node: Vec<usize>,
 }
 
 impl<C: CellType> Definition<C> {
@@ -73,6 +87,7 @@ impl<C: CellType> Definition<C> {
                 time_data: TimeData::default(),
                 motions: BoundaryMotion::new(),
                 contact: None,
+                surface_contact: None,
             },
         }
     }
@@ -94,13 +109,31 @@ impl<C: CellType> Definition<C> {
             friction,
             regions: self.materials.materials().len() > 1,
             formulation: crate::analysis::combination::Formulation::Displacement,
+            surface_contact: self.surface_contact.is_some(),
         }
     }
 
     /// Whether `analysis` may run this definition: its warnings, or the library's one error
     /// naming the pair that clashes ([`Combination::check`]).
+    ///
+    /// With body–body and self-contact, also the surface's own checks (closed and manifold,
+    /// naming the edge) and [`Warning::SurfaceBarrierReach`] when d̂ exceeds its shortest edge.
     pub fn check(&self, analysis: Analysis) -> Result<Vec<Warning>> {
-        self.combination(analysis).check()
+        let mut warnings = self.combination(analysis).check()?;
+        if let Some(data) = &self.surface_contact {
+            let surface = Surface::from_mesh(&self.mesh)?;
+            let (d_hat, shortest) = (
+                data.barrier.activation_distance,
+                surface.shortest_rest_edge(),
+            );
+            if d_hat > shortest {
+                warnings.push(Warning::SurfaceBarrierReach {
+                    activation_distance: d_hat,
+                    shortest_edge: shortest,
+                });
+            }
+        }
+        Ok(warnings)
     }
 }
 
@@ -165,6 +198,29 @@ impl<C: CellType> DefinitionBuilder<C> {
     pub fn contact(mut self, contact: Contact) -> Self {
         self.definition.contact = Some(contact);
         self
+    }
+
+    /// Body–body and self-contact under `barrier`, `body_of_node[n]` the body of mesh node n.
+    /// Errors: not one body per node of the mesh ([`Error::InvalidParameter`] naming both
+    /// counts).
+    pub fn surface_contact(
+        mut self,
+        barrier: SurfaceBarrier,
+        body_of_node: Vec<usize>,
+    ) -> Result<Self> {
+        let nodes = self.definition.mesh.node_count();
+        if body_of_node.len() != nodes {
+            return Err(Error::invalid_parameter(
+                "surface contact body of each node",
+                body_of_node.len(),
+                format!("must give a body for each of the mesh's {nodes} nodes"),
+            ));
+        }
+        self.definition.surface_contact = Some(SurfaceContactData {
+            barrier,
+            body_of_node,
+        });
+        Ok(self)
     }
 
     /// The definition, with the materials checked to cover every tet.

@@ -23,7 +23,7 @@ pub mod statics;
 pub mod transient;
 
 pub use combination::{Analysis, Combination};
-pub use definition::{Definition, DefinitionBuilder};
+pub use definition::{Definition, DefinitionBuilder, SurfaceContactData};
 pub use modal_analysis::{Modal, ModalOutcome};
 pub use static_analysis::{Static, StaticOptions, StaticOutcome, StaticPath, static_load_of};
 pub use transient::{Transient, TransientOptions};

@@ -150,6 +150,15 @@ pub enum Warning {
         /// The barrier's activation distance d̂ (length).
         activation_distance: f64,
     },
+    /// The body–body / self-contact barrier's activation distance d̂ exceeds the shortest edge
+    /// of the contact surface at rest: a node's barrier then reaches past its neighbours'
+    /// triangles, and pairs on one curved face push each other apart where nothing touches.
+    SurfaceBarrierReach {
+        /// d̂ (length).
+        activation_distance: f64,
+        /// The shortest surface edge at rest (length).
+        shortest_edge: f64,
+    },
 }
 
 impl fmt::Display for Warning {
@@ -262,6 +271,17 @@ impl fmt::Display for Warning {
                 f,
                 "all {dofs} DOFs are constrained: nothing is solved, the displacement is the \
                  prescribed one and the loads change only the reactions"
+            ),
+            Warning::SurfaceBarrierReach {
+                activation_distance,
+                shortest_edge,
+            } => write!(
+                f,
+                "the self-contact barrier's activation distance {} exceeds the contact surface's \
+                 shortest edge {}: neighbouring triangles of one face push each other apart where \
+                 nothing touches; choose a distance below the shortest edge",
+                crate::base::error::short_number(*activation_distance),
+                crate::base::error::short_number(*shortest_edge)
             ),
         }
     }

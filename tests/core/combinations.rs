@@ -497,6 +497,7 @@ fn every_combination_runs_or_is_a_named_physics_refusal() {
                                 friction: obstacles,
                                 regions,
                                 formulation: Default::default(),
+                                surface_contact: false,
                             };
                             let physics_refuses = analysis == Analysis::Modal
                                 && (model != ModelKind::Linear || obstacles);

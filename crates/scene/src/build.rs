@@ -125,6 +125,8 @@ pub struct BuiltScene<C: CellType = Tet4> {
     /// constant or not: what the load steps of a nonlinear static solve follow
     /// ([`solve_nonlinear_static_with_motion`](tetfem::analysis::nonlinear::solve_nonlinear_static_with_motion)).
     pub motions: BoundaryMotion,
+    /// The bodies and their surface barrier, with `[[bodies]]` or `[self_contact]`.
+    pub bodies: Option<super::bodies::BuiltBodies>,
 }
 
 impl<C: CellType> BuiltScene<C> {
@@ -205,6 +207,15 @@ impl Scene {
     pub fn build_as<E: SceneElement>(&self) -> Result<BuiltScene<E>> {
         self.check_element_order::<E>()?;
         let (mesh, imported) = self.build_mesh::<E>()?;
+        // Several bodies: copies of the mesh placed, the materials' scale from one of them.
+        let (mesh, bodies) = match self.has_surface_contact() {
+            true => {
+                let (one, _) = self.materials(&mesh, imported.as_ref())?;
+                let stiffest = super::obstacles::stiffest(&one);
+                self.build_bodies(mesh, imported.is_some(), stiffest)?
+            }
+            false => (mesh, None),
+        };
         let boundary = mesh.boundary_faces()?;
         let (materials, default) = self.materials(&mesh, imported.as_ref())?;
         let material = default.unwrap_or(materials.materials()[0]);
@@ -245,6 +256,7 @@ impl Scene {
             input_warnings,
             time_data,
             motions: built.motions,
+            bodies,
         })
     }
 
@@ -1295,6 +1307,10 @@ impl<C: CellType> BuiltScene<C> {
                 .gravity(self.gravity)?
                 .time_data(self.time_data.clone())
                 .motions(self.motions.clone());
+        let builder = match &self.bodies {
+            Some(b) => builder.surface_contact(b.barrier, b.body_of_node.clone())?,
+            None => builder,
+        };
         match contact {
             Some(contact) => builder.contact(contact).build(),
             None => builder.build(),

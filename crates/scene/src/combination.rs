@@ -33,6 +33,7 @@ impl Scene {
                 .any(|o| o.get_ref().friction.is_some_and(|mu| mu > 0.0)),
             regions: !spec.materials.is_empty(),
             formulation: analysis::combination::Formulation::Displacement,
+            surface_contact: self.has_surface_contact(),
         }
     }
 
@@ -53,6 +54,13 @@ impl Scene {
             let (key, span) = match (name.split(' ').next(), self.spec.obstacles.first()) {
                 (Some("model"), _) => ("analysis.model", analysis.unwrap_or_default()),
                 (Some("obstacles"), Some(first)) => ("obstacles[0].kind", first.span()),
+                (Some("surface_contact"), _) => {
+                    match (&self.spec.self_contact, self.spec.bodies.first()) {
+                        (_, Some(first)) => ("bodies", first.span()),
+                        (Some(given), None) => ("self_contact", given.span()),
+                        (None, None) => ("analysis", analysis.unwrap_or_default()),
+                    }
+                }
                 _ => ("analysis", analysis.unwrap_or_default()),
             };
             self.error(key, &span, message)

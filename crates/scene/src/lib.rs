@@ -8,6 +8,7 @@
 #![warn(missing_docs)]
 
 mod accuracy;
+mod bodies;
 mod build;
 mod combination;
 mod critical;
@@ -37,6 +38,7 @@ pub use accuracy::{
     AccuracyPrediction, AccuracyReport, AccuracyTarget, AccuracyTrial, DEFAULT_COST_EXPONENT,
     DEFAULT_MAX_DOFS, MAX_REFINEMENT_RATIO,
 };
+pub use bodies::BuiltBodies;
 pub use build::{BuiltScene, PointProbe, Probe};
 pub use critical::{CriticalStepReport, critical_step_of};
 pub use dynamic::{
@@ -268,6 +270,21 @@ type = "static"                     # default "static"; or "dynamic", which need
                                     # stage (≤ 6 stages, stopped where gaps near the coordinates'
                                     # round-off); with friction d̂ stays; the summary's
                                     # contact_barrier gives the d̂ reached and the error
+
+# Several bodies: each [[bodies]] entry a copy of the [mesh.box] placed by a rigid motion, all
+# in one DOF space; they touch through body–body contact (the IPC surface barrier, with
+# continuous collision detection in every Newton line search: no iterate intersects). The
+# library runs it in dynamic backward_euler analyses only (others are refused naming the key).
+# [[bodies]]
+# translation = [0.0, 0.0, 0.0]     # m; default 0
+# rotation_axis = [0.0, 0.0, 1.0]   # default z; the turn is about the mesh's origin, before
+# rotation_angle = 0.0              #   the translation (degrees, right-handed; default 0)
+# velocity = [0.0, 0.0, 0.0]        # m/s, added to analysis.initial_velocity; default 0
+# CSV: body<b>_kinetic_J, body<b>_px_Ns/_py_Ns/_pz_Ns (momentum) per body, surface_energy_J,
+# min_surface_distance_m (the smallest distance within d̂, inf when none); .vtu: body_id per tet
+# [self_contact]                    # on with [[bodies]]; alone: one body's self-contact
+# distance = 1e-3                   # m, d̂; default a tenth of the shortest surface edge
+# stiffness = 1e3                   # J/m², κ; default E·h̄ (stiffest E, h̄ the mean surface edge)
 
 [petsc]                             # read by the PETSc engine only (engine = "petsc")
 solver = "gamg"                     # default "gamg" (CG + GAMG); "hypre" (CG + BoomerAMG); "mumps" (direct)

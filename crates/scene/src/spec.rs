@@ -55,6 +55,51 @@ pub struct SceneSpec {
     /// The PETSc engine's solver preset and options.
     #[serde(default)]
     pub petsc: Option<Spanned<super::engine::PetscSpec>>,
+    /// Several bodies: each a copy of `[mesh]` placed by a rigid motion, with its own initial
+    /// velocity; they touch through body–body contact (`[self_contact]`, on by default).
+    #[serde(default)]
+    pub bodies: Vec<Spanned<BodySpec>>,
+    /// Body–body and self-contact on the boundary surface: the barrier's scales.
+    #[serde(default)]
+    pub self_contact: Option<Spanned<SelfContactSpec>>,
+}
+
+/// `[[bodies]]`: a copy of the scene's `[mesh.box]` turned by `rotation_angle` about
+/// `rotation_axis` (through the mesh's origin), then moved by `translation`.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BodySpec {
+    /// t (m; default 0).
+    #[serde(default)]
+    pub translation: [f64; 3],
+    /// The rotation's axis (default z).
+    #[serde(default = "z_axis")]
+    pub rotation_axis: [f64; 3],
+    /// The rotation's angle (degrees, right-handed; default 0).
+    #[serde(default)]
+    pub rotation_angle: f64,
+    /// The body's initial velocity (m/s; default 0), added to `analysis.initial_velocity`.
+    #[serde(default)]
+    pub velocity: [f64; 3],
+}
+
+fn z_axis() -> [f64; 3] {
+    [0.0, 0.0, 1.0]
+}
+
+/// `[self_contact]`: the surface barrier's scales.
+#[derive(Debug, Clone, Copy, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SelfContactSpec {
+    /// d̂ (m, > 0): surface pairs closer than it are pushed apart (default a tenth of the
+    /// shortest surface edge at rest).
+    #[serde(default)]
+    pub distance: Option<f64>,
+    /// κ (J/m², > 0): the barrier's stiffness (default E·h̄, the stiffest Young's modulus
+    /// times the mean surface edge at rest: a pair's force is then of the order of E over an
+    /// h̄ × d̂ strip).
+    #[serde(default)]
+    pub stiffness: Option<f64>,
 }
 
 /// `[[obstacles]]`: a rigid obstacle, of one `kind` with that kind's placement keys.

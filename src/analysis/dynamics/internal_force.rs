@@ -16,6 +16,7 @@ use crate::analysis::problem::Problem;
 use crate::base::error::{Error, Result};
 use crate::base::warning::Warning;
 use crate::bc::constraints::Restriction;
+use crate::contact::surface::SurfaceContact;
 use crate::contact::{Contact, ContactParameters, FrictionLag, GAP_ERROR_WARNING};
 use crate::fe::assembly::Assembler;
 use crate::mesh::TetMesh;
@@ -275,6 +276,11 @@ pub struct NonlinearForce {
     last_friction_forces: std::sync::Mutex<Option<Vec<nalgebra::Vector3<f64>>>>,
     /// What the barrier did over the run so far, with contact ([`barrier_record`](Self::barrier_record)).
     barrier: std::sync::Mutex<Option<BarrierRecord>>,
+    /// Body–body and self-contact of the boundary surface, when given
+    /// ([`with_surface_contact`](Self::with_surface_contact)).
+    surface: Option<SurfaceContact>,
+    /// The free index of each full DOF (`usize::MAX` where constrained).
+    free_index: Vec<usize>,
 }
 
 impl NonlinearForce {
@@ -335,6 +341,7 @@ impl NonlinearForce {
                 "must be on the pattern of the mesh's assembly restricted to the free DOFs (build the system with LinearSystem::new on this mesh)",
             ));
         }
+        let mesh_dofs = mesh.dof_count();
         Ok(NonlinearForce {
             free_dofs: dofs.free_dofs().to_vec(),
             prescribed: std::sync::RwLock::new(dofs.prescribed().to_vec()),
@@ -348,7 +355,62 @@ impl NonlinearForce {
             friction: std::sync::Mutex::new(None),
             last_friction_forces: std::sync::Mutex::new(None),
             barrier: std::sync::Mutex::new(None),
+            surface: None,
+            free_index: {
+                let mut index = vec![usize::MAX; mesh_dofs];
+                for (k, &d) in dofs.free_dofs().iter().enumerate() {
+                    index[d] = k;
+                }
+                index
+            },
         })
+    }
+
+    /// Adds body–body and self-contact on the mesh's boundary surface (see
+    /// [`crate::contact::surface::term`]): the force, tangent and
+    /// [`potential_energy`](Self::potential_energy) then include the surface barrier's, and
+    /// [`contact_step_limit`](Self::contact_step_limit) bounds every Newton step by its
+    /// continuous collision detection, so no iterate of the implicit methods intersects. It
+    /// joins obstacle contact ([`with_contact`](Self::with_contact)) when both are given. A
+    /// linear model goes through here too (build this force with the linear [`ForceModel`]).
+    ///
+    /// Errors: the contact is not of this mesh (another node count).
+    pub fn with_surface_contact(mut self, surface: SurfaceContact) -> Result<Self> {
+        Error::check_len(
+            "surface contact nodes (3 DOFs each)",
+            self.mesh.dof_count(),
+            3 * surface.node_count(),
+        )?;
+        self.surface = Some(surface);
+        Ok(self)
+    }
+
+    /// The surface barrier's Hessian entries the last tangent lumped onto the diagonal
+    /// ([`SurfaceContact::lumped_entries`]) on the free DOFs: (row, column or `None` where the
+    /// column is constrained, v). Empty without surface contact or when every entry was on the
+    /// pattern.
+    pub(crate) fn lumped_tangent_entries(&self) -> Vec<(usize, Option<usize>, f64)> {
+        let Some(surface) = &self.surface else {
+            return Vec::new();
+        };
+        let index = |d: usize| Some(self.free_index[d]).filter(|&k| k != usize::MAX);
+        surface
+            .lumped_entries()
+            .into_iter()
+            .filter_map(|(r, c, v)| Some((index(r)?, index(c), v)))
+            .collect()
+    }
+
+    /// The body–body and self-contact, if any.
+    pub fn surface_contact(&self) -> Option<&SurfaceContact> {
+        self.surface.as_ref()
+    }
+
+    /// Whether any contact — obstacles or surface — is part of the force: the implicit
+    /// methods then bound each Newton step by collision detection and accept only a decrease
+    /// of the step's potential.
+    pub fn has_contact(&self) -> bool {
+        self.contact.is_some() || self.surface.is_some()
     }
 
     /// Adds contact with rigid obstacles (see [`crate::contact`]): the force, tangent and
@@ -576,17 +638,28 @@ impl NonlinearForce {
     /// The largest fraction t ∈ (0, 1] of the step `du` from `u` (free DOFs) that keeps every
     /// boundary node outside every obstacle (1 without contact; see
     /// [`Contact::max_step`]).
+    ///
+    /// With surface contact, the minimum of that and the surface's bound
+    /// ([`SurfaceContact::max_step`], which keeps a fifth of every closing pair's distance),
+    /// whose broad phase serves the line search that follows.
     pub fn contact_step_limit(&self, u: &[f64], du: &[f64]) -> Result<f64> {
-        let Some(contact) = &self.contact else {
+        if !self.has_contact() {
             return Ok(1.0);
-        };
+        }
         Error::check_len("step", self.free_count(), du.len())?;
         let full = self.full_displacement(u)?;
         let mut full_step = vec![0.0; full.len()];
         for (&d, &v) in self.free_dofs.iter().zip(du) {
             full_step[d] = v;
         }
-        contact.max_step(&full, &full_step)
+        let obstacles = match &self.contact {
+            Some(contact) => contact.max_step(&full, &full_step)?,
+            None => 1.0,
+        };
+        match &self.surface {
+            Some(surface) => Ok(obstacles.min(surface.max_step(&full, &full_step)?)),
+            None => Ok(obstacles),
+        }
     }
 
     /// A first iterate for a step that takes the moving obstacles to `target` (length, one
@@ -618,10 +691,21 @@ impl NonlinearForce {
         }
     }
 
-    /// The energy whose gradient is −(f_int + f_contact): elastic plus contact, plus the lagged
+    /// The surface barrier's energy B(X + u) (J) of free displacements `u`, 0 without surface
+    /// contact.
+    pub fn surface_energy(&self, u: &[f64]) -> Result<f64> {
+        match &self.surface {
+            Some(surface) => surface.energy(&self.full_displacement(u)?),
+            None => Ok(0.0),
+        }
+    }
+
+    /// The energy whose gradient is −(f_int + f_contact): elastic plus contact (obstacles and
+    /// surface), plus the lagged
     /// friction potential during a step (energy units).
     pub fn potential_energy(&self, u: &[f64]) -> Result<f64> {
-        let mut total = self.elastic_energy(u)? + self.contact_energy(u)?;
+        let mut total =
+            self.elastic_energy(u)? + self.contact_energy(u)? + self.surface_energy(u)?;
         if let (Some(contact), Some(lag)) = (&self.contact, self.friction_lock().as_ref()) {
             total += contact.friction_energy(lag, &self.full_displacement(u)?)?;
         }
@@ -746,6 +830,9 @@ impl NonlinearForce {
                 contact.add_friction_force(lag, &work.full, &mut full)?;
             }
         }
+        if let Some(surface) = &self.surface {
+            surface.add_force(&work.full, &mut full)?;
+        }
         for (o, &d) in out.iter_mut().zip(&self.free_dofs) {
             *o = full[d];
         }
@@ -775,6 +862,10 @@ impl NonlinearForce {
                 contact.add_friction_force(lag, &work.full, full)?;
                 energy += contact.friction_energy(lag, &work.full)?;
             }
+        }
+        if let Some(surface) = &self.surface {
+            surface.add_force(&work.full, full)?;
+            energy += surface.energy(&work.full)?;
         }
         for (o, &d) in out.iter_mut().zip(&self.free_dofs) {
             *o = full[d];
@@ -841,6 +932,9 @@ impl NonlinearForce {
             if let Some(lag) = self.friction_lock().as_ref() {
                 contact.add_friction_tangent(lag, &work.full, &mut work.full_tangent)?;
             }
+        }
+        if let Some(surface) = self.surface.as_ref().filter(|_| with_contact) {
+            surface.add_tangent(&work.full, project, &mut work.full_tangent)?;
         }
         self.restriction
             .restrict_into(&work.full_tangent, &mut work.free_tangent)?;

@@ -7,6 +7,7 @@ use std::sync::Arc;
 use crate::analysis::Definition;
 use crate::analysis::dynamics::{InternalForce, LinearSystem, MassKind, NonlinearForce, Rayleigh};
 use crate::base::error::Result;
+use crate::contact::surface::SurfaceContact;
 use crate::model::ModelElement;
 
 impl<C: ModelElement> Definition<C> {
@@ -19,7 +20,7 @@ impl<C: ModelElement> Definition<C> {
     /// ([`LinearSystem::new_free_body_with_time_data`]); without, a body free to move rigidly is
     /// the error of [`LinearSystem::with_time_data`].
     pub fn transient_system(&self, mass: MassKind, damping: Rayleigh) -> Result<LinearSystem> {
-        let build = match self.contact.is_some() {
+        let build = match self.contact.is_some() || self.surface_contact.is_some() {
             true => LinearSystem::new_free_body_with_time_data::<C>,
             false => LinearSystem::with_time_data::<C>,
         };
@@ -43,13 +44,24 @@ impl<C: ModelElement> Definition<C> {
     ///
     /// Errors: those of [`InternalForce::of_models`] and of the contact (a body starting inside
     /// an obstacle, [`NonlinearForce::with_contact`]).
+    ///
+    /// With body–body and self-contact ([`Definition::surface_contact`]) the surface barrier
+    /// joins the force ([`NonlinearForce::with_surface_contact`]); its errors are those of
+    /// [`SurfaceContact::new`] (bodies overlapping at the start, naming them and a triangle
+    /// pair).
     pub fn transient_force(&self, system: &LinearSystem) -> Result<InternalForce> {
-        let Some(contact) = &self.contact else {
+        if self.contact.is_none() && self.surface_contact.is_none() {
             return InternalForce::of_kind(self.model, &self.mesh, &self.materials, system);
-        };
+        }
         let models = self.model.build_map(&self.materials);
-        let force = NonlinearForce::with_models(Arc::new(self.mesh.clone()), models, system)?
-            .with_contact(contact.clone())?;
+        let mut force = NonlinearForce::with_models(Arc::new(self.mesh.clone()), models, system)?;
+        if let Some(contact) = &self.contact {
+            force = force.with_contact(contact.clone())?;
+        }
+        if let Some(data) = &self.surface_contact {
+            let surface = SurfaceContact::new(&self.mesh, &data.body_of_node, data.barrier)?;
+            force = force.with_surface_contact(surface)?;
+        }
         Ok(InternalForce::Nonlinear(Arc::new(force)))
     }
 }

@@ -12,6 +12,7 @@
 mod common;
 
 mod accuracy_target;
+mod bodies_scenes;
 mod estimate_scene;
 mod large_deformation;
 mod modal_scene;

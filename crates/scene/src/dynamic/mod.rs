@@ -85,6 +85,9 @@ pub struct DynamicSetup<C: CellType = Tet4> {
     pub reactions: super::DynamicReactions,
     /// The explicit critical step once computed.
     critical: std::sync::OnceLock<(f64, &'static str)>,
+    /// The bodies and their surface barrier, with `[[bodies]]` or `[self_contact]`: per-body
+    /// CSV columns and the `.vtu` cell field `body_id`.
+    pub bodies: Option<crate::bodies::BuiltBodies>,
 }
 
 impl<E: SceneElement> DynamicSetup<E> {
@@ -134,8 +137,15 @@ impl<E: SceneElement> DynamicSetup<E> {
         let damping = Rayleigh::new(settings.damping.mass, settings.damping.stiffness)?;
         let system = definition.transient_system(settings.mass, damping)?;
         let mut initial = State::at_rest(system.free_count());
+        // Each body's own velocity on top of the scene's (several bodies).
+        let body_velocity = |dof: usize| {
+            built
+                .bodies
+                .as_ref()
+                .map_or(0.0, |b| b.velocities[b.body_of_node[dof / 3]][dof % 3])
+        };
         let velocity: Vec<f64> = (0..built.mesh.dof_count())
-            .map(|dof| settings.initial_velocity[dof % 3])
+            .map(|dof| settings.initial_velocity[dof % 3] + body_velocity(dof))
             .collect();
         initial.velocity = system.dofs().restrict(&velocity)?;
         let force = definition.transient_force(&system)?;
@@ -159,6 +169,7 @@ impl<E: SceneElement> DynamicSetup<E> {
             .energy(&initial)?
             .check_start(initial.steps, initial.time)?;
         Ok(DynamicSetup {
+            bodies: built.bodies,
             original_ids: built.imported.map(|i| (i.node_ids, i.tet_ids)),
             input_warnings: built.input_warnings,
             mesh: built.mesh,
@@ -288,6 +299,7 @@ impl DynamicSetup {
             newton: StepNewtonOptions::default(),
             force: InternalForce::default(),
             critical: Default::default(),
+            bodies: None,
         })
     }
 }
@@ -550,6 +562,9 @@ impl FrameWriter {
             if let Some(contact) = contact_of(&setup.force) {
                 columns.extend(super::dynamic_contact::csv_columns(contact));
             }
+            if let Some(bodies) = &setup.bodies {
+                columns.extend(crate::bodies::csv_columns(bodies));
+            }
             let path = s.directory.join(format!("{}.csv", s.stem));
             Some(match resumed_at {
                 // The rows of steps 0..=k, one per step.
@@ -627,6 +642,7 @@ impl FrameWriter {
         if let Some(csv) = &mut self.csv {
             let row = csv_row(
                 setup,
+                state,
                 (time, state.steps, wall),
                 u,
                 probes,
@@ -974,8 +990,10 @@ pub fn csv_columns(probes: &[super::Probe], reactions: Vec<String>) -> Vec<Strin
 /// One CSV row of a dynamic run at `(time, step, wall seconds per step)`: the probes (a point
 /// probe's stress after its displacement), the energies, the reactions and, with contact, the
 /// obstacles' columns; in the order of the header `FrameWriter::new` writes.
+#[allow(clippy::too_many_arguments)]
 fn csv_row<E: SceneElement>(
     setup: &DynamicSetup<E>,
+    state: &State,
     (time, step, wall): (f64, usize, f64),
     u: &[f64],
     probes: &[[f64; 3]],
@@ -1003,6 +1021,10 @@ fn csv_row<E: SceneElement>(
     row.extend(reactions.csv_values().map(CsvValue::Real));
     if let (Some(contact), Some(forces)) = (contact_of(&setup.force), contact_forces) {
         let values = super::dynamic_contact::csv_values(contact, u, time, forces)?;
+        row.extend(values.into_iter().map(CsvValue::Real));
+    }
+    if let Some(bodies) = &setup.bodies {
+        let values = crate::bodies::csv_values(&setup.system, &setup.force, bodies, state, u)?;
         row.extend(values.into_iter().map(CsvValue::Real));
     }
     Ok(row)
@@ -1047,9 +1069,12 @@ fn write_frame_vtu<E: SceneElement>(
             .map(|(nodes, elements)| OriginalIds { nodes, elements }),
         ..FrameExtras::default()
     };
-    frame_arrays(&setup.mesh, &setup.materials, &setup.force, u, extras)?
-        .writer(&setup.mesh)?
-        .write(path)?;
+    let mut arrays = frame_arrays(&setup.mesh, &setup.materials, &setup.force, u, extras)?;
+    if let Some(bodies) = &setup.bodies {
+        let ids = bodies.body_of_tet.iter().map(|&b| b as i32).collect();
+        arrays.cell_indices.push(("body_id".into(), ids));
+    }
+    arrays.writer(&setup.mesh)?.write(path)?;
     Ok(())
 }
 

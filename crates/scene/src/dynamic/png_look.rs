@@ -147,9 +147,11 @@ pub(crate) fn dynamic_look<E: SceneElement>(
     let dofs = setup.system.dofs();
     let initial = dofs.expand(&setup.initial.displacement)?;
     let contact = contact_of(&setup.force);
-    // A body held by contact alone has no static shape without it (K_ff is singular).
-    let (statics, free_body) = match (setup.system.static_displacement(), contact) {
-        (Err(_), Some(_)) => (vec![0.0; setup.system.free_count()], true),
+    // A body held by contact alone (with obstacles or other bodies) has no static shape
+    // without it (K_ff is singular).
+    let held_by_contact = contact.is_some() || setup.bodies.is_some();
+    let (statics, free_body) = match (setup.system.static_displacement(), held_by_contact) {
+        (Err(_), true) => (vec![0.0; setup.system.free_count()], true),
         (u, _) => (u?, false),
     };
     let doubled: Vec<f64> = dofs.expand(&statics)?.iter().map(|u| 2.0 * u).collect();

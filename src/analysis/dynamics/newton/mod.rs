@@ -210,13 +210,13 @@ impl NewtonSolver {
         options.check()?;
         solve.check()?;
         let n = force.free_count();
-        let solve = solve.for_problem(n, force.contact().is_some());
+        let solve = solve.for_problem(n, force.has_contact());
         let step_resolution = force.step_resolution();
         Error::check_len("nonlinear force free DOFs", system.free_count(), n)?;
         Ok(NewtonSolver {
             work: force.workspace()?,
             direction: direction::choose(solve, &force),
-            line_search: Backtracking::for_contact(force.contact().is_some()),
+            line_search: Backtracking::for_contact(force.has_contact()),
             tangent: force.zero_tangent()?,
             damping_tangent: match system.damping().beta > 0.0 {
                 true => Some(force.zero_tangent()?),
@@ -318,7 +318,7 @@ impl NewtonSolver {
         system: &LinearSystem,
         state: &super::State,
     ) -> Result<super::Energy> {
-        match self.force.contact().is_none() {
+        match !self.force.has_contact() {
             true => self.energy_at_net_force(system, state),
             false => self.force.energy(system, state),
         }
@@ -506,8 +506,8 @@ impl NewtonSolver {
         // With contact, a body in free flight has r₀ and f at round-off (no load, or gravity
         // balanced by the ground): converge relative to the inertia scale ‖s_m·M·(u − ũ)‖ too,
         // the force that would stop the body within the step.
-        let inertia = match force.contact() {
-            Some(_) => {
+        let inertia = match force.has_contact() {
+            true => {
                 for i in 0..u_new.len() {
                     self.mixed[i] =
                         equation.mass_scale * (equation.start[i] - equation.predictor[i]);
@@ -515,7 +515,7 @@ impl NewtonSolver {
                 system.mass().product_into(&self.mixed, &mut self.scratch);
                 norm(&self.scratch)
             }
-            None => 0.0,
+            false => 0.0,
         };
         let Some(contact) = force.contact().filter(|c| c.is_moving()) else {
             self.force
@@ -688,10 +688,7 @@ impl NewtonSolver {
             false => reference,
         };
         self.last_reference = reference;
-        if let Some(guess) = equation
-            .first_iterate
-            .filter(|_| self.force.contact().is_none())
-        {
+        if let Some(guess) = equation.first_iterate.filter(|_| !self.force.has_contact()) {
             self.residual_into(system, equation, guess, true)?;
             let guessed = norm(&self.trial_residual);
             // Φ too, as the line search accepts: the guess is nearer in the soft, large modes a
@@ -863,7 +860,7 @@ impl NewtonSystem for StepSystem<'_> {
     fn search(&mut self, r_norm: f64, reference: f64) -> Result<(bool, f64)> {
         // With contact: never past the first time of impact (IPC's 0.8 of it), and only a
         // decrease of Φ (up to its round-off) is accepted, so no iterate penetrates.
-        let first_alpha = match self.solver.force.contact().is_some() {
+        let first_alpha = match self.solver.force.has_contact() {
             true => crate::contact::first_step_fraction(
                 self.solver
                     .force
@@ -883,10 +880,17 @@ impl NewtonSystem for StepSystem<'_> {
         // With contact only a decrease of Φ is accepted, which round-off can deny a
         // converged iterate: a Newton step below 1e-9 of the barrier's length scale d̂
         // changes nothing the contact can resolve, so the iterate stands.
-        self.solver.force.contact().is_some_and(|c| {
-            let d_hat = c.parameters().activation_distance;
-            self.solver.delta.iter().all(|d| d.abs() <= 1e-9 * d_hat)
-        })
+        let force = &self.solver.force;
+        let obstacles = force.contact().map(|c| c.parameters().activation_distance);
+        let surface = force
+            .surface_contact()
+            .map(|s| s.barrier().activation_distance);
+        // The smaller reach when both contacts are present: the finer length scale resolved.
+        let d_hat = match (obstacles, surface) {
+            (Some(a), Some(b)) => Some(a.min(b)),
+            (a, b) => a.or(b),
+        };
+        d_hat.is_some_and(|d_hat| self.solver.delta.iter().all(|d| d.abs() <= 1e-9 * d_hat))
     }
 
     fn accept(&mut self, alpha: f64) -> f64 {
