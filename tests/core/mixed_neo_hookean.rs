@@ -366,35 +366,15 @@ fn linear_cooks_membrane_matches_scikit_fem() {
 
 #[test]
 fn the_shipped_cook_mesh_is_the_fixtures_and_reads_back() {
-    // TETFEM_BLESS=1 rewrites the file from the fixture.
-    let path =
-        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cook_membrane_mixed.msh");
     // The scene's panel: 16 × 16 cells, 2 layers, 6 mm thick (2 cells of the x-width).
     let (cook, linear) = cook(16, CookMembrane::default().traction);
     let text = cook.quadratic_gmsh(16, 2, BoxSplit::Lecture6).unwrap();
-    if std::env::var_os("TETFEM_BLESS").is_some() {
-        std::fs::write(&path, &text).unwrap();
-    }
-    let shipped = std::fs::read_to_string(&path).unwrap();
-    assert!(
-        shipped == text,
-        "{} differs from the fixture's panel: bless it",
-        path.display()
+    crate::common::shipped_mesh::assert_shipped_gmsh(
+        "cook_membrane_mixed.msh",
+        &text,
+        &linear,
+        &tetfem_fixtures::cook::GMSH_GROUPS,
     );
-    let imported = tetfem::mesh::io::read_gmsh_as::<Tet10>(&path).unwrap();
-    let expected = TetMesh::<Tet10>::from_linear(&linear).unwrap();
-    assert_eq!(imported.mesh.nodes(), expected.nodes());
-    assert_eq!(imported.mesh.tets(), expected.tets());
-    for name in tetfem_fixtures::cook::GMSH_GROUPS {
-        let group = imported
-            .groups
-            .iter()
-            .find(|g| g.name.as_deref() == Some(name));
-        assert!(
-            group.is_some_and(|g| !g.triangles.is_empty()),
-            "group {name}"
-        );
-    }
 }
 
 #[test]

@@ -265,40 +265,16 @@ const SCENE_CELLS: [usize; 3] = [6, 24, 2];
 
 #[test]
 fn the_shipped_tube_mesh_is_the_fixtures_and_reads_back() {
-    // TETFEM_BLESS=1 rewrites the file from the fixture.
-    let path =
-        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/rubber_tube_mixed.msh");
     let tube = LameTube::default();
     let text = tube
         .quadratic_gmsh(SCENE_CELLS, BoxSplit::Lecture6)
         .unwrap();
-    if std::env::var_os("TETFEM_BLESS").is_some() {
-        std::fs::write(&path, &text).unwrap();
-    }
-    let shipped = std::fs::read_to_string(&path).unwrap();
-    assert!(
-        shipped == text,
-        "{} differs from the fixture's tube: bless it",
-        path.display()
+    crate::common::shipped_mesh::assert_shipped_gmsh(
+        "rubber_tube_mixed.msh",
+        &text,
+        &tube.mesh(SCENE_CELLS, BoxSplit::Lecture6).unwrap(),
+        &tetfem_fixtures::tube::GMSH_GROUPS,
     );
-    // Read back: the same 10-node mesh (a wrong edge order would fail the midpoint check or
-    // move nodes), and every group holds faces.
-    let imported = tetfem::mesh::io::read_gmsh_as::<Tet10>(&path).unwrap();
-    let expected =
-        TetMesh::<Tet10>::from_linear(&tube.mesh(SCENE_CELLS, BoxSplit::Lecture6).unwrap())
-            .unwrap();
-    assert_eq!(imported.mesh.nodes(), expected.nodes());
-    assert_eq!(imported.mesh.tets(), expected.tets());
-    for name in tetfem_fixtures::tube::GMSH_GROUPS {
-        let group = imported
-            .groups
-            .iter()
-            .find(|g| g.name.as_deref() == Some(name));
-        assert!(
-            group.is_some_and(|g| !g.triangles.is_empty()),
-            "group {name}"
-        );
-    }
 }
 
 #[test]

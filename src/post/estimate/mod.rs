@@ -123,15 +123,8 @@ pub fn estimate_error_with<E: PointwiseElement>(
     displacement: &[f64],
     recovery: Recovery,
 ) -> Result<ErrorEstimate> {
-    Error::check_len("displacement", mesh.dof_count(), displacement.len())?;
+    check_displacement(mesh, displacement)?;
     materials.check_tet_count(mesh)?;
-    if let Some(dof) = displacement.iter().position(|v| !v.is_finite()) {
-        return Err(Error::invalid_parameter(
-            format!("displacement[{dof}]"),
-            displacement[dof],
-            "must be finite to estimate its error",
-        ));
-    }
     let recovered = match recovery {
         Recovery::Averaging => recovery::averaged_nodal_stress(mesh, materials, displacement),
         Recovery::PatchRecovery => recovery::spr_nodal_stress(mesh, materials, displacement)?,
@@ -153,6 +146,20 @@ pub fn estimate_error_with<E: PointwiseElement>(
         estimate,
         energy_norm: energy.max(0.0).sqrt(),
     })
+}
+
+/// `displacement` holds 3 finite values per node of `mesh`: an error naming the first that
+/// does not.
+fn check_displacement<E: PointwiseElement>(mesh: &TetMesh<E>, displacement: &[f64]) -> Result<()> {
+    Error::check_len("displacement", mesh.dof_count(), displacement.len())?;
+    match displacement.iter().position(|v| !v.is_finite()) {
+        Some(dof) => Err(Error::invalid_parameter(
+            format!("displacement[{dof}]"),
+            displacement[dof],
+            "must be finite to estimate its error",
+        )),
+        None => Ok(()),
+    }
 }
 
 /// Per tet, η_K = (∫_K (σ* − σ_h) : C⁻¹ : (σ* − σ_h) dV)^½ with σ* interpolated from the

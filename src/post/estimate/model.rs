@@ -25,7 +25,7 @@
 use nalgebra::Matrix3;
 
 use super::recovery::{self, StressOf, hooke};
-use super::{ErrorEstimate, Recovery, element_indicators, estimate_error_with};
+use super::{ErrorEstimate, Recovery, check_displacement, element_indicators, estimate_error_with};
 use crate::base::error::{Error, Result};
 use crate::fe::element::PointwiseElement;
 use crate::fe::materials::TetMaterials;
@@ -65,16 +65,9 @@ pub fn estimate_model_error<E: PointwiseElement>(
     displacement: &[f64],
     recovery: Recovery,
 ) -> Result<ErrorEstimate> {
-    Error::check_len("displacement", mesh.dof_count(), displacement.len())?;
+    check_displacement(mesh, displacement)?;
     models.check_covers(mesh.tet_count())?;
     materials.check_tet_count(mesh)?;
-    if let Some(dof) = displacement.iter().position(|v| !v.is_finite()) {
-        return Err(Error::invalid_parameter(
-            format!("displacement[{dof}]"),
-            displacement[dof],
-            "must be finite to estimate its error",
-        ));
-    }
     let inverted = std::cell::Cell::new(None);
     let stress = |t: usize, gradient: &Matrix3<f64>| {
         second_piola(models, t, gradient).unwrap_or_else(|det| {

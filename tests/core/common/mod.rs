@@ -3,6 +3,7 @@
 
 pub mod manufactured;
 pub mod restart;
+pub mod shipped_mesh;
 pub mod vtu;
 
 use nalgebra::Vector3;
