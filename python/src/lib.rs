@@ -16,6 +16,7 @@ mod loads;
 mod material;
 mod matrices;
 mod mesh;
+mod mixed;
 mod modal;
 mod names;
 mod post;
@@ -41,6 +42,7 @@ fn _tetfem(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<simulation::PySimulation>()?;
     m.add_class::<modal::ModalResult>()?;
     m.add_function(wrap_pyfunction!(statics::solve_static, m)?)?;
+    m.add_function(wrap_pyfunction!(mixed::solve_static_mixed_py, m)?)?;
     m.add_function(wrap_pyfunction!(modal::modal_analysis, m)?)?;
     m.add_function(wrap_pyfunction!(scene::run_scene, m)?)?;
     m.add_function(wrap_pyfunction!(post::estimate_error, m)?)?;

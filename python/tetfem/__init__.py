@@ -42,6 +42,7 @@ from ._tetfem import (
     model_advice,
     run_scene,
     solve_static,
+    solve_static_mixed,
     stiffness_matrix,
 )
 from .meshio_interop import from_meshio, to_meshio
@@ -74,6 +75,7 @@ __all__ = [
     "modal_analysis",
     "run_scene",
     "solve_static",
+    "solve_static_mixed",
     "stiffness_matrix",
     "mass_matrix",
     "from_meshio",

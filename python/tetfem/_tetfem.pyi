@@ -358,6 +358,15 @@ def solve_static(
     contact_distance: Optional[float] = None,
     contact_stiffness: Optional[float] = None,
 ) -> StaticResult: ...
+def solve_static_mixed(
+    mesh: Mesh,
+    material: _Materials,
+    constraints: Constraints,
+    loads: Loads,
+    model: _Model = "linear",
+    load_steps: int = 10,
+    max_iterations: int = 30,
+) -> Dict[str, Any]: ...
 def modal_analysis(
     mesh: Mesh, material: _Materials, constraints: Constraints, count: int = 6, mass: _Mass = "lumped"
 ) -> ModalResult: ...
