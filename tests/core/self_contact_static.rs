@@ -168,6 +168,12 @@ fn rests(kind: ModelKind, force: f64) -> (Definition, Vec<f64>, f64) {
         (clamp - force).abs() <= tolerance,
         "clamp {clamp} N vs F = {force} N"
     );
+    // The load has no lateral part: the supports' lateral reactions (the clamp's and the
+    // rollers', against the blocks' Poisson spread) sum to zero to the same tolerance.
+    for axis in 0..2 {
+        let lateral: f64 = outcome.reactions.iter().skip(axis).step_by(3).sum();
+        assert!(lateral.abs() <= tolerance, "axis {axis}: Σ R = {lateral} N");
+    }
     // (c) No triangles meet; the blocks touch through the barrier, inside d̂.
     assert!(surface.intersections(u).unwrap().is_empty());
     assert!(distance > 0.0 && distance < D_HAT, "{distance:e}");
