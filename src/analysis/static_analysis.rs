@@ -1,7 +1,8 @@
 //! The static analysis of a [`Definition`]: equilibrium Σₑ fₑ(u) + f = 0 under the static load,
 //! by the library's one dispatch between the linear fast path (K_ff factored once, one solve:
 //! [`StaticSolver`]), Newton over load steps (a nonlinear model) and Newton with the contact
-//! barrier (obstacles, with any model, the linear one too). Moving supports follow
+//! barriers (obstacles, body–body and self-contact of the boundary surface, with any model,
+//! the linear one too). Moving supports follow
 //! [`Definition::motions`] through the load steps. The outcome carries the reactions of every
 //! model and, on demand, the stresses and the estimated error.
 
