@@ -8,9 +8,10 @@
 //!   model about the rest state (every model's tangent at rest is the linear K);
 //! - a modal analysis with obstacles: contact is a one-sided, nonlinear constraint, with no
 //!   eigenproblem about the rest state;
-//! - body–body and self-contact (`surface_contact`) with any analysis but a backward Euler
-//!   transient: the surface barrier enters the implicit Newton step with its collision-free
-//!   line search there; the static solve, Newmark and the explicit method do not carry it yet;
+//! - body–body and self-contact (`surface_contact`) with any analysis but a static one or a
+//!   backward Euler transient: the surface barrier enters those Newton solves with their
+//!   collision-free line search; Newmark, the explicit method and the modal analysis do not
+//!   carry it yet;
 //! - the mixed displacement–pressure formulation ([`Formulation::Mixed`]) with what it does not
 //!   compute: an analysis other than static, a model other than the linear and the Neo-Hookean
 //!   one, 4-node tets (Taylor–Hood needs the quadratic displacement), obstacles, and with the
@@ -125,12 +126,16 @@ impl Combination {
                 "must be 1 (4-node tets) or 2 (10-node tets)",
             ));
         }
-        if self.surface_contact && self.analysis != Analysis::Transient(Method::BackwardEuler) {
+        let carries_surface = matches!(
+            self.analysis,
+            Analysis::Static | Analysis::Transient(Method::BackwardEuler)
+        );
+        if self.surface_contact && !carries_surface {
             return Err(Error::invalid_parameter(
                 format!("surface_contact with analysis {}", self.analysis.name()),
                 "surface contact",
-                "body–body and self-contact runs in a dynamic backward_euler analysis only (the \
-                 static solve, newmark, explicit and modal analyses do not carry it yet)",
+                "body–body and self-contact runs in a static or a dynamic backward_euler \
+                 analysis only (newmark, explicit and modal analyses do not carry it yet)",
             ));
         }
         if self.analysis == Analysis::Modal {

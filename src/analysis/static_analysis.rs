@@ -1,7 +1,8 @@
 //! The static analysis of a [`Definition`]: equilibrium Σₑ fₑ(u) + f = 0 under the static load,
 //! by the library's one dispatch between the linear fast path (K_ff factored once, one solve:
 //! [`StaticSolver`]), Newton over load steps (a nonlinear model) and Newton with the contact
-//! barrier (obstacles, with any model, the linear one too). Moving supports follow
+//! barriers (obstacles, body–body and self-contact of the boundary surface, with any model,
+//! the linear one too). Moving supports follow
 //! [`Definition::motions`] through the load steps. The outcome carries the reactions of every
 //! model and, on demand, the stresses and the estimated error.
 
@@ -11,7 +12,8 @@ use nalgebra::Vector3;
 
 use crate::analysis::dynamics::TimeData;
 use crate::analysis::nonlinear::{
-    NewtonOptions, nonlinear_reactions, solve_nonlinear_static_with_motion_and_contact,
+    NewtonOptions, NewtonReport, nonlinear_reactions,
+    solve_nonlinear_static_with_motion_and_contact, solve_nonlinear_static_with_surface_contact,
 };
 use crate::analysis::statics::{StaticSolver, StaticTimings};
 use crate::base::error::Result;
@@ -19,6 +21,7 @@ use crate::base::warning::Warning;
 use crate::bc::amplitude::STATIC_TIME;
 use crate::bc::constraints::DofMap;
 use crate::bc::loads::Loads;
+use crate::contact::surface::SurfaceContact;
 use crate::fe::element::{ElementType, Tet4};
 use crate::fe::materials::MaterialMap;
 use crate::linear_solver::{SolveInfo, SolverOptions};
@@ -94,6 +97,10 @@ pub struct StaticOutcome {
     /// With contact: the smallest gap of any accepted Newton iterate (length; see
     /// [`NewtonReport::smallest_iterate_gap`](crate::analysis::nonlinear::NewtonReport::smallest_iterate_gap)).
     pub smallest_iterate_gap: Option<f64>,
+    /// With body–body contact: the smallest surface distance of any accepted Newton iterate
+    /// (m; see
+    /// [`NewtonReport::smallest_surface_distance`](crate::analysis::nonlinear::NewtonReport::smallest_surface_distance)).
+    pub smallest_surface_distance: Option<f64>,
     /// Which path ran, with its counts.
     pub path: StaticPath,
 }
@@ -215,9 +222,10 @@ impl<'a, C: ModelElement> Static<'a, C> {
     }
 
     /// Whether [`solve`](Self::solve) takes the linear fast path: the linear model without
-    /// obstacles (any other model, or obstacles with any model, is Newton).
+    /// obstacles or body–body contact (any other model, or contact with any model, is Newton).
     pub fn is_linear_path(&self) -> bool {
-        self.definition.model.is_linear() && self.definition.contact.is_none()
+        let d = self.definition;
+        d.model.is_linear() && d.contact.is_none() && d.surface_contact.is_none()
     }
 
     /// Static equilibrium under [`Definition::static_load`]: one linear solve on the linear
@@ -246,6 +254,7 @@ impl<'a, C: ModelElement> Static<'a, C> {
                 contact_parameters: None,
                 gap_error: None,
                 smallest_iterate_gap: None,
+                smallest_surface_distance: None,
                 path: StaticPath::Linear {
                     info: solution.info,
                     timings: solver.timings(),
@@ -256,18 +265,19 @@ impl<'a, C: ModelElement> Static<'a, C> {
         self.solve_by_newton(&load, free_dofs)
     }
 
-    /// Newton over the load steps, and the reactions −(Σₑ fₑ(u) + f).
+    /// Newton over the load steps, and the reactions −(Σₑ fₑ(u) + f), with body–body
+    /// contact −(Σₑ fₑ(u) + f_B(u) + f) (f_B the surface barrier's force on a supported node).
     fn solve_by_newton(&self, load: &Loads, free_dofs: usize) -> Result<StaticOutcome> {
         let d = self.definition;
-        let report = solve_nonlinear_static_with_motion_and_contact(
-            &d.mesh,
-            &self.model,
-            &d.constraints,
-            load,
-            &d.motions,
-            d.contact.as_ref(),
-            self.options.newton,
-        )?;
+        let surface = match &d.surface_contact {
+            Some(data) => Some(SurfaceContact::new(
+                &d.mesh,
+                &data.body_of_node,
+                data.barrier,
+            )?),
+            None => None,
+        };
+        let report = self.newton_report(load, surface.as_ref())?;
         let load_norm = norm(&DofMap::new(&d.constraints).restrict(load.as_slice())?);
         let last = report
             .residuals
@@ -275,13 +285,23 @@ impl<'a, C: ModelElement> Static<'a, C> {
             .and_then(|r| r.last())
             .copied()
             .unwrap_or(0.0);
-        let reactions = nonlinear_reactions(
+        let mut reactions = nonlinear_reactions(
             &d.mesh,
             &self.model,
             &d.constraints,
             load,
             &report.displacement,
         )?;
+        if let Some(surface) = &surface {
+            // The barrier's force on a supported node is carried by the support too.
+            let mut pushed = vec![0.0; reactions.len()];
+            surface.add_force(&report.displacement, &mut pushed)?;
+            for (dof, (r, f)) in reactions.iter_mut().zip(&pushed).enumerate() {
+                if d.constraints.get(dof).is_some() {
+                    *r -= f;
+                }
+            }
+        }
         // The solution is in equilibrium under the barrier its continuation ended with.
         let solved_contact = match &d.contact {
             Some(contact) => Some(report.solved_contact(contact)?),
@@ -315,6 +335,7 @@ impl<'a, C: ModelElement> Static<'a, C> {
             contact_parameters: report.contact_parameters,
             gap_error: report.gap_error,
             smallest_iterate_gap: report.smallest_iterate_gap,
+            smallest_surface_distance: report.smallest_surface_distance,
             reactions,
             displacement: report.displacement,
             path: StaticPath::Newton {
@@ -322,6 +343,39 @@ impl<'a, C: ModelElement> Static<'a, C> {
                 iterations: report.iterations,
             },
         })
+    }
+}
+
+impl<C: ModelElement> Static<'_, C> {
+    /// Newton's report: the obstacles' solve, or with body–body contact (`surface`) the one
+    /// that carries its barrier too (no surface: exactly the path of a run without it).
+    fn newton_report(
+        &self,
+        load: &Loads,
+        surface: Option<&SurfaceContact>,
+    ) -> Result<NewtonReport> {
+        let d = self.definition;
+        match surface {
+            None => solve_nonlinear_static_with_motion_and_contact(
+                &d.mesh,
+                &self.model,
+                &d.constraints,
+                load,
+                &d.motions,
+                d.contact.as_ref(),
+                self.options.newton,
+            ),
+            Some(surface) => solve_nonlinear_static_with_surface_contact(
+                &d.mesh,
+                &self.model,
+                &d.constraints,
+                load,
+                &d.motions,
+                d.contact.as_ref(),
+                surface,
+                self.options.newton,
+            ),
+        }
     }
 }
 

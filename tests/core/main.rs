@@ -62,6 +62,7 @@ mod self_contact_intersect;
 mod self_contact_overlap;
 mod self_contact_potential;
 mod self_contact_solve;
+mod self_contact_static;
 mod self_contact_surface;
 mod solver_choice;
 mod solvers;

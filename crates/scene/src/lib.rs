@@ -274,7 +274,9 @@ type = "static"                     # default "static"; or "dynamic", which need
 # Several bodies: each [[bodies]] entry a copy of the [mesh.box] placed by a rigid motion, all
 # in one DOF space; they touch through body–body contact (the IPC surface barrier, with
 # continuous collision detection in every Newton line search: no iterate intersects). The
-# library runs it in dynamic backward_euler analyses only (others are refused naming the key).
+# library runs it in static analyses (Newton over load_steps; a body the supports leave free
+# must start within d̂ of the one it rests on) and dynamic backward_euler ones only (others are
+# refused naming the key).
 # [[bodies]]
 # translation = [0.0, 0.0, 0.0]     # m; default 0
 # rotation_axis = [0.0, 0.0, 1.0]   # default z; the turn is about the mesh's origin, before
@@ -559,13 +561,13 @@ impl Scene {
 
     /// A static run's Newton settings: `analysis.load_steps` and `analysis.newton_tolerance`
     /// over [`NewtonOptions::default`](tetfem::analysis::nonlinear::NewtonOptions::default) (used with a
-    /// nonlinear model or obstacles).
+    /// nonlinear model, obstacles or body–body contact).
     pub fn static_newton(&self) -> tetfem::analysis::nonlinear::NewtonOptions {
         self.static_newton
     }
 
-    /// The static Newton keys, checked: only a static run that Newton solves (a nonlinear model
-    /// or obstacles) takes them; `load_steps` in 1..=[`MAX_LOAD_STEPS`], `newton_tolerance` in
+    /// The static Newton keys, checked: only a static run that Newton solves (a nonlinear model,
+    /// obstacles or body–body contact) takes them; `load_steps` in 1..=[`MAX_LOAD_STEPS`], `newton_tolerance` in
     /// (0, 1).
     fn check_static_newton(&self) -> Result<tetfem::analysis::nonlinear::NewtonOptions> {
         let mut options = tetfem::analysis::nonlinear::NewtonOptions::default();
@@ -577,7 +579,8 @@ impl Scene {
             return Ok(options);
         }
         let err = |key: &str, msg: String| self.error(&format!("analysis.{key}"), &span, msg);
-        let newton = !self.model.is_linear() || !self.obstacles.is_empty();
+        let newton =
+            !self.model.is_linear() || !self.obstacles.is_empty() || self.has_surface_contact();
         for (key, set) in [
             ("load_steps", a.load_steps.is_some()),
             ("newton_tolerance", a.newton_tolerance.is_some()),

@@ -2,6 +2,7 @@
 //! search and load stepping, one symbolic factorization for all iterations.
 
 mod continuation;
+mod lumped;
 
 use nalgebra::Vector3;
 
@@ -15,6 +16,7 @@ use crate::bc::amplitude::STATIC_TIME;
 use crate::bc::boundary_motion::BoundaryMotion;
 use crate::bc::constraints::{Constraints, DofMap, Restriction};
 use crate::bc::loads::Loads;
+use crate::contact::surface::SurfaceContact;
 use crate::contact::{Contact, FrictionLag, MAX_MOTION_STAGES, MotionStage, STEP_FRACTION};
 use crate::fe::assembly::Assembler;
 use crate::linear_solver::{LinearMethod, LinearSolver, SolverOptions};
@@ -85,6 +87,13 @@ pub struct NewtonReport {
     /// inside has infinite energy, and the line search accepts only a decrease from a finite
     /// start); this measures it. `None` without contact.
     pub smallest_iterate_gap: Option<f64>,
+    /// With body–body and self-contact ([`solve_nonlinear_static_with_surface_contact`]): the
+    /// smallest distance between two non-adjacent surface primitives over every accepted
+    /// Newton iterate (m; [`SurfaceContact::smallest_distance`], +∞ when no pair came within
+    /// d̂). Positive: every step is bounded by [`SurfaceContact::max_step`], and the line
+    /// search accepts only a decrease of the potential from a finite start. `None` without
+    /// surface contact.
+    pub smallest_surface_distance: Option<f64>,
 }
 
 impl NewtonReport {
@@ -207,7 +216,7 @@ pub fn solve_nonlinear_static<E: ModelElement>(
         constraints,
         loads,
         &BoundaryMotion::new(),
-        None,
+        (None, None),
         options,
     )
 }
@@ -227,7 +236,15 @@ pub fn solve_nonlinear_static_with_motion<E: ModelElement>(
     motion: &BoundaryMotion,
     options: NewtonOptions,
 ) -> Result<NewtonReport> {
-    solve(mesh, model, constraints, loads, motion, None, options)
+    solve(
+        mesh,
+        model,
+        constraints,
+        loads,
+        motion,
+        (None, None),
+        options,
+    )
 }
 
 /// [`solve_nonlinear_static`] with contact against rigid obstacles (see [`crate::contact`]):
@@ -293,7 +310,7 @@ pub fn solve_nonlinear_static_with_contact<E: ModelElement>(
         constraints,
         loads,
         &BoundaryMotion::new(),
-        Some(contact),
+        (Some(contact), None),
         options,
     )
 }
@@ -310,7 +327,62 @@ pub fn solve_nonlinear_static_with_motion_and_contact<E: ModelElement>(
     contact: Option<&Contact>,
     options: NewtonOptions,
 ) -> Result<NewtonReport> {
-    solve(mesh, model, constraints, loads, motion, contact, options)
+    solve(
+        mesh,
+        model,
+        constraints,
+        loads,
+        motion,
+        (contact, None),
+        options,
+    )
+}
+
+/// [`solve_nonlinear_static_with_motion_and_contact`] with body–body and self-contact of the
+/// mesh's boundary surface (`surface`, [`crate::contact::surface::term`]): the surface
+/// barrier's energy B(X + u) (J) joins the potential Π = E + E_c + B − λ·fᵀu, its force
+/// −∂B/∂u (N) the residual, and its PSD-projected Hessian (N/m) the tangent, the pairs' entries
+/// outside the stiffness pattern lumped onto the diagonal ([`SurfaceContact::add_tangent`]):
+/// a PSD tangent that bounds the exact one from above, so Newton converges linearly while
+/// bodies press on each other. Every line search starts at most at
+/// [`crate::contact::first_step_fraction`] of the collision-free step
+/// ([`SurfaceContact::max_step`]) and accepts only a decrease of Π, so no iterate has two
+/// surface triangles meeting ([`NewtonReport::smallest_surface_distance`] measures it).
+///
+/// The constraints need not hold every rigid mode of every body: the barrier may hold a body
+/// against another, but only where its pairs are within d̂ already at the start of a load step
+/// — a body held by nothing there makes the tangent singular,
+/// [`Error::NotPositiveDefinite`](crate::linalg::Error) from the factorization.
+///
+/// Errors: those of [`solve_nonlinear_static_with_motion_and_contact`]; `surface` made for
+/// another mesh ([`Error::DimensionMismatch`] naming the surface contact's node count); a
+/// surface pair touching at the start (+∞ energy, [`Error::InvalidParameter`] from the
+/// barrier).
+#[allow(clippy::too_many_arguments)]
+pub fn solve_nonlinear_static_with_surface_contact<E: ModelElement>(
+    mesh: &TetMesh<E>,
+    model: &(impl TetModels + ?Sized),
+    constraints: &Constraints,
+    loads: &Loads,
+    motion: &BoundaryMotion,
+    contact: Option<&Contact>,
+    surface: &SurfaceContact,
+    options: NewtonOptions,
+) -> Result<NewtonReport> {
+    Error::check_len(
+        "surface contact nodes (3 DOFs each)",
+        mesh.dof_count(),
+        3 * surface.node_count(),
+    )?;
+    solve(
+        mesh,
+        model,
+        constraints,
+        loads,
+        motion,
+        (contact, Some(surface)),
+        options,
+    )
 }
 
 fn solve<E: ModelElement, M: TetModels + ?Sized>(
@@ -319,7 +391,7 @@ fn solve<E: ModelElement, M: TetModels + ?Sized>(
     constraints: &Constraints,
     loads: &Loads,
     motion: &BoundaryMotion,
-    contact: Option<&Contact>,
+    (contact, surface): (Option<&Contact>, Option<&SurfaceContact>),
     options: NewtonOptions,
 ) -> Result<NewtonReport> {
     if options.load_steps == 0 || !(options.tolerance > 0.0 && options.tolerance.is_finite()) {
@@ -340,7 +412,13 @@ fn solve<E: ModelElement, M: TetModels + ?Sized>(
         ));
     }
     model.check_covers(mesh.tet_count())?;
+    if let Some(surface) = surface {
+        // The start's energy: +∞ (a pair touching) is refused here, before any factorization.
+        surface.energy(&vec![0.0; mesh.dof_count()])?;
+    }
     let problem = match contact {
+        // The surface barrier, as the obstacles, may hold a body the constraints leave free.
+        None if surface.is_some() => Problem::with_dofs(mesh, DofMap::new(constraints))?,
         None => Problem::new(mesh, constraints)?,
         Some(contact) => {
             // Moving obstacles start at their placement at the pseudo-time t = 0.
@@ -361,6 +439,7 @@ fn solve<E: ModelElement, M: TetModels + ?Sized>(
         mesh,
         model,
         contact,
+        surface,
         dofs,
         assembler: problem.assembler(),
         restriction: problem.restriction(),
@@ -373,6 +452,7 @@ fn solve<E: ModelElement, M: TetModels + ?Sized>(
         ladder: &ladder,
         barrier: None,
         smallest_iterate_gap: f64::INFINITY,
+        smallest_surface_distance: f64::INFINITY,
     };
     let load_norm = norm(&dofs.restrict(loads.as_slice())?);
     let mut u = vec![0.0; mesh.dof_count()];
@@ -414,6 +494,7 @@ fn solve<E: ModelElement, M: TetModels + ?Sized>(
         contact_parameters: newton.barrier.map(|b| b.parameters),
         gap_error: newton.barrier.map(|b| b.gap_error),
         smallest_iterate_gap: contact.map(|_| newton.smallest_iterate_gap),
+        smallest_surface_distance: surface.map(|_| newton.smallest_surface_distance),
     })
 }
 
@@ -451,6 +532,8 @@ struct StaticNewton<'a, E: ModelElement, M: TetModels + ?Sized> {
     mesh: &'a TetMesh<E>,
     model: &'a M,
     contact: Option<&'a Contact>,
+    /// Body–body and self-contact of the boundary surface, if any.
+    surface: Option<&'a SurfaceContact>,
     dofs: &'a DofMap,
     assembler: &'a Assembler,
     restriction: &'a Restriction,
@@ -467,10 +550,13 @@ struct StaticNewton<'a, E: ModelElement, M: TetModels + ?Sized> {
     barrier: Option<continuation::BarrierEnd>,
     /// The smallest gap of any accepted iterate so far (length; ∞ without contact).
     smallest_iterate_gap: f64,
+    /// The smallest surface distance of any accepted iterate so far (m; ∞ without surface
+    /// contact or while no pair is within d̂).
+    smallest_surface_distance: f64,
 }
 
 impl<E: ModelElement, M: TetModels + ?Sized> StaticNewton<'_, E, M> {
-    /// The free residual r_f of Σ fₑ(u) + contact (+ friction under `lag`) + λ·f at full
+    /// The free residual r_f of Σ fₑ(u) + contact (+ friction under `lag`) + surface + λ·f at full
     /// displacement `u`, λ = `factor`.
     fn residual(&self, u: &[f64], lag: Option<&FrictionLag>, factor: f64) -> Result<Vec<f64>> {
         let mut fi = internal_force(self.mesh, self.model, u)?;
@@ -480,6 +566,9 @@ impl<E: ModelElement, M: TetModels + ?Sized> StaticNewton<'_, E, M> {
                 contact.add_friction_force(lag, u, &mut fi)?;
             }
         }
+        if let Some(surface) = self.surface {
+            surface.add_force(u, &mut fi)?;
+        }
         self.dofs.restrict(
             &fi.iter()
                 .zip(self.f_full)
@@ -488,7 +577,8 @@ impl<E: ModelElement, M: TetModels + ?Sized> StaticNewton<'_, E, M> {
         )
     }
 
-    /// The total potential Π = E + E_c (+ friction's under `lag`) − λ·fᵀu at `u` (energy).
+    /// The total potential Π = E + E_c (+ friction's under `lag`) + B − λ·fᵀu at `u` (energy;
+    /// B the surface barrier's, when given).
     fn potential(&self, u: &[f64], lag: Option<&FrictionLag>, factor: f64) -> Result<f64> {
         let mut barrier = 0.0;
         if let Some(contact) = self.contact {
@@ -496,6 +586,9 @@ impl<E: ModelElement, M: TetModels + ?Sized> StaticNewton<'_, E, M> {
             if let Some(lag) = lag {
                 barrier += contact.friction_energy(lag, u)?;
             }
+        }
+        if let Some(surface) = self.surface {
+            barrier += surface.energy(u)?;
         }
         Ok(energy(self.mesh, self.model, u)? + barrier
             - factor * self.f_full.iter().zip(u).map(|(f, u)| f * u).sum::<f64>())
@@ -922,8 +1015,13 @@ impl<E: ModelElement, M: TetModels + ?Sized> StaticNewton<'_, E, M> {
     /// with every element tangent projected onto the PSD cone (a descent direction, at the
     /// price of linear convergence while it is needed). Friction's Hessian is PSD as it stands.
     fn direction(&mut self, u: &[f64], r: &[f64], lag: Option<&FrictionLag>) -> Result<Vec<f64>> {
-        let (mesh, assembler, model, contact) =
-            (self.mesh, self.assembler, self.model, self.contact);
+        let (mesh, assembler, model, contact, surface) = (
+            self.mesh,
+            self.assembler,
+            self.model,
+            self.contact,
+            self.surface,
+        );
         let (tangent, restriction) = (&mut self.tangent, self.restriction);
         factor_exact_or_projected(&mut self.solver, &mut self.free_tangent, |project, free| {
             refill_tangent(mesh, assembler, model, u, project, tangent)?;
@@ -933,10 +1031,20 @@ impl<E: ModelElement, M: TetModels + ?Sized> StaticNewton<'_, E, M> {
                     contact.add_friction_tangent(lag, u, tangent)?;
                 }
             }
+            if let Some(surface) = surface {
+                surface.add_tangent(u, project, tangent)?;
+            }
             restriction.restrict_into(tangent, free)
         })?;
         let mut delta = r.to_vec();
-        self.solver.solve(&self.free_tangent, &mut delta)?;
+        let lumped = self
+            .surface
+            .map_or_else(Vec::new, |s| lumped::free_lumped_entries(s, self.dofs));
+        if lumped.is_empty() {
+            self.solver.solve(&self.free_tangent, &mut delta)?;
+        } else {
+            lumped::solve_with_lumped(&mut self.solver, &self.free_tangent, &lumped, &mut delta)?;
+        }
         Ok(delta)
     }
 
@@ -967,16 +1075,24 @@ impl<E: ModelElement, M: TetModels + ?Sized> StaticNewton<'_, E, M> {
         // Π at the start first, as before the search was shared (its errors come first).
         line.start_potential()?;
         let mut first_alpha = 1.0;
-        if let Some(contact) = self.contact {
+        if self.contact.is_some() || self.surface.is_some() {
             let mut step = vec![0.0; u.len()];
             for (&dof, d) in self.dofs.free_dofs().iter().zip(delta) {
                 step[dof] = *d;
             }
-            first_alpha = crate::contact::first_step_fraction(contact.max_step(u, &step)?);
+            let mut limit = match self.contact {
+                Some(contact) => contact.max_step(u, &step)?,
+                None => 1.0,
+            };
+            // The surface's bound last: its broad phase is kept for the trials that follow.
+            if let Some(surface) = self.surface {
+                limit = limit.min(surface.max_step(u, &step)?);
+            }
+            first_alpha = crate::contact::first_step_fraction(limit);
         }
         // |r·δ|, the first-order change of Π along the step (the relaxed search's slack).
         let slope = r.iter().zip(delta).map(|(a, b)| a * b).sum::<f64>().abs();
-        let search = Backtracking::for_contact(self.contact.is_some());
+        let search = Backtracking::for_contact(self.contact.is_some() || self.surface.is_some());
         let near_level = NEAR_SOLUTION * at.reference;
         let (accepted, _) = search.search(&mut line, first_alpha, (norm(r), near_level), slope)?;
         Ok(accepted.then_some((line.trial, line.r_trial)))
@@ -1029,6 +1145,12 @@ impl<E: ModelElement, M: TetModels + ?Sized> NewtonSystem for LoadStepSystem<'_,
             // contact was checked against this mesh) and would only leave the record as it was.
             let gap = contact.smallest_gap(self.u).unwrap_or(f64::INFINITY);
             self.newton.smallest_iterate_gap = self.newton.smallest_iterate_gap.min(gap);
+        }
+        if let Some(surface) = self.newton.surface {
+            // Measured as the gap above; an error (none can occur on an accepted finite-energy
+            // iterate) would only leave the record as it was.
+            let d = surface.smallest_distance(self.u).unwrap_or(f64::INFINITY);
+            self.newton.smallest_surface_distance = self.newton.smallest_surface_distance.min(d);
         }
         self.newton.iterations += 1;
         let now = norm(self.r);
