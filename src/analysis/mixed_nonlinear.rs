@@ -85,16 +85,7 @@ pub fn solve_static_mixed_nonlinear(
     loads: &Loads,
     options: NewtonOptions,
 ) -> Result<MixedNewtonReport> {
-    if options.load_steps == 0 || !(options.tolerance > 0.0 && options.tolerance.is_finite()) {
-        return Err(Error::invalid_parameter(
-            "Newton options",
-            format!(
-                "{} load steps, tolerance {}",
-                options.load_steps, options.tolerance
-            ),
-            "need at least one load step and a finite tolerance > 0",
-        ));
-    }
+    options.check()?;
     if constraints.dof_count() != mesh.dof_count() {
         return Err(Error::invalid_parameter(
             "constraints",

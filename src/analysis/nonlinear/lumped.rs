@@ -2,7 +2,8 @@
 //! tangent P holds each as |v| on its row's diagonal (PSD, above the exact J); the step solves
 //! the exact J·δ = r by conjugate gradients preconditioned by P's factor, as the implicit
 //! dynamic step does (the lumped P alone converged linearly: 5.7e-6 of the reference after 200
-//! iterations of one load step of a block resting on another).
+//! iterations of one load step of a block resting on another). [`solve_with_lumped`] is that
+//! solve for both.
 
 use crate::base::error::Result;
 use crate::bc::constraints::DofMap;
@@ -34,7 +35,7 @@ pub(super) fn free_lumped_entries(
 /// preconditioned norm, or at non-positive curvature (keeping the iterate reached, which
 /// started from P⁻¹b: a descent direction either way); a non-finite or zero iterate falls
 /// back to P⁻¹b.
-pub(super) fn solve_with_lumped(
+pub(crate) fn solve_with_lumped(
     solver: &mut LinearSolver,
     matrix: &CscMatrix,
     lumped: &[(usize, Option<usize>, f64)],

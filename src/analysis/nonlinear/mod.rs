@@ -2,7 +2,7 @@
 //! search and load stepping, one symbolic factorization for all iterations.
 
 mod continuation;
-mod lumped;
+pub(crate) mod lumped;
 
 use nalgebra::Vector3;
 
@@ -51,6 +51,24 @@ impl Default for NewtonOptions {
                 ..SolverOptions::default()
             },
         }
+    }
+}
+
+impl NewtonOptions {
+    /// [`Error::InvalidParameter`] unless there is at least one load step and the tolerance is
+    /// finite and > 0.
+    pub fn check(&self) -> Result<()> {
+        if self.load_steps == 0 || !(self.tolerance > 0.0 && self.tolerance.is_finite()) {
+            return Err(Error::invalid_parameter(
+                "Newton options",
+                format!(
+                    "{} load steps, tolerance {}",
+                    self.load_steps, self.tolerance
+                ),
+                "need at least one load step and a finite tolerance > 0",
+            ));
+        }
+        Ok(())
     }
 }
 
@@ -343,8 +361,9 @@ pub fn solve_nonlinear_static_with_motion_and_contact<E: ModelElement>(
 /// barrier's energy B(X + u) (J) joins the potential Π = E + E_c + B − λ·fᵀu, its force
 /// −∂B/∂u (N) the residual, and its PSD-projected Hessian (N/m) the tangent, the pairs' entries
 /// outside the stiffness pattern lumped onto the diagonal ([`SurfaceContact::add_tangent`]):
-/// a PSD tangent that bounds the exact one from above, so Newton converges linearly while
-/// bodies press on each other. Every line search starts at most at
+/// a PSD tangent that bounds the exact one from above, whose factor preconditions CG on the
+/// exact Hessian for each Newton direction (`lumped.rs`: 25 iterations over 4 load steps of a
+/// block resting on another, where the lumped tangent alone stalled). Every line search starts at most at
 /// [`crate::contact::first_step_fraction`] of the collision-free step
 /// ([`SurfaceContact::max_step`]) and accepts only a decrease of Π, so no iterate has two
 /// surface triangles meeting ([`NewtonReport::smallest_surface_distance`] measures it).
@@ -394,16 +413,7 @@ fn solve<E: ModelElement, M: TetModels + ?Sized>(
     (contact, surface): (Option<&Contact>, Option<&SurfaceContact>),
     options: NewtonOptions,
 ) -> Result<NewtonReport> {
-    if options.load_steps == 0 || !(options.tolerance > 0.0 && options.tolerance.is_finite()) {
-        return Err(Error::invalid_parameter(
-            "Newton options",
-            format!(
-                "{} load steps, tolerance {}",
-                options.load_steps, options.tolerance
-            ),
-            "need at least one load step and a finite tolerance > 0",
-        ));
-    }
+    options.check()?;
     if constraints.dof_count() != mesh.dof_count() || loads.as_slice().len() != mesh.dof_count() {
         return Err(Error::invalid_parameter(
             "constraints/loads",

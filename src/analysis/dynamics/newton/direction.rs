@@ -21,6 +21,7 @@ use crate::analysis::dynamics::lbfgs::LbfgsMemory;
 use crate::analysis::dynamics::nodal_rotation::NodalRotations;
 use crate::analysis::dynamics::{LinearSystem, NonlinearSolve};
 use crate::analysis::newton::factor_exact_or_projected;
+use crate::analysis::nonlinear::lumped::solve_with_lumped;
 use crate::base::error::Result;
 use crate::iterative::CgOptions;
 use crate::linear_solver::LinearSolver;
@@ -98,71 +99,6 @@ impl NewtonMatrix<'_> {
         }
         solve_with_lumped(self.solver, self.matrix, &lumped, delta)
     }
-}
-
-/// Most CG iterations of [`solve_with_lumped`]: a few low modes (the bodies' common motion
-/// that the lumped coupling resists) hold the preconditioned spectrum's spread.
-const LUMPED_CG_ITERATIONS: usize = 100;
-
-/// Solves J·δ = b (`delta` holding b on entry) for the exact J = P + Σ (v at (r, c) − |v| at
-/// (r, r)) over the surface barrier's `lumped` entries, P the factored `matrix` that holds
-/// them as |v| on the diagonal: conjugate gradients preconditioned by P's factor. P − J is
-/// positive semi-definite, so P⁻¹J has its spectrum in (0, 1] and the few modes the lumping
-/// stiffened take a few iterations. Stops at 1e-12 of ‖b‖ in the preconditioned norm, or at
-/// non-positive curvature (keeping the iterate reached, started from P⁻¹b — a descent
-/// direction either way).
-fn solve_with_lumped(
-    solver: &mut LinearSolver,
-    matrix: &CscMatrix,
-    lumped: &[(usize, Option<usize>, f64)],
-    delta: &mut [f64],
-) -> Result<()> {
-    let n = delta.len();
-    let b = delta.to_vec();
-    let apply = |x: &[f64], out: &mut [f64]| {
-        matrix.product_into(x, out);
-        for &(r, c, v) in lumped {
-            out[r] -= v.abs() * x[r];
-            if let Some(c) = c {
-                out[r] += v * x[c];
-            }
-        }
-    };
-    let dot = |a: &[f64], b: &[f64]| a.iter().zip(b).map(|(x, y)| x * y).sum::<f64>();
-    let mut x = vec![0.0; n];
-    let mut r = b.clone();
-    let mut z = r.clone();
-    solver.solve(matrix, &mut z)?;
-    let mut p = z.clone();
-    let mut rz = dot(&r, &z);
-    let stop = 1e-24 * rz;
-    let mut ap = vec![0.0; n];
-    for _ in 0..LUMPED_CG_ITERATIONS {
-        apply(&p, &mut ap);
-        let curvature = dot(&p, &ap);
-        if curvature.is_nan() || curvature <= 0.0 {
-            break;
-        }
-        let alpha = rz / curvature;
-        x.iter_mut().zip(&p).for_each(|(x, p)| *x += alpha * p);
-        r.iter_mut().zip(&ap).for_each(|(r, a)| *r -= alpha * a);
-        z.copy_from_slice(&r);
-        solver.solve(matrix, &mut z)?;
-        let next = dot(&r, &z);
-        if next <= stop {
-            break;
-        }
-        let beta = next / rz;
-        rz = next;
-        p.iter_mut().zip(&z).for_each(|(p, z)| *p = z + beta * *p);
-    }
-    if x.iter().all(|v| v.is_finite()) && x.iter().any(|&v| v != 0.0) {
-        delta.copy_from_slice(&x);
-    } else {
-        delta.copy_from_slice(&b);
-        solver.solve(matrix, delta)?;
-    }
-    Ok(())
 }
 
 /// The parts J is formed from: the system (M), the force (K_T), the damping's K_T(u_start)
