@@ -297,9 +297,15 @@ def vtu_formats() -> list[str]:
     return lines
 
 
-def vector_mm(v: list[float]) -> str:
-    """A displacement in mm, components below 1e-6 mm (round-off of a symmetric scene) as 0."""
-    return "(" + ", ".join(f"{1e3 * c:.4g}" if abs(1e3 * c) >= 1e-6 else "0" for c in v) + ") mm"
+# Scenes written in millimetres (their comments say "Units: mm"): every other scene is SI, so
+# its lengths (m) are shown ×1000 in mm; these are shown as they are.
+MILLIMETRE_SCENES = {"cook_membrane_mixed.toml"}
+
+
+def vector_mm(v: list[float], scale: float = 1e3) -> str:
+    """A displacement in mm (`scale`: mm per length unit of the scene), components below 1e-6 mm
+    (round-off of a symmetric scene) as 0."""
+    return "(" + ", ".join(f"{scale * c:.4g}" if abs(scale * c) >= 1e-6 else "0" for c in v) + ") mm"
 
 
 def vector_n(v: list[float]) -> str:
@@ -308,8 +314,9 @@ def vector_n(v: list[float]) -> str:
     return "(" + ", ".join(f"{c:.5g}" if abs(c) >= 1e-6 * big else "0" for c in v) + ") N"
 
 
-def scene_results(s: dict) -> str:
-    """What a scene's summary reports that its description talks about, in one cell."""
+def scene_results(s: dict, scale: float = 1e3) -> str:
+    """What a scene's summary reports that its description talks about, in one cell (`scale`:
+    mm per length unit of the scene)."""
     out = []
     if s["analysis"] == "modal":
         out.append("f = " + ", ".join(f"{m['frequency_hz']:.4g}" for m in s["modes"][:3]) + " … Hz")
@@ -324,11 +331,11 @@ def scene_results(s: dict) -> str:
         out.append(f"estimated error {100 * error['relative']:.3g} %")
     for probe in s.get("probes") or []:
         if "displacement" in probe:  # a static probe: its mean displacement
-            out.append(f"`{probe['name']}` u = {vector_mm(probe['displacement'])}")
+            out.append(f"`{probe['name']}` u = {vector_mm(probe['displacement'], scale)}")
         else:  # a dynamic probe: at the last step, and its extremes over the run per axis
             reach = [max(abs(lo), abs(hi)) for lo, hi in zip(probe["min"], probe["max"])]
-            out.append(f"`{probe['name']}` u at the end {vector_mm(probe['last'])}, largest |u| per axis "
-                       f"{vector_mm(reach)}")
+            out.append(f"`{probe['name']}` u at the end {vector_mm(probe['last'], scale)}, largest |u| "
+                       f"per axis {vector_mm(reach, scale)}")
     for contact in s.get("contact_forces") or []:
         text = f"`{contact['obstacle']}` force {vector_n(contact['force_n'])}"
         if contact.get("peak_n") is not None:
@@ -364,7 +371,8 @@ def scenes() -> list[str]:
         else:
             steps = "1 solve" if s["analysis"] == "static" else f"{len(s['modes'])} modes"
         lines.append(f"| `{name}` | {s['analysis']} | {s['tets']} / {s['nodes']} / {s['free_dofs']} | {steps} | "
-                     f"{scene_results(s)} | {wall:.2f} | {s['output_seconds']:.2f} |")
+                     f"{scene_results(s, 1.0 if name in MILLIMETRE_SCENES else 1e3)} | {wall:.2f} | "
+                     f"{s['output_seconds']:.2f} |")
     return lines
 
 
