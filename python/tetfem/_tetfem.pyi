@@ -21,6 +21,7 @@ __all__ = [
     "Simulation",
     "ModalResult",
     "solve_static",
+    "solve_static_mixed",
     "modal_analysis",
     "run_scene",
     "stiffness_matrix",
