@@ -86,13 +86,7 @@ pub fn solve_static_mixed_nonlinear(
     options: NewtonOptions,
 ) -> Result<MixedNewtonReport> {
     options.check()?;
-    if constraints.dof_count() != mesh.dof_count() {
-        return Err(Error::invalid_parameter(
-            "constraints",
-            format!("{} DOFs", constraints.dof_count()),
-            format!("must be made for this mesh ({} DOFs)", mesh.dof_count()),
-        ));
-    }
+    crate::analysis::problem::ensure_mesh_dofs(mesh, "constraints", constraints.dof_count())?;
     Error::check_len("loads", mesh.dof_count(), loads.as_slice().len())?;
     materials.check_tet_count(mesh)?;
     let mut system = MixedSystem::new(mesh, materials, constraints)?;

@@ -102,13 +102,7 @@ impl MixedStaticSolver {
         materials: &impl TetMaterials,
         constraints: &Constraints,
     ) -> Result<Self> {
-        if constraints.dof_count() != mesh.dof_count() {
-            return Err(Error::invalid_parameter(
-                "constraints",
-                format!("{} DOFs", constraints.dof_count()),
-                format!("must be made for this mesh ({} DOFs)", mesh.dof_count()),
-            ));
-        }
+        crate::analysis::problem::ensure_mesh_dofs(mesh, "constraints", constraints.dof_count())?;
         let estimate = StaticEstimate::for_element(
             mesh.node_count(),
             mesh.tet_count(),

@@ -168,7 +168,11 @@ impl<'a, E: ElementType> Problem<'a, E> {
 
 /// [`Error::InvalidParameter`] naming `what` (constraints, a DOF map) unless it has `count` =
 /// the mesh's DOF count, 3 per node.
-fn ensure_mesh_dofs<C: CellType>(mesh: &TetMesh<C>, what: &str, count: usize) -> Result<()> {
+pub(crate) fn ensure_mesh_dofs<C: CellType>(
+    mesh: &TetMesh<C>,
+    what: &str,
+    count: usize,
+) -> Result<()> {
     if count != mesh.dof_count() {
         return Err(Error::invalid_parameter(
             what,

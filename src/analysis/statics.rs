@@ -86,13 +86,7 @@ impl StaticSolver {
         constraints: &Constraints,
         options: SolverOptions,
     ) -> Result<Self> {
-        if constraints.dof_count() != mesh.dof_count() {
-            return Err(Error::invalid_parameter(
-                "constraints",
-                format!("{} DOFs", constraints.dof_count()),
-                format!("must be made for this mesh ({} DOFs)", mesh.dof_count()),
-            ));
-        }
+        crate::analysis::problem::ensure_mesh_dofs(mesh, "constraints", constraints.dof_count())?;
         // Before any allocation: the rest of the solve with the least-memory solver (a factor
         // is checked once its size is known, in `LinearSolver::analyze_with_geometry`).
         let estimate = StaticEstimate::for_element(
