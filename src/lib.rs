@@ -68,6 +68,7 @@ pub mod model;
 pub mod post;
 pub mod prelude;
 
+pub use analysis::mixed_analysis::{MixedOutcome, solve_static_mixed_model};
 pub use analysis::mixed_nonlinear::{MixedNewtonReport, solve_static_mixed_nonlinear};
 pub use analysis::mixed_statics::{MixedStaticSolution, MixedStaticSolver, solve_static_mixed};
 pub use analysis::problem::Problem;

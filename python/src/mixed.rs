@@ -3,14 +3,12 @@
 
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
-use tetfem::analysis::combination::{Analysis, Combination, Formulation};
 use tetfem::analysis::nonlinear::NewtonOptions;
-use tetfem::model::ModelKind;
-use tetfem::{solve_static_mixed, solve_static_mixed_nonlinear};
+use tetfem::solve_static_mixed_model;
 
 use crate::arrays;
 use crate::constraints::PyConstraints;
-use crate::errors::{OrRaise, invalid};
+use crate::errors::invalid;
 use crate::interrupt::detach_interruptible;
 use crate::loads::PyLoads;
 use crate::material::materials_of;
@@ -55,40 +53,23 @@ pub fn solve_static_mixed_py<'py>(
             "the mixed element needs 10-node tets: build the mesh with order=2",
         ));
     };
-    Combination {
-        model: kind,
-        order: 2,
-        analysis: Analysis::Static,
-        moving_supports: !constraints.motions.is_empty(),
-        formulation: Formulation::Mixed,
-        ..Combination::default()
-    }
-    .check()
-    .or_raise(py)?;
-    let (fixed, all) = (&constraints.constraints, &loads.all);
     let options = NewtonOptions {
         load_steps,
         max_iterations,
         ..NewtonOptions::default()
     };
-    let (displacement, pressure, reactions, residual, iterations) =
-        detach_interruptible(py, || match kind {
-            ModelKind::Linear => {
-                let s = solve_static_mixed(quadratic, &materials, fixed, all)?;
-                Ok((
-                    s.displacement,
-                    s.pressure,
-                    s.reactions,
-                    s.relative_residual,
-                    0,
-                ))
-            }
-            _ => {
-                let s = solve_static_mixed_nonlinear(quadratic, &materials, fixed, all, options)?;
-                let (p, r) = (s.pressure, s.reactions);
-                Ok((s.displacement, p, r, s.relative_residual, s.iterations))
-            }
-        })?;
+    let moving = !constraints.motions.is_empty();
+    let (fixed, all) = (&constraints.constraints, &loads.all);
+    let outcome = detach_interruptible(py, || {
+        solve_static_mixed_model(quadratic, &materials, kind, (fixed, moving), all, options)
+    })?;
+    let (solution, iterations) = (outcome.solution, outcome.newton_iterations.unwrap_or(0));
+    let (displacement, pressure, reactions, residual) = (
+        solution.displacement,
+        solution.pressure,
+        solution.reactions,
+        solution.relative_residual,
+    );
     let out = PyDict::new(py);
     out.set_item("displacement", arrays::rows3(py, displacement)?)?;
     out.set_item("pressure", arrays::vector(py, pressure))?;

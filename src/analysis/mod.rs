@@ -11,6 +11,7 @@
 pub mod combination;
 pub mod definition;
 pub mod dynamics;
+pub mod mixed_analysis;
 pub mod mixed_nonlinear;
 pub mod mixed_statics;
 pub mod modal;

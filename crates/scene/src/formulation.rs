@@ -14,7 +14,7 @@ use tetfem::fe::element::taylor_hood::tets_without_an_interior_corner;
 use tetfem::model::ModelMap;
 use tetfem::post::output::fields::displacement_magnitude;
 use tetfem::post::output::{FrameArrays, OutputLock, PvdCollection};
-use tetfem::{MixedStaticSolution, MixedStaticSolver, TetMaterials, solve_static_mixed_nonlinear};
+use tetfem::{MixedStaticSolution, TetMaterials, solve_static_mixed_model};
 
 use super::run::{
     RunOptions, RunSummary, StaticNewton, StaticReport, StaticSolve, report_static,
@@ -117,53 +117,30 @@ pub(crate) fn run_mixed(
     let build_seconds = clock.elapsed().as_secs_f64();
     let clock = Instant::now();
     let loads = built.static_load()?;
-    let (solved, solution) = if scene.model().is_linear() {
-        let mut solver = MixedStaticSolver::new(&built.mesh, &built.materials, &built.constraints)?;
-        let solution = solver.solve(&loads)?;
-        let solved = StaticSolve {
-            displacement: solution.displacement.clone(),
-            relative_residual: solution.relative_residual,
-            free_dofs: solver.dofs().free_count(),
-            phases: None,
-            factor_len: solver.factor_len(),
-            friction_forces: Vec::new(),
-            barrier: None,
-            newton: None,
-            reactions: solution.reactions.clone(),
-        };
-        (solved, solution)
-    } else {
-        // The library's check let only the Neo-Hookean model through.
-        let options = scene.static_newton();
-        let report = solve_static_mixed_nonlinear(
-            &built.mesh,
-            &built.materials,
-            &built.constraints,
-            &loads,
-            options,
-        )?;
-        let solved = StaticSolve {
-            displacement: report.displacement.clone(),
-            relative_residual: report.relative_residual,
-            free_dofs: built.constraints.dof_count() - built.constraints.count(),
-            phases: None,
-            factor_len: 0,
-            friction_forces: Vec::new(),
-            barrier: None,
-            newton: Some(StaticNewton {
-                load_steps: options.load_steps,
-                iterations: report.iterations,
-                tolerance: options.tolerance,
-            }),
-            reactions: report.reactions.clone(),
-        };
-        let solution = MixedStaticSolution {
-            displacement: report.displacement,
-            pressure: report.pressure,
-            relative_residual: report.relative_residual,
-            reactions: report.reactions,
-        };
-        (solved, solution)
+    let newton = scene.static_newton();
+    let outcome = solve_static_mixed_model(
+        &built.mesh,
+        &built.materials,
+        scene.model(),
+        (&built.constraints, scene.combination().moving_supports),
+        &loads,
+        newton,
+    )?;
+    let solution = outcome.solution;
+    let solved = StaticSolve {
+        displacement: solution.displacement.clone(),
+        relative_residual: solution.relative_residual,
+        free_dofs: outcome.free_dofs,
+        phases: None,
+        factor_len: outcome.factor_len,
+        friction_forces: Vec::new(),
+        barrier: None,
+        newton: outcome.newton_iterations.map(|iterations| StaticNewton {
+            load_steps: newton.load_steps,
+            iterations,
+            tolerance: newton.tolerance,
+        }),
+        reactions: solution.reactions.clone(),
     };
     let solve_seconds = clock.elapsed().as_secs_f64();
     // Von Mises depends on the deviatoric stress only, which the displacement gives: 2μ dev ε

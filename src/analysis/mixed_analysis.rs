@@ -1,0 +1,78 @@
+//! The mixed displacement–pressure static solve of either model it takes, chosen in one place:
+//! the linear model by one saddle-point solve ([`MixedStaticSolver`]), the Neo-Hookean one by
+//! Newton's load steps ([`solve_static_mixed_nonlinear`]), after the library's rule of what the
+//! mixed element may be combined with ([`Combination::check`]). Front ends (scenes, Python)
+//! call this and decide nothing.
+
+use crate::analysis::combination::{Analysis, Combination, Formulation};
+use crate::analysis::mixed_nonlinear::solve_static_mixed_nonlinear;
+use crate::analysis::mixed_statics::{MixedStaticSolution, MixedStaticSolver};
+use crate::analysis::nonlinear::NewtonOptions;
+use crate::base::error::Result;
+use crate::bc::constraints::Constraints;
+use crate::bc::loads::Loads;
+use crate::fe::element::Tet10;
+use crate::fe::materials::TetMaterials;
+use crate::mesh::TetMesh;
+use crate::model::ModelKind;
+
+/// What [`solve_static_mixed_model`] found and how.
+#[derive(Debug, Clone, PartialEq)]
+pub struct MixedOutcome {
+    /// Displacement, pressure (Pa), reactions (force units) and relative residual.
+    pub solution: MixedStaticSolution,
+    /// Free displacement DOFs.
+    pub free_dofs: usize,
+    /// Entries of the LDLᵀ factor (the linear model's single factorization; 0 for Newton's,
+    /// which factors each iteration).
+    pub factor_len: usize,
+    /// Newton iterations in all (`None` for the linear model's single solve).
+    pub newton_iterations: Option<usize>,
+}
+
+/// The mixed static solve of `model` on the 10-node `mesh` (see the [module](self) docs);
+/// `options` are Newton's (load steps, tolerance, iterations), unused by the linear model.
+///
+/// Errors: a combination the mixed element does not compute ([`Combination::check`], naming
+/// the pair; `moving_supports` says whether a support follows a motion); those of
+/// [`MixedStaticSolver`] and [`solve_static_mixed_nonlinear`].
+pub fn solve_static_mixed_model(
+    mesh: &TetMesh<Tet10>,
+    materials: &impl TetMaterials,
+    model: ModelKind,
+    (constraints, moving_supports): (&Constraints, bool),
+    loads: &Loads,
+    options: NewtonOptions,
+) -> Result<MixedOutcome> {
+    Combination {
+        model,
+        order: 2,
+        analysis: Analysis::Static,
+        moving_supports,
+        formulation: Formulation::Mixed,
+        ..Combination::default()
+    }
+    .check()?;
+    if model == ModelKind::Linear {
+        let mut solver = MixedStaticSolver::new(mesh, materials, constraints)?;
+        let solution = solver.solve(loads)?;
+        return Ok(MixedOutcome {
+            solution,
+            free_dofs: solver.dofs().free_count(),
+            factor_len: solver.factor_len(),
+            newton_iterations: None,
+        });
+    }
+    let report = solve_static_mixed_nonlinear(mesh, materials, constraints, loads, options)?;
+    Ok(MixedOutcome {
+        solution: MixedStaticSolution {
+            displacement: report.displacement,
+            pressure: report.pressure,
+            relative_residual: report.relative_residual,
+            reactions: report.reactions,
+        },
+        free_dofs: constraints.dof_count() - constraints.count(),
+        factor_len: 0,
+        newton_iterations: Some(report.iterations),
+    })
+}
