@@ -1,15 +1,16 @@
 //! Several bodies in a scene (`[[bodies]]`) and their body–body contact (`[self_contact]`):
-//! the bodies' mesh (copies of `[mesh]` placed by [`tetfem::mesh::Bodies`]), their initial
+//! the bodies' mesh (each its own or a copy of `[mesh]`, placed by [`tetfem::mesh::Bodies`]), their initial
 //! velocities, and the surface barrier with its defaults. The physics — what the barrier is,
 //! which analyses may carry it — is the library's; the scene only reads the keys.
 
 use nalgebra::Vector3;
 use tetfem::base::error::Result;
 use tetfem::contact::surface::{Surface, SurfaceBarrier};
+use tetfem::mesh::io::ImportedMesh;
 use tetfem::mesh::{Bodies, Placement};
 use tetfem::{CellType, TetMesh};
 
-use super::Scene;
+use super::{Scene, SceneElement};
 
 /// What a built scene keeps of its bodies.
 #[derive(Debug, Clone, PartialEq)]
@@ -31,80 +32,111 @@ impl BuiltBodies {
     }
 }
 
+/// Where [`Scene::place_bodies`] put each node and tet, and each body's initial velocity
+/// (m/s): a [`BuiltBodies`] before its barrier.
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) struct PlacedBodies {
+    /// The body of each mesh node.
+    pub body_of_node: Vec<usize>,
+    /// The body of each tet.
+    pub body_of_tet: Vec<usize>,
+    /// Each body's initial velocity (m/s).
+    pub velocities: Vec<Vector3<f64>>,
+}
+
+impl PlacedBodies {
+    fn of<C: CellType>(bodies: &Bodies<C>, velocities: Vec<Vector3<f64>>) -> Self {
+        Self {
+            body_of_node: bodies.node_bodies(),
+            body_of_tet: bodies.tet_bodies(),
+            velocities,
+        }
+    }
+}
+
+/// The mesh with its bodies placed, what the import kept of it, and where the bodies went.
+pub(crate) type PlacedMesh<E> = (TetMesh<E>, Option<ImportedMesh<E>>, Option<PlacedBodies>);
+
 impl Scene {
     /// Whether the scene has body–body or self-contact: `[[bodies]]` or `[self_contact]`.
     pub fn has_surface_contact(&self) -> bool {
         !self.spec().bodies.is_empty() || self.spec().self_contact.is_some()
     }
 
-    /// The bodies' mesh (each `[[bodies]]` entry a copy of `body`, the mesh of `[mesh]`, placed)
-    /// and what the run keeps of them; `body` itself (one body) with only `[self_contact]`;
-    /// `None` when the scene has neither. `imported` says whether `[mesh]` is a file: the
-    /// bodies place copies of a box only (a file's regions and ids would repeat), an error
-    /// naming `bodies` otherwise. `stiffest` is the largest Young's modulus (Pa), the scale of
-    /// κ's default.
-    pub(crate) fn build_bodies<C: CellType>(
+    /// The bodies' mesh (each `[[bodies]]` entry its own `mesh` or a copy of `body`, the mesh
+    /// of `[mesh]`, placed), what the import kept of it (a file's regions and ids: `[mesh]`'s
+    /// own with one body, none with `[[bodies]]`, whose copies would repeat them) and where
+    /// each node and tet went; `body` itself (one body) with only `[self_contact]`; `None`
+    /// when the scene has neither. A copy of a `[mesh]` file is an error naming `bodies`.
+    pub(crate) fn place_bodies<E: SceneElement>(
         &self,
-        body: TetMesh<C>,
-        imported: bool,
-        stiffest: f64,
-    ) -> Result<(TetMesh<C>, Option<BuiltBodies>)> {
+        body: TetMesh<E>,
+        imported: Option<ImportedMesh<E>>,
+    ) -> Result<PlacedMesh<E>> {
         if !self.has_surface_contact() {
-            return Ok((body, None));
+            return Ok((body, imported, None));
         }
         let spec = self.spec();
-        let first = spec.bodies.first().map(|b| b.span());
-        if let (true, Some(span)) = (imported, &first) {
-            return Err(self.error(
-                "bodies",
-                span,
-                "bodies place copies of a [mesh.box] only; a mesh file's regions and ids \
-                 would repeat in each copy",
-            ));
+        if spec.bodies.is_empty() {
+            let one = Bodies::new(vec![(body, Placement::identity())])?;
+            let placed = PlacedBodies::of(&one, vec![Vector3::zeros()]);
+            return Ok((one.mesh().clone(), imported, Some(placed)));
         }
-        let (mesh, velocities) = match spec.bodies.is_empty() {
-            true => (
-                Bodies::new(vec![(body, Placement::identity())])?,
-                vec![Vector3::zeros()],
-            ),
-            false => {
-                let mut parts = Vec::new();
-                let mut velocities = Vec::new();
-                for (i, spanned) in spec.bodies.iter().enumerate() {
-                    let b = spanned.get_ref();
-                    let at = |e: tetfem::Error| {
-                        self.error(&format!("bodies[{i}]"), &spanned.span(), e.to_string())
-                    };
-                    let placement = Placement::translated(b.translation.into())
-                        .and_then(|p| match b.rotation_angle == 0.0 {
-                            true => Ok(p),
-                            false => {
-                                p.rotated(b.rotation_axis.into(), b.rotation_angle.to_radians())
-                            }
-                        })
-                        .map_err(at)?;
-                    let velocity = Vector3::from(b.velocity);
-                    if !velocity.iter().all(|v| v.is_finite()) {
-                        return Err(self.error(
-                            &format!("bodies[{i}].velocity"),
-                            &spanned.span(),
-                            format!("{:?} must be finite (m/s)", b.velocity),
-                        ));
-                    }
-                    parts.push((body.clone(), placement));
-                    velocities.push(velocity);
+        let mut parts = Vec::new();
+        let mut velocities = Vec::new();
+        for (i, spanned) in spec.bodies.iter().enumerate() {
+            let (b, span) = (spanned.get_ref(), spanned.span());
+            let key = format!("bodies[{i}]");
+            let mesh = match &b.mesh {
+                Some(own) => self.mesh_of::<E>(own, &format!("{key}.mesh"), &span)?.0,
+                None if imported.is_some() => {
+                    return Err(self.error(
+                        &key,
+                        &span,
+                        "copies [mesh], a mesh file whose regions and ids would repeat in each \
+                         copy; give the body its own mesh (bodies.mesh) or make [mesh] a box",
+                    ));
                 }
-                (Bodies::new(parts)?, velocities)
+                None => body.clone(),
+            };
+            let at = |e: tetfem::Error| self.error(&key, &span, e.to_string());
+            let placement = Placement::translated(b.translation.into())
+                .and_then(|p| match b.rotation_angle == 0.0 {
+                    true => Ok(p),
+                    false => p.rotated(b.rotation_axis.into(), b.rotation_angle.to_radians()),
+                })
+                .map_err(at)?;
+            let velocity = Vector3::from(b.velocity);
+            if !velocity.iter().all(|v| v.is_finite()) {
+                return Err(self.error(
+                    &format!("{key}.velocity"),
+                    &span,
+                    format!("{:?} must be finite (m/s)", b.velocity),
+                ));
             }
-        };
-        let barrier = self.surface_barrier(mesh.mesh(), stiffest)?;
-        let built = BuiltBodies {
-            body_of_node: mesh.node_bodies(),
-            body_of_tet: mesh.tet_bodies(),
-            velocities,
-            barrier,
-        };
-        Ok((mesh.mesh().clone(), Some(built)))
+            parts.push((mesh, placement));
+            velocities.push(velocity);
+        }
+        let all = Bodies::new(parts)?;
+        let placed = PlacedBodies::of(&all, velocities);
+        Ok((all.mesh().clone(), None, Some(placed)))
+    }
+
+    /// The bodies a run keeps: `placed` with the barrier of `[self_contact]` on `mesh`;
+    /// `stiffest` is the largest Young's modulus of the bodies' materials (Pa), the scale of
+    /// κ's default.
+    pub(crate) fn finish_bodies<C: CellType>(
+        &self,
+        placed: PlacedBodies,
+        mesh: &TetMesh<C>,
+        stiffest: f64,
+    ) -> Result<BuiltBodies> {
+        Ok(BuiltBodies {
+            barrier: self.surface_barrier(mesh, stiffest)?,
+            body_of_node: placed.body_of_node,
+            body_of_tet: placed.body_of_tet,
+            velocities: placed.velocities,
+        })
     }
 
     /// The barrier of `[self_contact]` on `mesh`: d̂ (default a tenth of the shortest surface

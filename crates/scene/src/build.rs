@@ -207,23 +207,22 @@ impl Scene {
     pub fn build_as<E: SceneElement>(&self) -> Result<BuiltScene<E>> {
         self.check_element_order::<E>()?;
         let (mesh, imported) = self.build_mesh::<E>()?;
-        // Several bodies: copies of the mesh placed, the materials' scale from one of them.
-        let (mesh, bodies) = match self.has_surface_contact() {
-            true => {
-                let (one, _) = self.materials(&mesh, imported.as_ref())?;
-                let stiffest = super::obstacles::stiffest(&one);
-                self.build_bodies(mesh, imported.is_some(), stiffest)?
-            }
-            false => (mesh, None),
-        };
+        // Several bodies: their meshes placed in one, the barrier's scale from their materials.
+        let (mesh, imported, placed) = self.place_bodies(mesh, imported)?;
+        let body_of_node = placed.as_ref().map(|p| p.body_of_node.clone());
+        let body_of_tet = placed.as_ref().map(|p| p.body_of_tet.as_slice());
+        let (materials, default) = self.materials(&mesh, imported.as_ref(), body_of_tet)?;
+        let bodies = placed
+            .map(|p| self.finish_bodies(p, &mesh, super::obstacles::stiffest(&materials)))
+            .transpose()?;
         let boundary = mesh.boundary_faces()?;
-        let (materials, default) = self.materials(&mesh, imported.as_ref())?;
         let material = default.unwrap_or(materials.materials()[0]);
         let ctx = Context {
             scene: self,
             mesh: &mesh,
             imported: imported.as_ref(),
             boundary: &boundary,
+            body_of_node: body_of_node.as_deref(),
         };
         let named = self.named_amplitudes()?;
         // Static and modal analyses take the data at STATIC_TIME, a dynamic run starts at 0.
@@ -285,8 +284,23 @@ impl Scene {
     /// ids) for the selections that name them.
     fn build_mesh<E: SceneElement>(&self) -> Result<(TetMesh<E>, Option<ImportedMesh<E>>)> {
         let spec = self.spec();
-        let mesh_span = spec.mesh.span();
-        Ok(match spec.mesh.get_ref() {
+        self.mesh_of(spec.mesh.get_ref(), "mesh", &spec.mesh.span())
+    }
+
+    /// The mesh `source` describes (`[mesh]`, or a body's own `mesh`, named `key` in errors)
+    /// with `E`'s cells; see [`build_mesh`](Self::build_mesh).
+    pub(crate) fn mesh_of<E: SceneElement>(
+        &self,
+        source: &MeshSpec,
+        key: &str,
+        span: &Range<usize>,
+    ) -> Result<(TetMesh<E>, Option<ImportedMesh<E>>)> {
+        // `[mesh]`'s file was parsed with the scene (for its order); a body's is read now.
+        let parsed = match key {
+            "mesh" => self.take_mesh_file(),
+            _ => None,
+        };
+        Ok(match source {
             MeshSpec::Box(b) => {
                 let split = match b.split {
                     SplitSpec::Lecture6 => BoxSplit::Lecture6,
@@ -299,6 +313,7 @@ impl Scene {
                     self.analysis(),
                     super::Analysis::Dynamic(_) | super::Analysis::Modal(_)
                 );
+                let at = |e: Error| self.error(&format!("{key}.box"), span, e.to_string());
                 tetfem::base::memory::check_box_run(
                     b.cells,
                     split.tets_per_cell(),
@@ -306,18 +321,16 @@ impl Scene {
                     dynamic,
                     self.run_path(),
                 )
-                .map_err(|e| self.error("mesh.box", &mesh_span, e.to_string()))?;
-                let linear = TetMesh::box_grid(b.min.into(), b.max.into(), b.cells, split)
-                    .map_err(|e| self.error("mesh.box", &mesh_span, e.to_string()))?;
-                let mesh = E::from_linear(linear)
-                    .map_err(|e| self.error("mesh.box", &mesh_span, e.to_string()))?;
-                (mesh, None)
+                .map_err(at)?;
+                let linear =
+                    TetMesh::box_grid(b.min.into(), b.max.into(), b.cells, split).map_err(at)?;
+                (E::from_linear(linear).map_err(at)?, None)
             }
             // The file's order is the scene's (`Scene::parse` read it): E's cells are the file's.
             // The file as parsed for the order, or (taken by an earlier build, or unreadable
-            // then) read now.
+            // then, or a body's) read now.
             MeshSpec::Gmsh(f) => {
-                let imported = match self.take_mesh_file() {
+                let imported = match parsed {
                     Some(file) => file.build_as::<E>()?,
                     None => read_gmsh_as::<E>(&self.resolve(&f.file))?,
                 };
@@ -325,7 +338,7 @@ impl Scene {
                 (imported.mesh.clone(), Some(imported))
             }
             MeshSpec::Tetgen(f) => {
-                let imported = match self.take_mesh_file() {
+                let imported = match parsed {
                     Some(file) => file.build_as::<E>()?,
                     None => read_tetgen_as::<E>(&tetgen_prefix(&self.resolve(&f.file)))?,
                 };
@@ -875,6 +888,7 @@ impl Scene {
         &self,
         mesh: &TetMesh<C>,
         imported: Option<&ImportedMesh<C>>,
+        body_of_tet: Option<&[usize]>,
     ) -> Result<(MaterialMap, Option<Material>)> {
         let spec = self.spec();
         let material_at = |m: &super::MaterialSpec, key: &str, span: &Range<usize>| {
@@ -919,6 +933,11 @@ impl Scene {
                 }
                 RegionSelector::Box { min, max } => {
                     assignment.assign_box(mesh, key.clone(), material, (*min).into(), (*max).into())
+                }
+                RegionSelector::Body(b) => {
+                    let tets = items_of_body(body_of_tet, *b)
+                        .map_err(|e| self.error(&format!("{key}.where.body"), &span, e))?;
+                    assignment.assign(key.clone(), material, tets)
                 }
                 RegionSelector::Attribute(value) => {
                     let Some(imported) = imported else {
@@ -989,6 +1008,27 @@ fn on_fixed_dofs_only(
     })
 }
 
+/// The items (tets or nodes) of body `body` given each item's body (`None` without bodies);
+/// a scene without bodies, or a body it does not have, is a message saying what there is.
+fn items_of_body(
+    body_of: Option<&[usize]>,
+    body: usize,
+) -> std::result::Result<Vec<usize>, String> {
+    let Some(body_of) = body_of else {
+        return Err(format!(
+            "body {body}: the scene has no [[bodies]] or [self_contact] to number"
+        ));
+    };
+    let count = body_of.iter().max().map_or(0, |&b| b + 1);
+    if body >= count {
+        return Err(format!(
+            "body {body} does not exist (the scene has {count}, numbered from 0 in \
+             [[bodies]] order)"
+        ));
+    }
+    Ok((0..body_of.len()).filter(|&i| body_of[i] == body).collect())
+}
+
 /// `Ok` if `marker` is among `counts` (a marker → count table of `what` markers), else a
 /// message listing the markers there are, with their counts.
 fn known_marker(
@@ -1018,6 +1058,8 @@ struct Context<'a, E: ElementType> {
     mesh: &'a TetMesh<E>,
     imported: Option<&'a ImportedMesh<E>>,
     boundary: &'a [BoundaryFace],
+    /// Each node's body, with `[[bodies]]` or `[self_contact]`.
+    body_of_node: Option<&'a [usize]>,
 }
 
 impl<E: ElementType> Context<'_, E> {
@@ -1117,6 +1159,8 @@ impl<E: ElementType> Context<'_, E> {
                     .map(|i| i.nodes_with_face_marker(*m))
                     .unwrap_or_default()
             }
+            Selector::Body(b) => items_of_body(self.body_of_node, *b)
+                .map_err(|e| self.scene.error(&format!("{key}.body"), span, e))?,
             Selector::Nodes(list) => {
                 if let Some(&bad) = list.iter().find(|&&n| n >= self.mesh.node_count()) {
                     return Err(self.scene.error(

@@ -106,7 +106,8 @@ density = 7850.0                    # kg/m³
 
 # Materials per region: each [[materials]] entry has the keys of [material] and a tet set
 # "where": { group = "name or tag" } (Gmsh physical volume) | { box = { min = [..], max = [..] } }
-# (tets whose centroid is in the closed box, m) | { attribute = 1 } (TetGen region attribute).
+# (tets whose centroid is in the closed box, m) | { attribute = 1 } (TetGen region attribute)
+# | { body = 1 } (the tets of [[bodies]] entry 1, numbered from 0).
 # [material], if given, covers the tets no entry claims; without it such a tet is an error,
 # and so is a tet two entries claim.
 # [[materials]]
@@ -132,7 +133,8 @@ ramp = { start = 0.0, end = 1.0 }
 # (tolerance default: 1e-6 × the bounding-box diagonal) | { box = { min = [..], max = [..] } }
 # | { group = "name or tag" } (Gmsh physical group) | { marker = 1 } (TetGen node marker)
 # | { face_marker = 3 } (TetGen .face marker: those boundary faces, or their nodes)
-# | { nodes = [0, 1, 2] }. A face set holds the boundary faces whose three nodes are selected
+# | { nodes = [0, 1, 2] } | { body = 1 } (the nodes of [[bodies]] entry 1, numbered from 0;
+# with [self_contact] alone the one body is 0). A face set holds the boundary faces whose three nodes are selected
 # (of a group or face_marker: the boundary faces among its triangles).
 [[constraints]]
 where = { plane = { axis = "x", at = 0.0 } }
@@ -271,13 +273,16 @@ type = "static"                     # default "static"; or "dynamic", which need
                                     # round-off); with friction d̂ stays; the summary's
                                     # contact_barrier gives the d̂ reached and the error
 
-# Several bodies: each [[bodies]] entry a copy of the [mesh.box] placed by a rigid motion, all
-# in one DOF space; they touch through body–body contact (the IPC surface barrier, with
+# Several bodies: each [[bodies]] entry its own mesh (or a copy of the [mesh.box]) placed by a
+# rigid motion, all in one DOF space, numbered from 0 in [[bodies]] order; they touch through body–body contact (the IPC surface barrier, with
 # continuous collision detection in every Newton line search: no iterate intersects). The
 # library runs it in static analyses (Newton over load_steps; a body the supports leave free
 # must start within d̂ of the one it rests on) and dynamic backward_euler ones only (others are
 # refused naming the key).
 # [[bodies]]
+# mesh = { box = { min = [0.0, 0.0, 0.0], max = [0.1, 0.1, 0.1], cells = [4, 4, 4] } }
+#                                   # the body's own mesh, as under [mesh] (box, gmsh or tetgen;
+#                                   # the order is [mesh]'s); default a copy of [mesh] (a box)
 # translation = [0.0, 0.0, 0.0]     # m; default 0
 # rotation_axis = [0.0, 0.0, 1.0]   # default z; the turn is about the mesh's origin, before
 # rotation_angle = 0.0              #   the translation (degrees, right-handed; default 0)

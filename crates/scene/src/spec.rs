@@ -55,8 +55,9 @@ pub struct SceneSpec {
     /// The PETSc engine's solver preset and options.
     #[serde(default)]
     pub petsc: Option<Spanned<super::engine::PetscSpec>>,
-    /// Several bodies: each a copy of `[mesh]` placed by a rigid motion, with its own initial
-    /// velocity; they touch through body–body contact (`[self_contact]`, on by default).
+    /// Several bodies: each its own mesh (or a copy of `[mesh]`) placed by a rigid motion, with
+    /// its own initial velocity; they touch through body–body contact (`[self_contact]`, on by
+    /// default).
     #[serde(default)]
     pub bodies: Vec<Spanned<BodySpec>>,
     /// Body–body and self-contact on the boundary surface: the barrier's scales.
@@ -64,11 +65,17 @@ pub struct SceneSpec {
     pub self_contact: Option<Spanned<SelfContactSpec>>,
 }
 
-/// `[[bodies]]`: a copy of the scene's `[mesh.box]` turned by `rotation_angle` about
-/// `rotation_axis` (through the mesh's origin), then moved by `translation`.
+/// `[[bodies]]`: a body's mesh (its own `mesh`, or a copy of the scene's `[mesh.box]`) turned
+/// by `rotation_angle` about `rotation_axis` (through the mesh's origin), then moved by
+/// `translation`.
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct BodySpec {
+    /// The body's own mesh: `{ box = {...} }`, `{ gmsh = { file = "..." } }` or
+    /// `{ tetgen = { file = "..." } }`, as under `[mesh]` (its element order is `[mesh]`'s);
+    /// default a copy of `[mesh]`, which must then be a box.
+    #[serde(default)]
+    pub mesh: Option<MeshSpec>,
     /// t (m; default 0).
     #[serde(default)]
     pub translation: [f64; 3],
@@ -535,6 +542,8 @@ pub enum RegionSelector {
     },
     /// `{ attribute = 2 }`: TetGen tets with this region attribute.
     Attribute(f64),
+    /// `{ body = 1 }`: the tets of `[[bodies]]` entry 1 (numbered from 0).
+    Body(usize),
 }
 
 /// A coordinate axis.
@@ -596,6 +605,9 @@ pub enum Selector {
     FaceMarker(i64),
     /// `{ nodes = [0, 5, 9] }`: explicit node indices.
     Nodes(Vec<usize>),
+    /// `{ body = 1 }`: the nodes of `[[bodies]]` entry 1 (numbered from 0); faces: the boundary
+    /// faces of that body.
+    Body(usize),
 }
 
 /// `[[constraints]]`: fix (or prescribe) displacement components on a node set.
