@@ -8,6 +8,7 @@ use pyo3::prelude::*;
 
 mod amplitude;
 mod arrays;
+mod bodies;
 mod constraints;
 mod contact;
 mod errors;

@@ -95,6 +95,8 @@ pub struct MeshData {
     pub imported: Option<AnyImported>,
     /// The boundary faces, outward oriented, in the library's order.
     pub boundary: Vec<BoundaryFace>,
+    /// Each node's and tet's body, of a mesh made by `Mesh.bodies`.
+    pub bodies: Option<crate::bodies::BodyIds>,
     /// Boundary face index by its sorted node triple.
     face_index: HashMap<[usize; 3], usize>,
     /// What reading the file changed, as sentences (a quadratic file read as its corners).
@@ -113,6 +115,7 @@ impl MeshData {
         Ok(MeshData {
             mesh,
             imported,
+            bodies: None,
             boundary,
             face_index,
             read_notes: Vec::new(),
@@ -587,6 +590,48 @@ impl PyMesh {
             .flat_map(|p| [p.x, p.y, p.z])
             .collect();
         arrays::rows3(py, flat)
+    }
+
+    /// Several bodies in one mesh: ``meshes`` (Mesh objects of one order) each turned by
+    /// ``rotations[i]`` (``(axis, degrees)``, right-handed, about the origin, or ``None``),
+    /// then moved by ``translations[i]`` (shape (k, 3), m; default none), numbered one after
+    /// another (nodes and tets of body 0 first). ``body_of_node`` and ``body_of_tet`` give
+    /// each node's and tet's body; a ``Simulation(..., self_contact=True)`` on it keeps the
+    /// bodies apart (and each from itself). Raises ``InvalidInputError`` naming the argument
+    /// for counts that differ or meshes of two orders, and for bodies placed into each other
+    /// (naming both bodies and a pair of their triangles). The meshes' file groups are not
+    /// carried over: select on the placed mesh by plane, box or body.
+    #[staticmethod]
+    #[pyo3(signature = (meshes, translations = None, rotations = None))]
+    fn bodies(
+        py: Python<'_>,
+        meshes: Vec<PyRef<'_, PyMesh>>,
+        translations: Option<&Bound<'_, PyAny>>,
+        rotations: crate::bodies::Rotations<'_>,
+    ) -> PyResult<Self> {
+        let parts: Vec<&MeshData> = meshes.iter().map(|m| &*m.data).collect();
+        let (mesh, ids) = crate::bodies::place(py, &parts, translations, rotations)?;
+        let mut data = py.detach(|| MeshData::new(mesh, None)).or_raise(py)?;
+        data.bodies = Some(ids);
+        Ok(PyMesh {
+            data: Arc::new(data),
+        })
+    }
+
+    /// Each node's body (int64, shape (n,)) of a mesh made by ``Mesh.bodies``; ``None`` for
+    /// any other mesh (one body).
+    #[getter]
+    fn body_of_node<'py>(&self, py: Python<'py>) -> Option<Bound<'py, PyAny>> {
+        let ids = self.data.bodies.as_ref()?;
+        Some(arrays::index_vector(py, &ids.of_node))
+    }
+
+    /// Each tet's body (int64, shape (m,)) of a mesh made by ``Mesh.bodies``; ``None`` for any
+    /// other mesh (one body).
+    #[getter]
+    fn body_of_tet<'py>(&self, py: Python<'py>) -> Option<Bound<'py, PyAny>> {
+        let ids = self.data.bodies.as_ref()?;
+        Some(arrays::index_vector(py, &ids.of_tet))
     }
 
     /// Tets as node indices, shape (m, 4) (order 1) or (m, 10) (order 2), int64, positively oriented (a copy).

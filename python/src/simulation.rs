@@ -54,7 +54,12 @@ fn energy_dict<'py>(py: Python<'py>, e: &Energy) -> PyResult<Bound<'py, PyDict>>
 /// scene runner's ``TimeData``. The run starts at time 0 from ``initial_displacement`` (n, 3), m
 /// (default zero) and ``initial_velocity`` (3,) or (n, 3), m/s (default zero); both are taken on
 /// the free DOFs. ``linear_solver`` (implicit methods): ``"auto"``, ``"direct"`` or
-/// ``"iterative"``. Steps run with the GIL released; Ctrl-C stops ``run`` and ``step`` with
+/// ``"iterative"``. ``self_contact=True`` puts the surface barrier between the bodies of a
+/// ``Mesh.bodies`` mesh and inside each (body–body and self-contact: no iterate intersects);
+/// ``self_contact_distance`` is its d̂ (m, default a tenth of the shortest surface edge at rest)
+/// and ``self_contact_stiffness`` its κ (J/m², default the stiffest E times the mean surface
+/// edge); the methods that carry it are the library's rule (others raise naming it). Give
+/// each body its own velocity with ``initial_velocity=v[mesh.body_of_node]``. Steps run with the GIL released; Ctrl-C stops ``run`` and ``step`` with
 /// ``KeyboardInterrupt`` between steps or inside a step's iterations, the state left at the
 /// last completed step. While ``run`` or ``step`` works in one thread, every call from another
 /// thread raises ``TetfemError`` ("busy"): use one Simulation per thread.
@@ -365,7 +370,7 @@ impl PySimulation {
 #[pymethods]
 impl PySimulation {
     #[new]
-    #[pyo3(signature = (mesh, material, constraints, loads = None, *, dt, method = "backward-euler", model = "linear", mass = "lumped", damping = (0.0, 0.0), initial_displacement = None, initial_velocity = None, linear_solver = "auto", obstacles = None, contact_distance = None, contact_stiffness = None))]
+    #[pyo3(signature = (mesh, material, constraints, loads = None, *, dt, method = "backward-euler", model = "linear", mass = "lumped", damping = (0.0, 0.0), initial_displacement = None, initial_velocity = None, linear_solver = "auto", obstacles = None, contact_distance = None, contact_stiffness = None, self_contact = false, self_contact_distance = None, self_contact_stiffness = None))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         py: Python<'_>,
@@ -384,6 +389,9 @@ impl PySimulation {
         obstacles: Option<Vec<PyRef<'_, PyObstacle>>>,
         contact_distance: Option<f64>,
         contact_stiffness: Option<f64>,
+        self_contact: bool,
+        self_contact_distance: Option<f64>,
+        self_contact_stiffness: Option<f64>,
     ) -> PyResult<Self> {
         let data = Arc::clone(&mesh.get().data);
         check_same_mesh(py, &data, &constraints, loads.as_deref())?;
@@ -410,6 +418,16 @@ impl PySimulation {
             contact_distance,
             contact_stiffness,
         )?;
+        let surface = match self_contact {
+            true => Some(crate::bodies::surface_contact_of(
+                py,
+                &data,
+                &materials,
+                self_contact_distance,
+                self_contact_stiffness,
+            )?),
+            false => None,
+        };
         let c = &constraints.constraints;
         let time_data = crate::timed::time_data(loads.as_deref(), &constraints);
         let n = data.mesh.node_count();
@@ -454,6 +472,9 @@ impl PySimulation {
                         .time_data(time_data.clone());
                     if let Some(contact) = contact {
                         builder = builder.contact(contact);
+                    }
+                    if let Some((barrier, body_of_node)) = surface.clone() {
+                        builder = builder.surface_contact(barrier, body_of_node)?;
                     }
                     Transient::new(&builder.build()?, options)
                 })

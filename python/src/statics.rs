@@ -164,7 +164,10 @@ pub fn check_same_mesh(
 /// element order, with moving supports too). Loads and prescribed motions with an
 /// ``amplitude`` enter at their value at the pseudo-time t = 1 (``STATIC_TIME``), summed by the
 /// library (gravity's ρ from ``material``, as in a ``Simulation``); a nonlinear
-/// solve's load steps follow the motions (rigid ones by exact rotations).
+/// solve's load steps follow the motions (rigid ones by exact rotations). ``self_contact=True``:
+/// the surface barrier between the bodies of a ``Mesh.bodies`` mesh and inside each (as in
+/// ``Simulation``), solved by Newton in the load steps; a body the supports leave free must
+/// start within the barrier's d̂ of the one it rests on.
 /// ``tolerance``: the relative residual asked for, ‖r_f‖ ≤
 /// ``tolerance``·‖f_f‖ (the linear solve's ‖K_ff·u_f − r_f‖/‖r_f‖, or Newton's residual over
 /// the load); a solve that ends above it raises ``SolverError`` naming the tolerance and the
@@ -175,7 +178,7 @@ pub fn check_same_mesh(
 /// raises ``KeyboardInterrupt`` between two iterations. Raises ``NotConstrainedError`` when
 /// the constraints leave a rigid-body motion, ``SolverError`` when the solve fails.
 #[pyfunction]
-#[pyo3(signature = (mesh, material, constraints, loads, model = "linear", linear_solver = "auto", load_steps = 10, tolerance = None, max_iterations = 30, obstacles = None, contact_distance = None, contact_stiffness = None))]
+#[pyo3(signature = (mesh, material, constraints, loads, model = "linear", linear_solver = "auto", load_steps = 10, tolerance = None, max_iterations = 30, obstacles = None, contact_distance = None, contact_stiffness = None, self_contact = false, self_contact_distance = None, self_contact_stiffness = None))]
 #[allow(clippy::too_many_arguments)]
 pub fn solve_static(
     py: Python<'_>,
@@ -191,6 +194,9 @@ pub fn solve_static(
     obstacles: Option<Vec<PyRef<'_, PyObstacle>>>,
     contact_distance: Option<f64>,
     contact_stiffness: Option<f64>,
+    self_contact: bool,
+    self_contact_distance: Option<f64>,
+    self_contact_stiffness: Option<f64>,
 ) -> PyResult<StaticResult> {
     let data = &mesh.get().data;
     check_same_mesh(py, data, &constraints, Some(&loads))?;
@@ -213,6 +219,16 @@ pub fn solve_static(
         contact_distance,
         contact_stiffness,
     )?;
+    let surface = match self_contact {
+        true => Some(crate::bodies::surface_contact_of(
+            py,
+            data,
+            &materials,
+            self_contact_distance,
+            self_contact_stiffness,
+        )?),
+        false => None,
+    };
     let mut linear = SolverOptions {
         method,
         ..SolverOptions::default()
@@ -247,6 +263,9 @@ pub fn solve_static(
                 .motions(motions.clone());
             if let Some(contact) = contact {
                 builder = builder.contact(contact);
+            }
+            if let Some((barrier, body_of_node)) = surface {
+                builder = builder.surface_contact(barrier, body_of_node)?;
             }
             let definition = builder.build()?;
             // The library's one dispatch, as in scenes; the stress is the model's own (the

@@ -92,6 +92,16 @@ class Mesh:
     def order(self) -> Literal[1, 2]: ...
     @property
     def points(self) -> _FloatArray: ...
+    @staticmethod
+    def bodies(
+        meshes: List["Mesh"],
+        translations: Optional[_ArrayLike] = None,
+        rotations: Optional[List[Optional[Tuple[_ArrayLike, float]]]] = None,
+    ) -> "Mesh": ...
+    @property
+    def body_of_node(self) -> Optional[_IndexArray]: ...
+    @property
+    def body_of_tet(self) -> Optional[_IndexArray]: ...
     @property
     def tets(self) -> _IndexArray: ...
     @property
@@ -296,6 +306,9 @@ class Simulation:
         obstacles: Optional[Sequence[Obstacle]] = None,
         contact_distance: Optional[float] = None,
         contact_stiffness: Optional[float] = None,
+        self_contact: bool = False,
+        self_contact_distance: Optional[float] = None,
+        self_contact_stiffness: Optional[float] = None,
     ) -> "Simulation": ...
     def step(self) -> None: ...
     def run(
@@ -358,6 +371,9 @@ def solve_static(
     obstacles: Optional[Sequence[Obstacle]] = None,
     contact_distance: Optional[float] = None,
     contact_stiffness: Optional[float] = None,
+    self_contact: bool = False,
+    self_contact_distance: Optional[float] = None,
+    self_contact_stiffness: Optional[float] = None,
 ) -> StaticResult: ...
 def solve_static_mixed(
     mesh: Mesh,

@@ -148,21 +148,16 @@ impl Scene {
         stiffest: f64,
     ) -> Result<SurfaceBarrier> {
         let surface = Surface::from_mesh(mesh)?;
-        let edges = surface.edges().len();
-        let mean = (0..edges)
-            .filter_map(|e| surface.rest_edge_length2(e))
-            .map(f64::sqrt)
-            .sum::<f64>()
-            / edges.max(1) as f64;
         let given = self.spec().self_contact.as_ref();
         let span = given.map(|s| s.span()).unwrap_or_default();
         let given = given.map(|s| *s.get_ref()).unwrap_or_default();
-        let distance = given.distance.unwrap_or(0.1 * surface.shortest_rest_edge());
-        let stiffness = given.stiffness.unwrap_or(stiffest * mean);
-        SurfaceBarrier::new(distance, stiffness).map_err(|e| {
-            let key = match distance.is_finite() && distance > 0.0 {
-                true => "self_contact.stiffness",
-                false => "self_contact.distance",
+        let (distance, stiffness) = (given.distance, given.stiffness);
+        SurfaceBarrier::scaled_to(&surface, stiffest, distance, stiffness).map_err(|e| {
+            let key = match &e {
+                tetfem::Error::InvalidParameter { name, .. } if name.ends_with("stiffness") => {
+                    "self_contact.stiffness"
+                }
+                _ => "self_contact.distance",
             };
             self.error(key, &span, e.to_string())
         })

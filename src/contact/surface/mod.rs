@@ -4,7 +4,8 @@
 //! bounding-volume hierarchy for the broad phase ([`bvh`]), additive continuous collision
 //! detection ([`ccd`]), and an exact triangle–triangle intersection test that shares no code
 //! with the barrier ([`intersect`], on the exact orientation predicates of [`predicates`]), and
-//! the start check that bodies do not overlap ([`overlap`]); and all of it as a term of a
+//! the start check that bodies do not overlap ([`overlap`]), the barrier's default scales
+//! ([`scales`]); and all of it as a term of a
 //! nonlinear force over a DOF vector ([`term`]).
 //!
 //! Positions are arrays indexed by mesh node id (length units, m); pairs that share a vertex
@@ -31,6 +32,7 @@ pub mod intersect;
 pub mod overlap;
 pub mod potential;
 pub mod predicates;
+pub mod scales;
 pub mod term;
 
 pub use boundary::Surface;
