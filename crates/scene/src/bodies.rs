@@ -164,6 +164,17 @@ impl Scene {
     }
 }
 
+/// Adds the cell field `body_id` (each tet's body) to a frame's `arrays`, with bodies.
+pub(crate) fn add_body_id(
+    arrays: &mut tetfem::post::output::FrameArrays,
+    bodies: Option<&BuiltBodies>,
+) {
+    if let Some(bodies) = bodies {
+        let ids = bodies.body_of_tet.iter().map(|&b| b as i32).collect();
+        arrays.cell_indices.push(("body_id".into(), ids));
+    }
+}
+
 /// The CSV columns a run with surface contact adds: per body `body<b>_kinetic_J` (½vᵀMv of its
 /// nodes) and `body<b>_px_Ns`, `_py_Ns`, `_pz_Ns` (its linear momentum M·v summed per axis),
 /// then `surface_energy_J` (the barrier's B, which `total_J` leaves out) and

@@ -591,11 +591,13 @@ pub fn static_frame_arrays<E: SceneElement>(
         contact,
         ..Default::default()
     };
-    match model.kind().is_linear() {
+    let mut arrays = match model.kind().is_linear() {
         true => result_frame_arrays(&built.mesh, &built.materials, u, extras),
         // A nonlinear model's stresses and energy are its own.
         false => model_result_frame_arrays(&built.mesh, model, &built.materials, u, extras),
-    }
+    }?;
+    crate::bodies::add_body_id(&mut arrays, built.bodies.as_ref());
+    Ok(arrays)
 }
 
 /// Writes a static run's probe CSV to `path`: one row at time 0 with each probe's displacement

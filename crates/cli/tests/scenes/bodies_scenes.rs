@@ -146,12 +146,14 @@ type = "static"
 model = "neo-hookean"
 load_steps = 4
 "#;
-    let scene: Scene = text.parse().unwrap();
-    let options = RunOptions {
-        no_files: true,
-        ..RunOptions::default()
-    };
-    let summary = run_static_with(&scene, &options).unwrap();
+    let mut scene: Scene = text.parse().unwrap();
+    let dir = out_dir("static_bodies");
+    scene.set_output_directory(dir.clone());
+    let summary = run_static_with(&scene, &RunOptions::default()).unwrap();
+    // Each tet's body is in the result's .vtu, as in a dynamic run's frames.
+    let frame = std::fs::read(dir.join("scene.vtu")).unwrap();
+    let name = b"Name=\"body_id\"";
+    assert!(frame.windows(name.len()).any(|w| w == name));
     let rows = summary.reactions.clone().unwrap();
     let z: Vec<f64> = rows.iter().map(|r| r.force_n[2]).collect();
     println!(

@@ -1070,10 +1070,7 @@ fn write_frame_vtu<E: SceneElement>(
         ..FrameExtras::default()
     };
     let mut arrays = frame_arrays(&setup.mesh, &setup.materials, &setup.force, u, extras)?;
-    if let Some(bodies) = &setup.bodies {
-        let ids = bodies.body_of_tet.iter().map(|&b| b as i32).collect();
-        arrays.cell_indices.push(("body_id".into(), ids));
-    }
+    crate::bodies::add_body_id(&mut arrays, setup.bodies.as_ref());
     arrays.writer(&setup.mesh)?.write(path)?;
     Ok(())
 }
