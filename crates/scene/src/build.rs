@@ -100,7 +100,8 @@ pub struct BuiltScene<C: CellType = Tet4> {
     /// The constraints.
     pub constraints: Constraints,
     /// The DOFs each `[[constraints]]` entry constrains, in scene order (what its reaction
-    /// resultant sums over).
+    /// resultant sums over); a DOF two entries hold is the first one's, so that the entries'
+    /// resultants sum to the supports' total.
     pub constraint_dofs: Vec<Vec<usize>>,
     /// The point (m) each `[[constraints]]` entry's reaction moment is taken about, in scene
     /// order (`moment_about`, default the origin).
@@ -417,8 +418,12 @@ impl Scene {
             let mut dofs = Vec::with_capacity(3 * nodes.len());
             for &n in &nodes {
                 for axis in (0..3).filter(|&a| axes[a]) {
-                    constrained_by[3 * n + axis].get_or_insert(i);
-                    dofs.push(3 * n + axis);
+                    // A DOF two entries hold (a clamp's edge on a roller's plane) is counted
+                    // under the first only, so that the rows' reactions sum to the total.
+                    if constrained_by[3 * n + axis].is_none() {
+                        constrained_by[3 * n + axis] = Some(i);
+                        dofs.push(3 * n + axis);
+                    }
                 }
             }
             constraint_dofs.push(dofs);

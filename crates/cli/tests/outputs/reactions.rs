@@ -261,3 +261,51 @@ fn moments_are_taken_about_the_stated_point() {
         "{err}"
     );
 }
+
+#[test]
+fn a_dof_two_entries_hold_is_counted_once() {
+    // The clamp (z = 0, every axis) and the roller (x = 0, x only) share the edge x = z = 0:
+    // its x DOFs are held by both. Each DOF's reaction is the first entry's, so the two rows
+    // sum to the total: −(applied load) to the solve's residual (1e-8 of |f|, as above).
+    let text = r#"
+[mesh.box]
+max = [1.0, 0.2, 0.2]
+cells = [5, 2, 2]
+
+[material]
+youngs_modulus = 1e9
+poisson_ratio = 0.3
+density = 1000.0
+
+[[constraints]]
+where = { plane = { axis = "z", at = 0.0 } }
+
+[[constraints]]
+where = { plane = { axis = "x", at = 0.0 } }
+fix = ["x"]
+
+[[loads]]
+where = { plane = { axis = "z", at = 0.2 } }
+total_force = [1000.0, 0.0, -500.0]
+
+[analysis]
+type = "static"
+"#;
+    let scene: Scene = text.parse().unwrap();
+    let options = RunOptions {
+        no_files: true,
+        ..RunOptions::default()
+    };
+    let summary = run_static_with(&scene, &options).unwrap();
+    let rows = summary.reactions.unwrap();
+    let force: Vector3<f64> = rows.iter().map(|r| Vector3::from(r.force_n)).sum();
+    let applied = Vector3::from(summary.applied_load_n);
+    println!(
+        "rows x: {:.6} + {:.6} N against {:.6} N applied",
+        rows[0].force_n[0], rows[1].force_n[0], applied[0]
+    );
+    assert!(
+        (force + applied).norm() < 1e-8 * applied.norm(),
+        "{force:?}"
+    );
+}
