@@ -41,7 +41,7 @@ impl Scene {
     /// and what the run keeps of them; `body` itself (one body) with only `[self_contact]`;
     /// `None` when the scene has neither. `imported` says whether `[mesh]` is a file: the
     /// bodies place copies of a box only (a file's regions and ids would repeat), an error
-    /// naming `bodies` otherwise. `stiffest` is the largest Young's modulus (Pa), the scale of
+    /// naming `bodies` otherwise; a file may be one body (one `[[bodies]]` entry, placed). `stiffest` is the largest Young's modulus (Pa), the scale of
     /// κ's default.
     pub(crate) fn build_bodies<C: CellType>(
         &self,
@@ -53,13 +53,14 @@ impl Scene {
             return Ok((body, None));
         }
         let spec = self.spec();
-        let first = spec.bodies.first().map(|b| b.span());
-        if let (true, Some(span)) = (imported, &first) {
+        // One body of a file is placed as it is; a second copy would repeat its ids.
+        let second = spec.bodies.get(1).map(|b| b.span());
+        if let (true, Some(span)) = (imported, &second) {
             return Err(self.error(
                 "bodies",
                 span,
-                "bodies place copies of a [mesh.box] only; a mesh file's regions and ids \
-                 would repeat in each copy",
+                "bodies place copies of a [mesh.box] only (a mesh file may be one body); a \
+                 mesh file's regions and ids would repeat in each copy",
             ));
         }
         let (mesh, velocities) = match spec.bodies.is_empty() {
