@@ -59,6 +59,7 @@ mod self_contact_ccd;
 mod self_contact_distance;
 mod self_contact_fixtures;
 mod self_contact_intersect;
+mod self_contact_iterates;
 mod self_contact_overlap;
 mod self_contact_potential;
 mod self_contact_solve;

@@ -65,9 +65,10 @@ impl Scene {
 
     /// The bodies' mesh (each `[[bodies]]` entry its own `mesh` or a copy of `body`, the mesh
     /// of `[mesh]`, placed), what the import kept of it (a file's regions and ids: `[mesh]`'s
-    /// own with one body, none with `[[bodies]]`, whose copies would repeat them) and where
-    /// each node and tet went; `body` itself (one body) with only `[self_contact]`; `None`
-    /// when the scene has neither. A copy of a `[mesh]` file is an error naming `bodies`.
+    /// own when its file is the one body; none beside other bodies) and where each node and
+    /// tet went; `body` itself (one
+    /// body) with only `[self_contact]`; `None` when the scene has neither. A second copy of a
+    /// `[mesh]` file is an error naming its `bodies` entry (its ids would repeat).
     pub(crate) fn place_bodies<E: SceneElement>(
         &self,
         body: TetMesh<E>,
@@ -84,20 +85,25 @@ impl Scene {
         }
         let mut parts = Vec::new();
         let mut velocities = Vec::new();
+        let mut file_copies = 0;
         for (i, spanned) in spec.bodies.iter().enumerate() {
             let (b, span) = (spanned.get_ref(), spanned.span());
             let key = format!("bodies[{i}]");
             let mesh = match &b.mesh {
                 Some(own) => self.mesh_of::<E>(own, &format!("{key}.mesh"), &span)?.0,
-                None if imported.is_some() => {
+                None if imported.is_some() && file_copies > 0 => {
                     return Err(self.error(
                         &key,
                         &span,
-                        "copies [mesh], a mesh file whose regions and ids would repeat in each \
-                         copy; give the body its own mesh (bodies.mesh) or make [mesh] a box",
+                        "copies [mesh] a second time: bodies place copies of a [mesh.box] \
+                         only (a mesh file may be one body); a file's regions and ids would \
+                         repeat in each copy: give the body its own mesh (bodies.mesh)",
                     ));
                 }
-                None => body.clone(),
+                None => {
+                    file_copies += usize::from(imported.is_some());
+                    body.clone()
+                }
             };
             let at = |e: tetfem::Error| self.error(&key, &span, e.to_string());
             let placement = Placement::translated(b.translation.into())
@@ -119,7 +125,11 @@ impl Scene {
         }
         let all = Bodies::new(parts)?;
         let placed = PlacedBodies::of(&all, velocities);
-        Ok((all.mesh().clone(), None, Some(placed)))
+        // The file's regions and ids stay the mesh's when the file is the one body (its nodes
+        // and tets keep their numbers); beside other bodies the mesh is no longer the file's.
+        let alone = spec.bodies.len() == 1 && spec.bodies[0].get_ref().mesh.is_none();
+        let imported = imported.filter(|_| alone);
+        Ok((all.mesh().clone(), imported, Some(placed)))
     }
 
     /// The bodies a run keeps: `placed` with the barrier of `[self_contact]` on `mesh`;

@@ -554,7 +554,19 @@ impl NonlinearForce {
     /// Takes an accepted Newton iterate at free displacements `u` (every one, inside a step)
     /// into the record's smallest gap. A measurement only: the length is the solver's own, so
     /// it cannot fail, and it would not stop the solve if it did.
+    /// With surface contact, the iterate also goes to its intersection audit
+    /// ([`SurfaceContact::note_accepted_iterate`]: nothing unless the audit is on).
     pub(crate) fn note_iterate(&self, u: &[f64]) {
+        if let Some(surface) = self
+            .surface
+            .as_ref()
+            .filter(|s| s.intersection_audit().is_some())
+        {
+            // The free length is the solver's own: a mismatch cannot occur here.
+            if let Ok(full) = self.full_displacement(u) {
+                surface.note_accepted_iterate(&full);
+            }
+        }
         let Some(contact) = &self.contact else {
             return;
         };

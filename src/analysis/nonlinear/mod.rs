@@ -1161,6 +1161,7 @@ impl<E: ModelElement, M: TetModels + ?Sized> NewtonSystem for LoadStepSystem<'_,
             // iterate) would only leave the record as it was.
             let d = surface.smallest_distance(self.u).unwrap_or(f64::INFINITY);
             self.newton.smallest_surface_distance = self.newton.smallest_surface_distance.min(d);
+            surface.note_accepted_iterate(self.u);
         }
         self.newton.iterations += 1;
         let now = norm(self.r);

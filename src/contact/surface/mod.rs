@@ -16,7 +16,7 @@
 //! per-pair PSD-projected Hessian ([`SurfaceBarrier::hessian_triplets`]); the line search
 //! starts from the step fraction [`max_step`] certifies along the Newton direction, so that no
 //! iterate passes through another part of the surface; [`surface_intersections`] checks the
-//! accepted iterates independently, and [`overlapping_bodies`] the start.
+//! accepted iterates independently (when [`audit`] is on), and [`overlapping_bodies`] the start.
 //!
 //! Units: B = κ·Σ m·b(d, d̂) with b in m², so κ is in J/m² (N/m). Unlike the rigid-obstacle
 //! barrier ([`crate::contact::Contact`], κ·Aᵢ·b with κ in Pa/m), pairs carry no area weight, as
@@ -24,6 +24,7 @@
 //! edge–edge pair next to it may count the same contact again, which changes the barrier's
 //! strength there, not its guarantee.
 
+pub mod audit;
 pub mod boundary;
 pub mod bvh;
 pub mod ccd;
@@ -35,6 +36,7 @@ pub mod predicates;
 pub mod scales;
 pub mod term;
 
+pub use audit::{AuditCounts, IntersectionAudit};
 pub use boundary::Surface;
 pub use bvh::{Aabb, Bvh, Candidates, candidates};
 pub use ccd::{SEPARATION_FRACTION, max_step};

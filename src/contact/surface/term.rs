@@ -30,6 +30,7 @@ use std::sync::{Arc, Mutex};
 
 use nalgebra::Vector3;
 
+use super::audit::IntersectionAudit;
 use super::boundary::Surface;
 use super::bvh::{Candidates, candidates};
 use super::ccd::{SEPARATION_FRACTION, pair_step};
@@ -69,6 +70,8 @@ pub struct SurfaceContact {
     /// DOFs: what [`lumped_entries`](SurfaceContact::lumped_entries) gives a solver that
     /// corrects for them.
     lumped: Mutex<Vec<(usize, usize, f64)>>,
+    /// The intersection audit of accepted iterates, when switched on.
+    audit: Mutex<Option<IntersectionAudit>>,
 }
 
 impl std::fmt::Debug for SurfaceContact {
@@ -104,7 +107,39 @@ impl SurfaceContact {
             reach: Mutex::new(None),
             fill: Mutex::new(TangentFill::default()),
             lumped: Mutex::new(Vec::new()),
+            audit: Mutex::new(None),
         })
+    }
+
+    /// Switches the intersection audit on (`Some`, see [`super::audit`]) or off (`None`): every
+    /// Newton iterate that a solve carrying this contact accepts
+    /// ([`note_accepted_iterate`](Self::note_accepted_iterate)) is then tested exactly for
+    /// intersecting triangles into `audit`, whose clone the caller keeps to read the counts.
+    /// Through a shared reference, so that a force already built (a transient set-up's) can
+    /// be audited.
+    pub fn set_intersection_audit(&self, audit: Option<IntersectionAudit>) {
+        *self.audit.lock().unwrap_or_else(|e| e.into_inner()) = audit;
+    }
+
+    /// The audit's record, when it is on.
+    pub fn intersection_audit(&self) -> Option<IntersectionAudit> {
+        self.audit.lock().unwrap_or_else(|e| e.into_inner()).clone()
+    }
+
+    /// What a solver calls on each Newton iterate it accepts, at full displacement `u`: the
+    /// audit's exact intersection test when it is on, nothing otherwise (a run without the
+    /// audit pays nothing and its numbers are unchanged).
+    pub fn note_accepted_iterate(&self, u: &[f64]) {
+        if let Some(audit) = self.intersection_audit() {
+            match self.positions(u) {
+                Ok(x) => audit.check(&self.surface, &x),
+                // The positions' length is the only failure: recorded as a failed check.
+                Err(_) => audit.check(&self.surface, &[]),
+            }
+            if let Ok(d) = self.smallest_distance(u) {
+                audit.note_distance(d);
+            }
+        }
     }
 
     /// [`Warning::SurfaceBarrierReach`] when d̂ exceeds the shortest surface edge at rest: a
