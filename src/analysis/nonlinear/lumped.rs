@@ -133,9 +133,13 @@ impl CoupledFactor {
             .base
             .as_ref()
             .is_some_and(|b| Arc::ptr_eq(b, matrix.pattern()));
+        // Both triangles: the factorization's analysis reads one, its numeric phase the other,
+        // and a pair's mirror entry may be missing from the list (its row supported, or the
+        // Hessian's triplets one-sided at round-off zeros).
         let mut wanted: Vec<(usize, usize)> = lumped
             .iter()
-            .filter_map(|&(r, c, _)| c.map(|c| (c, r)))
+            .filter_map(|&(r, c, _)| c.map(|c| [(c, r), (r, c)]))
+            .flatten()
             .collect();
         wanted.sort_unstable();
         wanted.dedup();
