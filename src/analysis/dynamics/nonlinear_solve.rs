@@ -72,7 +72,12 @@ pub enum NonlinearSolve {
     /// factorization is cheap; at and above it [`RestPreconditionedLbfgs`](Self::RestPreconditionedLbfgs)
     /// with [`AUTO_LBFGS_HISTORY`] pairs, or, with contact (whose barrier stiffness the rest
     /// factor does not know), [`RestPreconditionedCg`](Self::RestPreconditionedCg) with 25 CG
-    /// iterations and η = 1e-3. Both chosen by `benches/corotational_step.rs`, see
+    /// iterations and η = 1e-3. With body–body or self-contact (the surface barrier)
+    /// [`Refactor`](Self::Refactor) at every size: its direct path factors the exact Hessian
+    /// with the contact pairs' couplings, and Newton converges in a few iterations where the
+    /// preconditioned CG on the lumped coupling converges linearly (on two blocks pressed
+    /// together at 1,296 DOFs: at most 9 Newton iterations a step against 154,
+    /// `tests/core/surface_tangent_scale.rs`). Both chosen by `benches/corotational_step.rs`, see
     /// `validation/PERFORMANCE.md`.
     Auto,
 }
@@ -158,6 +163,22 @@ impl NonlinearSolve {
                 history: AUTO_LBFGS_HISTORY,
             },
             other => other,
+        }
+    }
+
+    /// What [`Auto`](Self::Auto) is for `force` with `free_dofs` unknowns: with body–body or
+    /// self-contact ([`NonlinearForce::surface_contact`](super::NonlinearForce::surface_contact))
+    /// [`Refactor`](Self::Refactor) at every size, whose direct path factors the exact J with
+    /// the contact pairs' couplings; otherwise [`for_problem`](Self::for_problem). The rest
+    /// factor knows neither the barrier's stiffness nor the coupling of bodies that touch, and
+    /// the lumped coupling converges linearly: on the 8-block stack (14k DOFs) the
+    /// preconditioned CG path did not converge in step 1 (see `validation/block_stack.md`);
+    /// on two blocks pressed together at 1,296 DOFs it took 154 Newton iterations in a step
+    /// where the coupled factor took 9 (`tests/core/surface_tangent_scale.rs`).
+    pub(crate) fn for_force(self, free_dofs: usize, force: &super::NonlinearForce) -> Self {
+        match (self, force.surface_contact()) {
+            (NonlinearSolve::Auto, Some(_)) => NonlinearSolve::Refactor,
+            (solve, _) => solve.for_problem(free_dofs, force.has_contact()),
         }
     }
 

@@ -210,7 +210,7 @@ impl NewtonSolver {
         options.check()?;
         solve.check()?;
         let n = force.free_count();
-        let solve = solve.for_problem(n, force.has_contact());
+        let solve = solve.for_force(n, &force);
         let step_resolution = force.step_resolution();
         Error::check_len("nonlinear force free DOFs", system.free_count(), n)?;
         Ok(NewtonSolver {
