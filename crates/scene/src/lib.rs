@@ -202,7 +202,8 @@ type = "static"                     # default "static"; or "dynamic", which need
                                     # nodes' rotations; CG on the tangent preconditioned by that factor,
                                     # falling back to a factorization; or a factorization per Newton
                                     # iteration; auto: refactor below 1,000 free DOFs, rest_lbfgs from
-                                    # there, rest_preconditioned with contact). All stop at the same
+                                    # there, rest_preconditioned with obstacles, refactor at every size
+                                    # with [[bodies]] or [self_contact]). All stop at the same
                                     # Newton tolerance. Ignored by static, explicit, linear
 # newton_tolerance = 1e-8           # default; in (0, 1): each implicit step's Newton tolerance
                                     # with a nonlinear model, ‖r‖ ≤ t·max(‖r₀‖, ‖f‖); 1e-2 is
