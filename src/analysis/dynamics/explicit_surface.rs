@@ -66,8 +66,21 @@ pub struct SurfaceStepBound {
 }
 
 /// The explicit step bound of `system` (lumped mass) with the surface barrier of `surface`,
-/// `body_dt` the body's own critical step 2/ω_max (see the [module](self) docs for the
-/// derivation). A surface without a free node gives `body_dt` itself (ω_B = 0).
+/// `body_dt` the body's own critical step 2/ω_max (time units):
+///
+/// dt_B = 2/√(ω_max² + ω_B²),  ω_B² = 2·P·κ·b″(d_min)/m_min,
+///
+/// d_min = [`EXPLICIT_SURFACE_DISTANCE_FRACTION`]·d̂ the smallest distance the run may reach,
+/// κ (J/m²) the barrier's stiffness, b″ the barrier's second derivative
+/// ([`crate::contact::barrier::second_derivative`]), m_min the lightest free surface node's
+/// lumped mass and P = 2·T_max + E_max² the most pairs one surface node can take part in
+/// (T_max, E_max the most triangles and edges at a surface vertex). ω_B² bounds the largest
+/// eigenvalue of M⁻¹ times the barrier's stiffness along its pairs (|∇d|² ≤ 2 over a pair's
+/// nodes, each node in at most P pairs), added to the body's by Weyl's inequality; the
+/// distance's own curvature is left out (it only softens point–point and point–edge pairs,
+/// and is of order |b′|/L ≪ b″ for point–plane ones). Derivation in
+/// `src/analysis/dynamics/explicit_surface.rs`. A surface without a free node gives `body_dt`
+/// itself (ω_B = 0).
 ///
 /// Errors: a consistent mass (the explicit method needs a lumped one), `body_dt` not finite and
 /// > 0, a surface node beyond the system's DOFs.
@@ -168,7 +181,7 @@ impl SurfaceStepBound {
     }
 }
 
-/// The checks of one explicit step with surface contact (see the [module](self) docs): the
+/// The checks of one explicit step with surface contact (see the module docs): the
 /// motion from full displacement `start` by `step` (full DOFs, dt·v⁺ with the supports'
 /// motion) must pass the CCD whole, and the end `end` must keep every pair at or above d_min.
 /// [`Error::Diverged`] naming `step_number`, `time` and the culprit otherwise.
