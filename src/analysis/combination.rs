@@ -30,10 +30,10 @@ use crate::base::warning::Warning;
 use crate::model::ModelKind;
 
 /// What Newmark with body–body contact was measured to do (`tests/core/surface_dynamics.rs`).
-const SURFACE_NEWMARK_MEASURED: &str = "and with body–body or self-contact, whose barrier is \
-     taken at the step's end as well: it adds no energy where it is convex along the step, but \
-     each impact loses some: two rubber blocks meeting head on at 2 m/s part at 0.72 of their \
-     approach speed (dt = 1 ms, 24 % of the energy gone)";
+const SURFACE_NEWMARK_MEASURED: &str = "so does body–body and self-contact, whose surface \
+     barrier is taken at the step's end the same way: it adds no energy where it is convex \
+     along the step, but each impact loses some: two rubber blocks meeting head on at 2 m/s part \
+     at 0.72 of their approach speed (dt = 1 ms, 24 % of the energy gone)";
 
 /// The analysis of a run.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
