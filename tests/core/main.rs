@@ -71,6 +71,7 @@ mod solvers;
 mod st_venant_kirchhoff;
 mod statics;
 mod supernodal;
+mod surface_dynamics;
 mod surface_tangent_scale;
 mod tet10;
 mod tet10_critical_step;

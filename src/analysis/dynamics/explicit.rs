@@ -5,6 +5,7 @@ use std::sync::Arc;
 use rayon::prelude::*;
 
 use super::NonlinearForce;
+use super::explicit_surface::{SurfaceStepBound, check_surface_step, surface_step_bound};
 use super::newton::NewtonSolver;
 use super::{
     DivergenceGuard, Energy, Integrator, IntegratorHistory, InternalForce, LinearSystem, Mass,
@@ -57,6 +58,12 @@ fn with_remedy(error: Error) -> Error {
 /// velocity by at most μ times the normal impulse, never reversing it. Neither touches the
 /// stable step: the critical step of the body is the critical step of the run, and no node
 /// passes through an obstacle at any dt.
+///
+/// With body–body and self-contact the surface barrier's force is part of f_int, and its
+/// stiffness enters the stable step: dt above the bound of [`super::surface_step_bound`]
+/// (the barrier at a tenth of d̂) is refused when the integrator is made or its step changed,
+/// and a step that brings a surface pair below that distance, or whose motion the CCD cannot
+/// clear whole, stops the run with [`Error::Diverged`] naming it (`explicit_surface.rs`).
 #[derive(Debug)]
 pub struct SymplecticEuler {
     system: Arc<LinearSystem>,
@@ -70,6 +77,8 @@ pub struct SymplecticEuler {
     load: Vec<f64>,
     /// The evaluator of a nonlinear force (`None`: the linear path).
     forces: Option<NewtonSolver>,
+    /// With surface contact: the step bound its barrier sets ([`SurfaceStepBound`]).
+    surface_bound: Option<SurfaceStepBound>,
 }
 
 impl SymplecticEuler {
@@ -102,9 +111,21 @@ impl SymplecticEuler {
                 super::NonlinearSolve::Refactor,
             )?),
         };
+        // With surface contact the barrier's stiffness at the smallest distance the run may
+        // reach enters the stable step: a dt above it is refused before any step.
+        let surface_bound = match forces.as_ref().and_then(|f| f.force().surface_contact()) {
+            Some(surface) => {
+                let body = super::critical_time_step(&system)?.dt;
+                let bound = surface_step_bound(&system, surface, body)?;
+                bound.check(dt)?;
+                Some(bound)
+            }
+            None => None,
+        };
         let n = system.free_count();
         let load = system.model_load_buffer(forces.is_some());
         Ok(SymplecticEuler {
+            surface_bound,
             forces,
             dt,
             inverse_mass,
@@ -161,12 +182,18 @@ impl SymplecticEuler {
         // inside an obstacle, and friction follows from the normal impulse. Neither needs a
         // smaller step (a barrier or friction force would: its stiffness grows without bound).
         contact_impulses(&self.system, &self.inverse_mass, forces.force(), state, dt)?;
+        let surface_motion = surface_motion(&self.system, forces.force(), state, dt)?;
         for i in 0..n {
             state.displacement[i] += dt * state.velocity[i];
         }
         state.time += dt;
         state.steps += 1;
         state.ensure_finite("").map_err(with_remedy)?;
+        if let (Some(surface), Some((start, step, end))) =
+            (forces.force().surface_contact(), &surface_motion)
+        {
+            check_surface_step(surface, (start, step, end), (state.steps, state.time))?;
+        }
         // The impulses hold every free node outside; one that crossed all the same (pushed by
         // one obstacle into another, or with a support that moves it) is a divergence, never a
         // penetrated state.
@@ -193,6 +220,32 @@ impl SymplecticEuler {
         }
         Ok(())
     }
+}
+
+/// With surface contact, the step's motion over every DOF: the full displacement at its start
+/// (the force's supports at the step's start), the motion dt·v⁺ (the supports' own over the
+/// step) and the end; `None` without surface contact.
+type SurfaceMotion = Option<(Vec<f64>, Vec<f64>, Vec<f64>)>;
+
+fn surface_motion(
+    system: &LinearSystem,
+    force: &NonlinearForce,
+    state: &State,
+    dt: f64,
+) -> Result<SurfaceMotion> {
+    if force.surface_contact().is_none() {
+        return Ok(None);
+    }
+    let start = force.full_displacement(&state.displacement)?;
+    let mut end = match system.has_moving_supports() {
+        true => system.prescribed_at(state.time + dt)?,
+        false => start.clone(),
+    };
+    for (k, &d) in system.dofs().free_dofs().iter().enumerate() {
+        end[d] = state.displacement[k] + dt * state.velocity[k];
+    }
+    let step = end.iter().zip(&start).map(|(e, s)| e - s).collect();
+    Ok(Some((start, step, end)))
 }
 
 /// Contact in an explicit step ([`Contact::apply_contact_impulses`](crate::contact::Contact::apply_contact_impulses), see
@@ -323,7 +376,11 @@ impl Integrator for SymplecticEuler {
     }
 
     fn set_time_step(&mut self, dt: f64) -> Result<()> {
-        self.dt = check_time_step(dt)?;
+        let dt = check_time_step(dt)?;
+        if let Some(bound) = &self.surface_bound {
+            bound.check(dt)?;
+        }
+        self.dt = dt;
         Ok(())
     }
 

@@ -825,6 +825,12 @@ impl NonlinearForce {
         })
     }
 
+    /// A matrix of zeros on the full assembly pattern (every DOF, constrained ones too): the
+    /// pattern the contact Hessians are formed on before the restriction to the free DOFs.
+    pub(crate) fn full_zero_tangent(&self) -> Result<CscMatrix> {
+        Ok(CscMatrix::zeros(Arc::clone(self.assembler.pattern()))?)
+    }
+
     /// A matrix of zeros on K_ff's pattern (the one [`tangent_into`](Self::tangent_into) fills).
     pub fn zero_tangent(&self) -> Result<CscMatrix> {
         Ok(CscMatrix::zeros(Arc::clone(&self.pattern))?)

@@ -17,6 +17,7 @@ mod damping;
 mod element_bound;
 mod energy;
 mod explicit;
+mod explicit_surface;
 mod inertia;
 pub(crate) mod internal_force;
 mod lbfgs;
@@ -42,6 +43,9 @@ pub use element_bound::{
 };
 pub use energy::Energy;
 pub use explicit::{EXPLICIT_REMEDY, SymplecticEuler};
+pub use explicit_surface::{
+    EXPLICIT_SURFACE_DISTANCE_FRACTION, SurfaceStepBound, surface_step_bound,
+};
 pub use internal_force::{BarrierRecord, ForceWorkspace, InternalForce, NonlinearForce};
 pub use newmark::Newmark;
 pub use newton::{NewtonStats, StepNewtonOptions};

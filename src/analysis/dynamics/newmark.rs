@@ -48,6 +48,18 @@ use crate::sparse::CscMatrix;
 /// M⁻¹·f_c(u⁺) is again the acceleration of all the forces at u⁺, so the stored acceleration
 /// (and a checkpoint's) means what a fresh start computes. Friction (lagged at the step's
 /// start) stays on the trapezoid.
+///
+/// Body–body and self-contact ([`NonlinearForce::with_surface_contact`](super::NonlinearForce::with_surface_contact))
+/// is a contact potential of the same kind, B(u) = κ·Σₖ mₖ·b(dₖ(u)), and takes the same end
+/// point: f_c above is the obstacles' and the surface barrier's force together, E_c their
+/// energies, each weighted by 2 in Φ and J. The step then changes kinetic + elastic + E_c by
+/// E_c(u⁺) − E_c(u) − ∇E_c(u⁺)·(u⁺ − u) = −∫₀¹ s·Δuᵀ∇²E_c(u + s·Δu)·Δu ds (Δu = u⁺ − u),
+/// ≤ 0 wherever E_c is convex along the step: b is convex and decreasing in d, and a pair's
+/// distance is affine along a step that moves it without turning it (a face meeting a face
+/// head on), so the barrier cannot add energy there; the distance's own curvature (a pair
+/// turning, edges sliding past each other) is what could, by −b′·Δuᵀ∇²d·Δu, second order in
+/// the step. Every Newton iterate keeps the collision-free line search of the implicit
+/// methods. Measured on two rubber blocks meeting head on: `tests/core/surface_dynamics.rs`.
 #[derive(Debug)]
 pub struct Newmark {
     system: Arc<LinearSystem>,
@@ -217,7 +229,7 @@ impl Newmark {
         }
         // With contact the contact force is taken at the step's end alone (see [`Newmark`]):
         // the predictor and the update use the acceleration of the other forces.
-        let end_point = newton.force().contact().is_some();
+        let end_point = newton.force().has_contact();
         if end_point {
             if self.contact_acceleration.1 != Some((state.steps, state.time)) {
                 let mut contact = contact_force_and_energy(newton.force(), &state.displacement)?.0;

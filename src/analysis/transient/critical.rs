@@ -8,6 +8,12 @@
 //! run's and a step up to it lets no node through an obstacle. The barrier's stiffness
 //! κ·Aᵢ·b″(d) — unbounded as d → 0, so no critical step could include it — acts only on a node
 //! that starts inside its reach, and there a step it makes unstable is refused by name.
+//!
+//! Body–body and self-contact is different: its barrier acts between two moving surfaces as a
+//! force of the explicit step, so its stiffness at the smallest distance the run may reach
+//! enters the step ([`crate::analysis::dynamics::surface_step_bound`]); [`super::Transient`]
+//! takes the smaller of the two for a step given as a multiple of the critical one (its
+//! source then `"surface barrier bound"`).
 
 use crate::analysis::dynamics::{LinearSystem, Mass, StepBoundElement, critical_time_step};
 use crate::base::error::Result;
@@ -19,7 +25,8 @@ use crate::mesh::TetMesh;
 pub struct StepLimit {
     /// The critical step (time units, s in SI): the explicit method is stable below it.
     pub dt: f64,
-    /// How it was found: `"power iteration"`, `"Gershgorin bound"` or `"element bound"`.
+    /// How it was found: `"power iteration"`, `"Gershgorin bound"`, `"element bound"` or
+    /// (explicit with surface contact, [`super::Transient`]) `"surface barrier bound"`.
     pub source: &'static str,
 }
 

@@ -9,7 +9,7 @@ use super::observer::{Flow, Observer, StepView};
 use super::time_step::TimeStep;
 use crate::analysis::dynamics::{
     BarrierRecord, Energy, Integrator, IntegratorOptions, InternalForce, LinearSystem, MassKind,
-    Method, Rayleigh, State, StepBoundElement,
+    Method, Rayleigh, State, StepBoundElement, surface_step_bound,
 };
 use crate::analysis::{Analysis, Definition};
 use crate::base::error::Result;
@@ -125,7 +125,19 @@ impl Transient {
         let force = definition.transient_force(&system)?;
         let mut limit = None;
         let dt = options.dt.seconds(|| {
-            let found = critical_step(&system, &definition.mesh, &definition.materials)?;
+            let mut found = critical_step(&system, &definition.mesh, &definition.materials)?;
+            // The explicit method with surface contact: the barrier's stiffness at the
+            // smallest distance the run may reach lowers the stable step (see
+            // [`surface_step_bound`]); the body's own step would be refused.
+            if let (Method::Explicit, InternalForce::Nonlinear(n)) = (options.method, &force)
+                && let Some(surface) = n.surface_contact()
+            {
+                let bound = surface_step_bound(&system, surface, found.dt)?;
+                found = StepLimit {
+                    dt: bound.dt,
+                    source: "surface barrier bound",
+                };
+            }
             limit = Some(found);
             Ok(found.dt)
         })?;

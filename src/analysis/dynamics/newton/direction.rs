@@ -112,6 +112,16 @@ impl NewtonMatrix<'_> {
         self.factor(u_new)?;
         stats.factorizations += 1;
         let lumped = self.force.lumped_tangent_entries();
+        // The surface barrier counted w times (Newmark's end-point contact): the lumped entries
+        // of each of its w evaluations are the same, so the exact J holds w·v for each.
+        let weight = 1.0 + self.contact_extra.as_ref().map_or(0.0, |(_, extra)| *extra);
+        let lumped: Vec<_> = match weight == 1.0 {
+            true => lumped,
+            false => lumped
+                .into_iter()
+                .map(|(r, c, v)| (r, c, weight * v))
+                .collect(),
+        };
         if lumped.is_empty() {
             self.solver.solve(self.matrix, delta)?;
             return Ok(());
@@ -201,11 +211,9 @@ fn add_contact_extra(
     (u_new, project): (&[f64], bool),
     matrix: &mut CscMatrix,
 ) -> Result<()> {
-    match (extra, force.contact()) {
-        (Some((blocks, w)), Some(contact)) => {
-            blocks.add(force, contact, (u_new, project, *w), matrix)
-        }
-        _ => Ok(()),
+    match extra {
+        Some((blocks, w)) => blocks.add(force, (u_new, project, *w), matrix),
+        None => Ok(()),
     }
 }
 
