@@ -69,6 +69,7 @@ mod solvers;
 mod st_venant_kirchhoff;
 mod statics;
 mod supernodal;
+mod surface_friction;
 mod tet10;
 mod tet10_critical_step;
 mod turntable;
