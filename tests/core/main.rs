@@ -72,6 +72,7 @@ mod st_venant_kirchhoff;
 mod statics;
 mod supernodal;
 mod surface_dynamics;
+mod surface_friction;
 mod surface_tangent_scale;
 mod tet10;
 mod tet10_critical_step;

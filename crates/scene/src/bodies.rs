@@ -150,8 +150,9 @@ impl Scene {
     }
 
     /// The barrier of `[self_contact]` on `mesh`: d̂ (default a tenth of the shortest surface
-    /// edge at rest) and κ (default `stiffest`·h̄, h̄ the mean surface edge at rest). A value
-    /// that is not finite and > 0 is an error naming its key.
+    /// edge at rest) and κ (default `stiffest`·h̄, h̄ the mean surface edge at rest), friction's
+    /// μ (default 0) and ε_v (default the library's). A d̂, κ or ε_v that is not finite and
+    /// > 0, or a μ that is negative or not finite, is an error naming its key.
     fn surface_barrier<C: CellType>(
         &self,
         mesh: &TetMesh<C>,
@@ -162,15 +163,25 @@ impl Scene {
         let span = given.map(|s| s.span()).unwrap_or_default();
         let given = given.map(|s| *s.get_ref()).unwrap_or_default();
         let (distance, stiffness) = (given.distance, given.stiffness);
-        SurfaceBarrier::scaled_to(&surface, stiffest, distance, stiffness).map_err(|e| {
-            let key = match &e {
-                tetfem::Error::InvalidParameter { name, .. } if name.ends_with("stiffness") => {
-                    "self_contact.stiffness"
-                }
-                _ => "self_contact.distance",
-            };
-            self.error(key, &span, e.to_string())
-        })
+        let barrier =
+            SurfaceBarrier::scaled_to(&surface, stiffest, distance, stiffness).map_err(|e| {
+                let key = match &e {
+                    tetfem::Error::InvalidParameter { name, .. } if name.ends_with("stiffness") => {
+                        "self_contact.stiffness"
+                    }
+                    _ => "self_contact.distance",
+                };
+                self.error(key, &span, e.to_string())
+            })?;
+        let barrier = barrier
+            .with_friction(given.friction.unwrap_or(0.0))
+            .map_err(|e| self.error("self_contact.friction", &span, e.to_string()))?;
+        match given.slip_velocity {
+            Some(v) => barrier
+                .with_slip_velocity(v)
+                .map_err(|e| self.error("self_contact.slip_velocity", &span, e.to_string())),
+            None => Ok(barrier),
+        }
     }
 }
 
@@ -243,4 +254,56 @@ pub(crate) fn csv_values(
         None => values.extend([f64::NAN, f64::NAN]),
     }
     Ok(values)
+}
+
+#[cfg(test)]
+mod tests {
+    use tetfem::Error;
+
+    use crate::Scene;
+
+    /// Two blocks, the second beside the first, with `keys` under `[self_contact]`.
+    fn scene(keys: &str) -> Scene {
+        format!(
+            "[mesh.box]\nmax = [0.1, 0.1, 0.1]\ncells = [1, 1, 1]\n\
+             [material]\nyoungs_modulus = 1e6\npoisson_ratio = 0.3\ndensity = 1000.0\n\
+             [[bodies]]\n[[bodies]]\ntranslation = [0.2, 0.0, 0.0]\n\
+             [self_contact]\n{keys}\n\
+             [analysis]\ntype = \"dynamic\"\nmethod = \"backward_euler\"\ndt = 1e-3\n\
+             duration = 0.01\n"
+        )
+        .parse()
+        .unwrap()
+    }
+
+    /// The key and message of the scene's build error.
+    fn build_error(keys: &str) -> (String, String) {
+        match scene(keys).build() {
+            Err(Error::Scene { key, message, .. }) => (key, message),
+            Err(e) => panic!("{e}"),
+            Ok(_) => panic!("{keys} built"),
+        }
+    }
+
+    #[test]
+    fn friction_reaches_the_barrier_and_defaults_to_none() {
+        let barrier = |keys: &str| scene(keys).build().unwrap().bodies.unwrap().barrier;
+        let none = barrier("");
+        assert_eq!((none.friction, none.slip_velocity), (0.0, None));
+        let given = barrier("friction = 0.4\nslip_velocity = 1e-4");
+        assert_eq!((given.friction, given.slip_velocity), (0.4, Some(1e-4)));
+    }
+
+    #[test]
+    fn bad_friction_is_an_error_naming_its_key_and_value() {
+        for (keys, key, value) in [
+            ("friction = -0.1", "self_contact.friction", "-0.1"),
+            ("friction = nan", "self_contact.friction", "NaN"),
+            ("slip_velocity = 0.0", "self_contact.slip_velocity", "0"),
+        ] {
+            let (k, message) = build_error(keys);
+            assert_eq!(k, key, "{message}");
+            assert!(message.contains(value), "{keys}: {message}");
+        }
+    }
 }

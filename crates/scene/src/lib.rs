@@ -293,6 +293,10 @@ type = "static"                     # default "static"; or "dynamic", which need
 # [self_contact]                    # on with [[bodies]]; alone: one body's self-contact
 # distance = 1e-3                   # m, d̂; default a tenth of the shortest surface edge
 # stiffness = 1e3                   # J/m², κ; default E·h̄ (stiffest E, h̄ the mean surface edge)
+# friction = 0.0                    # Coulomb μ ≥ 0 between the surfaces, default 0; lagged per
+                                    #   backward_euler step (static solves see none)
+# slip_velocity = 1e-4              # m/s; slip speed below it sticks (creeps); default 1e-3 ×
+                                    #   the bounding-box diagonal per second
 
 [petsc]                             # read by the PETSc engine only (engine = "petsc")
 solver = "gamg"                     # default "gamg" (CG + GAMG); "hypre" (CG + BoomerAMG); "mumps" (direct)

@@ -94,7 +94,7 @@ fn z_axis() -> [f64; 3] {
     [0.0, 0.0, 1.0]
 }
 
-/// `[self_contact]`: the surface barrier's scales.
+/// `[self_contact]`: the surface barrier's scales and the friction between the surfaces.
 #[derive(Debug, Clone, Copy, Default, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct SelfContactSpec {
@@ -107,6 +107,15 @@ pub struct SelfContactSpec {
     /// h̄ × d̂ strip).
     #[serde(default)]
     pub stiffness: Option<f64>,
+    /// Coulomb's friction coefficient μ ≥ 0 between the surfaces (default 0: frictionless):
+    /// IPC's lagged smoothed friction, its normal forces and tangent planes frozen at each
+    /// backward-Euler step's start.
+    #[serde(default)]
+    pub friction: Option<f64>,
+    /// ε_v (m/s, > 0): friction's stick speed, relative tangential speeds below it creep
+    /// (default 10⁻³ × the bounding-box diagonal per second).
+    #[serde(default)]
+    pub slip_velocity: Option<f64>,
 }
 
 /// `[[obstacles]]`: a rigid obstacle, of one `kind` with that kind's placement keys.

@@ -432,9 +432,21 @@ impl NonlinearForce {
     /// ε = ε_v·`dt` (see [`crate::contact::friction`]); the force, tangent and
     /// [`potential_energy`](Self::potential_energy) include friction until the next call or
     /// [`end_friction`](Self::end_friction). Without friction it does nothing.
+    ///
+    /// Friction between surfaces (surface contact with μ > 0) is lagged here too
+    /// ([`SurfaceContact::begin_friction`], ε = ε_v·`dt`).
     pub fn begin_step(&self, u: &[f64], dt: f64) -> Result<()> {
         match &self.contact {
             Some(contact) => self.begin_step_toward(u, dt, &contact.offsets(), 0.0),
+            None => self.begin_surface_friction(u, dt),
+        }
+    }
+
+    /// Lags the surfaces' friction at free displacements `u` for a step `dt` (nothing without
+    /// surface friction).
+    fn begin_surface_friction(&self, u: &[f64], dt: f64) -> Result<()> {
+        match self.surface.as_ref().filter(|s| s.has_friction()) {
+            Some(surface) => surface.begin_friction(&self.full_displacement(u)?, dt),
             None => Ok(()),
         }
     }
@@ -450,6 +462,7 @@ impl NonlinearForce {
         target: &[nalgebra::Vector3<f64>],
         duration: f64,
     ) -> Result<()> {
+        self.begin_surface_friction(u, dt)?;
         let Some(contact) = self.contact.as_ref().filter(|c| c.has_friction()) else {
             return Ok(());
         };
@@ -494,6 +507,9 @@ impl NonlinearForce {
     /// Drops the lagged friction (explicit steps and energy evaluations see none).
     pub fn end_friction(&self) {
         *self.friction_lock() = None;
+        if let Some(surface) = &self.surface {
+            surface.end_friction();
+        }
     }
 
     /// Keeps the friction force the body exerts on each obstacle at free displacements `u`

@@ -5,8 +5,8 @@
 //! detection ([`ccd`]), and an exact triangle–triangle intersection test that shares no code
 //! with the barrier ([`intersect`], on the exact orientation predicates of [`predicates`]), and
 //! the start check that bodies do not overlap ([`overlap`]), the barrier's default scales
-//! ([`scales`]); and all of it as a term of a
-//! nonlinear force over a DOF vector ([`term`]).
+//! ([`scales`]); lagged smoothed Coulomb friction between surface pairs ([`friction`]); and all
+//! of it as a term of a nonlinear force over a DOF vector ([`term`]).
 //!
 //! Positions are arrays indexed by mesh node id (length units, m); pairs that share a vertex
 //! are adjacent by topology and never contact pairs.
@@ -29,6 +29,7 @@ pub mod boundary;
 pub mod bvh;
 pub mod ccd;
 pub mod distance;
+pub mod friction;
 pub mod intersect;
 pub mod overlap;
 pub mod potential;
@@ -41,6 +42,7 @@ pub use boundary::Surface;
 pub use bvh::{Aabb, Bvh, Candidates, candidates};
 pub use ccd::{SEPARATION_FRACTION, max_step};
 pub use distance::DistanceType;
+pub use friction::SurfaceFrictionLag;
 pub use intersect::{surface_intersections, triangles_intersect};
 pub use overlap::overlapping_bodies;
 pub use potential::{ActivePair, Pair, SurfaceBarrier};

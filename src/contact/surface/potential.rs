@@ -94,13 +94,21 @@ pub struct ActivePair {
     pub distance: f64,
 }
 
-/// The barrier's two scales.
+/// The barrier's two scales, and the friction between the surfaces it pushes apart.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct SurfaceBarrier {
     /// d̂ (length, m): pairs closer than this are pushed apart.
     pub activation_distance: f64,
     /// κ (energy per length², J/m²).
     pub stiffness: f64,
+    /// μ, the Coulomb coefficient between surface pairs (dimensionless, ≥ 0; default 0: no
+    /// friction). Lagged once per implicit time step ([`super::friction`]); static solves
+    /// and explicit steps see none.
+    pub friction: f64,
+    /// ε_v, the slip velocity (m/s) below which a pair sticks (with a creep); `None`: the
+    /// obstacles' default, [`crate::contact::set::SLIP_FRACTION`] of the mesh's bounding-box
+    /// diagonal per second ([`super::SurfaceContact::new`] resolves it).
+    pub slip_velocity: Option<f64>,
 }
 
 /// Every pair's local (12) gradient or (12×12) Hessian, before scaling by κ.
@@ -125,7 +133,43 @@ impl SurfaceBarrier {
         Ok(SurfaceBarrier {
             activation_distance,
             stiffness,
+            friction: 0.0,
+            slip_velocity: None,
         })
+    }
+
+    /// The barrier with friction coefficient `mu` between the surfaces (dimensionless; 0 turns
+    /// friction off). [`Error::InvalidParameter`] naming the value unless finite and ≥ 0.
+    pub fn with_friction(mut self, mu: f64) -> Result<Self> {
+        super::friction::check_friction("surface barrier friction", mu)?;
+        self.friction = mu;
+        Ok(self)
+    }
+
+    /// The barrier with friction's slip velocity ε_v = `slip_velocity` (m/s): relative
+    /// tangential speeds below it count as sticking. [`Error::InvalidParameter`] naming the
+    /// value unless finite and > 0.
+    pub fn with_slip_velocity(mut self, slip_velocity: f64) -> Result<Self> {
+        if !(slip_velocity.is_finite() && slip_velocity > 0.0) {
+            return Err(Error::invalid_parameter(
+                "surface barrier slip_velocity",
+                slip_velocity,
+                "must be finite and > 0 (m/s)",
+            ));
+        }
+        self.slip_velocity = Some(slip_velocity);
+        Ok(self)
+    }
+
+    /// The mollifier's value mₖ of pair `p` at `positions` (1 for a point–triangle pair): the
+    /// factor of its normal force κ·m·|b′(d)| that friction lags.
+    pub(crate) fn mollifier_value(
+        &self,
+        surface: &Surface,
+        p: &ActivePair,
+        positions: &[Vector3<f64>],
+    ) -> f64 {
+        self.mollifier(surface, p, positions).0
     }
 
     /// The pairs of `surface` closer than d̂ at `positions` (indexed by node id, m), found by

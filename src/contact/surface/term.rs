@@ -31,6 +31,12 @@
 //! iterations a step at most on a 1,296-DOF impact where that path took 154
 //! (`tests/core/surface_tangent_scale.rs`; where the exact J is indefinite the step falls back
 //! to the CG, see `validation/block_stack.md`). [`TangentFill`] counts what went where.
+//!
+//! Friction between the surfaces ([`super::friction`], μ = [`SurfaceBarrier::friction`] > 0):
+//! [`SurfaceContact::begin_friction`] lags it at a time step's start, and until
+//! [`SurfaceContact::end_friction`] the energy, force and tangent include its dissipative
+//! potential D beside the barrier (its Hessian entries placed on the pattern or lumped as the
+//! barrier's are).
 
 use std::sync::{Arc, Mutex};
 
@@ -40,6 +46,7 @@ use super::audit::IntersectionAudit;
 use super::boundary::Surface;
 use super::bvh::{Candidates, candidates};
 use super::ccd::{SEPARATION_FRACTION, pair_step};
+use super::friction::{SurfaceFrictionLag, check_friction};
 use super::intersect::surface_intersections;
 use super::overlap::overlapping_bodies;
 use super::potential::{Pair, SurfaceBarrier, pairs_of};
@@ -78,6 +85,10 @@ pub struct SurfaceContact {
     lumped: Mutex<Vec<(usize, usize, f64)>>,
     /// The intersection audit of accepted iterates, when switched on.
     audit: Mutex<Option<IntersectionAudit>>,
+    /// ε_v (m/s), resolved from [`SurfaceBarrier::slip_velocity`].
+    slip_velocity: f64,
+    /// Friction lagged at the current step's start ([`SurfaceContact::begin_friction`]).
+    friction: Mutex<Option<SurfaceFrictionLag>>,
 }
 
 impl std::fmt::Debug for SurfaceContact {
@@ -98,15 +109,33 @@ impl SurfaceContact {
     /// Errors: those of [`Surface::from_mesh`] (a surface that is not closed or not manifold,
     /// naming the edge); two surface triangles meeting at rest — [`Error::InvalidParameter`]
     /// naming the two bodies and the pair of triangles ([`overlapping_bodies`]): the barrier is
-    /// infinite there and no step can separate them.
+    /// infinite there and no step can separate them; a friction coefficient that is negative
+    /// or not finite, or a slip velocity not finite and > 0 (naming the value).
+    ///
+    /// Friction's slip velocity ε_v is the barrier's, or by default
+    /// [`SLIP_FRACTION`](crate::contact::set::SLIP_FRACTION) of the mesh's bounding-box
+    /// diagonal per second (the obstacles' default).
     pub fn new<C: CellType>(
         mesh: &TetMesh<C>,
         body_of_node: &[usize],
         barrier: SurfaceBarrier,
     ) -> Result<Self> {
+        check_friction("surface barrier friction", barrier.friction)?;
+        let slip_velocity = match barrier.slip_velocity {
+            Some(v) => {
+                barrier.with_slip_velocity(v)?;
+                v
+            }
+            None => {
+                let (min, max) = mesh.bounding_box();
+                crate::contact::set::SLIP_FRACTION * (max - min).norm()
+            }
+        };
         let surface = Surface::from_mesh(mesh)?;
         overlapping_bodies(&surface, mesh.nodes(), body_of_node)?;
         Ok(SurfaceContact {
+            slip_velocity,
+            friction: Mutex::new(None),
             surface,
             barrier,
             rest: mesh.nodes().to_vec(),
@@ -220,14 +249,65 @@ impl SurfaceContact {
         })
     }
 
-    /// B(X + u) (J): +∞ where a pair touches (d = 0).
+    /// B(X + u) (J): +∞ where a pair touches (d = 0); plus friction's D(X + u) while a step's
+    /// friction is lagged ([`begin_friction`](Self::begin_friction)).
     pub fn energy(&self, u: &[f64]) -> Result<f64> {
         let x = self.positions(u)?;
         let found = self.candidates_at(&x)?;
-        self.barrier.energy_among(&self.surface, &x, &found)
+        let barrier = self.barrier.energy_among(&self.surface, &x, &found)?;
+        Ok(barrier + self.friction_lock().as_ref().map_or(0.0, |l| l.energy(&x)))
     }
 
-    /// Adds the barrier's force −∂B/∂u (N) into `force` (full DOFs, 3 per mesh node).
+    /// Whether the surfaces have friction (μ > 0).
+    pub fn has_friction(&self) -> bool {
+        self.barrier.friction > 0.0
+    }
+
+    /// Friction's slip velocity ε_v (m/s).
+    pub fn slip_velocity(&self) -> f64 {
+        self.slip_velocity
+    }
+
+    /// Starts a time step of `dt` (s) from full displacement `u`: with μ > 0, lags each pair's
+    /// normal force, closest points and tangent plane there, smoothing distance ε = ε_v·`dt`
+    /// ([`SurfaceFrictionLag::new`]); the energy, force and tangent include friction until
+    /// [`end_friction`](Self::end_friction) or the next call. Without friction it does nothing.
+    /// Errors: lengths, `dt` not finite and > 0, a pair at distance 0.
+    pub fn begin_friction(&self, u: &[f64], dt: f64) -> Result<()> {
+        if !self.has_friction() {
+            return Ok(());
+        }
+        let x = self.positions(u)?;
+        let found = self.candidates_at(&x)?;
+        let lag = SurfaceFrictionLag::new(
+            &self.barrier,
+            &self.surface,
+            &x,
+            &found,
+            self.barrier.friction,
+            self.slip_velocity * dt,
+        )?;
+        *self.friction_lock() = Some(lag);
+        Ok(())
+    }
+
+    /// Drops the lagged friction (what evaluations between steps see).
+    pub fn end_friction(&self) {
+        *self.friction_lock() = None;
+    }
+
+    /// The current step's lagged friction, if any.
+    pub fn friction_lag(&self) -> Option<SurfaceFrictionLag> {
+        self.friction_lock().clone()
+    }
+
+    fn friction_lock(&self) -> std::sync::MutexGuard<'_, Option<SurfaceFrictionLag>> {
+        // A poisoned lock only means a panic elsewhere while holding plain data: keep it.
+        self.friction.lock().unwrap_or_else(|e| e.into_inner())
+    }
+
+    /// Adds the barrier's force −∂B/∂u (N) into `force` (full DOFs, 3 per mesh node), and
+    /// friction's −∂D/∂u while lagged.
     /// Errors: a length mismatch; a pair at distance 0 (see
     /// [`SurfaceBarrier::add_gradient`]).
     pub fn add_force(&self, u: &[f64], force: &mut [f64]) -> Result<()> {
@@ -237,11 +317,15 @@ impl SurfaceContact {
         let mut gradient = vec![0.0; u.len()];
         self.barrier
             .add_gradient_among(&self.surface, &x, &found, &mut gradient)?;
+        if let Some(lag) = self.friction_lock().as_ref() {
+            lag.add_gradient(&x, &mut gradient)?;
+        }
         force.iter_mut().zip(&gradient).for_each(|(f, g)| *f -= g);
         Ok(())
     }
 
-    /// Adds ∂²B/∂u² (N/m), each pair's block projected to PSD when `project`, into `matrix`
+    /// Adds ∂²B/∂u² (N/m), each pair's block projected to PSD when `project`, and friction's
+    /// ∂²D/∂u² while lagged, into `matrix`
     /// (full DOFs, both triangles stored): entries the pattern stores are added, the others
     /// moved onto the diagonal as |v| (see the module docs); returns the counts.
     /// Errors: a dimension mismatch, a pair at distance 0, a diagonal the pattern lacks.
@@ -254,9 +338,13 @@ impl SurfaceContact {
         let x = self.positions(u)?;
         Error::check_len("surface contact tangent", u.len(), matrix.dim())?;
         let found = self.candidates_at(&x)?;
-        let triplets = self
-            .barrier
-            .hessian_triplets_among(&self.surface, &x, &found, project)?;
+        let mut triplets =
+            self.barrier
+                .hessian_triplets_among(&self.surface, &x, &found, project)?;
+        if let Some(lag) = self.friction_lock().as_ref() {
+            // Friction's Hessian is PSD as it stands: `project` does not change it.
+            triplets.extend(lag.hessian_triplets(&x));
+        }
         let mut fill = TangentFill::default();
         let mut lumped = Vec::new();
         for (r, c, v) in triplets {
