@@ -102,6 +102,8 @@ pub struct Combination {
     /// Body–body and self-contact on the boundary surface (several bodies, or one that may
     /// fold onto itself).
     pub surface_contact: bool,
+    /// Friction between the surfaces (μ > 0); meaningful with `surface_contact` only.
+    pub surface_friction: bool,
 }
 
 impl Default for Combination {
@@ -119,11 +121,43 @@ impl Default for Combination {
             regions: false,
             formulation: Formulation::Displacement,
             surface_contact: false,
+            surface_friction: false,
         }
     }
 }
 
 impl Combination {
+    /// The surface-contact rules: no modal analysis; friction between surfaces only where it
+    /// is lagged, at the steps of the implicit dynamic methods (a static solve and the explicit
+    /// step would ignore μ, so they refuse it rather than drop it silently).
+    fn check_surface(&self) -> Result<()> {
+        if self.surface_contact && self.analysis == Analysis::Modal {
+            return Err(Error::invalid_parameter(
+                format!("surface_contact with analysis {}", self.analysis.name()),
+                "surface contact",
+                "a modal analysis has no contact (it is linear about the rest state); \
+                 body–body and self-contact runs in a static or a dynamic analysis",
+            ));
+        }
+        let lagged = matches!(
+            self.analysis,
+            Analysis::Transient(Method::BackwardEuler | Method::Newmark)
+        );
+        if self.surface_contact && self.surface_friction && !lagged {
+            return Err(Error::invalid_parameter(
+                format!(
+                    "surface_contact friction with analysis {}",
+                    self.analysis.name()
+                ),
+                "friction > 0",
+                "friction between bodies is lagged at the steps of the implicit dynamic \
+                 methods (backward_euler, newmark) only; a static solve or an explicit step \
+                 would ignore it: set it to 0 or use one of those methods",
+            ));
+        }
+        Ok(())
+    }
+
     /// Checks the combination: `Ok` with the warnings of combinations that run but behave in a
     /// way the user should know of, or [`Error::InvalidParameter`] naming the pair the physics
     /// cannot compute (see the [module](self) docs), or an order other than 1 or 2.
@@ -135,14 +169,7 @@ impl Combination {
                 "must be 1 (4-node tets) or 2 (10-node tets)",
             ));
         }
-        if self.surface_contact && self.analysis == Analysis::Modal {
-            return Err(Error::invalid_parameter(
-                format!("surface_contact with analysis {}", self.analysis.name()),
-                "surface contact",
-                "a modal analysis has no contact (it is linear about the rest state); \
-                 body–body and self-contact runs in a static or a dynamic analysis",
-            ));
-        }
+        self.check_surface()?;
         if self.analysis == Analysis::Modal {
             if self.model != ModelKind::Linear {
                 return Err(Error::invalid_parameter(

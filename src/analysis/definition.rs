@@ -110,6 +110,10 @@ impl<C: CellType> Definition<C> {
             regions: self.materials.materials().len() > 1,
             formulation: crate::analysis::combination::Formulation::Displacement,
             surface_contact: self.surface_contact.is_some(),
+            surface_friction: self
+                .surface_contact
+                .as_ref()
+                .is_some_and(|s| s.barrier.friction > 0.0),
         }
     }
 

@@ -498,6 +498,7 @@ fn every_combination_runs_or_is_a_named_physics_refusal() {
                                 regions,
                                 formulation: Default::default(),
                                 surface_contact: false,
+                                surface_friction: false,
                             };
                             let physics_refuses = analysis == Analysis::Modal
                                 && (model != ModelKind::Linear || obstacles);

@@ -264,6 +264,29 @@ fn the_rule_admits_newmark_with_a_warning_and_explicit() {
     );
 }
 
+/// Friction between bodies is lagged at the implicit dynamic methods' steps only: a static
+/// solve or an explicit step would ignore μ, so the rule refuses it there, naming friction.
+#[test]
+fn friction_between_bodies_is_refused_where_nothing_lags_it() {
+    let with_friction = |analysis| Combination {
+        model: ModelKind::NeoHookean,
+        analysis,
+        surface_contact: true,
+        surface_friction: true,
+        ..Combination::default()
+    };
+    for analysis in [Analysis::Static, Analysis::Transient(Method::Explicit)] {
+        let err = with_friction(analysis).check().unwrap_err().to_string();
+        assert!(
+            err.contains("friction") && err.contains(analysis.name().as_str()),
+            "{err}"
+        );
+    }
+    for method in [Method::BackwardEuler, Method::Newmark] {
+        assert!(with_friction(Analysis::Transient(method)).check().is_ok());
+    }
+}
+
 /// The definition of the head-on impact with barrier stiffness `kappa`.
 fn definition(bodies: &Bodies<Tet4>, kappa: f64) -> Definition {
     let mesh = bodies.mesh().clone();

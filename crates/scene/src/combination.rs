@@ -34,6 +34,10 @@ impl Scene {
             regions: !spec.materials.is_empty(),
             formulation: analysis::combination::Formulation::Displacement,
             surface_contact: self.has_surface_contact(),
+            surface_friction: spec
+                .self_contact
+                .as_ref()
+                .is_some_and(|s| s.get_ref().friction.is_some_and(|mu| mu > 0.0)),
         }
     }
 
@@ -54,6 +58,14 @@ impl Scene {
             let (key, span) = match (name.split(' ').next(), self.spec.obstacles.first()) {
                 (Some("model"), _) => ("analysis.model", analysis.unwrap_or_default()),
                 (Some("obstacles"), Some(first)) => ("obstacles[0].kind", first.span()),
+                (Some("surface_contact"), _) if name.contains("friction") => (
+                    "self_contact.friction",
+                    self.spec
+                        .self_contact
+                        .as_ref()
+                        .map(|s| s.span())
+                        .unwrap_or_default(),
+                ),
                 (Some("surface_contact"), _) => {
                     match (&self.spec.self_contact, self.spec.bodies.first()) {
                         (_, Some(first)) => ("bodies", first.span()),

@@ -278,8 +278,9 @@ type = "static"                     # default "static"; or "dynamic", which need
 # rigid motion, all in one DOF space, numbered from 0 in [[bodies]] order; they touch through body–body contact (the IPC surface barrier, with
 # continuous collision detection in every Newton line search: no iterate intersects). The
 # library runs it in static analyses (Newton over load_steps; a body the supports leave free
-# must start within d̂ of the one it rests on) and dynamic backward_euler ones only (others are
-# refused naming the key).
+# must start within d̂ of the one it rests on) and every dynamic method (newmark warns that
+# impacts lose energy; explicit steps within the barrier's own step bound and stops, naming the
+# step, if a pair would cross); modal analyses refuse it, naming the key.
 # [[bodies]]
 # mesh = { box = { min = [0.0, 0.0, 0.0], max = [0.1, 0.1, 0.1], cells = [4, 4, 4] } }
 #                                   # the body's own mesh, as under [mesh] (box, gmsh or tetgen;
@@ -294,7 +295,8 @@ type = "static"                     # default "static"; or "dynamic", which need
 # distance = 1e-3                   # m, d̂; default a tenth of the shortest surface edge
 # stiffness = 1e3                   # J/m², κ; default E·h̄ (stiffest E, h̄ the mean surface edge)
 # friction = 0.0                    # Coulomb μ ≥ 0 between the surfaces, default 0; lagged per
-                                    #   backward_euler step (static solves see none)
+                                    #   backward_euler or newmark step (static and explicit runs
+                                    #   refuse μ > 0: nothing there would lag it)
 # slip_velocity = 1e-4              # m/s; slip speed below it sticks (creeps); default 1e-3 ×
                                     #   the bounding-box diagonal per second
 

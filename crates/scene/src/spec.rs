@@ -109,7 +109,7 @@ pub struct SelfContactSpec {
     pub stiffness: Option<f64>,
     /// Coulomb's friction coefficient μ ≥ 0 between the surfaces (default 0: frictionless):
     /// IPC's lagged smoothed friction, its normal forces and tangent planes frozen at each
-    /// backward-Euler step's start.
+    /// backward-Euler or Newmark step's start (static and explicit runs refuse μ > 0).
     #[serde(default)]
     pub friction: Option<f64>,
     /// ε_v (m/s, > 0): friction's stick speed, relative tangential speeds below it creep

@@ -103,7 +103,7 @@ pub struct SurfaceBarrier {
     pub stiffness: f64,
     /// μ, the Coulomb coefficient between surface pairs (dimensionless, ≥ 0; default 0: no
     /// friction). Lagged once per implicit time step ([`super::friction`]); static solves
-    /// and explicit steps see none.
+    /// and explicit steps would see none, so `Combination::check` refuses μ > 0 there.
     pub friction: f64,
     /// ε_v, the slip velocity (m/s) below which a pair sticks (with a creep); `None`: the
     /// obstacles' default, [`crate::contact::set::SLIP_FRACTION`] of the mesh's bounding-box

@@ -311,6 +311,23 @@ fn bodies_of_their_own_meshes_and_materials_carry_their_own_momentum() {
     assert!(rows[4][ux] > 0.0, "{}", rows[4][ux]);
 }
 
+/// Friction between bodies in a static scene (where nothing lags it) is refused at its key.
+#[test]
+fn friction_between_bodies_in_a_static_scene_is_refused_at_its_key() {
+    let text = "[mesh.box]\nmax = [0.1, 0.1, 0.1]\ncells = [2, 2, 2]\n\n[material]\n\
+                youngs_modulus = 1e6\npoisson_ratio = 0.3\ndensity = 1000.0\n\n\
+                [[bodies]]\n\n[[bodies]]\ntranslation = [0.0, 0.0, 0.101]\n\n\
+                [self_contact]\nfriction = 0.3\n\n\
+                [[constraints]]\nwhere = { plane = { axis = \"z\", at = 0.0 } }\n\n\
+                [analysis]\ntype = \"static\"\nmodel = \"neo-hookean\"\n";
+    let err = text.parse::<Scene>().unwrap_err().to_string();
+    println!("{err}");
+    assert!(
+        err.contains("self_contact.friction") && err.contains("static"),
+        "{err}"
+    );
+}
+
 #[test]
 fn a_body_selection_names_the_bodies_there_are() {
     let text = UNEQUAL_BODIES.replace("where = { body = 1 }", "where = { body = 2 }");
