@@ -118,6 +118,8 @@ pub enum Warning {
     ImpactLosesEnergy {
         /// The integrator (a scene's `method` value).
         method: &'static str,
+        /// What the impacts are with: "obstacles" or "body–body contact".
+        contact: &'static str,
         /// The measured behaviour.
         measured: String,
     },
@@ -221,9 +223,11 @@ impl fmt::Display for Warning {
                 100.0 * decay,
                 100.0 * limit
             ),
-            Warning::ImpactLosesEnergy { method, measured } => {
-                write!(f, "method \"{method}\" with obstacles: {measured}")
-            }
+            Warning::ImpactLosesEnergy {
+                method,
+                contact,
+                measured,
+            } => write!(f, "method \"{method}\" with {contact}: {measured}"),
             Warning::AmplitudeVanishes { key, from, to } => write!(
                 f,
                 "{key} is 0 over the whole run (t = {} to {} s): what it scales never acts; \

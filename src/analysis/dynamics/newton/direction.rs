@@ -111,22 +111,27 @@ impl NewtonMatrix<'_> {
         }
         self.factor(u_new)?;
         stats.factorizations += 1;
-        let lumped = self.force.lumped_tangent_entries();
-        // The surface barrier counted w times (Newmark's end-point contact): the lumped entries
-        // of each of its w evaluations are the same, so the exact J holds w·v for each.
-        let weight = 1.0 + self.contact_extra.as_ref().map_or(0.0, |(_, extra)| *extra);
-        let lumped: Vec<_> = match weight == 1.0 {
-            true => lumped,
-            false => lumped
-                .into_iter()
-                .map(|(r, c, v)| (r, c, weight * v))
-                .collect(),
-        };
+        let lumped = self.weighted_lumped_entries();
         if lumped.is_empty() {
             self.solver.solve(self.matrix, delta)?;
             return Ok(());
         }
         solve_with_lumped(self.solver, self.matrix, &lumped, delta)
+    }
+
+    /// The tangent's lumped entries of the surface barrier as J holds them: counted w times
+    /// where the barrier is (Newmark's end-point contact, [`super::StepEquation::contact_weight`]):
+    /// each of its w evaluations lumps the same entries, so J holds w·v for each.
+    fn weighted_lumped_entries(&self) -> Vec<(usize, Option<usize>, f64)> {
+        let lumped = self.force.lumped_tangent_entries();
+        let weight = 1.0 + self.contact_extra.as_ref().map_or(0.0, |(_, extra)| *extra);
+        match weight == 1.0 {
+            true => lumped,
+            false => lumped
+                .into_iter()
+                .map(|(r, c, v)| (r, c, weight * v))
+                .collect(),
+        }
     }
 
     /// Forms the exact J and factors it: on `coupled`'s pattern when the tangent lumped
@@ -145,7 +150,7 @@ impl NewtonMatrix<'_> {
     ) -> Result<Factored> {
         for project in [false, true] {
             self.form(u_new, project)?;
-            let lumped = self.force.lumped_tangent_entries();
+            let lumped = self.weighted_lumped_entries();
             if lumped.is_empty() {
                 match self.solver.factorize(self.matrix) {
                     Err(tetfem_linalg::Error::NotPositiveDefinite { .. }) if !project => continue,
