@@ -11,8 +11,8 @@ use tetfem::fe::materials::MaterialMap;
 use tetfem::mesh::{Bodies, CellType, Placement, TetMesh};
 
 use crate::arrays;
+use crate::cells::{AnyMesh, Cells, on_cells};
 use crate::errors::{OrRaise, invalid};
-use crate::mesh::{AnyMesh, Cells, MeshData, on_cells};
 
 /// Each body's rotation `(axis, degrees)`, or `None` for none, as Python gives them.
 pub type Rotations<'py> = Option<Vec<Option<(Bound<'py, PyAny>, f64)>>>;
@@ -50,7 +50,7 @@ fn placement(
 /// bodies that overlap (the library's message names both bodies and a pair of triangles).
 pub fn place(
     py: Python<'_>,
-    meshes: &[&MeshData],
+    meshes: &[&AnyMesh],
     translations: Option<&Bound<'_, PyAny>>,
     rotations: Rotations<'_>,
 ) -> PyResult<(AnyMesh, BodyIds)> {
@@ -82,13 +82,13 @@ pub fn place(
     for i in 0..count {
         placements.push(placement(py, i, translations[i], rotations[i].as_ref())?);
     }
-    let order = meshes[0].mesh.order();
-    if let Some(i) = meshes.iter().position(|m| m.mesh.order() != order) {
+    let order = meshes[0].order();
+    if let Some(i) = meshes.iter().position(|m| m.order() != order) {
         let wanted = format!("must be {order}, the order of meshes[0]: place bodies of one order");
         return Err(invalid(
             py,
             &format!("meshes[{i}] order"),
-            meshes[i].mesh.order(),
+            meshes[i].order(),
             &wanted,
         ));
     }
@@ -109,14 +109,14 @@ pub fn place(
 
 /// The library's placement of meshes of one cell type (`cells` picks it from each mesh).
 fn joined<C: CellType>(
-    meshes: &[&MeshData],
+    meshes: &[&AnyMesh],
     placements: Vec<Placement>,
     cells: impl Fn(&AnyMesh) -> Option<&TetMesh<C>>,
 ) -> tetfem::Result<(TetMesh<C>, BodyIds)> {
     let parts = meshes
         .iter()
         .zip(placements)
-        .filter_map(|(m, p)| cells(&m.mesh).map(|m| (m.clone(), p)))
+        .filter_map(|(m, p)| cells(m).map(|m| (m.clone(), p)))
         .collect();
     let bodies = Bodies::new(parts)?;
     let ids = BodyIds {
@@ -126,15 +126,16 @@ fn joined<C: CellType>(
     Ok((bodies.mesh().clone(), ids))
 }
 
-/// The surface barrier of `data`'s mesh and each node's body (all body 0 for a mesh not made
-/// by `Mesh.bodies`): d̂ = `distance` and κ = `stiffness` where given, the library's defaults
-/// from the surface and the stiffest of `materials` otherwise.
+/// The surface barrier of `mesh` and each node's body (`bodies`, or all body 0 for a mesh not
+/// made by `Mesh.bodies`): d̂ = `distance` and κ = `stiffness` where given, the library's defaults
+/// from the surface and the stiffest of `materials` otherwise; Coulomb's μ = `friction`
+/// between the surfaces (0: none).
 pub fn surface_contact_of(
     py: Python<'_>,
-    data: &MeshData,
+    (mesh, bodies): (&AnyMesh, Option<&BodyIds>),
     materials: &MaterialMap,
-    distance: Option<f64>,
-    stiffness: Option<f64>,
+    (distance, stiffness): (Option<f64>, Option<f64>),
+    friction: f64,
 ) -> PyResult<(SurfaceBarrier, Vec<usize>)> {
     let stiffest = materials
         .materials()
@@ -143,13 +144,14 @@ pub fn surface_contact_of(
         .fold(0.0, f64::max);
     let barrier = py
         .detach(|| {
-            let surface = on_cells!(&data.mesh, m => Surface::from_mesh(m))?;
-            SurfaceBarrier::scaled_to(&surface, stiffest, distance, stiffness)
+            let surface = on_cells!(mesh, m => Surface::from_mesh(m))?;
+            SurfaceBarrier::scaled_to(&surface, stiffest, distance, stiffness)?
+                .with_friction(friction)
         })
         .or_raise(py)?;
-    let body_of_node = match &data.bodies {
+    let body_of_node = match bodies {
         Some(ids) => ids.of_node.clone(),
-        None => vec![0; data.mesh.node_count()],
+        None => vec![0; mesh.node_count()],
     };
     Ok((barrier, body_of_node))
 }

@@ -9,6 +9,7 @@ use pyo3::prelude::*;
 mod amplitude;
 mod arrays;
 mod bodies;
+mod cells;
 mod constraints;
 mod contact;
 mod errors;

@@ -11,79 +11,14 @@ use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use tetfem::fe::element::Tet10;
 use tetfem::mesh::io::{ImportedMesh, MeshFile, PhysicalGroup, TET10_KEPT_AS_CORNERS};
-use tetfem::mesh::{BoundaryFace, CellType, NodeList, Tet4, TetMesh};
+use tetfem::mesh::{BoundaryFace, CellType, Tet4, TetMesh};
 
 use crate::arrays::{self, floats, index_rows, index_vector, indices};
 use crate::errors::{OrRaise, invalid, raise};
 use crate::names;
 
-/// A value of each cell type: of the 4-node tet (`P1`, order 1) or of the 10-node tet (`P2`,
-/// order 2). [`on_cells!`] runs one generic expression on either.
-#[derive(Debug)]
-pub enum Cells<A, B> {
-    /// Of the 4-node tet.
-    P1(A),
-    /// Of the 10-node tet.
-    P2(B),
-}
-
-/// A validated mesh of either cell type.
-pub type AnyMesh = Cells<TetMesh, TetMesh<Tet10>>;
-
-/// A mesh read from a file, of either cell type.
-pub type AnyImported = Cells<ImportedMesh, ImportedMesh<Tet10>>;
-
-/// `on_cells!(value, m => body)`: `body` with `m` bound to the contents of a [`Cells`] value,
-/// compiled once per cell type (the one dispatch of every call on a mesh of either order).
-macro_rules! on_cells {
-    ($value:expr, $m:ident => $body:expr) => {
-        match $value {
-            $crate::mesh::Cells::P1($m) => $body,
-            $crate::mesh::Cells::P2($m) => $body,
-        }
-    };
-}
-pub(crate) use on_cells;
-
-impl AnyMesh {
-    /// The element order: 1 (4-node tets) or 2 (10-node tets).
-    pub fn order(&self) -> usize {
-        match self {
-            Cells::P1(_) => 1,
-            Cells::P2(_) => 2,
-        }
-    }
-
-    /// Number of nodes (corners and, of order 2, edge nodes).
-    pub fn node_count(&self) -> usize {
-        on_cells!(self, m => m.node_count())
-    }
-
-    /// Number of tets.
-    pub fn tet_count(&self) -> usize {
-        on_cells!(self, m => m.tet_count())
-    }
-
-    /// Degrees of freedom: 3 per node.
-    pub fn dof_count(&self) -> usize {
-        on_cells!(self, m => m.dof_count())
-    }
-
-    /// Node coordinates (length units).
-    pub fn nodes(&self) -> &[Vector3<f64>] {
-        on_cells!(self, m => m.nodes())
-    }
-
-    /// The four corner nodes of every tet.
-    pub fn corners(&self) -> Vec<[usize; 4]> {
-        on_cells!(self, m => m.tets().iter().map(NodeList::corners).collect())
-    }
-
-    /// (min, max) corners of the bounding box (length units).
-    pub fn bounding_box(&self) -> (Vector3<f64>, Vector3<f64>) {
-        on_cells!(self, m => m.bounding_box())
-    }
-}
+pub(crate) use crate::cells::on_cells;
+pub use crate::cells::{AnyImported, AnyMesh, Cells};
 
 /// A mesh with what selections and loads need: its boundary faces (outward oriented) and, for
 /// a mesh read from a file, the file's groups, markers and attributes.
@@ -609,7 +544,7 @@ impl PyMesh {
         translations: Option<&Bound<'_, PyAny>>,
         rotations: crate::bodies::Rotations<'_>,
     ) -> PyResult<Self> {
-        let parts: Vec<&MeshData> = meshes.iter().map(|m| &*m.data).collect();
+        let parts: Vec<&AnyMesh> = meshes.iter().map(|m| &m.data.mesh).collect();
         let (mesh, ids) = crate::bodies::place(py, &parts, translations, rotations)?;
         let mut data = py.detach(|| MeshData::new(mesh, None)).or_raise(py)?;
         data.bodies = Some(ids);

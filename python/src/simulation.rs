@@ -58,7 +58,9 @@ fn energy_dict<'py>(py: Python<'py>, e: &Energy) -> PyResult<Bound<'py, PyDict>>
 /// ``Mesh.bodies`` mesh and inside each (body–body and self-contact: no iterate intersects);
 /// ``self_contact_distance`` is its d̂ (m, default a tenth of the shortest surface edge at rest)
 /// and ``self_contact_stiffness`` its κ (J/m², default the stiffest E times the mean surface
-/// edge); the methods that carry it are the library's rule (others raise naming it). Give
+/// edge), ``self_contact_friction`` Coulomb's μ between the surfaces (lagged per step of
+/// backward Euler and Newmark; the explicit method refuses μ > 0); the methods that carry it
+/// are the library's rule (others raise naming it). Give
 /// each body its own velocity with ``initial_velocity=v[mesh.body_of_node]``. Steps run with the GIL released; Ctrl-C stops ``run`` and ``step`` with
 /// ``KeyboardInterrupt`` between steps or inside a step's iterations, the state left at the
 /// last completed step. While ``run`` or ``step`` works in one thread, every call from another
@@ -370,7 +372,7 @@ impl PySimulation {
 #[pymethods]
 impl PySimulation {
     #[new]
-    #[pyo3(signature = (mesh, material, constraints, loads = None, *, dt, method = "backward-euler", model = "linear", mass = "lumped", damping = (0.0, 0.0), initial_displacement = None, initial_velocity = None, linear_solver = "auto", obstacles = None, contact_distance = None, contact_stiffness = None, self_contact = false, self_contact_distance = None, self_contact_stiffness = None))]
+    #[pyo3(signature = (mesh, material, constraints, loads = None, *, dt, method = "backward-euler", model = "linear", mass = "lumped", damping = (0.0, 0.0), initial_displacement = None, initial_velocity = None, linear_solver = "auto", obstacles = None, contact_distance = None, contact_stiffness = None, self_contact = false, self_contact_distance = None, self_contact_stiffness = None, self_contact_friction = 0.0))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         py: Python<'_>,
@@ -392,6 +394,7 @@ impl PySimulation {
         self_contact: bool,
         self_contact_distance: Option<f64>,
         self_contact_stiffness: Option<f64>,
+        self_contact_friction: f64,
     ) -> PyResult<Self> {
         let data = Arc::clone(&mesh.get().data);
         check_same_mesh(py, &data, &constraints, loads.as_deref())?;
@@ -421,10 +424,10 @@ impl PySimulation {
         let surface = match self_contact {
             true => Some(crate::bodies::surface_contact_of(
                 py,
-                &data,
+                (&data.mesh, data.bodies.as_ref()),
                 &materials,
-                self_contact_distance,
-                self_contact_stiffness,
+                (self_contact_distance, self_contact_stiffness),
+                self_contact_friction,
             )?),
             false => None,
         };

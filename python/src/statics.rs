@@ -167,7 +167,8 @@ pub fn check_same_mesh(
 /// solve's load steps follow the motions (rigid ones by exact rotations). ``self_contact=True``:
 /// the surface barrier between the bodies of a ``Mesh.bodies`` mesh and inside each (as in
 /// ``Simulation``), solved by Newton in the load steps; a body the supports leave free must
-/// start within the barrier's d̂ of the one it rests on.
+/// start within the barrier's d̂ of the one it rests on (``self_contact_friction`` > 0 raises:
+/// nothing in a static solve lags friction between bodies).
 /// ``tolerance``: the relative residual asked for, ‖r_f‖ ≤
 /// ``tolerance``·‖f_f‖ (the linear solve's ‖K_ff·u_f − r_f‖/‖r_f‖, or Newton's residual over
 /// the load); a solve that ends above it raises ``SolverError`` naming the tolerance and the
@@ -178,7 +179,7 @@ pub fn check_same_mesh(
 /// raises ``KeyboardInterrupt`` between two iterations. Raises ``NotConstrainedError`` when
 /// the constraints leave a rigid-body motion, ``SolverError`` when the solve fails.
 #[pyfunction]
-#[pyo3(signature = (mesh, material, constraints, loads, model = "linear", linear_solver = "auto", load_steps = 10, tolerance = None, max_iterations = 30, obstacles = None, contact_distance = None, contact_stiffness = None, self_contact = false, self_contact_distance = None, self_contact_stiffness = None))]
+#[pyo3(signature = (mesh, material, constraints, loads, model = "linear", linear_solver = "auto", load_steps = 10, tolerance = None, max_iterations = 30, obstacles = None, contact_distance = None, contact_stiffness = None, self_contact = false, self_contact_distance = None, self_contact_stiffness = None, self_contact_friction = 0.0))]
 #[allow(clippy::too_many_arguments)]
 pub fn solve_static(
     py: Python<'_>,
@@ -197,6 +198,7 @@ pub fn solve_static(
     self_contact: bool,
     self_contact_distance: Option<f64>,
     self_contact_stiffness: Option<f64>,
+    self_contact_friction: f64,
 ) -> PyResult<StaticResult> {
     let data = &mesh.get().data;
     check_same_mesh(py, data, &constraints, Some(&loads))?;
@@ -222,10 +224,10 @@ pub fn solve_static(
     let surface = match self_contact {
         true => Some(crate::bodies::surface_contact_of(
             py,
-            data,
+            (&data.mesh, data.bodies.as_ref()),
             &materials,
-            self_contact_distance,
-            self_contact_stiffness,
+            (self_contact_distance, self_contact_stiffness),
+            self_contact_friction,
         )?),
         false => None,
     };

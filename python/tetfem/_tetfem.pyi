@@ -309,6 +309,7 @@ class Simulation:
         self_contact: bool = False,
         self_contact_distance: Optional[float] = None,
         self_contact_stiffness: Optional[float] = None,
+        self_contact_friction: float = 0.0,
     ) -> "Simulation": ...
     def step(self) -> None: ...
     def run(
@@ -374,6 +375,7 @@ def solve_static(
     self_contact: bool = False,
     self_contact_distance: Optional[float] = None,
     self_contact_stiffness: Optional[float] = None,
+    self_contact_friction: float = 0.0,
 ) -> StaticResult: ...
 def solve_static_mixed(
     mesh: Mesh,
