@@ -137,11 +137,7 @@ pub fn surface_contact_of(
     (distance, stiffness): (Option<f64>, Option<f64>),
     friction: f64,
 ) -> PyResult<(SurfaceBarrier, Vec<usize>)> {
-    let stiffest = materials
-        .materials()
-        .iter()
-        .map(|m| m.youngs_modulus())
-        .fold(0.0, f64::max);
+    let stiffest = materials.stiffest_youngs_modulus();
     let barrier = py
         .detach(|| {
             let surface = on_cells!(mesh, m => Surface::from_mesh(m))?;

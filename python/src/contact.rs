@@ -246,11 +246,7 @@ pub fn contact_of(
     let Some(obstacles) = obstacles.filter(|o| !o.is_empty()) else {
         return Ok(None);
     };
-    let stiffest = materials
-        .materials()
-        .iter()
-        .map(|m| m.youngs_modulus())
-        .fold(0.0, f64::max);
+    let stiffest = materials.stiffest_youngs_modulus();
     let obstacles: Vec<Obstacle> = obstacles.iter().map(|o| o.obstacle.clone()).collect();
     // On either element order: on 10-node tets the contact points are the boundary's corner
     // and mid-edge nodes (`Contact::new`).

@@ -165,6 +165,15 @@ impl MaterialMap {
         &self.materials
     }
 
+    /// The largest Young's modulus among the materials (Pa; 0 for none): the scale of the
+    /// contact barriers' default stiffness, which must hold the stiffest surface.
+    pub fn stiffest_youngs_modulus(&self) -> f64 {
+        self.materials
+            .iter()
+            .map(|m| m.youngs_modulus())
+            .fold(0.0, f64::max)
+    }
+
     /// The name of each material (for messages: `"group 'steel'"`, `"materials[1]"`, …).
     pub fn names(&self) -> &[String] {
         &self.names

@@ -214,7 +214,7 @@ impl Scene {
         let body_of_tet = placed.as_ref().map(|p| p.body_of_tet.as_slice());
         let (materials, default) = self.materials(&mesh, imported.as_ref(), body_of_tet)?;
         let bodies = placed
-            .map(|p| self.finish_bodies(p, &mesh, super::obstacles::stiffest(&materials)))
+            .map(|p| self.finish_bodies(p, &mesh, materials.stiffest_youngs_modulus()))
             .transpose()?;
         let boundary = mesh.boundary_faces()?;
         let material = default.unwrap_or(materials.materials()[0]);

@@ -26,7 +26,7 @@ pub(super) fn scene_contact<E: SceneElement>(
         .map(|o| o.span())
         .unwrap_or_default();
     scene
-        .contact(&built.mesh, super::obstacles::stiffest(&built.materials))?
+        .contact(&built.mesh, built.materials.stiffest_youngs_modulus())?
         .ok_or_else(|| scene.error("obstacles", &span, "no obstacle".to_string()))
 }
 

@@ -408,16 +408,6 @@ impl Scene {
     }
 }
 
-/// The stiffest Young's modulus (Pa) of `materials`: the barrier's default κ = E/h must hold the
-/// stiffest surface.
-pub(crate) fn stiffest(materials: &tetfem::MaterialMap) -> f64 {
-    materials
-        .materials()
-        .iter()
-        .map(|m| m.youngs_modulus())
-        .fold(0.0, f64::max)
-}
-
 /// Where a half-space obstacle's tile is drawn (see [`write_obstacles_vtp`]): centred under the
 /// body's bounding-box centre, with a side of three times its diagonal (length units), so that
 /// the body and its swing stand on it.

@@ -213,7 +213,7 @@ pub(super) fn run_static_on<E: SceneElement>(
     // With obstacles every model (the linear one too) goes through the contact Newton solve:
     // the library's one dispatch (tetfem::analysis::Static) decides.
     let contact = match scene.has_obstacles() {
-        true => scene.contact(&built.mesh, super::obstacles::stiffest(&built.materials))?,
+        true => scene.contact(&built.mesh, built.materials.stiffest_youngs_modulus())?,
         false => None,
     };
     let definition = built.definition(scene.model(), contact)?;
