@@ -156,8 +156,13 @@ impl Material {
     /// ν > [`NEARLY_INCOMPRESSIBLE_POISSON`](crate::base::warning::NEARLY_INCOMPRESSIBLE_POISSON).
     pub fn warnings(&self) -> Vec<crate::base::warning::Warning> {
         if self.poisson_ratio() > crate::base::warning::NEARLY_INCOMPRESSIBLE_POISSON {
+            let loss = |order| {
+                crate::fe::locking::expected_locking_loss(self.poisson_ratio(), order)
+                    .unwrap_or(f64::NAN)
+            };
             vec![crate::base::warning::Warning::NearlyIncompressible {
                 poisson_ratio: self.poisson_ratio(),
+                expected_loss: [loss(1), loss(2)],
             }]
         } else {
             Vec::new()

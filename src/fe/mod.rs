@@ -3,10 +3,11 @@
 //! 4- and 10-node tets ([`element`]), quadrature rules ([`quadrature`]), per-tet quality and
 //! the mesh's warnings ([`quality`]: it asks the element seam, so it is here and not in
 //! `mesh`), and the global stiffness and masses refilled on a pattern built once
-//! ([`assembly`]).
+//! ([`assembly`]), and the displacement elements' measured volumetric locking ([`locking`]).
 
 pub mod assembly;
 pub mod element;
+pub mod locking;
 pub mod material;
 pub mod materials;
 pub mod quadrature;

@@ -37,6 +37,7 @@ mod explicit_contact;
 mod gmsh_element_lines;
 mod gravity;
 mod large_deformation_robustness;
+mod locking_curve;
 mod memory_tet10;
 mod mesh;
 mod mesh_io;

@@ -379,9 +379,17 @@ fn density_must_be_positive() {
 fn poisson_ratio_close_to_one_half_is_allowed_with_a_locking_warning() {
     let rubber = Material::new(1e6, 0.499, 1000.0).unwrap();
     match rubber.warnings().as_slice() {
-        [w @ Warning::NearlyIncompressible { poisson_ratio }] => {
+        [
+            w @ Warning::NearlyIncompressible {
+                poisson_ratio,
+                expected_loss,
+            },
+        ] => {
             assert_eq!(*poisson_ratio, 0.499);
+            // ν = 0.499 is a point of the measured curve: its losses exactly.
+            assert_eq!(*expected_loss, [0.38049, 0.002385]);
             assert!(w.to_string().contains("lock"), "{w}");
+            assert!(w.to_string().contains("38.05 %"), "{w}");
         }
         other => panic!("expected NearlyIncompressible, got {other:?}"),
     }
