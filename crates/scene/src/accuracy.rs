@@ -106,6 +106,13 @@ pub struct AccuracyReport {
     /// What the estimate is of: the linear problem, or the run of the scene's nonlinear model
     /// (the Green strain's error, on its second Piola–Kirchhoff stress).
     pub estimate_of: String,
+    /// The share of the displacement (0–1) the chosen order is expected to lose to volumetric
+    /// locking at the scene's largest Poisson's ratio
+    /// ([`expected_locking_loss`](tetfem::fe::locking::expected_locking_loss)): the ZZ
+    /// estimate does not see it (a locked solution is smooth), so an order whose loss passes
+    /// the target is not chosen while the other's does not, and the summary warns when the
+    /// chosen one's does.
+    pub locking_loss: f64,
 }
 
 /// `[analysis] accuracy` and `max_dofs` as written, with their positions.
@@ -206,6 +213,7 @@ pub(crate) fn run_accuracy(
         _ => check_file_mesh(scene, target)?,
     };
     report.estimate_of = estimate_of;
+    report.locking_loss = locking_loss(scene, report.order);
     // The run reported: the chosen one again with the scene's outputs (the trials write no
     // files), unless it is already that run.
     if !options.no_files {
@@ -226,6 +234,18 @@ pub(crate) fn run_accuracy(
             report.reason
         ));
     }
+    if report.locking_loss > report.target {
+        summary.warnings.push(format!(
+            "accuracy: the error estimate does not see volumetric locking, and at Poisson's \
+             ratio {} order {} is expected to lose {:.2} % of the displacement to it (measured \
+             on Lamé's tube), more than the target {:.3} %; use formulation = \"mixed\" (10-node \
+             tets), which does not lock",
+            largest_poisson_ratio(scene),
+            report.order,
+            100.0 * report.locking_loss,
+            100.0 * report.target
+        ));
+    }
     summary.accuracy = Some(report);
     if let Some(json) = summary
         .files
@@ -236,6 +256,19 @@ pub(crate) fn run_accuracy(
         write_atomically(&json, |w| writeln!(w, "{}", summary.to_json()))?;
     }
     Ok(summary)
+}
+
+/// The largest Poisson's ratio of the scene's materials (`[material]` and `[[materials]]`).
+fn largest_poisson_ratio(scene: &Scene) -> f64 {
+    let spec = scene.spec();
+    (spec.material.iter().map(|m| m.get_ref().poisson_ratio))
+        .chain(spec.materials.iter().map(|m| m.get_ref().poisson_ratio))
+        .fold(0.0, f64::max)
+}
+
+/// The expected locking loss of `order` at the scene's largest ν (0 below the curve's range).
+fn locking_loss(scene: &Scene, order: usize) -> f64 {
+    tetfem::fe::locking::expected_locking_loss(largest_poisson_ratio(scene), order).unwrap_or(0.0)
 }
 
 /// The scene at element `order` on `cells` (box meshes) with force model `model`.
@@ -344,15 +377,22 @@ fn choose_box(
         .iter()
         .map(|(t, _)| predict(t, target, DEFAULT_COST_EXPONENT))
         .collect();
-    // The cheapest within the cap; if none fits, the one predicted lowest at the cap.
+    // The cheapest within the cap; if none fits, the one predicted lowest at the cap. An
+    // order expected to lose more than the target to locking is passed over while another is
+    // not (no refinement the rates predict removes locking).
     let at_cap = |t: &AccuracyTrial| {
         t.estimate * (target.max_dofs as f64 / t.dofs as f64).powf(-(t.order as f64) / 3.0)
     };
+    let unlocked = |i: &usize| locking_loss(scene, last[*i].0.order) <= target.target;
+    let any_unlocked = (0..last.len()).any(|i| unlocked(&i));
     let chosen = (0..last.len())
+        .filter(|i| unlocked(i) || !any_unlocked)
         .filter(|&i| predictions[i].within_cap)
         .min_by(|&i, &j| predictions[i].seconds.total_cmp(&predictions[j].seconds))
         .or_else(|| {
-            (0..last.len()).min_by(|&i, &j| at_cap(&last[i].0).total_cmp(&at_cap(&last[j].0)))
+            (0..last.len())
+                .filter(|i| unlocked(i) || !any_unlocked)
+                .min_by(|&i, &j| at_cap(&last[i].0).total_cmp(&at_cap(&last[j].0)))
         })
         .unwrap_or(0);
     let describe = |p: &AccuracyPrediction| {
@@ -379,6 +419,21 @@ fn choose_box(
             .collect::<Vec<_>>()
             .join("; ")
     );
+    for (t, _) in last
+        .iter()
+        .filter(|(t, _)| any_unlocked && t.order != last[chosen].0.order)
+    {
+        let loss = locking_loss(scene, t.order);
+        if loss > target.target {
+            reason.push_str(&format!(
+                "; order {} passed over: at ν = {} it is expected to lose {:.2} % of the \
+                 displacement to volumetric locking, which no refinement the rates predict removes",
+                t.order,
+                largest_poisson_ratio(scene),
+                100.0 * loss
+            ));
+        }
+    }
     let (mut best, mut summary) = last.swap_remove(chosen);
     let order = best.order;
     let mut met = best.estimate <= target.target;
@@ -416,6 +471,7 @@ fn choose_box(
             met,
             reason,
             estimate_of: String::new(),
+            locking_loss: 0.0,
         },
         summary,
     ))
@@ -450,6 +506,7 @@ fn check_file_mesh(scene: &Scene, target: AccuracyTarget) -> Result<(AccuracyRep
             met,
             reason,
             estimate_of: String::new(),
+            locking_loss: 0.0,
         },
         summary,
     ))
