@@ -40,7 +40,7 @@ use crate::analysis::problem::Problem;
 use crate::base::error::{Error, Result};
 use crate::bc::constraints::Constraints;
 use crate::bc::loads::Loads;
-use crate::fe::element::taylor_hood::{Coupling, PRESSURE_NODES, PressureNodes};
+use crate::fe::element::taylor_hood::{PRESSURE_NODES, PressureNodes, pressure_mass};
 use crate::fe::element::taylor_hood_neo_hookean::{MixedElementState, mixed_neo_hookean};
 use crate::fe::element::tet10::Tet10Rest;
 use crate::fe::element::{ElementType, Tet10};
@@ -165,7 +165,7 @@ pub fn solve_static_mixed_nonlinear(
     Ok(MixedNewtonReport {
         relative_residual,
         reactions,
-        pressure: nodal_pressure(
+        pressure: nodal_pressure::<Tet10>(
             mesh.tets(),
             &system.pressure_nodes,
             mesh.node_count(),
@@ -299,14 +299,13 @@ impl<'a> MixedSystem<'a> {
             &mut stiffness,
         )?;
         let free_stiffness = self.problem.restrict(&stiffness)?;
-        let couplings: Vec<Coupling> = states.iter().map(|s| s.coupling).collect();
         let matrix = saddle_point_matrix(
             self.mesh,
             &free_stiffness,
             self.problem.dofs(),
             &self.pressure_nodes,
-            &couplings,
-            |t| self.moduli[t].1,
+            |t, k, i, a| states[t].coupling[k][i][a],
+            |t, k, l| self.moduli[t].1 * pressure_mass(&self.rests[t], k, l),
         )?;
         Ok(Some((residual, Some(matrix))))
     }

@@ -486,6 +486,7 @@ fn the_library_refuses_what_the_mixed_element_cannot_do_naming_the_pair() {
         (
             Combination {
                 order: 1,
+                model: ModelKind::NeoHookean,
                 ..mixed.clone()
             },
             "formulation mixed with element order",
