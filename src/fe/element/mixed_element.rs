@@ -3,8 +3,8 @@
 //! [K_dev −Bᵀ; −B −C] with a continuous linear pressure on its four corners.
 //!
 //! Two elements implement it: the 10-node Taylor–Hood P2–P1 tet
-//! ([`taylor_hood`](super::taylor_hood), C = M_p/κ) and the 4-node stabilized P1–P1 tet
-//! ([`stabilized_p1`](super::stabilized_p1), C = M_p/κ + the projection stabilization).
+//! ([`taylor_hood`], C = M_p/κ) and the 4-node stabilized P1–P1 tet
+//! ([`stabilized_p1`], C = M_p/κ + the projection stabilization).
 
 use nalgebra::SMatrix;
 
