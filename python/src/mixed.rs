@@ -1,6 +1,6 @@
 //! `tetfem.solve_static_mixed`: the mixed displacement–pressure static solve for nearly
-//! incompressible materials (Taylor–Hood P2–P1 on 10-node tets, linear or Neo-Hookean; the
-//! stabilized P1–P1 on 4-node tets, linear).
+//! incompressible materials, linear or Neo-Hookean (Taylor–Hood P2–P1 on 10-node tets, the
+//! stabilized P1–P1 on 4-node tets).
 
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
@@ -20,8 +20,7 @@ use crate::statics::check_same_mesh;
 /// Static equilibrium in the mixed displacement–pressure form with a continuous linear
 /// pressure: no volumetric locking as Poisson's ratio → 0.5. ``mesh``: 10-node tets
 /// (``order=2``: Taylor–Hood P2–P1, quadratic displacement) or 4-node tets (``order=1``: the
-/// stabilized P1–P1 of Dohrmann–Bochev, linear displacement, the linear model only; a
-/// Neo-Hookean ``model`` on it raises ``InvalidInputError``). ``material``: a ``Material`` or a ``MaterialMap``
+/// stabilized P1–P1 of Dohrmann–Bochev, linear displacement). ``material``: a ``Material`` or a ``MaterialMap``
 /// (ν < 0.5). ``model``: ``"linear"`` (one LDLᵀ solve of the quasi-definite saddle system) or
 /// ``"neo-hookean"`` (Simo–Taylor's mixed form at large deformation, Newton in ``load_steps``
 /// increments of at most ``max_iterations`` each, to a relative residual of 1e-10). What may

@@ -89,9 +89,9 @@ def test_what_the_mixed_element_cannot_do_is_refused_by_name():
     rubber = tetfem.Material(E, NU, 1100.0)
     linear_mesh = tetfem.Mesh.box(max=(1.0, 1.0, 1.0), cells=(2, 2, 2))
     constraints = tetfem.Constraints(linear_mesh).fix(linear_mesh.nodes_on_plane("z", 0.0))
-    with pytest.raises(tetfem.InvalidInputError, match="10-node"):
+    with pytest.raises(tetfem.InvalidInputError, match="corotational"):
         loads = tetfem.Loads(linear_mesh)
-        tetfem.solve_static_mixed(linear_mesh, rubber, constraints, loads, model="neo-hookean")
+        tetfem.solve_static_mixed(linear_mesh, rubber, constraints, loads, model="corotational")
     mesh = tetfem.Mesh.box(max=(1.0, 1.0, 1.0), cells=(2, 2, 2), order=2)
     constraints = tetfem.Constraints(mesh).fix(mesh.nodes_on_plane("z", 0.0))
     with pytest.raises(tetfem.InvalidInputError, match="corotational"):

@@ -17,9 +17,8 @@
 //!   would leave that bound's range or cross;
 //! - the mixed displacement–pressure formulation ([`Formulation::Mixed`]) with what it does not
 //!   compute: an analysis other than static, a model other than the linear and the Neo-Hookean
-//!   one, 4-node tets with the Neo-Hookean model (there the mixed element is the stabilized
-//!   P1–P1, linear only), obstacles, and with the Neo-Hookean model supports that move (its
-//!   load steps scale prescribed values by λ).
+//!   one, obstacles, and with the Neo-Hookean model supports that move (its load steps scale
+//!   prescribed values by λ).
 //!
 //! Combinations that run but whose behaviour the user should know of give a [`Warning`]:
 //! Newmark (average acceleration) with obstacles or with body–body contact loses energy at
@@ -73,10 +72,10 @@ pub enum Formulation {
     /// Displacement only (the default): every element order, analysis and model.
     #[default]
     Displacement,
-    /// Displacement and pressure (no volumetric locking as ν → 0.5), static: on 10-node tets
-    /// Taylor–Hood P2–P1 with the linear model ([`crate::MixedStaticSolver`]) or the
-    /// Neo-Hookean one ([`crate::analysis::mixed_nonlinear`]), on 4-node tets the stabilized
-    /// P1–P1 with the linear model.
+    /// Displacement and pressure (no volumetric locking as ν → 0.5), static, with the linear
+    /// model ([`crate::MixedStaticSolver`]) or the Neo-Hookean one
+    /// ([`crate::analysis::mixed_nonlinear`]): Taylor–Hood P2–P1 on 10-node tets, the
+    /// stabilized P1–P1 on 4-node tets.
     Mixed,
 }
 
@@ -237,15 +236,6 @@ impl Combination {
                 "model",
                 self.model.name().to_string(),
                 "has the linear and the Neo-Hookean model only",
-            );
-        }
-        if self.order == 1 && self.model != ModelKind::Linear {
-            // Order 1 is the stabilized P1–P1 element, built for the linear model only.
-            return refuse(
-                "element order",
-                self.order.to_string(),
-                "with the Neo-Hookean model needs 10-node tets (order 2); on 4-node tets the \
-                 mixed element is the stabilized P1–P1, linear model only",
             );
         }
         if self.obstacles {

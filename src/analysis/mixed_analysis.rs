@@ -5,10 +5,9 @@
 //! call this and decide nothing.
 
 use crate::analysis::combination::{Analysis, Combination, Formulation};
-use crate::analysis::mixed_nonlinear::{MixedNewtonReport, solve_static_mixed_nonlinear};
+use crate::analysis::mixed_nonlinear::solve_static_mixed_nonlinear;
 use crate::analysis::mixed_statics::{MixedStaticSolution, MixedStaticSolver};
 use crate::analysis::nonlinear::NewtonOptions;
-use crate::base::error::Error;
 use crate::base::error::Result;
 use crate::bc::constraints::Constraints;
 use crate::bc::loads::Loads;
@@ -31,60 +30,23 @@ pub struct MixedOutcome {
     pub newton_iterations: Option<usize>,
 }
 
-/// A mixed element with its element order and its Neo-Hookean static solve, if it has one.
+/// A mixed element with its element order in [`Combination`].
 pub trait MixedStaticElement: MixedElement {
-    /// The element order of [`Combination`]: 1 (4-node) or 2 (10-node).
+    /// The element order: 1 (4-node, stabilized P1–P1) or 2 (10-node, Taylor–Hood).
     const ORDER: usize;
-
-    /// The Neo-Hookean mixed static solve on this element ([`solve_static_mixed_nonlinear`]
-    /// on 10-node tets); an error naming the pair where there is none.
-    fn solve_neo_hookean(
-        mesh: &TetMesh<Self>,
-        materials: &impl TetMaterials,
-        constraints: &Constraints,
-        loads: &Loads,
-        options: NewtonOptions,
-    ) -> Result<MixedNewtonReport>;
 }
 
 impl MixedStaticElement for Tet10 {
     const ORDER: usize = 2;
-
-    fn solve_neo_hookean(
-        mesh: &TetMesh<Self>,
-        materials: &impl TetMaterials,
-        constraints: &Constraints,
-        loads: &Loads,
-        options: NewtonOptions,
-    ) -> Result<MixedNewtonReport> {
-        solve_static_mixed_nonlinear(mesh, materials, constraints, loads, options)
-    }
 }
 
 impl MixedStaticElement for Tet4 {
     const ORDER: usize = 1;
-
-    /// None yet: [`Combination::check`] refuses the Neo-Hookean model with order 1 before
-    /// this is reached; the same refusal here keeps the rule in one wording.
-    fn solve_neo_hookean(
-        _: &TetMesh<Self>,
-        _: &impl TetMaterials,
-        _: &Constraints,
-        _: &Loads,
-        _: NewtonOptions,
-    ) -> Result<MixedNewtonReport> {
-        Err(Error::invalid_parameter(
-            "formulation mixed with model",
-            "neo-hookean",
-            "the stabilized P1–P1 element (order 1) has the linear model only; use 10-node \
-             tets (order 2) for the Neo-Hookean one",
-        ))
-    }
 }
 
 /// The mixed static solve of `model` on `mesh` (10-node tets: Taylor–Hood P2–P1; 4-node tets:
-/// stabilized P1–P1, the linear model only; see the [module](self) docs); `options` are
-/// Newton's (load steps, tolerance, iterations), unused by the linear model.
+/// stabilized P1–P1; see the [module](self) docs); `options` are Newton's (load steps,
+/// tolerance, iterations), unused by the linear model.
 ///
 /// Errors: a combination the mixed element does not compute ([`Combination::check`], naming
 /// the pair; `moving_supports` says whether a support follows a motion); those of
@@ -116,7 +78,7 @@ pub fn solve_static_mixed_model<E: MixedStaticElement>(
             newton_iterations: None,
         });
     }
-    let report = E::solve_neo_hookean(mesh, materials, constraints, loads, options)?;
+    let report = solve_static_mixed_nonlinear(mesh, materials, constraints, loads, options)?;
     Ok(MixedOutcome {
         solution: MixedStaticSolution {
             displacement: report.displacement,

@@ -8,6 +8,8 @@
 
 use nalgebra::SMatrix;
 
+use super::stabilized_p1_neo_hookean::{StabilizedElementState, stabilized_neo_hookean};
+use super::taylor_hood_neo_hookean::{MixedElementState, mixed_neo_hookean};
 use super::{ElementType, Tet4, Tet10, stabilized_p1, taylor_hood};
 
 /// A mixed element: a displacement element whose four corners also carry the pressure.
@@ -40,6 +42,32 @@ pub trait MixedElement: ElementType {
         k: usize,
         l: usize,
     ) -> f64;
+
+    /// The element's Neo-Hookean state: residuals R_u, R_p and tangent blocks K_uu, G.
+    type State: Send + Sync;
+
+    /// The Neo-Hookean mixed state at node-major displacement `u` (3·NODES values, length)
+    /// and corner pressures `p` (Pa) for μ `shear_modulus` (Pa) and 1/κ `inverse_bulk`
+    /// (1/Pa); `None` where the tet is inverted.
+    fn neo_hookean(
+        rest: &Self::Rest,
+        u: &[f64],
+        p: &[f64; 4],
+        shear_modulus: f64,
+        inverse_bulk: f64,
+    ) -> Option<Self::State>;
+
+    /// R_u of `state`: internal nodal forces (force), node-major.
+    fn state_force(state: &Self::State) -> &[f64];
+
+    /// R_p of `state` per corner (length³).
+    fn state_pressure_residual(state: &Self::State) -> &[f64; 4];
+
+    /// K_uu of `state` (force/length), in the layout of [`Self::deviatoric_stiffness`].
+    fn state_stiffness(state: &Self::State) -> Self::Deviatoric;
+
+    /// G of `state` (length²), read by [`Self::coupling_entry`].
+    fn state_coupling(state: &Self::State) -> &Self::Coupling;
 }
 
 /// Taylor–Hood P2–P1: C = M_p/κ.
@@ -64,6 +92,35 @@ impl MixedElement for Tet10 {
     /// (1/κ)·V(1 + δ_kl)/20.
     fn pressure_block(rest: &Self::Rest, _: f64, inverse_bulk: f64, k: usize, l: usize) -> f64 {
         inverse_bulk * taylor_hood::pressure_mass(rest, k, l)
+    }
+
+    type State = MixedElementState;
+
+    /// [`mixed_neo_hookean`]; `None` also for a `u` of other than 30 values.
+    fn neo_hookean(
+        rest: &Self::Rest,
+        u: &[f64],
+        p: &[f64; 4],
+        shear_modulus: f64,
+        inverse_bulk: f64,
+    ) -> Option<Self::State> {
+        mixed_neo_hookean(rest, u.try_into().ok()?, p, shear_modulus, inverse_bulk)
+    }
+
+    fn state_force(state: &Self::State) -> &[f64] {
+        &state.force
+    }
+
+    fn state_pressure_residual(state: &Self::State) -> &[f64; 4] {
+        &state.pressure_residual
+    }
+
+    fn state_stiffness(state: &Self::State) -> Self::Deviatoric {
+        state.stiffness
+    }
+
+    fn state_coupling(state: &Self::State) -> &Self::Coupling {
+        &state.coupling
     }
 }
 
@@ -94,5 +151,34 @@ impl MixedElement for Tet4 {
         l: usize,
     ) -> f64 {
         stabilized_p1::pressure_block(rest, shear_modulus, inverse_bulk, k, l)
+    }
+
+    type State = StabilizedElementState;
+
+    /// [`stabilized_neo_hookean`].
+    fn neo_hookean(
+        rest: &Self::Rest,
+        u: &[f64],
+        p: &[f64; 4],
+        shear_modulus: f64,
+        inverse_bulk: f64,
+    ) -> Option<Self::State> {
+        stabilized_neo_hookean(rest, u, p, shear_modulus, inverse_bulk)
+    }
+
+    fn state_force(state: &Self::State) -> &[f64] {
+        &state.force
+    }
+
+    fn state_pressure_residual(state: &Self::State) -> &[f64; 4] {
+        &state.pressure_residual
+    }
+
+    fn state_stiffness(state: &Self::State) -> Self::Deviatoric {
+        state.stiffness
+    }
+
+    fn state_coupling(state: &Self::State) -> &Self::Coupling {
+        &state.coupling
     }
 }

@@ -15,6 +15,7 @@ mod element_type;
 pub mod mixed_element;
 pub mod pointwise;
 pub mod stabilized_p1;
+pub mod stabilized_p1_neo_hookean;
 pub mod taylor_hood;
 pub mod taylor_hood_neo_hookean;
 pub mod tet10;
