@@ -1,5 +1,6 @@
-//! `tetfem.solve_static_mixed`: the mixed displacement–pressure (Taylor–Hood P2–P1) static
-//! solve for nearly incompressible materials, linear or Neo-Hookean.
+//! `tetfem.solve_static_mixed`: the mixed displacement–pressure static solve for nearly
+//! incompressible materials, linear or Neo-Hookean (Taylor–Hood P2–P1 on 10-node tets, the
+//! stabilized P1–P1 on 4-node tets).
 
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
@@ -7,18 +8,19 @@ use tetfem::analysis::nonlinear::NewtonOptions;
 use tetfem::solve_static_mixed_model;
 
 use crate::arrays;
+use crate::cells::on_cells;
 use crate::constraints::PyConstraints;
-use crate::errors::invalid;
 use crate::interrupt::detach_interruptible;
 use crate::loads::PyLoads;
 use crate::material::materials_of;
-use crate::mesh::{Cells, PyMesh};
+use crate::mesh::PyMesh;
 use crate::names;
 use crate::statics::check_same_mesh;
 
-/// Static equilibrium in the mixed displacement–pressure form (Taylor–Hood P2–P1: quadratic
-/// displacement, continuous linear pressure): no volumetric locking as Poisson's ratio → 0.5.
-/// ``mesh``: 10-node tets (``order=2``). ``material``: a ``Material`` or a ``MaterialMap``
+/// Static equilibrium in the mixed displacement–pressure form with a continuous linear
+/// pressure: no volumetric locking as Poisson's ratio → 0.5. ``mesh``: 10-node tets
+/// (``order=2``: Taylor–Hood P2–P1, quadratic displacement) or 4-node tets (``order=1``: the
+/// stabilized P1–P1 of Dohrmann–Bochev, linear displacement). ``material``: a ``Material`` or a ``MaterialMap``
 /// (ν < 0.5). ``model``: ``"linear"`` (one LDLᵀ solve of the quasi-definite saddle system) or
 /// ``"neo-hookean"`` (Simo–Taylor's mixed form at large deformation, Newton in ``load_steps``
 /// increments of at most ``max_iterations`` each, to a relative residual of 1e-10). What may
@@ -45,14 +47,6 @@ pub fn solve_static_mixed_py<'py>(
     check_same_mesh(py, data, &constraints, Some(&loads))?;
     let materials = materials_of(py, material, data)?;
     let kind = names::model(py, model)?;
-    let Cells::P2(quadratic) = &data.mesh else {
-        return Err(invalid(
-            py,
-            "mesh",
-            "4-node tets",
-            "the mixed element needs 10-node tets: build the mesh with order=2",
-        ));
-    };
     let options = NewtonOptions {
         load_steps,
         max_iterations,
@@ -61,7 +55,9 @@ pub fn solve_static_mixed_py<'py>(
     let moving = !constraints.motions.is_empty();
     let (fixed, all) = (&constraints.constraints, &loads.all);
     let outcome = detach_interruptible(py, || {
-        solve_static_mixed_model(quadratic, &materials, kind, (fixed, moving), all, options)
+        on_cells!(&data.mesh, m => {
+            solve_static_mixed_model(m, &materials, kind, (fixed, moving), all, options)
+        })
     })?;
     let (solution, iterations) = (outcome.solution, outcome.newton_iterations.unwrap_or(0));
     let (displacement, pressure, reactions, residual) = (

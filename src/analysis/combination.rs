@@ -17,8 +17,8 @@
 //!   would leave that bound's range or cross;
 //! - the mixed displacement–pressure formulation ([`Formulation::Mixed`]) with what it does not
 //!   compute: an analysis other than static, a model other than the linear and the Neo-Hookean
-//!   one, 4-node tets (Taylor–Hood needs the quadratic displacement), obstacles, and with the
-//!   Neo-Hookean model supports that move (its load steps scale prescribed values by λ).
+//!   one, obstacles, and with the Neo-Hookean model supports that move (its load steps scale
+//!   prescribed values by λ).
 //!
 //! Combinations that run but whose behaviour the user should know of give a [`Warning`]:
 //! Newmark (average acceleration) with obstacles or with body–body contact loses energy at
@@ -72,9 +72,10 @@ pub enum Formulation {
     /// Displacement only (the default): every element order, analysis and model.
     #[default]
     Displacement,
-    /// Displacement and pressure (Taylor–Hood P2–P1, no volumetric locking as ν → 0.5): static,
-    /// 10-node tets, the linear model ([`crate::MixedStaticSolver`]) or the Neo-Hookean one
-    /// ([`crate::analysis::mixed_nonlinear`]).
+    /// Displacement and pressure (no volumetric locking as ν → 0.5), static, with the linear
+    /// model ([`crate::MixedStaticSolver`]) or the Neo-Hookean one
+    /// ([`crate::analysis::mixed_nonlinear`]): Taylor–Hood P2–P1 on 10-node tets, the
+    /// stabilized P1–P1 on 4-node tets.
     Mixed,
 }
 
@@ -235,13 +236,6 @@ impl Combination {
                 "model",
                 self.model.name().to_string(),
                 "has the linear and the Neo-Hookean model only",
-            );
-        }
-        if self.order != 2 {
-            return refuse(
-                "element order",
-                self.order.to_string(),
-                "needs 10-node tets (order 2): its displacement is quadratic",
             );
         }
         if self.obstacles {

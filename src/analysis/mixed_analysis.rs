@@ -11,7 +11,7 @@ use crate::analysis::nonlinear::NewtonOptions;
 use crate::base::error::Result;
 use crate::bc::constraints::Constraints;
 use crate::bc::loads::Loads;
-use crate::fe::element::Tet10;
+use crate::fe::element::{MixedElement, Tet4, Tet10};
 use crate::fe::materials::TetMaterials;
 use crate::mesh::TetMesh;
 use crate::model::ModelKind;
@@ -30,14 +30,29 @@ pub struct MixedOutcome {
     pub newton_iterations: Option<usize>,
 }
 
-/// The mixed static solve of `model` on the 10-node `mesh` (see the [module](self) docs);
-/// `options` are Newton's (load steps, tolerance, iterations), unused by the linear model.
+/// A mixed element with its element order in [`Combination`].
+pub trait MixedStaticElement: MixedElement {
+    /// The element order: 1 (4-node, stabilized P1–P1) or 2 (10-node, Taylor–Hood).
+    const ORDER: usize;
+}
+
+impl MixedStaticElement for Tet10 {
+    const ORDER: usize = 2;
+}
+
+impl MixedStaticElement for Tet4 {
+    const ORDER: usize = 1;
+}
+
+/// The mixed static solve of `model` on `mesh` (10-node tets: Taylor–Hood P2–P1; 4-node tets:
+/// stabilized P1–P1; see the [module](self) docs); `options` are Newton's (load steps,
+/// tolerance, iterations), unused by the linear model.
 ///
 /// Errors: a combination the mixed element does not compute ([`Combination::check`], naming
 /// the pair; `moving_supports` says whether a support follows a motion); those of
 /// [`MixedStaticSolver`] and [`solve_static_mixed_nonlinear`].
-pub fn solve_static_mixed_model(
-    mesh: &TetMesh<Tet10>,
+pub fn solve_static_mixed_model<E: MixedStaticElement>(
+    mesh: &TetMesh<E>,
     materials: &impl TetMaterials,
     model: ModelKind,
     (constraints, moving_supports): (&Constraints, bool),
@@ -46,7 +61,7 @@ pub fn solve_static_mixed_model(
 ) -> Result<MixedOutcome> {
     Combination {
         model,
-        order: 2,
+        order: E::ORDER,
         analysis: Analysis::Static,
         moving_supports,
         formulation: Formulation::Mixed,

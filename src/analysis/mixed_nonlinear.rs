@@ -1,6 +1,10 @@
 //! Static equilibrium of nearly incompressible Neo-Hookean rubber at large deformation in the
-//! mixed displacement–pressure form (Taylor–Hood P2–P1,
-//! [`taylor_hood_neo_hookean`](crate::fe::element::taylor_hood_neo_hookean)): no volumetric
+//! mixed displacement–pressure form, on either mixed element ([`MixedElement`]): Taylor–Hood
+//! P2–P1 on 10-node tets
+//! ([`taylor_hood_neo_hookean`](crate::fe::element::taylor_hood_neo_hookean)) or the
+//! stabilized P1–P1 on 4-node tets
+//! ([`stabilized_p1_neo_hookean`](crate::fe::element::stabilized_p1_neo_hookean), whose −C
+//! block also holds the projection stabilization where M_p/κ stands below): no volumetric
 //! locking as Poisson's ratio approaches 0.5.
 //!
 //! On the free displacement DOFs and the corner pressures, per load step λ = s/N (loads and
@@ -40,10 +44,8 @@ use crate::analysis::problem::Problem;
 use crate::base::error::{Error, Result};
 use crate::bc::constraints::Constraints;
 use crate::bc::loads::Loads;
-use crate::fe::element::taylor_hood::{Coupling, PRESSURE_NODES, PressureNodes};
-use crate::fe::element::taylor_hood_neo_hookean::{MixedElementState, mixed_neo_hookean};
-use crate::fe::element::tet10::Tet10Rest;
-use crate::fe::element::{ElementType, Tet10};
+use crate::fe::element::MixedElement;
+use crate::fe::element::taylor_hood::{PRESSURE_NODES, PressureNodes};
 use crate::fe::materials::TetMaterials;
 use crate::linalg::QuasiDefiniteLdlt;
 use crate::mesh::TetMesh;
@@ -78,8 +80,8 @@ pub struct MixedNewtonReport {
 /// a rigid motion, an instability); [`Error::NotConverged`] naming the load step and residual
 /// when Newton's iterations stall or a tet inverts at every fraction of the step;
 /// [`Error::Stopped`] on the caller's interrupt.
-pub fn solve_static_mixed_nonlinear(
-    mesh: &TetMesh<Tet10>,
+pub fn solve_static_mixed_nonlinear<E: MixedElement>(
+    mesh: &TetMesh<E>,
     materials: &impl TetMaterials,
     constraints: &Constraints,
     loads: &Loads,
@@ -165,7 +167,7 @@ pub fn solve_static_mixed_nonlinear(
     Ok(MixedNewtonReport {
         relative_residual,
         reactions,
-        pressure: nodal_pressure(
+        pressure: nodal_pressure::<E>(
             mesh.tets(),
             &system.pressure_nodes,
             mesh.node_count(),
@@ -177,11 +179,14 @@ pub fn solve_static_mixed_nonlinear(
     })
 }
 
+/// f_int(u, p) − λ·f on every DOF, R_p per pressure unknown, and the element states.
+type Unbalanced<E> = (Vec<f64>, Vec<f64>, Vec<<E as MixedElement>::State>);
+
 /// The mixed problem at its current iterate, as the Newton loop drives it.
-struct MixedSystem<'a> {
-    mesh: &'a TetMesh<Tet10>,
-    problem: Problem<'a, Tet10>,
-    rests: Vec<Tet10Rest>,
+struct MixedSystem<'a, E: MixedElement> {
+    mesh: &'a TetMesh<E>,
+    problem: Problem<'a, E>,
+    rests: Vec<E::Rest>,
     /// μ and 1/κ of each tet (Pa, 1/Pa).
     moduli: Vec<(f64, f64)>,
     pressure_nodes: PressureNodes,
@@ -205,16 +210,14 @@ struct MixedSystem<'a> {
     step: usize,
 }
 
-impl<'a> MixedSystem<'a> {
+impl<'a, E: MixedElement> MixedSystem<'a, E> {
     fn new(
-        mesh: &'a TetMesh<Tet10>,
+        mesh: &'a TetMesh<E>,
         materials: &impl TetMaterials,
         constraints: &Constraints,
     ) -> Result<Self> {
         let problem = Problem::new(mesh, constraints)?;
-        let rests: Vec<Tet10Rest> = (0..mesh.tet_count())
-            .map(|t| Tet10::rest(mesh, t))
-            .collect();
+        let rests: Vec<E::Rest> = (0..mesh.tet_count()).map(|t| E::rest(mesh, t)).collect();
         let moduli: Vec<(f64, f64)> = (0..mesh.tet_count())
             .map(|t| {
                 let m = materials.material_of(t);
@@ -222,7 +225,7 @@ impl<'a> MixedSystem<'a> {
             })
             .collect();
         let pressure_nodes = PressureNodes::new(mesh);
-        let volume: f64 = rests.iter().map(Tet10Rest::volume).sum();
+        let volume: f64 = rests.iter().map(E::volume).sum();
         let length = (volume / mesh.tet_count().max(1) as f64).cbrt();
         let bulk = materials
             .material_list()
@@ -295,56 +298,55 @@ impl<'a> MixedSystem<'a> {
         let mut stiffness = self.problem.zero_matrix()?;
         self.problem.assembler().reassemble_elements(
             self.mesh,
-            |t| states[t].stiffness,
+            |t| E::state_stiffness(&states[t]),
             &mut stiffness,
         )?;
         let free_stiffness = self.problem.restrict(&stiffness)?;
-        let couplings: Vec<Coupling> = states.iter().map(|s| s.coupling).collect();
         let matrix = saddle_point_matrix(
             self.mesh,
             &free_stiffness,
             self.problem.dofs(),
             &self.pressure_nodes,
-            &couplings,
-            |t| self.moduli[t].1,
+            |t, k, i, a| E::coupling_entry(E::state_coupling(&states[t]), k, i, a),
+            |t, k, l| {
+                let (mu, inverse_bulk) = self.moduli[t];
+                E::pressure_block(&self.rests[t], mu, inverse_bulk, k, l)
+            },
         )?;
         Ok(Some((residual, Some(matrix))))
     }
 
     /// f_int(u, p) − λ·f on every DOF and R_p, with the element states; `None` when a tet
     /// is inverted at a quadrature point.
-    fn unbalanced_states(
-        &self,
-        u: &[f64],
-        p: &[f64],
-    ) -> Option<(Vec<f64>, Vec<f64>, Vec<MixedElementState>)> {
-        let mut states: Vec<MixedElementState> = Vec::with_capacity(self.mesh.tet_count());
+    fn unbalanced_states(&self, u: &[f64], p: &[f64]) -> Option<Unbalanced<E>> {
+        let mut states: Vec<E::State> = Vec::with_capacity(self.mesh.tet_count());
+        // The element's node-major displacement (3·NODES ≤ 30 values).
+        let mut buffer = [0.0; 30];
         for (t, tet) in self.mesh.tets().iter().enumerate() {
-            let u_e: [f64; 30] = std::array::from_fn(|k| u[3 * tet[k / 3] + k % 3]);
+            let tet = tet.as_ref();
+            let u_e = &mut buffer[..3 * E::NODES];
+            for (k, value) in u_e.iter_mut().enumerate() {
+                *value = u[3 * tet[k / 3] + k % 3];
+            }
             let corners = self.pressure_nodes.of_tet(tet);
             let p_e: [f64; PRESSURE_NODES] = std::array::from_fn(|k| p[corners[k]]);
             let (mu, inverse_bulk) = self.moduli[t];
-            states.push(mixed_neo_hookean(
-                &self.rests[t],
-                &u_e,
-                &p_e,
-                mu,
-                inverse_bulk,
-            )?);
+            states.push(E::neo_hookean(&self.rests[t], u_e, &p_e, mu, inverse_bulk)?);
         }
         let mut internal: Vec<f64> = self.load.iter().map(|f| -f).collect();
         let mut pressure_residual = vec![0.0; self.pressure_nodes.count()];
         for (tet, state) in self.mesh.tets().iter().zip(&states) {
-            for (k, &n) in tet.iter().enumerate() {
+            let force = E::state_force(state);
+            for (k, &n) in tet.as_ref().iter().enumerate() {
                 for a in 0..3 {
-                    internal[3 * n + a] += state.force[3 * k + a];
+                    internal[3 * n + a] += force[3 * k + a];
                 }
             }
             for (&c, r) in self
                 .pressure_nodes
-                .of_tet(tet)
+                .of_tet(tet.as_ref())
                 .iter()
-                .zip(&state.pressure_residual)
+                .zip(E::state_pressure_residual(state))
             {
                 pressure_residual[c] += r;
             }
@@ -384,7 +386,7 @@ impl<'a> MixedSystem<'a> {
     }
 }
 
-impl NewtonSystem for MixedSystem<'_> {
+impl<E: MixedElement> NewtonSystem for MixedSystem<'_, E> {
     fn direction(&mut self, _first: bool) -> Result<()> {
         let (u, p) = (self.u.clone(), self.p.clone());
         let Some((_, Some(tangent))) = self.evaluate(&u, &p, true)? else {
@@ -444,7 +446,7 @@ impl NewtonSystem for MixedSystem<'_> {
     }
 }
 
-impl LineFunction for MixedSystem<'_> {
+impl<E: MixedElement> LineFunction for MixedSystem<'_, E> {
     fn trial(&mut self, alpha: f64) -> Result<f64> {
         let (u, p) = self.stepped(alpha);
         match self.evaluate(&u, &p, false)? {

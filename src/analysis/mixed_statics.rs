@@ -1,15 +1,18 @@
-//! Static equilibrium of the linear model in the mixed displacement–pressure form (Taylor–Hood
-//! P2–P1 on 10-node tets, [`taylor_hood`](crate::fe::element::taylor_hood)): no volumetric
-//! locking as Poisson's ratio approaches 0.5.
+//! Static equilibrium of the linear model in the mixed displacement–pressure form, on either
+//! mixed element ([`MixedElement`]): Taylor–Hood P2–P1 on 10-node tets
+//! ([`taylor_hood`](crate::fe::element::taylor_hood)) or the stabilized P1–P1 on 4-node tets
+//! ([`stabilized_p1`](crate::fe::element::stabilized_p1)); no volumetric locking as Poisson's
+//! ratio approaches 0.5.
 //!
 //! On the free displacement DOFs f and the corner pressures p the system is
 //!
 //! ```text
-//!   ⎡ K_dev,ff   −B_fᵀ   ⎤ ⎡u_f⎤   ⎡ f_f − K_dev,fc·u_c ⎤
-//!   ⎣ −B_f      −M_p/κ   ⎦ ⎣ p ⎦ = ⎣ B_c·u_c            ⎦
+//!   ⎡ K_dev,ff   −B_fᵀ ⎤ ⎡u_f⎤   ⎡ f_f − K_dev,fc·u_c ⎤
+//!   ⎣ −B_f       −C    ⎦ ⎣ p ⎦ = ⎣ B_c·u_c            ⎦
 //! ```
 //!
-//! (u_c the prescribed displacements), symmetric quasi-definite for ν < 0.5 once the supports
+//! (u_c the prescribed displacements; C = M_p/κ for Taylor–Hood, plus the projection
+//! stabilization for P1–P1, positive definite in both), symmetric quasi-definite for ν < 0.5 once the supports
 //! hold every rigid motion, so it is factored by an LDLᵀ without pivoting on a nested-dissection
 //! ordering ([`QuasiDefiniteLdlt`]), then refined as the displacement solve is
 //! ([`RESIDUAL_LIMIT`]).
@@ -25,14 +28,11 @@ use crate::base::error::{Error, Result};
 use crate::base::memory::{RunPath, SolverMemory, StaticEstimate};
 use crate::bc::constraints::{Constraints, DofMap};
 use crate::bc::loads::Loads;
-use crate::fe::element::taylor_hood::{
-    Coupling, PressureNodes, coupling, deviatoric_stiffness, pressure_mass,
-};
-use crate::fe::element::tet10::EDGES;
-use crate::fe::element::{ElementType, Tet10};
+use crate::fe::element::taylor_hood::PressureNodes;
+use crate::fe::element::{MixedElement, Tet10};
 use crate::fe::materials::TetMaterials;
 use crate::linalg::QuasiDefiniteLdlt;
-use crate::mesh::{CellType, TetMesh};
+use crate::mesh::{CellType, NodeList, TetMesh};
 use crate::ordering::FillOrdering;
 use crate::sparse::CscMatrix;
 
@@ -47,8 +47,8 @@ pub struct MixedStaticSolution {
     /// Displacement of every DOF (length units), prescribed values included.
     pub displacement: Vec<f64>,
     /// Pressure p = −tr σ / 3 at every node (Pa; positive in compression): the solved value
-    /// at tet corners, the mean of its edge's corners at an edge node (the linear field there),
-    /// 0 at nodes of no tet.
+    /// at tet corners, the mean of its edge's corners at an edge node of a 10-node tet (the
+    /// linear field there), 0 at nodes of no tet.
     pub pressure: Vec<f64>,
     /// Relative residual ‖A·x − r‖/‖r‖ of the whole saddle-point system (0 when r = 0).
     pub relative_residual: f64,
@@ -71,10 +71,10 @@ pub struct MixedTimings {
     pub solve: Duration,
 }
 
-/// A factored mixed static problem: assemble and factor once, solve for any number of load
-/// cases.
+/// A factored mixed static problem on element `E` (10-node Taylor–Hood by default, or the
+/// 4-node stabilized P1–P1): assemble and factor once, solve for any number of load cases.
 #[derive(Debug)]
-pub struct MixedStaticSolver {
+pub struct MixedStaticSolver<E: MixedElement = Tet10> {
     /// K_dev on every DOF (force/length).
     deviatoric: CscMatrix,
     /// The saddle-point matrix on the free DOFs then the pressures.
@@ -82,14 +82,14 @@ pub struct MixedStaticSolver {
     dofs: DofMap,
     pressure_nodes: PressureNodes,
     /// Per tet: its nodes and its coupling B (for B_c·u_c and Bᵀp).
-    tets: Vec<[usize; 10]>,
-    couplings: Vec<Coupling>,
+    tets: Vec<E::Nodes>,
+    couplings: Vec<E::Coupling>,
     ldlt: QuasiDefiniteLdlt,
     node_count: usize,
     timings: MixedTimings,
 }
 
-impl MixedStaticSolver {
+impl<E: MixedElement> MixedStaticSolver<E> {
     /// Assembles the mixed system of `mesh` with `materials` (one [`Material`](crate::Material)
     /// or a [`MaterialMap`](crate::MaterialMap); every material's ν < 0.5, so κ is finite),
     /// checks that `constraints` hold every rigid-body mode ([`Error::NotConstrained`]) and
@@ -98,7 +98,7 @@ impl MixedStaticSolver {
     /// A material boundary inside the body gets a continuous pressure across it (the pressure
     /// space is continuous), an approximation where the bulk moduli differ.
     pub fn new(
-        mesh: &TetMesh<Tet10>,
+        mesh: &TetMesh<E>,
         materials: &impl TetMaterials,
         constraints: &Constraints,
     ) -> Result<Self> {
@@ -106,7 +106,7 @@ impl MixedStaticSolver {
         let estimate = StaticEstimate::for_element(
             mesh.node_count(),
             mesh.tet_count(),
-            Tet10::NODES,
+            E::NODES,
             SolverMemory::Iterative,
         );
         RunPath::Direct.limits().ensure_fits_or(
@@ -137,22 +137,32 @@ impl MixedStaticSolver {
         let mut deviatoric = problem.zero_matrix()?;
         problem.assembler().reassemble_elements(
             mesh,
-            |t| deviatoric_stiffness(&Tet10::rest(mesh, t), shear[materials.index_of(t)]),
+            |t| E::deviatoric_stiffness(&E::rest(mesh, t), shear[materials.index_of(t)]),
             &mut deviatoric,
         )?;
         let free_deviatoric = problem.restrict(&deviatoric)?;
         let pressure_nodes = PressureNodes::new(mesh);
-        let couplings: Vec<Coupling> = (0..mesh.tet_count())
-            .map(|t| coupling(&Tet10::rest(mesh, t)))
-            .collect();
+        // Per tet: B and C (4×4), from one rest each.
+        let (couplings, blocks): (Vec<E::Coupling>, Vec<[[f64; 4]; 4]>) = (0..mesh.tet_count())
+            .map(|t| {
+                let rest = E::rest(mesh, t);
+                let material = materials.index_of(t);
+                let block = std::array::from_fn(|k| {
+                    std::array::from_fn(|l| {
+                        E::pressure_block(&rest, shear[material], inverse_bulk[material], k, l)
+                    })
+                });
+                (E::coupling(&rest), block)
+            })
+            .unzip();
         let dofs = problem.into_dofs();
         let system = saddle_point_matrix(
             mesh,
             &free_deviatoric,
             &dofs,
             &pressure_nodes,
-            &couplings,
-            |t| inverse_bulk[materials.index_of(t)],
+            |t, k, i, a| E::coupling_entry(&couplings[t], k, i, a),
+            |t, k, l| blocks[t][k][l],
         )?;
         timings.assembly = clock.elapsed();
 
@@ -233,7 +243,7 @@ impl MixedStaticSolver {
                 }
             })
             .collect();
-        let pressure = nodal_pressure(
+        let pressure = nodal_pressure::<E>(
             &self.tets,
             &self.pressure_nodes,
             self.node_count,
@@ -252,11 +262,11 @@ impl MixedStaticSolver {
     fn divergence(&self, u: &[f64]) -> Vec<f64> {
         let mut out = vec![0.0; self.pressure_nodes.count()];
         for (tet, b) in self.tets.iter().zip(&self.couplings) {
-            let corners = self.pressure_nodes.of_tet(tet);
+            let corners = self.pressure_nodes.of_tet(tet.as_ref());
             for (k, &p) in corners.iter().enumerate() {
-                for (i, &n) in tet.iter().enumerate() {
+                for (i, &n) in tet.as_ref().iter().enumerate() {
                     for a in 0..3 {
-                        out[p] += b[k][i][a] * u[3 * n + a];
+                        out[p] += E::coupling_entry(b, k, i, a) * u[3 * n + a];
                     }
                 }
             }
@@ -268,11 +278,11 @@ impl MixedStaticSolver {
     fn pressure_force(&self, corner: &[f64]) -> Vec<f64> {
         let mut out = vec![0.0; 3 * self.node_count];
         for (tet, b) in self.tets.iter().zip(&self.couplings) {
-            let corners = self.pressure_nodes.of_tet(tet);
+            let corners = self.pressure_nodes.of_tet(tet.as_ref());
             for (k, &p) in corners.iter().enumerate() {
-                for (i, &n) in tet.iter().enumerate() {
+                for (i, &n) in tet.as_ref().iter().enumerate() {
                     for a in 0..3 {
-                        out[3 * n + a] += b[k][i][a] * corner[p];
+                        out[3 * n + a] += E::coupling_entry(b, k, i, a) * corner[p];
                     }
                 }
             }
@@ -320,10 +330,10 @@ impl MixedStaticSolver {
 }
 
 /// The pressure at every node from the corner values `corner` (one per unknown of
-/// `pressure_nodes`): the value at corners, the mean of its edge's corners at an edge node (the
-/// linear field there), 0 at nodes of no tet.
-pub(crate) fn nodal_pressure(
-    tets: &[[usize; 10]],
+/// `pressure_nodes`): the value at corners, the mean of its edge's corners at an edge node of
+/// cell type `C` (the linear field there), 0 at nodes of no tet.
+pub(crate) fn nodal_pressure<C: CellType>(
+    tets: &[C::Nodes],
     pressure_nodes: &PressureNodes,
     node_count: usize,
     corner: &[f64],
@@ -333,16 +343,22 @@ pub(crate) fn nodal_pressure(
         field[n] = p;
     }
     for tet in tets {
-        for (e, &(i, j)) in EDGES.iter().enumerate() {
-            field[tet[4 + e]] = 0.5 * (field[tet[i]] + field[tet[j]]);
+        let corners = tet.corners();
+        for i in 0..4 {
+            for j in i + 1..4 {
+                if let Some(edge) = C::edge_node(tet, i, j) {
+                    field[edge] = 0.5 * (field[corners[i]] + field[corners[j]]);
+                }
+            }
         }
     }
     field
 }
 
-/// One-shot mixed static solve: [`MixedStaticSolver::new`] then [`MixedStaticSolver::solve`].
-pub fn solve_static_mixed(
-    mesh: &TetMesh<Tet10>,
+/// One-shot mixed static solve on element `E`: [`MixedStaticSolver::new`] then
+/// [`MixedStaticSolver::solve`].
+pub fn solve_static_mixed<E: MixedElement>(
+    mesh: &TetMesh<E>,
     materials: &impl TetMaterials,
     constraints: &Constraints,
     loads: &Loads,
@@ -350,43 +366,38 @@ pub fn solve_static_mixed(
     MixedStaticSolver::new(mesh, materials, constraints)?.solve(loads)
 }
 
-/// The saddle-point matrix [K_dev,ff −B_fᵀ; −B_f −M_p/κ] (both triangles, sorted rows): the
-/// free displacement DOFs are rows and columns `0..n_f`, pressure unknown k is `n_f + k`.
-pub(crate) fn saddle_point_matrix(
-    mesh: &TetMesh<Tet10>,
+/// The saddle-point matrix [K_dev,ff −B_fᵀ; −B_f −C] (both triangles, sorted rows): the free
+/// displacement DOFs are rows and columns `0..n_f`, pressure unknown k is `n_f + k`.
+/// `coupling(t, k, i, a)` is tet t's B_kᵢₐ, `pressure_block(t, k, l)` its C_kl.
+pub(crate) fn saddle_point_matrix<C: CellType>(
+    mesh: &TetMesh<C>,
     free_deviatoric: &CscMatrix,
     dofs: &DofMap,
     pressure_nodes: &PressureNodes,
-    couplings: &[Coupling],
-    inverse_bulk: impl Fn(usize) -> f64,
+    coupling: impl Fn(usize, usize, usize, usize) -> f64,
+    pressure_block: impl Fn(usize, usize, usize) -> f64,
 ) -> Result<CscMatrix> {
     let free_count = dofs.free_count();
     let dim = free_count + pressure_nodes.count();
-    // Every (column, row, value) of −B, −Bᵀ and −M_p/κ, tet by tet.
+    // Every (column, row, value) of −B, −Bᵀ and −C, tet by tet.
     let visit = |add: &mut dyn FnMut(usize, usize, f64)| {
         for (t, tet) in mesh.tets().iter().enumerate() {
-            let corners = pressure_nodes.of_tet(tet);
-            let b = &couplings[t];
+            let corners = pressure_nodes.of_tet(tet.as_ref());
             for (k, &p) in corners.iter().enumerate() {
                 let row = free_count + p;
-                for (i, &n) in tet.iter().enumerate() {
+                for (i, &n) in tet.as_ref().iter().enumerate() {
                     for a in 0..3 {
                         if let Some(free) = dofs.free_index(3 * n + a) {
-                            add(free, row, -b[k][i][a]);
-                            add(row, free, -b[k][i][a]);
+                            let b = coupling(t, k, i, a);
+                            add(free, row, -b);
+                            add(row, free, -b);
                         }
                     }
                 }
             }
-            let rest = Tet10::rest(mesh, t);
-            let scale = inverse_bulk(t);
             for (k, &p) in corners.iter().enumerate() {
                 for (l, &q) in corners.iter().enumerate() {
-                    add(
-                        free_count + q,
-                        free_count + p,
-                        -scale * pressure_mass(&rest, k, l),
-                    );
+                    add(free_count + q, free_count + p, -pressure_block(t, k, l));
                 }
             }
         }

@@ -1,5 +1,6 @@
 //! `analysis.formulation`: the plain displacement element, or the mixed displacement–pressure
-//! one (Taylor–Hood P2–P1, [`tetfem::MixedStaticSolver`]) for nearly incompressible materials,
+//! one ([`tetfem::MixedStaticSolver`]: Taylor–Hood P2–P1 on 10-node tets, stabilized P1–P1 on
+//! 4-node tets) for nearly incompressible materials,
 //! checked once when the scene is read, and the mixed static run with its outputs (the
 //! pressure as a point field, the stress tensors' mean part from the solved pressure).
 
@@ -7,10 +8,12 @@ use std::path::PathBuf;
 use std::time::Instant;
 
 use tetfem::analysis::Combination;
+use tetfem::analysis::mixed_analysis::MixedStaticElement;
 use tetfem::base::error::{Error, Result};
 use tetfem::base::warning::Warning;
-use tetfem::fe::element::Tet10;
 use tetfem::fe::element::taylor_hood::tets_without_an_interior_corner;
+use tetfem::fe::element::{Tet4, Tet10};
+use tetfem::mesh::NodeList;
 use tetfem::model::ModelMap;
 use tetfem::post::output::fields::displacement_magnitude;
 use tetfem::post::output::{FrameArrays, OutputLock, PvdCollection};
@@ -20,15 +23,15 @@ use super::run::{
     RunOptions, RunSummary, StaticNewton, StaticReport, StaticSolve, report_static,
     static_frame_arrays, write_static_probe_csv,
 };
-use super::{BuiltScene, Scene};
+use super::{BuiltScene, Scene, SceneElement};
 use crate::png_frames::{StaticLook, static_picture};
 
 pub use tetfem::analysis::combination::Formulation;
 
 /// What a mixed scene needs, said in the error of a scene that lacks it.
 const MIXED_NEEDS: &str = "formulation = \"mixed\" is for static scenes with the linear or the \
-                           Neo-Hookean model on 10-node tets ([mesh] order = 2) on tetfem's own \
-                           engine, without obstacles, accuracy or point probes";
+                           Neo-Hookean model on 4-node or 10-node tets on tetfem's own engine, \
+                           without obstacles, accuracy or point probes";
 
 impl Scene {
     /// The scene's formulation (checked when the scene was read).
@@ -101,7 +104,8 @@ impl Scene {
     }
 }
 
-/// A mixed static scene: build on 10-node tets, solve for displacement and pressure (the linear
+/// A mixed static scene: build on the scene's tets (`[mesh] order`: 4-node stabilized P1–P1 or
+/// 10-node Taylor–Hood), solve for displacement and pressure (the linear
 /// model in one saddle solve, the Neo-Hookean one by Newton's load steps of
 /// `analysis.load_steps`/`newton_tolerance`), report as
 /// a displacement run does (no self-estimated error: the ZZ estimate's stress is the
@@ -112,8 +116,21 @@ pub(crate) fn run_mixed(
     options: &RunOptions,
     lock: Option<OutputLock>,
 ) -> Result<RunSummary> {
+    if scene.order() == 1 {
+        run_mixed_on::<Tet4>(scene, options, lock)
+    } else {
+        run_mixed_on::<Tet10>(scene, options, lock)
+    }
+}
+
+/// [`run_mixed`] on element `E`.
+fn run_mixed_on<E: SceneElement + MixedStaticElement>(
+    scene: &Scene,
+    options: &RunOptions,
+    lock: Option<OutputLock>,
+) -> Result<RunSummary> {
     let clock = Instant::now();
-    let built = scene.build_as::<Tet10>()?;
+    let built = scene.build_as::<E>()?;
     let build_seconds = clock.elapsed().as_secs_f64();
     let clock = Instant::now();
     let loads = built.static_load()?;
@@ -172,7 +189,11 @@ pub(crate) fn run_mixed(
         .map(|w| w.to_string())
         .collect();
     summary.warnings.retain(|w| !locking.contains(w));
-    let unstable = tets_without_an_interior_corner(&built.mesh)?;
+    // P2–P1's stability condition; the stabilized P1–P1 has none.
+    let unstable = match <E as MixedStaticElement>::ORDER {
+        2 => tets_without_an_interior_corner(&built.mesh)?,
+        _ => Vec::new(),
+    };
     if !unstable.is_empty() && unstable.len() == built.mesh.tet_count() {
         summary.warnings.push(format!(
             "formulation = \"mixed\": none of the {} tets has a corner inside the body (a mesh \
@@ -193,9 +214,9 @@ pub(crate) fn run_mixed(
 }
 
 /// The mixed run's files (see [`run_mixed`]).
-fn write_mixed_outputs(
+fn write_mixed_outputs<E: SceneElement>(
     scene: &Scene,
-    built: &BuiltScene<Tet10>,
+    built: &BuiltScene<E>,
     model: &ModelMap,
     solution: &MixedStaticSolution,
     von_mises: &[f64],
@@ -245,12 +266,16 @@ fn write_mixed_outputs(
 /// (Pa) added; the stress tensors' mean part replaced by −p (`stress`: each tet's mean corner
 /// pressure, `stress_nodal`: the node's), since λ·tr ε is what locks; the arrays built from
 /// that mean part (principal stresses, strain energy density) dropped rather than left wrong.
-fn mixed_arrays(arrays: &mut FrameArrays, built: &BuiltScene<Tet10>, pressure: &[f64]) {
+fn mixed_arrays<E: SceneElement>(
+    arrays: &mut FrameArrays,
+    built: &BuiltScene<E>,
+    pressure: &[f64],
+) {
     let tet_pressure: Vec<f64> = built
         .mesh
         .tets()
         .iter()
-        .map(|tet| tet[..4].iter().map(|&n| pressure[n]).sum::<f64>() / 4.0)
+        .map(|tet| tet.corners().iter().map(|&n| pressure[n]).sum::<f64>() / 4.0)
         .collect();
     let replace_mean = |values: &mut [f64], pressures: &[f64]| {
         for (tensor, p) in values.chunks_exact_mut(6).zip(pressures) {
@@ -320,8 +345,16 @@ vtu_format = "ascii"
 
     #[test]
     fn a_mixed_block_in_uniaxial_tension_is_exact_and_writes_its_pressure() {
+        // Taylor–Hood on 10-node tets, then the stabilized P1–P1 on 4-node tets: both pass
+        // the patch test (the stabilization vanishes for a constant pressure).
+        for order in ["order = 2\n", "order = 1\n"] {
+            mixed_block_in_uniaxial_tension(&BLOCK.replace("order = 2\n", order));
+        }
+    }
+
+    fn mixed_block_in_uniaxial_tension(text: &str) {
         let directory = std::env::temp_dir().join(format!("tetfem_mixed_{}", std::process::id()));
-        let mut scene = parse(BLOCK).unwrap();
+        let mut scene = parse(text).unwrap();
         assert_eq!(scene.formulation(), Formulation::Mixed);
         scene.set_output_directory(directory.clone());
         let summary = super::super::run_static(&scene).unwrap();
@@ -364,7 +397,15 @@ vtu_format = "ascii"
             "formulation = \"mixed\"",
             "formulation = \"mixed\"\nmodel = \"neo-hookean\"\nload_steps = 2",
         );
-        let mut scene = parse(&text).unwrap();
+        // Taylor–Hood (10-node), then the stabilized P1–P1 (4-node).
+        mixed_neo_hookean_block(&text, true);
+        mixed_neo_hookean_block(&text.replace("order = 2\n", "order = 1\n"), false);
+    }
+
+    /// [`a_mixed_neo_hookean_block_in_small_tension_is_the_linear_one`] on `text`;
+    /// `boffi_warning`: whether P2–P1's stability warning is expected.
+    fn mixed_neo_hookean_block(text: &str, boffi_warning: bool) {
+        let mut scene = parse(text).unwrap();
         assert_eq!(scene.formulation(), Formulation::Mixed);
         let directory =
             std::env::temp_dir().join(format!("tetfem_mixed_nh_{}", std::process::id()));
@@ -381,9 +422,11 @@ vtu_format = "ascii"
             (summary.max_von_mises - 1000.0).abs() < 3e-3 * 1000.0,
             "{summary:?}"
         );
-        // The block is one cell thick: no tet has a corner inside it.
-        assert!(
+        // The block is one cell thick: no tet has a corner inside it, which P2–P1 needs and
+        // the stabilized P1–P1 does not.
+        assert_eq!(
             summary.warnings.iter().any(|w| w.contains("Boffi")),
+            boffi_warning,
             "{:?}",
             summary.warnings
         );
@@ -393,7 +436,6 @@ vtu_format = "ascii"
     #[test]
     fn mixed_is_refused_where_it_does_not_apply_naming_the_key() {
         for (from, to, culprit) in [
-            ("order = 2\n", "order = 1\n", "[mesh] order = 1"),
             (
                 "formulation = \"mixed\"",
                 "formulation = \"mixed\"\nmodel = \"corotational\"",

@@ -7,10 +7,15 @@
 //! - `tet4`: the linear 4-node tet ([`Tet4`], its rest data [`Tet`]), constant strain;
 //! - [`tet10`]: the quadratic 10-node tet ([`Tet10`]), linear strain;
 //! - [`taylor_hood`]: the mixed P2–P1 tet (10-node displacement, corner pressure) for nearly
-//!   incompressible materials.
+//!   incompressible materials;
+//! - [`stabilized_p1`]: the mixed stabilized P1–P1 tet (4-node displacement and pressure);
+//! - [`mixed_element`]: what the mixed solve needs of either ([`MixedElement`]).
 
 mod element_type;
+pub mod mixed_element;
 pub mod pointwise;
+pub mod stabilized_p1;
+pub mod stabilized_p1_neo_hookean;
 pub mod taylor_hood;
 pub mod taylor_hood_neo_hookean;
 pub mod tet10;
@@ -18,6 +23,7 @@ mod tet4;
 
 pub use crate::mesh::{CellType, Tet4};
 pub use element_type::{ElementType, Weights};
+pub use mixed_element::MixedElement;
 pub use pointwise::PointwiseElement;
 pub use tet4::{
     FACES, Matrix6x12, Matrix12, Tet, Vector12, rest_shape_matrix, shape_quality, signed_volume,

@@ -44,7 +44,7 @@ use nalgebra::SMatrix;
 
 use super::tet10::Tet10Rest;
 use super::{ElementType, Tet10};
-use crate::mesh::TetMesh;
+use crate::mesh::{CellType, NodeList, TetMesh};
 
 /// Pressure nodes per element: the four corners.
 pub const PRESSURE_NODES: usize = 4;
@@ -121,11 +121,12 @@ pub struct PressureNodes {
 }
 
 impl PressureNodes {
-    /// The corner nodes of `mesh`'s tets.
-    pub fn new(mesh: &TetMesh<Tet10>) -> Self {
+    /// The corner nodes of `mesh`'s tets (of either cell type: every node of a 4-node mesh
+    /// that some tet uses).
+    pub fn new<C: CellType>(mesh: &TetMesh<C>) -> Self {
         let mut is_corner = vec![false; mesh.node_count()];
         for tet in mesh.tets() {
-            for &n in &tet[..PRESSURE_NODES] {
+            for n in tet.corners() {
                 is_corner[n] = true;
             }
         }
@@ -157,7 +158,7 @@ impl PressureNodes {
 
     /// The pressure unknowns of tet `tet` (its four corners), for a tet of the mesh this was
     /// made from.
-    pub fn of_tet(&self, tet: &[usize; 10]) -> [usize; PRESSURE_NODES] {
+    pub fn of_tet(&self, tet: &[usize]) -> [usize; PRESSURE_NODES] {
         // Every corner has an unknown by construction.
         std::array::from_fn(|k| self.index[tet[k]].unwrap_or(usize::MAX))
     }
@@ -167,7 +168,9 @@ impl PressureNodes {
 /// boundary face), ascending. P2–P1 is stable on meshes where every tet has an interior corner
 /// (Boffi 1997's sufficient condition); a tet without one has pressure modes its displacement
 /// barely controls (a mesh one tet thick has nothing else).
-pub fn tets_without_an_interior_corner(mesh: &TetMesh<Tet10>) -> crate::Result<Vec<usize>> {
+pub fn tets_without_an_interior_corner<C: CellType>(
+    mesh: &TetMesh<C>,
+) -> crate::Result<Vec<usize>> {
     let mut on_boundary = vec![false; mesh.node_count()];
     for face in mesh.boundary_faces()? {
         for n in face.nodes {
@@ -178,7 +181,7 @@ pub fn tets_without_an_interior_corner(mesh: &TetMesh<Tet10>) -> crate::Result<V
         .tets()
         .iter()
         .enumerate()
-        .filter(|(_, tet)| tet[..PRESSURE_NODES].iter().all(|&n| on_boundary[n]))
+        .filter(|(_, tet)| tet.corners().iter().all(|&n| on_boundary[n]))
         .map(|(t, _)| t)
         .collect())
 }

@@ -113,12 +113,13 @@ pub fn mixed_neo_hookean(
     Some(state)
 }
 
-/// The kinematics and stress of one quadrature point.
-struct Point {
+/// The kinematics and stress of one quadrature point (also the single point of the 4-node
+/// stabilized P1–P1 element, whose F is constant).
+pub(super) struct Point {
     f: Matrix3<f64>,
     /// F⁻ᵀ.
     inverse_transpose: Matrix3<f64>,
-    j: f64,
+    pub(super) j: f64,
     /// μ·J^(−2/3).
     scaled_mu: f64,
     /// I₁ = tr(FᵀF).
@@ -127,7 +128,7 @@ struct Point {
 }
 
 impl Point {
-    fn new(f: &Matrix3<f64>, mu: f64, pressure: f64) -> Option<Self> {
+    pub(super) fn new(f: &Matrix3<f64>, mu: f64, pressure: f64) -> Option<Self> {
         let j = f.determinant();
         if j <= 0.0 || !j.is_finite() {
             return None;
@@ -143,12 +144,12 @@ impl Point {
     }
 
     /// cof F = J·F⁻ᵀ.
-    fn cofactor(&self) -> Matrix3<f64> {
+    pub(super) fn cofactor(&self) -> Matrix3<f64> {
         self.inverse_transpose * self.j
     }
 
     /// P = μJ^(−2/3)·(F − I₁/3·F⁻ᵀ) − p·cof F.
-    fn piola(&self) -> Matrix3<f64> {
+    pub(super) fn piola(&self) -> Matrix3<f64> {
         (self.f - self.inverse_transpose * (self.i1 / 3.0)) * self.scaled_mu
             - self.cofactor() * self.pressure
     }
@@ -157,7 +158,7 @@ impl Point {
     /// dI₁ = 2F:dF and dF⁻ᵀ = −F⁻ᵀ·dFᵀ·F⁻ᵀ,
     /// dP = μJ^(−2/3)·[dF − ⅔(F⁻ᵀ:dF)(F − I₁/3·F⁻ᵀ) − ⅔(F:dF)F⁻ᵀ + I₁/3·F⁻ᵀdFᵀF⁻ᵀ]
     ///      − p·J·[(F⁻ᵀ:dF)F⁻ᵀ − F⁻ᵀdFᵀF⁻ᵀ].
-    fn piola_direction(&self, df: &Matrix3<f64>) -> Matrix3<f64> {
+    pub(super) fn piola_direction(&self, df: &Matrix3<f64>) -> Matrix3<f64> {
         let h = &self.inverse_transpose;
         let h_df = h.component_mul(df).sum();
         let f_df = self.f.component_mul(df).sum();
