@@ -41,6 +41,7 @@ mod memory_tet10;
 mod mesh;
 mod mesh_io;
 mod mesh_trust;
+mod mixed_dynamics;
 mod mixed_neo_hookean;
 mod mixed_tube;
 mod mms_rates;
