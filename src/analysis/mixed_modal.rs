@@ -1,8 +1,9 @@
 //! Modal analysis of the linear mixed (Taylor–Hood P2–P1) body: K_eff·φ = ω²·M·φ with the
 //! pressure eliminated exactly, K_eff = K_dev + Bᵀ(M_p/κ)⁻¹B ([`MixedOperator`]).
 //!
-//! The subspace iteration of [`modal`](crate::analysis::modal) runs unchanged on a
-//! stiffness operator (`modal::StiffnessOperator`) whose solve x = K_eff⁻¹·b is one LDLᵀ solve of the saddle point
+//! The subspace iteration of [`modal`](crate::analysis::modal) runs unchanged on a stiffness
+//! operator (`modal::StiffnessOperator`) whose solve x = K_eff⁻¹·b is one LDLᵀ solve of the
+//! saddle point
 //!
 //! ```text
 //!   ⎡ K_dev,ff   −B_fᵀ  ⎤ ⎡x⎤   ⎡b⎤

@@ -408,3 +408,79 @@ fn the_mixed_transient_refuses_what_it_does_not_compute() {
         "{stiff:?}"
     );
 }
+
+#[test]
+fn the_library_admits_the_linear_mixed_dynamics_and_modes_and_refuses_the_rest_by_name() {
+    use tetfem::analysis::combination::{Analysis, Combination, Formulation};
+    use tetfem::model::ModelKind;
+    let mixed = Combination {
+        formulation: Formulation::Mixed,
+        order: 2,
+        ..Combination::default()
+    };
+    for analysis in [
+        Analysis::Transient(Method::BackwardEuler),
+        Analysis::Transient(Method::Newmark),
+        Analysis::Modal,
+    ] {
+        let combination = Combination {
+            analysis,
+            ..mixed.clone()
+        };
+        assert!(combination.check().is_ok(), "{analysis:?}");
+    }
+    let newmark = Combination {
+        analysis: Analysis::Transient(Method::Newmark),
+        ..mixed.clone()
+    };
+    for (combination, pair) in [
+        (
+            Combination {
+                analysis: Analysis::Transient(Method::Explicit),
+                ..mixed.clone()
+            },
+            "formulation mixed with analysis",
+        ),
+        (
+            Combination {
+                model: ModelKind::NeoHookean,
+                ..newmark.clone()
+            },
+            "formulation mixed with model",
+        ),
+        (
+            Combination {
+                moving_supports: true,
+                ..newmark.clone()
+            },
+            "formulation mixed with moving supports",
+        ),
+        (
+            Combination {
+                time_varying_loads: true,
+                ..newmark.clone()
+            },
+            "formulation mixed with loads that follow an amplitude",
+        ),
+        (
+            Combination {
+                surface_contact: true,
+                ..newmark.clone()
+            },
+            "formulation mixed with surface_contact",
+        ),
+        (
+            Combination {
+                obstacles: true,
+                ..newmark.clone()
+            },
+            "formulation mixed with obstacles",
+        ),
+    ] {
+        let error = combination.check().unwrap_err();
+        assert!(
+            matches!(&error, Error::InvalidParameter { name, .. } if name == pair),
+            "{pair}: {error}"
+        );
+    }
+}

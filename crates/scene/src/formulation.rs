@@ -74,7 +74,11 @@ impl Scene {
                     Ok(_) => None,
                 };
                 let refusal = refusal.or_else(|| {
-                    if self.accuracy().is_some() {
+                    if combination.analysis != tetfem::analysis::Analysis::Static {
+                        // The library computes these; this front end runs them by
+                        // `crate::mixed_dynamics` (not yet wired).
+                        Some("a dynamic or modal analysis".to_string())
+                    } else if self.accuracy().is_some() {
                         Some("analysis.accuracy".to_string())
                     } else if self.engine().kind != super::EngineKind::Tetfem {
                         // The distributed engine assembles the displacement element only.
