@@ -16,9 +16,11 @@
 //!   ([`crate::analysis::dynamics::surface_step_bound`]), stopping by name at a step that
 //!   would leave that bound's range or cross;
 //! - the mixed displacement–pressure formulation ([`Formulation::Mixed`]) with what it does not
-//!   compute: an analysis other than static, a model other than the linear and the Neo-Hookean
-//!   one, obstacles, and with the Neo-Hookean model supports that move (its load steps scale
-//!   prescribed values by λ).
+//!   compute: the explicit method (the pressure has no inertia), a model other than the linear
+//!   and the Neo-Hookean one, obstacles, and with the Neo-Hookean model supports that move (its
+//!   load steps scale prescribed values by λ); in the implicit dynamic and the modal analyses,
+//!   4-node tets (the stabilized P1–P1 element is static only), a model other than the linear
+//!   one, body–body contact, moving supports and loads that follow amplitudes.
 //!
 //! Combinations that run but whose behaviour the user should know of give a [`Warning`]:
 //! Newmark (average acceleration) with obstacles or with body–body contact loses energy at
@@ -221,15 +223,22 @@ impl Combination {
             Err(Error::invalid_parameter(
                 format!("formulation mixed with {what}"),
                 value,
-                format!("the mixed (Taylor–Hood P2–P1) element {why}"),
+                format!(
+                    "the mixed element ({}) {why}",
+                    mixed_element_name(self.order)
+                ),
             ))
         };
-        if self.analysis != Analysis::Static {
+        if self.analysis == Analysis::Transient(Method::Explicit) {
             return refuse(
                 "analysis",
                 self.analysis.name(),
-                "is static only; use the displacement formulation",
+                "steps implicitly only (its pressure has no inertia to step explicitly); use \
+                 backward_euler or newmark",
             );
+        }
+        if self.analysis != Analysis::Static {
+            self.check_mixed_dynamics()?;
         }
         if !matches!(self.model, ModelKind::Linear | ModelKind::NeoHookean) {
             return refuse(
@@ -250,5 +259,69 @@ impl Combination {
             );
         }
         Ok(())
+    }
+
+    /// The refusals of [`Formulation::Mixed`] in the implicit dynamic and the modal analyses
+    /// ([`crate::analysis::mixed_dynamics`], [`crate::analysis::mixed_modal`]): the linear
+    /// model on fixed supports under constant loads, without contact.
+
+    /// The refusals of [`Formulation::Mixed`] in the implicit dynamic and modal analyses.
+    fn check_mixed_dynamics(&self) -> Result<()> {
+        let refuse = |what: &str, value: String, why: &str| {
+            Err(Error::invalid_parameter(
+                format!("formulation mixed with {what}"),
+                value,
+                format!(
+                    "the mixed (Taylor–Hood P2–P1) element in a {} analysis {why}",
+                    self.analysis.name()
+                ),
+            ))
+        };
+        if self.order != 2 {
+            return refuse(
+                "element order",
+                self.order.to_string(),
+                "needs 10-node tets ([mesh] order = 2; the stabilized P1–P1 element on 4-node \
+                 tets is static only)",
+            );
+        }
+        if self.model != ModelKind::Linear {
+            return refuse(
+                "model",
+                self.model.name().to_string(),
+                "has the linear model only (Neo-Hookean is static only); use the linear model",
+            );
+        }
+        if self.surface_contact {
+            return refuse(
+                "surface_contact",
+                "surface contact".into(),
+                "has no contact",
+            );
+        }
+        if self.moving_supports {
+            return refuse(
+                "moving supports",
+                "moving supports".into(),
+                "holds its supports fixed",
+            );
+        }
+        if self.time_varying_loads {
+            return refuse(
+                "loads that follow an amplitude",
+                "time-varying loads".into(),
+                "takes constant loads and gravity only",
+            );
+        }
+        Ok(())
+    }
+}
+
+/// The mixed element of an element order: Taylor–Hood P2–P1 on 10-node tets, the stabilized
+/// P1–P1 on 4-node ones.
+fn mixed_element_name(order: usize) -> &'static str {
+    match order {
+        1 => "stabilized P1–P1",
+        _ => "Taylor–Hood P2–P1",
     }
 }

@@ -2,9 +2,13 @@
 //! the linear model by one saddle-point solve ([`MixedStaticSolver`]), the Neo-Hookean one by
 //! Newton's load steps ([`solve_static_mixed_nonlinear`]), after the library's rule of what the
 //! mixed element may be combined with ([`Combination::check`]). Front ends (scenes, Python)
-//! call this and decide nothing.
+//! call this and decide nothing. Beside it, the checked entries of the linear mixed body's
+//! implicit dynamics ([`mixed_transient_model`]) and modes ([`mixed_modes_model`]).
 
 use crate::analysis::combination::{Analysis, Combination, Formulation};
+use crate::analysis::dynamics::{Method, Rayleigh};
+use crate::analysis::mixed_dynamics::MixedTransient;
+use crate::analysis::mixed_modal::{MixedModes, lowest_mixed_modes};
 use crate::analysis::mixed_nonlinear::solve_static_mixed_nonlinear;
 use crate::analysis::mixed_statics::{MixedStaticSolution, MixedStaticSolver};
 use crate::analysis::nonlinear::NewtonOptions;
@@ -90,4 +94,46 @@ pub fn solve_static_mixed_model<E: MixedStaticElement>(
         factor_len: 0,
         newton_iterations: Some(report.iterations),
     })
+}
+
+/// The mixed element in an implicit dynamic run of `model` (the linear one): the library's
+/// rule first ([`Combination::check`] with [`Analysis::Transient`]`(method)`: the explicit
+/// method, another model, moving supports and loads that follow amplitudes are refused by
+/// name), then [`MixedTransient::new`] with `method`, `dt` and `damping`, at rest.
+pub fn mixed_transient_model(
+    mesh: &TetMesh<Tet10>,
+    materials: &impl TetMaterials,
+    model: ModelKind,
+    (constraints, loads): (&Constraints, &Loads),
+    (method, dt, damping): (Method, f64, Rayleigh),
+) -> Result<MixedTransient> {
+    Combination {
+        model,
+        order: 2,
+        analysis: Analysis::Transient(method),
+        formulation: Formulation::Mixed,
+        ..Combination::default()
+    }
+    .check()?;
+    MixedTransient::new(mesh, materials, constraints, loads, (method, dt, damping))
+}
+
+/// The `count` lowest modes of the mixed body with `model` (the linear one; the library's rule
+/// [`Combination::check`] with [`Analysis::Modal`] first), by [`lowest_mixed_modes`].
+pub fn mixed_modes_model(
+    mesh: &TetMesh<Tet10>,
+    materials: &impl TetMaterials,
+    model: ModelKind,
+    constraints: &Constraints,
+    count: usize,
+) -> Result<MixedModes> {
+    Combination {
+        model,
+        order: 2,
+        analysis: Analysis::Modal,
+        formulation: Formulation::Mixed,
+        ..Combination::default()
+    }
+    .check()?;
+    lowest_mixed_modes(mesh, materials, constraints, count)
 }

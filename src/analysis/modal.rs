@@ -88,7 +88,90 @@ pub fn lowest_modes_with_force(
 /// then Rayleigh–Ritz on span(Y) (a p×p generalized eigenproblem). The extra vectors make the
 /// convergence rate (ω_count/ω_{p+1})² per iteration.
 pub fn lowest_modes(system: &LinearSystem, count: usize) -> Result<Modes> {
-    let n = system.free_count();
+    let mut stiffness = MatrixStiffness {
+        k: system.stiffness(),
+        cholesky: None,
+    };
+    subspace_modes(&mut stiffness, system.mass(), count, RESIDUAL_TOLERANCE)
+}
+
+/// The stiffness side of K·φ = ω²·M·φ as the subspace iteration uses it: solves with K (or,
+/// for the mixed element, with the saddle point whose condensed stiffness is K) and products
+/// by K. [`lowest_modes`]'s is the assembled K_ff and its sparse Cholesky factor.
+pub(crate) trait StiffnessOperator {
+    /// n, the free DOF count.
+    fn dim(&self) -> usize;
+    /// Factors K (once; before the first [`solve_in_place`](Self::solve_in_place)).
+    fn factor(&mut self) -> Result<()>;
+    /// b ← K⁻¹·b.
+    fn solve_in_place(&mut self, b: &mut [f64]) -> Result<()>;
+    /// K·x.
+    fn product(&mut self, x: &[f64]) -> Result<Vec<f64>>;
+    /// K·x and the magnitude |K|·|x| of the terms summed to form it (entry-wise), the scale of
+    /// its round-off in [`Modes::residuals`].
+    fn product_and_bound(&mut self, x: &[f64]) -> Result<(Vec<f64>, Vec<f64>)>;
+}
+
+/// An assembled K_ff with its Cholesky factor (made by [`StiffnessOperator::factor`]).
+struct MatrixStiffness<'a> {
+    k: &'a CscMatrix,
+    cholesky: Option<SparseCholesky>,
+}
+
+impl StiffnessOperator for MatrixStiffness<'_> {
+    fn dim(&self) -> usize {
+        self.k.dim()
+    }
+
+    fn factor(&mut self) -> Result<()> {
+        let mut cholesky = SparseCholesky::analyze(self.k)?;
+        cholesky.factorize(self.k)?;
+        self.cholesky = Some(cholesky);
+        Ok(())
+    }
+
+    fn solve_in_place(&mut self, b: &mut [f64]) -> Result<()> {
+        match &mut self.cholesky {
+            Some(cholesky) => Ok(cholesky.solve_in_place(b)?),
+            None => Err(Error::Solver(
+                "modal analysis: K solved before its factorization".into(),
+            )),
+        }
+    }
+
+    fn product(&mut self, x: &[f64]) -> Result<Vec<f64>> {
+        Ok(self.k.mul(x)?)
+    }
+
+    fn product_and_bound(&mut self, x: &[f64]) -> Result<(Vec<f64>, Vec<f64>)> {
+        let k = self.k;
+        let n = x.len();
+        let mut kx = vec![0.0; n];
+        k.product_into(x, &mut kx);
+        // |K|·|x| by columns (K is symmetric).
+        let (col_ptr, row_idx, values) = (k.col_ptr(), k.row_idx(), k.values());
+        let bound = (0..n)
+            .map(|j| {
+                let mut abs_kx = 0.0;
+                for e in col_ptr[j]..col_ptr[j + 1] {
+                    abs_kx += values[e].abs() * x[row_idx[e]].abs();
+                }
+                abs_kx
+            })
+            .collect();
+        Ok((kx, bound))
+    }
+}
+
+/// [`lowest_modes`] on any [`StiffnessOperator`] `k` with mass `mass`, converged until every
+/// scaled residual is at most `tolerance`.
+pub(crate) fn subspace_modes(
+    k: &mut dyn StiffnessOperator,
+    mass: &Mass,
+    count: usize,
+    tolerance: f64,
+) -> Result<Modes> {
+    let n = k.dim();
     if count == 0 || count > n {
         return Err(Error::invalid_parameter(
             "mode count",
@@ -97,13 +180,10 @@ pub fn lowest_modes(system: &LinearSystem, count: usize) -> Result<Modes> {
         ));
     }
     let p = n.min((2 * count).max(count + 8));
-    let k = system.stiffness();
-    let mass = system.mass();
     if p == n {
-        return all_modes(k, mass, count);
+        return all_modes(k, mass, count, tolerance);
     }
-    let mut cholesky = SparseCholesky::analyze(k)?;
-    cholesky.factorize(k)?;
+    k.factor()?;
     // Start block: smooth-ish deterministic vectors of varied shape.
     let mut x: Vec<Vec<f64>> = (0..p)
         .map(|j| {
@@ -126,7 +206,7 @@ pub fn lowest_modes(system: &LinearSystem, count: usize) -> Result<Modes> {
         for column in &x {
             mass.product_into(column, &mut work);
             let mut solved = work.clone();
-            cholesky.solve_in_place(&mut solved)?;
+            k.solve_in_place(&mut solved)?;
             y.push(solved);
         }
         let (lambda, ritz) = rayleigh_ritz(k, mass, &y)?;
@@ -143,9 +223,9 @@ pub fn lowest_modes(system: &LinearSystem, count: usize) -> Result<Modes> {
         }
         residuals = (0..count)
             .map(|i| scaled_residual(k, mass, lambda[i], &x[i]))
-            .collect();
+            .collect::<Result<_>>()?;
         let worst = residuals.iter().fold(0.0f64, |a, &b| a.max(b));
-        if worst <= RESIDUAL_TOLERANCE {
+        if worst <= tolerance {
             x.truncate(count);
             return Ok(Modes {
                 omega: lambda[..count].iter().map(|l| l.sqrt()).collect(),
@@ -160,14 +240,14 @@ pub fn lowest_modes(system: &LinearSystem, count: usize) -> Result<Modes> {
         } else if iteration - best_iteration >= STALL_ITERATIONS {
             return Err(Error::Solver(format!(
                 "modal analysis stalled after {iteration} subspace iterations: scaled residuals \
-                 [{}] of the {count} lowest modes, tolerance {RESIDUAL_TOLERANCE:.0e}",
+                 [{}] of the {count} lowest modes, tolerance {tolerance:.0e}",
                 list(&residuals)
             )));
         }
     }
     Err(Error::Solver(format!(
         "modal analysis did not converge in {MAX_ITERATIONS} subspace iterations: scaled \
-         residuals [{}] of the {count} lowest modes, tolerance {RESIDUAL_TOLERANCE:.0e}",
+         residuals [{}] of the {count} lowest modes, tolerance {tolerance:.0e}",
         list(&residuals)
     )))
 }
@@ -179,7 +259,12 @@ pub const DENSE_MODES_LIMIT: usize = 2000;
 /// n ≤ count + 8): Rayleigh–Ritz on the unit vectors, i.e. the dense generalized eigenproblem,
 /// exact in one step. (Subspace iteration there would start from n vectors that K⁻¹·M makes
 /// nearly dependent, and lose rank.) Up to [`DENSE_MODES_LIMIT`] free DOFs.
-fn all_modes(k: &CscMatrix, mass: &Mass, count: usize) -> Result<Modes> {
+fn all_modes(
+    k: &mut dyn StiffnessOperator,
+    mass: &Mass,
+    count: usize,
+    tolerance: f64,
+) -> Result<Modes> {
     let n = k.dim();
     if n > DENSE_MODES_LIMIT {
         return Err(Error::invalid_parameter(
@@ -207,14 +292,11 @@ fn all_modes(k: &CscMatrix, mass: &Mass, count: usize) -> Result<Modes> {
     }
     let residuals: Vec<f64> = (0..count)
         .map(|i| scaled_residual(k, mass, lambda[i], &shapes[i]))
-        .collect();
-    if residuals
-        .iter()
-        .any(|r| r.is_nan() || *r > RESIDUAL_TOLERANCE)
-    {
+        .collect::<Result<_>>()?;
+    if residuals.iter().any(|r| r.is_nan() || *r > tolerance) {
         return Err(Error::Solver(format!(
             "modal analysis: the dense eigensolve left scaled residuals [{}] above \
-             {RESIDUAL_TOLERANCE:.0e}",
+             {tolerance:.0e}",
             list(&residuals)
         )));
     }
@@ -242,9 +324,13 @@ fn dot(a: &[f64], b: &[f64]) -> f64 {
 
 /// Rayleigh–Ritz on span(Y): the eigenvalues of Yᵀ·K·Y·z = λ·Yᵀ·M·Y·z, ascending, and the Ritz
 /// vectors Y·z (M-orthonormal by construction).
-fn rayleigh_ritz(k: &CscMatrix, mass: &Mass, y: &[Vec<f64>]) -> Result<(Vec<f64>, Vec<Vec<f64>>)> {
+fn rayleigh_ritz(
+    k: &mut dyn StiffnessOperator,
+    mass: &Mass,
+    y: &[Vec<f64>],
+) -> Result<(Vec<f64>, Vec<Vec<f64>>)> {
     let (n, p) = (k.dim(), y.len());
-    let ky: Vec<Vec<f64>> = y.iter().map(|c| Ok(k.mul(c)?)).collect::<Result<_>>()?;
+    let ky: Vec<Vec<f64>> = y.iter().map(|c| k.product(c)).collect::<Result<_>>()?;
     let my: Vec<Vec<f64>> = y
         .iter()
         .map(|c| {
@@ -293,32 +379,32 @@ fn rayleigh_ritz(k: &CscMatrix, mass: &Mass, y: &[Vec<f64>]) -> Result<(Vec<f64>
 }
 
 /// ‖K·x − λ·M·x‖₂ / ‖(|K| + λ·|M|)·|x|‖₂ (see [`Modes::residuals`]).
-fn scaled_residual(k: &CscMatrix, mass: &Mass, lambda: f64, x: &[f64]) -> f64 {
+fn scaled_residual(
+    k: &mut dyn StiffnessOperator,
+    mass: &Mass,
+    lambda: f64,
+    x: &[f64],
+) -> Result<f64> {
     let n = x.len();
-    let (mut kx, mut mx) = (vec![0.0; n], vec![0.0; n]);
-    k.product_into(x, &mut kx);
+    let mut mx = vec![0.0; n];
+    let (kx, abs_kx) = k.product_and_bound(x)?;
     mass.product_into(x, &mut mx);
     let magnitude: Vec<f64> = x.iter().map(|v| v.abs()).collect();
-    // |K|·|x|; the mass matrices have no negative entries, so |M|·|x| = M·|x|.
-    let (col_ptr, row_idx, values) = (k.col_ptr(), k.row_idx(), k.values());
+    // The mass matrices have no negative entries, so |M|·|x| = M·|x|.
     let mut scale = vec![0.0; n];
     mass.product_into(&magnitude, &mut scale);
     let (mut residual, mut bound) = (0.0, 0.0);
     for j in 0..n {
-        let mut abs_kx = 0.0;
-        for e in col_ptr[j]..col_ptr[j + 1] {
-            abs_kx += values[e].abs() * magnitude[row_idx[e]];
-        }
         let r = kx[j] - lambda * mx[j];
-        let s = abs_kx + lambda * scale[j];
+        let s = abs_kx[j] + lambda * scale[j];
         residual += r * r;
         bound += s * s;
     }
-    if bound > 0.0 {
+    Ok(if bound > 0.0 {
         (residual / bound).sqrt()
     } else {
         0.0
-    }
+    })
 }
 
 /// The mass inner product φᵀ·M·ψ ([`Error::DimensionMismatch`] unless both vectors have the

@@ -42,6 +42,7 @@ mod memory_tet10;
 mod mesh;
 mod mesh_io;
 mod mesh_trust;
+mod mixed_dynamics;
 mod mixed_neo_hookean;
 mod mixed_tet4;
 mod mixed_tube;

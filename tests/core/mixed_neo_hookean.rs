@@ -477,7 +477,7 @@ fn the_library_refuses_what_the_mixed_element_cannot_do_naming_the_pair() {
     for (combination, pair) in [
         (
             Combination {
-                analysis: Analysis::Transient(Method::BackwardEuler),
+                analysis: Analysis::Transient(Method::Explicit),
                 ..mixed.clone()
             },
             "formulation mixed with analysis",

@@ -30,8 +30,11 @@ pub use tetfem::analysis::combination::Formulation;
 
 /// What a mixed scene needs, said in the error of a scene that lacks it.
 const MIXED_NEEDS: &str = "formulation = \"mixed\" is for static scenes with the linear or the \
-                           Neo-Hookean model on 4-node or 10-node tets on tetfem's own engine, \
-                           without obstacles, accuracy or point probes";
+                           Neo-Hookean model (4-node or 10-node tets), and dynamic \
+                           (backward_euler, newmark) and modal scenes with the linear model and \
+                           mass = \"consistent\" on 10-node tets ([mesh] order = 2; fixed \
+                           supports, constant loads, no probes, time_tolerance or checkpoints), \
+                           on tetfem's own engine, without obstacles, accuracy or point probes";
 
 impl Scene {
     /// The scene's formulation (checked when the scene was read).
@@ -61,14 +64,17 @@ impl Scene {
                 let refusal = match combination.check() {
                     Err(Error::InvalidParameter { name, .. }) => {
                         Some(match name.trim_start_matches("formulation mixed with ") {
-                            "analysis" => "a dynamic or modal analysis".to_string(),
+                            "analysis" => "method = \"explicit\"".to_string(),
                             "model" => format!("model = \"{}\"", self.model().name()),
                             "element order" => format!("[mesh] order = {}", self.order()),
                             "obstacles" => "[[obstacles]]".to_string(),
                             "moving supports" => {
                                 "constraints that move (amplitude, linear_field or rigid_motion) \
-                                 with the Neo-Hookean model"
+                                 with the Neo-Hookean model or in a dynamic or modal analysis"
                                     .to_string()
+                            }
+                            "loads that follow an amplitude" => {
+                                "loads with an amplitude in a dynamic analysis".to_string()
                             }
                             other => other.to_string(),
                         })
@@ -77,7 +83,9 @@ impl Scene {
                     Ok(_) => None,
                 };
                 let refusal = refusal.or_else(|| {
-                    if self.accuracy().is_some() {
+                    if let Some(what) = self.mixed_dynamics_refusal() {
+                        Some(what)
+                    } else if self.accuracy().is_some() {
                         Some("analysis.accuracy".to_string())
                     } else if self.engine().kind != super::EngineKind::Tetfem {
                         // The distributed engine assembles the displacement element only.

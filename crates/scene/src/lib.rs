@@ -19,6 +19,7 @@ mod engine;
 mod estimate;
 mod formulation;
 pub mod key_docs;
+mod mixed_dynamics;
 mod modal;
 mod obstacles;
 // Without the `png` feature the frames' code is a stand-in that refuses (a scene asking for

@@ -100,6 +100,9 @@ pub fn run_modal_scene(scene: &Scene, no_files: bool) -> Result<ModalSummary> {
         true => None,
         false => Some(OutputLock::acquire(&scene.output().directory)?),
     };
+    if scene.formulation() == super::Formulation::Mixed {
+        return super::mixed_dynamics::run_mixed_modal(scene, settings, lock);
+    }
     match scene.order() {
         2 => run_modal_on::<Tet10>(scene, settings, lock),
         _ => run_modal_on::<Tet4>(scene, settings, lock),

@@ -805,6 +805,11 @@ fn run_dynamic_scene_as(
         true => Some(OutputLock::acquire(&scene.output().directory)?),
         false => None,
     };
+    if scene.formulation() == super::Formulation::Mixed && !resume {
+        return super::mixed_dynamics::run_mixed_dynamic(
+            scene, settings, overrides, lock, progress,
+        );
+    }
     let resume = match resume {
         true => Some(restart::checkpoint_for_resume(scene)?),
         false => None,

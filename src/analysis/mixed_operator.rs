@@ -1,0 +1,312 @@
+//! The linear mixed (Taylor–Hood P2–P1) body as one operator for the analyses that add inertia
+//! to it: the blocks K_dev, B, M_p/κ of [`taylor_hood`](crate::fe::element::taylor_hood) and
+//! the consistent mass M on the free displacement DOFs, and the shifted saddle point
+//!
+//! ```text
+//!   A(c) = ⎡ K_dev,ff + c·M_ff   −B_fᵀ   ⎤
+//!          ⎣ −B_f               −M_p/κ   ⎦
+//! ```
+//!
+//! which backward Euler (c = 1/dt²), Newmark (c = 4/dt²) and the modal shift-invert (c = −σ)
+//! factor once. The pressure has no inertia, so eliminating it exactly leaves the condensed
+//! stiffness K_eff = K_dev + Bᵀ(M_p/κ)⁻¹B (force/length): the time methods and the modal
+//! iteration act on (K_eff, M) while solving only the sparse A(c). For c > 0 the first block
+//! is positive definite without any support (the mass holds the rigid motions), so A(c) is
+//! symmetric quasi-definite for every ν < 0.5 and the LDLᵀ needs no pivoting.
+
+use std::sync::Arc;
+
+use faer::sparse::SymbolicSparseColMat;
+
+use crate::analysis::mixed_statics::{nodal_pressure, saddle_point_matrix};
+use crate::analysis::problem::Problem;
+use crate::base::error::{Error, Result};
+use crate::bc::constraints::{Constraints, DofMap};
+use crate::fe::element::taylor_hood::{
+    Coupling, PressureNodes, coupling, deviatoric_stiffness, pressure_mass,
+};
+use crate::fe::element::{ElementType, Tet10};
+use crate::fe::materials::TetMaterials;
+use crate::linsolve::SparseCholesky;
+use crate::mesh::TetMesh;
+use crate::sparse::CscMatrix;
+
+/// The assembled linear mixed body (see the [module](self) docs).
+#[derive(Debug)]
+pub struct MixedOperator {
+    dofs: DofMap,
+    pressure_nodes: PressureNodes,
+    tets: Vec<[usize; 10]>,
+    couplings: Vec<Coupling>,
+    node_count: usize,
+    /// K_dev on every DOF (force/length).
+    deviatoric: CscMatrix,
+    /// K_dev,ff.
+    free_deviatoric: CscMatrix,
+    /// M_ff, consistent, on the pattern of K_dev,ff (mass units).
+    mass: CscMatrix,
+    /// A(0).
+    saddle: CscMatrix,
+    /// M_p/κ on the pressure unknowns (length³/Pa), positive definite.
+    pressure_mass: CscMatrix,
+    /// Its Cholesky factor, for the pressure that u alone implies.
+    pressure_factor: SparseCholesky,
+}
+
+impl MixedOperator {
+    /// Assembles the blocks of `mesh` with `materials` (every ν < 0.5). With `held` the
+    /// supports must hold every rigid motion ([`Error::NotConstrained`]), as K_eff alone must
+    /// be definite (a modal analysis at shift 0); without it a free body is accepted (a time
+    /// step's c·M holds it).
+    pub fn new(
+        mesh: &TetMesh<Tet10>,
+        materials: &impl TetMaterials,
+        constraints: &Constraints,
+        held: bool,
+    ) -> Result<Self> {
+        crate::analysis::problem::ensure_mesh_dofs(mesh, "constraints", constraints.dof_count())?;
+        materials.check_tet_count(mesh)?;
+        let problem = if held {
+            Problem::new(mesh, constraints)?
+        } else {
+            Problem::with_dofs(mesh, DofMap::new(constraints))?
+        };
+        let shear: Vec<f64> = materials
+            .material_list()
+            .iter()
+            .map(|m| m.shear_modulus())
+            .collect();
+        let inverse_bulk: Vec<f64> = materials
+            .material_list()
+            .iter()
+            .map(|m| 1.0 / m.bulk_modulus())
+            .collect();
+        let mut deviatoric = problem.zero_matrix()?;
+        problem.assembler().reassemble_elements(
+            mesh,
+            |t| deviatoric_stiffness(&Tet10::rest(mesh, t), shear[materials.index_of(t)]),
+            &mut deviatoric,
+        )?;
+        let free_deviatoric = problem.restrict(&deviatoric)?;
+        let mass = problem.free_consistent_mass(materials)?;
+        if mass.col_ptr() != free_deviatoric.col_ptr()
+            || mass.row_idx() != free_deviatoric.row_idx()
+        {
+            return Err(Error::Solver(
+                "mixed operator: the mass and the deviatoric stiffness differ in pattern".into(),
+            ));
+        }
+        let pressure_nodes = PressureNodes::new(mesh);
+        // Per tet: B and the pressure mass over κ (4×4), from one rest each.
+        let (couplings, blocks): (Vec<Coupling>, Vec<[[f64; 4]; 4]>) = (0..mesh.tet_count())
+            .map(|t| {
+                let rest = Tet10::rest(mesh, t);
+                let inverse_bulk = inverse_bulk[materials.index_of(t)];
+                let block = std::array::from_fn(|k| {
+                    std::array::from_fn(|l| inverse_bulk * pressure_mass(&rest, k, l))
+                });
+                (coupling(&rest), block)
+            })
+            .unzip();
+        let dofs = problem.into_dofs();
+        let saddle = saddle_point_matrix(
+            mesh,
+            &free_deviatoric,
+            &dofs,
+            &pressure_nodes,
+            |t, k, i, a| couplings[t][k][i][a],
+            |t, k, l| blocks[t][k][l],
+        )?;
+        let pressure_mass = lower_block(&saddle, dofs.free_count())?;
+        let mut pressure_factor = SparseCholesky::analyze(&pressure_mass)?;
+        pressure_factor.factorize(&pressure_mass)?;
+        Ok(MixedOperator {
+            dofs,
+            pressure_nodes,
+            tets: mesh.tets().to_vec(),
+            couplings,
+            node_count: mesh.node_count(),
+            deviatoric,
+            free_deviatoric,
+            mass,
+            saddle,
+            pressure_mass,
+            pressure_factor,
+        })
+    }
+
+    /// A(c): the saddle point with c·M_ff (c in 1/time²) added to its first block.
+    pub fn shifted(&self, c: f64) -> CscMatrix {
+        let mut out = self.saddle.clone();
+        let (k_ptr, m_values) = (self.free_deviatoric.col_ptr(), self.mass.values());
+        let a_ptr = out.col_ptr().to_vec();
+        let values = out.values_mut();
+        // Each of the first n_f columns of A(0) begins with K_dev,ff's entries of that
+        // column (same rows as M_ff's): the pressure rows follow them.
+        for j in 0..self.dofs.free_count() {
+            for e in 0..k_ptr[j + 1] - k_ptr[j] {
+                values[a_ptr[j] + e] += c * m_values[k_ptr[j] + e];
+            }
+        }
+        out
+    }
+
+    /// The free/constrained displacement DOF numbering.
+    pub fn dofs(&self) -> &DofMap {
+        &self.dofs
+    }
+
+    /// The pressure unknowns (the tets' corner nodes).
+    pub fn pressure_nodes(&self) -> &PressureNodes {
+        &self.pressure_nodes
+    }
+
+    /// M_ff, the consistent mass of the free DOFs (mass units).
+    pub fn mass(&self) -> &CscMatrix {
+        &self.mass
+    }
+
+    /// K_dev on every DOF (force/length).
+    pub fn deviatoric(&self) -> &CscMatrix {
+        &self.deviatoric
+    }
+
+    /// K_dev,ff (force/length).
+    pub fn free_deviatoric(&self) -> &CscMatrix {
+        &self.free_deviatoric
+    }
+
+    /// M_p/κ on the pressure unknowns (length³/Pa).
+    pub fn pressure_mass(&self) -> &CscMatrix {
+        &self.pressure_mass
+    }
+
+    /// B·u per pressure unknown for a full displacement `u`: ∫ L_k div u dV (length³).
+    pub fn divergence(&self, u: &[f64]) -> Result<Vec<f64>> {
+        Error::check_len("displacement", 3 * self.node_count, u.len())?;
+        let mut out = vec![0.0; self.pressure_nodes.count()];
+        for (tet, b) in self.tets.iter().zip(&self.couplings) {
+            let corners = self.pressure_nodes.of_tet(tet);
+            for (k, &p) in corners.iter().enumerate() {
+                for (i, &n) in tet.iter().enumerate() {
+                    for a in 0..3 {
+                        out[p] += b[k][i][a] * u[3 * n + a];
+                    }
+                }
+            }
+        }
+        Ok(out)
+    }
+
+    /// Bᵀ·p on every DOF: the nodal forces ∫ p div v dV of the corner pressures `corner`
+    /// (force units).
+    pub fn pressure_force(&self, corner: &[f64]) -> Result<Vec<f64>> {
+        Error::check_len(
+            "corner pressures",
+            self.pressure_nodes.count(),
+            corner.len(),
+        )?;
+        let mut out = vec![0.0; 3 * self.node_count];
+        for (tet, b) in self.tets.iter().zip(&self.couplings) {
+            let corners = self.pressure_nodes.of_tet(tet);
+            for (k, &p) in corners.iter().enumerate() {
+                for (i, &n) in tet.iter().enumerate() {
+                    for a in 0..3 {
+                        out[3 * n + a] += b[k][i][a] * corner[p];
+                    }
+                }
+            }
+        }
+        Ok(out)
+    }
+
+    /// The pressure the full displacement `u` implies, p = −(M_p/κ)⁻¹·B·u (Pa; the second
+    /// row of the saddle point), per corner unknown.
+    pub fn implied_pressure(&mut self, u: &[f64]) -> Result<Vec<f64>> {
+        let mut p: Vec<f64> = self.divergence(u)?.iter().map(|d| -d).collect();
+        self.pressure_factor.solve_in_place(&mut p)?;
+        Ok(p)
+    }
+
+    /// The elastic energy ½·uᵀK_dev·u + ½·pᵀ(M_p/κ)·p (energy units) of a full displacement
+    /// `u` and its corner pressures `corner`: ½·uᵀK_eff·u when p is the implied pressure.
+    pub fn elastic_energy(&self, u: &[f64], corner: &[f64]) -> Result<f64> {
+        Error::check_len(
+            "corner pressures",
+            self.pressure_nodes.count(),
+            corner.len(),
+        )?;
+        Ok(0.5
+            * (self.deviatoric.quadratic_form(u)? + self.pressure_mass.quadratic_form(corner)?))
+    }
+
+    /// K_eff·x on the free DOFs (x zero on the supports): K_dev,ff·x − B_fᵀ·p with
+    /// p = −(M_p/κ)⁻¹·B_f·x; also returns the two terms' magnitude bound
+    /// |K_dev,ff|·|x| + |B_fᵀ|·|p| (entry-wise), the scale of its round-off.
+    pub fn condensed_product(&mut self, x: &[f64]) -> Result<(Vec<f64>, Vec<f64>)> {
+        Error::check_len("x", self.dofs.free_count(), x.len())?;
+        let mut full = vec![0.0; 3 * self.node_count];
+        for (value, &dof) in x.iter().zip(self.dofs.free_dofs()) {
+            full[dof] = *value;
+        }
+        let p = self.implied_pressure(&full)?;
+        let force = self.pressure_force(&p)?;
+        let abs_p: Vec<f64> = p.iter().map(|v| v.abs()).collect();
+        let abs_force = self.abs_pressure_force(&abs_p);
+        let k = &self.free_deviatoric;
+        let mut product = k.mul(x)?;
+        let mut bound = vec![0.0; x.len()];
+        let (col_ptr, row_idx, values) = (k.col_ptr(), k.row_idx(), k.values());
+        for j in 0..x.len() {
+            for e in col_ptr[j]..col_ptr[j + 1] {
+                bound[row_idx[e]] += values[e].abs() * x[j].abs();
+            }
+        }
+        for (f, &dof) in self.dofs.free_dofs().iter().enumerate() {
+            product[f] -= force[dof];
+            bound[f] += abs_force[dof];
+        }
+        Ok((product, bound))
+    }
+
+    /// |Bᵀ|·|p| on every DOF.
+    fn abs_pressure_force(&self, abs_corner: &[f64]) -> Vec<f64> {
+        let mut out = vec![0.0; 3 * self.node_count];
+        for (tet, b) in self.tets.iter().zip(&self.couplings) {
+            let corners = self.pressure_nodes.of_tet(tet);
+            for (k, &p) in corners.iter().enumerate() {
+                for (i, &n) in tet.iter().enumerate() {
+                    for a in 0..3 {
+                        out[3 * n + a] += b[k][i][a].abs() * abs_corner[p];
+                    }
+                }
+            }
+        }
+        out
+    }
+
+    /// The pressure at every node (Pa) from the corner values, linear along edges.
+    pub fn nodal_pressure(&self, corner: &[f64]) -> Vec<f64> {
+        nodal_pressure::<Tet10>(&self.tets, &self.pressure_nodes, self.node_count, corner)
+    }
+}
+
+/// M_p/κ: minus the lower-right block of A(0) (the rows and columns from `free_count` on).
+fn lower_block(saddle: &CscMatrix, free_count: usize) -> Result<CscMatrix> {
+    let dim = saddle.dim() - free_count;
+    let mut col_ptr = vec![0usize];
+    let (mut row_idx, mut values) = (Vec::new(), Vec::new());
+    for j in free_count..saddle.dim() {
+        for e in saddle.col_ptr()[j]..saddle.col_ptr()[j + 1] {
+            let row = saddle.row_idx()[e];
+            if row >= free_count {
+                row_idx.push(row - free_count);
+                values.push(-saddle.values()[e]);
+            }
+        }
+        col_ptr.push(row_idx.len());
+    }
+    // Sorted rows of a square block by construction.
+    let pattern = SymbolicSparseColMat::new_checked(dim, dim, col_ptr, None, row_idx);
+    Ok(CscMatrix::from_values(Arc::new(pattern), values)?)
+}
