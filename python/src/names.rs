@@ -80,6 +80,49 @@ pub fn model(py: Python<'_>, name: &str) -> PyResult<ModelKind> {
     name.replace('_', "-").parse::<ModelKind>().or_raise(py)
 }
 
+/// The `model` argument of a solve: one model name for every material, or a list of names, one
+/// per material of the run's material map (in its order: a `MaterialMap`'s materials), e.g. a
+/// linear body beside a Neo-Hookean one.
+#[derive(Debug, Clone, FromPyObject)]
+pub enum ModelArg {
+    /// One name for every material.
+    One(String),
+    /// A name per material.
+    PerMaterial(Vec<String>),
+}
+
+impl Default for ModelArg {
+    /// `"linear"`, every material.
+    fn default() -> Self {
+        ModelArg::One("linear".into())
+    }
+}
+
+/// The models of `arg` as the library's definition takes them: the first material's kind (the
+/// run's model) and, for a list, the kind of each material. An empty list or an unknown name
+/// raises `InvalidInputError` naming it; a list of another length than the materials is the
+/// library's error (`Definition`'s region models, naming both counts).
+pub fn models(py: Python<'_>, arg: &ModelArg) -> PyResult<(ModelKind, Option<Vec<ModelKind>>)> {
+    match arg {
+        ModelArg::One(name) => Ok((model(py, name)?, None)),
+        ModelArg::PerMaterial(names) => {
+            let kinds = names
+                .iter()
+                .map(|n| model(py, n))
+                .collect::<PyResult<Vec<_>>>()?;
+            match kinds.first() {
+                Some(&first) => Ok((first, Some(kinds))),
+                None => Err(invalid(
+                    py,
+                    "model",
+                    "[]",
+                    "must be a model name or a list of them, one per material",
+                )),
+            }
+        }
+    }
+}
+
 /// A mass matrix kind: `"lumped"` or `"consistent"`.
 pub fn mass(py: Python<'_>, name: &str) -> PyResult<MassKind> {
     match name {

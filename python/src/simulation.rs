@@ -47,7 +47,10 @@ fn energy_dict<'py>(py: Python<'py>, e: &Energy) -> PyResult<Bound<'py, PyDict>>
 /// or ``"explicit"`` (symplectic Euler: stable only below ``critical_time_step``). ``dt``: the
 /// time step in s, or a multiple of the explicit critical step as text (``"0.9crit"``).
 /// ``model``: ``"linear"``, ``"corotational"``, ``"neo-hookean"`` or ``"st-venant-kirchhoff"``
-/// (each material its own; the implicit methods then iterate Newton per step). ``mass``: ``"lumped"`` or ``"consistent"``. ``damping``: Rayleigh
+/// (each material its own; the implicit methods then iterate Newton per step), or a list of
+/// these, one per material of ``material`` (a ``MaterialMap``'s, in its order): each region its
+/// own model, e.g. a linear block meeting a Neo-Hookean one (``model`` then reads
+/// ``"per-material"`` where they differ). ``mass``: ``"lumped"`` or ``"consistent"``. ``damping``: Rayleigh
 /// (α in 1/s, β in s), C = α·M + β·K. ``loads``: gravity is tracked as its own potential, the
 /// other loads are constant, those added with an ``amplitude`` follow it in time (and
 /// ``Constraints`` with an ``amplitude`` or ``prescribe_rigid`` move the supports), as the
@@ -372,7 +375,7 @@ impl PySimulation {
 #[pymethods]
 impl PySimulation {
     #[new]
-    #[pyo3(signature = (mesh, material, constraints, loads = None, *, dt, method = "backward-euler", model = "linear", mass = "lumped", damping = (0.0, 0.0), initial_displacement = None, initial_velocity = None, linear_solver = "auto", obstacles = None, contact_distance = None, contact_stiffness = None, self_contact = false, self_contact_distance = None, self_contact_stiffness = None, self_contact_friction = 0.0))]
+    #[pyo3(signature = (mesh, material, constraints, loads = None, *, dt, method = "backward-euler", model = names::ModelArg::default(), mass = "lumped", damping = (0.0, 0.0), initial_displacement = None, initial_velocity = None, linear_solver = "auto", obstacles = None, contact_distance = None, contact_stiffness = None, self_contact = false, self_contact_distance = None, self_contact_stiffness = None, self_contact_friction = 0.0))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         py: Python<'_>,
@@ -382,7 +385,7 @@ impl PySimulation {
         loads: Option<PyRef<'_, PyLoads>>,
         dt: &Bound<'_, PyAny>,
         method: &str,
-        model: &str,
+        model: names::ModelArg,
         mass: &str,
         damping: (f64, f64),
         initial_displacement: Option<&Bound<'_, PyAny>>,
@@ -400,7 +403,7 @@ impl PySimulation {
         check_same_mesh(py, &data, &constraints, loads.as_deref())?;
         let materials = materials_of(py, material, &data)?;
         let method = names::method(py, method)?;
-        let kind = names::model(py, model)?;
+        let (kind, region_models) = names::models(py, &model)?;
         let mass = names::mass(py, mass)?;
         let options = IntegratorOptions {
             linear_method: names::linear_solver(py, linear_solver)?,
@@ -478,6 +481,9 @@ impl PySimulation {
                     }
                     if let Some((barrier, body_of_node)) = surface.clone() {
                         builder = builder.surface_contact(barrier, body_of_node)?;
+                    }
+                    if let Some(kinds) = region_models.clone() {
+                        builder = builder.region_models(kinds)?;
                     }
                     Transient::new(&builder.build()?, options)
                 })
@@ -709,7 +715,8 @@ impl PySimulation {
         self.method
     }
 
-    /// The force model's name (``linear``, ``corotational``, ``neo-hookean``).
+    /// The force model's name (``linear``, ``corotational``, ``neo-hookean``, …; ``per-material``
+    /// for a list of different models).
     #[getter]
     fn model(&self) -> &'static str {
         self.force.name()

@@ -155,7 +155,10 @@ pub fn check_same_mesh(
 /// or multigrid-preconditioned CG by predicted time, ``"direct"`` / ``"iterative"`` force one),
 /// or a nonlinear model ``"corotational"`` / ``"neo-hookean"`` / ``"st-venant-kirchhoff"``
 /// (each material its own) solved by Newton's method in ``load_steps`` increments with at most
-/// ``max_iterations`` per step. ``obstacles``: a list of ``Obstacle`` the body may touch (with
+/// ``max_iterations`` per step; or a list of these names, one per material of ``material`` (a
+/// ``MaterialMap``'s, in its order): each material region its own model, e.g. a linear body
+/// beside a Neo-Hookean one (Newton unless every one is ``"linear"``; ``model`` in the result
+/// is then ``"per-material"`` where they differ). ``obstacles``: a list of ``Obstacle`` the body may touch (with
 /// their friction); with any, every model (the linear one too) is solved by Newton with the
 /// contact barrier, of activation distance ``contact_distance`` (length; default 1e-3 × the
 /// bounding-box diagonal) and stiffness ``contact_stiffness`` (Pa/m; default E/h of the
@@ -179,7 +182,7 @@ pub fn check_same_mesh(
 /// raises ``KeyboardInterrupt`` between two iterations. Raises ``NotConstrainedError`` when
 /// the constraints leave a rigid-body motion, ``SolverError`` when the solve fails.
 #[pyfunction]
-#[pyo3(signature = (mesh, material, constraints, loads, model = "linear", linear_solver = "auto", load_steps = 10, tolerance = None, max_iterations = 30, obstacles = None, contact_distance = None, contact_stiffness = None, self_contact = false, self_contact_distance = None, self_contact_stiffness = None, self_contact_friction = 0.0))]
+#[pyo3(signature = (mesh, material, constraints, loads, model = names::ModelArg::default(), linear_solver = "auto", load_steps = 10, tolerance = None, max_iterations = 30, obstacles = None, contact_distance = None, contact_stiffness = None, self_contact = false, self_contact_distance = None, self_contact_stiffness = None, self_contact_friction = 0.0))]
 #[allow(clippy::too_many_arguments)]
 pub fn solve_static(
     py: Python<'_>,
@@ -187,7 +190,7 @@ pub fn solve_static(
     material: &Bound<'_, PyAny>,
     constraints: PyRef<'_, PyConstraints>,
     loads: PyRef<'_, PyLoads>,
-    model: &str,
+    model: names::ModelArg,
     linear_solver: &str,
     load_steps: usize,
     tolerance: Option<f64>,
@@ -203,7 +206,7 @@ pub fn solve_static(
     let data = &mesh.get().data;
     check_same_mesh(py, data, &constraints, Some(&loads))?;
     let materials = materials_of(py, material, data)?;
-    let kind = names::model(py, model)?;
+    let (kind, region_models) = names::models(py, &model)?;
     let method = names::linear_solver(py, linear_solver)?;
     if let Some(t) = tolerance.filter(|t| !(t.is_finite() && *t > 0.0 && *t < 1.0)) {
         return Err(invalid(
@@ -252,7 +255,7 @@ pub fn solve_static(
     let (other, gravity) = (&loads.other, loads.gravity);
     let has_contact = contact.is_some();
     let options = StaticOptions { linear, newton };
-    let (solved, stress, load) = detach_interruptible(py, || -> tetfem::Result<_> {
+    let (solved, stress, load, model_name) = detach_interruptible(py, || -> tetfem::Result<_> {
         on_cells!(&data.mesh, mesh => {
             // The loads as the library sums them (Definition::static_load: constant loads,
             // gravity, amplitude loads at STATIC_TIME), not `loads.all`.
@@ -269,13 +272,18 @@ pub fn solve_static(
             if let Some((barrier, body_of_node)) = surface {
                 builder = builder.surface_contact(barrier, body_of_node)?;
             }
+            if let Some(kinds) = region_models {
+                builder = builder.region_models(kinds)?;
+            }
             let definition = builder.build()?;
             // The library's one dispatch, as in scenes; the stress is the model's own (the
             // linear one's straight from u).
             let analysis = Static::new(&definition, options)?;
             let solved = analysis.solve()?;
             let stress = analysis.stresses(&solved.displacement)?;
-            Ok((solved, stress, definition.static_load()?))
+            // The map's name: the one model's, or `per-material` for a list of several.
+            let name = analysis.model().name();
+            Ok((solved, stress, definition.static_load()?, name))
         })
     })?;
     let (solver, reached) = match &solved.path {
@@ -318,7 +326,7 @@ pub fn solve_static(
         von_mises,
         reactions: arrays::rows3(py, solved.reactions)?.unbind(),
         relative_residual: solved.relative_residual,
-        model: kind.name().into(),
+        model: model_name.into(),
         contact_forces,
     })
 }

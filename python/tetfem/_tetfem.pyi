@@ -297,7 +297,7 @@ class Simulation:
         *,
         dt: Union[float, str],
         method: _Method = "backward-euler",
-        model: _Model = "linear",
+        model: Union[_Model, Sequence[_Model]] = ...,  # "linear"; or one per material
         mass: _Mass = "lumped",
         damping: Tuple[float, float] = ...,  # (0.0, 0.0): no damping
         initial_displacement: Optional[_ArrayLike] = None,
@@ -364,7 +364,7 @@ def solve_static(
     material: _Materials,
     constraints: Constraints,
     loads: Loads,
-    model: _Model = "linear",
+    model: Union[_Model, Sequence[_Model]] = ...,  # "linear"; or one per material
     linear_solver: _LinearSolver = "auto",
     load_steps: int = 10,
     tolerance: Optional[float] = None,

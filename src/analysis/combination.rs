@@ -22,6 +22,9 @@
 //!   4-node tets (the stabilized P1–P1 element is static only), a model other than the linear
 //!   one, body–body contact, moving supports and loads that follow amplitudes.
 //!
+//! - a force model per material region (`region_models`) with a modal analysis where a region
+//!   is nonlinear, and with the mixed formulation at all (it solves one model).
+//!
 //! Combinations that run but whose behaviour the user should know of give a [`Warning`]:
 //! Newmark (average acceleration) with obstacles or with body–body contact loses energy at
 //! each impact (its contact force taken at the step's end).
@@ -84,8 +87,11 @@ pub enum Formulation {
 /// One run's choices, checked together by [`check`](Self::check).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Combination {
-    /// The force model.
+    /// The force model (of every material region `region_models` does not name).
     pub model: ModelKind,
+    /// The material regions (by name) whose force model differs from `model`, with theirs
+    /// (empty: one model for all; a body takes its model through its region).
+    pub region_models: Vec<(String, ModelKind)>,
     /// The element order: 1 (4-node tets) or 2 (10-node tets).
     pub order: usize,
     /// The analysis.
@@ -115,6 +121,7 @@ impl Default for Combination {
     fn default() -> Self {
         Combination {
             model: ModelKind::Linear,
+            region_models: Vec::new(),
             order: 1,
             analysis: Analysis::Static,
             time_varying_loads: false,
@@ -173,6 +180,7 @@ impl Combination {
             ));
         }
         self.check_surface()?;
+        self.check_region_models()?;
         if self.analysis == Analysis::Modal {
             if self.model != ModelKind::Linear {
                 return Err(Error::invalid_parameter(
@@ -214,6 +222,35 @@ impl Combination {
             });
         }
         Ok(warnings)
+    }
+
+    /// The rules of a model per region: a modal analysis refuses a nonlinear one (as it does
+    /// the run's `model`), the mixed formulation a mix (its saddle-point solve takes one model),
+    /// each naming the region and its model.
+    fn check_region_models(&self) -> Result<()> {
+        let Some((name, kind)) = self.region_models.first() else {
+            return Ok(());
+        };
+        let nonlinear = self.region_models.iter().find(|(_, k)| !k.is_linear());
+        if self.analysis == Analysis::Modal
+            && let Some((name, kind)) = nonlinear
+        {
+            return Err(Error::invalid_parameter(
+                format!("model of {name} with analysis modal"),
+                kind.name(),
+                "modal analysis is linear only (K·φ = ω²·M·φ with the linear model's K, \
+                 every model's tangent at rest); give every region the linear model",
+            ));
+        }
+        if self.formulation == Formulation::Mixed {
+            return Err(Error::invalid_parameter(
+                format!("formulation mixed with the model of {name}"),
+                format!("{} beside {}", kind.name(), self.model.name()),
+                "the mixed (Taylor–Hood P2–P1) element solves one model for every region; \
+                 give every region the same model",
+            ));
+        }
+        Ok(())
     }
 
     /// The refusals of [`Formulation::Mixed`] (see the [module](self) docs), each naming

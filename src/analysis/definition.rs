@@ -22,7 +22,7 @@ use crate::contact::surface::{Surface, SurfaceBarrier};
 use crate::fe::element::Tet4;
 use crate::fe::materials::MaterialMap;
 use crate::mesh::{CellType, TetMesh};
-use crate::model::ModelKind;
+use crate::model::{ModelKind, ModelMap};
 
 use super::combination::{Analysis, Combination};
 
@@ -38,8 +38,13 @@ pub struct Definition<C: CellType = Tet4> {
     /// The material of every tet (one region or several).
     pub materials: MaterialMap,
     /// The force model: [`ModelKind::Linear`] (small strain, the linear fast path) or a
-    /// large-deformation one.
+    /// large-deformation one; with [`region_models`](Self::region_models) the model of every
+    /// material they leave to it.
     pub model: ModelKind,
+    /// A model per material (`Some`: one kind per material of
+    /// [`materials`](Self::materials), in its order), e.g. a linear body beside a Neo-Hookean
+    /// one; `None`: every material takes [`model`](Self::model).
+    pub region_models: Option<Vec<ModelKind>>,
     /// The constraints, with their prescribed values at the analysis' start (t = 0 for a
     /// transient run, [`STATIC_TIME`](crate::bc::amplitude::STATIC_TIME) for a static one).
     pub constraints: Constraints,
@@ -81,6 +86,7 @@ impl<C: CellType> Definition<C> {
                 mesh,
                 materials,
                 model: ModelKind::Linear,
+                region_models: None,
                 constraints,
                 loads,
                 gravity: Vector3::zeros(),
@@ -98,8 +104,10 @@ impl<C: CellType> Definition<C> {
             .contact
             .as_ref()
             .is_some_and(|c| c.obstacles().iter().any(|o| o.friction() > 0.0));
+        let (model, region_models) = self.combined_models();
         Combination {
-            model: self.model,
+            model,
+            region_models,
             order: if C::NODES == 10 { 2 } else { 1 },
             analysis,
             time_varying_loads: !self.time_data.loads.is_empty()
@@ -117,12 +125,54 @@ impl<C: CellType> Definition<C> {
         }
     }
 
+    /// The kind of each material's model, in the materials' order.
+    pub fn model_kinds(&self) -> Vec<ModelKind> {
+        match &self.region_models {
+            Some(kinds) => kinds.clone(),
+            None => vec![self.model; self.materials.materials().len()],
+        }
+    }
+
+    /// The force models of a run: each material's ([`model_kinds`](Self::model_kinds)).
+    ///
+    /// Errors: [`region_models`](Self::region_models) not one kind per material
+    /// ([`ModelMap::with_kinds`]).
+    pub fn model_map(&self) -> Result<ModelMap> {
+        match &self.region_models {
+            Some(kinds) => ModelMap::with_kinds(kinds.clone(), &self.materials),
+            None => Ok(ModelMap::new(self.model, &self.materials)),
+        }
+    }
+
+    /// Whether every material takes the linear model (the linear fast paths' question).
+    pub fn is_linear(&self) -> bool {
+        self.model_kinds().iter().all(|k| k.is_linear())
+    }
+
+    /// The models as [`Combination`] takes them: the first material's kind (the run's model
+    /// when every material takes it), and the materials (by name) whose kind differs from it.
+    fn combined_models(&self) -> (ModelKind, Vec<(String, ModelKind)>) {
+        let kinds = self.model_kinds();
+        let first = kinds.first().copied().unwrap_or(self.model);
+        let differing = self
+            .materials
+            .names()
+            .iter()
+            .zip(kinds)
+            .filter(|&(_, kind)| kind != first)
+            .map(|(name, kind)| (name.clone(), kind))
+            .collect();
+        (first, differing)
+    }
+
     /// Whether `analysis` may run this definition: its warnings, or the library's one error
-    /// naming the pair that clashes ([`Combination::check`]).
+    /// naming the pair that clashes ([`Combination::check`]); first, region models that are
+    /// not one kind per material ([`model_map`](Self::model_map)).
     ///
     /// With body–body and self-contact, also the surface's own checks (closed and manifold,
     /// naming the edge) and [`Warning::SurfaceBarrierReach`] when d̂ exceeds its shortest edge.
     pub fn check(&self, analysis: Analysis) -> Result<Vec<Warning>> {
+        self.model_map()?;
         let mut warnings = self.combination(analysis).check()?;
         if let Some(data) = &self.surface_contact {
             let surface = Surface::from_mesh(&self.mesh)?;
@@ -153,6 +203,23 @@ impl<C: CellType> DefinitionBuilder<C> {
     pub fn model(mut self, model: ModelKind) -> Self {
         self.definition.model = model;
         self
+    }
+
+    /// A force model per material (`kinds[i]` for material `i` of the definition's
+    /// materials), over [`model`](Self::model).
+    ///
+    /// Errors ([`Error::InvalidParameter`]): not one kind per material, naming both counts.
+    pub fn region_models(mut self, kinds: Vec<ModelKind>) -> Result<Self> {
+        let count = self.definition.materials.materials().len();
+        if kinds.len() != count {
+            return Err(Error::invalid_parameter(
+                "region models",
+                format!("{} kinds", kinds.len()),
+                format!("must give one per material ({count} materials)"),
+            ));
+        }
+        self.definition.region_models = Some(kinds);
+        Ok(self)
     }
 
     /// The constraints (made for the mesh's nodes).

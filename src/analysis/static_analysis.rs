@@ -199,7 +199,7 @@ impl<'a, C: ModelElement> Static<'a, C> {
     pub fn new(definition: &'a Definition<C>, options: StaticOptions) -> Result<Self> {
         let warnings = definition.check(Analysis::Static)?;
         Ok(Static {
-            model: definition.model.build_map(&definition.materials),
+            model: definition.model_map()?,
             definition,
             options,
             warnings,
@@ -221,11 +221,12 @@ impl<'a, C: ModelElement> Static<'a, C> {
         self.definition
     }
 
-    /// Whether [`solve`](Self::solve) takes the linear fast path: the linear model without
+    /// Whether [`solve`](Self::solve) takes the linear fast path: the linear model (in every
+    /// material) without
     /// obstacles or body–body contact (any other model, or contact with any model, is Newton).
     pub fn is_linear_path(&self) -> bool {
         let d = self.definition;
-        d.model.is_linear() && d.contact.is_none() && d.surface_contact.is_none()
+        d.is_linear() && d.contact.is_none() && d.surface_contact.is_none()
     }
 
     /// Static equilibrium under [`Definition::static_load`]: one linear solve on the linear

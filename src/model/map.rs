@@ -1,8 +1,10 @@
 //! Force models per region: one [`ForceModel`] per material of a
-//! [`MaterialMap`](crate::fe::materials::MaterialMap), chosen per tet by its material index.
+//! [`MaterialMap`](crate::fe::materials::MaterialMap), chosen per tet by its material index,
+//! each material its own [`ModelKind`] (one kind for all: [`ModelMap::new`]; a kind per
+//! material: [`ModelMap::with_kinds`], e.g. a linear body beside a Neo-Hookean one).
 
 use super::{ForceModel, ModelKind};
-use crate::base::error::Result;
+use crate::base::error::{Error, Result};
 use crate::fe::materials::{MaterialMap, TetMaterials};
 use crate::mesh::{CellType, TetMesh};
 
@@ -62,7 +64,8 @@ impl TetModels for Box<dyn ForceModel + '_> {
 
 /// One force model per material, and the materials' tet map.
 pub struct ModelMap {
-    kind: ModelKind,
+    /// The kind of each material's model.
+    kinds: Vec<ModelKind>,
     models: Vec<Box<dyn ForceModel>>,
     materials: MaterialMap,
 }
@@ -70,7 +73,7 @@ pub struct ModelMap {
 impl std::fmt::Debug for ModelMap {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("ModelMap")
-            .field("kind", &self.kind)
+            .field("kinds", &self.kinds)
             .field(
                 "models",
                 &self.models.iter().map(|m| m.name()).collect::<Vec<_>>(),
@@ -84,7 +87,7 @@ impl ModelMap {
     /// The model `kind` for each material of `materials`.
     pub fn new(kind: ModelKind, materials: &MaterialMap) -> Self {
         ModelMap {
-            kind,
+            kinds: vec![kind; materials.materials().len()],
             models: materials
                 .materials()
                 .iter()
@@ -94,9 +97,51 @@ impl ModelMap {
         }
     }
 
-    /// The kind of every model of the map.
-    pub fn kind(&self) -> ModelKind {
-        self.kind
+    /// The model `kinds[i]` for material `i` of `materials` (its tets take that model).
+    ///
+    /// Errors ([`Error::InvalidParameter`]): not one kind per material, naming both counts.
+    pub fn with_kinds(kinds: Vec<ModelKind>, materials: &MaterialMap) -> Result<Self> {
+        let count = materials.materials().len();
+        if kinds.len() != count {
+            return Err(Error::invalid_parameter(
+                "model kinds",
+                format!("{} kinds", kinds.len()),
+                format!("must give one per material ({count} materials)"),
+            ));
+        }
+        Ok(ModelMap {
+            models: materials
+                .materials()
+                .iter()
+                .zip(&kinds)
+                .map(|(m, kind)| kind.build(m))
+                .collect(),
+            kinds,
+            materials: materials.clone(),
+        })
+    }
+
+    /// The kind of each material's model, in the materials' order.
+    pub fn kinds(&self) -> &[ModelKind] {
+        &self.kinds
+    }
+
+    /// Whether every material takes the linear model: what the linear fast paths (one
+    /// factorization, the small-strain error estimate) need.
+    pub fn is_linear(&self) -> bool {
+        self.kinds.iter().all(|k| k.is_linear())
+    }
+
+    /// The kind every material shares, `None` for a map of several kinds.
+    pub fn uniform_kind(&self) -> Option<ModelKind> {
+        let first = *self.kinds.first()?;
+        self.kinds.iter().all(|&k| k == first).then_some(first)
+    }
+
+    /// The name summaries use: the shared kind's ([`ModelKind::name`]), or `per-material` for
+    /// a map of several kinds.
+    pub fn name(&self) -> &'static str {
+        self.uniform_kind().map_or(PER_MATERIAL, ModelKind::name)
     }
 
     /// The models, one per material of [`materials`](Self::materials).
@@ -109,6 +154,9 @@ impl ModelMap {
         &self.materials
     }
 }
+
+/// The name of a [`ModelMap`] whose materials take different kinds.
+const PER_MATERIAL: &str = "per-material";
 
 impl TetModels for ModelMap {
     #[inline(always)]

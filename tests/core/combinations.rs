@@ -489,6 +489,7 @@ fn every_combination_runs_or_is_a_named_physics_refusal() {
                             };
                             let combination = Combination {
                                 model,
+                                region_models: Vec::new(),
                                 order,
                                 analysis,
                                 time_varying_loads: data == Data::Amplitude,

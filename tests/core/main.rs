@@ -57,6 +57,7 @@ mod nonlinear_time_varying;
 mod p2_stress;
 mod properties;
 mod quadratic_mesh_io;
+mod region_models;
 mod restart;
 mod self_contact_bvh;
 mod self_contact_ccd;

@@ -15,6 +15,7 @@ impl Scene {
         let spec = &self.spec;
         Combination {
             model: self.model,
+            region_models: self.differing_region_models(),
             order: self.order,
             analysis: match &self.analysis {
                 Analysis::Static => analysis::Analysis::Static,
@@ -43,6 +44,7 @@ impl Scene {
 
     /// [`Combination::check`] of [`combination`](Self::combination): its warnings, or its
     /// error at the key and line of the pair it names (`analysis.model` for a model,
+    /// `materials[i].model` for a region's,
     /// `obstacles[0].kind` for obstacles, `analysis` otherwise).
     pub(crate) fn check_combination(&self) -> Result<Vec<Warning>> {
         self.combination().check().map_err(|e| {
@@ -55,7 +57,18 @@ impl Scene {
                 other => (String::new(), other.to_string()),
             };
             let analysis = self.spec.analysis.as_ref().map(|a| a.span());
+            let region = name
+                .strip_prefix("model of materials[")
+                .and_then(|rest| rest.split(']').next()?.parse::<usize>().ok())
+                .and_then(|i| Some((i, self.spec.materials.get(i)?.span())));
+            let region_key = region
+                .as_ref()
+                .map(|(i, _)| format!("materials[{i}].model"));
             let (key, span) = match (name.split(' ').next(), self.spec.obstacles.first()) {
+                (Some("model"), _) if region.is_some() => (
+                    region_key.as_deref().unwrap_or("materials"),
+                    region.map(|(_, span)| span).unwrap_or_default(),
+                ),
                 (Some("model"), _) => ("analysis.model", analysis.unwrap_or_default()),
                 (Some("obstacles"), Some(first)) => ("obstacles[0].kind", first.span()),
                 (Some("surface_contact"), _) if name.contains("friction") => (

@@ -51,14 +51,14 @@ pub fn estimated_error_of<E: PointwiseElement>(
 }
 
 /// [`estimated_error_of`] for a run with the force models of `models`: the linear model's
-/// estimate for the linear model, the estimate on the second Piola–Kirchhoff stress for the
-/// others (see [`tetfem::post::estimate::model`]).
+/// estimate when every material takes the linear model, the estimate on the second
+/// Piola–Kirchhoff stress otherwise (see [`tetfem::post::estimate::model`]).
 pub fn model_estimated_error_of<E: PointwiseElement>(
     mesh: &TetMesh<E>,
     models: &ModelMap,
     displacement: &[f64],
 ) -> Result<(EstimatedError, Vec<f64>)> {
-    if models.kind().is_linear() {
+    if models.is_linear() {
         return estimated_error_of(mesh, models.materials(), displacement);
     }
     let estimate = estimate_map_error(mesh, models, displacement, Recovery::PatchRecovery)?;

@@ -27,6 +27,7 @@ mod obstacles;
 #[cfg_attr(not(feature = "png"), path = "png_frames_off.rs")]
 mod png_frames;
 mod reactions;
+mod region_models;
 #[cfg(feature = "png")]
 pub mod render;
 mod restart;
@@ -116,6 +117,7 @@ density = 7850.0                    # kg/m³
 # poisson_ratio = 0.33
 # density = 2700.0
 # where = { box = { min = [0.5, -1.0, -1.0], max = [2.0, 1.0, 1.0] } }
+# model = "neo-hookean"             # default analysis.model: this region's force model (a body's: where = { body = 1 })
 
 # Amplitudes a(t) (t in s), named here and referred to by name, or given in place:
 # amplitude = "ramp1" | amplitude = { sine = { frequency_hz = 5.0 } }. Exactly one of
@@ -414,6 +416,9 @@ pub struct Scene {
     stem: String,
     analysis: Analysis,
     model: tetfem::model::ModelKind,
+    /// Each `[[materials]]` entry's own force model (`materials[i].model`), `None` where it
+    /// takes `model`.
+    region_models: Vec<Option<tetfem::model::ModelKind>>,
     /// A static run's Newton settings (`load_steps`, `newton_tolerance`), checked.
     static_newton: tetfem::analysis::nonlinear::NewtonOptions,
     order: usize,
@@ -486,6 +491,7 @@ impl Scene {
             stem: "scene".to_string(),
             analysis: Analysis::Static,
             model: tetfem::model::ModelKind::default(),
+            region_models: Vec::new(),
             static_newton: tetfem::analysis::nonlinear::NewtonOptions::default(),
             order: 1,
             accuracy: None,
@@ -510,6 +516,7 @@ impl Scene {
         scene.analysis = scene.check_analysis()?;
         scene.order = scene.check_order()?;
         scene.model = scene.check_model()?;
+        scene.region_models = scene.check_region_models()?;
         scene.check_combination()?;
         scene.accuracy = accuracy::check_accuracy(&scene, text)?;
         scene.output = scene.output_settings()?;
@@ -592,8 +599,7 @@ impl Scene {
             return Ok(options);
         }
         let err = |key: &str, msg: String| self.error(&format!("analysis.{key}"), &span, msg);
-        let newton =
-            !self.model.is_linear() || !self.obstacles.is_empty() || self.has_surface_contact();
+        let newton = !self.is_linear() || !self.obstacles.is_empty() || self.has_surface_contact();
         for (key, set) in [
             ("load_steps", a.load_steps.is_some()),
             ("newton_tolerance", a.newton_tolerance.is_some()),

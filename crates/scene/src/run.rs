@@ -216,7 +216,7 @@ pub(super) fn run_static_on<E: SceneElement>(
         true => scene.contact(&built.mesh, built.materials.stiffest_youngs_modulus())?,
         false => None,
     };
-    let definition = built.definition(scene.model(), contact)?;
+    let definition = scene.definition_of(&built, contact)?;
     let solver_options = StaticOptions {
         linear: tetfem::linalg::linear_solver::SolverOptions {
             method: scene.spec().linear_method(),
@@ -301,7 +301,7 @@ pub fn report_static<E: SceneElement>(
     let u = &solved.displacement;
     // The linear model's fields come straight from u: the force-model route forms x = X + u and
     // takes u = x − X back, which costs digits (~1e-11 relative in σ_vM on a steel beam).
-    let linear = scene.model().is_linear();
+    let linear = model.is_linear();
     let von_mises = match linear {
         true => tetfem::post::output::fields::cell_von_mises(&built.mesh, &built.materials, u)?,
         false => cell_model_von_mises(&built.mesh, model, u)?,
@@ -591,7 +591,7 @@ pub fn static_frame_arrays<E: SceneElement>(
         contact,
         ..Default::default()
     };
-    let mut arrays = match model.kind().is_linear() {
+    let mut arrays = match model.is_linear() {
         true => result_frame_arrays(&built.mesh, &built.materials, u, extras),
         // A nonlinear model's stresses and energy are its own.
         false => model_result_frame_arrays(&built.mesh, model, &built.materials, u, extras),

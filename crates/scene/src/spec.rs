@@ -519,6 +519,13 @@ pub struct RegionMaterialSpec {
     pub poisson_ratio: f64,
     /// Density ρ (kg/m³).
     pub density: f64,
+    /// The region's force model (default `analysis.model`): `"linear"`, `"corotational"`,
+    /// `"neo-hookean"` or `"st-venant-kirchhoff"`. A model is a material region's (the library
+    /// holds one per material), so a body takes its own through a region `where = { body = N }`
+    /// — a linear block beside a Neo-Hookean one. Every analysis but a modal one (linear
+    /// regions only) and the mixed formulation (one model for all).
+    #[serde(default)]
+    pub model: Option<String>,
     /// The tets it covers.
     #[serde(rename = "where")]
     pub select: RegionSelector,

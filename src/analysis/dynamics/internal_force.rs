@@ -199,7 +199,8 @@ impl InternalForce {
 
     /// The force of one model per material (`models`, e.g. [`ModelKind::build_map`] of the
     /// system's [`MaterialMap`](crate::fe::materials::MaterialMap)) on `mesh` for `system` (see
-    /// [`NonlinearForce::with_models`]); a map of linear models gives [`InternalForce::Linear`],
+    /// [`NonlinearForce::with_models`]); a map whose every material takes the linear model
+    /// gives [`InternalForce::Linear`],
     /// the fast path on the system's K_ff (which holds each tet's own material when the system
     /// was built from the same map).
     pub fn of_models<E: ModelElement>(
@@ -207,7 +208,7 @@ impl InternalForce {
         models: ModelMap,
         system: &LinearSystem,
     ) -> Result<Self> {
-        if models.kind() == ModelKind::Linear {
+        if models.is_linear() {
             return Ok(InternalForce::Linear);
         }
         Ok(InternalForce::Nonlinear(Arc::new(
@@ -311,7 +312,7 @@ impl NonlinearForce {
         system: &LinearSystem,
     ) -> Result<Self> {
         models.check_tet_count(&mesh)?;
-        let name = models.kind().name();
+        let name = models.name();
         Self::of_tet_models(mesh, Box::new(models), name, system)
     }
 

@@ -8,7 +8,7 @@ use crate::analysis::Definition;
 use crate::analysis::dynamics::{InternalForce, LinearSystem, MassKind, NonlinearForce, Rayleigh};
 use crate::base::error::Result;
 use crate::contact::surface::SurfaceContact;
-use crate::model::ModelElement;
+use crate::model::{ModelElement, ModelKind};
 
 impl<C: ModelElement> Definition<C> {
     /// The system of a transient run with `mass` and Rayleigh `damping`: the loads other than
@@ -38,8 +38,9 @@ impl<C: ModelElement> Definition<C> {
 
     /// The elastic force law of a transient run on `system` (built by
     /// [`transient_system`](Self::transient_system)): the linear fast path
-    /// ([`InternalForce::Linear`]) for the linear model without obstacles; otherwise the
-    /// definition's model, one per material (on a copy of the mesh), with the contact barrier
+    /// ([`InternalForce::Linear`]) for the linear model (in every material region) without
+    /// obstacles; otherwise the definition's model, one per material, each region its own with
+    /// [`Definition::region_models`] (on a copy of the mesh), with the contact barrier
     /// of the obstacles if any (the linear model too: the barrier makes every step nonlinear).
     ///
     /// Errors: those of [`InternalForce::of_models`] and of the contact (a body starting inside
@@ -51,9 +52,18 @@ impl<C: ModelElement> Definition<C> {
     /// pair).
     pub fn transient_force(&self, system: &LinearSystem) -> Result<InternalForce> {
         if self.contact.is_none() && self.surface_contact.is_none() {
-            return InternalForce::of_kind(self.model, &self.mesh, &self.materials, system);
+            return match &self.region_models {
+                None => InternalForce::of_kind(self.model, &self.mesh, &self.materials, system),
+                // Every region linear: the fast path, as for one linear model.
+                Some(_) if self.is_linear() => {
+                    InternalForce::of_kind(ModelKind::Linear, &self.mesh, &self.materials, system)
+                }
+                Some(_) => {
+                    InternalForce::of_models(Arc::new(self.mesh.clone()), self.model_map()?, system)
+                }
+            };
         }
-        let models = self.model.build_map(&self.materials);
+        let models = self.model_map()?;
         let mut force = NonlinearForce::with_models(Arc::new(self.mesh.clone()), models, system)?;
         if let Some(contact) = &self.contact {
             force = force.with_contact(contact.clone())?;

@@ -30,10 +30,12 @@ use crate::base::error::{Error, Result};
 use crate::fe::element::PointwiseElement;
 use crate::fe::materials::TetMaterials;
 use crate::mesh::TetMesh;
-use crate::model::{ModelKind, ModelMap, TetModels};
+use crate::model::{ModelMap, TetModels};
 
-/// The estimate of a run with the models of `models`: [`estimate_error_with`] for the linear
-/// model, [`estimate_model_error`] for the others.
+/// The estimate of a run with the models of `models`: [`estimate_error_with`] when every
+/// material takes the linear model, [`estimate_model_error`] otherwise (each tet's own model's
+/// S; a linear region among nonlinear ones is estimated on its model's S = F⁻¹·σ(ε) too, so
+/// the recovery across a region boundary compares one stress measure).
 ///
 /// Errors: as those two.
 pub fn estimate_map_error<E: PointwiseElement>(
@@ -42,9 +44,9 @@ pub fn estimate_map_error<E: PointwiseElement>(
     displacement: &[f64],
     recovery: Recovery,
 ) -> Result<ErrorEstimate> {
-    match models.kind() {
-        ModelKind::Linear => estimate_error_with(mesh, models.materials(), displacement, recovery),
-        _ => estimate_model_error(mesh, models, models.materials(), displacement, recovery),
+    match models.is_linear() {
+        true => estimate_error_with(mesh, models.materials(), displacement, recovery),
+        false => estimate_model_error(mesh, models, models.materials(), displacement, recovery),
     }
 }
 

@@ -123,7 +123,7 @@ impl<E: SceneElement> DynamicSetup<E> {
             true => Some(super::dynamic_contact::scene_contact(scene, &built)?),
             false => None,
         };
-        let definition = built.definition(scene.model(), contact)?;
+        let definition = scene.definition_of(&built, contact)?;
         Self::of_definition(built, &definition, settings, clock)
     }
 
