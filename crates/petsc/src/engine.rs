@@ -300,6 +300,14 @@ fn check_supported(scene: &Scene) -> Result<()> {
             "the PETSc engine solves the linear model only so far (\"linear\")",
         ));
     }
+    if !scene.is_linear() {
+        return Err(Error::invalid(
+            format!("[[materials]] model of {}", scene.source_name()),
+            "a nonlinear region",
+            "the PETSc engine solves the linear model only so far: every [[materials]] entry's \
+             model must be \"linear\"",
+        ));
+    }
     if scene.order() != 1 {
         return Err(refused(
             scene,
