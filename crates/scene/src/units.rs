@@ -99,6 +99,7 @@ pub(crate) const ACCURACY: &[(&str, &str)] = &[
     ("accuracy.predictions.seconds", "s"),
     ("accuracy.cost_exponent", "1"),
     ("accuracy.estimated_error", "1"),
+    ("accuracy.locking_loss", "1"),
 ];
 
 /// Units of a modal run's summary.
