@@ -20,7 +20,8 @@
 //!   and the Neo-Hookean one, 4-node tets (Taylor–Hood needs the quadratic displacement),
 //!   obstacles, and with the Neo-Hookean model supports that move (its load steps scale
 //!   prescribed values by λ); in the implicit dynamic and the modal analyses, a model other
-//!   than the linear one, body–body contact, moving supports and loads that follow amplitudes.
+//!   than the linear one (but the Neo-Hookean one in backward Euler), body–body contact,
+//!   moving supports and loads that follow amplitudes.
 //!
 //! Combinations that run but whose behaviour the user should know of give a [`Warning`]:
 //! Newmark (average acceleration) with obstacles or with body–body contact loses energy at
@@ -265,8 +266,9 @@ impl Combination {
     }
 
     /// The refusals of [`Formulation::Mixed`] in the implicit dynamic and the modal analyses
-    /// ([`crate::analysis::mixed_dynamics`], [`crate::analysis::mixed_modal`]): the linear
-    /// model on fixed supports under constant loads, without contact.
+    /// ([`crate::analysis::mixed_dynamics`], [`crate::analysis::mixed_modal`],
+    /// [`crate::analysis::mixed_dynamics_neo_hookean`]): the linear model, and the Neo-Hookean
+    /// one in backward Euler, on fixed supports under constant loads, without contact.
     fn check_mixed_dynamics(&self) -> Result<()> {
         let refuse = |what: &str, value: String, why: &str| {
             Err(Error::invalid_parameter(
@@ -278,11 +280,20 @@ impl Combination {
                 ),
             ))
         };
-        if self.model != ModelKind::Linear {
+        let euler = self.analysis == Analysis::Transient(Method::BackwardEuler);
+        if self.model == ModelKind::NeoHookean && !euler {
             return refuse(
                 "model",
                 self.model.name().to_string(),
-                "has the linear model only (Neo-Hookean is static only); use the linear model",
+                "has the Neo-Hookean model in backward Euler only; use method backward_euler \
+                 or the linear model",
+            );
+        }
+        if !matches!(self.model, ModelKind::Linear | ModelKind::NeoHookean) {
+            return refuse(
+                "model",
+                self.model.name().to_string(),
+                "has the linear model (and the Neo-Hookean one in backward Euler) only",
             );
         }
         if self.surface_contact {

@@ -457,7 +457,7 @@ impl Scene {
     /// What a mixed dynamic or modal scene asks that this front end does not run, named for
     /// the error of `analysis.formulation` (`None` for a static scene or a runnable one): a
     /// lumped mass (the mixed element's inertia is the consistent mass), and in a dynamic run
-    /// an error-controlled step and checkpoints.
+    /// a model other than the linear one, an error-controlled step and checkpoints.
     pub(crate) fn mixed_dynamics_refusal(&self) -> Option<String> {
         let mass = match self.analysis() {
             super::Analysis::Static => return None,
@@ -475,7 +475,13 @@ impl Scene {
             return None;
         }
         let tolerance = (self.spec.analysis.as_ref()).and_then(|a| a.get_ref().time_tolerance);
-        if tolerance.is_some() {
+        if self.model() != tetfem::model::ModelKind::Linear {
+            // The library's MixedNeoHookeanEuler; this front end runs the linear model.
+            Some(format!(
+                "model = \"{}\" in a dynamic scene (the linear model only here)",
+                self.model().name()
+            ))
+        } else if tolerance.is_some() {
             Some("analysis.time_tolerance (the mixed run takes a fixed dt)".into())
         } else if self.output().checkpoint_every > 0 {
             Some("[output] checkpoint_every".into())
