@@ -20,8 +20,8 @@
 //!   and the Neo-Hookean one, obstacles, and with the Neo-Hookean model supports that move (its
 //!   load steps scale prescribed values by λ); in the implicit dynamic and the modal analyses,
 //!   4-node tets (the stabilized P1–P1 element is static only), a model other than the linear
-//!   one, body–body contact, moving supports and loads that follow amplitudes.
-//!
+//!   one (but the Neo-Hookean one in backward Euler), body–body contact, moving supports and
+//!   loads that follow amplitudes;
 //! - a force model per material region (`region_models`) with a modal analysis where a region
 //!   is nonlinear, and with the mixed formulation at all (it solves one model).
 //!
@@ -299,10 +299,10 @@ impl Combination {
     }
 
     /// The refusals of [`Formulation::Mixed`] in the implicit dynamic and the modal analyses
-    /// ([`crate::analysis::mixed_dynamics`], [`crate::analysis::mixed_modal`]): the linear
-    /// model on fixed supports under constant loads, without contact.
-
-    /// The refusals of [`Formulation::Mixed`] in the implicit dynamic and modal analyses.
+    /// ([`crate::analysis::mixed_dynamics`], [`crate::analysis::mixed_modal`],
+    /// [`crate::analysis::mixed_dynamics_neo_hookean`]): the linear model, and the Neo-Hookean
+    /// one in backward Euler, on 10-node tets, fixed supports and constant loads, without
+    /// contact.
     fn check_mixed_dynamics(&self) -> Result<()> {
         let refuse = |what: &str, value: String, why: &str| {
             Err(Error::invalid_parameter(
@@ -322,11 +322,20 @@ impl Combination {
                  tets is static only)",
             );
         }
-        if self.model != ModelKind::Linear {
+        let euler = self.analysis == Analysis::Transient(Method::BackwardEuler);
+        if self.model == ModelKind::NeoHookean && !euler {
             return refuse(
                 "model",
                 self.model.name().to_string(),
-                "has the linear model only (Neo-Hookean is static only); use the linear model",
+                "has the Neo-Hookean model in backward Euler only; use method backward_euler \
+                 or the linear model",
+            );
+        }
+        if !matches!(self.model, ModelKind::Linear | ModelKind::NeoHookean) {
+            return refuse(
+                "model",
+                self.model.name().to_string(),
+                "has the linear model (and the Neo-Hookean one in backward Euler) only",
             );
         }
         if self.surface_contact {

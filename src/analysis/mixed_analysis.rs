@@ -8,6 +8,7 @@
 use crate::analysis::combination::{Analysis, Combination, Formulation};
 use crate::analysis::dynamics::{Method, Rayleigh};
 use crate::analysis::mixed_dynamics::MixedTransient;
+use crate::analysis::mixed_dynamics_neo_hookean::MixedNeoHookeanEuler;
 use crate::analysis::mixed_modal::{MixedModes, lowest_mixed_modes};
 use crate::analysis::mixed_nonlinear::solve_static_mixed_nonlinear;
 use crate::analysis::mixed_statics::{MixedStaticSolution, MixedStaticSolver};
@@ -99,7 +100,8 @@ pub fn solve_static_mixed_model<E: MixedStaticElement>(
 /// The mixed element in an implicit dynamic run of `model` (the linear one): the library's
 /// rule first ([`Combination::check`] with [`Analysis::Transient`]`(method)`: the explicit
 /// method, another model, moving supports and loads that follow amplitudes are refused by
-/// name), then [`MixedTransient::new`] with `method`, `dt` and `damping`, at rest.
+/// name), then [`MixedTransient::new`] with `method`, `dt` and `damping`, at rest. The
+/// Neo-Hookean model's run is [`mixed_neo_hookean_euler_model`].
 pub fn mixed_transient_model(
     mesh: &TetMesh<Tet10>,
     materials: &impl TetMaterials,
@@ -115,7 +117,35 @@ pub fn mixed_transient_model(
         ..Combination::default()
     }
     .check()?;
+    if model != ModelKind::Linear {
+        return Err(crate::base::error::Error::invalid_parameter(
+            "model",
+            model.name(),
+            "the mixed transient of MixedTransient is the linear model's; the Neo-Hookean \
+             one is mixed_neo_hookean_euler_model",
+        ));
+    }
     MixedTransient::new(mesh, materials, constraints, loads, (method, dt, damping))
+}
+
+/// The mixed element with the Neo-Hookean model in backward Euler: the library's rule first
+/// ([`Combination::check`]), then [`MixedNeoHookeanEuler::new`] with `dt` and Newton's relative
+/// `tolerance`, at rest.
+pub fn mixed_neo_hookean_euler_model<'a>(
+    mesh: &'a TetMesh<Tet10>,
+    materials: &impl TetMaterials,
+    (constraints, loads): (&Constraints, &Loads),
+    (dt, tolerance): (f64, f64),
+) -> Result<MixedNeoHookeanEuler<'a>> {
+    Combination {
+        model: ModelKind::NeoHookean,
+        order: 2,
+        analysis: Analysis::Transient(Method::BackwardEuler),
+        formulation: Formulation::Mixed,
+        ..Combination::default()
+    }
+    .check()?;
+    MixedNeoHookeanEuler::new(mesh, materials, constraints, loads, (dt, tolerance))
 }
 
 /// The `count` lowest modes of the mixed body with `model` (the linear one; the library's rule

@@ -102,8 +102,8 @@ pub fn lowest_mixed_modes(
     constraints: &Constraints,
     count: usize,
 ) -> Result<MixedModes> {
-    let operator = MixedOperator::new(mesh, materials, constraints, true)?;
-    let free_dofs = operator.dofs().free_count();
+    // The count is checked before the assembly (the free DOFs are those not constrained).
+    let free_dofs = constraints.dof_count().saturating_sub(constraints.count());
     if count == 0 || count > free_dofs {
         return Err(Error::invalid_parameter(
             "mode count",
@@ -111,6 +111,7 @@ pub fn lowest_mixed_modes(
             format!("must be between 1 and the free DOF count {free_dofs}"),
         ));
     }
+    let operator = MixedOperator::new(mesh, materials, constraints, true)?;
     let mass = Mass::Consistent(operator.mass().clone());
     let mut stiffness = SaddleStiffness {
         system: operator.shifted(0.0),

@@ -13,6 +13,7 @@ pub mod definition;
 pub mod dynamics;
 pub mod mixed_analysis;
 pub mod mixed_dynamics;
+pub mod mixed_dynamics_neo_hookean;
 pub mod mixed_modal;
 pub mod mixed_nonlinear;
 pub mod mixed_operator;

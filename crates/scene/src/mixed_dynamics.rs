@@ -14,6 +14,7 @@ use std::time::Instant;
 
 use tetfem::analysis::dynamics::Rayleigh;
 use tetfem::analysis::mixed_analysis::{mixed_modes_model, mixed_transient_model};
+use tetfem::analysis::mixed_dynamics::MixedTransient;
 use tetfem::analysis::modal::effective_mass_fractions;
 use tetfem::analysis::transient::{RunLength, TimeStep};
 use tetfem::base::error::{Error, Result};
@@ -201,16 +202,7 @@ pub(crate) fn run_mixed_dynamic(
     progress: &mut dyn FnMut(usize, usize) -> ControlFlow<()>,
 ) -> Result<DynamicSummary> {
     let method = overrides.method.unwrap_or(settings.method);
-    let dt = match overrides.dt.unwrap_or(TimeStep::Seconds(settings.dt)) {
-        TimeStep::Seconds(dt) => dt,
-        TimeStep::CriticalMultiple(m) => {
-            return Err(Error::invalid_parameter(
-                "formulation mixed with dt",
-                format!("{m}crit"),
-                "the mixed element's implicit run takes dt in seconds",
-            ));
-        }
-    };
+    let dt = seconds_step(overrides, settings)?;
     let steps = overrides
         .length
         .unwrap_or(RunLength::Duration(settings.duration))
@@ -239,44 +231,11 @@ pub(crate) fn run_mixed_dynamic(
     run.start(vec![0.0; dofs.free_count()], v0)?;
     let critical = super::critical_step_of(&built)?;
     let setup_seconds = clock.elapsed().as_secs_f64();
-    let energy = |run: &tetfem::analysis::mixed_dynamics::MixedTransient| -> Result<EnergyTerms> {
-        let e = run.energy()?;
-        let u = run.displacement()?;
-        let g: f64 = -gravity
-            .as_slice()
-            .iter()
-            .zip(&u)
-            .map(|(f, x)| f * x)
-            .sum::<f64>();
-        Ok(EnergyTerms {
-            kinetic: e.kinetic,
-            elastic: e.elastic,
-            gravity_potential: g,
-            load_potential: e.load_potential - g,
-            total: e.total(),
-        })
-    };
+    let energy = |run: &MixedTransient| energy_terms(run, &gravity);
     let initial_energy = energy(&run)?;
     let out = scene.output();
     let mut writer = lock.as_ref().map(|_| FrameFiles::new(scene));
-    let mut rows = String::from(
-        "time_s,kinetic_J,elastic_J,gravity_potential_J,load_potential_J,total_J,\
-         pressure_min_Pa,pressure_max_Pa",
-    );
-    for probe in &built.probes {
-        for axis in ["x", "y", "z"] {
-            rows.push_str(&format!(",{}_u{axis}_m", probe.name));
-        }
-    }
-    rows.push('\n');
-    let mut probes: Vec<ProbeRange> = (built.probes.iter())
-        .map(|p| ProbeRange {
-            name: p.name.clone(),
-            last: [0.0; 3],
-            min: [f64::INFINITY; 3],
-            max: [f64::NEG_INFINITY; 3],
-        })
-        .collect();
+    let (mut rows, mut probes) = csv_start(&built.probes);
     let (mut step_seconds, mut first_step_seconds, mut output_seconds) = (0.0, 0.0, 0.0);
     for step in 0..=steps {
         if step > 0 {
@@ -296,29 +255,13 @@ pub(crate) fn run_mixed_dynamic(
             .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &p| {
                 (a.min(p), b.max(p))
             });
-        rows.push_str(&format!(
-            "{:e},{:e},{:e},{:e},{:e},{:e},{low:e},{high:e}",
-            run.time(),
-            e.kinetic,
-            e.elastic,
-            e.gravity_potential,
-            e.load_potential,
-            e.total
-        ));
         let u = run.displacement()?;
-        // A node-set probe's mean displacement (point probes are refused for the mixed
-        // formulation when the scene is read).
-        for (range, probe) in probes.iter_mut().zip(&built.probes) {
-            for a in 0..3 {
-                let mean = probe.nodes.iter().map(|&n| u[3 * n + a]).sum::<f64>()
-                    / probe.nodes.len() as f64;
-                range.last[a] = mean;
-                range.min[a] = range.min[a].min(mean);
-                range.max[a] = range.max[a].max(mean);
-                rows.push_str(&format!(",{mean:e}"));
-            }
-        }
-        rows.push('\n');
+        csv_row(
+            (&mut rows, &mut probes),
+            &built.probes,
+            (run.time(), &e, (low, high)),
+            &u,
+        );
         if let Some(w) = &mut writer
             && (step % out.every == 0 || step == steps)
         {
@@ -395,6 +338,85 @@ pub(crate) fn run_mixed_dynamic(
     Ok(summary)
 }
 
+/// The run's dt (s): the override's or the scene's; a multiple of the critical step is
+/// refused (the mixed run is implicit, its dt given in seconds).
+fn seconds_step(overrides: &DynamicOverrides, settings: &DynamicSettings) -> Result<f64> {
+    match overrides.dt.unwrap_or(TimeStep::Seconds(settings.dt)) {
+        TimeStep::Seconds(dt) => Ok(dt),
+        TimeStep::CriticalMultiple(m) => Err(Error::invalid_parameter(
+            "formulation mixed with dt",
+            format!("{m}crit"),
+            "the mixed element's implicit run takes dt in seconds",
+        )),
+    }
+}
+
+/// The energies of `run`'s state, gravity's potential −f_gᵀu apart (`gravity` its nodal
+/// loads).
+fn energy_terms(run: &MixedTransient, gravity: &Loads) -> Result<EnergyTerms> {
+    let e = run.energy()?;
+    let u = run.displacement()?;
+    let g: f64 = -(gravity.as_slice().iter().zip(&u))
+        .map(|(f, x)| f * x)
+        .sum::<f64>();
+    Ok(EnergyTerms {
+        kinetic: e.kinetic,
+        elastic: e.elastic,
+        gravity_potential: g,
+        load_potential: e.load_potential - g,
+        total: e.total(),
+    })
+}
+
+/// The CSV's header (with three columns per probe) and the probes' ranges, empty.
+fn csv_start(probes: &[super::Probe]) -> (String, Vec<ProbeRange>) {
+    let mut header = String::from(
+        "time_s,kinetic_J,elastic_J,gravity_potential_J,load_potential_J,total_J,\
+         pressure_min_Pa,pressure_max_Pa",
+    );
+    for probe in probes {
+        for axis in ["x", "y", "z"] {
+            header.push_str(&format!(",{}_u{axis}_m", probe.name));
+        }
+    }
+    header.push('\n');
+    let ranges = (probes.iter())
+        .map(|p| ProbeRange {
+            name: p.name.clone(),
+            last: [0.0; 3],
+            min: [f64::INFINITY; 3],
+            max: [f64::NEG_INFINITY; 3],
+        })
+        .collect();
+    (header, ranges)
+}
+
+/// One CSV row at `time` (s): the energies, the pressure range (Pa) and each node-set probe's
+/// mean displacement of the full `u` (m), which also updates the probes' ranges. (Point
+/// probes are refused for the mixed formulation when the scene is read.)
+fn csv_row(
+    (rows, ranges): (&mut String, &mut [ProbeRange]),
+    probes: &[super::Probe],
+    (time, e, (low, high)): (f64, &EnergyTerms, (f64, f64)),
+    u: &[f64],
+) {
+    rows.push_str(&format!(
+        "{time:e},{:e},{:e},{:e},{:e},{:e},{low:e},{high:e}",
+        e.kinetic, e.elastic, e.gravity_potential, e.load_potential, e.total
+    ));
+    for (range, probe) in ranges.iter_mut().zip(probes) {
+        for a in 0..3 {
+            let mean =
+                probe.nodes.iter().map(|&n| u[3 * n + a]).sum::<f64>() / probe.nodes.len() as f64;
+            range.last[a] = mean;
+            range.min[a] = range.min[a].min(mean);
+            range.max[a] = range.max[a].max(mean);
+            rows.push_str(&format!(",{mean:e}"));
+        }
+    }
+    rows.push('\n');
+}
+
 /// The frames of a mixed dynamic run: a `.vtu` each and the `.pvd` listing them.
 struct FrameFiles {
     vtu: bool,
@@ -457,7 +479,7 @@ impl Scene {
     /// What a mixed dynamic or modal scene asks that this front end does not run, named for
     /// the error of `analysis.formulation` (`None` for a static scene or a runnable one): a
     /// lumped mass (the mixed element's inertia is the consistent mass), and in a dynamic run
-    /// an error-controlled step and checkpoints.
+    /// a model other than the linear one, an error-controlled step and checkpoints.
     pub(crate) fn mixed_dynamics_refusal(&self) -> Option<String> {
         let mass = match self.analysis() {
             super::Analysis::Static => return None,
@@ -475,7 +497,13 @@ impl Scene {
             return None;
         }
         let tolerance = (self.spec.analysis.as_ref()).and_then(|a| a.get_ref().time_tolerance);
-        if tolerance.is_some() {
+        if self.model() != tetfem::model::ModelKind::Linear {
+            // The library's MixedNeoHookeanEuler; this front end runs the linear model.
+            Some(format!(
+                "model = \"{}\" in a dynamic scene (the linear model only here)",
+                self.model().name()
+            ))
+        } else if tolerance.is_some() {
             Some("analysis.time_tolerance (the mixed run takes a fixed dt)".into())
         } else if self.output().checkpoint_every > 0 {
             Some("[output] checkpoint_every".into())

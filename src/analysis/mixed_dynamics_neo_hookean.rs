@@ -1,0 +1,370 @@
+//! Backward Euler for Neo-Hookean rubber in the mixed (Taylor–Hood P2–P1) form
+//! ([`taylor_hood_neo_hookean`](crate::fe::element::taylor_hood_neo_hookean)): large
+//! deformation of nearly incompressible bodies in time, without volumetric locking.
+//!
+//! Each step solves, for u⁺ on the free DOFs and the corner pressures p⁺,
+//!
+//! ```text
+//!   R_u = M·(u⁺ − u − dt·v)/dt² + f_int(u⁺, p⁺) − f = 0,      R_p(u⁺, p⁺) = 0,
+//! ```
+//!
+//! then v⁺ = (u⁺ − u)/dt, by Newton's method on the tangent [M/dt² + K_uu, −Gᵀ; −G, −M_p/κ]
+//! (the static mixed Newton's tangent with the inertia added: M/dt² keeps its first block
+//! definite, so it is quasi-definite and the LDLᵀ needs no pivoting; its symbolic analysis is
+//! done once) with a backtracking line search on the static solve's merit ‖(R_u, (μ/ℓ)·R_p)‖
+//! (see [`mixed_nonlinear`](crate::analysis::mixed_nonlinear): the mixed energy is a saddle,
+//! no merit). Constant loads and fixed supports; the consistent mass.
+
+use crate::analysis::mixed_statics::{nodal_pressure, saddle_point_matrix};
+use crate::analysis::problem::Problem;
+use crate::base::error::{Error, Result};
+use crate::bc::constraints::{Constraints, DofMap};
+use crate::bc::loads::Loads;
+use crate::fe::element::taylor_hood::{Coupling, PRESSURE_NODES, PressureNodes};
+use crate::fe::element::taylor_hood_neo_hookean::{MixedElementState, mixed_neo_hookean};
+use crate::fe::element::tet10::Tet10Rest;
+use crate::fe::element::{ElementType, Tet10};
+use crate::fe::materials::TetMaterials;
+use crate::linalg::QuasiDefiniteLdlt;
+use crate::mesh::TetMesh;
+use crate::ordering::FillOrdering;
+use crate::sparse::CscMatrix;
+
+/// Newton iterations per step before the step is declared not converged.
+const MAX_ITERATIONS: usize = 30;
+
+/// Halvings of the line search before a step is declared stalled.
+const MAX_HALVINGS: usize = 30;
+
+/// A Neo-Hookean mixed body stepped by backward Euler (see the [module](self) docs).
+pub struct MixedNeoHookeanEuler<'a> {
+    mesh: &'a TetMesh<Tet10>,
+    problem: Problem<'a, Tet10>,
+    rests: Vec<Tet10Rest>,
+    /// μ and 1/κ per tet (Pa, 1/Pa).
+    moduli: Vec<(f64, f64)>,
+    pressure_nodes: PressureNodes,
+    /// M_ff, consistent, on the pattern of the free stiffness (mass units).
+    mass: CscMatrix,
+    ldlt: Option<QuasiDefiniteLdlt>,
+    dt: f64,
+    tolerance: f64,
+    /// μ/ℓ: the pressure residual's weight in the merit (Pa/length).
+    pressure_weight: f64,
+    /// The largest κ (Pa).
+    largest_bulk: f64,
+    /// 4ε·max|X|: the change of a coordinate below which no force changes (length).
+    resolution: f64,
+    load: Vec<f64>,
+    /// Full displacement, free velocity, corner pressures.
+    u: Vec<f64>,
+    v: Vec<f64>,
+    p: Vec<f64>,
+    time: f64,
+    iterations: usize,
+}
+
+impl std::fmt::Debug for MixedNeoHookeanEuler<'_> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("MixedNeoHookeanEuler")
+            .field("dt", &self.dt)
+            .field("time", &self.time)
+            .field("iterations", &self.iterations)
+            .finish()
+    }
+}
+
+impl<'a> MixedNeoHookeanEuler<'a> {
+    /// The body of `mesh` with `materials` (ν < 0.5), fixed `constraints` (prescribed values
+    /// held from the start), constant `loads`, time step `dt` and Newton `tolerance` (relative
+    /// to the step's first merit, in (0, 1)); at rest, the pressure 0.
+    pub fn new(
+        mesh: &'a TetMesh<Tet10>,
+        materials: &impl TetMaterials,
+        constraints: &Constraints,
+        loads: &Loads,
+        (dt, tolerance): (f64, f64),
+    ) -> Result<Self> {
+        let dt = crate::analysis::dynamics::check_time_step(dt)?;
+        if !(tolerance > 0.0 && tolerance < 1.0) {
+            return Err(Error::invalid_parameter(
+                "newton tolerance",
+                tolerance,
+                "must be in (0, 1)",
+            ));
+        }
+        crate::analysis::problem::ensure_mesh_dofs(mesh, "constraints", constraints.dof_count())?;
+        Error::check_len("loads", mesh.dof_count(), loads.as_slice().len())?;
+        materials.check_tet_count(mesh)?;
+        let problem = Problem::with_dofs(mesh, DofMap::new(constraints))?;
+        let mass = problem.free_consistent_mass(materials)?;
+        let rests: Vec<Tet10Rest> = (0..mesh.tet_count())
+            .map(|t| Tet10::rest(mesh, t))
+            .collect();
+        let moduli: Vec<(f64, f64)> = (0..mesh.tet_count())
+            .map(|t| {
+                let m = materials.material_of(t);
+                (m.shear_modulus(), 1.0 / m.bulk_modulus())
+            })
+            .collect();
+        let volume: f64 = rests.iter().map(Tet10Rest::volume).sum();
+        let length = (volume / mesh.tet_count().max(1) as f64).cbrt();
+        let shear = moduli.iter().map(|m| m.0).fold(0.0, f64::max);
+        let moduli_bulk = moduli.iter().map(|m| 1.0 / m.1).fold(0.0, f64::max);
+        let scale = mesh.nodes().iter().map(|x| x.amax()).fold(0.0, f64::max);
+        let pressure_nodes = PressureNodes::new(mesh);
+        let u = problem
+            .dofs()
+            .expand(&vec![0.0; problem.dofs().free_count()])?;
+        let mut stepper = MixedNeoHookeanEuler {
+            v: vec![0.0; problem.dofs().free_count()],
+            p: vec![0.0; pressure_nodes.count()],
+            mesh,
+            problem,
+            rests,
+            moduli,
+            pressure_nodes,
+            mass,
+            ldlt: None,
+            dt,
+            tolerance,
+            pressure_weight: shear / length,
+            largest_bulk: moduli_bulk,
+            resolution: 4.0 * f64::EPSILON * scale,
+            load: loads.as_slice().to_vec(),
+            u,
+            time: 0.0,
+            iterations: 0,
+        };
+        let (u, p) = (stepper.u.clone(), stepper.p.clone());
+        let Some(states) = stepper.states(&u, &p) else {
+            return Err(Error::invalid_parameter(
+                "constraints",
+                "prescribed displacements",
+                "invert a tet of the mixed Neo-Hookean body at the start",
+            ));
+        };
+        let tangent = stepper.tangent(&states)?;
+        let free = stepper.problem.dofs().free_count();
+        stepper.ldlt = Some(QuasiDefiniteLdlt::analyze(
+            &tangent,
+            free,
+            FillOrdering::NestedDissection,
+        )?);
+        Ok(stepper)
+    }
+
+    /// The element states at (`u`, `p`); `None` when a tet is inverted at a quadrature point.
+    fn states(&self, u: &[f64], p: &[f64]) -> Option<Vec<MixedElementState>> {
+        self.mesh
+            .tets()
+            .iter()
+            .enumerate()
+            .map(|(t, tet)| {
+                let u_e: [f64; 30] = std::array::from_fn(|k| u[3 * tet[k / 3] + k % 3]);
+                let corners = self.pressure_nodes.of_tet(tet);
+                let p_e: [f64; PRESSURE_NODES] = std::array::from_fn(|k| p[corners[k]]);
+                let (mu, inverse_bulk) = self.moduli[t];
+                mixed_neo_hookean(&self.rests[t], &u_e, &p_e, mu, inverse_bulk)
+            })
+            .collect()
+    }
+
+    /// R (free displacement DOFs, then pressures) of the step from (`u0`, `v0`) at `u`, with
+    /// the element states.
+    fn residual(&self, u: &[f64], states: &[MixedElementState]) -> Result<Vec<f64>> {
+        let mut internal: Vec<f64> = self.load.iter().map(|f| -f).collect();
+        let mut pressure_residual = vec![0.0; self.pressure_nodes.count()];
+        for (tet, state) in self.mesh.tets().iter().zip(states) {
+            for (k, &n) in tet.iter().enumerate() {
+                for a in 0..3 {
+                    internal[3 * n + a] += state.force[3 * k + a];
+                }
+            }
+            let corners = self.pressure_nodes.of_tet(tet);
+            for (&c, r) in corners.iter().zip(&state.pressure_residual) {
+                pressure_residual[c] += r;
+            }
+        }
+        let dofs = self.problem.dofs();
+        let mut r = dofs.restrict(&internal)?;
+        // Inertia: M·(u⁺ − u − dt·v)/dt².
+        let free_u = dofs.restrict(u)?;
+        let start = dofs.restrict(&self.u)?;
+        let lag: Vec<f64> = (0..free_u.len())
+            .map(|i| (free_u[i] - start[i] - self.dt * self.v[i]) / (self.dt * self.dt))
+            .collect();
+        for (r, m) in r.iter_mut().zip(self.mass.mul(&lag)?) {
+            *r += m;
+        }
+        r.extend(pressure_residual);
+        Ok(r)
+    }
+
+    /// The step's tangent [M/dt² + K_uu, −Gᵀ; −G, −M_p/κ] at the element states.
+    fn tangent(&self, states: &[MixedElementState]) -> Result<CscMatrix> {
+        let mut stiffness = self.problem.zero_matrix()?;
+        self.problem.assembler().reassemble_elements(
+            self.mesh,
+            |t| states[t].stiffness,
+            &mut stiffness,
+        )?;
+        let mut free = self.problem.restrict(&stiffness)?;
+        let c = 1.0 / (self.dt * self.dt);
+        // M_ff is on the pattern of K_ff (both restricted from the assembly pattern).
+        if free.col_ptr() != self.mass.col_ptr() || free.row_idx() != self.mass.row_idx() {
+            return Err(Error::Solver(
+                "mixed Neo-Hookean step: mass and stiffness patterns differ".into(),
+            ));
+        }
+        for (k, m) in free.values_mut().iter_mut().zip(self.mass.values()) {
+            *k += c * m;
+        }
+        let couplings: Vec<Coupling> = states.iter().map(|s| s.coupling).collect();
+        saddle_point_matrix(
+            self.mesh,
+            &free,
+            self.problem.dofs(),
+            &self.pressure_nodes,
+            &couplings,
+            |t| self.moduli[t].1,
+        )
+    }
+
+    /// ‖(R_u, (μ/ℓ)·R_p)‖ (force).
+    fn merit(&self, r: &[f64]) -> f64 {
+        let free = self.problem.dofs().free_count();
+        let w = self.pressure_weight;
+        r.iter()
+            .enumerate()
+            .map(|(i, x)| if i < free { x * x } else { (w * x).powi(2) })
+            .sum::<f64>()
+            .sqrt()
+    }
+
+    /// Advances one step of dt; returns the Newton iterations it took.
+    pub fn step(&mut self) -> Result<usize> {
+        let dofs = self.problem.dofs().clone();
+        let free = dofs.free_count();
+        // Predictor: the step's start moved on by dt·v (the pressure kept).
+        let mut u = self.u.clone();
+        for (k, &dof) in dofs.free_dofs().iter().enumerate() {
+            u[dof] += self.dt * self.v[k];
+        }
+        let mut p = self.p.clone();
+        let mut states = match self.states(&u, &p) {
+            Some(s) => s,
+            None => {
+                u.clone_from(&self.u);
+                self.states(&u, &p)
+                    .ok_or_else(|| Error::Solver("the accepted state has an inverted tet".into()))?
+            }
+        };
+        let mut r = self.residual(&u, &states)?;
+        let first = self.merit(&r);
+        let target = self.tolerance * first.max(f64::MIN_POSITIVE);
+        let mut merit = first;
+        let mut iterations = 0;
+        while merit > target {
+            if iterations == MAX_ITERATIONS {
+                return Err(self.not_converged(format!(
+                    "{MAX_ITERATIONS} Newton iterations left the merit at {merit:.3e} (first \
+                     {first:.3e})"
+                )));
+            }
+            iterations += 1;
+            let tangent = self.tangent(&states)?;
+            let Some(ldlt) = self.ldlt.as_mut() else {
+                return Err(Error::Solver(
+                    "the mixed step's tangent was not analysed".into(),
+                ));
+            };
+            ldlt.factorize(&tangent)?;
+            let mut delta: Vec<f64> = r.iter().map(|x| -x).collect();
+            ldlt.solve_in_place(&mut delta)?;
+            // A correction below the positions' and the pressures' resolution: the iterate
+            // is as converged as round-off lets it be (the static mixed Newton's rule).
+            let pressure_scale = p.iter().fold(self.largest_bulk, |m, p| m.max(p.abs()));
+            if delta[..free].iter().all(|d| d.abs() <= self.resolution)
+                && (delta[free..].iter()).all(|d| d.abs() <= 4.0 * f64::EPSILON * pressure_scale)
+            {
+                break;
+            }
+            let mut alpha = 1.0;
+            let mut accepted = false;
+            for _ in 0..=MAX_HALVINGS {
+                let mut trial_u = u.clone();
+                for (k, &dof) in dofs.free_dofs().iter().enumerate() {
+                    trial_u[dof] += alpha * delta[k];
+                }
+                let trial_p: Vec<f64> = (p.iter().zip(&delta[free..]))
+                    .map(|(p, d)| p + alpha * d)
+                    .collect();
+                if let Some(trial_states) = self.states(&trial_u, &trial_p) {
+                    let trial_r = self.residual(&trial_u, &trial_states)?;
+                    let trial_merit = self.merit(&trial_r);
+                    if trial_merit < merit {
+                        (u, p, states, r, merit) =
+                            (trial_u, trial_p, trial_states, trial_r, trial_merit);
+                        accepted = true;
+                        break;
+                    }
+                }
+                alpha *= 0.5;
+            }
+            if !accepted {
+                return Err(self.not_converged(format!(
+                    "the line search found no decrease of the merit {merit:.3e} (first \
+                     {first:.3e})"
+                )));
+            }
+        }
+        let start = dofs.restrict(&self.u)?;
+        let end = dofs.restrict(&u)?;
+        self.v = (0..free).map(|i| (end[i] - start[i]) / self.dt).collect();
+        (self.u, self.p) = (u, p);
+        self.time += self.dt;
+        self.iterations += iterations;
+        Ok(iterations)
+    }
+
+    fn not_converged(&self, message: String) -> Error {
+        Error::NotConverged {
+            method: "Newton's method (mixed Neo-Hookean backward Euler)".into(),
+            message: format!(
+                "the step to t = {:e}: {message}; use a smaller dt",
+                self.time + self.dt
+            ),
+        }
+    }
+
+    /// Displacement of every DOF (length).
+    pub fn displacement(&self) -> &[f64] {
+        &self.u
+    }
+
+    /// Velocity of the free DOFs (length/time).
+    pub fn velocity(&self) -> &[f64] {
+        &self.v
+    }
+
+    /// The pressure at every node (Pa), linear along edges.
+    pub fn pressure(&self) -> Vec<f64> {
+        nodal_pressure(
+            self.mesh.tets(),
+            &self.pressure_nodes,
+            self.mesh.node_count(),
+            &self.p,
+        )
+    }
+
+    /// Time reached.
+    pub fn time(&self) -> f64 {
+        self.time
+    }
+
+    /// Newton iterations in all.
+    pub fn iterations(&self) -> usize {
+        self.iterations
+    }
+}
