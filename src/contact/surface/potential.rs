@@ -72,6 +72,28 @@ impl Pair {
         }
     }
 
+    /// A lower bound (length) of the pair's distance at `x` (its four points): the distance
+    /// between the axis-aligned boxes of its two primitives (the point and the triangle, or the
+    /// two edges), which every point of either lies in. A few comparisons where the distance
+    /// itself takes its type's projections: the narrow phase and the CCD skip with it the
+    /// candidates that are far apart (most of them: the broad phase's boxes are inflated by
+    /// d̂ and by twice the Newton step's largest move).
+    pub(crate) fn box_gap(&self, x: &[Vector3<f64>; 4]) -> f64 {
+        let split = match self {
+            Pair::PointTriangle { .. } => 1,
+            Pair::EdgeEdge { .. } => 2,
+        };
+        let (a, b) = x.split_at(split);
+        let mut gap2 = 0.0;
+        for axis in 0..3 {
+            let lo = |s: &[Vector3<f64>]| s.iter().fold(f64::INFINITY, |m, v| m.min(v[axis]));
+            let hi = |s: &[Vector3<f64>]| s.iter().fold(f64::NEG_INFINITY, |m, v| m.max(v[axis]));
+            let apart = (lo(b) - hi(a)).max(lo(a) - hi(b)).max(0.0);
+            gap2 += apart * apart;
+        }
+        gap2.sqrt()
+    }
+
     /// The type of the pair's distance at `x` (the pair's four points).
     pub fn distance_type(&self, x: &[Vector3<f64>; 4]) -> DistanceType {
         match self {
@@ -218,10 +240,16 @@ impl SurfaceBarrier {
         };
         let pairs = pairs_of(found);
         let d_hat2 = self.activation_distance * self.activation_distance;
+        // Boxes apart by more than d̂ (with a relative 1e-9 for the distance's round-off) hold
+        // a pair that is not active: skipped without its distance.
+        let far = self.activation_distance * (1.0 + 1e-9);
         Ok(pairs
             .filter_map(|pair| {
                 let nodes = pair.nodes(surface);
                 let x = nodes.map(|n| positions[n]);
+                if pair.box_gap(&x) > far {
+                    return None;
+                }
                 let kind = pair.distance_type(&x);
                 let s = squared_distance(kind, &x);
                 (s < d_hat2).then(|| ActivePair {
