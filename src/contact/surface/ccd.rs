@@ -64,6 +64,12 @@ pub fn pair_step(
         Pair::PointTriangle { .. } => p[0].norm() + p[1].norm().max(p[2].norm()).max(p[3].norm()),
         Pair::EdgeEdge { .. } => p[0].norm().max(p[1].norm()) + p[2].norm().max(p[3].norm()),
     };
+    // A pair whose boxes are apart by more than twice what the step can close within the
+    // limit (d ≥ gap > 2·limit·l_p / (1 − s)) keeps at least (1 + s)/2 of its distance there,
+    // far above s·d: the limit, as the iteration below would find, without a distance.
+    if limit * l_p < 0.5 * (1.0 - separation) * pair.box_gap(x) {
+        return Ok(limit);
+    }
     let distance = |y: &[Vector3<f64>; 4]| {
         match pair {
             Pair::PointTriangle { .. } => {

@@ -72,6 +72,28 @@ impl Pair {
         }
     }
 
+    /// A lower bound (length) of the pair's distance at `x` (its four points): the distance
+    /// between the axis-aligned boxes of its two primitives (the point and the triangle, or the
+    /// two edges), which every point of either lies in. A few comparisons where the distance
+    /// itself takes its type's projections: the narrow phase and the CCD skip with it the
+    /// candidates that are far apart (most of them: the broad phase's boxes are inflated by
+    /// d̂ and by twice the Newton step's largest move).
+    pub(crate) fn box_gap(&self, x: &[Vector3<f64>; 4]) -> f64 {
+        let split = match self {
+            Pair::PointTriangle { .. } => 1,
+            Pair::EdgeEdge { .. } => 2,
+        };
+        let (a, b) = x.split_at(split);
+        let mut gap2 = 0.0;
+        for axis in 0..3 {
+            let lo = |s: &[Vector3<f64>]| s.iter().fold(f64::INFINITY, |m, v| m.min(v[axis]));
+            let hi = |s: &[Vector3<f64>]| s.iter().fold(f64::NEG_INFINITY, |m, v| m.max(v[axis]));
+            let apart = (lo(b) - hi(a)).max(lo(a) - hi(b)).max(0.0);
+            gap2 += apart * apart;
+        }
+        gap2.sqrt()
+    }
+
     /// The type of the pair's distance at `x` (the pair's four points).
     pub fn distance_type(&self, x: &[Vector3<f64>; 4]) -> DistanceType {
         match self {
@@ -218,10 +240,16 @@ impl SurfaceBarrier {
         };
         let pairs = pairs_of(found);
         let d_hat2 = self.activation_distance * self.activation_distance;
+        // Boxes apart by more than d̂ (with a relative 1e-9 for the distance's round-off) hold
+        // a pair that is not active: skipped without its distance.
+        let far = self.activation_distance * (1.0 + 1e-9);
         Ok(pairs
             .filter_map(|pair| {
                 let nodes = pair.nodes(surface);
                 let x = nodes.map(|n| positions[n]);
+                if pair.box_gap(&x) > far {
+                    return None;
+                }
                 let kind = pair.distance_type(&x);
                 let s = squared_distance(kind, &x);
                 (s < d_hat2).then(|| ActivePair {
@@ -257,16 +285,29 @@ impl SurfaceBarrier {
         positions: &[Vector3<f64>],
         found: Option<&Candidates>,
     ) -> Result<f64> {
+        let active = self.active(surface, positions, found)?;
+        Ok(self.energy_of_active(surface, positions, &active))
+    }
+
+    /// [`energy`](Self::energy) over `active`, the pairs [`active_among`](Self::active_among)
+    /// found at `positions` (J): a caller that evaluates the energy, force and tangent at one
+    /// state finds the active pairs once.
+    pub(crate) fn energy_of_active(
+        &self,
+        surface: &Surface,
+        positions: &[Vector3<f64>],
+        active: &[ActivePair],
+    ) -> f64 {
         let d_hat = self.activation_distance;
         let mut total = 0.0;
-        for p in self.active(surface, positions, found)? {
+        for p in active {
             if p.distance <= 0.0 {
-                return Ok(f64::INFINITY);
+                return f64::INFINITY;
             }
-            let m = self.mollifier(surface, &p, positions).0;
+            let m = self.mollifier(surface, p, positions).0;
             total += m * barrier::value(p.distance, d_hat);
         }
-        Ok(self.stiffness * total)
+        self.stiffness * total
     }
 
     /// Adds ∂B/∂x (N; the contact force is its negative) into `gradient`, a DOF vector
@@ -308,7 +349,21 @@ impl SurfaceBarrier {
             3 * positions.len(),
             gradient.len(),
         )?;
-        for (nodes, g) in self.local_terms(surface, positions, found, false)?.0 {
+        let active = self.active(surface, positions, found)?;
+        self.add_gradient_of_active(surface, positions, &active, gradient)
+    }
+
+    /// [`add_gradient`](Self::add_gradient) over `active`, the pairs
+    /// [`active_among`](Self::active_among) found at `positions` (N), `gradient` of length
+    /// 3·`positions.len()`. Errors: a pair at distance 0.
+    pub(crate) fn add_gradient_of_active(
+        &self,
+        surface: &Surface,
+        positions: &[Vector3<f64>],
+        active: &[ActivePair],
+        gradient: &mut [f64],
+    ) -> Result<()> {
+        for (nodes, g) in self.local_terms(surface, positions, active, false)?.0 {
             for (i, n) in nodes.iter().enumerate() {
                 for a in 0..3 {
                     gradient[3 * n + a] += self.stiffness * g[3 * i + a];
@@ -349,7 +404,21 @@ impl SurfaceBarrier {
         found: Option<&Candidates>,
         project: bool,
     ) -> Result<Vec<(usize, usize, f64)>> {
-        let blocks = self.local_terms(surface, positions, found, true)?.1;
+        let active = self.active(surface, positions, found)?;
+        self.hessian_triplets_of_active(surface, positions, &active, project)
+    }
+
+    /// [`hessian_triplets`](Self::hessian_triplets) over `active`, the pairs
+    /// [`active_among`](Self::active_among) found at `positions` (N/m). Errors: a pair at
+    /// distance 0.
+    pub(crate) fn hessian_triplets_of_active(
+        &self,
+        surface: &Surface,
+        positions: &[Vector3<f64>],
+        active: &[ActivePair],
+        project: bool,
+    ) -> Result<Vec<(usize, usize, f64)>> {
+        let blocks = self.local_terms(surface, positions, active, true)?.1;
         let mut triplets = Vec::with_capacity(144 * blocks.len());
         for (nodes, mut h) in blocks {
             if project {
@@ -394,17 +463,18 @@ impl SurfaceBarrier {
         }
     }
 
-    /// Each active pair's gradient and (when `hessian`) Hessian of mₖ·b(dₖ), unscaled by κ.
+    /// Each pair of `active`'s gradient and (when `hessian`) Hessian of mₖ·b(dₖ), unscaled by
+    /// κ.
     fn local_terms(
         &self,
         surface: &Surface,
         positions: &[Vector3<f64>],
-        found: Option<&Candidates>,
+        active: &[ActivePair],
         hessian: bool,
     ) -> Result<(Local<Gradient12>, Local<Hessian12>)> {
         let d_hat = self.activation_distance;
         let (mut gradients, mut hessians) = (Vec::new(), Vec::new());
-        for p in self.active(surface, positions, found)? {
+        for p in active {
             let d = p.distance;
             if d <= 0.0 {
                 return Err(Error::invalid_parameter(
@@ -422,7 +492,7 @@ impl SurfaceBarrier {
             );
             let phi1 = b1 / (2.0 * d);
             let phi2 = (b2 - b1 / d) / (4.0 * d * d);
-            let (m, mg, mh) = self.mollifier(surface, &p, positions);
+            let (m, mg, mh) = self.mollifier(surface, p, positions);
             let gradient = m * phi1 * s.gradient + b * mg;
             if hessian {
                 let cross = mg * s.gradient.transpose();

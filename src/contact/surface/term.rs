@@ -29,8 +29,10 @@
 //! solve with the exact J by conjugate gradients preconditioned by P's factor (P⁻¹J has its
 //! spectrum in (0, 1]): 58 iterations over those 24 steps; the coupled factor takes 9 Newton
 //! iterations a step at most on a 1,296-DOF impact where that path took 154
-//! (`tests/core/surface_tangent_scale.rs`; where the exact J is indefinite the step falls back
-//! to the CG, see `validation/block_stack.md`). [`TangentFill`] counts what went where.
+//! (`tests/core/surface_tangent_scale.rs`; where the exact J is indefinite it factors the
+//! projected one on the same pattern, see `validation/block_stack.md`). [`TangentFill`] counts
+//! what went where. The pairs within d̂ at a state are found once for its energy, force,
+//! tangent and smallest distance (`ActiveMemo`).
 //!
 //! Friction between the surfaces ([`super::friction`], μ = [`SurfaceBarrier::friction`] > 0):
 //! [`SurfaceContact::begin_friction`] lags it at a time step's start, and until
@@ -49,7 +51,7 @@ use super::ccd::{SEPARATION_FRACTION, pair_step};
 use super::friction::{SurfaceFrictionLag, check_friction};
 use super::intersect::surface_intersections;
 use super::overlap::overlapping_bodies;
-use super::potential::{Pair, SurfaceBarrier, pairs_of};
+use super::potential::{ActivePair, Pair, SurfaceBarrier, pairs_of};
 use crate::base::error::{Error, Result};
 use crate::base::warning::Warning;
 use crate::mesh::{CellType, TetMesh};
@@ -60,6 +62,16 @@ struct Reach {
     centre: Vec<Vector3<f64>>,
     margin: f64,
     found: Arc<Candidates>,
+}
+
+/// The pairs within d̂ at one state: what the energy, force, tangent and smallest distance at
+/// that state share (a line search's trial point has its energy and force evaluated there, the
+/// accepted one its tangent and distance), so the narrow phase over the candidates runs once
+/// per state instead of once per quantity.
+struct ActiveMemo {
+    positions: Vec<Vector3<f64>>,
+    found: Arc<Candidates>,
+    pairs: Arc<Vec<ActivePair>>,
 }
 
 /// Where the barrier's Hessian entries went in the last tangent ([`SurfaceContact::add_tangent`]).
@@ -78,6 +90,8 @@ pub struct SurfaceContact {
     barrier: SurfaceBarrier,
     rest: Vec<Vector3<f64>>,
     reach: Mutex<Option<Reach>>,
+    /// The active pairs at the last state evaluated.
+    active: Mutex<Option<ActiveMemo>>,
     fill: Mutex<TangentFill>,
     /// The entries the last tangent moved onto the diagonal, (row, column, v) over the full
     /// DOFs: what [`lumped_entries`](SurfaceContact::lumped_entries) gives a solver that
@@ -140,6 +154,7 @@ impl SurfaceContact {
             barrier,
             rest: mesh.nodes().to_vec(),
             reach: Mutex::new(None),
+            active: Mutex::new(None),
             fill: Mutex::new(TangentFill::default()),
             lumped: Mutex::new(Vec::new()),
             audit: Mutex::new(None),
@@ -232,6 +247,26 @@ impl SurfaceContact {
         Ok(found)
     }
 
+    /// The pairs within d̂ at `x` among the candidates valid there: the kept ones when `x` and
+    /// the candidates are those of the last call, else found anew (and kept).
+    fn active_at(&self, x: &[Vector3<f64>]) -> Result<Arc<Vec<ActivePair>>> {
+        let found = self.candidates_at(x)?;
+        let mut memo = self.active.lock().unwrap_or_else(|e| e.into_inner());
+        if let Some(m) = memo
+            .as_ref()
+            .filter(|m| Arc::ptr_eq(&m.found, &found) && m.positions.as_slice() == x)
+        {
+            return Ok(Arc::clone(&m.pairs));
+        }
+        let pairs = Arc::new(self.barrier.active_among(&self.surface, x, &found)?);
+        *memo = Some(ActiveMemo {
+            positions: x.to_vec(),
+            found,
+            pairs: Arc::clone(&pairs),
+        });
+        Ok(pairs)
+    }
+
     fn within(&self, reach: &Reach, x: &[Vector3<f64>]) -> bool {
         let m2 = reach.margin * reach.margin;
         self.surface
@@ -253,8 +288,8 @@ impl SurfaceContact {
     /// friction is lagged ([`begin_friction`](Self::begin_friction)).
     pub fn energy(&self, u: &[f64]) -> Result<f64> {
         let x = self.positions(u)?;
-        let found = self.candidates_at(&x)?;
-        let barrier = self.barrier.energy_among(&self.surface, &x, &found)?;
+        let active = self.active_at(&x)?;
+        let barrier = self.barrier.energy_of_active(&self.surface, &x, &active);
         Ok(barrier + self.friction_lock().as_ref().map_or(0.0, |l| l.energy(&x)))
     }
 
@@ -313,10 +348,10 @@ impl SurfaceContact {
     pub fn add_force(&self, u: &[f64], force: &mut [f64]) -> Result<()> {
         let x = self.positions(u)?;
         Error::check_len("surface contact force", u.len(), force.len())?;
-        let found = self.candidates_at(&x)?;
+        let active = self.active_at(&x)?;
         let mut gradient = vec![0.0; u.len()];
         self.barrier
-            .add_gradient_among(&self.surface, &x, &found, &mut gradient)?;
+            .add_gradient_of_active(&self.surface, &x, &active, &mut gradient)?;
         if let Some(lag) = self.friction_lock().as_ref() {
             lag.add_gradient(&x, &mut gradient)?;
         }
@@ -337,10 +372,10 @@ impl SurfaceContact {
     ) -> Result<TangentFill> {
         let x = self.positions(u)?;
         Error::check_len("surface contact tangent", u.len(), matrix.dim())?;
-        let found = self.candidates_at(&x)?;
+        let active = self.active_at(&x)?;
         let mut triplets =
             self.barrier
-                .hessian_triplets_among(&self.surface, &x, &found, project)?;
+                .hessian_triplets_of_active(&self.surface, &x, &active, project)?;
         if let Some(lag) = self.friction_lock().as_ref() {
             // Friction's Hessian is PSD as it stands: `project` does not change it.
             triplets.extend(lag.hessian_triplets(&x));
@@ -431,10 +466,8 @@ impl SurfaceContact {
     /// d̂ (+∞ when none is within d̂).
     pub fn smallest_distance(&self, u: &[f64]) -> Result<f64> {
         let x = self.positions(u)?;
-        let found = self.candidates_at(&x)?;
         Ok(self
-            .barrier
-            .active_among(&self.surface, &x, &found)?
+            .active_at(&x)?
             .iter()
             .fold(f64::INFINITY, |d, p| d.min(p.distance)))
     }
