@@ -20,7 +20,7 @@ use crate::analysis::problem::Problem;
 use crate::base::error::{Error, Result};
 use crate::bc::constraints::{Constraints, DofMap};
 use crate::bc::loads::Loads;
-use crate::fe::element::taylor_hood::{Coupling, PRESSURE_NODES, PressureNodes};
+use crate::fe::element::taylor_hood::{PRESSURE_NODES, PressureNodes, pressure_mass};
 use crate::fe::element::taylor_hood_neo_hookean::{MixedElementState, mixed_neo_hookean};
 use crate::fe::element::tet10::Tet10Rest;
 use crate::fe::element::{ElementType, Tet10};
@@ -220,14 +220,13 @@ impl<'a> MixedNeoHookeanEuler<'a> {
         for (k, m) in free.values_mut().iter_mut().zip(self.mass.values()) {
             *k += c * m;
         }
-        let couplings: Vec<Coupling> = states.iter().map(|s| s.coupling).collect();
         saddle_point_matrix(
             self.mesh,
             &free,
             self.problem.dofs(),
             &self.pressure_nodes,
-            &couplings,
-            |t| self.moduli[t].1,
+            |t, k, i, a| states[t].coupling[k][i][a],
+            |t, k, l| self.moduli[t].1 * pressure_mass(&self.rests[t], k, l),
         )
     }
 
@@ -350,7 +349,7 @@ impl<'a> MixedNeoHookeanEuler<'a> {
 
     /// The pressure at every node (Pa), linear along edges.
     pub fn pressure(&self) -> Vec<f64> {
-        nodal_pressure(
+        nodal_pressure::<Tet10>(
             self.mesh.tets(),
             &self.pressure_nodes,
             self.mesh.node_count(),
