@@ -190,10 +190,12 @@ type = "static"                     # default "static"; or "dynamic", which need
 # damping = { mass = 0.0, stiffness = 0.0 }   # Rayleigh α (1/s), β (s); default none
 # mass = "lumped"                   # default; or "consistent"
 # initial_velocity = [0.0, 0.0, 0.0]          # m/s, default zero
-# model = "linear"                 # default; or "corotational", "neo-hookean", "st-venant-kirchhoff" (static and every dynamic method; each [[materials]] region its own model)
-# formulation = "displacement"      # default; or "mixed": displacement–pressure P2–P1, no locking
-                                    # as ν → 0.5 (static, the linear or the Neo-Hookean model,
-                                    # [mesh] order = 2 only);
+# model = "linear"                 # default; or "corotational", "neo-hookean", "st-venant-kirchhoff" (static and every dynamic method; a [[materials]] entry may name its own model)
+# formulation = "displacement"      # default; or "mixed": displacement–pressure, no locking
+                                    # as ν → 0.5 (P2–P1 on 10-node tets, stabilized P1–P1 on
+                                    # 4-node ones; static with the linear or the Neo-Hookean
+                                    # model; dynamic (backward_euler, newmark, consistent mass)
+                                    # and modal with the linear model on 10-node tets);
                                     # the .vtu gets the point field "pressure" (Pa)
 # linear_solver = "auto"            # default: the Cholesky factorization when its factor fits the
                                     # memory budget and is predicted faster; or "direct",

@@ -725,15 +725,17 @@ pub struct AnalysisSpec {
     /// steps. Dynamic (every method): the implicit
     /// methods solve each step by Newton (iterations in the summary), the explicit one evaluates
     /// the nonlinear force; fixed constraints must be zero-valued. Each `[[materials]]` region
-    /// gets its own model of this kind (static and dynamic).
+    /// gets its own model of this kind (static and dynamic) unless it names its own `model`.
     #[serde(default)]
     pub model: Option<String>,
-    /// `"displacement"` (default) or `"mixed"`: the mixed displacement–pressure (Taylor–Hood
-    /// P2–P1) element, which does not lock as Poisson's ratio approaches 0.5 (rubber: ν up to
-    /// 0.4999…) and writes the pressure (Pa, positive in compression) as the `.vtu` point field
-    /// `pressure`. Mixed: static scenes with the linear model on 10-node tets (`[mesh] order =
-    /// 2`) on tetfem's own engine only, without obstacles, `accuracy` or point probes; solved
-    /// by a sparse LDLᵀ whatever `linear_solver` says.
+    /// `"displacement"` (default) or `"mixed"`: the mixed displacement–pressure element
+    /// (Taylor–Hood P2–P1 on 10-node tets, the stabilized P1–P1 on 4-node tets), which does not
+    /// lock as Poisson's ratio approaches 0.5 (rubber: ν up to 0.4999…) and writes the pressure
+    /// (Pa, positive in compression) as the `.vtu` point field `pressure`. Mixed: static scenes
+    /// with the linear or the Neo-Hookean model on either order; dynamic (`backward_euler`,
+    /// `newmark`, `mass = "consistent"`) and modal scenes with the linear model on 10-node tets;
+    /// tetfem's own engine only, without obstacles, `accuracy` or point probes; solved by a
+    /// sparse LDLᵀ whatever `linear_solver` says.
     #[serde(default)]
     pub formulation: Option<String>,
     /// Static (linear model) and dynamic (implicit methods): how the linear systems are solved,
