@@ -318,9 +318,9 @@ def scene_results(s: dict, scale: float = 1e3) -> str:
     """What a scene's summary reports that its description talks about, in one cell (`scale`:
     mm per length unit of the scene)."""
     out = []
-    if s["analysis"] == "modal":
+    if s["analysis"].startswith("modal"):  # "modal", "modal (mixed)"
         out.append("f = " + ", ".join(f"{m['frequency_hz']:.4g}" for m in s["modes"][:3]) + " … Hz")
-    if s["analysis"] == "dynamic":
+    if s["analysis"].startswith("dynamic"):  # "dynamic", "dynamic (mixed)"
         out.append(f"dt = {s['dt_over_critical']:.3g}× the explicit critical step")
     accuracy = s.get("accuracy")
     if accuracy:
@@ -364,7 +364,7 @@ def scenes() -> list[str]:
             start = time.perf_counter()
             s = json.loads(run([binary, "run", os.path.join("scenes", name), "--json", "--quiet", "--out", out]))
             wall = time.perf_counter() - start
-        if s["analysis"] == "dynamic":
+        if s["analysis"].startswith("dynamic"):
             steps = f"{s['steps']}"
         elif (s.get("newton") or {}).get("load_steps"):
             steps = f"{s['newton']['load_steps']} load steps"
