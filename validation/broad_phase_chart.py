@@ -56,9 +56,12 @@ def chart(rows: list, path: pathlib.Path) -> None:
         t = [p[1] * 1e3 for p in points]
         ax.plot(n, t, "o-", color=colour, label=label)
         reference = [t[0] * (m * math.log(m)) / (n[0] * math.log(n[0])) for m in n]
-        ax.plot(n, reference, ":", color=colour, label=f"n·log n through its first point")
+        ax.plot(n, reference, ":", color=colour, label="n·log n through its first point")
     ax.set_xscale("log")
     ax.set_yscale("log")
+    # Room above the data for the legend, so that it hides none of the lines.
+    times = [t * 1e3 for _, _, _, t in rows]
+    ax.set_ylim(min(times) / 2, max(times) * 60)
     sizes = sorted({n for _, n, _, _ in rows})
     ax.set_xticks(sizes, [f"{n:,}" for n in sizes])
     ax.minorticks_off()
