@@ -165,29 +165,7 @@ fn write_mixed_modes(
         }
         files.push(pvd.path().to_path_buf());
     }
-    if out.csv {
-        let mut text = String::from(
-            "mode,frequency_Hz,period_s,omega_rad_per_s,effective_mass_fraction_x,\
-             effective_mass_fraction_y,effective_mass_fraction_z\n",
-        );
-        for row in &summary.modes {
-            let [x, y, z] = row.effective_mass_fraction;
-            text.push_str(&format!(
-                "{},{:e},{:e},{:e},{x:e},{y:e},{z:e}\n",
-                row.mode, row.frequency_hz, row.period_s, row.omega_rad_per_s
-            ));
-        }
-        let csv = dir.join(format!("{}_modes.csv", out.stem));
-        write_atomically(&csv, |w| w.write_all(text.as_bytes()))?;
-        files.push(csv);
-    }
-    let json = dir.join(format!("{}_summary.json", out.stem));
-    let mut with_files = summary.clone();
-    with_files.files = files.clone();
-    with_files.files.push(json.clone());
-    write_atomically(&json, |w| writeln!(w, "{}", with_files.to_json()))?;
-    files.push(json);
-    Ok(files)
+    super::modal::write_modes_table_and_summary(scene, summary, files)
 }
 
 /// A mixed dynamic scene (see the [module](self) docs): from rest in the undeformed state (with

@@ -270,6 +270,19 @@ fn write_modal_outputs<E: ElementType>(
         }
         files.push(pvd.path().to_path_buf());
     }
+    write_modes_table_and_summary(scene, summary, files)
+}
+
+/// A modal run's `<stem>_modes.csv` (if the scene asks for CSV) and `<stem>_summary.json`
+/// after the `files` already written (the mode shapes), all of them listed in the summary:
+/// shared by the displacement and the mixed modal runs.
+pub(crate) fn write_modes_table_and_summary(
+    scene: &Scene,
+    summary: &ModalSummary,
+    mut files: Vec<PathBuf>,
+) -> Result<Vec<PathBuf>> {
+    let out = scene.output();
+    let dir = &out.directory;
     if out.csv {
         // Written whole (the run is over): integers as integers, each unit in its header.
         let mut text = String::from(
