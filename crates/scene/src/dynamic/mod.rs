@@ -4,6 +4,7 @@
 
 // Without the `png` feature the frames' code is a stand-in that refuses.
 mod adaptive;
+mod mixed;
 #[cfg_attr(not(feature = "png"), path = "png_look_off.rs")]
 mod png_look;
 mod run_loop;
@@ -806,9 +807,7 @@ fn run_dynamic_scene_as(
         false => None,
     };
     if scene.formulation() == super::Formulation::Mixed && !resume {
-        return super::mixed_dynamics::run_mixed_dynamic(
-            scene, settings, overrides, lock, progress,
-        );
+        return mixed::run_mixed_dynamic(scene, settings, overrides, lock, progress);
     }
     let resume = match resume {
         true => Some(restart::checkpoint_for_resume(scene)?),

@@ -1,6 +1,8 @@
 //! Running a modal scene: the lowest natural frequencies and mode shapes K·φ = ω²·M·φ of the
 //! constrained body, their effective modal masses, and the files a user opens.
 
+mod mixed;
+
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -101,7 +103,7 @@ pub fn run_modal_scene(scene: &Scene, no_files: bool) -> Result<ModalSummary> {
         false => Some(OutputLock::acquire(&scene.output().directory)?),
     };
     if scene.formulation() == super::Formulation::Mixed {
-        return super::mixed_dynamics::run_mixed_modal(scene, settings, lock);
+        return mixed::run_mixed_modal(scene, settings, lock);
     }
     match scene.order() {
         2 => run_modal_on::<Tet10>(scene, settings, lock),

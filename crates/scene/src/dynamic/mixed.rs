@@ -1,0 +1,308 @@
+//! The mixed (Taylor–Hood P2–P1) formulation's dynamic scenes: `formulation = "mixed"` with
+//! `type = "dynamic"` (backward Euler or Newmark, the linear model, the consistent mass). The
+//! library computes ([`mixed_transient_model`]); this file reads the scene's keys, steps, and
+//! writes what a user opens: `<stem>.pvd` with a `.vtu` per frame (point fields
+//! `displacement`, m, and `pressure`, Pa), `<stem>.csv` (time, energies, pressure range, each
+//! probe's mean displacement) and `<stem>_summary.json`.
+
+use std::ops::ControlFlow;
+use std::path::PathBuf;
+use std::time::Instant;
+
+use tetfem::Loads;
+use tetfem::analysis::dynamics::Rayleigh;
+use tetfem::analysis::mixed_analysis::mixed_transient_model;
+use tetfem::analysis::mixed_dynamics::MixedTransient;
+use tetfem::analysis::transient::{RunLength, TimeStep};
+use tetfem::base::error::{Error, Result};
+use tetfem::fe::element::Tet10;
+use tetfem::post::output::{OutputLock, PvdCollection, VtuWriter, write_atomically};
+
+use super::{DynamicOverrides, DynamicSummary, EnergyTerms};
+use crate::mixed_dynamics::mixed_warnings;
+use crate::{DynamicSettings, ProbeRange, Scene};
+
+/// A mixed dynamic scene (see the [module](self) docs): from rest in the undeformed state (with
+/// `initial_velocity` on the free DOFs), constant loads and gravity, `overrides` of the
+/// method, dt (in seconds) and length; `progress(step, steps)` after each step may stop the
+/// run ([`Error::Interrupted`]).
+pub(crate) fn run_mixed_dynamic(
+    scene: &Scene,
+    settings: &DynamicSettings,
+    overrides: &DynamicOverrides,
+    lock: Option<OutputLock>,
+    progress: &mut dyn FnMut(usize, usize) -> ControlFlow<()>,
+) -> Result<DynamicSummary> {
+    let method = overrides.method.unwrap_or(settings.method);
+    let dt = seconds_step(overrides, settings)?;
+    let steps = overrides
+        .length
+        .unwrap_or(RunLength::Duration(settings.duration))
+        .steps(dt)?;
+    let clock = Instant::now();
+    let built = scene.build_as::<Tet10>()?;
+    let mesh = &built.mesh;
+    let mut gravity = Loads::new(mesh);
+    gravity.add_gravity(mesh, &built.materials, built.gravity)?;
+    let mut loads = built.other_loads.clone();
+    loads.add_scaled(&gravity, 1.0)?;
+    let damping = Rayleigh::new(settings.damping.mass, settings.damping.stiffness)?;
+    let mut run = mixed_transient_model(
+        mesh,
+        &built.materials,
+        scene.model(),
+        (&built.constraints, &loads),
+        (method, dt, damping),
+    )?;
+    let dofs = run.operator().dofs().clone();
+    let v0: Vec<f64> = dofs
+        .free_dofs()
+        .iter()
+        .map(|&dof| settings.initial_velocity[dof % 3])
+        .collect();
+    run.start(vec![0.0; dofs.free_count()], v0)?;
+    let critical = crate::critical_step_of(&built)?;
+    let setup_seconds = clock.elapsed().as_secs_f64();
+    let energy = |run: &MixedTransient| energy_terms(run, &gravity);
+    let initial_energy = energy(&run)?;
+    let out = scene.output();
+    let mut writer = lock.as_ref().map(|_| FrameFiles::new(scene));
+    let (mut rows, mut probes) = csv_start(&built.probes);
+    let (mut step_seconds, mut first_step_seconds, mut output_seconds) = (0.0, 0.0, 0.0);
+    for step in 0..=steps {
+        if step > 0 {
+            let clock = Instant::now();
+            run.step()?;
+            let seconds = clock.elapsed().as_secs_f64();
+            if step == 1 {
+                first_step_seconds = seconds;
+            }
+            step_seconds += seconds;
+        }
+        let clock = Instant::now();
+        let e = energy(&run)?;
+        let pressure = run.pressure();
+        let (low, high) = pressure
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &p| {
+                (a.min(p), b.max(p))
+            });
+        let u = run.displacement()?;
+        csv_row(
+            (&mut rows, &mut probes),
+            &built.probes,
+            (run.time(), &e, (low, high)),
+            &u,
+        );
+        if let Some(w) = &mut writer
+            && (step % out.every == 0 || step == steps)
+        {
+            w.frame(mesh, run.time(), &u, &pressure)?;
+        }
+        output_seconds += clock.elapsed().as_secs_f64();
+        if step > 0 && progress(step, steps).is_break() {
+            return Err(Error::Interrupted {
+                step,
+                time: run.time(),
+                frames: writer.as_ref().map_or(0, |w| w.frames.len()),
+            });
+        }
+    }
+    let final_energy = energy(&run)?;
+    let mut summary = DynamicSummary {
+        warnings: mixed_warnings(scene, &built)?
+            .into_iter()
+            .chain(lock.as_ref().and_then(OutputLock::warning))
+            .collect(),
+        title: scene.title(),
+        scene: scene.source_name().to_string(),
+        analysis: "dynamic (mixed)".into(),
+        method: match method {
+            tetfem::analysis::dynamics::Method::Newmark => "newmark",
+            _ => "backward-euler",
+        }
+        .into(),
+        nodes: mesh.node_count(),
+        tets: mesh.tet_count(),
+        free_dofs: dofs.free_count(),
+        dt,
+        critical_step: critical.seconds,
+        critical_step_source: critical.source.clone(),
+        dt_over_critical: dt / critical.seconds,
+        steps,
+        end_time: run.time(),
+        setup_seconds,
+        first_step_seconds,
+        mean_step_seconds: step_seconds / steps as f64,
+        step_seconds,
+        output_seconds,
+        initial_energy,
+        final_energy,
+        probes,
+        reactions: Vec::new(),
+        frames: writer.as_ref().map_or(0, |w| w.frames.len()),
+        files: Vec::new(),
+        model: scene.model().name().into(),
+        newton: None,
+        estimated_error: None,
+        estimate_seconds: 0.0,
+        deformation: None,
+        step_resolution: None,
+        resumed_from_step: None,
+        contact_forces: None,
+        contact_barrier: None,
+        time_stepping: None,
+    };
+    if let Some(w) = writer {
+        let clock = Instant::now();
+        let mut files = w.finish()?;
+        if out.csv {
+            let csv = out.directory.join(format!("{}.csv", out.stem));
+            write_atomically(&csv, |f| f.write_all(rows.as_bytes()))?;
+            files.push(csv);
+        }
+        let json = out.directory.join(format!("{}_summary.json", out.stem));
+        summary.files = files.clone();
+        summary.files.push(json.clone());
+        write_atomically(&json, |f| writeln!(f, "{}", summary.to_json()))?;
+        summary.output_seconds += clock.elapsed().as_secs_f64();
+    }
+    Ok(summary)
+}
+
+/// The run's dt (s): the override's or the scene's; a multiple of the critical step is
+/// refused (the mixed run is implicit, its dt given in seconds).
+fn seconds_step(overrides: &DynamicOverrides, settings: &DynamicSettings) -> Result<f64> {
+    match overrides.dt.unwrap_or(TimeStep::Seconds(settings.dt)) {
+        TimeStep::Seconds(dt) => Ok(dt),
+        TimeStep::CriticalMultiple(m) => Err(Error::invalid_parameter(
+            "formulation mixed with dt",
+            format!("{m}crit"),
+            "the mixed element's implicit run takes dt in seconds",
+        )),
+    }
+}
+
+/// The energies of `run`'s state, gravity's potential −f_gᵀu apart (`gravity` its nodal
+/// loads).
+fn energy_terms(run: &MixedTransient, gravity: &Loads) -> Result<EnergyTerms> {
+    let e = run.energy()?;
+    let u = run.displacement()?;
+    let g: f64 = -(gravity.as_slice().iter().zip(&u))
+        .map(|(f, x)| f * x)
+        .sum::<f64>();
+    Ok(EnergyTerms {
+        kinetic: e.kinetic,
+        elastic: e.elastic,
+        gravity_potential: g,
+        load_potential: e.load_potential - g,
+        total: e.total(),
+    })
+}
+
+/// The CSV's header (with three columns per probe) and the probes' ranges, empty.
+fn csv_start(probes: &[crate::Probe]) -> (String, Vec<ProbeRange>) {
+    let mut header = String::from(
+        "time_s,kinetic_J,elastic_J,gravity_potential_J,load_potential_J,total_J,\
+         pressure_min_Pa,pressure_max_Pa",
+    );
+    for probe in probes {
+        for axis in ["x", "y", "z"] {
+            header.push_str(&format!(",{}_u{axis}_m", probe.name));
+        }
+    }
+    header.push('\n');
+    let ranges = (probes.iter())
+        .map(|p| ProbeRange {
+            name: p.name.clone(),
+            last: [0.0; 3],
+            min: [f64::INFINITY; 3],
+            max: [f64::NEG_INFINITY; 3],
+        })
+        .collect();
+    (header, ranges)
+}
+
+/// One CSV row at `time` (s): the energies, the pressure range (Pa) and each node-set probe's
+/// mean displacement of the full `u` (m), which also updates the probes' ranges. (Point
+/// probes are refused for the mixed formulation when the scene is read.)
+fn csv_row(
+    (rows, ranges): (&mut String, &mut [ProbeRange]),
+    probes: &[crate::Probe],
+    (time, e, (low, high)): (f64, &EnergyTerms, (f64, f64)),
+    u: &[f64],
+) {
+    rows.push_str(&format!(
+        "{time:e},{:e},{:e},{:e},{:e},{:e},{low:e},{high:e}",
+        e.kinetic, e.elastic, e.gravity_potential, e.load_potential, e.total
+    ));
+    for (range, probe) in ranges.iter_mut().zip(probes) {
+        for a in 0..3 {
+            let mean =
+                probe.nodes.iter().map(|&n| u[3 * n + a]).sum::<f64>() / probe.nodes.len() as f64;
+            range.last[a] = mean;
+            range.min[a] = range.min[a].min(mean);
+            range.max[a] = range.max[a].max(mean);
+            rows.push_str(&format!(",{mean:e}"));
+        }
+    }
+    rows.push('\n');
+}
+
+/// The frames of a mixed dynamic run: a `.vtu` each and the `.pvd` listing them.
+struct FrameFiles {
+    vtu: bool,
+    stem: String,
+    directory: PathBuf,
+    format: tetfem::post::output::VtuFormat,
+    pvd: PvdCollection,
+    frames: Vec<PathBuf>,
+}
+
+impl FrameFiles {
+    fn new(scene: &Scene) -> Self {
+        let out = scene.output();
+        FrameFiles {
+            vtu: out.vtu,
+            stem: out.stem.clone(),
+            directory: out.directory.clone(),
+            format: out.vtu_format.format(),
+            pvd: PvdCollection::new(out.directory.join(format!("{}.pvd", out.stem))),
+            frames: Vec::new(),
+        }
+    }
+
+    /// One frame at `time` (s): displacement (m) and pressure (Pa) at every node.
+    fn frame(
+        &mut self,
+        mesh: &tetfem::TetMesh<Tet10>,
+        time: f64,
+        u: &[f64],
+        pressure: &[f64],
+    ) -> Result<()> {
+        if !self.vtu {
+            return Ok(());
+        }
+        let path = self
+            .directory
+            .join(format!("{}_{:05}.vtu", self.stem, self.frames.len()));
+        VtuWriter::new(mesh)
+            .format(self.format)
+            .field_data("time", time)?
+            .point_field("displacement", 3, u)?
+            .point_field("pressure", 1, pressure)?
+            .write(&path)?;
+        self.pvd.push(time, &path)?;
+        self.frames.push(path);
+        Ok(())
+    }
+
+    /// The files written.
+    fn finish(self) -> Result<Vec<PathBuf>> {
+        let mut files = self.frames;
+        if self.vtu {
+            files.push(self.pvd.path().to_path_buf());
+        }
+        Ok(files)
+    }
+}
