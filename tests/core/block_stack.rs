@@ -20,7 +20,7 @@ use tetfem::contact::{Contact, ContactParameters, Obstacle};
 use tetfem::fe::materials::MaterialMap;
 use tetfem::mesh::bodies::{Bodies, Placement};
 use tetfem::model::ModelKind;
-use tetfem::{BoxSplit, Material, TetMesh};
+use tetfem::{BoxSplit, Material, Tet4, TetMesh};
 
 const SIDE: f64 = 0.1;
 /// The gap (m) between blocks and under the lowest one at the start.
@@ -95,10 +95,9 @@ struct Report {
     smallest_distance: f64,
 }
 
-/// Drops `bodies` onto the ground (friction `mu` on the ground and between the blocks) for 40
-/// steps of backward Euler (at most `newton_budget` Newton iterations a step) and asserts what
-/// the module docs say.
-fn settle(bodies: Bodies, mu: f64, newton_budget: usize) -> Report {
+/// The blocks of `bodies` as one Neo-Hookean definition under gravity, over the ground, with
+/// friction `mu` on the ground and between the blocks.
+fn stack_definition(bodies: &Bodies, mu: f64) -> Definition<Tet4> {
     let mesh = bodies.mesh().clone();
     // Soft rubber, 1 kg per block (ρ·L³ = 1000·0.001).
     let material = Material::new(2e5, 0.3, 1000.0).unwrap();
@@ -115,7 +114,7 @@ fn settle(bodies: Bodies, mu: f64, newton_budget: usize) -> Report {
         .with_friction(mu)
         .unwrap();
     let materials = MaterialMap::uniform(material, mesh.tet_count());
-    let definition = Definition::builder(mesh.clone(), materials)
+    Definition::builder(mesh.clone(), materials)
         .model(ModelKind::NeoHookean)
         .gravity(Vector3::new(0.0, 0.0, -G))
         .unwrap()
@@ -123,7 +122,15 @@ fn settle(bodies: Bodies, mu: f64, newton_budget: usize) -> Report {
         .surface_contact(surface, bodies.node_bodies())
         .unwrap()
         .build()
-        .unwrap();
+        .unwrap()
+}
+
+/// Drops `bodies` onto the ground (friction `mu` on the ground and between the blocks) for 40
+/// steps of backward Euler (at most `newton_budget` Newton iterations a step) and asserts what
+/// the module docs say.
+fn settle(bodies: Bodies, mu: f64, newton_budget: usize) -> Report {
+    let mesh = bodies.mesh().clone();
+    let definition = stack_definition(&bodies, mu);
     let dt = 0.01;
     let mut options = TransientOptions::new(Method::BackwardEuler, TimeStep::Seconds(dt));
     options.solver.newton.max_iterations = newton_budget;
