@@ -246,8 +246,11 @@ impl Combination {
             return Err(Error::invalid_parameter(
                 format!("formulation mixed with the model of {name}"),
                 format!("{} beside {}", kind.name(), self.model.name()),
-                "the mixed (Taylor–Hood P2–P1) element solves one model for every region; \
-                 give every region the same model",
+                format!(
+                    "the mixed element ({}) solves one model for every region; give every \
+                     region the same model",
+                    mixed_element_name(self.order)
+                ),
             ));
         }
         Ok(())
