@@ -13,7 +13,7 @@ use tetfem::base::error::Result;
 use tetfem::fe::element::Tet10;
 use tetfem::post::output::{OutputLock, PvdCollection, VtuWriter};
 
-use super::{ModalSummary, ModeRow};
+use super::ModalSummary;
 use crate::mixed_dynamics::mixed_warnings;
 use crate::{ModalSettings, Scene};
 
@@ -40,27 +40,7 @@ pub(crate) fn run_mixed_modal(
     let row_sums = full_mass.mul(&vec![1.0; full_mass.dim()])?;
     let fractions = effective_mass_fractions(&mixed.modes, problem.dofs(), &row_sums)?;
     let solve_seconds = clock.elapsed().as_secs_f64();
-    let rows: Vec<ModeRow> = (mixed.modes.omega.iter().zip(&fractions))
-        .zip(&mixed.modes.residuals)
-        .enumerate()
-        .map(|(i, ((&omega, &fraction), &residual))| {
-            let frequency_hz = omega / (2.0 * std::f64::consts::PI);
-            ModeRow {
-                mode: i + 1,
-                frequency_hz,
-                period_s: 1.0 / frequency_hz,
-                omega_rad_per_s: omega,
-                effective_mass_fraction: fraction,
-                residual,
-            }
-        })
-        .collect();
-    let mut cumulative = [0.0; 3];
-    for row in &rows {
-        for (sum, f) in cumulative.iter_mut().zip(row.effective_mass_fraction) {
-            *sum += f;
-        }
-    }
+    let (rows, cumulative) = super::mode_rows(&mixed.modes, &fractions);
     let mut summary = ModalSummary {
         title: scene.title(),
         scene: scene.source_name().to_string(),

@@ -149,30 +149,7 @@ fn run_modal_on<E: SceneElement>(
     let fractions = analysis.effective_mass_fractions(&outcome)?;
     let modes = outcome.modes;
     let solve_seconds = clock.elapsed().as_secs_f64();
-    let rows: Vec<ModeRow> = modes
-        .omega
-        .iter()
-        .zip(&fractions)
-        .zip(&modes.residuals)
-        .enumerate()
-        .map(|(i, ((&omega, &fraction), &residual))| {
-            let frequency_hz = omega / (2.0 * std::f64::consts::PI);
-            ModeRow {
-                mode: i + 1,
-                frequency_hz,
-                period_s: 1.0 / frequency_hz,
-                omega_rad_per_s: omega,
-                effective_mass_fraction: fraction,
-                residual,
-            }
-        })
-        .collect();
-    let mut cumulative = [0.0; 3];
-    for row in &rows {
-        for d in 0..3 {
-            cumulative[d] += row.effective_mass_fraction[d];
-        }
-    }
+    let (rows, cumulative) = mode_rows(&modes, &fractions);
     let mut summary = ModalSummary {
         title: scene.title(),
         scene: scene.source_name().to_string(),
@@ -309,4 +286,35 @@ pub(crate) fn write_modes_table_and_summary(
     write_atomically(&json, |w| writeln!(w, "{}", with_files.to_json()))?;
     files.push(json);
     Ok(files)
+}
+
+/// The summary's row of each mode (frequency, period, ω, effective mass fractions, residual)
+/// and the fractions' sums over the modes in x, y, z: shared by the displacement and the mixed
+/// modal runs.
+pub(crate) fn mode_rows(
+    modes: &tetfem::analysis::modal::Modes,
+    fractions: &[[f64; 3]],
+) -> (Vec<ModeRow>, [f64; 3]) {
+    let rows: Vec<ModeRow> = (modes.omega.iter().zip(fractions))
+        .zip(&modes.residuals)
+        .enumerate()
+        .map(|(i, ((&omega, &fraction), &residual))| {
+            let frequency_hz = omega / (2.0 * std::f64::consts::PI);
+            ModeRow {
+                mode: i + 1,
+                frequency_hz,
+                period_s: 1.0 / frequency_hz,
+                omega_rad_per_s: omega,
+                effective_mass_fraction: fraction,
+                residual,
+            }
+        })
+        .collect();
+    let mut cumulative = [0.0; 3];
+    for row in &rows {
+        for (sum, f) in cumulative.iter_mut().zip(row.effective_mass_fraction) {
+            *sum += f;
+        }
+    }
+    (rows, cumulative)
 }
