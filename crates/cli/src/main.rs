@@ -723,6 +723,19 @@ fn print_dynamic(s: &DynamicSummary, directory: &Path, header: bool) {
             t.tolerance, t.estimated_error, t.accepted_steps, t.rejected_steps, t.dt_min, t.dt_max
         );
     }
+    if let Some(a) = &s.accuracy {
+        println!(
+            "  accuracy target {:.3} %: {} — estimated {:.3} % = space {:.3} % (static twin, target {:.3} %) + time {:.3} % (tolerance {:.3} %)",
+            100.0 * a.target,
+            if a.met { "met" } else { "NOT met" },
+            100.0 * a.estimated_error,
+            100.0 * a.space.estimated_error,
+            100.0 * a.space.target,
+            100.0 * a.time_estimate,
+            100.0 * a.time_tolerance
+        );
+        print_accuracy(&a.space);
+    }
     if let Some(n) = &s.newton {
         println!(
             "  {} model: {} Newton iterations in all, at most {} in one step",

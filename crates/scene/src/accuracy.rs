@@ -169,13 +169,7 @@ pub(crate) fn check_accuracy(scene: &Scene, text: &str) -> Result<Option<Accurac
             ),
         ));
     }
-    if !matches!(scene.analysis(), super::Analysis::Static) {
-        return Err(scene.error(
-            "analysis.accuracy",
-            &span,
-            "accuracy applies to static analyses (the estimate is of a static solve); remove it",
-        ));
-    }
+    check_analysis(scene, &span)?;
     let max_dofs = match table.max_dofs {
         None => DEFAULT_MAX_DOFS,
         Some(cap) => match cap.get_ref() {
@@ -192,6 +186,39 @@ pub(crate) fn check_accuracy(scene: &Scene, text: &str) -> Result<Option<Accurac
     Ok(Some(AccuracyTarget { target, max_dofs }))
 }
 
+/// Refuses `accuracy` in an analysis it cannot control: a modal one, and a dynamic one whose
+/// time error has no control (the explicit method) or is given its own `time_tolerance` (the
+/// accuracy splits its target between space and time itself, see
+/// [`dynamic::accuracy`](crate::dynamic)).
+fn check_analysis(scene: &Scene, span: &Range<usize>) -> Result<()> {
+    let refuse = |message: &str| Err(scene.error("analysis.accuracy", span, message));
+    match scene.analysis() {
+        super::Analysis::Static => Ok(()),
+        super::Analysis::Modal(_) => refuse(
+            "accuracy applies to static and dynamic analyses (a modal one has no error \
+             estimate); remove it",
+        ),
+        super::Analysis::Dynamic(settings) => {
+            if tetfem::analysis::transient::AdaptiveStep::check_method(settings.method).is_err() {
+                return refuse(
+                    "accuracy in a dynamic scene controls the time error by adapting dt, which \
+                     needs method = \"backward_euler\" or \"newmark\" (the explicit method's \
+                     step is set by stability); change the method or remove accuracy",
+                );
+            }
+            let time_tolerance = (scene.spec().analysis.as_ref())
+                .is_some_and(|a| a.get_ref().time_tolerance.is_some());
+            if time_tolerance {
+                return refuse(
+                    "accuracy in a dynamic scene sets the time tolerance itself (half the target; \
+                     the other half is the mesh's): give accuracy or time_tolerance, not both",
+                );
+            }
+            Ok(())
+        }
+    }
+}
+
 /// Runs a static scene with an accuracy target (see the [module](self) docs); the summary's
 /// `accuracy` says what was chosen and why.
 pub(crate) fn run_accuracy(
@@ -200,20 +227,7 @@ pub(crate) fn run_accuracy(
     lock: Option<OutputLock>,
     target: AccuracyTarget,
 ) -> Result<RunSummary> {
-    let estimate_of = match scene.model().is_linear() {
-        true => "the linear problem".to_string(),
-        false => format!(
-            "the run's own model = \"{}\" (the Green strain's error, on its second \
-             Piola–Kirchhoff stress)",
-            scene.model().name()
-        ),
-    };
-    let (mut report, mut summary) = match scene.spec().mesh.get_ref() {
-        MeshSpec::Box(b) => choose_box(scene, target, b.cells)?,
-        _ => check_file_mesh(scene, target)?,
-    };
-    report.estimate_of = estimate_of;
-    report.locking_loss = locking_loss(scene, report.order);
+    let (report, mut summary) = choose(scene, target)?;
     // The run reported: the chosen one again with the scene's outputs (the trials write no
     // files), unless it is already that run.
     if !options.no_files {
@@ -223,29 +237,7 @@ pub(crate) fn run_accuracy(
             _ => run_static_on::<Tet4>(&final_scene, options, lock)?,
         };
     }
-    if !report.met {
-        summary.warnings.push(format!(
-            "accuracy target {:.3} % not met: the best estimate reached is {:.3} % (order {}, \
-             cells {:?}); {}",
-            100.0 * report.target,
-            100.0 * report.estimated_error,
-            report.order,
-            report.cells,
-            report.reason
-        ));
-    }
-    if report.locking_loss > report.target {
-        summary.warnings.push(format!(
-            "accuracy: the error estimate does not see volumetric locking, and at Poisson's \
-             ratio {} order {} is expected to lose {:.2} % of the displacement to it (measured \
-             on Lamé's tube), more than the target {:.3} %; use formulation = \"mixed\" (10-node \
-             tets), which does not lock",
-            largest_poisson_ratio(scene),
-            report.order,
-            100.0 * report.locking_loss,
-            100.0 * report.target
-        ));
-    }
+    summary.warnings.extend(warnings(scene, &report));
     summary.accuracy = Some(report);
     if let Some(json) = summary
         .files
@@ -256,6 +248,60 @@ pub(crate) fn run_accuracy(
         write_atomically(&json, |w| writeln!(w, "{}", summary.to_json()))?;
     }
     Ok(summary)
+}
+
+/// The summary's warnings of an accuracy search: a target not met (and why), and a chosen
+/// order whose expected locking loss passes the target (the estimate cannot see locking).
+pub(crate) fn warnings(scene: &Scene, report: &AccuracyReport) -> Vec<String> {
+    let mut warnings = Vec::new();
+    if !report.met {
+        warnings.push(format!(
+            "accuracy target {:.3} % not met: the best estimate reached is {:.3} % (order {}, \
+             cells {:?}); {}",
+            100.0 * report.target,
+            100.0 * report.estimated_error,
+            report.order,
+            report.cells,
+            report.reason
+        ));
+    }
+    if report.locking_loss > report.target {
+        warnings.push(format!(
+            "accuracy: the error estimate does not see volumetric locking, and at Poisson's \
+             ratio {} order {} is expected to lose {:.2} % of the displacement to it (measured \
+             on Lamé's tube), more than the target {:.3} %; use formulation = \"mixed\" (10-node \
+             tets), which does not lock",
+            largest_poisson_ratio(scene),
+            report.order,
+            100.0 * report.locking_loss,
+            100.0 * report.target
+        ));
+    }
+    warnings
+}
+
+/// The order and cells that meet `target` (box meshes: the search of the [module](self) docs;
+/// a file mesh: its own estimate and what would meet the target), without writing files: the
+/// report and the chosen run's summary.
+pub(crate) fn choose(
+    scene: &Scene,
+    target: AccuracyTarget,
+) -> Result<(AccuracyReport, RunSummary)> {
+    let estimate_of = match scene.model().is_linear() {
+        true => "the linear problem".to_string(),
+        false => format!(
+            "the run's own model = \"{}\" (the Green strain's error, on its second \
+             Piola–Kirchhoff stress)",
+            scene.model().name()
+        ),
+    };
+    let (mut report, summary) = match scene.spec().mesh.get_ref() {
+        MeshSpec::Box(b) => choose_box(scene, target, b.cells)?,
+        _ => check_file_mesh(scene, target)?,
+    };
+    report.estimate_of = estimate_of;
+    report.locking_loss = locking_loss(scene, report.order);
+    Ok((report, summary))
 }
 
 /// The largest Poisson's ratio of the scene's materials (`[material]` and `[[materials]]`).
@@ -272,7 +318,7 @@ fn locking_loss(scene: &Scene, order: usize) -> f64 {
 }
 
 /// The scene at element `order` on `cells` (box meshes) with force model `model`.
-fn variant(
+pub(crate) fn variant(
     scene: &Scene,
     order: usize,
     cells: [usize; 3],

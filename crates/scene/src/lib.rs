@@ -44,8 +44,8 @@ pub use bodies::BuiltBodies;
 pub use build::{BuiltScene, PointProbe, Probe};
 pub use critical::{CriticalStepReport, critical_step_of};
 pub use dynamic::{
-    DynamicOutputs, DynamicOverrides, DynamicRun, DynamicSetup, DynamicSummary, EnergyTerms,
-    MAX_STEPS, RunLength, TimeStep, TimeStepping, resume_dynamic_scene, run_dynamic,
+    DynamicAccuracy, DynamicOutputs, DynamicOverrides, DynamicRun, DynamicSetup, DynamicSummary,
+    EnergyTerms, MAX_STEPS, RunLength, TimeStep, TimeStepping, resume_dynamic_scene, run_dynamic,
     run_dynamic_scene,
 };
 pub use dynamic::{
@@ -224,7 +224,10 @@ type = "static"                     # default "static"; or "dynamic", which need
                                     # predicted cheapest (from the scene's cells, refined ≤ 2× per axis
                                     # until the ZZ estimate meets it); file meshes a report of whether
                                     # it is met and what would meet it (box: mesh.order and
-                                    # cells are the start, both orders are tried). Summary: "accuracy"
+                                    # cells are the start, both orders are tried). Summary: "accuracy".
+                                    # Dynamic (backward_euler, newmark): half for space (that search on
+                                    # the scene's static equilibrium under its loads), half for time
+                                    # (time_tolerance = accuracy/2, so not both keys)
 # max_dofs = 300000                 # with accuracy: cap on 3 × nodes of the meshes tried (≥ 1000)
 # Or type = "modal": the lowest natural frequencies and mode shapes (linear model only).
 # modes = 6                         # default 6; at most the free DOF count

@@ -102,6 +102,23 @@ pub(crate) const ACCURACY: &[(&str, &str)] = &[
     ("accuracy.locking_loss", "1"),
 ];
 
+/// Units of a dynamic summary's `accuracy` (with `[analysis] accuracy` only).
+pub(crate) const DYNAMIC_ACCURACY: &[(&str, &str)] = &[
+    ("accuracy.target", "1"),
+    ("accuracy.space.target", "1"),
+    ("accuracy.space.trials.estimate", "1"),
+    ("accuracy.space.trials.seconds", "s"),
+    ("accuracy.space.predictions.refinement", "1"),
+    ("accuracy.space.predictions.dofs", "1"),
+    ("accuracy.space.predictions.seconds", "s"),
+    ("accuracy.space.cost_exponent", "1"),
+    ("accuracy.space.estimated_error", "1"),
+    ("accuracy.space.locking_loss", "1"),
+    ("accuracy.time_tolerance", "1"),
+    ("accuracy.time_estimate", "1"),
+    ("accuracy.estimated_error", "1"),
+];
+
 /// Units of a modal run's summary.
 pub(crate) const MODAL: &[(&str, &str)] = &[
     ("modes.frequency_hz", "Hz"),

@@ -13,6 +13,7 @@ mod common;
 
 mod accuracy_target;
 mod bodies_scenes;
+mod dynamic_accuracy;
 mod estimate_scene;
 mod large_deformation;
 mod modal_scene;

@@ -152,6 +152,7 @@ pub(crate) fn run_mixed_dynamic(
         contact_forces: None,
         contact_barrier: None,
         time_stepping: None,
+        accuracy: None,
     };
     if let Some(w) = writer {
         let clock = Instant::now();

@@ -3,11 +3,13 @@
 //! of probes, energies and wall time per step, PNG frames, and a JSON summary.
 
 // Without the `png` feature the frames' code is a stand-in that refuses.
+mod accuracy;
 mod adaptive;
 mod mixed;
 #[cfg_attr(not(feature = "png"), path = "png_look_off.rs")]
 mod png_look;
 mod run_loop;
+pub use accuracy::DynamicAccuracy;
 use adaptive::FrameClock;
 pub use adaptive::TimeStepping;
 use png_look::{PngFrame, PngLook, dynamic_look};
@@ -437,6 +439,11 @@ pub struct DynamicSummary {
     /// step, `steps` the accepted ones); absent (`None`, and not in the JSON) otherwise.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub time_stepping: Option<TimeStepping>,
+    /// With `[analysis] accuracy`: the order, cells and time tolerance chosen for the target,
+    /// and the run's estimates of its spatial and temporal error (see [`DynamicAccuracy`]);
+    /// absent (`None`, and not in the JSON) otherwise.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub accuracy: Option<DynamicAccuracy>,
 }
 
 /// Free DOFs up to which a backward-Euler run checks its step against the lowest excited mode
@@ -449,7 +456,13 @@ impl DynamicSummary {
     /// The summary as one line of JSON, with a `units` table (the unit of every field that
     /// carries a quantity, keyed by its path).
     pub fn to_json(&self) -> String {
-        super::units::to_json_with_units(self, super::units::DYNAMIC)
+        match self.accuracy {
+            None => super::units::to_json_with_units(self, super::units::DYNAMIC),
+            Some(_) => super::units::to_json_with_units(
+                self,
+                &[super::units::DYNAMIC, super::units::DYNAMIC_ACCURACY].concat(),
+            ),
+        }
     }
 }
 
@@ -796,6 +809,8 @@ fn run_dynamic_scene_as(
         .length
         .unwrap_or(RunLength::Duration(settings.duration));
     let dt = overrides.dt.unwrap_or(TimeStep::Seconds(settings.dt));
+    let timed = accuracy::with_time_share(scene, resume)?;
+    let scene = timed.as_ref().unwrap_or(scene);
     // Before the expensive work: what cannot combine with an error-controlled step, the step
     // count when dt is known without the system, and the output folder's lock.
     let adaptive = adaptive::scene_control(scene, settings, overrides, resume)?;
@@ -813,9 +828,15 @@ fn run_dynamic_scene_as(
         true => Some(restart::checkpoint_for_resume(scene)?),
         false => None,
     };
-    match scene.order() {
+    // With `accuracy`, the run on the order and cells its static twin's search chose.
+    let chosen = match scene.accuracy() {
+        Some(target) => Some(accuracy::choose_mesh(scene, target)?),
+        None => None,
+    };
+    let run_scene = chosen.as_ref().map_or(scene, |(chosen, _)| chosen);
+    let mut summary = match run_scene.order() {
         2 => run_dynamic_scene_on::<Tet10>(
-            scene,
+            run_scene,
             settings,
             overrides,
             (dt, length, adaptive),
@@ -824,7 +845,7 @@ fn run_dynamic_scene_as(
             progress,
         ),
         _ => run_dynamic_scene_on::<Tet4>(
-            scene,
+            run_scene,
             settings,
             overrides,
             (dt, length, adaptive),
@@ -832,7 +853,12 @@ fn run_dynamic_scene_as(
             force_png,
             progress,
         ),
+    }?;
+    if let Some((_, space)) = chosen {
+        accuracy::report(scene, &mut summary, space);
+        accuracy::rewrite_summary(&summary)?;
     }
+    Ok(summary)
 }
 
 /// [`run_dynamic_scene`] on the element of the scene's order, with the output lock (if any)
