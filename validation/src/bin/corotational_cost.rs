@@ -15,11 +15,13 @@
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
+use std::sync::Arc;
 use std::time::Instant;
 
 use clap::Parser;
 use tetfem::BoxSplit;
 use tetfem::analysis::dynamics::{Integrator, InternalForce, NewtonStats, NonlinearSolve, State};
+use tetfem::model::ModelKind;
 use tetfem_fixtures::swing::Swing;
 use tetfem_validation::cells::parse_cells;
 use tetfem_validation::chart::{Chart, Mark, Series};
@@ -42,7 +44,18 @@ struct Cli {
     /// Redraw the PNG from the CSV already in `--out` instead of measuring.
     #[arg(long)]
     replot: bool,
+    /// The large-deformation model: `corotational` or `neo_hookean`.
+    #[arg(long, default_value = "corotational")]
+    model: String,
+    /// What to run after the linear and refactoring steps: `tolerances` (Newton-CG and L-BFGS at
+    /// every charted tolerance) or `options` (the default settings, and cold- and warm-started
+    /// L-BFGS at the tolerances that reach 1e-4 of the trajectory, side by side).
+    #[arg(long, default_value = "tolerances")]
+    set: String,
 }
+
+/// The step tolerances of `--set options`.
+const OPTION_TOLERANCES: [f64; 4] = [1e-8, 1e-3, 3e-3, 1e-2];
 
 /// The step tolerances charted, loosest last.
 const TOLERANCES: [f64; 8] = [1e-8, 1e-6, 1e-4, 1e-3, 3e-3, 1e-2, 3e-2, 1e-1];
@@ -176,13 +189,25 @@ fn measure(cli: &Cli) -> tetfem::Result<(Setup, Vec<Row>)> {
         1e-8,
         cli,
     )?;
-    let reference = run(
-        &swing,
-        swing.corotational()?,
-        NonlinearSolve::Refactor,
-        1e-8,
-        cli,
-    )?;
+    let model = match cli.model.as_str() {
+        "corotational" => ModelKind::Corotational,
+        "neo_hookean" => ModelKind::NeoHookean,
+        other => {
+            return Err(tetfem::Error::invalid_parameter(
+                "--model",
+                other,
+                "'corotational' or 'neo_hookean'",
+            ));
+        }
+    };
+    let force = || {
+        InternalForce::of_model(
+            Arc::clone(&swing.mesh),
+            model.build(&swing.problem.material),
+            &swing.system,
+        )
+    };
+    let reference = run(&swing, force()?, NonlinearSolve::Refactor, 1e-8, cli)?;
     let mut rows = Vec::new();
     let mut row = |method: &str, tolerance: f64, r: &Run, distance: f64| {
         let row = Row {
@@ -203,6 +228,33 @@ fn measure(cli: &Cli) -> tetfem::Result<(Setup, Vec<Row>)> {
     };
     row("linear", 0.0, &linear, f64::NAN);
     row("refactor", 1e-8, &reference, 0.0);
+    if cli.set == "options" {
+        let default_tolerance = tetfem::analysis::dynamics::StepNewtonOptions::default().tolerance;
+        let r = run(
+            &swing,
+            force()?,
+            NonlinearSolve::Auto,
+            default_tolerance,
+            cli,
+        )?;
+        let d = distance(&r.trajectory, &reference.trajectory);
+        row("default", default_tolerance, &r, d);
+        for (method, solve) in [
+            (
+                "lbfgs",
+                NonlinearSolve::RestPreconditionedLbfgs { history: 5 },
+            ),
+            ("warm_lbfgs", NonlinearSolve::WarmLbfgs { history: 5 }),
+            ("warm_lbfgs10", NonlinearSolve::WarmLbfgs { history: 10 }),
+        ] {
+            for tolerance in OPTION_TOLERANCES {
+                let r = run(&swing, force()?, solve, tolerance, cli)?;
+                let d = distance(&r.trajectory, &reference.trajectory);
+                row(method, tolerance, &r, d);
+            }
+        }
+        return Ok((setup, rows));
+    }
     for (method, solve) in [
         (
             "newton_cg",
@@ -217,7 +269,7 @@ fn measure(cli: &Cli) -> tetfem::Result<(Setup, Vec<Row>)> {
         ),
     ] {
         for tolerance in TOLERANCES {
-            let r = run(&swing, swing.corotational()?, solve, tolerance, cli)?;
+            let r = run(&swing, force()?, solve, tolerance, cli)?;
             let d = distance(&r.trajectory, &reference.trajectory);
             row(method, tolerance, &r, d);
         }
