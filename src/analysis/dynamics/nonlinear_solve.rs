@@ -68,18 +68,6 @@ pub enum NonlinearSolve {
         /// Correction pairs kept (0: a chord iteration with P⁻¹ alone).
         history: usize,
     },
-    /// [`RestPreconditionedLbfgs`](Self::RestPreconditionedLbfgs) whose correction pairs are
-    /// kept from one time step to the next (warm start), forgotten only when the time step (so
-    /// the Newton matrix's mass term s_m·M) changes. A pair (s, y) holds
-    /// y = s_m·M·s + s_c·C·s − (f_int(x + s) − f_int(x)), which depends on neither the predictor
-    /// nor the load: a pair of the last step is curvature of this step's Φ near where the body
-    /// stands. A step then depends on the steps before it, not on its state alone: a run
-    /// resumed from a checkpoint (which holds no pairs) leaves the uninterrupted run's
-    /// trajectory by up to the step tolerance.
-    WarmLbfgs {
-        /// Correction pairs kept (≥ 1 to have a memory to carry).
-        history: usize,
-    },
     /// [`Refactor`](Self::Refactor) below [`AUTO_REFACTOR_BELOW`] free DOFs, where a
     /// factorization is cheap; at and above it [`RestPreconditionedLbfgs`](Self::RestPreconditionedLbfgs)
     /// with [`AUTO_LBFGS_HISTORY`] pairs, or, with contact (whose barrier stiffness the rest
@@ -143,8 +131,7 @@ impl NonlinearSolve {
     pub fn check(&self) -> Result<()> {
         match *self {
             NonlinearSolve::Refactor | NonlinearSolve::Auto => Ok(()),
-            NonlinearSolve::RestPreconditionedLbfgs { history }
-            | NonlinearSolve::WarmLbfgs { history } => match history <= 100 {
+            NonlinearSolve::RestPreconditionedLbfgs { history } => match history <= 100 {
                 true => Ok(()),
                 false => Err(Error::invalid_parameter(
                     "nonlinear_solve.history",
@@ -227,15 +214,13 @@ impl NonlinearSolve {
         }
     }
 
-    /// The name scenes use: `auto`, `refactor`, `rest_preconditioned`, `rest_lbfgs` or
-    /// `warm_lbfgs`.
+    /// The name scenes use: `auto`, `refactor`, `rest_preconditioned` or `rest_lbfgs`.
     pub fn name(&self) -> &'static str {
         match self {
             NonlinearSolve::Auto => "auto",
             NonlinearSolve::Refactor => "refactor",
             NonlinearSolve::RestPreconditionedCg { .. } => "rest_preconditioned",
             NonlinearSolve::RestPreconditionedLbfgs { .. } => "rest_lbfgs",
-            NonlinearSolve::WarmLbfgs { .. } => "warm_lbfgs",
         }
     }
 }
@@ -244,7 +229,7 @@ impl std::str::FromStr for NonlinearSolve {
     type Err = Error;
 
     /// `auto`, `refactor`, `rest_preconditioned` (with the CG budget and forcing term that
-    /// `auto` uses), `rest_lbfgs` or `warm_lbfgs` (with `auto`'s history).
+    /// `auto` uses) or `rest_lbfgs` (with `auto`'s history).
     fn from_str(name: &str) -> Result<Self> {
         match name {
             "auto" => Ok(NonlinearSolve::Auto),
@@ -253,13 +238,10 @@ impl std::str::FromStr for NonlinearSolve {
             "rest_lbfgs" => Ok(NonlinearSolve::RestPreconditionedLbfgs {
                 history: AUTO_LBFGS_HISTORY,
             }),
-            "warm_lbfgs" => Ok(NonlinearSolve::WarmLbfgs {
-                history: AUTO_LBFGS_HISTORY,
-            }),
             other => Err(Error::invalid_parameter(
                 "nonlinear_solver",
                 other,
-                "must be 'auto', 'refactor', 'rest_preconditioned', 'rest_lbfgs' or 'warm_lbfgs'",
+                "must be 'auto', 'refactor', 'rest_preconditioned' or 'rest_lbfgs'",
             )),
         }
     }

@@ -262,10 +262,11 @@ pub(crate) trait StepDirection: Send {
 pub(crate) fn choose(solve: NonlinearSolve, force: &NonlinearForce) -> Box<dyn StepDirection> {
     match solve {
         NonlinearSolve::Refactor => Box::new(Refactor::default()),
-        NonlinearSolve::RestPreconditionedLbfgs { history } => {
-            Box::new(Lbfgs::new(history, false, force))
-        }
-        NonlinearSolve::WarmLbfgs { history } => Box::new(Lbfgs::new(history, true, force)),
+        NonlinearSolve::RestPreconditionedLbfgs { history } => Box::new(Lbfgs {
+            memory: LbfgsMemory::new(history),
+            failed: false,
+            cg: RestPreconditionedCg::new(super::super::nonlinear_solve::AUTO_CG, force),
+        }),
         cg => Box::new(RestPreconditionedCg::new(cg, force)),
     }
 }
@@ -435,24 +436,6 @@ pub(crate) struct Lbfgs {
     failed: bool,
     /// The fallback, whose rest factor and rotations are H₀'s too.
     cg: RestPreconditionedCg,
-    /// The pairs are kept across runs ([`NonlinearSolve::WarmLbfgs`]) while the Newton
-    /// matrix's scales are `pairs_for`.
-    warm: bool,
-    /// The (mass scale, damping stiffness) the kept pairs were made under.
-    pairs_for: Option<(f64, f64)>,
-}
-
-impl Lbfgs {
-    /// `history` pairs, kept across runs when `warm`, for `force`.
-    fn new(history: usize, warm: bool, force: &NonlinearForce) -> Self {
-        Lbfgs {
-            memory: LbfgsMemory::new(history),
-            failed: false,
-            cg: RestPreconditionedCg::new(super::super::nonlinear_solve::AUTO_CG, force),
-            warm,
-            pairs_for: None,
-        }
-    }
 }
 
 impl StepDirection for Lbfgs {
@@ -461,9 +444,7 @@ impl StepDirection for Lbfgs {
     }
 
     fn begin_iterations(&mut self) {
-        if !self.warm {
-            self.memory.clear();
-        }
+        self.memory.clear();
         self.failed = false;
     }
 
@@ -485,11 +466,6 @@ impl StepDirection for Lbfgs {
         self.cg.ensure_rest_factor(newton, stats)?;
         if first {
             self.cg.rotations.update(newton.force, u_new, newton.work)?;
-            // Pairs made under another dt hold another s_m·M: not this Φ's curvature.
-            if self.pairs_for != Some(newton.scales) {
-                self.memory.clear();
-                self.pairs_for = Some(newton.scales);
-            }
         }
         let rotations = &self.cg.rotations;
         let (solver, matrix) = (&mut *newton.solver, &*newton.matrix);
