@@ -14,8 +14,8 @@
 //! `lbfgs:HISTORY:-[:TOLERANCE]` (L-BFGS; the third field is unused), `default`
 //! (`NonlinearSolve::Auto` at the default Newton options: from 1,000 DOFs L-BFGS stopping at
 //! `AUTO_LBFGS_TOLERANCE`) and `breakdown` (times the force, tangent and energy at the last
-//! mode's final state) (default: `linear,refactor,cg:25:1e-3,lbfgs:5,default`). Threads: `RAYON_NUM_THREADS`; the Cholesky uses as
-//! many (≤ 2).
+//! mode's final state) (default: `linear,refactor,cg:25:1e-3,lbfgs:5,default`). Threads:
+//! `RAYON_NUM_THREADS`; the Cholesky uses as many (≤ 2).
 
 use std::sync::Arc;
 use std::time::Instant;

@@ -45,13 +45,13 @@ struct Cli {
     #[arg(long)]
     replot: bool,
     /// The large-deformation model: `corotational` or `neo_hookean`.
-    #[arg(long, default_value = "corotational")]
+    #[arg(long, default_value = "corotational", value_parser = ["corotational", "neo_hookean"])]
     model: String,
     /// What to run after the linear and refactoring steps: `tolerances` (Newton-CG and L-BFGS at
     /// every charted tolerance) or `options` (the default settings, and L-BFGS at the
     /// tolerances around 1e-4 of the trajectory, side by side, then the cost of one force
     /// evaluation over the linear step's).
-    #[arg(long, default_value = "tolerances")]
+    #[arg(long, default_value = "tolerances", value_parser = ["tolerances", "options"])]
     set: String,
 }
 
