@@ -11,10 +11,11 @@
 //!
 //! `cargo bench --bench corotational_step -- NX NY NZ [dt] [steps] [modes]`,
 //! modes a comma list of `linear`, `refactor`, `cg:MAX:FORCING[:TOLERANCE]`,
-//! `lbfgs:HISTORY:-[:TOLERANCE]` (L-BFGS; the third field is unused) and `breakdown` (times
-//! the force, tangent and energy at the last mode's final state) (default:
-//! `linear,refactor,cg:25:1e-3,lbfgs:5`). Threads: `RAYON_NUM_THREADS`; the Cholesky uses as
-//! many (≤ 2).
+//! `lbfgs:HISTORY:-[:TOLERANCE]` (L-BFGS; the third field is unused), `default`
+//! (`NonlinearSolve::Auto` at the default Newton options: from 1,000 DOFs L-BFGS stopping at
+//! `AUTO_LBFGS_TOLERANCE`) and `breakdown` (times the force, tangent and energy at the last
+//! mode's final state) (default: `linear,refactor,cg:25:1e-3,lbfgs:5,default`). Threads:
+//! `RAYON_NUM_THREADS`; the Cholesky uses as many (≤ 2).
 
 use std::sync::Arc;
 use std::time::Instant;
@@ -44,7 +45,7 @@ fn main() {
     let steps = number(4, 5.0) as usize;
     let modes: Vec<String> = args
         .get(5)
-        .map_or("linear,refactor,cg:25:1e-3,lbfgs:5", String::as_str)
+        .map_or("linear,refactor,cg:25:1e-3,lbfgs:5,default", String::as_str)
         .split(',')
         .map(str::to_owned)
         .collect();
@@ -65,6 +66,7 @@ fn main() {
         let (force, solve) = match mode.as_str() {
             "linear" => (InternalForce::Linear, NonlinearSolve::Refactor),
             "refactor" => (swing.corotational().unwrap(), NonlinearSolve::Refactor),
+            "default" => (swing.corotational().unwrap(), NonlinearSolve::Auto),
             lbfgs if lbfgs.starts_with("lbfgs") => (
                 swing.corotational().unwrap(),
                 NonlinearSolve::RestPreconditionedLbfgs {

@@ -49,7 +49,9 @@ pub use explicit_surface::{
 pub use internal_force::{BarrierRecord, ForceWorkspace, InternalForce, NonlinearForce};
 pub use newmark::Newmark;
 pub use newton::{NewtonStats, StepNewtonOptions};
-pub use nonlinear_solve::{AUTO_LBFGS_HISTORY, AUTO_REFACTOR_BELOW, NonlinearSolve};
+pub use nonlinear_solve::{
+    AUTO_LBFGS_HISTORY, AUTO_LBFGS_TOLERANCE, AUTO_REFACTOR_BELOW, NonlinearSolve,
+};
 pub use reactions::SupportReactions;
 pub use stability::{
     Certificate, CriticalStep, CriticalStepOptions, DivergenceGuard, critical_time_step,

@@ -15,11 +15,13 @@
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
+use std::sync::Arc;
 use std::time::Instant;
 
 use clap::Parser;
 use tetfem::BoxSplit;
 use tetfem::analysis::dynamics::{Integrator, InternalForce, NewtonStats, NonlinearSolve, State};
+use tetfem::model::ModelKind;
 use tetfem_fixtures::swing::Swing;
 use tetfem_validation::cells::parse_cells;
 use tetfem_validation::chart::{Chart, Mark, Series};
@@ -42,7 +44,19 @@ struct Cli {
     /// Redraw the PNG from the CSV already in `--out` instead of measuring.
     #[arg(long)]
     replot: bool,
+    /// The large-deformation model: `corotational` or `neo_hookean`.
+    #[arg(long, default_value = "corotational", value_parser = ["corotational", "neo_hookean"])]
+    model: String,
+    /// What to run after the linear and refactoring steps: `tolerances` (Newton-CG and L-BFGS at
+    /// every charted tolerance) or `options` (the default settings, and L-BFGS at the
+    /// tolerances around 1e-4 of the trajectory, side by side, then the cost of one force
+    /// evaluation over the linear step's).
+    #[arg(long, default_value = "tolerances", value_parser = ["tolerances", "options"])]
+    set: String,
 }
+
+/// The step tolerances of `--set options`.
+const OPTION_TOLERANCES: [f64; 4] = [1e-8, 1e-3, 3e-3, 1e-2];
 
 /// The step tolerances charted, loosest last.
 const TOLERANCES: [f64; 8] = [1e-8, 1e-6, 1e-4, 1e-3, 3e-3, 1e-2, 3e-2, 1e-1];
@@ -79,6 +93,31 @@ fn run(
         step_seconds: later / (cli.steps - 1) as f64,
         stats: integrator.newton_stats().unwrap_or_default(),
     })
+}
+
+/// Prints the wall time of one evaluation of the model's force (with its energy, as a step's
+/// iteration makes it) at the reference's final state over the linear step's: where a
+/// tangent-free iteration's time goes besides its pair of triangular solves.
+fn breakdown(force: &InternalForce, reference: &Run, linear_seconds: f64) -> tetfem::Result<()> {
+    let InternalForce::Nonlinear(force) = force else {
+        return Ok(());
+    };
+    let Some(u) = reference.trajectory.last() else {
+        return Ok(());
+    };
+    let mut work = force.workspace()?;
+    let mut f = vec![0.0; u.len()];
+    let repeat = 10;
+    let clock = Instant::now();
+    for _ in 0..repeat {
+        force.force_and_energy_into(u, &mut work, &mut f)?;
+    }
+    let seconds = clock.elapsed().as_secs_f64() / repeat as f64;
+    println!(
+        "force and energy: {seconds:.5} s per evaluation, {:.2}× a linear step",
+        seconds / linear_seconds
+    );
+    Ok(())
 }
 
 /// The largest |u − u_ref| over all steps and DOFs over the largest |u_ref|.
@@ -176,13 +215,25 @@ fn measure(cli: &Cli) -> tetfem::Result<(Setup, Vec<Row>)> {
         1e-8,
         cli,
     )?;
-    let reference = run(
-        &swing,
-        swing.corotational()?,
-        NonlinearSolve::Refactor,
-        1e-8,
-        cli,
-    )?;
+    let model = match cli.model.as_str() {
+        "corotational" => ModelKind::Corotational,
+        "neo_hookean" => ModelKind::NeoHookean,
+        other => {
+            return Err(tetfem::Error::invalid_parameter(
+                "--model",
+                other,
+                "'corotational' or 'neo_hookean'",
+            ));
+        }
+    };
+    let force = || {
+        InternalForce::of_model(
+            Arc::clone(&swing.mesh),
+            model.build(&swing.problem.material),
+            &swing.system,
+        )
+    };
+    let reference = run(&swing, force()?, NonlinearSolve::Refactor, 1e-8, cli)?;
     let mut rows = Vec::new();
     let mut row = |method: &str, tolerance: f64, r: &Run, distance: f64| {
         let row = Row {
@@ -203,6 +254,27 @@ fn measure(cli: &Cli) -> tetfem::Result<(Setup, Vec<Row>)> {
     };
     row("linear", 0.0, &linear, f64::NAN);
     row("refactor", 1e-8, &reference, 0.0);
+    if cli.set == "options" {
+        let default_tolerance = tetfem::analysis::dynamics::StepNewtonOptions::default().tolerance;
+        let r = run(
+            &swing,
+            force()?,
+            NonlinearSolve::Auto,
+            default_tolerance,
+            cli,
+        )?;
+        let d = distance(&r.trajectory, &reference.trajectory);
+        row("default", default_tolerance, &r, d);
+        // The previous default (L-BFGS to the asked 1e-8) is the 1e-8 row.
+        let lbfgs = NonlinearSolve::RestPreconditionedLbfgs { history: 5 };
+        for tolerance in OPTION_TOLERANCES {
+            let r = run(&swing, force()?, lbfgs, tolerance, cli)?;
+            let d = distance(&r.trajectory, &reference.trajectory);
+            row("lbfgs", tolerance, &r, d);
+        }
+        breakdown(&force()?, &reference, linear.step_seconds)?;
+        return Ok((setup, rows));
+    }
     for (method, solve) in [
         (
             "newton_cg",
@@ -217,7 +289,7 @@ fn measure(cli: &Cli) -> tetfem::Result<(Setup, Vec<Row>)> {
         ),
     ] {
         for tolerance in TOLERANCES {
-            let r = run(&swing, swing.corotational()?, solve, tolerance, cli)?;
+            let r = run(&swing, force()?, solve, tolerance, cli)?;
             let d = distance(&r.trajectory, &reference.trajectory);
             row(method, tolerance, &r, d);
         }

@@ -210,6 +210,8 @@ impl NewtonSolver {
         options.check()?;
         solve.check()?;
         let n = force.free_count();
+        let mut options = options;
+        options.tolerance = solve.step_tolerance(n, &force, options.tolerance);
         let solve = solve.for_force(n, &force);
         let step_resolution = force.step_resolution();
         Error::check_len("nonlinear force free DOFs", system.free_count(), n)?;
