@@ -209,7 +209,10 @@ type = "static"                     # default "static"; or "dynamic", which need
                                     # iteration; auto: refactor below 1,000 free DOFs, rest_lbfgs from
                                     # there, rest_preconditioned with obstacles, refactor at every size
                                     # with [[bodies]] or [self_contact]). All stop at the same
-                                    # Newton tolerance. Ignored by static, explicit, linear
+                                    # Newton tolerance, but auto's rest_lbfgs path at no less
+                                    # than 1e-3 (its trajectory within 1.2e-5 of a 1e-8 solve;
+                                    # name rest_lbfgs for a tighter stop). Ignored by static,
+                                    # explicit, linear
 # newton_tolerance = 1e-8           # default; in (0, 1): each implicit step's Newton tolerance
                                     # with a nonlinear model, ‖r‖ ≤ t·max(‖r₀‖, ‖f‖); 1e-2 is
                                     # interactive (see the README's large-deformation step).

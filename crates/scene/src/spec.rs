@@ -800,7 +800,8 @@ impl SceneSpec {
 #[serde(rename_all = "snake_case")]
 pub enum NonlinearSolverName {
     /// [`NonlinearSolve::Auto`]: refactoring on small meshes, L-BFGS (with contact:
-    /// preconditioned CG) on larger ones.
+    /// preconditioned CG) on larger ones, the L-BFGS path stopping at no tighter than
+    /// [`AUTO_LBFGS_TOLERANCE`](tetfem::analysis::dynamics::AUTO_LBFGS_TOLERANCE).
     #[default]
     Auto,
     /// [`NonlinearSolve::RestPreconditionedCg`]: CG preconditioned by the rest-state factor
