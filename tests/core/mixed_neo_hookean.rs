@@ -391,6 +391,8 @@ fn the_shipped_cook_mesh_is_the_fixtures_and_reads_back() {
 
 #[test]
 fn a_mesh_one_tet_thick_has_no_interior_corner() {
+    use tetfem::analysis::mixed_statics::mixed_mesh_warnings;
+    use tetfem::base::warning::Warning;
     // Every corner of a one-layer panel is on z = 0 or z = t: every tet is flagged. With two
     // layers only tets at the faces' edges are (measured 164 of 3072). Boffi's condition is
     // sufficient, not necessary: on this panel the one-layer tip is within 0.1 % of the
@@ -421,6 +423,19 @@ fn a_mesh_one_tet_thick_has_no_interior_corner() {
             1 => assert_eq!(flagged, mesh.tet_count()),
             _ => assert!(0 < flagged && flagged < mesh.tet_count() / 10, "{flagged}"),
         }
+        // The library's warning before the solve: on the one-layer mesh only, naming its tets;
+        // never on the 4-node tets of the same cells (the stabilized P1–P1 has no condition).
+        let warnings = mixed_mesh_warnings(&mesh).unwrap();
+        match layers {
+            1 => assert_eq!(
+                warnings,
+                vec![Warning::MixedWithoutInteriorCorner {
+                    tets: mesh.tet_count()
+                }]
+            ),
+            _ => assert!(warnings.is_empty(), "{warnings:?}"),
+        }
+        assert!(mixed_mesh_warnings(&linear).unwrap().is_empty());
         tips.push(tip);
     }
     // Measured 0.09 %: 0.5 % says the one-layer mesh is not broken on this problem.
