@@ -19,6 +19,7 @@ mod material;
 mod matrices;
 mod mesh;
 mod mixed;
+mod mixed_dynamics;
 mod modal;
 mod names;
 mod post;
@@ -45,6 +46,11 @@ fn _tetfem(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<modal::ModalResult>()?;
     m.add_function(wrap_pyfunction!(statics::solve_static, m)?)?;
     m.add_function(wrap_pyfunction!(mixed::solve_static_mixed_py, m)?)?;
+    m.add_function(wrap_pyfunction!(
+        mixed_dynamics::mixed_modal_analysis_py,
+        m
+    )?)?;
+    m.add_function(wrap_pyfunction!(mixed_dynamics::mixed_transient_py, m)?)?;
     m.add_function(wrap_pyfunction!(modal::modal_analysis, m)?)?;
     m.add_function(wrap_pyfunction!(scene::run_scene, m)?)?;
     m.add_function(wrap_pyfunction!(post::estimate_error, m)?)?;

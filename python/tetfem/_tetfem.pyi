@@ -22,6 +22,8 @@ __all__ = [
     "ModalResult",
     "solve_static",
     "solve_static_mixed",
+    "mixed_modal_analysis",
+    "mixed_transient",
     "modal_analysis",
     "run_scene",
     "stiffness_matrix",
@@ -389,6 +391,19 @@ def solve_static_mixed(
 def modal_analysis(
     mesh: Mesh, material: _Materials, constraints: Constraints, count: int = 6, mass: _Mass = "lumped"
 ) -> ModalResult: ...
+def mixed_modal_analysis(
+    mesh: Mesh, material: _Materials, constraints: Constraints, count: int = 6
+) -> Dict[str, Any]: ...
+def mixed_transient(
+    mesh: Mesh,
+    material: _Materials,
+    constraints: Constraints,
+    loads: Loads,
+    dt: float,
+    steps: int,
+    method: _Method = "newmark",
+    alpha: float = 0.0,
+) -> Dict[str, Any]: ...
 def run_scene(path: _Path, output_dir: Optional[_Path] = None, write_files: bool = True) -> Dict[str, Any]: ...
 def stiffness_matrix(mesh: Mesh, material: _Materials) -> _SparseMatrix: ...
 def mass_matrix(mesh: Mesh, material: _Materials, mass: _Mass = "lumped") -> _SparseMatrix: ...

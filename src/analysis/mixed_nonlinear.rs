@@ -42,6 +42,7 @@ use crate::analysis::newton::line_search::{Backtracking, LineFunction, NEAR_SOLU
 use crate::analysis::nonlinear::NewtonOptions;
 use crate::analysis::problem::Problem;
 use crate::base::error::{Error, Result};
+use crate::base::memory::{RunPath, SolverMemory, StaticEstimate};
 use crate::bc::constraints::Constraints;
 use crate::bc::loads::Loads;
 use crate::fe::element::MixedElement;
@@ -90,6 +91,22 @@ pub fn solve_static_mixed_nonlinear<E: MixedElement>(
     options.check()?;
     crate::analysis::problem::ensure_mesh_dofs(mesh, "constraints", constraints.dof_count())?;
     Error::check_len("loads", mesh.dof_count(), loads.as_slice().len())?;
+    // Before any allocation, the estimate of the linear mixed solve (its saddle point and LDLᵀ
+    // are what each Newton step rebuilds).
+    let estimate = StaticEstimate::for_element(
+        mesh.node_count(),
+        mesh.tet_count(),
+        E::NODES,
+        SolverMemory::Iterative,
+    );
+    RunPath::Direct.limits().ensure_fits_or(
+        format!(
+            "the mixed Newton solve: {}, of which the mesh is held already",
+            estimate.describe()
+        ),
+        estimate.beyond_mesh(),
+        RunPath::Direct.hint(),
+    )?;
     materials.check_tet_count(mesh)?;
     let mut system = MixedSystem::new(mesh, materials, constraints)?;
     let dofs = system.problem.dofs();

@@ -21,6 +21,7 @@ use faer::sparse::SymbolicSparseColMat;
 use crate::analysis::mixed_statics::{nodal_pressure, saddle_point_matrix};
 use crate::analysis::problem::Problem;
 use crate::base::error::{Error, Result};
+use crate::base::memory::{RunPath, SolverMemory, StaticEstimate, format_bytes};
 use crate::bc::constraints::{Constraints, DofMap};
 use crate::fe::element::taylor_hood::{
     Coupling, PressureNodes, coupling, deviatoric_stiffness, pressure_mass,
@@ -28,7 +29,7 @@ use crate::fe::element::taylor_hood::{
 use crate::fe::element::{ElementType, Tet10};
 use crate::fe::materials::TetMaterials;
 use crate::linsolve::SparseCholesky;
-use crate::mesh::TetMesh;
+use crate::mesh::{CellType, TetMesh};
 use crate::sparse::CscMatrix;
 
 /// The assembled linear mixed body (see the [module](self) docs).
@@ -65,6 +66,7 @@ impl MixedOperator {
         held: bool,
     ) -> Result<Self> {
         crate::analysis::problem::ensure_mesh_dofs(mesh, "constraints", constraints.dof_count())?;
+        ensure_operator_fits(mesh)?;
         materials.check_tet_count(mesh)?;
         let problem = if held {
             Problem::new(mesh, constraints)?
@@ -292,6 +294,31 @@ impl MixedOperator {
 }
 
 /// M_p/κ: minus the lower-right block of A(0) (the rows and columns from `free_count` on).
+/// Before any allocation: the blocks of the static mixed solve (the estimate of
+/// [`MixedStaticSolver`](crate::MixedStaticSolver), the 10-node pattern with its LDLᵀ taken as
+/// the multigrid hierarchy's bytes) plus the consistent mass and A(c) (each on K_ff's pattern)
+/// and the state vectors ([`StaticEstimate::dynamic_extra`]), against the bounds of a
+/// factorizing run ([`Error::InsufficientMemory`] naming the size and the bound).
+fn ensure_operator_fits(mesh: &TetMesh<Tet10>) -> Result<()> {
+    let estimate = StaticEstimate::for_element(
+        mesh.node_count(),
+        mesh.tet_count(),
+        Tet10::NODES,
+        SolverMemory::Iterative,
+    );
+    let extra = estimate.dynamic_extra();
+    Ok(RunPath::Direct.limits().ensure_fits_or(
+        format!(
+            "the mixed dynamic or modal operator: {} + {} for the mass and the shifted saddle \
+             point, of which the mesh is held already",
+            estimate.describe(),
+            format_bytes(extra)
+        ),
+        estimate.beyond_mesh() + extra,
+        RunPath::Direct.hint(),
+    )?)
+}
+
 fn lower_block(saddle: &CscMatrix, free_count: usize) -> Result<CscMatrix> {
     let dim = saddle.dim() - free_count;
     let mut col_ptr = vec![0usize];

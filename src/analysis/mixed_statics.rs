@@ -26,6 +26,7 @@ use crate::analysis::problem::Problem;
 use crate::analysis::statics::RESIDUAL_LIMIT;
 use crate::base::error::{Error, Result};
 use crate::base::memory::{RunPath, SolverMemory, StaticEstimate};
+use crate::base::warning::Warning;
 use crate::bc::constraints::{Constraints, DofMap};
 use crate::bc::loads::Loads;
 use crate::fe::element::taylor_hood::PressureNodes;
@@ -446,4 +447,23 @@ pub(crate) fn saddle_point_matrix<C: CellType>(
     // Valid by construction (sorted, in range, square).
     let pattern = SymbolicSparseColMat::new_checked(dim, dim, col_ptr, None, row_idx);
     Ok(CscMatrix::from_values(Arc::new(pattern), values)?)
+}
+
+/// The warning of a mixed solve on `mesh` before it starts: on 10-node tets (Taylor–Hood
+/// P2–P1) [`Warning::MixedWithoutInteriorCorner`] when no tet has a corner inside the body
+/// ([`tets_without_an_interior_corner`](crate::fe::element::taylor_hood::tets_without_an_interior_corner)
+/// is every tet); none on 4-node tets (the stabilized P1–P1 element needs no interior corner)
+/// or when some tet has one (Boffi's condition is sufficient, not necessary: the scenes warn
+/// only when it fails everywhere).
+///
+/// Errors: those of the mesh's boundary faces.
+pub fn mixed_mesh_warnings<E: MixedElement>(mesh: &TetMesh<E>) -> Result<Vec<Warning>> {
+    if E::NODES != Tet10::NODES {
+        return Ok(Vec::new());
+    }
+    let without = crate::fe::element::taylor_hood::tets_without_an_interior_corner(mesh)?.len();
+    Ok(match without == mesh.tet_count() && without > 0 {
+        true => vec![Warning::MixedWithoutInteriorCorner { tets: without }],
+        false => Vec::new(),
+    })
 }

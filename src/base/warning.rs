@@ -166,6 +166,14 @@ pub enum Warning {
         /// The shortest surface edge at rest (length).
         shortest_edge: f64,
     },
+    /// No tet of a Taylor–Hood P2–P1 mesh has a corner inside the body (every corner on a
+    /// boundary face, as in a mesh one tet thick): the element's sufficient stability condition
+    /// (every tet with an interior corner, Boffi 1997) does not hold, and the pressure may
+    /// oscillate. The stabilized P1–P1 element has no such condition.
+    MixedWithoutInteriorCorner {
+        /// Tets in the mesh, none with an interior corner.
+        tets: usize,
+    },
 }
 
 impl fmt::Display for Warning {
@@ -298,6 +306,13 @@ impl fmt::Display for Warning {
                  nothing touches; choose a distance below the shortest edge",
                 crate::base::error::short_number(*activation_distance),
                 crate::base::error::short_number(*shortest_edge)
+            ),
+            Warning::MixedWithoutInteriorCorner { tets } => write!(
+                f,
+                "formulation = \"mixed\": none of the {tets} tets has a corner inside the body (a \
+                 mesh one tet thick), so the P2–P1 element's stability condition (every tet with an \
+                 interior corner, Boffi 1997) does not hold and the pressure may oscillate; mesh at \
+                 least two tets through the thinnest part"
             ),
         }
     }

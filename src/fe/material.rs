@@ -39,9 +39,10 @@ impl Material {
                 field: "poisson_ratio",
                 value: poisson_ratio,
                 requirement: "must be below 0.5 (ν = 0.5 makes the bulk modulus infinite): for \
-                              rubber use ν = 0.4999 with the mixed formulation (scene keys \
-                              [analysis] formulation = \"mixed\" with [mesh] order = 2; \
-                              library: solve_static_mixed), which does not lock",
+                              rubber use ν = 0.4999 with the mixed formulation (scene key \
+                              [analysis] formulation = \"mixed\", on 4-node tets the \
+                              stabilized P1–P1 element and on 10-node tets Taylor–Hood \
+                              P2–P1; library: solve_static_mixed), which does not lock",
             });
         }
         if !(poisson_ratio.is_finite() && poisson_ratio > -1.0 && poisson_ratio < 0.5) {

@@ -43,6 +43,7 @@ mod mesh;
 mod mesh_io;
 mod mesh_trust;
 mod mixed_dynamics;
+mod mixed_memory;
 mod mixed_neo_hookean;
 mod mixed_tet4;
 mod mixed_tube;
