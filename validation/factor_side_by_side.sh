@@ -13,8 +13,7 @@ cd "$(dirname "$0")/.."
 OUT=target/factor_size
 PY=${TETFEM_PEERS_VENV:-/work/peers-venv}/bin/python
 mkdir -p "$OUT"
-SIZES=("${@:-80,8,8 160,16,16 200,20,20}")
-[ $# -eq 0 ] && SIZES=(80,8,8 160,16,16 200,20,20)
+if [ $# -gt 0 ]; then SIZES=("$@"); else SIZES=(80,8,8 160,16,16 200,20,20); fi
 : > "$OUT/tetfem.csv"; : > "$OUT/peers.csv"
 for cells in "${SIZES[@]}"; do
     name="beam_${cells//,/x}"
