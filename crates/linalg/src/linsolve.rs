@@ -4,6 +4,8 @@
 
 mod counts;
 mod supernodal;
+#[cfg(test)]
+mod tuning_tests;
 
 use std::sync::Arc;
 
@@ -21,7 +23,9 @@ use faer::{Conj, Side};
 
 use crate::error::{Error, Result};
 use crate::memory::{COARSER_MESH, MemoryLimits, dense_kernel_reservation};
-use crate::ordering::{FillOrdering, inverse_permutation, nested_dissection};
+use crate::ordering::{
+    FillOrdering, NestedDissectionOptions, inverse_permutation, nested_dissection_with,
+};
 use crate::sparse::CscMatrix;
 pub use counts::FactorCounts;
 use supernodal::{Columns, FactorPlan, FactorWorkspace, SupernodalPlan, SupernodalWorkspace};
@@ -47,6 +51,14 @@ impl Default for CholeskyOptions {
         }
     }
 }
+
+/// How adjacent supernodes of the factor are amalgamated, as faer's relaxation table: two
+/// supernodes of n columns together, whose merged block would hold a fraction z of explicit
+/// zeros, are merged when some entry (nₖ, zₖ) has n ≤ nₖ and z ≤ zₖ. Merging pads L with zeros
+/// (more memory and flops) but makes the dense blocks larger (faster kernels). This is faer's
+/// default table.
+pub const DEFAULT_RELAXATION: &[(usize, f64)] =
+    &[(4, 1.0), (16, 0.8), (48, 0.1), (usize::MAX, 0.05)];
 
 /// Which kernel performs the two triangular solves of [`SparseCholesky::solve_in_place_with`].
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -128,18 +140,48 @@ impl SparseCholesky {
 
     /// Symbolic analysis with chosen ordering and thread count.
     pub fn analyze_with(matrix: &CscMatrix, options: CholeskyOptions) -> Result<Self> {
+        Self::analyze_tuned(
+            matrix,
+            options,
+            NestedDissectionOptions::default(),
+            DEFAULT_RELAXATION,
+        )
+    }
+
+    /// Symbolic analysis with chosen METIS settings (used when `options.ordering` is nested
+    /// dissection) and supernode relaxation table (see [`DEFAULT_RELAXATION`]; an empty table
+    /// merges only supernodes that add no zeros, so the stored factor is the exact nnz(L)).
+    /// An error names the first table entry whose zero fraction is outside [0, 1].
+    pub fn analyze_tuned(
+        matrix: &CscMatrix,
+        options: CholeskyOptions,
+        dissection: NestedDissectionOptions,
+        relaxation: &[(usize, f64)],
+    ) -> Result<Self> {
+        if let Some((k, &(_, z))) = relaxation
+            .iter()
+            .enumerate()
+            .find(|(_, (_, z))| !(0.0..=1.0).contains(z))
+        {
+            return Err(Error::invalid_parameter(
+                format!("relaxation[{k}].1"),
+                z,
+                "must be a zero fraction in [0, 1]",
+            ));
+        }
         let par = match options.threads {
             0 | 1 => Par::Seq,
             n => Par::rayon(n),
         };
         let pattern = SymbolicSparseColMat::as_ref(matrix.pattern());
-        let params = CholeskySymbolicParams::default();
+        let mut params = CholeskySymbolicParams::default();
+        params.supernodal_params.relax = Some(relaxation);
         let symbolic = match options.ordering {
             FillOrdering::Amd => {
                 factorize_symbolic_cholesky(pattern, Side::Lower, SymmetricOrdering::Amd, params)
             }
             FillOrdering::NestedDissection => {
-                let forward = nested_dissection(matrix.pattern())?;
+                let forward = nested_dissection_with(matrix.pattern(), dissection)?;
                 let inverse = inverse_permutation(&forward)?;
                 // Cannot panic: inverse_permutation checked that `forward` permutes 0..dim.
                 let perm = PermRef::new_checked(&forward, &inverse, matrix.dim());
@@ -419,6 +461,31 @@ impl SparseCholesky {
     /// after the symbolic analysis.
     pub fn factor_len(&self) -> usize {
         self.symbolic.len_val()
+    }
+
+    /// Stored values of L on and below the diagonal (supernodal padding included): Σ over
+    /// supernodes of c(c + 1)/2 + b·c, c the supernode's columns and b its rows below the
+    /// diagonal block — the count PARDISO and CHOLMOD report as nnz(L).
+    /// [`factor_len`](Self::factor_len) also counts the unused upper triangles of the dense
+    /// diagonal blocks, c(c − 1)/2 each.
+    pub fn factor_nnz_lower(&self) -> usize {
+        use faer::sparse::linalg::cholesky::SymbolicCholeskyRaw;
+        match self.symbolic.raw() {
+            SymbolicCholeskyRaw::Supernodal(sn) => {
+                let (begin, end, val) = (
+                    sn.supernode_begin(),
+                    sn.supernode_end(),
+                    sn.col_ptr_for_val(),
+                );
+                (0..sn.n_supernodes())
+                    .map(|s| {
+                        let c = end[s] - begin[s];
+                        (val[s + 1] - val[s]) - c * c.saturating_sub(1) / 2
+                    })
+                    .sum()
+            }
+            SymbolicCholeskyRaw::Simplicial(_) => self.symbolic.len_val(),
+        }
     }
 
     /// Bytes the numeric factorization will hold: the factor's values (8 bytes each) plus the

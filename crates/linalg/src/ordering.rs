@@ -53,9 +53,95 @@ fn supervariables(pattern: &SymbolicSparseColMat<usize>) -> Vec<usize> {
     starts
 }
 
+/// Settings of METIS's nested dissection (`METIS_NodeND`'s options array); `None` keeps METIS's
+/// own default, so `NestedDissectionOptions::default()` is METIS's ordering bit for bit.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct NestedDissectionOptions {
+    /// `METIS_OPTION_NSEPS`: separators computed per bisection, the smallest kept (METIS: 1;
+    /// must be ≥ 1).
+    pub separators: Option<i32>,
+    /// `METIS_OPTION_NITER`: refinement iterations per level (METIS: 10; must be ≥ 1).
+    pub refinement_iterations: Option<i32>,
+    /// `METIS_OPTION_UFACTOR`: allowed imbalance of the two halves, in thousandths (METIS: 200
+    /// for nested dissection, i.e. 1.2; must be ≥ 1).
+    pub imbalance: Option<i32>,
+    /// `METIS_OPTION_PFACTOR`: vertices of degree above 0.1·pfactor × the average are removed
+    /// before ordering and numbered last (METIS: 0 = none; must be ≥ 0).
+    pub pruning: Option<i32>,
+    /// `METIS_OPTION_CCORDER`: order each connected component separately (METIS: no).
+    pub connected_components: Option<bool>,
+    /// `METIS_OPTION_COMPRESS`: merge vertices of identical adjacency before ordering (METIS:
+    /// yes).
+    pub compress: Option<bool>,
+}
+
+impl NestedDissectionOptions {
+    /// The (option index, value) pairs to set, each checked against its allowed range.
+    fn settings(&self) -> Result<Vec<(metis_sys::moptions_et, i32)>> {
+        let checked =
+            |name: &str, value: Option<i32>, least: i32, index: metis_sys::moptions_et| match value
+            {
+                Some(v) if v < least => Err(Error::invalid_parameter(
+                    name,
+                    v,
+                    format!("must be at least {least}"),
+                )),
+                Some(v) => Ok(Some((index, v))),
+                None => Ok(None),
+            };
+        let flag = |value: Option<bool>, index: metis_sys::moptions_et| {
+            value.map(|b| (index, i32::from(b)))
+        };
+        Ok([
+            checked(
+                "separators",
+                self.separators,
+                1,
+                metis_sys::moptions_et_METIS_OPTION_NSEPS,
+            )?,
+            checked(
+                "refinement_iterations",
+                self.refinement_iterations,
+                1,
+                metis_sys::moptions_et_METIS_OPTION_NITER,
+            )?,
+            checked(
+                "imbalance",
+                self.imbalance,
+                1,
+                metis_sys::moptions_et_METIS_OPTION_UFACTOR,
+            )?,
+            checked(
+                "pruning",
+                self.pruning,
+                0,
+                metis_sys::moptions_et_METIS_OPTION_PFACTOR,
+            )?,
+            flag(
+                self.connected_components,
+                metis_sys::moptions_et_METIS_OPTION_CCORDER,
+            ),
+            flag(self.compress, metis_sys::moptions_et_METIS_OPTION_COMPRESS),
+        ]
+        .into_iter()
+        .flatten()
+        .collect())
+    }
+}
+
 /// A nested-dissection permutation of a symmetric pattern (both triangles stored), as
-/// `perm[new] = old`.
+/// `perm[new] = old`, with METIS's default settings.
 pub fn nested_dissection(pattern: &SymbolicSparseColMat<usize>) -> Result<Vec<usize>> {
+    nested_dissection_with(pattern, NestedDissectionOptions::default())
+}
+
+/// [`nested_dissection`] with chosen METIS settings; an error naming the setting when one is
+/// out of its range.
+pub fn nested_dissection_with(
+    pattern: &SymbolicSparseColMat<usize>,
+    settings: NestedDissectionOptions,
+) -> Result<Vec<usize>> {
+    let settings = settings.settings()?;
     let n = pattern.ncols();
     let starts = supervariables(pattern);
     let groups = starts.len() - 1;
@@ -104,6 +190,9 @@ pub fn nested_dissection(pattern: &SymbolicSparseColMat<usize>) -> Result<Vec<us
     // keeps other threads out of its global state.
     let status = unsafe {
         metis_sys::METIS_SetDefaultOptions(options.as_mut_ptr());
+        for &(index, value) in &settings {
+            options[index as usize] = value;
+        }
         metis_sys::METIS_NodeND(
             &mut vertices,
             xadj.as_mut_ptr(),
