@@ -662,6 +662,8 @@ def main() -> int:
     sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
     from side_by_side import blas_probe
     blas = blas_probe(1)
+    # A failed probe returns its traceback: keep its last line (the CSV header is one line).
+    blas = blas.strip().splitlines()[-1] if blas.strip() else "unknown"
     ref, spread, ref_runs = reference(QUICK_REFERENCE if a.quick else REFERENCE)
     before = load()
     runs = sweep(a.repeat, QUICK_SWEEP if a.quick else SWEEP)

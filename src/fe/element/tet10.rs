@@ -12,7 +12,7 @@
 //! same quadratic shape functions ([`super::isoparametric`]), so ∇N = G⁻ᵀ∇_X N and
 //! dV = det G dV_X vary inside the tet and the integrands are rational, not polynomial. The
 //! stiffness (and the force models) use the 8-point degree-3 rule
-//! [`stiffness_rule`](super::isoparametric::stiffness_rule) with weights V_X·w·det G(ξ_q): degree 2
+//! [`stiffness_rule`] with weights V_X·w·det G(ξ_q): degree 2
 //! (2k − 2 for P_k) keeps the optimal energy-norm rate (Ciarlet & Raviart 1972), but the patch
 //! test needs ∫cof(J)∇_ξNₐ dξ exact, a cubic. The mixed Taylor–Hood element keeps the 4-point
 //! rule's points ([`Tet10Rest::gradients`], weighted by det G) for its pressure coupling. The
