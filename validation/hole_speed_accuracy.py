@@ -547,7 +547,7 @@ def draw(csv: str) -> None:
     subprocess.run([PEERS_PYTHON, os.path.join(ROOT, "validation", "speed_accuracy_chart.py"), csv,
                     os.path.join(report, "speed_accuracy_hole.png"), "--fronts",
                     "--title", "Plate with a hole (3-D, 1/8 model): speed against accuracy of the hole-edge stress\n"
-                    "tetfem, scikit-fem and MFEM on identical meshes; MFEM curved: the same vertices, curved P2",
+                    "tetfem, scikit-fem and MFEM on identical meshes; tetfem and MFEM curved: the same vertices, isoparametric P2",
                     "--xlabel", "wall time, constraints + assembly + factorization + solve + recovery (s, one thread)",
                     "--ylabel", r"relative error of $\sigma_{xx}$ at (0, a, 0) vs curved MFEM order-4 reference"], check=True)
 
