@@ -20,12 +20,13 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
-COLOURS = {"tetfem": "#d62728", "scikit-fem": "#1f77b4", "MFEM": "#2ca02c", "MFEM curved": "#9467bd"}
+COLOURS = {"tetfem": "#d62728", "tetfem curved": "#ff7f0e", "scikit-fem": "#1f77b4", "MFEM": "#2ca02c",
+           "MFEM curved": "#9467bd"}
 MARKERS = {1: "o", 2: "s"}
 # Where each code's labels sit (offset in points, alignment): runs of the same mesh and order have
 # the same error in every code, so their labels would overlap at one height.
 LABELS = {"tetfem": ((-6, 6), "right"), "scikit-fem": ((6, -11), "left"), "MFEM": ((6, 5), "left"),
-          "MFEM curved": ((6, 5), "left")}
+          "MFEM curved": ((6, 5), "left"), "tetfem curved": ((-6, -11), "right")}
 
 
 def own_front(pts):
@@ -109,7 +110,7 @@ def main() -> int:
             xs = [float(r["seconds"]) for r in pts]
             ys = [float(r["relative_error"]) for r in pts]
             ax.plot(xs, ys, marker=MARKERS[order], color=COLOURS[code], linestyle="-", linewidth=1,
-                    markersize=7, label=f"{code} P{order}" + (" (isoparametric: the hole curved)" if code == "MFEM curved" else ""),
+                    markersize=7, label=f"{code} P{order}" + (" (isoparametric: the hole curved)" if code.endswith(" curved") else ""),
                     alpha=0.9)
             for r, x, y in zip(pts, xs, ys):
                 offset, align = LABELS[code]

@@ -70,9 +70,9 @@ impl Loads {
     ) {
         for (t, tet) in mesh.tets().iter().enumerate() {
             let density = force_density(t);
-            let volume = E::volume(&E::rest(mesh, t));
+            let rest = E::rest(mesh, t);
             for (i, &n) in tet.as_ref().iter().enumerate() {
-                self.add_at(n, &(density * E::VOLUME_LOAD.share(i, volume)));
+                self.add_at(n, &(density * E::shape_integral(&rest, i)));
             }
         }
     }
@@ -93,12 +93,15 @@ impl Loads {
         let mut shape = vec![0.0; E::NODES];
         for (t, tet) in mesh.tets().iter().enumerate() {
             let x = mesh.corner_positions_of(t);
-            let volume = crate::fe::element::pointwise::corners_of(mesh, t).volume();
+            let element = crate::fe::element::pointwise::corners_of(mesh, t);
+            let straight_volume = crate::fe::element::Tet::volume(&element);
             for q in &rule {
                 let b3 = q.barycentric;
                 let l = [1.0 - b3.x - b3.y - b3.z, b3.x, b3.y, b3.z];
                 E::shape_values_at(&l, &mut shape);
-                let p = x[0] * l[0] + x[1] * l[1] + x[2] * l[2] + x[3] * l[3];
+                // On a straight tet the affine point and V (ratio 1); on a curved one x(L), det G.
+                let p = element.position(&x, &l);
+                let volume = straight_volume * element.volume_ratio(&l);
                 let b = force_density(&p);
                 check_finite("body force field value", &b)?;
                 for (i, &node) in tet.as_ref().iter().enumerate() {
@@ -144,8 +147,13 @@ impl Loads {
         for face in faces {
             let area = face.area_vector(mesh)?.norm();
             let nodes = face.element_nodes(mesh)?;
+            let curved = curved_face(mesh, &nodes);
             for (i, &n) in nodes.iter().enumerate() {
-                let share = traction * E::FACE_LOAD.share(i, area);
+                let share = match &curved {
+                    // A curved 6-node face: ∫Nᵢ dA over the quadratic surface.
+                    Some(w) => traction * w[i],
+                    None => traction * E::FACE_LOAD.share(i, area),
+                };
                 for axis in 0..3 {
                     forces[3 * n + axis] += share[axis];
                 }
@@ -167,7 +175,10 @@ impl Loads {
         self.check_faces(mesh, faces, "total force on faces")?;
         let mut area = 0.0;
         for face in faces {
-            area += face.area_vector(mesh)?.norm();
+            area += match curved_face(mesh, &face.element_nodes(mesh)?) {
+                Some(w) => w.iter().sum(),
+                None => face.area_vector(mesh)?.norm(),
+            };
         }
         self.add_traction(mesh, faces, total / area)
     }
@@ -251,4 +262,14 @@ fn check_finite(name: &str, v: &Vector3<f64>) -> Result<()> {
             "every component must be finite",
         ))
     }
+}
+
+/// ∫Nᵢ dA of a curved 6-node face of `mesh` (its element nodes `nodes`), `None` for a 3-node
+/// face or a straight one (whose closed-form weights apply).
+fn curved_face<C: crate::mesh::CellType>(mesh: &TetMesh<C>, nodes: &[usize]) -> Option<[f64; 6]> {
+    let x: [Vector3<f64>; 6] = match nodes {
+        [a, b, c, d, e, f] => [*a, *b, *c, *d, *e, *f].map(|n| mesh.nodes()[n]),
+        _ => return None,
+    };
+    crate::fe::element::tet10::curved_face_integrals(&x)
 }

@@ -1,8 +1,9 @@
 //! The cell type of a mesh: how many nodes a tet carries and how they are laid out.
 //!
-//! Every cell is a straight-sided tetrahedron: its first four nodes are the corners (ordered so
-//! that det[x₁−x₀ x₂−x₀ x₃−x₀] > 0), which carry the geometry, the quality checks and the face
-//! topology. Higher-order cells add nodes after the corners (the 10-node tet one per edge). The
+//! Every cell is a tetrahedron whose first four nodes are the corners (ordered so that
+//! det[x₁−x₀ x₂−x₀ x₃−x₀] > 0), which carry the quality checks and the face topology, and
+//! the geometry of straight-sided cells (a 10-node cell with edge nodes off their midpoints is
+//! curved: its geometry is the quadratic map of all ten nodes). Higher-order cells add nodes after the corners (the 10-node tet one per edge). The
 //! mesh knows only this layout; what an element computes on it (shape functions, stiffness, mass,
 //! consistent loads) is [`crate::fe::element::ElementType`], one layer up.
 
@@ -87,7 +88,8 @@ impl CellType for Tet4 {
 }
 
 /// The quadratic 10-node tet: corners 0–3, then the nodes of the edges in [`EDGES`] order
-/// (VTK's `VTK_QUADRATIC_TETRA`), straight-sided. Its mechanics (shape functions, mass, loads)
+/// (VTK's `VTK_QUADRATIC_TETRA`); straight-sided when every edge node is at its edge's midpoint,
+/// curved (isoparametric: the geometry mapped by the same quadratic shape functions) otherwise. Its mechanics (shape functions, mass, loads)
 /// are the element's ([`crate::fe::element::Tet10`] docs, `src/fe/element/tet10.rs`).
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub struct Tet10;
@@ -95,9 +97,10 @@ pub struct Tet10;
 /// The corners (i, j) of edge node 4 + k.
 pub const EDGES: [(usize, usize); 6] = [(0, 1), (1, 2), (0, 2), (0, 3), (1, 3), (2, 3)];
 
-/// Relative distance of an edge node from its edge's midpoint above which a mesh is rejected:
-/// the element assumes straight edges, and a node this far off is a curved (isoparametric)
-/// element it would silently get wrong. The bound is round-off of a midpoint, with room.
+/// Relative distance of an edge node from its edge's midpoint (in edge lengths) up to which a
+/// 10-node tet counts as straight-sided and takes the affine path (constant ∇Lᵢ, closed-form
+/// mass and loads, bit for bit the straight element); farther, it is curved (isoparametric).
+/// The bound is round-off of a midpoint, with room.
 pub const MIDPOINT_TOLERANCE: f64 = 1e-9;
 
 impl CellType for Tet10 {
@@ -118,22 +121,94 @@ impl CellType for Tet10 {
         nodes.swap(8, 9);
     }
 
+    /// A cell whose edge nodes all sit at their edges' midpoints (to [`MIDPOINT_TOLERANCE`]) is
+    /// straight-sided and always valid (its corners were checked). Otherwise it is curved
+    /// (isoparametric): the map x(ξ) = Σₐ Nₐ(ξ) xₐ must keep det(∂x/∂ξ) > 0 at the degree-2 rule's
+    /// four points (where the stiffness is integrated) and at the ten nodes (where stresses are
+    /// recovered); an edge node moved that far folds the element, which is an error naming the
+    /// tet and the point.
     fn check_cell(tet: usize, cell: &[usize; 10], nodes: &[Vector3<f64>]) -> Result<()> {
+        let x: [Vector3<f64>; 10] = std::array::from_fn(|a| nodes[cell[a]]);
         for (k, &(i, j)) in EDGES.iter().enumerate() {
-            let (a, b, m) = (nodes[cell[i]], nodes[cell[j]], nodes[cell[4 + k]]);
-            let offset = (m - (a + b) * 0.5).norm() / (b - a).norm();
-            // A NaN offset (coincident corners are rejected before, so only overflow) fails too.
-            if offset.is_nan() || offset > MIDPOINT_TOLERANCE {
+            let offset = (x[4 + k] - (x[i] + x[j]) * 0.5).norm() / (x[j] - x[i]).norm();
+            // Only overflow makes a NaN here (coincident corners are rejected before).
+            if !offset.is_finite() {
                 return Err(Error::invalid_parameter(
                     format!("tet {tet}: edge node {} (local {})", cell[4 + k], 4 + k),
                     format!(
                         "{offset:e} edge lengths from the midpoint of nodes {} and {}",
                         cell[i], cell[j]
                     ),
-                    format!("at most {MIDPOINT_TOLERANCE:e}: the 10-node tet is straight-sided"),
+                    "a finite position",
+                ));
+            }
+        }
+        if is_straight(&x) {
+            return Ok(());
+        }
+        for (name, l) in jacobian_check_points() {
+            let det = reference_jacobian(&x, &l).determinant();
+            // The straight tet's det is 6V > 0: a relative 1e-12 of it is round-off, not a fold.
+            let scale = (x[1] - x[0]).cross(&(x[2] - x[0])).dot(&(x[3] - x[0]));
+            if det.is_nan() || det <= 1e-12 * scale {
+                return Err(Error::invalid_parameter(
+                    format!(
+                        "tet {tet}: curved 10-node tet (edge nodes off their midpoints) at {name} (barycentric {l:?})"
+                    ),
+                    format!("Jacobian determinant {det:e} (straight tet's {scale:e})"),
+                    "> 0: an edge node is moved so far from its edge's midpoint that the \
+                     isoparametric map folds (an inverted or too-curved element)",
                 ));
             }
         }
         Ok(())
     }
+}
+
+/// True when every edge node of the 10-node cell `x` (positions in local order) sits at its
+/// edge's midpoint to [`MIDPOINT_TOLERANCE`] edge lengths: the straight-sided (affine) tet.
+pub fn is_straight(x: &[Vector3<f64>; 10]) -> bool {
+    EDGES.iter().enumerate().all(|(k, &(i, j))| {
+        (x[4 + k] - (x[i] + x[j]) * 0.5).norm() <= MIDPOINT_TOLERANCE * (x[j] - x[i]).norm()
+    })
+}
+
+/// The degree-2 rule's barycentric points (α, β, β, β) and permutations.
+const RULE_ALPHA: f64 = 0.585_410_196_624_968_5;
+const RULE_BETA: f64 = 0.138_196_601_125_010_5;
+
+/// Where a curved cell's Jacobian is checked: the four quadrature points and the ten nodes.
+fn jacobian_check_points() -> impl Iterator<Item = (String, [f64; 4])> {
+    let rule = (0..4).map(|q| {
+        let l = std::array::from_fn(|i| if i == q { RULE_ALPHA } else { RULE_BETA });
+        (format!("quadrature point {q}"), l)
+    });
+    let corners = (0..4).map(|c| {
+        let l = std::array::from_fn(|i| if i == c { 1.0 } else { 0.0 });
+        (format!("node {c}"), l)
+    });
+    let edges = EDGES.iter().enumerate().map(|(k, &(i, j))| {
+        let l = std::array::from_fn(|m| if m == i || m == j { 0.5 } else { 0.0 });
+        (format!("node {}", 4 + k), l)
+    });
+    rule.chain(corners).chain(edges)
+}
+
+/// ∂x/∂ξ of the quadratic map at barycentric `l`, ξ = (L₁, L₂, L₃) (so L₀ = 1 − ξ₁ − ξ₂ − ξ₃):
+/// Σₐ xₐ ⊗ ∇_ξNₐ with ∇_ξNᵢ = (4Lᵢ − 1)∇_ξLᵢ and ∇_ξN₍ᵢⱼ₎ = 4(Lⱼ∇_ξLᵢ + Lᵢ∇_ξLⱼ).
+fn reference_jacobian(x: &[Vector3<f64>; 10], l: &[f64; 4]) -> nalgebra::Matrix3<f64> {
+    let dl = [
+        Vector3::new(-1.0, -1.0, -1.0),
+        Vector3::x(),
+        Vector3::y(),
+        Vector3::z(),
+    ];
+    let mut j = nalgebra::Matrix3::zeros();
+    for i in 0..4 {
+        j += x[i] * (dl[i] * (4.0 * l[i] - 1.0)).transpose();
+    }
+    for (k, &(a, b)) in EDGES.iter().enumerate() {
+        j += x[4 + k] * ((dl[a] * l[b] + dl[b] * l[a]) * 4.0).transpose();
+    }
+    j
 }

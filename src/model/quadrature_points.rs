@@ -1,7 +1,8 @@
 //! The force models on the 10-node tet, at its quadrature points.
 //!
 //! F_q = I + Σₐ uₐ ⊗ ∇Nₐ(ξ_q) at each point ξ_q of the degree-2 rule (4 points, weights V/4:
-//! the rule of the element's linear stiffness, and Abaqus's C3D10), then
+//! the rule of the element's linear stiffness, and Abaqus's C3D10; on a curved tet the
+//! element's degree-3 rule, 8 points weighted V_X·w·det G, `Tet10Rest::points`), then
 //! E = Σ_q w_q ψ(F_q), fₐ = −Σ_q w_q P(F_q)·∇Nₐ(ξ_q), and the tangent blocks
 //! K_ab = Σ_q w_q ∇Nₐᵀ·(∂P/∂F)(F_q)·∇N_b of the model's [`ConstitutiveLaw`](super::ConstitutiveLaw).
 //!
@@ -55,9 +56,9 @@ fn deformation_gradient(gradients: &[Vector3<f64>; 10], ue: &[f64; 30]) -> Matri
 /// The 30×30 tangent Σ_q w_q ∇Nₐᵀ·A_q·∇N_b (force/length), symmetrized (the Hessian of an
 /// energy: averaging removes round-off asymmetry).
 fn element_tangent(law: &dyn ForceModel, rest: &Tet10Rest, ue: &[f64; 30]) -> Matrix30 {
-    let weight = rest.volume() / 4.0;
     let mut k = Matrix30::zeros();
-    for gradients in rest.gradients() {
+    let (points, weights) = rest.points();
+    for (gradients, &weight) in points.iter().zip(weights) {
         let a = law.piola_tangent(&deformation_gradient(gradients, ue)) * weight;
         // g[(i + 3j), 3b + k] = Σ_l A[(i + 3j), (k + 3l)]·∇N_b[l]: A applied to node b's
         // directions; then K[(3a + i), (3b + k)] = Σ_j ∇Nₐ[j]·g[(i + 3j), 3b + k].
@@ -89,11 +90,15 @@ fn element_tangent(law: &dyn ForceModel, rest: &Tet10Rest, ue: &[f64; 30]) -> Ma
 impl ModelElement for Tet10 {
     fn model_energy(model: &dyn ForceModel, mesh: &TetMesh<Tet10>, t: usize, u: &[f64]) -> f64 {
         let (rest, ue) = element(mesh, t, u);
-        rest.gradients()
-            .iter()
-            .map(|g| model.energy_density(&deformation_gradient(g, &ue)))
-            .sum::<f64>()
-            * (rest.volume() / 4.0)
+        let psi = |g: &[Vector3<f64>; 10]| model.energy_density(&deformation_gradient(g, &ue));
+        if rest.is_curved() {
+            // Curved (isoparametric) tet: the degree-3 rule's points, weights V_X·w·det G.
+            let (gradients, weights) = rest.points();
+            return (gradients.iter().zip(weights))
+                .map(|(g, w)| w * psi(g))
+                .sum();
+        }
+        rest.gradients().iter().map(psi).sum::<f64>() * (rest.volume() / 4.0)
     }
 
     fn add_model_force(
@@ -104,9 +109,9 @@ impl ModelElement for Tet10 {
         force: &mut [f64],
     ) {
         let (rest, ue) = element(mesh, t, u);
-        let weight = rest.volume() / 4.0;
         let nodes = &mesh.tets()[t];
-        for gradients in rest.gradients() {
+        let (points, weights) = rest.points();
+        for (gradients, &weight) in points.iter().zip(weights) {
             let piola = model.first_piola(&deformation_gradient(gradients, &ue)) * weight;
             for (g, &n) in gradients.iter().zip(nodes) {
                 let f = piola * g;
@@ -144,24 +149,38 @@ impl ModelElement for Tet10 {
         u: &[f64],
     ) -> Matrix3<f64> {
         let (rest, ue) = element(mesh, t, u);
-        rest.gradients()
-            .iter()
-            .map(|g| model.cauchy(&deformation_gradient(g, &ue)))
-            .sum::<Matrix3<f64>>()
-            / 4.0
+        let sigma = |g: &[Vector3<f64>; 10]| model.cauchy(&deformation_gradient(g, &ue));
+        if rest.is_curved() {
+            let (points, weights) = rest.points();
+            let total: f64 = weights.iter().sum();
+            return points
+                .iter()
+                .zip(weights)
+                .map(|(g, w)| sigma(g) * *w)
+                .sum::<Matrix3<f64>>()
+                / total;
+        }
+        rest.gradients().iter().map(sigma).sum::<Matrix3<f64>>() / 4.0
     }
 
     /// The mean of E(F_q) over the four points (E is quadratic in u: exact for a field
     /// of degree one in ∇u only, as the stress).
     fn mean_green_strain(mesh: &TetMesh<Tet10>, t: usize, u: &[f64]) -> Matrix3<f64> {
         let (rest, ue) = element(mesh, t, u);
-        rest.gradients()
-            .iter()
-            .map(|g| {
-                let f = deformation_gradient(g, &ue);
-                (f.transpose() * f - Matrix3::identity()) * 0.5
-            })
-            .sum::<Matrix3<f64>>()
-            / 4.0
+        let green = |g: &[Vector3<f64>; 10]| {
+            let f = deformation_gradient(g, &ue);
+            (f.transpose() * f - Matrix3::identity()) * 0.5
+        };
+        if rest.is_curved() {
+            let (points, weights) = rest.points();
+            let total: f64 = weights.iter().sum();
+            return points
+                .iter()
+                .zip(weights)
+                .map(|(g, w)| green(g) * *w)
+                .sum::<Matrix3<f64>>()
+                / total;
+        }
+        rest.gradients().iter().map(green).sum::<Matrix3<f64>>() / 4.0
     }
 }

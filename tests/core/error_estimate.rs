@@ -83,7 +83,7 @@ fn true_energy_error<E: PointwiseElement>(
         for q in &rule {
             let l = barycentric(&q.barycentric);
             let p = x[0] * l[0] + x[1] * l[1] + x[2] * l[2] + x[3] * l[3];
-            let g = E::displacement_gradient_at(&tet, &l, &element) - exact_gradient(&p);
+            let g = E::displacement_gradient_at(&tet.into(), &l, &element) - exact_gradient(&p);
             let e = (g + g.transpose()) * 0.5;
             let s = Matrix3::identity() * (lambda * e.trace()) + e * (2.0 * mu);
             sum += q.weight * tet.volume() * s.component_mul(&e).sum();

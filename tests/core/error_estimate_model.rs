@@ -96,7 +96,7 @@ fn true_error<E: PointwiseElement>(
         for q in &tet_rule() {
             let l = barycentric(&q.barycentric);
             let p = x[0] * l[0] + x[1] * l[1] + x[2] * l[2] + x[3] * l[3];
-            let f_h = Matrix3::identity() + E::displacement_gradient_at(&tet, &l, &element);
+            let f_h = Matrix3::identity() + E::displacement_gradient_at(&tet.into(), &l, &element);
             let e = green(&placement.deformation_gradient(&p)) - green(&f_h);
             let s = Matrix3::identity() * (lambda * e.trace()) + e * (2.0 * mu);
             sum += q.weight * tet.volume() * s.component_mul(&e).sum();

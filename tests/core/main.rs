@@ -29,6 +29,7 @@ mod conveyor;
 mod corotational_step;
 mod critical_step;
 mod critical_step_damping;
+mod curved_tet10;
 mod dynamics;
 mod element;
 mod error_estimate;

@@ -526,23 +526,19 @@ fn the_gmsh_node_order_is_the_documented_one() {
 
 #[test]
 fn malformed_quadratic_files_name_the_file_and_line() {
-    // A curved edge: node 6 (on edge (1,2)) moved off the midpoint by 0.1 × √2 edge lengths.
+    // A curved edge: node 6 (on edge (1,2)) moved off the midpoint by 0.1 × √2 edge lengths
+    // across the edge is a curved (isoparametric) tet, read with its node where the file puts it.
     let curved = ONE_TET10_22.replace("6 0.5 0.5 0\n", "6 0.6 0.6 0\n");
-    let (path, line, message) = parse_error::<Tet10>("curved.msh", &curved);
+    let imported = parse_gmsh_as::<Tet10>(Path::new("curved.msh"), curved.as_bytes()).unwrap();
+    assert_eq!(imported.mesh.nodes()[5], Vector3::new(0.6, 0.6, 0.0));
+    // Moved 0.3 edge lengths along the edge toward corner 2 (Gmsh's node 2, local 1), the map
+    // folds there: the element's line, the tet and the point named.
+    let folded = ONE_TET10_22.replace("6 0.5 0.5 0\n", "6 0.8 0.2 0\n");
+    let (path, line, message) = parse_error::<Tet10>("curved.msh", &folded);
     assert_eq!(path, PathBuf::from("curved.msh"));
     assert_eq!(line, 19, "{message}");
-    // The distance, 0.1 edge lengths, is in the message.
-    let distance: f64 = message
-        .split(" edge lengths")
-        .next()
-        .and_then(|head| head.rsplit(' ').next())
-        .and_then(|v| v.parse().ok())
-        .unwrap_or(f64::NAN);
-    // |(0.1, 0.1, 0)| / |(−1, 1, 0)| = 0.1, up to the round-off of 0.6 − 0.5.
-    assert!((distance - 0.1).abs() < 1e-12, "{message}");
     assert!(
-        message.contains("edge node 5")
-            && message.contains("edge lengths from the midpoint of nodes 1 and 2"),
+        message.contains("at node 1 ") && message.contains("Jacobian determinant"),
         "{message}"
     );
     // A 4-node tet after a 10-node one.
@@ -569,13 +565,16 @@ fn malformed_quadratic_files_name_the_file_and_line() {
     assert!(message.contains("4-node (linear) tets"), "{message}");
     // MSH 4.1: the curved element's own line (found by reading the section).
     let mesh = box_mesh(BoxSplit::Five);
+    // Tet 3's node of edge (1, 2) moved 0.3 edge lengths along its edge toward corner 1: every
+    // tet holding that edge folds at that corner.
+    let (a, b) = (mesh.tets()[3][1], mesh.tets()[3][2]);
     let moved: Vec<Vector3<f64>> = mesh
         .nodes()
         .iter()
         .enumerate()
         .map(|(n, p)| {
             if n == mesh.tets()[3][5] {
-                p + Vector3::new(0.0, 0.0, 0.05)
+                p + (mesh.nodes()[a] - mesh.nodes()[b]) * 0.3
             } else {
                 *p
             }

@@ -403,12 +403,19 @@ fn vtu_writes_quadratic_cells() {
 fn edge_nodes_off_their_midpoints_and_reversed_cells() {
     let mesh = one_element();
     let mut nodes = mesh.nodes().to_vec();
+    // Node 7 is the node of edge (1, 2) (local 5). Moved a little it bends the tet (curved,
+    // isoparametric: accepted); moved 0.3 edge lengths toward corner 1 along the edge, the map
+    // runs backwards at corner 1 ((x₂ − x₁) + 4d = −0.2(x₂ − x₁)): folded, an error there.
     nodes[7] += Vector3::new(0.0, 0.01, 0.0);
+    let bent = TetMesh::<Tet10>::from_cells(nodes.clone(), mesh.tets().to_vec()).unwrap();
+    assert!(Tet10::rest(&bent, 0).is_curved());
+    let (x1, x2) = (nodes[1], nodes[2]);
+    nodes[7] = (x1 + x2) * 0.5 + (x1 - x2) * 0.3;
     let err = TetMesh::<Tet10>::from_cells(nodes, mesh.tets().to_vec()).unwrap_err();
     assert!(matches!(err, Error::InvalidParameter { .. }), "{err}");
     let text = err.to_string();
     assert!(
-        text.contains("tet 0") && text.contains("edge node 7"),
+        text.contains("tet 0") && text.contains("at node 1 ") && text.contains("Jacobian"),
         "{text}"
     );
 

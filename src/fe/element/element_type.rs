@@ -42,6 +42,12 @@ pub trait ElementType: CellType {
         j: usize,
     ) -> [[f64; 3]; 3];
 
+    /// ∫Nᵢ dV (length³) of node `i`: a uniform body force b loads node i with b·∫Nᵢ dV. By
+    /// default [`VOLUME_LOAD`](Self::VOLUME_LOAD)'s share of the volume (exact on straight tets).
+    fn shape_integral(rest: &Self::Rest, i: usize) -> f64 {
+        Self::VOLUME_LOAD.share(i, Self::volume(rest))
+    }
+
     /// Consistent mass coefficient mᵢⱼ = ∫ ρ NᵢNⱼ dV (mass units): the node block is mᵢⱼ·I₃.
     fn mass_coefficient(rest: &Self::Rest, density: f64, i: usize, j: usize) -> f64;
 

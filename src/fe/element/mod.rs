@@ -5,13 +5,15 @@
 //! [`CellType`]); assembly, constraints, loads and outputs take it as a
 //! type parameter:
 //! - `tet4`: the linear 4-node tet ([`Tet4`], its rest data [`Tet`]), constant strain;
-//! - [`tet10`]: the quadratic 10-node tet ([`Tet10`]), linear strain;
+//! - [`tet10`]: the quadratic 10-node tet ([`Tet10`]), linear strain when straight-sided,
+//!   isoparametric when curved ([`isoparametric`]: its geometry map);
 //! - [`taylor_hood`]: the mixed P2–P1 tet (10-node displacement, corner pressure) for nearly
 //!   incompressible materials;
 //! - [`stabilized_p1`]: the mixed stabilized P1–P1 tet (4-node displacement and pressure);
 //! - [`mixed_element`]: what the mixed solve needs of either ([`MixedElement`]).
 
 mod element_type;
+pub mod isoparametric;
 pub mod mixed_element;
 pub mod pointwise;
 pub mod stabilized_p1;

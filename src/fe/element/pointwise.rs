@@ -3,12 +3,13 @@
 
 use nalgebra::{Matrix3, Vector3};
 
+use crate::fe::element::isoparametric::{CurvedMap, ElementShape};
 use crate::fe::element::tet10::{self, EDGES};
 use crate::fe::element::{ElementType, Tet, Tet4, Tet10};
 
 /// An element whose displacement can be evaluated at any barycentric point `l` = (L₀…L₃) of
-/// its straight-sided tet (both shipped elements are straight-sided: the corners' affine map
-/// `Tet` carries the geometry).
+/// its tet, whose geometry is an [`ElementShape`]: the corners' affine map, bent for a curved
+/// 10-node tet.
 pub trait PointwiseElement: ElementType {
     /// Polynomial degree of the displacement (1 for P1, 2 for P2): the recovered stress is
     /// interpolated with the same shape functions, so (σ* − σ_h):C⁻¹:(σ* − σ_h) has degree 2p.
@@ -23,7 +24,7 @@ pub trait PointwiseElement: ElementType {
 
     /// Displacement gradient ∇u (row i, column j: ∂uᵢ/∂xⱼ, dimensionless) at `l` for the
     /// element's node-major displacement `u`.
-    fn displacement_gradient_at(corners: &Tet, l: &[f64; 4], u: &[f64]) -> Matrix3<f64>;
+    fn displacement_gradient_at(shape: &ElementShape, l: &[f64; 4], u: &[f64]) -> Matrix3<f64>;
 }
 
 fn node_vector(u: &[f64], i: usize) -> Vector3<f64> {
@@ -41,9 +42,9 @@ impl PointwiseElement for Tet4 {
         values.copy_from_slice(l);
     }
 
-    fn displacement_gradient_at(corners: &Tet, _l: &[f64; 4], u: &[f64]) -> Matrix3<f64> {
+    fn displacement_gradient_at(shape: &ElementShape, _l: &[f64; 4], u: &[f64]) -> Matrix3<f64> {
         let mut grad = Matrix3::zeros();
-        for (i, g) in corners.shape_gradients().iter().enumerate() {
+        for (i, g) in shape.shape_gradients().iter().enumerate() {
             grad += node_vector(u, i) * g.transpose();
         }
         grad
@@ -69,21 +70,34 @@ impl PointwiseElement for Tet10 {
         values.copy_from_slice(&tet10::shape_values(l));
     }
 
-    fn displacement_gradient_at(corners: &Tet, l: &[f64; 4], u: &[f64]) -> Matrix3<f64> {
+    /// On a curved tet ∇N = G⁻ᵀ∇_X N at `l` ([`ElementShape::curve_gradients`]).
+    fn displacement_gradient_at(shape: &ElementShape, l: &[f64; 4], u: &[f64]) -> Matrix3<f64> {
         let mut grad = Matrix3::zeros();
-        for (i, g) in tet10::shape_gradients(l, corners.shape_gradients())
-            .iter()
-            .enumerate()
-        {
+        let gradients =
+            shape.curve_gradients(l, tet10::shape_gradients(l, shape.shape_gradients()));
+        for (i, g) in gradients.iter().enumerate() {
             grad += node_vector(u, i) * g.transpose();
         }
         grad
     }
 }
 
-/// The corner geometry of tet `t` (straight-sided for every shipped element).
-pub(crate) fn corners_of<E: PointwiseElement>(mesh: &crate::mesh::TetMesh<E>, t: usize) -> Tet {
+/// The geometry of tet `t`: its corners' straight tet, bent when it is a curved 10-node tet
+/// (edge nodes off their midpoints).
+pub(crate) fn corners_of<C: crate::mesh::CellType>(
+    mesh: &crate::mesh::TetMesh<C>,
+    t: usize,
+) -> ElementShape {
     // Cannot fail: `from_cells` rejected degenerate corners and reoriented negative ones.
-    Tet::new(&mesh.corner_positions_of(t))
-        .expect("TetMesh invariant: every tet is positively oriented and non-degenerate")
+    let corners = Tet::new(&mesh.corner_positions_of(t))
+        .expect("TetMesh invariant: every tet is positively oriented and non-degenerate");
+    let nodes = mesh.tets()[t];
+    let nodes = nodes.as_ref();
+    let map = if nodes.len() == 10 {
+        let x: [Vector3<f64>; 10] = std::array::from_fn(|a| mesh.nodes()[nodes[a]]);
+        CurvedMap::of(&x)
+    } else {
+        None
+    };
+    ElementShape::new(corners, map)
 }

@@ -85,9 +85,10 @@ pub fn deviatoric_stiffness(rest: &Tet10Rest, shear_modulus: f64) -> SMatrix<f64
 /// The divergence coupling B_kᵢₐ = ∫ L_k ∂ₐNᵢ dV (length²), exact by the degree-2 rule (the
 /// integrand is linear × linear).
 pub fn coupling(rest: &Tet10Rest) -> Coupling {
-    let weight = rest.volume() / 4.0;
     let mut b = [[[0.0; 3]; 10]; PRESSURE_NODES];
     for (q, gradients) in rest.gradients().iter().enumerate() {
+        // V/4 on a straight tet; V_X/4·det G at the point on a curved one.
+        let weight = rest.weights()[q];
         for (k, row) in b.iter_mut().enumerate() {
             let l = if k == q { RULE_ALPHA } else { RULE_BETA };
             for (node, g) in row.iter_mut().zip(gradients) {

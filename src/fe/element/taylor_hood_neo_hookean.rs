@@ -65,7 +65,6 @@ pub fn mixed_neo_hookean(
     mu: f64,
     inverse_bulk: f64,
 ) -> Option<MixedElementState> {
-    let weight = rest.volume() / 4.0;
     let mut state = MixedElementState {
         force: [0.0; 30],
         pressure_residual: [0.0; PRESSURE_NODES],
@@ -73,6 +72,8 @@ pub fn mixed_neo_hookean(
         coupling: [[[0.0; 3]; 10]; PRESSURE_NODES],
     };
     for (q, gradients) in rest.gradients().iter().enumerate() {
+        // V/4 on a straight tet; V_X/4·det G at the point on a curved one.
+        let weight = rest.weights()[q];
         let l: [f64; PRESSURE_NODES] =
             std::array::from_fn(|k| if k == q { RULE_ALPHA } else { RULE_BETA });
         let pressure: f64 = l.iter().zip(p).map(|(l, p)| l * p).sum();

@@ -357,8 +357,8 @@ impl RawMesh {
         (new_index, kept)
     }
 
-    /// The element's own checks of each cell (edge nodes at the midpoints), naming the tet's
-    /// line and file id.
+    /// The element's own checks of each cell (a curved 10-node tet's map does not fold),
+    /// naming the tet's line and file id.
     fn check_cells<C: CellType>(
         &self,
         path: &Path,
@@ -371,8 +371,9 @@ impl RawMesh {
                     path,
                     self.line_of_tet(t),
                     format!(
-                        "invalid mesh: {e} (file tet {}; a curved mesh: Gmsh's \
-                         Mesh.SecondOrderLinear = 1 keeps edge nodes at the midpoints)",
+                        "invalid mesh: {e} (file tet {}; edge nodes in another order than the \
+                         reader's, or moved too far: Gmsh's Mesh.SecondOrderLinear = 1 keeps \
+                         them at the midpoints)",
                         self.tet_ids[t]
                     ),
                 )

@@ -12,7 +12,8 @@
 //! in TetGen's order of edges (its `edge2ver` table): (n₂,n₃), (n₀,n₃), (n₀,n₁), (n₁,n₂),
 //! (n₁,n₃), (n₀,n₂) — not VTK's (n₀,n₁), (n₁,n₂), (n₀,n₂), (n₀,n₃), (n₁,n₃), (n₂,n₃). (Files
 //! written with TetGen's `-z1`/`-R`, which swap n₀ and n₁, do not follow it: their edge nodes
-//! are refused as off the midpoints.) The `.face` of TetGen 1.5 and later lists the three edge
+//! are refused where the misplaced edge nodes fold the isoparametric map, as they do on the
+//! tets tried.) The `.face` of TetGen 1.5 and later lists the three edge
 //! nodes of each face after its corners (`<index> <n₀> <n₁> <n₂> <e₀> <e₁> <e₂> [marker]`, in
 //! an order that differs between `-f` and boundary faces); older versions list the corners
 //! only. The edge nodes are recognized by the column count (at least 7 + the marker flag:

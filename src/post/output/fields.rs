@@ -340,7 +340,8 @@ pub fn tet_node_model_stress<E: ModelElement + PointwiseElement>(
 
 /// Recovered nodal stress from each tet's stress at its own nodes ([`tet_node_stress`],
 /// tet-major, `NODES` per tet): at node n the volume-weighted average over the tets e that hold
-/// it, σ*(n) = Σₑ Vₑ σₑ(xₙ) / Σₑ Vₑ (stress units; zero at a node no tet uses). Where the
+/// it, σ*(n) = Σₑ Vₑ σₑ(xₙ) / Σₑ Vₑ (stress units; zero at a node no tet uses; Vₑ the curved
+/// volume of a curved 10-node tet). Where the
 /// finite element stress is continuous (a stress field the elements represent exactly) this is
 /// that stress; for 4-node tets it equals [`nodal_stress`] of the cell stresses, bit for bit.
 ///
@@ -357,7 +358,12 @@ pub fn recovered_nodal_stress<C: CellType>(
     let mut sum = vec![Matrix3::zeros(); mesh.node_count()];
     let mut weight = vec![0.0; mesh.node_count()];
     for (t, tet) in mesh.tets().iter().enumerate() {
-        let volume = crate::mesh::geometry::signed_volume(&mesh.corner_positions_of(t));
+        let shape = crate::fe::element::pointwise::corners_of(mesh, t);
+        // A curved 10-node tet weighs by its own (curved) volume; a straight one as always.
+        let volume = match shape.map() {
+            Some(_) => shape.volume(),
+            None => crate::mesh::geometry::signed_volume(&mesh.corner_positions_of(t)),
+        };
         for (i, &n) in tet.as_ref().iter().enumerate() {
             sum[n] += node_stresses[t * C::NODES + i] * volume;
             weight[n] += volume;

@@ -1,0 +1,310 @@
+//! Curved (isoparametric) 10-node tets: an edge node off its edge's midpoint bends the tet, its
+//! geometry the quadratic map of its ten nodes.
+//!
+//! - the patch test: an affine displacement is reproduced exactly on tets bent inside the body
+//!   (the isoparametric element holds every linear field; a straight-sided element on the same
+//!   nodes would not, its nodes no longer where its map puts them);
+//! - the volume of the plate with a hole converging at O(h⁴) curved, O(h²) straight;
+//! - the plate with a hole: σ_xx at (0, a, 0) on curved P2 beside MFEM's curved P2 on the same
+//!   meshes (`validation/report/speed_accuracy_hole.csv`);
+//! - a folded tet is an error naming the tet and the point.
+
+use nalgebra::{Matrix3, Vector3};
+use tetfem::fe::element::ElementType;
+use tetfem::post::output::fields::{recovered_nodal_stress, tet_node_stress};
+use tetfem::{BoxSplit, Constraints, Error, Loads, Material, Tet10, TetMesh, solve_static};
+use tetfem_fixtures::hole::{self, Hole};
+
+/// The unit cube's 10-node mesh with every edge node strictly inside the cube moved off its
+/// midpoint by up to 0.02 per coordinate (0.06 h, h = 1/3 the cell size) in a fixed
+/// pseudo-random direction.
+fn bent_cube() -> TetMesh<Tet10> {
+    let linear = TetMesh::box_grid(
+        Vector3::zeros(),
+        Vector3::new(1.0, 1.0, 1.0),
+        [3, 3, 3],
+        BoxSplit::Mirrored6,
+    )
+    .unwrap();
+    let straight = TetMesh::<Tet10>::from_linear(&linear).unwrap();
+    let corner_count = linear.node_count();
+    let mut nodes = straight.nodes().to_vec();
+    let mut state = 12345_u64;
+    let mut next = || {
+        // A 64-bit LCG (Knuth's MMIX constants): deterministic, in [−1, 1).
+        state = state
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        (state >> 11) as f64 / (1u64 << 52) as f64 - 1.0
+    };
+    for p in nodes.iter_mut().skip(corner_count) {
+        if p.iter().all(|&c| c > 1e-9 && c < 1.0 - 1e-9) {
+            *p += Vector3::new(next(), next(), next()) * 0.02;
+        }
+    }
+    TetMesh::<Tet10>::from_cells(nodes, straight.tets().to_vec()).unwrap()
+}
+
+#[test]
+fn an_affine_field_is_reproduced_on_bent_tets() {
+    let mesh = bent_cube();
+    let curved = (0..mesh.tet_count())
+        .filter(|&t| Tet10::rest(&mesh, t).is_curved())
+        .count();
+    assert!(curved > 50, "{curved} curved tets of {}", mesh.tet_count());
+    let material = Material::new(2e11, 0.3, 7800.0).unwrap();
+    let gradient = Matrix3::new(1.0, 0.4, -0.3, 0.2, -0.5, 0.7, -0.6, 0.1, 0.8) * 1e-3;
+    let offset = Vector3::new(1e-3, -2e-3, 0.5e-3);
+    let exact = |x: &Vector3<f64>| offset + gradient * x;
+    let mut constraints = Constraints::new(&mesh);
+    for (n, p) in mesh.nodes().iter().enumerate() {
+        if p.iter()
+            .any(|&c| c.abs() < 1e-12 || (c - 1.0).abs() < 1e-12)
+        {
+            constraints.prescribe(n, exact(p)).unwrap();
+        }
+    }
+    let u = solve_static(&mesh, &material, &constraints, &Loads::new(&mesh))
+        .unwrap()
+        .displacement;
+    let scale = mesh
+        .nodes()
+        .iter()
+        .map(|p| exact(p).norm())
+        .fold(0.0, f64::max);
+    let worst = mesh
+        .nodes()
+        .iter()
+        .enumerate()
+        .map(|(n, p)| (Vector3::new(u[3 * n], u[3 * n + 1], u[3 * n + 2]) - exact(p)).norm())
+        .fold(0.0, f64::max);
+    // A direct solve of a well-conditioned 3000-DOF system: round-off, 1e-10 of |u| with room.
+    assert!(worst < 1e-10 * scale, "{worst:e} vs {scale:e}");
+    // The stress at every tet's every node (G⁻ᵀ∇_X N there) is the field's constant stress.
+    let strain = (gradient + gradient.transpose()) * 0.5;
+    let sigma = Matrix3::identity() * (material.lame_lambda() * strain.trace())
+        + strain * (2.0 * material.shear_modulus());
+    let stresses = tet_node_stress(&mesh, &material, &u).unwrap();
+    let worst = stresses
+        .iter()
+        .map(|s| (s - sigma).norm())
+        .fold(0.0, f64::max);
+    // The same round-off amplified by ∇N ~ 1/h and E: 1e-8 of |σ|.
+    assert!(
+        worst < 1e-8 * sigma.norm(),
+        "{worst:e} vs {:e}",
+        sigma.norm()
+    );
+}
+
+#[test]
+fn curved_mass_and_shape_integrals_sum_to_the_curved_volume() {
+    let mesh = bent_cube();
+    let density = 7800.0;
+    let mut volume = 0.0;
+    for t in 0..mesh.tet_count() {
+        let rest = Tet10::rest(&mesh, t);
+        let v = Tet10::volume(&rest);
+        volume += v;
+        let mass: f64 = (0..10)
+            .flat_map(|i| (0..10).map(move |j| (i, j)))
+            .map(|(i, j)| Tet10::mass_coefficient(&rest, density, i, j))
+            .sum();
+        let shape: f64 = (0..10).map(|i| Tet10::shape_integral(&rest, i)).sum();
+        // ΣNᵢ = 1 pointwise: Σᵢⱼ∫NᵢNⱼ = ∫1 = V by the same rule, to round-off.
+        assert!((mass - density * v).abs() < 1e-12 * density * v, "tet {t}");
+        assert!((shape - v).abs() < 1e-12 * v, "tet {t}");
+    }
+    // Moving interior edge nodes reshapes tets but not the cube: Σ V = 1 (det G's integrals
+    // over the shared curved faces cancel), to round-off.
+    assert!((volume - 1.0).abs() < 1e-12, "{volume}");
+}
+
+/// The 10-node mesh's volume Σ V.
+fn volume(mesh: &TetMesh<Tet10>) -> f64 {
+    (0..mesh.tet_count())
+        .map(|t| Tet10::volume(&Tet10::rest(mesh, t)))
+        .sum()
+}
+
+#[test]
+fn the_holes_volume_converges_at_h4_curved_and_h2_straight() {
+    let exact = (hole::L * hole::W - std::f64::consts::PI * hole::A * hole::A / 4.0) * hole::T;
+    // n = 1 (2 × 1 × 1 cells) folds: one cell spans the graded map's whole width.
+    let sizes = [2, 4, 8, 16];
+    let mut errors = Vec::new();
+    for &n in &sizes {
+        let h = Hole::new(n).unwrap();
+        let straight = (volume(&h.straight_mesh().unwrap()) - exact).abs() / exact;
+        let curved = (volume(&h.curved_mesh().unwrap()) - exact).abs() / exact;
+        eprintln!("volume n={n}: straight {straight:.3e}, curved {curved:.3e}");
+        errors.push((straight, curved));
+    }
+    for k in 1..sizes.len() {
+        let (s0, c0) = errors[k - 1];
+        let (s1, c1) = errors[k];
+        let (straight_rate, curved_rate) = ((s0 / s1).log2(), (c0 / c1).log2());
+        eprintln!(
+            "rates to n={}: straight {straight_rate:.3}, curved {curved_rate:.3}",
+            sizes[k]
+        );
+        // Halving the arc's chords: the polygon's lost area falls as h² (rate 2), the
+        // quadratic interpolant's as h⁴ (rate 4); ±0.3 for the first levels' higher terms.
+        assert!((straight_rate - 2.0).abs() < 0.3, "{straight_rate}");
+        assert!((curved_rate - 4.0).abs() < 0.3, "{curved_rate}");
+    }
+}
+
+/// σ_xx at (0, a, 0): the recovered nodal stress (Σₑ Vₑ σₑ(xₙ) / Σₑ Vₑ) at vertex 0.
+fn hole_stress(mesh: &TetMesh<Tet10>) -> f64 {
+    let material = Material::new(1e5, 0.3, 1.0).unwrap();
+    let mut constraints = Constraints::new(mesh);
+    for (n, p) in mesh.nodes().iter().enumerate() {
+        for axis in 0..3 {
+            if p[axis].abs() < 1e-9 {
+                constraints.prescribe_axis(n, axis, 0.0).unwrap();
+            }
+        }
+    }
+    let faces = mesh.faces_on_plane(&mesh.boundary_faces().unwrap(), 0, hole::L, 1e-9);
+    let mut loads = Loads::new(mesh);
+    loads
+        .add_traction(mesh, &faces, Vector3::new(1.0, 0.0, 0.0))
+        .unwrap();
+    let u = solve_static(mesh, &material, &constraints, &loads)
+        .unwrap()
+        .displacement;
+    let node_stress = tet_node_stress(mesh, &material, &u).unwrap();
+    recovered_nodal_stress(mesh, &node_stress).unwrap()[Hole::TARGET][(0, 0)]
+}
+
+#[test]
+fn the_hole_stress_on_curved_p2_matches_mfems_curved_p2() {
+    // MFEM curved P2 on the same meshes (validation/report/speed_accuracy_hole.csv, "MFEM
+    // curved", n = 2, 4, 6) and its order-4 reference.
+    let mfem = [
+        (2, 3.824911725853),
+        (4, 3.663602739962),
+        (6, 3.676075745050),
+    ];
+    let reference = 3.686591998;
+    let mut errors = Vec::new();
+    for (n, theirs) in mfem {
+        let h = Hole::new(n).unwrap();
+        let mesh = h.curved_mesh().unwrap();
+        let p = mesh.nodes()[Hole::TARGET];
+        assert!(
+            (p - Vector3::new(0.0, hole::A, 0.0)).norm() < 1e-15,
+            "{p:?}"
+        );
+        let ours = hole_stress(&mesh);
+        let straight = hole_stress(&h.straight_mesh().unwrap());
+        eprintln!(
+            "hole n={n}: curved {ours:.9} (error {:.3e}), MFEM curved {theirs:.9} (error {:.3e}), \
+             straight {straight:.9} (error {:.3e}), curved − MFEM {:.3e}",
+            (ours - reference).abs() / reference,
+            (theirs - reference).abs() / reference,
+            (straight - reference).abs() / reference,
+            (ours - theirs) / reference
+        );
+        errors.push((
+            n,
+            (ours - reference).abs() / reference,
+            (theirs - reference).abs() / reference,
+            (straight - reference).abs() / reference,
+            (ours - theirs).abs() / reference,
+        ));
+    }
+    for &(n, ours, theirs, straight, apart) in &errors[1..] {
+        // Same geometry (the quadratic interpolant of the same map at the same nodes), same
+        // space, same recovery: the two curved codes differ only by their quadrature of the
+        // rational stiffness (tetfem's degree-3 rule, MFEM's higher one), a higher-order term.
+        // So they agree better than either agrees with the reference: within 0.35 of MFEM's
+        // own error (measured 0.29 at n = 4, 0.18 at n = 6; n = 2, one cell through the
+        // thickness and the map's largest bends, is left out).
+        assert!(
+            apart < 0.35 * theirs,
+            "n={n}: {apart:e} vs MFEM's error {theirs:e}"
+        );
+        // Curving the hole is what the straight P2 lacked: its error is ≥ 5× the curved one.
+        assert!(
+            straight > 5.0 * ours,
+            "n={n}: straight {straight:e}, curved {ours:e}"
+        );
+    }
+    // The quadrature difference is of higher order than the error: from n = 4 to 6 it falls
+    // faster than the error does (measured 3.5× against 2.4×).
+    let (apart_ratio, error_ratio) = (errors[1].4 / errors[2].4, errors[1].1 / errors[2].1);
+    assert!(apart_ratio > error_ratio, "{apart_ratio} vs {error_ratio}");
+    // P2's point stress converges as h² (h ∝ 1/n): from n = 4 to 6 the error falls by about
+    // (6/4)² = 2.25; rate within [1.5, 3.5] allows the reference's own ~1e-4 error.
+    let rate = error_ratio.ln() / 1.5_f64.ln();
+    assert!((1.5..=3.5).contains(&rate), "rate {rate}");
+}
+
+#[test]
+fn a_folded_curved_tet_is_an_error_naming_the_tet_and_the_point() {
+    let corners = [Vector3::zeros(), Vector3::x(), Vector3::y(), Vector3::z()];
+    let linear = TetMesh::new(corners.to_vec(), vec![[0, 1, 2, 3]]).unwrap();
+    let straight = TetMesh::<Tet10>::from_linear(&linear).unwrap();
+    let edge_12 = straight.tets()[0][5];
+    let mut nodes = straight.nodes().to_vec();
+    // 0.2 edge lengths along edge (1, 2): dx/dt at corner 1 is (x₂ − x₁) + 4d, still forward.
+    nodes[edge_12] = Vector3::new(0.7, 0.3, 0.0);
+    let bent = TetMesh::<Tet10>::from_cells(nodes.clone(), straight.tets().to_vec()).unwrap();
+    assert!(Tet10::rest(&bent, 0).is_curved());
+    // 0.3 edge lengths: (x₂ − x₁) + 4d = (0.2, −0.2, 0) points backwards, the map folds at
+    // corner 1: det G = −0.2 there.
+    nodes[edge_12] = Vector3::new(0.8, 0.2, 0.0);
+    let err = TetMesh::<Tet10>::from_cells(nodes, straight.tets().to_vec()).unwrap_err();
+    assert!(matches!(err, Error::InvalidParameter { .. }), "{err}");
+    let text = err.to_string();
+    assert!(
+        text.contains("tet 0") && text.contains("at node 1") && text.contains("Jacobian"),
+        "{text}"
+    );
+}
+
+/// The x-resultant of a unit traction (1, 0, 0) on the faces of the hole (corners at r = a):
+/// their total area Σ∫ΣNᵢ dA.
+fn hole_area(mesh: &TetMesh<Tet10>) -> f64 {
+    let faces: Vec<_> = mesh
+        .boundary_faces()
+        .unwrap()
+        .into_iter()
+        .filter(|f| {
+            f.nodes.iter().all(|&n| {
+                let p = mesh.nodes()[n];
+                (p.x.hypot(p.y) - hole::A).abs() < 1e-9
+            })
+        })
+        .collect();
+    let mut loads = Loads::new(mesh);
+    loads
+        .add_traction(mesh, &faces, Vector3::new(1.0, 0.0, 0.0))
+        .unwrap();
+    loads.resultant().x
+}
+
+#[test]
+fn a_traction_on_the_curved_hole_loads_its_curved_area() {
+    // The quarter hole's lateral area (π/2)·a·T; a traction on the curved faces integrates
+    // over the quadratic surface (the degree-4 face rule), on straight faces over the polygon.
+    let exact = std::f64::consts::FRAC_PI_2 * hole::A * hole::T;
+    let mut previous: Option<(f64, f64)> = None;
+    for n in [2, 4, 8, 16] {
+        let h = Hole::new(n).unwrap();
+        let straight = (hole_area(&h.straight_mesh().unwrap()) - exact).abs() / exact;
+        let curved = (hole_area(&h.curved_mesh().unwrap()) - exact).abs() / exact;
+        eprintln!("hole area n={n}: straight {straight:.3e}, curved {curved:.3e}");
+        if let Some((s0, c0)) = previous {
+            let (straight_rate, curved_rate) = ((s0 / straight).log2(), (c0 / curved).log2());
+            eprintln!("  rates: straight {straight_rate:.3}, curved {curved_rate:.3}");
+            // Chords lose O(h²) of an arc's length; the quadratic interpolant O(h⁴) (±0.3 for
+            // the coarse levels' higher terms).
+            assert!((straight_rate - 2.0).abs() < 0.3, "{straight_rate}");
+            assert!((curved_rate - 4.0).abs() < 0.3, "{curved_rate}");
+        }
+        previous = Some((straight, curved));
+    }
+}
