@@ -439,9 +439,39 @@ impl<'a> MixedNeoHookeanEuler<'a> {
     /// degree-2 rule (four points of weight V/4 per tet: det F is cubic on a 10-node tet, so
     /// this is the rule's estimate, exact for an affine motion).
     pub fn deformed_volume(&self) -> f64 {
+        self.integrate(|_, f| f.determinant())
+    }
+
+    /// The stored energy of the mixed body (energy units) at the current state:
+    /// ∫ μ/2·(Ī₁ − 3) − p·(J − 1) − p²/(2κ) dV, which at a converged state, where
+    /// ∫ q·(J − 1 + p/κ) dV = 0 for every pressure q of the element's P1 space, p among them,
+    /// is ∫ μ/2·(Ī₁ − 3) dV (the degree-2 rule) + ∫ p²/(2κ) dV (exact on the linear p of a
+    /// tet: V/20·(Σpᵢ² + (Σpᵢ)²)/(2κ)). Not the pointwise κ/2·(J − 1)², which counts the parts
+    /// of J − 1 the pressure space does not see at the bulk modulus and overstates the energy.
+    pub fn elastic_energy(&self) -> f64 {
+        let shear = self.integrate(|t, f| {
+            let j = f.determinant();
+            let i1 = j.powf(-2.0 / 3.0) * (f.transpose() * f).trace();
+            0.5 * self.moduli[t].0 * (i1 - 3.0)
+        });
+        let volumetric: f64 = (self.mesh.tets().iter().zip(&self.rests))
+            .enumerate()
+            .map(|(t, (tet, rest))| {
+                let p = self.pressure_nodes.of_tet(tet).map(|c| self.p[c]);
+                let (sum, squares) = (p.iter().sum::<f64>(), p.iter().map(|x| x * x).sum::<f64>());
+                rest.volume() / 20.0 * (squares + sum * sum) * 0.5 * self.moduli[t].1
+            })
+            .sum();
+        shear + volumetric
+    }
+
+    /// Σ over tets t and the degree-2 rule's points of V/4·`density(t, F)` at the current
+    /// displacement.
+    fn integrate(&self, density: impl Fn(usize, &nalgebra::Matrix3<f64>) -> f64) -> f64 {
         let u = &self.u;
         (self.mesh.tets().iter().zip(&self.rests))
-            .map(|(tet, rest)| {
+            .enumerate()
+            .map(|(t, (tet, rest))| {
                 rest.gradients()
                     .iter()
                     .map(|gradients| {
@@ -450,7 +480,7 @@ impl<'a> MixedNeoHookeanEuler<'a> {
                             f += nalgebra::Vector3::new(u[3 * n], u[3 * n + 1], u[3 * n + 2])
                                 * g.transpose();
                         }
-                        f.determinant() * rest.volume() / 4.0
+                        density(t, &f) * rest.volume() / 4.0
                     })
                     .sum::<f64>()
             })

@@ -238,3 +238,14 @@ fn a_mixed_rubber_ball_keeps_its_volume_through_the_impact_where_p1_stiffens() {
     assert!(squash(&p1_nodes) < 0.8 * squash(&mixed));
     assert!(squash(&p1_same) < 0.8 * squash(&mixed));
 }
+
+#[test]
+fn the_shipped_ball_mesh_is_the_fixtures() {
+    let text = ball().quadratic_gmsh(4).unwrap();
+    crate::common::shipped_mesh::assert_shipped_gmsh(
+        "rubber_ball_drop.msh",
+        &text,
+        &ball().mesh(4).unwrap(),
+        &["surface"],
+    );
+}

@@ -860,6 +860,7 @@ fn report_dynamic<'p>(
             contact_forces: None,
             contact_barrier: None,
             time_stepping: None,
+            volume_change: None,
         };
         Ok(Some(summary.to_json()))
     };

@@ -34,7 +34,9 @@ impl Scene {
     /// What a mixed dynamic or modal scene asks that this front end does not run, named for
     /// the error of `analysis.formulation` (`None` for a static scene or a runnable one): a
     /// lumped mass (the mixed element's inertia is the consistent mass), and in a dynamic run
-    /// a model other than the linear one, an error-controlled step and checkpoints.
+    /// Rayleigh damping with the Neo-Hookean model, an error-controlled step and checkpoints
+    /// (the models and methods that combine are the library's
+    /// [`Combination`](tetfem::analysis::combination::Combination), checked before this).
     pub(crate) fn mixed_dynamics_refusal(&self) -> Option<String> {
         let mass = match self.analysis() {
             super::Analysis::Static => return None,
@@ -52,10 +54,12 @@ impl Scene {
             return None;
         }
         let tolerance = (self.spec.analysis.as_ref()).and_then(|a| a.get_ref().time_tolerance);
-        if self.model() != tetfem::model::ModelKind::Linear {
-            // The library's MixedNeoHookeanEuler; this front end runs the linear model.
+        let damped = matches!(self.analysis(), super::Analysis::Dynamic(d)
+            if d.damping.mass != 0.0 || d.damping.stiffness != 0.0);
+        if self.model() == tetfem::model::ModelKind::NeoHookean && damped {
+            // MixedNeoHookeanEuler steps the undamped body (backward Euler's own dissipation).
             Some(format!(
-                "model = \"{}\" in a dynamic scene (the linear model only here)",
+                "[analysis.damping] with model = \"{}\" (the mixed Neo-Hookean run is undamped)",
                 self.model().name()
             ))
         } else if tolerance.is_some() {

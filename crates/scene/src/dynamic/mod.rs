@@ -437,6 +437,11 @@ pub struct DynamicSummary {
     /// step, `steps` the accepted ones); absent (`None`, and not in the JSON) otherwise.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub time_stepping: Option<TimeStepping>,
+    /// A mixed Neo-Hookean run: the largest |∫J dV/V₀ − 1| over its states (the volume the
+    /// nearly incompressible body lost or gained); absent (`None`, and not in the JSON)
+    /// otherwise.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub volume_change: Option<f64>,
 }
 
 /// Free DOFs up to which a backward-Euler run checks its step against the lowest excited mode

@@ -467,5 +467,6 @@ fn close_run<E: SceneElement>(
             .as_ref()
             .map(super::super::DynamicContactBarrier::of),
         time_stepping: tally.time_stepping.clone(),
+        volume_change: None,
     })
 }
