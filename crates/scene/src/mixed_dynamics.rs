@@ -198,6 +198,48 @@ vtu_format = "ascii"
     }
 
     #[test]
+    fn the_shipped_rubber_ball_drop_keeps_its_volume_and_bounces() {
+        let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes/rubber_ball_drop.toml");
+        let scene = Scene::load(&path).unwrap();
+        // 30 of the 60 steps: the impact (the ball leaves the ground after 27 ms).
+        let summary = run_dynamic_scene(
+            &scene,
+            &DynamicOverrides {
+                length: Some(tetfem::analysis::transient::RunLength::Steps(30)),
+                ..DynamicOverrides::default()
+            },
+            false,
+            false,
+            &mut |_, _| ControlFlow::Continue(()),
+        )
+        .unwrap();
+        let change = summary.volume_change.unwrap();
+        let peak = summary.contact_forces.as_ref().unwrap()[0].peak_n;
+        let (start, end) = (summary.initial_energy.total, summary.final_energy.total);
+        println!(
+            "ball drop, 30 steps: |V/V0 − 1| ≤ {change:.3e}, peak ground force {peak:.4e} N, \
+             energy {start:.4e} → {end:.4e} J, {:?}",
+            summary.newton
+        );
+        // The issue's 1 % (the library's test measures 5.0e-5 on this mesh).
+        assert!(change < 0.01);
+        // The impact: far more than the ball's weight (3.92 kg·9.81 = 38 N) on the ground.
+        assert!(peak > 10.0 * 38.0);
+        // Backward Euler dissipates; the ball is in the air at 30 ms (no barrier energy left
+        // out of the total).
+        assert!(end < start);
+        // Rayleigh damping with the Neo-Hookean mixed run: refused by name.
+        let text = std::fs::read_to_string(&path).unwrap().replace(
+            "mass = \"consistent\"",
+            "mass = \"consistent\"\ndamping = { mass = 1.0 }",
+        );
+        let message = Scene::parse(&text, "ball.toml", path.parent().unwrap())
+            .unwrap_err()
+            .to_string();
+        assert!(message.contains("analysis.damping"), "{message}");
+    }
+
+    #[test]
     fn mixed_dynamics_refuses_what_it_does_not_run_naming_the_key() {
         for (from, to, culprit) in [
             (
