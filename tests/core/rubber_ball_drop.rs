@@ -105,6 +105,22 @@ fn mixed_drop(cells: usize) -> Drop {
     .with_velocity(&velocity)
     .unwrap();
     let rest = run.deformed_volume();
+    // Backward Euler's energy (kinetic + stored + gravity's −f·u + the barrier's) never rises.
+    let energy = |run: &MixedNeoHookeanEuler| {
+        let u = run.displacement();
+        let gravity: f64 = -loads
+            .as_slice()
+            .iter()
+            .zip(u)
+            .map(|(f, x)| f * x)
+            .sum::<f64>();
+        run.kinetic_energy().unwrap()
+            + run.elastic_energy()
+            + gravity
+            + run.contact().unwrap().energy(u).unwrap()
+    };
+    let start = energy(&run);
+    let mut previous = start;
     let mut drop = Drop {
         volume_change: 0.0,
         flattest: 1.0,
@@ -124,11 +140,20 @@ fn mixed_drop(cells: usize) -> Drop {
                 (top - bottom) / (2.0 * RADIUS)
             );
         }
+        let e = energy(&run);
+        // Newton's converged iterate (relative tolerance 1e-8) leaves round-off of ~1e-8 of
+        // the energy; 1e-6 of the start's 7.8 J still fails on any spurious energy source.
+        assert!(
+            e <= previous + 1e-6 * start,
+            "step {step}: energy {previous:e} -> {e:e}"
+        );
+        previous = e;
         drop.volume_change = drop.volume_change.max(change.abs());
         drop.flattest = drop.flattest.min((top - bottom) / (2.0 * RADIUS));
         drop.lowest = drop.lowest.min(gap).min(bottom);
     }
     drop.iterations = run.iterations();
+    println!("mixed energy {start:.6e} J -> {previous:.6e} J");
     drop
 }
 
