@@ -274,3 +274,73 @@ fn the_shipped_ball_mesh_is_the_fixtures() {
         &["surface"],
     );
 }
+
+#[test]
+fn the_mixed_contact_refuses_what_it_does_not_compute_by_name() {
+    use tetfem::analysis::combination::{Analysis, Combination, Formulation};
+    use tetfem::analysis::dynamics::Method;
+    let mesh = TetMesh::<Tet10>::from_linear(&ball().mesh(2).unwrap()).unwrap();
+    let material = rubber();
+    let run = || {
+        MixedNeoHookeanEuler::new(
+            &mesh,
+            &material,
+            &Constraints::new(&mesh),
+            &Loads::new(&mesh),
+            (DT, 1e-8),
+        )
+        .unwrap()
+    };
+    let parameters = ContactParameters::for_mesh(&mesh, material.youngs_modulus()).unwrap();
+    let rough = Contact::new(
+        &mesh,
+        vec![ground().with_friction(0.5).unwrap()],
+        parameters,
+    )
+    .unwrap();
+    let error = run().with_contact(rough).unwrap_err();
+    assert!(
+        matches!(&error, tetfem::Error::InvalidParameter { name, .. } if name == "obstacle ground friction"),
+        "{error}"
+    );
+    // The rule: obstacles with the Neo-Hookean backward Euler, frictionless; not with the
+    // linear model, Newmark or a static solve.
+    let allowed = Combination {
+        model: ModelKind::NeoHookean,
+        order: 2,
+        analysis: Analysis::Transient(Method::BackwardEuler),
+        obstacles: true,
+        formulation: Formulation::Mixed,
+        ..Combination::default()
+    };
+    assert!(allowed.check().is_ok());
+    for (combination, pair) in [
+        (
+            Combination {
+                friction: true,
+                ..allowed.clone()
+            },
+            "formulation mixed with friction",
+        ),
+        (
+            Combination {
+                model: ModelKind::Linear,
+                ..allowed.clone()
+            },
+            "formulation mixed with obstacles",
+        ),
+        (
+            Combination {
+                analysis: Analysis::Static,
+                ..allowed.clone()
+            },
+            "formulation mixed with obstacles",
+        ),
+    ] {
+        let error = combination.check().unwrap_err();
+        assert!(
+            matches!(&error, tetfem::Error::InvalidParameter { name, .. } if name == pair),
+            "{pair}: {error}"
+        );
+    }
+}
