@@ -1,6 +1,7 @@
 //! What the mixed (Taylor–Hood P2–P1) formulation's dynamic and modal scenes share
 //! (`formulation = "mixed"` with `type = "dynamic"`, backward Euler or Newmark with the linear
-//! model and the consistent mass, or `type = "modal"`): the scene's refusal of what their
+//! model and the consistent mass, backward Euler with the Neo-Hookean model and frictionless
+//! obstacles, or `type = "modal"`): the scene's refusal of what their
 //! runners do not run and the warnings they report. The runners are `dynamic::mixed` and
 //! `modal::mixed`, children of the runners that dispatch to them, so that neither depends on
 //! the other's module.
