@@ -105,15 +105,7 @@ pub(super) fn run_mixed_neo_hookean(
             (run.time(), &e, (low, high)),
             &u,
         );
-        let (gap, barrier) = match run.contact() {
-            Some(contact) => {
-                if let Some(f) = &mut forces {
-                    ContactForceHistory::record(f, &contact.obstacle_forces(&u)?, run.time());
-                }
-                (contact.smallest_gap(&u)?, contact.energy(&u)?)
-            }
-            None => (f64::INFINITY, 0.0),
-        };
+        let (gap, barrier) = contact_columns(&run, forces.as_deref_mut(), &u)?;
         rows.push_str(row.trim_end());
         rows.push_str(&format!(",{change:e},{gap:e},{barrier:e}\n"));
         if let Some(w) = &mut writer
@@ -181,20 +173,49 @@ pub(super) fn run_mixed_neo_hookean(
         volume_change: Some(volume_change),
     };
     if let Some(w) = writer {
-        let clock = Instant::now();
-        let mut files = w.finish()?;
-        if out.csv {
-            let csv = out.directory.join(format!("{}.csv", out.stem));
-            write_atomically(&csv, |f| f.write_all(rows.as_bytes()))?;
-            files.push(csv);
-        }
-        let json = out.directory.join(format!("{}_summary.json", out.stem));
-        summary.files = files.clone();
-        summary.files.push(json.clone());
-        write_atomically(&json, |f| writeln!(f, "{}", summary.to_json()))?;
-        summary.output_seconds += clock.elapsed().as_secs_f64();
+        write_outputs(scene, w, &rows, &mut summary)?;
     }
     Ok(summary)
+}
+
+/// The CSV's smallest gap to an obstacle (m; ∞ without obstacles) and barrier energy (J) at
+/// the full displacement `u`, recording the obstacles' forces in `forces`.
+fn contact_columns(
+    run: &MixedNeoHookeanEuler,
+    forces: Option<&mut [ContactForceHistory]>,
+    u: &[f64],
+) -> Result<(f64, f64)> {
+    let Some(contact) = run.contact() else {
+        return Ok((f64::INFINITY, 0.0));
+    };
+    if let Some(f) = forces {
+        ContactForceHistory::record(f, &contact.obstacle_forces(u)?, run.time());
+    }
+    Ok((contact.smallest_gap(u)?, contact.energy(u)?))
+}
+
+/// Writes the frames' `.pvd`, the CSV `rows` and the summary's JSON, listing them in
+/// `summary.files`.
+fn write_outputs(
+    scene: &Scene,
+    writer: FrameFiles,
+    rows: &str,
+    summary: &mut DynamicSummary,
+) -> Result<()> {
+    let out = scene.output();
+    let clock = Instant::now();
+    let mut files = writer.finish()?;
+    if out.csv {
+        let csv = out.directory.join(format!("{}.csv", out.stem));
+        write_atomically(&csv, |f| f.write_all(rows.as_bytes()))?;
+        files.push(csv);
+    }
+    let json = out.directory.join(format!("{}_summary.json", out.stem));
+    summary.files = files;
+    summary.files.push(json.clone());
+    write_atomically(&json, |f| writeln!(f, "{}", summary.to_json()))?;
+    summary.output_seconds += clock.elapsed().as_secs_f64();
+    Ok(())
 }
 
 /// The energies of `run`'s state: ½vᵀMv, the stored energy
