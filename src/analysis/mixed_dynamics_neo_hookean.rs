@@ -14,12 +14,24 @@
 //! done once) with a backtracking line search on the static solve's merit ‖(R_u, (μ/ℓ)·R_p)‖
 //! (see [`mixed_nonlinear`](crate::analysis::mixed_nonlinear): the mixed energy is a saddle,
 //! no merit). Constant loads and fixed supports; the consistent mass.
+//!
+//! Rigid obstacles ([`with_contact`](MixedNeoHookeanEuler::with_contact)): the IPC barrier
+//! E_c(u) of [`crate::contact`] is added to the step's potential in the displacement unknowns
+//! only, so R_u gains ∂E_c/∂u and the first block of the tangent its Hessian projected PSD
+//! (the displacement dynamics' own [`Contact::add_force`] and [`Contact::add_tangent`]); the
+//! pressure block is unchanged, and the tangent stays quasi-definite (M/dt² + K_uu + H_c with
+//! H_c ⪰ 0). Every iterate stays outside every obstacle: the predictor and each Newton step are
+//! cut to [`first_step_fraction`] of the first time of impact ([`Contact::max_step`]) before the
+//! line search halves them, so no accepted iterate crosses (the merit cannot tell a crossing
+//! apart, the energy being a saddle). Frictionless, still obstacles: friction and obstacle
+//! motion are refused by name.
 
 use crate::analysis::mixed_statics::{nodal_pressure, saddle_point_matrix};
 use crate::analysis::problem::Problem;
 use crate::base::error::{Error, Result};
 use crate::bc::constraints::{Constraints, DofMap};
 use crate::bc::loads::Loads;
+use crate::contact::{Contact, first_step_fraction};
 use crate::fe::element::taylor_hood::{PRESSURE_NODES, PressureNodes, pressure_mass};
 use crate::fe::element::taylor_hood_neo_hookean::{MixedElementState, mixed_neo_hookean};
 use crate::fe::element::tet10::Tet10Rest;
@@ -62,6 +74,8 @@ pub struct MixedNeoHookeanEuler<'a> {
     p: Vec<f64>,
     time: f64,
     iterations: usize,
+    /// Rigid obstacles the boundary nodes meet (none by default).
+    contact: Option<Contact>,
 }
 
 impl std::fmt::Debug for MixedNeoHookeanEuler<'_> {
@@ -135,6 +149,7 @@ impl<'a> MixedNeoHookeanEuler<'a> {
             u,
             time: 0.0,
             iterations: 0,
+            contact: None,
         };
         let (u, p) = (stepper.u.clone(), stepper.p.clone());
         let Some(states) = stepper.states(&u, &p) else {
@@ -144,7 +159,7 @@ impl<'a> MixedNeoHookeanEuler<'a> {
                 "invert a tet of the mixed Neo-Hookean body at the start",
             ));
         };
-        let tangent = stepper.tangent(&states)?;
+        let tangent = stepper.tangent(&u, &states)?;
         let free = stepper.problem.dofs().free_count();
         stepper.ldlt = Some(QuasiDefiniteLdlt::analyze(
             &tangent,
@@ -186,6 +201,14 @@ impl<'a> MixedNeoHookeanEuler<'a> {
                 pressure_residual[c] += r;
             }
         }
+        if let Some(contact) = &self.contact {
+            // R_u gains ∂E_c/∂u = −(the contact force).
+            let mut push = vec![0.0; internal.len()];
+            contact.add_force(u, &mut push)?;
+            for (r, f) in internal.iter_mut().zip(&push) {
+                *r -= f;
+            }
+        }
         let dofs = self.problem.dofs();
         let mut r = dofs.restrict(&internal)?;
         // Inertia: M·(u⁺ − u − dt·v)/dt².
@@ -201,14 +224,18 @@ impl<'a> MixedNeoHookeanEuler<'a> {
         Ok(r)
     }
 
-    /// The step's tangent [M/dt² + K_uu, −Gᵀ; −G, −M_p/κ] at the element states.
-    fn tangent(&self, states: &[MixedElementState]) -> Result<CscMatrix> {
+    /// The step's tangent [M/dt² + K_uu + H_c, −Gᵀ; −G, −M_p/κ] at the full displacement `u`
+    /// and its element states (H_c: the obstacles' barrier Hessian, projected PSD).
+    fn tangent(&self, u: &[f64], states: &[MixedElementState]) -> Result<CscMatrix> {
         let mut stiffness = self.problem.zero_matrix()?;
         self.problem.assembler().reassemble_elements(
             self.mesh,
             |t| states[t].stiffness,
             &mut stiffness,
         )?;
+        if let Some(contact) = &self.contact {
+            contact.add_tangent(u, true, &mut stiffness)?;
+        }
         let mut free = self.problem.restrict(&stiffness)?;
         let c = 1.0 / (self.dt * self.dt);
         // M_ff is on the pattern of K_ff (both restricted from the assembly pattern).
@@ -247,8 +274,13 @@ impl<'a> MixedNeoHookeanEuler<'a> {
         let free = dofs.free_count();
         // Predictor: the step's start moved on by dt·v (the pressure kept).
         let mut u = self.u.clone();
+        // With obstacles, the predictor stops short of the first impact along dt·v.
+        let reach = match &self.contact {
+            Some(contact) => first_step_fraction(contact.max_step(&self.u, &self.full(&self.v))?),
+            None => 1.0,
+        };
         for (k, &dof) in dofs.free_dofs().iter().enumerate() {
-            u[dof] += self.dt * self.v[k];
+            u[dof] += reach * self.dt * self.v[k];
         }
         let mut p = self.p.clone();
         let mut states = match self.states(&u, &p) {
@@ -272,7 +304,7 @@ impl<'a> MixedNeoHookeanEuler<'a> {
                 )));
             }
             iterations += 1;
-            let tangent = self.tangent(&states)?;
+            let tangent = self.tangent(&u, &states)?;
             let Some(ldlt) = self.ldlt.as_mut() else {
                 return Err(Error::Solver(
                     "the mixed step's tangent was not analysed".into(),
@@ -289,7 +321,11 @@ impl<'a> MixedNeoHookeanEuler<'a> {
             {
                 break;
             }
-            let mut alpha = 1.0;
+            // No trial crosses an obstacle: the step starts at 0.8 of the first impact.
+            let mut alpha = match &self.contact {
+                Some(contact) => first_step_fraction(contact.max_step(&u, &self.full(&delta))?),
+                None => 1.0,
+            };
             let mut accepted = false;
             for _ in 0..=MAX_HALVINGS {
                 let mut trial_u = u.clone();
@@ -327,6 +363,16 @@ impl<'a> MixedNeoHookeanEuler<'a> {
         Ok(iterations)
     }
 
+    /// The full-length vector of the free entries `free[..free_count]` (0 on the constrained
+    /// DOFs: a step or a velocity, not a displacement).
+    fn full(&self, free: &[f64]) -> Vec<f64> {
+        let mut full = vec![0.0; self.u.len()];
+        for (&dof, x) in self.problem.dofs().free_dofs().iter().zip(free) {
+            full[dof] = *x;
+        }
+        full
+    }
+
     fn not_converged(&self, message: String) -> Error {
         Error::NotConverged {
             method: "Newton's method (mixed Neo-Hookean backward Euler)".into(),
@@ -335,6 +381,116 @@ impl<'a> MixedNeoHookeanEuler<'a> {
                 self.time + self.dt
             ),
         }
+    }
+
+    /// The body meeting the rigid obstacles of `contact` (built on this mesh; see the
+    /// [module](self) docs), frictionless and still.
+    ///
+    /// Errors, before any step: an obstacle with friction or a motion (named); the body at its
+    /// current state on or inside an obstacle ([`Contact::check_state`]).
+    pub fn with_contact(mut self, contact: Contact) -> Result<Self> {
+        if let Some(o) = contact.obstacles().iter().find(|o| o.friction() > 0.0) {
+            return Err(Error::invalid_parameter(
+                format!("obstacle {} friction", o.name()),
+                o.friction(),
+                "must be 0 with the mixed Neo-Hookean backward Euler (frictionless obstacles \
+                 only)",
+            ));
+        }
+        if let Some(o) = contact
+            .obstacles()
+            .iter()
+            .find(|o| o.motion().is_some() || o.spin().is_some())
+        {
+            return Err(Error::invalid_parameter(
+                format!("obstacle {} motion", o.name()),
+                "moving",
+                "the mixed Neo-Hookean backward Euler takes still obstacles only",
+            ));
+        }
+        contact.check_state(&self.u)?;
+        self.contact = Some(contact);
+        Ok(self)
+    }
+
+    /// The body starting with the velocity `velocity` (length/time, every DOF: the entries of
+    /// the constrained DOFs are ignored, they are held).
+    ///
+    /// Errors: `velocity` not of the mesh's DOF count or not finite (naming the DOF).
+    pub fn with_velocity(mut self, velocity: &[f64]) -> Result<Self> {
+        Error::check_len("velocity", self.u.len(), velocity.len())?;
+        if let Some(dof) = velocity.iter().position(|v| !v.is_finite()) {
+            return Err(Error::invalid_parameter(
+                format!("velocity[{dof}]"),
+                velocity[dof],
+                "must be finite",
+            ));
+        }
+        self.v = self.problem.dofs().restrict(velocity)?;
+        Ok(self)
+    }
+
+    /// The obstacles the body meets, if any.
+    pub fn contact(&self) -> Option<&Contact> {
+        self.contact.as_ref()
+    }
+
+    /// The deformed volume ∫ det F dV (length³) at the current displacement, by the element's
+    /// degree-2 rule (four points of weight V/4 per tet: det F is cubic on a 10-node tet, so
+    /// this is the rule's estimate, exact for an affine motion).
+    pub fn deformed_volume(&self) -> f64 {
+        self.integrate(|_, f| f.determinant())
+    }
+
+    /// The stored energy of the mixed body (energy units) at the current state:
+    /// ∫ μ/2·(Ī₁ − 3) − p·(J − 1) − p²/(2κ) dV, which at a converged state, where
+    /// ∫ q·(J − 1 + p/κ) dV = 0 for every pressure q of the element's P1 space, p among them,
+    /// is ∫ μ/2·(Ī₁ − 3) dV (the degree-2 rule) + ∫ p²/(2κ) dV (exact on the linear p of a
+    /// tet: V/20·(Σpᵢ² + (Σpᵢ)²)/(2κ)). Not the pointwise κ/2·(J − 1)², which counts the parts
+    /// of J − 1 the pressure space does not see at the bulk modulus and overstates the energy.
+    pub fn elastic_energy(&self) -> f64 {
+        let shear = self.integrate(|t, f| {
+            let j = f.determinant();
+            let i1 = j.powf(-2.0 / 3.0) * (f.transpose() * f).trace();
+            0.5 * self.moduli[t].0 * (i1 - 3.0)
+        });
+        let volumetric: f64 = (self.mesh.tets().iter().zip(&self.rests))
+            .enumerate()
+            .map(|(t, (tet, rest))| {
+                let p = self.pressure_nodes.of_tet(tet).map(|c| self.p[c]);
+                let (sum, squares) = (p.iter().sum::<f64>(), p.iter().map(|x| x * x).sum::<f64>());
+                rest.volume() / 20.0 * (squares + sum * sum) * 0.5 * self.moduli[t].1
+            })
+            .sum();
+        shear + volumetric
+    }
+
+    /// Σ over tets t and the degree-2 rule's points of V/4·`density(t, F)` at the current
+    /// displacement.
+    fn integrate(&self, density: impl Fn(usize, &nalgebra::Matrix3<f64>) -> f64) -> f64 {
+        let u = &self.u;
+        (self.mesh.tets().iter().zip(&self.rests))
+            .enumerate()
+            .map(|(t, (tet, rest))| {
+                rest.gradients()
+                    .iter()
+                    .map(|gradients| {
+                        let mut f = nalgebra::Matrix3::identity();
+                        for (g, &n) in gradients.iter().zip(tet) {
+                            f += nalgebra::Vector3::new(u[3 * n], u[3 * n + 1], u[3 * n + 2])
+                                * g.transpose();
+                        }
+                        density(t, &f) * rest.volume() / 4.0
+                    })
+                    .sum::<f64>()
+            })
+            .sum()
+    }
+
+    /// The kinetic energy ½·vᵀ·M·v of the free DOFs (energy units).
+    pub fn kinetic_energy(&self) -> Result<f64> {
+        let mv = self.mass.mul(&self.v)?;
+        Ok(0.5 * self.v.iter().zip(&mv).map(|(a, b)| a * b).sum::<f64>())
     }
 
     /// Displacement of every DOF (length).

@@ -61,6 +61,7 @@ mod properties;
 mod quadratic_mesh_io;
 mod region_models;
 mod restart;
+mod rubber_ball_drop;
 mod self_contact_bvh;
 mod self_contact_ccd;
 mod self_contact_distance;

@@ -861,6 +861,7 @@ fn report_dynamic<'p>(
             contact_barrier: None,
             time_stepping: None,
             accuracy: None,
+            volume_change: None,
         };
         Ok(Some(summary.to_json()))
     };

@@ -34,7 +34,9 @@ const MIXED_NEEDS: &str = "formulation = \"mixed\" is for static scenes with the
                            (backward_euler, newmark) and modal scenes with the linear model and \
                            mass = \"consistent\" on 10-node tets ([mesh] order = 2; fixed \
                            supports, constant loads, no probes, time_tolerance or checkpoints), \
-                           on tetfem's own engine, without obstacles, accuracy or point probes";
+                           dynamic ones also with the Neo-Hookean model in backward_euler \
+                           (undamped; frictionless still [[obstacles]] allowed), on tetfem's own \
+                           engine, without other obstacles, accuracy or point probes";
 
 impl Scene {
     /// The scene's formulation (checked when the scene was read).

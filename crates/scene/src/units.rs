@@ -54,6 +54,7 @@ pub(crate) const DYNAMIC: &[(&str, &str)] = &[
     ("time_stepping.dt_min", "s"),
     ("time_stepping.dt_max", "s"),
     ("time_stepping.output_interval", "s"),
+    ("volume_change", "1"),
 ];
 
 /// Units of a static run's summary.

@@ -1,5 +1,6 @@
 //! The mixed (Taylor–Hood P2–P1) formulation's dynamic scenes: `formulation = "mixed"` with
-//! `type = "dynamic"` (backward Euler or Newmark, the linear model, the consistent mass). The
+//! `type = "dynamic"` (backward Euler or Newmark, the linear model, the consistent mass; the
+//! Neo-Hookean model in backward Euler, with obstacles, is [`neo_hookean`]'s). The
 //! library computes ([`mixed_transient_model`]); this file reads the scene's keys, steps, and
 //! writes what a user opens: `<stem>.pvd` with a `.vtu` per frame (point fields
 //! `displacement`, m, and `pressure`, Pa), `<stem>.csv` (time, energies, pressure range, each
@@ -19,6 +20,8 @@ use tetfem::fe::element::Tet10;
 use tetfem::post::output::{OutputLock, PvdCollection, VtuWriter, write_atomically};
 
 use super::{DynamicOverrides, DynamicSummary, EnergyTerms};
+
+mod neo_hookean;
 use crate::mixed_dynamics::mixed_warnings;
 use crate::{DynamicSettings, ProbeRange, Scene};
 
@@ -33,6 +36,9 @@ pub(crate) fn run_mixed_dynamic(
     lock: Option<OutputLock>,
     progress: &mut dyn FnMut(usize, usize) -> ControlFlow<()>,
 ) -> Result<DynamicSummary> {
+    if scene.model() == tetfem::model::ModelKind::NeoHookean {
+        return neo_hookean::run_mixed_neo_hookean(scene, settings, overrides, lock, progress);
+    }
     let method = overrides.method.unwrap_or(settings.method);
     let dt = seconds_step(overrides, settings)?;
     let steps = overrides
@@ -153,6 +159,7 @@ pub(crate) fn run_mixed_dynamic(
         contact_barrier: None,
         time_stepping: None,
         accuracy: None,
+        volume_change: None,
     };
     if let Some(w) = writer {
         let clock = Instant::now();

@@ -444,6 +444,11 @@ pub struct DynamicSummary {
     /// absent (`None`, and not in the JSON) otherwise.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub accuracy: Option<DynamicAccuracy>,
+    /// A mixed Neo-Hookean run: the largest |∫J dV/V₀ − 1| over its states (the volume the
+    /// nearly incompressible body lost or gained); absent (`None`, and not in the JSON)
+    /// otherwise.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub volume_change: Option<f64>,
 }
 
 /// Free DOFs up to which a backward-Euler run checks its step against the lowest excited mode

@@ -468,5 +468,6 @@ fn close_run<E: SceneElement>(
             .map(super::super::DynamicContactBarrier::of),
         time_stepping: tally.time_stepping.clone(),
         accuracy: None,
+        volume_change: None,
     })
 }

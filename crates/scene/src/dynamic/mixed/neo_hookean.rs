@@ -1,0 +1,263 @@
+//! The mixed formulation's Neo-Hookean dynamic scenes: `formulation = "mixed"`, `type =
+//! "dynamic"`, `model = "neo_hookean"`, `method = "backward_euler"`, with or without
+//! frictionless still `[[obstacles]]` (the library's
+//! [`MixedNeoHookeanEuler`](tetfem::analysis::mixed_dynamics_neo_hookean::MixedNeoHookeanEuler);
+//! what combines is the library's [`Combination`](tetfem::analysis::combination::Combination),
+//! checked when the scene was read). Writes what the linear mixed run writes (frames with the
+//! point field `pressure`, the CSV, the summary), and per state the volume change
+//! ∫J dV/V₀ − 1, the smallest gap to an obstacle and the barrier's energy; the summary's
+//! `volume_change` is the largest |∫J dV/V₀ − 1| of the run.
+
+use std::ops::ControlFlow;
+use std::time::Instant;
+
+use tetfem::Loads;
+use tetfem::analysis::dynamics::{LinearSystem, MassKind, Rayleigh, critical_time_step};
+use tetfem::analysis::mixed_analysis::mixed_neo_hookean_euler_model;
+use tetfem::analysis::mixed_dynamics_neo_hookean::MixedNeoHookeanEuler;
+use tetfem::analysis::transient::RunLength;
+use tetfem::base::error::{Error, Result};
+use tetfem::fe::element::Tet10;
+use tetfem::post::output::{OutputLock, write_atomically};
+
+use super::super::{DynamicOverrides, DynamicSummary, EnergyTerms};
+use super::{FrameFiles, csv_row, csv_start, seconds_step};
+use crate::dynamic_contact::ContactForceHistory;
+use crate::mixed_dynamics::mixed_warnings;
+use crate::{DynamicSettings, Scene};
+
+/// The Neo-Hookean mixed dynamic scene (see the [module](self) docs): as
+/// [`run_mixed_dynamic`](super::run_mixed_dynamic), from the undeformed state with
+/// `initial_velocity`.
+pub(super) fn run_mixed_neo_hookean(
+    scene: &Scene,
+    settings: &DynamicSettings,
+    overrides: &DynamicOverrides,
+    lock: Option<OutputLock>,
+    progress: &mut dyn FnMut(usize, usize) -> ControlFlow<()>,
+) -> Result<DynamicSummary> {
+    let dt = seconds_step(overrides, settings)?;
+    let steps = overrides
+        .length
+        .unwrap_or(RunLength::Duration(settings.duration))
+        .steps(dt)?;
+    let clock = Instant::now();
+    let built = scene.build_as::<Tet10>()?;
+    let mesh = &built.mesh;
+    let mut gravity = Loads::new(mesh);
+    gravity.add_gravity(mesh, &built.materials, built.gravity)?;
+    let mut loads = built.other_loads.clone();
+    loads.add_scaled(&gravity, 1.0)?;
+    let mut run = mixed_neo_hookean_euler_model(
+        mesh,
+        &built.materials,
+        (&built.constraints, &loads),
+        (dt, settings.newton_tolerance),
+    )?;
+    if scene.has_obstacles() {
+        run = run.with_contact(crate::dynamic_contact::scene_contact(scene, &built)?)?;
+    }
+    let v0: Vec<f64> = (0..mesh.dof_count())
+        .map(|dof| settings.initial_velocity[dof % 3])
+        .collect();
+    run = run.with_velocity(&v0)?;
+    let (critical, critical_source) = critical_step(scene, &built)?;
+    let setup_seconds = clock.elapsed().as_secs_f64();
+    let rest_volume = run.deformed_volume();
+    let energy = |run: &MixedNeoHookeanEuler| energy_terms(run, &gravity, &built.other_loads);
+    let initial_energy = energy(&run)?;
+    let out = scene.output();
+    let mut writer = lock.as_ref().map(|_| FrameFiles::new(scene));
+    let (header, mut probes) = csv_start(&built.probes);
+    let mut rows = format!(
+        "{},volume_change_1,smallest_gap_m,contact_energy_J\n",
+        header.trim_end()
+    );
+    let mut forces = run.contact().map(ContactForceHistory::start);
+    let (mut step_seconds, mut first_step_seconds, mut output_seconds) = (0.0, 0.0, 0.0);
+    let (mut volume_change, mut most_iterations, mut last_step): (f64, usize, usize) = (0.0, 0, 0);
+    for step in 0..=steps {
+        if step > 0 {
+            let clock = Instant::now();
+            last_step = run.step()?;
+            most_iterations = most_iterations.max(last_step);
+            let seconds = clock.elapsed().as_secs_f64();
+            if step == 1 {
+                first_step_seconds = seconds;
+            }
+            step_seconds += seconds;
+        }
+        let clock = Instant::now();
+        let e = energy(&run)?;
+        let pressure = run.pressure();
+        let (low, high) = pressure
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &p| {
+                (a.min(p), b.max(p))
+            });
+        let u = run.displacement().to_vec();
+        let change = run.deformed_volume() / rest_volume - 1.0;
+        volume_change = volume_change.max(change.abs());
+        let mut row = String::new();
+        csv_row(
+            (&mut row, &mut probes),
+            &built.probes,
+            (run.time(), &e, (low, high)),
+            &u,
+        );
+        let (gap, barrier) = contact_columns(&run, forces.as_deref_mut(), &u)?;
+        rows.push_str(row.trim_end());
+        rows.push_str(&format!(",{change:e},{gap:e},{barrier:e}\n"));
+        if let Some(w) = &mut writer
+            && (step % out.every == 0 || step == steps)
+        {
+            w.frame(mesh, run.time(), &u, &pressure)?;
+        }
+        output_seconds += clock.elapsed().as_secs_f64();
+        if step > 0 && progress(step, steps).is_break() {
+            return Err(Error::Interrupted {
+                step,
+                time: run.time(),
+                frames: writer.as_ref().map_or(0, |w| w.frames.len()),
+            });
+        }
+    }
+    let final_energy = energy(&run)?;
+    let mut summary = DynamicSummary {
+        warnings: mixed_warnings(scene, &built)?
+            .into_iter()
+            .chain(lock.as_ref().and_then(OutputLock::warning))
+            .collect(),
+        title: scene.title(),
+        scene: scene.source_name().to_string(),
+        analysis: "dynamic (mixed)".into(),
+        method: "backward-euler".into(),
+        nodes: mesh.node_count(),
+        tets: mesh.tet_count(),
+        free_dofs: built.constraints.dof_count() - built.constraints.count(),
+        dt,
+        critical_step: critical,
+        critical_step_source: critical_source,
+        dt_over_critical: dt / critical,
+        steps,
+        end_time: run.time(),
+        setup_seconds,
+        first_step_seconds,
+        mean_step_seconds: step_seconds / steps as f64,
+        step_seconds,
+        output_seconds,
+        initial_energy,
+        final_energy,
+        probes,
+        reactions: Vec::new(),
+        frames: writer.as_ref().map_or(0, |w| w.frames.len()),
+        files: Vec::new(),
+        model: scene.model().name().into(),
+        newton: Some(tetfem::analysis::dynamics::NewtonStats {
+            steps,
+            total_iterations: run.iterations(),
+            max_per_step: most_iterations,
+            last_step,
+            // Each iteration factors the saddle-point tangent once.
+            factorizations: run.iterations(),
+            ..Default::default()
+        }),
+        estimated_error: None,
+        estimate_seconds: 0.0,
+        deformation: None,
+        step_resolution: None,
+        resumed_from_step: None,
+        contact_forces: forces,
+        contact_barrier: None,
+        time_stepping: None,
+        volume_change: Some(volume_change),
+        accuracy: None,
+    };
+    if let Some(w) = writer {
+        write_outputs(scene, w, &rows, &mut summary)?;
+    }
+    Ok(summary)
+}
+
+/// The CSV's smallest gap to an obstacle (m; ∞ without obstacles) and barrier energy (J) at
+/// the full displacement `u`, recording the obstacles' forces in `forces`.
+fn contact_columns(
+    run: &MixedNeoHookeanEuler,
+    forces: Option<&mut [ContactForceHistory]>,
+    u: &[f64],
+) -> Result<(f64, f64)> {
+    let Some(contact) = run.contact() else {
+        return Ok((f64::INFINITY, 0.0));
+    };
+    if let Some(f) = forces {
+        ContactForceHistory::record(f, &contact.obstacle_forces(u)?, run.time());
+    }
+    Ok((contact.smallest_gap(u)?, contact.energy(u)?))
+}
+
+/// Writes the frames' `.pvd`, the CSV `rows` and the summary's JSON, listing them in
+/// `summary.files`.
+fn write_outputs(
+    scene: &Scene,
+    writer: FrameFiles,
+    rows: &str,
+    summary: &mut DynamicSummary,
+) -> Result<()> {
+    let out = scene.output();
+    let clock = Instant::now();
+    let mut files = writer.finish()?;
+    if out.csv {
+        let csv = out.directory.join(format!("{}.csv", out.stem));
+        write_atomically(&csv, |f| f.write_all(rows.as_bytes()))?;
+        files.push(csv);
+    }
+    let json = out.directory.join(format!("{}_summary.json", out.stem));
+    summary.files = files;
+    summary.files.push(json.clone());
+    write_atomically(&json, |f| writeln!(f, "{}", summary.to_json()))?;
+    summary.output_seconds += clock.elapsed().as_secs_f64();
+    Ok(())
+}
+
+/// The energies of `run`'s state: ½vᵀMv, the stored energy
+/// ([`MixedNeoHookeanEuler::elastic_energy`]), gravity's −f_g·u (`gravity` its nodal loads)
+/// and the other loads' −f·u; the barrier's energy is the CSV's own column, as in the
+/// displacement runs.
+fn energy_terms(run: &MixedNeoHookeanEuler, gravity: &Loads, other: &Loads) -> Result<EnergyTerms> {
+    let u = run.displacement();
+    let work = |loads: &Loads| -> f64 {
+        -(loads.as_slice().iter().zip(u))
+            .map(|(f, x)| f * x)
+            .sum::<f64>()
+    };
+    let (kinetic, elastic) = (run.kinetic_energy()?, run.elastic_energy());
+    let (gravity_potential, load_potential) = (work(gravity), work(other));
+    Ok(EnergyTerms {
+        kinetic,
+        elastic,
+        gravity_potential,
+        load_potential,
+        total: kinetic + elastic + gravity_potential + load_potential,
+    })
+}
+
+/// The explicit critical step (s) of the scene's body and how it was found, for the summary: a
+/// body with obstacles may be held by them alone (a dropped ball), so its lumped system is the
+/// free body's ([`LinearSystem::new_free_body`]).
+fn critical_step(scene: &Scene, built: &crate::BuiltScene<Tet10>) -> Result<(f64, String)> {
+    if !scene.has_obstacles() {
+        let report = crate::critical_step_of(built)?;
+        return Ok((report.seconds, report.source));
+    }
+    let system = LinearSystem::new_free_body(
+        &built.mesh,
+        &built.materials,
+        &built.constraints,
+        &built.other_loads,
+        built.gravity,
+        MassKind::Lumped,
+        Rayleigh::default(),
+    )?;
+    let step = critical_time_step(&system)?;
+    Ok((step.dt, step.certificate.source().to_string()))
+}
