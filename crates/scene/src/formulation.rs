@@ -11,7 +11,6 @@ use tetfem::analysis::Combination;
 use tetfem::analysis::mixed_analysis::MixedStaticElement;
 use tetfem::base::error::{Error, Result};
 use tetfem::base::warning::Warning;
-use tetfem::fe::element::taylor_hood::tets_without_an_interior_corner;
 use tetfem::fe::element::{Tet4, Tet10};
 use tetfem::mesh::NodeList;
 use tetfem::model::ModelMap;
@@ -200,19 +199,11 @@ fn run_mixed_on<E: SceneElement + MixedStaticElement>(
         .collect();
     summary.warnings.retain(|w| !locking.contains(w));
     // P2–P1's stability condition; the stabilized P1–P1 has none.
-    let unstable = match <E as MixedStaticElement>::ORDER {
-        2 => tets_without_an_interior_corner(&built.mesh)?,
-        _ => Vec::new(),
-    };
-    if !unstable.is_empty() && unstable.len() == built.mesh.tet_count() {
-        summary.warnings.push(format!(
-            "formulation = \"mixed\": none of the {} tets has a corner inside the body (a mesh \
-             one tet thick), so the P2–P1 element's stability condition (every tet with an \
-             interior corner, Boffi 1997) does not hold and the pressure may oscillate; mesh \
-             at least two tets through the thinnest part",
-            unstable.len()
-        ));
-    }
+    summary.warnings.extend(
+        tetfem::analysis::mixed_statics::mixed_mesh_warnings(&built.mesh)?
+            .iter()
+            .map(|w| w.to_string()),
+    );
     if !options.no_files {
         let clock = Instant::now();
         summary.files = write_mixed_outputs(
