@@ -116,20 +116,11 @@ pub(crate) fn run_mixed_dynamic(
     }
     let final_energy = energy(&run)?;
     let mut summary = DynamicSummary {
-        warnings: mixed_warnings(scene, &built)?
-            .into_iter()
-            .chain(lock.as_ref().and_then(OutputLock::warning))
-            .collect(),
-        title: scene.title(),
-        scene: scene.source_name().to_string(),
-        analysis: "dynamic (mixed)".into(),
         method: match method {
             tetfem::analysis::dynamics::Method::Newmark => "newmark",
             _ => "backward-euler",
         }
         .into(),
-        nodes: mesh.node_count(),
-        tets: mesh.tet_count(),
         free_dofs: dofs.free_count(),
         dt,
         critical_step: critical.seconds,
@@ -145,8 +136,51 @@ pub(crate) fn run_mixed_dynamic(
         initial_energy,
         final_energy,
         probes,
-        reactions: Vec::new(),
         frames: writer.as_ref().map_or(0, |w| w.frames.len()),
+        ..summary_base(scene, &built, lock.as_ref())?
+    };
+    if let Some(w) = writer {
+        write_outputs(scene, w, &rows, &mut summary)?;
+    }
+    Ok(summary)
+}
+
+/// The summary fields every mixed dynamic run fills alike (the scene's, the mesh's, the
+/// warnings, none of the displacement runs' estimates); each runner sets its own measurements
+/// over it.
+fn summary_base(
+    scene: &Scene,
+    built: &crate::BuiltScene<Tet10>,
+    lock: Option<&OutputLock>,
+) -> Result<DynamicSummary> {
+    Ok(DynamicSummary {
+        warnings: mixed_warnings(scene, built)?
+            .into_iter()
+            .chain(lock.and_then(OutputLock::warning))
+            .collect(),
+        title: scene.title(),
+        scene: scene.source_name().to_string(),
+        analysis: "dynamic (mixed)".into(),
+        method: String::new(),
+        nodes: built.mesh.node_count(),
+        tets: built.mesh.tet_count(),
+        free_dofs: 0,
+        dt: 0.0,
+        critical_step: 0.0,
+        critical_step_source: String::new(),
+        dt_over_critical: 0.0,
+        steps: 0,
+        end_time: 0.0,
+        setup_seconds: 0.0,
+        first_step_seconds: 0.0,
+        mean_step_seconds: 0.0,
+        step_seconds: 0.0,
+        output_seconds: 0.0,
+        initial_energy: EnergyTerms::default(),
+        final_energy: EnergyTerms::default(),
+        probes: Vec::new(),
+        reactions: Vec::new(),
+        frames: 0,
         files: Vec::new(),
         model: scene.model().name().into(),
         newton: None,
@@ -160,22 +194,31 @@ pub(crate) fn run_mixed_dynamic(
         time_stepping: None,
         accuracy: None,
         volume_change: None,
-    };
-    if let Some(w) = writer {
-        let clock = Instant::now();
-        let mut files = w.finish()?;
-        if out.csv {
-            let csv = out.directory.join(format!("{}.csv", out.stem));
-            write_atomically(&csv, |f| f.write_all(rows.as_bytes()))?;
-            files.push(csv);
-        }
-        let json = out.directory.join(format!("{}_summary.json", out.stem));
-        summary.files = files.clone();
-        summary.files.push(json.clone());
-        write_atomically(&json, |f| writeln!(f, "{}", summary.to_json()))?;
-        summary.output_seconds += clock.elapsed().as_secs_f64();
+    })
+}
+
+/// Writes the frames' `.pvd`, the CSV `rows` and the summary's JSON, listing them in
+/// `summary.files`.
+fn write_outputs(
+    scene: &Scene,
+    writer: FrameFiles,
+    rows: &str,
+    summary: &mut DynamicSummary,
+) -> Result<()> {
+    let out = scene.output();
+    let clock = Instant::now();
+    let mut files = writer.finish()?;
+    if out.csv {
+        let csv = out.directory.join(format!("{}.csv", out.stem));
+        write_atomically(&csv, |f| f.write_all(rows.as_bytes()))?;
+        files.push(csv);
     }
-    Ok(summary)
+    let json = out.directory.join(format!("{}_summary.json", out.stem));
+    summary.files = files;
+    summary.files.push(json.clone());
+    write_atomically(&json, |f| writeln!(f, "{}", summary.to_json()))?;
+    summary.output_seconds += clock.elapsed().as_secs_f64();
+    Ok(())
 }
 
 /// The run's dt (s): the override's or the scene's; a multiple of the critical step is

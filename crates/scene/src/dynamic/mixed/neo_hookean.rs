@@ -18,12 +18,11 @@ use tetfem::analysis::mixed_dynamics_neo_hookean::MixedNeoHookeanEuler;
 use tetfem::analysis::transient::RunLength;
 use tetfem::base::error::{Error, Result};
 use tetfem::fe::element::Tet10;
-use tetfem::post::output::{OutputLock, write_atomically};
+use tetfem::post::output::OutputLock;
 
 use super::super::{DynamicOverrides, DynamicSummary, EnergyTerms};
-use super::{FrameFiles, csv_row, csv_start, seconds_step};
+use super::{FrameFiles, csv_row, csv_start, seconds_step, summary_base, write_outputs};
 use crate::dynamic_contact::ContactForceHistory;
-use crate::mixed_dynamics::mixed_warnings;
 use crate::{DynamicSettings, Scene};
 
 /// The Neo-Hookean mixed dynamic scene (see the [module](self) docs): as
@@ -124,16 +123,7 @@ pub(super) fn run_mixed_neo_hookean(
     }
     let final_energy = energy(&run)?;
     let mut summary = DynamicSummary {
-        warnings: mixed_warnings(scene, &built)?
-            .into_iter()
-            .chain(lock.as_ref().and_then(OutputLock::warning))
-            .collect(),
-        title: scene.title(),
-        scene: scene.source_name().to_string(),
-        analysis: "dynamic (mixed)".into(),
         method: "backward-euler".into(),
-        nodes: mesh.node_count(),
-        tets: mesh.tet_count(),
         free_dofs: built.constraints.dof_count() - built.constraints.count(),
         dt,
         critical_step: critical,
@@ -149,10 +139,7 @@ pub(super) fn run_mixed_neo_hookean(
         initial_energy,
         final_energy,
         probes,
-        reactions: Vec::new(),
         frames: writer.as_ref().map_or(0, |w| w.frames.len()),
-        files: Vec::new(),
-        model: scene.model().name().into(),
         newton: Some(tetfem::analysis::dynamics::NewtonStats {
             steps,
             total_iterations: run.iterations(),
@@ -162,16 +149,9 @@ pub(super) fn run_mixed_neo_hookean(
             factorizations: run.iterations(),
             ..Default::default()
         }),
-        estimated_error: None,
-        estimate_seconds: 0.0,
-        deformation: None,
-        step_resolution: None,
-        resumed_from_step: None,
         contact_forces: forces,
-        contact_barrier: None,
-        time_stepping: None,
         volume_change: Some(volume_change),
-        accuracy: None,
+        ..summary_base(scene, &built, lock.as_ref())?
     };
     if let Some(w) = writer {
         write_outputs(scene, w, &rows, &mut summary)?;
@@ -193,30 +173,6 @@ fn contact_columns(
         ContactForceHistory::record(f, &contact.obstacle_forces(u)?, run.time());
     }
     Ok((contact.smallest_gap(u)?, contact.energy(u)?))
-}
-
-/// Writes the frames' `.pvd`, the CSV `rows` and the summary's JSON, listing them in
-/// `summary.files`.
-fn write_outputs(
-    scene: &Scene,
-    writer: FrameFiles,
-    rows: &str,
-    summary: &mut DynamicSummary,
-) -> Result<()> {
-    let out = scene.output();
-    let clock = Instant::now();
-    let mut files = writer.finish()?;
-    if out.csv {
-        let csv = out.directory.join(format!("{}.csv", out.stem));
-        write_atomically(&csv, |f| f.write_all(rows.as_bytes()))?;
-        files.push(csv);
-    }
-    let json = out.directory.join(format!("{}_summary.json", out.stem));
-    summary.files = files;
-    summary.files.push(json.clone());
-    write_atomically(&json, |f| writeln!(f, "{}", summary.to_json()))?;
-    summary.output_seconds += clock.elapsed().as_secs_f64();
-    Ok(())
 }
 
 /// The energies of `run`'s state: ½vᵀMv, the stored energy
