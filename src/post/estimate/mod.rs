@@ -42,6 +42,7 @@ pub use model::{estimate_map_error, estimate_model_error};
 use recovery::{corners_of, gather, hooke};
 
 use crate::base::error::{Error, Result};
+use crate::fe::element::Tet;
 use crate::fe::materials::TetMaterials;
 use crate::fe::quadrature::{QuadraturePoint, tet_rule};
 use crate::mesh::TetMesh;
@@ -165,7 +166,9 @@ fn check_displacement<E: PointwiseElement>(mesh: &TetMesh<E>, displacement: &[f6
 /// Per tet, η_K = (∫_K (σ* − σ_h) : C⁻¹ : (σ* − σ_h) dV)^½ with σ* interpolated from the
 /// `recovered` nodal values and σ_h = `stress` of the tet's own displacement gradient, C the
 /// tet's linear elasticity; and Σ_K ∫_K σ_h : C⁻¹ : σ_h dV (energy units), the squared norm
-/// of the finite element stress in the same metric. Integrated by the degree-2p rule.
+/// of the finite element stress in the same metric. Integrated by the degree-2p rule on the
+/// straight tet of the corners, each point weighed by det G (the volume element of a curved
+/// tet, [`ElementShape::volume_ratio`](crate::fe::element::isoparametric::ElementShape::volume_ratio)).
 fn element_indicators<E: PointwiseElement>(
     mesh: &TetMesh<E>,
     materials: &impl TetMaterials,
@@ -199,12 +202,15 @@ fn element_indicators<E: PointwiseElement>(
                 .map(|(&n, &s)| recovered[n] * s)
                 .sum();
             let fe = stress(t, &E::displacement_gradient_at(&corners, &l, &element));
-            squared += q.weight * complementary_energy(&(smooth - fe), lambda, mu);
-            own += q.weight * complementary_energy(&fe, lambda, mu);
+            // dV = det G·dV_X on a curved tet (1 on a straight one, where the sum is the
+            // plain rule bit for bit).
+            let weight = q.weight * corners.volume_ratio(&l);
+            squared += weight * complementary_energy(&(smooth - fe), lambda, mu);
+            own += weight * complementary_energy(&fe, lambda, mu);
         }
-        let volume = corners.volume();
-        indicators.push((squared * volume).max(0.0).sqrt());
-        stress_norm += own * volume;
+        let straight_volume = Tet::volume(&corners);
+        indicators.push((squared * straight_volume).max(0.0).sqrt());
+        stress_norm += own * straight_volume;
     }
     (indicators, stress_norm)
 }

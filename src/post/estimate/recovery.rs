@@ -115,7 +115,8 @@ fn samples<E: PointwiseElement>(
     points
         .iter()
         .map(|l| {
-            let p = x[0] * l[0] + x[1] * l[1] + x[2] * l[2] + x[3] * l[3];
+            // On a curved tet the point sits on the bent map, not on the corners' plane.
+            let p = corners.position(&x, l);
             let gradient = E::displacement_gradient_at(&corners, l, element);
             (p, stress(t, &gradient))
         })
