@@ -101,7 +101,7 @@ def main() -> int:
     if a.swing:
         swing_chart(rows, out, header)
         return 0
-    fig, ax = plt.subplots(figsize=(11, 7.5), dpi=110)
+    fig, ax = plt.subplots(figsize=(14, 7.5), dpi=110)
     for code in COLOURS:
         for order in MARKERS:
             pts = [r for r in rows if r["code"] == code and int(r["order"]) == order]
@@ -134,11 +134,14 @@ def main() -> int:
         ax.axhline(target, color="grey", linewidth=0.8, linestyle=":")
     ax.set_xscale("log")
     ax.set_yscale("log")
+    # Room on the right for the last points' labels, which are written to their right.
+    ax.margins(x=0.1)
     ax.set_xlabel(a.xlabel)
     ax.set_ylabel(a.ylabel)
     ax.set_title(a.title, fontsize=11)
     ax.grid(True, which="both", linewidth=0.3)
-    ax.legend(loc="lower left", fontsize=9)
+    # Beside the axes, not on them: inside, the legend covered point labels.
+    ax.legend(loc="center left", bbox_to_anchor=(1.01, 0.5), fontsize=9)
     fig.text(0.01, 0.005, header[:180], fontsize=7, color="grey")
     fig.tight_layout(rect=(0, 0.02, 1, 1))
     fig.savefig(out)
