@@ -149,38 +149,33 @@ impl ModelElement for Tet10 {
         u: &[f64],
     ) -> Matrix3<f64> {
         let (rest, ue) = element(mesh, t, u);
-        let sigma = |g: &[Vector3<f64>; 10]| model.cauchy(&deformation_gradient(g, &ue));
-        if rest.is_curved() {
-            let (points, weights) = rest.points();
-            let total: f64 = weights.iter().sum();
-            return points
-                .iter()
-                .zip(weights)
-                .map(|(g, w)| sigma(g) * *w)
-                .sum::<Matrix3<f64>>()
-                / total;
-        }
-        rest.gradients().iter().map(sigma).sum::<Matrix3<f64>>() / 4.0
+        point_mean(&rest, |g| model.cauchy(&deformation_gradient(g, &ue)))
     }
 
     /// The mean of E(F_q) over the four points (E is quadratic in u: exact for a field
     /// of degree one in ∇u only, as the stress).
     fn mean_green_strain(mesh: &TetMesh<Tet10>, t: usize, u: &[f64]) -> Matrix3<f64> {
         let (rest, ue) = element(mesh, t, u);
-        let green = |g: &[Vector3<f64>; 10]| {
+        point_mean(&rest, |g| {
             let f = deformation_gradient(g, &ue);
             (f.transpose() * f - Matrix3::identity()) * 0.5
-        };
-        if rest.is_curved() {
-            let (points, weights) = rest.points();
-            let total: f64 = weights.iter().sum();
-            return points
-                .iter()
-                .zip(weights)
-                .map(|(g, w)| green(g) * *w)
-                .sum::<Matrix3<f64>>()
-                / total;
-        }
-        rest.gradients().iter().map(green).sum::<Matrix3<f64>>() / 4.0
+        })
     }
+}
+
+/// The volume mean of a tensor `of` the shape-function gradients at the element's points:
+/// the degree-2 rule's plain mean on a straight tet, the curved rule's det G-weighted one on a
+/// curved tet.
+fn point_mean(rest: &Tet10Rest, of: impl Fn(&[Vector3<f64>; 10]) -> Matrix3<f64>) -> Matrix3<f64> {
+    if rest.is_curved() {
+        let (points, weights) = rest.points();
+        let total: f64 = weights.iter().sum();
+        return points
+            .iter()
+            .zip(weights)
+            .map(|(g, w)| of(g) * *w)
+            .sum::<Matrix3<f64>>()
+            / total;
+    }
+    rest.gradients().iter().map(of).sum::<Matrix3<f64>>() / 4.0
 }

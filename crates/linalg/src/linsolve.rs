@@ -469,23 +469,9 @@ impl SparseCholesky {
     /// [`factor_len`](Self::factor_len) also counts the unused upper triangles of the dense
     /// diagonal blocks, c(c − 1)/2 each.
     pub fn factor_nnz_lower(&self) -> usize {
-        use faer::sparse::linalg::cholesky::SymbolicCholeskyRaw;
-        match self.symbolic.raw() {
-            SymbolicCholeskyRaw::Supernodal(sn) => {
-                let (begin, end, val) = (
-                    sn.supernode_begin(),
-                    sn.supernode_end(),
-                    sn.col_ptr_for_val(),
-                );
-                (0..sn.n_supernodes())
-                    .map(|s| {
-                        let c = end[s] - begin[s];
-                        (val[s + 1] - val[s]) - c * c.saturating_sub(1) / 2
-                    })
-                    .sum()
-            }
-            SymbolicCholeskyRaw::Simplicial(_) => self.symbolic.len_val(),
-        }
+        (self.supernodes().into_iter())
+            .map(|(c, values)| values - c * c.saturating_sub(1) / 2)
+            .sum()
     }
 
     /// Bytes the numeric factorization will hold: the factor's values (8 bytes each) plus the
@@ -514,8 +500,21 @@ impl SparseCholesky {
     /// [`LinearMethod::Auto`](crate::linear_solver::LinearMethod::Auto) to predict the
     /// factorization's time.
     pub fn factor_flops(&self) -> f64 {
-        use faer::sparse::linalg::cholesky::SymbolicCholeskyRaw;
         let term = |c: f64, b: f64| c * c * c / 3.0 + b * c * c + b * b * c;
+        (self.supernodes().into_iter())
+            .map(|(c, values)| {
+                // A supernode's values are its (c + b)×c dense block.
+                let rows = values.checked_div(c).unwrap_or(0);
+                term(c as f64, rows.saturating_sub(c) as f64)
+            })
+            .sum()
+    }
+
+    /// Per supernode of the factor, its columns c and its stored values (the dense (c + b)×c
+    /// block); a simplicial factor's columns each as a supernode of one column (its diagonal
+    /// entry first, then its b entries below).
+    fn supernodes(&self) -> Vec<(usize, usize)> {
+        use faer::sparse::linalg::cholesky::SymbolicCholeskyRaw;
         match self.symbolic.raw() {
             SymbolicCholeskyRaw::Supernodal(sn) => {
                 let (begin, end, val) = (
@@ -524,20 +523,12 @@ impl SparseCholesky {
                     sn.col_ptr_for_val(),
                 );
                 (0..sn.n_supernodes())
-                    .map(|s| {
-                        let c = end[s] - begin[s];
-                        // A supernode's values are its (c + b)×c dense block.
-                        let rows = (val[s + 1] - val[s]).checked_div(c).unwrap_or(0);
-                        term(c as f64, rows.saturating_sub(c) as f64)
-                    })
-                    .sum()
+                    .map(|s| (end[s] - begin[s], val[s + 1] - val[s]))
+                    .collect()
             }
-            SymbolicCholeskyRaw::Simplicial(simplicial) => simplicial
-                .col_ptr()
-                .windows(2)
-                // Each column stores its diagonal entry first.
-                .map(|w| term(1.0, (w[1] - w[0]).saturating_sub(1) as f64))
-                .sum(),
+            SymbolicCholeskyRaw::Simplicial(simplicial) => (simplicial.col_ptr().windows(2))
+                .map(|w| (1, w[1] - w[0]))
+                .collect(),
         }
     }
 }
