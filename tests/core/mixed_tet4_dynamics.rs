@@ -290,3 +290,60 @@ fn the_p1p1_transient_names_its_element_when_refusing_the_explicit_method() {
         "{explicit:?}"
     );
 }
+
+#[test]
+fn the_library_admits_the_linear_p1p1_dynamics_and_modes_and_refuses_neo_hookean_by_order() {
+    use tetfem::analysis::combination::{Analysis, Combination, Formulation};
+    use tetfem::model::ModelKind;
+    let mixed = Combination {
+        formulation: Formulation::Mixed,
+        order: 1,
+        ..Combination::default()
+    };
+    for analysis in [
+        Analysis::Transient(Method::BackwardEuler),
+        Analysis::Transient(Method::Newmark),
+        Analysis::Modal,
+    ] {
+        let combination = Combination {
+            analysis,
+            ..mixed.clone()
+        };
+        assert!(combination.check().is_ok(), "{analysis:?}");
+    }
+    for (combination, pair, element) in [
+        (
+            Combination {
+                model: ModelKind::NeoHookean,
+                analysis: Analysis::Transient(Method::BackwardEuler),
+                ..mixed.clone()
+            },
+            "formulation mixed with element order",
+            "stabilized P1–P1",
+        ),
+        (
+            Combination {
+                analysis: Analysis::Transient(Method::Explicit),
+                ..mixed.clone()
+            },
+            "formulation mixed with analysis",
+            "stabilized P1–P1",
+        ),
+        (
+            Combination {
+                moving_supports: true,
+                analysis: Analysis::Transient(Method::Newmark),
+                ..mixed.clone()
+            },
+            "formulation mixed with moving supports",
+            "stabilized P1–P1",
+        ),
+    ] {
+        let error = combination.check().unwrap_err();
+        assert!(
+            matches!(&error, Error::InvalidParameter { name, requirement, .. }
+                if name == pair && requirement.contains(element)),
+            "{pair}: {error}"
+        );
+    }
+}
