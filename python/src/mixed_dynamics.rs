@@ -1,6 +1,7 @@
 //! `tetfem.mixed_modal_analysis` and `tetfem.mixed_transient`: the natural modes and the
-//! implicit linear time steps of the mixed Taylor–Hood P2–P1 body (10-node tets) from Python,
-//! the library's `lowest_mixed_modes` and `MixedTransient`.
+//! implicit linear time steps of the mixed body from Python (Taylor–Hood P2–P1 on 10-node
+//! tets, the stabilized P1–P1 on 4-node tets), the library's `lowest_mixed_modes` and
+//! `MixedTransient`.
 
 use numpy::{PyArray1, PyArrayMethods};
 use pyo3::prelude::*;
@@ -9,27 +10,21 @@ use tetfem::analysis::dynamics::Rayleigh;
 use tetfem::analysis::mixed_dynamics::MixedTransient;
 use tetfem::analysis::mixed_modal::lowest_mixed_modes;
 use tetfem::bc::constraints::DofMap;
-use tetfem::fe::element::Tet10;
-use tetfem::mesh::TetMesh;
 
 use crate::arrays;
-use crate::cells::Cells;
+use crate::cells::on_cells;
 use crate::constraints::PyConstraints;
 use crate::errors::invalid;
 use crate::interrupt::detach_interruptible;
 use crate::loads::PyLoads;
 use crate::material::materials_of;
-use crate::mesh::{MeshData, PyMesh};
+use crate::mesh::PyMesh;
 use crate::names;
 use crate::statics::check_same_mesh;
 
-/// The 10-node mesh of `data`, or `InvalidInputError` (the mixed dynamic and modal analyses
-/// are Taylor–Hood's only), and fixed supports only.
-fn quadratic<'a>(
-    py: Python<'_>,
-    data: &'a MeshData,
-    constraints: &PyConstraints,
-) -> PyResult<&'a TetMesh<Tet10>> {
+/// `InvalidInputError` unless the supports are fixed (the mixed dynamic and modal analyses
+/// hold them still).
+fn fixed_supports(py: Python<'_>, constraints: &PyConstraints) -> PyResult<()> {
     if !constraints.motions.is_empty() {
         return Err(invalid(
             py,
@@ -38,20 +33,13 @@ fn quadratic<'a>(
             "fixed supports only in the mixed dynamic and modal analyses",
         ));
     }
-    match &data.mesh {
-        Cells::P2(mesh) => Ok(mesh),
-        Cells::P1(_) => Err(invalid(
-            py,
-            "mesh",
-            "4-node tets (order 1)",
-            "10-node tets (order 2): the mixed dynamic and modal analyses use Taylor–Hood P2–P1",
-        )),
-    }
+    Ok(())
 }
 
-/// The ``count`` lowest natural modes of the mixed Taylor–Hood P2–P1 body (10-node ``mesh``,
-/// ν < 0.5, the constraints holding every rigid motion), the pressure condensed exactly:
-/// K_eff·φ = ω²·M·φ with K_eff = K_dev + Bᵀ(M_p/κ)⁻¹B and the consistent mass M. Returns a
+/// The ``count`` lowest natural modes of the mixed body (10-node ``mesh``: Taylor–Hood P2–P1;
+/// 4-node: the stabilized P1–P1; ν < 0.5, the constraints holding every rigid motion), the
+/// pressure condensed exactly: K_eff·φ = ω²·M·φ with K_eff = K_dev + BᵀC⁻¹B (C = M_p/κ for
+/// Taylor–Hood, M_p/κ + (1/μ)(M_p − M_Π) for P1–P1) and the consistent mass M. Returns a
 /// dict with ``frequencies`` (k,) Hz ascending, ``omega`` (k,) rad/s, ``shapes`` (k, n, 3)
 /// M-orthonormal over all nodes (zero on constrained DOFs, m/√kg), ``pressure`` (k, n) each
 /// mode's nodal pressure (Pa per unit of modal amplitude, positive in compression),
@@ -69,11 +57,15 @@ pub fn mixed_modal_analysis_py<'py>(
     let data = &mesh.get().data;
     check_same_mesh(py, data, &constraints, None)?;
     let materials = materials_of(py, material, data)?;
-    let m = quadratic(py, data, &constraints)?;
+    fixed_supports(py, &constraints)?;
     let fixed = &constraints.constraints;
-    let mixed = detach_interruptible(py, || lowest_mixed_modes(m, &materials, fixed, count))?;
+    let mixed = detach_interruptible(
+        py,
+        || on_cells!(&data.mesh, m => lowest_mixed_modes(m, &materials, fixed, count)),
+    )?;
     let modes = &mixed.modes;
-    let (full, k) = (m.dof_count(), modes.shapes.len());
+    let node_count = on_cells!(&data.mesh, m => m.node_count());
+    let (full, k) = (3 * node_count, modes.shapes.len());
     // The shapes live on the free DOFs, in the order of the constraints' DOF map.
     let dofs = DofMap::new(fixed);
     let mut shapes = vec![0.0; k * full];
@@ -83,7 +75,7 @@ pub fn mixed_modal_analysis_py<'py>(
         }
     }
     let shapes = PyArray1::from_vec(py, shapes).reshape([k, full / 3, 3])?;
-    let pressure = PyArray1::from_vec(py, mixed.pressure.concat()).reshape([k, m.node_count()])?;
+    let pressure = PyArray1::from_vec(py, mixed.pressure.concat()).reshape([k, node_count])?;
     let out = PyDict::new(py);
     out.set_item("frequencies", arrays::vector(py, modes.frequencies()))?;
     out.set_item("omega", arrays::vector(py, modes.omega.clone()))?;
@@ -95,9 +87,10 @@ pub fn mixed_modal_analysis_py<'py>(
     Ok(out)
 }
 
-/// ``steps`` implicit steps of ``dt`` (s) of the linear mixed Taylor–Hood P2–P1 body (10-node
-/// ``mesh``) from rest, under ``loads`` held constant from t = 0 (a load with an amplitude
-/// enters at its value at ``STATIC_TIME``): M·ü + α·M·u̇ + K_dev·u − Bᵀp = f, B·u + (M_p/κ)·p = 0,
+/// ``steps`` implicit steps of ``dt`` (s) of the linear mixed body (10-node ``mesh``:
+/// Taylor–Hood P2–P1; 4-node: the stabilized P1–P1) from rest, under ``loads`` held constant
+/// from t = 0 (a load with an amplitude enters at its value at ``STATIC_TIME``):
+/// M·ü + α·M·u̇ + K_dev·u − Bᵀp = f, B·u + C·p = 0 (C as in ``mixed_modal_analysis``),
 /// the pressure without inertia solved with u at every step (one LDLᵀ of the shifted saddle
 /// point, factored once). ``method``: ``"newmark"`` (average acceleration, no numerical
 /// damping) or ``"backward-euler"`` (first order, damps). ``alpha``: the mass-proportional
@@ -122,32 +115,35 @@ pub fn mixed_transient_py<'py>(
     check_same_mesh(py, data, &constraints, Some(&loads))?;
     let materials = materials_of(py, material, data)?;
     let method = names::method(py, method)?;
-    let m = quadratic(py, data, &constraints)?;
+    fixed_supports(py, &constraints)?;
     let (fixed, all) = (&constraints.constraints, &loads.all);
     let damping = Rayleigh { alpha, beta: 0.0 };
     let (times, displacement, pressure) = detach_interruptible(py, || {
-        let mut run = MixedTransient::new(m, &materials, fixed, all, (method, dt, damping))?;
-        let mut times = vec![run.time()];
-        let mut displacement = run.displacement()?;
-        let mut pressure = run.pressure();
-        for _ in 0..steps {
-            run.step()?;
-            times.push(run.time());
-            displacement.extend(run.displacement()?);
-            pressure.extend(run.pressure());
-        }
-        Ok((times, displacement, pressure))
+        on_cells!(&data.mesh, m => {
+            let mut run = MixedTransient::new(m, &materials, fixed, all, (method, dt, damping))?;
+            let mut times = vec![run.time()];
+            let mut displacement = run.displacement()?;
+            let mut pressure = run.pressure();
+            for _ in 0..steps {
+                run.step()?;
+                times.push(run.time());
+                displacement.extend(run.displacement()?);
+                pressure.extend(run.pressure());
+            }
+            Ok((times, displacement, pressure))
+        })
     })?;
     let frames = times.len();
+    let node_count = on_cells!(&data.mesh, m => m.node_count());
     let out = PyDict::new(py);
     out.set_item("time", arrays::vector(py, times))?;
     out.set_item(
         "displacement",
-        PyArray1::from_vec(py, displacement).reshape([frames, m.node_count(), 3])?,
+        PyArray1::from_vec(py, displacement).reshape([frames, node_count, 3])?,
     )?;
     out.set_item(
         "pressure",
-        PyArray1::from_vec(py, pressure).reshape([frames, m.node_count()])?,
+        PyArray1::from_vec(py, pressure).reshape([frames, node_count])?,
     )?;
     Ok(out)
 }

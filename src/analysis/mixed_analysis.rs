@@ -97,21 +97,22 @@ pub fn solve_static_mixed_model<E: MixedStaticElement>(
     })
 }
 
-/// The mixed element in an implicit dynamic run of `model` (the linear one): the library's
-/// rule first ([`Combination::check`] with [`Analysis::Transient`]`(method)`: the explicit
-/// method, another model, moving supports and loads that follow amplitudes are refused by
-/// name), then [`MixedTransient::new`] with `method`, `dt` and `damping`, at rest. The
-/// Neo-Hookean model's run is [`mixed_neo_hookean_euler_model`].
-pub fn mixed_transient_model(
-    mesh: &TetMesh<Tet10>,
+/// The mixed element (10-node tets: Taylor–Hood P2–P1; 4-node tets: stabilized P1–P1) in an
+/// implicit dynamic run of `model` (the linear one): the library's rule first
+/// ([`Combination::check`] with [`Analysis::Transient`]`(method)`: the explicit method,
+/// another model, moving supports and loads that follow amplitudes are refused by name), then
+/// [`MixedTransient::new`] with `method`, `dt` and `damping`, at rest. The Neo-Hookean
+/// model's run is [`mixed_neo_hookean_euler_model`].
+pub fn mixed_transient_model<E: MixedStaticElement>(
+    mesh: &TetMesh<E>,
     materials: &impl TetMaterials,
     model: ModelKind,
     (constraints, loads): (&Constraints, &Loads),
     (method, dt, damping): (Method, f64, Rayleigh),
-) -> Result<MixedTransient> {
+) -> Result<MixedTransient<E>> {
     Combination {
         model,
-        order: 2,
+        order: E::ORDER,
         analysis: Analysis::Transient(method),
         formulation: Formulation::Mixed,
         ..Combination::default()
@@ -148,10 +149,11 @@ pub fn mixed_neo_hookean_euler_model<'a>(
     MixedNeoHookeanEuler::new(mesh, materials, constraints, loads, (dt, tolerance))
 }
 
-/// The `count` lowest modes of the mixed body with `model` (the linear one; the library's rule
-/// [`Combination::check`] with [`Analysis::Modal`] first), by [`lowest_mixed_modes`].
-pub fn mixed_modes_model(
-    mesh: &TetMesh<Tet10>,
+/// The `count` lowest modes of the mixed body (10-node tets: Taylor–Hood P2–P1; 4-node tets:
+/// stabilized P1–P1) with `model` (the linear one; the library's rule [`Combination::check`]
+/// with [`Analysis::Modal`] first), by [`lowest_mixed_modes`].
+pub fn mixed_modes_model<E: MixedStaticElement>(
+    mesh: &TetMesh<E>,
     materials: &impl TetMaterials,
     model: ModelKind,
     constraints: &Constraints,
@@ -159,7 +161,7 @@ pub fn mixed_modes_model(
 ) -> Result<MixedModes> {
     Combination {
         model,
-        order: 2,
+        order: E::ORDER,
         analysis: Analysis::Modal,
         formulation: Formulation::Mixed,
         ..Combination::default()

@@ -1,24 +1,26 @@
-//! Implicit dynamics of the linear mixed (Taylor–Hood P2–P1) body: backward Euler and Newmark
-//! (average acceleration) on the displacement, with the pressure, which has no inertia,
+//! Implicit dynamics of the linear mixed body, on either mixed element ([`MixedElement`]:
+//! Taylor–Hood P2–P1 on 10-node tets, the stabilized P1–P1 on 4-node tets): backward Euler and
+//! Newmark (average acceleration) on the displacement, with the pressure, which has no inertia,
 //! solved with it at every step.
 //!
 //! Both methods write the step's end as one saddle point in (u⁺, p⁺),
 //!
 //! ```text
-//!   ⎡ c·M + K_dev   −Bᵀ   ⎤ ⎡u⁺⎤   ⎡ f + M·(c·u + d·v + e·a) ⎤
-//!   ⎣ −B           −M_p/κ ⎦ ⎣p⁺⎦ = ⎣ B_c·u_c                 ⎦
+//!   ⎡ c·M + K_dev   −Bᵀ ⎤ ⎡u⁺⎤   ⎡ f + M·(c·u + d·v + e·a) ⎤
+//!   ⎣ −B            −C  ⎦ ⎣p⁺⎦ = ⎣ B_c·u_c                 ⎦
 //! ```
 //!
 //! on the free DOFs (u_c the fixed prescribed displacements, whose K_dev,fc·u_c moves to the
-//! right), with mass-proportional damping C = α·M:
+//! right; C the element's pressure block, M_p/κ for Taylor–Hood and M_p/κ + (1/μ)(M_p − M_Π)
+//! for P1–P1), with mass-proportional damping α·M:
 //!
 //! - backward Euler: c = 1/dt² + α/dt, d = 1/dt, e = 0; v⁺ = (u⁺ − u)/dt, a⁺ = (v⁺ − v)/dt;
 //! - Newmark (β = ¼, γ = ½): c = 4/dt² + 2α/dt, d = 4/dt + α, e = 1;
 //!   a⁺ = 4/dt²·(u⁺ − u) − 4/dt·v − a, v⁺ = v + dt/2·(a + a⁺).
 //!
-//! Eliminating p⁺ gives exactly the displacement methods on K_eff = K_dev + Bᵀ(M_p/κ)⁻¹B
+//! Eliminating p⁺ gives exactly the displacement methods on K_eff = K_dev + BᵀC⁻¹B
 //! ([`MixedOperator`]), so Newmark conserves ½vᵀMv + ½uᵀK_eff·u − fᵀu of the undamped body to
-//! round-off, computed here from u and p as ½vᵀMv + ½uᵀK_dev·u + ½pᵀ(M_p/κ)·p − fᵀu. The
+//! round-off, computed here from u and p as ½vᵀMv + ½uᵀK_dev·u + ½pᵀC·p − fᵀu. The
 //! matrix is factored once for the fixed dt by the quasi-definite LDLᵀ (the mass makes its
 //! first block definite, so no support is needed), then each step is one solve plus the
 //! static solve's iterative refinement. Stiffness-proportional damping (β·K would need β·K_eff,
@@ -31,7 +33,7 @@ use crate::analysis::statics::RESIDUAL_LIMIT;
 use crate::base::error::{Error, Result};
 use crate::bc::constraints::Constraints;
 use crate::bc::loads::Loads;
-use crate::fe::element::Tet10;
+use crate::fe::element::{MixedElement, Tet10};
 use crate::fe::materials::TetMaterials;
 use crate::linalg::QuasiDefiniteLdlt;
 use crate::linsolve::SparseCholesky;
@@ -47,7 +49,7 @@ const MAX_REFINEMENTS: usize = 3;
 pub struct MixedEnergy {
     /// ½·vᵀM·v.
     pub kinetic: f64,
-    /// ½·uᵀK_dev·u + ½·pᵀ(M_p/κ)·p.
+    /// ½·uᵀK_dev·u + ½·pᵀC·p (C the element's pressure block).
     pub elastic: f64,
     /// −fᵀu, the potential of the constant loads.
     pub load_potential: f64,
@@ -60,10 +62,10 @@ impl MixedEnergy {
     }
 }
 
-/// A linear mixed body stepped in time with a fixed dt (see the [module](self) docs).
-#[derive(Debug)]
-pub struct MixedTransient {
-    operator: MixedOperator,
+/// A linear mixed body on element `E` (10-node Taylor–Hood by default, or the 4-node
+/// stabilized P1–P1) stepped in time with a fixed dt (see the [module](self) docs).
+pub struct MixedTransient<E: MixedElement = Tet10> {
+    operator: MixedOperator<E>,
     method: Method,
     dt: f64,
     alpha: f64,
@@ -84,20 +86,46 @@ pub struct MixedTransient {
     steps: usize,
 }
 
-impl MixedTransient {
+// By hand: a derive would bound E, not the operator (whose couplings are E's).
+impl<E: MixedElement> std::fmt::Debug for MixedTransient<E>
+where
+    MixedOperator<E>: std::fmt::Debug,
+{
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("MixedTransient")
+            .field("operator", &self.operator)
+            .field("method", &self.method)
+            .field("dt", &self.dt)
+            .field("alpha", &self.alpha)
+            .field("system", &self.system)
+            .field("ldlt", &self.ldlt)
+            .field("load", &self.load)
+            .field("full_load", &self.full_load)
+            .field("pressure_rhs", &self.pressure_rhs)
+            .field("u", &self.u)
+            .field("v", &self.v)
+            .field("a", &self.a)
+            .field("p", &self.p)
+            .field("time", &self.time)
+            .field("steps", &self.steps)
+            .finish()
+    }
+}
+
+impl<E: MixedElement> MixedTransient<E> {
     /// The body of `mesh` with `materials` (ν < 0.5), `constraints` (fixed in time; none is
     /// needed), constant `loads` (gravity included), stepped by `method` (backward Euler or
     /// Newmark) with time step `dt` and `damping` (mass-proportional only: β must be 0). It
     /// starts at rest in the undeformed state ([`start`](Self::start) sets another).
     pub fn new(
-        mesh: &TetMesh<Tet10>,
+        mesh: &TetMesh<E>,
         materials: &impl TetMaterials,
         constraints: &Constraints,
         loads: &Loads,
         (method, dt, damping): (Method, f64, Rayleigh),
     ) -> Result<Self> {
         let dt = check_time_step(dt)?;
-        let (c, _, _) = coefficients(method, dt, damping.alpha)?;
+        let (c, _, _) = coefficients::<E>(method, dt, damping.alpha)?;
         if damping.beta != 0.0 {
             return Err(Error::invalid_parameter(
                 "formulation mixed with damping beta",
@@ -174,7 +202,7 @@ impl MixedTransient {
 
     /// Advances one step of dt.
     pub fn step(&mut self) -> Result<()> {
-        let (c, d, e) = coefficients(self.method, self.dt, self.alpha)?;
+        let (c, d, e) = coefficients::<E>(self.method, self.dt, self.alpha)?;
         let combined: Vec<f64> = (0..self.u.len())
             .map(|i| c * self.u[i] + d * self.v[i] + e * self.a[i])
             .collect();
@@ -284,7 +312,7 @@ impl MixedTransient {
     }
 
     /// The assembled body.
-    pub fn operator(&self) -> &MixedOperator {
+    pub fn operator(&self) -> &MixedOperator<E> {
         &self.operator
     }
 
@@ -295,16 +323,19 @@ impl MixedTransient {
 }
 
 /// (c, d, e) of the step's right side (see the [module](self) docs); the explicit method is
-/// refused by name.
-fn coefficients(method: Method, dt: f64, alpha: f64) -> Result<(f64, f64, f64)> {
+/// refused by name, with element `E`'s.
+fn coefficients<E: MixedElement>(method: Method, dt: f64, alpha: f64) -> Result<(f64, f64, f64)> {
     match method {
         Method::BackwardEuler => Ok((1.0 / (dt * dt) + alpha / dt, 1.0 / dt, 0.0)),
         Method::Newmark => Ok((4.0 / (dt * dt) + 2.0 * alpha / dt, 4.0 / dt + alpha, 1.0)),
         Method::Explicit => Err(Error::invalid_parameter(
             "formulation mixed with method",
             "explicit",
-            "the mixed (Taylor–Hood P2–P1) element steps implicitly only (its pressure has \
-             no inertia to step explicitly); use backward_euler or newmark",
+            format!(
+                "the mixed ({}) element steps implicitly only (its pressure has no inertia to \
+                 step explicitly); use backward_euler or newmark",
+                E::MIXED_NAME
+            ),
         )),
     }
 }

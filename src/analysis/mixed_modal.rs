@@ -1,25 +1,27 @@
-//! Modal analysis of the linear mixed (Taylor–Hood P2–P1) body: K_eff·φ = ω²·M·φ with the
-//! pressure eliminated exactly, K_eff = K_dev + Bᵀ(M_p/κ)⁻¹B ([`MixedOperator`]).
+//! Modal analysis of the linear mixed body, on either mixed element ([`MixedElement`]:
+//! Taylor–Hood P2–P1 on 10-node tets, the stabilized P1–P1 on 4-node tets): K_eff·φ = ω²·M·φ
+//! with the pressure eliminated exactly, K_eff = K_dev + BᵀC⁻¹B ([`MixedOperator`]; C the
+//! element's pressure block, M_p/κ for Taylor–Hood, M_p/κ + (1/μ)(M_p − M_Π) for P1–P1).
 //!
 //! The subspace iteration of [`modal`](crate::analysis::modal) runs unchanged on a stiffness
 //! operator (`modal::StiffnessOperator`) whose solve x = K_eff⁻¹·b is one LDLᵀ solve of the
 //! saddle point
 //!
 //! ```text
-//!   ⎡ K_dev,ff   −B_fᵀ  ⎤ ⎡x⎤   ⎡b⎤
-//!   ⎣ −B_f      −M_p/κ  ⎦ ⎣p⎦ = ⎣0⎦
+//!   ⎡ K_dev,ff   −B_fᵀ ⎤ ⎡x⎤   ⎡b⎤
+//!   ⎣ −B_f       −C    ⎦ ⎣p⎦ = ⎣0⎦
 //! ```
 //!
 //! (factored once; quasi-definite for ν < 0.5 once the supports hold every rigid motion), and
-//! whose product K_eff·x is K_dev,ff·x − B_fᵀ·p with p = −(M_p/κ)⁻¹·B_f·x (a Cholesky solve
-//! with the small pressure mass). Each mode's pressure is the one its shape implies.
+//! whose product K_eff·x is K_dev,ff·x − B_fᵀ·p with p = −C⁻¹·B_f·x (a Cholesky solve with the
+//! small pressure block). Each mode's pressure is the one its shape implies.
 
 use crate::analysis::dynamics::Mass;
 use crate::analysis::mixed_operator::MixedOperator;
 use crate::analysis::modal::{Modes, StiffnessOperator, subspace_modes};
 use crate::base::error::{Error, Result};
 use crate::bc::constraints::Constraints;
-use crate::fe::element::Tet10;
+use crate::fe::element::MixedElement;
 use crate::fe::materials::TetMaterials;
 use crate::linalg::QuasiDefiniteLdlt;
 use crate::mesh::TetMesh;
@@ -28,7 +30,7 @@ use crate::sparse::CscMatrix;
 
 /// Scaled residual every mixed mode meets (see [`MixedModes::modes`]): ten times the
 /// displacement modes' [`RESIDUAL_TOLERANCE`](crate::analysis::modal::RESIDUAL_TOLERANCE),
-/// since the product K_eff·φ goes through a solve with M_p/κ whose error (ε times M_p's
+/// since the product K_eff·φ goes through a solve with C whose error (ε times M_p's
 /// condition, a few tens for a P1 mass) the magnitude bound does not contain: measured, the
 /// residuals of a ν = 0.4999 beam stall at 1.0–1.3e-13.
 pub const MIXED_RESIDUAL_TOLERANCE: f64 = 1e-12;
@@ -37,7 +39,7 @@ pub const MIXED_RESIDUAL_TOLERANCE: f64 = 1e-12;
 #[derive(Debug, Clone, PartialEq)]
 pub struct MixedModes {
     /// Frequencies, M-orthonormal shapes on the free DOFs, iterations and the scaled residuals
-    /// ‖K_eff·φ − ω²·M·φ‖ / ‖(|K_dev| + |Bᵀ|·|(M_p/κ)⁻¹B| + ω²·M)·|φ|‖.
+    /// ‖K_eff·φ − ω²·M·φ‖ / ‖(|K_dev| + |Bᵀ|·|C⁻¹B| + ω²·M)·|φ|‖.
     pub modes: Modes,
     /// Each mode's pressure at every node (Pa per unit of modal amplitude), linear along edges.
     pub pressure: Vec<Vec<f64>>,
@@ -46,13 +48,13 @@ pub struct MixedModes {
 }
 
 /// K_eff through the saddle point (see the [module](self) docs).
-struct SaddleStiffness {
-    operator: MixedOperator,
+struct SaddleStiffness<E: MixedElement> {
+    operator: MixedOperator<E>,
     system: CscMatrix,
     ldlt: Option<QuasiDefiniteLdlt>,
 }
 
-impl StiffnessOperator for SaddleStiffness {
+impl<E: MixedElement> StiffnessOperator for SaddleStiffness<E> {
     fn dim(&self) -> usize {
         self.operator.dofs().free_count()
     }
@@ -90,14 +92,15 @@ impl StiffnessOperator for SaddleStiffness {
     }
 }
 
-/// The `count` lowest modes of the mixed body of `mesh` with `materials` (ν < 0.5), held by
+/// The `count` lowest modes of the mixed body of `mesh` (10-node tets: Taylor–Hood P2–P1;
+/// 4-node tets: stabilized P1–P1) with `materials` (ν < 0.5), held by
 /// `constraints` (every rigid motion: [`Error::NotConstrained`]), converged as
 /// [`lowest_modes`](crate::analysis::modal::lowest_modes) converges, each scaled residual at
 /// most [`MIXED_RESIDUAL_TOLERANCE`].
 ///
 /// Errors: `count` not between 1 and the free DOF count; those of the assembly and the LDLᵀ.
-pub fn lowest_mixed_modes(
-    mesh: &TetMesh<Tet10>,
+pub fn lowest_mixed_modes<E: MixedElement>(
+    mesh: &TetMesh<E>,
     materials: &impl TetMaterials,
     constraints: &Constraints,
     count: usize,

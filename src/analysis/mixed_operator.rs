@@ -1,18 +1,21 @@
-//! The linear mixed (Taylor–Hood P2–P1) body as one operator for the analyses that add inertia
-//! to it: the blocks K_dev, B, M_p/κ of [`taylor_hood`](crate::fe::element::taylor_hood) and
-//! the consistent mass M on the free displacement DOFs, and the shifted saddle point
+//! The linear mixed body as one operator for the analyses that add inertia to it, on either
+//! mixed element ([`MixedElement`]): the blocks K_dev, B and the pressure block C of the
+//! element (Taylor–Hood P2–P1 on 10-node tets, C = M_p/κ; the stabilized P1–P1 on 4-node tets,
+//! C = M_p/κ + (1/μ)(M_p − M_Π)) and the consistent mass M on the free displacement DOFs, and
+//! the shifted saddle point
 //!
 //! ```text
-//!   A(c) = ⎡ K_dev,ff + c·M_ff   −B_fᵀ   ⎤
-//!          ⎣ −B_f               −M_p/κ   ⎦
+//!   A(c) = ⎡ K_dev,ff + c·M_ff   −B_fᵀ ⎤
+//!          ⎣ −B_f               −C     ⎦
 //! ```
 //!
 //! which backward Euler (c = 1/dt²), Newmark (c = 4/dt²) and the modal shift-invert (c = −σ)
 //! factor once. The pressure has no inertia, so eliminating it exactly leaves the condensed
-//! stiffness K_eff = K_dev + Bᵀ(M_p/κ)⁻¹B (force/length): the time methods and the modal
+//! stiffness K_eff = K_dev + BᵀC⁻¹B (force/length): the time methods and the modal
 //! iteration act on (K_eff, M) while solving only the sparse A(c). For c > 0 the first block
-//! is positive definite without any support (the mass holds the rigid motions), so A(c) is
-//! symmetric quasi-definite for every ν < 0.5 and the LDLᵀ needs no pivoting.
+//! is positive definite without any support (the mass holds the rigid motions) and C is
+//! positive definite for every ν < 0.5 (M_p/κ is, the stabilization is semi-definite), so
+//! A(c) is symmetric quasi-definite and the LDLᵀ needs no pivoting.
 
 use std::sync::Arc;
 
@@ -23,22 +26,21 @@ use crate::analysis::problem::Problem;
 use crate::base::error::{Error, Result};
 use crate::base::memory::{RunPath, SolverMemory, StaticEstimate, format_bytes};
 use crate::bc::constraints::{Constraints, DofMap};
-use crate::fe::element::taylor_hood::{
-    Coupling, PressureNodes, coupling, deviatoric_stiffness, pressure_mass,
-};
-use crate::fe::element::{ElementType, Tet10};
+use crate::fe::element::taylor_hood::PressureNodes;
+use crate::fe::element::{MixedElement, Tet10};
 use crate::fe::materials::TetMaterials;
 use crate::linsolve::SparseCholesky;
-use crate::mesh::{CellType, TetMesh};
+use crate::mesh::TetMesh;
 use crate::sparse::CscMatrix;
 
-/// The assembled linear mixed body (see the [module](self) docs).
+/// The assembled linear mixed body on element `E` (10-node Taylor–Hood by default, or the
+/// 4-node stabilized P1–P1; see the [module](self) docs).
 #[derive(Debug)]
-pub struct MixedOperator {
+pub struct MixedOperator<E: MixedElement = Tet10> {
     dofs: DofMap,
     pressure_nodes: PressureNodes,
-    tets: Vec<[usize; 10]>,
-    couplings: Vec<Coupling>,
+    tets: Vec<E::Nodes>,
+    couplings: Vec<E::Coupling>,
     node_count: usize,
     /// K_dev on every DOF (force/length).
     deviatoric: CscMatrix,
@@ -48,19 +50,19 @@ pub struct MixedOperator {
     mass: CscMatrix,
     /// A(0).
     saddle: CscMatrix,
-    /// M_p/κ on the pressure unknowns (length³/Pa), positive definite.
-    pressure_mass: CscMatrix,
+    /// C on the pressure unknowns (length³/Pa), positive definite.
+    pressure_block: CscMatrix,
     /// Its Cholesky factor, for the pressure that u alone implies.
     pressure_factor: SparseCholesky,
 }
 
-impl MixedOperator {
+impl<E: MixedElement> MixedOperator<E> {
     /// Assembles the blocks of `mesh` with `materials` (every ν < 0.5). With `held` the
     /// supports must hold every rigid motion ([`Error::NotConstrained`]), as K_eff alone must
     /// be definite (a modal analysis at shift 0); without it a free body is accepted (a time
     /// step's c·M holds it).
     pub fn new(
-        mesh: &TetMesh<Tet10>,
+        mesh: &TetMesh<E>,
         materials: &impl TetMaterials,
         constraints: &Constraints,
         held: bool,
@@ -86,7 +88,7 @@ impl MixedOperator {
         let mut deviatoric = problem.zero_matrix()?;
         problem.assembler().reassemble_elements(
             mesh,
-            |t| deviatoric_stiffness(&Tet10::rest(mesh, t), shear[materials.index_of(t)]),
+            |t| E::deviatoric_stiffness(&E::rest(mesh, t), shear[materials.index_of(t)]),
             &mut deviatoric,
         )?;
         let free_deviatoric = problem.restrict(&deviatoric)?;
@@ -99,15 +101,17 @@ impl MixedOperator {
             ));
         }
         let pressure_nodes = PressureNodes::new(mesh);
-        // Per tet: B and the pressure mass over κ (4×4), from one rest each.
-        let (couplings, blocks): (Vec<Coupling>, Vec<[[f64; 4]; 4]>) = (0..mesh.tet_count())
+        // Per tet: B and C (4×4), from one rest each.
+        let (couplings, blocks): (Vec<E::Coupling>, Vec<[[f64; 4]; 4]>) = (0..mesh.tet_count())
             .map(|t| {
-                let rest = Tet10::rest(mesh, t);
-                let inverse_bulk = inverse_bulk[materials.index_of(t)];
+                let rest = E::rest(mesh, t);
+                let material = materials.index_of(t);
                 let block = std::array::from_fn(|k| {
-                    std::array::from_fn(|l| inverse_bulk * pressure_mass(&rest, k, l))
+                    std::array::from_fn(|l| {
+                        E::pressure_block(&rest, shear[material], inverse_bulk[material], k, l)
+                    })
                 });
-                (coupling(&rest), block)
+                (E::coupling(&rest), block)
             })
             .unzip();
         let dofs = problem.into_dofs();
@@ -116,12 +120,12 @@ impl MixedOperator {
             &free_deviatoric,
             &dofs,
             &pressure_nodes,
-            |t, k, i, a| couplings[t][k][i][a],
+            |t, k, i, a| E::coupling_entry(&couplings[t], k, i, a),
             |t, k, l| blocks[t][k][l],
         )?;
-        let pressure_mass = lower_block(&saddle, dofs.free_count())?;
-        let mut pressure_factor = SparseCholesky::analyze(&pressure_mass)?;
-        pressure_factor.factorize(&pressure_mass)?;
+        let pressure_block = lower_block(&saddle, dofs.free_count())?;
+        let mut pressure_factor = SparseCholesky::analyze(&pressure_block)?;
+        pressure_factor.factorize(&pressure_block)?;
         Ok(MixedOperator {
             dofs,
             pressure_nodes,
@@ -132,7 +136,7 @@ impl MixedOperator {
             free_deviatoric,
             mass,
             saddle,
-            pressure_mass,
+            pressure_block,
             pressure_factor,
         })
     }
@@ -178,9 +182,10 @@ impl MixedOperator {
         &self.free_deviatoric
     }
 
-    /// M_p/κ on the pressure unknowns (length³/Pa).
-    pub fn pressure_mass(&self) -> &CscMatrix {
-        &self.pressure_mass
+    /// C on the pressure unknowns (length³/Pa): M_p/κ for Taylor–Hood, M_p/κ + (1/μ)(M_p − M_Π)
+    /// for the stabilized P1–P1.
+    pub fn pressure_block(&self) -> &CscMatrix {
+        &self.pressure_block
     }
 
     /// B·u per pressure unknown for a full displacement `u`: ∫ L_k div u dV (length³).
@@ -188,11 +193,11 @@ impl MixedOperator {
         Error::check_len("displacement", 3 * self.node_count, u.len())?;
         let mut out = vec![0.0; self.pressure_nodes.count()];
         for (tet, b) in self.tets.iter().zip(&self.couplings) {
-            let corners = self.pressure_nodes.of_tet(tet);
+            let corners = self.pressure_nodes.of_tet(tet.as_ref());
             for (k, &p) in corners.iter().enumerate() {
-                for (i, &n) in tet.iter().enumerate() {
+                for (i, &n) in tet.as_ref().iter().enumerate() {
                     for a in 0..3 {
-                        out[p] += b[k][i][a] * u[3 * n + a];
+                        out[p] += E::coupling_entry(b, k, i, a) * u[3 * n + a];
                     }
                 }
             }
@@ -210,11 +215,11 @@ impl MixedOperator {
         )?;
         let mut out = vec![0.0; 3 * self.node_count];
         for (tet, b) in self.tets.iter().zip(&self.couplings) {
-            let corners = self.pressure_nodes.of_tet(tet);
+            let corners = self.pressure_nodes.of_tet(tet.as_ref());
             for (k, &p) in corners.iter().enumerate() {
-                for (i, &n) in tet.iter().enumerate() {
+                for (i, &n) in tet.as_ref().iter().enumerate() {
                     for a in 0..3 {
-                        out[3 * n + a] += b[k][i][a] * corner[p];
+                        out[3 * n + a] += E::coupling_entry(b, k, i, a) * corner[p];
                     }
                 }
             }
@@ -222,7 +227,7 @@ impl MixedOperator {
         Ok(out)
     }
 
-    /// The pressure the full displacement `u` implies, p = −(M_p/κ)⁻¹·B·u (Pa; the second
+    /// The pressure the full displacement `u` implies, p = −C⁻¹·B·u (Pa; the second
     /// row of the saddle point), per corner unknown.
     pub fn implied_pressure(&mut self, u: &[f64]) -> Result<Vec<f64>> {
         let mut p: Vec<f64> = self.divergence(u)?.iter().map(|d| -d).collect();
@@ -230,7 +235,7 @@ impl MixedOperator {
         Ok(p)
     }
 
-    /// The elastic energy ½·uᵀK_dev·u + ½·pᵀ(M_p/κ)·p (energy units) of a full displacement
+    /// The elastic energy ½·uᵀK_dev·u + ½·pᵀC·p (energy units) of a full displacement
     /// `u` and its corner pressures `corner`: ½·uᵀK_eff·u when p is the implied pressure.
     pub fn elastic_energy(&self, u: &[f64], corner: &[f64]) -> Result<f64> {
         Error::check_len(
@@ -239,11 +244,11 @@ impl MixedOperator {
             corner.len(),
         )?;
         Ok(0.5
-            * (self.deviatoric.quadratic_form(u)? + self.pressure_mass.quadratic_form(corner)?))
+            * (self.deviatoric.quadratic_form(u)? + self.pressure_block.quadratic_form(corner)?))
     }
 
     /// K_eff·x on the free DOFs (x zero on the supports): K_dev,ff·x − B_fᵀ·p with
-    /// p = −(M_p/κ)⁻¹·B_f·x; also returns the two terms' magnitude bound
+    /// p = −C⁻¹·B_f·x; also returns the two terms' magnitude bound
     /// |K_dev,ff|·|x| + |B_fᵀ|·|p| (entry-wise), the scale of its round-off.
     pub fn condensed_product(&mut self, x: &[f64]) -> Result<(Vec<f64>, Vec<f64>)> {
         Error::check_len("x", self.dofs.free_count(), x.len())?;
@@ -275,11 +280,11 @@ impl MixedOperator {
     fn abs_pressure_force(&self, abs_corner: &[f64]) -> Vec<f64> {
         let mut out = vec![0.0; 3 * self.node_count];
         for (tet, b) in self.tets.iter().zip(&self.couplings) {
-            let corners = self.pressure_nodes.of_tet(tet);
+            let corners = self.pressure_nodes.of_tet(tet.as_ref());
             for (k, &p) in corners.iter().enumerate() {
-                for (i, &n) in tet.iter().enumerate() {
+                for (i, &n) in tet.as_ref().iter().enumerate() {
                     for a in 0..3 {
-                        out[3 * n + a] += b[k][i][a].abs() * abs_corner[p];
+                        out[3 * n + a] += E::coupling_entry(b, k, i, a).abs() * abs_corner[p];
                     }
                 }
             }
@@ -289,21 +294,20 @@ impl MixedOperator {
 
     /// The pressure at every node (Pa) from the corner values, linear along edges.
     pub fn nodal_pressure(&self, corner: &[f64]) -> Vec<f64> {
-        nodal_pressure::<Tet10>(&self.tets, &self.pressure_nodes, self.node_count, corner)
+        nodal_pressure::<E>(&self.tets, &self.pressure_nodes, self.node_count, corner)
     }
 }
 
-/// M_p/κ: minus the lower-right block of A(0) (the rows and columns from `free_count` on).
 /// Before any allocation: the blocks of the static mixed solve (the estimate of
-/// [`MixedStaticSolver`](crate::MixedStaticSolver), the 10-node pattern with its LDLᵀ taken as
-/// the multigrid hierarchy's bytes) plus the consistent mass and A(c) (each on K_ff's pattern)
-/// and the state vectors ([`StaticEstimate::dynamic_extra`]), against the bounds of a
-/// factorizing run ([`Error::InsufficientMemory`] naming the size and the bound).
-fn ensure_operator_fits(mesh: &TetMesh<Tet10>) -> Result<()> {
+/// [`MixedStaticSolver`](crate::MixedStaticSolver), the element's pattern (10- or 4-node) with
+/// its LDLᵀ taken as the multigrid hierarchy's bytes) plus the consistent mass and A(c) (each
+/// on K_ff's pattern) and the state vectors ([`StaticEstimate::dynamic_extra`]), against the
+/// bounds of a factorizing run ([`Error::InsufficientMemory`] naming the size and the bound).
+fn ensure_operator_fits<E: MixedElement>(mesh: &TetMesh<E>) -> Result<()> {
     let estimate = StaticEstimate::for_element(
         mesh.node_count(),
         mesh.tet_count(),
-        Tet10::NODES,
+        E::NODES,
         SolverMemory::Iterative,
     );
     let extra = estimate.dynamic_extra();
@@ -319,6 +323,7 @@ fn ensure_operator_fits(mesh: &TetMesh<Tet10>) -> Result<()> {
     )?)
 }
 
+/// C: minus the lower-right block of A(0) (the rows and columns from `free_count` on).
 fn lower_block(saddle: &CscMatrix, free_count: usize) -> Result<CscMatrix> {
     let dim = saddle.dim() - free_count;
     let mut col_ptr = vec![0usize];

@@ -47,6 +47,7 @@ mod mixed_dynamics;
 mod mixed_memory;
 mod mixed_neo_hookean;
 mod mixed_tet4;
+mod mixed_tet4_dynamics;
 mod mixed_tube;
 mod mms_rates;
 mod modal;

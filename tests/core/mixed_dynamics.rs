@@ -21,11 +21,11 @@ use tetfem::{
 const LENGTH: f64 = 1.0;
 const SIDE: f64 = 0.2;
 
-fn rubber(poisson_ratio: f64) -> Material {
+pub(super) fn rubber(poisson_ratio: f64) -> Material {
     Material::new(1e6, poisson_ratio, 1000.0).unwrap()
 }
 
-fn beam(cells: [usize; 3]) -> (TetMesh, TetMesh<Tet10>) {
+pub(super) fn beam(cells: [usize; 3]) -> (TetMesh, TetMesh<Tet10>) {
     let linear = TetMesh::box_grid(
         Vector3::zeros(),
         Vector3::new(LENGTH, SIDE, SIDE),
@@ -37,7 +37,7 @@ fn beam(cells: [usize; 3]) -> (TetMesh, TetMesh<Tet10>) {
     (linear, quadratic)
 }
 
-fn clamped<C: CellType>(mesh: &TetMesh<C>) -> Constraints {
+pub(super) fn clamped<C: CellType>(mesh: &TetMesh<C>) -> Constraints {
     let root: Vec<usize> = (0..mesh.node_count())
         .filter(|&n| mesh.nodes()[n].x < 1e-9)
         .collect();
@@ -46,7 +46,7 @@ fn clamped<C: CellType>(mesh: &TetMesh<C>) -> Constraints {
     constraints
 }
 
-fn gravity<E: tetfem::ElementType>(mesh: &TetMesh<E>, material: &Material) -> Loads {
+pub(super) fn gravity<E: tetfem::ElementType>(mesh: &TetMesh<E>, material: &Material) -> Loads {
     let mut loads = Loads::new(mesh);
     loads
         .add_gravity(mesh, material, Vector3::new(0.0, 0.0, -9.81))
@@ -55,7 +55,7 @@ fn gravity<E: tetfem::ElementType>(mesh: &TetMesh<E>, material: &Material) -> Lo
 }
 
 /// Mean z displacement of the nodes of the free end x = L (length).
-fn tip<C: CellType>(mesh: &TetMesh<C>, u: &[f64]) -> f64 {
+pub(super) fn tip<C: CellType>(mesh: &TetMesh<C>, u: &[f64]) -> f64 {
     let tip: Vec<usize> = (0..mesh.node_count())
         .filter(|&n| (mesh.nodes()[n].x - LENGTH).abs() < 1e-9)
         .collect();
@@ -149,7 +149,7 @@ fn p2_run(
 
 /// The mean spacing of the upward zero crossings of `history` (sampled every `dt`), each
 /// crossing placed by linear interpolation.
-fn period(history: &[f64], dt: f64) -> f64 {
+pub(super) fn period(history: &[f64], dt: f64) -> f64 {
     let crossings: Vec<f64> = history
         .windows(2)
         .enumerate()

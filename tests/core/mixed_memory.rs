@@ -1,5 +1,6 @@
 //! Memory before allocating, for the mixed analyses: the linear dynamic and modal operator
-//! (`MixedOperator`, shared by `MixedTransient` and `lowest_mixed_modes`) and the Neo-Hookean
+//! (`MixedOperator`, shared by `MixedTransient` and `lowest_mixed_modes`, on 10-node
+//! Taylor–Hood and 4-node stabilized P1–P1 tets) and the Neo-Hookean
 //! Newton solve check the size a mesh will need before assembling anything, and a run too large
 //! for the process's address-space limit is an `Error::InsufficientMemory` naming the size, not
 //! an allocator abort. The limit is set on a child process of this test binary (util-linux
@@ -42,6 +43,33 @@ fn clamped_box(cells: usize) -> (TetMesh<Tet10>, Constraints) {
     (mesh, constraints)
 }
 
+/// The linear dynamic and modal runs of the 4-node stabilized P1–P1 element on a unit box of
+/// `cells`³ cells of the 5-tet split clamped at x = 0, named: Ok or its error.
+fn p1p1_runs(cells: usize) -> Vec<(&'static str, Result<(), tetfem::Error>)> {
+    let mesh = TetMesh::box_grid(
+        Vector3::zeros(),
+        Vector3::new(1.0, 1.0, 1.0),
+        [cells; 3],
+        BoxSplit::Five,
+    )
+    .unwrap();
+    let mut constraints = Constraints::new(&mesh);
+    constraints
+        .fix_nodes(&mesh.nodes_on_plane(0, 0.0, 1e-9))
+        .unwrap();
+    let material = Material::new(1e6, 0.499, 1000.0).unwrap();
+    let modal = lowest_mixed_modes(&mesh, &material, &constraints, 1).map(|_| ());
+    let dynamic = MixedTransient::new(
+        &mesh,
+        &material,
+        &constraints,
+        &Loads::new(&mesh),
+        (Method::Newmark, 1e-3, Rayleigh::default()),
+    )
+    .map(|_| ());
+    vec![("p1p1-modal", modal), ("p1p1-dynamic", dynamic)]
+}
+
 /// Each mixed run on `cells`³ cells, named: Ok or its error.
 fn runs(cells: usize) -> Vec<(&'static str, Result<(), tetfem::Error>)> {
     let (mesh, constraints) = clamped_box(cells);
@@ -81,8 +109,9 @@ fn child_mixed_runs_under_a_limit() {
         .expect("prlimit (util-linux) runs");
     assert!(set.success(), "prlimit --pid failed: {set:?}");
     // 24³ cells: 69 120 tets, 103 825 nodes, estimates of 3–4 GB; 2³: 40 tets, well under 1 MB.
-    for (cells, verdict) in [(24, "LARGE"), (2, "SMALL")] {
-        for (name, result) in runs(cells) {
+    // The 4-node element: 48³ cells, 552 960 tets and 117 649 nodes.
+    for (cells, verdict, p1p1) in [(24, "LARGE", 48), (2, "SMALL", 2)] {
+        for (name, result) in runs(cells).into_iter().chain(p1p1_runs(p1p1)) {
             match result {
                 Ok(()) => println!("{verdict} {name} ok"),
                 Err(error) => println!("{verdict} {name} error {error}"),
@@ -116,7 +145,7 @@ fn too_large_mixed_runs_stop_before_allocating() {
         output.status,
         String::from_utf8_lossy(&output.stderr)
     );
-    for name in ["modal", "dynamic", "newton"] {
+    for name in ["modal", "dynamic", "newton", "p1p1-modal", "p1p1-dynamic"] {
         // The harness prints its "test … ... " prefix on the first line: from the key on.
         let line = |verdict: &str| {
             let key = format!("{verdict} {name} ");

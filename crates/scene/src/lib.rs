@@ -195,7 +195,7 @@ type = "static"                     # default "static"; or "dynamic", which need
                                     # as ν → 0.5 (P2–P1 on 10-node tets, stabilized P1–P1 on
                                     # 4-node ones; static with the linear or the Neo-Hookean
                                     # model; dynamic (backward_euler, newmark, consistent mass)
-                                    # and modal with the linear model on 10-node tets);
+                                    # and modal with the linear model on either);
                                     # the .vtu gets the point field "pressure" (Pa)
 # linear_solver = "auto"            # default: the Cholesky factorization when its factor fits the
                                     # memory budget and is predicted faster; or "direct",

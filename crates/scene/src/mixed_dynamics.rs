@@ -1,21 +1,22 @@
-//! What the mixed (Taylor–Hood P2–P1) formulation's dynamic and modal scenes share
-//! (`formulation = "mixed"` with `type = "dynamic"`, backward Euler or Newmark with the linear
-//! model and the consistent mass, backward Euler with the Neo-Hookean model and frictionless
-//! obstacles, or `type = "modal"`): the scene's refusal of what their
+//! What the mixed formulation's dynamic and modal scenes share (`formulation = "mixed"` with
+//! `type = "dynamic"`, backward Euler or Newmark with the linear model and the consistent mass
+//! on 4-node (stabilized P1–P1) or 10-node (Taylor–Hood P2–P1) tets, backward Euler with the
+//! Neo-Hookean model and frictionless obstacles, or `type = "modal"`): the scene's refusal of
+//! what their
 //! runners do not run and the warnings they report. The runners are `dynamic::mixed` and
 //! `modal::mixed`, children of the runners that dispatch to them, so that neither depends on
 //! the other's module.
 
 use tetfem::base::error::Result;
-use tetfem::fe::element::Tet10;
+use tetfem::mesh::CellType;
 
 use super::Scene;
 
 /// The mesh's and materials' warnings without the displacement element's locking warning
 /// (the mixed element does not lock).
-pub(crate) fn mixed_warnings(
+pub(crate) fn mixed_warnings<C: CellType>(
     scene: &Scene,
-    built: &super::BuiltScene<Tet10>,
+    built: &super::BuiltScene<C>,
 ) -> Result<Vec<String>> {
     let _ = scene;
     Ok(built

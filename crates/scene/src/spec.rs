@@ -733,7 +733,7 @@ pub struct AnalysisSpec {
     /// lock as Poisson's ratio approaches 0.5 (rubber: ν up to 0.4999…) and writes the pressure
     /// (Pa, positive in compression) as the `.vtu` point field `pressure`. Mixed: static scenes
     /// with the linear or the Neo-Hookean model on either order; dynamic (`backward_euler`,
-    /// `newmark`, `mass = "consistent"`) and modal scenes with the linear model on 10-node tets;
+    /// `newmark`, `mass = "consistent"`) and modal scenes with the linear model on either order;
     /// tetfem's own engine only, without obstacles, `accuracy` or point probes; solved by a
     /// sparse LDLᵀ whatever `linear_solver` says.
     #[serde(default)]

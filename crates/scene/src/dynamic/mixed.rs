@@ -1,6 +1,7 @@
-//! The mixed (Taylor–Hood P2–P1) formulation's dynamic scenes: `formulation = "mixed"` with
-//! `type = "dynamic"` (backward Euler or Newmark, the linear model, the consistent mass; the
-//! Neo-Hookean model in backward Euler, with obstacles, is [`neo_hookean`]'s). The
+//! The mixed formulation's dynamic scenes: `formulation = "mixed"` with `type = "dynamic"`
+//! (backward Euler or Newmark, the linear model, the consistent mass, on 4-node tets with the
+//! stabilized P1–P1 element or on 10-node tets with Taylor–Hood P2–P1; the Neo-Hookean model in
+//! backward Euler, with obstacles, is [`neo_hookean`]'s). The
 //! library computes ([`mixed_transient_model`]); this file reads the scene's keys, steps, and
 //! writes what a user opens: `<stem>.pvd` with a `.vtu` per frame (point fields
 //! `displacement`, m, and `pressure`, Pa), `<stem>.csv` (time, energies, pressure range, each
@@ -12,18 +13,19 @@ use std::time::Instant;
 
 use tetfem::Loads;
 use tetfem::analysis::dynamics::Rayleigh;
-use tetfem::analysis::mixed_analysis::mixed_transient_model;
+use tetfem::analysis::mixed_analysis::{MixedStaticElement, mixed_transient_model};
 use tetfem::analysis::mixed_dynamics::MixedTransient;
 use tetfem::analysis::transient::{RunLength, TimeStep};
 use tetfem::base::error::{Error, Result};
-use tetfem::fe::element::Tet10;
+use tetfem::fe::element::{Tet4, Tet10};
+use tetfem::mesh::CellType;
 use tetfem::post::output::{OutputLock, PvdCollection, VtuWriter, write_atomically};
 
 use super::{DynamicOverrides, DynamicSummary, EnergyTerms};
 
 mod neo_hookean;
 use crate::mixed_dynamics::mixed_warnings;
-use crate::{DynamicSettings, ProbeRange, Scene};
+use crate::{DynamicSettings, ProbeRange, Scene, SceneElement};
 
 /// A mixed dynamic scene (see the [module](self) docs): from rest in the undeformed state (with
 /// `initial_velocity` on the free DOFs), constant loads and gravity, `overrides` of the
@@ -39,6 +41,22 @@ pub(crate) fn run_mixed_dynamic(
     if scene.model() == tetfem::model::ModelKind::NeoHookean {
         return neo_hookean::run_mixed_neo_hookean(scene, settings, overrides, lock, progress);
     }
+    if scene.order() == 1 {
+        run_linear::<Tet4>(scene, settings, overrides, lock, progress)
+    } else {
+        run_linear::<Tet10>(scene, settings, overrides, lock, progress)
+    }
+}
+
+/// The linear model's run of [`run_mixed_dynamic`] on element `E` (4-node stabilized P1–P1 or
+/// 10-node Taylor–Hood).
+fn run_linear<E: SceneElement + MixedStaticElement>(
+    scene: &Scene,
+    settings: &DynamicSettings,
+    overrides: &DynamicOverrides,
+    lock: Option<OutputLock>,
+    progress: &mut dyn FnMut(usize, usize) -> ControlFlow<()>,
+) -> Result<DynamicSummary> {
     let method = overrides.method.unwrap_or(settings.method);
     let dt = seconds_step(overrides, settings)?;
     let steps = overrides
@@ -46,7 +64,7 @@ pub(crate) fn run_mixed_dynamic(
         .unwrap_or(RunLength::Duration(settings.duration))
         .steps(dt)?;
     let clock = Instant::now();
-    let built = scene.build_as::<Tet10>()?;
+    let built = scene.build_as::<E>()?;
     let mesh = &built.mesh;
     let mut gravity = Loads::new(mesh);
     gravity.add_gravity(mesh, &built.materials, built.gravity)?;
@@ -69,7 +87,7 @@ pub(crate) fn run_mixed_dynamic(
     run.start(vec![0.0; dofs.free_count()], v0)?;
     let critical = crate::critical_step_of(&built)?;
     let setup_seconds = clock.elapsed().as_secs_f64();
-    let energy = |run: &MixedTransient| energy_terms(run, &gravity);
+    let energy = |run: &MixedTransient<E>| energy_terms(run, &gravity);
     let initial_energy = energy(&run)?;
     let out = scene.output();
     let mut writer = lock.as_ref().map(|_| FrameFiles::new(scene));
@@ -148,9 +166,9 @@ pub(crate) fn run_mixed_dynamic(
 /// The summary fields every mixed dynamic run fills alike (the scene's, the mesh's, the
 /// warnings, none of the displacement runs' estimates); each runner sets its own measurements
 /// over it.
-fn summary_base(
+fn summary_base<C: CellType>(
     scene: &Scene,
-    built: &crate::BuiltScene<Tet10>,
+    built: &crate::BuiltScene<C>,
     lock: Option<&OutputLock>,
 ) -> Result<DynamicSummary> {
     Ok(DynamicSummary {
@@ -236,7 +254,10 @@ fn seconds_step(overrides: &DynamicOverrides, settings: &DynamicSettings) -> Res
 
 /// The energies of `run`'s state, gravity's potential −f_gᵀu apart (`gravity` its nodal
 /// loads).
-fn energy_terms(run: &MixedTransient, gravity: &Loads) -> Result<EnergyTerms> {
+fn energy_terms<E: MixedStaticElement>(
+    run: &MixedTransient<E>,
+    gravity: &Loads,
+) -> Result<EnergyTerms> {
     let e = run.energy()?;
     let u = run.displacement()?;
     let g: f64 = -(gravity.as_slice().iter().zip(&u))
@@ -324,9 +345,9 @@ impl FrameFiles {
     }
 
     /// One frame at `time` (s): displacement (m) and pressure (Pa) at every node.
-    fn frame(
+    fn frame<C: CellType>(
         &mut self,
-        mesh: &tetfem::TetMesh<Tet10>,
+        mesh: &tetfem::TetMesh<C>,
         time: f64,
         u: &[f64],
         pressure: &[f64],

@@ -1,5 +1,6 @@
-//! The mixed (Taylor–Hood P2–P1) formulation's modal scenes: `formulation = "mixed"` with
-//! `type = "modal"` and the consistent mass. The library computes
+//! The mixed formulation's modal scenes: `formulation = "mixed"` with `type = "modal"` and the
+//! consistent mass, on 4-node tets (stabilized P1–P1) or 10-node tets (Taylor–Hood P2–P1,
+//! `[mesh] order = 2`). The library computes
 //! ([`mixed_modes_model`]); this file writes `<stem>_modes.pvd` with `mode_shape` and
 //! `pressure` per mode, `<stem>_modes.csv` and the summary.
 
@@ -7,15 +8,15 @@ use std::path::PathBuf;
 use std::time::Instant;
 
 use tetfem::Problem;
-use tetfem::analysis::mixed_analysis::mixed_modes_model;
+use tetfem::analysis::mixed_analysis::{MixedStaticElement, mixed_modes_model};
 use tetfem::analysis::modal::effective_mass_fractions;
 use tetfem::base::error::Result;
-use tetfem::fe::element::Tet10;
+use tetfem::fe::element::{Tet4, Tet10};
 use tetfem::post::output::{OutputLock, PvdCollection, VtuWriter};
 
 use super::ModalSummary;
 use crate::mixed_dynamics::mixed_warnings;
-use crate::{ModalSettings, Scene};
+use crate::{ModalSettings, Scene, SceneElement};
 
 /// A mixed modal scene (see the [module](self) docs): the lowest modes of K_eff·φ = ω²·M·φ.
 pub(crate) fn run_mixed_modal(
@@ -23,8 +24,21 @@ pub(crate) fn run_mixed_modal(
     settings: ModalSettings,
     lock: Option<OutputLock>,
 ) -> Result<ModalSummary> {
+    if scene.order() == 1 {
+        run_mixed_modal_on::<Tet4>(scene, settings, lock)
+    } else {
+        run_mixed_modal_on::<Tet10>(scene, settings, lock)
+    }
+}
+
+/// [`run_mixed_modal`] on element `E`.
+fn run_mixed_modal_on<E: SceneElement + MixedStaticElement>(
+    scene: &Scene,
+    settings: ModalSettings,
+    lock: Option<OutputLock>,
+) -> Result<ModalSummary> {
     let clock = Instant::now();
-    let built = scene.build_as::<Tet10>()?;
+    let built = scene.build_as::<E>()?;
     let build_seconds = clock.elapsed().as_secs_f64();
     let clock = Instant::now();
     let mixed = mixed_modes_model(
@@ -71,9 +85,9 @@ pub(crate) fn run_mixed_modal(
 }
 
 /// The mode files (see the [module](self) docs).
-fn write_mixed_modes(
+fn write_mixed_modes<E: SceneElement>(
     scene: &Scene,
-    mesh: &tetfem::TetMesh<Tet10>,
+    mesh: &tetfem::TetMesh<E>,
     dofs: &tetfem::DofMap,
     mixed: &tetfem::analysis::mixed_modal::MixedModes,
     summary: &ModalSummary,
