@@ -16,7 +16,7 @@
 //! IPC barrier, wall time of the stepping alone (the gap check after each step is not timed).
 //! Printed: steps/s, Newton iterations per step (mean, most), factorizations, CG iterations,
 //! fallbacks, and the smallest gap of a boundary node to an obstacle over the run (> 0: no
-//! node through; `tests/core/interactive_contact.rs` asserts it on a smaller block). Threads:
+//! node through; `tests/core/interactive_contact.rs` asserts it on a 4³-cell block). Threads:
 //! `RAYON_NUM_THREADS` for the assembly, `threads` for the Cholesky (the 2 threads:
 //! `RAYON_NUM_THREADS=2` and `threads` 2).
 //!
