@@ -37,6 +37,7 @@ mod error_estimate_model;
 mod explicit_contact;
 mod gmsh_element_lines;
 mod gravity;
+mod interactive_contact;
 mod large_deformation_robustness;
 mod locking_curve;
 mod memory_tet10;
