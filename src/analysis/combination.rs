@@ -20,7 +20,8 @@
 //!   and the Neo-Hookean one, obstacles (but frictionless ones in the Neo-Hookean backward
 //!   Euler), and with the Neo-Hookean model supports that move (its
 //!   load steps scale prescribed values by λ); in the implicit dynamic and the modal analyses,
-//!   4-node tets (the stabilized P1–P1 element is static only), a model other than the linear
+//!   4-node tets (the stabilized P1–P1 element is static only, but in the Neo-Hookean backward
+//!   Euler), a model other than the linear
 //!   one (but the Neo-Hookean one in backward Euler), body–body contact, moving supports and
 //!   loads that follow amplitudes;
 //! - a force model per material region (`region_models`) with a modal analysis where a region
@@ -319,26 +320,28 @@ impl Combination {
 
     /// The refusals of [`Formulation::Mixed`] in the implicit dynamic and the modal analyses
     /// ([`crate::analysis::mixed_dynamics`], [`crate::analysis::mixed_modal`],
-    /// [`crate::analysis::mixed_dynamics_neo_hookean`]): the linear model, and the Neo-Hookean
-    /// one in backward Euler, on 10-node tets, fixed supports and constant loads, without
-    /// contact.
+    /// [`crate::analysis::mixed_dynamics_neo_hookean`]): the linear model on 10-node tets, and
+    /// the Neo-Hookean one in backward Euler on 4- and 10-node tets, fixed supports and
+    /// constant loads, without surface contact.
     fn check_mixed_dynamics(&self) -> Result<()> {
         let refuse = |what: &str, value: String, why: &str| {
             Err(Error::invalid_parameter(
                 format!("formulation mixed with {what}"),
                 value,
                 format!(
-                    "the mixed (Taylor–Hood P2–P1) element in a {} analysis {why}",
+                    "the mixed ({}) element in a {} analysis {why}",
+                    mixed_element_name(self.order),
                     self.analysis.name()
                 ),
             ))
         };
-        if self.order != 2 {
+        // The Neo-Hookean model (backward Euler, checked next) runs on either order.
+        if self.order != 2 && self.model != ModelKind::NeoHookean {
             return refuse(
                 "element order",
                 self.order.to_string(),
                 "needs 10-node tets ([mesh] order = 2; the stabilized P1–P1 element on 4-node \
-                 tets is static only)",
+                 tets is static only, or dynamic with the Neo-Hookean model in backward Euler)",
             );
         }
         let euler = self.analysis == Analysis::Transient(Method::BackwardEuler);
