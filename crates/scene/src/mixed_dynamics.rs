@@ -7,15 +7,14 @@
 //! the other's module.
 
 use tetfem::base::error::Result;
-use tetfem::fe::element::Tet10;
 
 use super::Scene;
 
 /// The mesh's and materials' warnings without the displacement element's locking warning
 /// (the mixed element does not lock).
-pub(crate) fn mixed_warnings(
+pub(crate) fn mixed_warnings<C: tetfem::mesh::CellType>(
     scene: &Scene,
-    built: &super::BuiltScene<Tet10>,
+    built: &super::BuiltScene<C>,
 ) -> Result<Vec<String>> {
     let _ = scene;
     Ok(built

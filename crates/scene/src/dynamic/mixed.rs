@@ -148,9 +148,9 @@ pub(crate) fn run_mixed_dynamic(
 /// The summary fields every mixed dynamic run fills alike (the scene's, the mesh's, the
 /// warnings, none of the displacement runs' estimates); each runner sets its own measurements
 /// over it.
-fn summary_base(
+fn summary_base<E: crate::SceneElement>(
     scene: &Scene,
-    built: &crate::BuiltScene<Tet10>,
+    built: &crate::BuiltScene<E>,
     lock: Option<&OutputLock>,
 ) -> Result<DynamicSummary> {
     Ok(DynamicSummary {
@@ -324,9 +324,9 @@ impl FrameFiles {
     }
 
     /// One frame at `time` (s): displacement (m) and pressure (Pa) at every node.
-    fn frame(
+    fn frame<C: tetfem::mesh::CellType>(
         &mut self,
-        mesh: &tetfem::TetMesh<Tet10>,
+        mesh: &tetfem::TetMesh<C>,
         time: f64,
         u: &[f64],
         pressure: &[f64],
