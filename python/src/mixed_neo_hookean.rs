@@ -101,9 +101,10 @@ fn run_on<E: MixedStaticElement + MixedBody>(
 /// amplitude raises). Each step solves M·(u⁺ − u − dt·v)/dt² + f_int(u⁺, p⁺) = f with the
 /// pressure equation by Newton's method on the quasi-definite saddle tangent (one LDLᵀ per
 /// iteration) to ``tolerance`` (relative, in (0, 1)); the consistent mass, no damping but
-/// backward Euler's own. ``obstacles``: rigid, still, frictionless ``Obstacle``s the boundary
-/// nodes meet through the IPC barrier (``contact_distance`` d̂, m, and ``contact_stiffness``,
-/// Pa/m, default to the scales ``Simulation`` uses); no accepted iterate crosses one. Returns a dict with ``time`` (steps + 1,) s, ``displacement``
+/// backward Euler's own. ``obstacles``: rigid, still ``Obstacle``s the boundary nodes meet
+/// through the IPC barrier (``contact_distance`` d̂, m, and ``contact_stiffness``, Pa/m,
+/// default to the scales ``Simulation`` uses), with their Coulomb friction lagged a step as
+/// in ``Simulation``; no accepted iterate crosses one. Returns a dict with ``time`` (steps + 1,) s, ``displacement``
 /// (steps + 1, n, 3) m, ``pressure`` (steps + 1, n) Pa (positive in compression),
 /// ``volume_change`` (steps + 1,) ∫J dV/V₀ − 1, ``kinetic_energy`` and ``elastic_energy``
 /// (steps + 1,) J, ``smallest_gap`` (steps + 1,) m (inf without obstacles),

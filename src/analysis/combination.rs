@@ -17,7 +17,7 @@
 //!   would leave that bound's range or cross;
 //! - the mixed displacement–pressure formulation ([`Formulation::Mixed`]) with what it does not
 //!   compute: the explicit method (the pressure has no inertia), a model other than the linear
-//!   and the Neo-Hookean one, obstacles (but frictionless ones in the Neo-Hookean backward
+//!   and the Neo-Hookean one, obstacles (but in the Neo-Hookean backward
 //!   Euler), and with the Neo-Hookean model supports that move (its
 //!   load steps scale prescribed values by λ); in the implicit dynamic and the modal analyses,
 //!   4-node tets (the stabilized P1–P1 element is static only, but in the Neo-Hookean backward
@@ -290,7 +290,7 @@ impl Combination {
             );
         }
         // Obstacles meet the Neo-Hookean backward Euler only
-        // (crate::analysis::mixed_dynamics_neo_hookean), frictionless.
+        // (crate::analysis::mixed_dynamics_neo_hookean), with or without friction.
         let euler = self.analysis == Analysis::Transient(Method::BackwardEuler);
         if self.obstacles && !(euler && self.model == ModelKind::NeoHookean) {
             return refuse(
@@ -298,13 +298,6 @@ impl Combination {
                 "obstacles".into(),
                 "meets rigid obstacles in the Neo-Hookean backward Euler only (dynamic, \
                  method backward_euler, model neo_hookean)",
-            );
-        }
-        if self.obstacles && self.friction {
-            return refuse(
-                "friction",
-                "obstacle friction".into(),
-                "meets frictionless obstacles only (set the obstacles' friction to 0)",
             );
         }
         if self.moving_supports && self.model == ModelKind::NeoHookean {

@@ -27,15 +27,20 @@
 //! H_c ⪰ 0). Every iterate stays outside every obstacle: the predictor and each Newton step are
 //! cut to [`first_step_fraction`] of the first time of impact ([`Contact::max_step`]) before the
 //! line search halves them, so no accepted iterate crosses (the merit cannot tell a crossing
-//! apart, the energy being a saddle). Frictionless, still obstacles: friction and obstacle
-//! motion are refused by name.
+//! apart, the energy being a saddle). Coulomb friction
+//! ([`Obstacle::friction`](crate::contact::Obstacle::friction)) is the displacement dynamics'
+//! lagged smoothed friction: at each step's start the normal force and the tangent plane of
+//! every node within d̂ of an obstacle with μ > 0 are frozen ([`Contact::friction_lag`],
+//! smoothing distance ε_v·dt), and R_u gains the friction force's negative, the first block its
+//! Hessian (PSD, so the tangent stays quasi-definite). Still obstacles: obstacle motion is
+//! refused by name.
 
 use crate::analysis::mixed_statics::{nodal_pressure, saddle_point_matrix};
 use crate::analysis::problem::Problem;
 use crate::base::error::{Error, Result};
 use crate::bc::constraints::{Constraints, DofMap};
 use crate::bc::loads::Loads;
-use crate::contact::{Contact, first_step_fraction};
+use crate::contact::{Contact, FrictionLag, first_step_fraction};
 use crate::fe::element::taylor_hood::{PRESSURE_NODES, PressureNodes};
 use crate::fe::element::tet10::Tet10Rest;
 use crate::fe::element::{MixedElement, Tet, Tet4, Tet10};
@@ -80,6 +85,8 @@ pub struct MixedNeoHookeanEuler<'a, E: MixedBody = Tet10> {
     iterations: usize,
     /// Rigid obstacles the boundary nodes meet (none by default).
     contact: Option<Contact>,
+    /// The current step's lagged friction (with obstacles of μ > 0).
+    friction: Option<FrictionLag>,
 }
 
 impl<E: MixedBody> std::fmt::Debug for MixedNeoHookeanEuler<'_, E> {
@@ -153,6 +160,7 @@ impl<'a, E: MixedBody> MixedNeoHookeanEuler<'a, E> {
             time: 0.0,
             iterations: 0,
             contact: None,
+            friction: None,
         };
         let (u, p) = (stepper.u.clone(), stepper.p.clone());
         let Some(states) = stepper.states(&u, &p) else {
@@ -211,6 +219,9 @@ impl<'a, E: MixedBody> MixedNeoHookeanEuler<'a, E> {
             // R_u gains ∂E_c/∂u = −(the contact force).
             let mut push = vec![0.0; internal.len()];
             contact.add_force(u, &mut push)?;
+            if let Some(lag) = &self.friction {
+                contact.add_friction_force(lag, u, &mut push)?;
+            }
             for (r, f) in internal.iter_mut().zip(&push) {
                 *r -= f;
             }
@@ -242,6 +253,9 @@ impl<'a, E: MixedBody> MixedNeoHookeanEuler<'a, E> {
         )?;
         if let Some(contact) = &self.contact {
             contact.add_tangent(u, true, &mut stiffness)?;
+            if let Some(lag) = &self.friction {
+                contact.add_friction_tangent(lag, u, &mut stiffness)?;
+            }
         }
         let mut free = self.problem.restrict(&stiffness)?;
         let c = 1.0 / (self.dt * self.dt);
@@ -282,6 +296,13 @@ impl<'a, E: MixedBody> MixedNeoHookeanEuler<'a, E> {
     pub fn step(&mut self) -> Result<usize> {
         let dofs = self.problem.dofs().clone();
         let free = dofs.free_count();
+        // Friction lagged at the step's start (normal forces and tangent planes frozen).
+        self.friction = match self.contact.as_ref().filter(|c| c.has_friction()) {
+            Some(contact) => {
+                Some(contact.friction_lag(&self.u, contact.slip_velocity() * self.dt)?)
+            }
+            None => None,
+        };
         // Predictor: the step's start moved on by dt·v (the pressure kept).
         let mut u = self.u.clone();
         // With obstacles, the predictor stops short of the first impact along dt·v.
@@ -394,19 +415,11 @@ impl<'a, E: MixedBody> MixedNeoHookeanEuler<'a, E> {
     }
 
     /// The body meeting the rigid obstacles of `contact` (built on this mesh; see the
-    /// [module](self) docs), frictionless and still.
+    /// [module](self) docs), still, with or without friction.
     ///
-    /// Errors, before any step: an obstacle with friction or a motion (named); the body at its
-    /// current state on or inside an obstacle ([`Contact::check_state`]).
+    /// Errors, before any step: an obstacle with a motion (named); the body at its current
+    /// state on or inside an obstacle ([`Contact::check_state`]).
     pub fn with_contact(mut self, contact: Contact) -> Result<Self> {
-        if let Some(o) = contact.obstacles().iter().find(|o| o.friction() > 0.0) {
-            return Err(Error::invalid_parameter(
-                format!("obstacle {} friction", o.name()),
-                o.friction(),
-                "must be 0 with the mixed Neo-Hookean backward Euler (frictionless obstacles \
-                 only)",
-            ));
-        }
         if let Some(o) = contact
             .obstacles()
             .iter()

@@ -34,7 +34,7 @@ const MIXED_NEEDS: &str = "formulation = \"mixed\" is for static scenes with the
                            mass = \"consistent\" on 10-node tets ([mesh] order = 2; fixed \
                            supports, constant loads, no probes, time_tolerance or checkpoints), \
                            dynamic ones also with the Neo-Hookean model in backward_euler \
-                           (undamped; frictionless still [[obstacles]] allowed), on tetfem's own \
+                           (undamped; still [[obstacles]] allowed, with friction too), on tetfem's own \
                            engine, without other obstacles, accuracy or point probes";
 
 impl Scene {

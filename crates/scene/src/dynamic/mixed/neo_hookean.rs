@@ -1,7 +1,7 @@
 //! The mixed formulation's Neo-Hookean dynamic scenes: `formulation = "mixed"`, `type =
 //! "dynamic"`, `model = "neo_hookean"`, `method = "backward_euler"`, on 10-node tets
 //! (Taylor–Hood P2–P1) or 4-node ones (`[mesh] order = 1`: the stabilized P1–P1), with or without
-//! frictionless still `[[obstacles]]` (the library's
+//! still `[[obstacles]]`, with or without friction (the library's
 //! [`MixedNeoHookeanEuler`](tetfem::analysis::mixed_dynamics_neo_hookean::MixedNeoHookeanEuler);
 //! what combines is the library's [`Combination`](tetfem::analysis::combination::Combination),
 //! checked when the scene was read). Writes what the linear mixed run writes (frames with the
