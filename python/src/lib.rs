@@ -20,6 +20,7 @@ mod matrices;
 mod mesh;
 mod mixed;
 mod mixed_dynamics;
+mod mixed_neo_hookean;
 mod modal;
 mod names;
 mod post;
@@ -51,6 +52,10 @@ fn _tetfem(m: &Bound<'_, PyModule>) -> PyResult<()> {
         m
     )?)?;
     m.add_function(wrap_pyfunction!(mixed_dynamics::mixed_transient_py, m)?)?;
+    m.add_function(wrap_pyfunction!(
+        mixed_neo_hookean::mixed_neo_hookean_transient_py,
+        m
+    )?)?;
     m.add_function(wrap_pyfunction!(modal::modal_analysis, m)?)?;
     m.add_function(wrap_pyfunction!(scene::run_scene, m)?)?;
     m.add_function(wrap_pyfunction!(post::estimate_error, m)?)?;

@@ -24,6 +24,7 @@ __all__ = [
     "solve_static_mixed",
     "mixed_modal_analysis",
     "mixed_transient",
+    "mixed_neo_hookean_transient",
     "modal_analysis",
     "run_scene",
     "stiffness_matrix",
@@ -403,6 +404,20 @@ def mixed_transient(
     steps: int,
     method: _Method = "newmark",
     alpha: float = 0.0,
+) -> Dict[str, Any]: ...
+def mixed_neo_hookean_transient(
+    mesh: Mesh,
+    material: _Materials,
+    constraints: Constraints,
+    loads: Loads,
+    dt: float,
+    steps: int,
+    *,
+    initial_velocity: Optional[_ArrayLike] = None,
+    obstacles: Optional[Sequence[Obstacle]] = None,
+    contact_distance: Optional[float] = None,
+    contact_stiffness: Optional[float] = None,
+    tolerance: float = 1e-8,
 ) -> Dict[str, Any]: ...
 def run_scene(path: _Path, output_dir: Optional[_Path] = None, write_files: bool = True) -> Dict[str, Any]: ...
 def stiffness_matrix(mesh: Mesh, material: _Materials) -> _SparseMatrix: ...

@@ -17,11 +17,12 @@
 //!   would leave that bound's range or cross;
 //! - the mixed displacement–pressure formulation ([`Formulation::Mixed`]) with what it does not
 //!   compute: the explicit method (the pressure has no inertia), a model other than the linear
-//!   and the Neo-Hookean one, obstacles (but frictionless ones in the Neo-Hookean backward
+//!   and the Neo-Hookean one, obstacles (but in the Neo-Hookean backward
 //!   Euler), and with the Neo-Hookean model supports that move (its
 //!   load steps scale prescribed values by λ); in the implicit dynamic and the modal analyses,
-//!   a model other than the linear one (but the Neo-Hookean one in backward Euler, on 10-node
-//!   tets only), body–body contact, moving supports and loads that follow amplitudes;
+//!   a model other than the linear one (but the Neo-Hookean one in backward Euler), body–body
+//!   contact, moving supports and loads that follow amplitudes (either mixed element runs
+//!   them);
 //! - a force model per material region (`region_models`) with a modal analysis where a region
 //!   is nonlinear, and with the mixed formulation at all (it solves one model).
 //!
@@ -288,7 +289,7 @@ impl Combination {
             );
         }
         // Obstacles meet the Neo-Hookean backward Euler only
-        // (crate::analysis::mixed_dynamics_neo_hookean), frictionless.
+        // (crate::analysis::mixed_dynamics_neo_hookean), with or without friction.
         let euler = self.analysis == Analysis::Transient(Method::BackwardEuler);
         if self.obstacles && !(euler && self.model == ModelKind::NeoHookean) {
             return refuse(
@@ -296,13 +297,6 @@ impl Combination {
                 "obstacles".into(),
                 "meets rigid obstacles in the Neo-Hookean backward Euler only (dynamic, \
                  method backward_euler, model neo_hookean)",
-            );
-        }
-        if self.obstacles && self.friction {
-            return refuse(
-                "friction",
-                "obstacle friction".into(),
-                "meets frictionless obstacles only (set the obstacles' friction to 0)",
             );
         }
         if self.moving_supports && self.model == ModelKind::NeoHookean {
@@ -318,9 +312,9 @@ impl Combination {
 
     /// The refusals of [`Formulation::Mixed`] in the implicit dynamic and the modal analyses
     /// ([`crate::analysis::mixed_dynamics`], [`crate::analysis::mixed_modal`],
-    /// [`crate::analysis::mixed_dynamics_neo_hookean`]): the linear model on either mixed
-    /// element, and the Neo-Hookean one in backward Euler on 10-node tets, with fixed supports
-    /// and constant loads, without contact.
+    /// [`crate::analysis::mixed_dynamics_neo_hookean`]): the linear model, and the Neo-Hookean
+    /// one in backward Euler, on either mixed element, with fixed supports and constant loads,
+    /// without surface contact.
     fn check_mixed_dynamics(&self) -> Result<()> {
         let refuse = |what: &str, value: String, why: &str| {
             Err(Error::invalid_parameter(
@@ -333,17 +327,8 @@ impl Combination {
                 ),
             ))
         };
-        // The element order per model: the linear model runs on both mixed elements
-        // (MixedTransient, lowest_mixed_modes); the Neo-Hookean one on 10-node tets only
-        // (MixedNeoHookeanEuler is Taylor–Hood's).
-        if self.model == ModelKind::NeoHookean && self.order != 2 {
-            return refuse(
-                "element order",
-                self.order.to_string(),
-                "has the Neo-Hookean model on 10-node tets only ([mesh] order = 2; the \
-                 stabilized P1–P1 element on 4-node tets runs the linear model)",
-            );
-        }
+        // Both mixed elements run both models here (MixedTransient, lowest_mixed_modes and
+        // MixedNeoHookeanEuler are generic over the element): no order to refuse.
         let euler = self.analysis == Analysis::Transient(Method::BackwardEuler);
         if self.model == ModelKind::NeoHookean && !euler {
             return refuse(

@@ -8,7 +8,7 @@
 use crate::analysis::combination::{Analysis, Combination, Formulation};
 use crate::analysis::dynamics::{Method, Rayleigh};
 use crate::analysis::mixed_dynamics::MixedTransient;
-use crate::analysis::mixed_dynamics_neo_hookean::MixedNeoHookeanEuler;
+use crate::analysis::mixed_dynamics_neo_hookean::{MixedBody, MixedNeoHookeanEuler};
 use crate::analysis::mixed_modal::{MixedModes, lowest_mixed_modes};
 use crate::analysis::mixed_nonlinear::solve_static_mixed_nonlinear;
 use crate::analysis::mixed_statics::{MixedStaticSolution, MixedStaticSolver};
@@ -129,18 +129,18 @@ pub fn mixed_transient_model<E: MixedStaticElement>(
     MixedTransient::new(mesh, materials, constraints, loads, (method, dt, damping))
 }
 
-/// The mixed element with the Neo-Hookean model in backward Euler: the library's rule first
-/// ([`Combination::check`]), then [`MixedNeoHookeanEuler::new`] with `dt` and Newton's relative
-/// `tolerance`, at rest.
-pub fn mixed_neo_hookean_euler_model<'a>(
-    mesh: &'a TetMesh<Tet10>,
+/// The mixed element with the Neo-Hookean model in backward Euler (10-node tets: Taylor–Hood;
+/// 4-node tets: stabilized P1–P1): the library's rule first ([`Combination::check`]), then
+/// [`MixedNeoHookeanEuler::new`] with `dt` and Newton's relative `tolerance`, at rest.
+pub fn mixed_neo_hookean_euler_model<'a, E: MixedStaticElement + MixedBody>(
+    mesh: &'a TetMesh<E>,
     materials: &impl TetMaterials,
     (constraints, loads): (&Constraints, &Loads),
     (dt, tolerance): (f64, f64),
-) -> Result<MixedNeoHookeanEuler<'a>> {
+) -> Result<MixedNeoHookeanEuler<'a, E>> {
     Combination {
         model: ModelKind::NeoHookean,
-        order: 2,
+        order: E::ORDER,
         analysis: Analysis::Transient(Method::BackwardEuler),
         formulation: Formulation::Mixed,
         ..Combination::default()

@@ -1,5 +1,8 @@
-//! Backward Euler for Neo-Hookean rubber in the mixed (Taylor–Hood P2–P1) form
-//! ([`taylor_hood_neo_hookean`](crate::fe::element::taylor_hood_neo_hookean)): large
+//! Backward Euler for Neo-Hookean rubber in the mixed displacement–pressure form, on either
+//! mixed element ([`MixedElement`]): Taylor–Hood P2–P1 on 10-node tets
+//! ([`taylor_hood_neo_hookean`](crate::fe::element::taylor_hood_neo_hookean)) or the
+//! stabilized P1–P1 on 4-node tets
+//! ([`stabilized_p1_neo_hookean`](crate::fe::element::stabilized_p1_neo_hookean)): large
 //! deformation of nearly incompressible bodies in time, without volumetric locking.
 //!
 //! Each step solves, for u⁺ on the free DOFs and the corner pressures p⁺,
@@ -8,10 +11,11 @@
 //!   R_u = M·(u⁺ − u − dt·v)/dt² + f_int(u⁺, p⁺) − f = 0,      R_p(u⁺, p⁺) = 0,
 //! ```
 //!
-//! then v⁺ = (u⁺ − u)/dt, by Newton's method on the tangent [M/dt² + K_uu, −Gᵀ; −G, −M_p/κ]
-//! (the static mixed Newton's tangent with the inertia added: M/dt² keeps its first block
-//! definite, so it is quasi-definite and the LDLᵀ needs no pivoting; its symbolic analysis is
-//! done once) with a backtracking line search on the static solve's merit ‖(R_u, (μ/ℓ)·R_p)‖
+//! then v⁺ = (u⁺ − u)/dt, by Newton's method on the tangent [M/dt² + K_uu, −Gᵀ; −G, −C]
+//! (C the element's pressure block: M_p/κ for Taylor–Hood, M_p/κ plus the projection
+//! stabilization for P1–P1; the static mixed Newton's tangent with the inertia added: M/dt²
+//! keeps its first block definite, so it is quasi-definite and the LDLᵀ needs no pivoting; its
+//! symbolic analysis is done once) with a backtracking line search on the static solve's merit ‖(R_u, (μ/ℓ)·R_p)‖
 //! (see [`mixed_nonlinear`](crate::analysis::mixed_nonlinear): the mixed energy is a saddle,
 //! no merit). Constant loads and fixed supports; the consistent mass.
 //!
@@ -23,19 +27,23 @@
 //! H_c ⪰ 0). Every iterate stays outside every obstacle: the predictor and each Newton step are
 //! cut to [`first_step_fraction`] of the first time of impact ([`Contact::max_step`]) before the
 //! line search halves them, so no accepted iterate crosses (the merit cannot tell a crossing
-//! apart, the energy being a saddle). Frictionless, still obstacles: friction and obstacle
-//! motion are refused by name.
+//! apart, the energy being a saddle). Coulomb friction
+//! ([`Obstacle::friction`](crate::contact::Obstacle::friction)) is the displacement dynamics'
+//! lagged smoothed friction: at each step's start the normal force and the tangent plane of
+//! every node within d̂ of an obstacle with μ > 0 are frozen ([`Contact::friction_lag`],
+//! smoothing distance ε_v·dt), and R_u gains the friction force's negative, the first block its
+//! Hessian (PSD, so the tangent stays quasi-definite). Still obstacles: obstacle motion is
+//! refused by name.
 
 use crate::analysis::mixed_statics::{nodal_pressure, saddle_point_matrix};
 use crate::analysis::problem::Problem;
 use crate::base::error::{Error, Result};
 use crate::bc::constraints::{Constraints, DofMap};
 use crate::bc::loads::Loads;
-use crate::contact::{Contact, first_step_fraction};
-use crate::fe::element::taylor_hood::{PRESSURE_NODES, PressureNodes, pressure_mass};
-use crate::fe::element::taylor_hood_neo_hookean::{MixedElementState, mixed_neo_hookean};
+use crate::contact::{Contact, FrictionLag, first_step_fraction};
+use crate::fe::element::taylor_hood::{PRESSURE_NODES, PressureNodes};
 use crate::fe::element::tet10::Tet10Rest;
-use crate::fe::element::{ElementType, Tet10};
+use crate::fe::element::{MixedElement, Tet, Tet4, Tet10};
 use crate::fe::materials::TetMaterials;
 use crate::linalg::QuasiDefiniteLdlt;
 use crate::mesh::TetMesh;
@@ -48,11 +56,12 @@ const MAX_ITERATIONS: usize = 30;
 /// Halvings of the line search before a step is declared stalled.
 const MAX_HALVINGS: usize = 30;
 
-/// A Neo-Hookean mixed body stepped by backward Euler (see the [module](self) docs).
-pub struct MixedNeoHookeanEuler<'a> {
-    mesh: &'a TetMesh<Tet10>,
-    problem: Problem<'a, Tet10>,
-    rests: Vec<Tet10Rest>,
+/// A Neo-Hookean mixed body stepped by backward Euler (see the [module](self) docs), on
+/// 10-node tets (Taylor–Hood, the default `E`) or 4-node ones (stabilized P1–P1).
+pub struct MixedNeoHookeanEuler<'a, E: MixedBody = Tet10> {
+    mesh: &'a TetMesh<E>,
+    problem: Problem<'a, E>,
+    rests: Vec<E::Rest>,
     /// μ and 1/κ per tet (Pa, 1/Pa).
     moduli: Vec<(f64, f64)>,
     pressure_nodes: PressureNodes,
@@ -76,11 +85,14 @@ pub struct MixedNeoHookeanEuler<'a> {
     iterations: usize,
     /// Rigid obstacles the boundary nodes meet (none by default).
     contact: Option<Contact>,
+    /// The current step's lagged friction (with obstacles of μ > 0).
+    friction: Option<FrictionLag>,
 }
 
-impl std::fmt::Debug for MixedNeoHookeanEuler<'_> {
+impl<E: MixedBody> std::fmt::Debug for MixedNeoHookeanEuler<'_, E> {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("MixedNeoHookeanEuler")
+            .field("element", &E::MIXED_NAME)
             .field("dt", &self.dt)
             .field("time", &self.time)
             .field("iterations", &self.iterations)
@@ -88,12 +100,12 @@ impl std::fmt::Debug for MixedNeoHookeanEuler<'_> {
     }
 }
 
-impl<'a> MixedNeoHookeanEuler<'a> {
-    /// The body of `mesh` with `materials` (ν < 0.5), fixed `constraints` (prescribed values
+impl<'a, E: MixedBody> MixedNeoHookeanEuler<'a, E> {
+    /// The body of `mesh` (10-node tets: Taylor–Hood; 4-node tets: stabilized P1–P1) with `materials` (ν < 0.5), fixed `constraints` (prescribed values
     /// held from the start), constant `loads`, time step `dt` and Newton `tolerance` (relative
     /// to the step's first merit, in (0, 1)); at rest, the pressure 0.
     pub fn new(
-        mesh: &'a TetMesh<Tet10>,
+        mesh: &'a TetMesh<E>,
         materials: &impl TetMaterials,
         constraints: &Constraints,
         loads: &Loads,
@@ -112,16 +124,14 @@ impl<'a> MixedNeoHookeanEuler<'a> {
         materials.check_tet_count(mesh)?;
         let problem = Problem::with_dofs(mesh, DofMap::new(constraints))?;
         let mass = problem.free_consistent_mass(materials)?;
-        let rests: Vec<Tet10Rest> = (0..mesh.tet_count())
-            .map(|t| Tet10::rest(mesh, t))
-            .collect();
+        let rests: Vec<E::Rest> = (0..mesh.tet_count()).map(|t| E::rest(mesh, t)).collect();
         let moduli: Vec<(f64, f64)> = (0..mesh.tet_count())
             .map(|t| {
                 let m = materials.material_of(t);
                 (m.shear_modulus(), 1.0 / m.bulk_modulus())
             })
             .collect();
-        let volume: f64 = rests.iter().map(Tet10Rest::volume).sum();
+        let volume: f64 = rests.iter().map(E::volume).sum();
         let length = (volume / mesh.tet_count().max(1) as f64).cbrt();
         let shear = moduli.iter().map(|m| m.0).fold(0.0, f64::max);
         let moduli_bulk = moduli.iter().map(|m| 1.0 / m.1).fold(0.0, f64::max);
@@ -150,6 +160,7 @@ impl<'a> MixedNeoHookeanEuler<'a> {
             time: 0.0,
             iterations: 0,
             contact: None,
+            friction: None,
         };
         let (u, p) = (stepper.u.clone(), stepper.p.clone());
         let Some(states) = stepper.states(&u, &p) else {
@@ -170,34 +181,37 @@ impl<'a> MixedNeoHookeanEuler<'a> {
     }
 
     /// The element states at (`u`, `p`); `None` when a tet is inverted at a quadrature point.
-    fn states(&self, u: &[f64], p: &[f64]) -> Option<Vec<MixedElementState>> {
+    fn states(&self, u: &[f64], p: &[f64]) -> Option<Vec<E::State>> {
+        // The element's node-major displacement (3·NODES ≤ 30 values).
+        let mut buffer = [0.0; 30];
         self.mesh
             .tets()
             .iter()
             .enumerate()
             .map(|(t, tet)| {
-                let u_e: [f64; 30] = std::array::from_fn(|k| u[3 * tet[k / 3] + k % 3]);
-                let corners = self.pressure_nodes.of_tet(tet);
+                let u_e = element_displacement(tet.as_ref(), u, &mut buffer[..3 * E::NODES]);
+                let corners = self.pressure_nodes.of_tet(tet.as_ref());
                 let p_e: [f64; PRESSURE_NODES] = std::array::from_fn(|k| p[corners[k]]);
                 let (mu, inverse_bulk) = self.moduli[t];
-                mixed_neo_hookean(&self.rests[t], &u_e, &p_e, mu, inverse_bulk)
+                E::neo_hookean(&self.rests[t], u_e, &p_e, mu, inverse_bulk)
             })
             .collect()
     }
 
     /// R (free displacement DOFs, then pressures) of the step from (`u0`, `v0`) at `u`, with
     /// the element states.
-    fn residual(&self, u: &[f64], states: &[MixedElementState]) -> Result<Vec<f64>> {
+    fn residual(&self, u: &[f64], states: &[E::State]) -> Result<Vec<f64>> {
         let mut internal: Vec<f64> = self.load.iter().map(|f| -f).collect();
         let mut pressure_residual = vec![0.0; self.pressure_nodes.count()];
         for (tet, state) in self.mesh.tets().iter().zip(states) {
-            for (k, &n) in tet.iter().enumerate() {
+            let force = E::state_force(state);
+            for (k, &n) in tet.as_ref().iter().enumerate() {
                 for a in 0..3 {
-                    internal[3 * n + a] += state.force[3 * k + a];
+                    internal[3 * n + a] += force[3 * k + a];
                 }
             }
-            let corners = self.pressure_nodes.of_tet(tet);
-            for (&c, r) in corners.iter().zip(&state.pressure_residual) {
+            let corners = self.pressure_nodes.of_tet(tet.as_ref());
+            for (&c, r) in corners.iter().zip(E::state_pressure_residual(state)) {
                 pressure_residual[c] += r;
             }
         }
@@ -205,6 +219,9 @@ impl<'a> MixedNeoHookeanEuler<'a> {
             // R_u gains ∂E_c/∂u = −(the contact force).
             let mut push = vec![0.0; internal.len()];
             contact.add_force(u, &mut push)?;
+            if let Some(lag) = &self.friction {
+                contact.add_friction_force(lag, u, &mut push)?;
+            }
             for (r, f) in internal.iter_mut().zip(&push) {
                 *r -= f;
             }
@@ -224,17 +241,21 @@ impl<'a> MixedNeoHookeanEuler<'a> {
         Ok(r)
     }
 
-    /// The step's tangent [M/dt² + K_uu + H_c, −Gᵀ; −G, −M_p/κ] at the full displacement `u`
-    /// and its element states (H_c: the obstacles' barrier Hessian, projected PSD).
-    fn tangent(&self, u: &[f64], states: &[MixedElementState]) -> Result<CscMatrix> {
+    /// The step's tangent [M/dt² + K_uu + H_c, −Gᵀ; −G, −C] at the full displacement `u`
+    /// and its element states (H_c: the obstacles' barrier Hessian, projected PSD; C the
+    /// element's pressure block).
+    fn tangent(&self, u: &[f64], states: &[E::State]) -> Result<CscMatrix> {
         let mut stiffness = self.problem.zero_matrix()?;
         self.problem.assembler().reassemble_elements(
             self.mesh,
-            |t| states[t].stiffness,
+            |t| E::state_stiffness(&states[t]),
             &mut stiffness,
         )?;
         if let Some(contact) = &self.contact {
             contact.add_tangent(u, true, &mut stiffness)?;
+            if let Some(lag) = &self.friction {
+                contact.add_friction_tangent(lag, u, &mut stiffness)?;
+            }
         }
         let mut free = self.problem.restrict(&stiffness)?;
         let c = 1.0 / (self.dt * self.dt);
@@ -252,8 +273,11 @@ impl<'a> MixedNeoHookeanEuler<'a> {
             &free,
             self.problem.dofs(),
             &self.pressure_nodes,
-            |t, k, i, a| states[t].coupling[k][i][a],
-            |t, k, l| self.moduli[t].1 * pressure_mass(&self.rests[t], k, l),
+            |t, k, i, a| E::coupling_entry(E::state_coupling(&states[t]), k, i, a),
+            |t, k, l| {
+                let (mu, inverse_bulk) = self.moduli[t];
+                E::pressure_block(&self.rests[t], mu, inverse_bulk, k, l)
+            },
         )
     }
 
@@ -272,6 +296,13 @@ impl<'a> MixedNeoHookeanEuler<'a> {
     pub fn step(&mut self) -> Result<usize> {
         let dofs = self.problem.dofs().clone();
         let free = dofs.free_count();
+        // Friction lagged at the step's start (normal forces and tangent planes frozen).
+        self.friction = match self.contact.as_ref().filter(|c| c.has_friction()) {
+            Some(contact) => {
+                Some(contact.friction_lag(&self.u, contact.slip_velocity() * self.dt)?)
+            }
+            None => None,
+        };
         // Predictor: the step's start moved on by dt·v (the pressure kept).
         let mut u = self.u.clone();
         // With obstacles, the predictor stops short of the first impact along dt·v.
@@ -384,19 +415,11 @@ impl<'a> MixedNeoHookeanEuler<'a> {
     }
 
     /// The body meeting the rigid obstacles of `contact` (built on this mesh; see the
-    /// [module](self) docs), frictionless and still.
+    /// [module](self) docs), still, with or without friction.
     ///
-    /// Errors, before any step: an obstacle with friction or a motion (named); the body at its
-    /// current state on or inside an obstacle ([`Contact::check_state`]).
+    /// Errors, before any step: an obstacle with a motion (named); the body at its current
+    /// state on or inside an obstacle ([`Contact::check_state`]).
     pub fn with_contact(mut self, contact: Contact) -> Result<Self> {
-        if let Some(o) = contact.obstacles().iter().find(|o| o.friction() > 0.0) {
-            return Err(Error::invalid_parameter(
-                format!("obstacle {} friction", o.name()),
-                o.friction(),
-                "must be 0 with the mixed Neo-Hookean backward Euler (frictionless obstacles \
-                 only)",
-            ));
-        }
         if let Some(o) = contact
             .obstacles()
             .iter()
@@ -435,54 +458,43 @@ impl<'a> MixedNeoHookeanEuler<'a> {
         self.contact.as_ref()
     }
 
-    /// The deformed volume ∫ det F dV (length³) at the current displacement, by the element's
-    /// degree-2 rule (four points of weight V/4 per tet: det F is cubic on a 10-node tet, so
-    /// this is the rule's estimate, exact for an affine motion).
+    /// The deformed volume ∫ det F dV (length³) at the current displacement
+    /// ([`MixedBody::deformed_volume`]: exact on a 4-node tet, the degree-2 rule's estimate on
+    /// a 10-node one).
     pub fn deformed_volume(&self) -> f64 {
-        self.integrate(|_, f| f.determinant())
+        self.sum_over_tets(|_, rest, u_e, _| E::deformed_volume(rest, u_e))
     }
 
     /// The stored energy of the mixed body (energy units) at the current state:
-    /// ∫ μ/2·(Ī₁ − 3) − p·(J − 1) − p²/(2κ) dV, which at a converged state, where
-    /// ∫ q·(J − 1 + p/κ) dV = 0 for every pressure q of the element's P1 space, p among them,
-    /// is ∫ μ/2·(Ī₁ − 3) dV (the degree-2 rule) + ∫ p²/(2κ) dV (exact on the linear p of a
-    /// tet: V/20·(Σpᵢ² + (Σpᵢ)²)/(2κ)). Not the pointwise κ/2·(J − 1)², which counts the parts
+    /// ∫ μ/2·(Ī₁ − 3) − p·(J − 1) − p²/(2κ) dV − ½·pᵀ·S·p (S the P1–P1 stabilization, 0 for
+    /// Taylor–Hood), which at a converged state, where R_p = 0 gives
+    /// ∫ p·(J − 1) dV = −pᵀ·C·p (C = M_p/κ + S, the element's pressure block), is
+    /// ∫ μ/2·(Ī₁ − 3) dV + ½·pᵀ·C·p ([`MixedBody::shear_energy`],
+    /// [`MixedBody::pressure_energy`]). Not the pointwise κ/2·(J − 1)², which counts the parts
     /// of J − 1 the pressure space does not see at the bulk modulus and overstates the energy.
     pub fn elastic_energy(&self) -> f64 {
-        let shear = self.integrate(|t, f| {
-            let j = f.determinant();
-            let i1 = j.powf(-2.0 / 3.0) * (f.transpose() * f).trace();
-            0.5 * self.moduli[t].0 * (i1 - 3.0)
+        let shear =
+            self.sum_over_tets(|t, rest, u_e, _| E::shear_energy(rest, u_e, self.moduli[t].0));
+        let volumetric = self.sum_over_tets(|t, rest, _, p_e| {
+            let (mu, inverse_bulk) = self.moduli[t];
+            E::pressure_energy(rest, p_e, mu, inverse_bulk)
         });
-        let volumetric: f64 = (self.mesh.tets().iter().zip(&self.rests))
-            .enumerate()
-            .map(|(t, (tet, rest))| {
-                let p = self.pressure_nodes.of_tet(tet).map(|c| self.p[c]);
-                let (sum, squares) = (p.iter().sum::<f64>(), p.iter().map(|x| x * x).sum::<f64>());
-                rest.volume() / 20.0 * (squares + sum * sum) * 0.5 * self.moduli[t].1
-            })
-            .sum();
         shear + volumetric
     }
 
-    /// Σ over tets t and the degree-2 rule's points of V/4·`density(t, F)` at the current
-    /// displacement.
-    fn integrate(&self, density: impl Fn(usize, &nalgebra::Matrix3<f64>) -> f64) -> f64 {
-        let u = &self.u;
+    /// Σ over tets t, in tet order, of `term(t, rest, u_e, p_e)` at the current state (u_e the
+    /// tet's node-major displacement, p_e its corner pressures).
+    fn sum_over_tets(
+        &self,
+        term: impl Fn(usize, &E::Rest, &[f64], &[f64; PRESSURE_NODES]) -> f64,
+    ) -> f64 {
+        let mut buffer = [0.0; 30];
         (self.mesh.tets().iter().zip(&self.rests))
             .enumerate()
             .map(|(t, (tet, rest))| {
-                rest.gradients()
-                    .iter()
-                    .map(|gradients| {
-                        let mut f = nalgebra::Matrix3::identity();
-                        for (g, &n) in gradients.iter().zip(tet) {
-                            f += nalgebra::Vector3::new(u[3 * n], u[3 * n + 1], u[3 * n + 2])
-                                * g.transpose();
-                        }
-                        density(t, &f) * rest.volume() / 4.0
-                    })
-                    .sum::<f64>()
+                let u_e = element_displacement(tet.as_ref(), &self.u, &mut buffer[..3 * E::NODES]);
+                let p_e = self.pressure_nodes.of_tet(tet.as_ref()).map(|c| self.p[c]);
+                term(t, rest, u_e, &p_e)
             })
             .sum()
     }
@@ -505,7 +517,7 @@ impl<'a> MixedNeoHookeanEuler<'a> {
 
     /// The pressure at every node (Pa), linear along edges.
     pub fn pressure(&self) -> Vec<f64> {
-        nodal_pressure::<Tet10>(
+        nodal_pressure::<E>(
             self.mesh.tets(),
             &self.pressure_nodes,
             self.mesh.node_count(),
@@ -522,4 +534,113 @@ impl<'a> MixedNeoHookeanEuler<'a> {
     pub fn iterations(&self) -> usize {
         self.iterations
     }
+}
+
+/// The node-major displacement of the tet `nodes` out of the full `u`, written into `buffer`
+/// (3 values per node).
+fn element_displacement<'b>(nodes: &[usize], u: &[f64], buffer: &'b mut [f64]) -> &'b [f64] {
+    for (k, value) in buffer.iter_mut().enumerate() {
+        *value = u[3 * nodes[k / 3] + k % 3];
+    }
+    buffer
+}
+
+/// A mixed element whose state [`MixedNeoHookeanEuler`] reports: the deformed volume and the
+/// stored energy of one tet, each summed over the tets in tet order.
+pub trait MixedBody: MixedElement {
+    /// ∫ det F dV over the tet (length³) at node-major displacement `u` (3·NODES values).
+    fn deformed_volume(rest: &Self::Rest, u: &[f64]) -> f64;
+
+    /// ∫ μ/2·(Ī₁ − 3) dV over the tet (energy units), Ī₁ = J^(−2/3)·tr(FᵀF), for shear modulus
+    /// `shear_modulus` (Pa) at node-major displacement `u`.
+    fn shear_energy(rest: &Self::Rest, u: &[f64], shear_modulus: f64) -> f64;
+
+    /// ½·pᵀ·C·p (energy units): the element's pressure block C (length³/Pa,
+    /// [`MixedElement::pressure_block`]) on the corner pressures `p` (Pa).
+    fn pressure_energy(
+        rest: &Self::Rest,
+        p: &[f64; PRESSURE_NODES],
+        shear_modulus: f64,
+        inverse_bulk: f64,
+    ) -> f64;
+}
+
+/// Taylor–Hood: the degree-2 rule (four points of weight V/4: det F is cubic on a 10-node tet,
+/// so the volume is the rule's estimate, exact for an affine motion); C = M_p/κ in closed form,
+/// V/20·(Σpᵢ² + (Σpᵢ)²)/κ.
+impl MixedBody for Tet10 {
+    fn deformed_volume(rest: &Tet10Rest, u: &[f64]) -> f64 {
+        at_points(rest, u, |f| f.determinant())
+    }
+
+    fn shear_energy(rest: &Tet10Rest, u: &[f64], shear_modulus: f64) -> f64 {
+        at_points(rest, u, |f| {
+            let j = f.determinant();
+            let i1 = j.powf(-2.0 / 3.0) * (f.transpose() * f).trace();
+            0.5 * shear_modulus * (i1 - 3.0)
+        })
+    }
+
+    fn pressure_energy(
+        rest: &Tet10Rest,
+        p: &[f64; PRESSURE_NODES],
+        _: f64,
+        inverse_bulk: f64,
+    ) -> f64 {
+        let (sum, squares) = (p.iter().sum::<f64>(), p.iter().map(|x| x * x).sum::<f64>());
+        rest.volume() / 20.0 * (squares + sum * sum) * 0.5 * inverse_bulk
+    }
+}
+
+/// Σ over the degree-2 rule's four points of V/4·`density(F)` on a 10-node tet.
+fn at_points(rest: &Tet10Rest, u: &[f64], density: impl Fn(&nalgebra::Matrix3<f64>) -> f64) -> f64 {
+    rest.gradients()
+        .iter()
+        .map(|gradients| {
+            let mut f = nalgebra::Matrix3::identity();
+            for (i, g) in gradients.iter().enumerate() {
+                f += nalgebra::Vector3::new(u[3 * i], u[3 * i + 1], u[3 * i + 2]) * g.transpose();
+            }
+            density(&f) * rest.volume() / 4.0
+        })
+        .sum::<f64>()
+}
+
+/// Stabilized P1–P1: F constant on the tet, so both integrals are V times the point value,
+/// exact; C the element's whole pressure block (pressure mass over κ and stabilization).
+impl MixedBody for Tet4 {
+    fn deformed_volume(rest: &Tet, u: &[f64]) -> f64 {
+        rest.volume() * linear_gradient(rest, u).determinant()
+    }
+
+    fn shear_energy(rest: &Tet, u: &[f64], shear_modulus: f64) -> f64 {
+        let f = linear_gradient(rest, u);
+        let j = f.determinant();
+        let i1 = j.powf(-2.0 / 3.0) * (f.transpose() * f).trace();
+        rest.volume() * 0.5 * shear_modulus * (i1 - 3.0)
+    }
+
+    fn pressure_energy(
+        rest: &Tet,
+        p: &[f64; PRESSURE_NODES],
+        shear_modulus: f64,
+        inverse_bulk: f64,
+    ) -> f64 {
+        let mut sum = 0.0;
+        for (k, pk) in p.iter().enumerate() {
+            for (l, pl) in p.iter().enumerate() {
+                sum += pk * Tet4::pressure_block(rest, shear_modulus, inverse_bulk, k, l) * pl;
+            }
+        }
+        0.5 * sum
+    }
+}
+
+/// F = I + Σᵢ uᵢ ⊗ ∇Nᵢ of a 4-node tet at node-major displacement `u` (12 values).
+fn linear_gradient(rest: &Tet, u: &[f64]) -> nalgebra::Matrix3<f64> {
+    let mut f = nalgebra::Matrix3::identity();
+    for (i, g) in rest.shape_gradients().iter().enumerate() {
+        f += nalgebra::Vector3::new(u[3 * i], u[3 * i + 1], u[3 * i + 2]) * g.transpose();
+    }
+    f
 }

@@ -47,6 +47,7 @@ mod mesh_trust;
 mod mixed_dynamics;
 mod mixed_memory;
 mod mixed_neo_hookean;
+mod mixed_neo_hookean_p1;
 mod mixed_tet4;
 mod mixed_tet4_dynamics;
 mod mixed_tube;

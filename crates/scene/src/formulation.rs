@@ -33,10 +33,10 @@ const MIXED_NEEDS: &str = "formulation = \"mixed\" is for static scenes with the
                            (backward_euler, newmark) and modal scenes with the linear model and \
                            mass = \"consistent\" (4-node or 10-node tets; fixed supports, \
                            constant loads, no probes, time_tolerance or checkpoints), dynamic \
-                           ones also with the Neo-Hookean model in backward_euler on 10-node \
-                           tets ([mesh] order = 2; undamped; frictionless still [[obstacles]] \
-                           allowed), on tetfem's own engine, without other obstacles, accuracy \
-                           or point probes";
+                           ones also with the Neo-Hookean model in backward_euler (4-node or \
+                           10-node tets; undamped; still [[obstacles]] allowed, with friction \
+                           too), on tetfem's own engine, without other obstacles, accuracy or \
+                           point probes";
 
 impl Scene {
     /// The scene's formulation (checked when the scene was read).

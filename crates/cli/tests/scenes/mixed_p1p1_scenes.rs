@@ -167,20 +167,3 @@ fn a_p1p1_modal_scene_gives_the_librarys_modes_bit_for_bit() {
             .contains("Name=\"pressure\"")
     );
 }
-
-#[test]
-fn the_neo_hookean_mixed_dynamic_scene_on_four_node_tets_names_the_order() {
-    let text = BEAM
-        .replace(
-            "mass = \"consistent\"",
-            "mass = \"consistent\"\nmodel = \"neo-hookean\"",
-        )
-        .replace("method = \"newmark\"", "method = \"backward_euler\"");
-    let message = Scene::parse(&text, "beam.toml", std::path::Path::new("."))
-        .unwrap_err()
-        .to_string();
-    assert!(
-        message.contains("analysis.formulation") && message.contains("[mesh] order = 1"),
-        "{message}"
-    );
-}

@@ -1,6 +1,7 @@
 //! The mixed formulation's Neo-Hookean dynamic scenes: `formulation = "mixed"`, `type =
-//! "dynamic"`, `model = "neo_hookean"`, `method = "backward_euler"`, with or without
-//! frictionless still `[[obstacles]]` (the library's
+//! "dynamic"`, `model = "neo_hookean"`, `method = "backward_euler"`, on 10-node tets
+//! (Taylor–Hood P2–P1) or 4-node ones (`[mesh] order = 1`: the stabilized P1–P1), with or without
+//! still `[[obstacles]]`, with or without friction (the library's
 //! [`MixedNeoHookeanEuler`](tetfem::analysis::mixed_dynamics_neo_hookean::MixedNeoHookeanEuler);
 //! what combines is the library's [`Combination`](tetfem::analysis::combination::Combination),
 //! checked when the scene was read). Writes what the linear mixed run writes (frames with the
@@ -13,22 +14,37 @@ use std::time::Instant;
 
 use tetfem::Loads;
 use tetfem::analysis::dynamics::{LinearSystem, MassKind, Rayleigh, critical_time_step};
-use tetfem::analysis::mixed_analysis::mixed_neo_hookean_euler_model;
-use tetfem::analysis::mixed_dynamics_neo_hookean::MixedNeoHookeanEuler;
+use tetfem::analysis::mixed_analysis::{MixedStaticElement, mixed_neo_hookean_euler_model};
+use tetfem::analysis::mixed_dynamics_neo_hookean::{MixedBody, MixedNeoHookeanEuler};
 use tetfem::analysis::transient::RunLength;
 use tetfem::base::error::{Error, Result};
-use tetfem::fe::element::Tet10;
+use tetfem::fe::element::{Tet4, Tet10};
 use tetfem::post::output::OutputLock;
 
 use super::super::{DynamicOverrides, DynamicSummary, EnergyTerms};
 use super::{FrameFiles, csv_row, csv_start, seconds_step, summary_base, write_outputs};
 use crate::dynamic_contact::ContactForceHistory;
-use crate::{DynamicSettings, Scene};
+use crate::{DynamicSettings, Scene, SceneElement};
 
 /// The Neo-Hookean mixed dynamic scene (see the [module](self) docs): as
 /// [`run_mixed_dynamic`](super::run_mixed_dynamic), from the undeformed state with
 /// `initial_velocity`.
 pub(super) fn run_mixed_neo_hookean(
+    scene: &Scene,
+    settings: &DynamicSettings,
+    overrides: &DynamicOverrides,
+    lock: Option<OutputLock>,
+    progress: &mut dyn FnMut(usize, usize) -> ControlFlow<()>,
+) -> Result<DynamicSummary> {
+    if scene.order() == 1 {
+        run_on::<Tet4>(scene, settings, overrides, lock, progress)
+    } else {
+        run_on::<Tet10>(scene, settings, overrides, lock, progress)
+    }
+}
+
+/// [`run_mixed_neo_hookean`] on element `E`.
+fn run_on<E: SceneElement + MixedStaticElement + MixedBody>(
     scene: &Scene,
     settings: &DynamicSettings,
     overrides: &DynamicOverrides,
@@ -41,7 +57,7 @@ pub(super) fn run_mixed_neo_hookean(
         .unwrap_or(RunLength::Duration(settings.duration))
         .steps(dt)?;
     let clock = Instant::now();
-    let built = scene.build_as::<Tet10>()?;
+    let built = scene.build_as::<E>()?;
     let mesh = &built.mesh;
     let mut gravity = Loads::new(mesh);
     gravity.add_gravity(mesh, &built.materials, built.gravity)?;
@@ -63,7 +79,7 @@ pub(super) fn run_mixed_neo_hookean(
     let (critical, critical_source) = critical_step(scene, &built)?;
     let setup_seconds = clock.elapsed().as_secs_f64();
     let rest_volume = run.deformed_volume();
-    let energy = |run: &MixedNeoHookeanEuler| energy_terms(run, &gravity, &built.other_loads);
+    let energy = |run: &MixedNeoHookeanEuler<E>| energy_terms(run, &gravity, &built.other_loads);
     let initial_energy = energy(&run)?;
     let out = scene.output();
     let mut writer = lock.as_ref().map(|_| FrameFiles::new(scene));
@@ -161,8 +177,8 @@ pub(super) fn run_mixed_neo_hookean(
 
 /// The CSV's smallest gap to an obstacle (m; ∞ without obstacles) and barrier energy (J) at
 /// the full displacement `u`, recording the obstacles' forces in `forces`.
-fn contact_columns(
-    run: &MixedNeoHookeanEuler,
+fn contact_columns<E: MixedBody>(
+    run: &MixedNeoHookeanEuler<E>,
     forces: Option<&mut [ContactForceHistory]>,
     u: &[f64],
 ) -> Result<(f64, f64)> {
@@ -179,7 +195,11 @@ fn contact_columns(
 /// ([`MixedNeoHookeanEuler::elastic_energy`]), gravity's −f_g·u (`gravity` its nodal loads)
 /// and the other loads' −f·u; the barrier's energy is the CSV's own column, as in the
 /// displacement runs.
-fn energy_terms(run: &MixedNeoHookeanEuler, gravity: &Loads, other: &Loads) -> Result<EnergyTerms> {
+fn energy_terms<E: MixedBody>(
+    run: &MixedNeoHookeanEuler<E>,
+    gravity: &Loads,
+    other: &Loads,
+) -> Result<EnergyTerms> {
     let u = run.displacement();
     let work = |loads: &Loads| -> f64 {
         -(loads.as_slice().iter().zip(u))
@@ -200,7 +220,10 @@ fn energy_terms(run: &MixedNeoHookeanEuler, gravity: &Loads, other: &Loads) -> R
 /// The explicit critical step (s) of the scene's body and how it was found, for the summary: a
 /// body with obstacles may be held by them alone (a dropped ball), so its lumped system is the
 /// free body's ([`LinearSystem::new_free_body`]).
-fn critical_step(scene: &Scene, built: &crate::BuiltScene<Tet10>) -> Result<(f64, String)> {
+fn critical_step<E: SceneElement>(
+    scene: &Scene,
+    built: &crate::BuiltScene<E>,
+) -> Result<(f64, String)> {
     if !scene.has_obstacles() {
         let report = crate::critical_step_of(built)?;
         return Ok((report.seconds, report.source));
