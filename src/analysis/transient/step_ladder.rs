@@ -106,14 +106,16 @@ impl Ladder {
 
     /// The step to take with `remaining` (time units) left to the next landing, at rung
     /// `level` or finer: the coarsest such rung that divides `remaining` into whole steps
-    /// (to 1e-6 of a step), with its level; else (`remaining` not on the ladder's grid: the
+    /// (to 1e-6 of one step), with its level; else (`remaining` not on the ladder's grid: the
     /// run's last stretch) `remaining` divided evenly into steps of at most dt_`level`, with
     /// no level.
     pub(super) fn step(&self, level: i32, remaining: f64) -> (f64, Option<i32>) {
         for k in level..=self.finest.max(level) {
             let dt = self.dt(k);
             let n = remaining / dt;
-            if n.round() >= 1.0 && (n - n.round()).abs() <= 1e-6 * n.round() {
+            // To 1e-6 of a step, not of the stretch: a fine rung whose count is off by a
+            // fraction of a step does not divide it.
+            if n.round() >= 1.0 && (n - n.round()).abs() <= 1e-6 {
                 return (dt, Some(k));
             }
         }
