@@ -357,62 +357,74 @@ impl Samples {
 /// of its motion; the centroid is what a drop is run for. The full-state error (the estimate's
 /// own norm) is printed beside it.
 ///
-/// Measured: the adaptive run does not reach the end. At the impact (t ≈ 31 ms) the accepted
-/// steps shrink by 0.8× each, every one just within the tolerance, from 1.4e-5 s down to the
+/// Measured with the estimate on the smooth part (backward Euler's e_v without the barrier's
+/// acceleration, `adaptive.rs`'s module doc): the run gets through the impact — 3430 steps,
+/// 3 rejected, dt 5.2e-6 … 1e-3 s, where before it stopped at t ≈ 31.5 ms with steps of 8e-11 s
+/// — and the reference at 1/16 of its smallest step runs with it in 48 s. Its estimate is
+/// 3.47e-2 against a true centroid error of 7.09e-2: ratio 0.49, just below the band (full
+/// state: 7.1e-1, ratio 0.05, the reference's ringing). What the estimate leaves out is the
+/// impact's own error (how the step resolves the barrier's impulse), which the control does
+/// not limit either: the true error exceeds the 5 % asked. Keeping the barrier's share in e_u
+/// (dt/2·Δv, an impulse half a step off) stalled again at t = 36.3 ms at 8e-11 s.
+///
+/// Before (whole acceleration in the estimate): at the impact (t ≈ 31 ms) the accepted
+/// steps shrank by 0.8× each, every one just within the tolerance, from 1.4e-5 s down to the
 /// smallest step 8e-11 s (duration/MAX_STEPS), where a step is rejected: the error per unit
 /// step e_v/dt stays constant as dt falls, i.e. the estimated jerk grows as 1/dt — the IPC
-/// barrier's force grows without bound as a gap closes, and its acceleration is not smooth on
-/// any step the control tries. The same at tolerances 1e-2, 5e-2, 0.15 and 0.3. Why: at
-/// t = 31.536 ms the lowest node is 4.1e-6 m above the ground (2.3 % of d̂ = 1.73e-4 m) and
-/// still falls at 0.275 m/s, 88 % of its impact speed (0.313 m/s): at this stiffness the barrier
-/// takes less than a quarter of the impact's kinetic energy over 97 % of its reach, and the node
-/// goes on into gaps where its force grows as 1/d, an event with no time scale of its own (a
-/// Newton reference floor from the predicted acceleration instead of ‖M·v‖/dt changed nothing:
-/// the run stopped at the same time). Ignored (not loosened) until the barrier holds an impact
-/// within its reach (a stiffness κ tied to the kinetic energy it must absorb, as IPC adapts it)
-/// or the control treats contact onset. Measured with κ raised by hand (`Contact::with_parameters`)
-/// to what stores the block's impact energy ½·M·v² = 0.049 J within a tenth of d̂ over its bottom
-/// (κ·A·b(0.1·d̂) with A = 0.01 m²: 8.8e7 Pa/m, 50× the default 1.76e6): at a fixed 0.1 ms the
-/// lowest gap is 0.49·d̂ (×10: 0.20·d̂; default: 0.009·d̂, the node still at 0.22 m/s at 0.1·d̂)
-/// and Newton's most iterations per step fall from 8 to 3; the adaptive run then reaches the end
-/// (62k steps, 1274 rejected, dt down to 4.3e-8 s; ×10: 2.7e-8 s) where it stopped at 8e-11 s,
-/// but a reference at 1/16 of that step is 3·10⁷ steps: still not a test.
+/// barrier's force grows without bound as a gap closes. At t = 31.536 ms the lowest node is
+/// 4.1e-6 m above the ground (2.3 % of d̂ = 1.73e-4 m) and still falls at 0.275 m/s, 88 % of
+/// its impact speed (0.313 m/s): at this stiffness the barrier takes less than a quarter of the
+/// impact's kinetic energy over 97 % of its reach. With κ raised by hand
+/// (`Contact::with_parameters`) to what stores the block's impact energy within a tenth of d̂
+/// (8.8e7 Pa/m, 50× the default) the run reached the end in 62k steps (dt down to 4.3e-8 s).
+/// Ignored (not loosened) until the impact's error is estimated (an event's: the time of
+/// impact from the CCD and the barrier's time scale √(m/κ_eff)).
 #[test]
-#[ignore = "contact onset: the adaptive run cannot meet any tolerance (see the doc comment)"]
+#[ignore = "contact onset: the run gets through, its estimate is 0.49x the true centroid error (see the doc comment)"]
 fn contact_drop_effectivity() {
     let definition = drop_on_ground();
     let span = (0.08, 0.002);
     let method = Method::BackwardEuler;
-    let (report, samples) =
-        adaptive(&definition, method, (1e-3, 5e-2), span, Rayleigh::default()).unwrap();
-    let exact = reference(
-        &definition,
-        method,
-        report.dt_range.0,
-        span,
-        Rayleigh::default(),
-    );
-    let (centroid, full) = (exact.centroid_error_of(&samples), exact.error_of(&samples));
-    let estimated = report.estimated_error;
-    eprintln!(
-        "contact drop: estimated {estimated:.3e}; true: centroid {centroid:.3e} (ratio {:.2}), \
-         full state {full:.3e} (ratio {:.2}); {} steps, {} rejected, dt {:.2e}..{:.2e}",
-        estimated / centroid,
-        estimated / full,
-        report.accepted,
-        report.rejected,
-        report.dt_range.0,
-        report.dt_range.1
-    );
-    assert_effective(estimated, centroid, "contact drop (centroid)");
+    for tolerance in [5e-2, 2e-2] {
+        let (report, samples) = adaptive(
+            &definition,
+            method,
+            (1e-3, tolerance),
+            span,
+            Rayleigh::default(),
+        )
+        .unwrap();
+        let exact = reference(
+            &definition,
+            method,
+            report.dt_range.0,
+            span,
+            Rayleigh::default(),
+        );
+        let (centroid, full) = (exact.centroid_error_of(&samples), exact.error_of(&samples));
+        let estimated = report.estimated_error;
+        eprintln!(
+            "contact drop at {tolerance:e}: estimated {estimated:.3e}; true: centroid \
+             {centroid:.3e} (ratio {:.2}), full state {full:.3e} (ratio {:.2}); {} steps, {} \
+             rejected, dt {:.2e}..{:.2e}",
+            estimated / centroid,
+            estimated / full,
+            report.accepted,
+            report.rejected,
+            report.dt_range.0,
+            report.dt_range.1
+        );
+        assert_effective(estimated, centroid, "contact drop (centroid)");
+    }
 }
 
 /// The cantilever of [`swing`] without gravity, its clamp shaken along z by 5 mm·sin(2π·2 Hz·t)
 /// (below its first mode, 3.2 Hz) from rest, with a little stiffness damping (β = 1e-4 s, as in
 /// `swing_damped_steps_grow`: the modes the sudden start excites above 4000 rad/s die out),
 /// over half a second by Newmark at a tolerance of 1e-2. The support's velocity jumps from 0 to
-/// A·ω at the start: the first steps are 2e-6 s (measured), so the reference at 1/16 of them
-/// takes 4 million steps (about a minute here; the one tolerance keeps the test to that).
+/// A·ω at the start: the first steps are 8.1e-7 s on the step ladder (measured; 2e-6 s with the
+/// earlier continuous control), so the reference at 1/16 of them takes 9.8 million steps
+/// (a few minutes on a shared machine; the one tolerance keeps the test to that).
 #[test]
 fn shaken_base_effectivity() {
     let mesh = TetMesh::box_grid(

@@ -10,6 +10,7 @@ mod critical;
 mod observer;
 mod run;
 mod setup;
+pub mod step_ladder;
 mod time_step;
 
 pub use adaptive::{AdaptiveReport, AdaptiveStep};

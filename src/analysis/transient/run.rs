@@ -94,6 +94,9 @@ pub struct Transient {
     warnings: Vec<Warning>,
     /// The method the integrator implements (an adaptive run needs an implicit one).
     pub(super) method: Method,
+    /// The integrator's solver options: an adaptive run builds one integrator per step value
+    /// it keeps factored (`adaptive.rs`).
+    pub(super) solver: IntegratorOptions,
 }
 
 impl std::fmt::Debug for Transient {
@@ -175,6 +178,7 @@ impl Transient {
             limit: None,
             warnings: Vec::new(),
             method,
+            solver,
         })
     }
 
