@@ -16,6 +16,7 @@ mod bodies_scenes;
 mod dynamic_accuracy;
 mod estimate_scene;
 mod large_deformation;
+mod mixed_corotational_scene;
 mod modal_scene;
 mod moving_supports_scenes;
 mod nonlinear_dynamics;
