@@ -14,7 +14,7 @@
 //!
 //! stationary in p where p = −κ·tr ε, which leaves μ‖dev ε‖² + κ/2·tr²ε = μ‖ε‖² + λ/2·tr²ε
 //! (κ = λ + 2μ/3): the displacement model's energy, without λ in the displacement's blocks.
-//! Because ε is symmetric and dR = R[w]× is R times a skew matrix, d tr(RᵀF) = tr(RᵀdF): the
+//! Because ε is symmetric and dR = R\[w\]× is R times a skew matrix, d tr(RᵀF) = tr(RᵀdF): the
 //! volume measure tr ε has the gradient R, as J has cof F in the Neo-Hookean form. Hence
 //!
 //! ```text
@@ -23,7 +23,7 @@
 //! ```
 //!
 //! and K_uu the derivative of P at fixed p, rotation terms included as the displacement model
-//! has them: dP = 2μ·dF + (c − 2μ)·dR − (2μ/3)·tr(RᵀdF)·R, with dR = R[w]×,
+//! has them: dP = 2μ·dF + (c − 2μ)·dR − (2μ/3)·tr(RᵀdF)·R, with dR = R\[w\]×,
 //! (tr S·I − S)·w = axial(RᵀdF − dFᵀR), S = RᵀF. The tangent [K_uu −Gᵀ; −G −M_p/κ] is the
 //! Hessian of Σ∫W dV − f·u, symmetric, and at F = I, p = 0 it is the linear Taylor–Hood element
 //! exactly (c = 0, dR = skew dF, dP = 2μ dev sym dF).
