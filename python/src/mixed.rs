@@ -1,5 +1,5 @@
 //! `tetfem.solve_static_mixed`: the mixed displacement–pressure static solve for nearly
-//! incompressible materials, linear or Neo-Hookean (Taylor–Hood P2–P1 on 10-node tets, the
+//! incompressible materials, linear, Neo-Hookean or corotational (Taylor–Hood P2–P1 on 10-node tets, the
 //! stabilized P1–P1 on 4-node tets).
 
 use pyo3::prelude::*;
@@ -22,8 +22,9 @@ use crate::statics::check_same_mesh;
 /// (``order=2``: Taylor–Hood P2–P1, quadratic displacement) or 4-node tets (``order=1``: the
 /// stabilized P1–P1 of Dohrmann–Bochev, linear displacement). ``material``: a ``Material`` or a ``MaterialMap``
 /// (ν < 0.5). ``model``: ``"linear"`` (one LDLᵀ solve of the quasi-definite saddle system) or
-/// ``"neo-hookean"`` (Simo–Taylor's mixed form at large deformation, Newton in ``load_steps``
-/// increments of at most ``max_iterations`` each, to a relative residual of 1e-10). What may
+/// ``"neo-hookean"`` (Simo–Taylor's mixed form at large deformation) or ``"corotational"``
+/// (linear elasticity in each point's rotated frame), both by Newton in ``load_steps``
+/// increments of at most ``max_iterations`` each, to a relative residual of 1e-10. What may
 /// be combined with the mixed element is the library's rule (``Combination``): a moving
 /// support with the Neo-Hookean model, for one, raises ``InvalidInputError``. Loads enter at
 /// their value at the pseudo-time t = 1, as in ``solve_static``. Returns a dict with

@@ -16,13 +16,12 @@
 //!   ([`crate::analysis::dynamics::surface_step_bound`]), stopping by name at a step that
 //!   would leave that bound's range or cross;
 //! - the mixed displacement–pressure formulation ([`Formulation::Mixed`]) with what it does not
-//!   compute: the explicit method (the pressure has no inertia), a model other than the linear
-//!   and the Neo-Hookean one, obstacles (but in the Neo-Hookean backward
-//!   Euler), and with the Neo-Hookean model supports that move (its
-//!   load steps scale prescribed values by λ); in the implicit dynamic and the modal analyses,
-//!   a model other than the linear one (but the Neo-Hookean one in backward Euler), body–body
-//!   contact, moving supports and loads that follow amplitudes (either mixed element runs
-//!   them);
+//!   compute: the explicit method (the pressure has no inertia), a model other than the
+//!   linear, the Neo-Hookean and (static) the corotational one, obstacles (but in the
+//!   Neo-Hookean backward Euler), and with a nonlinear model supports that move (its load steps
+//!   scale prescribed values by λ); in the implicit dynamic and the modal analyses, a model
+//!   other than the linear one (but the Neo-Hookean one in backward Euler), body–body contact,
+//!   moving supports and loads that follow amplitudes (either mixed element runs them);
 //! - a force model per material region (`region_models`) with a modal analysis where a region
 //!   is nonlinear, and with the mixed formulation at all (it solves one model).
 //!
@@ -79,7 +78,7 @@ pub enum Formulation {
     #[default]
     Displacement,
     /// Displacement and pressure (no volumetric locking as ν → 0.5), static, with the linear
-    /// model ([`crate::MixedStaticSolver`]) or the Neo-Hookean one
+    /// model ([`crate::MixedStaticSolver`]) or the Neo-Hookean or corotational one
     /// ([`crate::analysis::mixed_nonlinear`]): Taylor–Hood P2–P1 on 10-node tets, the
     /// stabilized P1–P1 on 4-node tets.
     Mixed,
@@ -281,11 +280,14 @@ impl Combination {
         if self.analysis != Analysis::Static {
             self.check_mixed_dynamics()?;
         }
-        if !matches!(self.model, ModelKind::Linear | ModelKind::NeoHookean) {
+        if !matches!(
+            self.model,
+            ModelKind::Linear | ModelKind::NeoHookean | ModelKind::Corotational
+        ) {
             return refuse(
                 "model",
                 self.model.name().to_string(),
-                "has the linear and the Neo-Hookean model only",
+                "has the linear, the Neo-Hookean and (static) the corotational model only",
             );
         }
         // Obstacles meet the Neo-Hookean backward Euler only
@@ -299,13 +301,16 @@ impl Combination {
                  method backward_euler, model neo_hookean)",
             );
         }
-        if self.moving_supports && self.model == ModelKind::NeoHookean {
-            return refuse(
-                "moving supports",
-                "moving supports".into(),
-                "with the Neo-Hookean model scales prescribed displacements by the load factor \
-                 (a chord, not a rotation); hold the supports fixed",
+        if self.moving_supports && self.model != ModelKind::Linear {
+            let name = match self.model {
+                ModelKind::NeoHookean => "Neo-Hookean",
+                other => other.name(),
+            };
+            let why = format!(
+                "with the {name} model scales prescribed displacements by the load factor (a \
+                 chord, not a rotation); hold the supports fixed"
             );
+            return refuse("moving supports", "moving supports".into(), &why);
         }
         Ok(())
     }

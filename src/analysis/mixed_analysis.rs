@@ -1,6 +1,7 @@
 //! The mixed displacement–pressure static solve of either model it takes, chosen in one place:
-//! the linear model by one saddle-point solve ([`MixedStaticSolver`]), the Neo-Hookean one by
-//! Newton's load steps ([`solve_static_mixed_nonlinear`]), after the library's rule of what the
+//! the linear model by one saddle-point solve ([`MixedStaticSolver`]), the Neo-Hookean and the
+//! corotational ones by Newton's load steps ([`solve_static_mixed_nonlinear_with`] and their
+//! [`MixedLaw`]), after the library's rule of what the
 //! mixed element may be combined with ([`Combination::check`]). Front ends (scenes, Python)
 //! call this and decide nothing. Beside it, the checked entries of the linear mixed body's
 //! implicit dynamics ([`mixed_transient_model`]) and modes ([`mixed_modes_model`]).
@@ -10,7 +11,7 @@ use crate::analysis::dynamics::{Method, Rayleigh};
 use crate::analysis::mixed_dynamics::MixedTransient;
 use crate::analysis::mixed_dynamics_neo_hookean::{MixedBody, MixedNeoHookeanEuler};
 use crate::analysis::mixed_modal::{MixedModes, lowest_mixed_modes};
-use crate::analysis::mixed_nonlinear::solve_static_mixed_nonlinear;
+use crate::analysis::mixed_nonlinear::{MixedLaw, solve_static_mixed_nonlinear_with};
 use crate::analysis::mixed_statics::{MixedStaticSolution, MixedStaticSolver};
 use crate::analysis::nonlinear::NewtonOptions;
 use crate::base::error::Result;
@@ -55,7 +56,7 @@ impl MixedStaticElement for Tet4 {
 ///
 /// Errors: a combination the mixed element does not compute ([`Combination::check`], naming
 /// the pair; `moving_supports` says whether a support follows a motion); those of
-/// [`MixedStaticSolver`] and [`solve_static_mixed_nonlinear`].
+/// [`MixedStaticSolver`] and [`solve_static_mixed_nonlinear_with`].
 pub fn solve_static_mixed_model<E: MixedStaticElement>(
     mesh: &TetMesh<E>,
     materials: &impl TetMaterials,
@@ -73,7 +74,7 @@ pub fn solve_static_mixed_model<E: MixedStaticElement>(
         ..Combination::default()
     }
     .check()?;
-    if model == ModelKind::Linear {
+    let Some(law) = MixedLaw::of(model) else {
         let mut solver = MixedStaticSolver::new(mesh, materials, constraints)?;
         let solution = solver.solve(loads)?;
         return Ok(MixedOutcome {
@@ -82,8 +83,9 @@ pub fn solve_static_mixed_model<E: MixedStaticElement>(
             factor_len: solver.factor_len(),
             newton_iterations: None,
         });
-    }
-    let report = solve_static_mixed_nonlinear(mesh, materials, constraints, loads, options)?;
+    };
+    let report =
+        solve_static_mixed_nonlinear_with(law, mesh, materials, constraints, loads, options)?;
     Ok(MixedOutcome {
         solution: MixedStaticSolution {
             displacement: report.displacement,

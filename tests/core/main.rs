@@ -44,6 +44,7 @@ mod memory_tet10;
 mod mesh;
 mod mesh_io;
 mod mesh_trust;
+mod mixed_corotational;
 mod mixed_dynamics;
 mod mixed_memory;
 mod mixed_neo_hookean;

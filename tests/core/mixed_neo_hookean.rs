@@ -511,7 +511,7 @@ fn the_library_refuses_what_the_mixed_element_cannot_do_naming_the_pair() {
         ),
         (
             Combination {
-                model: ModelKind::Corotational,
+                model: ModelKind::StVenantKirchhoff,
                 ..mixed.clone()
             },
             "formulation mixed with model",

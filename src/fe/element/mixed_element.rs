@@ -8,7 +8,9 @@
 
 use nalgebra::SMatrix;
 
+use super::stabilized_p1_corotational::stabilized_corotational;
 use super::stabilized_p1_neo_hookean::{StabilizedElementState, stabilized_neo_hookean};
+use super::taylor_hood_corotational::{PolarRotation, mixed_corotational};
 use super::taylor_hood_neo_hookean::{MixedElementState, mixed_neo_hookean};
 use super::{ElementType, Tet4, Tet10, stabilized_p1, taylor_hood};
 
@@ -43,7 +45,8 @@ pub trait MixedElement: ElementType {
         l: usize,
     ) -> f64;
 
-    /// The element's Neo-Hookean state: residuals R_u, R_p and tangent blocks K_uu, G.
+    /// The element's Neo-Hookean or corotational state: residuals R_u, R_p and tangent
+    /// blocks K_uu, G.
     type State: Send + Sync;
 
     /// The Neo-Hookean mixed state at node-major displacement `u` (3·NODES values, length)
@@ -55,6 +58,18 @@ pub trait MixedElement: ElementType {
         p: &[f64; 4],
         shear_modulus: f64,
         inverse_bulk: f64,
+    ) -> Option<Self::State>;
+
+    /// The corotational mixed state (W = μ‖dev ε‖² − p·tr ε − p²/(2κ), ε = sym(RᵀF) − I) at
+    /// node-major displacement `u` (3·NODES values, length) and corner pressures `p` (Pa) for
+    /// `moduli` (μ in Pa, 1/κ in 1/Pa), R of F's polar decomposition from `rotation`; `None`
+    /// where F is not finite.
+    fn corotational(
+        rest: &Self::Rest,
+        u: &[f64],
+        p: &[f64; 4],
+        moduli: (f64, f64),
+        rotation: PolarRotation,
     ) -> Option<Self::State>;
 
     /// R_u of `state`: internal nodal forces (force), node-major.
@@ -105,6 +120,18 @@ impl MixedElement for Tet10 {
         inverse_bulk: f64,
     ) -> Option<Self::State> {
         mixed_neo_hookean(rest, u.try_into().ok()?, p, shear_modulus, inverse_bulk)
+    }
+
+    /// [`mixed_corotational`] (R per quadrature point); `None` also for a `u` of other than
+    /// 30 values.
+    fn corotational(
+        rest: &Self::Rest,
+        u: &[f64],
+        p: &[f64; 4],
+        moduli: (f64, f64),
+        rotation: PolarRotation,
+    ) -> Option<Self::State> {
+        mixed_corotational(rest, u.try_into().ok()?, p, moduli, rotation)
     }
 
     fn state_force(state: &Self::State) -> &[f64] {
@@ -164,6 +191,17 @@ impl MixedElement for Tet4 {
         inverse_bulk: f64,
     ) -> Option<Self::State> {
         stabilized_neo_hookean(rest, u, p, shear_modulus, inverse_bulk)
+    }
+
+    /// [`stabilized_corotational`] (one R per tet).
+    fn corotational(
+        rest: &Self::Rest,
+        u: &[f64],
+        p: &[f64; 4],
+        moduli: (f64, f64),
+        rotation: PolarRotation,
+    ) -> Option<Self::State> {
+        stabilized_corotational(rest, u, p, moduli, rotation)
     }
 
     fn state_force(state: &Self::State) -> &[f64] {

@@ -10,6 +10,9 @@
 //! - [`taylor_hood`]: the mixed P2–P1 tet (10-node displacement, corner pressure) for nearly
 //!   incompressible materials;
 //! - [`stabilized_p1`]: the mixed stabilized P1–P1 tet (4-node displacement and pressure);
+//! - the mixed elements' hyperelastic states, one model per file:
+//!   [`taylor_hood_neo_hookean`], [`stabilized_p1_neo_hookean`], [`taylor_hood_corotational`],
+//!   [`stabilized_p1_corotational`];
 //! - [`mixed_element`]: what the mixed solve needs of either ([`MixedElement`]).
 
 mod element_type;
@@ -17,8 +20,10 @@ pub mod isoparametric;
 pub mod mixed_element;
 pub mod pointwise;
 pub mod stabilized_p1;
+pub mod stabilized_p1_corotational;
 pub mod stabilized_p1_neo_hookean;
 pub mod taylor_hood;
+pub mod taylor_hood_corotational;
 pub mod taylor_hood_neo_hookean;
 pub mod tet10;
 mod tet4;
