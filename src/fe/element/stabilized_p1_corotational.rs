@@ -18,11 +18,11 @@
 //! [K_uu −Gᵀ; −G −C] is symmetric and at F = I, p = 0 it is the linear stabilized P1–P1
 //! element exactly. A homogeneous deformation has a constant pressure, −κ·tr ε at every node.
 
-use nalgebra::{Matrix3, SMatrix, Vector3};
+use nalgebra::{Matrix3, Vector3};
 
 use super::Tet;
 use super::stabilized_p1::{PRESSURE_NODES, pressure_block};
-use super::stabilized_p1_neo_hookean::StabilizedElementState;
+use super::stabilized_p1_neo_hookean::{StabilizedElementState, stabilized_state};
 use super::taylor_hood_corotational::{CorotatedPoint, PolarRotation};
 
 /// The element state of a 4-node tet with rest data `rest` at node-major displacement `u`
@@ -39,7 +39,6 @@ pub fn stabilized_corotational(
     if u.len() != 12 {
         return None;
     }
-    let volume = rest.volume();
     let gradients = rest.shape_gradients();
     let mut f = Matrix3::identity();
     for (i, g) in gradients.iter().enumerate() {
@@ -48,43 +47,13 @@ pub fn stabilized_corotational(
     let mean_pressure = p.iter().sum::<f64>() / 4.0;
     let point = CorotatedPoint::new(&f, mu, mean_pressure, rotation)?;
     let piola = point.piola();
-    let quarter = volume / 4.0;
-    let mut state = StabilizedElementState {
-        force: [0.0; 12],
-        pressure_residual: [0.0; PRESSURE_NODES],
-        stiffness: SMatrix::zeros(),
-        coupling: [[[0.0; 3]; 4]; PRESSURE_NODES],
-    };
-    for (i, g) in gradients.iter().enumerate() {
-        let force = piola * g;
-        let divergence = point.r * g;
-        for a in 0..3 {
-            state.force[3 * i + a] = volume * force[a];
-            for row in state.coupling.iter_mut() {
-                row[i][a] = quarter * divergence[a];
-            }
-        }
-    }
-    for (k, r) in state.pressure_residual.iter_mut().enumerate() {
-        let block: f64 = (0..PRESSURE_NODES)
-            .map(|l| pressure_block(rest, mu, inverse_bulk, k, l) * p[l])
-            .sum();
-        *r = -point.trace * quarter - block;
-    }
-    for (j, gj) in gradients.iter().enumerate() {
-        for b in 0..3 {
-            let mut df = Matrix3::zeros();
-            df.set_row(b, &gj.transpose());
-            let dp = point.piola_direction(&df);
-            for (i, gi) in gradients.iter().enumerate() {
-                let column = dp * gi;
-                for a in 0..3 {
-                    state.stiffness[(3 * i + a, 3 * j + b)] = volume * column[a];
-                }
-            }
-        }
-    }
-    Some(state)
+    Some(stabilized_state(
+        rest,
+        p,
+        (mu, inverse_bulk),
+        (&piola, &point.r, point.trace),
+        |df| point.piola_direction(df),
+    ))
 }
 
 /// V·W(F, p̄) − ½Σ_kl C_kl p_k p_l (energy, force·length): the potential whose derivatives

@@ -47,7 +47,6 @@ pub fn stabilized_neo_hookean(
     mu: f64,
     inverse_bulk: f64,
 ) -> Option<StabilizedElementState> {
-    let volume = rest.volume();
     let gradients = rest.shape_gradients();
     let mut f = Matrix3::identity();
     for (i, g) in gradients.iter().enumerate() {
@@ -56,6 +55,30 @@ pub fn stabilized_neo_hookean(
     let mean_pressure = p.iter().sum::<f64>() / 4.0;
     let point = Point::new(&f, mu, mean_pressure)?;
     let (cof, piola) = (point.cofactor(), point.piola());
+    Some(stabilized_state(
+        rest,
+        p,
+        (mu, inverse_bulk),
+        (&piola, &cof, point.j - 1.0),
+        |df| point.piola_direction(df),
+    ))
+}
+
+/// The element state of a 4-node tet from one point's values: the first Piola–Kirchhoff
+/// stress `piola` (Pa) at the mean pressure, the matrix `volumetric` (cof F, or R for the
+/// corotated strain) whose product with ∇Nᵢ is ∂(volume change)/∂uᵢ, the volume change
+/// `change` (J − 1, or tr ε), and dP for a direction dF at fixed p (`piola_direction`, Pa):
+/// R_u = V·P·∇Nᵢ, G_kia = (V/4)(volumetric·∇Nᵢ)_a, R_p,k = −change·V/4 − Σ_l C_kl p_l, K_uu =
+/// V·∂P/∂F (see the [module](self) docs).
+pub(crate) fn stabilized_state(
+    rest: &Tet,
+    p: &[f64; PRESSURE_NODES],
+    (mu, inverse_bulk): (f64, f64),
+    (piola, volumetric, change): (&Matrix3<f64>, &Matrix3<f64>, f64),
+    piola_direction: impl Fn(&Matrix3<f64>) -> Matrix3<f64>,
+) -> StabilizedElementState {
+    let volume = rest.volume();
+    let gradients = rest.shape_gradients();
     let quarter = volume / 4.0;
     let mut state = StabilizedElementState {
         force: [0.0; 12],
@@ -65,7 +88,7 @@ pub fn stabilized_neo_hookean(
     };
     for (i, g) in gradients.iter().enumerate() {
         let force = piola * g;
-        let divergence = cof * g;
+        let divergence = volumetric * g;
         for a in 0..3 {
             state.force[3 * i + a] = volume * force[a];
             for row in state.coupling.iter_mut() {
@@ -77,13 +100,13 @@ pub fn stabilized_neo_hookean(
         let block: f64 = (0..PRESSURE_NODES)
             .map(|l| pressure_block(rest, mu, inverse_bulk, k, l) * p[l])
             .sum();
-        *r = -(point.j - 1.0) * quarter - block;
+        *r = -change * quarter - block;
     }
     for (j, gj) in gradients.iter().enumerate() {
         for b in 0..3 {
             let mut df = Matrix3::zeros();
             df.set_row(b, &gj.transpose());
-            let dp = point.piola_direction(&df);
+            let dp = piola_direction(&df);
             for (i, gi) in gradients.iter().enumerate() {
                 let column = dp * gi;
                 for a in 0..3 {
@@ -92,5 +115,5 @@ pub fn stabilized_neo_hookean(
             }
         }
     }
-    Some(state)
+    state
 }
