@@ -48,7 +48,7 @@
 use nalgebra::{Matrix3, SMatrix, Vector3};
 
 use super::taylor_hood::PRESSURE_NODES;
-use super::taylor_hood_neo_hookean::MixedElementState;
+use super::taylor_hood_neo_hookean::{MixedElementState, add_point};
 use super::tet10::Tet10Rest;
 
 /// The rotation of F's polar decomposition (det R = +1), supplied by the caller
@@ -83,32 +83,10 @@ pub fn mixed_corotational(
         let point =
             CorotatedPoint::new(&deformation_gradient(gradients, u), mu, pressure, rotation)?;
         let piola = point.piola();
-        for (i, g) in gradients.iter().enumerate() {
-            let force = piola * g;
-            let divergence = point.r * g;
-            for a in 0..3 {
-                state.force[3 * i + a] += weight * force[a];
-                for (k, row) in state.coupling.iter_mut().enumerate() {
-                    row[i][a] += weight * l[k] * divergence[a];
-                }
-            }
-        }
-        for (k, r) in state.pressure_residual.iter_mut().enumerate() {
-            *r += weight * l[k] * (-point.trace - pressure * inverse_bulk);
-        }
-        for (j, gj) in gradients.iter().enumerate() {
-            for b in 0..3 {
-                let mut df = Matrix3::zeros();
-                df.set_row(b, &gj.transpose());
-                let dp = point.piola_direction(&df);
-                for (i, gi) in gradients.iter().enumerate() {
-                    let column = dp * gi;
-                    for a in 0..3 {
-                        state.stiffness[(3 * i + a, 3 * j + b)] += weight * column[a];
-                    }
-                }
-            }
-        }
+        let values = (&piola, &point.r, point.trace, pressure * inverse_bulk);
+        add_point(&mut state, gradients, (weight, &l), values, |df| {
+            point.piola_direction(df)
+        });
     }
     Some(state)
 }

@@ -82,36 +82,54 @@ pub fn mixed_neo_hookean(
             f += Vector3::new(u[3 * i], u[3 * i + 1], u[3 * i + 2]) * g.transpose();
         }
         let point = Point::new(&f, mu, pressure)?;
-        let cof = point.cofactor();
-        let piola = point.piola();
-        for (i, g) in gradients.iter().enumerate() {
-            let force = piola * g;
-            let divergence = cof * g;
-            for a in 0..3 {
-                state.force[3 * i + a] += weight * force[a];
-                for (k, row) in state.coupling.iter_mut().enumerate() {
-                    row[i][a] += weight * l[k] * divergence[a];
-                }
+        let (cof, piola) = (point.cofactor(), point.piola());
+        let values = (&piola, &cof, point.j - 1.0, pressure * inverse_bulk);
+        add_point(&mut state, gradients, (weight, &l), values, |df| {
+            point.piola_direction(df)
+        });
+    }
+    Some(state)
+}
+
+/// Adds one quadrature point of weight `weight` (length³) and corner pressure weights `l` to
+/// `state`, from the point's first Piola–Kirchhoff stress P (Pa), the matrix whose product with
+/// ∇Nᵢ is ∂(volume change)/∂uᵢ (cof F, or R for the corotated strain), the volume change
+/// (J − 1, or tr ε), p/κ (dimensionless) and dP for a direction dF at fixed p
+/// (`piola_direction`, Pa): R_u += w·P·∇Nᵢ, G_kia += w·l_k·(volumetric·∇Nᵢ)_a,
+/// R_p,k += w·l_k·(−change − p/κ), K_uu += w·∂P/∂F.
+pub(super) fn add_point(
+    state: &mut MixedElementState,
+    gradients: &[Vector3<f64>; 10],
+    (weight, l): (f64, &[f64; 4]),
+    (piola, volumetric, change, compliance): (&Matrix3<f64>, &Matrix3<f64>, f64, f64),
+    piola_direction: impl Fn(&Matrix3<f64>) -> Matrix3<f64>,
+) {
+    for (i, g) in gradients.iter().enumerate() {
+        let force = piola * g;
+        let divergence = volumetric * g;
+        for a in 0..3 {
+            state.force[3 * i + a] += weight * force[a];
+            for (k, row) in state.coupling.iter_mut().enumerate() {
+                row[i][a] += weight * l[k] * divergence[a];
             }
         }
-        for (k, r) in state.pressure_residual.iter_mut().enumerate() {
-            *r += weight * l[k] * (-(point.j - 1.0) - pressure * inverse_bulk);
-        }
-        for (j, gj) in gradients.iter().enumerate() {
-            for b in 0..3 {
-                let mut df = Matrix3::zeros();
-                df.set_row(b, &gj.transpose());
-                let dp = point.piola_direction(&df);
-                for (i, gi) in gradients.iter().enumerate() {
-                    let column = dp * gi;
-                    for a in 0..3 {
-                        state.stiffness[(3 * i + a, 3 * j + b)] += weight * column[a];
-                    }
+    }
+    for (k, r) in state.pressure_residual.iter_mut().enumerate() {
+        *r += weight * l[k] * (-change - compliance);
+    }
+    for (j, gj) in gradients.iter().enumerate() {
+        for b in 0..3 {
+            let mut df = Matrix3::zeros();
+            df.set_row(b, &gj.transpose());
+            let dp = piola_direction(&df);
+            for (i, gi) in gradients.iter().enumerate() {
+                let column = dp * gi;
+                for a in 0..3 {
+                    state.stiffness[(3 * i + a, 3 * j + b)] += weight * column[a];
                 }
             }
         }
     }
-    Some(state)
 }
 
 /// The kinematics and stress of one quadrature point (also the single point of the 4-node
