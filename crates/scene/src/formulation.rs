@@ -402,8 +402,9 @@ vtu_format = "ascii"
             "formulation = \"mixed\"\nmodel = \"neo-hookean\"\nload_steps = 2",
         );
         // Taylor–Hood (10-node), then the stabilized P1–P1 (4-node).
-        mixed_neo_hookean_block(&text, true);
-        mixed_neo_hookean_block(&text.replace("order = 2\n", "order = 1\n"), false);
+        mixed_neo_hookean_block(&text, true, "neo_hookean");
+        let p1 = text.replace("order = 2\n", "order = 1\n");
+        mixed_neo_hookean_block(&p1, false, "neo_hookean");
     }
 
     #[test]
@@ -414,18 +415,20 @@ vtu_format = "ascii"
         );
         // The corotational stress is Hooke's in the rotated frame: at a stretch of 1e-3 the
         // same bound as the Neo-Hookean one's holds.
-        mixed_neo_hookean_block(&text, true);
-        mixed_neo_hookean_block(&text.replace("order = 2\n", "order = 1\n"), false);
+        mixed_neo_hookean_block(&text, true, "corotational");
+        let p1 = text.replace("order = 2\n", "order = 1\n");
+        mixed_neo_hookean_block(&p1, false, "corotational");
     }
 
     /// [`a_mixed_neo_hookean_block_in_small_tension_is_the_linear_one`] (and the corotational
     /// one) on `text`;
-    /// `boffi_warning`: whether P2–P1's stability warning is expected.
-    fn mixed_neo_hookean_block(text: &str, boffi_warning: bool) {
+    /// `boffi_warning`: whether P2–P1's stability warning is expected; `model` names the output
+    /// folder (the tests run in parallel in one process: each its own folder and lock).
+    fn mixed_neo_hookean_block(text: &str, boffi_warning: bool, model: &str) {
         let mut scene = parse(text).unwrap();
         assert_eq!(scene.formulation(), Formulation::Mixed);
         let directory =
-            std::env::temp_dir().join(format!("tetfem_mixed_nh_{}", std::process::id()));
+            std::env::temp_dir().join(format!("tetfem_mixed_{model}_{}", std::process::id()));
         scene.set_output_directory(directory.clone());
         let summary = super::super::run_static(&scene).unwrap();
         // The linear answer (the uniaxial test above) to the strain's order, 1e-3: the
