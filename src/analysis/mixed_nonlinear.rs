@@ -46,7 +46,6 @@ use crate::analysis::newton::line_search::{Backtracking, LineFunction, NEAR_SOLU
 use crate::analysis::nonlinear::NewtonOptions;
 use crate::analysis::problem::Problem;
 use crate::base::error::{Error, Result};
-use crate::base::memory::{RunPath, SolverMemory, StaticEstimate};
 use crate::bc::constraints::Constraints;
 use crate::bc::loads::Loads;
 use crate::fe::element::MixedElement;
@@ -171,20 +170,7 @@ pub fn solve_static_mixed_nonlinear_with<E: MixedElement>(
     Error::check_len("loads", mesh.dof_count(), loads.as_slice().len())?;
     // Before any allocation, the estimate of the linear mixed solve (its saddle point and LDLᵀ
     // are what each Newton step rebuilds).
-    let estimate = StaticEstimate::for_element(
-        mesh.node_count(),
-        mesh.tet_count(),
-        E::NODES,
-        SolverMemory::Iterative,
-    );
-    RunPath::Direct.limits().ensure_fits_or(
-        format!(
-            "the mixed Newton solve: {}, of which the mesh is held already",
-            estimate.describe()
-        ),
-        estimate.beyond_mesh(),
-        RunPath::Direct.hint(),
-    )?;
+    crate::analysis::mixed_statics::ensure_mixed_fits(mesh, "the mixed Newton solve", None)?;
     materials.check_tet_count(mesh)?;
     let mut system = MixedSystem::new(law, mesh, materials, constraints)?;
     let dofs = system.problem.dofs();

@@ -24,7 +24,7 @@ use faer::sparse::SymbolicSparseColMat;
 use crate::analysis::mixed_statics::{nodal_pressure, saddle_point_matrix};
 use crate::analysis::problem::Problem;
 use crate::base::error::{Error, Result};
-use crate::base::memory::{RunPath, SolverMemory, StaticEstimate, format_bytes};
+use crate::base::memory::{SolverMemory, StaticEstimate};
 use crate::bc::constraints::{Constraints, DofMap};
 use crate::fe::element::taylor_hood::PressureNodes;
 use crate::fe::element::{MixedElement, Tet10};
@@ -304,23 +304,18 @@ impl<E: MixedElement> MixedOperator<E> {
 /// on K_ff's pattern) and the state vectors ([`StaticEstimate::dynamic_extra`]), against the
 /// bounds of a factorizing run ([`Error::InsufficientMemory`] naming the size and the bound).
 fn ensure_operator_fits<E: MixedElement>(mesh: &TetMesh<E>) -> Result<()> {
-    let estimate = StaticEstimate::for_element(
+    let extra = StaticEstimate::for_element(
         mesh.node_count(),
         mesh.tet_count(),
         E::NODES,
         SolverMemory::Iterative,
-    );
-    let extra = estimate.dynamic_extra();
-    Ok(RunPath::Direct.limits().ensure_fits_or(
-        format!(
-            "the mixed dynamic or modal operator: {} + {} for the mass and the shifted saddle \
-             point, of which the mesh is held already",
-            estimate.describe(),
-            format_bytes(extra)
-        ),
-        estimate.beyond_mesh() + extra,
-        RunPath::Direct.hint(),
-    )?)
+    )
+    .dynamic_extra();
+    crate::analysis::mixed_statics::ensure_mixed_fits(
+        mesh,
+        "the mixed dynamic or modal operator",
+        Some(("for the mass and the shifted saddle point", extra)),
+    )
 }
 
 /// C: minus the lower-right block of A(0) (the rows and columns from `free_count` on).

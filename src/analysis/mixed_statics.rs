@@ -25,7 +25,7 @@ use faer::sparse::SymbolicSparseColMat;
 use crate::analysis::problem::Problem;
 use crate::analysis::statics::RESIDUAL_LIMIT;
 use crate::base::error::{Error, Result};
-use crate::base::memory::{RunPath, SolverMemory, StaticEstimate};
+use crate::base::memory::{RunPath, SolverMemory, StaticEstimate, format_bytes};
 use crate::base::warning::Warning;
 use crate::bc::constraints::{Constraints, DofMap};
 use crate::bc::loads::Loads;
@@ -104,20 +104,7 @@ impl<E: MixedElement> MixedStaticSolver<E> {
         constraints: &Constraints,
     ) -> Result<Self> {
         crate::analysis::problem::ensure_mesh_dofs(mesh, "constraints", constraints.dof_count())?;
-        let estimate = StaticEstimate::for_element(
-            mesh.node_count(),
-            mesh.tet_count(),
-            E::NODES,
-            SolverMemory::Iterative,
-        );
-        RunPath::Direct.limits().ensure_fits_or(
-            format!(
-                "the mixed static solve: {}, of which the mesh is held already",
-                estimate.describe()
-            ),
-            estimate.beyond_mesh(),
-            RunPath::Direct.hint(),
-        )?;
+        ensure_mixed_fits(mesh, "the mixed static solve", None)?;
         materials.check_tet_count(mesh)?;
         let mut timings = MixedTimings::default();
         let clock = Instant::now();
@@ -328,6 +315,41 @@ impl<E: MixedElement> MixedStaticSolver<E> {
     pub fn timings(&self) -> MixedTimings {
         self.timings
     }
+}
+
+/// What to change when a mixed run does not fit: every mixed solve factors its saddle point
+/// (an LDLᵀ), so the iterative solver that [`RunPath::Direct`]'s hint names is not a way out.
+const MIXED_MEMORY_HINT: &str =
+    "use a coarser mesh (a mixed solve always factors its saddle point: it has no iterative path)";
+
+/// Before any allocation: the blocks of the mixed static solve on `mesh` (the element's
+/// pattern, 10- or 4-node, with its LDLᵀ taken as the multigrid hierarchy's bytes), plus
+/// `extra` (a dynamic run's mass and shifted saddle point, bytes, described with it), against
+/// the bounds of a factorizing run: [`Error::InsufficientMemory`] for `what`, naming the size
+/// and the bound.
+pub(crate) fn ensure_mixed_fits<E: MixedElement>(
+    mesh: &TetMesh<E>,
+    what: &str,
+    extra: Option<(&str, u128)>,
+) -> Result<()> {
+    let estimate = StaticEstimate::for_element(
+        mesh.node_count(),
+        mesh.tet_count(),
+        E::NODES,
+        SolverMemory::Iterative,
+    );
+    let (described, needed) = match extra {
+        Some((name, bytes)) => (
+            format!("{} + {} {name}", estimate.describe(), format_bytes(bytes)),
+            estimate.beyond_mesh() + bytes,
+        ),
+        None => (estimate.describe(), estimate.beyond_mesh()),
+    };
+    Ok(RunPath::Direct.limits().ensure_fits_or(
+        format!("{what}: {described}, of which the mesh is held already"),
+        needed,
+        MIXED_MEMORY_HINT,
+    )?)
 }
 
 /// The pressure at every node from the corner values `corner` (one per unknown of

@@ -159,6 +159,10 @@ fn too_large_mixed_runs_stop_before_allocating() {
         for word in ["not enough memory", "mixed", "needs", "RLIMIT_AS"] {
             assert!(large.contains(word), "no '{word}' in {large}");
         }
+        // The way out it names is one a mixed run has: a coarser mesh, not the iterative
+        // solver (a mixed solve always factors its saddle point).
+        assert!(large.contains("coarser mesh"), "no way out in {large}");
+        assert!(!large.contains("linear_solver"), "a way out mixed runs lack in {large}");
         // The same limit does not refuse a run that fits.
         assert_eq!(line("SMALL"), format!("SMALL {name} ok"));
     }
