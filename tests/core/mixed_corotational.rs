@@ -7,7 +7,6 @@
 
 use nalgebra::{DMatrix, Matrix3, Rotation3, Vector3};
 use tetfem::analysis::mixed_nonlinear::{MixedLaw, solve_static_mixed_nonlinear_with};
-use tetfem::analysis::nonlinear::NewtonOptions;
 use tetfem::fe::element::stabilized_p1::pressure_block;
 use tetfem::fe::element::stabilized_p1_corotational::{
     stabilized_corotational, stabilized_corotational_energy,
@@ -25,19 +24,7 @@ use tetfem::{
 use tetfem_fixtures::cantilever::Cantilever;
 use tetfem_fixtures::cook::CookMembrane;
 
-/// ‖a − b‖/‖b‖.
-fn relative_difference(a: &[f64], b: &[f64]) -> f64 {
-    let d: f64 = a.iter().zip(b).map(|(x, y)| (x - y).powi(2)).sum();
-    let n: f64 = b.iter().map(|y| y * y).sum();
-    (d / n).sqrt()
-}
-
-fn options(load_steps: usize) -> NewtonOptions {
-    NewtonOptions {
-        load_steps,
-        ..NewtonOptions::default()
-    }
-}
+use super::mixed_neo_hookean::{options, relative_difference};
 
 fn corotational<E: MixedElement>(
     mesh: &TetMesh<E>,

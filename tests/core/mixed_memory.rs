@@ -162,7 +162,10 @@ fn too_large_mixed_runs_stop_before_allocating() {
         // The way out it names is one a mixed run has: a coarser mesh, not the iterative
         // solver (a mixed solve always factors its saddle point).
         assert!(large.contains("coarser mesh"), "no way out in {large}");
-        assert!(!large.contains("linear_solver"), "a way out mixed runs lack in {large}");
+        assert!(
+            !large.contains("linear_solver"),
+            "a way out mixed runs lack in {large}"
+        );
         // The same limit does not refuse a run that fits.
         assert_eq!(line("SMALL"), format!("SMALL {name} ok"));
     }

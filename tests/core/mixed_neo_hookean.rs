@@ -17,13 +17,14 @@ use tetfem_fixtures::cook::CookMembrane;
 use tetfem_fixtures::tube::LameTube;
 
 /// ‖a − b‖/‖b‖.
-fn relative_difference(a: &[f64], b: &[f64]) -> f64 {
+pub(crate) fn relative_difference(a: &[f64], b: &[f64]) -> f64 {
     let d: f64 = a.iter().zip(b).map(|(x, y)| (x - y).powi(2)).sum();
     let n: f64 = b.iter().map(|y| y * y).sum();
     (d / n).sqrt()
 }
 
-fn options(load_steps: usize) -> NewtonOptions {
+/// Newton's default options in `load_steps` equal load steps.
+pub(crate) fn options(load_steps: usize) -> NewtonOptions {
     NewtonOptions {
         load_steps,
         ..NewtonOptions::default()
