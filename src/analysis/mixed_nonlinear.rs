@@ -90,8 +90,9 @@ impl MixedLaw {
 
     /// The element state of `E` at `u` (length), corner pressures `p` (Pa) and (μ, 1/κ)
     /// `moduli` (Pa, 1/Pa); `None` where the law has no state (an inverted Neo-Hookean tet,
-    /// a non-finite F).
-    fn state<E: MixedElement>(
+    /// a non-finite F). The one seam of both mixed Newtons: the static one and the backward
+    /// Euler ([`crate::analysis::mixed_nonlinear_dynamics`]).
+    pub(crate) fn state<E: MixedElement>(
         self,
         rest: &E::Rest,
         u: &[f64],

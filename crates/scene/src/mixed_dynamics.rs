@@ -58,10 +58,14 @@ impl Scene {
         let tolerance = (self.spec.analysis.as_ref()).and_then(|a| a.get_ref().time_tolerance);
         let damped = matches!(self.analysis(), super::Analysis::Dynamic(d)
             if d.damping.mass != 0.0 || d.damping.stiffness != 0.0);
-        if self.model() == tetfem::model::ModelKind::NeoHookean && damped {
-            // MixedNeoHookeanEuler steps the undamped body (backward Euler's own dissipation).
+        let hyperelastic = matches!(
+            self.model(),
+            tetfem::model::ModelKind::NeoHookean | tetfem::model::ModelKind::Corotational
+        );
+        if hyperelastic && damped {
+            // MixedNonlinearEuler steps the undamped body (backward Euler's own dissipation).
             Some(format!(
-                "[analysis.damping] with model = \"{}\" (the mixed Neo-Hookean run is undamped)",
+                "[analysis.damping] with model = \"{}\" (the mixed hyperelastic run is undamped)",
                 self.model().name()
             ))
         } else if tolerance.is_some() {
