@@ -75,7 +75,7 @@ fn library_tip<E: MixedBody>(mesh: &TetMesh<E>) -> f64 {
 fn a_mixed_corotational_dynamic_scene_is_the_librarys_run_and_keeps_its_volume() {
     for order in [1, 2] {
         let summary = run(&swing(order)).unwrap();
-        let tip = summary.probes[0].displacement[2];
+        let tip = summary.probes[0].last[2];
         let linear = TetMesh::box_grid(
             Vector3::zeros(),
             Vector3::new(1.0, 0.1, 0.1),
