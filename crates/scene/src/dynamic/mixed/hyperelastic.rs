@@ -14,7 +14,6 @@ use std::ops::ControlFlow;
 use std::time::Instant;
 
 use tetfem::Loads;
-use tetfem::analysis::dynamics::{LinearSystem, MassKind, Rayleigh, critical_time_step};
 use tetfem::analysis::mixed_analysis::{MixedStaticElement, mixed_nonlinear_euler_model};
 use tetfem::analysis::mixed_nonlinear_dynamics::{MixedBody, MixedNonlinearEuler};
 use tetfem::analysis::transient::RunLength;
@@ -78,7 +77,9 @@ fn run_on<E: SceneElement + MixedStaticElement + MixedBody>(
         .map(|dof| settings.initial_velocity[dof % 3])
         .collect();
     run = run.with_velocity(&v0)?;
-    let (critical, critical_source) = critical_step(scene, &built)?;
+    // A body with obstacles may be held by them alone (a dropped ball): the free body's step.
+    let critical = crate::critical::critical_step_of_body(&built, scene.has_obstacles())?;
+    let (critical, critical_source) = (critical.seconds, critical.source);
     let setup_seconds = clock.elapsed().as_secs_f64();
     let rest_volume = run.deformed_volume();
     let energy = |run: &MixedNonlinearEuler<E>| energy_terms(run, &gravity, &built.other_loads);
@@ -217,28 +218,4 @@ fn energy_terms<E: MixedBody>(
         load_potential,
         total: kinetic + elastic + gravity_potential + load_potential,
     })
-}
-
-/// The explicit critical step (s) of the scene's body and how it was found, for the summary: a
-/// body with obstacles may be held by them alone (a dropped ball), so its lumped system is the
-/// free body's ([`LinearSystem::new_free_body`]).
-fn critical_step<E: SceneElement>(
-    scene: &Scene,
-    built: &crate::BuiltScene<E>,
-) -> Result<(f64, String)> {
-    if !scene.has_obstacles() {
-        let report = crate::critical_step_of(built)?;
-        return Ok((report.seconds, report.source));
-    }
-    let system = LinearSystem::new_free_body(
-        &built.mesh,
-        &built.materials,
-        &built.constraints,
-        &built.other_loads,
-        built.gravity,
-        MassKind::Lumped,
-        Rayleigh::default(),
-    )?;
-    let step = critical_time_step(&system)?;
-    Ok((step.dt, step.certificate.source().to_string()))
 }
