@@ -48,7 +48,7 @@
 //! Hessian (PSD, so the tangent stays quasi-definite). Still obstacles: obstacle motion is
 //! refused by name.
 
-use crate::analysis::mixed_nonlinear::MixedLaw;
+use crate::analysis::mixed_nonlinear::{MixedLaw, correction_norm};
 use crate::analysis::mixed_statics::{nodal_pressure, saddle_point_matrix};
 use crate::analysis::problem::Problem;
 use crate::base::error::{Error, Result};
@@ -494,14 +494,10 @@ impl<'a, E: MixedBody> MixedNonlinearEuler<'a, E> {
         Ok(None)
     }
 
-    /// ‖(δu, δp·ℓ/μ)‖ (length) of a correction: the pressure weighted as in the merit (the
-    /// static mixed Newton's norm).
+    /// [`correction_norm`] of this body (the static mixed Newton's norm).
     fn correction_norm(&self, correction: &[f64]) -> f64 {
         let free = self.problem.dofs().free_count();
-        let (du, dp) = correction.split_at(free);
-        let w = 1.0 / self.pressure_weight;
-        (du.iter().map(|d| d * d).sum::<f64>() + dp.iter().map(|d| (w * d).powi(2)).sum::<f64>())
-            .sqrt()
+        correction_norm(correction, free, self.pressure_weight)
     }
 
     /// The full-length vector of the free entries `free[..free_count]` (0 on the constrained
