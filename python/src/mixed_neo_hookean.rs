@@ -1,27 +1,32 @@
-//! `tetfem.mixed_neo_hookean_transient`: nearly incompressible Neo-Hookean rubber stepped in time
-//! in the mixed displacement–pressure form (Taylor–Hood P2–P1 on 10-node tets, the stabilized
-//! P1–P1 on 4-node tets) by backward Euler, optionally against rigid obstacles: the library's
-//! `MixedNeoHookeanEuler` through its checked entry `mixed_neo_hookean_euler_model`.
+//! `tetfem.mixed_neo_hookean_transient`: nearly incompressible Neo-Hookean (or corotational)
+//! rubber stepped in time in the mixed displacement–pressure form (Taylor–Hood P2–P1 on 10-node
+//! tets, the stabilized P1–P1 on 4-node tets) by backward Euler, optionally against rigid
+//! obstacles: the library's `MixedNonlinearEuler` through its checked entry
+//! `mixed_nonlinear_euler_model`, after the library's `Combination` of the whole call.
 
 use numpy::{PyArray1, PyArrayMethods};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
-use tetfem::analysis::mixed_analysis::{MixedStaticElement, mixed_neo_hookean_euler_model};
-use tetfem::analysis::mixed_dynamics_neo_hookean::{MixedBody, MixedNeoHookeanEuler};
+use tetfem::analysis::combination::{Analysis, Combination, Formulation};
+use tetfem::analysis::dynamics::Method;
+use tetfem::analysis::mixed_analysis::{MixedStaticElement, mixed_nonlinear_euler_model};
+use tetfem::analysis::mixed_nonlinear_dynamics::{MixedBody, MixedNonlinearEuler};
 use tetfem::contact::Contact;
 use tetfem::fe::materials::MaterialMap;
 use tetfem::mesh::TetMesh;
+use tetfem::model::ModelKind;
 use tetfem::{Constraints, Loads};
 
 use crate::arrays;
 use crate::cells::on_cells;
 use crate::constraints::PyConstraints;
 use crate::contact::{PyObstacle, contact_of};
-use crate::errors::invalid;
+use crate::errors::{OrRaise, invalid};
 use crate::interrupt::detach_interruptible;
 use crate::loads::PyLoads;
 use crate::material::materials_of;
 use crate::mesh::PyMesh;
+use crate::names;
 use crate::statics::check_same_mesh;
 
 /// What each state of the run records: time (s), displacement (m, every DOF), nodal pressure
@@ -44,7 +49,7 @@ impl History {
     /// undeformed volume (m³).
     fn record<E: MixedBody>(
         &mut self,
-        run: &MixedNeoHookeanEuler<E>,
+        run: &MixedNonlinearEuler<E>,
         rest: f64,
         iterations: usize,
     ) -> tetfem::Result<()> {
@@ -68,13 +73,18 @@ impl History {
 /// steps, every state recorded.
 fn run_on<E: MixedStaticElement + MixedBody>(
     mesh: &TetMesh<E>,
-    materials: &MaterialMap,
+    (materials, model): (&MaterialMap, ModelKind),
     (constraints, loads): (&Constraints, &Loads),
     (dt, steps, tolerance): (f64, usize, f64),
     (velocity, contact): (Option<&[f64]>, Option<Contact>),
 ) -> tetfem::Result<History> {
-    let mut run =
-        mixed_neo_hookean_euler_model(mesh, materials, (constraints, loads), (dt, tolerance))?;
+    let mut run = mixed_nonlinear_euler_model(
+        mesh,
+        materials,
+        model,
+        (constraints, loads),
+        (dt, tolerance),
+    )?;
     if let Some(contact) = contact {
         run = run.with_contact(contact)?;
     }
@@ -91,14 +101,16 @@ fn run_on<E: MixedStaticElement + MixedBody>(
     Ok(history)
 }
 
-/// ``steps`` backward-Euler steps of ``dt`` (s) of nearly incompressible Neo-Hookean rubber in
+/// ``steps`` backward-Euler steps of ``dt`` (s) of nearly incompressible hyperelastic rubber in
 /// the mixed displacement–pressure form, from the undeformed state (pressure 0) with
 /// ``initial_velocity`` (m/s: shape (3,) for every node or (n, 3); default at rest). ``mesh``:
 /// 10-node tets (``order=2``: Taylor–Hood P2–P1) or 4-node tets (``order=1``: the stabilized
-/// P1–P1 of Dohrmann–Bochev). ``material``: a ``Material`` or a ``MaterialMap`` (ν < 0.5; the
-/// energy W = μ/2·(Ī₁ − 3) − p·(J − 1) − p²/(2κ) of Simo–Taylor). ``constraints``: fixed
-/// supports (a moving support raises); ``loads``: constant loads and gravity (a load with an
-/// amplitude raises). Each step solves M·(u⁺ − u − dt·v)/dt² + f_int(u⁺, p⁺) = f with the
+/// P1–P1 of Dohrmann–Bochev). ``material``: a ``Material`` or a ``MaterialMap`` (ν < 0.5).
+/// ``model``: ``"neo_hookean"`` (default; the energy W = μ/2·(Ī₁ − 3) − p·(J − 1) − p²/(2κ)
+/// of Simo–Taylor) or ``"corotational"`` (W = μ‖dev ε‖² − p·tr ε − p²/(2κ), ε = sym(RᵀF) − I,
+/// R the polar rotation of F); another model raises. ``constraints``: fixed supports (a
+/// moving support raises); ``loads``: constant loads and gravity (a load with an amplitude
+/// raises): what combines is the library's rule (``Combination``), which names the pair. Each step solves M·(u⁺ − u − dt·v)/dt² + f_int(u⁺, p⁺) = f with the
 /// pressure equation by Newton's method on the quasi-definite saddle tangent (one LDLᵀ per
 /// iteration) to ``tolerance`` (relative, in (0, 1)); the consistent mass, no damping but
 /// backward Euler's own. ``obstacles``: rigid, still ``Obstacle``s the boundary nodes meet
@@ -108,11 +120,11 @@ fn run_on<E: MixedStaticElement + MixedBody>(
 /// (steps + 1, n, 3) m, ``pressure`` (steps + 1, n) Pa (positive in compression),
 /// ``volume_change`` (steps + 1,) ∫J dV/V₀ − 1, ``kinetic_energy`` and ``elastic_energy``
 /// (steps + 1,) J, ``smallest_gap`` (steps + 1,) m (inf without obstacles),
-/// ``newton_iterations`` (steps + 1,) per step (0 at the start) and ``element``; the state at
+/// ``newton_iterations`` (steps + 1,) per step (0 at the start), ``element`` and ``model``; the state at
 /// t = 0 first. Errors raise ``InvalidInputError`` naming the argument, ``SolverError``
 /// naming the step (use a smaller ``dt``). The work runs with the GIL released.
 #[pyfunction]
-#[pyo3(name = "mixed_neo_hookean_transient", signature = (mesh, material, constraints, loads, dt, steps, *, initial_velocity = None, obstacles = None, contact_distance = None, contact_stiffness = None, tolerance = 1e-8))]
+#[pyo3(name = "mixed_neo_hookean_transient", signature = (mesh, material, constraints, loads, dt, steps, *, model = "neo_hookean", initial_velocity = None, obstacles = None, contact_distance = None, contact_stiffness = None, tolerance = 1e-8))]
 #[allow(clippy::too_many_arguments)]
 pub fn mixed_neo_hookean_transient_py<'py>(
     py: Python<'py>,
@@ -122,6 +134,7 @@ pub fn mixed_neo_hookean_transient_py<'py>(
     loads: PyRef<'py, PyLoads>,
     dt: f64,
     steps: usize,
+    model: &str,
     initial_velocity: Option<&Bound<'py, PyAny>>,
     obstacles: Option<Vec<PyRef<'py, PyObstacle>>>,
     contact_distance: Option<f64>,
@@ -130,22 +143,19 @@ pub fn mixed_neo_hookean_transient_py<'py>(
 ) -> PyResult<Bound<'py, PyDict>> {
     let data = &mesh.get().data;
     check_same_mesh(py, data, &constraints, Some(&loads))?;
-    if !constraints.motions.is_empty() {
-        return Err(invalid(
-            py,
-            "constraints",
-            "moving supports",
-            "fixed supports only in the mixed Neo-Hookean backward Euler",
-        ));
+    let kind = names::model(py, model)?;
+    Combination {
+        model: kind,
+        order: data.mesh.order(),
+        analysis: Analysis::Transient(Method::BackwardEuler),
+        formulation: Formulation::Mixed,
+        moving_supports: !constraints.motions.is_empty(),
+        time_varying_loads: !loads.timed.is_empty(),
+        obstacles: obstacles.as_ref().is_some_and(|o| !o.is_empty()),
+        ..Combination::default()
     }
-    if !loads.timed.is_empty() {
-        return Err(invalid(
-            py,
-            "loads",
-            "a load with an amplitude",
-            "constant loads and gravity only in the mixed Neo-Hookean backward Euler",
-        ));
-    }
+    .check()
+    .or_raise(py)?;
     if !(tolerance > 0.0 && tolerance < 1.0) {
         return Err(invalid(py, "tolerance", tolerance, "must be in (0, 1)"));
     }
@@ -167,7 +177,8 @@ pub fn mixed_neo_hookean_transient_py<'py>(
     let (history, element) = detach_interruptible(py, || {
         on_cells!(&data.mesh, m => {
             let setup = (velocity.as_deref(), contact);
-            let history = run_on(m, &materials, (fixed, all), (dt, steps, tolerance), setup)?;
+            let law = (&materials, kind);
+            let history = run_on(m, law, (fixed, all), (dt, steps, tolerance), setup)?;
             Ok((history, element_name(m)))
         })
     })?;
@@ -189,6 +200,7 @@ pub fn mixed_neo_hookean_transient_py<'py>(
     let iterations: Vec<u64> = history.iterations.iter().map(|&i| i as u64).collect();
     out.set_item("newton_iterations", arrays::vector(py, iterations))?;
     out.set_item("element", element)?;
+    out.set_item("model", kind.name())?;
     Ok(out)
 }
 

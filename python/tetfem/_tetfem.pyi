@@ -413,6 +413,7 @@ def mixed_neo_hookean_transient(
     dt: float,
     steps: int,
     *,
+    model: Literal["neo_hookean", "neo-hookean", "corotational"] = "neo_hookean",
     initial_velocity: Optional[_ArrayLike] = None,
     obstacles: Optional[Sequence[Obstacle]] = None,
     contact_distance: Optional[float] = None,

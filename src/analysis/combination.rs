@@ -17,10 +17,10 @@
 //!   would leave that bound's range or cross;
 //! - the mixed displacement–pressure formulation ([`Formulation::Mixed`]) with what it does not
 //!   compute: the explicit method (the pressure has no inertia), a model other than the
-//!   linear, the Neo-Hookean and (static) the corotational one, obstacles (but in the
-//!   Neo-Hookean backward Euler), and with a nonlinear model supports that move (its load steps
+//!   linear, the Neo-Hookean and the corotational one, obstacles (but in the Neo-Hookean and
+//!   corotational backward Euler), and with a nonlinear model supports that move (its load steps
 //!   scale prescribed values by λ); in the implicit dynamic and the modal analyses, a model
-//!   other than the linear one (but the Neo-Hookean one in backward Euler), body–body contact,
+//!   other than the linear one (but the Neo-Hookean and corotational ones in backward Euler), body–body contact,
 //!   moving supports and loads that follow amplitudes (either mixed element runs them);
 //! - a force model per material region (`region_models`) with a modal analysis where a region
 //!   is nonlinear, and with the mixed formulation at all (it solves one model).
@@ -287,18 +287,20 @@ impl Combination {
             return refuse(
                 "model",
                 self.model.name().to_string(),
-                "has the linear, the Neo-Hookean and (static) the corotational model only",
+                "has the linear, the Neo-Hookean and the corotational model only",
             );
         }
-        // Obstacles meet the Neo-Hookean backward Euler only
-        // (crate::analysis::mixed_dynamics_neo_hookean), with or without friction.
+        // Obstacles meet the hyperelastic backward Euler only
+        // (crate::analysis::mixed_nonlinear_dynamics: its barrier is in the displacements
+        // alone, whatever the law), with or without friction.
         let euler = self.analysis == Analysis::Transient(Method::BackwardEuler);
-        if self.obstacles && !(euler && self.model == ModelKind::NeoHookean) {
+        let hyperelastic = matches!(self.model, ModelKind::NeoHookean | ModelKind::Corotational);
+        if self.obstacles && !(euler && hyperelastic) {
             return refuse(
                 "obstacles",
                 "obstacles".into(),
-                "meets rigid obstacles in the Neo-Hookean backward Euler only (dynamic, \
-                 method backward_euler, model neo_hookean)",
+                "meets rigid obstacles in the Neo-Hookean and corotational backward Euler only \
+                 (dynamic, method backward_euler, model neo_hookean or corotational)",
             );
         }
         if self.moving_supports && self.model != ModelKind::Linear {
@@ -317,9 +319,9 @@ impl Combination {
 
     /// The refusals of [`Formulation::Mixed`] in the implicit dynamic and the modal analyses
     /// ([`crate::analysis::mixed_dynamics`], [`crate::analysis::mixed_modal`],
-    /// [`crate::analysis::mixed_dynamics_neo_hookean`]): the linear model, and the Neo-Hookean
-    /// one in backward Euler, on either mixed element, with fixed supports and constant loads,
-    /// without surface contact.
+    /// [`crate::analysis::mixed_nonlinear_dynamics`]): the linear model, and the Neo-Hookean
+    /// and corotational ones in backward Euler, on either mixed element, with fixed supports
+    /// and constant loads, without surface contact.
     fn check_mixed_dynamics(&self) -> Result<()> {
         let refuse = |what: &str, value: String, why: &str| {
             Err(Error::invalid_parameter(
@@ -333,21 +335,24 @@ impl Combination {
             ))
         };
         // Both mixed elements run both models here (MixedTransient, lowest_mixed_modes and
-        // MixedNeoHookeanEuler are generic over the element): no order to refuse.
+        // MixedNonlinearEuler are generic over the element): no order to refuse.
         let euler = self.analysis == Analysis::Transient(Method::BackwardEuler);
-        if self.model == ModelKind::NeoHookean && !euler {
+        let hyperelastic = matches!(self.model, ModelKind::NeoHookean | ModelKind::Corotational);
+        if hyperelastic && !euler {
             return refuse(
                 "model",
                 self.model.name().to_string(),
-                "has the Neo-Hookean model in backward Euler only; use method backward_euler \
-                 or the linear model",
+                "has the Neo-Hookean and corotational models in backward Euler only (Newmark \
+                 and the modes are the linear model's); use method backward_euler or the \
+                 linear model",
             );
         }
-        if !matches!(self.model, ModelKind::Linear | ModelKind::NeoHookean) {
+        if !(hyperelastic || self.model == ModelKind::Linear) {
             return refuse(
                 "model",
                 self.model.name().to_string(),
-                "has the linear model (and the Neo-Hookean one in backward Euler) only",
+                "has the linear model (and the Neo-Hookean and corotational ones in backward \
+                 Euler) only",
             );
         }
         if self.surface_contact {

@@ -9,9 +9,9 @@
 use crate::analysis::combination::{Analysis, Combination, Formulation};
 use crate::analysis::dynamics::{Method, Rayleigh};
 use crate::analysis::mixed_dynamics::MixedTransient;
-use crate::analysis::mixed_dynamics_neo_hookean::{MixedBody, MixedNeoHookeanEuler};
 use crate::analysis::mixed_modal::{MixedModes, lowest_mixed_modes};
 use crate::analysis::mixed_nonlinear::{MixedLaw, solve_static_mixed_nonlinear_with};
+use crate::analysis::mixed_nonlinear_dynamics::{MixedBody, MixedNonlinearEuler};
 use crate::analysis::mixed_statics::{MixedStaticSolution, MixedStaticSolver};
 use crate::analysis::nonlinear::NewtonOptions;
 use crate::base::error::Result;
@@ -103,8 +103,8 @@ pub fn solve_static_mixed_model<E: MixedStaticElement>(
 /// implicit dynamic run of `model` (the linear one): the library's rule first
 /// ([`Combination::check`] with [`Analysis::Transient`]`(method)`: the explicit method,
 /// another model, moving supports and loads that follow amplitudes are refused by name), then
-/// [`MixedTransient::new`] with `method`, `dt` and `damping`, at rest. The Neo-Hookean
-/// model's run is [`mixed_neo_hookean_euler_model`].
+/// [`MixedTransient::new`] with `method`, `dt` and `damping`, at rest. The Neo-Hookean and
+/// corotational models' run is [`mixed_nonlinear_euler_model`].
 pub fn mixed_transient_model<E: MixedStaticElement>(
     mesh: &TetMesh<E>,
     materials: &impl TetMaterials,
@@ -125,30 +125,44 @@ pub fn mixed_transient_model<E: MixedStaticElement>(
             "model",
             model.name(),
             "the mixed transient of MixedTransient is the linear model's; the Neo-Hookean \
-             one is mixed_neo_hookean_euler_model",
+             and corotational ones are mixed_nonlinear_euler_model's",
         ));
     }
     MixedTransient::new(mesh, materials, constraints, loads, (method, dt, damping))
 }
 
-/// The mixed element with the Neo-Hookean model in backward Euler (10-node tets: Taylor–Hood;
-/// 4-node tets: stabilized P1–P1): the library's rule first ([`Combination::check`]), then
-/// [`MixedNeoHookeanEuler::new`] with `dt` and Newton's relative `tolerance`, at rest.
-pub fn mixed_neo_hookean_euler_model<'a, E: MixedStaticElement + MixedBody>(
+/// The mixed element with a hyperelastic `model` (Neo-Hookean or corotational) in backward
+/// Euler (10-node tets: Taylor–Hood; 4-node tets: stabilized P1–P1): the library's rule first
+/// ([`Combination::check`]), then [`MixedNonlinearEuler::new_with_law`] with the model's
+/// [`MixedLaw`], `dt` and Newton's relative `tolerance`, at rest.
+///
+/// Errors: the combination's refusal (naming the model); `model` linear or St.
+/// Venant–Kirchhoff (no mixed law: the linear model's run is [`mixed_transient_model`]); those
+/// of [`MixedNonlinearEuler::new_with_law`].
+pub fn mixed_nonlinear_euler_model<'a, E: MixedStaticElement + MixedBody>(
     mesh: &'a TetMesh<E>,
     materials: &impl TetMaterials,
+    model: ModelKind,
     (constraints, loads): (&Constraints, &Loads),
     (dt, tolerance): (f64, f64),
-) -> Result<MixedNeoHookeanEuler<'a, E>> {
+) -> Result<MixedNonlinearEuler<'a, E>> {
     Combination {
-        model: ModelKind::NeoHookean,
+        model,
         order: E::ORDER,
         analysis: Analysis::Transient(Method::BackwardEuler),
         formulation: Formulation::Mixed,
         ..Combination::default()
     }
     .check()?;
-    MixedNeoHookeanEuler::new(mesh, materials, constraints, loads, (dt, tolerance))
+    let Some(law) = MixedLaw::of(model) else {
+        return Err(crate::base::error::Error::invalid_parameter(
+            "model",
+            model.name(),
+            "the mixed backward Euler of MixedNonlinearEuler takes the Neo-Hookean and the \
+             corotational models; the linear one is mixed_transient_model's",
+        ));
+    };
+    MixedNonlinearEuler::new_with_law(law, mesh, materials, constraints, loads, (dt, tolerance))
 }
 
 /// The `count` lowest modes of the mixed body (10-node tets: Taylor–Hood P2–P1; 4-node tets:

@@ -89,8 +89,9 @@ impl MixedLaw {
 
     /// The element state of `E` at `u` (length), corner pressures `p` (Pa) and (μ, 1/κ)
     /// `moduli` (Pa, 1/Pa); `None` where the law has no state (an inverted Neo-Hookean tet,
-    /// a non-finite F).
-    fn state<E: MixedElement>(
+    /// a non-finite F). The one seam of both mixed Newtons: the static one and the backward
+    /// Euler ([`crate::analysis::mixed_nonlinear_dynamics`]).
+    pub(crate) fn state<E: MixedElement>(
         self,
         rest: &E::Rest,
         u: &[f64],
@@ -488,14 +489,13 @@ impl<'a, E: MixedElement> MixedSystem<'a, E> {
         Ok(None)
     }
 
-    /// ‖(δu, δp·ℓ/μ)‖ (length) of a correction: the pressure weighted as in the merit, so that
-    /// δp of a strain's stress counts as the displacement of that strain.
+    /// [`correction_norm`] of this system.
     fn correction_norm(&self, correction: &[f64]) -> f64 {
-        let free = self.problem.dofs().free_count();
-        let (du, dp) = correction.split_at(free);
-        let w = 1.0 / self.pressure_weight;
-        (du.iter().map(|d| d * d).sum::<f64>() + dp.iter().map(|d| (w * d).powi(2)).sum::<f64>())
-            .sqrt()
+        correction_norm(
+            correction,
+            self.problem.dofs().free_count(),
+            self.pressure_weight,
+        )
     }
 
     /// (u, p) + α·δ.
@@ -608,6 +608,17 @@ impl<E: MixedElement> LineFunction for MixedSystem<'_, E> {
     fn trial_potential(&mut self) -> Result<f64> {
         Ok(0.0)
     }
+}
+
+/// ‖(δu, δp·ℓ/μ)‖ (length) of a correction whose first `free` entries are δu (length) and the
+/// rest δp (Pa), `pressure_weight` = μ/ℓ (Pa/length): the pressure weighted as in the merit, so
+/// that δp of a strain's stress counts as the displacement of that strain. The norm of
+/// Deuflhard's test in both mixed Newtons, the static one and the backward Euler
+/// ([`crate::analysis::mixed_nonlinear_dynamics`]).
+pub(crate) fn correction_norm(correction: &[f64], free: usize, pressure_weight: f64) -> f64 {
+    let (du, dp) = correction.split_at(free);
+    let w = 1.0 / pressure_weight;
+    (du.iter().map(|d| d * d).sum::<f64>() + dp.iter().map(|d| (w * d).powi(2)).sum::<f64>()).sqrt()
 }
 
 fn norm(v: &[f64]) -> f64 {

@@ -45,6 +45,7 @@ mod mesh;
 mod mesh_io;
 mod mesh_trust;
 mod mixed_corotational;
+mod mixed_corotational_dynamics;
 mod mixed_dynamics;
 mod mixed_memory;
 mod mixed_neo_hookean;

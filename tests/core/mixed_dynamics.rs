@@ -429,16 +429,23 @@ fn the_library_admits_the_linear_mixed_dynamics_and_modes_and_refuses_the_rest_b
         };
         assert!(combination.check().is_ok(), "{analysis:?}");
     }
-    // The Neo-Hookean model in backward Euler (MixedNeoHookeanEuler).
-    assert!(
-        Combination {
-            model: ModelKind::NeoHookean,
-            analysis: Analysis::Transient(Method::BackwardEuler),
-            ..mixed.clone()
-        }
-        .check()
-        .is_ok()
-    );
+    // The Neo-Hookean and corotational models in backward Euler (MixedNonlinearEuler), with
+    // or without obstacles.
+    for (model, obstacles) in [ModelKind::NeoHookean, ModelKind::Corotational]
+        .into_iter()
+        .flat_map(|m| [(m, false), (m, true)])
+    {
+        assert!(
+            Combination {
+                model,
+                obstacles,
+                analysis: Analysis::Transient(Method::BackwardEuler),
+                ..mixed.clone()
+            }
+            .check()
+            .is_ok()
+        );
+    }
     let newmark = Combination {
         analysis: Analysis::Transient(Method::Newmark),
         ..mixed.clone()
@@ -469,8 +476,7 @@ fn the_library_admits_the_linear_mixed_dynamics_and_modes_and_refuses_the_rest_b
         (
             Combination {
                 model: ModelKind::Corotational,
-                analysis: Analysis::Transient(Method::BackwardEuler),
-                ..mixed.clone()
+                ..newmark.clone()
             },
             "formulation mixed with model",
         ),
@@ -536,7 +542,7 @@ fn deformed_volume(mesh: &TetMesh<Tet10>, u: &[f64]) -> f64 {
 
 #[test]
 fn mixed_neo_hookean_backward_euler_is_the_linear_run_at_small_loads() {
-    use tetfem::analysis::mixed_dynamics_neo_hookean::MixedNeoHookeanEuler;
+    use tetfem::analysis::mixed_nonlinear_dynamics::MixedNonlinearEuler;
     // g = 1e-4·9.81: strains ~1e-5, where the mixed Neo-Hookean element is the linear one.
     let (_, mesh) = beam([6, 2, 2]);
     let material = rubber(0.499);
@@ -555,7 +561,7 @@ fn mixed_neo_hookean_backward_euler_is_the_linear_run_at_small_loads() {
     )
     .unwrap();
     let mut rubber =
-        MixedNeoHookeanEuler::new(&mesh, &material, &constraints, &loads, (dt, 1e-8)).unwrap();
+        MixedNonlinearEuler::new(&mesh, &material, &constraints, &loads, (dt, 1e-8)).unwrap();
     let mut worst: f64 = 0.0;
     let mut largest: f64 = 0.0;
     for _ in 0..30 {
@@ -582,14 +588,14 @@ fn mixed_neo_hookean_backward_euler_is_the_linear_run_at_small_loads() {
 #[test]
 fn a_swinging_mixed_neo_hookean_beam_keeps_its_volume_where_p1_locks() {
     use tetfem::analysis::dynamics::{BackwardEuler, IntegratorOptions, InternalForce};
-    use tetfem::analysis::mixed_dynamics_neo_hookean::MixedNeoHookeanEuler;
+    use tetfem::analysis::mixed_nonlinear_dynamics::MixedNonlinearEuler;
     use tetfem::model::ModelKind;
     let (linear_mesh, mesh) = beam([6, 2, 2]);
     let material = rubber(0.499);
     let dt = 0.01;
     let steps = 50;
     let constraints = clamped(&mesh);
-    let mut rubber = MixedNeoHookeanEuler::new(
+    let mut rubber = MixedNonlinearEuler::new(
         &mesh,
         &material,
         &constraints,

@@ -1,12 +1,12 @@
-//! The Neo-Hookean mixed backward Euler (`MixedNeoHookeanEuler`) on 4-node tets, the stabilized
+//! The Neo-Hookean mixed backward Euler (`MixedNonlinearEuler`) on 4-node tets, the stabilized
 //! P1–P1 element (issue 40: the locking-free formulation on 4- and 10-node tets in implicit
 //! dynamics): the rubber ball drop keeps its volume through the impact and flattens as Hertz
 //! and as Taylor–Hood say; a free body's linear momentum follows backward Euler's exact
 //! identity; a cantilever settles on the static solutions of the same element.
 
 use nalgebra::Vector3;
-use tetfem::analysis::mixed_dynamics_neo_hookean::{MixedBody, MixedNeoHookeanEuler};
 use tetfem::analysis::mixed_nonlinear::solve_static_mixed_nonlinear;
+use tetfem::analysis::mixed_nonlinear_dynamics::{MixedBody, MixedNonlinearEuler};
 use tetfem::analysis::nonlinear::NewtonOptions;
 use tetfem::contact::{Contact, ContactParameters, Obstacle};
 use tetfem::mesh::CellType;
@@ -95,7 +95,7 @@ fn drop_on<E: MixedBody>(mesh: &TetMesh<E>, volume: Option<VolumeOf>) -> Drop {
         .map(|d| if d % 3 == 2 { -SPEED } else { 0.0 })
         .collect();
     let mut run =
-        MixedNeoHookeanEuler::new(mesh, &material, &Constraints::new(mesh), &loads, (DT, 1e-8))
+        MixedNonlinearEuler::new(mesh, &material, &Constraints::new(mesh), &loads, (DT, 1e-8))
             .unwrap()
             .with_contact(contact)
             .unwrap()
@@ -212,7 +212,7 @@ fn free_flight<E: MixedBody>(mesh: &TetMesh<E>) -> (f64, usize) {
         })
         .collect();
     let dt = 2e-3;
-    let mut run = MixedNeoHookeanEuler::new(
+    let mut run = MixedNonlinearEuler::new(
         mesh,
         &material,
         &Constraints::new(mesh),
@@ -300,7 +300,7 @@ fn settled_off(g: f64, reference: (&[f64], &[f64])) -> (f64, f64) {
         .add_gravity(&mesh, &material, Vector3::new(0.0, 0.0, -g))
         .unwrap();
     let mut run =
-        MixedNeoHookeanEuler::new(&mesh, &material, &constraints, &loads, (4.0, 1e-10)).unwrap();
+        MixedNonlinearEuler::new(&mesh, &material, &constraints, &loads, (4.0, 1e-10)).unwrap();
     for _ in 0..30 {
         run.step().unwrap();
     }
@@ -395,7 +395,7 @@ fn a_p1_p1_block_sliding_on_rough_ground_decelerates_at_mu_g() {
     let velocity: Vec<f64> = (0..mesh.dof_count())
         .map(|d| if d % 3 == 0 { 1.0 } else { 0.0 })
         .collect();
-    let mut run = MixedNeoHookeanEuler::new(
+    let mut run = MixedNonlinearEuler::new(
         &mesh,
         &material,
         &Constraints::new(&mesh),
@@ -408,7 +408,7 @@ fn a_p1_p1_block_sliding_on_rough_ground_decelerates_at_mu_g() {
     .with_velocity(&velocity)
     .unwrap();
     let mass = material.density() * run.deformed_volume();
-    let mean_velocity = |run: &MixedNeoHookeanEuler<tetfem::Tet4>| {
+    let mean_velocity = |run: &MixedNonlinearEuler<tetfem::Tet4>| {
         momentum(&mesh, material.density(), run.velocity()).x / mass
     };
     let (settle, end) = (30, 100);

@@ -311,7 +311,7 @@ fn the_library_admits_p1p1_dynamics_and_modes_and_refuses_what_it_does_not_compu
         };
         assert!(combination.check().is_ok(), "{analysis:?}");
     }
-    // The Neo-Hookean mixed backward Euler runs on 4-node tets too (MixedNeoHookeanEuler<Tet4>).
+    // The Neo-Hookean mixed backward Euler runs on 4-node tets too (MixedNonlinearEuler<Tet4>).
     let neo_hookean = Combination {
         model: ModelKind::NeoHookean,
         analysis: Analysis::Transient(Method::BackwardEuler),

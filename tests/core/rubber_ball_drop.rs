@@ -12,7 +12,7 @@ use tetfem::analysis::dynamics::{
     BackwardEuler, Integrator, IntegratorOptions, InternalForce, LinearSystem, MassKind,
     NonlinearForce, Rayleigh, State,
 };
-use tetfem::analysis::mixed_dynamics_neo_hookean::MixedNeoHookeanEuler;
+use tetfem::analysis::mixed_nonlinear_dynamics::MixedNonlinearEuler;
 use tetfem::contact::{Contact, ContactParameters, Obstacle};
 use tetfem::model::ModelKind;
 use tetfem::{Constraints, Loads, Material, Tet10, TetMesh};
@@ -92,7 +92,7 @@ fn mixed_drop(cells: usize) -> Drop {
     let velocity: Vec<f64> = (0..mesh.dof_count())
         .map(|d| if d % 3 == 2 { -SPEED } else { 0.0 })
         .collect();
-    let mut run = MixedNeoHookeanEuler::new(
+    let mut run = MixedNonlinearEuler::new(
         &mesh,
         &material,
         &Constraints::new(&mesh),
@@ -106,7 +106,7 @@ fn mixed_drop(cells: usize) -> Drop {
     .unwrap();
     let rest = run.deformed_volume();
     // Backward Euler's energy (kinetic + stored + gravity's −f·u + the barrier's) never rises.
-    let energy = |run: &MixedNeoHookeanEuler| {
+    let energy = |run: &MixedNonlinearEuler| {
         let u = run.displacement();
         let gravity: f64 = -loads
             .as_slice()
@@ -282,7 +282,7 @@ fn the_mixed_contact_refuses_what_it_does_not_compute_by_name() {
     let mesh = TetMesh::<Tet10>::from_linear(&ball().mesh(2).unwrap()).unwrap();
     let material = rubber();
     let run = || {
-        MixedNeoHookeanEuler::new(
+        MixedNonlinearEuler::new(
             &mesh,
             &material,
             &Constraints::new(&mesh),

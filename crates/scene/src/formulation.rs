@@ -34,7 +34,8 @@ const MIXED_NEEDS: &str = "formulation = \"mixed\" is for static scenes with the
                            (backward_euler, newmark) and modal scenes with the linear model and \
                            mass = \"consistent\" (4-node or 10-node tets; fixed supports, \
                            constant loads, no probes, time_tolerance or checkpoints), dynamic \
-                           ones also with the Neo-Hookean model in backward_euler (4-node or \
+                           ones also with the Neo-Hookean or the corotational model in \
+                           backward_euler (4-node or \
                            10-node tets; undamped; still [[obstacles]] allowed, with friction \
                            too), on tetfem's own engine, without other obstacles, accuracy or \
                            point probes";

@@ -193,9 +193,11 @@ type = "static"                     # default "static"; or "dynamic", which need
 # model = "linear"                 # default; or "corotational", "neo-hookean", "st-venant-kirchhoff" (static and every dynamic method; a [[materials]] entry may name its own model)
 # formulation = "displacement"      # default; or "mixed": displacement–pressure, no locking
                                     # as ν → 0.5 (P2–P1 on 10-node tets, stabilized P1–P1 on
-                                    # 4-node ones; static with the linear or the Neo-Hookean
-                                    # model; dynamic (backward_euler, newmark, consistent mass)
-                                    # and modal with the linear model on either);
+                                    # 4-node ones; static with the linear, the Neo-Hookean or
+                                    # the corotational model; dynamic (backward_euler, newmark,
+                                    # consistent mass) and modal with the linear model, and
+                                    # backward_euler with the Neo-Hookean or the corotational
+                                    # model (undamped, still [[obstacles]] allowed), on either);
                                     # the .vtu gets the point field "pressure" (Pa)
 # linear_solver = "auto"            # default: the Cholesky factorization when its factor fits the
                                     # memory budget and is predicted faster; or "direct",

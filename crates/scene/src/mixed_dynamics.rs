@@ -1,7 +1,8 @@
 //! What the mixed formulation's dynamic and modal scenes share (`formulation = "mixed"` with
 //! `type = "dynamic"`, backward Euler or Newmark with the linear model and the consistent mass
 //! on 4-node (stabilized P1–P1) or 10-node (Taylor–Hood P2–P1) tets, backward Euler with the
-//! Neo-Hookean model and frictionless obstacles, or `type = "modal"`): the scene's refusal of
+//! Neo-Hookean or the corotational model and still obstacles, or `type = "modal"`): the scene's
+//! refusal of
 //! what their
 //! runners do not run and the warnings they report. The runners are `dynamic::mixed` and
 //! `modal::mixed`, children of the runners that dispatch to them, so that neither depends on
@@ -36,7 +37,7 @@ impl Scene {
     /// What a mixed dynamic or modal scene asks that this front end does not run, named for
     /// the error of `analysis.formulation` (`None` for a static scene or a runnable one): a
     /// lumped mass (the mixed element's inertia is the consistent mass), and in a dynamic run
-    /// Rayleigh damping with the Neo-Hookean model, an error-controlled step and checkpoints
+    /// Rayleigh damping with a hyperelastic model, an error-controlled step and checkpoints
     /// (the models and methods that combine are the library's
     /// [`Combination`](tetfem::analysis::combination::Combination), checked before this).
     pub(crate) fn mixed_dynamics_refusal(&self) -> Option<String> {
@@ -58,10 +59,14 @@ impl Scene {
         let tolerance = (self.spec.analysis.as_ref()).and_then(|a| a.get_ref().time_tolerance);
         let damped = matches!(self.analysis(), super::Analysis::Dynamic(d)
             if d.damping.mass != 0.0 || d.damping.stiffness != 0.0);
-        if self.model() == tetfem::model::ModelKind::NeoHookean && damped {
-            // MixedNeoHookeanEuler steps the undamped body (backward Euler's own dissipation).
+        let hyperelastic = matches!(
+            self.model(),
+            tetfem::model::ModelKind::NeoHookean | tetfem::model::ModelKind::Corotational
+        );
+        if hyperelastic && damped {
+            // MixedNonlinearEuler steps the undamped body (backward Euler's own dissipation).
             Some(format!(
-                "[analysis.damping] with model = \"{}\" (the mixed Neo-Hookean run is undamped)",
+                "[analysis.damping] with model = \"{}\" (the mixed hyperelastic run is undamped)",
                 self.model().name()
             ))
         } else if tolerance.is_some() {

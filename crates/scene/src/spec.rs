@@ -732,9 +732,11 @@ pub struct AnalysisSpec {
     /// (Taylor–Hood P2–P1 on 10-node tets, the stabilized P1–P1 on 4-node tets), which does not
     /// lock as Poisson's ratio approaches 0.5 (rubber: ν up to 0.4999…) and writes the pressure
     /// (Pa, positive in compression) as the `.vtu` point field `pressure`. Mixed: static scenes
-    /// with the linear or the Neo-Hookean model on either order; dynamic (`backward_euler`,
-    /// `newmark`, `mass = "consistent"`) and modal scenes with the linear model on either order;
-    /// tetfem's own engine only, without obstacles, `accuracy` or point probes; solved by a
+    /// with the linear, the Neo-Hookean or the corotational model on either order; dynamic
+    /// (`backward_euler`, `newmark`, `mass = "consistent"`) and modal scenes with the linear
+    /// model, and `backward_euler` with the Neo-Hookean or the corotational model (undamped,
+    /// still obstacles allowed), on either order; tetfem's own engine only, without
+    /// `accuracy` or point probes; solved by a
     /// sparse LDLᵀ whatever `linear_solver` says.
     #[serde(default)]
     pub formulation: Option<String>,

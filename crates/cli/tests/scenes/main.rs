@@ -16,6 +16,7 @@ mod bodies_scenes;
 mod dynamic_accuracy;
 mod estimate_scene;
 mod large_deformation;
+mod mixed_corotational_dynamics;
 mod mixed_corotational_scene;
 mod mixed_neo_hookean_p1;
 mod mixed_p1p1_scenes;

@@ -1,7 +1,7 @@
 //! The mixed formulation's dynamic scenes: `formulation = "mixed"` with `type = "dynamic"`
 //! (backward Euler or Newmark, the linear model, the consistent mass, on 4-node tets with the
-//! stabilized P1–P1 element or on 10-node tets with Taylor–Hood P2–P1; the Neo-Hookean model in
-//! backward Euler, with obstacles, is [`neo_hookean`]'s). The
+//! stabilized P1–P1 element or on 10-node tets with Taylor–Hood P2–P1; the Neo-Hookean and
+//! corotational models in backward Euler, with obstacles, are [`hyperelastic`]'s). The
 //! library computes ([`mixed_transient_model`]); this file reads the scene's keys, steps, and
 //! writes what a user opens: `<stem>.pvd` with a `.vtu` per frame (point fields
 //! `displacement`, m, and `pressure`, Pa), `<stem>.csv` (time, energies, pressure range, each
@@ -23,7 +23,7 @@ use tetfem::post::output::{OutputLock, PvdCollection, VtuWriter, write_atomicall
 
 use super::{DynamicOverrides, DynamicSummary, EnergyTerms};
 
-mod neo_hookean;
+mod hyperelastic;
 use crate::mixed_dynamics::mixed_warnings;
 use crate::{DynamicSettings, ProbeRange, Scene, SceneElement};
 
@@ -38,8 +38,11 @@ pub(crate) fn run_mixed_dynamic(
     lock: Option<OutputLock>,
     progress: &mut dyn FnMut(usize, usize) -> ControlFlow<()>,
 ) -> Result<DynamicSummary> {
-    if scene.model() == tetfem::model::ModelKind::NeoHookean {
-        return neo_hookean::run_mixed_neo_hookean(scene, settings, overrides, lock, progress);
+    if matches!(
+        scene.model(),
+        tetfem::model::ModelKind::NeoHookean | tetfem::model::ModelKind::Corotational
+    ) {
+        return hyperelastic::run_mixed_hyperelastic(scene, settings, overrides, lock, progress);
     }
     if scene.order() == 1 {
         run_linear::<Tet4>(scene, settings, overrides, lock, progress)

@@ -1,9 +1,14 @@
-//! Backward Euler for Neo-Hookean rubber in the mixed displacement–pressure form, on either
-//! mixed element ([`MixedElement`]): Taylor–Hood P2–P1 on 10-node tets
-//! ([`taylor_hood_neo_hookean`](crate::fe::element::taylor_hood_neo_hookean)) or the
+//! Backward Euler for hyperelastic rubber in the mixed displacement–pressure form, with either
+//! law of [`MixedLaw`] (Neo-Hookean, or corotational) on either mixed element
+//! ([`MixedElement`]): Taylor–Hood P2–P1 on 10-node tets
+//! ([`taylor_hood_neo_hookean`](crate::fe::element::taylor_hood_neo_hookean),
+//! [`taylor_hood_corotational`](crate::fe::element::taylor_hood_corotational)) or the
 //! stabilized P1–P1 on 4-node tets
-//! ([`stabilized_p1_neo_hookean`](crate::fe::element::stabilized_p1_neo_hookean)): large
-//! deformation of nearly incompressible bodies in time, without volumetric locking.
+//! ([`stabilized_p1_neo_hookean`](crate::fe::element::stabilized_p1_neo_hookean),
+//! [`stabilized_p1_corotational`](crate::fe::element::stabilized_p1_corotational)): large
+//! deformation of nearly incompressible bodies in time, without volumetric locking. One
+//! stepper over two laws: the law only chooses the element state ([`MixedLaw`], the seam the
+//! static mixed Newton asks too) and, for the corotational law, the step length's test (below).
 //!
 //! Each step solves, for u⁺ on the free DOFs and the corner pressures p⁺,
 //!
@@ -19,7 +24,15 @@
 //! (see [`mixed_nonlinear`](crate::analysis::mixed_nonlinear): the mixed energy is a saddle,
 //! no merit). Constant loads and fixed supports; the consistent mass.
 //!
-//! Rigid obstacles ([`with_contact`](MixedNeoHookeanEuler::with_contact)): the IPC barrier
+//! The corotational law first tries, as its static Newton does, Deuflhard's restricted natural
+//! monotonicity test: the first of α = 1, ½, ¼, ⅛ (times the contact cut below) whose
+//! simplified correction −J⁻¹·R(x + α·δ), one more solve with the iteration's factor, is at
+//! most (1 − α/4) times the correction δ in the norm ‖(δu, δp·ℓ/μ)‖; only when none passes
+//! does the residual search decide. The reason is the static one: a rotating, nearly
+//! incompressible body's Newton step leaves a volume residual of second order in the turn,
+//! which the residual merit weights as a force and so cuts a good step.
+//!
+//! Rigid obstacles ([`with_contact`](MixedNonlinearEuler::with_contact)): the IPC barrier
 //! E_c(u) of [`crate::contact`] is added to the step's potential in the displacement unknowns
 //! only, so R_u gains ∂E_c/∂u and the first block of the tangent its Hessian projected PSD
 //! (the displacement dynamics' own [`Contact::add_force`] and [`Contact::add_tangent`]); the
@@ -35,20 +48,27 @@
 //! Hessian (PSD, so the tangent stays quasi-definite). Still obstacles: obstacle motion is
 //! refused by name.
 
+use crate::analysis::mixed_nonlinear::{MixedLaw, correction_norm};
 use crate::analysis::mixed_statics::{nodal_pressure, saddle_point_matrix};
 use crate::analysis::problem::Problem;
 use crate::base::error::{Error, Result};
 use crate::bc::constraints::{Constraints, DofMap};
 use crate::bc::loads::Loads;
 use crate::contact::{Contact, FrictionLag, first_step_fraction};
+use crate::fe::element::stabilized_p1_corotational::stabilized_corotational_energy;
 use crate::fe::element::taylor_hood::{PRESSURE_NODES, PressureNodes};
+use crate::fe::element::taylor_hood_corotational::mixed_corotational_energy;
 use crate::fe::element::tet10::Tet10Rest;
 use crate::fe::element::{MixedElement, Tet, Tet4, Tet10};
 use crate::fe::materials::TetMaterials;
 use crate::linalg::QuasiDefiniteLdlt;
 use crate::mesh::TetMesh;
+use crate::model::rotation;
 use crate::ordering::FillOrdering;
 use crate::sparse::CscMatrix;
+
+/// A Newton iterate: full displacement, corner pressures and the element states there.
+type Iterate<E> = (Vec<f64>, Vec<f64>, Vec<<E as MixedElement>::State>);
 
 /// Newton iterations per step before the step is declared not converged.
 const MAX_ITERATIONS: usize = 30;
@@ -56,9 +76,11 @@ const MAX_ITERATIONS: usize = 30;
 /// Halvings of the line search before a step is declared stalled.
 const MAX_HALVINGS: usize = 30;
 
-/// A Neo-Hookean mixed body stepped by backward Euler (see the [module](self) docs), on
-/// 10-node tets (Taylor–Hood, the default `E`) or 4-node ones (stabilized P1–P1).
-pub struct MixedNeoHookeanEuler<'a, E: MixedBody = Tet10> {
+/// A hyperelastic mixed body (Neo-Hookean or corotational, [`MixedLaw`]) stepped by backward
+/// Euler (see the [module](self) docs), on 10-node tets (Taylor–Hood, the default `E`) or
+/// 4-node ones (stabilized P1–P1).
+pub struct MixedNonlinearEuler<'a, E: MixedBody = Tet10> {
+    law: MixedLaw,
     mesh: &'a TetMesh<E>,
     problem: Problem<'a, E>,
     rests: Vec<E::Rest>,
@@ -89,9 +111,10 @@ pub struct MixedNeoHookeanEuler<'a, E: MixedBody = Tet10> {
     friction: Option<FrictionLag>,
 }
 
-impl<E: MixedBody> std::fmt::Debug for MixedNeoHookeanEuler<'_, E> {
+impl<E: MixedBody> std::fmt::Debug for MixedNonlinearEuler<'_, E> {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("MixedNeoHookeanEuler")
+        f.debug_struct("MixedNonlinearEuler")
+            .field("law", &self.law.name())
             .field("element", &E::MIXED_NAME)
             .field("dt", &self.dt)
             .field("time", &self.time)
@@ -100,11 +123,36 @@ impl<E: MixedBody> std::fmt::Debug for MixedNeoHookeanEuler<'_, E> {
     }
 }
 
-impl<'a, E: MixedBody> MixedNeoHookeanEuler<'a, E> {
-    /// The body of `mesh` (10-node tets: Taylor–Hood; 4-node tets: stabilized P1–P1) with `materials` (ν < 0.5), fixed `constraints` (prescribed values
-    /// held from the start), constant `loads`, time step `dt` and Newton `tolerance` (relative
-    /// to the step's first merit, in (0, 1)); at rest, the pressure 0.
+impl<'a, E: MixedBody> MixedNonlinearEuler<'a, E> {
+    /// The Neo-Hookean body: [`Self::new_with_law`] with [`MixedLaw::NeoHookean`].
+    ///
+    /// Errors: those of [`Self::new_with_law`].
     pub fn new(
+        mesh: &'a TetMesh<E>,
+        materials: &impl TetMaterials,
+        constraints: &Constraints,
+        loads: &Loads,
+        (dt, tolerance): (f64, f64),
+    ) -> Result<Self> {
+        Self::new_with_law(
+            MixedLaw::NeoHookean,
+            mesh,
+            materials,
+            constraints,
+            loads,
+            (dt, tolerance),
+        )
+    }
+
+    /// The body of `law` on `mesh` (10-node tets: Taylor–Hood; 4-node tets: stabilized P1–P1)
+    /// with `materials` (ν < 0.5), fixed `constraints` (prescribed values held from the
+    /// start), constant `loads`, time step `dt` and Newton `tolerance` (relative to the step's
+    /// first merit, in (0, 1)); at rest, the pressure 0.
+    ///
+    /// Errors: `dt` or `tolerance` out of range, `constraints`, `loads` or `materials` not made
+    /// for this mesh (named); prescribed displacements that invert a tet (Neo-Hookean).
+    pub fn new_with_law(
+        law: MixedLaw,
         mesh: &'a TetMesh<E>,
         materials: &impl TetMaterials,
         constraints: &Constraints,
@@ -140,7 +188,8 @@ impl<'a, E: MixedBody> MixedNeoHookeanEuler<'a, E> {
         let u = problem
             .dofs()
             .expand(&vec![0.0; problem.dofs().free_count()])?;
-        let mut stepper = MixedNeoHookeanEuler {
+        let mut stepper = MixedNonlinearEuler {
+            law,
             v: vec![0.0; problem.dofs().free_count()],
             p: vec![0.0; pressure_nodes.count()],
             mesh,
@@ -167,7 +216,7 @@ impl<'a, E: MixedBody> MixedNeoHookeanEuler<'a, E> {
             return Err(Error::invalid_parameter(
                 "constraints",
                 "prescribed displacements",
-                "invert a tet of the mixed Neo-Hookean body at the start",
+                format!("invert a tet of the mixed {} body at the start", law.name()),
             ));
         };
         let tangent = stepper.tangent(&u, &states)?;
@@ -192,8 +241,8 @@ impl<'a, E: MixedBody> MixedNeoHookeanEuler<'a, E> {
                 let u_e = element_displacement(tet.as_ref(), u, &mut buffer[..3 * E::NODES]);
                 let corners = self.pressure_nodes.of_tet(tet.as_ref());
                 let p_e: [f64; PRESSURE_NODES] = std::array::from_fn(|k| p[corners[k]]);
-                let (mu, inverse_bulk) = self.moduli[t];
-                E::neo_hookean(&self.rests[t], u_e, &p_e, mu, inverse_bulk)
+                self.law
+                    .state::<E>(&self.rests[t], u_e, &p_e, self.moduli[t])
             })
             .collect()
     }
@@ -262,7 +311,7 @@ impl<'a, E: MixedBody> MixedNeoHookeanEuler<'a, E> {
         // M_ff is on the pattern of K_ff (both restricted from the assembly pattern).
         if free.col_ptr() != self.mass.col_ptr() || free.row_idx() != self.mass.row_idx() {
             return Err(Error::Solver(
-                "mixed Neo-Hookean step: mass and stiffness patterns differ".into(),
+                "mixed backward Euler step: mass and stiffness patterns differ".into(),
             ));
         }
         for (k, m) in free.values_mut().iter_mut().zip(self.mass.values()) {
@@ -357,6 +406,15 @@ impl<'a, E: MixedBody> MixedNeoHookeanEuler<'a, E> {
                 Some(contact) => first_step_fraction(contact.max_step(&u, &self.full(&delta))?),
                 None => 1.0,
             };
+            if self.law == MixedLaw::Corotational
+                && let Some((trial_u, trial_p, trial_states)) =
+                    self.natural_step((&u, &p), &delta, alpha)?
+            {
+                r = self.residual(&trial_u, &trial_states)?;
+                merit = self.merit(&r);
+                (u, p, states) = (trial_u, trial_p, trial_states);
+                continue;
+            }
             let mut accepted = false;
             for _ in 0..=MAX_HALVINGS {
                 let mut trial_u = u.clone();
@@ -394,6 +452,54 @@ impl<'a, E: MixedBody> MixedNeoHookeanEuler<'a, E> {
         Ok(iterations)
     }
 
+    /// The first of α = `start`·(1, ½, ¼, ⅛) that passes Deuflhard's restricted natural
+    /// monotonicity test ‖δ̄(α)‖ ≤ (1 − α/4)·‖δ‖ at the iterate (`u`, `p`) with Newton
+    /// correction `delta`, δ̄(α) = −J⁻¹·R((u, p) + α·δ) the simplified correction (one more
+    /// solve with the iteration's factor), ‖·‖ [`Self::correction_norm`]; its trial point and
+    /// states. `None`: the residual search decides. The static corotational Newton's test
+    /// ([`crate::analysis::mixed_nonlinear`]), `start` < 1 only to stop short of an obstacle.
+    fn natural_step(
+        &mut self,
+        (u, p): (&[f64], &[f64]),
+        delta: &[f64],
+        start: f64,
+    ) -> Result<Option<Iterate<E>>> {
+        let free = self.problem.dofs().free_count();
+        let size = self.correction_norm(delta);
+        let mut alpha = start;
+        while alpha >= start * 0.125 {
+            let mut trial_u = u.to_vec();
+            for (k, &dof) in self.problem.dofs().free_dofs().iter().enumerate() {
+                trial_u[dof] += alpha * delta[k];
+            }
+            let trial_p: Vec<f64> = (p.iter().zip(&delta[free..]))
+                .map(|(p, d)| p + alpha * d)
+                .collect();
+            if let Some(states) = self.states(&trial_u, &trial_p) {
+                let mut simplified: Vec<f64> = self
+                    .residual(&trial_u, &states)?
+                    .iter()
+                    .map(|r| -r)
+                    .collect();
+                let Some(ldlt) = self.ldlt.as_mut() else {
+                    return Ok(None);
+                };
+                ldlt.solve_in_place(&mut simplified)?;
+                if self.correction_norm(&simplified) <= (1.0 - alpha / 4.0) * size {
+                    return Ok(Some((trial_u, trial_p, states)));
+                }
+            }
+            alpha *= 0.5;
+        }
+        Ok(None)
+    }
+
+    /// [`correction_norm`] of this body (the static mixed Newton's norm).
+    fn correction_norm(&self, correction: &[f64]) -> f64 {
+        let free = self.problem.dofs().free_count();
+        correction_norm(correction, free, self.pressure_weight)
+    }
+
     /// The full-length vector of the free entries `free[..free_count]` (0 on the constrained
     /// DOFs: a step or a velocity, not a displacement).
     fn full(&self, free: &[f64]) -> Vec<f64> {
@@ -406,7 +512,7 @@ impl<'a, E: MixedBody> MixedNeoHookeanEuler<'a, E> {
 
     fn not_converged(&self, message: String) -> Error {
         Error::NotConverged {
-            method: "Newton's method (mixed Neo-Hookean backward Euler)".into(),
+            method: format!("Newton's method (mixed {} backward Euler)", self.law.name()),
             message: format!(
                 "the step to t = {:e}: {message}; use a smaller dt",
                 self.time + self.dt
@@ -428,7 +534,10 @@ impl<'a, E: MixedBody> MixedNeoHookeanEuler<'a, E> {
             return Err(Error::invalid_parameter(
                 format!("obstacle {} motion", o.name()),
                 "moving",
-                "the mixed Neo-Hookean backward Euler takes still obstacles only",
+                format!(
+                    "the mixed {} backward Euler takes still obstacles only",
+                    self.law.name()
+                ),
             ));
         }
         contact.check_state(&self.u)?;
@@ -466,15 +575,22 @@ impl<'a, E: MixedBody> MixedNeoHookeanEuler<'a, E> {
     }
 
     /// The stored energy of the mixed body (energy units) at the current state:
-    /// ∫ μ/2·(Ī₁ − 3) − p·(J − 1) − p²/(2κ) dV − ½·pᵀ·S·p (S the P1–P1 stabilization, 0 for
-    /// Taylor–Hood), which at a converged state, where R_p = 0 gives
-    /// ∫ p·(J − 1) dV = −pᵀ·C·p (C = M_p/κ + S, the element's pressure block), is
-    /// ∫ μ/2·(Ī₁ − 3) dV + ½·pᵀ·C·p ([`MixedBody::shear_energy`],
-    /// [`MixedBody::pressure_energy`]). Not the pointwise κ/2·(J − 1)², which counts the parts
-    /// of J − 1 the pressure space does not see at the bulk modulus and overstates the energy.
+    /// ∫ ψ − p·v − p²/(2κ) dV − ½·pᵀ·S·p (S the P1–P1 stabilization, 0 for Taylor–Hood; ψ, v
+    /// the law's shear energy density and volume measure: μ/2·(Ī₁ − 3) and J − 1 for the
+    /// Neo-Hookean law, μ‖dev ε‖² and tr ε for the corotational one), which at a converged
+    /// state, where R_p = 0 gives ∫ p·v dV = −pᵀ·C·p (C = M_p/κ + S, the element's pressure
+    /// block), is ∫ ψ dV + ½·pᵀ·C·p ([`MixedBody::shear_energy`] or
+    /// [`MixedBody::corotated_shear_energy`], and [`MixedBody::pressure_energy`]). Not the
+    /// pointwise κ/2·v², which counts the parts of v the pressure space does not see at the
+    /// bulk modulus and overstates the energy.
     pub fn elastic_energy(&self) -> f64 {
-        let shear =
-            self.sum_over_tets(|t, rest, u_e, _| E::shear_energy(rest, u_e, self.moduli[t].0));
+        let shear = self.sum_over_tets(|t, rest, u_e, _| {
+            let mu = self.moduli[t].0;
+            match self.law {
+                MixedLaw::NeoHookean => E::shear_energy(rest, u_e, mu),
+                MixedLaw::Corotational => E::corotated_shear_energy(rest, u_e, mu),
+            }
+        });
         let volumetric = self.sum_over_tets(|t, rest, _, p_e| {
             let (mu, inverse_bulk) = self.moduli[t];
             E::pressure_energy(rest, p_e, mu, inverse_bulk)
@@ -534,6 +650,11 @@ impl<'a, E: MixedBody> MixedNeoHookeanEuler<'a, E> {
     pub fn iterations(&self) -> usize {
         self.iterations
     }
+
+    /// The hyperelastic law stepped.
+    pub fn law(&self) -> MixedLaw {
+        self.law
+    }
 }
 
 /// The node-major displacement of the tet `nodes` out of the full `u`, written into `buffer`
@@ -545,8 +666,8 @@ fn element_displacement<'b>(nodes: &[usize], u: &[f64], buffer: &'b mut [f64]) -
     buffer
 }
 
-/// A mixed element whose state [`MixedNeoHookeanEuler`] reports: the deformed volume and the
-/// stored energy of one tet, each summed over the tets in tet order.
+/// A mixed element whose state [`MixedNonlinearEuler`] reports: the deformed volume and the
+/// stored energy of one tet (either law's), each summed over the tets in tet order.
 pub trait MixedBody: MixedElement {
     /// ∫ det F dV over the tet (length³) at node-major displacement `u` (3·NODES values).
     fn deformed_volume(rest: &Self::Rest, u: &[f64]) -> f64;
@@ -554,6 +675,12 @@ pub trait MixedBody: MixedElement {
     /// ∫ μ/2·(Ī₁ − 3) dV over the tet (energy units), Ī₁ = J^(−2/3)·tr(FᵀF), for shear modulus
     /// `shear_modulus` (Pa) at node-major displacement `u`.
     fn shear_energy(rest: &Self::Rest, u: &[f64], shear_modulus: f64) -> f64;
+
+    /// ∫ μ‖dev ε‖² dV over the tet (energy units), ε = sym(RᵀF) − I with R the polar rotation
+    /// of F ([`crate::model::rotation`]), for shear modulus `shear_modulus` (Pa) at node-major
+    /// displacement `u`: the corotational mixed energy at p = 0, whose gradient in `u` is the
+    /// force of [`MixedElement::corotational`] at p = 0 (the same quadrature).
+    fn corotated_shear_energy(rest: &Self::Rest, u: &[f64], shear_modulus: f64) -> f64;
 
     /// ½·pᵀ·C·p (energy units): the element's pressure block C (length³/Pa,
     /// [`MixedElement::pressure_block`]) on the corner pressures `p` (Pa).
@@ -579,6 +706,15 @@ impl MixedBody for Tet10 {
             let i1 = j.powf(-2.0 / 3.0) * (f.transpose() * f).trace();
             0.5 * shear_modulus * (i1 - 3.0)
         })
+    }
+
+    /// [`mixed_corotational_energy`] at p = 0 (NaN for a `u` of other than 30 values).
+    fn corotated_shear_energy(rest: &Tet10Rest, u: &[f64], shear_modulus: f64) -> f64 {
+        let Ok(u) = u.try_into() else {
+            return f64::NAN;
+        };
+        let moduli = (shear_modulus, 0.0);
+        mixed_corotational_energy(rest, u, &[0.0; PRESSURE_NODES], moduli, rotation)
     }
 
     fn pressure_energy(
@@ -618,6 +754,12 @@ impl MixedBody for Tet4 {
         let j = f.determinant();
         let i1 = j.powf(-2.0 / 3.0) * (f.transpose() * f).trace();
         rest.volume() * 0.5 * shear_modulus * (i1 - 3.0)
+    }
+
+    /// [`stabilized_corotational_energy`] at p = 0.
+    fn corotated_shear_energy(rest: &Tet, u: &[f64], shear_modulus: f64) -> f64 {
+        let moduli = (shear_modulus, 0.0);
+        stabilized_corotational_energy(rest, u, &[0.0; PRESSURE_NODES], moduli, rotation)
     }
 
     fn pressure_energy(

@@ -1,8 +1,9 @@
-//! The mixed formulation's Neo-Hookean dynamic scenes: `formulation = "mixed"`, `type =
-//! "dynamic"`, `model = "neo_hookean"`, `method = "backward_euler"`, on 10-node tets
+//! The mixed formulation's hyperelastic dynamic scenes: `formulation = "mixed"`, `type =
+//! "dynamic"`, `model = "neo_hookean"` or `"corotational"`, `method = "backward_euler"`, on
+//! 10-node tets
 //! (Taylor–Hood P2–P1) or 4-node ones (`[mesh] order = 1`: the stabilized P1–P1), with or without
 //! still `[[obstacles]]`, with or without friction (the library's
-//! [`MixedNeoHookeanEuler`](tetfem::analysis::mixed_dynamics_neo_hookean::MixedNeoHookeanEuler);
+//! [`MixedNonlinearEuler`](tetfem::analysis::mixed_nonlinear_dynamics::MixedNonlinearEuler);
 //! what combines is the library's [`Combination`](tetfem::analysis::combination::Combination),
 //! checked when the scene was read). Writes what the linear mixed run writes (frames with the
 //! point field `pressure`, the CSV, the summary), and per state the volume change
@@ -13,9 +14,8 @@ use std::ops::ControlFlow;
 use std::time::Instant;
 
 use tetfem::Loads;
-use tetfem::analysis::dynamics::{LinearSystem, MassKind, Rayleigh, critical_time_step};
-use tetfem::analysis::mixed_analysis::{MixedStaticElement, mixed_neo_hookean_euler_model};
-use tetfem::analysis::mixed_dynamics_neo_hookean::{MixedBody, MixedNeoHookeanEuler};
+use tetfem::analysis::mixed_analysis::{MixedStaticElement, mixed_nonlinear_euler_model};
+use tetfem::analysis::mixed_nonlinear_dynamics::{MixedBody, MixedNonlinearEuler};
 use tetfem::analysis::transient::RunLength;
 use tetfem::base::error::{Error, Result};
 use tetfem::fe::element::{Tet4, Tet10};
@@ -26,10 +26,10 @@ use super::{FrameFiles, csv_row, csv_start, seconds_step, summary_base, write_ou
 use crate::dynamic_contact::ContactForceHistory;
 use crate::{DynamicSettings, Scene, SceneElement};
 
-/// The Neo-Hookean mixed dynamic scene (see the [module](self) docs): as
-/// [`run_mixed_dynamic`](super::run_mixed_dynamic), from the undeformed state with
+/// The hyperelastic (Neo-Hookean or corotational) mixed dynamic scene (see the [module](self)
+/// docs): as [`run_mixed_dynamic`](super::run_mixed_dynamic), from the undeformed state with
 /// `initial_velocity`.
-pub(super) fn run_mixed_neo_hookean(
+pub(super) fn run_mixed_hyperelastic(
     scene: &Scene,
     settings: &DynamicSettings,
     overrides: &DynamicOverrides,
@@ -43,7 +43,7 @@ pub(super) fn run_mixed_neo_hookean(
     }
 }
 
-/// [`run_mixed_neo_hookean`] on element `E`.
+/// [`run_mixed_hyperelastic`] on element `E`.
 fn run_on<E: SceneElement + MixedStaticElement + MixedBody>(
     scene: &Scene,
     settings: &DynamicSettings,
@@ -63,9 +63,10 @@ fn run_on<E: SceneElement + MixedStaticElement + MixedBody>(
     gravity.add_gravity(mesh, &built.materials, built.gravity)?;
     let mut loads = built.other_loads.clone();
     loads.add_scaled(&gravity, 1.0)?;
-    let mut run = mixed_neo_hookean_euler_model(
+    let mut run = mixed_nonlinear_euler_model(
         mesh,
         &built.materials,
+        scene.model(),
         (&built.constraints, &loads),
         (dt, settings.newton_tolerance),
     )?;
@@ -76,10 +77,12 @@ fn run_on<E: SceneElement + MixedStaticElement + MixedBody>(
         .map(|dof| settings.initial_velocity[dof % 3])
         .collect();
     run = run.with_velocity(&v0)?;
-    let (critical, critical_source) = critical_step(scene, &built)?;
+    // A body with obstacles may be held by them alone (a dropped ball): the free body's step.
+    let critical = crate::critical::critical_step_of_body(&built, scene.has_obstacles())?;
+    let (critical, critical_source) = (critical.seconds, critical.source);
     let setup_seconds = clock.elapsed().as_secs_f64();
     let rest_volume = run.deformed_volume();
-    let energy = |run: &MixedNeoHookeanEuler<E>| energy_terms(run, &gravity, &built.other_loads);
+    let energy = |run: &MixedNonlinearEuler<E>| energy_terms(run, &gravity, &built.other_loads);
     let initial_energy = energy(&run)?;
     let out = scene.output();
     let mut writer = lock.as_ref().map(|_| FrameFiles::new(scene));
@@ -178,7 +181,7 @@ fn run_on<E: SceneElement + MixedStaticElement + MixedBody>(
 /// The CSV's smallest gap to an obstacle (m; ∞ without obstacles) and barrier energy (J) at
 /// the full displacement `u`, recording the obstacles' forces in `forces`.
 fn contact_columns<E: MixedBody>(
-    run: &MixedNeoHookeanEuler<E>,
+    run: &MixedNonlinearEuler<E>,
     forces: Option<&mut [ContactForceHistory]>,
     u: &[f64],
 ) -> Result<(f64, f64)> {
@@ -192,11 +195,11 @@ fn contact_columns<E: MixedBody>(
 }
 
 /// The energies of `run`'s state: ½vᵀMv, the stored energy
-/// ([`MixedNeoHookeanEuler::elastic_energy`]), gravity's −f_g·u (`gravity` its nodal loads)
+/// ([`MixedNonlinearEuler::elastic_energy`]), gravity's −f_g·u (`gravity` its nodal loads)
 /// and the other loads' −f·u; the barrier's energy is the CSV's own column, as in the
 /// displacement runs.
 fn energy_terms<E: MixedBody>(
-    run: &MixedNeoHookeanEuler<E>,
+    run: &MixedNonlinearEuler<E>,
     gravity: &Loads,
     other: &Loads,
 ) -> Result<EnergyTerms> {
@@ -215,28 +218,4 @@ fn energy_terms<E: MixedBody>(
         load_potential,
         total: kinetic + elastic + gravity_potential + load_potential,
     })
-}
-
-/// The explicit critical step (s) of the scene's body and how it was found, for the summary: a
-/// body with obstacles may be held by them alone (a dropped ball), so its lumped system is the
-/// free body's ([`LinearSystem::new_free_body`]).
-fn critical_step<E: SceneElement>(
-    scene: &Scene,
-    built: &crate::BuiltScene<E>,
-) -> Result<(f64, String)> {
-    if !scene.has_obstacles() {
-        let report = crate::critical_step_of(built)?;
-        return Ok((report.seconds, report.source));
-    }
-    let system = LinearSystem::new_free_body(
-        &built.mesh,
-        &built.materials,
-        &built.constraints,
-        &built.other_loads,
-        built.gravity,
-        MassKind::Lumped,
-        Rayleigh::default(),
-    )?;
-    let step = critical_time_step(&system)?;
-    Ok((step.dt, step.certificate.source().to_string()))
 }
