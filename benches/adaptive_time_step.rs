@@ -85,7 +85,15 @@ impl Samples {
             };
             let du: Vec<f64> = u.iter().zip(ur).map(|(a, b)| a - b).collect();
             let dv: Vec<f64> = v.iter().zip(vr).map(|(a, b)| a - b).collect();
-            worst = worst.max((norm(&du) / su).hypot(norm(&dv) / sv));
+            let here = (norm(&du) / su).hypot(norm(&dv) / sv);
+            if std::env::var_os("ADAPTIVE_LANDINGS").is_some() {
+                println!(
+                    "    landing {k}: error {here:.3e} (u {:.3e}, v {:.3e})",
+                    norm(&du) / su,
+                    norm(&dv) / sv
+                );
+            }
+            worst = worst.max(here);
         }
         worst
     }
