@@ -7,7 +7,7 @@
 
 pub mod adaptive;
 mod critical;
-mod error_decay;
+pub mod error_decay;
 mod observer;
 mod run;
 mod setup;
