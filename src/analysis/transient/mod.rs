@@ -7,6 +7,7 @@
 
 pub mod adaptive;
 mod critical;
+pub mod error_decay;
 mod observer;
 mod run;
 mod setup;
