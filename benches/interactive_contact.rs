@@ -132,8 +132,14 @@ fn main() -> Result<()> {
         if trace {
             let stats = view.integrator.newton_stats().unwrap_or_default();
             println!(
-                "step {:>4} t {:.2} s: {:>3} its, {:>5} CG its, {:>3} factors so far, wall {:.4} s, gap {gap:.3e} m",
-                view.step, view.state.time, stats.last_step, stats.cg_iterations, stats.factorizations, view.wall
+                "step {:>4} t {:.2} s: {:>3} its, {:>5} CG its, {:>3} factors, {:>3} fallbacks so far, wall {:.4} s, gap {gap:.3e} m",
+                view.step,
+                view.state.time,
+                stats.last_step,
+                stats.cg_iterations,
+                stats.factorizations,
+                stats.fallbacks,
+                view.wall
             );
         }
         checking += watch.elapsed().as_secs_f64();

@@ -186,7 +186,20 @@ pub(crate) struct NewtonSolver {
     contact_blocks: Option<weight::ContactBlocks>,
     /// The weight of the step being solved, for the Newton matrix.
     contact_weight: f64,
+    /// The current run of iterations gives up ([`Error::Diverged`]) once [`STALL_STEPS`]
+    /// line searches in a row took at most [`STALL_FRACTION`] of the Newton step: set for a
+    /// contact step's first try, which friction's smoothing continuation takes over.
+    abort_on_stall: bool,
+    /// Line searches in a row of the current run that took at most [`STALL_FRACTION`].
+    short_steps: usize,
 }
+
+/// The line-search fraction at or below which a Newton step counts as short (see
+/// [`NewtonSolver::abort_on_stall`]).
+const STALL_FRACTION: f64 = 0.125;
+
+/// Short steps in a row after which a contact step's first try gives up.
+const STALL_STEPS: usize = 4;
 
 impl std::fmt::Debug for NewtonSolver {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
@@ -245,6 +258,8 @@ impl NewtonSolver {
             step_resolution,
             contact_blocks: None,
             contact_weight: 1.0,
+            abort_on_stall: false,
+            short_steps: 0,
         })
     }
 
@@ -671,6 +686,7 @@ impl NewtonSolver {
         let (s_m, s_c) = (equation.mass_scale, equation.damping_scale);
         let diverged = |reason: String| Error::Diverged { step, time, reason };
         self.direction.begin_iterations();
+        self.short_steps = 0;
         if !std::mem::take(&mut self.residual_at_start) {
             self.residual_into(system, equation, u_new, false)?;
         }
@@ -721,6 +737,7 @@ impl NewtonSolver {
             u_new,
             scales,
             step,
+            time,
         };
         match iteration::iterate(&mut step_system, (r_norm, reference), limits)? {
             Ok(iterations) => Ok(self.record(iterations)),
@@ -840,10 +857,21 @@ struct StepSystem<'a> {
     scales: (f64, f64),
     /// The step's index (0-based).
     step: usize,
+    /// The time the step starts at.
+    time: f64,
 }
 
 impl NewtonSystem for StepSystem<'_> {
     fn direction(&mut self, first: bool) -> Result<()> {
+        if self.solver.abort_on_stall && self.solver.short_steps >= STALL_STEPS {
+            return Err(Error::Diverged {
+                step: self.step,
+                time: self.time,
+                reason: format!(
+                    "{STALL_STEPS} line searches in a row took at most {STALL_FRACTION} of the Newton step"
+                ),
+            });
+        }
         self.solver.newton_direction(
             self.system,
             self.u_new,
@@ -897,6 +925,10 @@ impl NewtonSystem for StepSystem<'_> {
 
     fn accept(&mut self, alpha: f64) -> f64 {
         let solver = &mut *self.solver;
+        solver.short_steps = match alpha <= STALL_FRACTION {
+            true => solver.short_steps + 1,
+            false => 0,
+        };
         solver.direction.accepted(
             alpha,
             &solver.delta,

