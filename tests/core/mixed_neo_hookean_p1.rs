@@ -9,73 +9,14 @@ use tetfem::analysis::mixed_nonlinear::solve_static_mixed_nonlinear;
 use tetfem::analysis::mixed_nonlinear_dynamics::{MixedBody, MixedNonlinearEuler};
 use tetfem::analysis::nonlinear::NewtonOptions;
 use tetfem::contact::{Contact, ContactParameters, Obstacle};
-use tetfem::mesh::CellType;
-use tetfem::{
-    BoxSplit, Constraints, ElementType, Loads, Material, Tet10, TetMesh, solve_static_mixed,
+use tetfem::{BoxSplit, Constraints, ElementType, Loads, Tet10, TetMesh, solve_static_mixed};
+
+use super::rubber_ball_drop::{
+    DT, Drop, RADIUS, SPEED, STEPS, ball, linear_volume, rubber, z_range,
 };
-use tetfem_fixtures::ball::Ball;
 
-/// The ball: R = 10 cm, centred a gap of 2 mm above the ground z = 0 (as in
-/// `rubber_ball_drop.rs`), thrown down at 2 m/s, 60 steps of 1 ms.
-const RADIUS: f64 = 0.1;
-const GAP: f64 = 0.002;
-const SPEED: f64 = 2.0;
-const DT: f64 = 1e-3;
-const STEPS: usize = 60;
-
-/// Soft rubber: E = 1 MPa, ν = 0.499 (κ = 500 μ), 1000 kg/m³.
-fn rubber() -> Material {
-    Material::new(1e6, 0.499, 1000.0).unwrap()
-}
-
-fn ball() -> Ball {
-    Ball {
-        center: Vector3::new(0.0, 0.0, RADIUS + GAP),
-        radius: RADIUS,
-    }
-}
-
-/// The lowest and highest z of the nodes at full displacement `u` (m).
-fn z_range<C: CellType>(mesh: &TetMesh<C>, u: &[f64]) -> (f64, f64) {
-    (0..mesh.node_count())
-        .map(|n| mesh.nodes()[n].z + u[3 * n + 2])
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), z| {
-            (a.min(z), b.max(z))
-        })
-}
-
-/// The volume of the 4-node mesh at `u`: Σ of the deformed tets' volumes (m³), computed here
-/// apart from the stepper's.
-fn linear_volume(mesh: &TetMesh, u: &[f64]) -> f64 {
-    mesh.tets()
-        .iter()
-        .map(|tet| {
-            let x: Vec<Vector3<f64>> = tet
-                .iter()
-                .map(|&n| mesh.nodes()[n] + Vector3::new(u[3 * n], u[3 * n + 1], u[3 * n + 2]))
-                .collect();
-            (x[1] - x[0]).cross(&(x[2] - x[0])).dot(&(x[3] - x[0])) / 6.0
-        })
-        .sum()
-}
-
-/// What one drop measured: the worst |V/V₀ − 1|, the smallest height over 2R, the smallest
-/// gap to the ground (m), the rest mass (kg), Newton iterations.
-#[derive(Debug)]
-struct Drop {
-    volume_change: f64,
-    flattest: f64,
-    lowest: f64,
-    mass: f64,
-    iterations: usize,
-}
-
-impl Drop {
-    /// The largest flattening 2R·(1 − min height/2R) (m).
-    fn flattening(&self) -> f64 {
-        2.0 * RADIUS * (1.0 - self.flattest)
-    }
-}
+// The ball, the rubber, the ground and what a drop measures are `rubber_ball_drop.rs`'s:
+// R = 10 cm, 2 mm above the ground, thrown down at 2 m/s, 60 steps of 1 ms.
 
 /// The volume of a state (m³) at the full displacement.
 type VolumeOf<'a> = &'a dyn Fn(&[f64]) -> f64;
