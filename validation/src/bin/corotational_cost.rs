@@ -71,7 +71,26 @@ const TOLERANCES: [f64; 8] = [1e-8, 1e-6, 1e-4, 1e-3, 3e-3, 1e-2, 3e-2, 1e-1];
 struct Run {
     trajectory: Vec<Vec<f64>>,
     step_seconds: f64,
+    /// The same mean in CPU time of the whole process (all threads, from
+    /// [`process_cpu_seconds`]): on this shared machine the wall time swings 2–5× with the
+    /// other jobs' load, the CPU time of a one-thread run much less.
+    cpu_seconds: f64,
     stats: NewtonStats,
+}
+
+/// The CPU time (s) every thread of this process has run so far, from the scheduler's
+/// nanosecond counters (`/proc/self/task/*/schedstat`, first field); NaN where there is no
+/// such file (not Linux). Threads that have ended are not counted (rayon's pool lives on).
+fn process_cpu_seconds() -> f64 {
+    let Ok(tasks) = std::fs::read_dir("/proc/self/task") else {
+        return f64::NAN;
+    };
+    let nanoseconds: u64 = tasks
+        .flatten()
+        .filter_map(|task| std::fs::read_to_string(task.path().join("schedstat")).ok())
+        .filter_map(|stat| stat.split_whitespace().next()?.parse::<u64>().ok())
+        .sum();
+    nanoseconds as f64 * 1e-9
 }
 
 fn run(
@@ -86,17 +105,20 @@ fn run(
     let mut state = State::at_rest(swing.system.free_count());
     let mut trajectory = Vec::with_capacity(cli.steps);
     let mut later = 0.0;
+    let mut later_cpu = 0.0;
     for step in 0..cli.steps {
-        let clock = Instant::now();
+        let (clock, cpu) = (Instant::now(), process_cpu_seconds());
         integrator.step(&mut state)?;
         if step > 0 {
             later += clock.elapsed().as_secs_f64();
+            later_cpu += process_cpu_seconds() - cpu;
         }
         trajectory.push(state.displacement.clone());
     }
     Ok(Run {
         trajectory,
         step_seconds: later / (cli.steps - 1) as f64,
+        cpu_seconds: later_cpu / (cli.steps - 1) as f64,
         stats: integrator.newton_stats().unwrap_or_default(),
     })
 }
@@ -197,8 +219,10 @@ impl ForceModel for Counting {
 /// the counting model (the same iterations: the wrapper changes no bits), then prints per step
 /// the passes over the tets of each kind and the L-BFGS iterations, and the wall time of one
 /// force-and-energy pass, one energy pass and one nodal-rotation update (the L-BFGS H₀'s turn,
-/// once a step) at the last state, each over the linear step's; what is left of the step's
-/// time is the iterations' triangular solves, the two-loop recursion and the vector work.
+/// once a step) at the last state (each the fastest of 20), each over the linear step's CPU
+/// time; what is left of the default step's CPU time is the iterations' triangular solves, the
+/// two-loop recursion and the vector work. Meaningful on one thread (`RAYON_NUM_THREADS=1`:
+/// on more, CPU time sums the threads).
 fn account(swing: &Swing, model: ModelKind, linear: &Run, cli: &Cli) -> tetfem::Result<()> {
     let default_tolerance = tetfem::analysis::dynamics::StepNewtonOptions::default().tolerance;
     let plain = || {
@@ -234,12 +258,13 @@ fn account(swing: &Swing, model: ModelKind, linear: &Run, cli: &Cli) -> tetfem::
     let per_step = |k: usize| calls.0[k].load(Ordering::Relaxed) as f64 / tets / steps;
     let iterations = timed.stats.total_iterations as f64 / steps;
     println!(
-        "default: {:.5} s a step, {:.2}× linear ({:.5} s); per step: {iterations:.2} L-BFGS iterations, \
+        "default: {:.5} s a step, {:.2}× linear ({:.5} s), CPU time {:.2}× linear's; per step: {iterations:.2} L-BFGS iterations, \
          {:.2} force+energy passes, {:.2} force passes, {:.2} energy passes, {:.2} tangent passes \
          (counted run repeats the timed one to the bit: {same})",
         timed.step_seconds,
         timed.step_seconds / linear.step_seconds,
         linear.step_seconds,
+        timed.cpu_seconds / linear.cpu_seconds,
         per_step(0),
         per_step(1),
         per_step(2),
@@ -252,13 +277,16 @@ fn account(swing: &Swing, model: ModelKind, linear: &Run, cli: &Cli) -> tetfem::
     let mut work = force.workspace()?;
     let mut f = vec![0.0; u.len()];
     let repeat = 20;
+    // The fastest of the repeats: the others met the machine's other jobs.
     let time = |job: &mut dyn FnMut() -> tetfem::Result<()>| -> tetfem::Result<f64> {
         job()?;
-        let clock = Instant::now();
+        let mut fastest = f64::INFINITY;
         for _ in 0..repeat {
+            let clock = Instant::now();
             job()?;
+            fastest = fastest.min(clock.elapsed().as_secs_f64());
         }
-        Ok(clock.elapsed().as_secs_f64() / repeat as f64)
+        Ok(fastest)
     };
     let pass = time(&mut || {
         force
@@ -279,7 +307,10 @@ fn account(swing: &Swing, model: ModelKind, linear: &Run, cli: &Cli) -> tetfem::
         });
         Ok(())
     })?;
-    let lin = linear.step_seconds;
+    // Against the CPU times of the steps (one thread: the load's pauses left out) where the
+    // passes are the fastest of their repeats.
+    let lin = linear.cpu_seconds;
+    let step = timed.cpu_seconds;
     let passes = per_step(0) * pass + per_step(2) * energy;
     println!(
         "one force+energy pass {pass:.5} s ({:.2}× linear), energy pass {energy:.5} s ({:.2}×), \
@@ -290,8 +321,8 @@ fn account(swing: &Swing, model: ModelKind, linear: &Run, cli: &Cli) -> tetfem::
         turn / lin,
         passes / lin,
         turn / lin,
-        (timed.step_seconds - passes - turn) / lin,
-        (timed.step_seconds - passes - turn) / lin / iterations.max(1.0),
+        (step - passes - turn) / lin,
+        (step - passes - turn) / lin / iterations.max(1.0),
     );
     Ok(())
 }
@@ -430,8 +461,12 @@ fn measure(cli: &Cli) -> tetfem::Result<(Setup, Vec<Row>)> {
             factorizations: r.stats.factorizations,
         };
         println!(
-            "{method:>12} tolerance {tolerance:.0e}: {:.4} s per step, {:.1}× linear, distance {distance:.2e}, {} its, {} CG its",
-            row.step_seconds, row.cost_over_linear, row.iterations, row.cg_iterations
+            "{method:>12} tolerance {tolerance:.0e}: {:.4} s per step, {:.1}× linear, CPU time {:.2}× linear's, distance {distance:.2e}, {} its, {} CG its",
+            row.step_seconds,
+            row.cost_over_linear,
+            r.cpu_seconds / linear.cpu_seconds,
+            row.iterations,
+            row.cg_iterations
         );
         rows.push(row);
     };
