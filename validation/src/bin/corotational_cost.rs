@@ -296,9 +296,12 @@ fn account(swing: &Swing, model: ModelKind, linear: &Run, cli: &Cli) -> tetfem::
     let energy = time(&mut || force.elastic_energy(&u).map(|_| ()))?;
     let full = swing.system.dofs().expand(&u)?;
     let mut gradients = vec![Matrix3::zeros(); swing.mesh.node_count()];
+    // As the step turns H₀: from the rest elements its force keeps.
+    let kept = tetfem::model::assemble::corner_elements(swing.mesh.as_ref());
     let turn = time(&mut || {
-        tetfem::model::assemble::nodal_deformation_gradients(
+        tetfem::model::assemble::nodal_deformation_gradients_kept(
             swing.mesh.as_ref(),
+            &kept,
             &full,
             &mut gradients,
         )?;
