@@ -9,7 +9,7 @@ use nalgebra::{Matrix3, Vector3};
 use super::{ForceModel, TetModels, Vector12, project_psd};
 use crate::base::error::Result;
 use crate::fe::assembly::Assembler;
-use crate::fe::element::{ElementType, Tet4};
+use crate::fe::element::{ElementType, Tet, Tet4};
 use crate::mesh::TetMesh;
 use crate::sparse::CscMatrix;
 
@@ -54,6 +54,22 @@ pub trait ModelElement: ElementType + 'static {
         (0..mesh.tet_count())
             .map(|t| Self::model_energy(models.model_of(t), mesh, t, u))
             .sum()
+    }
+
+    /// [`add_model_forces_and_energy`](Self::add_model_forces_and_energy) with tet `t`'s rest
+    /// element (Dm⁻¹, V, ∇Nₐ of its corners) read from `kept[t]` instead of rebuilt from the
+    /// nodes: the same bits, without an inverse and a determinant per tet and pass. The
+    /// 4-node tet reads them; an element whose rest data is its own (the 10-node tet's
+    /// quadrature) ignores `kept`. `kept` holds one element per tet (checked by the caller).
+    fn add_model_forces_and_energy_kept(
+        mesh: &TetMesh<Self>,
+        kept: &[Tet],
+        models: &(impl TetModels + ?Sized),
+        u: &[f64],
+        force: &mut [f64],
+    ) -> f64 {
+        let _ = kept;
+        Self::add_model_forces_and_energy(mesh, models, u, force)
     }
 
     /// Refills `tangent` (on `assembler`'s pattern) with Σₑ Kₑ, Kₑ = −∂fₑ/∂x (force/length),
@@ -138,6 +154,18 @@ impl ModelElement for Tet4 {
             models
                 .model_of(t)
                 .force_and_energy(&mesh.element_of(t), rest, x)
+        })
+    }
+
+    fn add_model_forces_and_energy_kept(
+        mesh: &TetMesh,
+        kept: &[Tet],
+        models: &(impl TetModels + ?Sized),
+        u: &[f64],
+        force: &mut [f64],
+    ) -> f64 {
+        add_in_blocks(mesh, u, force, |t, rest, x| {
+            models.model_of(t).force_and_energy(&kept[t], rest, x)
         })
     }
 

@@ -57,7 +57,11 @@ fn cofactor_direction(f: &Matrix3<f64>, df: &Matrix3<f64>) -> Matrix3<f64> {
 impl NeoHookean {
     /// Ψ(F) (energy per rest volume).
     fn density(&self, f: &Matrix3<f64>) -> f64 {
-        let j = f.determinant();
+        self.density_at(f, f.determinant())
+    }
+
+    /// [`density`](Self::density) with J = det F given (the force pass shares it with P).
+    fn density_at(&self, f: &Matrix3<f64>, j: f64) -> f64 {
         let rest = 0.5 * self.lambda_hat * (1.0 - self.alpha).powi(2);
         0.5 * self.mu * (f.norm_squared() - 3.0) + 0.5 * self.lambda_hat * (j - self.alpha).powi(2)
             - rest
@@ -65,7 +69,12 @@ impl NeoHookean {
 
     /// P = μF + λ̂(J − α)·cof F.
     fn piola(&self, f: &Matrix3<f64>) -> Matrix3<f64> {
-        f * self.mu + cofactor(f) * (self.lambda_hat * (f.determinant() - self.alpha))
+        self.piola_at(f, f.determinant())
+    }
+
+    /// [`piola`](Self::piola) with J = det F given.
+    fn piola_at(&self, f: &Matrix3<f64>, j: f64) -> Matrix3<f64> {
+        f * self.mu + cofactor(f) * (self.lambda_hat * (j - self.alpha))
     }
 
     /// The map dF ↦ dP at `f`.
@@ -101,6 +110,22 @@ impl ForceModel for NeoHookean {
         piola_to_force(
             tet,
             &self.piola(&(rest_shape_matrix(x) * tet.rest_inverse())),
+        )
+    }
+
+    /// One F and one det F for both (a line search's trial point needs both): the same bits
+    /// as [`force`](ForceModel::force) and [`energy`](ForceModel::energy) apart.
+    fn force_and_energy(
+        &self,
+        tet: &Tet,
+        _rest: &[Vector3<f64>; 4],
+        x: &[Vector3<f64>; 4],
+    ) -> (Vector12, f64) {
+        let f = rest_shape_matrix(x) * tet.rest_inverse();
+        let j = f.determinant();
+        (
+            piola_to_force(tet, &self.piola_at(&f, j)),
+            tet.volume() * self.density_at(&f, j),
         )
     }
 

@@ -19,6 +19,7 @@ use crate::bc::constraints::Restriction;
 use crate::contact::surface::SurfaceContact;
 use crate::contact::{Contact, ContactParameters, FrictionLag, GAP_ERROR_WARNING};
 use crate::fe::assembly::Assembler;
+use crate::fe::element::Tet;
 use crate::mesh::TetMesh;
 use crate::model::assemble::{energy, internal_force, refill_tangent};
 use crate::model::{ForceModel, ModelElement, ModelKind, ModelMap, TetModels};
@@ -346,7 +347,7 @@ impl NonlinearForce {
         Ok(NonlinearForce {
             free_dofs: dofs.free_dofs().to_vec(),
             prescribed: std::sync::RwLock::new(dofs.prescribed().to_vec()),
-            mesh,
+            mesh: Arc::new(KeptMesh::new(mesh)),
             models,
             name,
             assembler,
@@ -1039,17 +1040,32 @@ trait ForceMesh: Send + Sync {
     fn rest_nodes(&self) -> &[nalgebra::Vector3<f64>];
 }
 
-impl<E: ModelElement> ForceMesh for TetMesh<E> {
+/// A mesh with its tets' rest elements kept ([`crate::model::assemble::corner_elements`]): a
+/// step's iterations evaluate the force at many points, and each pass rebuilt every tet's
+/// Dm⁻¹ and volume from the nodes. The same bits either way.
+struct KeptMesh<E: ModelElement> {
+    mesh: Arc<TetMesh<E>>,
+    elements: Vec<Tet>,
+}
+
+impl<E: ModelElement> KeptMesh<E> {
+    fn new(mesh: Arc<TetMesh<E>>) -> Self {
+        let elements = crate::model::assemble::corner_elements(&mesh);
+        KeptMesh { mesh, elements }
+    }
+}
+
+impl<E: ModelElement> ForceMesh for KeptMesh<E> {
     fn dof_count(&self) -> usize {
-        TetMesh::dof_count(self)
+        self.mesh.dof_count()
     }
 
     fn energy(&self, models: &(dyn TetModels + Send), u: &[f64]) -> Result<f64> {
-        energy(self, models, u)
+        energy(self.mesh.as_ref(), models, u)
     }
 
     fn internal_force(&self, models: &(dyn TetModels + Send), u: &[f64]) -> Result<Vec<f64>> {
-        internal_force(self, models, u)
+        internal_force(self.mesh.as_ref(), models, u)
     }
 
     fn internal_force_and_energy_into(
@@ -1058,7 +1074,13 @@ impl<E: ModelElement> ForceMesh for TetMesh<E> {
         u: &[f64],
         force: &mut [f64],
     ) -> Result<f64> {
-        crate::model::assemble::internal_force_and_energy_into(self, models, u, force)
+        crate::model::assemble::internal_force_and_energy_kept_into(
+            self.mesh.as_ref(),
+            &self.elements,
+            models,
+            u,
+            force,
+        )
     }
 
     fn refill_tangent(
@@ -1069,7 +1091,7 @@ impl<E: ModelElement> ForceMesh for TetMesh<E> {
         project: bool,
         tangent: &mut CscMatrix,
     ) -> Result<()> {
-        refill_tangent(self, assembler, models, u, project, tangent)
+        refill_tangent(self.mesh.as_ref(), assembler, models, u, project, tangent)
     }
 
     fn nodal_deformation_gradients(
@@ -1077,19 +1099,24 @@ impl<E: ModelElement> ForceMesh for TetMesh<E> {
         u: &[f64],
         out: &mut [nalgebra::Matrix3<f64>],
     ) -> Result<()> {
-        crate::model::assemble::nodal_deformation_gradients(self, u, out)
+        crate::model::assemble::nodal_deformation_gradients_kept(
+            self.mesh.as_ref(),
+            &self.elements,
+            u,
+            out,
+        )
     }
 
     fn as_any(&self) -> &dyn std::any::Any {
-        self
+        self.mesh.as_ref()
     }
 
     fn coordinate_scale(&self) -> f64 {
-        coordinate_scale(self.nodes())
+        coordinate_scale(self.mesh.nodes())
     }
 
     fn rest_nodes(&self) -> &[nalgebra::Vector3<f64>] {
-        self.nodes()
+        self.mesh.nodes()
     }
 }
 

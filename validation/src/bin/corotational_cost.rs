@@ -16,12 +16,15 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::sync::Arc;
+use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::Instant;
 
 use clap::Parser;
+use nalgebra::{Matrix3, Vector3};
 use tetfem::BoxSplit;
 use tetfem::analysis::dynamics::{Integrator, InternalForce, NewtonStats, NonlinearSolve, State};
-use tetfem::model::ModelKind;
+use tetfem::fe::element::{Matrix12, Tet, Vector12};
+use tetfem::model::{ConstitutiveLaw, ForceModel, Matrix9, ModelKind};
 use tetfem_fixtures::swing::Swing;
 use tetfem_validation::cells::parse_cells;
 use tetfem_validation::chart::{Chart, Mark, Series};
@@ -51,7 +54,10 @@ struct Cli {
     /// every charted tolerance) or `options` (the default settings, and L-BFGS at the
     /// tolerances around 1e-4 of the trajectory, side by side, then the cost of one force
     /// evaluation over the linear step's).
-    #[arg(long, default_value = "tolerances", value_parser = ["tolerances", "options"])]
+    /// `account` runs the linear and default steps only and counts, with a counting wrapper
+    /// around the model, the force, energy and tangent passes the default takes a step, then
+    /// times one of each (no refactoring reference: the trajectory is not charted).
+    #[arg(long, default_value = "tolerances", value_parser = ["tolerances", "options", "account"])]
     set: String,
 }
 
@@ -65,7 +71,26 @@ const TOLERANCES: [f64; 8] = [1e-8, 1e-6, 1e-4, 1e-3, 3e-3, 1e-2, 3e-2, 1e-1];
 struct Run {
     trajectory: Vec<Vec<f64>>,
     step_seconds: f64,
+    /// The same mean in CPU time of the whole process (all threads, from
+    /// [`process_cpu_seconds`]): on this shared machine the wall time swings 2–5× with the
+    /// other jobs' load, the CPU time of a one-thread run much less.
+    cpu_seconds: f64,
     stats: NewtonStats,
+}
+
+/// The CPU time (s) every thread of this process has run so far, from the scheduler's
+/// nanosecond counters (`/proc/self/task/*/schedstat`, first field); NaN where there is no
+/// such file (not Linux). Threads that have ended are not counted (rayon's pool lives on).
+fn process_cpu_seconds() -> f64 {
+    let Ok(tasks) = std::fs::read_dir("/proc/self/task") else {
+        return f64::NAN;
+    };
+    let nanoseconds: u64 = tasks
+        .flatten()
+        .filter_map(|task| std::fs::read_to_string(task.path().join("schedstat")).ok())
+        .filter_map(|stat| stat.split_whitespace().next()?.parse::<u64>().ok())
+        .sum();
+    nanoseconds as f64 * 1e-9
 }
 
 fn run(
@@ -80,17 +105,20 @@ fn run(
     let mut state = State::at_rest(swing.system.free_count());
     let mut trajectory = Vec::with_capacity(cli.steps);
     let mut later = 0.0;
+    let mut later_cpu = 0.0;
     for step in 0..cli.steps {
-        let clock = Instant::now();
+        let (clock, cpu) = (Instant::now(), process_cpu_seconds());
         integrator.step(&mut state)?;
         if step > 0 {
             later += clock.elapsed().as_secs_f64();
+            later_cpu += process_cpu_seconds() - cpu;
         }
         trajectory.push(state.displacement.clone());
     }
     Ok(Run {
         trajectory,
         step_seconds: later / (cli.steps - 1) as f64,
+        cpu_seconds: later_cpu / (cli.steps - 1) as f64,
         stats: integrator.newton_stats().unwrap_or_default(),
     })
 }
@@ -120,6 +148,188 @@ fn breakdown(force: &InternalForce, reference: &Run, linear_seconds: f64) -> tet
     Ok(())
 }
 
+/// Calls of each of a model's per-tet methods, summed over threads: force-and-energy, force
+/// alone, energy alone and tangent.
+#[derive(Default)]
+struct Calls([AtomicUsize; 4]);
+
+/// A model that counts its per-tet calls into `calls` and otherwise is `inner`, bit for bit.
+struct Counting {
+    inner: Box<dyn ForceModel>,
+    calls: Arc<Calls>,
+}
+
+impl Counting {
+    fn tick(&self, which: usize) {
+        self.calls.0[which].fetch_add(1, Ordering::Relaxed);
+    }
+}
+
+impl ConstitutiveLaw for Counting {
+    fn energy_density(&self, f: &Matrix3<f64>) -> f64 {
+        self.inner.energy_density(f)
+    }
+    fn first_piola(&self, f: &Matrix3<f64>) -> Matrix3<f64> {
+        self.inner.first_piola(f)
+    }
+    fn piola_tangent(&self, f: &Matrix3<f64>) -> Matrix9 {
+        self.inner.piola_tangent(f)
+    }
+    fn cauchy(&self, f: &Matrix3<f64>) -> Matrix3<f64> {
+        self.inner.cauchy(f)
+    }
+}
+
+impl ForceModel for Counting {
+    fn energy(&self, tet: &Tet, rest: &[Vector3<f64>; 4], x: &[Vector3<f64>; 4]) -> f64 {
+        self.tick(2);
+        self.inner.energy(tet, rest, x)
+    }
+    fn force(&self, tet: &Tet, rest: &[Vector3<f64>; 4], x: &[Vector3<f64>; 4]) -> Vector12 {
+        self.tick(1);
+        self.inner.force(tet, rest, x)
+    }
+    fn force_and_energy(
+        &self,
+        tet: &Tet,
+        rest: &[Vector3<f64>; 4],
+        x: &[Vector3<f64>; 4],
+    ) -> (Vector12, f64) {
+        self.tick(0);
+        self.inner.force_and_energy(tet, rest, x)
+    }
+    fn tangent(&self, tet: &Tet, rest: &[Vector3<f64>; 4], x: &[Vector3<f64>; 4]) -> Matrix12 {
+        self.tick(3);
+        self.inner.tangent(tet, rest, x)
+    }
+    fn cauchy_stress(
+        &self,
+        tet: &Tet,
+        rest: &[Vector3<f64>; 4],
+        x: &[Vector3<f64>; 4],
+    ) -> Matrix3<f64> {
+        self.inner.cauchy_stress(tet, rest, x)
+    }
+    fn name(&self) -> &'static str {
+        self.inner.name()
+    }
+}
+
+/// `--set account`: where the default's step goes. Runs the default once timed and once with
+/// the counting model (the same iterations: the wrapper changes no bits), then prints per step
+/// the passes over the tets of each kind and the L-BFGS iterations, and the wall time of one
+/// force-and-energy pass, one energy pass and one nodal-rotation update (the L-BFGS H₀'s turn,
+/// once a step) at the last state (each the fastest of 20), each over the linear step's CPU
+/// time; what is left of the default step's CPU time is the iterations' triangular solves, the
+/// two-loop recursion and the vector work. Meaningful on one thread (`RAYON_NUM_THREADS=1`:
+/// on more, CPU time sums the threads).
+fn account(swing: &Swing, model: ModelKind, linear: &Run, cli: &Cli) -> tetfem::Result<()> {
+    let default_tolerance = tetfem::analysis::dynamics::StepNewtonOptions::default().tolerance;
+    let plain = || {
+        InternalForce::of_model(
+            Arc::clone(&swing.mesh),
+            model.build(&swing.problem.material),
+            &swing.system,
+        )
+    };
+    let timed = run(
+        swing,
+        plain()?,
+        NonlinearSolve::Auto,
+        default_tolerance,
+        cli,
+    )?;
+    let calls = Arc::new(Calls::default());
+    let counting = Box::new(Counting {
+        inner: model.build(&swing.problem.material),
+        calls: Arc::clone(&calls),
+    });
+    let counted_force = InternalForce::of_model(Arc::clone(&swing.mesh), counting, &swing.system)?;
+    let counted = run(
+        swing,
+        counted_force,
+        NonlinearSolve::Auto,
+        default_tolerance,
+        cli,
+    )?;
+    let same = counted.trajectory == timed.trajectory;
+    let tets = swing.mesh.tet_count() as f64;
+    let steps = cli.steps as f64;
+    let per_step = |k: usize| calls.0[k].load(Ordering::Relaxed) as f64 / tets / steps;
+    let iterations = timed.stats.total_iterations as f64 / steps;
+    println!(
+        "default: {:.5} s a step, {:.2}× linear ({:.5} s), CPU time {:.2}× linear's; per step: {iterations:.2} L-BFGS iterations, \
+         {:.2} force+energy passes, {:.2} force passes, {:.2} energy passes, {:.2} tangent passes \
+         (counted run repeats the timed one to the bit: {same})",
+        timed.step_seconds,
+        timed.step_seconds / linear.step_seconds,
+        linear.step_seconds,
+        timed.cpu_seconds / linear.cpu_seconds,
+        per_step(0),
+        per_step(1),
+        per_step(2),
+        per_step(3),
+    );
+    let InternalForce::Nonlinear(force) = plain()? else {
+        return Ok(());
+    };
+    let u = timed.trajectory.last().cloned().unwrap_or_default();
+    let mut work = force.workspace()?;
+    let mut f = vec![0.0; u.len()];
+    let repeat = 20;
+    // The fastest of the repeats: the others met the machine's other jobs.
+    let time = |job: &mut dyn FnMut() -> tetfem::Result<()>| -> tetfem::Result<f64> {
+        job()?;
+        let mut fastest = f64::INFINITY;
+        for _ in 0..repeat {
+            let clock = Instant::now();
+            job()?;
+            fastest = fastest.min(clock.elapsed().as_secs_f64());
+        }
+        Ok(fastest)
+    };
+    let pass = time(&mut || {
+        force
+            .force_and_energy_into(&u, &mut work, &mut f)
+            .map(|_| ())
+    })?;
+    let energy = time(&mut || force.elastic_energy(&u).map(|_| ()))?;
+    let full = swing.system.dofs().expand(&u)?;
+    let mut gradients = vec![Matrix3::zeros(); swing.mesh.node_count()];
+    // As the step turns H₀: from the rest elements its force keeps.
+    let kept = tetfem::model::assemble::corner_elements(swing.mesh.as_ref());
+    let turn = time(&mut || {
+        tetfem::model::assemble::nodal_deformation_gradients_kept(
+            swing.mesh.as_ref(),
+            &kept,
+            &full,
+            &mut gradients,
+        )?;
+        gradients.iter().for_each(|g| {
+            std::hint::black_box(tetfem::model::rotation(g));
+        });
+        Ok(())
+    })?;
+    // Against the CPU times of the steps (one thread: the load's pauses left out) where the
+    // passes are the fastest of their repeats.
+    let lin = linear.cpu_seconds;
+    let step = timed.cpu_seconds;
+    let passes = per_step(0) * pass + per_step(2) * energy;
+    println!(
+        "one force+energy pass {pass:.5} s ({:.2}× linear), energy pass {energy:.5} s ({:.2}×), \
+         nodal rotations {turn:.5} s ({:.2}×); a step's passes {:.2}× linear, its rotations {:.2}×, \
+         the rest (solves, recursion, vectors) {:.2}× linear, {:.2}× an iteration",
+        pass / lin,
+        energy / lin,
+        turn / lin,
+        passes / lin,
+        turn / lin,
+        (step - passes - turn) / lin,
+        (step - passes - turn) / lin / iterations.max(1.0),
+    );
+    Ok(())
+}
+
 /// The largest |u − u_ref| over all steps and DOFs over the largest |u_ref|.
 fn distance(trajectory: &[Vec<f64>], reference: &[Vec<f64>]) -> f64 {
     let scale = reference
@@ -138,6 +348,10 @@ fn main() -> ExitCode {
         read_csv(&cli.out.join(CSV)).and_then(|(setup, rows)| plot(&setup, &rows, &cli.out))
     } else {
         measure(&cli).and_then(|(setup, rows)| {
+            // `--set account` prints its counts and charts nothing.
+            if rows.is_empty() {
+                return Ok(());
+            }
             write_csv(&cli.out.join(CSV), &setup, &rows)?;
             plot(&setup, &rows, &cli.out)
         })
@@ -233,6 +447,9 @@ fn measure(cli: &Cli) -> tetfem::Result<(Setup, Vec<Row>)> {
             &swing.system,
         )
     };
+    if cli.set == "account" {
+        return account(&swing, model, &linear, cli).map(|()| (setup, Vec::new()));
+    }
     let reference = run(&swing, force()?, NonlinearSolve::Refactor, 1e-8, cli)?;
     let mut rows = Vec::new();
     let mut row = |method: &str, tolerance: f64, r: &Run, distance: f64| {
@@ -247,8 +464,12 @@ fn measure(cli: &Cli) -> tetfem::Result<(Setup, Vec<Row>)> {
             factorizations: r.stats.factorizations,
         };
         println!(
-            "{method:>12} tolerance {tolerance:.0e}: {:.4} s per step, {:.1}× linear, distance {distance:.2e}, {} its, {} CG its",
-            row.step_seconds, row.cost_over_linear, row.iterations, row.cg_iterations
+            "{method:>12} tolerance {tolerance:.0e}: {:.4} s per step, {:.1}× linear, CPU time {:.2}× linear's, distance {distance:.2e}, {} its, {} CG its",
+            row.step_seconds,
+            row.cost_over_linear,
+            r.cpu_seconds / linear.cpu_seconds,
+            row.iterations,
+            row.cg_iterations
         );
         rows.push(row);
     };
