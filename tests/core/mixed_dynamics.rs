@@ -411,11 +411,19 @@ fn the_mixed_transient_refuses_what_it_does_not_compute() {
 
 #[test]
 fn the_library_admits_the_linear_mixed_dynamics_and_modes_and_refuses_the_rest_by_name() {
+    for (order, element) in [(1, "stabilized P1–P1"), (2, "Taylor–Hood P2–P1")] {
+        mixed_dynamics_rule_of_order(order, element);
+    }
+}
+
+/// The combination rule of the mixed formulation in dynamics and modes on elements of `order`
+/// (1: P1–P1, 2: Taylor–Hood, named `element` where a refusal is the element's own).
+fn mixed_dynamics_rule_of_order(order: usize, element: &str) {
     use tetfem::analysis::combination::{Analysis, Combination, Formulation};
     use tetfem::model::ModelKind;
     let mixed = Combination {
         formulation: Formulation::Mixed,
-        order: 2,
+        order,
         ..Combination::default()
     };
     for analysis in [
@@ -427,7 +435,7 @@ fn the_library_admits_the_linear_mixed_dynamics_and_modes_and_refuses_the_rest_b
             analysis,
             ..mixed.clone()
         };
-        assert!(combination.check().is_ok(), "{analysis:?}");
+        assert!(combination.check().is_ok(), "order {order}: {analysis:?}");
     }
     // The Neo-Hookean and corotational models in backward Euler (MixedNonlinearEuler), with
     // or without obstacles.
@@ -450,13 +458,15 @@ fn the_library_admits_the_linear_mixed_dynamics_and_modes_and_refuses_the_rest_b
         analysis: Analysis::Transient(Method::Newmark),
         ..mixed.clone()
     };
-    for (combination, pair) in [
+    // (combination, the pair named, whether the refusal names the element)
+    for (combination, pair, names_element) in [
         (
             Combination {
                 analysis: Analysis::Transient(Method::Explicit),
                 ..mixed.clone()
             },
             "formulation mixed with analysis",
+            true,
         ),
         (
             Combination {
@@ -464,6 +474,7 @@ fn the_library_admits_the_linear_mixed_dynamics_and_modes_and_refuses_the_rest_b
                 ..newmark.clone()
             },
             "formulation mixed with model",
+            false,
         ),
         (
             Combination {
@@ -472,6 +483,7 @@ fn the_library_admits_the_linear_mixed_dynamics_and_modes_and_refuses_the_rest_b
                 ..mixed.clone()
             },
             "model with analysis modal",
+            false,
         ),
         (
             Combination {
@@ -479,6 +491,7 @@ fn the_library_admits_the_linear_mixed_dynamics_and_modes_and_refuses_the_rest_b
                 ..newmark.clone()
             },
             "formulation mixed with model",
+            false,
         ),
         (
             Combination {
@@ -486,6 +499,7 @@ fn the_library_admits_the_linear_mixed_dynamics_and_modes_and_refuses_the_rest_b
                 ..newmark.clone()
             },
             "formulation mixed with moving supports",
+            true,
         ),
         (
             Combination {
@@ -493,6 +507,7 @@ fn the_library_admits_the_linear_mixed_dynamics_and_modes_and_refuses_the_rest_b
                 ..newmark.clone()
             },
             "formulation mixed with loads that follow an amplitude",
+            true,
         ),
         (
             Combination {
@@ -500,6 +515,7 @@ fn the_library_admits_the_linear_mixed_dynamics_and_modes_and_refuses_the_rest_b
                 ..newmark.clone()
             },
             "formulation mixed with surface_contact",
+            true,
         ),
         (
             Combination {
@@ -507,12 +523,14 @@ fn the_library_admits_the_linear_mixed_dynamics_and_modes_and_refuses_the_rest_b
                 ..newmark.clone()
             },
             "formulation mixed with obstacles",
+            false,
         ),
     ] {
         let error = combination.check().unwrap_err();
         assert!(
-            matches!(&error, Error::InvalidParameter { name, .. } if name == pair),
-            "{pair}: {error}"
+            matches!(&error, Error::InvalidParameter { name, requirement, .. }
+                if name == pair && (!names_element || requirement.contains(element))),
+            "order {order}, {pair}: {error}"
         );
     }
 }
