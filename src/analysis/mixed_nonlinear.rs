@@ -46,7 +46,7 @@ use crate::analysis::newton::line_search::{Backtracking, LineFunction, NEAR_SOLU
 use crate::analysis::nonlinear::NewtonOptions;
 use crate::analysis::problem::Problem;
 use crate::base::error::{Error, Result};
-use crate::bc::constraints::Constraints;
+use crate::bc::constraints::{Constraints, DofMap};
 use crate::bc::loads::Loads;
 use crate::fe::element::MixedElement;
 use crate::fe::element::taylor_hood::{PRESSURE_NODES, PressureNodes};
@@ -55,6 +55,7 @@ use crate::linalg::QuasiDefiniteLdlt;
 use crate::mesh::TetMesh;
 use crate::model::ModelKind;
 use crate::ordering::FillOrdering;
+use crate::sparse::CscMatrix;
 
 /// The hyperelastic law of the mixed Newton: which state of the [`MixedElement`] it asks for.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -387,16 +388,12 @@ impl<'a, E: MixedElement> MixedSystem<'a, E> {
             &mut stiffness,
         )?;
         let free_stiffness = self.problem.restrict(&stiffness)?;
-        let matrix = saddle_point_matrix(
+        let matrix = state_saddle_point(
             self.mesh,
             &free_stiffness,
-            self.problem.dofs(),
-            &self.pressure_nodes,
-            |t, k, i, a| E::coupling_entry(E::state_coupling(&states[t]), k, i, a),
-            |t, k, l| {
-                let (mu, inverse_bulk) = self.moduli[t];
-                E::pressure_block(&self.rests[t], mu, inverse_bulk, k, l)
-            },
+            (self.problem.dofs(), &self.pressure_nodes),
+            &states,
+            (&self.rests, &self.moduli),
         )?;
         Ok(Some((residual, Some(matrix))))
     }
@@ -623,4 +620,29 @@ pub(crate) fn correction_norm(correction: &[f64], free: usize, pressure_weight: 
 
 fn norm(v: &[f64]) -> f64 {
     v.iter().map(|x| x * x).sum::<f64>().sqrt()
+}
+
+/// The saddle-point matrix of the mixed tangent at the element `states` (one per tet, with
+/// their `rests` and (μ, 1/κ) `moduli`, Pa and 1/Pa): the free deviatoric block
+/// `free_stiffness` (K_ff, plus what the caller added to it, as backward Euler's M/dt²), the
+/// states' couplings and each element's pressure block C; shared by the static and the
+/// backward-Euler Newton.
+pub(crate) fn state_saddle_point<E: MixedElement>(
+    mesh: &TetMesh<E>,
+    free_stiffness: &CscMatrix,
+    (dofs, pressure_nodes): (&DofMap, &PressureNodes),
+    states: &[E::State],
+    (rests, moduli): (&[E::Rest], &[(f64, f64)]),
+) -> Result<CscMatrix> {
+    saddle_point_matrix(
+        mesh,
+        free_stiffness,
+        dofs,
+        pressure_nodes,
+        |t, k, i, a| E::coupling_entry(E::state_coupling(&states[t]), k, i, a),
+        |t, k, l| {
+            let (mu, inverse_bulk) = moduli[t];
+            E::pressure_block(&rests[t], mu, inverse_bulk, k, l)
+        },
+    )
 }

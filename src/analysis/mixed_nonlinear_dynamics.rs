@@ -48,8 +48,9 @@
 //! Hessian (PSD, so the tangent stays quasi-definite). Still obstacles: obstacle motion is
 //! refused by name.
 
+use crate::analysis::mixed_nonlinear::state_saddle_point;
 use crate::analysis::mixed_nonlinear::{MixedLaw, correction_norm};
-use crate::analysis::mixed_statics::{nodal_pressure, saddle_point_matrix};
+use crate::analysis::mixed_statics::nodal_pressure;
 use crate::analysis::problem::Problem;
 use crate::base::error::{Error, Result};
 use crate::bc::constraints::{Constraints, DofMap};
@@ -317,16 +318,12 @@ impl<'a, E: MixedBody> MixedNonlinearEuler<'a, E> {
         for (k, m) in free.values_mut().iter_mut().zip(self.mass.values()) {
             *k += c * m;
         }
-        saddle_point_matrix(
+        state_saddle_point(
             self.mesh,
             &free,
-            self.problem.dofs(),
-            &self.pressure_nodes,
-            |t, k, i, a| E::coupling_entry(E::state_coupling(&states[t]), k, i, a),
-            |t, k, l| {
-                let (mu, inverse_bulk) = self.moduli[t];
-                E::pressure_block(&self.rests[t], mu, inverse_bulk, k, l)
-            },
+            (self.problem.dofs(), &self.pressure_nodes),
+            states,
+            (&self.rests, &self.moduli),
         )
     }
 
