@@ -92,48 +92,23 @@ fn run_linear<E: SceneElement + MixedStaticElement>(
     let setup_seconds = clock.elapsed().as_secs_f64();
     let energy = |run: &MixedTransient<E>| energy_terms(run, &gravity);
     let initial_energy = energy(&run)?;
-    let out = scene.output();
-    let mut writer = lock.as_ref().map(|_| FrameFiles::new(scene));
+    let mut outputs = LoopOutputs::new(scene, lock.is_some(), steps);
     let (mut rows, mut probes) = csv_start(&built.probes);
-    let (mut step_seconds, mut first_step_seconds, mut output_seconds) = (0.0, 0.0, 0.0);
     for step in 0..=steps {
         if step > 0 {
-            let clock = Instant::now();
-            run.step()?;
-            let seconds = clock.elapsed().as_secs_f64();
-            if step == 1 {
-                first_step_seconds = seconds;
-            }
-            step_seconds += seconds;
+            outputs.timed_step(step, || run.step())?;
         }
         let clock = Instant::now();
         let e = energy(&run)?;
         let pressure = run.pressure();
-        let (low, high) = pressure
-            .iter()
-            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &p| {
-                (a.min(p), b.max(p))
-            });
         let u = run.displacement()?;
         csv_row(
             (&mut rows, &mut probes),
             &built.probes,
-            (run.time(), &e, (low, high)),
+            (run.time(), &e, pressure_range(&pressure)),
             &u,
         );
-        if let Some(w) = &mut writer
-            && (step % out.every == 0 || step == steps)
-        {
-            w.frame(mesh, run.time(), &u, &pressure)?;
-        }
-        output_seconds += clock.elapsed().as_secs_f64();
-        if step > 0 && progress(step, steps).is_break() {
-            return Err(Error::Interrupted {
-                step,
-                time: run.time(),
-                frames: writer.as_ref().map_or(0, |w| w.frames.len()),
-            });
-        }
+        outputs.after_step(step, clock, (mesh, run.time(), &u, &pressure), progress)?;
     }
     let final_energy = energy(&run)?;
     let mut summary = DynamicSummary {
@@ -150,17 +125,12 @@ fn run_linear<E: SceneElement + MixedStaticElement>(
         steps,
         end_time: run.time(),
         setup_seconds,
-        first_step_seconds,
-        mean_step_seconds: step_seconds / steps as f64,
-        step_seconds,
-        output_seconds,
         initial_energy,
         final_energy,
         probes,
-        frames: writer.as_ref().map_or(0, |w| w.frames.len()),
-        ..summary_base(scene, &built, lock.as_ref())?
+        ..outputs.timings(summary_base(scene, &built, lock.as_ref())?)
     };
-    if let Some(w) = writer {
+    if let Some(w) = outputs.writer {
         write_outputs(scene, w, &rows, &mut summary)?;
     }
     Ok(summary)
@@ -322,6 +292,96 @@ fn csv_row(
         }
     }
     rows.push('\n');
+}
+
+/// The smallest and largest pressure (Pa) of a state, for the CSV's pressure range.
+fn pressure_range(pressure: &[f64]) -> (f64, f64) {
+    pressure
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &p| {
+            (a.min(p), b.max(p))
+        })
+}
+
+/// What a mixed run's time loop keeps besides its CSV rows: the frames (when the run writes
+/// files), the step and output times (s) for the summary, and when to stop.
+struct LoopOutputs {
+    writer: Option<FrameFiles>,
+    every: usize,
+    steps: usize,
+    step_seconds: f64,
+    first_step_seconds: f64,
+    output_seconds: f64,
+}
+
+impl LoopOutputs {
+    /// For a run of `steps` steps writing frames every `[output] every` steps when `writes`.
+    fn new(scene: &Scene, writes: bool, steps: usize) -> Self {
+        LoopOutputs {
+            writer: writes.then(|| FrameFiles::new(scene)),
+            every: scene.output().every,
+            steps,
+            step_seconds: 0.0,
+            first_step_seconds: 0.0,
+            output_seconds: 0.0,
+        }
+    }
+
+    /// Step number `step` (from 1) made by `advance`, timed into the step times.
+    fn timed_step<T>(&mut self, step: usize, advance: impl FnOnce() -> Result<T>) -> Result<T> {
+        let clock = Instant::now();
+        let result = advance()?;
+        let seconds = clock.elapsed().as_secs_f64();
+        if step == 1 {
+            self.first_step_seconds = seconds;
+        }
+        self.step_seconds += seconds;
+        Ok(result)
+    }
+
+    /// After step `step` (0: the start) has written its row from `clock` on: its frame of
+    /// `time` (s), displacement `u` (m) and `pressure` (Pa) on `mesh` when due (every
+    /// `every` steps and the last), the output time, then `progress`, whose break stops the
+    /// run as [`Error::Interrupted`] with the whole frames written so far.
+    fn after_step<C: CellType>(
+        &mut self,
+        step: usize,
+        clock: Instant,
+        (mesh, time, u, pressure): (&tetfem::TetMesh<C>, f64, &[f64], &[f64]),
+        progress: &mut dyn FnMut(usize, usize) -> ControlFlow<()>,
+    ) -> Result<()> {
+        if let Some(w) = &mut self.writer
+            && (step.is_multiple_of(self.every) || step == self.steps)
+        {
+            w.frame(mesh, time, u, pressure)?;
+        }
+        self.output_seconds += clock.elapsed().as_secs_f64();
+        if step > 0 && progress(step, self.steps).is_break() {
+            return Err(Error::Interrupted {
+                step,
+                time,
+                frames: self.frames(),
+            });
+        }
+        Ok(())
+    }
+
+    /// Frames written so far.
+    fn frames(&self) -> usize {
+        self.writer.as_ref().map_or(0, |w| w.frames.len())
+    }
+
+    /// `summary` with this loop's times and frame count.
+    fn timings(&self, summary: DynamicSummary) -> DynamicSummary {
+        DynamicSummary {
+            first_step_seconds: self.first_step_seconds,
+            mean_step_seconds: self.step_seconds / self.steps as f64,
+            step_seconds: self.step_seconds,
+            output_seconds: self.output_seconds,
+            frames: self.frames(),
+            ..summary
+        }
+    }
 }
 
 /// The frames of a mixed dynamic run: a `.vtu` each and the `.pvd` listing them.

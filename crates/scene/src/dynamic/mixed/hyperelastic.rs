@@ -17,12 +17,14 @@ use tetfem::Loads;
 use tetfem::analysis::mixed_analysis::{MixedStaticElement, mixed_nonlinear_euler_model};
 use tetfem::analysis::mixed_nonlinear_dynamics::{MixedBody, MixedNonlinearEuler};
 use tetfem::analysis::transient::RunLength;
-use tetfem::base::error::{Error, Result};
+use tetfem::base::error::Result;
 use tetfem::fe::element::{Tet4, Tet10};
 use tetfem::post::output::OutputLock;
 
 use super::super::{DynamicOverrides, DynamicSummary, EnergyTerms};
-use super::{FrameFiles, csv_row, csv_start, seconds_step, summary_base, write_outputs};
+use super::{
+    LoopOutputs, csv_row, csv_start, pressure_range, seconds_step, summary_base, write_outputs,
+};
 use crate::dynamic_contact::ContactForceHistory;
 use crate::{DynamicSettings, Scene, SceneElement};
 
@@ -84,35 +86,22 @@ fn run_on<E: SceneElement + MixedStaticElement + MixedBody>(
     let rest_volume = run.deformed_volume();
     let energy = |run: &MixedNonlinearEuler<E>| energy_terms(run, &gravity, &built.other_loads);
     let initial_energy = energy(&run)?;
-    let out = scene.output();
-    let mut writer = lock.as_ref().map(|_| FrameFiles::new(scene));
+    let mut outputs = LoopOutputs::new(scene, lock.is_some(), steps);
     let (header, mut probes) = csv_start(&built.probes);
     let mut rows = format!(
         "{},volume_change_1,smallest_gap_m,contact_energy_J\n",
         header.trim_end()
     );
     let mut forces = run.contact().map(ContactForceHistory::start);
-    let (mut step_seconds, mut first_step_seconds, mut output_seconds) = (0.0, 0.0, 0.0);
     let (mut volume_change, mut most_iterations, mut last_step): (f64, usize, usize) = (0.0, 0, 0);
     for step in 0..=steps {
         if step > 0 {
-            let clock = Instant::now();
-            last_step = run.step()?;
+            last_step = outputs.timed_step(step, || run.step())?;
             most_iterations = most_iterations.max(last_step);
-            let seconds = clock.elapsed().as_secs_f64();
-            if step == 1 {
-                first_step_seconds = seconds;
-            }
-            step_seconds += seconds;
         }
         let clock = Instant::now();
         let e = energy(&run)?;
         let pressure = run.pressure();
-        let (low, high) = pressure
-            .iter()
-            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &p| {
-                (a.min(p), b.max(p))
-            });
         let u = run.displacement().to_vec();
         let change = run.deformed_volume() / rest_volume - 1.0;
         volume_change = volume_change.max(change.abs());
@@ -120,25 +109,13 @@ fn run_on<E: SceneElement + MixedStaticElement + MixedBody>(
         csv_row(
             (&mut row, &mut probes),
             &built.probes,
-            (run.time(), &e, (low, high)),
+            (run.time(), &e, pressure_range(&pressure)),
             &u,
         );
         let (gap, barrier) = contact_columns(&run, forces.as_deref_mut(), &u)?;
         rows.push_str(row.trim_end());
         rows.push_str(&format!(",{change:e},{gap:e},{barrier:e}\n"));
-        if let Some(w) = &mut writer
-            && (step % out.every == 0 || step == steps)
-        {
-            w.frame(mesh, run.time(), &u, &pressure)?;
-        }
-        output_seconds += clock.elapsed().as_secs_f64();
-        if step > 0 && progress(step, steps).is_break() {
-            return Err(Error::Interrupted {
-                step,
-                time: run.time(),
-                frames: writer.as_ref().map_or(0, |w| w.frames.len()),
-            });
-        }
+        outputs.after_step(step, clock, (mesh, run.time(), &u, &pressure), progress)?;
     }
     let final_energy = energy(&run)?;
     let mut summary = DynamicSummary {
@@ -151,14 +128,9 @@ fn run_on<E: SceneElement + MixedStaticElement + MixedBody>(
         steps,
         end_time: run.time(),
         setup_seconds,
-        first_step_seconds,
-        mean_step_seconds: step_seconds / steps as f64,
-        step_seconds,
-        output_seconds,
         initial_energy,
         final_energy,
         probes,
-        frames: writer.as_ref().map_or(0, |w| w.frames.len()),
         newton: Some(tetfem::analysis::dynamics::NewtonStats {
             steps,
             total_iterations: run.iterations(),
@@ -170,9 +142,9 @@ fn run_on<E: SceneElement + MixedStaticElement + MixedBody>(
         }),
         contact_forces: forces,
         volume_change: Some(volume_change),
-        ..summary_base(scene, &built, lock.as_ref())?
+        ..outputs.timings(summary_base(scene, &built, lock.as_ref())?)
     };
-    if let Some(w) = writer {
+    if let Some(w) = outputs.writer {
         write_outputs(scene, w, &rows, &mut summary)?;
     }
     Ok(summary)
