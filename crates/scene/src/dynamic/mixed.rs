@@ -61,18 +61,11 @@ fn run_linear<E: SceneElement + MixedStaticElement>(
     progress: &mut dyn FnMut(usize, usize) -> ControlFlow<()>,
 ) -> Result<DynamicSummary> {
     let method = overrides.method.unwrap_or(settings.method);
-    let dt = seconds_step(overrides, settings)?;
-    let steps = overrides
-        .length
-        .unwrap_or(RunLength::Duration(settings.duration))
-        .steps(dt)?;
+    let (dt, steps) = step_and_count(overrides, settings)?;
     let clock = Instant::now();
     let built = scene.build_as::<E>()?;
     let mesh = &built.mesh;
-    let mut gravity = Loads::new(mesh);
-    gravity.add_gravity(mesh, &built.materials, built.gravity)?;
-    let mut loads = built.other_loads.clone();
-    loads.add_scaled(&gravity, 1.0)?;
+    let (gravity, loads) = gravity_and_loads(&built)?;
     let damping = Rayleigh::new(settings.damping.mass, settings.damping.stiffness)?;
     let mut run = mixed_transient_model(
         mesh,
@@ -214,6 +207,30 @@ fn write_outputs(
 
 /// The run's dt (s): the override's or the scene's; a multiple of the critical step is
 /// refused (the mixed run is implicit, its dt given in seconds).
+/// The run's step dt (s, [`seconds_step`]) and its number of steps (the overridden run length,
+/// else the scene's duration).
+fn step_and_count(
+    overrides: &DynamicOverrides,
+    settings: &DynamicSettings,
+) -> Result<(f64, usize)> {
+    let dt = seconds_step(overrides, settings)?;
+    let steps = overrides
+        .length
+        .unwrap_or(RunLength::Duration(settings.duration))
+        .steps(dt)?;
+    Ok((dt, steps))
+}
+
+/// Gravity's nodal loads (N) on the built scene, and all its loads: the other loads plus
+/// gravity's.
+fn gravity_and_loads<E: SceneElement>(built: &crate::BuiltScene<E>) -> Result<(Loads, Loads)> {
+    let mut gravity = Loads::new(&built.mesh);
+    gravity.add_gravity(&built.mesh, &built.materials, built.gravity)?;
+    let mut loads = built.other_loads.clone();
+    loads.add_scaled(&gravity, 1.0)?;
+    Ok((gravity, loads))
+}
+
 fn seconds_step(overrides: &DynamicOverrides, settings: &DynamicSettings) -> Result<f64> {
     match overrides.dt.unwrap_or(TimeStep::Seconds(settings.dt)) {
         TimeStep::Seconds(dt) => Ok(dt),

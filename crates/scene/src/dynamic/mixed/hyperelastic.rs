@@ -16,14 +16,14 @@ use std::time::Instant;
 use tetfem::Loads;
 use tetfem::analysis::mixed_analysis::{MixedStaticElement, mixed_nonlinear_euler_model};
 use tetfem::analysis::mixed_nonlinear_dynamics::{MixedBody, MixedNonlinearEuler};
-use tetfem::analysis::transient::RunLength;
 use tetfem::base::error::Result;
 use tetfem::fe::element::{Tet4, Tet10};
 use tetfem::post::output::OutputLock;
 
 use super::super::{DynamicOverrides, DynamicSummary, EnergyTerms};
 use super::{
-    LoopOutputs, csv_row, csv_start, pressure_range, seconds_step, summary_base, write_outputs,
+    LoopOutputs, csv_row, csv_start, gravity_and_loads, pressure_range, step_and_count,
+    summary_base, write_outputs,
 };
 use crate::dynamic_contact::ContactForceHistory;
 use crate::{DynamicSettings, Scene, SceneElement};
@@ -53,18 +53,11 @@ fn run_on<E: SceneElement + MixedStaticElement + MixedBody>(
     lock: Option<OutputLock>,
     progress: &mut dyn FnMut(usize, usize) -> ControlFlow<()>,
 ) -> Result<DynamicSummary> {
-    let dt = seconds_step(overrides, settings)?;
-    let steps = overrides
-        .length
-        .unwrap_or(RunLength::Duration(settings.duration))
-        .steps(dt)?;
+    let (dt, steps) = step_and_count(overrides, settings)?;
     let clock = Instant::now();
     let built = scene.build_as::<E>()?;
     let mesh = &built.mesh;
-    let mut gravity = Loads::new(mesh);
-    gravity.add_gravity(mesh, &built.materials, built.gravity)?;
-    let mut loads = built.other_loads.clone();
-    loads.add_scaled(&gravity, 1.0)?;
+    let (gravity, loads) = gravity_and_loads(&built)?;
     let mut run = mixed_nonlinear_euler_model(
         mesh,
         &built.materials,
