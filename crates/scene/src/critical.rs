@@ -17,7 +17,7 @@ pub struct CriticalStepReport {
 }
 
 /// [`CriticalStepReport`] of a built scene: its linear system with a lumped mass (the
-/// scene's loads do not enter); [`critical_step_of_body`] with the supports held.
+/// scene's loads do not enter); `critical_step_of_body` with the supports held.
 pub fn critical_step_of<C: tetfem::fe::element::ElementType>(
     built: &BuiltScene<C>,
 ) -> Result<CriticalStepReport> {
