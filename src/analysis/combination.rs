@@ -20,8 +20,9 @@
 //!   linear, the Neo-Hookean and the corotational one, obstacles (but in the Neo-Hookean and
 //!   corotational backward Euler), and with a nonlinear model supports that move (its load steps
 //!   scale prescribed values by λ); in the implicit dynamic and the modal analyses, a model
-//!   other than the linear one (but the Neo-Hookean and corotational ones in backward Euler), body–body contact,
-//!   moving supports and loads that follow amplitudes (either mixed element runs them);
+//!   other than the linear one (but the Neo-Hookean and corotational ones in backward Euler),
+//!   body–body contact, moving supports and loads that follow amplitudes (either mixed element
+//!   runs them);
 //! - a force model per material region (`region_models`) with a modal analysis where a region
 //!   is nonlinear, and with the mixed formulation at all (it solves one model).
 //!

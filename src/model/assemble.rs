@@ -162,29 +162,14 @@ pub fn nodal_deformation_gradients<E: ModelElement>(
     u: &[f64],
     out: &mut [nalgebra::Matrix3<f64>],
 ) -> Result<()> {
+    // The inputs are checked before the rest elements are built (the work a bad call spares).
     check_displacement(mesh, u)?;
     Error::check_len("nodal deformation gradients", mesh.node_count(), out.len())?;
-    let nodes = mesh.nodes();
-    add_at_nodes(mesh, out, |t| {
-        let rest = mesh.corner_positions_of(t);
-        let dm = crate::mesh::geometry::rest_shape_matrix(&rest);
-        // V·F = Ds·Dm⁻¹·det(Dm)/6: a flat tet weighs nothing.
-        let inverse = dm.try_inverse()?;
-        let corners = mesh.tets()[t].corners();
-        let deformed =
-            corners.map(|n| nodes[n] + Vector3::new(u[3 * n], u[3 * n + 1], u[3 * n + 2]));
-        Some(
-            crate::mesh::geometry::rest_shape_matrix(&deformed)
-                * inverse
-                * (dm.determinant() / 6.0),
-        )
-    });
-    Ok(())
+    nodal_deformation_gradients_kept(mesh, &corner_elements(mesh), u, out)
 }
 
 /// [`nodal_deformation_gradients`] with each tet's Dm⁻¹ and V from `kept` (one per tet,
-/// [`corner_elements`] of this mesh): the same bits (`Tet::new` takes the same inverse and
-/// determinant of the same Dm).
+/// [`corner_elements`] of this mesh), which a caller evaluating it many times keeps.
 ///
 /// Errors: those of [`nodal_deformation_gradients`], and `kept` not one element per tet.
 pub fn nodal_deformation_gradients_kept<E: ModelElement>(
@@ -201,29 +186,26 @@ pub fn nodal_deformation_gradients_kept<E: ModelElement>(
         let corners = mesh.tets()[t].corners();
         let deformed =
             corners.map(|n| nodes[n] + Vector3::new(u[3 * n], u[3 * n + 1], u[3 * n + 2]));
-        Some(
-            crate::mesh::geometry::rest_shape_matrix(&deformed)
-                * kept[t].rest_inverse()
-                * kept[t].volume(),
-        )
+        crate::mesh::geometry::rest_shape_matrix(&deformed)
+            * kept[t].rest_inverse()
+            * kept[t].volume()
     });
     Ok(())
 }
 
-/// `out` ← Σₑ∋ᵢ `weighted(e)` at each node i of each tet (zero where none, `None` adds
-/// nothing): the tets' matrices computed in parallel a block at a time and added serially in
+/// `out` ← Σₑ∋ᵢ `weighted(e)` at each node i of each tet (zero where none): the tets' matrices computed in parallel a block at a time and added serially in
 /// tet order, so the sums are the same bits as one tet after another on any number of threads.
 fn add_at_nodes<E: ModelElement>(
     mesh: &TetMesh<E>,
     out: &mut [nalgebra::Matrix3<f64>],
-    weighted: impl Fn(usize) -> Option<nalgebra::Matrix3<f64>> + Sync,
+    weighted: impl Fn(usize) -> nalgebra::Matrix3<f64> + Sync,
 ) {
     use rayon::prelude::*;
     // 8192 tets' matrices (0.6 MB) stay in the cache between computing and adding them.
     const BLOCK: usize = 8192;
     out.fill(nalgebra::Matrix3::zeros());
     let tets = mesh.tet_count();
-    let mut block = vec![None; BLOCK.min(tets)];
+    let mut block = vec![nalgebra::Matrix3::zeros(); BLOCK.min(tets)];
     for start in (0..tets).step_by(BLOCK) {
         let end = (start + BLOCK).min(tets);
         block[..end - start]
@@ -231,10 +213,8 @@ fn add_at_nodes<E: ModelElement>(
             .enumerate()
             .for_each(|(i, m)| *m = weighted(start + i));
         for (m, cell) in block.iter().zip(&mesh.tets()[start..end]) {
-            if let Some(m) = m {
-                for &n in cell.as_ref() {
-                    out[n] += m;
-                }
+            for &n in cell.as_ref() {
+                out[n] += m;
             }
         }
     }
