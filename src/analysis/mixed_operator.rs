@@ -21,7 +21,7 @@ use std::sync::Arc;
 
 use faer::sparse::SymbolicSparseColMat;
 
-use crate::analysis::mixed_statics::{nodal_pressure, saddle_point_matrix};
+use crate::analysis::mixed_statics::{LinearSaddlePoint, nodal_pressure};
 use crate::analysis::problem::Problem;
 use crate::base::error::{Error, Result};
 use crate::base::memory::{SolverMemory, StaticEstimate};
@@ -75,24 +75,15 @@ impl<E: MixedElement> MixedOperator<E> {
         } else {
             Problem::with_dofs(mesh, DofMap::new(constraints))?
         };
-        let shear: Vec<f64> = materials
-            .material_list()
-            .iter()
-            .map(|m| m.shear_modulus())
-            .collect();
-        let inverse_bulk: Vec<f64> = materials
-            .material_list()
-            .iter()
-            .map(|m| 1.0 / m.bulk_modulus())
-            .collect();
-        let mut deviatoric = problem.zero_matrix()?;
-        problem.assembler().reassemble_elements(
-            mesh,
-            |t| E::deviatoric_stiffness(&E::rest(mesh, t), shear[materials.index_of(t)]),
-            &mut deviatoric,
-        )?;
-        let free_deviatoric = problem.restrict(&deviatoric)?;
         let mass = problem.free_consistent_mass(materials)?;
+        let LinearSaddlePoint {
+            dofs,
+            pressure_nodes,
+            couplings,
+            deviatoric,
+            free_deviatoric,
+            saddle,
+        } = LinearSaddlePoint::assemble(mesh, materials, problem)?;
         if mass.col_ptr() != free_deviatoric.col_ptr()
             || mass.row_idx() != free_deviatoric.row_idx()
         {
@@ -100,29 +91,6 @@ impl<E: MixedElement> MixedOperator<E> {
                 "mixed operator: the mass and the deviatoric stiffness differ in pattern".into(),
             ));
         }
-        let pressure_nodes = PressureNodes::new(mesh);
-        // Per tet: B and C (4×4), from one rest each.
-        let (couplings, blocks): (Vec<E::Coupling>, Vec<[[f64; 4]; 4]>) = (0..mesh.tet_count())
-            .map(|t| {
-                let rest = E::rest(mesh, t);
-                let material = materials.index_of(t);
-                let block = std::array::from_fn(|k| {
-                    std::array::from_fn(|l| {
-                        E::pressure_block(&rest, shear[material], inverse_bulk[material], k, l)
-                    })
-                });
-                (E::coupling(&rest), block)
-            })
-            .unzip();
-        let dofs = problem.into_dofs();
-        let saddle = saddle_point_matrix(
-            mesh,
-            &free_deviatoric,
-            &dofs,
-            &pressure_nodes,
-            |t, k, i, a| E::coupling_entry(&couplings[t], k, i, a),
-            |t, k, l| blocks[t][k][l],
-        )?;
         let pressure_block = lower_block(&saddle, dofs.free_count())?;
         let mut pressure_factor = SparseCholesky::analyze(&pressure_block)?;
         pressure_factor.factorize(&pressure_block)?;

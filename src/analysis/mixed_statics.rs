@@ -112,46 +112,14 @@ impl<E: MixedElement> MixedStaticSolver<E> {
         timings.setup = clock.elapsed();
 
         let clock = Instant::now();
-        let shear: Vec<f64> = materials
-            .material_list()
-            .iter()
-            .map(|m| m.shear_modulus())
-            .collect();
-        let inverse_bulk: Vec<f64> = materials
-            .material_list()
-            .iter()
-            .map(|m| 1.0 / m.bulk_modulus())
-            .collect();
-        let mut deviatoric = problem.zero_matrix()?;
-        problem.assembler().reassemble_elements(
-            mesh,
-            |t| E::deviatoric_stiffness(&E::rest(mesh, t), shear[materials.index_of(t)]),
-            &mut deviatoric,
-        )?;
-        let free_deviatoric = problem.restrict(&deviatoric)?;
-        let pressure_nodes = PressureNodes::new(mesh);
-        // Per tet: B and C (4×4), from one rest each.
-        let (couplings, blocks): (Vec<E::Coupling>, Vec<[[f64; 4]; 4]>) = (0..mesh.tet_count())
-            .map(|t| {
-                let rest = E::rest(mesh, t);
-                let material = materials.index_of(t);
-                let block = std::array::from_fn(|k| {
-                    std::array::from_fn(|l| {
-                        E::pressure_block(&rest, shear[material], inverse_bulk[material], k, l)
-                    })
-                });
-                (E::coupling(&rest), block)
-            })
-            .unzip();
-        let dofs = problem.into_dofs();
-        let system = saddle_point_matrix(
-            mesh,
-            &free_deviatoric,
-            &dofs,
-            &pressure_nodes,
-            |t, k, i, a| E::coupling_entry(&couplings[t], k, i, a),
-            |t, k, l| blocks[t][k][l],
-        )?;
+        let LinearSaddlePoint {
+            dofs,
+            pressure_nodes,
+            couplings,
+            deviatoric,
+            saddle: system,
+            ..
+        } = LinearSaddlePoint::assemble(mesh, materials, problem)?;
         timings.assembly = clock.elapsed();
 
         let clock = Instant::now();
@@ -387,6 +355,78 @@ pub fn solve_static_mixed<E: MixedElement>(
     loads: &Loads,
 ) -> Result<MixedStaticSolution> {
     MixedStaticSolver::new(mesh, materials, constraints)?.solve(loads)
+}
+
+/// The linear mixed body's blocks on `problem`'s DOFs, which the static solver and the
+/// operator of the dynamic and modal analyses share: K_dev (every DOF and free rows and
+/// columns, force/length), each tet's coupling B (kept for the divergence and the pressure
+/// recovery) and the saddle point A(0) = [K_dev,ff −B_fᵀ; −B_f −C].
+pub(crate) struct LinearSaddlePoint<E: MixedElement> {
+    pub(crate) dofs: DofMap,
+    pub(crate) pressure_nodes: PressureNodes,
+    pub(crate) couplings: Vec<E::Coupling>,
+    pub(crate) deviatoric: CscMatrix,
+    pub(crate) free_deviatoric: CscMatrix,
+    pub(crate) saddle: CscMatrix,
+}
+
+impl<E: MixedElement> LinearSaddlePoint<E> {
+    /// Assembles the blocks of `mesh` with `materials` (μ and 1/κ per material; every ν < 0.5,
+    /// so κ is finite), consuming `problem` for its DOF map.
+    pub(crate) fn assemble(
+        mesh: &TetMesh<E>,
+        materials: &impl TetMaterials,
+        problem: Problem<'_, E>,
+    ) -> Result<Self> {
+        let shear: Vec<f64> = materials
+            .material_list()
+            .iter()
+            .map(|m| m.shear_modulus())
+            .collect();
+        let inverse_bulk: Vec<f64> = materials
+            .material_list()
+            .iter()
+            .map(|m| 1.0 / m.bulk_modulus())
+            .collect();
+        let mut deviatoric = problem.zero_matrix()?;
+        problem.assembler().reassemble_elements(
+            mesh,
+            |t| E::deviatoric_stiffness(&E::rest(mesh, t), shear[materials.index_of(t)]),
+            &mut deviatoric,
+        )?;
+        let free_deviatoric = problem.restrict(&deviatoric)?;
+        let pressure_nodes = PressureNodes::new(mesh);
+        // Per tet: B and C (4×4), from one rest each.
+        let (couplings, blocks): (Vec<E::Coupling>, Vec<[[f64; 4]; 4]>) = (0..mesh.tet_count())
+            .map(|t| {
+                let rest = E::rest(mesh, t);
+                let material = materials.index_of(t);
+                let block = std::array::from_fn(|k| {
+                    std::array::from_fn(|l| {
+                        E::pressure_block(&rest, shear[material], inverse_bulk[material], k, l)
+                    })
+                });
+                (E::coupling(&rest), block)
+            })
+            .unzip();
+        let dofs = problem.into_dofs();
+        let saddle = saddle_point_matrix(
+            mesh,
+            &free_deviatoric,
+            &dofs,
+            &pressure_nodes,
+            |t, k, i, a| E::coupling_entry(&couplings[t], k, i, a),
+            |t, k, l| blocks[t][k][l],
+        )?;
+        Ok(LinearSaddlePoint {
+            dofs,
+            pressure_nodes,
+            couplings,
+            deviatoric,
+            free_deviatoric,
+            saddle,
+        })
+    }
 }
 
 /// The saddle-point matrix [K_dev,ff −B_fᵀ; −B_f −C] (both triangles, sorted rows): the free
