@@ -7,7 +7,6 @@
 
 use nalgebra::{Matrix3, Vector3};
 use tetfem::analysis::nonlinear::NewtonOptions;
-use tetfem::fe::element::signed_volume;
 use tetfem::fe::element::stabilized_p1_neo_hookean::stabilized_neo_hookean;
 use tetfem::{
     BoxSplit, Constraints, ElementType, Loads, Material, MixedStaticSolver, Tet4, TetMesh,
@@ -18,7 +17,7 @@ use tetfem_fixtures::tube::LameTube;
 
 // The locking comparison's mesh (on which the plain linear tet gives 0.478 of Lamé's bore
 // displacement at ν = 0.4999) and the tube's material.
-use super::mixed_tube::{CELLS, material};
+use super::mixed_tube::{CELLS, linear_tet_pressure_spread, material, pressure_errors};
 
 /// u_r(a) of the mixed 4-node solve over Lamé's, and the solution's nodal pressure.
 fn mixed_ratio(tube: &LameTube, mesh: &TetMesh, poisson_ratio: f64) -> (f64, Vec<f64>) {
@@ -47,23 +46,6 @@ fn linear_ratio(tube: &LameTube, mesh: &TetMesh, poisson_ratio: f64) -> f64 {
     .unwrap();
     tube.inner_radial_displacement(mesh, &solution.displacement)
         / tube.radial_displacement(poisson_ratio, tube.inner)
-}
-
-/// The pressure's relative L2 error ‖p_h − p‖/(|p|·√V) against Lamé's constant mean pressure
-/// p, and the largest deviation of a tet's mean pressure from p over |p| (a checkerboard
-/// shows as tets far off in alternating sign).
-fn pressure_errors(mesh: &TetMesh, pressure: &[f64], exact: f64) -> (f64, f64) {
-    let (mut squared, mut volume, mut worst) = (0.0, 0.0, 0.0f64);
-    for tet in mesh.tets() {
-        let v = signed_volume(&std::array::from_fn(|k| mesh.nodes()[tet[k]]));
-        let e: [f64; 4] = std::array::from_fn(|k| pressure[tet[k]] - exact);
-        // ∫(Σ e_k L_k)² dV = V/20·(Σe_k² + (Σe_k)²): the P1 mass matrix, exact.
-        let sum: f64 = e.iter().sum();
-        squared += v / 20.0 * (e.iter().map(|x| x * x).sum::<f64>() + sum * sum);
-        volume += v;
-        worst = worst.max((sum / 4.0).abs() / exact.abs());
-    }
-    ((squared / volume).sqrt() / exact.abs(), worst)
 }
 
 #[test]
@@ -150,35 +132,11 @@ fn stabilized_p1_tube_converges_under_refinement() {
     // ... and on the comparison mesh it is a small fraction of the plain linear tet's
     // −κ tr ε scatter (measured 54× |p| there, the mixed 0.40×): a factor 10 is a clear
     // separation, not a fine margin.
-    let mesh = tube.mesh(CELLS, BoxSplit::Lecture6).unwrap();
-    let plain = solve_static(
-        &mesh,
-        &material(nu),
-        &tube.constraints(&mesh).unwrap(),
-        &tube.loads(&mesh).unwrap(),
-    )
-    .unwrap();
-    let spread = linear_pressure_spread(&mesh, &material(nu), &plain.displacement, exact);
-    println!("P1 worst tet pressure deviation {spread:.3e}");
+    let spread = linear_tet_pressure_spread(&tube, nu, exact);
     assert!(
         spread > 10.0 * errors[1].2,
         "P1 {spread} vs mixed {errors:?}"
     );
-}
-
-/// The largest deviation of a linear tet's pressure −κ tr ε from `exact`, over |exact|.
-fn linear_pressure_spread(mesh: &TetMesh, material: &Material, u: &[f64], exact: f64) -> f64 {
-    (0..mesh.tet_count())
-        .map(|t| {
-            let rest = Tet4::rest(mesh, t);
-            let local: Vec<f64> = mesh.tets()[t]
-                .iter()
-                .flat_map(|&n| [u[3 * n], u[3 * n + 1], u[3 * n + 2]])
-                .collect();
-            let p = -material.bulk_modulus() * Tet4::mean_strain(&rest, &local).trace();
-            (p - exact).abs() / exact.abs()
-        })
-        .fold(0.0, f64::max)
 }
 
 #[test]

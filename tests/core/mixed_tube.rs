@@ -5,9 +5,10 @@
 
 use nalgebra::{Matrix3, Vector3};
 use tetfem::fe::element::{MixedElement, signed_volume};
+use tetfem::mesh::NodeList;
 use tetfem::{
-    BoxSplit, Constraints, ElementType, Loads, Material, MixedStaticSolver, Tet4, Tet10, TetMesh,
-    solve_static, solve_static_mixed,
+    BoxSplit, CellType, Constraints, ElementType, Loads, Material, MixedStaticSolver, Tet4, Tet10,
+    TetMesh, solve_static, solve_static_mixed,
 };
 use tetfem_fixtures::tube::LameTube;
 
@@ -77,12 +78,18 @@ fn mixed_tube_does_not_lock_where_the_linear_tet_does() {
 }
 
 /// The mixed pressure's relative L2 error ‖p_h − p‖/(|p|·√V) against Lamé's constant mean
-/// pressure p, and the largest deviation of a tet's mean pressure from p over |p|.
-fn pressure_errors(mesh: &TetMesh<Tet10>, pressure: &[f64], exact: f64) -> (f64, f64) {
+/// pressure p, and the largest deviation of a tet's mean pressure from p over |p| (the
+/// pressure is linear on the corners for either mixed element).
+pub(crate) fn pressure_errors<C: CellType>(
+    mesh: &TetMesh<C>,
+    pressure: &[f64],
+    exact: f64,
+) -> (f64, f64) {
     let (mut squared, mut volume, mut worst) = (0.0, 0.0, 0.0f64);
     for tet in mesh.tets() {
-        let v = signed_volume(&std::array::from_fn(|k| mesh.nodes()[tet[k]]));
-        let e: [f64; 4] = std::array::from_fn(|k| pressure[tet[k]] - exact);
+        let corners = tet.corners();
+        let v = signed_volume(&corners.map(|n| mesh.nodes()[n]));
+        let e = corners.map(|n| pressure[n] - exact);
         // ∫(Σ e_k L_k)² dV = V/20·(Σe_k² + (Σe_k)²): the P1 mass matrix, exact.
         let sum: f64 = e.iter().sum();
         squared += v / 20.0 * (e.iter().map(|x| x * x).sum::<f64>() + sum * sum);
@@ -90,6 +97,23 @@ fn pressure_errors(mesh: &TetMesh<Tet10>, pressure: &[f64], exact: f64) -> (f64,
         worst = worst.max((sum / 4.0).abs() / exact.abs());
     }
     ((squared / volume).sqrt() / exact.abs(), worst)
+}
+
+/// The plain linear tet's worst pressure deviation on the comparison mesh ([`CELLS`]) at
+/// Poisson ratio `nu`: the largest |−κ tr ε − p|/|p| over its tets, p Lamé's mean pressure
+/// `exact` (the checkerboard a locking element scatters).
+pub(crate) fn linear_tet_pressure_spread(tube: &LameTube, nu: f64, exact: f64) -> f64 {
+    let mesh = tube.mesh(CELLS, BoxSplit::Lecture6).unwrap();
+    let solution = solve_static(
+        &mesh,
+        &material(nu),
+        &tube.constraints(&mesh).unwrap(),
+        &tube.loads(&mesh).unwrap(),
+    )
+    .unwrap();
+    let spread = linear_pressure_spread(&mesh, &material(nu), &solution.displacement, exact);
+    println!("P1 worst tet pressure deviation {spread:.3e}");
+    spread
 }
 
 /// The largest deviation of a linear tet's pressure −κ tr ε from `exact`, over |exact|.
@@ -140,16 +164,7 @@ fn mixed_tube_pressure_converges_without_checkerboard() {
     );
     // The linear tet on the same mesh: its constant pressure −κ tr ε scatters from tet to tet
     // (the checkerboard of a locking element) by far more than the mixed one's.
-    let linear = tube.mesh(CELLS, BoxSplit::Lecture6).unwrap();
-    let solution = solve_static(
-        &linear,
-        &material(nu),
-        &tube.constraints(&linear).unwrap(),
-        &tube.loads(&linear).unwrap(),
-    )
-    .unwrap();
-    let spread = linear_pressure_spread(&linear, &material(nu), &solution.displacement, exact);
-    println!("P1 worst tet pressure deviation {spread:.3e}");
+    let spread = linear_tet_pressure_spread(&tube, nu, exact);
     // Ten times the mixed element's worst tet: a clear separation, not a fine margin.
     assert!(
         spread > 10.0 * errors[1].1,
