@@ -368,7 +368,7 @@ pub(crate) struct RestPreconditionedCg {
 }
 
 /// The largest relative tolerance of CG on a contact run's J ([`contact_forcing`]).
-const CONTACT_FORCING_MAX: f64 = 0.1;
+const CONTACT_FORCING_MAX: f64 = 0.5;
 
 /// The relative tolerance of CG on J preconditioned by a contact run's factor when the residual
 /// went from `previous` to `current` in the last iteration: Eisenstat and Walker's second
@@ -381,6 +381,10 @@ const CONTACT_FORCING_MAX: f64 = 0.1;
 /// 2.4e-9), a direction solved to 1e-3 of ‖r‖ is over-solved: each CG iteration is a
 /// triangular solve pair, 15–22 of them an iteration. Near the solution the contraction is
 /// quadratic and η falls to the floor again, which keeps the last iterations' rate.
+///
+/// The cap: on the drop's first 40 steps, 0.5 against 0.1 took 67 against 74 factorizations,
+/// 3 476 against 4 528 CG iterations and 18 against 27 fallbacks for 11.15 against 10.95
+/// Newton iterations a step; the press (100 steps) 1 499 against 1 486 CG iterations.
 fn contact_forcing(previous: Option<f64>, current: f64, floor: f64) -> f64 {
     match previous {
         Some(previous) if previous > 0.0 => {
