@@ -18,7 +18,9 @@
 //! fallbacks, and the smallest gap of a boundary node to an obstacle over the run (> 0: no
 //! node through; `tests/core/interactive_contact.rs` asserts it on a 4³-cell block). Threads:
 //! `RAYON_NUM_THREADS` for the assembly, `threads` for the Cholesky (the 2 threads:
-//! `RAYON_NUM_THREADS=2` and `threads` 2).
+//! `RAYON_NUM_THREADS=2` and `threads` 2). With `INTERACTIVE_CONTACT_DUMP=<file>` each step's
+//! free displacements are written there (little-endian f64, one step after another, not timed):
+//! the trajectory another tolerance or build is compared against.
 //!
 //! `cargo bench --bench interactive_contact -- [scenario] [cells] [steps] [threads] [solve]
 //! [tolerance] [trace]` (default `drop 14 100 2 auto 1e-8`; scenario `drop`, `press` or
@@ -27,6 +29,13 @@
 //! against; solve one of the names of `NonlinearSolve`: `auto`, `refactor`,
 //! `rest_preconditioned`, `rest_lbfgs`; tolerance the Newton step tolerance,
 //! `StepNewtonOptions::tolerance`; `trace` prints each step's iterations and wall time).
+//!
+//! `tangent [cells] [repeats]`: the Neo-Hookean tangent of the drop's cube (at a displacement
+//! of a few percent strain) assembled `repeats` times (default 20) each way, interleaved:
+//! every tet's matrix computed in each node range that holds one of its nodes
+//! (`Assembler::reassemble`), and each computed once (`Assembler::reassemble_computing_once`,
+//! what the nonlinear force's tangent uses); prints the best and median times and whether the
+//! two matrices are the same bits.
 
 use std::time::Instant;
 
@@ -86,6 +95,73 @@ fn scene(scenario: &str, cells: usize) -> Result<(Definition, Vector3<f64>)> {
     Ok((definition, velocity))
 }
 
+/// The `tangent` scenario: the two assemblies of the Neo-Hookean tangent side by side.
+fn tangent_assembly(cells: usize, repeats: usize) -> Result<()> {
+    let mesh = TetMesh::box_grid(
+        Vector3::zeros(),
+        Vector3::new(0.2, 0.2, 0.2),
+        [cells; 3],
+        BoxSplit::Mirrored6,
+    )?;
+    let model = ModelKind::NeoHookean.build(&Material::new(E, 0.3, 1000.0)?);
+    // A smooth deformation of a few percent strain: shear, squash and a twist.
+    let u: Vec<f64> = mesh
+        .nodes()
+        .iter()
+        .flat_map(|p| {
+            [
+                0.05 * p.z + 0.02 * p.y * p.z,
+                -0.02 * p.x * p.z,
+                -0.04 * p.z,
+            ]
+        })
+        .collect();
+    let elements = mesh.elements();
+    let calls = std::sync::atomic::AtomicUsize::new(0);
+    let element_matrix = |t: usize| {
+        calls.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        let rest = mesh.tets()[t].map(|n| mesh.nodes()[n]);
+        let x = mesh.tets()[t]
+            .map(|n| mesh.nodes()[n] + Vector3::new(u[3 * n], u[3 * n + 1], u[3 * n + 2]));
+        model.tangent(&elements[t], &rest, &x)
+    };
+    let assembler = tetfem::Assembler::new(&mesh);
+    let mut every = tetfem::CscMatrix::zeros(std::sync::Arc::clone(assembler.pattern()))?;
+    let mut once = every.clone();
+    let (mut t_every, mut t_once) = (Vec::new(), Vec::new());
+    for _ in 0..repeats {
+        let clock = Instant::now();
+        assembler.reassemble(&mesh, element_matrix, &mut every)?;
+        t_every.push(clock.elapsed().as_secs_f64());
+        let clock = Instant::now();
+        assembler.reassemble_computing_once(&mesh, element_matrix, &mut once)?;
+        t_once.push(clock.elapsed().as_secs_f64());
+    }
+    // Element matrices computed per assembly, each way (the last repeat's).
+    calls.store(0, std::sync::atomic::Ordering::Relaxed);
+    assembler.reassemble(&mesh, element_matrix, &mut every)?;
+    let computed_every = calls.swap(0, std::sync::atomic::Ordering::Relaxed);
+    assembler.reassemble_computing_once(&mesh, element_matrix, &mut once)?;
+    let computed_once = calls.load(std::sync::atomic::Ordering::Relaxed);
+    let same = every
+        .values()
+        .iter()
+        .zip(once.values())
+        .all(|(a, b)| a.to_bits() == b.to_bits());
+    let summary = |times: &mut Vec<f64>| {
+        times.sort_by(f64::total_cmp);
+        (1e3 * times[0], 1e3 * times[times.len() / 2])
+    };
+    let ((best_e, median_e), (best_o, median_o)) = (summary(&mut t_every), summary(&mut t_once));
+    println!(
+        "tangent assembly, {} DOFs, {} tets, {} rayon threads, {repeats} each: every range {best_e:.2} ms best / {median_e:.2} median, once {best_o:.2} / {median_o:.2} ms; element matrices {computed_every} / {computed_once}; same bits: {same}",
+        mesh.dof_count(),
+        mesh.tet_count(),
+        rayon::current_num_threads()
+    );
+    Ok(())
+}
+
 fn main() -> Result<()> {
     // `cargo bench` appends `--bench` to a harness-less target's arguments: not one of ours.
     let args: Vec<String> = std::env::args()
@@ -99,6 +175,9 @@ fn main() -> Result<()> {
     let solve: NonlinearSolve = arg(4, "auto").parse()?;
     let tolerance: f64 = arg(5, "1e-8").parse().unwrap_or(1e-8);
     let trace = arg(6, "") == "trace";
+    if scenario == "tangent" {
+        return tangent_assembly(cells, number(2, 20));
+    }
 
     let (definition, velocity) = scene(scenario, cells)?;
     let contact = definition.contact.clone();
@@ -117,6 +196,8 @@ fn main() -> Result<()> {
 
     let mut smallest = f64::INFINITY;
     let mut checking = 0.0;
+    let dump_path = std::env::var("INTERACTIVE_CONTACT_DUMP").ok();
+    let mut dump: Vec<u8> = Vec::new();
     let clock = Instant::now();
     run.run((0, steps), &mut |view: &StepView<'_>| -> Result<Flow> {
         let watch = Instant::now();
@@ -129,6 +210,9 @@ fn main() -> Result<()> {
             None => f64::INFINITY,
         };
         smallest = smallest.min(gap);
+        if dump_path.is_some() {
+            dump.extend(view.state.displacement.iter().flat_map(|x| x.to_le_bytes()));
+        }
         if trace {
             let stats = view.integrator.newton_stats().unwrap_or_default();
             println!(
@@ -146,6 +230,11 @@ fn main() -> Result<()> {
         Ok(Flow::Continue)
     })?;
     let wall = clock.elapsed().as_secs_f64() - checking;
+    if let Some(path) = &dump_path {
+        std::fs::write(path, &dump).map_err(|e| {
+            tetfem::Error::invalid_parameter("INTERACTIVE_CONTACT_DUMP", path, e.to_string())
+        })?;
+    }
     // A fingerprint of the final state's bits: two builds that take the same steps print the
     // same one (a change of speed only must not move it).
     let fingerprint = run

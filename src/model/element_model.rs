@@ -177,7 +177,7 @@ impl ModelElement for Tet4 {
         project: bool,
         tangent: &mut CscMatrix,
     ) -> Result<()> {
-        assembler.reassemble(
+        assembler.reassemble_computing_once(
             mesh,
             |t| {
                 let k = models.model_of(t).tangent(
