@@ -50,7 +50,8 @@ pub use internal_force::{BarrierRecord, ForceWorkspace, InternalForce, Nonlinear
 pub use newmark::Newmark;
 pub use newton::{NewtonStats, StepNewtonOptions};
 pub use nonlinear_solve::{
-    AUTO_LBFGS_HISTORY, AUTO_LBFGS_TOLERANCE, AUTO_REFACTOR_BELOW, NonlinearSolve,
+    AUTO_LBFGS_CORRECTION, AUTO_LBFGS_HISTORY, AUTO_LBFGS_TOLERANCE, AUTO_REFACTOR_BELOW,
+    NonlinearSolve,
 };
 pub use reactions::SupportReactions;
 pub use stability::{

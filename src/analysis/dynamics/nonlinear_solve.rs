@@ -81,9 +81,13 @@ pub enum NonlinearSolve {
     /// `validation/PERFORMANCE.md`.
     ///
     /// On the L-BFGS path a step stops at the looser of `StepNewtonOptions::tolerance` and
-    /// [`AUTO_LBFGS_TOLERANCE`]: the trajectory is then within about 1e-5 of the largest
-    /// displacement from the one solved to 1e-8, in 2.4–2.8× fewer iterations. Name
-    /// [`RestPreconditionedLbfgs`](Self::RestPreconditionedLbfgs) for the tolerance as set.
+    /// [`AUTO_LBFGS_TOLERANCE`], or earlier by the correction test of
+    /// [`AUTO_LBFGS_CORRECTION`] (the remaining correction estimated from the last two steps'
+    /// contraction, against the step's motion): on the swinging cantilever the trajectory is
+    /// then within 2.7e-5–4.8e-5 of the largest displacement from the one solved to 1e-8
+    /// (2,700–38,808 DOFs), in 2.1–2.2 iterations a step against 2.5–3.05 with the residual
+    /// test alone. Name [`RestPreconditionedLbfgs`](Self::RestPreconditionedLbfgs) for the
+    /// tolerance as set and no correction test.
     Auto,
 }
 
@@ -110,6 +114,22 @@ pub const AUTO_LBFGS_HISTORY: usize = 5;
 /// 1.2e-5 at 9,720, in 50–53 L-BFGS iterations against 137–146 at 1e-8. At 3e-3 it was
 /// 2.5e-5–3.2e-5 in 43, at 1e-2 1.6e-4–4.6e-4 in 31–36 (past the 1e-4 an animation is held to).
 pub const AUTO_LBFGS_TOLERANCE: f64 = 1e-3;
+
+/// τ of the correction test of [`NonlinearSolve::Auto`]'s L-BFGS path (dimensionless): from
+/// its second accepted step s_k on, a step has converged when the correction still to come,
+/// estimated as θ/(1 − θ)·‖s_k‖∞ with θ = ‖s_k‖∞/‖s_{k−1}‖∞ < 1 the observed contraction (the
+/// simplified-Newton stopping rule of Hairer & Wanner, *Solving ODEs II*, IV.8), is at most
+/// τ·‖u_k − u‖∞, τ of the displacement the step has made (length over length). The residual
+/// test weighs the stiff modes' small errors most, the trajectory is made of the soft modes'
+/// large motion. On the swinging cantilever (20 steps of 10 ms, 38° tip rotation,
+/// `validation/src/bin/corotational_cost.rs --set options`) the residual test alone took 2.65
+/// (9,720 DOFs) and 3.05 (38,808) iterations a step, with this test 2.15 and 2.1, at 3.8e-5–4.8e-5
+/// of the largest displacement from the refactoring trajectory (the target 1e-4). On the harder
+/// swing of `tests/core/corotational_step.rs` (1,800 DOFs, 25 steps of 20 ms to 105°) τ = 1e-4
+/// took 154 iterations against 195 at 5.05e-5; τ = 1e-3 there took 109 iterations but left
+/// the target (7.5e-4), so τ is not larger. The distance is not monotone in τ (3e-5: 167
+/// iterations at 5.7e-5; 1e-5: 184 at 3.3e-5): θ from two L-BFGS steps is a rough estimate.
+pub const AUTO_LBFGS_CORRECTION: f64 = 1e-4;
 
 /// The CG settings of [`NonlinearSolve::Auto`]'s preconditioned path, and of an L-BFGS step's
 /// fallback: 25 iterations, η = 1e-3.
@@ -211,6 +231,22 @@ impl NonlinearSolve {
                 requested.max(AUTO_LBFGS_TOLERANCE)
             }
             _ => requested,
+        }
+    }
+
+    /// τ of the correction test a Newton iteration on `force` with `free_dofs` unknowns stops
+    /// by besides the residual's: [`AUTO_LBFGS_CORRECTION`] on [`Auto`](Self::Auto)'s L-BFGS
+    /// path (without contact), none otherwise.
+    pub(crate) fn correction_tolerance(
+        self,
+        free_dofs: usize,
+        force: &super::NonlinearForce,
+    ) -> Option<f64> {
+        match (self, self.for_force(free_dofs, force)) {
+            (NonlinearSolve::Auto, NonlinearSolve::RestPreconditionedLbfgs { .. }) => {
+                Some(AUTO_LBFGS_CORRECTION)
+            }
+            _ => None,
         }
     }
 

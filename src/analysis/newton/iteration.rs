@@ -48,6 +48,13 @@ pub(crate) trait NewtonSystem {
         false
     }
 
+    /// Whether the step just accepted (fraction `alpha` of δ) shows the iterate converged by a
+    /// test on the corrections the system keeps besides the residual's (the implicit step's
+    /// L-BFGS path, see `NonlinearSolve::Auto`); none by default.
+    fn converged_by_correction(&mut self, _alpha: f64) -> bool {
+        false
+    }
+
     /// What the caller's interrupt test names while `iteration` (1-based) runs.
     fn describe(&self, iteration: usize) -> String;
 }
@@ -64,7 +71,8 @@ pub(crate) enum Stall {
 }
 
 /// Newton's iterations on `system` from residual norm `r_norm` until ‖r‖ ≤
-/// `tolerance`·`reference` or the round-off floor, at most `max_iterations` per direction
+/// `tolerance`·`reference`, the round-off floor or the system's own correction test
+/// ([`NewtonSystem::converged_by_correction`]), at most `max_iterations` per direction
 /// strategy. Returns the iterations taken, or the [`Stall`] (the caller names its problem in
 /// its error); errors of the system's evaluations and of the interrupt test pass through.
 pub(crate) fn iterate(
@@ -109,6 +117,9 @@ pub(crate) fn iterate(
             return Ok(Err(Stall::NotFinite));
         }
         if r_norm <= ROUND_OFF_FLOOR * reference && r_norm > 0.5 * before {
+            break;
+        }
+        if system.converged_by_correction(alpha) {
             break;
         }
     }

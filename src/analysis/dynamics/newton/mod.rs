@@ -33,7 +33,10 @@ pub struct StepNewtonOptions {
     /// implicit equation at the step's start u' = u and f the external load (default 1e-8),
     /// or at the round-off floor of the internal forces: below 1e-6 of that reference, a
     /// residual that no longer halves (the O(E·|X|) terms of an element force cancel to
-    /// O(E·strain), and more iterations cannot lower the noise that leaves).
+    /// O(E·strain), and more iterations cannot lower the noise that leaves). On
+    /// `NonlinearSolve::Auto`'s L-BFGS path the tolerance is at least
+    /// [`AUTO_LBFGS_TOLERANCE`](super::AUTO_LBFGS_TOLERANCE), and the step also stops by the
+    /// correction test of [`AUTO_LBFGS_CORRECTION`](super::AUTO_LBFGS_CORRECTION).
     pub tolerance: f64,
     /// Newton iterations allowed per step (default 25); more is [`Error::Diverged`] naming the
     /// step, with the residual reached.
@@ -192,6 +195,11 @@ pub(crate) struct NewtonSolver {
     abort_on_stall: bool,
     /// Line searches in a row of the current run that took at most [`STALL_FRACTION`].
     short_steps: usize,
+    /// τ of the correction test ([`super::nonlinear_solve::AUTO_LBFGS_CORRECTION`]) when the
+    /// step stops by it too (`NonlinearSolve::Auto`'s L-BFGS path).
+    correction_tolerance: Option<f64>,
+    /// ‖s‖∞ of the current run's last accepted step (length; ∞ before the first).
+    last_correction: f64,
 }
 
 /// The line-search fraction at or below which a Newton step counts as short (see
@@ -225,6 +233,7 @@ impl NewtonSolver {
         let n = force.free_count();
         let mut options = options;
         options.tolerance = solve.step_tolerance(n, &force, options.tolerance);
+        let correction_tolerance = solve.correction_tolerance(n, &force);
         let solve = solve.for_force(n, &force);
         let step_resolution = force.step_resolution();
         Error::check_len("nonlinear force free DOFs", system.free_count(), n)?;
@@ -260,6 +269,8 @@ impl NewtonSolver {
             contact_weight: 1.0,
             abort_on_stall: false,
             short_steps: 0,
+            correction_tolerance,
+            last_correction: f64::INFINITY,
         })
     }
 
@@ -687,6 +698,7 @@ impl NewtonSolver {
         let diverged = |reason: String| Error::Diverged { step, time, reason };
         self.direction.begin_iterations();
         self.short_steps = 0;
+        self.last_correction = f64::INFINITY;
         if !std::mem::take(&mut self.residual_at_start) {
             self.residual_into(system, equation, u_new, false)?;
         }
@@ -947,6 +959,25 @@ impl NewtonSystem for StepSystem<'_> {
         self.solver.direction.fall_back(&mut self.solver.stats)
     }
 
+    fn converged_by_correction(&mut self, alpha: f64) -> bool {
+        let Some(tau) = self.solver.correction_tolerance else {
+            return false;
+        };
+        let step = alpha * max_abs(&self.solver.delta);
+        // θ = 0 at the run's first step (no contraction seen yet): never converged by it.
+        let theta = step / self.solver.last_correction;
+        self.solver.last_correction = step;
+        if !(theta > 0.0 && theta < 1.0) {
+            return false;
+        }
+        let moved = self
+            .u_new
+            .iter()
+            .zip(self.equation.start)
+            .fold(0.0f64, |m, (u, u0)| m.max((u - u0).abs()));
+        theta / (1.0 - theta) * step <= tau * moved
+    }
+
     fn describe(&self, iteration: usize) -> String {
         format!("Newton iteration {iteration} of step {}", self.step + 1)
     }
@@ -974,4 +1005,9 @@ fn dot(a: &[f64], b: &[f64]) -> f64 {
 
 fn norm(v: &[f64]) -> f64 {
     dot(v, v).sqrt()
+}
+
+/// ‖v‖∞.
+fn max_abs(v: &[f64]) -> f64 {
+    v.iter().fold(0.0f64, |m, x| m.max(x.abs()))
 }
