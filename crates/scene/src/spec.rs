@@ -803,7 +803,10 @@ impl SceneSpec {
 pub enum NonlinearSolverName {
     /// [`NonlinearSolve::Auto`]: refactoring on small meshes, L-BFGS (with contact:
     /// preconditioned CG) on larger ones, the L-BFGS path stopping at no tighter than
-    /// [`AUTO_LBFGS_TOLERANCE`](tetfem::analysis::dynamics::AUTO_LBFGS_TOLERANCE).
+    /// [`AUTO_LBFGS_TOLERANCE`](tetfem::analysis::dynamics::AUTO_LBFGS_TOLERANCE), or earlier
+    /// when the correction left is below
+    /// [`AUTO_LBFGS_CORRECTION`](tetfem::analysis::dynamics::AUTO_LBFGS_CORRECTION) of the
+    /// step's motion.
     #[default]
     Auto,
     /// [`NonlinearSolve::RestPreconditionedCg`]: CG preconditioned by the rest-state factor
