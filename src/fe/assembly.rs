@@ -44,6 +44,12 @@ pub struct Assembler {
     fingerprint: (usize, usize, u64),
 }
 
+/// The largest scratch (bytes) [`Assembler::reassemble_computing_once`] keeps for the
+/// straddling tets' element matrices: 64 MiB, 58k tets' 12×12 matrices (the 10k-DOF cube of
+/// `benches/interactive_contact.rs` needs 9.8 MB at 2 threads), small beside the factor of any
+/// mesh with that many straddling tets, and never allocated unchecked on a larger one.
+pub const SHARED_SCRATCH_LIMIT: usize = 64 << 20;
+
 /// The tets that straddle partitions ([`Assembler::shared`]) and the scratch their element
 /// matrices are kept in between the two passes of
 /// [`Assembler::reassemble_computing_once`], reused from call to call rather than allocated
@@ -308,6 +314,11 @@ impl Assembler {
     /// (`benches/interactive_contact.rs`) the Neo-Hookean tangent was computed for
     /// 1.52× the tets (25 003 element tangents for 16 464 tets; 1.22× at 1 thread).
     ///
+    /// The straddling tets' matrices are kept in a scratch of 1,152 bytes a tet; where that
+    /// would pass [`SHARED_SCRATCH_LIMIT`] (a large mesh whose node order cuts many tets at
+    /// the ranges' edges) this is `reassemble`, whose extra cost is the duplicates' compute
+    /// and no memory.
+    ///
     /// Errors: those of `reassemble`.
     pub fn reassemble_computing_once(
         &self,
@@ -316,7 +327,8 @@ impl Assembler {
         matrix: &mut CscMatrix,
     ) -> Result<()> {
         use rayon::prelude::*;
-        if self.shared.tets.is_empty() {
+        let scratch_bytes = self.shared.tets.len() * std::mem::size_of::<Matrix12>();
+        if self.shared.tets.is_empty() || scratch_bytes > SHARED_SCRATCH_LIMIT {
             return self.reassemble(mesh, element_matrix, matrix);
         }
         // A concurrent assembly on the same assembler (rare) computes into its own scratch.
