@@ -68,21 +68,3 @@ pub fn next_stiffness(floor: f64, current: f64, estimate: f64, any_within: bool)
         false => floor.max(estimate),
     }
 }
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn the_estimate_stores_the_kinetic_energy_at_the_fraction() {
-        let (m, v, a, d_hat, f) = (2.0, 0.5, 1e-4, 1e-3, 0.25);
-        let kappa = node_estimate(m, v, a, d_hat, f);
-        // κ·A·b(f·d̂) = ½·m·v² exactly up to round-off of a few operations.
-        let stored = kappa * a * barrier::value(f * d_hat, d_hat);
-        assert!((stored - 0.5 * m * v * v).abs() <= 1e-14 * stored);
-        assert_eq!(node_estimate(m, -v, a, d_hat, f), 0.0);
-        assert_eq!(next_stiffness(1.0, 5.0, 3.0, true), 5.0);
-        assert_eq!(next_stiffness(1.0, 5.0, 3.0, false), 3.0);
-        assert_eq!(next_stiffness(4.0, 5.0, 3.0, false), 4.0);
-    }
-}
