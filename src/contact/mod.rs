@@ -11,7 +11,7 @@
 //!
 //! One idea per file: [`barrier`] (b, b′, b″), [`carry`] (the first iterate of a step whose
 //! obstacles move), [`friction`] (IPC's lagged smoothed Coulomb
-//! friction), [`obstacle`] (half-space, sphere, box: signed distance, its derivatives, time of
+//! friction), [`impact`] (the impact-aware barrier stiffness, an option), [`obstacle`] (half-space, sphere, box: signed distance, its derivatives, time of
 //! impact), [`overlap`] (the start check of the boundary surface against the obstacles),
 //! [`parameters`] (d̂ and κ and their default rule), [`set`] (the contact of a mesh's
 //! boundary nodes with the obstacles), [`staging`] (moving obstacles in collision-free stages, the fall-back),
@@ -58,6 +58,7 @@
 pub mod barrier;
 pub mod carry;
 pub mod friction;
+pub mod impact;
 pub mod obstacle;
 pub mod overlap;
 pub mod parameters;

@@ -8,8 +8,23 @@ use crate::mesh::{CellType, TetMesh};
 pub struct ContactParameters {
     /// d̂ (length): gaps below it are pushed open; every resting gap lies in (0, d̂).
     pub activation_distance: f64,
-    /// κ (pressure per length, Pa/m): the contact pressure is p = −κ·b′(d).
+    /// κ (pressure per length, Pa/m): the contact pressure is p = −κ·b′(d). With an
+    /// [`impact_fraction`](Self::impact_fraction) it is κ₀, the floor of the stiffness in force.
     pub stiffness: f64,
+    /// f (dimensionless, 0 < f < 1), or `None` (the default: κ stays κ₀). With f, an implicit
+    /// step raises the barrier's stiffness so that it takes each impact's kinetic energy at a
+    /// gap of about f·d̂, where a time step can resolve the barrier's mode:
+    ///
+    /// κ_eff = max(κ₀, maxᵢ mᵢ·v_n,ᵢ²/(2·Aᵢ·b(f·d̂)))  (Pa/m)
+    ///
+    /// over the contact nodes i approaching an obstacle at the step's start (v_n,ᵢ > 0 the
+    /// normal approach speed relative to the obstacle's mean velocity over the step, length/time;
+    /// mᵢ the node's row-sum lumped mass; Aᵢ its area weight; b the barrier). While a node is
+    /// within d̂ at a step's start, κ_eff never falls (it is the max of the value before and the
+    /// estimate), so the energy a landing node stored is given back in its rebound; it returns
+    /// to the estimate once every node is outside d̂ (no barrier energy then, so the change
+    /// does no work). See [`Contact::update_impact_stiffness`](super::Contact::update_impact_stiffness).
+    pub impact_fraction: Option<f64>,
 }
 
 /// d̂ as a fraction of the body's bounding-box diagonal (the default rule).
@@ -47,12 +62,22 @@ impl ContactParameters {
         let parameters = ContactParameters {
             activation_distance: ACTIVATION_FRACTION * (max - min).norm(),
             stiffness: youngs_modulus / h,
+            impact_fraction: None,
         };
         parameters.check()?;
         Ok(parameters)
     }
 
-    /// [`Error::InvalidParameter`] unless both scales are finite and > 0.
+    /// The same scales with the impact-aware stiffness of [`impact_fraction`](Self::impact_fraction)
+    /// at the fraction `fraction` of d̂ (e.g. 0.25). Errors: `fraction` not in (0, 1).
+    pub fn with_impact_fraction(mut self, fraction: f64) -> Result<Self> {
+        self.impact_fraction = Some(fraction);
+        self.check()?;
+        Ok(self)
+    }
+
+    /// [`Error::InvalidParameter`] unless both scales are finite and > 0 and the impact
+    /// fraction, if any, is in (0, 1).
     pub fn check(&self) -> Result<()> {
         for (name, value) in [
             ("contact activation_distance", self.activation_distance),
@@ -65,6 +90,15 @@ impl ContactParameters {
                     "must be finite and > 0",
                 ));
             }
+        }
+        if let Some(f) = self.impact_fraction
+            && !(f > 0.0 && f < 1.0)
+        {
+            return Err(Error::invalid_parameter(
+                "contact impact_fraction",
+                f,
+                "must be a fraction of the activation distance in (0, 1), e.g. 0.25",
+            ));
         }
         Ok(())
     }

@@ -74,6 +74,9 @@ pub struct Contact {
     placement: Placement,
     /// The gap error a static solve drives its barrier to (dimensionless).
     gap_tolerance: f64,
+    /// The barrier stiffness in force (Pa/m): κ, or with an impact fraction the value of
+    /// [`update_impact_stiffness`](Contact::update_impact_stiffness).
+    kappa: super::impact::Stiffness,
 }
 
 /// The obstacles' current offsets, behind a lock so that a shared contact (inside an
@@ -214,6 +217,7 @@ impl Contact {
             obstacles,
             parameters,
             gap_tolerance: GAP_TOLERANCE,
+            kappa: super::impact::Stiffness::new(parameters.stiffness),
         };
         contact.check_state(&vec![0.0; mesh.dof_count()])?;
         // The nodes are outside; the faces between them and the obstacles' interiors next.
@@ -362,9 +366,86 @@ impl Contact {
         self.gap_tolerance
     }
 
-    /// d̂ and κ.
+    /// d̂ and κ (κ₀ with an impact fraction; the value in force is [`stiffness`](Self::stiffness)).
     pub fn parameters(&self) -> ContactParameters {
         self.parameters
+    }
+
+    /// The barrier stiffness in force (Pa/m): [`ContactParameters::stiffness`], or with an
+    /// impact fraction the last [`update_impact_stiffness`](Self::update_impact_stiffness).
+    pub fn stiffness(&self) -> f64 {
+        self.kappa.get()
+    }
+
+    /// Sets the barrier stiffness in force to `kappa` (Pa/m) where an impact fraction is on (a
+    /// resumed run's, from its checkpoint); without one κ stays the parameters' own.
+    pub(crate) fn set_stiffness_in_force(&self, kappa: f64) {
+        if self.parameters.impact_fraction.is_some() && kappa.is_finite() && kappa > 0.0 {
+            self.kappa.set(kappa);
+        }
+    }
+
+    /// With an impact fraction f ([`ContactParameters::impact_fraction`]), sets the barrier
+    /// stiffness for a step from its start state ([`super::impact`]):
+    /// κ = max(κ_prev if a node is within d̂, κ₀, maxᵢ mᵢ·v_n,ᵢ²/(2·Aᵢ·b(f·d̂))) (Pa/m), and
+    /// returns it; without one returns κ and changes nothing. `u`, `velocity`: full
+    /// displacement and velocity (length, length/time); `mass`: full row-sum lumped mass per
+    /// DOF (mass units; a node's mass is its x DOF's); `duration`: the step (time; the
+    /// obstacles' approach is measured against their mean velocity from their current
+    /// placement to the one at the current time + `duration`, set by
+    /// [`set_time`](Self::set_time) before).
+    ///
+    /// Errors: lengths that do not match the mesh; a node on or inside an obstacle.
+    pub fn update_impact_stiffness(
+        &self,
+        u: &[f64],
+        velocity: &[f64],
+        mass: &[f64],
+        (time, duration): (f64, f64),
+    ) -> Result<f64> {
+        let Some(fraction) = self.parameters.impact_fraction else {
+            return Ok(self.stiffness());
+        };
+        self.check_full(u)?;
+        Error::check_len("contact velocity", u.len(), velocity.len())?;
+        Error::check_len("contact mass", u.len(), mass.len())?;
+        let d_hat = self.parameters.activation_distance;
+        let now = self.offsets();
+        let obstacle_velocity: Vec<Vector3<f64>> = match duration > 0.0 {
+            true => (self.offsets_at(time + duration).iter().zip(&now))
+                .map(|(after, before)| (after - before) / duration)
+                .collect(),
+            false => vec![Vector3::zeros(); now.len()],
+        };
+        let (mut estimate, mut within) = (0.0f64, false);
+        self.for_each_gap(u, |k, o, x, d| {
+            within |= d < d_hat;
+            // A node already within d̂ has stored energy at the κ in force: raising κ for it
+            // would add energy (measured +4 % of the impact's kinetic energy on the drop).
+            if d < d_hat {
+                return;
+            }
+            let n = self.nodes[k];
+            let v = Vector3::new(velocity[3 * n], velocity[3 * n + 1], velocity[3 * n + 2]);
+            let approach = -self.obstacles[o]
+                .gradient(x)
+                .dot(&(v - obstacle_velocity[o]));
+            estimate = estimate.max(super::impact::node_estimate(
+                mass[3 * n],
+                approach,
+                self.areas[k],
+                d_hat,
+                fraction,
+            ));
+        });
+        let kappa = super::impact::next_stiffness(
+            self.parameters.stiffness,
+            self.stiffness(),
+            estimate,
+            within,
+        );
+        self.kappa.set(kappa);
+        Ok(kappa)
     }
 
     /// The same contact (nodes, obstacles and their placement, friction's scales) under other
@@ -390,6 +471,7 @@ impl Contact {
         // Friction's stick distance stays what it was (its default follows d̂).
         contact.slip_distance = Some(self.slip_distance());
         contact.parameters = parameters;
+        contact.kappa = super::impact::Stiffness::new(parameters.stiffness);
         Ok(contact)
     }
 
@@ -454,10 +536,7 @@ impl Contact {
     /// E_c(u) (energy units) at full displacement `u`; +∞ if a node is on or inside an obstacle.
     pub fn energy(&self, u: &[f64]) -> Result<f64> {
         self.check_full(u)?;
-        let ContactParameters {
-            activation_distance: d_hat,
-            stiffness: kappa,
-        } = self.parameters;
+        let (d_hat, kappa) = (self.parameters.activation_distance, self.stiffness());
         let mut total = 0.0;
         self.for_each_gap(u, |k, _, _, d| {
             if d < d_hat {
@@ -473,7 +552,7 @@ impl Contact {
         self.check_full(u)?;
         Error::check_len("contact force", u.len(), force.len())?;
         self.for_each_active(u, |n, _, obstacle, x, d, area| {
-            let f = -self.parameters.stiffness
+            let f = -self.stiffness()
                 * area
                 * barrier::derivative(d, self.parameters.activation_distance)
                 * obstacle.gradient(x);
@@ -488,7 +567,7 @@ impl Contact {
     pub fn obstacle_forces(&self, u: &[f64]) -> Result<Vec<Vector3<f64>>> {
         let mut forces = vec![Vector3::zeros(); self.obstacles.len()];
         self.for_each_active(u, |_, o, obstacle, x, d, area| {
-            forces[o] += self.parameters.stiffness
+            forces[o] += self.stiffness()
                 * area
                 * barrier::derivative(d, self.parameters.activation_distance)
                 * obstacle.gradient(x);
@@ -505,7 +584,7 @@ impl Contact {
     pub fn complementarity(&self, u: &[f64]) -> Result<(f64, f64)> {
         let (mut work, mut total) = (0.0, 0.0);
         self.for_each_active(u, |_, _, _, _, d, area| {
-            let lambda = -self.parameters.stiffness
+            let lambda = -self.stiffness()
                 * area
                 * barrier::derivative(d, self.parameters.activation_distance);
             work += lambda * d;
@@ -520,10 +599,7 @@ impl Contact {
     /// the contact nodes and obstacles; never an error for a node inside (a measurement).
     pub fn barrier_gaps(&self, u: &[f64]) -> Result<BarrierGaps> {
         self.check_full(u)?;
-        let ContactParameters {
-            activation_distance: d_hat,
-            stiffness: kappa,
-        } = self.parameters;
+        let (d_hat, kappa) = (self.parameters.activation_distance, self.stiffness());
         let (mut work, mut total, mut smallest) = (0.0, 0.0, f64::INFINITY);
         self.for_each_gap(u, |k, _, _, d| {
             smallest = smallest.min(if d.is_nan() { f64::NEG_INFINITY } else { d });
@@ -568,7 +644,7 @@ impl Contact {
         let mut pressures = vec![0.0; self.nodes.len()];
         self.for_each_gap(u, |k, _, _, d| {
             gaps[k] = gaps[k].min(d);
-            pressures[k] -= self.parameters.stiffness * barrier::derivative(d, d_hat);
+            pressures[k] -= self.stiffness() * barrier::derivative(d, d_hat);
         });
         Ok((gaps, pressures))
     }
@@ -642,8 +718,7 @@ impl Contact {
         let d_hat = self.parameters.activation_distance;
         self.for_each_active(u, |n, o, obstacle, x, d, area| {
             if obstacle.friction() > 0.0 {
-                let normal_force =
-                    -self.parameters.stiffness * area * barrier::derivative(d, d_hat);
+                let normal_force = -self.stiffness() * area * barrier::derivative(d, d_hat);
                 let g = obstacle.gradient(x);
                 points.push(LaggedPoint {
                     node: n,
@@ -778,7 +853,7 @@ impl Contact {
             .collect();
         let (d_hat, kappa, epsilon) = (
             self.parameters.activation_distance,
-            self.parameters.stiffness,
+            self.stiffness(),
             self.slip_velocity,
         );
         let mut forces = vec![Vector3::zeros(); self.obstacles.len()];
@@ -900,7 +975,7 @@ impl Contact {
         let d_hat = self.parameters.activation_distance;
         let mut blocks: Vec<(usize, Matrix3<f64>)> = Vec::new();
         self.for_each_active(u, |n, _, obstacle, x, d, area| {
-            let scale = self.parameters.stiffness * area;
+            let scale = self.stiffness() * area;
             let g = obstacle.gradient(x);
             let mut block = barrier::second_derivative(d, d_hat) * g * g.transpose();
             if !project {

@@ -141,3 +141,24 @@ fn every_newton_iterate_of_a_drop_at_10x_the_critical_step_stays_outside() {
         "{record:?}"
     );
 }
+
+/// The impact-aware stiffness's estimate stores a node's kinetic energy in the barrier at
+/// exactly f·d̂ (κ·A·b(f·d̂) = ½·m·v²), gives nothing for a receding or NaN speed, and the
+/// next step's κ never falls while a node is within d̂ and is the estimate (at least κ₀)
+/// once none is.
+#[test]
+fn impact_stiffness_stores_the_kinetic_energy_at_the_fraction() {
+    use tetfem::contact::barrier;
+    use tetfem::contact::impact::{next_stiffness, node_estimate};
+    let (m, v, a, d_hat, f) = (2.0, 0.5, 1e-4, 1e-3, 0.25);
+    let kappa = node_estimate(m, v, a, d_hat, f);
+    let stored = kappa * a * barrier::value(f * d_hat, d_hat);
+    // A few roundings of the same products: 1e-14 relative.
+    assert!((stored - 0.5 * m * v * v).abs() <= 1e-14 * stored);
+    assert_eq!(node_estimate(m, -v, a, d_hat, f), 0.0);
+    assert_eq!(node_estimate(m, f64::NAN, a, d_hat, f), 0.0);
+    assert_eq!(next_stiffness(1.0, 5.0, 3.0, true), 5.0);
+    assert_eq!(next_stiffness(1.0, 5.0, 7.0, true), 7.0);
+    assert_eq!(next_stiffness(1.0, 5.0, 3.0, false), 3.0);
+    assert_eq!(next_stiffness(4.0, 5.0, 3.0, false), 4.0);
+}

@@ -18,6 +18,7 @@ fn parameters() -> ContactParameters {
     ContactParameters {
         activation_distance: 1e-3,
         stiffness: 1e6,
+        impact_fraction: None,
     }
 }
 
@@ -58,12 +59,41 @@ fn zero_sizes_and_bad_friction_are_refused_by_name() {
     let bad = ContactParameters {
         activation_distance: 0.0,
         stiffness: 1.0,
+        impact_fraction: None,
     };
     let plane = Obstacle::half_space("floor", Vector3::new(0.0, 0.0, -1.0), Vector3::z()).unwrap();
     let message = Contact::new(&cube(), vec![plane], bad)
         .unwrap_err()
         .to_string();
     assert!(message.contains("activation_distance"), "{message}");
+}
+
+/// The impact fraction of the barrier stiffness (a fraction of d̂) is refused outside (0, 1),
+/// by name and with the range, both by the builder and by a contact built from a literal;
+/// the values inside are taken.
+#[test]
+fn a_bad_impact_fraction_is_refused_by_name() {
+    for f in [0.0, 1.0, -0.5, 2.0, f64::NAN, f64::INFINITY] {
+        let message = parameters()
+            .with_impact_fraction(f)
+            .unwrap_err()
+            .to_string();
+        assert!(message.contains("impact_fraction"), "{f}: {message}");
+        assert!(message.contains("(0, 1)"), "{f}: {message}");
+        let literal = ContactParameters {
+            impact_fraction: Some(f),
+            ..parameters()
+        };
+        let plane = Obstacle::half_space("floor", Vector3::new(0.0, 0.0, -1.0), Vector3::z());
+        let message = Contact::new(&cube(), vec![plane.unwrap()], literal)
+            .unwrap_err()
+            .to_string();
+        assert!(message.contains("impact_fraction"), "{f}: {message}");
+    }
+    for f in [1e-6, 0.25, 0.999] {
+        let taken = parameters().with_impact_fraction(f).unwrap();
+        assert_eq!(taken.impact_fraction, Some(f));
+    }
 }
 
 /// Issue 33: μ = 1e300 and an activation distance of 1e300 were accepted; both are refused with

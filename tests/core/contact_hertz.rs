@@ -42,6 +42,7 @@ fn press(lift: f64) -> (f64, f64) {
         stiffness: ContactParameters::for_mesh(&mesh, material.youngs_modulus())
             .unwrap()
             .stiffness,
+        impact_fraction: None,
     };
     let start_gap = 0.5 * d_hat;
     let sphere = Obstacle::sphere(

@@ -394,3 +394,31 @@ fn the_default_large_deformation_paths_restart_with_the_same_bits() {
         }
     }
 }
+
+/// The barrier record carries the stiffness in force through a checkpoint only where an impact
+/// fraction raised it above κ: such a record has one more value and reads back to the same
+/// bits, and a record at κ keeps the old count (so checkpoints of runs without the option are
+/// unchanged) and reads back with κ in force.
+#[test]
+fn barrier_record_keeps_a_raised_stiffness() {
+    use tetfem::analysis::dynamics::BarrierRecord;
+    use tetfem::contact::ContactParameters;
+    let parameters = ContactParameters {
+        activation_distance: 1e-4,
+        stiffness: 2e6,
+        impact_fraction: Some(0.25),
+    };
+    let plain = BarrierRecord::start(parameters);
+    assert_eq!(plain.to_values().len(), BarrierRecord::VALUES);
+    let read = BarrierRecord::from_values(&plain.to_values()).unwrap();
+    assert_eq!(read.stiffness_in_force.to_bits(), 2e6f64.to_bits());
+    let raised = BarrierRecord {
+        stiffness_in_force: 7.25e7,
+        ..plain
+    };
+    let values = raised.to_values();
+    assert_eq!(values.len(), BarrierRecord::VALUES + 1);
+    let read = BarrierRecord::from_values(&values).unwrap();
+    assert_eq!(read.stiffness_in_force.to_bits(), 7.25e7f64.to_bits());
+    assert!(BarrierRecord::from_values(&values[..5]).is_none());
+}

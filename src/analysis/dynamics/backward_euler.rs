@@ -120,6 +120,7 @@ impl BackwardEuler {
         };
         let dt = self.dt;
         newton.force().set_time(&self.system, state.time)?;
+        newton.force().begin_impact_step(&self.system, state, dt)?;
         let energy = newton.elastic_energy_of(&self.system, state)?;
         DivergenceGuard::check_or_start(
             &mut self.guard,

@@ -227,9 +227,10 @@ impl Checkpoint {
                 path: path.to_path_buf(),
                 line: 1,
                 message: format!(
-                    "the {BARRIER_RECORD} record holds {} values, not {}",
+                    "the {BARRIER_RECORD} record holds {} values, not {} or {}",
                     values.len(),
-                    BarrierRecord::VALUES
+                    BarrierRecord::VALUES,
+                    BarrierRecord::VALUES + 1
                 ),
             })
     }

@@ -52,6 +52,10 @@ pub struct BarrierRecord {
     /// The largest ε·Σλ over the accepted steps (force units): the force error the rule
     /// bounds, over [`FORCE_ERROR_PER_GAP_ERROR`](crate::contact::FORCE_ERROR_PER_GAP_ERROR).
     pub peak_gap_force: f64,
+    /// The barrier stiffness in force after the last accepted step (Pa/m): κ, or with an
+    /// impact fraction the value [`Contact::update_impact_stiffness`] keeps between steps,
+    /// which a resumed run needs to continue with the same bits.
+    pub stiffness_in_force: f64,
 }
 
 impl BarrierRecord {
@@ -66,10 +70,12 @@ impl BarrierRecord {
             steps: 0,
             peak_force: 0.0,
             peak_gap_force: 0.0,
+            stiffness_in_force: parameters.stiffness,
         }
     }
 
-    fn take_step(&mut self, gaps: &crate::contact::BarrierGaps) {
+    fn take_step(&mut self, gaps: &crate::contact::BarrierGaps, stiffness: f64) {
+        self.stiffness_in_force = stiffness;
         self.gap_error_max = self.gap_error_max.max(gaps.gap_error);
         self.gap_error_final = gaps.gap_error;
         self.smallest_step_gap = self.smallest_step_gap.min(gaps.smallest_gap);
@@ -111,9 +117,10 @@ impl BarrierRecord {
 
     /// The record as numbers, for a checkpoint's records: d̂, κ, the largest and last gap
     /// errors, the smallest step and iterate gaps, the step count (as f64: exact below 2⁵³),
-    /// the peak force and the peak ε·Σλ.
+    /// the peak force and the peak ε·Σλ; then κ in force, only where it differs from κ (an
+    /// impact fraction raised it), so that files of runs without one are unchanged.
     pub fn to_values(&self) -> Vec<f64> {
-        vec![
+        let mut values = vec![
             self.parameters.activation_distance,
             self.parameters.stiffness,
             self.gap_error_max,
@@ -123,14 +130,25 @@ impl BarrierRecord {
             self.steps as f64,
             self.peak_force,
             self.peak_gap_force,
-        ]
+        ];
+        // κ in force only where it is not κ: the files of runs without an impact fraction
+        // stay as they were.
+        if self.stiffness_in_force != self.parameters.stiffness {
+            values.push(self.stiffness_in_force);
+        }
+        values
     }
 
-    /// How many numbers [`to_values`](Self::to_values) gives.
+    /// How many numbers [`to_values`](Self::to_values) gives at least (one more with κ in force).
     pub const VALUES: usize = 9;
 
-    /// The record of [`to_values`](Self::to_values)'s numbers; `None` for another count.
+    /// The record of [`to_values`](Self::to_values)'s numbers ([`VALUES`](Self::VALUES) of them,
+    /// κ in force then κ, or one more); `None` for another count.
     pub fn from_values(values: &[f64]) -> Option<Self> {
+        let (values, in_force) = match values.len() {
+            n if n == Self::VALUES + 1 => (&values[..Self::VALUES], Some(values[Self::VALUES])),
+            _ => (values, None),
+        };
         let &[
             d_hat,
             kappa,
@@ -149,6 +167,7 @@ impl BarrierRecord {
             parameters: ContactParameters {
                 activation_distance: d_hat,
                 stiffness: kappa,
+                impact_fraction: None,
             },
             gap_error_max: max,
             gap_error_final: last,
@@ -157,6 +176,7 @@ impl BarrierRecord {
             steps: steps as usize,
             peak_force: peak,
             peak_gap_force: peak_gap,
+            stiffness_in_force: in_force.unwrap_or(kappa),
         })
     }
 }
@@ -549,8 +569,10 @@ impl NonlinearForce {
     /// run's, from its checkpoint). Does nothing without contact.
     pub fn set_barrier_record(&self, record: Option<BarrierRecord>) {
         if let Some(contact) = &self.contact {
-            *self.barrier_lock() =
-                Some(record.unwrap_or_else(|| BarrierRecord::start(contact.parameters())));
+            let record = record.unwrap_or_else(|| BarrierRecord::start(contact.parameters()));
+            // A resumed run continues with the stiffness its checkpoint was taken at.
+            contact.set_stiffness_in_force(record.stiffness_in_force);
+            *self.barrier_lock() = Some(record);
         }
     }
 
@@ -564,7 +586,7 @@ impl NonlinearForce {
         };
         let gaps = contact.barrier_gaps(&self.full_displacement(u)?)?;
         if let Some(record) = self.barrier_lock().as_mut() {
-            record.take_step(&gaps);
+            record.take_step(&gaps, contact.stiffness());
         }
         Ok(())
     }
@@ -815,6 +837,33 @@ impl NonlinearForce {
             values.len(),
         )?;
         *self.prescribed_lock() = values;
+        Ok(())
+    }
+
+    /// At an implicit step's start: with an impact fraction on the contact
+    /// ([`ContactParameters::impact_fraction`]), sets the barrier stiffness of the step of
+    /// duration `dt` (time) from `state` ([`Contact::update_impact_stiffness`]; the constrained
+    /// DOFs' velocity taken as zero, the node masses as `system`'s row-sum lumped mass).
+    /// Without one it does nothing. Call after the obstacles are placed at the state's time.
+    pub fn begin_impact_step(&self, system: &LinearSystem, state: &State, dt: f64) -> Result<()> {
+        let Some(contact) = self.contact.as_ref() else {
+            return Ok(());
+        };
+        if contact.parameters().impact_fraction.is_none() {
+            return Ok(());
+        }
+        let n = self.mesh.dof_count();
+        let mut u = vec![0.0; n];
+        self.expand_into(&state.displacement, &mut u);
+        let ones = vec![1.0; self.free_dofs.len()];
+        let mut lumped = vec![0.0; ones.len()];
+        system.mass().mul_vec(&ones, &mut lumped)?;
+        let (mut velocity, mut mass) = (vec![0.0; n], vec![0.0; n]);
+        for (k, &d) in self.free_dofs.iter().enumerate() {
+            velocity[d] = state.velocity[k];
+            mass[d] = lumped[k];
+        }
+        contact.update_impact_stiffness(&u, &velocity, &mass, (state.time, dt))?;
         Ok(())
     }
 

@@ -198,6 +198,9 @@ impl Newmark {
             if let Some(contact) = newton.force().contact().filter(|c| c.is_moving()) {
                 contact.set_time(state.time);
             }
+            newton
+                .force()
+                .begin_impact_step(&self.system, state, self.dt)?;
         }
         let Some(newton) = self.newton.as_ref() else {
             return Ok(());
