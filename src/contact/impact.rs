@@ -1,5 +1,6 @@
-//! The impact-aware barrier stiffness ([`ContactParameters::impact_fraction`]): κ raised so that
-//! the barrier takes a landing node's kinetic energy at a gap of about f·d̂.
+//! The impact-aware barrier stiffness
+//! ([`ContactParameters::impact_fraction`](super::ContactParameters::impact_fraction)): κ
+//! raised so that the barrier takes a landing node's kinetic energy at a gap of about f·d̂.
 //!
 //! Why: with κ₀ = E/h alone a lumped node of mass m landing at normal speed v is stopped where
 //! κ₀·A·b(d) = ½·m·v², and b(d) ≈ d̂²·ln(d̂/d) near 0 puts that gap at d̂·e^(−m·v²/(2κ₀·A·d̂²)):
@@ -9,7 +10,7 @@
 //! κ·A·b(f·d̂) = ½·m·v² for κ instead stops it near f·d̂, where the barrier's mode is
 //! ω_c ≈ √(κ·A·b″(f·d̂)/m) = |v|·√(b″(f·d̂)/(2·b(f·d̂))) ∝ |v|/d̂: a step dt with ω_c·dt < 1 resolves it.
 //!
-//! The value in force is kept between steps (a [`Stiffness`] cell of the contact) and updated at
+//! The value in force is kept between steps (a `Stiffness` cell of the contact) and updated at
 //! each implicit step's start from that state only ([`next_stiffness`]): while a node is within
 //! d̂ it never falls, so the barrier energy a node stored is returned at the same κ on its way
 //! out; once no node is within d̂ it is the estimate alone (no barrier energy is stored then,
