@@ -201,44 +201,53 @@ def recovered_sxx_at(X, U, node_xyz):
     return total / weight
 
 
+def quadratic_ref_grads(lam):
+    """Reference gradients of the ten quadratic shape functions (tetfem's node order: corners, then
+    the edges 01, 12, 02, 03, 13, 23) at barycentric points lam (m, 4): (m, 10, 3)."""
+    import numpy as np
+    pairs = [(0, 1), (1, 2), (0, 2), (0, 3), (1, 3), (2, 3)]
+    dl = np.array([[-1.0, -1.0, -1.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]])
+    corner = (4 * lam[:, :, None] - 1) * dl[None, :, :]
+    edge = np.stack([4 * (lam[:, j, None] * dl[i] + lam[:, i, None] * dl[j]) for i, j in pairs], axis=1)
+    return np.concatenate([corner, edge], axis=1)
+
+
+def collapsed_gauss_3():
+    """The 27-point collapsed Gauss rule on the unit tet (exact for degree 3): barycentric points
+    (27, 4) and weights (27,), the Duffy map's Jacobian (1 - a)^2 (1 - b) in the weights."""
+    import numpy as np
+    gx, gw = np.polynomial.legendre.leggauss(3)
+    gx, gw = 0.5 * (gx + 1), 0.5 * gw
+    a, b, c = (g.ravel() for g in np.meshgrid(gx, gx, gx, indexing="ij"))
+    wa, wb, wc = (g.ravel() for g in np.meshgrid(gw, gw, gw, indexing="ij"))
+    xi = np.stack([a, b * (1 - a), c * (1 - a) * (1 - b)], axis=1)
+    lam = np.concatenate([1 - xi.sum(axis=1, keepdims=True), xi], axis=1)
+    return lam, wa * wb * wc * (1 - a) ** 2 * (1 - b)
+
+
 def recovered_sxx_curved(X, U, node_xyz):
     """The same recovery on isoparametric 10-node tets in tetfem's node order (X, U: (k, 10, 3)):
     sum_e V_e sigma_xx,e(node) / sum_e V_e with grad N = J^-T grad_xi N at the node's corner
     (J = sum_a x_a (x) grad_xi N_a) and V_e the curved volume (integral of det J, a cubic, by the
     3-point collapsed Gauss rule, exact for degree 3) — what MFEM's GetVectorGradient and
-    GetElementVolume give on its curved mesh."""
+    GetElementVolume give on its curved mesh. Vectorized over tets and points: it is timed, as
+    MFEM's compiled recovery is, so a Python loop here would charge tetfem ~20 ms a call that
+    MFEM does not pay (the loop it replaced took 18.6 ms on 8 tets, this 0.8 ms; same value to
+    7e-16 relative)."""
     import numpy as np
-    pairs = [(0, 1), (1, 2), (0, 2), (0, 3), (1, 3), (2, 3)]
-    dl = np.array([[-1.0, -1.0, -1.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]])
-
-    def ref_grads(lam):
-        g = [(4 * lam[i] - 1) * dl[i] for i in range(4)]
-        g += [4 * (lam[j] * dl[i] + lam[i] * dl[j]) for i, j in pairs]
-        return np.array(g)  # (10, 3)
-
-    gx, gw = np.polynomial.legendre.leggauss(3)
-    gx, gw = 0.5 * (gx + 1), 0.5 * gw
-    total, weight = 0.0, 0.0
-    for x, u in zip(X, U):
-        k = int(np.argmin(np.linalg.norm(x[:4] - node_xyz, axis=1)))
-        if np.linalg.norm(x[k] - node_xyz) > 1e-9:
-            raise RuntimeError("recovery: a tet does not hold the node")
-        vol = 0.0
-        for a, wa in zip(gx, gw):
-            for b, wb in zip(gx, gw):
-                for c, wc in zip(gx, gw):
-                    xi = np.array([a, b * (1 - a), c * (1 - a) * (1 - b)])
-                    lam = np.concatenate([[1 - xi.sum()], xi])
-                    vol += wa * wb * wc * (1 - a) ** 2 * (1 - b) * np.linalg.det(x.T @ ref_grads(lam))
-        lam = np.zeros(4)
-        lam[k] = 1.0
-        g = ref_grads(lam)
-        grads = g @ np.linalg.inv(x.T @ g)  # row a: J^-T grad_xi N_a
-        grad = u.T @ grads
-        eps = 0.5 * (grad + grad.T)
-        total += vol * (LAM * np.trace(eps) + 2 * MU * eps[0, 0])
-        weight += vol
-    return total / weight
+    X, U = np.asarray(X, dtype=float), np.asarray(U, dtype=float)
+    k = np.argmin(np.linalg.norm(X[:, :4] - node_xyz, axis=2), axis=1)
+    if np.max(np.linalg.norm(X[np.arange(len(X)), k] - node_xyz, axis=1)) > 1e-9:
+        raise RuntimeError("recovery: a tet does not hold the node")
+    lam, w = collapsed_gauss_3()
+    jac = np.einsum("eai,qaj->eqij", X, quadratic_ref_grads(lam))
+    vol = np.einsum("q,eq->e", w, np.linalg.det(jac))
+    at_node = quadratic_ref_grads(np.eye(4)[k])
+    grads = np.einsum("eaj,eji->eai", at_node, np.linalg.inv(np.einsum("eai,eaj->eij", X, at_node)))
+    grad = np.einsum("eai,eaj->eij", U, grads)
+    eps = 0.5 * (grad + np.transpose(grad, (0, 2, 1)))
+    sxx = LAM * np.trace(eps, axis1=1, axis2=2) + 2 * MU * eps[:, 0, 0]
+    return float(np.sum(vol * sxx) / np.sum(vol))
 
 
 # -------------------------------------------------------------------------------------- workers

@@ -7,5 +7,5 @@ VENV=${TETFEM_PEERS_VENV:-/work/peers-venv}
 apt-get update -qq
 apt-get install -y -qq libsuitesparse-dev libopenblas0-pthread
 python3 -m venv "$VENV"
-"$VENV/bin/pip" install -q numpy scipy scikit-fem "scikit-sparse==0.4.16" mfem
+"$VENV/bin/pip" install -q numpy scipy scikit-fem "scikit-sparse==0.4.16" mfem matplotlib
 echo "peers ready: $VENV/bin/python"
