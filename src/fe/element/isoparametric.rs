@@ -162,46 +162,48 @@ pub fn curved_rule() -> &'static [([f64; 4], f64)] {
     })
 }
 
-/// Gauss–Jacobi nodes and weights on [0, 1], 2 points, for the weights (1 − t)², (1 − t), 1.
-const JACOBI: [([f64; 2], [f64; 2]); 3] = [
-    (
-        [0.122_514_822_655_441_5, 0.544_151_844_011_225_3],
-        [0.232_547_451_253_508, 0.100_785_882_079_825_32],
-    ),
-    (
-        [0.155_051_025_721_682_17, 0.644_948_974_278_317_9],
-        [0.318_041_381_743_977_17, 0.181_958_618_256_022_83],
-    ),
-    (
-        [0.211_324_865_405_187_13, 0.788_675_134_594_812_9],
-        [0.5, 0.5],
-    ),
-];
+/// Points of the curved stiffness rule ([`stiffness_rule`]).
+pub const STIFFNESS_POINTS: usize = 14;
 
-/// The curved stiffness rule: 8 points, barycentric (L₀…L₃) and weight (fractions of the
-/// reference volume, summing to 1), exact for degree 3, all weights positive — the collapsed
-/// product b₁ = u, b₂ = v(1 − u), b₃ = w(1 − u)(1 − v) of 2-point Gauss–Jacobi rules for the
-/// collapse's weights (1 − u)² and (1 − v).
+/// The curved stiffness rule: the 14-point degree-5 rule of Walkington (and Keast, Grundmann
+/// and Möller), all weights positive, as barycentric (L₀…L₃) and weight (fractions of the
+/// reference volume, summing to 1): four points (b, a, a, a) with a = 0.0927…, four with
+/// a = 0.3108…, and the six edge-pair points (c, c, ½ − c, ½ − c) with c = 0.0455… — the rule
+/// MFEM takes for degree 5, so the two codes integrate a curved tet at the same points.
 ///
-/// Why degree 3: on a curved tet the stiffness integrand is rational, but the patch test needs
-/// only ∫∇Nₐ dV = ∫ cof(J)∇_ξNₐ dξ exactly (a constant stress must give zero force on every
-/// interior node), and cof(J) is quadratic and ∇_ξNₐ linear in ξ: degree 3. The degree-2 rule
-/// of straight tets misses it (measured: a 6e-5 relative error of an affine field).
-pub fn stiffness_rule() -> [([f64; 4], f64); 8] {
-    let mut rule = [([0.0; 4], 0.0); 8];
+/// Why degree 5: on a curved tet the stiffness integrand is rational. Degree 3 is the least
+/// that passes the patch test (∫∇Nₐ dV = ∫ cof(J)∇_ξNₐ dξ exactly, cof(J) quadratic and ∇_ξNₐ
+/// linear in ξ; the degree-2 rule of straight tets misses an affine field by 6e-5), but its
+/// quadrature error is not small beside P2's discretization error on graded curved meshes: on
+/// the plate with a hole (validation/SPEED_ACCURACY.md) the 8-point degree-3 rule left the
+/// hole-edge stress 29 % (8×4×2 cells) and 18 % (12×6×3) of MFEM's own error away from MFEM's
+/// curved P2, which integrates at degree 6; at degree 5 tetfem's error is within 0.4 % of
+/// MFEM's there, and equal to MFEM's with this rule to 12 digits (`tests/core/curved_tet10.rs`),
+/// at 1.75× the points.
+pub fn stiffness_rule() -> [([f64; 4], f64); STIFFNESS_POINTS] {
+    // Digits from Walkington's table (20 significant): orbit (b, a, a, a) points and weights,
+    // then the (c, c, ½ − c, ½ − c) orbit's.
+    const VERTEX_ORBITS: [(f64, f64); 2] = [
+        (0.092_735_250_310_891_226_402, 0.073_493_043_116_361_949_542),
+        (0.310_885_919_263_300_609_80, 0.112_687_925_718_015_850_80),
+    ];
+    const EDGE_ORBIT: (f64, f64) = (0.045_503_704_125_649_649_492, 0.042_546_020_777_081_466_438);
+    let mut rule = [([0.0; 4], 0.0); STIFFNESS_POINTS];
     let mut k = 0;
-    for i in 0..2 {
-        for j in 0..2 {
-            for m in 0..2 {
-                let (u, v, w) = (JACOBI[0].0[i], JACOBI[1].0[j], JACOBI[2].0[m]);
-                let b = [u, v * (1.0 - u), w * (1.0 - u) * (1.0 - v)];
-                rule[k] = (
-                    [1.0 - b[0] - b[1] - b[2], b[0], b[1], b[2]],
-                    6.0 * JACOBI[0].1[i] * JACOBI[1].1[j] * JACOBI[2].1[m],
-                );
-                k += 1;
-            }
+    for (a, w) in VERTEX_ORBITS {
+        for corner in 0..4 {
+            let mut l = [a; 4];
+            l[corner] = 1.0 - 3.0 * a;
+            rule[k] = (l, w);
+            k += 1;
         }
+    }
+    let (c, w) = EDGE_ORBIT;
+    for (i, j) in crate::mesh::cell::EDGES {
+        let mut l = [0.5 - c; 4];
+        (l[i], l[j]) = (c, c);
+        rule[k] = (l, w);
+        k += 1;
     }
     rule
 }

@@ -11,10 +11,11 @@
 //! Curved tets (an edge node off its midpoint, as on a circle): the geometry is mapped by the
 //! same quadratic shape functions ([`super::isoparametric`]), so ∇N = G⁻ᵀ∇_X N and
 //! dV = det G dV_X vary inside the tet and the integrands are rational, not polynomial. The
-//! stiffness (and the force models) use the 8-point degree-3 rule
+//! stiffness (and the force models) use the 14-point degree-5 rule
 //! [`stiffness_rule`] with weights V_X·w·det G(ξ_q): degree 2
-//! (2k − 2 for P_k) keeps the optimal energy-norm rate (Ciarlet & Raviart 1972), but the patch
-//! test needs ∫cof(J)∇_ξNₐ dξ exact, a cubic. The mixed Taylor–Hood element keeps the 4-point
+//! (2k − 2 for P_k) keeps the optimal energy-norm rate (Ciarlet & Raviart 1972), the patch
+//! test needs ∫cof(J)∇_ξNₐ dξ exact, a cubic, and degree 5 keeps the quadrature error of the
+//! rational integrand well below P2's error on graded curved meshes (the rule's doc). The mixed Taylor–Hood element keeps the 4-point
 //! rule's points ([`Tet10Rest::gradients`], weighted by det G) for its pressure coupling. The
 //! mass ∫ρNᵢNⱼ dV, the shape
 //! integrals ∫Nᵢ dV (body loads) and the volume go by the 64-point degree-5 rule (the mass
@@ -32,7 +33,7 @@
 
 use nalgebra::{Matrix3, Vector3};
 
-use super::isoparametric::{ElementShape, curved_rule, stiffness_rule};
+use super::isoparametric::{ElementShape, STIFFNESS_POINTS, curved_rule, stiffness_rule};
 use super::{ElementType, Tet, Weights};
 use crate::base::error::Result;
 use crate::fe::material::Material;
@@ -103,13 +104,13 @@ pub struct Tet10Rest {
 }
 
 /// What a curved tet integrates once: ∫NᵢNⱼ dV and ∫Nᵢ dV (length³), and its stiffness
-/// rule's gradients (1/length) and weights (length³) at the 8 points of [`stiffness_rule`].
+/// rule's gradients (1/length) and weights (length³) at the points of [`stiffness_rule`].
 #[derive(Debug, Clone, PartialEq)]
 struct CurvedIntegrals {
     mass: [[f64; 10]; 10],
     shape: [f64; 10],
-    gradients: [[Vector3<f64>; 10]; 8],
-    weights: [f64; 8],
+    gradients: [[Vector3<f64>; 10]; STIFFNESS_POINTS],
+    weights: [f64; STIFFNESS_POINTS],
 }
 
 /// Barycentric coordinates of the degree-2 rule's point `q`.
@@ -136,7 +137,7 @@ impl Tet10Rest {
 
     /// From a tet's shape: the straight path ([`Tet10Rest::new`]) when it is straight-sided,
     /// else the isoparametric one (gradients G⁻ᵀ∇_X N and weights V_X·w·det G at the points
-    /// of the degree-2 rule and of the degree-3 [`stiffness_rule`]; mass, shape integrals and
+    /// of the degree-2 rule and of the degree-5 [`stiffness_rule`]; mass, shape integrals and
     /// volume by the degree-5 rule).
     pub fn of_shape(shape: &ElementShape) -> Self {
         if shape.map().is_none() {
@@ -153,8 +154,8 @@ impl Tet10Rest {
         let mut integrals = CurvedIntegrals {
             mass: [[0.0; 10]; 10],
             shape: [0.0; 10],
-            gradients: [[Vector3::zeros(); 10]; 8],
-            weights: [0.0; 8],
+            gradients: [[Vector3::zeros(); 10]; STIFFNESS_POINTS],
+            weights: [0.0; STIFFNESS_POINTS],
         };
         for (q, (l, w)) in stiffness_rule().iter().enumerate() {
             integrals.gradients[q] = shape.curve_gradients(l, shape_gradients(l, dl));
@@ -193,7 +194,7 @@ impl Tet10Rest {
 
     /// The stiffness rule's shape-function gradients (1/length) and weights (length³): the
     /// degree-2 rule's four points on a straight tet ([`Tet10Rest::gradients`],
-    /// [`Tet10Rest::weights`]), the degree-3 rule's eight on a curved one (see
+    /// [`Tet10Rest::weights`]), the degree-5 rule's fourteen on a curved one (see
     /// [`stiffness_rule`] for why).
     pub fn points(&self) -> (&[[Vector3<f64>; 10]], &[f64]) {
         match &self.curved {
