@@ -564,9 +564,10 @@ def agreement(points, peer):
     return traj, err
 
 
-def front_cell(points, code, target, methods=METHODS):
-    """The least time of `code` (over `methods`) to an error at or below `target`, and the run."""
-    ok = [p for p in points if p["code"] == code and p["method"] in methods and p["error"] <= target]
+def front_cell(points, code, target, methods=METHODS, margin=0.0):
+    """The least time of `code` (over `methods`) to an error at or below `target` (with `margin`, the
+    reference's own error, added to each run's: a run certainly below the target), and the run."""
+    ok = [p for p in points if p["code"] == code and p["method"] in methods and p["error"] + margin <= target]
     return min(ok, key=lambda p: p["seconds"]) if ok else None
 
 
@@ -575,13 +576,13 @@ def run_name(p):
     return f"P{p['order']} {p['cells']}, {p['method']}, {steps}"
 
 
-def fronts_table(points, codes, methods, label):
+def fronts_table(points, codes, methods, label, margin=0.0):
     lines = [f"| {label} | to 10 % | to 1 % | to 0.1 % |", "|---|---|---|---|"]
     for code in codes:
         cells = []
         for target in (0.1, 0.01, 0.001):
-            b = front_cell(points, code, target, methods)
-            ours = front_cell(points, "tetfem", target, methods)
+            b = front_cell(points, code, target, methods, margin)
+            ours = front_cell(points, "tetfem", target, methods, margin)
             if b is None:
                 least = min((p["error"] for p in points if p["code"] == code and p["method"] in methods))
                 cells.append(f"not reached (least error {least:.1e})")
@@ -710,6 +711,10 @@ def section(d, front, ref_error):
     lines += ["", "Fronts' positions: each code's least wall time to an error at or below the target, over every "
               "element, mesh, method and step, and the peer's time over tetfem's.", ""]
     lines += fronts_table(points, codes, METHODS, "code")
+    lines += ["", f"The same counting only the runs certainly below the target: each run's error plus the reference's "
+              f"own ({ref_error:.1e}) at or below it (a run within the reference's error of a target may be on either "
+              "side of it):", ""]
+    lines += fronts_table(points, codes, METHODS, "code", ref_error)
     lines += ["", "The same by method (the explicit runs' error is the lumped mass's space error: their step is "
               "far below what the accuracy needs):", ""]
     for method in METHODS:
