@@ -9,6 +9,7 @@ use super::{
     Mass, NewtonStats, State, check_time_step,
 };
 use crate::base::error::Result;
+use crate::block_sparse::SymmetricWorkspace;
 use crate::linear_solver::LinearSolver;
 use crate::linsolve::SparseCholesky;
 use crate::sparse::CscMatrix;
@@ -73,6 +74,8 @@ pub struct Newmark {
     acceleration_of: Option<(usize, f64)>,
     work: Vec<f64>,
     product: Vec<f64>,
+    /// Scratch of the block copy of K's products ([`Newmark::guard_energy`]).
+    blocks_work: SymmetricWorkspace,
     rhs: Vec<f64>,
     /// f(t) of time-varying data (empty for constant data: see [`LinearSystem::load_buffer`]).
     load: Vec<f64>,
@@ -158,6 +161,7 @@ impl Newmark {
         } = super::ImplicitParts::new(&system, force, dt, &options)?;
         let n = system.free_count();
         let load = system.model_load_buffer(newton.is_some());
+        let blocks_work = system.stiffness_blocks().workspace();
         Ok(Newmark {
             load,
             system,
@@ -170,12 +174,32 @@ impl Newmark {
             acceleration_of: None,
             work: vec![0.0; n],
             product: vec![0.0; n],
+            blocks_work,
             rhs: vec![0.0; n],
             newton,
             elastic_acceleration: Vec::new(),
             contact_acceleration: (Vec::new(), None),
             mass_factor: MassFactor::default(),
         })
+    }
+
+    /// The energies of the state a linear step reached, for the divergence guard: uᵀK·u from
+    /// the products of K's block copy (the time steppers' format: half the matrix bytes of the
+    /// CSC product and parallel) and vᵀM·v, the potentials by [`LinearSystem::energy_potentials`].
+    /// The energies of [`LinearSystem::energy_using`] up to rounding (the guard only compares
+    /// them with a bound): on a 36 720-DOF P2 beam the CSC product made it about 40 % of the step.
+    fn guard_energy(&mut self, state: &State) -> Result<super::Energy> {
+        let mut energy = self.system.energy_potentials(state)?;
+        let (u, v) = (&state.displacement, &state.velocity);
+        let twice_elastic = self.system.stiffness_blocks().product_into(
+            u,
+            &mut self.product,
+            &mut self.blocks_work,
+        );
+        self.system.mass().product_into(v, &mut self.work);
+        energy.elastic = 0.5 * twice_elastic;
+        energy.kinetic = 0.5 * v.iter().zip(&self.work).map(|(a, b)| a * b).sum::<f64>();
+        Ok(energy)
     }
 
     /// The energies of `state` under this integrator's force law.
@@ -428,7 +452,7 @@ impl Integrator for Newmark {
         }
         self.solver.solve(&self.matrix, &mut self.rhs)?;
         self.advance(state);
-        let energy = self.system.energy_using(state, &mut self.work)?;
+        let energy = self.guard_energy(state)?;
         match &self.guard {
             Some(guard) => guard.check(state, &energy),
             None => Ok(()),
