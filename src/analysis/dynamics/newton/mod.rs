@@ -9,6 +9,7 @@
 //! load step iterates in too.
 
 mod direction;
+mod node_correction;
 mod smoothing;
 mod weight;
 
