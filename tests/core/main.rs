@@ -58,6 +58,7 @@ mod modal;
 mod model_adequacy;
 mod moving_obstacle_steps;
 mod moving_supports;
+mod neo_hookean_tangent;
 mod newmark_contact;
 mod nonlinear_tet10;
 mod nonlinear_time_varying;

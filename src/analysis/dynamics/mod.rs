@@ -48,7 +48,7 @@ pub use explicit_surface::{
 };
 pub use internal_force::{BarrierRecord, ForceWorkspace, InternalForce, NonlinearForce};
 pub use newmark::Newmark;
-pub use newton::{NewtonStats, StepNewtonOptions};
+pub use newton::{INTERACTIVE_STEP_TOLERANCE, NewtonStats, StepNewtonOptions};
 pub use nonlinear_solve::{
     AUTO_LBFGS_CORRECTION, AUTO_LBFGS_HISTORY, AUTO_LBFGS_TOLERANCE, AUTO_REFACTOR_BELOW,
     NonlinearSolve,
