@@ -125,7 +125,7 @@ impl ForceModel for Corotational {
         )
     }
 
-    /// The four tets side by side in SIMD lanes ([`super::corotational_lanes`]), the same bits
+    /// The four tets side by side in SIMD lanes (`src/model/corotational_lanes.rs`), the same bits
     /// as [`force_and_energy`](ForceModel::force_and_energy) of each; a tet whose rotation
     /// leaves the Newton–Schulz iteration (inverted, flat, far stretched) by that call.
     fn force_and_energy_4(
