@@ -37,6 +37,12 @@ impl Corotational {
         }
     }
 
+    /// (λ, μ) (Pa).
+    #[cfg(test)]
+    pub(crate) fn lame(&self) -> (f64, f64) {
+        (self.lambda, self.mu)
+    }
+
     fn kinematics(tet: &Tet, x: &[Vector3<f64>; 4]) -> (Matrix3<f64>, Matrix3<f64>, Matrix3<f64>) {
         Self::point_kinematics(rest_shape_matrix(x) * tet.rest_inverse())
     }
@@ -117,6 +123,34 @@ impl ForceModel for Corotational {
             piola_to_force(tet, &self.piola(&f, &r, &s)),
             tet.volume() * self.density(&f, &r, &s),
         )
+    }
+
+    /// The four tets side by side in SIMD lanes (`src/model/corotational_lanes.rs`), the same bits
+    /// as [`force_and_energy`](ForceModel::force_and_energy) of each; a tet whose rotation
+    /// leaves the Newton–Schulz iteration (inverted, flat, far stretched) by that call.
+    fn force_and_energy_4(
+        &self,
+        tets: [&Tet; 4],
+        rest: &[[Vector3<f64>; 4]; 4],
+        x: &[[Vector3<f64>; 4]; 4],
+        out: &mut [(Vector12, f64); 4],
+    ) {
+        let lanes = super::corotational_lanes::Tets {
+            elements: tets,
+            corners: x,
+        };
+        let lame = (self.lambda, self.mu);
+        let converged = super::corotational_lanes::force_and_energy(&lanes, lame, out);
+        for (k, out) in out.iter_mut().enumerate() {
+            if !converged[k] {
+                *out = self.force_and_energy(tets[k], &rest[k], &x[k]);
+            }
+        }
+    }
+
+    /// `true`: the lanes take a pass 1.5× faster (one thread, 9,720 DOFs).
+    fn evaluates_four(&self) -> bool {
+        true
     }
 
     fn tangent(&self, tet: &Tet, _rest: &[Vector3<f64>; 4], x: &[Vector3<f64>; 4]) -> Matrix12 {

@@ -98,6 +98,7 @@ pub trait ModelElement: ElementType + 'static {
 }
 
 /// x = X + u for the 4 nodes of tet `t`.
+#[inline]
 pub(crate) fn positions(mesh: &TetMesh, t: usize, u: &[f64]) -> [Vector3<f64>; 4] {
     mesh.tets()[t].map(|n| mesh.nodes()[n] + Vector3::new(u[3 * n], u[3 * n + 1], u[3 * n + 2]))
 }
@@ -164,8 +165,19 @@ impl ModelElement for Tet4 {
         u: &[f64],
         force: &mut [f64],
     ) -> f64 {
-        add_in_blocks(mesh, u, force, |t, rest, x| {
+        let element = |t: usize, rest: &[Vector3<f64>; 4], x: &[Vector3<f64>; 4]| {
             models.model_of(t).force_and_energy(&kept[t], rest, x)
+        };
+        // Side by side where the first tet's model evaluates four at once (the others are
+        // checked four by four).
+        if mesh.tet_count() == 0 || !models.model_of(0).evaluates_four() {
+            return add_in_blocks(mesh, u, force, element);
+        }
+        add_computed_in_blocks(mesh, force, |start, out| {
+            use rayon::prelude::*;
+            out.par_chunks_mut(4)
+                .enumerate()
+                .for_each(|(c, out)| four_tets(mesh, kept, models, u, start + 4 * c, out));
         })
     }
 
@@ -224,20 +236,65 @@ fn add_in_blocks(
     element: impl Fn(usize, &[Vector3<f64>; 4], &[Vector3<f64>; 4]) -> (Vector12, f64) + Sync,
 ) -> f64 {
     use rayon::prelude::*;
-    // 8192 tets' forces (0.8 MB) stay in the cache between computing and adding them.
+    add_computed_in_blocks(mesh, force, |start, out| {
+        out.par_iter_mut().enumerate().for_each(|(i, out)| {
+            let t = start + i;
+            *out = element(t, &mesh.positions_of(t), &positions(mesh, t, u));
+        });
+    })
+}
+
+/// Tets `first..first + out.len()` (at most four) into `out`, each its force and energy at
+/// `u` with its rest element from `kept`: the four side by side by their model's
+/// [`ForceModel::force_and_energy_4`] when there are four, one model holds them all and it
+/// [evaluates four](ForceModel::evaluates_four) at once (the same bits as one by one), else
+/// one by one.
+fn four_tets(
+    mesh: &TetMesh,
+    kept: &[Tet],
+    models: &(impl TetModels + ?Sized),
+    u: &[f64],
+    first: usize,
+    out: &mut [(Vector12, f64)],
+) {
+    let model = models.model_of(first);
+    let one_model = model.evaluates_four()
+        && (1..out.len()).all(|k| std::ptr::addr_eq(models.model_of(first + k), model));
+    if let (Ok(four), true) = (<&mut [_; 4]>::try_from(&mut *out), one_model) {
+        let rest = std::array::from_fn(|k| mesh.positions_of(first + k));
+        let x = std::array::from_fn(|k| positions(mesh, first + k, u));
+        let tets = std::array::from_fn(|k| &kept[first + k]);
+        model.force_and_energy_4(tets, &rest, &x, four);
+        return;
+    }
+    for (k, out) in out.iter_mut().enumerate() {
+        let t = first + k;
+        *out = models.model_of(t).force_and_energy(
+            &kept[t],
+            &mesh.positions_of(t),
+            &positions(mesh, t, u),
+        );
+    }
+}
+
+/// Adds each 4-node tet's force (the first part of each entry `compute(start, block)` fills
+/// for the tets `start..start + block.len()`) into the full vector `force` at its nodes and
+/// returns the sum of the second parts (an energy, or 0), a block of tets at a time, added
+/// serially in tet order whatever `compute` does in parallel.
+fn add_computed_in_blocks(
+    mesh: &TetMesh,
+    force: &mut [f64],
+    compute: impl Fn(usize, &mut [(Vector12, f64)]),
+) -> f64 {
+    // 8192 tets' forces (0.8 MB) stay in the cache between computing and adding them (a
+    // multiple of four: each block's batches of four tets start at its first).
     const BLOCK: usize = 8192;
     let tets = mesh.tet_count();
     let mut block = vec![(Vector12::zeros(), 0.0); BLOCK.min(tets)];
     let mut total = 0.0;
     for start in (0..tets).step_by(BLOCK) {
         let end = (start + BLOCK).min(tets);
-        block[..end - start]
-            .par_iter_mut()
-            .enumerate()
-            .for_each(|(i, out)| {
-                let t = start + i;
-                *out = element(t, &mesh.positions_of(t), &positions(mesh, t, u));
-            });
+        compute(start, &mut block[..end - start]);
         for ((f, e), nodes) in block.iter().zip(&mesh.tets()[start..end]) {
             for (i, &n) in nodes.iter().enumerate() {
                 for a in 0..3 {

@@ -43,7 +43,7 @@ pub fn rotation(f: &Matrix3<f64>) -> Matrix3<f64> {
 
 /// Below this det/‖F‖³ (‖F‖ Frobenius) both iterations give way to the SVD: their inverses or
 /// products lose the digits it keeps.
-const MIN_RELATIVE_DET: f64 = 1e-6;
+pub(crate) const MIN_RELATIVE_DET: f64 = 1e-6;
 
 /// Whether `f` (of Frobenius norm `norm`) is inverted, flat or NaN: det F ≤ 1e-6·‖F‖³, which
 /// neither iteration takes.

@@ -16,6 +16,7 @@ use rayon::prelude::*;
 
 use super::internal_force::{ForceWorkspace, NonlinearForce};
 use crate::base::error::Result;
+use crate::model::corotational_lanes::{LANES, rotations};
 use crate::model::polar::rotation;
 
 /// Per-node rotations Rᵢ of the deformation, for the nodes whose three DOFs are all free.
@@ -66,10 +67,11 @@ impl NodalRotations {
     ) -> Result<()> {
         force.nodal_deformation_gradients(u, work, &mut self.gradients)?;
         let gradients = &self.gradients;
+        // Four nodes side by side in SIMD lanes (the same bits as `rotation` of each).
         self.rotations
-            .par_iter_mut()
-            .zip(&self.blocks)
-            .for_each(|(r, &(node, _))| *r = rotation(&gradients[node]));
+            .par_chunks_mut(LANES)
+            .zip(self.blocks.par_chunks(LANES))
+            .for_each(|(r, blocks)| turn_of_nodes(gradients, blocks, r));
         Ok(())
     }
 
@@ -94,5 +96,26 @@ impl NodalRotations {
             v[y] = turned.y;
             v[z] = turned.z;
         }
+    }
+}
+
+/// `r[k]` ← the polar rotation of `gradients` at the node of `blocks[k]`: four at once in SIMD
+/// lanes ([`rotations`]), the others (a last chunk under four, a lane the lanes leave) by
+/// [`rotation`], the same bits either way.
+fn turn_of_nodes(
+    gradients: &[Matrix3<f64>],
+    blocks: &[(usize, [usize; 3])],
+    r: &mut [Matrix3<f64>],
+) {
+    let of = |k: usize| gradients[blocks[k].0];
+    if let Ok(r) = <&mut [Matrix3<f64>; LANES]>::try_from(&mut *r) {
+        let four = rotations(&[of(0), of(1), of(2), of(3)]);
+        for (k, (r, lane)) in r.iter_mut().zip(four).enumerate() {
+            *r = lane.unwrap_or_else(|| rotation(&of(k)));
+        }
+        return;
+    }
+    for (k, r) in r.iter_mut().enumerate() {
+        *r = rotation(&of(k));
     }
 }

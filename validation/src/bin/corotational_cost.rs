@@ -253,6 +253,16 @@ fn account(swing: &Swing, model: ModelKind, linear: &Run, cli: &Cli) -> tetfem::
         cli,
     )?;
     let same = counted.trajectory == timed.trajectory;
+    // The trajectory's bits in one number (FNV-1a over every displacement of every step): two
+    // binaries that print the same one computed the same default trajectory to the bit.
+    let bits = timed
+        .trajectory
+        .iter()
+        .flatten()
+        .fold(0xcbf2_9ce4_8422_2325_u64, |h, v| {
+            (h ^ v.to_bits()).wrapping_mul(0x0100_0000_01b3)
+        });
+    println!("default trajectory's bits (FNV-1a): {bits:016x}");
     let tets = swing.mesh.tet_count() as f64;
     let steps = cli.steps as f64;
     let per_step = |k: usize| calls.0[k].load(Ordering::Relaxed) as f64 / tets / steps;
@@ -278,7 +288,7 @@ fn account(swing: &Swing, model: ModelKind, linear: &Run, cli: &Cli) -> tetfem::
     let mut f = vec![0.0; u.len()];
     let repeat = 20;
     // The fastest of the repeats: the others met the machine's other jobs.
-    let time = |job: &mut dyn FnMut() -> tetfem::Result<()>| -> tetfem::Result<f64> {
+    let mut time = move |job: &mut dyn FnMut() -> tetfem::Result<()>| -> tetfem::Result<f64> {
         job()?;
         let mut fastest = f64::INFINITY;
         for _ in 0..repeat {
@@ -327,7 +337,84 @@ fn account(swing: &Swing, model: ModelKind, linear: &Run, cli: &Cli) -> tetfem::
         (step - passes - turn) / lin,
         (step - passes - turn) / lin / iterations.max(1.0),
     );
+    let parts = linear_parts(swing, cli, &u, &mut time)?;
+    let solves = iterations * parts.single;
+    println!(
+        "f64 solve pair {:.5} s ({:.2}× linear), f32 solve pair {:.5} s ({:.2}×), the linear step's \
+         K·(u, v) {:.5} s ({:.2}×); a step's f32 solves {:.2}× linear, what is left (L-BFGS \
+         recursion, residuals, line search, vectors) {:.2}× linear",
+        parts.double,
+        parts.double / lin,
+        parts.single,
+        parts.single / lin,
+        parts.product,
+        parts.product / lin,
+        solves / lin,
+        (step - passes - turn - solves) / lin,
+    );
     Ok(())
+}
+
+/// The fastest times (s) of the linear step's parts and of L-BFGS's solve.
+struct LinearParts {
+    /// One triangular solve pair on the f64 factor of M + dt²·K (the linear step's).
+    double: f64,
+    /// The same pair on the factor's f32 copy (what H₀ of an L-BFGS iteration solves with: its
+    /// matrix M/dt² + K is this one over dt², the same pattern and ordering).
+    single: f64,
+    /// The linear step's product K·(u, v) (one pass over the symmetric blocks of K).
+    product: f64,
+}
+
+/// The fastest time (s) of a job's repeats.
+type Timer = dyn FnMut(&mut dyn FnMut() -> tetfem::Result<()>) -> tetfem::Result<f64>;
+
+/// Times the linear step's parts at displacement `u` (and velocity `u`: the values do not
+/// change the work) with `time` (the fastest of its repeats), on the solver the integrators
+/// build: a direct one on `RAYON_NUM_THREADS` (at most two) threads.
+fn linear_parts(
+    swing: &Swing,
+    cli: &Cli,
+    u: &[f64],
+    time: &mut Timer,
+) -> tetfem::Result<LinearParts> {
+    let system = &swing.system;
+    let mut matrix = system.stiffness().clone();
+    system.combine_into(cli.dt * cli.dt, 1.0, &mut matrix)?;
+    let options = tetfem::SolverOptions {
+        method: tetfem::LinearMethod::Direct,
+        cholesky: tetfem::CholeskyOptions {
+            threads: rayon::current_num_threads().min(2),
+            ..tetfem::CholeskyOptions::default()
+        },
+        ..tetfem::SolverOptions::default()
+    };
+    let mut solver = tetfem::LinearSolver::analyze(&matrix, options)?;
+    solver.factorize(&matrix)?;
+    let mut rhs = u.to_vec();
+    let double = time(&mut || {
+        rhs.copy_from_slice(u);
+        solver.solve(&matrix, &mut rhs).map(|_| ())?;
+        Ok(())
+    })?;
+    solver.make_single_precision_copy()?;
+    let single = time(&mut || {
+        rhs.copy_from_slice(u);
+        solver.solve_approximate(&matrix, &mut rhs)?;
+        Ok(())
+    })?;
+    let blocks = system.stiffness_blocks();
+    let mut work = blocks.workspace();
+    let (mut ku, mut kv) = (vec![0.0; u.len()], vec![0.0; u.len()]);
+    let product = time(&mut || {
+        std::hint::black_box(blocks.product2_into((u, u), (&mut ku, &mut kv), &mut work));
+        Ok(())
+    })?;
+    Ok(LinearParts {
+        double,
+        single,
+        product,
+    })
 }
 
 /// The largest |u − u_ref| over all steps and DOFs over the largest |u_ref|.

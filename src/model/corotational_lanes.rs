@@ -1,0 +1,452 @@
+//! The corotational force and energy of four tets side by side, one tet per lane of each
+//! arithmetic operation: what [`Corotational`](super::Corotational)'s
+//! [`ForceModel::force_and_energy_4`](super::ForceModel::force_and_energy_4) runs, the same
+//! bits lane by lane as [`ForceModel::force_and_energy`](super::ForceModel::force_and_energy)
+//! of each tet alone.
+//!
+//! A tet's force is some 700 floating-point operations (F = Ds·Dm⁻¹, the polar rotation by
+//! four or so Newton–Schulz iterations, P and −V·P·Dm⁻ᵀ), each 3×3 product a chain of
+//! dependent scalar operations: one tet at a time the pass is bound by their latency and runs
+//! one operation per instruction. Four tets in the lanes of one vector register (AVX2; two
+//! SSE2 registers without it) do four tets' operations per instruction, in the same order and
+//! rounding as one tet alone (no fused multiply-add: Rust never contracts a·b + c), so every
+//! lane's result is that tet's scalar result to the bit. A lane whose polar decomposition
+//! leaves the Newton–Schulz iteration (an inverted, flat or far-stretched tet, a non-finite F:
+//! [`super::polar::rotation`]'s other branches) is recomputed on its own by the scalar path.
+
+use nalgebra::{Matrix3, Vector3};
+
+use crate::fe::element::{Tet, Vector12};
+
+/// Tets per batch.
+pub(crate) const LANES: usize = 4;
+
+/// One value per lane.
+type L = [f64; LANES];
+
+/// A 3×3 matrix of lanes, `m[row][column]`.
+type M = [[L; 3]; 3];
+
+// Plain loops, not `std::array::from_fn`: its generic helpers are not always inlined into
+// the AVX2 copy, and a call per value undoes the lanes.
+#[inline(always)]
+fn lanes(f: impl Fn(usize) -> f64) -> L {
+    let mut out = [0.0; LANES];
+    for (l, out) in out.iter_mut().enumerate() {
+        *out = f(l);
+    }
+    out
+}
+
+#[inline(always)]
+fn add(a: L, b: L) -> L {
+    lanes(|l| a[l] + b[l])
+}
+
+#[inline(always)]
+fn sub(a: L, b: L) -> L {
+    lanes(|l| a[l] - b[l])
+}
+
+#[inline(always)]
+fn mul(a: L, b: L) -> L {
+    lanes(|l| a[l] * b[l])
+}
+
+#[inline(always)]
+fn scale(a: L, s: f64) -> L {
+    lanes(|l| a[l] * s)
+}
+
+/// (a₀b₀ + a₁b₁) + a₂b₂: nalgebra's order for a 3-vector's dot product and for each entry of
+/// a 3×3 product (its gemm adds the columns' terms in turn).
+#[inline(always)]
+fn dot3(a: [L; 3], b: [L; 3]) -> L {
+    add(add(mul(a[0], b[0]), mul(a[1], b[1])), mul(a[2], b[2]))
+}
+
+#[inline(always)]
+fn row(m: &M, i: usize) -> [L; 3] {
+    m[i]
+}
+
+#[inline(always)]
+fn column(m: &M, j: usize) -> [L; 3] {
+    [m[0][j], m[1][j], m[2][j]]
+}
+
+/// A·B.
+#[inline(always)]
+fn product(a: &M, b: &M) -> M {
+    let mut out = [[[0.0; LANES]; 3]; 3];
+    for (i, out) in out.iter_mut().enumerate() {
+        for (j, out) in out.iter_mut().enumerate() {
+            *out = dot3(row(a, i), column(b, j));
+        }
+    }
+    out
+}
+
+/// Aᵀ·B (nalgebra's `tr_mul`: each entry the dot product of a column of A and one of B).
+#[inline(always)]
+fn tr_product(a: &M, b: &M) -> M {
+    let mut out = [[[0.0; LANES]; 3]; 3];
+    for (i, out) in out.iter_mut().enumerate() {
+        for (j, out) in out.iter_mut().enumerate() {
+            *out = dot3(column(a, i), column(b, j));
+        }
+    }
+    out
+}
+
+/// ‖M‖²_F in nalgebra's order: column by column, ((0 + ‖c₀‖²) + ‖c₁‖²) + ‖c₂‖².
+#[inline(always)]
+fn norm_squared(m: &M) -> L {
+    let mut sum = [0.0; LANES];
+    for j in 0..3 {
+        sum = add(sum, dot3(column(m, j), column(m, j)));
+    }
+    sum
+}
+
+/// det M by nalgebra's cofactor expansion along the first row.
+#[inline(always)]
+fn determinant(m: &M) -> L {
+    let minor_12_23 = sub(mul(m[1][1], m[2][2]), mul(m[2][1], m[1][2]));
+    let minor_11_23 = sub(mul(m[1][0], m[2][2]), mul(m[2][0], m[1][2]));
+    let minor_11_22 = sub(mul(m[1][0], m[2][1]), mul(m[2][0], m[1][1]));
+    add(
+        sub(mul(m[0][0], minor_12_23), mul(m[0][1], minor_11_23)),
+        mul(m[0][2], minor_11_22),
+    )
+}
+
+#[inline(always)]
+fn build(f: impl Fn(usize, usize, usize) -> f64) -> M {
+    let mut out = [[[0.0; LANES]; 3]; 3];
+    for (i, out) in out.iter_mut().enumerate() {
+        for (j, out) in out.iter_mut().enumerate() {
+            *out = lanes(|l| f(i, j, l));
+        }
+    }
+    out
+}
+
+/// The lanes' tets: each one's rest inverse Dm⁻¹ and volume, and its deformed corners.
+pub(crate) struct Tets<'a> {
+    /// The rest elements.
+    pub elements: [&'a Tet; LANES],
+    /// The deformed corners x₀…x₃ of each.
+    pub corners: &'a [[Vector3<f64>; 4]; LANES],
+}
+
+/// The force and energy of the lanes' tets under the corotational model of Lamé parameters
+/// (`lambda`, `mu`) (see the module's docs) into `out` (one entry per lane), with AVX2 where
+/// the CPU has it. Returns which lanes hold their result: the others left the Newton–Schulz
+/// iteration, and the scalar path must compute them.
+pub(crate) fn force_and_energy(
+    tets: &Tets,
+    (lambda, mu): (f64, f64),
+    out: &mut [(Vector12, f64); LANES],
+) -> [bool; LANES] {
+    #[cfg(target_arch = "x86_64")]
+    {
+        if std::arch::is_x86_feature_detected!("avx2") {
+            // SAFETY: the CPU has AVX2, checked just above.
+            return unsafe { force_and_energy_avx2(tets, (lambda, mu), out) };
+        }
+    }
+    force_and_energy_lanes(tets, (lambda, mu), out)
+}
+
+/// [`force_and_energy_lanes`] compiled for AVX2 (four f64 lanes a register; no FMA, which
+/// would change the bits).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+unsafe fn force_and_energy_avx2(
+    tets: &Tets,
+    lame: (f64, f64),
+    out: &mut [(Vector12, f64); LANES],
+) -> [bool; LANES] {
+    force_and_energy_lanes(tets, lame, out)
+}
+
+#[inline(always)]
+fn force_and_energy_lanes(
+    tets: &Tets,
+    (lambda, mu): (f64, f64),
+    out: &mut [(Vector12, f64); LANES],
+) -> [bool; LANES] {
+    let x = tets.corners;
+    // Ds = [x₁ − x₀, x₂ − x₀, x₃ − x₀] and Dm⁻¹, row by column.
+    let ds: M = build(|a, i, l| x[l][i + 1][a] - x[l][0][a]);
+    let rest_inverse: M = build(|i, j, l| tets.elements[l].rest_inverse()[(i, j)]);
+    let volume = lanes(|l| tets.elements[l].volume());
+    let f = product(&ds, &rest_inverse);
+    let (r, converged) = rotation(&f);
+    // tr(S) of S = sym(RᵀF): its diagonal is RᵀF's, whose entries are the columns' dot products.
+    let mut trace = [0.0; LANES];
+    for i in 0..3 {
+        trace = add(trace, dot3(column(&r, i), column(&f, i)));
+    }
+    let trace = lanes(|l| trace[l] - 3.0);
+    // P = 2μ(F − R) + λ·tr(S − I)·R.
+    let twice_mu = 2.0 * mu;
+    let pressure = scale(trace, lambda);
+    let f_minus_r = build(|i, j, l| f[i][j][l] - r[i][j][l]);
+    let piola = build(|i, j, l| f_minus_r[i][j][l] * twice_mu + r[i][j][l] * pressure[l]);
+    // h = (−P)·Dm⁻ᵀ·V.
+    let negated = build(|i, j, l| -piola[i][j][l]);
+    let transposed = build(|i, j, l| rest_inverse[j][i][l]);
+    let h = product(&negated, &transposed);
+    let h = build(|i, j, l| h[i][j][l] * volume[l]);
+    // μ‖F − R‖² + λ/2·tr²(S − I).
+    let half_lambda = 0.5 * lambda;
+    let density = add(
+        scale(norm_squared(&f_minus_r), mu),
+        mul(scale(trace, half_lambda), trace),
+    );
+    let energy = mul(volume, density);
+    for (l, (force, e)) in out.iter_mut().enumerate() {
+        *force = Vector12::zeros();
+        for i in 0..3 {
+            for a in 0..3 {
+                force[3 * (i + 1) + a] = h[a][i][l];
+                force[a] -= h[a][i][l];
+            }
+        }
+        *e = energy[l];
+    }
+    converged
+}
+
+/// The polar rotations of four matrices side by side: for each, `Some(R)` the same bits as
+/// [`super::polar::rotation`] where its Newton–Schulz iteration takes it, `None` where the
+/// caller must call that function (the matrix is not finite, zero, flat, inverted or its
+/// stretches far apart).
+pub(crate) fn rotations(f: &[Matrix3<f64>; LANES]) -> [Option<Matrix3<f64>>; LANES] {
+    #[cfg(target_arch = "x86_64")]
+    {
+        if std::arch::is_x86_feature_detected!("avx2") {
+            // SAFETY: the CPU has AVX2, checked just above.
+            return unsafe { rotations_avx2(f) };
+        }
+    }
+    rotations_lanes(f)
+}
+
+/// [`rotations_lanes`] compiled for AVX2.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+unsafe fn rotations_avx2(f: &[Matrix3<f64>; LANES]) -> [Option<Matrix3<f64>>; LANES] {
+    rotations_lanes(f)
+}
+
+#[inline(always)]
+fn rotations_lanes(f: &[Matrix3<f64>; LANES]) -> [Option<Matrix3<f64>>; LANES] {
+    let (r, converged) = rotation(&build(|i, j, l| f[l][(i, j)]));
+    let mut out = [None; LANES];
+    for (l, out) in out.iter_mut().enumerate() {
+        if converged[l] {
+            *out = Some(Matrix3::from_fn(|i, j| r[i][j][l]));
+        }
+    }
+    out
+}
+
+/// The polar rotation of each lane's F by [`super::polar`]'s Newton–Schulz iteration, the same
+/// operations and stopping rule lane by lane; `false` where that lane's F leaves it (not
+/// finite, zero, flat or inverted, ‖E‖ ≥ 1 at an iterate, or not converged in eight
+/// iterations): the scalar path decides those.
+#[inline(always)]
+fn rotation(f: &M) -> (M, [bool; LANES]) {
+    let mut usable = [true; LANES];
+    for (l, usable) in usable.iter_mut().enumerate() {
+        *usable = f.iter().flatten().all(|v| v[l].is_finite());
+    }
+    // The largest |Fᵢⱼ|, in any order: a maximum of finite values is exact.
+    let largest = lanes(|l| f.iter().flatten().fold(0.0_f64, |m, v| m.max(v[l].abs())));
+    for (usable, largest) in usable.iter_mut().zip(largest) {
+        *usable &= largest > 0.0;
+    }
+    // Unusable lanes divide by 1 (any finite value: their results are thrown away).
+    let divisor = lanes(|l| if usable[l] { largest[l] } else { 1.0 });
+    let scaled = build(|i, j, l| f[i][j][l] / divisor[l]);
+    let squared = norm_squared(&scaled);
+    let norm = lanes(|l| squared[l].sqrt());
+    let det = determinant(&scaled);
+    for (l, usable) in usable.iter_mut().enumerate() {
+        let floor = super::polar::MIN_RELATIVE_DET * norm[l] * norm[l] * norm[l];
+        *usable &= !(det[l].is_nan() || det[l] <= floor);
+    }
+    let start = lanes(|l| (3.0 / squared[l]).sqrt());
+    let mut x = build(|i, j, l| scaled[i][j][l] * start[l]);
+    // Lanes still iterating; a lane stops when converged (kept usable) or when it fails.
+    let mut active = usable;
+    let mut converged = [false; LANES];
+    for _ in 0..8 {
+        if !active.iter().any(|&a| a) {
+            break;
+        }
+        let gram = tr_product(&x, &x);
+        let e = build(|i, j, l| gram[i][j][l] - if i == j { 1.0 } else { 0.0 });
+        let size_squared = norm_squared(&e);
+        let correction = product(&x, &e);
+        // A lane takes the step while it iterates and ‖E‖ < 1 (as the scalar loop, which
+        // leaves the iteration otherwise); the others keep their X.
+        let mut take = [false; LANES];
+        for (l, take) in take.iter_mut().enumerate() {
+            *take = active[l] && !(size_squared[l].is_nan() || size_squared[l] >= 1.0);
+        }
+        x = build(|i, j, l| match take[l] {
+            true => x[i][j][l] - correction[i][j][l] * 0.5,
+            false => x[i][j][l],
+        });
+        for (l, (converged, active)) in converged.iter_mut().zip(&mut active).enumerate() {
+            *converged |= take[l] && size_squared[l] < 1e-16;
+            *active = take[l] && !*converged;
+        }
+    }
+    (x, converged)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::fe::material::Material;
+    use crate::model::{Corotational, ForceModel};
+    use nalgebra::{Rotation3, Unit};
+
+    /// A deterministic spread in [−1, 1].
+    fn wave(k: f64) -> f64 {
+        (k * 12.9898).sin() * 0.5 + (k * 78.233).cos() * 0.5
+    }
+
+    /// Every lane's force and energy are the scalar path's to the bit (compared as bit
+    /// patterns: the lanes do the same operations in the same order), for rest tets of many
+    /// shapes deformed by rotations up to 3 rad and stretches up to ±30 %, and for inverted,
+    /// flat, far-stretched and non-finite tets, which leave the lanes for the scalar path (both
+    /// kinds are counted, so neither branch goes untested).
+    #[test]
+    fn lanes_repeat_the_scalar_force_and_energy_to_the_bit() {
+        let model = Corotational::new(&Material::new(1e6, 0.4, 1100.0).unwrap());
+        let (mut in_lanes, mut by_scalar) = (0, 0);
+        for batch in 0..300 {
+            let mut elements = Vec::new();
+            let mut rests = [[Vector3::zeros(); 4]; LANES];
+            let mut corners = [[Vector3::zeros(); 4]; LANES];
+            for lane in 0..LANES {
+                let k = (batch * LANES + lane) as f64;
+                let rest = [
+                    Vector3::new(wave(k), wave(k + 0.1), wave(k + 0.2)) * 0.1,
+                    Vector3::new(
+                        1.0 + 0.3 * wave(k + 0.3),
+                        0.2 * wave(k + 0.4),
+                        0.1 * wave(k + 0.5),
+                    ),
+                    Vector3::new(
+                        0.2 * wave(k + 0.6),
+                        1.0 + 0.3 * wave(k + 0.7),
+                        0.1 * wave(k + 0.8),
+                    ),
+                    Vector3::new(
+                        0.1 * wave(k + 0.9),
+                        0.2 * wave(k + 1.0),
+                        1.0 + 0.3 * wave(k + 1.1),
+                    ),
+                ];
+                let turn = Rotation3::from_axis_angle(
+                    &Unit::new_normalize(Vector3::new(wave(k + 2.0), wave(k + 2.1), 0.5)),
+                    3.0 * wave(k + 2.2),
+                );
+                let mut stretch = Matrix3::identity()
+                    + Matrix3::from_fn(|i, j| 0.3 * wave(k + 3.0 + (3 * i + j) as f64 * 0.1));
+                match (batch * LANES + lane) % 9 {
+                    0 => stretch[(0, 0)] = -stretch[(0, 0)],       // inverted
+                    1 => stretch.set_column(2, &Vector3::zeros()), // flat
+                    2 => stretch[(0, 0)] = 6.0,                    // stretches far apart
+                    _ => {}
+                }
+                let shift = Vector3::new(wave(k + 4.0), wave(k + 4.1), wave(k + 4.2)) * 3.0;
+                corners[lane] = rest.map(|p| turn * stretch * p + shift);
+                if batch == 7 && lane == 3 {
+                    corners[lane][2].y = f64::NAN;
+                }
+                rests[lane] = rest;
+                elements.push(Tet::new(&rest).unwrap());
+            }
+            let tets = std::array::from_fn(|l| &elements[l]);
+            let mut lanes = [(Vector12::zeros(), 0.0); LANES];
+            let converged = force_and_energy(
+                &Tets {
+                    elements: tets,
+                    corners: &corners,
+                },
+                model.lame(),
+                &mut lanes,
+            );
+            let mut together = [(Vector12::zeros(), 0.0); LANES];
+            model.force_and_energy_4(tets, &rests, &corners, &mut together);
+            for lane in 0..LANES {
+                let (force, energy) =
+                    model.force_and_energy(tets[lane], &rests[lane], &corners[lane]);
+                let (f4, e4) = together[lane];
+                let bits = |f: &Vector12| f.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
+                assert_eq!(bits(&f4), bits(&force), "batch {batch} lane {lane}");
+                assert_eq!(e4.to_bits(), energy.to_bits(), "batch {batch} lane {lane}");
+                match converged[lane] {
+                    true => in_lanes += 1,
+                    false => by_scalar += 1,
+                }
+            }
+        }
+        assert!(
+            in_lanes > 600 && by_scalar > 100,
+            "{in_lanes} in lanes, {by_scalar} by the scalar path"
+        );
+    }
+
+    /// [`rotations`] gives [`crate::model::polar::rotation`]'s bits wherever it takes a matrix,
+    /// and declines the inverted, flat, far-stretched and non-finite ones (which that function
+    /// leaves to Higham's iteration or the SVD), over rotated stretches up to ±30 % at scales
+    /// from 1e-3 to 1e3.
+    #[test]
+    fn four_rotations_repeat_the_scalar_rotation_to_the_bit() {
+        let (mut taken, mut declined) = (0, 0);
+        for batch in 0..200 {
+            let f: [Matrix3<f64>; LANES] = std::array::from_fn(|lane| {
+                let k = (batch * LANES + lane) as f64;
+                let turn = Rotation3::from_axis_angle(
+                    &Unit::new_normalize(Vector3::new(wave(k), wave(k + 0.5), 0.3)),
+                    3.0 * wave(k + 1.0),
+                );
+                let mut stretch = Matrix3::identity()
+                    + Matrix3::from_fn(|i, j| 0.3 * wave(k + 2.0 + (3 * i + j) as f64 * 0.1));
+                match (batch * LANES + lane) % 7 {
+                    0 => stretch[(1, 1)] = -stretch[(1, 1)],
+                    1 => stretch.set_row(0, &nalgebra::RowVector3::zeros()),
+                    2 => stretch[(2, 2)] = 8.0,
+                    3 if batch % 5 == 0 => stretch[(0, 1)] = f64::INFINITY,
+                    _ => {}
+                }
+                turn.matrix() * stretch * 10f64.powf(3.0 * wave(k + 3.0))
+            });
+            for (lane, r) in rotations(&f).into_iter().enumerate() {
+                let scalar = crate::model::polar::rotation(&f[lane]);
+                match r {
+                    Some(r) => {
+                        taken += 1;
+                        let bits =
+                            |m: &Matrix3<f64>| m.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
+                        assert_eq!(bits(&r), bits(&scalar), "batch {batch} lane {lane}");
+                    }
+                    None => declined += 1,
+                }
+            }
+        }
+        assert!(
+            taken > 400 && declined > 200,
+            "{taken} taken, {declined} declined"
+        );
+    }
+}
