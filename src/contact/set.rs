@@ -389,8 +389,8 @@ impl Contact {
     /// stiffness for a step from its start state ([`super::impact`]):
     /// κ = max(κ_prev if a node is within d̂, κ₀, maxᵢ mᵢ·v_n,ᵢ²/(2·Aᵢ·b(f·d̂))) (Pa/m), and
     /// returns it; without one returns κ and changes nothing. `u`, `velocity`: full
-    /// displacement and velocity (length, length/time); `mass`: full row-sum lumped mass per
-    /// DOF (mass units; a node's mass is its x DOF's); `duration`: the step (time; the
+    /// displacement and velocity (length, length/time); `mass`: each mesh node's lumped mass
+    /// (mass units, one per node); `duration`: the step (time; the
     /// obstacles' approach is measured against their mean velocity from their current
     /// placement to the one at the current time + `duration`, set by
     /// [`set_time`](Self::set_time) before).
@@ -408,7 +408,7 @@ impl Contact {
         };
         self.check_full(u)?;
         Error::check_len("contact velocity", u.len(), velocity.len())?;
-        Error::check_len("contact mass", u.len(), mass.len())?;
+        Error::check_len("contact node masses", u.len() / 3, mass.len())?;
         let d_hat = self.parameters.activation_distance;
         let now = self.offsets();
         let obstacle_velocity: Vec<Vector3<f64>> = match duration > 0.0 {
@@ -431,7 +431,7 @@ impl Contact {
                 .gradient(x)
                 .dot(&(v - obstacle_velocity[o]));
             estimate = estimate.max(super::impact::node_estimate(
-                mass[3 * n],
+                mass[n],
                 approach,
                 self.areas[k],
                 d_hat,

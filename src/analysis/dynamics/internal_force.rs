@@ -303,6 +303,14 @@ pub struct NonlinearForce {
     surface: Option<SurfaceContact>,
     /// The free index of each full DOF (`usize::MAX` where constrained).
     free_index: Vec<usize>,
+    /// Each mesh node's lumped mass (mass units) for the impact-aware barrier stiffness
+    /// ([`begin_impact_step`](Self::begin_impact_step)): formed once, at the first step that
+    /// needs it, from the mass of the system this force was built for (it does not change in
+    /// a run).
+    node_masses: std::sync::OnceLock<Vec<f64>>,
+    /// Scratch of [`begin_impact_step`](Self::begin_impact_step): the full displacement and
+    /// velocity of the step's start (kept, not allocated per step).
+    impact_scratch: std::sync::Mutex<(Vec<f64>, Vec<f64>)>,
 }
 
 impl NonlinearForce {
@@ -385,6 +393,8 @@ impl NonlinearForce {
                 }
                 index
             },
+            node_masses: std::sync::OnceLock::new(),
+            impact_scratch: std::sync::Mutex::new((Vec::new(), Vec::new())),
         })
     }
 
@@ -843,28 +853,58 @@ impl NonlinearForce {
     /// At an implicit step's start: with an impact fraction on the contact
     /// ([`ContactParameters::impact_fraction`]), sets the barrier stiffness of the step of
     /// duration `dt` (time) from `state` ([`Contact::update_impact_stiffness`]; the constrained
-    /// DOFs' velocity taken as zero, the node masses as `system`'s row-sum lumped mass).
+    /// DOFs' velocity taken as zero, each node's mass from [`node_masses`](Self::node_masses)).
     /// Without one it does nothing. Call after the obstacles are placed at the state's time.
+    ///
+    /// Errors: `state` not of the free DOFs; those of
+    /// [`Contact::update_impact_stiffness`].
     pub fn begin_impact_step(&self, system: &LinearSystem, state: &State, dt: f64) -> Result<()> {
-        let Some(contact) = self.contact.as_ref() else {
+        let Some(contact) =
+            (self.contact.as_ref()).filter(|c| c.parameters().impact_fraction.is_some())
+        else {
             return Ok(());
         };
-        if contact.parameters().impact_fraction.is_none() {
-            return Ok(());
-        }
+        state.check_len(self.free_count())?;
+        let masses = self.node_masses(system)?;
+        let mut scratch = self
+            .impact_scratch
+            .lock()
+            .unwrap_or_else(|e| e.into_inner());
+        let (u, velocity) = &mut *scratch;
         let n = self.mesh.dof_count();
-        let mut u = vec![0.0; n];
-        self.expand_into(&state.displacement, &mut u);
-        let ones = vec![1.0; self.free_dofs.len()];
-        let mut lumped = vec![0.0; ones.len()];
-        system.mass().mul_vec(&ones, &mut lumped)?;
-        let (mut velocity, mut mass) = (vec![0.0; n], vec![0.0; n]);
-        for (k, &d) in self.free_dofs.iter().enumerate() {
-            velocity[d] = state.velocity[k];
-            mass[d] = lumped[k];
+        u.resize(n, 0.0);
+        velocity.clear();
+        velocity.resize(n, 0.0);
+        self.expand_into(&state.displacement, u);
+        for (&d, &v) in self.free_dofs.iter().zip(&state.velocity) {
+            velocity[d] = v;
         }
-        contact.update_impact_stiffness(&u, &velocity, &mass, (state.time, dt))?;
+        contact.update_impact_stiffness(u, velocity, masses, (state.time, dt))?;
         Ok(())
+    }
+
+    /// Each mesh node's mass (mass units) as the impact-aware stiffness reads it: the largest
+    /// row sum (M_ff·1) over the node's free DOFs, 0 for a node without one. With the lumped
+    /// mass (the default) the three are equal, ρV/4 of the tets around the node. With the
+    /// consistent mass they differ where a neighbour has some DOFs constrained: the restriction
+    /// to the free DOFs drops that neighbour's coupling from the rows of the axes it has
+    /// fixed, and for 4-node tets every coupling is positive (ρV/20·(1 + δᵢⱼ)), so the largest
+    /// row sum is the one nearest to the node's whole share. A node with its x DOF constrained
+    /// and y, z free thus keeps its mass (the DOF of one axis alone would give it none).
+    ///
+    /// Formed once from `system` (the system this force was built for) and kept.
+    fn node_masses(&self, system: &LinearSystem) -> Result<&[f64]> {
+        if let Some(masses) = self.node_masses.get() {
+            return Ok(masses);
+        }
+        let ones = vec![1.0; self.free_dofs.len()];
+        let mut sums = vec![0.0; ones.len()];
+        system.mass().mul_vec(&ones, &mut sums)?;
+        let mut masses = vec![0.0f64; self.node_count()];
+        for (&d, &m) in self.free_dofs.iter().zip(&sums) {
+            masses[d / 3] = masses[d / 3].max(m);
+        }
+        Ok(self.node_masses.get_or_init(|| masses))
     }
 
     fn prescribed_lock(&self) -> std::sync::RwLockWriteGuard<'_, Vec<f64>> {
