@@ -53,8 +53,9 @@ pub struct BarrierRecord {
     /// bounds, over [`FORCE_ERROR_PER_GAP_ERROR`](crate::contact::FORCE_ERROR_PER_GAP_ERROR).
     pub peak_gap_force: f64,
     /// The barrier stiffness in force after the last accepted step (Pa/m): κ, or with an
-    /// impact fraction the value [`Contact::update_impact_stiffness`] keeps between steps,
-    /// which a resumed run needs to continue with the same bits.
+    /// impact fraction the largest of the nodes' κᵢ that [`Contact::update_impact_stiffness`]
+    /// keeps between steps (a resumed run takes each node's own from the checkpoint's
+    /// [`IMPACT_STIFFNESS_RECORD`](super::IMPACT_STIFFNESS_RECORD)).
     pub stiffness_in_force: f64,
 }
 
@@ -576,13 +577,30 @@ impl NonlinearForce {
     }
 
     /// Starts the record over (a new run on this force) or sets it to `record` (a resumed
-    /// run's, from its checkpoint). Does nothing without contact.
+    /// run's, from its checkpoint). Does nothing without contact. With an impact fraction a
+    /// new run's nodes start at κ₀, and a resumed run's at the record's stiffness in force
+    /// until [`set_node_stiffnesses`](Self::set_node_stiffnesses) gives each its own.
     pub fn set_barrier_record(&self, record: Option<BarrierRecord>) {
         if let Some(contact) = &self.contact {
             let record = record.unwrap_or_else(|| BarrierRecord::start(contact.parameters()));
-            // A resumed run continues with the stiffness its checkpoint was taken at.
             contact.set_stiffness_in_force(record.stiffness_in_force);
             *self.barrier_lock() = Some(record);
+        }
+    }
+
+    /// Each contact node's barrier stiffness κᵢ in force (Pa/m) with an impact fraction
+    /// ([`Contact::node_stiffnesses`]): what a checkpoint keeps for a resumed run to continue
+    /// with the same bits. `None` without contact or without an impact fraction.
+    pub fn node_stiffnesses(&self) -> Option<Vec<f64>> {
+        self.contact.as_ref()?.node_stiffnesses()
+    }
+
+    /// Sets each contact node's κᵢ from a checkpoint's `values` (Pa/m; see
+    /// [`Contact::set_node_stiffnesses`]); nothing without contact or an impact fraction.
+    pub fn set_node_stiffnesses(&self, values: &[f64]) -> Result<()> {
+        match &self.contact {
+            Some(contact) => contact.set_node_stiffnesses(values),
+            None => Ok(()),
         }
     }
 
@@ -1295,6 +1313,14 @@ impl InternalForce {
         match self {
             InternalForce::Nonlinear(n) => n.note_accepted_step(&state.displacement),
             InternalForce::Linear => Ok(()),
+        }
+    }
+
+    /// [`NonlinearForce::node_stiffnesses`]; `None` for the linear force.
+    pub fn node_stiffnesses(&self) -> Option<Vec<f64>> {
+        match self {
+            InternalForce::Nonlinear(n) => n.node_stiffnesses(),
+            InternalForce::Linear => None,
         }
     }
 
