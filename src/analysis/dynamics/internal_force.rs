@@ -871,8 +871,9 @@ impl NonlinearForce {
     /// At an implicit step's start: with an impact fraction on the contact
     /// ([`ContactParameters::impact_fraction`]), sets the barrier stiffness of the step of
     /// duration `dt` (time) from `state` ([`Contact::update_impact_stiffness`]; the constrained
-    /// DOFs' velocity taken as zero, each node's mass from [`node_masses`](Self::node_masses)).
-    /// Without one it does nothing. Call after the obstacles are placed at the state's time.
+    /// DOFs' velocity taken as zero, each node's mass the largest row sum of M over its free
+    /// DOFs, formed once). Without one it does nothing. Call after the obstacles are placed at
+    /// the state's time.
     ///
     /// Errors: `state` not of the free DOFs; those of
     /// [`Contact::update_impact_stiffness`].
