@@ -22,7 +22,14 @@
 //! (default `swing newmark 1e-3 0.6 0`; scene `swing`, `shaken-base` or `drop` (with
 //! `backward-euler 5e-2 0.08 0`), method `newmark` or `backward-euler`; beta the Rayleigh
 //! stiffness damping, s). `ADAPTIVE_BINS=1` prints where the adaptive steps went,
-//! `ADAPTIVE_LANDINGS=1` every landing's error.
+//! `ADAPTIVE_LANDINGS=1` every landing's error. `IMPACT_FRACTION=f` gives the drop the
+//! impact-aware barrier stiffness at f·d̂ (`ContactParameters::with_impact_fraction`; the
+//! reference too).
+//!
+//! `cargo bench --bench adaptive_time_step -- drop-fixed [reference] [end]` instead prints the
+//! drop's impact by fixed-step backward Euler at dt = 1.25e-4 … 9.8e-7 s: the centroid's error
+//! against a reference at `reference` steps per 2 ms (default 4096: 4.9e-7 s), the closest gap,
+//! ω_c·dt there, the rebound speed and the energy E − E₀ (at the end and its largest).
 
 use std::time::Instant;
 
@@ -58,7 +65,10 @@ fn drop_on_ground() -> Result<Definition> {
         BoxSplit::Mirrored6,
     )?;
     let rubber = Material::new(1e5, 0.3, 1000.0)?;
-    let parameters = ContactParameters::for_mesh(&mesh, rubber.youngs_modulus())?;
+    let mut parameters = ContactParameters::for_mesh(&mesh, rubber.youngs_modulus())?;
+    if let Some(fraction) = impact_fraction() {
+        parameters = parameters.with_impact_fraction(fraction)?;
+    }
     let ground = Obstacle::half_space("ground", Vector3::zeros(), Vector3::z())?;
     let contact = Contact::new(&mesh, vec![ground], parameters)?;
     let materials = MaterialMap::uniform(rubber, mesh.tet_count());
@@ -66,6 +76,13 @@ fn drop_on_ground() -> Result<Definition> {
         .gravity(Vector3::new(0.0, 0.0, -9.81))?
         .contact(contact)
         .build()
+}
+
+/// The impact-aware barrier stiffness's fraction of d̂ for the drop
+/// (`ContactParameters::with_impact_fraction`), from the environment variable
+/// `IMPACT_FRACTION` (none when unset: the default κ).
+fn impact_fraction() -> Option<f64> {
+    std::env::var("IMPACT_FRACTION").ok()?.parse().ok()
 }
 
 /// The mean vertical displacement of the nodes (every DOF of the free cube, in node order).
@@ -278,6 +295,121 @@ fn fixed(
     Ok((samples, cpu_seconds(clock) - start))
 }
 
+/// What a fixed-step backward Euler drop did at its impact ([`impact_table`]).
+struct Impact {
+    samples: Samples,
+    /// The smallest gap of a contact node over the accepted steps (m).
+    gap: f64,
+    /// ω_c·dt at that node and step: ω_c = √(k_c/m), k_c = ∂²E_c/∂z² by a central difference
+    /// of the contact energy over ±gap/1000, m its lumped mass.
+    resolution: f64,
+    /// The largest mean vertical velocity of the nodes (m/s): the rebound's.
+    rebound: f64,
+    /// E − E₀ at the end and its largest over the run (J): kinetic + elastic + gravity's +
+    /// the barrier's.
+    energy: (f64, f64),
+}
+
+/// The drop by fixed-step backward Euler at `per_interval` steps per output interval to `end`.
+fn impact_run(definition: &Definition, per_interval: usize, end: f64) -> Result<Impact> {
+    let dt = interval() / per_interval as f64;
+    let steps = (end / interval()).round() as usize * per_interval;
+    let mut run = Transient::new(definition, options(Method::BackwardEuler, dt, 0.0)?)?;
+    let mut impact = Impact {
+        samples: Samples::default(),
+        gap: f64::INFINITY,
+        resolution: 0.0,
+        rebound: f64::NEG_INFINITY,
+        energy: (0.0, f64::NEG_INFINITY),
+    };
+    let rest: Vec<f64> = drop_rest_heights()?;
+    run.run((0, steps), &mut |view: &StepView<'_>| -> Result<Flow> {
+        let k = view
+            .step
+            .is_multiple_of(per_interval)
+            .then_some(view.step / per_interval);
+        impact.samples.keep(k, view.state);
+        let (u, v) = (&view.state.displacement, &view.state.velocity);
+        let contact = view.force.contact().expect("the drop has contact");
+        let energies = view.force.energy(view.system, view.state)?;
+        let total = energies.kinetic
+            + energies.elastic
+            + energies.gravity_potential
+            + energies.load_potential
+            + contact.energy(u)?;
+        impact.energy = (total, impact.energy.1.max(total));
+        impact.rebound = impact.rebound.max(mean_z(v));
+        let height = |n: usize| rest[n] + u[3 * n + 2];
+        let lowest = (0..rest.len())
+            .min_by(|a, b| height(*a).total_cmp(&height(*b)))
+            .unwrap_or(0);
+        if height(lowest) < impact.gap {
+            impact.gap = height(lowest);
+            let (h, z) = (impact.gap * 1e-3, 3 * lowest + 2);
+            let mut w = u.clone();
+            let middle = contact.energy(&w)?;
+            w[z] += h;
+            let up = contact.energy(&w)?;
+            w[z] -= 2.0 * h;
+            let down = contact.energy(&w)?;
+            let stiffness = (up - 2.0 * middle + down) / (h * h);
+            let vertical: Vec<f64> = (0..u.len()).map(|i| (i % 3 == 2) as u8 as f64).collect();
+            let mut row_sums = vec![0.0; u.len()];
+            view.system.mass().mul_vec(&vertical, &mut row_sums)?;
+            impact.resolution = (stiffness / row_sums[z]).sqrt() * dt;
+        }
+        Ok(Flow::Continue)
+    })?;
+    Ok(impact)
+}
+
+/// The rest heights z of the drop's nodes (m).
+fn drop_rest_heights() -> Result<Vec<f64>> {
+    let mesh = TetMesh::box_grid(
+        Vector3::new(0.0, 0.0, 5e-3),
+        Vector3::new(0.1, 0.1, 0.105),
+        [2, 2, 2],
+        BoxSplit::Mirrored6,
+    )?;
+    Ok(mesh.nodes().iter().map(|x| x.z).collect())
+}
+
+/// The drop's impact by fixed-step backward Euler at 16, 64, 256, 1024 and 2048 steps per
+/// output interval (dt = 1.25e-4 … 9.8e-7 s) against a reference at `reference` steps per
+/// interval: the centroid's error relative to its travel, the closest gap, ω_c·dt there, the
+/// rebound speed and the energy E − E₀ at the end and its largest.
+fn impact_table(definition: &Definition, reference: usize, end: f64) -> Result<()> {
+    let exact = impact_run(definition, reference, end)?;
+    println!(
+        "drop to {end} s, impact fraction {:?}; reference dt = {:.3e} s: gap {:.3e} m, \
+         rebound {:.4} m/s, E_end − E₀ {:.3e} J, max E − E₀ {:.3e} J",
+        impact_fraction(),
+        interval() / reference as f64,
+        exact.gap,
+        exact.rebound,
+        exact.energy.0,
+        exact.energy.1
+    );
+    println!(
+        "{:>10} {:>10} {:>10} {:>8} {:>10} {:>11} {:>11}",
+        "dt (s)", "centroid", "d_min (m)", "ω_c·dt", "v_up (m/s)", "E_end (J)", "max E (J)"
+    );
+    for n in [16, 64, 256, 1024, 2048] {
+        let run = impact_run(definition, n, end)?;
+        println!(
+            "{:>10.3e} {:>10.3e} {:>10.3e} {:>8.3} {:>10.4} {:>11.3e} {:>11.3e}",
+            interval() / n as f64,
+            exact.samples.centroid_error_of(&run.samples),
+            run.gap,
+            run.resolution,
+            run.rebound,
+            run.energy.0,
+            run.energy.1
+        );
+    }
+    Ok(())
+}
+
 fn main() -> Result<()> {
     // `cargo bench` appends `--bench` to a harness-less target's arguments: not one of ours.
     let mut args: Vec<String> = std::env::args()
@@ -285,7 +417,7 @@ fn main() -> Result<()> {
         .filter(|a| !a.starts_with("--"))
         .collect();
     let scene = match args.first().map(String::as_str) {
-        Some(s @ ("swing" | "shaken-base" | "drop")) => {
+        Some(s @ ("swing" | "shaken-base" | "drop" | "drop-fixed")) => {
             let scene = s.to_string();
             args.remove(0);
             scene
@@ -297,13 +429,18 @@ fn main() -> Result<()> {
         args.get(i).and_then(|a| a.parse().ok()).unwrap_or(default)
     };
     let (tolerance, end, beta) = (number(1, 1e-3), number(2, 0.6), number(3, 0.0));
-    let drop = scene == "drop";
+    let drop = scene.starts_with("drop");
     INTERVAL_OF_SCENE.get_or_init(|| if drop { 0.002 } else { 0.01 });
     CENTROID.get_or_init(|| drop);
     let definition = match drop {
         true => drop_on_ground()?,
         false => cantilever(scene == "shaken-base")?,
     };
+    if scene == "drop-fixed" {
+        // `drop-fixed [reference steps per interval] [end]`.
+        let reference = args.first().and_then(|a| a.parse().ok()).unwrap_or(4096);
+        return impact_table(&definition, reference, number(1, 0.08));
+    }
 
     let (run, adaptive_wall) = fastest(|| adaptive(&definition, method, (tolerance, end), beta))?;
     let report = &run.report;

@@ -11,19 +11,21 @@ pub struct ContactParameters {
     /// κ (pressure per length, Pa/m): the contact pressure is p = −κ·b′(d). With an
     /// [`impact_fraction`](Self::impact_fraction) it is κ₀, the floor of the stiffness in force.
     pub stiffness: f64,
-    /// f (dimensionless, 0 < f < 1), or `None` (the default: κ stays κ₀). With f, an implicit
-    /// step raises the barrier's stiffness so that it takes each impact's kinetic energy at a
-    /// gap of about f·d̂, where a time step can resolve the barrier's mode:
+    /// f (dimensionless, 0 < f < 1), or `None` (the default: κ stays κ₀). With f, each
+    /// contact node i gets its own barrier stiffness, set at an implicit step's start so that
+    /// the barrier takes the node's impact kinetic energy at a gap of about f·d̂, where a time
+    /// step can resolve the barrier's mode:
     ///
-    /// κ_eff = max(κ₀, maxᵢ mᵢ·v_n,ᵢ²/(2·Aᵢ·b(f·d̂)))  (Pa/m)
+    /// κᵢ = max(κ₀, max_o mᵢ·v_n,ᵢ,ₒ²/(2·Aᵢ·b(f·d̂)))  (Pa/m)
     ///
-    /// over the contact nodes i approaching an obstacle at the step's start (v_n,ᵢ > 0 the
-    /// normal approach speed relative to the obstacle's mean velocity over the step, length/time;
-    /// mᵢ the node's row-sum lumped mass; Aᵢ its area weight; b the barrier). While a node is
-    /// within d̂ at a step's start, κ_eff never falls (it is the max of the value before and the
-    /// estimate), so the energy a landing node stored is given back in its rebound; it returns
-    /// to the estimate once every node is outside d̂ (no barrier energy then, so the change
-    /// does no work). See [`Contact::update_impact_stiffness`](super::Contact::update_impact_stiffness).
+    /// for a node outside d̂ of every obstacle at the step's start (v_n,ᵢ,ₒ > 0 its normal
+    /// approach speed to obstacle o relative to the obstacle's mean velocity over the step,
+    /// length/time; mᵢ its lumped mass, the largest row sum of M over its free DOFs; Aᵢ its
+    /// area weight; b the barrier); a node within d̂ keeps its κᵢ. The barrier energy
+    /// E_c = Σᵢ κᵢ·Aᵢ·Σ_o b(d_o(xᵢ)) is then conservative: a node's κᵢ changes only where its
+    /// barrier holds no energy. Friction's normal force takes κᵢ too. See
+    /// [`Contact::update_impact_stiffness`](super::Contact::update_impact_stiffness) and
+    /// [`super::impact`].
     pub impact_fraction: Option<f64>,
 }
 

@@ -74,9 +74,10 @@ pub struct Contact {
     placement: Placement,
     /// The gap error a static solve drives its barrier to (dimensionless).
     gap_tolerance: f64,
-    /// The barrier stiffness in force (Pa/m): κ, or with an impact fraction the value of
-    /// [`update_impact_stiffness`](Contact::update_impact_stiffness).
-    kappa: super::impact::Stiffness,
+    /// With an impact fraction, each contact node's barrier stiffness κᵢ in force (Pa/m, in
+    /// the order of `nodes`; see [`update_impact_stiffness`](Contact::update_impact_stiffness));
+    /// empty without one (every node at κ).
+    kappa: super::impact::NodeStiffness,
 }
 
 /// The obstacles' current offsets, behind a lock so that a shared contact (inside an
@@ -205,7 +206,7 @@ impl Contact {
         }
         let nodes: Vec<usize> = (0..mesh.node_count()).filter(|&n| areas[n] > 0.0).collect();
         let (min, max) = mesh.bounding_box();
-        let contact = Contact {
+        let mut contact = Contact {
             slip_velocity: SLIP_FRACTION * (max - min).norm(),
             slip_distance: None,
             rest: nodes.iter().map(|&n| mesh.nodes()[n]).collect(),
@@ -217,8 +218,9 @@ impl Contact {
             obstacles,
             parameters,
             gap_tolerance: GAP_TOLERANCE,
-            kappa: super::impact::Stiffness::new(parameters.stiffness),
+            kappa: super::impact::NodeStiffness::default(),
         };
+        contact.kappa = contact.kept_stiffness(parameters);
         contact.check_state(&vec![0.0; mesh.dof_count()])?;
         // The nodes are outside; the faces between them and the obstacles' interiors next.
         super::overlap::check_surface(
@@ -366,31 +368,85 @@ impl Contact {
         self.gap_tolerance
     }
 
-    /// d̂ and κ (κ₀ with an impact fraction; the value in force is [`stiffness`](Self::stiffness)).
+    /// d̂ and κ (κ₀ with an impact fraction; the values in force are
+    /// [`node_stiffnesses`](Self::node_stiffnesses)).
     pub fn parameters(&self) -> ContactParameters {
         self.parameters
     }
 
-    /// The barrier stiffness in force (Pa/m): [`ContactParameters::stiffness`], or with an
-    /// impact fraction the last [`update_impact_stiffness`](Self::update_impact_stiffness).
-    pub fn stiffness(&self) -> f64 {
-        self.kappa.get()
+    /// The per-node stiffnesses kept under `parameters`: one per contact node at κ₀ with an
+    /// impact fraction, none without.
+    fn kept_stiffness(&self, parameters: ContactParameters) -> super::impact::NodeStiffness {
+        let count = match parameters.impact_fraction {
+            Some(_) => self.nodes.len(),
+            None => 0,
+        };
+        super::impact::NodeStiffness::new(count, parameters.stiffness)
     }
 
-    /// Sets the barrier stiffness in force to `kappa` (Pa/m) where an impact fraction is on (a
-    /// resumed run's, from its checkpoint); without one κ stays the parameters' own.
+    /// The `k`-th contact node's barrier stiffness in force (Pa/m): κ without an impact
+    /// fraction.
+    fn kappa_of(&self, k: usize) -> f64 {
+        self.kappa.get(k, self.parameters.stiffness)
+    }
+
+    /// The largest barrier stiffness in force over the contact nodes (Pa/m):
+    /// [`ContactParameters::stiffness`] without an impact fraction, with one the largest κᵢ
+    /// of the last [`update_impact_stiffness`](Self::update_impact_stiffness).
+    pub fn stiffness(&self) -> f64 {
+        (0..self.kappa.len())
+            .map(|k| self.kappa_of(k))
+            .fold(self.parameters.stiffness, f64::max)
+    }
+
+    /// Each contact node's barrier stiffness κᵢ in force (Pa/m, in the order of
+    /// [`nodes`](Self::nodes)) with an impact fraction, what a resumed run needs to continue
+    /// with the same bits; `None` without one (every node at κ).
+    pub fn node_stiffnesses(&self) -> Option<Vec<f64>> {
+        (self.kappa.len() > 0).then(|| (0..self.kappa.len()).map(|k| self.kappa_of(k)).collect())
+    }
+
+    /// Sets every contact node's κᵢ (Pa/m) from `values` (one per contact node, as
+    /// [`node_stiffnesses`](Self::node_stiffnesses) gives them: a resumed run's, from its
+    /// checkpoint). Nothing without an impact fraction. [`Error::InvalidParameter`] naming the
+    /// count for another number of values, or a value not finite and > 0.
+    pub fn set_node_stiffnesses(&self, values: &[f64]) -> Result<()> {
+        if self.kappa.len() == 0 {
+            return Ok(());
+        }
+        Error::check_len("contact node stiffnesses", self.kappa.len(), values.len())?;
+        if let Some(k) = values.iter().position(|v| !(v.is_finite() && *v > 0.0)) {
+            return Err(Error::invalid_parameter(
+                format!("contact node stiffness {k}"),
+                values[k],
+                "must be finite and > 0 (Pa/m)",
+            ));
+        }
+        for (k, &v) in values.iter().enumerate() {
+            self.kappa.set(k, v);
+        }
+        Ok(())
+    }
+
+    /// Sets every contact node's κᵢ to `kappa` (Pa/m) where an impact fraction is on (a new
+    /// run's κ₀, or a checkpoint's one stiffness in force where it holds no per-node values);
+    /// without one κ stays the parameters' own.
     pub(crate) fn set_stiffness_in_force(&self, kappa: f64) {
-        if self.parameters.impact_fraction.is_some() && kappa.is_finite() && kappa > 0.0 {
-            self.kappa.set(kappa);
+        if kappa.is_finite() && kappa > 0.0 {
+            for k in 0..self.kappa.len() {
+                self.kappa.set(k, kappa);
+            }
         }
     }
 
-    /// With an impact fraction f ([`ContactParameters::impact_fraction`]), sets the barrier
-    /// stiffness for a step from its start state ([`super::impact`]):
-    /// κ = max(κ_prev if a node is within d̂, κ₀, maxᵢ mᵢ·v_n,ᵢ²/(2·Aᵢ·b(f·d̂))) (Pa/m), and
-    /// returns it; without one returns κ and changes nothing. `u`, `velocity`: full
-    /// displacement and velocity (length, length/time); `mass`: full row-sum lumped mass per
-    /// DOF (mass units; a node's mass is its x DOF's); `duration`: the step (time; the
+    /// With an impact fraction f ([`ContactParameters::impact_fraction`]), sets each contact
+    /// node's barrier stiffness for a step from its start state ([`super::impact`]): a node
+    /// within d̂ of an obstacle keeps its κᵢ; one outside d̂ of every obstacle takes
+    /// κᵢ = max(κ₀, max_o mᵢ·v_n,ᵢ,ₒ²/(2·Aᵢ·b(f·d̂))) (Pa/m; v_n,ᵢ,ₒ > 0 its approach speed to
+    /// obstacle o). Returns the largest κᵢ ([`stiffness`](Self::stiffness)); without an impact
+    /// fraction returns κ and changes nothing. `u`, `velocity`: full
+    /// displacement and velocity (length, length/time); `mass`: each mesh node's lumped mass
+    /// (mass units, one per node); `duration`: the step (time; the
     /// obstacles' approach is measured against their mean velocity from their current
     /// placement to the one at the current time + `duration`, set by
     /// [`set_time`](Self::set_time) before).
@@ -408,7 +464,7 @@ impl Contact {
         };
         self.check_full(u)?;
         Error::check_len("contact velocity", u.len(), velocity.len())?;
-        Error::check_len("contact mass", u.len(), mass.len())?;
+        Error::check_len("contact node masses", u.len() / 3, mass.len())?;
         let d_hat = self.parameters.activation_distance;
         let now = self.offsets();
         let obstacle_velocity: Vec<Vector3<f64>> = match duration > 0.0 {
@@ -417,35 +473,36 @@ impl Contact {
                 .collect(),
             false => vec![Vector3::zeros(); now.len()],
         };
-        let (mut estimate, mut within) = (0.0f64, false);
+        // Per node: whether it is within d̂ of an obstacle, and its largest estimate.
+        let mut nodes = vec![(false, 0.0f64); self.nodes.len()];
         self.for_each_gap(u, |k, o, x, d| {
-            within |= d < d_hat;
-            // A node already within d̂ has stored energy at the κ in force: raising κ for it
-            // would add energy (measured +4 % of the impact's kinetic energy on the drop).
-            if d < d_hat {
-                return;
-            }
+            let (within, estimate) = &mut nodes[k];
+            *within |= d < d_hat;
             let n = self.nodes[k];
             let v = Vector3::new(velocity[3 * n], velocity[3 * n + 1], velocity[3 * n + 2]);
             let approach = -self.obstacles[o]
                 .gradient(x)
                 .dot(&(v - obstacle_velocity[o]));
-            estimate = estimate.max(super::impact::node_estimate(
-                mass[3 * n],
+            *estimate = estimate.max(super::impact::node_estimate(
+                mass[n],
                 approach,
                 self.areas[k],
                 d_hat,
                 fraction,
             ));
         });
-        let kappa = super::impact::next_stiffness(
-            self.parameters.stiffness,
-            self.stiffness(),
-            estimate,
-            within,
-        );
-        self.kappa.set(kappa);
-        Ok(kappa)
+        for (k, (within, estimate)) in nodes.into_iter().enumerate() {
+            // A node within d̂ keeps its κᵢ: it may hold barrier energy at it, which a change
+            // would add to or take from the run.
+            let next = super::impact::next_stiffness(
+                self.parameters.stiffness,
+                self.kappa_of(k),
+                estimate,
+                within,
+            );
+            self.kappa.set(k, next);
+        }
+        Ok(self.stiffness())
     }
 
     /// The same contact (nodes, obstacles and their placement, friction's scales) under other
@@ -471,7 +528,7 @@ impl Contact {
         // Friction's stick distance stays what it was (its default follows d̂).
         contact.slip_distance = Some(self.slip_distance());
         contact.parameters = parameters;
-        contact.kappa = super::impact::Stiffness::new(parameters.stiffness);
+        contact.kappa = contact.kept_stiffness(parameters);
         Ok(contact)
     }
 
@@ -536,11 +593,11 @@ impl Contact {
     /// E_c(u) (energy units) at full displacement `u`; +∞ if a node is on or inside an obstacle.
     pub fn energy(&self, u: &[f64]) -> Result<f64> {
         self.check_full(u)?;
-        let (d_hat, kappa) = (self.parameters.activation_distance, self.stiffness());
+        let d_hat = self.parameters.activation_distance;
         let mut total = 0.0;
         self.for_each_gap(u, |k, _, _, d| {
             if d < d_hat {
-                total += kappa * self.areas[k] * barrier::value(d, d_hat);
+                total += self.kappa_of(k) * self.areas[k] * barrier::value(d, d_hat);
             }
         });
         Ok(total)
@@ -551,8 +608,8 @@ impl Contact {
     pub fn add_force(&self, u: &[f64], force: &mut [f64]) -> Result<()> {
         self.check_full(u)?;
         Error::check_len("contact force", u.len(), force.len())?;
-        self.for_each_active(u, |n, _, obstacle, x, d, area| {
-            let f = -self.stiffness()
+        self.for_each_active(u, |n, _, obstacle, x, d, (area, kappa)| {
+            let f = -kappa
                 * area
                 * barrier::derivative(d, self.parameters.activation_distance)
                 * obstacle.gradient(x);
@@ -566,8 +623,8 @@ impl Contact {
     /// the body's contact force), in the obstacles' order.
     pub fn obstacle_forces(&self, u: &[f64]) -> Result<Vec<Vector3<f64>>> {
         let mut forces = vec![Vector3::zeros(); self.obstacles.len()];
-        self.for_each_active(u, |_, o, obstacle, x, d, area| {
-            forces[o] += self.stiffness()
+        self.for_each_active(u, |_, o, obstacle, x, d, (area, kappa)| {
+            forces[o] += kappa
                 * area
                 * barrier::derivative(d, self.parameters.activation_distance)
                 * obstacle.gradient(x);
@@ -583,10 +640,9 @@ impl Contact {
     /// [`crate::analysis::nonlinear`]'s continuation of d̂ drives down.
     pub fn complementarity(&self, u: &[f64]) -> Result<(f64, f64)> {
         let (mut work, mut total) = (0.0, 0.0);
-        self.for_each_active(u, |_, _, _, _, d, area| {
-            let lambda = -self.stiffness()
-                * area
-                * barrier::derivative(d, self.parameters.activation_distance);
+        self.for_each_active(u, |_, _, _, _, d, (area, kappa)| {
+            let lambda =
+                -kappa * area * barrier::derivative(d, self.parameters.activation_distance);
             work += lambda * d;
             total += lambda;
         })?;
@@ -599,12 +655,12 @@ impl Contact {
     /// the contact nodes and obstacles; never an error for a node inside (a measurement).
     pub fn barrier_gaps(&self, u: &[f64]) -> Result<BarrierGaps> {
         self.check_full(u)?;
-        let (d_hat, kappa) = (self.parameters.activation_distance, self.stiffness());
+        let d_hat = self.parameters.activation_distance;
         let (mut work, mut total, mut smallest) = (0.0, 0.0, f64::INFINITY);
         self.for_each_gap(u, |k, _, _, d| {
             smallest = smallest.min(if d.is_nan() { f64::NEG_INFINITY } else { d });
             if d > 0.0 && d < d_hat {
-                let lambda = -kappa * self.areas[k] * barrier::derivative(d, d_hat);
+                let lambda = -self.kappa_of(k) * self.areas[k] * barrier::derivative(d, d_hat);
                 work += lambda * d;
                 total += lambda;
             }
@@ -644,7 +700,7 @@ impl Contact {
         let mut pressures = vec![0.0; self.nodes.len()];
         self.for_each_gap(u, |k, _, _, d| {
             gaps[k] = gaps[k].min(d);
-            pressures[k] -= self.stiffness() * barrier::derivative(d, d_hat);
+            pressures[k] -= self.kappa_of(k) * barrier::derivative(d, d_hat);
         });
         Ok((gaps, pressures))
     }
@@ -716,9 +772,9 @@ impl Contact {
         }
         let mut points = Vec::new();
         let d_hat = self.parameters.activation_distance;
-        self.for_each_active(u, |n, o, obstacle, x, d, area| {
+        self.for_each_active(u, |n, o, obstacle, x, d, (area, kappa)| {
             if obstacle.friction() > 0.0 {
-                let normal_force = -self.stiffness() * area * barrier::derivative(d, d_hat);
+                let normal_force = -kappa * area * barrier::derivative(d, d_hat);
                 let g = obstacle.gradient(x);
                 points.push(LaggedPoint {
                     node: n,
@@ -851,13 +907,9 @@ impl Contact {
             .zip(self.offsets_at(time))
             .map(|(end, start)| (end - start) / dt)
             .collect();
-        let (d_hat, kappa, epsilon) = (
-            self.parameters.activation_distance,
-            self.stiffness(),
-            self.slip_velocity,
-        );
+        let (d_hat, epsilon) = (self.parameters.activation_distance, self.slip_velocity);
         let mut forces = vec![Vector3::zeros(); self.obstacles.len()];
-        self.for_each_active(u, |n, o, obstacle, x, d, area| {
+        self.for_each_active(u, |n, o, obstacle, x, d, (area, kappa)| {
             let mu = obstacle.friction();
             let dofs = 3 * n..3 * n + 3;
             let inverse = inverse_mass[dofs.clone()]
@@ -974,8 +1026,8 @@ impl Contact {
         Error::check_len("contact tangent", u.len(), matrix.dim())?;
         let d_hat = self.parameters.activation_distance;
         let mut blocks: Vec<(usize, Matrix3<f64>)> = Vec::new();
-        self.for_each_active(u, |n, _, obstacle, x, d, area| {
-            let scale = self.stiffness() * area;
+        self.for_each_active(u, |n, _, obstacle, x, d, (area, kappa)| {
+            let scale = kappa * area;
             let g = obstacle.gradient(x);
             let mut block = barrier::second_derivative(d, d_hat) * g * g.transpose();
             if !project {
@@ -1019,15 +1071,16 @@ impl Contact {
         Ok(t)
     }
 
-    /// Calls `visit(node, obstacle index, obstacle, position, gap, area)` for each node within
-    /// d̂ of an obstacle, the position relative to the obstacle's current offset (x − c: where
-    /// the obstacle's own distance, gradient and Hessian are evaluated);
+    /// Calls `visit(node, obstacle index, obstacle, position, gap, (area, κ))` for each node
+    /// within d̂ of an obstacle (κ the node's barrier stiffness in force), the position
+    /// relative to the obstacle's current offset (x − c: where the obstacle's own distance,
+    /// gradient and Hessian are evaluated);
     /// [`Error::InvalidParameter`] (via [`check_state`](Self::check_state)) if a node is on or
     /// inside one.
     fn for_each_active(
         &self,
         u: &[f64],
-        mut visit: impl FnMut(usize, usize, &Obstacle, &Vector3<f64>, f64, f64),
+        mut visit: impl FnMut(usize, usize, &Obstacle, &Vector3<f64>, f64, (f64, f64)),
     ) -> Result<()> {
         self.check_full(u)?;
         let d_hat = self.parameters.activation_distance;
@@ -1037,7 +1090,8 @@ impl Contact {
             if d.is_nan() || d <= 0.0 {
                 inside = true;
             } else if !inside && d < d_hat {
-                visit(self.nodes[k], o, &self.obstacles[o], x, d, self.areas[k]);
+                let weights = (self.areas[k], self.kappa_of(k));
+                visit(self.nodes[k], o, &self.obstacles[o], x, d, weights);
             }
         });
         match inside {

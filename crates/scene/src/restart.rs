@@ -19,7 +19,8 @@ use std::ops::Range;
 use std::path::{Path, PathBuf};
 
 use tetfem::analysis::dynamics::{
-    BARRIER_RECORD, Checkpoint, Integrator, InternalForce, State, fingerprint_hash,
+    BARRIER_RECORD, Checkpoint, IMPACT_STIFFNESS_RECORD, Integrator, InternalForce, State,
+    fingerprint_hash,
 };
 use tetfem::base::error::{Error, Result};
 use tetfem::mesh::{CellType, TetMesh};
@@ -166,16 +167,19 @@ impl Restart {
     /// Writes the checkpoint of `integrator` at `state`, with the probes' running extremes and
     /// the contact forces' peaks (record `contact_peak`: |F| (N) and its time (s) per
     /// obstacle) and, with contact, the barrier's record (record `contact_barrier`, see
-    /// [`Checkpoint::barrier_record`]), over the previous one (atomically). The caller has written out the CSV rows
+    /// [`Checkpoint::barrier_record`]) and, with an impact fraction, each contact node's
+    /// barrier stiffness (record `contact_impact_stiffness`), over the previous one
+    /// (atomically). The caller has written out the CSV rows
     /// up to `state`.
     pub(crate) fn write(
         &self,
         integrator: &dyn Integrator,
         state: &State,
         probes: &[ProbeRange],
-        (contact, barrier): (
+        (contact, barrier, stiffnesses): (
             &[super::ContactForceHistory],
             Option<tetfem::analysis::dynamics::BarrierRecord>,
+            Option<Vec<f64>>,
         ),
     ) -> Result<()> {
         let mut records = vec![
@@ -200,6 +204,9 @@ impl Restart {
         if let Some(b) = barrier {
             records.push((BARRIER_RECORD.into(), b.to_values()));
         }
+        if let Some(k) = stiffnesses {
+            records.push((IMPACT_STIFFNESS_RECORD.into(), k));
+        }
         Checkpoint::take(integrator, state, self.fingerprint.clone(), records)?.write(&self.path)
     }
 
@@ -222,6 +229,17 @@ impl Restart {
             (force, checkpoint.barrier_record(&self.path)?)
         {
             f.set_barrier_record(Some(record));
+        }
+        // Each node's barrier stiffness, after the record (which sets them all to its one).
+        if let (InternalForce::Nonlinear(f), Some(values)) =
+            (force, checkpoint.record(IMPACT_STIFFNESS_RECORD))
+        {
+            f.set_node_stiffnesses(values)
+                .map_err(|error| Error::Parse {
+                    path: self.path.clone(),
+                    line: 1,
+                    message: format!("the {IMPACT_STIFFNESS_RECORD} record: {error}"),
+                })?;
         }
         let bad = || Error::Parse {
             path: self.path.clone(),

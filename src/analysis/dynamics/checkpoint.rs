@@ -38,6 +38,10 @@ pub const CHECKPOINT_MAGIC: &[u8; 8] = b"TETFEMCP";
 /// The name of the caller record that holds a run's [`BarrierRecord`] (see
 /// [`Checkpoint::barrier_record`]); a record, so the file's version stays.
 pub const BARRIER_RECORD: &str = "contact_barrier";
+/// The name of the caller record that holds each contact node's barrier stiffness κᵢ in
+/// force (Pa/m, [`NonlinearForce::node_stiffnesses`](super::NonlinearForce::node_stiffnesses))
+/// of a run with an impact fraction; absent from other runs' files, which stay as they were.
+pub const IMPACT_STIFFNESS_RECORD: &str = "contact_impact_stiffness";
 /// The version of the format this code writes and reads.
 pub const CHECKPOINT_VERSION: u32 = 2;
 

@@ -53,8 +53,9 @@ pub struct BarrierRecord {
     /// bounds, over [`FORCE_ERROR_PER_GAP_ERROR`](crate::contact::FORCE_ERROR_PER_GAP_ERROR).
     pub peak_gap_force: f64,
     /// The barrier stiffness in force after the last accepted step (Pa/m): κ, or with an
-    /// impact fraction the value [`Contact::update_impact_stiffness`] keeps between steps,
-    /// which a resumed run needs to continue with the same bits.
+    /// impact fraction the largest of the nodes' κᵢ that [`Contact::update_impact_stiffness`]
+    /// keeps between steps (a resumed run takes each node's own from the checkpoint's
+    /// [`IMPACT_STIFFNESS_RECORD`](super::IMPACT_STIFFNESS_RECORD)).
     pub stiffness_in_force: f64,
 }
 
@@ -303,6 +304,14 @@ pub struct NonlinearForce {
     surface: Option<SurfaceContact>,
     /// The free index of each full DOF (`usize::MAX` where constrained).
     free_index: Vec<usize>,
+    /// Each mesh node's lumped mass (mass units) for the impact-aware barrier stiffness
+    /// ([`begin_impact_step`](Self::begin_impact_step)): formed once, at the first step that
+    /// needs it, from the mass of the system this force was built for (it does not change in
+    /// a run).
+    node_masses: std::sync::OnceLock<Vec<f64>>,
+    /// Scratch of [`begin_impact_step`](Self::begin_impact_step): the full displacement and
+    /// velocity of the step's start (kept, not allocated per step).
+    impact_scratch: std::sync::Mutex<(Vec<f64>, Vec<f64>)>,
 }
 
 impl NonlinearForce {
@@ -385,6 +394,8 @@ impl NonlinearForce {
                 }
                 index
             },
+            node_masses: std::sync::OnceLock::new(),
+            impact_scratch: std::sync::Mutex::new((Vec::new(), Vec::new())),
         })
     }
 
@@ -566,13 +577,30 @@ impl NonlinearForce {
     }
 
     /// Starts the record over (a new run on this force) or sets it to `record` (a resumed
-    /// run's, from its checkpoint). Does nothing without contact.
+    /// run's, from its checkpoint). Does nothing without contact. With an impact fraction a
+    /// new run's nodes start at κ₀, and a resumed run's at the record's stiffness in force
+    /// until [`set_node_stiffnesses`](Self::set_node_stiffnesses) gives each its own.
     pub fn set_barrier_record(&self, record: Option<BarrierRecord>) {
         if let Some(contact) = &self.contact {
             let record = record.unwrap_or_else(|| BarrierRecord::start(contact.parameters()));
-            // A resumed run continues with the stiffness its checkpoint was taken at.
             contact.set_stiffness_in_force(record.stiffness_in_force);
             *self.barrier_lock() = Some(record);
+        }
+    }
+
+    /// Each contact node's barrier stiffness κᵢ in force (Pa/m) with an impact fraction
+    /// ([`Contact::node_stiffnesses`]): what a checkpoint keeps for a resumed run to continue
+    /// with the same bits. `None` without contact or without an impact fraction.
+    pub fn node_stiffnesses(&self) -> Option<Vec<f64>> {
+        self.contact.as_ref()?.node_stiffnesses()
+    }
+
+    /// Sets each contact node's κᵢ from a checkpoint's `values` (Pa/m; see
+    /// [`Contact::set_node_stiffnesses`]); nothing without contact or an impact fraction.
+    pub fn set_node_stiffnesses(&self, values: &[f64]) -> Result<()> {
+        match &self.contact {
+            Some(contact) => contact.set_node_stiffnesses(values),
+            None => Ok(()),
         }
     }
 
@@ -843,28 +871,59 @@ impl NonlinearForce {
     /// At an implicit step's start: with an impact fraction on the contact
     /// ([`ContactParameters::impact_fraction`]), sets the barrier stiffness of the step of
     /// duration `dt` (time) from `state` ([`Contact::update_impact_stiffness`]; the constrained
-    /// DOFs' velocity taken as zero, the node masses as `system`'s row-sum lumped mass).
-    /// Without one it does nothing. Call after the obstacles are placed at the state's time.
+    /// DOFs' velocity taken as zero, each node's mass the largest row sum of M over its free
+    /// DOFs, formed once). Without one it does nothing. Call after the obstacles are placed at
+    /// the state's time.
+    ///
+    /// Errors: `state` not of the free DOFs; those of
+    /// [`Contact::update_impact_stiffness`].
     pub fn begin_impact_step(&self, system: &LinearSystem, state: &State, dt: f64) -> Result<()> {
-        let Some(contact) = self.contact.as_ref() else {
+        let Some(contact) =
+            (self.contact.as_ref()).filter(|c| c.parameters().impact_fraction.is_some())
+        else {
             return Ok(());
         };
-        if contact.parameters().impact_fraction.is_none() {
-            return Ok(());
-        }
+        state.check_len(self.free_count())?;
+        let masses = self.node_masses(system)?;
+        let mut scratch = self
+            .impact_scratch
+            .lock()
+            .unwrap_or_else(|e| e.into_inner());
+        let (u, velocity) = &mut *scratch;
         let n = self.mesh.dof_count();
-        let mut u = vec![0.0; n];
-        self.expand_into(&state.displacement, &mut u);
-        let ones = vec![1.0; self.free_dofs.len()];
-        let mut lumped = vec![0.0; ones.len()];
-        system.mass().mul_vec(&ones, &mut lumped)?;
-        let (mut velocity, mut mass) = (vec![0.0; n], vec![0.0; n]);
-        for (k, &d) in self.free_dofs.iter().enumerate() {
-            velocity[d] = state.velocity[k];
-            mass[d] = lumped[k];
+        u.resize(n, 0.0);
+        velocity.clear();
+        velocity.resize(n, 0.0);
+        self.expand_into(&state.displacement, u);
+        for (&d, &v) in self.free_dofs.iter().zip(&state.velocity) {
+            velocity[d] = v;
         }
-        contact.update_impact_stiffness(&u, &velocity, &mass, (state.time, dt))?;
+        contact.update_impact_stiffness(u, velocity, masses, (state.time, dt))?;
         Ok(())
+    }
+
+    /// Each mesh node's mass (mass units) as the impact-aware stiffness reads it: the largest
+    /// row sum (M_ff·1) over the node's free DOFs, 0 for a node without one. With the lumped
+    /// mass (the default) the three are equal, ρV/4 of the tets around the node. With the
+    /// consistent mass they differ where a neighbour has some DOFs constrained: the restriction
+    /// to the free DOFs drops that neighbour's coupling from the rows of the axes it has
+    /// fixed, and for 4-node tets every coupling is positive (ρV/20·(1 + δᵢⱼ)), so the largest
+    /// row sum is the one nearest to the node's whole share. A node with its x DOF constrained
+    /// and y, z free thus keeps its mass (the DOF of one axis alone would give it none).
+    ///
+    /// Formed once from `system` (the system this force was built for) and kept.
+    fn node_masses(&self, system: &LinearSystem) -> Result<&[f64]> {
+        if let Some(masses) = self.node_masses.get() {
+            return Ok(masses);
+        }
+        let ones = vec![1.0; self.free_dofs.len()];
+        let mut sums = vec![0.0; ones.len()];
+        system.mass().mul_vec(&ones, &mut sums)?;
+        let mut masses = vec![0.0f64; self.node_count()];
+        for (&d, &m) in self.free_dofs.iter().zip(&sums) {
+            masses[d / 3] = masses[d / 3].max(m);
+        }
+        Ok(self.node_masses.get_or_init(|| masses))
     }
 
     fn prescribed_lock(&self) -> std::sync::RwLockWriteGuard<'_, Vec<f64>> {
@@ -1255,6 +1314,14 @@ impl InternalForce {
         match self {
             InternalForce::Nonlinear(n) => n.note_accepted_step(&state.displacement),
             InternalForce::Linear => Ok(()),
+        }
+    }
+
+    /// [`NonlinearForce::node_stiffnesses`]; `None` for the linear force.
+    pub fn node_stiffnesses(&self) -> Option<Vec<f64>> {
+        match self {
+            InternalForce::Nonlinear(n) => n.node_stiffnesses(),
+            InternalForce::Linear => None,
         }
     }
 

@@ -33,8 +33,8 @@ mod time_data;
 
 pub use backward_euler::BackwardEuler;
 pub use checkpoint::{
-    BARRIER_RECORD, CHECKPOINT_MAGIC, CHECKPOINT_VERSION, Checkpoint, IntegratorHistory,
-    fingerprint_hash,
+    BARRIER_RECORD, CHECKPOINT_MAGIC, CHECKPOINT_VERSION, Checkpoint, IMPACT_STIFFNESS_RECORD,
+    IntegratorHistory, fingerprint_hash,
 };
 pub use damping::Rayleigh;
 pub use element_bound::{

@@ -221,6 +221,7 @@ impl<E: SceneElement> Observer for StepWatcher<'_, '_, E> {
                 (
                     self.recorder.contact_forces.as_deref().unwrap_or_default(),
                     view.force.barrier_record(),
+                    view.force.node_stiffnesses(),
                 ),
             )?;
         }
