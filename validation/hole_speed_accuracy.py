@@ -617,9 +617,12 @@ def write_outputs(points, ref, spread, ref_runs, blas, repeat, loads, binding) -
              "of its logical edge's midpoint, so those on the hole lie on the circle: MFEM by `SetCurvature(2)` "
              "and the map, tetfem by a Gmsh file of those 10-node tets, whose edge nodes its reader keeps and "
              "its element now uses: the geometry the quadratic map of the ten nodes). The two curved codes "
-             "have the same geometry; tetfem integrates the curved stiffness with its 4-point degree-2 rule "
-             "(weights det J), MFEM with a higher-order rule, so their values differ by that quadrature "
-             "error, which shrinks under refinement (the CSV gives both).", "",
+             "have the same geometry; tetfem integrates the curved stiffness with Walkington's 14-point "
+             "degree-5 rule (weights det J), MFEM with its default rule (degree 6 here), so their values "
+             "differ by that quadrature error, which shrinks under refinement (the CSV gives both); with "
+             "MFEM's degree-5 rule, the same 14 points, the two agree to 12 digits "
+             "(`tests/core/curved_tet10.rs`). The recovery's volumes are exact in both (MFEM's by a rule "
+             "exact for det J: its `GetElementVolume` is not on curved tets).", "",
              "Stress at the node, the same definition in every code: tetfem's nodal recovery "
              "(`post::output::fields::recovered_nodal_stress` of `tet_node_stress`, its VTU nodal stress), "
              "Σₑ Vₑ σₑ(xₙ) / Σₑ Vₑ over the tets holding the node, each tet's stress evaluated at the node "
