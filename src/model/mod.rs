@@ -63,6 +63,7 @@ pub trait ForceModel: ConstitutiveLaw + Sync + Send {
     ) -> (Vector12, f64) {
         (self.force(tet, rest, x), self.energy(tet, rest, x))
     }
+
     /// [`force_and_energy`](Self::force_and_energy) of four tets at once (`tets[k]` at rest
     /// `rest[k]`, deformed `x[k]`, its result into `out[k]`), each result the same bits as
     /// that tet's own call: what the force pass of a nonlinear step calls for each four tets of
