@@ -208,10 +208,16 @@ fn add_at_nodes<E: ModelElement>(
     let mut block = vec![nalgebra::Matrix3::zeros(); BLOCK.min(tets)];
     for start in (0..tets).step_by(BLOCK) {
         let end = (start + BLOCK).min(tets);
-        block[..end - start]
-            .par_iter_mut()
-            .enumerate()
-            .for_each(|(i, m)| *m = weighted(start + i));
+        let one = |(i, m): (usize, &mut nalgebra::Matrix3<f64>)| *m = weighted(start + i);
+        // One thread: in this thread, not handed to the pool's (the reason at
+        // `element_model::add_in_blocks`); the same bits.
+        match rayon::current_num_threads() {
+            1 => block[..end - start].iter_mut().enumerate().for_each(one),
+            _ => block[..end - start]
+                .par_iter_mut()
+                .enumerate()
+                .for_each(one),
+        }
         for (m, cell) in block.iter().zip(&mesh.tets()[start..end]) {
             for &n in cell.as_ref() {
                 out[n] += m;

@@ -175,9 +175,14 @@ impl ModelElement for Tet4 {
         }
         add_computed_in_blocks(mesh, force, |start, out| {
             use rayon::prelude::*;
-            out.par_chunks_mut(4)
-                .enumerate()
-                .for_each(|(c, out)| four_tets(mesh, kept, models, u, start + 4 * c, out));
+            let batch = |(c, out): (usize, &mut [(Vector12, f64)])| {
+                four_tets(mesh, kept, models, u, start + 4 * c, out)
+            };
+            // One thread: in this thread, not handed to the pool's (see `add_in_blocks`).
+            match rayon::current_num_threads() {
+                1 => out.chunks_mut(4).enumerate().for_each(batch),
+                _ => out.par_chunks_mut(4).enumerate().for_each(batch),
+            }
         })
     }
 
@@ -229,6 +234,12 @@ impl ModelElement for Tet4 {
 /// computed in parallel a block at a time and added serially in tet order: the same sums, bit
 /// for bit, as one tet after another, at a fraction of the time on several threads (a tet's
 /// force, with the corotational model's polar decomposition, costs far more than adding it).
+///
+/// With one thread in rayon's pool the tets are computed in the calling thread: a parallel
+/// region entered from outside the pool hands its work to the pool's thread and waits for it
+/// (two futex wake-ups, and the worker's spinning before it sleeps again), tens of µs of CPU
+/// time a region (`validation/PERFORMANCE.md`, issue 39 target 1), where a pass over 5,880
+/// tets takes 0.5 ms. The same operations in the same order: the same bits.
 fn add_in_blocks(
     mesh: &TetMesh,
     u: &[f64],
@@ -237,10 +248,14 @@ fn add_in_blocks(
 ) -> f64 {
     use rayon::prelude::*;
     add_computed_in_blocks(mesh, force, |start, out| {
-        out.par_iter_mut().enumerate().for_each(|(i, out)| {
+        let one = |(i, out): (usize, &mut (Vector12, f64))| {
             let t = start + i;
             *out = element(t, &mesh.positions_of(t), &positions(mesh, t, u));
-        });
+        };
+        match rayon::current_num_threads() {
+            1 => out.iter_mut().enumerate().for_each(one),
+            _ => out.par_iter_mut().enumerate().for_each(one),
+        }
     })
 }
 

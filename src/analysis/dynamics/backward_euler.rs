@@ -260,23 +260,30 @@ impl Integrator for BackwardEuler {
             .external_load_at(state.time + dt, &mut self.load)?;
         let (ku, kv, stiffness_factor) = (&self.product, &self.work, dt + damping.beta);
         const CHUNK: usize = 4096;
-        let partial: Vec<[f64; 2]> = self
-            .rhs
-            .par_chunks_mut(CHUNK)
-            .enumerate()
-            .map(|(c, rhs)| {
-                let offset = c * CHUNK;
-                let mut sums = [0.0; 2];
-                for (i, rhs) in rhs.iter_mut().enumerate() {
-                    let k = offset + i;
-                    let mv = lumped.map_or(*rhs, |m| m[k] * v[k]);
-                    sums[0] += v[k] * mv;
-                    sums[1] -= f[k] * u[k];
-                    *rhs = dt * (f[k] - ku[k] - stiffness_factor * kv[k] - damping.alpha * mv);
-                }
-                sums
-            })
-            .collect();
+        let chunk = |(c, rhs): (usize, &mut [f64])| {
+            let offset = c * CHUNK;
+            let mut sums = [0.0; 2];
+            for (i, rhs) in rhs.iter_mut().enumerate() {
+                let k = offset + i;
+                let mv = lumped.map_or(*rhs, |m| m[k] * v[k]);
+                sums[0] += v[k] * mv;
+                sums[1] -= f[k] * u[k];
+                *rhs = dt * (f[k] - ku[k] - stiffness_factor * kv[k] - damping.alpha * mv);
+            }
+            sums
+        };
+        // One thread in rayon's pool: the chunks in this thread, without a parallel region's
+        // hand-over to the pool (see `model::element_model`'s `add_in_blocks`); the same sums.
+        let serial = rayon::current_num_threads() == 1;
+        let partial: Vec<[f64; 2]> = match serial {
+            true => self.rhs.chunks_mut(CHUNK).enumerate().map(chunk).collect(),
+            false => self
+                .rhs
+                .par_chunks_mut(CHUNK)
+                .enumerate()
+                .map(chunk)
+                .collect(),
+        };
         let sums = sum_in_order(&partial);
         let energy = Energy::for_guard(sums[0], twice_elastic, sums[1]);
         match &self.guard {
@@ -289,17 +296,28 @@ impl Integrator for BackwardEuler {
             }
         }
         self.solver.solve(&self.matrix, &mut self.rhs)?;
-        let finite = state
-            .velocity
-            .par_iter_mut()
-            .zip(state.displacement.par_iter_mut())
-            .zip(self.rhs.par_iter())
-            .with_min_len(CHUNK)
-            .all(|((v, u), dv)| {
-                *v += dv;
-                *u += dt * *v;
-                u.is_finite() && v.is_finite()
-            });
+        let advance = |((v, u), dv): ((&mut f64, &mut f64), &f64)| {
+            *v += dv;
+            *u += dt * *v;
+            u.is_finite() && v.is_finite()
+        };
+        // In this thread every DOF is advanced, whether or not one is not finite (no short
+        // circuit: the failed step's values are then all in the state).
+        let finite = match serial {
+            true => {
+                let mut all = true;
+                let dofs = (state.velocity.iter_mut()).zip(state.displacement.iter_mut());
+                for dof in dofs.zip(self.rhs.iter()) {
+                    all &= advance(dof);
+                }
+                all
+            }
+            false => (state.velocity.par_iter_mut())
+                .zip(state.displacement.par_iter_mut())
+                .zip(self.rhs.par_iter())
+                .with_min_len(CHUNK)
+                .all(advance),
+        };
         state.time += dt;
         state.steps += 1;
         if !finite {

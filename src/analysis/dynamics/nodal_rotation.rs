@@ -19,6 +19,9 @@ use crate::base::error::Result;
 use crate::model::corotational_lanes::{LANES, rotations};
 use crate::model::polar::rotation;
 
+/// A turned node and the free indices of its x, y and z DOFs.
+type Block = (usize, [usize; 3]);
+
 /// Per-node rotations Rᵢ of the deformation, for the nodes whose three DOFs are all free.
 #[derive(Debug, Clone)]
 pub(crate) struct NodalRotations {
@@ -67,11 +70,19 @@ impl NodalRotations {
     ) -> Result<()> {
         force.nodal_deformation_gradients(u, work, &mut self.gradients)?;
         let gradients = &self.gradients;
-        // Four nodes side by side in SIMD lanes (the same bits as `rotation` of each).
-        self.rotations
-            .par_chunks_mut(LANES)
-            .zip(self.blocks.par_chunks(LANES))
-            .for_each(|(r, blocks)| turn_of_nodes(gradients, blocks, r));
+        // Four nodes side by side in SIMD lanes (the same bits as `rotation` of each); with one
+        // thread in rayon's pool in this thread, without the hand-over of a parallel region
+        // (see `model::element_model`'s `add_in_blocks`).
+        let turn =
+            |(r, blocks): (&mut [Matrix3<f64>], &[Block])| turn_of_nodes(gradients, blocks, r);
+        match rayon::current_num_threads() {
+            1 => (self.rotations.chunks_mut(LANES))
+                .zip(self.blocks.chunks(LANES))
+                .for_each(turn),
+            _ => (self.rotations.par_chunks_mut(LANES))
+                .zip(self.blocks.par_chunks(LANES))
+                .for_each(turn),
+        }
         Ok(())
     }
 

@@ -221,8 +221,10 @@ impl ForceModel for Counting {
 /// force-and-energy pass, one energy pass and one nodal-rotation update (the L-BFGS H₀'s turn,
 /// once a step) at the last state (each the fastest of 20), each over the linear step's CPU
 /// time; what is left of the default step's CPU time is the iterations' triangular solves, the
-/// two-loop recursion and the vector work. Meaningful on one thread (`RAYON_NUM_THREADS=1`:
-/// on more, CPU time sums the threads).
+/// two-loop recursion and the vector work. It also prints both steps' CPU times, the factor's
+/// size and the f32 pair timed right after a force pass (as an iteration meets it: the pass
+/// evicts the factor from the cache, 1.1–1.4× the back-to-back time at 9,720 DOFs). Meaningful
+/// on one thread (`RAYON_NUM_THREADS=1`: on more, CPU time sums the threads).
 fn account(swing: &Swing, model: ModelKind, linear: &Run, cli: &Cli) -> tetfem::Result<()> {
     let default_tolerance = tetfem::analysis::dynamics::StepNewtonOptions::default().tolerance;
     let plain = || {
@@ -255,14 +257,20 @@ fn account(swing: &Swing, model: ModelKind, linear: &Run, cli: &Cli) -> tetfem::
     let same = counted.trajectory == timed.trajectory;
     // The trajectory's bits in one number (FNV-1a over every displacement of every step): two
     // binaries that print the same one computed the same default trajectory to the bit.
-    let bits = timed
-        .trajectory
-        .iter()
-        .flatten()
-        .fold(0xcbf2_9ce4_8422_2325_u64, |h, v| {
+    let hash = |run: &Run| {
+        (run.trajectory.iter().flatten()).fold(0xcbf2_9ce4_8422_2325_u64, |h, v| {
             (h ^ v.to_bits()).wrapping_mul(0x0100_0000_01b3)
-        });
-    println!("default trajectory's bits (FNV-1a): {bits:016x}");
+        })
+    };
+    println!(
+        "default trajectory's bits (FNV-1a): {:016x}; the linear one's: {:016x}",
+        hash(&timed),
+        hash(linear)
+    );
+    println!(
+        "CPU time a step: default {:.6} s, linear {:.6} s",
+        timed.cpu_seconds, linear.cpu_seconds
+    );
     let tets = swing.mesh.tet_count() as f64;
     let steps = cli.steps as f64;
     let per_step = |k: usize| calls.0[k].load(Ordering::Relaxed) as f64 / tets / steps;
@@ -337,7 +345,12 @@ fn account(swing: &Swing, model: ModelKind, linear: &Run, cli: &Cli) -> tetfem::
         (step - passes - turn) / lin,
         (step - passes - turn) / lin / iterations.max(1.0),
     );
-    let parts = linear_parts(swing, cli, &u, &mut time)?;
+    let mut evict = || {
+        force
+            .force_and_energy_into(&u, &mut work, &mut f)
+            .map(|_| ())
+    };
+    let parts = linear_parts(swing, cli, &u, &mut time, &mut evict)?;
     let solves = iterations * parts.single;
     println!(
         "f64 solve pair {:.5} s ({:.2}× linear), f32 solve pair {:.5} s ({:.2}×), the linear step's \
@@ -352,6 +365,16 @@ fn account(swing: &Swing, model: ModelKind, linear: &Run, cli: &Cli) -> tetfem::
         solves / lin,
         (step - passes - turn - solves) / lin,
     );
+    let cold = iterations * parts.single_after_pass;
+    println!(
+        "factor {} values; f32 solve pair right after a force pass {:.5} s ({:.2}× linear): a \
+         step's f32 solves so {:.2}× linear, what is left then {:.2}× linear",
+        parts.factor_len,
+        parts.single_after_pass,
+        parts.single_after_pass / lin,
+        cold / lin,
+        (step - passes - turn - cold) / lin,
+    );
     Ok(())
 }
 
@@ -364,6 +387,11 @@ struct LinearParts {
     single: f64,
     /// The linear step's product K·(u, v) (one pass over the symmetric blocks of K).
     product: f64,
+    /// The f32 pair right after a force-and-energy pass, as an L-BFGS iteration meets it (the
+    /// pass's own fastest time taken off): the factor no longer in the cache.
+    single_after_pass: f64,
+    /// Stored values of the factor (supernodal padding included).
+    factor_len: usize,
 }
 
 /// The fastest time (s) of a job's repeats.
@@ -377,6 +405,7 @@ fn linear_parts(
     cli: &Cli,
     u: &[f64],
     time: &mut Timer,
+    pass: &mut dyn FnMut() -> tetfem::Result<()>,
 ) -> tetfem::Result<LinearParts> {
     let system = &swing.system;
     let mut matrix = system.stiffness().clone();
@@ -403,6 +432,13 @@ fn linear_parts(
         solver.solve_approximate(&matrix, &mut rhs)?;
         Ok(())
     })?;
+    let pass_alone = time(&mut || pass())?;
+    let pass_and_single = time(&mut || {
+        pass()?;
+        rhs.copy_from_slice(u);
+        solver.solve_approximate(&matrix, &mut rhs)?;
+        Ok(())
+    })?;
     let blocks = system.stiffness_blocks();
     let mut work = blocks.workspace();
     let (mut ku, mut kv) = (vec![0.0; u.len()], vec![0.0; u.len()]);
@@ -414,6 +450,8 @@ fn linear_parts(
         double,
         single,
         product,
+        single_after_pass: pass_and_single - pass_alone,
+        factor_len: solver.factor_len(),
     })
 }
 

@@ -55,6 +55,16 @@ pub struct SymmetricBlockMatrix3 {
 /// the time without it (132k and 435k DOFs, one and two threads, best of 40 interleaved).
 const PREFETCH_AHEAD: usize = 512;
 
+/// Whether rayon's pool has one thread: the products then run their chunks in the calling
+/// thread. A parallel region entered from outside the pool hands its work to the pool's thread
+/// and waits for it (two futex wake-ups, and the worker's spinning before it sleeps again):
+/// tens of µs of CPU time a region, against 0.06 ms for the whole product at 4,410 DOFs
+/// (`validation/PERFORMANCE.md`, issue 39 target 1). The same chunks in the same order: the
+/// same bits.
+fn one_thread() -> bool {
+    rayon::current_num_threads() == 1
+}
+
 /// Vectors with four slots per node for [`SymmetricBlockMatrix3`]'s products.
 #[derive(Debug, Clone, Default)]
 pub struct SymmetricWorkspace {
@@ -246,19 +256,26 @@ impl SymmetricBlockMatrix3 {
     /// y from the slots of `y4`, returning xᵀ·y summed over fixed chunks in order.
     fn scatter(&self, y4: &[f64], y: &mut [f64], x: &[f64]) -> f64 {
         const CHUNK: usize = 3 * CHUNK_ROWS;
-        let partial: Vec<f64> = y
-            .par_chunks_mut(CHUNK)
-            .zip(self.slots.par_chunks(CHUNK))
-            .zip(x.par_chunks(CHUNK))
-            .map(|((y, slots), x)| {
-                let mut dot = 0.0;
-                for ((y, &slot), &x) in y.iter_mut().zip(slots).zip(x) {
-                    *y = y4[slot as usize];
-                    dot += x * *y;
-                }
-                dot
-            })
-            .collect();
+        let chunk = |((y, slots), x): ((&mut [f64], &[u32]), &[f64])| {
+            let mut dot = 0.0;
+            for ((y, &slot), &x) in y.iter_mut().zip(slots).zip(x) {
+                *y = y4[slot as usize];
+                dot += x * *y;
+            }
+            dot
+        };
+        let partial: Vec<f64> = match one_thread() {
+            true => (y.chunks_mut(CHUNK))
+                .zip(self.slots.chunks(CHUNK))
+                .zip(x.chunks(CHUNK))
+                .map(chunk)
+                .collect(),
+            false => (y.par_chunks_mut(CHUNK))
+                .zip(self.slots.par_chunks(CHUNK))
+                .zip(x.par_chunks(CHUNK))
+                .map(chunk)
+                .collect(),
+        };
         partial.iter().sum()
     }
 
@@ -266,9 +283,14 @@ impl SymmetricBlockMatrix3 {
     /// then odd ones, each writing its own rows and the next chunk's.
     fn blocks_times<const TWO: bool>(&self, x: [&[f64]; 2], y: [&mut [f64]; 2]) {
         let [y0, y1] = y;
-        y0.par_chunks_mut(4 * CHUNK_ROWS).for_each(|y| y.fill(0.0));
+        let serial = one_thread();
+        let zero = |y: &mut [f64]| match serial {
+            true => y.fill(0.0),
+            false => y.par_chunks_mut(4 * CHUNK_ROWS).for_each(|y| y.fill(0.0)),
+        };
+        zero(y0);
         if TWO {
-            y1.par_chunks_mut(4 * CHUNK_ROWS).for_each(|y| y.fill(0.0));
+            zero(y1);
         }
         let count = self.chunks.len() - 1;
         for parity in 0..2 {
@@ -279,11 +301,15 @@ impl SymmetricBlockMatrix3 {
             } else {
                 owned.iter().map(|_| &mut [][..]).collect()
             };
-            owned
-                .into_par_iter()
-                .zip(windows0)
-                .zip(windows1)
-                .for_each(|((c, w0), w1)| self.chunk_times::<TWO>(c, x, [w0, w1]));
+            // The same phases in this thread with one thread in the pool: the same sums in the
+            // same order.
+            let times = |((c, w0), w1): ((usize, &mut [f64]), &mut [f64])| {
+                self.chunk_times::<TWO>(c, x, [w0, w1])
+            };
+            match serial {
+                true => (owned.into_iter().zip(windows0).zip(windows1)).for_each(times),
+                false => (owned.into_par_iter().zip(windows0).zip(windows1)).for_each(times),
+            }
         }
     }
 
