@@ -315,13 +315,7 @@ fn explicit_is_refused_by_name() {
 /// barrier (backward Euler; the library's contact takes the implicit methods). Its mesh: 2 × 2
 /// × 2 cells, its bottom 5 mm above the ground (the barrier's scales: [`drop_with_barrier`]).
 fn drop_mesh() -> TetMesh {
-    TetMesh::box_grid(
-        Vector3::new(0.0, 0.0, 5e-3),
-        Vector3::new(0.1, 0.1, 0.105),
-        [2, 2, 2],
-        BoxSplit::Mirrored6,
-    )
-    .unwrap()
+    tetfem_fixtures::drop::drop_mesh().unwrap()
 }
 
 /// the drop ([`drop_mesh`]) with the barrier's stiffness κ of `ContactParameters::for_mesh` times
@@ -437,46 +431,22 @@ fn contact_drop_effectivity() {
 }
 
 /// The closest approach of a fixed-step backward Euler drop to 60 ms (through the first
-/// contact, 31–60 ms): the lowest gap d_min and ω_c·dt there, ω_c = √(k_c/m) the barrier's
-/// frequency at that node (k_c = ∂²E_c/∂z² by a central difference of the contact energy, m
-/// the node's lumped mass: its row sum of M).
+/// contact, 31–60 ms): the lowest gap d_min and ω_c·dt there
+/// ([`ClosestApproach`](tetfem_fixtures::drop::ClosestApproach), shared with the bench).
 fn closest_approach(definition: &Definition, dt: f64) -> (f64, f64) {
-    let heights: Vec<f64> = drop_mesh().nodes().iter().map(|x| x.z).collect();
+    let mut probe = tetfem_fixtures::drop::ClosestApproach::new(&drop_mesh());
     let mut run = Transient::new(
         definition,
         options(Method::BackwardEuler, dt, Rayleigh::default()),
     )
     .unwrap();
     let steps = (0.06 / dt).round() as usize;
-    let (mut gap, mut resolution) = (f64::INFINITY, 0.0);
     run.run((0, steps), &mut |view: &StepView<'_>| -> Result<Flow> {
-        let u = &view.state.displacement;
-        let height = |n: usize| heights[n] + u[3 * n + 2];
-        let lowest = (0..heights.len())
-            .min_by(|a, b| height(*a).total_cmp(&height(*b)))
-            .unwrap();
-        if height(lowest) < gap {
-            gap = height(lowest);
-            // A central difference of E_c over ±d/1000: b″ varies on the scale d, so its
-            // truncation error is O(1e-6) relative.
-            let contact = view.force.contact().unwrap();
-            let (h, z) = (gap * 1e-3, 3 * lowest + 2);
-            let mut w = u.clone();
-            let middle = contact.energy(&w)?;
-            w[z] += h;
-            let up = contact.energy(&w)?;
-            w[z] -= 2.0 * h;
-            let down = contact.energy(&w)?;
-            let stiffness = (up - 2.0 * middle + down) / (h * h);
-            let vertical: Vec<f64> = (0..u.len()).map(|i| (i % 3 == 2) as u8 as f64).collect();
-            let mut row_sums = vec![0.0; u.len()];
-            view.system.mass().mul_vec(&vertical, &mut row_sums)?;
-            resolution = (stiffness / row_sums[z]).sqrt() * dt;
-        }
+        probe.observe(view, dt)?;
         Ok(Flow::Continue)
     })
     .unwrap();
-    (gap, resolution)
+    (probe.gap, probe.resolution)
 }
 
 /// Why the drop's impact error is neither estimated nor controlled through dt (see
