@@ -378,21 +378,22 @@ impl Samples {
 /// ringing rather than the run's error of its motion; the centroid is what a drop is run for.
 /// The full-state error (the estimate's own norm) is printed beside it.
 ///
-/// Measured with the per-node κᵢ and the barrier's acceleration left out of the estimate
-/// (`benches/adaptive_time_step.rs`, `IMPACT_FRACTION=0.25 … drop backward-euler TOL 0.08`):
-/// at 2 %, estimated 2.47e-2 against a true centroid error of 2.93e-2 (ratio 0.84, in the
-/// band; 8 386 steps, 4 rejected, dt 2.6e-6 … 2.5e-4 s; CPU 0.62× the cheapest fixed step
-/// meeting 2 %, 3.9e-6 s); at 5 %, estimated 5.98e-2 against 1.46e-1 (ratio 0.41, out of
-/// the band; 2 737 steps, dt 7.8e-6 … 1e-3 s; 0.36× the fixed 7.8e-6 s): the estimate leaves
-/// the impact out, and at 5 % the steps through the landing are long enough for backward
-/// Euler's damping of the rebound to be most of the error. With the barrier's acceleration in
-/// the estimate the run at 2 % shrank its step to min_dt = 8e-11 s at the landing
-/// (t = 0.0316 s) and stopped, as with the default κ. So the test stays ignored: it passes at
-/// 2 % and not at 5 %. (With the default κ the impact is unresolved at any dt — the landing
-/// node's closest gap falls in proportion to dt, `contact_impact_resolution` — and references
-/// at 2.44e-7 and 1.22e-7 s differed by 4.3 %.)
+/// With the option on, backward Euler's estimate has a second norm, the body's mean motion
+/// with the barrier's force in it (`adaptive.rs`'s module doc, "The impact in the estimate").
+/// Measured (`benches/adaptive_time_step.rs`, `IMPACT_FRACTION=0.25 … drop backward-euler TOL
+/// 0.08`): at 5 %, estimated 5.59e-2 against a true centroid error of 3.56e-2 (ratio 1.57, in
+/// the band; 11 548 steps, 15 rejected, dt 3.3e-7 … 1e-3 s; CPU 1.40× the cheapest fixed step
+/// meeting 5 %, 7.8e-6 s). Before it (the barrier's acceleration left out of the estimate):
+/// at 2 %, ratio 0.84; at 5 %, estimated 5.98e-2 against 1.46e-1 (ratio 0.41: the steps
+/// through the landing were long enough for backward Euler's damping of the rebound to be most
+/// of the error); with the barrier's acceleration in the full-state estimate the run at 2 %
+/// shrank its step to min_dt = 8e-11 s at the landing and stopped. Ignored for its run time:
+/// the reference at 1/16 of the smallest step is 2e-8 s at 5 % (4 million steps over the
+/// 80 ms, about 4 minutes here) and smaller at 2 %. (With the default κ the impact is
+/// unresolved at any dt — the landing node's closest gap falls in proportion to dt,
+/// `contact_impact_resolution` — and references at 2.44e-7 and 1.22e-7 s differed by 4.3 %.)
 #[test]
-#[ignore = "with the impact-aware stiffness the estimate is effective at 2 % (0.84) but not at 5 % (0.41): the impact's error is left out of it (see the doc comment)"]
+#[ignore = "minutes: its references at 1/16 of the smallest step are 2e-8 s at 5 % (4 million steps) and less at 2 % (see the doc comment)"]
 fn contact_drop_effectivity() {
     let definition = drop_with_impact(0.25);
     let span = (0.08, 0.002);
