@@ -22,7 +22,8 @@
 //! (default `swing newmark 1e-3 0.6 0`; scene `swing`, `shaken-base` or `drop` (with
 //! `backward-euler 5e-2 0.08 0`), method `newmark` or `backward-euler`; beta the Rayleigh
 //! stiffness damping, s). `ADAPTIVE_BINS=1` prints where the adaptive steps went,
-//! `ADAPTIVE_LANDINGS=1` every landing's error. `IMPACT_FRACTION=f` gives the drop the
+//! `ADAPTIVE_LANDINGS=1` every landing's error, `ADAPTIVE_ONLY=1` the adaptive run's report
+//! alone (no reference, no fixed steps). `IMPACT_FRACTION=f` gives the drop the
 //! impact-aware barrier stiffness at f·d̂ (`ContactParameters::with_impact_fraction`; the
 //! reference too).
 //!
@@ -406,6 +407,19 @@ fn main() -> Result<()> {
 
     let (run, adaptive_wall) = fastest(|| adaptive(&definition, method, (tolerance, end), beta))?;
     let report = &run.report;
+    if std::env::var_os("ADAPTIVE_ONLY").is_some() {
+        // The adaptive run alone (no reference, no fixed steps): where its reference is long.
+        println!(
+            "adaptive: {} steps, {} rejected, estimate {:.3e}, CPU {adaptive_wall:.4} s, dt \
+             {:.3e}..{:.3e} s",
+            report.accepted,
+            report.rejected,
+            report.estimated_error,
+            report.dt_range.0,
+            report.dt_range.1
+        );
+        return Ok(());
+    }
     let per_interval = (16.0 * interval() / report.dt_range.0).ceil() as usize;
     let (reference, _) = fixed(&definition, method, per_interval, end, beta)?;
     println!(

@@ -383,17 +383,21 @@ impl Samples {
 /// Measured (`benches/adaptive_time_step.rs`, `IMPACT_FRACTION=0.25 … drop backward-euler TOL
 /// 0.08`): at 5 %, estimated 5.59e-2 against a true centroid error of 3.56e-2 (ratio 1.57, in
 /// the band; 11 548 steps, 15 rejected, dt 3.3e-7 … 1e-3 s; CPU 1.40× the cheapest fixed step
-/// meeting 5 %, 7.8e-6 s). Before it (the barrier's acceleration left out of the estimate):
+/// meeting 5 %, 7.8e-6 s); at 2 %, estimated 2.24e-2 against 3.12e-2 (ratio 0.72, in the
+/// band; 30 745 steps, dt 8.1e-8 … 2.5e-4 s; CPU 2.07 s), though the run misses 2 %, as does
+/// every fixed step against its reference at 5.1e-9 s (2.00e-2 at 3.9e-6 s, 1.08 s; 2.6e-2 at
+/// 2.0e-6 s; 3.2e-2 at 9.8e-7 s: the centroid stops converging below ~4e-6 s). Before it (the
+/// barrier's acceleration left out of the estimate):
 /// at 2 %, ratio 0.84; at 5 %, estimated 5.98e-2 against 1.46e-1 (ratio 0.41: the steps
 /// through the landing were long enough for backward Euler's damping of the rebound to be most
 /// of the error); with the barrier's acceleration in the full-state estimate the run at 2 %
 /// shrank its step to min_dt = 8e-11 s at the landing and stopped. Ignored for its run time:
 /// the reference at 1/16 of the smallest step is 2e-8 s at 5 % (4 million steps over the
-/// 80 ms, about 4 minutes here) and smaller at 2 %. (With the default κ the impact is
+/// 80 ms, minutes) and 5.1e-9 s at 2 % (15.7 million steps, about half an hour here). (With the default κ the impact is
 /// unresolved at any dt — the landing node's closest gap falls in proportion to dt,
 /// `contact_impact_resolution` — and references at 2.44e-7 and 1.22e-7 s differed by 4.3 %.)
 #[test]
-#[ignore = "minutes: its references at 1/16 of the smallest step are 2e-8 s at 5 % (4 million steps) and less at 2 % (see the doc comment)"]
+#[ignore = "about half an hour: its references at 1/16 of the smallest step are 2e-8 s at 5 % (4 million steps) and 5.1e-9 s at 2 % (15.7 million; see the doc comment)"]
 fn contact_drop_effectivity() {
     let definition = drop_with_impact(0.25);
     let span = (0.08, 0.002);
