@@ -384,9 +384,10 @@ impl Samples {
 /// 0.08`): at 5 %, estimated 5.59e-2 against a true centroid error of 3.56e-2 (ratio 1.57, in
 /// the band; 11 548 steps, 15 rejected, dt 3.3e-7 … 1e-3 s; CPU 1.40× the cheapest fixed step
 /// meeting 5 %, 7.8e-6 s); at 2 %, estimated 2.24e-2 against 3.12e-2 (ratio 0.72, in the
-/// band; 30 745 steps, dt 8.1e-8 … 2.5e-4 s; CPU 2.07 s), though the run misses 2 %, as does
-/// every fixed step against its reference at 5.1e-9 s (2.00e-2 at 3.9e-6 s, 1.08 s; 2.6e-2 at
-/// 2.0e-6 s; 3.2e-2 at 9.8e-7 s: the centroid stops converging below ~4e-6 s). Before it (the
+/// band; 30 745 steps, dt 8.1e-8 … 2.5e-4 s; CPU 2.07 s), though the run misses 2 %; against
+/// its reference at 5.1e-9 s the fixed steps give 2.004e-2 at 3.9e-6 s (1.08 s), 2.6e-2 at
+/// 2.0e-6 s, 3.2e-2 at 9.8e-7 s, and first meet 2 % at 2.4e-7 s (17.9 s): the centroid stops
+/// converging at first order below ~4e-6 s. Before it (the
 /// barrier's acceleration left out of the estimate):
 /// at 2 %, ratio 0.84; at 5 %, estimated 5.98e-2 against 1.46e-1 (ratio 0.41: the steps
 /// through the landing were long enough for backward Euler's damping of the rebound to be most

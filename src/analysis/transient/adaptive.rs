@@ -162,9 +162,10 @@
 //!   rejected, dt 3.3e-7 … 1e-3 s (the landing, 0.028–0.056 s, at 3.3e-7 … 9.8e-7 s), CPU
 //!   0.90 s against 0.64 s for the fixed 7.8e-6 s (error 4.6e-2): 1.40×;
 //! - 2 %: estimated 2.24e-2 against a true 3.12e-2 (effectivity 0.72), 30 745 steps, 10
-//!   rejected, dt 8.1e-8 … 2.5e-4 s, CPU 2.07 s. The run misses 2 % (3.1 %), and so does
-//!   every fixed step against this reference (5.1e-9 s): 2.00e-2 at 3.9e-6 s (1.08 s; 1.91×),
-//!   then 2.6e-2 at 2.0e-6 s and 3.2e-2 at 9.8e-7 s. Below ~4e-6 s the drop's centroid no
+//!   rejected, dt 8.1e-8 … 2.5e-4 s, CPU 2.07 s. The run misses 2 % (3.1 %); against this
+//!   reference (5.1e-9 s) the fixed steps give 2.004e-2 at 3.9e-6 s (1.08 s: 1.91×), 2.6e-2
+//!   at 2.0e-6 s, 3.2e-2 at 9.8e-7 s, 2.1e-2 at 4.9e-7 s, and the first to meet 2 % is
+//!   2.4e-7 s (1.62e-2, 17.9 s: 0.12×). Below ~4e-6 s the drop's centroid no
 //!   longer converges towards the reference at first order (the fixed-step table above puts
 //!   9.8e-7 s 1.05 % from a reference at 4.9e-7 s): where the landing's steps fall still moves
 //!   the rebound by a few percent, so 2 % is at the limit of what the reference can tell.
