@@ -22,7 +22,8 @@
 //! (default `swing newmark 1e-3 0.6 0`; scene `swing`, `shaken-base` or `drop` (with
 //! `backward-euler 5e-2 0.08 0`), method `newmark` or `backward-euler`; beta the Rayleigh
 //! stiffness damping, s). `ADAPTIVE_BINS=1` prints where the adaptive steps went,
-//! `ADAPTIVE_LANDINGS=1` every landing's error. `IMPACT_FRACTION=f` gives the drop the
+//! `ADAPTIVE_LANDINGS=1` every landing's error, `ADAPTIVE_ONLY=1` the adaptive run's report
+//! alone (no reference, no fixed steps). `IMPACT_FRACTION=f` gives the drop the
 //! impact-aware barrier stiffness at f·d̂ (`ContactParameters::with_impact_fraction`; the
 //! reference too).
 //!
@@ -43,6 +44,7 @@ use tetfem::bc::amplitude::Amplitude;
 use tetfem::bc::boundary_motion::Motion;
 use tetfem::fe::materials::MaterialMap;
 use tetfem::{BoxSplit, Constraints, Material, Result, TetMesh};
+use tetfem_fixtures::drop::ClosestApproach;
 
 /// The output interval (s): 0.01 for the cantilever, 0.002 for the drop (set once in `main`).
 static INTERVAL_OF_SCENE: std::sync::OnceLock<f64> = std::sync::OnceLock::new();
@@ -58,12 +60,7 @@ static CENTROID: std::sync::OnceLock<bool> = std::sync::OnceLock::new();
 /// rest 5 mm above a fixed ground under gravity (the drop of `tests/core/adaptive_time_step.rs`).
 fn drop_on_ground() -> Result<Definition> {
     use tetfem::contact::{Contact, ContactParameters, Obstacle};
-    let mesh = TetMesh::box_grid(
-        Vector3::new(0.0, 0.0, 5e-3),
-        Vector3::new(0.1, 0.1, 0.105),
-        [2, 2, 2],
-        BoxSplit::Mirrored6,
-    )?;
+    let mesh = tetfem_fixtures::drop::drop_mesh()?;
     let rubber = Material::new(1e5, 0.3, 1000.0)?;
     let mut parameters = ContactParameters::for_mesh(&mesh, rubber.youngs_modulus())?;
     if let Some(fraction) = impact_fraction() {
@@ -298,11 +295,8 @@ fn fixed(
 /// What a fixed-step backward Euler drop did at its impact ([`impact_table`]).
 struct Impact {
     samples: Samples,
-    /// The smallest gap of a contact node over the accepted steps (m).
-    gap: f64,
-    /// ω_c·dt at that node and step: ω_c = √(k_c/m), k_c = ∂²E_c/∂z² by a central difference
-    /// of the contact energy over ±gap/1000, m its lumped mass.
-    resolution: f64,
+    /// The smallest gap of a node over the accepted steps and ω_c·dt there.
+    probe: ClosestApproach,
     /// The largest mean vertical velocity of the nodes (m/s): the rebound's.
     rebound: f64,
     /// E − E₀ at the end and its largest over the run (J): kinetic + elastic + gravity's +
@@ -317,12 +311,10 @@ fn impact_run(definition: &Definition, per_interval: usize, end: f64) -> Result<
     let mut run = Transient::new(definition, options(Method::BackwardEuler, dt, 0.0)?)?;
     let mut impact = Impact {
         samples: Samples::default(),
-        gap: f64::INFINITY,
-        resolution: 0.0,
+        probe: ClosestApproach::new(&tetfem_fixtures::drop::drop_mesh()?),
         rebound: f64::NEG_INFINITY,
         energy: (0.0, f64::NEG_INFINITY),
     };
-    let rest: Vec<f64> = drop_rest_heights()?;
     run.run((0, steps), &mut |view: &StepView<'_>| -> Result<Flow> {
         let k = view
             .step
@@ -339,39 +331,10 @@ fn impact_run(definition: &Definition, per_interval: usize, end: f64) -> Result<
             + contact.energy(u)?;
         impact.energy = (total, impact.energy.1.max(total));
         impact.rebound = impact.rebound.max(mean_z(v));
-        let height = |n: usize| rest[n] + u[3 * n + 2];
-        let lowest = (0..rest.len())
-            .min_by(|a, b| height(*a).total_cmp(&height(*b)))
-            .unwrap_or(0);
-        if height(lowest) < impact.gap {
-            impact.gap = height(lowest);
-            let (h, z) = (impact.gap * 1e-3, 3 * lowest + 2);
-            let mut w = u.clone();
-            let middle = contact.energy(&w)?;
-            w[z] += h;
-            let up = contact.energy(&w)?;
-            w[z] -= 2.0 * h;
-            let down = contact.energy(&w)?;
-            let stiffness = (up - 2.0 * middle + down) / (h * h);
-            let vertical: Vec<f64> = (0..u.len()).map(|i| (i % 3 == 2) as u8 as f64).collect();
-            let mut row_sums = vec![0.0; u.len()];
-            view.system.mass().mul_vec(&vertical, &mut row_sums)?;
-            impact.resolution = (stiffness / row_sums[z]).sqrt() * dt;
-        }
+        impact.probe.observe(view, dt)?;
         Ok(Flow::Continue)
     })?;
     Ok(impact)
-}
-
-/// The rest heights z of the drop's nodes (m).
-fn drop_rest_heights() -> Result<Vec<f64>> {
-    let mesh = TetMesh::box_grid(
-        Vector3::new(0.0, 0.0, 5e-3),
-        Vector3::new(0.1, 0.1, 0.105),
-        [2, 2, 2],
-        BoxSplit::Mirrored6,
-    )?;
-    Ok(mesh.nodes().iter().map(|x| x.z).collect())
 }
 
 /// The drop's impact by fixed-step backward Euler at 16, 64, 256, 1024 and 2048 steps per
@@ -385,7 +348,7 @@ fn impact_table(definition: &Definition, reference: usize, end: f64) -> Result<(
          rebound {:.4} m/s, E_end − E₀ {:.3e} J, max E − E₀ {:.3e} J",
         impact_fraction(),
         interval() / reference as f64,
-        exact.gap,
+        exact.probe.gap,
         exact.rebound,
         exact.energy.0,
         exact.energy.1
@@ -400,8 +363,8 @@ fn impact_table(definition: &Definition, reference: usize, end: f64) -> Result<(
             "{:>10.3e} {:>10.3e} {:>10.3e} {:>8.3} {:>10.4} {:>11.3e} {:>11.3e}",
             interval() / n as f64,
             exact.samples.centroid_error_of(&run.samples),
-            run.gap,
-            run.resolution,
+            run.probe.gap,
+            run.probe.resolution,
             run.rebound,
             run.energy.0,
             run.energy.1
@@ -444,6 +407,19 @@ fn main() -> Result<()> {
 
     let (run, adaptive_wall) = fastest(|| adaptive(&definition, method, (tolerance, end), beta))?;
     let report = &run.report;
+    if std::env::var_os("ADAPTIVE_ONLY").is_some() {
+        // The adaptive run alone (no reference, no fixed steps): where its reference is long.
+        println!(
+            "adaptive: {} steps, {} rejected, estimate {:.3e}, CPU {adaptive_wall:.4} s, dt \
+             {:.3e}..{:.3e} s",
+            report.accepted,
+            report.rejected,
+            report.estimated_error,
+            report.dt_range.0,
+            report.dt_range.1
+        );
+        return Ok(());
+    }
     let per_interval = (16.0 * interval() / report.dt_range.0).ceil() as usize;
     let (reference, _) = fixed(&definition, method, per_interval, end, beta)?;
     println!(

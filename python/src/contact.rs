@@ -233,15 +233,17 @@ impl PyObstacle {
 
 /// The contact of `obstacles` with the body `data` of `materials`: the barrier's default
 /// scales ([`ContactParameters::for_mesh`] with the stiffest Young's modulus, which the
-/// barrier must hold) unless `distance` (d̂, length) or `stiffness` (κ, Pa/m) are given.
-/// `None` without obstacles.
+/// barrier must hold) unless `distance` (d̂, length) or `stiffness` (κ, Pa/m) are given, and
+/// the impact-aware stiffness at the fraction `impact` of d̂ when given
+/// ([`ContactParameters::with_impact_fraction`], 0 < f < 1; the library refuses others by
+/// name). `None` without obstacles.
 pub fn contact_of(
     py: Python<'_>,
     data: &MeshData,
     materials: &MaterialMap,
     obstacles: Option<Vec<PyRef<'_, PyObstacle>>>,
-    distance: Option<f64>,
-    stiffness: Option<f64>,
+    (distance, stiffness): (Option<f64>, Option<f64>),
+    impact: Option<f64>,
 ) -> PyResult<Option<Contact>> {
     let Some(obstacles) = obstacles.filter(|o| !o.is_empty()) else {
         return Ok(None);
@@ -255,6 +257,9 @@ pub fn contact_of(
             let mut parameters = ContactParameters::for_mesh(mesh, stiffest)?;
             parameters.activation_distance = distance.unwrap_or(parameters.activation_distance);
             parameters.stiffness = stiffness.unwrap_or(parameters.stiffness);
+            if let Some(f) = impact {
+                parameters = parameters.with_impact_fraction(f)?;
+            }
             Contact::new(mesh, obstacles, parameters)
         })
     })

@@ -170,8 +170,8 @@ pub fn mixed_neo_hookean_transient_py<'py>(
         data,
         &materials,
         obstacles,
-        contact_distance,
-        contact_stiffness,
+        (contact_distance, contact_stiffness),
+        None,
     )?;
     let (fixed, all) = (&constraints.constraints, &loads.all);
     let (history, element) = detach_interruptible(py, || {

@@ -57,7 +57,10 @@ fn energy_dict<'py>(py: Python<'py>, e: &Energy) -> PyResult<Bound<'py, PyDict>>
 /// scene runner's ``TimeData``. The run starts at time 0 from ``initial_displacement`` (n, 3), m
 /// (default zero) and ``initial_velocity`` (3,) or (n, 3), m/s (default zero); both are taken on
 /// the free DOFs. ``linear_solver`` (implicit methods): ``"auto"``, ``"direct"`` or
-/// ``"iterative"``. ``self_contact=True`` puts the surface barrier between the bodies of a
+/// ``"iterative"``. ``contact_impact_fraction`` f (0 < f < 1, default off; the scenes'
+/// ``[contact] impact_fraction``): the obstacles' impact-aware barrier stiffness of the
+/// implicit methods, each landing node its own κᵢ = max(κ, mᵢ·vₙ²/(2·Aᵢ·b(f·d̂))) (Pa/m) so
+/// that it stops near f·d̂, where a step resolves the impact. ``self_contact=True`` puts the surface barrier between the bodies of a
 /// ``Mesh.bodies`` mesh and inside each (body–body and self-contact: no iterate intersects);
 /// ``self_contact_distance`` is its d̂ (m, default a tenth of the shortest surface edge at rest)
 /// and ``self_contact_stiffness`` its κ (J/m², default the stiffest E times the mean surface
@@ -375,7 +378,7 @@ impl PySimulation {
 #[pymethods]
 impl PySimulation {
     #[new]
-    #[pyo3(signature = (mesh, material, constraints, loads = None, *, dt, method = "backward-euler", model = names::ModelArg::default(), mass = "lumped", damping = (0.0, 0.0), initial_displacement = None, initial_velocity = None, linear_solver = "auto", obstacles = None, contact_distance = None, contact_stiffness = None, self_contact = false, self_contact_distance = None, self_contact_stiffness = None, self_contact_friction = 0.0))]
+    #[pyo3(signature = (mesh, material, constraints, loads = None, *, dt, method = "backward-euler", model = names::ModelArg::default(), mass = "lumped", damping = (0.0, 0.0), initial_displacement = None, initial_velocity = None, linear_solver = "auto", obstacles = None, contact_distance = None, contact_stiffness = None, contact_impact_fraction = None, self_contact = false, self_contact_distance = None, self_contact_stiffness = None, self_contact_friction = 0.0))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         py: Python<'_>,
@@ -394,6 +397,7 @@ impl PySimulation {
         obstacles: Option<Vec<PyRef<'_, PyObstacle>>>,
         contact_distance: Option<f64>,
         contact_stiffness: Option<f64>,
+        contact_impact_fraction: Option<f64>,
         self_contact: bool,
         self_contact_distance: Option<f64>,
         self_contact_stiffness: Option<f64>,
@@ -421,8 +425,8 @@ impl PySimulation {
             &data,
             &materials,
             obstacles,
-            contact_distance,
-            contact_stiffness,
+            (contact_distance, contact_stiffness),
+            contact_impact_fraction,
         )?;
         let surface = match self_contact {
             true => Some(crate::bodies::surface_contact_of(

@@ -221,8 +221,8 @@ pub fn solve_static(
         data,
         &materials,
         obstacles,
-        contact_distance,
-        contact_stiffness,
+        (contact_distance, contact_stiffness),
+        None,
     )?;
     let surface = match self_contact {
         true => Some(crate::bodies::surface_contact_of(

@@ -77,3 +77,62 @@ def test_dynamic_contact_equals_the_scene_runner(tmp_path, method, model):
     assert min(lowest) > 0.0
     # Friction slowed the 0.3 m/s slide: less than the frictionless 0.15 m in 0.5 s.
     assert 0.0 < trajectory[-1][0] < 0.15
+
+
+LANDING_SCENE = """
+[mesh.box]
+min = [0.0, 0.0, 0.002]
+max = [0.1, 0.1, 0.102]
+cells = [2, 2, 2]
+[material]
+youngs_modulus = 1e5
+poisson_ratio = 0.3
+density = 1000.0
+[[loads]]
+gravity = [0.0, 0.0, -9.81]
+[[probes]]
+name = "bottom"
+where = {{ plane = {{ axis = "z", at = 0.002 }} }}
+[analysis]
+type = "dynamic"
+method = "backward_euler"
+dt = 1e-3
+duration = 0.04
+[[obstacles]]
+kind = "half_space"
+name = "ground"
+point = [0.0, 0.0, 0.0]
+normal = [0.0, 0.0, 1.0]
+[contact]
+impact_fraction = {fraction}
+"""
+
+
+def test_contact_impact_fraction_equals_the_scene_key(tmp_path):
+    """``contact_impact_fraction`` is the scenes' ``[contact] impact_fraction``: a block landing
+    2 mm below gives the same bits step by step through the landing; a value outside (0, 1) is
+    refused by the library's check, naming it."""
+    scene = tmp_path / "landing.toml"
+    scene.write_text(LANDING_SCENE.format(fraction=0.25))
+    summary = tetfem.run_scene(scene, output_dir=tmp_path / "out")
+    with open(tmp_path / "out" / "landing.csv", newline="") as f:
+        rows = list(csv.DictReader(f))
+    mesh = tetfem.Mesh.box(max=(0.1, 0.1, 0.102), min=(0.0, 0.0, 0.002), cells=(2, 2, 2))
+    rubber = tetfem.Material(1e5, 0.3, 1000.0)
+    loads = tetfem.Loads(mesh).add_gravity((0.0, 0.0, -9.81), rubber)
+    ground = tetfem.Obstacle.half_space("ground", (0.0, 0.0, 0.0), (0.0, 0.0, 1.0))
+    def landing(**contact):
+        sim = tetfem.Simulation(
+            mesh, rubber, tetfem.Constraints(mesh), loads, dt=1e-3, obstacles=[ground], **contact
+        )
+        bottom = mesh.nodes_on_plane("z", 0.002)
+        trajectory = []
+        sim.run(summary["steps"], callback=lambda s: trajectory.append(probe_mean(s.displacement, bottom)))
+        return trajectory
+    aware = landing(contact_impact_fraction=0.25)
+    assert [p[2] for p in aware] == [float(r["bottom_uz_m"]) for r in rows[1:]]
+    # The option acts on this landing: without it the bottom moves otherwise.
+    assert aware[-1] != landing()[-1]
+    for bad in (0.0, 1.0, 1.5):
+        with pytest.raises(tetfem.TetfemError, match="impact_fraction"):
+            landing(contact_impact_fraction=bad)

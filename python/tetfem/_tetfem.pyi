@@ -309,6 +309,7 @@ class Simulation:
         obstacles: Optional[Sequence[Obstacle]] = None,
         contact_distance: Optional[float] = None,
         contact_stiffness: Optional[float] = None,
+        contact_impact_fraction: Optional[float] = None,  # f in (0, 1): κᵢ stops a landing node near f·d̂
         self_contact: bool = False,
         self_contact_distance: Optional[float] = None,
         self_contact_stiffness: Optional[float] = None,

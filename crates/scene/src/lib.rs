@@ -286,6 +286,12 @@ type = "static"                     # default "static"; or "dynamic", which need
                                     # stage (≤ 6 stages, stopped where gaps near the coordinates'
                                     # round-off); with friction d̂ stays; the summary's
                                     # contact_barrier gives the d̂ reached and the error
+# impact_fraction = 0.25            # a fraction of d̂, 0 < f < 1; off by default. Implicit
+                                    # dynamic scenes: a boundary node outside d̂ takes its own
+                                    # κᵢ = max(κ, mᵢvₙ²/(2Aᵢb(f·d̂))) at each step's start, so a
+                                    # landing node stops near f·d̂ where dt resolves the impact;
+                                    # within d̂ it keeps κᵢ (conservative). Static and explicit
+                                    # scenes keep κ
 
 # Several bodies: each [[bodies]] entry its own mesh (or a copy of the [mesh.box]) placed by a
 # rigid motion, all in one DOF space, numbered from 0 in [[bodies]] order; they touch through body–body contact (the IPC surface barrier, with

@@ -375,12 +375,19 @@ impl Scene {
             return Ok(None);
         }
         let mut parameters = ContactParameters::for_mesh(mesh, youngs_modulus)?;
-        if let Some(c) = &self.spec.contact {
-            let c = c.get_ref();
+        if let Some(spanned) = &self.spec.contact {
+            let c = spanned.get_ref();
             parameters.activation_distance = c
                 .activation_distance
                 .unwrap_or(parameters.activation_distance);
             parameters.stiffness = c.stiffness.unwrap_or(parameters.stiffness);
+            if let Some(f) = c.impact_fraction {
+                // The library's check names the allowed range; the scene's error adds the key
+                // and its line.
+                parameters = parameters.with_impact_fraction(f).map_err(|e| {
+                    self.error("contact.impact_fraction", &spanned.span(), e.to_string())
+                })?;
+            }
         }
         // One obstacle at a time first, so that a body inside one is named by its key and line.
         for (i, (obstacle, spanned)) in self.obstacles.iter().zip(&self.spec.obstacles).enumerate()
@@ -493,5 +500,88 @@ mod tests {
             key_of(&scene("dynamic", &lone)).unwrap().0,
             "obstacles[0].spin_axis_point"
         );
+    }
+
+    /// A rubber block 2 mm over the ground, falling onto it, with `[contact]` holding `contact`.
+    fn landing(contact: &str) -> String {
+        format!(
+            "[mesh.box]\nmin = [0.0, 0.0, 0.002]\nmax = [0.1, 0.1, 0.102]\ncells = [2, 2, 2]\n\
+             [material]\nyoungs_modulus = 1e5\npoisson_ratio = 0.3\ndensity = 1000.0\n\
+             [[loads]]\ngravity = [0.0, 0.0, -9.81]\n[analysis]\ntype = \"dynamic\"\n\
+             method = \"backward_euler\"\ndt = 1e-3\nduration = 0.04\n\
+             [[obstacles]]\nkind = \"half_space\"\npoint = [0.0, 0.0, 0.0]\n\
+             normal = [0.0, 0.0, 1.0]\n[contact]\n{contact}\n"
+        )
+    }
+
+    /// The displacements after each of 40 backward Euler steps of 1 ms (through the landing at
+    /// about 20 ms) of the scene `text`'s body, with `parameters` the barrier's scales when
+    /// given (the library's own contact of the scene's obstacles) or the scene's contact.
+    fn fall(text: &str, parameters: Option<tetfem::contact::ContactParameters>) -> Vec<Vec<f64>> {
+        use tetfem::analysis::dynamics::Method;
+        use tetfem::analysis::transient::{Flow, StepView, TimeStep, Transient, TransientOptions};
+        let scene: Scene = text.parse().unwrap();
+        let built = scene.build().unwrap();
+        let contact = match parameters {
+            Some(p) => tetfem::contact::Contact::new(&built.mesh, scene.obstacles.clone(), p),
+            None => scene.contact(&built.mesh, 1e5).map(Option::unwrap),
+        };
+        let model = tetfem::model::ModelKind::Linear;
+        let definition = built.definition(model, Some(contact.unwrap())).unwrap();
+        let options = TransientOptions::new(Method::BackwardEuler, TimeStep::Seconds(1e-3));
+        let mut run = Transient::new(&definition, options).unwrap();
+        let mut states = Vec::new();
+        run.run(
+            (0, 40),
+            &mut |view: &StepView<'_>| -> tetfem::Result<Flow> {
+                states.push(view.state.displacement.clone());
+                Ok(Flow::Continue)
+            },
+        )
+        .unwrap();
+        states
+    }
+
+    /// `[contact] impact_fraction` is the library's option: the scene's run and the library's
+    /// run with `ContactParameters::with_impact_fraction` on the same mesh and obstacle give
+    /// the same bits at every step, and differ from the run without it (the option acts on
+    /// this landing).
+    #[test]
+    fn impact_fraction_is_the_library_option() {
+        let text = landing("impact_fraction = 0.25");
+        let built = text.parse::<Scene>().unwrap().build().unwrap();
+        let parameters = tetfem::contact::ContactParameters::for_mesh(&built.mesh, 1e5)
+            .and_then(|p| p.with_impact_fraction(0.25))
+            .unwrap();
+        let scene_run = fall(&text, None);
+        assert_eq!(scene_run, fall(&text, Some(parameters)));
+        let default = landing("");
+        let without = fall(&default, None);
+        assert_ne!(scene_run.last(), without.last());
+    }
+
+    /// A fraction outside (0, 1) is refused by the library's check, named by the scene's key
+    /// with its value, the allowed range and the `[contact]` table's line.
+    #[test]
+    fn impact_fraction_out_of_range_is_refused_by_name() {
+        for bad in ["0.0", "1.0", "1.5", "-0.25", "nan"] {
+            let scene: Scene = landing(&format!("impact_fraction = {bad}"))
+                .parse()
+                .unwrap();
+            let built = scene.build().unwrap();
+            match scene.contact(&built.mesh, 1e5) {
+                Err(Error::Scene {
+                    key, message, line, ..
+                }) => {
+                    assert_eq!(key, "contact.impact_fraction", "{message}");
+                    // The `[contact]` table's line (its keys carry no spans of their own).
+                    assert_eq!(line, 20, "{message}");
+                    let value: f64 = bad.parse().unwrap();
+                    assert!(message.contains(&value.to_string()), "{bad}: {message}");
+                    assert!(message.contains("(0, 1)"), "{message}");
+                }
+                other => panic!("{bad}: {other:?}"),
+            }
+        }
     }
 }

@@ -219,6 +219,15 @@ pub struct ContactSpec {
     /// [`tetfem::contact::GAP_TOLERANCE`]; with friction the given d̂ stays).
     #[serde(default)]
     pub gap_tolerance: Option<f64>,
+    /// f, a fraction of d̂ (dimensionless, 0 < f < 1; off by default): the impact-aware barrier
+    /// stiffness of implicit dynamic scenes (backward_euler, newmark). At each step's start a
+    /// boundary node outside d̂ takes its own κᵢ = max(κ, mᵢ·vₙ²/(2·Aᵢ·b(f·d̂))) (Pa/m; mᵢ its
+    /// mass, vₙ its approach speed, Aᵢ its area weight) so that a landing node stops near f·d̂,
+    /// where a time step resolves the impact; a node within d̂ keeps its κᵢ, so the barrier
+    /// stays conservative. Static and explicit scenes keep κ
+    /// ([`tetfem::contact::ContactParameters::impact_fraction`]).
+    #[serde(default)]
+    pub impact_fraction: Option<f64>,
 }
 
 /// An amplitude a(t): exactly one of `constant`, `table`, `ramp`, `smooth_step`, `sine`.
