@@ -387,10 +387,17 @@ fn main() -> Result<()> {
         }
         _ => "swing".to_string(),
     };
-    let method: Method = args.first().map_or("newmark", String::as_str).parse()?;
     let number = |i: usize, default: f64| -> f64 {
         args.get(i).and_then(|a| a.parse().ok()).unwrap_or(default)
     };
+    if scene == "drop-fixed" {
+        // `drop-fixed [reference steps per interval] [end]`: no method among the arguments.
+        INTERVAL_OF_SCENE.get_or_init(|| 0.002);
+        CENTROID.get_or_init(|| true);
+        let reference = args.first().and_then(|a| a.parse().ok()).unwrap_or(4096);
+        return impact_table(&drop_on_ground()?, reference, number(1, 0.08));
+    }
+    let method: Method = args.first().map_or("newmark", String::as_str).parse()?;
     let (tolerance, end, beta) = (number(1, 1e-3), number(2, 0.6), number(3, 0.0));
     let drop = scene.starts_with("drop");
     INTERVAL_OF_SCENE.get_or_init(|| if drop { 0.002 } else { 0.01 });
@@ -399,12 +406,6 @@ fn main() -> Result<()> {
         true => drop_on_ground()?,
         false => cantilever(scene == "shaken-base")?,
     };
-    if scene == "drop-fixed" {
-        // `drop-fixed [reference steps per interval] [end]`.
-        let reference = args.first().and_then(|a| a.parse().ok()).unwrap_or(4096);
-        return impact_table(&definition, reference, number(1, 0.08));
-    }
-
     let (run, adaptive_wall) = fastest(|| adaptive(&definition, method, (tolerance, end), beta))?;
     let report = &run.report;
     if std::env::var_os("ADAPTIVE_ONLY").is_some() {

@@ -246,8 +246,8 @@ impl Integrator for BackwardEuler {
         );
         let lumped = match self.system.mass() {
             Mass::Lumped(m) => Some(m.as_slice()),
-            consistent @ Mass::Consistent(_) => {
-                consistent.product_into(v, &mut self.rhs);
+            Mass::Consistent(_) => {
+                self.system.mass_product_into(v, &mut self.rhs);
                 None
             }
         };

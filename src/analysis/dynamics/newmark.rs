@@ -196,7 +196,7 @@ impl Newmark {
             &mut self.product,
             &mut self.blocks_work,
         );
-        self.system.mass().product_into(v, &mut self.work);
+        self.system.mass_product_into(v, &mut self.work);
         energy.elastic = 0.5 * twice_elastic;
         energy.kinetic = 0.5 * v.iter().zip(&self.work).map(|(a, b)| a * b).sum::<f64>();
         Ok(energy)
@@ -379,8 +379,7 @@ impl Newmark {
             .stiffness()
             .product_into(&self.work, &mut self.product);
         self.system
-            .mass()
-            .product_into(&state.velocity, &mut self.work);
+            .mass_product_into(&state.velocity, &mut self.work);
         let f = self.system.external_load_at(state.time, &mut self.load)?;
         for i in 0..n {
             self.acceleration[i] = f[i] - self.product[i] - damping.alpha * self.work[i];
@@ -431,7 +430,7 @@ impl Integrator for Newmark {
                 + a[i]
                 + damping.alpha * (2.0 / dt * u[i] + v[i]);
         }
-        self.system.mass().product_into(&self.work, &mut self.rhs);
+        self.system.mass_product_into(&self.work, &mut self.rhs);
         if damping.beta != 0.0 {
             for i in 0..n {
                 self.work[i] = 2.0 / dt * u[i] + v[i];

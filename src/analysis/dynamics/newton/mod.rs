@@ -327,7 +327,7 @@ impl NewtonSolver {
                 .force_and_energy_into(u, &mut self.work, &mut self.internal)?;
         self.internal_at.copy_from_slice(u);
         self.internal_valid = true;
-        system.mass().product_into(v, &mut self.scratch);
+        system.mass_product_into(v, &mut self.scratch);
         for i in 0..out.len() {
             out[i] = f[i] + self.internal[i] - damping.alpha * self.scratch[i];
         }
@@ -420,7 +420,7 @@ impl NewtonSolver {
             true => &mut self.trial_residual,
             false => &mut self.residual,
         };
-        system.mass().product_into(&self.mixed, out);
+        system.mass_product_into(&self.mixed, out);
         let f = equation.load;
         for i in 0..u_new.len() {
             out[i] -= self.internal[i] + f[i];
@@ -560,7 +560,7 @@ impl NewtonSolver {
                     self.mixed[i] =
                         equation.mass_scale * (equation.start[i] - equation.predictor[i]);
                 }
-                system.mass().product_into(&self.mixed, &mut self.scratch);
+                system.mass_product_into(&self.mixed, &mut self.scratch);
                 norm(&self.scratch)
             }
             false => 0.0,
