@@ -60,10 +60,10 @@ fn energy_dict<'py>(py: Python<'py>, e: &Energy) -> PyResult<Bound<'py, PyDict>>
 /// ``"iterative"``. ``contact_impact_fraction`` f (0 < f < 1, default off; the scenes'
 /// ``[contact] impact_fraction``): the obstacles' impact-aware barrier stiffness of the
 /// implicit methods, each landing node its own κᵢ = max(κ, mᵢ·vₙ²/(2·Aᵢ·b(f·d̂))) (Pa/m) so
-/// that it stops near f·d̂, where a step resolves the impact. ``self_contact=True`` puts the surface barrier between the bodies of a
-/// ``Mesh.bodies`` mesh and inside each (body–body and self-contact: no iterate intersects);
-/// ``self_contact_distance`` is its d̂ (m, default a tenth of the shortest surface edge at rest)
-/// and ``self_contact_stiffness`` its κ (J/m², default the stiffest E times the mean surface
+/// that it stops near f·d̂, where a step resolves the impact. ``self_contact=True`` puts the
+/// surface barrier between the bodies of a ``Mesh.bodies`` mesh and inside each (body–body and
+/// self-contact: no iterate intersects); ``self_contact_distance`` is its d̂ (m, default a
+/// tenth of the shortest surface edge at rest) and ``self_contact_stiffness`` its κ (J/m², default the stiffest E times the mean surface
 /// edge), ``self_contact_friction`` Coulomb's μ between the surfaces (lagged per step of
 /// backward Euler and Newmark; the explicit method refuses μ > 0); the methods that carry it
 /// are the library's rule (others raise naming it). Give

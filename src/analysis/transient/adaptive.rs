@@ -173,7 +173,7 @@
 //! The control spends the tolerance per unit time (above), so the landing's ~25 ms take the
 //! share of the run's 80 ms their duration gives them: hence steps near 1e-6 s there where a
 //! fixed step of 7.8e-6 s meets 5 % over the whole run.
-
+//!
 //! A Newton iteration that does not converge (a nonlinear model, contact) rejects the step
 //! too, at half the step.
 //!

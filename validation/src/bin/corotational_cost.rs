@@ -215,6 +215,14 @@ impl ForceModel for Counting {
     }
 }
 
+/// A run's trajectory in one number (FNV-1a over the bits of every displacement of every
+/// step): two binaries that print the same one computed the same trajectory to the bit.
+fn trajectory_hash(run: &Run) -> u64 {
+    (run.trajectory.iter().flatten()).fold(0xcbf2_9ce4_8422_2325_u64, |h, v| {
+        (h ^ v.to_bits()).wrapping_mul(0x0100_0000_01b3)
+    })
+}
+
 /// `--set account`: where the default's step goes. Runs the default once timed and once with
 /// the counting model (the same iterations: the wrapper changes no bits), then prints per step
 /// the passes over the tets of each kind and the L-BFGS iterations, and the wall time of one
@@ -255,17 +263,10 @@ fn account(swing: &Swing, model: ModelKind, linear: &Run, cli: &Cli) -> tetfem::
         cli,
     )?;
     let same = counted.trajectory == timed.trajectory;
-    // The trajectory's bits in one number (FNV-1a over every displacement of every step): two
-    // binaries that print the same one computed the same default trajectory to the bit.
-    let hash = |run: &Run| {
-        (run.trajectory.iter().flatten()).fold(0xcbf2_9ce4_8422_2325_u64, |h, v| {
-            (h ^ v.to_bits()).wrapping_mul(0x0100_0000_01b3)
-        })
-    };
     println!(
         "default trajectory's bits (FNV-1a): {:016x}; the linear one's: {:016x}",
-        hash(&timed),
-        hash(linear)
+        trajectory_hash(&timed),
+        trajectory_hash(linear)
     );
     println!(
         "CPU time a step: default {:.6} s, linear {:.6} s",
