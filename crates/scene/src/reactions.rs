@@ -90,15 +90,17 @@ impl DynamicReactions {
         reaction_columns(self.sets.len())
     }
 
-    /// The reactions at `state` of `system` under `force` on `mesh` (the setup's).
+    /// The reactions at `state` of `system` under `force` on `mesh` (the setup's), with the
+    /// free acceleration `acceleration` where the integrator that made the state has it
+    /// ([`SupportReactions::at_with`]).
     pub fn at<C: CellType>(
         &mut self,
         mesh: &tetfem::mesh::TetMesh<C>,
         system: &LinearSystem,
         force: &InternalForce,
-        state: &State,
+        (state, acceleration): (&State, Option<&[f64]>),
     ) -> Result<ReactionsAt> {
-        let nodal = self.supports.at(system, force, state)?;
+        let nodal = self.supports.at_with(system, force, state, acceleration)?;
         let rows = self
             .sets
             .iter()

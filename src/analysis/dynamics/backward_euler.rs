@@ -59,6 +59,8 @@ pub struct BackwardEuler {
     /// The acceleration of the step before `acceleration`'s, when the two steps followed each
     /// other (the state was not set in between).
     previous_acceleration: Option<Vec<f64>>,
+    /// The linear path's last step: (steps, time) of the state it left, whose Δv `rhs` holds.
+    velocity_change_of: Option<(usize, f64)>,
 }
 
 impl BackwardEuler {
@@ -107,6 +109,7 @@ impl BackwardEuler {
             newton,
             acceleration: None,
             previous_acceleration: None,
+            velocity_change_of: None,
             system,
         })
     }
@@ -232,6 +235,8 @@ impl Integrator for BackwardEuler {
         }
         let n = self.system.free_count();
         state.check_len(n)?;
+        // `rhs` is overwritten below: it holds no state's Δv until this step succeeds.
+        self.velocity_change_of = None;
         if self.factored_for != Some(self.dt) {
             self.factor()?;
         }
@@ -323,6 +328,7 @@ impl Integrator for BackwardEuler {
         if !finite {
             state.ensure_finite("")?;
         }
+        self.velocity_change_of = Some((state.steps, state.time));
         Ok(())
     }
 
@@ -332,6 +338,8 @@ impl Integrator for BackwardEuler {
 
     fn set_time_step(&mut self, dt: f64) -> Result<()> {
         self.dt = check_time_step(dt)?;
+        // The last Δv was taken over the old dt: a = Δv/dt no longer follows from it.
+        self.velocity_change_of = None;
         Ok(())
     }
 
@@ -345,6 +353,12 @@ impl Integrator for BackwardEuler {
 
     fn name(&self) -> &'static str {
         "backward-euler"
+    }
+
+    fn linear_acceleration(&self, state: &State) -> Option<std::borrow::Cow<'_, [f64]>> {
+        let left = self.velocity_change_of == Some((state.steps, state.time));
+        let a = self.rhs.iter().map(|dv| dv / self.dt).collect();
+        (self.newton.is_none() && left).then_some(std::borrow::Cow::Owned(a))
     }
 
     fn newton_stats(&self) -> Option<NewtonStats> {
@@ -365,6 +379,7 @@ impl Integrator for BackwardEuler {
     fn restore(&mut self, state: &State, history: &IntegratorHistory) -> Result<()> {
         history.check(self.name(), self.system.free_count(), state)?;
         self.guard = history.guard;
+        self.velocity_change_of = None;
         self.acceleration = (history.acceleration.clone()).map(|a| (a, (state.steps, state.time)));
         self.previous_acceleration = history.previous_acceleration.clone();
         if let (Some(newton), Some(stats)) = (self.newton.as_mut(), history.newton) {

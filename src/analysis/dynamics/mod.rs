@@ -97,6 +97,15 @@ pub trait Integrator: Send {
     fn newton_stats(&self) -> Option<NewtonStats> {
         None
     }
+    /// The free DOFs' acceleration a (length/time²) of the equation of motion
+    /// M·a + C·v + K·u = f(t) at `state`, when this integrator's last step left `state` with the
+    /// linear force: Newmark's a⁺, backward Euler's Δv/dt, each satisfying that equation at the
+    /// step's end to its solve's round-off. `None` otherwise (a nonlinear force, whose a holds
+    /// Newton's tolerance; the explicit method; a state set from outside): then
+    /// [`SupportReactions`] solves for it with the consistent mass, as it does without it.
+    fn linear_acceleration(&self, _state: &State) -> Option<std::borrow::Cow<'_, [f64]>> {
+        None
+    }
     /// What this integrator carries from one step to the next beyond the [`State`] (see
     /// [`Checkpoint`]); with it, [`restore`](Self::restore) continues bit-identically. The
     /// default refuses: an integrator that keeps history must say what it is.

@@ -72,6 +72,8 @@ pub struct Newmark {
     acceleration: Vec<f64>,
     /// (steps, time) of the state the stored acceleration belongs to.
     acceleration_of: Option<(usize, f64)>,
+    /// M·a of the linear step's start ([`Newmark::incoming_energy`]).
+    mass_acceleration: Vec<f64>,
     work: Vec<f64>,
     product: Vec<f64>,
     /// Scratch of the block copy of K's products ([`Newmark::guard_energy`]).
@@ -172,6 +174,7 @@ impl Newmark {
             guard: None,
             acceleration: vec![0.0; n],
             acceleration_of: None,
+            mass_acceleration: vec![0.0; n],
             work: vec![0.0; n],
             product: vec![0.0; n],
             blocks_work,
@@ -183,7 +186,8 @@ impl Newmark {
         })
     }
 
-    /// The energies of the state a linear step reached, for the divergence guard: uᵀK·u from
+    /// The energies of the state a linear step with stiffness damping reached, for the
+    /// divergence guard (without it, [`incoming_energy`](Self::incoming_energy)): uᵀK·u from
     /// the products of K's block copy (the time steppers' format: half the matrix bytes of the
     /// CSC product and parallel) and vᵀM·v, the potentials by [`LinearSystem::energy_potentials`].
     /// The energies of [`LinearSystem::energy_using`] up to rounding (the guard only compares
@@ -200,6 +204,32 @@ impl Newmark {
         energy.elastic = 0.5 * twice_elastic;
         energy.kinetic = 0.5 * v.iter().zip(&self.work).map(|(a, b)| a * b).sum::<f64>();
         Ok(energy)
+    }
+
+    /// The energies of the state a linear step starts from, for the divergence guard, without a
+    /// product of their own: undamped or with mass damping alone (C = α·M) the state satisfies
+    /// the equation of motion M·a + α·M·v + K·u = f (Newmark's a⁺ does by construction, the
+    /// first step's a by its solve), so uᵀK·u = uᵀf − uᵀ(M·a) − α·uᵀ(M·v), with M·v and M·a
+    /// taken in the right-hand side's read of M and f the
+    /// step's load (constant data: f(t + dt) = f(t); with data that follow time the guard
+    /// checks only that the energies are finite). The energies of [`energy_of`](Self::energy_of)
+    /// up to rounding: ε·(|uᵀf| + |uᵀM·a|), far below the guard's bound (10× the start's energy
+    /// plus the loads' work).
+    fn incoming_energy(
+        alpha: f64,
+        state: &State,
+        f: &[f64],
+        (mass_velocity, mass_acceleration): (&[f64], &[f64]),
+    ) -> super::Energy {
+        let (u, v) = (&state.displacement, &state.velocity);
+        let (mut twice_kinetic, mut twice_elastic, mut potential) = (0.0, 0.0, 0.0);
+        for i in 0..u.len() {
+            let (mv, ma) = (mass_velocity[i], mass_acceleration[i]);
+            twice_kinetic += v[i] * mv;
+            twice_elastic += u[i] * (f[i] - ma - alpha * mv);
+            potential -= f[i] * u[i];
+        }
+        super::Energy::for_guard(twice_kinetic, twice_elastic, potential)
     }
 
     /// The energies of `state` under this integrator's force law.
@@ -430,7 +460,20 @@ impl Integrator for Newmark {
                 + a[i]
                 + damping.alpha * (2.0 / dt * u[i] + v[i]);
         }
-        self.system.mass_product_into(&self.work, &mut self.rhs);
+        let incoming_guard = damping.beta == 0.0;
+        if incoming_guard {
+            // M·v and M·a in the same read of M: the incoming state's energies (below).
+            self.system.mass_product3_into(
+                [&self.work, v, a],
+                [
+                    &mut self.rhs,
+                    &mut self.product,
+                    &mut self.mass_acceleration,
+                ],
+            );
+        } else {
+            self.system.mass_product_into(&self.work, &mut self.rhs);
+        }
         if damping.beta != 0.0 {
             for i in 0..n {
                 self.work[i] = 2.0 / dt * u[i] + v[i];
@@ -449,8 +492,20 @@ impl Integrator for Newmark {
         for i in 0..n {
             self.rhs[i] += f[i];
         }
+        if incoming_guard {
+            let products = (self.product.as_slice(), self.mass_acceleration.as_slice());
+            let energy = Self::incoming_energy(damping.alpha, state, f, products);
+            if let Some(guard) = &self.guard {
+                guard.check_energy(state.steps, state.time, &energy)?;
+            }
+        }
         self.solver.solve(&self.matrix, &mut self.rhs)?;
         self.advance(state);
+        if incoming_guard {
+            // The energy of this state is checked when the next step starts from it; its
+            // values must be finite now (the divergence is named at the step that made it).
+            return state.ensure_finite("");
+        }
         let energy = self.guard_energy(state)?;
         match &self.guard {
             Some(guard) => guard.check(state, &energy),
@@ -477,6 +532,11 @@ impl Integrator for Newmark {
 
     fn name(&self) -> &'static str {
         "newmark"
+    }
+
+    fn linear_acceleration(&self, state: &State) -> Option<std::borrow::Cow<'_, [f64]>> {
+        let left = self.acceleration_of == Some((state.steps, state.time));
+        (self.newton.is_none() && left).then_some(std::borrow::Cow::Borrowed(&self.acceleration))
     }
 
     fn newton_stats(&self) -> Option<NewtonStats> {

@@ -38,7 +38,7 @@ pub(super) fn run_dynamic_locked<E: SceneElement>(
         }
     }
     let start_energy = match resumed_at {
-        None => recorder.record(transient.state(), 0.0, false)?,
+        None => recorder.record((transient.state(), None), 0.0, false)?,
         Some(_) => transient.energy()?,
     };
     // The stepping begins: `progress` learns it before the first step (the command-line tool
@@ -203,7 +203,12 @@ impl<E: SceneElement> Observer for StepWatcher<'_, '_, E> {
             self.clocks.first_step = view.wall;
         }
         self.clocks.step_total += view.wall;
-        let energy = self.recorder.record(view.state, view.wall, step == steps)?;
+        let acceleration = view.integrator.linear_acceleration(view.state);
+        let energy = (self.recorder).record(
+            (view.state, acceleration.as_deref()),
+            view.wall,
+            step == steps,
+        )?;
         self.clocks.final_energy = Some(energy);
         let stop = (self.progress)(step, steps).is_break() && step < steps;
         // The checkpoint after the CSV rows up to it are written out (a resume keeps them).
@@ -301,7 +306,12 @@ impl<'s, E: SceneElement> StepRecorder<'s, E> {
 
     /// Records `state` (taken in `wall` s; `last` for the run's last step): its energy, the
     /// probes' means, the obstacles' forces and, with a writer, its CSV row and frame.
-    fn record(&mut self, state: &State, wall: f64, last: bool) -> Result<Energy> {
+    fn record(
+        &mut self,
+        (state, acceleration): (&State, Option<&[f64]>),
+        wall: f64,
+        last: bool,
+    ) -> Result<Energy> {
         let clock = Instant::now();
         let setup = self.setup;
         let system = &setup.system;
@@ -326,7 +336,7 @@ impl<'s, E: SceneElement> StepRecorder<'s, E> {
         if let Some(w) = &mut self.writer {
             let at = self
                 .reactions
-                .at(&setup.mesh, system, &setup.force, state)?;
+                .at(&setup.mesh, system, &setup.force, (state, acceleration))?;
             w.record(
                 setup,
                 state,
@@ -379,7 +389,12 @@ fn close_run<E: SceneElement>(
     let clock = Instant::now();
     let final_reactions = recorder
         .reactions
-        .at(mesh, system, &setup.force, state)?
+        .at(
+            mesh,
+            system,
+            &setup.force,
+            (state, integrator.linear_acceleration(state).as_deref()),
+        )?
         .rows;
     recorder.output_seconds += clock.elapsed().as_secs_f64();
     let clock = Instant::now();
