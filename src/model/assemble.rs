@@ -211,9 +211,9 @@ fn add_at_nodes<E: ModelElement>(
         let one = |(i, m): (usize, &mut nalgebra::Matrix3<f64>)| *m = weighted(start + i);
         // One thread: in this thread, not handed to the pool's (the reason at
         // `element_model::add_in_blocks`); the same bits.
-        match rayon::current_num_threads() {
-            1 => block[..end - start].iter_mut().enumerate().for_each(one),
-            _ => block[..end - start]
+        match crate::linalg::parallel::one_thread() {
+            true => block[..end - start].iter_mut().enumerate().for_each(one),
+            false => block[..end - start]
                 .par_iter_mut()
                 .enumerate()
                 .for_each(one),

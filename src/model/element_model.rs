@@ -179,9 +179,9 @@ impl ModelElement for Tet4 {
                 four_tets(mesh, kept, models, u, start + 4 * c, out)
             };
             // One thread: in this thread, not handed to the pool's (see `add_in_blocks`).
-            match rayon::current_num_threads() {
-                1 => out.chunks_mut(4).enumerate().for_each(batch),
-                _ => out.par_chunks_mut(4).enumerate().for_each(batch),
+            match crate::linalg::parallel::one_thread() {
+                true => out.chunks_mut(4).enumerate().for_each(batch),
+                false => out.par_chunks_mut(4).enumerate().for_each(batch),
             }
         })
     }
@@ -252,9 +252,9 @@ fn add_in_blocks(
             let t = start + i;
             *out = element(t, &mesh.positions_of(t), &positions(mesh, t, u));
         };
-        match rayon::current_num_threads() {
-            1 => out.iter_mut().enumerate().for_each(one),
-            _ => out.par_iter_mut().enumerate().for_each(one),
+        match crate::linalg::parallel::one_thread() {
+            true => out.iter_mut().enumerate().for_each(one),
+            false => out.par_iter_mut().enumerate().for_each(one),
         }
     })
 }

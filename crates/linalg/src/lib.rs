@@ -28,6 +28,7 @@ pub mod linear_solver;
 pub mod linsolve;
 pub mod memory;
 pub mod ordering;
+pub mod parallel;
 pub mod preconditioner;
 pub mod quasi_definite;
 pub mod sparse;

@@ -279,7 +279,7 @@ impl Integrator for BackwardEuler {
         };
         // One thread in rayon's pool: the chunks in this thread, without a parallel region's
         // hand-over to the pool (see `model::element_model`'s `add_in_blocks`); the same sums.
-        let serial = rayon::current_num_threads() == 1;
+        let serial = crate::linalg::parallel::one_thread();
         let partial: Vec<[f64; 2]> = match serial {
             true => self.rhs.chunks_mut(CHUNK).enumerate().map(chunk).collect(),
             false => self

@@ -75,11 +75,11 @@ impl NodalRotations {
         // (see `model::element_model`'s `add_in_blocks`).
         let turn =
             |(r, blocks): (&mut [Matrix3<f64>], &[Block])| turn_of_nodes(gradients, blocks, r);
-        match rayon::current_num_threads() {
-            1 => (self.rotations.chunks_mut(LANES))
+        match crate::linalg::parallel::one_thread() {
+            true => (self.rotations.chunks_mut(LANES))
                 .zip(self.blocks.chunks(LANES))
                 .for_each(turn),
-            _ => (self.rotations.par_chunks_mut(LANES))
+            false => (self.rotations.par_chunks_mut(LANES))
                 .zip(self.blocks.par_chunks(LANES))
                 .for_each(turn),
         }

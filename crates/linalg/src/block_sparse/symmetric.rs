@@ -16,6 +16,7 @@
 //! numbering whose first nodes couple to its last leaves few chunks and so little parallelism,
 //! never a wrong result.
 
+use crate::parallel::one_thread;
 use rayon::prelude::*;
 
 #[cfg(target_arch = "x86_64")]
@@ -54,16 +55,6 @@ pub struct SymmetricBlockMatrix3 {
 /// on one core of this EPYC; with the hint at 256–2048 values ahead a product took 0.80–0.87×
 /// the time without it (132k and 435k DOFs, one and two threads, best of 40 interleaved).
 const PREFETCH_AHEAD: usize = 512;
-
-/// Whether rayon's pool has one thread: the products then run their chunks in the calling
-/// thread. A parallel region entered from outside the pool hands its work to the pool's thread
-/// and waits for it (two futex wake-ups, and the worker's spinning before it sleeps again):
-/// tens of µs of CPU time a region, against 0.06 ms for the whole product at 4,410 DOFs
-/// (`validation/PERFORMANCE.md`, issue 39 target 1). The same chunks in the same order: the
-/// same bits.
-fn one_thread() -> bool {
-    rayon::current_num_threads() == 1
-}
 
 /// Vectors with four slots per node for [`SymmetricBlockMatrix3`]'s products.
 #[derive(Debug, Clone, Default)]
