@@ -181,8 +181,11 @@ pub const STIFFNESS_POINTS: usize = 24;
 /// hole-edge stress 18–29 % of MFEM's own error away from MFEM's curved P2, and the 14-point
 /// degree-5 rule (Walkington's, MFEM's for degree 5) still 0.38 % (8×4×2 cells) and 0.10 %
 /// (12×6×3) of it: in narrow error bands that sliver put MFEM's points first on the
-/// speed–accuracy front. At degree 6 tetfem's curved P2 is MFEM's default curved P2 — the same
-/// discrete problem, equal to 12 digits (`tests/core/curved_tet10.rs`) — at 24/14 the points.
+/// speed–accuracy front. At degree 6 tetfem's curved P2 is MFEM's default curved P2, the same
+/// discrete problem: the hole's stress equal to 13 digits (2.5e-14 to 1.1e-13 relative, 4×2×1
+/// to 24×12×6 cells; `tests/core/curved_tet10.rs`). The 24 points against 14 cost the curved
+/// assembly about 1.3× and the whole static solve 4–13 % (`benches/curved_hole.rs`, the table
+/// in `docs/src/quadratic.md`).
 pub fn stiffness_rule() -> [([f64; 4], f64); STIFFNESS_POINTS] {
     // The (b, a, a, a) orbits' a and weight: the 33-digit values of the Encyclopaedia of
     // Cubature Formulas (Keast's rule), rounded to f64 (checked in 50-digit arithmetic: every

@@ -14,7 +14,7 @@
 //! stiffness (and the force models) use Keast's 24-point degree-6 rule [`stiffness_rule`]
 //! with weights V_X·w·det G(ξ_q): degree 2 (2k − 2 for P_k) keeps the optimal energy-norm
 //! rate (Ciarlet & Raviart 1972), the patch test needs ∫cof(J)∇_ξNₐ dξ exact, a cubic, and
-//! degree 6 is MFEM's default for this integrand, so tetfem's curved P2 is MFEM's to 12 digits
+//! degree 6 is MFEM's default for this integrand, so tetfem's curved P2 is MFEM's to 13 digits
 //! (the rule's doc says what degrees 3 and 5 left). The mixed Taylor–Hood element keeps the
 //! 4-point rule's points ([`Tet10Rest::gradients`], weighted by det G) for its pressure
 //! coupling. The mass ∫ρNᵢNⱼ dV, the shape integrals ∫Nᵢ dV (body loads) and the volume go by
