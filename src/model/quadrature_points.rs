@@ -2,7 +2,7 @@
 //!
 //! F_q = I + Σₐ uₐ ⊗ ∇Nₐ(ξ_q) at each point ξ_q of the degree-2 rule (4 points, weights V/4:
 //! the rule of the element's linear stiffness, and Abaqus's C3D10; on a curved tet the
-//! element's degree-5 rule, 14 points weighted V_X·w·det G, `Tet10Rest::points`), then
+//! element's degree-6 rule, 24 points weighted V_X·w·det G, `Tet10Rest::points`), then
 //! E = Σ_q w_q ψ(F_q), fₐ = −Σ_q w_q P(F_q)·∇Nₐ(ξ_q), and the tangent blocks
 //! K_ab = Σ_q w_q ∇Nₐᵀ·(∂P/∂F)(F_q)·∇N_b of the model's [`ConstitutiveLaw`](super::ConstitutiveLaw).
 //!
@@ -92,7 +92,7 @@ impl ModelElement for Tet10 {
         let (rest, ue) = element(mesh, t, u);
         let psi = |g: &[Vector3<f64>; 10]| model.energy_density(&deformation_gradient(g, &ue));
         if rest.is_curved() {
-            // Curved (isoparametric) tet: the degree-5 rule's points, weights V_X·w·det G.
+            // Curved (isoparametric) tet: the degree-6 rule's points, weights V_X·w·det G.
             let (gradients, weights) = rest.points();
             return (gradients.iter().zip(weights))
                 .map(|(g, w)| w * psi(g))

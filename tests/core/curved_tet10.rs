@@ -5,9 +5,9 @@
 //!   (the isoparametric element holds every linear field; a straight-sided element on the same
 //!   nodes would not, its nodes no longer where its map puts them);
 //! - the volume of the plate with a hole converging at O(h⁴) curved, O(h²) straight;
-//! - the curved stiffness rule exact to degree 5;
-//! - the plate with a hole: σ_xx at (0, a, 0) on curved P2 equal to MFEM's curved P2 on the same
-//!   meshes with the same rule, and beside MFEM's default rule;
+//! - the curved stiffness rule exact to degree 6 and not 7, its closed-form orbit to the last bit;
+//! - the plate with a hole: σ_xx at (0, a, 0) on curved P2 equal to MFEM's default curved P2
+//!   (the same degree-6 rule) on the same meshes;
 //! - a folded tet is an error naming the tet and the point.
 
 use nalgebra::{Matrix3, Vector3};
@@ -187,54 +187,84 @@ fn barycentric_monomial_mean(powers: [u32; 4]) -> f64 {
         / factorial(powers.iter().sum::<u32>() + 3)
 }
 
-#[test]
-fn the_curved_stiffness_rule_is_exact_to_degree_five() {
-    let rule = stiffness_rule();
+/// The rule's mean of the barycentric monomial L₀^a L₁^b L₂^c L₃^d.
+fn rule_mean(rule: &[([f64; 4], f64)], powers: [u32; 4]) -> f64 {
+    rule.iter()
+        .map(|(l, w)| w * (0..4).map(|i| l[i].powi(powers[i] as i32)).product::<f64>())
+        .sum()
+}
+
+/// The worst relative error of the rule over every barycentric monomial of total degree `n`.
+fn worst_monomial_error(rule: &[([f64; 4], f64)], n: u32) -> f64 {
     let mut worst: f64 = 0.0;
-    for a in 0..=5_u32 {
-        for b in 0..=5 - a {
-            for c in 0..=5 - a - b {
-                for d in 0..=5 - a - b - c {
-                    let quadrature: f64 = rule
-                        .iter()
-                        .map(|(l, w)| {
-                            w * l[0].powi(a as i32)
-                                * l[1].powi(b as i32)
-                                * l[2].powi(c as i32)
-                                * l[3].powi(d as i32)
-                        })
-                        .sum();
-                    let exact = barycentric_monomial_mean([a, b, c, d]);
-                    worst = worst.max((quadrature - exact).abs() / exact);
-                }
+    for a in 0..=n {
+        for b in 0..=n - a {
+            for c in 0..=n - a - b {
+                let powers = [a, b, c, n - a - b - c];
+                let exact = barycentric_monomial_mean(powers);
+                worst = worst.max((rule_mean(rule, powers) - exact).abs() / exact);
             }
         }
     }
-    // The table's 20 digits round to f64: a sum of 14 products each within a few ulps.
-    assert!(worst < 1e-14, "{worst:e}");
+    worst
+}
+
+#[test]
+fn the_curved_stiffness_rule_is_exact_to_degree_six() {
+    let rule = stiffness_rule();
+    for n in 0..=6 {
+        let worst = worst_monomial_error(&rule, n);
+        // Weights and points rounded to f64 from 33 digits: a sum of 24 positive products each
+        // within a few ulps of its exact value, so a few 1e-16 relative; 1e-14 leaves room.
+        assert!(worst < 1e-14, "degree {n}: {worst:e}");
+    }
     assert!(rule.iter().all(|(_, w)| *w > 0.0));
-    // Degree 5, not 6: L₀⁶'s mean 6!·3!/9! = 1/84 is missed.
-    let sixth: f64 = rule.iter().map(|(l, w)| w * l[0].powi(6)).sum();
-    assert!((sixth - barycentric_monomial_mean([6, 0, 0, 0])).abs() > 1e-6);
+    assert!(
+        rule.iter()
+            .all(|(l, _)| l.iter().all(|&c| c > 0.0) && (l.iter().sum::<f64>() - 1.0).abs() < 1e-15),
+        "points inside the tet, barycentric summing to 1"
+    );
+    // Degree 6, not 7: some monomial of degree 7 is missed by far more than round-off
+    // (measured 1.75e-2 relative in 50-digit arithmetic, e.g. L₀⁷ by 2.3e-3).
+    let seventh = worst_monomial_error(&rule, 7);
+    assert!(seventh > 1e-6, "degree 7: {seventh:e}");
+    // The twelve-point orbit (a, a, b, c) in closed form: a = (3 − √5)/12, b = (1 + √5)/12,
+    // c = (5 + √5)/12, weight 27/560 — each rounded to f64 (c as 1 − 2a − b), so within two
+    // ulps of 1 of the same expressions evaluated in f64 (√5, the sums and the division each
+    // round once); a wrong digit anywhere in the first 15 would be caught.
+    let s5 = 5.0_f64.sqrt();
+    let closed = [(3.0 - s5) / 12.0, (1.0 + s5) / 12.0, (5.0 + s5) / 12.0];
+    let pair = rule
+        .iter()
+        .filter(|(_, w)| *w == 27.0 / 560.0)
+        .collect::<Vec<_>>();
+    assert_eq!(pair.len(), 12);
+    for (l, _) in pair {
+        let mut sorted = *l;
+        sorted.sort_by(f64::total_cmp);
+        for (got, want) in [sorted[0], sorted[2], sorted[3]].iter().zip(closed) {
+            assert!((got - want).abs() <= 2.0 * f64::EPSILON, "{l:?}");
+        }
+    }
 }
 
 #[test]
 fn the_hole_stress_on_curved_p2_matches_mfems_curved_p2() {
-    // MFEM 4.x (PyMFEM) curved P2 on the same meshes and geometry (the O-grid curved by
-    // SetCurvature(2) and its nodes put on the exact blending map), the stiffness integrated by
-    // `IntRules.Get(TETRAHEDRON, 5)` — the same 14-point rule as tetfem's — or by MFEM's default
-    // (degree 6), same recovery at the node (volumes exact: `curved_volume`); n = 2, 4, 6.
-    // Printed to 17 digits by validation/hole_speed_accuracy.py's `solve_mfem`, the rule set by
-    // `ElasticityIntegrator.SetIntRule`.
+    // MFEM 4.10 (PyMFEM, /work/peers-venv) curved P2 with its default stiffness rule for this
+    // integrand, `IntRules.Get(TETRAHEDRON, 6)` — Keast's 24 points, tetfem's — on the same
+    // meshes and geometry (the O-grid curved by SetCurvature(2) and its nodes put on the exact
+    // blending map), same recovery at the node (volumes exact: `curved_volume`); n = 2, 4, 6.
+    // Printed to 17 digits by `python validation/hole_speed_accuracy.py --worker MFEM-curved 2
+    // n out.json` (`solve_mfem`, which sets no rule).
     let mfem = [
-        (2, 3.820_997_996_969_650_6, 3.824_083_648_678_699_5),
-        (4, 3.663_520_769_641_092, 3.663_609_020_354_363_6),
-        (6, 3.676_065_643_118_971_3, 3.676_075_924_815_707_6),
+        (2, 3.824_083_648_678_699_5),
+        (4, 3.663_609_020_354_363_6),
+        (6, 3.676_075_924_815_707_6),
     ];
     // MFEM curved order 4 on 16 × 8 × 4 cells (validation/SPEED_ACCURACY.md's reference).
     let reference = 3.686_591_998;
     let mut errors = Vec::new();
-    for (n, same_rule, default_rule) in mfem {
+    for (n, theirs) in mfem {
         let h = Hole::new(n).unwrap();
         let mesh = h.curved_mesh().unwrap();
         let p = mesh.nodes()[Hole::TARGET];
@@ -246,30 +276,23 @@ fn the_hole_stress_on_curved_p2_matches_mfems_curved_p2() {
         let straight = hole_stress(&h.straight_mesh().unwrap());
         let error = |v: f64| (v - reference).abs() / reference;
         eprintln!(
-            "hole n={n}: curved {ours:.12} (error {:.4e}), MFEM same rule {same_rule:.12}, MFEM \
-             default {default_rule:.12} (error {:.4e}), straight {straight:.9} (error {:.3e})",
+            "hole n={n}: curved {ours:.15} (error {:.4e}), MFEM {theirs:.15} (rel. difference \
+             {:.2e}), straight {straight:.9} (error {:.3e})",
             error(ours),
-            error(default_rule),
+            (ours - theirs).abs() / theirs,
             error(straight)
         );
         // Same geometry (the quadratic interpolant of the same map at the same nodes), same
         // space, same rule, same recovery: the same discrete problem, so the two codes agree
-        // to the solvers' round-off (both direct, condition ~1e6: 1e-10 leaves room).
+        // to the solvers' round-off (both direct, condition ~1e6; measured 2.5e-14 to 5.0e-14):
+        // 12 digits, 20× above it.
         assert!(
-            (ours - same_rule).abs() < 1e-10 * same_rule,
-            "n={n}: {ours} vs MFEM {same_rule}"
+            (ours - theirs).abs() < 1e-12 * theirs,
+            "n={n}: {ours} vs MFEM {theirs}"
         );
-        errors.push((n, error(ours), error(default_rule), error(straight)));
+        errors.push((n, error(ours), error(straight)));
     }
-    for &(n, ours, theirs, straight) in &errors[1..] {
-        // Against MFEM's own default rule the difference is the quadrature of the rational
-        // stiffness between degree 5 and 6, of higher order than the error: within 2 % of
-        // MFEM's error (measured 0.38 % at n = 4, 0.10 % at n = 6; n = 2, one cell through the thickness and
-        // the map's largest bends, is left out).
-        assert!(
-            (ours - theirs).abs() < 0.02 * theirs,
-            "n={n}: {ours:e} vs MFEM's error {theirs:e}"
-        );
+    for &(n, ours, straight) in &errors[1..] {
         // Curving the hole is what the straight P2 lacked: its error is ≥ 5× the curved one.
         assert!(
             straight > 5.0 * ours,
@@ -381,7 +404,8 @@ fn the_estimators_stress_norm_on_bent_tets_is_the_strain_energy() {
         (a - b).abs() / a
     );
     // The two are different rules on a rational integrand (det G·|G⁻ᵀ∇N|² on bends of
-    // 0.06 h): measured 3.7e-5 apart; weighing the points by the tet's mean volume instead of
-    // det G put them 1.7e-3 apart. 2e-4 lies between, 5× above the first.
+    // 0.06 h): measured 3.1e-6 apart (3.7e-5 with the 14-point degree-5 stiffness rule);
+    // weighing the points by the tet's mean volume instead of det G put them 1.7e-3 apart.
+    // 2e-4 lies between: 65× above the first, 8× below the second.
     assert!((a - b).abs() < 2e-4 * a);
 }

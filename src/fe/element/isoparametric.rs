@@ -163,31 +163,45 @@ pub fn curved_rule() -> &'static [([f64; 4], f64)] {
 }
 
 /// Points of the curved stiffness rule ([`stiffness_rule`]).
-pub const STIFFNESS_POINTS: usize = 14;
+pub const STIFFNESS_POINTS: usize = 24;
 
-/// The curved stiffness rule: the 14-point degree-5 rule of Walkington (and Keast, Grundmann
-/// and Möller), all weights positive, as barycentric (L₀…L₃) and weight (fractions of the
-/// reference volume, summing to 1): four points (b, a, a, a) with a = 0.0927…, four with
-/// a = 0.3108…, and the six edge-pair points (c, c, ½ − c, ½ − c) with c = 0.0455… — the rule
-/// MFEM takes for degree 5, so the two codes integrate a curved tet at the same points.
+/// The curved stiffness rule: Keast's 24-point degree-6 rule (Keast 1986, all weights
+/// positive), as barycentric (L₀…L₃) and weight (fractions of the reference volume, summing
+/// to 1): three orbits of four points (b, a, a, a) with a = 0.2146…, 0.0407…, 0.3223…, and
+/// twelve points (a, a, b, c) and permutations with a = (3 − √5)/12, b = (1 + √5)/12,
+/// c = (5 + √5)/12, weight 27/560 — the rule MFEM takes for degree 6
+/// (`IntRules.Get(TETRAHEDRON, 6)`), its default for the curved P2 stiffness, so the two codes
+/// integrate a curved tet at the same points.
 ///
-/// Why degree 5: on a curved tet the stiffness integrand is rational. Degree 3 is the least
-/// that passes the patch test (∫∇Nₐ dV = ∫ cof(J)∇_ξNₐ dξ exactly, cof(J) quadratic and ∇_ξNₐ
-/// linear in ξ; the degree-2 rule of straight tets misses an affine field by 6e-5), but its
-/// quadrature error is not small beside P2's discretization error on graded curved meshes: on
-/// the plate with a hole (validation/SPEED_ACCURACY.md) the 8-point degree-3 rule left the
-/// hole-edge stress 29 % (8×4×2 cells) and 18 % (12×6×3) of MFEM's own error away from MFEM's
-/// curved P2, which integrates at degree 6; at degree 5 tetfem's error is within 0.4 % of
-/// MFEM's there, and equal to MFEM's with this rule to 12 digits (`tests/core/curved_tet10.rs`),
-/// at 1.75× the points.
+/// Why degree 6: on a curved tet the stiffness integrand det G·|G⁻ᵀ∇_X N|² is rational, so no
+/// rule is exact; the degree only sets how small the quadrature error is. Degree 3 is the
+/// least that passes the patch test (∫∇Nₐ dV = ∫ cof(J)∇_ξNₐ dξ exactly, cof(J) quadratic and
+/// ∇_ξNₐ linear in ξ; the degree-2 rule of straight tets misses an affine field by 6e-5), but
+/// on the plate with a hole (validation/SPEED_ACCURACY.md) the 8-point degree-3 rule left the
+/// hole-edge stress 18–29 % of MFEM's own error away from MFEM's curved P2, and the 14-point
+/// degree-5 rule (Walkington's, MFEM's for degree 5) still 0.38 % (8×4×2 cells) and 0.10 %
+/// (12×6×3) of it: in narrow error bands that sliver put MFEM's points first on the
+/// speed–accuracy front. At degree 6 tetfem's curved P2 is MFEM's default curved P2, the same
+/// discrete problem: the hole's stress equal to 13 digits (2.5e-14 to 1.1e-13 relative, 4×2×1
+/// to 24×12×6 cells; `tests/core/curved_tet10.rs`). The 24 points against 14 cost the curved
+/// assembly about 1.3× and the whole static solve 4–13 % (`benches/curved_hole.rs`, the table
+/// in `docs/src/quadratic.md`).
 pub fn stiffness_rule() -> [([f64; 4], f64); STIFFNESS_POINTS] {
-    // Walkington's table rounded to f64 (the test checks degree 5 to 1e-14): the (b, a, a, a)
-    // orbits' points and weights, then the (c, c, ½ − c, ½ − c) orbit's.
-    const VERTEX_ORBITS: [(f64, f64); 2] = [
-        (0.092_735_250_310_891_22, 0.073_493_043_116_361_96),
-        (0.310_885_919_263_300_6, 0.112_687_925_718_015_85),
+    // The (b, a, a, a) orbits' a and weight: the 33-digit values of the Encyclopaedia of
+    // Cubature Formulas (Keast's rule), rounded to f64 (checked in 50-digit arithmetic: every
+    // monomial of degree ≤ 6 integrated to 3e-33); b = 1 − 3a.
+    const VERTEX_ORBITS: [(f64, f64); 3] = [
+        (0.214_602_871_259_152_03, 0.039_922_750_258_167_494),
+        (0.040_673_958_534_611_35, 0.010_077_211_055_320_643),
+        (0.322_337_890_142_275_5, 0.055_357_181_543_654_724),
     ];
-    const EDGE_ORBIT: (f64, f64) = (0.045_503_704_125_649_65, 0.042_546_020_777_081_466);
+    // The (a, a, b, c) orbit in closed form, rounded to f64: a = (3 − √5)/12,
+    // b = (1 + √5)/12, c = 1 − 2a − b = (5 + √5)/12, weight 27/560.
+    const PAIR_ORBIT: (f64, f64, f64) = (
+        0.063_661_001_875_017_53,
+        0.269_672_331_458_315_8,
+        27.0 / 560.0,
+    );
     let mut rule = [([0.0; 4], 0.0); STIFFNESS_POINTS];
     let mut k = 0;
     for (a, w) in VERTEX_ORBITS {
@@ -198,12 +212,16 @@ pub fn stiffness_rule() -> [([f64; 4], f64); STIFFNESS_POINTS] {
             k += 1;
         }
     }
-    let (c, w) = EDGE_ORBIT;
-    for (i, j) in crate::mesh::cell::EDGES {
-        let mut l = [0.5 - c; 4];
-        (l[i], l[j]) = (c, c);
-        rule[k] = (l, w);
-        k += 1;
+    let (a, b, w) = PAIR_ORBIT;
+    let c = 1.0 - 2.0 * a - b;
+    // b and c at every ordered pair of distinct corners, a at the other two: 12 points.
+    for p in 0..4 {
+        for q in (0..4).filter(|&q| q != p) {
+            let mut l = [a; 4];
+            (l[p], l[q]) = (b, c);
+            rule[k] = (l, w);
+            k += 1;
+        }
     }
     rule
 }

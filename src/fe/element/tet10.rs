@@ -11,15 +11,15 @@
 //! Curved tets (an edge node off its midpoint, as on a circle): the geometry is mapped by the
 //! same quadratic shape functions ([`super::isoparametric`]), so ∇N = G⁻ᵀ∇_X N and
 //! dV = det G dV_X vary inside the tet and the integrands are rational, not polynomial. The
-//! stiffness (and the force models) use the 14-point degree-5 rule
-//! [`stiffness_rule`] with weights V_X·w·det G(ξ_q): degree 2
-//! (2k − 2 for P_k) keeps the optimal energy-norm rate (Ciarlet & Raviart 1972), the patch
-//! test needs ∫cof(J)∇_ξNₐ dξ exact, a cubic, and degree 5 keeps the quadrature error of the
-//! rational integrand well below P2's error on graded curved meshes (the rule's doc). The mixed Taylor–Hood element keeps the 4-point
-//! rule's points ([`Tet10Rest::gradients`], weighted by det G) for its pressure coupling. The
-//! mass ∫ρNᵢNⱼ dV, the shape
-//! integrals ∫Nᵢ dV (body loads) and the volume go by the 64-point degree-5 rule (the mass
-//! needs more than 4 points to be non-singular; det G is a cubic, so the volume is exact).
+//! stiffness (and the force models) use Keast's 24-point degree-6 rule [`stiffness_rule`]
+//! with weights V_X·w·det G(ξ_q): degree 2 (2k − 2 for P_k) keeps the optimal energy-norm
+//! rate (Ciarlet & Raviart 1972), the patch test needs ∫cof(J)∇_ξNₐ dξ exact, a cubic, and
+//! degree 6 is MFEM's default for this integrand, so tetfem's curved P2 is MFEM's to 13 digits
+//! (the rule's doc says what degrees 3 and 5 left). The mixed Taylor–Hood element keeps the
+//! 4-point rule's points ([`Tet10Rest::gradients`], weighted by det G) for its pressure
+//! coupling. The mass ∫ρNᵢNⱼ dV, the shape integrals ∫Nᵢ dV (body loads) and the volume go by
+//! the 64-point degree-5 rule (the mass needs more than 4 points to be non-singular; det G is
+//! a cubic, so the volume is exact).
 //! The lumped mass keeps the straight HRZ fractions of the curved volume.
 //!
 //! - Stiffness: ∇Nᵢ·∇Nⱼ is quadratic, so the 4-point degree-2 rule integrates it exactly.
@@ -137,7 +137,7 @@ impl Tet10Rest {
 
     /// From a tet's shape: the straight path ([`Tet10Rest::new`]) when it is straight-sided,
     /// else the isoparametric one (gradients G⁻ᵀ∇_X N and weights V_X·w·det G at the points
-    /// of the degree-2 rule and of the degree-5 [`stiffness_rule`]; mass, shape integrals and
+    /// of the degree-2 rule and of the degree-6 [`stiffness_rule`]; mass, shape integrals and
     /// volume by the degree-5 rule).
     pub fn of_shape(shape: &ElementShape) -> Self {
         if shape.map().is_none() {
@@ -194,7 +194,7 @@ impl Tet10Rest {
 
     /// The stiffness rule's shape-function gradients (1/length) and weights (length³): the
     /// degree-2 rule's four points on a straight tet ([`Tet10Rest::gradients`],
-    /// [`Tet10Rest::weights`]), the degree-5 rule's fourteen on a curved one (see
+    /// [`Tet10Rest::weights`]), the degree-6 rule's twenty-four on a curved one (see
     /// [`stiffness_rule`] for why).
     pub fn points(&self) -> (&[[Vector3<f64>; 10]], &[f64]) {
         match &self.curved {
