@@ -90,10 +90,20 @@ impl DynamicReactions {
         reaction_columns(self.sets.len())
     }
 
-    /// The reactions at `state` of `system` under `force` on `mesh` (the setup's), with the
-    /// free acceleration `acceleration` where the integrator that made the state has it
-    /// ([`SupportReactions::at_with`]).
+    /// The reactions at `state` of `system` under `force` on `mesh` (the setup's).
     pub fn at<C: CellType>(
+        &mut self,
+        mesh: &tetfem::mesh::TetMesh<C>,
+        system: &LinearSystem,
+        force: &InternalForce,
+        state: &State,
+    ) -> Result<ReactionsAt> {
+        self.at_with(mesh, system, force, (state, None))
+    }
+
+    /// [`at`](Self::at) with the free acceleration `acceleration` where the integrator that
+    /// made the state has it ([`SupportReactions::at_with`]: no solve with a consistent mass).
+    pub fn at_with<C: CellType>(
         &mut self,
         mesh: &tetfem::mesh::TetMesh<C>,
         system: &LinearSystem,

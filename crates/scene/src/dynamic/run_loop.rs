@@ -334,9 +334,9 @@ impl<'s, E: SceneElement> StepRecorder<'s, E> {
             ContactForceHistory::record(histories, f, time);
         }
         if let Some(w) = &mut self.writer {
-            let at = self
-                .reactions
-                .at(&setup.mesh, system, &setup.force, (state, acceleration))?;
+            let at =
+                self.reactions
+                    .at_with(&setup.mesh, system, &setup.force, (state, acceleration))?;
             w.record(
                 setup,
                 state,
@@ -389,7 +389,7 @@ fn close_run<E: SceneElement>(
     let clock = Instant::now();
     let final_reactions = recorder
         .reactions
-        .at(
+        .at_with(
             mesh,
             system,
             &setup.force,
