@@ -56,6 +56,9 @@ fn swing(model: ModelKind, youngs: f64) -> Definition {
 struct Samples {
     at: BTreeMap<i64, (Vec<f64>, Vec<f64>)>,
     scale: (f64, f64),
+    /// The contact nodes' barrier stiffnesses κᵢ (Pa/m) at the run's end, where the run has a
+    /// contact (`None` with the linear force).
+    kappa: Option<Vec<f64>>,
 }
 
 fn norm(x: &[f64]) -> f64 {
@@ -65,13 +68,18 @@ fn norm(x: &[f64]) -> f64 {
 impl Samples {
     /// Keeps `state` if its time is a multiple of `interval` (to 1e-9 of it).
     fn keep(&mut self, state: &State, interval: f64) {
-        self.scale.0 = self.scale.0.max(norm(&state.displacement));
-        self.scale.1 = self.scale.1.max(norm(&state.velocity));
+        self.scale_by(state);
         let k = (state.time / interval).round();
         if (state.time - k * interval).abs() < 1e-9 * interval {
             let sample = (state.displacement.clone(), state.velocity.clone());
             self.at.insert(k as i64, sample);
         }
+    }
+
+    /// Takes `state`'s ‖u‖ and ‖v‖ into the largest seen.
+    fn scale_by(&mut self, state: &State) {
+        self.scale.0 = self.scale.0.max(norm(&state.displacement));
+        self.scale.1 = self.scale.1.max(norm(&state.velocity));
     }
 
     /// max over the common landings of √((‖Δu‖/S_u)² + (‖Δv‖/S_v)²), S from `self` (the
@@ -112,7 +120,52 @@ fn adaptive(
         samples.keep(view.state, interval);
         Ok(Flow::Continue)
     })?;
+    samples.kappa = run.force().node_stiffnesses();
     Ok((report, samples))
+}
+
+/// The graded fixed-step reference: a fresh run from rest that covers each of the adaptive
+/// run's accepted steps `steps` ((end time, dt), in order, from t = 0) with `per_step` equal
+/// steps of its own, its clock set to the step's end after each (as the adaptive run's is at
+/// a landing, so that both share the end times exactly). Its schedule is fixed in advance: it
+/// takes nothing else from the run under test (no state, no estimate, no restart), so its
+/// error is that of a fixed-step run everywhere at ≤ 1/`per_step` of the run's local step.
+fn graded_reference(
+    definition: &Definition,
+    method: Method,
+    steps: &[(f64, f64)],
+    per_step: usize,
+    (interval, damping): (f64, Rayleigh),
+) -> Result<Samples> {
+    let first = steps.first().map_or(interval, |(t, _)| *t);
+    let mut run = Transient::new(
+        definition,
+        options(method, first / per_step as f64, damping),
+    )?;
+    let mut samples = Samples::default();
+    let mut start = 0.0;
+    for (taken, &(end, _)) in steps.iter().enumerate() {
+        run.integrator_mut()
+            .set_time_step((end - start) / per_step as f64)?;
+        let first_step = taken * per_step;
+        run.run(
+            (first_step, first_step + per_step),
+            &mut |view: &StepView<'_>| -> Result<Flow> {
+                samples.scale_by(view.state);
+                Ok(Flow::Continue)
+            },
+        )?;
+        // The sum of `per_step` steps of (end − start)/per_step is end to round-off: set it to
+        // the run's end time, the integrator told (its history is keyed to the state's time).
+        let history = run.integrator().history()?;
+        run.state_mut().time = end;
+        let (integrator, state) = run.parts_mut();
+        integrator.restore(state, &history)?;
+        samples.keep(run.state(), interval);
+        samples.kappa = run.force().node_stiffnesses();
+        start = end;
+    }
+    Ok(samples)
 }
 
 /// The fixed-step reference at the largest step ≤ `smallest`/16 that divides `interval`.
@@ -138,6 +191,7 @@ fn reference(
         Ok(Flow::Continue)
     })
     .unwrap();
+    samples.kappa = run.force().node_stiffnesses();
     samples
 }
 
@@ -369,70 +423,191 @@ impl Samples {
     }
 }
 
-/// The contact drop over 80 ms (fall, impact at 32 ms, rebound) by backward Euler at
-/// tolerances of 5 % and 2 %, with the impact-aware barrier stiffness at f = ¼
-/// (`drop_with_impact`; the reference too). The error measure asserted is the centroid's
-/// trajectory (above): after the impact the barrier's stiff contact excites the block's
-/// internal modes, which backward Euler damps out at the steps the control picks and which a
-/// run at 1/16 of them resolves, so the full state's difference there measures the reference's
-/// ringing rather than the run's error of its motion; the centroid is what a drop is run for.
-/// The full-state error (the estimate's own norm) is printed beside it.
-///
-/// With the option on, backward Euler's estimate has a second norm, the body's mean motion
-/// with the barrier's force in it (`adaptive.rs`'s module doc, "The impact in the estimate").
-/// Measured (`benches/adaptive_time_step.rs`, `IMPACT_FRACTION=0.25 … drop backward-euler TOL
-/// 0.08`): at 5 %, estimated 5.59e-2 against a true centroid error of 3.56e-2 (ratio 1.57, in
-/// the band; 11 548 steps, 15 rejected, dt 3.3e-7 … 1e-3 s; CPU 1.40× the cheapest fixed step
-/// meeting 5 %, 7.8e-6 s); at 2 %, estimated 2.24e-2 against 3.12e-2 (ratio 0.72, in the
-/// band; 30 745 steps, dt 8.1e-8 … 2.5e-4 s; CPU 2.07 s), though the run misses 2 %; against
-/// its reference at 5.1e-9 s the fixed steps give 2.004e-2 at 3.9e-6 s (1.08 s), 2.6e-2 at
-/// 2.0e-6 s, 3.2e-2 at 9.8e-7 s, and first meet 2 % at 2.4e-7 s (17.9 s): the centroid stops
-/// converging at first order below ~4e-6 s. Before it (the
-/// barrier's acceleration left out of the estimate):
-/// at 2 %, ratio 0.84; at 5 %, estimated 5.98e-2 against 1.46e-1 (ratio 0.41: the steps
-/// through the landing were long enough for backward Euler's damping of the rebound to be most
-/// of the error); with the barrier's acceleration in the full-state estimate the run at 2 %
-/// shrank its step to min_dt = 8e-11 s at the landing and stopped. Ignored for its run time:
-/// the reference at 1/16 of the smallest step is 2e-8 s at 5 % (4 million steps over the
-/// 80 ms, minutes) and 5.1e-9 s at 2 % (15.7 million steps, about half an hour here). (With the default κ the impact is
-/// unresolved at any dt — the landing node's closest gap falls in proportion to dt,
-/// `contact_impact_resolution` — and references at 2.44e-7 and 1.22e-7 s differed by 4.3 %.)
-#[test]
-#[ignore = "about half an hour: its references at 1/16 of the smallest step are 2e-8 s at 5 % (4 million steps) and 5.1e-9 s at 2 % (15.7 million; see the doc comment)"]
-fn contact_drop_effectivity() {
+/// The drop's span: 80 ms (fall, impact at 32 ms, rebound), landing every 2 ms.
+const DROP_SPAN: (f64, f64) = (0.08, 0.002);
+
+/// The drop's adaptive run at `tolerance` ([`contact_drop_effectivity`]): backward Euler from
+/// a first step of 1 ms over [`DROP_SPAN`].
+fn drop_run(definition: &Definition, tolerance: f64) -> (AdaptiveReport, Samples) {
+    let span = DROP_SPAN;
+    adaptive(
+        definition,
+        Method::BackwardEuler,
+        (1e-3, tolerance),
+        span,
+        Rayleigh::default(),
+    )
+    .unwrap()
+}
+
+/// The drop's graded reference at `per_step` steps per step of the run `report`
+/// ([`graded_reference`]).
+fn drop_graded(definition: &Definition, report: &AdaptiveReport, per_step: usize) -> Samples {
+    let landing = (DROP_SPAN.1, Rayleigh::default());
+    graded_reference(
+        definition,
+        Method::BackwardEuler,
+        &report.steps,
+        per_step,
+        landing,
+    )
+    .unwrap()
+}
+
+/// The largest relative difference of two runs' κᵢ at their ends (0 where either has none).
+fn kappa_difference(a: &Samples, b: &Samples) -> f64 {
+    match (&a.kappa, &b.kappa) {
+        (Some(a), Some(b)) => (a.iter().zip(b))
+            .map(|(x, y)| (x - y).abs() / x.abs().max(y.abs()))
+            .fold(0.0, f64::max),
+        _ => 0.0,
+    }
+}
+
+/// The drop at `tolerance` against its graded references at 16 and 32 steps per step of the
+/// run (see [`contact_drop_effectivity`]): the reference's own error bounded, then the
+/// effectivity in the band with the true error anywhere within that bound.
+fn drop_effectivity_graded(tolerance: f64) {
     let definition = drop_with_impact(0.25);
-    let span = (0.08, 0.002);
+    let (report, samples) = drop_run(&definition, tolerance);
+    let (fine, finer) = (
+        drop_graded(&definition, &report, 16),
+        drop_graded(&definition, &report, 32),
+    );
+    let truth = finer.centroid_error_of(&samples);
+    // The references' difference: at first order the error of the one at 32 (measured: the
+    // differences 8 → 16 and 16 → 32 halve at 5 %, 3.9e-3 and 2.1e-3; at 2 % they fall slower,
+    // 1.2e-3 and 9.1e-4, yet the one at 32 is 2.2e-4 from a uniform reference at 2e-8 s there).
+    let own = finer.centroid_error_of(&fine);
+    let estimated = report.estimated_error;
+    eprintln!(
+        "contact drop at {tolerance:e}: estimated {estimated:.3e}; true centroid {truth:.3e} \
+         (ratio {:.2}) against the graded reference at 32, {:.3e} at 16; the references' \
+         difference {own:.3e}; full state {:.3e}; {} steps, {} rejected, dt {:.2e}..{:.2e}; \
+         κᵢ: run against 32 {:.1e}, 16 against 32 {:.1e}",
+        estimated / truth,
+        fine.centroid_error_of(&samples),
+        finer.error_of(&samples),
+        report.accepted,
+        report.rejected,
+        report.dt_range.0,
+        report.dt_range.1,
+        kappa_difference(&samples, &finer),
+        kappa_difference(&fine, &finer),
+    );
+    // The reference adequate: its own error (≈ `own`) at most a quarter of the run's, so it
+    // moves the effectivity by at most ~25 % (measured 6.0 % at 5 %, 4.6 % at 2 %).
+    assert!(
+        own <= truth / 4.0,
+        "at {tolerance:e}: the references at 16 and 32 differ by {own:e}, the run's error {truth:e}"
+    );
+    // The band holds wherever in truth ± own the true error is.
+    for truth in [truth - own, truth, truth + own] {
+        assert_effective(estimated, truth, &format!("contact drop at {tolerance:e}"));
+    }
+}
+
+/// The contact drop over 80 ms (fall, impact at 32 ms, rebound) by backward Euler at a
+/// tolerance of 5 %, with the impact-aware barrier stiffness at f = ¼ (`drop_with_impact`; the
+/// references too), its estimate against the true error of its centroid's trajectory.
+///
+/// The error measure asserted is the centroid's trajectory (above): after the impact the
+/// barrier's stiff contact excites the block's internal modes, which backward Euler damps out
+/// at the steps the control picks and which a run at 1/16 of them resolves, so the full
+/// state's difference there measures the reference's ringing rather than the run's error of
+/// its motion; the centroid is what a drop is run for. The full-state error (the estimate's
+/// own norm) is printed beside it. With the option on, backward Euler's estimate has a second
+/// norm, the body's mean motion with the barrier's force in it (`adaptive.rs`'s module doc,
+/// "The impact in the estimate").
+///
+/// The reference is graded ([`graded_reference`]): a fresh fixed-step run from rest covering
+/// each of the run's accepted steps with 32 equal steps, so everywhere at 1/32 of the run's
+/// local step (3.3e-7 … 1e-3 s at 5 %: 1e-8 … 3.1e-5 s), 370 k steps instead of the 4 million of
+/// a uniform one at 1/16 of the smallest step. It is independent of the run: it takes its step
+/// schedule only (no state, no estimate, no restart from the run's states, no extrapolation),
+/// and for a first-order method its error is ~1/32 of the run's where the run's is local
+/// truncation. Its adequacy is asserted, not assumed: the graded references at 16 and at 32
+/// differ by at most a quarter of the run's error (at first order their difference is the
+/// error of the one at 32), and the band holds with the true error moved by that difference
+/// either way. The impact-aware κᵢ is chosen from a landing node's approach at the step that
+/// meets the barrier, so it depends on the step: the run's κᵢ at its end differ from the
+/// reference's by up to 16 %, those of the references at 16 and 32 by 1.5 % (that of 8 and 16:
+/// 2.6 %) — converging with the reference's step, and the run's κ error is part of its error.
+///
+/// Measured at 5 % (11 548 steps, 15 rejected, dt 3.26e-7 … 1e-3 s): estimated 5.592e-2;
+/// true centroid error 3.415e-2 against the graded reference at 32 (effectivity 1.64), 3.222e-2
+/// at 16 (1.74), 2.858e-2 at 8 (1.96); the references at 16 and 32 differ by 2.06e-3 (6.0 % of
+/// the run's error), at 8 and 16 by 3.87e-3. Against the uniform reference at 1/16 of the
+/// smallest step (2.0e-8 s, 4 million steps; [`contact_drop_uniform_reference`]): 3.560e-2
+/// (1.57); it and the graded reference at 32 differ by 1.57e-3 (4.6 % of the run's error,
+/// inside the ±2.06e-3 the test allows), that at 16 by 3.61e-3. The graded references built on
+/// the 5 % and the 2 % runs' schedules (different steps, different κᵢ) differ by 1.8e-3. Run
+/// time of this test: 73.7 s at load 13–17 on 2 cores (`cargo test --release --test core
+/// contact_drop_effectivity`; the run 2.8 s, the references 31.5 s and 56.5 s).
+/// At 2 %: [`contact_drop_effectivity_at_2_percent`] (ignored for its run time).
+#[test]
+fn contact_drop_effectivity() {
+    drop_effectivity_graded(5e-2);
+}
+
+/// The drop of [`contact_drop_effectivity`] at a tolerance of 2 %, against its graded
+/// references at 16 and 32 the same way. Measured (30 745 steps, 10 rejected, dt 8.14e-8 …
+/// 2.5e-4 s): estimated 2.236e-2; true centroid error 1.970e-2 against the graded reference at
+/// 32 (effectivity 1.13), 1.879e-2 at 16 (1.19), 1.758e-2 at 8 (1.27); the references at 16 and
+/// 32 differ by 9.1e-4 (4.6 % of the run's error), at 8 and 16 by 1.2e-3. Against the uniform
+/// reference of the 5 % run (2.0e-8 s) this run's true error is 1.948e-2 (1.15), and that
+/// reference and the graded one at 32 differ by 2.2e-4. The uniform reference at 1/16 of this
+/// run's own smallest step (5.1e-9 s, 15.7 million steps) gave 3.122e-2 (0.72, in the band too):
+/// it stands apart from the three others, which agree within 1.8e-3 — it is 1.17e-2 from the
+/// graded one at 32 and 1.18e-2 from the uniform one at 2e-8 s, and already 7.2e-4 of the
+/// travel from the latter in the free fall (28 ms), where backward Euler's truncation error at
+/// 5.1e-9 s is ~1e-7 of it; its κᵢ of the four symmetric landing corners spread by 7 % (the
+/// others' by < 0.3 %). Over 15.7 million steps its per-step solve and round-off errors add up
+/// beyond the truncation error it was to undercut (measured; the cause not pinned). Ignored for its run time: 5.6 s for the run, 80 s and
+/// 148 s for the references (490 k and 980 k steps) at load 12–21.
+#[test]
+#[ignore = "about 4 minutes: its graded references take 1.5 million steps (see the doc comment)"]
+fn contact_drop_effectivity_at_2_percent() {
+    drop_effectivity_graded(2e-2);
+}
+
+/// The drop of [`contact_drop_effectivity`] at 5 % and 2 % against the uniform fixed-step
+/// reference at 1/16 of the run's smallest step (the issue's wording: 2e-8 s at 5 %, 4 million
+/// steps; 5.1e-9 s at 2 %, 15.7 million), the check the graded reference replaced in CI; its
+/// difference from the graded reference at 32 printed beside. Measured: at 5 %, 3.560e-2
+/// (effectivity 1.57; 592 s for the reference at load 7–21), 1.57e-3 from the graded reference;
+/// at 2 %, 3.122e-2 (0.72), 1.17e-2 from the graded reference (this reference is the one that
+/// is off: [`contact_drop_effectivity_at_2_percent`]). Both tolerances took 2 887 s at load
+/// ~1–2.
+#[test]
+#[ignore = "about 50 minutes: its references at 1/16 of the smallest step are 2e-8 s at 5 % (4 million steps) and 5.1e-9 s at 2 % (15.7 million; see the doc comment)"]
+fn contact_drop_uniform_reference() {
+    let definition = drop_with_impact(0.25);
     let method = Method::BackwardEuler;
     for tolerance in [5e-2, 2e-2] {
-        let (report, samples) = adaptive(
-            &definition,
-            method,
-            (1e-3, tolerance),
-            span,
-            Rayleigh::default(),
-        )
-        .unwrap();
-        let exact = reference(
+        let (report, samples) = drop_run(&definition, tolerance);
+        let uniform = reference(
             &definition,
             method,
             report.dt_range.0,
-            span,
+            DROP_SPAN,
             Rayleigh::default(),
         );
-        let (centroid, full) = (exact.centroid_error_of(&samples), exact.error_of(&samples));
+        let graded = drop_graded(&definition, &report, 32);
+        let centroid = uniform.centroid_error_of(&samples);
         let estimated = report.estimated_error;
         eprintln!(
-            "contact drop at {tolerance:e}: estimated {estimated:.3e}; true: centroid \
-             {centroid:.3e} (ratio {:.2}), full state {full:.3e} (ratio {:.2}); {} steps, {} \
-             rejected, dt {:.2e}..{:.2e}",
+            "contact drop at {tolerance:e}: estimated {estimated:.3e}; true centroid against \
+             the uniform reference {centroid:.3e} (ratio {:.2}), full state {:.3e}; against \
+             the graded reference at 32 {:.3e}; the two references differ by {:.3e}; κᵢ \
+             {:.1e}",
             estimated / centroid,
-            estimated / full,
-            report.accepted,
-            report.rejected,
-            report.dt_range.0,
-            report.dt_range.1
+            uniform.error_of(&samples),
+            graded.centroid_error_of(&samples),
+            uniform.centroid_error_of(&graded),
+            kappa_difference(&uniform, &graded),
         );
-        assert_effective(estimated, centroid, "contact drop (centroid)");
+        assert_effective(estimated, centroid, "contact drop (uniform reference)");
     }
 }
 
