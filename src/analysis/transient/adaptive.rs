@@ -161,14 +161,14 @@
 //! - 5 %: estimated 5.59e-2 against a true 3.56e-2 (effectivity 1.57), 11 548 steps, 15
 //!   rejected, dt 3.3e-7 … 1e-3 s (the landing, 0.028–0.056 s, at 3.3e-7 … 9.8e-7 s), CPU
 //!   0.90 s against 0.64 s for the fixed 7.8e-6 s (error 4.6e-2): 1.40×;
-//! - 2 %: estimated 2.24e-2 against a true 3.12e-2 (effectivity 0.72), 30 745 steps, 10
-//!   rejected, dt 8.1e-8 … 2.5e-4 s, CPU 2.07 s. The run misses 2 % (3.1 %); against this
-//!   reference (5.1e-9 s) the fixed steps give 2.004e-2 at 3.9e-6 s (1.08 s: 1.91×), 2.6e-2
-//!   at 2.0e-6 s, 3.2e-2 at 9.8e-7 s, 2.1e-2 at 4.9e-7 s, and the first to meet 2 % is
-//!   2.4e-7 s (1.62e-2, 17.9 s: 0.12×). Below ~4e-6 s the drop's centroid no
-//!   longer converges towards the reference at first order (the fixed-step table above puts
-//!   9.8e-7 s 1.05 % from a reference at 4.9e-7 s): where the landing's steps fall still moves
-//!   the rebound by a few percent, so 2 % is at the limit of what the reference can tell.
+//! - 2 %: estimated 2.24e-2, 30 745 steps, 10 rejected, dt 8.1e-8 … 2.5e-4 s, CPU 2.07 s;
+//!   true 1.97e-2 against a graded reference (32 fixed steps inside each of the run's steps)
+//!   and 1.95e-2 against the uniform one at 2e-8 s (effectivity 1.13–1.15; the run meets 2 %).
+//!   First measured against a uniform reference at 5.1e-9 s (3.12e-2, 0.72): that reference
+//!   is itself off by 1.2e-2 (15.7 million steps gather more solve and round-off error than
+//!   the truncation error they undercut; already 7.2e-4 of the travel away in free fall), and
+//!   so were the fixed steps' errors measured against it (`tests/core/adaptive_time_step.rs`,
+//!   `contact_drop_effectivity` and its ignored neighbours).
 //!
 //! The control spends the tolerance per unit time (above), so the landing's ~25 ms take the
 //! share of the run's 80 ms their duration gives them: hence steps near 1e-6 s there where a
