@@ -941,16 +941,7 @@ fn compact_mass_repeats_the_product<E: tetfem::fe::element::ElementType>(
     mesh: &tetfem::TetMesh<E>,
     name: &str,
 ) {
-    let system = LinearSystem::new(
-        mesh,
-        &problem.material,
-        &problem.constraints(mesh).unwrap(),
-        &problem.loads(mesh).unwrap(),
-        Vector3::zeros(),
-        MassKind::Consistent,
-        Rayleigh::default(),
-    )
-    .unwrap();
+    let system = consistent_system(problem, mesh);
     let tetfem::analysis::dynamics::Mass::Consistent(m) = system.mass() else {
         unreachable!("consistent by construction")
     };
