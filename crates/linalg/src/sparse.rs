@@ -18,6 +18,9 @@ pub struct CscMatrix {
     values: Vec<f64>,
 }
 
+/// One chunk of each of the three outputs of [`CscMatrix::product3_into`].
+type ChunkOf3<'a> = (&'a mut [f64], (&'a mut [f64], &'a mut [f64]));
+
 impl CscMatrix {
     /// A matrix of zeros on `pattern`, which must be square.
     pub fn zeros(pattern: Arc<SymbolicSparseColMat<usize>>) -> Result<Self> {
@@ -156,7 +159,7 @@ impl CscMatrix {
         use rayon::prelude::*;
         const CHUNK: usize = 1024;
         let (col_ptr, row_idx, values) = (self.col_ptr(), self.row_idx(), &self.values);
-        let chunk = |(c, (y0, (y1, y2))): (usize, (&mut [f64], (&mut [f64], &mut [f64])))| {
+        let chunk = |(c, (y0, (y1, y2))): (usize, ChunkOf3<'_>)| {
             for i in 0..y0.len() {
                 let j = c * CHUNK + i;
                 let mut sums = [0.0; 3];
