@@ -209,8 +209,8 @@ fn add_at_nodes<E: ModelElement>(
     for start in (0..tets).step_by(BLOCK) {
         let end = (start + BLOCK).min(tets);
         let one = |(i, m): (usize, &mut nalgebra::Matrix3<f64>)| *m = weighted(start + i);
-        // One thread: in this thread, not handed to the pool's (the reason at
-        // `element_model::add_in_blocks`); the same bits.
+        // One thread: in this thread, not handed to the pool's (`linalg::parallel::one_thread`
+        // says why); the same bits.
         match crate::linalg::parallel::one_thread() {
             true => block[..end - start].iter_mut().enumerate().for_each(one),
             false => block[..end - start]

@@ -178,7 +178,7 @@ impl ModelElement for Tet4 {
             let batch = |(c, out): (usize, &mut [(Vector12, f64)])| {
                 four_tets(mesh, kept, models, u, start + 4 * c, out)
             };
-            // One thread: in this thread, not handed to the pool's (see `add_in_blocks`).
+            // One thread: in this thread, not handed to the pool's (`one_thread` says why).
             match crate::linalg::parallel::one_thread() {
                 true => out.chunks_mut(4).enumerate().for_each(batch),
                 false => out.par_chunks_mut(4).enumerate().for_each(batch),
@@ -235,11 +235,10 @@ impl ModelElement for Tet4 {
 /// for bit, as one tet after another, at a fraction of the time on several threads (a tet's
 /// force, with the corotational model's polar decomposition, costs far more than adding it).
 ///
-/// With one thread in rayon's pool the tets are computed in the calling thread: a parallel
-/// region entered from outside the pool hands its work to the pool's thread and waits for it
-/// (two futex wake-ups, and the worker's spinning before it sleeps again), tens of µs of CPU
-/// time a region (`validation/PERFORMANCE.md`, issue 39 target 1), where a pass over 5,880
-/// tets takes 0.5 ms. The same operations in the same order: the same bits.
+/// With one thread in rayon's pool the tets are computed in the calling thread
+/// ([`one_thread`](crate::linalg::parallel::one_thread) says why: a pass over 5,880 tets takes
+/// 0.5 ms, a parallel region's hand-over tens of µs). The same operations in the same order:
+/// the same bits.
 fn add_in_blocks(
     mesh: &TetMesh,
     u: &[f64],

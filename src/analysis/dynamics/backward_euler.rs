@@ -277,8 +277,8 @@ impl Integrator for BackwardEuler {
             }
             sums
         };
-        // One thread in rayon's pool: the chunks in this thread, without a parallel region's
-        // hand-over to the pool (see `model::element_model`'s `add_in_blocks`); the same sums.
+        // One thread in rayon's pool: the chunks in this thread (`linalg::parallel::one_thread`
+        // says why); the same sums.
         let serial = crate::linalg::parallel::one_thread();
         let partial: Vec<[f64; 2]> = match serial {
             true => self.rhs.chunks_mut(CHUNK).enumerate().map(chunk).collect(),
@@ -357,8 +357,8 @@ impl Integrator for BackwardEuler {
 
     fn linear_acceleration(&self, state: &State) -> Option<std::borrow::Cow<'_, [f64]>> {
         let left = self.velocity_change_of == Some((state.steps, state.time));
-        let a = self.rhs.iter().map(|dv| dv / self.dt).collect();
-        (self.newton.is_none() && left).then_some(std::borrow::Cow::Owned(a))
+        (self.newton.is_none() && left)
+            .then(|| std::borrow::Cow::Owned(self.rhs.iter().map(|dv| dv / self.dt).collect()))
     }
 
     fn newton_stats(&self) -> Option<NewtonStats> {

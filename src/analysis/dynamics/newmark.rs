@@ -473,8 +473,6 @@ impl Integrator for Newmark {
             );
         } else {
             self.system.mass_product_into(&self.work, &mut self.rhs);
-        }
-        if damping.beta != 0.0 {
             for i in 0..n {
                 self.work[i] = 2.0 / dt * u[i] + v[i];
             }

@@ -71,8 +71,7 @@ impl NodalRotations {
         force.nodal_deformation_gradients(u, work, &mut self.gradients)?;
         let gradients = &self.gradients;
         // Four nodes side by side in SIMD lanes (the same bits as `rotation` of each); with one
-        // thread in rayon's pool in this thread, without the hand-over of a parallel region
-        // (see `model::element_model`'s `add_in_blocks`).
+        // thread in rayon's pool in this thread (`linalg::parallel::one_thread` says why).
         let turn =
             |(r, blocks): (&mut [Matrix3<f64>], &[Block])| turn_of_nodes(gradients, blocks, r);
         match crate::linalg::parallel::one_thread() {

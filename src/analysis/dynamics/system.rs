@@ -448,9 +448,9 @@ impl LinearSystem {
     /// yₖ = M·xₖ for three vectors in one read of M (see [`mass_product_into`](Self::mass_product_into)):
     /// each yₖ has the bits `mass_product_into` gives it.
     pub(crate) fn mass_product3_into(&self, x: [&[f64]; 3], y: [&mut [f64]; 3]) {
-        match (&self.mass_product, &self.mass) {
-            (Some(m), _) | (None, Mass::Consistent(m)) => m.product3_into(x, y),
-            (None, Mass::Lumped(_)) => {
+        match &self.mass_product {
+            Some(m) => m.product3_into(x, y),
+            None => {
                 for (x, y) in x.into_iter().zip(y) {
                     self.mass.product_into(x, y);
                 }
