@@ -11,6 +11,7 @@ use std::fmt::Debug;
 
 use nalgebra::Vector3;
 
+use super::jacobian_sign::{JacobianSign, jacobian_sign};
 use crate::base::error::{Error, Result};
 
 /// The node indices of one cell, `[usize; N]`: the four corners first, then any higher-order
@@ -123,10 +124,13 @@ impl CellType for Tet10 {
 
     /// A cell whose edge nodes all sit at their edges' midpoints (to [`MIDPOINT_TOLERANCE`]) is
     /// straight-sided and always valid (its corners were checked). Otherwise it is curved
-    /// (isoparametric): the map x(ξ) = Σₐ Nₐ(ξ) xₐ must keep det(∂x/∂ξ) > 0 at the degree-2 rule's
-    /// four points (where the stiffness is integrated) and at the ten nodes (where stresses are
-    /// recovered); an edge node moved that far folds the element, which is an error naming the
-    /// tet and the point.
+    /// (isoparametric): the map x(ξ) = Σₐ Nₐ(ξ) xₐ must keep det(∂x/∂ξ) > 0 on the whole
+    /// element, wherever a quadrature rule or a stress recovery may read it: checked at the ten
+    /// nodes, then over the tet by the Bernstein certificate of Johnen, Remacle and Geuzaine
+    /// (the crate's `mesh::jacobian_sign`: det ∂x/∂ξ is a cubic whose Bernstein coefficients
+    /// bound it).
+    /// An edge node moved so far that the element folds is an error naming the tet and the
+    /// point (a node, or the barycentric coordinates of a point inside).
     fn check_cell(tet: usize, cell: &[usize; 10], nodes: &[Vector3<f64>]) -> Result<()> {
         let x: [Vector3<f64>; 10] = std::array::from_fn(|a| nodes[cell[a]]);
         for (k, &(i, j)) in EDGES.iter().enumerate() {
@@ -146,18 +150,39 @@ impl CellType for Tet10 {
         if is_straight(&x) {
             return Ok(());
         }
-        for (name, l) in jacobian_check_points() {
+        // The straight tet's det is 6V > 0: a relative 1e-12 of it is round-off, not a fold.
+        let scale = (x[1] - x[0]).cross(&(x[2] - x[0])).dot(&(x[3] - x[0]));
+        let floor = 1e-12 * scale;
+        let fold = |at: String, det: f64, allowed: &str| {
+            Error::invalid_parameter(
+                format!("tet {tet}: curved 10-node tet (edge nodes off their midpoints) at {at}"),
+                format!("Jacobian determinant {det:e} (straight tet's {scale:e})"),
+                format!(
+                    "{allowed}: an edge node is moved so far from its edge's midpoint that the \
+                     isoparametric map folds (an inverted or too-curved element)"
+                ),
+            )
+        };
+        for (name, l) in node_points() {
             let det = reference_jacobian(&x, &l).determinant();
-            // The straight tet's det is 6V > 0: a relative 1e-12 of it is round-off, not a fold.
-            let scale = (x[1] - x[0]).cross(&(x[2] - x[0])).dot(&(x[3] - x[0]));
-            if det.is_nan() || det <= 1e-12 * scale {
-                return Err(Error::invalid_parameter(
-                    format!(
-                        "tet {tet}: curved 10-node tet (edge nodes off their midpoints) at {name} (barycentric {l:?})"
-                    ),
-                    format!("Jacobian determinant {det:e} (straight tet's {scale:e})"),
-                    "> 0: an edge node is moved so far from its edge's midpoint that the \
-                     isoparametric map folds (an inverted or too-curved element)",
+            if det.is_nan() || det <= floor {
+                return Err(fold(format!("{name} (barycentric {l:?})"), det, "> 0"));
+            }
+        }
+        let corners = std::array::from_fn(|m| {
+            reference_jacobian(&x, &std::array::from_fn(|i| f64::from(i == m)))
+        });
+        match jacobian_sign(&corners, floor) {
+            JacobianSign::Positive => {}
+            JacobianSign::NotPositive { at, det } => {
+                return Err(fold(format!("barycentric {at:?}"), det, "> 0"));
+            }
+            JacobianSign::Undecided { bound, near } => {
+                return Err(fold(
+                    format!("barycentric {near:?}"),
+                    bound,
+                    "a lower bound > 0 (this is the bound of its Bernstein form near that \
+                     point, which could not be shown positive)",
                 ));
             }
         }
@@ -173,16 +198,8 @@ pub fn is_straight(x: &[Vector3<f64>; 10]) -> bool {
     })
 }
 
-/// The degree-2 rule's barycentric points (α, β, β, β) and permutations.
-const RULE_ALPHA: f64 = 0.585_410_196_624_968_5;
-const RULE_BETA: f64 = 0.138_196_601_125_010_5;
-
-/// Where a curved cell's Jacobian is checked: the four quadrature points and the ten nodes.
-fn jacobian_check_points() -> impl Iterator<Item = (String, [f64; 4])> {
-    let rule = (0..4).map(|q| {
-        let l = std::array::from_fn(|i| if i == q { RULE_ALPHA } else { RULE_BETA });
-        (format!("quadrature point {q}"), l)
-    });
+/// The ten nodes' barycentric points, named as in an error.
+fn node_points() -> impl Iterator<Item = (String, [f64; 4])> {
     let corners = (0..4).map(|c| {
         let l = std::array::from_fn(|i| if i == c { 1.0 } else { 0.0 });
         (format!("node {c}"), l)
@@ -191,7 +208,7 @@ fn jacobian_check_points() -> impl Iterator<Item = (String, [f64; 4])> {
         let l = std::array::from_fn(|m| if m == i || m == j { 0.5 } else { 0.0 });
         (format!("node {}", 4 + k), l)
     });
-    rule.chain(corners).chain(edges)
+    corners.chain(edges)
 }
 
 /// ∂x/∂ξ of the quadratic map at barycentric `l`, ξ = (L₁, L₂, L₃) (so L₀ = 1 − ξ₁ − ξ₂ − ξ₃):

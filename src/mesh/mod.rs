@@ -5,6 +5,7 @@ pub mod cell;
 mod generate;
 pub mod geometry;
 pub mod io;
+mod jacobian_sign;
 mod select;
 mod topology;
 

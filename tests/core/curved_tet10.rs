@@ -8,7 +8,8 @@
 //! - the curved stiffness rule exact to degree 6 and not 7, its closed-form orbit to the last bit;
 //! - the plate with a hole: σ_xx at (0, a, 0) on curved P2 equal to MFEM's default curved P2
 //!   (the same degree-6 rule) on the same meshes;
-//! - a folded tet is an error naming the tet and the point.
+//! - a folded tet is an error naming the tet and the point, wherever in the tet it folds (a
+//!   fold between the checked points too), and a strongly curved tet that does not fold is read.
 
 use nalgebra::{Matrix3, Vector3};
 use tetfem::fe::element::ElementType;
@@ -326,6 +327,112 @@ fn a_folded_curved_tet_is_an_error_naming_the_tet_and_the_point() {
         text.contains("tet 0") && text.contains("at node 1") && text.contains("Jacobian"),
         "{text}"
     );
+}
+
+/// ∂x/∂ξ of the quadratic map of the ten nodes `x` (tetfem's local order: corners, then the
+/// edges (0,1), (1,2), (0,2), (0,3), (1,3), (2,3)) at barycentric `l`, from the shape functions
+/// Nᵢ = Lᵢ(2Lᵢ − 1) and N₍ᵢⱼ₎ = 4LᵢLⱼ differentiated by hand, ξ = (L₁, L₂, L₃).
+fn jacobian_determinant(x: &[Vector3<f64>; 10], l: [f64; 4]) -> f64 {
+    const EDGES: [(usize, usize); 6] = [(0, 1), (1, 2), (0, 2), (0, 3), (1, 3), (2, 3)];
+    let grad = |i: usize| -> Vector3<f64> {
+        if i == 0 {
+            Vector3::new(-1.0, -1.0, -1.0)
+        } else {
+            Vector3::ith(i - 1, 1.0)
+        }
+    };
+    let mut g = Matrix3::zeros();
+    for i in 0..4 {
+        g += x[i] * (grad(i) * (4.0 * l[i] - 1.0)).transpose();
+    }
+    for (k, &(i, j)) in EDGES.iter().enumerate() {
+        g += x[4 + k] * ((grad(i) * l[j] + grad(j) * l[i]) * 4.0).transpose();
+    }
+    g.determinant()
+}
+
+/// One 10-node tet on the unit corners with the edge nodes `edge` (local 4–9).
+fn one_curved_tet(edge: [[f64; 3]; 6]) -> (Vec<Vector3<f64>>, [Vector3<f64>; 10]) {
+    let corners = [
+        [0.0, 0.0, 0.0],
+        [1.0, 0.0, 0.0],
+        [0.0, 1.0, 0.0],
+        [0.0, 0.0, 1.0],
+    ];
+    let nodes: Vec<Vector3<f64>> = corners
+        .iter()
+        .chain(&edge)
+        .map(|p| Vector3::from(*p))
+        .collect();
+    let x = std::array::from_fn(|a| nodes[a]);
+    (nodes, x)
+}
+
+#[test]
+fn a_fold_between_the_checked_points_is_found() {
+    // Edge nodes found by a random search: det G is positive (≥ 0.239) at the ten nodes and
+    // at the four points of the degree-2 rule, the points a check by sampling read, but
+    // negative at 3/4 of the way along edge (2, 3).
+    let (nodes, x) = one_curved_tet([
+        [0.453, 0.261, -0.053],
+        [0.629, 0.381, -0.163],
+        [-0.27, 0.676, -0.017],
+        [0.278, -0.215, 0.453],
+        [0.506, 0.241, 0.812],
+        [-0.122, 0.292, 0.186],
+    ]);
+    let (alpha, beta) = (0.585_410_196_624_968_5, 0.138_196_601_125_010_5);
+    let mut sampled: Vec<[f64; 4]> = (0..4)
+        .map(|q| std::array::from_fn(|i| if i == q { alpha } else { beta }))
+        .collect();
+    sampled.extend((0..4).map(|c| std::array::from_fn(|i| f64::from(i == c))));
+    for i in 0..4 {
+        for j in i + 1..4 {
+            sampled.push(std::array::from_fn(|m| {
+                if m == i || m == j { 0.5 } else { 0.0 }
+            }));
+        }
+    }
+    for l in &sampled {
+        assert!(jacobian_determinant(&x, *l) > 0.2, "{l:?}");
+    }
+    let inside = jacobian_determinant(&x, [0.0, 0.0, 0.75, 0.25]);
+    assert!(inside < -0.1, "{inside}");
+    let err = TetMesh::<Tet10>::from_cells(nodes, vec![std::array::from_fn(|a| a)]).unwrap_err();
+    let text = err.to_string();
+    assert!(
+        text.contains("tet 0") && text.contains("barycentric") && text.contains("Jacobian"),
+        "{text}"
+    );
+}
+
+#[test]
+fn a_strongly_curved_tet_that_does_not_fold_is_read() {
+    // Edge nodes moved up to 0.56 edge lengths off their midpoints (a random search's): det G
+    // stays above 0.25 on a lattice of degree 24 over the tet (2,925 points), while the
+    // Bernstein coefficients of the whole tet reach −0.57 — the certificate must bisect to
+    // accept it, which a bound without subdivision would refuse.
+    let (nodes, x) = one_curved_tet([
+        [0.676, 0.243, 0.212],
+        [0.628, 0.261, 0.354],
+        [0.088, 0.482, 0.004],
+        [-0.058, 0.072, 0.553],
+        [0.439, -0.437, 0.494],
+        [0.081, 0.59, 0.474],
+    ]);
+    let n = 24;
+    let mut least = f64::INFINITY;
+    for i in 0..=n {
+        for j in 0..=n - i {
+            for k in 0..=n - i - j {
+                let l = [i, j, k, n - i - j - k].map(|c| c as f64 / n as f64);
+                least = least.min(jacobian_determinant(&x, l));
+            }
+        }
+    }
+    assert!(least > 0.25, "{least}");
+    let mesh = TetMesh::<Tet10>::from_cells(nodes, vec![std::array::from_fn(|a| a)]).unwrap();
+    assert!(Tet10::rest(&mesh, 0).is_curved());
 }
 
 /// The x-resultant of a unit traction (1, 0, 0) on the faces of the hole (corners at r = a):

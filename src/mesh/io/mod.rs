@@ -7,9 +7,8 @@
 //! [`mesh_file_order`] tells which a file holds, and the plain readers build 4-node tets (of a
 //! quadratic file its corners). Edge nodes keep the file's positions: off their edges'
 //! midpoints (a curved mesh, as Gmsh makes on curved surfaces) the 10-node tet is curved
-//! (isoparametric); one whose map folds (Jacobian determinant ≤ 0 at a quadrature point or a
-//! node: an edge node far off, or the edge nodes in the wrong order) is an error naming the tet
-//! and the point.
+//! (isoparametric); one whose map folds (Jacobian determinant ≤ 0 anywhere in the tet: an edge
+//! node far off, or the edge nodes in the wrong order) is an error naming the tet and the point.
 //!
 //! Readers return an [`ImportedMesh`]: the validated [`TetMesh`] plus what the file says about
 //! its parts (Gmsh physical groups; TetGen node markers, `.face` markers, region attributes)
