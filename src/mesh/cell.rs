@@ -11,7 +11,7 @@ use std::fmt::Debug;
 
 use nalgebra::Vector3;
 
-use super::jacobian_sign::{JacobianSign, jacobian_sign};
+use super::jacobian_sign::{JacobianSign, jacobian_at, jacobian_sign};
 use crate::base::error::{Error, Result};
 
 /// The node indices of one cell, `[usize; N]`: the four corners first, then any higher-order
@@ -163,15 +163,16 @@ impl CellType for Tet10 {
                 ),
             )
         };
+        // G is affine in λ: its values at the corners give it everywhere (the nodes' too).
+        let corners = std::array::from_fn(|m| {
+            reference_jacobian(&x, &std::array::from_fn(|i| f64::from(i == m)))
+        });
         for (name, l) in node_points() {
-            let det = reference_jacobian(&x, &l).determinant();
+            let det = jacobian_at(&corners, &l).determinant();
             if det.is_nan() || det <= floor {
                 return Err(fold(format!("{name} (barycentric {l:?})"), det, "> 0"));
             }
         }
-        let corners = std::array::from_fn(|m| {
-            reference_jacobian(&x, &std::array::from_fn(|i| f64::from(i == m)))
-        });
         match jacobian_sign(&corners, floor) {
             JacobianSign::Positive => {}
             JacobianSign::NotPositive { at, det } => {

@@ -69,8 +69,8 @@ pub(crate) fn jacobian_sign(corners: &[Matrix3<f64>; 4], floor: f64) -> Jacobian
 /// A sub-tet of the reference tet: its four corners' barycentric coordinates.
 type Piece = [[f64; 4]; 4];
 
-/// G(λ) = Σₘ λₘ·Gₘ.
-fn jacobian_at(corners: &[Matrix3<f64>; 4], l: &[f64; 4]) -> Matrix3<f64> {
+/// G(λ) = Σₘ λₘ·Gₘ, from the Jacobians Gₘ at the corners.
+pub(super) fn jacobian_at(corners: &[Matrix3<f64>; 4], l: &[f64; 4]) -> Matrix3<f64> {
     corners
         .iter()
         .zip(l)
