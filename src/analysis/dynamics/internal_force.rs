@@ -260,6 +260,30 @@ impl InternalForce {
             InternalForce::Nonlinear(n) => n.energy(system, state),
         }
     }
+
+    /// [`energy`](Self::energy) with caller-owned scratch (from
+    /// [`LinearSystem::energy_workspace`]), for a caller that takes the energies every step: the
+    /// linear law's are [`LinearSystem::energy_with`], a nonlinear one's kinetic term is
+    /// [`LinearSystem::kinetic_energy_with`]. The same values as [`energy`](Self::energy).
+    /// [`Error::DimensionMismatch`] if the state or `work` is not of `system`'s free DOFs.
+    pub fn energy_with(
+        &self,
+        system: &LinearSystem,
+        state: &State,
+        work: &mut super::EnergyWorkspace,
+    ) -> Result<Energy> {
+        match self {
+            InternalForce::Linear => system.energy_with(state, work),
+            InternalForce::Nonlinear(n) => {
+                state.check_len(n.free_count())?;
+                Ok(Energy {
+                    kinetic: system.kinetic_energy_with(&state.velocity, work)?,
+                    elastic: n.elastic_energy(&state.displacement)?,
+                    ..system.model_energy_potentials(state)?
+                })
+            }
+        }
+    }
 }
 
 /// A nonlinear force law on the free DOFs of a [`LinearSystem`]: one [`ForceModel`] for every
@@ -1102,15 +1126,16 @@ impl NonlinearForce {
         Self::energy_with_elastic(system, state, self.elastic_energy(&state.displacement)?)
     }
 
-    /// The energies of `state` with its elastic part `elastic` given (energy units): ½vᵀMv and
-    /// the system's load potentials computed here.
+    /// The energies of `state` with its elastic part `elastic` given (energy units): ½vᵀMv
+    /// (the system's one formula, [`LinearSystem::kinetic_energy_with`]) and the system's load
+    /// potentials computed here.
     pub(crate) fn energy_with_elastic(
         system: &LinearSystem,
         state: &State,
         elastic: f64,
     ) -> Result<Energy> {
         Ok(Energy {
-            kinetic: 0.5 * system.mass().quadratic_form(&state.velocity)?,
+            kinetic: 0.5 * system.twice_kinetic(&state.velocity)?,
             elastic,
             ..system.model_energy_potentials(state)?
         })

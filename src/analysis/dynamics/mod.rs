@@ -59,7 +59,7 @@ pub use stability::{
     critical_time_step_with, damped_critical_step, element_critical_step,
 };
 pub use state::State;
-pub use system::{LinearSystem, Mass, MassKind};
+pub use system::{EnergyWorkspace, LinearSystem, Mass, MassKind};
 pub use time_data::TimeData;
 
 use crate::base::error::{Error, Result};

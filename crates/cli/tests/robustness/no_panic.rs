@@ -823,9 +823,31 @@ fn dynamics_models_and_nonlinear() {
     s.err("energy wrong state", "DimensionMismatch", || {
         system.energy(&State::at_rest(3))
     });
-    s.err("energy_using short scratch", "DimensionMismatch", || {
-        system.energy_using(&State::at_rest(n), &mut [0.0; 1])
-    });
+    s.err(
+        "energy_with another system's workspace",
+        "DimensionMismatch",
+        || {
+            // A longer bar: more free DOFs than `system`'s.
+            let longer =
+                TetMesh::box_grid(v(0., 0., 0.), v(4., 1., 1.), [4, 2, 2], BoxSplit::Five).unwrap();
+            let other_system = LinearSystem::new(
+                &longer,
+                &m,
+                &clamped(&longer),
+                &Loads::new(&longer),
+                v(0., 0., -9.81),
+                MassKind::Consistent,
+                Rayleigh::default(),
+            )
+            .unwrap();
+            system.energy_with(&State::at_rest(n), &mut other_system.energy_workspace())
+        },
+    );
+    s.err(
+        "kinetic_energy_with wrong velocity",
+        "DimensionMismatch",
+        || system.kinetic_energy_with(&[0.0; 1], &mut system.energy_workspace()),
+    );
     s.err("energy_potentials wrong state", "DimensionMismatch", || {
         system.energy_potentials(&State::at_rest(0))
     });

@@ -4,7 +4,7 @@
 //! stop the run at a step boundary; the summary closes the run.
 
 use super::*;
-use tetfem::analysis::dynamics::Integrator;
+use tetfem::analysis::dynamics::{EnergyWorkspace, Integrator};
 use tetfem::analysis::transient::{AdaptiveStep, Flow, Observer, RunEnd, StepView, Transient};
 
 /// [`run_dynamic`] once the output folder's lock (if any) is held; with `adaptive`
@@ -250,6 +250,9 @@ struct StepRecorder<'s, E: SceneElement> {
     probes: Vec<ProbeRange>,
     contact_forces: Option<Vec<ContactForceHistory>>,
     reactions: super::super::DynamicReactions,
+    /// Scratch of the energies taken every step (the library's
+    /// [`InternalForce::energy_with`]), kept so that a step's record allocates none for them.
+    energy_work: EnergyWorkspace,
     /// Wall time spent recording (s).
     output_seconds: f64,
 }
@@ -286,6 +289,7 @@ impl<'s, E: SceneElement> StepRecorder<'s, E> {
             probes,
             contact_forces: contact_of(&setup.force).map(ContactForceHistory::start),
             reactions: setup.reactions.clone(),
+            energy_work: setup.system.energy_workspace(),
             output_seconds: 0.0,
         })
     }
@@ -315,7 +319,7 @@ impl<'s, E: SceneElement> StepRecorder<'s, E> {
         let clock = Instant::now();
         let setup = self.setup;
         let system = &setup.system;
-        let energy = setup.force.energy(system, state)?;
+        let energy = (setup.force).energy_with(system, state, &mut self.energy_work)?;
         // The constrained DOFs at their values of this time (moving supports: u_c(t)).
         let u = system.expand_at(state.time, &state.displacement)?;
         let mut means = Vec::with_capacity(setup.probes.len());
@@ -487,3 +491,6 @@ fn close_run<E: SceneElement>(
         volume_change: None,
     })
 }
+
+#[cfg(test)]
+mod tests;
