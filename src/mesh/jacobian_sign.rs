@@ -51,13 +51,15 @@ pub(crate) fn jacobian_sign(corners: &[Matrix3<f64>; 4], floor: f64) -> Jacobian
                 return JacobianSign::NotPositive { at, det };
             }
         }
-        // f64::min skips a NaN, but a NaN coefficient has a NaN corner too (the corners'
-        // columns make up every mixed determinant), caught just above.
-        let bound = coefficients.iter().copied().fold(f64::INFINITY, f64::min);
-        if bound > floor {
+        // Written so that a NaN coefficient (an overflow) never proves the piece.
+        if coefficients.iter().all(|&b| b > floor) {
             continue;
         }
         if examined >= MAX_PIECES {
+            // The least coefficient, a NaN kept as the bound.
+            let bound = (coefficients.iter().copied()).fold(f64::INFINITY, |m, b| {
+                if b.is_nan() || b < m { b } else { m }
+            });
             let near = std::array::from_fn(|i| piece.iter().map(|v| v[i]).sum::<f64>() / 4.0);
             return JacobianSign::Undecided { bound, near };
         }
@@ -191,6 +193,27 @@ mod tests {
             for (m, &index) in CORNER_INDEX.iter().enumerate() {
                 assert_eq!(TRIPLES[index], [m; 3]);
             }
+        }
+    }
+
+    /// det G = (λ₀ − t)²·1 with t = 1/π: zero on a plane through the tet that no bisection
+    /// point reaches, positive on both sides — a fold of zero thickness. Never called
+    /// positive: undecided after the piece budget, the bound ≤ 0.
+    #[test]
+    fn a_determinant_vanishing_inside_is_never_called_positive() {
+        let t = std::f64::consts::FRAC_1_PI;
+        let corners: [Matrix3<f64>; 4] = std::array::from_fn(|m| {
+            let f = f64::from(m == 0) - t;
+            Matrix3::from_diagonal(&Vector3::new(f, f, 1.0))
+        });
+        match jacobian_sign(&corners, 0.0) {
+            JacobianSign::Undecided { bound, near } => {
+                assert!(bound <= 0.0, "{bound}");
+                // The undecided piece straddles the plane λ₀ = t (within a piece's size).
+                assert!((near[0] - t).abs() < 0.2, "{near:?}");
+            }
+            JacobianSign::NotPositive { det, .. } => assert!(det <= 0.0),
+            JacobianSign::Positive => panic!("a vanishing determinant called positive"),
         }
     }
 
