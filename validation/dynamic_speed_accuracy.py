@@ -199,7 +199,7 @@ def run_tetfem(order, cells, method, steps, period):
 
 
 def critical_step(order, cells):
-    """tetfem's explicit critical step 2/omega_max (lumped mass, power iteration with its proof)."""
+    """tetfem's explicit critical step 2/omega_max (lumped mass, Lanczos iteration with its proof)."""
     _, sim, _, _ = tetfem_simulation(order, cells, "explicit", 1.0)
     return dict(dt_crit=float(sim.critical_time_step))
 

@@ -769,7 +769,7 @@ impl PySimulation {
         Ok(())
     }
 
-    /// The explicit method's critical time step (s): 2/ω_max by power iteration for a lumped
+    /// The explicit method's critical time step (s): 2/ω_max by Lanczos iteration for a lumped
     /// mass, the element bound for a consistent one.
     #[getter]
     fn critical_time_step(&self, py: Python<'_>) -> PyResult<f64> {

@@ -165,14 +165,14 @@ fn an_observer_stops_the_loop_and_the_rest_continues_as_one_run() {
 #[test]
 fn a_step_in_critical_multiples_is_that_multiple_of_the_one_policy() {
     let d = definition(ModelKind::Linear);
-    // Lumped mass: the power iteration's step, proven by the inertia check on this small mesh.
+    // Lumped mass: the Lanczos iteration's step, proven by the inertia check on this small mesh.
     let run = Transient::new(
         &d,
         TransientOptions::new(Method::Explicit, TimeStep::CriticalMultiple(0.5)),
     )
     .unwrap();
     let limit = critical_step(run.system(), &d.mesh, &d.materials).unwrap();
-    assert_eq!(limit.source, "power iteration");
+    assert_eq!(limit.source, "Lanczos iteration");
     assert_eq!(run.dt(), 0.5 * limit.dt);
     assert_eq!(run.step_limit(), Some(limit));
     // Consistent mass: the element bound, of each element type its own.

@@ -126,8 +126,8 @@ fn certified_step_is_below_the_dense_limit_and_within_1e_3() {
     }
 }
 
-/// The power iteration started on the second-highest eigenvector (exactly orthogonal to the top
-/// one, up to round-off): its residual vanishes at once and θ + δ lands on λ_(n−1), below
+/// The Lanczos iteration started on the second-highest eigenvector (exactly orthogonal to the
+/// top one, up to round-off): its residual vanishes at the first product and θ + δ lands on λ_(n−1), below
 /// λ_max, which the old assumption-based bound would have returned as an upper bound. The
 /// inertia check refuses it and the search finds a proven bound within 1e-3.
 #[test]
@@ -203,7 +203,7 @@ fn without_memory_for_the_factor_the_step_falls_back_to_gershgorin() {
             "{size:?} {cells:?}: dt above 2/ω_max by {gap:e}"
         );
         assert!(loose.dt <= tight.dt, "{size:?} {cells:?}");
-        // The same power iteration ran: the lower bound is unchanged.
+        // The same Lanczos iteration ran: the lower bound is unchanged.
         assert_eq!(loose.omega_max_lower, tight.omega_max_lower);
     }
 }
@@ -272,7 +272,7 @@ fn factor_counts_of_a_dense_and_a_diagonal_matrix() {
     assert_eq!((counts.max_row, counts.max_row_and_column), (1, 1));
 }
 
-/// Measurement (run with `--ignored --nocapture`): the power iteration alone (memory budget 0,
+/// Measurement (run with `--ignored --nocapture`): the Lanczos iteration alone (memory budget 0,
 /// Gershgorin) against the certified step, on beams of 3 000 to 36 000 free DOFs.
 #[test]
 #[ignore]
@@ -280,7 +280,7 @@ fn cost_of_the_certificate() {
     for cells in [[40, 4, 4], [80, 8, 8], [100, 10, 10]] {
         let system = steel_beam([1.0, 0.1, 0.1], cells, BoxSplit::Mirrored6);
         let started = Instant::now();
-        let power = critical_time_step_with(
+        let estimate = critical_time_step_with(
             &system,
             &CriticalStepOptions {
                 start: None,
@@ -288,7 +288,7 @@ fn cost_of_the_certificate() {
             },
         )
         .unwrap();
-        let power_time = started.elapsed().as_secs_f64();
+        let estimate_time = started.elapsed().as_secs_f64();
         // The rounding margin η of the check (the formula of src/analysis/dynamics/inertia.rs).
         let counts = SparseCholesky::analyze(system.stiffness())
             .unwrap()
@@ -301,16 +301,16 @@ fn cost_of_the_certificate() {
         let certified = critical_time_step(&system).unwrap();
         let total = started.elapsed().as_secs_f64();
         println!(
-            "{cells:?}: {} DOFs, {} iterations; power iteration {:.1} ms, certified total {:.1} ms \
+            "{cells:?}: {} DOFs, {} products; Lanczos iteration {:.1} ms, certified total {:.1} ms \
              (certificate {:.1} ms, {} factorizations, {:?}); dt Gershgorin / dt certified = {:.4}",
             system.stiffness().dim(),
             certified.iterations,
-            1e3 * power_time,
+            1e3 * estimate_time,
             1e3 * total,
-            1e3 * (total - power_time),
+            1e3 * (total - estimate_time),
             certified.factorizations,
             certified.certificate,
-            power.dt / certified.dt
+            estimate.dt / certified.dt
         );
     }
 }

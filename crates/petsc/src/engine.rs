@@ -778,7 +778,7 @@ fn integrate<'p>(
 
 /// The in-process dynamic summary's keys for the run that ended at `x` (rank 0's JSON text
 /// with `units`; `None` elsewhere): the estimate and the deformation of the last state (from the
-/// whole displacement), the explicit critical step by the element bound (the power iteration
+/// whole displacement), the explicit critical step by the element bound (the Lanczos iteration
 /// would need the assembled matrix on one process), no step-resolution check (a modal solve of
 /// the assembled system). Collective.
 fn report_dynamic<'p>(

@@ -11,7 +11,7 @@ use tetfem::base::error::Result;
 pub struct CriticalStepReport {
     /// The step (s).
     pub seconds: f64,
-    /// How it was found: `"power iteration"` (proven by an inertia check) or `"Gershgorin
+    /// How it was found: `"Lanczos iteration"` (proven by an inertia check) or `"Gershgorin
     /// bound"`.
     pub source: String,
 }

@@ -899,7 +899,7 @@ pub struct OutputSpec {
     #[serde(default)]
     pub deformation_scale: Option<f64>,
     /// Static and modal runs: also find the explicit critical step for the summary (default
-    /// false: it costs a power iteration and a factorization; dynamic runs always report it).
+    /// false: it costs a Lanczos iteration and a factorization; dynamic runs always report it).
     #[serde(default)]
     pub critical_step: Option<bool>,
     /// Encoding of every `.vtu` written: `"binary"` (default, appended raw) or `"ascii"`.

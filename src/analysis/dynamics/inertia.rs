@@ -1,7 +1,7 @@
 //! The inertia certificate of an upper bound σ on λ_max(M⁻¹K) (M diagonal, K symmetric): a
 //! Cholesky factorization of σ·M − K that succeeds proves σ·M − K positive definite, so by
 //! Sylvester's law of inertia every eigenvalue of M⁻¹K lies below σ. Used by
-//! [`super::critical_time_step`] to make its power-iteration bound provable.
+//! [`super::critical_time_step`] to make its Lanczos bound provable.
 
 use super::stability::Certificate;
 use crate::base::error::Result;

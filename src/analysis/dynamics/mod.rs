@@ -30,6 +30,7 @@ mod stability;
 mod state;
 mod system;
 mod time_data;
+mod top_eigenvalue;
 
 pub use backward_euler::BackwardEuler;
 pub use checkpoint::{

@@ -1,5 +1,5 @@
 //! The explicit critical step, found one way for every front end: for a lumped mass 2/ω_max by
-//! power iteration on the assembled system ([`critical_time_step`]: proven by an inertia check,
+//! Lanczos iteration on the assembled system ([`critical_time_step`]: proven by an inertia check,
 //! or Gershgorin's looser bound where the check's factor would not fit), for a consistent mass
 //! the element bound ([`StepBoundElement::step_bound`], never above the system's step).
 //!
@@ -25,13 +25,13 @@ use crate::mesh::TetMesh;
 pub struct StepLimit {
     /// The critical step (time units, s in SI): the explicit method is stable below it.
     pub dt: f64,
-    /// How it was found: `"power iteration"`, `"Gershgorin bound"`, `"element bound"` or
+    /// How it was found: `"Lanczos iteration"`, `"Gershgorin bound"`, `"element bound"` or
     /// (explicit with surface contact, [`super::Transient`]) `"surface barrier bound"`.
     pub source: &'static str,
 }
 
 /// The critical step of `system` assembled on `mesh` with `materials`: for a lumped mass
-/// 2/ω_max by power iteration ([`critical_time_step`]), for a consistent mass the element bound
+/// 2/ω_max by Lanczos iteration ([`critical_time_step`]), for a consistent mass the element bound
 /// ([`StepBoundElement::step_bound`]): what a step given as a multiple of it (`"50crit"`) multiplies and what
 /// run summaries report.
 ///

@@ -176,7 +176,7 @@ fn dynamic_scene_runs_short_with_frames_series_and_pngs() {
     assert_eq!(summary["dt"], 1e-4);
     let critical = summary["critical_step"].as_f64().unwrap();
     assert!(critical > 0.0 && critical < 1e-4, "{critical}");
-    assert_eq!(summary["critical_step_source"], "power iteration");
+    assert_eq!(summary["critical_step_source"], "Lanczos iteration");
     let end_time = summary["end_time"].as_f64().unwrap();
     assert!((end_time - 25e-4).abs() < 1e-12, "{end_time}");
     let (nodes, tets) = (
@@ -429,7 +429,7 @@ fn default_run_releases_the_cantilever_and_writes_the_series() {
         "Timoshenko",
         "cantilever.vtu",
         "dynamic cantilever",
-        "explicit critical step (power iteration)",
+        "explicit critical step (Lanczos iteration)",
         "backward-euler: dt =",
         "50.0 × the critical step",
         "per step",

@@ -119,7 +119,7 @@ fn bits(values: &[f64]) -> Vec<u64> {
 #[test]
 fn a_resumed_run_ends_with_the_outputs_and_bits_of_one_uninterrupted_run() {
     // (method, model, dt): the explicit method at about half its critical step (9.68e-6 s on
-    // this mesh, measured by the power iteration of `tetfem run`).
+    // this mesh, measured by the Lanczos iteration of `tetfem run`).
     let cases = [
         ("backward_euler", "linear", 1e-4),
         ("newmark", "linear", 1e-4),

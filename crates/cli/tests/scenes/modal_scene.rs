@@ -284,7 +284,7 @@ fn the_binary_runs_a_modal_scene_and_prints_json() {
 #[test]
 fn static_and_modal_summaries_report_the_critical_step_when_asked() {
     // The summary's step is the library's critical_time_step of the scene's lumped system, to
-    // the bit; without the key there is none (it costs a power iteration and a factorization).
+    // the bit; without the key there is none (it costs a Lanczos iteration and a factorization).
     let with = |analysis: &str, asked: bool| {
         let mut text = bar_scene([6, 1, 1], 1.0, 0.3, analysis);
         if asked {

@@ -242,7 +242,7 @@ impl<E: SceneElement> DynamicSetup<E> {
     }
 
     /// The explicit critical step and how it was found: the library's one policy
-    /// ([`critical_step`](tetfem::analysis::transient::critical_step): power iteration or
+    /// ([`critical_step`](tetfem::analysis::transient::critical_step): Lanczos iteration or
     /// Gershgorin's bound for a lumped mass, the element bound for a consistent one). Computed
     /// once, then remembered.
     pub fn critical_step(&self) -> Result<(f64, &'static str)> {
@@ -370,7 +370,7 @@ pub struct DynamicSummary {
     pub dt: f64,
     /// The explicit method's critical step (time units).
     pub critical_step: f64,
-    /// How it was found: `"power iteration"`, `"Gershgorin bound"` or `"element bound"`.
+    /// How it was found: `"Lanczos iteration"`, `"Gershgorin bound"` or `"element bound"`.
     pub critical_step_source: String,
     /// dt / critical_step.
     pub dt_over_critical: f64,
