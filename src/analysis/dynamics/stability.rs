@@ -41,8 +41,8 @@ pub enum Certificate {
     Inertia,
     /// Gershgorin's bound maxᵢ Σⱼ |Kᵢⱼ|/√(mᵢmⱼ) ≥ ω_max², which needs no check but is looser
     /// (the step measured 16–28 % below 2/ω_max on small beams and blocks): used when the factor of K would not fit in
-    /// memory, when no inertia check below it succeeded, or when the Lanczos bound
-    /// already reached it.
+    /// memory, when no inertia check below it succeeded, or when the Lanczos bound already
+    /// reached it.
     Gershgorin,
 }
 
@@ -88,11 +88,11 @@ const MAX_PRODUCTS: usize = 20_000;
 /// `src/analysis/dynamics/top_eigenvalue.rs`) gives a unit Ritz vector y whose Rayleigh
 /// quotient θ = yᵀAy rises towards λ_max = ω_max² from below (θ ≤ λ_max always), and its
 /// residual r = A·y − θ·y; some eigenvalue lies within δ = ‖r‖ of θ, but not necessarily the
-/// largest (a start with no component along the top mode converges to a lower one). The iteration stops when
-/// δ ≤ 1e-3·θ (at most 20 000 products with K) and proposes σ = (θ + δ)(1 + 1e-12) as the
-/// upper bound on λ_max, the factor covering round-off in θ and δ (relative ~1e-14). (Power
-/// iteration, used before, took 425–575 products where Lanczos takes 53–90: 9,720–69,360 free
-/// DOFs, P1 and P2 cantilevers.)
+/// largest (a start with no component along the top mode converges to a lower one). The
+/// iteration stops when δ ≤ 1e-3·θ (at most 20 000 products with K) and proposes
+/// σ = (θ + δ)(1 + 1e-12) as the upper bound on λ_max, the factor covering round-off in θ and δ
+/// (relative ~1e-14). (Power iteration, used before, took 425–575 products where Lanczos takes
+/// 53–90: 9,720–69,360 free DOFs, P1 and P2 cantilevers.)
 ///
 /// σ is then proven by an inertia check: σ·M − K has a Cholesky factor (the project's
 /// [`SparseCholesky`](crate::linsolve::SparseCholesky) on K's pattern, M being diagonal) exactly
