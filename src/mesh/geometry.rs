@@ -13,6 +13,7 @@ pub const FACES: [([usize; 3], usize); 4] = [
 ];
 
 /// Rest (or deformed) shape matrix [x₁−x₀ x₂−x₀ x₃−x₀].
+#[inline]
 pub fn rest_shape_matrix(x: &[Vector3<f64>; 4]) -> Matrix3<f64> {
     Matrix3::from_columns(&[x[1] - x[0], x[2] - x[0], x[3] - x[0]])
 }

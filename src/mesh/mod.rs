@@ -65,9 +65,16 @@ impl TetMesh {
     }
 
     /// Rest positions of tet `t`, for loops over `0..tet_count()` (panics on a bad index).
-    #[inline]
+    #[inline(always)]
     pub(crate) fn positions_of(&self, t: usize) -> [Vector3<f64>; 4] {
-        self.tets[t].map(|n| self.nodes[n])
+        // A plain loop, not `array::map`: its generic helpers are not always inlined into a
+        // force pass, where the calls for four corners cost as much as a tet's arithmetic.
+        let nodes = &self.tets[t];
+        let mut out = [Vector3::zeros(); 4];
+        for (out, &n) in out.iter_mut().zip(nodes) {
+            *out = self.nodes[n];
+        }
+        out
     }
 
     /// The same mesh with new node positions (e.g. a perturbed or deformed copy),

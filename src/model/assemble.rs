@@ -183,9 +183,11 @@ pub fn nodal_deformation_gradients_kept<E: ModelElement>(
     Error::check_len("kept rest elements", mesh.tet_count(), kept.len())?;
     let nodes = mesh.nodes();
     add_at_nodes(mesh, out, |t| {
-        let corners = mesh.tets()[t].corners();
-        let deformed =
-            corners.map(|n| nodes[n] + Vector3::new(u[3 * n], u[3 * n + 1], u[3 * n + 2]));
+        // A plain loop, not `array::map` (see `element_model::corners`).
+        let mut deformed = [Vector3::zeros(); 4];
+        for (x, &n) in deformed.iter_mut().zip(&mesh.tets()[t].corners()) {
+            *x = nodes[n] + Vector3::new(u[3 * n], u[3 * n + 1], u[3 * n + 2]);
+        }
         crate::mesh::geometry::rest_shape_matrix(&deformed)
             * kept[t].rest_inverse()
             * kept[t].volume()

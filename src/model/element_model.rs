@@ -98,9 +98,28 @@ pub trait ModelElement: ElementType + 'static {
 }
 
 /// x = X + u for the 4 nodes of tet `t`.
-#[inline]
+#[inline(always)]
 pub(crate) fn positions(mesh: &TetMesh, t: usize, u: &[f64]) -> [Vector3<f64>; 4] {
-    mesh.tets()[t].map(|n| mesh.nodes()[n] + Vector3::new(u[3 * n], u[3 * n + 1], u[3 * n + 2]))
+    corners(mesh, t, u).1
+}
+
+/// The rest positions X and the deformed ones x = X + u of tet `t`'s 4 nodes, from one read
+/// of each node (a force pass needs both: a plain loop, not `array::map`, whose generic
+/// helpers are not always inlined there and cost as much as a tet's arithmetic).
+#[inline(always)]
+pub(crate) fn corners(
+    mesh: &TetMesh,
+    t: usize,
+    u: &[f64],
+) -> ([Vector3<f64>; 4], [Vector3<f64>; 4]) {
+    let (nodes, tet) = (mesh.nodes(), &mesh.tets()[t]);
+    let mut rest = [Vector3::zeros(); 4];
+    let mut x = [Vector3::zeros(); 4];
+    for ((rest, x), &n) in rest.iter_mut().zip(&mut x).zip(tet) {
+        *rest = nodes[n];
+        *x = *rest + Vector3::new(u[3 * n], u[3 * n + 1], u[3 * n + 2]);
+    }
+    (rest, x)
 }
 
 /// The 4-node tet: each model's own one-point formulas, exactly as before the seam.
@@ -249,7 +268,8 @@ fn add_in_blocks(
     add_computed_in_blocks(mesh, force, |start, out| {
         let one = |(i, out): (usize, &mut (Vector12, f64))| {
             let t = start + i;
-            *out = element(t, &mesh.positions_of(t), &positions(mesh, t, u));
+            let (rest, x) = corners(mesh, t, u);
+            *out = element(t, &rest, &x);
         };
         match crate::linalg::parallel::one_thread() {
             true => out.iter_mut().enumerate().for_each(one),
@@ -275,19 +295,24 @@ fn four_tets(
     let one_model = model.evaluates_four()
         && (1..out.len()).all(|k| std::ptr::addr_eq(models.model_of(first + k), model));
     if let (Ok(four), true) = (<&mut [_; 4]>::try_from(&mut *out), one_model) {
-        let rest = std::array::from_fn(|k| mesh.positions_of(first + k));
-        let x = std::array::from_fn(|k| positions(mesh, first + k, u));
-        let tets = std::array::from_fn(|k| &kept[first + k]);
+        let mut rest = [[Vector3::zeros(); 4]; 4];
+        let mut x = [[Vector3::zeros(); 4]; 4];
+        for (k, (rest, x)) in rest.iter_mut().zip(&mut x).enumerate() {
+            (*rest, *x) = corners(mesh, first + k, u);
+        }
+        let tets = [
+            &kept[first],
+            &kept[first + 1],
+            &kept[first + 2],
+            &kept[first + 3],
+        ];
         model.force_and_energy_4(tets, &rest, &x, four);
         return;
     }
     for (k, out) in out.iter_mut().enumerate() {
         let t = first + k;
-        *out = models.model_of(t).force_and_energy(
-            &kept[t],
-            &mesh.positions_of(t),
-            &positions(mesh, t, u),
-        );
+        let (rest, x) = corners(mesh, t, u);
+        *out = models.model_of(t).force_and_energy(&kept[t], &rest, &x);
     }
 }
 
