@@ -135,7 +135,7 @@ impl ForceModel for Corotational {
         x: &[[Vector3<f64>; 4]; 4],
         out: &mut [(Vector12, f64); 4],
     ) {
-        let lanes = super::corotational_lanes::Tets {
+        let lanes = super::lanes::Tets {
             elements: tets,
             corners: x,
         };

@@ -14,131 +14,13 @@
 //! leaves the Newton–Schulz iteration (an inverted, flat or far-stretched tet, a non-finite F:
 //! [`super::polar::rotation`]'s other branches) is recomputed on its own by the scalar path.
 
-use nalgebra::{Matrix3, Vector3};
+use nalgebra::Matrix3;
 
-use crate::fe::element::{Tet, Vector12};
-
-/// Tets per batch.
-pub(crate) const LANES: usize = 4;
-
-/// One value per lane.
-type L = [f64; LANES];
-
-/// A 3×3 matrix of lanes, `m[row][column]`.
-type M = [[L; 3]; 3];
-
-// Plain loops, not `std::array::from_fn`: its generic helpers are not always inlined into
-// the AVX2 copy, and a call per value undoes the lanes.
-#[inline(always)]
-fn lanes(f: impl Fn(usize) -> f64) -> L {
-    let mut out = [0.0; LANES];
-    for (l, out) in out.iter_mut().enumerate() {
-        *out = f(l);
-    }
-    out
-}
-
-#[inline(always)]
-fn add(a: L, b: L) -> L {
-    lanes(|l| a[l] + b[l])
-}
-
-#[inline(always)]
-fn sub(a: L, b: L) -> L {
-    lanes(|l| a[l] - b[l])
-}
-
-#[inline(always)]
-fn mul(a: L, b: L) -> L {
-    lanes(|l| a[l] * b[l])
-}
-
-#[inline(always)]
-fn scale(a: L, s: f64) -> L {
-    lanes(|l| a[l] * s)
-}
-
-/// (a₀b₀ + a₁b₁) + a₂b₂: nalgebra's order for a 3-vector's dot product and for each entry of
-/// a 3×3 product (its gemm adds the columns' terms in turn).
-#[inline(always)]
-fn dot3(a: [L; 3], b: [L; 3]) -> L {
-    add(add(mul(a[0], b[0]), mul(a[1], b[1])), mul(a[2], b[2]))
-}
-
-#[inline(always)]
-fn row(m: &M, i: usize) -> [L; 3] {
-    m[i]
-}
-
-#[inline(always)]
-fn column(m: &M, j: usize) -> [L; 3] {
-    [m[0][j], m[1][j], m[2][j]]
-}
-
-/// A·B.
-#[inline(always)]
-fn product(a: &M, b: &M) -> M {
-    let mut out = [[[0.0; LANES]; 3]; 3];
-    for (i, out) in out.iter_mut().enumerate() {
-        for (j, out) in out.iter_mut().enumerate() {
-            *out = dot3(row(a, i), column(b, j));
-        }
-    }
-    out
-}
-
-/// Aᵀ·B (nalgebra's `tr_mul`: each entry the dot product of a column of A and one of B).
-#[inline(always)]
-fn tr_product(a: &M, b: &M) -> M {
-    let mut out = [[[0.0; LANES]; 3]; 3];
-    for (i, out) in out.iter_mut().enumerate() {
-        for (j, out) in out.iter_mut().enumerate() {
-            *out = dot3(column(a, i), column(b, j));
-        }
-    }
-    out
-}
-
-/// ‖M‖²_F in nalgebra's order: column by column, ((0 + ‖c₀‖²) + ‖c₁‖²) + ‖c₂‖².
-#[inline(always)]
-fn norm_squared(m: &M) -> L {
-    let mut sum = [0.0; LANES];
-    for j in 0..3 {
-        sum = add(sum, dot3(column(m, j), column(m, j)));
-    }
-    sum
-}
-
-/// det M by nalgebra's cofactor expansion along the first row.
-#[inline(always)]
-fn determinant(m: &M) -> L {
-    let minor_12_23 = sub(mul(m[1][1], m[2][2]), mul(m[2][1], m[1][2]));
-    let minor_11_23 = sub(mul(m[1][0], m[2][2]), mul(m[2][0], m[1][2]));
-    let minor_11_22 = sub(mul(m[1][0], m[2][1]), mul(m[2][0], m[1][1]));
-    add(
-        sub(mul(m[0][0], minor_12_23), mul(m[0][1], minor_11_23)),
-        mul(m[0][2], minor_11_22),
-    )
-}
-
-#[inline(always)]
-fn build(f: impl Fn(usize, usize, usize) -> f64) -> M {
-    let mut out = [[[0.0; LANES]; 3]; 3];
-    for (i, out) in out.iter_mut().enumerate() {
-        for (j, out) in out.iter_mut().enumerate() {
-            *out = lanes(|l| f(i, j, l));
-        }
-    }
-    out
-}
-
-/// The lanes' tets: each one's rest inverse Dm⁻¹ and volume, and its deformed corners.
-pub(crate) struct Tets<'a> {
-    /// The rest elements.
-    pub elements: [&'a Tet; LANES],
-    /// The deformed corners x₀…x₃ of each.
-    pub corners: &'a [[Vector3<f64>; 4]; LANES],
-}
+use super::lanes::{
+    LANES, M, Tets, add, build, column, deformation_gradients, determinant, dot3, forces_into,
+    lanes, mul, norm_squared, product, scale, tr_product,
+};
+use crate::fe::element::Vector12;
 
 /// The force and energy of the lanes' tets under the corotational model of Lamé parameters
 /// (`lambda`, `mu`) (see the module's docs) into `out` (one entry per lane), with AVX2 where
@@ -177,12 +59,7 @@ fn force_and_energy_lanes(
     (lambda, mu): (f64, f64),
     out: &mut [(Vector12, f64); LANES],
 ) -> [bool; LANES] {
-    let x = tets.corners;
-    // Ds = [x₁ − x₀, x₂ − x₀, x₃ − x₀] and Dm⁻¹, row by column.
-    let ds: M = build(|a, i, l| x[l][i + 1][a] - x[l][0][a]);
-    let rest_inverse: M = build(|i, j, l| tets.elements[l].rest_inverse()[(i, j)]);
-    let volume = lanes(|l| tets.elements[l].volume());
-    let f = product(&ds, &rest_inverse);
+    let (f, rest_inverse, volume) = deformation_gradients(tets);
     let (r, converged) = rotation(&f);
     // tr(S) of S = sym(RᵀF): its diagonal is RᵀF's, whose entries are the columns' dot products.
     let mut trace = [0.0; LANES];
@@ -195,28 +72,13 @@ fn force_and_energy_lanes(
     let pressure = scale(trace, lambda);
     let f_minus_r = build(|i, j, l| f[i][j][l] - r[i][j][l]);
     let piola = build(|i, j, l| f_minus_r[i][j][l] * twice_mu + r[i][j][l] * pressure[l]);
-    // h = (−P)·Dm⁻ᵀ·V.
-    let negated = build(|i, j, l| -piola[i][j][l]);
-    let transposed = build(|i, j, l| rest_inverse[j][i][l]);
-    let h = product(&negated, &transposed);
-    let h = build(|i, j, l| h[i][j][l] * volume[l]);
     // μ‖F − R‖² + λ/2·tr²(S − I).
     let half_lambda = 0.5 * lambda;
     let density = add(
         scale(norm_squared(&f_minus_r), mu),
         mul(scale(trace, half_lambda), trace),
     );
-    let energy = mul(volume, density);
-    for (l, (force, e)) in out.iter_mut().enumerate() {
-        *force = Vector12::zeros();
-        for i in 0..3 {
-            for a in 0..3 {
-                force[3 * (i + 1) + a] = h[a][i][l];
-                force[a] -= h[a][i][l];
-            }
-        }
-        *e = energy[l];
-    }
+    forces_into(&piola, (&rest_inverse, volume), mul(volume, density), out);
     converged
 }
 
@@ -313,8 +175,10 @@ fn rotation(f: &M) -> (M, [bool; LANES]) {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::fe::element::Tet;
     use crate::fe::material::Material;
     use crate::model::{Corotational, ForceModel};
+    use nalgebra::Vector3;
     use nalgebra::{Rotation3, Unit};
 
     /// A deterministic spread in [−1, 1].

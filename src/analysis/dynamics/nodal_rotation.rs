@@ -16,7 +16,8 @@ use rayon::prelude::*;
 
 use super::internal_force::{ForceWorkspace, NonlinearForce};
 use crate::base::error::Result;
-use crate::model::corotational_lanes::{LANES, rotations};
+use crate::model::corotational_lanes::rotations;
+use crate::model::lanes::LANES;
 use crate::model::polar::rotation;
 
 /// A turned node and the free indices of its x, y and z DOFs.
