@@ -15,6 +15,7 @@ use nalgebra::{DMatrix, SymmetricEigen};
 
 use crate::analysis::dynamics::{InternalForce, LinearSystem, Mass};
 use crate::base::error::{Error, Result};
+use crate::base::vector::dot;
 use crate::bc::constraints::DofMap;
 use crate::linsolve::SparseCholesky;
 use crate::sparse::CscMatrix;
@@ -316,10 +317,6 @@ fn list(values: &[f64]) -> String {
         .map(|v| format!("{v:.1e}"))
         .collect::<Vec<_>>()
         .join(", ")
-}
-
-fn dot(a: &[f64], b: &[f64]) -> f64 {
-    a.iter().zip(b).map(|(x, y)| x * y).sum()
 }
 
 /// Rayleigh–Ritz on span(Y): the eigenvalues of Yᵀ·K·Y·z = λ·Yᵀ·M·Y·z, ascending, and the Ritz

@@ -7,6 +7,7 @@
 use std::collections::VecDeque;
 
 use crate::base::error::Result;
+use crate::base::vector::{axpy, dot, norm};
 
 /// One correction pair: s = x_{k+1} − x_k, y = g_{k+1} − g_k and ρ = 1/(yᵀs).
 struct Pair {
@@ -95,18 +96,6 @@ impl LbfgsMemory {
         }
         Ok(())
     }
-}
-
-fn dot(a: &[f64], b: &[f64]) -> f64 {
-    a.iter().zip(b).map(|(x, y)| x * y).sum()
-}
-
-fn norm(v: &[f64]) -> f64 {
-    dot(v, v).sqrt()
-}
-
-fn axpy(a: f64, x: &[f64], y: &mut [f64]) {
-    y.iter_mut().zip(x).for_each(|(y, x)| *y += a * x);
 }
 
 #[cfg(test)]

@@ -10,6 +10,7 @@ use super::{DivergenceGuard, Energy, Rayleigh, State};
 use crate::amg::DofGeometry;
 use crate::analysis::problem::Problem;
 use crate::base::error::{Error, Result};
+use crate::base::vector::dot;
 use crate::bc::constraints::{Constraints, DofMap};
 use crate::bc::loads::Loads;
 use crate::block_sparse::{SymmetricBlockMatrix3, SymmetricWorkspace};
@@ -833,8 +834,4 @@ impl LinearSystem {
         cholesky.solve_in_place(&mut u)?;
         Ok(u)
     }
-}
-
-fn dot(a: &[f64], b: &[f64]) -> f64 {
-    a.iter().zip(b).map(|(x, y)| x * y).sum()
 }

@@ -21,6 +21,7 @@
 use nalgebra::{DMatrix, SymmetricEigen};
 
 use crate::base::error::{Error, Result};
+use crate::base::vector::dot;
 use crate::sparse::CscMatrix;
 
 /// The largest number of Lanczos vectors kept before a restart: 160·n bytes, below the sparse
@@ -186,10 +187,6 @@ fn top_ritz_pair(alphas: &[f64], betas: &[f64]) -> (f64, Vec<f64>) {
         eigen.eigenvalues[top],
         eigen.eigenvectors.column(top).iter().copied().collect(),
     )
-}
-
-fn dot(a: &[f64], b: &[f64]) -> f64 {
-    a.iter().zip(b).map(|(a, b)| a * b).sum()
 }
 
 /// ‖a − θ·v‖.

@@ -22,6 +22,7 @@ use super::{LinearSystem, Mass, NonlinearSolve};
 use crate::analysis::newton::iteration::{self, NewtonSystem, Stall};
 use crate::analysis::newton::line_search::{self, Backtracking, LineFunction};
 use crate::base::error::{Error, Result};
+use crate::base::vector::{dot, max_abs, norm};
 use crate::contact::{MAX_MOTION_STAGES, MotionStage};
 use crate::linear_solver::LinearSolver;
 use crate::sparse::CscMatrix;
@@ -1017,17 +1018,4 @@ pub(crate) fn solve_mass(mass: &Mass, b: &mut [f64]) -> Result<()> {
             Ok(())
         }
     }
-}
-
-fn dot(a: &[f64], b: &[f64]) -> f64 {
-    a.iter().zip(b).map(|(x, y)| x * y).sum()
-}
-
-fn norm(v: &[f64]) -> f64 {
-    dot(v, v).sqrt()
-}
-
-/// ‖v‖∞.
-fn max_abs(v: &[f64]) -> f64 {
-    v.iter().fold(0.0f64, |m, x| m.max(x.abs()))
 }
