@@ -22,6 +22,7 @@ pub(crate) type M = [[L; 3]; 3];
 
 // Plain loops, not `std::array::from_fn`: its generic helpers are not always inlined into
 // the AVX2 copy, and a call per value undoes the lanes.
+/// The lanes [f(0), …, f(3)].
 #[inline(always)]
 pub(crate) fn lanes(f: impl Fn(usize) -> f64) -> L {
     let mut out = [0.0; LANES];
@@ -31,21 +32,25 @@ pub(crate) fn lanes(f: impl Fn(usize) -> f64) -> L {
     out
 }
 
+/// a + b, lane by lane.
 #[inline(always)]
 pub(crate) fn add(a: L, b: L) -> L {
     lanes(|l| a[l] + b[l])
 }
 
+/// a − b, lane by lane.
 #[inline(always)]
 pub(crate) fn sub(a: L, b: L) -> L {
     lanes(|l| a[l] - b[l])
 }
 
+/// a·b, lane by lane.
 #[inline(always)]
 pub(crate) fn mul(a: L, b: L) -> L {
     lanes(|l| a[l] * b[l])
 }
 
+/// a·s, lane by lane (s the same in every lane).
 #[inline(always)]
 pub(crate) fn scale(a: L, s: f64) -> L {
     lanes(|l| a[l] * s)
@@ -58,11 +63,13 @@ pub(crate) fn dot3(a: [L; 3], b: [L; 3]) -> L {
     add(add(mul(a[0], b[0]), mul(a[1], b[1])), mul(a[2], b[2]))
 }
 
+/// Row i of M.
 #[inline(always)]
 pub(crate) fn row(m: &M, i: usize) -> [L; 3] {
     m[i]
 }
 
+/// Column j of M.
 #[inline(always)]
 pub(crate) fn column(m: &M, j: usize) -> [L; 3] {
     [m[0][j], m[1][j], m[2][j]]
@@ -114,6 +121,7 @@ pub(crate) fn determinant(m: &M) -> L {
     )
 }
 
+/// The matrix of lanes whose entry (i, j) in lane l is f(i, j, l).
 #[inline(always)]
 pub(crate) fn build(f: impl Fn(usize, usize, usize) -> f64) -> M {
     let mut out = [[[0.0; LANES]; 3]; 3];
