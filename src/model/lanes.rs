@@ -178,3 +178,89 @@ pub(crate) fn forces_into(
         *e = energy[l];
     }
 }
+
+/// Test tets for the four-tet kernels' bit-for-bit tests.
+#[cfg(test)]
+pub(crate) mod test_tets {
+    use nalgebra::{Matrix3, Rotation3, Unit, Vector3};
+
+    use super::LANES;
+    use crate::fe::element::{Tet, Vector12};
+    use crate::model::ForceModel;
+
+    /// A tet's four corners.
+    type Corners = [Vector3<f64>; 4];
+
+    /// A deterministic spread in [−1, 1].
+    pub fn wave(k: f64) -> f64 {
+        (k * 12.9898).sin() * 0.5 + (k * 78.233).cos() * 0.5
+    }
+
+    /// Four tets of batch `batch`: rest elements of many shapes, their rest corners and their
+    /// corners deformed by rotations up to 3 rad, stretches up to ±30 % and shifts up to 3;
+    /// by (4·batch + lane) mod 9 one tet in nine inverted, one flat and one stretched 6× along
+    /// an axis, and batch 7's lane 3 not finite (a NaN corner).
+    pub fn batch(batch: usize) -> (Vec<Tet>, [Corners; LANES], [Corners; LANES]) {
+        let mut elements = Vec::new();
+        let mut rests = [[Vector3::zeros(); 4]; LANES];
+        let mut corners = [[Vector3::zeros(); 4]; LANES];
+        for lane in 0..LANES {
+            let k = (batch * LANES + lane) as f64;
+            let rest = [
+                Vector3::new(wave(k), wave(k + 0.1), wave(k + 0.2)) * 0.1,
+                Vector3::new(
+                    1.0 + 0.3 * wave(k + 0.3),
+                    0.2 * wave(k + 0.4),
+                    0.1 * wave(k + 0.5),
+                ),
+                Vector3::new(
+                    0.2 * wave(k + 0.6),
+                    1.0 + 0.3 * wave(k + 0.7),
+                    0.1 * wave(k + 0.8),
+                ),
+                Vector3::new(
+                    0.1 * wave(k + 0.9),
+                    0.2 * wave(k + 1.0),
+                    1.0 + 0.3 * wave(k + 1.1),
+                ),
+            ];
+            let turn = Rotation3::from_axis_angle(
+                &Unit::new_normalize(Vector3::new(wave(k + 2.0), wave(k + 2.1), 0.5)),
+                3.0 * wave(k + 2.2),
+            );
+            let mut stretch = Matrix3::identity()
+                + Matrix3::from_fn(|i, j| 0.3 * wave(k + 3.0 + (3 * i + j) as f64 * 0.1));
+            match (batch * LANES + lane) % 9 {
+                0 => stretch[(0, 0)] = -stretch[(0, 0)],       // inverted
+                1 => stretch.set_column(2, &Vector3::zeros()), // flat
+                2 => stretch[(0, 0)] = 6.0,                    // stretches far apart
+                _ => {}
+            }
+            let shift = Vector3::new(wave(k + 4.0), wave(k + 4.1), wave(k + 4.2)) * 3.0;
+            corners[lane] = rest.map(|p| turn * stretch * p + shift);
+            if batch == 7 && lane == 3 {
+                corners[lane][2].y = f64::NAN;
+            }
+            rests[lane] = rest;
+            elements.push(Tet::new(&rest).unwrap());
+        }
+        (elements, rests, corners)
+    }
+
+    /// Asserts that `model`'s [`ForceModel::force_and_energy_4`] gives each tet of `batch`
+    /// the bits of its own [`ForceModel::force_and_energy`] (compared as bit patterns, NaNs
+    /// included).
+    pub fn assert_four_match_one_by_one(model: &dyn ForceModel, batch: usize) {
+        let (elements, rests, corners) = self::batch(batch);
+        let tets = std::array::from_fn(|l| &elements[l]);
+        let mut together = [(Vector12::zeros(), 0.0); LANES];
+        model.force_and_energy_4(tets, &rests, &corners, &mut together);
+        for lane in 0..LANES {
+            let (force, energy) = model.force_and_energy(tets[lane], &rests[lane], &corners[lane]);
+            let (f4, e4) = together[lane];
+            let bits = |f: &Vector12| f.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
+            assert_eq!(bits(&f4), bits(&force), "batch {batch} lane {lane}");
+            assert_eq!(e4.to_bits(), energy.to_bits(), "batch {batch} lane {lane}");
+        }
+    }
+}

@@ -91,16 +91,9 @@ fn cofactor(f: &M) -> M {
 
 #[cfg(test)]
 mod tests {
-    use super::*;
-    use crate::fe::element::Tet;
     use crate::fe::material::Material;
-    use crate::model::{ForceModel, NeoHookean};
-    use nalgebra::{Matrix3, Rotation3, Unit, Vector3};
-
-    /// A deterministic spread in [−1, 1].
-    fn wave(k: f64) -> f64 {
-        (k * 12.9898).sin() * 0.5 + (k * 78.233).cos() * 0.5
-    }
+    use crate::model::NeoHookean;
+    use crate::model::lanes::test_tets::assert_four_match_one_by_one;
 
     /// Every lane's force and energy are the scalar path's to the bit (compared as bit
     /// patterns: the lanes do the same operations in the same order), for rest tets of many
@@ -110,48 +103,7 @@ mod tests {
     fn lanes_repeat_the_scalar_force_and_energy_to_the_bit() {
         let model = NeoHookean::new(&Material::new(1e6, 0.45, 1100.0).unwrap());
         for batch in 0..300 {
-            let mut elements = Vec::new();
-            let mut rests = [[Vector3::zeros(); 4]; LANES];
-            let mut corners = [[Vector3::zeros(); 4]; LANES];
-            for lane in 0..LANES {
-                let k = (batch * LANES + lane) as f64;
-                let rest = [
-                    Vector3::new(wave(k), wave(k + 0.1), wave(k + 0.2)) * 0.1,
-                    Vector3::new(1.0 + 0.3 * wave(k + 0.3), 0.2 * wave(k + 0.4), 0.0),
-                    Vector3::new(0.2 * wave(k + 0.6), 1.0 + 0.3 * wave(k + 0.7), 0.1),
-                    Vector3::new(0.1 * wave(k + 0.9), 0.2, 1.0 + 0.3 * wave(k + 1.1)),
-                ];
-                let turn = Rotation3::from_axis_angle(
-                    &Unit::new_normalize(Vector3::new(wave(k + 2.0), wave(k + 2.1), 0.5)),
-                    3.0 * wave(k + 2.2),
-                );
-                let mut stretch = Matrix3::identity()
-                    + Matrix3::from_fn(|i, j| 0.3 * wave(k + 3.0 + (3 * i + j) as f64 * 0.1));
-                match (batch * LANES + lane) % 9 {
-                    0 => stretch[(0, 0)] = -stretch[(0, 0)],       // inverted
-                    1 => stretch.set_column(2, &Vector3::zeros()), // flat
-                    2 => stretch[(0, 0)] = 6.0,                    // stretched far
-                    _ => {}
-                }
-                let shift = Vector3::new(wave(k + 4.0), wave(k + 4.1), wave(k + 4.2)) * 3.0;
-                corners[lane] = rest.map(|p| turn * stretch * p + shift);
-                if batch == 7 && lane == 3 {
-                    corners[lane][2].y = f64::NAN;
-                }
-                rests[lane] = rest;
-                elements.push(Tet::new(&rest).unwrap());
-            }
-            let tets = std::array::from_fn(|l| &elements[l]);
-            let mut together = [(Vector12::zeros(), 0.0); LANES];
-            model.force_and_energy_4(tets, &rests, &corners, &mut together);
-            for lane in 0..LANES {
-                let (force, energy) =
-                    model.force_and_energy(tets[lane], &rests[lane], &corners[lane]);
-                let (f4, e4) = together[lane];
-                let bits = |f: &Vector12| f.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
-                assert_eq!(bits(&f4), bits(&force), "batch {batch} lane {lane}");
-                assert_eq!(e4.to_bits(), energy.to_bits(), "batch {batch} lane {lane}");
-            }
+            assert_four_match_one_by_one(&model, batch);
         }
     }
 }
