@@ -8,11 +8,11 @@
 use nalgebra::Vector3;
 
 use super::TetModels;
-use super::element_model::{ModelElement, positions};
+use super::element_model::{ModelElement, corners, positions};
 use crate::base::error::{Error, Result};
 use crate::fe::assembly::Assembler;
 use crate::fe::element::Tet;
-use crate::mesh::{CellType, NodeList, TetMesh};
+use crate::mesh::{CellType, TetMesh};
 use crate::sparse::CscMatrix;
 
 /// Deformed positions x = X + u of tet `t` from a full displacement vector.
@@ -181,13 +181,8 @@ pub fn nodal_deformation_gradients_kept<E: ModelElement>(
     check_displacement(mesh, u)?;
     Error::check_len("nodal deformation gradients", mesh.node_count(), out.len())?;
     Error::check_len("kept rest elements", mesh.tet_count(), kept.len())?;
-    let nodes = mesh.nodes();
     add_at_nodes(mesh, out, |t| {
-        // A plain loop, not `array::map` (see `element_model::corners`).
-        let mut deformed = [Vector3::zeros(); 4];
-        for (x, &n) in deformed.iter_mut().zip(&mesh.tets()[t].corners()) {
-            *x = nodes[n] + Vector3::new(u[3 * n], u[3 * n + 1], u[3 * n + 2]);
-        }
+        let (_, deformed) = corners(mesh, t, u);
         crate::mesh::geometry::rest_shape_matrix(&deformed)
             * kept[t].rest_inverse()
             * kept[t].volume()

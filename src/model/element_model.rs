@@ -10,7 +10,7 @@ use super::{ForceModel, TetModels, Vector12, project_psd};
 use crate::base::error::Result;
 use crate::fe::assembly::Assembler;
 use crate::fe::element::{ElementType, Tet, Tet4};
-use crate::mesh::TetMesh;
+use crate::mesh::{CellType, NodeList, TetMesh};
 use crate::sparse::CscMatrix;
 
 /// An element type the force models run on. Every method takes a tet `t` of `mesh` and the
@@ -103,19 +103,19 @@ pub(crate) fn positions(mesh: &TetMesh, t: usize, u: &[f64]) -> [Vector3<f64>; 4
     corners(mesh, t, u).1
 }
 
-/// The rest positions X and the deformed ones x = X + u of tet `t`'s 4 nodes, from one read
-/// of each node (a force pass needs both: a plain loop, not `array::map`, whose generic
+/// The rest positions X and the deformed ones x = X + u of tet `t`'s 4 corner nodes, from one
+/// read of each node (a force pass needs both: a plain loop, not `array::map`, whose generic
 /// helpers are not always inlined there and cost as much as a tet's arithmetic).
 #[inline(always)]
-pub(crate) fn corners(
-    mesh: &TetMesh,
+pub(crate) fn corners<C: CellType>(
+    mesh: &TetMesh<C>,
     t: usize,
     u: &[f64],
 ) -> ([Vector3<f64>; 4], [Vector3<f64>; 4]) {
-    let (nodes, tet) = (mesh.nodes(), &mesh.tets()[t]);
+    let (nodes, tet) = (mesh.nodes(), mesh.tets()[t].corners());
     let mut rest = [Vector3::zeros(); 4];
     let mut x = [Vector3::zeros(); 4];
-    for ((rest, x), &n) in rest.iter_mut().zip(&mut x).zip(tet) {
+    for ((rest, x), &n) in rest.iter_mut().zip(&mut x).zip(&tet) {
         *rest = nodes[n];
         *x = *rest + Vector3::new(u[3 * n], u[3 * n + 1], u[3 * n + 2]);
     }
