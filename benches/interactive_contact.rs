@@ -23,12 +23,13 @@
 //! the trajectory another tolerance or build is compared against.
 //!
 //! `cargo bench --bench interactive_contact -- [scenario] [cells] [steps] [threads] [solve]
-//! [tolerance] [trace]` (default `drop 14 100 2 auto 1e-8`; scenario `drop`, `press` or
+//! [tolerance] [trace] [norelax]` (default `drop 14 100 2 auto 1e-8`; scenario `drop`, `press` or
 //! `linear`: the drop's cube with the linear model, no ground, clamped at its base: the cost
 //! of a linear step on the same mesh, the floor a nonlinear step with contact is measured
 //! against; solve one of the names of `NonlinearSolve`: `auto`, `refactor`,
 //! `rest_preconditioned`, `rest_lbfgs`; tolerance the Newton step tolerance,
-//! `StepNewtonOptions::tolerance`; `trace` prints each step's iterations and wall time).
+//! `StepNewtonOptions::tolerance`; `trace` prints each step's iterations and wall time;
+//! `norelax` turns `StepNewtonOptions::relax_contact_nodes` off).
 //!
 //! `tangent [cells] [repeats]`: the Neo-Hookean tangent of the drop's cube (at a displacement
 //! of a few percent strain) assembled `repeats` times (default 20) each way, interleaved:
@@ -174,7 +175,8 @@ fn main() -> Result<()> {
     let (cells, steps, threads) = (number(1, 14), number(2, 100), number(3, 2));
     let solve: NonlinearSolve = arg(4, "auto").parse()?;
     let tolerance: f64 = arg(5, "1e-8").parse().unwrap_or(1e-8);
-    let trace = arg(6, "") == "trace";
+    let trace = args.iter().any(|a| a == "trace");
+    let relax = !args.iter().any(|a| a == "norelax");
     if scenario == "tangent" {
         return tangent_assembly(cells, number(2, 20));
     }
@@ -185,6 +187,7 @@ fn main() -> Result<()> {
     options.solver.cholesky.threads = threads;
     options.solver.nonlinear_solve = solve;
     options.solver.newton.tolerance = tolerance;
+    options.solver.newton.relax_contact_nodes = relax;
     let mut run = Transient::new(&definition, options)?;
     let free = run.system().free_count();
     let full: Vec<f64> = (0..definition.mesh.dof_count())

@@ -157,4 +157,19 @@ impl LaggedPoint {
     pub fn slip(&self, x: &Vector3<f64>) -> Vector3<f64> {
         self.projector * (x - self.start)
     }
+
+    /// The Hessian μ·λ·(f₁′(y)·ûûᵀ + (f₁(y)/y)·(P − ûûᵀ)) of this point's potential at slip
+    /// `slip` (y = |slip|, û = slip/y; force/length; PSD as it stands, f₁′ ≥ 0, f₁/y > 0).
+    pub(crate) fn stiffness(&self, slip: &Vector3<f64>, epsilon: f64) -> Matrix3<f64> {
+        let y = slip.norm();
+        let across = f1_over_y(y, epsilon);
+        let mut block = across * self.projector;
+        if y > 0.0 {
+            // Along the slip the curvature is f₁′(y), across it f₁(y)/y; both ≥ 0.
+            let along = f1_derivative(y, epsilon);
+            let unit = slip / y;
+            block += (along - across) * unit * unit.transpose();
+        }
+        self.limit * block
+    }
 }

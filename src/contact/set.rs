@@ -2,12 +2,12 @@
 //! force and tangent on the full DOF vector, the step limit of continuous collision detection,
 //! and the check that the body starts outside every obstacle.
 
+mod relax;
+
 use nalgebra::{Matrix3, Vector3};
 
 use super::barrier;
-use super::friction::{
-    FrictionLag, LaggedPoint, f0, f1_derivative, f1_over_y, speed_after_friction,
-};
+use super::friction::{FrictionLag, LaggedPoint, f0, f1_over_y, speed_after_friction};
 use super::{ContactParameters, Obstacle};
 use crate::base::error::{Error, Result};
 use crate::mesh::{BoundaryFace, CellType, NodeList, TetMesh};
@@ -1003,16 +1003,7 @@ impl Contact {
         let mut blocks = Vec::with_capacity(lag.points.len());
         for p in &lag.points {
             let slip = p.slip(&self.lagged_position(p, u)?);
-            let y = slip.norm();
-            let across = f1_over_y(y, lag.epsilon);
-            let mut block = across * p.projector;
-            if y > 0.0 {
-                // Along the slip the curvature is f₁′(y), across it f₁(y)/y; both ≥ 0.
-                let along = f1_derivative(y, lag.epsilon);
-                let unit = slip / y;
-                block += (along - across) * unit * unit.transpose();
-            }
-            blocks.push((p.node, p.limit * block));
+            blocks.push((p.node, p.stiffness(&slip, lag.epsilon)));
         }
         add_node_blocks(matrix, blocks)
     }

@@ -130,6 +130,7 @@ fn head_on<C: ModelElement>(
         newton: StepNewtonOptions {
             tolerance: 1e-11,
             max_iterations: 200,
+            relax_contact_nodes: true,
         },
         ..IntegratorOptions::default()
     };

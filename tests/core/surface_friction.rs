@@ -111,6 +111,7 @@ fn integrator_with_step(
         newton: StepNewtonOptions {
             tolerance: 1e-11,
             max_iterations: 200,
+            relax_contact_nodes: true,
         },
         ..IntegratorOptions::default()
     };
@@ -714,6 +715,7 @@ fn the_definition_route_carries_surface_friction() {
         options.solver.newton = StepNewtonOptions {
             tolerance: 1e-11,
             max_iterations: 200,
+            relax_contact_nodes: true,
         };
         let mut run = Transient::new(&definition, options).unwrap();
         let v = [Vector3::new(1.0, 0.5, 0.0), Vector3::new(-1.0, -0.5, 0.0)];

@@ -66,6 +66,7 @@ fn impact(bodies: &Bodies, solve: NonlinearSolve) -> (Vec<Vec<f64>>, NewtonStats
         newton: StepNewtonOptions {
             tolerance: 1e-10,
             max_iterations: 200,
+            relax_contact_nodes: true,
         },
         nonlinear_solve: solve,
         ..IntegratorOptions::default()

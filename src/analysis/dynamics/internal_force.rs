@@ -787,6 +787,22 @@ impl NonlinearForce {
         Ok(carried.map(|start| self.free_dofs.iter().map(|&d| start[d]).collect()))
     }
 
+    /// The moves of the contact nodes to the minimizers of their local problems at free
+    /// displacements `u` ([`Contact::relax_nodes`], the lagged friction included): `(mesh
+    /// node, move)` pairs (length); none without obstacle contact.
+    pub(crate) fn relax_contact_nodes(
+        &self,
+        u: &[f64],
+        local: impl Fn(usize) -> Option<(nalgebra::Vector3<f64>, nalgebra::Matrix3<f64>)>,
+    ) -> Result<Vec<(usize, nalgebra::Vector3<f64>)>> {
+        let Some(contact) = &self.contact else {
+            return Ok(Vec::new());
+        };
+        let full = self.full_displacement(u)?;
+        let lag = self.friction_lock();
+        contact.relax_nodes(lag.as_ref(), &full, local)
+    }
+
     /// The contact energy E_c(u) (energy units) of free displacements `u`, 0 without contact.
     pub fn contact_energy(&self, u: &[f64]) -> Result<f64> {
         match &self.contact {

@@ -42,6 +42,13 @@ pub(crate) trait NewtonSystem {
     /// residual norm.
     fn accept(&mut self, alpha: f64) -> f64;
 
+    /// A further move of the iterate just accepted (residual norm `r_norm`) that lowers the
+    /// problem's potential, e.g. the contact nodes' local problems; returns the residual norm
+    /// of the iterate it leaves. None by default.
+    fn refine(&mut self, r_norm: f64) -> Result<f64> {
+        Ok(r_norm)
+    }
+
     /// Another direction strategy when the budget is spent or the search failed (L-BFGS and
     /// CG fall back to a factorization): whether one was taken (the budget is then renewed).
     fn fall_back(&mut self) -> bool {
@@ -112,6 +119,7 @@ pub(crate) fn iterate(
         }
         let before = r_norm;
         r_norm = system.accept(alpha);
+        r_norm = system.refine(r_norm)?;
         iterations += 1;
         if !r_norm.is_finite() {
             return Ok(Err(Stall::NotFinite));

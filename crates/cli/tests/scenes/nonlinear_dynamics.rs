@@ -533,6 +533,7 @@ fn nonlinear_dynamics_errors_name_the_culprit() {
             newton: tetfem::analysis::dynamics::StepNewtonOptions {
                 tolerance,
                 max_iterations,
+                relax_contact_nodes: true,
             },
             ..IntegratorOptions::default()
         };
@@ -554,6 +555,7 @@ fn nonlinear_dynamics_errors_name_the_culprit() {
         newton: tetfem::analysis::dynamics::StepNewtonOptions {
             tolerance: 1e-12,
             max_iterations: 1,
+            relax_contact_nodes: true,
         },
         ..IntegratorOptions::default()
     };

@@ -22,9 +22,22 @@ use crate::sparse::CscMatrix;
 
 /// The free DOFs of one node: the first and how many (1 to 3), consecutive.
 #[derive(Debug, Clone, Copy)]
-struct Group {
-    first: usize,
-    count: usize,
+pub(super) struct Group {
+    pub first: usize,
+    pub count: usize,
+}
+
+/// The groups of `free_dofs` (full DOF `3·node + axis` of each free DOF, increasing): one per
+/// node with a free DOF.
+pub(super) fn node_groups(free_dofs: &[usize]) -> Vec<Group> {
+    let mut groups: Vec<Group> = Vec::new();
+    for (i, &dof) in free_dofs.iter().enumerate() {
+        match groups.last_mut() {
+            Some(g) if free_dofs[g.first] / 3 == dof / 3 => g.count += 1,
+            _ => groups.push(Group { first: i, count: 1 }),
+        }
+    }
+    groups
 }
 
 /// The diagonal node blocks of the factored J and, at each solve, the nodes whose block has
@@ -42,15 +55,8 @@ pub(crate) struct NodeCorrection {
 impl NodeCorrection {
     /// The groups of `free_dofs` (full DOF `3·node + axis` of each free DOF, increasing).
     pub fn new(free_dofs: &[usize]) -> Self {
-        let mut groups: Vec<Group> = Vec::new();
-        for (i, &dof) in free_dofs.iter().enumerate() {
-            match groups.last_mut() {
-                Some(g) if free_dofs[g.first] / 3 == dof / 3 => g.count += 1,
-                _ => groups.push(Group { first: i, count: 1 }),
-            }
-        }
         NodeCorrection {
-            groups,
+            groups: node_groups(free_dofs),
             factored: Vec::new(),
             changed: Vec::new(),
         }
@@ -147,7 +153,7 @@ impl NodeCorrection {
 
 /// The diagonal block of group `g` of `matrix` (identity where the node has fewer than three
 /// free DOFs, so that it inverts).
-fn block(matrix: &CscMatrix, g: Group) -> Matrix3<f64> {
+pub(super) fn block(matrix: &CscMatrix, g: Group) -> Matrix3<f64> {
     let (col_ptr, rows, values) = (matrix.col_ptr(), matrix.row_idx(), matrix.values());
     let mut b = Matrix3::identity();
     for c in 0..g.count {
