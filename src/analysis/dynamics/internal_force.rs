@@ -788,11 +788,13 @@ impl NonlinearForce {
     }
 
     /// The moves of the contact nodes to the minimizers of their local problems at free
-    /// displacements `u` ([`Contact::relax_nodes`], the lagged friction included): `(mesh
-    /// node, move)` pairs (length); none without obstacle contact.
+    /// displacements `u` ([`Contact::relax_nodes`], the lagged friction included, the barrier
+    /// weighted by `barrier_weight`): `(mesh node, move)` pairs (length); none without
+    /// obstacle contact.
     pub(crate) fn relax_contact_nodes(
         &self,
         u: &[f64],
+        barrier_weight: f64,
         local: impl Fn(usize) -> Option<(nalgebra::Vector3<f64>, nalgebra::Matrix3<f64>)>,
     ) -> Result<Vec<(usize, nalgebra::Vector3<f64>)>> {
         let Some(contact) = &self.contact else {
@@ -800,7 +802,7 @@ impl NonlinearForce {
         };
         let full = self.full_displacement(u)?;
         let lag = self.friction_lock();
-        contact.relax_nodes(lag.as_ref(), &full, local)
+        contact.relax_nodes(lag.as_ref(), &full, barrier_weight, local)
     }
 
     /// The contact energy E_c(u) (energy units) of free displacements `u`, 0 without contact.

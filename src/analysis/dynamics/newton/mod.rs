@@ -52,8 +52,9 @@ pub struct StepNewtonOptions {
     /// tolerance either way; on the 10k-DOF rubber block dropped onto frictional ground
     /// (`benches/interactive_contact.rs`, 100 steps) it took 3.10 Newton iterations a step
     /// instead of 5.95 at tolerance 1e-8 (at most 9 instead of 49) and 1.93 instead of 4.37 at
-    /// 1e-4. `false` leaves the iterates to Newton alone. Backward Euler only: a Newmark step
-    /// (contact weight 2) is not relaxed, nor one with body–body contact.
+    /// 1e-4. `false` leaves the iterates to Newton alone. Newmark's local problems count the
+    /// barrier twice, as its step equation does (its end-point contact); with body–body
+    /// contact nothing is relaxed.
     pub relax_contact_nodes: bool,
 }
 

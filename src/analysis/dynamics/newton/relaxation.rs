@@ -21,8 +21,9 @@ pub(super) struct RestBlocks {
 
 impl NewtonSolver {
     /// Moves the contact nodes of the accepted iterate `u_new` (residual norm `r_norm`) to
-    /// their local problems' minimizers when that lowers Φ and ‖r‖; returns the residual norm of the
-    /// iterate left. Only with rigid obstacles and nothing else in contact, at contact weight 1.
+    /// their local problems' minimizers when that lowers Φ and ‖r‖; returns the residual norm
+    /// of the iterate left. Only with rigid obstacles and no body–body contact; the barrier
+    /// weighted as the step equation weighs it ([`StepEquation::contact_weight`]).
     pub(super) fn relax_contact_nodes(
         &mut self,
         system: &LinearSystem,
@@ -34,22 +35,23 @@ impl NewtonSolver {
         if !self.options.relax_contact_nodes
             || self.force.contact().is_none()
             || self.force.surface_contact().is_some()
-            || self.contact_weight != 1.0
         {
             return Ok(r_norm);
         }
         self.ensure_rest_blocks(system, scales);
         let blocks = &self.rest_blocks.nodes;
         let residual = &self.residual;
-        let moves = self.force.relax_contact_nodes(u_new, |node| {
-            let (g, a) = blocks.get(node)?.as_ref()?;
-            let r = Vector3::new(
-                residual[g.first],
-                residual[g.first + 1],
-                residual[g.first + 2],
-            );
-            Some((r, *a))
-        })?;
+        let moves = self
+            .force
+            .relax_contact_nodes(u_new, self.contact_weight, |node| {
+                let (g, a) = blocks.get(node)?.as_ref()?;
+                let r = Vector3::new(
+                    residual[g.first],
+                    residual[g.first + 1],
+                    residual[g.first + 2],
+                );
+                Some((r, *a))
+            })?;
         if moves.is_empty() {
             return Ok(r_norm);
         }
