@@ -121,6 +121,27 @@ fn a_block_thrown_onto_frictional_ground_stays_above_it_on_either_newton_path() 
     );
 }
 
+/// Compares a run `b` (its trajectory, smallest gap in m, counts) with a reference run `a`:
+/// prints both, asserts that no node of `b` reached the ground and that `b` took fewer Newton
+/// iterations; returns the largest displacement of `a` and the distance between them (m).
+fn sooner_and_above(
+    label: &str,
+    (a, a_stats): (&[Vec<f64>], NewtonStats),
+    (b, gap, stats): (&[Vec<f64>], f64, NewtonStats),
+) -> (f64, f64) {
+    let (scale, distance) = (largest(a), distance_between(a, b));
+    println!(
+        "{label}: distance {distance:e} m of {scale:e} m, gap {gap:e} m, {stats:?} against \
+         {a_stats:?}"
+    );
+    assert!(gap > 0.0, "a node reached the ground: gap {gap:e} m");
+    assert!(
+        stats.total_iterations < a_stats.total_iterations,
+        "{label}: {stats:?} against {a_stats:?}"
+    );
+    (scale, distance)
+}
+
 /// The largest |u| of any DOF over a trajectory (m).
 fn largest(path: &[Vec<f64>]) -> f64 {
     path.iter().flatten().fold(0.0f64, |m, u| m.max(u.abs()))
@@ -139,19 +160,10 @@ fn the_interactive_step_tolerance_keeps_the_thrown_block_near_the_tight_trajecto
     let solve: NonlinearSolve = "rest_preconditioned".parse().unwrap();
     let (tight, _, tight_stats) = slide(solve, StepNewtonOptions::default());
     let (loose, gap, stats) = slide(solve, StepNewtonOptions::interactive());
-    let (scale, distance) = (largest(&tight), distance_between(&tight, &loose));
-    println!(
-        "tolerance {:e}: distance {distance:e} m of {scale:e} m, gap {gap:e} m, {stats:?} \
-         against {tight_stats:?}",
-        StepNewtonOptions::interactive().tolerance
-    );
-    // The barrier and the collision-free line search hold at any tolerance.
-    assert!(gap > 0.0, "a node reached the ground: gap {gap:e} m");
-    // Looser steps stop sooner.
-    assert!(
-        stats.total_iterations < tight_stats.total_iterations,
-        "{stats:?} against {tight_stats:?}"
-    );
+    // Looser steps stop sooner; the barrier and the collision-free line search hold at any
+    // tolerance.
+    let label = format!("tolerance {:e}", StepNewtonOptions::interactive().tolerance);
+    let (scale, distance) = sooner_and_above(&label, (&tight, tight_stats), (&loose, gap, stats));
     // Each step stops at ‖r‖ ≤ 1e-4 of its reference force, so its solution is off by about
     // 1e-4 of the step's motion, and 25 such errors stay below 1e-4 of the largest
     // displacement unless they grow (friction's stick–slip could amplify them). Measured with
@@ -180,19 +192,11 @@ fn relaxing_the_contact_nodes_takes_fewer_newton_iterations_to_the_same_trajecto
         };
         let (with, gap, stats) = slide_with(method, solve, relaxed);
         let (without, _, alone_stats) = slide_with(method, solve, alone);
-        let (scale, distance) = (largest(&without), distance_between(&without, &with));
-        println!(
-            "{method:?}, {}: distance {distance:e} m of {scale:e} m, gap {gap:e} m, {stats:?} \
-             against {alone_stats:?}",
-            solve.name()
-        );
-        assert!(gap > 0.0, "a node reached the ground: gap {gap:e} m");
         // The local problems put each contact node on the right side of the stick–slip
         // switch, which Newton's quadratic model of friction sees only within ε of it.
-        assert!(
-            stats.total_iterations < alone_stats.total_iterations,
-            "{stats:?} against {alone_stats:?}"
-        );
+        let label = format!("{method:?}, {}", solve.name());
+        let (scale, distance) =
+            sooner_and_above(&label, (&without, alone_stats), (&with, gap, stats));
         // Both stop each step at ‖r‖ ≤ 1e-8 of its reference force, the same equation from
         // other iterates: the solutions differ by about 1e-8 of a step's motion, carried on by
         // the steps after (1e-7 of the largest displacement over 25 steps, as in the test of
