@@ -16,15 +16,14 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::sync::Arc;
-use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::Instant;
 
 use clap::Parser;
-use nalgebra::{Matrix3, Vector3};
+use nalgebra::Matrix3;
 use tetfem::BoxSplit;
 use tetfem::analysis::dynamics::{Integrator, InternalForce, NewtonStats, NonlinearSolve, State};
-use tetfem::fe::element::{Matrix12, Tet, Vector12};
-use tetfem::model::{ConstitutiveLaw, ForceModel, Matrix9, ModelKind};
+use tetfem::model::ModelKind;
+use tetfem_fixtures::counting::{Call, Counting};
 use tetfem_fixtures::swing::Swing;
 use tetfem_validation::cells::parse_cells;
 use tetfem_validation::chart::{Chart, Mark, Series};
@@ -148,73 +147,6 @@ fn breakdown(force: &InternalForce, reference: &Run, linear_seconds: f64) -> tet
     Ok(())
 }
 
-/// Calls of each of a model's per-tet methods, summed over threads: force-and-energy, force
-/// alone, energy alone and tangent.
-#[derive(Default)]
-struct Calls([AtomicUsize; 4]);
-
-/// A model that counts its per-tet calls into `calls` and otherwise is `inner`, bit for bit.
-struct Counting {
-    inner: Box<dyn ForceModel>,
-    calls: Arc<Calls>,
-}
-
-impl Counting {
-    fn tick(&self, which: usize) {
-        self.calls.0[which].fetch_add(1, Ordering::Relaxed);
-    }
-}
-
-impl ConstitutiveLaw for Counting {
-    fn energy_density(&self, f: &Matrix3<f64>) -> f64 {
-        self.inner.energy_density(f)
-    }
-    fn first_piola(&self, f: &Matrix3<f64>) -> Matrix3<f64> {
-        self.inner.first_piola(f)
-    }
-    fn piola_tangent(&self, f: &Matrix3<f64>) -> Matrix9 {
-        self.inner.piola_tangent(f)
-    }
-    fn cauchy(&self, f: &Matrix3<f64>) -> Matrix3<f64> {
-        self.inner.cauchy(f)
-    }
-}
-
-impl ForceModel for Counting {
-    fn energy(&self, tet: &Tet, rest: &[Vector3<f64>; 4], x: &[Vector3<f64>; 4]) -> f64 {
-        self.tick(2);
-        self.inner.energy(tet, rest, x)
-    }
-    fn force(&self, tet: &Tet, rest: &[Vector3<f64>; 4], x: &[Vector3<f64>; 4]) -> Vector12 {
-        self.tick(1);
-        self.inner.force(tet, rest, x)
-    }
-    fn force_and_energy(
-        &self,
-        tet: &Tet,
-        rest: &[Vector3<f64>; 4],
-        x: &[Vector3<f64>; 4],
-    ) -> (Vector12, f64) {
-        self.tick(0);
-        self.inner.force_and_energy(tet, rest, x)
-    }
-    fn tangent(&self, tet: &Tet, rest: &[Vector3<f64>; 4], x: &[Vector3<f64>; 4]) -> Matrix12 {
-        self.tick(3);
-        self.inner.tangent(tet, rest, x)
-    }
-    fn cauchy_stress(
-        &self,
-        tet: &Tet,
-        rest: &[Vector3<f64>; 4],
-        x: &[Vector3<f64>; 4],
-    ) -> Matrix3<f64> {
-        self.inner.cauchy_stress(tet, rest, x)
-    }
-    fn name(&self) -> &'static str {
-        self.inner.name()
-    }
-}
-
 /// A run's trajectory in one number (FNV-1a over the bits of every displacement of every
 /// step): two binaries that print the same one computed the same trajectory to the bit.
 fn trajectory_hash(run: &Run) -> u64 {
@@ -249,11 +181,7 @@ fn account(swing: &Swing, model: ModelKind, linear: &Run, cli: &Cli) -> tetfem::
         default_tolerance,
         cli,
     )?;
-    let calls = Arc::new(Calls::default());
-    let counting = Box::new(Counting {
-        inner: model.build(&swing.problem.material),
-        calls: Arc::clone(&calls),
-    });
+    let (counting, calls) = Counting::wrap(model.build(&swing.problem.material));
     let counted_force = InternalForce::of_model(Arc::clone(&swing.mesh), counting, &swing.system)?;
     let counted = run(
         swing,
@@ -272,9 +200,8 @@ fn account(swing: &Swing, model: ModelKind, linear: &Run, cli: &Cli) -> tetfem::
         "CPU time a step: default {:.6} s, linear {:.6} s",
         timed.cpu_seconds, linear.cpu_seconds
     );
-    let tets = swing.mesh.tet_count() as f64;
     let steps = cli.steps as f64;
-    let per_step = |k: usize| calls.0[k].load(Ordering::Relaxed) as f64 / tets / steps;
+    let per_step = |kind: Call| calls.passes(kind, swing.mesh.tet_count()) / steps;
     let iterations = timed.stats.total_iterations as f64 / steps;
     println!(
         "default: {:.5} s a step, {:.2}× linear ({:.5} s), CPU time {:.2}× linear's; per step: {iterations:.2} L-BFGS iterations, \
@@ -284,10 +211,10 @@ fn account(swing: &Swing, model: ModelKind, linear: &Run, cli: &Cli) -> tetfem::
         timed.step_seconds / linear.step_seconds,
         linear.step_seconds,
         timed.cpu_seconds / linear.cpu_seconds,
-        per_step(0),
-        per_step(1),
-        per_step(2),
-        per_step(3),
+        per_step(Call::ForceAndEnergy),
+        per_step(Call::Force),
+        per_step(Call::Energy),
+        per_step(Call::Tangent),
     );
     let InternalForce::Nonlinear(force) = plain()? else {
         return Ok(());
@@ -333,7 +260,7 @@ fn account(swing: &Swing, model: ModelKind, linear: &Run, cli: &Cli) -> tetfem::
     // passes are the fastest of their repeats.
     let lin = linear.cpu_seconds;
     let step = timed.cpu_seconds;
-    let passes = per_step(0) * pass + per_step(2) * energy;
+    let passes = per_step(Call::ForceAndEnergy) * pass + per_step(Call::Energy) * energy;
     println!(
         "one force+energy pass {pass:.5} s ({:.2}× linear), energy pass {energy:.5} s ({:.2}×), \
          nodal rotations {turn:.5} s ({:.2}×); a step's passes {:.2}× linear, its rotations {:.2}×, \

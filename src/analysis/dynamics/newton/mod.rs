@@ -33,7 +33,9 @@ use direction::{NewtonMatrix, StepDirection};
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct StepNewtonOptions {
     /// A step has converged when ‖r‖ ≤ tolerance·max(‖r₀‖, ‖f‖), r₀ the residual of the
-    /// implicit equation at the step's start u' = u and f the external load (default 1e-8),
+    /// implicit equation at the step's start u' = u (on `NonlinearSolve::Auto`'s L-BFGS path,
+    /// at the guess the iterations start from, backward Euler's u + dt·v + dt²·(2a − a₋₁),
+    /// where there is one) and f the external load (default 1e-8),
     /// or at the round-off floor of the internal forces: below 1e-6 of that reference, a
     /// residual that no longer halves (the O(E·|X|) terms of an element force cancel to
     /// O(E·strain), and more iterations cannot lower the noise that leaves). On
@@ -166,9 +168,10 @@ pub(crate) struct StepEquation<'a> {
     pub load: &'a [f64],
     /// A guess of u' nearer than `start` (length; backward Euler: u + dt·v + dt²·(2a − a₋₁)
     /// with the last two steps' accelerations, or u + dt·v + dt²·a after one step), which the
-    /// iterations start from when its residual or its Φ is the smaller one; `None` to start at
-    /// `start`. Not taken with contact: `start` is the iterate known to be free of
-    /// penetration. The convergence test is the same either way.
+    /// iterations start from when its residual or its Φ is the smaller one (on the path that
+    /// stops by the correction test, always: see `iterate_at_smoothing`);
+    /// `None` to start at `start`. Not taken with contact: `start` is the iterate known to be
+    /// free of penetration.
     pub first_iterate: Option<&'a [f64]>,
     /// w, the weight of the contact barrier in the step equation (dimensionless): the residual
     /// holds −w·f_c(u'), Φ holds w·E_c(u') and J w·∂²E_c. Backward Euler 1; Newmark 2, its
@@ -237,6 +240,10 @@ pub(crate) struct NewtonSolver {
     last_correction: f64,
     /// J₀'s node blocks for the contact nodes' local problems.
     rest_blocks: relaxation::RestBlocks,
+    /// Where the last step ended when its last correction was taken unevaluated
+    /// ([`NewtonSystem::take_converged_direction`]; empty otherwise): the force and energy
+    /// held are those of the iterate before it.
+    untested_end: Vec<f64>,
 }
 
 /// The line-search fraction at or below which a Newton step counts as short (see
@@ -309,6 +316,7 @@ impl NewtonSolver {
             correction_tolerance,
             last_correction: f64::INFINITY,
             rest_blocks: relaxation::RestBlocks::default(),
+            untested_end: Vec::new(),
         })
     }
 
@@ -379,15 +387,27 @@ impl NewtonSolver {
     /// implicit step's divergence guard: from the last residual's pass when it was made at
     /// `state.displacement` (the end of the last step) without contact, else a pass of its own.
     /// Before, every implicit corotational step made that pass over the tets for the guard alone.
+    ///
+    /// Where the last step ended with a correction taken unevaluated
+    /// ([`NewtonSystem::take_converged_direction`]), the elastic energy is the one of the
+    /// iterate before it, which the correction test put within [`AUTO_LBFGS_CORRECTION`]
+    /// (1e-4) of the step's motion of the end: the guard fires at ten times the energy the
+    /// start and the loads' work can supply, so that difference cannot decide it, and a pass
+    /// of its own would cost as much as the one the stop saved.
+    ///
+    /// [`AUTO_LBFGS_CORRECTION`]: super::AUTO_LBFGS_CORRECTION
     pub fn elastic_energy_of(
         &self,
         system: &LinearSystem,
         state: &super::State,
     ) -> Result<super::Energy> {
-        match !self.force.has_contact() {
-            true => self.energy_at_net_force(system, state),
-            false => self.force.energy(system, state),
+        if self.force.has_contact() {
+            return self.force.energy(system, state);
         }
+        if self.internal_valid && self.untested_end == state.displacement {
+            return NonlinearForce::energy_with_elastic(system, state, self.internal_energy);
+        }
+        self.energy_at_net_force(system, state)
     }
 
     /// r(u') of `equation` into the residual, or the trial residual when `out_is_trial`.
@@ -553,6 +573,7 @@ impl NewtonSolver {
         time: f64,
     ) -> Result<usize> {
         u_new.copy_from_slice(equation.start);
+        self.untested_end.clear();
         self.direction.begin_step();
         self.contact_weight = 1.0;
         if weight::extra_weight(&self.force, equation).is_some() {
@@ -737,7 +758,19 @@ impl NewtonSolver {
         self.direction.begin_iterations();
         self.short_steps = 0;
         self.last_correction = f64::INFINITY;
-        if !std::mem::take(&mut self.residual_at_start) {
+        // On the path that stops by the correction test the iterations begin at the guess
+        // without comparing it with the start: the last step's final correction was taken
+        // unevaluated (`take_converged_direction`), so the start's residual would cost a pass of
+        // its own, the pass the stop saved. The comparison took the guess at every step of the
+        // swings measured (`tests/core/corotational_step.rs`' 105° swing: by Φ at all 24, its
+        // residual 1.1–10× the start's), and r₀ of the reference below becomes the residual at
+        // the first iterate, as in PETSc's SNES.
+        let guess = equation.first_iterate.filter(|_| !self.force.has_contact());
+        let from_guess = guess.filter(|_| self.correction_tolerance.is_some());
+        if let Some(guess) = from_guess {
+            u_new.copy_from_slice(guess);
+            self.residual_into(system, equation, guess, false)?;
+        } else if !std::mem::take(&mut self.residual_at_start) {
             self.residual_into(system, equation, u_new, false)?;
         }
         let mut r_norm = norm(&self.residual);
@@ -756,7 +789,7 @@ impl NewtonSolver {
             false => reference,
         };
         self.last_reference = reference;
-        if let Some(guess) = equation.first_iterate.filter(|_| !self.force.has_contact()) {
+        if let Some(guess) = guess.filter(|_| from_guess.is_none()) {
             self.residual_into(system, equation, guess, true)?;
             let guessed = norm(&self.trial_residual);
             // Φ too, as the line search accepts: the guess is nearer in the soft, large modes a
@@ -809,6 +842,19 @@ impl NewtonSolver {
                 Err(diverged("the Newton residual is no longer finite".into()))
             }
         }
+    }
+
+    /// The correction test of [`AUTO_LBFGS_CORRECTION`](super::AUTO_LBFGS_CORRECTION) for a
+    /// step of size `step` (‖s‖∞, length) after the last accepted one, the iterate it leads to
+    /// `moved` (‖u' − u‖∞) from the step's start: θ/(1 − θ)·‖s‖∞ ≤ τ·‖u' − u‖∞ with
+    /// θ = ‖s‖∞/‖s₋₁‖∞ < 1 (Hairer & Wanner, *Solving ODEs II*, IV.8). False off the path that
+    /// stops by it, and at a run's first step (no contraction seen yet: θ = 0).
+    fn correction_converged(&self, step: f64, moved: f64) -> bool {
+        let Some(tau) = self.correction_tolerance else {
+            return false;
+        };
+        let theta = step / self.last_correction;
+        theta > 0.0 && theta < 1.0 && theta / (1.0 - theta) * step <= tau * moved
     }
 
     /// Counts a solved step of `iterations` iterations.
@@ -1007,23 +1053,37 @@ impl NewtonSystem for StepSystem<'_> {
             .relax_contact_nodes(self.system, self.equation, self.u_new, self.scales, r_norm)
     }
 
-    fn converged_by_correction(&mut self, alpha: f64) -> bool {
-        let Some(tau) = self.solver.correction_tolerance else {
-            return false;
-        };
-        let step = alpha * max_abs(&self.solver.delta);
-        // θ = 0 at the run's first step (no contraction seen yet): never converged by it.
-        let theta = step / self.solver.last_correction;
-        self.solver.last_correction = step;
-        if !(theta > 0.0 && theta < 1.0) {
+    fn take_converged_direction(&mut self) -> bool {
+        let solver = &mut *self.solver;
+        let step = max_abs(&solver.delta);
+        let moved = (self
+            .u_new
+            .iter()
+            .zip(&solver.delta)
+            .zip(self.equation.start))
+        .fold(0.0f64, |m, ((u, d), u0)| m.max((u + d - u0).abs()));
+        if !solver.correction_converged(step, moved) {
             return false;
         }
+        for (u, d) in self.u_new.iter_mut().zip(&solver.delta) {
+            *u += d;
+        }
+        solver.force.note_iterate(self.u_new);
+        solver.untested_end.clear();
+        solver.untested_end.extend_from_slice(self.u_new);
+        true
+    }
+
+    fn converged_by_correction(&mut self, alpha: f64) -> bool {
+        let step = alpha * max_abs(&self.solver.delta);
         let moved = self
             .u_new
             .iter()
             .zip(self.equation.start)
             .fold(0.0f64, |m, (u, u0)| m.max((u - u0).abs()));
-        theta / (1.0 - theta) * step <= tau * moved
+        let converged = self.solver.correction_converged(step, moved);
+        self.solver.last_correction = step;
+        converged
     }
 
     fn describe(&self, iteration: usize) -> String {
