@@ -129,11 +129,17 @@ pub const AUTO_LBFGS_TOLERANCE: f64 = 1e-3;
 /// took 154 iterations against 195 at 5.05e-5; τ = 1e-3 there took 109 iterations but left
 /// the target (7.5e-4), so τ is not larger. The distance is not monotone in τ (3e-5: 167
 /// iterations at 5.7e-5; 1e-5: 184 at 3.3e-5): θ from two L-BFGS steps is a rough estimate.
+/// Over a longer swing the distance grows with the path a per-step test lets through: run for
+/// 100 steps (the beam swinging back, `--steps 100`, 2 threads) τ = 1e-4 left 1.31e-4 at 2,700
+/// DOFs (274 iterations), 8.23e-5 at 9,720 (290) and 7.18e-5 at 38,808 (308); τ = 5e-5 held
+/// them to 5.72e-5, 3.54e-5 and 4.94e-5 in 8–11 % more iterations, and took 2.25–2.40
+/// iterations a step instead of 2.10–2.20 over the 20-step swing at every size from 2,700 to
+/// 132,300 DOFs, most of what the unevaluated last correction (below) saves. Not taken.
 ///
 /// The test is also made on each direction before its line search, with θ = ‖δ‖∞/‖s_{k−1}‖∞:
 /// where it holds, the step takes δ whole and stops without evaluating the force there (the
 /// order of Hairer and Wanner's own rule), so a step makes one force pass an iteration instead
-/// of one more. On the 38° swing the trajectories kept their bits at 2,700–38,808 DOFs (the
+/// of one more. On the 38° swing the trajectories kept their bits at 2,700–132,300 DOFs (the
 /// same iterates: the search had taken those directions whole), at 2.1–2.2 passes a step
 /// instead of 3.1–3.2; on the 105° swing, 151 iterations at 5.21e-5 (the reference r₀ now
 /// the residual at the guess, see [`StepNewtonOptions::tolerance`](super::StepNewtonOptions)).
