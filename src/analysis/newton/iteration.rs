@@ -87,7 +87,8 @@ pub(crate) enum Stall {
 
 /// Newton's iterations on `system` from residual norm `r_norm` until ‖r‖ ≤
 /// `tolerance`·`reference`, the round-off floor or the system's own correction test
-/// ([`NewtonSystem::converged_by_correction`]), at most `max_iterations` per direction
+/// ([`NewtonSystem::converged_by_correction`] after a step,
+/// [`NewtonSystem::take_converged_direction`] before its line search), at most `max_iterations` per direction
 /// strategy. Returns the iterations taken, or the [`Stall`] (the caller names its problem in
 /// its error); errors of the system's evaluations and of the interrupt test pass through.
 pub(crate) fn iterate(

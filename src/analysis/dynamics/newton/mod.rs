@@ -763,7 +763,7 @@ impl NewtonSolver {
         // unevaluated (`take_converged_direction`), so the start's residual would cost a pass of
         // its own, the pass the stop saved. The comparison took the guess at every step of the
         // swings measured (`tests/core/corotational_step.rs`' 105° swing: by Φ at all 24, its
-        // residual 1.1–10× the start's), and r₀ of the reference below becomes the residual at
+        // residual 1.07–17× the start's), and r₀ of the reference below becomes the residual at
         // the first iterate, as in PETSc's SNES.
         let guess = equation.first_iterate.filter(|_| !self.force.has_contact());
         let from_guess = guess.filter(|_| self.correction_tolerance.is_some());
