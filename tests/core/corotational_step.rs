@@ -250,7 +250,7 @@ fn the_lbfgs_trajectory_converges_to_newtons_as_the_tolerance_shrinks() {
 /// correction test of `AUTO_LBFGS_CORRECTION`) keep the trajectory of a large swing (tip
 /// rotation > 30°, 1,800 DOFs, dt = 20 ms, 25 steps) within 1e-4 of the refactoring one in
 /// displacement, relative to the largest displacement: the target for an animation
-/// (measured 5.21e-5 in 151 iterations, a margin of 1.9×; with the residual test alone 1.45e-5
+/// (measured 5.22e-5 in 153 iterations, a margin of 1.9×; with the residual test alone 1.45e-5
 /// in 195; the correction test at τ = 1e-3 left the target, 7.5e-4). They stop early (fewer L-BFGS iterations than the same L-BFGS asked to
 /// 1e-8, which is what the looser stop is for) and never fall back.
 #[test]

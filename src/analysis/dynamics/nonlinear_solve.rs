@@ -138,11 +138,13 @@ pub const AUTO_LBFGS_TOLERANCE: f64 = 1e-3;
 ///
 /// The test is also made on each direction before its line search, with θ = ‖δ‖∞/‖s_{k−1}‖∞:
 /// where it holds, the step takes δ whole and stops without evaluating the force there (the
-/// order of Hairer and Wanner's own rule), so a step makes one force pass an iteration instead
-/// of one more. On the 38° swing the trajectories kept their bits at 2,700–132,300 DOFs (the
-/// same iterates: the search had taken those directions whole), at 2.1–2.2 passes a step
-/// instead of 3.1–3.2; on the 105° swing, 151 iterations at 5.21e-5 (the reference r₀ now
-/// the residual at the guess, see [`StepNewtonOptions::tolerance`](super::StepNewtonOptions)).
+/// order of Hairer and Wanner's own rule), so a step makes about one force pass an iteration
+/// instead of one more (the next step starts at its guess without the start's pass where the
+/// guess's residual is within the step's own forces, or Φ rises from it toward the start). On the 38° swing the trajectories kept
+/// their bits at 2,700–132,300 DOFs (the same iterates: the search had taken those directions
+/// whole), at 2.1–2.4 passes a step instead of 3.1–3.2; on the 105° swing, 153 iterations at
+/// 5.22e-5 (the reference r₀ then the residual at the guess, see
+/// [`StepNewtonOptions::tolerance`](super::StepNewtonOptions)).
 pub const AUTO_LBFGS_CORRECTION: f64 = 1e-4;
 
 /// The CG settings of [`NonlinearSolve::Auto`]'s preconditioned path, and of an L-BFGS step's
