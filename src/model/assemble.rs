@@ -44,19 +44,44 @@ pub fn energy<E: ModelElement>(
     model: &(impl TetModels + ?Sized),
     u: &[f64],
 ) -> Result<f64> {
-    use rayon::prelude::*;
     check_displacement(mesh, u)?;
     model.check_covers(mesh.tet_count())?;
-    let tets = mesh.tet_count();
+    Ok(sum_in_chunks(mesh.tet_count(), |chunk| {
+        chunk
+            .map(|t| E::model_energy(model.model_of(t), mesh, t, u))
+            .sum()
+    }))
+}
+
+/// [`energy`] with tet `t`'s rest element read from `kept[t]` instead of rebuilt from the
+/// nodes (as [`internal_force_and_energy_kept_into`]): the same bits, without an inverse and a
+/// determinant per tet and pass.
+///
+/// Errors: those of [`energy`], or `kept` is not one element per tet.
+pub fn energy_kept<E: ModelElement>(
+    mesh: &TetMesh<E>,
+    kept: &[Tet],
+    model: &(impl TetModels + ?Sized),
+    u: &[f64],
+) -> Result<f64> {
+    check_displacement(mesh, u)?;
+    Error::check_len("kept rest elements", mesh.tet_count(), kept.len())?;
+    model.check_covers(mesh.tet_count())?;
+    Ok(sum_in_chunks(mesh.tet_count(), |chunk| {
+        E::model_energies_kept(mesh, kept, model, u, chunk)
+    }))
+}
+
+/// Σ `sum(chunk)` over the chunks of [`ENERGY_CHUNK`] tets of `0..tets`, each `sum` the
+/// chunk's terms in order, computed in parallel and added in order: the same bits on any
+/// number of threads.
+fn sum_in_chunks(tets: usize, sum: impl Fn(std::ops::Range<usize>) -> f64 + Sync) -> f64 {
+    use rayon::prelude::*;
     let partial: Vec<f64> = (0..tets.div_ceil(ENERGY_CHUNK))
         .into_par_iter()
-        .map(|chunk| {
-            (chunk * ENERGY_CHUNK..((chunk + 1) * ENERGY_CHUNK).min(tets))
-                .map(|t| E::model_energy(model.model_of(t), mesh, t, u))
-                .sum::<f64>()
-        })
+        .map(|chunk| sum(chunk * ENERGY_CHUNK..((chunk + 1) * ENERGY_CHUNK).min(tets)))
         .collect();
-    Ok(partial.iter().sum())
+    partial.iter().sum()
 }
 
 /// Internal force vector Σₑ fₑ at displacement `u` (full length, force units), each tet with
@@ -148,6 +173,24 @@ pub fn refill_tangent<E: ModelElement>(
     check_displacement(mesh, u)?;
     model.check_covers(mesh.tet_count())?;
     E::refill_model_tangent(mesh, assembler, model, u, project, tangent)
+}
+
+/// [`refill_tangent`] with each tet's rest element read from `kept` (one per tet) instead of
+/// rebuilt from the nodes: the same bits.
+///
+/// Errors: those of [`refill_tangent`], or `kept` is not one element per tet.
+pub fn refill_tangent_kept<E: ModelElement>(
+    mesh: &TetMesh<E>,
+    kept: &[Tet],
+    assembler: &Assembler,
+    model: &(impl TetModels + ?Sized),
+    (u, project): (&[f64], bool),
+    tangent: &mut CscMatrix,
+) -> Result<()> {
+    check_displacement(mesh, u)?;
+    Error::check_len("kept rest elements", mesh.tet_count(), kept.len())?;
+    model.check_covers(mesh.tet_count())?;
+    E::refill_model_tangent_kept(mesh, kept, assembler, model, (u, project), tangent)
 }
 
 /// The volume-weighted sum Aᵢ = Σₑ∋ᵢ Vₑ·Fₑ of the deformation gradients of the tets around each

@@ -21,7 +21,7 @@ use crate::contact::{Contact, ContactParameters, FrictionLag, GAP_ERROR_WARNING}
 use crate::fe::assembly::Assembler;
 use crate::fe::element::Tet;
 use crate::mesh::TetMesh;
-use crate::model::assemble::{energy, internal_force, refill_tangent};
+use crate::model::assemble::{energy_kept, internal_force, refill_tangent_kept};
 use crate::model::{ForceModel, ModelElement, ModelKind, ModelMap, TetModels};
 use crate::sparse::CscMatrix;
 
@@ -1212,7 +1212,7 @@ impl<E: ModelElement> ForceMesh for KeptMesh<E> {
     }
 
     fn energy(&self, models: &(dyn TetModels + Send), u: &[f64]) -> Result<f64> {
-        energy(self.mesh.as_ref(), models, u)
+        energy_kept(self.mesh.as_ref(), &self.elements, models, u)
     }
 
     fn internal_force(&self, models: &(dyn TetModels + Send), u: &[f64]) -> Result<Vec<f64>> {
@@ -1242,7 +1242,14 @@ impl<E: ModelElement> ForceMesh for KeptMesh<E> {
         project: bool,
         tangent: &mut CscMatrix,
     ) -> Result<()> {
-        refill_tangent(self.mesh.as_ref(), assembler, models, u, project, tangent)
+        refill_tangent_kept(
+            self.mesh.as_ref(),
+            &self.elements,
+            assembler,
+            models,
+            (u, project),
+            tangent,
+        )
     }
 
     fn nodal_deformation_gradients(
