@@ -1101,12 +1101,7 @@ impl NewtonSystem for StepSystem<'_> {
     fn take_converged_direction(&mut self) -> bool {
         let solver = &mut *self.solver;
         let step = max_abs(&solver.delta);
-        let moved = (self
-            .u_new
-            .iter()
-            .zip(&solver.delta)
-            .zip(self.equation.start))
-        .fold(0.0f64, |m, ((u, d), u0)| m.max((u + d - u0).abs()));
+        let moved = moved_from(self.equation.start, self.u_new, Some(&solver.delta));
         if !solver.correction_converged(step, moved) {
             return false;
         }
@@ -1121,11 +1116,7 @@ impl NewtonSystem for StepSystem<'_> {
 
     fn converged_by_correction(&mut self, alpha: f64) -> bool {
         let step = alpha * max_abs(&self.solver.delta);
-        let moved = self
-            .u_new
-            .iter()
-            .zip(self.equation.start)
-            .fold(0.0f64, |m, (u, u0)| m.max((u - u0).abs()));
+        let moved = moved_from(self.equation.start, self.u_new, None);
         let converged = self.solver.correction_converged(step, moved);
         self.solver.last_correction = step;
         converged
@@ -1133,6 +1124,18 @@ impl NewtonSystem for StepSystem<'_> {
 
     fn describe(&self, iteration: usize) -> String {
         format!("Newton iteration {iteration} of step {}", self.step + 1)
+    }
+}
+
+/// ‖u' − u‖∞ (length), u' the iterate `u_new` moved by the direction `delta` when there is
+/// one: how far the iterate a correction test judges is from the step's `start`.
+fn moved_from(start: &[f64], u_new: &[f64], delta: Option<&[f64]>) -> f64 {
+    let farthest = |m: f64, (u, u0): (f64, &f64)| m.max((u - u0).abs());
+    match delta {
+        Some(delta) => (u_new.iter().zip(delta).map(|(u, d)| u + d))
+            .zip(start)
+            .fold(0.0, farthest),
+        None => u_new.iter().copied().zip(start).fold(0.0, farthest),
     }
 }
 
