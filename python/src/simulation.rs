@@ -10,7 +10,7 @@ use pyo3::types::PyDict;
 use tetfem::analysis::Definition;
 use tetfem::analysis::dynamics::{
     Checkpoint, Energy, IntegratorHistory, IntegratorOptions, InternalForce, LinearSystem, Mass,
-    Rayleigh, State,
+    Rayleigh, State, StepNewtonOptions,
 };
 use tetfem::analysis::transient::{
     AdaptiveStep, Flow, Observer, StepView, Transient, TransientOptions, critical_step,
@@ -57,7 +57,13 @@ fn energy_dict<'py>(py: Python<'py>, e: &Energy) -> PyResult<Bound<'py, PyDict>>
 /// scene runner's ``TimeData``. The run starts at time 0 from ``initial_displacement`` (n, 3), m
 /// (default zero) and ``initial_velocity`` (3,) or (n, 3), m/s (default zero); both are taken on
 /// the free DOFs. ``linear_solver`` (implicit methods): ``"auto"``, ``"direct"`` or
-/// ``"iterative"``. ``contact_impact_fraction`` f (0 < f < 1, default off; the scenes'
+/// ``"iterative"``. With a nonlinear model (implicit methods), ``nonlinear_solver``: how each
+/// Newton iteration solves, ``"auto"`` (default), ``"rest_lbfgs"``, ``"rest_preconditioned"`` or
+/// ``"refactor"`` (the scenes' ``analysis.nonlinear_solver``), and ``newton_tolerance`` each
+/// step's tolerance, ‖r‖ ≤ t·max(‖r₀‖, ‖f‖), 0 < t < 1 (default 1e-8; ``analysis.newton_tolerance``).
+/// ``relax_contact_nodes`` (default True; ``analysis.relax_contact_nodes``): with obstacles,
+/// each node in contact moved to its own barrier's and friction's minimum after every Newton
+/// step (the same solution in fewer iterations). ``contact_impact_fraction`` f (0 < f < 1, default off; the scenes'
 /// ``[contact] impact_fraction``): the obstacles' impact-aware barrier stiffness of the
 /// implicit methods, each landing node its own κᵢ = max(κ, mᵢ·vₙ²/(2·Aᵢ·b(f·d̂))) (Pa/m) so
 /// that it stops near f·d̂, where a step resolves the impact. ``self_contact=True`` puts the
@@ -375,10 +381,28 @@ impl PySimulation {
     }
 }
 
+/// The Newton settings of the implicit steps: the library's defaults with `tolerance` (when
+/// given) and the contact nodes' relaxation, checked by the library
+/// ([`StepNewtonOptions::check`]) whatever the model.
+fn newton_options(
+    py: Python<'_>,
+    tolerance: Option<f64>,
+    relax_contact_nodes: bool,
+) -> PyResult<StepNewtonOptions> {
+    let default = StepNewtonOptions::default();
+    let options = StepNewtonOptions {
+        tolerance: tolerance.unwrap_or(default.tolerance),
+        relax_contact_nodes,
+        ..default
+    };
+    options.check().or_raise(py)?;
+    Ok(options)
+}
+
 #[pymethods]
 impl PySimulation {
     #[new]
-    #[pyo3(signature = (mesh, material, constraints, loads = None, *, dt, method = "backward-euler", model = names::ModelArg::default(), mass = "lumped", damping = (0.0, 0.0), initial_displacement = None, initial_velocity = None, linear_solver = "auto", obstacles = None, contact_distance = None, contact_stiffness = None, contact_impact_fraction = None, self_contact = false, self_contact_distance = None, self_contact_stiffness = None, self_contact_friction = 0.0))]
+    #[pyo3(signature = (mesh, material, constraints, loads = None, *, dt, method = "backward-euler", model = names::ModelArg::default(), mass = "lumped", damping = (0.0, 0.0), initial_displacement = None, initial_velocity = None, linear_solver = "auto", nonlinear_solver = "auto", newton_tolerance = None, relax_contact_nodes = true, obstacles = None, contact_distance = None, contact_stiffness = None, contact_impact_fraction = None, self_contact = false, self_contact_distance = None, self_contact_stiffness = None, self_contact_friction = 0.0))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         py: Python<'_>,
@@ -394,6 +418,9 @@ impl PySimulation {
         initial_displacement: Option<&Bound<'_, PyAny>>,
         initial_velocity: Option<&Bound<'_, PyAny>>,
         linear_solver: &str,
+        nonlinear_solver: &str,
+        newton_tolerance: Option<f64>,
+        relax_contact_nodes: bool,
         obstacles: Option<Vec<PyRef<'_, PyObstacle>>>,
         contact_distance: Option<f64>,
         contact_stiffness: Option<f64>,
@@ -411,6 +438,8 @@ impl PySimulation {
         let mass = names::mass(py, mass)?;
         let options = IntegratorOptions {
             linear_method: names::linear_solver(py, linear_solver)?,
+            nonlinear_solve: nonlinear_solver.parse().or_raise(py)?,
+            newton: newton_options(py, newton_tolerance, relax_contact_nodes)?,
             ..IntegratorOptions::default()
         };
         let rayleigh = Rayleigh::new(damping.0, damping.1).or_raise(py)?;

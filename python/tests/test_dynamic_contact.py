@@ -136,3 +136,44 @@ def test_contact_impact_fraction_equals_the_scene_key(tmp_path):
     for bad in (0.0, 1.0, 1.5):
         with pytest.raises(tetfem.TetfemError, match="impact_fraction"):
             landing(contact_impact_fraction=bad)
+
+
+def test_newton_settings_equal_the_scene_keys(tmp_path):
+    """``nonlinear_solver``, ``newton_tolerance`` and ``relax_contact_nodes`` are the scenes'
+    ``analysis`` keys of the same names: the drop with all three set gives the same bits step by
+    step as ``run_scene``; each acts (the defaults move the bottom otherwise: ``"auto"``
+    refactors a mesh this small, so ``"rest_preconditioned"`` is a choice that changes the
+    path); values the library refuses raise ``InvalidInputError`` naming them."""
+    keys = 'nonlinear_solver = "rest_preconditioned"\nnewton_tolerance = 1e-6\nrelax_contact_nodes = false\n'
+    text = DROP_SCENE.format(method="backward_euler", model="neo-hookean").replace(
+        "initial_velocity = [0.3, 0.0, 0.0]\n", "initial_velocity = [0.3, 0.0, 0.0]\n" + keys
+    )
+    scene = tmp_path / "drop.toml"
+    scene.write_text(text)
+    summary = tetfem.run_scene(scene, output_dir=tmp_path / "out")
+    with open(tmp_path / "out" / "drop.csv", newline="") as f:
+        rows = list(csv.DictReader(f))
+    mesh = tetfem.Mesh.box(max=(0.2, 0.2, 0.25), min=(0.0, 0.0, 0.05), cells=(3, 3, 3))
+    soft = tetfem.Material(1e5, 0.3, 1000.0)
+    loads = tetfem.Loads(mesh).add_gravity((0.0, 0.0, -9.81), soft)
+    ground = tetfem.Obstacle.half_space("ground", (0.0, 0.0, 0.0), (0.0, 0.0, 1.0), friction=0.5)
+    bottom = mesh.nodes_on_plane("z", 0.05)
+
+    def drop(**settings):
+        sim = tetfem.Simulation(
+            mesh, soft, tetfem.Constraints(mesh), loads, dt=0.02, model="neo-hookean",
+            initial_velocity=(0.3, 0.0, 0.0), obstacles=[ground], **settings,
+        )
+        trajectory = []
+        sim.run(summary["steps"], callback=lambda s: trajectory.append(probe_mean(s.displacement, bottom)))
+        return trajectory
+
+    settings = dict(nonlinear_solver="rest_preconditioned", newton_tolerance=1e-6, relax_contact_nodes=False)
+    chosen = drop(**settings)
+    assert [p[0] for p in chosen] == [float(r["bottom_ux_m"]) for r in rows[1:]]
+    assert [p[2] for p in chosen] == [float(r["bottom_uz_m"]) for r in rows[1:]]
+    for name, default in [("nonlinear_solver", "auto"), ("newton_tolerance", None), ("relax_contact_nodes", True)]:
+        assert drop(**{**settings, name: default})[-1] != chosen[-1], name
+    for name, bad in [("nonlinear_solver", "newton"), ("newton_tolerance", 1.5), ("newton_tolerance", 0.0)]:
+        with pytest.raises(tetfem.InvalidInputError, match=name.split("_")[-1]):
+            drop(**{name: bad})

@@ -51,6 +51,7 @@ _Model = Literal[
 ]
 _Mass = Literal["lumped", "consistent"]
 _LinearSolver = Literal["auto", "direct", "iterative"]
+_NonlinearSolver = Literal["auto", "rest_lbfgs", "rest_preconditioned", "refactor"]
 _Path = Union[str, "PathLike[str]"]
 # A scipy.sparse.csr_matrix when SciPy is installed, else (indptr, indices, data, shape).
 _SparseMatrix = Any
@@ -306,6 +307,9 @@ class Simulation:
         initial_displacement: Optional[_ArrayLike] = None,
         initial_velocity: Optional[_ArrayLike] = None,
         linear_solver: _LinearSolver = "auto",
+        nonlinear_solver: _NonlinearSolver = "auto",
+        newton_tolerance: Optional[float] = None,  # in (0, 1); None: 1e-8
+        relax_contact_nodes: bool = True,
         obstacles: Optional[Sequence[Obstacle]] = None,
         contact_distance: Optional[float] = None,
         contact_stiffness: Optional[float] = None,

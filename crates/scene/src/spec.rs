@@ -772,6 +772,15 @@ pub struct AnalysisSpec {
     /// obstacles: the Newton tolerance of each load step, ‖r_f‖ ≤ t·‖f_f‖ (default 1e-10).
     #[serde(default)]
     pub newton_tolerance: Option<f64>,
+    /// Dynamic, implicit methods with rigid obstacles: after each accepted Newton step, move
+    /// every node that touches an obstacle to the minimum of its own barrier and friction under
+    /// the rest of the body's pull, where that lowers the step's potential and residual
+    /// (default `true`, the library's
+    /// [`StepNewtonOptions::relax_contact_nodes`](tetfem::analysis::dynamics::StepNewtonOptions::relax_contact_nodes)).
+    /// The converged step solves the same equation to the same tolerance either way; `false`
+    /// leaves the iterates to Newton alone (more iterations with contact).
+    #[serde(default)]
+    pub relax_contact_nodes: Option<bool>,
     /// Static, with a nonlinear model or obstacles: the loads and prescribed displacements are
     /// applied in this many equal increments, each solved by Newton (default 10, at most
     /// 100 000). More steps rescue a solve whose Newton fails (a large load, a first contact).

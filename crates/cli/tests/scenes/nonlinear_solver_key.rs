@@ -209,3 +209,89 @@ fn a_bad_newton_tolerance_names_the_key_and_line() {
     assert!(message.contains("only a dynamic analysis"), "{message}");
     assert!(message.contains("newton_tolerance"), "{message}");
 }
+
+/// A Neo-Hookean block (4³ cells) thrown sideways onto frictional ground (backward Euler,
+/// 20 ms); `{relax}` is replaced by the key's line.
+const DROP: &str = r#"
+title = "drop"
+
+[mesh.box]
+min = [0.0, 0.0, 0.05]
+max = [0.2, 0.2, 0.25]
+cells = [4, 4, 4]
+
+[material]
+youngs_modulus = 1e5
+poisson_ratio = 0.3
+density = 1000.0
+
+[[loads]]
+gravity = [0.0, 0.0, -9.81]
+
+[[probes]]
+name = "bottom"
+where = { plane = { axis = "z", at = 0.05 } }
+
+[analysis]
+type = "dynamic"
+method = "backward_euler"
+model = "neo-hookean"
+dt = 0.02
+duration = 0.4
+initial_velocity = [0.3, 0.0, 0.0]
+{relax}
+
+[[obstacles]]
+kind = "half_space"
+name = "ground"
+point = [0.0, 0.0, 0.0]
+normal = [0.0, 0.0, 1.0]
+friction = 0.5
+"#;
+
+/// `relax_contact_nodes = false` leaves the iterates to Newton alone: the same landing and
+/// slide (each step solves the same equation to the Newton tolerance 1e-8 of its reference
+/// either way; 1e-6 relative leaves the 20 steps' sum of those stops a wide margin) in more
+/// Newton iterations (the library's `StepNewtonOptions::relax_contact_nodes`; the 10k-DOF
+/// drop of `benches/interactive_contact.rs` took 3.10 against 5.95 a step). `true` is the
+/// default. A static scene refuses the key, naming it.
+#[test]
+fn relax_contact_nodes_takes_fewer_iterations_to_the_same_slide() {
+    let run_drop = |relax: &str| {
+        let text = DROP.replace("{relax}", relax);
+        let scene = Scene::parse(&text, "drop", Path::new(".")).unwrap();
+        let overrides = DynamicOverrides::default();
+        let proceed = &mut |_, _| std::ops::ControlFlow::Continue(());
+        run_dynamic_scene(&scene, &overrides, false, false, proceed).unwrap()
+    };
+    let default = run_drop("");
+    let relaxed = run_drop("relax_contact_nodes = true");
+    let plain = run_drop("relax_contact_nodes = false");
+    assert_eq!(default.probes[0].last, relaxed.probes[0].last);
+    assert_eq!(default.newton, relaxed.newton);
+    let (a, b) = (relaxed.probes[0].last, plain.probes[0].last);
+    let (difference, size) = difference_and_size(&a, &b);
+    let (r, p) = (relaxed.newton.unwrap(), plain.newton.unwrap());
+    println!(
+        "bottom {a:?} vs {b:?}: {:.2e} relative; {} against {} Newton its",
+        difference / size,
+        r.total_iterations,
+        p.total_iterations
+    );
+    // It landed (free fall takes 0.1 s) and slid.
+    assert!(a[2] < -0.045 && a[0] > 0.0, "{a:?}");
+    assert!(difference < 1e-6 * size, "{a:?} vs {b:?}");
+    assert!(r.total_iterations < p.total_iterations, "{r:?} vs {p:?}");
+    let text = SWING
+        .replace("type = \"dynamic\"", "type = \"static\"")
+        .replace("method = \"backward_euler\"\n", "")
+        .replace("dt = 1e-2\n", "")
+        .replace("duration = 0.3\n", "")
+        .replace("{solver}", "relax_contact_nodes = false");
+    let message = match Scene::parse(&text, "swing", Path::new(".")) {
+        Err(e) => e.to_string(),
+        Ok(_) => panic!("a static scene took relax_contact_nodes"),
+    };
+    assert!(message.contains("only a dynamic analysis"), "{message}");
+    assert!(message.contains("relax_contact_nodes"), "{message}");
+}

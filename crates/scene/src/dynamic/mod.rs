@@ -72,7 +72,8 @@ pub struct DynamicSetup<C: CellType = Tet4> {
     /// [`NonlinearSolve::default`] unless the scene sets `analysis.nonlinear_solver`.
     pub nonlinear_solve: NonlinearSolve,
     /// Those iterations' tolerance and budget: [`StepNewtonOptions::default`], the tolerance
-    /// the scene's `analysis.newton_tolerance` where [`run_dynamic_scene`] sets it.
+    /// the scene's `analysis.newton_tolerance` and the contact nodes' relaxation its
+    /// `analysis.relax_contact_nodes` where [`run_dynamic_scene`] sets them.
     pub newton: StepNewtonOptions,
     /// Warnings about the scene's own entries (a load acting on fixed DOFs only, no free DOF),
     /// reported with the mesh's and the material's in the run summary.
@@ -887,6 +888,7 @@ fn run_dynamic_scene_on<E: SceneElement>(
     setup.linear_method = scene.spec().linear_method();
     setup.nonlinear_solve = scene.spec().nonlinear_solve();
     setup.newton.tolerance = settings.newton_tolerance;
+    setup.newton.relax_contact_nodes = settings.relax_contact_nodes;
     let restart = match write_files {
         true => Some(Restart::new(scene, &setup.mesh, resume)?),
         false => None,
