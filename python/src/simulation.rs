@@ -10,7 +10,7 @@ use pyo3::types::PyDict;
 use tetfem::analysis::Definition;
 use tetfem::analysis::dynamics::{
     Checkpoint, Energy, IntegratorHistory, IntegratorOptions, InternalForce, LinearSystem, Mass,
-    Rayleigh, State, StepNewtonOptions,
+    NewtonStats, Rayleigh, State, StepNewtonOptions,
 };
 use tetfem::analysis::transient::{
     AdaptiveStep, Flow, Observer, StepView, Transient, TransientOptions, critical_step,
@@ -108,6 +108,7 @@ struct Seen {
     state: State,
     dt: f64,
     history: Option<IntegratorHistory>,
+    newton: Option<NewtonStats>,
 }
 
 /// The integrator and state for a read: the run's own when no run holds them, else (inside
@@ -129,6 +130,13 @@ impl Reading<'_> {
         match self {
             Reading::Live(guard) => guard.dt(),
             Reading::Seen(seen) => seen.dt,
+        }
+    }
+
+    fn newton_stats(&self) -> Option<NewtonStats> {
+        match self {
+            Reading::Live(guard) => guard.integrator().newton_stats(),
+            Reading::Seen(seen) => seen.newton,
         }
     }
 
@@ -195,6 +203,7 @@ impl Observer for RunObserver<'_> {
                 state: state.clone(),
                 dt: view.integrator.time_step(),
                 history: view.integrator.history().ok(),
+                newton: view.integrator.newton_stats(),
             }));
             let this = self.this;
             let answer = Python::attach(|py| -> PyResult<bool> {
@@ -740,6 +749,32 @@ impl PySimulation {
             .integrator_mut()
             .set_time_step(dt)
             .or_raise(py)
+    }
+
+    /// The Newton counts of the implicit steps so far, as a dict of ints: ``steps``,
+    /// ``total_iterations``, ``max_per_step``, ``last_step`` (the last step's iterations),
+    /// ``factorizations``, ``cg_iterations`` and ``fallbacks`` (a CG or an L-BFGS run that gave
+    /// way to a factorization); ``None`` where the steps iterate no Newton (the linear model
+    /// without obstacles, the explicit method). What ``nonlinear_solver`` and
+    /// ``newton_tolerance`` cost.
+    #[getter]
+    fn newton_stats<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyDict>>> {
+        let Some(stats) = self.reading(py)?.newton_stats() else {
+            return Ok(None);
+        };
+        let dict = PyDict::new(py);
+        for (key, value) in [
+            ("steps", stats.steps),
+            ("total_iterations", stats.total_iterations),
+            ("max_per_step", stats.max_per_step),
+            ("last_step", stats.last_step),
+            ("factorizations", stats.factorizations),
+            ("cg_iterations", stats.cg_iterations),
+            ("fallbacks", stats.fallbacks),
+        ] {
+            dict.set_item(key, value)?;
+        }
+        Ok(Some(dict))
     }
 
     /// The method's name (``backward-euler``, ``newmark``, ``explicit``).

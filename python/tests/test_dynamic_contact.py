@@ -141,7 +141,7 @@ def test_contact_impact_fraction_equals_the_scene_key(tmp_path):
 def test_newton_settings_equal_the_scene_keys(tmp_path):
     """``nonlinear_solver``, ``newton_tolerance`` and ``relax_contact_nodes`` are the scenes'
     ``analysis`` keys of the same names: the drop with all three set gives the same bits step by
-    step as ``run_scene``; each acts (the defaults move the bottom otherwise: ``"auto"``
+    step as ``run_scene``, and ``newton_stats`` its summary's Newton counts; each acts (the defaults move the bottom otherwise: ``"auto"``
     refactors a mesh this small, so ``"rest_preconditioned"`` is a choice that changes the
     path); values the library refuses raise ``InvalidInputError`` naming them."""
     keys = 'nonlinear_solver = "rest_preconditioned"\nnewton_tolerance = 1e-6\nrelax_contact_nodes = false\n'
@@ -164,16 +164,28 @@ def test_newton_settings_equal_the_scene_keys(tmp_path):
             mesh, soft, tetfem.Constraints(mesh), loads, dt=0.02, model="neo-hookean",
             initial_velocity=(0.3, 0.0, 0.0), obstacles=[ground], **settings,
         )
-        trajectory = []
-        sim.run(summary["steps"], callback=lambda s: trajectory.append(probe_mean(s.displacement, bottom)))
-        return trajectory
+        trajectory, counts = [], []
+        def record(s):
+            trajectory.append(probe_mean(s.displacement, bottom))
+            counts.append(s.newton_stats["total_iterations"])
+        sim.run(summary["steps"], callback=record)
+        return trajectory, counts, sim.newton_stats
 
     settings = dict(nonlinear_solver="rest_preconditioned", newton_tolerance=1e-6, relax_contact_nodes=False)
-    chosen = drop(**settings)
+    chosen, counts, stats = drop(**settings)
     assert [p[0] for p in chosen] == [float(r["bottom_ux_m"]) for r in rows[1:]]
     assert [p[2] for p in chosen] == [float(r["bottom_uz_m"]) for r in rows[1:]]
+    # The counts are the scene runner's, read in the callback step by step as after the run.
+    assert stats == summary["newton"]
+    assert counts[-1] == stats["total_iterations"] and counts == sorted(counts)
+    assert stats["steps"] == summary["steps"] and stats["cg_iterations"] > 0
     for name, default in [("nonlinear_solver", "auto"), ("newton_tolerance", None), ("relax_contact_nodes", True)]:
-        assert drop(**{**settings, name: default})[-1] != chosen[-1], name
+        assert drop(**{**settings, name: default})[0][-1] != chosen[-1], name
+    # Without Newton (the linear model, no obstacle: the block clamped at its base) no counts.
+    clamped = tetfem.Constraints(mesh).fix(mesh.nodes_on_plane("z", 0.05))
+    linear = tetfem.Simulation(mesh, soft, clamped, loads, dt=0.02)
+    linear.step()
+    assert linear.newton_stats is None
     for name, bad in [("nonlinear_solver", "newton"), ("newton_tolerance", 1.5), ("newton_tolerance", 0.0)]:
         with pytest.raises(tetfem.InvalidInputError, match=name.split("_")[-1]):
             drop(**{name: bad})
