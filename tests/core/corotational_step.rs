@@ -482,10 +482,12 @@ fn lbfgs_on_the_single_precision_factor_follows_the_refactoring_trajectory() {
 }
 
 /// The force passes of a step's iterations read each tet's rest element kept from the start
-/// (`assemble::corner_elements`) instead of rebuilding it: the force, the energy and the nodal
+/// (`assemble::corner_elements`) instead of rebuilding it: the force, the energy (with the
+/// force, and alone: four tets at a time in the models' lanes), the tangent and the nodal
 /// deformation gradients are the same bits as the rebuilt ones (the same inverse and
-/// determinant of the same Dm), for both large-deformation models at a deformed state; and a
-/// kept list of the wrong length is a named error, not a panic.
+/// determinant of the same Dm, the lanes the scalar path's operations), for both
+/// large-deformation models at a deformed state; and a kept list of the wrong length is a
+/// named error, not a panic.
 #[test]
 fn kept_rest_elements_give_the_rebuilt_forces_to_the_bit() {
     use tetfem::model::assemble;
@@ -521,6 +523,29 @@ fn kept_rest_elements_give_the_rebuilt_forces_to_the_bit() {
         assert_eq!(force, rebuilt, "{}", kind.name());
         assert_eq!(kept_energy.to_bits(), energy.to_bits(), "{}", kind.name());
         assert!(energy > 0.0);
+        let alone = assemble::energy(mesh, model.as_ref(), &u).unwrap();
+        let alone_kept = assemble::energy_kept(mesh, &kept, model.as_ref(), &u).unwrap();
+        assert_eq!(alone_kept.to_bits(), alone.to_bits(), "{}", kind.name());
+        let assembler = tetfem::fe::assembly::Assembler::new(mesh);
+        let mut tangent = tetfem::CscMatrix::zeros(Arc::clone(assembler.pattern())).unwrap();
+        let mut tangent_kept = tangent.clone();
+        for project in [false, true] {
+            assemble::refill_tangent(mesh, &assembler, model.as_ref(), &u, project, &mut tangent)
+                .unwrap();
+            let parts = (u.as_slice(), project);
+            assemble::refill_tangent_kept(
+                mesh,
+                &kept,
+                &assembler,
+                model.as_ref(),
+                parts,
+                &mut tangent_kept,
+            )
+            .unwrap();
+            assert_eq!(tangent_kept.values(), tangent.values(), "{}", kind.name());
+        }
+        let short_energy = assemble::energy_kept(mesh, &kept[1..], model.as_ref(), &u);
+        assert!(short_energy.is_err(), "{short_energy:?}");
         let short = assemble::internal_force_and_energy_kept_into(
             mesh,
             &kept[1..],
