@@ -32,6 +32,7 @@ mod st_venant_kirchhoff;
 pub mod assemble;
 
 pub use corotational::Corotational;
+pub use corotational_lanes::rotations_into;
 pub use element_model::ModelElement;
 pub use law::{ConstitutiveLaw, Matrix9};
 pub use linear::LinearModel;

@@ -16,7 +16,7 @@ use rayon::prelude::*;
 
 use super::internal_force::{ForceWorkspace, NonlinearForce};
 use crate::base::error::Result;
-use crate::model::corotational_lanes::rotations;
+use crate::model::corotational_lanes::four_rotations;
 use crate::model::lanes::LANES;
 use crate::model::polar::rotation;
 
@@ -120,10 +120,7 @@ fn turn_of_nodes(
 ) {
     let of = |k: usize| gradients[blocks[k].0];
     if let Ok(r) = <&mut [Matrix3<f64>; LANES]>::try_from(&mut *r) {
-        let four = rotations(&[of(0), of(1), of(2), of(3)]);
-        for (k, (r, lane)) in r.iter_mut().zip(four).enumerate() {
-            *r = lane.unwrap_or_else(|| rotation(&of(k)));
-        }
+        *r = four_rotations(&[of(0), of(1), of(2), of(3)]);
         return;
     }
     for (k, r) in r.iter_mut().enumerate() {
