@@ -100,12 +100,12 @@ pub(crate) fn rotations(f: &[Matrix3<f64>; LANES]) -> [Option<Matrix3<f64>>; LAN
 /// The polar rotations of four matrices: each lane's where its Newton–Schulz iteration takes
 /// it, [`super::polar::rotation`]'s where not: the same bits as that function of each.
 pub(crate) fn four_rotations(f: &[Matrix3<f64>; LANES]) -> [Matrix3<f64>; LANES] {
-    let mut out = rotations(f);
-    let mut rotations = [Matrix3::identity(); LANES];
-    for (k, (r, lane)) in rotations.iter_mut().zip(&mut out).enumerate() {
-        *r = lane.take().unwrap_or_else(|| super::polar::rotation(&f[k]));
+    let lanes = rotations(f);
+    let mut out = [Matrix3::identity(); LANES];
+    for (k, (r, lane)) in out.iter_mut().zip(lanes).enumerate() {
+        *r = lane.unwrap_or_else(|| super::polar::rotation(&f[k]));
     }
-    rotations
+    out
 }
 
 /// The polar rotation ([`rotation`](super::rotation)) of each matrix of `f` into `out`, four

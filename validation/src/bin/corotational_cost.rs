@@ -81,7 +81,8 @@ struct Run {
 /// the scheduler's running time, the current slice included, to the nanosecond); NaN where
 /// the clock is missing. `/proc/self/task/*/schedstat`, read before, moves only at the
 /// scheduler's ticks and switches: a step under a tick (0.2 ms at 2,700 DOFs) read as 0 s,
-/// and every ratio over it as ∞.
+/// and every ratio over it as ∞. NaN off Unix.
+#[cfg(unix)]
 fn process_cpu_seconds() -> f64 {
     let mut now = libc::timespec {
         tv_sec: 0,
@@ -93,6 +94,11 @@ fn process_cpu_seconds() -> f64 {
         0 => now.tv_sec as f64 + now.tv_nsec as f64 * 1e-9,
         _ => f64::NAN,
     }
+}
+
+#[cfg(not(unix))]
+fn process_cpu_seconds() -> f64 {
+    f64::NAN
 }
 
 fn run(
