@@ -73,10 +73,12 @@ pub enum TriangularSolve {
         threads: usize,
     },
     /// The supernodal kernels on the single-precision copy of the factor
-    /// ([`SparseCholesky::make_single_precision_copy`]): half the bytes to stream, the
-    /// arithmetic still in f64, the result that of a factor rounded to f32 (relative
-    /// perturbation of A about 1e-7·cond), for preconditioners and quasi-Newton steps. An
-    /// error when the copy is missing or older than the factor, or the factor is simplicial.
+    /// ([`SparseCholesky::make_single_precision_copy`]): half the bytes to stream, and the
+    /// arithmetic in f32 too (eight values to a 256-bit register, none widened; the right-hand
+    /// side scaled by a power of two into f32's range and back, exactly): a backward-stable
+    /// solve in f32, with a relative backward error of order n·2⁻²⁴ for columns of length n,
+    /// for preconditioners and quasi-Newton steps. An error when the copy is missing or older
+    /// than the factor, or the factor is simplicial.
     SupernodalSingle {
         /// 1 = sequential; 2 or more = two threads.
         threads: usize,

@@ -27,7 +27,8 @@ pub enum NonlinearSolve {
     /// turn: its preconditioner is used as it is.) The preconditioner's triangular solves read
     /// the factor rounded to f32 where memory allows the copy
     /// (`LinearSolver::make_single_precision_copy`: half the bytes, 1.27× on the step at 132k
-    /// DOFs, the same iterations), still a fixed SPD operator as CG needs.
+    /// DOFs, the same iterations; computed in f32, a backward-stable solve), a fixed
+    /// operator, symmetric positive definite up to f32's rounding, as CG needs.
     ///
     /// When CG does not reach `forcing`·‖r‖ within `max_cg_iterations` (large rotations
     /// have moved J too far from the factor), or meets a direction of non-positive curvature,

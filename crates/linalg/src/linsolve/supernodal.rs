@@ -17,24 +17,75 @@ mod factor;
 
 pub(crate) use factor::{Columns, FactorPlan, FactorWorkspace};
 
-/// A stored value of the factor: `f64`, or `f32` for a copy kept in single precision (half the
-/// bytes a bandwidth-bound solve streams); the arithmetic is in `f64` either way.
-pub(crate) trait FactorValue: Copy + Send + Sync {
-    /// The value as `f64` (exact for both).
-    fn wide(self) -> f64;
+/// A stored value of the factor, and the arithmetic of its solve: `f64`, or `f32` for a copy
+/// kept in single precision. The f32 copy's solve computes in f32 too, eight values to an AVX2
+/// register and none converted (computing in f64, each value widened on its load, it had been
+/// no faster than the f64 factor where the factor sits in cache, 9,720 DOFs): a
+/// backward-stable solve in f32, its relative backward error of order n·2⁻²⁴ over columns of
+/// length n (against 2⁻²⁴ for the rounding of the values alone), what a preconditioner and an
+/// initial inverse Hessian need.
+pub(crate) trait FactorValue:
+    Copy
+    + Default
+    + Send
+    + Sync
+    + std::ops::Add<Output = Self>
+    + std::ops::Sub<Output = Self>
+    + std::ops::Mul<Output = Self>
+    + std::ops::Div<Output = Self>
+    + std::ops::AddAssign
+    + std::ops::SubAssign
+    + std::iter::Sum
+{
+    /// A power of two by which to multiply the right-hand side `rhs` before the solve (and to
+    /// divide the solution after it): exact, and its largest entry then near 1, so that f32
+    /// holds the vectors' range (a residual near convergence could be 1e-40, below f32's
+    /// smallest normal number, 1.2e-38); 1 for f64, without reading `rhs`.
+    fn range_scale(rhs: &[f64]) -> f64;
+    /// `v` rounded to this type.
+    fn from_f64(v: f64) -> Self;
+    /// The value as `f64` (exact).
+    fn to_f64(self) -> f64;
+    /// The workspace's buffers of this type.
+    fn buffers(ws: &mut SupernodalWorkspace) -> &mut Buffers<Self>;
 }
 
 impl FactorValue for f64 {
+    fn range_scale(_: &[f64]) -> f64 {
+        1.0
+    }
     #[inline(always)]
-    fn wide(self) -> f64 {
+    fn from_f64(v: f64) -> Self {
+        v
+    }
+    #[inline(always)]
+    fn to_f64(self) -> f64 {
         self
+    }
+    fn buffers(ws: &mut SupernodalWorkspace) -> &mut Buffers<Self> {
+        &mut ws.double
     }
 }
 
 impl FactorValue for f32 {
+    fn range_scale(rhs: &[f64]) -> f64 {
+        let largest = rhs.iter().fold(0.0, |m: f64, b| m.max(b.abs()));
+        match largest.is_normal() {
+            // 2^−⌊log₂ largest⌋: the largest entry lands in [0.5, 2).
+            true => 2f64.powi(-(largest.log2().floor() as i32)),
+            false => 1.0,
+        }
+    }
     #[inline(always)]
-    fn wide(self) -> f64 {
+    fn from_f64(v: f64) -> Self {
+        v as f32
+    }
+    #[inline(always)]
+    fn to_f64(self) -> f64 {
         f64::from(self)
+    }
+    fn buffers(ws: &mut SupernodalWorkspace) -> &mut Buffers<Self> {
+        &mut ws.single
     }
 }
 
@@ -82,9 +133,17 @@ pub(crate) struct SupernodalPlan {
 /// Buffers of a solve, allocated once.
 #[derive(Debug, Default)]
 pub(crate) struct SupernodalWorkspace {
-    x: Vec<f64>,
-    x1: Vec<f64>,
-    acc: [Vec<f64>; 2],
+    double: Buffers<f64>,
+    single: Buffers<f32>,
+}
+
+/// The vectors of a solve in one arithmetic: the permuted right-hand side, the second thread's
+/// copy, and each thread's accumulator.
+#[derive(Debug, Default)]
+pub(crate) struct Buffers<T> {
+    x: Vec<T>,
+    x1: Vec<T>,
+    acc: [Vec<T>; 2],
 }
 
 impl SupernodalPlan {
@@ -293,28 +352,33 @@ impl SupernodalPlan {
         ws: &mut SupernodalWorkspace,
     ) {
         let n = self.dim;
-        ws.x.resize(n, 0.0);
+        let ws = T::buffers(ws);
+        let zero = T::default();
+        ws.x.resize(n, zero);
         for acc in &mut ws.acc {
-            acc.resize(self.max_below, 0.0);
+            acc.resize(self.max_below, zero);
         }
+        let scale = T::range_scale(rhs);
         if self.fwd.is_empty() {
-            ws.x.copy_from_slice(rhs);
+            for (x, &b) in ws.x.iter_mut().zip(rhs.iter()) {
+                *x = T::from_f64(b * scale);
+            }
         } else {
             for (x, &i) in ws.x.iter_mut().zip(&self.fwd) {
-                *x = rhs[i];
+                *x = T::from_f64(rhs[i] * scale);
             }
         }
         let two = threads >= 2 && !self.parts[0].is_empty() && !self.parts[1].is_empty();
         let [acc0, acc1] = &mut ws.acc;
         if two {
-            ws.x1.resize(n, 0.0);
+            ws.x1.resize(n, zero);
             let x = &mut ws.x;
             let x1 = &mut ws.x1;
             for &(a, b) in &self.part1_cols {
                 x1[a..b].copy_from_slice(&x[a..b]);
             }
             for &(a, b) in &self.top_cols {
-                x1[a..b].fill(0.0);
+                x1[a..b].fill(zero);
             }
             rayon::join(
                 || self.forward(&self.parts[0], factor, x, acc0),
@@ -325,7 +389,7 @@ impl SupernodalPlan {
             }
             for &(a, b) in &self.top_cols {
                 for (y, d) in x[a..b].iter_mut().zip(&x1[a..b]) {
-                    *y += d;
+                    *y += *d;
                 }
             }
             self.forward(&self.top, factor, x, acc0);
@@ -345,21 +409,17 @@ impl SupernodalPlan {
             self.backward(&self.all, factor, &mut ws.x, acc0);
         }
         if self.fwd.is_empty() {
-            rhs.copy_from_slice(&ws.x);
+            for (b, &x) in rhs.iter_mut().zip(&ws.x) {
+                *b = x.to_f64() / scale;
+            }
         } else {
             for (&x, &i) in ws.x.iter().zip(&self.fwd) {
-                rhs[i] = x;
+                rhs[i] = x.to_f64() / scale;
             }
         }
     }
 
-    fn forward<T: FactorValue>(
-        &self,
-        list: &[usize],
-        factor: &[T],
-        x: &mut [f64],
-        acc: &mut [f64],
-    ) {
+    fn forward<T: FactorValue>(&self, list: &[usize], factor: &[T], x: &mut [T], acc: &mut [T]) {
         #[cfg(target_arch = "x86_64")]
         if self.avx2 {
             // SAFETY: `new` detected AVX2 and FMA on this CPU.
@@ -371,13 +431,7 @@ impl SupernodalPlan {
         }
     }
 
-    fn backward<T: FactorValue>(
-        &self,
-        list: &[usize],
-        factor: &[T],
-        x: &mut [f64],
-        acc: &mut [f64],
-    ) {
+    fn backward<T: FactorValue>(&self, list: &[usize], factor: &[T], x: &mut [T], acc: &mut [T]) {
         #[cfg(target_arch = "x86_64")]
         if self.avx2 {
             // SAFETY: `new` detected AVX2 and FMA on this CPU.
@@ -395,8 +449,8 @@ impl SupernodalPlan {
         &self,
         list: &[usize],
         factor: &[T],
-        x: &mut [f64],
-        acc: &mut [f64],
+        x: &mut [T],
+        acc: &mut [T],
     ) {
         for &s in list {
             self.forward_node(s, factor, x, acc);
@@ -409,8 +463,8 @@ impl SupernodalPlan {
         &self,
         list: &[usize],
         factor: &[T],
-        x: &mut [f64],
-        acc: &mut [f64],
+        x: &mut [T],
+        acc: &mut [T],
     ) {
         for &s in list.iter().rev() {
             self.backward_node(s, factor, x, acc);
@@ -420,24 +474,24 @@ impl SupernodalPlan {
     /// x_s ← L_ss⁻¹·x_s, then x[rows] −= L_below·x_s through a dense accumulator (so that the
     /// inner loops are contiguous and vectorize, and the scatter runs once per supernode).
     #[inline(always)]
-    fn forward_node<T: FactorValue>(&self, s: usize, factor: &[T], x: &mut [f64], acc: &mut [f64]) {
+    fn forward_node<T: FactorValue>(&self, s: usize, factor: &[T], x: &mut [T], acc: &mut [T]) {
         let node = self.nodes[s];
         let w = node.ncols;
         let ld = w + node.below;
         let block = &factor[node.val_start..][..w * ld];
         let acc = &mut acc[..node.below];
-        acc.fill(0.0);
+        acc.fill(T::default());
         let xs = &mut x[node.first..][..w];
         let wide = w / 8 * 8;
         for j in (0..wide).step_by(8) {
             let c: [&[T]; 8] = std::array::from_fn(|k| &block[(j + k) * ld..][..ld]);
-            let mut a = [0.0; 8];
+            let mut a = [T::default(); 8];
             for k in 0..8 {
                 let mut v = xs[j + k];
                 for p in 0..k {
-                    v -= c[p][j + k].wide() * a[p];
+                    v -= c[p][j + k] * a[p];
                 }
-                a[k] = v / c[k][j + k].wide();
+                a[k] = v / c[k][j + k];
                 xs[j + k] = a[k];
             }
             axpy8(&mut xs[j + 8..], c.map(|c| &c[j + 8..w]), a);
@@ -449,12 +503,10 @@ impl SupernodalPlan {
             let c1 = &block[(j + 1) * ld..][..ld];
             let c2 = &block[(j + 2) * ld..][..ld];
             let c3 = &block[(j + 3) * ld..][..ld];
-            let x0 = xs[j] / c0[j].wide();
-            let x1 = (xs[j + 1] - c0[j + 1].wide() * x0) / c1[j + 1].wide();
-            let x2 = (xs[j + 2] - c0[j + 2].wide() * x0 - c1[j + 2].wide() * x1) / c2[j + 2].wide();
-            let x3 =
-                (xs[j + 3] - c0[j + 3].wide() * x0 - c1[j + 3].wide() * x1 - c2[j + 3].wide() * x2)
-                    / c3[j + 3].wide();
+            let x0 = xs[j] / c0[j];
+            let x1 = (xs[j + 1] - c0[j + 1] * x0) / c1[j + 1];
+            let x2 = (xs[j + 2] - c0[j + 2] * x0 - c1[j + 2] * x1) / c2[j + 2];
+            let x3 = (xs[j + 3] - c0[j + 3] * x0 - c1[j + 3] * x1 - c2[j + 3] * x2) / c3[j + 3];
             xs[j] = x0;
             xs[j + 1] = x1;
             xs[j + 2] = x2;
@@ -473,30 +525,24 @@ impl SupernodalPlan {
         }
         for j in full..w {
             let c = &block[j * ld..][..ld];
-            let xj = xs[j] / c[j].wide();
+            let xj = xs[j] / c[j];
             xs[j] = xj;
             for (y, l) in xs[j + 1..].iter_mut().zip(&c[j + 1..w]) {
-                *y -= l.wide() * xj;
+                *y -= *l * xj;
             }
             for (y, l) in acc.iter_mut().zip(&c[w..]) {
-                *y -= l.wide() * xj;
+                *y -= *l * xj;
             }
         }
         let rows = &self.row_idx[node.row_start..][..node.below];
         for (&i, a) in rows.iter().zip(acc.iter()) {
-            x[i] += a;
+            x[i] += *a;
         }
     }
 
     /// x_s ← L_ssᵀ⁻¹·(x_s − L_belowᵀ·x[rows]), the rows gathered into a dense vector first.
     #[inline(always)]
-    fn backward_node<T: FactorValue>(
-        &self,
-        s: usize,
-        factor: &[T],
-        x: &mut [f64],
-        acc: &mut [f64],
-    ) {
+    fn backward_node<T: FactorValue>(&self, s: usize, factor: &[T], x: &mut [T], acc: &mut [T]) {
         let node = self.nodes[s];
         let w = node.ncols;
         let ld = w + node.below;
@@ -513,7 +559,7 @@ impl SupernodalPlan {
         for j in (full..w).rev() {
             let c = &block[j * ld..][..ld];
             let d = dot(&c[j + 1..w], &xs[j + 1..]) + dot(&c[w..], g);
-            xs[j] = (xs[j] - d) / c[j].wide();
+            xs[j] = (xs[j] - d) / c[j];
         }
         for j in (wide..full).step_by(4).rev() {
             let c0 = &block[j * ld..][..ld];
@@ -526,17 +572,11 @@ impl SupernodalPlan {
                 &xs[j + 4..],
             );
             let bot = dot4([&c0[w..], &c1[w..], &c2[w..], &c3[w..]], g);
-            let x3 = (xs[j + 3] - top[3] - bot[3]) / c3[j + 3].wide();
-            let x2 = (xs[j + 2] - top[2] - bot[2] - c2[j + 3].wide() * x3) / c2[j + 2].wide();
-            let x1 = (xs[j + 1] - top[1] - bot[1] - c1[j + 2].wide() * x2 - c1[j + 3].wide() * x3)
-                / c1[j + 1].wide();
-            let x0 = (xs[j]
-                - top[0]
-                - bot[0]
-                - c0[j + 1].wide() * x1
-                - c0[j + 2].wide() * x2
-                - c0[j + 3].wide() * x3)
-                / c0[j].wide();
+            let x3 = (xs[j + 3] - top[3] - bot[3]) / c3[j + 3];
+            let x2 = (xs[j + 2] - top[2] - bot[2] - c2[j + 3] * x3) / c2[j + 2];
+            let x1 = (xs[j + 1] - top[1] - bot[1] - c1[j + 2] * x2 - c1[j + 3] * x3) / c1[j + 1];
+            let x0 = (xs[j] - top[0] - bot[0] - c0[j + 1] * x1 - c0[j + 2] * x2 - c0[j + 3] * x3)
+                / c0[j];
             xs[j] = x0;
             xs[j + 1] = x1;
             xs[j + 2] = x2;
@@ -549,9 +589,9 @@ impl SupernodalPlan {
             for k in (0..8).rev() {
                 let mut v = xs[j + k] - top[k] - bot[k];
                 for p in k + 1..8 {
-                    v -= c[k][j + p].wide() * xs[j + p];
+                    v -= c[k][j + p] * xs[j + p];
                 }
-                xs[j + k] = v / c[k][j + k].wide();
+                xs[j + k] = v / c[k][j + k];
             }
         }
     }
@@ -559,55 +599,47 @@ impl SupernodalPlan {
 
 /// y −= Σₖ cₖ·aₖ over eight columns.
 #[inline(always)]
-fn axpy8<T: FactorValue>(y: &mut [f64], c: [&[T]; 8], a: [f64; 8]) {
+fn axpy8<T: FactorValue>(y: &mut [T], c: [&[T]; 8], a: [T; 8]) {
     let n = y.len();
     let [c0, c1, c2, c3, c4, c5, c6, c7] = c.map(|c| &c[..n]);
     for i in 0..n {
-        y[i] -=
-            (c0[i].wide() * a[0] + c1[i].wide() * a[1] + c2[i].wide() * a[2] + c3[i].wide() * a[3])
-                + (c4[i].wide() * a[4]
-                    + c5[i].wide() * a[5]
-                    + c6[i].wide() * a[6]
-                    + c7[i].wide() * a[7]);
+        y[i] -= (c0[i] * a[0] + c1[i] * a[1] + c2[i] * a[2] + c3[i] * a[3])
+            + (c4[i] * a[4] + c5[i] * a[5] + c6[i] * a[6] + c7[i] * a[7]);
     }
 }
 
 /// Eight dot products of columns with one vector in one pass over the vector.
 #[inline(always)]
-fn dot8<T: FactorValue>(c: [&[T]; 8], v: &[f64]) -> [f64; 8] {
+fn dot8<T: FactorValue>(c: [&[T]; 8], v: &[T]) -> [T; 8] {
     const L: usize = 4;
     let n = v.len();
     let c = c.map(|c| &c[..n]);
     let m = n / L * L;
-    let mut s = [[0.0; L]; 8];
+    let mut s = [[T::default(); L]; 8];
     for (i, v) in v[..m].chunks_exact(L).enumerate() {
         let base = i * L;
         for (s, c) in s.iter_mut().zip(&c) {
             let c = &c[base..base + L];
             for k in 0..L {
-                s[k] += c[k].wide() * v[k];
+                s[k] += c[k] * v[k];
             }
         }
     }
-    let mut out = [0.0; 8];
+    let mut out = [T::default(); 8];
     for ((o, s), c) in out.iter_mut().zip(&s).zip(&c) {
-        *o = s.iter().sum::<f64>()
-            + c[m..]
-                .iter()
-                .zip(&v[m..])
-                .map(|(a, b)| a.wide() * b)
-                .sum::<f64>();
+        *o = s.iter().copied().sum::<T>()
+            + c[m..].iter().zip(&v[m..]).map(|(&a, &b)| a * b).sum::<T>();
     }
     out
 }
 
 /// y −= Σₖ cₖ·aₖ over four columns (all slices of y's length).
 #[inline(always)]
-fn axpy4<T: FactorValue>(y: &mut [f64], c: [&[T]; 4], a: [f64; 4]) {
+fn axpy4<T: FactorValue>(y: &mut [T], c: [&[T]; 4], a: [T; 4]) {
     let n = y.len();
     let (c0, c1, c2, c3) = (&c[0][..n], &c[1][..n], &c[2][..n], &c[3][..n]);
     for ((((y, l0), l1), l2), l3) in y.iter_mut().zip(c0).zip(c1).zip(c2).zip(c3) {
-        *y -= l0.wide() * a[0] + l1.wide() * a[1] + l2.wide() * a[2] + l3.wide() * a[3];
+        *y -= *l0 * a[0] + *l1 * a[1] + *l2 * a[2] + *l3 * a[3];
     }
 }
 
@@ -616,32 +648,32 @@ const LANES: usize = 8;
 /// Dot product with `LANES` independent partial sums, so that it vectorizes (a single running
 /// sum would serialise on the addition's latency and cannot be reordered by the compiler).
 #[inline(always)]
-fn dot<T: FactorValue>(a: &[T], b: &[f64]) -> f64 {
+fn dot<T: FactorValue>(a: &[T], b: &[T]) -> T {
     let n = a.len().min(b.len());
     let (a, b) = (&a[..n], &b[..n]);
-    let mut sum = [0.0; LANES];
+    let mut sum = [T::default(); LANES];
     let mut ac = a.chunks_exact(LANES);
     let mut bc = b.chunks_exact(LANES);
     for (a, b) in (&mut ac).zip(&mut bc) {
         for k in 0..LANES {
-            sum[k] += a[k].wide() * b[k];
+            sum[k] += a[k] * b[k];
         }
     }
-    let tail: f64 = ac
+    let tail: T = ac
         .remainder()
         .iter()
         .zip(bc.remainder())
-        .map(|(a, b)| a.wide() * b)
+        .map(|(&a, &b)| a * b)
         .sum();
-    sum.iter().sum::<f64>() + tail
+    sum.iter().copied().sum::<T>() + tail
 }
 
 /// Four dot products of columns with one vector in one pass over the vector.
 #[inline(always)]
-fn dot4<T: FactorValue>(c: [&[T]; 4], v: &[f64]) -> [f64; 4] {
+fn dot4<T: FactorValue>(c: [&[T]; 4], v: &[T]) -> [T; 4] {
     let n = v.len();
     let (c0, c1, c2, c3) = (&c[0][..n], &c[1][..n], &c[2][..n], &c[3][..n]);
-    let mut s = [[0.0; LANES]; 4];
+    let mut s = [[T::default(); LANES]; 4];
     let chunks = n / LANES * LANES;
     for ((((v, l0), l1), l2), l3) in v[..chunks]
         .chunks_exact(LANES)
@@ -651,21 +683,21 @@ fn dot4<T: FactorValue>(c: [&[T]; 4], v: &[f64]) -> [f64; 4] {
         .zip(c3[..chunks].chunks_exact(LANES))
     {
         for k in 0..LANES {
-            s[0][k] += l0[k].wide() * v[k];
-            s[1][k] += l1[k].wide() * v[k];
-            s[2][k] += l2[k].wide() * v[k];
-            s[3][k] += l3[k].wide() * v[k];
+            s[0][k] += l0[k] * v[k];
+            s[1][k] += l1[k] * v[k];
+            s[2][k] += l2[k] * v[k];
+            s[3][k] += l3[k] * v[k];
         }
     }
-    let mut out = [0.0; 4];
+    let mut out = [T::default(); 4];
     for (o, s) in out.iter_mut().zip(&s) {
-        *o = s.iter().sum();
+        *o = s.iter().copied().sum();
     }
     for i in chunks..n {
-        out[0] += c0[i].wide() * v[i];
-        out[1] += c1[i].wide() * v[i];
-        out[2] += c2[i].wide() * v[i];
-        out[3] += c3[i].wide() * v[i];
+        out[0] += c0[i] * v[i];
+        out[1] += c1[i] * v[i];
+        out[2] += c2[i] * v[i];
+        out[3] += c3[i] * v[i];
     }
     out
 }
