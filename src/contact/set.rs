@@ -999,13 +999,24 @@ impl Contact {
         u: &[f64],
         matrix: &mut CscMatrix,
     ) -> Result<()> {
+        add_node_blocks(matrix, self.friction_blocks(lag, u)?)
+    }
+
+    /// The friction Hessian's node blocks at full displacement `u` (see
+    /// [`add_friction_tangent`](Self::add_friction_tangent)): `(node, block)` pairs
+    /// (force/length), one per lagged point.
+    pub(crate) fn friction_blocks(
+        &self,
+        lag: &FrictionLag,
+        u: &[f64],
+    ) -> Result<Vec<(usize, Matrix3<f64>)>> {
         self.check_full(u)?;
         let mut blocks = Vec::with_capacity(lag.points.len());
         for p in &lag.points {
             let slip = p.slip(&self.lagged_position(p, u)?);
             blocks.push((p.node, p.stiffness(&slip, lag.epsilon)));
         }
-        add_node_blocks(matrix, blocks)
+        Ok(blocks)
     }
 
     /// Adds the contact Hessian ∂²E_c/∂u² at full displacement `u` into `matrix`, a matrix on
@@ -1015,6 +1026,17 @@ impl Contact {
     pub fn add_tangent(&self, u: &[f64], project: bool, matrix: &mut CscMatrix) -> Result<()> {
         self.check_full(u)?;
         Error::check_len("contact tangent", u.len(), matrix.dim())?;
+        add_node_blocks(matrix, self.barrier_blocks(u, project)?)
+    }
+
+    /// The barrier Hessian's node blocks at full displacement `u` (see
+    /// [`add_tangent`](Self::add_tangent)): `(node, block)` pairs (force/length), one per node
+    /// and obstacle within d̂.
+    pub(crate) fn barrier_blocks(
+        &self,
+        u: &[f64],
+        project: bool,
+    ) -> Result<Vec<(usize, Matrix3<f64>)>> {
         let d_hat = self.parameters.activation_distance;
         let mut blocks: Vec<(usize, Matrix3<f64>)> = Vec::new();
         self.for_each_active(u, |n, _, obstacle, x, d, (area, kappa)| {
@@ -1026,7 +1048,7 @@ impl Contact {
             }
             blocks.push((n, scale * block));
         })?;
-        add_node_blocks(matrix, blocks)
+        Ok(blocks)
     }
 
     /// Continuous collision detection: the largest fraction t ∈ (0, 1] such that every node

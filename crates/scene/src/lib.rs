@@ -209,7 +209,9 @@ type = "static"                     # default "static"; or "dynamic", which need
                                     # nodes' rotations; CG on the tangent preconditioned by that factor,
                                     # falling back to a factorization; or a factorization per Newton
                                     # iteration; auto: refactor below 1,000 free DOFs, rest_lbfgs from
-                                    # there, rest_preconditioned with obstacles, refactor at every size
+                                    # there, with obstacles rest_preconditioned (newton_tolerance
+                                    # below 1e-4) or rest_lbfgs holding the contact nodes'
+                                    # stiffness (1e-4 and looser), refactor at every size
                                     # with [[bodies]] or [self_contact]). All stop at the same
                                     # Newton tolerance, but auto's rest_lbfgs path at no less
                                     # than 1e-3, or once the correction left is under 1e-4 of

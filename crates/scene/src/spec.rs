@@ -755,9 +755,11 @@ pub struct AnalysisSpec {
     #[serde(default)]
     pub linear_solver: Option<LinearMethod>,
     /// Dynamic, implicit methods with a nonlinear model: how each Newton iteration solves,
-    /// `"auto"` (default: `"refactor"` below 1,000 free DOFs, `"rest_lbfgs"` above, or
-    /// `"rest_preconditioned"` with contact), `"rest_lbfgs"` (tangent-free L-BFGS whose initial
-    /// inverse Hessian is the rest-state factor turned by the nodes' rotations, going on with
+    /// `"auto"` (default: `"refactor"` below 1,000 free DOFs, `"rest_lbfgs"` above; with
+    /// obstacles `"rest_preconditioned"` at a `newton_tolerance` below 1e-4 and `"rest_lbfgs"`
+    /// at 1e-4 and looser), `"rest_lbfgs"` (tangent-free L-BFGS whose initial inverse Hessian
+    /// is the rest-state factor turned by the nodes' rotations, with obstacles also holding the
+    /// contact nodes' barrier and friction stiffness, going on with
     /// `"rest_preconditioned"` when it runs out of iterations), `"rest_preconditioned"` (CG on
     /// the tangent preconditioned by that factor, with a fallback to factoring) or `"refactor"`
     /// (a factorization per Newton iteration).
@@ -820,8 +822,10 @@ impl SceneSpec {
 #[derive(Debug, Clone, Copy, Default, Deserialize, PartialEq, Eq, serde::Serialize)]
 #[serde(rename_all = "snake_case")]
 pub enum NonlinearSolverName {
-    /// [`NonlinearSolve::Auto`]: refactoring on small meshes, L-BFGS (with contact:
-    /// preconditioned CG) on larger ones, the L-BFGS path stopping at no tighter than
+    /// [`NonlinearSolve::Auto`]: refactoring on small meshes, L-BFGS (with obstacles:
+    /// preconditioned CG below the step tolerance
+    /// [`AUTO_CONTACT_LBFGS_TOLERANCE`](tetfem::analysis::dynamics::AUTO_CONTACT_LBFGS_TOLERANCE))
+    /// on larger ones, the L-BFGS path without contact stopping at no tighter than
     /// [`AUTO_LBFGS_TOLERANCE`](tetfem::analysis::dynamics::AUTO_LBFGS_TOLERANCE), or earlier
     /// when the correction left is below
     /// [`AUTO_LBFGS_CORRECTION`](tetfem::analysis::dynamics::AUTO_LBFGS_CORRECTION) of the
@@ -832,7 +836,7 @@ pub enum NonlinearSolverName {
     /// turned by the nodes' rotations.
     RestPreconditioned,
     /// [`NonlinearSolve::RestPreconditionedLbfgs`]: tangent-free L-BFGS, its initial inverse
-    /// Hessian the turned rest factor.
+    /// Hessian the turned rest factor (with obstacles, holding the contact nodes' blocks).
     RestLbfgs,
     /// [`NonlinearSolve::Refactor`]: a factorization per Newton iteration.
     Refactor,

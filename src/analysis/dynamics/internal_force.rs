@@ -545,6 +545,38 @@ impl NonlinearForce {
         Ok(Some((lag.epsilon(), slip)))
     }
 
+    /// The rigid obstacles' barrier (its PSD part, counted `barrier_weight` times: Newmark's
+    /// end-point contact weighs it by 2) and lagged friction Hessians at free displacements `u`
+    /// as 3×3 node blocks (force/length), `(node, block)` with one entry per node, summed over
+    /// its obstacles and friction points; empty without contact. The part of the step's
+    /// Hessian that sits on the contact nodes' diagonal alone.
+    pub(crate) fn contact_node_blocks(
+        &self,
+        u: &[f64],
+        barrier_weight: f64,
+    ) -> Result<Vec<(usize, nalgebra::Matrix3<f64>)>> {
+        let Some(contact) = &self.contact else {
+            return Ok(Vec::new());
+        };
+        let full = self.full_displacement(u)?;
+        let mut blocks = contact.barrier_blocks(&full, true)?;
+        for (_, block) in &mut blocks {
+            *block *= barrier_weight;
+        }
+        if let Some(lag) = self.friction_lock().as_ref() {
+            blocks.extend(contact.friction_blocks(lag, &full)?);
+        }
+        blocks.sort_by_key(|&(node, _)| node);
+        let mut summed: Vec<(usize, nalgebra::Matrix3<f64>)> = Vec::with_capacity(blocks.len());
+        for (node, block) in blocks {
+            match summed.last_mut() {
+                Some((last, sum)) if *last == node => *sum += block,
+                _ => summed.push((node, block)),
+            }
+        }
+        Ok(summed)
+    }
+
     /// Sets the lagged friction's smoothing distance ε (length); nothing without lagged
     /// friction.
     pub(crate) fn set_friction_smoothing(&self, epsilon: f64) {

@@ -86,6 +86,12 @@ impl NodalRotations {
         Ok(())
     }
 
+    /// Rᵢ of `node`, `None` for a node that is not turned (one of its DOFs constrained).
+    pub fn rotation_of(&self, node: usize) -> Option<&Matrix3<f64>> {
+        let at = self.blocks.binary_search_by_key(&node, |&(n, _)| n).ok()?;
+        self.rotations.get(at)
+    }
+
     /// v ← R̄ᵀ·v (free DOFs): each turned node's block into its rotated frame.
     pub fn to_rotated_frame(&self, v: &mut [f64]) {
         self.turn(v, true);

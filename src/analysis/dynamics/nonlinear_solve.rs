@@ -59,6 +59,16 @@ pub enum NonlinearSolve {
     /// loose tolerances of animation (`StepNewtonOptions::tolerance`, which the user sets; the
     /// trajectory's distance from Newton's at each tolerance is in `validation/PERFORMANCE.md`).
     ///
+    /// In contact with rigid obstacles H₀ also holds the contact nodes' barrier and friction
+    /// blocks D (3×3 a node, made at the run's first iterate within d̂ and again after a step
+    /// that was cut short or did not halve ‖r‖): H₀ = R̄·(J₀ + E·D·Eᵀ)⁻¹·R̄ᵀ by Woodbury's
+    /// identity on the rest factor, with a dense factor of the contact DOFs' size (at most
+    /// [`MAX_CONTACT_DOFS`](super::MAX_CONTACT_DOFS); past it the run goes on as
+    /// [`RestPreconditionedCg`](Self::RestPreconditionedCg), which factors J). Two triangular
+    /// solve pairs an iteration instead of one, and no factorization: J₀⁻¹'s columns at the
+    /// contact DOFs are solved once per DOF the first time it touches and kept (at the landing
+    /// of the 10k-DOF block of `benches/interactive_contact.rs`, 675 of them, about 0.8 s).
+    ///
     /// Each step starts from an empty history, so a step depends on its state alone. A step
     /// that has not converged within `StepNewtonOptions::max_iterations`, or whose line search
     /// finds no decrease, goes on from where it stands with
@@ -71,9 +81,12 @@ pub enum NonlinearSolve {
     },
     /// [`Refactor`](Self::Refactor) below [`AUTO_REFACTOR_BELOW`] free DOFs, where a
     /// factorization is cheap; at and above it [`RestPreconditionedLbfgs`](Self::RestPreconditionedLbfgs)
-    /// with [`AUTO_LBFGS_HISTORY`] pairs, or, with contact (whose barrier stiffness the rest
-    /// factor does not know), [`RestPreconditionedCg`](Self::RestPreconditionedCg) with 25 CG
-    /// iterations and η = 1e-3. With body–body or self-contact (the surface barrier)
+    /// with [`AUTO_LBFGS_HISTORY`] pairs, or, with rigid obstacles,
+    /// [`RestPreconditionedCg`](Self::RestPreconditionedCg) with 25 CG iterations and η = 1e-3
+    /// (factoring J once a contact step) at step tolerances below
+    /// [`AUTO_CONTACT_LBFGS_TOLERANCE`] and L-BFGS with the contact nodes' blocks in its H₀ (no
+    /// factorization) at it and above, where linear convergence costs less than a
+    /// factorization. With body–body or self-contact (the surface barrier)
     /// [`Refactor`](Self::Refactor) at every size: its direct path factors the exact Hessian
     /// with the contact pairs' couplings, and Newton converges in a few iterations where the
     /// preconditioned CG on the lumped coupling converges linearly (on two blocks pressed
@@ -147,6 +160,20 @@ pub const AUTO_LBFGS_TOLERANCE: f64 = 1e-3;
 /// 5.22e-5 (the reference r₀ then the residual at the guess, see
 /// [`StepNewtonOptions::tolerance`](super::StepNewtonOptions)).
 pub const AUTO_LBFGS_CORRECTION: f64 = 1e-4;
+
+/// The tightest step tolerance (`StepNewtonOptions::tolerance`, dimensionless) at which
+/// [`NonlinearSolve::Auto`] takes L-BFGS with the contact nodes' blocks in H₀
+/// ([`NonlinearSolve::RestPreconditionedLbfgs`]) in contact with rigid obstacles; at tighter
+/// ones it keeps the preconditioned CG path, which factors J once a contact step. L-BFGS
+/// converges linearly, Newton on J's factor quadratically: on the 10k-DOF rubber block of
+/// `benches/interactive_contact.rs` (100 steps, 2 threads, one binary, interleaved rounds) at
+/// 1e-4 L-BFGS ran the drop onto frictional ground at 22.2–27.0 steps/s against 13.6–15.8 and
+/// the sphere pressing into it at 14.7–16.4 against 13.6–15.9; at 1e-8 the drop at 19.4–24.7
+/// against 12.9–13.9 but the press at 10.8–12.8 against 11.3–13.4 (9.3 iterations a step
+/// against 7.4: the block's tangent under the sphere is far from the rest one). The value of
+/// `StepNewtonOptions::interactive`; the trajectories at 1e-4 stay within 1.3e-5 of the largest
+/// displacement from the CG path's at 1e-8 (see `validation/PERFORMANCE.md`).
+pub const AUTO_CONTACT_LBFGS_TOLERANCE: f64 = 1e-4;
 
 /// The CG settings of [`NonlinearSolve::Auto`]'s preconditioned path, and of an L-BFGS step's
 /// fallback: 25 iterations, η = 1e-3.
@@ -231,6 +258,33 @@ impl NonlinearSolve {
         match (self, force.surface_contact()) {
             (NonlinearSolve::Auto, Some(_)) => NonlinearSolve::Refactor,
             (solve, _) => solve.for_problem(free_dofs, force.has_contact()),
+        }
+    }
+
+    /// What [`Auto`](Self::Auto) is for a step on `force` with `free_dofs` unknowns solved to
+    /// the step tolerance `tolerance`: with rigid obstacles (no body–body contact), at least
+    /// [`AUTO_REFACTOR_BELOW`] unknowns and a tolerance of at least
+    /// [`AUTO_CONTACT_LBFGS_TOLERANCE`], [`RestPreconditionedLbfgs`](Self::RestPreconditionedLbfgs)
+    /// with the contact nodes' blocks in its H₀ (no factorization a step); otherwise
+    /// [`for_force`](Self::for_force). Any other choice as it is.
+    pub(crate) fn for_step(
+        self,
+        free_dofs: usize,
+        force: &super::NonlinearForce,
+        tolerance: f64,
+    ) -> Self {
+        let rigid_contact = force.contact().is_some() && force.surface_contact().is_none();
+        match self {
+            NonlinearSolve::Auto
+                if rigid_contact
+                    && free_dofs >= AUTO_REFACTOR_BELOW
+                    && tolerance >= AUTO_CONTACT_LBFGS_TOLERANCE =>
+            {
+                NonlinearSolve::RestPreconditionedLbfgs {
+                    history: AUTO_LBFGS_HISTORY,
+                }
+            }
+            solve => solve.for_force(free_dofs, force),
         }
     }
 

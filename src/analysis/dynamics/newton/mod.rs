@@ -8,6 +8,8 @@
 //! are the one Newton of every nonlinear solve (`crate::analysis::newton`), which a static
 //! load step iterates in too.
 
+mod contact_capacitance;
+pub use contact_capacitance::MAX_CONTACT_DOFS;
 mod direction;
 mod node_correction;
 mod relaxation;
@@ -280,7 +282,7 @@ impl NewtonSolver {
         let mut options = options;
         options.tolerance = solve.step_tolerance(n, &force, options.tolerance);
         let correction_tolerance = solve.correction_tolerance(n, &force);
-        let solve = solve.for_force(n, &force);
+        let solve = solve.for_step(n, &force, options.tolerance);
         let step_resolution = force.step_resolution();
         Error::check_len("nonlinear force free DOFs", system.free_count(), n)?;
         Ok(NewtonSolver {
