@@ -1,10 +1,12 @@
 //! The cost of a backward-Euler step against the problem's size (issue 39, target 5): linear,
-//! corotational, Neo-Hookean, and Neo-Hookean with the ground (IPC barrier, Coulomb friction),
-//! on one rubber cube at each size, every run of one size side by side in this one process.
+//! corotational, Neo-Hookean, and Neo-Hookean with the ground (IPC barrier, Coulomb friction)
+//! at the default step tolerance and at the interactive one, on one rubber cube at each size,
+//! every run of one size side by side in this one process.
 //!
 //! The cube: side 0.2 m, E = 100 kPa, ν = 0.3, ρ = 1000 kg/m³, n³ cells of the mirrored 6-tet
 //! split, gravity, dt = 0.01 s, the solvers' defaults (`NonlinearSolve::Auto`, step tolerance
-//! 1e-8). Without contact its base (z = 0) is clamped and it starts thrown sideways at 0.3 m/s
+//! 1e-8; the case "neo-hookean + ground at 1e-4" at `StepNewtonOptions::interactive()`'s, where
+//! `Auto` takes L-BFGS with the contact nodes' blocks in its rest factor). Without contact its base (z = 0) is clamped and it starts thrown sideways at 0.3 m/s
 //! (it sways under its weight); with contact it is a free body starting 1 mm above the ground
 //! (μ = 0.5) at the same sideways speed: it lands within the first steps and slides, so
 //! every step measured is a contact step. A point is the mean wall time of steps 2 to
@@ -23,7 +25,7 @@ use std::time::Instant;
 use clap::Parser;
 use nalgebra::Vector3;
 use tetfem::analysis::Definition;
-use tetfem::analysis::dynamics::{Method, State};
+use tetfem::analysis::dynamics::{Method, State, StepNewtonOptions};
 use tetfem::analysis::transient::{TimeStep, Transient, TransientOptions};
 use tetfem::contact::{Contact, ContactParameters, Obstacle};
 use tetfem::fe::materials::MaterialMap;
@@ -60,13 +62,52 @@ const HEADER: &str =
 const SIDE: f64 = 0.2;
 const SPEED: f64 = 0.3;
 
-/// What is charted: a model, with or without the ground.
-const CASES: [(&str, ModelKind, bool); 4] = [
-    ("linear", ModelKind::Linear, false),
-    ("corotational", ModelKind::Corotational, false),
-    ("neo-hookean", ModelKind::NeoHookean, false),
-    ("neo-hookean + ground", ModelKind::NeoHookean, true),
+/// What is charted: a model, with or without the ground, and the Newton settings.
+const CASES: [(&str, ModelKind, bool, Tolerance); 5] = [
+    ("linear", ModelKind::Linear, false, Tolerance::Default),
+    (
+        "corotational",
+        ModelKind::Corotational,
+        false,
+        Tolerance::Default,
+    ),
+    (
+        "neo-hookean",
+        ModelKind::NeoHookean,
+        false,
+        Tolerance::Default,
+    ),
+    (
+        "neo-hookean + ground",
+        ModelKind::NeoHookean,
+        true,
+        Tolerance::Default,
+    ),
+    (
+        "neo-hookean + ground at 1e-4",
+        ModelKind::NeoHookean,
+        true,
+        Tolerance::Interactive,
+    ),
 ];
+
+/// A case's Newton settings.
+#[derive(Debug, Clone, Copy)]
+enum Tolerance {
+    /// `StepNewtonOptions::default()` (step tolerance 1e-8).
+    Default,
+    /// `StepNewtonOptions::interactive()` (1e-4).
+    Interactive,
+}
+
+impl Tolerance {
+    fn options(self) -> StepNewtonOptions {
+        match self {
+            Tolerance::Default => StepNewtonOptions::default(),
+            Tolerance::Interactive => StepNewtonOptions::interactive(),
+        }
+    }
+}
 
 /// The cube on `cells`³ cells: clamped at its base, or (`ground`) free 1 mm above the ground.
 fn cube(cells: usize, model: ModelKind, ground: bool) -> Result<Definition> {
@@ -97,9 +138,14 @@ fn cube(cells: usize, model: ModelKind, ground: bool) -> Result<Definition> {
 }
 
 /// One run: (free DOFs, mean seconds per step after the first, Newton iterations per step).
-fn measure(definition: &Definition, steps: usize, threads: usize) -> Result<(usize, f64, f64)> {
+fn measure(
+    definition: &Definition,
+    (steps, threads): (usize, usize),
+    newton: StepNewtonOptions,
+) -> Result<(usize, f64, f64)> {
     let mut options = TransientOptions::new(Method::BackwardEuler, TimeStep::Seconds(0.01));
     options.solver.cholesky.threads = threads;
+    options.solver.newton = newton;
     let mut run = Transient::new(definition, options)?;
     let free = run.system().free_count();
     let velocity: Vec<f64> = (0..definition.mesh.dof_count())
@@ -153,10 +199,11 @@ fn run(cli: &Cli) -> Result<()> {
             false => format!("{HEADER}\n"),
         };
         for &cells in &cli.cells {
-            for (case, model, ground) in CASES {
+            for (case, model, ground, tolerance) in CASES {
                 let load = load_average();
                 let definition = cube(cells, model, ground)?;
-                let (dofs, seconds, its) = measure(&definition, cli.steps, cli.threads)?;
+                let runs = (cli.steps, cli.threads);
+                let (dofs, seconds, its) = measure(&definition, runs, tolerance.options())?;
                 let line = format!(
                     "{case},{cells},{dofs},{},{},{seconds:.6e},{its:.2},{load}",
                     cli.threads,
