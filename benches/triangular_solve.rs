@@ -178,7 +178,52 @@ fn main() -> tetfem::Result<()> {
         }
     }
     let names: Vec<&str> = kernels.iter().map(|(name, _)| *name).collect();
-    print_results(&names, &best, &solutions, (bytes, len, single), &k_ff, &b)
+    print_results(&names, &best, &solutions, (bytes, len, single), &k_ff, &b)?;
+    many_right_hand_sides(&k_ff, reps)
+}
+
+/// 64 unit columns (the contact columns of L-BFGS's rest factor, `contact_capacitance.rs`)
+/// solved one at a time and together (`SparseCholesky::solve_many_approximate`, 16 a pass),
+/// on the f32 copy, one and two threads, interleaved: best time per column of each.
+fn many_right_hand_sides(k_ff: &tetfem::CscMatrix, reps: usize) -> tetfem::Result<()> {
+    let n = k_ff.dim();
+    let columns = 64;
+    let mut units = vec![0.0; columns * n];
+    for (c, column) in units.chunks_exact_mut(n).enumerate() {
+        column[(c * 7919) % n] = 1.0;
+    }
+    for threads in [1, 2] {
+        let options = tetfem::CholeskyOptions {
+            threads,
+            ..Default::default()
+        };
+        let mut cholesky = SparseCholesky::analyze_with(k_ff, options)?;
+        cholesky.factorize(k_ff)?;
+        if !cholesky.make_single_precision_copy()? {
+            return Ok(());
+        }
+        let (mut one, mut many) = (f64::INFINITY, f64::INFINITY);
+        for _ in 0..reps {
+            let mut x = units.clone();
+            let clock = Instant::now();
+            for column in x.chunks_exact_mut(n) {
+                cholesky.solve_in_place_single(column)?;
+            }
+            one = one.min(clock.elapsed().as_secs_f64());
+            let mut x = units.clone();
+            let clock = Instant::now();
+            cholesky.solve_many_approximate(&mut x)?;
+            many = many.min(clock.elapsed().as_secs_f64());
+            black_box(&x);
+        }
+        println!(
+            "{columns} unit columns, f32 copy, {threads} thread(s): one at a time {:.3} ms a column, together {:.3} ms a column ({:.2}×)",
+            1e3 * one / columns as f64,
+            1e3 * many / columns as f64,
+            one / many
+        );
+    }
+    Ok(())
 }
 
 /// The table of best times (s, GB/s and ratios to the streaming floor), the solutions'

@@ -355,3 +355,72 @@ fn the_single_precision_copy_solves_with_the_rounded_factor() {
         assert!(!simplicial.make_single_precision_copy().unwrap());
     }
 }
+
+/// Many right-hand sides at once (`SparseCholesky::solve_many_approximate`, 16 a pass over
+/// the factor): on the f64 factor each column agrees with its own solve to round-off and has
+/// its residual; on the f32 copy each is as backward stable as the one-column f32 solve; a
+/// column's bits do not depend on the columns beside it (37 columns: two full batches and a
+/// partial one, on one and two threads), and bad lengths are errors.
+#[test]
+fn many_right_hand_sides_solve_each_column_as_alone() {
+    let (k, b) = cantilever_system([30, 6, 6]);
+    let n = k.dim();
+    let columns = 37;
+    let rhs: Vec<f64> = (0..columns * n)
+        .map(|i| {
+            b[i % n] * (1.0 + (i / n) as f64 * 0.37) + if i % n == (i / n) * 11 { 1.0 } else { 0.0 }
+        })
+        .collect();
+    let norm = |v: &[f64]| v.iter().map(|x| x * x).sum::<f64>().sqrt();
+    let k_norm = norm(k.values());
+    let backward_error = |x: &[f64], b: &[f64]| {
+        let r: Vec<f64> = (k.mul(x).unwrap().iter().zip(b))
+            .map(|(a, b)| a - b)
+            .collect();
+        norm(&r) / (k_norm * norm(x) + norm(b))
+    };
+    for threads in [1, 2] {
+        let mut cholesky = SparseCholesky::analyze_with(&k, on_threads(threads)).unwrap();
+        cholesky.factorize(&k).unwrap();
+        let mut many = rhs.clone();
+        cholesky.solve_many_approximate(&mut many).unwrap();
+        for (c, (x, b)) in many.chunks(n).zip(rhs.chunks(n)).enumerate() {
+            let mut alone = b.to_vec();
+            cholesky.solve_in_place(&mut alone).unwrap();
+            // The same f64 operations in another order: a few ulps of cond(K)·|x|.
+            let difference = max_relative_difference(&alone, x);
+            assert!(
+                difference < 1e-9,
+                "column {c}: {difference:e} from its own solve"
+            );
+            let residual = relative_residual(&k, x, b);
+            assert!(residual < 1e-10, "column {c}: residual {residual:e}");
+        }
+        assert!(cholesky.make_single_precision_copy().unwrap());
+        let mut single = rhs.clone();
+        cholesky.solve_many_approximate(&mut single).unwrap();
+        // As for the one-column f32 solve (`the_single_precision_copy_solves_with_the_rounded_factor`):
+        // η < dim·2⁻²⁴; a read of the f64 factor would be at round-off of f64 instead.
+        let bound = n as f64 * 2f64.powi(-24);
+        for (c, (x, b)) in single.chunks(n).zip(rhs.chunks(n)).enumerate() {
+            let error = backward_error(x, b);
+            assert!(error < bound, "column {c}: {error:e} against {bound:e}");
+            assert!(
+                max_relative_difference(&many[c * n..][..n], x) > 1e-10,
+                "column {c}: the f64 factor was read"
+            );
+        }
+        // Column 20 alone, and among others in another batch position: the same bits.
+        let mut alone = rhs[20 * n..][..n].to_vec();
+        cholesky.solve_many_approximate(&mut alone).unwrap();
+        assert_eq!(alone, single[20 * n..][..n]);
+        let mut shifted = rhs[3 * n..].to_vec();
+        cholesky.solve_many_approximate(&mut shifted).unwrap();
+        assert_eq!(shifted, single[3 * n..]);
+        let mut ragged = vec![0.0; n + 1];
+        assert!(matches!(
+            cholesky.solve_many_approximate(&mut ragged),
+            Err(Error::InvalidParameter { .. })
+        ));
+    }
+}

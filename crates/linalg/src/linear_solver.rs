@@ -609,6 +609,23 @@ impl LinearSolver {
         }
     }
 
+    /// [`solve_approximate`](Self::solve_approximate) for the columns of `rhs` (column-major,
+    /// `matrix.dim()` long each): on the direct method's supernodal factor 16 columns share each
+    /// pass over the factor ([`SparseCholesky::solve_many_approximate`]); the iterative method
+    /// solves them one by one.
+    pub fn solve_approximate_many(&mut self, matrix: &CscMatrix, rhs: &mut [f64]) -> Result<()> {
+        match &mut self.backend {
+            Backend::Direct(cholesky) => cholesky.solve_many_approximate(rhs),
+            Backend::Iterative { .. } => {
+                let n = matrix.dim().max(1);
+                for column in rhs.chunks_mut(n) {
+                    self.solve_approximate(matrix, column)?;
+                }
+                Ok(())
+            }
+        }
+    }
+
     /// Solves `matrix`·x = b in place by conjugate gradients preconditioned with what the last
     /// [`factorize`](Self::factorize) prepared for *another* matrix P on the same pattern (the
     /// Cholesky factor's two triangular solves, or the multigrid hierarchy): one factorization

@@ -14,6 +14,7 @@ use faer::sparse::linalg::cholesky::SymbolicCholesky;
 use faer::sparse::linalg::cholesky::SymbolicCholeskyRaw;
 
 mod factor;
+mod many;
 
 pub(crate) use factor::{Columns, FactorPlan, FactorWorkspace};
 

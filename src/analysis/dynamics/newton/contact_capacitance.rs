@@ -16,7 +16,8 @@
 //! (J₀ + E·Q·Q·Eᵀ)⁻¹·v = J₀⁻¹·(v − E·Q·C⁻¹·Q·Eᵀ·J₀⁻¹·v),  C = I + Q·S₀·Q,  S₀ = Eᵀ·J₀⁻¹·E.
 //!
 //! S₀ depends on the rest factor and the contact DOFs only: its columns J₀⁻¹·e_j are solved
-//! once for each DOF the first time it touches, and kept while the rest factor stands (they
+//! once for each DOF the first time it touches (16 to a pass over the factor,
+//! `SparseCholesky::solve_many_approximate`), and kept while the rest factor stands (they
 //! are the same numbers in every step, so a step still depends on its state alone: entry (i, j)
 //! is always read from the column of the smaller index). C (k×k, symmetric positive definite:
 //! I plus a congruence of S₀) is factored with D at the run's first iterate in contact, and
@@ -25,8 +26,9 @@
 
 use std::collections::BTreeMap;
 
-use faer::linalg::solvers::{Llt, Solve};
-use faer::{Mat, Side};
+use faer::dyn_stack::{MemBuffer, MemStack};
+use faer::linalg::cholesky::llt;
+use faer::{MatMut, MatRef, Par};
 use nalgebra::{Matrix3, SymmetricEigen};
 
 use crate::analysis::dynamics::internal_force::NonlinearForce;
@@ -42,10 +44,14 @@ pub const MAX_CONTACT_DOFS: usize = 1024;
 /// Most bytes the kept columns J₀⁻¹·e_j may hold (f64 each, the free DOFs long): n·k·8 for k
 /// contact DOFs of n. The columns cost k triangular solve pairs, once, the first time each DOF
 /// touches: at 10,125 DOFs 675 of them (55 MB) took about 0.8 s at the landing of
-/// `benches/interactive_contact.rs`'s block. At 41,472 DOFs its bottom's 1,728 DOFs would take
+/// `benches/interactive_contact.rs`'s block one at a time, 0.13–0.16 s sixteen to a pass over
+/// the factor ([`COLUMN_GROUP`]). At 41,472 DOFs its bottom's 1,728 DOFs would take
 /// 570 MB and, measured, a landing of 11 s: past this budget factoring J each contact step
 /// (the CG path) costs less.
 const COLUMN_BYTES: usize = 128 << 20;
+
+/// Columns J₀⁻¹·e_j solved together: four batches of the multi-column solve, two a thread.
+const COLUMN_GROUP: usize = 64;
 
 /// One contact node of a run: the free indices of its DOFs (1 to 3, in x, y, z order), where
 /// they start among the run's contact DOFs, and Q, the root of its turned block (only the
@@ -66,8 +72,13 @@ pub(crate) struct ContactCapacitance {
     key: Option<(f64, f64)>,
     /// This run's contact nodes (empty: no correction).
     nodes: Vec<ContactNode>,
-    /// The Cholesky factor of C = I + Q·S₀·Q for this run.
-    capacitance: Option<Llt<f64>>,
+    /// The Cholesky factor L of C = I + Q·S₀·Q for this run (k×k column-major, L in the lower
+    /// triangle; the upper one is not read), empty when the run has no correction. Its memory is
+    /// kept from run to run: C is formed at least once a contact step, and a fresh k×k buffer
+    /// (4–8 MB at k = 700–1,000) cost more in page faults than the arithmetic (on the press of
+    /// `benches/interactive_contact.rs`, k ≈ 800: forming C 5.1 → 2.3 ms and factoring it
+    /// 4.2 → 2.7 ms once the memory was kept, before the formation went parallel).
+    capacitance: Vec<f64>,
     /// The contact DOFs of the last S₀ formed and S₀ over them (k×k, column-major).
     block: Option<(Vec<usize>, Vec<f64>)>,
 }
@@ -89,20 +100,21 @@ impl ContactCapacitance {
     /// [`prepare`](Self::prepare).
     pub fn clear(&mut self) {
         self.nodes.clear();
-        self.capacitance = None;
+        self.capacitance.clear();
     }
 
     /// Makes the correction for `nodes` (from [`ContactNodes::of`]) of a problem with `n` free
-    /// DOFs: the columns not kept yet solved by `solve` (J₀⁻¹ in place, on the rest factor of
-    /// `key`: the columns of another one are dropped), C formed and factored.
+    /// DOFs: the columns not kept yet solved by `solve_columns` (J₀⁻¹ in place on each n-long
+    /// column of its argument, on the rest factor of `key`: the columns of another one are
+    /// dropped), C formed and factored.
     pub fn prepare(
         &mut self,
         nodes: ContactNodes,
         n: usize,
         key: (f64, f64),
-        solve: &mut dyn FnMut(&mut [f64]) -> Result<()>,
+        solve_columns: &mut dyn FnMut(&mut [f64]) -> Result<()>,
     ) -> Result<Prepared> {
-        self.prepare_nodes(nodes.0, n, key, solve)
+        self.prepare_nodes(nodes.0, n, key, solve_columns)
     }
 
     /// [`prepare`](Self::prepare) for the contact nodes `nodes`.
@@ -111,7 +123,7 @@ impl ContactCapacitance {
         nodes: Vec<ContactNode>,
         n: usize,
         key: (f64, f64),
-        solve: &mut dyn FnMut(&mut [f64]) -> Result<()>,
+        solve_columns: &mut dyn FnMut(&mut [f64]) -> Result<()>,
     ) -> Result<Prepared> {
         self.clear();
         if self.key != Some(key) {
@@ -130,16 +142,23 @@ impl ContactCapacitance {
         if k > MAX_CONTACT_DOFS || (self.columns.len() + new.len()) * n * 8 > COLUMN_BYTES {
             return Ok(Prepared::TooLarge);
         }
-        for dof in new {
-            let mut column = vec![0.0; n];
-            column[dof] = 1.0;
-            solve(&mut column)?;
-            self.columns.insert(dof, column);
+        // Solved in groups (16 columns share a pass over the rest factor; a group bounds the
+        // buffer beside the kept columns), each column's bits its own whatever the group.
+        for group in new.chunks(COLUMN_GROUP) {
+            let mut block = vec![0.0; group.len() * n];
+            for (column, &dof) in block.chunks_exact_mut(n).zip(group) {
+                column[dof] = 1.0;
+            }
+            solve_columns(&mut block)?;
+            for (column, &dof) in block.chunks_exact(n).zip(group) {
+                self.columns.insert(dof, column.to_vec());
+            }
         }
         self.nodes = nodes;
-        self.capacitance = self.capacitance_matrix(k).llt(Side::Lower).ok();
-        if self.capacitance.is_none() {
-            self.nodes.clear();
+        self.capacitance_matrix(k);
+        let factored = factor_in_place(&mut self.capacitance, k);
+        if !factored {
+            self.clear();
             return Ok(Prepared::TooLarge);
         }
         Ok(Prepared::Corrected)
@@ -157,14 +176,20 @@ impl ContactCapacitance {
             let columns: Vec<&[f64]> = (dofs.iter())
                 .map(|d| self.columns.get(d).map_or(&[][..], |c| c.as_slice()))
                 .collect();
-            let mut s = vec![0.0; k * k];
-            for j in 0..k {
-                for i in 0..k {
+            // The last block's memory reused (see `capacitance`); every entry is written below.
+            let mut s = self.block.take().map_or_else(Vec::new, |(_, s)| s);
+            s.resize(k * k, 0.0);
+            // Each pair once, read along one column: the nodes come in ascending order, so the
+            // smaller index is mostly i and the reads walk down column i.
+            for i in 0..k {
+                for j in i..k {
                     let (low, high) = match dofs[i] < dofs[j] {
                         true => (i, j),
                         false => (j, i),
                     };
-                    s[j * k + i] = columns[low].get(dofs[high]).copied().unwrap_or(0.0);
+                    let entry = columns[low].get(dofs[high]).copied().unwrap_or(0.0);
+                    s[j * k + i] = entry;
+                    s[i * k + j] = entry;
                 }
             }
             self.block = Some((dofs, s));
@@ -172,14 +197,47 @@ impl ContactCapacitance {
         &self.block.as_ref().expect("S₀ kept just above").1
     }
 
-    /// C = I + Q·S₀·Q over this run's contact DOFs (k of them).
-    fn capacitance_matrix(&mut self, k: usize) -> Mat<f64> {
+    /// C = I + Q·S₀·Q over this run's contact DOFs (k of them) into `capacitance`, its lower
+    /// triangle only (the factorization reads that side), the columns in parallel: column j
+    /// (DOF q of node b) is Q·t, t = S₀·Q's column j = Σ_p Q_b[p, q]·S₀[:, b_p] from row j's
+    /// node down, each node's rows of t combined by its root.
+    fn capacitance_matrix(&mut self, k: usize) {
+        use rayon::prelude::*;
         self.rest_inverse_block(k);
         let s = &self.block.as_ref().expect("S₀ formed just above").1;
-        // Q block diagonal and S₀ symmetric: S₀·Q by columns, then (S₀·Q)ᵀ·Q = Q·S₀·Q.
-        let half = transposed(&scale_columns(&self.nodes, s, k), k);
-        let c = scale_columns(&self.nodes, &half, k);
-        Mat::from_fn(k, k, |i, j| c[j * k + i] + f64::from(u8::from(i == j)))
+        let nodes = &self.nodes;
+        let owner: Vec<(usize, usize)> = (nodes.iter().enumerate())
+            .flat_map(|(b, node)| (0..node.count).map(move |q| (b, q)))
+            .collect();
+        self.capacitance.resize(k * k, 0.0);
+        let columns = self.capacitance.par_chunks_exact_mut(k).enumerate();
+        columns.for_each_init(
+            || vec![0.0; k],
+            |t, (j, column)| {
+                let (b, q) = owner[j];
+                let from = nodes[b].offset;
+                let t = &mut t[from..];
+                t.fill(0.0);
+                for p in 0..nodes[b].count {
+                    let weight = nodes[b].root[(p, q)];
+                    let source = &s[(nodes[b].offset + p) * k + from..][..k - from];
+                    for (t, s) in t.iter_mut().zip(source) {
+                        *t += weight * s;
+                    }
+                }
+                for node in &nodes[b..] {
+                    let rows = &t[node.offset - from..][..node.count];
+                    for p in j.saturating_sub(node.offset)..node.count {
+                        let mut sum = 0.0;
+                        for (r, x) in rows.iter().enumerate() {
+                            sum += node.root[(p, r)] * x;
+                        }
+                        column[node.offset + p] = sum;
+                    }
+                }
+                column[j] += 1.0;
+            },
+        );
     }
 
     /// v ← (J₀ + E·D·Eᵀ)⁻¹·v (the nodes' rotated frame), `solve` applying J₀⁻¹ in place; J₀⁻¹·v
@@ -189,25 +247,27 @@ impl ContactCapacitance {
         v: &mut [f64],
         solve: &mut dyn FnMut(&mut [f64]) -> Result<()>,
     ) -> Result<()> {
-        let Some(capacitance) = &self.capacitance else {
+        if self.capacitance.is_empty() {
             return solve(v);
-        };
+        }
         let k = self.nodes.last().map_or(0, |n| n.offset + n.count);
         let mut w = v.to_vec();
         solve(&mut w)?;
-        let mut y = Mat::<f64>::zeros(k, 1);
+        let mut y = vec![0.0; k];
         for node in &self.nodes {
             for p in 0..node.count {
-                y[(node.offset + p, 0)] = (0..node.count)
+                y[node.offset + p] = (0..node.count)
                     .map(|q| node.root[(p, q)] * w[node.dofs[q]])
                     .sum();
             }
         }
-        capacitance.solve_in_place(&mut y);
+        let factor = MatRef::from_column_major_slice(&self.capacitance, k, k);
+        let rhs = MatMut::from_column_major_slice_mut(&mut y, k, 1);
+        llt::solve::solve_in_place(factor, rhs, Par::Seq, MemStack::new(&mut []));
         for node in &self.nodes {
             for p in 0..node.count {
                 v[node.dofs[p]] -= (0..node.count)
-                    .map(|q| node.root[(p, q)] * y[(node.offset + q, 0)])
+                    .map(|q| node.root[(p, q)] * y[node.offset + q])
                     .sum::<f64>();
             }
         }
@@ -284,34 +344,16 @@ fn contact_nodes(
     Ok(nodes)
 }
 
-/// M·Q for the block diagonal Q of `nodes`' roots (Q symmetric), `m` k×k column-major: each
-/// node's columns of `m` combined by its 3×3 root.
-fn scale_columns(nodes: &[ContactNode], m: &[f64], k: usize) -> Vec<f64> {
-    let mut out = vec![0.0; m.len()];
-    for node in nodes {
-        for q in 0..node.count {
-            let target = &mut out[(node.offset + q) * k..][..k];
-            for p in 0..node.count {
-                let weight = node.root[(p, q)];
-                let source = &m[(node.offset + p) * k..][..k];
-                for (t, s) in target.iter_mut().zip(source) {
-                    *t += weight * s;
-                }
-            }
-        }
-    }
-    out
-}
-
-/// The transpose of the k×k column-major `m`.
-fn transposed(m: &[f64], k: usize) -> Vec<f64> {
-    let mut out = vec![0.0; m.len()];
-    for j in 0..k {
-        for i in 0..k {
-            out[i * k + j] = m[j * k + i];
-        }
-    }
-    out
+/// Factors the k×k column-major `c` in place (its lower triangle read, L left there) with
+/// faer's dense LLᵀ on the global parallelism; `false` where a pivot is not positive.
+fn factor_in_place(c: &mut [f64], k: usize) -> bool {
+    let par = faer::get_global_parallelism();
+    let scratch = llt::factor::cholesky_in_place_scratch::<f64>(k, par, Default::default());
+    let mut memory = MemBuffer::new(scratch);
+    let matrix = MatMut::from_column_major_slice_mut(c, k, k);
+    let regularization = Default::default();
+    let stack = MemStack::new(&mut memory);
+    llt::factor::cholesky_in_place(matrix, regularization, par, stack, Default::default()).is_ok()
 }
 
 /// The symmetric positive semi-definite square root of the symmetric part of `m`, its negative
@@ -360,9 +402,12 @@ mod tests {
         let n = 12;
         let j0 = rest_matrix(n);
         let cholesky = j0.clone().cholesky().expect("SPD");
+        // J₀⁻¹ on each n-long column of v (one for `apply`, several for `prepare`).
         let mut solve = |v: &mut [f64]| -> Result<()> {
-            let x = cholesky.solve(&DVector::from_column_slice(v));
-            v.copy_from_slice(x.as_slice());
+            for v in v.chunks_mut(n) {
+                let x = cholesky.solve(&DVector::from_column_slice(v));
+                v.copy_from_slice(x.as_slice());
+            }
             Ok(())
         };
         let normal = nalgebra::Vector3::new(0.0, 0.0, 1.0);
@@ -413,9 +458,11 @@ mod tests {
         let cholesky = rest_matrix(n).cholesky().expect("SPD");
         let solves = std::cell::Cell::new(0);
         let mut solve = |v: &mut [f64]| -> Result<()> {
-            solves.set(solves.get() + 1);
-            let x = cholesky.solve(&DVector::from_column_slice(v));
-            v.copy_from_slice(x.as_slice());
+            for v in v.chunks_mut(n) {
+                solves.set(solves.get() + 1);
+                let x = cholesky.solve(&DVector::from_column_slice(v));
+                v.copy_from_slice(x.as_slice());
+            }
             Ok(())
         };
         let d = Matrix3::from_diagonal(&nalgebra::Vector3::new(1e3, 2e3, 3e3));

@@ -700,8 +700,10 @@ impl Lbfgs {
         }
         self.contact_state = ContactState::Made;
         let (solver, matrix) = (&mut *newton.solver, &*newton.matrix);
-        let mut solve = |v: &mut [f64]| -> Result<()> { Ok(solver.solve_approximate(matrix, v)?) };
-        let made = (self.contact).prepare(nodes, matrix.dim(), newton.scales, &mut solve)?;
+        let mut solve_columns =
+            |v: &mut [f64]| -> Result<()> { Ok(solver.solve_approximate_many(matrix, v)?) };
+        let made =
+            (self.contact).prepare(nodes, matrix.dim(), newton.scales, &mut solve_columns)?;
         Ok(made != Prepared::TooLarge)
     }
 }
