@@ -9,7 +9,7 @@
 //! only on the arithmetic `T`. They differ from [`SupernodalPlan::solve_in_place`]'s in the
 //! order of the additions (round-off).
 
-use super::{FactorValue, SupernodalPlan};
+use super::{FactorValue, SupernodalPlan, Supernode};
 
 /// Right-hand sides solved together: 16 lanes, two AVX2 registers of f32 (four of f64).
 pub(crate) const BATCH: usize = 16;
@@ -102,6 +102,14 @@ impl SupernodalPlan {
         }
     }
 
+    /// Supernode `s` and its values (column-major, `ncols + below` rows).
+    #[inline(always)]
+    fn supernode<'f, T>(&self, s: usize, factor: &'f [T]) -> (Supernode, &'f [T]) {
+        let node = self.nodes[s];
+        let len = node.ncols * (node.ncols + node.below);
+        (node, &factor[node.val_start..][..len])
+    }
+
     /// x_s ← L_ss⁻¹·x_s, then x[rows] −= L_below·x_s, on a local copy [x_s; 0] of the
     /// supernode's rows, so that a column's update is one contiguous range.
     #[inline(always)]
@@ -112,9 +120,8 @@ impl SupernodalPlan {
         x: &mut [Row<T>],
         local: &mut [Row<T>],
     ) {
-        let node = self.nodes[s];
+        let (node, block) = self.supernode(s, factor);
         let (w, ld) = (node.ncols, node.ncols + node.below);
-        let block = &factor[node.val_start..][..w * ld];
         let y = &mut local[..ld];
         y[..w].copy_from_slice(&x[node.first..][..w]);
         y[w..].fill([T::default(); BATCH]);
@@ -166,9 +173,8 @@ impl SupernodalPlan {
         x: &mut [Row<T>],
         local: &mut [Row<T>],
     ) {
-        let node = self.nodes[s];
+        let (node, block) = self.supernode(s, factor);
         let (w, ld) = (node.ncols, node.ncols + node.below);
-        let block = &factor[node.val_start..][..w * ld];
         let y = &mut local[..ld];
         y[..w].copy_from_slice(&x[node.first..][..w]);
         let rows = &self.row_idx[node.row_start..][..node.below];
