@@ -3,7 +3,8 @@
 //! kernels on one and two threads, and a streaming read of the factor's values twice (the
 //! practical bandwidth floor of a solve) on one and two threads, as one sequential stream per
 //! thread and as four concurrent streams per thread (which one thread reads much faster), and
-//! tetfem's kernels on the factor's single-precision copy.
+//! tetfem's kernels on the factor's single-precision copy; then 64 unit columns solved one at a
+//! time and together (`SparseCholesky::solve_many_approximate`, 16 to a pass), on the f32 copy.
 //!
 //! `cargo bench --bench triangular_solve -- NX,NY,NZ [REPS]` (default 100,20,20, 9).
 

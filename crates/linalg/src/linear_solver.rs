@@ -715,6 +715,16 @@ impl LinearSolver {
         }
     }
 
+    /// Floating-point operations of one numeric factorization
+    /// ([`SparseCholesky::factor_flops`]), known after the symbolic analysis; `None` for the
+    /// iterative method.
+    pub fn factor_flops(&self) -> Option<f64> {
+        match &self.backend {
+            Backend::Direct(cholesky) => Some(cholesky.factor_flops()),
+            Backend::Iterative { .. } => None,
+        }
+    }
+
     /// Bytes of the Cholesky factor and its workspace ([`SparseCholesky::factor_bytes`]; 0 for
     /// the iterative method).
     pub fn factor_bytes(&self) -> usize {

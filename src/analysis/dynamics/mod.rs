@@ -49,7 +49,9 @@ pub use explicit_surface::{
 };
 pub use internal_force::{BarrierRecord, ForceWorkspace, InternalForce, NonlinearForce};
 pub use newmark::Newmark;
-pub use newton::{INTERACTIVE_STEP_TOLERANCE, MAX_CONTACT_DOFS, NewtonStats, StepNewtonOptions};
+pub use newton::{
+    COLUMN_BYTES, INTERACTIVE_STEP_TOLERANCE, NewtonStats, StepNewtonOptions, max_contact_dofs,
+};
 pub use nonlinear_solve::{
     AUTO_CONTACT_LBFGS_TOLERANCE, AUTO_LBFGS_CORRECTION, AUTO_LBFGS_HISTORY, AUTO_LBFGS_TOLERANCE,
     AUTO_REFACTOR_BELOW, NonlinearSolve,

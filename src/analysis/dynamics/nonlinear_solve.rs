@@ -63,11 +63,13 @@ pub enum NonlinearSolve {
     /// blocks D (3×3 a node, made at the run's first iterate within d̂ and again after a step
     /// that was cut short or did not halve ‖r‖): H₀ = R̄·(J₀ + E·D·Eᵀ)⁻¹·R̄ᵀ by Woodbury's
     /// identity on the rest factor, with a dense factor of the contact DOFs' size (at most
-    /// [`MAX_CONTACT_DOFS`](super::MAX_CONTACT_DOFS); past it the run goes on as
-    /// [`RestPreconditionedCg`](Self::RestPreconditionedCg), which factors J). Two triangular
-    /// solve pairs an iteration instead of one, and no factorization: J₀⁻¹'s columns at the
-    /// contact DOFs are solved once per DOF the first time it touches and kept (at the landing
-    /// of the 10k-DOF block of `benches/interactive_contact.rs`, 675 of them, about 0.8 s).
+    /// [`max_contact_dofs`](super::max_contact_dofs), whose factorization costs no more than
+    /// J's, and their columns within [`COLUMN_BYTES`](super::COLUMN_BYTES); past either the run
+    /// goes on as [`RestPreconditionedCg`](Self::RestPreconditionedCg), which factors J). Two
+    /// triangular solve pairs an iteration instead of one, and no factorization: J₀⁻¹'s columns
+    /// at the contact DOFs are solved once per DOF the first time it touches, sixteen to a pass
+    /// over the factor, and kept (at the landing of the 10k-DOF block of
+    /// `benches/interactive_contact.rs`, 675 of them, 0.13–0.16 s).
     ///
     /// Each step starts from an empty history, so a step depends on its state alone. A step
     /// that has not converged within `StepNewtonOptions::max_iterations`, or whose line search

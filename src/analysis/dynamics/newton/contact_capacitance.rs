@@ -35,20 +35,26 @@ use crate::analysis::dynamics::internal_force::NonlinearForce;
 use crate::analysis::dynamics::nodal_rotation::NodalRotations;
 use crate::base::error::Result;
 
-/// Most contact DOFs a correction is made for. Its dense factor costs k³/3 flops a run and its
-/// columns k triangular solve pairs once: at k = 1,024 about 3.6e8 flops, the order of a
-/// factorization of J at 10k DOFs, past which factoring J is the cheaper way to hold the
-/// contact's stiffness.
-pub const MAX_CONTACT_DOFS: usize = 1024;
+/// Most contact DOFs a correction is made for on a rest factor whose numeric factorization
+/// costs `factor_flops` (`LinearSolver::factor_flops`; 1,024 without one): k with k³/3 no more
+/// than that, so that C's dense factorization, made at least once a contact step, costs no more
+/// than the factorization of J the CG path makes each contact step instead. At
+/// `benches/interactive_contact.rs`'s sizes: 515 at 2,187 DOFs (the block's bottom holds
+/// 243), 1,509 at 10,125 (675) and 3,963 at 41,472 (1,728), where the columns' memory
+/// ([`COLUMN_BYTES`]) binds first (2,314).
+pub fn max_contact_dofs(factor_flops: Option<f64>) -> usize {
+    factor_flops.map_or(1024, |flops| (3.0 * flops.max(0.0)).cbrt() as usize)
+}
 
-/// Most bytes the kept columns J₀⁻¹·e_j may hold (f64 each, the free DOFs long): n·k·8 for k
-/// contact DOFs of n. The columns cost k triangular solve pairs, once, the first time each DOF
-/// touches: at 10,125 DOFs 675 of them (55 MB) took about 0.8 s at the landing of
-/// `benches/interactive_contact.rs`'s block one at a time, 0.13–0.16 s sixteen to a pass over
-/// the factor ([`COLUMN_GROUP`]). At 41,472 DOFs its bottom's 1,728 DOFs would take
-/// 570 MB and, measured, a landing of 11 s: past this budget factoring J each contact step
-/// (the CG path) costs less.
-const COLUMN_BYTES: usize = 128 << 20;
+/// Most bytes the kept columns J₀⁻¹·e_j may hold (f32 each, the free DOFs long): n·k·4 for k
+/// contact DOFs of n. They are solved on the rest factor's f32 copy, whose results are f32
+/// numbers (the right-hand side e_j needs no scaling), so f32 keeps them whole. The columns
+/// cost k triangular solves, once, the first time each DOF touches: at 10,125 DOFs 675 of them
+/// (27 MB) took about 0.8 s at the landing of `benches/interactive_contact.rs`'s block one at
+/// a time, 0.13–0.16 s sixteen to a pass over the factor ([`COLUMN_GROUP`]); at 41,472 DOFs
+/// its bottom's 1,728 DOFs take 287 MB. Past this budget the run factors J instead (the CG
+/// path).
+pub const COLUMN_BYTES: usize = 384 << 20;
 
 /// Columns J₀⁻¹·e_j solved together: four batches of the multi-column solve, two a thread.
 const COLUMN_GROUP: usize = 64;
@@ -67,7 +73,7 @@ struct ContactNode {
 #[derive(Default)]
 pub(crate) struct ContactCapacitance {
     /// J₀⁻¹·e_j for each free DOF j met in contact since the rest factor of `key` was made.
-    columns: BTreeMap<usize, Vec<f64>>,
+    columns: BTreeMap<usize, Vec<f32>>,
     /// The (mass scale, damping stiffness) of the rest factor the columns were solved on.
     key: Option<(f64, f64)>,
     /// This run's contact nodes (empty: no correction).
@@ -90,7 +96,7 @@ pub(crate) enum Prepared {
     NoContact,
     /// H₀ holds the contact nodes' blocks.
     Corrected,
-    /// Too many contact DOFs ([`MAX_CONTACT_DOFS`], or the columns past their memory), or C
+    /// Too many contact DOFs ([`max_contact_dofs`], or the columns past their memory), or C
     /// did not factor: the run should hold the contact's stiffness another way.
     TooLarge,
 }
@@ -104,24 +110,25 @@ impl ContactCapacitance {
     }
 
     /// Makes the correction for `nodes` (from [`ContactNodes::of`]) of a problem with `n` free
-    /// DOFs: the columns not kept yet solved by `solve_columns` (J₀⁻¹ in place on each n-long
+    /// DOFs, at most `max_dofs` of them in contact ([`max_contact_dofs`]): the columns not kept
+    /// yet solved by `solve_columns` (J₀⁻¹ in place on each n-long
     /// column of its argument, on the rest factor of `key`: the columns of another one are
     /// dropped), C formed and factored.
     pub fn prepare(
         &mut self,
         nodes: ContactNodes,
-        n: usize,
+        (n, max_dofs): (usize, usize),
         key: (f64, f64),
         solve_columns: &mut dyn FnMut(&mut [f64]) -> Result<()>,
     ) -> Result<Prepared> {
-        self.prepare_nodes(nodes.0, n, key, solve_columns)
+        self.prepare_nodes(nodes.0, (n, max_dofs), key, solve_columns)
     }
 
     /// [`prepare`](Self::prepare) for the contact nodes `nodes`.
     fn prepare_nodes(
         &mut self,
         nodes: Vec<ContactNode>,
-        n: usize,
+        (n, max_dofs): (usize, usize),
         key: (f64, f64),
         solve_columns: &mut dyn FnMut(&mut [f64]) -> Result<()>,
     ) -> Result<Prepared> {
@@ -139,7 +146,7 @@ impl ContactCapacitance {
             .flat_map(|node| node.dofs[..node.count].to_vec())
             .filter(|d| !self.columns.contains_key(d))
             .collect();
-        if k > MAX_CONTACT_DOFS || (self.columns.len() + new.len()) * n * 8 > COLUMN_BYTES {
+        if k > max_dofs || (self.columns.len() + new.len()) * n * 4 > COLUMN_BYTES {
             return Ok(Prepared::TooLarge);
         }
         // Solved in groups (16 columns share a pass over the rest factor; a group bounds the
@@ -151,7 +158,9 @@ impl ContactCapacitance {
             }
             solve_columns(&mut block)?;
             for (column, &dof) in block.chunks_exact(n).zip(group) {
-                self.columns.insert(dof, column.to_vec());
+                // f32 numbers already where the f32 copy solved them (see `COLUMN_BYTES`).
+                self.columns
+                    .insert(dof, column.iter().map(|&x| x as f32).collect());
             }
         }
         self.nodes = nodes;
@@ -173,7 +182,7 @@ impl ContactCapacitance {
             .flat_map(|node| node.dofs[..node.count].to_vec())
             .collect();
         if self.block.as_ref().is_none_or(|(kept, _)| *kept != dofs) {
-            let columns: Vec<&[f64]> = (dofs.iter())
+            let columns: Vec<&[f32]> = (dofs.iter())
                 .map(|d| self.columns.get(d).map_or(&[][..], |c| c.as_slice()))
                 .collect();
             // The last block's memory reused (see `capacitance`); every entry is written below.
@@ -187,7 +196,7 @@ impl ContactCapacitance {
                         true => (i, j),
                         false => (j, i),
                     };
-                    let entry = columns[low].get(dofs[high]).copied().unwrap_or(0.0);
+                    let entry = columns[low].get(dofs[high]).map_or(0.0, |&x| f64::from(x));
                     s[j * k + i] = entry;
                     s[i * k + j] = entry;
                 }
@@ -289,11 +298,11 @@ impl ContactNodes {
         Ok(ContactNodes(contact_nodes(force, at, rotations)?))
     }
 
-    /// Whether the correction for them, in a problem of `n` free DOFs, would be larger than
-    /// [`MAX_CONTACT_DOFS`] or its columns alone than their memory budget.
-    pub fn too_many(&self, n: usize) -> bool {
+    /// Whether the correction for them, in a problem of `n` free DOFs, would hold more than
+    /// `max_dofs` ([`max_contact_dofs`]) or its columns alone more than their memory budget.
+    pub fn too_many(&self, n: usize, max_dofs: usize) -> bool {
         let k = self.0.last().map_or(0, |n| n.offset + n.count);
-        k > MAX_CONTACT_DOFS || k * n * 8 > COLUMN_BYTES
+        k > max_dofs || k * n * 4 > COLUMN_BYTES
     }
 }
 
@@ -394,9 +403,10 @@ mod tests {
 
     /// Woodbury's identity: with the blocks made, `apply` inverts J₀ + E·D·Eᵀ (a stiff normal
     /// block, 1e4 of J₀'s diagonal, as a barrier's; a sticking node's tangential pair; a node
-    /// with one DOF constrained), to round-off of the dense solves (1e-10 of |v|: the blocks'
-    /// 1e4 scale times f64's 1e-16, with room); and without them it is J₀⁻¹ alone, which
-    /// misses the blocks by far.
+    /// with one DOF constrained), to the rounding of the kept columns to f32 (2⁻²⁴ ≈ 6e-8 of
+    /// S₀'s entries, which the residual weighs by the blocks' 1e4 scale: bound 1e-3 of |v|,
+    /// measured 1.0e-4; in a run the columns come from the factor's f32 copy and are kept
+    /// whole); and without them it is J₀⁻¹ alone, which misses the blocks by far (> 0.1).
     #[test]
     fn the_corrected_rest_inverse_inverts_the_rest_matrix_plus_the_contact_blocks() {
         let n = 12;
@@ -429,7 +439,7 @@ mod tests {
             }
         }
         let mut capacitance = ContactCapacitance::default();
-        let made = capacitance.prepare_nodes(nodes, n, (1.0, 0.0), &mut solve);
+        let made = capacitance.prepare_nodes(nodes, (n, 1024), (1.0, 0.0), &mut solve);
         assert_eq!(made.unwrap(), Prepared::Corrected);
         let v: Vec<f64> = (0..n).map(|i| (i as f64 * 0.7).sin() + 0.2).collect();
         let miss = |capacitance: &ContactCapacitance,
@@ -441,7 +451,7 @@ mod tests {
         };
         let corrected = miss(&capacitance, &mut solve);
         assert!(
-            corrected < 1e-10,
+            corrected < 1e-3,
             "(J₀ + EDEᵀ)·x misses v by {corrected:e} of |v|"
         );
         capacitance.clear();
@@ -468,21 +478,26 @@ mod tests {
         let d = Matrix3::from_diagonal(&nalgebra::Vector3::new(1e3, 2e3, 3e3));
         let mut first = ContactCapacitance::default();
         first
-            .prepare_nodes(vec![node(&[6, 7, 8], d, 0)], n, (1.0, 0.0), &mut solve)
+            .prepare_nodes(
+                vec![node(&[6, 7, 8], d, 0)],
+                (n, 1024),
+                (1.0, 0.0),
+                &mut solve,
+            )
             .unwrap();
         let both = || vec![node(&[0, 1, 2], d, 0), node(&[6, 7, 8], d, 3)];
         first
-            .prepare_nodes(both(), n, (1.0, 0.0), &mut solve)
+            .prepare_nodes(both(), (n, 1024), (1.0, 0.0), &mut solve)
             .unwrap();
         assert_eq!(solves.get(), 6, "each DOF's column solved once");
         let mut second = ContactCapacitance::default();
         second
-            .prepare_nodes(both(), n, (1.0, 0.0), &mut solve)
+            .prepare_nodes(both(), (n, 1024), (1.0, 0.0), &mut solve)
             .unwrap();
         let block = |c: &ContactCapacitance| c.block.as_ref().unwrap().1.clone();
         assert_eq!(block(&first), block(&second));
         first
-            .prepare_nodes(both(), n, (2.0, 0.0), &mut solve)
+            .prepare_nodes(both(), (n, 1024), (2.0, 0.0), &mut solve)
             .unwrap();
         assert_eq!(
             solves.get(),

@@ -20,7 +20,7 @@
 //! hands a strategy the [`NewtonMatrix`]: what J is formed from and where it is factored.
 
 use super::NewtonStats;
-use super::contact_capacitance::{ContactCapacitance, ContactNodes, Prepared};
+use super::contact_capacitance::{ContactCapacitance, ContactNodes, Prepared, max_contact_dofs};
 use super::node_correction::NodeCorrection;
 use super::weight::ContactBlocks;
 use crate::analysis::dynamics::internal_force::{ForceWorkspace, NonlinearForce, combine};
@@ -700,10 +700,10 @@ impl Lbfgs {
         }
         self.contact_state = ContactState::Made;
         let (solver, matrix) = (&mut *newton.solver, &*newton.matrix);
+        let size = (matrix.dim(), max_contact_dofs(solver.factor_flops()));
         let mut solve_columns =
             |v: &mut [f64]| -> Result<()> { Ok(solver.solve_approximate_many(matrix, v)?) };
-        let made =
-            (self.contact).prepare(nodes, matrix.dim(), newton.scales, &mut solve_columns)?;
+        let made = (self.contact).prepare(nodes, size, newton.scales, &mut solve_columns)?;
         Ok(made != Prepared::TooLarge)
     }
 }
@@ -742,7 +742,11 @@ impl StepDirection for Lbfgs {
         // Too many contact DOFs for the blocks: this run goes on with the CG path, which
         // factors J, before the rest matrix is factored for nothing (the size's rule, not a
         // failure: no fallback counted).
-        if hold.as_ref().is_some_and(|h| h.too_many(u_new.len())) {
+        let max_dofs = max_contact_dofs(newton.solver.factor_flops());
+        if hold
+            .as_ref()
+            .is_some_and(|h| h.too_many(u_new.len(), max_dofs))
+        {
             self.failed = true;
             return self
                 .cg

@@ -9,7 +9,7 @@
 //! load step iterates in too.
 
 mod contact_capacitance;
-pub use contact_capacitance::MAX_CONTACT_DOFS;
+pub use contact_capacitance::{COLUMN_BYTES, max_contact_dofs};
 mod direction;
 mod node_correction;
 mod relaxation;
