@@ -51,7 +51,7 @@ pub fn max_contact_dofs(factor_flops: Option<f64>) -> usize {
 /// numbers (the right-hand side e_j needs no scaling), so f32 keeps them whole. The columns
 /// cost k triangular solves, once, the first time each DOF touches: at 10,125 DOFs 675 of them
 /// (27 MB) took about 0.8 s at the landing of `benches/interactive_contact.rs`'s block one at
-/// a time, 0.13–0.16 s sixteen to a pass over the factor ([`COLUMN_GROUP`]); at 41,472 DOFs
+/// a time, 0.13–0.16 s sixteen to a pass over the factor, 64 a group; at 41,472 DOFs
 /// its bottom's 1,728 DOFs take 287 MB. Past this budget the run factors J instead (the CG
 /// path).
 pub const COLUMN_BYTES: usize = 384 << 20;
