@@ -691,16 +691,22 @@ impl Lbfgs {
         Ok(Some(nodes))
     }
 
-    /// Makes H₀'s contact blocks for `nodes` on the rest factor; `false` where they cannot be
-    /// made (the columns past their memory, or C not factored).
-    fn hold_contact(&mut self, newton: &mut NewtonMatrix, nodes: ContactNodes) -> Result<bool> {
+    /// Makes H₀'s contact blocks for `nodes` (at most `max_dofs` contact DOFs) on the rest
+    /// factor; `false` where they cannot be made (the columns past their memory, or C not
+    /// factored).
+    fn hold_contact(
+        &mut self,
+        newton: &mut NewtonMatrix,
+        nodes: ContactNodes,
+        max_dofs: usize,
+    ) -> Result<bool> {
         if self.contact_state == ContactState::Free {
             // H₀ gains the contact's stiffness: the pairs made without it go.
             self.memory.clear();
         }
         self.contact_state = ContactState::Made;
         let (solver, matrix) = (&mut *newton.solver, &*newton.matrix);
-        let size = (matrix.dim(), max_contact_dofs(solver.factor_flops()));
+        let size = (matrix.dim(), max_dofs);
         let mut solve_columns =
             |v: &mut [f64]| -> Result<()> { Ok(solver.solve_approximate_many(matrix, v)?) };
         let made = (self.contact).prepare(nodes, size, newton.scales, &mut solve_columns)?;
@@ -742,10 +748,12 @@ impl StepDirection for Lbfgs {
         // Too many contact DOFs for the blocks: this run goes on with the CG path, which
         // factors J, before the rest matrix is factored for nothing (the size's rule, not a
         // failure: no fallback counted).
-        let max_dofs = max_contact_dofs(newton.solver.factor_flops());
+        // The budget from the factor's flops (a pass over its supernodes): only where the
+        // blocks are to be made.
+        let hold = hold.map(|h| (h, max_contact_dofs(newton.solver.factor_flops())));
         if hold
             .as_ref()
-            .is_some_and(|h| h.too_many(u_new.len(), max_dofs))
+            .is_some_and(|(h, max_dofs)| h.too_many(u_new.len(), *max_dofs))
         {
             self.failed = true;
             return self
@@ -753,8 +761,8 @@ impl StepDirection for Lbfgs {
                 .direction(newton, u_new, residual, delta, true, stats);
         }
         self.cg.ensure_rest_factor(newton, stats)?;
-        if let Some(nodes) = hold
-            && !self.hold_contact(newton, nodes)?
+        if let Some((nodes, max_dofs)) = hold
+            && !self.hold_contact(newton, nodes, max_dofs)?
         {
             self.failed = true;
             stats.fallbacks += 1;
