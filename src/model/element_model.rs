@@ -72,6 +72,23 @@ pub trait ModelElement: ElementType + 'static {
         Self::add_model_forces_and_energy(mesh, models, u, force)
     }
 
+    /// Adds Σₑ (fₑ(u) − fₑ(base)) over the tets `tets` into the full vector `force` and
+    /// returns Σₑ (Eₑ(u) − Eₑ(base)) (force and energy units), each tet's rest element from
+    /// `kept`: a pass's force and energy carried from `base` to a `u` that differs from it only
+    /// at the nodes of `tets`. `None` where the element type does not offer it (then a full
+    /// pass is due); the 4-node tet does.
+    fn add_model_force_changes_kept(
+        mesh: &TetMesh<Self>,
+        kept: &[Tet],
+        models: &(impl TetModels + ?Sized),
+        tets: &[usize],
+        (base, u): (&[f64], &[f64]),
+        force: &mut [f64],
+    ) -> Option<f64> {
+        let _ = (mesh, kept, models, tets, base, u, force);
+        None
+    }
+
     /// [`model_energy`](Self::model_energy) with tet `t`'s rest element read from `kept[t]`
     /// (as [`add_model_forces_and_energy_kept`](Self::add_model_forces_and_energy_kept)): the
     /// same bits.
@@ -212,6 +229,31 @@ impl ModelElement for Tet4 {
             }
         }
         sum
+    }
+
+    fn add_model_force_changes_kept(
+        mesh: &TetMesh,
+        kept: &[Tet],
+        models: &(impl TetModels + ?Sized),
+        tets: &[usize],
+        (base, u): (&[f64], &[f64]),
+        force: &mut [f64],
+    ) -> Option<f64> {
+        let mut change = 0.0;
+        for &t in tets {
+            let model = models.model_of(t);
+            let (rest, before) = corners(mesh, t, base);
+            let (_, after) = corners(mesh, t, u);
+            let (f0, e0) = model.force_and_energy(&kept[t], &rest, &before);
+            let (f1, e1) = model.force_and_energy(&kept[t], &rest, &after);
+            for (i, &n) in mesh.tets()[t].iter().enumerate() {
+                for a in 0..3 {
+                    force[3 * n + a] += f1[3 * i + a] - f0[3 * i + a];
+                }
+            }
+            change += e1 - e0;
+        }
+        Some(change)
     }
 
     #[inline]

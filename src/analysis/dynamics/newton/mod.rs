@@ -267,6 +267,16 @@ impl std::fmt::Debug for NewtonSolver {
     }
 }
 
+/// How a residual evaluates the internal force.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Pass {
+    /// Over every tet.
+    Full,
+    /// Carried from the last full pass over the tets at the nodes that moved since
+    /// ([`NonlinearForce::force_and_energy_near_into`]): the contact nodes' relaxation.
+    Near,
+}
+
 impl NewtonSolver {
     /// A solver for `force` on `system` whose linear solves are made as `solve` says (β > 0
     /// keeps a second tangent for the damping).
@@ -422,6 +432,18 @@ impl NewtonSolver {
         u_new: &[f64],
         out_is_trial: bool,
     ) -> Result<()> {
+        self.residual_by(system, equation, u_new, out_is_trial, Pass::Full)
+    }
+
+    /// [`residual_into`](Self::residual_into) with the internal force by `pass`.
+    fn residual_by(
+        &mut self,
+        system: &LinearSystem,
+        equation: &StepEquation,
+        u_new: &[f64],
+        out_is_trial: bool,
+        pass: Pass,
+    ) -> Result<()> {
         let damping = system.damping();
         // A step starts where the last one's final residual was evaluated: its internal force
         // is still here (without contact, whose force also depends on the obstacles' placement
@@ -432,9 +454,11 @@ impl NewtonSolver {
             && self.internal_valid
             && self.internal_at.as_slice() == u_new;
         if !cached {
-            self.internal_energy =
-                self.force
-                    .force_and_energy_into(u_new, &mut self.work, &mut self.internal)?;
+            let (force, work, internal) = (&self.force, &mut self.work, &mut self.internal);
+            self.internal_energy = match pass {
+                Pass::Full => force.force_and_energy_into(u_new, work, internal)?,
+                Pass::Near => force.force_and_energy_near_into(u_new, work, internal)?,
+            };
             self.internal_at.copy_from_slice(u_new);
             self.internal_valid = true;
         }

@@ -5,7 +5,7 @@
 use nalgebra::{Matrix3, Vector3};
 
 use super::node_correction::{Group, block, node_groups};
-use super::{NewtonSolver, StepEquation};
+use super::{NewtonSolver, Pass, StepEquation};
 use crate::analysis::dynamics::{LinearSystem, Mass};
 use crate::base::error::Result;
 use crate::base::vector::norm;
@@ -70,7 +70,7 @@ impl NewtonSolver {
             self.trial[i] = u_new[i] + self.delta[i];
         }
         let trial = std::mem::take(&mut self.trial);
-        let evaluated = self.residual_into(system, equation, &trial, true);
+        let evaluated = self.residual_by(system, equation, &trial, true, Pass::Near);
         self.trial = trial;
         evaluated?;
         let before = self.potential(system, equation, u_new, self.residual_energy)?;
