@@ -61,6 +61,17 @@ pub fn poll(during: impl FnOnce() -> String) -> Result<()> {
     }
 }
 
+/// Whether this thread has a test installed and it says stop now (the test called once).
+pub(crate) fn says_stop() -> bool {
+    let check = CHECK.with(|slot| slot.borrow().clone());
+    check.is_some_and(|check| check())
+}
+
+/// Whether this thread has a test installed ([`with_check`]).
+pub(crate) fn installed() -> bool {
+    CHECK.with(|slot| slot.borrow().is_some())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
