@@ -52,17 +52,16 @@ pub fn with_check<T>(check: impl Fn() -> bool + 'static, work: impl FnOnce() -> 
 /// stop; `during` names the place (e.g. "conjugate gradient iteration 12") and is only
 /// formed on a stop. Without an installed test: always `Ok(())`.
 pub fn poll(during: impl FnOnce() -> String) -> Result<()> {
-    // The test is cloned out first: it may run code (a Python signal handler) that polls or
-    // installs a test itself, which must not find the slot borrowed.
-    let check = CHECK.with(|slot| slot.borrow().clone());
-    match check {
-        Some(check) if check() => Err(Error::Stopped { during: during() }),
-        _ => Ok(()),
+    match says_stop() {
+        true => Err(Error::Stopped { during: during() }),
+        false => Ok(()),
     }
 }
 
 /// Whether this thread has a test installed and it says stop now (the test called once).
 pub(crate) fn says_stop() -> bool {
+    // The test is cloned out first: it may run code (a Python signal handler) that polls or
+    // installs a test itself, which must not find the slot borrowed.
     let check = CHECK.with(|slot| slot.borrow().clone());
     check.is_some_and(|check| check())
 }

@@ -1074,14 +1074,12 @@ impl NonlinearForce {
         let mut energy =
             self.mesh
                 .internal_force_and_energy_into(self.models.as_ref(), &work.full, full)?;
-        // With rigid obstacles the contact nodes' relaxation evaluates points near this one
-        // (`force_and_energy_near_into`).
-        work.base.valid = false;
-        if self.contact.is_some() {
+        // With rigid obstacles alone the contact nodes' relaxation evaluates points near this
+        // one (`force_and_energy_near_into`).
+        if self.contact.is_some() && self.surface.is_none() {
             work.base.u.clone_from(&work.full);
             work.base.force.clone_from(full);
             work.base.energy = energy;
-            work.base.valid = true;
         }
         energy += self.add_boundary_terms(&work.full, full)?;
         self.restrict_into(full, out);
@@ -1105,7 +1103,7 @@ impl NonlinearForce {
     ) -> Result<f64> {
         Error::check_len("displacement", self.free_count(), u.len())?;
         Error::check_len("force", self.free_count(), out.len())?;
-        if !work.base.valid {
+        if work.base.u.is_empty() {
             return self.force_and_energy_into(u, work, out);
         }
         self.expand_into(u, &mut work.full);
@@ -1449,13 +1447,12 @@ pub(crate) fn coordinate_scale(nodes: &[nalgebra::Vector3<f64>]) -> f64 {
 }
 
 /// A full pass's full displacement, elastic force and elastic energy: where
-/// [`NonlinearForce::force_and_energy_near_into`] starts.
+/// [`NonlinearForce::force_and_energy_near_into`] starts (empty until a pass keeps one).
 #[derive(Debug, Clone, Default)]
 struct ElasticBase {
     u: Vec<f64>,
     force: Vec<f64>,
     energy: f64,
-    valid: bool,
 }
 
 /// Scratch vectors and matrices of [`NonlinearForce`]'s assembly (one per integrator).
@@ -1463,7 +1460,7 @@ struct ElasticBase {
 pub struct ForceWorkspace {
     full: Vec<f64>,
     full_force: Vec<f64>,
-    /// The last full pass's point and elastic part (kept with rigid obstacles only).
+    /// The last full pass's point and elastic part (kept with rigid obstacles alone).
     base: ElasticBase,
     full_tangent: CscMatrix,
     free_tangent: CscMatrix,
