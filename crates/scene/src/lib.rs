@@ -209,15 +209,14 @@ type = "static"                     # default "static"; or "dynamic", which need
                                     # nodes' rotations; CG on the tangent preconditioned by that factor,
                                     # falling back to a factorization; or a factorization per Newton
                                     # iteration; auto: refactor below 1,000 free DOFs, rest_lbfgs from
-                                    # there, with obstacles rest_preconditioned (newton_tolerance
-                                    # below 1e-4) or rest_lbfgs holding the contact nodes'
-                                    # stiffness (1e-4 and looser), refactor at every size
-                                    # with [[bodies]] or [self_contact]). All stop at the same
-                                    # Newton tolerance, but auto's rest_lbfgs path at no less
-                                    # than 1e-3, or once the correction left is under 1e-4 of
-                                    # the step's motion (its trajectory within 1e-4 of a
-                                    # refactoring one on the book's swinging beam; name
-                                    # rest_lbfgs for a tighter stop). Ignored by static,
+                                    # there, with obstacles holding the contact nodes' stiffness,
+                                    # refactor at every size with [[bodies]] or [self_contact]).
+                                    # All stop at the same Newton tolerance, but auto's
+                                    # rest_lbfgs path at no less than 1e-3, or once the
+                                    # correction left is under 1e-4 of the step's motion, and
+                                    # with obstacles at no less than 1e-4 (its trajectories
+                                    # within 1e-4 of tight ones on the book's swinging beam and
+                                    # dropped block; name rest_lbfgs for a tighter stop). Ignored by static,
                                     # explicit, linear
 # newton_tolerance = 1e-8           # default; in (0, 1): each implicit step's Newton tolerance
                                     # with a nonlinear model, ‖r‖ ≤ t·max(‖r₀‖, ‖f‖); 1e-2 is

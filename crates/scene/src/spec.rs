@@ -755,9 +755,8 @@ pub struct AnalysisSpec {
     #[serde(default)]
     pub linear_solver: Option<LinearMethod>,
     /// Dynamic, implicit methods with a nonlinear model: how each Newton iteration solves,
-    /// `"auto"` (default: `"refactor"` below 1,000 free DOFs, `"rest_lbfgs"` above; with
-    /// obstacles `"rest_preconditioned"` at a `newton_tolerance` below 1e-4 and `"rest_lbfgs"`
-    /// at 1e-4 and looser), `"rest_lbfgs"` (tangent-free L-BFGS whose initial inverse Hessian
+    /// `"auto"` (default: `"refactor"` below 1,000 free DOFs, `"rest_lbfgs"` above, stopping
+    /// no tighter than a `newton_tolerance` of 1e-3, with obstacles of 1e-4), `"rest_lbfgs"` (tangent-free L-BFGS whose initial inverse Hessian
     /// is the rest-state factor turned by the nodes' rotations, with obstacles also holding the
     /// contact nodes' barrier and friction stiffness, going on with
     /// `"rest_preconditioned"` when it runs out of iterations), `"rest_preconditioned"` (CG on
@@ -768,8 +767,8 @@ pub struct AnalysisSpec {
     /// Dynamic, implicit methods with a nonlinear model: each step's Newton tolerance,
     /// ‖r‖ ≤ t·max(‖r₀‖, ‖f‖), finite, > 0 and < 1 (default 1e-8: the steps of every
     /// `nonlinear_solver` agree to it). A loose one buys speed with accuracy; `"auto"`'s
-    /// L-BFGS path already stops at no tighter than 1e-3, or once the correction left is under
-    /// 1e-4 of the step's motion (on the swinging beam of the cost table in the book's *Large
+    /// L-BFGS path already stops at no tighter than 1e-3 (1e-4 with obstacles), or once the
+    /// correction left is under 1e-4 of the step's motion (on the swinging beam of the cost table in the book's *Large
     /// deformation* chapter, 1.8–2.0× a linear step's cost at 132,300 DOFs, the trajectory
     /// within 1e-4 of the refactoring one). Static, with a nonlinear model or
     /// obstacles: the Newton tolerance of each load step, ‖r_f‖ ≤ t·‖f_f‖ (default 1e-10).
@@ -822,14 +821,14 @@ impl SceneSpec {
 #[derive(Debug, Clone, Copy, Default, Deserialize, PartialEq, Eq, serde::Serialize)]
 #[serde(rename_all = "snake_case")]
 pub enum NonlinearSolverName {
-    /// [`NonlinearSolve::Auto`]: refactoring on small meshes, L-BFGS (with obstacles:
-    /// preconditioned CG below the step tolerance
-    /// [`AUTO_CONTACT_LBFGS_TOLERANCE`](tetfem::analysis::dynamics::AUTO_CONTACT_LBFGS_TOLERANCE))
-    /// on larger ones, the L-BFGS path without contact stopping at no tighter than
-    /// [`AUTO_LBFGS_TOLERANCE`](tetfem::analysis::dynamics::AUTO_LBFGS_TOLERANCE), or earlier
-    /// when the correction left is below
+    /// [`NonlinearSolve::Auto`]: refactoring on small meshes, L-BFGS on larger ones, stopping at
+    /// no tighter than
+    /// [`AUTO_LBFGS_TOLERANCE`](tetfem::analysis::dynamics::AUTO_LBFGS_TOLERANCE) without
+    /// contact (or earlier when the correction left is below
     /// [`AUTO_LBFGS_CORRECTION`](tetfem::analysis::dynamics::AUTO_LBFGS_CORRECTION) of the
-    /// step's motion.
+    /// step's motion) and
+    /// [`AUTO_CONTACT_LBFGS_TOLERANCE`](tetfem::analysis::dynamics::AUTO_CONTACT_LBFGS_TOLERANCE)
+    /// with obstacles; refactoring at every size with body–body contact.
     #[default]
     Auto,
     /// [`NonlinearSolve::RestPreconditionedCg`]: CG preconditioned by the rest-state factor

@@ -83,12 +83,11 @@ pub enum NonlinearSolve {
     },
     /// [`Refactor`](Self::Refactor) below [`AUTO_REFACTOR_BELOW`] free DOFs, where a
     /// factorization is cheap; at and above it [`RestPreconditionedLbfgs`](Self::RestPreconditionedLbfgs)
-    /// with [`AUTO_LBFGS_HISTORY`] pairs, or, with rigid obstacles,
-    /// [`RestPreconditionedCg`](Self::RestPreconditionedCg) with 25 CG iterations and η = 1e-3
-    /// (factoring J once a contact step) at step tolerances below
-    /// [`AUTO_CONTACT_LBFGS_TOLERANCE`] and L-BFGS with the contact nodes' blocks in its H₀ (no
-    /// factorization) at it and above, where linear convergence costs less than a
-    /// factorization. With body–body or self-contact (the surface barrier)
+    /// with [`AUTO_LBFGS_HISTORY`] pairs, with rigid obstacles too: there H₀ holds the contact
+    /// nodes' blocks (no factorization) and a step stops at the looser of
+    /// `StepNewtonOptions::tolerance` and [`AUTO_CONTACT_LBFGS_TOLERANCE`], where linear
+    /// convergence costs less than a factorization a step.
+    /// With body–body or self-contact (the surface barrier)
     /// [`Refactor`](Self::Refactor) at every size: its direct path factors the exact Hessian
     /// with the contact pairs' couplings, and Newton converges in a few iterations where the
     /// preconditioned CG on the lumped coupling converges linearly (on two blocks pressed
@@ -163,18 +162,23 @@ pub const AUTO_LBFGS_TOLERANCE: f64 = 1e-3;
 /// [`StepNewtonOptions::tolerance`](super::StepNewtonOptions)).
 pub const AUTO_LBFGS_CORRECTION: f64 = 1e-4;
 
-/// The tightest step tolerance (`StepNewtonOptions::tolerance`, dimensionless) at which
-/// [`NonlinearSolve::Auto`] takes L-BFGS with the contact nodes' blocks in H₀
-/// ([`NonlinearSolve::RestPreconditionedLbfgs`]) in contact with rigid obstacles; at tighter
-/// ones it keeps the preconditioned CG path, which factors J once a contact step. L-BFGS
+/// The step tolerance (`StepNewtonOptions::tolerance`, ‖r‖ ≤ tolerance·max(‖r₀‖, ‖f‖),
+/// dimensionless) below which [`NonlinearSolve::Auto`] does not go in contact with rigid
+/// obstacles (from [`AUTO_REFACTOR_BELOW`] unknowns), where it takes L-BFGS with the contact
+/// nodes' blocks in H₀ ([`NonlinearSolve::RestPreconditionedLbfgs`]): the accuracy of a
+/// trajectory an animation needs, as [`AUTO_LBFGS_TOLERANCE`] without contact. On
+/// `benches/interactive_contact.rs`'s 10k-DOF block (100 steps) the trajectories at 1e-4 stay
+/// within 1.31e-5 (the drop onto frictional ground) and 1.26e-5 (the sphere pressing into it)
+/// of the largest displacement from the CG path's at 1e-8, which factors J once a contact step,
+/// at 3.5× and 2.4× its speed (2 threads, one run each, 2026-12-07). Asked by name
+/// (`RestPreconditionedLbfgs`, `RestPreconditionedCg`) a tighter tolerance holds. L-BFGS
 /// converges linearly, Newton on J's factor quadratically: on the 10k-DOF rubber block of
 /// `benches/interactive_contact.rs` (100 steps, 2 threads, one binary, interleaved rounds) at
 /// 1e-4 L-BFGS ran the drop onto frictional ground at 22.2–27.0 steps/s against 13.6–15.8 and
 /// the sphere pressing into it at 14.7–16.4 against 13.6–15.9; at 1e-8 the drop at 19.4–24.7
 /// against 12.9–13.9 but the press at 10.8–12.8 against 11.3–13.4 (9.3 iterations a step
 /// against 7.4: the block's tangent under the sphere is far from the rest one). The value of
-/// `StepNewtonOptions::interactive`; the trajectories at 1e-4 stay within 1.3e-5 of the largest
-/// displacement from the CG path's at 1e-8 (see `validation/PERFORMANCE.md`).
+/// `StepNewtonOptions::interactive` (see `validation/PERFORMANCE.md`).
 pub const AUTO_CONTACT_LBFGS_TOLERANCE: f64 = 1e-4;
 
 /// The CG settings of [`NonlinearSolve::Auto`]'s preconditioned path, and of an L-BFGS step's
@@ -291,17 +295,24 @@ impl NonlinearSolve {
     }
 
     /// The step tolerance a Newton iteration on `force` with `free_dofs` unknowns stops at
-    /// when `requested` is asked: [`Auto`](Self::Auto)'s L-BFGS path (without contact) at
-    /// the looser of `requested` and [`AUTO_LBFGS_TOLERANCE`], any other at `requested`.
+    /// when `requested` is asked: [`Auto`](Self::Auto)'s L-BFGS path without contact at the
+    /// looser of `requested` and [`AUTO_LBFGS_TOLERANCE`], and with rigid obstacles (no
+    /// body–body contact, at least [`AUTO_REFACTOR_BELOW`] unknowns) at the looser of
+    /// `requested` and [`AUTO_CONTACT_LBFGS_TOLERANCE`], where [`for_step`](Self::for_step)
+    /// then takes L-BFGS with the contact nodes' blocks; any other at `requested`.
     pub(crate) fn step_tolerance(
         self,
         free_dofs: usize,
         force: &super::NonlinearForce,
         requested: f64,
     ) -> f64 {
+        let rigid_contact = force.contact().is_some() && force.surface_contact().is_none();
         match (self, self.for_force(free_dofs, force)) {
             (NonlinearSolve::Auto, NonlinearSolve::RestPreconditionedLbfgs { .. }) => {
                 requested.max(AUTO_LBFGS_TOLERANCE)
+            }
+            (NonlinearSolve::Auto, _) if rigid_contact && free_dofs >= AUTO_REFACTOR_BELOW => {
+                requested.max(AUTO_CONTACT_LBFGS_TOLERANCE)
             }
             _ => requested,
         }

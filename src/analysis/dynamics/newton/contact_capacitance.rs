@@ -23,6 +23,12 @@
 //! I plus a congruence of S₀) is factored with D at the run's first iterate in contact, and
 //! again where L-BFGS asks (after a poor step, `super::direction::Lbfgs`); applying the
 //! inverse then costs two triangular solve pairs on the rest factor and two small products.
+//!
+//! C is formed and factored in f32, as the columns it is made of are kept: H₀ only steers
+//! L-BFGS, whose residual test decides the step, and f32 halves what C costs each step (its
+//! formation reads S₀'s k² entries, its factorization k³/3 flops at twice f64's lanes). On the
+//! 10k-DOF drop and press of `benches/interactive_contact.rs` (k = 675 and about 800) the same
+//! iterations a step as in f64 and 1.03–1.17× the steps/s (`validation/PERFORMANCE.md`).
 
 use std::collections::BTreeMap;
 
@@ -78,15 +84,16 @@ pub(crate) struct ContactCapacitance {
     key: Option<(f64, f64)>,
     /// This run's contact nodes (empty: no correction).
     nodes: Vec<ContactNode>,
-    /// The Cholesky factor L of C = I + Q·S₀·Q for this run (k×k column-major, L in the lower
-    /// triangle; the upper one is not read), empty when the run has no correction. Its memory is
-    /// kept from run to run: C is formed at least once a contact step, and a fresh k×k buffer
-    /// (4–8 MB at k = 700–1,000) cost more in page faults than the arithmetic (on the press of
+    /// The Cholesky factor L of C = I + Q·S₀·Q for this run (k×k column-major, f32, L in the
+    /// lower triangle; the upper one is not read), empty when the run has no correction. Its
+    /// memory is kept from run to run: C is formed at least once a contact step, and a fresh k×k
+    /// buffer (4–8 MB in f64 at k = 700–1,000) cost more in page faults than the arithmetic (on the press of
     /// `benches/interactive_contact.rs`, k ≈ 800: forming C 5.1 → 2.3 ms and factoring it
     /// 4.2 → 2.7 ms once the memory was kept, before the formation went parallel).
-    capacitance: Vec<f64>,
-    /// The contact DOFs of the last S₀ formed and S₀ over them (k×k, column-major).
-    block: Option<(Vec<usize>, Vec<f64>)>,
+    capacitance: Vec<f32>,
+    /// The contact DOFs of the last S₀ formed and S₀ over them (k×k, column-major; f32 numbers,
+    /// as the columns they are read from).
+    block: Option<(Vec<usize>, Vec<f32>)>,
 }
 
 /// What [`ContactCapacitance::prepare`] made.
@@ -177,7 +184,7 @@ impl ContactCapacitance {
     /// read from the column of the smaller free index (the same number whichever DOF touched
     /// first). Kept with its DOFs: a body resting or sliding keeps its contact nodes from step
     /// to step.
-    fn rest_inverse_block(&mut self, k: usize) -> &[f64] {
+    fn rest_inverse_block(&mut self, k: usize) -> &[f32] {
         let dofs: Vec<usize> = (self.nodes.iter())
             .flat_map(|node| node.dofs[..node.count].to_vec())
             .collect();
@@ -196,7 +203,7 @@ impl ContactCapacitance {
                         true => (i, j),
                         false => (j, i),
                     };
-                    let entry = columns[low].get(dofs[high]).map_or(0.0, |&x| f64::from(x));
+                    let entry = columns[low].get(dofs[high]).copied().unwrap_or(0.0);
                     s[j * k + i] = entry;
                     s[i * k + j] = entry;
                 }
@@ -228,7 +235,7 @@ impl ContactCapacitance {
                 let t = &mut t[from..];
                 t.fill(0.0);
                 for p in 0..nodes[b].count {
-                    let weight = nodes[b].root[(p, q)];
+                    let weight = nodes[b].root[(p, q)] as f32;
                     let source = &s[(nodes[b].offset + p) * k + from..][..k - from];
                     for (t, s) in t.iter_mut().zip(source) {
                         *t += weight * s;
@@ -239,7 +246,7 @@ impl ContactCapacitance {
                     for p in j.saturating_sub(node.offset)..node.count {
                         let mut sum = 0.0;
                         for (r, x) in rows.iter().enumerate() {
-                            sum += node.root[(p, r)] * x;
+                            sum += node.root[(p, r)] as f32 * x;
                         }
                         column[node.offset + p] = sum;
                     }
@@ -262,12 +269,12 @@ impl ContactCapacitance {
         let k = self.nodes.last().map_or(0, |n| n.offset + n.count);
         let mut w = v.to_vec();
         solve(&mut w)?;
-        let mut y = vec![0.0; k];
+        let mut y = vec![0.0f32; k];
         for node in &self.nodes {
             for p in 0..node.count {
                 y[node.offset + p] = (0..node.count)
                     .map(|q| node.root[(p, q)] * w[node.dofs[q]])
-                    .sum();
+                    .sum::<f64>() as f32;
             }
         }
         let factor = MatRef::from_column_major_slice(&self.capacitance, k, k);
@@ -276,7 +283,7 @@ impl ContactCapacitance {
         for node in &self.nodes {
             for p in 0..node.count {
                 v[node.dofs[p]] -= (0..node.count)
-                    .map(|q| node.root[(p, q)] * y[node.offset + q])
+                    .map(|q| node.root[(p, q)] * f64::from(y[node.offset + q]))
                     .sum::<f64>();
             }
         }
@@ -355,9 +362,9 @@ fn contact_nodes(
 
 /// Factors the k×k column-major `c` in place (its lower triangle read, L left there) with
 /// faer's dense LLᵀ on the global parallelism; `false` where a pivot is not positive.
-fn factor_in_place(c: &mut [f64], k: usize) -> bool {
+fn factor_in_place(c: &mut [f32], k: usize) -> bool {
     let par = faer::get_global_parallelism();
-    let scratch = llt::factor::cholesky_in_place_scratch::<f64>(k, par, Default::default());
+    let scratch = llt::factor::cholesky_in_place_scratch::<f32>(k, par, Default::default());
     let mut memory = MemBuffer::new(scratch);
     let matrix = MatMut::from_column_major_slice_mut(c, k, k);
     let regularization = Default::default();
@@ -403,10 +410,11 @@ mod tests {
 
     /// Woodbury's identity: with the blocks made, `apply` inverts J₀ + E·D·Eᵀ (a stiff normal
     /// block, 1e4 of J₀'s diagonal, as a barrier's; a sticking node's tangential pair; a node
-    /// with one DOF constrained), to the rounding of the kept columns to f32 (2⁻²⁴ ≈ 6e-8 of
-    /// S₀'s entries, which the residual weighs by the blocks' 1e4 scale: bound 1e-3 of |v|,
-    /// measured 1.0e-4; in a run the columns come from the factor's f32 copy and are kept
-    /// whole); and without them it is J₀⁻¹ alone, which misses the blocks by far (> 0.1).
+    /// with one DOF constrained), to the rounding of the kept columns and of C's factorization
+    /// to f32 (2⁻²⁴ ≈ 6e-8 of S₀'s entries, which the residual weighs by the blocks' 1e4
+    /// scale: bound 1e-3 of |v|, measured 2.9e-4, 1.0e-4 with C in f64; in a run the columns
+    /// come from the factor's f32 copy and are kept whole); and without them it is J₀⁻¹
+    /// alone, which misses the blocks by far (> 0.1).
     #[test]
     fn the_corrected_rest_inverse_inverts_the_rest_matrix_plus_the_contact_blocks() {
         let n = 12;

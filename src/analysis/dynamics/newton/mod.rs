@@ -45,7 +45,8 @@ pub struct StepNewtonOptions {
     /// O(E·strain), and more iterations cannot lower the noise that leaves). On
     /// `NonlinearSolve::Auto`'s L-BFGS path the tolerance is at least
     /// [`AUTO_LBFGS_TOLERANCE`](super::AUTO_LBFGS_TOLERANCE), and the step also stops by the
-    /// correction test of [`AUTO_LBFGS_CORRECTION`](super::AUTO_LBFGS_CORRECTION).
+    /// correction test of [`AUTO_LBFGS_CORRECTION`](super::AUTO_LBFGS_CORRECTION); with rigid
+    /// obstacles at least [`AUTO_CONTACT_LBFGS_TOLERANCE`](super::AUTO_CONTACT_LBFGS_TOLERANCE).
     pub tolerance: f64,
     /// Newton iterations allowed per step (default 25); more is [`Error::Diverged`] naming the
     /// step, with the residual reached.
@@ -76,9 +77,11 @@ impl Default for StepNewtonOptions {
 
 impl StepNewtonOptions {
     /// The settings for interactive rates: the default's, with the step tolerance
-    /// [`INTERACTIVE_STEP_TOLERANCE`] instead of 1e-8. An option, not the default: each step
-    /// stops at ‖r‖ ≤ 1e-4 of its reference force, fine for animation, not for a study that
-    /// converges in dt.
+    /// [`INTERACTIVE_STEP_TOLERANCE`] instead of 1e-8: each step stops at ‖r‖ ≤ 1e-4 of its
+    /// reference force, fine for animation, not for a study that converges in dt. What
+    /// `NonlinearSolve::Auto` holds in contact with rigid obstacles anyway (its floor
+    /// [`AUTO_CONTACT_LBFGS_TOLERANCE`](super::AUTO_CONTACT_LBFGS_TOLERANCE)); for the
+    /// other solves, and `Auto` without contact or below its L-BFGS size, the looser test.
     pub fn interactive() -> Self {
         StepNewtonOptions {
             tolerance: INTERACTIVE_STEP_TOLERANCE,
