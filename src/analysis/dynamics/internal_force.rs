@@ -1103,8 +1103,38 @@ impl NonlinearForce {
     ) -> Result<f64> {
         Error::check_len("displacement", self.free_count(), u.len())?;
         Error::check_len("force", self.free_count(), out.len())?;
-        if work.base.u.is_empty() {
+        let Some(elastic) = self.elastic_near(u, work) else {
             return self.force_and_energy_into(u, work, out);
+        };
+        let full_force = &mut work.full_force;
+        let energy = elastic + self.add_boundary_terms(&work.full, full_force)?;
+        self.restrict_into(full_force, out);
+        Ok(energy)
+    }
+
+    /// The model's elastic energy at free displacements `u` (energy units) carried from the
+    /// workspace's last full pass with rigid obstacles, as
+    /// [`force_and_energy_near_into`](Self::force_and_energy_near_into) carries it: an implicit
+    /// step's divergence guard at the state the last step left, a few relaxed contact nodes
+    /// from that step's last full pass, instead of an energy pass over every tet. Equal to
+    /// [`elastic_energy`](Self::elastic_energy) to round-off of the energy's size (the guard
+    /// fires at ten times the energy the start and the loads supply, which that cannot decide),
+    /// and that pass where there is no such base or too many tets moved.
+    pub(crate) fn elastic_energy_near(&self, u: &[f64], work: &mut ForceWorkspace) -> Result<f64> {
+        Error::check_len("displacement", self.free_count(), u.len())?;
+        match self.elastic_near(u, work) {
+            Some(elastic) => Ok(elastic),
+            None => self.elastic_energy(u),
+        }
+    }
+
+    /// The elastic force (in `work.full_force`, full DOFs) and energy at free `u` (into
+    /// `work.full`) from the workspace's base and the change over the tets at the nodes that
+    /// moved since; `None` where there is no base or the change is not offered (see
+    /// [`force_and_energy_near_into`](Self::force_and_energy_near_into)).
+    fn elastic_near(&self, u: &[f64], work: &mut ForceWorkspace) -> Option<f64> {
+        if work.base.u.is_empty() {
+            return None;
         }
         self.expand_into(u, &mut work.full);
         let (base, full) = (&work.base, &work.full);
@@ -1119,13 +1149,8 @@ impl NonlinearForce {
             &moved,
             (&base.u, full),
             full_force,
-        );
-        let Some(change) = change else {
-            return self.force_and_energy_into(u, work, out);
-        };
-        let energy = work.base.energy + change + self.add_boundary_terms(&work.full, full_force)?;
-        self.restrict_into(full_force, out);
-        Ok(energy)
+        )?;
+        Some(base.energy + change)
     }
 
     /// The free DOFs' entries of the full vector `full` into `out`.
@@ -1602,7 +1627,8 @@ mod tests {
     /// the ground, the barrier active there) gets the full pass's force and energy to round-off: the same
     /// terms summed in another order, each tet's change fₑ(u) − fₑ(u₀) added to the total, so
     /// a few ulps of the largest force and of the energy apart (bound 1e-12 of each; measured
-    /// 1.6e-16–4.3e-16 of |f|∞ and 1.2e-16–2.5e-16 of the energy), and not its bits; a point
+    /// 1.6e-16–4.3e-16 of |f|∞ and 1.2e-16–2.5e-16 of the energy), and not its bits, and the
+    /// elastic energy alone (`elastic_energy_near`) the energy pass's to the same bound; a point
     /// where every node moved gets the full pass, bit for bit.
     #[test]
     fn the_near_pass_is_the_full_pass_where_few_nodes_moved() {
@@ -1660,6 +1686,19 @@ mod tests {
                 "{model:?}: energy {e_near} vs {e_whole}"
             );
             assert!(near != whole, "{model:?}: the near pass was the full pass");
+            // The elastic energy alone (the divergence guard's), from the same base: the
+            // energy pass's to the same round-off.
+            let elastic = force.elastic_energy(&u1).unwrap();
+            let carried = force.elastic_energy_near(&u1, &mut work).unwrap();
+            assert!(
+                (carried - elastic).abs() <= 1e-12 * elastic.abs(),
+                "{model:?}: elastic energy {carried} vs {elastic}"
+            );
+            assert!(
+                (e_whole - elastic - force.contact_energy(&u1).unwrap()).abs()
+                    <= 1e-12 * e_whole.abs(),
+                "{model:?}: the pass's energy is the elastic one and the barrier's"
+            );
             // Every node moved: the full pass itself.
             let u2: Vec<f64> = u1.iter().map(|u| u * 1.01).collect();
             force

@@ -223,7 +223,7 @@ impl Newmark {
 
     /// The energies of `state` under this integrator's force law.
     fn energy_of(&mut self, state: &State) -> Result<super::Energy> {
-        match &self.newton {
+        match &mut self.newton {
             Some(newton) => newton.elastic_energy_of(&self.system, state),
             None => self.guard_energy(state),
         }

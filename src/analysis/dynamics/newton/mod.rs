@@ -402,7 +402,10 @@ impl NewtonSolver {
 
     /// The energies of `state` with the model's elastic energy (no contact term), for an
     /// implicit step's divergence guard: from the last residual's pass when it was made at
-    /// `state.displacement` (the end of the last step) without contact, else a pass of its own.
+    /// `state.displacement` (the end of the last step) without contact; with rigid obstacles
+    /// carried from the last full pass over the tets at the nodes the contact nodes'
+    /// relaxation moved since (`NonlinearForce::elastic_energy_near`, a few hundred tets
+    /// instead of a pass over all, to round-off of the energy); else a pass of its own.
     /// Before, every implicit corotational step made that pass over the tets for the guard alone.
     ///
     /// Where the last step ended with a correction taken unevaluated
@@ -414,12 +417,17 @@ impl NewtonSolver {
     ///
     /// [`AUTO_LBFGS_CORRECTION`]: super::AUTO_LBFGS_CORRECTION
     pub fn elastic_energy_of(
-        &self,
+        &mut self,
         system: &LinearSystem,
         state: &super::State,
     ) -> Result<super::Energy> {
         if self.force.has_contact() {
-            return self.force.energy(system, state);
+            // The last step's last full pass and its relaxed contact nodes (rigid obstacles).
+            let displacement = &state.displacement;
+            let elastic = self
+                .force
+                .elastic_energy_near(displacement, &mut self.work)?;
+            return NonlinearForce::energy_with_elastic(system, state, elastic);
         }
         if self.internal_valid && self.untested_end == state.displacement {
             return NonlinearForce::energy_with_elastic(system, state, self.internal_energy);
