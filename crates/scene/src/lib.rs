@@ -216,8 +216,8 @@ type = "static"                     # default "static"; or "dynamic", which need
                                     # correction left is under 1e-4 of the step's motion, and
                                     # with obstacles at no less than 1e-4 (its trajectories
                                     # within 1e-4 of tight ones on the book's swinging beam and
-                                    # dropped block; name rest_lbfgs for a tighter stop). Ignored by static,
-                                    # explicit, linear
+                                    # dropped block; name rest_lbfgs for a tighter stop).
+                                    # Ignored by static, explicit, linear
 # newton_tolerance = 1e-8           # default; in (0, 1): each implicit step's Newton tolerance
                                     # with a nonlinear model, ‖r‖ ≤ t·max(‖r₀‖, ‖f‖); 1e-2 is
                                     # interactive (see the README's large-deformation step).

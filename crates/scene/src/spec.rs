@@ -756,10 +756,11 @@ pub struct AnalysisSpec {
     pub linear_solver: Option<LinearMethod>,
     /// Dynamic, implicit methods with a nonlinear model: how each Newton iteration solves,
     /// `"auto"` (default: `"refactor"` below 1,000 free DOFs, `"rest_lbfgs"` above, stopping
-    /// no tighter than a `newton_tolerance` of 1e-3, with obstacles of 1e-4), `"rest_lbfgs"` (tangent-free L-BFGS whose initial inverse Hessian
-    /// is the rest-state factor turned by the nodes' rotations, with obstacles also holding the
-    /// contact nodes' barrier and friction stiffness, going on with
-    /// `"rest_preconditioned"` when it runs out of iterations), `"rest_preconditioned"` (CG on
+    /// no tighter than a `newton_tolerance` of 1e-3, with obstacles of 1e-4), `"rest_lbfgs"`
+    /// (tangent-free L-BFGS whose initial inverse Hessian is the rest-state factor turned by
+    /// the nodes' rotations, with obstacles also holding the contact nodes' barrier and
+    /// friction stiffness, going on with `"rest_preconditioned"` when it runs out of
+    /// iterations), `"rest_preconditioned"` (CG on
     /// the tangent preconditioned by that factor, with a fallback to factoring) or `"refactor"`
     /// (a factorization per Newton iteration).
     #[serde(default)]
@@ -768,10 +769,11 @@ pub struct AnalysisSpec {
     /// ‖r‖ ≤ t·max(‖r₀‖, ‖f‖), finite, > 0 and < 1 (default 1e-8: the steps of every
     /// `nonlinear_solver` agree to it). A loose one buys speed with accuracy; `"auto"`'s
     /// L-BFGS path already stops at no tighter than 1e-3 (1e-4 with obstacles), or once the
-    /// correction left is under 1e-4 of the step's motion (on the swinging beam of the cost table in the book's *Large
-    /// deformation* chapter, 1.8–2.0× a linear step's cost at 132,300 DOFs, the trajectory
-    /// within 1e-4 of the refactoring one). Static, with a nonlinear model or
-    /// obstacles: the Newton tolerance of each load step, ‖r_f‖ ≤ t·‖f_f‖ (default 1e-10).
+    /// correction left is under 1e-4 of the step's motion (on the swinging beam of the cost
+    /// table in the book's *Large deformation* chapter, 1.8–2.0× a linear step's cost at
+    /// 132,300 DOFs, the trajectory within 1e-4 of the refactoring one). Static, with a
+    /// nonlinear model or obstacles: the Newton tolerance of each load step, ‖r_f‖ ≤ t·‖f_f‖
+    /// (default 1e-10).
     #[serde(default)]
     pub newton_tolerance: Option<f64>,
     /// Dynamic, implicit methods with rigid obstacles: after each accepted Newton step, move

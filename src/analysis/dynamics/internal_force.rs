@@ -1128,9 +1128,9 @@ impl NonlinearForce {
         }
     }
 
-    /// The elastic force (in `work.full_force`, full DOFs) and energy at free `u` (into
-    /// `work.full`) from the workspace's base and the change over the tets at the nodes that
-    /// moved since; `None` where there is no base or the change is not offered (see
+    /// The elastic energy at free `u` (its force into `work.full_force`, full DOFs, `u`
+    /// expanded into `work.full`) from the workspace's base and the change over the tets at the
+    /// nodes that moved since; `None` where there is no base or the change is not offered (see
     /// [`force_and_energy_near_into`](Self::force_and_energy_near_into)).
     fn elastic_near(&self, u: &[f64], work: &mut ForceWorkspace) -> Option<f64> {
         if work.base.u.is_empty() {

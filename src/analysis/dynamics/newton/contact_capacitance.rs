@@ -87,9 +87,10 @@ pub(crate) struct ContactCapacitance {
     /// The Cholesky factor L of C = I + Q·S₀·Q for this run (k×k column-major, f32, L in the
     /// lower triangle; the upper one is not read), empty when the run has no correction. Its
     /// memory is kept from run to run: C is formed at least once a contact step, and a fresh k×k
-    /// buffer (4–8 MB in f64 at k = 700–1,000) cost more in page faults than the arithmetic (on the press of
-    /// `benches/interactive_contact.rs`, k ≈ 800: forming C 5.1 → 2.3 ms and factoring it
-    /// 4.2 → 2.7 ms once the memory was kept, before the formation went parallel).
+    /// buffer (4–8 MB in f64 at k = 700–1,000) cost more in page faults than the arithmetic
+    /// (on the press of `benches/interactive_contact.rs`, k ≈ 800: forming C 5.1 → 2.3 ms and
+    /// factoring it 4.2 → 2.7 ms once the memory was kept, before the formation went
+    /// parallel).
     capacitance: Vec<f32>,
     /// The contact DOFs of the last S₀ formed and S₀ over them (k×k, column-major; f32 numbers,
     /// as the columns they are read from).
