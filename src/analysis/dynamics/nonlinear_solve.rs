@@ -188,6 +188,14 @@ pub(crate) const AUTO_CG: NonlinearSolve = NonlinearSolve::RestPreconditionedCg 
     forcing: 1e-3,
 };
 
+/// Whether [`NonlinearSolve::Auto`] steps `force` with `free_dofs` unknowns by L-BFGS with the
+/// contact nodes' blocks at its floor [`AUTO_CONTACT_LBFGS_TOLERANCE`]: rigid obstacles (no
+/// body–body contact) and at least [`AUTO_REFACTOR_BELOW`] unknowns.
+fn rigid_contact_lbfgs(free_dofs: usize, force: &super::NonlinearForce) -> bool {
+    let rigid_contact = force.contact().is_some() && force.surface_contact().is_none();
+    rigid_contact && free_dofs >= AUTO_REFACTOR_BELOW
+}
+
 impl Default for NonlinearSolve {
     /// [`Auto`](Self::Auto).
     fn default() -> Self {
@@ -279,11 +287,9 @@ impl NonlinearSolve {
         force: &super::NonlinearForce,
         tolerance: f64,
     ) -> Self {
-        let rigid_contact = force.contact().is_some() && force.surface_contact().is_none();
         match self {
             NonlinearSolve::Auto
-                if rigid_contact
-                    && free_dofs >= AUTO_REFACTOR_BELOW
+                if rigid_contact_lbfgs(free_dofs, force)
                     && tolerance >= AUTO_CONTACT_LBFGS_TOLERANCE =>
             {
                 NonlinearSolve::RestPreconditionedLbfgs {
@@ -306,12 +312,11 @@ impl NonlinearSolve {
         force: &super::NonlinearForce,
         requested: f64,
     ) -> f64 {
-        let rigid_contact = force.contact().is_some() && force.surface_contact().is_none();
         match (self, self.for_force(free_dofs, force)) {
             (NonlinearSolve::Auto, NonlinearSolve::RestPreconditionedLbfgs { .. }) => {
                 requested.max(AUTO_LBFGS_TOLERANCE)
             }
-            (NonlinearSolve::Auto, _) if rigid_contact && free_dofs >= AUTO_REFACTOR_BELOW => {
+            (NonlinearSolve::Auto, _) if rigid_contact_lbfgs(free_dofs, force) => {
                 requested.max(AUTO_CONTACT_LBFGS_TOLERANCE)
             }
             _ => requested,
