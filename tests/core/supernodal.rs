@@ -424,3 +424,84 @@ fn many_right_hand_sides_solve_each_column_as_alone() {
         ));
     }
 }
+
+/// Right-hand sides that are zero on most of the factor (unit vectors, a few DOFs at the two
+/// ends of the elimination order, a zero column among them): the forward solves pass over the
+/// supernodes whose part of the right-hand side is still zero (their solve and update would
+/// add nothing), and the solutions are the ones faer's solve gives, on one and two threads,
+/// one column or many at a time, f64 and the f32 copy alike; a zero right-hand side gives
+/// zero.
+#[test]
+fn sparse_right_hand_sides_solve_as_dense_ones_do() {
+    let (k, _) = cantilever_system([30, 6, 6]);
+    let n = k.dim();
+    let dofs = [0, 1, n / 2, n - 2, n - 1];
+    let unit = |d: usize| {
+        (0..n)
+            .map(|i| f64::from(u8::from(i == d)))
+            .collect::<Vec<_>>()
+    };
+    let mut rhs: Vec<Vec<f64>> = dofs.iter().map(|&d| unit(d)).collect();
+    rhs.push(vec![0.0; n]);
+    rhs.push(
+        (0..n)
+            .map(|i| {
+                if dofs.contains(&i) {
+                    i as f64 - 7.0
+                } else {
+                    0.0
+                }
+            })
+            .collect(),
+    );
+    let norm = |v: &[f64]| v.iter().map(|x| x * x).sum::<f64>().sqrt();
+    let k_norm = norm(k.values());
+    let backward_error = |x: &[f64], b: &[f64]| {
+        let r: Vec<f64> = (k.mul(x).unwrap().iter().zip(b))
+            .map(|(a, b)| a - b)
+            .collect();
+        norm(&r) / (k_norm * norm(x) + norm(b))
+    };
+    for threads in [1, 2] {
+        let mut cholesky = SparseCholesky::analyze_with(&k, on_threads(threads)).unwrap();
+        cholesky.factorize(&k).unwrap();
+        let mut many: Vec<f64> = rhs.concat();
+        cholesky.solve_many_approximate(&mut many).unwrap();
+        for (c, b) in rhs.iter().enumerate() {
+            let mut reference = b.clone();
+            cholesky
+                .solve_in_place_with(&mut reference, TriangularSolve::Faer)
+                .unwrap();
+            let mut x = b.clone();
+            cholesky.solve_in_place(&mut x).unwrap();
+            if norm(b) == 0.0 {
+                assert!(x.iter().chain(&many[c * n..][..n]).all(|v| *v == 0.0));
+                continue;
+            }
+            // The same f64 operations as a dense right-hand side's, less those on zeros.
+            let difference = max_relative_difference(&reference, &x);
+            assert!(
+                difference < 1e-12,
+                "rhs {c}, {threads} threads: {difference:e}"
+            );
+            let difference = max_relative_difference(&reference, &many[c * n..][..n]);
+            assert!(
+                difference < 1e-9,
+                "rhs {c}, {threads} threads, many: {difference:e}"
+            );
+        }
+        assert!(cholesky.make_single_precision_copy().unwrap());
+        let mut single: Vec<f64> = rhs.concat();
+        cholesky.solve_many_approximate(&mut single).unwrap();
+        // As for the dense f32 solves above: η < dim·2⁻²⁴.
+        let bound = n as f64 * 2f64.powi(-24);
+        for (c, b) in rhs.iter().enumerate().filter(|(_, b)| norm(b) > 0.0) {
+            let mut x = b.clone();
+            cholesky.solve_in_place_single(&mut x).unwrap();
+            for x in [&x[..], &single[c * n..][..n]] {
+                let error = backward_error(x, b);
+                assert!(error < bound, "rhs {c}, f32: {error:e} against {bound:e}");
+            }
+        }
+    }
+}

@@ -776,8 +776,8 @@ pub struct AnalysisSpec {
     /// (default 1e-10).
     #[serde(default)]
     pub newton_tolerance: Option<f64>,
-    /// Dynamic, implicit methods with rigid obstacles: after each accepted Newton step, move
-    /// every node that touches an obstacle to the minimum of its own barrier and friction under
+    /// Dynamic, implicit methods with rigid obstacles: after each accepted Newton step that
+    /// leaves the step short of its tolerance, move every node that touches an obstacle to the minimum of its own barrier and friction under
     /// the rest of the body's pull, where that lowers the step's potential and residual
     /// (default `true`, the library's
     /// [`StepNewtonOptions::relax_contact_nodes`](tetfem::analysis::dynamics::StepNewtonOptions::relax_contact_nodes)).

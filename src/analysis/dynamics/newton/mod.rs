@@ -51,8 +51,8 @@ pub struct StepNewtonOptions {
     /// Newton iterations allowed per step (default 25); more is [`Error::Diverged`] naming the
     /// step, with the residual reached.
     pub max_iterations: usize,
-    /// With rigid obstacles (and no body–body contact), after each accepted Newton step and at
-    /// the step's start, move every node that touches an obstacle or holds lagged friction to
+    /// With rigid obstacles (and no body–body contact), after each accepted Newton step that
+    /// leaves the step short of its tolerance and at the step's start, move every node that touches an obstacle or holds lagged friction to
     /// the minimum of its own barrier and friction under the pull the rest of the body exerts
     /// on it now, where that lowers both the step's potential Φ and its residual (default
     /// `true`; see `src/contact/set/relax.rs`). The converged step solves the same equation to the same

@@ -1,6 +1,7 @@
 //! The contact nodes' local problems after each accepted Newton step of a step with rigid
-//! obstacles (see `crate::contact::set::relax`): the moves they ask for, taken together where
-//! they lower both the step's potential Φ and its residual.
+//! obstacles that leaves it short of its tolerance (see `crate::contact::set::relax`): the
+//! moves they ask for, taken together where they lower both the step's potential Φ and its
+//! residual.
 
 use nalgebra::{Matrix3, Vector3};
 

