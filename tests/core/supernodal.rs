@@ -27,6 +27,20 @@ fn max_relative_difference(a: &[f64], b: &[f64]) -> f64 {
         / scale
 }
 
+/// ‖v‖.
+fn norm(v: &[f64]) -> f64 {
+    v.iter().map(|x| x * x).sum::<f64>().sqrt()
+}
+
+/// The normwise backward error of x for K·x = b, ‖K·x − b‖ / (‖K‖_F·‖x‖ + ‖b‖): the relative
+/// size of the smallest perturbation of K and b that x solves exactly.
+fn backward_error(k: &CscMatrix, x: &[f64], b: &[f64]) -> f64 {
+    let r: Vec<f64> = (k.mul(x).unwrap().iter().zip(b))
+        .map(|(a, b)| a - b)
+        .collect();
+    norm(&r) / (norm(k.values()) * norm(x) + norm(b))
+}
+
 fn relative_residual(a: &CscMatrix, x: &[f64], b: &[f64]) -> f64 {
     let r: f64 = a
         .mul(x)
@@ -292,20 +306,8 @@ fn the_single_precision_copy_solves_with_the_rounded_factor() {
         .unwrap();
     let mut two = b.clone();
     cholesky.solve_in_place_single(&mut two).unwrap();
-    // The normwise backward error η = ‖K·x − b‖ / (‖K‖_F·‖x‖ + ‖b‖): the relative size of the
-    // smallest perturbation of K and b that x solves exactly.
-    let norm = |v: &[f64]| v.iter().map(|x| x * x).sum::<f64>().sqrt();
-    let k_norm = norm(k.values());
-    let backward_error = |x: &[f64]| {
-        let r: Vec<f64> = k
-            .mul(x)
-            .unwrap()
-            .iter()
-            .zip(&b)
-            .map(|(a, b)| a - b)
-            .collect();
-        norm(&r) / (k_norm * norm(x) + norm(&b))
-    };
+    // The normwise backward error η (`backward_error`).
+    let backward_error = |x: &[f64]| backward_error(&k, x, &b);
     let (single, double) = (backward_error(&one), backward_error(&exact));
     let single_two = backward_error(&two);
     let difference = max_relative_difference(&exact, &one);
@@ -371,14 +373,7 @@ fn many_right_hand_sides_solve_each_column_as_alone() {
             b[i % n] * (1.0 + (i / n) as f64 * 0.37) + if i % n == (i / n) * 11 { 1.0 } else { 0.0 }
         })
         .collect();
-    let norm = |v: &[f64]| v.iter().map(|x| x * x).sum::<f64>().sqrt();
-    let k_norm = norm(k.values());
-    let backward_error = |x: &[f64], b: &[f64]| {
-        let r: Vec<f64> = (k.mul(x).unwrap().iter().zip(b))
-            .map(|(a, b)| a - b)
-            .collect();
-        norm(&r) / (k_norm * norm(x) + norm(b))
-    };
+    let backward_error = |x: &[f64], b: &[f64]| backward_error(&k, x, b);
     for threads in [1, 2] {
         let mut cholesky = SparseCholesky::analyze_with(&k, on_threads(threads)).unwrap();
         cholesky.factorize(&k).unwrap();
@@ -454,14 +449,7 @@ fn sparse_right_hand_sides_solve_as_dense_ones_do() {
             })
             .collect(),
     );
-    let norm = |v: &[f64]| v.iter().map(|x| x * x).sum::<f64>().sqrt();
-    let k_norm = norm(k.values());
-    let backward_error = |x: &[f64], b: &[f64]| {
-        let r: Vec<f64> = (k.mul(x).unwrap().iter().zip(b))
-            .map(|(a, b)| a - b)
-            .collect();
-        norm(&r) / (k_norm * norm(x) + norm(b))
-    };
+    let backward_error = |x: &[f64], b: &[f64]| backward_error(&k, x, b);
     for threads in [1, 2] {
         let mut cholesky = SparseCholesky::analyze_with(&k, on_threads(threads)).unwrap();
         cholesky.factorize(&k).unwrap();
