@@ -46,20 +46,21 @@ use crate::base::error::Result;
 /// than that, so that C's dense factorization, made at least once a contact step, costs no more
 /// than the factorization of J the CG path makes each contact step instead. At
 /// `benches/interactive_contact.rs`'s sizes: 515 at 2,187 DOFs (the block's bottom holds
-/// 243), 1,509 at 10,125 (675) and 3,963 at 41,472 (1,728), where the columns' memory
-/// ([`COLUMN_BYTES`]) binds first (2,314).
+/// 243), 1,509 at 10,125 (675) and 3,963 at 41,472 (1,728; the columns' memory,
+/// [`COLUMN_BYTES`], holds 10,565 columns at its 9,528 boundary DOFs).
 pub fn max_contact_dofs(factor_flops: Option<f64>) -> usize {
     factor_flops.map_or(1024, |flops| (3.0 * flops.max(0.0)).cbrt() as usize)
 }
 
-/// Most bytes the kept columns J₀⁻¹·e_j may hold (f32 each, the free DOFs long): n·k·4 for k
-/// contact DOFs of n. They are solved on the rest factor's f32 copy, whose results are f32
-/// numbers (the right-hand side e_j needs no scaling), so f32 keeps them whole. The columns
-/// cost k triangular solves, once, the first time each DOF touches: at 10,125 DOFs 675 of them
-/// (27 MB) took about 0.8 s at the landing of `benches/interactive_contact.rs`'s block one at
-/// a time, 0.13–0.16 s sixteen to a pass over the factor, 64 a group; at 41,472 DOFs
-/// its bottom's 1,728 DOFs take 287 MB. Past this budget the run factors J instead (the CG
-/// path).
+/// Most bytes the kept columns J₀⁻¹·e_j may hold (f32 each, at the free DOFs of the contact's
+/// boundary nodes, the only ones S₀ is ever read at): b·k·4 for k contact DOFs and b boundary
+/// DOFs. They are solved on the rest factor's f32 copy, whose results are f32 numbers (the
+/// right-hand side e_j needs no scaling), so f32 keeps them whole. The columns cost k
+/// triangular solves, once, the first time each DOF touches: at 10,125 DOFs 675 of them took
+/// about 0.8 s at the landing of `benches/interactive_contact.rs`'s block one at a time, 67 ms
+/// sixteen to a pass over the factor, 64 a group; they hold 9.5 MB (3,534 boundary DOFs; 27 MB
+/// n long), and at 41,472 DOFs its bottom's 1,728 DOFs 66 MB (287 MB n long). Past this budget
+/// the run factors J instead (the CG path).
 pub const COLUMN_BYTES: usize = 384 << 20;
 
 /// Columns J₀⁻¹·e_j solved together: four batches of the multi-column solve, two a thread.
@@ -97,6 +98,16 @@ pub(crate) struct ContactCapacitance {
     block: Option<(Vec<usize>, Vec<f32>)>,
     /// The memory of the block before `block`, for the next one.
     spare: Vec<f32>,
+    /// The free DOFs the kept columns hold ([`KeptRows`]); `None`: every free DOF.
+    rows: Option<KeptRows>,
+}
+
+/// The free DOFs of the contact's boundary nodes, ascending, and each free DOF's place among
+/// them (`u32::MAX` for an interior one): the rows of J₀⁻¹·e_j that S₀ can ask for, since a
+/// contact DOF is a boundary node's.
+struct KeptRows {
+    dofs: Vec<usize>,
+    place: Vec<u32>,
 }
 
 /// What [`ContactCapacitance::prepare`] made.
@@ -117,6 +128,34 @@ impl ContactCapacitance {
     pub fn clear(&mut self) {
         self.nodes.clear();
         self.capacitance.clear();
+    }
+
+    /// Keeps the columns at the free DOFs of `force`'s contact boundary nodes only, from the
+    /// next column on (made once; without contact every free DOF stays).
+    pub fn keep_boundary_rows(&mut self, force: &NonlinearForce) {
+        if self.rows.is_some() {
+            return;
+        }
+        let Some(contact) = force.contact() else {
+            return;
+        };
+        let free = force.free_dofs();
+        let dofs: Vec<usize> = (contact.nodes().iter())
+            .flat_map(|&node| (0..3).map(move |axis| 3 * node + axis))
+            .filter_map(|dof| free.binary_search(&dof).ok())
+            .collect();
+        let mut place = vec![u32::MAX; free.len()];
+        for (i, &d) in dofs.iter().enumerate() {
+            place[d] = i as u32;
+        }
+        self.columns.clear();
+        self.block = None;
+        self.rows = Some(KeptRows { dofs, place });
+    }
+
+    /// The length of a kept column in a problem of `n` free DOFs.
+    pub fn column_length(&self, n: usize) -> usize {
+        self.rows.as_ref().map_or(n, |rows| rows.dofs.len())
     }
 
     /// Makes the correction for `nodes` (from [`ContactNodes::of`]) of a problem with `n` free
@@ -156,7 +195,8 @@ impl ContactCapacitance {
             .flat_map(|node| node.dofs[..node.count].to_vec())
             .filter(|d| !self.columns.contains_key(d))
             .collect();
-        if k > max_dofs || (self.columns.len() + new.len()) * n * 4 > COLUMN_BYTES {
+        let length = self.column_length(n);
+        if k > max_dofs || (self.columns.len() + new.len()) * length * 4 > COLUMN_BYTES {
             return Ok(Prepared::TooLarge);
         }
         // Solved in groups (16 columns share a pass over the rest factor; a group bounds the
@@ -169,8 +209,11 @@ impl ContactCapacitance {
             solve_columns(&mut block)?;
             for (column, &dof) in block.chunks_exact(n).zip(group) {
                 // f32 numbers already where the f32 copy solved them (see `COLUMN_BYTES`).
-                self.columns
-                    .insert(dof, column.iter().map(|&x| x as f32).collect());
+                let kept = match &self.rows {
+                    Some(rows) => rows.dofs.iter().map(|&d| column[d] as f32).collect(),
+                    None => column.iter().map(|&x| x as f32).collect(),
+                };
+                self.columns.insert(dof, kept);
             }
         }
         self.nodes = nodes;
@@ -220,6 +263,7 @@ impl ContactCapacitance {
                 .flat_map(|node| std::iter::repeat_n(node.offset, node.count))
                 .collect();
             let old_k = kept.len();
+            let place = self.rows.as_ref().map(|rows| &rows.place[..]);
             // Column i from its node's first row down, in parallel: the lower triangle and the
             // diagonal blocks, all that C's formation reads. Ascending DOFs make i the smaller
             // index below the diagonal, so the reads walk down column i.
@@ -234,7 +278,8 @@ impl ContactCapacitance {
                                     true => (i, j),
                                     false => (j, i),
                                 };
-                                columns[low].get(dofs[high]).copied().unwrap_or(0.0)
+                                let row = place.map_or(dofs[high], |p| p[dofs[high]] as usize);
+                                columns[low].get(row).copied().unwrap_or(0.0)
                             }
                         };
                     }
@@ -351,11 +396,12 @@ impl ContactNodes {
         Ok(ContactNodes(contact_nodes(force, at, rotations)?))
     }
 
-    /// Whether the correction for them, in a problem of `n` free DOFs, would hold more than
-    /// `max_dofs` ([`max_contact_dofs`]) or its columns alone more than their memory budget.
-    pub fn too_many(&self, n: usize, max_dofs: usize) -> bool {
+    /// Whether the correction for them, its columns `length` long
+    /// ([`ContactCapacitance::column_length`]), would hold more than `max_dofs`
+    /// ([`max_contact_dofs`]) or its columns alone more than their memory budget.
+    pub fn too_many(&self, length: usize, max_dofs: usize) -> bool {
         let k = self.0.last().map_or(0, |n| n.offset + n.count);
-        k > max_dofs || k * n * 4 > COLUMN_BYTES
+        k > max_dofs || k * length * 4 > COLUMN_BYTES
     }
 }
 
@@ -593,6 +639,22 @@ mod tests {
             .unwrap();
         assert_eq!(block_read(&first), block_read(&fresh));
         assert_eq!(first.capacitance, fresh.capacitance);
+        // Columns kept at the boundary's DOFs alone (here all but DOFs 1, 2 and 9): the same S₀
+        // and C from a third of the memory.
+        let mut boundary = ContactCapacitance::default();
+        let dofs: Vec<usize> = (0..n).filter(|d| ![1, 2, 9].contains(d)).collect();
+        let mut place = vec![u32::MAX; n];
+        for (i, &d) in dofs.iter().enumerate() {
+            place[d] = i as u32;
+        }
+        boundary.rows = Some(KeptRows { dofs, place });
+        boundary
+            .prepare_nodes(later(), (n, 1024), (2.0, 0.0), &mut solve)
+            .unwrap();
+        assert_eq!(boundary.column_length(n), n - 3);
+        assert!(boundary.columns.values().all(|c| c.len() == n - 3));
+        assert_eq!(block_read(&boundary), block_read(&fresh));
+        assert_eq!(boundary.capacitance, fresh.capacitance);
     }
 
     /// The entries of S₀ that C's formation reads: each column from its node's first row down.

@@ -751,9 +751,11 @@ impl StepDirection for Lbfgs {
         // The budget from the factor's flops (a pass over its supernodes): only where the
         // blocks are to be made.
         let hold = hold.map(|h| (h, max_contact_dofs(newton.solver.factor_flops())));
+        self.contact.keep_boundary_rows(newton.force);
+        let length = self.contact.column_length(u_new.len());
         if hold
             .as_ref()
-            .is_some_and(|(h, max_dofs)| h.too_many(u_new.len(), *max_dofs))
+            .is_some_and(|(h, max_dofs)| h.too_many(length, *max_dofs))
         {
             self.failed = true;
             return self
