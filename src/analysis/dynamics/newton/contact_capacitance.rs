@@ -110,6 +110,17 @@ struct KeptRows {
     place: Vec<u32>,
 }
 
+impl KeptRows {
+    /// The rows `dofs` (ascending free indices) of a problem with `n` free DOFs.
+    fn new(dofs: Vec<usize>, n: usize) -> Self {
+        let mut place = vec![u32::MAX; n];
+        for (i, &d) in dofs.iter().enumerate() {
+            place[d] = i as u32;
+        }
+        KeptRows { dofs, place }
+    }
+}
+
 /// What [`ContactCapacitance::prepare`] made.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub(crate) enum Prepared {
@@ -144,13 +155,9 @@ impl ContactCapacitance {
             .flat_map(|&node| (0..3).map(move |axis| 3 * node + axis))
             .filter_map(|dof| free.binary_search(&dof).ok())
             .collect();
-        let mut place = vec![u32::MAX; free.len()];
-        for (i, &d) in dofs.iter().enumerate() {
-            place[d] = i as u32;
-        }
         self.columns.clear();
         self.block = None;
-        self.rows = Some(KeptRows { dofs, place });
+        self.rows = Some(KeptRows::new(dofs, free.len()));
     }
 
     /// The length of a kept column in a problem of `n` free DOFs.
@@ -643,11 +650,7 @@ mod tests {
         // and C from a third of the memory.
         let mut boundary = ContactCapacitance::default();
         let dofs: Vec<usize> = (0..n).filter(|d| ![1, 2, 9].contains(d)).collect();
-        let mut place = vec![u32::MAX; n];
-        for (i, &d) in dofs.iter().enumerate() {
-            place[d] = i as u32;
-        }
-        boundary.rows = Some(KeptRows { dofs, place });
+        boundary.rows = Some(KeptRows::new(dofs, n));
         boundary
             .prepare_nodes(later(), (n, 1024), (2.0, 0.0), &mut solve)
             .unwrap();
